@@ -1,0 +1,278 @@
+//! The syntax tree of one MDG file, before preprocessing is resolved.
+//!
+//! Preprocessor constructs (`@import`, `@ifdef`, `@macro`, `@expand`, …) are nodes
+//! here, so the formatter and the language server see the file as written; the
+//! expander (`crate::expand`) resolves them into a flat program.
+
+use crate::span::Span;
+
+/// A name as written: `A`, `ns.A`, `VERTEX`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Name {
+    pub text: String,
+    pub span: Span,
+}
+
+/// A number literal with its unit suffix.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Number {
+    pub value: f64,
+    /// `d` degrees, `r` radians, `o` orbits, `t` atan.
+    pub unit: Option<char>,
+    /// The text as written (the formatter prints it unchanged).
+    pub text: String,
+    pub span: Span,
+}
+
+/// A parsed file.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct File {
+    pub items: Vec<Item>,
+}
+
+/// A top-level item (or an item inside `namespace { }`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Item {
+    pub kind: ItemKind,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum ItemKind {
+    Startshape(Name),
+    Rule(Rule),
+    Selector { rules: Vec<Name>, mode: SelectorMode },
+    Linerule(Name),
+    Camerarule(Name),
+    Namespace { name: Name, items: Vec<Item> },
+    /// Any other directive: `maxdepth 10`, `angle radians`, `uniform lightPos 1 2 3`, …
+    /// The checker validates the name and arguments.
+    Directive { name: Name, args: Vec<DirArg> },
+    Function { name: Name, body: Expr },
+    Isosurface { name: Name, entries: Vec<IsoEntry> },
+    /// `program { vertexshader VS fragmentshader FS target screen render }`: the words in order.
+    Program { words: Vec<Name> },
+    Pre(Pre<Item>),
+    /// Something that did not parse; a diagnostic was reported.
+    Error,
+}
+
+/// A directive argument.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DirArg {
+    Num(Number),
+    /// A negative number `-N` (kept apart so the formatter prints it as written).
+    Neg(Number),
+    Word(Name),
+    Expr(Expr),
+}
+
+/// `rule NAME [* ITER] [: XF]… [WEIGHT] { BODY }`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rule {
+    pub name: Name,
+    pub iter: Option<Name>,
+    pub transforms: Vec<Name>,
+    pub weight: Option<Weight>,
+    pub body: Vec<BodyItem>,
+    /// The span of `{ … }`.
+    pub body_span: Span,
+}
+
+/// A rule weight, possibly negated (which the checker rejects).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Weight {
+    pub negative: bool,
+    pub number: Number,
+}
+
+/// How a rule's definitions are chosen.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SelectorMode {
+    /// `random`, `frequency`, `depth`, `scale`, `sequential`, `pattern` (or an unknown word).
+    Word(Name),
+    /// `function F`.
+    FunctionRef(Name),
+    /// `function { EXPR }`.
+    FunctionBody(Expr),
+}
+
+/// One entry of an isosurface declaration.
+#[derive(Clone, Debug, PartialEq)]
+pub enum IsoEntry {
+    /// `x MIN MAX RES`, `y …`, `z …`, `xyz …` (or an unknown word).
+    Axis { axis: Name, args: Vec<DirArg>, span: Span },
+    FunctionRef(Name),
+    FunctionBody(Expr),
+}
+
+/// An item of a rule body.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BodyItem {
+    pub kind: BodyKind,
+    /// Whether the item is followed by `\` (continuation).
+    pub cont: bool,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum BodyKind {
+    /// `NAME {ADJ}`, `DRAWABLE {ADJ}`, `ns.LINETO PROFILE {ADJ}`.
+    Call { name: Name, profile: Option<Name>, adj: AdjList },
+    /// `COUNT[/DIV] * {ADJ} ITEM`.
+    Iterate { count: Count, divisor: Option<Count>, adj: AdjList, item: Box<BodyItem> },
+    /// `{ BODY }`.
+    Block(Vec<BodyItem>),
+    Pre(Pre<BodyItem>),
+    Error,
+}
+
+/// An iterator count or divisor.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Count {
+    Num(Number),
+    Neg(Number),
+    /// `( EXPR )` over constants.
+    Expr(Expr),
+}
+
+impl Count {
+    /// The span of the count.
+    pub fn span(&self) -> Span {
+        match self {
+            Count::Num(n) | Count::Neg(n) => n.span,
+            Count::Expr(e) => e.span,
+        }
+    }
+}
+
+/// An adjustment list `{ … }` or `[ … ]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AdjList {
+    /// `true` for `[ ]`.
+    pub square: bool,
+    pub adjs: Vec<Adj>,
+    pub span: Span,
+}
+
+/// One adjustment: a name and its arguments.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Adj {
+    pub name: Name,
+    pub args: Vec<Arg>,
+    pub span: Span,
+}
+
+/// An adjustment argument.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Arg {
+    Num(Number),
+    Neg(Number),
+    /// `( EXPR )` or `rand(a, b)` / `randn(m, sd)`.
+    Expr(Expr),
+}
+
+impl Arg {
+    /// The span of the argument.
+    pub fn span(&self) -> Span {
+        match self {
+            Arg::Num(n) | Arg::Neg(n) => n.span,
+            Arg::Expr(e) => e.span,
+        }
+    }
+}
+
+/// An expression (functions, selectors, adjustment arguments, counts).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Expr {
+    pub kind: ExprKind,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum ExprKind {
+    Num(Number),
+    Var(Name),
+    Neg(Box<Expr>),
+    Binary(BinOp, Box<Expr>, Box<Expr>),
+    Call(Name, Vec<Expr>),
+    /// Parentheses as written (kept so formatting reproduces the same tree).
+    Paren(Box<Expr>),
+    Error,
+}
+
+/// Binary operators, loosest first.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BinOp {
+    Lt,
+    Le,
+    Gt,
+    Ge,
+    Eq,
+    Ne,
+    Add,
+    Sub,
+    Mul,
+    Div,
+    Pow,
+}
+
+impl BinOp {
+    /// The operator as written.
+    pub fn symbol(self) -> &'static str {
+        match self {
+            BinOp::Lt => "<",
+            BinOp::Le => "<=",
+            BinOp::Gt => ">",
+            BinOp::Ge => ">=",
+            BinOp::Eq => "==",
+            BinOp::Ne => "!=",
+            BinOp::Add => "+",
+            BinOp::Sub => "-",
+            BinOp::Mul => "*",
+            BinOp::Div => "/",
+            BinOp::Pow => "^",
+        }
+    }
+}
+
+/// Preprocessor constructs, generic over the kind of item they contain.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Pre<T> {
+    /// `@import a b/c.mdg`.
+    Import(Vec<Name>),
+    /// `@define NAME [NUMBER]`.
+    Define { name: Name, value: Option<Number> },
+    /// `@param TYPE NAME DEFAULT [MIN MAX]`; the words after `@param`.
+    Param(Vec<Name>),
+    /// `@presets a b c`.
+    Presets(Vec<Name>),
+    /// `@vertexshader NAME … @endshader` / `@fragmentshader …`.
+    Shader { vertex: bool, name: Name, code: String, code_span: Span },
+    /// `@macro NAME(a, b) … @endmacro`.
+    Macro(MacroDef),
+    /// `@expand NAME(arg, …)`.
+    Expand { name: Name, args: Vec<MacroArg> },
+    /// `@ifdef NAME … [@else …] @endif`.
+    IfDef { name: Name, then: Vec<T>, otherwise: Option<Vec<T>> },
+    /// A malformed or unknown preprocessor line; a diagnostic was reported.
+    Bad,
+}
+
+/// A macro definition.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MacroDef {
+    pub name: Name,
+    pub params: Vec<Name>,
+    /// The body's tokens, spans pointing into the defining file.
+    pub body: Vec<crate::lexer::Token>,
+    /// The span of the body text (from after the parameter list to `@endmacro`).
+    pub body_span: Span,
+}
+
+/// One macro argument: its tokens and the span of its text.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MacroArg {
+    pub tokens: Vec<crate::lexer::Token>,
+    pub span: Span,
+}

@@ -1,0 +1,250 @@
+//! Diagnostics as data: one type for errors and warnings, rendered in one place.
+//!
+//! Low-level code builds a [`Diagnostic`] with a code, a message and a primary span;
+//! callers add secondary labels, notes and suggested edits. Rendering (terminal text
+//! with codespan-reporting, or JSON) happens only here.
+
+use crate::source::Sources;
+use crate::span::Span;
+use codespan_reporting::diagnostic as cs;
+use codespan_reporting::files::{Error as FilesError, Files};
+use codespan_reporting::term;
+use serde::Serialize;
+
+/// How bad a diagnostic is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Severity {
+    Warning,
+    Error,
+}
+
+/// A labelled secondary span.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Label {
+    pub span: Span,
+    pub message: String,
+}
+
+/// A suggested edit: replace `span` with `replacement`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Suggestion {
+    pub message: String,
+    pub span: Span,
+    pub replacement: String,
+}
+
+/// One diagnostic.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Diagnostic {
+    pub severity: Severity,
+    /// `E0301`, `W0001`, … (see `docs/diagnostics.md`).
+    pub code: &'static str,
+    pub message: String,
+    pub span: Span,
+    /// What the primary span shows (may be empty).
+    pub label: String,
+    pub secondary: Vec<Label>,
+    pub notes: Vec<String>,
+    pub suggestion: Option<Suggestion>,
+}
+
+impl Diagnostic {
+    /// An error with a code, message and primary span.
+    pub fn error(code: &'static str, span: Span, message: impl Into<String>) -> Diagnostic {
+        Diagnostic {
+            severity: Severity::Error,
+            code,
+            message: message.into(),
+            span,
+            label: String::new(),
+            secondary: vec![],
+            notes: vec![],
+            suggestion: None,
+        }
+    }
+
+    /// A warning with a code, message and primary span.
+    pub fn warning(code: &'static str, span: Span, message: impl Into<String>) -> Diagnostic {
+        Diagnostic { severity: Severity::Warning, ..Diagnostic::error(code, span, message) }
+    }
+
+    /// Sets the primary label.
+    pub fn with_label(mut self, label: impl Into<String>) -> Diagnostic {
+        self.label = label.into();
+        self
+    }
+
+    /// Adds a secondary label.
+    pub fn with_secondary(mut self, span: Span, message: impl Into<String>) -> Diagnostic {
+        self.secondary.push(Label { span, message: message.into() });
+        self
+    }
+
+    /// Adds a note.
+    pub fn with_note(mut self, note: impl Into<String>) -> Diagnostic {
+        self.notes.push(note.into());
+        self
+    }
+
+    /// Adds a suggested edit.
+    pub fn with_suggestion(mut self, message: impl Into<String>, span: Span, replacement: impl Into<String>) -> Diagnostic {
+        self.suggestion = Some(Suggestion { message: message.into(), span, replacement: replacement.into() });
+        self
+    }
+
+    /// Whether this is an error.
+    pub fn is_error(&self) -> bool {
+        self.severity == Severity::Error
+    }
+}
+
+/// Adapter so codespan-reporting can read our [`Sources`].
+struct CsFiles<'a>(&'a Sources);
+
+impl<'a> Files<'a> for CsFiles<'a> {
+    type FileId = u32;
+    type Name = &'a str;
+    type Source = &'a str;
+
+    fn name(&'a self, id: u32) -> Result<&'a str, FilesError> {
+        self.0.files.get(id as usize).map(|f| f.name.as_str()).ok_or(FilesError::FileMissing)
+    }
+    fn source(&'a self, id: u32) -> Result<&'a str, FilesError> {
+        self.0.files.get(id as usize).map(|f| f.text.as_str()).ok_or(FilesError::FileMissing)
+    }
+    fn line_index(&'a self, id: u32, byte_index: usize) -> Result<usize, FilesError> {
+        let f = self.0.files.get(id as usize).ok_or(FilesError::FileMissing)?;
+        Ok(f.line_col(byte_index as u32).0 as usize)
+    }
+    fn line_range(&'a self, id: u32, line_index: usize) -> Result<std::ops::Range<usize>, FilesError> {
+        let f = self.0.files.get(id as usize).ok_or(FilesError::FileMissing)?;
+        if line_index >= f.n_lines() {
+            return Err(FilesError::LineTooLarge { given: line_index, max: f.n_lines() - 1 });
+        }
+        let start = f.line_start(line_index as u32) as usize;
+        let end = if line_index + 1 < f.n_lines() {
+            f.line_start(line_index as u32 + 1) as usize
+        } else {
+            f.text.len()
+        };
+        Ok(start..end)
+    }
+}
+
+fn to_codespan(d: &Diagnostic, sources: &Sources) -> cs::Diagnostic<u32> {
+    let clamp = |s: Span| {
+        let len = sources.files.get(s.file.0 as usize).map(|f| f.text.len()).unwrap_or(0);
+        let start = (s.start as usize).min(len);
+        let end = (s.end as usize).clamp(start, len);
+        (s.file.0, start..end)
+    };
+    let sev = match d.severity {
+        Severity::Error => cs::Severity::Error,
+        Severity::Warning => cs::Severity::Warning,
+    };
+    let (f, r) = clamp(d.span);
+    let mut labels = vec![cs::Label::primary(f, r).with_message(d.label.clone())];
+    for l in &d.secondary {
+        let (f, r) = clamp(l.span);
+        labels.push(cs::Label::secondary(f, r).with_message(l.message.clone()));
+    }
+    let mut notes = d.notes.clone();
+    if let Some(s) = &d.suggestion {
+        notes.push(format!("help: {}", s.message));
+    }
+    cs::Diagnostic::new(sev)
+        .with_code(d.code)
+        .with_message(d.message.clone())
+        .with_labels(labels)
+        .with_notes(notes)
+}
+
+/// Renders diagnostics as plain text (no colour), the form used in snapshots and logs.
+pub fn render_plain(diags: &[Diagnostic], sources: &Sources) -> String {
+    let config = term::Config::default();
+    let files = CsFiles(sources);
+    let mut out = String::new();
+    for d in diags {
+        // Rendering fails only if a span points outside its file, which `to_codespan` prevents.
+        let _ = term::emit_to_string(&mut out, &config, &files, &to_codespan(d, sources));
+    }
+    out
+}
+
+/// A diagnostic with resolved file names and line/column positions, for JSON output.
+#[derive(Serialize)]
+pub struct JsonDiagnostic<'a> {
+    pub severity: Severity,
+    pub code: &'a str,
+    pub message: &'a str,
+    pub file: &'a str,
+    /// 1-based line and column (in bytes) of the primary span's start and end.
+    pub line: u32,
+    pub column: u32,
+    pub end_line: u32,
+    pub end_column: u32,
+    pub span: Span,
+    pub label: &'a str,
+    pub secondary: &'a [Label],
+    pub notes: &'a [String],
+    pub suggestion: &'a Option<Suggestion>,
+}
+
+/// Renders diagnostics as one JSON object per line.
+pub fn render_json(diags: &[Diagnostic], sources: &Sources) -> String {
+    let mut out = String::new();
+    for d in diags {
+        let (name, (l0, c0), (l1, c1)) = match sources.files.get(d.span.file.0 as usize) {
+            Some(f) => (f.name.as_str(), f.line_col(d.span.start), f.line_col(d.span.end)),
+            None => ("", (0, 0), (0, 0)),
+        };
+        let j = JsonDiagnostic {
+            severity: d.severity,
+            code: d.code,
+            message: &d.message,
+            file: name,
+            line: l0 + 1,
+            column: c0 + 1,
+            end_line: l1 + 1,
+            end_column: c1 + 1,
+            span: d.span,
+            label: &d.label,
+            secondary: &d.secondary,
+            notes: &d.notes,
+            suggestion: &d.suggestion,
+        };
+        out.push_str(&serde_json::to_string(&j).unwrap_or_default());
+        out.push('\n');
+    }
+    out
+}
+
+/// The closest candidate to `name` by edit distance, if it is close enough to be a
+/// plausible typo ("did you mean").
+pub fn did_you_mean<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
+    let limit = (name.len().max(3) / 3).max(1);
+    candidates
+        .into_iter()
+        .filter(|c| *c != name)
+        .map(|c| (edit_distance(&name.to_lowercase(), &c.to_lowercase()), c))
+        .filter(|(d, _)| *d <= limit)
+        .min_by(|a, b| a.0.cmp(&b.0).then(a.1.cmp(b.1)))
+        .map(|(_, c)| c)
+}
+
+/// Levenshtein distance over chars.
+pub fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    let mut cur = vec![0; b.len() + 1];
+    for (i, ca) in a.chars().enumerate() {
+        cur[0] = i + 1;
+        for (j, cb) in b.iter().enumerate() {
+            let cost = usize::from(ca != *cb);
+            cur[j + 1] = (prev[j] + cost).min(prev[j + 1] + 1).min(cur[j] + 1);
+        }
+        std::mem::swap(&mut prev, &mut cur);
+    }
+    prev[b.len()]
+}

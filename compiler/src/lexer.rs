@@ -1,0 +1,327 @@
+//! The lexer: source text to tokens, with comments kept aside for the formatter.
+//!
+//! Built on logos. Lexing never fails: an invalid character becomes a diagnostic
+//! (E0103) and is skipped, so the parser still sees the rest of the file.
+//! Preprocessor lines (`@import`, `@define`, `@param`, `@presets`) and shader blocks
+//! are single tokens whose payload is read later from their text.
+
+use crate::diag::Diagnostic;
+use crate::span::{FileId, Span};
+use logos::Logos;
+
+/// Lexing errors, turned into diagnostics by [`lex`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum LexError {
+    #[default]
+    InvalidChar,
+    UnterminatedComment,
+    UnterminatedShader,
+}
+
+fn block_comment(lex: &mut logos::Lexer<Tok>) -> Result<(), LexError> {
+    match lex.remainder().find("*/") {
+        Some(i) => {
+            lex.bump(i + 2);
+            Ok(())
+        }
+        None => {
+            lex.bump(lex.remainder().len());
+            Err(LexError::UnterminatedComment)
+        }
+    }
+}
+
+fn shader_block(lex: &mut logos::Lexer<Tok>) -> Result<(), LexError> {
+    match lex.remainder().find("@endshader") {
+        Some(i) => {
+            lex.bump(i + "@endshader".len());
+            Ok(())
+        }
+        None => {
+            lex.bump(lex.remainder().len());
+            Err(LexError::UnterminatedShader)
+        }
+    }
+}
+
+/// Consumes the rest of the line (up to a `//` comment or the newline).
+fn rest_of_line(lex: &mut logos::Lexer<Tok>) {
+    let rem = lex.remainder();
+    let nl = rem.find('\n').unwrap_or(rem.len());
+    let cut = rem[..nl].find("//").unwrap_or(nl);
+    lex.bump(rem[..cut].trim_end().len());
+}
+
+/// Token kinds. Text (names, numbers) is read back from the token's span.
+#[derive(Logos, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[logos(error = LexError)]
+#[logos(skip r"[ \t\r\n\f]+")]
+pub enum Tok {
+    // Keywords: top-level words that start structured items.
+    #[token("rule")]
+    KwRule,
+    #[token("startshape")]
+    KwStartshape,
+    #[token("selector")]
+    KwSelector,
+    #[token("linerule")]
+    KwLinerule,
+    #[token("camerarule")]
+    KwCamerarule,
+    #[token("namespace")]
+    KwNamespace,
+    #[token("function")]
+    KwFunction,
+    #[token("isosurface")]
+    KwIsosurface,
+    #[token("program")]
+    KwProgram,
+    #[token("uniform")]
+    KwUniform,
+    #[token("angle")]
+    KwAngle,
+    #[token("color")]
+    KwColor,
+    #[token("weight")]
+    KwWeight,
+
+    #[regex(r"[A-Za-z_][A-Za-z0-9_]*")]
+    Ident,
+    #[regex(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)+")]
+    Dotted,
+    /// A word directly followed by `(`: the token includes the parenthesis.
+    #[regex(r"[A-Za-z_][A-Za-z0-9_]*\(")]
+    CallOpen,
+    #[regex(r"([0-9]+(\.[0-9]*)?|\.[0-9]+)([eE][+-]?[0-9]+)?[drot]?")]
+    Number,
+
+    #[token("{")]
+    LBrace,
+    #[token("}")]
+    RBrace,
+    #[token("[")]
+    LBracket,
+    #[token("]")]
+    RBracket,
+    #[token("(")]
+    LParen,
+    #[token(")")]
+    RParen,
+    #[token(",")]
+    Comma,
+    #[token(";")]
+    Semi,
+    #[token("*")]
+    Star,
+    #[token("/")]
+    Slash,
+    #[token("+")]
+    Plus,
+    #[token("-")]
+    Minus,
+    #[token("^")]
+    Caret,
+    #[token("\\")]
+    Backslash,
+    #[token(":")]
+    Colon,
+    #[token("<")]
+    Lt,
+    #[token("<=")]
+    Le,
+    #[token(">")]
+    Gt,
+    #[token(">=")]
+    Ge,
+    #[token("==")]
+    EqEq,
+    #[token("!=")]
+    Ne,
+
+    #[regex(r"//[^\n]*", allow_greedy = true)]
+    LineComment,
+    #[token("/*", block_comment)]
+    BlockComment,
+
+    // Preprocessor.
+    #[token("@import", |lex| rest_of_line(lex))]
+    AtImport,
+    #[token("@define", |lex| rest_of_line(lex))]
+    AtDefine,
+    #[token("@param", |lex| rest_of_line(lex))]
+    AtParam,
+    #[token("@presets", |lex| rest_of_line(lex))]
+    AtPresets,
+    #[token("@ifdef")]
+    AtIfdef,
+    #[token("@else")]
+    AtElse,
+    #[token("@endif")]
+    AtEndif,
+    #[token("@macro")]
+    AtMacro,
+    #[token("@endmacro")]
+    AtEndmacro,
+    #[token("@expand")]
+    AtExpand,
+    #[regex(r"@(vertexshader|fragmentshader)", shader_block)]
+    Shader,
+    #[token("@endshader")]
+    AtEndshader,
+    #[regex(r"@[A-Za-z_][A-Za-z0-9_]*", priority = 1)]
+    AtUnknown,
+
+    /// A whole `@macro … @endmacro` definition (made by the pre-pass).
+    MacroDef,
+    /// A whole `@expand NAME(…)` use (made by the pre-pass).
+    Expand,
+}
+
+impl Tok {
+    /// How the token is shown in "expected …" messages.
+    pub fn describe(self) -> &'static str {
+        use Tok::*;
+        match self {
+            KwRule => "`rule`",
+            KwStartshape => "`startshape`",
+            KwSelector => "`selector`",
+            KwLinerule => "`linerule`",
+            KwCamerarule => "`camerarule`",
+            KwNamespace => "`namespace`",
+            KwFunction => "`function`",
+            KwIsosurface => "`isosurface`",
+            KwProgram => "`program`",
+            KwUniform => "`uniform`",
+            KwAngle => "`angle`",
+            KwColor => "`color`",
+            KwWeight => "`weight`",
+            Ident | Dotted => "a name",
+            CallOpen => "a call",
+            Number => "a number",
+            LBrace => "`{`",
+            RBrace => "`}`",
+            LBracket => "`[`",
+            RBracket => "`]`",
+            LParen => "`(`",
+            RParen => "`)`",
+            Comma => "`,`",
+            Semi => "`;`",
+            Star => "`*`",
+            Slash => "`/`",
+            Plus => "`+`",
+            Minus => "`-`",
+            Caret => "`^`",
+            Backslash => "`\\`",
+            Colon => "`:`",
+            Lt => "`<`",
+            Le => "`<=`",
+            Gt => "`>`",
+            Ge => "`>=`",
+            EqEq => "`==`",
+            Ne => "`!=`",
+            LineComment | BlockComment => "a comment",
+            AtImport => "`@import`",
+            AtDefine => "`@define`",
+            AtParam => "`@param`",
+            AtPresets => "`@presets`",
+            AtIfdef => "`@ifdef`",
+            AtElse => "`@else`",
+            AtEndif => "`@endif`",
+            AtMacro => "`@macro`",
+            AtEndmacro => "`@endmacro`",
+            AtExpand => "`@expand`",
+            Shader => "a shader block",
+            AtEndshader => "`@endshader`",
+            AtUnknown => "a preprocessor directive",
+            MacroDef => "a macro definition",
+            Expand => "`@expand`",
+        }
+    }
+}
+
+/// One token with its span.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Token {
+    pub kind: Tok,
+    pub span: Span,
+}
+
+/// A comment, kept for the formatter and the language server.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Comment {
+    pub span: Span,
+    /// Whether it is a `/* … */` comment.
+    pub block: bool,
+}
+
+/// The result of lexing one file.
+#[derive(Default)]
+pub struct Lexed {
+    pub tokens: Vec<Token>,
+    pub comments: Vec<Comment>,
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+/// Lexes `text` (the contents of `file`), starting at byte `base` (for lexing macro
+/// arguments in place).
+pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
+    let mut out = Lexed::default();
+    let mut lexer = Tok::lexer(text);
+    while let Some(res) = lexer.next() {
+        let r = lexer.span();
+        let span = Span::new(file, base + r.start as u32, base + r.end as u32);
+        match res {
+            Ok(Tok::LineComment) => out.comments.push(Comment { span, block: false }),
+            Ok(Tok::BlockComment) => out.comments.push(Comment { span, block: true }),
+            Ok(kind) => out.tokens.push(Token { kind, span }),
+            Err(LexError::InvalidChar) => {
+                let ch = text[r.clone()].chars().next().unwrap_or('?');
+                // Merge runs of invalid characters into one diagnostic.
+                if let Some(last) = out.diagnostics.last_mut() {
+                    if last.code == "E0103" && last.span.end == span.start {
+                        last.span.end = span.end;
+                        continue;
+                    }
+                }
+                out.diagnostics.push(
+                    Diagnostic::error("E0103", span, format!("invalid character `{}`", ch.escape_debug()))
+                        .with_label("not part of the language"),
+                );
+            }
+            Err(LexError::UnterminatedComment) => {
+                let s = Span::new(file, span.start, span.start + 2);
+                out.diagnostics.push(
+                    Diagnostic::error("E0102", s, "unterminated block comment")
+                        .with_label("this comment is never closed")
+                        .with_note("add `*/` where the comment should end"),
+                );
+                out.comments.push(Comment { span, block: true });
+            }
+            Err(LexError::UnterminatedShader) => {
+                let head_len = text[r.clone()].find(char::is_whitespace).unwrap_or(r.len());
+                let s = Span::new(file, span.start, span.start + head_len as u32);
+                out.diagnostics.push(
+                    Diagnostic::error("E0206", s, "unterminated shader block")
+                        .with_label("this shader block has no `@endshader`"),
+                );
+            }
+        }
+    }
+    out
+}
+
+/// Lexes a whole file.
+pub fn lex(text: &str, file: FileId) -> Lexed {
+    lex_at(text, file, 0)
+}
+
+/// The numeric value and unit suffix of a number token's text.
+pub fn parse_number(text: &str) -> (f64, Option<char>) {
+    let last = text.chars().last().unwrap_or('0');
+    let (digits, unit) = if matches!(last, 'd' | 'r' | 'o' | 't') {
+        (&text[..text.len() - 1], Some(last))
+    } else {
+        (text, None)
+    };
+    (digits.parse::<f64>().unwrap_or(0.0), unit)
+}

@@ -1,0 +1,13 @@
+//! The MDG compiler: source text to checked program to bytecode bundle.
+//!
+//! Pipeline: [`lexer`] → [`parse`] (never fails) → [`expand`] (imports, macros,
+//! conditionals) → [`check`] (names, values, reachability) → lowering. Diagnostics
+//! are data ([`diag::Diagnostic`]) accumulated along the way.
+
+pub mod ast;
+pub mod diag;
+pub mod dump;
+pub mod lexer;
+pub mod parse;
+pub mod source;
+pub mod span;

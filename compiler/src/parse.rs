@@ -1,0 +1,541 @@
+//! Parsing: tokens to syntax tree, never failing.
+//!
+//! A pre-pass folds `@macro … @endmacro` and `@expand NAME(…)` into single tokens
+//! (their contents are token lists, not syntax), then the LALRPOP parser builds the
+//! tree with error recovery. Every problem becomes a [`Diagnostic`]; the tree is
+//! always returned.
+
+use crate::ast::*;
+use crate::diag::Diagnostic;
+use crate::lexer::{self, Comment, Tok, Token};
+use crate::source::Sources;
+use crate::span::{loc, span_of, FileId, Loc, Span};
+use lalrpop_util::{ErrorRecovery, ParseError};
+use std::cell::RefCell;
+use std::collections::HashMap;
+
+#[allow(clippy::all, clippy::unwrap_used, unused_parens, dead_code)]
+mod generated {
+    include!(concat!(env!("OUT_DIR"), "/grammar.rs"));
+}
+
+/// One parsed file: its tree, comments and diagnostics.
+pub struct Parsed {
+    pub file: File,
+    pub comments: Vec<Comment>,
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+/// What the grammar's actions read text and side tables through.
+pub struct Ctx<'c> {
+    sources: &'c Sources,
+    macros: RefCell<HashMap<Loc, MacroDef>>,
+    expands: RefCell<HashMap<Loc, (Name, Vec<MacroArg>)>>,
+    diags: RefCell<Vec<Diagnostic>>,
+}
+
+impl<'c> Ctx<'c> {
+    fn new(sources: &'c Sources) -> Ctx<'c> {
+        Ctx {
+            sources,
+            macros: RefCell::default(),
+            expands: RefCell::default(),
+            diags: RefCell::default(),
+        }
+    }
+
+    fn text(&self, l: Loc, r: Loc) -> &'c str {
+        self.sources.text(span_of(l, r))
+    }
+
+    /// A name token.
+    pub fn name(&self, l: Loc, r: Loc) -> Name {
+        Name { text: self.text(l, r).to_string(), span: span_of(l, r) }
+    }
+
+    /// A call token `NAME(`: the name without the parenthesis.
+    pub fn call_name(&self, l: Loc, r: Loc) -> Name {
+        let t = self.text(l, r);
+        let span = span_of(l, r);
+        Name {
+            text: t.trim_end_matches('(').to_string(),
+            span: Span::new(span.file, span.start, span.end.saturating_sub(1)),
+        }
+    }
+
+    /// A number token.
+    pub fn number(&self, l: Loc, r: Loc) -> Number {
+        let text = self.text(l, r);
+        let (value, unit) = lexer::parse_number(text);
+        Number { value, unit, text: text.to_string(), span: span_of(l, r) }
+    }
+
+    /// The words of a directive line after its `@word`, each with its span.
+    fn words(&self, l: Loc, r: Loc) -> Vec<Name> {
+        let span = span_of(l, r);
+        let text = self.sources.text(span);
+        let mut out = Vec::new();
+        let mut pos = 0usize;
+        for (i, w) in text.split_whitespace().enumerate() {
+            let off = text[pos..].find(w).map(|o| o + pos).unwrap_or(pos);
+            pos = off + w.len();
+            if i == 0 {
+                continue;
+            }
+            out.push(Name {
+                text: w.to_string(),
+                span: Span::new(span.file, span.start + off as u32, span.start + pos as u32),
+            });
+        }
+        out
+    }
+
+    fn malformed(&self, l: Loc, r: Loc, msg: &str) {
+        self.diags.borrow_mut().push(Diagnostic::error("E0209", span_of(l, r), msg.to_string()));
+    }
+
+    /// `@import a b`.
+    pub fn import<T>(&self, l: Loc, r: Loc) -> Pre<T> {
+        let words = self.words(l, r);
+        if words.is_empty() {
+            self.malformed(l, r, "`@import` needs at least one library name or path");
+            return Pre::Bad;
+        }
+        Pre::Import(words)
+    }
+
+    /// `@define NAME [NUMBER]`.
+    pub fn define<T>(&self, l: Loc, r: Loc) -> Pre<T> {
+        let words = self.words(l, r);
+        let valid_name = |w: &Name| {
+            let mut c = w.text.chars();
+            c.next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+                && c.all(|c| c.is_ascii_alphanumeric() || c == '_')
+        };
+        match words.as_slice() {
+            [name] if valid_name(name) => Pre::Define { name: name.clone(), value: None },
+            [name, v] if valid_name(name) => match v.text.parse::<f64>() {
+                Ok(value) => Pre::Define {
+                    name: name.clone(),
+                    value: Some(Number { value, unit: None, text: v.text.clone(), span: v.span }),
+                },
+                Err(_) => {
+                    self.malformed(l, r, "`@define NAME [NUMBER]`: the value must be a number");
+                    Pre::Bad
+                }
+            },
+            _ => {
+                self.malformed(l, r, "expected `@define NAME [NUMBER]`");
+                Pre::Bad
+            }
+        }
+    }
+
+    /// `@param TYPE NAME DEFAULT [MIN MAX]`, validated by the expander.
+    pub fn param<T>(&self, l: Loc, r: Loc) -> Pre<T> {
+        Pre::Param(self.words(l, r))
+    }
+
+    /// `@presets a b c`.
+    pub fn presets<T>(&self, l: Loc, r: Loc) -> Pre<T> {
+        let words = self.words(l, r);
+        if words.is_empty() {
+            self.malformed(l, r, "`@presets` needs at least one preset name");
+            return Pre::Bad;
+        }
+        Pre::Presets(words)
+    }
+
+    /// `@vertexshader NAME … @endshader`.
+    pub fn shader<T>(&self, l: Loc, r: Loc) -> Pre<T> {
+        let span = span_of(l, r);
+        let text = self.sources.text(span);
+        let vertex = text.starts_with("@vertexshader");
+        let head = if vertex { "@vertexshader" } else { "@fragmentshader" };
+        let after = &text[head.len()..];
+        let name_start = after.len() - after.trim_start().len();
+        let name_len = after[name_start..].find(char::is_whitespace).unwrap_or(after.len() - name_start);
+        let name_text = &after[name_start..name_start + name_len];
+        let name_off = span.start + (head.len() + name_start) as u32;
+        let code_start = head.len() + name_start + name_len;
+        let code_end = text.len() - "@endshader".len().min(text.len());
+        if name_text.is_empty() || name_text.starts_with("@endshader") || code_start > code_end {
+            self.malformed(l, r, "a shader block needs a name: `@vertexshader NAME … @endshader`");
+            return Pre::Bad;
+        }
+        Pre::Shader {
+            vertex,
+            name: Name { text: name_text.to_string(), span: Span::new(span.file, name_off, name_off + name_len as u32) },
+            code: text[code_start..code_end].to_string(),
+            code_span: Span::new(span.file, span.start + code_start as u32, span.start + code_end as u32),
+        }
+    }
+
+    /// A macro definition folded by the pre-pass.
+    pub fn macro_def<T>(&self, l: Loc) -> Pre<T> {
+        match self.macros.borrow_mut().remove(&l) {
+            Some(m) => Pre::Macro(m),
+            None => Pre::Bad,
+        }
+    }
+
+    /// An `@expand` folded by the pre-pass.
+    pub fn expand<T>(&self, l: Loc) -> Pre<T> {
+        match self.expands.borrow_mut().remove(&l) {
+            Some((name, args)) => Pre::Expand { name, args },
+            None => Pre::Bad,
+        }
+    }
+
+    /// An unknown `@word`.
+    pub fn unknown_directive<T>(&self, l: Loc, r: Loc) -> Pre<T> {
+        let text = self.text(l, r);
+        let known = ["@import", "@define", "@ifdef", "@else", "@endif", "@macro", "@endmacro", "@expand", "@presets",
+            "@param", "@vertexshader", "@fragmentshader", "@endshader"];
+        let mut d = Diagnostic::error("E0210", span_of(l, r), format!("unknown preprocessor directive `{text}`"));
+        if let Some(s) = crate::diag::did_you_mean(text, known) {
+            d = d.with_suggestion(format!("did you mean `{s}`?"), span_of(l, r), s);
+        }
+        self.diags.borrow_mut().push(d);
+        Pre::Bad
+    }
+}
+
+/// Folds `@macro … @endmacro` and `@expand NAME(…)` into single tokens and reports
+/// stray closing directives.
+fn prepass(tokens: Vec<Token>, sources: &Sources, ctx: &Ctx) -> Vec<Token> {
+    let mut out = Vec::with_capacity(tokens.len());
+    let mut i = 0;
+    let text = |t: &Token| sources.text(t.span);
+    while i < tokens.len() {
+        let t = tokens[i];
+        match t.kind {
+            Tok::AtMacro => {
+                // Header: `@macro NAME(a, b)` or `@macro NAME`.
+                let mut j = i + 1;
+                let mut params = Vec::new();
+                let name = match tokens.get(j) {
+                    Some(n) if n.kind == Tok::CallOpen => {
+                        j += 1;
+                        while let Some(p) = tokens.get(j) {
+                            match p.kind {
+                                Tok::Ident => params.push(Name { text: text(p).to_string(), span: p.span }),
+                                Tok::Comma => {}
+                                Tok::RParen => {
+                                    j += 1;
+                                    break;
+                                }
+                                _ => break,
+                            }
+                            j += 1;
+                        }
+                        let s = n.span;
+                        Some(Name { text: text(n).trim_end_matches('(').to_string(), span: Span::new(s.file, s.start, s.end - 1) })
+                    }
+                    Some(n) if n.kind == Tok::Ident => {
+                        j += 1;
+                        Some(Name { text: text(n).to_string(), span: n.span })
+                    }
+                    _ => None,
+                };
+                let Some(name) = name else {
+                    ctx.diags.borrow_mut().push(
+                        Diagnostic::error("E0209", t.span, "expected a macro name: `@macro NAME(a, b) … @endmacro`"),
+                    );
+                    i += 1;
+                    continue;
+                };
+                let body_start = j;
+                while j < tokens.len() && tokens[j].kind != Tok::AtEndmacro {
+                    j += 1;
+                }
+                if j >= tokens.len() {
+                    ctx.diags.borrow_mut().push(
+                        Diagnostic::error("E0206", t.span, format!("macro `{}` has no `@endmacro`", name.text))
+                            .with_label("this macro is never closed"),
+                    );
+                    break;
+                }
+                let body: Vec<Token> = tokens[body_start..j].to_vec();
+                let head_end = tokens[body_start - 1].span.end;
+                let body_span = Span::new(t.span.file, head_end, tokens[j].span.start);
+                let span = t.span.to(tokens[j].span);
+                ctx.macros.borrow_mut().insert(loc(span.file, span.start), MacroDef { name, params, body, body_span });
+                out.push(Token { kind: Tok::MacroDef, span });
+                i = j + 1;
+            }
+            Tok::AtExpand => {
+                let Some(n) = tokens.get(i + 1).filter(|n| matches!(n.kind, Tok::CallOpen | Tok::Ident)) else {
+                    ctx.diags
+                        .borrow_mut()
+                        .push(Diagnostic::error("E0209", t.span, "expected `@expand NAME(arguments)`"));
+                    i += 1;
+                    continue;
+                };
+                let mut j = i + 2;
+                let mut args = Vec::new();
+                let mut end = n.span;
+                if n.kind == Tok::CallOpen {
+                    let mut depth = 0i32;
+                    let mut cur: Vec<Token> = Vec::new();
+                    let mut closed = false;
+                    while let Some(a) = tokens.get(j) {
+                        j += 1;
+                        match a.kind {
+                            Tok::LParen | Tok::LBrace | Tok::LBracket | Tok::CallOpen => depth += 1,
+                            Tok::RBrace | Tok::RBracket => depth -= 1,
+                            Tok::RParen if depth == 0 => {
+                                end = a.span;
+                                closed = true;
+                                break;
+                            }
+                            Tok::RParen => depth -= 1,
+                            Tok::Comma if depth == 0 => {
+                                args.push(arg_of(std::mem::take(&mut cur)));
+                                continue;
+                            }
+                            _ => {}
+                        }
+                        cur.push(*a);
+                    }
+                    if !closed {
+                        ctx.diags.borrow_mut().push(
+                            Diagnostic::error("E0209", n.span, "the arguments of this `@expand` are never closed")
+                                .with_label("expected `)`"),
+                        );
+                    }
+                    if !cur.is_empty() || !args.is_empty() {
+                        args.push(arg_of(cur));
+                    }
+                }
+                let name_text = text(n).trim_end_matches('(').to_string();
+                let name_span = Span::new(n.span.file, n.span.start, n.span.start + name_text.len() as u32);
+                let span = t.span.to(end);
+                ctx.expands
+                    .borrow_mut()
+                    .insert(loc(span.file, span.start), (Name { text: name_text, span: name_span }, args));
+                out.push(Token { kind: Tok::Expand, span });
+                i = j;
+            }
+            Tok::AtEndmacro | Tok::AtEndshader => {
+                ctx.diags.borrow_mut().push(Diagnostic::error(
+                    "E0207",
+                    t.span,
+                    format!("`{}` without a matching opening directive", text(&t)),
+                ));
+                i += 1;
+            }
+            _ => {
+                out.push(t);
+                i += 1;
+            }
+        }
+    }
+    out
+}
+
+fn arg_of(tokens: Vec<Token>) -> MacroArg {
+    let span = match (tokens.first(), tokens.last()) {
+        (Some(a), Some(b)) => a.span.to(b.span),
+        _ => Span::default(),
+    };
+    MacroArg { tokens, span }
+}
+
+/// Reports the innermost bracket still open at the end of input (E0104).
+fn unclosed_bracket(tokens: &[Token]) -> Option<Diagnostic> {
+    let mut stack: Vec<Token> = Vec::new();
+    for t in tokens {
+        match t.kind {
+            Tok::LBrace | Tok::LBracket | Tok::LParen | Tok::CallOpen => stack.push(*t),
+            Tok::RBrace | Tok::RBracket | Tok::RParen => {
+                let want = match t.kind {
+                    Tok::RBrace => Tok::LBrace,
+                    Tok::RBracket => Tok::LBracket,
+                    _ => Tok::LParen,
+                };
+                // Pop back to the matching opener; a closer with no opener at all is a
+                // syntax error the parser reports.
+                let is_match = |t: &Token| (if t.kind == Tok::CallOpen { Tok::LParen } else { t.kind }) == want;
+                if let Some(pos) = stack.iter().rposition(is_match) {
+                    stack.truncate(pos);
+                }
+            }
+            _ => {}
+        }
+    }
+    let open = stack.first()?;
+    let span = Span::new(open.span.file, open.span.end - 1, open.span.end);
+    let closer = match open.kind {
+        Tok::LBrace => "}",
+        Tok::LBracket => "]",
+        _ => ")",
+    };
+    Some(
+        Diagnostic::error("E0104", span, "unexpected end of file")
+            .with_label(format!("this is never closed; expected `{closer}`")),
+    )
+}
+
+fn describe_expected(expected: &[String]) -> String {
+    let mut names: Vec<String> = expected
+        .iter()
+        .map(|e| match e.as_str() {
+            "Ident" => "a name".to_string(),
+            "Dotted" => "a name".to_string(),
+            "Num" => "a number".to_string(),
+            "CallOpen" => "a call".to_string(),
+            "Shader" => "a shader block".to_string(),
+            "MacroDef" => "`@macro`".to_string(),
+            "Expand" => "`@expand`".to_string(),
+            s if s.starts_with("At") => format!("`@{}`", s[2..].to_lowercase()),
+            s => format!("`{}`", s.trim_matches('"').replace("\\\\", "\\")),
+        })
+        .collect();
+    names.sort();
+    names.dedup();
+    let has = |n: &str| names.iter().any(|x| x == n);
+    // Long lists are summarised by the context they reveal.
+    if names.len() > 6 {
+        if has("`function`") && has("`rule`") {
+            return "a directive, `rule` or another item".to_string();
+        }
+        if has("`{`") && has("`[`") && !has("a number") && !has("`}`") {
+            return "`{` or `[` (an adjustment list)".to_string();
+        }
+        if has("`*`") || (has("`{`") && has("a number")) {
+            return "a rule call, an iterator, a block or `}`".to_string();
+        }
+        if has("`(`") && has("a number") {
+            return "an expression".to_string();
+        }
+        names.truncate(6);
+        names.push("…".to_string());
+    }
+    names.join(", ")
+}
+
+fn convert_error(e: ParseError<Loc, Tok, ()>, sources: &Sources, eof: Span) -> Option<Diagnostic> {
+    match e {
+        ParseError::UnrecognizedToken { token: (l, tok, r), expected } => {
+            let span = span_of(l, r);
+            let shown = sources.text(span);
+            let what = match tok {
+                Tok::Ident | Tok::Dotted | Tok::Number => format!("`{shown}`"),
+                Tok::MacroDef | Tok::Shader => tok.describe().to_string(),
+                _ => tok.describe().to_string(),
+            };
+            Some(
+                Diagnostic::error("E0101", span, format!("unexpected {what}"))
+                    .with_label(format!("expected {}", describe_expected(&expected))),
+            )
+        }
+        ParseError::ExtraToken { token: (l, tok, r) } => {
+            Some(Diagnostic::error("E0101", span_of(l, r), format!("unexpected {}", tok.describe())))
+        }
+        ParseError::UnrecognizedEof { expected, .. } => Some(
+            Diagnostic::error("E0104", eof, "unexpected end of file")
+                .with_label(format!("expected {}", describe_expected(&expected))),
+        ),
+        ParseError::InvalidToken { location } => {
+            Some(Diagnostic::error("E0103", span_of(location, location), "invalid token"))
+        }
+        ParseError::User { .. } => None,
+    }
+}
+
+/// Which start symbol to parse with.
+#[derive(Clone, Copy)]
+enum Start {
+    File,
+    Items,
+    BodyItems,
+}
+
+enum Out {
+    File(File),
+    Items(Vec<Item>),
+    Body(Vec<BodyItem>),
+}
+
+fn run(tokens: Vec<Token>, sources: &Sources, file: FileId, start: Start, mut diags: Vec<Diagnostic>) -> (Out, Vec<Diagnostic>) {
+    let ctx = Ctx::new(sources);
+    let tokens = prepass(tokens, sources, &ctx);
+    let bracket = unclosed_bracket(&tokens);
+    let eof = match tokens.last() {
+        Some(t) => Span::new(t.span.file, t.span.end, t.span.end),
+        None => {
+            let len = sources.files.get(file.0 as usize).map(|f| f.text.len() as u32).unwrap_or(0);
+            Span::new(file, len, len)
+        }
+    };
+    let stream = tokens.iter().map(|t| Ok((loc(t.span.file, t.span.start), t.kind, loc(t.span.file, t.span.end))));
+    let mut errors: Vec<ErrorRecovery<Loc, Tok, ()>> = Vec::new();
+    let result = match start {
+        Start::File => generated::FileParser::new().parse(&ctx, &mut errors, stream).map(Out::File),
+        Start::Items => generated::ItemsParser::new().parse(&ctx, &mut errors, stream).map(Out::Items),
+        Start::BodyItems => generated::BodyItemsParser::new().parse(&ctx, &mut errors, stream).map(Out::Body),
+    };
+    diags.extend(ctx.diags.take());
+    let mut syntax: Vec<Diagnostic> = Vec::new();
+    let push = |d: Option<Diagnostic>, syntax: &mut Vec<Diagnostic>| {
+        if let Some(d) = d {
+            // One mistake, one error: an unclosed bracket explains any end-of-file error,
+            // and a second error on the same line as the previous one is a cascade.
+            if d.code == "E0104" && bracket.is_some() {
+                return;
+            }
+            if let Some(prev) = syntax.last() {
+                let line = |s: Span| sources.files.get(s.file.0 as usize).map(|f| f.line_col(s.start).0);
+                if prev.span.file == d.span.file && line(prev.span) == line(d.span) {
+                    return;
+                }
+            }
+            syntax.push(d);
+        }
+    };
+    for e in errors {
+        push(convert_error(e.error, sources, eof), &mut syntax);
+    }
+    let out = match result {
+        Ok(out) => out,
+        Err(e) => {
+            push(convert_error(e, sources, eof), &mut syntax);
+            match start {
+                Start::File => Out::File(File::default()),
+                Start::Items => Out::Items(vec![]),
+                Start::BodyItems => Out::Body(vec![]),
+            }
+        }
+    };
+    diags.extend(bracket);
+    diags.extend(syntax);
+    (out, diags)
+}
+
+/// Parses one whole file that is already in `sources`.
+pub fn parse_file(sources: &Sources, file: FileId) -> Parsed {
+    let lexed = lexer::lex(&sources.file(file).text, file);
+    let (out, diagnostics) = run(lexed.tokens, sources, file, Start::File, lexed.diagnostics);
+    let file_ast = match out {
+        Out::File(f) => f,
+        _ => File::default(),
+    };
+    Parsed { file: file_ast, comments: lexed.comments, diagnostics }
+}
+
+/// Parses tokens (a macro expansion) as top-level items.
+pub fn parse_items(sources: &Sources, file: FileId, tokens: Vec<Token>) -> (Vec<Item>, Vec<Diagnostic>) {
+    match run(tokens, sources, file, Start::Items, vec![]) {
+        (Out::Items(v), d) => (v, d),
+        (_, d) => (vec![], d),
+    }
+}
+
+/// Parses tokens (a macro expansion) as rule-body items.
+pub fn parse_body_items(sources: &Sources, file: FileId, tokens: Vec<Token>) -> (Vec<BodyItem>, Vec<Diagnostic>) {
+    match run(tokens, sources, file, Start::BodyItems, vec![]) {
+        (Out::Body(v), d) => (v, d),
+        (_, d) => (vec![], d),
+    }
+}

@@ -1,0 +1,143 @@
+//! The source database: every file the compiler has read, with line tables.
+//!
+//! The compiler reads files only through [`FileLoader`], so the language server
+//! can serve unsaved buffers and tests can use in-memory files.
+
+use crate::span::{FileId, Span};
+use std::path::{Path, PathBuf};
+
+/// Reads source files. The only IO the compiler does goes through this trait.
+pub trait FileLoader {
+    /// The text of `path`, or an error message.
+    fn read(&self, path: &Path) -> Result<String, String>;
+    /// The canonical form of `path` (symlinks resolved), used for containment checks.
+    fn canonicalize(&self, path: &Path) -> Result<PathBuf, String>;
+}
+
+/// Reads from the real file system.
+pub struct FsLoader;
+
+impl FileLoader for FsLoader {
+    fn read(&self, path: &Path) -> Result<String, String> {
+        std::fs::read_to_string(path).map_err(|e| e.to_string())
+    }
+    fn canonicalize(&self, path: &Path) -> Result<PathBuf, String> {
+        std::fs::canonicalize(path).map_err(|e| e.to_string())
+    }
+}
+
+/// Serves files from memory first, then (optionally) from disk.
+#[derive(Default)]
+pub struct MemLoader {
+    pub files: std::collections::BTreeMap<PathBuf, String>,
+    /// Fall back to the file system for paths not in `files` (std imports).
+    pub disk_fallback: bool,
+}
+
+impl FileLoader for MemLoader {
+    fn read(&self, path: &Path) -> Result<String, String> {
+        match self.files.get(path) {
+            Some(t) => Ok(t.clone()),
+            None if self.disk_fallback => FsLoader.read(path),
+            None => Err("no such file".to_string()),
+        }
+    }
+    fn canonicalize(&self, path: &Path) -> Result<PathBuf, String> {
+        if self.files.contains_key(path) {
+            Ok(normalize(path))
+        } else if self.disk_fallback {
+            FsLoader.canonicalize(path)
+        } else {
+            Err("no such file".to_string())
+        }
+    }
+}
+
+/// Lexically normalises `a/./b/../c` to `a/c` (no file system access).
+pub fn normalize(path: &Path) -> PathBuf {
+    let mut out = PathBuf::new();
+    for c in path.components() {
+        match c {
+            std::path::Component::CurDir => {}
+            std::path::Component::ParentDir => {
+                if !out.pop() {
+                    out.push("..");
+                }
+            }
+            other => out.push(other.as_os_str()),
+        }
+    }
+    out
+}
+
+/// One source file.
+pub struct SourceFile {
+    pub path: PathBuf,
+    /// The name shown in diagnostics.
+    pub name: String,
+    pub text: String,
+    line_starts: Vec<u32>,
+}
+
+impl SourceFile {
+    fn new(path: PathBuf, name: String, text: String) -> SourceFile {
+        let mut line_starts = vec![0u32];
+        for (i, b) in text.bytes().enumerate() {
+            if b == b'\n' {
+                line_starts.push(i as u32 + 1);
+            }
+        }
+        SourceFile { path, name, text, line_starts }
+    }
+
+    /// Zero-based (line, byte column) of a byte offset.
+    pub fn line_col(&self, offset: u32) -> (u32, u32) {
+        let line = match self.line_starts.binary_search(&offset) {
+            Ok(l) => l,
+            Err(l) => l - 1,
+        };
+        (line as u32, offset - self.line_starts[line])
+    }
+
+    /// Byte offset where zero-based `line` starts (clamped to the end of the text).
+    pub fn line_start(&self, line: u32) -> u32 {
+        self.line_starts.get(line as usize).copied().unwrap_or(self.text.len() as u32)
+    }
+
+    /// Number of lines.
+    pub fn n_lines(&self) -> usize {
+        self.line_starts.len()
+    }
+}
+
+/// Every file read during one compilation.
+#[derive(Default)]
+pub struct Sources {
+    pub files: Vec<SourceFile>,
+}
+
+impl Sources {
+    /// Adds a file and returns its id.
+    pub fn add(&mut self, path: impl Into<PathBuf>, name: impl Into<String>, text: impl Into<String>) -> FileId {
+        self.files.push(SourceFile::new(path.into(), name.into(), text.into()));
+        FileId(self.files.len() as u32 - 1)
+    }
+
+    /// The file with this id.
+    pub fn file(&self, id: FileId) -> &SourceFile {
+        &self.files[id.0 as usize]
+    }
+
+    /// The id of an already loaded file with this path.
+    pub fn find(&self, path: &Path) -> Option<FileId> {
+        self.files.iter().position(|f| f.path == path).map(|i| FileId(i as u32))
+    }
+
+    /// The text a span covers ("" if the span is out of range).
+    pub fn text(&self, span: Span) -> &str {
+        self.files
+            .get(span.file.0 as usize)
+            .and_then(|f| f.text.get(span.range()))
+            .unwrap_or("")
+    }
+}

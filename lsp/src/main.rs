@@ -1,0 +1,2 @@
+//! MDG language server.
+fn main() {}

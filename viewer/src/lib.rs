@@ -1,0 +1,1 @@
+//! MDG viewer (Vulkan).

@@ -1,0 +1,1 @@
+//! MDG virtual machine.
