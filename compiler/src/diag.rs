@@ -223,7 +223,8 @@ pub fn render_json(diags: &[Diagnostic], sources: &Sources) -> String {
 /// The closest candidate to `name` by edit distance, if it is close enough to be a
 /// plausible typo ("did you mean").
 pub fn did_you_mean<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
-    let limit = (name.len().max(3) / 3).max(1);
+    // One- and two-letter names only match when they differ in case.
+    let limit = if name.chars().count() <= 2 { 0 } else { (name.len() / 3).max(1) };
     candidates
         .into_iter()
         .filter(|c| *c != name)

@@ -11,3 +11,8 @@ pub mod lexer;
 pub mod parse;
 pub mod source;
 pub mod span;
+pub mod check;
+pub mod consteval;
+pub mod expand;
+pub mod driver;
+pub mod fmt;

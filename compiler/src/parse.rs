@@ -300,8 +300,8 @@ fn prepass(tokens: Vec<Token>, sources: &Sources, ctx: &Ctx) -> Vec<Token> {
                     }
                     if !closed {
                         ctx.diags.borrow_mut().push(
-                            Diagnostic::error("E0209", n.span, "the arguments of this `@expand` are never closed")
-                                .with_label("expected `)`"),
+                            Diagnostic::error("E0104", n.span, "unexpected end of file")
+                                .with_label("the arguments of this `@expand` are never closed; expected `)`"),
                         );
                     }
                     if !cur.is_empty() || !args.is_empty() {

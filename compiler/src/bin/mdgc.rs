@@ -1,10 +1,157 @@
-//! `mdgc`: check, build, format and disassemble MDG grammars.
-fn main() {
-    let path = std::env::args().nth(1).unwrap_or_default();
-    let text = std::fs::read_to_string(&path).unwrap_or_default();
-    let mut s = mdg_compiler::source::Sources::default();
-    let f = s.add(&path, &path, text);
-    let p = mdg_compiler::parse::parse_file(&s, f);
-    print!("{}", mdg_compiler::dump::dump_file(&p.file));
-    eprint!("{}", mdg_compiler::diag::render_plain(&p.diagnostics, &s));
+//! `mdgc`: check, format and build MDG grammars.
+//!
+//! Exit codes: 0 clean (warnings allowed), 1 errors found (or `fmt --check` found
+//! unformatted files), 2 usage or IO errors.
+
+use clap::{Parser, Subcommand, ValueEnum};
+use mdg_compiler::check::CheckOptions;
+use mdg_compiler::diag::{render_json, render_plain};
+use mdg_compiler::driver::{self, analyze};
+use mdg_compiler::expand::Options;
+use mdg_compiler::source::FsLoader;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "mdgc", version, about = "The MDG compiler: check, format and build shape grammars")]
+#[command(after_help = "Examples:\n  mdgc check std/examples/tree.mdg\n  mdgc check --message-format json a.mdg b.mdg\n  mdgc fmt --check std/*.mdg")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq)]
+enum MessageFormat {
+    Human,
+    Json,
+}
+
+#[derive(clap::Args)]
+struct CommonOpts {
+    /// How to print diagnostics.
+    #[arg(long, value_enum, default_value = "human")]
+    message_format: MessageFormat,
+    /// Override a `@param`: NAME=VALUE (repeatable).
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    params: Vec<String>,
+    /// Choose a preset (defines its name for `@ifdef`).
+    #[arg(long = "preset")]
+    presets: Vec<String>,
+    /// Where `@import NAME` looks (default: $MDG_STD or the bundled std/).
+    #[arg(long)]
+    std: Option<PathBuf>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Report every diagnostic in the given files.
+    Check {
+        files: Vec<PathBuf>,
+        /// Check as a program: require a `startshape`.
+        #[arg(long)]
+        program: bool,
+        #[command(flatten)]
+        common: CommonOpts,
+    },
+    /// Format files in place (or check that they are formatted).
+    Fmt {
+        files: Vec<PathBuf>,
+        /// Do not write; exit 1 if any file would change.
+        #[arg(long)]
+        check: bool,
+    },
+}
+
+fn options(common: &CommonOpts) -> Result<Options, String> {
+    let mut params = Vec::new();
+    for p in &common.params {
+        let (n, v) = p.split_once('=').ok_or_else(|| format!("--param {p}: expected NAME=VALUE"))?;
+        params.push((n.to_string(), v.to_string()));
+    }
+    Ok(Options {
+        defines: common.presets.clone(),
+        params,
+        std_dir: common.std.clone().or_else(driver::default_std_dir),
+    })
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Check { files, program, common } => {
+            if files.is_empty() {
+                eprintln!("mdgc check: no files given");
+                return ExitCode::from(2);
+            }
+            let opts = match options(&common) {
+                Ok(o) => o,
+                Err(e) => {
+                    eprintln!("mdgc: {e}");
+                    return ExitCode::from(2);
+                }
+            };
+            let mut errors = false;
+            for f in &files {
+                let a = analyze(&FsLoader, f, &opts, CheckOptions { require_start: program });
+                match common.message_format {
+                    MessageFormat::Human => eprint!("{}", render_plain(&a.diagnostics, &a.sources)),
+                    MessageFormat::Json => print!("{}", render_json(&a.diagnostics, &a.sources)),
+                }
+                errors |= a.has_errors();
+            }
+            if errors {
+                ExitCode::from(1)
+            } else {
+                ExitCode::SUCCESS
+            }
+        }
+        Command::Fmt { files, check } => {
+            let mut changed = false;
+            for f in &files {
+                let text = match std::fs::read_to_string(f) {
+                    Ok(t) => t,
+                    Err(e) => {
+                        eprintln!("mdgc fmt: cannot read {}: {e}", f.display());
+                        return ExitCode::from(2);
+                    }
+                };
+                let formatted = match mdg_compiler::fmt::format_source(&text) {
+                    Ok(s) => s,
+                    Err(e) => {
+                        eprintln!("mdgc fmt: {}: not formatted, it has syntax errors:\n{e}", f.display());
+                        return ExitCode::from(1);
+                    }
+                };
+                if formatted != text {
+                    changed = true;
+                    if check {
+                        println!("{} is not formatted", f.display());
+                    } else if let Err(e) = write_atomic(f, formatted.as_bytes()) {
+                        eprintln!("mdgc fmt: cannot write {}: {e}", f.display());
+                        return ExitCode::from(2);
+                    }
+                }
+            }
+            if check && changed {
+                ExitCode::from(1)
+            } else {
+                ExitCode::SUCCESS
+            }
+        }
+    }
+}
+
+/// Writes through a temporary file and a rename, so a killed run never leaves a
+/// truncated file under the final name.
+fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> std::io::Result<()> {
+    use std::io::Write;
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+    }
+    std::fs::rename(&tmp, path)
 }

@@ -1,0 +1,1062 @@
+//! The checker: name resolution, value checks, reachability and termination.
+//!
+//! Works on the expanded program ([`crate::expand::Expanded`]); every finding is a
+//! [`Diagnostic`] with a code from `docs/diagnostics.md`. The symbol table it builds
+//! ([`Symbols`]) is reused by lowering and the language server.
+
+use crate::ast::*;
+use crate::diag::{did_you_mean, Diagnostic};
+use crate::expand::{ExpItem, Expanded};
+use crate::span::Span;
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+
+/// Built-in drawables (SPEC §3, §7).
+pub const DRAWABLES: &[&str] = &[
+    "VERTEX", "FACENORMALS", "MOVETO", "LINETO", "BLENDTO", "SLINETO", "ALINETO", "NEWLINE", "FRAME", "RESET", "DEBUG",
+];
+
+/// Drawables that act on a namespace's pen and may be written `ns.NAME`.
+pub const PEN_DRAWABLES: &[&str] = &["MOVETO", "LINETO", "BLENDTO", "SLINETO", "ALINETO", "NEWLINE", "RESET", "DEBUG"];
+
+/// Drawables that take a profile rule name: `LINETO circle {…}`.
+pub const PROFILE_DRAWABLES: &[&str] = &["MOVETO", "LINETO", "BLENDTO", "SLINETO", "ALINETO"];
+
+/// Selector modes.
+pub const SELECTOR_MODES: &[&str] = &["random", "frequency", "depth", "scale", "sequential", "pattern", "function"];
+
+/// Angle modes for `angle`.
+pub const ANGLE_MODES: &[&str] = &["degrees", "radians", "orbits", "arcdegrees", "frequency"];
+
+/// Math functions usable in expressions, with their arity.
+pub const FUNCTIONS: &[(&str, usize)] = &[
+    ("sin", 1), ("cos", 1), ("tan", 1), ("asin", 1), ("acos", 1), ("atan", 1), ("atan2", 2), ("sqrt", 1),
+    ("abs", 1), ("min", 2), ("max", 2), ("pow", 2), ("exp", 1), ("log", 1), ("floor", 1), ("ceil", 1),
+    ("fract", 1), ("mod", 2), ("clamp", 3), ("mix", 3), ("step", 2), ("smoothstep", 3), ("rand", 2), ("randn", 2),
+];
+
+/// Variables available inside `function`, selector and isosurface expressions.
+pub const FUNCTION_VARS: &[&str] = &["x", "y", "z", "depth", "scale", "g"];
+
+/// Numeric directives: name, minimum and maximum argument count, whether values must be integers.
+pub const NUMERIC_DIRECTIVES: &[(&str, usize, usize, bool)] = &[
+    ("maxdepth", 1, 1, true),
+    ("minsize", 1, 1, false),
+    ("maxiter", 1, 1, true),
+    ("stacksize", 1, 1, true),
+    ("randseed", 1, 1, true),
+    ("normal", 3, 3, false),
+    ("background", 3, 4, false),
+    ("fps", 1, 1, false),
+    ("duration", 1, 1, false),
+    ("camerafov", 1, 1, false),
+    ("cameranearplane", 1, 1, false),
+    ("camerafarplane", 1, 1, false),
+];
+
+/// Every directive name, for "did you mean".
+pub fn directive_names() -> Vec<&'static str> {
+    let mut v: Vec<&str> = NUMERIC_DIRECTIVES.iter().map(|d| d.0).collect();
+    v.extend([
+        "startshape", "rule", "selector", "linerule", "camerarule", "namespace", "function", "isosurface", "program",
+        "uniform", "angle", "color", "weight",
+    ]);
+    v
+}
+
+/// What an adjustment is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AdjKind {
+    /// `x X [Y [Z]]`, `y`, `z`.
+    Translate(u8),
+    /// `r`/`rotate X [Y [Z]]` (axis 3), `rx` (0), `ry` (1), `rz` (2).
+    Rotate(u8),
+    /// `up`/`down`/`left`/`right`/`rollleft`/`rollright`: axis and sign.
+    Turn(u8, i8),
+    Scale,
+    /// `f X Y Z` (3) or `fx`/`fy`/`fz`.
+    Flip(u8),
+    Fps,
+    Color(u8),
+    Weight(u8),
+}
+
+impl AdjKind {
+    /// (min, max) argument count.
+    pub fn arity(self) -> (usize, usize) {
+        match self {
+            AdjKind::Translate(0) | AdjKind::Rotate(3) => (1, 3),
+            AdjKind::Turn(..) => (0, 1),
+            AdjKind::Flip(3) => (3, 3),
+            AdjKind::Flip(_) => (0, 0),
+            _ => (1, 1),
+        }
+    }
+
+    /// Whether arguments are angles (may carry unit suffixes).
+    pub fn is_angle(self) -> bool {
+        matches!(self, AdjKind::Rotate(_) | AdjKind::Turn(..))
+    }
+}
+
+/// The names of colour and weight components (renamable with `color`/`weight`).
+#[derive(Clone, Debug)]
+pub struct Components {
+    pub color: [String; 4],
+    pub weight: [String; 4],
+}
+
+impl Default for Components {
+    fn default() -> Self {
+        Components {
+            color: ["R", "G", "B", "A"].map(String::from),
+            weight: ["u", "v", "w", "q"].map(String::from),
+        }
+    }
+}
+
+impl Components {
+    /// Classifies an adjustment name.
+    pub fn adj_kind(&self, name: &str) -> Option<AdjKind> {
+        Some(match name {
+            "x" => AdjKind::Translate(0),
+            "y" => AdjKind::Translate(1),
+            "z" => AdjKind::Translate(2),
+            "r" | "rotate" => AdjKind::Rotate(3),
+            "rx" | "pitch" => AdjKind::Rotate(0),
+            "ry" | "yaw" => AdjKind::Rotate(1),
+            "rz" | "roll" => AdjKind::Rotate(2),
+            "up" => AdjKind::Turn(0, 1),
+            "down" => AdjKind::Turn(0, -1),
+            "right" => AdjKind::Turn(1, 1),
+            "left" => AdjKind::Turn(1, -1),
+            "rollright" => AdjKind::Turn(2, 1),
+            "rollleft" => AdjKind::Turn(2, -1),
+            "s" => AdjKind::Scale,
+            "f" => AdjKind::Flip(3),
+            "fx" => AdjKind::Flip(0),
+            "fy" => AdjKind::Flip(1),
+            "fz" => AdjKind::Flip(2),
+            "fps" => AdjKind::Fps,
+            _ => {
+                if let Some(i) = self.color.iter().position(|c| c == name) {
+                    AdjKind::Color(i as u8)
+                } else if let Some(i) = self.weight.iter().position(|c| c == name) {
+                    AdjKind::Weight(i as u8)
+                } else {
+                    return None;
+                }
+            }
+        })
+    }
+
+    /// Every adjustment name, for "did you mean".
+    pub fn all_names(&self) -> Vec<&str> {
+        let mut v = vec![
+            "x", "y", "z", "r", "rotate", "rx", "ry", "rz", "pitch", "yaw", "roll", "up", "down", "left", "right",
+            "rollleft", "rollright", "s", "f", "fx", "fy", "fz", "fps",
+        ];
+        v.extend(self.color.iter().map(|s| s.as_str()));
+        v.extend(self.weight.iter().map(|s| s.as_str()));
+        v
+    }
+}
+
+/// A rule definition's location in the expanded program.
+#[derive(Clone, Debug)]
+pub struct RuleDef {
+    /// Index into [`Expanded::items`].
+    pub item: usize,
+    pub name_span: Span,
+    pub namespace: Option<String>,
+}
+
+/// What the checker learned about the program.
+#[derive(Default)]
+pub struct Symbols {
+    /// Rule full name → definitions in source order.
+    pub rules: BTreeMap<String, Vec<RuleDef>>,
+    pub functions: BTreeMap<String, Span>,
+    pub isosurfaces: BTreeMap<String, Span>,
+    pub namespaces: BTreeMap<String, Span>,
+    pub selectors: BTreeMap<String, (SelectorMode, Span)>,
+    pub startshape: Option<(String, Span)>,
+    pub components: Components,
+    /// Resolved rule references: (span of the use, full rule name).
+    pub references: Vec<(Span, String)>,
+}
+
+impl Symbols {
+    /// Resolves a rule name used inside namespace `ns`.
+    pub fn resolve(&self, name: &str, ns: Option<&str>) -> Option<String> {
+        if let Some(ns) = ns {
+            let q = format!("{ns}.{name}");
+            if self.rules.contains_key(&q) {
+                return Some(q);
+            }
+        }
+        self.rules.contains_key(name).then(|| name.to_string())
+    }
+
+    /// Whether `name` is a drawable (built-in, namespaced pen drawable, or isosurface).
+    pub fn is_drawable(&self, name: &str) -> bool {
+        if DRAWABLES.contains(&name) || self.isosurfaces.contains_key(name) {
+            return true;
+        }
+        match name.rsplit_once('.') {
+            Some((_, last)) => PEN_DRAWABLES.contains(&last),
+            None => false,
+        }
+    }
+}
+
+/// Options for checking.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CheckOptions {
+    /// Require a `startshape` even if the file looks like a library (building, running).
+    pub require_start: bool,
+}
+
+/// The result of checking.
+pub struct Checked {
+    pub symbols: Symbols,
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+/// Checks an expanded program.
+pub fn check(ex: &Expanded, opts: CheckOptions) -> Checked {
+    let mut c = Checker { ex, sym: Symbols::default(), diags: Vec::new(), call_graph: HashMap::new() };
+    c.collect();
+    c.items();
+    c.whole_program(opts);
+    Checked { symbols: c.sym, diagnostics: c.diags }
+}
+
+struct Checker<'a> {
+    ex: &'a Expanded,
+    sym: Symbols,
+    diags: Vec<Diagnostic>,
+    /// Rule full name → rules its definitions call (per definition).
+    call_graph: HashMap<String, Vec<Vec<String>>>,
+}
+
+fn qualify(ns: &Option<String>, name: &str) -> String {
+    match ns {
+        Some(ns) => format!("{ns}.{name}"),
+        None => name.to_string(),
+    }
+}
+
+fn num_of(a: &DirArg) -> Option<(f64, &Number)> {
+    match a {
+        DirArg::Num(n) => Some((n.value, n)),
+        DirArg::Neg(n) => Some((-n.value, n)),
+        _ => None,
+    }
+}
+
+fn dir_arg_span(a: &DirArg) -> Span {
+    match a {
+        DirArg::Num(n) | DirArg::Neg(n) => n.span,
+        DirArg::Word(w) => w.span,
+        DirArg::Expr(e) => e.span,
+    }
+}
+
+impl<'a> Checker<'a> {
+    fn collect(&mut self) {
+        for (idx, ExpItem { item, namespace }) in self.ex.items.iter().enumerate() {
+            match &item.kind {
+                ItemKind::Rule(r) if !r.name.text.is_empty() => {
+                    let full = qualify(namespace, &r.name.text);
+                    if DRAWABLES.contains(&r.name.text.as_str()) && !self.sym.rules.contains_key(&full) {
+                        self.diags.push(
+                            Diagnostic::warning("W0004", r.name.span, format!("rule `{}` has the name of a drawable", r.name.text))
+                                .with_label("calls of this name draw, they do not run this rule")
+                                .with_note("rename the rule"),
+                        );
+                    }
+                    self.sym.rules.entry(full).or_default().push(RuleDef {
+                        item: idx,
+                        name_span: r.name.span,
+                        namespace: namespace.clone(),
+                    });
+                }
+                ItemKind::Function { name, .. } => self.define_unique(true, name, namespace),
+                ItemKind::Isosurface { name, .. } => self.define_unique(false, name, namespace),
+                ItemKind::Namespace { name, .. } => {
+                    let full = qualify(namespace, &name.text);
+                    if let Some(prev) = self.sym.namespaces.get(&full) {
+                        self.diags.push(
+                            Diagnostic::error("E0309", name.span, format!("namespace `{full}` is declared twice"))
+                                .with_secondary(*prev, "first declared here")
+                                .with_note("put all of its rules in one `namespace` block"),
+                        );
+                    } else {
+                        self.sym.namespaces.insert(full, name.span);
+                    }
+                }
+                ItemKind::Directive { name, args } if name.text == "color" || name.text == "weight" => {
+                    let words: Vec<String> = args
+                        .iter()
+                        .filter_map(|a| if let DirArg::Word(w) = a { Some(w.text.clone()) } else { None })
+                        .collect();
+                    if let Ok(arr) = <[String; 4]>::try_from(words) {
+                        if name.text == "color" {
+                            self.sym.components.color = arr;
+                        } else {
+                            self.sym.components.weight = arr;
+                        }
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+
+    fn define_unique(&mut self, function: bool, name: &Name, ns: &Option<String>) {
+        let full = qualify(ns, &name.text);
+        let table = if function { &mut self.sym.functions } else { &mut self.sym.isosurfaces };
+        if let Some(prev) = table.get(&full) {
+            let what = if function { "function" } else { "isosurface" };
+            let prev = *prev;
+            self.diags.push(
+                Diagnostic::error("E0313", name.span, format!("{what} `{full}` is defined twice"))
+                    .with_secondary(prev, "first defined here"),
+            );
+        } else {
+            table.insert(full, name.span);
+        }
+    }
+
+    fn rule_ref(&mut self, name: &Name, ns: &Option<String>, code: &'static str, what: &str) -> Option<String> {
+        match self.sym.resolve(&name.text, ns.as_deref()) {
+            Some(full) => {
+                self.sym.references.push((name.span, full.clone()));
+                Some(full)
+            }
+            None => {
+                let mut d = Diagnostic::error(code, name.span, format!("{what} `{}` is not defined", name.text));
+                if let Some(s) = did_you_mean(&name.text, self.sym.rules.keys().map(|k| k.as_str())) {
+                    d = d.with_suggestion(format!("did you mean `{s}`?"), name.span, s.to_string());
+                } else {
+                    d = d.with_label("no rule has this name");
+                }
+                self.diags.push(d);
+                None
+            }
+        }
+    }
+
+    fn items(&mut self) {
+        let mut seen_directives: HashMap<String, Span> = HashMap::new();
+        for ExpItem { item, namespace } in &self.ex.items {
+            match &item.kind {
+                ItemKind::Startshape(n) => {
+                    if let Some((_, prev)) = &self.sym.startshape {
+                        let prev = *prev;
+                        self.diags.push(
+                            Diagnostic::error("E0312", n.span, "`startshape` is given twice").with_secondary(prev, "first given here"),
+                        );
+                        continue;
+                    }
+                    self.sym.startshape = Some((n.text.clone(), n.span));
+                    if let Some(full) = self.rule_ref(n, namespace, "E0307", "start shape") {
+                        self.sym.startshape = Some((full, n.span));
+                    }
+                }
+                ItemKind::Rule(r) => self.rule(r, namespace),
+                ItemKind::Selector { rules, mode } => self.selector(rules, mode, namespace),
+                ItemKind::Linerule(n) => {
+                    self.rule_ref(n, namespace, "E0308", "line rule");
+                }
+                ItemKind::Camerarule(n) => {
+                    self.rule_ref(n, namespace, "E0308", "camera rule");
+                }
+                ItemKind::Directive { name, args } => self.directive(name, args, namespace, &mut seen_directives),
+                ItemKind::Function { body, .. } => self.expr(body, true, false),
+                ItemKind::Isosurface { name, entries } => self.isosurface(name, entries),
+                ItemKind::Program { words } => self.program(words),
+                ItemKind::Namespace { .. } | ItemKind::Pre(_) | ItemKind::Error => {}
+            }
+        }
+    }
+
+    fn rule(&mut self, r: &Rule, ns: &Option<String>) {
+        if let Some(i) = &r.iter {
+            self.rule_ref(i, ns, "E0308", "iterator rule");
+        }
+        for t in &r.transforms {
+            self.rule_ref(t, ns, "E0308", "transform rule");
+        }
+        let mut calls = Vec::new();
+        self.body(&r.body, ns, &mut calls);
+        if !r.name.text.is_empty() {
+            let full = qualify(ns, &r.name.text);
+            self.call_graph.entry(full).or_default().push(calls);
+        }
+    }
+
+    fn body(&mut self, items: &[BodyItem], ns: &Option<String>, calls: &mut Vec<String>) {
+        for item in items {
+            match &item.kind {
+                BodyKind::Call { name, profile, adj } => {
+                    if self.sym.is_drawable(&name.text) {
+                        if let Some(p) = profile {
+                            let last = name.text.rsplit('.').next().unwrap_or("");
+                            if !PROFILE_DRAWABLES.contains(&last) {
+                                self.diags.push(Diagnostic::error(
+                                    "E0101",
+                                    p.span,
+                                    format!("`{}` does not take a profile rule", name.text),
+                                ));
+                            } else if let Some(full) = self.rule_ref(p, ns, "E0301", "profile rule") {
+                                calls.push(full);
+                            }
+                        }
+                    } else if let Some(p) = profile {
+                        self.diags.push(
+                            Diagnostic::error("E0101", p.span, format!("unexpected `{}` after the rule name", p.text))
+                                .with_label("only MOVETO, LINETO, BLENDTO, SLINETO and ALINETO take a profile rule"),
+                        );
+                    } else {
+                        match self.sym.resolve(&name.text, ns.as_deref()) {
+                            Some(full) => {
+                                self.sym.references.push((name.span, full.clone()));
+                                calls.push(full);
+                            }
+                            None => {
+                                let mut cands: Vec<&str> = self.sym.rules.keys().map(|k| k.as_str()).collect();
+                                cands.extend(DRAWABLES);
+                                cands.extend(self.sym.isosurfaces.keys().map(|k| k.as_str()));
+                                let mut d = Diagnostic::error("E0301", name.span, format!("unknown rule `{}`", name.text));
+                                if let Some(s) = did_you_mean(&name.text, cands) {
+                                    d = d.with_suggestion(format!("did you mean `{s}`?"), name.span, s.to_string());
+                                } else {
+                                    d = d.with_label("no rule or drawable has this name");
+                                }
+                                self.diags.push(d);
+                            }
+                        }
+                    }
+                    self.adj_list(adj);
+                }
+                BodyKind::Iterate { count, divisor, adj, item } => {
+                    self.count(count, false);
+                    if let Some(d) = divisor {
+                        self.count(d, true);
+                    }
+                    self.adj_list(adj);
+                    self.body(std::slice::from_ref(item), ns, calls);
+                }
+                BodyKind::Block(items) => self.body(items, ns, calls),
+                BodyKind::Pre(_) | BodyKind::Error => {}
+            }
+        }
+    }
+
+    /// The compile-time value of a count expression, if it has one.
+    fn const_value(&self, e: &Expr) -> Option<f64> {
+        crate::consteval::eval(e, &|n| self.ex.constant(n))
+    }
+
+    fn count(&mut self, c: &Count, divisor: bool) {
+        let value = match c {
+            Count::Num(n) => {
+                if n.unit.is_some() {
+                    self.unit_error(n);
+                    return;
+                }
+                n.value
+            }
+            Count::Neg(n) => -n.value,
+            Count::Expr(e) => {
+                self.expr(e, false, false);
+                match self.const_value(e) {
+                    Some(v) => v,
+                    None => return,
+                }
+            }
+        };
+        if divisor {
+            if value <= 0.0 {
+                self.diags.push(
+                    Diagnostic::error("E0402", c.span(), "the iterator divisor must be greater than 0")
+                        .with_label(format!("this is {value}")),
+                );
+            }
+        } else if value < 0.0 || value.fract() != 0.0 {
+            self.diags.push(
+                Diagnostic::error("E0403", c.span(), "the iteration count must be a whole number ≥ 0")
+                    .with_label(format!("this is {value}")),
+            );
+        }
+    }
+
+    fn unit_error(&mut self, n: &Number) {
+        let unit = n.unit.unwrap_or('?');
+        let plain = &n.text[..n.text.len() - 1];
+        self.diags.push(
+            Diagnostic::error("E0404", n.span, format!("unit suffix `{unit}` on a value that is not an angle"))
+                .with_suggestion("remove the suffix", n.span, plain.to_string()),
+        );
+    }
+
+    fn adj_list(&mut self, adj: &AdjList) {
+        for a in &adj.adjs {
+            if a.name.text.is_empty() {
+                continue; // A recovered syntax error, already reported.
+            }
+            let Some(kind) = self.sym.components.adj_kind(&a.name.text) else {
+                let names = self.sym.components.all_names();
+                let mut d = Diagnostic::error("E0303", a.name.span, format!("unknown adjustment `{}`", a.name.text));
+                if let Some(s) = did_you_mean(&a.name.text, names) {
+                    d = d.with_suggestion(format!("did you mean `{s}`?"), a.name.span, s.to_string());
+                } else {
+                    d = d.with_label("not an adjustment").with_note("adjustments: x y z r rx ry rz s f fx fy fz up down left right rollleft rollright fps, and the colour/weight components");
+                }
+                self.diags.push(d);
+                continue;
+            };
+            let (lo, hi) = kind.arity();
+            if a.args.len() < lo || a.args.len() > hi {
+                let want = if lo == hi { format!("{lo}") } else { format!("{lo} to {hi}") };
+                self.diags.push(
+                    Diagnostic::error(
+                        "E0401",
+                        a.span,
+                        format!("`{}` takes {want} argument(s) but {} were given", a.name.text, a.args.len()),
+                    )
+                    .with_label("wrong number of arguments"),
+                );
+            }
+            for arg in &a.args {
+                match arg {
+                    Arg::Num(n) | Arg::Neg(n) => {
+                        if n.unit.is_some() && !kind.is_angle() {
+                            self.unit_error(n);
+                        }
+                    }
+                    Arg::Expr(e) => self.expr(e, false, true),
+                }
+            }
+        }
+    }
+
+    /// Checks an expression. `function_vars`: x y z depth scale g are in scope;
+    /// `random`: rand/randn are allowed.
+    fn expr(&mut self, e: &Expr, function_vars: bool, random: bool) {
+        match &e.kind {
+            ExprKind::Num(_) | ExprKind::Error => {}
+            ExprKind::Var(v) => {
+                let known = self.ex.constant(&v.text).is_some()
+                    || self.ex.params.iter().any(|p| p.name.text == v.text)
+                    || (function_vars && FUNCTION_VARS.contains(&v.text.as_str()));
+                if !known {
+                    let mut cands: Vec<&str> = self.ex.params.iter().map(|p| p.name.text.as_str()).collect();
+                    cands.extend(self.ex.defines.keys().map(|k| k.as_str()));
+                    if function_vars {
+                        cands.extend(FUNCTION_VARS);
+                    }
+                    let mut d = Diagnostic::error("E0311", v.span, format!("unknown variable `{}`", v.text));
+                    if let Some(s) = did_you_mean(&v.text, cands) {
+                        d = d.with_suggestion(format!("did you mean `{s}`?"), v.span, s.to_string());
+                    } else if function_vars {
+                        d = d.with_note("expressions may use x, y, z, depth, scale, g and @param names");
+                    } else {
+                        d = d.with_note("here expressions may use numbers and @param/@define names");
+                    }
+                    self.diags.push(d);
+                }
+            }
+            ExprKind::Neg(x) | ExprKind::Paren(x) => self.expr(x, function_vars, random),
+            ExprKind::Binary(_, a, b) => {
+                self.expr(a, function_vars, random);
+                self.expr(b, function_vars, random);
+            }
+            ExprKind::Call(f, args) => {
+                match FUNCTIONS.iter().find(|(n, _)| *n == f.text) {
+                    Some((_, arity)) => {
+                        if (f.text == "rand" || f.text == "randn") && !random {
+                            self.diags.push(
+                                Diagnostic::error("E0409", f.span, format!("`{}` is not allowed here", f.text))
+                                    .with_note("random draws are allowed in adjustment arguments only"),
+                            );
+                        }
+                        if args.len() != *arity {
+                            self.diags.push(Diagnostic::error(
+                                "E0401",
+                                e.span,
+                                format!("`{}` takes {arity} argument(s) but {} were given", f.text, args.len()),
+                            ));
+                        }
+                    }
+                    None => {
+                        let mut d = Diagnostic::error("E0310", f.span, format!("unknown function `{}`", f.text));
+                        if let Some(s) = did_you_mean(&f.text, FUNCTIONS.iter().map(|(n, _)| *n)) {
+                            d = d.with_suggestion(format!("did you mean `{s}`?"), f.span, s.to_string());
+                        }
+                        self.diags.push(d);
+                    }
+                }
+                for a in args {
+                    self.expr(a, function_vars, random);
+                }
+            }
+        }
+    }
+
+    fn selector(&mut self, rules: &[Name], mode: &SelectorMode, ns: &Option<String>) {
+        for r in rules {
+            let Some(full) = self.rule_ref(r, ns, "E0305", "selected rule") else { continue };
+            if let Some((_, prev)) = self.sym.selectors.get(&full) {
+                let prev = *prev;
+                self.diags.push(
+                    Diagnostic::error("E0312", r.span, format!("rule `{}` already has a selector", r.text))
+                        .with_secondary(prev, "selector given here"),
+                );
+                continue;
+            }
+            self.sym.selectors.insert(full.clone(), (mode.clone(), r.span));
+            if self.sym.rules.get(&full).is_some_and(|d| d.len() == 1) {
+                self.diags.push(
+                    Diagnostic::warning("W0005", r.span, format!("rule `{}` has one definition: the selector has no effect", r.text))
+                        .with_label("only one definition to choose from"),
+                );
+            }
+        }
+        match mode {
+            SelectorMode::Word(w) => {
+                if !SELECTOR_MODES.contains(&w.text.as_str()) || w.text == "function" {
+                    let mut d = Diagnostic::error("E0304", w.span, format!("unknown selector mode `{}`", w.text));
+                    if let Some(s) = did_you_mean(&w.text, SELECTOR_MODES.iter().copied()) {
+                        d = d.with_suggestion(format!("did you mean `{s}`?"), w.span, s.to_string());
+                    } else {
+                        d = d.with_note("modes: random, frequency, depth, scale, sequential, pattern, function F");
+                    }
+                    self.diags.push(d);
+                }
+            }
+            SelectorMode::FunctionRef(f) => {
+                if self.sym.resolve_function(&f.text, ns.as_deref()).is_none() {
+                    let mut d = Diagnostic::error("E0310", f.span, format!("unknown function `{}`", f.text));
+                    if let Some(s) = did_you_mean(&f.text, self.sym.functions.keys().map(|k| k.as_str())) {
+                        d = d.with_suggestion(format!("did you mean `{s}`?"), f.span, s.to_string());
+                    }
+                    self.diags.push(d);
+                }
+            }
+            SelectorMode::FunctionBody(e) => self.expr(e, true, false),
+        }
+    }
+
+    fn directive(&mut self, name: &Name, args: &[DirArg], ns: &Option<String>, seen: &mut HashMap<String, Span>) {
+        let n = name.text.as_str();
+        match n {
+            "angle" => {
+                if let Some(DirArg::Word(w)) = args.first() {
+                    if !ANGLE_MODES.contains(&w.text.as_str()) {
+                        let mut d = Diagnostic::error("E0407", w.span, format!("unknown angle mode `{}`", w.text));
+                        if let Some(s) = did_you_mean(&w.text, ANGLE_MODES.iter().copied()) {
+                            d = d.with_suggestion(format!("did you mean `{s}`?"), w.span, s.to_string());
+                        } else {
+                            d = d.with_note("modes: degrees, radians, orbits, arcdegrees, frequency");
+                        }
+                        self.diags.push(d);
+                    }
+                }
+            }
+            "color" | "weight" => {}
+            "uniform" => {
+                let rest = &args[1..];
+                if let [DirArg::Word(rule), DirArg::Word(prop)] = rest {
+                    self.rule_ref(rule, ns, "E0308", "uniform rule");
+                    const PROPS: &[&str] = &["pos", "dir", "conj", "color", "weight", "normal"];
+                    if !PROPS.contains(&prop.text.as_str()) {
+                        let mut d = Diagnostic::error("E0407", prop.span, format!("unknown uniform property `{}`", prop.text));
+                        if let Some(s) = did_you_mean(&prop.text, PROPS.iter().copied()) {
+                            d = d.with_suggestion(format!("did you mean `{s}`?"), prop.span, s.to_string());
+                        } else {
+                            d = d.with_note("properties: pos, dir, conj, color, weight, normal");
+                        }
+                        self.diags.push(d);
+                    }
+                } else if rest.len() > 4 {
+                    self.diags.push(Diagnostic::error(
+                        "E0401",
+                        name.span.to(dir_arg_span(&args[args.len() - 1])),
+                        format!("`uniform` takes 1 to 4 values but {} were given", rest.len()),
+                    ));
+                } else {
+                    for a in rest {
+                        self.dir_value(a, false);
+                    }
+                }
+            }
+            _ => match NUMERIC_DIRECTIVES.iter().find(|d| d.0 == n) {
+                Some(&(_, lo, hi, integer)) => {
+                    if let Some(prev) = seen.get(n) {
+                        self.diags.push(
+                            Diagnostic::error("E0312", name.span, format!("`{n}` is given twice"))
+                                .with_secondary(*prev, "first given here"),
+                        );
+                    } else {
+                        seen.insert(n.to_string(), name.span);
+                    }
+                    if args.len() < lo || args.len() > hi {
+                        let want = if lo == hi { format!("{lo}") } else { format!("{lo} to {hi}") };
+                        let span = args.last().map(|a| name.span.to(dir_arg_span(a))).unwrap_or(name.span);
+                        self.diags.push(
+                            Diagnostic::error("E0401", span, format!("`{n}` takes {want} value(s) but {} were given", args.len()))
+                                .with_label("wrong number of values"),
+                        );
+                        return;
+                    }
+                    for a in args {
+                        self.dir_value(a, integer && !matches!(n, "randseed") || n == "randseed");
+                        if let Some((v, num)) = num_of(a) {
+                            let bad = match n {
+                                "maxdepth" | "maxiter" | "stacksize" => v < 0.0,
+                                "minsize" | "duration" => v < 0.0,
+                                "fps" => v <= 0.0,
+                                "camerafov" => v <= 0.0 || v >= 180.0,
+                                "cameranearplane" | "camerafarplane" => v <= 0.0,
+                                _ => false,
+                            };
+                            if bad {
+                                self.diags.push(
+                                    Diagnostic::error("E0407", num.span, format!("invalid value {v} for `{n}`"))
+                                        .with_label("out of range"),
+                                );
+                            }
+                        }
+                    }
+                }
+                None => {
+                    let mut d = Diagnostic::error("E0302", name.span, format!("unknown directive `{n}`"));
+                    if let Some(s) = did_you_mean(n, directive_names()) {
+                        d = d.with_suggestion(format!("did you mean `{s}`?"), name.span, s.to_string());
+                    } else {
+                        d = d.with_label("not a directive");
+                    }
+                    self.diags.push(d);
+                }
+            },
+        }
+    }
+
+    fn dir_value(&mut self, a: &DirArg, integer: bool) {
+        match a {
+            DirArg::Num(n) | DirArg::Neg(n) => {
+                if n.unit.is_some() {
+                    self.unit_error(n);
+                } else if integer && n.value.fract() != 0.0 {
+                    self.diags.push(
+                        Diagnostic::error("E0407", n.span, format!("expected a whole number, found {}", n.text))
+                            .with_label("not an integer"),
+                    );
+                }
+            }
+            DirArg::Word(w) => {
+                self.diags.push(Diagnostic::error("E0407", w.span, format!("expected a number, found `{}`", w.text)));
+            }
+            DirArg::Expr(e) => {
+                self.expr(e, false, false);
+                if self.const_value(e).is_none() {
+                    self.diags.push(Diagnostic::error("E0408", e.span, "this value must be a compile-time constant"));
+                }
+            }
+        }
+    }
+
+    fn isosurface(&mut self, name: &Name, entries: &[IsoEntry]) {
+        let mut has_function = false;
+        let mut axes = [false; 3];
+        for e in entries {
+            match e {
+                IsoEntry::Axis { axis, args, span } => {
+                    let which: &[usize] = match axis.text.as_str() {
+                        "x" => &[0],
+                        "y" => &[1],
+                        "z" => &[2],
+                        "xyz" => &[0, 1, 2],
+                        other => {
+                            let mut d = Diagnostic::error("E0407", axis.span, format!("unknown isosurface entry `{other}`"));
+                            if let Some(s) = did_you_mean(other, ["x", "y", "z", "xyz", "function"]) {
+                                d = d.with_suggestion(format!("did you mean `{s}`?"), axis.span, s.to_string());
+                            }
+                            self.diags.push(d);
+                            continue;
+                        }
+                    };
+                    for &w in which {
+                        axes[w] = true;
+                    }
+                    if args.len() != 3 {
+                        self.diags.push(Diagnostic::error(
+                            "E0401",
+                            *span,
+                            format!("`{}` takes 3 values (MIN MAX RESOLUTION) but {} were given", axis.text, args.len()),
+                        ));
+                        continue;
+                    }
+                    for a in args {
+                        self.dir_value(a, false);
+                    }
+                    let v: Vec<Option<f64>> = args
+                        .iter()
+                        .map(|a| match a {
+                            DirArg::Expr(e) => self.const_value(e),
+                            other => num_of(other).map(|x| x.0),
+                        })
+                        .collect();
+                    if let (Some(lo), Some(hi)) = (v[0], v[1]) {
+                        if lo >= hi {
+                            self.diags.push(
+                                Diagnostic::error("E0406", dir_arg_span(&args[0]).to(dir_arg_span(&args[1])), "the grid's minimum must be below its maximum"),
+                            );
+                        }
+                    }
+                    if let Some(res) = v[2] {
+                        if res <= 0.0 || res.fract() != 0.0 {
+                            self.diags.push(
+                                Diagnostic::error("E0406", dir_arg_span(&args[2]), "the grid resolution must be a whole number > 0")
+                                    .with_label(format!("this is {res}")),
+                            );
+                        }
+                    }
+                }
+                IsoEntry::FunctionRef(f) => {
+                    has_function = true;
+                    if self.sym.resolve_function(&f.text, None).is_none() {
+                        let mut d = Diagnostic::error("E0310", f.span, format!("unknown function `{}`", f.text));
+                        if let Some(s) = did_you_mean(&f.text, self.sym.functions.keys().map(|k| k.as_str())) {
+                            d = d.with_suggestion(format!("did you mean `{s}`?"), f.span, s.to_string());
+                        }
+                        self.diags.push(d);
+                    }
+                }
+                IsoEntry::FunctionBody(e) => {
+                    has_function = true;
+                    self.expr(e, true, false);
+                }
+            }
+        }
+        if !has_function {
+            self.diags.push(
+                Diagnostic::error("E0407", name.span, format!("isosurface `{}` has no function", name.text))
+                    .with_note("add `function { EXPR }` or `function NAME`"),
+            );
+        } else if axes != [true; 3] {
+            self.diags.push(
+                Diagnostic::error("E0407", name.span, format!("isosurface `{}` does not give a grid for every axis", name.text))
+                    .with_note("add `xyz MIN MAX RES`, or `x …`, `y …` and `z …`"),
+            );
+        }
+    }
+
+    fn program(&mut self, words: &[Name]) {
+        let mut i = 0;
+        while i < words.len() {
+            let w = &words[i];
+            match w.text.as_str() {
+                "vertexshader" | "fragmentshader" => {
+                    let vertex = w.text == "vertexshader";
+                    match words.get(i + 1) {
+                        Some(s) => {
+                            if !self.ex.shaders.iter().any(|sh| sh.vertex == vertex && sh.name.text == s.text) {
+                                let names = self.ex.shaders.iter().filter(|sh| sh.vertex == vertex).map(|sh| sh.name.text.as_str());
+                                let kind = if vertex { "vertex" } else { "fragment" };
+                                let mut d = Diagnostic::error("E0314", s.span, format!("unknown {kind} shader `{}`", s.text));
+                                if let Some(x) = did_you_mean(&s.text, names) {
+                                    d = d.with_suggestion(format!("did you mean `{x}`?"), s.span, x.to_string());
+                                } else {
+                                    d = d.with_note(format!("declare it with `@{kind}shader {} … @endshader`", s.text));
+                                }
+                                self.diags.push(d);
+                            }
+                        }
+                        None => self.diags.push(Diagnostic::error("E0401", w.span, format!("`{}` needs a shader name", w.text))),
+                    }
+                    i += 2;
+                }
+                "target" => {
+                    match words.get(i + 1).map(|s| s.text.as_str()) {
+                        Some("screen") => i += 2,
+                        Some("texture") => i += 3,
+                        _ => {
+                            self.diags.push(Diagnostic::error("E0407", w.span, "expected `target screen` or `target texture NAME`"));
+                            i += 2;
+                        }
+                    }
+                }
+                "render" => i += 1,
+                other => {
+                    let mut d = Diagnostic::error("E0407", w.span, format!("unknown program command `{other}`"));
+                    if let Some(s) = did_you_mean(other, ["vertexshader", "fragmentshader", "target", "render"]) {
+                        d = d.with_suggestion(format!("did you mean `{s}`?"), w.span, s.to_string());
+                    }
+                    self.diags.push(d);
+                    i += 1;
+                }
+            }
+        }
+    }
+
+    fn whole_program(&mut self, opts: CheckOptions) {
+        // Weights against selectors.
+        for (full, defs) in &self.sym.rules {
+            let mode = self.sym.selectors.get(full).map(|(m, _)| m.clone());
+            for def in defs {
+                let ItemKind::Rule(r) = &self.ex.items[def.item].item.kind else { continue };
+                let Some(w) = &r.weight else { continue };
+                let v = if w.negative { -w.number.value } else { w.number.value };
+                let sequential = matches!(&mode, Some(SelectorMode::Word(m)) if m.text == "sequential" || m.text == "pattern");
+                let threshold = matches!(&mode, Some(SelectorMode::Word(m)) if m.text == "depth" || m.text == "scale")
+                    || matches!(&mode, Some(SelectorMode::FunctionRef(_) | SelectorMode::FunctionBody(_)));
+                let problem = if w.number.unit.is_some() {
+                    Some("a weight takes no unit suffix".to_string())
+                } else if sequential && (v < 0.0 || v.fract() != 0.0) {
+                    Some(format!("a sequential rule's weight is a repeat count: a whole number ≥ 0, not {v}"))
+                } else if !threshold && v < 0.0 {
+                    Some(format!("a random rule's weight is a relative probability and cannot be negative ({v})"))
+                } else {
+                    None
+                };
+                if let Some(p) = problem {
+                    self.diags.push(Diagnostic::error("E0405", w.number.span.to(r.name.span).to(w.number.span), p));
+                }
+            }
+        }
+
+        let program = self.sym.startshape.is_some();
+        if !program {
+            if opts.require_start {
+                let file = self.ex.files.first().copied().unwrap_or_default();
+                self.diags.push(
+                    Diagnostic::error("E0306", Span::new(file, 0, 0), "this program has no `startshape`")
+                        .with_note("add `startshape NAME` to say which rule to start from"),
+                );
+            }
+            return;
+        }
+
+        // Rules used as transform, iterator, line, camera or uniform rules are roots too.
+        let mut roots: Vec<String> = Vec::new();
+        if let Some((s, _)) = &self.sym.startshape {
+            roots.push(s.clone());
+        }
+        let mut special: BTreeSet<String> = BTreeSet::new();
+        for ExpItem { item, namespace } in &self.ex.items {
+            let mut add = |n: &Name| {
+                if let Some(f) = self.sym.resolve(&n.text, namespace.as_deref()) {
+                    special.insert(f);
+                }
+            };
+            match &item.kind {
+                ItemKind::Linerule(n) | ItemKind::Camerarule(n) => add(n),
+                ItemKind::Rule(r) => {
+                    r.iter.iter().for_each(&mut add);
+                    r.transforms.iter().for_each(&mut add);
+                }
+                ItemKind::Directive { name, args } if name.text == "uniform" => {
+                    if let [_, DirArg::Word(rule), DirArg::Word(_)] = args.as_slice() {
+                        add(rule);
+                    }
+                }
+                _ => {}
+            }
+        }
+        let transform_rules = special.clone();
+        roots.extend(special);
+        let mut reachable: BTreeSet<String> = BTreeSet::new();
+        let mut stack = roots;
+        while let Some(r) = stack.pop() {
+            if !reachable.insert(r.clone()) {
+                continue;
+            }
+            for calls in self.call_graph.get(&r).into_iter().flatten() {
+                stack.extend(calls.iter().cloned());
+            }
+        }
+        let referenced: BTreeSet<&String> = self.sym.references.iter().map(|(_, r)| r).collect();
+        let main_file = self.ex.files.first().copied();
+        for (full, defs) in &self.sym.rules {
+            if reachable.contains(full) {
+                continue;
+            }
+            let def = &defs[0];
+            // Rules from imported libraries are not the program's to use up.
+            if Some(def.name_span.file) != main_file {
+                continue;
+            }
+            if referenced.contains(full) {
+                self.diags.push(
+                    Diagnostic::warning("W0002", def.name_span, format!("rule `{full}` is unreachable from the start shape"))
+                        .with_label("only unused rules call this rule"),
+                );
+            } else {
+                self.diags.push(
+                    Diagnostic::warning("W0001", def.name_span, format!("rule `{full}` is never used"))
+                        .with_suggestion("remove the rule", self.ex.items[def.item].item.span, String::new()),
+                );
+            }
+        }
+
+        // Termination: a rule terminates if one of its definitions calls only rules that terminate.
+        let has_limit = self.ex.items.iter().any(|ExpItem { item, .. }| {
+            matches!(&item.kind, ItemKind::Directive { name, .. } if name.text == "maxdepth" || name.text == "minsize")
+        });
+        if has_limit {
+            return;
+        }
+        let mut terminates: BTreeSet<String> = BTreeSet::new();
+        for (full, (mode, _)) in &self.sym.selectors {
+            if !matches!(mode, SelectorMode::Word(w) if w.text == "random" || w.text == "frequency") {
+                terminates.insert(full.clone());
+            }
+        }
+        loop {
+            let mut changed = false;
+            for (full, defs) in &self.call_graph {
+                if terminates.contains(full) {
+                    continue;
+                }
+                let ok = defs.iter().any(|calls| calls.iter().all(|c| terminates.contains(c) || !self.sym.rules.contains_key(c)));
+                if ok {
+                    terminates.insert(full.clone());
+                    changed = true;
+                }
+            }
+            if !changed {
+                break;
+            }
+        }
+        for full in &reachable {
+            if terminates.contains(full) || transform_rules.contains(full) {
+                continue;
+            }
+            let Some(defs) = self.sym.rules.get(full) else { continue };
+            if Some(defs[0].name_span.file) != main_file {
+                continue;
+            }
+            self.diags.push(
+                Diagnostic::warning("W0003", defs[0].name_span, format!("the recursion of `{full}` can never terminate"))
+                    .with_label("every definition calls itself again")
+                    .with_note("add `maxdepth N` or `minsize S`, a non-recursive definition, or a depth/scale selector"),
+            );
+        }
+    }
+}
+
+impl Symbols {
+    /// Resolves a function name used inside namespace `ns`.
+    pub fn resolve_function(&self, name: &str, ns: Option<&str>) -> Option<String> {
+        if let Some(ns) = ns {
+            let q = format!("{ns}.{name}");
+            if self.functions.contains_key(&q) {
+                return Some(q);
+            }
+        }
+        self.functions.contains_key(name).then(|| name.to_string())
+    }
+}

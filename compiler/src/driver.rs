@@ -1,0 +1,68 @@
+//! One entry point for a whole analysis: load, preprocess, parse, check.
+//!
+//! `mdgc`, `mdg-run` and the language server all go through [`analyze`], so they
+//! report the same diagnostics for the same source.
+
+use crate::check::{self, CheckOptions, Checked};
+use crate::diag::Diagnostic;
+use crate::expand::{self, Expanded, Options};
+use crate::source::{FileLoader, Sources};
+use crate::span::FileId;
+use std::path::{Path, PathBuf};
+
+/// A finished analysis.
+pub struct Analysis {
+    pub sources: Sources,
+    pub expanded: Expanded,
+    pub checked: Checked,
+    /// All diagnostics, sorted by file and position, duplicates removed.
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+impl Analysis {
+    /// Whether any diagnostic is an error.
+    pub fn has_errors(&self) -> bool {
+        self.diagnostics.iter().any(|d| d.is_error())
+    }
+}
+
+/// The std directory: `$MDG_STD`, else `std/` beside the running executable's
+/// workspace, else the one this compiler was built from.
+pub fn default_std_dir() -> Option<PathBuf> {
+    if let Some(p) = std::env::var_os("MDG_STD") {
+        return Some(PathBuf::from(p));
+    }
+    if let Ok(exe) = std::env::current_exe() {
+        for anc in exe.ancestors().skip(1).take(4) {
+            let cand = anc.join("std");
+            if cand.join("primitives.mdg").is_file() {
+                return Some(cand);
+            }
+        }
+    }
+    let built = Path::new(env!("CARGO_MANIFEST_DIR")).join("../std");
+    built.is_dir().then_some(built)
+}
+
+fn finish(sources: Sources, expanded: Expanded, opts: CheckOptions) -> Analysis {
+    let checked = check::check(&expanded, opts);
+    let mut diagnostics: Vec<Diagnostic> = expanded.diagnostics.iter().chain(checked.diagnostics.iter()).cloned().collect();
+    diagnostics.sort_by(|a, b| (a.span.file, a.span.start, a.code).cmp(&(b.span.file, b.span.start, b.code)));
+    diagnostics.dedup_by(|a, b| a.span == b.span && a.code == b.code && a.message == b.message);
+    Analysis { sources, expanded, checked, diagnostics }
+}
+
+/// Analyzes the file at `path`.
+pub fn analyze(loader: &dyn FileLoader, path: &Path, opts: &Options, check: CheckOptions) -> Analysis {
+    let mut sources = Sources::default();
+    let expanded = expand::expand_path(&mut sources, loader, path, opts);
+    finish(sources, expanded, check)
+}
+
+/// Analyzes `text` as if it were the file at `path` (imports read through `loader`).
+pub fn analyze_text(loader: &dyn FileLoader, path: &Path, text: &str, opts: &Options, check: CheckOptions) -> Analysis {
+    let mut sources = Sources::default();
+    let id: FileId = sources.add(path, path.display().to_string(), text);
+    let expanded = expand::expand_file(&mut sources, loader, id, opts);
+    finish(sources, expanded, check)
+}

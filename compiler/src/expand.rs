@@ -1,0 +1,545 @@
+//! Resolves the preprocessor: `@import`, `@ifdef`, `@macro`/`@expand`, `@define`,
+//! `@param`, `@presets` and shader blocks, producing a flat list of items.
+//!
+//! Imports are contained: a path may not leave the project root (the main file's
+//! directory) or the std directory, symlinks resolved. Macro expansions are parsed in
+//! the context where `@expand` stands; diagnostics inside them are labelled with the
+//! expansion site.
+
+use crate::ast::*;
+use crate::diag::{did_you_mean, Diagnostic};
+use crate::lexer::{Tok, Token};
+use crate::parse;
+use crate::source::{FileLoader, Sources};
+use crate::span::{FileId, Span};
+use std::collections::{BTreeMap, HashMap, HashSet};
+use std::path::{Path, PathBuf};
+
+/// Options that change what the preprocessor produces.
+#[derive(Clone, Debug, Default)]
+pub struct Options {
+    /// Names defined as if by `@define` (e.g. chosen presets).
+    pub defines: Vec<String>,
+    /// `--param NAME=VALUE` overrides.
+    pub params: Vec<(String, String)>,
+    /// Where `@import NAME` finds `NAME.mdg`.
+    pub std_dir: Option<PathBuf>,
+}
+
+/// How deep macro expansions may nest before we call it recursion.
+pub const MAX_EXPANSION_DEPTH: usize = 32;
+/// How many macro expansions one compilation may perform.
+pub const MAX_EXPANSIONS: usize = 100_000;
+
+/// A parameter declared with `@param`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Param {
+    pub name: Name,
+    /// `int`, `float` or `bool`.
+    pub ty: String,
+    pub default: f64,
+    pub min: Option<f64>,
+    pub max: Option<f64>,
+    /// The value in force (the default, or a `--param` override).
+    pub value: f64,
+}
+
+/// A shader block.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Shader {
+    pub vertex: bool,
+    pub name: Name,
+    pub code: String,
+    pub code_span: Span,
+}
+
+/// A top-level item after expansion, with its namespace.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExpItem {
+    pub item: Item,
+    /// The enclosing namespace (`None` at global scope).
+    pub namespace: Option<String>,
+}
+
+/// One macro expansion, for labelling diagnostics inside it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Expansion {
+    pub macro_name: String,
+    pub call_span: Span,
+    pub body_span: Span,
+}
+
+/// The preprocessed program.
+#[derive(Default)]
+pub struct Expanded {
+    pub items: Vec<ExpItem>,
+    pub shaders: Vec<Shader>,
+    pub params: Vec<Param>,
+    /// `@define`d names and their optional values.
+    pub defines: BTreeMap<String, Option<f64>>,
+    pub presets: Vec<Name>,
+    pub expansions: Vec<Expansion>,
+    /// Every file that took part (the main file first).
+    pub files: Vec<FileId>,
+    /// The parsed main file (for the formatter and the language server).
+    pub main_ast: File,
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+impl Expanded {
+    /// The value of a compile-time constant (`@param` or valued `@define`).
+    pub fn constant(&self, name: &str) -> Option<f64> {
+        if let Some(p) = self.params.iter().find(|p| p.name.text == name) {
+            return Some(p.value);
+        }
+        self.defines.get(name).copied().flatten()
+    }
+}
+
+struct Expander<'a> {
+    sources: &'a mut Sources,
+    loader: &'a dyn FileLoader,
+    opts: &'a Options,
+    root: Option<PathBuf>,
+    std_root: Option<PathBuf>,
+    out: Expanded,
+    macros: HashMap<String, MacroDef>,
+    imported: HashSet<PathBuf>,
+    import_stack: Vec<PathBuf>,
+    depth: usize,
+    n_expansions: usize,
+}
+
+/// Loads `path` as the main file and expands it.
+pub fn expand_path(sources: &mut Sources, loader: &dyn FileLoader, path: &Path, opts: &Options) -> Expanded {
+    let name = path.display().to_string();
+    match loader.read(path) {
+        Ok(text) => {
+            let id = sources.add(path, name, text);
+            expand_file(sources, loader, id, opts)
+        }
+        Err(e) => {
+            let id = sources.add(path, name.clone(), "");
+            let mut out = Expanded::default();
+            out.diagnostics.push(Diagnostic::error("E0201", Span::new(id, 0, 0), format!("cannot read `{name}`: {e}")));
+            out
+        }
+    }
+}
+
+/// Expands a file already in `sources`.
+pub fn expand_file(sources: &mut Sources, loader: &dyn FileLoader, main: FileId, opts: &Options) -> Expanded {
+    let main_path = sources.file(main).path.clone();
+    let root = main_path
+        .parent()
+        .map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p })
+        .and_then(|p| loader.canonicalize(p).ok());
+    let std_root = opts.std_dir.as_ref().and_then(|d| loader.canonicalize(d).ok());
+    let mut ex = Expander {
+        sources,
+        loader,
+        opts,
+        root,
+        std_root,
+        out: Expanded::default(),
+        macros: HashMap::new(),
+        imported: HashSet::new(),
+        import_stack: Vec::new(),
+        depth: 0,
+        n_expansions: 0,
+    };
+    for d in &opts.defines {
+        ex.out.defines.insert(d.clone(), None);
+    }
+    if let Ok(c) = loader.canonicalize(&main_path) {
+        ex.imported.insert(c.clone());
+        ex.import_stack.push(c);
+    }
+    let parsed = parse::parse_file(ex.sources, main);
+    ex.out.diagnostics.extend(parsed.diagnostics);
+    ex.out.files.push(main);
+    // Parameters and defines are collected first so `@ifdef` can see them anywhere.
+    ex.collect_constants(&parsed.file.items);
+    ex.top_items(parsed.file.items.clone(), None);
+    ex.out.main_ast = parsed.file;
+    ex.label_expansions();
+    ex.out
+}
+
+impl<'a> Expander<'a> {
+    /// Collects `@param`s and top-level macro definitions before expansion, so both
+    /// may be used above the line that declares them.
+    fn collect_constants(&mut self, items: &[Item]) {
+        for item in items {
+            match &item.kind {
+                ItemKind::Pre(Pre::Param(words)) => self.param(words, item.span),
+                ItemKind::Pre(Pre::Macro(m)) => self.define_macro(m.clone()),
+                _ => {}
+            }
+        }
+    }
+
+    fn param(&mut self, words: &[Name], span: Span) {
+        let bad = |msg: &str| Diagnostic::error("E0209", span, msg.to_string());
+        let (ty, name, rest) = match words {
+            [ty, name, rest @ ..] => (ty, name, rest),
+            _ => {
+                self.out.diagnostics.push(bad("expected `@param int|float|bool NAME DEFAULT [MIN MAX]`"));
+                return;
+            }
+        };
+        if self.out.params.iter().any(|p| p.name.text == name.text) {
+            return;
+        }
+        let num = |w: &Name| -> Option<f64> {
+            match w.text.as_str() {
+                "true" => Some(1.0),
+                "false" => Some(0.0),
+                t => t.parse().ok(),
+            }
+        };
+        let parsed: Option<Vec<f64>> = rest.iter().map(num).collect();
+        let Some(values) = parsed else {
+            self.out.diagnostics.push(bad("`@param` values must be numbers (or true/false for bool)"));
+            return;
+        };
+        let ok_count = match ty.text.as_str() {
+            "int" | "float" => values.len() == 1 || values.len() == 3,
+            "bool" => values.len() == 1,
+            _ => {
+                let mut d = Diagnostic::error("E0209", ty.span, format!("unknown parameter type `{}`", ty.text))
+                    .with_label("expected `int`, `float` or `bool`");
+                if let Some(s) = did_you_mean(&ty.text, ["int", "float", "bool"]) {
+                    d = d.with_suggestion(format!("did you mean `{s}`?"), ty.span, s);
+                }
+                self.out.diagnostics.push(d);
+                return;
+            }
+        };
+        if !ok_count {
+            self.out.diagnostics.push(bad("expected `@param int|float NAME DEFAULT [MIN MAX]` or `@param bool NAME true|false`"));
+            return;
+        }
+        let default = values[0];
+        let (min, max) = if values.len() == 3 { (Some(values[1]), Some(values[2])) } else { (None, None) };
+        let mut value = default;
+        if let Some((_, v)) = self.opts.params.iter().find(|(n, _)| *n == name.text) {
+            let parsed = match v.as_str() {
+                "true" => Some(1.0),
+                "false" => Some(0.0),
+                t => t.parse::<f64>().ok(),
+            };
+            match parsed {
+                Some(p) => value = p,
+                None => self.out.diagnostics.push(Diagnostic::error(
+                    "E0209",
+                    name.span,
+                    format!("`--param {}={v}`: the value is not a number", name.text),
+                )),
+            }
+        }
+        if ty.text == "int" {
+            value = value.round();
+        }
+        if let (Some(lo), Some(hi)) = (min, max) {
+            value = value.clamp(lo.min(hi), hi.max(lo));
+        }
+        if ty.text == "bool" && value != 0.0 {
+            self.out.defines.entry(name.text.clone()).or_insert(None);
+        }
+        self.out.params.push(Param { name: name.clone(), ty: ty.text.clone(), default, min, max, value });
+    }
+
+    fn top_items(&mut self, items: Vec<Item>, ns: Option<String>) {
+        for item in items {
+            match item.kind {
+                ItemKind::Pre(pre) => self.top_pre(pre, item.span, &ns),
+                ItemKind::Namespace { name, items } => {
+                    let full = match &ns {
+                        Some(p) => format!("{p}.{}", name.text),
+                        None => name.text.clone(),
+                    };
+                    let inner = items.clone();
+                    self.out.items.push(ExpItem {
+                        item: Item { kind: ItemKind::Namespace { name, items: vec![] }, span: item.span },
+                        namespace: ns.clone(),
+                    });
+                    self.top_items(inner, Some(full));
+                }
+                ItemKind::Rule(mut rule) => {
+                    rule.body = self.body(rule.body);
+                    self.out.items.push(ExpItem { item: Item { kind: ItemKind::Rule(rule), span: item.span }, namespace: ns.clone() });
+                }
+                kind => self.out.items.push(ExpItem { item: Item { kind, span: item.span }, namespace: ns.clone() }),
+            }
+        }
+    }
+
+    fn top_pre(&mut self, pre: Pre<Item>, span: Span, ns: &Option<String>) {
+        match pre {
+            Pre::Import(names) => {
+                for n in names {
+                    self.import(&n);
+                }
+            }
+            Pre::Define { name, value } => {
+                self.out.defines.insert(name.text, value.map(|v| v.value));
+            }
+            Pre::Param(_) => {}
+            Pre::Presets(p) => self.out.presets.extend(p),
+            Pre::Shader { vertex, name, code, code_span } => {
+                self.out.shaders.push(Shader { vertex, name, code, code_span });
+            }
+            Pre::Macro(m) => self.define_macro(m),
+            Pre::Expand { name, args } => {
+                if let Some(tokens) = self.expand_tokens(&name, &args, span) {
+                    let file = name.span.file;
+                    let (items, diags) = parse::parse_items(self.sources, file, tokens);
+                    self.out.diagnostics.extend(diags);
+                    self.depth += 1;
+                    self.collect_constants(&items);
+                    self.top_items(items, ns.clone());
+                    self.depth -= 1;
+                }
+            }
+            Pre::IfDef { name, then, otherwise } => {
+                let chosen = if self.out.defines.contains_key(&name.text) { Some(then) } else { otherwise };
+                if let Some(items) = chosen {
+                    self.collect_constants(&items);
+                    self.top_items(items, ns.clone());
+                }
+            }
+            Pre::Bad => {}
+        }
+    }
+
+    fn body(&mut self, items: Vec<BodyItem>) -> Vec<BodyItem> {
+        let mut out = Vec::with_capacity(items.len());
+        for item in items {
+            self.body_item(item, &mut out);
+        }
+        out
+    }
+
+    fn body_item(&mut self, item: BodyItem, out: &mut Vec<BodyItem>) {
+        match item.kind {
+            BodyKind::Pre(pre) => match pre {
+                Pre::Expand { name, args } => {
+                    if let Some(tokens) = self.expand_tokens(&name, &args, item.span) {
+                        let (items, diags) = parse::parse_body_items(self.sources, name.span.file, tokens);
+                        self.out.diagnostics.extend(diags);
+                        self.depth += 1;
+                        let mut expanded = self.body(items);
+                        self.depth -= 1;
+                        if item.cont {
+                            if let Some(last) = expanded.last_mut() {
+                                last.cont = true;
+                            }
+                        }
+                        out.extend(expanded);
+                    }
+                }
+                Pre::IfDef { name, then, otherwise } => {
+                    let chosen = if self.out.defines.contains_key(&name.text) { Some(then) } else { otherwise };
+                    if let Some(items) = chosen {
+                        for i in items {
+                            self.body_item(i, out);
+                        }
+                    }
+                }
+                Pre::Macro(m) => self.define_macro(m),
+                Pre::Define { name, value } => {
+                    self.out.defines.insert(name.text, value.map(|v| v.value));
+                }
+                Pre::Import(_) | Pre::Param(_) | Pre::Presets(_) | Pre::Shader { .. } => {
+                    self.out.diagnostics.push(
+                        Diagnostic::error("E0209", item.span, "this directive belongs at the top level, not inside a rule")
+                            .with_label("move it out of the rule body"),
+                    );
+                }
+                Pre::Bad => {}
+            },
+            BodyKind::Iterate { count, divisor, adj, item: inner } => {
+                let mut v = Vec::new();
+                self.body_item(*inner, &mut v);
+                let inner = if v.len() == 1 {
+                    v.pop().unwrap_or(BodyItem { kind: BodyKind::Error, cont: false, span: item.span })
+                } else {
+                    let span = v.first().map(|f| f.span).unwrap_or(item.span);
+                    BodyItem { kind: BodyKind::Block(v), cont: false, span }
+                };
+                out.push(BodyItem { kind: BodyKind::Iterate { count, divisor, adj, item: Box::new(inner) }, ..item });
+            }
+            BodyKind::Block(items) => {
+                let items = self.body(items);
+                out.push(BodyItem { kind: BodyKind::Block(items), ..item });
+            }
+            kind => out.push(BodyItem { kind, ..item }),
+        }
+    }
+
+    fn define_macro(&mut self, m: MacroDef) {
+        if let Some(prev) = self.macros.get(&m.name.text) {
+            if prev.name.span != m.name.span {
+                self.out.diagnostics.push(
+                    Diagnostic::error("E0211", m.name.span, format!("macro `{}` is defined twice", m.name.text))
+                        .with_secondary(prev.name.span, "first defined here"),
+                );
+            }
+            return;
+        }
+        self.macros.insert(m.name.text.clone(), m);
+    }
+
+    /// The tokens of one expansion with parameters substituted, or `None` after an error.
+    fn expand_tokens(&mut self, name: &Name, args: &[MacroArg], call_span: Span) -> Option<Vec<Token>> {
+        let Some(m) = self.macros.get(&name.text).cloned() else {
+            let mut d = Diagnostic::error("E0204", name.span, format!("unknown macro `{}`", name.text));
+            if let Some(s) = did_you_mean(&name.text, self.macros.keys().map(|k| k.as_str())) {
+                d = d.with_suggestion(format!("did you mean `{s}`?"), name.span, s.to_string());
+            }
+            self.out.diagnostics.push(d);
+            return None;
+        };
+        if m.params.len() != args.len() {
+            self.out.diagnostics.push(
+                Diagnostic::error(
+                    "E0205",
+                    call_span,
+                    format!("macro `{}` takes {} argument(s) but {} were given", m.name.text, m.params.len(), args.len()),
+                )
+                .with_secondary(m.name.span, "defined here"),
+            );
+            return None;
+        }
+        if self.depth >= MAX_EXPANSION_DEPTH || self.n_expansions >= MAX_EXPANSIONS {
+            self.out.diagnostics.push(
+                Diagnostic::error("E0208", call_span, format!("expansion of macro `{}` nests too deeply", m.name.text))
+                    .with_note(format!(
+                        "expansions may nest {MAX_EXPANSION_DEPTH} deep and number {MAX_EXPANSIONS} in all; is the macro recursive?"
+                    )),
+            );
+            return None;
+        }
+        self.n_expansions += 1;
+        self.out.expansions.push(Expansion { macro_name: m.name.text.clone(), call_span, body_span: m.body_span });
+        let mut tokens = Vec::with_capacity(m.body.len());
+        for t in &m.body {
+            if t.kind == Tok::Ident {
+                let text = self.sources.text(t.span);
+                if let Some(i) = m.params.iter().position(|p| p.text == text) {
+                    tokens.extend_from_slice(&args[i].tokens);
+                    continue;
+                }
+            }
+            tokens.push(*t);
+        }
+        Some(tokens)
+    }
+
+    fn import(&mut self, name: &Name) {
+        let from = self.sources.file(name.span.file).path.clone();
+        let is_path = name.text.contains('/') || name.text.ends_with(".mdg");
+        let candidate = if is_path {
+            from.parent().unwrap_or(Path::new(".")).join(&name.text)
+        } else {
+            match &self.opts.std_dir {
+                Some(d) => d.join(format!("{}.mdg", name.text)),
+                None => {
+                    self.out.diagnostics.push(
+                        Diagnostic::error("E0201", name.span, format!("cannot import `{}`: the std library was not found", name.text))
+                            .with_note("set MDG_STD to the std directory, or import a relative path like `lib/x.mdg`"),
+                    );
+                    return;
+                }
+            }
+        };
+        let canon = match self.loader.canonicalize(&candidate) {
+            Ok(c) => c,
+            Err(_) => {
+                let mut d = Diagnostic::error("E0201", name.span, format!("cannot find `{}` to import", name.text))
+                    .with_label(format!("looked for {}", candidate.display()));
+                if !is_path {
+                    if let Some(dir) = &self.opts.std_dir {
+                        let names = std_names(dir);
+                        if let Some(s) = did_you_mean(&name.text, names.iter().map(|s| s.as_str())) {
+                            d = d.with_suggestion(format!("did you mean `{s}`?"), name.span, s.to_string());
+                        }
+                    }
+                }
+                self.out.diagnostics.push(d);
+                return;
+            }
+        };
+        let contained = |root: &Option<PathBuf>| root.as_ref().is_some_and(|r| canon.starts_with(r));
+        if !contained(&self.root) && !contained(&self.std_root) {
+            self.out.diagnostics.push(
+                Diagnostic::error("E0202", name.span, format!("`{}` is outside the project and the std library", name.text))
+                    .with_label(format!("resolves to {}", canon.display()))
+                    .with_note("imports may only read files under the main file's directory or the std directory"),
+            );
+            return;
+        }
+        if self.import_stack.contains(&canon) {
+            self.out.diagnostics.push(
+                Diagnostic::error("E0203", name.span, format!("`{}` imports itself (an import cycle)", name.text))
+                    .with_note(format!(
+                        "cycle: {}",
+                        self.import_stack
+                            .iter()
+                            .chain(std::iter::once(&canon))
+                            .map(|p| p.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default())
+                            .collect::<Vec<_>>()
+                            .join(" → ")
+                    )),
+            );
+            return;
+        }
+        if !self.imported.insert(canon.clone()) {
+            return;
+        }
+        let text = match self.loader.read(&canon) {
+            Ok(t) => t,
+            Err(e) => {
+                self.out.diagnostics.push(Diagnostic::error("E0201", name.span, format!("cannot read `{}`: {e}", name.text)));
+                return;
+            }
+        };
+        let display = if is_path { name.text.clone() } else { format!("std/{}.mdg", name.text) };
+        let id = self.sources.add(canon.clone(), display, text);
+        self.out.files.push(id);
+        let parsed = parse::parse_file(self.sources, id);
+        self.out.diagnostics.extend(parsed.diagnostics);
+        self.import_stack.push(canon);
+        self.collect_constants(&parsed.file.items);
+        self.top_items(parsed.file.items, None);
+        self.import_stack.pop();
+    }
+
+    /// Adds "in this expansion" labels to diagnostics inside macro bodies.
+    fn label_expansions(&mut self) {
+        let expansions = self.out.expansions.clone();
+        for d in &mut self.out.diagnostics {
+            if let Some(e) = expansions.iter().find(|e| {
+                e.body_span.file == d.span.file && e.body_span.start <= d.span.start && d.span.end <= e.body_span.end
+            }) {
+                d.secondary.push(crate::diag::Label {
+                    span: e.call_span,
+                    message: format!("in this expansion of macro `{}`", e.macro_name),
+                });
+            }
+        }
+    }
+}
+
+fn std_names(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .map(|rd| {
+            rd.filter_map(|e| e.ok())
+                .filter_map(|e| e.file_name().to_str().and_then(|n| n.strip_suffix(".mdg")).map(|s| s.to_string()))
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}

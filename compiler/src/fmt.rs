@@ -1,0 +1,384 @@
+//! The formatter: prints a file's syntax tree in the canonical layout, keeping
+//! every comment.
+//!
+//! Layout: one item per line, two-space indentation, `{ }` bodies opened on the
+//! item's line, at most one blank line kept between items. Numbers, macro bodies and
+//! shader code are printed exactly as written. A comment before an item stays before
+//! it; a comment after an item on the same line stays on that line; a comment inside
+//! an item's adjustments or expression moves before the next item. The output parses
+//! to the same tree, and formatting is idempotent (both tested over the corpus).
+
+use crate::ast::*;
+use crate::diag::render_plain;
+use crate::lexer::Comment;
+use crate::parse;
+use crate::source::Sources;
+use crate::span::Span;
+
+/// Formats source text; fails (with rendered diagnostics) if the file has syntax errors.
+pub fn format_source(text: &str) -> Result<String, String> {
+    let mut sources = Sources::default();
+    let id = sources.add("<fmt>", "<input>", text);
+    let parsed = parse::parse_file(&sources, id);
+    let syntax: Vec<_> = parsed.diagnostics.iter().filter(|d| d.code.starts_with("E01") || d.code == "E0206" || d.code == "E0207").cloned().collect();
+    if !syntax.is_empty() {
+        return Err(render_plain(&syntax, &sources));
+    }
+    let mut p = Printer { src: text, comments: parsed.comments, next: 0, out: String::new(), indent: 0, last_end: 0 };
+    p.items(&parsed.file.items, text.len() as u32);
+    let mut out = p.out.trim_end().to_string();
+    out.push('\n');
+    if out.trim().is_empty() {
+        return Ok(String::new());
+    }
+    Ok(out)
+}
+
+struct Printer<'a> {
+    src: &'a str,
+    comments: Vec<Comment>,
+    next: usize,
+    out: String,
+    indent: usize,
+    /// End of the last thing printed from the source (for blank-line detection).
+    last_end: u32,
+}
+
+impl<'a> Printer<'a> {
+    fn pad(&mut self) {
+        for _ in 0..self.indent {
+            self.out.push_str("  ");
+        }
+    }
+
+    fn text(&self, s: Span) -> &'a str {
+        self.src.get(s.range()).unwrap_or("")
+    }
+
+    /// Whether the source has a blank line between `from` and `to`: a whole line
+    /// (between two newlines) holding only whitespace.
+    fn blank_between(&self, from: u32, to: u32) -> bool {
+        let gap = self.src.get(from as usize..to as usize).unwrap_or("");
+        let segs: Vec<&str> = gap.split('\n').collect();
+        segs.len() >= 3 && segs[1..segs.len() - 1].iter().any(|l| l.trim().is_empty())
+    }
+
+    /// Prints every comment starting before `before` on lines of its own.
+    fn leading_comments(&mut self, before: u32) {
+        while let Some(c) = self.comments.get(self.next).cloned() {
+            if c.span.start >= before {
+                break;
+            }
+            self.next += 1;
+            if self.blank_between(self.last_end, c.span.start) && !self.out.is_empty() && !self.out.ends_with("{\n") {
+                self.out.push('\n');
+            }
+            self.pad();
+            let t = self.text(c.span).trim_end().to_string();
+            self.out.push_str(&t);
+            self.out.push('\n');
+            self.last_end = c.span.end;
+        }
+    }
+
+    /// Appends comments that start on the same source line right after `end`.
+    fn trailing_comments(&mut self, end: u32) {
+        while let Some(c) = self.comments.get(self.next).cloned() {
+            let gap = self.src.get(end as usize..c.span.start as usize).unwrap_or("\n");
+            if c.span.start < end || gap.contains('\n') || !gap.trim().is_empty() {
+                break;
+            }
+            self.next += 1;
+            if self.out.ends_with('\n') {
+                self.out.pop();
+            }
+            self.out.push(' ');
+            let t = self.text(c.span).trim_end().to_string();
+            self.out.push_str(&t);
+            self.out.push('\n');
+            self.last_end = c.span.end;
+        }
+    }
+
+    fn start_item(&mut self, span: Span) {
+        self.leading_comments(span.start);
+        if self.blank_between(self.last_end, span.start) && !self.out.is_empty() && !self.out.ends_with("{\n") {
+            self.out.push('\n');
+        }
+        self.pad();
+    }
+
+    fn end_item(&mut self, span: Span) {
+        self.out.push('\n');
+        self.last_end = span.end;
+        self.trailing_comments(span.end);
+    }
+
+    fn items(&mut self, items: &[Item], end: u32) {
+        for item in items {
+            self.item(item);
+        }
+        self.leading_comments(end);
+    }
+
+    fn open_block(&mut self) {
+        self.out.push_str("{\n");
+        self.indent += 1;
+    }
+
+    fn close_block(&mut self, end: u32) {
+        self.leading_comments(end);
+        self.indent -= 1;
+        self.pad();
+        self.out.push('}');
+    }
+
+    fn item(&mut self, item: &Item) {
+        self.start_item(item.span);
+        match &item.kind {
+            ItemKind::Startshape(n) => self.out.push_str(&format!("startshape {}", n.text)),
+            ItemKind::Linerule(n) => self.out.push_str(&format!("linerule {}", n.text)),
+            ItemKind::Camerarule(n) => self.out.push_str(&format!("camerarule {}", n.text)),
+            ItemKind::Rule(r) => {
+                let mut head = format!("rule {}", r.name.text);
+                if let Some(i) = &r.iter {
+                    head.push_str(&format!(" * {}", i.text));
+                }
+                for t in &r.transforms {
+                    head.push_str(&format!(" : {}", t.text));
+                }
+                if let Some(w) = &r.weight {
+                    head.push_str(&format!(" {}{}", if w.negative { "-" } else { "" }, w.number.text));
+                }
+                self.out.push_str(&head);
+                self.out.push(' ');
+                self.body_block(&r.body, r.body_span.end);
+            }
+            ItemKind::Selector { rules, mode } => {
+                let names: Vec<&str> = rules.iter().map(|n| n.text.as_str()).collect();
+                self.out.push_str(&format!("selector {} ", names.join(", ")));
+                match mode {
+                    SelectorMode::Word(w) => self.out.push_str(&w.text),
+                    SelectorMode::FunctionRef(f) => self.out.push_str(&format!("function {}", f.text)),
+                    SelectorMode::FunctionBody(e) => self.out.push_str(&format!("function {{ {} }}", expr(e))),
+                }
+            }
+            ItemKind::Namespace { name, items } => {
+                self.out.push_str(&format!("namespace {} ", name.text));
+                self.open_block();
+                for i in items {
+                    self.item(i);
+                }
+                self.close_block(item.span.end);
+            }
+            ItemKind::Directive { name, args } => {
+                self.out.push_str(&name.text);
+                for a in args {
+                    self.out.push(' ');
+                    self.out.push_str(&dir_arg(a));
+                }
+            }
+            ItemKind::Function { name, body } => self.out.push_str(&format!("function {} {{ {} }}", name.text, expr(body))),
+            ItemKind::Isosurface { name, entries } => {
+                self.out.push_str(&format!("isosurface {} ", name.text));
+                self.open_block();
+                for e in entries {
+                    self.pad();
+                    match e {
+                        IsoEntry::Axis { axis, args, .. } => {
+                            self.out.push_str(&axis.text);
+                            for a in args {
+                                self.out.push(' ');
+                                self.out.push_str(&dir_arg(a));
+                            }
+                        }
+                        IsoEntry::FunctionRef(f) => self.out.push_str(&format!("function {}", f.text)),
+                        IsoEntry::FunctionBody(e) => self.out.push_str(&format!("function {{ {} }}", expr(e))),
+                    }
+                    self.out.push('\n');
+                }
+                self.close_block(item.span.end);
+            }
+            ItemKind::Program { words } => {
+                self.out.push_str("program ");
+                self.open_block();
+                let mut first = true;
+                for w in words {
+                    let starts = matches!(w.text.as_str(), "vertexshader" | "fragmentshader" | "target" | "render");
+                    if starts || first {
+                        if !first {
+                            self.out.push('\n');
+                        }
+                        self.pad();
+                    } else {
+                        self.out.push(' ');
+                    }
+                    self.out.push_str(&w.text);
+                    first = false;
+                }
+                if !first {
+                    self.out.push('\n');
+                }
+                self.close_block(item.span.end);
+            }
+            ItemKind::Pre(p) => self.pre(p, item.span, |me, i: &Item| me.item(i)),
+            ItemKind::Error => {
+                let t = self.text(item.span).to_string();
+                self.out.push_str(&t);
+            }
+        }
+        self.end_item(item.span);
+    }
+
+    fn pre<T>(&mut self, p: &Pre<T>, span: Span, each: impl Fn(&mut Self, &T) + Copy) {
+        let words = |v: &[Name]| v.iter().map(|n| n.text.as_str()).collect::<Vec<_>>().join(" ");
+        match p {
+            Pre::Import(v) => self.out.push_str(&format!("@import {}", words(v))),
+            Pre::Define { name, value } => {
+                self.out.push_str(&format!("@define {}", name.text));
+                if let Some(v) = value {
+                    self.out.push_str(&format!(" {}", v.text));
+                }
+            }
+            Pre::Param(v) => self.out.push_str(&format!("@param {}", words(v))),
+            Pre::Presets(v) => self.out.push_str(&format!("@presets {}", words(v))),
+            Pre::Shader { .. } | Pre::Macro(_) | Pre::Bad => {
+                // Shader code and macro bodies are not MDG syntax trees: keep them verbatim.
+                let t = self.text(span).to_string();
+                self.out.push_str(&t);
+                // Comments inside were printed with the text.
+                while self.comments.get(self.next).is_some_and(|c| c.span.start < span.end) {
+                    self.next += 1;
+                }
+            }
+            Pre::Expand { name, args } => {
+                let a: Vec<&str> = args.iter().map(|a| self.text(a.span).trim()).collect();
+                self.out.push_str(&format!("@expand {}({})", name.text, a.join(", ")));
+            }
+            Pre::IfDef { name, then, otherwise } => {
+                self.out.push_str(&format!("@ifdef {}\n", name.text));
+                self.last_end = name.span.end;
+                for t in then {
+                    each(self, t);
+                }
+                if let Some(o) = otherwise {
+                    self.pad();
+                    self.out.push_str("@else\n");
+                    for t in o {
+                        each(self, t);
+                    }
+                }
+                self.leading_comments(span.end);
+                self.pad();
+                self.out.push_str("@endif");
+            }
+        }
+    }
+
+    fn body_block(&mut self, items: &[BodyItem], end: u32) {
+        let has_comments = self.comments.get(self.next).is_some_and(|c| c.span.start < end);
+        if items.is_empty() && !has_comments {
+            self.out.push_str("{}");
+            return;
+        }
+        self.open_block();
+        for i in items {
+            self.body_item(i);
+        }
+        self.close_block(end);
+    }
+
+    fn body_item(&mut self, item: &BodyItem) {
+        self.start_item(item.span);
+        self.body_kind(item);
+        if item.cont {
+            self.out.push_str(" \\");
+        }
+        self.end_item(item.span);
+    }
+
+    fn body_kind(&mut self, item: &BodyItem) {
+        match &item.kind {
+            BodyKind::Call { name, profile, adj } => {
+                self.out.push_str(&name.text);
+                if let Some(p) = profile {
+                    self.out.push(' ');
+                    self.out.push_str(&p.text);
+                }
+                self.out.push(' ');
+                self.out.push_str(&adj_list(adj));
+            }
+            BodyKind::Iterate { count, divisor, adj, item: inner } => {
+                self.out.push_str(&count_text(count));
+                if let Some(d) = divisor {
+                    self.out.push('/');
+                    self.out.push_str(&count_text(d));
+                }
+                self.out.push_str(" * ");
+                self.out.push_str(&adj_list(adj));
+                self.out.push(' ');
+                self.body_kind(inner);
+            }
+            BodyKind::Block(items) => self.body_block(items, item.span.end),
+            BodyKind::Pre(p) => self.pre(p, item.span, |me, i: &BodyItem| me.body_item(i)),
+            BodyKind::Error => {
+                let t = self.text(item.span).to_string();
+                self.out.push_str(&t);
+            }
+        }
+    }
+}
+
+fn count_text(c: &Count) -> String {
+    match c {
+        Count::Num(n) => n.text.clone(),
+        Count::Neg(n) => format!("-{}", n.text),
+        Count::Expr(e) => expr(e),
+    }
+}
+
+fn adj_list(a: &AdjList) -> String {
+    let inner: Vec<String> = a
+        .adjs
+        .iter()
+        .map(|adj| {
+            let mut s = adj.name.text.clone();
+            for arg in &adj.args {
+                s.push(' ');
+                s.push_str(&match arg {
+                    Arg::Num(n) => n.text.clone(),
+                    Arg::Neg(n) => format!("-{}", n.text),
+                    Arg::Expr(e) => expr(e),
+                });
+            }
+            s
+        })
+        .collect();
+    let (o, c) = if a.square { ('[', ']') } else { ('{', '}') };
+    format!("{o}{}{c}", inner.join(" "))
+}
+
+fn dir_arg(a: &DirArg) -> String {
+    match a {
+        DirArg::Num(n) => n.text.clone(),
+        DirArg::Neg(n) => format!("-{}", n.text),
+        DirArg::Word(w) => w.text.clone(),
+        DirArg::Expr(e) => expr(e),
+    }
+}
+
+/// Prints an expression (parentheses are explicit nodes, so none are added).
+pub fn expr(e: &Expr) -> String {
+    match &e.kind {
+        ExprKind::Num(n) => n.text.clone(),
+        ExprKind::Var(v) => v.text.clone(),
+        ExprKind::Neg(x) => format!("-{}", expr(x)),
+        ExprKind::Binary(op, a, b) => format!("{} {} {}", expr(a), op.symbol(), expr(b)),
+        ExprKind::Call(f, args) => {
+            let a: Vec<String> = args.iter().map(expr).collect();
+            format!("{}({})", f.text, a.join(", "))
+        }
+        ExprKind::Paren(x) => format!("({})", expr(x)),
+        ExprKind::Error => String::new(),
+    }
+}

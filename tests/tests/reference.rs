@@ -1,0 +1,41 @@
+//! The language reference cannot drift from the compiler: every ```mdg block in
+//! `docs/reference.md` must check with no diagnostics.
+
+use mdg_compiler::check::CheckOptions;
+use mdg_compiler::driver::analyze_text;
+use mdg_compiler::source::FsLoader;
+use mdg_tests::{options, root};
+
+#[test]
+fn reference_examples_check_clean() {
+    let doc = std::fs::read_to_string(root().join("docs/reference.md")).expect("docs/reference.md");
+    let mut blocks = Vec::new();
+    let mut cur: Option<(usize, String)> = None;
+    for (i, line) in doc.lines().enumerate() {
+        match &mut cur {
+            None if line.trim_start().starts_with("```mdg") => cur = Some((i + 1, String::new())),
+            Some((start, text)) if line.trim_start().starts_with("```") => {
+                blocks.push((*start, std::mem::take(text)));
+                cur = None;
+            }
+            Some((_, text)) => {
+                text.push_str(line);
+                text.push('\n');
+            }
+            None => {}
+        }
+    }
+    assert!(blocks.len() >= 30, "the reference has only {} mdg examples", blocks.len());
+    let mut failures = Vec::new();
+    for (line, text) in blocks {
+        let path = root().join("docs/reference.md.mdg");
+        let a = analyze_text(&FsLoader, &path, &text, &options(), CheckOptions::default());
+        if !a.diagnostics.is_empty() {
+            failures.push(format!(
+                "docs/reference.md line {line}:\n{}",
+                mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources)
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
