@@ -253,7 +253,17 @@ impl<'a> Printer<'a> {
             }
             Pre::Expand { name, args } => {
                 let a: Vec<&str> = args.iter().map(|a| self.text(a.span).trim()).collect();
-                self.out.push_str(&format!("@expand {}({})", name.text, a.join(", ")));
+                if a.iter().any(|t| t.contains("//")) {
+                    // A line comment inside the arguments would swallow the `)`: keep the text.
+                    let t = self.text(span).to_string();
+                    self.out.push_str(&t);
+                } else {
+                    self.out.push_str(&format!("@expand {}({})", name.text, a.join(", ")));
+                }
+                // Arguments are printed verbatim, comments included.
+                while self.comments.get(self.next).is_some_and(|c| c.span.start < span.end) {
+                    self.next += 1;
+                }
             }
             Pre::IfDef { name, then, otherwise } => {
                 self.out.push_str(&format!("@ifdef {}\n", name.text));

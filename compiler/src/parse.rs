@@ -395,6 +395,11 @@ fn describe_expected(expected: &[String]) -> String {
     names.sort();
     names.dedup();
     let has = |n: &str| names.iter().any(|x| x == n);
+    // Keywords double as names, so "a name" often comes with every keyword.
+    let keyword = |n: &String| n.len() > 2 && n.starts_with('`') && n[1..n.len() - 1].chars().all(|c| c.is_ascii_lowercase());
+    if has("a name") && names.iter().all(|n| n == "a name" || keyword(n)) {
+        return "a name".to_string();
+    }
     // Long lists are summarised by the context they reveal.
     if names.len() > 6 {
         if has("`function`") && has("`rule`") {
