@@ -66,3 +66,20 @@ pub fn analyze_text(loader: &dyn FileLoader, path: &Path, text: &str, opts: &Opt
     let expanded = expand::expand_file(&mut sources, loader, id, opts);
     finish(sources, expanded, check)
 }
+
+/// Compiles the program at `path` to a bundle. On errors, returns the analysis
+/// (with its diagnostics) instead.
+pub fn build(loader: &dyn FileLoader, path: &Path, opts: &Options) -> Result<(mdg_vm::bundle::Bundle, Analysis), Box<Analysis>> {
+    let a = analyze(loader, path, opts, CheckOptions { require_start: true });
+    if a.has_errors() {
+        return Err(Box::new(a));
+    }
+    match crate::lower::lower(&a.expanded, &a.checked.symbols, &a.sources) {
+        Ok(b) => Ok((b, a)),
+        Err(d) => {
+            let mut a = a;
+            a.diagnostics.extend(d);
+            Err(Box::new(a))
+        }
+    }
+}

@@ -16,3 +16,4 @@ pub mod consteval;
 pub mod expand;
 pub mod driver;
 pub mod fmt;
+pub mod lower;

@@ -1,1 +1,13 @@
-//! MDG virtual machine.
+//! The MDG virtual machine: loads verified bundles, evaluates them depth-first with
+//! an explicit stack, and produces flat geometry buffers for the exporters.
+//!
+//! This crate does not depend on the compiler; the compiler depends on it for the
+//! bundle definitions.
+
+pub mod bundle;
+pub mod expr;
+pub mod output;
+pub mod export;
+pub mod geom;
+pub mod eval;
+pub mod preview;

@@ -40,7 +40,7 @@ pub fn sweep_path(mesh: &mut Mesh, profile: &[Vec3], frames: &[Frame], color_fro
     }
     let local_normals = profile_normals(profile);
     let rings: Vec<Vec<Vec3>> = frames.iter().map(|f| local_normals.iter().map(|&ln| f.apply_normal(ln)).collect()).collect();
-    let degenerate = |f: &Frame| !(f.scale_factor() > 1e-12);
+    let degenerate = |f: &Frame| f.scale_factor().is_nan() || f.scale_factor() <= 1e-12;
     let last = frames.len() - 1;
     let base = mesh.positions.len() as u32;
     for (k, f) in frames.iter().enumerate() {

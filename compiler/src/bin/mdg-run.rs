@@ -1,0 +1,194 @@
+//! `mdg-run`: evaluate a grammar (`.mdg` source or `.mdgb` bundle) and write a mesh.
+//!
+//! It lives in the compiler package because it compiles `.mdg` sources; the VM crate
+//! itself does not depend on the compiler.
+
+use clap::Parser;
+use mdg_compiler::diag::render_plain;
+use mdg_compiler::driver;
+use mdg_compiler::expand::Options;
+use mdg_compiler::source::FsLoader;
+use mdg_vm::eval::{evaluate_with_progress, EvalOptions};
+use mdg_vm::export::{self, Format};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Duration;
+
+#[derive(Parser)]
+#[command(name = "mdg-run", version, about = "Evaluate an MDG grammar and write the mesh")]
+#[command(after_help = "Examples:
+  mdg-run std/examples/tree.mdg                 # writes std/examples/tree.glb
+  mdg-run tree.mdg -o tree.obj --seed 7         # OBJ, another random tree
+  mdg-run knot.mdg --param nx=3 --param ny=5    # override @param values
+  mdg-run tree.mdg --format json -o tree.json   # inspection dump (vertices, lines, instances, stats)
+  mdg-run tree.mdgb --stats                     # run a compiled bundle, print counters")]
+struct Cli {
+    /// The grammar: `.mdg` source or `.mdgb` bundle.
+    file: PathBuf,
+    /// Output file (default: beside the input, with the format's extension).
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// Output format: glb, obj, stl, ply, json (default: from -o's extension, else glb).
+    #[arg(long)]
+    format: Option<String>,
+    /// Seed for the random stream (overrides `randseed`).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Override a `@param`: NAME=VALUE (repeatable).
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    params: Vec<String>,
+    /// Choose a preset (defines its name for `@ifdef`).
+    #[arg(long = "preset")]
+    presets: Vec<String>,
+    /// Print rule calls, vertices, triangles, time and peak memory.
+    #[arg(long)]
+    stats: bool,
+    /// Stop after this many vertices (default 50,000,000).
+    #[arg(long)]
+    max_vertices: Option<u64>,
+    /// Stop after this many seconds of evaluation.
+    #[arg(long)]
+    time_budget: Option<f64>,
+    /// Also write a picture (software preview renderer; the Vulkan viewer is `mdg-view`).
+    #[arg(long)]
+    png: Option<PathBuf>,
+    /// Picture size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "800x600")]
+    size: String,
+    /// Where `@import NAME` looks (default: $MDG_STD or the bundled std/).
+    #[arg(long)]
+    std: Option<PathBuf>,
+}
+
+fn peak_rss_kib() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let mut params = Vec::new();
+    for p in &cli.params {
+        match p.split_once('=') {
+            Some((n, v)) => params.push((n.to_string(), v.to_string())),
+            None => {
+                eprintln!("mdg-run: --param {p}: expected NAME=VALUE");
+                return ExitCode::from(2);
+            }
+        }
+    }
+    let is_bundle = cli.file.extension().is_some_and(|e| e == "mdgb");
+    let bundle = if is_bundle {
+        let bytes = match std::fs::read(&cli.file) {
+            Ok(b) => b,
+            Err(e) => {
+                eprintln!("mdg-run: cannot read {}: {e}", cli.file.display());
+                return ExitCode::from(2);
+            }
+        };
+        match mdg_vm::bundle::load(&bytes) {
+            Ok(b) => b,
+            Err(e) => {
+                eprintln!("mdg-run: {}: {e}", cli.file.display());
+                return ExitCode::from(1);
+            }
+        }
+    } else {
+        let opts = Options { defines: cli.presets.clone(), params, std_dir: cli.std.clone().or_else(driver::default_std_dir) };
+        match driver::build(&FsLoader, &cli.file, &opts) {
+            Ok((b, a)) => {
+                eprint!("{}", render_plain(&a.diagnostics, &a.sources));
+                b
+            }
+            Err(a) => {
+                eprint!("{}", render_plain(&a.diagnostics, &a.sources));
+                return ExitCode::from(1);
+            }
+        }
+    };
+    let format = match &cli.format {
+        Some(f) => match Format::from_extension(f) {
+            Some(f) => f,
+            None => {
+                eprintln!("mdg-run: unknown format `{f}` (glb, obj, stl, ply, json)");
+                return ExitCode::from(2);
+            }
+        },
+        None => cli.output.as_deref().and_then(Format::from_path).unwrap_or(Format::Glb),
+    };
+    let output = cli.output.clone().unwrap_or_else(|| cli.file.with_extension(format.extension()));
+    let eval_opts = EvalOptions {
+        seed: cli.seed,
+        max_vertices: cli.max_vertices.unwrap_or(mdg_vm::eval::DEFAULT_MAX_VERTICES),
+        time_budget: cli.time_budget.map(Duration::from_secs_f64),
+        ..EvalOptions::default()
+    };
+    let started = std::time::Instant::now();
+    let bar = indicatif::ProgressBar::hidden();
+    let progress = |calls: u64| {
+        if bar.is_hidden() && started.elapsed() > Duration::from_secs(1) {
+            bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+            bar.set_style(indicatif::ProgressStyle::with_template("{spinner} {elapsed} {msg}").unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()));
+        }
+        bar.set_message(format!("{calls} rule calls"));
+        bar.tick();
+    };
+    let out = evaluate_with_progress(&bundle, &eval_opts, Some(&progress));
+    bar.finish_and_clear();
+    for w in &out.stats.warnings {
+        eprintln!("warning: {w}");
+    }
+    let mut bytes = Vec::new();
+    if let Err(e) = export::write(format, &out, &mut bytes) {
+        eprintln!("mdg-run: cannot export: {e}");
+        return ExitCode::from(1);
+    }
+    if let Err(e) = export::write_atomic(&output, &bytes) {
+        eprintln!("mdg-run: cannot write {}: {e}", output.display());
+        return ExitCode::from(2);
+    }
+    if let Some(png_path) = &cli.png {
+        let (w, h) = match cli.size.split_once('x').and_then(|(a, b)| Some((a.parse::<u32>().ok()?, b.parse::<u32>().ok()?))) {
+            Some((w, h)) if w > 0 && h > 0 && w <= 8192 && h <= 8192 => (w, h),
+            _ => {
+                eprintln!("mdg-run: --size {}: expected WIDTHxHEIGHT, each 1..8192", cli.size);
+                return ExitCode::from(2);
+            }
+        };
+        let opts = mdg_vm::preview::PreviewOptions { width: w, height: h, ..Default::default() };
+        let rgba = mdg_vm::preview::render(&out, &opts);
+        match mdg_vm::preview::encode_png(&rgba, w, h) {
+            Ok(bytes) => {
+                if let Err(e) = export::write_atomic(png_path, &bytes) {
+                    eprintln!("mdg-run: cannot write {}: {e}", png_path.display());
+                    return ExitCode::from(2);
+                }
+                eprintln!("wrote {}", display(png_path));
+            }
+            Err(e) => {
+                eprintln!("mdg-run: cannot encode PNG: {e}");
+                return ExitCode::from(1);
+            }
+        }
+    }
+    if cli.stats {
+        let s = &out.stats;
+        eprintln!(
+            "rule calls {}  vertices {}  triangles {}  lines {}  instances {}  time {:.1} ms  peak memory {}",
+            s.rule_calls,
+            s.vertices,
+            s.triangles,
+            out.lines.len(),
+            out.instances.len(),
+            s.elapsed_ms,
+            peak_rss_kib().map(|k| format!("{:.1} MiB", k as f64 / 1024.0)).unwrap_or_else(|| "n/a".into())
+        );
+    }
+    eprintln!("wrote {}", display(&output));
+    ExitCode::SUCCESS
+}
+
+fn display(p: &Path) -> String {
+    p.display().to_string()
+}

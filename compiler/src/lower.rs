@@ -1,0 +1,537 @@
+//! Lowering: a checked program to a bundle (`mdg_vm::bundle::Bundle`).
+//!
+//! Each adjustment list becomes one precomputed composite (q, q̂, u) plus colour,
+//! weight and fps deltas (SPEC §4); lists whose arguments draw random numbers become
+//! dynamic transforms composed at run time. Iterators become LOOP/ENDLOOP pairs,
+//! blocks a LOOP of one run, continuation a CONT after the item (see the opcode table
+//! in `vm/src/bundle/ops.rs`). Everything is emitted in a deterministic order, so the
+//! same source and options give byte-identical bundles.
+
+use crate::ast::*;
+use crate::check::{AdjKind, Symbols, DRAWABLES};
+use crate::diag::Diagnostic;
+use crate::expand::{ExpItem, Expanded};
+use crate::source::Sources;
+use crate::span::Span;
+use mdg_vm::bundle::{self, Bundle, Composite, Def, Op, PrimAdj, Selector, Settings, SourceLoc, Transform, CONT_NEXT, NONE};
+use mdg_vm::expr::{ExprOp, BINOPS, FUNCTIONS, VARIABLES};
+use std::collections::HashMap;
+
+/// How `angle` reads plain numbers.
+#[derive(Clone, Copy)]
+enum AngleMode {
+    Degrees,
+    Radians,
+    Orbits,
+}
+
+struct Lower<'a> {
+    ex: &'a Expanded,
+    sym: &'a Symbols,
+    sources: &'a Sources,
+    strings: Vec<String>,
+    string_ids: HashMap<String, u32>,
+    transforms: Vec<Transform>,
+    const_ids: HashMap<Vec<u32>, u32>,
+    exprs: Vec<Vec<ExprOp>>,
+    rule_ids: HashMap<String, u32>,
+    namespaces: Vec<String>,
+    code: Vec<Op>,
+    source_map: Vec<SourceLoc>,
+    angle: AngleMode,
+    diags: Vec<Diagnostic>,
+}
+
+/// Lowers a checked program. Diagnostics here are run-time-relevant problems the
+/// checker cannot see (none for a clean program).
+pub fn lower(ex: &Expanded, sym: &Symbols, sources: &Sources) -> Result<Bundle, Vec<Diagnostic>> {
+    let mut l = Lower {
+        ex,
+        sym,
+        sources,
+        strings: Vec::new(),
+        string_ids: HashMap::new(),
+        transforms: Vec::new(),
+        const_ids: HashMap::new(),
+        exprs: Vec::new(),
+        rule_ids: HashMap::new(),
+        namespaces: vec![String::new()],
+        code: Vec::new(),
+        source_map: Vec::new(),
+        angle: AngleMode::Degrees,
+        diags: Vec::new(),
+    };
+    let b = l.run();
+    if l.diags.iter().any(|d| d.is_error()) {
+        Err(l.diags)
+    } else {
+        Ok(b)
+    }
+}
+
+fn key(c: &Composite) -> Vec<u32> {
+    c.q.iter().chain(&c.qh).chain(&c.u).chain(&c.color).chain(&c.weight).chain(std::iter::once(&c.fps)).map(|f| f.to_bits()).collect()
+}
+
+impl<'a> Lower<'a> {
+    fn string(&mut self, s: &str) -> u32 {
+        if let Some(i) = self.string_ids.get(s) {
+            return *i;
+        }
+        let i = self.strings.len() as u32;
+        self.strings.push(s.to_string());
+        self.string_ids.insert(s.to_string(), i);
+        i
+    }
+
+    fn constant(&mut self, c: Composite) -> u32 {
+        let k = key(&c);
+        if let Some(i) = self.const_ids.get(&k) {
+            return *i;
+        }
+        let i = self.transforms.len() as u32;
+        self.transforms.push(Transform::Const(c));
+        self.const_ids.insert(k, i);
+        i
+    }
+
+    fn namespace(&mut self, ns: &str) -> u32 {
+        if let Some(i) = self.namespaces.iter().position(|n| n == ns) {
+            return i as u32;
+        }
+        self.namespaces.push(ns.to_string());
+        self.namespaces.len() as u32 - 1
+    }
+
+    fn directive_numbers(&self, name: &str) -> Option<Vec<f64>> {
+        self.ex.items.iter().rev().find_map(|ExpItem { item, .. }| match &item.kind {
+            ItemKind::Directive { name: n, args } if n.text == name => Some(
+                args.iter()
+                    .filter_map(|a| match a {
+                        DirArg::Num(n) => Some(n.value),
+                        DirArg::Neg(n) => Some(-n.value),
+                        DirArg::Expr(e) => crate::consteval::eval(e, &|v| self.ex.constant(v)),
+                        DirArg::Word(_) => None,
+                    })
+                    .collect(),
+            ),
+            _ => None,
+        })
+    }
+
+    fn run(&mut self) -> Bundle {
+        self.angle = match self.ex.items.iter().find_map(|ExpItem { item, .. }| match &item.kind {
+            ItemKind::Directive { name, args } if name.text == "angle" => match args.first() {
+                Some(DirArg::Word(w)) => Some(w.text.clone()),
+                _ => None,
+            },
+            _ => None,
+        }) {
+            Some(m) if m == "radians" => AngleMode::Radians,
+            Some(m) if m == "orbits" || m == "frequency" => AngleMode::Orbits,
+            _ => AngleMode::Degrees,
+        };
+        self.constant(Composite::IDENTITY);
+        // Rule indices in name order (BTreeMap), so bundles are deterministic.
+        for (i, name) in self.sym.rules.keys().enumerate() {
+            self.rule_ids.insert(name.clone(), i as u32);
+        }
+        let mut rules = Vec::new();
+        for (name, defs) in &self.sym.rules {
+            let name_id = self.string(name);
+            let mut out_defs = Vec::new();
+            let mut transforms = Vec::new();
+            let mut iter = NONE;
+            for def in defs {
+                let ExpItem { item, namespace } = &self.ex.items[def.item];
+                let ItemKind::Rule(r) = &item.kind else { continue };
+                let start = self.code.len() as u32;
+                self.mark(r.name.span);
+                self.body(&r.body, namespace.as_deref());
+                self.code.push(Op::Ret {});
+                let w = r.weight.as_ref().map(|w| if w.negative { -w.number.value } else { w.number.value }).unwrap_or(1.0);
+                out_defs.push(Def { weight: w as f32, start });
+                if transforms.is_empty() {
+                    transforms = r.transforms.iter().filter_map(|t| self.rule_index(&t.text, namespace.as_deref())).collect();
+                }
+                if iter == NONE {
+                    iter = r.iter.as_ref().and_then(|t| self.rule_index(&t.text, namespace.as_deref())).unwrap_or(NONE);
+                }
+            }
+            let selector = match self.sym.selectors.get(name).map(|(m, _)| m.clone()) {
+                None => Selector::Random,
+                Some(SelectorMode::Word(w)) => match w.text.as_str() {
+                    "depth" => Selector::Depth,
+                    "scale" => Selector::Scale,
+                    "sequential" => Selector::Sequential,
+                    "pattern" => Selector::Pattern,
+                    _ => Selector::Random,
+                },
+                Some(SelectorMode::FunctionBody(e)) => Selector::Function(self.expr(&e, 1.0)),
+                Some(SelectorMode::FunctionRef(f)) => {
+                    let body = self.function_body(&f.text);
+                    match body {
+                        Some(e) => Selector::Function(self.expr(&e, 1.0)),
+                        None => Selector::Random,
+                    }
+                }
+            };
+            rules.push(bundle::Rule { name: name_id, selector, defs: out_defs, transforms, iter });
+        }
+        let mut isosurfaces = Vec::new();
+        for ExpItem { item, .. } in &self.ex.items {
+            if let ItemKind::Isosurface { name, entries } = &item.kind {
+                if let Some(iso) = self.isosurface(name, entries) {
+                    isosurfaces.push(iso);
+                }
+            }
+        }
+        let start = self.sym.startshape.as_ref().and_then(|(s, _)| self.rule_ids.get(s).copied()).unwrap_or(0);
+        let rule_of = |me: &Self, f: fn(&ItemKind) -> Option<&Name>| -> u32 {
+            me.ex
+                .items
+                .iter()
+                .find_map(|ExpItem { item, namespace }| f(&item.kind).and_then(|n| me.rule_index(&n.text, namespace.as_deref())))
+                .unwrap_or(NONE)
+        };
+        let linerule = rule_of(self, |k| if let ItemKind::Linerule(n) = k { Some(n) } else { None });
+        let camerarule = rule_of(self, |k| if let ItemKind::Camerarule(n) = k { Some(n) } else { None });
+        let num = |me: &Self, n: &str, d: f64| me.directive_numbers(n).and_then(|v| v.first().copied()).unwrap_or(d);
+        let normal = self.directive_numbers("normal").filter(|v| v.len() == 3).map(|v| [v[0] as f32, v[1] as f32, v[2] as f32]).unwrap_or([0.0, 0.0, 1.0]);
+        let background = match self.directive_numbers("background") {
+            Some(v) if v.len() >= 3 => [v[0] as f32, v[1] as f32, v[2] as f32, v.get(3).copied().unwrap_or(1.0) as f32],
+            _ => [0.12, 0.12, 0.14, 1.0],
+        };
+        let mut shaders = Vec::new();
+        for sh in &self.ex.shaders {
+            let name = self.string(&sh.name.text);
+            let source = self.string(&sh.code);
+            shaders.push(bundle::Shader { vertex: sh.vertex, name, source });
+        }
+        let mut params = Vec::new();
+        for p in &self.ex.params {
+            let name = self.string(&p.name.text);
+            let ty = match p.ty.as_str() {
+                "int" => 0,
+                "float" => 1,
+                _ => 2,
+            };
+            params.push(bundle::Param { name, ty, value: p.value, min: p.min.unwrap_or(0.0), max: p.max.unwrap_or(0.0) });
+        }
+        let namespaces: Vec<String> = self.namespaces.clone();
+        let namespace_ids = namespaces.iter().map(|n| self.string(n)).collect();
+        let settings = Settings {
+            startshape: start,
+            maxdepth: num(self, "maxdepth", 0.0) as u32,
+            minsize: num(self, "minsize", 0.0) as f32,
+            maxiter: num(self, "maxiter", 0.0) as u64,
+            stacksize: num(self, "stacksize", 0.0) as u32,
+            randseed: num(self, "randseed", 0.0) as u64,
+            normal,
+            background,
+            fps: num(self, "fps", 25.0) as f32,
+            duration: num(self, "duration", 0.0) as f32,
+            camerafov: num(self, "camerafov", 40.0) as f32,
+            near: num(self, "cameranearplane", 0.1) as f32,
+            far: num(self, "camerafarplane", 1000.0) as f32,
+            linerule,
+            camerarule,
+            namespaces: namespace_ids,
+        };
+        Bundle {
+            strings: std::mem::take(&mut self.strings),
+            settings,
+            transforms: std::mem::take(&mut self.transforms),
+            exprs: std::mem::take(&mut self.exprs),
+            rules,
+            code: std::mem::take(&mut self.code),
+            isosurfaces,
+            shaders,
+            params,
+            source_map: std::mem::take(&mut self.source_map),
+        }
+    }
+
+    fn function_body(&self, name: &str) -> Option<Expr> {
+        self.ex.items.iter().find_map(|ExpItem { item, namespace }| match &item.kind {
+            ItemKind::Function { name: n, body } => {
+                let full = match namespace {
+                    Some(ns) => format!("{ns}.{}", n.text),
+                    None => n.text.clone(),
+                };
+                (full == name || n.text == name).then(|| body.clone())
+            }
+            _ => None,
+        })
+    }
+
+    fn rule_index(&self, name: &str, ns: Option<&str>) -> Option<u32> {
+        self.sym.resolve(name, ns).and_then(|f| self.rule_ids.get(&f).copied())
+    }
+
+    fn mark(&mut self, span: Span) {
+        let file = self.sources.file(span.file);
+        let line = file.line_col(span.start).0 + 1;
+        let name = file.name.clone();
+        let file_id = self.string(&name);
+        let op = self.code.len() as u32;
+        if let Some(last) = self.source_map.last_mut() {
+            if last.op == op {
+                *last = SourceLoc { op, file: file_id, line };
+                return;
+            }
+        }
+        self.source_map.push(SourceLoc { op, file: file_id, line });
+    }
+
+    fn body(&mut self, items: &[BodyItem], ns: Option<&str>) {
+        for item in items {
+            self.item(item, item.cont, ns);
+            if item.cont {
+                self.code.push(Op::Cont {});
+            }
+        }
+    }
+
+    fn item(&mut self, item: &BodyItem, cont_next: bool, ns: Option<&str>) {
+        self.mark(item.span);
+        let flags = if cont_next { CONT_NEXT } else { 0 };
+        match &item.kind {
+            BodyKind::Call { name, profile, adj } => {
+                let xf = self.transform(adj, 1.0);
+                let (prefix, last) = match name.text.rsplit_once('.') {
+                    Some((p, l)) => (p, l),
+                    None => ("", name.text.as_str()),
+                };
+                if let Some(kind) = DRAWABLES.iter().position(|d| *d == last).filter(|_| self.sym.resolve(&name.text, ns).is_none() || prefix.is_empty()) {
+                    let ns_id = self.namespace(prefix);
+                    let profile = profile.as_ref().and_then(|p| self.rule_index(&p.text, ns)).unwrap_or(NONE);
+                    self.code.push(Op::Draw { kind: kind as u8, xf, ns: ns_id, profile, flags });
+                } else if self.sym.isosurfaces.contains_key(&name.text) {
+                    let iso = self.ex.items.iter().filter(|i| matches!(i.item.kind, ItemKind::Isosurface { .. })).position(|i| matches!(&i.item.kind, ItemKind::Isosurface { name: n, .. } if n.text == name.text));
+                    if let Some(iso) = iso {
+                        self.code.push(Op::Iso { iso: iso as u32, xf, flags });
+                    }
+                } else if let Some(rule) = self.rule_index(&name.text, ns) {
+                    self.code.push(Op::Call { rule, xf, flags });
+                }
+            }
+            BodyKind::Iterate { count, divisor, adj, item: inner } => {
+                let n = self.count_value(count).max(0.0) as u64;
+                let div = divisor.as_ref().map(|d| self.count_value(d)).unwrap_or(1.0);
+                let step = self.transform(adj, if div > 0.0 { div } else { 1.0 });
+                let begin = self.code.len() as u32;
+                self.code.push(Op::Loop { count: n, step, end: 0, chain: cont_next as u8 });
+                self.item(inner, cont_next, ns);
+                let end = self.code.len() as u32;
+                self.code.push(Op::EndLoop { begin });
+                if let Op::Loop { end: e, .. } = &mut self.code[begin as usize] {
+                    *e = end;
+                }
+            }
+            BodyKind::Block(items) => {
+                let begin = self.code.len() as u32;
+                self.code.push(Op::Loop { count: 1, step: 0, end: 0, chain: 0 });
+                self.body(items, ns);
+                let end = self.code.len() as u32;
+                self.code.push(Op::EndLoop { begin });
+                if let Op::Loop { end: e, .. } = &mut self.code[begin as usize] {
+                    *e = end;
+                }
+                if cont_next {
+                    // A block followed by `\`: the next item continues from its last drawable.
+                }
+            }
+            BodyKind::Pre(_) | BodyKind::Error => {}
+        }
+    }
+
+    fn count_value(&self, c: &Count) -> f64 {
+        match c {
+            Count::Num(n) => n.value,
+            Count::Neg(n) => -n.value,
+            Count::Expr(e) => crate::consteval::eval(e, &|v| self.ex.constant(v)).unwrap_or(0.0),
+        }
+    }
+
+    /// Radians per unit of a plain angle number, or of one with a unit suffix.
+    fn angle_factor(&self, unit: Option<char>) -> f64 {
+        match unit {
+            Some('d') => std::f64::consts::PI / 180.0,
+            Some('r') => 1.0,
+            Some('o') => std::f64::consts::TAU,
+            _ => match self.angle {
+                AngleMode::Degrees => std::f64::consts::PI / 180.0,
+                AngleMode::Radians => 1.0,
+                AngleMode::Orbits => std::f64::consts::TAU,
+            },
+        }
+    }
+
+    /// An argument's value: `Ok(constant)` or `Err(expression)` for run-time draws.
+    /// Angles come out in radians.
+    fn arg_value(&mut self, a: &Arg, angle: bool) -> Result<f64, u32> {
+        let n = match a {
+            Arg::Num(n) => (n.value, n.unit),
+            Arg::Neg(n) => (-n.value, n.unit),
+            Arg::Expr(e) => match crate::consteval::eval(e, &|v| self.ex.constant(v)) {
+                Some(v) => (v, None),
+                None => {
+                    let factor = if angle { self.angle_factor(None) } else { 1.0 };
+                    return Err(self.expr(e, factor));
+                }
+            },
+        };
+        let (v, unit) = n;
+        if angle {
+            if unit == Some('t') {
+                return Ok(v.atan());
+            }
+            return Ok(v * self.angle_factor(unit));
+        }
+        Ok(v)
+    }
+
+    /// Compiles an adjustment list, divided into `divisor` steps.
+    fn transform(&mut self, adj: &AdjList, divisor: f64) -> u32 {
+        let comps = &self.sym.components;
+        let mut prims: Vec<PrimAdj> = Vec::new();
+        let mut dynamic = false;
+        for a in &adj.adjs {
+            let Some(kind) = comps.adj_kind(&a.name.text) else { continue };
+            let angle = kind.is_angle();
+            let mut args = Vec::new();
+            for arg in &a.args {
+                match self.arg_value(arg, angle) {
+                    Ok(v) => args.push(bundle::Arg::Const(v as f32)),
+                    Err(e) => {
+                        dynamic = true;
+                        args.push(bundle::Arg::Expr(e));
+                    }
+                }
+            }
+            let (k, axis) = match kind {
+                AdjKind::Translate(ax) => (0u8, if ax == 0 && args.len() > 1 { 3 } else { ax }),
+                AdjKind::Rotate(ax) => (1, ax),
+                AdjKind::Turn(ax, sign) => {
+                    let v = match args.first() {
+                        Some(bundle::Arg::Const(v)) => bundle::Arg::Const(*v * sign as f32),
+                        Some(bundle::Arg::Expr(e)) => {
+                            let mut code = self.exprs[*e as usize].clone();
+                            code.extend([ExprOp::Push(sign as f64), ExprOp::Bin(2)]);
+                            self.exprs.push(code);
+                            bundle::Arg::Expr(self.exprs.len() as u32 - 1)
+                        }
+                        None => bundle::Arg::Const(std::f32::consts::FRAC_PI_2 * sign as f32),
+                    };
+                    args = vec![v];
+                    (1, ax)
+                }
+                AdjKind::Scale => (2, 0),
+                AdjKind::Flip(ax) => (3, ax),
+                AdjKind::Color(i) => (4, i),
+                AdjKind::Weight(i) => (5, i),
+                AdjKind::Fps => (6, 0),
+            };
+            prims.push(PrimAdj { kind: k, axis, args });
+        }
+        if dynamic {
+            let i = self.transforms.len() as u32;
+            self.transforms.push(Transform::Dynamic { adjs: prims, divisor: divisor as f32 });
+            return i;
+        }
+        let c = mdg_vm::eval::compose_prims(&prims, divisor as f32);
+        self.constant(c)
+    }
+
+    /// Compiles an expression, multiplied by `factor` (for angle units).
+    fn expr(&mut self, e: &Expr, factor: f64) -> u32 {
+        let mut code = Vec::new();
+        self.expr_code(e, &mut code);
+        if factor != 1.0 {
+            code.extend([ExprOp::Push(factor), ExprOp::Bin(2)]);
+        }
+        self.exprs.push(code);
+        self.exprs.len() as u32 - 1
+    }
+
+    fn expr_code(&self, e: &Expr, out: &mut Vec<ExprOp>) {
+        match &e.kind {
+            ExprKind::Num(n) => {
+                let v = match n.unit {
+                    Some('t') => n.value.atan(),
+                    Some(u) => n.value * self.angle_factor(Some(u)),
+                    None => n.value,
+                };
+                out.push(ExprOp::Push(v));
+            }
+            ExprKind::Var(v) => match VARIABLES.iter().position(|x| *x == v.text) {
+                Some(i) => out.push(ExprOp::Var(i as u8)),
+                None => out.push(ExprOp::Push(self.ex.constant(&v.text).unwrap_or(0.0))),
+            },
+            ExprKind::Neg(x) => {
+                self.expr_code(x, out);
+                out.push(ExprOp::Neg);
+            }
+            ExprKind::Paren(x) => self.expr_code(x, out),
+            ExprKind::Binary(op, a, b) => {
+                self.expr_code(a, out);
+                self.expr_code(b, out);
+                let i = BINOPS.iter().position(|s| *s == op.symbol()).unwrap_or(0);
+                out.push(ExprOp::Bin(i as u8));
+            }
+            ExprKind::Call(f, args) => {
+                for a in args {
+                    self.expr_code(a, out);
+                }
+                let i = FUNCTIONS.iter().position(|(n, _)| *n == f.text).unwrap_or(0);
+                out.push(ExprOp::Call(i as u8));
+            }
+            ExprKind::Error => out.push(ExprOp::Push(0.0)),
+        }
+    }
+
+    fn isosurface(&mut self, name: &Name, entries: &[IsoEntry]) -> Option<bundle::Isosurface> {
+        let mut min = [-1.0f32; 3];
+        let mut max = [1.0f32; 3];
+        let mut res = [16u32; 3];
+        let mut function = None;
+        for e in entries {
+            match e {
+                IsoEntry::Axis { axis, args, .. } => {
+                    let v: Vec<f64> = args
+                        .iter()
+                        .filter_map(|a| match a {
+                            DirArg::Num(n) => Some(n.value),
+                            DirArg::Neg(n) => Some(-n.value),
+                            DirArg::Expr(e) => crate::consteval::eval(e, &|v| self.ex.constant(v)),
+                            DirArg::Word(_) => None,
+                        })
+                        .collect();
+                    if v.len() != 3 {
+                        continue;
+                    }
+                    let which: &[usize] = match axis.text.as_str() {
+                        "x" => &[0],
+                        "y" => &[1],
+                        "z" => &[2],
+                        _ => &[0, 1, 2],
+                    };
+                    for &w in which {
+                        min[w] = v[0] as f32;
+                        max[w] = v[1] as f32;
+                        res[w] = v[2].max(1.0) as u32;
+                    }
+                }
+                IsoEntry::FunctionBody(e) => function = Some(self.expr(e, 1.0)),
+                IsoEntry::FunctionRef(f) => {
+                    if let Some(body) = self.function_body(&f.text) {
+                        function = Some(self.expr(&body, 1.0));
+                    }
+                }
+            }
+        }
+        let name = self.string(&name.text);
+        Some(bundle::Isosurface { name, min, max, res, function: function? })
+    }
+}

@@ -1,0 +1,465 @@
+//! Byte encoding of bundles. Every read is bounds-checked; counts are checked
+//! against the bytes left before anything is allocated.
+
+use super::*;
+
+struct W(Vec<u8>);
+
+impl W {
+    fn u8(&mut self, v: u8) {
+        self.0.push(v);
+    }
+    fn u16(&mut self, v: u16) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    fn u32(&mut self, v: u32) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    fn u64(&mut self, v: u64) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    fn f32(&mut self, v: f32) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    fn f64(&mut self, v: f64) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    fn f32s(&mut self, v: &[f32]) {
+        for x in v {
+            self.f32(*x);
+        }
+    }
+    fn len(&mut self, n: usize) {
+        self.u32(n as u32);
+    }
+    fn str(&mut self, s: &str) {
+        self.len(s.len());
+        self.0.extend_from_slice(s.as_bytes());
+    }
+}
+
+struct R<'a> {
+    b: &'a [u8],
+    at: usize,
+    section: &'static str,
+}
+
+impl<'a> R<'a> {
+    fn err(&self, what: &str) -> LoadError {
+        LoadError(format!("{what} in section `{}` at byte {}", self.section, self.at))
+    }
+    fn take(&mut self, n: usize) -> Result<&'a [u8], LoadError> {
+        let end = self.at.checked_add(n).filter(|e| *e <= self.b.len()).ok_or_else(|| self.err("truncated data"))?;
+        let s = &self.b[self.at..end];
+        self.at = end;
+        Ok(s)
+    }
+    fn arr<const N: usize>(&mut self) -> Result<[u8; N], LoadError> {
+        let mut a = [0u8; N];
+        a.copy_from_slice(self.take(N)?);
+        Ok(a)
+    }
+    fn u8(&mut self) -> Result<u8, LoadError> {
+        Ok(self.arr::<1>()?[0])
+    }
+    fn u16(&mut self) -> Result<u16, LoadError> {
+        Ok(u16::from_le_bytes(self.arr()?))
+    }
+    fn u32(&mut self) -> Result<u32, LoadError> {
+        Ok(u32::from_le_bytes(self.arr()?))
+    }
+    fn u64(&mut self) -> Result<u64, LoadError> {
+        Ok(u64::from_le_bytes(self.arr()?))
+    }
+    fn f32(&mut self) -> Result<f32, LoadError> {
+        let v = f32::from_le_bytes(self.arr()?);
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(self.err("non-finite number"))
+        }
+    }
+    fn f64(&mut self) -> Result<f64, LoadError> {
+        let v = f64::from_le_bytes(self.arr()?);
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(self.err("non-finite number"))
+        }
+    }
+    fn f32s<const N: usize>(&mut self) -> Result<[f32; N], LoadError> {
+        let mut a = [0f32; N];
+        for x in &mut a {
+            *x = self.f32()?;
+        }
+        Ok(a)
+    }
+    /// A count of elements each at least `min_size` bytes, checked against what is left.
+    fn len(&mut self, min_size: usize) -> Result<usize, LoadError> {
+        let n = self.u32()? as usize;
+        if n.saturating_mul(min_size.max(1)) > self.b.len() - self.at {
+            return Err(self.err(&format!("count {n} larger than the data left")));
+        }
+        Ok(n)
+    }
+    fn str(&mut self) -> Result<String, LoadError> {
+        let n = self.len(1)?;
+        let bytes = self.take(n)?;
+        String::from_utf8(bytes.to_vec()).map_err(|_| self.err("string is not UTF-8"))
+    }
+}
+
+fn encode_composite(w: &mut W, c: &Composite) {
+    w.f32s(&c.q);
+    w.f32s(&c.qh);
+    w.f32s(&c.u);
+    w.f32s(&c.color);
+    w.f32s(&c.weight);
+    w.f32(c.fps);
+}
+
+fn decode_composite(r: &mut R) -> Result<Composite, LoadError> {
+    Ok(Composite { q: r.f32s()?, qh: r.f32s()?, u: r.f32s()?, color: r.f32s()?, weight: r.f32s()?, fps: r.f32()? })
+}
+
+/// Encodes a bundle to bytes (deterministic).
+pub fn encode(b: &Bundle) -> Vec<u8> {
+    let mut w = W(Vec::new());
+    // Strings.
+    w.len(b.strings.len());
+    for s in &b.strings {
+        w.str(s);
+    }
+    // Settings.
+    let s = &b.settings;
+    w.u32(s.startshape);
+    w.u32(s.maxdepth);
+    w.f32(s.minsize);
+    w.u64(s.maxiter);
+    w.u32(s.stacksize);
+    w.u64(s.randseed);
+    w.f32s(&s.normal);
+    w.f32s(&s.background);
+    w.f32(s.fps);
+    w.f32(s.duration);
+    w.f32(s.camerafov);
+    w.f32(s.near);
+    w.f32(s.far);
+    w.u32(s.linerule);
+    w.u32(s.camerarule);
+    w.len(s.namespaces.len());
+    for n in &s.namespaces {
+        w.u32(*n);
+    }
+    // Transforms.
+    w.len(b.transforms.len());
+    for t in &b.transforms {
+        match t {
+            Transform::Const(c) => {
+                w.u8(0);
+                encode_composite(&mut w, c);
+            }
+            Transform::Dynamic { adjs, divisor } => {
+                w.u8(1);
+                w.f32(*divisor);
+                w.len(adjs.len());
+                for a in adjs {
+                    w.u8(a.kind);
+                    w.u8(a.axis);
+                    w.len(a.args.len());
+                    for arg in &a.args {
+                        match arg {
+                            Arg::Const(v) => {
+                                w.u8(0);
+                                w.f32(*v);
+                            }
+                            Arg::Expr(e) => {
+                                w.u8(1);
+                                w.u32(*e);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    // Expressions.
+    w.len(b.exprs.len());
+    for e in &b.exprs {
+        w.len(e.len());
+        for op in e {
+            match op {
+                ExprOp::Push(v) => {
+                    w.u8(0);
+                    w.f64(*v);
+                }
+                ExprOp::Var(i) => {
+                    w.u8(1);
+                    w.u8(*i);
+                }
+                ExprOp::Neg => w.u8(2),
+                ExprOp::Bin(o) => {
+                    w.u8(3);
+                    w.u8(*o);
+                }
+                ExprOp::Call(f) => {
+                    w.u8(4);
+                    w.u8(*f);
+                }
+            }
+        }
+    }
+    // Rules.
+    w.len(b.rules.len());
+    for r in &b.rules {
+        w.u32(r.name);
+        match r.selector {
+            Selector::Random => w.u8(0),
+            Selector::Depth => w.u8(1),
+            Selector::Scale => w.u8(2),
+            Selector::Sequential => w.u8(3),
+            Selector::Pattern => w.u8(4),
+            Selector::Function(e) => {
+                w.u8(5);
+                w.u32(e);
+            }
+        }
+        w.len(r.defs.len());
+        for d in &r.defs {
+            w.f32(d.weight);
+            w.u32(d.start);
+        }
+        w.len(r.transforms.len());
+        for t in &r.transforms {
+            w.u32(*t);
+        }
+        w.u32(r.iter);
+    }
+    // Code.
+    let mut code = Vec::new();
+    for op in &b.code {
+        op.encode(&mut code);
+    }
+    w.len(b.code.len());
+    w.len(code.len());
+    w.0.extend_from_slice(&code);
+    // Isosurfaces.
+    w.len(b.isosurfaces.len());
+    for i in &b.isosurfaces {
+        w.u32(i.name);
+        w.f32s(&i.min);
+        w.f32s(&i.max);
+        for r in i.res {
+            w.u32(r);
+        }
+        w.u32(i.function);
+    }
+    // Shaders.
+    w.len(b.shaders.len());
+    for s in &b.shaders {
+        w.u8(s.vertex as u8);
+        w.u32(s.name);
+        w.u32(s.source);
+    }
+    // Params.
+    w.len(b.params.len());
+    for p in &b.params {
+        w.u32(p.name);
+        w.u8(p.ty);
+        w.f64(p.value);
+        w.f64(p.min);
+        w.f64(p.max);
+    }
+    // Source map.
+    w.len(b.source_map.len());
+    for l in &b.source_map {
+        w.u32(l.op);
+        w.u32(l.file);
+        w.u32(l.line);
+    }
+    let payload = w.0;
+    let mut out = W(Vec::with_capacity(payload.len() + 24));
+    out.0.extend_from_slice(&MAGIC);
+    out.u16(VERSION);
+    out.u16(0);
+    out.u64(fnv1a(&payload));
+    out.u64(payload.len() as u64);
+    out.0.extend_from_slice(&payload);
+    out.0
+}
+
+/// Decodes bytes into a bundle, checking the header, check value and every length.
+/// Indices are checked by [`verify`].
+pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
+    if bytes.len() < 24 || bytes[..4] != MAGIC {
+        return Err(LoadError("not an MDG bundle (bad magic)".into()));
+    }
+    let mut h = R { b: bytes, at: 4, section: "header" };
+    let version = h.u16()?;
+    if version != VERSION {
+        return Err(LoadError(format!("format version {version}, this VM reads version {VERSION}: rebuild the bundle")));
+    }
+    let _flags = h.u16()?;
+    let check = h.u64()?;
+    let len = h.u64()?;
+    let payload = &bytes[24..];
+    if len != payload.len() as u64 {
+        return Err(LoadError(format!("payload is {} bytes, header says {len}", payload.len())));
+    }
+    if fnv1a(payload) != check {
+        return Err(LoadError("check value mismatch: the bundle is corrupt".into()));
+    }
+    let mut r = R { b: payload, at: 0, section: "strings" };
+    let n = r.len(4)?;
+    let mut strings = Vec::with_capacity(n);
+    for _ in 0..n {
+        strings.push(r.str()?);
+    }
+    r.section = "settings";
+    let startshape = r.u32()?;
+    let maxdepth = r.u32()?;
+    let minsize = r.f32()?;
+    let maxiter = r.u64()?;
+    let stacksize = r.u32()?;
+    let randseed = r.u64()?;
+    let normal = r.f32s()?;
+    let background = r.f32s()?;
+    let fps = r.f32()?;
+    let duration = r.f32()?;
+    let camerafov = r.f32()?;
+    let near = r.f32()?;
+    let far = r.f32()?;
+    let linerule = r.u32()?;
+    let camerarule = r.u32()?;
+    let n = r.len(4)?;
+    let mut namespaces = Vec::with_capacity(n);
+    for _ in 0..n {
+        namespaces.push(r.u32()?);
+    }
+    let settings = Settings {
+        startshape, maxdepth, minsize, maxiter, stacksize, randseed, normal, background, fps, duration, camerafov,
+        near, far, linerule, camerarule, namespaces,
+    };
+    r.section = "transforms";
+    let n = r.len(5)?;
+    let mut transforms = Vec::with_capacity(n);
+    for _ in 0..n {
+        transforms.push(match r.u8()? {
+            0 => Transform::Const(decode_composite(&mut r)?),
+            1 => {
+                let divisor = r.f32()?;
+                let n = r.len(6)?;
+                let mut adjs = Vec::with_capacity(n);
+                for _ in 0..n {
+                    let kind = r.u8()?;
+                    let axis = r.u8()?;
+                    let n = r.len(5)?;
+                    let mut args = Vec::with_capacity(n);
+                    for _ in 0..n {
+                        args.push(match r.u8()? {
+                            0 => Arg::Const(r.f32()?),
+                            1 => Arg::Expr(r.u32()?),
+                            t => return Err(r.err(&format!("unknown argument tag {t}"))),
+                        });
+                    }
+                    adjs.push(PrimAdj { kind, axis, args });
+                }
+                Transform::Dynamic { adjs, divisor }
+            }
+            t => return Err(r.err(&format!("unknown transform tag {t}"))),
+        });
+    }
+    r.section = "expressions";
+    let n = r.len(4)?;
+    let mut exprs = Vec::with_capacity(n);
+    for _ in 0..n {
+        let m = r.len(1)?;
+        let mut e = Vec::with_capacity(m);
+        for _ in 0..m {
+            e.push(match r.u8()? {
+                0 => ExprOp::Push(r.f64()?),
+                1 => ExprOp::Var(r.u8()?),
+                2 => ExprOp::Neg,
+                3 => ExprOp::Bin(r.u8()?),
+                4 => ExprOp::Call(r.u8()?),
+                t => return Err(r.err(&format!("unknown expression op {t}"))),
+            });
+        }
+        exprs.push(e);
+    }
+    r.section = "rules";
+    let n = r.len(17)?;
+    let mut rules = Vec::with_capacity(n);
+    for _ in 0..n {
+        let name = r.u32()?;
+        let selector = match r.u8()? {
+            0 => Selector::Random,
+            1 => Selector::Depth,
+            2 => Selector::Scale,
+            3 => Selector::Sequential,
+            4 => Selector::Pattern,
+            5 => Selector::Function(r.u32()?),
+            t => return Err(r.err(&format!("unknown selector {t}"))),
+        };
+        let m = r.len(8)?;
+        let mut defs = Vec::with_capacity(m);
+        for _ in 0..m {
+            defs.push(Def { weight: r.f32()?, start: r.u32()? });
+        }
+        let m = r.len(4)?;
+        let mut tr = Vec::with_capacity(m);
+        for _ in 0..m {
+            tr.push(r.u32()?);
+        }
+        let iter = r.u32()?;
+        rules.push(Rule { name, selector, defs, transforms: tr, iter });
+    }
+    r.section = "code";
+    let n_ops = r.len(1)?;
+    let n_bytes = r.len(1)?;
+    let code_bytes = r.take(n_bytes)?;
+    let mut code = Vec::with_capacity(n_ops);
+    let mut at = 0;
+    while at < code_bytes.len() {
+        let (op, len) = Op::decode(code_bytes, at).map_err(LoadError)?;
+        code.push(op);
+        at += len;
+    }
+    if code.len() != n_ops {
+        return Err(LoadError(format!("code holds {} ops, header says {n_ops}", code.len())));
+    }
+    r.section = "isosurfaces";
+    let n = r.len(40)?;
+    let mut isosurfaces = Vec::with_capacity(n);
+    for _ in 0..n {
+        isosurfaces.push(Isosurface {
+            name: r.u32()?,
+            min: r.f32s()?,
+            max: r.f32s()?,
+            res: [r.u32()?, r.u32()?, r.u32()?],
+            function: r.u32()?,
+        });
+    }
+    r.section = "shaders";
+    let n = r.len(9)?;
+    let mut shaders = Vec::with_capacity(n);
+    for _ in 0..n {
+        shaders.push(Shader { vertex: r.u8()? != 0, name: r.u32()?, source: r.u32()? });
+    }
+    r.section = "params";
+    let n = r.len(29)?;
+    let mut params = Vec::with_capacity(n);
+    for _ in 0..n {
+        params.push(Param { name: r.u32()?, ty: r.u8()?, value: r.f64()?, min: r.f64()?, max: r.f64()? });
+    }
+    r.section = "source map";
+    let n = r.len(12)?;
+    let mut source_map = Vec::with_capacity(n);
+    for _ in 0..n {
+        source_map.push(SourceLoc { op: r.u32()?, file: r.u32()?, line: r.u32()? });
+    }
+    if r.at != payload.len() {
+        return Err(LoadError(format!("{} trailing bytes after the last section", payload.len() - r.at)));
+    }
+    Ok(Bundle { strings, settings, transforms, exprs, rules, code, isosurfaces, shaders, params, source_map })
+}

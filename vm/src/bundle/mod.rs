@@ -1,0 +1,237 @@
+//! The bundle (`.mdgb`): a compiled grammar as deterministic bytes.
+//!
+//! Layout: header (magic `MDGB`, format version, flags, FNV-1a 64 checksum of the
+//! payload, payload length), then the payload: sections in a fixed order — strings,
+//! settings, transforms, expressions, rules, code, isosurfaces, shaders, params,
+//! source map. All integers little-endian; lists are a u32 count then elements.
+//! [`decode`] checks every length against the remaining bytes and [`verify`] every
+//! index and jump, so a corrupt or hostile bundle is rejected with an error, never
+//! a panic.
+
+pub mod ops;
+mod codec;
+mod disasm;
+mod verify;
+
+pub use codec::{decode, encode};
+pub use disasm::disassemble;
+pub use ops::{Op, CONT_NEXT, NONE};
+pub use verify::verify;
+
+use crate::expr::ExprOp;
+
+/// File magic.
+pub const MAGIC: [u8; 4] = *b"MDGB";
+/// Format version; bumped on any change to the layout.
+pub const VERSION: u16 = 1;
+
+/// A precomputed adjustment list: thesis eqs. 4.1–4.9 folded into (q, q̂, u) plus
+/// colour, weight and fps deltas (SPEC §4).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Composite {
+    /// x, y, z, w.
+    pub q: [f32; 4],
+    pub qh: [f32; 4],
+    pub u: [f32; 3],
+    pub color: [f32; 4],
+    pub weight: [f32; 4],
+    pub fps: f32,
+}
+
+impl Composite {
+    /// The identity transform with no deltas.
+    pub const IDENTITY: Composite = Composite {
+        q: [0.0, 0.0, 0.0, 1.0],
+        qh: [0.0, 0.0, 0.0, 1.0],
+        u: [0.0; 3],
+        color: [0.0; 4],
+        weight: [0.0; 4],
+        fps: 0.0,
+    };
+}
+
+/// A primitive adjustment evaluated at run time (when an argument draws random numbers).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PrimAdj {
+    /// 0 translate, 1 rotate, 2 scale, 3 flip, 4 colour, 5 weight, 6 fps.
+    pub kind: u8,
+    /// For translate/rotate: 0..2 a single axis, 3 all three (`x X Y Z`, `r X Y Z`);
+    /// for flip: 0..2 axis, 3 a normal from the arguments; for colour/weight: component.
+    pub axis: u8,
+    /// Argument values: constants or expression indices.
+    pub args: Vec<Arg>,
+}
+
+/// A run-time adjustment argument.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Arg {
+    Const(f32),
+    /// Index into [`Bundle::exprs`]; angles already converted to radians by the
+    /// expression (the compiler multiplies by the angle unit).
+    Expr(u32),
+}
+
+/// A transform operand: a constant composite or a list evaluated per use.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Transform {
+    Const(Composite),
+    /// Primitive adjustments in written order; angles in radians; every argument is
+    /// divided by `divisor` (scale: the divisor-th root) for iterator steps.
+    Dynamic { adjs: Vec<PrimAdj>, divisor: f32 },
+}
+
+/// How a rule's definitions are chosen (SPEC §5 and resolved semantics 5).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Selector {
+    Random,
+    Depth,
+    Scale,
+    Sequential,
+    Pattern,
+    /// Value of expression `e` selects like depth selection.
+    Function(u32),
+}
+
+/// One definition of a rule.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Def {
+    pub weight: f32,
+    /// Index of its first op in [`Bundle::code`] (op index, not byte offset).
+    pub start: u32,
+}
+
+/// A rule with all its definitions.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rule {
+    /// String index of the full name (`ns.NAME`).
+    pub name: u32,
+    pub selector: Selector,
+    pub defs: Vec<Def>,
+    /// Transform rules (`: X1 : X2`), rule indices.
+    pub transforms: Vec<u32>,
+    /// Iterator rule (`* I`), or [`NONE`].
+    pub iter: u32,
+}
+
+/// An isosurface declaration.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Isosurface {
+    pub name: u32,
+    pub min: [f32; 3],
+    pub max: [f32; 3],
+    pub res: [u32; 3],
+    /// Expression over x, y, z.
+    pub function: u32,
+}
+
+/// A shader source (compiled to SPIR-V once the viewer lands).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Shader {
+    pub vertex: bool,
+    pub name: u32,
+    pub source: u32,
+}
+
+/// A `@param` with the value compiled in.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Param {
+    pub name: u32,
+    /// 0 int, 1 float, 2 bool.
+    pub ty: u8,
+    pub value: f64,
+    pub min: f64,
+    pub max: f64,
+}
+
+/// Where an op came from: (op index, file string index, 1-based line).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SourceLoc {
+    pub op: u32,
+    pub file: u32,
+    pub line: u32,
+}
+
+/// Global settings from directives.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    pub startshape: u32,
+    /// 0 = unlimited.
+    pub maxdepth: u32,
+    pub minsize: f32,
+    /// 0 = the evaluator's default.
+    pub maxiter: u64,
+    /// 0 = the evaluator's default.
+    pub stacksize: u32,
+    pub randseed: u64,
+    pub normal: [f32; 3],
+    pub background: [f32; 4],
+    pub fps: f32,
+    pub duration: f32,
+    pub camerafov: f32,
+    pub near: f32,
+    pub far: f32,
+    /// Rule indices or [`NONE`].
+    pub linerule: u32,
+    pub camerarule: u32,
+    /// Namespace names (string indices); index 0 is the global namespace "".
+    pub namespaces: Vec<u32>,
+}
+
+/// A whole compiled grammar.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Bundle {
+    pub strings: Vec<String>,
+    pub settings: Settings,
+    pub transforms: Vec<Transform>,
+    pub exprs: Vec<Vec<ExprOp>>,
+    pub rules: Vec<Rule>,
+    /// Decoded ops (stored encoded; see [`ops`]).
+    pub code: Vec<Op>,
+    pub isosurfaces: Vec<Isosurface>,
+    pub shaders: Vec<Shader>,
+    pub params: Vec<Param>,
+    pub source_map: Vec<SourceLoc>,
+}
+
+impl Bundle {
+    /// A string by index ("?" if out of range; verified bundles are always in range).
+    pub fn string(&self, i: u32) -> &str {
+        self.strings.get(i as usize).map(|s| s.as_str()).unwrap_or("?")
+    }
+
+    /// The source location of op `op`: the nearest entry at or before it.
+    pub fn source_of(&self, op: u32) -> Option<(&str, u32)> {
+        let i = self.source_map.partition_point(|s| s.op <= op);
+        let loc = self.source_map.get(i.checked_sub(1)?)?;
+        Some((self.string(loc.file), loc.line))
+    }
+}
+
+/// Why a bundle could not be loaded.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct LoadError(pub String);
+
+impl std::fmt::Display for LoadError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "invalid bundle: {}", self.0)
+    }
+}
+
+impl std::error::Error for LoadError {}
+
+/// FNV-1a 64-bit hash (the payload check value).
+pub fn fnv1a(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in bytes {
+        h ^= *b as u64;
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    h
+}
+
+/// Decodes and verifies: the only way the VM accepts bytes.
+pub fn load(bytes: &[u8]) -> Result<Bundle, LoadError> {
+    let b = decode(bytes)?;
+    verify(&b)?;
+    Ok(b)
+}

@@ -1,0 +1,162 @@
+//! The verifier: every index, count and jump in a decoded bundle is checked before
+//! the evaluator sees it, so evaluation can index without bounds surprises.
+
+use super::*;
+use crate::expr;
+
+fn bad(msg: String) -> LoadError {
+    LoadError(msg)
+}
+
+/// Verifies a decoded bundle.
+pub fn verify(b: &Bundle) -> Result<(), LoadError> {
+    let n_str = b.strings.len() as u32;
+    let n_rules = b.rules.len() as u32;
+    let n_xf = b.transforms.len() as u32;
+    let n_expr = b.exprs.len() as u32;
+    let n_ops = b.code.len() as u32;
+    let str_ok = |i: u32, what: &str| if i < n_str { Ok(()) } else { Err(bad(format!("{what}: string {i} out of range"))) };
+    let rule_ok = |i: u32, what: &str| if i < n_rules { Ok(()) } else { Err(bad(format!("{what}: rule {i} out of range"))) };
+    let rule_or_none = |i: u32, what: &str| if i == NONE { Ok(()) } else { rule_ok(i, what) };
+    let expr_ok = |i: u32, what: &str| if i < n_expr { Ok(()) } else { Err(bad(format!("{what}: expression {i} out of range"))) };
+
+    let s = &b.settings;
+    rule_ok(s.startshape, "startshape")?;
+    rule_or_none(s.linerule, "linerule")?;
+    rule_or_none(s.camerarule, "camerarule")?;
+    if s.namespaces.is_empty() {
+        return Err(bad("no namespaces (the global one must be present)".into()));
+    }
+    for n in &s.namespaces {
+        str_ok(*n, "namespace")?;
+    }
+    for (i, e) in b.exprs.iter().enumerate() {
+        expr::verify(e).map_err(|m| bad(format!("expression {i}: {m}")))?;
+    }
+    for (i, t) in b.transforms.iter().enumerate() {
+        if let Transform::Dynamic { adjs, divisor } = t {
+            if *divisor <= 0.0 {
+                return Err(bad(format!("transform {i}: divisor {divisor} ≤ 0")));
+            }
+            for a in adjs {
+                let max_args = match a.kind {
+                    0 | 1 => 3,
+                    2 | 4 | 5 | 6 => 1,
+                    3 => 3,
+                    k => return Err(bad(format!("transform {i}: unknown adjustment kind {k}"))),
+                };
+                if a.axis > 3 || a.args.len() > max_args {
+                    return Err(bad(format!("transform {i}: malformed adjustment")));
+                }
+                for arg in &a.args {
+                    if let Arg::Expr(e) = arg {
+                        expr_ok(*e, "adjustment argument")?;
+                    }
+                }
+            }
+        }
+    }
+    for (i, r) in b.rules.iter().enumerate() {
+        str_ok(r.name, "rule name")?;
+        if r.defs.is_empty() {
+            return Err(bad(format!("rule {i} has no definitions")));
+        }
+        if let Selector::Function(e) = r.selector {
+            expr_ok(e, "selector")?;
+        }
+        for d in &r.defs {
+            if d.start >= n_ops {
+                return Err(bad(format!("rule {i}: definition starts at op {} beyond the code", d.start)));
+            }
+            verify_body(b, d.start)?;
+        }
+        for t in &r.transforms {
+            rule_ok(*t, "transform rule")?;
+        }
+        rule_or_none(r.iter, "iterator rule")?;
+    }
+    for (pc, op) in b.code.iter().enumerate() {
+        let at = |what: &str| format!("op {pc} ({what})");
+        match *op {
+            Op::Call { rule, xf, .. } => {
+                rule_ok(rule, &at("CALL"))?;
+                if xf >= n_xf {
+                    return Err(bad(format!("{}: transform {xf} out of range", at("CALL"))));
+                }
+            }
+            Op::Draw { kind, xf, ns, profile, .. } => {
+                if kind as usize >= ops::DRAWABLE_KINDS.len() || xf >= n_xf || ns as usize >= s.namespaces.len() {
+                    return Err(bad(format!("{}: operand out of range", at("DRAW"))));
+                }
+                rule_or_none(profile, &at("DRAW"))?;
+            }
+            Op::Iso { iso, xf, .. } => {
+                if iso as usize >= b.isosurfaces.len() || xf >= n_xf {
+                    return Err(bad(format!("{}: operand out of range", at("ISO"))));
+                }
+            }
+            Op::Loop { step, end, .. } => {
+                if step >= n_xf {
+                    return Err(bad(format!("{}: transform out of range", at("LOOP"))));
+                }
+                match b.code.get(end as usize) {
+                    Some(Op::EndLoop { begin }) if *begin as usize == pc => {}
+                    _ => return Err(bad(format!("{}: end {end} is not its ENDLOOP", at("LOOP")))),
+                }
+            }
+            Op::EndLoop { begin } => match b.code.get(begin as usize) {
+                Some(Op::Loop { end, .. }) if *end as usize == pc => {}
+                _ => return Err(bad(format!("{}: begin {begin} is not its LOOP", at("ENDLOOP")))),
+            },
+            Op::Cont {} | Op::Ret {} => {}
+        }
+    }
+    for iso in &b.isosurfaces {
+        str_ok(iso.name, "isosurface")?;
+        expr_ok(iso.function, "isosurface function")?;
+        for a in 0..3 {
+            if iso.res[a] == 0 || iso.min[a] >= iso.max[a] {
+                return Err(bad("isosurface grid with zero resolution or empty range".into()));
+            }
+        }
+    }
+    for sh in &b.shaders {
+        str_ok(sh.name, "shader")?;
+        str_ok(sh.source, "shader")?;
+    }
+    for p in &b.params {
+        str_ok(p.name, "param")?;
+        if p.ty > 2 {
+            return Err(bad("param type out of range".into()));
+        }
+    }
+    let mut prev = 0;
+    for l in &b.source_map {
+        str_ok(l.file, "source map")?;
+        if l.op < prev || l.op >= n_ops.max(1) {
+            return Err(bad("source map out of order or out of range".into()));
+        }
+        prev = l.op;
+    }
+    Ok(())
+}
+
+/// A definition body runs from `start` to a `RET` at loop depth 0, with loops nested.
+fn verify_body(b: &Bundle, start: u32) -> Result<(), LoadError> {
+    let mut depth = 0usize;
+    let mut pc = start as usize;
+    while let Some(op) = b.code.get(pc) {
+        match op {
+            Op::Loop { .. } => depth += 1,
+            Op::EndLoop { .. } => {
+                depth = depth.checked_sub(1).ok_or_else(|| bad(format!("ENDLOOP without LOOP at op {pc}")))?;
+            }
+            Op::Ret {} => {
+                return if depth == 0 { Ok(()) } else { Err(bad(format!("RET inside a loop at op {pc}"))) };
+            }
+            _ => {}
+        }
+        pc += 1;
+    }
+    Err(bad(format!("definition starting at op {start} has no RET")))
+}

@@ -1,0 +1,688 @@
+//! The evaluator: runs a verified bundle depth-first with an explicit stack.
+//!
+//! Each activation holds the rule body's program counter, the frame items start from
+//! (the body's frame, or the current iterator run's frame), its depth, and the
+//! continuation register. The native stack is never used for recursion, so deep
+//! grammars cannot overflow it. Limits (`maxdepth`, `minsize`, `stacksize`,
+//! `maxiter`, a vertex budget and a time budget) end branches or the run cleanly,
+//! keep everything produced so far, and are reported as warnings.
+//!
+//! Random numbers come from PCG-64 (`rand_pcg::Pcg64`) seeded with the seed, turned
+//! into floats by this module (53 high bits for uniforms, Box–Muller for normals), so
+//! a seed gives the same stream on every machine and rand version.
+
+use crate::bundle::{self, Bundle, Composite, Op, Selector, Transform, CONT_NEXT, NONE};
+use crate::expr::{self, ExprOp, Random};
+use crate::geom::quat::Frame;
+use crate::geom::{blend, marching, sweep};
+use crate::output::{Instance, Output, Polyline};
+use glam::{Quat, Vec3};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+/// Default limits, used when the grammar sets none (documented in docs/reference.md).
+pub const DEFAULT_MAXITER: u64 = 50_000_000;
+/// Default maximum stack depth (activations).
+pub const DEFAULT_STACKSIZE: u32 = 100_000;
+/// Default vertex budget (VERTEX and sweep vertices together).
+pub const DEFAULT_MAX_VERTICES: u64 = 50_000_000;
+/// Default largest isosurface grid, in cells.
+pub const DEFAULT_MAX_ISO_CELLS: u64 = 16_000_000;
+/// The colour state at the start of a run (R, G, B, A): light grey, alpha offset 0
+/// (the thesis shader shows alpha as 1 + A).
+pub const START_COLOR: [f32; 4] = [0.7, 0.7, 0.7, 0.0];
+/// Segments per BLENDTO.
+pub const BLEND_SEGMENTS: usize = 8;
+
+/// Options of one evaluation.
+#[derive(Clone, Debug)]
+pub struct EvalOptions {
+    /// Overrides the grammar's `randseed`.
+    pub seed: Option<u64>,
+    pub max_vertices: u64,
+    pub time_budget: Option<Duration>,
+    pub max_iso_cells: u64,
+    /// Overrides `maxiter` (total rule calls).
+    pub maxiter: Option<u64>,
+}
+
+impl Default for EvalOptions {
+    fn default() -> Self {
+        EvalOptions {
+            seed: None,
+            max_vertices: DEFAULT_MAX_VERTICES,
+            time_budget: None,
+            max_iso_cells: DEFAULT_MAX_ISO_CELLS,
+            maxiter: None,
+        }
+    }
+}
+
+/// The state a frame carries: transform, colour, weight, fps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct State {
+    pub f: Frame,
+    pub color: [f32; 4],
+    pub weight: [f32; 4],
+    pub fps: f32,
+}
+
+impl State {
+    fn start(fps: f32) -> State {
+        State { f: Frame::identity(), color: START_COLOR, weight: [0.0; 4], fps }
+    }
+
+    /// `self ∘ c`.
+    fn compose(&self, c: &Composite) -> State {
+        let child = Frame { q: Quat::from_array(c.q), qh: Quat::from_array(c.qh), u: Vec3::from_array(c.u) };
+        let add = |a: [f32; 4], b: [f32; 4]| [a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]];
+        State { f: self.f.compose(&child), color: add(self.color, c.color), weight: add(self.weight, c.weight), fps: self.fps + c.fps }
+    }
+
+    /// The colour as shown: RGB clamped, alpha 1 + A clamped.
+    fn display_color(&self) -> [f32; 4] {
+        let c = self.color;
+        [c[0].clamp(0.0, 1.0), c[1].clamp(0.0, 1.0), c[2].clamp(0.0, 1.0), (1.0 + c[3]).clamp(0.0, 1.0)]
+    }
+}
+
+struct Pcg(Pcg64);
+
+impl Random for Pcg {
+    fn uniform(&mut self) -> f64 {
+        (self.0.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+    fn normal(&mut self) -> f64 {
+        let u1 = 1.0 - self.uniform();
+        let u2 = self.uniform();
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    }
+}
+
+struct Act {
+    pc: u32,
+    base: State,
+    depth: u32,
+    cont: Option<State>,
+    loops_at: u32,
+}
+
+struct LoopRec {
+    remaining: u64,
+    step: u32,
+    saved_base: State,
+    chain: bool,
+}
+
+#[derive(Clone, Copy)]
+struct Pen {
+    state: State,
+    lifted: bool,
+    line: Option<usize>,
+}
+
+#[derive(Default)]
+struct LimitCounts {
+    maxdepth: u64,
+    minsize: u64,
+    stacksize: u64,
+    maxiter: bool,
+    vertices: bool,
+    time: bool,
+}
+
+/// What `run` collects: full geometry, or only the points of a profile rule.
+#[derive(Clone, Copy, PartialEq)]
+enum Mode {
+    Model,
+    Profile,
+}
+
+struct Eval<'b> {
+    b: &'b Bundle,
+    opts: EvalOptions,
+    rng: Pcg,
+    out: Output,
+    pens: Vec<Pen>,
+    last: State,
+    sequential: HashMap<u32, (usize, u32)>,
+    profiles: HashMap<u32, Vec<Vec3>>,
+    iso_meshes: HashMap<u32, Option<u32>>,
+    limits: LimitCounts,
+    stopped: bool,
+    started: Instant,
+    calls: u64,
+    maxiter: u64,
+    stacksize: u32,
+    expr_stack: Vec<f64>,
+    profile_points: Vec<Vec3>,
+    progress: Option<&'b dyn Fn(u64)>,
+}
+
+/// Evaluates a verified bundle from its start shape.
+pub fn evaluate(b: &Bundle, opts: &EvalOptions) -> Output {
+    evaluate_with_progress(b, opts, None)
+}
+
+/// Like [`evaluate`], calling `progress(rule_calls)` now and then (for a progress bar).
+pub fn evaluate_with_progress(b: &Bundle, opts: &EvalOptions, progress: Option<&dyn Fn(u64)>) -> Output {
+    let s = &b.settings;
+    let seed = opts.seed.unwrap_or(s.randseed);
+    let start = State::start(s.fps);
+    let mut e = Eval {
+        b,
+        opts: opts.clone(),
+        rng: Pcg(Pcg64::seed_from_u64(seed)),
+        out: Output { background: s.background, ..Output::default() },
+        pens: vec![Pen { state: start, lifted: false, line: None }; s.namespaces.len()],
+        last: start,
+        sequential: HashMap::new(),
+        profiles: HashMap::new(),
+        iso_meshes: HashMap::new(),
+        limits: LimitCounts::default(),
+        stopped: false,
+        started: Instant::now(),
+        calls: 0,
+        maxiter: opts.maxiter.unwrap_or(if s.maxiter > 0 { s.maxiter } else { DEFAULT_MAXITER }),
+        stacksize: if s.stacksize > 0 { s.stacksize } else { DEFAULT_STACKSIZE },
+        expr_stack: Vec::with_capacity(16),
+        profile_points: Vec::new(),
+        progress,
+    };
+    e.run(s.startshape, start, Mode::Model);
+    e.finish()
+}
+
+impl<'b> Eval<'b> {
+    fn transform(&mut self, xf: u32, divisor_pow: u32) -> Composite {
+        let _ = divisor_pow;
+        match &self.b.transforms[xf as usize] {
+            Transform::Const(c) => *c,
+            Transform::Dynamic { adjs, divisor } => {
+                let mut prims = Vec::with_capacity(adjs.len());
+                for a in adjs {
+                    let args = a
+                        .args
+                        .iter()
+                        .map(|arg| match arg {
+                            bundle::Arg::Const(v) => bundle::Arg::Const(*v),
+                            bundle::Arg::Expr(e) => {
+                                let code: &[ExprOp] = &self.b.exprs[*e as usize];
+                                let v = expr::eval(code, &[0.0; 6], &mut self.rng, &mut self.expr_stack);
+                                bundle::Arg::Const(if v.is_finite() { v as f32 } else { 0.0 })
+                            }
+                        })
+                        .collect();
+                    prims.push(bundle::PrimAdj { kind: a.kind, axis: a.axis, args });
+                }
+                compose_prims(&prims, *divisor)
+            }
+        }
+    }
+
+    fn select(&mut self, rule_idx: u32, child: &State, depth: u32) -> u32 {
+        let rule = &self.b.rules[rule_idx as usize];
+        let defs = &rule.defs;
+        if defs.len() == 1 {
+            return defs[0].start;
+        }
+        let threshold = |v: f64| -> usize {
+            // Smallest weight ≥ v, else the largest (SPEC resolved semantics 5).
+            let mut best: Option<usize> = None;
+            for (i, d) in defs.iter().enumerate() {
+                if d.weight as f64 >= v && best.is_none_or(|b| d.weight < defs[b].weight) {
+                    best = Some(i);
+                }
+            }
+            best.unwrap_or_else(|| {
+                (0..defs.len()).fold(0, |b, i| if defs[i].weight > defs[b].weight { i } else { b })
+            })
+        };
+        let i = match rule.selector {
+            Selector::Random => {
+                let total: f64 = defs.iter().map(|d| d.weight.max(0.0) as f64).sum();
+                if total <= 0.0 {
+                    0
+                } else {
+                    let r = self.rng.uniform() * total;
+                    let mut acc = 0.0;
+                    let mut pick = defs.len() - 1;
+                    for (i, d) in defs.iter().enumerate() {
+                        acc += d.weight.max(0.0) as f64;
+                        if r < acc {
+                            pick = i;
+                            break;
+                        }
+                    }
+                    pick
+                }
+            }
+            Selector::Depth => threshold(depth as f64),
+            Selector::Scale => {
+                let s = child.f.scale_factor() as f64;
+                let mut best: Option<usize> = None;
+                for (i, d) in defs.iter().enumerate() {
+                    if (d.weight as f64) <= s && best.is_none_or(|b| d.weight > defs[b].weight) {
+                        best = Some(i);
+                    }
+                }
+                best.unwrap_or_else(|| (0..defs.len()).fold(0, |b, i| if defs[i].weight < defs[b].weight { i } else { b }))
+            }
+            Selector::Sequential => {
+                let n = defs.len();
+                let entry = self.sequential.entry(rule_idx).or_insert((0, 0));
+                // Skip definitions with a zero count (at most one full cycle).
+                for _ in 0..n {
+                    if (defs[entry.0].weight.max(0.0) as u32) > entry.1 {
+                        break;
+                    }
+                    *entry = ((entry.0 + 1) % n, 0);
+                }
+                let i = entry.0;
+                entry.1 += 1;
+                if entry.1 >= defs[i].weight.max(0.0) as u32 {
+                    *entry = ((i + 1) % n, 0);
+                }
+                i
+            }
+            Selector::Pattern => {
+                let entry = self.sequential.entry(rule_idx).or_insert((0, 0));
+                let i = entry.0 % defs.len();
+                entry.0 = (i + 1) % defs.len();
+                i
+            }
+            Selector::Function(e) => {
+                let p = child.f.u;
+                let vars = [p.x as f64, p.y as f64, p.z as f64, depth as f64, child.f.scale_factor() as f64, 0.0];
+                let v = expr::eval(&self.b.exprs[e as usize], &vars, &mut self.rng, &mut self.expr_stack);
+                if v.is_finite() {
+                    threshold(v)
+                } else {
+                    0
+                }
+            }
+        };
+        defs[i].start
+    }
+
+    /// Runs `rule` from `start` until its whole derivation is done.
+    fn run(&mut self, rule: u32, start: State, mode: Mode) {
+        let pc = self.select(rule, &start, 0);
+        let mut stack: Vec<Act> = vec![Act { pc, base: start, depth: 0, cont: None, loops_at: 0 }];
+        let mut loops: Vec<LoopRec> = Vec::new();
+        let code = &self.b.code;
+        while let Some(act) = stack.last_mut() {
+            if self.stopped {
+                break;
+            }
+            let op = code[act.pc as usize];
+            match op {
+                Op::Call { rule, xf, flags } => {
+                    act.pc += 1;
+                    let from = act.cont.take().unwrap_or(act.base);
+                    let depth = act.depth + 1;
+                    let c = self.transform(xf, 1);
+                    let child = from.compose(&c);
+                    if flags & CONT_NEXT != 0 {
+                        self.last = child;
+                    }
+                    if !self.admit(&child, depth, stack.len()) {
+                        continue;
+                    }
+                    let pc = self.select(rule, &child, depth);
+                    let loops_at = loops.len() as u32;
+                    stack.push(Act { pc, base: child, depth, cont: None, loops_at });
+                }
+                Op::Draw { kind, xf, ns, profile, flags: _ } => {
+                    act.pc += 1;
+                    let from = act.cont.take().unwrap_or(act.base);
+                    let c = self.transform(xf, 1);
+                    let s = from.compose(&c);
+                    self.last = s;
+                    self.draw(kind, s, ns, profile, mode);
+                }
+                Op::Iso { iso, xf, flags: _ } => {
+                    act.pc += 1;
+                    let from = act.cont.take().unwrap_or(act.base);
+                    let c = self.transform(xf, 1);
+                    let s = from.compose(&c);
+                    self.last = s;
+                    if mode == Mode::Model {
+                        self.instance(iso, &s, act.pc - 1);
+                    }
+                }
+                Op::Loop { count, step, end, chain } => {
+                    let from = act.cont.take().unwrap_or(act.base);
+                    if count == 0 {
+                        act.pc = end + 1;
+                        continue;
+                    }
+                    let c = self.transform(step, 1);
+                    loops.push(LoopRec { remaining: count, step, saved_base: act.base, chain: chain != 0 });
+                    act.base = from.compose(&c);
+                    act.pc += 1;
+                }
+                Op::EndLoop { begin: _ } => {
+                    // A continuation chain is scoped to its body: it does not leak into
+                    // the next run or out of the block.
+                    act.cont = None;
+                    let Some(l) = loops.last_mut() else {
+                        act.pc += 1;
+                        continue;
+                    };
+                    l.remaining -= 1;
+                    if l.remaining > 0 {
+                        let from = if l.chain { self.last } else { act.base };
+                        let step = l.step;
+                        let c = self.transform(step, 1);
+                        act.base = from.compose(&c);
+                        // Back to the op after LOOP.
+                        if let Op::EndLoop { begin } = op {
+                            act.pc = begin + 1;
+                        }
+                        self.calls += 1;
+                        if self.calls & 0xFFF == 0 {
+                            self.check_budgets();
+                        }
+                    } else {
+                        act.base = l.saved_base;
+                        loops.pop();
+                        act.pc += 1;
+                    }
+                }
+                Op::Cont {} => {
+                    act.pc += 1;
+                    act.cont = Some(self.last);
+                }
+                Op::Ret {} => {
+                    let at = act.loops_at as usize;
+                    loops.truncate(at);
+                    stack.pop();
+                }
+            }
+        }
+    }
+
+    /// Whether a call may proceed; counts the limits that stop it.
+    fn admit(&mut self, child: &State, depth: u32, stack_len: usize) -> bool {
+        self.calls += 1;
+        if self.calls & 0xFFF == 0 {
+            self.check_budgets();
+            if let Some(p) = self.progress {
+                p(self.calls);
+            }
+        }
+        if self.calls > self.maxiter {
+            self.limits.maxiter = true;
+            self.stopped = true;
+            return false;
+        }
+        let s = &self.b.settings;
+        if s.maxdepth > 0 && depth > s.maxdepth {
+            self.limits.maxdepth += 1;
+            return false;
+        }
+        if s.minsize > 0.0 && child.f.scale_factor() < s.minsize {
+            self.limits.minsize += 1;
+            return false;
+        }
+        if stack_len >= self.stacksize as usize {
+            self.limits.stacksize += 1;
+            return false;
+        }
+        true
+    }
+
+    fn check_budgets(&mut self) {
+        let n = (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64;
+        if n > self.opts.max_vertices {
+            self.limits.vertices = true;
+            self.stopped = true;
+        }
+        if let Some(t) = self.opts.time_budget {
+            if self.started.elapsed() > t {
+                self.limits.time = true;
+                self.stopped = true;
+            }
+        }
+    }
+
+    fn profile(&mut self, rule: u32) -> Vec<Vec3> {
+        if let Some(p) = self.profiles.get(&rule) {
+            return p.clone();
+        }
+        let saved = std::mem::take(&mut self.profile_points);
+        let saved_last = self.last;
+        self.run(rule, State::start(self.b.settings.fps), Mode::Profile);
+        self.last = saved_last;
+        let pts = std::mem::replace(&mut self.profile_points, saved);
+        self.profiles.insert(rule, pts.clone());
+        pts
+    }
+
+    fn draw(&mut self, kind: u8, s: State, ns: u32, profile: u32, mode: Mode) {
+        if mode == Mode::Profile {
+            if kind == 0 {
+                self.profile_points.push(s.f.u);
+            }
+            return;
+        }
+        let ns_i = ns as usize;
+        match kind {
+            0 => {
+                let n = s.f.apply_normal(Vec3::from_array(self.b.settings.normal));
+                let m = &mut self.out.mesh;
+                m.push_vertex(s.f.u, n, s.display_color(), s.weight, 0);
+                let k = m.n_vertices() as u32;
+                if k % 3 == 0 {
+                    m.push_triangle([k - 3, k - 2, k - 1], s.f.mirrored());
+                }
+            }
+            1 => {
+                let m = &mut self.out.mesh;
+                let k = m.n_vertices();
+                if k >= 3 {
+                    let p = |i: usize| Vec3::from_array(m.positions[i]);
+                    let (a, b, c) = (p(k - 3), p(k - 2), p(k - 1));
+                    let mut n = (b - a).cross(c - a).normalize_or_zero();
+                    if s.f.mirrored() {
+                        n = -n;
+                    }
+                    for i in k - 3..k {
+                        m.normals[i] = n.to_array();
+                    }
+                }
+            }
+            2 => {
+                self.pens[ns_i] = Pen { state: s, lifted: false, line: None };
+                self.new_line(ns_i, s.f.u);
+            }
+            3..=6 => {
+                let pen = self.pens[ns_i];
+                if pen.lifted {
+                    self.pens[ns_i] = Pen { state: s, lifted: false, line: None };
+                    self.new_line(ns_i, s.f.u);
+                    return;
+                }
+                let prof_rule = if profile != NONE { profile } else { self.b.settings.linerule };
+                if prof_rule != NONE {
+                    let pts = self.profile(prof_rule);
+                    if pts.len() >= 2 {
+                        let (ca, cb) = (pen.state.display_color(), s.display_color());
+                        let m = &mut self.out.sweeps;
+                        match kind {
+                            3 => sweep::sweep(m, &pts, &pen.state.f, &s.f, ca, cb, 0),
+                            4 => {
+                                let frames = blend::blend_frames(&pen.state.f, &s.f, BLEND_SEGMENTS);
+                                sweep::sweep_path(m, &pts, &frames, ca, cb, 0);
+                            }
+                            5 => sweep::sweep_oriented(m, &pts, &pen.state.f, &s.f, ca, cb, 0),
+                            _ => sweep::sweep_averaged(m, &pts, &pen.state.f, &s.f, ca, cb, 0),
+                        }
+                    }
+                }
+                match pen.line {
+                    Some(l) => self.out.lines[l].points.push(s.f.u.to_array()),
+                    None => {
+                        let l = self.new_line(ns_i, pen.state.f.u);
+                        self.out.lines[l].points.push(s.f.u.to_array());
+                    }
+                }
+                self.pens[ns_i].state = s;
+            }
+            7 => self.pens[ns_i].lifted = true,
+            8 => {}
+            9 => self.last = self.pens[ns_i].state,
+            _ => {
+                let p = s.f.u;
+                eprintln!(
+                    "DEBUG: position ({:.4}, {:.4}, {:.4}) scale {:.4} mirrored {} colour {:?} weight {:?}",
+                    p.x,
+                    p.y,
+                    p.z,
+                    s.f.scale_factor(),
+                    s.f.mirrored(),
+                    s.color,
+                    s.weight
+                );
+            }
+        }
+    }
+
+    fn new_line(&mut self, ns: usize, start: Vec3) -> usize {
+        let name = self.b.string(self.b.settings.namespaces[ns]).to_string();
+        self.out.lines.push(Polyline { namespace: name, points: vec![start.to_array()] });
+        let l = self.out.lines.len() - 1;
+        self.pens[ns].line = Some(l);
+        l
+    }
+
+    fn instance(&mut self, iso: u32, s: &State, pc: u32) {
+        let mesh = match self.iso_meshes.get(&iso) {
+            Some(m) => *m,
+            None => {
+                let decl = &self.b.isosurfaces[iso as usize];
+                let grid = marching::Grid { min: Vec3::from_array(decl.min), max: Vec3::from_array(decl.max), res: decl.res };
+                let code = &self.b.exprs[decl.function as usize];
+                let rng = std::cell::RefCell::new(Pcg(Pcg64::seed_from_u64(0)));
+                let stack = std::cell::RefCell::new(Vec::new());
+                let f = |p: Vec3| {
+                    let vars = [p.x as f64, p.y as f64, p.z as f64, 0.0, 1.0, 0.0];
+                    expr::eval(code, &vars, &mut *rng.borrow_mut(), &mut stack.borrow_mut()) as f32
+                };
+                let name = self.b.string(decl.name).to_string();
+                let r = match marching::polygonize(&grid, &f, self.opts.max_iso_cells) {
+                    Ok(m) => {
+                        self.out.shared_meshes.push((name, m));
+                        Some(self.out.shared_meshes.len() as u32 - 1)
+                    }
+                    Err(e) => {
+                        let at = self.b.source_of(pc).map(|(f, l)| format!("{f}:{l}: ")).unwrap_or_default();
+                        self.out.stats.warnings.push(format!("{at}isosurface `{name}` not built: {e}"));
+                        None
+                    }
+                };
+                self.iso_meshes.insert(iso, r);
+                r
+            }
+        };
+        let Some(mesh) = mesh else { return };
+        let name = self.b.string(self.b.isosurfaces[iso as usize].name).to_string();
+        self.out.instances.push(Instance {
+            name,
+            mesh,
+            transform: s.f.to_mat4(),
+            scale: s.f.scale_factor(),
+            color: s.display_color(),
+            mirrored: s.f.mirrored(),
+            bone: 0,
+        });
+    }
+
+    fn finish(mut self) -> Output {
+        let s = &self.b.settings;
+        let w = &mut self.out.stats.warnings;
+        if self.limits.maxdepth > 0 {
+            w.push(format!("maxdepth {} reached: {} branch(es) ended there", s.maxdepth, self.limits.maxdepth));
+        }
+        if self.limits.minsize > 0 {
+            w.push(format!("minsize {} reached: {} branch(es) ended there", s.minsize, self.limits.minsize));
+        }
+        if self.limits.stacksize > 0 {
+            w.push(format!("stack size {} reached: {} branch(es) ended there", self.stacksize, self.limits.stacksize));
+        }
+        if self.limits.maxiter {
+            w.push(format!("maxiter {} reached: the run stopped; the output so far is kept", self.maxiter));
+        }
+        if self.limits.vertices {
+            w.push(format!("vertex budget {} reached: the run stopped; the output so far is kept", self.opts.max_vertices));
+        }
+        if self.limits.time {
+            w.push("time budget reached: the run stopped; the output so far is kept".to_string());
+        }
+        let st = &mut self.out.stats;
+        st.rule_calls = self.calls.min(self.maxiter);
+        st.vertices = (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64;
+        st.triangles = (self.out.mesh.triangles.len() + self.out.sweeps.triangles.len()) as u64;
+        st.elapsed_ms = self.started.elapsed().as_secs_f64() * 1000.0;
+        self.out
+    }
+}
+
+/// Composes primitive adjustments (constant arguments) into one composite, each
+/// argument divided into `divisor` steps (scale: the divisor-th root; flips kept).
+/// The compiler folds constant lists with this same function, so run-time and
+/// compile-time composites agree bit for bit.
+pub fn compose_prims(prims: &[bundle::PrimAdj], divisor: f32) -> Composite {
+    let mut f = Frame::identity();
+    let mut c = Composite::IDENTITY;
+    for p in prims {
+        let arg = |i: usize| match p.args.get(i) {
+            Some(bundle::Arg::Const(v)) => *v,
+            _ => 0.0,
+        };
+        match p.kind {
+            0 => {
+                let v = match p.axis {
+                    0 => Vec3::new(arg(0), 0.0, 0.0),
+                    1 => Vec3::new(0.0, arg(0), 0.0),
+                    2 => Vec3::new(0.0, 0.0, arg(0)),
+                    _ => Vec3::new(arg(0), arg(1), arg(2)),
+                };
+                f = f.translate(v / divisor);
+            }
+            1 => {
+                let axes = [Vec3::X, Vec3::Y, Vec3::Z];
+                if p.axis == 3 {
+                    for i in 0..p.args.len().min(3) {
+                        f = f.rotate(Quat::from_axis_angle(axes[i], arg(i) / divisor));
+                    }
+                } else {
+                    f = f.rotate(Quat::from_axis_angle(axes[p.axis as usize % 3], arg(0) / divisor));
+                }
+            }
+            2 => {
+                let s = arg(0);
+                f = f.scale(if divisor == 1.0 { s } else { s.signum() * s.abs().powf(1.0 / divisor) });
+            }
+            3 => {
+                let n = match p.axis {
+                    0 => Vec3::X,
+                    1 => Vec3::Y,
+                    2 => Vec3::Z,
+                    _ => Vec3::new(arg(0), arg(1), arg(2)),
+                };
+                f = f.reflect(n);
+            }
+            4 => c.color[p.axis as usize & 3] += arg(0) / divisor,
+            5 => c.weight[p.axis as usize & 3] += arg(0) / divisor,
+            _ => c.fps += arg(0) / divisor,
+        }
+    }
+    c.q = f.q.to_array();
+    c.qh = f.qh.to_array();
+    c.u = f.u.to_array();
+    c
+}

@@ -1,0 +1,295 @@
+//! Exporters: an evaluation's [`Output`] written as glTF binary, OBJ, STL, PLY or the
+//! JSON inspection dump, plus an atomic file writer.
+//!
+//! Every format writes triangles through [`Mesh::oriented_triangles`], so triangles
+//! emitted in mirrored frames get their winding reversed and face outward (SPEC
+//! resolved semantics 8). Formats without instancing use [`Output::flattened`].
+//! All writers are deterministic: the same output gives the same bytes.
+
+pub mod glb;
+pub mod json;
+pub mod obj;
+pub mod ply;
+pub mod stl;
+
+use std::io::Write as _;
+use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use glam::{Mat4, Vec3};
+
+use crate::output::{Instance, Mesh, Output};
+
+/// An output file format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Format {
+    /// glTF 2.0 binary (`.glb`), with shared meshes instanced by nodes.
+    Glb,
+    /// Wavefront OBJ with vertex colours (`.obj`).
+    Obj,
+    /// Binary STL (`.stl`).
+    Stl,
+    /// Binary little-endian PLY with colours (`.ply`).
+    Ply,
+    /// The JSON inspection dump (`.json`).
+    Json,
+}
+
+impl Format {
+    /// Every format, in a fixed order.
+    pub const ALL: [Format; 5] = [Format::Glb, Format::Obj, Format::Stl, Format::Ply, Format::Json];
+
+    /// The format for a file extension (case-insensitive, with or without the dot).
+    pub fn from_extension(ext: &str) -> Option<Format> {
+        let ext = ext.strip_prefix('.').unwrap_or(ext).to_ascii_lowercase();
+        Format::ALL.into_iter().find(|f| f.extension() == ext)
+    }
+
+    /// The format for a path, from its extension.
+    pub fn from_path(path: &Path) -> Option<Format> {
+        path.extension().and_then(|e| e.to_str()).and_then(Format::from_extension)
+    }
+
+    /// The canonical file extension, without the dot.
+    pub fn extension(self) -> &'static str {
+        match self {
+            Format::Glb => "glb",
+            Format::Obj => "obj",
+            Format::Stl => "stl",
+            Format::Ply => "ply",
+            Format::Json => "json",
+        }
+    }
+}
+
+/// Appends `out` in `format` to `buf`.
+pub fn write(format: Format, out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
+    match format {
+        Format::Glb => glb::write_glb(out, buf),
+        Format::Obj => obj::write_obj(out, buf),
+        Format::Stl => stl::write_stl(out, buf),
+        Format::Ply => ply::write_ply(out, buf),
+        Format::Json => json::write_json(out, buf),
+    }
+}
+
+/// Distinguishes temporary files of concurrent writers in one process.
+static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
+
+/// Writes `bytes` to `path` atomically: into a temporary file in the same directory
+/// (named after the target, the process id and a counter), flushed to disk, then
+/// renamed over `path`. Readers see the old file or the whole new one, never a part.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let name = path
+        .file_name()
+        .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("{} has no file name", path.display())))?;
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let n = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
+    let tmp = dir.join(format!(".{}.{}.{n}.tmp", name.to_string_lossy(), std::process::id()));
+    let result = (|| {
+        let mut file = std::fs::OpenOptions::new().write(true).create_new(true).open(&tmp)?;
+        file.write_all(bytes)?;
+        file.sync_all()?;
+        drop(file);
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        // Best effort: the temporary file is garbage either way.
+        let _ = std::fs::remove_file(&tmp);
+        return result;
+    }
+    // Make the rename itself durable where the platform allows syncing a directory.
+    #[cfg(unix)]
+    if let Ok(d) = std::fs::File::open(dir) {
+        let _ = d.sync_all();
+    }
+    Ok(())
+}
+
+/// A finite float (non-finite values become 0, which every format can store).
+pub(crate) fn finite(x: f32) -> f32 {
+    if x.is_finite() {
+        x
+    } else {
+        0.0
+    }
+}
+
+/// A position with non-finite components replaced by 0.
+pub(crate) fn finite3(p: [f32; 3]) -> [f32; 3] {
+    p.map(finite)
+}
+
+/// A unit normal; zero-length or non-finite normals become +z.
+pub(crate) fn unit_normal(n: [f32; 3]) -> [f32; 3] {
+    let v = Vec3::from(n);
+    if v.is_finite() {
+        v.normalize_or(Vec3::Z).to_array()
+    } else {
+        [0.0, 0.0, 1.0]
+    }
+}
+
+/// A colour clamped to 0..1 (NaN becomes 0).
+pub(crate) fn clamp_color(c: [f32; 4]) -> [f32; 4] {
+    c.map(|x| if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) })
+}
+
+/// The colour of vertex `i`, white where the mesh has none.
+pub(crate) fn color_at(m: &Mesh, i: usize) -> [f32; 4] {
+    clamp_color(m.colors.get(i).copied().unwrap_or([1.0; 4]))
+}
+
+/// The normal of vertex `i`, +z where the mesh has none.
+pub(crate) fn normal_at(m: &Mesh, i: usize) -> [f32; 3] {
+    unit_normal(m.normals.get(i).copied().unwrap_or([0.0, 0.0, 1.0]))
+}
+
+/// The oriented triangles of `m`, checked against its vertex count.
+pub(crate) fn checked_triangles(m: &Mesh, what: &str) -> Result<Vec<[u32; 3]>, String> {
+    let n = m.positions.len();
+    let tris: Vec<[u32; 3]> = m.oriented_triangles().collect();
+    if let Some(t) = tris.iter().find(|t| t.iter().any(|&i| i as usize >= n)) {
+        return Err(format!("{what}: triangle {t:?} refers past the {n} vertices"));
+    }
+    Ok(tris)
+}
+
+/// Appends one instance of `shared` to `m` in world space, exactly as
+/// [`Output::flattened`] expands instances.
+pub(crate) fn bake_instance(m: &mut Mesh, shared: &Mesh, inst: &Instance) {
+    let base = m.positions.len() as u32;
+    let normal_mat: Mat4 = inst.transform.inverse().transpose();
+    for (i, p) in shared.positions.iter().enumerate() {
+        let wp = inst.transform.transform_point3(Vec3::from(*p));
+        let n = shared.normals.get(i).copied().unwrap_or([0.0, 0.0, 1.0]);
+        let wn = normal_mat.transform_vector3(Vec3::from(n)).normalize_or_zero();
+        m.push_vertex(wp, wn, inst.color, [0.0; 4], inst.bone);
+    }
+    for (t, mir) in shared.triangles.iter().zip(shared.mirrored.iter().chain(std::iter::repeat(&false))) {
+        m.push_triangle([t[0] + base, t[1] + base, t[2] + base], *mir != inst.mirrored);
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use glam::{Mat4, Quat, Vec3};
+
+    use super::*;
+    use crate::output::{Instance, Polyline, Stats};
+
+    /// A unit cube as 12 VERTEX-style triangles (outward, counter-clockwise).
+    pub(crate) fn cube(mirror_first: bool) -> Mesh {
+        let mut m = Mesh::default();
+        let faces: [(Vec3, Vec3, Vec3); 6] = [
+            (Vec3::X, Vec3::Y, Vec3::Z),
+            (-Vec3::X, Vec3::Z, Vec3::Y),
+            (Vec3::Y, Vec3::Z, Vec3::X),
+            (-Vec3::Y, Vec3::X, Vec3::Z),
+            (Vec3::Z, Vec3::X, Vec3::Y),
+            (-Vec3::Z, Vec3::Y, Vec3::X),
+        ];
+        for (n, a, b) in faces {
+            let c = n * 0.5;
+            let corners = [c - a * 0.5 - b * 0.5, c + a * 0.5 - b * 0.5, c + a * 0.5 + b * 0.5, c - a * 0.5 + b * 0.5];
+            let idx: Vec<u32> = corners.iter().map(|&p| m.push_vertex(p, n, [0.2, 0.4, 0.6, 1.0], [0.0; 4], 0)).collect();
+            m.push_triangle([idx[0], idx[1], idx[2]], false);
+            m.push_triangle([idx[0], idx[2], idx[3]], false);
+        }
+        if mirror_first {
+            // Store the first triangle reversed and flag it: oriented output is unchanged.
+            m.triangles[0] = [m.triangles[0][0], m.triangles[0][2], m.triangles[0][1]];
+            m.mirrored[0] = true;
+        }
+        m
+    }
+
+    /// An output exercising every group: VERTEX mesh, sweeps, lines, instances
+    /// (plain, scaled, mirrored) of a shared mesh, stats.
+    pub(crate) fn sample_output() -> Output {
+        let mut sweeps = Mesh::default();
+        let profile: Vec<Vec3> = (0..6).map(|k| {
+            let a = k as f32 / 6.0 * std::f32::consts::TAU;
+            Vec3::new(a.cos(), a.sin(), 0.0) * 0.2
+        }).collect();
+        let a = crate::geom::Frame::identity();
+        let b = a.translate(Vec3::new(0.0, 1.0, 2.0)).rotate(Quat::from_rotation_x(0.5));
+        crate::geom::sweep_path(&mut sweeps, &profile, &crate::geom::blend_frames(&a, &b, 4), [1.0, 0.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0], 0);
+        let shared = cube(false);
+        let inst = |t: Mat4, mirrored: bool, color: [f32; 4]| Instance {
+            name: "CUBE".into(),
+            mesh: 0,
+            transform: t,
+            scale: 1.0,
+            color,
+            mirrored,
+            bone: 0,
+        };
+        Output {
+            mesh: cube(true),
+            sweeps,
+            lines: vec![Polyline { namespace: "".into(), points: vec![[0.0; 3], [0.0, 1.0, 2.0], [1.0, 1.0, 2.0]] }],
+            shared_meshes: vec![("CUBE".into(), shared)],
+            instances: vec![
+                inst(Mat4::from_translation(Vec3::new(3.0, 0.0, 0.0)), false, [1.0, 0.0, 0.0, 1.0]),
+                inst(
+                    Mat4::from_scale_rotation_translation(Vec3::splat(2.0), Quat::from_rotation_y(0.3), Vec3::new(0.0, 3.0, 0.0)),
+                    false,
+                    [0.0, 1.0, 0.0, 1.0],
+                ),
+                inst(Mat4::from_translation(Vec3::new(-3.0, 0.0, 0.0)) * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)), true, [2.0, -1.0, 0.5, 1.0]),
+            ],
+            stats: Stats { rule_calls: 5, vertices: 36, triangles: 12, max_depth: 2, elapsed_ms: 0.5, warnings: vec!["maxdepth reached".into()] },
+            background: [0.0, 0.0, 0.0, 1.0],
+        }
+    }
+
+    #[test]
+    fn formats_from_extensions() {
+        assert_eq!(Format::from_extension("GLB"), Some(Format::Glb));
+        assert_eq!(Format::from_extension(".ply"), Some(Format::Ply));
+        assert_eq!(Format::from_path(Path::new("a/b.stl")), Some(Format::Stl));
+        assert_eq!(Format::from_extension("vox"), None);
+        for f in Format::ALL {
+            assert_eq!(Format::from_extension(f.extension()), Some(f));
+        }
+    }
+
+    #[test]
+    fn every_format_is_deterministic() {
+        let out = sample_output();
+        for f in Format::ALL {
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            write(f, &out, &mut a).expect("writes");
+            write(f, &out, &mut b).expect("writes");
+            assert!(!a.is_empty());
+            assert_eq!(a, b, "{f:?}");
+        }
+    }
+
+    #[test]
+    fn bad_indices_are_errors_not_panics() {
+        let mut out = Output::default();
+        out.mesh.push_vertex(Vec3::ZERO, Vec3::Z, [1.0; 4], [0.0; 4], 0);
+        out.mesh.push_triangle([0, 1, 2], false);
+        for f in Format::ALL {
+            assert!(write(f, &out, &mut Vec::new()).is_err(), "{f:?}");
+        }
+    }
+
+    #[test]
+    fn atomic_write_replaces_the_file() {
+        let dir = std::env::temp_dir().join(format!("mdg-export-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let p = dir.join("out.bin");
+        write_atomic(&p, b"first").expect("write");
+        write_atomic(&p, b"second").expect("write");
+        assert_eq!(std::fs::read(&p).expect("read"), b"second");
+        let leftovers = std::fs::read_dir(&dir).expect("list").count();
+        assert_eq!(leftovers, 1, "no temporary files left behind");
+        std::fs::remove_dir_all(&dir).expect("cleanup");
+    }
+}

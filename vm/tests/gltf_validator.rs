@@ -1,0 +1,132 @@
+//! Validates the glTF exporter's output with the Khronos glTF validator (Node).
+//!
+//! Needs `node` and `npm ci --prefix tests/gltf`; set `MDG_SKIP_NODE_TESTS=1` to skip
+//! where Node is not available.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use glam::{Mat4, Quat, Vec3};
+use mdg_vm::export::{write, Format};
+use mdg_vm::geom::{blend_frames, polygonize, sweep, sweep_averaged, sweep_oriented, sweep_path, Frame, Grid};
+use mdg_vm::output::{Instance, Mesh, Output, Polyline};
+
+/// Emits a unit cube as VERTEX triangles in `frame` (mirrored frames flag their
+/// triangles, as the VM does).
+fn cube_in(m: &mut Mesh, frame: &Frame, color: [f32; 4]) {
+    let faces: [(Vec3, Vec3, Vec3); 6] = [
+        (Vec3::X, Vec3::Y, Vec3::Z),
+        (-Vec3::X, Vec3::Z, Vec3::Y),
+        (Vec3::Y, Vec3::Z, Vec3::X),
+        (-Vec3::Y, Vec3::X, Vec3::Z),
+        (Vec3::Z, Vec3::X, Vec3::Y),
+        (-Vec3::Z, Vec3::Y, Vec3::X),
+    ];
+    for (n, a, b) in faces {
+        let c = n * 0.5;
+        let corners = [c - a * 0.5 - b * 0.5, c + a * 0.5 - b * 0.5, c + a * 0.5 + b * 0.5, c - a * 0.5 + b * 0.5];
+        let idx: Vec<u32> = corners
+            .iter()
+            .map(|&p| m.push_vertex(frame.apply_point(p), frame.apply_normal(n), color, [0.0; 4], 0))
+            .collect();
+        m.push_triangle([idx[0], idx[1], idx[2]], frame.mirrored());
+        m.push_triangle([idx[0], idx[2], idx[3]], frame.mirrored());
+    }
+}
+
+fn circle(n: usize, r: f32) -> Vec<Vec3> {
+    (0..n).map(|k| {
+        let a = k as f32 / n as f32 * std::f32::consts::TAU;
+        Vec3::new(a.cos(), a.sin(), 0.0) * r
+    }).collect()
+}
+
+fn outputs() -> Vec<(&'static str, Output)> {
+    let mut v = Vec::new();
+
+    let mut cube = Output::default();
+    cube_in(&mut cube.mesh, &Frame::identity(), [0.8, 0.3, 0.1, 1.0]);
+    v.push(("cube", cube));
+
+    let mut mirrored = Output::default();
+    let f = Frame::identity().translate(Vec3::new(2.0, 0.0, 0.0)).rotate(Quat::from_rotation_y(0.4)).reflect(Vec3::X).scale(0.5);
+    cube_in(&mut mirrored.mesh, &Frame::identity(), [1.0; 4]);
+    cube_in(&mut mirrored.mesh, &f, [2.0, -1.0, 0.5, 1.0]);
+    v.push(("mirrored", mirrored));
+
+    let grid = Grid { min: Vec3::splat(-1.0), max: Vec3::splat(1.0), res: [10, 10, 10] };
+    let sphere = polygonize(&grid, &|p: Vec3| p.length() - 0.8, 1 << 20).expect("sphere");
+    let inst = |t: Mat4, mirrored: bool, color: [f32; 4]| Instance { name: "SPHERE".into(), mesh: 0, transform: t, scale: 1.0, color, mirrored, bone: 0 };
+    let frame = Frame::identity().translate(Vec3::new(0.0, 3.0, 0.0)).rotate(Quat::from_rotation_z(0.7)).scale(0.3);
+    let mirror = Frame::identity().translate(Vec3::new(-3.0, 0.0, 0.0)).reflect(Vec3::Y);
+    let instanced = Output {
+        shared_meshes: vec![("SPHERE".into(), sphere), ("EMPTY".into(), Mesh::default())],
+        instances: vec![
+            inst(Mat4::from_translation(Vec3::new(3.0, 0.0, 0.0)), false, [1.0, 0.0, 0.0, 1.0]),
+            inst(frame.to_mat4(), false, [0.0, 1.0, 0.0, 1.0]),
+            inst(Mat4::from_translation(Vec3::new(0.0, -3.0, 0.0)), false, [1.0, 0.0, 0.0, 1.0]),
+            inst(mirror.to_mat4(), mirror.mirrored(), [0.0, 0.0, 1.0, 0.5]),
+            inst(Frame::identity().scale(0.0).to_mat4(), false, [1.0; 4]),
+            Instance { mesh: 1, ..inst(Mat4::IDENTITY, false, [1.0; 4]) },
+            Instance { mesh: 7, ..inst(Mat4::IDENTITY, false, [1.0; 4]) },
+        ],
+        ..Output::default()
+    };
+    v.push(("instanced", instanced));
+
+    let mut sweeps = Output::default();
+    let a = Frame::identity();
+    let b = a.translate(Vec3::new(1.0, 2.0, 3.0)).rotate(Quat::from_rotation_x(1.2)).scale(0.5);
+    let profile = circle(8, 0.3);
+    sweep_path(&mut sweeps.sweeps, &profile, &blend_frames(&a, &b, 12), [1.0, 0.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0], 0);
+    sweep(&mut sweeps.sweeps, &profile, &b, &b.translate(Vec3::Z).scale(0.0), [1.0; 4], [1.0; 4], 0);
+    sweep_oriented(&mut sweeps.sweeps, &profile, &a, &a.translate(Vec3::new(-2.0, 0.0, 1.0)), [1.0; 4], [1.0; 4], 0);
+    let m = a.reflect(Vec3::X).translate(Vec3::new(0.0, -2.0, 0.0));
+    sweep_averaged(&mut sweeps.sweeps, &profile, &m, &m.rotate(Quat::from_rotation_z(1.0)).translate(Vec3::Z), [1.0; 4], [1.0; 4], 0);
+    sweeps.lines.push(Polyline { namespace: "".into(), points: vec![[0.0; 3], [1.0, 2.0, 3.0], [1.0, 3.0, 3.0]] });
+    sweeps.lines.push(Polyline { namespace: "lonely".into(), points: vec![[5.0; 3]] });
+    v.push(("sweeps", sweeps));
+
+    v.push(("empty", Output::default()));
+    v
+}
+
+fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+#[test]
+fn exported_glb_files_pass_the_khronos_validator() {
+    let dir = std::env::temp_dir().join(format!("mdg-gltf-validator-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let mut paths = Vec::new();
+    for (name, out) in outputs() {
+        let mut bytes = Vec::new();
+        write(Format::Glb, &out, &mut bytes).expect("glb export");
+        let p = dir.join(format!("{name}.glb"));
+        std::fs::write(&p, &bytes).expect("write glb");
+        paths.push(p);
+    }
+
+    let gltf_dir = workspace_root().join("tests").join("gltf");
+    let skip = std::env::var("MDG_SKIP_NODE_TESTS").is_ok_and(|v| v == "1");
+    let have_modules = gltf_dir.join("node_modules").join("gltf-validator").is_dir();
+    let have_node = Command::new("node").arg("--version").output().is_ok_and(|o| o.status.success());
+    if !(have_modules && have_node) {
+        let _ = std::fs::remove_dir_all(&dir);
+        let missing = if have_node { "the gltf-validator package" } else { "node" };
+        if skip {
+            eprintln!("skipped: {missing} is missing and MDG_SKIP_NODE_TESTS=1");
+            return;
+        }
+        panic!("{missing} is missing: install Node and run `npm ci --prefix tests/gltf` (or set MDG_SKIP_NODE_TESTS=1 to skip)");
+    }
+
+    let result = Command::new("node").arg(gltf_dir.join("validate.mjs")).args(&paths).output().expect("run node");
+    let stdout = String::from_utf8_lossy(&result.stdout);
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(result.status.success(), "glTF validator reported errors:\n{stdout}\n{stderr}");
+    assert_eq!(stdout.matches(" 0 errors").count(), paths.len(), "{stdout}");
+    println!("{stdout}");
+}
