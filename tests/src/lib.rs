@@ -117,3 +117,16 @@ impl Rng {
         (self.next() % n.max(1) as u64) as usize
     }
 }
+
+/// Compiles `text` (as if at `tests/inline.mdg`, std imports available) to a bundle.
+pub fn build_source(text: &str) -> mdg_vm::bundle::Bundle {
+    let path = root().join("tests/inline.mdg");
+    let a = mdg_compiler::driver::analyze_text(&FsLoader, &path, text, &options(), CheckOptions { require_start: true });
+    assert!(!a.has_errors(), "{}", mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources));
+    mdg_compiler::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).expect("lowering")
+}
+
+/// Compiles and evaluates `text` with default options.
+pub fn run_source(text: &str) -> mdg_vm::output::Output {
+    mdg_vm::eval::evaluate(&build_source(text), &mdg_vm::eval::EvalOptions::default())
+}

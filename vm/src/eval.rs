@@ -382,7 +382,12 @@ impl<'b> Eval<'b> {
                         if let Op::EndLoop { begin } = op {
                             act.pc = begin + 1;
                         }
+                        // Iterator runs count as calls, so `maxiter` also ends huge loops.
                         self.calls += 1;
+                        if self.calls > self.maxiter {
+                            self.limits.maxiter = true;
+                            self.stopped = true;
+                        }
                         if self.calls & 0xFFF == 0 {
                             self.check_budgets();
                         }

@@ -53,6 +53,17 @@ enum Command {
         #[command(flatten)]
         common: CommonOpts,
     },
+    /// Compile a program to a bundle (`.mdgb`).
+    Build {
+        file: PathBuf,
+        /// Output bundle (default: beside the input, `.mdgb`).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        #[command(flatten)]
+        common: CommonOpts,
+    },
+    /// Print a bundle (or a program, compiled first) as readable text.
+    Disasm { file: PathBuf },
     /// Format files in place (or check that they are formatted).
     Fmt {
         files: Vec<PathBuf>,
@@ -93,10 +104,7 @@ fn main() -> ExitCode {
             let mut errors = false;
             for f in &files {
                 let a = analyze(&FsLoader, f, &opts, CheckOptions { require_start: program });
-                match common.message_format {
-                    MessageFormat::Human => eprint!("{}", render_plain(&a.diagnostics, &a.sources)),
-                    MessageFormat::Json => print!("{}", render_json(&a.diagnostics, &a.sources)),
-                }
+                emit(&a, common.message_format);
                 errors |= a.has_errors();
             }
             if errors {
@@ -104,6 +112,61 @@ fn main() -> ExitCode {
             } else {
                 ExitCode::SUCCESS
             }
+        }
+        Command::Build { file, output, common } => {
+            let opts = match options(&common) {
+                Ok(o) => o,
+                Err(e) => {
+                    eprintln!("mdgc: {e}");
+                    return ExitCode::from(2);
+                }
+            };
+            match driver::build(&FsLoader, &file, &opts) {
+                Ok((bundle, a)) => {
+                    emit(&a, common.message_format);
+                    let out = output.unwrap_or_else(|| file.with_extension("mdgb"));
+                    let bytes = mdg_vm::bundle::encode(&bundle);
+                    if let Err(e) = write_atomic(&out, &bytes) {
+                        eprintln!("mdgc build: cannot write {}: {e}", out.display());
+                        return ExitCode::from(2);
+                    }
+                    eprintln!("wrote {} ({} bytes)", out.display(), bytes.len());
+                    ExitCode::SUCCESS
+                }
+                Err(a) => {
+                    emit(&a, common.message_format);
+                    ExitCode::from(1)
+                }
+            }
+        }
+        Command::Disasm { file } => {
+            let bundle = if file.extension().is_some_and(|e| e == "mdgb") {
+                let bytes = match std::fs::read(&file) {
+                    Ok(b) => b,
+                    Err(e) => {
+                        eprintln!("mdgc disasm: cannot read {}: {e}", file.display());
+                        return ExitCode::from(2);
+                    }
+                };
+                match mdg_vm::bundle::load(&bytes) {
+                    Ok(b) => b,
+                    Err(e) => {
+                        eprintln!("mdgc disasm: {}: {e}", file.display());
+                        return ExitCode::from(1);
+                    }
+                }
+            } else {
+                let opts = Options { std_dir: driver::default_std_dir(), ..Options::default() };
+                match driver::build(&FsLoader, &file, &opts) {
+                    Ok((b, _)) => b,
+                    Err(a) => {
+                        emit(&a, MessageFormat::Human);
+                        return ExitCode::from(1);
+                    }
+                }
+            };
+            print!("{}", mdg_vm::bundle::disassemble(&bundle));
+            ExitCode::SUCCESS
         }
         Command::Fmt { files, check } => {
             let mut changed = false;
@@ -141,17 +204,13 @@ fn main() -> ExitCode {
     }
 }
 
-/// Writes through a temporary file and a rename, so a killed run never leaves a
-/// truncated file under the final name.
-fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> std::io::Result<()> {
-    use std::io::Write;
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-    {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
+fn emit(a: &driver::Analysis, format: MessageFormat) {
+    match format {
+        MessageFormat::Human => eprint!("{}", render_plain(&a.diagnostics, &a.sources)),
+        MessageFormat::Json => print!("{}", render_json(&a.diagnostics, &a.sources)),
     }
-    std::fs::rename(&tmp, path)
+}
+
+fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> std::io::Result<()> {
+    mdg_vm::export::write_atomic(path, bytes)
 }

@@ -1,0 +1,331 @@
+//! VM conformance: geometry is checked against independent computations, with the
+//! tolerance stated at each check (f32 evaluation: 1e-4 absolute on unit-sized models
+//! unless said otherwise).
+
+use glam::Vec3;
+use mdg_tests::{build_source, run_source};
+use mdg_vm::eval::{evaluate, EvalOptions};
+
+const TOL: f32 = 1e-4;
+
+fn v(p: [f32; 3]) -> Vec3 {
+    Vec3::from_array(p)
+}
+
+/// Distinct points, merging those closer than `tol`.
+fn distinct(points: impl IntoIterator<Item = Vec3>, tol: f32) -> Vec<Vec3> {
+    let mut out: Vec<Vec3> = Vec::new();
+    for p in points {
+        if !out.iter().any(|q| q.distance(p) < tol) {
+            out.push(p);
+        }
+    }
+    out
+}
+
+#[test]
+fn icosahedron_from_iterators_and_t_angles_is_exact() {
+    let out = run_source("@import polyhedra\nstartshape I\nrule I { icosahedron {} }\n");
+    // Vertices: SPHERE instances; edges: the pen lines (MOVETO + LINETO per edge).
+    let verts = distinct(out.instances.iter().map(|i| i.transform.w_axis.truncate()), TOL);
+    assert_eq!(verts.len(), 12, "an icosahedron has 12 vertices");
+    for p in &verts {
+        assert!((p.length() - 1.0).abs() < TOL, "vertex {p} not on the unit circumsphere");
+    }
+    let mut edges: Vec<(Vec3, Vec3)> = Vec::new();
+    for l in &out.lines {
+        for w in l.points.windows(2) {
+            let (a, b) = (v(w[0]), v(w[1]));
+            if !edges.iter().any(|(c, d)| (c.distance(a) < TOL && d.distance(b) < TOL) || (c.distance(b) < TOL && d.distance(a) < TOL)) {
+                edges.push((a, b));
+            }
+        }
+    }
+    assert_eq!(edges.len(), 30, "an icosahedron has 30 edges");
+    let edge = 4.0 / (10.0 + 2.0 * 5f32.sqrt()).sqrt(); // edge length for circumradius 1
+    for (a, b) in &edges {
+        assert!((a.distance(*b) - edge).abs() < TOL, "edge {a}–{b} has length {}, want {edge}", a.distance(*b));
+        assert!(verts.iter().any(|p| p.distance(*a) < TOL) && verts.iter().any(|p| p.distance(*b) < TOL));
+    }
+}
+
+/// An independent turtle: expands the L-system A → B−A−B, B → A+B+A and walks it.
+fn turtle_arrowhead(order: u32) -> Vec<Vec3> {
+    let mut s = String::from("A");
+    for _ in 0..order {
+        s = s.chars().map(|c| match c {
+            'A' => "B-A-B".to_string(),
+            'B' => "A+B+A".to_string(),
+            c => c.to_string(),
+        }).collect();
+    }
+    let (mut p, mut heading) = (glam::DVec3::ZERO, 0f64);
+    let mut pts = vec![Vec3::ZERO];
+    for c in s.chars() {
+        match c {
+            'A' | 'B' => {
+                p += glam::DVec3::new(heading.to_radians().cos(), heading.to_radians().sin(), 0.0);
+                pts.push(p.as_vec3());
+            }
+            '+' => heading += 60.0,
+            '-' => heading -= 60.0,
+            _ => {}
+        }
+    }
+    pts
+}
+
+#[test]
+fn depth_selection_and_continuation_reproduce_an_l_system() {
+    for order in [1u32, 3, 5] {
+        let src = format!(
+            "startshape A\nselector A, B depth\n\
+             rule A {r} {{ B {{}} \\ A {{rz -60}} \\ B {{rz -60}} }}\n\
+             rule A {n} {{ LINETO {{x 1}} }}\n\
+             rule B {r} {{ A {{}} \\ B {{rz 60}} \\ A {{rz 60}} }}\n\
+             rule B {n} {{ LINETO {{x 1}} }}\n",
+            r = order as i64 - 1,
+            n = order
+        );
+        let out = run_source(&src);
+        let want = turtle_arrowhead(order);
+        assert_eq!(out.lines.len(), 1, "one pen line");
+        let got: Vec<Vec3> = out.lines[0].points.iter().map(|p| v(*p)).collect();
+        assert_eq!(got.len(), want.len(), "order {order}: point count");
+        for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+            // Error accumulates along the curve: allow 1e-4 per segment walked.
+            assert!(g.distance(*w) < TOL * (1 + i) as f32, "order {order}, point {i}: {g} vs turtle {w}");
+        }
+    }
+}
+
+#[test]
+fn divisor_steps_make_the_stated_number_of_turns() {
+    // 2000/400 * [rz 360]: 2000 steps of 360/400 degrees = 5 turns.
+    let out = run_source("startshape A\nrule A { 2000/400 * [rz 360] LINETO {x 1} }\n");
+    let pts: Vec<Vec3> = out.lines[0].points.iter().map(|p| v(*p)).collect();
+    assert_eq!(pts.len(), 2001);
+    let mut turns = 0.0f64;
+    for w in pts[1..].windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let d = (b.y as f64).atan2(b.x as f64) - (a.y as f64).atan2(a.x as f64);
+        turns += (d + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+    }
+    turns /= std::f64::consts::TAU;
+    // Run i is under F·S^i: the first point is already rotated by one step.
+    assert!((turns - 1999.0 / 400.0).abs() < 1e-3, "turns = {turns}");
+    let first = pts[1];
+    let step = (360.0f32 / 400.0).to_radians();
+    assert!(first.distance(Vec3::new(step.cos(), step.sin(), 0.0)) < TOL, "iterator applies the step before the first run: {first}");
+    // Scale divides as an N-th root: 4/4 * {s 16} grows by 2 per run.
+    let out = run_source("startshape A\nrule A { 4/4 * {s 16} VERTEX {x 1} }\n");
+    let xs: Vec<f32> = out.mesh.positions.iter().map(|p| p[0]).collect();
+    for (i, x) in xs.iter().enumerate() {
+        assert!((x - 2f32.powi(i as i32 + 1)).abs() < 1e-3, "run {i}: x = {x}");
+    }
+}
+
+fn signed_volume(m: &mdg_vm::output::Mesh) -> f32 {
+    m.oriented_triangles()
+        .map(|t| {
+            let (a, b, c) = (v(m.positions[t[0] as usize]), v(m.positions[t[1] as usize]), v(m.positions[t[2] as usize]));
+            a.dot(b.cross(c)) / 6.0
+        })
+        .sum()
+}
+
+#[test]
+fn flips_mirror_and_exported_faces_stay_outward() {
+    let plain = run_source("@import primitives\nstartshape A\nrule A { cube {x 3} }\n");
+    let flipped = run_source("@import primitives\nstartshape A\nrule A { cube {fx x 3} }\n");
+    // fx maps (x, y, z) to (−x, y, z), applied before the translation: the cube lands at x = −3.
+    let c = |m: &mdg_vm::output::Mesh| m.positions.iter().map(|p| v(*p)).sum::<Vec3>() / m.positions.len() as f32;
+    assert!(c(&plain.mesh).distance(Vec3::new(3.0, 0.0, 0.0)) < TOL);
+    assert!(c(&flipped.mesh).distance(Vec3::new(-3.0, 0.0, 0.0)) < TOL);
+    assert!(flipped.mesh.mirrored.iter().all(|m| *m), "every triangle of the flipped cube is marked mirrored");
+    // With the exporters' winding correction both cubes enclose a positive volume of 1.
+    assert!((signed_volume(&plain.mesh) - 1.0).abs() < 1e-3, "plain volume {}", signed_volume(&plain.mesh));
+    assert!((signed_volume(&flipped.mesh) - 1.0).abs() < 1e-3, "flipped volume {}", signed_volume(&flipped.mesh));
+    // fx fx is the identity.
+    let twice = run_source("@import primitives\nstartshape A\nrule A { cube {fx fx x 3} }\n");
+    assert_eq!(twice.mesh.positions, plain.mesh.positions);
+    assert!(twice.mesh.mirrored.iter().all(|m| !*m));
+    // Exported face normals (recomputed from the oriented triangles) point away from the centre.
+    let m = &flipped.mesh;
+    let centre = c(m);
+    for t in m.oriented_triangles() {
+        let (a, b, cc) = (v(m.positions[t[0] as usize]), v(m.positions[t[1] as usize]), v(m.positions[t[2] as usize]));
+        let n = (b - a).cross(cc - a);
+        assert!(n.dot((a + b + cc) / 3.0 - centre) > 0.0, "inward face in the mirrored cube");
+    }
+}
+
+#[test]
+fn rotations_are_right_handed_and_adjustments_apply_in_written_order() {
+    let out = run_source("startshape A\nrule A { VERTEX {rx 90 z 1} VERTEX {z 1 rx 90} VERTEX {s 2 x 1} }\n");
+    let p: Vec<Vec3> = out.mesh.positions.iter().map(|p| v(*p)).collect();
+    assert!(p[0].distance(Vec3::new(0.0, -1.0, 0.0)) < TOL, "rx 90 sends +z to −y: {}", p[0]);
+    assert!(p[1].distance(Vec3::new(0.0, 0.0, 1.0)) < TOL, "{}", p[1]);
+    assert!(p[2].distance(Vec3::new(2.0, 0.0, 0.0)) < TOL, "s 2 then x 1 moves by 2: {}", p[2]);
+}
+
+#[test]
+fn unit_suffixes_and_angle_modes() {
+    let out = run_source(
+        "startshape A\nangle radians\nrule A { VERTEX {rz 90d x 1} VERTEX {rz 0.25o x 1} VERTEX {rz 1t x 1} VERTEX {rz 1.5707963 x 1} }\n",
+    );
+    let p: Vec<Vec3> = out.mesh.positions.iter().map(|p| v(*p)).collect();
+    assert!(p[0].distance(Vec3::Y) < TOL);
+    assert!(p[1].distance(Vec3::Y) < TOL);
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    assert!(p[2].distance(Vec3::new(h, h, 0.0)) < TOL, "1t is atan(1) = 45°: {}", p[2]);
+    assert!(p[3].distance(Vec3::Y) < TOL, "plain numbers read as radians");
+}
+
+#[test]
+fn continuation_in_iterators_chains_runs() {
+    // Without `\` every run starts from the iterator's frame; with it, from the last run's end.
+    let plain = run_source("startshape A\nrule A { 3 * {rz 90} LINETO {x 1} }\n");
+    let chained = run_source("startshape A\nrule A { 3 * {rz 90} LINETO {x 1} \\ VERTEX {} }\n");
+    let p = |o: &mdg_vm::output::Output| o.lines[0].points.iter().map(|p| v(*p)).collect::<Vec<_>>();
+    let a = p(&plain);
+    assert!(a[1].distance(Vec3::Y) < TOL && a[2].distance(-Vec3::X) < TOL && a[3].distance(-Vec3::Y) < TOL, "{a:?}");
+    let b = p(&chained);
+    // Run 1 at rz 90: (0,1); run 2 from there, rz 90 more then x 1: (−1,1); run 3: (−1,0).
+    assert!(b[1].distance(Vec3::Y) < TOL, "{b:?}");
+    assert!(b[2].distance(Vec3::new(-1.0, 1.0, 0.0)) < TOL, "{b:?}");
+    assert!(b[3].distance(Vec3::new(-1.0, 0.0, 0.0)) < TOL, "{b:?}");
+    // The item after the chained iterator continues from its last drawable.
+    assert!(v(chained.mesh.positions[0]).distance(Vec3::new(-1.0, 0.0, 0.0)) < TOL);
+}
+
+#[test]
+fn selectors_depth_scale_sequential_function() {
+    // Sequential: definitions used in order, each `weight` times, then wrap.
+    let out = run_source(
+        "startshape S\nselector A sequential\nrule S { 5 * {x 1} A {} }\nrule A 2 { VERTEX {y 1} }\nrule A 1 { VERTEX {y 2} }\n",
+    );
+    let ys: Vec<f32> = out.mesh.positions.iter().map(|p| p[1]).collect();
+    assert_eq!(ys, vec![1.0, 1.0, 2.0, 1.0, 1.0]);
+    // Scale: the largest weight ≤ the linear scale, else the smallest.
+    let out = run_source(
+        "startshape S\nselector A scale\nrule S { A {s 3} A {s 0.5} A {s 0.1} }\nrule A 1 { VERTEX {y 1} }\nrule A 0.4 { VERTEX {y 2} }\nrule A 2 { VERTEX {y 3} }\n",
+    );
+    let ys: Vec<f32> = out.mesh.positions.iter().map(|p| p[1]).collect();
+    // Scale 3 picks weight 2 (y 3 → 9); 0.5 picks 0.4 (y 2 → 1); 0.1 has none ≤ it, so the smallest, 0.4 (y 2 → 0.2).
+    for (y, want) in ys.iter().zip([9.0, 1.0, 0.2]) {
+        assert!((y - want).abs() < TOL, "{ys:?}");
+    }
+    // Function: the value selects like depth selection.
+    let out = run_source(
+        "startshape S\nselector A function { x }\nrule S { A {x 0.5} A {x 1.5} A {x 9} }\nrule A 1 { VERTEX {y 1} }\nrule A 2 { VERTEX {y 2} }\n",
+    );
+    let ys: Vec<f32> = out.mesh.positions.iter().map(|p| p[1]).collect();
+    assert_eq!(ys, vec![1.0, 2.0, 2.0]);
+}
+
+#[test]
+fn limits_end_runs_cleanly_and_keep_output() {
+    let grow = "startshape A\nrule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} A {z 1} A {x 1} }\n";
+    let b = build_source(grow);
+    let out = evaluate(&b, &EvalOptions { maxiter: Some(1000), ..EvalOptions::default() });
+    assert!(out.stats.warnings.iter().any(|w| w.contains("maxiter 1000")), "{:?}", out.stats.warnings);
+    assert!(out.mesh.n_vertices() >= 3 * 999, "output so far is kept");
+    let out = evaluate(&b, &EvalOptions { max_vertices: 3000, ..EvalOptions::default() });
+    assert!(out.stats.warnings.iter().any(|w| w.contains("vertex budget")), "{:?}", out.stats.warnings);
+    let out = evaluate(&b, &EvalOptions { time_budget: Some(std::time::Duration::from_millis(50)), maxiter: Some(u64::MAX), max_vertices: u64::MAX, ..EvalOptions::default() });
+    assert!(out.stats.warnings.iter().any(|w| w.contains("time budget")) || out.stats.warnings.iter().any(|w| w.contains("stack")), "{:?}", out.stats.warnings);
+    let out = run_source("startshape A\nmaxdepth 5\nrule A { VERTEX {} A {z 1} }\n");
+    assert_eq!(out.mesh.n_vertices(), 6);
+    assert!(out.stats.warnings.iter().any(|w| w.contains("maxdepth 5")));
+    let out = run_source("startshape A\nminsize 0.1\nrule A { VERTEX {} A {s 0.5} }\n");
+    assert_eq!(out.mesh.n_vertices(), 4, "scales 1, 0.5, 0.25, 0.125 pass; 0.0625 < 0.1 stops");
+    let out = run_source("startshape A\nstacksize 10\nrule A { VERTEX {} A {z 1} }\n");
+    assert_eq!(out.mesh.n_vertices(), 10);
+    // An iterator with 10^12 runs ends at maxiter.
+    let out = run_source("startshape A\nmaxiter 10000\nrule A { 1000000000000 * {x 1} FACENORMALS {} }\n");
+    assert!(out.stats.warnings.iter().any(|w| w.contains("maxiter")), "{:?}", out.stats.warnings);
+}
+
+#[test]
+fn runtime_warnings_name_the_mdg_line() {
+    let b = build_source("startshape A\nisosurface BIG { xyz -1 1 1000; function { x*x + y*y + z*z - 1 } }\nrule A {\n  BIG {}\n}\n");
+    let out = evaluate(&b, &EvalOptions { max_iso_cells: 1_000_000, ..EvalOptions::default() });
+    assert!(out.stats.warnings.iter().any(|w| w.contains("inline.mdg:4") && w.contains("BIG")), "{:?}", out.stats.warnings);
+}
+
+#[test]
+fn same_source_and_seed_give_identical_bytes() {
+    let src = "startshape T\nmaxdepth 8\nrule T { VERTEX {} VERTEX {x 1} VERTEX {y 1} T {z 1 ry rand(0, 90) s 0.8} }\nrule T 0.3 { T {rx randn(30, 5)} }\n";
+    let a = mdg_vm::bundle::encode(&build_source(src));
+    let b = mdg_vm::bundle::encode(&build_source(src));
+    assert_eq!(a, b, "bundles differ");
+    let bundle = mdg_vm::bundle::load(&a).expect("loads");
+    let glb = |seed| {
+        let out = evaluate(&bundle, &EvalOptions { seed: Some(seed), ..EvalOptions::default() });
+        let mut bytes = Vec::new();
+        mdg_vm::export::write(mdg_vm::export::Format::Glb, &out, &mut bytes).expect("export");
+        bytes
+    };
+    assert_eq!(glb(7), glb(7), "same seed, different meshes");
+    assert_ne!(glb(7), glb(8), "different seeds should differ for a random grammar");
+}
+
+#[test]
+fn mutated_bundles_are_rejected_or_run_safely() {
+    let mut rng = mdg_tests::Rng(0xB0B);
+    let sources = [
+        "@import polyhedra\nstartshape I\nrule I { icosahedron {} 3 * {x 2} octahedron {s 0.5} }\n",
+        "startshape T\nmaxdepth 6\nselector T depth\nrule T 3 { T {x 1 ry rand(0, 9)} \\ T {s 0.5} }\nrule T 6 { LINETO {z 1} }\n",
+    ];
+    let limits = EvalOptions { maxiter: Some(5_000), max_vertices: 50_000, max_iso_cells: 50_000, ..EvalOptions::default() };
+    let (mut rejected, mut ran) = (0, 0);
+    for src in sources {
+        let good = mdg_vm::bundle::encode(&build_source(src));
+        for round in 0..1500 {
+            let mut bytes = good.clone();
+            match round % 3 {
+                0 => {
+                    // Random flips, check value untouched: must be rejected.
+                    for _ in 0..1 + rng.below(4) {
+                        let i = rng.below(bytes.len());
+                        bytes[i] ^= 1 << rng.below(8);
+                    }
+                }
+                1 => bytes.truncate(rng.below(bytes.len())),
+                _ => {
+                    // Flips in the payload with the check value recomputed: exercises the decoder and verifier.
+                    for _ in 0..1 + rng.below(4) {
+                        let i = 24 + rng.below(bytes.len() - 24);
+                        bytes[i] = rng.next() as u8;
+                    }
+                    let check = mdg_vm::bundle::fnv1a(&bytes[24..]);
+                    bytes[8..16].copy_from_slice(&check.to_le_bytes());
+                }
+            }
+            match mdg_vm::bundle::load(&bytes) {
+                Err(_) => rejected += 1,
+                Ok(b) => {
+                    let _ = evaluate(&b, &limits);
+                    ran += 1;
+                }
+            }
+        }
+    }
+    assert!(rejected > 1500, "most mutations must be rejected ({rejected} rejected, {ran} ran)");
+}
+
+#[test]
+fn json_dump_has_the_documented_keys() {
+    let out = run_source("@import primitives\nstartshape A\nrule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} MOVETO {} LINETO {z 2} SPHERE {x 5 s 0.5} }\n");
+    let mut bytes = Vec::new();
+    mdg_vm::export::write(mdg_vm::export::Format::Json, &out, &mut bytes).expect("json");
+    let j: serde_json::Value = serde_json::from_slice(&bytes).expect("valid JSON");
+    assert_eq!(j["vertices"].as_array().map(|a| a.len()), Some(3));
+    assert_eq!(j["triangles"][0], serde_json::json!([0, 1, 2]));
+    assert_eq!(j["lines"][0]["points"], serde_json::json!([[0.0, 0.0, 0.0], [0.0, 0.0, 2.0]]));
+    assert_eq!(j["instances"][0]["name"], "SPHERE");
+    assert_eq!(j["instances"][0]["position"], serde_json::json!([5.0, 0.0, 0.0]));
+    assert!((j["instances"][0]["scale"].as_f64().unwrap_or(0.0) - 0.5).abs() < 1e-6);
+    assert!(j["stats"]["rule_calls"].as_u64().is_some());
+}
