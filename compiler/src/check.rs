@@ -470,10 +470,20 @@ impl<'a> Checker<'a> {
             }
             Count::Neg(n) => -n.value,
             Count::Expr(e) => {
-                self.expr(e, false, false);
+                // Run-time variables are known names here, just not constants.
+                let before = self.diags.len();
+                self.expr(e, true, false);
                 match self.const_value(e) {
                     Some(v) => v,
-                    None => return,
+                    None => {
+                        if self.diags.len() == before {
+                            self.diags.push(
+                                Diagnostic::error("E0408", e.span, "an iteration count must be a compile-time constant")
+                                    .with_note("counts may use numbers, @param and @define names, not x, y, z, depth, scale or g"),
+                            );
+                        }
+                        return;
+                    }
                 }
             }
         };

@@ -168,7 +168,8 @@ pub enum Tok {
     Shader,
     #[token("@endshader")]
     AtEndshader,
-    #[regex(r"@[A-Za-z_][A-Za-z0-9_]*", priority = 1)]
+    /// An unknown `@word`: the rest of its line is taken with it, so one typo is one error.
+    #[regex(r"@[A-Za-z_][A-Za-z0-9_]*", |lex| rest_of_line(lex), priority = 1)]
     AtUnknown,
 
     /// A whole `@macro … @endmacro` definition (made by the pre-pass).

@@ -189,12 +189,15 @@ impl<'c> Ctx<'c> {
 
     /// An unknown `@word`.
     pub fn unknown_directive<T>(&self, l: Loc, r: Loc) -> Pre<T> {
-        let text = self.text(l, r);
+        let full = self.text(l, r);
+        let text = full.split_whitespace().next().unwrap_or(full);
+        let span = span_of(l, r);
+        let span = Span::new(span.file, span.start, span.start + text.len() as u32);
         let known = ["@import", "@define", "@ifdef", "@else", "@endif", "@macro", "@endmacro", "@expand", "@presets",
             "@param", "@vertexshader", "@fragmentshader", "@endshader"];
-        let mut d = Diagnostic::error("E0210", span_of(l, r), format!("unknown preprocessor directive `{text}`"));
+        let mut d = Diagnostic::error("E0210", span, format!("unknown preprocessor directive `{text}`"));
         if let Some(s) = crate::diag::did_you_mean(text, known) {
-            d = d.with_suggestion(format!("did you mean `{s}`?"), span_of(l, r), s);
+            d = d.with_suggestion(format!("did you mean `{s}`?"), span, s);
         }
         self.diags.borrow_mut().push(d);
         Pre::Bad
@@ -206,6 +209,7 @@ impl<'c> Ctx<'c> {
 fn prepass(tokens: Vec<Token>, sources: &Sources, ctx: &Ctx) -> Vec<Token> {
     let mut out = Vec::with_capacity(tokens.len());
     let mut i = 0;
+    let mut open_ifdefs: Vec<Token> = Vec::new();
     let text = |t: &Token| sources.text(t.span);
     while i < tokens.len() {
         let t = tokens[i];
@@ -317,6 +321,23 @@ fn prepass(tokens: Vec<Token>, sources: &Sources, ctx: &Ctx) -> Vec<Token> {
                 out.push(Token { kind: Tok::Expand, span });
                 i = j;
             }
+            Tok::AtIfdef => {
+                open_ifdefs.push(t);
+                out.push(t);
+                i += 1;
+            }
+            Tok::AtElse | Tok::AtEndif if open_ifdefs.is_empty() => {
+                ctx.diags.borrow_mut().push(
+                    Diagnostic::error("E0207", t.span, format!("`{}` without a matching `@ifdef`", text(&t)))
+                        .with_label("no `@ifdef` is open here"),
+                );
+                i += 1;
+            }
+            Tok::AtEndif => {
+                open_ifdefs.pop();
+                out.push(t);
+                i += 1;
+            }
             Tok::AtEndmacro | Tok::AtEndshader => {
                 ctx.diags.borrow_mut().push(Diagnostic::error(
                     "E0207",
@@ -330,6 +351,14 @@ fn prepass(tokens: Vec<Token>, sources: &Sources, ctx: &Ctx) -> Vec<Token> {
                 i += 1;
             }
         }
+    }
+    // An `@ifdef` never closed: report it and close it at the end so the rest parses.
+    for open in open_ifdefs.iter().rev() {
+        ctx.diags.borrow_mut().push(
+            Diagnostic::error("E0206", open.span, "`@ifdef` has no `@endif`").with_label("this conditional is never closed"),
+        );
+        let end = out.last().map(|t| t.span.end).unwrap_or(open.span.end);
+        out.push(Token { kind: Tok::AtEndif, span: Span::new(open.span.file, end, end) });
     }
     out
 }
