@@ -16,7 +16,7 @@ use crate::expr::{self, ExprOp, Random};
 use crate::geom::quat::Frame;
 use crate::geom::{blend, marching, sweep};
 use crate::output::{Instance, Output, Polyline};
-use glam::{Quat, Vec3};
+use glam::{Mat3, Quat, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use std::collections::HashMap;
@@ -30,9 +30,9 @@ pub const DEFAULT_STACKSIZE: u32 = 100_000;
 pub const DEFAULT_MAX_VERTICES: u64 = 50_000_000;
 /// Default largest isosurface grid, in cells.
 pub const DEFAULT_MAX_ISO_CELLS: u64 = 16_000_000;
-/// The colour state at the start of a run (R, G, B, A): light grey, alpha offset 0
-/// (the thesis shader shows alpha as 1 + A).
-pub const START_COLOR: [f32; 4] = [0.7, 0.7, 0.7, 0.0];
+/// The colour state at the start of a run (R, G, B, A): white, opaque. Colour
+/// adjustments add to it (`{G -1 B -1}` gives red); see docs/reference.md.
+pub const START_COLOR: [f32; 4] = [1.0, 1.0, 1.0, 1.0];
 /// Segments per BLENDTO.
 pub const BLEND_SEGMENTS: usize = 8;
 
@@ -81,10 +81,9 @@ impl State {
         State { f: self.f.compose(&child), color: add(self.color, c.color), weight: add(self.weight, c.weight), fps: self.fps + c.fps }
     }
 
-    /// The colour as shown: RGB clamped, alpha 1 + A clamped.
+    /// The colour as shown: every component clamped to 0..1.
     fn display_color(&self) -> [f32; 4] {
-        let c = self.color;
-        [c[0].clamp(0.0, 1.0), c[1].clamp(0.0, 1.0), c[2].clamp(0.0, 1.0), (1.0 + c[3]).clamp(0.0, 1.0)]
+        self.color.map(|c| c.clamp(0.0, 1.0))
     }
 }
 
@@ -101,9 +100,25 @@ impl Random for Pcg {
     }
 }
 
+/// Data derived once per constant transform, for the `VERTEX` fast path.
+struct XfInfo {
+    frame: Frame,
+    /// The transform's linear part applied to the `normal` directive's vector.
+    normal: Vec3,
+    mirrored: bool,
+}
+
+/// The linear map of a frame as a matrix, and whether it mirrors.
+fn linear(f: &Frame) -> (Mat3, bool) {
+    let [a, b, c] = f.axes();
+    (Mat3::from_cols(a, b, c), a.dot(b.cross(c)) < 0.0)
+}
+
 struct Act {
     pc: u32,
     base: State,
+    /// `linear(base.f)`, computed when first needed and dropped when `base` changes.
+    base_lin: Option<(Mat3, bool)>,
     depth: u32,
     cont: Option<State>,
     loops_at: u32,
@@ -159,6 +174,10 @@ struct Eval<'b> {
     expr_stack: Vec<f64>,
     profile_points: Vec<Vec3>,
     progress: Option<&'b dyn Fn(u64)>,
+    xf_info: Vec<Option<XfInfo>>,
+    /// Whether any op reads the continuation register (CONT, chained loops, RESET);
+    /// if not, the VERTEX fast path need not compute the full frame for it.
+    needs_last: bool,
 }
 
 /// Evaluates a verified bundle from its start shape.
@@ -190,14 +209,26 @@ pub fn evaluate_with_progress(b: &Bundle, opts: &EvalOptions, progress: Option<&
         expr_stack: Vec::with_capacity(16),
         profile_points: Vec::new(),
         progress,
+        needs_last: b.code.iter().any(|op| matches!(op, Op::Cont {} | Op::Loop { chain: 1, .. } | Op::Draw { kind: 9, .. })),
+        xf_info: b
+            .transforms
+            .iter()
+            .map(|t| match t {
+                Transform::Const(c) => {
+                    let frame = Frame { q: Quat::from_array(c.q), qh: Quat::from_array(c.qh), u: Vec3::from_array(c.u) };
+                    let (lin, mirrored) = linear(&frame);
+                    Some(XfInfo { frame, normal: lin * Vec3::from_array(s.normal), mirrored })
+                }
+                Transform::Dynamic { .. } => None,
+            })
+            .collect(),
     };
     e.run(s.startshape, start, Mode::Model);
     e.finish()
 }
 
 impl<'b> Eval<'b> {
-    fn transform(&mut self, xf: u32, divisor_pow: u32) -> Composite {
-        let _ = divisor_pow;
+    fn transform(&mut self, xf: u32) -> Composite {
         match &self.b.transforms[xf as usize] {
             Transform::Const(c) => *c,
             Transform::Dynamic { adjs, divisor } => {
@@ -310,7 +341,7 @@ impl<'b> Eval<'b> {
     /// Runs `rule` from `start` until its whole derivation is done.
     fn run(&mut self, rule: u32, start: State, mode: Mode) {
         let pc = self.select(rule, &start, 0);
-        let mut stack: Vec<Act> = vec![Act { pc, base: start, depth: 0, cont: None, loops_at: 0 }];
+        let mut stack: Vec<Act> = vec![Act { pc, base: start, base_lin: None, depth: 0, cont: None, loops_at: 0 }];
         let mut loops: Vec<LoopRec> = Vec::new();
         let code = &self.b.code;
         while let Some(act) = stack.last_mut() {
@@ -323,7 +354,7 @@ impl<'b> Eval<'b> {
                     act.pc += 1;
                     let from = act.cont.take().unwrap_or(act.base);
                     let depth = act.depth + 1;
-                    let c = self.transform(xf, 1);
+                    let c = self.transform(xf);
                     let child = from.compose(&c);
                     if flags & CONT_NEXT != 0 {
                         self.last = child;
@@ -333,12 +364,38 @@ impl<'b> Eval<'b> {
                     }
                     let pc = self.select(rule, &child, depth);
                     let loops_at = loops.len() as u32;
-                    stack.push(Act { pc, base: child, depth, cont: None, loops_at });
+                    stack.push(Act { pc, base: child, base_lin: None, depth, cont: None, loops_at });
+                }
+                Op::Draw { kind: 0, xf, flags: _, .. } if mode == Mode::Model && self.xf_info[xf as usize].is_some() => {
+                    // VERTEX with a constant transform: position, normal and mirroring
+                    // from the cached linear maps, without composing quaternions.
+                    act.pc += 1;
+                    let (from, lin) = match act.cont.take() {
+                        Some(c) => (c, linear(&c.f)),
+                        None => (act.base, *act.base_lin.get_or_insert_with(|| linear(&act.base.f))),
+                    };
+                    let Some(x) = &self.xf_info[xf as usize] else { continue };
+                    let p = from.f.u + lin.0 * x.frame.u;
+                    let n = (lin.0 * x.normal).normalize_or(Vec3::Z);
+                    let c = &self.b.transforms[xf as usize];
+                    let Transform::Const(c) = c else { continue };
+                    let add = |a: [f32; 4], b: [f32; 4]| [a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]];
+                    let color = add(from.color, c.color).map(|v| v.clamp(0.0, 1.0));
+                    let weight = add(from.weight, c.weight);
+                    let mirrored = lin.1 != x.mirrored;
+                    let m = &mut self.out.mesh;
+                    let k = m.push_vertex(p, n, color, weight, 0) + 1;
+                    if k % 3 == 0 {
+                        m.push_triangle([k - 3, k - 2, k - 1], mirrored);
+                    }
+                    if self.needs_last {
+                        self.last = State { f: from.f.compose(&x.frame), color: add(from.color, c.color), weight, fps: from.fps + c.fps };
+                    }
                 }
                 Op::Draw { kind, xf, ns, profile, flags: _ } => {
                     act.pc += 1;
                     let from = act.cont.take().unwrap_or(act.base);
-                    let c = self.transform(xf, 1);
+                    let c = self.transform(xf);
                     let s = from.compose(&c);
                     self.last = s;
                     self.draw(kind, s, ns, profile, mode);
@@ -346,7 +403,7 @@ impl<'b> Eval<'b> {
                 Op::Iso { iso, xf, flags: _ } => {
                     act.pc += 1;
                     let from = act.cont.take().unwrap_or(act.base);
-                    let c = self.transform(xf, 1);
+                    let c = self.transform(xf);
                     let s = from.compose(&c);
                     self.last = s;
                     if mode == Mode::Model {
@@ -359,9 +416,10 @@ impl<'b> Eval<'b> {
                         act.pc = end + 1;
                         continue;
                     }
-                    let c = self.transform(step, 1);
+                    let c = self.transform(step);
                     loops.push(LoopRec { remaining: count, step, saved_base: act.base, chain: chain != 0 });
                     act.base = from.compose(&c);
+                    act.base_lin = None;
                     act.pc += 1;
                 }
                 Op::EndLoop { begin: _ } => {
@@ -376,8 +434,9 @@ impl<'b> Eval<'b> {
                     if l.remaining > 0 {
                         let from = if l.chain { self.last } else { act.base };
                         let step = l.step;
-                        let c = self.transform(step, 1);
+                        let c = self.transform(step);
                         act.base = from.compose(&c);
+                        act.base_lin = None;
                         // Back to the op after LOOP.
                         if let Op::EndLoop { begin } = op {
                             act.pc = begin + 1;
@@ -393,6 +452,7 @@ impl<'b> Eval<'b> {
                         }
                     } else {
                         act.base = l.saved_base;
+                        act.base_lin = None;
                         loops.pop();
                         act.pc += 1;
                     }

@@ -31,8 +31,10 @@ impl Default for PreviewOptions {
 pub fn render(out: &Output, opts: &PreviewOptions) -> Vec<u8> {
     let ss = 2u32;
     let (w, h) = (opts.width * ss, opts.height * ss);
-    let mesh = out.flattened();
-    let mut pts: Vec<Vec3> = mesh.positions.iter().map(|p| Vec3::from_array(*p)).collect();
+    // World-space triangles are produced on the fly (instances are not flattened into
+    // one mesh, which for thousands of isosurface instances would cost gigabytes).
+    let mut pts: Vec<Vec3> = Vec::new();
+    for_each_triangle(out, &mut |t| pts.extend_from_slice(&[t.p[0], t.p[1], t.p[2]]));
     pts.extend(out.lines.iter().flat_map(|l| l.points.iter().map(|p| Vec3::from_array(*p))));
     let (lo, hi) = pts.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
     let (center, radius) = if pts.is_empty() { (Vec3::ZERO, 1.0) } else { ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-4)) };
@@ -61,16 +63,12 @@ pub fn render(out: &Output, opts: &PreviewOptions) -> Vec<u8> {
         Some(Vec3::new((n.x * 0.5 + 0.5) * w as f32, (1.0 - (n.y * 0.5 + 0.5)) * h as f32, n.z))
     };
     let light = (dir + Vec3::new(0.3, -0.2, 0.6)).normalize();
-    for t in mesh.oriented_triangles() {
-        let idx = [t[0] as usize, t[1] as usize, t[2] as usize];
-        if idx.iter().any(|i| *i >= pts.len()) {
-            continue;
-        }
-        let p = idx.map(|i| pts[i]);
-        let Some(s) = p.iter().map(|x| to_screen(*x)).collect::<Option<Vec<_>>>() else { continue };
+    let mut raster = |t: Tri| {
+        let p = t.p;
+        let Some(s) = p.iter().map(|x| to_screen(*x)).collect::<Option<Vec<_>>>() else { return };
         let face_n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
         let shade = |i: usize| -> [f32; 3] {
-            let mut n = Vec3::from_array(mesh.normals[idx[i]]);
+            let mut n = t.n[i];
             if n.dot(face_n) < 0.0 {
                 n = -n;
             }
@@ -78,7 +76,7 @@ pub fn render(out: &Output, opts: &PreviewOptions) -> Vec<u8> {
                 n = -n;
             }
             let lam = n.dot(light).max(0.0);
-            let c = mesh.colors[idx[i]];
+            let c = t.c[i];
             let k = 0.25 + 0.75 * lam;
             [c[0] * k, c[1] * k, c[2] * k]
         };
@@ -89,7 +87,7 @@ pub fn render(out: &Output, opts: &PreviewOptions) -> Vec<u8> {
         let max_y = s.iter().map(|v| v.y).fold(f32::MIN, f32::max).ceil().min(h as f32 - 1.0) as i64;
         let area = (s[1].x - s[0].x) * (s[2].y - s[0].y) - (s[2].x - s[0].x) * (s[1].y - s[0].y);
         if area.abs() < 1e-12 {
-            continue;
+            return;
         }
         for y in min_y..=max_y {
             for x in min_x..=max_x {
@@ -107,7 +105,8 @@ pub fn render(out: &Output, opts: &PreviewOptions) -> Vec<u8> {
                 }
             }
         }
-    }
+    };
+    for_each_triangle(out, &mut raster);
     // Pen lines, when nothing was swept along them.
     if out.sweeps.triangles.is_empty() {
         let ink = if bg[0] + bg[1] + bg[2] > 1.5 { [0.1, 0.1, 0.1] } else { [0.9, 0.9, 0.9] };
@@ -149,6 +148,48 @@ pub fn render(out: &Output, opts: &PreviewOptions) -> Vec<u8> {
         }
     }
     rgba
+}
+
+/// One world-space triangle with per-corner normals and colours, winding corrected.
+struct Tri {
+    p: [Vec3; 3],
+    n: [Vec3; 3],
+    c: [[f32; 4]; 3],
+}
+
+/// Calls `f` for every triangle of the output: VERTEX mesh, sweeps, then each
+/// instance's shared mesh transformed into place.
+fn for_each_triangle(out: &Output, f: &mut dyn FnMut(Tri)) {
+    for m in [&out.mesh, &out.sweeps] {
+        for t in m.oriented_triangles() {
+            let i = t.map(|i| i as usize);
+            if i.iter().any(|&k| k >= m.positions.len() || k >= m.normals.len() || k >= m.colors.len()) {
+                continue;
+            }
+            f(Tri {
+                p: i.map(|k| Vec3::from_array(m.positions[k])),
+                n: i.map(|k| Vec3::from_array(m.normals[k])),
+                c: i.map(|k| m.colors[k]),
+            });
+        }
+    }
+    for inst in &out.instances {
+        let Some((_, m)) = out.shared_meshes.get(inst.mesh as usize) else { continue };
+        let normal_mat = inst.transform.inverse().transpose();
+        for (k, t) in m.triangles.iter().enumerate() {
+            let i = t.map(|i| i as usize);
+            if i.iter().any(|&j| j >= m.positions.len() || j >= m.normals.len()) {
+                continue;
+            }
+            let mirrored = m.mirrored.get(k).copied().unwrap_or(false) != inst.mirrored;
+            let order = if mirrored { [i[0], i[2], i[1]] } else { i };
+            f(Tri {
+                p: order.map(|j| inst.transform.transform_point3(Vec3::from_array(m.positions[j]))),
+                n: order.map(|j| normal_mat.transform_vector3(Vec3::from_array(m.normals[j])).normalize_or_zero()),
+                c: [inst.color; 3],
+            });
+        }
+    }
 }
 
 /// Encodes RGBA8 pixels as PNG bytes.

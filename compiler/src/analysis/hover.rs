@@ -1,0 +1,409 @@
+//! Hover: Markdown for the word under the cursor — the docs of a built-in word, a
+//! rule's definitions with weights and selector, an iterator's per-step transform,
+//! the value of a number with a unit.
+
+use super::docs::{self, DocKind};
+use super::index::{IterInfo, Occ, Symbol};
+use super::iterator::{self, angle_degrees, fmt_num, AngleUnit, StepContext};
+use super::{location_text, Document};
+use crate::ast::*;
+use crate::check::AdjKind;
+use crate::span::Span;
+
+/// A hover: the span it describes and Markdown text.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Hover {
+    pub span: Span,
+    pub markdown: String,
+}
+
+impl Document {
+    /// The hover at `offset` in the document, if there is anything to say.
+    pub fn hover(&self, offset: u32) -> Option<Hover> {
+        let o = self.index().at(offset)?;
+        let doc = |kind: DocKind, name: &str| docs::lookup(kind, name).map(|d| d.markdown());
+        let markdown = match &o.occ {
+            Occ::Def(sym) | Occ::Ref(sym) => self.symbol_hover(sym),
+            Occ::UnknownRule(n) => Some(format!("unknown rule `{n}`")),
+            Occ::Import(file) => file.map(|f| self.import_hover(f)),
+            Occ::Drawable(n) => doc(DocKind::Drawable, n),
+            Occ::Adjustment(n) => {
+                let comps = &self.analysis.checked.symbols.components;
+                let canonical = match comps.adj_kind(n) {
+                    Some(AdjKind::Color(i)) => ["R", "G", "B", "A"][i as usize],
+                    Some(AdjKind::Weight(i)) => ["u", "v", "w", "q"][i as usize],
+                    _ => n.as_str(),
+                };
+                doc(DocKind::Adjustment, canonical)
+            }
+            Occ::Directive(n) => doc(DocKind::Directive, n),
+            Occ::SelectorMode(n) => doc(DocKind::SelectorMode, n),
+            Occ::AngleMode(n) => doc(DocKind::AngleMode, n),
+            Occ::Preprocessor(n) => doc(DocKind::Preprocessor, n),
+            Occ::IsoEntry(n) => doc(DocKind::IsoEntry, n),
+            Occ::ProgramCommand(n) => doc(DocKind::ProgramCommand, n),
+            Occ::MathFunction(n) => doc(DocKind::Function, n),
+            Occ::Variable(n) => doc(DocKind::Variable, n),
+            Occ::Define(n) => Some(self.define_hover(n)),
+            Occ::Iterator(info) => Some(self.iterator_hover(info, o.span)),
+            Occ::Number { value, unit } => Some(number_hover(self.span_text(o.span), *value, *unit)),
+        }?;
+        Some(Hover { span: o.span, markdown })
+    }
+
+    fn symbol_hover(&self, sym: &Symbol) -> Option<String> {
+        match sym {
+            Symbol::Rule(full) => self.rule_hover(full),
+            Symbol::Namespace(n) => {
+                let rules: Vec<&str> = self
+                    .analysis
+                    .checked
+                    .symbols
+                    .rules
+                    .keys()
+                    .filter(|k| k.rsplit_once('.').is_some_and(|(ns, _)| ns == n))
+                    .map(|k| k.as_str())
+                    .collect();
+                let shown: Vec<String> = rules.iter().take(12).map(|r| format!("`{r}`")).collect();
+                let more = if rules.len() > 12 { ", …" } else { "" };
+                Some(format!("**namespace `{n}`** — {} rule(s): {}{more}", rules.len(), shown.join(", ")))
+            }
+            Symbol::Function(f) => {
+                let def = self.index().definitions(sym).next()?;
+                let body = self.analysis.expanded.items.iter().find_map(|e| match &e.item.kind {
+                    ItemKind::Function { name, body } if name.span == def => Some(crate::fmt::expr(body)),
+                    _ => None,
+                })?;
+                Some(format!("```mdg\nfunction {f} {{ {body} }}\n```\n{}", location_text(self, def)))
+            }
+            Symbol::Isosurface(n) => {
+                let def = self.index().definitions(sym).next()?;
+                let entries = self.analysis.expanded.items.iter().find_map(|e| match &e.item.kind {
+                    ItemKind::Isosurface { name, entries } if name.span == def => Some(entries),
+                    _ => None,
+                })?;
+                let parts: Vec<String> = entries
+                    .iter()
+                    .map(|e| match e {
+                        IsoEntry::Axis { span, .. } => self.span_text(*span).split_whitespace().collect::<Vec<_>>().join(" "),
+                        IsoEntry::FunctionRef(f) => format!("function {}", f.text),
+                        IsoEntry::FunctionBody(b) => format!("function {{ {} }}", crate::fmt::expr(b)),
+                    })
+                    .collect();
+                Some(format!(
+                    "```mdg\nisosurface {n} {{ {} }}\n```\nAn isosurface drawable: `{n} {{…}}` instances it. {}",
+                    parts.join(" ; "),
+                    location_text(self, def)
+                ))
+            }
+            Symbol::Macro(m) => {
+                let def = self.index().definitions(sym).next();
+                match def {
+                    Some(d) => Some(format!("```mdg\n{}\n```\nmacro, {}", self.line_of(d).trim(), location_text(self, d))),
+                    None => Some(format!("macro `{m}` (not defined)")),
+                }
+            }
+            Symbol::Shader { vertex, name } => {
+                let def = self.index().definitions(sym).next();
+                let kind = if *vertex { "vertex" } else { "fragment" };
+                Some(match def {
+                    Some(d) => format!("**{kind} shader `{name}`** (GLSL), {}", location_text(self, d)),
+                    None => format!("{kind} shader `{name}` (not defined)"),
+                })
+            }
+        }
+    }
+
+    /// The text of the line containing the start of `span`.
+    fn line_of(&self, span: Span) -> &str {
+        let text = self.file_text(span.file);
+        let start = (span.start as usize).min(text.len());
+        let begin = text[..start].rfind('\n').map(|i| i + 1).unwrap_or(0);
+        let end = text[start..].find('\n').map(|i| start + i).unwrap_or(text.len());
+        &text[begin..end]
+    }
+
+    fn rule_hover(&self, full: &str) -> Option<String> {
+        let sym = &self.analysis.checked.symbols;
+        let defs = sym.rules.get(full)?;
+        let mode = sym.selectors.get(full).map(|(m, _)| match m {
+            SelectorMode::Word(w) => w.text.clone(),
+            SelectorMode::FunctionRef(f) => format!("function {}", f.text),
+            SelectorMode::FunctionBody(e) => format!("function {{ {} }}", crate::fmt::expr(e)),
+        });
+        let mode_word = mode.clone().unwrap_or_else(|| "random".to_string());
+        let weight = |item: usize| -> f64 {
+            match &self.analysis.expanded.items.get(item).map(|e| &e.item.kind) {
+                Some(ItemKind::Rule(Rule { weight: Some(w), .. })) => {
+                    if w.negative {
+                        -w.number.value
+                    } else {
+                        w.number.value
+                    }
+                }
+                _ => 1.0,
+            }
+        };
+        let total: f64 = defs.iter().map(|d| weight(d.item).max(0.0)).sum();
+        let mut out = String::new();
+        let n = defs.len();
+        if n == 1 {
+            out.push_str(&format!("**rule `{full}`** — one definition, {}", location_text(self, defs[0].name_span)));
+        } else {
+            out.push_str(&format!("**rule `{full}`** — {n} definitions, selector `{mode_word}`"));
+            if mode.is_none() {
+                out.push_str(" (default)");
+            }
+        }
+        out.push_str("\n\n```mdg\n");
+        for d in defs {
+            out.push_str(&self.rule_header(d.item));
+            out.push('\n');
+        }
+        out.push_str("```\n");
+        if n > 1 {
+            for d in defs {
+                let w = weight(d.item);
+                let meaning = match mode_word.as_str() {
+                    "random" | "frequency" if total > 0.0 => format!("weight {} ({}%)", fmt_num(w), fmt_num(100.0 * w.max(0.0) / total)),
+                    "depth" => format!("used up to depth {}", fmt_num(w)),
+                    "scale" => format!("used from scale {}", fmt_num(w)),
+                    "sequential" => format!("used {} time(s) in turn", fmt_num(w)),
+                    "pattern" => "used once in turn".to_string(),
+                    m if m.starts_with("function") => format!("used while the function is ≤ {}", fmt_num(w)),
+                    _ => format!("weight {}", fmt_num(w)),
+                };
+                out.push_str(&format!("- {meaning} — {}\n", location_text(self, d.name_span)));
+            }
+        }
+        if let Some(first) = defs.first() {
+            let comment = self.doc_comment(first.item);
+            if !comment.is_empty() {
+                out.push('\n');
+                out.push_str(&comment);
+                out.push('\n');
+            }
+        }
+        Some(out.trim_end().to_string())
+    }
+
+    /// `rule NAME [* I] [: X] [W]` as written, on one line.
+    fn rule_header(&self, item: usize) -> String {
+        let Some(e) = self.analysis.expanded.items.get(item) else { return String::new() };
+        let ItemKind::Rule(r) = &e.item.kind else { return String::new() };
+        let head = if e.item.span.file == r.body_span.file && e.item.span.start <= r.body_span.start {
+            self.span_text(Span::new(r.body_span.file, e.item.span.start, r.body_span.start)).to_string()
+        } else {
+            String::new()
+        };
+        let head = head.split_whitespace().collect::<Vec<_>>().join(" ");
+        // A rule from a macro expansion is written with the macro's parameter names.
+        if head.starts_with("rule") && head.contains(&r.name.text) {
+            head
+        } else {
+            let mut h = format!("rule {}", r.name.text);
+            if let Some(w) = &r.weight {
+                h.push(' ');
+                if w.negative {
+                    h.push('-');
+                }
+                h.push_str(&w.number.text);
+            }
+            h
+        }
+    }
+
+    /// The `//` comment lines directly above an item.
+    fn doc_comment(&self, item: usize) -> String {
+        let Some(e) = self.analysis.expanded.items.get(item) else { return String::new() };
+        let text = self.file_text(e.item.span.file);
+        let start = (e.item.span.start as usize).min(text.len());
+        let before = &text[..start];
+        // The item must start its line.
+        let line_start = before.rfind('\n').map(|i| i + 1).unwrap_or(0);
+        if !before[line_start..].trim().is_empty() {
+            return String::new();
+        }
+        let mut lines: Vec<&str> = Vec::new();
+        for line in before[..line_start].lines().rev() {
+            let t = line.trim();
+            match t.strip_prefix("//") {
+                Some(c) => lines.push(c.strip_prefix(' ').unwrap_or(c)),
+                None => break,
+            }
+        }
+        lines.reverse();
+        lines.join("\n")
+    }
+
+    fn import_hover(&self, file: crate::span::FileId) -> String {
+        let f = self.analysis.sources.file(file);
+        let header: Vec<&str> = f
+            .text
+            .lines()
+            .take_while(|l| l.trim_start().starts_with("//"))
+            .map(|l| {
+                let c = l.trim_start().trim_start_matches("//");
+                c.strip_prefix(' ').unwrap_or(c)
+            })
+            .collect();
+        let n_rules = self.analysis.checked.symbols.rules.values().filter(|d| d.first().is_some_and(|d| d.name_span.file == file)).count();
+        let mut out = format!("**{}** — {} rule(s)\n\n`{}`", f.name, n_rules, f.path.display());
+        if !header.is_empty() {
+            out.push_str("\n\n");
+            out.push_str(&header.join("\n"));
+        }
+        out
+    }
+
+    fn define_hover(&self, name: &str) -> String {
+        let ex = &self.analysis.expanded;
+        if let Some(p) = ex.params.iter().find(|p| p.name.text == name) {
+            let range = match (p.min, p.max) {
+                (Some(lo), Some(hi)) => format!(", range {}–{}", fmt_num(lo), fmt_num(hi)),
+                _ => String::new(),
+            };
+            return format!("**@param {} `{name}`** = {} (default {}{range})", p.ty, fmt_num(p.value), fmt_num(p.default));
+        }
+        match ex.defines.get(name) {
+            Some(Some(v)) => format!("**@define `{name}`** = {}", fmt_num(*v)),
+            Some(None) => format!("**@define `{name}`** (defined)"),
+            None => format!("`{name}` is not defined"),
+        }
+    }
+
+    fn iterator_hover(&self, info: &IterInfo, span: Span) -> String {
+        let header = self.span_text(span).split_whitespace().collect::<Vec<_>>().join(" ");
+        let step = self.step(info);
+        let runs = match step.count {
+            Some(c) => format!("{} step(s)", fmt_num(c)),
+            None => "steps".to_string(),
+        };
+        if step.transform.is_empty() {
+            format!("`{header}` → {runs} in place")
+        } else {
+            format!("`{header}` → {runs} of `{}`", step.transform)
+        }
+    }
+
+    /// The per-step transform of an iterator.
+    pub(crate) fn step(&self, info: &IterInfo) -> iterator::Step {
+        let ex = &self.analysis.expanded;
+        let constant = |n: &str| ex.constant(n);
+        let cx = StepContext {
+            angle: AngleUnit::of(ex),
+            components: &self.analysis.checked.symbols.components,
+            constant: &constant,
+        };
+        iterator::describe(info, &cx)
+    }
+}
+
+fn number_hover(text: &str, value: f64, unit: char) -> String {
+    let deg = fmt_num(angle_degrees(value, Some(unit), AngleUnit::Degrees));
+    let v = fmt_num(value);
+    match unit {
+        'd' => format!("`{text}`: {v} degrees"),
+        'r' => format!("`{text}`: {v} radians = {deg}°"),
+        'o' => format!("`{text}`: {v} orbit(s) = {deg}°"),
+        't' => format!("`{text}`: atan({v}) = {deg}°"),
+        _ => format!("`{text}`"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::fixture::{doc, doc_with};
+
+    fn hover(src: &str) -> String {
+        let (d, at) = doc(src);
+        d.hover(at).map(|h| h.markdown).unwrap_or_else(|| "<none>".to_string())
+    }
+
+    #[test]
+    fn adjustment_drawable_directive_and_selector_docs() {
+        assert_eq!(hover("rule A { VERTEX {r$0x 30} }"), "```mdg\nrx A\n```\nRotate about the x axis by A.");
+        assert!(hover("rule A { VER$0TEX {} }").starts_with("```mdg\nVERTEX {ADJ}\n```\nEmit a vertex"));
+        assert!(hover("max$0depth 10\nrule A { VERTEX {} }").contains("A call deeper than N is not made"));
+        assert!(hover("sta$0rtshape A\nrule A { VERTEX {} }").contains("The rule evaluated first"));
+        assert!(hover("selector A dep$0th\nrule A 1 { VERTEX {} }\nrule A 2 { VERTEX {} }").contains("depth threshold"));
+        assert!(hover("angle rad$0ians\nrule A { VERTEX {} }").contains("radians"));
+        assert!(hover("@im$0port primitives\n").contains("@import NAME|PATH"));
+        assert!(hover("@define X\n@ifdef X\n@end$0if\n").contains("Ends an `@ifdef`"));
+        assert!(hover("rule A { VERTEX {x (s$0in(1))} }").contains("Sine"));
+    }
+
+    #[test]
+    fn renamed_colour_components_show_the_colour_doc() {
+        assert!(hover("color red green blue alpha\nrule A { VERTEX {gr$0een -1} }").contains("green colour component"));
+    }
+
+    #[test]
+    fn rule_with_weights_and_selector() {
+        let src = "startshape plant\nrule plant { le$0af {} }\n// A leaf.\n// Drawn small.\nrule leaf 3 { VERTEX {} }\nrule leaf { VERTEX {} }\nrule leaf 1 { VERTEX {} }\n";
+        let expected = "**rule `leaf`** — 3 definitions, selector `random` (default)\n\n```mdg\nrule leaf 3\nrule leaf\nrule leaf 1\n```\n- weight 3 (60%) — line 5\n- weight 1 (20%) — line 6\n- weight 1 (20%) — line 7\n\nA leaf.\nDrawn small.";
+        assert_eq!(hover(src), expected);
+    }
+
+    #[test]
+    fn rule_with_depth_selector() {
+        let src = "selector stack depth\nrule st$0ack 4 { stack {} }\nrule stack 5 { VERTEX {} }\n";
+        let h = hover(src);
+        assert!(h.contains("selector `depth`"), "{h}");
+        assert!(h.contains("- used up to depth 4 — line 2"), "{h}");
+    }
+
+    #[test]
+    fn imported_rule_shows_its_file_and_comment() {
+        let h = hover("@import primitives\nstartshape A\nrule A { cu$0be {} }");
+        assert!(h.starts_with("**rule `cube`** — one definition, std/primitives.mdg:"), "{h}");
+        assert!(h.contains("A unit cube (side 1)"), "{h}");
+    }
+
+    #[test]
+    fn divisor_iterator_step() {
+        assert_eq!(hover("rule A { 30/3$00 * [ry 360] B {} }\nrule B { VERTEX {} }"), "`30/30 * [ry 360]` → 30 step(s) of `ry 12°`");
+        assert_eq!(
+            hover("rule A { 10/10 * {z 5 s 0.5 R -1$0} B {} }\nrule B { VERTEX {} }"),
+            "`10/10 * {z 5 s 0.5 R -1}` → 10 step(s) of `z 0.5 s 0.933 R -0.1`"
+        );
+        assert_eq!(hover("angle orbits\nrule A { 8/8 $0* {rz 1} B {} }\nrule B { VERTEX {} }"), "`8/8 * {rz 1}` → 8 step(s) of `rz 45°`");
+        assert_eq!(
+            hover("@param int n 6 3 12\nrule A { (n)$0 * {rz (360 / n)} B {} }\nrule B { VERTEX {} }"),
+            "`(n) * {rz (360 / n)}` → 6 step(s) of `rz 60°`"
+        );
+        assert_eq!(hover("rule A { 4 * {$0} B {} }\nrule B { VERTEX {} }"), "`4 * {}` → 4 step(s) in place");
+    }
+
+    #[test]
+    fn numbers_with_units() {
+        assert_eq!(hover("rule A { B {rz 0.25$0o} }\nrule B { VERTEX {} }"), "`0.25o`: 0.25 orbit(s) = 90°");
+        assert_eq!(hover("rule A { B {ry 2$0t} }\nrule B { VERTEX {} }"), "`2t`: atan(2) = 63.4349°");
+    }
+
+    #[test]
+    fn namespace_function_isosurface_and_params() {
+        let h = hover("namespace port { rule arm { VERTEX {} } }\nrule A { po$0rt.arm {} }");
+        assert_eq!(h, "**namespace `port`** — 1 rule(s): `port.arm`");
+        let h = hover("function band { z }\nselector b function ba$0nd\nrule b 1 { VERTEX {} }\nrule b 2 { VERTEX {} }");
+        assert_eq!(h, "```mdg\nfunction band { z }\n```\nline 1");
+        let h = hover("isosurface BALL { xyz -1 1 8 ; function { x*x - 1 } }\nrule A { BA$0LL {} }");
+        assert!(h.starts_with("```mdg\nisosurface BALL { xyz -1 1 8 ; function { x * x - 1 } }\n```"), "{h}");
+        assert_eq!(hover("@param int count 5 1 20\nrule A { (co$0unt) * {} B {} }\nrule B { VERTEX {} }"), "**@param int `count`** = 5 (default 5, range 1–20)");
+    }
+
+    #[test]
+    fn imports_and_macros() {
+        let h = hover("@import primi$0tives\n");
+        assert!(h.starts_with("**std/primitives.mdg** — "), "{h}");
+        let (d, at) = doc_with("@import lib.mdg\n@expand TR$0I(1)\n", &[("lib.mdg", "@macro TRI(s)\nrule tri { VERTEX {x s} }\n@endmacro\n")]);
+        let h = d.hover(at).map(|h| h.markdown).unwrap_or_default();
+        assert_eq!(h, "```mdg\n@macro TRI(s)\n```\nmacro, lib.mdg:1");
+    }
+
+    #[test]
+    fn nothing_on_whitespace_and_unknown_rules_are_named() {
+        assert_eq!(hover("rule A {$0 }"), "<none>");
+        assert_eq!(hover("rule A { nope$0 {} }"), "unknown rule `nope`");
+    }
+}

@@ -1,0 +1,131 @@
+//! Rename: every definition and reference of a rule (or namespace, function,
+//! isosurface, macro, shader) in every file of the analysis, std excepted.
+//!
+//! A dotted reference `ns.A` is renamed in its last segment only, so renaming rule
+//! `ns.A` to `B` gives `ns.B`, and renaming namespace `ns` edits only the prefixes.
+
+use super::index::Symbol;
+use super::{Document, Edit};
+use crate::span::Span;
+
+/// Words the lexer treats as keywords, which cannot be names.
+const KEYWORDS: &[&str] = &[
+    "rule", "startshape", "selector", "linerule", "camerarule", "namespace", "function", "isosurface", "program", "uniform",
+    "angle", "color", "weight",
+];
+
+impl Document {
+    /// The span of the name at `offset` that a rename would change, and its text.
+    pub fn prepare_rename(&self, offset: u32) -> Result<(Span, String), String> {
+        let (sym, span) = self.index().symbol_at(offset).ok_or_else(|| "there is no rule or other symbol here to rename".to_string())?;
+        self.check_renamable(sym)?;
+        let span = last_segment(self, span);
+        Ok((span, self.span_text(span).to_string()))
+    }
+
+    /// The edits that rename the symbol at `offset` to `new_name`.
+    pub fn rename(&self, offset: u32, new_name: &str) -> Result<Vec<Edit>, String> {
+        let idx = self.index();
+        let (sym, _) = idx.symbol_at(offset).ok_or_else(|| "there is no rule or other symbol here to rename".to_string())?;
+        self.check_renamable(sym)?;
+        let valid = new_name.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+            && new_name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+        if !valid || KEYWORDS.contains(&new_name) {
+            return Err(format!("`{new_name}` is not a valid name"));
+        }
+        if let Symbol::Rule(full) = sym {
+            let renamed = match full.rsplit_once('.') {
+                Some((ns, _)) => format!("{ns}.{new_name}"),
+                None => new_name.to_string(),
+            };
+            if renamed != *full && self.analysis.checked.symbols.rules.contains_key(&renamed) {
+                return Err(format!("a rule named `{renamed}` already exists"));
+            }
+        }
+        let mut spans: Vec<Span> = idx.definitions(sym).chain(idx.references(sym)).collect();
+        spans.sort();
+        spans.dedup();
+        Ok(spans.into_iter().map(|s| Edit { span: last_segment(self, s), new_text: new_name.to_string() }).collect())
+    }
+
+    fn check_renamable(&self, sym: &Symbol) -> Result<(), String> {
+        let idx = self.index();
+        for span in idx.definitions(sym).chain(idx.references(sym)) {
+            if let Some(f) = self.analysis.sources.files.get(span.file.0 as usize) {
+                if f.name.starts_with("std/") && span.file != self.main_file() {
+                    let kind = sym.kind_word();
+                    return Err(format!("the {kind} `{}` is used in the std library ({}), which cannot be edited", sym.name(), f.name));
+                }
+            }
+        }
+        if idx.definitions(sym).next().is_none() {
+            return Err(format!("`{}` is not defined", sym.name()));
+        }
+        Ok(())
+    }
+}
+
+/// The last dotted segment of a name's span.
+fn last_segment(doc: &Document, span: Span) -> Span {
+    let text = doc.span_text(span);
+    match text.rfind('.') {
+        Some(i) => Span::new(span.file, span.start + i as u32 + 1, span.end),
+        None => span,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::fixture::{doc, doc_with, show};
+
+    fn apply(text: &str, mut edits: Vec<(usize, usize, String)>) -> String {
+        edits.sort();
+        let mut out = text.to_string();
+        for (s, e, t) in edits.into_iter().rev() {
+            out.replace_range(s..e, &t);
+        }
+        out
+    }
+
+    #[test]
+    fn renames_definitions_and_uses() {
+        let src = "startshape A\nselector leaf random\nrule A { le$0af {} 3 * {x 1} leaf {} }\nrule leaf 2 { VERTEX {} }\nrule leaf { leaf {} }\n";
+        let (d, at) = doc(src);
+        let edits = d.rename(at, "twig").expect("rename");
+        let main = d.main_file();
+        assert!(edits.iter().all(|e| e.span.file == main));
+        let out = apply(d.text(), edits.into_iter().map(|e| (e.span.start as usize, e.span.end as usize, e.new_text)).collect());
+        assert_eq!(out, "startshape A\nselector twig random\nrule A { twig {} 3 * {x 1} twig {} }\nrule twig 2 { VERTEX {} }\nrule twig { twig {} }\n");
+    }
+
+    #[test]
+    fn dotted_names_change_in_the_last_segment() {
+        let (d, at) = doc("namespace n { rule a$0rm { VERTEX {} } }\nstartshape A\nrule A { n.arm {} }");
+        let (span, text) = d.prepare_rename(at).expect("prepare");
+        assert_eq!((show(&d, span), text.as_str()), ("main.mdg:1:20 \"arm\"".to_string(), "arm"));
+        let edits = d.rename(at, "leg").expect("rename");
+        let out = apply(d.text(), edits.into_iter().map(|e| (e.span.start as usize, e.span.end as usize, e.new_text)).collect());
+        assert_eq!(out, "namespace n { rule leg { VERTEX {} } }\nstartshape A\nrule A { n.leg {} }");
+    }
+
+    #[test]
+    fn edits_reach_imported_files() {
+        let (d, at) = doc_with("@import lib.mdg\nstartshape A\nrule A { sh$0ape {} }", &[("lib.mdg", "rule shape { VERTEX {} }\n")]);
+        let edits = d.rename(at, "form").expect("rename");
+        let shown: Vec<String> = edits.iter().map(|e| show(&d, e.span)).collect();
+        assert_eq!(shown, ["main.mdg:3:10 \"shape\"", "lib.mdg:1:6 \"shape\""]);
+    }
+
+    #[test]
+    fn refuses_bad_names_clashes_std_and_builtins() {
+        let (d, at) = doc("startshape A\nrule A { B$0 {} }\nrule B { VERTEX {} }\nrule C { VERTEX {} }");
+        assert_eq!(d.rename(at, "9x"), Err("`9x` is not a valid name".to_string()));
+        assert_eq!(d.rename(at, "rule"), Err("`rule` is not a valid name".to_string()));
+        assert_eq!(d.rename(at, "C"), Err("a rule named `C` already exists".to_string()));
+        let (d, at) = doc("@import primitives\nstartshape A\nrule A { cu$0be {} }");
+        let e = d.rename(at, "box").expect_err("std");
+        assert!(e.contains("std/primitives.mdg"), "{e}");
+        let (d, at) = doc("rule A { VERT$0EX {} }");
+        assert!(d.prepare_rename(at).is_err());
+    }
+}
