@@ -272,7 +272,13 @@ impl<'a> Lower<'a> {
     fn mark(&mut self, span: Span) {
         let file = self.sources.file(span.file);
         let line = file.line_col(span.start).0 + 1;
-        let name = file.name.clone();
+        // Absolute paths are reduced to the file name, so a bundle does not depend on
+        // where its source was checked out (determinism across machines).
+        let name = if std::path::Path::new(&file.name).is_absolute() {
+            std::path::Path::new(&file.name).file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
+        } else {
+            file.name.clone()
+        };
         let file_id = self.string(&name);
         let op = self.code.len() as u32;
         if let Some(last) = self.source_map.last_mut() {
