@@ -92,17 +92,13 @@ fn items(items: &[Item], out: &mut Vec<Fold>) {
             }
             ItemKind::Namespace { items: inner, .. } => {
                 out.push(region(item.span));
-                items_in(inner, out);
+                items(inner, out);
             }
             ItemKind::Function { .. } | ItemKind::Isosurface { .. } | ItemKind::Program { .. } => out.push(region(item.span)),
-            ItemKind::Pre(p) => pre(p, item.span, out, &mut |v: &[Item], out: &mut Vec<Fold>| items_in(v, out)),
+            ItemKind::Pre(p) => pre(p, item.span, out, &mut |v: &[Item], out: &mut Vec<Fold>| items(v, out)),
             _ => {}
         }
     }
-}
-
-fn items_in(v: &[Item], out: &mut Vec<Fold>) {
-    items(v, out);
 }
 
 fn pre<T>(p: &Pre<T>, span: Span, out: &mut Vec<Fold>, nested: &mut dyn FnMut(&[T], &mut Vec<Fold>)) {
