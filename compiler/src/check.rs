@@ -27,12 +27,8 @@ pub const SELECTOR_MODES: &[&str] = &["random", "frequency", "depth", "scale", "
 /// Angle modes for `angle`.
 pub const ANGLE_MODES: &[&str] = &["degrees", "radians", "orbits", "arcdegrees", "frequency"];
 
-/// Math functions usable in expressions, with their arity.
-pub const FUNCTIONS: &[(&str, usize)] = &[
-    ("sin", 1), ("cos", 1), ("tan", 1), ("asin", 1), ("acos", 1), ("atan", 1), ("atan2", 2), ("sqrt", 1),
-    ("abs", 1), ("min", 2), ("max", 2), ("pow", 2), ("exp", 1), ("log", 1), ("floor", 1), ("ceil", 1),
-    ("fract", 1), ("mod", 2), ("clamp", 3), ("mix", 3), ("step", 2), ("smoothstep", 3), ("rand", 2), ("randn", 2),
-];
+/// Math functions usable in expressions, with their arity (the VM's table).
+pub use mdg_vm::expr::FUNCTIONS;
 
 /// Variables available inside `function`, selector and isosurface expressions.
 pub const FUNCTION_VARS: &[&str] = &["x", "y", "z", "depth", "scale", "g"];

@@ -1,4 +1,5 @@
-//! One entry point for a whole analysis: load, preprocess, parse, check.
+//! One entry point for a whole analysis: load, preprocess, parse, check, compile
+//! shaders.
 //!
 //! `mdgc`, `mdg-run` and the language server all go through [`analyze`], so they
 //! report the same diagnostics for the same source.
@@ -15,6 +16,9 @@ pub struct Analysis {
     pub sources: Sources,
     pub expanded: Expanded,
     pub checked: Checked,
+    /// SPIR-V of each shader block, index-aligned with `expanded.shaders` (`None`
+    /// where GLSL errors were reported); see [`crate::shaders`].
+    pub spirv: Vec<Option<Vec<u32>>>,
     /// All diagnostics, sorted by file and position, duplicates removed.
     pub diagnostics: Vec<Diagnostic>,
 }
@@ -46,10 +50,14 @@ pub fn default_std_dir() -> Option<PathBuf> {
 
 fn finish(sources: Sources, expanded: Expanded, opts: CheckOptions) -> Analysis {
     let checked = check::check(&expanded, opts);
-    let mut diagnostics: Vec<Diagnostic> = expanded.diagnostics.iter().chain(checked.diagnostics.iter()).cloned().collect();
+    // Shader blocks are compiled for every analysis, not only in `build`, so that
+    // `mdgc check` and the editor report GLSL errors too (cached per block).
+    let (spirv, shader_diags) = crate::shaders::compile_all(&expanded, &sources);
+    let mut diagnostics: Vec<Diagnostic> =
+        expanded.diagnostics.iter().chain(checked.diagnostics.iter()).chain(shader_diags.iter()).cloned().collect();
     diagnostics.sort_by(|a, b| (a.span.file, a.span.start, a.code).cmp(&(b.span.file, b.span.start, b.code)));
     diagnostics.dedup_by(|a, b| a.span == b.span && a.code == b.code && a.message == b.message);
-    Analysis { sources, expanded, checked, diagnostics }
+    Analysis { sources, expanded, checked, spirv, diagnostics }
 }
 
 /// Analyzes the file at `path`.
@@ -75,7 +83,10 @@ pub fn build(loader: &dyn FileLoader, path: &Path, opts: &Options) -> Result<(md
         return Err(Box::new(a));
     }
     match crate::lower::lower(&a.expanded, &a.checked.symbols, &a.sources) {
-        Ok(b) => Ok((b, a)),
+        Ok(mut b) => {
+            crate::shaders::attach(&mut b, &a.spirv);
+            Ok((b, a))
+        }
         Err(d) => {
             let mut a = a;
             a.diagnostics.extend(d);

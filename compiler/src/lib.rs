@@ -1,7 +1,8 @@
 //! The MDG compiler: source text to checked program to bytecode bundle.
 //!
 //! Pipeline: [`lexer`] → [`parse`] (never fails) → [`expand`] (imports, macros,
-//! conditionals) → [`check`] (names, values, reachability) → lowering. Diagnostics
+//! conditionals) → [`check`] (names, values, reachability) → [`shaders`] (GLSL to
+//! SPIR-V) → lowering. Diagnostics
 //! are data ([`diag::Diagnostic`]) accumulated along the way.
 
 pub mod ast;
@@ -17,3 +18,5 @@ pub mod expand;
 pub mod driver;
 pub mod fmt;
 pub mod lower;
+pub mod shaders;
+pub mod analysis;

@@ -206,8 +206,12 @@ impl<'a> Lower<'a> {
         for sh in &self.ex.shaders {
             let name = self.string(&sh.name.text);
             let source = self.string(&sh.code);
-            shaders.push(bundle::Shader { vertex: sh.vertex, name, source });
+            // SPIR-V is attached by the driver from the shader stage (`crate::shaders`),
+            // which compiled these same blocks in this order.
+            shaders.push(bundle::Shader { vertex: sh.vertex, name, source, spirv: Vec::new() });
         }
+        let program = self.program();
+        let uniforms = self.uniforms();
         let mut params = Vec::new();
         for p in &self.ex.params {
             let name = self.string(&p.name.text);
@@ -247,9 +251,70 @@ impl<'a> Lower<'a> {
             code: std::mem::take(&mut self.code),
             isosurfaces,
             shaders,
+            program,
+            uniforms,
             params,
             source_map: std::mem::take(&mut self.source_map),
         }
+    }
+
+    /// The last `program` directive: shader names resolved to indices into the
+    /// bundle's shader list (first block of that stage and name, as the checker
+    /// resolves it); a stage not named is [`NONE`].
+    fn program(&self) -> Option<bundle::Program> {
+        let words = self.ex.items.iter().rev().find_map(|ExpItem { item, .. }| match &item.kind {
+            ItemKind::Program { words } => Some(words),
+            _ => None,
+        })?;
+        let mut p = bundle::Program { vertex: NONE, fragment: NONE };
+        for pair in words.windows(2) {
+            let vertex = match pair[0].text.as_str() {
+                "vertexshader" => true,
+                "fragmentshader" => false,
+                _ => continue,
+            };
+            let idx = self.ex.shaders.iter().position(|sh| sh.vertex == vertex && sh.name.text == pair[1].text);
+            let idx = idx.map(|i| i as u32).unwrap_or(NONE);
+            if vertex {
+                p.vertex = idx;
+            } else {
+                p.fragment = idx;
+            }
+        }
+        Some(p)
+    }
+
+    /// `uniform` directives in source order (thesis §4.1.1, reference §13).
+    fn uniforms(&mut self) -> Vec<bundle::Uniform> {
+        let ex = self.ex;
+        let mut out = Vec::new();
+        for ExpItem { item, namespace } in &ex.items {
+            let ItemKind::Directive { name, args } = &item.kind else { continue };
+            if name.text != "uniform" {
+                continue;
+            }
+            let Some(DirArg::Word(uname)) = args.first() else { continue };
+            let rest = &args[1..];
+            let source = if let [DirArg::Word(rule), DirArg::Word(prop)] = rest {
+                let Some(rule) = self.rule_index(&rule.text, namespace.as_deref()) else { continue };
+                let Some(prop) = bundle::UNIFORM_PROPS.iter().position(|p| *p == prop.text) else { continue };
+                bundle::UniformSource::Frame { rule, prop: prop as u8 }
+            } else {
+                let mut v = [0.0f32; 4];
+                for (slot, a) in v.iter_mut().zip(rest) {
+                    *slot = match a {
+                        DirArg::Num(n) => n.value as f32,
+                        DirArg::Neg(n) => -n.value as f32,
+                        DirArg::Expr(e) => crate::consteval::eval(e, &|c| ex.constant(c)).unwrap_or(0.0) as f32,
+                        DirArg::Word(_) => 0.0,
+                    };
+                }
+                bundle::UniformSource::Const(v)
+            };
+            let name = self.string(&uname.text);
+            out.push(bundle::Uniform { name, source });
+        }
+        out
     }
 
     fn function_body(&self, name: &str) -> Option<Expr> {

@@ -1,2 +1,59 @@
-//! MDG language server.
-fn main() {}
+//! `mdg-lsp`: the MDG language server, over stdio.
+//!
+//! A thin layer over the compiler's analysis API (`mdg_compiler::analysis`), which
+//! speaks byte offsets; positions become UTF-16 only in [`position`]. Each LSP
+//! feature has its own file in [`handlers`].
+
+mod documents;
+mod guard;
+mod handlers;
+mod loader;
+mod position;
+mod server;
+
+use server::{Backend, Config};
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use tower_lsp_server::{LspService, Server};
+
+fn main() -> ExitCode {
+    for arg in std::env::args().skip(1) {
+        match arg.as_str() {
+            "--version" | "-V" => {
+                println!("mdg-lsp {}", env!("CARGO_PKG_VERSION"));
+                return ExitCode::SUCCESS;
+            }
+            "--help" | "-h" => {
+                println!("mdg-lsp {}: the MDG language server. It speaks LSP on stdin/stdout; start it from an editor.\n\nEnvironment: MDG_STD=DIR selects the std library.", env!("CARGO_PKG_VERSION"));
+                return ExitCode::SUCCESS;
+            }
+            // Clients may say how to talk; stdio is the only way.
+            "--stdio" => {}
+            other => {
+                eprintln!("mdg-lsp: unknown argument `{other}` (try --help)");
+                return ExitCode::from(2);
+            }
+        }
+    }
+    // Panics are caught per request and reported to the client; on stderr a line
+    // is enough (capturing a backtrace in a debug build costs seconds and memory).
+    std::panic::set_hook(Box::new(|info| eprintln!("mdg-lsp: {info}")));
+    let runtime = match tokio::runtime::Builder::new_current_thread().enable_all().build() {
+        Ok(rt) => rt,
+        Err(e) => {
+            eprintln!("mdg-lsp: cannot start the runtime: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let shutdown = Arc::new(AtomicBool::new(false));
+    let flag = shutdown.clone();
+    runtime.block_on(async move {
+        let (service, socket) = LspService::new(move |client| Backend::new(client, Config::from_env(), flag));
+        Server::new(tokio::io::stdin(), tokio::io::stdout(), socket).serve(service).await;
+    });
+    // The stdin reader is a blocking thread that would keep the runtime (and the
+    // process) alive; exit now. The LSP exit code: 0 after `shutdown`, else 1.
+    let code = if shutdown.load(Ordering::SeqCst) { 0 } else { 1 };
+    std::process::exit(code)
+}

@@ -123,7 +123,9 @@ pub fn build_source(text: &str) -> mdg_vm::bundle::Bundle {
     let path = root().join("tests/inline.mdg");
     let a = mdg_compiler::driver::analyze_text(&FsLoader, &path, text, &options(), CheckOptions { require_start: true });
     assert!(!a.has_errors(), "{}", mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources));
-    mdg_compiler::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).expect("lowering")
+    let mut b = mdg_compiler::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).expect("lowering");
+    mdg_compiler::shaders::attach(&mut b, &a.spirv);
+    b
 }
 
 /// Compiles and evaluates `text` with default options.

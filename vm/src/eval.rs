@@ -7,19 +7,31 @@
 //! `maxiter`, a vertex budget and a time budget) end branches or the run cleanly,
 //! keep everything produced so far, and are reported as warnings.
 //!
+//! Animation (thesis §4.4–4.5, SPEC §8): a call of a model rule with transform rules
+//! (`rule A : X1 : X2`) makes a *bone*; every vertex emitted inside its derivation
+//! carries the innermost bone's index. A transform rule's frames are sampled once by
+//! evaluating it from the identity in transform mode (each `FRAME {adj}` records
+//! the current frame composed with `adj`) and cached as a track in the output; an
+//! infinite rule is cut at the frames the run needs and extended if a later use needs
+//! more (each track has its own random stream, so a re-run repeats the same prefix).
+//! A call of a convolution rule (`rule R * I : A : B`) runs R's body once per frame
+//! index i of I under `R's frame · I[i]·A[i]·B[i]`. See [`crate::anim`] for sampling.
+//!
 //! Random numbers come from PCG-64 (`rand_pcg::Pcg64`) seeded with the seed, turned
 //! into floats by this module (53 high bits for uniforms, Box–Muller for normals), so
 //! a seed gives the same stream on every machine and rand version.
 
+use crate::anim::{frames_needed, MAX_TRACK_FRAMES};
 use crate::bundle::{self, Bundle, Composite, Op, Selector, Transform, CONT_NEXT, NONE};
 use crate::expr::{self, ExprOp, Random};
 use crate::geom::quat::Frame;
 use crate::geom::{blend, marching, sweep};
-use crate::output::{Instance, Output, Polyline};
+use crate::output::{Bone, Camera, Instance, Output, Polyline, Track};
 use glam::{Mat3, Quat, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use std::collections::HashMap;
+use std::rc::Rc;
 use std::time::{Duration, Instant};
 
 /// Default limits, used when the grammar sets none (documented in docs/reference.md).
@@ -33,6 +45,9 @@ pub const DEFAULT_MAX_ISO_CELLS: u64 = 16_000_000;
 /// The colour state at the start of a run (R, G, B, A): white, opaque. Colour
 /// adjustments add to it (`{G -1 B -1}` gives red); see docs/reference.md.
 pub const START_COLOR: [f32; 4] = [1.0, 1.0, 1.0, 1.0];
+/// How deeply transform rules may need each other's frames while being sampled
+/// (each level is a nested evaluation on the native stack).
+pub const MAX_TRACK_NESTING: usize = 64;
 /// Segments per BLENDTO.
 pub const BLEND_SEGMENTS: usize = 8;
 
@@ -46,6 +61,9 @@ pub struct EvalOptions {
     pub max_iso_cells: u64,
     /// Overrides `maxiter` (total rule calls).
     pub maxiter: Option<u64>,
+    /// Sample transform rules far enough to pose the model at this time too (in
+    /// seconds; `mdg-run --time`), when it is beyond `duration`.
+    pub time: Option<f64>,
 }
 
 impl Default for EvalOptions {
@@ -56,6 +74,7 @@ impl Default for EvalOptions {
             time_budget: None,
             max_iso_cells: DEFAULT_MAX_ISO_CELLS,
             maxiter: None,
+            time: None,
         }
     }
 }
@@ -122,6 +141,22 @@ struct Act {
     depth: u32,
     cont: Option<State>,
     loops_at: u32,
+    /// The innermost bone (0 = the root): vertices emitted here carry it.
+    bone: u32,
+    /// Set when this activation runs a convolution rule's body once per frame.
+    conv: Option<Box<Conv>>,
+}
+
+/// The remaining runs of a convolution rule's body.
+struct Conv {
+    /// `I[i]·A[i]·B[i]` for every frame index i of the iterator rule.
+    frames: Rc<[Frame]>,
+    /// The next frame index to run.
+    next: usize,
+    /// The body's first op (the definition chosen at the call).
+    pc: u32,
+    /// R's state at the call; run i is under its frame composed with `frames[i]`.
+    origin: State,
 }
 
 struct LoopRec {
@@ -136,6 +171,9 @@ struct Pen {
     state: State,
     lifted: bool,
     line: Option<usize>,
+    /// The bone the pen's position was set in: a sweep's first ring and a line's
+    /// point there belong to it.
+    bone: u32,
 }
 
 #[derive(Default)]
@@ -148,11 +186,13 @@ struct LimitCounts {
     time: bool,
 }
 
-/// What `run` collects: full geometry, or only the points of a profile rule.
+/// What `run` collects: full geometry, only the points of a profile rule, or only
+/// the frames of a transform rule.
 #[derive(Clone, Copy, PartialEq)]
 enum Mode {
     Model,
     Profile,
+    Transform,
 }
 
 struct Eval<'b> {
@@ -178,6 +218,22 @@ struct Eval<'b> {
     /// Whether any op reads the continuation register (CONT, chained loops, RESET);
     /// if not, the VERTEX fast path need not compute the full frame for it.
     needs_last: bool,
+    /// The run's seed (transform rules derive their own streams from it).
+    seed: u64,
+    /// Transform rule → its track in `out.animation.tracks`.
+    track_ids: HashMap<u32, u32>,
+    /// Transform rules whose frames are being sampled (to break cycles).
+    computing: Vec<u32>,
+    /// Frames recorded by the transform rule being sampled.
+    frame_sink: Vec<Frame>,
+    /// How many frames that rule may record before its run is cut.
+    frame_limit: usize,
+    /// Set when the rule being sampled reached `frame_limit`: its run ends.
+    halt: bool,
+    /// Tracks cover `0 ≤ t ≤ horizon` seconds: `duration`, or `--time` beyond it.
+    horizon: f64,
+    /// Convolution rule and frame cap → the products `I[i]·A[i]·B[i]`.
+    conv_cache: HashMap<(u32, usize), Rc<[Frame]>>,
 }
 
 /// Evaluates a verified bundle from its start shape.
@@ -195,7 +251,7 @@ pub fn evaluate_with_progress(b: &Bundle, opts: &EvalOptions, progress: Option<&
         opts: opts.clone(),
         rng: Pcg(Pcg64::seed_from_u64(seed)),
         out: Output { background: s.background, ..Output::default() },
-        pens: vec![Pen { state: start, lifted: false, line: None }; s.namespaces.len()],
+        pens: vec![Pen { state: start, lifted: false, line: None, bone: 0 }; s.namespaces.len()],
         last: start,
         sequential: HashMap::new(),
         profiles: HashMap::new(),
@@ -209,6 +265,17 @@ pub fn evaluate_with_progress(b: &Bundle, opts: &EvalOptions, progress: Option<&
         expr_stack: Vec::with_capacity(16),
         profile_points: Vec::new(),
         progress,
+        seed,
+        track_ids: HashMap::new(),
+        computing: Vec::new(),
+        frame_sink: Vec::new(),
+        frame_limit: 0,
+        halt: false,
+        horizon: match opts.time {
+            Some(t) if t.is_finite() && t > s.duration as f64 => t,
+            _ => (s.duration as f64).max(0.0),
+        },
+        conv_cache: HashMap::new(),
         needs_last: b.code.iter().any(|op| matches!(op, Op::Cont {} | Op::Loop { chain: 1, .. } | Op::Draw { kind: 9, .. })),
         xf_info: b
             .transforms
@@ -223,7 +290,13 @@ pub fn evaluate_with_progress(b: &Bundle, opts: &EvalOptions, progress: Option<&
             })
             .collect(),
     };
+    e.out.animation.duration = s.duration;
     e.run(s.startshape, start, Mode::Model);
+    if s.camerarule != NONE && !e.stopped {
+        let fps = if s.fps.is_finite() && s.fps > 0.0 { s.fps } else { 0.0 };
+        let track = e.track(s.camerarule, frames_needed(e.horizon, fps));
+        e.out.animation.camera = Some(Camera { track, fps, fov: s.camerafov, near: s.near, far: s.far });
+    }
     e.finish()
 }
 
@@ -340,12 +413,23 @@ impl<'b> Eval<'b> {
 
     /// Runs `rule` from `start` until its whole derivation is done.
     fn run(&mut self, rule: u32, start: State, mode: Mode) {
+        let b = self.b;
         let pc = self.select(rule, &start, 0);
-        let mut stack: Vec<Act> = vec![Act { pc, base: start, base_lin: None, depth: 0, cont: None, loops_at: 0 }];
+        let first = if b.rules[rule as usize].iter != NONE {
+            // The start shape (or a sampled rule) is itself a convolution.
+            let frames = self.convolution(rule, start.fps);
+            let Some(f) = frames.first().copied() else { return };
+            let base = State { f: start.f.compose(&f), ..start };
+            Act { pc, base, base_lin: None, depth: 0, cont: None, loops_at: 0, bone: 0, conv: Some(Box::new(Conv { frames, next: 1, pc, origin: start })) }
+        } else {
+            let bone = if mode == Mode::Model && !b.rules[rule as usize].transforms.is_empty() { self.new_bone(rule, &start, 0) } else { 0 };
+            Act { pc, base: start, base_lin: None, depth: 0, cont: None, loops_at: 0, bone, conv: None }
+        };
+        let mut stack: Vec<Act> = vec![first];
         let mut loops: Vec<LoopRec> = Vec::new();
-        let code = &self.b.code;
+        let code = &b.code;
         while let Some(act) = stack.last_mut() {
-            if self.stopped {
+            if self.stopped || self.halt {
                 break;
             }
             let op = code[act.pc as usize];
@@ -354,6 +438,7 @@ impl<'b> Eval<'b> {
                     act.pc += 1;
                     let from = act.cont.take().unwrap_or(act.base);
                     let depth = act.depth + 1;
+                    let parent_bone = act.bone;
                     let c = self.transform(xf);
                     let child = from.compose(&c);
                     if flags & CONT_NEXT != 0 {
@@ -364,7 +449,18 @@ impl<'b> Eval<'b> {
                     }
                     let pc = self.select(rule, &child, depth);
                     let loops_at = loops.len() as u32;
-                    stack.push(Act { pc, base: child, base_lin: None, depth, cont: None, loops_at });
+                    let r = &b.rules[rule as usize];
+                    if r.iter != NONE {
+                        // Convolution: the body runs once per frame of the iterator rule.
+                        let frames = self.convolution(rule, child.fps);
+                        let Some(f) = frames.first().copied() else { continue };
+                        let base = State { f: child.f.compose(&f), ..child };
+                        let conv = Some(Box::new(Conv { frames, next: 1, pc, origin: child }));
+                        stack.push(Act { pc, base, base_lin: None, depth, cont: None, loops_at, bone: parent_bone, conv });
+                    } else {
+                        let bone = if mode == Mode::Model && !r.transforms.is_empty() { self.new_bone(rule, &child, parent_bone) } else { parent_bone };
+                        stack.push(Act { pc, base: child, base_lin: None, depth, cont: None, loops_at, bone, conv: None });
+                    }
                 }
                 Op::Draw { kind: 0, xf, flags: _, .. } if mode == Mode::Model && self.xf_info[xf as usize].is_some() => {
                     // VERTEX with a constant transform: position, normal and mirroring
@@ -384,7 +480,7 @@ impl<'b> Eval<'b> {
                     let weight = add(from.weight, c.weight);
                     let mirrored = lin.1 != x.mirrored;
                     let m = &mut self.out.mesh;
-                    let k = m.push_vertex(p, n, color, weight, 0) + 1;
+                    let k = m.push_vertex(p, n, color, weight, act.bone) + 1;
                     if k % 3 == 0 {
                         m.push_triangle([k - 3, k - 2, k - 1], mirrored);
                     }
@@ -398,7 +494,8 @@ impl<'b> Eval<'b> {
                     let c = self.transform(xf);
                     let s = from.compose(&c);
                     self.last = s;
-                    self.draw(kind, s, ns, profile, mode);
+                    let bone = act.bone;
+                    self.draw(kind, s, ns, profile, mode, bone);
                 }
                 Op::Iso { iso, xf, flags: _ } => {
                     act.pc += 1;
@@ -407,7 +504,8 @@ impl<'b> Eval<'b> {
                     let s = from.compose(&c);
                     self.last = s;
                     if mode == Mode::Model {
-                        self.instance(iso, &s, act.pc - 1);
+                        let bone = act.bone;
+                        self.instance(iso, &s, act.pc - 1, bone);
                     }
                 }
                 Op::Loop { count, step, end, chain } => {
@@ -464,6 +562,26 @@ impl<'b> Eval<'b> {
                 Op::Ret {} => {
                     let at = act.loops_at as usize;
                     loops.truncate(at);
+                    if let Some(conv) = act.conv.as_mut() {
+                        if let Some(f) = conv.frames.get(conv.next) {
+                            // The next run of a convolution body, under R's frame · frame i.
+                            act.base = State { f: conv.origin.f.compose(f), ..conv.origin };
+                            act.base_lin = None;
+                            act.cont = None;
+                            act.pc = conv.pc;
+                            conv.next += 1;
+                            // Body runs count as calls, so `maxiter` also bounds them.
+                            self.calls += 1;
+                            if self.calls > self.maxiter {
+                                self.limits.maxiter = true;
+                                self.stopped = true;
+                            }
+                            if self.calls & 0xFFF == 0 {
+                                self.check_budgets();
+                            }
+                            continue;
+                        }
+                    }
                     stack.pop();
                 }
             }
@@ -527,10 +645,157 @@ impl<'b> Eval<'b> {
         pts
     }
 
-    fn draw(&mut self, kind: u8, s: State, ns: u32, profile: u32, mode: Mode) {
+    /// Makes a bone for a call of model rule `rule` (which has transform rules) in
+    /// state `child`, inside bone `parent`; returns its index.
+    fn new_bone(&mut self, rule: u32, child: &State, parent: u32) -> u32 {
+        let b = self.b;
+        let r = &b.rules[rule as usize];
+        let fps = if child.fps.is_finite() && child.fps > 0.0 { child.fps } else { 0.0 };
+        let needed = frames_needed(self.horizon, fps);
+        let tracks = r.transforms.iter().map(|&x| self.track(x, needed)).collect();
+        let bones = &mut self.out.animation.bones;
+        if bones.is_empty() {
+            bones.push(Bone { rule: String::new(), parent: 0, rest: Frame::identity(), fps: 0.0, tracks: Vec::new() });
+        }
+        bones.push(Bone { rule: b.string(r.name).to_string(), parent, rest: child.f, fps, tracks });
+        (bones.len() - 1) as u32
+    }
+
+    /// Records a warning once.
+    fn warn_once(&mut self, msg: String) {
+        if !self.out.stats.warnings.contains(&msg) {
+            self.out.stats.warnings.push(msg);
+        }
+    }
+
+    /// "FILE:LINE: " of a rule's first definition, or "".
+    fn rule_at(&self, rule: u32) -> String {
+        let b = self.b;
+        b.rules[rule as usize].defs.first().and_then(|d| b.source_of(d.start)).map(|(f, l)| format!("{f}:{l}: ")).unwrap_or_default()
+    }
+
+    /// The track of transform rule `rule` with at least `needed` frames (or all of
+    /// them, if it ends sooner): from the cache, extended by a fresh sampling run when
+    /// a cut track is too short. Returns its index in `out.animation.tracks`.
+    fn track(&mut self, rule: u32, needed: usize) -> u32 {
+        let b = self.b;
+        let name = b.string(b.rules[rule as usize].name).to_string();
+        if needed > MAX_TRACK_FRAMES {
+            self.warn_once(format!("{}transform rule `{name}`: only its first {MAX_TRACK_FRAMES} frames are sampled", self.rule_at(rule)));
+        }
+        let needed = needed.clamp(1, MAX_TRACK_FRAMES);
+        if let Some(&k) = self.track_ids.get(&rule) {
+            let t = &self.out.animation.tracks[k as usize];
+            if t.complete || t.frames.len() >= needed || self.computing.contains(&rule) {
+                return k;
+            }
+            let (frames, complete) = self.sample(rule, needed);
+            let t = &mut self.out.animation.tracks[k as usize];
+            t.frames = frames;
+            t.complete = complete;
+            return k;
+        }
+        let tracks = &self.out.animation.tracks;
+        let k = tracks.len() as u32;
+        let why = if self.computing.contains(&rule) {
+            Some("needs its own frames while they are being sampled (a cycle through `*` or `:`)".to_string())
+        } else if self.computing.len() >= MAX_TRACK_NESTING {
+            Some(format!("is sampled inside {MAX_TRACK_NESTING} other transform rules being sampled"))
+        } else {
+            None
+        };
+        if let Some(why) = why {
+            self.warn_once(format!("{}transform rule `{name}` {why}; there it has no frames", self.rule_at(rule)));
+            self.out.animation.tracks.push(Track { rule: name, frames: Vec::new(), complete: true });
+            return k;
+        }
+        let (frames, complete) = self.sample(rule, needed);
+        let k = self.out.animation.tracks.len() as u32;
+        self.out.animation.tracks.push(Track { rule: name, frames, complete });
+        self.track_ids.insert(rule, k);
+        k
+    }
+
+    /// Evaluates transform rule `rule` from the identity, recording at most `limit`
+    /// frames; returns them and whether the rule ended by itself (not cut at `limit`).
+    /// The run has its own random stream (from the seed and the rule), its own
+    /// sequential-selection state and no effect on pens or the continuation register.
+    fn sample(&mut self, rule: u32, limit: usize) -> (Vec<Frame>, bool) {
+        self.computing.push(rule);
+        let seed = self.seed ^ (rule as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        let saved_rng = std::mem::replace(&mut self.rng, Pcg(Pcg64::seed_from_u64(seed)));
+        let saved_seq = std::mem::take(&mut self.sequential);
+        let saved_sink = std::mem::take(&mut self.frame_sink);
+        let saved_limit = std::mem::replace(&mut self.frame_limit, limit);
+        let saved_halt = std::mem::replace(&mut self.halt, false);
+        let saved_last = self.last;
+        self.run(rule, State::start(self.b.settings.fps), Mode::Transform);
+        let complete = !self.halt;
+        let frames = std::mem::replace(&mut self.frame_sink, saved_sink);
+        self.rng = saved_rng;
+        self.sequential = saved_seq;
+        self.frame_limit = saved_limit;
+        self.halt = saved_halt;
+        self.last = saved_last;
+        self.computing.pop();
+        (frames, complete)
+    }
+
+    /// The frames a convolution rule's body runs under (`I[i]·A[i]·B[i]` for every
+    /// frame index i of its iterator rule I; A, B… sampled by index and clamped to
+    /// their last frame), for a call whose `fps` is `fps`. I may have at most
+    /// `⌊duration·fps⌋ + 1` frames; beyond that it is cut with a warning.
+    fn convolution(&mut self, rule: u32, fps: f32) -> Rc<[Frame]> {
+        let b = self.b;
+        let fps = if fps.is_finite() && fps > 0.0 { fps } else { 0.0 };
+        let cap = frames_needed(b.settings.duration as f64, fps);
+        if let Some(c) = self.conv_cache.get(&(rule, cap)) {
+            return c.clone();
+        }
+        let r = &b.rules[rule as usize];
+        let it = self.track(r.iter, cap) as usize;
+        let t = &self.out.animation.tracks[it];
+        let exceeded = t.frames.len() > cap || !t.complete;
+        let n = t.frames.len().min(cap);
+        let iter_frames: Vec<Frame> = t.frames[..n].to_vec();
+        if exceeded {
+            let msg = format!(
+                "{}convolution `{}`: iterator rule `{}` did not end within {cap} frames (duration {} s × {fps} fps, frames 0..={}); an iterator must terminate, so only those frames are used (raise `duration` or `fps` for more)",
+                self.rule_at(rule),
+                b.string(r.name),
+                b.string(b.rules[r.iter as usize].name),
+                b.settings.duration,
+                cap - 1
+            );
+            self.warn_once(msg);
+        }
+        let parts: Vec<u32> = r.transforms.iter().map(|&x| self.track(x, n)).collect();
+        let tracks = &self.out.animation.tracks;
+        let frames: Vec<Frame> = iter_frames
+            .iter()
+            .enumerate()
+            .map(|(i, f)| parts.iter().fold(*f, |acc, &k| acc.compose(&tracks[k as usize].clamped(i as u64))))
+            .collect();
+        let frames: Rc<[Frame]> = frames.into();
+        self.conv_cache.insert((rule, cap), frames.clone());
+        frames
+    }
+
+    fn draw(&mut self, kind: u8, s: State, ns: u32, profile: u32, mode: Mode, bone: u32) {
         if mode == Mode::Profile {
             if kind == 0 {
                 self.profile_points.push(s.f.u);
+            }
+            return;
+        }
+        if mode == Mode::Transform {
+            // Only FRAME counts while a transform rule is sampled.
+            if kind == 8 {
+                if self.frame_sink.len() >= self.frame_limit {
+                    self.halt = true;
+                } else {
+                    self.frame_sink.push(s.f);
+                }
             }
             return;
         }
@@ -539,7 +804,7 @@ impl<'b> Eval<'b> {
             0 => {
                 let n = s.f.apply_normal(Vec3::from_array(self.b.settings.normal));
                 let m = &mut self.out.mesh;
-                m.push_vertex(s.f.u, n, s.display_color(), s.weight, 0);
+                m.push_vertex(s.f.u, n, s.display_color(), s.weight, bone);
                 let k = m.n_vertices() as u32;
                 if k % 3 == 0 {
                     m.push_triangle([k - 3, k - 2, k - 1], s.f.mirrored());
@@ -561,14 +826,14 @@ impl<'b> Eval<'b> {
                 }
             }
             2 => {
-                self.pens[ns_i] = Pen { state: s, lifted: false, line: None };
-                self.new_line(ns_i, s.f.u);
+                self.pens[ns_i] = Pen { state: s, lifted: false, line: None, bone };
+                self.new_line(ns_i, s.f.u, bone);
             }
             3..=6 => {
                 let pen = self.pens[ns_i];
                 if pen.lifted {
-                    self.pens[ns_i] = Pen { state: s, lifted: false, line: None };
-                    self.new_line(ns_i, s.f.u);
+                    self.pens[ns_i] = Pen { state: s, lifted: false, line: None, bone };
+                    self.new_line(ns_i, s.f.u, bone);
                     return;
                 }
                 let prof_rule = if profile != NONE { profile } else { self.b.settings.linerule };
@@ -577,27 +842,34 @@ impl<'b> Eval<'b> {
                     if pts.len() >= 2 {
                         let (ca, cb) = (pen.state.display_color(), s.display_color());
                         let m = &mut self.out.sweeps;
+                        let first = m.n_vertices();
                         match kind {
-                            3 => sweep::sweep(m, &pts, &pen.state.f, &s.f, ca, cb, 0),
+                            3 => sweep::sweep(m, &pts, &pen.state.f, &s.f, ca, cb, bone),
                             4 => {
                                 let frames = blend::blend_frames(&pen.state.f, &s.f, BLEND_SEGMENTS);
-                                sweep::sweep_path(m, &pts, &frames, ca, cb, 0);
+                                sweep::sweep_path(m, &pts, &frames, ca, cb, bone);
                             }
-                            5 => sweep::sweep_oriented(m, &pts, &pen.state.f, &s.f, ca, cb, 0),
-                            _ => sweep::sweep_averaged(m, &pts, &pen.state.f, &s.f, ca, cb, 0),
+                            5 => sweep::sweep_oriented(m, &pts, &pen.state.f, &s.f, ca, cb, bone),
+                            _ => sweep::sweep_averaged(m, &pts, &pen.state.f, &s.f, ca, cb, bone),
+                        }
+                        // The first ring stays with the bone the pen started in, so a
+                        // tube from outside a bone into it stretches as the bone moves.
+                        if pen.bone != bone && m.n_vertices() >= first + pts.len() {
+                            m.bones.resize(m.n_vertices(), 0);
+                            m.bones[first..first + pts.len()].fill(pen.bone);
                         }
                     }
                 }
-                match pen.line {
-                    Some(l) => self.out.lines[l].points.push(s.f.u.to_array()),
-                    None => {
-                        let l = self.new_line(ns_i, pen.state.f.u);
-                        self.out.lines[l].points.push(s.f.u.to_array());
-                    }
-                }
+                let l = match pen.line {
+                    Some(l) => l,
+                    None => self.new_line(ns_i, pen.state.f.u, pen.bone),
+                };
+                self.out.lines[l].push(s.f.u, bone);
                 self.pens[ns_i].state = s;
+                self.pens[ns_i].bone = bone;
             }
             7 => self.pens[ns_i].lifted = true,
+            // FRAME draws nothing in a model: it only counts when a transform rule is sampled.
             8 => {}
             9 => self.last = self.pens[ns_i].state,
             _ => {
@@ -616,15 +888,17 @@ impl<'b> Eval<'b> {
         }
     }
 
-    fn new_line(&mut self, ns: usize, start: Vec3) -> usize {
+    fn new_line(&mut self, ns: usize, start: Vec3, bone: u32) -> usize {
         let name = self.b.string(self.b.settings.namespaces[ns]).to_string();
-        self.out.lines.push(Polyline { namespace: name, points: vec![start.to_array()] });
+        let mut line = Polyline { namespace: name, ..Polyline::default() };
+        line.push(start, bone);
+        self.out.lines.push(line);
         let l = self.out.lines.len() - 1;
         self.pens[ns].line = Some(l);
         l
     }
 
-    fn instance(&mut self, iso: u32, s: &State, pc: u32) {
+    fn instance(&mut self, iso: u32, s: &State, pc: u32, bone: u32) {
         let mesh = match self.iso_meshes.get(&iso) {
             Some(m) => *m,
             None => {
@@ -662,7 +936,7 @@ impl<'b> Eval<'b> {
             scale: s.f.scale_factor(),
             color: s.display_color(),
             mirrored: s.f.mirrored(),
-            bone: 0,
+            bone,
         });
     }
 

@@ -4,6 +4,7 @@
 //! This crate does not depend on the compiler; the compiler depends on it for the
 //! bundle definitions.
 
+pub mod anim;
 pub mod bundle;
 pub mod expr;
 pub mod output;

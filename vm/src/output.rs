@@ -3,7 +3,11 @@
 //! Geometry is kept in three groups so tools can tell them apart: triangles emitted by
 //! `VERTEX` ([`Output::mesh`]), swept profiles from `LINETO`/`BLENDTO`/… ([`Output::sweeps`]),
 //! and instances of shared meshes such as isosurfaces ([`Output::instances`]).
+//! Animation ([`Output::animation`]) is kept beside the geometry: the bones with
+//! the frame tracks of their transform rules, and the camera's track; vertices refer
+//! to their bone by index ([`Mesh::bones`]). Sampling at a time is in [`crate::anim`].
 
+use crate::geom::quat::Frame;
 use glam::{Mat4, Vec3};
 use serde::Serialize;
 
@@ -98,6 +102,26 @@ impl Mesh {
 pub struct Polyline {
     pub namespace: String,
     pub points: Vec<[f32; 3]>,
+    /// Bone per point (as [`Mesh::bones`]), or empty while all are 0.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub bones: Vec<u32>,
+}
+
+impl Polyline {
+    /// Appends a point drawn in `bone`.
+    pub fn push(&mut self, p: Vec3, bone: u32) {
+        let i = self.points.len();
+        self.points.push(p.to_array());
+        if bone != 0 || !self.bones.is_empty() {
+            self.bones.resize(i, 0);
+            self.bones.push(bone);
+        }
+    }
+
+    /// The bone of point `i` (0 when bones are not stored).
+    pub fn bone(&self, i: usize) -> u32 {
+        self.bones.get(i).copied().unwrap_or(0)
+    }
 }
 
 /// One placement of a shared mesh (an isosurface, say).
@@ -128,6 +152,64 @@ pub struct Stats {
     pub warnings: Vec<String>,
 }
 
+/// The frames one transform rule emitted (thesis §4.4.1), in order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Track {
+    /// The transform rule's name.
+    pub rule: String,
+    /// Frame k is the frame of the k-th `FRAME {adj}` reached when the rule is
+    /// evaluated from the identity: the current frame composed with `adj`.
+    pub frames: Vec<Frame>,
+    /// True when the rule ended by itself (a finite track: animation wraps around
+    /// it); false when it was cut at the number of frames the run needed (an
+    /// infinite rule, sampled lazily).
+    pub complete: bool,
+}
+
+/// A bone: one call of a model rule with transform rules (`rule A : X1 : X2 {…}`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Bone {
+    /// The model rule's name (`""` for the root, bone 0).
+    pub rule: String,
+    /// The enclosing bone (0 = the root; the root is its own parent).
+    pub parent: u32,
+    /// A's frame at the call, in world space (the rest pose): A's own space.
+    pub rest: Frame,
+    /// Frames per second of the bone's transform rules (the `fps` directive plus the
+    /// `fps` adjustments on the way to the call).
+    pub fps: f32,
+    /// The transform rules X1…Xn, as indices into [`Animation::tracks`].
+    pub tracks: Vec<u32>,
+}
+
+/// The camera of a `camerarule`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    /// The camera rule's frames, as an index into [`Animation::tracks`].
+    pub track: u32,
+    /// Frames per second (the `fps` directive).
+    pub fps: f32,
+    /// `camerafov`: vertical field of view in degrees.
+    pub fov: f32,
+    /// `cameranearplane`.
+    pub near: f32,
+    /// `camerafarplane`.
+    pub far: f32,
+}
+
+/// Bones, their tracks and the camera. Empty (the default) for a static model.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Animation {
+    /// `duration` in seconds.
+    pub duration: f32,
+    /// Bone b is `bones[b]`; `bones[0]` is the root (unanimated). Empty when no
+    /// bone was made: every vertex then belongs to the root.
+    pub bones: Vec<Bone>,
+    /// One track per transform rule used (bones and the camera share them).
+    pub tracks: Vec<Track>,
+    pub camera: Option<Camera>,
+}
+
 /// Everything an evaluation produced.
 #[derive(Clone, Debug, Default)]
 pub struct Output {
@@ -139,6 +221,8 @@ pub struct Output {
     pub stats: Stats,
     /// `background r g b a`.
     pub background: [f32; 4],
+    /// Bones with their frame tracks, and the camera track.
+    pub animation: Animation,
 }
 
 impl Output {

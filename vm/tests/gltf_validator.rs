@@ -9,7 +9,7 @@ use std::process::Command;
 use glam::{Mat4, Quat, Vec3};
 use mdg_vm::export::{write, Format};
 use mdg_vm::geom::{blend_frames, polygonize, sweep, sweep_averaged, sweep_oriented, sweep_path, Frame, Grid};
-use mdg_vm::output::{Instance, Mesh, Output, Polyline};
+use mdg_vm::output::{Animation, Bone, Camera, Instance, Mesh, Output, Polyline, Track};
 
 /// Emits a unit cube as VERTEX triangles in `frame` (mirrored frames flag their
 /// triangles, as the VM does).
@@ -83,12 +83,60 @@ fn outputs() -> Vec<(&'static str, Output)> {
     sweep_oriented(&mut sweeps.sweeps, &profile, &a, &a.translate(Vec3::new(-2.0, 0.0, 1.0)), [1.0; 4], [1.0; 4], 0);
     let m = a.reflect(Vec3::X).translate(Vec3::new(0.0, -2.0, 0.0));
     sweep_averaged(&mut sweeps.sweeps, &profile, &m, &m.rotate(Quat::from_rotation_z(1.0)).translate(Vec3::Z), [1.0; 4], [1.0; 4], 0);
-    sweeps.lines.push(Polyline { namespace: "".into(), points: vec![[0.0; 3], [1.0, 2.0, 3.0], [1.0, 3.0, 3.0]] });
-    sweeps.lines.push(Polyline { namespace: "lonely".into(), points: vec![[5.0; 3]] });
+    sweeps.lines.push(Polyline { namespace: "".into(), points: vec![[0.0; 3], [1.0, 2.0, 3.0], [1.0, 3.0, 3.0]], bones: Vec::new() });
+    sweeps.lines.push(Polyline { namespace: "lonely".into(), points: vec![[5.0; 3]], bones: Vec::new() });
     v.push(("sweeps", sweeps));
 
     v.push(("empty", Output::default()));
+    v.push(("animated", animated()));
     v
+}
+
+/// Bones (one nested in another, one with a mirrored and scaled motion, one frozen),
+/// skinned VERTEX and sweep geometry, an instance on a bone, and an animated camera.
+fn animated() -> Output {
+    let spin: Vec<Frame> = (1..=12).map(|k| Frame::identity().rotate(Quat::from_rotation_z(k as f32 * 0.5))).collect();
+    let bob: Vec<Frame> = (0..7).map(|k| Frame::identity().translate(Vec3::new(0.0, 0.0, 0.1 * k as f32))).collect();
+    let flip: Vec<Frame> = (0..4).map(|k| Frame::identity().reflect(Vec3::X).scale(1.0 + 0.25 * k as f32)).collect();
+    let cam: Vec<Frame> = (1..=20)
+        .map(|k| Frame::identity().rotate(Quat::from_rotation_z(k as f32 * 0.3)).translate(Vec3::new(8.0, 0.0, 2.0)).rotate(Quat::from_rotation_y(1.5)))
+        .collect();
+    let a_rest = Frame::identity().translate(Vec3::new(2.0, 0.0, 0.0));
+    let b_rest = a_rest.translate(Vec3::new(1.0, 0.0, 0.0)).scale(0.5);
+    let bone = |rule: &str, parent: u32, rest: Frame, fps: f32, tracks: Vec<u32>| Bone { rule: rule.into(), parent, rest, fps, tracks };
+    let mut out = Output::default();
+    cube_in(&mut out.mesh, &Frame::identity(), [1.0; 4]);
+    let start = out.mesh.n_vertices();
+    cube_in(&mut out.mesh, &a_rest, [1.0, 0.0, 0.0, 1.0]);
+    cube_in(&mut out.mesh, &b_rest, [0.0, 1.0, 0.0, 1.0]);
+    let n = out.mesh.n_vertices();
+    out.mesh.bones = (0..n).map(|i| if i < start { 0 } else if i < start + 24 { 1 } else { 3 }).collect();
+    sweep(&mut out.sweeps, &circle(6, 0.2), &a_rest, &a_rest.translate(Vec3::Z), [1.0; 4], [1.0; 4], 2);
+    let mut line = Polyline::default();
+    line.push(Vec3::ZERO, 0);
+    line.push(a_rest.u, 1);
+    line.push(b_rest.u, 3);
+    out.lines.push(line);
+    let grid = Grid { min: Vec3::splat(-1.0), max: Vec3::splat(1.0), res: [6, 6, 6] };
+    out.shared_meshes.push(("SPHERE".into(), polygonize(&grid, &|p: Vec3| p.length() - 0.8, 1 << 16).expect("sphere")));
+    out.instances.push(Instance { name: "SPHERE".into(), mesh: 0, transform: b_rest.translate(Vec3::Z).to_mat4(), scale: 0.5, color: [0.2, 0.2, 1.0, 1.0], mirrored: false, bone: 3 });
+    out.animation = Animation {
+        duration: 2.0,
+        bones: vec![
+            bone("", 0, Frame::identity(), 0.0, Vec::new()),
+            bone("a", 0, a_rest, 6.0, vec![0, 1]),
+            bone("frozen", 0, a_rest, 0.0, vec![0]),
+            bone("b", 1, b_rest, 12.0, vec![2]),
+        ],
+        tracks: vec![
+            Track { rule: "spin".into(), frames: spin, complete: true },
+            Track { rule: "bob".into(), frames: bob, complete: false },
+            Track { rule: "flip".into(), frames: flip, complete: true },
+            Track { rule: "fly".into(), frames: cam, complete: true },
+        ],
+        camera: Some(Camera { track: 3, fps: 10.0, fov: 45.0, near: 0.1, far: 100.0 }),
+    };
+    out
 }
 
 fn workspace_root() -> PathBuf {

@@ -103,7 +103,12 @@ impl Document {
         while !text.is_char_boundary(offset) {
             offset -= 1;
         }
-        let start = text[..offset].rfind(|c: char| !is_word_char(c)).map(|i| i + 1).unwrap_or(0);
+        let start = text[..offset]
+            .char_indices()
+            .rev()
+            .find(|(_, c)| !is_word_char(*c))
+            .map(|(i, c)| i + c.len_utf8())
+            .unwrap_or(0);
         let replace = Span::new(self.main_file(), start as u32, offset as u32);
         let context = self.context(start, offset);
         let items = self.items_for(&context, config, offset);
@@ -606,7 +611,7 @@ mod tests {
         has("rule A { VERTEX {x 1 r$0} }", &["rx", "ry", "s", "fx", "R", "u"]);
         has("rule A { 4 * {$0} VERTEX {} }", &["rz"]);
         has("rule A { VERTEX [$0] }", &["rz"]);
-        lacks("rule A { VERTEX {x 1 $0} }", &["VERTEX", "A"]);
+        lacks("rule foo { VERTEX {x 1 $0} }", &["VERTEX", "foo"]);
         has("color red green blue alpha\nrule A { VERTEX {$0} }", &["green"]);
         let (d, at) = doc("rule A { VERTEX {r$0} }");
         let c = d.completion(at, &CompletionConfig::default());

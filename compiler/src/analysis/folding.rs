@@ -32,7 +32,7 @@ impl Document {
         let line = |o: u32| file.line_col(o.min(file.text.len() as u32)).0;
         // Line comments alone on consecutive lines fold together.
         let mut run: Option<(Span, u32)> = None;
-        let mut flush = |run: &mut Option<(Span, u32)>, out: &mut Vec<Fold>| {
+        let flush = |run: &mut Option<(Span, u32)>, out: &mut Vec<Fold>| {
             if let Some((span, _)) = run.take() {
                 out.push(Fold { span, kind: FoldKind::Comment });
             }
@@ -82,8 +82,8 @@ impl Document {
     }
 }
 
-fn items(items: &[Item], out: &mut Vec<Fold>) {
-    for item in items {
+fn items(list: &[Item], out: &mut Vec<Fold>) {
+    for item in list {
         let region = |s: Span| Fold { span: s, kind: FoldKind::Region };
         match &item.kind {
             ItemKind::Rule(r) => {

@@ -28,6 +28,8 @@ pub mod symbols;
 
 #[cfg(test)]
 mod fixture;
+#[cfg(test)]
+mod robustness;
 
 use crate::check::CheckOptions;
 use crate::driver::{self, Analysis};

@@ -95,7 +95,7 @@ mod tests {
     fn namespaces_functions_isosurfaces_macros_shaders() {
         let (d, at) = doc("namespace port { rule arm { VERTEX {} } }\nstartshape A\nrule A { po$0rt.arm {} port.LINETO {} }");
         assert_eq!(shown(&d, d.definition(at)), ["main.mdg:1:11 \"port\""]);
-        assert_eq!(shown(&d, d.references(at, false)), ["main.mdg:3:10 \"port\"", "main.mdg:3:24 \"port\""]);
+        assert_eq!(shown(&d, d.references(at, false)), ["main.mdg:3:10 \"port\"", "main.mdg:3:22 \"port\""]);
         let at_arm = d.text().find("arm {}").expect("arm") as u32 + 1;
         assert_eq!(shown(&d, d.definition(at_arm)), ["main.mdg:1:23 \"arm\""]);
 
@@ -128,7 +128,7 @@ mod tests {
         );
         assert_eq!(
             shown(&d, d.references(at, true)),
-            ["main.mdg:3:10 \"shared\"", "main.mdg:5:10 \"shared\"", "lib.mdg:1:6 \"shared\"", "lib.mdg:2:16 \"shared\""]
+            ["main.mdg:3:10 \"shared\"", "main.mdg:5:10 \"shared\"", "lib.mdg:1:6 \"shared\"", "lib.mdg:2:14 \"shared\""]
         );
         assert_eq!(d.highlights(at).len(), 2);
     }

@@ -21,7 +21,9 @@ use std::time::Duration;
   mdg-run tree.mdg -o tree.obj --seed 7         # OBJ, another random tree
   mdg-run knot.mdg --param nx=3 --param ny=5    # override @param values
   mdg-run tree.mdg --format json -o tree.json   # inspection dump (vertices, lines, instances, stats)
-  mdg-run tree.mdgb --stats                     # run a compiled bundle, print counters")]
+  mdg-run tree.mdgb --stats                     # run a compiled bundle, print counters
+  mdg-run solar_system.mdg                      # .glb with the animation (bones, camera)
+  mdg-run solar_system.mdg --time 2.5 -o a.obj  # the pose at 2.5 s as a still mesh")]
 struct Cli {
     /// The grammar: `.mdg` source or `.mdgb` bundle.
     file: PathBuf,
@@ -58,6 +60,12 @@ struct Cli {
     /// Where `@import NAME` looks (default: $MDG_STD or the bundled std/).
     #[arg(long)]
     std: Option<PathBuf>,
+    /// Write the pose at T seconds as a still model: every bone moved by its
+    /// transform rules' frames at index ⌊T·fps⌋, the camera fixed there. For formats
+    /// without animation (obj, stl, ply); applies to every format and the picture.
+    /// Without it, .glb holds the whole animation and obj/stl/ply the rest pose.
+    #[arg(long, value_name = "T")]
+    time: Option<f64>,
 }
 
 fn peak_rss_kib() -> Option<u64> {
@@ -117,11 +125,18 @@ fn main() -> ExitCode {
         },
         None => cli.output.as_deref().and_then(Format::from_path).unwrap_or(Format::Glb),
     };
+    if let Some(t) = cli.time {
+        if !(t.is_finite() && t >= 0.0) {
+            eprintln!("mdg-run: --time {t}: expected a number of seconds ≥ 0");
+            return ExitCode::from(2);
+        }
+    }
     let output = cli.output.clone().unwrap_or_else(|| cli.file.with_extension(format.extension()));
     let eval_opts = EvalOptions {
         seed: cli.seed,
         max_vertices: cli.max_vertices.unwrap_or(mdg_vm::eval::DEFAULT_MAX_VERTICES),
         time_budget: cli.time_budget.map(Duration::from_secs_f64),
+        time: cli.time,
         ..EvalOptions::default()
     };
     let started = std::time::Instant::now();
@@ -134,10 +149,17 @@ fn main() -> ExitCode {
         bar.set_message(format!("{calls} rule calls"));
         bar.tick();
     };
-    let out = evaluate_with_progress(&bundle, &eval_opts, Some(&progress));
+    let mut out = evaluate_with_progress(&bundle, &eval_opts, Some(&progress));
     bar.finish_and_clear();
     for w in &out.stats.warnings {
         eprintln!("warning: {w}");
+    }
+    match cli.time {
+        Some(t) => out = out.posed(t),
+        None if out.animation.bones.len() > 1 && format != Format::Glb => {
+            eprintln!("note: the model is animated; {} has no animation, so this is the rest pose (choose a pose with --time T)", format.extension());
+        }
+        None => {}
     }
     let mut bytes = Vec::new();
     if let Err(e) = export::write(format, &out, &mut bytes) {

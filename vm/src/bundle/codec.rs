@@ -260,6 +260,35 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
         w.u8(s.vertex as u8);
         w.u32(s.name);
         w.u32(s.source);
+        w.len(s.spirv.len());
+        for word in &s.spirv {
+            w.u32(*word);
+        }
+    }
+    // Program.
+    match &b.program {
+        None => w.u8(0),
+        Some(p) => {
+            w.u8(1);
+            w.u32(p.vertex);
+            w.u32(p.fragment);
+        }
+    }
+    // Uniforms.
+    w.len(b.uniforms.len());
+    for u in &b.uniforms {
+        w.u32(u.name);
+        match u.source {
+            UniformSource::Const(v) => {
+                w.u8(0);
+                w.f32s(&v);
+            }
+            UniformSource::Frame { rule, prop } => {
+                w.u8(1);
+                w.u32(rule);
+                w.u8(prop);
+            }
+        }
     }
     // Params.
     w.len(b.params.len());
@@ -441,10 +470,36 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
         });
     }
     r.section = "shaders";
-    let n = r.len(9)?;
+    let n = r.len(13)?;
     let mut shaders = Vec::with_capacity(n);
     for _ in 0..n {
-        shaders.push(Shader { vertex: r.u8()? != 0, name: r.u32()?, source: r.u32()? });
+        let vertex = r.u8()? != 0;
+        let name = r.u32()?;
+        let source = r.u32()?;
+        let m = r.len(4)?;
+        let mut spirv = Vec::with_capacity(m);
+        for _ in 0..m {
+            spirv.push(r.u32()?);
+        }
+        shaders.push(Shader { vertex, name, source, spirv });
+    }
+    r.section = "program";
+    let program = match r.u8()? {
+        0 => None,
+        1 => Some(Program { vertex: r.u32()?, fragment: r.u32()? }),
+        t => return Err(r.err(&format!("unknown program tag {t}"))),
+    };
+    r.section = "uniforms";
+    let n = r.len(9)?;
+    let mut uniforms = Vec::with_capacity(n);
+    for _ in 0..n {
+        let name = r.u32()?;
+        let source = match r.u8()? {
+            0 => UniformSource::Const(r.f32s()?),
+            1 => UniformSource::Frame { rule: r.u32()?, prop: r.u8()? },
+            t => return Err(r.err(&format!("unknown uniform tag {t}"))),
+        };
+        uniforms.push(Uniform { name, source });
     }
     r.section = "params";
     let n = r.len(29)?;
@@ -461,5 +516,5 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
     if r.at != payload.len() {
         return Err(LoadError(format!("{} trailing bytes after the last section", payload.len() - r.at)));
     }
-    Ok(Bundle { strings, settings, transforms, exprs, rules, code, isosurfaces, shaders, params, source_map })
+    Ok(Bundle { strings, settings, transforms, exprs, rules, code, isosurfaces, shaders, program, uniforms, params, source_map })
 }

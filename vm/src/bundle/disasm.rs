@@ -79,5 +79,25 @@ pub fn disassemble(b: &Bundle) -> String {
     for (i, iso) in b.isosurfaces.iter().enumerate() {
         let _ = writeln!(o, "\nI{i} isosurface {} min={:?} max={:?} res={:?} f=E{}", b.string(iso.name), iso.min, iso.max, iso.res, iso.function);
     }
+    for (i, sh) in b.shaders.iter().enumerate() {
+        let stage = if sh.vertex { "vertex" } else { "fragment" };
+        let _ = writeln!(o, "\nS{i} {stage} shader {} ({} SPIR-V words)", b.string(sh.name), sh.spirv.len());
+    }
+    if let Some(p) = &b.program {
+        let name = |i: u32| if i == NONE { "-".to_string() } else { format!("S{i}") };
+        let _ = writeln!(o, "\nprogram vertex={} fragment={}", name(p.vertex), name(p.fragment));
+    }
+    for u in &b.uniforms {
+        match u.source {
+            UniformSource::Const(v) => {
+                let _ = writeln!(o, "uniform {} {:?}", b.string(u.name), v);
+            }
+            UniformSource::Frame { rule, prop } => {
+                let rule = b.string(b.rules.get(rule as usize).map(|r| r.name).unwrap_or(0));
+                let prop = UNIFORM_PROPS.get(prop as usize).unwrap_or(&"?");
+                let _ = writeln!(o, "uniform {} {rule} {prop}", b.string(u.name));
+            }
+        }
+    }
     o
 }

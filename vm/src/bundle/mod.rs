@@ -2,8 +2,8 @@
 //!
 //! Layout: header (magic `MDGB`, format version, flags, FNV-1a 64 checksum of the
 //! payload, payload length), then the payload: sections in a fixed order — strings,
-//! settings, transforms, expressions, rules, code, isosurfaces, shaders, params,
-//! source map. All integers little-endian; lists are a u32 count then elements.
+//! settings, transforms, expressions, rules, code, isosurfaces, shaders (GLSL and
+//! SPIR-V), program, uniforms, params, source map. All integers little-endian; lists are a u32 count then elements.
 //! [`decode`] checks every length against the remaining bytes and [`verify`] every
 //! index and jump, so a corrupt or hostile bundle is rejected with an error, never
 //! a panic.
@@ -23,7 +23,7 @@ use crate::expr::ExprOp;
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"MDGB";
 /// Format version; bumped on any change to the layout.
-pub const VERSION: u16 = 1;
+pub const VERSION: u16 = 2;
 
 /// A precomputed adjustment list: thesis eqs. 4.1–4.9 folded into (q, q̂, u) plus
 /// colour, weight and fps deltas (SPEC §4).
@@ -124,12 +124,50 @@ pub struct Isosurface {
     pub function: u32,
 }
 
-/// A shader source (compiled to SPIR-V once the viewer lands).
+/// A shader block: its GLSL source and the SPIR-V the compiler made of it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Shader {
+    /// Vertex (`@vertexshader`) or fragment (`@fragmentshader`) stage.
     pub vertex: bool,
     pub name: u32,
+    /// String index of the GLSL source, kept for tools and error messages.
     pub source: u32,
+    /// SPIR-V words (first word [`SPIRV_MAGIC`]); empty when the compiler did not
+    /// compile it (a bundle lowered without the shader stage, in unit tests).
+    pub spirv: Vec<u32>,
+}
+
+/// The first word of every SPIR-V module.
+pub const SPIRV_MAGIC: u32 = 0x0723_0203;
+
+/// The `program` directive: which shaders draw the model. A stage left out
+/// ([`NONE`]) uses the viewer's default (std Phong) shader for that stage.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Program {
+    /// Index into [`Bundle::shaders`] of a vertex shader, or [`NONE`].
+    pub vertex: u32,
+    /// Index into [`Bundle::shaders`] of a fragment shader, or [`NONE`].
+    pub fragment: u32,
+}
+
+/// What a `uniform` directive reads.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum UniformSource {
+    /// `uniform NAME x [y [z [w]]]`: missing components are 0.
+    Const([f32; 4]),
+    /// `uniform NAME RULE PROP`: the current frame of transform rule `rule`;
+    /// `prop` indexes [`UNIFORM_PROPS`].
+    Frame { rule: u32, prop: u8 },
+}
+
+/// The frame properties a `uniform NAME RULE PROP` can read, by index.
+pub const UNIFORM_PROPS: [&str; 6] = ["pos", "dir", "conj", "color", "weight", "normal"];
+
+/// A `uniform` directive, in the order written.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Uniform {
+    pub name: u32,
+    pub source: UniformSource,
 }
 
 /// A `@param` with the value compiled in.
@@ -189,6 +227,10 @@ pub struct Bundle {
     pub code: Vec<Op>,
     pub isosurfaces: Vec<Isosurface>,
     pub shaders: Vec<Shader>,
+    /// The `program` directive, if any.
+    pub program: Option<Program>,
+    /// `uniform` directives in source order.
+    pub uniforms: Vec<Uniform>,
     pub params: Vec<Param>,
     pub source_map: Vec<SourceLoc>,
 }

@@ -120,9 +120,34 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
             }
         }
     }
-    for sh in &b.shaders {
+    for (i, sh) in b.shaders.iter().enumerate() {
         str_ok(sh.name, "shader")?;
         str_ok(sh.source, "shader")?;
+        // A SPIR-V module is a 5-word header (magic, version, generator, bound,
+        // schema) and at least one instruction; the driver validates the rest.
+        if !sh.spirv.is_empty() && (sh.spirv.len() < 6 || sh.spirv[0] != SPIRV_MAGIC) {
+            return Err(bad(format!("shader {i}: SPIR-V without the module header")));
+        }
+    }
+    if let Some(p) = &b.program {
+        for (idx, vertex, what) in [(p.vertex, true, "vertex"), (p.fragment, false, "fragment")] {
+            if idx == NONE {
+                continue;
+            }
+            match b.shaders.get(idx as usize) {
+                Some(sh) if sh.vertex == vertex => {}
+                _ => return Err(bad(format!("program: {what} shader {idx} out of range or of the wrong stage"))),
+            }
+        }
+    }
+    for u in &b.uniforms {
+        str_ok(u.name, "uniform")?;
+        if let UniformSource::Frame { rule, prop } = u.source {
+            rule_ok(rule, "uniform rule")?;
+            if prop as usize >= UNIFORM_PROPS.len() {
+                return Err(bad(format!("uniform: property {prop} out of range")));
+            }
+        }
     }
     for p in &b.params {
         str_ok(p.name, "param")?;
@@ -159,4 +184,78 @@ fn verify_body(b: &Bundle, start: u32) -> Result<(), LoadError> {
         pc += 1;
     }
     Err(bad(format!("definition starting at op {start} has no RET")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A minimal valid bundle: one rule `A` that returns, one shader of each stage.
+    fn bundle() -> Bundle {
+        let spirv = vec![SPIRV_MAGIC, 0x0001_0000, 0, 1, 0, 0x0002_0011];
+        Bundle {
+            strings: vec!["A".into(), "vs".into(), "fs".into(), "src".into(), "glow".into(), "".into()],
+            settings: Settings {
+                startshape: 0,
+                maxdepth: 0,
+                minsize: 0.0,
+                maxiter: 0,
+                stacksize: 0,
+                randseed: 0,
+                normal: [0.0, 0.0, 1.0],
+                background: [0.0, 0.0, 0.0, 1.0],
+                fps: 30.0,
+                duration: 10.0,
+                camerafov: 40.0,
+                near: 0.1,
+                far: 1000.0,
+                linerule: NONE,
+                camerarule: NONE,
+                namespaces: vec![5],
+            },
+            transforms: vec![Transform::Const(Composite::IDENTITY)],
+            exprs: vec![],
+            rules: vec![Rule { name: 0, selector: Selector::Random, defs: vec![Def { weight: 1.0, start: 0 }], transforms: vec![], iter: NONE }],
+            code: vec![Op::Ret {}],
+            isosurfaces: vec![],
+            shaders: vec![
+                Shader { vertex: true, name: 1, source: 3, spirv: spirv.clone() },
+                Shader { vertex: false, name: 2, source: 3, spirv },
+            ],
+            program: Some(Program { vertex: 0, fragment: 1 }),
+            uniforms: vec![
+                Uniform { name: 4, source: UniformSource::Const([0.5, 0.0, 0.0, 0.0]) },
+                Uniform { name: 4, source: UniformSource::Frame { rule: 0, prop: 0 } },
+            ],
+            params: vec![],
+            source_map: vec![],
+        }
+    }
+
+    #[test]
+    fn shaders_program_and_uniforms_round_trip_and_verify() {
+        let b = bundle();
+        verify(&b).expect("valid");
+        let bytes = encode(&b);
+        assert_eq!(load(&bytes).expect("loads"), b);
+    }
+
+    #[test]
+    fn bad_shader_program_and_uniform_references_are_rejected() {
+        let mut b = bundle();
+        b.shaders[0].spirv = vec![1, 2, 3, 4, 5, 6];
+        assert!(verify(&b).is_err(), "SPIR-V without the magic number");
+        let mut b = bundle();
+        b.program = Some(Program { vertex: 1, fragment: 1 });
+        assert!(verify(&b).is_err(), "a fragment shader as the vertex stage");
+        let mut b = bundle();
+        b.program = Some(Program { vertex: NONE, fragment: 7 });
+        assert!(verify(&b).is_err(), "shader index out of range");
+        let mut b = bundle();
+        b.uniforms[1].source = UniformSource::Frame { rule: 3, prop: 0 };
+        assert!(verify(&b).is_err(), "uniform rule out of range");
+        let mut b = bundle();
+        b.uniforms[1].source = UniformSource::Frame { rule: 0, prop: 9 };
+        assert!(verify(&b).is_err(), "uniform property out of range");
+    }
 }

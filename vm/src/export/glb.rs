@@ -18,21 +18,48 @@
 //!   viewers disagree on negative scales.
 //!
 //! Nodes use TRS rather than `matrix` because glTF only lets TRS nodes be animation
-//! targets: a later animation section adds an `animations` array (samplers reading
-//! accessors from the same buffer) without changing anything written here.
-//! All numbers are written as f32 with serde_json's shortest round-trip form, and
-//! every map is ordered, so the bytes are a deterministic function of the output.
+//! targets. All numbers are written as f32 with serde_json's shortest round-trip
+//! form, and every map is ordered, so the bytes are a deterministic function of the
+//! output.
+//!
+//! # Animation
+//!
+//! When the output has bones (see [`crate::anim`]):
+//!
+//! * Every bone is a node (`bone N RULE`, bone 0 = `root`), nested like the bones,
+//!   so that a node's world matrix is the bone's `M_b(t)`; its local TRS is the
+//!   bone's local transform `F·P_b(i)·F⁻¹` (translation, rotation, uniform scale;
+//!   negative for a mirrored motion). The node's static TRS is the pose at t = 0.
+//! * The geometry mesh is skinned: `JOINTS_0` holds each vertex's bone (u16; at most
+//!   65,536 bones), `WEIGHTS_0` is (1, 0, 0, 0), and skin 0 lists the bone nodes as
+//!   joints with identity inverse bind matrices (the vertices are stored in world
+//!   space at rest, where every bone is the identity).
+//! * Instance nodes of animated bones are children of their bone's node; the pen
+//!   lines are skinned like the geometry.
+//! * Animation `mdg` has, per moving bone, translation/rotation/scale channels with
+//!   one keyframe per frame index i = 0..=⌊duration·fps⌋ at time i/fps, `STEP`
+//!   interpolation, so a player shows exactly frame ⌊t·fps⌋ as the VM does.
+//! * A `camerarule` becomes camera 0 (perspective, `yfov` = camerafov in radians,
+//!   `znear`/`zfar` from the near and far planes) on node `camera`, animated by
+//!   translation and rotation channels sampled at the directive `fps` (the camera
+//!   frame's scale is not exported).
+
 
 use std::collections::BTreeMap;
 
 use glam::{Mat4, Quat, Vec3};
 use serde::Serialize;
 
-use super::{bake_instance, checked_triangles, clamp_color, color_at, finite3, normal_at};
-use crate::output::{Mesh, Output};
+use super::{bake_instance, checked_triangles, clamp_color, color_at, finite, finite3, normal_at};
+use crate::anim::{frames_needed, trs};
+use crate::geom::quat::Frame;
+use crate::output::{Animation, Mesh, Output};
 
 const FLOAT: u32 = 5126;
 const UNSIGNED_INT: u32 = 5125;
+const UNSIGNED_SHORT: u32 = 5123;
+/// The most bones a glTF file can hold here (`JOINTS_0` is u16).
+pub const MAX_GLTF_BONES: usize = 1 << 16;
 const ARRAY_BUFFER: u32 = 34962;
 const ELEMENT_ARRAY_BUFFER: u32 = 34963;
 const MODE_LINES: u32 = 1;
@@ -44,6 +71,19 @@ const CHUNK_BIN: u32 = 0x004E_4942;
 pub fn write_glb(out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
     let mut g = Builder::default();
     let mut scene_nodes = Vec::new();
+    let anim = &out.animation;
+    g.skinned = anim.bones.len() > 1;
+    if anim.bones.len() > MAX_GLTF_BONES {
+        return Err(format!(
+            "{} bones: glTF export holds at most {MAX_GLTF_BONES} (write one pose with --time instead)",
+            anim.bones.len()
+        ));
+    }
+    // Bone nodes first, so instances can be attached to them.
+    let bone_nodes: Vec<u32> = if g.skinned { g.bone_nodes(anim) } else { Vec::new() };
+    if let Some(&root) = bone_nodes.first() {
+        scene_nodes.push(root);
+    }
 
     // Split instances into ones that can be nodes and ones that must be baked.
     let mut baked = Mesh::default();
@@ -67,12 +107,14 @@ pub fn write_glb(out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
     }
     if !primitives.is_empty() {
         let mesh = g.push_mesh(GMesh { name: Some("mdg".into()), primitives });
-        scene_nodes.push(g.push_node(Node { name: Some("geometry".into()), mesh: Some(mesh), ..Node::default() }));
+        let skin = g.skinned.then(|| g.skin(&bone_nodes));
+        scene_nodes.push(g.push_node(Node { name: Some("geometry".into()), mesh: Some(mesh), skin, ..Node::default() }));
     }
 
     if let Some(p) = g.lines_primitive(out) {
         let mesh = g.push_mesh(GMesh { name: Some("lines".into()), primitives: vec![p] });
-        scene_nodes.push(g.push_node(Node { name: Some("lines".into()), mesh: Some(mesh), ..Node::default() }));
+        let skin = g.skinned.then(|| g.skin(&bone_nodes));
+        scene_nodes.push(g.push_node(Node { name: Some("lines".into()), mesh: Some(mesh), skin, ..Node::default() }));
     }
 
     let mut shared_accessors: BTreeMap<u32, SharedAccessors> = BTreeMap::new();
@@ -109,12 +151,34 @@ pub fn write_glb(out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
             translation: Some(t.to_array()),
             rotation: Some(r.to_array()),
             scale: Some([s; 3]),
+            ..Node::default()
         };
-        scene_nodes.push(g.push_node(node));
+        let n = g.push_node(node);
+        match bone_nodes.get(inst.bone as usize) {
+            Some(&parent) if inst.bone != 0 => g.root.nodes[parent as usize].children.push(n),
+            _ => scene_nodes.push(n),
+        }
+    }
+
+    let mut animation = GAnimation { name: Some("mdg".into()), channels: Vec::new(), samplers: Vec::new() };
+    g.bone_channels(anim, &bone_nodes, &mut animation);
+    if let Some(camera) = g.camera(anim, &mut animation) {
+        scene_nodes.push(camera);
+    }
+    if !animation.channels.is_empty() {
+        g.root.animations.push(animation);
     }
 
     g.root.scenes.push(Scene { nodes: scene_nodes });
     g.finish(buf)
+}
+
+/// A frame's TRS as glTF arrays: translation, unit rotation (x, y, z, w) and a uniform
+/// scale (see [`trs`]); non-finite values become 0 (the rotation the identity).
+fn gltf_trs(f: &Frame) -> ([f32; 3], [f32; 4], f32) {
+    let (t, r, s) = trs(f);
+    let r = if r.is_finite() { r.to_array() } else { [0.0, 0.0, 0.0, 1.0] };
+    (finite3(t.to_array()), r, finite(s))
 }
 
 /// Accessors of one shared mesh, written once and used by all its instances.
@@ -156,16 +220,163 @@ struct Builder {
     root: Root,
     bin: Vec<u8>,
     materials: BTreeMap<[u32; 4], u32>,
+    /// Geometry primitives carry JOINTS_0/WEIGHTS_0 (the output has bones).
+    skinned: bool,
+    /// Keyframe-time accessors by (fps bits, count).
+    times: BTreeMap<(u32, usize), u32>,
 }
 
 impl Builder {
     /// Appends `bytes` (4-byte aligned) as a buffer view and returns its index.
     fn view(&mut self, bytes: &[u8], target: u32) -> u32 {
+        self.view_for(bytes, Some(target))
+    }
+
+    /// A buffer view with an optional target (animation data has none).
+    fn view_for(&mut self, bytes: &[u8], target: Option<u32>) -> u32 {
         self.bin.resize(self.bin.len().next_multiple_of(4), 0);
         let offset = self.bin.len();
         self.bin.extend_from_slice(bytes);
-        self.root.buffer_views.push(BufferView { buffer: 0, byte_offset: offset, byte_length: bytes.len(), target: Some(target) });
+        self.root.buffer_views.push(BufferView { buffer: 0, byte_offset: offset, byte_length: bytes.len(), target });
         self.root.buffer_views.len() as u32 - 1
+    }
+
+    /// The skin whose joints are the bone nodes (created once).
+    fn skin(&mut self, bone_nodes: &[u32]) -> u32 {
+        if self.root.skins.is_empty() {
+            self.root.skins.push(Skin { joints: bone_nodes.to_vec(), skeleton: bone_nodes.first().copied() });
+        }
+        0
+    }
+
+    /// JOINTS_0 (u16, the bone) and WEIGHTS_0 ((1, 0, 0, 0)) for `n` vertices.
+    fn skin_attributes(&mut self, attributes: &mut BTreeMap<&'static str, u32>, n: usize, bone: impl Fn(usize) -> u32) {
+        let joints: Vec<u8> = (0..n).flat_map(|i| [(bone(i).min(u16::MAX as u32) as u16).to_le_bytes(), [0; 2], [0; 2], [0; 2]]).flatten().collect();
+        let view = self.view(&joints, ARRAY_BUFFER);
+        let j = self.accessor(Accessor { buffer_view: view, component_type: UNSIGNED_SHORT, count: n, kind: "VEC4", min: None, max: None });
+        attributes.insert("JOINTS_0", j);
+        let weights = vec![[1.0, 0.0, 0.0, 0.0]; n];
+        attributes.insert("WEIGHTS_0", self.vec4(&weights));
+    }
+
+    /// An animation sampler's input: `count` keyframe times i/fps, with bounds.
+    fn key_times(&mut self, fps: f32, count: usize) -> u32 {
+        if let Some(&a) = self.times.get(&(fps.to_bits(), count)) {
+            return a;
+        }
+        let times: Vec<f32> = (0..count).map(|i| (i as f64 / fps as f64) as f32).collect();
+        let bytes: Vec<u8> = times.iter().flat_map(|x| x.to_le_bytes()).collect();
+        let view = self.view_for(&bytes, None);
+        let (lo, hi) = (times.first().copied().unwrap_or(0.0), times.last().copied().unwrap_or(0.0));
+        let a = self.accessor(Accessor { buffer_view: view, component_type: FLOAT, count, kind: "SCALAR", min: Some(vec![lo]), max: Some(vec![hi]) });
+        self.times.insert((fps.to_bits(), count), a);
+        a
+    }
+
+    /// An animation sampler's output: float vectors of `kind` ("VEC3", "VEC4").
+    fn key_values(&mut self, data: &[f32], width: usize, kind: &'static str) -> u32 {
+        let bytes: Vec<u8> = data.iter().flat_map(|x| x.to_le_bytes()).collect();
+        let view = self.view_for(&bytes, None);
+        self.accessor(Accessor { buffer_view: view, component_type: FLOAT, count: data.len() / width, kind, min: None, max: None })
+    }
+
+    /// Adds a STEP sampler reading `input`/`output` and a channel to `node`'s `path`.
+    fn channel(&mut self, a: &mut GAnimation, input: u32, output: u32, node: u32, path: &'static str) {
+        a.samplers.push(Sampler { input, output, interpolation: "STEP" });
+        a.channels.push(Channel { sampler: a.samplers.len() as u32 - 1, target: Target { node, path } });
+    }
+
+    /// Translation, rotation and scale channels for `node` from one frame per keyframe.
+    fn trs_channels(&mut self, a: &mut GAnimation, input: u32, frames: &[Frame], node: u32, with_scale: bool) {
+        let (mut t, mut r, mut s) = (Vec::new(), Vec::new(), Vec::new());
+        let mut prev: Option<[f32; 4]> = None;
+        for f in frames {
+            let (ft, mut fr, fs) = gltf_trs(f);
+            // q and −q are the same rotation; keep consecutive keys on one side.
+            if let Some(p) = prev {
+                if p[0] * fr[0] + p[1] * fr[1] + p[2] * fr[2] + p[3] * fr[3] < 0.0 {
+                    fr = fr.map(|x| -x);
+                }
+            }
+            prev = Some(fr);
+            t.extend(ft);
+            r.extend(fr);
+            s.extend([fs; 3]);
+        }
+        let out_t = self.key_values(&t, 3, "VEC3");
+        self.channel(a, input, out_t, node, "translation");
+        let out_r = self.key_values(&r, 4, "VEC4");
+        self.channel(a, input, out_r, node, "rotation");
+        if with_scale {
+            let out_s = self.key_values(&s, 3, "VEC3");
+            self.channel(a, input, out_s, node, "scale");
+        }
+    }
+
+    /// One node per bone, nested like the bones, each with its pose at t = 0 as
+    /// static TRS; returns the node of every bone (index = bone).
+    fn bone_nodes(&mut self, anim: &Animation) -> Vec<u32> {
+        let mut nodes = Vec::with_capacity(anim.bones.len());
+        for (b, bone) in anim.bones.iter().enumerate() {
+            let name = if b == 0 { "root".to_string() } else { format!("bone {b} {}", bone.rule) };
+            let mut node = Node { name: Some(name), ..Node::default() };
+            if b != 0 {
+                let (t, r, s) = gltf_trs(&anim.local(b, 0));
+                node.translation = Some(t);
+                node.rotation = Some(r);
+                node.scale = Some([s; 3]);
+            }
+            let n = self.push_node(node);
+            if b != 0 {
+                if let Some(&p) = nodes.get(bone.parent as usize) {
+                    let parent: u32 = p;
+                    self.root.nodes[parent as usize].children.push(n);
+                }
+            }
+            nodes.push(n);
+        }
+        nodes
+    }
+
+    /// Channels for every bone that moves within `duration`: keyframe i at i/fps for
+    /// i = 0..=⌊duration·fps⌋, the bone's local transform at frame i.
+    fn bone_channels(&mut self, anim: &Animation, bone_nodes: &[u32], a: &mut GAnimation) {
+        for (b, bone) in anim.bones.iter().enumerate().skip(1) {
+            let Some(&node) = bone_nodes.get(b) else { continue };
+            if !(bone.fps > 0.0 && bone.fps.is_finite()) {
+                continue;
+            }
+            let n = frames_needed(anim.duration as f64, bone.fps);
+            let frames: Vec<Frame> = (0..n as u64).map(|i| anim.local(b, i)).collect();
+            if n < 2 || frames.iter().all(|f| *f == frames[0]) {
+                continue;
+            }
+            let input = self.key_times(bone.fps, n);
+            self.trs_channels(a, input, &frames, node, true);
+        }
+    }
+
+    /// Camera 0 and its node (static pose at t = 0, animated when it moves); returns
+    /// the node.
+    fn camera(&mut self, anim: &Animation, a: &mut GAnimation) -> Option<u32> {
+        let cam = anim.camera.as_ref()?;
+        let track = anim.tracks.get(cam.track as usize)?;
+        let znear = if cam.near.is_finite() && cam.near > 0.0 { cam.near } else { 0.1 };
+        let zfar = (cam.far.is_finite() && cam.far > znear).then_some(cam.far);
+        let yfov = if cam.fov.is_finite() { cam.fov.to_radians().clamp(1e-3, std::f32::consts::PI - 1e-3) } else { 40f32.to_radians() };
+        self.root.cameras.push(GCamera { kind: "perspective", perspective: Perspective { yfov, znear, zfar } });
+        let camera = Some(self.root.cameras.len() as u32 - 1);
+        let (t, r, _) = gltf_trs(&track.at(0));
+        let node = self.push_node(Node { name: Some("camera".into()), camera, translation: Some(t), rotation: Some(r), ..Node::default() });
+        if cam.fps > 0.0 && cam.fps.is_finite() {
+            let n = frames_needed(anim.duration as f64, cam.fps);
+            let frames: Vec<Frame> = (0..n as u64).map(|i| track.at(i)).collect();
+            if n >= 2 && frames.iter().any(|f| *f != frames[0]) {
+                let input = self.key_times(cam.fps, n);
+                self.trs_channels(a, input, &frames, node, false);
+            }
+        }
+        Some(node)
     }
 
     fn accessor(&mut self, a: Accessor) -> u32 {
@@ -238,6 +449,9 @@ impl Builder {
         attributes.insert("POSITION", self.vec3(&positions, true));
         attributes.insert("NORMAL", self.vec3(&normals, false));
         attributes.insert("COLOR_0", self.vec4(&colors));
+        if self.skinned {
+            self.skin_attributes(&mut attributes, n, |i| m.bone(i));
+        }
         let flat: Vec<u32> = tris.iter().flatten().copied().collect();
         let indices = Some(self.indices(&flat));
         let material = Some(self.material([1.0; 4]));
@@ -260,10 +474,12 @@ impl Builder {
     /// All polylines with two or more points as one `LINES` primitive.
     fn lines_primitive(&mut self, out: &Output) -> Option<Primitive> {
         let mut positions = Vec::new();
+        let mut bones = Vec::new();
         let mut indices = Vec::new();
         for line in out.lines.iter().filter(|l| l.points.len() >= 2) {
             let base = positions.len() as u32;
             positions.extend(line.points.iter().map(|p| finite3(*p)));
+            bones.extend((0..line.points.len()).map(|i| line.bone(i)));
             for k in 0..line.points.len() as u32 - 1 {
                 indices.extend([base + k, base + k + 1]);
             }
@@ -273,6 +489,9 @@ impl Builder {
         }
         let mut attributes = BTreeMap::new();
         attributes.insert("POSITION", self.vec3(&positions, true));
+        if self.skinned {
+            self.skin_attributes(&mut attributes, positions.len(), |i| bones[i]);
+        }
         let indices = Some(self.indices(&indices));
         let material = Some(self.material([1.0; 4]));
         Some(Primitive { attributes, indices, material, mode: Some(MODE_LINES) })
@@ -336,6 +555,12 @@ struct Root {
     buffer_views: Vec<BufferView>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     buffers: Vec<Buffer>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    skins: Vec<Skin>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    cameras: Vec<GCamera>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    animations: Vec<GAnimation>,
 }
 
 impl Default for Root {
@@ -350,6 +575,9 @@ impl Default for Root {
             accessors: Vec::new(),
             buffer_views: Vec::new(),
             buffers: Vec::new(),
+            skins: Vec::new(),
+            cameras: Vec::new(),
+            animations: Vec::new(),
         }
     }
 }
@@ -378,6 +606,61 @@ struct Node {
     rotation: Option<[f32; 4]>,
     #[serde(skip_serializing_if = "Option::is_none")]
     scale: Option<[f32; 3]>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    children: Vec<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    skin: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    camera: Option<u32>,
+}
+
+#[derive(Serialize)]
+struct Skin {
+    joints: Vec<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    skeleton: Option<u32>,
+}
+
+#[derive(Serialize)]
+struct GCamera {
+    #[serde(rename = "type")]
+    kind: &'static str,
+    perspective: Perspective,
+}
+
+#[derive(Serialize)]
+struct Perspective {
+    yfov: f32,
+    znear: f32,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    zfar: Option<f32>,
+}
+
+#[derive(Serialize)]
+struct GAnimation {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    name: Option<String>,
+    channels: Vec<Channel>,
+    samplers: Vec<Sampler>,
+}
+
+#[derive(Serialize)]
+struct Channel {
+    sampler: u32,
+    target: Target,
+}
+
+#[derive(Serialize)]
+struct Target {
+    node: u32,
+    path: &'static str,
+}
+
+#[derive(Serialize)]
+struct Sampler {
+    input: u32,
+    output: u32,
+    interpolation: &'static str,
 }
 
 #[derive(Serialize)]
@@ -565,6 +848,38 @@ pub(crate) mod tests {
         assert!(bin.is_empty());
         assert!(json.get("accessors").is_none() && json.get("buffers").is_none());
         assert_eq!(json["scenes"].as_array().map(Vec::len), Some(1));
+    }
+
+    #[test]
+    fn static_output_has_no_animation_and_a_camera_alone_is_not_skinned() {
+        use crate::output::{Camera, Track};
+        let mut b = Vec::new();
+        write_glb(&sample_output(), &mut b).expect("writes");
+        let (json, _) = parse_glb(&b);
+        for key in ["skins", "animations", "cameras"] {
+            assert!(json.get(key).is_none(), "{key} in a static output");
+        }
+        let mut out = sample_output();
+        let frames = (0..4).map(|k| Frame::identity().rotate(Quat::from_rotation_z(k as f32))).collect();
+        out.animation.duration = 1.0;
+        out.animation.tracks.push(Track { rule: "C".into(), frames, complete: true });
+        out.animation.camera = Some(Camera { track: 0, fps: 4.0, fov: 60.0, near: 0.5, far: 0.1 });
+        let mut b = Vec::new();
+        write_glb(&out, &mut b).expect("writes");
+        let (json, bin) = parse_glb(&b);
+        assert!(json.get("skins").is_none());
+        // A far plane not beyond the near plane is left out (an infinite projection).
+        let persp = &json["cameras"][0]["perspective"];
+        assert_eq!(persp["yfov"].as_f64().map(|v| v as f32), Some(60f32.to_radians()));
+        assert_eq!(persp["znear"].as_f64(), Some(0.5));
+        assert!(persp.get("zfar").is_none());
+        let sampler = &json["animations"][0]["samplers"][0];
+        assert_eq!(sampler["interpolation"], "STEP");
+        // Keys at 0, 1/4, …, 1 s: frames 0..=4, the 4-frame track wrapping at 4.
+        assert_eq!(floats(&bin, &json, sampler["input"].as_u64().expect("input")), vec![0.0, 0.25, 0.5, 0.75, 1.0]);
+        let rot = &json["animations"][0]["samplers"][1];
+        let q = floats(&bin, &json, rot["output"].as_u64().expect("output"));
+        assert!((q[19] - q[3]).abs() < 1e-6 && (q[18] - q[2]).abs() < 1e-6, "key 4 is frame 0 again");
     }
 
     #[test]

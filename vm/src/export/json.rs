@@ -25,8 +25,9 @@ struct DumpInstance<'a> {
 }
 
 /// Appends the inspection dump of `out` as one line of JSON:
-/// `{"vertices": [[x,y,z],…], "triangles": [[i,j,k],…], "lines": [{"namespace", "points"}],
+/// `{"vertices": [[x,y,z],…], "triangles": [[i,j,k],…], "lines": [{"namespace", "points", "bones"?}],
 /// "instances": [{"name", "position", "scale"}], "stats": {…}}`.
+/// A line's `bones` (the bone of each point) is present only when one is animated.
 /// Vertices and triangles are only [`Output::mesh`] (the `VERTEX` geometry), with the
 /// oriented (mirror-corrected) winding. Floats are printed as the shortest decimal that
 /// reads back as the same f32; non-finite values become `null`.

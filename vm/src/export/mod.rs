@@ -231,7 +231,7 @@ pub(crate) mod tests {
         Output {
             mesh: cube(true),
             sweeps,
-            lines: vec![Polyline { namespace: "".into(), points: vec![[0.0; 3], [0.0, 1.0, 2.0], [1.0, 1.0, 2.0]] }],
+            lines: vec![Polyline { namespace: "".into(), points: vec![[0.0; 3], [0.0, 1.0, 2.0], [1.0, 1.0, 2.0]], bones: Vec::new() }],
             shared_meshes: vec![("CUBE".into(), shared)],
             instances: vec![
                 inst(Mat4::from_translation(Vec3::new(3.0, 0.0, 0.0)), false, [1.0, 0.0, 0.0, 1.0]),
@@ -244,6 +244,7 @@ pub(crate) mod tests {
             ],
             stats: Stats { rule_calls: 5, vertices: 36, triangles: 12, max_depth: 2, elapsed_ms: 0.5, warnings: vec!["maxdepth reached".into()] },
             background: [0.0, 0.0, 0.0, 1.0],
+            animation: Default::default(),
         }
     }
 

@@ -125,6 +125,18 @@ impl Frame {
         }
     }
 
+    /// The inverse map `x ↦ q⁻¹ (x − u) q̂⁻¹` (with `q⁻¹ = q̄ / N(q)`), so that
+    /// `f.compose(&f.inverse()?)` is the identity; `None` for a zero or non-finite
+    /// scale. The inverse of a mirrored frame is mirrored.
+    pub fn inverse(&self) -> Option<Frame> {
+        let (nq, nqh) = (norm(self.q), norm(self.qh));
+        if !(nq > 0.0 && nqh > 0.0 && nq.is_finite() && nqh.is_finite() && self.u.is_finite()) {
+            return None;
+        }
+        let lin = Frame { q: scaled(conj(self.q), 1.0 / nq), qh: scaled(conj(self.qh), 1.0 / nqh), u: Vec3::ZERO };
+        Some(Frame { u: -lin.apply_vector(self.u), ..lin })
+    }
+
     /// Maps a point: `u + q x q̂`.
     pub fn apply_point(&self, x: Vec3) -> Vec3 {
         self.u + self.apply_vector(x)
@@ -284,6 +296,20 @@ pub(crate) mod tests {
             assert_eq!(l.mirrored(), a.mirrored() ^ b.mirrored() ^ c.mirrored());
             assert!((l.scale_factor() - a.scale_factor() * b.scale_factor() * c.scale_factor()).abs() < 1e-3);
         }
+    }
+
+    #[test]
+    fn inverse_undoes_the_frame() {
+        let mut rng = Lcg(5);
+        for _ in 0..50 {
+            let f = rng.frame();
+            let inv = f.inverse().expect("invertible");
+            let x = rng.vec(-1.0, 1.0);
+            assert!(close(inv.apply_point(f.apply_point(x)), x, 1e-4));
+            assert!(close(f.compose(&inv).apply_point(x), x, 1e-4));
+            assert_eq!(inv.mirrored(), f.mirrored());
+        }
+        assert!(Frame::identity().scale(0.0).inverse().is_none());
     }
 
     #[test]

@@ -1,0 +1,148 @@
+//! Code actions: the compiler's suggested edits (did-you-mean replacements, remove
+//! an unused rule, drop a unit suffix) and "create rule" for an undefined rule.
+
+use super::{Document, Edit};
+use crate::diag::Diagnostic;
+use crate::span::Span;
+
+/// Codes whose primary span is the name of an undefined rule.
+const UNDEFINED_RULE: &[&str] = &["E0301", "E0305", "E0307", "E0308"];
+
+/// A fix for a diagnostic.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CodeAction {
+    pub title: String,
+    pub edits: Vec<Edit>,
+    /// Whether an editor may apply it without asking (the obvious fix).
+    pub preferred: bool,
+    /// The diagnostic it fixes.
+    pub diagnostic: Diagnostic,
+}
+
+impl Document {
+    /// The fixes for diagnostics touching the byte range `start..end` of the document.
+    pub fn code_actions(&self, start: u32, end: u32) -> Vec<CodeAction> {
+        let mut out = Vec::new();
+        for d in self.diagnostics() {
+            if d.span.file != self.main_file() || d.span.end < start || d.span.start > end {
+                continue;
+            }
+            if let Some(s) = &d.suggestion {
+                let removal = s.replacement.is_empty();
+                let title = if d.code == "W0001" {
+                    format!("Remove unused rule `{}`", self.rule_name_in(&d))
+                } else if s.message.starts_with("did you mean") {
+                    format!("Replace with `{}`", s.replacement)
+                } else {
+                    capitalize(&s.message)
+                };
+                let span = if removal { self.whole_lines(s.span) } else { s.span };
+                out.push(CodeAction {
+                    title,
+                    edits: vec![Edit { span, new_text: s.replacement.clone() }],
+                    preferred: !removal,
+                    diagnostic: d.clone(),
+                });
+            }
+            if UNDEFINED_RULE.contains(&d.code) {
+                let name = self.span_text(d.span).to_string();
+                let valid = name.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+                    && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+                if valid {
+                    let text = self.text();
+                    let lead = if text.is_empty() {
+                        ""
+                    } else if text.ends_with("\n\n") {
+                        ""
+                    } else if text.ends_with('\n') {
+                        "\n"
+                    } else {
+                        "\n\n"
+                    };
+                    let at = Span::new(self.main_file(), text.len() as u32, text.len() as u32);
+                    out.push(CodeAction {
+                        title: format!("Create rule `{name}`"),
+                        edits: vec![Edit { span: at, new_text: format!("{lead}rule {name} {{\n  VERTEX {{}} VERTEX {{x 1}} VERTEX {{y 1}}\n}}\n") }],
+                        preferred: d.suggestion.is_none(),
+                        diagnostic: d.clone(),
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    /// The name a W0001 diagnostic is about.
+    fn rule_name_in(&self, d: &Diagnostic) -> String {
+        d.message.split('`').nth(1).unwrap_or_else(|| self.span_text(d.span)).to_string()
+    }
+
+    /// `span` grown to whole lines when only whitespace surrounds it on them.
+    fn whole_lines(&self, span: Span) -> Span {
+        let text = self.text();
+        let (s, e) = (span.start as usize, (span.end as usize).min(text.len()));
+        let line_start = text[..s].rfind('\n').map(|i| i + 1).unwrap_or(0);
+        let line_end = text[e..].find('\n').map(|i| e + i + 1).unwrap_or(text.len());
+        if text[line_start..s].trim().is_empty() && text[e..line_end].trim().is_empty() {
+            Span::new(span.file, line_start as u32, line_end as u32)
+        } else {
+            span
+        }
+    }
+}
+
+fn capitalize(s: &str) -> String {
+    let mut c = s.chars();
+    match c.next() {
+        Some(f) => f.to_uppercase().chain(c).collect(),
+        None => String::new(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::fixture::doc;
+
+    fn fix(src: &str, title: &str) -> String {
+        let (d, at) = doc(src);
+        let actions = d.code_actions(at, at);
+        let a = actions
+            .iter()
+            .find(|a| a.title == title)
+            .unwrap_or_else(|| panic!("no action {title:?} in {:?}", actions.iter().map(|a| &a.title).collect::<Vec<_>>()));
+        let mut out = d.text().to_string();
+        for e in a.edits.iter().rev() {
+            out.replace_range(e.span.range(), &e.new_text);
+        }
+        out
+    }
+
+    #[test]
+    fn did_you_mean_replaces_the_name() {
+        assert_eq!(fix("startshape A\nrule A { tre$0 {} }\nrule tree { VERTEX {} }", "Replace with `tree`"), "startshape A\nrule A { tree {} }\nrule tree { VERTEX {} }");
+        assert_eq!(fix("maxdpth$0 4\nrule A { VERTEX {} }", "Replace with `maxdepth`"), "maxdepth 4\nrule A { VERTEX {} }");
+        assert_eq!(fix("rule A { VERTEX {rxx$0 3} }", "Replace with `rx`"), "rule A { VERTEX {rx 3} }");
+    }
+
+    #[test]
+    fn removes_an_unused_rule_with_its_lines() {
+        let src = "startshape A\nrule A { VERTEX {} }\nrule un$0used {\n  VERTEX {}\n}\nrule B { VERTEX {} }\n";
+        assert_eq!(fix(&src.replace("rule B { VERTEX {} }\n", ""), "Remove unused rule `unused`"), "startshape A\nrule A { VERTEX {} }\n");
+    }
+
+    #[test]
+    fn creates_a_missing_rule() {
+        let out = fix("startshape A\nrule A { branch$0 {} }", "Create rule `branch`");
+        assert_eq!(out, "startshape A\nrule A { branch {} }\n\nrule branch {\n  VERTEX {} VERTEX {x 1} VERTEX {y 1}\n}\n");
+        let (d, _) = doc(&out);
+        assert!(d.diagnostics().is_empty(), "{:?}", d.diagnostics());
+        let out = fix("startshape mai$0n\n", "Create rule `main`");
+        assert!(out.ends_with("rule main {\n  VERTEX {} VERTEX {x 1} VERTEX {y 1}\n}\n"), "{out}");
+    }
+
+    #[test]
+    fn no_actions_away_from_diagnostics() {
+        let (d, at) = doc("startshape A\nrule A {$0 VERTEX {} }\nrule B { nope {} }");
+        assert!(d.code_actions(at, at).is_empty());
+    }
+}

@@ -1,0 +1,90 @@
+//! `mdg-run --time T` bakes the pose at T into formats without animation: the
+//! written vertices equal the rest vertices moved by the bone's transform at
+//! frame ⌊T·fps⌋ (docs/reference.md §11), computed here independently.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("mdg-run-time-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+/// The `v x y z …` lines of an OBJ file.
+fn obj_vertices(path: &std::path::Path) -> Vec<[f64; 3]> {
+    let text = std::fs::read_to_string(path).expect("read obj");
+    text.lines()
+        .filter_map(|l| l.strip_prefix("v "))
+        .map(|l| {
+            let v: Vec<f64> = l.split_whitespace().take(3).map(|x| x.parse().expect("number")).collect();
+            [v[0], v[1], v[2]]
+        })
+        .collect()
+}
+
+fn run(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_mdg-run")).args(args).output().expect("run mdg-run")
+}
+
+#[test]
+fn time_bakes_the_pose_into_obj() {
+    let dir = temp_dir("obj");
+    let src = dir.join("arm.mdg");
+    // A bone at {x 2 rz 90} spinning 36° per frame about its own origin, at 10 fps.
+    std::fs::write(
+        &src,
+        "startshape scene\nfps 10\nduration 3\nrule scene { arm {x 2 rz 90} }\n\
+         rule arm : spin { VERTEX {x 1} VERTEX {x 1 y 0.5} VERTEX {y 1} }\n\
+         rule spin { 10/10 * {rz 360} FRAME {} }\n",
+    )
+    .expect("write source");
+    let obj = dir.join("pose.obj");
+    for t in ["0", "1.75", "2.3", "12.05"] {
+        let out = run(&[src.to_str().expect("utf-8 path"), "--time", t, "-o", obj.to_str().expect("utf-8 path")]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let got = obj_vertices(&obj);
+        // Frame i = ⌊t·10⌋ turns by 36°·((i mod 10) + 1) about the bone's origin (2, 0, 0);
+        // the rest vertices are (2, 1, 0), (1.5, 1, 0), (1, 0, 0).
+        let secs: f64 = t.parse().expect("time");
+        let i = (secs * 10.0 + 1e-9).floor() as u64;
+        let a = (36.0 * ((i % 10) + 1) as f64).to_radians();
+        let rest = [[2.0, 1.0], [1.5, 1.0], [1.0, 0.0]];
+        assert_eq!(got.len(), 3);
+        for (k, r) in rest.iter().enumerate() {
+            let (x, y) = (r[0] - 2.0, r[1]);
+            let want = [2.0 + x * a.cos() - y * a.sin(), x * a.sin() + y * a.cos(), 0.0];
+            for c in 0..3 {
+                assert!((got[k][c] - want[c]).abs() < 1e-5, "t = {t}, vertex {k}: {:?} vs {want:?}", got[k]);
+            }
+        }
+    }
+    // Without --time, OBJ gets the rest pose and a note says so.
+    let out = run(&[src.to_str().expect("utf-8 path"), "-o", obj.to_str().expect("utf-8 path")]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("rest pose"));
+    let got = obj_vertices(&obj);
+    assert!((got[0][0] - 2.0).abs() < 1e-6 && (got[0][1] - 1.0).abs() < 1e-6, "{:?}", got[0]);
+    // A bad time is a usage error.
+    let out = run(&[src.to_str().expect("utf-8 path"), "--time", "-1", "-o", obj.to_str().expect("utf-8 path")]);
+    assert_eq!(out.status.code(), Some(2));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn time_beyond_duration_samples_an_infinite_rule_further() {
+    let dir = temp_dir("lazy");
+    let src = dir.join("drift.mdg");
+    std::fs::write(
+        &src,
+        "startshape a\nfps 10\nduration 1\nmaxdepth 10000\nrule a : drift { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n\
+         rule drift { FRAME {} drift {z 0.1} }\n",
+    )
+    .expect("write source");
+    let stl = dir.join("pose.obj");
+    let out = run(&[src.to_str().expect("utf-8 path"), "--time", "5", "-o", stl.to_str().expect("utf-8 path")]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    // Frame 50 of `drift` is 5 up, though `duration` only needs frames 0..=10.
+    let got = obj_vertices(&stl);
+    assert!((got[0][2] - 5.0).abs() < 1e-4 && (got[1][0] - 1.0).abs() < 1e-5, "{got:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -1,0 +1,214 @@
+//! The open documents, under one lock: text, version and the latest analysis.
+//!
+//! Handlers run concurrently, so edits are applied here in the order they are
+//! accepted and each carries its version: a change whose version is not newer than
+//! the document's is stale and dropped, and an analysis is stored (and its
+//! diagnostics published) only if the document still has the version it analysed.
+
+use crate::loader::OverlayLoader;
+use crate::position::LineIndex;
+use mdg_compiler::analysis::Document;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, MutexGuard};
+use tower_lsp_server::ls_types::{TextDocumentContentChangeEvent, Uri};
+
+/// One open document.
+pub struct DocState {
+    pub version: i32,
+    pub text: Arc<str>,
+    pub path: PathBuf,
+    /// The latest analysis and the version it analysed.
+    pub analysis: Option<(i32, Arc<Document>)>,
+}
+
+/// What an analysis of one version needs, taken under the lock.
+pub struct Snapshot {
+    pub version: i32,
+    pub path: PathBuf,
+    pub text: Arc<str>,
+    /// Every open document, for imports of unsaved files.
+    pub loader: OverlayLoader,
+}
+
+/// All open documents.
+#[derive(Default)]
+pub struct Documents {
+    map: Mutex<HashMap<Uri, DocState>>,
+}
+
+/// The file path a document URI stands for (a made-up one for `untitled:` and
+/// other non-file URIs, so relative imports simply fail to resolve).
+pub fn path_of(uri: &Uri) -> PathBuf {
+    if uri.scheme().as_str().eq_ignore_ascii_case("file") {
+        if let Some(p) = uri.to_file_path() {
+            return p.into_owned();
+        }
+    }
+    let name: String = uri.as_str().chars().map(|c| if c.is_ascii_alphanumeric() || c == '.' { c } else { '_' }).collect();
+    PathBuf::from("/untitled").join(name)
+}
+
+impl Documents {
+    fn lock(&self) -> MutexGuard<'_, HashMap<Uri, DocState>> {
+        // A panic never happens while the lock is held, but if one did the map is
+        // still consistent: every update is a single assignment.
+        self.map.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Opens (or reopens) a document.
+    pub fn open(&self, uri: Uri, version: i32, text: String) {
+        let path = path_of(&uri);
+        self.lock().insert(uri, DocState { version, text: Arc::from(text), path, analysis: None });
+    }
+
+    /// Closes a document.
+    pub fn close(&self, uri: &Uri) {
+        self.lock().remove(uri);
+    }
+
+    /// Applies changes that bring a document to `version`. Errors if the document is
+    /// not open or the version is not newer (a stale or reordered notification).
+    pub fn change(&self, uri: &Uri, version: i32, changes: Vec<TextDocumentContentChangeEvent>) -> Result<(), String> {
+        let mut map = self.lock();
+        let doc = map.get_mut(uri).ok_or_else(|| format!("change to a document that is not open: {}", uri.as_str()))?;
+        if version <= doc.version {
+            return Err(format!("stale change to {} (version {version}, have {})", uri.as_str(), doc.version));
+        }
+        let mut text: String = doc.text.to_string();
+        for c in changes {
+            match c.range {
+                None => text = c.text,
+                Some(r) => {
+                    let li = LineIndex::new(&text);
+                    let (s, e) = (li.offset(r.start) as usize, li.offset(r.end) as usize);
+                    let (s, e) = (s.min(e), e.max(s));
+                    text.replace_range(s..e, &c.text);
+                }
+            }
+        }
+        doc.text = Arc::from(text);
+        doc.version = version;
+        Ok(())
+    }
+
+    /// What analysing the current version of `uri` needs.
+    pub fn snapshot(&self, uri: &Uri) -> Option<Snapshot> {
+        let map = self.lock();
+        let doc = map.get(uri)?;
+        let mut loader = OverlayLoader::default();
+        for d in map.values() {
+            loader.insert(&d.path, d.text.clone());
+        }
+        Some(Snapshot { version: doc.version, path: doc.path.clone(), text: doc.text.clone(), loader })
+    }
+
+    /// The current version of `uri`, if it is open.
+    #[cfg(test)]
+    pub fn version(&self, uri: &Uri) -> Option<i32> {
+        self.lock().get(uri).map(|d| d.version)
+    }
+
+    /// The current text of `uri`.
+    pub fn text(&self, uri: &Uri) -> Option<Arc<str>> {
+        self.lock().get(uri).map(|d| d.text.clone())
+    }
+
+    /// Stores the analysis of `version`; false (and nothing stored) if the document
+    /// has moved on or was closed.
+    pub fn store(&self, uri: &Uri, version: i32, analysis: Arc<Document>) -> bool {
+        match self.lock().get_mut(uri) {
+            Some(d) if d.version == version => {
+                d.analysis = Some((version, analysis));
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// The analysis of the current version, if there is one.
+    pub fn current_analysis(&self, uri: &Uri) -> Option<Arc<Document>> {
+        let map = self.lock();
+        let d = map.get(uri)?;
+        match &d.analysis {
+            Some((v, a)) if *v == d.version => Some(a.clone()),
+            _ => None,
+        }
+    }
+
+    /// The latest analysis of every open document (with its URI).
+    pub fn analyses(&self) -> Vec<(Uri, Arc<Document>)> {
+        self.lock().iter().filter_map(|(u, d)| d.analysis.as_ref().map(|(_, a)| (u.clone(), a.clone()))).collect()
+    }
+
+    /// Open documents other than `uri` whose latest analysis read the file at `path`.
+    pub fn dependents(&self, uri: &Uri, path: &Path) -> Vec<(Uri, i32)> {
+        let canon = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+        self.lock()
+            .iter()
+            .filter(|(u, _)| *u != uri)
+            .filter(|(_, d)| {
+                d.analysis.as_ref().is_some_and(|(_, a)| {
+                    a.files().iter().skip(1).any(|f| a.file_path(*f).is_some_and(|p| p == path || p == canon))
+                })
+            })
+            .map(|(u, d)| (u.clone(), d.version))
+            .collect()
+    }
+
+    /// The URI of the open document at `path`, if any.
+    pub fn uri_of(&self, path: &Path) -> Option<Uri> {
+        self.lock().iter().find(|(_, d)| d.path == path).map(|(u, _)| u.clone())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::str::FromStr;
+    use tower_lsp_server::ls_types::{Position, Range};
+
+    fn uri() -> Uri {
+        Uri::from_str("file:///tmp/x.mdg").expect("uri")
+    }
+
+    fn change(range: Option<((u32, u32), (u32, u32))>, text: &str) -> TextDocumentContentChangeEvent {
+        TextDocumentContentChangeEvent {
+            range: range.map(|((a, b), (c, d))| Range { start: Position { line: a, character: b }, end: Position { line: c, character: d } }),
+            range_length: None,
+            text: text.to_string(),
+        }
+    }
+
+    #[test]
+    fn changes_apply_in_order_and_stale_ones_are_dropped() {
+        let docs = Documents::default();
+        docs.open(uri(), 1, "rule A {}\n".to_string());
+        docs.change(&uri(), 2, vec![change(Some(((0, 5), (0, 6))), "B"), change(Some(((1, 0), (1, 0))), "// é\n")]).expect("v2");
+        assert_eq!(docs.text(&uri()).as_deref(), Some("rule B {}\n// é\n"));
+        assert!(docs.change(&uri(), 2, vec![change(None, "old")]).is_err());
+        assert!(docs.change(&uri(), 1, vec![change(None, "older")]).is_err());
+        docs.change(&uri(), 5, vec![change(None, "new")]).expect("v5");
+        assert_eq!((docs.text(&uri()).as_deref(), docs.version(&uri())), (Some("new"), Some(5)));
+    }
+
+    #[test]
+    fn analyses_are_stored_only_for_the_current_version() {
+        let docs = Documents::default();
+        docs.open(uri(), 1, "rule A { VERTEX {} }".to_string());
+        let snap = docs.snapshot(&uri()).expect("open");
+        let doc = Arc::new(Document::new(&snap.loader, &snap.path, &snap.text, &Default::default()));
+        docs.change(&uri(), 2, vec![change(None, "rule A { }")]).expect("v2");
+        assert!(!docs.store(&uri(), 1, doc.clone()));
+        assert!(docs.current_analysis(&uri()).is_none());
+        assert!(docs.store(&uri(), 2, doc));
+        assert!(docs.current_analysis(&uri()).is_some());
+    }
+
+    #[test]
+    fn untitled_documents_get_a_path() {
+        let u = Uri::from_str("untitled:Untitled-1").expect("uri");
+        assert_eq!(path_of(&u), PathBuf::from("/untitled/untitled_Untitled_1"));
+        assert_eq!(path_of(&uri()), PathBuf::from("/tmp/x.mdg"));
+    }
+}

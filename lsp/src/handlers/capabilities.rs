@@ -1,0 +1,52 @@
+//! `initialize`: what the server can do.
+
+use super::commands::PANIC_COMMAND;
+use super::semantic_tokens::legend;
+use crate::server::Backend;
+use tower_lsp_server::ls_types::*;
+
+/// The initialize result: full document sync and every feature the server has.
+pub fn initialize(b: &Backend, _params: InitializeParams) -> InitializeResult {
+    let execute_command_provider = b
+        .config
+        .panic_command
+        .then(|| ExecuteCommandOptions { commands: vec![PANIC_COMMAND.to_string()], ..Default::default() });
+    InitializeResult {
+        capabilities: ServerCapabilities {
+            text_document_sync: Some(TextDocumentSyncCapability::Options(TextDocumentSyncOptions {
+                open_close: Some(true),
+                change: Some(TextDocumentSyncKind::FULL),
+                save: Some(TextDocumentSyncSaveOptions::Supported(true)),
+                ..Default::default()
+            })),
+            hover_provider: Some(HoverProviderCapability::Simple(true)),
+            definition_provider: Some(OneOf::Left(true)),
+            references_provider: Some(OneOf::Left(true)),
+            document_highlight_provider: Some(OneOf::Left(true)),
+            rename_provider: Some(OneOf::Right(RenameOptions { prepare_provider: Some(true), work_done_progress_options: Default::default() })),
+            completion_provider: Some(CompletionOptions {
+                trigger_characters: Some(["@", "{", "[", "."].map(String::from).to_vec()),
+                ..Default::default()
+            }),
+            document_symbol_provider: Some(OneOf::Left(true)),
+            workspace_symbol_provider: Some(OneOf::Left(true)),
+            semantic_tokens_provider: Some(SemanticTokensServerCapabilities::SemanticTokensOptions(SemanticTokensOptions {
+                legend: legend(),
+                full: Some(SemanticTokensFullOptions::Bool(true)),
+                range: None,
+                ..Default::default()
+            })),
+            folding_range_provider: Some(FoldingRangeProviderCapability::Simple(true)),
+            document_formatting_provider: Some(OneOf::Left(true)),
+            code_action_provider: Some(CodeActionProviderCapability::Options(CodeActionOptions {
+                code_action_kinds: Some(vec![CodeActionKind::QUICKFIX]),
+                ..Default::default()
+            })),
+            inlay_hint_provider: Some(OneOf::Left(true)),
+            execute_command_provider,
+            ..Default::default()
+        },
+        server_info: Some(ServerInfo { name: "mdg-lsp".to_string(), version: Some(env!("CARGO_PKG_VERSION").to_string()) }),
+        ..Default::default()
+    }
+}

@@ -1,0 +1,46 @@
+//! Document synchronisation: open, change (full text, version-checked), save, close.
+
+use crate::server::Backend;
+use tower_lsp_server::ls_types::*;
+
+/// `textDocument/didOpen`: store the text and analyse it.
+pub async fn did_open(b: &Backend, p: DidOpenTextDocumentParams) {
+    let uri = p.text_document.uri;
+    let version = p.text_document.version;
+    b.docs.open(uri.clone(), version, p.text_document.text);
+    b.refresh(uri.clone(), version).await;
+    refresh_dependents(b, &uri).await;
+}
+
+/// `textDocument/didChange`: apply the edits in order, then analyse the new version.
+pub async fn did_change(b: &Backend, p: DidChangeTextDocumentParams) {
+    let uri = p.text_document.uri;
+    let version = p.text_document.version;
+    if let Err(e) = b.docs.change(&uri, version, p.content_changes) {
+        b.client.log_message(MessageType::WARNING, format!("mdg-lsp: {e}")).await;
+        return;
+    }
+    b.refresh(uri.clone(), version).await;
+    refresh_dependents(b, &uri).await;
+}
+
+/// `textDocument/didSave`: files importing this one may change on disk too.
+pub async fn did_save(b: &Backend, p: DidSaveTextDocumentParams) {
+    refresh_dependents(b, &p.text_document.uri).await;
+}
+
+/// `textDocument/didClose`: forget the document and clear its diagnostics.
+pub async fn did_close(b: &Backend, p: DidCloseTextDocumentParams) {
+    let uri = p.text_document.uri;
+    b.docs.close(&uri);
+    b.client.publish_diagnostics(uri.clone(), Vec::new(), None).await;
+    refresh_dependents(b, &uri).await;
+}
+
+/// Re-analyses open documents that import `uri`'s file.
+async fn refresh_dependents(b: &Backend, uri: &Uri) {
+    let path = crate::documents::path_of(uri);
+    for (dep, version) in b.docs.dependents(uri, &path) {
+        b.refresh(dep, version).await;
+    }
+}

@@ -1,0 +1,247 @@
+//! The server state and the `LanguageServer` implementation, which only routes
+//! each request to its handler in [`crate::handlers`].
+
+use crate::documents::{Documents, Snapshot};
+use crate::guard::guard;
+use crate::handlers;
+use crate::position::LineIndex;
+use mdg_compiler::analysis::{CompletionConfig, Document};
+use mdg_compiler::expand::Options;
+use mdg_compiler::span::{FileId, Span};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use tower_lsp_server::jsonrpc::{Error, Result};
+use tower_lsp_server::ls_types::*;
+use tower_lsp_server::{Client, LanguageServer};
+
+/// Settings fixed at start-up.
+pub struct Config {
+    /// Preprocessor options (where the std library is).
+    pub options: Options,
+    pub completion: CompletionConfig,
+    /// Whether the `mdg.debug.panic` command exists (for testing panic isolation).
+    pub panic_command: bool,
+}
+
+impl Config {
+    /// The configuration from the environment: std from `$MDG_STD` or beside the
+    /// executable; `MDG_LSP_PANIC_COMMAND=1` enables the test command.
+    pub fn from_env() -> Config {
+        let std_dir = mdg_compiler::driver::default_std_dir();
+        let mut std_libraries: Vec<String> = std_dir
+            .as_ref()
+            .and_then(|d| std::fs::read_dir(d).ok())
+            .map(|rd| {
+                rd.filter_map(|e| e.ok())
+                    .filter_map(|e| e.file_name().to_str().and_then(|n| n.strip_suffix(".mdg")).map(str::to_string))
+                    .collect()
+            })
+            .unwrap_or_default();
+        std_libraries.sort();
+        Config {
+            options: Options { std_dir, ..Options::default() },
+            completion: CompletionConfig { std_libraries },
+            panic_command: std::env::var("MDG_LSP_PANIC_COMMAND").is_ok_and(|v| v == "1"),
+        }
+    }
+}
+
+/// The server: the client handle, the documents and the configuration.
+#[derive(Clone)]
+pub struct Backend {
+    pub client: Client,
+    pub docs: Arc<Documents>,
+    pub config: Arc<Config>,
+    /// Set by `shutdown`; decides the exit code after `exit`.
+    pub shutdown_requested: Arc<AtomicBool>,
+}
+
+impl Backend {
+    /// A server talking to `client`.
+    pub fn new(client: Client, config: Config, shutdown_requested: Arc<AtomicBool>) -> Backend {
+        Backend { client, docs: Arc::new(Documents::default()), config: Arc::new(config), shutdown_requested }
+    }
+
+    /// Analyses `snap` (on the current thread).
+    pub fn analyze(snap: &Snapshot, config: &Config) -> Document {
+        Document::new(&snap.loader, &snap.path, &snap.text, &config.options)
+    }
+
+    /// Analyses version `version` of `uri` off the message loop, stores the result and
+    /// publishes its diagnostics — unless a newer version arrives first.
+    pub async fn refresh(&self, uri: Uri, version: i32) {
+        let docs = self.docs.clone();
+        let config = self.config.clone();
+        let u = uri.clone();
+        let result = tokio::task::spawn_blocking(move || {
+            let snap = docs.snapshot(&u).filter(|s| s.version == version)?;
+            Some(guard(|| Backend::analyze(&snap, &config)))
+        })
+        .await;
+        match result {
+            Ok(Some(Ok(doc))) => {
+                let doc = Arc::new(doc);
+                if self.docs.store(&uri, version, doc.clone()) {
+                    handlers::diagnostics::publish(self, &uri, version, &doc).await;
+                }
+            }
+            Ok(Some(Err(panic))) => self.log_panic("analysis", &panic).await,
+            Ok(None) => {}
+            Err(e) => self.log_panic("analysis", &e.to_string()).await,
+        }
+    }
+
+    /// The analysis of the current version of `uri`, computed now if the latest
+    /// one is out of date.
+    pub async fn document(&self, uri: &Uri) -> Option<Arc<Document>> {
+        if let Some(d) = self.docs.current_analysis(uri) {
+            return Some(d);
+        }
+        let snap = self.docs.snapshot(uri)?;
+        let config = self.config.clone();
+        let version = snap.version;
+        let result = tokio::task::spawn_blocking(move || guard(|| Backend::analyze(&snap, &config))).await;
+        match result {
+            Ok(Ok(doc)) => {
+                let doc = Arc::new(doc);
+                self.docs.store(uri, version, doc.clone());
+                Some(doc)
+            }
+            Ok(Err(panic)) => {
+                self.log_panic("analysis", &panic).await;
+                None
+            }
+            Err(e) => {
+                self.log_panic("analysis", &e.to_string()).await;
+                None
+            }
+        }
+    }
+
+    /// Runs feature code under the panic guard: a panic is logged and becomes an
+    /// internal-error response.
+    pub async fn run<T>(&self, what: &str, f: impl FnOnce() -> T) -> Result<T> {
+        match guard(f) {
+            Ok(v) => Ok(v),
+            Err(panic) => {
+                self.log_panic(what, &panic).await;
+                let mut e = Error::internal_error();
+                e.message = format!("mdg-lsp: {what} failed: {panic}").into();
+                Err(e)
+            }
+        }
+    }
+
+    /// Logs a caught panic to the client.
+    pub async fn log_panic(&self, what: &str, message: &str) {
+        self.client.log_message(MessageType::ERROR, format!("mdg-lsp: panic in {what}: {message}")).await;
+    }
+
+    /// The URI of a file of an analysis: the document's own URI for its main file.
+    pub fn uri_of(&self, doc: &Document, main_uri: &Uri, file: FileId) -> Option<Uri> {
+        if file == doc.main_file() {
+            return Some(main_uri.clone());
+        }
+        let path = doc.file_path(file)?;
+        self.docs.uri_of(path).or_else(|| Uri::from_file_path(path))
+    }
+
+    /// The LSP location of a span of an analysis.
+    pub fn location(&self, doc: &Document, main_uri: &Uri, span: Span) -> Option<Location> {
+        let uri = self.uri_of(doc, main_uri, span.file)?;
+        let li = LineIndex::new(doc.file_text(span.file));
+        Some(Location { uri, range: li.range(span.start, span.end) })
+    }
+}
+
+impl LanguageServer for Backend {
+    async fn initialize(&self, params: InitializeParams) -> Result<InitializeResult> {
+        Ok(handlers::capabilities::initialize(self, params))
+    }
+
+    async fn initialized(&self, _: InitializedParams) {
+        let std = self.config.options.std_dir.as_ref().map(|d| d.display().to_string()).unwrap_or_else(|| "not found".to_string());
+        self.client.log_message(MessageType::INFO, format!("mdg-lsp {} ready (std: {std})", env!("CARGO_PKG_VERSION"))).await;
+    }
+
+    async fn shutdown(&self) -> Result<()> {
+        self.shutdown_requested.store(true, Ordering::SeqCst);
+        Ok(())
+    }
+
+    async fn did_open(&self, params: DidOpenTextDocumentParams) {
+        handlers::sync::did_open(self, params).await;
+    }
+
+    async fn did_change(&self, params: DidChangeTextDocumentParams) {
+        handlers::sync::did_change(self, params).await;
+    }
+
+    async fn did_save(&self, params: DidSaveTextDocumentParams) {
+        handlers::sync::did_save(self, params).await;
+    }
+
+    async fn did_close(&self, params: DidCloseTextDocumentParams) {
+        handlers::sync::did_close(self, params).await;
+    }
+
+    async fn hover(&self, params: HoverParams) -> Result<Option<Hover>> {
+        handlers::hover::hover(self, params).await
+    }
+
+    async fn goto_definition(&self, params: GotoDefinitionParams) -> Result<Option<GotoDefinitionResponse>> {
+        handlers::definition::definition(self, params).await
+    }
+
+    async fn references(&self, params: ReferenceParams) -> Result<Option<Vec<Location>>> {
+        handlers::references::references(self, params).await
+    }
+
+    async fn document_highlight(&self, params: DocumentHighlightParams) -> Result<Option<Vec<DocumentHighlight>>> {
+        handlers::highlight::highlight(self, params).await
+    }
+
+    async fn prepare_rename(&self, params: TextDocumentPositionParams) -> Result<Option<PrepareRenameResponse>> {
+        handlers::rename::prepare_rename(self, params).await
+    }
+
+    async fn rename(&self, params: RenameParams) -> Result<Option<WorkspaceEdit>> {
+        handlers::rename::rename(self, params).await
+    }
+
+    async fn completion(&self, params: CompletionParams) -> Result<Option<CompletionResponse>> {
+        handlers::completion::completion(self, params).await
+    }
+
+    async fn document_symbol(&self, params: DocumentSymbolParams) -> Result<Option<DocumentSymbolResponse>> {
+        handlers::document_symbols::document_symbols(self, params).await
+    }
+
+    async fn symbol(&self, params: WorkspaceSymbolParams) -> Result<Option<WorkspaceSymbolResponse>> {
+        handlers::workspace_symbols::workspace_symbols(self, params).await
+    }
+
+    async fn semantic_tokens_full(&self, params: SemanticTokensParams) -> Result<Option<SemanticTokensResult>> {
+        handlers::semantic_tokens::semantic_tokens_full(self, params).await
+    }
+
+    async fn folding_range(&self, params: FoldingRangeParams) -> Result<Option<Vec<FoldingRange>>> {
+        handlers::folding::folding_range(self, params).await
+    }
+
+    async fn formatting(&self, params: DocumentFormattingParams) -> Result<Option<Vec<TextEdit>>> {
+        handlers::formatting::formatting(self, params).await
+    }
+
+    async fn code_action(&self, params: CodeActionParams) -> Result<Option<CodeActionResponse>> {
+        handlers::code_actions::code_action(self, params).await
+    }
+
+    async fn inlay_hint(&self, params: InlayHintParams) -> Result<Option<Vec<InlayHint>>> {
+        handlers::inlay_hints::inlay_hint(self, params).await
+    }
+
+    async fn execute_command(&self, params: ExecuteCommandParams) -> Result<Option<LSPAny>> {
+        handlers::commands::execute_command(self, params).await
+    }
+}

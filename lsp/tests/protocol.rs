@@ -1,0 +1,216 @@
+//! Protocol tests: the built `mdg-lsp` binary spoken to over stdio, JSON-RPC
+//! framed by hand — initialize, diagnostics at the right UTF-16 range with their
+//! codes, every request the server offers, panic isolation, and a clean exit.
+
+mod common;
+
+use common::{pos_of, scratch, uri, Client};
+use serde_json::{json, Value};
+
+/// A program with an unknown rule after a comment with non-ASCII characters, so
+/// the diagnostic's column is in UTF-16 units (é is 1 unit and 2 bytes, 😀 is 2 units and 4 bytes).
+const MAIN: &str = "startshape A\nrule A {\n  /* é😀 */ branch {x 1}\n  30/30 * [ry 360] leaf {}\n}\nrule leaf { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n";
+
+fn text_doc(u: &str) -> Value {
+    json!({"uri": u})
+}
+
+fn at(u: &str, text: &str, needle: &str, delta: usize) -> Value {
+    json!({"textDocument": {"uri": u}, "position": pos_of(text, needle, delta)})
+}
+
+#[test]
+fn initialize_announces_the_features() {
+    let dir = scratch("init");
+    let mut c = Client::spawn();
+    let caps = c.initialize(&dir);
+    assert_eq!(caps["textDocumentSync"]["change"], 1, "full sync");
+    for cap in [
+        "hoverProvider",
+        "definitionProvider",
+        "referencesProvider",
+        "renameProvider",
+        "completionProvider",
+        "documentSymbolProvider",
+        "workspaceSymbolProvider",
+        "semanticTokensProvider",
+        "foldingRangeProvider",
+        "documentFormattingProvider",
+        "codeActionProvider",
+        "inlayHintProvider",
+    ] {
+        assert!(!caps[cap].is_null(), "missing {cap} in {caps}");
+    }
+    assert!(c.shutdown_and_exit().success());
+}
+
+#[test]
+fn diagnostics_hover_definition_completion_formatting() {
+    let dir = scratch("features");
+    let path = dir.join("main.mdg");
+    let u = uri(&path);
+    let mut c = Client::spawn();
+    c.initialize(&dir);
+    c.open(&u, 1, MAIN);
+
+    // The unknown rule, at its UTF-16 range, with its code and the suggestion in the message.
+    let diags = c.diagnostics(&u, 1);
+    assert_eq!(diags.len(), 1, "{diags:?}");
+    let d = &diags[0];
+    assert_eq!(d["code"], "E0301");
+    assert_eq!(d["severity"], 1);
+    assert_eq!(d["source"], "mdg");
+    assert_eq!(d["range"], json!({"start": {"line": 2, "character": 12}, "end": {"line": 2, "character": 18}}));
+    assert!(d["message"].as_str().unwrap_or("").starts_with("unknown rule `branch`"), "{d}");
+
+    // Hover: a drawable's docs and an iterator's step.
+    let h = c.call("textDocument/hover", at(&u, MAIN, "VERTEX", 1));
+    assert_eq!(h["contents"]["kind"], "markdown");
+    assert!(h["contents"]["value"].as_str().unwrap_or("").contains("Emit a vertex"), "{h}");
+    let h = c.call("textDocument/hover", at(&u, MAIN, "30/30", 1));
+    assert_eq!(h["contents"]["value"], "`30/30 * [ry 360]` → 30 step(s) of `ry 12°`");
+
+    // Definition of `leaf` from its call.
+    let def = c.call("textDocument/definition", at(&u, MAIN, "leaf {}", 1));
+    assert_eq!(def["uri"], u.as_str());
+    assert_eq!(def["range"], json!({"start": {"line": 5, "character": 5}, "end": {"line": 5, "character": 9}}));
+
+    // References, highlight and rename of `leaf`.
+    let refs = c.call("textDocument/references", json!({"textDocument": {"uri": u}, "position": pos_of(MAIN, "leaf {}", 0), "context": {"includeDeclaration": true}}));
+    assert_eq!(refs.as_array().map(Vec::len), Some(2), "{refs}");
+    let hl = c.call("textDocument/documentHighlight", at(&u, MAIN, "leaf {}", 0));
+    assert_eq!(hl.as_array().map(Vec::len), Some(2), "{hl}");
+    let prep = c.call("textDocument/prepareRename", at(&u, MAIN, "leaf {}", 0));
+    assert_eq!(prep["placeholder"], "leaf");
+    let edit = c.call("textDocument/rename", json!({"textDocument": {"uri": u}, "position": pos_of(MAIN, "leaf {}", 0), "newName": "petal"}));
+    assert_eq!(edit["changes"][u.as_str()].as_array().map(Vec::len), Some(2), "{edit}");
+    let bad = c.request("textDocument/rename", json!({"textDocument": {"uri": u}, "position": pos_of(MAIN, "leaf {}", 0), "newName": "9"}));
+    assert!(bad["error"]["message"].as_str().unwrap_or("").contains("not a valid name"), "{bad}");
+
+    // Completion inside an adjustment list offers adjustments as snippets.
+    let comp = c.call("textDocument/completion", at(&u, MAIN, "x 1}", 0));
+    let items = comp["items"].as_array().cloned().unwrap_or_default();
+    let rx = items.iter().find(|i| i["label"] == "rx").unwrap_or_else(|| panic!("no rx in {comp}"));
+    assert_eq!(rx["insertTextFormat"], 2);
+    assert_eq!(rx["textEdit"]["newText"], "rx ${1:90}");
+
+    // The quick fix creates the missing rule.
+    let range = json!({"start": pos_of(MAIN, "branch", 1), "end": pos_of(MAIN, "branch", 1)});
+    let actions = c.call("textDocument/codeAction", json!({"textDocument": {"uri": u}, "range": range, "context": {"diagnostics": []}}));
+    let titles: Vec<&str> = actions.as_array().into_iter().flatten().filter_map(|a| a["title"].as_str()).collect();
+    assert_eq!(titles, ["Create rule `branch`"]);
+    assert_eq!(actions[0]["diagnostics"][0]["code"], "E0301");
+
+    // Outline, tokens, folding and hints answer.
+    let syms = c.call("textDocument/documentSymbol", json!({"textDocument": text_doc(&u)}));
+    let names: Vec<&str> = syms.as_array().into_iter().flatten().filter_map(|s| s["name"].as_str()).collect();
+    assert_eq!(names, ["A", "leaf"]);
+    let toks = c.call("textDocument/semanticTokens/full", json!({"textDocument": text_doc(&u)}));
+    assert_eq!(toks["data"].as_array().map(|d| d.len() % 5), Some(0));
+    assert!(toks["data"].as_array().map(Vec::len).unwrap_or(0) > 50, "{toks}");
+    let folds = c.call("textDocument/foldingRange", json!({"textDocument": text_doc(&u)}));
+    assert_eq!(folds, json!([{"startLine": 1, "endLine": 3, "kind": "region"}]));
+    let hints = c.call("textDocument/inlayHint", json!({"textDocument": text_doc(&u), "range": {"start": {"line": 0, "character": 0}, "end": {"line": 9, "character": 0}}}));
+    assert_eq!(hints[0]["label"], "30 × ry 12°");
+    let ws = c.call("workspace/symbol", json!({"query": "lef"}));
+    assert_eq!(ws[0]["name"], "leaf");
+
+    // Formatting: the edit gives `mdgc fmt`'s layout.
+    let messy = "startshape A\nrule A {\nVERTEX {x 1}   VERTEX {y 1} VERTEX {}\n}\n";
+    c.change(&u, 2, messy);
+    let diags = c.diagnostics(&u, 2);
+    assert!(diags.is_empty(), "{diags:?}");
+    let edits = c.call("textDocument/formatting", json!({"textDocument": text_doc(&u), "options": {"tabSize": 2, "insertSpaces": true}}));
+    let edits = edits.as_array().cloned().unwrap_or_default();
+    assert_eq!(edits.len(), 1, "{edits:?}");
+    let formatted = mdg_format(messy, &edits[0]);
+    assert_eq!(formatted, "startshape A\nrule A {\n  VERTEX {x 1}\n  VERTEX {y 1}\n  VERTEX {}\n}\n");
+
+    assert!(c.shutdown_and_exit().success());
+}
+
+/// Applies one LSP edit (ASCII text only) to `text`.
+fn mdg_format(text: &str, edit: &Value) -> String {
+    let offset = |p: &Value| {
+        let line = p["line"].as_u64().unwrap_or(0) as usize;
+        let col = p["character"].as_u64().unwrap_or(0) as usize;
+        text.split_inclusive('\n').take(line).map(str::len).sum::<usize>() + col
+    };
+    let (s, e) = (offset(&edit["range"]["start"]), offset(&edit["range"]["end"]));
+    format!("{}{}{}", &text[..s], edit["newText"].as_str().unwrap_or(""), &text[e..])
+}
+
+#[test]
+fn unsaved_imports_and_their_dependents() {
+    let dir = scratch("imports");
+    let (main, lib) = (dir.join("main.mdg"), dir.join("lib.mdg"));
+    let (um, ul) = (uri(&main), uri(&lib));
+    // The library exists only in the editor, not on disk.
+    let mut c = Client::spawn();
+    c.initialize(&dir);
+    c.open(&ul, 1, "rule shape { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n");
+    c.diagnostics(&ul, 1);
+    let main_text = "@import lib.mdg\nstartshape A\nrule A { shape {} }\n";
+    c.open(&um, 1, main_text);
+    assert_eq!(c.diagnostics(&um, 1), Vec::<Value>::new());
+    let def = c.call("textDocument/definition", at(&um, main_text, "shape {}", 1));
+    assert_eq!(def["uri"], ul.as_str());
+    // Removing the rule from the library re-checks the program that imports it.
+    c.change(&ul, 2, "rule form { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n");
+    let diags = c.diagnostics(&um, 1);
+    assert_eq!(diags.iter().map(|d| d["code"].clone()).collect::<Vec<_>>(), [json!("E0301")]);
+    assert!(c.shutdown_and_exit().success());
+}
+
+#[test]
+fn stale_changes_are_ignored() {
+    let dir = scratch("stale");
+    let u = uri(&dir.join("a.mdg"));
+    let mut c = Client::spawn();
+    c.initialize(&dir);
+    c.open(&u, 5, "startshape A\nrule A { VERTEX {} }\n");
+    assert!(c.diagnostics(&u, 5).is_empty());
+    c.change(&u, 4, "startshape A\nrule A { nope {} }\n");
+    c.change(&u, 6, "startshape A\nrule A { VERTEX {} nope2 {} }\n");
+    let diags = c.diagnostics(&u, 6);
+    assert_eq!(diags.len(), 1);
+    assert!(diags[0]["message"].as_str().unwrap_or("").contains("nope2"));
+    assert!(c.logs.iter().any(|l| l.contains("stale change")), "{:?}", c.logs);
+    assert!(c.shutdown_and_exit().success());
+}
+
+#[test]
+fn a_panicking_request_does_not_take_the_server_down() {
+    let dir = scratch("panic");
+    let u = uri(&dir.join("a.mdg"));
+    let mut c = Client::spawn_with(&[("MDG_LSP_PANIC_COMMAND", "1")]);
+    c.initialize(&dir);
+    let text = "startshape A\nrule A { VERTEX {} }\n";
+    c.open(&u, 1, text);
+    c.diagnostics(&u, 1);
+    let r = c.request("workspace/executeCommand", json!({"command": "mdg.debug.panic", "arguments": []}));
+    assert_eq!(r["error"]["code"], -32603, "{r}");
+    assert!(r["error"]["message"].as_str().unwrap_or("").contains("panic requested"), "{r}");
+    // Still serving.
+    let h = c.call("textDocument/hover", at(&u, text, "VERTEX", 0));
+    assert!(h["contents"]["value"].as_str().unwrap_or("").contains("VERTEX"));
+    c.clear();
+    assert!(c.logs.iter().any(|l| l.contains("panic in mdg.debug.panic")), "{:?}", c.logs);
+    assert!(c.shutdown_and_exit().success());
+}
+
+#[test]
+fn exit_without_shutdown_exits_with_1() {
+    let dir = scratch("exit");
+    let mut c = Client::spawn();
+    c.initialize(&dir);
+    c.notify("exit", Value::Null);
+    assert_eq!(c.wait_exit().code(), Some(1));
+}
+
+#[test]
+fn version_flag() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_mdg-lsp")).arg("--version").output().expect("run");
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stdout).starts_with("mdg-lsp "));
+}

@@ -1,0 +1,124 @@
+//! Hot reload: watches the grammar and every file it imports (notify), recompiles
+//! and re-evaluates on a worker thread when one changes, and hands the result to the
+//! window. A failed compile is reported with its diagnostics; the window keeps the
+//! last good model.
+//!
+//! Directories are watched rather than files, because editors often save by writing
+//! a new file and renaming it over the old one, which ends a watch on the file.
+
+use crate::model::{self, LoadOptions, Model};
+use notify::{RecursiveMode, Watcher as _};
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::sync::mpsc;
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+/// What a reload produced.
+pub enum Reloaded {
+    Model(Box<Model>),
+    /// Rendered diagnostics (or another error message).
+    Failed(String),
+}
+
+enum Msg {
+    Fs(notify::Result<notify::Event>),
+    Stop,
+}
+
+/// The running watcher; dropping it stops the worker thread.
+pub struct ReloadHandle {
+    tx: mpsc::Sender<Msg>,
+    thread: Option<JoinHandle<()>>,
+}
+
+/// `dir/name` with the directory canonicalised (the file itself may be gone
+/// mid-save).
+fn normalise(p: &Path) -> PathBuf {
+    let abs = if p.is_absolute() { p.to_path_buf() } else { std::env::current_dir().map(|d| d.join(p)).unwrap_or_else(|_| p.to_path_buf()) };
+    match (abs.parent(), abs.file_name()) {
+        (Some(dir), Some(name)) => dir.canonicalize().map(|d| d.join(name)).unwrap_or(abs),
+        _ => abs,
+    }
+}
+
+/// How long to wait for more events after the first (one save is several events).
+const DEBOUNCE: Duration = Duration::from_millis(120);
+
+impl ReloadHandle {
+    /// Starts watching `files` (the main file first) and reloading `path` on change;
+    /// `deliver` receives each result (from the worker thread).
+    pub fn start(
+        path: PathBuf,
+        files: Vec<PathBuf>,
+        opts: LoadOptions,
+        deliver: impl Fn(Reloaded) + Send + 'static,
+    ) -> Result<ReloadHandle, String> {
+        let (tx, rx) = mpsc::channel::<Msg>();
+        let fs_tx = tx.clone();
+        let mut watcher = notify::recommended_watcher(move |ev| {
+            let _ = fs_tx.send(Msg::Fs(ev));
+        })
+        .map_err(|e| format!("cannot watch files: {e}"))?;
+        let mut watched_dirs: BTreeSet<PathBuf> = BTreeSet::new();
+        let mut files: BTreeSet<PathBuf> = files.iter().chain(std::iter::once(&path)).map(|f| normalise(f)).collect();
+        let watch = |watcher: &mut notify::RecommendedWatcher, files: &BTreeSet<PathBuf>, dirs: &mut BTreeSet<PathBuf>| {
+            let want: BTreeSet<PathBuf> = files.iter().filter_map(|f| f.parent().map(Path::to_path_buf)).collect();
+            for d in dirs.difference(&want).cloned().collect::<Vec<_>>() {
+                let _ = watcher.unwatch(&d);
+                dirs.remove(&d);
+            }
+            for d in want {
+                if !dirs.contains(&d) && watcher.watch(&d, RecursiveMode::NonRecursive).is_ok() {
+                    dirs.insert(d);
+                }
+            }
+        };
+        watch(&mut watcher, &files, &mut watched_dirs);
+        let thread = std::thread::Builder::new()
+            .name("mdg-reload".into())
+            .spawn(move || {
+                let relevant = |files: &BTreeSet<PathBuf>, m: &Msg| match m {
+                    Msg::Fs(Ok(ev)) => {
+                        !matches!(ev.kind, notify::EventKind::Access(_)) && ev.paths.iter().any(|p| files.contains(&normalise(p)))
+                    }
+                    _ => false,
+                };
+                while let Ok(msg) = rx.recv() {
+                    if matches!(msg, Msg::Stop) {
+                        return;
+                    }
+                    if !relevant(&files, &msg) {
+                        continue;
+                    }
+                    // Let the save finish: swallow events until quiet.
+                    loop {
+                        match rx.recv_timeout(DEBOUNCE) {
+                            Ok(Msg::Stop) => return,
+                            Ok(_) => continue,
+                            Err(mpsc::RecvTimeoutError::Timeout) => break,
+                            Err(mpsc::RecvTimeoutError::Disconnected) => return,
+                        }
+                    }
+                    let (result, new_files) = match model::load(&path, &opts) {
+                        Ok((m, f)) => (Reloaded::Model(Box::new(m)), f),
+                        Err(fail) => (Reloaded::Failed(fail.error.to_string()), fail.files),
+                    };
+                    files = new_files.iter().chain(std::iter::once(&path)).map(|f| normalise(f)).collect();
+                    watch(&mut watcher, &files, &mut watched_dirs);
+                    deliver(result);
+                }
+            })
+            .map_err(|e| format!("cannot start the reload thread: {e}"))?;
+        Ok(ReloadHandle { tx, thread: Some(thread) })
+    }
+}
+
+impl Drop for ReloadHandle {
+    fn drop(&mut self) {
+        let _ = self.tx.send(Msg::Stop);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}

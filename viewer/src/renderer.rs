@@ -1,0 +1,506 @@
+//! The renderer shared by the offscreen and window paths: a render pass with a
+//! multisampled colour and depth attachment resolved into the target image, the
+//! model's GPU buffers, the uniform buffers and descriptor set, the pipelines, and
+//! command recording for one frame.
+//!
+//! One frame is in flight at a time: callers wait for the previous frame's fence
+//! before [`Renderer::update`] writes the uniform buffers, and wait for the device
+//! to be idle before [`Renderer::set_model`] or [`Renderer::resize`] replace
+//! resources the GPU may be using.
+
+use crate::buffer::Buffer;
+use crate::camera::OrbitCamera;
+use crate::context::{vkerr, Context};
+use crate::image::{depth_format, msaa_samples, Image, ImageDesc};
+use crate::model::Model;
+use crate::pipeline::{Kind, Layout, Pipeline, PipelineDesc};
+use crate::program::{self, ProgramSpirv};
+use crate::scene::{self, Bounds};
+use crate::uniforms::{self, UniformSpec};
+use mdg_vm::output::Animation;
+use crate::Error;
+use ash::vk;
+use glam::{Mat4, Vec3};
+use std::path::Path;
+use std::sync::Arc;
+
+/// What the renderer draws into.
+#[derive(Clone, Copy, Debug)]
+pub struct RendererOptions {
+    /// Format of the target images (the resolve attachment).
+    pub color_format: vk::Format,
+    /// Layout the target is left in: `TRANSFER_SRC_OPTIMAL` offscreen,
+    /// `PRESENT_SRC_KHR` for a swapchain.
+    pub final_layout: vk::ImageLayout,
+    /// MSAA samples wanted (the largest supported ≤ this is used; 4 always is).
+    pub samples: u32,
+}
+
+/// A render pass, destroyed in `Drop`.
+pub struct RenderPass {
+    ctx: Arc<Context>,
+    pub raw: vk::RenderPass,
+}
+
+impl RenderPass {
+    fn new(ctx: &Arc<Context>, color: vk::Format, depth: vk::Format, samples: vk::SampleCountFlags, final_layout: vk::ImageLayout) -> Result<RenderPass, Error> {
+        let attachments = [
+            // 0: multisampled colour, resolved, never stored.
+            vk::AttachmentDescription::default()
+                .format(color)
+                .samples(samples)
+                .load_op(vk::AttachmentLoadOp::CLEAR)
+                .store_op(vk::AttachmentStoreOp::DONT_CARE)
+                .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
+                .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
+                .initial_layout(vk::ImageLayout::UNDEFINED)
+                .final_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL),
+            // 1: multisampled depth.
+            vk::AttachmentDescription::default()
+                .format(depth)
+                .samples(samples)
+                .load_op(vk::AttachmentLoadOp::CLEAR)
+                .store_op(vk::AttachmentStoreOp::DONT_CARE)
+                .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
+                .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
+                .initial_layout(vk::ImageLayout::UNDEFINED)
+                .final_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL),
+            // 2: the target, written by the resolve.
+            vk::AttachmentDescription::default()
+                .format(color)
+                .samples(vk::SampleCountFlags::TYPE_1)
+                .load_op(vk::AttachmentLoadOp::DONT_CARE)
+                .store_op(vk::AttachmentStoreOp::STORE)
+                .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
+                .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
+                .initial_layout(vk::ImageLayout::UNDEFINED)
+                .final_layout(final_layout),
+        ];
+        let color_ref = [vk::AttachmentReference { attachment: 0, layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL }];
+        let depth_ref = vk::AttachmentReference { attachment: 1, layout: vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL };
+        let resolve_ref = [vk::AttachmentReference { attachment: 2, layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL }];
+        let subpass = [vk::SubpassDescription::default()
+            .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
+            .color_attachments(&color_ref)
+            .depth_stencil_attachment(&depth_ref)
+            .resolve_attachments(&resolve_ref)];
+        // Wait for the previous use of the attachments (and, for a swapchain, the
+        // acquire semaphore's stage) before writing; make the resolve visible to a
+        // following copy.
+        let deps = [
+            vk::SubpassDependency::default()
+                .src_subpass(vk::SUBPASS_EXTERNAL)
+                .dst_subpass(0)
+                .src_stage_mask(vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS)
+                .dst_stage_mask(vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS)
+                .src_access_mask(vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE)
+                .dst_access_mask(vk::AccessFlags::COLOR_ATTACHMENT_WRITE | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE),
+            vk::SubpassDependency::default()
+                .src_subpass(0)
+                .dst_subpass(vk::SUBPASS_EXTERNAL)
+                .src_stage_mask(vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT)
+                .dst_stage_mask(vk::PipelineStageFlags::TRANSFER)
+                .src_access_mask(vk::AccessFlags::COLOR_ATTACHMENT_WRITE)
+                .dst_access_mask(vk::AccessFlags::TRANSFER_READ),
+        ];
+        let info = vk::RenderPassCreateInfo::default().attachments(&attachments).subpasses(&subpass).dependencies(&deps);
+        // SAFETY: valid device; all pointers refer to locals alive for the call.
+        let raw = unsafe { ctx.device.create_render_pass(&info, None) }.map_err(vkerr("create render pass"))?;
+        Ok(RenderPass { ctx: ctx.clone(), raw })
+    }
+}
+
+impl Drop for RenderPass {
+    fn drop(&mut self) {
+        // SAFETY: dropped with the renderer, after the GPU is idle.
+        unsafe { self.ctx.device.destroy_render_pass(self.raw, None) };
+    }
+}
+
+/// A framebuffer for one target image, destroyed in `Drop`.
+pub struct Framebuffer {
+    ctx: Arc<Context>,
+    pub raw: vk::Framebuffer,
+    pub extent: vk::Extent2D,
+}
+
+impl Drop for Framebuffer {
+    fn drop(&mut self) {
+        // SAFETY: owners drop framebuffers after the frames using them finished.
+        unsafe { self.ctx.device.destroy_framebuffer(self.raw, None) };
+    }
+}
+
+/// A descriptor pool with the one set the renderer uses.
+struct Descriptors {
+    ctx: Arc<Context>,
+    pool: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+}
+
+impl Descriptors {
+    fn new(ctx: &Arc<Context>, layout: &Layout) -> Result<Descriptors, Error> {
+        let sizes = [
+            vk::DescriptorPoolSize { ty: vk::DescriptorType::UNIFORM_BUFFER, descriptor_count: 2 },
+            vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: 1 },
+        ];
+        let info = vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes);
+        // SAFETY: valid device and create info.
+        let pool = unsafe { ctx.device.create_descriptor_pool(&info, None) }.map_err(vkerr("create descriptor pool"))?;
+        let mut d = Descriptors { ctx: ctx.clone(), pool, set: vk::DescriptorSet::null() };
+        let layouts = [layout.set_layout];
+        let alloc = vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&layouts);
+        // SAFETY: the pool has room for this one set of this layout.
+        let sets = unsafe { ctx.device.allocate_descriptor_sets(&alloc) }.map_err(vkerr("allocate descriptor set"))?;
+        d.set = sets.first().copied().ok_or_else(|| Error::Vulkan("no descriptor set".into()))?;
+        Ok(d)
+    }
+
+    /// Points the set at the three buffers.
+    fn write(&self, globals: &Buffer, bones: &Buffer, user: &Buffer) {
+        let infos = [
+            [vk::DescriptorBufferInfo { buffer: globals.raw, offset: 0, range: vk::WHOLE_SIZE }],
+            [vk::DescriptorBufferInfo { buffer: bones.raw, offset: 0, range: vk::WHOLE_SIZE }],
+            [vk::DescriptorBufferInfo { buffer: user.raw, offset: 0, range: vk::WHOLE_SIZE }],
+        ];
+        let types = [vk::DescriptorType::UNIFORM_BUFFER, vk::DescriptorType::STORAGE_BUFFER, vk::DescriptorType::UNIFORM_BUFFER];
+        let writes: Vec<vk::WriteDescriptorSet> = (0..3)
+            .map(|i| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(self.set)
+                    .dst_binding(i as u32)
+                    .descriptor_type(types[i])
+                    .buffer_info(&infos[i])
+            })
+            .collect();
+        // SAFETY: the set is not in use by a pending frame (callers are idle when
+        // models change); the buffers are valid and of the declared types.
+        unsafe { self.ctx.device.update_descriptor_sets(&writes, &[]) };
+    }
+}
+
+impl Drop for Descriptors {
+    fn drop(&mut self) {
+        // SAFETY: destroying the pool frees its set; the GPU is idle by then.
+        unsafe { self.ctx.device.destroy_descriptor_pool(self.pool, None) };
+    }
+}
+
+/// A model on the GPU: buffers, pipelines and what the camera needs.
+struct GpuModel {
+    // Pipelines before buffers: field order is drop order, and both go only when
+    // the GPU is idle anyway.
+    fill: Pipeline,
+    wire: Option<Pipeline>,
+    lines: Option<Pipeline>,
+    vertices: Buffer,
+    skins: Buffer,
+    indices: Buffer,
+    n_indices: u32,
+    line_vertices: Option<Buffer>,
+    n_line_vertices: u32,
+    descriptors: Descriptors,
+    bones: Buffer,
+    n_bones: u32,
+    user: Buffer,
+    globals: Buffer,
+    uniforms: UniformSpec,
+    animation: Animation,
+}
+
+/// Facts about the loaded model.
+#[derive(Clone, Debug)]
+pub struct ModelInfo {
+    pub bounds: Bounds,
+    pub n_triangles: usize,
+    pub n_line_segments: usize,
+    pub background: [f32; 4],
+    pub fov_deg: f32,
+    pub near: f32,
+    pub far: f32,
+    /// Which shaders draw it.
+    pub program: String,
+    /// Bones move or a camera rule moves the view: time matters.
+    pub animated: bool,
+    /// The grammar has a `camerarule`.
+    pub has_camera_rule: bool,
+    /// `duration` in seconds and `fps`.
+    pub duration: f32,
+    pub fps: f32,
+}
+
+/// One frame's camera and time.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameParams {
+    pub camera: OrbitCamera,
+    /// Seconds: bones, the camera rule and frame-bound uniforms are read here.
+    pub time: f32,
+    pub wireframe: bool,
+    /// Look through the grammar's `camerarule` (when it has one) instead of
+    /// `camera`.
+    pub camera_rule: bool,
+}
+
+/// The renderer.
+pub struct Renderer {
+    ctx: Arc<Context>,
+    model: Option<(GpuModel, ModelInfo)>,
+    attachments: Option<(Image, Image)>,
+    pub render_pass: RenderPass,
+    layout: Layout,
+    pub samples: vk::SampleCountFlags,
+    pub color_format: vk::Format,
+    depth_format: vk::Format,
+    extent: vk::Extent2D,
+}
+
+impl Renderer {
+    pub fn new(ctx: &Arc<Context>, opts: RendererOptions) -> Result<Renderer, Error> {
+        let samples = msaa_samples(ctx, opts.samples.max(2));
+        let depth = depth_format(ctx);
+        let render_pass = RenderPass::new(ctx, opts.color_format, depth, samples, opts.final_layout)?;
+        let layout = Layout::new(ctx)?;
+        Ok(Renderer {
+            ctx: ctx.clone(),
+            model: None,
+            attachments: None,
+            render_pass,
+            layout,
+            samples,
+            color_format: opts.color_format,
+            depth_format: depth,
+            extent: vk::Extent2D { width: 0, height: 0 },
+        })
+    }
+
+    /// Facts about the current model.
+    pub fn info(&self) -> Option<&ModelInfo> {
+        self.model.as_ref().map(|(_, i)| i)
+    }
+
+    /// Uploads a model and builds its pipelines (its `program` or std Phong). On
+    /// error the previous model stays. The GPU must be idle.
+    pub fn set_model(&mut self, model: &Model, std_dir: Option<&Path>) -> Result<&ModelInfo, Error> {
+        let program = program::for_bundle(&model.bundle, std_dir)?;
+        let scene = scene::build(&model.output);
+        self.set_scene(&scene, model, &program)
+    }
+
+    /// Like [`Renderer::set_model`] with a prepared scene and program.
+    pub fn set_scene(&mut self, scene: &scene::Scene, model: &Model, program: &ProgramSpirv) -> Result<&ModelInfo, Error> {
+        let ctx = &self.ctx;
+        let skinned = !scene.skins.is_empty();
+        let desc = |kind| PipelineDesc { kind, render_pass: self.render_pass.raw, samples: self.samples, skinned };
+        let fill = Pipeline::new(ctx, &self.layout, &program.vertex, &program.fragment, desc(Kind::Fill))?;
+        let wire = if ctx.wireframe {
+            Some(Pipeline::new(ctx, &self.layout, &program.vertex, &program.fragment, desc(Kind::Wireframe))?)
+        } else {
+            None
+        };
+        let lines = if scene.n_line_vertices > 0 {
+            let lp = program::line_program()?;
+            Some(Pipeline::new(ctx, &self.layout, &lp.vertex, &lp.fragment, PipelineDesc { skinned: false, ..desc(Kind::Lines) })?)
+        } else {
+            None
+        };
+        let vertices = Buffer::with_data(ctx, &scene.vertices, vk::BufferUsageFlags::VERTEX_BUFFER)?;
+        let skin_bytes: Vec<u8> = if skinned { scene.skins.clone() } else { vec![0u8; scene::SKIN_STRIDE as usize] };
+        let skins = Buffer::with_data(ctx, &skin_bytes, vk::BufferUsageFlags::VERTEX_BUFFER)?;
+        let index_bytes: Vec<u8> = scene.indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+        let indices = Buffer::with_data(ctx, &index_bytes, vk::BufferUsageFlags::INDEX_BUFFER)?;
+        let line_vertices = if scene.n_line_vertices > 0 {
+            Some(Buffer::with_data(ctx, &scene.line_vertices, vk::BufferUsageFlags::VERTEX_BUFFER)?)
+        } else {
+            None
+        };
+        let spec = UniformSpec::new(&model.bundle, &model.output);
+        let animation = model.output.animation.clone();
+        let globals = Buffer::host(ctx, uniforms::GLOBALS_SIZE as u64, vk::BufferUsageFlags::UNIFORM_BUFFER)?;
+        let user_bytes = uniforms::user(&spec.values(&animation, 0.0));
+        let user = Buffer::host(ctx, user_bytes.len() as u64, vk::BufferUsageFlags::UNIFORM_BUFFER)?;
+        user.write(0, &user_bytes)?;
+        let n_bones = (scene.max_bone + 1).max(animation.bones.len() as u32);
+        let bone_bytes = uniforms::bones(&animation, 0.0, n_bones);
+        let bones = Buffer::host(ctx, bone_bytes.len() as u64, vk::BufferUsageFlags::STORAGE_BUFFER)?;
+        bones.write(0, &bone_bytes)?;
+        let descriptors = Descriptors::new(ctx, &self.layout)?;
+        descriptors.write(&globals, &bones, &user);
+        let s = &model.bundle.settings;
+        let info = ModelInfo {
+            bounds: scene.bounds,
+            n_triangles: scene.n_triangles(),
+            n_line_segments: scene.n_line_vertices as usize / 2,
+            background: model.output.background,
+            fov_deg: s.camerafov,
+            near: s.near,
+            far: s.far,
+            program: program.label.clone(),
+            animated: animation.is_animated(),
+            has_camera_rule: animation.camera.is_some(),
+            duration: s.duration,
+            fps: s.fps,
+        };
+        let gpu = GpuModel {
+            fill,
+            wire,
+            lines,
+            vertices,
+            skins,
+            indices,
+            n_indices: scene.indices.len() as u32,
+            line_vertices,
+            n_line_vertices: scene.n_line_vertices,
+            descriptors,
+            bones,
+            n_bones,
+            user,
+            globals,
+            uniforms: spec,
+            animation,
+        };
+        self.model = Some((gpu, info));
+        self.model.as_ref().map(|(_, i)| i).ok_or_else(|| Error::Other("model vanished".into()))
+    }
+
+    /// (Re)creates the multisampled attachments for `extent`. The GPU must be idle.
+    pub fn resize(&mut self, extent: vk::Extent2D) -> Result<(), Error> {
+        if self.attachments.is_some() && extent == self.extent {
+            return Ok(());
+        }
+        self.attachments = None;
+        let color = Image::new(
+            &self.ctx,
+            ImageDesc {
+                width: extent.width,
+                height: extent.height,
+                format: self.color_format,
+                samples: self.samples,
+                usage: vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSIENT_ATTACHMENT,
+                aspect: vk::ImageAspectFlags::COLOR,
+            },
+        )?;
+        let mut aspect = vk::ImageAspectFlags::DEPTH;
+        if self.depth_format == vk::Format::D24_UNORM_S8_UINT {
+            aspect |= vk::ImageAspectFlags::STENCIL;
+        }
+        let depth = Image::new(
+            &self.ctx,
+            ImageDesc {
+                width: extent.width,
+                height: extent.height,
+                format: self.depth_format,
+                samples: self.samples,
+                usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::TRANSIENT_ATTACHMENT,
+                aspect,
+            },
+        )?;
+        self.attachments = Some((color, depth));
+        self.extent = extent;
+        Ok(())
+    }
+
+    /// A framebuffer drawing into `target` (a view of a target image of the
+    /// current extent; call [`Renderer::resize`] first).
+    pub fn framebuffer(&self, target: vk::ImageView) -> Result<Framebuffer, Error> {
+        let Some((color, depth)) = &self.attachments else {
+            return Err(Error::Other("framebuffer before resize".into()));
+        };
+        let views = [color.view, depth.view, target];
+        let info = vk::FramebufferCreateInfo::default()
+            .render_pass(self.render_pass.raw)
+            .attachments(&views)
+            .width(self.extent.width)
+            .height(self.extent.height)
+            .layers(1);
+        // SAFETY: the views are valid, of this extent, and match the render pass.
+        let raw = unsafe { self.ctx.device.create_framebuffer(&info, None) }.map_err(vkerr("create framebuffer"))?;
+        Ok(Framebuffer { ctx: self.ctx.clone(), raw, extent: self.extent })
+    }
+
+    /// The view and projection of a frame: the orbit camera, or the grammar's
+    /// camera rule at the frame's time (looking along its −z with +y up).
+    pub fn view_projection(&self, frame: &FrameParams) -> (Mat4, Mat4, Vec3) {
+        let aspect = self.extent.width.max(1) as f32 / self.extent.height.max(1) as f32;
+        let info = self.info();
+        let (near, far) = info.map(|i| (i.near, i.far)).unwrap_or((0.1, 1000.0));
+        if frame.camera_rule {
+            if let Some((gpu, _)) = &self.model {
+                if let (Some(cam), Some(f)) = (&gpu.animation.camera, gpu.animation.camera_at(frame.time as f64)) {
+                    let (t, r, _) = mdg_vm::anim::trs(&f);
+                    let view = Mat4::from_rotation_translation(r, t).inverse();
+                    let near = cam.near.max(1e-4);
+                    let far = cam.far.max(near * 2.0);
+                    let mut proj = glam::camera::rh::proj::directx::perspective(cam.fov.clamp(1.0, 170.0).to_radians(), aspect, near, far);
+                    proj.y_axis.y = -proj.y_axis.y;
+                    return (view, proj, t);
+                }
+            }
+        }
+        let cam = &frame.camera;
+        (cam.view(), cam.projection(aspect, near, far), cam.eye())
+    }
+
+    /// Writes the frame's uniforms and bone matrices. The previous frame must have
+    /// finished.
+    pub fn update(&self, frame: &FrameParams) -> Result<(), Error> {
+        let Some((gpu, info)) = &self.model else { return Ok(()) };
+        let (view, projection, eye) = self.view_projection(frame);
+        let values = gpu.uniforms.values(&gpu.animation, frame.time);
+        let (center, radius) = info.bounds.sphere();
+        let light = values.light_pos.unwrap_or_else(|| uniforms::default_light(center, radius));
+        let spec = values.spec_color_power.unwrap_or(uniforms::DEFAULT_SPEC_COLOR_POWER);
+        gpu.globals.write(0, &uniforms::globals(&projection, &view, eye, light, spec))?;
+        gpu.user.write(0, &uniforms::user(&values))?;
+        if info.animated {
+            gpu.bones.write(0, &uniforms::bones(&gpu.animation, frame.time, gpu.n_bones))?;
+        }
+        Ok(())
+    }
+
+    /// Records the render pass drawing the model into `fb`.
+    pub fn record(&self, cmd: vk::CommandBuffer, fb: &Framebuffer, frame: &FrameParams) {
+        let d = &self.ctx.device;
+        let bg = self.info().map(|i| i.background).unwrap_or([0.12, 0.12, 0.14, 1.0]);
+        let clears = [
+            vk::ClearValue { color: vk::ClearColorValue { float32: bg } },
+            vk::ClearValue { depth_stencil: vk::ClearDepthStencilValue { depth: 1.0, stencil: 0 } },
+            vk::ClearValue { color: vk::ClearColorValue { float32: bg } },
+        ];
+        let area = vk::Rect2D { offset: vk::Offset2D { x: 0, y: 0 }, extent: fb.extent };
+        let begin = vk::RenderPassBeginInfo::default().render_pass(self.render_pass.raw).framebuffer(fb.raw).render_area(area).clear_values(&clears);
+        let viewport = vk::Viewport {
+            x: 0.0,
+            y: 0.0,
+            width: fb.extent.width as f32,
+            height: fb.extent.height as f32,
+            min_depth: 0.0,
+            max_depth: 1.0,
+        };
+        // SAFETY: `cmd` is recording; the framebuffer, pipelines, buffers and set
+        // are valid and stay alive until the frame's fence is waited on.
+        unsafe {
+            d.cmd_begin_render_pass(cmd, &begin, vk::SubpassContents::INLINE);
+            d.cmd_set_viewport(cmd, 0, &[viewport]);
+            d.cmd_set_scissor(cmd, 0, &[area]);
+            if let Some((gpu, _)) = &self.model {
+                d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::GRAPHICS, self.layout.pipeline_layout, 0, &[gpu.descriptors.set], &[]);
+                if gpu.n_indices > 0 {
+                    let pipeline = match (&gpu.wire, frame.wireframe) {
+                        (Some(w), true) => w.raw,
+                        _ => gpu.fill.raw,
+                    };
+                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
+                    d.cmd_bind_vertex_buffers(cmd, 0, &[gpu.vertices.raw, gpu.skins.raw], &[0, 0]);
+                    d.cmd_bind_index_buffer(cmd, gpu.indices.raw, 0, vk::IndexType::UINT32);
+                    d.cmd_draw_indexed(cmd, gpu.n_indices, 1, 0, 0, 0);
+                }
+                if let (Some(p), Some(buf)) = (&gpu.lines, &gpu.line_vertices) {
+                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, p.raw);
+                    d.cmd_bind_vertex_buffers(cmd, 0, &[buf.raw, gpu.skins.raw], &[0, 0]);
+                    d.cmd_draw(cmd, gpu.n_line_vertices, 1, 0, 0);
+                }
+            }
+            d.cmd_end_render_pass(cmd);
+        }
+    }
+}
