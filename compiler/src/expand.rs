@@ -29,7 +29,7 @@ pub struct Options {
 /// How deep macro expansions may nest before we call it recursion.
 pub const MAX_EXPANSION_DEPTH: usize = 32;
 /// How many macro expansions one compilation may perform.
-pub const MAX_EXPANSIONS: usize = 100_000;
+pub const MAX_EXPANSIONS: usize = 10_000;
 
 /// A parameter declared with `@param`.
 #[derive(Clone, Debug, PartialEq)]
@@ -108,6 +108,9 @@ struct Expander<'a> {
     import_stack: Vec<PathBuf>,
     depth: usize,
     n_expansions: usize,
+    /// Set after the first E0208: a recursive macro can branch, so once one is found no
+    /// further expansion happens (otherwise the cost is exponential in the depth limit).
+    expansion_stopped: bool,
 }
 
 /// Loads `path` as the main file and expands it.
@@ -147,6 +150,7 @@ pub fn expand_file(sources: &mut Sources, loader: &dyn FileLoader, main: FileId,
         import_stack: Vec::new(),
         depth: 0,
         n_expansions: 0,
+        expansion_stopped: false,
     };
     for d in &opts.defines {
         ex.out.defines.insert(d.clone(), None);
@@ -412,7 +416,11 @@ impl<'a> Expander<'a> {
             );
             return None;
         }
+        if self.expansion_stopped {
+            return None;
+        }
         if self.depth >= MAX_EXPANSION_DEPTH || self.n_expansions >= MAX_EXPANSIONS {
+            self.expansion_stopped = true;
             self.out.diagnostics.push(
                 Diagnostic::error("E0208", call_span, format!("expansion of macro `{}` nests too deeply", m.name.text))
                     .with_note(format!(

@@ -76,6 +76,10 @@ fn compile_uncached(source: &str, vertex: bool) -> CompileResult {
         let (line, column) = line_col(source, at);
         return Err(vec![GlslError { line: Some(line), column: Some(column), message: "NUL character in shader source".into() }]);
     }
+    // Without a `#version` line glslang assumes ES 1.00 and says so obscurely.
+    if !source.lines().any(|l| l.trim_start().starts_with("#version")) {
+        return Err(vec![GlslError { line: None, column: None, message: "no `#version` line: Vulkan GLSL shaders start with `#version 450`".into() }]);
+    }
     let Some(compiler) = Compiler::acquire() else {
         return Err(vec![GlslError { line: None, column: None, message: "glslang could not be initialised".into() }]);
     };
@@ -157,9 +161,12 @@ pub fn parse_log(log: &str) -> Vec<GlslError> {
     out
 }
 
-/// glslang writes `'token' : message`; keep it, minus the odd spacing.
+/// glslang writes `'token' : message`; keep it, minus the odd spacing and an
+/// empty token.
 fn tidy(message: &str) -> String {
-    message.replace(" : ", ": ").trim().to_string()
+    let m = message.trim();
+    let m = m.strip_prefix("'' :").unwrap_or(m);
+    m.replace(" : ", ": ").split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
 /// 1-based (line, column) of byte offset `at` in `text`.

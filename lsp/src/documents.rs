@@ -20,6 +20,8 @@ pub struct DocState {
     pub path: PathBuf,
     /// The latest analysis and the version it analysed.
     pub analysis: Option<(i32, Arc<Document>)>,
+    /// Whether an analysis loop is running for this document (at most one is).
+    pub analyzing: bool,
 }
 
 /// What an analysis of one version needs, taken under the lock.
@@ -59,7 +61,7 @@ impl Documents {
     /// Opens (or reopens) a document.
     pub fn open(&self, uri: Uri, version: i32, text: String) {
         let path = path_of(&uri);
-        self.lock().insert(uri, DocState { version, text: Arc::from(text), path, analysis: None });
+        self.lock().insert(uri, DocState { version, text: Arc::from(text), path, analysis: None, analyzing: false });
     }
 
     /// Closes a document.
@@ -114,6 +116,31 @@ impl Documents {
         self.lock().get(uri).map(|d| d.text.clone())
     }
 
+    /// Claims the document's analysis loop: false if one is already running (it
+    /// will pick up the newest version before it stops).
+    pub fn begin_analysis(&self, uri: &Uri) -> bool {
+        match self.lock().get_mut(uri) {
+            Some(d) if !d.analyzing => {
+                d.analyzing = true;
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// Ends the analysis loop if `version` is still the newest (or the document was
+    /// closed); false means a newer version arrived and the loop must go on.
+    pub fn end_analysis(&self, uri: &Uri, version: i32) -> bool {
+        match self.lock().get_mut(uri) {
+            Some(d) if d.version != version => false,
+            Some(d) => {
+                d.analyzing = false;
+                true
+            }
+            None => true,
+        }
+    }
+
     /// Stores the analysis of `version`; false (and nothing stored) if the document
     /// has moved on or was closed.
     pub fn store(&self, uri: &Uri, version: i32, analysis: Arc<Document>) -> bool {
@@ -142,7 +169,7 @@ impl Documents {
     }
 
     /// Open documents other than `uri` whose latest analysis read the file at `path`.
-    pub fn dependents(&self, uri: &Uri, path: &Path) -> Vec<(Uri, i32)> {
+    pub fn dependents(&self, uri: &Uri, path: &Path) -> Vec<Uri> {
         let canon = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
         self.lock()
             .iter()
@@ -152,7 +179,7 @@ impl Documents {
                     a.files().iter().skip(1).any(|f| a.file_path(*f).is_some_and(|p| p == path || p == canon))
                 })
             })
-            .map(|(u, d)| (u.clone(), d.version))
+            .map(|(u, _)| u.clone())
             .collect()
     }
 
@@ -203,6 +230,18 @@ mod tests {
         assert!(docs.current_analysis(&uri()).is_none());
         assert!(docs.store(&uri(), 2, doc));
         assert!(docs.current_analysis(&uri()).is_some());
+    }
+
+    #[test]
+    fn one_analysis_loop_per_document() {
+        let docs = Documents::default();
+        docs.open(uri(), 1, String::new());
+        assert!(docs.begin_analysis(&uri()));
+        assert!(!docs.begin_analysis(&uri()), "a second loop is refused");
+        docs.change(&uri(), 2, vec![change(None, "x")]).expect("v2");
+        assert!(!docs.end_analysis(&uri(), 1), "version 2 still needs analysing");
+        assert!(docs.end_analysis(&uri(), 2));
+        assert!(docs.begin_analysis(&uri()));
     }
 
     #[test]

@@ -67,27 +67,45 @@ impl Backend {
         Document::new(&snap.loader, &snap.path, &snap.text, &config.options)
     }
 
-    /// Analyses version `version` of `uri` off the message loop, stores the result and
-    /// publishes its diagnostics — unless a newer version arrives first.
-    pub async fn refresh(&self, uri: Uri, version: i32) {
-        let docs = self.docs.clone();
-        let config = self.config.clone();
-        let u = uri.clone();
-        let result = tokio::task::spawn_blocking(move || {
-            let snap = docs.snapshot(&u).filter(|s| s.version == version)?;
-            Some(guard(|| Backend::analyze(&snap, &config)))
-        })
-        .await;
-        match result {
-            Ok(Some(Ok(doc))) => {
-                let doc = Arc::new(doc);
-                if self.docs.store(&uri, version, doc.clone()) {
-                    handlers::diagnostics::publish(self, &uri, version, &doc).await;
+    /// Analyses the newest version of `uri` off the message loop, stores it and
+    /// publishes its diagnostics, then again while newer versions have arrived.
+    /// At most one such loop runs per document: edits that come faster than
+    /// analyses are folded into the next one, so typing never queues work.
+    pub async fn refresh(&self, uri: Uri) {
+        if !self.docs.begin_analysis(&uri) {
+            return;
+        }
+        loop {
+            let docs = self.docs.clone();
+            let config = self.config.clone();
+            let u = uri.clone();
+            let result = tokio::task::spawn_blocking(move || {
+                let snap = docs.snapshot(&u)?;
+                Some((snap.version, guard(|| Backend::analyze(&snap, &config))))
+            })
+            .await;
+            let version = match result {
+                Ok(Some((version, Ok(doc)))) => {
+                    let doc = Arc::new(doc);
+                    if self.docs.store(&uri, version, doc.clone()) {
+                        handlers::diagnostics::publish(self, &uri, version, &doc).await;
+                    }
+                    version
                 }
+                Ok(Some((version, Err(panic)))) => {
+                    self.log_panic("analysis", &panic).await;
+                    version
+                }
+                // Closed meanwhile.
+                Ok(None) => i32::MIN,
+                Err(e) => {
+                    self.log_panic("analysis", &e.to_string()).await;
+                    i32::MIN
+                }
+            };
+            if self.docs.end_analysis(&uri, version) {
+                return;
             }
-            Ok(Some(Err(panic))) => self.log_panic("analysis", &panic).await,
-            Ok(None) => {}
-            Err(e) => self.log_panic("analysis", &e.to_string()).await,
         }
     }
 

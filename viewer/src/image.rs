@@ -112,15 +112,21 @@ impl Drop for Image {
     }
 }
 
-/// The largest sample count ≤ `want` that colour and depth attachments both support.
+/// The largest sample count ≤ `want` (at least 2) that colour and depth
+/// attachments both support, else the smallest supported count above 1 (every
+/// device supports 4; lavapipe supports only 1 and 4).
 pub fn msaa_samples(ctx: &Context, want: u32) -> vk::SampleCountFlags {
     let supported = ctx.limits.framebuffer_color_sample_counts & ctx.limits.framebuffer_depth_sample_counts;
-    for (n, flag) in [(8, vk::SampleCountFlags::TYPE_8), (4, vk::SampleCountFlags::TYPE_4), (2, vk::SampleCountFlags::TYPE_2)] {
-        if n <= want && supported.contains(flag) {
-            return flag;
-        }
-    }
-    vk::SampleCountFlags::TYPE_1
+    let counts = [(2, vk::SampleCountFlags::TYPE_2), (4, vk::SampleCountFlags::TYPE_4), (8, vk::SampleCountFlags::TYPE_8)];
+    let usable = counts.iter().filter(|(_, f)| supported.contains(*f));
+    let want = want.max(2);
+    usable
+        .clone()
+        .filter(|(n, _)| *n <= want)
+        .last()
+        .or_else(|| usable.clone().next())
+        .map(|(_, f)| *f)
+        .unwrap_or(vk::SampleCountFlags::TYPE_4)
 }
 
 /// The depth format: D32 float when supported as an attachment, else D24S8 / D16.

@@ -60,6 +60,11 @@ impl Offscreen {
         self.renderer.set_model(model, std_dir).cloned()
     }
 
+    /// The MSAA sample count in use.
+    pub fn samples(&self) -> u32 {
+        self.renderer.samples.as_raw()
+    }
+
     /// The renderer (to load a prepared scene, say).
     pub fn renderer_mut(&mut self) -> &mut Renderer {
         &mut self.renderer

@@ -49,9 +49,12 @@ fn compile_std(std_dir: Option<&Path>) -> Result<ProgramSpirv, String> {
     }
 }
 
+/// Compiled std programs by std directory.
+type StdCache = std::sync::Mutex<Vec<(Option<PathBuf>, ProgramSpirv)>>;
+
 /// The std Phong program (compiled once per process and std directory).
 pub fn std_program(std_dir: Option<&Path>) -> Result<ProgramSpirv, Error> {
-    static CACHE: OnceLock<std::sync::Mutex<Vec<(Option<PathBuf>, ProgramSpirv)>>> = OnceLock::new();
+    static CACHE: OnceLock<StdCache> = OnceLock::new();
     let cache = CACHE.get_or_init(|| std::sync::Mutex::new(Vec::new()));
     let key = std_dir.map(Path::to_path_buf);
     if let Ok(c) = cache.lock() {

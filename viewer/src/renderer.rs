@@ -256,7 +256,7 @@ pub struct Renderer {
 
 impl Renderer {
     pub fn new(ctx: &Arc<Context>, opts: RendererOptions) -> Result<Renderer, Error> {
-        let samples = msaa_samples(ctx, opts.samples.max(2));
+        let samples = msaa_samples(ctx, opts.samples);
         let depth = depth_format(ctx);
         let render_pass = RenderPass::new(ctx, opts.color_format, depth, samples, opts.final_layout)?;
         let layout = Layout::new(ctx)?;

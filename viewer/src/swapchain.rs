@@ -10,7 +10,8 @@ use std::sync::Arc;
 
 /// A window surface (destroyed after its swapchain).
 pub struct Surface {
-    ctx: Arc<Context>,
+    /// Keeps the instance alive until the surface is destroyed.
+    _ctx: Arc<Context>,
     pub loader: ash::khr::surface::Instance,
     pub raw: vk::SurfaceKHR,
 }
@@ -35,7 +36,7 @@ impl Surface {
             unsafe { loader.destroy_surface(raw, None) };
             return Err(Error::Vulkan("the device's graphics queue cannot present to this window".into()));
         }
-        Ok(Surface { ctx: ctx.clone(), loader, raw })
+        Ok(Surface { _ctx: ctx.clone(), loader, raw })
     }
 }
 
@@ -43,7 +44,6 @@ impl Drop for Surface {
     fn drop(&mut self) {
         // SAFETY: the swapchain made from it was dropped first (field order).
         unsafe { self.loader.destroy_surface(self.raw, None) };
-        let _ = &self.ctx;
     }
 }
 

@@ -247,13 +247,18 @@ impl App {
     fn draw(&mut self, screenshot: bool) -> Result<Option<Vec<u8>>, Error> {
         if self.gpu.as_ref().is_some_and(|g| g.stale) {
             self.recreate_swapchain()?;
+            if self.gpu.as_ref().is_some_and(|g| g.stale) {
+                return Ok(None); // Minimised: nothing to draw into until resized.
+            }
         }
         let Some(g) = &mut self.gpu else { return Ok(None) };
         let Some(camera) = self.camera else { return Ok(None) };
         let ctx = g.ctx.clone();
         g.sync.in_flight.wait()?;
         let Some((index, suboptimal)) = g.swapchain.acquire(g.sync.image_available.raw)? else {
+            // Out of date (resized): recreate and draw again.
             g.stale = true;
+            g.window.request_redraw();
             return Ok(None);
         };
         g.sync.in_flight.reset()?;
@@ -290,6 +295,7 @@ impl App {
         let ok = g.swapchain.present(index, signals[0])?;
         if !ok || suboptimal {
             g.stale = true;
+            g.window.request_redraw();
         }
         self.summary.frames += 1;
         if copy {
@@ -554,7 +560,7 @@ impl ApplicationHandler<UserEvent> for App {
                     Some(n) if self.summary.frames >= n => event_loop.exit(),
                     // In --frames mode draw continuously; otherwise only on change.
                     Some(_) => self.redraw(),
-                    None if self.playing || self.gpu.as_ref().is_some_and(|g| g.stale) => self.redraw(),
+                    None if self.playing => self.redraw(),
                     None => {}
                 }
             }

@@ -50,9 +50,7 @@ impl Document {
                     && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
                 if valid {
                     let text = self.text();
-                    let lead = if text.is_empty() {
-                        ""
-                    } else if text.ends_with("\n\n") {
+                    let lead = if text.is_empty() || text.ends_with("\n\n") {
                         ""
                     } else if text.ends_with('\n') {
                         "\n"

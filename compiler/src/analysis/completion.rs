@@ -195,12 +195,10 @@ impl Document {
                 | Tok::KwAngle
                 | Tok::KwColor
                 | Tok::KwWeight
-                    if top_level =>
-                {
                     // `function` inside a selector line belongs to the selector.
-                    if !(t.kind == Tok::KwFunction && pending.is_some_and(|p| before[p].kind == Tok::KwSelector)) {
-                        pending = Some(i);
-                    }
+                    if top_level && !(t.kind == Tok::KwFunction && pending.is_some_and(|p| before[p].kind == Tok::KwSelector)) =>
+                {
+                    pending = Some(i);
                 }
                 _ => {}
             }

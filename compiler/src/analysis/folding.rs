@@ -132,7 +132,7 @@ fn body(items: &[BodyItem], out: &mut Vec<Fold>) {
 #[cfg(test)]
 mod tests {
     use super::super::fixture::doc;
-    use super::*;
+
 
     #[test]
     fn folds_bodies_blocks_comments_and_preprocessor_regions() {

@@ -121,8 +121,13 @@ fn adjustment(a: &Adj, n: Option<f64>, cx: &StepContext) -> Option<String> {
         match (v, n) {
             (Value::Known(x), Some(n)) => deg(fmt_num(x / n)),
             (Value::Known(x), None) => format!("{}/?", deg(fmt_num(x))),
-            (Value::Text(t), Some(n)) if n == 1.0 => t,
-            (Value::Text(t), Some(n)) => format!("{t}/{}", fmt_num(n)),
+            (Value::Text(t), Some(n)) => {
+                if n == 1.0 {
+                    t
+                } else {
+                    format!("{t}/{}", fmt_num(n))
+                }
+            }
             (Value::Text(t), None) => format!("{t}/?"),
         }
     };
@@ -136,8 +141,13 @@ fn adjustment(a: &Adj, n: Option<f64>, cx: &StepContext) -> Option<String> {
             let v = match (args.into_iter().next(), n) {
                 (Some(Value::Known(k)), Some(n)) => fmt_num(k.powf(1.0 / n)),
                 (Some(Value::Known(k)), None) => format!("{}^(1/?)", fmt_num(k)),
-                (Some(Value::Text(t)), Some(n)) if n == 1.0 => t,
-                (Some(Value::Text(t)), Some(n)) => format!("{t}^(1/{})", fmt_num(n)),
+                (Some(Value::Text(t)), Some(n)) => {
+                    if n == 1.0 {
+                        t
+                    } else {
+                        format!("{t}^(1/{})", fmt_num(n))
+                    }
+                }
                 (Some(Value::Text(t)), None) => format!("{t}^(1/?)"),
                 (None, _) => String::new(),
             };

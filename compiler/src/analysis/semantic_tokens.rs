@@ -151,7 +151,7 @@ fn last_segment(doc: &Document, span: Span) -> Span {
 #[cfg(test)]
 mod tests {
     use super::super::fixture::doc;
-    use super::*;
+
 
     fn tokens(src: &str) -> String {
         let (d, _) = doc(src);

@@ -206,7 +206,7 @@ impl Document {
                 Some(WorkspaceSymbol { name, kind, span: o.span, container })
             })
             .collect();
-        out.sort_by(|a, b| (a.span.file, a.span.start).cmp(&(b.span.file, b.span.start)));
+        out.sort_by_key(|s| (s.span.file, s.span.start));
         out.dedup();
         out
     }

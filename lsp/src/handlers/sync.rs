@@ -8,7 +8,7 @@ pub async fn did_open(b: &Backend, p: DidOpenTextDocumentParams) {
     let uri = p.text_document.uri;
     let version = p.text_document.version;
     b.docs.open(uri.clone(), version, p.text_document.text);
-    b.refresh(uri.clone(), version).await;
+    b.refresh(uri.clone()).await;
     refresh_dependents(b, &uri).await;
 }
 
@@ -20,7 +20,7 @@ pub async fn did_change(b: &Backend, p: DidChangeTextDocumentParams) {
         b.client.log_message(MessageType::WARNING, format!("mdg-lsp: {e}")).await;
         return;
     }
-    b.refresh(uri.clone(), version).await;
+    b.refresh(uri.clone()).await;
     refresh_dependents(b, &uri).await;
 }
 
@@ -40,7 +40,7 @@ pub async fn did_close(b: &Backend, p: DidCloseTextDocumentParams) {
 /// Re-analyses open documents that import `uri`'s file.
 async fn refresh_dependents(b: &Backend, uri: &Uri) {
     let path = crate::documents::path_of(uri);
-    for (dep, version) in b.docs.dependents(uri, &path) {
-        b.refresh(dep, version).await;
+    for dep in b.docs.dependents(uri, &path) {
+        b.refresh(dep).await;
     }
 }

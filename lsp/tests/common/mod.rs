@@ -146,10 +146,14 @@ impl Client {
 
     /// Waits for the response to request `id`.
     pub fn response(&mut self, id: i64) -> Value {
+        let is_it = |v: &Value| v.get("id").and_then(Value::as_i64) == Some(id) && v.get("method").is_none();
+        if let Some(i) = self.pending.iter().position(is_it) {
+            return self.pending.remove(i);
+        }
         let deadline = Instant::now() + TIMEOUT;
         loop {
             let v = self.next_message(deadline);
-            if v.get("id").and_then(Value::as_i64) == Some(id) && v.get("method").is_none() {
+            if is_it(&v) {
                 return v;
             }
             self.pending.push(v);

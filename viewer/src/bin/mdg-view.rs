@@ -58,7 +58,7 @@ struct Cli {
     /// Draw wireframe (offscreen; press W in the window).
     #[arg(long)]
     wireframe: bool,
-    /// MSAA samples (the largest supported ≤ this; 4 always works).
+    /// MSAA samples (the largest supported ≤ this, at least 2; 4 always works).
     #[arg(long, default_value_t = 4)]
     samples: u32,
     /// Seed for the random stream (overrides `randseed`).
@@ -94,11 +94,12 @@ fn offscreen(cli: &Cli, model: &model::Model, size: (u32, u32), load: &LoadOptio
     let t0 = std::time::Instant::now();
     let info = off.set_model(model, load.std_dir.as_deref())?;
     eprintln!(
-        "mdg-view: {} triangles, {} line segments, program {} on {} (upload {:.0} ms)",
+        "mdg-view: {} triangles, {} line segments, program {} on {}, {}x MSAA (upload {:.0} ms)",
         info.n_triangles,
         info.n_line_segments,
         info.program,
         ctx.device_name,
+        off.samples(),
         t0.elapsed().as_secs_f64() * 1e3
     );
     let Some(png) = &cli.png else { return Ok(0) };
