@@ -87,8 +87,6 @@ pub struct Context {
     pub wireframe: bool,
     /// The device's name, e.g. `llvmpipe (LLVM 15.0.6, 256 bits)`.
     pub device_name: String,
-    /// A CPU implementation (lavapipe).
-    pub cpu: bool,
     /// Whether validation is on.
     pub validation: bool,
 }
@@ -198,7 +196,7 @@ impl Context {
         // From here on, a failure must destroy what was made: build the rest in a
         // helper and clean up on error.
         match Self::device_part(&instance, !opts.surface_extensions.is_empty()) {
-            Ok((physical, device, queue_family, wireframe, device_name, cpu)) => {
+            Ok((physical, device, queue_family, wireframe, device_name)) => {
                 // SAFETY: the device was just created with a queue of this family.
                 let queue = unsafe { device.get_device_queue(queue_family, 0) };
                 let pool_info = vk::CommandPoolCreateInfo::default()
@@ -237,7 +235,6 @@ impl Context {
                     limits: props.limits,
                     wireframe,
                     device_name,
-                    cpu,
                     validation,
                 })
             }
@@ -256,8 +253,7 @@ impl Context {
 
     /// Picks a device with a graphics queue (discrete GPU first, then integrated,
     /// then anything, e.g. lavapipe) and creates it.
-    #[allow(clippy::type_complexity)]
-    fn device_part(instance: &ash::Instance, present: bool) -> Result<(vk::PhysicalDevice, ash::Device, u32, bool, String, bool), Error> {
+    fn device_part(instance: &ash::Instance, present: bool) -> Result<(vk::PhysicalDevice, ash::Device, u32, bool, String), Error> {
         // SAFETY: plain query on a valid instance.
         let devices = unsafe { instance.enumerate_physical_devices() }.map_err(vkerr("enumerate devices"))?;
         let mut best: Option<(u32, vk::PhysicalDevice, u32)> = None;
@@ -283,7 +279,6 @@ impl Context {
         let (features, props) =
             unsafe { (instance.get_physical_device_features(physical), instance.get_physical_device_properties(physical)) };
         let device_name = props.device_name_as_c_str().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        let cpu = props.device_type == vk::PhysicalDeviceType::CPU;
         let wireframe = features.fill_mode_non_solid == vk::TRUE;
         let enabled = vk::PhysicalDeviceFeatures::default().fill_mode_non_solid(wireframe);
         let priorities = [1.0f32];
@@ -301,7 +296,7 @@ impl Context {
             .enabled_features(&enabled);
         // SAFETY: the create info and its pointers live until the call returns.
         let device = unsafe { instance.create_device(physical, &info, None) }.map_err(vkerr("vkCreateDevice"))?;
-        Ok((physical, device, family, wireframe, device_name, cpu))
+        Ok((physical, device, family, wireframe, device_name))
     }
 
     /// The validation messages so far.

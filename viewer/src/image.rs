@@ -122,8 +122,7 @@ pub fn msaa_samples(ctx: &Context, want: u32) -> vk::SampleCountFlags {
     let want = want.max(2);
     usable
         .clone()
-        .filter(|(n, _)| *n <= want)
-        .last()
+        .rfind(|(n, _)| *n <= want)
         .or_else(|| usable.clone().next())
         .map(|(_, f)| *f)
         .unwrap_or(vk::SampleCountFlags::TYPE_4)

@@ -1,7 +1,9 @@
 //! The interactive window (winit 0.30 + ash-window): orbit / pan / zoom camera,
 //! frame-the-model, wireframe toggle, hot reload keeping the camera, and a clean
-//! close. `--frames N` exits after N frames (for tests), `--screenshot` reads the
-//! last frame back from the swapchain.
+//! close — from the window, `Esc`/`Q`, or SIGINT/SIGTERM (Ctrl-C in the terminal):
+//! the GPU is waited for and everything is freed in order. `--frames N` exits
+//! after N frames (for tests); `--screenshot` reads the last frame back from the
+//! swapchain.
 //!
 //! Keys: drag with the left button to orbit, with the right or middle button (or
 //! shift + left) to pan, scroll to zoom; `F` frames the model, `H` returns to the
@@ -25,7 +27,7 @@ use std::sync::Arc;
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
 use winit::event::{ElementState, KeyEvent, MouseButton, MouseScrollDelta, WindowEvent};
-use winit::event_loop::{ActiveEventLoop, EventLoop, EventLoopProxy};
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop, EventLoopProxy};
 use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
 
@@ -54,6 +56,30 @@ pub struct RunSummary {
     pub reloads: u32,
     pub device: String,
 }
+
+/// Set by SIGINT/SIGTERM; the event loop polls it and closes cleanly.
+static QUIT_REQUESTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+#[cfg(unix)]
+extern "C" fn on_quit_signal(_signal: libc::c_int) {
+    // Only an atomic store: async-signal-safe.
+    QUIT_REQUESTED.store(true, std::sync::atomic::Ordering::SeqCst);
+}
+
+/// Routes SIGINT and SIGTERM to a clean close instead of killing the process.
+fn install_quit_signals() {
+    #[cfg(unix)]
+    for sig in [libc::SIGINT, libc::SIGTERM] {
+        // SAFETY: the handler only stores to an atomic, which is async-signal-safe;
+        // `signal` is given a valid function pointer of the right type.
+        unsafe {
+            libc::signal(sig, on_quit_signal as extern "C" fn(libc::c_int) as libc::sighandler_t);
+        }
+    }
+}
+
+/// How often the event loop looks at the quit flag while idle.
+const QUIT_POLL: std::time::Duration = std::time::Duration::from_millis(100);
 
 /// Messages from other threads to the event loop.
 pub enum UserEvent {
@@ -115,6 +141,7 @@ struct App {
 /// is closed or `opts.frames` frames were drawn.
 pub fn run(path: PathBuf, model: Model, files: Vec<PathBuf>, opts: WindowOptions) -> Result<RunSummary, Error> {
     let event_loop = EventLoop::<UserEvent>::with_user_event().build().map_err(|e| Error::Other(format!("cannot open a window: {e}")))?;
+    install_quit_signals();
     let proxy = event_loop.create_proxy();
     let start_time = opts.time;
     let mut app = App {
@@ -310,6 +337,25 @@ impl App {
             return Ok(Some(px));
         }
         Ok(None)
+    }
+
+    /// Draws one more frame, reads it back and writes the screenshot (if asked for).
+    fn write_screenshot(&mut self) -> Result<(), Error> {
+        let Some(path) = self.opts.screenshot.clone() else { return Ok(()) };
+        if !self.gpu.as_ref().is_some_and(|g| g.swapchain.can_read_back) {
+            eprintln!("mdg-view: this swapchain cannot be read back; no screenshot");
+            return Ok(());
+        }
+        // An out-of-date swapchain draws nothing; a second try uses the new one.
+        for _ in 0..2 {
+            if let Some(px) = self.draw(true)? {
+                let Some(g) = &self.gpu else { return Ok(()) };
+                let e = g.swapchain.extent;
+                return crate::offscreen::write_png(&path, &px, e.width, e.height);
+            }
+        }
+        eprintln!("mdg-view: no frame to write as the screenshot");
+        Ok(())
     }
 
     fn redraw(&self) {
@@ -538,23 +584,10 @@ impl ApplicationHandler<UserEvent> for App {
             WindowEvent::RedrawRequested => {
                 self.tick();
                 let last = self.opts.frames.is_some_and(|n| self.summary.frames + 1 >= n);
-                let want_shot = last && self.opts.screenshot.is_some();
-                match self.draw(want_shot) {
-                    Ok(shot) => {
-                        if let (Some(px), Some(path), Some(g)) = (shot, &self.opts.screenshot, &self.gpu) {
-                            let e = g.swapchain.extent;
-                            if let Err(err) = crate::offscreen::write_png(path, &px, e.width, e.height) {
-                                self.fail(event_loop, err);
-                                return;
-                            }
-                        } else if want_shot && self.gpu.as_ref().is_some_and(|g| !g.swapchain.can_read_back) {
-                            eprintln!("mdg-view: this swapchain cannot be read back; no screenshot");
-                        }
-                    }
-                    Err(e) => {
-                        self.fail(event_loop, e);
-                        return;
-                    }
+                let result = if last && self.opts.screenshot.is_some() { self.write_screenshot() } else { self.draw(false).map(|_| ()) };
+                if let Err(e) = result {
+                    self.fail(event_loop, e);
+                    return;
                 }
                 match self.opts.frames {
                     Some(n) if self.summary.frames >= n => event_loop.exit(),
@@ -610,6 +643,19 @@ impl ApplicationHandler<UserEvent> for App {
         match event {
             UserEvent::Reloaded(r) => self.reloaded(r),
         }
+    }
+
+    fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
+        if QUIT_REQUESTED.load(std::sync::atomic::Ordering::SeqCst) {
+            eprintln!("mdg-view: interrupted, closing");
+            if let Err(e) = self.write_screenshot() {
+                self.fail(event_loop, e);
+            }
+            event_loop.exit();
+            return;
+        }
+        // Wake up now and then to notice a signal while idle.
+        event_loop.set_control_flow(ControlFlow::WaitUntil(std::time::Instant::now() + QUIT_POLL));
     }
 
     fn exiting(&mut self, _event_loop: &ActiveEventLoop) {
