@@ -42,5 +42,10 @@ fn main() {
     }
     times.sort_by(|a, b| a.total_cmp(b));
     let median = times[times.len() / 2];
-    println!("check_10k_lines: {lines} lines, median {median:.2} ms over {} runs (min {:.2}, max {:.2}); target ≤ 50 ms", times.len(), times[0], times[times.len() - 1]);
+    println!(
+        "check_10k_lines: {lines} lines, median {median:.2} ms over {} runs (min {:.2}, max {:.2}); target ≤ 50 ms",
+        times.len(),
+        times[0],
+        times[times.len() - 1]
+    );
 }

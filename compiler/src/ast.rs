@@ -41,17 +41,34 @@ pub struct Item {
 pub enum ItemKind {
     Startshape(Name),
     Rule(Rule),
-    Selector { rules: Vec<Name>, mode: SelectorMode },
+    Selector {
+        rules: Vec<Name>,
+        mode: SelectorMode,
+    },
     Linerule(Name),
     Camerarule(Name),
-    Namespace { name: Name, items: Vec<Item> },
+    Namespace {
+        name: Name,
+        items: Vec<Item>,
+    },
     /// Any other directive: `maxdepth 10`, `angle radians`, `uniform lightPos 1 2 3`, …
     /// The checker validates the name and arguments.
-    Directive { name: Name, args: Vec<DirArg> },
-    Function { name: Name, body: Expr },
-    Isosurface { name: Name, entries: Vec<IsoEntry> },
+    Directive {
+        name: Name,
+        args: Vec<DirArg>,
+    },
+    Function {
+        name: Name,
+        body: Expr,
+    },
+    Isosurface {
+        name: Name,
+        entries: Vec<IsoEntry>,
+    },
     /// `program { vertexshader VS fragmentshader FS target screen render }`: the words in order.
-    Program { words: Vec<Name> },
+    Program {
+        words: Vec<Name>,
+    },
     Pre(Pre<Item>),
     /// Something that did not parse; a diagnostic was reported.
     Error,
@@ -101,7 +118,11 @@ pub enum SelectorMode {
 #[derive(Clone, Debug, PartialEq)]
 pub enum IsoEntry {
     /// `x MIN MAX RES`, `y …`, `z …`, `xyz …` (or an unknown word).
-    Axis { axis: Name, args: Vec<DirArg>, span: Span },
+    Axis {
+        axis: Name,
+        args: Vec<DirArg>,
+        span: Span,
+    },
     FunctionRef(Name),
     FunctionBody(Expr),
 }
@@ -118,9 +139,18 @@ pub struct BodyItem {
 #[derive(Clone, Debug, PartialEq)]
 pub enum BodyKind {
     /// `NAME {ADJ}`, `DRAWABLE {ADJ}`, `ns.LINETO PROFILE {ADJ}`.
-    Call { name: Name, profile: Option<Name>, adj: AdjList },
+    Call {
+        name: Name,
+        profile: Option<Name>,
+        adj: AdjList,
+    },
     /// `COUNT[/DIV] * {ADJ} ITEM`.
-    Iterate { count: Count, divisor: Option<Count>, adj: AdjList, item: Box<BodyItem> },
+    Iterate {
+        count: Count,
+        divisor: Option<Count>,
+        adj: AdjList,
+        item: Box<BodyItem>,
+    },
     /// `{ BODY }`.
     Block(Vec<BodyItem>),
     Pre(Pre<BodyItem>),

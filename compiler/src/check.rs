@@ -12,7 +12,17 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 
 /// Built-in drawables (SPEC §3, §7).
 pub const DRAWABLES: &[&str] = &[
-    "VERTEX", "FACENORMALS", "MOVETO", "LINETO", "BLENDTO", "SLINETO", "ALINETO", "NEWLINE", "FRAME", "RESET", "DEBUG",
+    "VERTEX",
+    "FACENORMALS",
+    "MOVETO",
+    "LINETO",
+    "BLENDTO",
+    "SLINETO",
+    "ALINETO",
+    "NEWLINE",
+    "FRAME",
+    "RESET",
+    "DEBUG",
 ];
 
 /// Drawables that act on a namespace's pen and may be written `ns.NAME`.
@@ -53,8 +63,19 @@ pub const NUMERIC_DIRECTIVES: &[(&str, usize, usize, bool)] = &[
 pub fn directive_names() -> Vec<&'static str> {
     let mut v: Vec<&str> = NUMERIC_DIRECTIVES.iter().map(|d| d.0).collect();
     v.extend([
-        "startshape", "rule", "selector", "linerule", "camerarule", "namespace", "function", "isosurface", "program",
-        "uniform", "angle", "color", "weight",
+        "startshape",
+        "rule",
+        "selector",
+        "linerule",
+        "camerarule",
+        "namespace",
+        "function",
+        "isosurface",
+        "program",
+        "uniform",
+        "angle",
+        "color",
+        "weight",
     ]);
     v
 }
@@ -103,10 +124,7 @@ pub struct Components {
 
 impl Default for Components {
     fn default() -> Self {
-        Components {
-            color: ["R", "G", "B", "A"].map(String::from),
-            weight: ["u", "v", "w", "q"].map(String::from),
-        }
+        Components { color: ["R", "G", "B", "A"].map(String::from), weight: ["u", "v", "w", "q"].map(String::from) }
     }
 }
 
@@ -148,8 +166,29 @@ impl Components {
     /// Every adjustment name, for "did you mean".
     pub fn all_names(&self) -> Vec<&str> {
         let mut v = vec![
-            "x", "y", "z", "r", "rotate", "rx", "ry", "rz", "pitch", "yaw", "roll", "up", "down", "left", "right",
-            "rollleft", "rollright", "s", "f", "fx", "fy", "fz", "fps",
+            "x",
+            "y",
+            "z",
+            "r",
+            "rotate",
+            "rx",
+            "ry",
+            "rz",
+            "pitch",
+            "yaw",
+            "roll",
+            "up",
+            "down",
+            "left",
+            "right",
+            "rollleft",
+            "rollright",
+            "s",
+            "f",
+            "fx",
+            "fy",
+            "fz",
+            "fps",
         ];
         v.extend(self.color.iter().map(|s| s.as_str()));
         v.extend(self.weight.iter().map(|s| s.as_str()));
@@ -266,9 +305,13 @@ impl<'a> Checker<'a> {
                     let full = qualify(namespace, &r.name.text);
                     if DRAWABLES.contains(&r.name.text.as_str()) && !self.sym.rules.contains_key(&full) {
                         self.diags.push(
-                            Diagnostic::warning("W0004", r.name.span, format!("rule `{}` has the name of a drawable", r.name.text))
-                                .with_label("calls of this name draw, they do not run this rule")
-                                .with_note("rename the rule"),
+                            Diagnostic::warning(
+                                "W0004",
+                                r.name.span,
+                                format!("rule `{}` has the name of a drawable", r.name.text),
+                            )
+                            .with_label("calls of this name draw, they do not run this rule")
+                            .with_note("rename the rule"),
                         );
                     }
                     self.sym.rules.entry(full).or_default().push(RuleDef {
@@ -351,7 +394,8 @@ impl<'a> Checker<'a> {
                     if let Some((_, prev)) = &self.sym.startshape {
                         let prev = *prev;
                         self.diags.push(
-                            Diagnostic::error("E0312", n.span, "`startshape` is given twice").with_secondary(prev, "first given here"),
+                            Diagnostic::error("E0312", n.span, "`startshape` is given twice")
+                                .with_secondary(prev, "first given here"),
                         );
                         continue;
                     }
@@ -424,7 +468,8 @@ impl<'a> Checker<'a> {
                                 let mut cands: Vec<&str> = self.sym.rules.keys().map(|k| k.as_str()).collect();
                                 cands.extend(DRAWABLES);
                                 cands.extend(self.sym.isosurfaces.keys().map(|k| k.as_str()));
-                                let mut d = Diagnostic::error("E0301", name.span, format!("unknown rule `{}`", name.text));
+                                let mut d =
+                                    Diagnostic::error("E0301", name.span, format!("unknown rule `{}`", name.text));
                                 if let Some(s) = did_you_mean(&name.text, cands) {
                                     d = d.with_suggestion(format!("did you mean `{s}`?"), name.span, s.to_string());
                                 } else {
@@ -474,8 +519,14 @@ impl<'a> Checker<'a> {
                     None => {
                         if self.diags.len() == before {
                             self.diags.push(
-                                Diagnostic::error("E0408", e.span, "an iteration count must be a compile-time constant")
-                                    .with_note("counts may use numbers, @param and @define names, not x, y, z, depth, scale or g"),
+                                Diagnostic::error(
+                                    "E0408",
+                                    e.span,
+                                    "an iteration count must be a compile-time constant",
+                                )
+                                .with_note(
+                                    "counts may use numbers, @param and @define names, not x, y, z, depth, scale or g",
+                                ),
                             );
                         }
                         return;
@@ -625,8 +676,12 @@ impl<'a> Checker<'a> {
             self.sym.selectors.insert(full.clone(), (mode.clone(), r.span));
             if self.sym.rules.get(&full).is_some_and(|d| d.len() == 1) {
                 self.diags.push(
-                    Diagnostic::warning("W0005", r.span, format!("rule `{}` has one definition: the selector has no effect", r.text))
-                        .with_label("only one definition to choose from"),
+                    Diagnostic::warning(
+                        "W0005",
+                        r.span,
+                        format!("rule `{}` has one definition: the selector has no effect", r.text),
+                    )
+                    .with_label("only one definition to choose from"),
                 );
             }
         }
@@ -678,7 +733,8 @@ impl<'a> Checker<'a> {
                     self.rule_ref(rule, ns, "E0308", "uniform rule");
                     const PROPS: &[&str] = &["pos", "dir", "conj", "color", "weight", "normal"];
                     if !PROPS.contains(&prop.text.as_str()) {
-                        let mut d = Diagnostic::error("E0407", prop.span, format!("unknown uniform property `{}`", prop.text));
+                        let mut d =
+                            Diagnostic::error("E0407", prop.span, format!("unknown uniform property `{}`", prop.text));
                         if let Some(s) = did_you_mean(&prop.text, PROPS.iter().copied()) {
                             d = d.with_suggestion(format!("did you mean `{s}`?"), prop.span, s.to_string());
                         } else {
@@ -712,8 +768,12 @@ impl<'a> Checker<'a> {
                         let want = if lo == hi { format!("{lo}") } else { format!("{lo} to {hi}") };
                         let span = args.last().map(|a| name.span.to(dir_arg_span(a))).unwrap_or(name.span);
                         self.diags.push(
-                            Diagnostic::error("E0401", span, format!("`{n}` takes {want} value(s) but {} were given", args.len()))
-                                .with_label("wrong number of values"),
+                            Diagnostic::error(
+                                "E0401",
+                                span,
+                                format!("`{n}` takes {want} value(s) but {} were given", args.len()),
+                            )
+                            .with_label("wrong number of values"),
                         );
                         return;
                     }
@@ -786,7 +846,8 @@ impl<'a> Checker<'a> {
                         "z" => &[2],
                         "xyz" => &[0, 1, 2],
                         other => {
-                            let mut d = Diagnostic::error("E0407", axis.span, format!("unknown isosurface entry `{other}`"));
+                            let mut d =
+                                Diagnostic::error("E0407", axis.span, format!("unknown isosurface entry `{other}`"));
                             if let Some(s) = did_you_mean(other, ["x", "y", "z", "xyz", "function"]) {
                                 d = d.with_suggestion(format!("did you mean `{s}`?"), axis.span, s.to_string());
                             }
@@ -801,7 +862,11 @@ impl<'a> Checker<'a> {
                         self.diags.push(Diagnostic::error(
                             "E0401",
                             *span,
-                            format!("`{}` takes 3 values (MIN MAX RESOLUTION) but {} were given", axis.text, args.len()),
+                            format!(
+                                "`{}` takes 3 values (MIN MAX RESOLUTION) but {} were given",
+                                axis.text,
+                                args.len()
+                            ),
                         ));
                         continue;
                     }
@@ -817,16 +882,22 @@ impl<'a> Checker<'a> {
                         .collect();
                     if let (Some(lo), Some(hi)) = (v[0], v[1]) {
                         if lo >= hi {
-                            self.diags.push(
-                                Diagnostic::error("E0406", dir_arg_span(&args[0]).to(dir_arg_span(&args[1])), "the grid's minimum must be below its maximum"),
-                            );
+                            self.diags.push(Diagnostic::error(
+                                "E0406",
+                                dir_arg_span(&args[0]).to(dir_arg_span(&args[1])),
+                                "the grid's minimum must be below its maximum",
+                            ));
                         }
                     }
                     if let Some(res) = v[2] {
                         if res <= 0.0 || res.fract() != 0.0 {
                             self.diags.push(
-                                Diagnostic::error("E0406", dir_arg_span(&args[2]), "the grid resolution must be a whole number > 0")
-                                    .with_label(format!("this is {res}")),
+                                Diagnostic::error(
+                                    "E0406",
+                                    dir_arg_span(&args[2]),
+                                    "the grid resolution must be a whole number > 0",
+                                )
+                                .with_label(format!("this is {res}")),
                             );
                         }
                     }
@@ -854,8 +925,12 @@ impl<'a> Checker<'a> {
             );
         } else if axes != [true; 3] {
             self.diags.push(
-                Diagnostic::error("E0407", name.span, format!("isosurface `{}` does not give a grid for every axis", name.text))
-                    .with_note("add `xyz MIN MAX RES`, or `x …`, `y …` and `z …`"),
+                Diagnostic::error(
+                    "E0407",
+                    name.span,
+                    format!("isosurface `{}` does not give a grid for every axis", name.text),
+                )
+                .with_note("add `xyz MIN MAX RES`, or `x …`, `y …` and `z …`"),
             );
         }
     }
@@ -870,9 +945,15 @@ impl<'a> Checker<'a> {
                     match words.get(i + 1) {
                         Some(s) => {
                             if !self.ex.shaders.iter().any(|sh| sh.vertex == vertex && sh.name.text == s.text) {
-                                let names = self.ex.shaders.iter().filter(|sh| sh.vertex == vertex).map(|sh| sh.name.text.as_str());
+                                let names = self
+                                    .ex
+                                    .shaders
+                                    .iter()
+                                    .filter(|sh| sh.vertex == vertex)
+                                    .map(|sh| sh.name.text.as_str());
                                 let kind = if vertex { "vertex" } else { "fragment" };
-                                let mut d = Diagnostic::error("E0314", s.span, format!("unknown {kind} shader `{}`", s.text));
+                                let mut d =
+                                    Diagnostic::error("E0314", s.span, format!("unknown {kind} shader `{}`", s.text));
                                 if let Some(x) = did_you_mean(&s.text, names) {
                                     d = d.with_suggestion(format!("did you mean `{x}`?"), s.span, x.to_string());
                                 } else {
@@ -881,20 +962,26 @@ impl<'a> Checker<'a> {
                                 self.diags.push(d);
                             }
                         }
-                        None => self.diags.push(Diagnostic::error("E0401", w.span, format!("`{}` needs a shader name", w.text))),
+                        None => self.diags.push(Diagnostic::error(
+                            "E0401",
+                            w.span,
+                            format!("`{}` needs a shader name", w.text),
+                        )),
                     }
                     i += 2;
                 }
-                "target" => {
-                    match words.get(i + 1).map(|s| s.text.as_str()) {
-                        Some("screen") => i += 2,
-                        Some("texture") => i += 3,
-                        _ => {
-                            self.diags.push(Diagnostic::error("E0407", w.span, "expected `target screen` or `target texture NAME`"));
-                            i += 2;
-                        }
+                "target" => match words.get(i + 1).map(|s| s.text.as_str()) {
+                    Some("screen") => i += 2,
+                    Some("texture") => i += 3,
+                    _ => {
+                        self.diags.push(Diagnostic::error(
+                            "E0407",
+                            w.span,
+                            "expected `target screen` or `target texture NAME`",
+                        ));
+                        i += 2;
                     }
-                }
+                },
                 "render" => i += 1,
                 other => {
                     let mut d = Diagnostic::error("E0407", w.span, format!("unknown program command `{other}`"));
@@ -916,7 +1003,8 @@ impl<'a> Checker<'a> {
                 let ItemKind::Rule(r) = &self.ex.items[def.item].item.kind else { continue };
                 let Some(w) = &r.weight else { continue };
                 let v = if w.negative { -w.number.value } else { w.number.value };
-                let sequential = matches!(&mode, Some(SelectorMode::Word(m)) if m.text == "sequential" || m.text == "pattern");
+                let sequential =
+                    matches!(&mode, Some(SelectorMode::Word(m)) if m.text == "sequential" || m.text == "pattern");
                 let threshold = matches!(&mode, Some(SelectorMode::Word(m)) if m.text == "depth" || m.text == "scale")
                     || matches!(&mode, Some(SelectorMode::FunctionRef(_) | SelectorMode::FunctionBody(_)));
                 let problem = if w.number.unit.is_some() {
@@ -997,8 +1085,12 @@ impl<'a> Checker<'a> {
             }
             if referenced.contains(full) {
                 self.diags.push(
-                    Diagnostic::warning("W0002", def.name_span, format!("rule `{full}` is unreachable from the start shape"))
-                        .with_label("only unused rules call this rule"),
+                    Diagnostic::warning(
+                        "W0002",
+                        def.name_span,
+                        format!("rule `{full}` is unreachable from the start shape"),
+                    )
+                    .with_label("only unused rules call this rule"),
                 );
             } else {
                 self.diags.push(
@@ -1027,7 +1119,9 @@ impl<'a> Checker<'a> {
                 if terminates.contains(full) {
                     continue;
                 }
-                let ok = defs.iter().any(|calls| calls.iter().all(|c| terminates.contains(c) || !self.sym.rules.contains_key(c)));
+                let ok = defs
+                    .iter()
+                    .any(|calls| calls.iter().all(|c| terminates.contains(c) || !self.sym.rules.contains_key(c)));
                 if ok {
                     terminates.insert(full.clone());
                     changed = true;
@@ -1046,9 +1140,13 @@ impl<'a> Checker<'a> {
                 continue;
             }
             self.diags.push(
-                Diagnostic::warning("W0003", defs[0].name_span, format!("the recursion of `{full}` can never terminate"))
-                    .with_label("every definition calls itself again")
-                    .with_note("add `maxdepth N` or `minsize S`, a non-recursive definition, or a depth/scale selector"),
+                Diagnostic::warning(
+                    "W0003",
+                    defs[0].name_span,
+                    format!("the recursion of `{full}` can never terminate"),
+                )
+                .with_label("every definition calls itself again")
+                .with_note("add `maxdepth N` or `minsize S`, a non-recursive definition, or a depth/scale selector"),
             );
         }
     }

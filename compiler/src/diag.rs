@@ -88,7 +88,12 @@ impl Diagnostic {
     }
 
     /// Adds a suggested edit.
-    pub fn with_suggestion(mut self, message: impl Into<String>, span: Span, replacement: impl Into<String>) -> Diagnostic {
+    pub fn with_suggestion(
+        mut self,
+        message: impl Into<String>,
+        span: Span,
+        replacement: impl Into<String>,
+    ) -> Diagnostic {
         self.suggestion = Some(Suggestion { message: message.into(), span, replacement: replacement.into() });
         self
     }
@@ -123,11 +128,8 @@ impl<'a> Files<'a> for CsFiles<'a> {
             return Err(FilesError::LineTooLarge { given: line_index, max: f.n_lines() - 1 });
         }
         let start = f.line_start(line_index as u32) as usize;
-        let end = if line_index + 1 < f.n_lines() {
-            f.line_start(line_index as u32 + 1) as usize
-        } else {
-            f.text.len()
-        };
+        let end =
+            if line_index + 1 < f.n_lines() { f.line_start(line_index as u32 + 1) as usize } else { f.text.len() };
         Ok(start..end)
     }
 }
@@ -153,11 +155,7 @@ fn to_codespan(d: &Diagnostic, sources: &Sources) -> cs::Diagnostic<u32> {
     if let Some(s) = &d.suggestion {
         notes.push(format!("help: {}", s.message));
     }
-    cs::Diagnostic::new(sev)
-        .with_code(d.code)
-        .with_message(d.message.clone())
-        .with_labels(labels)
-        .with_notes(notes)
+    cs::Diagnostic::new(sev).with_code(d.code).with_message(d.message.clone()).with_labels(labels).with_notes(notes)
 }
 
 /// Renders diagnostics as plain text (no colour), the form used in snapshots and logs.

@@ -77,7 +77,11 @@ pub fn analyze_text(loader: &dyn FileLoader, path: &Path, text: &str, opts: &Opt
 
 /// Compiles the program at `path` to a bundle. On errors, returns the analysis
 /// (with its diagnostics) instead.
-pub fn build(loader: &dyn FileLoader, path: &Path, opts: &Options) -> Result<(mdg_vm::bundle::Bundle, Analysis), Box<Analysis>> {
+pub fn build(
+    loader: &dyn FileLoader,
+    path: &Path,
+    opts: &Options,
+) -> Result<(mdg_vm::bundle::Bundle, Analysis), Box<Analysis>> {
     let a = analyze(loader, path, opts, CheckOptions { require_start: true });
     if a.has_errors() {
         return Err(Box::new(a));

@@ -114,7 +114,9 @@ impl Dumper {
                 name.text,
                 code.lines().count()
             )),
-            Pre::Macro(m) => self.line(&format!("Macro {}({}) {} tokens {at}", m.name.text, words(&m.params), m.body.len())),
+            Pre::Macro(m) => {
+                self.line(&format!("Macro {}({}) {} tokens {at}", m.name.text, words(&m.params), m.body.len()))
+            }
             Pre::Expand { name, args } => {
                 let a: Vec<String> = args.iter().map(|a| format!("{} tokens", a.tokens.len())).collect();
                 self.line(&format!("Expand {}({}) {at}", name.text, a.join(", ")));

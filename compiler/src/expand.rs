@@ -221,7 +221,9 @@ impl<'a> Expander<'a> {
             }
         };
         if !ok_count {
-            self.out.diagnostics.push(bad("expected `@param int|float NAME DEFAULT [MIN MAX]` or `@param bool NAME true|false`"));
+            self.out
+                .diagnostics
+                .push(bad("expected `@param int|float NAME DEFAULT [MIN MAX]` or `@param bool NAME true|false`"));
             return;
         }
         let default = values[0];
@@ -272,7 +274,10 @@ impl<'a> Expander<'a> {
                 }
                 ItemKind::Rule(mut rule) => {
                     rule.body = self.body(rule.body);
-                    self.out.items.push(ExpItem { item: Item { kind: ItemKind::Rule(rule), span: item.span }, namespace: ns.clone() });
+                    self.out.items.push(ExpItem {
+                        item: Item { kind: ItemKind::Rule(rule), span: item.span },
+                        namespace: ns.clone(),
+                    });
                 }
                 kind => self.out.items.push(ExpItem { item: Item { kind, span: item.span }, namespace: ns.clone() }),
             }
@@ -357,8 +362,12 @@ impl<'a> Expander<'a> {
                 }
                 Pre::Import(_) | Pre::Param(_) | Pre::Presets(_) | Pre::Shader { .. } => {
                     self.out.diagnostics.push(
-                        Diagnostic::error("E0209", item.span, "this directive belongs at the top level, not inside a rule")
-                            .with_label("move it out of the rule body"),
+                        Diagnostic::error(
+                            "E0209",
+                            item.span,
+                            "this directive belongs at the top level, not inside a rule",
+                        )
+                        .with_label("move it out of the rule body"),
                     );
                 }
                 Pre::Bad => {}
@@ -410,7 +419,12 @@ impl<'a> Expander<'a> {
                 Diagnostic::error(
                     "E0205",
                     call_span,
-                    format!("macro `{}` takes {} argument(s) but {} were given", m.name.text, m.params.len(), args.len()),
+                    format!(
+                        "macro `{}` takes {} argument(s) but {} were given",
+                        m.name.text,
+                        m.params.len(),
+                        args.len()
+                    ),
                 )
                 .with_secondary(m.name.span, "defined here"),
             );
@@ -455,8 +469,12 @@ impl<'a> Expander<'a> {
                 Some(d) => d.join(format!("{}.mdg", name.text)),
                 None => {
                     self.out.diagnostics.push(
-                        Diagnostic::error("E0201", name.span, format!("cannot import `{}`: the std library was not found", name.text))
-                            .with_note("set MDG_STD to the std directory, or import a relative path like `lib/x.mdg`"),
+                        Diagnostic::error(
+                            "E0201",
+                            name.span,
+                            format!("cannot import `{}`: the std library was not found", name.text),
+                        )
+                        .with_note("set MDG_STD to the std directory, or import a relative path like `lib/x.mdg`"),
                     );
                     return;
                 }
@@ -482,9 +500,13 @@ impl<'a> Expander<'a> {
         let contained = |root: &Option<PathBuf>| root.as_ref().is_some_and(|r| canon.starts_with(r));
         if !contained(&self.root) && !contained(&self.std_root) {
             self.out.diagnostics.push(
-                Diagnostic::error("E0202", name.span, format!("`{}` is outside the project and the std library", name.text))
-                    .with_label(format!("resolves to {}", canon.display()))
-                    .with_note("imports may only read files under the main file's directory or the std directory"),
+                Diagnostic::error(
+                    "E0202",
+                    name.span,
+                    format!("`{}` is outside the project and the std library", name.text),
+                )
+                .with_label(format!("resolves to {}", canon.display()))
+                .with_note("imports may only read files under the main file's directory or the std directory"),
             );
             return;
         }
@@ -509,7 +531,11 @@ impl<'a> Expander<'a> {
         let text = match self.loader.read(&canon) {
             Ok(t) => t,
             Err(e) => {
-                self.out.diagnostics.push(Diagnostic::error("E0201", name.span, format!("cannot read `{}`: {e}", name.text)));
+                self.out.diagnostics.push(Diagnostic::error(
+                    "E0201",
+                    name.span,
+                    format!("cannot read `{}`: {e}", name.text),
+                ));
                 return;
             }
         };

@@ -20,7 +20,12 @@ pub fn format_source(text: &str) -> Result<String, String> {
     let mut sources = Sources::default();
     let id = sources.add("<fmt>", "<input>", text);
     let parsed = parse::parse_file(&sources, id);
-    let syntax: Vec<_> = parsed.diagnostics.iter().filter(|d| d.code.starts_with("E01") || d.code == "E0206" || d.code == "E0207").cloned().collect();
+    let syntax: Vec<_> = parsed
+        .diagnostics
+        .iter()
+        .filter(|d| d.code.starts_with("E01") || d.code == "E0206" || d.code == "E0207")
+        .cloned()
+        .collect();
     if !syntax.is_empty() {
         return Err(render_plain(&syntax, &sources));
     }
@@ -178,7 +183,9 @@ impl<'a> Printer<'a> {
                     self.out.push_str(&dir_arg(a));
                 }
             }
-            ItemKind::Function { name, body } => self.out.push_str(&format!("function {} {{ {} }}", name.text, expr(body))),
+            ItemKind::Function { name, body } => {
+                self.out.push_str(&format!("function {} {{ {} }}", name.text, expr(body)))
+            }
             ItemKind::Isosurface { name, entries } => {
                 self.out.push_str(&format!("isosurface {} ", name.text));
                 self.open_block();

@@ -319,10 +319,7 @@ pub fn lex(text: &str, file: FileId) -> Lexed {
 /// The numeric value and unit suffix of a number token's text.
 pub fn parse_number(text: &str) -> (f64, Option<char>) {
     let last = text.chars().last().unwrap_or('0');
-    let (digits, unit) = if matches!(last, 'd' | 'r' | 'o' | 't') {
-        (&text[..text.len() - 1], Some(last))
-    } else {
-        (text, None)
-    };
+    let (digits, unit) =
+        if matches!(last, 'd' | 'r' | 'o' | 't') { (&text[..text.len() - 1], Some(last)) } else { (text, None) };
     (digits.parse::<f64>().unwrap_or(0.0), unit)
 }

@@ -5,18 +5,18 @@
 //! SPIR-V) → lowering. Diagnostics
 //! are data ([`diag::Diagnostic`]) accumulated along the way.
 
+pub mod analysis;
 pub mod ast;
-pub mod diag;
-pub mod dump;
-pub mod lexer;
-pub mod parse;
-pub mod source;
-pub mod span;
 pub mod check;
 pub mod consteval;
-pub mod expand;
+pub mod diag;
 pub mod driver;
+pub mod dump;
+pub mod expand;
 pub mod fmt;
+pub mod lexer;
 pub mod lower;
+pub mod parse;
 pub mod shaders;
-pub mod analysis;
+pub mod source;
+pub mod span;

@@ -13,7 +13,9 @@ use crate::diag::Diagnostic;
 use crate::expand::{ExpItem, Expanded};
 use crate::source::Sources;
 use crate::span::Span;
-use mdg_vm::bundle::{self, Bundle, Composite, Def, Op, PrimAdj, Selector, Settings, SourceLoc, Transform, CONT_NEXT, NONE};
+use mdg_vm::bundle::{
+    self, Bundle, Composite, Def, Op, PrimAdj, Selector, Settings, SourceLoc, Transform, CONT_NEXT, NONE,
+};
 use mdg_vm::expr::{ExprOp, BINOPS, FUNCTIONS, VARIABLES};
 use std::collections::HashMap;
 
@@ -70,7 +72,14 @@ pub fn lower(ex: &Expanded, sym: &Symbols, sources: &Sources) -> Result<Bundle, 
 }
 
 fn key(c: &Composite) -> Vec<u32> {
-    c.q.iter().chain(&c.qh).chain(&c.u).chain(&c.color).chain(&c.weight).chain(std::iter::once(&c.fps)).map(|f| f.to_bits()).collect()
+    c.q.iter()
+        .chain(&c.qh)
+        .chain(&c.u)
+        .chain(&c.color)
+        .chain(&c.weight)
+        .chain(std::iter::once(&c.fps))
+        .map(|f| f.to_bits())
+        .collect()
 }
 
 impl<'a> Lower<'a> {
@@ -149,10 +158,12 @@ impl<'a> Lower<'a> {
                 self.mark(r.name.span);
                 self.body(&r.body, namespace.as_deref());
                 self.code.push(Op::Ret {});
-                let w = r.weight.as_ref().map(|w| if w.negative { -w.number.value } else { w.number.value }).unwrap_or(1.0);
+                let w =
+                    r.weight.as_ref().map(|w| if w.negative { -w.number.value } else { w.number.value }).unwrap_or(1.0);
                 out_defs.push(Def { weight: w as f32, start });
                 if transforms.is_empty() {
-                    transforms = r.transforms.iter().filter_map(|t| self.rule_index(&t.text, namespace.as_deref())).collect();
+                    transforms =
+                        r.transforms.iter().filter_map(|t| self.rule_index(&t.text, namespace.as_deref())).collect();
                 }
                 if iter == NONE {
                     iter = r.iter.as_ref().and_then(|t| self.rule_index(&t.text, namespace.as_deref())).unwrap_or(NONE);
@@ -191,13 +202,19 @@ impl<'a> Lower<'a> {
             me.ex
                 .items
                 .iter()
-                .find_map(|ExpItem { item, namespace }| f(&item.kind).and_then(|n| me.rule_index(&n.text, namespace.as_deref())))
+                .find_map(|ExpItem { item, namespace }| {
+                    f(&item.kind).and_then(|n| me.rule_index(&n.text, namespace.as_deref()))
+                })
                 .unwrap_or(NONE)
         };
         let linerule = rule_of(self, |k| if let ItemKind::Linerule(n) = k { Some(n) } else { None });
         let camerarule = rule_of(self, |k| if let ItemKind::Camerarule(n) = k { Some(n) } else { None });
         let num = |me: &Self, n: &str, d: f64| me.directive_numbers(n).and_then(|v| v.first().copied()).unwrap_or(d);
-        let normal = self.directive_numbers("normal").filter(|v| v.len() == 3).map(|v| [v[0] as f32, v[1] as f32, v[2] as f32]).unwrap_or([0.0, 0.0, 1.0]);
+        let normal = self
+            .directive_numbers("normal")
+            .filter(|v| v.len() == 3)
+            .map(|v| [v[0] as f32, v[1] as f32, v[2] as f32])
+            .unwrap_or([0.0, 0.0, 1.0]);
         let background = match self.directive_numbers("background") {
             Some(v) if v.len() >= 3 => [v[0] as f32, v[1] as f32, v[2] as f32, v.get(3).copied().unwrap_or(1.0) as f32],
             _ => [0.12, 0.12, 0.14, 1.0],
@@ -220,7 +237,13 @@ impl<'a> Lower<'a> {
                 "float" => 1,
                 _ => 2,
             };
-            params.push(bundle::Param { name, ty, value: p.value, min: p.min.unwrap_or(0.0), max: p.max.unwrap_or(0.0) });
+            params.push(bundle::Param {
+                name,
+                ty,
+                value: p.value,
+                min: p.min.unwrap_or(0.0),
+                max: p.max.unwrap_or(0.0),
+            });
         }
         let namespaces: Vec<String> = self.namespaces.clone();
         let namespace_ids = namespaces.iter().map(|n| self.string(n)).collect();
@@ -374,12 +397,19 @@ impl<'a> Lower<'a> {
                     Some((p, l)) => (p, l),
                     None => ("", name.text.as_str()),
                 };
-                if let Some(kind) = DRAWABLES.iter().position(|d| *d == last).filter(|_| self.sym.resolve(&name.text, ns).is_none() || prefix.is_empty()) {
+                if let Some(kind) = DRAWABLES
+                    .iter()
+                    .position(|d| *d == last)
+                    .filter(|_| self.sym.resolve(&name.text, ns).is_none() || prefix.is_empty())
+                {
                     let ns_id = self.namespace(prefix);
                     let profile = profile.as_ref().and_then(|p| self.rule_index(&p.text, ns)).unwrap_or(NONE);
                     self.code.push(Op::Draw { kind: kind as u8, xf, ns: ns_id, profile, flags });
                 } else if self.sym.isosurfaces.contains_key(&name.text) {
-                    let iso = self.ex.items.iter().filter(|i| matches!(i.item.kind, ItemKind::Isosurface { .. })).position(|i| matches!(&i.item.kind, ItemKind::Isosurface { name: n, .. } if n.text == name.text));
+                    let iso =
+                        self.ex.items.iter().filter(|i| matches!(i.item.kind, ItemKind::Isosurface { .. })).position(
+                            |i| matches!(&i.item.kind, ItemKind::Isosurface { name: n, .. } if n.text == name.text),
+                        );
                     if let Some(iso) = iso {
                         self.code.push(Op::Iso { iso: iso as u32, xf, flags });
                     }

@@ -36,12 +36,7 @@ pub struct Ctx<'c> {
 
 impl<'c> Ctx<'c> {
     fn new(sources: &'c Sources) -> Ctx<'c> {
-        Ctx {
-            sources,
-            macros: RefCell::default(),
-            expands: RefCell::default(),
-            diags: RefCell::default(),
-        }
+        Ctx { sources, macros: RefCell::default(), expands: RefCell::default(), diags: RefCell::default() }
     }
 
     fn text(&self, l: Loc, r: Loc) -> &'c str {
@@ -165,7 +160,10 @@ impl<'c> Ctx<'c> {
         }
         Pre::Shader {
             vertex,
-            name: Name { text: name_text.to_string(), span: Span::new(span.file, name_off, name_off + name_len as u32) },
+            name: Name {
+                text: name_text.to_string(),
+                span: Span::new(span.file, name_off, name_off + name_len as u32),
+            },
             code: text[code_start..code_end].to_string(),
             code_span: Span::new(span.file, span.start + code_start as u32, span.start + code_end as u32),
         }
@@ -193,8 +191,21 @@ impl<'c> Ctx<'c> {
         let text = full.split_whitespace().next().unwrap_or(full);
         let span = span_of(l, r);
         let span = Span::new(span.file, span.start, span.start + text.len() as u32);
-        let known = ["@import", "@define", "@ifdef", "@else", "@endif", "@macro", "@endmacro", "@expand", "@presets",
-            "@param", "@vertexshader", "@fragmentshader", "@endshader"];
+        let known = [
+            "@import",
+            "@define",
+            "@ifdef",
+            "@else",
+            "@endif",
+            "@macro",
+            "@endmacro",
+            "@expand",
+            "@presets",
+            "@param",
+            "@vertexshader",
+            "@fragmentshader",
+            "@endshader",
+        ];
         let mut d = Diagnostic::error("E0210", span, format!("unknown preprocessor directive `{text}`"));
         if let Some(s) = crate::diag::did_you_mean(text, known) {
             d = d.with_suggestion(format!("did you mean `{s}`?"), span, s);
@@ -234,7 +245,10 @@ fn prepass(tokens: Vec<Token>, sources: &Sources, ctx: &Ctx) -> Vec<Token> {
                             j += 1;
                         }
                         let s = n.span;
-                        Some(Name { text: text(n).trim_end_matches('(').to_string(), span: Span::new(s.file, s.start, s.end - 1) })
+                        Some(Name {
+                            text: text(n).trim_end_matches('(').to_string(),
+                            span: Span::new(s.file, s.start, s.end - 1),
+                        })
                     }
                     Some(n) if n.kind == Tok::Ident => {
                         j += 1;
@@ -243,9 +257,11 @@ fn prepass(tokens: Vec<Token>, sources: &Sources, ctx: &Ctx) -> Vec<Token> {
                     _ => None,
                 };
                 let Some(name) = name else {
-                    ctx.diags.borrow_mut().push(
-                        Diagnostic::error("E0209", t.span, "expected a macro name: `@macro NAME(a, b) … @endmacro`"),
-                    );
+                    ctx.diags.borrow_mut().push(Diagnostic::error(
+                        "E0209",
+                        t.span,
+                        "expected a macro name: `@macro NAME(a, b) … @endmacro`",
+                    ));
                     i += 1;
                     continue;
                 };
@@ -270,9 +286,11 @@ fn prepass(tokens: Vec<Token>, sources: &Sources, ctx: &Ctx) -> Vec<Token> {
             }
             Tok::AtExpand => {
                 let Some(n) = tokens.get(i + 1).filter(|n| matches!(n.kind, Tok::CallOpen | Tok::Ident)) else {
-                    ctx.diags
-                        .borrow_mut()
-                        .push(Diagnostic::error("E0209", t.span, "expected `@expand NAME(arguments)`"));
+                    ctx.diags.borrow_mut().push(Diagnostic::error(
+                        "E0209",
+                        t.span,
+                        "expected `@expand NAME(arguments)`",
+                    ));
                     i += 1;
                     continue;
                 };
@@ -355,7 +373,8 @@ fn prepass(tokens: Vec<Token>, sources: &Sources, ctx: &Ctx) -> Vec<Token> {
     // An `@ifdef` never closed: report it and close it at the end so the rest parses.
     for open in open_ifdefs.iter().rev() {
         ctx.diags.borrow_mut().push(
-            Diagnostic::error("E0206", open.span, "`@ifdef` has no `@endif`").with_label("this conditional is never closed"),
+            Diagnostic::error("E0206", open.span, "`@ifdef` has no `@endif`")
+                .with_label("this conditional is never closed"),
         );
         let end = out.last().map(|t| t.span.end).unwrap_or(open.span.end);
         out.push(Token { kind: Tok::AtEndif, span: Span::new(open.span.file, end, end) });
@@ -425,7 +444,8 @@ fn describe_expected(expected: &[String]) -> String {
     names.dedup();
     let has = |n: &str| names.iter().any(|x| x == n);
     // Keywords double as names, so "a name" often comes with every keyword.
-    let keyword = |n: &String| n.len() > 2 && n.starts_with('`') && n[1..n.len() - 1].chars().all(|c| c.is_ascii_lowercase());
+    let keyword =
+        |n: &String| n.len() > 2 && n.starts_with('`') && n[1..n.len() - 1].chars().all(|c| c.is_ascii_lowercase());
     if has("a name") && names.iter().all(|n| n == "a name" || keyword(n)) {
         return "a name".to_string();
     }
@@ -492,7 +512,13 @@ enum Out {
     Body(Vec<BodyItem>),
 }
 
-fn run(tokens: Vec<Token>, sources: &Sources, file: FileId, start: Start, mut diags: Vec<Diagnostic>) -> (Out, Vec<Diagnostic>) {
+fn run(
+    tokens: Vec<Token>,
+    sources: &Sources,
+    file: FileId,
+    start: Start,
+    mut diags: Vec<Diagnostic>,
+) -> (Out, Vec<Diagnostic>) {
     let ctx = Ctx::new(sources);
     let tokens = prepass(tokens, sources, &ctx);
     let bracket = unclosed_bracket(&tokens);

@@ -74,11 +74,19 @@ fn compile_uncached(source: &str, vertex: bool) -> CompileResult {
     // make the crate's conversion panic), so report it here.
     if let Some(at) = source.find('\0') {
         let (line, column) = line_col(source, at);
-        return Err(vec![GlslError { line: Some(line), column: Some(column), message: "NUL character in shader source".into() }]);
+        return Err(vec![GlslError {
+            line: Some(line),
+            column: Some(column),
+            message: "NUL character in shader source".into(),
+        }]);
     }
     // Without a `#version` line glslang assumes ES 1.00 and says so obscurely.
     if !source.lines().any(|l| l.trim_start().starts_with("#version")) {
-        return Err(vec![GlslError { line: None, column: None, message: "no `#version` line: Vulkan GLSL shaders start with `#version 450`".into() }]);
+        return Err(vec![GlslError {
+            line: None,
+            column: None,
+            message: "no `#version` line: Vulkan GLSL shaders start with `#version 450`".into(),
+        }]);
     }
     let Some(compiler) = Compiler::acquire() else {
         return Err(vec![GlslError { line: None, column: None, message: "glslang could not be initialised".into() }]);
@@ -91,7 +99,11 @@ fn compile_uncached(source: &str, vertex: bool) -> CompileResult {
         Err(e) => {
             // Rejected before parsing: an unsupported `#version` line.
             let line = source.lines().position(|l| l.trim_start().starts_with("#version")).map(|i| i as u32 + 1);
-            return Err(vec![GlslError { line, column: None, message: format!("{e} (Vulkan GLSL needs `#version 450`)") }]);
+            return Err(vec![GlslError {
+                line,
+                column: None,
+                message: format!("{e} (Vulkan GLSL needs `#version 450`)"),
+            }]);
         }
     };
     let shader = match compiler.create_shader(input) {
@@ -212,7 +224,9 @@ fn span_of(sh: &Shader, sources: &Sources, e: &GlslError) -> Span {
             };
             (lo, hi)
         }
-        _ => match quoted_token(&e.message).and_then(|t| (!t.is_empty()).then(|| text.find(t).map(|i| (i, t.len()))).flatten()) {
+        _ => match quoted_token(&e.message)
+            .and_then(|t| (!t.is_empty()).then(|| text.find(t).map(|i| (i, t.len()))).flatten())
+        {
             Some((i, n)) => (start + i, start + i + n),
             None => (start + indent, end),
         },

@@ -135,9 +135,6 @@ impl Sources {
 
     /// The text a span covers ("" if the span is out of range).
     pub fn text(&self, span: Span) -> &str {
-        self.files
-            .get(span.file.0 as usize)
-            .and_then(|f| f.text.get(span.range()))
-            .unwrap_or("")
+        self.files.get(span.file.0 as usize).and_then(|f| f.text.get(span.range())).unwrap_or("")
     }
 }

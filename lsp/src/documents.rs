@@ -47,7 +47,8 @@ pub fn path_of(uri: &Uri) -> PathBuf {
             return p.into_owned();
         }
     }
-    let name: String = uri.as_str().chars().map(|c| if c.is_ascii_alphanumeric() || c == '.' { c } else { '_' }).collect();
+    let name: String =
+        uri.as_str().chars().map(|c| if c.is_ascii_alphanumeric() || c == '.' { c } else { '_' }).collect();
     PathBuf::from("/untitled").join(name)
 }
 
@@ -201,7 +202,10 @@ mod tests {
 
     fn change(range: Option<((u32, u32), (u32, u32))>, text: &str) -> TextDocumentContentChangeEvent {
         TextDocumentContentChangeEvent {
-            range: range.map(|((a, b), (c, d))| Range { start: Position { line: a, character: b }, end: Position { line: c, character: d } }),
+            range: range.map(|((a, b), (c, d))| Range {
+                start: Position { line: a, character: b },
+                end: Position { line: c, character: d },
+            }),
             range_length: None,
             text: text.to_string(),
         }
@@ -211,7 +215,8 @@ mod tests {
     fn changes_apply_in_order_and_stale_ones_are_dropped() {
         let docs = Documents::default();
         docs.open(uri(), 1, "rule A {}\n".to_string());
-        docs.change(&uri(), 2, vec![change(Some(((0, 5), (0, 6))), "B"), change(Some(((1, 0), (1, 0))), "// é\n")]).expect("v2");
+        docs.change(&uri(), 2, vec![change(Some(((0, 5), (0, 6))), "B"), change(Some(((1, 0), (1, 0))), "// é\n")])
+            .expect("v2");
         assert_eq!(docs.text(&uri()).as_deref(), Some("rule B {}\n// é\n"));
         assert!(docs.change(&uri(), 2, vec![change(None, "old")]).is_err());
         assert!(docs.change(&uri(), 1, vec![change(None, "older")]).is_err());

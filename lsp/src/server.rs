@@ -178,8 +178,16 @@ impl LanguageServer for Backend {
     }
 
     async fn initialized(&self, _: InitializedParams) {
-        let std = self.config.options.std_dir.as_ref().map(|d| d.display().to_string()).unwrap_or_else(|| "not found".to_string());
-        self.client.log_message(MessageType::INFO, format!("mdg-lsp {} ready (std: {std})", env!("CARGO_PKG_VERSION"))).await;
+        let std = self
+            .config
+            .options
+            .std_dir
+            .as_ref()
+            .map(|d| d.display().to_string())
+            .unwrap_or_else(|| "not found".to_string());
+        self.client
+            .log_message(MessageType::INFO, format!("mdg-lsp {} ready (std: {std})", env!("CARGO_PKG_VERSION")))
+            .await;
     }
 
     async fn shutdown(&self) -> Result<()> {

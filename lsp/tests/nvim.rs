@@ -80,7 +80,10 @@ fn neovim_receives_diagnostics_hover_and_definition() {
 
     // Definition of `petal` from its call: the rule's name on line 10.
     assert_eq!(r["definition"]["uri"], uri.as_str());
-    assert_eq!(r["definition"]["range"], json!({"start": {"line": 9, "character": 5}, "end": {"line": 9, "character": 10}}));
+    assert_eq!(
+        r["definition"]["range"],
+        json!({"start": {"line": 9, "character": 5}, "end": {"line": 9, "character": 10}})
+    );
 
     // The server went away after shutdown/exit.
     assert_eq!(r["stopped"], true, "{r}");

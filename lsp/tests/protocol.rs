@@ -82,9 +82,15 @@ fn diagnostics_hover_definition_completion_formatting() {
     assert_eq!(hl.as_array().map(Vec::len), Some(2), "{hl}");
     let prep = c.call("textDocument/prepareRename", at(&u, MAIN, "leaf {}", 0));
     assert_eq!(prep["placeholder"], "leaf");
-    let edit = c.call("textDocument/rename", json!({"textDocument": {"uri": u}, "position": pos_of(MAIN, "leaf {}", 0), "newName": "petal"}));
+    let edit = c.call(
+        "textDocument/rename",
+        json!({"textDocument": {"uri": u}, "position": pos_of(MAIN, "leaf {}", 0), "newName": "petal"}),
+    );
     assert_eq!(edit["changes"][u.as_str()].as_array().map(Vec::len), Some(2), "{edit}");
-    let bad = c.request("textDocument/rename", json!({"textDocument": {"uri": u}, "position": pos_of(MAIN, "leaf {}", 0), "newName": "9"}));
+    let bad = c.request(
+        "textDocument/rename",
+        json!({"textDocument": {"uri": u}, "position": pos_of(MAIN, "leaf {}", 0), "newName": "9"}),
+    );
     assert!(bad["error"]["message"].as_str().unwrap_or("").contains("not a valid name"), "{bad}");
 
     // Completion inside an adjustment list offers adjustments as snippets.
@@ -96,7 +102,10 @@ fn diagnostics_hover_definition_completion_formatting() {
 
     // The quick fix creates the missing rule.
     let range = json!({"start": pos_of(MAIN, "branch", 1), "end": pos_of(MAIN, "branch", 1)});
-    let actions = c.call("textDocument/codeAction", json!({"textDocument": {"uri": u}, "range": range, "context": {"diagnostics": []}}));
+    let actions = c.call(
+        "textDocument/codeAction",
+        json!({"textDocument": {"uri": u}, "range": range, "context": {"diagnostics": []}}),
+    );
     let titles: Vec<&str> = actions.as_array().into_iter().flatten().filter_map(|a| a["title"].as_str()).collect();
     assert_eq!(titles, ["Create rule `branch`"]);
     assert_eq!(actions[0]["diagnostics"][0]["code"], "E0301");
@@ -120,7 +129,10 @@ fn diagnostics_hover_definition_completion_formatting() {
     c.change(&u, 2, messy);
     let diags = c.diagnostics(&u, 2);
     assert!(diags.is_empty(), "{diags:?}");
-    let edits = c.call("textDocument/formatting", json!({"textDocument": text_doc(&u), "options": {"tabSize": 2, "insertSpaces": true}}));
+    let edits = c.call(
+        "textDocument/formatting",
+        json!({"textDocument": text_doc(&u), "options": {"tabSize": 2, "insertSpaces": true}}),
+    );
     let edits = edits.as_array().cloned().unwrap_or_default();
     assert_eq!(edits.len(), 1, "{edits:?}");
     let formatted = mdg_format(messy, &edits[0]);

@@ -14,11 +14,61 @@ use std::time::Instant;
 const EDITS: usize = 10_000;
 
 const FRAGMENTS: &[&str] = &[
-    "rule ", "A", "B", "leaf", " ", "\n", "{", "}", "[", "]", "(", ")", "VERTEX {}", "x 1", "rz 45", "s 0.5", "0.25o", "2t", "-",
-    "30/30 * [ry 360] ", "4 * {rz 90} ", "\\", "startshape A\n", "maxdepth 8\n", "selector leaf depth\n", "namespace n { ", "n.A {}",
-    "@import primitives\n", "@import lib/missing.mdg\n", "@macro M(a)\nVERTEX {x a}\n@endmacro\n", "@expand M(1)\n", "@macro ",
-    "@ifdef X\n", "@else\n", "@endif\n", "@define X 2\n", "@param int n 4 1 9\n", "(n)", "@bogus\n", "/*", "*/", "// c\n",
-    "é", "😀", "\u{200b}", "function f { x*x }\n", "isosurface S { xyz -1 1 4 ; function f }\n", "S {}", "@endshader\n", "@vertexshader vs\nvoid main() {}\n@endshader\n", "program { vertexshader vs render }\n", "rand(0, 1)", "#", ";", "cube {}",
+    "rule ",
+    "A",
+    "B",
+    "leaf",
+    " ",
+    "\n",
+    "{",
+    "}",
+    "[",
+    "]",
+    "(",
+    ")",
+    "VERTEX {}",
+    "x 1",
+    "rz 45",
+    "s 0.5",
+    "0.25o",
+    "2t",
+    "-",
+    "30/30 * [ry 360] ",
+    "4 * {rz 90} ",
+    "\\",
+    "startshape A\n",
+    "maxdepth 8\n",
+    "selector leaf depth\n",
+    "namespace n { ",
+    "n.A {}",
+    "@import primitives\n",
+    "@import lib/missing.mdg\n",
+    "@macro M(a)\nVERTEX {x a}\n@endmacro\n",
+    "@expand M(1)\n",
+    "@macro ",
+    "@ifdef X\n",
+    "@else\n",
+    "@endif\n",
+    "@define X 2\n",
+    "@param int n 4 1 9\n",
+    "(n)",
+    "@bogus\n",
+    "/*",
+    "*/",
+    "// c\n",
+    "é",
+    "😀",
+    "\u{200b}",
+    "function f { x*x }\n",
+    "isosurface S { xyz -1 1 4 ; function f }\n",
+    "S {}",
+    "@endshader\n",
+    "@vertexshader vs\nvoid main() {}\n@endshader\n",
+    "program { vertexshader vs render }\n",
+    "rand(0, 1)",
+    "#",
+    ";",
+    "cube {}",
 ];
 
 const START: &str = "startshape A\n@import primitives\nrule A {\n  leaf {x 1}\n  30/30 * [ry 360] cube {s 0.1}\n}\nrule leaf 2 { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\nrule leaf { leaf {s 0.5} }\n";
@@ -121,7 +171,8 @@ fn ten_thousand_random_edits() {
     }
     // The final version is analysed and published, and the server still answers.
     c.diagnostics(&u, version);
-    let h = c.request("textDocument/hover", json!({"textDocument": {"uri": u}, "position": {"line": 0, "character": 1}}));
+    let h =
+        c.request("textDocument/hover", json!({"textDocument": {"uri": u}, "position": {"line": 0, "character": 1}}));
     assert!(h.get("error").is_none(), "{h}");
     c.clear();
     assert!(!c.logs.iter().any(|l| l.contains("panic")), "panics: {:?}", c.logs);

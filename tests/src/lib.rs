@@ -20,7 +20,9 @@ pub fn std_dir() -> PathBuf {
 /// Sorted `.mdg` files directly in `dir` (relative to the workspace root).
 pub fn mdg_files(dir: &str) -> Vec<PathBuf> {
     let mut v: Vec<PathBuf> = std::fs::read_dir(root().join(dir))
-        .map(|rd| rd.filter_map(|e| e.ok()).map(|e| e.path()).filter(|p| p.extension().is_some_and(|x| x == "mdg")).collect())
+        .map(|rd| {
+            rd.filter_map(|e| e.ok()).map(|e| e.path()).filter(|p| p.extension().is_some_and(|x| x == "mdg")).collect()
+        })
         .unwrap_or_default();
     v.sort();
     v
@@ -50,7 +52,8 @@ pub fn snapshot(path: &Path, actual: &str) -> Result<(), String> {
         std::fs::write(path, actual).map_err(|e| e.to_string())?;
         return Ok(());
     }
-    let expected = std::fs::read_to_string(path).map_err(|_| format!("missing snapshot {} (run with UPDATE_EXPECT=1)", path.display()))?;
+    let expected = std::fs::read_to_string(path)
+        .map_err(|_| format!("missing snapshot {} (run with UPDATE_EXPECT=1)", path.display()))?;
     if expected != actual {
         return Err(format!("snapshot {} differs:\n--- expected\n{expected}\n--- actual\n{actual}", path.display()));
     }
@@ -121,7 +124,8 @@ impl Rng {
 /// Compiles `text` (as if at `tests/inline.mdg`, std imports available) to a bundle.
 pub fn build_source(text: &str) -> mdg_vm::bundle::Bundle {
     let path = root().join("tests/inline.mdg");
-    let a = mdg_compiler::driver::analyze_text(&FsLoader, &path, text, &options(), CheckOptions { require_start: true });
+    let a =
+        mdg_compiler::driver::analyze_text(&FsLoader, &path, text, &options(), CheckOptions { require_start: true });
     assert!(!a.has_errors(), "{}", mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources));
     let mut b = mdg_compiler::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).expect("lowering");
     mdg_compiler::shaders::attach(&mut b, &a.spirv);

@@ -93,7 +93,8 @@ fn infinite_transform_rules_are_sampled_lazily() {
 
 /// Bones nested two deep: `arm` (rest frame {x 2 rz 30 s 1.5}) with two transform
 /// rules, and `hand` inside it with one, at twice the rate.
-const ARM: &str = "startshape scene\nfps 10\nduration 3\ncamerarule fly\ncamerafov 50\ncameranearplane 0.5\ncamerafarplane 300\n\
+const ARM: &str =
+    "startshape scene\nfps 10\nduration 3\ncamerarule fly\ncamerafov 50\ncameranearplane 0.5\ncamerafarplane 300\n\
     rule scene { VERTEX {} VERTEX {x 0.1} VERTEX {y 0.1} arm {x 2 rz 30 s 1.5} }\n\
     rule arm : spin : lift { VERTEX {x 1} VERTEX {x 1 y 0.5} VERTEX {y 1 z 0.2} hand {x 1 fps 10} }\n\
     rule hand : wave { VERTEX {} VERTEX {y 0.3} VERTEX {z 0.3} }\n\
@@ -140,7 +141,11 @@ fn bone_vertices_at_time_t_are_rest_vertices_moved_by_the_product_of_their_frame
     let anim = &out.animation;
     assert_eq!(anim.bones.len(), 3, "root, arm, hand");
     assert_eq!((anim.bones[1].rule.as_str(), anim.bones[1].parent, anim.bones[1].fps), ("arm", 0, 10.0));
-    assert_eq!((anim.bones[2].rule.as_str(), anim.bones[2].parent, anim.bones[2].fps), ("hand", 1, 20.0), "fps 10 adds to the directive's 10");
+    assert_eq!(
+        (anim.bones[2].rule.as_str(), anim.bones[2].parent, anim.bones[2].fps),
+        ("hand", 1, 20.0),
+        "fps 10 adds to the directive's 10"
+    );
     let m = &out.mesh;
     let bones: Vec<u32> = (0..m.n_vertices()).map(|i| m.bone(i)).collect();
     assert_eq!(bones, vec![0, 0, 0, 1, 1, 1, 2, 2, 2], "innermost animated rule wins");
@@ -170,7 +175,11 @@ fn bone_vertices_at_time_t_are_rest_vertices_moved_by_the_product_of_their_frame
         }
         // The pose API agrees: M_b(t) applied to the rest vertex.
         let pose = anim.pose(t);
-        assert!(close(d(pose[2].apply_point(Vec3::from_array(m.positions[7]))), hand_at(t).transform_point3(rest[7]), 2e-4));
+        assert!(close(
+            d(pose[2].apply_point(Vec3::from_array(m.positions[7]))),
+            hand_at(t).transform_point3(rest[7]),
+            2e-4
+        ));
     }
     // A bone turns about its own origin: under `spin` alone, A's origin stays put.
     let out = run_source("startshape s\nfps 10\nrule s { a {x 3 y 1 rx 40} }\nrule a : spin { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\nrule spin { 10/10 * {rz 360} FRAME {} }\n");
@@ -200,7 +209,9 @@ fn a_tube_drawn_into_a_bone_stretches_with_it() {
         let tip = (tr(2.0, 0.0, 0.0) * rx(9.0 * (i + 1) as f64)).transform_point3(DVec3::Z);
         assert!(close(d(Vec3::from_array(p.lines[0].points[1])), tip, 1e-5));
         assert!(close(d(Vec3::from_array(p.lines[0].points[0])), DVec3::new(2.0, 0.0, 0.0), 1e-6));
-        let ring_centre = |k: usize| p.sweeps.positions[k * 12..(k + 1) * 12].iter().map(|q| d(Vec3::from_array(*q))).sum::<DVec3>() / 12.0;
+        let ring_centre = |k: usize| {
+            p.sweeps.positions[k * 12..(k + 1) * 12].iter().map(|q| d(Vec3::from_array(*q))).sum::<DVec3>() / 12.0
+        };
         assert!(close(ring_centre(0), DVec3::new(2.0, 0.0, 0.0), 1e-5) && close(ring_centre(1), tip, 1e-5));
     }
 }
@@ -221,7 +232,8 @@ fn fps_directive_and_adjustment_set_the_frame_rate() {
     assert!(close(d(tip(1, 0.25)), at(105.0, 0.0), 1e-5));
     assert!(close(d(tip(2, 0.25)), at(195.0, 2.0), 1e-5));
     // The default rate is 30.
-    let out = run_source("startshape a\nrule a : x { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\nrule x { 2 * {} FRAME {} }\n");
+    let out =
+        run_source("startshape a\nrule a : x { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\nrule x { 2 * {} FRAME {} }\n");
     assert_eq!(out.animation.bones[1].fps, 30.0);
 }
 
@@ -236,7 +248,11 @@ fn convolution_runs_the_body_once_per_iterator_frame_under_i_a_b() {
     assert_eq!(pts.len(), 8, "one body run per iterator frame");
     for (i, p) in pts.iter().enumerate() {
         let k = (i + 1) as f64;
-        let m = rz(45.0 * k) * tr(4.0, 0.0, 0.0) * rx(90.0 * k) * tr(0.0, 1.0, 0.0) * tr(0.0, 0.0, 0.25 * (i.min(2) + 1) as f64);
+        let m = rz(45.0 * k)
+            * tr(4.0, 0.0, 0.0)
+            * rx(90.0 * k)
+            * tr(0.0, 1.0, 0.0)
+            * tr(0.0, 0.0, 0.25 * (i.min(2) + 1) as f64);
         let want = m.transform_point3(DVec3::new(0.5, 0.0, 0.0));
         assert!(close(*p, want, 1e-4), "run {i}: {p} vs {want}");
     }
@@ -259,7 +275,9 @@ fn winding(points: &[DVec3], uv: impl Fn(DVec3) -> (f64, f64)) -> f64 {
 fn knot_family_winds_the_stated_number_of_times_about_each_axis() {
     let path = root().join("std/examples/knot_family.mdg");
     for (nx, ny, nz) in [(3, 2, 5), (2, 3, 7), (1, 4, 3), (5, 1, 2)] {
-        let params = [("nx", nx), ("ny", ny), ("nz", nz), ("samples", 720)].map(|(n, v)| (n.to_string(), v.to_string())).to_vec();
+        let params = [("nx", nx), ("ny", ny), ("nz", nz), ("samples", 720)]
+            .map(|(n, v)| (n.to_string(), v.to_string()))
+            .to_vec();
         let opts = Options { params, ..options() };
         let a = mdg_compiler::driver::analyze(&FsLoader, &path, &opts, CheckOptions { require_start: true });
         assert!(!a.has_errors(), "{}", mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources));
@@ -281,7 +299,10 @@ fn knot_family_winds_the_stated_number_of_times_about_each_axis() {
             let s = (i + 1) as f64 / 720.0;
             let q = rz(-360.0 * nz as f64 * s).transform_point3(*p) - DVec3::new(2.0, 0.0, 0.0);
             let r = ry(-360.0 * ny as f64 * s).transform_point3(q) - DVec3::new(1.1, 0.0, 0.0);
-            assert!((r.length() - 0.6).abs() < 2e-3 && r.x.abs() < 2e-3, "sample {i}: the innermost circle has radius 0.6 about x ({r})");
+            assert!(
+                (r.length() - 0.6).abs() < 2e-3 && r.x.abs() < 2e-3,
+                "sample {i}: the innermost circle has radius 0.6 about x ({r})"
+            );
             inner_y.push(q);
             inner_x.push(r);
         }
@@ -303,7 +324,12 @@ fn a_convolution_iterator_that_does_not_end_stops_with_a_warning() {
     );
     // duration·fps = 20: frames 0..=20 are used.
     assert_eq!(out.mesh.n_vertices(), 21);
-    let w = out.stats.warnings.iter().find(|w| w.contains("convolution `R`")).unwrap_or_else(|| panic!("{:?}", out.stats.warnings));
+    let w = out
+        .stats
+        .warnings
+        .iter()
+        .find(|w| w.contains("convolution `R`"))
+        .unwrap_or_else(|| panic!("{:?}", out.stats.warnings));
     assert!(w.contains("iterator rule `I`") && w.contains("21 frames") && w.contains("inline.mdg:5"), "{w}");
     // Transform rules needing each other 100 deep: cut at a fixed nesting, no overflow
     // (this runs on a 2 MiB test thread).
@@ -313,7 +339,11 @@ fn a_convolution_iterator_that_does_not_end_stops_with_a_warning() {
     }
     src.push_str("rule R100 { 3 * {x 1} FRAME {} }\n");
     let out = run_source(&src);
-    assert!(out.stats.warnings.iter().any(|w| w.contains("inside 64 other transform rules")), "{:?}", out.stats.warnings);
+    assert!(
+        out.stats.warnings.iter().any(|w| w.contains("inside 64 other transform rules")),
+        "{:?}",
+        out.stats.warnings
+    );
     // A rule convolving over itself is a cycle: reported, no hang.
     let out = run_source("startshape R\nrule R * R { FRAME {} VERTEX {} }\n");
     assert!(out.stats.warnings.iter().any(|w| w.contains("cycle")), "{:?}", out.stats.warnings);
@@ -414,9 +444,15 @@ fn gltf_animation_plays_the_frames_in_order_and_validates() {
     assert_eq!(nodes[arm]["children"], serde_json::json!([hand]));
     // The skinned geometry: JOINTS_0 is each vertex's bone, joints are the bone nodes.
     let geometry = &nodes[node("geometry")];
-    assert_eq!(json["skins"][geometry["skin"].as_u64().expect("skin") as usize]["joints"], serde_json::json!([root_node, arm, hand]));
+    assert_eq!(
+        json["skins"][geometry["skin"].as_u64().expect("skin") as usize]["joints"],
+        serde_json::json!([root_node, arm, hand])
+    );
     let prim = &json["meshes"][geometry["mesh"].as_u64().expect("mesh") as usize]["primitives"][0];
-    let joints: Vec<u16> = accessor_bytes(&json, &bin, &prim["attributes"]["JOINTS_0"]).chunks(8).map(|c| u16::from_le_bytes([c[0], c[1]])).collect();
+    let joints: Vec<u16> = accessor_bytes(&json, &bin, &prim["attributes"]["JOINTS_0"])
+        .chunks(8)
+        .map(|c| u16::from_le_bytes([c[0], c[1]]))
+        .collect();
     assert_eq!(joints, vec![0, 0, 0, 1, 1, 1, 2, 2, 2]);
 
     // Arm: keyframes at i/10 s for i = 0..=30, each the bone's local transform F·P(i)·F⁻¹.
@@ -467,7 +503,11 @@ fn gltf_animation_plays_the_frames_in_order_and_validates() {
         .expect("run node (is Node.js installed? bash .ci/run installs it)");
     let _ = std::fs::remove_dir_all(&dir);
     let text = String::from_utf8_lossy(&status.stdout);
-    assert!(status.status.success() && text.contains(" 0 errors"), "glTF validation failed:\n{text}{}", String::from_utf8_lossy(&status.stderr));
+    assert!(
+        status.status.success() && text.contains(" 0 errors"),
+        "glTF validation failed:\n{text}{}",
+        String::from_utf8_lossy(&status.stderr)
+    );
 }
 
 #[test]

@@ -43,7 +43,14 @@ fn opcode_documentation_is_generated_from_the_table() {
         doc.push_str(&format!("| 0x{byte:02x} | `{mn}` | `{}` |\n", meaning.replace('|', "\\|")));
     }
     doc.push_str("\nDrawable kinds of `DRAW`: ");
-    doc.push_str(&mdg_vm::bundle::ops::DRAWABLE_KINDS.iter().enumerate().map(|(i, k)| format!("{i} `{k}`")).collect::<Vec<_>>().join(", "));
+    doc.push_str(
+        &mdg_vm::bundle::ops::DRAWABLE_KINDS
+            .iter()
+            .enumerate()
+            .map(|(i, k)| format!("{i} `{k}`"))
+            .collect::<Vec<_>>()
+            .join(", "),
+    );
     doc.push_str(".\n");
     snapshot(&root().join("docs/bytecode.md"), &doc).expect("docs/bytecode.md is out of date");
 }

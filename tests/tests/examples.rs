@@ -37,7 +37,8 @@ fn std_examples_evaluate_render_and_validate() {
         let bg = out.background.map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as i32);
         let differing = rgba.chunks(4).filter(|p| (0..3).any(|k| (p[k] as i32 - bg[k]).abs() > 8)).count();
         if differing * 100 < rgba.len() / 4 {
-            failures.push(format!("{name}: the picture is nearly blank ({differing} pixels differ from the background)"));
+            failures
+                .push(format!("{name}: the picture is nearly blank ({differing} pixels differ from the background)"));
         }
         let mut bytes = Vec::new();
         mdg_vm::export::write(mdg_vm::export::Format::Glb, &out, &mut bytes).expect("glb");
@@ -57,5 +58,10 @@ fn std_examples_evaluate_render_and_validate() {
         .output()
         .expect("run node (is Node.js installed? bash .ci/run installs it)");
     let _ = std::fs::remove_dir_all(&tmp);
-    assert!(status.status.success(), "glTF validation failed:\n{}{}", String::from_utf8_lossy(&status.stdout), String::from_utf8_lossy(&status.stderr));
+    assert!(
+        status.status.success(),
+        "glTF validation failed:\n{}{}",
+        String::from_utf8_lossy(&status.stdout),
+        String::from_utf8_lossy(&status.stderr)
+    );
 }

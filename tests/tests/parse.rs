@@ -11,7 +11,8 @@ fn check_spans(dump: &str, len: usize) -> Result<(), String> {
         for w in line.split(' ') {
             if let Some(r) = w.strip_prefix('@') {
                 if let Some((a, b)) = r.split_once("..") {
-                    let (a, b): (usize, usize) = (a.parse().map_err(|_| line.to_string())?, b.parse().map_err(|_| line.to_string())?);
+                    let (a, b): (usize, usize) =
+                        (a.parse().map_err(|_| line.to_string())?, b.parse().map_err(|_| line.to_string())?);
                     if a > b || b > len {
                         return Err(format!("span out of bounds or reversed: {line}"));
                     }
@@ -43,7 +44,8 @@ fn run(dir: &str, expect_errors: bool) {
         if expect_errors {
             let n_errors = parsed.diagnostics.iter().filter(|d| d.is_error()).count();
             if n_errors != 1 {
-                failures.push(format!("{}: expected exactly one syntax error, got {n_errors}:\n{diags}", path.display()));
+                failures
+                    .push(format!("{}: expected exactly one syntax error, got {n_errors}:\n{diags}", path.display()));
             }
             if let Err(e) = snapshot(&path.with_extension("diag"), &diags) {
                 failures.push(e);

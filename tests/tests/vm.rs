@@ -36,7 +36,9 @@ fn icosahedron_from_iterators_and_t_angles_is_exact() {
     for l in &out.lines {
         for w in l.points.windows(2) {
             let (a, b) = (v(w[0]), v(w[1]));
-            if !edges.iter().any(|(c, d)| (c.distance(a) < TOL && d.distance(b) < TOL) || (c.distance(b) < TOL && d.distance(a) < TOL)) {
+            if !edges.iter().any(|(c, d)| {
+                (c.distance(a) < TOL && d.distance(b) < TOL) || (c.distance(b) < TOL && d.distance(a) < TOL)
+            }) {
                 edges.push((a, b));
             }
         }
@@ -53,11 +55,14 @@ fn icosahedron_from_iterators_and_t_angles_is_exact() {
 fn turtle_arrowhead(order: u32) -> Vec<Vec3> {
     let mut s = String::from("A");
     for _ in 0..order {
-        s = s.chars().map(|c| match c {
-            'A' => "B-A-B".to_string(),
-            'B' => "A+B+A".to_string(),
-            c => c.to_string(),
-        }).collect();
+        s = s
+            .chars()
+            .map(|c| match c {
+                'A' => "B-A-B".to_string(),
+                'B' => "A+B+A".to_string(),
+                c => c.to_string(),
+            })
+            .collect();
     }
     let (mut p, mut heading) = (glam::DVec3::ZERO, 0f64);
     let mut pts = vec![Vec3::ZERO];
@@ -116,7 +121,10 @@ fn divisor_steps_make_the_stated_number_of_turns() {
     assert!((turns - 1999.0 / 400.0).abs() < 1e-3, "turns = {turns}");
     let first = pts[1];
     let step = (360.0f32 / 400.0).to_radians();
-    assert!(first.distance(Vec3::new(step.cos(), step.sin(), 0.0)) < TOL, "iterator applies the step before the first run: {first}");
+    assert!(
+        first.distance(Vec3::new(step.cos(), step.sin(), 0.0)) < TOL,
+        "iterator applies the step before the first run: {first}"
+    );
     // Scale divides as an N-th root: 4/4 * {s 16} grows by 2 per run.
     let out = run_source("startshape A\nrule A { 4/4 * {s 16} VERTEX {x 1} }\n");
     let xs: Vec<f32> = out.mesh.positions.iter().map(|p| p[0]).collect();
@@ -128,7 +136,8 @@ fn divisor_steps_make_the_stated_number_of_turns() {
 fn signed_volume(m: &mdg_vm::output::Mesh) -> f32 {
     m.oriented_triangles()
         .map(|t| {
-            let (a, b, c) = (v(m.positions[t[0] as usize]), v(m.positions[t[1] as usize]), v(m.positions[t[2] as usize]));
+            let (a, b, c) =
+                (v(m.positions[t[0] as usize]), v(m.positions[t[1] as usize]), v(m.positions[t[2] as usize]));
             a.dot(b.cross(c)) / 6.0
         })
         .sum()
@@ -233,8 +242,21 @@ fn limits_end_runs_cleanly_and_keep_output() {
     assert!(out.mesh.n_vertices() >= 3 * 999, "output so far is kept");
     let out = evaluate(&b, &EvalOptions { max_vertices: 3000, ..EvalOptions::default() });
     assert!(out.stats.warnings.iter().any(|w| w.contains("vertex budget")), "{:?}", out.stats.warnings);
-    let out = evaluate(&b, &EvalOptions { time_budget: Some(std::time::Duration::from_millis(50)), maxiter: Some(u64::MAX), max_vertices: u64::MAX, ..EvalOptions::default() });
-    assert!(out.stats.warnings.iter().any(|w| w.contains("time budget")) || out.stats.warnings.iter().any(|w| w.contains("stack")), "{:?}", out.stats.warnings);
+    let out = evaluate(
+        &b,
+        &EvalOptions {
+            time_budget: Some(std::time::Duration::from_millis(50)),
+            maxiter: Some(u64::MAX),
+            max_vertices: u64::MAX,
+            ..EvalOptions::default()
+        },
+    );
+    assert!(
+        out.stats.warnings.iter().any(|w| w.contains("time budget"))
+            || out.stats.warnings.iter().any(|w| w.contains("stack")),
+        "{:?}",
+        out.stats.warnings
+    );
     let out = run_source("startshape A\nmaxdepth 5\nrule A { VERTEX {} A {z 1} }\n");
     assert_eq!(out.mesh.n_vertices(), 6);
     assert!(out.stats.warnings.iter().any(|w| w.contains("maxdepth 5")));
@@ -249,9 +271,15 @@ fn limits_end_runs_cleanly_and_keep_output() {
 
 #[test]
 fn runtime_warnings_name_the_mdg_line() {
-    let b = build_source("startshape A\nisosurface BIG { xyz -1 1 1000; function { x*x + y*y + z*z - 1 } }\nrule A {\n  BIG {}\n}\n");
+    let b = build_source(
+        "startshape A\nisosurface BIG { xyz -1 1 1000; function { x*x + y*y + z*z - 1 } }\nrule A {\n  BIG {}\n}\n",
+    );
     let out = evaluate(&b, &EvalOptions { max_iso_cells: 1_000_000, ..EvalOptions::default() });
-    assert!(out.stats.warnings.iter().any(|w| w.contains("inline.mdg:4") && w.contains("BIG")), "{:?}", out.stats.warnings);
+    assert!(
+        out.stats.warnings.iter().any(|w| w.contains("inline.mdg:4") && w.contains("BIG")),
+        "{:?}",
+        out.stats.warnings
+    );
 }
 
 #[test]
@@ -278,7 +306,8 @@ fn mutated_bundles_are_rejected_or_run_safely() {
         "@import polyhedra\nstartshape I\nrule I { icosahedron {} 3 * {x 2} octahedron {s 0.5} }\n",
         "startshape T\nmaxdepth 6\nselector T depth\nrule T 3 { T {x 1 ry rand(0, 9)} \\ T {s 0.5} }\nrule T 6 { LINETO {z 1} }\n",
     ];
-    let limits = EvalOptions { maxiter: Some(5_000), max_vertices: 50_000, max_iso_cells: 50_000, ..EvalOptions::default() };
+    let limits =
+        EvalOptions { maxiter: Some(5_000), max_vertices: 50_000, max_iso_cells: 50_000, ..EvalOptions::default() };
     let (mut rejected, mut ran) = (0, 0);
     for src in sources {
         let good = mdg_vm::bundle::encode(&build_source(src));

@@ -22,7 +22,12 @@ pub struct Buffer {
 
 impl Buffer {
     /// A buffer of `size` bytes (at least 1) in memory with `props`.
-    pub fn new(ctx: &Arc<Context>, size: u64, usage: vk::BufferUsageFlags, props: vk::MemoryPropertyFlags) -> Result<Buffer, Error> {
+    pub fn new(
+        ctx: &Arc<Context>,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        props: vk::MemoryPropertyFlags,
+    ) -> Result<Buffer, Error> {
         let size = size.max(4);
         let info = vk::BufferCreateInfo::default().size(size).usage(usage).sharing_mode(vk::SharingMode::EXCLUSIVE);
         // SAFETY: valid device and create info.
@@ -72,7 +77,12 @@ impl Buffer {
         }
         let staging = Buffer::host(ctx, data.len() as u64, vk::BufferUsageFlags::TRANSFER_SRC)?;
         staging.write(0, data)?;
-        let b = Buffer::new(ctx, data.len() as u64, usage | vk::BufferUsageFlags::TRANSFER_DST, vk::MemoryPropertyFlags::DEVICE_LOCAL)?;
+        let b = Buffer::new(
+            ctx,
+            data.len() as u64,
+            usage | vk::BufferUsageFlags::TRANSFER_DST,
+            vk::MemoryPropertyFlags::DEVICE_LOCAL,
+        )?;
         let region = [vk::BufferCopy::default().size(data.len().max(1) as u64)];
         ctx.one_time(|cmd| {
             // SAFETY: both buffers are valid and large enough; `cmd` is recording.
@@ -116,7 +126,11 @@ impl Buffer {
         // SAFETY: host-visible, coherent memory of at least `len` bytes, read after
         // the GPU work that wrote it has completed (callers wait on a fence).
         unsafe {
-            let p = self.ctx.device.map_memory(self.memory, 0, len as u64, vk::MemoryMapFlags::empty()).map_err(vkerr("map memory"))?;
+            let p = self
+                .ctx
+                .device
+                .map_memory(self.memory, 0, len as u64, vk::MemoryMapFlags::empty())
+                .map_err(vkerr("map memory"))?;
             std::ptr::copy_nonoverlapping(p as *const u8, out.as_mut_ptr(), len);
             self.ctx.device.unmap_memory(self.memory);
         }

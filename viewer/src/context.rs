@@ -174,10 +174,14 @@ impl Context {
         let debug = if validation {
             let du = ash::ext::debug_utils::Instance::new(&entry, &instance);
             let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
-                .message_severity(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING)
+                .message_severity(
+                    vk::DebugUtilsMessageSeverityFlagsEXT::ERROR | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
+                )
                 // Performance hints (e.g. a vertex attribute a custom shader does
                 // not read) are not errors and would only add noise.
-                .message_type(vk::DebugUtilsMessageTypeFlagsEXT::GENERAL | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION)
+                .message_type(
+                    vk::DebugUtilsMessageTypeFlagsEXT::GENERAL | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION,
+                )
                 .pfn_user_callback(Some(debug_callback))
                 .user_data(Arc::as_ptr(&log) as *mut c_void);
             // SAFETY: the instance was created with VK_EXT_debug_utils; the user data
@@ -219,7 +223,10 @@ impl Context {
                 };
                 // SAFETY: plain queries on a valid physical device.
                 let (memory, props) = unsafe {
-                    (instance.get_physical_device_memory_properties(physical), instance.get_physical_device_properties(physical))
+                    (
+                        instance.get_physical_device_memory_properties(physical),
+                        instance.get_physical_device_properties(physical),
+                    )
                 };
                 Ok(Context {
                     entry,
@@ -253,15 +260,21 @@ impl Context {
 
     /// Picks a device with a graphics queue (discrete GPU first, then integrated,
     /// then anything, e.g. lavapipe) and creates it.
-    fn device_part(instance: &ash::Instance, present: bool) -> Result<(vk::PhysicalDevice, ash::Device, u32, bool, String), Error> {
+    fn device_part(
+        instance: &ash::Instance,
+        present: bool,
+    ) -> Result<(vk::PhysicalDevice, ash::Device, u32, bool, String), Error> {
         // SAFETY: plain query on a valid instance.
         let devices = unsafe { instance.enumerate_physical_devices() }.map_err(vkerr("enumerate devices"))?;
         let mut best: Option<(u32, vk::PhysicalDevice, u32)> = None;
         for pd in devices {
             // SAFETY: plain queries on a device enumerated from this instance.
-            let (props, families) =
-                unsafe { (instance.get_physical_device_properties(pd), instance.get_physical_device_queue_family_properties(pd)) };
-            let Some(family) = families.iter().position(|f| f.queue_flags.contains(vk::QueueFlags::GRAPHICS)) else { continue };
+            let (props, families) = unsafe {
+                (instance.get_physical_device_properties(pd), instance.get_physical_device_queue_family_properties(pd))
+            };
+            let Some(family) = families.iter().position(|f| f.queue_flags.contains(vk::QueueFlags::GRAPHICS)) else {
+                continue;
+            };
             let rank = match props.device_type {
                 vk::PhysicalDeviceType::DISCRETE_GPU => 4,
                 vk::PhysicalDeviceType::INTEGRATED_GPU => 3,
@@ -276,18 +289,22 @@ impl Context {
             return Err(Error::NoVulkan("no Vulkan device with a graphics queue was found".into()));
         };
         // SAFETY: plain queries on a valid physical device.
-        let (features, props) =
-            unsafe { (instance.get_physical_device_features(physical), instance.get_physical_device_properties(physical)) };
+        let (features, props) = unsafe {
+            (instance.get_physical_device_features(physical), instance.get_physical_device_properties(physical))
+        };
         let device_name = props.device_name_as_c_str().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         let wireframe = features.fill_mode_non_solid == vk::TRUE;
         let enabled = vk::PhysicalDeviceFeatures::default().fill_mode_non_solid(wireframe);
         let priorities = [1.0f32];
-        let queue_info = [vk::DeviceQueueCreateInfo::default().queue_family_index(family).queue_priorities(&priorities)];
+        let queue_info =
+            [vk::DeviceQueueCreateInfo::default().queue_family_index(family).queue_priorities(&priorities)];
         // The swapchain extension is enabled for a window (it needs the instance's
         // surface extensions); offscreen rendering does not use it.
         // SAFETY: plain query.
-        let exts = unsafe { instance.enumerate_device_extension_properties(physical) }.map_err(vkerr("device extensions"))?;
-        let has_swapchain = present && exts.iter().any(|e| e.extension_name_as_c_str().ok() == Some(ash::khr::swapchain::NAME));
+        let exts =
+            unsafe { instance.enumerate_device_extension_properties(physical) }.map_err(vkerr("device extensions"))?;
+        let has_swapchain =
+            present && exts.iter().any(|e| e.extension_name_as_c_str().ok() == Some(ash::khr::swapchain::NAME));
         let ext_names: Vec<*const std::ffi::c_char> =
             if has_swapchain { vec![ash::khr::swapchain::NAME.as_ptr()] } else { vec![] };
         let info = vk::DeviceCreateInfo::default()
@@ -306,9 +323,8 @@ impl Context {
 
     /// A memory type index with `props` among those allowed by `type_bits`.
     pub fn memory_type(&self, type_bits: u32, props: vk::MemoryPropertyFlags) -> Option<u32> {
-        (0..self.memory.memory_type_count).find(|&i| {
-            type_bits & (1 << i) != 0 && self.memory.memory_types[i as usize].property_flags.contains(props)
-        })
+        (0..self.memory.memory_type_count)
+            .find(|&i| type_bits & (1 << i) != 0 && self.memory.memory_types[i as usize].property_flags.contains(props))
     }
 
     /// Records commands with `record` into a one-time command buffer, submits it
@@ -328,11 +344,13 @@ impl Context {
             // SAFETY: recording was begun above.
             unsafe { self.device.end_command_buffer(cmd) }.map_err(vkerr("end command buffer"))?;
             // SAFETY: valid device; the fence is destroyed below.
-            let fence = unsafe { self.device.create_fence(&vk::FenceCreateInfo::default(), None) }.map_err(vkerr("create fence"))?;
+            let fence = unsafe { self.device.create_fence(&vk::FenceCreateInfo::default(), None) }
+                .map_err(vkerr("create fence"))?;
             let cmds = [cmd];
             let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
             // SAFETY: the command buffer is fully recorded; the fence is unsignalled.
-            let submitted = unsafe { self.device.queue_submit(self.queue, &submit, fence) }.map_err(vkerr("queue submit"));
+            let submitted =
+                unsafe { self.device.queue_submit(self.queue, &submit, fence) }.map_err(vkerr("queue submit"));
             let waited = submitted.and_then(|()| {
                 // SAFETY: waiting on our own fence; it is destroyed only after the wait.
                 unsafe { self.device.wait_for_fences(&[fence], true, u64::MAX) }.map_err(vkerr("wait for fence"))

@@ -85,7 +85,12 @@ impl Image {
 }
 
 /// A 2D view of a whole single-level image.
-pub fn create_view(ctx: &Context, image: vk::Image, format: vk::Format, aspect: vk::ImageAspectFlags) -> Result<vk::ImageView, Error> {
+pub fn create_view(
+    ctx: &Context,
+    image: vk::Image,
+    format: vk::Format,
+    aspect: vk::ImageAspectFlags,
+) -> Result<vk::ImageView, Error> {
     let info = vk::ImageViewCreateInfo::default()
         .image(image)
         .view_type(vk::ImageViewType::TYPE_2D)
@@ -117,7 +122,8 @@ impl Drop for Image {
 /// device supports 4; lavapipe supports only 1 and 4).
 pub fn msaa_samples(ctx: &Context, want: u32) -> vk::SampleCountFlags {
     let supported = ctx.limits.framebuffer_color_sample_counts & ctx.limits.framebuffer_depth_sample_counts;
-    let counts = [(2, vk::SampleCountFlags::TYPE_2), (4, vk::SampleCountFlags::TYPE_4), (8, vk::SampleCountFlags::TYPE_8)];
+    let counts =
+        [(2, vk::SampleCountFlags::TYPE_2), (4, vk::SampleCountFlags::TYPE_4), (8, vk::SampleCountFlags::TYPE_8)];
     let usable = counts.iter().filter(|(_, f)| supported.contains(*f));
     let want = want.max(2);
     usable

@@ -44,8 +44,10 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<(Model, Vec<PathBuf>), Bo
     let fail = |error: Error, files: Vec<PathBuf>| Box::new(LoadFailure { error, files });
     let is_bundle = path.extension().is_some_and(|e| e == "mdgb");
     let (bundle, files, warnings) = if is_bundle {
-        let bytes = std::fs::read(path).map_err(|e| fail(Error::Io(format!("cannot read {}: {e}", path.display())), vec![path.into()]))?;
-        let b = mdg_vm::bundle::load(&bytes).map_err(|e| fail(Error::Compile(format!("{}: {e}", path.display())), vec![path.into()]))?;
+        let bytes = std::fs::read(path)
+            .map_err(|e| fail(Error::Io(format!("cannot read {}: {e}", path.display())), vec![path.into()]))?;
+        let b = mdg_vm::bundle::load(&bytes)
+            .map_err(|e| fail(Error::Compile(format!("{}: {e}", path.display())), vec![path.into()]))?;
         (b, vec![path.to_path_buf()], String::new())
     } else {
         let copts = Options {

@@ -6,7 +6,7 @@ use crate::camera::OrbitCamera;
 use crate::context::Context;
 use crate::image::{Image, ImageDesc};
 use crate::model::Model;
-use crate::renderer::{Framebuffer, FrameParams, ModelInfo, Renderer, RendererOptions};
+use crate::renderer::{FrameParams, Framebuffer, ModelInfo, Renderer, RendererOptions};
 use crate::Error;
 use ash::vk;
 use std::path::Path;
@@ -34,8 +34,10 @@ impl Offscreen {
         if width == 0 || height == 0 || width > 16384 || height > 16384 {
             return Err(Error::Other(format!("image size {width}x{height} is out of range (1..16384)")));
         }
-        let mut renderer =
-            Renderer::new(ctx, RendererOptions { color_format: FORMAT, final_layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL, samples })?;
+        let mut renderer = Renderer::new(
+            ctx,
+            RendererOptions { color_format: FORMAT, final_layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL, samples },
+        )?;
         let extent = vk::Extent2D { width, height };
         renderer.resize(extent)?;
         let target = Image::new(
@@ -100,7 +102,13 @@ impl Offscreen {
             // outgoing dependency made the resolve visible to transfers.
             // SAFETY: `cmd` is recording; target and buffer are valid and sized.
             unsafe {
-                ctx.device.cmd_copy_image_to_buffer(cmd, self.target.raw, vk::ImageLayout::TRANSFER_SRC_OPTIMAL, self.readback.raw, &region);
+                ctx.device.cmd_copy_image_to_buffer(
+                    cmd,
+                    self.target.raw,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    self.readback.raw,
+                    &region,
+                );
                 let barrier = [vk::BufferMemoryBarrier::default()
                     .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
                     .dst_access_mask(vk::AccessFlags::HOST_READ)
@@ -150,7 +158,9 @@ pub fn contact_sheet(images: &[Vec<u8>], width: u32, height: u32, gap: [u8; 4]) 
         for y in 0..height {
             let src = (y * width * 4) as usize;
             let dst = (((y0 + y) * sw + x0) * 4) as usize;
-            if let (Some(s), Some(d)) = (img.get(src..src + (width * 4) as usize), out.get_mut(dst..dst + (width * 4) as usize)) {
+            if let (Some(s), Some(d)) =
+                (img.get(src..src + (width * 4) as usize), out.get_mut(dst..dst + (width * 4) as usize))
+            {
                 d.copy_from_slice(s);
             }
         }

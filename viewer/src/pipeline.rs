@@ -42,7 +42,8 @@ impl Layout {
         ];
         let info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
         // SAFETY: valid device and create info.
-        let set_layout = unsafe { ctx.device.create_descriptor_set_layout(&info, None) }.map_err(vkerr("create set layout"))?;
+        let set_layout =
+            unsafe { ctx.device.create_descriptor_set_layout(&info, None) }.map_err(vkerr("create set layout"))?;
         let set_layouts = [set_layout];
         let info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
         // SAFETY: valid device; the set layout was just created.
@@ -122,31 +123,70 @@ pub struct Pipeline {
 impl Pipeline {
     /// Builds a pipeline from vertex and fragment SPIR-V. Viewport and scissor are
     /// dynamic, so a resize does not rebuild it.
-    pub fn new(ctx: &Arc<Context>, layout: &Layout, vertex: &[u32], fragment: &[u32], desc: PipelineDesc) -> Result<Pipeline, Error> {
+    pub fn new(
+        ctx: &Arc<Context>,
+        layout: &Layout,
+        vertex: &[u32],
+        fragment: &[u32],
+        desc: PipelineDesc,
+    ) -> Result<Pipeline, Error> {
         let vs = ShaderModule::new(ctx, vertex)?;
         let fs = ShaderModule::new(ctx, fragment)?;
         let stages = [
-            vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::VERTEX).module(vs.raw).name(c"main"),
-            vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::FRAGMENT).module(fs.raw).name(c"main"),
+            vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::VERTEX)
+                .module(vs.raw)
+                .name(c"main"),
+            vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::FRAGMENT)
+                .module(fs.raw)
+                .name(c"main"),
         ];
         let bindings = [
-            vk::VertexInputBindingDescription::default().binding(0).stride(VERTEX_STRIDE).input_rate(vk::VertexInputRate::VERTEX),
+            vk::VertexInputBindingDescription::default()
+                .binding(0)
+                .stride(VERTEX_STRIDE)
+                .input_rate(vk::VertexInputRate::VERTEX),
             vk::VertexInputBindingDescription::default()
                 .binding(1)
                 .stride(if desc.skinned { SKIN_STRIDE } else { 0 })
                 .input_rate(vk::VertexInputRate::VERTEX),
         ];
         let attrs = [
-            vk::VertexInputAttributeDescription::default().location(0).binding(0).format(vk::Format::R32G32B32_SFLOAT).offset(0),
-            vk::VertexInputAttributeDescription::default().location(1).binding(0).format(vk::Format::R16G16B16A16_SNORM).offset(12),
-            vk::VertexInputAttributeDescription::default().location(2).binding(0).format(vk::Format::R8G8B8A8_UNORM).offset(20),
-            vk::VertexInputAttributeDescription::default().location(3).binding(1).format(vk::Format::R32G32B32A32_SFLOAT).offset(0),
-            vk::VertexInputAttributeDescription::default().location(4).binding(1).format(vk::Format::R32_UINT).offset(16),
+            vk::VertexInputAttributeDescription::default()
+                .location(0)
+                .binding(0)
+                .format(vk::Format::R32G32B32_SFLOAT)
+                .offset(0),
+            vk::VertexInputAttributeDescription::default()
+                .location(1)
+                .binding(0)
+                .format(vk::Format::R16G16B16A16_SNORM)
+                .offset(12),
+            vk::VertexInputAttributeDescription::default()
+                .location(2)
+                .binding(0)
+                .format(vk::Format::R8G8B8A8_UNORM)
+                .offset(20),
+            vk::VertexInputAttributeDescription::default()
+                .location(3)
+                .binding(1)
+                .format(vk::Format::R32G32B32A32_SFLOAT)
+                .offset(0),
+            vk::VertexInputAttributeDescription::default()
+                .location(4)
+                .binding(1)
+                .format(vk::Format::R32_UINT)
+                .offset(16),
         ];
         let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
             .vertex_binding_descriptions(&bindings)
             .vertex_attribute_descriptions(&attrs);
-        let topology = if desc.kind == Kind::Lines { vk::PrimitiveTopology::LINE_LIST } else { vk::PrimitiveTopology::TRIANGLE_LIST };
+        let topology = if desc.kind == Kind::Lines {
+            vk::PrimitiveTopology::LINE_LIST
+        } else {
+            vk::PrimitiveTopology::TRIANGLE_LIST
+        };
         let input_assembly = vk::PipelineInputAssemblyStateCreateInfo::default().topology(topology);
         let viewport = vk::PipelineViewportStateCreateInfo::default().viewport_count(1).scissor_count(1);
         let polygon_mode = if desc.kind == Kind::Wireframe { vk::PolygonMode::LINE } else { vk::PolygonMode::FILL };

@@ -34,7 +34,13 @@ fn compile_std(std_dir: Option<&Path>) -> Result<ProgramSpirv, String> {
     let file = std_dir.map(|d| d.join("shaders.mdg")).filter(|p| p.is_file());
     let a = match &file {
         Some(p) => driver::analyze(&FsLoader, p, &opts, CheckOptions { require_start: false }),
-        None => driver::analyze_text(&FsLoader, Path::new("std/shaders.mdg"), STD_SHADERS, &opts, CheckOptions { require_start: false }),
+        None => driver::analyze_text(
+            &FsLoader,
+            Path::new("std/shaders.mdg"),
+            STD_SHADERS,
+            &opts,
+            CheckOptions { require_start: false },
+        ),
     };
     if a.has_errors() {
         return Err(mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources));
@@ -44,7 +50,9 @@ fn compile_std(std_dir: Option<&Path>) -> Result<ProgramSpirv, String> {
         a.spirv.get(i).cloned().flatten()
     };
     match (pick(true, "phong_vs"), pick(false, "phong_fs")) {
-        (Some(vertex), Some(fragment)) => Ok(ProgramSpirv { vertex, fragment, label: "std phong_vs + phong_fs".into() }),
+        (Some(vertex), Some(fragment)) => {
+            Ok(ProgramSpirv { vertex, fragment, label: "std phong_vs + phong_fs".into() })
+        }
         _ => Err("std/shaders.mdg has no phong_vs / phong_fs".into()),
     }
 }
@@ -62,7 +70,8 @@ pub fn std_program(std_dir: Option<&Path>) -> Result<ProgramSpirv, Error> {
             return Ok(p.clone());
         }
     }
-    let p = compile_std(std_dir).map_err(|m| Error::Compile(format!("the std Phong program does not compile:\n{m}")))?;
+    let p =
+        compile_std(std_dir).map_err(|m| Error::Compile(format!("the std Phong program does not compile:\n{m}")))?;
     if let Ok(mut c) = cache.lock() {
         c.push((key, p.clone()));
     }
@@ -80,16 +89,25 @@ pub fn for_bundle(bundle: &Bundle, std_dir: Option<&Path>) -> Result<ProgramSpir
         if i == NONE {
             return Ok(None);
         }
-        let sh = bundle.shaders.get(i as usize).ok_or_else(|| Error::Other(format!("program names shader {i}, which is missing")))?;
+        let sh = bundle
+            .shaders
+            .get(i as usize)
+            .ok_or_else(|| Error::Other(format!("program names shader {i}, which is missing")))?;
         let name = bundle.string(sh.name).to_string();
         if sh.spirv.is_empty() {
-            return Err(Error::Compile(format!("shader `{name}` has no SPIR-V (the bundle was built without the shader stage)")));
+            return Err(Error::Compile(format!(
+                "shader `{name}` has no SPIR-V (the bundle was built without the shader stage)"
+            )));
         }
         Ok(Some((name, sh.spirv.clone())))
     };
     let (vs, fs) = (shader(v)?, shader(f)?);
     if let (Some((vn, vertex)), Some((fname, fragment))) = (&vs, &fs) {
-        return Ok(ProgramSpirv { vertex: vertex.clone(), fragment: fragment.clone(), label: format!("{vn} + {fname}") });
+        return Ok(ProgramSpirv {
+            vertex: vertex.clone(),
+            fragment: fragment.clone(),
+            label: format!("{vn} + {fname}"),
+        });
     }
     let std = std_program(std_dir)?;
     let label = format!(

@@ -35,7 +35,11 @@ pub struct ReloadHandle {
 /// `dir/name` with the directory canonicalised (the file itself may be gone
 /// mid-save).
 fn normalise(p: &Path) -> PathBuf {
-    let abs = if p.is_absolute() { p.to_path_buf() } else { std::env::current_dir().map(|d| d.join(p)).unwrap_or_else(|_| p.to_path_buf()) };
+    let abs = if p.is_absolute() {
+        p.to_path_buf()
+    } else {
+        std::env::current_dir().map(|d| d.join(p)).unwrap_or_else(|_| p.to_path_buf())
+    };
     match (abs.parent(), abs.file_name()) {
         (Some(dir), Some(name)) => dir.canonicalize().map(|d| d.join(name)).unwrap_or(abs),
         _ => abs,
@@ -62,25 +66,27 @@ impl ReloadHandle {
         .map_err(|e| format!("cannot watch files: {e}"))?;
         let mut watched_dirs: BTreeSet<PathBuf> = BTreeSet::new();
         let mut files: BTreeSet<PathBuf> = files.iter().chain(std::iter::once(&path)).map(|f| normalise(f)).collect();
-        let watch = |watcher: &mut notify::RecommendedWatcher, files: &BTreeSet<PathBuf>, dirs: &mut BTreeSet<PathBuf>| {
-            let want: BTreeSet<PathBuf> = files.iter().filter_map(|f| f.parent().map(Path::to_path_buf)).collect();
-            for d in dirs.difference(&want).cloned().collect::<Vec<_>>() {
-                let _ = watcher.unwatch(&d);
-                dirs.remove(&d);
-            }
-            for d in want {
-                if !dirs.contains(&d) && watcher.watch(&d, RecursiveMode::NonRecursive).is_ok() {
-                    dirs.insert(d);
+        let watch =
+            |watcher: &mut notify::RecommendedWatcher, files: &BTreeSet<PathBuf>, dirs: &mut BTreeSet<PathBuf>| {
+                let want: BTreeSet<PathBuf> = files.iter().filter_map(|f| f.parent().map(Path::to_path_buf)).collect();
+                for d in dirs.difference(&want).cloned().collect::<Vec<_>>() {
+                    let _ = watcher.unwatch(&d);
+                    dirs.remove(&d);
                 }
-            }
-        };
+                for d in want {
+                    if !dirs.contains(&d) && watcher.watch(&d, RecursiveMode::NonRecursive).is_ok() {
+                        dirs.insert(d);
+                    }
+                }
+            };
         watch(&mut watcher, &files, &mut watched_dirs);
         let thread = std::thread::Builder::new()
             .name("mdg-reload".into())
             .spawn(move || {
                 let relevant = |files: &BTreeSet<PathBuf>, m: &Msg| match m {
                     Msg::Fs(Ok(ev)) => {
-                        !matches!(ev.kind, notify::EventKind::Access(_)) && ev.paths.iter().any(|p| files.contains(&normalise(p)))
+                        !matches!(ev.kind, notify::EventKind::Access(_))
+                            && ev.paths.iter().any(|p| files.contains(&normalise(p)))
                     }
                     _ => false,
                 };

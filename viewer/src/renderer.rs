@@ -17,10 +17,10 @@ use crate::pipeline::{Kind, Layout, Pipeline, PipelineDesc};
 use crate::program::{self, ProgramSpirv};
 use crate::scene::{self, Bounds};
 use crate::uniforms::{self, UniformSpec};
-use mdg_vm::output::Animation;
 use crate::Error;
 use ash::vk;
 use glam::{Mat4, Vec3};
+use mdg_vm::output::Animation;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -43,7 +43,13 @@ pub struct RenderPass {
 }
 
 impl RenderPass {
-    fn new(ctx: &Arc<Context>, color: vk::Format, depth: vk::Format, samples: vk::SampleCountFlags, final_layout: vk::ImageLayout) -> Result<RenderPass, Error> {
+    fn new(
+        ctx: &Arc<Context>,
+        color: vk::Format,
+        depth: vk::Format,
+        samples: vk::SampleCountFlags,
+        final_layout: vk::ImageLayout,
+    ) -> Result<RenderPass, Error> {
         let attachments = [
             // 0: multisampled colour, resolved, never stored.
             vk::AttachmentDescription::default()
@@ -77,8 +83,10 @@ impl RenderPass {
                 .final_layout(final_layout),
         ];
         let color_ref = [vk::AttachmentReference { attachment: 0, layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL }];
-        let depth_ref = vk::AttachmentReference { attachment: 1, layout: vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL };
-        let resolve_ref = [vk::AttachmentReference { attachment: 2, layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL }];
+        let depth_ref =
+            vk::AttachmentReference { attachment: 1, layout: vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL };
+        let resolve_ref =
+            [vk::AttachmentReference { attachment: 2, layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL }];
         let subpass = [vk::SubpassDescription::default()
             .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
             .color_attachments(&color_ref)
@@ -91,10 +99,16 @@ impl RenderPass {
             vk::SubpassDependency::default()
                 .src_subpass(vk::SUBPASS_EXTERNAL)
                 .dst_subpass(0)
-                .src_stage_mask(vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS)
-                .dst_stage_mask(vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS)
+                .src_stage_mask(
+                    vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS,
+                )
+                .dst_stage_mask(
+                    vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS,
+                )
                 .src_access_mask(vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE)
-                .dst_access_mask(vk::AccessFlags::COLOR_ATTACHMENT_WRITE | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE),
+                .dst_access_mask(
+                    vk::AccessFlags::COLOR_ATTACHMENT_WRITE | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                ),
             vk::SubpassDependency::default()
                 .src_subpass(0)
                 .dst_subpass(vk::SUBPASS_EXTERNAL)
@@ -103,7 +117,8 @@ impl RenderPass {
                 .src_access_mask(vk::AccessFlags::COLOR_ATTACHMENT_WRITE)
                 .dst_access_mask(vk::AccessFlags::TRANSFER_READ),
         ];
-        let info = vk::RenderPassCreateInfo::default().attachments(&attachments).subpasses(&subpass).dependencies(&deps);
+        let info =
+            vk::RenderPassCreateInfo::default().attachments(&attachments).subpasses(&subpass).dependencies(&deps);
         // SAFETY: valid device; all pointers refer to locals alive for the call.
         let raw = unsafe { ctx.device.create_render_pass(&info, None) }.map_err(vkerr("create render pass"))?;
         Ok(RenderPass { ctx: ctx.clone(), raw })
@@ -146,7 +161,8 @@ impl Descriptors {
         ];
         let info = vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes);
         // SAFETY: valid device and create info.
-        let pool = unsafe { ctx.device.create_descriptor_pool(&info, None) }.map_err(vkerr("create descriptor pool"))?;
+        let pool =
+            unsafe { ctx.device.create_descriptor_pool(&info, None) }.map_err(vkerr("create descriptor pool"))?;
         let mut d = Descriptors { ctx: ctx.clone(), pool, set: vk::DescriptorSet::null() };
         let layouts = [layout.set_layout];
         let alloc = vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&layouts);
@@ -163,7 +179,11 @@ impl Descriptors {
             [vk::DescriptorBufferInfo { buffer: bones.raw, offset: 0, range: vk::WHOLE_SIZE }],
             [vk::DescriptorBufferInfo { buffer: user.raw, offset: 0, range: vk::WHOLE_SIZE }],
         ];
-        let types = [vk::DescriptorType::UNIFORM_BUFFER, vk::DescriptorType::STORAGE_BUFFER, vk::DescriptorType::UNIFORM_BUFFER];
+        let types = [
+            vk::DescriptorType::UNIFORM_BUFFER,
+            vk::DescriptorType::STORAGE_BUFFER,
+            vk::DescriptorType::UNIFORM_BUFFER,
+        ];
         let writes: Vec<vk::WriteDescriptorSet> = (0..3)
             .map(|i| {
                 vk::WriteDescriptorSet::default()
@@ -287,7 +307,12 @@ impl Renderer {
     }
 
     /// Like [`Renderer::set_model`] with a prepared scene and program.
-    pub fn set_scene(&mut self, scene: &scene::Scene, model: &Model, program: &ProgramSpirv) -> Result<&ModelInfo, Error> {
+    pub fn set_scene(
+        &mut self,
+        scene: &scene::Scene,
+        model: &Model,
+        program: &ProgramSpirv,
+    ) -> Result<&ModelInfo, Error> {
         let ctx = &self.ctx;
         let skinned = !scene.skins.is_empty();
         let desc = |kind| PipelineDesc { kind, render_pass: self.render_pass.raw, samples: self.samples, skinned };
@@ -299,7 +324,13 @@ impl Renderer {
         };
         let lines = if scene.n_line_vertices > 0 {
             let lp = program::line_program()?;
-            Some(Pipeline::new(ctx, &self.layout, &lp.vertex, &lp.fragment, PipelineDesc { skinned: false, ..desc(Kind::Lines) })?)
+            Some(Pipeline::new(
+                ctx,
+                &self.layout,
+                &lp.vertex,
+                &lp.fragment,
+                PipelineDesc { skinned: false, ..desc(Kind::Lines) },
+            )?)
         } else {
             None
         };
@@ -430,7 +461,12 @@ impl Renderer {
                     let view = Mat4::from_rotation_translation(r, t).inverse();
                     let near = cam.near.max(1e-4);
                     let far = cam.far.max(near * 2.0);
-                    let mut proj = glam::camera::rh::proj::directx::perspective(cam.fov.clamp(1.0, 170.0).to_radians(), aspect, near, far);
+                    let mut proj = glam::camera::rh::proj::directx::perspective(
+                        cam.fov.clamp(1.0, 170.0).to_radians(),
+                        aspect,
+                        near,
+                        far,
+                    );
                     proj.y_axis.y = -proj.y_axis.y;
                     return (view, proj, t);
                 }
@@ -467,7 +503,11 @@ impl Renderer {
             vk::ClearValue { color: vk::ClearColorValue { float32: bg } },
         ];
         let area = vk::Rect2D { offset: vk::Offset2D { x: 0, y: 0 }, extent: fb.extent };
-        let begin = vk::RenderPassBeginInfo::default().render_pass(self.render_pass.raw).framebuffer(fb.raw).render_area(area).clear_values(&clears);
+        let begin = vk::RenderPassBeginInfo::default()
+            .render_pass(self.render_pass.raw)
+            .framebuffer(fb.raw)
+            .render_area(area)
+            .clear_values(&clears);
         let viewport = vk::Viewport {
             x: 0.0,
             y: 0.0,
@@ -483,7 +523,14 @@ impl Renderer {
             d.cmd_set_viewport(cmd, 0, &[viewport]);
             d.cmd_set_scissor(cmd, 0, &[area]);
             if let Some((gpu, _)) = &self.model {
-                d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::GRAPHICS, self.layout.pipeline_layout, 0, &[gpu.descriptors.set], &[]);
+                d.cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::GRAPHICS,
+                    self.layout.pipeline_layout,
+                    0,
+                    &[gpu.descriptors.set],
+                    &[],
+                );
                 if gpu.n_indices > 0 {
                     let pipeline = match (&gpu.wire, frame.wireframe) {
                         (Some(w), true) => w.raw,

@@ -36,7 +36,6 @@ impl Default for Bounds {
 }
 
 impl Bounds {
-
     /// Grows to include `p` (non-finite points are ignored).
     pub fn add(&mut self, p: Vec3) {
         if p.is_finite() {

@@ -30,7 +30,8 @@ impl Surface {
             .map_err(vkerr("create window surface"))?;
         let loader = ash::khr::surface::Instance::new(&ctx.entry, &ctx.instance);
         // SAFETY: plain query on a valid surface and device.
-        let supported = unsafe { loader.get_physical_device_surface_support(ctx.physical, ctx.queue_family, raw) }.unwrap_or(false);
+        let supported =
+            unsafe { loader.get_physical_device_surface_support(ctx.physical, ctx.queue_family, raw) }.unwrap_or(false);
         if !supported {
             // SAFETY: the surface is unused.
             unsafe { loader.destroy_surface(raw, None) };
@@ -65,7 +66,8 @@ pub struct Swapchain {
 /// offscreen target, so a screenshot matches a PNG), else whatever comes first.
 pub fn choose_format(ctx: &Context, surface: &Surface) -> Result<vk::SurfaceFormatKHR, Error> {
     // SAFETY: plain query.
-    let formats = unsafe { surface.loader.get_physical_device_surface_formats(ctx.physical, surface.raw) }.map_err(vkerr("surface formats"))?;
+    let formats = unsafe { surface.loader.get_physical_device_surface_formats(ctx.physical, surface.raw) }
+        .map_err(vkerr("surface formats"))?;
     formats
         .iter()
         .find(|f| matches!(f.format, vk::Format::B8G8R8A8_UNORM | vk::Format::R8G8B8A8_UNORM))
@@ -172,7 +174,8 @@ impl Swapchain {
         let waits = [wait];
         let swapchains = [self.raw];
         let indices = [index];
-        let info = vk::PresentInfoKHR::default().wait_semaphores(&waits).swapchains(&swapchains).image_indices(&indices);
+        let info =
+            vk::PresentInfoKHR::default().wait_semaphores(&waits).swapchains(&swapchains).image_indices(&indices);
         // SAFETY: the image was acquired and rendered; `wait` is signalled by that submit.
         match unsafe { self.loader.queue_present(self.ctx.queue, &info) } {
             Ok(suboptimal) => Ok(!suboptimal),

@@ -16,7 +16,8 @@ impl Fence {
     pub fn new(ctx: &Arc<Context>, signalled: bool) -> Result<Fence, Error> {
         let flags = if signalled { vk::FenceCreateFlags::SIGNALED } else { vk::FenceCreateFlags::empty() };
         // SAFETY: valid device and create info.
-        let raw = unsafe { ctx.device.create_fence(&vk::FenceCreateInfo::default().flags(flags), None) }.map_err(vkerr("create fence"))?;
+        let raw = unsafe { ctx.device.create_fence(&vk::FenceCreateInfo::default().flags(flags), None) }
+            .map_err(vkerr("create fence"))?;
         Ok(Fence { ctx: ctx.clone(), raw })
     }
 
@@ -50,7 +51,8 @@ pub struct Semaphore {
 impl Semaphore {
     pub fn new(ctx: &Arc<Context>) -> Result<Semaphore, Error> {
         // SAFETY: valid device and create info.
-        let raw = unsafe { ctx.device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }.map_err(vkerr("create semaphore"))?;
+        let raw = unsafe { ctx.device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }
+            .map_err(vkerr("create semaphore"))?;
         Ok(Semaphore { ctx: ctx.clone(), raw })
     }
 }

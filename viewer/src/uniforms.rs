@@ -28,7 +28,10 @@ pub const DEFAULT_SPEC_COLOR_POWER: [f32; 4] = [1.0, 1.0, 1.0, 32.0];
 enum Source {
     Const([f32; 4]),
     /// A frame property; `track` indexes `Animation::tracks` (none: identity).
-    Frame { track: Option<usize>, prop: u8 },
+    Frame {
+        track: Option<usize>,
+        prop: u8,
+    },
 }
 
 /// The `uniform` directives of a model, ready to be read at any time.
@@ -137,7 +140,13 @@ fn push_vec4(out: &mut Vec<u8>, v: [f32; 4]) {
 }
 
 /// The `Globals` block.
-pub fn globals(projection: &Mat4, view: &Mat4, camera_pos: Vec3, light_pos: [f32; 4], spec_color_power: [f32; 4]) -> Vec<u8> {
+pub fn globals(
+    projection: &Mat4,
+    view: &Mat4,
+    camera_pos: Vec3,
+    light_pos: [f32; 4],
+    spec_color_power: [f32; 4],
+) -> Vec<u8> {
     let mut out = Vec::with_capacity(GLOBALS_SIZE);
     push_mat(&mut out, projection);
     push_mat(&mut out, view);
@@ -179,7 +188,13 @@ mod tests {
 
     #[test]
     fn globals_layout_is_std140() {
-        let g = globals(&Mat4::IDENTITY, &Mat4::IDENTITY, Vec3::new(1.0, 2.0, 3.0), [4.0, 5.0, 6.0, 1.0], [1.0, 1.0, 1.0, 32.0]);
+        let g = globals(
+            &Mat4::IDENTITY,
+            &Mat4::IDENTITY,
+            Vec3::new(1.0, 2.0, 3.0),
+            [4.0, 5.0, 6.0, 1.0],
+            [1.0, 1.0, 1.0, 32.0],
+        );
         assert_eq!(g.len(), GLOBALS_SIZE);
         let f = |i: usize| f32::from_le_bytes([g[i * 4], g[i * 4 + 1], g[i * 4 + 2], g[i * 4 + 3]]);
         assert_eq!((f(32), f(33), f(34), f(35)), (1.0, 2.0, 3.0, 1.0));

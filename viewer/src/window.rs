@@ -140,7 +140,9 @@ struct App {
 /// Opens a window showing `model` (compiled from `path`, read from `files`) until it
 /// is closed or `opts.frames` frames were drawn.
 pub fn run(path: PathBuf, model: Model, files: Vec<PathBuf>, opts: WindowOptions) -> Result<RunSummary, Error> {
-    let event_loop = EventLoop::<UserEvent>::with_user_event().build().map_err(|e| Error::Other(format!("cannot open a window: {e}")))?;
+    let event_loop = EventLoop::<UserEvent>::with_user_event()
+        .build()
+        .map_err(|e| Error::Other(format!("cannot open a window: {e}")))?;
     install_quit_signals();
     let proxy = event_loop.create_proxy();
     let start_time = opts.time;
@@ -195,7 +197,9 @@ impl App {
         let attrs = Window::default_attributes()
             .with_title(format!("mdg-view — {}", self.path.display()))
             .with_inner_size(PhysicalSize::new(self.opts.width, self.opts.height));
-        let window = Arc::new(event_loop.create_window(attrs).map_err(|e| Error::Other(format!("cannot create a window: {e}")))?);
+        let window = Arc::new(
+            event_loop.create_window(attrs).map_err(|e| Error::Other(format!("cannot create a window: {e}")))?,
+        );
         let display = window.display_handle().map_err(|e| Error::Other(format!("display handle: {e}")))?.as_raw();
         let handle = window.window_handle().map_err(|e| Error::Other(format!("window handle: {e}")))?.as_raw();
         let exts = ash_window::enumerate_required_extensions(display).map_err(vkerr("surface extensions"))?;
@@ -207,7 +211,11 @@ impl App {
         let format = choose_format(&ctx, &surface)?;
         let mut renderer = Renderer::new(
             &ctx,
-            RendererOptions { color_format: format.format, final_layout: vk::ImageLayout::PRESENT_SRC_KHR, samples: self.opts.samples },
+            RendererOptions {
+                color_format: format.format,
+                final_layout: vk::ImageLayout::PRESENT_SRC_KHR,
+                samples: self.opts.samples,
+            },
         )?;
         let size = window.inner_size();
         let swapchain = Swapchain::new(&ctx, &surface, format, (size.width, size.height), &mut renderer, None)?;
@@ -259,7 +267,14 @@ impl App {
             return Ok(()); // Minimised: wait for a real size.
         }
         g.ctx.wait_idle();
-        let new = Swapchain::new(&g.ctx, &g.surface, g.format, (size.width, size.height), &mut g.renderer, Some(&g.swapchain))?;
+        let new = Swapchain::new(
+            &g.ctx,
+            &g.surface,
+            g.format,
+            (size.width, size.height),
+            &mut g.renderer,
+            Some(&g.swapchain),
+        )?;
         if new.images.len() != g.sync.render_finished.len() {
             g.sync.render_finished = (0..new.images.len()).map(|_| Semaphore::new(&g.ctx)).collect::<Result<_, _>>()?;
         }
@@ -294,15 +309,24 @@ impl App {
         let extent = g.swapchain.extent;
         let copy = screenshot && g.swapchain.can_read_back;
         if copy && g.readback.is_none() {
-            g.readback = Some(Buffer::host(&ctx, extent.width as u64 * extent.height as u64 * 4, vk::BufferUsageFlags::TRANSFER_DST)?);
+            g.readback = Some(Buffer::host(
+                &ctx,
+                extent.width as u64 * extent.height as u64 * 4,
+                vk::BufferUsageFlags::TRANSFER_DST,
+            )?);
         }
         let cmd = g.sync.cmd;
         let image = g.swapchain.images[index as usize];
         // SAFETY: the fence wait above guarantees the command buffer is not in use.
         unsafe {
-            ctx.device.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty()).map_err(vkerr("reset command buffer"))?;
             ctx.device
-                .begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))
+                .reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty())
+                .map_err(vkerr("reset command buffer"))?;
+            ctx.device
+                .begin_command_buffer(
+                    cmd,
+                    &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+                )
                 .map_err(vkerr("begin command buffer"))?;
         }
         g.renderer.record(cmd, &g.swapchain.framebuffers[index as usize], &frame);
@@ -315,7 +339,11 @@ impl App {
         let stages = [vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT];
         let cmds = [cmd];
         let signals = [g.sync.render_finished[index as usize].raw];
-        let submit = [vk::SubmitInfo::default().wait_semaphores(&waits).wait_dst_stage_mask(&stages).command_buffers(&cmds).signal_semaphores(&signals)];
+        let submit = [vk::SubmitInfo::default()
+            .wait_semaphores(&waits)
+            .wait_dst_stage_mask(&stages)
+            .command_buffers(&cmds)
+            .signal_semaphores(&signals)];
         // SAFETY: the command buffer is recorded; semaphores and fence are ours and
         // not pending (fence reset after its wait, semaphore per image).
         unsafe { ctx.device.queue_submit(ctx.queue, &submit, g.sync.in_flight.raw) }.map_err(vkerr("queue submit"))?;
@@ -365,7 +393,10 @@ impl App {
     }
 
     fn aspect(&self) -> f32 {
-        self.gpu.as_ref().map(|g| g.swapchain.extent.width as f32 / g.swapchain.extent.height.max(1) as f32).unwrap_or(1.0)
+        self.gpu
+            .as_ref()
+            .map(|g| g.swapchain.extent.width as f32 / g.swapchain.extent.height.max(1) as f32)
+            .unwrap_or(1.0)
     }
 
     fn frame_model(&mut self, home: bool) {
@@ -453,7 +484,12 @@ impl App {
 
     fn show_time(&self) {
         if let Some(g) = &self.gpu {
-            g.window.set_title(&format!("mdg-view — {} — t = {:.2} s{}", self.path.display(), self.time, if self.playing { "" } else { " (paused)" }));
+            g.window.set_title(&format!(
+                "mdg-view — {} — t = {:.2} s{}",
+                self.path.display(),
+                self.time,
+                if self.playing { "" } else { " (paused)" }
+            ));
         }
     }
 
@@ -524,7 +560,12 @@ fn record_readback(ctx: &Context, cmd: vk::CommandBuffer, image: vk::Image, exte
         .image(image)
         .subresource_range(range);
     let region = [vk::BufferImageCopy::default()
-        .image_subresource(vk::ImageSubresourceLayers { aspect_mask: vk::ImageAspectFlags::COLOR, mip_level: 0, base_array_layer: 0, layer_count: 1 })
+        .image_subresource(vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        })
         .image_extent(vk::Extent3D { width: extent.width, height: extent.height, depth: 1 })];
     let host = vk::BufferMemoryBarrier::default()
         .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
@@ -584,7 +625,11 @@ impl ApplicationHandler<UserEvent> for App {
             WindowEvent::RedrawRequested => {
                 self.tick();
                 let last = self.opts.frames.is_some_and(|n| self.summary.frames + 1 >= n);
-                let result = if last && self.opts.screenshot.is_some() { self.write_screenshot() } else { self.draw(false).map(|_| ()) };
+                let result = if last && self.opts.screenshot.is_some() {
+                    self.write_screenshot()
+                } else {
+                    self.draw(false).map(|_| ())
+                };
                 if let Err(e) = result {
                     self.fail(event_loop, e);
                     return;

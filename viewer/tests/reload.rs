@@ -40,7 +40,8 @@ fn edits_to_the_grammar_and_its_imports_reload() {
     let lib = dir.join("lib.mdg");
     std::fs::write(&lib, "rule tri { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n").expect("write");
     std::fs::write(&main, "@import lib.mdg\nstartshape A\nrule A { tri {} }\n").expect("write");
-    let (model, files) = mdg_viewer::model::load(&main, &load_options()).map_err(|f| f.error.to_string()).expect("loads");
+    let (model, files) =
+        mdg_viewer::model::load(&main, &load_options()).map_err(|f| f.error.to_string()).expect("loads");
     assert_eq!(model.output.mesh.triangles.len(), 1);
     assert!(files.iter().any(|f| f.ends_with("lib.mdg")), "{files:?}");
 

@@ -61,7 +61,10 @@ fn red_cube_left_blue_cube_right_on_white() {
         });
         eprintln!("{name}: {coloured} of {interior} interior pixels coloured");
         assert!(interior > 1000, "{name} cube too small to test: {interior} px");
-        assert!(coloured as f32 >= 0.97 * interior as f32, "{name}: {coloured} of {interior} interior pixels have the cube's colour");
+        assert!(
+            coloured as f32 >= 0.97 * interior as f32,
+            "{name}: {coloured} of {interior} interior pixels have the cube's colour"
+        );
     }
     // Lighting: the face turned to the light is bright, the others darker, and
     // faces differ (three faces are visible from the home view).
@@ -130,7 +133,9 @@ fn mirrored_model_is_lit_on_the_outside() {
     let prog = program::for_bundle(&mirrored_model.bundle, Some(&root().join("std"))).expect("program");
     let sc = scene::build(&wrong);
     off.renderer_mut().set_scene(&sc, &mirrored_model, &prog).expect("upload");
-    let px = off.render(&FrameParams { camera: mirrored.camera, time: 0.0, wireframe: false, camera_rule: false }).expect("render");
+    let px = off
+        .render(&FrameParams { camera: mirrored.camera, time: 0.0, wireframe: false, camera_rule: false })
+        .expect("render");
     drop(off);
     assert_no_validation_errors(&ctx);
     let control = Image { px, w: W, h: H };
@@ -147,7 +152,11 @@ fn custom_program_and_user_uniform_change_the_picture() {
     let phong = render(&ctx, "cube.mdg", W, H);
     let custom = render(&ctx, "custom_shader.mdg", W, H);
     custom.image.save("custom_shader.png");
-    assert!(custom.info.program.contains("flat_vs") && custom.info.program.contains("tint_fs"), "program: {}", custom.info.program);
+    assert!(
+        custom.info.program.contains("flat_vs") && custom.info.program.contains("tint_fs"),
+        "program: {}",
+        custom.info.program
+    );
     let green = |c: [u8; 4]| c[0] <= 1 && c[1] >= 254 && c[2] <= 1;
     let covered_phong = phong.image.count(|_, _, c| !white(c));
     let covered_custom = custom.image.count(|_, _, c| !white(c));
@@ -160,7 +169,10 @@ fn custom_program_and_user_uniform_change_the_picture() {
     assert!(diff <= 0.01 * covered_phong as f64, "coverage {covered_phong} vs {covered_custom}");
     // The tint shader paints `uniform tint 0 1 0 1`: every fully covered pixel is
     // pure green; only edge pixels (blended with white) are not — under 10%.
-    assert!(pure_green as f64 >= 0.9 * covered_custom as f64, "{pure_green} of {covered_custom} covered pixels are pure green");
+    assert!(
+        pure_green as f64 >= 0.9 * covered_custom as f64,
+        "{pure_green} of {covered_custom} covered pixels are pure green"
+    );
     assert_eq!(custom.image.count(|_, _, c| reddish(c)), 0, "no Phong-lit red may remain");
     assert!(phong.image.count(|_, _, c| reddish(c)) as f64 > 0.9 * covered_phong as f64);
 }
@@ -174,8 +186,10 @@ fn pen_lines_without_sweeps_are_drawn_as_lines() {
     assert_eq!(r.info.n_line_segments, 4);
     // The square's outline is seen from above (a flat model): dark ink along its
     // four sides, white inside and outside.
-    let corners: Vec<(f32, f32)> =
-        [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)].iter().map(|&(x, y)| project(&r.camera, &r.info, W, H, Vec3::new(x, y, 0.0))).collect();
+    let corners: Vec<(f32, f32)> = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+        .iter()
+        .map(|&(x, y)| project(&r.camera, &r.info, W, H, Vec3::new(x, y, 0.0)))
+        .collect();
     let (_, perimeter) = area_perimeter(&corners);
     let ink = r.image.count(|_, _, c| c[0].max(c[1]).max(c[2]) < 200);
     // One-pixel lines: between half and twice the perimeter (plus 4 px at each
@@ -183,7 +197,10 @@ fn pen_lines_without_sweeps_are_drawn_as_lines() {
     // line's coverage is spread over one or two pixels by 4× MSAA; a pixel counts
     // as inked when the dark ink covers at least a fifth of it).
     eprintln!("{ink} inked pixels, perimeter {perimeter:.0}");
-    assert!((ink as f32) >= 0.5 * perimeter && (ink as f32) <= 2.0 * perimeter + 16.0, "{ink} ink pixels for a perimeter of {perimeter:.0}");
+    assert!(
+        (ink as f32) >= 0.5 * perimeter && (ink as f32) <= 2.0 * perimeter + 16.0,
+        "{ink} ink pixels for a perimeter of {perimeter:.0}"
+    );
     let (cx, cy) = project(&r.camera, &r.info, W, H, Vec3::ZERO);
     assert!(white(r.image.at(cx as u32, cy as u32)), "the inside of the square must be background");
 }
@@ -231,7 +248,9 @@ fn bones_in_the_shader_match_the_vm_pose() {
     let mut off = Offscreen::new(&ctx, W, H, 4).expect("offscreen");
     off.set_model(&model, Some(&std)).expect("upload");
     let camera = off.home_camera();
-    let at = |off: &mut Offscreen, t: f32| off.render(&FrameParams { camera, time: t, wireframe: false, camera_rule: false }).expect("render");
+    let at = |off: &mut Offscreen, t: f32| {
+        off.render(&FrameParams { camera, time: t, wireframe: false, camera_rule: false }).expect("render")
+    };
     let (rest, moved) = (at(&mut off, 0.0), at(&mut off, 1.0));
     // The same instant posed on the CPU by the VM (`Output::posed`), drawn as a
     // static model from the same camera.
@@ -252,7 +271,11 @@ fn bones_in_the_shader_match_the_vm_pose() {
     // And time matters: at t = 0 the blue cube is elsewhere.
     let (d0, _) = mean_diff(&rest, &moved);
     assert!(d0 > 20.0, "the arm did not move between t = 0 and t = 1 (difference {d0:.2})");
-    assert_eq!(rest.count(|_, _, c| reddish(c)), moved.count(|_, _, c| reddish(c)), "the static red cube must not move");
+    assert_eq!(
+        rest.count(|_, _, c| reddish(c)),
+        moved.count(|_, _, c| reddish(c)),
+        "the static red cube must not move"
+    );
 }
 
 #[test]
@@ -272,12 +295,21 @@ fn camera_rule_looks_along_its_minus_z() {
     // field of view: a square of side H · (1 / 9.5) / (2 tan 20°), centred.
     let side = H as f32 * (1.0 / 9.5) / (2.0 * 20f32.to_radians().tan());
     let (cx, cy) = (W as f32 / 2.0, H as f32 / 2.0);
-    let square = [(cx - side / 2.0, cy - side / 2.0), (cx + side / 2.0, cy - side / 2.0), (cx + side / 2.0, cy + side / 2.0), (cx - side / 2.0, cy + side / 2.0)];
+    let square = [
+        (cx - side / 2.0, cy - side / 2.0),
+        (cx + side / 2.0, cy - side / 2.0),
+        (cx + side / 2.0, cy + side / 2.0),
+        (cx - side / 2.0, cy + side / 2.0),
+    ];
     let (area, perimeter) = area_perimeter(&square);
     let covered = img.count(|_, _, c| !white(c));
     eprintln!("camera rule: covered {covered} px, expected {area:.0} ± {perimeter:.0}");
     assert!((covered as f32 - area).abs() <= perimeter, "covered {covered} px, expected {area:.0} ± {perimeter:.0}");
     assert!(reddish(img.at(cx as u32, cy as u32)), "the cube must be in the centre");
-    let stray = img.count(|x, y, c| !white(c) && edge_distance(&square, x as f32 + 0.5, y as f32 + 0.5) > 1.5 && !inside(&square, x as f32 + 0.5, y as f32 + 0.5));
+    let stray = img.count(|x, y, c| {
+        !white(c)
+            && edge_distance(&square, x as f32 + 0.5, y as f32 + 0.5) > 1.5
+            && !inside(&square, x as f32 + 0.5, y as f32 + 0.5)
+    });
     assert_eq!(stray, 0, "pixels drawn outside the expected square");
 }

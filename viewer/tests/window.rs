@@ -6,7 +6,6 @@
 //! one prints its diagnostics and keeps the model, SIGINT closes cleanly.
 //! X11 and signals: Unix only.
 #![cfg(unix)]
-
 // One `unsafe` call: sending SIGINT to the child (libc::kill); the workspace
 // denies unsafe code elsewhere, the viewer crate allows it (see lib.rs).
 #![allow(unsafe_code)]
@@ -50,7 +49,9 @@ fn window_opens_renders_frames_and_closes_cleanly() {
     } else if std::env::var_os("DISPLAY").is_some() {
         Command::new(bin)
     } else {
-        panic!("no X server for the window test: run `bash .ci/run` (it installs xvfb), or set MDG_SKIP_VULKAN_TESTS=1");
+        panic!(
+            "no X server for the window test: run `bash .ci/run` (it installs xvfb), or set MDG_SKIP_VULKAN_TESTS=1"
+        );
     };
     let out = cmd.args(&args).env("MDG_VALIDATION", "1").output().expect("run mdg-view");
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -161,7 +162,11 @@ fn window_hot_reload_keeps_the_last_good_model_and_closes_on_sigint() {
     wait_for("triangles", &mut log);
     // Give the watcher a moment, then add a green cube on top (3 cubes, 36 triangles).
     std::thread::sleep(std::time::Duration::from_millis(300));
-    std::fs::write(&grammar, original.replace("cube {x 1.5 R -1 G -1}", "cube {x 1.5 R -1 G -1}\n  cube {z 2 R -1 B -1}")).expect("edit");
+    std::fs::write(
+        &grammar,
+        original.replace("cube {x 1.5 R -1 G -1}", "cube {x 1.5 R -1 G -1}\n  cube {z 2 R -1 B -1}"),
+    )
+    .expect("edit");
     wait_for("reloaded: 36 triangles", &mut log);
     // A broken edit: the diagnostics are printed, the three cubes stay.
     std::fs::write(&grammar, original.replace("cube {x 1.5 R -1 G -1}", "nosuchrule {}")).expect("edit");
@@ -191,9 +196,17 @@ fn window_hot_reload_keeps_the_last_good_model_and_closes_on_sigint() {
     let img = Image { px, w: info.width, h: info.height };
     let green = img.count(|_, _, c| c[1] as i32 >= 2 * (c[0].max(c[2]) as i32) + 10 && c[1] >= 25);
     let (red, blue) = (img.count(|_, _, c| reddish(c)), img.count(|_, _, c| bluish(c)));
-    assert!(green > 300 && red > 300 && blue > 300, "the reloaded model (red, blue and green cubes) must still show: red {red}, blue {blue}, green {green} px");
+    assert!(
+        green > 300 && red > 300 && blue > 300,
+        "the reloaded model (red, blue and green cubes) must still show: red {red}, blue {blue}, green {green} px"
+    );
     // The camera was kept, not re-framed: framed for two cubes, the view cuts the
     // new green cube at the top edge (a re-framed view would leave a margin).
-    let green_on_top_row = (0..img.w).filter(|&x| { let c = img.at(x, 0); c[1] as i32 >= 2 * (c[0].max(c[2]) as i32) + 10 }).count();
+    let green_on_top_row = (0..img.w)
+        .filter(|&x| {
+            let c = img.at(x, 0);
+            c[1] as i32 >= 2 * (c[0].max(c[2]) as i32) + 10
+        })
+        .count();
     assert!(green_on_top_row > 0, "the camera moved on reload");
 }

@@ -205,7 +205,10 @@ impl Output {
         let (tracks, camera) = match camera {
             Some((cam, frame)) => {
                 let rule = self.animation.tracks.get(cam.track as usize).map(|t| t.rule.clone()).unwrap_or_default();
-                (vec![Track { rule, frames: vec![frame], complete: true }], Some(crate::output::Camera { track: 0, ..cam.clone() }))
+                (
+                    vec![Track { rule, frames: vec![frame], complete: true }],
+                    Some(crate::output::Camera { track: 0, ..cam.clone() }),
+                )
             }
             None => (Vec::new(), None),
         };
@@ -248,7 +251,9 @@ mod tests {
 
     #[test]
     fn a_bone_turns_about_its_own_origin_and_children_follow() {
-        let spin: Vec<Frame> = (1..=4).map(|k| Frame::identity().rotate(Quat::from_rotation_z(k as f32 * std::f32::consts::FRAC_PI_2))).collect();
+        let spin: Vec<Frame> = (1..=4)
+            .map(|k| Frame::identity().rotate(Quat::from_rotation_z(k as f32 * std::f32::consts::FRAC_PI_2)))
+            .collect();
         let rest = Frame::identity().translate(Vec3::new(2.0, 0.0, 0.0));
         let child_rest = rest.translate(Vec3::new(1.0, 0.0, 0.0));
         let root = Bone { rule: String::new(), parent: 0, rest: Frame::identity(), fps: 1.0, tracks: Vec::new() };

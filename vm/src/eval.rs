@@ -97,7 +97,12 @@ impl State {
     fn compose(&self, c: &Composite) -> State {
         let child = Frame { q: Quat::from_array(c.q), qh: Quat::from_array(c.qh), u: Vec3::from_array(c.u) };
         let add = |a: [f32; 4], b: [f32; 4]| [a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]];
-        State { f: self.f.compose(&child), color: add(self.color, c.color), weight: add(self.weight, c.weight), fps: self.fps + c.fps }
+        State {
+            f: self.f.compose(&child),
+            color: add(self.color, c.color),
+            weight: add(self.weight, c.weight),
+            fps: self.fps + c.fps,
+        }
     }
 
     /// The colour as shown: every component clamped to 0..1.
@@ -276,13 +281,17 @@ pub fn evaluate_with_progress(b: &Bundle, opts: &EvalOptions, progress: Option<&
             _ => (s.duration as f64).max(0.0),
         },
         conv_cache: HashMap::new(),
-        needs_last: b.code.iter().any(|op| matches!(op, Op::Cont {} | Op::Loop { chain: 1, .. } | Op::Draw { kind: 9, .. })),
+        needs_last: b
+            .code
+            .iter()
+            .any(|op| matches!(op, Op::Cont {} | Op::Loop { chain: 1, .. } | Op::Draw { kind: 9, .. })),
         xf_info: b
             .transforms
             .iter()
             .map(|t| match t {
                 Transform::Const(c) => {
-                    let frame = Frame { q: Quat::from_array(c.q), qh: Quat::from_array(c.qh), u: Vec3::from_array(c.u) };
+                    let frame =
+                        Frame { q: Quat::from_array(c.q), qh: Quat::from_array(c.qh), u: Vec3::from_array(c.u) };
                     let (lin, mirrored) = linear(&frame);
                     Some(XfInfo { frame, normal: lin * Vec3::from_array(s.normal), mirrored })
                 }
@@ -340,9 +349,7 @@ impl<'b> Eval<'b> {
                     best = Some(i);
                 }
             }
-            best.unwrap_or_else(|| {
-                (0..defs.len()).fold(0, |b, i| if defs[i].weight > defs[b].weight { i } else { b })
-            })
+            best.unwrap_or_else(|| (0..defs.len()).fold(0, |b, i| if defs[i].weight > defs[b].weight { i } else { b }))
         };
         let i = match rule.selector {
             Selector::Random => {
@@ -372,7 +379,9 @@ impl<'b> Eval<'b> {
                         best = Some(i);
                     }
                 }
-                best.unwrap_or_else(|| (0..defs.len()).fold(0, |b, i| if defs[i].weight < defs[b].weight { i } else { b }))
+                best.unwrap_or_else(|| {
+                    (0..defs.len()).fold(0, |b, i| if defs[i].weight < defs[b].weight { i } else { b })
+                })
             }
             Selector::Sequential => {
                 let n = defs.len();
@@ -420,9 +429,22 @@ impl<'b> Eval<'b> {
             let frames = self.convolution(rule, start.fps);
             let Some(f) = frames.first().copied() else { return };
             let base = State { f: start.f.compose(&f), ..start };
-            Act { pc, base, base_lin: None, depth: 0, cont: None, loops_at: 0, bone: 0, conv: Some(Box::new(Conv { frames, next: 1, pc, origin: start })) }
+            Act {
+                pc,
+                base,
+                base_lin: None,
+                depth: 0,
+                cont: None,
+                loops_at: 0,
+                bone: 0,
+                conv: Some(Box::new(Conv { frames, next: 1, pc, origin: start })),
+            }
         } else {
-            let bone = if mode == Mode::Model && !b.rules[rule as usize].transforms.is_empty() { self.new_bone(rule, &start, 0) } else { 0 };
+            let bone = if mode == Mode::Model && !b.rules[rule as usize].transforms.is_empty() {
+                self.new_bone(rule, &start, 0)
+            } else {
+                0
+            };
             Act { pc, base: start, base_lin: None, depth: 0, cont: None, loops_at: 0, bone, conv: None }
         };
         let mut stack: Vec<Act> = vec![first];
@@ -456,13 +478,37 @@ impl<'b> Eval<'b> {
                         let Some(f) = frames.first().copied() else { continue };
                         let base = State { f: child.f.compose(&f), ..child };
                         let conv = Some(Box::new(Conv { frames, next: 1, pc, origin: child }));
-                        stack.push(Act { pc, base, base_lin: None, depth, cont: None, loops_at, bone: parent_bone, conv });
+                        stack.push(Act {
+                            pc,
+                            base,
+                            base_lin: None,
+                            depth,
+                            cont: None,
+                            loops_at,
+                            bone: parent_bone,
+                            conv,
+                        });
                     } else {
-                        let bone = if mode == Mode::Model && !r.transforms.is_empty() { self.new_bone(rule, &child, parent_bone) } else { parent_bone };
-                        stack.push(Act { pc, base: child, base_lin: None, depth, cont: None, loops_at, bone, conv: None });
+                        let bone = if mode == Mode::Model && !r.transforms.is_empty() {
+                            self.new_bone(rule, &child, parent_bone)
+                        } else {
+                            parent_bone
+                        };
+                        stack.push(Act {
+                            pc,
+                            base: child,
+                            base_lin: None,
+                            depth,
+                            cont: None,
+                            loops_at,
+                            bone,
+                            conv: None,
+                        });
                     }
                 }
-                Op::Draw { kind: 0, xf, flags: _, .. } if mode == Mode::Model && self.xf_info[xf as usize].is_some() => {
+                Op::Draw { kind: 0, xf, flags: _, .. }
+                    if mode == Mode::Model && self.xf_info[xf as usize].is_some() =>
+                {
                     // VERTEX with a constant transform: position, normal and mirroring
                     // from the cached linear maps, without composing quaternions.
                     act.pc += 1;
@@ -485,7 +531,12 @@ impl<'b> Eval<'b> {
                         m.push_triangle([k - 3, k - 2, k - 1], mirrored);
                     }
                     if self.needs_last {
-                        self.last = State { f: from.f.compose(&x.frame), color: add(from.color, c.color), weight, fps: from.fps + c.fps };
+                        self.last = State {
+                            f: from.f.compose(&x.frame),
+                            color: add(from.color, c.color),
+                            weight,
+                            fps: from.fps + c.fps,
+                        };
                     }
                 }
                 Op::Draw { kind, xf, ns, profile, flags: _ } => {
@@ -671,7 +722,12 @@ impl<'b> Eval<'b> {
     /// "FILE:LINE: " of a rule's first definition, or "".
     fn rule_at(&self, rule: u32) -> String {
         let b = self.b;
-        b.rules[rule as usize].defs.first().and_then(|d| b.source_of(d.start)).map(|(f, l)| format!("{f}:{l}: ")).unwrap_or_default()
+        b.rules[rule as usize]
+            .defs
+            .first()
+            .and_then(|d| b.source_of(d.start))
+            .map(|(f, l)| format!("{f}:{l}: "))
+            .unwrap_or_default()
     }
 
     /// The track of transform rule `rule` with at least `needed` frames (or all of
@@ -681,7 +737,10 @@ impl<'b> Eval<'b> {
         let b = self.b;
         let name = b.string(b.rules[rule as usize].name).to_string();
         if needed > MAX_TRACK_FRAMES {
-            self.warn_once(format!("{}transform rule `{name}`: only its first {MAX_TRACK_FRAMES} frames are sampled", self.rule_at(rule)));
+            self.warn_once(format!(
+                "{}transform rule `{name}`: only its first {MAX_TRACK_FRAMES} frames are sampled",
+                self.rule_at(rule)
+            ));
         }
         let needed = needed.clamp(1, MAX_TRACK_FRAMES);
         if let Some(&k) = self.track_ids.get(&rule) {
@@ -903,7 +962,8 @@ impl<'b> Eval<'b> {
             Some(m) => *m,
             None => {
                 let decl = &self.b.isosurfaces[iso as usize];
-                let grid = marching::Grid { min: Vec3::from_array(decl.min), max: Vec3::from_array(decl.max), res: decl.res };
+                let grid =
+                    marching::Grid { min: Vec3::from_array(decl.min), max: Vec3::from_array(decl.max), res: decl.res };
                 let code = &self.b.exprs[decl.function as usize];
                 let rng = std::cell::RefCell::new(Pcg(Pcg64::seed_from_u64(0)));
                 let stack = std::cell::RefCell::new(Vec::new());
@@ -956,7 +1016,10 @@ impl<'b> Eval<'b> {
             w.push(format!("maxiter {} reached: the run stopped; the output so far is kept", self.maxiter));
         }
         if self.limits.vertices {
-            w.push(format!("vertex budget {} reached: the run stopped; the output so far is kept", self.opts.max_vertices));
+            w.push(format!(
+                "vertex budget {} reached: the run stopped; the output so far is kept",
+                self.opts.max_vertices
+            ));
         }
         if self.limits.time {
             w.push("time budget reached: the run stopped; the output so far is kept".to_string());

@@ -8,9 +8,30 @@ use serde::Serialize;
 /// Math functions: name and arity. The index is the function id in `CALL`.
 /// `rand` and `randn` draw from the run's seeded stream.
 pub const FUNCTIONS: &[(&str, usize)] = &[
-    ("sin", 1), ("cos", 1), ("tan", 1), ("asin", 1), ("acos", 1), ("atan", 1), ("atan2", 2), ("sqrt", 1),
-    ("abs", 1), ("min", 2), ("max", 2), ("pow", 2), ("exp", 1), ("log", 1), ("floor", 1), ("ceil", 1),
-    ("fract", 1), ("mod", 2), ("clamp", 3), ("mix", 3), ("step", 2), ("smoothstep", 3), ("rand", 2), ("randn", 2),
+    ("sin", 1),
+    ("cos", 1),
+    ("tan", 1),
+    ("asin", 1),
+    ("acos", 1),
+    ("atan", 1),
+    ("atan2", 2),
+    ("sqrt", 1),
+    ("abs", 1),
+    ("min", 2),
+    ("max", 2),
+    ("pow", 2),
+    ("exp", 1),
+    ("log", 1),
+    ("floor", 1),
+    ("ceil", 1),
+    ("fract", 1),
+    ("mod", 2),
+    ("clamp", 3),
+    ("mix", 3),
+    ("step", 2),
+    ("smoothstep", 3),
+    ("rand", 2),
+    ("randn", 2),
 ];
 
 /// Variables an expression may read at run time, by index.

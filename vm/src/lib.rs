@@ -6,9 +6,9 @@
 
 pub mod anim;
 pub mod bundle;
-pub mod expr;
-pub mod output;
-pub mod export;
-pub mod geom;
 pub mod eval;
+pub mod export;
+pub mod expr;
+pub mod geom;
+pub mod output;
 pub mod preview;

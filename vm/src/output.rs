@@ -67,10 +67,13 @@ impl Mesh {
 
     /// Triangles with the winding corrected for mirrored frames: what exporters write.
     pub fn oriented_triangles(&self) -> impl Iterator<Item = [u32; 3]> + '_ {
-        self.triangles
-            .iter()
-            .zip(self.mirrored.iter().chain(std::iter::repeat(&false)))
-            .map(|(t, m)| if *m { [t[0], t[2], t[1]] } else { *t })
+        self.triangles.iter().zip(self.mirrored.iter().chain(std::iter::repeat(&false))).map(|(t, m)| {
+            if *m {
+                [t[0], t[2], t[1]]
+            } else {
+                *t
+            }
+        })
     }
 
     /// Number of vertices.

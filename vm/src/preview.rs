@@ -37,7 +37,8 @@ pub fn render(out: &Output, opts: &PreviewOptions) -> Vec<u8> {
     for_each_triangle(out, &mut |t| pts.extend_from_slice(&[t.p[0], t.p[1], t.p[2]]));
     pts.extend(out.lines.iter().flat_map(|l| l.points.iter().map(|p| Vec3::from_array(*p))));
     let (lo, hi) = pts.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
-    let (center, radius) = if pts.is_empty() { (Vec3::ZERO, 1.0) } else { ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-4)) };
+    let (center, radius) =
+        if pts.is_empty() { (Vec3::ZERO, 1.0) } else { ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-4)) };
     // Z is up in MDG models by convention of the examples; view from the front-right.
     // A flat model in the xy-plane (curves, tilings) is shown from above.
     let flat = (hi.z - lo.z) < radius * 0.01;
@@ -49,7 +50,12 @@ pub fn render(out: &Output, opts: &PreviewOptions) -> Vec<u8> {
     let dist = radius / (fov * 0.5).sin() * 1.05;
     let eye = center + dir * dist;
     let view = glam::camera::rh::view::look_at_mat4(eye, center, Vec3::Z);
-    let proj = glam::camera::rh::proj::directx::perspective(fov, w as f32 / h as f32, (dist - radius * 1.5).max(dist * 1e-3), dist + radius * 1.5);
+    let proj = glam::camera::rh::proj::directx::perspective(
+        fov,
+        w as f32 / h as f32,
+        (dist - radius * 1.5).max(dist * 1e-3),
+        dist + radius * 1.5,
+    );
     let vp = proj * view;
     let bg = out.background;
     let mut color = vec![[bg[0], bg[1], bg[2]]; (w * h) as usize];
@@ -112,7 +118,10 @@ pub fn render(out: &Output, opts: &PreviewOptions) -> Vec<u8> {
         let ink = if bg[0] + bg[1] + bg[2] > 1.5 { [0.1, 0.1, 0.1] } else { [0.9, 0.9, 0.9] };
         for l in &out.lines {
             for seg in l.points.windows(2) {
-                let (Some(a), Some(b)) = (to_screen(Vec3::from_array(seg[0])), to_screen(Vec3::from_array(seg[1]))) else { continue };
+                let (Some(a), Some(b)) = (to_screen(Vec3::from_array(seg[0])), to_screen(Vec3::from_array(seg[1])))
+                else {
+                    continue;
+                };
                 let n = ((b - a).truncate().length() as usize).clamp(1, 20_000);
                 for k in 0..=n {
                     let p = a.lerp(b, k as f32 / n as f32);

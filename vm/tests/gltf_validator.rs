@@ -35,10 +35,12 @@ fn cube_in(m: &mut Mesh, frame: &Frame, color: [f32; 4]) {
 }
 
 fn circle(n: usize, r: f32) -> Vec<Vec3> {
-    (0..n).map(|k| {
-        let a = k as f32 / n as f32 * std::f32::consts::TAU;
-        Vec3::new(a.cos(), a.sin(), 0.0) * r
-    }).collect()
+    (0..n)
+        .map(|k| {
+            let a = k as f32 / n as f32 * std::f32::consts::TAU;
+            Vec3::new(a.cos(), a.sin(), 0.0) * r
+        })
+        .collect()
 }
 
 fn outputs() -> Vec<(&'static str, Output)> {
@@ -49,14 +51,26 @@ fn outputs() -> Vec<(&'static str, Output)> {
     v.push(("cube", cube));
 
     let mut mirrored = Output::default();
-    let f = Frame::identity().translate(Vec3::new(2.0, 0.0, 0.0)).rotate(Quat::from_rotation_y(0.4)).reflect(Vec3::X).scale(0.5);
+    let f = Frame::identity()
+        .translate(Vec3::new(2.0, 0.0, 0.0))
+        .rotate(Quat::from_rotation_y(0.4))
+        .reflect(Vec3::X)
+        .scale(0.5);
     cube_in(&mut mirrored.mesh, &Frame::identity(), [1.0; 4]);
     cube_in(&mut mirrored.mesh, &f, [2.0, -1.0, 0.5, 1.0]);
     v.push(("mirrored", mirrored));
 
     let grid = Grid { min: Vec3::splat(-1.0), max: Vec3::splat(1.0), res: [10, 10, 10] };
     let sphere = polygonize(&grid, &|p: Vec3| p.length() - 0.8, 1 << 20).expect("sphere");
-    let inst = |t: Mat4, mirrored: bool, color: [f32; 4]| Instance { name: "SPHERE".into(), mesh: 0, transform: t, scale: 1.0, color, mirrored, bone: 0 };
+    let inst = |t: Mat4, mirrored: bool, color: [f32; 4]| Instance {
+        name: "SPHERE".into(),
+        mesh: 0,
+        transform: t,
+        scale: 1.0,
+        color,
+        mirrored,
+        bone: 0,
+    };
     let frame = Frame::identity().translate(Vec3::new(0.0, 3.0, 0.0)).rotate(Quat::from_rotation_z(0.7)).scale(0.3);
     let mirror = Frame::identity().translate(Vec3::new(-3.0, 0.0, 0.0)).reflect(Vec3::Y);
     let instanced = Output {
@@ -82,8 +96,20 @@ fn outputs() -> Vec<(&'static str, Output)> {
     sweep(&mut sweeps.sweeps, &profile, &b, &b.translate(Vec3::Z).scale(0.0), [1.0; 4], [1.0; 4], 0);
     sweep_oriented(&mut sweeps.sweeps, &profile, &a, &a.translate(Vec3::new(-2.0, 0.0, 1.0)), [1.0; 4], [1.0; 4], 0);
     let m = a.reflect(Vec3::X).translate(Vec3::new(0.0, -2.0, 0.0));
-    sweep_averaged(&mut sweeps.sweeps, &profile, &m, &m.rotate(Quat::from_rotation_z(1.0)).translate(Vec3::Z), [1.0; 4], [1.0; 4], 0);
-    sweeps.lines.push(Polyline { namespace: "".into(), points: vec![[0.0; 3], [1.0, 2.0, 3.0], [1.0, 3.0, 3.0]], bones: Vec::new() });
+    sweep_averaged(
+        &mut sweeps.sweeps,
+        &profile,
+        &m,
+        &m.rotate(Quat::from_rotation_z(1.0)).translate(Vec3::Z),
+        [1.0; 4],
+        [1.0; 4],
+        0,
+    );
+    sweeps.lines.push(Polyline {
+        namespace: "".into(),
+        points: vec![[0.0; 3], [1.0, 2.0, 3.0], [1.0, 3.0, 3.0]],
+        bones: Vec::new(),
+    });
     sweeps.lines.push(Polyline { namespace: "lonely".into(), points: vec![[5.0; 3]], bones: Vec::new() });
     v.push(("sweeps", sweeps));
 
@@ -99,18 +125,39 @@ fn animated() -> Output {
     let bob: Vec<Frame> = (0..7).map(|k| Frame::identity().translate(Vec3::new(0.0, 0.0, 0.1 * k as f32))).collect();
     let flip: Vec<Frame> = (0..4).map(|k| Frame::identity().reflect(Vec3::X).scale(1.0 + 0.25 * k as f32)).collect();
     let cam: Vec<Frame> = (1..=20)
-        .map(|k| Frame::identity().rotate(Quat::from_rotation_z(k as f32 * 0.3)).translate(Vec3::new(8.0, 0.0, 2.0)).rotate(Quat::from_rotation_y(1.5)))
+        .map(|k| {
+            Frame::identity()
+                .rotate(Quat::from_rotation_z(k as f32 * 0.3))
+                .translate(Vec3::new(8.0, 0.0, 2.0))
+                .rotate(Quat::from_rotation_y(1.5))
+        })
         .collect();
     let a_rest = Frame::identity().translate(Vec3::new(2.0, 0.0, 0.0));
     let b_rest = a_rest.translate(Vec3::new(1.0, 0.0, 0.0)).scale(0.5);
-    let bone = |rule: &str, parent: u32, rest: Frame, fps: f32, tracks: Vec<u32>| Bone { rule: rule.into(), parent, rest, fps, tracks };
+    let bone = |rule: &str, parent: u32, rest: Frame, fps: f32, tracks: Vec<u32>| Bone {
+        rule: rule.into(),
+        parent,
+        rest,
+        fps,
+        tracks,
+    };
     let mut out = Output::default();
     cube_in(&mut out.mesh, &Frame::identity(), [1.0; 4]);
     let start = out.mesh.n_vertices();
     cube_in(&mut out.mesh, &a_rest, [1.0, 0.0, 0.0, 1.0]);
     cube_in(&mut out.mesh, &b_rest, [0.0, 1.0, 0.0, 1.0]);
     let n = out.mesh.n_vertices();
-    out.mesh.bones = (0..n).map(|i| if i < start { 0 } else if i < start + 24 { 1 } else { 3 }).collect();
+    out.mesh.bones = (0..n)
+        .map(|i| {
+            if i < start {
+                0
+            } else if i < start + 24 {
+                1
+            } else {
+                3
+            }
+        })
+        .collect();
     sweep(&mut out.sweeps, &circle(6, 0.2), &a_rest, &a_rest.translate(Vec3::Z), [1.0; 4], [1.0; 4], 2);
     let mut line = Polyline::default();
     line.push(Vec3::ZERO, 0);
@@ -119,7 +166,15 @@ fn animated() -> Output {
     out.lines.push(line);
     let grid = Grid { min: Vec3::splat(-1.0), max: Vec3::splat(1.0), res: [6, 6, 6] };
     out.shared_meshes.push(("SPHERE".into(), polygonize(&grid, &|p: Vec3| p.length() - 0.8, 1 << 16).expect("sphere")));
-    out.instances.push(Instance { name: "SPHERE".into(), mesh: 0, transform: b_rest.translate(Vec3::Z).to_mat4(), scale: 0.5, color: [0.2, 0.2, 1.0, 1.0], mirrored: false, bone: 3 });
+    out.instances.push(Instance {
+        name: "SPHERE".into(),
+        mesh: 0,
+        transform: b_rest.translate(Vec3::Z).to_mat4(),
+        scale: 0.5,
+        color: [0.2, 0.2, 1.0, 1.0],
+        mirrored: false,
+        bone: 3,
+    });
     out.animation = Animation {
         duration: 2.0,
         bones: vec![

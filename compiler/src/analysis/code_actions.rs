@@ -60,7 +60,12 @@ impl Document {
                     let at = Span::new(self.main_file(), text.len() as u32, text.len() as u32);
                     out.push(CodeAction {
                         title: format!("Create rule `{name}`"),
-                        edits: vec![Edit { span: at, new_text: format!("{lead}rule {name} {{\n  VERTEX {{}} VERTEX {{x 1}} VERTEX {{y 1}}\n}}\n") }],
+                        edits: vec![Edit {
+                            span: at,
+                            new_text: format!(
+                                "{lead}rule {name} {{\n  VERTEX {{}} VERTEX {{x 1}} VERTEX {{y 1}}\n}}\n"
+                            ),
+                        }],
                         preferred: d.suggestion.is_none(),
                         diagnostic: d.clone(),
                     });
@@ -104,10 +109,9 @@ mod tests {
     fn fix(src: &str, title: &str) -> String {
         let (d, at) = doc(src);
         let actions = d.code_actions(at, at);
-        let a = actions
-            .iter()
-            .find(|a| a.title == title)
-            .unwrap_or_else(|| panic!("no action {title:?} in {:?}", actions.iter().map(|a| &a.title).collect::<Vec<_>>()));
+        let a = actions.iter().find(|a| a.title == title).unwrap_or_else(|| {
+            panic!("no action {title:?} in {:?}", actions.iter().map(|a| &a.title).collect::<Vec<_>>())
+        });
         let mut out = d.text().to_string();
         for e in a.edits.iter().rev() {
             out.replace_range(e.span.range(), &e.new_text);
@@ -117,21 +121,33 @@ mod tests {
 
     #[test]
     fn did_you_mean_replaces_the_name() {
-        assert_eq!(fix("startshape A\nrule A { tre$0 {} }\nrule tree { VERTEX {} }", "Replace with `tree`"), "startshape A\nrule A { tree {} }\nrule tree { VERTEX {} }");
-        assert_eq!(fix("maxdpth$0 4\nrule A { VERTEX {} }", "Replace with `maxdepth`"), "maxdepth 4\nrule A { VERTEX {} }");
+        assert_eq!(
+            fix("startshape A\nrule A { tre$0 {} }\nrule tree { VERTEX {} }", "Replace with `tree`"),
+            "startshape A\nrule A { tree {} }\nrule tree { VERTEX {} }"
+        );
+        assert_eq!(
+            fix("maxdpth$0 4\nrule A { VERTEX {} }", "Replace with `maxdepth`"),
+            "maxdepth 4\nrule A { VERTEX {} }"
+        );
         assert_eq!(fix("rule A { VERTEX {rxx$0 3} }", "Replace with `rx`"), "rule A { VERTEX {rx 3} }");
     }
 
     #[test]
     fn removes_an_unused_rule_with_its_lines() {
         let src = "startshape A\nrule A { VERTEX {} }\nrule un$0used {\n  VERTEX {}\n}\nrule B { VERTEX {} }\n";
-        assert_eq!(fix(&src.replace("rule B { VERTEX {} }\n", ""), "Remove unused rule `unused`"), "startshape A\nrule A { VERTEX {} }\n");
+        assert_eq!(
+            fix(&src.replace("rule B { VERTEX {} }\n", ""), "Remove unused rule `unused`"),
+            "startshape A\nrule A { VERTEX {} }\n"
+        );
     }
 
     #[test]
     fn creates_a_missing_rule() {
         let out = fix("startshape A\nrule A { branch$0 {} }", "Create rule `branch`");
-        assert_eq!(out, "startshape A\nrule A { branch {} }\n\nrule branch {\n  VERTEX {} VERTEX {x 1} VERTEX {y 1}\n}\n");
+        assert_eq!(
+            out,
+            "startshape A\nrule A { branch {} }\n\nrule branch {\n  VERTEX {} VERTEX {x 1} VERTEX {y 1}\n}\n"
+        );
         let (d, _) = doc(&out);
         assert!(d.diagnostics().is_empty(), "{:?}", d.diagnostics());
         let out = fix("startshape mai$0n\n", "Create rule `main`");

@@ -213,7 +213,10 @@ impl Document {
                 let same_line = before.last().is_some_and(|t| !text[t.span.end as usize..start].contains('\n'));
                 if same_line {
                     match prev {
-                        Some(Tok::KwStartshape) | Some(Tok::KwLinerule) | Some(Tok::KwCamerarule) | Some(Tok::KwRule) => {
+                        Some(Tok::KwStartshape)
+                        | Some(Tok::KwLinerule)
+                        | Some(Tok::KwCamerarule)
+                        | Some(Tok::KwRule) => {
                             return Context::RuleName { ns };
                         }
                         Some(Tok::KwAngle) => return Context::AngleMode,
@@ -224,7 +227,9 @@ impl Document {
                         return match prev {
                             Some(Tok::KwSelector) | Some(Tok::Comma) => Context::RuleName { ns },
                             Some(Tok::KwFunction) => Context::FunctionName,
-                            Some(Tok::Ident) | Some(Tok::Dotted) if tail.iter().all(|t| matches!(t.kind, Tok::Ident | Tok::Dotted | Tok::Comma)) => {
+                            Some(Tok::Ident) | Some(Tok::Dotted)
+                                if tail.iter().all(|t| matches!(t.kind, Tok::Ident | Tok::Dotted | Tok::Comma)) =>
+                            {
                                 Context::SelectorMode
                             }
                             _ => Context::Nothing,
@@ -267,12 +272,22 @@ impl Document {
                     out.push(builtin(DocKind::Directive, name, CompletionKind::Directive, &directive_snippet(name)));
                 }
                 for d in docs::of_kind(DocKind::Preprocessor) {
-                    out.push(builtin(DocKind::Preprocessor, d.name, CompletionKind::Preprocessor, &preprocessor_snippet(d.name)));
+                    out.push(builtin(
+                        DocKind::Preprocessor,
+                        d.name,
+                        CompletionKind::Preprocessor,
+                        &preprocessor_snippet(d.name),
+                    ));
                 }
             }
             Context::Preprocessor => {
                 for d in docs::of_kind(DocKind::Preprocessor) {
-                    out.push(builtin(DocKind::Preprocessor, d.name, CompletionKind::Preprocessor, &preprocessor_snippet(d.name)));
+                    out.push(builtin(
+                        DocKind::Preprocessor,
+                        d.name,
+                        CompletionKind::Preprocessor,
+                        &preprocessor_snippet(d.name),
+                    ));
                 }
                 for name in self.macro_names() {
                     out.push(CompletionItem {
@@ -301,7 +316,11 @@ impl Document {
                         snippet: *call_braces,
                     });
                 }
-                out.push(snippet("iterator", "M * {T} ITEM: run ITEM M times, each run under one more T", "${1:4} * {${2:rz 90}} $0"));
+                out.push(snippet(
+                    "iterator",
+                    "M * {T} ITEM: run ITEM M times, each run under one more T",
+                    "${1:4} * {${2:rz 90}} $0",
+                ));
                 out.push(snippet(
                     "iterator with divisor",
                     "M/N * {T} ITEM: step by T/N, e.g. go round once in N steps",
@@ -319,7 +338,12 @@ impl Document {
                         Some(AdjKind::Weight(i)) => ["u", "v", "w", "q"][i as usize],
                         _ => name,
                     };
-                    let mut item = builtin(DocKind::Adjustment, canonical, CompletionKind::Adjustment, &adjustment_snippet(name, kind));
+                    let mut item = builtin(
+                        DocKind::Adjustment,
+                        canonical,
+                        CompletionKind::Adjustment,
+                        &adjustment_snippet(name, kind),
+                    );
                     item.label = name.to_string();
                     out.push(item);
                 }
@@ -327,7 +351,12 @@ impl Document {
             Context::Expression { position_vars } => {
                 for (name, arity) in FUNCTIONS {
                     let args: Vec<String> = (1..=*arity).map(|i| format!("${i}")).collect();
-                    out.push(builtin(DocKind::Function, name, CompletionKind::Function, &format!("{name}({})", args.join(", "))));
+                    out.push(builtin(
+                        DocKind::Function,
+                        name,
+                        CompletionKind::Function,
+                        &format!("{name}({})", args.join(", ")),
+                    ));
                 }
                 let ex = &self.analysis.expanded;
                 for p in &ex.params {
@@ -442,7 +471,8 @@ impl Document {
                 Some(f) if f != self.main_file() => format!(" · {}", self.analysis.sources.file(f).name),
                 _ => String::new(),
             };
-            let detail = if n_defs == 1 { format!("rule{from}") } else { format!("rule · {n_defs} definitions{from}") };
+            let detail =
+                if n_defs == 1 { format!("rule{from}") } else { format!("rule · {n_defs} definitions{from}") };
             out.push(CompletionItem {
                 insert_text: if call_braces { format!("{label} {{$0}}") } else { label.clone() },
                 label,
@@ -513,8 +543,13 @@ fn directive_snippet(name: &str) -> String {
         "selector" => "selector ${1:rule} ${2|random,frequency,depth,scale,sequential,pattern|}".to_string(),
         "namespace" => "namespace ${1:name} {\n\t$0\n}".to_string(),
         "function" => "function ${1:name} { ${0:x*x + y*y + z*z - 1} }".to_string(),
-        "isosurface" => "isosurface ${1:NAME} {\n\txyz ${2:-1.1} ${3:1.1} ${4:32} ;\n\tfunction { ${0:x*x + y*y + z*z - 1} }\n}".to_string(),
-        "program" => "program {\n\tvertexshader ${1:vs}\n\tfragmentshader ${2:fs}\n\ttarget screen\n\trender\n}".to_string(),
+        "isosurface" => {
+            "isosurface ${1:NAME} {\n\txyz ${2:-1.1} ${3:1.1} ${4:32} ;\n\tfunction { ${0:x*x + y*y + z*z - 1} }\n}"
+                .to_string()
+        }
+        "program" => {
+            "program {\n\tvertexshader ${1:vs}\n\tfragmentshader ${2:fs}\n\ttarget screen\n\trender\n}".to_string()
+        }
         "angle" => "angle ${1|degrees,radians,orbits,arcdegrees,frequency|}".to_string(),
         "color" => "color ${1:R} ${2:G} ${3:B} ${4:A}".to_string(),
         "weight" => "weight ${1:u} ${2:v} ${3:w} ${4:q}".to_string(),

@@ -47,7 +47,8 @@ mod tests {
 
     #[test]
     fn errors_in_imported_files_point_at_the_import() {
-        let (d, _) = doc_with("@import lib.mdg\nstartshape A\nrule A { VERTEX {} }", &[("lib.mdg", "rule B { nope {} }\n")]);
+        let (d, _) =
+            doc_with("@import lib.mdg\nstartshape A\nrule A { VERTEX {} }", &[("lib.mdg", "rule B { nope {} }\n")]);
         let diags = d.diagnostics();
         assert_eq!(diags.len(), 1, "{diags:?}");
         let e = &diags[0];

@@ -178,7 +178,12 @@ pub fn lookup(kind: DocKind, name: &str) -> Option<&'static Doc> {
         d(IsoEntry, "x", "x MIN MAX RES", "The grid range and resolution (cells) along x."),
         d(IsoEntry, "y", "y MIN MAX RES", "The grid range and resolution (cells) along y."),
         d(IsoEntry, "z", "z MIN MAX RES", "The grid range and resolution (cells) along z."),
-        d(IsoEntry, "function", "function NAME  |  function { EXPR }", "The isosurface's function: f(x, y, z) = 0 is the surface, inside where f < 0."),
+        d(
+            IsoEntry,
+            "function",
+            "function NAME  |  function { EXPR }",
+            "The isosurface's function: f(x, y, z) = 0 is the surface, inside where f < 0.",
+        ),
         d(Variable, "x", "x", "The x coordinate of the current position."),
         d(Variable, "y", "y", "The y coordinate of the current position."),
         d(Variable, "z", "z", "The z coordinate of the current position."),
@@ -223,8 +228,19 @@ mod tests {
         want(
             Preprocessor,
             vec![
-                "@import", "@define", "@ifdef", "@else", "@endif", "@macro", "@endmacro", "@expand", "@presets", "@param",
-                "@vertexshader", "@fragmentshader", "@endshader",
+                "@import",
+                "@define",
+                "@ifdef",
+                "@else",
+                "@endif",
+                "@macro",
+                "@endmacro",
+                "@expand",
+                "@presets",
+                "@param",
+                "@vertexshader",
+                "@fragmentshader",
+                "@endshader",
             ],
         );
         want(IsoEntry, vec!["x", "y", "z", "xyz", "function"]);

@@ -94,7 +94,9 @@ fn items(list: &[Item], out: &mut Vec<Fold>) {
                 out.push(region(item.span));
                 items(inner, out);
             }
-            ItemKind::Function { .. } | ItemKind::Isosurface { .. } | ItemKind::Program { .. } => out.push(region(item.span)),
+            ItemKind::Function { .. } | ItemKind::Isosurface { .. } | ItemKind::Program { .. } => {
+                out.push(region(item.span))
+            }
             ItemKind::Pre(p) => pre(p, item.span, out, &mut |v: &[Item], out: &mut Vec<Fold>| items(v, out)),
             _ => {}
         }
@@ -133,7 +135,6 @@ fn body(items: &[BodyItem], out: &mut Vec<Fold>) {
 mod tests {
     use super::super::fixture::doc;
 
-
     #[test]
     fn folds_bodies_blocks_comments_and_preprocessor_regions() {
         let src = "\
@@ -169,7 +170,17 @@ rule D { VERTEX {} }
             .collect();
         assert_eq!(
             got,
-            ["Imports 1-2", "Comment 3-4", "Comment 5-6", "Region 7-11", "Region 8-10", "Region 12-14", "Region 15-18", "Region 16-17", "Region 19-21"]
+            [
+                "Imports 1-2",
+                "Comment 3-4",
+                "Comment 5-6",
+                "Region 7-11",
+                "Region 8-10",
+                "Region 12-14",
+                "Region 15-18",
+                "Region 16-17",
+                "Region 19-21"
+            ]
         );
     }
 }

@@ -85,7 +85,9 @@ impl Document {
                 let parts: Vec<String> = entries
                     .iter()
                     .map(|e| match e {
-                        IsoEntry::Axis { span, .. } => self.span_text(*span).split_whitespace().collect::<Vec<_>>().join(" "),
+                        IsoEntry::Axis { span, .. } => {
+                            self.span_text(*span).split_whitespace().collect::<Vec<_>>().join(" ")
+                        }
                         IsoEntry::FunctionRef(f) => format!("function {}", f.text),
                         IsoEntry::FunctionBody(b) => format!("function {{ {} }}", crate::fmt::expr(b)),
                     })
@@ -99,7 +101,9 @@ impl Document {
             Symbol::Macro(m) => {
                 let def = self.index().definitions(sym).next();
                 match def {
-                    Some(d) => Some(format!("```mdg\n{}\n```\nmacro, {}", self.line_of(d).trim(), location_text(self, d))),
+                    Some(d) => {
+                        Some(format!("```mdg\n{}\n```\nmacro, {}", self.line_of(d).trim(), location_text(self, d)))
+                    }
                     None => Some(format!("macro `{m}` (not defined)")),
                 }
             }
@@ -165,7 +169,9 @@ impl Document {
             for d in defs {
                 let w = weight(d.item);
                 let meaning = match mode_word.as_str() {
-                    "random" | "frequency" if total > 0.0 => format!("weight {} ({}%)", fmt_num(w), fmt_num(100.0 * w.max(0.0) / total)),
+                    "random" | "frequency" if total > 0.0 => {
+                        format!("weight {} ({}%)", fmt_num(w), fmt_num(100.0 * w.max(0.0) / total))
+                    }
                     "depth" => format!("used up to depth {}", fmt_num(w)),
                     "scale" => format!("used from scale {}", fmt_num(w)),
                     "sequential" => format!("used {} time(s) in turn", fmt_num(w)),
@@ -247,7 +253,14 @@ impl Document {
                 c.strip_prefix(' ').unwrap_or(c)
             })
             .collect();
-        let n_rules = self.analysis.checked.symbols.rules.values().filter(|d| d.first().is_some_and(|d| d.name_span.file == file)).count();
+        let n_rules = self
+            .analysis
+            .checked
+            .symbols
+            .rules
+            .values()
+            .filter(|d| d.first().is_some_and(|d| d.name_span.file == file))
+            .count();
         let mut out = format!("**{}** — {} rule(s)\n\n`{}`", f.name, n_rules, f.path.display());
         if !header.is_empty() {
             out.push_str("\n\n");
@@ -263,7 +276,12 @@ impl Document {
                 (Some(lo), Some(hi)) => format!(", range {}–{}", fmt_num(lo), fmt_num(hi)),
                 _ => String::new(),
             };
-            return format!("**@param {} `{name}`** = {} (default {}{range})", p.ty, fmt_num(p.value), fmt_num(p.default));
+            return format!(
+                "**@param {} `{name}`** = {} (default {}{range})",
+                p.ty,
+                fmt_num(p.value),
+                fmt_num(p.default)
+            );
         }
         match ex.defines.get(name) {
             Some(Some(v)) => format!("**@define `{name}`** = {}", fmt_num(*v)),
@@ -362,12 +380,18 @@ mod tests {
 
     #[test]
     fn divisor_iterator_step() {
-        assert_eq!(hover("rule A { 30/3$00 * [ry 360] B {} }\nrule B { VERTEX {} }"), "`30/30 * [ry 360]` → 30 step(s) of `ry 12°`");
+        assert_eq!(
+            hover("rule A { 30/3$00 * [ry 360] B {} }\nrule B { VERTEX {} }"),
+            "`30/30 * [ry 360]` → 30 step(s) of `ry 12°`"
+        );
         assert_eq!(
             hover("rule A { 10/10 * {z 5 s 0.5 R -1$0} B {} }\nrule B { VERTEX {} }"),
             "`10/10 * {z 5 s 0.5 R -1}` → 10 step(s) of `z 0.5 s 0.933 R -0.1`"
         );
-        assert_eq!(hover("angle orbits\nrule A { 8/8 $0* {rz 1} B {} }\nrule B { VERTEX {} }"), "`8/8 * {rz 1}` → 8 step(s) of `rz 45°`");
+        assert_eq!(
+            hover("angle orbits\nrule A { 8/8 $0* {rz 1} B {} }\nrule B { VERTEX {} }"),
+            "`8/8 * {rz 1}` → 8 step(s) of `rz 45°`"
+        );
         assert_eq!(
             hover("@param int n 6 3 12\nrule A { (n)$0 * {rz (360 / n)} B {} }\nrule B { VERTEX {} }"),
             "`(n) * {rz (360 / n)}` → 6 step(s) of `rz 60°`"
@@ -385,18 +409,25 @@ mod tests {
     fn namespace_function_isosurface_and_params() {
         let h = hover("namespace port { rule arm { VERTEX {} } }\nrule A { po$0rt.arm {} }");
         assert_eq!(h, "**namespace `port`** — 1 rule(s): `port.arm`");
-        let h = hover("function band { z }\nselector b function ba$0nd\nrule b 1 { VERTEX {} }\nrule b 2 { VERTEX {} }");
+        let h =
+            hover("function band { z }\nselector b function ba$0nd\nrule b 1 { VERTEX {} }\nrule b 2 { VERTEX {} }");
         assert_eq!(h, "```mdg\nfunction band { z }\n```\nline 1");
         let h = hover("isosurface BALL { xyz -1 1 8 ; function { x*x - 1 } }\nrule A { BA$0LL {} }");
         assert!(h.starts_with("```mdg\nisosurface BALL { xyz -1 1 8 ; function { x * x - 1 } }\n```"), "{h}");
-        assert_eq!(hover("@param int count 5 1 20\nrule A { (co$0unt) * {} B {} }\nrule B { VERTEX {} }"), "**@param int `count`** = 5 (default 5, range 1–20)");
+        assert_eq!(
+            hover("@param int count 5 1 20\nrule A { (co$0unt) * {} B {} }\nrule B { VERTEX {} }"),
+            "**@param int `count`** = 5 (default 5, range 1–20)"
+        );
     }
 
     #[test]
     fn imports_and_macros() {
         let h = hover("@import primi$0tives\n");
         assert!(h.starts_with("**std/primitives.mdg** — "), "{h}");
-        let (d, at) = doc_with("@import lib.mdg\n@expand TR$0I(1)\n", &[("lib.mdg", "@macro TRI(s)\nrule tri { VERTEX {x s} }\n@endmacro\n")]);
+        let (d, at) = doc_with(
+            "@import lib.mdg\n@expand TR$0I(1)\n",
+            &[("lib.mdg", "@macro TRI(s)\nrule tri { VERTEX {x s} }\n@endmacro\n")],
+        );
         let h = d.hover(at).map(|h| h.markdown).unwrap_or_default();
         assert_eq!(h, "```mdg\n@macro TRI(s)\n```\nmacro, lib.mdg:1");
     }

@@ -25,7 +25,10 @@ pub enum Symbol {
     Function(String),
     Isosurface(String),
     Macro(String),
-    Shader { vertex: bool, name: String },
+    Shader {
+        vertex: bool,
+        name: String,
+    },
 }
 
 impl Symbol {
@@ -88,7 +91,10 @@ pub enum Occ {
     /// An iterator header; the span covers count to adjustment list.
     Iterator(Box<IterInfo>),
     /// A number with a unit suffix.
-    Number { value: f64, unit: char },
+    Number {
+        value: f64,
+        unit: char,
+    },
 }
 
 impl Occ {
@@ -252,7 +258,10 @@ fn keywords(tokens: &[Token], text: &str, out: &mut Vec<Occurrence>) {
                     // `@param TYPE NAME …`: the name is the third word.
                     if let Some((off, w)) = words(s).nth(2) {
                         let start = t.span.start + off as u32;
-                        out.push(Occurrence { span: Span::new(t.span.file, start, start + w.len() as u32), occ: Occ::Define(w.to_string()) });
+                        out.push(Occurrence {
+                            span: Span::new(t.span.file, start, start + w.len() as u32),
+                            occ: Occ::Define(w.to_string()),
+                        });
                     }
                 }
             }
@@ -457,7 +466,11 @@ impl Walker<'_, '_> {
                     let header = count.span().to(adj.span);
                     self.syn(
                         header,
-                        Occ::Iterator(Box::new(IterInfo { count: count.clone(), divisor: divisor.clone(), adj: adj.clone() })),
+                        Occ::Iterator(Box::new(IterInfo {
+                            count: count.clone(),
+                            divisor: divisor.clone(),
+                            adj: adj.clone(),
+                        })),
                     );
                     self.count(count);
                     if let Some(d) = divisor {

@@ -88,18 +88,23 @@ mod tests {
         let at_import = d.text().find("shapes").expect("import") as u32;
         let file = d.definition(at_import);
         assert_eq!(file.len(), 1);
-        assert_eq!(d.file_path(file[0].file).map(|p| p.display().to_string()), Some("/test/lib/shapes.mdg".to_string()));
+        assert_eq!(
+            d.file_path(file[0].file).map(|p| p.display().to_string()),
+            Some("/test/lib/shapes.mdg".to_string())
+        );
     }
 
     #[test]
     fn namespaces_functions_isosurfaces_macros_shaders() {
-        let (d, at) = doc("namespace port { rule arm { VERTEX {} } }\nstartshape A\nrule A { po$0rt.arm {} port.LINETO {} }");
+        let (d, at) =
+            doc("namespace port { rule arm { VERTEX {} } }\nstartshape A\nrule A { po$0rt.arm {} port.LINETO {} }");
         assert_eq!(shown(&d, d.definition(at)), ["main.mdg:1:11 \"port\""]);
         assert_eq!(shown(&d, d.references(at, false)), ["main.mdg:3:10 \"port\"", "main.mdg:3:22 \"port\""]);
         let at_arm = d.text().find("arm {}").expect("arm") as u32 + 1;
         assert_eq!(shown(&d, d.definition(at_arm)), ["main.mdg:1:23 \"arm\""]);
 
-        let (d, at) = doc("function band { z }\nselector b function ba$0nd\nrule b 1 { VERTEX {} }\nrule b 2 { VERTEX {} }");
+        let (d, at) =
+            doc("function band { z }\nselector b function ba$0nd\nrule b 1 { VERTEX {} }\nrule b 2 { VERTEX {} }");
         assert_eq!(shown(&d, d.definition(at)), ["main.mdg:1:10 \"band\""]);
 
         let (d, at) = doc("isosurface BALL { xyz -1 1 8 ; function { x*x - 1 } }\nrule A { BALL {} BA$0LL {x 1} }");
@@ -109,7 +114,9 @@ mod tests {
         let (d, at) = doc("@macro TRI(s)\nVERTEX {x s}\n@endmacro\nrule A {\n@expand TR$0I(1)\n}\n");
         assert_eq!(shown(&d, d.definition(at)), ["main.mdg:1:8 \"TRI\""]);
 
-        let (d, at) = doc("@vertexshader vs\nvoid main() {}\n@endshader\nprogram { vertexshader v$0s render }\nrule A { VERTEX {} }");
+        let (d, at) = doc(
+            "@vertexshader vs\nvoid main() {}\n@endshader\nprogram { vertexshader v$0s render }\nrule A { VERTEX {} }",
+        );
         assert_eq!(shown(&d, d.definition(at)), ["main.mdg:1:15 \"vs\""]);
     }
 
@@ -128,7 +135,12 @@ mod tests {
         );
         assert_eq!(
             shown(&d, d.references(at, true)),
-            ["main.mdg:3:10 \"shared\"", "main.mdg:5:10 \"shared\"", "lib.mdg:1:6 \"shared\"", "lib.mdg:2:14 \"shared\""]
+            [
+                "main.mdg:3:10 \"shared\"",
+                "main.mdg:5:10 \"shared\"",
+                "lib.mdg:1:6 \"shared\"",
+                "lib.mdg:2:14 \"shared\""
+            ]
         );
         assert_eq!(d.highlights(at).len(), 2);
     }

@@ -10,14 +10,28 @@ use crate::span::Span;
 
 /// Words the lexer treats as keywords, which cannot be names.
 const KEYWORDS: &[&str] = &[
-    "rule", "startshape", "selector", "linerule", "camerarule", "namespace", "function", "isosurface", "program", "uniform",
-    "angle", "color", "weight",
+    "rule",
+    "startshape",
+    "selector",
+    "linerule",
+    "camerarule",
+    "namespace",
+    "function",
+    "isosurface",
+    "program",
+    "uniform",
+    "angle",
+    "color",
+    "weight",
 ];
 
 impl Document {
     /// The span of the name at `offset` that a rename would change, and its text.
     pub fn prepare_rename(&self, offset: u32) -> Result<(Span, String), String> {
-        let (sym, span) = self.index().symbol_at(offset).ok_or_else(|| "there is no rule or other symbol here to rename".to_string())?;
+        let (sym, span) = self
+            .index()
+            .symbol_at(offset)
+            .ok_or_else(|| "there is no rule or other symbol here to rename".to_string())?;
         self.check_renamable(sym)?;
         let span = last_segment(self, span);
         Ok((span, self.span_text(span).to_string()))
@@ -26,7 +40,8 @@ impl Document {
     /// The edits that rename the symbol at `offset` to `new_name`.
     pub fn rename(&self, offset: u32, new_name: &str) -> Result<Vec<Edit>, String> {
         let idx = self.index();
-        let (sym, _) = idx.symbol_at(offset).ok_or_else(|| "there is no rule or other symbol here to rename".to_string())?;
+        let (sym, _) =
+            idx.symbol_at(offset).ok_or_else(|| "there is no rule or other symbol here to rename".to_string())?;
         self.check_renamable(sym)?;
         let valid = new_name.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
             && new_name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
@@ -54,7 +69,11 @@ impl Document {
             if let Some(f) = self.analysis.sources.files.get(span.file.0 as usize) {
                 if f.name.starts_with("std/") && span.file != self.main_file() {
                     let kind = sym.kind_word();
-                    return Err(format!("the {kind} `{}` is used in the std library ({}), which cannot be edited", sym.name(), f.name));
+                    return Err(format!(
+                        "the {kind} `{}` is used in the std library ({}), which cannot be edited",
+                        sym.name(),
+                        f.name
+                    ));
                 }
             }
         }
@@ -94,7 +113,10 @@ mod tests {
         let edits = d.rename(at, "twig").expect("rename");
         let main = d.main_file();
         assert!(edits.iter().all(|e| e.span.file == main));
-        let out = apply(d.text(), edits.into_iter().map(|e| (e.span.start as usize, e.span.end as usize, e.new_text)).collect());
+        let out = apply(
+            d.text(),
+            edits.into_iter().map(|e| (e.span.start as usize, e.span.end as usize, e.new_text)).collect(),
+        );
         assert_eq!(out, "startshape A\nselector twig random\nrule A { twig {} 3 * {x 1} twig {} }\nrule twig 2 { VERTEX {} }\nrule twig { twig {} }\n");
     }
 
@@ -104,13 +126,19 @@ mod tests {
         let (span, text) = d.prepare_rename(at).expect("prepare");
         assert_eq!((show(&d, span), text.as_str()), ("main.mdg:1:20 \"arm\"".to_string(), "arm"));
         let edits = d.rename(at, "leg").expect("rename");
-        let out = apply(d.text(), edits.into_iter().map(|e| (e.span.start as usize, e.span.end as usize, e.new_text)).collect());
+        let out = apply(
+            d.text(),
+            edits.into_iter().map(|e| (e.span.start as usize, e.span.end as usize, e.new_text)).collect(),
+        );
         assert_eq!(out, "namespace n { rule leg { VERTEX {} } }\nstartshape A\nrule A { n.leg {} }");
     }
 
     #[test]
     fn edits_reach_imported_files() {
-        let (d, at) = doc_with("@import lib.mdg\nstartshape A\nrule A { sh$0ape {} }", &[("lib.mdg", "rule shape { VERTEX {} }\n")]);
+        let (d, at) = doc_with(
+            "@import lib.mdg\nstartshape A\nrule A { sh$0ape {} }",
+            &[("lib.mdg", "rule shape { VERTEX {} }\n")],
+        );
         let edits = d.rename(at, "form").expect("rename");
         let shown: Vec<String> = edits.iter().map(|e| show(&d, e.span)).collect();
         assert_eq!(shown, ["main.mdg:3:10 \"shape\"", "lib.mdg:1:6 \"shape\""]);

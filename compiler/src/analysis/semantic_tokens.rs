@@ -99,7 +99,10 @@ impl Document {
                 }
                 Tok::Backslash => push(t.span, SemanticKind::Operator, false, 1),
                 // Inside macro bodies names are not resolved; drawables are still known.
-                Tok::Ident if !covered.contains(&t.span.start) && DRAWABLES.contains(&text.get(t.span.range()).unwrap_or("")) => {
+                Tok::Ident
+                    if !covered.contains(&t.span.start)
+                        && DRAWABLES.contains(&text.get(t.span.range()).unwrap_or("")) =>
+                {
                     push(t.span, SemanticKind::Drawable, false, 1);
                 }
                 _ => {}
@@ -151,7 +154,6 @@ fn last_segment(doc: &Document, span: Span) -> Span {
 #[cfg(test)]
 mod tests {
     use super::super::fixture::doc;
-
 
     fn tokens(src: &str) -> String {
         let (d, _) = doc(src);

@@ -130,7 +130,10 @@ impl Document {
                 }),
                 ItemKind::Pre(Pre::Macro(m)) => out.push(DocumentSymbol {
                     name: m.name.text.clone(),
-                    detail: Some(format!("({})", m.params.iter().map(|p| p.text.as_str()).collect::<Vec<_>>().join(", "))),
+                    detail: Some(format!(
+                        "({})",
+                        m.params.iter().map(|p| p.text.as_str()).collect::<Vec<_>>().join(", ")
+                    )),
                     kind: SymbolKind::Macro,
                     span: item.span,
                     selection: m.name.span,
@@ -302,8 +305,15 @@ Rule spin
 
     #[test]
     fn workspace_symbols_cover_imports() {
-        let (d, _) = doc_with("@import lib.mdg primitives\nstartshape A\nrule A { VERTEX {} }", &[("lib.mdg", "namespace n { rule shape { VERTEX {} } }\n")]);
-        let names: Vec<String> = d.workspace_symbols("shp").into_iter().map(|s| format!("{:?} {} {:?}", s.kind, s.name, s.container)).collect();
+        let (d, _) = doc_with(
+            "@import lib.mdg primitives\nstartshape A\nrule A { VERTEX {} }",
+            &[("lib.mdg", "namespace n { rule shape { VERTEX {} } }\n")],
+        );
+        let names: Vec<String> = d
+            .workspace_symbols("shp")
+            .into_iter()
+            .map(|s| format!("{:?} {} {:?}", s.kind, s.name, s.container))
+            .collect();
         assert_eq!(names, ["Rule n.shape Some(\"n\")"]);
         let all = d.workspace_symbols("");
         assert!(all.iter().any(|s| s.name == "cube"), "std symbols are included");

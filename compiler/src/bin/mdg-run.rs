@@ -103,7 +103,8 @@ fn main() -> ExitCode {
             }
         }
     } else {
-        let opts = Options { defines: cli.presets.clone(), params, std_dir: cli.std.clone().or_else(driver::default_std_dir) };
+        let opts =
+            Options { defines: cli.presets.clone(), params, std_dir: cli.std.clone().or_else(driver::default_std_dir) };
         match driver::build(&FsLoader, &cli.file, &opts) {
             Ok((b, a)) => {
                 eprint!("{}", render_plain(&a.diagnostics, &a.sources));
@@ -144,7 +145,10 @@ fn main() -> ExitCode {
     let progress = |calls: u64| {
         if bar.is_hidden() && started.elapsed() > Duration::from_secs(1) {
             bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
-            bar.set_style(indicatif::ProgressStyle::with_template("{spinner} {elapsed} {msg}").unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()));
+            bar.set_style(
+                indicatif::ProgressStyle::with_template("{spinner} {elapsed} {msg}")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+            );
         }
         bar.set_message(format!("{calls} rule calls"));
         bar.tick();
@@ -171,13 +175,14 @@ fn main() -> ExitCode {
         return ExitCode::from(2);
     }
     if let Some(png_path) = &cli.png {
-        let (w, h) = match cli.size.split_once('x').and_then(|(a, b)| Some((a.parse::<u32>().ok()?, b.parse::<u32>().ok()?))) {
-            Some((w, h)) if w > 0 && h > 0 && w <= 8192 && h <= 8192 => (w, h),
-            _ => {
-                eprintln!("mdg-run: --size {}: expected WIDTHxHEIGHT, each 1..8192", cli.size);
-                return ExitCode::from(2);
-            }
-        };
+        let (w, h) =
+            match cli.size.split_once('x').and_then(|(a, b)| Some((a.parse::<u32>().ok()?, b.parse::<u32>().ok()?))) {
+                Some((w, h)) if w > 0 && h > 0 && w <= 8192 && h <= 8192 => (w, h),
+                _ => {
+                    eprintln!("mdg-run: --size {}: expected WIDTHxHEIGHT, each 1..8192", cli.size);
+                    return ExitCode::from(2);
+                }
+            };
         let opts = mdg_vm::preview::PreviewOptions { width: w, height: h, ..Default::default() };
         let rgba = mdg_vm::preview::render(&out, &opts);
         match mdg_vm::preview::encode_png(&rgba, w, h) {

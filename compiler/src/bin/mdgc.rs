@@ -14,7 +14,9 @@ use std::process::ExitCode;
 
 #[derive(Parser)]
 #[command(name = "mdgc", version, about = "The MDG compiler: check, format and build shape grammars")]
-#[command(after_help = "Examples:\n  mdgc check std/examples/tree.mdg\n  mdgc check --message-format json a.mdg b.mdg\n  mdgc fmt --check std/*.mdg")]
+#[command(
+    after_help = "Examples:\n  mdgc check std/examples/tree.mdg\n  mdgc check --message-format json a.mdg b.mdg\n  mdgc fmt --check std/*.mdg"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

@@ -23,19 +23,24 @@ pub fn initialize(b: &Backend, _params: InitializeParams) -> InitializeResult {
             definition_provider: Some(OneOf::Left(true)),
             references_provider: Some(OneOf::Left(true)),
             document_highlight_provider: Some(OneOf::Left(true)),
-            rename_provider: Some(OneOf::Right(RenameOptions { prepare_provider: Some(true), work_done_progress_options: Default::default() })),
+            rename_provider: Some(OneOf::Right(RenameOptions {
+                prepare_provider: Some(true),
+                work_done_progress_options: Default::default(),
+            })),
             completion_provider: Some(CompletionOptions {
                 trigger_characters: Some(["@", "{", "[", "."].map(String::from).to_vec()),
                 ..Default::default()
             }),
             document_symbol_provider: Some(OneOf::Left(true)),
             workspace_symbol_provider: Some(OneOf::Left(true)),
-            semantic_tokens_provider: Some(SemanticTokensServerCapabilities::SemanticTokensOptions(SemanticTokensOptions {
-                legend: legend(),
-                full: Some(SemanticTokensFullOptions::Bool(true)),
-                range: None,
-                ..Default::default()
-            })),
+            semantic_tokens_provider: Some(SemanticTokensServerCapabilities::SemanticTokensOptions(
+                SemanticTokensOptions {
+                    legend: legend(),
+                    full: Some(SemanticTokensFullOptions::Bool(true)),
+                    range: None,
+                    ..Default::default()
+                },
+            )),
             folding_range_provider: Some(FoldingRangeProviderCapability::Simple(true)),
             document_formatting_provider: Some(OneOf::Left(true)),
             code_action_provider: Some(CodeActionProviderCapability::Options(CodeActionOptions {
@@ -46,7 +51,10 @@ pub fn initialize(b: &Backend, _params: InitializeParams) -> InitializeResult {
             execute_command_provider,
             ..Default::default()
         },
-        server_info: Some(ServerInfo { name: "mdg-lsp".to_string(), version: Some(env!("CARGO_PKG_VERSION").to_string()) }),
+        server_info: Some(ServerInfo {
+            name: "mdg-lsp".to_string(),
+            version: Some(env!("CARGO_PKG_VERSION").to_string()),
+        }),
         ..Default::default()
     }
 }

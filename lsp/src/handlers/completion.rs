@@ -21,10 +21,16 @@ pub async fn completion(b: &Backend, p: CompletionParams) -> Result<Option<Compl
             .map(|(i, item)| CompletionItem {
                 kind: Some(kind(item.kind)),
                 detail: item.detail,
-                documentation: item.documentation.map(|d| Documentation::MarkupContent(MarkupContent { kind: MarkupKind::Markdown, value: d })),
+                documentation: item
+                    .documentation
+                    .map(|d| Documentation::MarkupContent(MarkupContent { kind: MarkupKind::Markdown, value: d })),
                 sort_text: Some(format!("{i:04}")),
                 filter_text: Some(item.label.clone()),
-                insert_text_format: Some(if item.snippet { InsertTextFormat::SNIPPET } else { InsertTextFormat::PLAIN_TEXT }),
+                insert_text_format: Some(if item.snippet {
+                    InsertTextFormat::SNIPPET
+                } else {
+                    InsertTextFormat::PLAIN_TEXT
+                }),
                 text_edit: Some(CompletionTextEdit::Edit(TextEdit { range, new_text: item.insert_text })),
                 label: item.label,
                 ..Default::default()

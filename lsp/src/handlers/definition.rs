@@ -11,7 +11,8 @@ pub async fn definition(b: &Backend, p: GotoDefinitionParams) -> Result<Option<G
     let pos = &p.text_document_position_params;
     let Some((doc, offset)) = at_position(b, pos).await else { return Ok(None) };
     b.run("definition", || {
-        let locations: Vec<Location> = doc.definition(offset).into_iter().filter_map(|s| b.location(&doc, uri(pos), s)).collect();
+        let locations: Vec<Location> =
+            doc.definition(offset).into_iter().filter_map(|s| b.location(&doc, uri(pos), s)).collect();
         match locations.len() {
             0 => None,
             1 => locations.into_iter().next().map(GotoDefinitionResponse::Scalar),

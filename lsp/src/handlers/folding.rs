@@ -18,7 +18,9 @@ pub async fn folding_range(b: &Backend, p: FoldingRangeParams) -> Result<Option<
             let mut end_line = li.position(f.span.end).line;
             let closing = text[..(f.span.end as usize).min(text.len())].trim_end();
             let line_start = closing.rfind('\n').map(|i| i + 1).unwrap_or(0);
-            if f.kind == FoldKind::Region && matches!(closing[line_start..].trim(), "}" | "]" | "@endif" | "@endmacro" | "@endshader") {
+            if f.kind == FoldKind::Region
+                && matches!(closing[line_start..].trim(), "}" | "]" | "@endif" | "@endmacro" | "@endshader")
+            {
                 end_line = end_line.saturating_sub(1);
             }
             if end_line > start_line {

@@ -26,7 +26,12 @@ pub async fn formatting(b: &Backend, p: DocumentFormattingParams) -> Result<Opti
         Err(errors) => {
             // The rendered errors can be long; the first one says enough.
             let first: String = errors.lines().take(3).collect::<Vec<_>>().join("\n");
-            b.client.log_message(MessageType::INFO, format!("mdg-lsp: not formatting, the file has syntax errors:\n{first}")).await;
+            b.client
+                .log_message(
+                    MessageType::INFO,
+                    format!("mdg-lsp: not formatting, the file has syntax errors:\n{first}"),
+                )
+                .await;
             Ok(None)
         }
     }

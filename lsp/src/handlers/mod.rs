@@ -38,13 +38,21 @@ pub(crate) fn uri(p: &TextDocumentPositionParams) -> &Uri {
 }
 
 /// Byte-offset edits (in any file of the analysis) as a workspace edit.
-pub(crate) fn workspace_edit(b: &Backend, doc: &Document, main_uri: &Uri, edits: &[mdg_compiler::analysis::Edit]) -> tower_lsp_server::ls_types::WorkspaceEdit {
+pub(crate) fn workspace_edit(
+    b: &Backend,
+    doc: &Document,
+    main_uri: &Uri,
+    edits: &[mdg_compiler::analysis::Edit],
+) -> tower_lsp_server::ls_types::WorkspaceEdit {
     use tower_lsp_server::ls_types::TextEdit;
     let mut changes: std::collections::HashMap<Uri, Vec<TextEdit>> = std::collections::HashMap::new();
     for e in edits {
         let Some(uri) = b.uri_of(doc, main_uri, e.span.file) else { continue };
         let li = LineIndex::new(doc.file_text(e.span.file));
-        changes.entry(uri).or_default().push(TextEdit { range: li.range(e.span.start, e.span.end), new_text: e.new_text.clone() });
+        changes
+            .entry(uri)
+            .or_default()
+            .push(TextEdit { range: li.range(e.span.start, e.span.end), new_text: e.new_text.clone() });
     }
     tower_lsp_server::ls_types::WorkspaceEdit { changes: Some(changes), ..Default::default() }
 }

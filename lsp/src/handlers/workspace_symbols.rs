@@ -13,7 +13,11 @@ pub async fn workspace_symbols(b: &Backend, p: WorkspaceSymbolParams) -> Result<
         for (uri, doc) in &analyses {
             for s in doc.workspace_symbols(&p.query) {
                 let Some(location) = b.location(doc, uri, s.span) else { continue };
-                if !seen.insert((location.uri.as_str().to_string(), location.range.start.line, location.range.start.character)) {
+                if !seen.insert((
+                    location.uri.as_str().to_string(),
+                    location.range.start.line,
+                    location.range.start.character,
+                )) {
                     continue;
                 }
                 out.push(WorkspaceSymbol {

@@ -89,7 +89,8 @@ fn numbered(path: &Path, i: u32, n: u32) -> PathBuf {
 }
 
 fn offscreen(cli: &Cli, model: &model::Model, size: (u32, u32), load: &LoadOptions) -> Result<u32, Error> {
-    let ctx = Arc::new(Context::new(&ContextOptions { validation: Validation::from_env(), surface_extensions: vec![] })?);
+    let ctx =
+        Arc::new(Context::new(&ContextOptions { validation: Validation::from_env(), surface_extensions: vec![] })?);
     let mut off = Offscreen::new(&ctx, size.0, size.1, cli.samples)?;
     let t0 = std::time::Instant::now();
     let info = off.set_model(model, load.std_dir.as_deref())?;

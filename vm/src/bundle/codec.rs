@@ -326,7 +326,9 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
     let mut h = R { b: bytes, at: 4, section: "header" };
     let version = h.u16()?;
     if version != VERSION {
-        return Err(LoadError(format!("format version {version}, this VM reads version {VERSION}: rebuild the bundle")));
+        return Err(LoadError(format!(
+            "format version {version}, this VM reads version {VERSION}: rebuild the bundle"
+        )));
     }
     let _flags = h.u16()?;
     let check = h.u64()?;
@@ -366,8 +368,22 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
         namespaces.push(r.u32()?);
     }
     let settings = Settings {
-        startshape, maxdepth, minsize, maxiter, stacksize, randseed, normal, background, fps, duration, camerafov,
-        near, far, linerule, camerarule, namespaces,
+        startshape,
+        maxdepth,
+        minsize,
+        maxiter,
+        stacksize,
+        randseed,
+        normal,
+        background,
+        fps,
+        duration,
+        camerafov,
+        near,
+        far,
+        linerule,
+        camerarule,
+        namespaces,
     };
     r.section = "transforms";
     let n = r.len(5)?;
@@ -516,5 +532,18 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
     if r.at != payload.len() {
         return Err(LoadError(format!("{} trailing bytes after the last section", payload.len() - r.at)));
     }
-    Ok(Bundle { strings, settings, transforms, exprs, rules, code, isosurfaces, shaders, program, uniforms, params, source_map })
+    Ok(Bundle {
+        strings,
+        settings,
+        transforms,
+        exprs,
+        rules,
+        code,
+        isosurfaces,
+        shaders,
+        program,
+        uniforms,
+        params,
+        source_map,
+    })
 }

@@ -67,7 +67,9 @@ pub fn disassemble(b: &Bundle) -> String {
             .operands()
             .into_iter()
             .map(|(n, v)| match (op, n) {
-                (Op::Call { .. }, "rule") => format!("{}", b.string(b.rules.get(v as usize).map(|r| r.name).unwrap_or(0))),
+                (Op::Call { .. }, "rule") => {
+                    format!("{}", b.string(b.rules.get(v as usize).map(|r| r.name).unwrap_or(0)))
+                }
                 (Op::Draw { .. }, "kind") => ops::DRAWABLE_KINDS.get(v as usize).unwrap_or(&"?").to_string(),
                 (_, "xf" | "step") => format!("X{v}"),
                 (_, "profile") if v == NONE as u64 => "-".to_string(),
@@ -77,7 +79,15 @@ pub fn disassemble(b: &Bundle) -> String {
         let _ = writeln!(o, "{pc:>6}  {:<8} {}", op.mnemonic(), operands.join(" "));
     }
     for (i, iso) in b.isosurfaces.iter().enumerate() {
-        let _ = writeln!(o, "\nI{i} isosurface {} min={:?} max={:?} res={:?} f=E{}", b.string(iso.name), iso.min, iso.max, iso.res, iso.function);
+        let _ = writeln!(
+            o,
+            "\nI{i} isosurface {} min={:?} max={:?} res={:?} f=E{}",
+            b.string(iso.name),
+            iso.min,
+            iso.max,
+            iso.res,
+            iso.function
+        );
     }
     for (i, sh) in b.shaders.iter().enumerate() {
         let stage = if sh.vertex { "vertex" } else { "fragment" };

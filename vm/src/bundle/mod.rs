@@ -8,9 +8,9 @@
 //! index and jump, so a corrupt or hostile bundle is rejected with an error, never
 //! a panic.
 
-pub mod ops;
 mod codec;
 mod disasm;
+pub mod ops;
 mod verify;
 
 pub use codec::{decode, encode};
@@ -77,7 +77,10 @@ pub enum Transform {
     Const(Composite),
     /// Primitive adjustments in written order; angles in radians; every argument is
     /// divided by `divisor` (scale: the divisor-th root) for iterator steps.
-    Dynamic { adjs: Vec<PrimAdj>, divisor: f32 },
+    Dynamic {
+        adjs: Vec<PrimAdj>,
+        divisor: f32,
+    },
 }
 
 /// How a rule's definitions are chosen (SPEC §5 and resolved semantics 5).

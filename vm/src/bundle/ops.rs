@@ -110,5 +110,16 @@ macro_rules! define_ops {
 for_each_op!(define_ops);
 
 /// Drawable kinds used by `DRAW`.
-pub const DRAWABLE_KINDS: &[&str] =
-    &["VERTEX", "FACENORMALS", "MOVETO", "LINETO", "BLENDTO", "SLINETO", "ALINETO", "NEWLINE", "FRAME", "RESET", "DEBUG"];
+pub const DRAWABLE_KINDS: &[&str] = &[
+    "VERTEX",
+    "FACENORMALS",
+    "MOVETO",
+    "LINETO",
+    "BLENDTO",
+    "SLINETO",
+    "ALINETO",
+    "NEWLINE",
+    "FRAME",
+    "RESET",
+    "DEBUG",
+];

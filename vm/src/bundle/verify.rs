@@ -15,10 +15,13 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
     let n_xf = b.transforms.len() as u32;
     let n_expr = b.exprs.len() as u32;
     let n_ops = b.code.len() as u32;
-    let str_ok = |i: u32, what: &str| if i < n_str { Ok(()) } else { Err(bad(format!("{what}: string {i} out of range"))) };
-    let rule_ok = |i: u32, what: &str| if i < n_rules { Ok(()) } else { Err(bad(format!("{what}: rule {i} out of range"))) };
+    let str_ok =
+        |i: u32, what: &str| if i < n_str { Ok(()) } else { Err(bad(format!("{what}: string {i} out of range"))) };
+    let rule_ok =
+        |i: u32, what: &str| if i < n_rules { Ok(()) } else { Err(bad(format!("{what}: rule {i} out of range"))) };
     let rule_or_none = |i: u32, what: &str| if i == NONE { Ok(()) } else { rule_ok(i, what) };
-    let expr_ok = |i: u32, what: &str| if i < n_expr { Ok(()) } else { Err(bad(format!("{what}: expression {i} out of range"))) };
+    let expr_ok =
+        |i: u32, what: &str| if i < n_expr { Ok(()) } else { Err(bad(format!("{what}: expression {i} out of range"))) };
 
     let s = &b.settings;
     rule_ok(s.startshape, "startshape")?;
@@ -215,7 +218,13 @@ mod tests {
             },
             transforms: vec![Transform::Const(Composite::IDENTITY)],
             exprs: vec![],
-            rules: vec![Rule { name: 0, selector: Selector::Random, defs: vec![Def { weight: 1.0, start: 0 }], transforms: vec![], iter: NONE }],
+            rules: vec![Rule {
+                name: 0,
+                selector: Selector::Random,
+                defs: vec![Def { weight: 1.0, start: 0 }],
+                transforms: vec![],
+                iter: NONE,
+            }],
             code: vec![Op::Ret {}],
             isosurfaces: vec![],
             shaders: vec![

@@ -44,7 +44,6 @@
 //!   translation and rotation channels sampled at the directive `fps` (the camera
 //!   frame's scale is not exported).
 
-
 use std::collections::BTreeMap;
 
 use glam::{Mat4, Quat, Vec3};
@@ -108,7 +107,12 @@ pub fn write_glb(out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
     if !primitives.is_empty() {
         let mesh = g.push_mesh(GMesh { name: Some("mdg".into()), primitives });
         let skin = g.skinned.then(|| g.skin(&bone_nodes));
-        scene_nodes.push(g.push_node(Node { name: Some("geometry".into()), mesh: Some(mesh), skin, ..Node::default() }));
+        scene_nodes.push(g.push_node(Node {
+            name: Some("geometry".into()),
+            mesh: Some(mesh),
+            skin,
+            ..Node::default()
+        }));
     }
 
     if let Some(p) = g.lines_primitive(out) {
@@ -251,9 +255,19 @@ impl Builder {
 
     /// JOINTS_0 (u16, the bone) and WEIGHTS_0 ((1, 0, 0, 0)) for `n` vertices.
     fn skin_attributes(&mut self, attributes: &mut BTreeMap<&'static str, u32>, n: usize, bone: impl Fn(usize) -> u32) {
-        let joints: Vec<u8> = (0..n).flat_map(|i| [(bone(i).min(u16::MAX as u32) as u16).to_le_bytes(), [0; 2], [0; 2], [0; 2]]).flatten().collect();
+        let joints: Vec<u8> = (0..n)
+            .flat_map(|i| [(bone(i).min(u16::MAX as u32) as u16).to_le_bytes(), [0; 2], [0; 2], [0; 2]])
+            .flatten()
+            .collect();
         let view = self.view(&joints, ARRAY_BUFFER);
-        let j = self.accessor(Accessor { buffer_view: view, component_type: UNSIGNED_SHORT, count: n, kind: "VEC4", min: None, max: None });
+        let j = self.accessor(Accessor {
+            buffer_view: view,
+            component_type: UNSIGNED_SHORT,
+            count: n,
+            kind: "VEC4",
+            min: None,
+            max: None,
+        });
         attributes.insert("JOINTS_0", j);
         let weights = vec![[1.0, 0.0, 0.0, 0.0]; n];
         attributes.insert("WEIGHTS_0", self.vec4(&weights));
@@ -268,7 +282,14 @@ impl Builder {
         let bytes: Vec<u8> = times.iter().flat_map(|x| x.to_le_bytes()).collect();
         let view = self.view_for(&bytes, None);
         let (lo, hi) = (times.first().copied().unwrap_or(0.0), times.last().copied().unwrap_or(0.0));
-        let a = self.accessor(Accessor { buffer_view: view, component_type: FLOAT, count, kind: "SCALAR", min: Some(vec![lo]), max: Some(vec![hi]) });
+        let a = self.accessor(Accessor {
+            buffer_view: view,
+            component_type: FLOAT,
+            count,
+            kind: "SCALAR",
+            min: Some(vec![lo]),
+            max: Some(vec![hi]),
+        });
         self.times.insert((fps.to_bits(), count), a);
         a
     }
@@ -277,7 +298,14 @@ impl Builder {
     fn key_values(&mut self, data: &[f32], width: usize, kind: &'static str) -> u32 {
         let bytes: Vec<u8> = data.iter().flat_map(|x| x.to_le_bytes()).collect();
         let view = self.view_for(&bytes, None);
-        self.accessor(Accessor { buffer_view: view, component_type: FLOAT, count: data.len() / width, kind, min: None, max: None })
+        self.accessor(Accessor {
+            buffer_view: view,
+            component_type: FLOAT,
+            count: data.len() / width,
+            kind,
+            min: None,
+            max: None,
+        })
     }
 
     /// Adds a STEP sampler reading `input`/`output` and a channel to `node`'s `path`.
@@ -363,11 +391,21 @@ impl Builder {
         let track = anim.tracks.get(cam.track as usize)?;
         let znear = if cam.near.is_finite() && cam.near > 0.0 { cam.near } else { 0.1 };
         let zfar = (cam.far.is_finite() && cam.far > znear).then_some(cam.far);
-        let yfov = if cam.fov.is_finite() { cam.fov.to_radians().clamp(1e-3, std::f32::consts::PI - 1e-3) } else { 40f32.to_radians() };
+        let yfov = if cam.fov.is_finite() {
+            cam.fov.to_radians().clamp(1e-3, std::f32::consts::PI - 1e-3)
+        } else {
+            40f32.to_radians()
+        };
         self.root.cameras.push(GCamera { kind: "perspective", perspective: Perspective { yfov, znear, zfar } });
         let camera = Some(self.root.cameras.len() as u32 - 1);
         let (t, r, _) = gltf_trs(&track.at(0));
-        let node = self.push_node(Node { name: Some("camera".into()), camera, translation: Some(t), rotation: Some(r), ..Node::default() });
+        let node = self.push_node(Node {
+            name: Some("camera".into()),
+            camera,
+            translation: Some(t),
+            rotation: Some(r),
+            ..Node::default()
+        });
         if cam.fps > 0.0 && cam.fps.is_finite() {
             let n = frames_needed(anim.duration as f64, cam.fps);
             let frames: Vec<Frame> = (0..n as u64).map(|i| track.at(i)).collect();
@@ -408,14 +446,28 @@ impl Builder {
     fn vec4(&mut self, data: &[[f32; 4]]) -> u32 {
         let bytes: Vec<u8> = data.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
         let view = self.view(&bytes, ARRAY_BUFFER);
-        self.accessor(Accessor { buffer_view: view, component_type: FLOAT, count: data.len(), kind: "VEC4", min: None, max: None })
+        self.accessor(Accessor {
+            buffer_view: view,
+            component_type: FLOAT,
+            count: data.len(),
+            kind: "VEC4",
+            min: None,
+            max: None,
+        })
     }
 
     /// A u32 index list.
     fn indices(&mut self, data: &[u32]) -> u32 {
         let bytes: Vec<u8> = data.iter().flat_map(|x| x.to_le_bytes()).collect();
         let view = self.view(&bytes, ELEMENT_ARRAY_BUFFER);
-        self.accessor(Accessor { buffer_view: view, component_type: UNSIGNED_INT, count: data.len(), kind: "SCALAR", min: None, max: None })
+        self.accessor(Accessor {
+            buffer_view: view,
+            component_type: UNSIGNED_INT,
+            count: data.len(),
+            kind: "SCALAR",
+            min: None,
+            max: None,
+        })
     }
 
     /// The material for a base colour (already clamped), created on first use.
@@ -517,7 +569,8 @@ impl Builder {
         json.resize(json.len().next_multiple_of(4), b' ');
         let bin_chunk = if self.bin.is_empty() { 0 } else { 8 + self.bin.len() };
         let total = 12 + 8 + json.len() + bin_chunk;
-        let total = u32::try_from(total).map_err(|_| format!("glTF binary of {total} bytes exceeds the 4 GiB GLB limit"))?;
+        let total =
+            u32::try_from(total).map_err(|_| format!("glTF binary of {total} bytes exceeds the 4 GiB GLB limit"))?;
         buf.reserve(total as usize);
         buf.extend_from_slice(GLB_MAGIC);
         buf.extend_from_slice(&2u32.to_le_bytes());
@@ -789,7 +842,9 @@ pub(crate) mod tests {
         let idx = vertex["indices"].as_u64().expect("indices");
         assert_eq!(json["accessors"][idx as usize]["count"], 36);
         // Every POSITION accessor's min/max match its data; normals are unit.
-        for p in json["meshes"].as_array().expect("meshes").iter().flat_map(|m| m["primitives"].as_array().expect("prims")) {
+        for p in
+            json["meshes"].as_array().expect("meshes").iter().flat_map(|m| m["primitives"].as_array().expect("prims"))
+        {
             let a = p["attributes"]["POSITION"].as_u64().expect("position");
             let data = floats(&bin, &json, a);
             for k in 0..3 {
@@ -884,7 +939,11 @@ pub(crate) mod tests {
 
     #[test]
     fn trs_decomposition() {
-        let m = Mat4::from_scale_rotation_translation(Vec3::splat(0.5), Quat::from_rotation_z(1.0), Vec3::new(1.0, 2.0, 3.0));
+        let m = Mat4::from_scale_rotation_translation(
+            Vec3::splat(0.5),
+            Quat::from_rotation_z(1.0),
+            Vec3::new(1.0, 2.0, 3.0),
+        );
         let (t, r, s) = similarity_trs(&m).expect("similarity");
         assert!((s - 0.5).abs() < 1e-6 && (t - Vec3::new(1.0, 2.0, 3.0)).length() < 1e-6);
         assert!(r.dot(Quat::from_rotation_z(1.0)).abs() > 1.0 - 1e-6);

@@ -80,9 +80,9 @@ static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 /// (named after the target, the process id and a counter), flushed to disk, then
 /// renamed over `path`. Readers see the old file or the whole new one, never a part.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let name = path
-        .file_name()
-        .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("{} has no file name", path.display())))?;
+    let name = path.file_name().ok_or_else(|| {
+        std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("{} has no file name", path.display()))
+    })?;
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -195,7 +195,8 @@ pub(crate) mod tests {
         for (n, a, b) in faces {
             let c = n * 0.5;
             let corners = [c - a * 0.5 - b * 0.5, c + a * 0.5 - b * 0.5, c + a * 0.5 + b * 0.5, c - a * 0.5 + b * 0.5];
-            let idx: Vec<u32> = corners.iter().map(|&p| m.push_vertex(p, n, [0.2, 0.4, 0.6, 1.0], [0.0; 4], 0)).collect();
+            let idx: Vec<u32> =
+                corners.iter().map(|&p| m.push_vertex(p, n, [0.2, 0.4, 0.6, 1.0], [0.0; 4], 0)).collect();
             m.push_triangle([idx[0], idx[1], idx[2]], false);
             m.push_triangle([idx[0], idx[2], idx[3]], false);
         }
@@ -211,13 +212,22 @@ pub(crate) mod tests {
     /// (plain, scaled, mirrored) of a shared mesh, stats.
     pub(crate) fn sample_output() -> Output {
         let mut sweeps = Mesh::default();
-        let profile: Vec<Vec3> = (0..6).map(|k| {
-            let a = k as f32 / 6.0 * std::f32::consts::TAU;
-            Vec3::new(a.cos(), a.sin(), 0.0) * 0.2
-        }).collect();
+        let profile: Vec<Vec3> = (0..6)
+            .map(|k| {
+                let a = k as f32 / 6.0 * std::f32::consts::TAU;
+                Vec3::new(a.cos(), a.sin(), 0.0) * 0.2
+            })
+            .collect();
         let a = crate::geom::Frame::identity();
         let b = a.translate(Vec3::new(0.0, 1.0, 2.0)).rotate(Quat::from_rotation_x(0.5));
-        crate::geom::sweep_path(&mut sweeps, &profile, &crate::geom::blend_frames(&a, &b, 4), [1.0, 0.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0], 0);
+        crate::geom::sweep_path(
+            &mut sweeps,
+            &profile,
+            &crate::geom::blend_frames(&a, &b, 4),
+            [1.0, 0.0, 0.0, 1.0],
+            [0.0, 0.0, 1.0, 1.0],
+            0,
+        );
         let shared = cube(false);
         let inst = |t: Mat4, mirrored: bool, color: [f32; 4]| Instance {
             name: "CUBE".into(),
@@ -231,18 +241,37 @@ pub(crate) mod tests {
         Output {
             mesh: cube(true),
             sweeps,
-            lines: vec![Polyline { namespace: "".into(), points: vec![[0.0; 3], [0.0, 1.0, 2.0], [1.0, 1.0, 2.0]], bones: Vec::new() }],
+            lines: vec![Polyline {
+                namespace: "".into(),
+                points: vec![[0.0; 3], [0.0, 1.0, 2.0], [1.0, 1.0, 2.0]],
+                bones: Vec::new(),
+            }],
             shared_meshes: vec![("CUBE".into(), shared)],
             instances: vec![
                 inst(Mat4::from_translation(Vec3::new(3.0, 0.0, 0.0)), false, [1.0, 0.0, 0.0, 1.0]),
                 inst(
-                    Mat4::from_scale_rotation_translation(Vec3::splat(2.0), Quat::from_rotation_y(0.3), Vec3::new(0.0, 3.0, 0.0)),
+                    Mat4::from_scale_rotation_translation(
+                        Vec3::splat(2.0),
+                        Quat::from_rotation_y(0.3),
+                        Vec3::new(0.0, 3.0, 0.0),
+                    ),
                     false,
                     [0.0, 1.0, 0.0, 1.0],
                 ),
-                inst(Mat4::from_translation(Vec3::new(-3.0, 0.0, 0.0)) * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)), true, [2.0, -1.0, 0.5, 1.0]),
+                inst(
+                    Mat4::from_translation(Vec3::new(-3.0, 0.0, 0.0)) * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)),
+                    true,
+                    [2.0, -1.0, 0.5, 1.0],
+                ),
             ],
-            stats: Stats { rule_calls: 5, vertices: 36, triangles: 12, max_depth: 2, elapsed_ms: 0.5, warnings: vec!["maxdepth reached".into()] },
+            stats: Stats {
+                rule_calls: 5,
+                vertices: 36,
+                triangles: 12,
+                max_depth: 2,
+                elapsed_ms: 0.5,
+                warnings: vec!["maxdepth reached".into()],
+            },
             background: [0.0, 0.0, 0.0, 1.0],
             animation: Default::default(),
         }

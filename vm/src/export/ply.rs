@@ -64,7 +64,8 @@ mod tests {
         assert_eq!(b.len(), end + 28 * flat.positions.len() + 13 * flat.triangles.len());
         let faces = end + 28 * flat.positions.len();
         assert_eq!(b[faces], 3);
-        let idx: Vec<u32> = b[faces + 1..faces + 13].chunks(4).map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes"))).collect();
+        let idx: Vec<u32> =
+            b[faces + 1..faces + 13].chunks(4).map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes"))).collect();
         let t = out.mesh.triangles[0];
         assert_eq!(idx, vec![t[0], t[2], t[1]]);
         // Vertex 0's colour (0.2, 0.4, 0.6, 1) as bytes.

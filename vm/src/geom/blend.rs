@@ -99,7 +99,10 @@ mod tests {
 
     fn ends() -> (Frame, Frame) {
         let a = Frame::identity().translate(Vec3::new(0.5, 0.0, 0.0)).scale(0.5);
-        let b = Frame::identity().translate(Vec3::new(2.0, 1.0, 3.0)).rotate(rot(Vec3::new(1.0, 1.0, 0.0), 70.0)).scale(2.0);
+        let b = Frame::identity()
+            .translate(Vec3::new(2.0, 1.0, 3.0))
+            .rotate(rot(Vec3::new(1.0, 1.0, 0.0), 70.0))
+            .scale(2.0);
         (a, b)
     }
 

@@ -59,10 +59,12 @@ impl Grid {
 }
 
 /// Cube corner c sits at offset (c & 1, c >> 1 & 1, c >> 2 & 1).
-const CORNER_OFFSETS: [[u32; 3]; 8] = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [0, 0, 1], [1, 0, 1], [0, 1, 1], [1, 1, 1]];
+const CORNER_OFFSETS: [[u32; 3]; 8] =
+    [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [0, 0, 1], [1, 0, 1], [0, 1, 1], [1, 1, 1]];
 
 /// The 12 cube edges as (lower corner, upper corner); the corners differ in one bit.
-const EDGES: [(u8, u8); 12] = [(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5), (2, 6), (3, 7)];
+const EDGES: [(u8, u8); 12] =
+    [(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5), (2, 6), (3, 7)];
 
 /// The six faces, corners counter-clockwise seen from outside the cube
 /// (-x, +x, -y, +y, -z, +z).

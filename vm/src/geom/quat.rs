@@ -118,11 +118,7 @@ impl Frame {
     /// `child = (q, q̂, u)`.
     #[must_use]
     pub fn compose(&self, child: &Frame) -> Frame {
-        Frame {
-            q: hamilton(self.q, child.q),
-            qh: hamilton(child.qh, self.qh),
-            u: self.u + self.apply_vector(child.u),
-        }
+        Frame { q: hamilton(self.q, child.q), qh: hamilton(child.qh, self.qh), u: self.u + self.apply_vector(child.u) }
     }
 
     /// The inverse map `x ↦ q⁻¹ (x − u) q̂⁻¹` (with `q⁻¹ = q̄ / N(q)`), so that

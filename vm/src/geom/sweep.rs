@@ -25,7 +25,15 @@ use crate::output::Mesh;
 /// Sweeps `profile` from the frame `from` to the frame `to` (`LINETO`): two rings
 /// joined by two triangles per profile edge, the loop closed when the profile has
 /// three or more points. Colours go from `color_from` (first ring) to `color_to`.
-pub fn sweep(mesh: &mut Mesh, profile: &[Vec3], from: &Frame, to: &Frame, color_from: [f32; 4], color_to: [f32; 4], bone: u32) {
+pub fn sweep(
+    mesh: &mut Mesh,
+    profile: &[Vec3],
+    from: &Frame,
+    to: &Frame,
+    color_from: [f32; 4],
+    color_to: [f32; 4],
+    bone: u32,
+) {
     sweep_path(mesh, profile, &[*from, *to], color_from, color_to, bone);
 }
 
@@ -33,13 +41,21 @@ pub fn sweep(mesh: &mut Mesh, profile: &[Vec3], from: &Frame, to: &Frame, color_
 /// [`super::blend_frames`] for `BLENDTO`), sharing each intermediate ring between the
 /// two segments it joins. Colours are interpolated linearly along the frame list.
 /// Fewer than two frames or fewer than two profile points emit nothing.
-pub fn sweep_path(mesh: &mut Mesh, profile: &[Vec3], frames: &[Frame], color_from: [f32; 4], color_to: [f32; 4], bone: u32) {
+pub fn sweep_path(
+    mesh: &mut Mesh,
+    profile: &[Vec3],
+    frames: &[Frame],
+    color_from: [f32; 4],
+    color_to: [f32; 4],
+    bone: u32,
+) {
     let n = profile.len();
     if n < 2 || frames.len() < 2 {
         return;
     }
     let local_normals = profile_normals(profile);
-    let rings: Vec<Vec<Vec3>> = frames.iter().map(|f| local_normals.iter().map(|&ln| f.apply_normal(ln)).collect()).collect();
+    let rings: Vec<Vec<Vec3>> =
+        frames.iter().map(|f| local_normals.iter().map(|&ln| f.apply_normal(ln)).collect()).collect();
     let degenerate = |f: &Frame| f.scale_factor().is_nan() || f.scale_factor() <= 1e-12;
     let last = frames.len() - 1;
     let base = mesh.positions.len() as u32;
@@ -83,7 +99,15 @@ pub fn sweep_path(mesh: &mut Mesh, profile: &[Vec3], frames: &[Frame], color_fro
 /// along the segment `to.u − from.u` (the rotation between the two directions, thesis
 /// eq. 3.29, applied on the world side so the frame keeps its roll, scale, position and
 /// handedness). A zero-length segment sweeps the frames unchanged.
-pub fn sweep_oriented(mesh: &mut Mesh, profile: &[Vec3], from: &Frame, to: &Frame, color_from: [f32; 4], color_to: [f32; 4], bone: u32) {
+pub fn sweep_oriented(
+    mesh: &mut Mesh,
+    profile: &[Vec3],
+    from: &Frame,
+    to: &Frame,
+    color_from: [f32; 4],
+    color_to: [f32; 4],
+    bone: u32,
+) {
     let dir = to.u - from.u;
     if dir.length_squared() == 0.0 {
         sweep(mesh, profile, from, to, color_from, color_to, bone);
@@ -98,7 +122,15 @@ pub fn sweep_oriented(mesh: &mut Mesh, profile: &[Vec3], from: &Frame, to: &Fram
 /// [`average_frame`]`(from, to)`. Each ring keeps its own position and its own scale,
 /// so a tapering line still tapers; only the twist between the two ends is removed
 /// (the profile planes are parallel).
-pub fn sweep_averaged(mesh: &mut Mesh, profile: &[Vec3], from: &Frame, to: &Frame, color_from: [f32; 4], color_to: [f32; 4], bone: u32) {
+pub fn sweep_averaged(
+    mesh: &mut Mesh,
+    profile: &[Vec3],
+    from: &Frame,
+    to: &Frame,
+    color_from: [f32; 4],
+    color_to: [f32; 4],
+    bone: u32,
+) {
     let avg = average_frame(from, to);
     let a = with_scale(&avg, from.scale_factor(), from.u);
     let b = with_scale(&avg, to.scale_factor(), to.u);
