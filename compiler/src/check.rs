@@ -10,20 +10,9 @@ use crate::expand::{ExpItem, Expanded};
 use crate::span::Span;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 
-/// Built-in drawables (SPEC §3, §7).
-pub const DRAWABLES: &[&str] = &[
-    "VERTEX",
-    "FACENORMALS",
-    "MOVETO",
-    "LINETO",
-    "BLENDTO",
-    "SLINETO",
-    "ALINETO",
-    "NEWLINE",
-    "FRAME",
-    "RESET",
-    "DEBUG",
-];
+/// Built-in drawables (SPEC §3, §7). This is the VM's `DRAW` kind table itself: lowering
+/// emits a drawable's position in this list as its kind, so the two cannot drift.
+pub const DRAWABLES: &[&str] = mdg_vm::bundle::ops::DRAWABLE_KINDS;
 
 /// Drawables that act on a namespace's pen and may be written `ns.NAME`.
 pub const PEN_DRAWABLES: &[&str] = &["MOVETO", "LINETO", "BLENDTO", "SLINETO", "ALINETO", "NEWLINE", "RESET", "DEBUG"];
