@@ -6,7 +6,6 @@
 use clap::Parser;
 use mdg_compiler::diag::render_plain;
 use mdg_compiler::driver;
-use mdg_compiler::expand::Options;
 use mdg_compiler::source::FsLoader;
 use mdg_vm::eval::{evaluate_with_progress, EvalOptions};
 use mdg_vm::export::{self, Format};
@@ -36,12 +35,8 @@ struct Cli {
     /// Seed for the random stream (overrides `randseed`).
     #[arg(long)]
     seed: Option<u64>,
-    /// Override a `@param`: NAME=VALUE (repeatable).
-    #[arg(long = "param", value_name = "NAME=VALUE")]
-    params: Vec<String>,
-    /// Choose a preset (defines its name for `@ifdef`).
-    #[arg(long = "preset")]
-    presets: Vec<String>,
+    #[command(flatten)]
+    compile: mdg_compiler::cli::CompileArgs,
     /// Print rule calls, vertices, triangles, time and peak memory.
     #[arg(long)]
     stats: bool,
@@ -57,9 +52,6 @@ struct Cli {
     /// Picture size, WIDTHxHEIGHT.
     #[arg(long, default_value = "800x600")]
     size: String,
-    /// Where `@import NAME` looks (default: $MDG_STD or the bundled std/).
-    #[arg(long)]
-    std: Option<PathBuf>,
     /// Write the pose at T seconds as a still model: every bone moved by its
     /// transform rules' frames at index ⌊T·fps⌋, the camera fixed there. For formats
     /// without animation (obj, stl, ply); applies to every format and the picture.
@@ -76,16 +68,13 @@ fn peak_rss_kib() -> Option<u64> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let mut params = Vec::new();
-    for p in &cli.params {
-        match p.split_once('=') {
-            Some((n, v)) => params.push((n.to_string(), v.to_string())),
-            None => {
-                eprintln!("mdg-run: --param {p}: expected NAME=VALUE");
-                return ExitCode::from(2);
-            }
+    let opts = match cli.compile.options() {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("mdg-run: {e}");
+            return ExitCode::from(2);
         }
-    }
+    };
     let is_bundle = cli.file.extension().is_some_and(|e| e == "mdgb");
     let bundle = if is_bundle {
         let bytes = match std::fs::read(&cli.file) {
@@ -103,8 +92,6 @@ fn main() -> ExitCode {
             }
         }
     } else {
-        let opts =
-            Options { defines: cli.presets.clone(), params, std_dir: cli.std.clone().or_else(driver::default_std_dir) };
         match driver::build(&FsLoader, &cli.file, &opts) {
             Ok((b, a)) => {
                 eprint!("{}", render_plain(&a.diagnostics, &a.sources));

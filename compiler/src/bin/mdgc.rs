@@ -33,15 +33,8 @@ struct CommonOpts {
     /// How to print diagnostics.
     #[arg(long, value_enum, default_value = "human")]
     message_format: MessageFormat,
-    /// Override a `@param`: NAME=VALUE (repeatable).
-    #[arg(long = "param", value_name = "NAME=VALUE")]
-    params: Vec<String>,
-    /// Choose a preset (defines its name for `@ifdef`).
-    #[arg(long = "preset")]
-    presets: Vec<String>,
-    /// Where `@import NAME` looks (default: $MDG_STD or the bundled std/).
-    #[arg(long)]
-    std: Option<PathBuf>,
+    #[command(flatten)]
+    compile: mdg_compiler::cli::CompileArgs,
 }
 
 #[derive(Subcommand)]
@@ -76,16 +69,7 @@ enum Command {
 }
 
 fn options(common: &CommonOpts) -> Result<Options, String> {
-    let mut params = Vec::new();
-    for p in &common.params {
-        let (n, v) = p.split_once('=').ok_or_else(|| format!("--param {p}: expected NAME=VALUE"))?;
-        params.push((n.to_string(), v.to_string()));
-    }
-    Ok(Options {
-        defines: common.presets.clone(),
-        params,
-        std_dir: common.std.clone().or_else(driver::default_std_dir),
-    })
+    common.compile.options()
 }
 
 fn main() -> ExitCode {

@@ -64,15 +64,8 @@ struct Cli {
     /// Seed for the random stream (overrides `randseed`).
     #[arg(long)]
     seed: Option<u64>,
-    /// Override a `@param`: NAME=VALUE (repeatable).
-    #[arg(long = "param", value_name = "NAME=VALUE")]
-    params: Vec<String>,
-    /// Choose a preset (defines its name for `@ifdef`).
-    #[arg(long = "preset")]
-    presets: Vec<String>,
-    /// Where `@import NAME` looks (default: $MDG_STD or the bundled std/).
-    #[arg(long)]
-    std: Option<PathBuf>,
+    #[command(flatten)]
+    compile: mdg_compiler::cli::CompileArgs,
 }
 
 fn parse_size(s: &str) -> Option<(u32, u32)> {
@@ -141,26 +134,18 @@ fn main() -> ExitCode {
         eprintln!("mdg-view: --size {}: expected WIDTHxHEIGHT, e.g. 1024x768", cli.size);
         return ExitCode::from(2);
     };
-    let mut params = Vec::new();
-    for p in &cli.params {
-        match p.split_once('=') {
-            Some((n, v)) => params.push((n.to_string(), v.to_string())),
-            None => {
-                eprintln!("mdg-view: --param {p}: expected NAME=VALUE");
-                return ExitCode::from(2);
-            }
+    let opts = match cli.compile.options() {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("mdg-view: {e}");
+            return ExitCode::from(2);
         }
-    }
+    };
     if cli.turntable.is_some() && cli.png.is_none() {
         eprintln!("mdg-view: --turntable needs --png");
         return ExitCode::from(2);
     }
-    let load = LoadOptions {
-        std_dir: cli.std.clone().or_else(mdg_compiler::driver::default_std_dir),
-        params,
-        presets: cli.presets.clone(),
-        seed: cli.seed,
-    };
+    let load = LoadOptions { std_dir: opts.std_dir, params: opts.params, presets: opts.defines, seed: cli.seed };
     let (model, files) = match model::load(&cli.file, &load) {
         Ok(m) => m,
         Err(fail) => {
