@@ -51,21 +51,7 @@ pub const NUMERIC_DIRECTIVES: &[(&str, usize, usize, bool)] = &[
 /// Every directive name, for "did you mean".
 pub fn directive_names() -> Vec<&'static str> {
     let mut v: Vec<&str> = NUMERIC_DIRECTIVES.iter().map(|d| d.0).collect();
-    v.extend([
-        "startshape",
-        "rule",
-        "selector",
-        "linerule",
-        "camerarule",
-        "namespace",
-        "function",
-        "isosurface",
-        "program",
-        "uniform",
-        "angle",
-        "color",
-        "weight",
-    ]);
+    v.extend(crate::lexer::KEYWORDS);
     v
 }
 

@@ -52,6 +52,41 @@ fn rest_of_line(lex: &mut logos::Lexer<Tok>) {
     lex.bump(rem[..cut].trim_end().len());
 }
 
+/// Words the lexer makes keyword tokens (structured top-level items). They may
+/// still be used as rule names where that is unambiguous, but not renamed to.
+pub const KEYWORDS: &[&str] = &[
+    "rule",
+    "startshape",
+    "selector",
+    "linerule",
+    "camerarule",
+    "namespace",
+    "function",
+    "isosurface",
+    "program",
+    "uniform",
+    "angle",
+    "color",
+    "weight",
+];
+
+/// Every preprocessor directive the lexer knows.
+pub const PREPROCESSOR_DIRECTIVES: &[&str] = &[
+    "@import",
+    "@define",
+    "@ifdef",
+    "@else",
+    "@endif",
+    "@macro",
+    "@endmacro",
+    "@expand",
+    "@presets",
+    "@param",
+    "@vertexshader",
+    "@fragmentshader",
+    "@endshader",
+];
+
 /// Token kinds. Text (names, numbers) is read back from the token's span.
 #[derive(Logos, Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[logos(error = LexError)]

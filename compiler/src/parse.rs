@@ -191,23 +191,8 @@ impl<'c> Ctx<'c> {
         let text = full.split_whitespace().next().unwrap_or(full);
         let span = span_of(l, r);
         let span = Span::new(span.file, span.start, span.start + text.len() as u32);
-        let known = [
-            "@import",
-            "@define",
-            "@ifdef",
-            "@else",
-            "@endif",
-            "@macro",
-            "@endmacro",
-            "@expand",
-            "@presets",
-            "@param",
-            "@vertexshader",
-            "@fragmentshader",
-            "@endshader",
-        ];
         let mut d = Diagnostic::error("E0210", span, format!("unknown preprocessor directive `{text}`"));
-        if let Some(s) = crate::diag::did_you_mean(text, known) {
+        if let Some(s) = crate::diag::did_you_mean(text, lexer::PREPROCESSOR_DIRECTIVES.iter().copied()) {
             d = d.with_suggestion(format!("did you mean `{s}`?"), span, s);
         }
         self.diags.borrow_mut().push(d);

@@ -225,24 +225,7 @@ mod tests {
         want(AngleMode, ANGLE_MODES.to_vec());
         want(Function, FUNCTIONS.iter().map(|f| f.0).collect());
         want(Variable, crate::check::FUNCTION_VARS.to_vec());
-        want(
-            Preprocessor,
-            vec![
-                "@import",
-                "@define",
-                "@ifdef",
-                "@else",
-                "@endif",
-                "@macro",
-                "@endmacro",
-                "@expand",
-                "@presets",
-                "@param",
-                "@vertexshader",
-                "@fragmentshader",
-                "@endshader",
-            ],
-        );
+        want(Preprocessor, crate::lexer::PREPROCESSOR_DIRECTIVES.to_vec());
         want(IsoEntry, vec!["x", "y", "z", "xyz", "function"]);
         want(ProgramCommand, vec!["vertexshader", "fragmentshader", "target", "render"]);
         assert!(missing.is_empty(), "no doc for: {missing:?}");

@@ -8,22 +8,8 @@ use super::index::Symbol;
 use super::{Document, Edit};
 use crate::span::Span;
 
-/// Words the lexer treats as keywords, which cannot be names.
-const KEYWORDS: &[&str] = &[
-    "rule",
-    "startshape",
-    "selector",
-    "linerule",
-    "camerarule",
-    "namespace",
-    "function",
-    "isosurface",
-    "program",
-    "uniform",
-    "angle",
-    "color",
-    "weight",
-];
+// Keywords cannot be names: a rename to one is refused.
+use crate::lexer::KEYWORDS;
 
 impl Document {
     /// The span of the name at `offset` that a rename would change, and its text.
