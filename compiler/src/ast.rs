@@ -69,9 +69,58 @@ pub enum ItemKind {
     Program {
         words: Vec<Name>,
     },
+    /// A SPEC §11 extension section: `guide`, `search`, `creature`, `grid`.
+    Section(Section),
     Pre(Pre<Item>),
     /// Something that did not parse; a diagnostic was reported.
     Error,
+}
+
+/// `KIND [NAME] { ENTRY… }` — one syntax for every §11 extension (guided search,
+/// creatures, grid grammars). The parser only knows the shape; each extension's
+/// module in `crate::ext` checks its keys and values.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Section {
+    /// `guide`, `search`, `creature` or `grid`.
+    pub kind: Name,
+    pub name: Option<Name>,
+    pub entries: Vec<Entry>,
+    /// The span of `{ … }`.
+    pub body_span: Span,
+}
+
+/// `KEY VALUE… ;` or `KEY VALUE… { ENTRY… }`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Entry {
+    pub key: Name,
+    pub values: Vec<Value>,
+    /// The nested entries of `KEY VALUE… { … }`, with the span of the braces.
+    pub block: Option<(Vec<Entry>, Span)>,
+    pub span: Span,
+}
+
+/// A value in a section entry.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Value {
+    Num(Number),
+    Neg(Number),
+    /// `( EXPR )` or `f(…)`.
+    Expr(Expr),
+    Word(Name),
+    /// `"text"`: the text without quotes, and the span with them.
+    Str(String, Span),
+}
+
+impl Value {
+    /// The span of the value.
+    pub fn span(&self) -> Span {
+        match self {
+            Value::Num(n) | Value::Neg(n) => n.span,
+            Value::Expr(e) => e.span,
+            Value::Word(w) => w.span,
+            Value::Str(_, s) => *s,
+        }
+    }
 }
 
 /// A directive argument.

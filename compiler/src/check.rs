@@ -238,6 +238,7 @@ pub fn check(ex: &Expanded, opts: CheckOptions) -> Checked {
     c.collect();
     c.items();
     c.whole_program(opts);
+    crate::ext::check(ex, &c.sym, &mut c.diags);
     Checked { symbols: c.sym, diagnostics: c.diags }
 }
 
@@ -391,6 +392,8 @@ impl<'a> Checker<'a> {
                 ItemKind::Function { body, .. } => self.expr(body, true, false),
                 ItemKind::Isosurface { name, entries } => self.isosurface(name, entries),
                 ItemKind::Program { words } => self.program(words),
+                // Checked by `crate::ext` once every rule is known.
+                ItemKind::Section(_) => {}
                 ItemKind::Namespace { .. } | ItemKind::Pre(_) | ItemKind::Error => {}
             }
         }

@@ -92,8 +92,32 @@ impl Dumper {
                 let w: Vec<&str> = words.iter().map(|n| n.text.as_str()).collect();
                 self.line(&format!("Program [{}] {at}", w.join(" ")));
             }
+            ItemKind::Section(sec) => {
+                let name = sec.name.as_ref().map(|n| format!(" {}", n.text)).unwrap_or_default();
+                self.nested(&format!("Section {}{name} {at}", sec.kind.text), |d| d.entries(&sec.entries));
+            }
             ItemKind::Pre(p) => self.pre(p, &at, |d, i: &Item| d.item(i)),
             ItemKind::Error => self.line(&format!("Error {at}")),
+        }
+    }
+
+    fn entries(&mut self, entries: &[Entry]) {
+        for e in entries {
+            let at = format!("@{}..{}", e.span.start, e.span.end);
+            self.nested(&format!("Entry {} {at}", e.key.text), |d| {
+                for v in &e.values {
+                    match v {
+                        Value::Num(n) => d.line(&format!("Num {}", n.text)),
+                        Value::Neg(n) => d.line(&format!("Neg {}", n.text)),
+                        Value::Word(w) => d.line(&format!("Word {}", w.text)),
+                        Value::Str(s, _) => d.line(&format!("Str {s:?}")),
+                        Value::Expr(e) => d.expr(e),
+                    }
+                }
+                if let Some((inner, _)) = &e.block {
+                    d.nested("Block", |d| d.entries(inner));
+                }
+            });
         }
     }
 

@@ -228,6 +228,15 @@ impl<'a> Printer<'a> {
                 }
                 self.close_block(item.span.end);
             }
+            ItemKind::Section(sec) => {
+                self.out.push_str(&sec.kind.text);
+                if let Some(n) = &sec.name {
+                    self.out.push(' ');
+                    self.out.push_str(&n.text);
+                }
+                self.out.push(' ');
+                self.entries(&sec.entries, sec.body_span.end);
+            }
             ItemKind::Pre(p) => self.pre(p, item.span, |me, i: &Item| me.item(i)),
             ItemKind::Error => {
                 let t = self.text(item.span).to_string();
@@ -235,6 +244,39 @@ impl<'a> Printer<'a> {
             }
         }
         self.end_item(item.span);
+    }
+
+    /// `{ ENTRY… }` of a section: one entry a line; values that began a new line in
+    /// the source (a point list, rows of blocks) keep their line breaks.
+    fn entries(&mut self, entries: &[Entry], end: u32) {
+        self.open_block();
+        for e in entries {
+            self.start_item(e.span);
+            self.out.push_str(&e.key.text);
+            let mut prev = e.key.span.end;
+            for v in &e.values {
+                let gap = self.src.get(prev as usize..v.span().start as usize).unwrap_or("");
+                if gap.contains('\n') {
+                    self.out.push('\n');
+                    self.indent += 1;
+                    self.pad();
+                    self.indent -= 1;
+                } else {
+                    self.out.push(' ');
+                }
+                self.out.push_str(&value(v));
+                prev = v.span().end;
+            }
+            match &e.block {
+                Some((inner, span)) => {
+                    self.out.push(' ');
+                    self.entries(inner, span.end);
+                }
+                None => self.out.push(';'),
+            }
+            self.end_item(e.span);
+        }
+        self.close_block(end);
     }
 
     fn pre<T>(&mut self, p: &Pre<T>, span: Span, each: impl Fn(&mut Self, &T) + Copy) {
@@ -381,6 +423,16 @@ fn dir_arg(a: &DirArg) -> String {
         DirArg::Neg(n) => format!("-{}", n.text),
         DirArg::Word(w) => w.text.clone(),
         DirArg::Expr(e) => expr(e),
+    }
+}
+
+fn value(v: &Value) -> String {
+    match v {
+        Value::Num(n) => n.text.clone(),
+        Value::Neg(n) => format!("-{}", n.text),
+        Value::Word(w) => w.text.clone(),
+        Value::Expr(e) => expr(e),
+        Value::Str(s, _) => format!("\"{s}\""),
     }
 }
 

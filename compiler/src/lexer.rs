@@ -68,7 +68,14 @@ pub const KEYWORDS: &[&str] = &[
     "angle",
     "color",
     "weight",
+    "guide",
+    "search",
+    "creature",
+    "grid",
 ];
+
+/// The words that open a SPEC §11 extension section (`KIND [NAME] { KEY VALUE… ; … }`).
+pub const SECTION_KINDS: &[&str] = &["guide", "search", "creature", "grid"];
 
 /// Every preprocessor directive the lexer knows.
 pub const PREPROCESSOR_DIRECTIVES: &[&str] = &[
@@ -119,6 +126,15 @@ pub enum Tok {
     KwColor,
     #[token("weight")]
     KwWeight,
+    /// `guide`, `search`, `creature`, `grid`: a §11 extension section.
+    #[token("guide")]
+    #[token("search")]
+    #[token("creature")]
+    #[token("grid")]
+    KwSection,
+    /// A string literal `"…"` on one line (paths in extension sections).
+    #[regex(r#""[^"\n]*""#)]
+    Str,
 
     #[regex(r"[A-Za-z_][A-Za-z0-9_]*")]
     Ident,
@@ -231,6 +247,8 @@ impl Tok {
             KwAngle => "`angle`",
             KwColor => "`color`",
             KwWeight => "`weight`",
+            KwSection => "a section keyword",
+            Str => "a string",
             Ident | Dotted => "a name",
             CallOpen => "a call",
             Number => "a number",

@@ -71,6 +71,91 @@ pub fn lower(ex: &Expanded, sym: &Symbols, sources: &Sources) -> Result<Bundle, 
     }
 }
 
+/// Radians per unit of a plain angle number, or of one with a unit suffix.
+fn angle_factor(angle: AngleMode, unit: Option<char>) -> f64 {
+    match unit {
+        Some('d') => std::f64::consts::PI / 180.0,
+        Some('r') => 1.0,
+        Some('o') => std::f64::consts::TAU,
+        _ => match angle {
+            AngleMode::Degrees => std::f64::consts::PI / 180.0,
+            AngleMode::Radians => 1.0,
+            AngleMode::Orbits => std::f64::consts::TAU,
+        },
+    }
+}
+
+/// Compiles an expression to expression code: variables by index, constants folded
+/// from `@param`/`@define`, numbers with units in radians.
+fn expr_code(ex: &Expanded, angle: AngleMode, e: &Expr, out: &mut Vec<ExprOp>) {
+    let rec = |e: &Expr, out: &mut Vec<ExprOp>| expr_code(ex, angle, e, out);
+    match &e.kind {
+        ExprKind::Num(n) => {
+            let v = match n.unit {
+                Some('t') => n.value.atan(),
+                Some(u) => n.value * angle_factor(angle, Some(u)),
+                None => n.value,
+            };
+            out.push(ExprOp::Push(v));
+        }
+        ExprKind::Var(v) => match VARIABLES.iter().position(|x| *x == v.text) {
+            Some(i) => out.push(ExprOp::Var(i as u8)),
+            None => out.push(ExprOp::Push(ex.constant(&v.text).unwrap_or(0.0))),
+        },
+        ExprKind::Neg(x) => {
+            rec(x, out);
+            out.push(ExprOp::Neg);
+        }
+        ExprKind::Paren(x) => rec(x, out),
+        ExprKind::Binary(op, a, b) => {
+            rec(a, out);
+            rec(b, out);
+            let i = BINOPS.iter().position(|s| *s == op.symbol()).unwrap_or(0);
+            out.push(ExprOp::Bin(i as u8));
+        }
+        ExprKind::Call(f, args) => {
+            for a in args {
+                rec(a, out);
+            }
+            let i = FUNCTIONS.iter().position(|(n, _)| *n == f.text).unwrap_or(0);
+            out.push(ExprOp::Call(i as u8));
+        }
+        ExprKind::Error => out.push(ExprOp::Push(0.0)),
+    }
+}
+
+/// What lowering an extension section needs (see [`crate::ext`]).
+pub struct LowerCx<'a> {
+    pub ex: &'a Expanded,
+    pub sym: &'a Symbols,
+    rule_ids: &'a HashMap<String, u32>,
+    angle: AngleMode,
+}
+
+impl LowerCx<'_> {
+    /// The bundle index of a rule named as a call in namespace `ns` would name it.
+    pub fn rule(&self, name: &str, ns: Option<&str>) -> Option<u32> {
+        self.sym.resolve(name, ns).and_then(|f| self.rule_ids.get(&f).copied())
+    }
+
+    /// Expression code for `e` (variables are `mdg_vm::expr::VARIABLES`, e.g. `g`).
+    pub fn expr(&self, e: &Expr) -> Vec<ExprOp> {
+        let mut out = Vec::new();
+        expr_code(self.ex, self.angle, e, &mut out);
+        out
+    }
+
+    /// A constant number value (see [`crate::ext::number`]).
+    pub fn number(&self, v: &Value) -> Option<f64> {
+        crate::ext::number(self.ex, v)
+    }
+
+    /// Radians for an angle written as a plain number under the program's `angle` mode.
+    pub fn angle(&self, value: f64) -> f64 {
+        value * angle_factor(self.angle, None)
+    }
+}
+
 fn key(c: &Composite) -> Vec<u32> {
     c.q.iter()
         .chain(&c.qh)
@@ -245,6 +330,9 @@ impl<'a> Lower<'a> {
                 max: p.max.unwrap_or(0.0),
             });
         }
+        let mut extensions = bundle::Extensions::default();
+        let cx = LowerCx { ex: self.ex, sym: self.sym, rule_ids: &self.rule_ids, angle: self.angle };
+        crate::ext::lower(&cx, &mut extensions);
         let namespaces: Vec<String> = self.namespaces.clone();
         let namespace_ids = namespaces.iter().map(|n| self.string(n)).collect();
         let settings = Settings {
@@ -278,6 +366,7 @@ impl<'a> Lower<'a> {
             uniforms,
             params,
             source_map: std::mem::take(&mut self.source_map),
+            extensions,
         }
     }
 
@@ -455,18 +544,8 @@ impl<'a> Lower<'a> {
         }
     }
 
-    /// Radians per unit of a plain angle number, or of one with a unit suffix.
     fn angle_factor(&self, unit: Option<char>) -> f64 {
-        match unit {
-            Some('d') => std::f64::consts::PI / 180.0,
-            Some('r') => 1.0,
-            Some('o') => std::f64::consts::TAU,
-            _ => match self.angle {
-                AngleMode::Degrees => std::f64::consts::PI / 180.0,
-                AngleMode::Radians => 1.0,
-                AngleMode::Orbits => std::f64::consts::TAU,
-            },
-        }
+        angle_factor(self.angle, unit)
     }
 
     /// An argument's value: `Ok(constant)` or `Err(expression)` for run-time draws.
@@ -557,39 +636,7 @@ impl<'a> Lower<'a> {
     }
 
     fn expr_code(&self, e: &Expr, out: &mut Vec<ExprOp>) {
-        match &e.kind {
-            ExprKind::Num(n) => {
-                let v = match n.unit {
-                    Some('t') => n.value.atan(),
-                    Some(u) => n.value * self.angle_factor(Some(u)),
-                    None => n.value,
-                };
-                out.push(ExprOp::Push(v));
-            }
-            ExprKind::Var(v) => match VARIABLES.iter().position(|x| *x == v.text) {
-                Some(i) => out.push(ExprOp::Var(i as u8)),
-                None => out.push(ExprOp::Push(self.ex.constant(&v.text).unwrap_or(0.0))),
-            },
-            ExprKind::Neg(x) => {
-                self.expr_code(x, out);
-                out.push(ExprOp::Neg);
-            }
-            ExprKind::Paren(x) => self.expr_code(x, out),
-            ExprKind::Binary(op, a, b) => {
-                self.expr_code(a, out);
-                self.expr_code(b, out);
-                let i = BINOPS.iter().position(|s| *s == op.symbol()).unwrap_or(0);
-                out.push(ExprOp::Bin(i as u8));
-            }
-            ExprKind::Call(f, args) => {
-                for a in args {
-                    self.expr_code(a, out);
-                }
-                let i = FUNCTIONS.iter().position(|(n, _)| *n == f.text).unwrap_or(0);
-                out.push(ExprOp::Call(i as u8));
-            }
-            ExprKind::Error => out.push(ExprOp::Push(0.0)),
-        }
+        expr_code(self.ex, self.angle, e, out)
     }
 
     fn isosurface(&mut self, name: &Name, entries: &[IsoEntry]) -> Option<bundle::Isosurface> {

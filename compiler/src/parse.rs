@@ -48,6 +48,13 @@ impl<'c> Ctx<'c> {
         Name { text: self.text(l, r).to_string(), span: span_of(l, r) }
     }
 
+    /// A string token `"…"`: its text without the quotes.
+    pub fn string(&self, l: Loc, r: Loc) -> Value {
+        let t = self.text(l, r);
+        let inner = t.strip_prefix('"').and_then(|t| t.strip_suffix('"')).unwrap_or(t);
+        Value::Str(inner.to_string(), span_of(l, r))
+    }
+
     /// A call token `NAME(`: the name without the parenthesis.
     pub fn call_name(&self, l: Loc, r: Loc) -> Name {
         let t = self.text(l, r);
@@ -416,6 +423,8 @@ fn describe_expected(expected: &[String]) -> String {
         .map(|e| match e.as_str() {
             "Ident" => "a name".to_string(),
             "Dotted" => "a name".to_string(),
+            "SectionKw" => "`guide`".to_string(),
+            "Str" => "a string".to_string(),
             "Num" => "a number".to_string(),
             "CallOpen" => "a call".to_string(),
             "Shader" => "a shader block".to_string(),

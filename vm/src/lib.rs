@@ -6,9 +6,12 @@
 
 pub mod anim;
 pub mod bundle;
+pub mod creature;
 pub mod eval;
 pub mod export;
 pub mod expr;
 pub mod geom;
+pub mod grid;
 pub mod output;
 pub mod preview;
+pub mod sosmc;

@@ -195,6 +195,7 @@ impl Document {
                 | Tok::KwAngle
                 | Tok::KwColor
                 | Tok::KwWeight
+                | Tok::KwSection
                     // `function` inside a selector line belongs to the selector.
                     if top_level && !(t.kind == Tok::KwFunction && pending.is_some_and(|p| before[p].kind == Tok::KwSelector)) =>
                 {

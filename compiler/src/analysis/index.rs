@@ -232,7 +232,8 @@ fn keywords(tokens: &[Token], text: &str, out: &mut Vec<Occurrence>) {
             | Tok::KwUniform
             | Tok::KwAngle
             | Tok::KwColor
-            | Tok::KwWeight => out.push(Occurrence { span: t.span, occ: Occ::Directive(s.to_string()) }),
+            | Tok::KwWeight
+            | Tok::KwSection => out.push(Occurrence { span: t.span, occ: Occ::Directive(s.to_string()) }),
             Tok::AtImport
             | Tok::AtDefine
             | Tok::AtParam
@@ -388,6 +389,11 @@ impl Walker<'_, '_> {
                         IsoEntry::FunctionRef(f) => self.function_ref(f, None),
                         IsoEntry::FunctionBody(e) => self.expr(e),
                     }
+                }
+            }
+            ItemKind::Section(sec) => {
+                for n in crate::ext::rule_refs(sec) {
+                    self.rule_ref(n, ns);
                 }
             }
             ItemKind::Program { words } => {

@@ -6,6 +6,7 @@
 use clap::Parser;
 use mdg_compiler::diag::render_plain;
 use mdg_compiler::driver;
+use mdg_compiler::modes::{self, Common};
 use mdg_compiler::source::FsLoader;
 use mdg_vm::eval::{evaluate_with_progress, EvalOptions};
 use mdg_vm::export::{self, Format};
@@ -58,6 +59,12 @@ struct Cli {
     /// Without it, .glb holds the whole animation and obj/stl/ply the rest pose.
     #[arg(long, value_name = "T")]
     time: Option<f64>,
+    #[command(flatten)]
+    guided: mdg_compiler::modes::guided::GuidedArgs,
+    #[command(flatten)]
+    creature: mdg_compiler::modes::creature::CreatureArgs,
+    #[command(flatten)]
+    grid: mdg_compiler::modes::grid::GridArgs,
 }
 
 fn peak_rss_kib() -> Option<u64> {
@@ -103,6 +110,28 @@ fn main() -> ExitCode {
             }
         }
     };
+    let (w, h) =
+        match cli.size.split_once('x').and_then(|(a, b)| Some((a.parse::<u32>().ok()?, b.parse::<u32>().ok()?))) {
+            Some((w, h)) if w > 0 && h > 0 && w <= 8192 && h <= 8192 => (w, h),
+            _ => {
+                eprintln!("mdg-run: --size {}: expected WIDTHxHEIGHT, each 1..8192", cli.size);
+                return ExitCode::from(2);
+            }
+        };
+    let common = Common {
+        file: &cli.file,
+        output: cli.output.as_deref(),
+        seed: cli.seed,
+        stats: cli.stats,
+        png: cli.png.as_deref(),
+        size: (w, h),
+    };
+    if bundle.extensions.creatures.is_some() {
+        return modes::creature::run(&bundle, &cli.creature, &common);
+    }
+    if bundle.extensions.grid.is_some() {
+        return modes::grid::run(&bundle, &cli.grid, &common);
+    }
     let format = match &cli.format {
         Some(f) => match Format::from_extension(f) {
             Some(f) => f,
@@ -140,7 +169,17 @@ fn main() -> ExitCode {
         bar.set_message(format!("{calls} rule calls"));
         bar.tick();
     };
-    let mut out = evaluate_with_progress(&bundle, &eval_opts, Some(&progress));
+    let mut out = if bundle.extensions.guided.is_some() {
+        match modes::guided::run(&bundle, &cli.guided, &common) {
+            Ok(out) => out,
+            Err(e) => {
+                eprintln!("mdg-run: {e}");
+                return ExitCode::from(1);
+            }
+        }
+    } else {
+        evaluate_with_progress(&bundle, &eval_opts, Some(&progress))
+    };
     bar.finish_and_clear();
     for w in &out.stats.warnings {
         eprintln!("warning: {w}");
@@ -162,14 +201,6 @@ fn main() -> ExitCode {
         return ExitCode::from(2);
     }
     if let Some(png_path) = &cli.png {
-        let (w, h) =
-            match cli.size.split_once('x').and_then(|(a, b)| Some((a.parse::<u32>().ok()?, b.parse::<u32>().ok()?))) {
-                Some((w, h)) if w > 0 && h > 0 && w <= 8192 && h <= 8192 => (w, h),
-                _ => {
-                    eprintln!("mdg-run: --size {}: expected WIDTHxHEIGHT, each 1..8192", cli.size);
-                    return ExitCode::from(2);
-                }
-            };
         let opts = mdg_vm::preview::PreviewOptions { width: w, height: h, ..Default::default() };
         let rgba = mdg_vm::preview::render(&out, &opts);
         match mdg_vm::preview::encode_png(&rgba, w, h) {

@@ -23,7 +23,7 @@ use crate::expr::ExprOp;
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"MDGB";
 /// Format version; bumped on any change to the layout.
-pub const VERSION: u16 = 2;
+pub const VERSION: u16 = 3;
 
 /// A precomputed adjustment list: thesis eqs. 4.1–4.9 folded into (q, q̂, u) plus
 /// colour, weight and fps deltas (SPEC §4).
@@ -236,6 +236,27 @@ pub struct Bundle {
     pub uniforms: Vec<Uniform>,
     pub params: Vec<Param>,
     pub source_map: Vec<SourceLoc>,
+    /// The SPEC §11 extension tables.
+    pub extensions: Extensions,
+}
+
+/// The tables of the SPEC §11 extensions, each present when the program has the
+/// sections. Stored as one JSON section (the tables are small and nested; serde
+/// gives them a checked, deterministic encoding), verified like the rest.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Extensions {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub guided: Option<crate::sosmc::GuidedTable>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub creatures: Option<crate::creature::CreatureTable>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grid: Option<crate::grid::GridGrammar>,
+}
+
+impl Extensions {
+    pub fn is_empty(&self) -> bool {
+        self.guided.is_none() && self.creatures.is_none() && self.grid.is_none()
+    }
 }
 
 impl Bundle {

@@ -166,6 +166,15 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
         }
         prev = l.op;
     }
+    if let Some(g) = &b.extensions.guided {
+        g.verify(b).map_err(|e| bad(format!("guided search: {e}")))?;
+    }
+    if let Some(c) = &b.extensions.creatures {
+        c.verify(b).map_err(|e| bad(format!("creatures: {e}")))?;
+    }
+    if let Some(g) = &b.extensions.grid {
+        g.verify(b).map_err(|e| bad(format!("grid grammar: {e}")))?;
+    }
     Ok(())
 }
 
@@ -238,6 +247,7 @@ mod tests {
             ],
             params: vec![],
             source_map: vec![],
+            extensions: Extensions::default(),
         }
     }
 
