@@ -23,3 +23,11 @@ pub struct Common<'a> {
     /// `--size` (width, height).
     pub size: (u32, u32),
 }
+
+/// Renders a model to PNG bytes at `size` (the picture every mode writes: `--png`,
+/// contact sheets, galleries). One place, so every mode's pictures look alike.
+pub fn render_png(out: &mdg_vm::output::Output, size: (u32, u32)) -> Result<Vec<u8>, String> {
+    let opts = mdg_vm::preview::PreviewOptions { width: size.0, height: size.1, ..Default::default() };
+    let rgba = mdg_vm::preview::render(out, &opts);
+    mdg_vm::preview::encode_png(&rgba, size.0, size.1).map_err(|e| format!("cannot encode PNG: {e}"))
+}
