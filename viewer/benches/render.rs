@@ -63,7 +63,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let sc = scene::build(&m.output);
         let t_pack = ms(t);
         let t = Instant::now();
-        off.renderer_mut().set_scene(&sc, &m, &prog)?;
+        off.renderer_mut().set_scene(&sc, &m.bundle, &m.output, &prog)?;
         let t_upload = ms(t);
         let frame = FrameParams { camera: off.home_camera(), time: 0.0, wireframe: false, camera_rule: false };
         let t = Instant::now();

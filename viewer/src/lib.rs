@@ -22,6 +22,7 @@ pub mod context;
 pub mod image;
 pub mod model;
 pub mod offscreen;
+pub mod picture;
 pub mod pipeline;
 pub mod program;
 pub mod reload;

@@ -9,6 +9,8 @@ use crate::model::Model;
 use crate::renderer::{FrameParams, Framebuffer, ModelInfo, Renderer, RendererOptions};
 use crate::Error;
 use ash::vk;
+use mdg_vm::bundle::Bundle;
+use mdg_vm::output::Output;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -60,6 +62,12 @@ impl Offscreen {
     pub fn set_model(&mut self, model: &Model, std_dir: Option<&Path>) -> Result<ModelInfo, Error> {
         self.ctx.wait_idle();
         self.renderer.set_model(model, std_dir).cloned()
+    }
+
+    /// Loads a bundle's output without copying it (see [`Renderer::set_output`]).
+    pub fn set_output(&mut self, bundle: &Bundle, output: &Output, std_dir: Option<&Path>) -> Result<ModelInfo, Error> {
+        self.ctx.wait_idle();
+        self.renderer.set_output(bundle, output, std_dir).cloned()
     }
 
     /// The MSAA sample count in use.

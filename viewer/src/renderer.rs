@@ -20,7 +20,8 @@ use crate::uniforms::{self, UniformSpec};
 use crate::Error;
 use ash::vk;
 use glam::{Mat4, Vec3};
-use mdg_vm::output::Animation;
+use mdg_vm::bundle::Bundle;
+use mdg_vm::output::{Animation, Output};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -301,16 +302,28 @@ impl Renderer {
     /// Uploads a model and builds its pipelines (its `program` or std Phong). On
     /// error the previous model stays. The GPU must be idle.
     pub fn set_model(&mut self, model: &Model, std_dir: Option<&Path>) -> Result<&ModelInfo, Error> {
-        let program = program::for_bundle(&model.bundle, std_dir)?;
-        let scene = scene::build(&model.output);
-        self.set_scene(&scene, model, &program)
+        self.set_output(&model.bundle, &model.output, std_dir)
     }
 
-    /// Like [`Renderer::set_model`] with a prepared scene and program.
+    /// Like [`Renderer::set_model`] with the bundle and its output held apart (no copy
+    /// of either is made).
+    pub fn set_output(
+        &mut self,
+        bundle: &Bundle,
+        output: &Output,
+        std_dir: Option<&Path>,
+    ) -> Result<&ModelInfo, Error> {
+        let program = program::for_bundle(bundle, std_dir)?;
+        let scene = scene::build(output);
+        self.set_scene(&scene, bundle, output, &program)
+    }
+
+    /// Like [`Renderer::set_output`] with a prepared scene and program.
     pub fn set_scene(
         &mut self,
         scene: &scene::Scene,
-        model: &Model,
+        bundle: &Bundle,
+        output: &Output,
         program: &ProgramSpirv,
     ) -> Result<&ModelInfo, Error> {
         let ctx = &self.ctx;
@@ -344,8 +357,8 @@ impl Renderer {
         } else {
             None
         };
-        let spec = UniformSpec::new(&model.bundle, &model.output);
-        let animation = model.output.animation.clone();
+        let spec = UniformSpec::new(&bundle, &output);
+        let animation = output.animation.clone();
         let globals = Buffer::host(ctx, uniforms::GLOBALS_SIZE as u64, vk::BufferUsageFlags::UNIFORM_BUFFER)?;
         let user_bytes = uniforms::user(&spec.values(&animation, 0.0));
         let user = Buffer::host(ctx, user_bytes.len() as u64, vk::BufferUsageFlags::UNIFORM_BUFFER)?;
@@ -356,12 +369,12 @@ impl Renderer {
         bones.write(0, &bone_bytes)?;
         let descriptors = Descriptors::new(ctx, &self.layout)?;
         descriptors.write(&globals, &bones, &user);
-        let s = &model.bundle.settings;
+        let s = &bundle.settings;
         let info = ModelInfo {
             bounds: scene.bounds,
             n_triangles: scene.n_triangles(),
             n_line_segments: scene.n_line_vertices as usize / 2,
-            background: model.output.background,
+            background: output.background,
             fov_deg: s.camerafov,
             near: s.near,
             far: s.far,

@@ -132,7 +132,7 @@ fn mirrored_model_is_lit_on_the_outside() {
     let mut off = Offscreen::new(&ctx, W, H, 4).expect("offscreen");
     let prog = program::for_bundle(&mirrored_model.bundle, Some(&root().join("std"))).expect("program");
     let sc = scene::build(&wrong);
-    off.renderer_mut().set_scene(&sc, &mirrored_model, &prog).expect("upload");
+    off.renderer_mut().set_scene(&sc, &mirrored_model.bundle, &mirrored_model.output, &prog).expect("upload");
     let px = off
         .render(&FrameParams { camera: mirrored.camera, time: 0.0, wireframe: false, camera_rule: false })
         .expect("render");

@@ -260,6 +260,43 @@ impl Extensions {
 }
 
 impl Bundle {
+    /// A bundle with no rules and the default settings of an empty program (used to
+    /// render outputs that were not made by one bundle, e.g. assembled creatures).
+    pub fn empty() -> Bundle {
+        Bundle {
+            strings: vec![String::new()],
+            settings: Settings {
+                startshape: 0,
+                maxdepth: 0,
+                minsize: 0.0,
+                maxiter: 0,
+                stacksize: 0,
+                randseed: 0,
+                normal: [0.0, 0.0, 1.0],
+                background: [0.12, 0.12, 0.14, 1.0],
+                fps: 30.0,
+                duration: 10.0,
+                camerafov: 40.0,
+                near: 0.1,
+                far: 1000.0,
+                linerule: NONE,
+                camerarule: NONE,
+                namespaces: vec![0],
+            },
+            transforms: vec![],
+            exprs: vec![],
+            rules: vec![],
+            code: vec![],
+            isosurfaces: vec![],
+            shaders: vec![],
+            program: None,
+            uniforms: vec![],
+            params: vec![],
+            source_map: vec![],
+            extensions: Extensions::default(),
+        }
+    }
+
     /// A string by index ("?" if out of range; verified bundles are always in range).
     pub fn string(&self, i: u32) -> &str {
         self.strings.get(i as usize).map(|s| s.as_str()).unwrap_or("?")

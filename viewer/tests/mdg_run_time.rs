@@ -88,3 +88,36 @@ fn time_beyond_duration_samples_an_infinite_rule_further() {
     assert!((got[0][2] - 5.0).abs() < 1e-4 && (got[1][0] - 1.0).abs() < 1e-5, "{got:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `mdg-run --png` draws with the Vulkan renderer: the bundle's own `program`
+/// (a shader painting everything `uniform tint`, green) shows in the picture,
+/// which the software fallback could not draw.
+#[test]
+fn png_uses_the_vulkan_renderer_and_the_bundles_program() {
+    if std::env::var_os("MDG_SKIP_VULKAN_TESTS").is_some() {
+        return;
+    }
+    let dir = temp_dir("png");
+    let data = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/custom_shader.mdg");
+    let png = dir.join("custom.png");
+    let out = run(&[
+        data.to_str().expect("utf-8"),
+        "-o",
+        dir.join("custom.glb").to_str().expect("utf-8"),
+        "--png",
+        png.to_str().expect("utf-8"),
+        "--size",
+        "160x120",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(!stderr.contains("software renderer"), "fell back to software: {stderr}");
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&png).expect("png written")));
+    let mut reader = decoder.read_info().expect("png header");
+    let mut buf = vec![0; reader.output_buffer_size().expect("size")];
+    let info = reader.next_frame(&mut buf).expect("png data");
+    assert_eq!((info.width, info.height), (160, 120));
+    let px: Vec<&[u8]> = buf.chunks(4).collect();
+    let green = px.iter().filter(|c| c[0] <= 1 && c[1] >= 254 && c[2] <= 1).count();
+    assert!(green > px.len() / 50, "{green} pure green pixels of {}", px.len());
+}

@@ -1,7 +1,8 @@
 //! `mdg-run`: evaluate a grammar (`.mdg` source or `.mdgb` bundle) and write a mesh.
 //!
-//! It lives in the compiler package because it compiles `.mdg` sources; the VM crate
-//! itself does not depend on the compiler.
+//! It lives in the viewer package so that pictures (`--png`, the modes' contact
+//! sheets) are rendered by the Vulkan offscreen renderer; the software renderer is
+//! the fallback where no Vulkan can start.
 
 use clap::Parser;
 use mdg_compiler::diag::render_plain;
@@ -47,7 +48,8 @@ struct Cli {
     /// Stop after this many seconds of evaluation.
     #[arg(long)]
     time_budget: Option<f64>,
-    /// Also write a picture (software preview renderer; the Vulkan viewer is `mdg-view`).
+    /// Also write a picture (Vulkan offscreen, lavapipe without a GPU; the software
+    /// renderer where no Vulkan is installed).
     #[arg(long)]
     png: Option<PathBuf>,
     /// Picture size, WIDTHxHEIGHT.
@@ -82,6 +84,7 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    mdg_viewer::picture::install(opts.std_dir.clone());
     let is_bundle = cli.file.extension().is_some_and(|e| e == "mdgb");
     let bundle = if is_bundle {
         let bytes = match std::fs::read(&cli.file) {
@@ -201,9 +204,8 @@ fn main() -> ExitCode {
         return ExitCode::from(2);
     }
     if let Some(png_path) = &cli.png {
-        let opts = mdg_vm::preview::PreviewOptions { width: w, height: h, ..Default::default() };
-        let rgba = mdg_vm::preview::render(&out, &opts);
-        match mdg_vm::preview::encode_png(&rgba, w, h) {
+        // With --time the pose is already baked into `out`.
+        match modes::render_png_of(Some(&bundle), &out, (w, h)) {
             Ok(bytes) => {
                 if let Err(e) = export::write_atomic(png_path, &bytes) {
                     eprintln!("mdg-run: cannot write {}: {e}", png_path.display());
@@ -212,7 +214,7 @@ fn main() -> ExitCode {
                 eprintln!("wrote {}", display(png_path));
             }
             Err(e) => {
-                eprintln!("mdg-run: cannot encode PNG: {e}");
+                eprintln!("mdg-run: cannot render the picture: {e}");
                 return ExitCode::from(1);
             }
         }
