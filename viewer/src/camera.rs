@@ -13,6 +13,36 @@ pub const HOME_AZIMUTH_DEG: f32 = 35.0;
 /// Home elevation, degrees.
 pub const HOME_ELEVATION_DEG: f32 = 25.0;
 
+/// A view given on the command line (`--camera AZ,EL[,ZOOM]`): degrees around +z
+/// and above the xy-plane, and a zoom factor over the framed distance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pose {
+    pub azimuth_deg: f32,
+    pub elevation_deg: f32,
+    pub zoom: f32,
+}
+
+impl std::str::FromStr for Pose {
+    type Err = String;
+
+    /// `AZ,EL` or `AZ,EL,ZOOM`, e.g. `35,25` (the home view) or `0,90,2`.
+    fn from_str(s: &str) -> Result<Pose, String> {
+        let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+        let num = |t: &str| t.parse::<f32>().ok().filter(|v| v.is_finite());
+        let bad = || format!("`{s}`: expected AZ,EL or AZ,EL,ZOOM in degrees (e.g. 35,25 or 0,90,2)");
+        match parts.as_slice() {
+            [a, e] | [a, e, _] => {
+                let zoom = match parts.get(2) {
+                    Some(z) => num(z).filter(|z| *z > 0.0).ok_or_else(bad)?,
+                    None => 1.0,
+                };
+                Ok(Pose { azimuth_deg: num(a).ok_or_else(bad)?, elevation_deg: num(e).ok_or_else(bad)?, zoom })
+            }
+            _ => Err(bad()),
+        }
+    }
+}
+
 /// An orbit camera.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct OrbitCamera {
@@ -43,6 +73,16 @@ impl OrbitCamera {
         };
         c.frame(bounds, aspect);
         c
+    }
+
+    /// This camera seen from azimuth `az_deg` and elevation `el_deg` (degrees, as
+    /// [`HOME_AZIMUTH_DEG`]), framed again, then moved `zoom` times closer (1 = framed).
+    pub fn posed(mut self, bounds: &Bounds, aspect: f32, pose: Pose) -> OrbitCamera {
+        self.azimuth = pose.azimuth_deg.to_radians();
+        self.elevation = pose.elevation_deg.clamp(-89.9, 89.9).to_radians();
+        self.frame(bounds, aspect);
+        self.distance /= pose.zoom.max(1e-3);
+        self
     }
 
     /// Keeps the direction, moves so the bounding sphere fills the view.

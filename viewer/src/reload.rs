@@ -23,6 +23,8 @@ pub enum Reloaded {
 
 enum Msg {
     Fs(notify::Result<notify::Event>),
+    /// New load options (a `@param` changed in the window).
+    Options(LoadOptions),
     Stop,
 }
 
@@ -55,7 +57,7 @@ impl ReloadHandle {
     pub fn start(
         path: PathBuf,
         files: Vec<PathBuf>,
-        opts: LoadOptions,
+        mut opts: LoadOptions,
         deliver: impl Fn(Reloaded) + Send + 'static,
     ) -> Result<ReloadHandle, String> {
         let (tx, rx) = mpsc::channel::<Msg>();
@@ -91,9 +93,14 @@ impl ReloadHandle {
                     _ => false,
                 };
                 while let Ok(msg) = rx.recv() {
-                    if matches!(msg, Msg::Stop) {
-                        return;
-                    }
+                    let msg = match msg {
+                        Msg::Stop => return,
+                        Msg::Options(o) => {
+                            opts = o;
+                            continue;
+                        }
+                        m => m,
+                    };
                     if !relevant(&files, &msg) {
                         continue;
                     }
@@ -101,6 +108,7 @@ impl ReloadHandle {
                     loop {
                         match rx.recv_timeout(DEBOUNCE) {
                             Ok(Msg::Stop) => return,
+                            Ok(Msg::Options(o)) => opts = o,
                             Ok(_) => continue,
                             Err(mpsc::RecvTimeoutError::Timeout) => break,
                             Err(mpsc::RecvTimeoutError::Disconnected) => return,
@@ -117,6 +125,13 @@ impl ReloadHandle {
             })
             .map_err(|e| format!("cannot start the reload thread: {e}"))?;
         Ok(ReloadHandle { tx, thread: Some(thread) })
+    }
+}
+
+impl ReloadHandle {
+    /// Reloads with these options from now on.
+    pub fn set_options(&self, opts: LoadOptions) {
+        let _ = self.tx.send(Msg::Options(opts));
     }
 }
 

@@ -9,7 +9,9 @@
 //! shift + left) to pan, scroll to zoom; `F` frames the model, `H` returns to the
 //! home view, `W` toggles wireframe, arrow keys orbit, `+`/`-` zoom; for animated
 //! models `Space` plays and pauses, `,` and `.` step one frame, `C` looks through
-//! the camera rule; `Esc`/`Q` quit.
+//! the camera rule; `P` selects the next `@param`, `[` and `]` step it down and up
+//! (Shift: ten steps) and the model is rebuilt with the new value, keeping the
+//! camera; `Esc`/`Q` quit.
 
 use crate::buffer::Buffer;
 use crate::camera::OrbitCamera;
@@ -46,6 +48,8 @@ pub struct WindowOptions {
     pub validation: Validation,
     pub samples: u32,
     pub time: f32,
+    /// The starting view (`--camera AZ,EL[,ZOOM]`); the home view when `None`.
+    pub pose: Option<crate::camera::Pose>,
 }
 
 /// How the run ended.
@@ -84,6 +88,8 @@ const QUIT_POLL: std::time::Duration = std::time::Duration::from_millis(100);
 /// Messages from other threads to the event loop.
 pub enum UserEvent {
     Reloaded(Reloaded),
+    /// A rebuild after a `@param` change, numbered so that only the newest is shown.
+    ParamRebuilt(u64, Reloaded),
 }
 
 /// Per-frame synchronisation: one frame in flight.
@@ -135,6 +141,10 @@ struct App {
     reload: Option<ReloadHandle>,
     summary: RunSummary,
     error: Option<Error>,
+    /// The selected `@param` (index into the bundle's params) and the number of the
+    /// newest rebuild asked for.
+    param: usize,
+    param_generation: u64,
 }
 
 /// Opens a window showing `model` (compiled from `path`, read from `files`) until it
@@ -163,6 +173,8 @@ pub fn run(path: PathBuf, model: Model, files: Vec<PathBuf>, opts: WindowOptions
         reload: None,
         summary: RunSummary::default(),
         error: None,
+        param: 0,
+        param_generation: 0,
     };
     app.time = start_time;
     event_loop.run_app(&mut app).map_err(|e| Error::Other(format!("event loop: {e}")))?;
@@ -226,7 +238,15 @@ impl App {
                 info.n_triangles, info.n_line_segments, info.program, ctx.device_name
             );
             let aspect = swapchain.extent.width as f32 / swapchain.extent.height.max(1) as f32;
-            self.camera = Some(OrbitCamera::framing(&info.bounds, info.fov_deg, aspect));
+            let home = OrbitCamera::framing(&info.bounds, info.fov_deg, aspect);
+            self.camera = Some(match self.opts.pose {
+                Some(p) => home.posed(&info.bounds, aspect, p),
+                None => home,
+            });
+            if !m.bundle.params.is_empty() {
+                let names: Vec<&str> = m.bundle.params.iter().map(|p| m.bundle.string(p.name)).collect();
+                eprintln!("mdg-view: @param {}: P selects, [ and ] change (Shift: ×10)", names.join(", "));
+            }
             if info.animated {
                 eprintln!("mdg-view: animated ({:.1} s at {} fps): Space plays, , and . step, C looks through the camera rule", info.duration, info.fps);
             }
@@ -443,6 +463,11 @@ impl App {
                         self.redraw();
                     }
                 }
+                "p" => self.select_param(),
+                "[" => self.change_param(-1.0),
+                "]" => self.change_param(1.0),
+                "{" => self.change_param(-10.0),
+                "}" => self.change_param(10.0),
                 "," | "<" => self.step(-1.0),
                 "." | ">" => self.step(1.0),
                 " " => {
@@ -507,6 +532,62 @@ impl App {
         }
     }
 
+    /// Selects the next `@param` and shows it.
+    fn select_param(&mut self) {
+        let Some(m) = &self.model else { return };
+        let n = m.bundle.params.len();
+        if n == 0 {
+            eprintln!("mdg-view: this grammar has no @param");
+            return;
+        }
+        self.param = (self.param + 1) % n;
+        self.show_param();
+    }
+
+    fn show_param(&self) {
+        let Some(m) = &self.model else { return };
+        let Some(p) = m.bundle.params.get(self.param % m.bundle.params.len().max(1)) else { return };
+        let range = if p.max > p.min { format!(" in [{}, {}]", p.min, p.max) } else { String::new() };
+        let text = format!("{} = {}{range}", m.bundle.string(p.name), p.value);
+        eprintln!("mdg-view: @param {text}");
+        if let Some(g) = &self.gpu {
+            g.window.set_title(&format!("mdg-view — {} — {text}", self.path.display()));
+        }
+    }
+
+    /// Moves the selected `@param` by `steps` steps (1 for an int; a twentieth of
+    /// the range, or a tenth of the value, for a float), clamped to its range, and
+    /// rebuilds the model with it in the background.
+    fn change_param(&mut self, steps: f64) {
+        let Some(m) = &self.model else { return };
+        let Some(p) = m.bundle.params.get(self.param) else {
+            eprintln!("mdg-view: this grammar has no @param");
+            return;
+        };
+        let Some(v) = stepped(p, steps) else { return };
+        let name = m.bundle.string(p.name).to_string();
+        let value = if p.ty == 0 { format!("{}", v as i64) } else { format!("{v}") };
+        self.opts.load.params.retain(|(n, _)| *n != name);
+        self.opts.load.params.push((name.clone(), value.clone()));
+        if let Some(r) = &self.reload {
+            r.set_options(self.opts.load.clone());
+        }
+        eprintln!("mdg-view: @param {name} = {value}: rebuilding");
+        self.param_generation += 1;
+        let generation = self.param_generation;
+        let (path, opts, proxy) = (self.path.clone(), self.opts.load.clone(), self.proxy.clone());
+        let spawned = std::thread::Builder::new().name("mdg-param".into()).spawn(move || {
+            let r = match crate::model::load(&path, &opts) {
+                Ok((m, _)) => Reloaded::Model(Box::new(m)),
+                Err(fail) => Reloaded::Failed(fail.error.to_string()),
+            };
+            let _ = proxy.send_event(UserEvent::ParamRebuilt(generation, r));
+        });
+        if let Err(e) = spawned {
+            eprintln!("mdg-view: cannot rebuild: {e}");
+        }
+    }
+
     fn reloaded(&mut self, r: Reloaded) {
         match r {
             Reloaded::Failed(msg) => {
@@ -529,6 +610,55 @@ impl App {
                 }
             }
         }
+    }
+}
+
+/// `p`'s value moved by `steps` steps — a bool flips; 1 for an int; a twentieth of the range, or
+/// a tenth of the value (at least 0.1) for a float without one — rounded for ints
+/// and clamped to the range. `None` when it would not change.
+pub fn stepped(p: &mdg_vm::bundle::Param, steps: f64) -> Option<f64> {
+    if p.ty == 2 {
+        // A bool flips.
+        return Some(if p.value != 0.0 { 0.0 } else { 1.0 });
+    }
+    let step = if p.ty == 0 {
+        1.0
+    } else if p.max > p.min {
+        (p.max - p.min) / 20.0
+    } else {
+        (p.value.abs() * 0.1).max(0.1)
+    };
+    let mut v = p.value + steps * step;
+    if p.ty == 0 {
+        v = v.round();
+    }
+    if p.max > p.min {
+        v = v.clamp(p.min, p.max);
+    }
+    (v != p.value && v.is_finite()).then_some(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::stepped;
+    use mdg_vm::bundle::Param;
+
+    #[test]
+    fn param_steps_round_ints_clamp_to_the_range_and_scale_floats() {
+        let int = Param { name: 0, ty: 0, value: 3.0, min: 1.0, max: 5.0 };
+        assert_eq!(stepped(&int, 1.0), Some(4.0));
+        assert_eq!(stepped(&int, 10.0), Some(5.0));
+        assert_eq!(stepped(&Param { value: 5.0, ..int }, 1.0), None);
+        assert_eq!(stepped(&int, -10.0), Some(1.0));
+        let ranged = Param { name: 0, ty: 1, value: 0.5, min: 0.0, max: 2.0 };
+        let near = |a: Option<f64>, b: f64| a.is_some_and(|a| (a - b).abs() < 1e-12);
+        assert!(near(stepped(&ranged, 1.0), 0.6));
+        let free = Param { name: 0, ty: 1, value: 4.0, min: 0.0, max: 0.0 };
+        assert!(near(stepped(&free, -1.0), 3.6));
+        assert!(near(stepped(&Param { value: 0.0, ..free }, 1.0), 0.1));
+        let flag = Param { name: 0, ty: 2, value: 1.0, min: 0.0, max: 0.0 };
+        assert_eq!(stepped(&flag, 1.0), Some(0.0));
+        assert_eq!(stepped(&Param { value: 0.0, ..flag }, -1.0), Some(1.0));
     }
 }
 
@@ -687,6 +817,12 @@ impl ApplicationHandler<UserEvent> for App {
     fn user_event(&mut self, _event_loop: &ActiveEventLoop, event: UserEvent) {
         match event {
             UserEvent::Reloaded(r) => self.reloaded(r),
+            UserEvent::ParamRebuilt(generation, r) => {
+                if generation == self.param_generation {
+                    self.reloaded(r);
+                    self.show_param();
+                }
+            }
         }
     }
 

@@ -1,6 +1,7 @@
 //! `mdg-view`: show a grammar in a window, or render it offscreen to PNG.
 
 use clap::Parser;
+use mdg_viewer::camera::Pose;
 use mdg_viewer::context::{Context, ContextOptions, Validation};
 use mdg_viewer::model::{self, LoadOptions};
 use mdg_viewer::offscreen::{self, Offscreen};
@@ -38,9 +39,11 @@ struct Cli {
     /// are read at this time (the window starts there).
     #[arg(long, default_value_t = 0.0)]
     time: f32,
-    /// Offscreen view: `rule` looks through the grammar's camerarule, `home` frames
-    /// the model from the front right, `auto` is `rule` when there is one.
-    #[arg(long, default_value = "auto", value_parser = ["auto", "home", "rule"])]
+    /// The view: `rule` looks through the grammar's camerarule, `home` frames the
+    /// model from the front right, `auto` is `rule` when there is one (offscreen);
+    /// `AZ,EL[,ZOOM]` frames it from azimuth AZ and elevation EL in degrees, ZOOM
+    /// times closer (window and offscreen), e.g. `--camera 0,90` looks down.
+    #[arg(long, default_value = "auto")]
     camera: String,
     /// With --png: render N views around the model, written as FILE-NN.png, and a
     /// contact sheet of them at FILE.
@@ -97,8 +100,13 @@ fn offscreen(cli: &Cli, model: &model::Model, size: (u32, u32), load: &LoadOptio
         t0.elapsed().as_secs_f64() * 1e3
     );
     let Some(png) = &cli.png else { return Ok(0) };
-    let home = off.home_camera();
+    let pose = camera_pose(&cli.camera)?;
+    let home = match pose {
+        Some(p) => off.home_camera().posed(&info.bounds, size.0 as f32 / size.1 as f32, p),
+        None => off.home_camera(),
+    };
     let camera_rule = match cli.camera.as_str() {
+        _ if pose.is_some() => false,
         "home" => false,
         "rule" if !info.has_camera_rule => {
             return Err(Error::Other("--camera rule: the grammar has no camerarule".into()));
@@ -128,6 +136,14 @@ fn offscreen(cli: &Cli, model: &model::Model, size: (u32, u32), load: &LoadOptio
     Ok(ctx.validation_log().errors())
 }
 
+/// `--camera`: `None` for auto/home/rule, the pose for `AZ,EL[,ZOOM]`.
+fn camera_pose(arg: &str) -> Result<Option<Pose>, Error> {
+    match arg {
+        "auto" | "home" | "rule" => Ok(None),
+        _ => arg.parse::<Pose>().map(Some).map_err(|e| Error::Other(format!("--camera {e}"))),
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let Some(size) = parse_size(&cli.size) else {
@@ -136,6 +152,13 @@ fn main() -> ExitCode {
     };
     let opts = match cli.compile.options() {
         Ok(o) => o,
+        Err(e) => {
+            eprintln!("mdg-view: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let pose = match camera_pose(&cli.camera) {
+        Ok(p) => p,
         Err(e) => {
             eprintln!("mdg-view: {e}");
             return ExitCode::from(2);
@@ -173,6 +196,7 @@ fn main() -> ExitCode {
             validation: Validation::from_env(),
             samples: cli.samples,
             time: cli.time,
+            pose,
         };
         window::run(cli.file.clone(), model, files, opts).map(|s| {
             eprintln!("mdg-view: closed cleanly after {} frames ({} reloads) on {}", s.frames, s.reloads, s.device);
