@@ -141,6 +141,107 @@ fn diagnostics_hover_definition_completion_formatting() {
     assert!(c.shutdown_and_exit().success());
 }
 
+/// A program with the §11 extension sections (guided search and a creature grammar).
+const SECTIONS: &str = "search {\n  skeleton limb;\n}\nguide left {\n  points 0 0 0  0 0 1  0.5 0 2  1.5 0 2.5;\n  delta_a 0.6;\n}\ncreature monsters {\n  part torso_h { rule limb; mesh \"parts/torso.obj\"; slot neck { at 0 0 1.4; } }\n}\nrule limb { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n";
+
+/// The semantic tokens as (line, column, length, type, modifiers).
+fn decode_tokens(data: &Value) -> Vec<[u64; 5]> {
+    let nums: Vec<u64> = data.as_array().into_iter().flatten().filter_map(Value::as_u64).collect();
+    let (mut line, mut col) = (0, 0);
+    nums.chunks(5)
+        .map(|c| {
+            if c[0] > 0 {
+                (line, col) = (line + c[0], c[1]);
+            } else {
+                col += c[1];
+            }
+            [line, col, c[2], c[3], c[4]]
+        })
+        .collect()
+}
+
+#[test]
+fn sections_hover_outline_completion_tokens_and_folding() {
+    use mdg_compiler::ext::keys;
+    let dir = scratch("sections");
+    let u = uri(&dir.join("main.mdg"));
+    let mut c = Client::spawn();
+    c.initialize(&dir);
+    c.open(&u, 1, SECTIONS);
+    c.diagnostics(&u, 1);
+
+    // Hover on a section word: what the section is for, and where its keys are documented.
+    let h = c.call("textDocument/hover", at(&u, SECTIONS, "guide", 2));
+    assert_eq!(h["contents"]["kind"], "markdown");
+    let text = h["contents"]["value"].as_str().unwrap_or("");
+    assert!(text.starts_with("```mdg\nguide [NAME] {"), "{h}");
+    assert!(text.contains("docs/guided.md"), "{h}");
+    assert!(c.call("textDocument/hover", at(&u, SECTIONS, "creature", 1))["contents"]["value"]
+        .as_str()
+        .unwrap_or("")
+        .contains("docs/creatures.md"));
+
+    // Hover on a key: its values and doc from the key table (nothing for a key it lacks),
+    // at the key's range.
+    for (needle, path) in
+        [("delta_a", &["guide"][..]), ("slot", &["creature", "part"][..]), ("at 0", &["creature", "part", "slot"][..])]
+    {
+        let name = needle.split(' ').next().unwrap_or(needle);
+        let h = c.call("textDocument/hover", at(&u, SECTIONS, needle, 1));
+        match keys(path).iter().find(|k| k.name == name) {
+            Some(k) => {
+                let value = h["contents"]["value"].as_str().unwrap_or("");
+                assert!(value.starts_with(format!("```mdg\n{} {}", k.name, k.values).trim_end()), "{h}");
+                assert!(value.contains(k.doc), "{h}");
+                let start = pos_of(SECTIONS, needle, 0);
+                assert_eq!(h["range"]["start"], start, "{h}");
+            }
+            None => assert!(h.is_null(), "{h}"),
+        }
+    }
+
+    // The outline: each section, its named blocks nested.
+    let syms = c.call("textDocument/documentSymbol", json!({"textDocument": text_doc(&u)}));
+    let names: Vec<&str> = syms.as_array().into_iter().flatten().filter_map(|s| s["name"].as_str()).collect();
+    assert_eq!(names, ["search", "guide left", "creature monsters", "limb"]);
+    let creature = &syms[2];
+    assert_eq!(creature["kind"], 23, "a section is a struct: {creature}");
+    assert_eq!(creature["selectionRange"]["start"], pos_of(SECTIONS, "monsters", 0));
+    assert_eq!(creature["children"][0]["name"], "part torso_h");
+    assert_eq!(creature["children"][0]["kind"], 19, "a named block is an object");
+    assert_eq!(creature["children"][0]["children"][0]["name"], "slot neck");
+
+    // Completion at the start of an entry offers the keys of the section, as properties.
+    let comp = c.call("textDocument/completion", at(&u, SECTIONS, "delta_a", 0));
+    let items = comp["items"].as_array().cloned().unwrap_or_default();
+    let labels: Vec<&str> = items.iter().filter_map(|i| i["label"].as_str()).collect();
+    let want: Vec<&str> = keys(&["guide"]).iter().map(|k| k.name).collect();
+    assert_eq!(labels, want, "{comp}");
+    assert!(items.iter().all(|i| i["kind"] == 10 && i["insertTextFormat"] == 2), "{comp}");
+
+    // Tokens: the section word is a keyword, keys are properties, the path a string.
+    let toks =
+        decode_tokens(&c.call("textDocument/semanticTokens/full", json!({"textDocument": text_doc(&u)}))["data"]);
+    let token_at = |needle: &str| {
+        let p = pos_of(SECTIONS, needle, 0);
+        let (line, col) = (p["line"].as_u64().unwrap_or(0), p["character"].as_u64().unwrap_or(0));
+        toks.iter().find(|t| t[0] == line && t[1] == col).map(|t| (t[2], t[3], t[4]))
+    };
+    assert_eq!(token_at("guide"), Some((5, 4, 0)), "keyword");
+    assert_eq!(token_at("delta_a"), Some((7, 3, 0)), "property");
+    assert_eq!(token_at("rule limb;"), Some((4, 3, 0)), "`rule` as a key is a property");
+    assert_eq!(token_at("\"parts"), Some((17, 11, 0)), "string");
+    assert_eq!(token_at("limb;"), Some((4, 0, 0)), "a rule name the section refers to is a rule");
+
+    // Folding: the multi-line sections.
+    let folds = c.call("textDocument/foldingRange", json!({"textDocument": text_doc(&u)}));
+    assert_eq!(
+        folds,
+        json!([{"startLine": 0, "endLine": 1, "kind": "region"}, {"startLine": 3, "endLine": 5, "kind": "region"}, {"startLine": 7, "endLine": 8, "kind": "region"}])
+    );
+    assert!(c.shutdown_and_exit().success());
+}
+
 /// Applies one LSP edit (ASCII text only) to `text`.
 fn mdg_format(text: &str, edit: &Value) -> String {
     let offset = |p: &Value| {

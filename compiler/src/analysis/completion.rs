@@ -3,7 +3,11 @@
 //! The context comes from the tokens before the cursor, not the tree, because the
 //! text being typed rarely parses: brackets say whether the cursor is at the top
 //! level, in a rule body, an adjustment list, an expression, an isosurface or a
-//! program, and the previous token says what the statement expects next.
+//! program, and the previous token says what the statement expects next. Inside a
+//! §11 extension section the brackets give the path of keys (`creature` → `part` →
+//! `slot`): at the start of an entry the keys of that path are offered, from
+//! [`crate::ext::keys`]; a value gets rule names only where the section's module
+//! reads a rule name ([`crate::ext::rule_refs`] on the text with a probe word there).
 
 use super::docs::{self, DocKind};
 use super::index::{qualify, Occ, Symbol};
@@ -38,6 +42,8 @@ pub enum CompletionKind {
     Keyword,
     Shader,
     Macro,
+    /// A key of an extension section.
+    Key,
 }
 
 /// One completion.
@@ -60,7 +66,8 @@ pub struct Completions {
     pub items: Vec<CompletionItem>,
 }
 
-/// Where the cursor is, as far as completion cares.
+/// Where the cursor is, as far as completion cares. `SectionKey`: at the start of an
+/// entry of a section, whose keys are those at `path` (`["creature", "part"]`).
 #[derive(Clone, Debug, PartialEq, Eq)]
 enum Context {
     TopLevel,
@@ -76,9 +83,12 @@ enum Context {
     FunctionName,
     Import,
     Preprocessor,
+    SectionKey { path: Vec<String> },
     Nothing,
 }
 
+/// An open bracket. `Section`: a section's `{ … }` or a nested block, with the path
+/// of keys to it and the first word of the entry being written (`None` at its start).
 #[derive(Clone, Debug, PartialEq, Eq)]
 enum Frame {
     Namespace(String),
@@ -88,6 +98,7 @@ enum Frame {
     Expr { position_vars: bool },
     Iso,
     Program,
+    Section { path: Vec<String>, key: Option<String> },
     Other,
 }
 
@@ -95,20 +106,25 @@ fn is_word_char(c: char) -> bool {
     c.is_ascii_alphanumeric() || c == '_' || c == '.' || c == '@'
 }
 
+/// The word typed before `offset` (clamped to a char boundary): its start and the offset.
+fn word_before(text: &str, offset: u32) -> (usize, usize) {
+    let mut offset = (offset as usize).min(text.len());
+    while !text.is_char_boundary(offset) {
+        offset -= 1;
+    }
+    let start = text[..offset]
+        .char_indices()
+        .rev()
+        .find(|(_, c)| !is_word_char(*c))
+        .map(|(i, c)| i + c.len_utf8())
+        .unwrap_or(0);
+    (start, offset)
+}
+
 impl Document {
     /// The completions at `offset`.
     pub fn completion(&self, offset: u32, config: &CompletionConfig) -> Completions {
-        let text = self.text();
-        let mut offset = (offset as usize).min(text.len());
-        while !text.is_char_boundary(offset) {
-            offset -= 1;
-        }
-        let start = text[..offset]
-            .char_indices()
-            .rev()
-            .find(|(_, c)| !is_word_char(*c))
-            .map(|(i, c)| i + c.len_utf8())
-            .unwrap_or(0);
+        let (start, offset) = word_before(self.text(), offset);
         let replace = Span::new(self.main_file(), start as u32, offset as u32);
         let context = self.context(start, offset);
         let items = self.items_for(&context, config, offset);
@@ -123,6 +139,10 @@ impl Document {
             return Context::Nothing;
         }
         if idx.tokens.iter().any(|t| t.kind == Tok::Shader && inside(t.span) && (offset as u32) < t.span.end) {
+            return Context::Nothing;
+        }
+        // Inside a "string" (the closing quote still ahead).
+        if idx.tokens.iter().any(|t| t.kind == Tok::Str && inside(t.span) && (offset as u32) < t.span.end) {
             return Context::Nothing;
         }
         let line_start = text[..start].rfind('\n').map(|i| i + 1).unwrap_or(0);
@@ -146,6 +166,12 @@ impl Document {
         for (i, t) in before.iter().enumerate() {
             let top_level = matches!(stack.last(), None | Some(Frame::Namespace(_)));
             let prev = if i > 0 { Some(before[i - 1].kind) } else { None };
+            // The first word of a section entry is its key.
+            if let Some(Frame::Section { key: key @ None, .. }) = stack.last_mut() {
+                if !matches!(t.kind, Tok::Semi | Tok::LBrace | Tok::RBrace) {
+                    *key = Some(self.span_text(t.span).to_string());
+                }
+            }
             match t.kind {
                 Tok::LBrace => {
                     let frame = match stack.last() {
@@ -158,8 +184,17 @@ impl Document {
                             Some(Tok::KwFunction) | Some(Tok::KwSelector) => Frame::Expr { position_vars: true },
                             Some(Tok::KwIsosurface) => Frame::Iso,
                             Some(Tok::KwProgram) => Frame::Program,
+                            Some(Tok::KwSection) => Frame::Section {
+                                path: pending.map(|p| self.span_text(before[p].span).to_string()).into_iter().collect(),
+                                key: None,
+                            },
                             _ => Frame::Other,
                         },
+                        Some(Frame::Section { path, key }) => {
+                            let mut path = path.clone();
+                            path.push(key.clone().unwrap_or_default());
+                            Frame::Section { path, key: None }
+                        }
                         Some(Frame::Rule) | Some(Frame::Block) => match prev {
                             Some(Tok::Ident) | Some(Tok::Dotted) | Some(Tok::Star) => Frame::Adj,
                             _ => Frame::Block,
@@ -179,8 +214,17 @@ impl Document {
                     stack.push(Frame::Expr { position_vars });
                 }
                 Tok::RBrace | Tok::RBracket | Tok::RParen => {
-                    stack.pop();
+                    let closed = stack.pop();
                     pending = None;
+                    // A nested block ends its entry.
+                    if let (Some(Frame::Section { .. }), Some(Frame::Section { key, .. })) = (closed, stack.last_mut()) {
+                        *key = None;
+                    }
+                }
+                Tok::Semi => {
+                    if let Some(Frame::Section { key, .. }) = stack.last_mut() {
+                        *key = None;
+                    }
                 }
                 Tok::KwRule
                 | Tok::KwNamespace
@@ -196,8 +240,20 @@ impl Document {
                 | Tok::KwColor
                 | Tok::KwWeight
                 | Tok::KwSection
-                    // `function` inside a selector line belongs to the selector.
-                    if top_level && !(t.kind == Tok::KwFunction && pending.is_some_and(|p| before[p].kind == Tok::KwSelector)) =>
+                    // `function` inside a selector line belongs to the selector; a section
+                    // word that names a rule, namespace, function or isosurface is a name.
+                    if top_level
+                        && !(t.kind == Tok::KwFunction && pending.is_some_and(|p| before[p].kind == Tok::KwSelector))
+                        && !(t.kind == Tok::KwSection
+                            && matches!(
+                                prev,
+                                Some(Tok::KwRule)
+                                    | Some(Tok::KwNamespace)
+                                    | Some(Tok::KwFunction)
+                                    | Some(Tok::KwIsosurface)
+                                    | Some(Tok::Star)
+                                    | Some(Tok::Colon)
+                            )) =>
                 {
                     pending = Some(i);
                 }
@@ -261,8 +317,44 @@ impl Document {
                 "fragmentshader" if prev == Some(Tok::Ident) => Context::Shader { vertex: false },
                 _ => Context::Program,
             },
+            Some(Frame::Section { path, key: None }) => Context::SectionKey { path: path.clone() },
+            Some(Frame::Section { key: Some(_), .. }) => {
+                if self.section_value_is_rule(start, offset) {
+                    Context::RuleName { ns }
+                } else {
+                    Context::Nothing
+                }
+            }
             Some(Frame::Other) => Context::Nothing,
         }
+    }
+
+    /// Whether the section module reads the word at `start..offset` (a value of a
+    /// section entry) as a rule name: the text with a probe word there is parsed and
+    /// [`crate::ext::rule_refs`] asked about the probe. The entry may be unfinished,
+    /// so the probe is also tried with a `;` after it.
+    fn section_value_is_rule(&self, start: usize, offset: usize) -> bool {
+        const PROBE: &str = "mdg_completion_probe";
+        let text = self.text();
+        let end = text[offset..].find(|c: char| !is_word_char(c)).map(|i| offset + i).unwrap_or(text.len());
+        for tail in ["", ";"] {
+            let mut sources = crate::source::Sources::default();
+            let probed = format!("{}{PROBE}{tail}{}", &text[..start], &text[end..]);
+            let path = self.file_path(self.main_file()).map(|p| p.to_path_buf()).unwrap_or_default();
+            let file = sources.add(path, "completion probe", probed);
+            let parsed = crate::parse::parse_file(&sources, file);
+            let mut sections = Vec::new();
+            sections_in(&parsed.file.items, &mut sections);
+            let at_probe = |v: &crate::ast::Value| matches!(v, crate::ast::Value::Word(w) if w.span.start as usize == start && w.text == PROBE);
+            for sec in sections {
+                if entries_have(&sec.entries, &at_probe) {
+                    return crate::ext::rule_refs(sec)
+                        .iter()
+                        .any(|n| n.span.start as usize == start && n.text == PROBE);
+                }
+            }
+        }
+        false
     }
 
     fn items_for(&self, context: &Context, config: &CompletionConfig, _offset: usize) -> Vec<CompletionItem> {
@@ -456,6 +548,26 @@ impl Document {
                     });
                 }
             }
+            Context::SectionKey { path } => {
+                let path: Vec<&str> = path.iter().map(String::as_str).collect();
+                for k in crate::ext::keys(&path) {
+                    let mut inner = path.clone();
+                    inner.push(k.name);
+                    let block = !crate::ext::keys(&inner).is_empty();
+                    out.push(CompletionItem {
+                        label: k.name.to_string(),
+                        kind: CompletionKind::Key,
+                        detail: Some(if k.values.is_empty() {
+                            k.name.to_string()
+                        } else {
+                            format!("{} {}", k.name, k.values)
+                        }),
+                        documentation: Some(k.doc.to_string()),
+                        insert_text: key_snippet(k.name, k.values, block),
+                        snippet: true,
+                    });
+                }
+            }
             Context::Nothing => {}
         }
         out
@@ -555,6 +667,7 @@ fn directive_snippet(name: &str) -> String {
         "color" => "color ${1:R} ${2:G} ${3:B} ${4:A}".to_string(),
         "weight" => "weight ${1:u} ${2:v} ${3:w} ${4:q}".to_string(),
         "uniform" => "uniform ${1:name} ${2:0} ${3:0} ${4:0} ${5:1}".to_string(),
+        "guide" | "search" | "creature" | "grid" => format!("{name} ${{1:name}} {{\n\t$0\n}}"),
         _ => match NUMERIC_DIRECTIVES.iter().find(|d| d.0 == name) {
             Some(&(_, lo, _, _)) => {
                 let args: Vec<String> = (1..=lo).map(|i| format!("${{{i}:0}}")).collect();
@@ -562,6 +675,40 @@ fn directive_snippet(name: &str) -> String {
             }
             None => name.to_string(),
         },
+    }
+}
+
+/// The sections among `items`, in namespaces and `@ifdef` branches too.
+fn sections_in<'a>(items: &'a [crate::ast::Item], out: &mut Vec<&'a crate::ast::Section>) {
+    use crate::ast::{ItemKind, Pre};
+    for item in items {
+        match &item.kind {
+            ItemKind::Section(sec) => out.push(sec),
+            ItemKind::Namespace { items, .. } => sections_in(items, out),
+            ItemKind::Pre(Pre::IfDef { then, otherwise, .. }) => {
+                sections_in(then, out);
+                if let Some(o) = otherwise {
+                    sections_in(o, out);
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+/// Whether some value of `entries` (nested blocks included) satisfies `f`.
+fn entries_have(entries: &[crate::ast::Entry], f: &dyn Fn(&crate::ast::Value) -> bool) -> bool {
+    entries.iter().any(|e| e.values.iter().any(f) || e.block.as_ref().is_some_and(|(inner, _)| entries_have(inner, f)))
+}
+
+/// `KEY ${1:VALUES};`, or `KEY ${1:VALUES} {↵ $0 ↵}` for a key that opens a block.
+fn key_snippet(name: &str, values: &str, block: bool) -> String {
+    let escaped = values.replace('\\', "\\\\").replace('$', "\\$").replace('}', "\\}");
+    let head = if values.is_empty() { name.to_string() } else { format!("{name} ${{1:{escaped}}}") };
+    if block {
+        format!("{head} {{\n\t$0\n}}")
+    } else {
+        format!("{head};$0")
     }
 }
 
@@ -679,6 +826,149 @@ mod tests {
     fn imports_offer_the_std_library() {
         assert_eq!(labels("@import $0"), ["lines", "primitives"]);
         assert_eq!(labels("@import lines pri$0"), ["lines", "primitives"]);
+    }
+
+    fn context_at(src: &str) -> Context {
+        let (d, at) = doc(src);
+        let (start, offset) = word_before(d.text(), at);
+        d.context(start, offset)
+    }
+
+    fn section_key(path: &[&str]) -> Context {
+        Context::SectionKey { path: path.iter().map(|s| s.to_string()).collect() }
+    }
+
+    #[test]
+    fn section_contexts_follow_the_brackets() {
+        assert_eq!(context_at("guide x {\n  $0\n}"), section_key(&["guide"]));
+        assert_eq!(context_at("search {\n  zz 1;\n  sk$0"), section_key(&["search"]));
+        assert_eq!(context_at("grid {\n  zz 1 { a; }\n  $0\n}"), section_key(&["grid"]));
+        assert_eq!(
+            context_at("creature m { part p { type t; slot s { at 0 0 1; } $0 } }"),
+            section_key(&["creature", "part"])
+        );
+        assert_eq!(
+            context_at("creature m { part p { slot s { at 0 0 (1 + 2); $0"),
+            section_key(&["creature", "part", "slot"])
+        );
+        assert_eq!(context_at("creature m {\n  rule grow {\n    $0\n  }\n}"), section_key(&["creature", "rule"]));
+        assert_eq!(context_at("namespace n {\n  guide g { $0 }\n}"), section_key(&["guide"]));
+        // Values: rule names only where the section reads a rule name.
+        assert_eq!(context_at("guide x { zz_no_such_key 0 $0 }"), Context::Nothing);
+        assert_eq!(context_at("guide g { zz_file \"a$0b\"; }"), Context::Nothing);
+        // Section words as names, and items after a section.
+        assert_eq!(context_at("rule grid {\n  $0\n}"), Context::Body { ns: None, call_braces: true });
+        assert_eq!(context_at("rule A : grid {\n  $0\n}"), Context::Body { ns: None, call_braces: true });
+        assert_eq!(context_at("guide g { zz 1; }\nrule A { $0 }"), Context::Body { ns: None, call_braces: true });
+        assert_eq!(context_at("guide g { zz 1; }\n$0"), Context::TopLevel);
+    }
+
+    #[test]
+    fn section_entries_offer_their_keys_with_docs_and_snippets() {
+        fn check(path: &mut Vec<&'static str>, depth: usize, n_paths: &mut usize) {
+            let keys = crate::ext::keys(path);
+            if keys.is_empty() || depth > 6 {
+                return;
+            }
+            *n_paths += 1;
+            // `KIND x { KEY n { … { $0 } } }` reaches the path.
+            let mut src = format!("{} x {{ ", path[0]);
+            for k in &path[1..] {
+                src.push_str(&format!("{k} n {{ "));
+            }
+            src.push_str("zz 1;\n$0");
+            let (d, at) = doc(&src);
+            let items = d.completion(at, &CompletionConfig::default()).items;
+            assert_eq!(items.len(), keys.len(), "{src}: {items:?}");
+            for (item, k) in items.iter().zip(keys) {
+                path.push(k.name);
+                let block = !crate::ext::keys(path).is_empty();
+                assert_eq!(item.label, k.name);
+                assert_eq!(item.kind, CompletionKind::Key);
+                assert_eq!(item.detail.as_deref(), Some(format!("{} {}", k.name, k.values).trim_end()));
+                assert_eq!(item.documentation.as_deref(), Some(k.doc));
+                assert_eq!((item.insert_text.clone(), item.snippet), (key_snippet(k.name, k.values, block), true));
+                check(path, depth + 1, n_paths);
+                path.pop();
+            }
+        }
+        let mut n_paths = 0;
+        for kind in crate::lexer::SECTION_KINDS {
+            check(&mut vec![kind], 0, &mut n_paths);
+        }
+        let top = crate::lexer::SECTION_KINDS.iter().filter(|k| !crate::ext::keys(&[k]).is_empty()).count();
+        assert!(n_paths >= top, "{n_paths} paths with keys");
+    }
+
+    #[test]
+    fn key_snippets() {
+        assert_eq!(key_snippet("delta_a", "OFFSET", false), "delta_a ${1:OFFSET};$0");
+        assert_eq!(key_snippet("part", "NAME", true), "part ${1:NAME} {\n\t$0\n}");
+        assert_eq!(key_snippet("evolve", "", true), "evolve {\n\t$0\n}");
+        assert_eq!(key_snippet("wrap", "", false), "wrap;$0");
+        assert_eq!(key_snippet("cost", "$X {a} \\", false), "cost ${1:\\$X {a\\} \\\\};$0");
+    }
+
+    #[test]
+    fn section_kinds_at_the_top_level() {
+        has("rule A { VERTEX {} }\ngu$0", &["guide", "search", "creature", "grid"]);
+        let (d, at) = doc("rule A { VERTEX {} }\ncre$0");
+        let c = d.completion(at, &CompletionConfig::default());
+        let item = c.items.iter().find(|i| i.label == "creature").expect("creature");
+        assert_eq!(item.insert_text, "creature ${1:name} {\n\t$0\n}");
+        assert!(item.detail.as_deref().unwrap_or("").starts_with("creature [NAME] {"), "{item:?}");
+        assert!(item.documentation.as_deref().unwrap_or("").contains("docs/creatures.md"), "{item:?}");
+    }
+
+    #[test]
+    fn rule_names_where_the_section_reads_a_rule_name() {
+        // For every key path, a word as the key's first value: rule names are offered
+        // exactly where `ext::rule_refs` reads that word as a rule name.
+        fn walk(path: &mut Vec<&'static str>, depth: usize, found: &mut usize, total: &mut usize) {
+            for k in crate::ext::keys(path) {
+                path.push(k.name);
+                let mut src = format!("{} x {{ ", path[0]);
+                for p in &path[1..path.len() - 1] {
+                    src.push_str(&format!("{p} n {{ "));
+                }
+                src.push_str(&format!("{} le$0af;", k.name));
+                src.push_str(&" }".repeat(path.len() - 1));
+                src.push_str("\nrule leaf { VERTEX {} }\n");
+                let (plain, _) = super::super::fixture::cursor(&src);
+                let (d, _) = doc(&plain);
+                let mut sections = Vec::new();
+                sections_in(&d.analysis.expanded.main_ast.items, &mut sections);
+                let is_rule = sections.iter().any(|s| crate::ext::rule_refs(s).iter().any(|n| n.text == "leaf"));
+                let offered = labels(&src).iter().any(|l| l == "leaf");
+                assert_eq!(offered, is_rule, "{src}");
+                *found += is_rule as usize;
+                *total += 1;
+                if depth < 6 {
+                    walk(path, depth + 1, found, total);
+                }
+                path.pop();
+            }
+        }
+        let (mut found, mut total) = (0, 0);
+        for kind in crate::lexer::SECTION_KINDS {
+            walk(&mut vec![kind], 0, &mut found, &mut total);
+        }
+        eprintln!("{found} of {total} key positions take rule names");
+        // Where a rule name is expected, the partial word is replaced.
+        let (d, at) = doc("namespace n {\n  rule leaf { VERTEX {} }\n  search { skeleton le$0 }\n}");
+        if crate::ext::rule_refs(&parse_section("search { skeleton leaf; }")).len() == 1 {
+            let c = d.completion(at, &CompletionConfig::default());
+            let got: Vec<&str> = c.items.iter().map(|i| i.label.as_str()).collect();
+            assert!(got.contains(&"leaf") && got.contains(&"n.leaf"), "{got:?}");
+            assert_eq!(d.span_text(c.replace), "le");
+        }
+    }
+
+    fn parse_section(text: &str) -> crate::ast::Section {
+        let (d, _) = doc(text);
+        let mut sections = Vec::new();
+        sections_in(&d.analysis.expanded.main_ast.items, &mut sections);
+        sections.first().map(|s| (*s).clone()).expect("a section")
     }
 
     #[test]

@@ -61,6 +61,11 @@ pub const DOCS: &[Doc] = &[
     d(Directive, "function", "function NAME { EXPR }", "A named function of x, y, z (and depth, scale), for isosurfaces and selectors."),
     d(Directive, "isosurface", "isosurface NAME { xyz MIN MAX RES ; function { EXPR } }", "Declares the drawable NAME: the surface f(x, y, z) = 0 by marching cubes, inside where f < 0."),
     d(Directive, "program", "program { vertexshader VS fragmentshader FS target screen render }", "The shader program. Without one the viewer uses the std Phong program."),
+    // Extension sections (reference §18, SPEC §11).
+    d(Directive, "guide", "guide [NAME] { KEY VALUE… ; … }", "A guiding curve for guided search (SOSMC): a cubic Bézier path that the bones made by the skeleton rules are steered along, with its own scales and segment length. Keys: see docs/guided.md."),
+    d(Directive, "search", "search [NAME] { KEY VALUE… ; … }", "Guided-search settings (SOSMC): which rules are skeleton rules (their calls form bones and may not draw), the wrap-up productions that replace leftover skeleton calls, and the search's parameters; the curves are `guide` sections. Keys: see docs/guided.md."),
+    d(Directive, "creature", "creature [NAME] { KEY VALUE… ; KEY VALUE… { … } }", "A creature grammar: parts (their geometry from MDG rules or imported meshes) with slots, meta-parts and allelic families, structure rules with priority, condition and a probability that may depend on the generation `g`, selection rules and geometry rules. Keys: see docs/creatures.md."),
+    d(Directive, "grid", "grid [NAME] { KEY VALUE… ; KEY VALUE… { … } }", "A grid shape grammar (SIGI): voxel shapes, adjacency rules sᵢ → sᵢ sⱼ with a relative placement (matched under quarter turns about the vertical axis), a start shape and generation options. Keys: see docs/grid.md."),
     // Adjustments (reference §5).
     d(Adjustment, "x", "x X [Y [Z]]", "Translate by (X, Y, Z); missing components are 0."),
     d(Adjustment, "y", "y Y", "Translate along y."),

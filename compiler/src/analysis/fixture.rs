@@ -54,3 +54,28 @@ pub fn show(doc: &Document, span: Span) -> String {
     let (line, col) = f.line_col(span.start);
     format!("{name}:{}:{} {:?}", line + 1, col + 1, doc.span_text(span))
 }
+
+/// A section of `kind` that uses every key of [`crate::ext::keys`] once, at every
+/// path (`KEY 1;`, or `KEY nN { … }` for a key that opens a block), one entry a line.
+pub fn section_sample(kind: &str) -> String {
+    fn entries(path: &mut Vec<&'static str>, depth: usize, n: &mut usize, out: &mut String) {
+        for k in crate::ext::keys(path) {
+            let pad = "  ".repeat(depth);
+            path.push(k.name);
+            if crate::ext::keys(path).is_empty() || depth > 6 {
+                out.push_str(&format!("{pad}{} 1;\n", k.name));
+            } else {
+                *n += 1;
+                out.push_str(&format!("{pad}{} n{n} {{\n", k.name));
+                entries(path, depth + 1, n, out);
+                out.push_str(&format!("{pad}}}\n"));
+            }
+            path.pop();
+        }
+    }
+    let kind: &'static str = crate::lexer::SECTION_KINDS.iter().copied().find(|k| *k == kind).unwrap_or("guide");
+    let mut out = format!("{kind} sample {{\n");
+    entries(&mut vec![kind], 1, &mut 0, &mut out);
+    out.push_str("}\n");
+    out
+}

@@ -1,5 +1,5 @@
 //! Folding ranges: rule bodies, blocks, namespaces, functions, isosurfaces,
-//! programs, `@ifdef` regions, macro and shader blocks, block comments, runs of
+//! programs, extension sections and their nested blocks, `@ifdef` regions, macro and shader blocks, block comments, runs of
 //! line comments and runs of `@import` lines. Only ranges over several lines.
 
 use super::Document;
@@ -97,8 +97,22 @@ fn items(list: &[Item], out: &mut Vec<Fold>) {
             ItemKind::Function { .. } | ItemKind::Isosurface { .. } | ItemKind::Program { .. } => {
                 out.push(region(item.span))
             }
+            ItemKind::Section(sec) => {
+                out.push(region(item.span));
+                entries(&sec.entries, out);
+            }
             ItemKind::Pre(p) => pre(p, item.span, out, &mut |v: &[Item], out: &mut Vec<Fold>| items(v, out)),
             _ => {}
+        }
+    }
+}
+
+/// The nested blocks of a section's entries.
+fn entries(list: &[Entry], out: &mut Vec<Fold>) {
+    for e in list {
+        if let Some((inner, _)) = &e.block {
+            out.push(Fold { span: e.span, kind: FoldKind::Region });
+            entries(inner, out);
         }
     }
 }
@@ -182,5 +196,33 @@ rule D { VERTEX {} }
                 "Region 19-21"
             ]
         );
+    }
+
+    #[test]
+    fn sections_and_nested_blocks_fold() {
+        let src = "\
+creature m {
+  part p {
+    slot s {
+      at 0 0 1;
+    }
+    type t;
+  }
+  part q { type t; }
+}
+guide g { points 0 0 0 0 0 1 0 0 2 0 0 3; }
+search {
+  skeleton A;
+}
+rule A { VERTEX {} }
+";
+        let (d, _) = doc(src);
+        let file = d.analysis().sources.file(d.main_file());
+        let got: Vec<String> = d
+            .folding_ranges()
+            .iter()
+            .map(|f| format!("{:?} {}-{}", f.kind, file.line_col(f.span.start).0 + 1, file.line_col(f.span.end).0 + 1))
+            .collect();
+        assert_eq!(got, ["Region 1-9", "Region 2-7", "Region 3-5", "Region 11-13"]);
     }
 }

@@ -62,6 +62,20 @@ mod tests {
     }
 
     #[test]
+    fn formats_sections() {
+        let src = "guide left {points 0 0 0\n  0 0 1 ; delta_a 0.6;}\ncreature m { part p { type t; slot s { at 0 0 1; } } }\n";
+        let e = format_edit(FileId(0), src).expect("parses").expect("changes");
+        let formatted = apply(src, &e);
+        assert_eq!(formatted, crate::fmt::format_source(src).expect("fmt"));
+        assert!(
+            formatted.contains("  part p {\n    type t;\n    slot s {\n      at 0 0 1;\n    }\n  }\n"),
+            "{formatted}"
+        );
+        assert_eq!(format_edit(FileId(0), &formatted), Ok(None));
+        assert!(format_edit(FileId(0), "guide g { points 0 0").is_err());
+    }
+
+    #[test]
     fn unicode_and_syntax_errors() {
         let src = "// é ü 😀\nrule A {   VERTEX {} }\n";
         let e = format_edit(FileId(0), src).expect("parses").expect("changes");

@@ -36,7 +36,7 @@ impl Document {
                 };
                 doc(DocKind::Adjustment, canonical)
             }
-            Occ::Directive(n) => doc(DocKind::Directive, n),
+            Occ::Directive(n) => doc(DocKind::Directive, n).map(|d| section_kind_hover(n, d)),
             Occ::SelectorMode(n) => doc(DocKind::SelectorMode, n),
             Occ::AngleMode(n) => doc(DocKind::AngleMode, n),
             Occ::Preprocessor(n) => doc(DocKind::Preprocessor, n),
@@ -47,6 +47,7 @@ impl Document {
             Occ::Define(n) => Some(self.define_hover(n)),
             Occ::Iterator(info) => Some(self.iterator_hover(info, o.span)),
             Occ::Number { value, unit } => Some(number_hover(self.span_text(o.span), *value, *unit)),
+            Occ::SectionKey(path) => section_key_hover(path),
         }?;
         Some(Hover { span: o.span, markdown })
     }
@@ -317,6 +318,40 @@ impl Document {
     }
 }
 
+/// A section keyword's doc with the keys its sections take (other directives as they are).
+fn section_kind_hover(kind: &str, doc: String) -> String {
+    if !crate::lexer::SECTION_KINDS.contains(&kind) {
+        return doc;
+    }
+    let keys = crate::ext::keys(&[kind]);
+    if keys.is_empty() {
+        return doc;
+    }
+    format!("{doc}\n\nKeys: {}", key_list(keys))
+}
+
+/// `` `a`, `b`, `c` ``.
+fn key_list(keys: &[crate::ext::Key]) -> String {
+    keys.iter().map(|k| format!("`{}`", k.name)).collect::<Vec<_>>().join(", ")
+}
+
+/// A section key: how it is written and what it does, from [`crate::ext::keys`];
+/// nothing for a key the section does not take (its diagnostic says so).
+fn section_key_hover(path: &[String]) -> Option<String> {
+    let (key, outer) = path.split_last()?;
+    let outer: Vec<&str> = outer.iter().map(String::as_str).collect();
+    let k = crate::ext::keys(&outer).iter().find(|k| k.name == key.as_str())?;
+    let head = if k.values.is_empty() { k.name.to_string() } else { format!("{} {}", k.name, k.values) };
+    let mut out = format!("```mdg\n{head}\n```\n{}", k.doc);
+    let mut inner_path = outer;
+    inner_path.push(k.name);
+    let inner = crate::ext::keys(&inner_path);
+    if !inner.is_empty() {
+        out.push_str(&format!("\n\nIn its block: {}", key_list(inner)));
+    }
+    Some(out)
+}
+
 fn number_hover(text: &str, value: f64, unit: char) -> String {
     let deg = fmt_num(angle_degrees(value, Some(unit), AngleUnit::Degrees));
     let v = fmt_num(value);
@@ -332,6 +367,8 @@ fn number_hover(text: &str, value: f64, unit: char) -> String {
 #[cfg(test)]
 mod tests {
     use super::super::fixture::{doc, doc_with};
+    use super::super::index::Occ;
+    use crate::span::Span;
 
     fn hover(src: &str) -> String {
         let (d, at) = doc(src);
@@ -430,6 +467,84 @@ mod tests {
         );
         let h = d.hover(at).map(|h| h.markdown).unwrap_or_default();
         assert_eq!(h, "```mdg\n@macro TRI(s)\n```\nmacro, lib.mdg:1");
+    }
+
+    #[test]
+    fn section_keywords_say_what_the_section_is_for() {
+        for (kind, page) in [
+            ("guide", "docs/guided.md"),
+            ("search", "docs/guided.md"),
+            ("creature", "docs/creatures.md"),
+            ("grid", "docs/grid.md"),
+        ] {
+            let h = hover(&format!("{}$0{} x {{\n}}\n", &kind[..1], &kind[1..]));
+            assert!(h.starts_with(&format!("```mdg\n{kind} [NAME] {{")), "{h}");
+            assert!(h.contains(page), "{h}");
+            for k in crate::ext::keys(&[kind]) {
+                assert!(h.contains(&format!("`{}`", k.name)), "{kind} hover lacks key {}: {h}", k.name);
+            }
+        }
+        // A section word used as a rule name is the rule.
+        assert!(hover("startshape grid\nrule gr$0id { VERTEX {} }").starts_with("**rule `grid`**"));
+    }
+
+    #[test]
+    fn every_key_of_every_section_shows_its_doc() {
+        let mut seen = 0;
+        for kind in crate::lexer::SECTION_KINDS {
+            let src = super::super::fixture::section_sample(kind);
+            let (d, _) = doc(&src);
+            let keys: Vec<(Span, Vec<String>)> = d
+                .index()
+                .main
+                .iter()
+                .filter_map(|o| match &o.occ {
+                    Occ::SectionKey(p) => Some((o.span, p.clone())),
+                    _ => None,
+                })
+                .collect();
+            assert_eq!(keys.len(), src.lines().filter(|l| l.ends_with(';') || l.ends_with('{')).count() - 1, "{src}");
+            for (span, path) in keys {
+                let (name, outer) = path.split_last().expect("a path has a key");
+                let outer: Vec<&str> = outer.iter().map(String::as_str).collect();
+                let key = crate::ext::keys(&outer).iter().find(|k| k.name == name).expect("the sample uses table keys");
+                let h = d.hover(span.start + 1).expect("a key has a hover");
+                assert_eq!(h.span, span);
+                let head = format!("{} {}", key.name, key.values);
+                assert!(h.markdown.starts_with(&format!("```mdg\n{}\n```\n{}", head.trim_end(), key.doc)), "{h:?}");
+                seen += 1;
+            }
+        }
+        let total: usize = crate::lexer::SECTION_KINDS.iter().map(|k| crate::ext::keys(&[k]).len()).sum();
+        assert!(seen >= total, "{seen} keys hovered, {total} at the top level of the tables");
+    }
+
+    #[test]
+    fn section_keys_know_their_path_and_unknown_keys_say_nothing() {
+        let src = "creature m {\n  part torso_h { type torso; rule h_torso; slot neck { at 0 0 1.4; } }\n  zz_no_such_key 1;\n}\nrule h_torso { VERTEX {} }\n";
+        let (d, _) = doc(src);
+        let path_at = |needle: &str| match src.find(needle).and_then(|i| d.index().at(i as u32 + 1)).map(|o| &o.occ) {
+            Some(Occ::SectionKey(p)) => p.join(" "),
+            other => format!("{other:?}"),
+        };
+        assert_eq!(path_at("part"), "creature part");
+        assert_eq!(path_at("type"), "creature part type");
+        assert_eq!(path_at("rule h_torso;"), "creature part rule");
+        assert_eq!(path_at("slot"), "creature part slot");
+        assert_eq!(path_at("at 0"), "creature part slot at");
+        assert_eq!(path_at("zz_no"), "creature zz_no_such_key");
+        assert_eq!(hover(&src.replace("zz_no", "zz_n$0o")), "<none>");
+        // A keyword used as a key is not the keyword.
+        assert!(!hover(&src.replace("rule h_torso;", "ru$0le h_torso;")).contains("A rule definition"));
+        assert!(!hover("grid g { weight$0 2; }").contains("Renames the weight"));
+    }
+
+    #[test]
+    fn section_values_hover_like_elsewhere() {
+        assert_eq!(hover("@define W 3\nguide g { zz_width W$0; }"), "**@define `W`** = 3");
+        assert_eq!(hover("guide g { zz_turn 0.25$0o; }"), "`0.25o`: 0.25 orbit(s) = 90°");
+        assert!(hover("guide g { zz_size (s$0in(1)); }").contains("Sine"));
+        assert_eq!(hover("guide g { zz_file \"a$0.obj\"; }"), "<none>");
     }
 
     #[test]

@@ -3,7 +3,8 @@
 //!
 //! Two walks feed it. The main file's own tree (as written, both branches of every
 //! `@ifdef`) gives the syntax-level occurrences the editor shows: adjustments,
-//! drawables, directives, iterator headers, numbers with units. The expanded program
+//! drawables, directives, iterator headers, numbers with units, the keys of
+//! extension sections with their paths. The expanded program
 //! (every imported file, macro expansions resolved) gives the symbol occurrences —
 //! definitions and references of rules, namespaces, functions, isosurfaces and
 //! shaders — in every file. Macros are found by lexing, since their bodies are not
@@ -12,6 +13,7 @@
 use crate::ast::*;
 use crate::check::Symbols;
 use crate::driver::Analysis;
+use crate::expand::Expanded;
 use crate::lexer::{self, Comment, Tok, Token};
 use crate::source::Sources;
 use crate::span::{FileId, Span};
@@ -95,6 +97,10 @@ pub enum Occ {
         value: f64,
         unit: char,
     },
+    /// The key of an entry of a §11 extension section, with its path: the section's
+    /// kind, the keys of the blocks around it, then the key itself
+    /// (`["creature", "part", "slot"]`); see [`crate::ext::keys`].
+    SectionKey(Vec<String>),
 }
 
 impl Occ {
@@ -131,14 +137,14 @@ impl Index {
         let mut all = Vec::new();
         // The expanded program: symbols in every file.
         {
-            let mut w = Walker { sym, sources: &a.sources, out: &mut all, syntax: false };
+            let mut w = Walker { sym, ex: &a.expanded, sources: &a.sources, out: &mut all, syntax: false };
             for e in &a.expanded.items {
                 w.item(&e.item, e.namespace.as_deref());
             }
         }
         // The main file as written: everything, inactive branches included.
         {
-            let mut w = Walker { sym, sources: &a.sources, out: &mut all, syntax: true };
+            let mut w = Walker { sym, ex: &a.expanded, sources: &a.sources, out: &mut all, syntax: true };
             w.items(&a.expanded.main_ast.items, None);
         }
         for sh in &a.expanded.shaders {
@@ -149,7 +155,9 @@ impl Index {
         }
         let main_text = a.sources.files.get(main.0 as usize).map(|f| f.text.as_str()).unwrap_or("");
         let lexed = lexer::lex(main_text, main);
-        keywords(&lexed.tokens, main_text, &mut all);
+        let mut section_bodies = Vec::new();
+        section_spans(&a.expanded.main_ast.items, &mut section_bodies);
+        keywords(&lexed.tokens, main_text, &section_bodies, &mut all);
         macros(&lexed.tokens, main_text, &mut all);
         for &file in a.expanded.files.iter().filter(|f| **f != main) {
             let text = &a.sources.file(file).text;
@@ -214,9 +222,31 @@ pub fn qualify(ns: Option<&str>, name: &str) -> String {
     }
 }
 
-/// Keywords and preprocessor words of the main file, from its tokens.
-fn keywords(tokens: &[Token], text: &str, out: &mut Vec<Occurrence>) {
+/// The bodies (`{ … }`) of the sections among `items`, in namespaces and `@ifdef`
+/// branches too.
+fn section_spans(items: &[Item], out: &mut Vec<Span>) {
+    for item in items {
+        match &item.kind {
+            ItemKind::Section(sec) => out.push(sec.body_span),
+            ItemKind::Namespace { items, .. } => section_spans(items, out),
+            ItemKind::Pre(Pre::IfDef { then, otherwise, .. }) => {
+                section_spans(then, out);
+                if let Some(o) = otherwise {
+                    section_spans(o, out);
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+/// Keywords and preprocessor words of the main file, from its tokens. Inside a
+/// section's body (`sections`) keywords are keys or values, not keywords.
+fn keywords(tokens: &[Token], text: &str, sections: &[Span], out: &mut Vec<Occurrence>) {
     for t in tokens {
+        if sections.iter().any(|s| s.file == t.span.file && s.start < t.span.start && t.span.end <= s.end) {
+            continue;
+        }
         let s = text.get(t.span.range()).unwrap_or("");
         let word_span = |w: &str| Span::new(t.span.file, t.span.start, t.span.start + w.len() as u32);
         match t.kind {
@@ -298,6 +328,7 @@ fn macros(tokens: &[Token], text: &str, out: &mut Vec<Occurrence>) {
 
 struct Walker<'a, 'o> {
     sym: &'a Symbols,
+    ex: &'a Expanded,
     sources: &'a Sources,
     out: &'o mut Vec<Occurrence>,
     /// Whether to record syntax-level occurrences too (the main file's own tree).
@@ -392,8 +423,14 @@ impl Walker<'_, '_> {
                 }
             }
             ItemKind::Section(sec) => {
-                for n in crate::ext::rule_refs(sec) {
+                let refs = crate::ext::rule_refs(sec);
+                for n in &refs {
                     self.rule_ref(n, ns);
+                }
+                if self.syntax {
+                    let rule_spans: Vec<Span> = refs.iter().map(|n| n.span).collect();
+                    let mut path = vec![sec.kind.text.clone()];
+                    self.entries(&sec.entries, &mut path, &|w| rule_spans.contains(&w));
                 }
             }
             ItemKind::Program { words } => {
@@ -420,6 +457,35 @@ impl Walker<'_, '_> {
             ItemKind::Pre(p) => self.pre(p, &mut |w: &mut Self, items: &[Item]| w.items(items, ns)),
             ItemKind::Error => {}
         }
+    }
+
+    /// The keys of a section's entries (with their paths) and what their values hold:
+    /// numbers with units, expressions, `@define`/`@param` names. `is_rule` says
+    /// which words the section's module reads as rule names (already indexed).
+    fn entries(&mut self, entries: &[Entry], path: &mut Vec<String>, is_rule: &dyn Fn(Span) -> bool) {
+        for e in entries {
+            path.push(e.key.text.clone());
+            self.syn(e.key.span, Occ::SectionKey(path.clone()));
+            for v in &e.values {
+                match v {
+                    Value::Num(n) | Value::Neg(n) => self.number(n),
+                    Value::Expr(x) => self.expr(x),
+                    Value::Word(w) if !is_rule(w.span) && self.is_constant(&w.text) => {
+                        self.syn(w.span, Occ::Define(w.text.clone()))
+                    }
+                    Value::Word(_) | Value::Str(..) => {}
+                }
+            }
+            if let Some((inner, _)) = &e.block {
+                self.entries(inner, path, is_rule);
+            }
+            path.pop();
+        }
+    }
+
+    /// Whether `name` is a `@define` or `@param` of the program.
+    fn is_constant(&self, name: &str) -> bool {
+        self.ex.defines.contains_key(name) || self.ex.params.iter().any(|p| p.name.text == name)
     }
 
     fn pre<T>(&mut self, p: &Pre<T>, nested: &mut dyn FnMut(&mut Self, &[T])) {

@@ -1,6 +1,6 @@
 //! Robustness: every feature at random offsets of randomly edited documents —
-//! unbalanced brackets, half-written preprocessor lines, unterminated comments,
-//! non-ASCII text — must answer without panicking, in bounded time.
+//! unbalanced brackets, half-written preprocessor lines, unterminated comments and
+//! sections, non-ASCII text — must answer without panicking, in bounded time.
 
 use super::fixture::doc;
 use super::CompletionConfig;
@@ -63,6 +63,14 @@ pub const FRAGMENTS: &[&str] = &[
     "#",
     ";",
     "cube {}",
+    "guide g { ",
+    "search {\n  skeleton leaf;\n}\n",
+    "creature c {\n  part p { rule leaf; slot s { at 0 0 1; } }\n}\n",
+    "part p { ",
+    "points 0 0 0 0 0 1;",
+    "\"a.obj\"",
+    "\"",
+    "grid ",
 ];
 
 /// A small deterministic PRNG (xorshift64*).
@@ -136,4 +144,27 @@ fn every_feature_survives_random_edits() {
         assert!(took < Duration::from_secs(2), "step {step} took {took:?} on:\n{text}");
     }
     eprintln!("robustness: 400 edits in {:.2?}", started.elapsed());
+}
+
+/// Every prefix of a document full of sections (each an unfinished edit: open
+/// blocks, half a string, a key without values), and every offset of the whole.
+#[test]
+fn sections_survive_every_prefix_and_offset() {
+    let text = "@define W 2\nsearch {\n  skeleton leaf;\n  wrapup leaf cube;\n}\nguide left {\n  points 0 0 0  0 0 1  0.5 0 2  1.5 0 (W);\n  delta_a 0.6;\n}\nnamespace n {\n  creature m {\n    part p { type torso; rule leaf; mesh \"é/a.obj\"; slot neck { at 0 0 1.4; } }\n    rule grow { zz 1; }\n  }\n}\ngrid g { zz { } ; }\nrule leaf { VERTEX {} }\n";
+    let config = CompletionConfig::default();
+    let ends: Vec<usize> = text.char_indices().map(|(i, _)| i).chain([text.len()]).collect();
+    let mut rng = Rng(7);
+    for &end in &ends {
+        let (d, _) = doc(&text[..end]);
+        let len = d.text().len() as u32;
+        let _ = (d.diagnostics(), d.semantic_tokens(), d.folding_ranges(), d.document_symbols(), d.format());
+        for at in [len, len.saturating_sub(1), rng.below(len as usize + 1) as u32] {
+            let _ = (d.hover(at), d.completion(at, &config), d.definition(at), d.rename(at, "renamed"));
+        }
+    }
+    let (d, _) = doc(text);
+    for &at in &ends {
+        let at = at as u32;
+        let _ = (d.hover(at), d.completion(at, &config), d.references(at, true));
+    }
 }

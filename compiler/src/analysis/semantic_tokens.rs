@@ -1,6 +1,7 @@
 //! Semantic tokens: what each word of the document is — rule, drawable, adjustment,
-//! directive, number (and its unit), comment, preprocessor word — for highlighting
-//! that a TextMate grammar cannot do (a rule call and a drawable look alike).
+//! directive, number (and its unit), comment, preprocessor word, section key and
+//! string — for highlighting that a TextMate grammar cannot do (a rule call and a
+//! drawable look alike).
 
 use super::index::{Occ, Symbol};
 use super::Document;
@@ -40,6 +41,10 @@ pub enum SemanticKind {
     Shader,
     /// The continuation `\`.
     Operator,
+    /// A key of an extension section.
+    Property,
+    /// A `"string"` (section values).
+    String,
 }
 
 /// One token: a span in the document (it may cross lines only for comments).
@@ -75,6 +80,7 @@ impl Document {
                 Occ::MathFunction(_) => (SemanticKind::MathFunction, false),
                 Occ::Variable(_) => (SemanticKind::Variable, false),
                 Occ::Define(_) => (SemanticKind::Constant, false),
+                Occ::SectionKey(_) => (SemanticKind::Property, false),
                 Occ::Iterator(_) | Occ::Number { .. } => continue,
             };
             let span = match kind {
@@ -98,6 +104,7 @@ impl Document {
                     }
                 }
                 Tok::Backslash => push(t.span, SemanticKind::Operator, false, 1),
+                Tok::Str => push(t.span, SemanticKind::String, false, 1),
                 // Inside macro bodies names are not resolved; drawables are still known.
                 Tok::Ident
                     if !covered.contains(&t.span.start)
@@ -209,6 +216,38 @@ Drawable \"LINETO\"
 Adjustment \"x\"
 MathFunction \"sin\"
 Number \"1\"";
+        assert_eq!(tokens(src), expected);
+    }
+
+    #[test]
+    fn sections_keys_strings_and_values() {
+        let src = "\
+@define W 2
+creature m {
+  part p { rule leaf; mesh \"parts/a b.obj\"; slot s { at 0 0 (W * 2); turn 0.25o; } }
+}
+rule leaf { VERTEX {} }";
+        let expected = "\
+Preprocessor \"@define\"
+Constant \"W\"
+Keyword \"creature\"
+Property \"part\"
+Property \"rule\"
+Rule \"leaf\"
+Property \"mesh\"
+String \"\\\"parts/a b.obj\\\"\"
+Property \"slot\"
+Property \"at\"
+Number \"0\"
+Number \"0\"
+Constant \"W\"
+Number \"2\"
+Property \"turn\"
+Number \"0.25\"
+Unit \"o\"
+Keyword \"rule\"
+Rule* \"leaf\"
+Drawable \"VERTEX\"";
         assert_eq!(tokens(src), expected);
     }
 

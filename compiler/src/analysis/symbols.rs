@@ -3,7 +3,9 @@
 //! The outline follows the file as written: rules grouped by name with one child
 //! per definition, namespaces with their items, functions, isosurfaces, macros and
 //! shaders; items under `@ifdef` appear in place, both branches. Rules and
-//! isosurfaces made by `@expand` in this file are listed at the expansion.
+//! isosurfaces made by `@expand` in this file are listed at the expansion. Each §11
+//! extension section is listed (`creature monsters`) with its named blocks nested
+//! under it (`part torso_h` → `slot neck`).
 
 use super::index::{qualify, Occ, Symbol};
 use super::Document;
@@ -21,6 +23,10 @@ pub enum SymbolKind {
     Isosurface,
     Macro,
     Shader,
+    /// A §11 extension section (`guide left`).
+    Section,
+    /// A named block inside a section (`part torso_h { … }`).
+    SectionBlock,
 }
 
 /// One entry of the outline.
@@ -139,6 +145,20 @@ impl Document {
                     selection: m.name.span,
                     children: vec![],
                 }),
+                ItemKind::Section(sec) => {
+                    let (name, selection) = match &sec.name {
+                        Some(n) => (format!("{} {}", sec.kind.text, n.text), n.span),
+                        None => (sec.kind.text.clone(), sec.kind.span),
+                    };
+                    out.push(DocumentSymbol {
+                        name,
+                        detail: None,
+                        kind: SymbolKind::Section,
+                        span: item.span,
+                        selection,
+                        children: section_blocks(&sec.entries),
+                    });
+                }
                 ItemKind::Pre(Pre::Shader { vertex, name, .. }) => out.push(DocumentSymbol {
                     name: name.text.clone(),
                     detail: Some(if *vertex { "vertex shader" } else { "fragment shader" }.to_string()),
@@ -213,6 +233,28 @@ impl Document {
         out.dedup();
         out
     }
+}
+
+/// The named blocks among a section's entries (`KEY NAME … { … }`), each with its
+/// own named blocks; the named blocks of an unnamed block are lifted to its level.
+fn section_blocks(entries: &[Entry]) -> Vec<DocumentSymbol> {
+    let mut out = Vec::new();
+    for e in entries {
+        let Some((inner, _)) = &e.block else { continue };
+        let children = section_blocks(inner);
+        match e.values.first() {
+            Some(Value::Word(w)) => out.push(DocumentSymbol {
+                name: format!("{} {}", e.key.text, w.text),
+                detail: None,
+                kind: SymbolKind::SectionBlock,
+                span: e.span,
+                selection: w.span,
+                children,
+            }),
+            _ => out.extend(children),
+        }
+    }
+    out
 }
 
 fn collect_selections(syms: &[DocumentSymbol], out: &mut Vec<Span>) {
@@ -301,6 +343,56 @@ Shader vs (vertex shader)
 Rule spin
 "
         );
+    }
+
+    #[test]
+    fn sections_and_their_named_blocks() {
+        let src = "\
+guide left {
+  points 0 0 0  0 0 1  0.5 0 2  1.5 0 2.5;
+  delta_a 0.6;
+}
+namespace n {
+  creature monsters {
+    part torso_h { type torso; rule h_torso; slot neck { at 0 0 1.4; normal 0 0 1; } }
+    zz_group {
+      rule grow_arms { zz 1; }
+    }
+    zz_numbered 3 { zz_inner x { } }
+  }
+}
+search {
+  skeleton h_torso;
+}
+rule h_torso { VERTEX {} }
+grid g {
+";
+        let (d, _) = doc(src);
+        let mut out = String::new();
+        outline(&d.document_symbols(), 0, &mut out);
+        assert_eq!(
+            out,
+            "\
+Section guide left
+Namespace n
+  Section creature monsters
+    SectionBlock part torso_h
+      SectionBlock slot neck
+    SectionBlock rule grow_arms
+    SectionBlock zz_inner x
+Section search
+Rule h_torso
+"
+        );
+        let syms = d.document_symbols();
+        let guide = &syms[0];
+        assert_eq!(d.span_text(guide.selection), "left");
+        assert!(d.span_text(guide.span).starts_with("guide left {") && d.span_text(guide.span).ends_with('}'));
+        let search = &syms[2];
+        assert_eq!(d.span_text(search.selection), "search");
+        let part = &syms[1].children[0].children[0];
+        assert_eq!(d.span_text(part.selection), "torso_h");
+        assert!(d.span_text(part.span).starts_with("part torso_h {"));
     }
 
     #[test]

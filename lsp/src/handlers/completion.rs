@@ -55,5 +55,6 @@ fn kind(k: K) -> CompletionItemKind {
         K::Library => CompletionItemKind::MODULE,
         K::Snippet => CompletionItemKind::SNIPPET,
         K::Shader => CompletionItemKind::FILE,
+        K::Key => CompletionItemKind::PROPERTY,
     }
 }

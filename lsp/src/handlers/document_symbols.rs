@@ -26,6 +26,8 @@ pub fn kind(k: K) -> SymbolKind {
         K::Isosurface => SymbolKind::CLASS,
         K::Macro => SymbolKind::CONSTANT,
         K::Shader => SymbolKind::FILE,
+        K::Section => SymbolKind::STRUCT,
+        K::SectionBlock => SymbolKind::OBJECT,
     }
 }
 

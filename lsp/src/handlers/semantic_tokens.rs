@@ -11,7 +11,7 @@ const TYPES: &[SemanticTokenType] = &[
     SemanticTokenType::FUNCTION,    // 0 rule, user function, shader
     SemanticTokenType::TYPE,        // 1 drawable
     SemanticTokenType::CLASS,       // 2 isosurface
-    SemanticTokenType::PROPERTY,    // 3 adjustment
+    SemanticTokenType::PROPERTY,    // 3 adjustment, section key
     SemanticTokenType::KEYWORD,     // 4 directive, keyword, unit suffix
     SemanticTokenType::ENUM_MEMBER, // 5 selector and angle modes
     SemanticTokenType::NUMBER,      // 6
@@ -19,7 +19,7 @@ const TYPES: &[SemanticTokenType] = &[
     SemanticTokenType::MACRO,       // 8 preprocessor words and macros
     SemanticTokenType::NAMESPACE,   // 9
     SemanticTokenType::VARIABLE,    // 10 expression variables and constants
-    SemanticTokenType::STRING,      // 11 import names
+    SemanticTokenType::STRING,      // 11 import names, strings
     SemanticTokenType::OPERATOR,    // 12 continuation
 ];
 
@@ -53,6 +53,8 @@ fn encode(k: K) -> (u32, u32) {
         K::Constant => (10, READONLY),
         K::Import => (11, 0),
         K::Operator => (12, 0),
+        K::Property => (3, 0),
+        K::String => (11, 0),
     }
 }
 
