@@ -194,14 +194,9 @@ fn main() -> ExitCode {
         }
         None => {}
     }
-    let mut bytes = Vec::new();
-    if let Err(e) = export::write(format, &out, &mut bytes) {
-        eprintln!("mdg-run: cannot export: {e}");
-        return ExitCode::from(1);
-    }
-    if let Err(e) = export::write_atomic(&output, &bytes) {
+    if let Err(e) = export::write_file(format, &out, &output) {
         eprintln!("mdg-run: cannot write {}: {e}", output.display());
-        return ExitCode::from(2);
+        return ExitCode::from(1);
     }
     if let Some(png_path) = &cli.png {
         // With --time the pose is already baked into `out`.

@@ -68,7 +68,20 @@ const CHUNK_BIN: u32 = 0x004E_4942;
 
 /// Appends `out` as a glTF 2.0 binary to `buf`.
 pub fn write_glb(out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
+    write_glb_to(out, buf)
+}
+
+/// Writes `out` as a glTF 2.0 binary to `w` (a file, say: no copy of the whole
+/// file is held in memory, only the binary chunk being assembled).
+pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), String> {
     let mut g = Builder::default();
+    // The binary chunk's size is known well enough in advance: reserve it once, so
+    // it never grows by doubling (which would briefly hold two copies).
+    let per_vertex = 40 + if out.animation.bones.len() > 1 { 24 } else { 0 };
+    let estimate =
+        [&out.mesh, &out.sweeps].iter().map(|m| m.positions.len() * per_vertex + m.triangles.len() * 12).sum::<usize>()
+            + out.shared_meshes.iter().map(|(_, m)| m.positions.len() * 24 + m.triangles.len() * 12).sum::<usize>();
+    g.bin.reserve(estimate + 4096);
     let mut scene_nodes = Vec::new();
     let anim = &out.animation;
     g.skinned = anim.bones.len() > 1;
@@ -174,7 +187,7 @@ pub fn write_glb(out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
     }
 
     g.root.scenes.push(Scene { nodes: scene_nodes });
-    g.finish(buf)
+    g.finish(w)
 }
 
 /// A frame's TRS as glTF arrays: translation, unit rotation (x, y, z, w) and a uniform
@@ -424,32 +437,60 @@ impl Builder {
 
     /// A VEC3 float vertex attribute, with min/max when `bounds`.
     fn vec3(&mut self, data: &[[f32; 3]], bounds: bool) -> u32 {
-        let bytes: Vec<u8> = data.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
-        let view = self.view(&bytes, ARRAY_BUFFER);
-        let (min, max) = if bounds {
-            let mut lo = [f32::INFINITY; 3];
-            let mut hi = [f32::NEG_INFINITY; 3];
-            for p in data {
+        self.vec3_from(data.len(), |i| data[i], bounds)
+    }
+
+    /// Appends `n` items of `width` floats, `item(i)` each, straight into the binary
+    /// chunk (no intermediate copy), as a vertex-attribute buffer view.
+    fn floats_view<const W: usize>(&mut self, n: usize, mut item: impl FnMut(usize) -> [f32; W]) -> u32 {
+        self.bin.resize(self.bin.len().next_multiple_of(4), 0);
+        let offset = self.bin.len();
+        self.bin.reserve(n * W * 4);
+        for i in 0..n {
+            for x in item(i) {
+                self.bin.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        let byte_length = self.bin.len() - offset;
+        self.root.buffer_views.push(BufferView {
+            buffer: 0,
+            byte_offset: offset,
+            byte_length,
+            target: Some(ARRAY_BUFFER),
+        });
+        self.root.buffer_views.len() as u32 - 1
+    }
+
+    /// Like [`Builder::vec3`], item by item.
+    fn vec3_from(&mut self, n: usize, item: impl Fn(usize) -> [f32; 3], bounds: bool) -> u32 {
+        let mut lo = [f32::INFINITY; 3];
+        let mut hi = [f32::NEG_INFINITY; 3];
+        let view = self.floats_view(n, |i| {
+            let p = item(i);
+            if bounds {
                 for k in 0..3 {
                     lo[k] = lo[k].min(p[k]);
                     hi[k] = hi[k].max(p[k]);
                 }
             }
-            (Some(lo.to_vec()), Some(hi.to_vec()))
-        } else {
-            (None, None)
-        };
-        self.accessor(Accessor { buffer_view: view, component_type: FLOAT, count: data.len(), kind: "VEC3", min, max })
+            p
+        });
+        let (min, max) = if bounds { (Some(lo.to_vec()), Some(hi.to_vec())) } else { (None, None) };
+        self.accessor(Accessor { buffer_view: view, component_type: FLOAT, count: n, kind: "VEC3", min, max })
     }
 
     /// A VEC4 float vertex attribute.
     fn vec4(&mut self, data: &[[f32; 4]]) -> u32 {
-        let bytes: Vec<u8> = data.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
-        let view = self.view(&bytes, ARRAY_BUFFER);
+        self.vec4_from(data.len(), |i| data[i])
+    }
+
+    /// Like [`Builder::vec4`], item by item.
+    fn vec4_from(&mut self, n: usize, item: impl Fn(usize) -> [f32; 4]) -> u32 {
+        let view = self.floats_view(n, item);
         self.accessor(Accessor {
             buffer_view: view,
             component_type: FLOAT,
-            count: data.len(),
+            count: n,
             kind: "VEC4",
             min: None,
             max: None,
@@ -458,12 +499,29 @@ impl Builder {
 
     /// A u32 index list.
     fn indices(&mut self, data: &[u32]) -> u32 {
-        let bytes: Vec<u8> = data.iter().flat_map(|x| x.to_le_bytes()).collect();
-        let view = self.view(&bytes, ELEMENT_ARRAY_BUFFER);
+        self.indices_of(data.len(), data.iter().copied())
+    }
+
+    /// A u32 index list of `n` indices, written straight into the binary chunk.
+    fn indices_of(&mut self, n: usize, data: impl Iterator<Item = u32>) -> u32 {
+        self.bin.resize(self.bin.len().next_multiple_of(4), 0);
+        let offset = self.bin.len();
+        self.bin.reserve(n * 4);
+        for x in data {
+            self.bin.extend_from_slice(&x.to_le_bytes());
+        }
+        let byte_length = self.bin.len() - offset;
+        self.root.buffer_views.push(BufferView {
+            buffer: 0,
+            byte_offset: offset,
+            byte_length,
+            target: Some(ELEMENT_ARRAY_BUFFER),
+        });
+        let view = self.root.buffer_views.len() as u32 - 1;
         self.accessor(Accessor {
             buffer_view: view,
             component_type: UNSIGNED_INT,
-            count: data.len(),
+            count: byte_length / 4,
             kind: "SCALAR",
             min: None,
             max: None,
@@ -494,18 +552,14 @@ impl Builder {
             return Ok(None);
         }
         let n = m.positions.len();
-        let positions: Vec<[f32; 3]> = m.positions.iter().map(|p| finite3(*p)).collect();
-        let normals: Vec<[f32; 3]> = (0..n).map(|i| normal_at(m, i)).collect();
-        let colors: Vec<[f32; 4]> = (0..n).map(|i| color_at(m, i)).collect();
         let mut attributes = BTreeMap::new();
-        attributes.insert("POSITION", self.vec3(&positions, true));
-        attributes.insert("NORMAL", self.vec3(&normals, false));
-        attributes.insert("COLOR_0", self.vec4(&colors));
+        attributes.insert("POSITION", self.vec3_from(n, |i| finite3(m.positions[i]), true));
+        attributes.insert("NORMAL", self.vec3_from(n, |i| normal_at(m, i), false));
+        attributes.insert("COLOR_0", self.vec4_from(n, |i| color_at(m, i)));
         if self.skinned {
             self.skin_attributes(&mut attributes, n, |i| m.bone(i));
         }
-        let flat: Vec<u32> = tris.iter().flatten().copied().collect();
-        let indices = Some(self.indices(&flat));
+        let indices = Some(self.indices_of(tris.len() * 3, tris.iter().flatten().copied()));
         let material = Some(self.material([1.0; 4]));
         Ok(Some(Primitive { attributes, indices, material, mode: None }))
     }
@@ -514,12 +568,9 @@ impl Builder {
     fn shared_accessors(&mut self, m: &Mesh, name: &str) -> Result<SharedAccessors, String> {
         let tris = checked_triangles(m, &format!("shared mesh {name}"))?;
         let n = m.positions.len();
-        let positions: Vec<[f32; 3]> = m.positions.iter().map(|p| finite3(*p)).collect();
-        let normals: Vec<[f32; 3]> = (0..n).map(|i| normal_at(m, i)).collect();
-        let position = self.vec3(&positions, true);
-        let normal = self.vec3(&normals, false);
-        let flat: Vec<u32> = tris.iter().flatten().copied().collect();
-        let indices = self.indices(&flat);
+        let position = self.vec3_from(n, |i| finite3(m.positions[i]), true);
+        let normal = self.vec3_from(n, |i| normal_at(m, i), false);
+        let indices = self.indices_of(tris.len() * 3, tris.iter().flatten().copied());
         Ok(SharedAccessors { position, normal, indices })
     }
 
@@ -560,7 +611,7 @@ impl Builder {
     }
 
     /// Serialises the document and writes the GLB container.
-    fn finish(mut self, buf: &mut Vec<u8>) -> Result<(), String> {
+    fn finish(mut self, w: &mut dyn std::io::Write) -> Result<(), String> {
         self.bin.resize(self.bin.len().next_multiple_of(4), 0);
         if !self.bin.is_empty() {
             self.root.buffers.push(Buffer { byte_length: self.bin.len() });
@@ -571,17 +622,21 @@ impl Builder {
         let total = 12 + 8 + json.len() + bin_chunk;
         let total =
             u32::try_from(total).map_err(|_| format!("glTF binary of {total} bytes exceeds the 4 GiB GLB limit"))?;
-        buf.reserve(total as usize);
-        buf.extend_from_slice(GLB_MAGIC);
-        buf.extend_from_slice(&2u32.to_le_bytes());
-        buf.extend_from_slice(&total.to_le_bytes());
-        buf.extend_from_slice(&(json.len() as u32).to_le_bytes());
-        buf.extend_from_slice(&CHUNK_JSON.to_le_bytes());
-        buf.extend_from_slice(&json);
+        let mut head = Vec::with_capacity(20);
+        head.extend_from_slice(GLB_MAGIC);
+        head.extend_from_slice(&2u32.to_le_bytes());
+        head.extend_from_slice(&total.to_le_bytes());
+        head.extend_from_slice(&(json.len() as u32).to_le_bytes());
+        head.extend_from_slice(&CHUNK_JSON.to_le_bytes());
+        let io = |e: std::io::Error| format!("cannot write: {e}");
+        w.write_all(&head).map_err(io)?;
+        w.write_all(&json).map_err(io)?;
         if !self.bin.is_empty() {
-            buf.extend_from_slice(&(self.bin.len() as u32).to_le_bytes());
-            buf.extend_from_slice(&CHUNK_BIN.to_le_bytes());
-            buf.extend_from_slice(&self.bin);
+            let mut bin_head = Vec::with_capacity(8);
+            bin_head.extend_from_slice(&(self.bin.len() as u32).to_le_bytes());
+            bin_head.extend_from_slice(&CHUNK_BIN.to_le_bytes());
+            w.write_all(&bin_head).map_err(io)?;
+            w.write_all(&self.bin).map_err(io)?;
         }
         Ok(())
     }

@@ -73,6 +73,33 @@ pub fn write(format: Format, out: &Output, buf: &mut Vec<u8>) -> Result<(), Stri
     }
 }
 
+/// Writes `out` in `format` to the file `path`, atomically (see [`write_atomic_with`]).
+/// `.glb` is streamed into the file, so no second copy of the model is held in
+/// memory; the text formats are assembled first.
+pub fn write_file(format: Format, out: &Output, path: &Path) -> Result<(), String> {
+    let mut failed = None;
+    let r = write_atomic_with(path, &mut |file| {
+        let mut w = std::io::BufWriter::with_capacity(1 << 20, file);
+        let res = match format {
+            Format::Glb => glb::write_glb_to(out, &mut w),
+            _ => {
+                let mut buf = Vec::new();
+                write(format, out, &mut buf).and_then(|()| w.write_all(&buf).map_err(|e| e.to_string()))
+            }
+        };
+        if let Err(e) = res {
+            failed = Some(e.clone());
+            return Err(std::io::Error::other(e));
+        }
+        w.flush()
+    });
+    match (r, failed) {
+        (Ok(()), _) => Ok(()),
+        (Err(_), Some(e)) => Err(e),
+        (Err(e), None) => Err(format!("cannot write {}: {e}", path.display())),
+    }
+}
+
 /// Distinguishes temporary files of concurrent writers in one process.
 static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 
@@ -80,6 +107,14 @@ static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 /// (named after the target, the process id and a counter), flushed to disk, then
 /// renamed over `path`. Readers see the old file or the whole new one, never a part.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    write_atomic_with(path, &mut |file| file.write_all(bytes))
+}
+
+/// Like [`write_atomic`], with the content written by `fill` into the temporary file.
+pub fn write_atomic_with(
+    path: &Path,
+    fill: &mut dyn FnMut(&mut std::fs::File) -> std::io::Result<()>,
+) -> std::io::Result<()> {
     let name = path.file_name().ok_or_else(|| {
         std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("{} has no file name", path.display()))
     })?;
@@ -91,7 +126,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let tmp = dir.join(format!(".{}.{}.{n}.tmp", name.to_string_lossy(), std::process::id()));
     let result = (|| {
         let mut file = std::fs::OpenOptions::new().write(true).create_new(true).open(&tmp)?;
-        file.write_all(bytes)?;
+        fill(&mut file)?;
         file.sync_all()?;
         drop(file);
         std::fs::rename(&tmp, path)
