@@ -220,6 +220,7 @@ struct GpuModel {
     n_indices: u32,
     line_vertices: Option<Buffer>,
     n_line_vertices: u32,
+    n_overlay_vertices: u32,
     descriptors: Descriptors,
     bones: Buffer,
     n_bones: u32,
@@ -271,6 +272,8 @@ pub struct Renderer {
     layout: Layout,
     pub samples: vk::SampleCountFlags,
     pub color_format: vk::Format,
+    /// Draw the overlay lines (guides, skeleton bones); on by default.
+    pub show_overlays: bool,
     depth_format: vk::Format,
     extent: vk::Extent2D,
 }
@@ -289,6 +292,7 @@ impl Renderer {
             layout,
             samples,
             color_format: opts.color_format,
+            show_overlays: true,
             depth_format: depth,
             extent: vk::Extent2D { width: 0, height: 0 },
         })
@@ -394,6 +398,7 @@ impl Renderer {
             n_indices: scene.indices.len() as u32,
             line_vertices,
             n_line_vertices: scene.n_line_vertices,
+            n_overlay_vertices: scene.n_overlay_vertices,
             descriptors,
             bones,
             n_bones,
@@ -557,7 +562,14 @@ impl Renderer {
                 if let (Some(p), Some(buf)) = (&gpu.lines, &gpu.line_vertices) {
                     d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, p.raw);
                     d.cmd_bind_vertex_buffers(cmd, 0, &[buf.raw, gpu.skins.raw], &[0, 0]);
-                    d.cmd_draw(cmd, gpu.n_line_vertices, 1, 0, 0);
+                    let n = if self.show_overlays {
+                        gpu.n_line_vertices
+                    } else {
+                        gpu.n_line_vertices - gpu.n_overlay_vertices
+                    };
+                    if n > 0 {
+                        d.cmd_draw(cmd, n, 1, 0, 0);
+                    }
                 }
             }
             d.cmd_end_render_pass(cmd);

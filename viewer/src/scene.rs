@@ -77,7 +77,12 @@ pub struct Scene {
     /// was swept along the lines.
     pub line_vertices: Vec<u8>,
     pub n_vertices: u32,
+    /// All line vertices: pen lines first, then the overlay lines.
     pub n_line_vertices: u32,
+    /// How many of the line vertices (the last ones) are overlays: guided search's
+    /// guide curves (namespace `guides`) and skeleton bones (namespace `bones`),
+    /// drawn whether or not anything was swept, in their own colours.
+    pub n_overlay_vertices: u32,
     /// Largest bone index used (the bones buffer holds this many + 1 matrices).
     pub max_bone: u32,
     pub bounds: Bounds,
@@ -177,9 +182,10 @@ pub fn build(out: &Output) -> Scene {
         let Some((_, shared)) = out.shared_meshes.get(inst.mesh as usize) else { continue };
         b.mesh(shared, Some((&inst.transform, inst.mirrored, inst.color, inst.bone)));
     }
+    let is_overlay = |l: &mdg_vm::output::Polyline| OVERLAYS.iter().any(|(ns, _)| *ns == l.namespace);
     if out.sweeps.triangles.is_empty() {
         let ink = ink(out.background);
-        for line in &out.lines {
+        for line in out.lines.iter().filter(|l| !is_overlay(l)) {
             for seg in line.points.windows(2) {
                 for p in seg {
                     let p = Vec3::from_array(*p);
@@ -190,8 +196,25 @@ pub fn build(out: &Output) -> Scene {
             }
         }
     }
+    for (ns, color) in OVERLAYS {
+        for line in out.lines.iter().filter(|l| l.namespace == ns) {
+            for seg in line.points.windows(2) {
+                for p in seg {
+                    let p = Vec3::from_array(*p);
+                    b.s.bounds.add(p);
+                    push_vertex(&mut b.s.line_vertices, p, Vec3::ZERO, color);
+                    b.s.n_line_vertices += 1;
+                    b.s.n_overlay_vertices += 1;
+                }
+            }
+        }
+    }
     b.s
 }
+
+/// Line namespaces drawn as overlays, and their colours: guide curves magenta,
+/// skeleton bones orange.
+pub const OVERLAYS: [(&str, [f32; 4]); 2] = [("guides", [0.95, 0.2, 0.85, 1.0]), ("bones", [1.0, 0.55, 0.1, 1.0])];
 
 /// The colour pen lines are drawn in: dark on a light background, light on a dark one.
 pub fn ink(background: [f32; 4]) -> [f32; 4] {

@@ -9,7 +9,8 @@
 //! shift + left) to pan, scroll to zoom; `F` frames the model, `H` returns to the
 //! home view, `W` toggles wireframe, arrow keys orbit, `+`/`-` zoom; for animated
 //! models `Space` plays and pauses, `,` and `.` step one frame, `C` looks through
-//! the camera rule; `P` selects the next `@param`, `[` and `]` step it down and up
+//! the camera rule; `G` shows or hides the overlays (guided search's guide curves
+//! and skeleton bones); `P` selects the next `@param`, `[` and `]` step it down and up
 //! (Shift: ten steps) and the model is rebuilt with the new value, keeping the
 //! camera; `Esc`/`Q` quit.
 
@@ -353,7 +354,8 @@ impl App {
         if let (true, Some(buf)) = (copy, &g.readback) {
             record_readback(&ctx, cmd, image, extent, buf.raw);
         }
-        // SAFETY: recording was begun above.
+        // SAFETY: `cmd` is in the recording state (begun above on this thread) and only
+        // the renderer and the readback appended commands to it.
         unsafe { ctx.device.end_command_buffer(cmd) }.map_err(vkerr("end command buffer"))?;
         let waits = [g.sync.image_available.raw];
         let stages = [vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT];
@@ -460,6 +462,12 @@ impl App {
                     let has = self.gpu.as_ref().and_then(|g| g.renderer.info()).is_some_and(|i| i.has_camera_rule);
                     if has {
                         self.camera_rule = !self.camera_rule;
+                        self.redraw();
+                    }
+                }
+                "g" => {
+                    if let Some(g) = &mut self.gpu {
+                        g.renderer.show_overlays = !g.renderer.show_overlays;
                         self.redraw();
                     }
                 }
