@@ -89,6 +89,17 @@ pub fn build(
     match crate::lower::lower(&a.expanded, &a.checked.symbols, &a.sources) {
         Ok(mut b) => {
             crate::shaders::attach(&mut b, &a.spirv);
+            // Meshes imported by creature parts go into the bundle, so it is
+            // self-contained (read through the same loader, contained like @import).
+            let d =
+                crate::ext::creature::embed_meshes(&mut b, &a.expanded, &a.sources, loader, opts.std_dir.as_deref());
+            if d.iter().any(|d| d.is_error()) {
+                let mut a = a;
+                a.diagnostics.extend(d);
+                return Err(Box::new(a));
+            }
+            let mut a = a;
+            a.diagnostics.extend(d);
             Ok((b, a))
         }
         Err(d) => {

@@ -30,6 +30,9 @@ pub struct Options {
 pub const MAX_EXPANSION_DEPTH: usize = 32;
 /// How many macro expansions one compilation may perform.
 pub const MAX_EXPANSIONS: usize = 10_000;
+/// How many tokens all macro expansions of one compilation may produce together (a
+/// macro whose argument doubles at each level would otherwise make 2^32).
+pub const MAX_EXPANDED_TOKENS: usize = 1_000_000;
 
 /// A parameter declared with `@param`.
 #[derive(Clone, Debug, PartialEq)]
@@ -107,7 +110,13 @@ struct Expander<'a> {
     imported: HashSet<PathBuf>,
     import_stack: Vec<PathBuf>,
     depth: usize,
+    /// Levels of the tree around the item being expanded (namespaces, rule bodies,
+    /// blocks, iterators): a macro expansion here may nest only what
+    /// [`parse::MAX_NESTING`] leaves.
+    nest: usize,
     n_expansions: usize,
+    /// Tokens produced by expansions so far (see [`MAX_EXPANDED_TOKENS`]).
+    n_tokens: usize,
     /// Set after the first E0208: a recursive macro can branch, so once one is found no
     /// further expansion happens (otherwise the cost is exponential in the depth limit).
     expansion_stopped: bool,
@@ -149,7 +158,9 @@ pub fn expand_file(sources: &mut Sources, loader: &dyn FileLoader, main: FileId,
         imported: HashSet::new(),
         import_stack: Vec::new(),
         depth: 0,
+        nest: 0,
         n_expansions: 0,
+        n_tokens: 0,
         expansion_stopped: false,
     };
     for d in &opts.defines {
@@ -270,10 +281,14 @@ impl<'a> Expander<'a> {
                         item: Item { kind: ItemKind::Namespace { name, items: vec![] }, span: item.span },
                         namespace: ns.clone(),
                     });
+                    self.nest += 1;
                     self.top_items(inner, Some(full));
+                    self.nest -= 1;
                 }
                 ItemKind::Rule(mut rule) => {
+                    self.nest += 1;
                     rule.body = self.body(rule.body);
+                    self.nest -= 1;
                     self.out.items.push(ExpItem {
                         item: Item { kind: ItemKind::Rule(rule), span: item.span },
                         namespace: ns.clone(),
@@ -303,7 +318,8 @@ impl<'a> Expander<'a> {
             Pre::Expand { name, args } => {
                 if let Some(tokens) = self.expand_tokens(&name, &args, span) {
                     let file = name.span.file;
-                    let (items, diags) = parse::parse_items(self.sources, file, tokens);
+                    let budget = parse::MAX_NESTING.saturating_sub(self.nest);
+                    let (items, diags) = parse::parse_items_within(self.sources, file, tokens, budget);
                     self.out.diagnostics.extend(diags);
                     self.depth += 1;
                     self.collect_constants(&items);
@@ -335,7 +351,8 @@ impl<'a> Expander<'a> {
             BodyKind::Pre(pre) => match pre {
                 Pre::Expand { name, args } => {
                     if let Some(tokens) = self.expand_tokens(&name, &args, item.span) {
-                        let (items, diags) = parse::parse_body_items(self.sources, name.span.file, tokens);
+                        let budget = parse::MAX_NESTING.saturating_sub(self.nest);
+                        let (items, diags) = parse::parse_body_items_within(self.sources, name.span.file, tokens, budget);
                         self.out.diagnostics.extend(diags);
                         self.depth += 1;
                         let mut expanded = self.body(items);
@@ -374,7 +391,9 @@ impl<'a> Expander<'a> {
             },
             BodyKind::Iterate { count, divisor, adj, item: inner } => {
                 let mut v = Vec::new();
+                self.nest += 1;
                 self.body_item(*inner, &mut v);
+                self.nest -= 1;
                 let inner = if v.len() == 1 {
                     v.pop().unwrap_or(BodyItem { kind: BodyKind::Error, cont: false, span: item.span })
                 } else {
@@ -384,7 +403,9 @@ impl<'a> Expander<'a> {
                 out.push(BodyItem { kind: BodyKind::Iterate { count, divisor, adj, item: Box::new(inner) }, ..item });
             }
             BodyKind::Block(items) => {
+                self.nest += 1;
                 let items = self.body(items);
+                self.nest -= 1;
                 out.push(BodyItem { kind: BodyKind::Block(items), ..item });
             }
             kind => out.push(BodyItem { kind, ..item }),
@@ -433,28 +454,33 @@ impl<'a> Expander<'a> {
         if self.expansion_stopped {
             return None;
         }
-        if self.depth >= MAX_EXPANSION_DEPTH || self.n_expansions >= MAX_EXPANSIONS {
+        let param = |t: &Token| {
+            (t.kind == Tok::Ident).then(|| m.params.iter().position(|p| p.text == self.sources.text(t.span))).flatten()
+        };
+        let size: usize = m.body.iter().map(|t| param(t).map_or(1, |i| args[i].tokens.len())).sum();
+        if self.depth >= MAX_EXPANSION_DEPTH
+            || self.n_expansions >= MAX_EXPANSIONS
+            || self.n_tokens.saturating_add(size) > MAX_EXPANDED_TOKENS
+        {
             self.expansion_stopped = true;
             self.out.diagnostics.push(
                 Diagnostic::error("E0208", call_span, format!("expansion of macro `{}` nests too deeply", m.name.text))
                     .with_note(format!(
-                        "expansions may nest {MAX_EXPANSION_DEPTH} deep and number {MAX_EXPANSIONS} in all; is the macro recursive?"
+                        "expansions may nest {MAX_EXPANSION_DEPTH} deep, number {MAX_EXPANSIONS} and make \
+                         {MAX_EXPANDED_TOKENS} tokens in all; is the macro recursive?"
                     )),
             );
             return None;
         }
         self.n_expansions += 1;
+        self.n_tokens += size;
         self.out.expansions.push(Expansion { macro_name: m.name.text.clone(), call_span, body_span: m.body_span });
-        let mut tokens = Vec::with_capacity(m.body.len());
+        let mut tokens = Vec::with_capacity(size);
         for t in &m.body {
-            if t.kind == Tok::Ident {
-                let text = self.sources.text(t.span);
-                if let Some(i) = m.params.iter().position(|p| p.text == text) {
-                    tokens.extend_from_slice(&args[i].tokens);
-                    continue;
-                }
+            match param(t) {
+                Some(i) => tokens.extend_from_slice(&args[i].tokens),
+                None => tokens.push(*t),
             }
-            tokens.push(*t);
         }
         Some(tokens)
     }

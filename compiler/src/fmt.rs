@@ -23,7 +23,10 @@ pub fn format_source(text: &str) -> Result<String, String> {
     let syntax: Vec<_> = parsed
         .diagnostics
         .iter()
-        .filter(|d| d.code.starts_with("E01") || d.code == "E0206" || d.code == "E0207")
+        // (E0201 here: a text over the source size limit, which is not parsed at all;
+        // E0210: an unknown `@word` takes the rest of its line, so moving what follows
+        // it onto its line would change the tree.)
+        .filter(|d| d.code.starts_with("E01") || matches!(d.code, "E0201" | "E0206" | "E0207" | "E0210"))
         .cloned()
         .collect();
     if !syntax.is_empty() {
@@ -82,6 +85,26 @@ impl<'a> Printer<'a> {
             let t = self.text(c.span).trim_end().to_string();
             self.out.push_str(&t);
             self.out.push('\n');
+            self.last_end = c.span.end;
+        }
+    }
+
+    /// Prints comments still pending before `start` where we are (inside an item,
+    /// before a part printed verbatim with its own comments), each ending its line, so
+    /// every comment keeps its place in the order.
+    fn inline_comments_before(&mut self, start: u32) {
+        while let Some(c) = self.comments.get(self.next).cloned() {
+            if c.span.start >= start {
+                break;
+            }
+            self.next += 1;
+            if !self.out.is_empty() && !self.out.ends_with(' ') && !self.out.ends_with('\n') {
+                self.out.push(' ');
+            }
+            let t = self.text(c.span).trim_end().to_string();
+            self.out.push_str(&t);
+            self.out.push('\n');
+            self.pad();
             self.last_end = c.span.end;
         }
     }
@@ -293,6 +316,7 @@ impl<'a> Printer<'a> {
             Pre::Presets(v) => self.out.push_str(&format!("@presets {}", words(v))),
             Pre::Shader { .. } | Pre::Macro(_) | Pre::Bad => {
                 // Shader code and macro bodies are not MDG syntax trees: keep them verbatim.
+                self.inline_comments_before(span.start);
                 let t = self.text(span).to_string();
                 self.out.push_str(&t);
                 // Comments inside were printed with the text.
@@ -301,9 +325,16 @@ impl<'a> Printer<'a> {
                 }
             }
             Pre::Expand { name, args } => {
+                self.inline_comments_before(span.start);
                 let a: Vec<&str> = args.iter().map(|a| self.text(a.span).trim()).collect();
-                if a.iter().any(|t| t.contains("//")) {
-                    // A line comment inside the arguments would swallow the `)`: keep the text.
+                let has_comment = self.comments[self.next.min(self.comments.len())..]
+                    .iter()
+                    .take_while(|c| c.span.start < span.end)
+                    .any(|c| c.span.start >= span.start);
+                if has_comment || a.iter().any(|t| t.contains('@')) {
+                    // A comment inside the parentheses (even outside every argument, or
+                    // a line comment that would swallow the `)`), or a directive that
+                    // takes the rest of its line: keep the text.
                     let t = self.text(span).to_string();
                     self.out.push_str(&t);
                 } else {
@@ -351,7 +382,15 @@ impl<'a> Printer<'a> {
         self.start_item(item.span);
         self.body_kind(item);
         if item.cont {
-            self.out.push_str(" \\");
+            // `@import`, `@define`, `@param` and `@presets` take the rest of their line:
+            // their continuation goes on the next one.
+            if matches!(&item.kind, BodyKind::Pre(Pre::Import(_) | Pre::Define { .. } | Pre::Param(_) | Pre::Presets(_))) {
+                self.out.push('\n');
+                self.pad();
+                self.out.push('\\');
+            } else {
+                self.out.push_str(" \\");
+            }
         }
         self.end_item(item.span);
     }
@@ -379,7 +418,19 @@ impl<'a> Printer<'a> {
                 self.body_kind(inner);
             }
             BodyKind::Block(items) => self.body_block(items, item.span.end),
-            BodyKind::Pre(p) => self.pre(p, item.span, |me, i: &BodyItem| me.body_item(i)),
+            BodyKind::Pre(p) => {
+                // The item's span ends after its continuation `\`, which is printed
+                // separately: verbatim text (shader, macro) must stop before it.
+                let mut span = item.span;
+                if item.cont {
+                    let text = self.text(span);
+                    let trimmed = text.trim_end();
+                    if let Some(t) = trimmed.strip_suffix('\\') {
+                        span.end = span.start + t.trim_end().len() as u32;
+                    }
+                }
+                self.pre(p, span, |me, i: &BodyItem| me.body_item(i))
+            }
             BodyKind::Error => {
                 let t = self.text(item.span).to_string();
                 self.out.push_str(&t);

@@ -16,6 +16,7 @@ pub mod dump;
 pub mod expand;
 pub mod ext;
 pub mod fmt;
+pub mod induce;
 pub mod lexer;
 pub mod lower;
 pub mod modes;

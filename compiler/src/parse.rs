@@ -368,7 +368,8 @@ fn prepass(tokens: Vec<Token>, sources: &Sources, ctx: &Ctx) -> Vec<Token> {
             Diagnostic::error("E0206", open.span, "`@ifdef` has no `@endif`")
                 .with_label("this conditional is never closed"),
         );
-        let end = out.last().map(|t| t.span.end).unwrap_or(open.span.end);
+        // (In a macro expansion the last token may come from another file: the macro's.)
+        let end = out.last().filter(|t| t.span.file == open.span.file).map_or(open.span.end, |t| t.span.end.max(open.span.end));
         out.push(Token { kind: Tok::AtEndif, span: Span::new(open.span.file, end, end) });
     }
     out
@@ -380,6 +381,126 @@ fn arg_of(tokens: Vec<Token>) -> MacroArg {
         _ => Span::default(),
     };
     MacroArg { tokens, span }
+}
+
+/// How deeply a file (or one macro expansion, with the nesting around it) may nest:
+/// brackets, `@ifdef` blocks and operators (each operator may add a level to an
+/// expression or iterator chain). Deeper input is cut with E0105, so no compiler pass
+/// that walks the tree recursively can overflow its stack (2 MiB threads included).
+pub const MAX_NESTING: usize = 256;
+
+/// The largest source file the compiler reads, in bytes (E0201 beyond it).
+pub const MAX_SOURCE_BYTES: usize = 16 * 1024 * 1024;
+
+/// One open bracket (or `@ifdef`) during the nesting scan.
+struct Level {
+    /// The closer that ends this level: `}`, `]`, `)` or `@endif`.
+    closer: Tok,
+    /// Operators seen at this level since the last finished item.
+    ops: usize,
+    /// Whether the bracket follows `*` (an iterator's adjustments: its item comes next,
+    /// one level deeper).
+    after_star: bool,
+    /// Whether the opener was dropped (so its closer is dropped too).
+    dropped: bool,
+}
+
+/// Cuts whatever nests deeper than `budget` (see [`MAX_NESTING`]): the token that
+/// crosses it and everything up to the end of its level are dropped, with one E0105.
+/// Returns the kept tokens and the offset where cutting started (if it did).
+fn limit_nesting(tokens: Vec<Token>, budget: usize, diags: &mut Vec<Diagnostic>) -> (Vec<Token>, Option<Span>) {
+    let mut levels: Vec<Level> = Vec::new();
+    let mut depth = 0usize; // levels.len() + the operators counted on them
+    let mut skip_below: Option<usize> = None; // dropping while levels.len() > this
+    let mut first: Option<Span> = None;
+    let mut out = Vec::with_capacity(tokens.len());
+    let mut prev = Tok::Semi;
+    for t in tokens {
+        let closer = match t.kind {
+            Tok::LBrace => Some(Tok::RBrace),
+            Tok::LBracket => Some(Tok::RBracket),
+            Tok::LParen | Tok::CallOpen => Some(Tok::RParen),
+            Tok::AtIfdef => Some(Tok::AtEndif),
+            _ => None,
+        };
+        let is_op = matches!(
+            t.kind,
+            Tok::Plus
+                | Tok::Minus
+                | Tok::Star
+                | Tok::Slash
+                | Tok::Caret
+                | Tok::Lt
+                | Tok::Le
+                | Tok::Gt
+                | Tok::Ge
+                | Tok::EqEq
+                | Tok::Ne
+        );
+        let mut keep = skip_below.is_none();
+        if let Some(c) = closer {
+            let over = keep && depth + 1 > budget;
+            levels.push(Level { closer: c, ops: 0, after_star: prev == Tok::Star, dropped: over || !keep });
+            depth += 1;
+            if over {
+                skip_below = Some(levels.len() - 1);
+                keep = false;
+            }
+        } else if matches!(t.kind, Tok::RBrace | Tok::RBracket | Tok::RParen | Tok::AtEndif) {
+            // Pop back to the matching level (a closer with no opener is the parser's business).
+            if let Some(pos) = levels.iter().rposition(|l| l.closer == t.kind) {
+                let level = &levels[pos];
+                let (dropped, finishes_item) = (level.dropped, !level.after_star && t.kind != Tok::RParen);
+                for l in levels.drain(pos..) {
+                    depth -= 1 + l.ops;
+                }
+                if skip_below.is_some_and(|s| levels.len() <= s) {
+                    skip_below = None;
+                }
+                keep = !dropped && skip_below.is_none();
+                // A finished call, block or list ends the item: operators before it no
+                // longer nest what follows.
+                if finishes_item {
+                    if let Some(l) = levels.last_mut() {
+                        depth -= l.ops;
+                        l.ops = 0;
+                    }
+                }
+            }
+        } else if t.kind == Tok::Semi {
+            if let Some(l) = levels.last_mut() {
+                depth -= l.ops;
+                l.ops = 0;
+            }
+        } else if is_op && keep {
+            // Operators at the top level (outside any bracket) nest nothing.
+            if let Some(l) = levels.last_mut() {
+                if depth + 1 > budget {
+                    skip_below = Some(levels.len() - 1);
+                    keep = false;
+                } else {
+                    l.ops += 1;
+                    depth += 1;
+                }
+            }
+        }
+        if !keep && first.is_none() {
+            first = Some(t.span);
+            diags.push(
+                Diagnostic::error("E0105", t.span, format!("nesting too deep: more than {budget} levels"))
+                    .with_label("the limit is reached here; the rest of this level is skipped")
+                    .with_note(format!(
+                        "brackets, `@ifdef` blocks, operators in one expression or iterator chain, and the macro \
+                         expansions around them count as levels (at most {MAX_NESTING}); split the rule or expression"
+                    )),
+            );
+        }
+        if keep {
+            out.push(t);
+        }
+        prev = t.kind;
+    }
+    (out, first)
 }
 
 /// Reports the innermost bracket still open at the end of input (E0104).
@@ -512,9 +633,11 @@ fn run(
     file: FileId,
     start: Start,
     mut diags: Vec<Diagnostic>,
+    budget: usize,
 ) -> (Out, Vec<Diagnostic>) {
     let ctx = Ctx::new(sources);
     let tokens = prepass(tokens, sources, &ctx);
+    let (tokens, cut) = limit_nesting(tokens, budget, &mut diags);
     let bracket = unclosed_bracket(&tokens);
     let eof = match tokens.last() {
         Some(t) => Span::new(t.span.file, t.span.end, t.span.end),
@@ -537,6 +660,10 @@ fn run(
             // One mistake, one error: an unclosed bracket explains any end-of-file error,
             // and a second error on the same line as the previous one is a cascade.
             if d.code == "E0104" && bracket.is_some() {
+                return;
+            }
+            // Syntax errors after a nesting cut come from the cut itself.
+            if cut.is_some_and(|c| d.span.file == c.file && d.span.start >= c.start) {
                 return;
             }
             if let Some(prev) = syntax.last() {
@@ -569,8 +696,23 @@ fn run(
 
 /// Parses one whole file that is already in `sources`.
 pub fn parse_file(sources: &Sources, file: FileId) -> Parsed {
-    let lexed = lexer::lex(&sources.file(file).text, file);
-    let (out, diagnostics) = run(lexed.tokens, sources, file, Start::File, lexed.diagnostics);
+    let text = &sources.file(file).text;
+    if text.len() > MAX_SOURCE_BYTES {
+        // The same error as for a file the loader refuses to read (`FsLoader`).
+        let d = Diagnostic::error(
+            "E0201",
+            Span::new(file, 0, 0),
+            format!(
+                "cannot read `{}`: source file too large: {} bytes (at most {MAX_SOURCE_BYTES})",
+                sources.file(file).name,
+                text.len()
+            ),
+        )
+        .with_note("split the grammar into files joined with `@import`");
+        return Parsed { file: File::default(), comments: Vec::new(), diagnostics: vec![d] };
+    }
+    let lexed = lexer::lex(text, file);
+    let (out, diagnostics) = run(lexed.tokens, sources, file, Start::File, lexed.diagnostics, MAX_NESTING);
     let file_ast = match out {
         Out::File(f) => f,
         _ => File::default(),
@@ -580,7 +722,18 @@ pub fn parse_file(sources: &Sources, file: FileId) -> Parsed {
 
 /// Parses tokens (a macro expansion) as top-level items.
 pub fn parse_items(sources: &Sources, file: FileId, tokens: Vec<Token>) -> (Vec<Item>, Vec<Diagnostic>) {
-    match run(tokens, sources, file, Start::Items, vec![]) {
+    parse_items_within(sources, file, tokens, MAX_NESTING)
+}
+
+/// [`parse_items`] with at most `budget` levels of nesting (what [`MAX_NESTING`] leaves
+/// after the levels around the expansion).
+pub fn parse_items_within(
+    sources: &Sources,
+    file: FileId,
+    tokens: Vec<Token>,
+    budget: usize,
+) -> (Vec<Item>, Vec<Diagnostic>) {
+    match run(tokens, sources, file, Start::Items, vec![], budget) {
         (Out::Items(v), d) => (v, d),
         (_, d) => (vec![], d),
     }
@@ -588,7 +741,17 @@ pub fn parse_items(sources: &Sources, file: FileId, tokens: Vec<Token>) -> (Vec<
 
 /// Parses tokens (a macro expansion) as rule-body items.
 pub fn parse_body_items(sources: &Sources, file: FileId, tokens: Vec<Token>) -> (Vec<BodyItem>, Vec<Diagnostic>) {
-    match run(tokens, sources, file, Start::BodyItems, vec![]) {
+    parse_body_items_within(sources, file, tokens, MAX_NESTING)
+}
+
+/// [`parse_body_items`] with at most `budget` levels of nesting.
+pub fn parse_body_items_within(
+    sources: &Sources,
+    file: FileId,
+    tokens: Vec<Token>,
+    budget: usize,
+) -> (Vec<BodyItem>, Vec<Diagnostic>) {
+    match run(tokens, sources, file, Start::BodyItems, vec![], budget) {
         (Out::Body(v), d) => (v, d),
         (_, d) => (vec![], d),
     }

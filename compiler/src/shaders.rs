@@ -88,6 +88,15 @@ fn compile_uncached(source: &str, vertex: bool) -> CompileResult {
             message: "no `#version` line: Vulkan GLSL shaders start with `#version 450`".into(),
         }]);
     }
+    // The glslang crate slices the `#version` line by bytes and panics inside a
+    // multi-byte character: refuse a non-ASCII one here.
+    if let Some(i) = source.lines().position(|l| l.trim_start().starts_with("#version") && !l.is_ascii()) {
+        return Err(vec![GlslError {
+            line: Some(i as u32 + 1),
+            column: None,
+            message: "the `#version` line must be plain ASCII, like `#version 450`".into(),
+        }]);
+    }
     let Some(compiler) = Compiler::acquire() else {
         return Err(vec![GlslError { line: None, column: None, message: "glslang could not be initialised".into() }]);
     };
@@ -211,7 +220,11 @@ fn span_of(sh: &Shader, sources: &Sources, e: &GlslError) -> Span {
     let (lo, hi) = match e.column {
         // glslang's columns count bytes from 1.
         Some(c) if c >= 1 && (c as usize - 1) < text.len() => {
-            let lo = start + c as usize - 1;
+            // A byte column can fall inside a multi-byte character: back up to its start.
+            let mut lo = start + c as usize - 1;
+            while !code.is_char_boundary(lo) {
+                lo -= 1;
+            }
             let token = quoted_token(&e.message);
             let hi = match token {
                 Some(t) if !t.is_empty() && code[lo..end].starts_with(t) => lo + t.len(),
@@ -219,7 +232,9 @@ fn span_of(sh: &Shader, sources: &Sources, e: &GlslError) -> Span {
                     // The identifier or symbol at the column.
                     let rest = &code[lo..end];
                     let n = rest.find(|ch: char| !(ch.is_alphanumeric() || ch == '_')).unwrap_or(rest.len());
-                    lo + n.max(1).min(rest.len())
+                    // At least the character at the column.
+                    let first = rest.chars().next().map_or(0, char::len_utf8);
+                    lo + n.max(first).min(rest.len())
                 }
             };
             (lo, hi)

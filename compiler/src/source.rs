@@ -19,6 +19,13 @@ pub struct FsLoader;
 
 impl FileLoader for FsLoader {
     fn read(&self, path: &Path) -> Result<String, String> {
+        // Refuse huge files before reading them (the parser refuses longer texts too, E0201).
+        let max = crate::parse::MAX_SOURCE_BYTES;
+        if let Ok(m) = std::fs::metadata(path) {
+            if m.is_file() && m.len() > max as u64 {
+                return Err(format!("source file too large: {} bytes (at most {max})", m.len()));
+            }
+        }
         std::fs::read_to_string(path).map_err(|e| e.to_string())
     }
     fn canonicalize(&self, path: &Path) -> Result<PathBuf, String> {

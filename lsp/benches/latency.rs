@@ -1,8 +1,9 @@
 //! Latency benchmark (not a test): edit → diagnostics on a generated 2,000-line
 //! grammar, through the real `mdg-lsp` binary over stdio. 200 edits, each waiting
 //! for the `publishDiagnostics` of its version; prints p50 and p95 (target p95 ≤
-//! 20 ms). Then a longer soak: 40,000 unpaced edits in rounds, printing the
-//! server's memory after each round (it must level off).
+//! 20 ms). Then the soak: 100,000 random edits with feature requests in between
+//! (`tests/common/soak.rs`), printing the server's memory every 10,000 edits (it
+//! must stay flat).
 //!
 //! Run: `cargo bench -p mdg-lsp --bench latency`.
 
@@ -64,32 +65,25 @@ fn main() {
     let (p50, p95, max) = (percentile(&times, 0.5), percentile(&times, 0.95), times[times.len() - 1]);
     println!("edit → diagnostics, {n_lines}-line grammar, 200 edits: p50 {:.2} ms, p95 {:.2} ms, max {:.2} ms (target p95 ≤ 20 ms)", ms(p50), ms(p95), ms(max));
 
-    // Soak: unpaced edits in rounds; after each round the final version's
-    // diagnostics, and the server's memory, which must level off.
-    let t0 = Instant::now();
-    let mut rss = vec![c.rss_kib().unwrap_or(0)];
-    let rounds = 8;
-    let per_round = 5_000;
-    for _ in 0..rounds {
-        for i in 0..per_round {
-            version += 1;
-            let text = if i % 2 == 0 { &broken } else { &base };
-            c.change(&u, version, text);
-            if i % 1000 == 0 {
-                c.clear();
-            }
-        }
-        c.diagnostics(&u, version);
-        rss.push(c.rss_kib().unwrap_or(0));
-    }
-    let rss_text: Vec<String> = rss.iter().map(|k| format!("{}", k / 1024)).collect();
-    println!(
-        "soak: {} unpaced edits in {:.2} s; server RSS (MiB) at start and after each {per_round}: {}",
-        rounds * per_round,
-        t0.elapsed().as_secs_f64(),
-        rss_text.join(" → ")
-    );
     assert!(c.shutdown_and_exit().success());
+
+    // Soak: 100,000 random edits (the soak test's, ten times longer) with feature
+    // requests in between, against a fresh server; its memory every 10,000 edits
+    // must stay flat.
+    let soak = common::soak::run(100_000, 10_000);
+    let mib: Vec<String> = soak.rss.iter().map(|(_, k)| format!("{:.1}", *k as f64 / 1024.0)).collect();
+    let (early, peak) = soak.early_and_peak().unwrap_or((0, 0));
+    let last = soak.rss.last().map(|s| s.1).unwrap_or(0);
+    println!(
+        "soak: {} random edits in {:.1} s ({:.0} edits/s); server RSS (MiB) every 10,000 edits: {}; growth after the first sample: {:+.1} MiB peak, {:+.1} MiB at the end",
+        soak.edits,
+        soak.elapsed.as_secs_f64(),
+        soak.edits as f64 / soak.elapsed.as_secs_f64(),
+        mib.join(" → "),
+        (peak as f64 - early as f64) / 1024.0,
+        (last as f64 - early as f64) / 1024.0
+    );
+    assert!(peak < early + early / 2 + 32 * 1024, "memory is not flat: {:?}", soak.rss);
 }
 
 fn ms(d: Duration) -> f64 {

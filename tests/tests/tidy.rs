@@ -31,3 +31,119 @@ fn every_rust_file_starts_with_a_module_doc() {
         .collect();
     assert!(missing.is_empty(), "files without a leading `//!` line: {missing:?}");
 }
+
+/// Lines of Rust code: each line with its `//` comment cut off (strings are not
+/// parsed; the checks below look for patterns that do not occur in strings here).
+fn code_lines(text: &str) -> Vec<(usize, &str)> {
+    text.lines().enumerate().map(|(i, l)| (i + 1, l.split("//").next().unwrap_or(""))).collect()
+}
+
+fn workspace_members() -> Vec<String> {
+    let manifest = std::fs::read_to_string(root().join("Cargo.toml")).expect("Cargo.toml");
+    let line = manifest.lines().find(|l| l.trim_start().starts_with("members")).expect("members");
+    line.split('"').skip(1).step_by(2).map(str::to_string).collect()
+}
+
+#[test]
+fn every_crate_but_the_viewer_denies_unsafe_code() {
+    let manifest = std::fs::read_to_string(root().join("Cargo.toml")).expect("Cargo.toml");
+    assert!(manifest.contains("[workspace.lints.rust]\nunsafe_code = \"deny\""), "the workspace must deny unsafe_code");
+    let members = workspace_members();
+    assert!(members.len() >= 5, "{members:?}");
+    let mut problems = Vec::new();
+    for m in &members {
+        let toml = std::fs::read_to_string(root().join(m).join("Cargo.toml")).unwrap_or_default();
+        let lints = toml.split("[lints]").nth(1).map(|rest| rest.split("\n[").next().unwrap_or(""));
+        if !lints.is_some_and(|l| l.lines().any(|l| l.trim() == "workspace = true")) {
+            problems.push(format!("{m}/Cargo.toml does not take the workspace lints (`[lints] workspace = true`)"));
+        }
+        if m == "viewer" {
+            continue;
+        }
+        let mut files = Vec::new();
+        rs_files(&root().join(m), &mut files);
+        for f in files {
+            let text = std::fs::read_to_string(&f).unwrap_or_default();
+            for (n, code) in code_lines(&text) {
+                // (A pattern right after a quote is this test's own string.)
+                let has = |p: &str| code.contains(p) && !code.contains(&format!("\"{p}"));
+                let patterns =
+                    ["allow(unsafe_code", "warn(unsafe_code", "unsafe {", "unsafe{", "unsafe fn", "unsafe impl"];
+                if patterns.iter().any(|p| has(p)) {
+                    problems.push(format!(
+                        "{}:{n}: unsafe outside the viewer",
+                        f.strip_prefix(root()).unwrap_or(&f).display()
+                    ));
+                }
+            }
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+/// Every `unsafe` block (and `unsafe impl`) in the viewer is preceded by a comment
+/// block containing `SAFETY:` — directly above the statement the block is in.
+#[test]
+fn every_unsafe_block_in_the_viewer_has_a_safety_comment() {
+    let mut files = Vec::new();
+    rs_files(&root().join("viewer"), &mut files);
+    let mut blocks = 0;
+    let mut missing = Vec::new();
+    for f in files {
+        let text = std::fs::read_to_string(&f).unwrap_or_default();
+        let lines: Vec<&str> = text.lines().collect();
+        for (i, line) in lines.iter().enumerate() {
+            let code = line.split("//").next().unwrap_or("");
+            let is_block = code.split("unsafe").skip(1).any(|rest| {
+                let rest = rest.trim_start();
+                rest.starts_with('{') || rest.starts_with("impl")
+            }) && !code.contains("\"");
+            if !is_block {
+                continue;
+            }
+            blocks += 1;
+            // Back to the start of the statement (lines that do not end one).
+            let mut j = i;
+            while j > 0 {
+                let prev = lines[j - 1].trim();
+                if prev.is_empty() || prev.starts_with("//") || prev.ends_with([';', '{', '}', ',']) {
+                    break;
+                }
+                j -= 1;
+            }
+            // The comment block right above it.
+            let comment: Vec<&str> =
+                lines[..j].iter().rev().take_while(|l| l.trim_start().starts_with("//")).copied().collect();
+            if !comment.iter().any(|c| c.contains("SAFETY:")) {
+                missing.push(format!("{}:{}: {}", f.strip_prefix(root()).unwrap_or(&f).display(), i + 1, line.trim()));
+            }
+        }
+    }
+    assert!(blocks > 50, "only {blocks} unsafe blocks found in the viewer: is the scan broken?");
+    assert!(missing.is_empty(), "unsafe blocks without a `// SAFETY:` comment:\n{}", missing.join("\n"));
+}
+
+/// Output files are written atomically (temporary file + rename, see
+/// `mdg_vm::export::write_atomic`): no other code creates or overwrites files,
+/// except in tests.
+#[test]
+fn files_are_written_only_through_write_atomic() {
+    let mut files = Vec::new();
+    for dir in ["compiler/src", "vm/src", "lsp/src", "viewer/src"] {
+        rs_files(&root().join(dir), &mut files);
+    }
+    let mut found = Vec::new();
+    for f in files {
+        let text = std::fs::read_to_string(&f).unwrap_or_default();
+        // Unit tests (after `#[cfg(test)]`) may write scratch files.
+        let text = text.split("#[cfg(test)]").next().unwrap_or("");
+        for (n, code) in code_lines(text) {
+            if ["fs::write(", "File::create(", "OpenOptions::new("].iter().any(|p| code.contains(p))
+                && !f.ends_with("vm/src/export/mod.rs")
+            {
+                found.push(format!("{}:{n}: {}", f.strip_prefix(root()).unwrap_or(&f).display(), code.trim()));
+            }
+        }
+    }
+    assert!(found.is_empty(), "files written without write_atomic:\n{}", found.join("\n"));
+}

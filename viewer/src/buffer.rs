@@ -35,7 +35,8 @@ impl Buffer {
         // SAFETY: `raw` was just created from this device.
         let req = unsafe { ctx.device.get_buffer_memory_requirements(raw) };
         let Some(type_index) = ctx.memory_type(req.memory_type_bits, props) else {
-            // SAFETY: the buffer is unused.
+            // SAFETY: `raw` was created just above from this device, has no memory bound
+            // and was never given to the GPU, so nothing uses it.
             unsafe { ctx.device.destroy_buffer(raw, None) };
             return Err(Error::Vulkan(format!("no memory type with {props:?} for a buffer")));
         };
@@ -44,7 +45,8 @@ impl Buffer {
         let memory = match unsafe { ctx.device.allocate_memory(&alloc, None) } {
             Ok(m) => m,
             Err(e) => {
-                // SAFETY: the buffer is unused.
+                // SAFETY: `raw` was created just above from this device, has no memory
+                // bound and was never given to the GPU, so nothing uses it.
                 unsafe { ctx.device.destroy_buffer(raw, None) };
                 return Err(Error::Vulkan(format!("allocate {} bytes of buffer memory: {e}", req.size)));
             }

@@ -300,7 +300,8 @@ impl Context {
             [vk::DeviceQueueCreateInfo::default().queue_family_index(family).queue_priorities(&priorities)];
         // The swapchain extension is enabled for a window (it needs the instance's
         // surface extensions); offscreen rendering does not use it.
-        // SAFETY: plain query.
+        // SAFETY: `physical` was enumerated from `instance`, which is alive; the query
+        // only reads the device's extension list.
         let exts =
             unsafe { instance.enumerate_device_extension_properties(physical) }.map_err(vkerr("device extensions"))?;
         let has_swapchain =
@@ -341,7 +342,8 @@ impl Context {
             // SAFETY: a freshly allocated command buffer, recorded on this thread only.
             unsafe { self.device.begin_command_buffer(cmd, &begin) }.map_err(vkerr("begin command buffer"))?;
             record(cmd);
-            // SAFETY: recording was begun above.
+            // SAFETY: `cmd` is in the recording state (begun above on this thread) and
+            // `record` only appended commands to it.
             unsafe { self.device.end_command_buffer(cmd) }.map_err(vkerr("end command buffer"))?;
             // SAFETY: valid device; the fence is destroyed below.
             let fence = unsafe { self.device.create_fence(&vk::FenceCreateInfo::default(), None) }

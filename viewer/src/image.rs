@@ -46,23 +46,27 @@ impl Image {
         // SAFETY: `raw` was just created from this device.
         let req = unsafe { ctx.device.get_image_memory_requirements(raw) };
         let Some(type_index) = ctx.memory_type(req.memory_type_bits, vk::MemoryPropertyFlags::DEVICE_LOCAL) else {
-            // SAFETY: the image is unused.
+            // SAFETY: `raw` was created just above from this device, has no memory bound
+            // and was never given to the GPU, so nothing uses it.
             unsafe { ctx.device.destroy_image(raw, None) };
             return Err(Error::Vulkan("no device-local memory type for an image".into()));
         };
         let alloc = vk::MemoryAllocateInfo::default().allocation_size(req.size).memory_type_index(type_index);
-        // SAFETY: valid allocate info.
+        // SAFETY: `alloc` names a memory type index this device reported (from
+        // `ctx.memory_type`) and the size the image requires.
         let memory = match unsafe { ctx.device.allocate_memory(&alloc, None) } {
             Ok(m) => m,
             Err(e) => {
-                // SAFETY: the image is unused.
+                // SAFETY: `raw` was created just above from this device, has no memory
+                // bound and was never given to the GPU, so nothing uses it.
                 unsafe { ctx.device.destroy_image(raw, None) };
                 return Err(Error::Vulkan(format!("allocate image memory: {e}")));
             }
         };
         // SAFETY: fresh memory of a compatible type bound once at offset 0.
         if let Err(e) = unsafe { ctx.device.bind_image_memory(raw, memory, 0) } {
-            // SAFETY: neither is in use.
+            // SAFETY: the image and the memory were created just above from this device;
+            // binding failed, so no view or command refers to either.
             unsafe {
                 ctx.device.destroy_image(raw, None);
                 ctx.device.free_memory(memory, None);
@@ -72,7 +76,8 @@ impl Image {
         let view = match create_view(ctx, raw, desc.format, desc.aspect) {
             Ok(v) => v,
             Err(e) => {
-                // SAFETY: neither is in use.
+                // SAFETY: the image and its memory were created just above from this
+                // device; creating the view failed, so no command refers to either.
                 unsafe {
                     ctx.device.destroy_image(raw, None);
                     ctx.device.free_memory(memory, None);
@@ -137,7 +142,8 @@ pub fn msaa_samples(ctx: &Context, want: u32) -> vk::SampleCountFlags {
 /// The depth format: D32 float when supported as an attachment, else D24S8 / D16.
 pub fn depth_format(ctx: &Context) -> vk::Format {
     for f in [vk::Format::D32_SFLOAT, vk::Format::D24_UNORM_S8_UINT, vk::Format::D16_UNORM] {
-        // SAFETY: plain query.
+        // SAFETY: `ctx.physical` was enumerated from `ctx.instance`, which is alive; the
+        // query only reads the device's properties.
         let props = unsafe { ctx.instance.get_physical_device_format_properties(ctx.physical, f) };
         if props.optimal_tiling_features.contains(vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT) {
             return f;

@@ -179,7 +179,8 @@ pub fn contact_sheet(images: &[Vec<u8>], width: u32, height: u32, gap: [u8; 4]) 
 /// Writes RGBA pixels as a PNG file.
 pub fn write_png(path: &Path, rgba: &[u8], width: u32, height: u32) -> Result<(), Error> {
     let bytes = mdg_vm::preview::encode_png(rgba, width, height).map_err(|e| Error::Io(format!("encode PNG: {e}")))?;
-    std::fs::write(path, bytes).map_err(|e| Error::Io(format!("cannot write {}: {e}", path.display())))
+    // Atomically (temporary file + rename): a killed run never leaves half a PNG.
+    mdg_vm::export::write_atomic(path, &bytes).map_err(|e| Error::Io(format!("cannot write {}: {e}", path.display())))
 }
 
 #[cfg(test)]

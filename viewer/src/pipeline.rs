@@ -50,7 +50,8 @@ impl Layout {
         let pipeline_layout = match unsafe { ctx.device.create_pipeline_layout(&info, None) } {
             Ok(l) => l,
             Err(e) => {
-                // SAFETY: unused.
+                // SAFETY: `set_layout` was created just above from this device and no
+                // pipeline layout or descriptor set refers to it (creating one failed).
                 unsafe { ctx.device.destroy_descriptor_set_layout(set_layout, None) };
                 return Err(Error::Vulkan(format!("create pipeline layout: {e}")));
             }

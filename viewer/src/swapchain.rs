@@ -33,7 +33,8 @@ impl Surface {
         let supported =
             unsafe { loader.get_physical_device_surface_support(ctx.physical, ctx.queue_family, raw) }.unwrap_or(false);
         if !supported {
-            // SAFETY: the surface is unused.
+            // SAFETY: `raw` was created just above from this instance and no swapchain
+            // was made for it, so nothing uses the surface.
             unsafe { loader.destroy_surface(raw, None) };
             return Err(Error::Vulkan("the device's graphics queue cannot present to this window".into()));
         }
@@ -65,7 +66,8 @@ pub struct Swapchain {
 /// The colour format a window uses: 8-bit UNORM BGRA/RGBA (linear, like the
 /// offscreen target, so a screenshot matches a PNG), else whatever comes first.
 pub fn choose_format(ctx: &Context, surface: &Surface) -> Result<vk::SurfaceFormatKHR, Error> {
-    // SAFETY: plain query.
+    // SAFETY: `surface.raw` is a live surface of this instance (the `Surface` owns it)
+    // and `ctx.physical` a device of the same instance; the query only reads.
     let formats = unsafe { surface.loader.get_physical_device_surface_formats(ctx.physical, surface.raw) }
         .map_err(vkerr("surface formats"))?;
     formats

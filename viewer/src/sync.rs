@@ -23,7 +23,8 @@ impl Fence {
 
     /// Waits for the fence without a time limit.
     pub fn wait(&self) -> Result<(), Error> {
-        // SAFETY: a fence of this device.
+        // SAFETY: `self.raw` was created from `self.ctx.device`, which the `Arc` keeps
+        // alive, and is destroyed only in `drop`, so the handle is valid for the wait.
         unsafe { self.ctx.device.wait_for_fences(&[self.raw], true, u64::MAX) }.map_err(vkerr("wait for fence"))
     }
 

@@ -121,3 +121,17 @@ fn png_uses_the_vulkan_renderer_and_the_bundles_program() {
     let green = px.iter().filter(|c| c[0] <= 1 && c[1] >= 254 && c[2] <= 1).count();
     assert!(green > px.len() / 50, "{green} pure green pixels of {}", px.len());
 }
+
+/// Every mode's flags share one command line: clap's consistency checks (unique
+/// names and ids) pass and `--help` lists each mode's flags.
+#[test]
+fn help_lists_every_modes_flags() {
+    let out = run(&["--help"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for flag in
+        ["--guides", "--search-generations", "--generations", "--population", "--keep", "--steps", "--enclosure"]
+    {
+        assert!(text.contains(flag), "--help lacks {flag}:\n{text}");
+    }
+}

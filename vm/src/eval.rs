@@ -42,6 +42,11 @@ pub const DEFAULT_STACKSIZE: u32 = 100_000;
 pub const DEFAULT_MAX_VERTICES: u64 = 50_000_000;
 /// Default largest isosurface grid, in cells.
 pub const DEFAULT_MAX_ISO_CELLS: u64 = 16_000_000;
+/// The most keyframes all bones together may have (each bone has one per frame of its
+/// track at its fps): the output and a glTF file hold them all, so they are a memory
+/// budget like the vertex budget (and never more than it: a smaller vertex budget
+/// lowers this one too). Reaching it stops the run with a warning.
+pub const MAX_KEYFRAMES: u64 = 10_000_000;
 /// The colour state at the start of a run (R, G, B, A): white, opaque. Colour
 /// adjustments add to it (`{G -1 B -1}` gives red); see docs/reference.md.
 pub const START_COLOR: [f32; 4] = [1.0, 1.0, 1.0, 1.0];
@@ -108,6 +113,186 @@ impl State {
     /// The colour as shown: every component clamped to 0..1.
     fn display_color(&self) -> [f32; 4] {
         self.color.map(|c| c.clamp(0.0, 1.0))
+    }
+}
+
+/// A rule call waiting to run: guided search keeps these instead of recursing
+/// (see [`Expander`] and [`evaluate_calls`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Call {
+    pub rule: u32,
+    /// The state the rule's body runs in (the caller's state composed with the call's
+    /// adjustments).
+    pub state: State,
+    /// The start shape is at depth 0; every call adds 1.
+    pub depth: u32,
+}
+
+impl Call {
+    /// The start shape's call: the identity frame, the start colour, depth 0.
+    pub fn start(b: &Bundle) -> Call {
+        Call { rule: b.settings.startshape, state: State::start(b.settings.fps), depth: 0 }
+    }
+}
+
+/// The most calls one [`Expander::expand`] records; a body that makes more is cut there.
+pub const MAX_EXPANSION_CALLS: usize = 1 << 16;
+
+/// Runs one rule call's body *without* descending into the calls it makes: each call
+/// is returned (rule, state, depth) instead (guided search's skeleton phase, SPEC §11).
+///
+/// The body runs as in [`evaluate`]: the definition its selector picks, iterators,
+/// continuations, `rand`/`randn` in adjustments (drawn from this expander's stream),
+/// and the `maxdepth` and `minsize` limits, which drop the calls beyond them. What is
+/// not evaluated is the callees, so a continuation `A \ B` where `A` is a call starts
+/// `B` from `A`'s own frame (the frame of a drawable inside `A` is not known yet).
+/// Drawables and isosurfaces are skipped: skeleton rules may not draw (the compiler
+/// and the bundle verifier reject those that do). `sequential` and `pattern`
+/// selectors start afresh with every expansion.
+pub struct Expander<'b> {
+    b: &'b Bundle,
+    rng: Pcg,
+    expr_stack: Vec<f64>,
+    sequential: HashMap<u32, (usize, u32)>,
+    loops: Vec<LoopRec>,
+}
+
+impl<'b> Expander<'b> {
+    /// An expander over `b`, with the stream of [`Expander::reseed`]`(0, 0)`.
+    pub fn new(b: &'b Bundle) -> Expander<'b> {
+        let mut e = Expander {
+            b,
+            rng: Pcg(Pcg64::new(0, 0)),
+            expr_stack: Vec::with_capacity(16),
+            sequential: HashMap::new(),
+            loops: Vec::new(),
+        };
+        e.reseed(0, 0);
+        e
+    }
+
+    /// Restarts the random stream: PCG-64 stream `stream` at a state derived from
+    /// `seed`. Distinct (seed, stream) pairs give independent streams, so work split by
+    /// (seed, stream) gives the same numbers in any order or on any thread.
+    pub fn reseed(&mut self, seed: u64, stream: u64) {
+        let mix = |mut z: u64| {
+            // SplitMix64 finaliser: spreads nearby seeds over the whole state space.
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^ (z >> 31)
+        };
+        let hi = mix(seed ^ 0x6A09_E667_F3BC_C908);
+        let lo = mix(seed.wrapping_add(0x9E37_79B9_7F4A_7C15));
+        let state = ((hi as u128) << 64) | lo as u128;
+        let s = mix(stream ^ 0xBB67_AE85_84CA_A73B);
+        let inc = ((s as u128) << 64) | mix(stream.wrapping_add(0x3C6E_F372_FE94_F82B)) as u128;
+        self.rng = Pcg(Pcg64::new(state, inc));
+    }
+
+    /// A uniform number in [0, 1) from the stream (53 random bits).
+    pub fn uniform(&mut self) -> f64 {
+        self.rng.uniform()
+    }
+
+    /// A uniform index in `0..n` (`n` > 0; 0 when `n` is 0).
+    pub fn index(&mut self, n: usize) -> usize {
+        ((self.rng.uniform() * n as f64) as usize).min(n.saturating_sub(1))
+    }
+
+    /// Runs the body of `call` and appends the calls it makes to `out`, in the order
+    /// the body makes them. Returns `false` when the body was cut at
+    /// [`MAX_EXPANSION_CALLS`] calls.
+    pub fn expand(&mut self, call: &Call, out: &mut Vec<Call>) -> bool {
+        let b = self.b;
+        let code = &b.code;
+        let s = &b.settings;
+        let mut pc = select_def(
+            b,
+            call.rule,
+            &call.state,
+            call.depth,
+            &mut self.rng,
+            &mut self.sequential,
+            &mut self.expr_stack,
+        ) as usize;
+        self.sequential.clear();
+        self.loops.clear();
+        let depth = call.depth.saturating_add(1);
+        let mut base = call.state;
+        let mut cont: Option<State> = None;
+        let mut last = call.state;
+        let mut made = 0usize;
+        while let Some(&op) = code.get(pc) {
+            match op {
+                Op::Call { rule, xf, flags } => {
+                    pc += 1;
+                    let from = cont.take().unwrap_or(base);
+                    let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack);
+                    let child = from.compose(&c);
+                    if flags & CONT_NEXT != 0 {
+                        last = child;
+                    }
+                    if s.maxdepth > 0 && depth > s.maxdepth {
+                        continue;
+                    }
+                    if s.minsize > 0.0 && child.f.scale_factor() < s.minsize {
+                        continue;
+                    }
+                    if made >= MAX_EXPANSION_CALLS {
+                        return false;
+                    }
+                    made += 1;
+                    out.push(Call { rule, state: child, depth });
+                }
+                Op::Draw { xf, .. } | Op::Iso { xf, .. } => {
+                    pc += 1;
+                    let from = cont.take().unwrap_or(base);
+                    let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack);
+                    last = from.compose(&c);
+                }
+                Op::Loop { count, step, end, chain } => {
+                    let from = cont.take().unwrap_or(base);
+                    if count == 0 {
+                        pc = end as usize + 1;
+                        continue;
+                    }
+                    let c = eval_transform(b, step, &mut self.rng, &mut self.expr_stack);
+                    self.loops.push(LoopRec { remaining: count, step, saved_base: base, chain: chain != 0 });
+                    base = from.compose(&c);
+                    pc += 1;
+                }
+                Op::EndLoop { begin } => {
+                    cont = None;
+                    let Some(l) = self.loops.last_mut() else {
+                        pc += 1;
+                        continue;
+                    };
+                    l.remaining -= 1;
+                    if l.remaining > 0 {
+                        if made >= MAX_EXPANSION_CALLS {
+                            return false;
+                        }
+                        let from = if l.chain { last } else { base };
+                        let step = l.step;
+                        let c = eval_transform(b, step, &mut self.rng, &mut self.expr_stack);
+                        base = from.compose(&c);
+                        pc = begin as usize + 1;
+                        // Runs count like calls, so a huge iterator is cut too.
+                        made += 1;
+                    } else {
+                        base = l.saved_base;
+                        self.loops.pop();
+                        pc += 1;
+                    }
+                }
+                Op::Cont {} => {
+                    pc += 1;
+                    cont = Some(last);
+                }
+                Op::Ret {} => break,
+            }
+        }
+        true
     }
 }
 
@@ -189,6 +374,9 @@ struct LimitCounts {
     maxiter: bool,
     vertices: bool,
     time: bool,
+    /// Keyframes of the bones made so far (see [`MAX_KEYFRAMES`]).
+    keyframes: u64,
+    animation: bool,
 }
 
 /// What `run` collects: full geometry, only the points of a profile rule, or only
@@ -248,182 +436,115 @@ pub fn evaluate(b: &Bundle, opts: &EvalOptions) -> Output {
 
 /// Like [`evaluate`], calling `progress(rule_calls)` now and then (for a progress bar).
 pub fn evaluate_with_progress(b: &Bundle, opts: &EvalOptions, progress: Option<&dyn Fn(u64)>) -> Output {
-    let s = &b.settings;
-    let seed = opts.seed.unwrap_or(s.randseed);
-    let start = State::start(s.fps);
-    let mut e = Eval {
-        b,
-        opts: opts.clone(),
-        rng: Pcg(Pcg64::seed_from_u64(seed)),
-        out: Output { background: s.background, ..Output::default() },
-        pens: vec![Pen { state: start, lifted: false, line: None, bone: 0 }; s.namespaces.len()],
-        last: start,
-        sequential: HashMap::new(),
-        profiles: HashMap::new(),
-        iso_meshes: HashMap::new(),
-        limits: LimitCounts::default(),
-        stopped: false,
-        started: Instant::now(),
-        calls: 0,
-        maxiter: opts.maxiter.unwrap_or(if s.maxiter > 0 { s.maxiter } else { DEFAULT_MAXITER }),
-        stacksize: if s.stacksize > 0 { s.stacksize } else { DEFAULT_STACKSIZE },
-        expr_stack: Vec::with_capacity(16),
-        profile_points: Vec::new(),
-        progress,
-        seed,
-        track_ids: HashMap::new(),
-        computing: Vec::new(),
-        frame_sink: Vec::new(),
-        frame_limit: 0,
-        halt: false,
-        horizon: match opts.time {
-            Some(t) if t.is_finite() && t > s.duration as f64 => t,
-            _ => (s.duration as f64).max(0.0),
-        },
-        conv_cache: HashMap::new(),
-        needs_last: b
-            .code
-            .iter()
-            .any(|op| matches!(op, Op::Cont {} | Op::Loop { chain: 1, .. } | Op::Draw { kind: 9, .. })),
-        xf_info: b
-            .transforms
-            .iter()
-            .map(|t| match t {
-                Transform::Const(c) => {
-                    let frame =
-                        Frame { q: Quat::from_array(c.q), qh: Quat::from_array(c.qh), u: Vec3::from_array(c.u) };
-                    let (lin, mirrored) = linear(&frame);
-                    Some(XfInfo { frame, normal: lin * Vec3::from_array(s.normal), mirrored })
-                }
-                Transform::Dynamic { .. } => None,
-            })
-            .collect(),
-    };
-    e.out.animation.duration = s.duration;
-    e.run(s.startshape, start, Mode::Model);
-    if s.camerarule != NONE && !e.stopped {
-        let fps = if s.fps.is_finite() && s.fps > 0.0 { s.fps } else { 0.0 };
-        let track = e.track(s.camerarule, frames_needed(e.horizon, fps));
-        e.out.animation.camera = Some(Camera { track, fps, fov: s.camerafov, near: s.near, far: s.far });
+    let mut e = Eval::new(b, opts, progress);
+    let start = State::start(b.settings.fps);
+    e.run(b.settings.startshape, start, Mode::Model);
+    e.camera_and_finish()
+}
+
+/// Evaluates the given calls one after the other, each to the end of its derivation,
+/// into one output (the geometry phase of guided search: the calls a skeleton left
+/// for it, see [`Expander`]). Pens, the continuation register and the random stream
+/// carry over from one call to the next, as if the calls were items of one body; the
+/// limits, the camera rule and the warnings are those of [`evaluate`].
+pub fn evaluate_calls(b: &Bundle, opts: &EvalOptions, calls: &[Call]) -> Output {
+    let mut e = Eval::new(b, opts, None);
+    for c in calls {
+        if e.stopped {
+            break;
+        }
+        e.run_from(c.rule, c.state, c.depth, Mode::Model);
     }
-    e.finish()
+    e.camera_and_finish()
+}
+
+impl<'b> Eval<'b> {
+    fn new(b: &'b Bundle, opts: &EvalOptions, progress: Option<&'b dyn Fn(u64)>) -> Eval<'b> {
+        let s = &b.settings;
+        let seed = opts.seed.unwrap_or(s.randseed);
+        let start = State::start(s.fps);
+        let mut e = Eval {
+            b,
+            opts: opts.clone(),
+            rng: Pcg(Pcg64::seed_from_u64(seed)),
+            out: Output { background: s.background, ..Output::default() },
+            pens: vec![Pen { state: start, lifted: false, line: None, bone: 0 }; s.namespaces.len()],
+            last: start,
+            sequential: HashMap::new(),
+            profiles: HashMap::new(),
+            iso_meshes: HashMap::new(),
+            limits: LimitCounts::default(),
+            stopped: false,
+            started: Instant::now(),
+            calls: 0,
+            maxiter: opts.maxiter.unwrap_or(if s.maxiter > 0 { s.maxiter } else { DEFAULT_MAXITER }),
+            stacksize: if s.stacksize > 0 { s.stacksize } else { DEFAULT_STACKSIZE },
+            expr_stack: Vec::with_capacity(16),
+            profile_points: Vec::new(),
+            progress,
+            seed,
+            track_ids: HashMap::new(),
+            computing: Vec::new(),
+            frame_sink: Vec::new(),
+            frame_limit: 0,
+            halt: false,
+            horizon: match opts.time {
+                Some(t) if t.is_finite() && t > s.duration as f64 => t,
+                _ => (s.duration as f64).max(0.0),
+            },
+            conv_cache: HashMap::new(),
+            needs_last: b
+                .code
+                .iter()
+                .any(|op| matches!(op, Op::Cont {} | Op::Loop { chain: 1, .. } | Op::Draw { kind: 9, .. })),
+            xf_info: b
+                .transforms
+                .iter()
+                .map(|t| match t {
+                    Transform::Const(c) => {
+                        let frame =
+                            Frame { q: Quat::from_array(c.q), qh: Quat::from_array(c.qh), u: Vec3::from_array(c.u) };
+                        let (lin, mirrored) = linear(&frame);
+                        Some(XfInfo { frame, normal: lin * Vec3::from_array(s.normal), mirrored })
+                    }
+                    Transform::Dynamic { .. } => None,
+                })
+                .collect(),
+        };
+        e.out.animation.duration = s.duration;
+        e
+    }
+
+    /// Samples the camera rule (if any) and returns the output with its counters.
+    fn camera_and_finish(mut self) -> Output {
+        let s = &self.b.settings;
+        if s.camerarule != NONE && !self.stopped {
+            let fps = if s.fps.is_finite() && s.fps > 0.0 { s.fps } else { 0.0 };
+            let track = self.track(s.camerarule, frames_needed(self.horizon, fps));
+            self.out.animation.camera = Some(Camera { track, fps, fov: s.camerafov, near: s.near, far: s.far });
+        }
+        self.finish()
+    }
 }
 
 impl<'b> Eval<'b> {
     fn transform(&mut self, xf: u32) -> Composite {
-        match &self.b.transforms[xf as usize] {
-            Transform::Const(c) => *c,
-            Transform::Dynamic { adjs, divisor } => {
-                let mut prims = Vec::with_capacity(adjs.len());
-                for a in adjs {
-                    let args = a
-                        .args
-                        .iter()
-                        .map(|arg| match arg {
-                            bundle::Arg::Const(v) => bundle::Arg::Const(*v),
-                            bundle::Arg::Expr(e) => {
-                                let code: &[ExprOp] = &self.b.exprs[*e as usize];
-                                let v = expr::eval(code, &[0.0; 6], &mut self.rng, &mut self.expr_stack);
-                                bundle::Arg::Const(if v.is_finite() { v as f32 } else { 0.0 })
-                            }
-                        })
-                        .collect();
-                    prims.push(bundle::PrimAdj { kind: a.kind, axis: a.axis, args });
-                }
-                compose_prims(&prims, *divisor)
-            }
-        }
+        eval_transform(self.b, xf, &mut self.rng, &mut self.expr_stack)
     }
 
     fn select(&mut self, rule_idx: u32, child: &State, depth: u32) -> u32 {
-        let rule = &self.b.rules[rule_idx as usize];
-        let defs = &rule.defs;
-        if defs.len() == 1 {
-            return defs[0].start;
-        }
-        let threshold = |v: f64| -> usize {
-            // Smallest weight ≥ v, else the largest (SPEC resolved semantics 5).
-            let mut best: Option<usize> = None;
-            for (i, d) in defs.iter().enumerate() {
-                if d.weight as f64 >= v && best.is_none_or(|b| d.weight < defs[b].weight) {
-                    best = Some(i);
-                }
-            }
-            best.unwrap_or_else(|| (0..defs.len()).fold(0, |b, i| if defs[i].weight > defs[b].weight { i } else { b }))
-        };
-        let i = match rule.selector {
-            Selector::Random => {
-                let total: f64 = defs.iter().map(|d| d.weight.max(0.0) as f64).sum();
-                if total <= 0.0 {
-                    0
-                } else {
-                    let r = self.rng.uniform() * total;
-                    let mut acc = 0.0;
-                    let mut pick = defs.len() - 1;
-                    for (i, d) in defs.iter().enumerate() {
-                        acc += d.weight.max(0.0) as f64;
-                        if r < acc {
-                            pick = i;
-                            break;
-                        }
-                    }
-                    pick
-                }
-            }
-            Selector::Depth => threshold(depth as f64),
-            Selector::Scale => {
-                let s = child.f.scale_factor() as f64;
-                let mut best: Option<usize> = None;
-                for (i, d) in defs.iter().enumerate() {
-                    if (d.weight as f64) <= s && best.is_none_or(|b| d.weight > defs[b].weight) {
-                        best = Some(i);
-                    }
-                }
-                best.unwrap_or_else(|| {
-                    (0..defs.len()).fold(0, |b, i| if defs[i].weight < defs[b].weight { i } else { b })
-                })
-            }
-            Selector::Sequential => {
-                let n = defs.len();
-                let entry = self.sequential.entry(rule_idx).or_insert((0, 0));
-                // Skip definitions with a zero count (at most one full cycle).
-                for _ in 0..n {
-                    if (defs[entry.0].weight.max(0.0) as u32) > entry.1 {
-                        break;
-                    }
-                    *entry = ((entry.0 + 1) % n, 0);
-                }
-                let i = entry.0;
-                entry.1 += 1;
-                if entry.1 >= defs[i].weight.max(0.0) as u32 {
-                    *entry = ((i + 1) % n, 0);
-                }
-                i
-            }
-            Selector::Pattern => {
-                let entry = self.sequential.entry(rule_idx).or_insert((0, 0));
-                let i = entry.0 % defs.len();
-                entry.0 = (i + 1) % defs.len();
-                i
-            }
-            Selector::Function(e) => {
-                let p = child.f.u;
-                let vars = [p.x as f64, p.y as f64, p.z as f64, depth as f64, child.f.scale_factor() as f64, 0.0];
-                let v = expr::eval(&self.b.exprs[e as usize], &vars, &mut self.rng, &mut self.expr_stack);
-                if v.is_finite() {
-                    threshold(v)
-                } else {
-                    0
-                }
-            }
-        };
-        defs[i].start
+        select_def(self.b, rule_idx, child, depth, &mut self.rng, &mut self.sequential, &mut self.expr_stack)
     }
 
     /// Runs `rule` from `start` until its whole derivation is done.
     fn run(&mut self, rule: u32, start: State, mode: Mode) {
+        self.run_from(rule, start, 0, mode)
+    }
+
+    /// Runs a call of `rule` in state `start` at `depth` until its whole derivation is done.
+    fn run_from(&mut self, rule: u32, start: State, depth: u32, mode: Mode) {
         let b = self.b;
-        let pc = self.select(rule, &start, 0);
+        let pc = self.select(rule, &start, depth);
         let first = if b.rules[rule as usize].iter != NONE {
             // The start shape (or a sampled rule) is itself a convolution.
             let frames = self.convolution(rule, start.fps);
@@ -433,7 +554,7 @@ impl<'b> Eval<'b> {
                 pc,
                 base,
                 base_lin: None,
-                depth: 0,
+                depth,
                 cont: None,
                 loops_at: 0,
                 bone: 0,
@@ -445,7 +566,7 @@ impl<'b> Eval<'b> {
             } else {
                 0
             };
-            Act { pc, base: start, base_lin: None, depth: 0, cont: None, loops_at: 0, bone, conv: None }
+            Act { pc, base: start, base_lin: None, depth, cont: None, loops_at: 0, bone, conv: None }
         };
         let mut stack: Vec<Act> = vec![first];
         let mut loops: Vec<LoopRec> = Vec::new();
@@ -703,6 +824,11 @@ impl<'b> Eval<'b> {
         let r = &b.rules[rule as usize];
         let fps = if child.fps.is_finite() && child.fps > 0.0 { child.fps } else { 0.0 };
         let needed = frames_needed(self.horizon, fps);
+        self.limits.keyframes = self.limits.keyframes.saturating_add(needed as u64);
+        if self.limits.keyframes > self.keyframe_budget() {
+            self.limits.animation = true;
+            self.stopped = true;
+        }
         let tracks = r.transforms.iter().map(|&x| self.track(x, needed)).collect();
         let bones = &mut self.out.animation.bones;
         if bones.is_empty() {
@@ -710,6 +836,11 @@ impl<'b> Eval<'b> {
         }
         bones.push(Bone { rule: b.string(r.name).to_string(), parent, rest: child.f, fps, tracks });
         (bones.len() - 1) as u32
+    }
+
+    /// The keyframe budget: [`MAX_KEYFRAMES`], or the vertex budget when smaller.
+    fn keyframe_budget(&self) -> u64 {
+        MAX_KEYFRAMES.min(self.opts.max_vertices)
     }
 
     /// Records a warning once.
@@ -917,6 +1048,9 @@ impl<'b> Eval<'b> {
                             m.bones.resize(m.n_vertices(), 0);
                             m.bones[first..first + pts.len()].fill(pen.bone);
                         }
+                        // One sweep can add many vertices (a long profile): check the
+                        // vertex budget now, not only every 4,096 calls.
+                        self.check_budgets();
                     }
                 }
                 let l = match pen.line {
@@ -1024,6 +1158,10 @@ impl<'b> Eval<'b> {
         if self.limits.time {
             w.push("time budget reached: the run stopped; the output so far is kept".to_string());
         }
+        if self.limits.animation {
+            let n = MAX_KEYFRAMES.min(self.opts.max_vertices);
+            w.push(format!("animation budget of {n} keyframes reached: the run stopped; the output so far is kept"));
+        }
         let st = &mut self.out.stats;
         st.rule_calls = self.calls.min(self.maxiter);
         st.vertices = (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64;
@@ -1031,6 +1169,136 @@ impl<'b> Eval<'b> {
         st.elapsed_ms = self.started.elapsed().as_secs_f64() * 1000.0;
         self.out
     }
+}
+
+/// Evaluates transform `xf`: a constant composite, or a dynamic list with its random
+/// draws taken from `rng`.
+#[inline]
+fn eval_transform(b: &Bundle, xf: u32, rng: &mut Pcg, stack: &mut Vec<f64>) -> Composite {
+    match &b.transforms[xf as usize] {
+        Transform::Const(c) => *c,
+        Transform::Dynamic { adjs, divisor } => {
+            // As `compose_prims` over the evaluated arguments (same operations, same
+            // order of random draws), without building the argument lists.
+            let mut f = Frame::identity();
+            let mut c = Composite::IDENTITY;
+            for a in adjs {
+                let mut vals = [0.0f32; 3];
+                for (v, arg) in vals.iter_mut().zip(&a.args) {
+                    *v = match arg {
+                        bundle::Arg::Const(v) => *v,
+                        bundle::Arg::Expr(e) => {
+                            let code: &[ExprOp] = &b.exprs[*e as usize];
+                            let v = expr::eval(code, &[0.0; 6], rng, stack);
+                            if v.is_finite() {
+                                v as f32
+                            } else {
+                                0.0
+                            }
+                        }
+                    };
+                }
+                apply_prim(&mut f, &mut c, a.kind, a.axis, &vals, a.args.len(), *divisor);
+            }
+            c.q = f.q.to_array();
+            c.qh = f.qh.to_array();
+            c.u = f.u.to_array();
+            c
+        }
+    }
+}
+
+/// Picks the definition of `rule_idx` its selector chooses for a call in state `child`
+/// at `depth`; returns its first op.
+fn select_def(
+    b: &Bundle,
+    rule_idx: u32,
+    child: &State,
+    depth: u32,
+    rng: &mut Pcg,
+    sequential: &mut HashMap<u32, (usize, u32)>,
+    stack: &mut Vec<f64>,
+) -> u32 {
+    let rule = &b.rules[rule_idx as usize];
+    let defs = &rule.defs;
+    if defs.len() == 1 {
+        return defs[0].start;
+    }
+    let threshold = |v: f64| -> usize {
+        // Smallest weight ≥ v, else the largest (SPEC resolved semantics 5).
+        let mut best: Option<usize> = None;
+        for (i, d) in defs.iter().enumerate() {
+            if d.weight as f64 >= v && best.is_none_or(|b| d.weight < defs[b].weight) {
+                best = Some(i);
+            }
+        }
+        best.unwrap_or_else(|| (0..defs.len()).fold(0, |b, i| if defs[i].weight > defs[b].weight { i } else { b }))
+    };
+    let i = match rule.selector {
+        Selector::Random => {
+            let total: f64 = defs.iter().map(|d| d.weight.max(0.0) as f64).sum();
+            if total <= 0.0 {
+                0
+            } else {
+                let r = rng.uniform() * total;
+                let mut acc = 0.0;
+                let mut pick = defs.len() - 1;
+                for (i, d) in defs.iter().enumerate() {
+                    acc += d.weight.max(0.0) as f64;
+                    if r < acc {
+                        pick = i;
+                        break;
+                    }
+                }
+                pick
+            }
+        }
+        Selector::Depth => threshold(depth as f64),
+        Selector::Scale => {
+            let s = child.f.scale_factor() as f64;
+            let mut best: Option<usize> = None;
+            for (i, d) in defs.iter().enumerate() {
+                if (d.weight as f64) <= s && best.is_none_or(|b| d.weight > defs[b].weight) {
+                    best = Some(i);
+                }
+            }
+            best.unwrap_or_else(|| (0..defs.len()).fold(0, |b, i| if defs[i].weight < defs[b].weight { i } else { b }))
+        }
+        Selector::Sequential => {
+            let n = defs.len();
+            let entry = sequential.entry(rule_idx).or_insert((0, 0));
+            // Skip definitions with a zero count (at most one full cycle).
+            for _ in 0..n {
+                if (defs[entry.0].weight.max(0.0) as u32) > entry.1 {
+                    break;
+                }
+                *entry = ((entry.0 + 1) % n, 0);
+            }
+            let i = entry.0;
+            entry.1 += 1;
+            if entry.1 >= defs[i].weight.max(0.0) as u32 {
+                *entry = ((i + 1) % n, 0);
+            }
+            i
+        }
+        Selector::Pattern => {
+            let entry = sequential.entry(rule_idx).or_insert((0, 0));
+            let i = entry.0 % defs.len();
+            entry.0 = (i + 1) % defs.len();
+            i
+        }
+        Selector::Function(e) => {
+            let p = child.f.u;
+            let vars = [p.x as f64, p.y as f64, p.z as f64, depth as f64, child.f.scale_factor() as f64, 0.0];
+            let v = expr::eval(&b.exprs[e as usize], &vars, rng, stack);
+            if v.is_finite() {
+                threshold(v)
+            } else {
+                0
+            }
+        }
+    };
+    defs[i].start
 }
 
 /// Composes primitive adjustments (constant arguments) into one composite, each
@@ -1041,50 +1309,60 @@ pub fn compose_prims(prims: &[bundle::PrimAdj], divisor: f32) -> Composite {
     let mut f = Frame::identity();
     let mut c = Composite::IDENTITY;
     for p in prims {
-        let arg = |i: usize| match p.args.get(i) {
-            Some(bundle::Arg::Const(v)) => *v,
-            _ => 0.0,
-        };
-        match p.kind {
-            0 => {
-                let v = match p.axis {
-                    0 => Vec3::new(arg(0), 0.0, 0.0),
-                    1 => Vec3::new(0.0, arg(0), 0.0),
-                    2 => Vec3::new(0.0, 0.0, arg(0)),
-                    _ => Vec3::new(arg(0), arg(1), arg(2)),
-                };
-                f = f.translate(v / divisor);
+        let mut vals = [0.0f32; 3];
+        for (v, a) in vals.iter_mut().zip(&p.args) {
+            if let bundle::Arg::Const(x) = a {
+                *v = *x;
             }
-            1 => {
-                let axes = [Vec3::X, Vec3::Y, Vec3::Z];
-                if p.axis == 3 {
-                    for i in 0..p.args.len().min(3) {
-                        f = f.rotate(Quat::from_axis_angle(axes[i], arg(i) / divisor));
-                    }
-                } else {
-                    f = f.rotate(Quat::from_axis_angle(axes[p.axis as usize % 3], arg(0) / divisor));
-                }
-            }
-            2 => {
-                let s = arg(0);
-                f = f.scale(if divisor == 1.0 { s } else { s.signum() * s.abs().powf(1.0 / divisor) });
-            }
-            3 => {
-                let n = match p.axis {
-                    0 => Vec3::X,
-                    1 => Vec3::Y,
-                    2 => Vec3::Z,
-                    _ => Vec3::new(arg(0), arg(1), arg(2)),
-                };
-                f = f.reflect(n);
-            }
-            4 => c.color[p.axis as usize & 3] += arg(0) / divisor,
-            5 => c.weight[p.axis as usize & 3] += arg(0) / divisor,
-            _ => c.fps += arg(0) / divisor,
         }
+        apply_prim(&mut f, &mut c, p.kind, p.axis, &vals, p.args.len(), divisor);
     }
     c.q = f.q.to_array();
     c.qh = f.qh.to_array();
     c.u = f.u.to_array();
     c
+}
+
+/// Applies one primitive adjustment with argument values `args` (`n_args` of them
+/// given; missing ones are 0) to the frame `f` and the deltas `c` (see [`compose_prims`]).
+#[inline]
+fn apply_prim(f: &mut Frame, c: &mut Composite, kind: u8, axis: u8, args: &[f32; 3], n_args: usize, divisor: f32) {
+    let arg = |i: usize| if i < n_args { args[i] } else { 0.0 };
+    match kind {
+        0 => {
+            let v = match axis {
+                0 => Vec3::new(arg(0), 0.0, 0.0),
+                1 => Vec3::new(0.0, arg(0), 0.0),
+                2 => Vec3::new(0.0, 0.0, arg(0)),
+                _ => Vec3::new(arg(0), arg(1), arg(2)),
+            };
+            *f = f.translate(v / divisor);
+        }
+        1 => {
+            let axes = [Vec3::X, Vec3::Y, Vec3::Z];
+            if axis == 3 {
+                for (i, a) in axes.iter().enumerate().take(n_args.min(3)) {
+                    *f = f.rotate(Quat::from_axis_angle(*a, arg(i) / divisor));
+                }
+            } else {
+                *f = f.rotate(Quat::from_axis_angle(axes[axis as usize % 3], arg(0) / divisor));
+            }
+        }
+        2 => {
+            let s = arg(0);
+            *f = f.scale(if divisor == 1.0 { s } else { s.signum() * s.abs().powf(1.0 / divisor) });
+        }
+        3 => {
+            let n = match axis {
+                0 => Vec3::X,
+                1 => Vec3::Y,
+                2 => Vec3::Z,
+                _ => Vec3::new(arg(0), arg(1), arg(2)),
+            };
+            *f = f.reflect(n);
+        }
+        4 => c.color[axis as usize & 3] += arg(0) / divisor,
+        5 => c.weight[axis as usize & 3] += arg(0) / divisor,
+        _ => c.fps += arg(0) / divisor,
+    }
 }

@@ -1,15 +1,413 @@
-//! `mdg-run` on a grammar with a `creature` section.
+//! `mdg-run` on a grammar with a `creature` section: evolves generations of
+//! monsters and writes, per generation, one `.glb` per monster, a contact sheet
+//! (PNG) and thumbnails, plus an `index.html` gallery with each monster's
+//! structure; prints the diversity per generation.
 
-use super::Common;
+use super::{render_png, Common};
 use mdg_vm::bundle::Bundle;
+use mdg_vm::creature::evolve::{structure_key, Evolution, EvolveOptions, Generation, Individual, Population};
+use mdg_vm::creature::geometry::{assemble, output_of, program_text, Library};
+use mdg_vm::creature::sheet::compose;
+use mdg_vm::creature::table::{CreatureTable, RuleKind, MAX_GENERATIONS, MAX_POPULATION};
+use mdg_vm::export::{self, Format};
+use mdg_vm::output::Mesh;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::time::Instant;
 
 /// Options of `mdg-run` for `creature` grammars.
-#[derive(clap::Args, Debug, Default)]
-pub struct CreatureArgs {}
+#[derive(clap::Args, Debug, Default, Clone)]
+pub struct CreatureArgs {
+    /// Creature grammar: generations to evolve (default: the `evolve` block's).
+    #[arg(long, value_name = "N")]
+    pub generations: Option<u32>,
+    /// Creature grammar: monsters presented per generation (default: the `evolve` block's).
+    #[arg(long, value_name = "N")]
+    pub population: Option<u32>,
+    /// Creature grammar: continue evolution from these monsters (ids from the
+    /// gallery, e.g. `g3-04,g3-11`; same grammar, seed and options as the run that
+    /// made them, which is replayed up to their generation).
+    #[arg(long, value_name = "ID,ID", value_delimiter = ',')]
+    pub keep: Vec<String>,
+    /// Creature grammar: leave out the structure rules of these kinds
+    /// (`increase`, `insert`, `replace`, `combine`), e.g. for an ablation.
+    #[arg(long, value_name = "KIND,KIND", value_delimiter = ',')]
+    pub without_rules: Vec<String>,
+}
+
+/// The evolution options from the table and the command line.
+pub fn options(t: &CreatureTable, args: &CreatureArgs, seed: Option<u64>) -> Result<EvolveOptions, String> {
+    let mut o = EvolveOptions::from_table(t);
+    if let Some(s) = seed {
+        o.seed = s;
+    }
+    if let Some(g) = args.generations {
+        if g > MAX_GENERATIONS {
+            return Err(format!("--generations {g}: at most {MAX_GENERATIONS}"));
+        }
+        o.generations = g;
+    }
+    if let Some(p) = args.population {
+        if p == 0 || p > MAX_POPULATION {
+            return Err(format!("--population {p}: expected 1 to {MAX_POPULATION}"));
+        }
+        // Offspring scale with the population unless the grammar fixed both.
+        if t.evolve.offspring == t.evolve.population * 3 {
+            o.offspring = p * 3;
+        }
+        o.population = p;
+    }
+    for w in &args.without_rules {
+        match RuleKind::NAMES.iter().find(|(n, _)| n == w) {
+            Some((_, k)) => o.disabled.push(*k),
+            None => return Err(format!("--without-rules {w}: expected increase, insert, replace or combine")),
+        }
+    }
+    Ok(o)
+}
+
+/// Parses a monster id `gN-K` into its generation.
+fn id_generation(id: &str) -> Option<u32> {
+    let rest = id.strip_prefix('g').or_else(|| id.strip_prefix('b'))?;
+    let (g, k) = rest.split_once('-')?;
+    k.parse::<u32>().ok()?;
+    g.parse().ok()
+}
 
 /// Runs the mode; writes its files and reports what it wrote.
-pub fn run(_bundle: &Bundle, _args: &CreatureArgs, _common: &Common) -> ExitCode {
-    eprintln!("mdg-run: creature grammars are not implemented yet");
-    ExitCode::from(1)
+pub fn run(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> ExitCode {
+    match run_inner(bundle, args, common) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err((code, e)) => {
+            eprintln!("mdg-run: {e}");
+            ExitCode::from(code)
+        }
+    }
+}
+
+/// The bundle with its OBJ meshes embedded: as it is when they are, else (a
+/// bundle lowered without [`crate::ext::creature::embed_meshes`]) read from the
+/// `.mdg` source through the compiler's file loader, with the same path rules.
+fn with_meshes<'b>(bundle: &'b Bundle, file: &Path) -> Result<std::borrow::Cow<'b, Bundle>, String> {
+    let Some(t) = bundle.extensions.creatures.as_ref() else { return Ok(std::borrow::Cow::Borrowed(bundle)) };
+    if t.meshes.iter().all(|m| !m.triangles.is_empty()) {
+        return Ok(std::borrow::Cow::Borrowed(bundle));
+    }
+    if file.extension().is_none_or(|e| e != "mdg") {
+        return Err(format!(
+            "{}: the mesh parts' OBJ files are not embedded in this bundle; run the `.mdg` source",
+            file.display()
+        ));
+    }
+    let opts = crate::expand::Options { std_dir: crate::driver::default_std_dir(), ..Default::default() };
+    let loader = crate::source::FsLoader;
+    let a = crate::driver::analyze(&loader, file, &opts, crate::check::CheckOptions { require_start: true });
+    let mut b = bundle.clone();
+    let d = crate::ext::creature::embed_meshes(&mut b, &a.expanded, &a.sources, &loader, opts.std_dir.as_deref());
+    if !d.is_empty() {
+        return Err(crate::diag::render_plain(&d, &a.sources).trim_end().to_string());
+    }
+    Ok(std::borrow::Cow::Owned(b))
+}
+
+fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<(), (u8, String)> {
+    let bundle = with_meshes(bundle, common.file).map_err(|e| (1, e))?;
+    let bundle = bundle.as_ref();
+    let Some(table) = bundle.extensions.creatures.as_ref() else {
+        return Err((1, "the grammar has no `creature` section".into()));
+    };
+    let opts = options(table, args, common.seed).map_err(|e| (2, e))?;
+    let out_dir = match common.output {
+        Some(p) => p.to_path_buf(),
+        None => default_dir(common.file),
+    };
+    std::fs::create_dir_all(&out_dir).map_err(|e| (2, format!("cannot create {}: {e}", out_dir.display())))?;
+    let started = Instant::now();
+    let lib = Library::build(bundle, table).map_err(|e| (1, e))?;
+    let lib_ms = started.elapsed().as_secs_f64() * 1000.0;
+    let evo = Evolution::new(table, &lib, opts.clone());
+    let (mut pop, g0) = evo.start();
+    let mut generations: Vec<Generation> = Vec::new();
+    let mut note = String::new();
+    let total_steps;
+    if !args.keep.is_empty() {
+        let mut upto = 0;
+        for id in &args.keep {
+            match id_generation(id) {
+                Some(g) => upto = upto.max(g),
+                None => return Err((2, format!("--keep {id}: expected a monster id like g3-07"))),
+            }
+        }
+        total_steps = upto + opts.generations;
+        let bar = progress_bar(total_steps as u64 * opts.offspring as u64);
+        let tick = |_g: u32, _d: usize, _t: usize| bar.inc(1);
+        for _ in 0..upto {
+            evo.step(&mut pop, Some(&tick));
+        }
+        evo.keep(&mut pop, &args.keep).map_err(|e| (2, e))?;
+        note = format!("continued from {} (generation {upto}, replayed with seed {})", args.keep.join(", "), opts.seed);
+        eprintln!("replayed {upto} generation(s); continuing from {}", args.keep.join(", "));
+        for _ in 0..opts.generations {
+            generations.push(evo.step(&mut pop, Some(&tick)));
+        }
+        bar.finish_and_clear();
+    } else {
+        total_steps = opts.generations;
+        let bar = progress_bar(total_steps as u64 * opts.offspring as u64);
+        let tick = |_g: u32, _d: usize, _t: usize| bar.inc(1);
+        generations.push(g0);
+        for _ in 0..opts.generations {
+            generations.push(evo.step(&mut pop, Some(&tick)));
+        }
+        bar.finish_and_clear();
+    }
+    let evolve_ms = started.elapsed().as_secs_f64() * 1000.0 - lib_ms;
+    let made: usize = generations.iter().filter(|g| g.index > 0).map(|g| g.n_offspring).sum();
+    for g in &generations {
+        let d = &g.diversity;
+        let o = &g.offspring_diversity;
+        eprintln!(
+            "generation {}: {} monsters; diversity HDM {:.2} ({} structures) of {} offspring, {:.2} ({} structures) presented; mean C_s {:.1}, mean meta-parts {:.1}; {} unstable tries rejected",
+            g.index,
+            g.presented.len(),
+            o.hdm,
+            o.clusters,
+            g.n_offspring,
+            d.hdm,
+            d.clusters,
+            d.mean_complexity,
+            d.mean_metas,
+            g.n_unstable
+        );
+    }
+    if common.stats {
+        eprintln!(
+            "part library {lib_ms:.1} ms; evolution {evolve_ms:.1} ms for {made} offspring ({:.3} ms per offspring)",
+            if made > 0 { evolve_ms / made as f64 } else { 0.0 },
+        );
+    }
+    let _ = total_steps;
+    write_outputs(table, &lib, &generations, &out_dir, &note, &opts).map_err(|e| (2, e))?;
+    eprintln!("wrote {}", out_dir.join("index.html").display());
+    Ok(())
+}
+
+fn progress_bar(len: u64) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(len);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} offspring  {elapsed}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    bar
+}
+
+/// Background of every picture.
+const BACKGROUND: [f32; 4] = [0.86, 0.88, 0.9, 1.0];
+
+/// A monster's mesh, turned for a three-quarter view from the preview camera.
+pub fn monster_mesh(lib: &Library, ind: &Individual, offset: glam::Vec3) -> Mesh {
+    let mut mesh = Mesh::default();
+    assemble(lib, &ind.layout.placed, offset, &mut mesh);
+    mesh
+}
+
+/// Turns a mesh about z (pictures only: the exported models keep the creature
+/// convention, facing −y).
+fn turn(mesh: &mut Mesh, degrees: f32, pivot: glam::Vec3) {
+    let r = glam::Mat3::from_rotation_z(degrees.to_radians());
+    for p in &mut mesh.positions {
+        *p = (pivot + r * (glam::Vec3::from(*p) - pivot)).to_array();
+    }
+    for n in &mut mesh.normals {
+        *n = (r * glam::Vec3::from(*n)).to_array();
+    }
+}
+
+/// A low hexagonal plinth under a monster (so a contact sheet reads as a lineup).
+fn plinth(mesh: &mut Mesh, centre: glam::Vec3, radius: f32) {
+    let color = [0.55, 0.57, 0.6, 1.0];
+    let h = radius * 0.06;
+    let ring: Vec<glam::Vec3> = (0..6)
+        .map(|i| {
+            let a = i as f32 * std::f32::consts::TAU / 6.0;
+            centre + glam::Vec3::new(radius * a.cos(), radius * a.sin(), 0.0)
+        })
+        .collect();
+    let top = centre - glam::Vec3::Z * 0.002;
+    let up = glam::Vec3::Z;
+    let c = mesh.push_vertex(top, up, color, [0.0; 4], 0);
+    for i in 0..6 {
+        let (a, b) = (ring[i] - up * 0.002, ring[(i + 1) % 6] - up * 0.002);
+        let ia = mesh.push_vertex(a, up, color, [0.0; 4], 0);
+        let ib = mesh.push_vertex(b, up, color, [0.0; 4], 0);
+        mesh.push_triangle([c, ia, ib], false);
+        let side = ((a + b) * 0.5 - centre).normalize_or_zero();
+        let v = [a, b, b - up * h, a - up * h].map(|p| mesh.push_vertex(p, side, color, [0.0; 4], 0));
+        mesh.push_triangle([v[0], v[3], v[2]], false);
+        mesh.push_triangle([v[0], v[2], v[1]], false);
+    }
+}
+
+/// How a monster is turned about z for its pictures: a three-quarter view, the
+/// face and a flank both visible.
+const PICTURE_TURN_DEG: f32 = -15.0;
+/// Size of a monster's picture (thumbnail and contact-sheet tile), pixels.
+const TILE: u32 = 320;
+/// Columns of a contact sheet.
+const SHEET_COLUMNS: usize = 6;
+
+/// A monster's picture: turned for a three-quarter view, on a plinth, rendered
+/// with [`render_png`] at `size`.
+pub fn picture(lib: &Library, ind: &Individual, size: (u32, u32)) -> Result<Vec<u8>, String> {
+    let mut mesh = monster_mesh(lib, ind, glam::Vec3::ZERO);
+    turn(&mut mesh, PICTURE_TURN_DEG, glam::Vec3::ZERO);
+    let s = ind.layout.max - ind.layout.min;
+    plinth(&mut mesh, glam::Vec3::ZERO, s.x.max(s.y).max(0.3) * 0.55);
+    render_png(&output_of(mesh, BACKGROUND), size)
+}
+
+fn write(path: &Path, bytes: &[u8]) -> Result<(), String> {
+    export::write_atomic(path, bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
+fn html_escape(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+}
+
+fn write_outputs(
+    t: &CreatureTable,
+    lib: &Library,
+    gens: &[Generation],
+    out_dir: &Path,
+    note: &str,
+    opts: &EvolveOptions,
+) -> Result<(), String> {
+    let mut html = String::new();
+    let title = if t.name.is_empty() { "creatures".to_string() } else { t.name.clone() };
+    let _ = write!(
+        html,
+        "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>{} — monsters</title>\n<style>\
+body{{font-family:sans-serif;margin:1.5em;background:#f4f5f7;color:#222}}\
+.sheet{{max-width:100%;border:1px solid #ccc}}\
+.grid{{display:flex;flex-wrap:wrap;gap:10px}}\
+.m{{background:#fff;border:1px solid #ddd;padding:6px;width:320px;font-size:11px}}\
+.m img{{width:320px;height:320px}}\
+.m code{{word-break:break-all;font-size:10px;color:#444}}\
+table.d td,table.d th{{padding:2px 10px;text-align:right}}\
+</style></head><body>\n<h1>{}</h1>\n<p>Seed {}, population {}, {} offspring per generation, {} derivation steps each.{}</p>\n",
+        html_escape(&title),
+        html_escape(&title),
+        opts.seed,
+        opts.population,
+        opts.offspring,
+        opts.steps,
+        if note.is_empty() { String::new() } else { format!(" {}.", html_escape(note)) }
+    );
+    html.push_str(
+        "<table class=\"d\"><tr><th>generation</th><th>offspring</th><th>HDM of offspring</th><th>structures</th><th>monsters</th><th>HDM presented</th><th>mean C<sub>s</sub></th><th>mean meta-parts</th><th>unstable tries</th></tr>\n",
+    );
+    for g in gens {
+        let d = &g.diversity;
+        let _ = writeln!(
+            html,
+            "<tr><td><a href=\"#gen{}\">{}</a></td><td>{}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{:.1}</td><td>{:.1}</td><td>{}</td></tr>",
+            g.index,
+            g.index,
+            g.n_offspring,
+            g.offspring_diversity.hdm,
+            g.offspring_diversity.clusters,
+            g.presented.len(),
+            d.hdm,
+            d.mean_complexity,
+            d.mean_metas,
+            g.n_unstable
+        );
+    }
+    html.push_str("</table>\n<p>HDM = N + Σ D<sub>i</sub>: N structure clusters (equal structure vectors), D<sub>i</sub> the spread of the geometric descriptor in cluster i over the largest spread (see docs/creatures.md).</p>\n");
+    for g in gens {
+        let dir_name = format!("gen{}", g.index);
+        let dir = out_dir.join(&dir_name);
+        std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        let _ = writeln!(
+            html,
+            "<h2 id=\"gen{0}\">Generation {0}</h2>\n<p>{1} monsters, HDM {2:.2}.</p>\n<img class=\"sheet\" src=\"{3}/sheet.png\">\n<div class=\"grid\">",
+            g.index,
+            g.presented.len(),
+            g.diversity.hdm,
+            dir_name
+        );
+        let mut tiles = Vec::new();
+        for ind in &g.presented {
+            let mesh = monster_mesh(lib, ind, glam::Vec3::ZERO);
+            let mut bytes = Vec::new();
+            export::write(Format::Glb, &output_of(mesh, BACKGROUND), &mut bytes)?;
+            write(&dir.join(format!("{}.glb", ind.id)), &bytes)?;
+            let thumb = picture(lib, ind, (TILE, TILE))?;
+            write(&dir.join(format!("{}.png", ind.id)), &thumb)?;
+            tiles.push((thumb, ind.id.clone()));
+            let origin = if ind.name.is_empty() {
+                format!("base {} + assist {}", ind.parents.0, ind.parents.1)
+            } else {
+                format!("regular creature `{}`", ind.name)
+            };
+            let rules: Vec<String> = ind
+                .applied
+                .iter()
+                .map(|a| if a.function { a.rule.clone() } else { format!("{} (identity)", a.rule) })
+                .collect();
+            let s = &ind.layout.stability;
+            let _ = writeln!(
+                html,
+                "<div class=\"m\"><a href=\"{dir}/{id}.glb\"><img src=\"{dir}/{id}.png\" alt=\"{id}\"></a><br><b>{id}</b> — {origin}<br>rules: {rules}<br>C<sub>s</sub> = {cs:.2}, {n} meta-parts, stability margin {margin:.3}<br>structure: <code>{structure}</code><br>vector: <code>{vector}</code><br>geometry rules: <code>{program}</code></div>",
+                dir = dir_name,
+                id = html_escape(&ind.id),
+                origin = html_escape(&origin),
+                rules = if rules.is_empty() { "—".into() } else { html_escape(&rules.join(", ")) },
+                cs = ind.complexity,
+                n = ind.shape.n_metas(),
+                margin = s.margin,
+                structure = html_escape(&ind.shape.describe(t)),
+                vector = html_escape(&structure_key(t, &ind.shape)),
+                program = html_escape(&program_text(t, &ind.layout.program)),
+            );
+        }
+        html.push_str("</div>\n");
+        if !tiles.is_empty() {
+            let bg = BACKGROUND.map(|c| (c * 255.0).round() as u8);
+            let sheet = compose(&tiles, SHEET_COLUMNS, [bg[0], bg[1], bg[2]])?;
+            write(&dir.join("sheet.png"), &sheet)?;
+        }
+    }
+    html.push_str("</body></html>\n");
+    write(&out_dir.join("index.html"), html.as_bytes())
+}
+
+/// Where `mdg-run` puts a run's files by default: beside the grammar, named after it.
+pub fn default_dir(file: &Path) -> PathBuf {
+    file.with_extension("")
+}
+
+/// Evolves `generations` generations from the table's regular creatures (the
+/// library function behind the mode, for tests and scripts): every generation,
+/// generation 0 first.
+pub fn evolve(t: &CreatureTable, lib: &Library, opts: &EvolveOptions) -> Vec<Generation> {
+    let evo = Evolution::new(t, lib, opts.clone());
+    let (mut pop, g0) = evo.start();
+    let mut out = vec![g0];
+    for _ in 0..opts.generations {
+        out.push(evo.step(&mut pop, None));
+    }
+    out
+}
+
+/// Continues a population from kept monsters for `more` generations.
+pub fn continue_from(
+    evo: &Evolution,
+    pop: &mut Population,
+    keep: &[String],
+    more: u32,
+) -> Result<Vec<Generation>, String> {
+    evo.keep(pop, keep)?;
+    Ok((0..more).map(|_| evo.step(pop, None)).collect())
 }

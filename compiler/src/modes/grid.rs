@@ -1,15 +1,169 @@
-//! `mdg-run` on a grammar with a `grid` section.
+//! `mdg-run` on a grammar with a `grid` section: generate a building and write it as
+//! voxels (`.vox`, `.schem`, `.nbt`, `.txt`) or as a greedy-meshed model (`.glb`,
+//! `.obj`, `.stl`, `.ply`, `.json`; one colour per block kind), by the output's
+//! extension (default: `FILE.vox` beside the grammar).
+//!
+//! The program's MDG start rule is evaluated too: what it draws (a ground plate, a
+//! site) is added under the building in mesh outputs and pictures, one unit a block,
+//! MDG's z-up turned to the buildings' y-up. `--png` shows the example buildings (rebuilt
+//! from the shapes' `at` positions) beside the generated one.
 
 use super::Common;
 use mdg_vm::bundle::Bundle;
+use mdg_vm::export::{self, Format};
+use mdg_vm::grid::format::{self as voxfmt, VoxelFormat};
+use mdg_vm::grid::generate::{self, GenerateOptions};
+use mdg_vm::grid::mesh;
+use mdg_vm::output::{Mesh, Output};
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::time::Instant;
 
 /// Options of `mdg-run` for `grid` grammars.
 #[derive(clap::Args, Debug, Default)]
-pub struct GridArgs {}
+pub struct GridArgs {
+    /// Grid grammars: rule applications (default: the grammar's `generate { steps }`, else 50).
+    #[arg(long, value_name = "N")]
+    pub steps: Option<u32>,
+    /// Grid grammars: apply the enclosure constraint (the default unless the grammar says `enclosure off`).
+    #[arg(long, conflicts_with = "no_enclosure")]
+    pub enclosure: bool,
+    /// Grid grammars: skip the enclosure constraint.
+    #[arg(long)]
+    pub no_enclosure: bool,
+    /// Grid grammars: openings up to 2·R blocks wide do not let the outside in (default: the grammar's
+    /// `seal`, else 1; 0 = the paper's plain flood fill).
+    #[arg(long, value_name = "R")]
+    pub seal: Option<u32>,
+}
+
+/// Where the output goes and in which form.
+enum Target {
+    Voxels(VoxelFormat),
+    Mesh(Format),
+}
 
 /// Runs the mode; writes its files and reports what it wrote.
-pub fn run(_bundle: &Bundle, _args: &GridArgs, _common: &Common) -> ExitCode {
-    eprintln!("mdg-run: grid grammars are not implemented yet");
-    ExitCode::from(1)
+pub fn run(bundle: &Bundle, args: &GridArgs, common: &Common) -> ExitCode {
+    match run_inner(bundle, args, common) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err((code, e)) => {
+            eprintln!("mdg-run: {e}");
+            ExitCode::from(code)
+        }
+    }
+}
+
+fn target(path: &Path) -> Option<Target> {
+    let ext = path.extension()?.to_str()?;
+    if let Some(v) = VoxelFormat::from_extension(ext) {
+        return Some(Target::Voxels(v));
+    }
+    Format::from_extension(ext).map(Target::Mesh)
+}
+
+/// What the MDG start rule draws, turned y-up (x, y, z) → (x, z, −y).
+fn site(bundle: &Bundle, seed: u64) -> Mesh {
+    let opts = mdg_vm::eval::EvalOptions { seed: Some(seed), ..Default::default() };
+    let out = mdg_vm::eval::evaluate(bundle, &opts);
+    let mut m = out.flattened();
+    let turn = |p: [f32; 3]| [p[0], p[2], -p[1]];
+    m.positions.iter_mut().for_each(|p| *p = turn(*p));
+    m.normals.iter_mut().for_each(|n| *n = turn(*n));
+    m
+}
+
+fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u8, String)> {
+    let Some(g) = bundle.extensions.grid.as_ref() else {
+        return Err((1, "the grammar has no `grid` section".into()));
+    };
+    let steps = args.steps.unwrap_or(g.generate.steps);
+    if steps > mdg_vm::grid::MAX_STEPS {
+        return Err((2, format!("--steps {steps}: at most {}", mdg_vm::grid::MAX_STEPS)));
+    }
+    let enclosure = if args.no_enclosure { false } else { args.enclosure || g.generate.enclosure };
+    let seed = common.seed.or(g.generate.seed).unwrap_or(0);
+    let output: PathBuf = common.output.map(Path::to_path_buf).unwrap_or_else(|| common.file.with_extension("vox"));
+    let Some(target) = target(&output) else {
+        return Err((
+            2,
+            format!(
+                "{}: unknown output format (voxels: .vox .schem .nbt .txt; meshes: .glb .obj .stl .ply .json)",
+                output.display()
+            ),
+        ));
+    };
+    let started = Instant::now();
+    let seal = args.seal.unwrap_or(g.generate.seal);
+    if seal > generate::MAX_SEAL {
+        return Err((2, format!("--seal {seal}: at most {}", generate::MAX_SEAL)));
+    }
+    let opts = GenerateOptions { steps, enclosure, seed, seal };
+    let made = generate::generate(g, &opts).map_err(|e| (1, e))?;
+    let elapsed = started.elapsed().as_secs_f64();
+    if let Some(n) = &made.note {
+        eprintln!("warning: {n}");
+    }
+    if made.model.blocks.is_empty() {
+        eprintln!("warning: the generated building is empty (the enclosure constraint removed every shape; try another --seed or --no-enclosure)");
+    }
+    let site_mesh = match (&target, common.png) {
+        (Target::Voxels(_), None) => Mesh::default(),
+        _ => site(bundle, seed),
+    };
+    let bytes = match target {
+        Target::Voxels(f) => {
+            voxfmt::write(f, &made.model).map_err(|e| (1, format!("cannot write {}: {e}", output.display())))?
+        }
+        Target::Mesh(f) => {
+            let mut out = Output { background: [1.0; 4], ..Output::default() };
+            out.mesh = mesh::mesh(&made.model, [0.0; 3]);
+            out.mesh.append(&site_mesh);
+            let mut b = Vec::new();
+            export::write(f, &out, &mut b).map_err(|e| (1, format!("cannot export: {e}")))?;
+            b
+        }
+    };
+    export::write_atomic(&output, &bytes).map_err(|e| (2, format!("cannot write {}: {e}", output.display())))?;
+    if let Some(png) = common.png {
+        let examples = generate::examples(g);
+        let mut models: Vec<&mdg_vm::grid::voxel::VoxelModel> =
+            examples.iter().filter(|m| !m.blocks.is_empty()).collect();
+        models.push(&made.model);
+        let mut out = mesh::output_side_by_side(&models, 4);
+        if let (Some((lo, _)), false) = (made.model.bounds(), site_mesh.positions.is_empty()) {
+            // The generated building is the last one; move the site with it.
+            let shift = generated_shift(&models, lo);
+            let mut s = site_mesh.clone();
+            s.positions.iter_mut().for_each(|p| *p = [p[0] + shift[0], p[1] + shift[1], p[2] + shift[2]]);
+            out.mesh.append(&s);
+        }
+        let pic = super::render_png(&mesh::z_up(&out), common.size).map_err(|e| (1, e))?;
+        export::write_atomic(png, &pic).map_err(|e| (2, format!("cannot write {}: {e}", png.display())))?;
+        eprintln!("wrote {}", png.display());
+    }
+    if common.stats {
+        eprintln!(
+            "steps {} of {steps}  instances {}  blocks {}  removed by enclosure {} ({} rounds)  seed {seed}  time {:.1} ms",
+            made.applied,
+            made.instances.len(),
+            made.model.blocks.len(),
+            made.removed,
+            made.enclosure_rounds,
+            elapsed * 1e3
+        );
+    }
+    eprintln!("wrote {}", output.display());
+    Ok(())
+}
+
+/// The offset [`mesh::output_side_by_side`] gives the last model (whose min corner is `lo`).
+fn generated_shift(models: &[&mdg_vm::grid::voxel::VoxelModel], lo: [i32; 3]) -> [f32; 3] {
+    let mut x = 0;
+    for m in &models[..models.len().saturating_sub(1)] {
+        if let Some((a, b)) = m.bounds() {
+            x += b[0] - a[0] + 1 + 4;
+        }
+    }
+    [(x - lo[0]) as f32, -lo[1] as f32, -lo[2] as f32]
 }

@@ -1,15 +1,205 @@
 //! `mdg-run` on a grammar with `guide` / `search` sections: the SOSMC search, then
-//! the geometry phase.
+//! the geometry phase (docs/guided.md).
 
 use super::Common;
 use mdg_vm::bundle::Bundle;
+use mdg_vm::eval::EvalOptions;
 use mdg_vm::output::Output;
+use mdg_vm::sosmc::{guides_from_json, Prepared, Progress, Resampling, SearchOptions, Stop};
+use std::path::PathBuf;
+use std::time::Duration;
 
 /// Guided-search options of `mdg-run`.
 #[derive(clap::Args, Debug, Default)]
-pub struct GuidedArgs {}
+pub struct GuidedArgs {
+    /// Guided search: guiding curves from a JSON file, replacing the program's
+    /// `guide` sections (format in docs/guided.md).
+    #[arg(long, value_name = "FILE.json")]
+    pub guides: Option<PathBuf>,
+    /// Guided search: time budget, e.g. `200ms`, `0.5s`, `150` (milliseconds) or
+    /// `none` (default: the `search` section's, else 200ms).
+    #[arg(long, value_name = "TIME")]
+    pub budget: Option<String>,
+    /// Guided search: particles in the first and the last generation, `N` or `FIRST:LAST`.
+    #[arg(long, value_name = "N[:M]")]
+    pub particles: Option<String>,
+    /// Guided search: number of generations (`--generations` is the creature
+    /// grammar's).
+    #[arg(id = "search_generations", long = "search-generations", value_name = "N")]
+    pub generations: Option<u32>,
+    /// Guided search: starting heuristic scale (ramped to 0 over the first part of the search).
+    #[arg(long, value_name = "X")]
+    pub heuristic_scale: Option<f64>,
+    /// Guided search: no heuristic cost (same as --heuristic-scale 0).
+    #[arg(long)]
+    pub no_heuristic: bool,
+    /// Guided search: resampling scheme, `systematic` or `multinomial`.
+    #[arg(long, value_name = "SCHEME")]
+    pub resample: Option<String>,
+    /// Guided search: worker threads (results are the same for any number).
+    #[arg(long, value_name = "N")]
+    pub search_threads: Option<usize>,
+    /// Guided search: leave the guides and the bones out of the model (by default they
+    /// are added as lines in namespaces `guides` and `bones`).
+    #[arg(long)]
+    pub no_skeleton_lines: bool,
+}
+
+/// Parses `--budget`: `200ms`, `0.5s`, `150` (ms), or `none`.
+pub fn parse_budget(s: &str) -> Result<Option<Duration>, String> {
+    let t = s.trim();
+    if t == "none" {
+        return Ok(None);
+    }
+    let (num, scale) = if let Some(n) = t.strip_suffix("ms") {
+        (n, 1e-3)
+    } else if let Some(n) = t.strip_suffix('s') {
+        (n, 1.0)
+    } else {
+        (t, 1e-3)
+    };
+    match num.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v * scale < 1e7 => Ok(Some(Duration::from_secs_f64(v * scale))),
+        _ => Err(format!("--budget {s}: expected a positive time such as 200ms, 0.5s or 150, or `none`")),
+    }
+}
+
+/// Parses `--particles`: `N` or `FIRST:LAST`.
+pub fn parse_particles(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("--particles {s}: expected N or FIRST:LAST, whole numbers from 1 to 1000000");
+    let one = |x: &str| match x.trim().parse::<u32>() {
+        Ok(v) if (1..=1_000_000).contains(&v) => Ok(v),
+        _ => Err(bad()),
+    };
+    match s.split_once(':') {
+        Some((a, b)) => Ok((one(a)?, one(b)?)),
+        None => {
+            let v = one(s)?;
+            Ok((v, v))
+        }
+    }
+}
+
+/// The search options: the `search` section's, overridden by the command line.
+pub fn options(
+    settings: &mdg_vm::sosmc::SearchSettings,
+    args: &GuidedArgs,
+    seed: u64,
+) -> Result<SearchOptions, String> {
+    let mut o = SearchOptions::from_settings(settings, seed);
+    if let Some(b) = &args.budget {
+        o.budget = parse_budget(b)?;
+    }
+    if let Some(p) = &args.particles {
+        o.particles = parse_particles(p)?;
+    }
+    if let Some(g) = args.generations {
+        if g == 0 || g > 10_000_000 {
+            return Err(format!("--search-generations {g}: expected a whole number from 1 to 10000000"));
+        }
+        o.generations = g;
+    }
+    if let Some(h) = args.heuristic_scale {
+        if !(h.is_finite() && h >= 0.0) {
+            return Err(format!("--heuristic-scale {h}: expected a number ≥ 0"));
+        }
+        o.heuristic_scale = h;
+    }
+    if args.no_heuristic {
+        o.heuristic_scale = 0.0;
+    }
+    if let Some(r) = &args.resample {
+        o.resampling = Resampling::from_name(r)
+            .ok_or_else(|| format!("--resample {r}: expected `systematic` or `multinomial`"))?;
+    }
+    if let Some(t) = args.search_threads {
+        if t == 0 || t > 1024 {
+            return Err(format!("--search-threads {t}: expected 1 to 1024"));
+        }
+        o.threads = Some(t);
+    }
+    Ok(o)
+}
 
 /// Runs the search and returns the model to export.
-pub fn run(_bundle: &Bundle, _args: &GuidedArgs, _common: &Common) -> Result<Output, String> {
-    Err("guided search is not implemented yet".into())
+pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common) -> Result<Output, String> {
+    let table = bundle.extensions.guided.as_ref().ok_or("the program has no `search` section")?;
+    let guides = match &args.guides {
+        Some(path) => {
+            let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            guides_from_json(&text).map_err(|e| format!("{}: {e}", path.display()))?
+        }
+        None => table.guides.clone(),
+    };
+    let seed = common.seed.unwrap_or(bundle.settings.randseed);
+    let opts = options(&table.settings, args, seed)?;
+    let prepared = Prepared::new(bundle, table, &guides)?;
+    let bar = indicatif::ProgressBar::new(opts.generations as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} generations  {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let report = |p: &Progress| {
+        bar.set_position(p.generation as u64);
+        bar.set_message(format!("best cost {:.3}", p.best_cost));
+    };
+    let result = prepared.search(&opts, Some(&report));
+    bar.finish_and_clear();
+    let eval_opts = EvalOptions { seed: Some(seed), ..EvalOptions::default() };
+    let mut out = prepared.geometry(&result.model, &eval_opts, !args.no_skeleton_lines);
+    if result.stop == Stop::Budget {
+        out.stats.warnings.push(format!(
+            "guided search: the time budget ended the search after {} of {} generations (the result depends on the \
+             machine's speed; raise --budget or lower --search-generations for a repeatable one)",
+            result.generations, opts.generations
+        ));
+    }
+    if common.stats {
+        let m = &result.model;
+        let stop = match result.stop {
+            Stop::Generations => "all generations ran",
+            Stop::Budget => "time budget",
+            Stop::Complete => "no pending skeleton calls",
+        };
+        eprintln!(
+            "guided search: {} generations ({stop}), {} particle-steps, {} expansions, {:.1} ms (+{:.1} ms preparing)",
+            result.generations,
+            result.particle_steps,
+            result.expansions,
+            result.elapsed.as_secs_f64() * 1e3,
+            prepared.prepare_time.as_secs_f64() * 1e3
+        );
+        eprintln!(
+            "final cost {:.4} = distance {:.4} + alignment {:.4} + utilisation {:.4}; {} bones, {} wrap-ups, {} dropped",
+            m.cost.total(),
+            m.cost.d,
+            m.cost.a,
+            m.cost.u,
+            m.bones.len(),
+            m.wrapped,
+            m.dropped
+        );
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn budgets_and_particles_parse() {
+        assert_eq!(parse_budget("200ms"), Ok(Some(Duration::from_millis(200))));
+        assert_eq!(parse_budget("0.5s"), Ok(Some(Duration::from_millis(500))));
+        assert_eq!(parse_budget("150"), Ok(Some(Duration::from_millis(150))));
+        assert_eq!(parse_budget("none"), Ok(None));
+        for bad in ["", "-3ms", "0", "fast", "1e30s"] {
+            assert!(parse_budget(bad).is_err(), "{bad}");
+        }
+        assert_eq!(parse_particles("100:15"), Ok((100, 15)));
+        assert_eq!(parse_particles("40"), Ok((40, 40)));
+        for bad in ["0", "10:0", "a:b", "", "5:"] {
+            assert!(parse_particles(bad).is_err(), "{bad}");
+        }
+    }
 }

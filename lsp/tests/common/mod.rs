@@ -3,6 +3,8 @@
 //! collects what the server sends on a reader thread.
 #![allow(dead_code)]
 
+pub mod soak;
+
 use serde_json::{json, Value};
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};

@@ -18,10 +18,15 @@ impl W {
     fn u64(&mut self, v: u64) {
         self.0.extend_from_slice(&v.to_le_bytes());
     }
+    // The decoder rejects non-finite numbers, but constants the compiler folds can
+    // overflow (`z 1e308` is infinite as f32): they are written saturated to the
+    // largest finite value (NaN as 0), so every encoded bundle loads.
     fn f32(&mut self, v: f32) {
+        let v = if v.is_nan() { 0.0 } else { v.clamp(f32::MIN, f32::MAX) };
         self.0.extend_from_slice(&v.to_le_bytes());
     }
     fn f64(&mut self, v: f64) {
+        let v = if v.is_nan() { 0.0 } else { v.clamp(f64::MIN, f64::MAX) };
         self.0.extend_from_slice(&v.to_le_bytes());
     }
     fn f32s(&mut self, v: &[f32]) {

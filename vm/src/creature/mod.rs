@@ -1,15 +1,28 @@
 //! Creature grammar: sets of monsters evolved from regular creatures (SPEC §11,
 //! `papers/creature-grammar.txt`).
+//!
+//! - [`table`]: what the compiler produces (parts with slots, families, regular
+//!   creatures, structure rules, selection and evolution settings) and its verifier;
+//! - [`shape`]: abstract shapes — meta-parts, super-parts, arrangement modes, torso
+//!   attachment, symmetry groups — their structure graph and complexity C_s;
+//! - [`cond`]: condition and probability expressions (over `g` and shape counts);
+//! - [`rules`]: structure rules (increase, insert, replace, combine), the rule metric
+//!   C_r and the selection strategies;
+//! - [`geometry`]: the part library, geometry rules (slots), the stability test and
+//!   the assembled mesh;
+//! - [`evolve`]: generations, structure-based diversity control and the diversity
+//!   measure;
+//! - [`sheet`]: contact sheets composed from per-monster pictures.
 
-use serde::{Deserialize, Serialize};
+pub mod cond;
+pub mod evolve;
+pub mod geometry;
+pub mod rules;
+pub mod shape;
+pub mod sheet;
+pub mod table;
 
-/// What a program's `creature` sections compile to.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct CreatureTable {}
+pub use table::CreatureTable;
 
-impl CreatureTable {
-    /// Checks every index against the bundle (called by the bundle verifier).
-    pub fn verify(&self, _bundle: &crate::bundle::Bundle) -> Result<(), String> {
-        Ok(())
-    }
-}
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,159 @@
+//! `mdgc induce`: example buildings to a grid grammar written as MDG source.
+//!
+//! The VM does the work ([`mdg_vm::grid::infer`] infers shapes per example,
+//! [`mdg_vm::grid::induce`] builds the grammar); this module reads the examples, and
+//! prints the grammar as a `grid` section that [`crate::ext::grid`] compiles back to
+//! the same table (a tested round trip). The text is laid out as `mdgc fmt` prints it,
+//! with each shape's `blocks` one row a line, so a person can read and edit it.
+
+use mdg_vm::grid::induce::{induce, measures, Example, Measures};
+use mdg_vm::grid::infer::{infer, InferOptions, Inference, Progress};
+use mdg_vm::grid::voxel::VoxelModel;
+use mdg_vm::grid::{GridGrammar, AXIS_NAMES};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// What induction did, per example.
+#[derive(Clone, Debug)]
+pub struct ExampleReport {
+    pub name: String,
+    pub blocks: usize,
+    pub measures: Measures,
+    pub merges: usize,
+    pub splits: usize,
+    pub seconds: f64,
+}
+
+/// Reads the examples, infers shapes and induces the grammar. `progress` hears about
+/// each example (its index) and each search pass.
+pub fn induce_files(
+    paths: &[&Path],
+    opts: &InferOptions,
+    name: &str,
+    progress: &mut dyn FnMut(usize, Progress),
+) -> Result<(GridGrammar, Vec<ExampleReport>), String> {
+    let mut models: Vec<(String, VoxelModel)> = Vec::new();
+    for p in paths {
+        let m = mdg_vm::grid::format::read(p)?;
+        if m.blocks.is_empty() {
+            return Err(format!("{}: no blocks", p.display()));
+        }
+        let file = p.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| p.display().to_string());
+        models.push((file, m));
+    }
+    induce_models(&models, opts, name, progress)
+}
+
+/// [`induce_files`] on models already read (name, model).
+pub fn induce_models(
+    models: &[(String, VoxelModel)],
+    opts: &InferOptions,
+    name: &str,
+    progress: &mut dyn FnMut(usize, Progress),
+) -> Result<(GridGrammar, Vec<ExampleReport>), String> {
+    let mut inferences: Vec<Inference> = Vec::new();
+    let mut reports = Vec::new();
+    for (i, (file, m)) in models.iter().enumerate() {
+        let t = std::time::Instant::now();
+        let inf = infer(m, opts, &mut |p| progress(i, p));
+        reports.push(ExampleReport {
+            name: file.clone(),
+            blocks: m.blocks.len(),
+            measures: measures(m, &inf),
+            merges: inf.stats.merges,
+            splits: inf.stats.splits,
+            seconds: t.elapsed().as_secs_f64(),
+        });
+        inferences.push(inf);
+    }
+    let examples: Vec<Example> = models.iter().map(|(n, m)| Example { name: n.clone(), model: m }).collect();
+    let g = induce(&examples, &inferences, name)?;
+    Ok((g, reports))
+}
+
+/// Quotes a string for MDG source (strings cannot hold `"` or line breaks).
+fn quoted(s: &str) -> String {
+    let clean: String = s.chars().map(|c| if c == '"' || c == '\n' || c == '\r' { '_' } else { c }).collect();
+    format!("\"{clean}\"")
+}
+
+/// The grammar as MDG source: a start rule `site` (every program needs one; it draws
+/// nothing here, and `mdg-run` adds what it draws under the building) and the `grid`
+/// section. `comment` lines go on top as `//` comments.
+pub fn write_source(g: &GridGrammar, comment: &[String]) -> String {
+    let mut s = String::new();
+    for c in comment {
+        let _ = writeln!(s, "// {c}");
+    }
+    s.push_str("// Every program needs a start rule; `mdg-run` generates from the `grid` section and draws\n");
+    s.push_str("// whatever `site` draws (nothing here) under the building.\n");
+    s.push_str("startshape site\nrule site {}\n\n");
+    let name = if g.name.is_empty() { String::new() } else { format!(" {}", g.name) };
+    let _ = writeln!(s, "grid{name} {{");
+    if !g.examples.is_empty() {
+        let ex: Vec<String> = g.examples.iter().map(|e| quoted(e)).collect();
+        let _ = writeln!(s, "  examples {};", ex.join(" "));
+    }
+    s.push_str("  palette {\n");
+    for p in &g.palette {
+        let _ = writeln!(s, "    {} {} {} {} {};", p.name, quoted(&p.block), p.color[0], p.color[1], p.color[2]);
+    }
+    s.push_str("  }\n");
+    for shape in &g.shapes {
+        let _ = writeln!(s, "  shape {} {{", shape.name);
+        let [sx, sy, sz] = shape.size;
+        let _ = writeln!(s, "    size {sx} {sy} {sz};");
+        if let Some(p) = shape.plane {
+            let _ = writeln!(s, "    plane {};", AXIS_NAMES[p as usize]);
+        }
+        if let Some(at) = shape.at {
+            let _ = writeln!(s, "    at {} {} {};", at[0], at[1], at[2]);
+        }
+        if shape.example != 0 {
+            let _ = writeln!(s, "    example {};", shape.example);
+        }
+        // Cells top layer first, rows from z = 0, along x; a line per row (per layer
+        // when rows are one block long).
+        let mut cells = vec!["_"; (sx * sy * sz) as usize];
+        for b in &shape.blocks {
+            let [x, y, z] = b.pos.map(|c| c as u32);
+            let i = ((sy - 1 - y) * sz + z) * sx + x;
+            if let (Some(c), Some(p)) = (cells.get_mut(i as usize), g.palette.get(b.kind as usize)) {
+                *c = p.name.as_str();
+            }
+        }
+        let per_line = if sx > 1 { sx } else { sz } as usize;
+        s.push_str("    blocks");
+        for line in cells.chunks(per_line.max(1)) {
+            let _ = write!(s, "\n      {}", line.join(" "));
+        }
+        s.push_str(";\n  }\n");
+    }
+    for m in &g.matches {
+        let (a, b) = (&g.shapes[m.a as usize].name, &g.shapes[m.b as usize].name);
+        let _ = writeln!(s, "  match {a} {b} turn {};", m.turn);
+    }
+    for r in &g.rules {
+        let (a, b) = (&g.shapes[r.from as usize].name, &g.shapes[r.to as usize].name);
+        let [x, y, z] = r.place.offset;
+        let _ = write!(s, "  rule {a} {b} at {x} {y} {z}");
+        if r.place.turn != 0 {
+            let _ = write!(s, " turn {}", r.place.turn);
+        }
+        s.push_str(";\n");
+    }
+    if let Some(start) = g.shapes.get(g.start as usize) {
+        let _ = writeln!(s, "  start {};", start.name);
+    }
+    let gen = &g.generate;
+    s.push_str("  generate {\n");
+    let _ = writeln!(s, "    steps {};", gen.steps);
+    let _ = writeln!(s, "    enclosure {};", if gen.enclosure { "on" } else { "off" });
+    let _ = writeln!(s, "    seal {};", gen.seal);
+    if let Some(seed) = gen.seed {
+        let _ = writeln!(s, "    seed {seed};");
+    }
+    s.push_str("  }\n}\n");
+    // The layout above is the formatter's; run it anyway so the file is canonical.
+    crate::fmt::format_source(&s).unwrap_or(s)
+}

@@ -1,0 +1,302 @@
+//! End-to-end tests of the creature grammar with the std part library
+//! (std/creatures.mdg) and std/examples/monsters.mdg: compile, evolve, stability
+//! of the real quadruped, determinism, imported OBJ meshes, the `mdg-run` mode's
+//! files, `--keep`, bundle round trip, editor hooks.
+
+use mdg_compiler::check::CheckOptions;
+use mdg_compiler::driver::analyze;
+use mdg_compiler::ext::creature as ext;
+use mdg_compiler::modes::creature::{options, run, CreatureArgs};
+use mdg_compiler::modes::Common;
+use mdg_compiler::source::FsLoader;
+use mdg_tests::{options as compile_options, root};
+use mdg_vm::bundle::Bundle;
+use mdg_vm::creature::evolve::{Evolution, EvolveOptions};
+use mdg_vm::creature::geometry::{layout, Library};
+use mdg_vm::creature::shape::Shape;
+use mdg_vm::creature::table::RuleKind;
+use std::path::Path;
+
+fn monsters() -> Bundle {
+    let path = root().join("std/examples/monsters.mdg");
+    let a = analyze(&FsLoader, &path, &compile_options(), CheckOptions { require_start: true });
+    assert!(!a.has_errors(), "{}", mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources));
+    mdg_compiler::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).expect("lowers")
+}
+
+fn shape_named(b: &Bundle, name: &str) -> Shape {
+    let t = b.extensions.creatures.as_ref().expect("table");
+    let def = t.shapes.iter().find(|s| s.name == name).expect("shape");
+    Shape::from_def(t, def)
+}
+
+#[test]
+fn monsters_compile_into_a_verified_table_that_round_trips() {
+    let b = monsters();
+    let t = b.extensions.creatures.as_ref().expect("creature table");
+    assert_eq!(t.shapes.iter().map(|s| s.name.as_str()).collect::<Vec<_>>(), ["humanoid", "bird", "quadruped"]);
+    for k in ["torso", "head", "arm", "wing", "leg", "lowerlimb", "foreleg", "hindleg", "tail"] {
+        assert!(t.kind(k).is_some(), "std parts have a `{k}`");
+    }
+    for kind in [RuleKind::Increase, RuleKind::Insert, RuleKind::Replace, RuleKind::Combine] {
+        assert!(t.rules.iter().any(|r| r.kind == kind), "monsters.mdg uses {kind:?} rules");
+    }
+    let bytes = mdg_vm::bundle::encode(&b);
+    let back = mdg_vm::bundle::load(&bytes).expect("decodes and verifies");
+    assert_eq!(back.extensions.creatures.as_ref(), Some(t));
+    // A corrupt index is rejected by the verifier, not a panic later.
+    let mut bad = b.clone();
+    if let Some(t) = bad.extensions.creatures.as_mut() {
+        t.shapes[0].torso = 999;
+    }
+    assert!(mdg_vm::bundle::load(&mdg_vm::bundle::encode(&bad)).is_err());
+}
+
+#[test]
+fn the_std_quadruped_stands_and_falls_without_its_legs() {
+    let b = monsters();
+    let t = b.extensions.creatures.as_ref().expect("table");
+    let lib = Library::build(&b, t).expect("library");
+    for name in ["humanoid", "bird", "quadruped"] {
+        let l = layout(t, &lib, &shape_named(&b, name));
+        assert!(l.stability.stable, "the regular {name} stands: {:?}", l.stability);
+    }
+    let q = shape_named(&b, "quadruped");
+    let standing = layout(t, &lib, &q);
+    assert!(standing.stability.hull.len() >= 4);
+    assert!(standing.stability.margin > 0.05, "{:?}", standing.stability.margin);
+    let legs: Vec<usize> = (0..q.supers.len())
+        .filter(|&i| ["foreleg", "hindleg"].contains(&t.kinds[q.supers[i].kind as usize].name.as_str()))
+        .collect();
+    assert_eq!(legs.len(), 4);
+    let mut legless = q.clone();
+    legless.remove(&legs);
+    let l = layout(t, &lib, &legless);
+    assert!(!l.stability.stable, "a quadruped without legs cannot stand");
+    // With only its hind legs it tips over too.
+    let mut hind = q.clone();
+    hind.remove(&legs[..2]);
+    assert!(!layout(t, &lib, &hind).stability.stable);
+}
+
+#[test]
+fn evolution_is_deterministic_and_makes_monsters() {
+    let b = monsters();
+    let t = b.extensions.creatures.as_ref().expect("table");
+    let lib = Library::build(&b, t).expect("library");
+    let run = |seed: u64| {
+        let mut o = EvolveOptions::from_table(t);
+        o.seed = seed;
+        o.generations = 3;
+        let evo = Evolution::new(t, &lib, o);
+        let (mut pop, _) = evo.start();
+        (0..3)
+            .map(|_| {
+                let g = evo.step(&mut pop, None);
+                g.presented
+                    .iter()
+                    .map(|i| {
+                        (i.id.clone(), i.shape.describe(t), i.layout.placed.len(), i.layout.stability.com.to_array())
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .collect::<Vec<_>>()
+    };
+    let a = run(11);
+    assert_eq!(a, run(11));
+    assert_ne!(a, run(12));
+    let last = a.last().expect("generation 3");
+    assert_eq!(last.len(), 18);
+    // Monsters: more parts than any regular creature (at most 7 meta-parts).
+    let bigger = last.iter().filter(|m| m.2 > 7).count();
+    assert!(bigger >= 9, "{bigger} of 18 monsters grew");
+}
+
+/// Compiles `main.mdg` in `dir` (with the std library) and embeds its meshes.
+fn build_with_meshes(dir: &Path) -> (Option<Bundle>, Vec<mdg_compiler::diag::Diagnostic>) {
+    let a = analyze(&FsLoader, &dir.join("main.mdg"), &compile_options(), CheckOptions { require_start: true });
+    assert!(!a.has_errors(), "{}", mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources));
+    let mut b = mdg_compiler::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).expect("lowers");
+    let d = ext::embed_meshes(&mut b, &a.expanded, &a.sources, &FsLoader, Some(&root().join("std")));
+    (Some(b), d)
+}
+
+#[test]
+fn obj_meshes_are_embedded_at_compile_time() {
+    let base = std::env::temp_dir().join(format!("mdg-creature-obj-{}", std::process::id()));
+    let dir = base.join("project");
+    std::fs::create_dir_all(dir.join("parts")).expect("dirs");
+    let obj = "# a unit cube\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+               f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+    let src = r#"
+startshape show
+rule show { VERTEX {} VERTEX {x 1} VERTEX {y 1} }
+creature blocks {
+  part box { type torso; category block; mesh "parts/box.obj"; color 0.8 0.3 0.2;
+    slot top { at 0.5 0.5 1; normal 0 0 1; size 0.5; accepts head; }
+  }
+  part lid { type head; category block; mesh "parts/box.obj"; joint { at 0.5 0.5 0; normal 0 0 -1; size 1; } }
+  shape tower { torso box; attach top lid; }
+}
+"#;
+    std::fs::write(dir.join("parts/box.obj"), obj).expect("obj");
+    std::fs::write(dir.join("main.mdg"), src).expect("mdg");
+    let (b, d) = build_with_meshes(&dir);
+    assert!(d.is_empty(), "{d:?}");
+    let b = b.expect("bundle");
+    let t = b.extensions.creatures.as_ref().expect("table");
+    assert_eq!(t.meshes.len(), 2);
+    assert_eq!(t.meshes[0].positions.len(), 8);
+    assert_eq!(t.meshes[0].triangles.len(), 12);
+    assert_eq!(t.meshes[0].color, [0.8, 0.3, 0.2, 1.0]);
+    // The tower: the lid (joint size 1) on a slot of size 0.5 is half as big and
+    // sits on top of the box, so the model is 1.5 high.
+    let lib = Library::build(&b, t).expect("library");
+    let l = layout(t, &lib, &Shape::from_def(t, &t.shapes[0]));
+    assert!(((l.max.z - l.min.z) - 1.5).abs() < 1e-5, "{:?} {:?}", l.min, l.max);
+    // Self-contained: the bundle still loads after an encode/decode round trip.
+    let back = mdg_vm::bundle::load(&mdg_vm::bundle::encode(&b)).expect("loads");
+    assert_eq!(back.extensions.creatures.as_ref().map(|t| t.meshes.len()), Some(2));
+
+    // `mdg-run` on the source embeds them itself when the bundle lacks them.
+    let a = analyze(&FsLoader, &dir.join("main.mdg"), &compile_options(), CheckOptions { require_start: true });
+    let bare = mdg_compiler::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).expect("lowers");
+    assert!(bare.extensions.creatures.as_ref().is_some_and(|t| t.meshes[0].triangles.is_empty()));
+    let out = base.join("out");
+    let file = dir.join("main.mdg");
+    let common = Common { file: &file, output: Some(&out), seed: None, stats: false, png: None, size: (64, 64) };
+    let args = CreatureArgs { generations: Some(0), ..CreatureArgs::default() };
+    assert_eq!(run(&bare, &args, &common), std::process::ExitCode::SUCCESS);
+    assert!(out.join("gen0/g0-00.glb").is_file());
+
+    // A missing file, a malformed one and one outside the project are E0810.
+    std::fs::write(dir.join("parts/bad.obj"), "v 0 0 0\nf 1 2 3\n").expect("bad obj");
+    std::fs::create_dir_all(base.join("elsewhere")).expect("dir");
+    std::fs::write(base.join("elsewhere/box.obj"), obj).expect("outside obj");
+    for (path, want) in [
+        ("parts/none.obj", "cannot find mesh"),
+        ("parts/bad.obj", "not a usable OBJ"),
+        ("../elsewhere/box.obj", "outside the project"),
+    ] {
+        let src2 = src.replace("\"parts/box.obj\"; color", &format!("\"{path}\"; color"));
+        std::fs::write(dir.join("main.mdg"), &src2).expect("mdg");
+        let (_, d) = build_with_meshes(&dir);
+        assert_eq!(d.len(), 1, "{path}: {d:?}");
+        assert_eq!(d[0].code, "E0810");
+        assert!(d[0].message.contains(want), "{path}: {}", d[0].message);
+    }
+    let _ = std::fs::remove_dir_all(&base);
+}
+
+#[test]
+fn obj_parser_reports_bad_lines() {
+    assert!(ext::parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").is_ok());
+    assert!(ext::parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\n").is_ok());
+    let fails = |text: &str, want: &str| matches!(ext::parse_obj(text), Err(e) if e.contains(want));
+    assert!(fails("v 0 0\n", "line 1"));
+    assert!(fails("v 0 0 0\nf 1 2 7\n", "line 2"));
+    assert!(fails("v 0 0 0\n", "no faces"));
+}
+
+#[test]
+fn the_mode_writes_models_pictures_and_a_gallery_and_keeps_chosen_monsters() {
+    let b = monsters();
+    let out = std::env::temp_dir().join(format!("mdg-creature-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let file = root().join("std/examples/monsters.mdg");
+    let common = Common { file: &file, output: Some(&out), seed: Some(4), stats: false, png: None, size: (800, 600) };
+    let args = CreatureArgs { generations: Some(2), population: Some(6), ..CreatureArgs::default() };
+    assert_eq!(run(&b, &args, &common), std::process::ExitCode::SUCCESS);
+    let html = std::fs::read_to_string(out.join("index.html")).expect("gallery");
+    for g in 0..=2 {
+        assert!(out.join(format!("gen{g}/sheet.png")).is_file());
+    }
+    let glbs: Vec<_> = std::fs::read_dir(out.join("gen2"))
+        .expect("gen2")
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().extension().is_some_and(|x| x == "glb"))
+        .collect();
+    assert_eq!(glbs.len(), 6);
+    let glb = std::fs::read(out.join("gen2/g2-00.glb")).expect("glb");
+    assert_eq!(&glb[..4], b"glTF");
+    assert!(html.contains("g2-05") && html.contains("structure:") && html.contains("HDM"));
+    assert!(html.contains("S0 torso["), "the gallery shows each monster's structure");
+    // The models are valid glTF (Khronos validator, as for the std examples).
+    if std::env::var_os("MDG_SKIP_NODE_TESTS").is_none() {
+        let validator = root().join("tests/gltf/validate.mjs");
+        assert!(root().join("tests/gltf/node_modules/gltf-validator").is_dir(), "run `npm ci --prefix tests/gltf`");
+        let status = std::process::Command::new("node")
+            .arg(&validator)
+            .arg(out.join("gen2/g2-00.glb"))
+            .arg(out.join("gen0/g0-02.glb"))
+            .status()
+            .expect("run node");
+        assert!(status.success(), "glTF validation failed");
+    }
+    // Continue from two monsters of generation 2: generations 3 and 4 follow.
+    let more = out.join("more");
+    let common = Common { output: Some(&more), ..common };
+    let keep = CreatureArgs { keep: vec!["g2-01".into(), "g2-04".into()], ..args.clone() };
+    assert_eq!(run(&b, &keep, &common), std::process::ExitCode::SUCCESS);
+    let html = std::fs::read_to_string(more.join("index.html")).expect("gallery");
+    assert!(html.contains("continued from g2-01, g2-04"));
+    assert!(more.join("gen4/g4-00.glb").is_file() && !more.join("gen1").exists());
+    // The kept monsters are the parents of generation 3.
+    assert!(html.contains("base g2-01") || html.contains("base g2-04"));
+    // An unknown id is a clear error.
+    let bad = CreatureArgs { keep: vec!["g2-77".into()], ..args.clone() };
+    assert_eq!(run(&b, &bad, &common), std::process::ExitCode::from(2));
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn command_line_options_override_the_evolve_block() {
+    let b = monsters();
+    let t = b.extensions.creatures.as_ref().expect("table");
+    let args = CreatureArgs {
+        generations: Some(7),
+        population: Some(10),
+        without_rules: vec!["increase".into()],
+        ..CreatureArgs::default()
+    };
+    let o = options(t, &args, Some(99)).expect("options");
+    assert_eq!((o.generations, o.population, o.offspring, o.seed), (7, 10, 30, 99));
+    assert_eq!(o.disabled, vec![RuleKind::Increase]);
+    let bad = CreatureArgs { without_rules: vec!["grow".into()], ..CreatureArgs::default() };
+    assert!(options(t, &bad, None).is_err());
+    let bad = CreatureArgs { generations: Some(5000), ..CreatureArgs::default() };
+    assert!(options(t, &bad, None).is_err());
+}
+
+#[test]
+fn editor_hooks_know_the_keys_and_the_rule_references() {
+    let keys = mdg_compiler::ext::keys(&["creature", "rule"]);
+    for k in ["kind", "priority", "predecessor", "condition", "probability"] {
+        let key = keys.iter().find(|x| x.name == k).expect("documented key");
+        assert!(!key.doc.is_empty());
+    }
+    assert!(mdg_compiler::ext::keys(&["creature", "part", "slot"]).iter().any(|k| k.name == "symmetric"));
+    let path = root().join("std/creatures.mdg");
+    let a = analyze(&FsLoader, &path, &compile_options(), CheckOptions { require_start: false });
+    assert!(a.diagnostics.is_empty());
+    let sec = mdg_compiler::ext::sections(&a.expanded, "creature");
+    let refs: Vec<&str> =
+        sec.iter().flat_map(|s| mdg_compiler::ext::rule_refs(s.section)).map(|n| n.text.as_str()).collect();
+    assert!(refs.contains(&"h_torso") && refs.contains(&"q_hindleg") && refs.len() == 14, "{refs:?}");
+}
+
+#[test]
+fn the_documented_example_compiles_and_evolves() {
+    let doc = std::fs::read_to_string(root().join("docs/creatures.md")).expect("docs/creatures.md");
+    let start = doc.find("```mdg\n").expect("an mdg example") + 7;
+    let len = doc[start..].find("```").expect("closed");
+    let b = mdg_tests::build_source(&doc[start..start + len]);
+    let t = b.extensions.creatures.as_ref().expect("table");
+    assert_eq!(t.shapes.len(), 2);
+    assert_eq!(t.rules.len(), 3);
+    let lib = Library::build(&b, t).expect("library");
+    let evo = Evolution::new(t, &lib, EvolveOptions::from_table(t));
+    let (mut pop, _) = evo.start();
+    let g = evo.step(&mut pop, None);
+    assert_eq!(g.presented.len(), 12);
+}

@@ -1,0 +1,727 @@
+//! Grid grammars (SIGI): entropy and cost by hand, hill climbing against an exhaustive
+//! optimum, matching under quarter turns, rule derivation, the enclosure constraint, and
+//! the induce → write → compile → generate round trip through every voxel format.
+//! Every building here is made by the test itself.
+
+use mdg_compiler::modes::{grid::GridArgs, Common};
+use mdg_tests::{build_source, root};
+use mdg_vm::grid::format::{self, VoxelFormat};
+use mdg_vm::grid::generate::{enclosure, generate, Derivation, GenerateOptions, Instance};
+use mdg_vm::grid::induce::{induce, Example};
+use mdg_vm::grid::infer::{cost, entropy, infer, Cost, InferOptions, Move, Ops, Search, Spec};
+use mdg_vm::grid::voxel::VoxelModel;
+use mdg_vm::grid::{add, rotate, sub, turned_blocks, GridGrammar, Placement};
+use std::collections::{BTreeMap, HashSet};
+
+/// A model from `x y z block` lines.
+fn model(text: &str) -> VoxelModel {
+    format::text::read(text).expect("a valid building")
+}
+
+fn lines(blocks: &[([i32; 3], &str)]) -> String {
+    blocks.iter().map(|(p, b)| format!("{} {} {} {b}\n", p[0], p[1], p[2])).collect()
+}
+
+/// A 3×3 wall of stone (x, y; z = 0) with a glass window in the middle.
+fn wall_with_window() -> VoxelModel {
+    let mut v = Vec::new();
+    for y in 0..3 {
+        for x in 0..3 {
+            v.push(([x, y, 0], if (x, y) == (1, 1) { "glass" } else { "stone" }));
+        }
+    }
+    model(&lines(&v))
+}
+
+/// A small closed house: a plank floor, stone walls with glass windows and an open
+/// doorway, a slab roof. 7 × 4 × 5 blocks.
+fn house() -> String {
+    let (w, h, d) = (7, 4, 5);
+    let mut v = Vec::new();
+    for x in 0..w {
+        for z in 0..d {
+            v.push(([x, 0, z], "planks"));
+            v.push(([x, h - 1, z], "slab"));
+        }
+    }
+    for y in 1..h - 1 {
+        for x in 0..w {
+            for z in [0, d - 1] {
+                let window = y == 1 && (x == 1 || x == w - 2);
+                let door = z == 0 && x == 3;
+                if !door {
+                    v.push(([x, y, z], if window { "glass" } else { "stone" }));
+                }
+            }
+        }
+        for z in 1..d - 1 {
+            for x in [0, w - 1] {
+                v.push(([x, y, z], if y == 1 && z == 2 { "glass" } else { "stone" }));
+            }
+        }
+    }
+    lines(&v)
+}
+
+fn temp_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("mdg-grid-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+// ---------------------------------------------------------------- cost by hand
+
+#[test]
+fn entropy_and_cost_by_hand() {
+    // One kind: no information.
+    assert_eq!(entropy(&[5]), 0.0);
+    // Two kinds, half and half: one bit.
+    assert!((entropy(&[2, 2]) - 1.0).abs() < 1e-12);
+    // Four kinds equally likely: two bits.
+    assert!((entropy(&[1, 1, 1, 1]) - 2.0).abs() < 1e-12);
+    // 8 stone + 1 glass: −(8/9)·log2(8/9) − (1/9)·log2(1/9) = 0.503258…
+    let e = entropy(&[8, 1]);
+    assert!((e - 0.503_258_334_775_646).abs() < 1e-12, "{e}");
+    // (1 + 3)^1 · (1 + 0.5033) and with α = 0.5: √4 · 1.5033; α = 0 leaves the entropy sum.
+    assert!((cost(3, 1.0 + e, 1.0) - 4.0 * (1.0 + e)).abs() < 1e-12);
+    assert!((cost(3, 1.0 + e, 0.5) - 2.0 * (1.0 + e)).abs() < 1e-12);
+    assert!((cost(3, 1.0 + e, 0.0) - (1.0 + e)).abs() < 1e-12);
+    // The reference implementation's sum: α·(1 + #S) + Σ entropy.
+    assert!((Cost::Sum.eval(3, 1.5, 2.0) - (2.0 * 4.0 + 1.5)).abs() < 1e-12);
+
+    // The search keeps the same numbers: the window wall, every block a shape in each
+    // of the three planes (27 shapes, all pure: cost 0), then the z plane merged into
+    // one shape by hand (19 shapes, Σ entropy = 0.5033).
+    let m = wall_with_window();
+    let mut s = Search::new(&m, Spec::Rect, 1.0);
+    s.init_minimal();
+    assert_eq!((s.n_shapes(), s.entropy_sum(), s.cost()), (27, 0.0, 0.0));
+    let mut shapes: Vec<(u8, Vec<u32>)> = vec![(2, (0..9).collect())];
+    for a in [0u8, 1] {
+        shapes.extend((0..9).map(|b| (a, vec![b])));
+    }
+    s.init_from(&shapes);
+    assert_eq!(s.n_shapes(), 19);
+    assert!((s.entropy_sum() - e).abs() < 1e-12);
+    assert!((s.cost() - 20.0 * e).abs() < 1e-9);
+}
+
+// ------------------------------------------------- hill climbing vs exhaustive search
+
+/// Every partition of `cells` into rectangles (cells as (u, v); the grid is small).
+fn rect_partitions(cells: &[(i32, i32)]) -> Vec<Vec<Vec<(i32, i32)>>> {
+    fn go(left: &[(i32, i32)], acc: &mut Vec<Vec<(i32, i32)>>, out: &mut Vec<Vec<Vec<(i32, i32)>>>) {
+        let Some(&first) = left.iter().min_by_key(|&&(u, v)| (v, u)) else {
+            out.push(acc.clone());
+            return;
+        };
+        let set: HashSet<(i32, i32)> = left.iter().copied().collect();
+        for w in 1..=8 {
+            for h in 1..=8 {
+                let rect: Vec<(i32, i32)> =
+                    (0..h).flat_map(|j| (0..w).map(move |i| (first.0 + i, first.1 + j))).collect();
+                if !rect.iter().all(|c| set.contains(c)) {
+                    continue;
+                }
+                let rest: Vec<(i32, i32)> = left.iter().copied().filter(|c| !rect.contains(c)).collect();
+                acc.push(rect);
+                go(&rest, acc, out);
+                acc.pop();
+            }
+        }
+    }
+    let mut out = Vec::new();
+    go(cells, &mut Vec::new(), &mut out);
+    out
+}
+
+/// The exact minimum cost over all rectangular shape sets of the three planes (what the
+/// hill climber searches), by enumeration: per layer the least entropy for each number
+/// of shapes, combined over layers, then the best number of shapes.
+fn exhaustive_optimum(m: &VoxelModel, cost_of: &dyn Fn(usize, f64) -> f64) -> f64 {
+    let mut total: BTreeMap<usize, f64> = BTreeMap::from([(0, 0.0)]);
+    for axis in 0..3 {
+        let mut layers: BTreeMap<i32, Vec<usize>> = BTreeMap::new();
+        for (i, b) in m.blocks.iter().enumerate() {
+            layers.entry(b.pos[axis]).or_default().push(i);
+        }
+        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+        for blocks in layers.values() {
+            let kind_at: BTreeMap<(i32, i32), u32> =
+                blocks.iter().map(|&i| ((m.blocks[i].pos[u], m.blocks[i].pos[v]), m.blocks[i].kind)).collect();
+            let cells: Vec<(i32, i32)> = kind_at.keys().copied().collect();
+            let mut best: BTreeMap<usize, f64> = BTreeMap::new();
+            for p in rect_partitions(&cells) {
+                let h: f64 = p
+                    .iter()
+                    .map(|r| {
+                        let mut counts: BTreeMap<u32, u32> = BTreeMap::new();
+                        r.iter().for_each(|c| *counts.entry(kind_at[c]).or_insert(0) += 1);
+                        entropy(&counts.values().copied().collect::<Vec<_>>())
+                    })
+                    .sum();
+                let e = best.entry(p.len()).or_insert(f64::INFINITY);
+                *e = e.min(h);
+            }
+            let mut next: BTreeMap<usize, f64> = BTreeMap::new();
+            for (n1, h1) in &total {
+                for (n2, h2) in &best {
+                    let e = next.entry(n1 + n2).or_insert(f64::INFINITY);
+                    *e = e.min(h1 + h2);
+                }
+            }
+            total = next;
+        }
+    }
+    total.iter().map(|(&n, &h)| cost_of(n, h)).fold(f64::INFINITY, f64::min)
+}
+
+#[test]
+fn the_exhaustive_search_counts_rectangle_partitions_right() {
+    // A 2×2 square has 8 partitions into rectangles; a 3×3 one has 322.
+    assert_eq!(rect_partitions(&[(0, 0), (1, 0), (0, 1), (1, 1)]).len(), 8);
+    let nine: Vec<(i32, i32)> = (0..3).flat_map(|v| (0..3).map(move |u| (u, v))).collect();
+    assert_eq!(rect_partitions(&nine).len(), 322);
+}
+
+#[test]
+fn merges_and_splits_reach_the_known_optimum_of_a_wall_with_a_window() {
+    let m = wall_with_window();
+    for (cost_model, alpha) in [(Cost::Product, 1.0), (Cost::Sum, 1.0), (Cost::Sum, 2.0), (Cost::Sum, 3.0)] {
+        let optimum = exhaustive_optimum(&m, &|n, h| cost_model.eval(n, h, alpha));
+        let mut s = Search::new(&m, Spec::Rect, alpha);
+        s.set_cost(cost_model);
+        s.record_moves();
+        s.init_minimal();
+        s.run(Ops::Both, &mut |_| {});
+        let what = format!("{cost_model:?} cost, α = {alpha}");
+        assert!((s.cost() - optimum).abs() < 1e-9, "{what}: reached {} but the optimum is {optimum}", s.cost());
+        // The recorded moves are a descent: each lowers the cost, or keeps it and the
+        // number of shapes falls (merges only when every shape is pure).
+        let moves = s.moves();
+        assert!(moves.iter().any(|mv| matches!(mv, Move::Merge { .. })), "{what}: no merge");
+        let mut prev = f64::INFINITY;
+        for mv in moves {
+            let c = match mv {
+                Move::Merge { cost, .. } | Move::Split { cost, .. } => *cost,
+            };
+            assert!(c <= prev + 1e-9, "{what}: a move raised the cost");
+            prev = c;
+        }
+        assert!((prev - optimum).abs() < 1e-9);
+    }
+    // Hill climbing is a local search: with the sum at α = 0.5, mixing glass into stone
+    // costs more than the shape it saves (ΔH = 1 > α), so merging stops at the pure
+    // shapes (15 of them, Σ entropy 0), above the exhaustive optimum (7 shapes with
+    // mixed ones), which only a run of worsening merges would reach.
+    let mut s = Search::new(&m, Spec::Rect, 0.5);
+    s.set_cost(Cost::Sum);
+    s.init_minimal();
+    s.run(Ops::Both, &mut |_| {});
+    let optimum = exhaustive_optimum(&m, &|n, h| Cost::Sum.eval(n, h, 0.5));
+    assert_eq!((s.n_shapes(), s.entropy_sum()), (15, 0.0));
+    assert!((s.cost() - Cost::Sum.eval(15, 0.0, 0.5)).abs() < 1e-12 && s.cost() > optimum + 1.0);
+    // The product cost's optimum here is every shape pure (Σ entropy 0): the wall plane
+    // holds the glass alone and four stone rectangles around it.
+    let mut s = Search::new(&m, Spec::Rect, 1.0);
+    s.init_minimal();
+    s.run(Ops::Both, &mut |_| {});
+    let wall = s.layer_shapes(2);
+    assert_eq!(wall.len(), 5, "{wall:?}");
+    let glass = m.blocks.iter().position(|b| b.pos == [1, 1, 0]).expect("glass") as u32;
+    assert!(wall.contains(&vec![glass]));
+    // With the sum at α = 1, mixing the glass in is cheaper than four more shapes.
+    let mut s = Search::new(&m, Spec::Rect, 1.0);
+    s.set_cost(Cost::Sum);
+    s.init_minimal();
+    s.run(Ops::Both, &mut |_| {});
+    assert_eq!(s.layer_shapes(2), vec![(0..9).collect::<Vec<u32>>()]);
+}
+
+#[test]
+fn splits_from_maximal_shapes_reach_the_known_optimum() {
+    // A 3×3 stone wall whose top row is glass. Splitting starts from maximal shapes
+    // (the whole wall, whole columns, whole rows) and cuts the glass off everywhere.
+    let mut v = Vec::new();
+    for y in 0..3 {
+        for x in 0..3 {
+            v.push(([x, y, 0], if y == 2 { "glass" } else { "stone" }));
+        }
+    }
+    let m = model(&lines(&v));
+    for (cost_model, alpha) in [(Cost::Sum, 0.5), (Cost::Product, 1.0)] {
+        let optimum = exhaustive_optimum(&m, &|n, h| cost_model.eval(n, h, alpha));
+        let mut s = Search::new(&m, Spec::Rect, alpha);
+        s.set_cost(cost_model);
+        s.record_moves();
+        s.init_maximal();
+        let start = s.cost();
+        assert_eq!(s.n_shapes(), 1 + 3 + 3, "maximal: one wall, three columns, three rows");
+        s.run(Ops::Split, &mut |_| {});
+        let what = format!("{cost_model:?} cost, α = {alpha}");
+        assert!(s.moves().iter().all(|mv| matches!(mv, Move::Split { .. })), "{what}");
+        // The wall and the three columns are each cut once, at y = 2.
+        let cuts: Vec<(u8, i32)> = s
+            .moves()
+            .iter()
+            .filter_map(|mv| match mv {
+                Move::Split { axis, at, .. } => Some((*axis, *at)),
+                Move::Merge { .. } => None,
+            })
+            .collect();
+        assert_eq!(cuts, vec![(1, 2); 4], "{what}");
+        assert!(s.cost() < start);
+        assert!((s.cost() - optimum).abs() < 1e-9, "{what}: reached {} but the optimum is {optimum}", s.cost());
+        // Splits keep every plane a partition of its blocks.
+        for a in 0..3u8 {
+            let mut all: Vec<u32> = s.layer_shapes(a).concat();
+            all.sort_unstable();
+            assert_eq!(all, (0..9).collect::<Vec<u32>>(), "axis {a}");
+        }
+    }
+}
+
+#[test]
+fn every_block_is_covered_with_and_without_overlap() {
+    let m = model(&house());
+    for spec in [Spec::Rect, Spec::Planar, Spec::Solid] {
+        for ops in [Ops::Merge, Ops::Split, Ops::Both] {
+            for overlap in [false, true] {
+                for c in [Cost::Product, Cost::Sum] {
+                    let opts = InferOptions { spec, alpha: 1.0, ops, overlap, cost: c };
+                    let inf = infer(&m, &opts, &mut |_| {});
+                    let mut count = vec![0; m.blocks.len()];
+                    for s in &inf.shapes {
+                        s.blocks.iter().for_each(|&b| count[b as usize] += 1);
+                        let blocks: Vec<_> = s
+                            .blocks
+                            .iter()
+                            .map(|&b| mdg_vm::grid::ShapeBlock { pos: m.blocks[b as usize].pos, kind: 0 })
+                            .collect();
+                        assert!(mdg_vm::grid::connected(&blocks), "{opts:?}: a shape is not connected");
+                        if spec != Spec::Solid {
+                            let p = s.plane.expect("flat shapes have a plane") as usize;
+                            let c0 = m.blocks[s.blocks[0] as usize].pos[p];
+                            assert!(s.blocks.iter().all(|&b| m.blocks[b as usize].pos[p] == c0), "{opts:?}");
+                        }
+                        if spec == Spec::Rect {
+                            let (lo, hi) = bounds(&m, &s.blocks);
+                            let area: i32 = (0..3).map(|k| hi[k] - lo[k] + 1).product();
+                            assert_eq!(area as usize, s.blocks.len(), "{opts:?}: not a filled rectangle");
+                        }
+                    }
+                    assert!(count.iter().all(|&c| c >= 1), "{opts:?}: a block is not covered");
+                    if !overlap {
+                        assert!(count.iter().all(|&c| c == 1), "{opts:?}: shapes overlap");
+                    } else {
+                        // No shape is covered entirely by the others.
+                        for s in &inf.shapes {
+                            assert!(s.blocks.iter().any(|&b| count[b as usize] == 1), "{opts:?}: a redundant shape");
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+fn bounds(m: &VoxelModel, blocks: &[u32]) -> ([i32; 3], [i32; 3]) {
+    let mut lo = [i32::MAX; 3];
+    let mut hi = [i32::MIN; 3];
+    for &b in blocks {
+        let p = m.blocks[b as usize].pos;
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    (lo, hi)
+}
+
+#[test]
+fn inference_is_deterministic() {
+    let m = model(&house());
+    let opts = InferOptions { spec: Spec::Planar, alpha: 0.75, ops: Ops::Both, overlap: true, cost: Cost::Sum };
+    let a = infer(&m, &opts, &mut |_| {});
+    let b = infer(&m, &opts, &mut |_| {});
+    assert_eq!(a.shapes, b.shapes);
+}
+
+// ---------------------------------------------------------------- matching
+
+#[test]
+fn matching_shapes_are_found_under_quarter_turns() {
+    // An asymmetric wall (a window off centre) along x, and the same wall turned a
+    // quarter about the vertical axis standing elsewhere along z.
+    let wall: Vec<([i32; 3], &str)> = (0..4)
+        .flat_map(|x| (0..2).map(move |y| ([x, y, 0], if (x, y) == (1, 1) { "glass" } else { "stone" })))
+        .collect();
+    let mut blocks = wall.clone();
+    for (p, b) in &wall {
+        blocks.push((add(rotate(1, *p), [20, 0, 10]), *b));
+    }
+    let m = model(&lines(&blocks));
+    let opts = InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost: Cost::Sum };
+    let inf = infer(&m, &opts, &mut |_| {});
+    assert_eq!(inf.shapes.len(), 2, "each wall is one shape");
+    let g = induce(&[Example { name: "two walls".into(), model: &m }], &[inf], "walls").expect("induces");
+    assert_eq!(g.matches.len(), 1);
+    let mt = g.matches[0];
+    assert!(mt.turn % 2 == 1, "a quarter turn (1 or 3), got {}", mt.turn);
+    let (turned, size) = turned_blocks(&g.shapes[mt.a as usize], mt.turn);
+    assert_eq!((turned, size), (g.shapes[mt.b as usize].blocks.clone(), g.shapes[mt.b as usize].size));
+    // The same wall with its window one row lower is no turn of it.
+    let mut lower = wall.clone();
+    for (p, _) in &wall {
+        lower.push(([p[0] + 10, p[1], p[2]], if (p[0], p[1]) == (1, 0) { "glass" } else { "stone" }));
+    }
+    let m2 = model(&lines(&lower));
+    let inf2 = infer(&m2, &opts, &mut |_| {});
+    assert_eq!(inf2.shapes.len(), 2);
+    let g2 = induce(&[Example { name: "other".into(), model: &m2 }], &[inf2], "m").expect("induces");
+    assert!(g2.matches.is_empty(), "{:?}", g2.matches);
+}
+
+// ---------------------------------------------------------------- rules and derivation
+
+fn house_grammar(c: Cost) -> (VoxelModel, GridGrammar) {
+    let m = model(&house());
+    let opts = InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost: c };
+    let inf = infer(&m, &opts, &mut |_| {});
+    let g = induce(&[Example { name: "house.txt".into(), model: &m }], &[inf], "house").expect("induces");
+    (m, g)
+}
+
+#[test]
+fn rules_place_shapes_at_their_relative_positions_in_the_example() {
+    for c in [Cost::Product, Cost::Sum] {
+        let (m, g) = house_grammar(c);
+        assert!(!g.rules.is_empty());
+        let d = Derivation::new(&g);
+        let at = |s: u32| g.shapes[s as usize].at.expect("induced shapes know their place");
+        for (i, r) in g.rules.iter().enumerate() {
+            let from = Instance { shape: r.from, place: Placement::translation(at(r.from)) };
+            let placed = d.apply(&from, i as u32).expect("the rule applies to its own left side");
+            assert_eq!(placed, Instance { shape: r.to, place: Placement::translation(at(r.to)) });
+            // The placed blocks are the example's blocks there.
+            for (p, k) in d.blocks(&placed) {
+                let b = m.blocks.iter().find(|b| b.pos == p).expect("a block of the example");
+                assert_eq!(m.kinds[b.kind as usize].id, g.palette[k as usize].block);
+            }
+        }
+        // The shapes at their places rebuild the example.
+        let rebuilt = mdg_vm::grid::generate::examples(&g);
+        let ids = |m: &VoxelModel| {
+            let mut v: Vec<([i32; 3], String)> =
+                m.blocks.iter().map(|b| (b.pos, m.kinds[b.kind as usize].id.clone())).collect();
+            v.sort();
+            v
+        };
+        assert_eq!(ids(&rebuilt[0]), ids(&m));
+    }
+}
+
+#[test]
+fn shared_rules_carry_the_relative_placement_through_a_match() {
+    // Two identical window panes on walls facing +z and +x: the rule "pane → frame
+    // above it" learned on one applies to the other, turned with it.
+    let src = r#"
+startshape site
+rule site {}
+grid g {
+  palette { stone "stone"; glass "glass"; }
+  shape pane_a { size 2 1 1; plane z; at 0 0 0; blocks glass glass; }
+  shape lintel_a { size 3 1 1; plane z; at 0 1 0; blocks stone stone stone; }
+  shape pane_b { size 1 1 2; plane x; at 10 0 10; blocks glass glass; }
+  match pane_a pane_b turn 1;
+  rule pane_a lintel_a at 0 1 0;
+  start pane_b;
+}
+"#;
+    let b = build_source(src);
+    let g = b.extensions.grid.expect("a grid table");
+    let d = Derivation::new(&g);
+    let start = d.start();
+    assert_eq!(start.shape, 2);
+    assert_eq!(d.rules_for(2), &[0]);
+    let lintel = d.apply(&start, 0).expect("shared through the match");
+    assert_eq!(lintel.shape, 1);
+    assert_eq!(lintel.place.turn, 1);
+    // In pane_a's frame the lintel starts one block up over the pane's first block; in
+    // pane_b's frame it must sit over pane_b's blocks the same way, turned.
+    let pane: Vec<[i32; 3]> = d.blocks(&start).map(|(p, _)| p).collect();
+    let over: Vec<[i32; 3]> = d.blocks(&lintel).map(|(p, _)| p).collect();
+    for p in &pane {
+        assert!(over.contains(&add(*p, [0, 1, 0])), "the lintel covers {p:?}: {over:?}");
+    }
+    let extra: Vec<[i32; 3]> = over.iter().copied().filter(|q| !pane.contains(&sub(*q, [0, 1, 0]))).collect();
+    assert_eq!(extra.len(), 1, "one lintel block overhangs, as over pane_a");
+}
+
+// ---------------------------------------------------------------- enclosure
+
+/// A closed 5×4×5 stone box from six flat shapes, plus extra shapes in `extra`.
+fn box_source(extra_shapes: &str) -> String {
+    let face = |n: usize| vec!["stone"; n].join(" ");
+    format!(
+        r#"
+startshape site
+rule site {{}}
+grid box {{
+  palette {{ stone "stone"; glass "glass"; }}
+  shape floor {{ size 5 1 5; plane y; at 0 0 0; blocks {f25}; }}
+  shape roof {{ size 5 1 5; plane y; at 0 3 0; blocks {f25}; }}
+  shape front {{ size 5 2 1; plane z; at 0 1 0; blocks {f10}; }}
+  shape back {{ size 5 2 1; plane z; at 0 1 4; blocks {f10}; }}
+  shape left {{ size 1 2 3; plane x; at 0 1 1; blocks {f6}; }}
+  shape right {{ size 1 2 3; plane x; at 4 1 1; blocks {f6}; }}
+  {extra_shapes}
+  start floor;
+}}
+"#,
+        f25 = face(25),
+        f10 = face(10),
+        f6 = face(6)
+    )
+}
+
+fn placed(g: &GridGrammar) -> Vec<Instance> {
+    g.shapes
+        .iter()
+        .enumerate()
+        .map(|(i, s)| Instance { shape: i as u32, place: Placement::translation(s.at.expect("at")) })
+        .collect()
+}
+
+#[test]
+fn enclosure_removes_an_exposed_wall_segment() {
+    // A fin: a wall segment sticking out of the right wall into the open.
+    let g = build_source(&box_source(
+        r#"shape fin { size 3 2 1; plane z; at 5 1 2; blocks glass glass glass glass glass glass; }"#,
+    ))
+    .extensions
+    .grid
+    .expect("grid");
+    let all = placed(&g);
+    let (kept, model, removed) = enclosure(&g, &all, 1).expect("runs");
+    assert_eq!(removed, 1);
+    let names: Vec<&str> = kept.iter().map(|i| g.shapes[i.shape as usize].name.as_str()).collect();
+    assert_eq!(names, ["floor", "roof", "front", "back", "left", "right"]);
+    assert!(model.blocks.iter().all(|b| b.pos[0] <= 4), "the fin's blocks are gone");
+    assert_eq!(model.blocks.len(), 25 * 2 + 10 * 2 + 6 * 2);
+}
+
+#[test]
+fn enclosure_repeats_until_nothing_is_removed() {
+    // The roof has a 1×1 hole covered by a lid that overhangs the box: the lid has
+    // outside air on both sides, so it goes first; then the hole lets the outside in,
+    // and every wall has it on both faces. With `seal 0` (the paper's plain flood
+    // fill) the hole counts; the floor stands on the ground and stays.
+    let mut src = box_source(r#"shape lid { size 1 1 4; plane y; at 2 4 2; blocks stone stone stone stone; }"#);
+    let holed: Vec<&str> = (0..25).map(|i| if i == 12 { "_" } else { "stone" }).collect();
+    let solid = vec!["stone"; 25].join(" ");
+    src = src.replacen(
+        &format!("shape roof {{ size 5 1 5; plane y; at 0 3 0; blocks {solid}; }}"),
+        &format!("shape roof {{ size 5 1 5; plane y; at 0 3 0; blocks {}; }}", holed.join(" ")),
+        1,
+    );
+    let g = build_source(&src).extensions.grid.expect("grid");
+    let (kept, _, removed) = enclosure(&g, &placed(&g), 0).expect("runs");
+    let names: Vec<&str> = kept.iter().map(|i| g.shapes[i.shape as usize].name.as_str()).collect();
+    assert_eq!(names, ["floor"], "removed {removed}");
+    assert_eq!(removed, 6);
+    // Sealing one-block openings keeps the box (only the overhanging lid goes).
+    let (kept, _, removed) = enclosure(&g, &placed(&g), 1).expect("runs");
+    assert_eq!((kept.len(), removed), (6, 1));
+}
+
+// ---------------------------------------------------------------- round trip
+
+fn ids(m: &VoxelModel) -> Vec<([i32; 3], String)> {
+    let mut v: Vec<([i32; 3], String)> =
+        m.normalized().blocks.iter().map(|b| (b.pos, m.kinds[b.kind as usize].id.clone())).collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn induce_write_compile_generate_round_trip() {
+    let dir = temp_dir("roundtrip");
+    let example = dir.join("house.txt");
+    std::fs::write(&example, house()).expect("write example");
+    let opts = InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost: Cost::Sum };
+    let (g, reports) =
+        mdg_compiler::induce::induce_files(&[example.as_path()], &opts, "house", &mut |_, _| {}).expect("induces");
+    assert_eq!(reports.len(), 1);
+    assert!(g.shapes.len() > 3 && !g.rules.is_empty() && !g.matches.is_empty());
+    // Written as source: formatted, and it compiles back to the same grammar.
+    let text = mdg_compiler::induce::write_source(&g, &["a test".into()]);
+    assert_eq!(mdg_compiler::fmt::format_source(&text).expect("parses"), text, "the writer's layout is canonical");
+    assert!(text.contains("grid house {") && text.contains("palette {") && text.contains("match "));
+    let style = dir.join("style.mdg");
+    std::fs::write(&style, &text).expect("write source");
+    let (bundle, _) = match mdg_compiler::driver::build(&mdg_compiler::source::FsLoader, &style, &mdg_tests::options())
+    {
+        Ok(b) => b,
+        Err(a) => panic!("the written grammar does not compile:\n{}", mdg_tests::render(&a)),
+    };
+    assert_eq!(bundle.extensions.grid.as_ref(), Some(&g));
+    // Through the bundle file format too.
+    let bundle = mdg_vm::bundle::load(&mdg_vm::bundle::encode(&bundle)).expect("loads");
+    assert_eq!(bundle.extensions.grid.as_ref(), Some(&g));
+
+    // Generate through the mdg-run mode into every format.
+    let run = |out: &std::path::Path, seed: u64, args: &GridArgs| {
+        let common =
+            Common { file: &style, output: Some(out), seed: Some(seed), stats: false, png: None, size: (64, 48) };
+        let code = mdg_compiler::modes::grid::run(&bundle, args, &common);
+        assert_eq!(code, std::process::ExitCode::SUCCESS);
+        std::fs::read(out).expect("output written")
+    };
+    let args = GridArgs { steps: Some(30), ..GridArgs::default() };
+    let txt = run(&dir.join("a.txt"), 7, &args);
+    let generated = format::read_bytes(VoxelFormat::Text, &txt).expect("reads back");
+    let direct =
+        generate(&g, &GenerateOptions { steps: 30, enclosure: true, seal: 1, seed: 7 }).expect("generates").model;
+    assert_eq!(ids(&generated), ids(&direct), "mdg-run writes what generate made");
+    assert!(!generated.blocks.is_empty(), "seed 7 keeps an enclosed building");
+    for f in [VoxelFormat::Vox, VoxelFormat::Nbt, VoxelFormat::Schem] {
+        let bytes = run(&dir.join(format!("a.{}", f.extension())), 7, &args);
+        let back = format::read_bytes(f, &bytes).expect("reads back");
+        let want: Vec<([i32; 3], String)> = match f {
+            VoxelFormat::Vox => ids(&generated),
+            _ => ids(&generated)
+                .into_iter()
+                .map(|(p, id)| (p, mdg_vm::grid::blocks::to_modern(&id).expect("minecraft name")))
+                .collect(),
+        };
+        assert_eq!(ids(&back), want, "{f:?}");
+    }
+    // Same seed, same bytes; the .glb is a mesh of the blocks.
+    assert_eq!(run(&dir.join("b.txt"), 7, &args), txt);
+    let glb = run(&dir.join("a.glb"), 7, &args);
+    assert_eq!(&glb[..4], b"glTF");
+    let other = run(&dir.join("c.txt"), 8, &args);
+    assert_ne!(other, txt, "another seed, another building");
+    // Without enclosure every step's shape stays.
+    let open = GridArgs { steps: Some(30), no_enclosure: true, ..GridArgs::default() };
+    let all = format::read_bytes(VoxelFormat::Text, &run(&dir.join("d.txt"), 7, &open)).expect("reads");
+    assert!(all.blocks.len() >= generated.blocks.len());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn two_examples_share_one_style() {
+    // Two houses with the same wall panels: one grammar, linked by matching shapes.
+    let a = model(&house());
+    let shifted: String = house()
+        .lines()
+        .map(|l| {
+            let f: Vec<&str> = l.split_whitespace().collect();
+            let p: Vec<i32> = f[..3].iter().map(|s| s.parse().expect("int")).collect();
+            // Turned a quarter and moved: the second example faces another way.
+            let q = rotate(1, [p[0], p[1], p[2]]);
+            format!("{} {} {} {}\n", q[0] + 3, q[1], q[2] + 40, f[3])
+        })
+        .collect();
+    let b = model(&shifted);
+    let opts = InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost: Cost::Sum };
+    let ia = infer(&a, &opts, &mut |_| {});
+    let ib = infer(&b, &opts, &mut |_| {});
+    let g = induce(
+        &[Example { name: "a.txt".into(), model: &a }, Example { name: "b.txt".into(), model: &b }],
+        &[ia, ib],
+        "both",
+    )
+    .expect("induces");
+    assert_eq!(g.examples, ["a.txt", "b.txt"]);
+    let cross = g.matches.iter().any(|m| g.shapes[m.a as usize].example != g.shapes[m.b as usize].example);
+    assert!(cross, "a shape of one example matches one of the other");
+    // Rules of the second example's shapes are shared with the first's (deduplicated):
+    // every rule's left side has a rule set reachable from the start.
+    let d = Derivation::new(&g);
+    assert!(!d.rules_for(g.start).is_empty());
+    let made = generate(&g, &GenerateOptions { steps: 40, enclosure: false, seal: 1, seed: 3 }).expect("generates");
+    assert!(made.applied > 0);
+}
+
+#[test]
+fn corrupt_voxel_files_are_errors_not_panics() {
+    let dir = temp_dir("corrupt");
+    let cases: [(&str, &[u8]); 6] = [
+        ("a.vox", b"VOX \x96\x00\x00\x00MAIN\x00\x00\x00\x00\xff\xff\xff\x7f"),
+        ("b.nbt", b"\x1f\x8b\x08\x00\x00\x00\x00\x00\x00\x03garbage"),
+        ("c.schem", b"\x0a\x00\x00\x09\x00\x01a\x0a\x7f\xff\xff\xff"),
+        ("d.txt", b"0 0 0 stone\n1 1 nope stone\n"),
+        ("e.txt", b"\xff\xfe binary"),
+        ("f.vox", b"not a vox file"),
+    ];
+    for (name, bytes) in cases {
+        let p = dir.join(name);
+        std::fs::write(&p, bytes).expect("write");
+        let e = format::read(&p).expect_err(name);
+        assert!(e.contains(name), "the error names the file: {e}");
+    }
+    assert!(format::read(&dir.join("g.schematic")).expect_err("an error").contains("unknown voxel format"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_std_grid_example_generates_a_building() {
+    let path = root().join("std/examples/grid_cottage.mdg");
+    let text = std::fs::read_to_string(&path).expect("std/examples/grid_cottage.mdg");
+    let bundle = build_source(&text);
+    let g = bundle.extensions.grid.as_ref().expect("a grid section");
+    let made = generate(g, &GenerateOptions { steps: g.generate.steps, enclosure: true, seal: 1, seed: 1 })
+        .expect("generates");
+    assert!(!made.model.blocks.is_empty());
+}
+
+#[test]
+fn mutated_voxel_files_never_panic() {
+    // Valid files of every format, then bytes flipped, dropped and repeated: every read
+    // returns (a model or an error) without panicking.
+    let m = model(&house());
+    let mut rng = mdg_tests::Rng(0x5151_6161);
+    for f in VoxelFormat::ALL {
+        let good = format::write(f, &m).expect("writes");
+        assert!(format::read_bytes(f, &good).is_ok());
+        // The NBT formats are gzip: mutate the NBT inside too.
+        let raw: Vec<u8> = match f {
+            VoxelFormat::Nbt | VoxelFormat::Schem => {
+                let mut out = Vec::new();
+                flate2_read(&good, &mut out);
+                out
+            }
+            _ => good.clone(),
+        };
+        for base in [&good, &raw] {
+            for _ in 0..300 {
+                let mut b = base.clone();
+                for _ in 0..1 + rng.below(4) {
+                    let i = rng.below(b.len());
+                    match rng.below(3) {
+                        0 => b[i] = rng.next() as u8,
+                        1 => {
+                            b.truncate(i);
+                        }
+                        _ => {
+                            let chunk: Vec<u8> = b[i..(i + 8).min(b.len())].to_vec();
+                            b.splice(i..i, chunk);
+                        }
+                    }
+                    if b.is_empty() {
+                        break;
+                    }
+                }
+                let _ = format::read_bytes(f, &b);
+            }
+        }
+    }
+}
+
+/// Gunzips `bytes` into `out` (test helper; the readers do their own).
+fn flate2_read(bytes: &[u8], out: &mut Vec<u8>) {
+    let text = format::nbt::nbt_bytes(bytes).expect("gzip");
+    out.extend_from_slice(&text);
+}

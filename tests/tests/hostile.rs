@@ -1,0 +1,463 @@
+//! Hostile grammars: infinite recursion, exponential branching, iterators with 10^12
+//! runs, huge isosurface grids, deep nesting, deeply nested and exploding macros,
+//! self-importing files, imports escaping the project (symlinks included) and 100 MB
+//! sources. Each must end within the configured limits (docs/limits.md) with the
+//! specific diagnostic or warning, and keep what was produced before the limit.
+
+use mdg_compiler::check::CheckOptions;
+use mdg_compiler::driver::{analyze_text, Analysis};
+use mdg_compiler::expand::{Options, MAX_EXPANDED_TOKENS, MAX_EXPANSIONS, MAX_EXPANSION_DEPTH};
+use mdg_compiler::parse::{MAX_NESTING, MAX_SOURCE_BYTES};
+use mdg_compiler::source::{FsLoader, MemLoader};
+use mdg_tests::{build_source, run_source};
+use mdg_vm::eval::{evaluate, EvalOptions, DEFAULT_MAX_ISO_CELLS, DEFAULT_STACKSIZE};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// Analyses `text` as `/hostile/main.mdg` with no file system.
+fn analyze_mem(text: &str) -> Analysis {
+    analyze_text(
+        &MemLoader::default(),
+        Path::new("/hostile/main.mdg"),
+        text,
+        &Options::default(),
+        CheckOptions { require_start: true },
+    )
+}
+
+fn codes(a: &Analysis) -> Vec<&'static str> {
+    a.diagnostics.iter().map(|d| d.code).collect()
+}
+
+fn messages(a: &Analysis, code: &str) -> Vec<String> {
+    a.diagnostics.iter().filter(|d| d.code == code).map(|d| d.message.clone()).collect()
+}
+
+fn has_rule(a: &Analysis, name: &str) -> bool {
+    a.checked.symbols.rules.contains_key(name)
+}
+
+fn warning<'a>(out: &'a mdg_vm::output::Output, needle: &str) -> &'a str {
+    out.stats
+        .warnings
+        .iter()
+        .find(|w| w.contains(needle))
+        .unwrap_or_else(|| panic!("no warning containing {needle:?} in {:?}", out.stats.warnings))
+}
+
+/// A scratch directory under the target directory, fresh for each test.
+fn scratch(name: &str) -> PathBuf {
+    let d = mdg_tests::root().join("target/tmp/hostile").join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("scratch dir");
+    d.canonicalize().expect("canonical scratch dir")
+}
+
+/// Runs `f` on a thread with a 2 MiB stack: the language server analyses documents
+/// on such threads, so nothing the compiler does may need more.
+fn on_small_stack<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> T {
+    std::thread::Builder::new()
+        .stack_size(2 * 1024 * 1024)
+        .spawn(f)
+        .expect("spawn")
+        .join()
+        .unwrap_or_else(|_| panic!("the analysis panicked"))
+}
+
+// ---------------------------------------------------------------- evaluation limits
+
+#[test]
+fn infinite_recursion_without_limits_ends_at_the_default_stack_size() {
+    // No maxdepth, maxiter or stacksize: the default stack size ends the one branch.
+    let b = build_source("startshape A\nrule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} A {z 1} }\n");
+    let t0 = Instant::now();
+    let out = evaluate(&b, &EvalOptions::default());
+    assert!(t0.elapsed() < Duration::from_secs(20), "took {:?}", t0.elapsed());
+    let w = warning(&out, "stack size");
+    assert_eq!(w, format!("stack size {DEFAULT_STACKSIZE} reached: 1 branch(es) ended there"));
+    // The start shape and the 99,999 calls admitted under it drew their triangles
+    // (the stack then holds 100,000 activations), all kept; the refused call counts as
+    // a rule call too.
+    assert_eq!(out.mesh.n_vertices() as u64, 3 * u64::from(DEFAULT_STACKSIZE));
+    assert_eq!(out.stats.rule_calls, u64::from(DEFAULT_STACKSIZE));
+}
+
+#[test]
+fn exponential_branching_ends_at_maxiter_and_keeps_the_output() {
+    let src = "startshape A\nmaxiter 20000\nrule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} A {z 1} A {x 1} }\n";
+    let out = run_source(src);
+    assert_eq!(warning(&out, "maxiter"), "maxiter 20000 reached: the run stopped; the output so far is kept");
+    // The start shape and the 20,000 admitted calls each drew 3 vertices (call 20,001
+    // was refused and stopped the run).
+    assert_eq!(out.mesh.n_vertices(), 3 * (1 + 20_000));
+    assert_eq!(out.stats.rule_calls, 20_000);
+}
+
+#[test]
+fn exponential_branching_ends_at_the_vertex_budget() {
+    let b = build_source("startshape A\nrule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} A {z 1} A {x 1} }\n");
+    let out = evaluate(&b, &EvalOptions { max_vertices: 5_000, ..EvalOptions::default() });
+    assert_eq!(
+        warning(&out, "vertex budget"),
+        "vertex budget 5000 reached: the run stopped; the output so far is kept"
+    );
+    // The budget is checked every 4,096 calls: the output overshoots by less than that.
+    let n = out.mesh.n_vertices();
+    assert!(n > 5_000 && n <= 5_000 + 3 * 4_096, "{n} vertices");
+    assert_eq!(out.stats.vertices, n as u64);
+}
+
+#[test]
+fn exponential_branching_ends_at_the_time_budget() {
+    let b = build_source("startshape A\nrule A { A {z 1} A {x 1} A {y 1} }\n");
+    let budget = Duration::from_millis(200);
+    let t0 = Instant::now();
+    let out =
+        evaluate(&b, &EvalOptions { time_budget: Some(budget), maxiter: Some(u64::MAX), ..EvalOptions::default() });
+    let took = t0.elapsed();
+    assert_eq!(warning(&out, "time budget"), "time budget reached: the run stopped; the output so far is kept");
+    assert!(took >= budget && took < budget + Duration::from_secs(2), "took {took:?}");
+    assert!(out.stats.rule_calls > 1_000, "calls before the budget ended the run are counted");
+}
+
+#[test]
+fn bones_with_ever_faster_tracks_end_at_the_animation_budget() {
+    // Every call makes a bone whose track needs fps · duration frames, and fps grows by
+    // 1,000 per level: without a budget the keyframes (and the glTF file) grow without
+    // bound long before maxiter.
+    let b = build_source(
+        "startshape A\nfps 1000\nduration 10\nrule A : X { VERTEX {} VERTEX {x 1} VERTEX {y 1} A {z 1 fps 1000} }\n\
+         rule X { FRAME {} X {rz 1} }\n",
+    );
+    let out = evaluate(&b, &EvalOptions { max_vertices: 200_000, ..EvalOptions::default() });
+    assert_eq!(
+        warning(&out, "animation"),
+        "animation budget of 200000 keyframes reached: the run stopped; the output so far is kept"
+    );
+    // Bone k (k ≥ 1) runs at 1000·k fps: 10,000·k + 1 keyframes; the sum passes
+    // 200,000 at k = 6, and the bones and triangles made until then are kept.
+    assert_eq!(out.animation.bones.len(), 1 + 6, "the root and six bones");
+    assert_eq!(out.mesh.n_vertices(), 3 * 6);
+    let mut glb = Vec::new();
+    mdg_vm::export::write(mdg_vm::export::Format::Glb, &out, &mut glb).expect("export");
+    assert!(glb.len() < 64 << 20, "{} bytes", glb.len());
+}
+
+#[test]
+fn an_iterator_with_ten_to_the_twelve_runs_ends_at_maxiter() {
+    let out = run_source("startshape A\nmaxiter 30000\nrule A { VERTEX {} 1000000000000 * {x 1} VERTEX {} }\n");
+    assert_eq!(warning(&out, "maxiter"), "maxiter 30000 reached: the run stopped; the output so far is kept");
+    // Run 1 belongs to the start call; runs 2, 3, … count as calls, and the run that
+    // makes call 30,001 still draws before the run stops: the first VERTEX and 30,001
+    // runs, each kept.
+    let n = out.mesh.n_vertices();
+    assert_eq!(n, 1 + 30_001);
+    let last = out.mesh.positions[n - 1];
+    assert!((last[0] - (n - 1) as f32).abs() < 1e-3, "run i is at x = i: {last:?}");
+}
+
+#[test]
+fn an_iterator_count_beyond_u64_saturates_and_ends_at_maxiter() {
+    let out = run_source("startshape A\nmaxiter 5000\nrule A { 1e30 * {x 1} VERTEX {} }\n");
+    assert_eq!(warning(&out, "maxiter"), "maxiter 5000 reached: the run stopped; the output so far is kept");
+    assert_eq!(out.mesh.n_vertices(), 5_001, "runs 1..=5001, as for any count past maxiter");
+}
+
+#[test]
+fn a_huge_isosurface_grid_is_skipped_with_a_warning_and_the_rest_kept() {
+    let out = run_source(
+        "startshape A\nisosurface BIG { xyz -1 1 100000 ; function { x*x + y*y + z*z - 1 } }\n\
+         isosurface OK { xyz -1 1 4 ; function { x*x + y*y + z*z - 1 } }\n\
+         rule A {\n  VERTEX {} VERTEX {x 1} VERTEX {y 1}\n  BIG {}\n  OK {x 3}\n  BIG {x 6}\n}\n",
+    );
+    let w = warning(&out, "BIG");
+    assert_eq!(
+        w,
+        format!(
+            "inline.mdg:6: isosurface `BIG` not built: isosurface grid has 1000000000000000 cells, more than the \
+             limit of {DEFAULT_MAX_ISO_CELLS}"
+        )
+    );
+    assert_eq!(out.stats.warnings.iter().filter(|w| w.contains("BIG")).count(), 1, "reported once");
+    assert_eq!(out.mesh.n_vertices(), 3, "the triangle before it is kept");
+    assert_eq!(out.instances.len(), 1, "the small isosurface after it is instanced");
+    assert_eq!(out.instances[0].name, "OK");
+}
+
+#[test]
+fn an_isosurface_resolution_past_u32_is_capped() {
+    // A resolution beyond u32 saturates and hits the cell limit instead of wrapping.
+    let out = run_source("startshape A\nisosurface H { xyz -1 1 1e12 ; function { x } }\nrule A { VERTEX {} H {} }\n");
+    assert!(warning(&out, "H").contains("more than the limit"), "{:?}", out.stats.warnings);
+    assert_eq!(out.mesh.n_vertices(), 1);
+}
+
+// ------------------------------------------------------------------- source limits
+
+#[test]
+fn a_hundred_megabyte_source_is_refused_quickly() {
+    let line = "rule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n";
+    let mut text = String::from("startshape A\n");
+    while text.len() < 100 * 1024 * 1024 {
+        text.push_str(&line.repeat(4096));
+    }
+    let len = text.len();
+    let t0 = Instant::now();
+    let a = analyze_mem(&text);
+    assert!(t0.elapsed() < Duration::from_secs(10), "took {:?}", t0.elapsed());
+    // The file is not parsed at all (so it has no start shape either).
+    assert_eq!(codes(&a), ["E0201", "E0306"]);
+    assert_eq!(
+        messages(&a, "E0201"),
+        [format!("cannot read `/hostile/main.mdg`: source file too large: {len} bytes (at most {MAX_SOURCE_BYTES})")]
+    );
+    let rendered = mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources);
+    assert!(rendered.contains("split the grammar into files joined with `@import`"), "{rendered}");
+}
+
+#[test]
+fn a_hundred_megabyte_import_is_refused_without_reading_it_and_the_rest_is_kept() {
+    let dir = scratch("big_import");
+    // A sparse file: 100 MB long, no disk used.
+    let big = std::fs::File::create(dir.join("big.mdg")).expect("create");
+    big.set_len(100 * 1024 * 1024).expect("set_len");
+    let main = dir.join("main.mdg");
+    std::fs::write(&main, "@import big.mdg\nstartshape A\nrule A { VERTEX {} }\n").expect("write");
+    let t0 = Instant::now();
+    let a = mdg_compiler::driver::analyze(&FsLoader, &main, &Options::default(), CheckOptions { require_start: true });
+    assert!(t0.elapsed() < Duration::from_secs(2), "took {:?}", t0.elapsed());
+    assert_eq!(
+        messages(&a, "E0201"),
+        [format!("cannot read `big.mdg`: source file too large: {} bytes (at most {MAX_SOURCE_BYTES})", 100 << 20)]
+    );
+    assert!(has_rule(&a, "A"), "the main file's rules are kept");
+}
+
+/// A grammar nesting `n` levels of one construct, with a rule after it.
+fn nested(kind: &str, n: usize) -> String {
+    let body = match kind {
+        "braces" => format!("rule A {}VERTEX {{}}{} }}", "{ ".repeat(n), " }".repeat(n)),
+        "parens" => format!("rule A {{ VERTEX {{x {}1{}}} }}", "(".repeat(n), ")".repeat(n)),
+        "negation" => format!("function f {{ {}x }}\nrule A {{ VERTEX {{}} }}", "-".repeat(n)),
+        "power" => format!("function f {{ {}x }}\nrule A {{ VERTEX {{}} }}", "x ^ ".repeat(n)),
+        "sum" => format!("function f {{ {}x }}\nrule A {{ VERTEX {{}} }}", "x + ".repeat(n)),
+        "iterators" => format!("rule A {{ {}VERTEX {{}} }}", "2 * {x 1} ".repeat(n)),
+        "namespaces" => format!("{}rule A {{ VERTEX {{}} }}{}", "namespace n { ".repeat(n), " }".repeat(n)),
+        "ifdefs" => format!("@define D\n{}rule A {{ VERTEX {{}} }}\n{}", "@ifdef D\n".repeat(n), "@endif\n".repeat(n)),
+        _ => unreachable!(),
+    };
+    format!("startshape A\n{body}\nrule after {{ missing {{}} }}\n")
+}
+
+const KINDS: [&str; 8] = ["braces", "parens", "negation", "power", "sum", "iterators", "namespaces", "ifdefs"];
+
+#[test]
+fn deep_nesting_is_cut_with_e0105_on_a_small_stack() {
+    for kind in KINDS {
+        let text = nested(kind, 20_000);
+        let t0 = Instant::now();
+        let (codes, msgs, after_checked, fmt_refused) = on_small_stack(move || {
+            let a = analyze_mem(&text);
+            let fmt = mdg_compiler::fmt::format_source(&text);
+            let doc = mdg_compiler::analysis::Document::from_analysis(a);
+            let _ = doc.semantic_tokens();
+            let _ = doc.folding_ranges();
+            let _ = doc.document_symbols();
+            let a = doc.analysis();
+            (
+                codes(a),
+                messages(a, "E0105"),
+                // The rule after the deep one is still checked: its unknown call is reported.
+                a.diagnostics.iter().any(|d| d.code == "E0301" && d.message.contains("missing")),
+                fmt.is_err_and(|e| e.contains("E0105")),
+            )
+        });
+        assert!(t0.elapsed() < Duration::from_secs(10), "{kind}: took {:?}", t0.elapsed());
+        assert_eq!(msgs, [format!("nesting too deep: more than {MAX_NESTING} levels")], "{kind}: {codes:?}");
+        assert!(after_checked, "{kind}: the rest of the file was not checked: {codes:?}");
+        assert!(fmt_refused, "{kind}: the formatter must refuse it with E0105");
+        assert!(!codes.contains(&"E0101") && !codes.contains(&"E0104"), "{kind}: cascading errors {codes:?}");
+    }
+}
+
+#[test]
+fn nesting_within_the_limit_goes_through_every_pass_on_a_small_stack() {
+    for kind in KINDS {
+        // Every construct's own limit, less the levels around it (rule body, `VERTEX {`).
+        let mut n = MAX_NESTING - 3;
+        let text = loop {
+            let t = nested(kind, n);
+            if !analyze_mem(&t).diagnostics.iter().any(|d| d.code == "E0105") {
+                break t;
+            }
+            n -= 1;
+        };
+        assert!(n > MAX_NESTING / 4, "{kind}: only {n} levels accepted");
+        on_small_stack(move || {
+            let a = analyze_mem(&text);
+            let b = mdg_compiler::lower::lower(&a.expanded, &a.checked.symbols, &a.sources);
+            let _ = mdg_compiler::fmt::format_source(&text);
+            let doc = mdg_compiler::analysis::Document::from_analysis(a);
+            let len = doc.text().len() as u32;
+            let _ = doc.semantic_tokens();
+            let _ = doc.inlay_hints(0, len);
+            let _ = doc.code_actions(0, len);
+            let _ = doc.hover(len / 2);
+            let _ = doc.format();
+            drop(b);
+        });
+    }
+}
+
+#[test]
+fn a_long_call_chain_is_checked_in_linear_time() {
+    // r0 → r1 → … → r5000: the termination analysis used to take a pass per link
+    // (quadratic: 90 s for 20,000 rules in release).
+    let n = 5_000;
+    let mut src = String::from("startshape r0\n");
+    for i in 0..n {
+        src.push_str(&format!("rule r{i} {{ VERTEX {{x {i}}} r{} {{s 0.5}} }}\n", i + 1));
+    }
+    src.push_str(&format!("rule r{n} {{ VERTEX {{}} }}\nrule loop {{ loop {{}} }}\nrule a {{ loop {{}} }}\n"));
+    src.push_str("rule b { b {} }\nrule b { VERTEX {} }\n");
+    let t0 = Instant::now();
+    let a = analyze_mem(&src);
+    assert!(t0.elapsed() < Duration::from_secs(10), "took {:?}", t0.elapsed());
+    // The chain ends, so only the unreachable endless rules are reported.
+    let w: Vec<(&str, String)> = a.diagnostics.iter().map(|d| (d.code, d.message.clone())).collect();
+    assert_eq!(
+        w,
+        [
+            ("W0002", "rule `loop` is unreachable from the start shape".to_string()),
+            ("W0001", "rule `a` is never used".to_string()),
+            ("W0002", "rule `b` is unreachable from the start shape".to_string()),
+        ],
+    );
+    let out = run_source(&format!("maxiter 100000\n{}", src.replace("rule loop { loop {} }\nrule a { loop {} }\n", "")));
+    assert_eq!(out.mesh.n_vertices(), n + 1, "every rule of the chain ran once");
+}
+
+// ---------------------------------------------------------------------- macros
+
+#[test]
+fn deeply_nested_macros_stop_at_the_expansion_depth_and_keep_the_rules_before() {
+    // M0 defines rule R0 and expands M1, … : a chain deeper than the limit.
+    let n = MAX_EXPANSION_DEPTH + 8;
+    let mut src = String::from("startshape R0\n");
+    for i in 0..n {
+        src.push_str(&format!("@macro M{i}()\nrule R{i} {{ VERTEX {{}} }}\n@expand M{}()\n@endmacro\n", i + 1));
+    }
+    src.push_str(&format!("@macro M{n}()\nrule R{n} {{ VERTEX {{}} }}\n@endmacro\n@expand M0()\n"));
+    let t0 = Instant::now();
+    let a = analyze_mem(&src);
+    assert!(t0.elapsed() < Duration::from_secs(5));
+    assert_eq!(messages(&a, "E0208"), [format!("expansion of macro `M{MAX_EXPANSION_DEPTH}` nests too deeply")]);
+    for i in 0..MAX_EXPANSION_DEPTH {
+        assert!(has_rule(&a, &format!("R{i}")), "rule R{i} from expansion depth {i} is kept");
+    }
+    assert!(!has_rule(&a, &format!("R{MAX_EXPANSION_DEPTH}")));
+}
+
+#[test]
+fn a_branching_recursive_macro_ends_quickly() {
+    let src = "startshape A\n@macro R(a)\n@expand R(a)\n@expand R(a)\nVERTEX {x a}\n@endmacro\nrule A { VERTEX {} @expand R(1) }\n";
+    let t0 = Instant::now();
+    let a = analyze_mem(src);
+    assert!(t0.elapsed() < Duration::from_secs(5), "took {:?}", t0.elapsed());
+    assert_eq!(messages(&a, "E0208"), ["expansion of macro `R` nests too deeply"]);
+    assert!(a.expanded.expansions.len() <= MAX_EXPANSIONS);
+    assert!(has_rule(&a, "A"));
+}
+
+#[test]
+fn a_macro_whose_arguments_double_at_each_level_ends_quickly() {
+    // Each level doubles the argument: 2^32 tokens at the depth limit if unchecked.
+    let src = "startshape A\n@macro D(a)\n@expand D(a a)\n@endmacro\nrule A { VERTEX {} }\n@expand D(x)\n";
+    let t0 = Instant::now();
+    let a = analyze_mem(src);
+    assert!(t0.elapsed() < Duration::from_secs(5), "took {:?}", t0.elapsed());
+    assert_eq!(messages(&a, "E0208"), ["expansion of macro `D` nests too deeply"]);
+    let rendered = mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources);
+    assert!(rendered.contains(&format!("make {MAX_EXPANDED_TOKENS} tokens in all")), "{rendered}");
+    assert!(has_rule(&a, "A"));
+}
+
+// --------------------------------------------------------------------- imports
+
+#[test]
+fn self_importing_files_and_cycles_are_reported_and_their_rules_kept() {
+    let dir = scratch("self_import");
+    std::fs::write(dir.join("main.mdg"), "@import self.mdg\n@import a.mdg\nstartshape A\nrule A { S {} B {} }\n")
+        .expect("write");
+    std::fs::write(dir.join("self.mdg"), "@import self.mdg\nrule S { VERTEX {} }\n").expect("write");
+    std::fs::write(dir.join("a.mdg"), "@import b.mdg\nrule AA { VERTEX {} }\n").expect("write");
+    std::fs::write(dir.join("b.mdg"), "@import a.mdg\n@import main.mdg\nrule B { AA {} }\n").expect("write");
+    let a = mdg_compiler::driver::analyze(
+        &FsLoader,
+        &dir.join("main.mdg"),
+        &Options::default(),
+        CheckOptions { require_start: true },
+    );
+    let cycles = messages(&a, "E0203");
+    assert_eq!(
+        cycles,
+        [
+            "`self.mdg` imports itself (an import cycle)",
+            "`a.mdg` imports itself (an import cycle)",
+            "`main.mdg` imports itself (an import cycle)"
+        ],
+        "{}",
+        mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources)
+    );
+    for r in ["A", "S", "AA", "B"] {
+        assert!(has_rule(&a, r), "rule {r} is kept");
+    }
+    assert_eq!(a.sources.files.len(), 4, "each file is read once");
+}
+
+#[test]
+fn imports_cannot_leave_the_project_or_std_even_through_symlinks() {
+    let dir = scratch("containment");
+    let proj = dir.join("proj");
+    let std_dir = dir.join("std");
+    let outside = dir.join("outside");
+    for d in [&proj, &std_dir, &outside, &proj.join("lib")] {
+        std::fs::create_dir_all(d).expect("mkdir");
+    }
+    std::fs::write(outside.join("secret.mdg"), "rule SECRET { VERTEX {} }\n").expect("write");
+    std::fs::write(proj.join("lib/ok.mdg"), "rule OK { VERTEX {} }\n").expect("write");
+    std::fs::write(std_dir.join("prims.mdg"), "rule PRIM { VERTEX {} }\n").expect("write");
+    // Links: a directory and a file inside the project pointing out, a link inside
+    // pointing in (allowed), and a std link pointing out.
+    std::os::unix::fs::symlink(&outside, proj.join("escape")).expect("symlink");
+    std::os::unix::fs::symlink(outside.join("secret.mdg"), proj.join("lib/secret.mdg")).expect("symlink");
+    std::os::unix::fs::symlink(proj.join("lib/ok.mdg"), proj.join("alias.mdg")).expect("symlink");
+    std::os::unix::fs::symlink(outside.join("secret.mdg"), std_dir.join("evil.mdg")).expect("symlink");
+    let main = proj.join("main.mdg");
+    std::fs::write(
+        &main,
+        format!(
+            "@import ../outside/secret.mdg\n@import escape/secret.mdg\n@import lib/secret.mdg\n\
+             @import {}\n@import evil\n@import alias.mdg\n@import prims\nstartshape A\nrule A {{ OK {{}} PRIM {{}} }}\n",
+            outside.join("secret.mdg").display()
+        ),
+    )
+    .expect("write");
+    let opts = Options { std_dir: Some(std_dir.clone()), ..Options::default() };
+    let a = mdg_compiler::driver::analyze(&FsLoader, &main, &opts, CheckOptions { require_start: true });
+    let escaped: Vec<String> = messages(&a, "E0202");
+    let abs = outside.join("secret.mdg").display().to_string();
+    assert_eq!(
+        escaped,
+        [
+            "`../outside/secret.mdg` is outside the project and the std library".to_string(),
+            "`escape/secret.mdg` is outside the project and the std library".to_string(),
+            "`lib/secret.mdg` is outside the project and the std library".to_string(),
+            format!("`{abs}` is outside the project and the std library"),
+            "`evil` is outside the project and the std library".to_string(),
+        ]
+    );
+    assert!(!has_rule(&a, "SECRET"), "nothing outside was read");
+    assert!(a.sources.files.iter().all(|f| !f.text.contains("SECRET")));
+    assert!(has_rule(&a, "OK") && has_rule(&a, "PRIM") && has_rule(&a, "A"), "contained imports work");
+}

@@ -1,0 +1,398 @@
+//! Guided-search evaluation (docs/guided.md): the guiding-curves paper's Fig. 4 on the
+//! std tree grammar, the forward-sampling baseline, and projection plots.
+//!
+//! ```sh
+//! cargo run --release -p mdg-vm --example sosmc_eval -- fig4 [--runs 200]
+//! cargo run --release -p mdg-vm --example sosmc_eval -- run [--guides F.json] [--seed N] [--no-heuristic] [--repeat N]
+//! cargo run --release -p mdg-vm --example sosmc_eval -- plot OUT.png [GUIDES.json…] [--seed N] [--particles A:B]
+//! ```
+//!
+//! The grammar is `std/examples/guided_tree.mdg`, compiled with `mdgc build` (the VM
+//! does not depend on the compiler): from `$MDG_SOSMC_BUNDLE` if set (relative to the workspace root), else built into
+//! `target/sosmc/guided_tree.mdgb` with `cargo run -p mdg-compiler --bin mdgc`.
+//!
+//! `fig4`: for alignment offsets 0.6 and 0.5 (every guide's `delta_a`), `--runs` searches
+//! (seeds 1…N) under each of: no heuristic and no ramp (constant generation size), ramp
+//! only, ramp and heuristic, and the forward-sampling baseline (best of N complete
+//! samples); all at the same budget of particle-steps (the default schedule, 5,750). It
+//! prints the median, quartiles and mean of the final COST, and the median time per
+//! search.
+
+use glam::{DVec3, Vec3};
+use mdg_vm::bundle::Bundle;
+use mdg_vm::eval::EvalOptions;
+use mdg_vm::sosmc::{guides_from_json, Guide, Prepared, SearchOptions, SearchResult};
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+use std::time::Instant;
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// The compiled std tree grammar (see the module docs).
+fn bundle() -> Result<Bundle, String> {
+    let path = match std::env::var_os("MDG_SOSMC_BUNDLE") {
+        // A relative path is taken from the workspace root (cargo runs benches in vm/).
+        Some(p) => root().join(p),
+        None => {
+            let out = root().join("target/sosmc/guided_tree.mdgb");
+            std::fs::create_dir_all(root().join("target/sosmc")).map_err(|e| e.to_string())?;
+            let status = Command::new(env!("CARGO"))
+                .current_dir(root())
+                .args(["run", "--release", "-q", "-p", "mdg-compiler", "--bin", "mdgc", "--", "build"])
+                .arg("std/examples/guided_tree.mdg")
+                .arg("-o")
+                .arg(&out)
+                .status()
+                .map_err(|e| format!("cannot run cargo: {e}"))?;
+            if !status.success() {
+                return Err("mdgc build std/examples/guided_tree.mdg failed".into());
+            }
+            out
+        }
+    };
+    let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    mdg_vm::bundle::load(&bytes).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+fn guides_of(b: &Bundle, file: Option<&str>) -> Result<Vec<Guide>, String> {
+    match file {
+        Some(f) => {
+            let text = std::fs::read_to_string(f).map_err(|e| format!("{f}: {e}"))?;
+            guides_from_json(&text).map_err(|e| format!("{f}: {e}"))
+        }
+        None => Ok(b.extensions.guided.as_ref().map(|t| t.guides.clone()).unwrap_or_default()),
+    }
+}
+
+fn arg<'a>(args: &'a [String], name: &str) -> Option<&'a str> {
+    args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).map(|s| s.as_str())
+}
+
+fn quantile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    let x = q * (sorted.len() - 1) as f64;
+    let (i, f) = (x.floor() as usize, x - x.floor());
+    if i + 1 < sorted.len() {
+        sorted[i] * (1.0 - f) + sorted[i + 1] * f
+    } else {
+        sorted[i]
+    }
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let r = match args.first().map(|s| s.as_str()) {
+        Some("run") => run(&args[1..]),
+        Some("fig4") => fig4(&args[1..]),
+        Some("plot") => plot(&args[1..]),
+        _ => Err("usage: sosmc_eval run|fig4|plot … (see the file's docs)".into()),
+    };
+    match r {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("sosmc_eval: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn options(b: &Bundle, args: &[String]) -> Result<SearchOptions, String> {
+    let table = b.extensions.guided.as_ref().ok_or("no search section")?;
+    let seed = arg(args, "--seed").map(|s| s.parse::<u64>().map_err(|e| e.to_string())).transpose()?.unwrap_or(1);
+    let mut o = SearchOptions::from_settings(&table.settings, seed);
+    o.budget = None;
+    if args.iter().any(|a| a == "--no-heuristic") {
+        o.heuristic_scale = 0.0;
+    }
+    if let Some(h) = arg(args, "--heuristic-scale") {
+        o.heuristic_scale = h.parse().map_err(|_| "bad --heuristic-scale")?;
+    }
+    if let Some(g) = arg(args, "--generations") {
+        o.generations = g.parse().map_err(|_| "bad --generations")?;
+    }
+    if let Some(p) = arg(args, "--particles") {
+        let (a, b) = p.split_once(':').unwrap_or((p, p));
+        o.particles = (a.parse().map_err(|_| "bad --particles")?, b.parse().map_err(|_| "bad --particles")?);
+    }
+    Ok(o)
+}
+
+fn run(args: &[String]) -> Result<(), String> {
+    let b = bundle()?;
+    let table = b.extensions.guided.clone().ok_or("no search section")?;
+    let guides = guides_of(&b, arg(args, "--guides"))?;
+    let p = Prepared::new(&b, &table, &guides)?;
+    let o = options(&b, args)?;
+    // `--repeat N`: N searches (seeds seed … seed+N−1), each printed; for profiling.
+    let repeat: u64 = arg(args, "--repeat").map(|s| s.parse().map_err(|_| "bad --repeat")).transpose()?.unwrap_or(1);
+    for k in 0..repeat {
+        let r = p.search(&SearchOptions { seed: o.seed + k, ..o.clone() }, None);
+        print_result(&p, &r);
+    }
+    Ok(())
+}
+
+fn print_result(p: &Prepared, r: &SearchResult) {
+    let m = &r.model;
+    println!(
+        "{} generations, {} particle-steps, {} expansions, {:.2} ms (prepare {:.2} ms)",
+        r.generations,
+        r.particle_steps,
+        r.expansions,
+        r.elapsed.as_secs_f64() * 1e3,
+        p.prepare_time.as_secs_f64() * 1e3
+    );
+    println!(
+        "cost {:.4} = d {:.4} + a {:.4} + u {:.4}; {} bones, {} calls, {} wrapped, {} dropped",
+        m.cost.total(),
+        m.cost.d,
+        m.cost.a,
+        m.cost.u,
+        m.bones.len(),
+        m.calls.len(),
+        m.wrapped,
+        m.dropped
+    );
+}
+
+fn fig4(args: &[String]) -> Result<(), String> {
+    let runs: u64 = arg(args, "--runs").map(|s| s.parse().map_err(|_| "bad --runs")).transpose()?.unwrap_or(200);
+    let b = bundle()?;
+    let table = b.extensions.guided.clone().ok_or("no search section")?;
+    let base = options(&b, args)?;
+    let heuristic = arg(args, "--heuristic-scale").map(|h| h.parse::<f64>()).transpose().map_err(|_| "bad scale")?;
+    let h0 = heuristic.unwrap_or(if base.heuristic_scale > 0.0 { base.heuristic_scale } else { 1.0 });
+    let steps = base.scheduled_steps();
+    let flat = (steps as f64 / base.generations as f64).round() as u32;
+    println!(
+        "Fig. 4 on std/examples/guided_tree.mdg: {runs} runs per row (seeds 1..={runs}), {} generations, \
+         equal budget of {steps} particle-steps per search",
+        base.generations
+    );
+    println!(
+        "heuristic: scale {h0} ramped to 0 over the first {}% of the generations",
+        base.heuristic_fraction * 100.0
+    );
+    println!();
+    println!(
+        "{:<7} {:<34} {:>10} {:>10} {:>10} {:>10} {:>9}",
+        "delta_a", "method", "median", "p25", "p75", "mean", "ms/run"
+    );
+    let source = guides_of(&b, arg(args, "--guides"))?;
+    for delta in [0.6, 0.5] {
+        let mut guides = source.clone();
+        for g in &mut guides {
+            g.delta_a = delta;
+        }
+        let p = Prepared::new(&b, &table, &guides)?;
+        let configs: [(&str, Option<SearchOptions>); 4] = [
+            (
+                "no heuristic, constant size",
+                Some(SearchOptions { particles: (flat, flat), heuristic_scale: 0.0, ..base.clone() }),
+            ),
+            ("no heuristic, ramped size", Some(SearchOptions { heuristic_scale: 0.0, ..base.clone() })),
+            ("heuristic, ramped size", Some(SearchOptions { heuristic_scale: h0, ..base.clone() })),
+            ("forward sampling, best of N", None),
+        ];
+        let mut medians = Vec::new();
+        let mut samples: Vec<Vec<f64>> = Vec::new();
+        for (name, cfg) in configs.iter() {
+            let mut costs = Vec::with_capacity(runs as usize);
+            let mut times = Vec::with_capacity(runs as usize);
+            for seed in 1..=runs {
+                let t = Instant::now();
+                let r = match cfg {
+                    Some(o) => p.search(&SearchOptions { seed, ..o.clone() }, None),
+                    None => p.forward_best(flat, base.generations, seed, None),
+                };
+                times.push(t.elapsed().as_secs_f64() * 1e3);
+                costs.push(r.model.cost.total());
+            }
+            costs.sort_by(f64::total_cmp);
+            times.sort_by(f64::total_cmp);
+            let mean = costs.iter().sum::<f64>() / costs.len() as f64;
+            let med = quantile(&costs, 0.5);
+            medians.push(med);
+            samples.push(costs.clone());
+            println!(
+                "{:<7} {:<34} {:>10.3} {:>10.3} {:>10.3} {:>10.3} {:>9.2}",
+                delta,
+                name,
+                med,
+                quantile(&costs, 0.25),
+                quantile(&costs, 0.75),
+                mean,
+                quantile(&times, 0.5)
+            );
+        }
+        let (lo, hi) = bootstrap_gain(&samples[1], &samples[2]);
+        let iqr = quantile(&samples[1], 0.75) - quantile(&samples[1], 0.25);
+        println!(
+            "{:<7} heuristic gain in median (ramped, no heuristic − heuristic): {:+.3} (95% bootstrap CI {:+.3} … {:+.3}; {:.0}% of the no-heuristic IQR)",
+            delta,
+            medians[1] - medians[2],
+            lo,
+            hi,
+            (medians[1] - medians[2]) / iqr * 100.0
+        );
+        println!();
+    }
+    Ok(())
+}
+
+/// 95% percentile-bootstrap interval of median(a) − median(b) (2,000 resamples of
+/// each group, a fixed stream so the table is reproducible).
+fn bootstrap_gain(a: &[f64], b: &[f64]) -> (f64, f64) {
+    let mut s = 0x2545_F491_4F6C_DD1Du64;
+    let mut next = |n: usize| {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s % n as u64) as usize
+    };
+    let mut diffs = Vec::with_capacity(2000);
+    for _ in 0..2000 {
+        let mut ra: Vec<f64> = (0..a.len()).map(|_| a[next(a.len())]).collect();
+        let mut rb: Vec<f64> = (0..b.len()).map(|_| b[next(b.len())]).collect();
+        ra.sort_by(f64::total_cmp);
+        rb.sort_by(f64::total_cmp);
+        diffs.push(quantile(&ra, 0.5) - quantile(&rb, 0.5));
+    }
+    diffs.sort_by(f64::total_cmp);
+    (quantile(&diffs, 0.025), quantile(&diffs, 0.975))
+}
+
+/// A front view (x right, z up) of the model found for each guide file (or the
+/// program's guides): triangles shaded by their normal, back to front, and the guides
+/// in red on top; panels side by side at one scale.
+fn plot(args: &[String]) -> Result<(), String> {
+    let out = args.first().ok_or("plot OUT.png [GUIDES.json…]")?;
+    let files: Vec<Option<&str>> = {
+        let given: Vec<Option<&str>> =
+            args[1..].iter().filter(|a| a.ends_with(".json")).map(|s| Some(s.as_str())).collect();
+        if given.is_empty() {
+            vec![None]
+        } else {
+            given
+        }
+    };
+    let b = bundle()?;
+    let table = b.extensions.guided.clone().ok_or("no search section")?;
+    let base = options(&b, args)?;
+    let seed = base.seed;
+    // Search every panel first, then draw them all at one scale (x right, z up).
+    let mut panels = Vec::new();
+    for f in &files {
+        let guides = guides_of(&b, *f)?;
+        let p = Prepared::new(&b, &table, &guides)?;
+        let r = p.search(&base, None);
+        print_result(&p, &r);
+        let model = p.geometry(&r.model, &EvalOptions { seed: Some(seed), ..EvalOptions::default() }, false);
+        let curves: Vec<Vec<DVec3>> = (0..p.guides().len()).map(|i| p.guides().path(i).polyline(48)).collect();
+        panels.push((model.flattened(), curves));
+    }
+    let (mut x0, mut x1, mut z0, mut z1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    for (mesh, curves) in &panels {
+        let pts = mesh.positions.iter().map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64));
+        for q in pts.chain(curves.iter().flatten().copied()) {
+            (x0, x1, z0, z1) = (x0.min(q.x), x1.max(q.x), z0.min(q.z), z1.max(q.z));
+        }
+    }
+    let (pw, ph) = (560usize, 560usize);
+    let span = ((x1 - x0).max(z1 - z0) * 1.08).max(1e-6);
+    let (cx, cz) = ((x0 + x1) * 0.5, (z0 + z1) * 0.5);
+    let (w, h) = (pw * panels.len(), ph);
+    let mut img = vec![[255u8; 3]; w * h];
+    for (k, (mesh, curves)) in panels.iter().enumerate() {
+        let sx = |x: f64| (k * pw) as f64 + ((x - cx) / span + 0.5) * pw as f64;
+        let sz = |z: f64| (0.5 - (z - cz) / span) * ph as f64;
+        // Triangles back to front (the view looks along +y), shaded by their normal.
+        let mut tris: Vec<([Vec3; 3], [f32; 4])> = mesh
+            .triangles
+            .iter()
+            .map(|t| (t.map(|i| Vec3::from_array(mesh.positions[i as usize])), mesh.colors[t[0] as usize]))
+            .collect();
+        tris.sort_by(|a, b| {
+            let ya = a.0.iter().map(|v| v.y).sum::<f32>();
+            let yb = b.0.iter().map(|v| v.y).sum::<f32>();
+            yb.total_cmp(&ya)
+        });
+        for (v, c) in &tris {
+            let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+            let shade = 0.55 + 0.45 * n.y.abs();
+            let col = [0, 1, 2].map(|i| ((c[i].clamp(0.0, 1.0) * shade) * 255.0) as u8);
+            let pts = v.map(|p| (sx(p.x as f64), sz(p.z as f64)));
+            fill_triangle(&mut img, w, h, k * pw, (k + 1) * pw, pts, col);
+        }
+        for c in curves {
+            for s in c.windows(2) {
+                let (a, b) = ((sx(s[0].x), sz(s[0].z)), (sx(s[1].x), sz(s[1].z)));
+                line(&mut img, w, h, k * pw, (k + 1) * pw, a, b, 1, [215, 35, 35]);
+            }
+        }
+        // Panel border.
+        for y in 0..h {
+            img[y * w + k * pw] = [160, 160, 160];
+        }
+    }
+    let bytes: Vec<u8> = img.iter().flat_map(|p| [p[0], p[1], p[2], 255]).collect();
+    let png = mdg_vm::preview::encode_png(&bytes, w as u32, h as u32).map_err(|e| e.to_string())?;
+    std::fs::write(out, png).map_err(|e| format!("{out}: {e}"))?;
+    println!("wrote {out}");
+    Ok(())
+}
+
+fn fill_triangle(img: &mut [[u8; 3]], w: usize, h: usize, xa: usize, xb: usize, p: [(f64, f64); 3], col: [u8; 3]) {
+    let minx = p.iter().map(|q| q.0).fold(f64::INFINITY, f64::min).floor().max(xa as f64) as usize;
+    let maxx = p.iter().map(|q| q.0).fold(f64::NEG_INFINITY, f64::max).ceil().min(xb as f64 - 1.0);
+    let miny = p.iter().map(|q| q.1).fold(f64::INFINITY, f64::min).floor().max(0.0) as usize;
+    let maxy = p.iter().map(|q| q.1).fold(f64::NEG_INFINITY, f64::max).ceil().min(h as f64 - 1.0);
+    if maxx < 0.0 || maxy < 0.0 {
+        return;
+    }
+    let area = (p[1].0 - p[0].0) * (p[2].1 - p[0].1) - (p[1].1 - p[0].1) * (p[2].0 - p[0].0);
+    if area.abs() < 1e-12 {
+        return;
+    }
+    for y in miny..=maxy as usize {
+        for x in minx..=maxx as usize {
+            let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+            let e = |a: (f64, f64), b: (f64, f64)| (b.0 - a.0) * (py - a.1) - (b.1 - a.1) * (px - a.0);
+            let (w0, w1, w2) = (e(p[1], p[2]) / area, e(p[2], p[0]) / area, e(p[0], p[1]) / area);
+            if w0 >= 0.0 && w1 >= 0.0 && w2 >= 0.0 {
+                img[y * w + x] = col;
+            }
+        }
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn line(
+    img: &mut [[u8; 3]],
+    w: usize,
+    h: usize,
+    xa: usize,
+    xb: usize,
+    a: (f64, f64),
+    b: (f64, f64),
+    r: i64,
+    col: [u8; 3],
+) {
+    let n = ((b.0 - a.0).abs().max((b.1 - a.1).abs()).ceil() as usize).clamp(1, 100_000);
+    for k in 0..=n {
+        let t = k as f64 / n as f64;
+        let (x, y) = ((a.0 + (b.0 - a.0) * t) as i64, (a.1 + (b.1 - a.1) * t) as i64);
+        for dy in -r..=r {
+            for dx in -r..=r {
+                let (px, py) = (x + dx, y + dy);
+                if px >= xa as i64 && px < xb as i64 && py >= 0 && py < h as i64 && (px as usize) < w {
+                    img[py as usize * w + px as usize] = col;
+                }
+            }
+        }
+    }
+}

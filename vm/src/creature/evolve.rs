@@ -1,0 +1,472 @@
+//! Generations of monsters (paper Algorithm 1) with structure-based diversity
+//! control, and the hierarchical diversity measure (HDM) used to evaluate it.
+//!
+//! Each generation: offspring are made from the current set (base shapes) and the
+//! current ∪ background sets (assist shapes) — selection, structure rules,
+//! geometry rules, stability test — each with a random stream of its own, in
+//! parallel; diversity control picks the presented set from them, the rest joins
+//! the background set (kept diverse by the same mechanism), and the next current
+//! set is a diverse subset of the presented, current and background sets.
+
+use super::geometry::{layout, Layout, Library};
+use super::rules::{derive, select, Applied, DeriveOptions, Rng};
+use super::shape::Shape;
+use super::table::{CreatureTable, RuleKind};
+use glam::Vec3;
+use rayon::prelude::*;
+use std::collections::BTreeMap;
+
+/// One creature of a generation.
+#[derive(Clone, Debug)]
+pub struct Individual {
+    /// `g{generation}-{index}` for presented monsters (`g0-…` are the regular
+    /// creatures), `b{generation}-{index}` for background-only ones.
+    pub id: String,
+    pub shape: Shape,
+    pub layout: Layout,
+    /// Structure complexity C_s.
+    pub complexity: f64,
+    /// Ids of the base and assist shapes ("" for regular creatures).
+    pub parents: (String, String),
+    /// The rule applications that made it.
+    pub applied: Vec<Applied>,
+    /// The regular creature's name, for generation 0.
+    pub name: String,
+}
+
+/// One generation's result.
+#[derive(Clone, Debug)]
+pub struct Generation {
+    pub index: u32,
+    /// The presented (current) set.
+    pub presented: Vec<Individual>,
+    /// The background set after this generation.
+    pub background: Vec<Individual>,
+    /// Offspring made before diversity control.
+    pub n_offspring: usize,
+    /// Offspring attempts rejected by the stability test.
+    pub n_unstable: usize,
+    /// Offspring slots that found no valid offspring within their attempts.
+    pub n_failed: usize,
+    /// The diversity of the presented set.
+    pub diversity: Diversity,
+    /// The diversity of all offspring made (before diversity control).
+    pub offspring_diversity: Diversity,
+}
+
+/// Options of a run (defaults from the table's `evolve` block).
+#[derive(Clone, Debug)]
+pub struct EvolveOptions {
+    pub seed: u64,
+    pub population: u32,
+    pub generations: u32,
+    pub background: u32,
+    pub offspring: u32,
+    pub steps: u32,
+    pub attempts: u32,
+    pub maxparts: u32,
+    /// Rule kinds left out (ablation).
+    pub disabled: Vec<RuleKind>,
+    /// Diversity control on (else the presented set is a uniform sample).
+    pub diversity_control: bool,
+}
+
+impl EvolveOptions {
+    /// The table's settings.
+    pub fn from_table(t: &CreatureTable) -> EvolveOptions {
+        let e = &t.evolve;
+        EvolveOptions {
+            seed: e.seed,
+            population: e.population,
+            generations: e.generations,
+            background: e.background,
+            offspring: e.offspring,
+            steps: e.steps,
+            attempts: e.attempts,
+            maxparts: e.maxparts,
+            disabled: Vec::new(),
+            diversity_control: true,
+        }
+    }
+}
+
+/// The state between generations: the last presented set, the current set
+/// (parents of the next offspring) and the background set.
+#[derive(Clone, Debug)]
+pub struct Population {
+    pub generation: u32,
+    pub presented: Vec<Individual>,
+    pub current: Vec<Individual>,
+    pub background: Vec<Individual>,
+}
+
+/// Runs creature evolution over one table and its part library.
+pub struct Evolution<'a> {
+    pub table: &'a CreatureTable,
+    pub lib: &'a Library,
+    pub opts: EvolveOptions,
+}
+
+/// Progress: (generation, offspring done, offspring total).
+pub type Progress<'p> = &'p (dyn Fn(u32, usize, usize) + Sync);
+
+impl<'a> Evolution<'a> {
+    pub fn new(table: &'a CreatureTable, lib: &'a Library, opts: EvolveOptions) -> Evolution<'a> {
+        Evolution { table, lib, opts }
+    }
+
+    /// Generation 0: the regular creatures.
+    pub fn initial(&self) -> Generation {
+        let presented: Vec<Individual> = self
+            .table
+            .shapes
+            .iter()
+            .enumerate()
+            .map(|(i, d)| {
+                let shape = Shape::from_def(self.table, d);
+                let mut ind = self.individual(shape, format!("g0-{i:02}"), (String::new(), String::new()), Vec::new());
+                ind.name = d.name.clone();
+                ind
+            })
+            .collect();
+        let diversity = diversity(self.table, &presented);
+        Generation {
+            index: 0,
+            offspring_diversity: diversity.clone(),
+            n_offspring: presented.len(),
+            presented,
+            background: Vec::new(),
+            n_unstable: 0,
+            n_failed: 0,
+            diversity,
+        }
+    }
+
+    /// The population after generation 0.
+    pub fn start(&self) -> (Population, Generation) {
+        let g0 = self.initial();
+        let p = Population {
+            generation: 0,
+            presented: g0.presented.clone(),
+            current: g0.presented.clone(),
+            background: Vec::new(),
+        };
+        (p, g0)
+    }
+
+    fn individual(&self, shape: Shape, id: String, parents: (String, String), applied: Vec<Applied>) -> Individual {
+        let layout = layout(self.table, self.lib, &shape);
+        let complexity = shape.complexity();
+        Individual { id, shape, layout, complexity, parents, applied, name: String::new() }
+    }
+
+    /// Offspring `index` of generation `g` from `pop`: up to `attempts` tries of
+    /// select → derive → lay out → stability test, with the offspring's own random
+    /// stream. Returns the offspring (if any) and the number of unstable tries.
+    pub fn offspring(&self, pop: &Population, g: u32, index: usize) -> (Option<Individual>, usize) {
+        let mut rng = Rng::stream(self.opts.seed, g as u64, index as u64);
+        let bases = &pop.current;
+        let assists: Vec<&Individual> = pop.current.iter().chain(&pop.background).collect();
+        let base_metric: Vec<f64> = bases.iter().map(|i| i.complexity).collect();
+        let assist_metric: Vec<f64> = assists.iter().map(|i| i.complexity).collect();
+        let dopts = DeriveOptions {
+            g,
+            steps: self.opts.steps,
+            strategy: self.table.select_rules,
+            disabled: self.opts.disabled.clone(),
+        };
+        let mut unstable = 0;
+        for _ in 0..self.opts.attempts {
+            let Some(b) = select(self.table.select_shapes, &base_metric, &mut rng) else { return (None, unstable) };
+            let base = &bases[b];
+            // The assist is another shape when there is one.
+            let others: Vec<usize> = (0..assists.len()).filter(|&i| assists[i].id != base.id).collect();
+            let a = if others.is_empty() {
+                None
+            } else {
+                let m: Vec<f64> = others.iter().map(|&i| assist_metric[i]).collect();
+                select(self.table.select_shapes, &m, &mut rng).map(|k| others[k])
+            };
+            let assist = a.map(|a| assists[a]).unwrap_or(base);
+            let (shape, applied) = derive(self.table, &base.shape, &assist.shape, &dopts, &mut rng);
+            if shape == base.shape || shape.n_metas() > self.opts.maxparts as usize {
+                continue;
+            }
+            let ind = self.individual(shape, String::new(), (base.id.clone(), assist.id.clone()), applied);
+            if !ind.layout.stability.stable {
+                unstable += 1;
+                continue;
+            }
+            return (Some(ind), unstable);
+        }
+        (None, unstable)
+    }
+
+    /// Makes generation `pop.generation + 1` and advances `pop` to it.
+    pub fn step(&self, pop: &mut Population, progress: Option<Progress>) -> Generation {
+        let g = pop.generation + 1;
+        let total = self.opts.offspring as usize;
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        let made: Vec<(Option<Individual>, usize)> = (0..total)
+            .into_par_iter()
+            .map(|i| {
+                let r = self.offspring(pop, g, i);
+                let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                if let Some(p) = progress {
+                    p(g, d, total);
+                }
+                r
+            })
+            .collect();
+        let n_unstable = made.iter().map(|m| m.1).sum();
+        let n_failed = made.iter().filter(|m| m.0.is_none()).count();
+        let offspring: Vec<Individual> = made.into_iter().filter_map(|m| m.0).collect();
+        let n_offspring = offspring.len();
+        let offspring_diversity = diversity(self.table, &offspring);
+        let mut rng = Rng::stream(self.opts.seed, g as u64, u64::MAX);
+        let picked = if self.opts.diversity_control {
+            diversity_control(self.table, &offspring, self.opts.population as usize, &mut rng)
+        } else {
+            uniform_sample(offspring.len(), self.opts.population as usize, &mut rng)
+        };
+        let mut presented = Vec::new();
+        let mut rest = Vec::new();
+        for (i, ind) in offspring.into_iter().enumerate() {
+            if picked.contains(&i) {
+                presented.push(ind);
+            } else {
+                rest.push(ind);
+            }
+        }
+        for (k, ind) in presented.iter_mut().enumerate() {
+            ind.id = format!("g{g}-{k:02}");
+        }
+        for (k, ind) in rest.iter_mut().enumerate() {
+            ind.id = format!("b{g}-{k:02}");
+        }
+        let mut pool: Vec<Individual> = std::mem::take(&mut pop.background);
+        pool.extend(rest);
+        let keep = if self.opts.diversity_control {
+            diversity_control(self.table, &pool, self.opts.background as usize, &mut rng)
+        } else {
+            uniform_sample(pool.len(), self.opts.background as usize, &mut rng)
+        };
+        let background: Vec<Individual> =
+            pool.into_iter().enumerate().filter(|(i, _)| keep.contains(i)).map(|(_, x)| x).collect();
+        // The next shape set: a diverse subset of the presented (accepted), the
+        // current and the background sets (paper §4).
+        let mut next: Vec<Individual> = presented.clone();
+        next.extend(pop.current.iter().cloned());
+        next.extend(background.iter().cloned());
+        let chosen = if self.opts.diversity_control {
+            diversity_control(self.table, &next, self.opts.population as usize, &mut rng)
+        } else {
+            uniform_sample(next.len(), self.opts.population as usize, &mut rng)
+        };
+        pop.current = next.into_iter().enumerate().filter(|(i, _)| chosen.contains(i)).map(|(_, x)| x).collect();
+        pop.background = background.clone();
+        pop.presented = presented.clone();
+        pop.generation = g;
+        let diversity = diversity(self.table, &presented);
+        Generation {
+            index: g,
+            presented,
+            background,
+            n_offspring,
+            n_unstable,
+            n_failed,
+            diversity,
+            offspring_diversity,
+        }
+    }
+
+    /// Continues from chosen monsters (the user's preference): they become the
+    /// current set; the rest of the presented set joins the background.
+    pub fn keep(&self, pop: &mut Population, ids: &[String]) -> Result<(), String> {
+        let mut kept = Vec::new();
+        for id in ids {
+            let all = pop.presented.iter().chain(&pop.current).chain(&pop.background);
+            match all.clone().find(|i| &i.id == id) {
+                Some(i) => kept.push(i.clone()),
+                None => {
+                    let have: Vec<&str> = pop.presented.iter().map(|i| i.id.as_str()).collect();
+                    return Err(format!(
+                        "no monster `{id}` in generation {} (presented: {})",
+                        pop.generation,
+                        have.join(", ")
+                    ));
+                }
+            }
+        }
+        let rest: Vec<Individual> = pop
+            .presented
+            .iter()
+            .filter(|i| !ids.contains(&i.id) && !pop.background.iter().any(|b| b.id == i.id))
+            .cloned()
+            .collect();
+        pop.background.extend(rest);
+        pop.current = kept;
+        Ok(())
+    }
+}
+
+/// `k` distinct indices of `n`, uniformly (all when n ≤ k), in increasing order.
+fn uniform_sample(n: usize, k: usize, rng: &mut Rng) -> Vec<usize> {
+    let mut idx: Vec<usize> = (0..n).collect();
+    for i in 0..n.min(k) {
+        let j = i + rng.below(n - i);
+        idx.swap(i, j);
+    }
+    idx.truncate(k.min(n));
+    idx.sort_unstable();
+    idx
+}
+
+/// A shape's structure vector as one comparable key.
+pub fn structure_key(t: &CreatureTable, s: &Shape) -> String {
+    s.structure_vector(t).iter().map(|(k, v)| format!("{k}×{v}")).collect::<Vec<_>>().join(" ")
+}
+
+/// Groups `set` by structure vector: clusters of indices, in key order.
+pub fn clusters(t: &CreatureTable, set: &[Individual]) -> Vec<Vec<usize>> {
+    let mut m: BTreeMap<String, Vec<usize>> = BTreeMap::new();
+    for (i, ind) in set.iter().enumerate() {
+        m.entry(structure_key(t, &ind.shape)).or_default().push(i);
+    }
+    m.into_values().collect()
+}
+
+/// The geometric descriptor inside a structure cluster (our stand-in for the light
+/// field descriptor of Fit and Diverse): proportions of the grounded model —
+/// width, depth and centre-of-mass height over height, the height itself, and the
+/// mean and spread of the part centres' distances from the centre of mass over
+/// height — plus the part geometry ids, so equal structures built from different
+/// parts differ.
+pub fn descriptor(ind: &Individual) -> Vec<f64> {
+    let l = &ind.layout;
+    let size = l.max - l.min;
+    let h = size.z.max(1e-6) as f64;
+    let com = l.stability.com;
+    let d: Vec<f64> =
+        l.placed.iter().map(|p| (p.transform.transform_point3(Vec3::ZERO) - com).length() as f64 / h).collect();
+    let mean = d.iter().sum::<f64>() / d.len().max(1) as f64;
+    let sd = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / d.len().max(1) as f64).sqrt();
+    let mut parts: Vec<u32> = l.placed.iter().map(|p| p.part).collect();
+    parts.sort_unstable();
+    parts.dedup();
+    let part_hash = parts.iter().fold(0u64, |h, &p| h.wrapping_mul(31).wrapping_add(p as u64 + 1)) % 997;
+    vec![size.x as f64 / h, size.y as f64 / h, com.z as f64 / h, h, mean, sd, part_hash as f64 / 997.0]
+}
+
+fn dist(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt()
+}
+
+/// Structure-based diversity control (paper §4): cluster by structure vector,
+/// give each cluster a share of `k` proportional to its size (every cluster at
+/// least one while there are no more clusters than `k`; otherwise clusters are
+/// drawn with probability proportional to size), and inside a cluster pick its
+/// share by farthest-point sampling on the geometric descriptor. Returns indices
+/// into `set`, increasing.
+pub fn diversity_control(t: &CreatureTable, set: &[Individual], k: usize, rng: &mut Rng) -> Vec<usize> {
+    if set.len() <= k {
+        return (0..set.len()).collect();
+    }
+    let cl = clusters(t, set);
+    let sizes: Vec<usize> = cl.iter().map(|c| c.len()).collect();
+    let mut quota = vec![0usize; cl.len()];
+    if cl.len() >= k {
+        // More structures than places: k clusters, drawn by size without replacement.
+        let mut w: Vec<f64> = sizes.iter().map(|&s| s as f64).collect();
+        for _ in 0..k {
+            let Some(i) = super::rules::roulette(&w, rng) else { break };
+            quota[i] = 1;
+            w[i] = 0.0;
+        }
+    } else {
+        // One each, then the rest by largest remainder of the proportional share.
+        let extra = k - cl.len();
+        let room: Vec<usize> = sizes.iter().map(|s| s - 1).collect();
+        let total_room: usize = room.iter().sum();
+        let mut given = 0;
+        let mut rema: Vec<(f64, usize)> = Vec::new();
+        for (i, &r) in room.iter().enumerate() {
+            let share = if total_room == 0 { 0.0 } else { extra as f64 * r as f64 / total_room as f64 };
+            let whole = (share.floor() as usize).min(r);
+            quota[i] = 1 + whole;
+            given += whole;
+            rema.push((share - whole as f64, i));
+        }
+        rema.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        for (_, i) in rema.iter().cycle().take(rema.len() * 2) {
+            if given >= extra {
+                break;
+            }
+            if quota[*i] < sizes[*i] {
+                quota[*i] += 1;
+                given += 1;
+            }
+        }
+    }
+    let mut out = Vec::new();
+    for (c, &q) in cl.iter().zip(&quota) {
+        if q == 0 {
+            continue;
+        }
+        let desc: Vec<Vec<f64>> = c.iter().map(|&i| descriptor(&set[i])).collect();
+        let mut chosen = vec![rng.below(c.len())];
+        while chosen.len() < q.min(c.len()) {
+            let next = (0..c.len()).filter(|j| !chosen.contains(j)).max_by(|&a, &b| {
+                let da = chosen.iter().map(|&s| dist(&desc[a], &desc[s])).fold(f64::INFINITY, f64::min);
+                let db = chosen.iter().map(|&s| dist(&desc[b], &desc[s])).fold(f64::INFINITY, f64::min);
+                da.total_cmp(&db).then(b.cmp(&a))
+            });
+            match next {
+                Some(n) => chosen.push(n),
+                None => break,
+            }
+        }
+        out.extend(chosen.into_iter().map(|j| c[j]));
+    }
+    out.sort_unstable();
+    out
+}
+
+/// The hierarchical diversity measure of a set (paper §5):
+/// HDM = N + Σ_i D_i with N the number of structure clusters and
+/// D_i = SD_i / max_j SD_j, SD_i the standard deviation (root-mean-square distance
+/// to the cluster mean) of the geometric [`descriptor`] in cluster i.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Diversity {
+    pub hdm: f64,
+    pub clusters: usize,
+    /// Mean structure complexity C_s of the set.
+    pub mean_complexity: f64,
+    /// Mean number of meta-parts.
+    pub mean_metas: f64,
+}
+
+/// See [`Diversity`].
+pub fn diversity(t: &CreatureTable, set: &[Individual]) -> Diversity {
+    if set.is_empty() {
+        return Diversity::default();
+    }
+    let cl = clusters(t, set);
+    let sd: Vec<f64> = cl
+        .iter()
+        .map(|c| {
+            let desc: Vec<Vec<f64>> = c.iter().map(|&i| descriptor(&set[i])).collect();
+            let dim = desc.first().map(|d| d.len()).unwrap_or(0);
+            let mean: Vec<f64> = (0..dim).map(|k| desc.iter().map(|d| d[k]).sum::<f64>() / desc.len() as f64).collect();
+            (desc.iter().map(|d| dist(d, &mean).powi(2)).sum::<f64>() / desc.len() as f64).sqrt()
+        })
+        .collect();
+    let max = sd.iter().cloned().fold(0.0, f64::max);
+    let sum_d: f64 = if max > 0.0 { sd.iter().map(|s| s / max).sum() } else { 0.0 };
+    Diversity {
+        hdm: cl.len() as f64 + sum_d,
+        clusters: cl.len(),
+        mean_complexity: set.iter().map(|i| i.complexity).sum::<f64>() / set.len() as f64,
+        mean_metas: set.iter().map(|i| i.shape.n_metas() as f64).sum::<f64>() / set.len() as f64,
+    }
+}

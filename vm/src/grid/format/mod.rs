@@ -1,0 +1,90 @@
+//! Voxel file formats: plain text (`x y z block` a line), MagicaVoxel `.vox`, Minecraft
+//! structure-block `.nbt` and Sponge `.schem`. Readers reject corrupt or oversized
+//! input with an error message (never a panic); writers are deterministic.
+
+pub mod nbt;
+pub mod text;
+pub mod vox;
+
+use super::voxel::VoxelModel;
+use std::path::Path;
+
+/// The most bytes a voxel file may have (compressed or not).
+pub const MAX_FILE_BYTES: u64 = 64 * 1024 * 1024;
+
+/// A voxel file format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VoxelFormat {
+    /// `x y z block` lines, `#` comments (`.txt`).
+    Text,
+    /// MagicaVoxel (`.vox`).
+    Vox,
+    /// Minecraft structure block, gzip NBT (`.nbt`).
+    Nbt,
+    /// Sponge schematic v2/v3, gzip NBT (`.schem`).
+    Schem,
+}
+
+impl VoxelFormat {
+    /// Every format.
+    pub const ALL: [VoxelFormat; 4] = [VoxelFormat::Text, VoxelFormat::Vox, VoxelFormat::Nbt, VoxelFormat::Schem];
+
+    /// The format for a file extension (case-insensitive, without the dot).
+    pub fn from_extension(ext: &str) -> Option<VoxelFormat> {
+        let ext = ext.to_ascii_lowercase();
+        VoxelFormat::ALL.into_iter().find(|f| f.extension() == ext)
+    }
+
+    /// The format of a path, from its extension.
+    pub fn from_path(path: &Path) -> Option<VoxelFormat> {
+        path.extension().and_then(|e| e.to_str()).and_then(VoxelFormat::from_extension)
+    }
+
+    /// The canonical extension.
+    pub fn extension(self) -> &'static str {
+        match self {
+            VoxelFormat::Text => "txt",
+            VoxelFormat::Vox => "vox",
+            VoxelFormat::Nbt => "nbt",
+            VoxelFormat::Schem => "schem",
+        }
+    }
+}
+
+/// Reads a voxel model from bytes in `format`.
+pub fn read_bytes(format: VoxelFormat, bytes: &[u8]) -> Result<VoxelModel, String> {
+    if bytes.len() as u64 > MAX_FILE_BYTES {
+        return Err(format!("file is larger than {MAX_FILE_BYTES} bytes"));
+    }
+    match format {
+        VoxelFormat::Text => {
+            let text = std::str::from_utf8(bytes).map_err(|e| format!("not UTF-8 text: {e}"))?;
+            text::read(text)
+        }
+        VoxelFormat::Vox => vox::read(bytes),
+        VoxelFormat::Nbt => nbt::read_structure(bytes),
+        VoxelFormat::Schem => nbt::read_schem(bytes),
+    }
+}
+
+/// Reads the voxel file at `path` (format from the extension).
+pub fn read(path: &Path) -> Result<VoxelModel, String> {
+    let format = VoxelFormat::from_path(path)
+        .ok_or_else(|| format!("{}: unknown voxel format (expected .txt, .vox, .nbt or .schem)", path.display()))?;
+    let meta = std::fs::metadata(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    if meta.len() > MAX_FILE_BYTES {
+        return Err(format!("{}: larger than {MAX_FILE_BYTES} bytes", path.display()));
+    }
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    read_bytes(format, &bytes).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Writes a voxel model in `format`.
+pub fn write(format: VoxelFormat, model: &VoxelModel) -> Result<Vec<u8>, String> {
+    match format {
+        VoxelFormat::Text => Ok(text::write(model).into_bytes()),
+        VoxelFormat::Vox => vox::write(model),
+        VoxelFormat::Nbt => nbt::write_structure(model),
+        VoxelFormat::Schem => nbt::write_schem(model),
+    }
+}

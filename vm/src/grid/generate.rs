@@ -1,0 +1,441 @@
+//! Generation (paper §"Production of Similar Structures"): random rule application from
+//! the start shape, then the enclosure constraint.
+//!
+//! A production is a list of *instances*: a shape and its [`Placement`] (local frame →
+//! world). A rule `f → f t` applies to an instance of any shape s matching f: with
+//! M the placement taking f's frame onto s's (through the declared matches), t is added
+//! at `P_s ∘ M ∘ place`. An application is possible when the new instance puts no block
+//! where a different block stands and adds at least one block. Each step picks an
+//! instance uniformly among those with a possible application, then one of its
+//! possible applications uniformly (PCG-64 seeded by the seed, so a seed gives one
+//! building).
+//!
+//! **Enclosure.** Empty cells reachable from outside the production's box (6-connected
+//! flood fill) are *outside*. The production stands on the ground: the fill does not
+//! pass below its lowest blocks. Openings up to `2·seal` blocks wide (doors, windows;
+//! `seal` 1 by default) do not let the outside in: the fill runs around the blocks
+//! grown by `seal` cells, and an empty cell is outside when it is within `seal` cells
+//! of the fill (`seal 0` is the paper's plain flood fill). An instance of a flat shape
+//! is exposed when some block of it has outside cells on both sides along the shape's
+//! axis (a wall with air on both faces); exposed instances are removed (their blocks
+//! too, unless another instance holds them) and the fill repeats until nothing is
+//! removed. 3D shapes are never removed.
+
+use super::voxel::{Block, BlockKind, Grid, VoxelModel, MAX_BLOCKS, MAX_CELLS, NEIGHBOURS};
+use super::{turn_box, GridGrammar, Placement};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+use std::collections::HashMap;
+
+/// Generation options.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GenerateOptions {
+    /// Rule applications.
+    pub steps: u32,
+    pub enclosure: bool,
+    /// Openings up to `2·seal` blocks wide do not let the outside in (0: the paper's
+    /// plain flood fill).
+    pub seal: u32,
+    pub seed: u64,
+}
+
+/// The largest `seal`.
+pub const MAX_SEAL: u32 = 8;
+
+/// A placed shape.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Instance {
+    pub shape: u32,
+    pub place: Placement,
+}
+
+/// A generated building.
+#[derive(Clone, Debug)]
+pub struct Generated {
+    pub model: VoxelModel,
+    /// The instances left after the enclosure constraint.
+    pub instances: Vec<Instance>,
+    /// Rules applied.
+    pub applied: u32,
+    /// Instances the enclosure constraint removed.
+    pub removed: usize,
+    /// Flood fills run by the enclosure constraint.
+    pub enclosure_rounds: usize,
+    /// Why generation stopped early, if it did.
+    pub note: Option<String>,
+}
+
+/// A grammar prepared for derivation: matching classes and rules per class.
+pub struct Derivation<'g> {
+    pub grammar: &'g GridGrammar,
+    /// Per shape: class index.
+    class: Vec<u32>,
+    /// Per shape: placement from the shape's frame to its class representative's.
+    to_rep: Vec<Placement>,
+    /// Per class: rule indices whose `from` is in the class.
+    rules: Vec<Vec<u32>>,
+}
+
+impl<'g> Derivation<'g> {
+    /// Prepares `grammar` (validated: every index in range, every match true).
+    pub fn new(grammar: &'g GridGrammar) -> Derivation<'g> {
+        let n = grammar.shapes.len();
+        // Breadth-first over the match graph from each unvisited shape.
+        let mut edges: Vec<Vec<(u32, Placement)>> = vec![Vec::new(); n];
+        for m in &grammar.matches {
+            let (Some(a), Some(_)) = (grammar.shapes.get(m.a as usize), grammar.shapes.get(m.b as usize)) else {
+                continue;
+            };
+            // a-local → b-local.
+            let ab = turn_box(a.size, m.turn).0;
+            edges[m.a as usize].push((m.b, ab));
+            edges[m.b as usize].push((m.a, ab.inverse()));
+        }
+        let mut class = vec![u32::MAX; n];
+        let mut to_rep = vec![Placement::IDENTITY; n];
+        let mut n_classes = 0;
+        for root in 0..n {
+            if class[root] != u32::MAX {
+                continue;
+            }
+            class[root] = n_classes;
+            let mut queue = std::collections::VecDeque::from([root as u32]);
+            while let Some(x) = queue.pop_front() {
+                for &(y, xy) in &edges[x as usize] {
+                    if class[y as usize] == u32::MAX {
+                        class[y as usize] = n_classes;
+                        // y-local → x-local → rep-local.
+                        to_rep[y as usize] = to_rep[x as usize].compose(&xy.inverse());
+                        queue.push_back(y);
+                    }
+                }
+            }
+            n_classes += 1;
+        }
+        let mut rules = vec![Vec::new(); n_classes as usize];
+        for (i, r) in grammar.rules.iter().enumerate() {
+            if let Some(&c) = class.get(r.from as usize) {
+                rules[c as usize].push(i as u32);
+            }
+        }
+        Derivation { grammar, class, to_rep, rules }
+    }
+
+    /// The start instance: the start shape at its example position (or the origin).
+    pub fn start(&self) -> Instance {
+        let s = &self.grammar.shapes[self.grammar.start as usize];
+        Instance { shape: self.grammar.start, place: Placement::translation(s.at.unwrap_or([0, 0, 0])) }
+    }
+
+    /// Rules that apply to an instance of `shape` (those of every matching shape).
+    pub fn rules_for(&self, shape: u32) -> &[u32] {
+        self.class.get(shape as usize).and_then(|c| self.rules.get(*c as usize)).map(|v| v.as_slice()).unwrap_or(&[])
+    }
+
+    /// The instance rule `rule` adds to `inst`, or none when the rule's left side does
+    /// not match the instance's shape.
+    pub fn apply(&self, inst: &Instance, rule: u32) -> Option<Instance> {
+        let r = self.grammar.rules.get(rule as usize)?;
+        let (s, f) = (inst.shape as usize, r.from as usize);
+        if self.class.get(s)? != self.class.get(f)? {
+            return None;
+        }
+        // f-local → s-local = (s-local → rep)⁻¹ ∘ (f-local → rep).
+        let f_to_s = self.to_rep[s].inverse().compose(&self.to_rep[f]);
+        Some(Instance { shape: r.to, place: inst.place.compose(&f_to_s).compose(&r.place) })
+    }
+
+    /// The world blocks of an instance.
+    pub fn blocks(&self, inst: &Instance) -> impl Iterator<Item = ([i32; 3], u32)> + '_ {
+        let shape = self.grammar.shapes.get(inst.shape as usize);
+        let place = inst.place;
+        shape.into_iter().flat_map(move |s| s.blocks.iter().map(move |b| (place.apply(b.pos), b.kind)))
+    }
+}
+
+/// A uniform index in `0..n` (n > 0) from the stream (Lemire's multiply-shift with
+/// rejection, so it does not depend on a library's sampling algorithm).
+fn below(rng: &mut Pcg64, n: usize) -> usize {
+    let n = n as u64;
+    loop {
+        let x = rng.next_u64();
+        let m = (x as u128) * (n as u128);
+        let low = m as u64;
+        if low >= n || low >= n.wrapping_neg() % n {
+            return (m >> 64) as usize;
+        }
+    }
+}
+
+/// The world during a derivation: the kind and number of instances at each cell.
+#[derive(Default)]
+struct World {
+    cells: HashMap<[i32; 3], (u32, u32)>,
+}
+
+impl World {
+    /// Whether `blocks` fit (no different kind at a cell) and add at least one block.
+    fn fits(&self, blocks: impl Iterator<Item = ([i32; 3], u32)>) -> bool {
+        let mut adds = false;
+        for (p, k) in blocks {
+            match self.cells.get(&p) {
+                Some(&(kind, _)) if kind != k => return false,
+                Some(_) => {}
+                None => adds = true,
+            }
+        }
+        adds
+    }
+
+    fn add(&mut self, blocks: impl Iterator<Item = ([i32; 3], u32)>) {
+        for (p, k) in blocks {
+            self.cells.entry(p).or_insert((k, 0)).1 += 1;
+        }
+    }
+
+    /// The blocks as a model with the grammar's palette.
+    fn model(&self, grammar: &GridGrammar) -> VoxelModel {
+        let kinds: Vec<BlockKind> =
+            grammar.palette.iter().map(|p| BlockKind { id: p.block.clone(), color: p.color }).collect();
+        let mut blocks: Vec<Block> = self.cells.iter().map(|(p, (k, _))| Block { pos: *p, kind: *k }).collect();
+        blocks.sort_by_key(|b| (b.pos[1], b.pos[2], b.pos[0]));
+        VoxelModel { kinds, blocks }
+    }
+
+    fn remove(&mut self, blocks: impl Iterator<Item = ([i32; 3], u32)>) {
+        for (p, _) in blocks {
+            if let Some(c) = self.cells.get_mut(&p) {
+                c.1 -= 1;
+                if c.1 == 0 {
+                    self.cells.remove(&p);
+                }
+            }
+        }
+    }
+}
+
+/// Generates a building: `steps` random rule applications from the start shape, then
+/// (optionally) the enclosure constraint.
+pub fn generate(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generated, String> {
+    grammar.validate()?;
+    let d = Derivation::new(grammar);
+    let mut rng = Pcg64::seed_from_u64(opts.seed);
+    let mut world = World::default();
+    let start = d.start();
+    world.add(d.blocks(&start));
+    let mut instances = vec![start];
+    // Per instance: the rules not yet found impossible (a rule that cannot apply now
+    // never can: the world only grows while rules are applied), copied from the class's
+    // list when the instance is first picked.
+    let mut open: Vec<Option<Vec<u32>>> = vec![None];
+    let mut open_instances: Vec<usize> = if d.rules_for(start.shape).is_empty() { vec![] } else { vec![0] };
+    let mut applied = 0;
+    let mut note = None;
+    while applied < opts.steps && !open_instances.is_empty() {
+        let oi = below(&mut rng, open_instances.len());
+        let i = open_instances[oi];
+        let rules = open[i].get_or_insert_with(|| d.rules_for(instances[i].shape).to_vec());
+        let ri = below(&mut rng, rules.len());
+        let rule = rules[ri];
+        match d.apply(&instances[i], rule) {
+            Some(new) if world.fits(d.blocks(&new)) => {
+                if world.cells.len() + grammar.shapes[new.shape as usize].blocks.len() > MAX_BLOCKS {
+                    note = Some(format!("stopped at {MAX_BLOCKS} blocks"));
+                    break;
+                }
+                world.add(d.blocks(&new));
+                instances.push(new);
+                open.push(None);
+                if !d.rules_for(new.shape).is_empty() {
+                    open_instances.push(instances.len() - 1);
+                }
+                applied += 1;
+            }
+            _ => {
+                rules.swap_remove(ri);
+                if rules.is_empty() {
+                    open_instances.swap_remove(oi);
+                    open[i] = Some(Vec::new());
+                }
+            }
+        }
+    }
+    let (mut removed, mut rounds) = (0, 0);
+    if opts.enclosure {
+        (removed, rounds) = enclose(&d, &mut instances, &mut world, opts.seal)?;
+    }
+    Ok(Generated { model: world.model(grammar), instances, applied, removed, enclosure_rounds: rounds, note })
+}
+
+/// The enclosure constraint on a production: removes exposed instances (and their
+/// blocks) until none is left; returns (instances removed, flood fills run).
+fn enclose(
+    d: &Derivation,
+    instances: &mut Vec<Instance>,
+    world: &mut World,
+    seal: u32,
+) -> Result<(usize, usize), String> {
+    let (mut removed, mut rounds) = (0, 0);
+    loop {
+        rounds += 1;
+        let exposed = exposed_instances(d, instances, world, seal)?;
+        if exposed.is_empty() {
+            return Ok((removed, rounds));
+        }
+        removed += exposed.len();
+        let mut gone = vec![false; instances.len()];
+        for i in exposed {
+            gone[i] = true;
+            world.remove(d.blocks(&instances[i]));
+        }
+        let mut g = gone.iter();
+        instances.retain(|_| !g.next().copied().unwrap_or(false));
+    }
+}
+
+/// Applies the enclosure constraint to given instances of `grammar`'s shapes (a
+/// production made by hand, say); returns the instances kept, the building they
+/// make, and how many were removed.
+pub fn enclosure(
+    grammar: &GridGrammar,
+    instances: &[Instance],
+    seal: u32,
+) -> Result<(Vec<Instance>, VoxelModel, usize), String> {
+    grammar.validate()?;
+    if instances.iter().any(|i| i.shape as usize >= grammar.shapes.len()) {
+        return Err("an instance names a shape out of range".into());
+    }
+    let d = Derivation::new(grammar);
+    let mut world = World::default();
+    for i in instances {
+        world.add(d.blocks(i));
+    }
+    let mut kept = instances.to_vec();
+    let (removed, _) = enclose(&d, &mut kept, &mut world, seal)?;
+    Ok((kept, world.model(grammar), removed))
+}
+
+/// Dilates a cell mask of a grid with `dims` by `r` cells in every direction (a box,
+/// Chebyshev distance), one axis at a time with running counts.
+fn dilate(mask: &mut [bool], dims: [i32; 3], r: i32) {
+    if r <= 0 {
+        return;
+    }
+    let (dx, dy, dz) = (dims[0] as usize, dims[1] as usize, dims[2] as usize);
+    let idx = |x: usize, y: usize, z: usize| (y * dz + z) * dx + x;
+    let mut line = Vec::new();
+    for axis in 0..3 {
+        let len = [dx, dy, dz][axis];
+        let (na, nb) = match axis {
+            0 => (dy, dz),
+            1 => (dx, dz),
+            _ => (dx, dy),
+        };
+        for a in 0..na {
+            for b in 0..nb {
+                let at = |i: usize| match axis {
+                    0 => idx(i, a, b),
+                    1 => idx(a, i, b),
+                    _ => idx(a, b, i),
+                };
+                line.clear();
+                line.extend((0..len).map(|i| mask[at(i)]));
+                // prefix[i] = set cells before i.
+                let mut prefix = vec![0u32; len + 1];
+                for i in 0..len {
+                    prefix[i + 1] = prefix[i] + line[i] as u32;
+                }
+                for i in 0..len {
+                    let lo = i.saturating_sub(r as usize);
+                    let hi = (i + r as usize + 1).min(len);
+                    mask[at(i)] = prefix[hi] > prefix[lo];
+                }
+            }
+        }
+    }
+}
+
+/// The instances exposed on both sides (see the module documentation). Openings up
+/// to `2·seal` blocks wide are sealed: the flood fill runs around the blocks grown by
+/// `seal` cells, and an empty cell is outside when it lies within `seal` cells of the
+/// fill (`seal` 0 is the paper's plain flood fill).
+fn exposed_instances(d: &Derivation, instances: &[Instance], world: &World, seal: u32) -> Result<Vec<usize>, String> {
+    let blocks: Vec<Block> = world.cells.iter().map(|(p, (k, _))| Block { pos: *p, kind: *k }).collect();
+    if blocks.is_empty() {
+        return Ok(Vec::new());
+    }
+    let r = seal.min(MAX_SEAL) as i32;
+    let grid = Grid::new(&blocks, r + 1);
+    if grid.len() as u64 > MAX_CELLS * 4 {
+        return Err(format!("the production is too large for the enclosure constraint ({} cells)", grid.len()));
+    }
+    let n = grid.len();
+    // The production stands on the ground: cells below its lowest blocks are solid.
+    let ground = blocks.iter().map(|b| b.pos[1]).min().unwrap_or(0);
+    let solid: Vec<bool> = (0..n)
+        .map(|c| {
+            let p = grid.position(c);
+            p[1] < ground || grid.get(p) != Grid::EMPTY
+        })
+        .collect();
+    let mut grown = solid.clone();
+    dilate(&mut grown, grid.dims, r);
+    // Flood fill from a top corner of the padded box (never grown over).
+    let mut fill = vec![false; n];
+    let corner = [grid.lo[0], grid.lo[1] + grid.dims[1] - 1, grid.lo[2]];
+    let mut stack = vec![corner];
+    if let Some(c) = grid.index(corner) {
+        fill[c] = true;
+    }
+    while let Some(p) = stack.pop() {
+        for dlt in NEIGHBOURS {
+            let q = super::add(p, dlt);
+            if let Some(c) = grid.index(q) {
+                if !fill[c] && !grown[c] {
+                    fill[c] = true;
+                    stack.push(q);
+                }
+            }
+        }
+    }
+    dilate(&mut fill, grid.dims, r);
+    let is_out = |p: [i32; 3]| p[1] >= ground && grid.index(p).is_none_or(|c| fill[c] && !solid[c]);
+    let mut exposed = Vec::new();
+    for (i, inst) in instances.iter().enumerate() {
+        let Some(plane) = d.grammar.shapes[inst.shape as usize].plane else { continue };
+        let axis = inst.place.axis(plane) as usize;
+        let hit = d.blocks(inst).any(|(p, _)| {
+            let (mut a, mut b) = (p, p);
+            a[axis] += 1;
+            b[axis] -= 1;
+            is_out(a) && is_out(b)
+        });
+        if hit {
+            exposed.push(i);
+        }
+    }
+    Ok(exposed)
+}
+
+/// The example buildings rebuilt from the shapes' `at` positions (one model per
+/// example; shapes without a position are left out).
+pub fn examples(grammar: &GridGrammar) -> Vec<VoxelModel> {
+    let kinds: Vec<BlockKind> =
+        grammar.palette.iter().map(|p| BlockKind { id: p.block.clone(), color: p.color }).collect();
+    let n = grammar.examples.len().max(1);
+    let mut cells: Vec<HashMap<[i32; 3], u32>> = vec![HashMap::new(); n];
+    for s in &grammar.shapes {
+        let (Some(at), Some(c)) = (s.at, cells.get_mut(s.example as usize)) else { continue };
+        for b in &s.blocks {
+            c.insert(super::add(b.pos, at), b.kind);
+        }
+    }
+    cells
+        .into_iter()
+        .map(|c| {
+            let mut blocks: Vec<Block> = c.into_iter().map(|(pos, kind)| Block { pos, kind }).collect();
+            blocks.sort_by_key(|b| (b.pos[1], b.pos[2], b.pos[0]));
+            VoxelModel { kinds: kinds.clone(), blocks }
+        })
+        .collect()
+}

@@ -1,0 +1,726 @@
+//! The SOSMC search over skeleton derivations (paper §3–4), the wrap-up, and the
+//! geometry phase.
+//!
+//! A particle is a partial skeleton derivation: the calls still pending (skeleton
+//! calls not yet expanded, each with its frame, the guide nearest to its origin and
+//! its heuristic term), the utilisation counts, the cost so far, and a pointer to the
+//! newest record of its history. History records are shared: a record holds what one
+//! expansion added (its bones and the calls it deferred to the geometry phase) and a
+//! pointer to the record before it, so copying a particle is copying its pending list
+//! and counts, and growing it adds one record (copy-and-add, paper §4.1).
+//!
+//! One *particle-step* expands pending skeleton calls, each chosen uniformly at random
+//! among the pending ones, until one of them added a bone (calls that only pass the
+//! origin on — `fork` in the std tree — add none) or none is left. Generation g has
+//! N_g particles (a linear ramp from `particles.0` to `particles.1`) and heuristic
+//! scale h_g (a linear ramp from `heuristic_scale` to 0 over the first
+//! `heuristic_fraction` of the generations). After each particle's step its weight is
+//! the likelihood ratio exp(−[(COST + h_g·H)_now − (COST + h_{g−1}·H)_before]); then
+//! N_{g+1} particles are resampled. The search stops after the last generation, at
+//! the time budget (checked between generations), or when no particle has pending
+//! calls. The model is the final particle with the lowest COST (first on ties):
+//! leftover skeleton calls become their wrap-up rule's calls (calls of a rule
+//! without a wrap-up are dropped), and the geometry phase evaluates every deferred
+//! call with [`crate::eval::evaluate_calls`].
+//!
+//! Determinism: particle j of generation g draws from its own PCG-64 stream (seed, g,
+//! j), and resampling from one stream of its own, so results do not depend on the
+//! number of threads (rayon) or their scheduling.
+
+use super::cost::{Cost, Guides, Near};
+use super::resample::{resample, weights_from_log};
+use super::{Guide, GuidedTable, Resampling, SearchSettings};
+use crate::bundle::{Bundle, NONE};
+use crate::eval::{evaluate_calls, Call, EvalOptions, Expander};
+use crate::output::{Output, Polyline};
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// Most expansions in one particle-step (a grammar whose skeleton calls never move
+/// the origin would otherwise never finish a step).
+pub const MAX_EXPANSIONS_PER_STEP: u32 = 256;
+/// The seed of the EXPECTED estimate: a property of the grammar, not of `--seed`.
+const EXPECTED_SEED: u64 = 0x5EED_E4EC_7ED0_0001;
+/// Stream of the resampling draws.
+const RESAMPLE_STREAM: u64 = u64::MAX;
+
+/// Options of one search.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SearchOptions {
+    /// Particles in the first and the last generation.
+    pub particles: (u32, u32),
+    pub generations: u32,
+    /// Starting HEURISTICSCALE (0 turns the heuristic off).
+    pub heuristic_scale: f64,
+    /// Fraction of the generations over which HEURISTICSCALE ramps down to 0.
+    pub heuristic_fraction: f64,
+    /// Stop between generations once this much time has passed.
+    pub budget: Option<Duration>,
+    pub resampling: Resampling,
+    pub seed: u64,
+    /// Worker threads (`None`: rayon's global pool). Results do not depend on it.
+    pub threads: Option<usize>,
+}
+
+impl SearchOptions {
+    /// The options of a `search` section, with `seed`.
+    pub fn from_settings(s: &SearchSettings, seed: u64) -> SearchOptions {
+        SearchOptions {
+            particles: s.particles,
+            generations: s.generations,
+            heuristic_scale: s.heuristic_scale,
+            heuristic_fraction: s.heuristic_fraction,
+            budget: s.budget_ms.map(|ms| Duration::from_secs_f64(ms / 1000.0)),
+            resampling: s.resampling,
+            seed,
+            threads: None,
+        }
+    }
+
+    /// N_g: the number of particles in generation `g` (linear ramp, rounded).
+    pub fn particles_at(&self, g: u32) -> usize {
+        let (a, b) = (self.particles.0.max(1) as f64, self.particles.1.max(1) as f64);
+        if self.generations <= 1 {
+            return a as usize;
+        }
+        let f = g.min(self.generations - 1) as f64 / (self.generations - 1) as f64;
+        (a + (b - a) * f).round().max(1.0) as usize
+    }
+
+    /// h_g: the heuristic scale in generation `g` (linear ramp to 0 over the first
+    /// `heuristic_fraction` of the generations).
+    pub fn heuristic_at(&self, g: u32) -> f64 {
+        let span = self.heuristic_fraction * self.generations as f64;
+        if span.is_nan() || span <= 0.0 {
+            return 0.0;
+        }
+        self.heuristic_scale * (1.0 - g as f64 / span).max(0.0)
+    }
+
+    /// Σ N_g over all generations: the particle-steps of a search that is not cut short.
+    pub fn scheduled_steps(&self) -> u64 {
+        (0..self.generations).map(|g| self.particles_at(g) as u64).sum()
+    }
+}
+
+/// Why the search stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stop {
+    /// All generations ran.
+    Generations,
+    /// The time budget ran out (the result then depends on the machine's speed).
+    Budget,
+    /// No particle had pending skeleton calls left.
+    Complete,
+}
+
+/// A bone of the skeleton, in world space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bone {
+    pub base: DVec3,
+    pub tip: DVec3,
+    /// The callee (the rule whose origin is the tip).
+    pub rule: u32,
+}
+
+/// A finished derivation: the chosen particle after wrap-up.
+#[derive(Clone, Debug)]
+pub struct Model {
+    /// COST of the skeleton (no heuristic: nothing is pending after wrap-up).
+    pub cost: Cost,
+    /// Every bone, in the order added.
+    pub bones: Vec<Bone>,
+    /// The geometry phase's calls: those the skeleton deferred (in expansion order),
+    /// then the wrap-up calls.
+    pub calls: Vec<Call>,
+    /// Leftover skeleton calls that became wrap-up calls, and those dropped (their
+    /// rule has no wrap-up).
+    pub wrapped: usize,
+    pub dropped: usize,
+}
+
+/// What a search did and found.
+#[derive(Clone, Debug)]
+pub struct SearchResult {
+    pub model: Model,
+    /// COST of every particle of the final generation (the model is the minimum).
+    pub final_costs: Vec<f64>,
+    /// Index of the chosen particle among them.
+    pub chosen: usize,
+    /// Generations run.
+    pub generations: u32,
+    /// Particle-steps taken (one per particle per generation, while it had pending calls).
+    pub particle_steps: u64,
+    /// Skeleton calls expanded.
+    pub expansions: u64,
+    pub stop: Stop,
+    pub elapsed: Duration,
+}
+
+/// Reported after every generation.
+#[derive(Clone, Copy, Debug)]
+pub struct Progress {
+    /// Generations done, and the planned number.
+    pub generation: u32,
+    pub generations: u32,
+    /// The lowest COST among the particles.
+    pub best_cost: f64,
+}
+
+/// What one particle-step added to a particle, in order: bones and deferred calls.
+struct Record {
+    prev: Option<Arc<Record>>,
+    items: Vec<Item>,
+}
+
+enum Item {
+    Bone(Bone),
+    Deferred(Call),
+}
+
+impl Drop for Record {
+    fn drop(&mut self) {
+        // Unlink iteratively: a long history must not recurse on the native stack.
+        let mut next = self.prev.take();
+        while let Some(rc) = next {
+            match Arc::try_unwrap(rc) {
+                Ok(mut r) => next = r.prev.take(),
+                Err(_) => break,
+            }
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Pending {
+    call: Call,
+    near: Option<Near>,
+    /// The heuristic term (unscaled) of this call.
+    h: f64,
+}
+
+#[derive(Clone)]
+struct Particle {
+    history: Option<Arc<Record>>,
+    pending: Vec<Pending>,
+    counts: Vec<u32>,
+    cost: Cost,
+    /// The log-likelihood term it was last weighted with: COST + h·H.
+    score: f64,
+}
+
+impl Particle {
+    fn heuristic(&self) -> f64 {
+        self.pending.iter().map(|p| p.h).sum()
+    }
+}
+
+/// A bundle and guides prepared for searching: skeleton and wrap-up tables, the
+/// guides' curves, and the EXPECTED vectors (estimated once, by forward sampling).
+pub struct Prepared<'b> {
+    b: &'b Bundle,
+    skeleton: Vec<bool>,
+    wrapup: Vec<u32>,
+    guides: Guides,
+    /// EXPECTED(n) per rule in the rule's own frame (`None`: not a skeleton rule, or
+    /// its samples made no bones).
+    expected: Vec<Option<DVec3>>,
+    /// Time spent preparing (mostly the EXPECTED estimate).
+    pub prepare_time: Duration,
+}
+
+fn to_d(v: Vec3) -> DVec3 {
+    DVec3::new(v.x as f64, v.y as f64, v.z as f64)
+}
+
+impl<'b> Prepared<'b> {
+    /// Prepares `b`'s guided table with `guides` (those of the table, or a guide file's).
+    pub fn new(b: &'b Bundle, table: &GuidedTable, guides: &[Guide]) -> Result<Prepared<'b>, String> {
+        let started = Instant::now();
+        if guides.is_empty() {
+            return Err("no guiding curves: add a `guide` section or give a guide file".into());
+        }
+        table.verify(b)?;
+        let n = b.rules.len();
+        let mut skeleton = vec![false; n];
+        for &r in &table.skeleton {
+            skeleton[r as usize] = true;
+        }
+        let mut wrapup = vec![NONE; n];
+        for &(from, to) in &table.wrapups {
+            wrapup[from as usize] = to;
+        }
+        let guides = Guides::new(guides)?;
+        let mut p = Prepared { b, skeleton, wrapup, guides, expected: vec![None; n], prepare_time: Duration::ZERO };
+        p.expected = p.estimate_expected(table.settings.expected);
+        p.prepare_time = started.elapsed();
+        Ok(p)
+    }
+
+    /// The prepared guides.
+    pub fn guides(&self) -> &Guides {
+        &self.guides
+    }
+
+    /// EXPECTED(rule), if estimated.
+    pub fn expected(&self, rule: u32) -> Option<DVec3> {
+        self.expected.get(rule as usize).copied().flatten()
+    }
+
+    /// Whether `rule` is a skeleton rule.
+    pub fn is_skeleton(&self, rule: u32) -> bool {
+        self.skeleton.get(rule as usize).copied().unwrap_or(false)
+    }
+
+    /// EXPECTED(n) for every skeleton rule n (eq. 9): the mean over `samples` forward
+    /// samples from n at the identity of each sample's mean bone vector (TIP − BASE),
+    /// each sample expanding up to `steps` skeleton calls chosen uniformly at random.
+    /// Samples without bones are left out. Deterministic (fixed streams).
+    fn estimate_expected(&self, (samples, steps): (u32, u32)) -> Vec<Option<DVec3>> {
+        let b = self.b;
+        let rules: Vec<u32> = (0..b.rules.len() as u32).filter(|&r| self.is_skeleton(r)).collect();
+        let jobs: Vec<(u32, u32)> = rules.iter().flat_map(|&r| (0..samples).map(move |s| (r, s))).collect();
+        let means: Vec<Option<DVec3>> = jobs
+            .par_iter()
+            .map_init(
+                || (Expander::new(b), Vec::new(), Vec::new()),
+                |(ex, pending, out), &(rule, sample)| {
+                    ex.reseed(EXPECTED_SEED ^ rule as u64, sample as u64);
+                    pending.clear();
+                    let start = Call::start(b);
+                    pending.push(Call { rule, state: start.state, depth: 0 });
+                    let (mut sum, mut n) = (DVec3::ZERO, 0u32);
+                    for _ in 0..steps {
+                        if pending.is_empty() {
+                            break;
+                        }
+                        let k = ex.index(pending.len());
+                        let call: Call = pending.swap_remove(k);
+                        out.clear();
+                        ex.expand(&call, out);
+                        let base = to_d(call.state.f.u);
+                        for c in out.iter() {
+                            if self.is_skeleton(c.rule) {
+                                let v = to_d(c.state.f.u) - base;
+                                if v.length() > super::cost::MIN_BONE_LENGTH {
+                                    sum += v;
+                                    n += 1;
+                                }
+                                pending.push(*c);
+                            }
+                        }
+                    }
+                    (n > 0).then(|| sum / n as f64)
+                },
+            )
+            .collect();
+        let mut expected = vec![None; b.rules.len()];
+        for (i, &r) in rules.iter().enumerate() {
+            let per = &means[i * samples as usize..(i + 1) * samples as usize];
+            let (sum, k) = per.iter().flatten().fold((DVec3::ZERO, 0u32), |(s, k), v| (s + *v, k + 1));
+            expected[r as usize] = (k > 0).then(|| sum / k as f64);
+        }
+        expected
+    }
+
+    fn pending(&self, call: Call) -> Pending {
+        self.pending_at(call, self.guides.nearest(to_d(call.state.f.u)))
+    }
+
+    /// A pending call whose origin's nearest guide is known.
+    fn pending_at(&self, call: Call, near: Option<Near>) -> Pending {
+        let h = match (near, self.expected(call.rule)) {
+            (Some(n), Some(e)) => {
+                let world = to_d(call.state.f.apply_vector(Vec3::new(e.x as f32, e.y as f32, e.z as f32)));
+                self.guides.heuristic(&n, world)
+            }
+            _ => 0.0,
+        };
+        Pending { call, near, h }
+    }
+
+    fn initial(&self) -> Particle {
+        let start = Call::start(self.b);
+        let mut p = Particle {
+            history: None,
+            pending: Vec::new(),
+            counts: vec![0; self.guides.n_segments()],
+            cost: Cost::default(),
+            score: 0.0,
+        };
+        if self.is_skeleton(start.rule) {
+            p.pending.push(self.pending(start));
+        } else {
+            p.history = Some(Arc::new(Record { prev: None, items: vec![Item::Deferred(start)] }));
+        }
+        p
+    }
+
+    /// One particle-step: expand uniformly chosen pending calls until one adds a bone
+    /// (or none is left). Returns the number of expansions.
+    fn step(&self, p: &mut Particle, ex: &mut Expander, out: &mut Vec<Call>) -> u32 {
+        let mut expansions = 0;
+        let mut items: Vec<Item> = Vec::new();
+        let mut added = false;
+        while !added && !p.pending.is_empty() && expansions < MAX_EXPANSIONS_PER_STEP {
+            let k = ex.index(p.pending.len());
+            let parent = p.pending.swap_remove(k);
+            out.clear();
+            ex.expand(&parent.call, out);
+            expansions += 1;
+            let base = to_d(parent.call.state.f.u);
+            for c in out.iter() {
+                if !self.is_skeleton(c.rule) {
+                    items.push(Item::Deferred(*c));
+                    continue;
+                }
+                let tip = to_d(c.state.f.u);
+                let child = if tip == base {
+                    // Same origin: same nearest guide, no bone.
+                    self.pending_at(*c, parent.near)
+                } else {
+                    let child = self.pending(*c);
+                    if let Some(near) = &parent.near {
+                        if let Some(cost) = self.guides.bone_cost(near, base, tip, child.near.as_ref(), &mut p.counts) {
+                            p.cost += cost;
+                            items.push(Item::Bone(Bone { base, tip, rule: c.rule }));
+                            added = true;
+                        }
+                    }
+                    child
+                };
+                p.pending.push(child);
+            }
+        }
+        if !items.is_empty() {
+            p.history = Some(Arc::new(Record { prev: p.history.take(), items }));
+        }
+        expansions
+    }
+
+    /// Runs the search.
+    pub fn search(&self, opts: &SearchOptions, progress: Option<&(dyn Fn(&Progress) + Sync)>) -> SearchResult {
+        match opts.threads {
+            Some(n) => match rayon::ThreadPoolBuilder::new().num_threads(n.max(1)).build() {
+                Ok(pool) => pool.install(|| self.search_here(opts, progress)),
+                Err(_) => self.search_here(opts, progress),
+            },
+            None => self.search_here(opts, progress),
+        }
+    }
+
+    fn search_here(&self, opts: &SearchOptions, progress: Option<&(dyn Fn(&Progress) + Sync)>) -> SearchResult {
+        let started = Instant::now();
+        let b = self.b;
+        let mut master = Expander::new(b);
+        master.reseed(opts.seed, RESAMPLE_STREAM);
+        let first = self.initial();
+        let mut particles: Vec<Particle> = vec![first; opts.particles_at(0)];
+        let h0 = opts.heuristic_at(0);
+        for p in &mut particles {
+            p.score = p.cost.total() + h0 * p.heuristic();
+        }
+        let (mut steps, mut expansions) = (0u64, 0u64);
+        let mut serial = (Expander::new(b), Vec::with_capacity(16));
+        let mut generation = 0u32;
+        let mut stop = Stop::Generations;
+        while generation < opts.generations {
+            if particles.iter().all(|p| p.pending.is_empty()) {
+                stop = Stop::Complete;
+                break;
+            }
+            if let Some(budget) = opts.budget {
+                if generation > 0 && started.elapsed() >= budget {
+                    stop = Stop::Budget;
+                    break;
+                }
+            }
+            let g = generation;
+            let h = opts.heuristic_at(g);
+            let seed = opts.seed;
+            let work = |ex: &mut Expander, out: &mut Vec<Call>, j: usize, p: &mut Particle| {
+                let active = !p.pending.is_empty();
+                ex.reseed(seed, ((g as u64) << 32) | j as u64);
+                let e = self.step(p, ex, out);
+                let now = p.cost.total() + h * p.heuristic();
+                let lw = -(now - p.score);
+                p.score = now;
+                (e, active, lw)
+            };
+            let results: Vec<(u32, bool, f64)> = if rayon::current_num_threads() <= 1 {
+                // One thread: no hand-over to the pool (same results, no wake-ups).
+                particles.iter_mut().enumerate().map(|(j, p)| work(&mut serial.0, &mut serial.1, j, p)).collect()
+            } else {
+                particles
+                    .par_iter_mut()
+                    .enumerate()
+                    .with_min_len(8)
+                    .map_init(|| (Expander::new(b), Vec::with_capacity(16)), |(ex, out), (j, p)| work(ex, out, j, p))
+                    .collect()
+            };
+            for (e, active, _) in &results {
+                expansions += *e as u64;
+                steps += *active as u64;
+            }
+            generation += 1;
+            if let Some(f) = progress {
+                let best = particles.iter().map(|p| p.cost.total()).fold(f64::INFINITY, f64::min);
+                f(&Progress { generation, generations: opts.generations, best_cost: best });
+            }
+            if generation < opts.generations {
+                let lw: Vec<f64> = results.iter().map(|r| r.2).collect();
+                let w = weights_from_log(&lw);
+                let m = opts.particles_at(generation);
+                let picks = resample(opts.resampling, &w, m, &mut || master.uniform());
+                particles = take_picks(particles, &picks);
+            }
+        }
+        // The model: the final particle with the lowest COST.
+        let final_costs: Vec<f64> = particles.iter().map(|p| p.cost.total()).collect();
+        let chosen = argmin(&final_costs);
+        let model = self.wrap_up(&particles[chosen]);
+        SearchResult {
+            model,
+            final_costs,
+            chosen,
+            generations: generation,
+            particle_steps: steps,
+            expansions,
+            stop,
+            elapsed: started.elapsed(),
+        }
+    }
+
+    /// The forward-sampling baseline: `samples` independent derivations of `steps`
+    /// particle-steps each (no weights, no resampling), each wrapped up; returns the
+    /// one with the lowest COST. Stops early at `budget`. Sample i uses stream i of `seed`.
+    pub fn forward_best(&self, samples: u32, steps: u32, seed: u64, budget: Option<Duration>) -> SearchResult {
+        let started = Instant::now();
+        let b = self.b;
+        let runs: Vec<Option<(Particle, u64, u64)>> = (0..samples)
+            .into_par_iter()
+            .map_init(
+                || (Expander::new(b), Vec::with_capacity(16)),
+                |(ex, out), i| {
+                    if budget.is_some_and(|t| started.elapsed() >= t) {
+                        return None;
+                    }
+                    let mut p = self.initial();
+                    ex.reseed(seed, i as u64);
+                    let (mut n, mut e) = (0u64, 0u64);
+                    for _ in 0..steps {
+                        if p.pending.is_empty() {
+                            break;
+                        }
+                        e += self.step(&mut p, ex, out) as u64;
+                        n += 1;
+                    }
+                    Some((p, n, e))
+                },
+            )
+            .collect();
+        let done: Vec<(Particle, u64, u64)> = runs.into_iter().flatten().collect();
+        let final_costs: Vec<f64> = done.iter().map(|r| r.0.cost.total()).collect();
+        let chosen = argmin(&final_costs);
+        let model = match done.get(chosen) {
+            Some(r) => self.wrap_up(&r.0),
+            None => self.wrap_up(&self.initial()),
+        };
+        SearchResult {
+            model,
+            final_costs,
+            chosen,
+            generations: steps,
+            particle_steps: done.iter().map(|r| r.1).sum(),
+            expansions: done.iter().map(|r| r.2).sum(),
+            stop: if done.len() < samples as usize { Stop::Budget } else { Stop::Generations },
+            elapsed: started.elapsed(),
+        }
+    }
+
+    /// The wrap-up phase: a particle's history and leftover calls as a finished model.
+    fn wrap_up(&self, p: &Particle) -> Model {
+        let mut records = Vec::new();
+        let mut at = p.history.as_deref();
+        while let Some(r) = at {
+            records.push(r);
+            at = r.prev.as_deref();
+        }
+        let mut bones = Vec::new();
+        let mut calls = Vec::new();
+        for r in records.iter().rev() {
+            for it in &r.items {
+                match it {
+                    Item::Bone(b) => bones.push(*b),
+                    Item::Deferred(c) => calls.push(*c),
+                }
+            }
+        }
+        let (mut wrapped, mut dropped) = (0, 0);
+        for q in &p.pending {
+            match self.wrapup.get(q.call.rule as usize) {
+                Some(&to) if to != NONE => {
+                    calls.push(Call { rule: to, ..q.call });
+                    wrapped += 1;
+                }
+                _ => dropped += 1,
+            }
+        }
+        Model { cost: p.cost, bones, calls, wrapped, dropped }
+    }
+
+    /// The geometry phase: evaluates the model's calls without optimisation. With
+    /// `lines`, also adds the guides (namespace `guides`, 24 points per segment) and
+    /// the bones (namespace `bones`, one two-point line each) as line geometry.
+    pub fn geometry(&self, model: &Model, opts: &EvalOptions, lines: bool) -> Output {
+        let mut out = evaluate_calls(self.b, opts, &model.calls);
+        if lines {
+            out.lines.extend(self.line_geometry(model));
+        }
+        out
+    }
+
+    /// The guides and the model's bones as polylines (namespaces `guides` and `bones`).
+    pub fn line_geometry(&self, model: &Model) -> Vec<Polyline> {
+        let f = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32];
+        let mut lines = Vec::new();
+        for i in 0..self.guides.len() {
+            let pts = self.guides.path(i).polyline(24);
+            lines.push(Polyline {
+                namespace: "guides".into(),
+                points: pts.into_iter().map(f).collect(),
+                bones: vec![],
+            });
+        }
+        for bone in &model.bones {
+            lines.push(Polyline { namespace: "bones".into(), points: vec![f(bone.base), f(bone.tip)], bones: vec![] });
+        }
+        lines
+    }
+
+    /// COST of a set of bones computed from scratch, in the given order (for checking
+    /// that the search's incremental sums are right and order-independent).
+    pub fn cost_of(&self, bones: &[Bone]) -> Cost {
+        let mut counts = vec![0u32; self.guides.n_segments()];
+        let mut total = Cost::default();
+        for bone in bones {
+            if let Some(near) = self.guides.nearest(bone.base) {
+                let tip_near = self.guides.nearest(bone.tip);
+                if let Some(c) = self.guides.bone_cost(&near, bone.base, bone.tip, tip_near.as_ref(), &mut counts) {
+                    total += c;
+                }
+            }
+        }
+        total
+    }
+
+    /// Expands the start shape's skeleton completely (up to `max_expansions`), choosing
+    /// the next pending call with `pick(pending count) → index` and drawing every
+    /// expansion's random numbers from a stream of its own (keyed by the call's
+    /// position in the derivation tree), so any order of expansion builds the same
+    /// skeleton. Returns the incrementally summed cost and the bones (for tests of
+    /// order independence).
+    pub fn expand_in_order(
+        &self,
+        seed: u64,
+        max_expansions: u32,
+        pick: &mut dyn FnMut(usize) -> usize,
+    ) -> (Cost, Vec<Bone>) {
+        let mut ex = Expander::new(self.b);
+        let mut p = self.initial();
+        // Each pending call's key: a path in the derivation tree, hashed.
+        let mut keys: Vec<u64> = p.pending.iter().map(|_| 1).collect();
+        let mut out = Vec::new();
+        let mut bones = Vec::new();
+        for _ in 0..max_expansions {
+            if p.pending.is_empty() {
+                break;
+            }
+            let k = pick(p.pending.len()).min(p.pending.len() - 1);
+            let parent = p.pending.remove(k);
+            let key = keys.remove(k);
+            ex.reseed(seed, key);
+            out.clear();
+            ex.expand(&parent.call, &mut out);
+            let base = to_d(parent.call.state.f.u);
+            for (i, c) in out.iter().enumerate() {
+                if !self.is_skeleton(c.rule) {
+                    continue;
+                }
+                let tip = to_d(c.state.f.u);
+                let child = self.pending(*c);
+                if let Some(near) = &parent.near {
+                    if let Some(cost) = self.guides.bone_cost(near, base, tip, child.near.as_ref(), &mut p.counts) {
+                        p.cost += cost;
+                        bones.push(Bone { base, tip, rule: c.rule });
+                    }
+                }
+                p.pending.push(child);
+                keys.push(key.wrapping_mul(0x100_0000_01B3).wrapping_add(i as u64 + 1).rotate_left(17));
+            }
+        }
+        (p.cost, bones)
+    }
+}
+
+/// The first index of the smallest value (NaN counts as +∞).
+fn argmin(v: &[f64]) -> usize {
+    let mut best = 0;
+    for (i, &x) in v.iter().enumerate() {
+        let b = v[best];
+        if x < b || (b.is_nan() && !x.is_nan()) {
+            best = i;
+        }
+    }
+    best
+}
+
+/// The particles at `picks` (ascending indices, repeats allowed): each picked
+/// particle moves into its last copy and is cloned for the others.
+fn take_picks(particles: Vec<Particle>, picks: &[usize]) -> Vec<Particle> {
+    let mut slots: Vec<Option<Particle>> = particles.into_iter().map(Some).collect();
+    let mut out = Vec::with_capacity(picks.len());
+    for (i, &k) in picks.iter().enumerate() {
+        let last_use = picks.get(i + 1) != Some(&k);
+        let p = if last_use { slots.get_mut(k).and_then(|s| s.take()) } else { slots.get(k).and_then(|s| s.clone()) };
+        if let Some(p) = p {
+            out.push(p);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn schedules_ramp_like_the_paper() {
+        let o = SearchOptions {
+            particles: (100, 15),
+            generations: 100,
+            heuristic_scale: 2.0,
+            heuristic_fraction: 0.4,
+            budget: None,
+            resampling: Resampling::Systematic,
+            seed: 0,
+            threads: None,
+        };
+        assert_eq!(o.particles_at(0), 100);
+        assert_eq!(o.particles_at(99), 15);
+        assert_eq!(o.scheduled_steps(), 5750);
+        assert_eq!(o.heuristic_at(0), 2.0);
+        assert!((o.heuristic_at(20) - 1.0).abs() < 1e-12);
+        assert_eq!(o.heuristic_at(40), 0.0);
+        assert_eq!(o.heuristic_at(99), 0.0);
+    }
+
+    #[test]
+    fn argmin_takes_the_first_minimum() {
+        assert_eq!(argmin(&[3.0, 1.0, 1.0, 2.0]), 1);
+        assert_eq!(argmin(&[f64::NAN, 5.0]), 1);
+        assert_eq!(argmin(&[-1.0]), 0);
+    }
+}
