@@ -223,10 +223,15 @@ pub fn render_json(diags: &[Diagnostic], sources: &Sources) -> String {
 pub fn did_you_mean<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
     // One- and two-letter names only match when they differ in case.
     let limit = if name.chars().count() <= 2 { 0 } else { (name.len() / 3).max(1) };
+    let lower = name.to_lowercase();
     candidates
         .into_iter()
         .filter(|c| *c != name)
-        .map(|c| (edit_distance(&name.to_lowercase(), &c.to_lowercase()), c))
+        // The distance is at least the difference in length (ASCII lowercases to the
+        // same length): skip candidates out of reach before computing it. Thousands of
+        // unknown names against thousands of rules made this the cost of a whole check.
+        .filter(|c| !(c.is_ascii() && name.is_ascii()) || c.len().abs_diff(name.len()) <= limit)
+        .map(|c| (edit_distance(&lower, &c.to_lowercase()), c))
         .filter(|(d, _)| *d <= limit)
         .min_by(|a, b| a.0.cmp(&b.0).then(a.1.cmp(b.1)))
         .map(|(_, c)| c)

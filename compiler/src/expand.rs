@@ -352,7 +352,8 @@ impl<'a> Expander<'a> {
                 Pre::Expand { name, args } => {
                     if let Some(tokens) = self.expand_tokens(&name, &args, item.span) {
                         let budget = parse::MAX_NESTING.saturating_sub(self.nest);
-                        let (items, diags) = parse::parse_body_items_within(self.sources, name.span.file, tokens, budget);
+                        let (items, diags) =
+                            parse::parse_body_items_within(self.sources, name.span.file, tokens, budget);
                         self.out.diagnostics.extend(diags);
                         self.depth += 1;
                         let mut expanded = self.body(items);
@@ -578,7 +579,12 @@ impl<'a> Expander<'a> {
 
     /// Adds "in this expansion" labels to diagnostics inside macro bodies.
     fn label_expansions(&mut self) {
-        let expansions = self.out.expansions.clone();
+        // Only the first expansion of each macro body can match (as with `find` over
+        // all of them), so look among those: thousands of expansions of a few macros
+        // made this quadratic (seconds for a 2 KB file).
+        let mut seen = HashSet::new();
+        let expansions: Vec<Expansion> =
+            self.out.expansions.iter().filter(|e| seen.insert(e.body_span)).cloned().collect();
         for d in &mut self.out.diagnostics {
             if let Some(e) = expansions.iter().find(|e| {
                 e.body_span.file == d.span.file && e.body_span.start <= d.span.start && d.span.end <= e.body_span.end

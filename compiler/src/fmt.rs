@@ -384,7 +384,10 @@ impl<'a> Printer<'a> {
         if item.cont {
             // `@import`, `@define`, `@param` and `@presets` take the rest of their line:
             // their continuation goes on the next one.
-            if matches!(&item.kind, BodyKind::Pre(Pre::Import(_) | Pre::Define { .. } | Pre::Param(_) | Pre::Presets(_))) {
+            if matches!(
+                &item.kind,
+                BodyKind::Pre(Pre::Import(_) | Pre::Define { .. } | Pre::Param(_) | Pre::Presets(_))
+            ) {
                 self.out.push('\n');
                 self.pad();
                 self.out.push('\\');

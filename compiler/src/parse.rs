@@ -369,7 +369,10 @@ fn prepass(tokens: Vec<Token>, sources: &Sources, ctx: &Ctx) -> Vec<Token> {
                 .with_label("this conditional is never closed"),
         );
         // (In a macro expansion the last token may come from another file: the macro's.)
-        let end = out.last().filter(|t| t.span.file == open.span.file).map_or(open.span.end, |t| t.span.end.max(open.span.end));
+        let end = out
+            .last()
+            .filter(|t| t.span.file == open.span.file)
+            .map_or(open.span.end, |t| t.span.end.max(open.span.end));
         out.push(Token { kind: Tok::AtEndif, span: Span::new(open.span.file, end, end) });
     }
     out

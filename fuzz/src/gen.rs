@@ -116,7 +116,7 @@ impl Gen<'_> {
             let _ = writeln!(s, "stacksize {}", self.rng.small(1, 1000));
         }
         if self.rng.one_in(4) {
-            let _ = writeln!(s, "randseed {}", self.rng.next() % 1000);
+            let _ = writeln!(s, "randseed {}", self.rng.bits() % 1000);
         }
         if self.rng.one_in(8) {
             let _ =

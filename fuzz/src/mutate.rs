@@ -89,7 +89,7 @@ fn byte_op(rng: &mut Rng, v: &mut Vec<u8>, pool: &[Vec<u8>]) {
         }
         2 if len > 0 => {
             let i = rng.below(len);
-            v[i] = rng.next() as u8;
+            v[i] = rng.bits() as u8;
         }
         3 if len > 0 => {
             // An interesting byte.
@@ -124,7 +124,7 @@ fn byte_op(rng: &mut Rng, v: &mut Vec<u8>, pool: &[Vec<u8>]) {
         }
         8 => {
             let at = rng.below(len + 1);
-            v.insert(at, rng.next() as u8);
+            v.insert(at, rng.bits() as u8);
         }
         9 if len > 0 => v.truncate(rng.below(len)),
         10 => {

@@ -11,7 +11,7 @@ impl Rng {
     }
 
     /// The next 64 random bits.
-    pub fn next(&mut self) -> u64 {
+    pub fn bits(&mut self) -> u64 {
         self.0 ^= self.0 >> 12;
         self.0 ^= self.0 << 25;
         self.0 ^= self.0 >> 27;
@@ -20,7 +20,7 @@ impl Rng {
 
     /// A number in `0..n` (0 when `n` is 0).
     pub fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
+        (self.bits() % n.max(1) as u64) as usize
     }
 
     /// True with probability 1/n.
@@ -42,7 +42,7 @@ impl Rng {
     pub fn small(&mut self, lo: u64, hi: u64) -> u64 {
         let span = hi.saturating_sub(lo).saturating_add(1);
         let span = if self.one_in(2) { (span / 8).max(1) } else { span };
-        lo + self.next() % span
+        lo + self.bits() % span
     }
 }
 

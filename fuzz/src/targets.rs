@@ -353,7 +353,7 @@ fn check_diagnostics(a: &Analysis, salt: u64) {
             "{code} span {s}..{e} is not on character boundaries"
         );
     }
-    if salt % 16 == 0 {
+    if salt.is_multiple_of(16) {
         let _ = mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources);
     }
 }
@@ -408,7 +408,7 @@ fn parse_check(input: &[u8], ext: bool) -> u64 {
     let sig = diag_signature(&a, extra);
     // The editor features on the same analysis, at offsets picked from the input, on
     // one input in eight (they are what the language server runs under its guard).
-    if h % 8 == 0 {
+    if h.is_multiple_of(8) {
         let doc = Document::from_analysis(a);
         let len = doc.text().len() as u32;
         let _ = doc.diagnostics();
@@ -600,7 +600,7 @@ fn vm_run(input: &[u8]) -> u64 {
         assert!(digest(&out) == digest(&again), "two runs of the same bundle differ");
     }
     // The exporters on one input in eight each (formatting floats is the slow part).
-    if h % 8 == 0 {
+    if h.is_multiple_of(8) {
         let format = Format::ALL[((h >> 8) % Format::ALL.len() as u64) as usize];
         let mut bytes = Vec::new();
         let _ = export::write(format, &out, &mut bytes);

@@ -25,7 +25,8 @@ fn hostile_documents_get_diagnostics_and_the_server_keeps_serving() {
     c.open(&u, 1, &deep);
     let d = c.diagnostics(&u, 1);
     assert_eq!(codes(&d), ["E0105"], "{d:?}");
-    assert_eq!(d[0]["message"], "nesting too deep: more than 256 levels");
+    let msg = d[0]["message"].as_str().unwrap_or("");
+    assert!(msg.starts_with("nesting too deep: more than 256 levels\n"), "{msg}");
     // Features on the deep document answer too.
     let toks = c.call("textDocument/semanticTokens/full", json!({"textDocument": {"uri": u}}));
     assert!(toks["data"].is_array(), "{toks}");

@@ -37,6 +37,7 @@ fn opts(seed: u64) -> SearchOptions {
         resampling: mdg_vm::sosmc::Resampling::Systematic,
         seed,
         threads: None,
+        parallel_min: mdg_vm::sosmc::PARALLEL_MIN_PARTICLES,
     }
 }
 
@@ -90,7 +91,8 @@ fn search_is_deterministic_for_any_thread_count() {
     let b = std_tree();
     let t = table(&b);
     let p = Prepared::new(&b, &t, &t.guides).expect("prepared");
-    let run = |threads| p.search(&SearchOptions { threads: Some(threads), ..opts(5) }, None);
+    // Every generation in parallel (parallel_min 1) on 3 threads, against one thread.
+    let run = |threads| p.search(&SearchOptions { threads: Some(threads), parallel_min: 1, ..opts(5) }, None);
     let (one, three) = (run(1), run(3));
     assert_eq!(one.model.cost, three.model.cost);
     assert_eq!(one.model.bones, three.model.bones);

@@ -135,7 +135,8 @@ impl Call {
     }
 }
 
-/// The most calls one [`Expander::expand`] records; a body that makes more is cut there.
+/// The most calls and iterator runs one [`Expander::expand`] performs; a body that
+/// makes more is cut there (so a huge iterator in a skeleton rule cannot stall a search).
 pub const MAX_EXPANSION_CALLS: usize = 1 << 16;
 
 /// Runs one rule call's body *without* descending into the calls it makes: each call
@@ -201,7 +202,7 @@ impl<'b> Expander<'b> {
 
     /// Runs the body of `call` and appends the calls it makes to `out`, in the order
     /// the body makes them. Returns `false` when the body was cut at
-    /// [`MAX_EXPANSION_CALLS`] calls.
+    /// [`MAX_EXPANSION_CALLS`] calls and iterator runs.
     pub fn expand(&mut self, call: &Call, out: &mut Vec<Call>) -> bool {
         let b = self.b;
         let code = &b.code;

@@ -597,3 +597,133 @@ pub fn lower(sections: &[Sec], cx: &LowerCx) -> Option<GuidedTable> {
     }
     Some(t)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::check::CheckOptions;
+    use crate::driver::{analyze_text, Analysis};
+    use crate::source::MemLoader;
+
+    fn analyze(src: &str) -> Analysis {
+        analyze_text(
+            &MemLoader::default(),
+            std::path::Path::new("t.mdg"),
+            src,
+            &crate::expand::Options::default(),
+            CheckOptions { require_start: true },
+        )
+    }
+
+    /// The guided table a program compiles to (no errors allowed), and the bundle.
+    fn table(src: &str) -> (GuidedTable, mdg_vm::bundle::Bundle) {
+        let a = analyze(src);
+        assert!(!a.has_errors(), "{}", crate::diag::render_plain(&a.diagnostics, &a.sources));
+        let b = crate::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).expect("lowers");
+        (b.extensions.guided.clone().expect("a guided table"), b)
+    }
+
+    fn codes(src: &str) -> Vec<&'static str> {
+        analyze(src).diagnostics.iter().map(|d| d.code).collect()
+    }
+
+    const RULES: &str = "minsize 0.1
+rule tree { wood {} tree {z 1 s 0.6} }
+rule wood { VERTEX {} VERTEX {x 0.1} VERTEX {z 1} }
+";
+
+    #[test]
+    fn sections_lower_into_the_table() {
+        let src = format!(
+            "startshape tree
+             search {{ skeleton tree; wrapup tree wood; particles 40 8; generations 12; heuristic 2.5 0.25;
+                       budget none; resample multinomial; expected 10 5; }}
+             guide up {{ points 0 0 0  0 0 1  0 0 2  0 0 3  0 1 4  0 2 5  0 3 6; scale_d 1 2 3; scale_a 0.5;
+                         delta_a -0.25; scale_u 2; segment 0.5; }}
+             guide {{ points 1 0 0  1 0 1  1 0 2  (1 + 2) 0 3; }}
+             {RULES}"
+        );
+        let (t, b) = table(&src);
+        let name = |r: u32| b.string(b.rules[r as usize].name).to_string();
+        assert_eq!(t.skeleton.iter().map(|&r| name(r)).collect::<Vec<_>>(), ["tree"]);
+        assert_eq!(
+            t.wrapups.iter().map(|&(a, c)| (name(a), name(c))).collect::<Vec<_>>(),
+            [("tree".into(), "wood".into())]
+        );
+        let s = &t.settings;
+        assert_eq!((s.particles, s.generations, s.heuristic_scale, s.heuristic_fraction), ((40, 8), 12, 2.5, 0.25));
+        assert_eq!((s.budget_ms, s.resampling, s.expected), (None, Resampling::Multinomial, (10, 5)));
+        assert_eq!(t.guides.len(), 2);
+        let g = &t.guides[0];
+        assert_eq!(g.name, "up");
+        assert_eq!(g.points.len(), 7);
+        assert_eq!(g.points[6], [0.0, 3.0, 6.0]);
+        assert_eq!((g.scale_d, g.scale_a, g.delta_a, g.scale_u, g.segment), ([1.0, 2.0, 3.0], 0.5, -0.25, 2.0, 0.5));
+        // Defaults, and constant expressions as values.
+        let d = &t.guides[1];
+        assert_eq!(d.name, "");
+        assert_eq!(d.points[3], [3.0, 0.0, 3.0]);
+        assert_eq!((d.scale_d, d.delta_a, d.scale_u), (mdg_vm::sosmc::DEFAULT_SCALE_D, 0.6, 1.0));
+        // The bundle verifier accepts it.
+        assert!(t.verify(&b).is_ok());
+    }
+
+    #[test]
+    fn search_settings_default_when_not_given() {
+        let (t, _) = table(&format!("startshape tree\nsearch {{ skeleton tree; }}\n{RULES}"));
+        assert_eq!(t.settings, SearchSettings::default());
+        assert!(t.guides.is_empty(), "guides may come from a file");
+        assert!(t.wrapups.is_empty());
+    }
+
+    #[test]
+    fn checks_report_their_codes() {
+        let guide = "guide g { points 0 0 0  0 0 1  0 0 2  0 0 3; }";
+        let prog =
+            |search: &str, extra: &str| format!("startshape tree\nsearch {{ {search} }}\n{guide}\n{extra}\n{RULES}");
+        assert_eq!(codes(&prog("skeleton tree;", "")), Vec::<&str>::new());
+        assert_eq!(codes(&prog("skeleton tree wood;", "")), ["E0701"], "wood draws");
+        assert_eq!(codes(&prog("skeleton tree; wrapup wood tree;", "")), ["E0702", "E0709"]);
+        assert_eq!(codes(&prog("skeleton tree; heuristic -1;", "")), ["E0707"]);
+        assert_eq!(codes(&prog("skeleton tree; heuristic 1 2;", "")), ["E0707"]);
+        assert_eq!(codes(&prog("skeleton tree; generations 2.5;", "")), ["E0707"]);
+        assert_eq!(codes(&prog("skeleton tree; budget 0;", "")), ["E0707"]);
+        assert_eq!(codes(&prog("skeleton tree; budget soon;", "")), ["E0602"]);
+        assert_eq!(codes(&prog("skeleton tree; resample stratified;", "")), ["E0602"]);
+        assert_eq!(codes(&prog("skeleton tree; particles;", "")), ["E0602"]);
+        assert_eq!(codes(&prog("skeleton tree; partcles 4;", "")), ["E0601"]);
+        assert_eq!(codes(&prog("generations 4;", "")), ["E0712"], "no skeleton rules");
+        assert_eq!(
+            codes(&prog("skeleton tree;", "guide h { points 0 0 0; segment 0; scale_u -1; }")),
+            ["E0703", "E0707", "E0707"]
+        );
+        assert_eq!(codes(&prog("skeleton tree;", "guide h { segment 1; }")), ["E0703"]);
+        assert_eq!(
+            codes(&prog("skeleton tree;", "guide h { points 0 0 0 1 1 1 2 2 2 3 3 3; delta_a -2; }")),
+            ["E0705"]
+        );
+    }
+
+    #[test]
+    fn keys_have_docs_and_rule_refs_name_rules() {
+        for kind in ["search", "guide"] {
+            let ks = keys(&[kind]);
+            assert!(ks.len() >= 6, "{kind}");
+            assert!(ks.iter().all(|k| !k.doc.is_empty() && !k.values.is_empty()));
+        }
+        assert!(keys(&["search", "skeleton"]).is_empty());
+        let a =
+            analyze(&format!("startshape tree\nsearch {{ skeleton tree; wrapup tree wood; generations 3; }}\n{RULES}"));
+        let sec = a
+            .expanded
+            .items
+            .iter()
+            .find_map(|i| match &i.item.kind {
+                crate::ast::ItemKind::Section(s) => Some(s),
+                _ => None,
+            })
+            .expect("the search section");
+        let names: Vec<&str> = rule_refs(sec).iter().map(|n| n.text.as_str()).collect();
+        assert_eq!(names, ["tree", "tree", "wood"]);
+    }
+}

@@ -430,7 +430,7 @@ struct Grid {
     lo: DVec3,
     cell: f64,
     n: [usize; 3],
-    /// Candidate pieces per cell, in (path, piece) order; built on first use.
+    /// Candidate pieces per cell, nearest bound first; built on first use.
     cells: Vec<std::sync::OnceLock<Box<[Cand]>>>,
 }
 
@@ -446,6 +446,8 @@ struct Cand {
     l2: f64,
     eps: f64,
     it: (u32, u32),
+    /// A lower bound of dc + ε anywhere in the cell (candidates are sorted by it).
+    lb: f64,
 }
 
 impl Grid {
@@ -516,27 +518,28 @@ impl PathSet {
         let u = ub + (hi - lo).length() * 0.5;
         // Slack for rounding in the bounds (far below any ε).
         let u = u + 1e-12 * (1.0 + u);
-        let mut out = Vec::new();
+        let mut out: Vec<(f64, (u32, u32))> = Vec::new();
         let mut stack = vec![0u32];
         while let Some(id) = stack.pop() {
             let n = &self.nodes[id as usize];
             let d = (n.lo - hi).max(lo - n.hi).max(DVec3::ZERO).length();
             if n.a == LEAF {
                 let it = self.items[n.b as usize];
-                if d + self.paths[it.0 as usize].eps <= u {
-                    out.push(it);
+                let lb = d + self.paths[it.0 as usize].eps;
+                if lb <= u {
+                    out.push((lb, it));
                 }
             } else if d <= u {
                 stack.push(n.a);
                 stack.push(n.b);
             }
         }
-        out.sort_unstable();
+        out.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
         out.into_iter()
-            .map(|it| {
+            .map(|(lb, it)| {
                 let path = &self.paths[it.0 as usize];
                 let l = &path.leaves[it.1 as usize];
-                Cand { a: l.p[0], ab: l.ab, l2: l.l2, eps: path.eps, it }
+                Cand { a: l.p[0], ab: l.ab, l2: l.l2, eps: path.eps, it, lb }
             })
             .collect()
     }
@@ -664,6 +667,10 @@ impl PathSet {
                 let mut best = None;
                 let mut best_ub = f64::INFINITY;
                 for c in cands.iter() {
+                    // Sorted by lower bound: the rest cannot be nearer, nor tie.
+                    if c.lb > best_ub {
+                        break;
+                    }
                     consider(c.it, chord_projection(p, c.a, c.ab, c.l2), c.eps, &mut best, &mut best_ub);
                 }
                 best
@@ -792,6 +799,9 @@ mod tests {
                 let mut best = None;
                 let mut ub = f64::INFINITY;
                 for c in set.candidates(c).iter() {
+                    if c.lb > ub {
+                        break;
+                    }
                     consider(c.it, chord_projection(p, c.a, c.ab, c.l2), c.eps, &mut best, &mut ub);
                 }
                 best

@@ -20,7 +20,7 @@ pub mod cost;
 pub mod resample;
 pub mod search;
 
-pub use search::{Model, Prepared, Progress, SearchOptions, SearchResult, Stop};
+pub use search::{Model, Prepared, Progress, SearchOptions, SearchResult, Stop, PARALLEL_MIN_PARTICLES};
 
 use crate::bundle::{Bundle, Op, NONE};
 use serde::{Deserialize, Serialize};

@@ -62,7 +62,15 @@ pub struct SearchOptions {
     pub seed: u64,
     /// Worker threads (`None`: rayon's global pool). Results do not depend on it.
     pub threads: Option<usize>,
+    /// Generations with fewer particles than this run on the calling thread (handing
+    /// ~100 particle-steps to the pool cost more than it saved on the 2-core machine
+    /// measured, see docs/guided.md); larger ones run in parallel. Results do not
+    /// depend on it.
+    pub parallel_min: usize,
 }
+
+/// Default [`SearchOptions::parallel_min`].
+pub const PARALLEL_MIN_PARTICLES: usize = 256;
 
 impl SearchOptions {
     /// The options of a `search` section, with `seed`.
@@ -76,6 +84,7 @@ impl SearchOptions {
             resampling: s.resampling,
             seed,
             threads: None,
+            parallel_min: PARALLEL_MIN_PARTICLES,
         }
     }
 
@@ -169,10 +178,33 @@ pub struct Progress {
     pub best_cost: f64,
 }
 
-/// What one particle-step added to a particle, in order: bones and deferred calls.
+/// What one particle-step added to a particle, in order: bones and deferred calls
+/// (the first few inline, so a step allocates one record).
 struct Record {
     prev: Option<Arc<Record>>,
-    items: Vec<Item>,
+    inline: [Option<Item>; RECORD_INLINE],
+    more: Vec<Item>,
+}
+
+/// Items a record holds without a second allocation (a typical step adds a bone, the
+/// wood it defers and perhaps a leaf).
+const RECORD_INLINE: usize = 4;
+
+impl Record {
+    /// A record of `items` (drained; the buffer is kept for the next step).
+    fn new(prev: Option<Arc<Record>>, items: &mut Vec<Item>) -> Record {
+        let mut inline: [Option<Item>; RECORD_INLINE] = Default::default();
+        let mut drain = items.drain(..);
+        for slot in inline.iter_mut() {
+            *slot = drain.next();
+        }
+        let more: Vec<Item> = drain.collect();
+        Record { prev, inline, more }
+    }
+
+    fn items(&self) -> impl Iterator<Item = &Item> {
+        self.inline.iter().flatten().chain(self.more.iter())
+    }
 }
 
 enum Item {
@@ -201,7 +233,6 @@ struct Pending {
     h: f64,
 }
 
-#[derive(Clone)]
 struct Particle {
     history: Option<Arc<Record>>,
     pending: Vec<Pending>,
@@ -209,6 +240,27 @@ struct Particle {
     cost: Cost,
     /// The log-likelihood term it was last weighted with: COST + h·H.
     score: f64,
+}
+
+impl Clone for Particle {
+    fn clone(&self) -> Particle {
+        Particle {
+            history: self.history.clone(),
+            pending: self.pending.clone(),
+            counts: self.counts.clone(),
+            cost: self.cost,
+            score: self.score,
+        }
+    }
+
+    /// Reuses this particle's buffers (no allocation when they are large enough).
+    fn clone_from(&mut self, src: &Particle) {
+        self.history.clone_from(&src.history);
+        self.pending.clone_from(&src.pending);
+        self.counts.clone_from(&src.counts);
+        self.cost = src.cost;
+        self.score = src.score;
+    }
 }
 
 impl Particle {
@@ -325,14 +377,15 @@ impl<'b> Prepared<'b> {
         expected
     }
 
-    fn pending(&self, call: Call) -> Pending {
-        self.pending_at(call, self.guides.nearest(to_d(call.state.f.u)))
+    fn pending(&self, call: Call, with_h: bool) -> Pending {
+        self.pending_at(call, self.guides.nearest(to_d(call.state.f.u)), with_h)
     }
 
-    /// A pending call whose origin's nearest guide is known.
-    fn pending_at(&self, call: Call, near: Option<Near>) -> Pending {
+    /// A pending call whose origin's nearest guide is known; its heuristic term only
+    /// `with_h` (once the heuristic scale is 0 it stays 0, and the terms are unused).
+    fn pending_at(&self, call: Call, near: Option<Near>, with_h: bool) -> Pending {
         let h = match (near, self.expected(call.rule)) {
-            (Some(n), Some(e)) => {
+            (Some(n), Some(e)) if with_h => {
                 let world = to_d(call.state.f.apply_vector(Vec3::new(e.x as f32, e.y as f32, e.z as f32)));
                 self.guides.heuristic(&n, world)
             }
@@ -351,18 +404,26 @@ impl<'b> Prepared<'b> {
             score: 0.0,
         };
         if self.is_skeleton(start.rule) {
-            p.pending.push(self.pending(start));
+            p.pending.push(self.pending(start, true));
         } else {
-            p.history = Some(Arc::new(Record { prev: None, items: vec![Item::Deferred(start)] }));
+            p.history = Some(Arc::new(Record::new(None, &mut vec![Item::Deferred(start)])));
         }
         p
     }
 
     /// One particle-step: expand uniformly chosen pending calls until one adds a bone
-    /// (or none is left). Returns the number of expansions.
-    fn step(&self, p: &mut Particle, ex: &mut Expander, out: &mut Vec<Call>) -> u32 {
+    /// (or none is left). Returns the number of expansions. New pending calls get their
+    /// heuristic terms only `with_h`.
+    fn step(
+        &self,
+        p: &mut Particle,
+        ex: &mut Expander,
+        out: &mut Vec<Call>,
+        items: &mut Vec<Item>,
+        with_h: bool,
+    ) -> u32 {
         let mut expansions = 0;
-        let mut items: Vec<Item> = Vec::new();
+        items.clear();
         let mut added = false;
         while !added && !p.pending.is_empty() && expansions < MAX_EXPANSIONS_PER_STEP {
             let k = ex.index(p.pending.len());
@@ -379,9 +440,9 @@ impl<'b> Prepared<'b> {
                 let tip = to_d(c.state.f.u);
                 let child = if tip == base {
                     // Same origin: same nearest guide, no bone.
-                    self.pending_at(*c, parent.near)
+                    self.pending_at(*c, parent.near, with_h)
                 } else {
-                    let child = self.pending(*c);
+                    let child = self.pending(*c, true);
                     if let Some(near) = &parent.near {
                         if let Some(cost) = self.guides.bone_cost(near, base, tip, child.near.as_ref(), &mut p.counts) {
                             p.cost += cost;
@@ -395,7 +456,7 @@ impl<'b> Prepared<'b> {
             }
         }
         if !items.is_empty() {
-            p.history = Some(Arc::new(Record { prev: p.history.take(), items }));
+            p.history = Some(Arc::new(Record::new(p.history.take(), items)));
         }
         expansions
     }
@@ -403,10 +464,11 @@ impl<'b> Prepared<'b> {
     /// Runs the search.
     pub fn search(&self, opts: &SearchOptions, progress: Option<&(dyn Fn(&Progress) + Sync)>) -> SearchResult {
         match opts.threads {
-            Some(n) => match rayon::ThreadPoolBuilder::new().num_threads(n.max(1)).build() {
+            Some(n) if n > 1 => match rayon::ThreadPoolBuilder::new().num_threads(n).build() {
                 Ok(pool) => pool.install(|| self.search_here(opts, progress)),
                 Err(_) => self.search_here(opts, progress),
             },
+            Some(_) => self.search_here(&SearchOptions { parallel_min: usize::MAX, ..opts.clone() }, progress),
             None => self.search_here(opts, progress),
         }
     }
@@ -423,7 +485,7 @@ impl<'b> Prepared<'b> {
             p.score = p.cost.total() + h0 * p.heuristic();
         }
         let (mut steps, mut expansions) = (0u64, 0u64);
-        let mut serial = (Expander::new(b), Vec::with_capacity(16));
+        let mut serial = (Expander::new(b), Vec::with_capacity(16), Vec::with_capacity(8));
         let mut generation = 0u32;
         let mut stop = Stop::Generations;
         while generation < opts.generations {
@@ -440,24 +502,29 @@ impl<'b> Prepared<'b> {
             let g = generation;
             let h = opts.heuristic_at(g);
             let seed = opts.seed;
-            let work = |ex: &mut Expander, out: &mut Vec<Call>, j: usize, p: &mut Particle| {
+            let work = |ex: &mut Expander, out: &mut Vec<Call>, items: &mut Vec<Item>, j: usize, p: &mut Particle| {
                 let active = !p.pending.is_empty();
                 ex.reseed(seed, ((g as u64) << 32) | j as u64);
-                let e = self.step(p, ex, out);
+                let e = self.step(p, ex, out, items, h > 0.0);
                 let now = p.cost.total() + h * p.heuristic();
                 let lw = -(now - p.score);
                 p.score = now;
                 (e, active, lw)
             };
-            let results: Vec<(u32, bool, f64)> = if rayon::current_num_threads() <= 1 {
-                // One thread: no hand-over to the pool (same results, no wake-ups).
-                particles.iter_mut().enumerate().map(|(j, p)| work(&mut serial.0, &mut serial.1, j, p)).collect()
+            let serial_here = rayon::current_num_threads() <= 1 || particles.len() < opts.parallel_min.max(1);
+            let results: Vec<(u32, bool, f64)> = if serial_here {
+                // One thread, or too little work to hand over to the pool (same results).
+                let (ex, out, items) = &mut serial;
+                particles.iter_mut().enumerate().map(|(j, p)| work(ex, out, items, j, p)).collect()
             } else {
                 particles
                     .par_iter_mut()
                     .enumerate()
                     .with_min_len(8)
-                    .map_init(|| (Expander::new(b), Vec::with_capacity(16)), |(ex, out), (j, p)| work(ex, out, j, p))
+                    .map_init(
+                        || (Expander::new(b), Vec::with_capacity(16), Vec::with_capacity(8)),
+                        |(ex, out, items), (j, p)| work(ex, out, items, j, p),
+                    )
                     .collect()
             };
             for (e, active, _) in &results {
@@ -502,8 +569,8 @@ impl<'b> Prepared<'b> {
         let runs: Vec<Option<(Particle, u64, u64)>> = (0..samples)
             .into_par_iter()
             .map_init(
-                || (Expander::new(b), Vec::with_capacity(16)),
-                |(ex, out), i| {
+                || (Expander::new(b), Vec::with_capacity(16), Vec::with_capacity(8)),
+                |(ex, out, items), i| {
                     if budget.is_some_and(|t| started.elapsed() >= t) {
                         return None;
                     }
@@ -514,7 +581,7 @@ impl<'b> Prepared<'b> {
                         if p.pending.is_empty() {
                             break;
                         }
-                        e += self.step(&mut p, ex, out) as u64;
+                        e += self.step(&mut p, ex, out, items, false) as u64;
                         n += 1;
                     }
                     Some((p, n, e))
@@ -551,7 +618,7 @@ impl<'b> Prepared<'b> {
         let mut bones = Vec::new();
         let mut calls = Vec::new();
         for r in records.iter().rev() {
-            for it in &r.items {
+            for it in r.items() {
                 match it {
                     Item::Bone(b) => bones.push(*b),
                     Item::Deferred(c) => calls.push(*c),
@@ -650,7 +717,7 @@ impl<'b> Prepared<'b> {
                     continue;
                 }
                 let tip = to_d(c.state.f.u);
-                let child = self.pending(*c);
+                let child = self.pending(*c, true);
                 if let Some(near) = &parent.near {
                     if let Some(cost) = self.guides.bone_cost(near, base, tip, child.near.as_ref(), &mut p.counts) {
                         p.cost += cost;
@@ -678,13 +745,39 @@ fn argmin(v: &[f64]) -> usize {
 }
 
 /// The particles at `picks` (ascending indices, repeats allowed): each picked
-/// particle moves into its last copy and is cloned for the others.
+/// particle moves into its last copy; the other copies are cloned into the buffers of
+/// particles that were not picked (so resampling allocates little).
 fn take_picks(particles: Vec<Particle>, picks: &[usize]) -> Vec<Particle> {
-    let mut slots: Vec<Option<Particle>> = particles.into_iter().map(Some).collect();
+    let mut picked = vec![false; particles.len()];
+    for &k in picks {
+        if let Some(p) = picked.get_mut(k) {
+            *p = true;
+        }
+    }
+    let mut slots: Vec<Option<Particle>> = Vec::with_capacity(particles.len());
+    let mut spare: Vec<Particle> = Vec::new();
+    for (p, keep) in particles.into_iter().zip(&picked) {
+        if *keep {
+            slots.push(Some(p));
+        } else {
+            slots.push(None);
+            spare.push(p);
+        }
+    }
     let mut out = Vec::with_capacity(picks.len());
     for (i, &k) in picks.iter().enumerate() {
         let last_use = picks.get(i + 1) != Some(&k);
-        let p = if last_use { slots.get_mut(k).and_then(|s| s.take()) } else { slots.get(k).and_then(|s| s.clone()) };
+        let p = if last_use {
+            slots.get_mut(k).and_then(|s| s.take())
+        } else {
+            slots.get(k).and_then(|s| s.as_ref()).map(|src| match spare.pop() {
+                Some(mut buf) => {
+                    buf.clone_from(src);
+                    buf
+                }
+                None => src.clone(),
+            })
+        };
         if let Some(p) = p {
             out.push(p);
         }
@@ -707,6 +800,7 @@ mod tests {
             resampling: Resampling::Systematic,
             seed: 0,
             threads: None,
+            parallel_min: PARALLEL_MIN_PARTICLES,
         };
         assert_eq!(o.particles_at(0), 100);
         assert_eq!(o.particles_at(99), 15);
