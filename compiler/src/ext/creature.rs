@@ -28,6 +28,9 @@ use mdg_vm::creature::table::{
 };
 use mdg_vm::expr::{BINOPS, FUNCTIONS};
 
+/// The largest coordinate, normal component or size a creature part may give.
+pub const MAX_COORDINATE: f64 = 1e6;
+
 const SECTION_KEYS: &[Key] = &[
     Key {
         name: "part",
@@ -526,11 +529,27 @@ impl<'a> Builder<'a, '_> {
 
     fn vec3(&mut self, e: &Entry) -> Option<[f32; 3]> {
         let v = self.nums(e, 3, "three numbers X Y Z")?;
+        self.within_range(e, &v)?;
         Some([v[0] as f32, v[1] as f32, v[2] as f32])
+    }
+
+    /// E0815 unless every value is within ±[`MAX_COORDINATE`] (beyond it, f32
+    /// geometry loses the precision normals and slots need, or overflows).
+    fn within_range(&mut self, e: &Entry, v: &[f64]) -> Option<()> {
+        if let Some(i) = v.iter().position(|x| x.abs() > MAX_COORDINATE) {
+            let span = e.values.get(i).map(|v| v.span()).unwrap_or(e.span);
+            self.push(
+                err("E0815", span, format!("`{}` values must be within ±{MAX_COORDINATE}", e.key.text))
+                    .with_label(format!("{} is out of range", v[i])),
+            );
+            return None;
+        }
+        Some(())
     }
 
     fn positive(&mut self, e: &Entry) -> Option<f32> {
         let v = self.nums(e, 1, "one number")?[0];
+        self.within_range(e, &[v])?;
         if v <= 0.0 {
             let span = e.values.first().map(|v| v.span()).unwrap_or(e.span);
             self.push(
