@@ -207,24 +207,7 @@ mod tests {
         let spirv = vec![SPIRV_MAGIC, 0x0001_0000, 0, 1, 0, 0x0002_0011];
         Bundle {
             strings: vec!["A".into(), "vs".into(), "fs".into(), "src".into(), "glow".into(), "".into()],
-            settings: Settings {
-                startshape: 0,
-                maxdepth: 0,
-                minsize: 0.0,
-                maxiter: 0,
-                stacksize: 0,
-                randseed: 0,
-                normal: [0.0, 0.0, 1.0],
-                background: [0.0, 0.0, 0.0, 1.0],
-                fps: 30.0,
-                duration: 10.0,
-                camerafov: 40.0,
-                near: 0.1,
-                far: 1000.0,
-                linerule: NONE,
-                camerarule: NONE,
-                namespaces: vec![5],
-            },
+            settings: Settings { background: [0.0, 0.0, 0.0, 1.0], namespaces: vec![5], ..Bundle::empty().settings },
             transforms: vec![Transform::Const(Composite::IDENTITY)],
             exprs: vec![],
             rules: vec![Rule {
