@@ -19,6 +19,7 @@ pub mod bezier;
 pub mod cost;
 pub mod resample;
 pub mod search;
+pub mod team;
 
 pub use search::{Model, Prepared, Progress, SearchOptions, SearchResult, Stop, PARALLEL_MIN_PARTICLES};
 

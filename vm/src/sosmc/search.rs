@@ -25,17 +25,20 @@
 //!
 //! Determinism: particle j of generation g draws from its own PCG-64 stream (seed, g,
 //! j), and resampling from one stream of its own, so results do not depend on the
-//! number of threads (rayon) or their scheduling.
+//! number of threads or their scheduling. The particle-steps of a generation are split
+//! among a [`Team`] of threads that stays awake for the whole search (`threads`, or
+//! rayon's thread count); the weights and resampling run on the calling thread.
 
 use super::cost::{Cost, Guides, Near};
 use super::resample::{resample, weights_from_log};
+use super::team::Team;
 use super::{Guide, GuidedTable, Resampling, SearchSettings};
 use crate::bundle::{Bundle, NONE};
 use crate::eval::{evaluate_calls, Call, EvalOptions, Expander};
 use crate::output::{Output, Polyline};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, MutexGuard, RwLock, RwLockReadGuard, RwLockWriteGuard};
 use std::time::{Duration, Instant};
 
 /// Most expansions in one particle-step (a grammar whose skeleton calls never move
@@ -62,15 +65,14 @@ pub struct SearchOptions {
     pub seed: u64,
     /// Worker threads (`None`: rayon's global pool). Results do not depend on it.
     pub threads: Option<usize>,
-    /// Generations with fewer particles than this run on the calling thread (handing
-    /// ~100 particle-steps to the pool cost more than it saved on the 2-core machine
-    /// measured, see docs/guided.md); larger ones run in parallel. Results do not
-    /// depend on it.
+    /// Generations with fewer particles than this run on the calling thread alone;
+    /// larger ones are split among the threads (see [`super::team`] and
+    /// docs/guided.md). Results do not depend on it.
     pub parallel_min: usize,
 }
 
 /// Default [`SearchOptions::parallel_min`].
-pub const PARALLEL_MIN_PARTICLES: usize = 256;
+pub const PARALLEL_MIN_PARTICLES: usize = 32;
 
 impl SearchOptions {
     /// The options of a `search` section, with `seed`.
@@ -269,6 +271,46 @@ impl Particle {
     }
 }
 
+/// What one team member works with: its chunk of the generation being stepped, their
+/// results (expansions, whether the particle was active, log weight), and its
+/// expander and scratch buffers (kept from one generation to the next).
+struct Slot<'b> {
+    parts: Vec<Particle>,
+    results: Vec<(u32, bool, f64)>,
+    ex: Expander<'b>,
+    out: Vec<Call>,
+    items: Vec<Item>,
+}
+
+/// The generation a round steps: generation g with heuristic scale h, member t's
+/// chunk starting at particle `t · chunk`.
+#[derive(Clone, Copy)]
+struct Job {
+    g: u32,
+    h: f64,
+    seed: u64,
+    chunk: usize,
+}
+
+/// The state a search's team shares: the generation being stepped (g and its
+/// heuristic scale h, set by the lead between rounds) and one slot per member.
+struct Shared<'b> {
+    job: RwLock<Job>,
+    cur: Vec<Mutex<Slot<'b>>>,
+}
+
+fn read<T>(l: &RwLock<T>) -> RwLockReadGuard<'_, T> {
+    l.read().unwrap_or_else(|e| e.into_inner())
+}
+
+fn write<T>(l: &RwLock<T>) -> RwLockWriteGuard<'_, T> {
+    l.write().unwrap_or_else(|e| e.into_inner())
+}
+
+fn lock<T>(l: &Mutex<T>) -> MutexGuard<'_, T> {
+    l.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 /// A bundle and guides prepared for searching: skeleton and wrap-up tables, the
 /// guides' curves, and the EXPECTED vectors (estimated once, by forward sampling).
 pub struct Prepared<'b> {
@@ -463,20 +505,56 @@ impl<'b> Prepared<'b> {
 
     /// Runs the search.
     pub fn search(&self, opts: &SearchOptions, progress: Option<&(dyn Fn(&Progress) + Sync)>) -> SearchResult {
-        match opts.threads {
-            Some(n) if n > 1 => match rayon::ThreadPoolBuilder::new().num_threads(n).build() {
-                Ok(pool) => pool.install(|| self.search_here(opts, progress)),
-                Err(_) => self.search_here(opts, progress),
-            },
-            Some(_) => self.search_here(&SearchOptions { parallel_min: usize::MAX, ..opts.clone() }, progress),
-            None => self.search_here(opts, progress),
-        }
+        let threads = opts.threads.unwrap_or_else(rayon::current_num_threads).max(1);
+        let largest = opts.particles.0.max(opts.particles.1) as usize;
+        let members = if threads > 1 && largest >= opts.parallel_min.max(1) { threads } else { 1 };
+        let b = self.b;
+        let sh = Shared {
+            job: RwLock::new(Job { g: 0, h: 0.0, seed: opts.seed, chunk: 0 }),
+            cur: (0..members)
+                .map(|_| {
+                    Mutex::new(Slot {
+                        parts: Vec::new(),
+                        results: Vec::new(),
+                        ex: Expander::new(b),
+                        out: Vec::with_capacity(16),
+                        items: Vec::with_capacity(8),
+                    })
+                })
+                .collect(),
+        };
+        let member = |t: usize| self.member(&sh, t);
+        Team::run(members, &member, |team| self.lead(team, &sh, opts, progress))
     }
 
-    fn search_here(&self, opts: &SearchOptions, progress: Option<&(dyn Fn(&Progress) + Sync)>) -> SearchResult {
+    /// Member `t`'s part of a generation: one particle-step of each particle of its
+    /// chunk, which starts at index `t · chunk` of the generation.
+    fn member(&self, sh: &Shared<'b>, t: usize) {
+        let Job { g, h, seed, chunk } = *read(&sh.job);
+        let mut slot = lock(&sh.cur[t]);
+        let Slot { parts, results, ex, out, items } = &mut *slot;
+        results.clear();
+        for (i, p) in parts.iter_mut().enumerate() {
+            let j = t * chunk + i;
+            let active = !p.pending.is_empty();
+            ex.reseed(seed, ((g as u64) << 32) | j as u64);
+            let e = self.step(p, ex, out, items, h > 0.0);
+            let now = p.cost.total() + h * p.heuristic();
+            let lw = -(now - p.score);
+            p.score = now;
+            results.push((e, active, lw));
+        }
+    }
+    /// The generations: each stepped by the team, weighted and resampled here.
+    fn lead(
+        &self,
+        team: &Team,
+        sh: &Shared<'b>,
+        opts: &SearchOptions,
+        progress: Option<&(dyn Fn(&Progress) + Sync)>,
+    ) -> SearchResult {
         let started = Instant::now();
-        let b = self.b;
-        let mut master = Expander::new(b);
+        let mut master = Expander::new(self.b);
         master.reseed(opts.seed, RESAMPLE_STREAM);
         let first = self.initial();
         let mut particles: Vec<Particle> = vec![first; opts.particles_at(0)];
@@ -485,9 +563,9 @@ impl<'b> Prepared<'b> {
             p.score = p.cost.total() + h0 * p.heuristic();
         }
         let (mut steps, mut expansions) = (0u64, 0u64);
-        let mut serial = (Expander::new(b), Vec::with_capacity(16), Vec::with_capacity(8));
         let mut generation = 0u32;
         let mut stop = Stop::Generations;
+        let mut results: Vec<(u32, bool, f64)> = Vec::new();
         while generation < opts.generations {
             if particles.iter().all(|p| p.pending.is_empty()) {
                 stop = Stop::Complete;
@@ -500,33 +578,30 @@ impl<'b> Prepared<'b> {
                 }
             }
             let g = generation;
-            let h = opts.heuristic_at(g);
-            let seed = opts.seed;
-            let work = |ex: &mut Expander, out: &mut Vec<Call>, items: &mut Vec<Item>, j: usize, p: &mut Particle| {
-                let active = !p.pending.is_empty();
-                ex.reseed(seed, ((g as u64) << 32) | j as u64);
-                let e = self.step(p, ex, out, items, h > 0.0);
-                let now = p.cost.total() + h * p.heuristic();
-                let lw = -(now - p.score);
-                p.score = now;
-                (e, active, lw)
-            };
-            let serial_here = rayon::current_num_threads() <= 1 || particles.len() < opts.parallel_min.max(1);
-            let results: Vec<(u32, bool, f64)> = if serial_here {
-                // One thread, or too little work to hand over to the pool (same results).
-                let (ex, out, items) = &mut serial;
-                particles.iter_mut().enumerate().map(|(j, p)| work(ex, out, items, j, p)).collect()
+            let n = particles.len();
+            // Small generations stay on this thread (handing them over costs more
+            // than it saves); the others are split into one chunk per member.
+            let chunk = if n >= opts.parallel_min.max(1) { n.div_ceil(team.members()) } else { n }.max(1);
+            *write(&sh.job) = Job { g, h: opts.heuristic_at(g), seed: opts.seed, chunk };
+            // Hand the particles to the members (moves, not copies), step, take them back.
+            let mut all = particles.drain(..);
+            for cur in &sh.cur {
+                let mut slot = lock(cur);
+                slot.results.clear();
+                slot.parts.extend(all.by_ref().take(chunk));
+            }
+            drop(all);
+            if chunk >= n {
+                self.member(sh, 0);
             } else {
-                particles
-                    .par_iter_mut()
-                    .enumerate()
-                    .with_min_len(8)
-                    .map_init(
-                        || (Expander::new(b), Vec::with_capacity(16), Vec::with_capacity(8)),
-                        |(ex, out, items), (j, p)| work(ex, out, items, j, p),
-                    )
-                    .collect()
-            };
+                team.round();
+            }
+            results.clear();
+            for cur in &sh.cur {
+                let mut slot = lock(cur);
+                results.extend_from_slice(&slot.results);
+                particles.extend(slot.parts.drain(..));
+            }
             for (e, active, _) in &results {
                 expansions += *e as u64;
                 steps += *active as u64;
