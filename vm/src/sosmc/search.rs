@@ -7,7 +7,10 @@
 //! newest record of its history. History records are shared: a record holds what one
 //! expansion added (its bones and the calls it deferred to the geometry phase) and a
 //! pointer to the record before it, so copying a particle is copying its pending list
-//! and counts, and growing it adds one record (copy-and-add, paper §4.1).
+//! and counts, and growing it adds one record (copy-and-add, paper §4.1). The pending
+//! calls themselves are stored once per search (in segments, one per thread and
+//! generation, compacted when mostly unreferenced); a particle's pending list holds
+//! 16-byte references with the calls' heuristic terms.
 //!
 //! One *particle-step* expands pending skeleton calls, each chosen uniformly at random
 //! among the pending ones, until one of them added a bone (calls that only pass the
@@ -46,6 +49,11 @@ use std::time::{Duration, Instant};
 pub const MAX_EXPANSIONS_PER_STEP: u32 = 256;
 /// The seed of the EXPECTED estimate: a property of the grammar, not of `--seed`.
 const EXPECTED_SEED: u64 = 0x5EED_E4EC_7ED0_0001;
+/// A forward sample: the particle, the store segment of its pending calls, its
+/// particle-steps and expansions.
+type Sample = (Particle, Vec<Pending>, u64, u64);
+/// Pending calls stored beyond twice those referenced before the store is compacted.
+const COMPACT_SLACK: usize = 4096;
 /// Stream of the resampling draws.
 const RESAMPLE_STREAM: u64 = u64::MAX;
 
@@ -227,17 +235,70 @@ impl Drop for Record {
     }
 }
 
+/// A pending call: the call and the guide nearest to its origin. Stored once in the
+/// search's [`Store`]; particles hold [`PRef`]s to it, so copying a particle copies 16
+/// bytes per pending call instead of the call's whole state.
 #[derive(Clone, Copy, Debug)]
 struct Pending {
     call: Call,
     near: Option<Near>,
-    /// The heuristic term (unscaled) of this call.
+}
+
+/// A particle's reference to a pending call: where the call is stored (segment in the
+/// high 32 bits, index in the low ones) and its heuristic term (unscaled).
+#[derive(Clone, Copy, Debug)]
+struct PRef {
+    at: u64,
     h: f64,
+}
+
+/// Where a thread reads and writes pending calls during a round: the frozen segments
+/// (shared, read-only) and its own segment (`id`), which it appends to.
+struct Store<'a> {
+    frozen: &'a [Vec<Pending>],
+    id: u32,
+    local: &'a mut Vec<Pending>,
+}
+
+impl Store<'_> {
+    fn get(&self, at: u64) -> &Pending {
+        let (seg, i) = ((at >> 32) as u32, at as u32 as usize);
+        if seg == self.id {
+            &self.local[i]
+        } else {
+            &self.frozen[seg as usize][i]
+        }
+    }
+
+    fn add(&mut self, p: Pending, h: f64) -> PRef {
+        self.local.push(p);
+        PRef { at: ((self.id as u64) << 32) | (self.local.len() - 1) as u64, h }
+    }
+}
+
+/// Rewrites the particles' references into one new segment holding only the calls they
+/// still refer to (each once), and returns it: the frozen segments grow by every call a
+/// step makes, most of which resampling leaves unreferenced.
+fn compact(frozen: &[Vec<Pending>], particles: &mut [Particle]) -> Vec<Pending> {
+    let mut map: Vec<Vec<u32>> = frozen.iter().map(|s| vec![u32::MAX; s.len()]).collect();
+    let mut seg = Vec::new();
+    for p in particles {
+        for r in &mut p.pending {
+            let (s, i) = ((r.at >> 32) as usize, r.at as u32 as usize);
+            let m = &mut map[s][i];
+            if *m == u32::MAX {
+                *m = seg.len() as u32;
+                seg.push(frozen[s][i]);
+            }
+            r.at = *m as u64;
+        }
+    }
+    seg
 }
 
 struct Particle {
     history: Option<Arc<Record>>,
-    pending: Vec<Pending>,
+    pending: Vec<PRef>,
     counts: Vec<u32>,
     cost: Cost,
     /// The log-likelihood term it was last weighted with: COST + h·H.
@@ -276,6 +337,9 @@ impl Particle {
 /// expander and scratch buffers (kept from one generation to the next).
 struct Slot<'b> {
     parts: Vec<Particle>,
+    /// The pending calls this member's steps made in this round (segment `job.first
+    /// + t` once frozen).
+    local: Vec<Pending>,
     results: Vec<(u32, bool, f64)>,
     ex: Expander<'b>,
     out: Vec<Call>,
@@ -290,12 +354,16 @@ struct Job {
     h: f64,
     seed: u64,
     chunk: usize,
+    /// The segment id of member 0's new pending calls (member t's is `first + t`).
+    first: u32,
 }
 
 /// The state a search's team shares: the generation being stepped (g and its
 /// heuristic scale h, set by the lead between rounds) and one slot per member.
 struct Shared<'b> {
     job: RwLock<Job>,
+    /// The pending calls of earlier rounds, by segment.
+    frozen: RwLock<Vec<Vec<Pending>>>,
     cur: Vec<Mutex<Slot<'b>>>,
 }
 
@@ -419,13 +487,13 @@ impl<'b> Prepared<'b> {
         expected
     }
 
-    fn pending(&self, call: Call, with_h: bool) -> Pending {
+    fn pending(&self, call: Call, with_h: bool) -> (Pending, f64) {
         self.pending_at(call, self.guides.nearest(to_d(call.state.f.u)), with_h)
     }
 
     /// A pending call whose origin's nearest guide is known; its heuristic term only
     /// `with_h` (once the heuristic scale is 0 it stays 0, and the terms are unused).
-    fn pending_at(&self, call: Call, near: Option<Near>, with_h: bool) -> Pending {
+    fn pending_at(&self, call: Call, near: Option<Near>, with_h: bool) -> (Pending, f64) {
         let h = match (near, self.expected(call.rule)) {
             (Some(n), Some(e)) if with_h => {
                 let world = to_d(call.state.f.apply_vector(Vec3::new(e.x as f32, e.y as f32, e.z as f32)));
@@ -433,10 +501,10 @@ impl<'b> Prepared<'b> {
             }
             _ => 0.0,
         };
-        Pending { call, near, h }
+        (Pending { call, near }, h)
     }
 
-    fn initial(&self) -> Particle {
+    fn initial(&self, store: &mut Store) -> Particle {
         let start = Call::start(self.b);
         let mut p = Particle {
             history: None,
@@ -446,7 +514,8 @@ impl<'b> Prepared<'b> {
             score: 0.0,
         };
         if self.is_skeleton(start.rule) {
-            p.pending.push(self.pending(start, true));
+            let (q, h) = self.pending(start, true);
+            p.pending.push(store.add(q, h));
         } else {
             p.history = Some(Arc::new(Record::new(None, &mut vec![Item::Deferred(start)])));
         }
@@ -459,6 +528,7 @@ impl<'b> Prepared<'b> {
     fn step(
         &self,
         p: &mut Particle,
+        store: &mut Store,
         ex: &mut Expander,
         out: &mut Vec<Call>,
         items: &mut Vec<Item>,
@@ -469,7 +539,7 @@ impl<'b> Prepared<'b> {
         let mut added = false;
         while !added && !p.pending.is_empty() && expansions < MAX_EXPANSIONS_PER_STEP {
             let k = ex.index(p.pending.len());
-            let parent = p.pending.swap_remove(k);
+            let parent = *store.get(p.pending.swap_remove(k).at);
             out.clear();
             ex.expand(&parent.call, out);
             expansions += 1;
@@ -480,11 +550,11 @@ impl<'b> Prepared<'b> {
                     continue;
                 }
                 let tip = to_d(c.state.f.u);
-                let child = if tip == base {
+                let (child, h) = if tip == base {
                     // Same origin: same nearest guide, no bone.
                     self.pending_at(*c, parent.near, with_h)
                 } else {
-                    let child = self.pending(*c, true);
+                    let (child, h) = self.pending(*c, true);
                     if let Some(near) = &parent.near {
                         if let Some(cost) = self.guides.bone_cost(near, base, tip, child.near.as_ref(), &mut p.counts) {
                             p.cost += cost;
@@ -492,9 +562,9 @@ impl<'b> Prepared<'b> {
                             added = true;
                         }
                     }
-                    child
+                    (child, h)
                 };
-                p.pending.push(child);
+                p.pending.push(store.add(child, h));
             }
         }
         if !items.is_empty() {
@@ -510,11 +580,13 @@ impl<'b> Prepared<'b> {
         let members = if threads > 1 && largest >= opts.parallel_min.max(1) { threads } else { 1 };
         let b = self.b;
         let sh = Shared {
-            job: RwLock::new(Job { g: 0, h: 0.0, seed: opts.seed, chunk: 0 }),
+            job: RwLock::new(Job { g: 0, h: 0.0, seed: opts.seed, chunk: 0, first: 0 }),
+            frozen: RwLock::new(Vec::new()),
             cur: (0..members)
                 .map(|_| {
                     Mutex::new(Slot {
                         parts: Vec::new(),
+                        local: Vec::new(),
                         results: Vec::new(),
                         ex: Expander::new(b),
                         out: Vec::with_capacity(16),
@@ -530,15 +602,17 @@ impl<'b> Prepared<'b> {
     /// Member `t`'s part of a generation: one particle-step of each particle of its
     /// chunk, which starts at index `t · chunk` of the generation.
     fn member(&self, sh: &Shared<'b>, t: usize) {
-        let Job { g, h, seed, chunk } = *read(&sh.job);
+        let Job { g, h, seed, chunk, first } = *read(&sh.job);
+        let frozen = read(&sh.frozen);
         let mut slot = lock(&sh.cur[t]);
-        let Slot { parts, results, ex, out, items } = &mut *slot;
+        let Slot { parts, local, results, ex, out, items } = &mut *slot;
+        let mut store = Store { frozen: &frozen, id: first + t as u32, local };
         results.clear();
         for (i, p) in parts.iter_mut().enumerate() {
             let j = t * chunk + i;
             let active = !p.pending.is_empty();
             ex.reseed(seed, ((g as u64) << 32) | j as u64);
-            let e = self.step(p, ex, out, items, h > 0.0);
+            let e = self.step(p, &mut store, ex, out, items, h > 0.0);
             let now = p.cost.total() + h * p.heuristic();
             let lw = -(now - p.score);
             p.score = now;
@@ -556,7 +630,9 @@ impl<'b> Prepared<'b> {
         let started = Instant::now();
         let mut master = Expander::new(self.b);
         master.reseed(opts.seed, RESAMPLE_STREAM);
-        let first = self.initial();
+        let mut seg0 = Vec::new();
+        let first = self.initial(&mut Store { frozen: &[], id: 0, local: &mut seg0 });
+        write(&sh.frozen).push(seg0);
         let mut particles: Vec<Particle> = vec![first; opts.particles_at(0)];
         let h0 = opts.heuristic_at(0);
         for p in &mut particles {
@@ -582,7 +658,8 @@ impl<'b> Prepared<'b> {
             // Small generations stay on this thread (handing them over costs more
             // than it saves); the others are split into one chunk per member.
             let chunk = if n >= opts.parallel_min.max(1) { n.div_ceil(team.members()) } else { n }.max(1);
-            *write(&sh.job) = Job { g, h: opts.heuristic_at(g), seed: opts.seed, chunk };
+            let first = read(&sh.frozen).len() as u32;
+            *write(&sh.job) = Job { g, h: opts.heuristic_at(g), seed: opts.seed, chunk, first };
             // Hand the particles to the members (moves, not copies), step, take them back.
             let mut all = particles.drain(..);
             for cur in &sh.cur {
@@ -597,11 +674,17 @@ impl<'b> Prepared<'b> {
                 team.round();
             }
             results.clear();
+            let mut frozen = write(&sh.frozen);
             for cur in &sh.cur {
                 let mut slot = lock(cur);
                 results.extend_from_slice(&slot.results);
-                particles.extend(slot.parts.drain(..));
+                particles.append(&mut slot.parts);
+                // Member t's new calls become segment `first + t` (empty if it did not run).
+                // (The next round's buffer starts at this one's size: no regrowing.)
+                let size = slot.local.len();
+                frozen.push(std::mem::replace(&mut slot.local, Vec::with_capacity(size + size / 4)));
             }
+            drop(frozen);
             for (e, active, _) in &results {
                 expansions += *e as u64;
                 steps += *active as u64;
@@ -618,11 +701,20 @@ impl<'b> Prepared<'b> {
                 let picks = resample(opts.resampling, &w, m, &mut || master.uniform());
                 particles = take_picks(particles, &picks);
             }
+            // Keep the stored calls within a small multiple of those still referenced.
+            let mut frozen = write(&sh.frozen);
+            let stored: usize = frozen.iter().map(Vec::len).sum();
+            let live: usize = particles.iter().map(|p| p.pending.len()).sum();
+            if stored > 2 * live + COMPACT_SLACK {
+                let seg = compact(&frozen, &mut particles);
+                *frozen = vec![seg];
+            }
         }
         // The model: the final particle with the lowest COST.
         let final_costs: Vec<f64> = particles.iter().map(|p| p.cost.total()).collect();
         let chosen = argmin(&final_costs);
-        let model = self.wrap_up(&particles[chosen]);
+        let frozen = read(&sh.frozen);
+        let model = self.wrap_up(&particles[chosen], &Store { frozen: &frozen, id: u32::MAX, local: &mut Vec::new() });
         SearchResult {
             model,
             final_costs,
@@ -641,7 +733,7 @@ impl<'b> Prepared<'b> {
     pub fn forward_best(&self, samples: u32, steps: u32, seed: u64, budget: Option<Duration>) -> SearchResult {
         let started = Instant::now();
         let b = self.b;
-        let runs: Vec<Option<(Particle, u64, u64)>> = (0..samples)
+        let runs: Vec<Option<Sample>> = (0..samples)
             .into_par_iter()
             .map_init(
                 || (Expander::new(b), Vec::with_capacity(16), Vec::with_capacity(8)),
@@ -649,41 +741,48 @@ impl<'b> Prepared<'b> {
                     if budget.is_some_and(|t| started.elapsed() >= t) {
                         return None;
                     }
-                    let mut p = self.initial();
+                    let mut local = Vec::new();
+                    let mut store = Store { frozen: &[], id: 0, local: &mut local };
+                    let mut p = self.initial(&mut store);
                     ex.reseed(seed, i as u64);
                     let (mut n, mut e) = (0u64, 0u64);
                     for _ in 0..steps {
                         if p.pending.is_empty() {
                             break;
                         }
-                        e += self.step(&mut p, ex, out, items, false) as u64;
+                        e += self.step(&mut p, &mut store, ex, out, items, false) as u64;
                         n += 1;
                     }
-                    Some((p, n, e))
+                    Some((p, local, n, e))
                 },
             )
             .collect();
-        let done: Vec<(Particle, u64, u64)> = runs.into_iter().flatten().collect();
+        let mut done: Vec<Sample> = runs.into_iter().flatten().collect();
         let final_costs: Vec<f64> = done.iter().map(|r| r.0.cost.total()).collect();
         let chosen = argmin(&final_costs);
-        let model = match done.get(chosen) {
-            Some(r) => self.wrap_up(&r.0),
-            None => self.wrap_up(&self.initial()),
+        let mut local = Vec::new();
+        let model = match done.get_mut(chosen) {
+            Some((p, seg, _, _)) => self.wrap_up(p, &Store { frozen: &[], id: 0, local: seg }),
+            None => {
+                let mut store = Store { frozen: &[], id: 0, local: &mut local };
+                let p = self.initial(&mut store);
+                self.wrap_up(&p, &store)
+            }
         };
         SearchResult {
             model,
             final_costs,
             chosen,
             generations: steps,
-            particle_steps: done.iter().map(|r| r.1).sum(),
-            expansions: done.iter().map(|r| r.2).sum(),
+            particle_steps: done.iter().map(|r| r.2).sum(),
+            expansions: done.iter().map(|r| r.3).sum(),
             stop: if done.len() < samples as usize { Stop::Budget } else { Stop::Generations },
             elapsed: started.elapsed(),
         }
     }
 
     /// The wrap-up phase: a particle's history and leftover calls as a finished model.
-    fn wrap_up(&self, p: &Particle) -> Model {
+    fn wrap_up(&self, p: &Particle, store: &Store) -> Model {
         let mut records = Vec::new();
         let mut at = p.history.as_deref();
         while let Some(r) = at {
@@ -701,7 +800,8 @@ impl<'b> Prepared<'b> {
             }
         }
         let (mut wrapped, mut dropped) = (0, 0);
-        for q in &p.pending {
+        for r in &p.pending {
+            let q = store.get(r.at);
             match self.wrapup.get(q.call.rule as usize) {
                 Some(&to) if to != NONE => {
                     calls.push(Call { rule: to, ..q.call });
@@ -771,7 +871,9 @@ impl<'b> Prepared<'b> {
         pick: &mut dyn FnMut(usize) -> usize,
     ) -> (Cost, Vec<Bone>) {
         let mut ex = Expander::new(self.b);
-        let mut p = self.initial();
+        let mut local = Vec::new();
+        let mut store = Store { frozen: &[], id: 0, local: &mut local };
+        let mut p = self.initial(&mut store);
         // Each pending call's key: a path in the derivation tree, hashed.
         let mut keys: Vec<u64> = p.pending.iter().map(|_| 1).collect();
         let mut out = Vec::new();
@@ -781,7 +883,7 @@ impl<'b> Prepared<'b> {
                 break;
             }
             let k = pick(p.pending.len()).min(p.pending.len() - 1);
-            let parent = p.pending.remove(k);
+            let parent = *store.get(p.pending.remove(k).at);
             let key = keys.remove(k);
             ex.reseed(seed, key);
             out.clear();
@@ -792,14 +894,14 @@ impl<'b> Prepared<'b> {
                     continue;
                 }
                 let tip = to_d(c.state.f.u);
-                let child = self.pending(*c, true);
+                let (child, h) = self.pending(*c, true);
                 if let Some(near) = &parent.near {
                     if let Some(cost) = self.guides.bone_cost(near, base, tip, child.near.as_ref(), &mut p.counts) {
                         p.cost += cost;
                         bones.push(Bone { base, tip, rule: c.rule });
                     }
                 }
-                p.pending.push(child);
+                p.pending.push(store.add(child, h));
                 keys.push(key.wrapping_mul(0x100_0000_01B3).wrapping_add(i as u64 + 1).rotate_left(17));
             }
         }
@@ -884,6 +986,41 @@ mod tests {
         assert!((o.heuristic_at(20) - 1.0).abs() < 1e-12);
         assert_eq!(o.heuristic_at(40), 0.0);
         assert_eq!(o.heuristic_at(99), 0.0);
+    }
+
+    #[test]
+    fn compaction_keeps_each_referenced_call_once_and_rewrites_the_references() {
+        use crate::eval::State;
+        use crate::geom::quat::Frame;
+        let call = |rule: u32| Pending {
+            call: Call {
+                rule,
+                state: State { f: Frame::identity(), color: [1.0; 4], weight: [0.0; 4], fps: 0.0 },
+                depth: rule,
+            },
+            near: None,
+        };
+        // Segment 0 holds calls 0..4, segment 1 calls 10..13.
+        let frozen = vec![(0..4).map(call).collect::<Vec<_>>(), (10..13).map(call).collect()];
+        let at = |seg: u64, i: u64| (seg << 32) | i;
+        let particle = |refs: &[(u64, f64)]| Particle {
+            history: None,
+            pending: refs.iter().map(|&(at, h)| PRef { at, h }).collect(),
+            counts: Vec::new(),
+            cost: Cost::default(),
+            score: 0.0,
+        };
+        // Two particles sharing call (1, 2); calls (0, 0), (0, 2), (1, 0) unreferenced.
+        let mut ps =
+            vec![particle(&[(at(1, 2), 0.5), (at(0, 1), 0.25)]), particle(&[(at(0, 3), 1.0), (at(1, 2), 0.5)])];
+        let seg = compact(&frozen, &mut ps);
+        let rules: Vec<u32> = seg.iter().map(|p| p.call.rule).collect();
+        assert_eq!(rules, vec![12, 1, 3]);
+        let refs: Vec<Vec<(u64, f64)>> = ps.iter().map(|p| p.pending.iter().map(|r| (r.at, r.h)).collect()).collect();
+        assert_eq!(refs, vec![vec![(0, 0.5), (1, 0.25)], vec![(2, 1.0), (0, 0.5)]]);
+        // Read back through a store whose only frozen segment is the new one.
+        let store = Store { frozen: std::slice::from_ref(&seg), id: u32::MAX, local: &mut Vec::new() };
+        assert_eq!(store.get(ps[1].pending[0].at).call.rule, 3);
     }
 
     #[test]

@@ -145,7 +145,7 @@ impl Waiting {
 
     fn wait(&mut self) {
         self.spins = self.spins.wrapping_add(1);
-        if self.spins % 64 != 0 || self.since.elapsed() < SPIN_FOR {
+        if !self.spins.is_multiple_of(64) || self.since.elapsed() < SPIN_FOR {
             std::hint::spin_loop();
         } else {
             std::thread::park_timeout(PARK_FOR);
