@@ -41,6 +41,7 @@ use crate::eval::{evaluate_calls, Call, EvalOptions, Expander};
 use crate::output::{Output, Polyline};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, RwLock, RwLockReadGuard, RwLockWriteGuard};
 use std::time::{Duration, Instant};
 
@@ -80,7 +81,7 @@ pub struct SearchOptions {
 }
 
 /// Default [`SearchOptions::parallel_min`].
-pub const PARALLEL_MIN_PARTICLES: usize = 32;
+pub const PARALLEL_MIN_PARTICLES: usize = 8;
 
 impl SearchOptions {
     /// The options of a `search` section, with `seed`.
@@ -332,38 +333,46 @@ impl Particle {
     }
 }
 
-/// What one team member works with: its chunk of the generation being stepped, their
-/// results (expansions, whether the particle was active, log weight), and its
-/// expander and scratch buffers (kept from one generation to the next).
+/// What one team member works with: the pending calls its steps made in this round
+/// (segment `job.first + t` once frozen), its expander and scratch buffers (kept from
+/// one generation to the next).
 struct Slot<'b> {
-    parts: Vec<Particle>,
-    /// The pending calls this member's steps made in this round (segment `job.first
-    /// + t` once frozen).
     local: Vec<Pending>,
-    results: Vec<(u32, bool, f64)>,
     ex: Expander<'b>,
     out: Vec<Call>,
     items: Vec<Item>,
 }
 
-/// The generation a round steps: generation g with heuristic scale h, member t's
-/// chunk starting at particle `t · chunk`.
+/// Particle j of the generation being stepped, and its result (expansions, whether
+/// it was active, log weight).
+#[derive(Default)]
+struct Cell {
+    p: Option<Particle>,
+    r: (u32, bool, f64),
+}
+
+/// The generation a round steps: generation g of n particles, heuristic scale h.
 #[derive(Clone, Copy)]
 struct Job {
     g: u32,
+    n: usize,
     h: f64,
     seed: u64,
-    chunk: usize,
     /// The segment id of member 0's new pending calls (member t's is `first + t`).
     first: u32,
 }
 
-/// The state a search's team shares: the generation being stepped (g and its
-/// heuristic scale h, set by the lead between rounds) and one slot per member.
+/// The state a search's team shares: the generation being stepped (set by the lead
+/// between rounds), its particles, the next one to take, and one slot per member.
+/// Members take particles one at a time from `next`, so a member that is slow (or
+/// descheduled) leaves the rest to the others; which member steps a particle does not
+/// change the results (each particle has its own random stream).
 struct Shared<'b> {
     job: RwLock<Job>,
     /// The pending calls of earlier rounds, by segment.
     frozen: RwLock<Vec<Vec<Pending>>>,
+    cells: Vec<Mutex<Cell>>,
+    next: AtomicUsize,
     cur: Vec<Mutex<Slot<'b>>>,
 }
 
@@ -580,14 +589,15 @@ impl<'b> Prepared<'b> {
         let members = if threads > 1 && largest >= opts.parallel_min.max(1) { threads } else { 1 };
         let b = self.b;
         let sh = Shared {
-            job: RwLock::new(Job { g: 0, h: 0.0, seed: opts.seed, chunk: 0, first: 0 }),
+            job: RwLock::new(Job { g: 0, n: 0, h: 0.0, seed: opts.seed, first: 0 }),
             frozen: RwLock::new(Vec::new()),
+            // No generation has more particles than the larger end of the ramp.
+            cells: (0..largest.max(1)).map(|_| Mutex::new(Cell::default())).collect(),
+            next: AtomicUsize::new(0),
             cur: (0..members)
                 .map(|_| {
                     Mutex::new(Slot {
-                        parts: Vec::new(),
                         local: Vec::new(),
-                        results: Vec::new(),
                         ex: Expander::new(b),
                         out: Vec::with_capacity(16),
                         items: Vec::with_capacity(8),
@@ -599,24 +609,25 @@ impl<'b> Prepared<'b> {
         Team::run(members, &member, |team| self.lead(team, &sh, opts, progress))
     }
 
-    /// Member `t`'s part of a generation: one particle-step of each particle of its
-    /// chunk, which starts at index `t · chunk` of the generation.
+    /// Member `t`'s part of a generation: one particle-step of each particle it takes.
     fn member(&self, sh: &Shared<'b>, t: usize) {
-        let Job { g, h, seed, chunk, first } = *read(&sh.job);
+        let Job { g, n, h, seed, first } = *read(&sh.job);
         let frozen = read(&sh.frozen);
         let mut slot = lock(&sh.cur[t]);
-        let Slot { parts, local, results, ex, out, items } = &mut *slot;
+        let Slot { local, ex, out, items } = &mut *slot;
         let mut store = Store { frozen: &frozen, id: first + t as u32, local };
-        results.clear();
-        for (i, p) in parts.iter_mut().enumerate() {
-            let j = t * chunk + i;
+        loop {
+            let j = sh.next.fetch_add(1, Ordering::Relaxed);
+            let Some(cell) = sh.cells.get(j).filter(|_| j < n) else { break };
+            let mut cell = lock(cell);
+            let Cell { p: Some(p), r } = &mut *cell else { continue };
             let active = !p.pending.is_empty();
             ex.reseed(seed, ((g as u64) << 32) | j as u64);
             let e = self.step(p, &mut store, ex, out, items, h > 0.0);
             let now = p.cost.total() + h * p.heuristic();
             let lw = -(now - p.score);
             p.score = now;
-            results.push((e, active, lw));
+            *r = (e, active, lw);
         }
     }
     /// The generations: each stepped by the team, weighted and resampled here.
@@ -655,30 +666,29 @@ impl<'b> Prepared<'b> {
             }
             let g = generation;
             let n = particles.len();
-            // Small generations stay on this thread (handing them over costs more
-            // than it saves); the others are split into one chunk per member.
-            let chunk = if n >= opts.parallel_min.max(1) { n.div_ceil(team.members()) } else { n }.max(1);
             let first = read(&sh.frozen).len() as u32;
-            *write(&sh.job) = Job { g, h: opts.heuristic_at(g), seed: opts.seed, chunk, first };
+            *write(&sh.job) = Job { g, n, h: opts.heuristic_at(g), seed: opts.seed, first };
             // Hand the particles to the members (moves, not copies), step, take them back.
-            let mut all = particles.drain(..);
-            for cur in &sh.cur {
-                let mut slot = lock(cur);
-                slot.results.clear();
-                slot.parts.extend(all.by_ref().take(chunk));
+            for (p, cell) in particles.drain(..).zip(&sh.cells) {
+                lock(cell).p = Some(p);
             }
-            drop(all);
-            if chunk >= n {
+            sh.next.store(0, Ordering::Relaxed);
+            // Small generations stay on this thread (handing them over costs more
+            // than it saves).
+            if n < opts.parallel_min.max(1) {
                 self.member(sh, 0);
             } else {
                 team.round();
             }
             results.clear();
+            for cell in &sh.cells[..n.min(sh.cells.len())] {
+                let mut cell = lock(cell);
+                results.push(cell.r);
+                particles.extend(cell.p.take());
+            }
             let mut frozen = write(&sh.frozen);
             for cur in &sh.cur {
                 let mut slot = lock(cur);
-                results.extend_from_slice(&slot.results);
-                particles.append(&mut slot.parts);
                 // Member t's new calls become segment `first + t` (empty if it did not run).
                 // (The next round's buffer starts at this one's size: no regrowing.)
                 let size = slot.local.len();
