@@ -280,7 +280,7 @@ impl Store<'_> {
 /// Rewrites the particles' references into one new segment holding only the calls they
 /// still refer to (each once), and returns it: the frozen segments grow by every call a
 /// step makes, most of which resampling leaves unreferenced.
-fn compact(frozen: &[Vec<Pending>], particles: &mut [Particle]) -> Vec<Pending> {
+fn compact<'p>(frozen: &[Vec<Pending>], particles: impl IntoIterator<Item = &'p mut Particle>) -> Vec<Pending> {
     let mut map: Vec<Vec<u32>> = frozen.iter().map(|s| vec![u32::MAX; s.len()]).collect();
     let mut seg = Vec::new();
     for p in particles {
@@ -360,18 +360,27 @@ struct Job {
     seed: u64,
     /// The segment id of member 0's new pending calls (member t's is `first + t`).
     first: u32,
+    /// Which of the two cell arrays holds the previous generation (the other one
+    /// receives this generation).
+    src: usize,
 }
 
 /// The state a search's team shares: the generation being stepped (set by the lead
-/// between rounds), its particles, the next one to take, and one slot per member.
-/// Members take particles one at a time from `next`, so a member that is slow (or
-/// descheduled) leaves the rest to the others; which member steps a particle does not
+/// between rounds), the previous generation's particles and the picks resampling made
+/// of them, the cells the new generation goes to, the next one to take, and one slot
+/// per member. Members take particles one at a time from `next`: particle j is a copy
+/// of the previous generation's particle `picks[j]` (into the buffers of the particle
+/// that was in cell j two generations ago), then stepped. A member that is slow (or
+/// descheduled) leaves the rest to the others; which member takes a particle does not
 /// change the results (each particle has its own random stream).
 struct Shared<'b> {
     job: RwLock<Job>,
     /// The pending calls of earlier rounds, by segment.
     frozen: RwLock<Vec<Vec<Pending>>>,
-    cells: Vec<Mutex<Cell>>,
+    /// Two arrays of cells, the previous generation and the one being stepped, which
+    /// swap roles every generation (`job.src`).
+    cells: [Vec<RwLock<Cell>>; 2],
+    picks: RwLock<Vec<usize>>,
     next: AtomicUsize,
     cur: Vec<Mutex<Slot<'b>>>,
 }
@@ -589,10 +598,11 @@ impl<'b> Prepared<'b> {
         let members = if threads > 1 && largest >= opts.parallel_min.max(1) { threads } else { 1 };
         let b = self.b;
         let sh = Shared {
-            job: RwLock::new(Job { g: 0, n: 0, h: 0.0, seed: opts.seed, first: 0 }),
+            job: RwLock::new(Job { g: 0, n: 0, h: 0.0, seed: opts.seed, first: 0, src: 0 }),
             frozen: RwLock::new(Vec::new()),
             // No generation has more particles than the larger end of the ramp.
-            cells: (0..largest.max(1)).map(|_| Mutex::new(Cell::default())).collect(),
+            cells: [0, 1].map(|_| (0..largest.max(1)).map(|_| RwLock::new(Cell::default())).collect()),
+            picks: RwLock::new(Vec::new()),
             next: AtomicUsize::new(0),
             cur: (0..members)
                 .map(|_| {
@@ -609,17 +619,28 @@ impl<'b> Prepared<'b> {
         Team::run(members, &member, |team| self.lead(team, &sh, opts, progress))
     }
 
-    /// Member `t`'s part of a generation: one particle-step of each particle it takes.
+    /// Member `t`'s part of a generation: each particle it takes, copied from its
+    /// parent and stepped.
     fn member(&self, sh: &Shared<'b>, t: usize) {
-        let Job { g, n, h, seed, first } = *read(&sh.job);
+        let Job { g, n, h, seed, first, src } = *read(&sh.job);
+        let (from, to) = (&sh.cells[src], &sh.cells[1 - src]);
+        let picks = read(&sh.picks);
         let frozen = read(&sh.frozen);
         let mut slot = lock(&sh.cur[t]);
         let Slot { local, ex, out, items } = &mut *slot;
         let mut store = Store { frozen: &frozen, id: first + t as u32, local };
         loop {
             let j = sh.next.fetch_add(1, Ordering::Relaxed);
-            let Some(cell) = sh.cells.get(j).filter(|_| j < n) else { break };
-            let mut cell = lock(cell);
+            let (Some(cell), Some(source)) = (to.get(j).filter(|_| j < n), picks.get(j).and_then(|&k| from.get(k)))
+            else {
+                break;
+            };
+            let mut cell = write(cell);
+            match (&mut cell.p, &read(source).p) {
+                (Some(buf), Some(p)) => buf.clone_from(p),
+                (buf, Some(p)) => *buf = Some(p.clone()),
+                (_, None) => continue,
+            }
             let Cell { p: Some(p), r } = &mut *cell else { continue };
             let active = !p.pending.is_empty();
             ex.reseed(seed, ((g as u64) << 32) | j as u64);
@@ -642,19 +663,23 @@ impl<'b> Prepared<'b> {
         let mut master = Expander::new(self.b);
         master.reseed(opts.seed, RESAMPLE_STREAM);
         let mut seg0 = Vec::new();
-        let first = self.initial(&mut Store { frozen: &[], id: 0, local: &mut seg0 });
+        let mut first = self.initial(&mut Store { frozen: &[], id: 0, local: &mut seg0 });
         write(&sh.frozen).push(seg0);
-        let mut particles: Vec<Particle> = vec![first; opts.particles_at(0)];
-        let h0 = opts.heuristic_at(0);
-        for p in &mut particles {
-            p.score = p.cost.total() + h0 * p.heuristic();
+        first.score = first.cost.total() + opts.heuristic_at(0) * first.heuristic();
+        // Generation 0: every particle a copy of the first.
+        let mut src = 0;
+        if let Some(c) = sh.cells[src].first() {
+            write(c).p = Some(first);
         }
+        *write(&sh.picks) = vec![0; opts.particles_at(0)];
         let (mut steps, mut expansions) = (0u64, 0u64);
         let mut generation = 0u32;
         let mut stop = Stop::Generations;
         let mut results: Vec<(u32, bool, f64)> = Vec::new();
+        // The population is always `picks` into the previous generation (`src`).
+        let is_done = |p: &Option<Particle>| p.as_ref().is_none_or(|p| p.pending.is_empty());
         while generation < opts.generations {
-            if particles.iter().all(|p| p.pending.is_empty()) {
+            if read(&sh.picks).iter().all(|&k| sh.cells[src].get(k).is_none_or(|c| is_done(&read(c).p))) {
                 stop = Stop::Complete;
                 break;
             }
@@ -665,13 +690,9 @@ impl<'b> Prepared<'b> {
                 }
             }
             let g = generation;
-            let n = particles.len();
+            let n = read(&sh.picks).len().min(sh.cells[src].len());
             let first = read(&sh.frozen).len() as u32;
-            *write(&sh.job) = Job { g, n, h: opts.heuristic_at(g), seed: opts.seed, first };
-            // Hand the particles to the members (moves, not copies), step, take them back.
-            for (p, cell) in particles.drain(..).zip(&sh.cells) {
-                lock(cell).p = Some(p);
-            }
+            *write(&sh.job) = Job { g, n, h: opts.heuristic_at(g), seed: opts.seed, first, src };
             sh.next.store(0, Ordering::Relaxed);
             // Small generations stay on this thread (handing them over costs more
             // than it saves).
@@ -680,12 +701,10 @@ impl<'b> Prepared<'b> {
             } else {
                 team.round();
             }
+            src = 1 - src;
+            let stepped = &sh.cells[src][..n];
             results.clear();
-            for cell in &sh.cells[..n.min(sh.cells.len())] {
-                let mut cell = lock(cell);
-                results.push(cell.r);
-                particles.extend(cell.p.take());
-            }
+            results.extend(stepped.iter().map(|c| read(c).r));
             let mut frozen = write(&sh.frozen);
             for cur in &sh.cur {
                 let mut slot = lock(cur);
@@ -701,30 +720,47 @@ impl<'b> Prepared<'b> {
             }
             generation += 1;
             if let Some(f) = progress {
-                let best = particles.iter().map(|p| p.cost.total()).fold(f64::INFINITY, f64::min);
+                let best = stepped
+                    .iter()
+                    .filter_map(|c| read(c).p.as_ref().map(|p| p.cost.total()))
+                    .fold(f64::INFINITY, f64::min);
                 f(&Progress { generation, generations: opts.generations, best_cost: best });
             }
-            if generation < opts.generations {
+            let picks = if generation < opts.generations {
                 let lw: Vec<f64> = results.iter().map(|r| r.2).collect();
                 let w = weights_from_log(&lw);
                 let m = opts.particles_at(generation);
-                let picks = resample(opts.resampling, &w, m, &mut || master.uniform());
-                particles = take_picks(particles, &picks);
-            }
-            // Keep the stored calls within a small multiple of those still referenced.
+                resample(opts.resampling, &w, m, &mut || master.uniform())
+            } else {
+                (0..n).collect()
+            };
+            // Keep the stored calls within a small multiple of those still referenced
+            // (by the picked particles: the others are only ever overwritten).
+            let mut picked: Vec<usize> = picks.clone();
+            picked.dedup();
+            let mut guards: Vec<_> = picked.iter().filter_map(|&k| stepped.get(k)).map(write).collect();
             let mut frozen = write(&sh.frozen);
             let stored: usize = frozen.iter().map(Vec::len).sum();
-            let live: usize = particles.iter().map(|p| p.pending.len()).sum();
+            let live: usize = guards.iter().filter_map(|c| c.p.as_ref()).map(|p| p.pending.len()).sum();
             if stored > 2 * live + COMPACT_SLACK {
-                let seg = compact(&frozen, &mut particles);
+                let seg = compact(&frozen, guards.iter_mut().filter_map(|c| c.p.as_mut()));
                 *frozen = vec![seg];
             }
+            drop((frozen, guards));
+            *write(&sh.picks) = picks;
         }
         // The model: the final particle with the lowest COST.
-        let final_costs: Vec<f64> = particles.iter().map(|p| p.cost.total()).collect();
+        let picks = read(&sh.picks);
+        let guards: Vec<_> = sh.cells[src].iter().map(read).collect();
+        let finals: Vec<&Particle> = picks.iter().filter_map(|&k| guards.get(k).and_then(|c| c.p.as_ref())).collect();
+        let final_costs: Vec<f64> = finals.iter().map(|p| p.cost.total()).collect();
         let chosen = argmin(&final_costs);
         let frozen = read(&sh.frozen);
-        let model = self.wrap_up(&particles[chosen], &Store { frozen: &frozen, id: u32::MAX, local: &mut Vec::new() });
+        let store = Store { frozen: &frozen, id: u32::MAX, local: &mut Vec::new() };
+        let model = match finals.get(chosen) {
+            Some(p) => self.wrap_up(p, &store),
+            None => Model { cost: Cost::default(), bones: Vec::new(), calls: Vec::new(), wrapped: 0, dropped: 0 },
+        };
         SearchResult {
             model,
             final_costs,
@@ -929,47 +965,6 @@ fn argmin(v: &[f64]) -> usize {
         }
     }
     best
-}
-
-/// The particles at `picks` (ascending indices, repeats allowed): each picked
-/// particle moves into its last copy; the other copies are cloned into the buffers of
-/// particles that were not picked (so resampling allocates little).
-fn take_picks(particles: Vec<Particle>, picks: &[usize]) -> Vec<Particle> {
-    let mut picked = vec![false; particles.len()];
-    for &k in picks {
-        if let Some(p) = picked.get_mut(k) {
-            *p = true;
-        }
-    }
-    let mut slots: Vec<Option<Particle>> = Vec::with_capacity(particles.len());
-    let mut spare: Vec<Particle> = Vec::new();
-    for (p, keep) in particles.into_iter().zip(&picked) {
-        if *keep {
-            slots.push(Some(p));
-        } else {
-            slots.push(None);
-            spare.push(p);
-        }
-    }
-    let mut out = Vec::with_capacity(picks.len());
-    for (i, &k) in picks.iter().enumerate() {
-        let last_use = picks.get(i + 1) != Some(&k);
-        let p = if last_use {
-            slots.get_mut(k).and_then(|s| s.take())
-        } else {
-            slots.get(k).and_then(|s| s.as_ref()).map(|src| match spare.pop() {
-                Some(mut buf) => {
-                    buf.clone_from(src);
-                    buf
-                }
-                None => src.clone(),
-            })
-        };
-        if let Some(p) = p {
-            out.push(p);
-        }
-    }
-    out
 }
 
 #[cfg(test)]
