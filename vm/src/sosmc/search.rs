@@ -651,6 +651,7 @@ impl<'b> Prepared<'b> {
             *r = (e, active, lw);
         }
     }
+
     /// The generations: each stepped by the team, weighted and resampled here.
     fn lead(
         &self,
