@@ -736,18 +736,22 @@ impl<'b> Prepared<'b> {
                 (0..n).collect()
             };
             // Keep the stored calls within a small multiple of those still referenced
-            // (by the picked particles: the others are only ever overwritten).
-            let mut picked: Vec<usize> = picks.clone();
-            picked.dedup();
-            let mut guards: Vec<_> = picked.iter().filter_map(|&k| stepped.get(k)).map(write).collect();
+            // (by the picked particles: the others are only ever overwritten). Counting
+            // the referenced ones locks every picked cell, so it waits until the store
+            // holds more than the slack alone allows.
             let mut frozen = write(&sh.frozen);
             let stored: usize = frozen.iter().map(Vec::len).sum();
-            let live: usize = guards.iter().filter_map(|c| c.p.as_ref()).map(|p| p.pending.len()).sum();
-            if stored > 2 * live + COMPACT_SLACK {
-                let seg = compact(&frozen, guards.iter_mut().filter_map(|c| c.p.as_mut()));
-                *frozen = vec![seg];
+            if stored > COMPACT_SLACK {
+                let mut picked: Vec<usize> = picks.clone();
+                picked.dedup();
+                let mut guards: Vec<_> = picked.iter().filter_map(|&k| stepped.get(k)).map(write).collect();
+                let live: usize = guards.iter().filter_map(|c| c.p.as_ref()).map(|p| p.pending.len()).sum();
+                if stored > 2 * live + COMPACT_SLACK {
+                    let seg = compact(&frozen, guards.iter_mut().filter_map(|c| c.p.as_mut()));
+                    *frozen = vec![seg];
+                }
             }
-            drop((frozen, guards));
+            drop(frozen);
             *write(&sh.picks) = picks;
         }
         // The model: the final particle with the lowest COST.
