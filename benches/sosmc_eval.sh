@@ -8,7 +8,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 RUNS=${1:-200}
-cargo build --release -q -p mdg-compiler --bin mdgc
+cargo build --release -q -p mdg-cli --bin mdgc
 mkdir -p target/sosmc
 target/release/mdgc build std/examples/guided_tree.mdg -o target/sosmc/guided_tree.mdgb > /dev/null
 MDG_SOSMC_BUNDLE=target/sosmc/guided_tree.mdgb \

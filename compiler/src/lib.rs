@@ -8,7 +8,6 @@
 pub mod analysis;
 pub mod ast;
 pub mod check;
-pub mod cli;
 pub mod consteval;
 pub mod diag;
 pub mod driver;
@@ -19,7 +18,6 @@ pub mod fmt;
 pub mod induce;
 pub mod lexer;
 pub mod lower;
-pub mod modes;
 pub mod parse;
 pub mod shaders;
 pub mod source;

@@ -3,11 +3,11 @@
 //! of the real quadruped, determinism, imported OBJ meshes, the `mdg-run` mode's
 //! files, `--keep`, bundle round trip, editor hooks.
 
+use mdg_cli::modes::creature::{options, run, CreatureArgs};
+use mdg_cli::modes::Common;
 use mdg_compiler::check::CheckOptions;
 use mdg_compiler::driver::analyze;
 use mdg_compiler::ext::creature as ext;
-use mdg_compiler::modes::creature::{options, run, CreatureArgs};
-use mdg_compiler::modes::Common;
 use mdg_compiler::source::FsLoader;
 use mdg_tests::{options as compile_options, root};
 use mdg_vm::bundle::Bundle;
@@ -164,7 +164,15 @@ creature blocks {
     assert!(bare.extensions.creatures.as_ref().is_some_and(|t| t.meshes[0].triangles.is_empty()));
     let out = base.join("out");
     let file = dir.join("main.mdg");
-    let common = Common { file: &file, output: Some(&out), seed: None, stats: false, png: None, size: (64, 64) };
+    let common = Common {
+        file: &file,
+        output: Some(&out),
+        seed: None,
+        stats: false,
+        png: None,
+        size: (64, 64),
+        pictures: &mdg_cli::pictures::Software,
+    };
     let args = CreatureArgs { generations: Some(0), ..CreatureArgs::default() };
     assert_eq!(run(&bare, &args, &common), std::process::ExitCode::SUCCESS);
     assert!(out.join("gen0/g0-00.glb").is_file());
@@ -204,7 +212,15 @@ fn the_mode_writes_models_pictures_and_a_gallery_and_keeps_chosen_monsters() {
     let out = std::env::temp_dir().join(format!("mdg-creature-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
     let file = root().join("std/examples/monsters.mdg");
-    let common = Common { file: &file, output: Some(&out), seed: Some(4), stats: false, png: None, size: (800, 600) };
+    let common = Common {
+        file: &file,
+        output: Some(&out),
+        seed: Some(4),
+        stats: false,
+        png: None,
+        size: (800, 600),
+        pictures: &mdg_cli::pictures::Software,
+    };
     let args = CreatureArgs { generations: Some(2), population: Some(6), ..CreatureArgs::default() };
     assert_eq!(run(&b, &args, &common), std::process::ExitCode::SUCCESS);
     let html = std::fs::read_to_string(out.join("index.html")).expect("gallery");

@@ -3,7 +3,7 @@
 //! the induce → write → compile → generate round trip through every voxel format.
 //! Every building here is made by the test itself.
 
-use mdg_compiler::modes::{grid::GridArgs, Common};
+use mdg_cli::modes::{grid::GridArgs, Common};
 use mdg_tests::{build_source, root};
 use mdg_vm::grid::format::{self, VoxelFormat};
 use mdg_vm::grid::generate::{enclosure, generate, Derivation, GenerateOptions, Instance};
@@ -572,9 +572,16 @@ fn induce_write_compile_generate_round_trip() {
 
     // Generate through the mdg-run mode into every format.
     let run = |out: &std::path::Path, seed: u64, args: &GridArgs| {
-        let common =
-            Common { file: &style, output: Some(out), seed: Some(seed), stats: false, png: None, size: (64, 48) };
-        let code = mdg_compiler::modes::grid::run(&bundle, args, &common);
+        let common = Common {
+            file: &style,
+            output: Some(out),
+            seed: Some(seed),
+            stats: false,
+            png: None,
+            size: (64, 48),
+            pictures: &mdg_cli::pictures::Software,
+        };
+        let code = mdg_cli::modes::grid::run(&bundle, args, &common);
         assert_eq!(code, std::process::ExitCode::SUCCESS);
         std::fs::read(out).expect("output written")
     };

@@ -6,8 +6,8 @@
 //! guides they were searched for.
 
 use glam::DVec3;
-use mdg_compiler::modes::guided::GuidedArgs;
-use mdg_compiler::modes::Common;
+use mdg_cli::modes::guided::GuidedArgs;
+use mdg_cli::modes::Common;
 use mdg_tests::{analyze_file, build_source, root};
 use mdg_vm::bundle::Bundle;
 use mdg_vm::eval::{evaluate, evaluate_calls, Call, EvalOptions, Expander};
@@ -288,7 +288,15 @@ fn search_beats_unguided_sampling_on_distance() {
 }
 
 fn common<'a>(file: &'a std::path::Path, stats: bool) -> Common<'a> {
-    Common { file, output: None, seed: Some(3), stats, png: None, size: (64, 48) }
+    Common {
+        file,
+        output: None,
+        seed: Some(3),
+        stats,
+        png: None,
+        size: (64, 48),
+        pictures: &mdg_cli::pictures::Software,
+    }
 }
 
 #[test]
@@ -296,7 +304,7 @@ fn mdg_run_mode_exports_the_model_with_bones_and_guides() {
     let b = std_tree();
     let file = root().join("std/examples/guided_tree.mdg");
     let args = GuidedArgs { generations: Some(30), particles: Some("30:10".into()), ..GuidedArgs::default() };
-    let out = mdg_compiler::modes::guided::run(&b, &args, &common(&file, true)).expect("runs");
+    let out = mdg_cli::modes::guided::run(&b, &args, &common(&file, true)).expect("runs");
     assert!(out.mesh.n_vertices() > 0);
     let guides: Vec<_> = out.lines.iter().filter(|l| l.namespace == "guides").collect();
     assert_eq!(guides.len(), 3);
@@ -305,10 +313,10 @@ fn mdg_run_mode_exports_the_model_with_bones_and_guides() {
     assert!(bones > 0);
     assert!(out.lines.iter().filter(|l| l.namespace == "bones").all(|l| l.points.len() == 2));
     // Same seed and options, same model.
-    let again = mdg_compiler::modes::guided::run(&b, &args, &common(&file, false)).expect("runs");
+    let again = mdg_cli::modes::guided::run(&b, &args, &common(&file, false)).expect("runs");
     assert_eq!(again.mesh, out.mesh);
     let bare = GuidedArgs { no_skeleton_lines: true, ..args };
-    let plain = mdg_compiler::modes::guided::run(&b, &bare, &common(&file, false)).expect("runs");
+    let plain = mdg_cli::modes::guided::run(&b, &bare, &common(&file, false)).expect("runs");
     assert!(plain.lines.is_empty());
     // The bundle evaluated without the search is a random tree (what the viewer shows).
     assert!(evaluate(&b, &EvalOptions::default()).mesh.n_vertices() > 0);
@@ -323,7 +331,7 @@ fn guide_files_replace_the_source_guides() {
         let text = std::fs::read_to_string(&path).expect("example guide file");
         let want = mdg_vm::sosmc::guides_from_json(&text).expect("valid");
         let args = GuidedArgs { guides: Some(path), generations: Some(20), ..GuidedArgs::default() };
-        let out = mdg_compiler::modes::guided::run(&b, &args, &common(&file, false)).expect("runs");
+        let out = mdg_cli::modes::guided::run(&b, &args, &common(&file, false)).expect("runs");
         let lines: Vec<_> = out.lines.iter().filter(|l| l.namespace == "guides").collect();
         assert_eq!(lines.len(), want.len(), "{name}");
         let first = want[0].points[0].map(|c| c as f32);
@@ -334,16 +342,14 @@ fn guide_files_replace_the_source_guides() {
     let bad = dir.join("bad.json");
     std::fs::write(&bad, r#"{"guides": [{"points": [[0,0,0],[0,0,1]], "delta_a": 0.5}]}"#).expect("write");
     let args = GuidedArgs { guides: Some(bad.clone()), ..GuidedArgs::default() };
-    let err = mdg_compiler::modes::guided::run(&b, &args, &common(&file, false)).expect_err("too few points");
+    let err = mdg_cli::modes::guided::run(&b, &args, &common(&file, false)).expect_err("too few points");
     assert!(err.contains("bad.json") && err.contains("at least 4"), "{err}");
     let args = GuidedArgs { guides: Some(dir.join("missing.json")), ..GuidedArgs::default() };
-    assert!(mdg_compiler::modes::guided::run(&b, &args, &common(&file, false))
+    assert!(mdg_cli::modes::guided::run(&b, &args, &common(&file, false))
         .expect_err("missing")
         .contains("cannot read"));
     let args = GuidedArgs { budget: Some("soon".into()), ..GuidedArgs::default() };
-    assert!(mdg_compiler::modes::guided::run(&b, &args, &common(&file, false))
-        .expect_err("budget")
-        .contains("--budget"));
+    assert!(mdg_cli::modes::guided::run(&b, &args, &common(&file, false)).expect_err("budget").contains("--budget"));
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -6,10 +6,14 @@
 //! messenger, device), [`buffer`], [`image`], [`sync`], [`pipeline`] (shader modules,
 //! descriptor and pipeline layouts, pipelines), [`swapchain`], and [`renderer`] (the
 //! render pass, attachments, uniforms and draw recording shared by [`offscreen`] and
-//! [`window`]). CPU-side preparation has no Vulkan in it: [`model`] compiles and
-//! evaluates a grammar, [`scene`] packs the output into vertex buffers, [`camera`]
+//! [`window`]). CPU-side preparation has no Vulkan in it: [`model`] is a compiled and
+//! evaluated grammar (compiled by the caller's [`model::Loader`]), [`scene`] packs the output into vertex buffers, [`camera`]
 //! frames and orbits, [`uniforms`] lays out the blocks of docs/reference.md §13, and
 //! [`program`] picks the SPIR-V (the bundle's `program` or std's Phong program).
+//!
+//! The viewer compiles nothing and prints nothing: the program that drives it (the
+//! `mdg-view` and `mdg-run` commands in `cli/`) passes in a [`model::Loader`] and
+//! reads the messages it returns.
 
 // Vulkan through ash is an FFI boundary: every call is `unsafe`. The workspace
 // denies `unsafe_code`; this crate is the one allowed it (README, Boundary), and
@@ -22,7 +26,6 @@ pub mod context;
 pub mod image;
 pub mod model;
 pub mod offscreen;
-pub mod picture;
 pub mod pipeline;
 pub mod program;
 pub mod reload;

@@ -1,13 +1,9 @@
 //! A model to show: a grammar compiled (or a `.mdgb` bundle loaded), evaluated, and
 //! the files it was read from (for hot reload).
 
+use crate::program::Programs;
 use crate::Error;
-use mdg_compiler::diag::render_plain;
-use mdg_compiler::driver;
-use mdg_compiler::expand::Options;
-use mdg_compiler::source::FsLoader;
 use mdg_vm::bundle::Bundle;
-use mdg_vm::eval::{evaluate, EvalOptions};
 use mdg_vm::output::Output;
 use std::path::{Path, PathBuf};
 
@@ -38,38 +34,14 @@ pub struct LoadFailure {
     pub files: Vec<PathBuf>,
 }
 
-/// Compiles `path` (`.mdg`) or loads it (`.mdgb`) and evaluates it. Returns the
-/// model and every source file read (the main file first).
-pub fn load(path: &Path, opts: &LoadOptions) -> Result<(Model, Vec<PathBuf>), Box<LoadFailure>> {
-    let fail = |error: Error, files: Vec<PathBuf>| Box::new(LoadFailure { error, files });
-    let is_bundle = path.extension().is_some_and(|e| e == "mdgb");
-    let (bundle, files, warnings) = if is_bundle {
-        let bytes = std::fs::read(path)
-            .map_err(|e| fail(Error::Io(format!("cannot read {}: {e}", path.display())), vec![path.into()]))?;
-        let b = mdg_vm::bundle::load(&bytes)
-            .map_err(|e| fail(Error::Compile(format!("{}: {e}", path.display())), vec![path.into()]))?;
-        (b, vec![path.to_path_buf()], String::new())
-    } else {
-        let copts = Options {
-            defines: opts.presets.clone(),
-            params: opts.params.clone(),
-            std_dir: opts.std_dir.clone().or_else(driver::default_std_dir),
-        };
-        match driver::build(&FsLoader, path, &copts) {
-            Ok((b, a)) => {
-                let files = a.sources.files.iter().map(|f| f.path.clone()).collect();
-                (b, files, render_plain(&a.diagnostics, &a.sources))
-            }
-            Err(a) => {
-                let mut files: Vec<PathBuf> = a.sources.files.iter().map(|f| f.path.clone()).collect();
-                if files.is_empty() {
-                    files.push(path.to_path_buf());
-                }
-                return Err(fail(Error::Compile(render_plain(&a.diagnostics, &a.sources)), files));
-            }
-        }
-    };
-    let eval_opts = EvalOptions { seed: opts.seed, ..EvalOptions::default() };
-    let output = evaluate(&bundle, &eval_opts);
-    Ok((Model { bundle, output, warnings }, files))
+/// Compiles and evaluates grammars, and compiles the fallback shader programs, for
+/// the viewer. The viewer compiles nothing itself: the CLI implements this with the
+/// MDG compiler and passes it in (the window's hot reload calls it again).
+pub trait Loader: Send + Sync {
+    /// Compiles `path` (`.mdg`) or loads it (`.mdgb`) and evaluates it. Returns the
+    /// model and every source file read (the main file first).
+    fn load(&self, path: &Path, opts: &LoadOptions) -> Result<(Model, Vec<PathBuf>), Box<LoadFailure>>;
+    /// std's Phong program (from `std_dir`'s `shaders.mdg` when given) and the line
+    /// program.
+    fn programs(&self, std_dir: Option<&Path>) -> Result<Programs, Error>;
 }

@@ -6,6 +6,7 @@ use crate::camera::OrbitCamera;
 use crate::context::Context;
 use crate::image::{Image, ImageDesc};
 use crate::model::Model;
+use crate::program::Programs;
 use crate::renderer::{FrameParams, Framebuffer, ModelInfo, Renderer, RendererOptions};
 use crate::Error;
 use ash::vk;
@@ -59,15 +60,15 @@ impl Offscreen {
     }
 
     /// Loads a model (see [`Renderer::set_model`]).
-    pub fn set_model(&mut self, model: &Model, std_dir: Option<&Path>) -> Result<ModelInfo, Error> {
+    pub fn set_model(&mut self, model: &Model, programs: &Programs) -> Result<ModelInfo, Error> {
         self.ctx.wait_idle();
-        self.renderer.set_model(model, std_dir).cloned()
+        self.renderer.set_model(model, programs).cloned()
     }
 
     /// Loads a bundle's output without copying it (see [`Renderer::set_output`]).
-    pub fn set_output(&mut self, bundle: &Bundle, output: &Output, std_dir: Option<&Path>) -> Result<ModelInfo, Error> {
+    pub fn set_output(&mut self, bundle: &Bundle, output: &Output, programs: &Programs) -> Result<ModelInfo, Error> {
         self.ctx.wait_idle();
-        self.renderer.set_output(bundle, output, std_dir).cloned()
+        self.renderer.set_output(bundle, output, programs).cloned()
     }
 
     /// The MSAA sample count in use.

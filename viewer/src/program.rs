@@ -2,21 +2,12 @@
 //! Phong program (`std/shaders.mdg`) for any stage it leaves out or when there is
 //! none; plus the viewer's own unlit shaders for pen lines.
 //!
-//! The std program is compiled once per process from the std directory's
-//! `shaders.mdg` (so an installation's edited copy is honoured), or from the copy
-//! built into this binary when there is no std directory.
+//! The viewer compiles no shader itself: the fallback [`Programs`] come from its
+//! caller (the CLI compiles std's `shaders.mdg` and the line shaders once per
+//! process).
 
 use crate::Error;
-use mdg_compiler::check::CheckOptions;
-use mdg_compiler::driver;
-use mdg_compiler::expand::Options;
-use mdg_compiler::source::FsLoader;
 use mdg_vm::bundle::{Bundle, NONE};
-use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
-
-/// The std library's shader file, built in as a fallback.
-const STD_SHADERS: &str = include_str!("../../std/shaders.mdg");
 
 /// Vertex and fragment SPIR-V, and where they came from (for messages).
 #[derive(Clone, Debug, PartialEq)]
@@ -27,60 +18,19 @@ pub struct ProgramSpirv {
     pub label: String,
 }
 
-/// Compiles std's `shaders.mdg` (from `std_dir` if given and present) and returns
-/// its `program`'s shaders.
-fn compile_std(std_dir: Option<&Path>) -> Result<ProgramSpirv, String> {
-    let opts = Options { std_dir: std_dir.map(Path::to_path_buf), ..Options::default() };
-    let file = std_dir.map(|d| d.join("shaders.mdg")).filter(|p| p.is_file());
-    let a = match &file {
-        Some(p) => driver::analyze(&FsLoader, p, &opts, CheckOptions { require_start: false }),
-        None => driver::analyze_text(
-            &FsLoader,
-            Path::new("std/shaders.mdg"),
-            STD_SHADERS,
-            &opts,
-            CheckOptions { require_start: false },
-        ),
-    };
-    if a.has_errors() {
-        return Err(mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources));
-    }
-    let pick = |vertex: bool, name: &str| -> Option<Vec<u32>> {
-        let i = a.expanded.shaders.iter().position(|s| s.vertex == vertex && s.name.text == name)?;
-        a.spirv.get(i).cloned().flatten()
-    };
-    match (pick(true, "phong_vs"), pick(false, "phong_fs")) {
-        (Some(vertex), Some(fragment)) => {
-            Ok(ProgramSpirv { vertex, fragment, label: "std phong_vs + phong_fs".into() })
-        }
-        _ => Err("std/shaders.mdg has no phong_vs / phong_fs".into()),
-    }
-}
-
-/// Compiled std programs by std directory.
-type StdCache = std::sync::Mutex<Vec<(Option<PathBuf>, ProgramSpirv)>>;
-
-/// The std Phong program (compiled once per process and std directory).
-pub fn std_program(std_dir: Option<&Path>) -> Result<ProgramSpirv, Error> {
-    static CACHE: OnceLock<StdCache> = OnceLock::new();
-    let cache = CACHE.get_or_init(|| std::sync::Mutex::new(Vec::new()));
-    let key = std_dir.map(Path::to_path_buf);
-    if let Ok(c) = cache.lock() {
-        if let Some((_, p)) = c.iter().find(|(k, _)| *k == key) {
-            return Ok(p.clone());
-        }
-    }
-    let p =
-        compile_std(std_dir).map_err(|m| Error::Compile(format!("the std Phong program does not compile:\n{m}")))?;
-    if let Ok(mut c) = cache.lock() {
-        c.push((key, p.clone()));
-    }
-    Ok(p)
+/// The programs the viewer falls back on, compiled by whoever drives it (the CLI
+/// compiles them with the MDG compiler; the viewer itself compiles nothing):
+/// std's Phong program for any stage a bundle's `program` leaves out, and the
+/// unlit program for pen lines ([`LINE_VS`], [`LINE_FS`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Programs {
+    pub phong: ProgramSpirv,
+    pub lines: ProgramSpirv,
 }
 
 /// The program for `bundle`: its `program` directive's shaders, std Phong for the
 /// rest.
-pub fn for_bundle(bundle: &Bundle, std_dir: Option<&Path>) -> Result<ProgramSpirv, Error> {
+pub fn for_bundle(bundle: &Bundle, programs: &Programs) -> Result<ProgramSpirv, Error> {
     let (v, f) = match &bundle.program {
         Some(p) => (p.vertex, p.fragment),
         None => (NONE, NONE),
@@ -109,21 +59,21 @@ pub fn for_bundle(bundle: &Bundle, std_dir: Option<&Path>) -> Result<ProgramSpir
             label: format!("{vn} + {fname}"),
         });
     }
-    let std = std_program(std_dir)?;
+    let std = &programs.phong;
     let label = format!(
         "{} + {}",
         vs.as_ref().map(|(n, _)| n.clone()).unwrap_or_else(|| "std phong_vs".into()),
         fs.as_ref().map(|(n, _)| n.clone()).unwrap_or_else(|| "std phong_fs".into())
     );
     Ok(ProgramSpirv {
-        vertex: vs.map(|(_, s)| s).unwrap_or(std.vertex),
-        fragment: fs.map(|(_, s)| s).unwrap_or(std.fragment),
+        vertex: vs.map(|(_, s)| s).unwrap_or_else(|| std.vertex.clone()),
+        fragment: fs.map(|(_, s)| s).unwrap_or_else(|| std.fragment.clone()),
         label,
     })
 }
 
-/// Unlit shaders for pen lines: position and colour, nothing else.
-const LINE_VS: &str = "#version 450
+/// Unlit vertex shader for pen lines: position and colour, nothing else.
+pub const LINE_VS: &str = "#version 450
 layout(location = 0) in vec3 in_position;
 layout(location = 2) in vec4 in_color;
 layout(set = 0, binding = 0) uniform Globals {
@@ -140,24 +90,11 @@ void main() {
 }
 ";
 
-const LINE_FS: &str = "#version 450
+/// Unlit fragment shader for pen lines.
+pub const LINE_FS: &str = "#version 450
 layout(location = 0) in vec4 v_color;
 layout(location = 0) out vec4 out_color;
 void main() {
     out_color = v_color;
 }
 ";
-
-/// The line program (compiled once per process).
-pub fn line_program() -> Result<ProgramSpirv, Error> {
-    static LINES: OnceLock<Result<ProgramSpirv, String>> = OnceLock::new();
-    LINES
-        .get_or_init(|| {
-            let c = |src: &str, vertex: bool| {
-                mdg_compiler::shaders::compile_glsl(src, vertex).map_err(|e| format!("built-in line shader: {e:?}"))
-            };
-            Ok(ProgramSpirv { vertex: c(LINE_VS, true)?, fragment: c(LINE_FS, false)?, label: "lines".into() })
-        })
-        .clone()
-        .map_err(Error::Compile)
-}

@@ -6,11 +6,11 @@
 //! Directories are watched rather than files, because editors often save by writing
 //! a new file and renaming it over the old one, which ends a watch on the file.
 
-use crate::model::{self, LoadOptions, Model};
+use crate::model::{LoadOptions, Loader, Model};
 use notify::{RecursiveMode, Watcher as _};
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
-use std::sync::mpsc;
+use std::sync::{mpsc, Arc};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
@@ -58,6 +58,7 @@ impl ReloadHandle {
         path: PathBuf,
         files: Vec<PathBuf>,
         mut opts: LoadOptions,
+        loader: Arc<dyn Loader>,
         deliver: impl Fn(Reloaded) + Send + 'static,
     ) -> Result<ReloadHandle, String> {
         let (tx, rx) = mpsc::channel::<Msg>();
@@ -114,7 +115,7 @@ impl ReloadHandle {
                             Err(mpsc::RecvTimeoutError::Disconnected) => return,
                         }
                     }
-                    let (result, new_files) = match model::load(&path, &opts) {
+                    let (result, new_files) = match loader.load(&path, &opts) {
                         Ok((m, f)) => (Reloaded::Model(Box::new(m)), f),
                         Err(fail) => (Reloaded::Failed(fail.error.to_string()), fail.files),
                     };

@@ -14,7 +14,7 @@ use crate::context::{vkerr, Context};
 use crate::image::{depth_format, msaa_samples, Image, ImageDesc};
 use crate::model::Model;
 use crate::pipeline::{Kind, Layout, Pipeline, PipelineDesc};
-use crate::program::{self, ProgramSpirv};
+use crate::program::{self, ProgramSpirv, Programs};
 use crate::scene::{self, Bounds};
 use crate::uniforms::{self, UniformSpec};
 use crate::Error;
@@ -22,7 +22,7 @@ use ash::vk;
 use glam::{Mat4, Vec3};
 use mdg_vm::bundle::Bundle;
 use mdg_vm::output::{Animation, Output};
-use std::path::Path;
+
 use std::sync::Arc;
 
 /// What the renderer draws into.
@@ -305,21 +305,16 @@ impl Renderer {
 
     /// Uploads a model and builds its pipelines (its `program` or std Phong). On
     /// error the previous model stays. The GPU must be idle.
-    pub fn set_model(&mut self, model: &Model, std_dir: Option<&Path>) -> Result<&ModelInfo, Error> {
-        self.set_output(&model.bundle, &model.output, std_dir)
+    pub fn set_model(&mut self, model: &Model, programs: &Programs) -> Result<&ModelInfo, Error> {
+        self.set_output(&model.bundle, &model.output, programs)
     }
 
     /// Like [`Renderer::set_model`] with the bundle and its output held apart (no copy
     /// of either is made).
-    pub fn set_output(
-        &mut self,
-        bundle: &Bundle,
-        output: &Output,
-        std_dir: Option<&Path>,
-    ) -> Result<&ModelInfo, Error> {
-        let program = program::for_bundle(bundle, std_dir)?;
+    pub fn set_output(&mut self, bundle: &Bundle, output: &Output, programs: &Programs) -> Result<&ModelInfo, Error> {
+        let program = program::for_bundle(bundle, programs)?;
         let scene = scene::build(output);
-        self.set_scene(&scene, bundle, output, &program)
+        self.set_scene(&scene, bundle, output, &program, &programs.lines)
     }
 
     /// Like [`Renderer::set_output`] with a prepared scene and program.
@@ -329,6 +324,7 @@ impl Renderer {
         bundle: &Bundle,
         output: &Output,
         program: &ProgramSpirv,
+        lines: &ProgramSpirv,
     ) -> Result<&ModelInfo, Error> {
         let ctx = &self.ctx;
         let skinned = !scene.skins.is_empty();
@@ -340,7 +336,7 @@ impl Renderer {
             None
         };
         let lines = if scene.n_line_vertices > 0 {
-            let lp = program::line_program()?;
+            let lp = lines;
             Some(Pipeline::new(
                 ctx,
                 &self.layout,

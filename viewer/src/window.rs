@@ -17,7 +17,8 @@
 use crate::buffer::Buffer;
 use crate::camera::OrbitCamera;
 use crate::context::{vkerr, Context, ContextOptions, Validation};
-use crate::model::{LoadOptions, Model};
+use crate::model::{LoadOptions, Loader, Model};
+use crate::program::Programs;
 use crate::reload::{ReloadHandle, Reloaded};
 use crate::renderer::{FrameParams, Renderer, RendererOptions};
 use crate::swapchain::{choose_format, Surface, Swapchain};
@@ -139,6 +140,10 @@ struct App {
     camera_rule: bool,
     mouse: Mouse,
     proxy: EventLoopProxy<UserEvent>,
+    /// Compiles the grammar again (hot reload, `@param` changes).
+    loader: Arc<dyn Loader>,
+    /// The fallback shader programs (std Phong, lines).
+    programs: Programs,
     reload: Option<ReloadHandle>,
     summary: RunSummary,
     error: Option<Error>,
@@ -149,8 +154,16 @@ struct App {
 }
 
 /// Opens a window showing `model` (compiled from `path`, read from `files`) until it
-/// is closed or `opts.frames` frames were drawn.
-pub fn run(path: PathBuf, model: Model, files: Vec<PathBuf>, opts: WindowOptions) -> Result<RunSummary, Error> {
+/// is closed or `opts.frames` frames were drawn. `loader` compiles the grammar again
+/// when it changes.
+pub fn run(
+    path: PathBuf,
+    model: Model,
+    files: Vec<PathBuf>,
+    opts: WindowOptions,
+    loader: Arc<dyn Loader>,
+) -> Result<RunSummary, Error> {
+    let programs = loader.programs(opts.load.std_dir.as_deref())?;
     let event_loop = EventLoop::<UserEvent>::with_user_event()
         .build()
         .map_err(|e| Error::Other(format!("cannot open a window: {e}")))?;
@@ -171,6 +184,8 @@ pub fn run(path: PathBuf, model: Model, files: Vec<PathBuf>, opts: WindowOptions
         camera_rule: false,
         mouse: Mouse::default(),
         proxy,
+        loader,
+        programs,
         reload: None,
         summary: RunSummary::default(),
         error: None,
@@ -233,7 +248,7 @@ impl App {
         let size = window.inner_size();
         let swapchain = Swapchain::new(&ctx, &surface, format, (size.width, size.height), &mut renderer, None)?;
         if let Some(m) = &self.model {
-            let info = renderer.set_model(m, self.opts.load.std_dir.as_deref())?;
+            let info = renderer.set_model(m, &self.programs)?;
             eprintln!(
                 "mdg-view: {} triangles, {} line segments, program {} on {}",
                 info.n_triangles, info.n_line_segments, info.program, ctx.device_name
@@ -273,7 +288,8 @@ impl App {
             return;
         }
         let proxy = self.proxy.clone();
-        match ReloadHandle::start(self.path.clone(), self.files.clone(), self.opts.load.clone(), move |r| {
+        let loader = self.loader.clone();
+        match ReloadHandle::start(self.path.clone(), self.files.clone(), self.opts.load.clone(), loader, move |r| {
             let _ = proxy.send_event(UserEvent::Reloaded(r));
         }) {
             Ok(h) => self.reload = Some(h),
@@ -584,8 +600,9 @@ impl App {
         self.param_generation += 1;
         let generation = self.param_generation;
         let (path, opts, proxy) = (self.path.clone(), self.opts.load.clone(), self.proxy.clone());
+        let loader = self.loader.clone();
         let spawned = std::thread::Builder::new().name("mdg-param".into()).spawn(move || {
-            let r = match crate::model::load(&path, &opts) {
+            let r = match loader.load(&path, &opts) {
                 Ok((m, _)) => Reloaded::Model(Box::new(m)),
                 Err(fail) => Reloaded::Failed(fail.error.to_string()),
             };
@@ -604,7 +621,7 @@ impl App {
             Reloaded::Model(m) => {
                 let Some(g) = &mut self.gpu else { return };
                 g.ctx.wait_idle();
-                match g.renderer.set_model(&m, self.opts.load.std_dir.as_deref()) {
+                match g.renderer.set_model(&m, &self.programs) {
                     Ok(info) => {
                         eprintln!("mdg-view: reloaded: {} triangles, program {}", info.n_triangles, info.program);
                         if !m.warnings.is_empty() {

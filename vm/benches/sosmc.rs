@@ -9,7 +9,7 @@
 //!
 //! The grammar is `std/examples/guided_tree.mdg` compiled by `mdgc build` (the VM does
 //! not depend on the compiler): `$MDG_SOSMC_BUNDLE` if set (relative to the workspace root), else built into
-//! `target/sosmc/guided_tree.mdgb` with `cargo run -p mdg-compiler --bin mdgc`.
+//! `target/sosmc/guided_tree.mdgb` with `cargo run -p mdg-cli --bin mdgc`.
 
 use mdg_vm::bundle::Bundle;
 use mdg_vm::sosmc::{Prepared, SearchOptions};

@@ -9,7 +9,7 @@
 //!
 //! The grammar is `std/examples/guided_tree.mdg`, compiled with `mdgc build` (the VM
 //! does not depend on the compiler): from `$MDG_SOSMC_BUNDLE` if set (relative to the workspace root), else built into
-//! `target/sosmc/guided_tree.mdgb` with `cargo run -p mdg-compiler --bin mdgc`.
+//! `target/sosmc/guided_tree.mdgb` with `cargo run -p mdg-cli --bin mdgc`.
 //!
 //! `fig4`: for alignment offsets 0.6 and 0.5 (every guide's `delta_a`), `--runs` searches
 //! (seeds 1…N) under each of: no heuristic and no ramp (constant generation size), ramp

@@ -11,6 +11,8 @@ mod common;
 
 use common::*;
 use glam::Vec3;
+use mdg_cli::toolchain::Toolchain;
+use mdg_viewer::model::Loader as _;
 use mdg_viewer::offscreen::Offscreen;
 use mdg_viewer::renderer::FrameParams;
 use mdg_viewer::{program, scene};
@@ -130,9 +132,11 @@ fn mirrored_model_is_lit_on_the_outside() {
     let mut wrong = mirrored_model.output.clone();
     wrong.mesh.mirrored.iter_mut().for_each(|m| *m = false);
     let mut off = Offscreen::new(&ctx, W, H, 4).expect("offscreen");
-    let prog = program::for_bundle(&mirrored_model.bundle, Some(&root().join("std"))).expect("program");
+    let prog = program::for_bundle(&mirrored_model.bundle, &programs()).expect("program");
     let sc = scene::build(&wrong);
-    off.renderer_mut().set_scene(&sc, &mirrored_model.bundle, &mirrored_model.output, &prog).expect("upload");
+    off.renderer_mut()
+        .set_scene(&sc, &mirrored_model.bundle, &mirrored_model.output, &prog, &programs().lines)
+        .expect("upload");
     let px = off
         .render(&FrameParams { camera: mirrored.camera, time: 0.0, wireframe: false, camera_rule: false })
         .expect("render");
@@ -214,7 +218,7 @@ fn wireframe_draws_edges_only() {
     }
     let model = load(&data("cube.mdg"));
     let mut off = Offscreen::new(&ctx, W, H, 4).expect("offscreen");
-    off.set_model(&model, Some(&root().join("std"))).expect("upload");
+    off.set_model(&model, &programs()).expect("upload");
     let camera = off.home_camera();
     let fill = off.render(&FrameParams { camera, time: 0.0, wireframe: false, camera_rule: false }).expect("render");
     let wire = off.render(&FrameParams { camera, time: 0.0, wireframe: true, camera_rule: false }).expect("render");
@@ -231,7 +235,7 @@ fn wireframe_draws_edges_only() {
 fn glsl_error_is_reported_at_the_mdg_line() {
     // No GPU needed: this is the compiler's shader stage seen through the viewer.
     let path = data("glsl_error.mdg");
-    let Err(fail) = mdg_viewer::model::load(&path, &load_options()) else { panic!("a GLSL error must fail the load") };
+    let Err(fail) = Toolchain.load(&path, &load_options()) else { panic!("a GLSL error must fail the load") };
     let text = fail.error.to_string();
     assert!(text.contains("E0501"), "{text}");
     // `nope` is on line 13, column 27 of the .mdg file.
@@ -244,9 +248,8 @@ fn bones_in_the_shader_match_the_vm_pose() {
     let Some(ctx) = vulkan() else { return };
     let model = load(&data("animated_arm.mdg"));
     assert!(model.output.animation.is_animated(), "the arm must be a bone");
-    let std = root().join("std");
     let mut off = Offscreen::new(&ctx, W, H, 4).expect("offscreen");
-    off.set_model(&model, Some(&std)).expect("upload");
+    off.set_model(&model, &programs()).expect("upload");
     let camera = off.home_camera();
     let at = |off: &mut Offscreen, t: f32| {
         off.render(&FrameParams { camera, time: t, wireframe: false, camera_rule: false }).expect("render")
@@ -256,7 +259,7 @@ fn bones_in_the_shader_match_the_vm_pose() {
     // static model from the same camera.
     let mut posed = load(&data("animated_arm.mdg"));
     posed.output = model.output.posed(1.0);
-    off.set_model(&posed, Some(&std)).expect("upload");
+    off.set_model(&posed, &programs()).expect("upload");
     let cpu = at(&mut off, 0.0);
     drop(off);
     assert_no_validation_errors(&ctx);
@@ -283,7 +286,7 @@ fn camera_rule_looks_along_its_minus_z() {
     let Some(ctx) = vulkan() else { return };
     let model = load(&data("camera_rule.mdg"));
     let mut off = Offscreen::new(&ctx, W, H, 4).expect("offscreen");
-    let info = off.set_model(&model, Some(&root().join("std"))).expect("upload");
+    let info = off.set_model(&model, &programs()).expect("upload");
     assert!(info.has_camera_rule);
     let camera = off.home_camera();
     let px = off.render(&FrameParams { camera, time: 0.0, wireframe: false, camera_rule: true }).expect("render");

@@ -4,7 +4,7 @@
 //! truncated mix. A killed writer may leave its temporary file, named
 //! `.NAME.PID.N.tmp` beside the target (hidden, never the final name); the test checks
 //! the names of any leftovers. (`mdgc build`'s twin is
-//! `compiler/tests/atomic_output.rs`.)
+//! `cli/tests/atomic_output_mdgc.rs`.)
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};

@@ -1,13 +1,13 @@
-//! `mdg-run`: evaluate a grammar (`.mdg` source or `.mdgb` bundle) and write a mesh.
-//!
-//! It lives in the viewer package so that pictures (`--png`, the modes' contact
-//! sheets) are rendered by the Vulkan offscreen renderer; the software renderer is
-//! the fallback where no Vulkan can start.
+//! `mdg-run FILE`: evaluate a grammar (`.mdg` source or `.mdgb` bundle) and write a
+//! mesh; grammars with extension sections run their mode (guided search, creature
+//! evolution, grid generation). Pictures (`--png`, the modes' contact sheets) are
+//! drawn by the viewer's Vulkan offscreen renderer, the software renderer where no
+//! Vulkan can start.
 
-use clap::Parser;
+use crate::modes::{self, Common};
+use crate::pictures::{Pictures, Vulkan};
 use mdg_compiler::diag::render_plain;
 use mdg_compiler::driver;
-use mdg_compiler::modes::{self, Common};
 use mdg_compiler::source::FsLoader;
 use mdg_vm::eval::{evaluate_with_progress, EvalOptions};
 use mdg_vm::export::{self, Format};
@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Duration;
 
-#[derive(Parser)]
+#[derive(clap::Parser, Debug)]
 #[command(name = "mdg-run", version, about = "Evaluate an MDG grammar and write the mesh")]
 #[command(after_help = "Examples:
   mdg-run std/examples/tree.mdg                 # writes std/examples/tree.glb
@@ -25,9 +25,9 @@ use std::time::Duration;
   mdg-run tree.mdgb --stats                     # run a compiled bundle, print counters
   mdg-run solar_system.mdg                      # .glb with the animation (bones, camera)
   mdg-run solar_system.mdg --time 2.5 -o a.obj  # the pose at 2.5 s as a still mesh")]
-struct Cli {
+pub struct Args {
     /// The grammar: `.mdg` source or `.mdgb` bundle.
-    file: PathBuf,
+    pub file: PathBuf,
     /// Output file (default: beside the input, with the format's extension).
     #[arg(short, long)]
     output: Option<PathBuf>,
@@ -38,7 +38,7 @@ struct Cli {
     #[arg(long)]
     seed: Option<u64>,
     #[command(flatten)]
-    compile: mdg_compiler::cli::CompileArgs,
+    compile: crate::args::CompileArgs,
     /// Print rule calls, vertices, triangles, time and peak memory.
     #[arg(long)]
     stats: bool,
@@ -62,11 +62,11 @@ struct Cli {
     #[arg(long, value_name = "T")]
     time: Option<f64>,
     #[command(flatten)]
-    guided: mdg_compiler::modes::guided::GuidedArgs,
+    guided: crate::modes::guided::GuidedArgs,
     #[command(flatten)]
-    creature: mdg_compiler::modes::creature::CreatureArgs,
+    creature: crate::modes::creature::CreatureArgs,
     #[command(flatten)]
-    grid: mdg_compiler::modes::grid::GridArgs,
+    grid: crate::modes::grid::GridArgs,
 }
 
 fn peak_rss_kib() -> Option<u64> {
@@ -75,8 +75,7 @@ fn peak_rss_kib() -> Option<u64> {
     line.split_whitespace().nth(1)?.parse().ok()
 }
 
-fn main() -> ExitCode {
-    let cli = Cli::parse();
+pub fn run(cli: Args) -> ExitCode {
     let opts = match cli.compile.options() {
         Ok(o) => o,
         Err(e) => {
@@ -84,7 +83,7 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    mdg_viewer::picture::install(opts.std_dir.clone());
+    let pictures = Vulkan::new(opts.std_dir.clone());
     let is_bundle = cli.file.extension().is_some_and(|e| e == "mdgb");
     let bundle = if is_bundle {
         let bytes = match std::fs::read(&cli.file) {
@@ -128,6 +127,7 @@ fn main() -> ExitCode {
         stats: cli.stats,
         png: cli.png.as_deref(),
         size: (w, h),
+        pictures: &pictures,
     };
     if bundle.extensions.creatures.is_some() {
         return modes::creature::run(&bundle, &cli.creature, &common);
@@ -200,7 +200,7 @@ fn main() -> ExitCode {
     }
     if let Some(png_path) = &cli.png {
         // With --time the pose is already baked into `out`.
-        match modes::render_png_of(Some(&bundle), &out, (w, h)) {
+        match pictures.render(Some(&bundle), &out, (w, h)) {
             Ok(bytes) => {
                 if let Err(e) = export::write_atomic(png_path, &bytes) {
                     eprintln!("mdg-run: cannot write {}: {e}", png_path.display());

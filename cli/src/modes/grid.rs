@@ -138,7 +138,7 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
             s.positions.iter_mut().for_each(|p| *p = [p[0] + shift[0], p[1] + shift[1], p[2] + shift[2]]);
             out.mesh.append(&s);
         }
-        let pic = super::render_png(&mesh::z_up(&out), common.size).map_err(|e| (1, e))?;
+        let pic = common.pictures.render(None, &mesh::z_up(&out), common.size).map_err(|e| (1, e))?;
         export::write_atomic(png, &pic).map_err(|e| (2, format!("cannot write {}: {e}", png.display())))?;
         eprintln!("wrote {}", png.display());
     }

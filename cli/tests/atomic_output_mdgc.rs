@@ -3,7 +3,7 @@
 //! complete bundle that loads — never a truncated one. A killed writer may leave its
 //! temporary file, named `.NAME.PID.N.tmp` beside the target (hidden, never the final
 //! name); the test checks the names of any leftovers. (`mdg-run`'s twin of this test
-//! is `viewer/tests/atomic_output.rs`.)
+//! is `cli/tests/atomic_output.rs`.)
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};

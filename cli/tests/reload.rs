@@ -5,6 +5,8 @@
 mod common;
 
 use common::*;
+use mdg_cli::toolchain::Toolchain;
+use mdg_viewer::model::Loader as _;
 use mdg_viewer::offscreen::Offscreen;
 use mdg_viewer::reload::{ReloadHandle, Reloaded};
 use mdg_viewer::renderer::FrameParams;
@@ -40,15 +42,20 @@ fn edits_to_the_grammar_and_its_imports_reload() {
     let lib = dir.join("lib.mdg");
     std::fs::write(&lib, "rule tri { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n").expect("write");
     std::fs::write(&main, "@import lib.mdg\nstartshape A\nrule A { tri {} }\n").expect("write");
-    let (model, files) =
-        mdg_viewer::model::load(&main, &load_options()).map_err(|f| f.error.to_string()).expect("loads");
+    let (model, files) = Toolchain.load(&main, &load_options()).map_err(|f| f.error.to_string()).expect("loads");
     assert_eq!(model.output.mesh.triangles.len(), 1);
     assert!(files.iter().any(|f| f.ends_with("lib.mdg")), "{files:?}");
 
     let (tx, rx) = mpsc::channel();
-    let handle = ReloadHandle::start(main.clone(), files, load_options(), move |r| {
-        let _ = tx.send(r);
-    })
+    let handle = ReloadHandle::start(
+        main.clone(),
+        files,
+        load_options(),
+        std::sync::Arc::new(mdg_cli::toolchain::Toolchain),
+        move |r| {
+            let _ = tx.send(r);
+        },
+    )
     .expect("watch");
     // Give the watcher a moment to be registered before the first change.
     std::thread::sleep(Duration::from_millis(200));
@@ -75,8 +82,7 @@ fn renderer_keeps_the_last_good_model() {
     let Some(ctx) = vulkan() else { return };
     let good = load(&data("cube.mdg"));
     let mut off = Offscreen::new(&ctx, 128, 96, 4).expect("offscreen");
-    let std = root().join("std");
-    off.set_model(&good, Some(&std)).expect("upload");
+    off.set_model(&good, &programs()).expect("upload");
     let camera = off.home_camera();
     let frame = FrameParams { camera, time: 0.0, wireframe: false, camera_rule: false };
     let before = off.render(&frame).expect("render");
@@ -84,7 +90,7 @@ fn renderer_keeps_the_last_good_model() {
     // stage) cannot be drawn: set_model fails and the cube stays.
     let mut bad = load(&data("custom_shader.mdg"));
     bad.bundle.shaders.iter_mut().for_each(|s| s.spirv.clear());
-    assert!(off.set_model(&bad, Some(&std)).is_err());
+    assert!(off.set_model(&bad, &programs()).is_err());
     let after = off.render(&frame).expect("render");
     drop(off);
     assert_no_validation_errors(&ctx);

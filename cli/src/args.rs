@@ -1,8 +1,8 @@
 //! Command-line options shared by `mdgc`, `mdg-run` and `mdg-view`: the ones that
 //! change what a grammar compiles to (`--param`, `--preset`, `--std`).
 
-use crate::driver;
-use crate::expand::Options;
+use mdg_compiler::driver;
+use mdg_compiler::expand::Options;
 use std::path::PathBuf;
 
 /// `--param NAME=VALUE…`, `--preset P…`, `--std DIR`.

@@ -4,10 +4,12 @@
 #![allow(dead_code)]
 
 use glam::{Mat4, Vec3};
+use mdg_cli::toolchain::Toolchain;
 use mdg_viewer::camera::OrbitCamera;
 use mdg_viewer::context::{Context, ContextOptions, Validation};
-use mdg_viewer::model::{self, LoadOptions, Model};
+use mdg_viewer::model::{LoadOptions, Loader as _, Model};
 use mdg_viewer::offscreen::{self, Offscreen};
+use mdg_viewer::program::Programs;
 use mdg_viewer::renderer::{FrameParams, ModelInfo};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -58,9 +60,17 @@ pub fn load_options() -> LoadOptions {
     LoadOptions { std_dir: Some(root().join("std")), ..LoadOptions::default() }
 }
 
+/// The fallback programs, compiled from the workspace's std.
+pub fn programs() -> Programs {
+    match mdg_cli::toolchain::Toolchain.programs(Some(&root().join("std"))) {
+        Ok(p) => p,
+        Err(e) => panic!("the std programs do not compile: {e}"),
+    }
+}
+
 /// Compiles and evaluates a test grammar.
 pub fn load(path: &Path) -> Model {
-    match model::load(path, &load_options()) {
+    match Toolchain.load(path, &load_options()) {
         Ok((m, _)) => m,
         Err(f) => panic!("{} does not load:\n{}", path.display(), f.error),
     }
@@ -115,7 +125,7 @@ pub fn assert_no_validation_errors(ctx: &Context) {
 /// Renders `model` from its home camera at `w` × `h`.
 pub fn render_model(ctx: &Arc<Context>, model: &Model, w: u32, h: u32) -> Render {
     let mut off = Offscreen::new(ctx, w, h, 4).expect("offscreen target");
-    let info = off.set_model(model, Some(&root().join("std"))).expect("upload model");
+    let info = off.set_model(model, &programs()).expect("upload model");
     let camera = off.home_camera();
     let px = off.render(&FrameParams { camera, time: 0.0, wireframe: false, camera_rule: false }).expect("render");
     drop(off);

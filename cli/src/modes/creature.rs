@@ -3,7 +3,8 @@
 //! (PNG) and thumbnails, plus an `index.html` gallery with each monster's
 //! structure; prints the diversity per generation.
 
-use super::{render_png, Common};
+use super::Common;
+use crate::pictures::Pictures;
 use mdg_vm::bundle::Bundle;
 use mdg_vm::creature::evolve::{structure_key, Evolution, EvolveOptions, Generation, Individual, Population};
 use mdg_vm::creature::geometry::{assemble, output_of, program_text, Library};
@@ -87,7 +88,7 @@ pub fn run(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> ExitCode {
 }
 
 /// The bundle with its OBJ meshes embedded: as it is when they are, else (a
-/// bundle lowered without [`crate::ext::creature::embed_meshes`]) read from the
+/// bundle lowered without [`mdg_compiler::ext::creature::embed_meshes`]) read from the
 /// `.mdg` source through the compiler's file loader, with the same path rules.
 fn with_meshes<'b>(bundle: &'b Bundle, file: &Path) -> Result<std::borrow::Cow<'b, Bundle>, String> {
     let Some(t) = bundle.extensions.creatures.as_ref() else { return Ok(std::borrow::Cow::Borrowed(bundle)) };
@@ -100,13 +101,15 @@ fn with_meshes<'b>(bundle: &'b Bundle, file: &Path) -> Result<std::borrow::Cow<'
             file.display()
         ));
     }
-    let opts = crate::expand::Options { std_dir: crate::driver::default_std_dir(), ..Default::default() };
-    let loader = crate::source::FsLoader;
-    let a = crate::driver::analyze(&loader, file, &opts, crate::check::CheckOptions { require_start: true });
+    let opts = mdg_compiler::expand::Options { std_dir: mdg_compiler::driver::default_std_dir(), ..Default::default() };
+    let loader = mdg_compiler::source::FsLoader;
+    let a =
+        mdg_compiler::driver::analyze(&loader, file, &opts, mdg_compiler::check::CheckOptions { require_start: true });
     let mut b = bundle.clone();
-    let d = crate::ext::creature::embed_meshes(&mut b, &a.expanded, &a.sources, &loader, opts.std_dir.as_deref());
+    let d =
+        mdg_compiler::ext::creature::embed_meshes(&mut b, &a.expanded, &a.sources, &loader, opts.std_dir.as_deref());
     if !d.is_empty() {
-        return Err(crate::diag::render_plain(&d, &a.sources).trim_end().to_string());
+        return Err(mdg_compiler::diag::render_plain(&d, &a.sources).trim_end().to_string());
     }
     Ok(std::borrow::Cow::Owned(b))
 }
@@ -188,7 +191,7 @@ fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<()
         );
     }
     let _ = total_steps;
-    write_outputs(table, &lib, &generations, &out_dir, &note, &opts).map_err(|e| (2, e))?;
+    write_outputs(table, &lib, &generations, &out_dir, &note, &opts, common.pictures).map_err(|e| (2, e))?;
     eprintln!("wrote {}", out_dir.join("index.html").display());
     Ok(())
 }
@@ -258,13 +261,13 @@ const TILE: u32 = 320;
 const SHEET_COLUMNS: usize = 6;
 
 /// A monster's picture: turned for a three-quarter view, on a plinth, rendered
-/// with [`render_png`] at `size`.
-pub fn picture(lib: &Library, ind: &Individual, size: (u32, u32)) -> Result<Vec<u8>, String> {
+/// by `pictures` at `size`.
+pub fn picture(pictures: &dyn Pictures, lib: &Library, ind: &Individual, size: (u32, u32)) -> Result<Vec<u8>, String> {
     let mut mesh = monster_mesh(lib, ind, glam::Vec3::ZERO);
     turn(&mut mesh, PICTURE_TURN_DEG, glam::Vec3::ZERO);
     let s = ind.layout.max - ind.layout.min;
     plinth(&mut mesh, glam::Vec3::ZERO, s.x.max(s.y).max(0.3) * 0.55);
-    render_png(&output_of(mesh, BACKGROUND), size)
+    pictures.render(None, &output_of(mesh, BACKGROUND), size)
 }
 
 fn write(path: &Path, bytes: &[u8]) -> Result<(), String> {
@@ -282,6 +285,7 @@ fn write_outputs(
     out_dir: &Path,
     note: &str,
     opts: &EvolveOptions,
+    pictures: &dyn Pictures,
 ) -> Result<(), String> {
     let mut html = String::new();
     let title = if t.name.is_empty() { "creatures".to_string() } else { t.name.clone() };
@@ -343,7 +347,7 @@ table.d td,table.d th{{padding:2px 10px;text-align:right}}\
             let mut bytes = Vec::new();
             export::write(Format::Glb, &output_of(mesh, BACKGROUND), &mut bytes)?;
             write(&dir.join(format!("{}.glb", ind.id)), &bytes)?;
-            let thumb = picture(lib, ind, (TILE, TILE))?;
+            let thumb = picture(pictures, lib, ind, (TILE, TILE))?;
             write(&dir.join(format!("{}.png", ind.id)), &thumb)?;
             tiles.push((thumb, ind.id.clone()));
             let origin = if ind.name.is_empty() {

@@ -1,10 +1,11 @@
-//! `mdg-view`: show a grammar in a window, or render it offscreen to PNG.
+//! `mdg-view FILE`: show a grammar in a window, or render it offscreen to PNG.
 
-use clap::Parser;
+use crate::toolchain::Toolchain;
 use mdg_viewer::camera::Pose;
 use mdg_viewer::context::{Context, ContextOptions, Validation};
-use mdg_viewer::model::{self, LoadOptions};
+use mdg_viewer::model::{self, LoadOptions, Loader};
 use mdg_viewer::offscreen::{self, Offscreen};
+use mdg_viewer::program::Programs;
 use mdg_viewer::renderer::FrameParams;
 use mdg_viewer::window::{self, WindowOptions};
 use mdg_viewer::Error;
@@ -12,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
 
-#[derive(Parser)]
+#[derive(clap::Parser, Debug)]
 #[command(name = "mdg-view", version, about = "Show an MDG grammar with Vulkan, in a window or offscreen to PNG")]
 #[command(after_help = "Examples:
   mdg-view std/examples/tree.mdg                          # window with hot reload
@@ -26,9 +27,9 @@ Space = play/pause, , and . = step one frame back/forward, C = camera rule on/of
 Esc/Q = quit.
 
 Exit status: 0 ok, 1 compile or render error, 2 usage, 3 Vulkan validation errors.")]
-struct Cli {
+pub struct Args {
     /// The grammar: `.mdg` source or `.mdgb` bundle.
-    file: PathBuf,
+    pub file: PathBuf,
     /// Render offscreen to this PNG instead of opening a window.
     #[arg(long)]
     png: Option<PathBuf>,
@@ -68,7 +69,7 @@ struct Cli {
     #[arg(long)]
     seed: Option<u64>,
     #[command(flatten)]
-    compile: mdg_compiler::cli::CompileArgs,
+    compile: crate::args::CompileArgs,
 }
 
 fn parse_size(s: &str) -> Option<(u32, u32)> {
@@ -84,12 +85,12 @@ fn numbered(path: &Path, i: u32, n: u32) -> PathBuf {
     path.with_file_name(format!("{stem}-{i:0digits$}.png"))
 }
 
-fn offscreen(cli: &Cli, model: &model::Model, size: (u32, u32), load: &LoadOptions) -> Result<u32, Error> {
+fn offscreen(cli: &Args, model: &model::Model, size: (u32, u32), programs: &Programs) -> Result<u32, Error> {
     let ctx =
         Arc::new(Context::new(&ContextOptions { validation: Validation::from_env(), surface_extensions: vec![] })?);
     let mut off = Offscreen::new(&ctx, size.0, size.1, cli.samples)?;
     let t0 = std::time::Instant::now();
-    let info = off.set_model(model, load.std_dir.as_deref())?;
+    let info = off.set_model(model, programs)?;
     eprintln!(
         "mdg-view: {} triangles, {} line segments, program {} on {}, {}x MSAA (upload {:.0} ms)",
         info.n_triangles,
@@ -144,8 +145,7 @@ fn camera_pose(arg: &str) -> Result<Option<Pose>, Error> {
     }
 }
 
-fn main() -> ExitCode {
-    let cli = Cli::parse();
+pub fn run(cli: Args) -> ExitCode {
     let Some(size) = parse_size(&cli.size) else {
         eprintln!("mdg-view: --size {}: expected WIDTHxHEIGHT, e.g. 1024x768", cli.size);
         return ExitCode::from(2);
@@ -169,7 +169,7 @@ fn main() -> ExitCode {
         return ExitCode::from(2);
     }
     let load = LoadOptions { std_dir: opts.std_dir, params: opts.params, presets: opts.defines, seed: cli.seed };
-    let (model, files) = match model::load(&cli.file, &load) {
+    let (model, files) = match Toolchain.load(&cli.file, &load) {
         Ok(m) => m,
         Err(fail) => {
             eprint!("{}", fail.error);
@@ -184,7 +184,7 @@ fn main() -> ExitCode {
         eprintln!("warning: {w}");
     }
     let result = if cli.png.is_some() {
-        offscreen(&cli, &model, size, &load)
+        Toolchain.programs(load.std_dir.as_deref()).and_then(|programs| offscreen(&cli, &model, size, &programs))
     } else {
         let opts = WindowOptions {
             width: size.0,
@@ -198,7 +198,7 @@ fn main() -> ExitCode {
             time: cli.time,
             pose,
         };
-        window::run(cli.file.clone(), model, files, opts).map(|s| {
+        window::run(cli.file.clone(), model, files, opts, Arc::new(Toolchain)).map(|s| {
             eprintln!("mdg-view: closed cleanly after {} frames ({} reloads) on {}", s.frames, s.reloads, s.device);
             s.validation_errors
         })

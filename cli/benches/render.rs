@@ -2,17 +2,19 @@
 //! triangles, seen from the three-quarter home view) rendered offscreen to a 1024 × 1024 PNG with 4× MSAA and the std Phong program.
 //! Target on lavapipe: ≤ 2 s from the evaluated model to the PNG on disk.
 //!
-//! `cargo bench -p mdg-viewer --bench render` (validation off). Prints each phase:
+//! `cargo bench -p mdg-cli --bench render` (validation off). Prints each phase:
 //! packing the vertex data, uploading and building pipelines, drawing and reading
 //! back, encoding and writing the PNG; the end-to-end time is their sum. Two more
 //! frames of the same model show the draw alone (frames per second). 4× MSAA;
 //! `MDG_BENCH_SAMPLES=N` asks for another count. `MDG_BENCH_CUBES=N` renders an N × N × N lattice (95 for about 10M triangles on
 //! a GPU), `MDG_BENCH_SIZE=S` an S × S image.
 
+use mdg_cli::toolchain::Toolchain;
 use mdg_viewer::context::{Context, ContextOptions, Validation};
+use mdg_viewer::model::{self, Loader as _};
 use mdg_viewer::offscreen::{self, Offscreen};
 use mdg_viewer::renderer::FrameParams;
-use mdg_viewer::{model, program, scene};
+use mdg_viewer::{program, scene};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -37,7 +39,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     )?;
     let opts = model::LoadOptions { std_dir: Some(root.join("std")), ..model::LoadOptions::default() };
     let t = Instant::now();
-    let (m, _) = model::load(&grammar, &opts).map_err(|f| f.error.to_string())?;
+    let (m, _) = Toolchain.load(&grammar, &opts).map_err(|f| f.error.to_string())?;
     let t_eval = ms(t);
     let n_tri = m.output.mesh.triangles.len();
 
@@ -45,7 +47,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let ctx = Arc::new(Context::new(&ContextOptions { validation: Validation::Off, surface_extensions: vec![] })?);
     let t_ctx = ms(t);
     let t = Instant::now();
-    let prog = program::for_bundle(&m.bundle, Some(&root.join("std")))?;
+    let programs = Toolchain.programs(Some(&root.join("std")))?;
+    let prog = program::for_bundle(&m.bundle, &programs)?;
     let t_prog = ms(t);
 
     let side: u32 = std::env::var("MDG_BENCH_SIZE").ok().and_then(|v| v.parse().ok()).unwrap_or(1024);
@@ -63,7 +66,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let sc = scene::build(&m.output);
         let t_pack = ms(t);
         let t = Instant::now();
-        off.renderer_mut().set_scene(&sc, &m.bundle, &m.output, &prog)?;
+        off.renderer_mut().set_scene(&sc, &m.bundle, &m.output, &prog, &programs.lines)?;
         let t_upload = ms(t);
         let frame = FrameParams { camera: off.home_camera(), time: 0.0, wireframe: false, camera_rule: false };
         let t = Instant::now();

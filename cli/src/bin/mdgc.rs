@@ -1,0 +1,35 @@
+//! `mdgc`: check, format, build, disassemble and induce MDG grammars; explain a
+//! diagnostic code. Each subcommand is a module of [`mdg_cli::commands`].
+
+use clap::{Parser, Subcommand};
+use mdg_cli::commands::{build, check, disasm, fmt, induce};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "mdgc", version, about = "The MDG compiler: check, format and build shape grammars")]
+#[command(
+    after_help = "Examples:\n  mdgc check std/examples/tree.mdg\n  mdgc check --message-format json a.mdg b.mdg\n  mdgc fmt --check std/*.mdg\n\nExit codes: 0 clean (warnings allowed), 1 errors found (or `fmt --check` found\nunformatted files), 2 usage or IO errors."
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    Check(check::Args),
+    Build(build::Args),
+    Disasm(disasm::Args),
+    Induce(induce::Args),
+    Fmt(fmt::Args),
+}
+
+fn main() -> ExitCode {
+    match Cli::parse().command {
+        Command::Check(a) => check::run(a),
+        Command::Build(a) => build::run(a),
+        Command::Disasm(a) => disasm::run(a),
+        Command::Induce(a) => induce::run(a),
+        Command::Fmt(a) => fmt::run(a),
+    }
+}

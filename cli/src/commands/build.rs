@@ -1,0 +1,41 @@
+//! `mdgc build FILE.mdg [-o FILE.mdgb]`: compile a program to a bundle.
+
+use super::{emit, fail, CommonOpts};
+use mdg_compiler::driver;
+use mdg_compiler::source::FsLoader;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Compile a program to a bundle (`.mdgb`).
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    pub file: PathBuf,
+    /// Output bundle (default: beside the input, `.mdgb`).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    #[command(flatten)]
+    pub common: CommonOpts,
+}
+
+pub fn run(args: Args) -> ExitCode {
+    let opts = match args.common.compile.options() {
+        Ok(o) => o,
+        Err(e) => return fail("mdgc", e, 2),
+    };
+    match driver::build(&FsLoader, &args.file, &opts) {
+        Ok((bundle, a)) => {
+            emit(&a, args.common.message_format);
+            let out = args.output.unwrap_or_else(|| args.file.with_extension("mdgb"));
+            let bytes = mdg_vm::bundle::encode(&bundle);
+            if let Err(e) = mdg_vm::export::write_atomic(&out, &bytes) {
+                return fail("mdgc build", format!("cannot write {}: {e}", out.display()), 2);
+            }
+            eprintln!("wrote {} ({} bytes)", out.display(), bytes.len());
+            ExitCode::SUCCESS
+        }
+        Err(a) => {
+            emit(&a, args.common.message_format);
+            ExitCode::from(1)
+        }
+    }
+}

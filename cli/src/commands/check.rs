@@ -1,0 +1,40 @@
+//! `mdgc check FILE…`: report every diagnostic.
+
+use super::{emit, fail, CommonOpts};
+use mdg_compiler::check::CheckOptions;
+use mdg_compiler::driver::analyze;
+use mdg_compiler::source::FsLoader;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Report every diagnostic in the given files.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    pub files: Vec<PathBuf>,
+    /// Check as a program: require a `startshape`.
+    #[arg(long)]
+    pub program: bool,
+    #[command(flatten)]
+    pub common: CommonOpts,
+}
+
+pub fn run(args: Args) -> ExitCode {
+    if args.files.is_empty() {
+        return fail("mdgc check", "no files given", 2);
+    }
+    let opts = match args.common.compile.options() {
+        Ok(o) => o,
+        Err(e) => return fail("mdgc", e, 2),
+    };
+    let mut errors = false;
+    for f in &args.files {
+        let a = analyze(&FsLoader, f, &opts, CheckOptions { require_start: args.program });
+        emit(&a, args.common.message_format);
+        errors |= a.has_errors();
+    }
+    if errors {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    }
+}

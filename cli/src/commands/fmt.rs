@@ -1,0 +1,43 @@
+//! `mdgc fmt [--check] FILE…`: format in place, or check.
+
+use super::fail;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Format files in place (or check that they are formatted).
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    pub files: Vec<PathBuf>,
+    /// Do not write; exit 1 if any file would change.
+    #[arg(long)]
+    pub check: bool,
+}
+
+pub fn run(args: Args) -> ExitCode {
+    let mut changed = false;
+    for f in &args.files {
+        let text = match std::fs::read_to_string(f) {
+            Ok(t) => t,
+            Err(e) => return fail("mdgc fmt", format!("cannot read {}: {e}", f.display()), 2),
+        };
+        let formatted = match mdg_compiler::fmt::format_source(&text) {
+            Ok(s) => s,
+            Err(e) => {
+                return fail("mdgc fmt", format!("{}: not formatted, it has syntax errors:\n{e}", f.display()), 1)
+            }
+        };
+        if formatted != text {
+            changed = true;
+            if args.check {
+                println!("{} is not formatted", f.display());
+            } else if let Err(e) = mdg_vm::export::write_atomic(f, formatted.as_bytes()) {
+                return fail("mdgc fmt", format!("cannot write {}: {e}", f.display()), 2);
+            }
+        }
+    }
+    if args.check && changed {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    }
+}

@@ -1,0 +1,14 @@
+//! The MDG commands: `mdgc`, `mdg-run`, `mdg-view`, one module per command in
+//! [`commands`], and `mdg-run`'s run modes for the extension sections in [`modes`].
+//!
+//! This crate is the one place with process concerns: argument parsing (clap), exit
+//! codes, progress bars (indicatif), messages on stderr, and the wiring between the
+//! libraries: it passes the compiler to the viewer ([`toolchain::Toolchain`]) and a
+//! picture renderer to the modes ([`pictures::Pictures`]). The libraries (`compiler`,
+//! `vm`, `viewer`) print nothing and never exit.
+
+pub mod args;
+pub mod commands;
+pub mod modes;
+pub mod pictures;
+pub mod toolchain;
