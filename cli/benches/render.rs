@@ -44,7 +44,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let n_tri = m.output.mesh.triangles.len();
 
     let t = Instant::now();
-    let ctx = Arc::new(Context::new(&ContextOptions { validation: Validation::Off, surface_extensions: vec![] })?);
+    let ctx = Arc::new(Context::new(&ContextOptions {
+        validation: Validation::Off,
+        surface_extensions: vec![],
+        on_message: Some(mdg_cli::say),
+    })?);
     let t_ctx = ms(t);
     let t = Instant::now();
     let programs = Toolchain.programs(Some(&root.join("std")))?;

@@ -12,3 +12,9 @@ pub mod commands;
 pub mod modes;
 pub mod pictures;
 pub mod toolchain;
+
+/// Prints a message from a library (the viewer's window, the Vulkan validation
+/// layer) on stderr: the sink the commands hand to the libraries.
+pub fn say(message: &str) {
+    eprintln!("{message}");
+}

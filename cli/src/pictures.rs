@@ -53,7 +53,11 @@ impl Device {
             _ => Validation::Off,
         };
         let programs = Toolchain.programs(std_dir)?;
-        let ctx = Arc::new(Context::new(&ContextOptions { validation, surface_extensions: vec![] })?);
+        let ctx = Arc::new(Context::new(&ContextOptions {
+            validation,
+            surface_extensions: vec![],
+            on_message: Some(crate::say),
+        })?);
         Ok(Device { ctx, target: None, programs })
     }
 

@@ -708,7 +708,7 @@ fn mutated_voxel_files_never_panic() {
                 for _ in 0..1 + rng.below(4) {
                     let i = rng.below(b.len());
                     match rng.below(3) {
-                        0 => b[i] = rng.next() as u8,
+                        0 => b[i] = rng.next_u64() as u8,
                         1 => {
                             b.truncate(i);
                         }

@@ -20,7 +20,7 @@ fn rs_files(dir: &std::path::Path, out: &mut Vec<std::path::PathBuf>) {
 #[test]
 fn every_rust_file_starts_with_a_module_doc() {
     let mut files = Vec::new();
-    for dir in ["compiler", "vm", "lsp", "viewer", "tests", "fuzz", "benches"] {
+    for dir in ["compiler", "vm", "lsp", "viewer", "cli", "tests", "fuzz", "benches"] {
         rs_files(&root().join(dir), &mut files);
     }
     assert!(files.len() > 20);
@@ -146,4 +146,87 @@ fn files_are_written_only_through_write_atomic() {
         }
     }
     assert!(found.is_empty(), "files written without write_atomic:\n{}", found.join("\n"));
+}
+
+/// The library crates and what each may depend on among the workspace's crates:
+/// dependencies point one way (`cli → compiler, vm, viewer`; `viewer → vm`;
+/// `lsp → compiler`; `compiler → vm`).
+const LIBRARIES: [(&str, &[&str]); 3] = [("vm", &[]), ("compiler", &["mdg-vm"]), ("viewer", &["mdg-vm"])];
+
+/// Whether `file` is a module its parent declares under `#[cfg(test)]`.
+fn is_test_module(file: &std::path::Path) -> bool {
+    let Some(stem) = file.file_stem().map(|s| s.to_string_lossy().into_owned()) else { return false };
+    let Some(dir) = file.parent() else { return false };
+    let parents = [dir.join("mod.rs"), dir.join("lib.rs"), dir.with_extension("rs")];
+    parents.iter().any(|p| std::fs::read_to_string(p).is_ok_and(|t| t.contains(&format!("#[cfg(test)]\nmod {stem};"))))
+}
+
+/// The libraries do no process work: they print nothing, never exit, draw no
+/// progress bars and parse no command lines; the CLI crate (`cli/`) does all of
+/// that and passes sinks and callbacks in.
+#[test]
+fn library_crates_print_nothing_and_never_exit() {
+    let mut found = Vec::new();
+    for (lib, allowed) in LIBRARIES {
+        let toml = std::fs::read_to_string(root().join(lib).join("Cargo.toml")).expect("Cargo.toml");
+        let deps = toml.split("[dependencies]").nth(1).map(|r| r.split("\n[").next().unwrap_or("")).unwrap_or("");
+        for line in deps.lines() {
+            let name = line.split(['=', ' ', '.']).next().unwrap_or("").trim();
+            if ["clap", "indicatif"].contains(&name) || (name.starts_with("mdg-") && !allowed.contains(&name)) {
+                found.push(format!("{lib}/Cargo.toml depends on {name}"));
+            }
+        }
+        let mut files = Vec::new();
+        rs_files(&root().join(lib).join("src"), &mut files);
+        for f in files.iter().filter(|f| !is_test_module(f)) {
+            let text = std::fs::read_to_string(f).unwrap_or_default();
+            let text = text.split("#[cfg(test)]").next().unwrap_or("");
+            for (n, code) in code_lines(text) {
+                let bad = [
+                    "println!(",
+                    "print!(",
+                    "eprintln!(",
+                    "eprint!(",
+                    "dbg!(",
+                    "process::exit",
+                    "ExitCode",
+                    "indicatif",
+                    "Command::new",
+                    "clap::",
+                ];
+                if let Some(p) = bad.iter().find(|p| code.contains(*p) && !code.contains(&format!("\"{p}"))) {
+                    found.push(format!(
+                        "{}:{n}: `{p}` in a library crate",
+                        f.strip_prefix(root()).unwrap_or(f).display()
+                    ));
+                }
+            }
+        }
+    }
+    assert!(found.is_empty(), "process work outside cli/:\n{}", found.join("\n"));
+}
+
+/// The one-way dependencies, as Cargo sees them: no library crate (nor the language
+/// server) depends on the CLI, the viewer does not depend on the compiler, the
+/// compiler does not depend on the viewer.
+#[test]
+fn dependencies_point_one_way() {
+    let deps_of = |krate: &str| -> Vec<String> {
+        let toml = std::fs::read_to_string(root().join(krate).join("Cargo.toml")).expect("Cargo.toml");
+        toml.lines()
+            .filter(|l| l.trim_start().starts_with("mdg-"))
+            .map(|l| l.split([' ', '=']).next().unwrap_or("").trim().to_string())
+            .collect()
+    };
+    let expect: [(&str, &[&str]); 5] = [
+        ("vm", &[]),
+        ("compiler", &["mdg-vm"]),
+        ("viewer", &["mdg-vm"]),
+        ("lsp", &["mdg-compiler"]),
+        ("cli", &["mdg-compiler", "mdg-vm", "mdg-viewer"]),
+    ];
+    for (krate, want) in expect {
+        let got = deps_of(krate);
+        assert_eq!(got, want, "{krate}/Cargo.toml: workspace dependencies (normal and dev) {got:?}, want {want:?}");
+    }
 }

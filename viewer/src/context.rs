@@ -42,6 +42,9 @@ pub struct ContextOptions {
     pub validation: Validation,
     /// Instance extensions a window surface needs (from `ash_window`); empty offscreen.
     pub surface_extensions: Vec<&'static CStr>,
+    /// Receives each validation error and warning as it is reported (the viewer
+    /// prints nothing itself); errors are also counted and kept in the log.
+    pub on_message: Option<fn(&str)>,
 }
 
 /// Messages the validation layer reported, counted by severity; errors kept.
@@ -50,6 +53,7 @@ pub struct ValidationLog {
     errors: AtomicU32,
     warnings: AtomicU32,
     messages: Mutex<Vec<String>>,
+    on_message: Option<fn(&str)>,
 }
 
 impl ValidationLog {
@@ -116,7 +120,9 @@ unsafe extern "system" fn debug_callback(
     };
     if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
         log.errors.fetch_add(1, Ordering::SeqCst);
-        eprintln!("[vulkan validation error] {text}");
+        if let Some(f) = log.on_message {
+            f(&format!("[vulkan validation error] {text}"));
+        }
         if let Ok(mut m) = log.messages.lock() {
             if m.len() < 20 {
                 m.push(text);
@@ -124,7 +130,9 @@ unsafe extern "system" fn debug_callback(
         }
     } else if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING) {
         log.warnings.fetch_add(1, Ordering::SeqCst);
-        eprintln!("[vulkan validation warning] {text}");
+        if let Some(f) = log.on_message {
+            f(&format!("[vulkan validation warning] {text}"));
+        }
     }
     vk::FALSE
 }
@@ -170,7 +178,7 @@ impl Context {
             vk::Result::ERROR_INCOMPATIBLE_DRIVER => Error::NoVulkan("no Vulkan driver (ICD) is installed".into()),
             e => Error::Vulkan(format!("vkCreateInstance: {e}")),
         })?;
-        let log = Arc::new(ValidationLog::default());
+        let log = Arc::new(ValidationLog { on_message: opts.on_message, ..ValidationLog::default() });
         let debug = if validation {
             let du = ash::ext::debug_utils::Instance::new(&entry, &instance);
             let info = vk::DebugUtilsMessengerCreateInfoEXT::default()

@@ -357,7 +357,7 @@ impl Renderer {
         } else {
             None
         };
-        let spec = UniformSpec::new(&bundle, &output);
+        let spec = UniformSpec::new(bundle, output);
         let animation = output.animation.clone();
         let globals = Buffer::host(ctx, uniforms::GLOBALS_SIZE as u64, vk::BufferUsageFlags::UNIFORM_BUFFER)?;
         let user_bytes = uniforms::user(&spec.values(&animation, 0.0));

@@ -52,6 +52,9 @@ pub struct WindowOptions {
     pub time: f32,
     /// The starting view (`--camera AZ,EL[,ZOOM]`); the home view when `None`.
     pub pose: Option<crate::camera::Pose>,
+    /// Where the window's messages go (reloads, key help, errors it recovers
+    /// from): the viewer prints nothing itself.
+    pub log: fn(&str),
 }
 
 /// How the run ended.
@@ -233,7 +236,11 @@ impl App {
         let exts = ash_window::enumerate_required_extensions(display).map_err(vkerr("surface extensions"))?;
         // SAFETY: ash_window returns pointers to static NUL-terminated extension names.
         let surface_extensions = exts.iter().map(|p| unsafe { std::ffi::CStr::from_ptr(*p) }).collect();
-        let ctx = Arc::new(Context::new(&ContextOptions { validation: self.opts.validation, surface_extensions })?);
+        let ctx = Arc::new(Context::new(&ContextOptions {
+            validation: self.opts.validation,
+            surface_extensions,
+            on_message: Some(self.opts.log),
+        })?);
         self.summary.device = ctx.device_name.clone();
         let surface = Surface::new(&ctx, display, handle)?;
         let format = choose_format(&ctx, &surface)?;
@@ -249,10 +256,10 @@ impl App {
         let swapchain = Swapchain::new(&ctx, &surface, format, (size.width, size.height), &mut renderer, None)?;
         if let Some(m) = &self.model {
             let info = renderer.set_model(m, &self.programs)?;
-            eprintln!(
+            (self.opts.log)(&format!(
                 "mdg-view: {} triangles, {} line segments, program {} on {}",
                 info.n_triangles, info.n_line_segments, info.program, ctx.device_name
-            );
+            ));
             let aspect = swapchain.extent.width as f32 / swapchain.extent.height.max(1) as f32;
             let home = OrbitCamera::framing(&info.bounds, info.fov_deg, aspect);
             self.camera = Some(match self.opts.pose {
@@ -261,10 +268,13 @@ impl App {
             });
             if !m.bundle.params.is_empty() {
                 let names: Vec<&str> = m.bundle.params.iter().map(|p| m.bundle.string(p.name)).collect();
-                eprintln!("mdg-view: @param {}: P selects, [ and ] change (Shift: ×10)", names.join(", "));
+                (self.opts.log)(&format!(
+                    "mdg-view: @param {}: P selects, [ and ] change (Shift: ×10)",
+                    names.join(", ")
+                ));
             }
             if info.animated {
-                eprintln!("mdg-view: animated ({:.1} s at {} fps): Space plays, , and . step, C looks through the camera rule", info.duration, info.fps);
+                (self.opts.log)(&format!("mdg-view: animated ({:.1} s at {} fps): Space plays, , and . step, C looks through the camera rule", info.duration, info.fps));
             }
         }
         let alloc = vk::CommandBufferAllocateInfo::default()
@@ -293,7 +303,7 @@ impl App {
             let _ = proxy.send_event(UserEvent::Reloaded(r));
         }) {
             Ok(h) => self.reload = Some(h),
-            Err(e) => eprintln!("mdg-view: hot reload is off: {e}"),
+            Err(e) => (self.opts.log)(&format!("mdg-view: hot reload is off: {e}")),
         }
     }
 
@@ -409,7 +419,7 @@ impl App {
     fn write_screenshot(&mut self) -> Result<(), Error> {
         let Some(path) = self.opts.screenshot.clone() else { return Ok(()) };
         if !self.gpu.as_ref().is_some_and(|g| g.swapchain.can_read_back) {
-            eprintln!("mdg-view: this swapchain cannot be read back; no screenshot");
+            (self.opts.log)("mdg-view: this swapchain cannot be read back; no screenshot");
             return Ok(());
         }
         // An out-of-date swapchain draws nothing; a second try uses the new one.
@@ -420,7 +430,7 @@ impl App {
                 return crate::offscreen::write_png(&path, &px, e.width, e.height);
             }
         }
-        eprintln!("mdg-view: no frame to write as the screenshot");
+        (self.opts.log)("mdg-view: no frame to write as the screenshot");
         Ok(())
     }
 
@@ -469,7 +479,7 @@ impl App {
                         self.wireframe = !self.wireframe;
                         self.redraw();
                     } else {
-                        eprintln!("mdg-view: this device cannot draw wireframes (no fillModeNonSolid)");
+                        (self.opts.log)("mdg-view: this device cannot draw wireframes (no fillModeNonSolid)");
                     }
                 }
                 "+" | "=" => self.zoom(0.9),
@@ -561,7 +571,7 @@ impl App {
         let Some(m) = &self.model else { return };
         let n = m.bundle.params.len();
         if n == 0 {
-            eprintln!("mdg-view: this grammar has no @param");
+            (self.opts.log)("mdg-view: this grammar has no @param");
             return;
         }
         self.param = (self.param + 1) % n;
@@ -573,7 +583,7 @@ impl App {
         let Some(p) = m.bundle.params.get(self.param % m.bundle.params.len().max(1)) else { return };
         let range = if p.max > p.min { format!(" in [{}, {}]", p.min, p.max) } else { String::new() };
         let text = format!("{} = {}{range}", m.bundle.string(p.name), p.value);
-        eprintln!("mdg-view: @param {text}");
+        (self.opts.log)(&format!("mdg-view: @param {text}"));
         if let Some(g) = &self.gpu {
             g.window.set_title(&format!("mdg-view — {} — {text}", self.path.display()));
         }
@@ -585,7 +595,7 @@ impl App {
     fn change_param(&mut self, steps: f64) {
         let Some(m) = &self.model else { return };
         let Some(p) = m.bundle.params.get(self.param) else {
-            eprintln!("mdg-view: this grammar has no @param");
+            (self.opts.log)("mdg-view: this grammar has no @param");
             return;
         };
         let Some(v) = stepped(p, steps) else { return };
@@ -596,7 +606,7 @@ impl App {
         if let Some(r) = &self.reload {
             r.set_options(self.opts.load.clone());
         }
-        eprintln!("mdg-view: @param {name} = {value}: rebuilding");
+        (self.opts.log)(&format!("mdg-view: @param {name} = {value}: rebuilding"));
         self.param_generation += 1;
         let generation = self.param_generation;
         let (path, opts, proxy) = (self.path.clone(), self.opts.load.clone(), self.proxy.clone());
@@ -609,29 +619,32 @@ impl App {
             let _ = proxy.send_event(UserEvent::ParamRebuilt(generation, r));
         });
         if let Err(e) = spawned {
-            eprintln!("mdg-view: cannot rebuild: {e}");
+            (self.opts.log)(&format!("mdg-view: cannot rebuild: {e}"));
         }
     }
 
     fn reloaded(&mut self, r: Reloaded) {
         match r {
             Reloaded::Failed(msg) => {
-                eprintln!("mdg-view: reload failed; keeping the last good model\n{msg}");
+                (self.opts.log)(&format!("mdg-view: reload failed; keeping the last good model\n{msg}"));
             }
             Reloaded::Model(m) => {
                 let Some(g) = &mut self.gpu else { return };
                 g.ctx.wait_idle();
                 match g.renderer.set_model(&m, &self.programs) {
                     Ok(info) => {
-                        eprintln!("mdg-view: reloaded: {} triangles, program {}", info.n_triangles, info.program);
+                        (self.opts.log)(&format!(
+                            "mdg-view: reloaded: {} triangles, program {}",
+                            info.n_triangles, info.program
+                        ));
                         if !m.warnings.is_empty() {
-                            eprint!("{}", m.warnings);
+                            (self.opts.log)(m.warnings.trim_end());
                         }
                         self.summary.reloads += 1;
                         self.model = Some(*m);
                         self.redraw();
                     }
-                    Err(e) => eprintln!("mdg-view: reload failed; keeping the last good model\n{e}"),
+                    Err(e) => (self.opts.log)(&format!("mdg-view: reload failed; keeping the last good model\n{e}")),
                 }
             }
         }
@@ -661,30 +674,6 @@ pub fn stepped(p: &mdg_vm::bundle::Param, steps: f64) -> Option<f64> {
         v = v.clamp(p.min, p.max);
     }
     (v != p.value && v.is_finite()).then_some(v)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::stepped;
-    use mdg_vm::bundle::Param;
-
-    #[test]
-    fn param_steps_round_ints_clamp_to_the_range_and_scale_floats() {
-        let int = Param { name: 0, ty: 0, value: 3.0, min: 1.0, max: 5.0 };
-        assert_eq!(stepped(&int, 1.0), Some(4.0));
-        assert_eq!(stepped(&int, 10.0), Some(5.0));
-        assert_eq!(stepped(&Param { value: 5.0, ..int }, 1.0), None);
-        assert_eq!(stepped(&int, -10.0), Some(1.0));
-        let ranged = Param { name: 0, ty: 1, value: 0.5, min: 0.0, max: 2.0 };
-        let near = |a: Option<f64>, b: f64| a.is_some_and(|a| (a - b).abs() < 1e-12);
-        assert!(near(stepped(&ranged, 1.0), 0.6));
-        let free = Param { name: 0, ty: 1, value: 4.0, min: 0.0, max: 0.0 };
-        assert!(near(stepped(&free, -1.0), 3.6));
-        assert!(near(stepped(&Param { value: 0.0, ..free }, 1.0), 0.1));
-        let flag = Param { name: 0, ty: 2, value: 1.0, min: 0.0, max: 0.0 };
-        assert_eq!(stepped(&flag, 1.0), Some(0.0));
-        assert_eq!(stepped(&Param { value: 0.0, ..flag }, -1.0), Some(1.0));
-    }
 }
 
 /// Copies the presented image to `buffer`, leaving it ready to present.
@@ -853,7 +842,7 @@ impl ApplicationHandler<UserEvent> for App {
 
     fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
         if QUIT_REQUESTED.load(std::sync::atomic::Ordering::SeqCst) {
-            eprintln!("mdg-view: interrupted, closing");
+            (self.opts.log)("mdg-view: interrupted, closing");
             if let Err(e) = self.write_screenshot() {
                 self.fail(event_loop, e);
             }
@@ -866,5 +855,29 @@ impl ApplicationHandler<UserEvent> for App {
 
     fn exiting(&mut self, _event_loop: &ActiveEventLoop) {
         self.shutdown();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::stepped;
+    use mdg_vm::bundle::Param;
+
+    #[test]
+    fn param_steps_round_ints_clamp_to_the_range_and_scale_floats() {
+        let int = Param { name: 0, ty: 0, value: 3.0, min: 1.0, max: 5.0 };
+        assert_eq!(stepped(&int, 1.0), Some(4.0));
+        assert_eq!(stepped(&int, 10.0), Some(5.0));
+        assert_eq!(stepped(&Param { value: 5.0, ..int }, 1.0), None);
+        assert_eq!(stepped(&int, -10.0), Some(1.0));
+        let ranged = Param { name: 0, ty: 1, value: 0.5, min: 0.0, max: 2.0 };
+        let near = |a: Option<f64>, b: f64| a.is_some_and(|a| (a - b).abs() < 1e-12);
+        assert!(near(stepped(&ranged, 1.0), 0.6));
+        let free = Param { name: 0, ty: 1, value: 4.0, min: 0.0, max: 0.0 };
+        assert!(near(stepped(&free, -1.0), 3.6));
+        assert!(near(stepped(&Param { value: 0.0, ..free }, 1.0), 0.1));
+        let flag = Param { name: 0, ty: 2, value: 1.0, min: 0.0, max: 0.0 };
+        assert_eq!(stepped(&flag, 1.0), Some(0.0));
+        assert_eq!(stepped(&Param { value: 0.0, ..flag }, -1.0), Some(1.0));
     }
 }

@@ -649,7 +649,7 @@ impl<'b> Eval<'b> {
                     let mirrored = lin.1 != x.mirrored;
                     let m = &mut self.out.mesh;
                     let k = m.push_vertex(p, n, color, weight, act.bone) + 1;
-                    if k % 3 == 0 {
+                    if k.is_multiple_of(3) {
                         m.push_triangle([k - 3, k - 2, k - 1], mirrored);
                     }
                     if self.needs_last {
@@ -997,7 +997,7 @@ impl<'b> Eval<'b> {
                 let m = &mut self.out.mesh;
                 m.push_vertex(s.f.u, n, s.display_color(), s.weight, bone);
                 let k = m.n_vertices() as u32;
-                if k % 3 == 0 {
+                if k.is_multiple_of(3) {
                     m.push_triangle([k - 3, k - 2, k - 1], s.f.mirrored());
                 }
             }
@@ -1068,16 +1068,24 @@ impl<'b> Eval<'b> {
             9 => self.last = self.pens[ns_i].state,
             _ => {
                 let p = s.f.u;
-                eprintln!(
-                    "DEBUG: position ({:.4}, {:.4}, {:.4}) scale {:.4} mirrored {} colour {:?} weight {:?}",
-                    p.x,
-                    p.y,
-                    p.z,
-                    s.f.scale_factor(),
-                    s.f.mirrored(),
-                    s.color,
-                    s.weight
-                );
+                let debug = &mut self.out.debug;
+                if debug.len() < crate::output::MAX_DEBUG_LINES {
+                    debug.push(format!(
+                        "DEBUG: position ({:.4}, {:.4}, {:.4}) scale {:.4} mirrored {} colour {:?} weight {:?}",
+                        p.x,
+                        p.y,
+                        p.z,
+                        s.f.scale_factor(),
+                        s.f.mirrored(),
+                        s.color,
+                        s.weight
+                    ));
+                } else if debug.len() == crate::output::MAX_DEBUG_LINES {
+                    debug.push(format!(
+                        "DEBUG: (more reports left out; at most {} are kept)",
+                        crate::output::MAX_DEBUG_LINES
+                    ));
+                }
             }
         }
     }

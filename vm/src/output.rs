@@ -226,7 +226,14 @@ pub struct Output {
     pub background: [f32; 4],
     /// Bones with their frame tracks, and the camera track.
     pub animation: Animation,
+    /// What `DEBUG {}` items reported, in order (at most [`MAX_DEBUG_LINES`]; the
+    /// caller prints them: the VM prints nothing).
+    pub debug: Vec<String>,
 }
+
+/// How many `DEBUG {}` reports one run keeps (a loop over a DEBUG item would fill
+/// memory otherwise); the last line says how many more there were.
+pub const MAX_DEBUG_LINES: usize = 10_000;
 
 impl Output {
     /// All geometry as one mesh in world space: VERTEX triangles, sweeps and every

@@ -184,6 +184,9 @@ pub fn run(cli: Args) -> ExitCode {
         evaluate_with_progress(&bundle, &eval_opts, Some(&progress))
     };
     bar.finish_and_clear();
+    for d in &out.debug {
+        eprintln!("{d}");
+    }
     for w in &out.stats.warnings {
         eprintln!("warning: {w}");
     }

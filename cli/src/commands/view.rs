@@ -86,8 +86,11 @@ fn numbered(path: &Path, i: u32, n: u32) -> PathBuf {
 }
 
 fn offscreen(cli: &Args, model: &model::Model, size: (u32, u32), programs: &Programs) -> Result<u32, Error> {
-    let ctx =
-        Arc::new(Context::new(&ContextOptions { validation: Validation::from_env(), surface_extensions: vec![] })?);
+    let ctx = Arc::new(Context::new(&ContextOptions {
+        validation: Validation::from_env(),
+        surface_extensions: vec![],
+        on_message: Some(crate::say),
+    })?);
     let mut off = Offscreen::new(&ctx, size.0, size.1, cli.samples)?;
     let t0 = std::time::Instant::now();
     let info = off.set_model(model, programs)?;
@@ -180,6 +183,9 @@ pub fn run(cli: Args) -> ExitCode {
         }
     };
     eprint!("{}", model.warnings);
+    for d in &model.output.debug {
+        eprintln!("{d}");
+    }
     for w in &model.output.stats.warnings {
         eprintln!("warning: {w}");
     }
@@ -197,6 +203,7 @@ pub fn run(cli: Args) -> ExitCode {
             samples: cli.samples,
             time: cli.time,
             pose,
+            log: crate::say,
         };
         window::run(cli.file.clone(), model, files, opts, Arc::new(Toolchain)).map(|s| {
             eprintln!("mdg-view: closed cleanly after {} frames ({} reloads) on {}", s.frames, s.reloads, s.device);

@@ -46,7 +46,11 @@ pub fn vulkan() -> Option<Arc<Context>> {
     if skip_vulkan() {
         return None;
     }
-    match Context::new(&ContextOptions { validation: Validation::Required, surface_extensions: vec![] }) {
+    match Context::new(&ContextOptions {
+        validation: Validation::Required,
+        surface_extensions: vec![],
+        on_message: Some(mdg_cli::say),
+    }) {
         Ok(c) => Some(Arc::new(c)),
         Err(e) => panic!(
             "{e}\n\nThe viewer tests render with Vulkan and need a device and the validation layer: \

@@ -309,6 +309,7 @@ pub(crate) mod tests {
             },
             background: [0.0, 0.0, 0.0, 1.0],
             animation: Default::default(),
+            debug: Vec::new(),
         }
     }
 
