@@ -8,6 +8,7 @@
 //! `vm`, `viewer`) print nothing and never exit.
 
 pub mod args;
+pub mod batch;
 pub mod commands;
 pub mod modes;
 pub mod pictures;

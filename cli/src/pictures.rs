@@ -1,12 +1,13 @@
 //! Pictures for the commands: a grammar's output rendered to PNG bytes.
 //!
-//! [`Pictures`] is what every command and mode draws with (`mdg-run --png`, the
-//! creature contact sheets, grid renders). [`Vulkan`] renders offscreen with the
-//! viewer (lavapipe without a GPU), reusing one device and one target per size;
-//! where no Vulkan can start it falls back to the software renderer
+//! [`Pictures`] is what every command and mode draws with (`mdg-run --png` and
+//! `--frames`, the creature contact sheets, grid renders). [`Vulkan`] renders
+//! offscreen with the viewer (lavapipe without a GPU), reusing one device and one
+//! target per size; where no Vulkan can start it falls back to the software renderer
 //! (`mdg_vm::preview`) and says so once. [`Software`] is the software renderer alone.
 
 use crate::toolchain::Toolchain;
+use mdg_viewer::camera::Pose;
 use mdg_viewer::context::{Context, ContextOptions, Validation};
 use mdg_viewer::model::Loader as _;
 use mdg_viewer::offscreen::Offscreen;
@@ -21,20 +22,50 @@ use std::sync::{Arc, Mutex};
 /// Renders a model (with the bundle it came from, for its background, field of view,
 /// shaders and camera rule) to the bytes of a PNG file.
 pub trait Pictures: Sync {
-    fn render(&self, bundle: Option<&Bundle>, output: &Output, size: (u32, u32)) -> Result<Vec<u8>, String>;
-}
+    /// The model at `time` seconds of its animation (bones, camera rule, frame-bound
+    /// uniforms); `output` is the rest pose.
+    fn render_at(
+        &self,
+        bundle: Option<&Bundle>,
+        output: &Output,
+        size: (u32, u32),
+        time: f32,
+    ) -> Result<Vec<u8>, String>;
 
-/// The software renderer.
-pub struct Software;
-
-impl Pictures for Software {
-    fn render(&self, _bundle: Option<&Bundle>, output: &Output, size: (u32, u32)) -> Result<Vec<u8>, String> {
-        software(output, size)
+    /// The model as it is (a still, or the rest pose).
+    fn render(&self, bundle: Option<&Bundle>, output: &Output, size: (u32, u32)) -> Result<Vec<u8>, String> {
+        self.render_at(bundle, output, size, 0.0)
     }
 }
 
-fn software(output: &Output, size: (u32, u32)) -> Result<Vec<u8>, String> {
-    let opts = mdg_vm::preview::PreviewOptions { width: size.0, height: size.1, ..Default::default() };
+/// The software renderer, from the home view.
+pub struct Software;
+
+impl Pictures for Software {
+    fn render_at(
+        &self,
+        _bundle: Option<&Bundle>,
+        output: &Output,
+        size: (u32, u32),
+        time: f32,
+    ) -> Result<Vec<u8>, String> {
+        software(output, size, time, None)
+    }
+}
+
+fn software(output: &Output, size: (u32, u32), time: f32, pose: Option<Pose>) -> Result<Vec<u8>, String> {
+    let mut opts = mdg_vm::preview::PreviewOptions { width: size.0, height: size.1, ..Default::default() };
+    if let Some(p) = pose {
+        opts.azimuth_deg = p.azimuth_deg;
+        opts.elevation_deg = p.elevation_deg;
+    }
+    let posed;
+    let output = if time > 0.0 && output.animation.bones.len() > 1 {
+        posed = output.posed(f64::from(time));
+        &posed
+    } else {
+        output
+    };
     let rgba = mdg_vm::preview::render(output, &opts);
     mdg_vm::preview::encode_png(&rgba, size.0, size.1).map_err(|e| format!("cannot encode PNG: {e}"))
 }
@@ -61,7 +92,14 @@ impl Device {
         Ok(Device { ctx, target: None, programs })
     }
 
-    fn render(&mut self, bundle: &Bundle, output: &Output, size: (u32, u32)) -> Result<Vec<u8>, Error> {
+    fn render(
+        &mut self,
+        bundle: &Bundle,
+        output: &Output,
+        size: (u32, u32),
+        time: f32,
+        pose: Option<Pose>,
+    ) -> Result<Vec<u8>, Error> {
         let reuse = self.target.as_ref().is_some_and(|t| (t.width, t.height) == size);
         if !reuse {
             self.target = None;
@@ -69,8 +107,12 @@ impl Device {
         }
         let Some(off) = self.target.as_mut() else { return Err(Error::Other("no render target".into())) };
         let info = off.set_output(bundle, output, &self.programs)?;
-        let frame =
-            FrameParams { camera: off.home_camera(), time: 0.0, wireframe: false, camera_rule: info.has_camera_rule };
+        let camera = match pose {
+            Some(p) => off.home_camera().posed(&info.bounds, size.0 as f32 / size.1 as f32, p),
+            None => off.home_camera(),
+        };
+        // A chosen view replaces the grammar's camera rule.
+        let frame = FrameParams { camera, time, wireframe: false, camera_rule: info.has_camera_rule && pose.is_none() };
         let px = off.render(&frame)?;
         mdg_vm::preview::encode_png(&px, size.0, size.1).map_err(Error::Other)
     }
@@ -80,31 +122,45 @@ impl Device {
 /// Vulkan cannot start (one note on stderr says so).
 pub struct Vulkan {
     std_dir: Option<PathBuf>,
+    pose: Option<Pose>,
     device: Mutex<Option<Result<Device, String>>>,
 }
 
 impl Vulkan {
     pub fn new(std_dir: Option<PathBuf>) -> Vulkan {
-        Vulkan { std_dir, device: Mutex::new(None) }
+        Vulkan { std_dir, pose: None, device: Mutex::new(None) }
+    }
+
+    /// Pictures from this view (`--camera AZ,EL[,ZOOM]`) instead of the home view
+    /// or the grammar's camera rule.
+    pub fn posed(mut self, pose: Option<Pose>) -> Vulkan {
+        self.pose = pose;
+        self
     }
 }
 
 impl Pictures for Vulkan {
-    fn render(&self, bundle: Option<&Bundle>, output: &Output, size: (u32, u32)) -> Result<Vec<u8>, String> {
+    fn render_at(
+        &self,
+        bundle: Option<&Bundle>,
+        output: &Output,
+        size: (u32, u32),
+        time: f32,
+    ) -> Result<Vec<u8>, String> {
         let mut guard = self.device.lock().map_err(|_| "picture renderer poisoned".to_string())?;
         let device = guard.get_or_insert_with(|| {
             Device::open(self.std_dir.as_deref()).map_err(|e| {
-                eprintln!("note: pictures are drawn by the software renderer, because Vulkan cannot start here ({e})");
+                eprintln!("note: pictures are drawn by the software renderer, because Vulkan cannot start here: {e}");
                 e.to_string()
             })
         });
         match device {
             Ok(d) => match bundle {
-                Some(b) => d.render(b, output, size),
-                None => d.render(&Bundle::empty(), output, size),
+                Some(b) => d.render(b, output, size, time, self.pose),
+                None => d.render(&Bundle::empty(), output, size, time, self.pose),
             }
             .map_err(|e| e.to_string()),
-            Err(_) => software(output, size),
+            Err(_) => software(output, size, time, self.pose),
         }
     }
 }

@@ -30,8 +30,10 @@ impl Analysis {
     }
 }
 
-/// The std directory: `$MDG_STD`, else `std/` beside the running executable's
-/// workspace, else the one this compiler was built from.
+/// The std directory: `$MDG_STD`, else `std/` in an ancestor of the running
+/// executable (a build in the checkout's `target/`), else the std built into this
+/// compiler, written once to a cache directory ([`crate::stdlib`]). An installed
+/// binary never reads the source checkout it was built from.
 pub fn default_std_dir() -> Option<PathBuf> {
     if let Some(p) = std::env::var_os("MDG_STD") {
         return Some(PathBuf::from(p));
@@ -44,8 +46,7 @@ pub fn default_std_dir() -> Option<PathBuf> {
             }
         }
     }
-    let built = Path::new(env!("CARGO_MANIFEST_DIR")).join("../std");
-    built.is_dir().then_some(built)
+    crate::stdlib::materialize()
 }
 
 fn finish(sources: Sources, expanded: Expanded, opts: CheckOptions) -> Analysis {

@@ -4,13 +4,17 @@
 //! drawn by the viewer's Vulkan offscreen renderer, the software renderer where no
 //! Vulkan can start.
 
+use crate::batch::{self, Manifest, Seeds, Shard};
 use crate::modes::{self, Common};
 use crate::pictures::{Pictures, Vulkan};
 use mdg_compiler::diag::render_plain;
 use mdg_compiler::driver;
 use mdg_compiler::source::FsLoader;
+use mdg_viewer::camera::Pose;
+use mdg_vm::bundle::Bundle;
 use mdg_vm::eval::{evaluate_with_progress, EvalOptions};
 use mdg_vm::export::{self, Format};
+use mdg_vm::output::Output;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Duration;
@@ -18,17 +22,21 @@ use std::time::Duration;
 #[derive(clap::Parser, Debug)]
 #[command(name = "mdg-run", version, about = "Evaluate an MDG grammar and write the mesh")]
 #[command(after_help = "Examples:
-  mdg-run std/examples/tree.mdg                 # writes std/examples/tree.glb
+  mdg-run std/examples/tree.mdg                 # writes ./tree.glb (the current directory)
   mdg-run tree.mdg -o tree.obj --seed 7         # OBJ, another random tree
   mdg-run knot.mdg --param nx=3 --param ny=5    # override @param values
   mdg-run tree.mdg --format json -o tree.json   # inspection dump (vertices, lines, instances, stats)
   mdg-run tree.mdgb --stats                     # run a compiled bundle, print counters
   mdg-run solar_system.mdg                      # .glb with the animation (bones, camera)
-  mdg-run solar_system.mdg --time 2.5 -o a.obj  # the pose at 2.5 s as a still mesh")]
+  mdg-run solar_system.mdg --time 2.5 -o a.obj  # the pose at 2.5 s as a still mesh
+  mdg-run solar_system.mdg --frames frames/     # the animation as PNGs (and an .mp4 with ffmpeg)
+  mdg-run tree.mdg --camera 0,90 --png top.png  # the picture from above
+  mdg-run tree.mdg --seeds 0..1000 -o 'out/{seed}.glb' --shard 3/8   # a batch: docs/batch.md")]
 pub struct Args {
     /// The grammar: `.mdg` source or `.mdgb` bundle.
     pub file: PathBuf,
-    /// Output file (default: beside the input, with the format's extension).
+    /// Output file (default: in the current directory, named after the input, with
+    /// the format's extension). With --seeds, a template holding `{seed}`.
     #[arg(short, long)]
     output: Option<PathBuf>,
     /// Output format: glb, obj, stl, ply, json (default: from -o's extension, else glb).
@@ -61,6 +69,21 @@ pub struct Args {
     /// Without it, .glb holds the whole animation and obj/stl/ply the rest pose.
     #[arg(long, value_name = "T")]
     time: Option<f64>,
+    /// The picture's view: azimuth and elevation in degrees, ZOOM times closer
+    /// (e.g. `0,90` looks down); replaces the home view and the camera rule.
+    #[arg(long, value_name = "AZ,EL[,ZOOM]")]
+    camera: Option<String>,
+    /// Write the animation as a numbered PNG sequence into DIR (frame-00000.png, …,
+    /// `duration · fps` frames at --size), and DIR/animation.mp4 when `ffmpeg` is on PATH.
+    #[arg(long, value_name = "DIR")]
+    frames: Option<PathBuf>,
+    /// A batch: run every seed in A..B (B excluded) or A..=B, each written to the -o
+    /// template with `{seed}` replaced, with a manifest; resumable (docs/batch.md).
+    #[arg(long, value_name = "A..B")]
+    seeds: Option<String>,
+    /// With --seeds: run only shard K of N (the seeds at positions ≡ K mod N; K from 0).
+    #[arg(long, value_name = "K/N", requires = "seeds")]
+    shard: Option<String>,
     #[command(flatten)]
     guided: crate::modes::guided::GuidedArgs,
     #[command(flatten)]
@@ -75,85 +98,159 @@ fn peak_rss_kib() -> Option<u64> {
     line.split_whitespace().nth(1)?.parse().ok()
 }
 
+/// A failed run: the exit code and the message.
+type Failure = (u8, String);
+
 pub fn run(cli: Args) -> ExitCode {
-    let opts = match cli.compile.options() {
-        Ok(o) => o,
-        Err(e) => {
-            eprintln!("mdg-run: {e}");
-            return ExitCode::from(2);
-        }
-    };
-    let pictures = Vulkan::new(opts.std_dir.clone());
-    let is_bundle = cli.file.extension().is_some_and(|e| e == "mdgb");
-    let bundle = if is_bundle {
-        let bytes = match std::fs::read(&cli.file) {
-            Ok(b) => b,
-            Err(e) => {
-                eprintln!("mdg-run: cannot read {}: {e}", cli.file.display());
-                return ExitCode::from(2);
-            }
-        };
-        match mdg_vm::bundle::load(&bytes) {
-            Ok(b) => b,
-            Err(e) => {
-                eprintln!("mdg-run: {}: {e}", cli.file.display());
-                return ExitCode::from(1);
-            }
-        }
-    } else {
-        match driver::build(&FsLoader, &cli.file, &opts) {
-            Ok((b, a)) => {
-                eprint!("{}", render_plain(&a.diagnostics, &a.sources));
-                b
-            }
-            Err(a) => {
-                eprint!("{}", render_plain(&a.diagnostics, &a.sources));
-                return ExitCode::from(1);
-            }
-        }
-    };
-    let (w, h) =
-        match cli.size.split_once('x').and_then(|(a, b)| Some((a.parse::<u32>().ok()?, b.parse::<u32>().ok()?))) {
-            Some((w, h)) if w > 0 && h > 0 && w <= 8192 && h <= 8192 => (w, h),
-            _ => {
-                eprintln!("mdg-run: --size {}: expected WIDTHxHEIGHT, each 1..8192", cli.size);
-                return ExitCode::from(2);
-            }
-        };
-    let common = Common {
-        file: &cli.file,
-        output: cli.output.as_deref(),
-        seed: cli.seed,
-        stats: cli.stats,
-        png: cli.png.as_deref(),
-        size: (w, h),
-        pictures: &pictures,
-    };
-    if bundle.extensions.creatures.is_some() {
-        return modes::creature::run(&bundle, &cli.creature, &common);
+    match run_checked(&cli) {
+        Ok(code) => code,
+        Err((code, message)) => super::fail("mdg-run", message, code),
     }
-    if bundle.extensions.grid.is_some() {
-        return modes::grid::run(&bundle, &cli.grid, &common);
+}
+
+/// The file name of `input` with `ext`, in the current directory: outputs never
+/// land in the std library or beside a shared input (docs/decisions.md).
+pub fn default_output(input: &Path, ext: &str) -> PathBuf {
+    let stem = input.file_stem().map(|s| s.to_os_string()).unwrap_or_else(|| "out".into());
+    PathBuf::from(stem).with_extension(ext)
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), Failure> {
+    match s.split_once('x').and_then(|(a, b)| Some((a.parse::<u32>().ok()?, b.parse::<u32>().ok()?))) {
+        Some((w, h)) if w > 0 && h > 0 && w <= 8192 && h <= 8192 => Ok((w, h)),
+        _ => Err((2, format!("--size {s}: expected WIDTHxHEIGHT, each 1..8192"))),
     }
-    let format = match &cli.format {
-        Some(f) => match Format::from_extension(f) {
-            Some(f) => f,
-            None => {
-                eprintln!("mdg-run: unknown format `{f}` (glb, obj, stl, ply, json)");
-                return ExitCode::from(2);
-            }
-        },
-        None => cli.output.as_deref().and_then(Format::from_path).unwrap_or(Format::Glb),
+}
+
+fn load_bundle(file: &Path, opts: &mdg_compiler::expand::Options) -> Result<Bundle, Failure> {
+    if file.extension().is_some_and(|e| e == "mdgb") {
+        let bytes = std::fs::read(file).map_err(|e| (2, format!("cannot read {}: {e}", file.display())))?;
+        return mdg_vm::bundle::load(&bytes).map_err(|e| (1, format!("{}: {e}", file.display())));
+    }
+    match driver::build(&FsLoader, file, opts) {
+        Ok((b, a)) => {
+            eprint!("{}", render_plain(&a.diagnostics, &a.sources));
+            Ok(b)
+        }
+        Err(a) => {
+            eprint!("{}", render_plain(&a.diagnostics, &a.sources));
+            Err((1, format!("{} has errors", file.display())))
+        }
+    }
+}
+
+fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
+    let opts = cli.compile.options().map_err(|e| (2, e))?;
+    let size = parse_size(&cli.size)?;
+    let pose = match &cli.camera {
+        Some(c) => Some(c.parse::<Pose>().map_err(|e| (2, format!("--camera {e}")))?),
+        None => None,
     };
     if let Some(t) = cli.time {
         if !(t.is_finite() && t >= 0.0) {
-            eprintln!("mdg-run: --time {t}: expected a number of seconds ≥ 0");
-            return ExitCode::from(2);
+            return Err((2, format!("--time {t}: expected a number of seconds ≥ 0")));
         }
     }
-    let output = cli.output.clone().unwrap_or_else(|| cli.file.with_extension(format.extension()));
+    let batch = match &cli.seeds {
+        Some(s) => {
+            let seeds: Seeds = s.parse().map_err(|e| (2, e))?;
+            let shard: Shard = match &cli.shard {
+                Some(k) => k.parse().map_err(|e| (2, e))?,
+                None => Shard::default(),
+            };
+            let template = cli
+                .output
+                .as_ref()
+                .ok_or((2, "--seeds needs -o with `{seed}` in it, e.g. -o 'out/{seed}.glb'".to_string()))?;
+            batch::output_for(template, 0).map_err(|e| (2, e))?;
+            if cli.seed.is_some() {
+                return Err((2, "--seed and --seeds: choose one".into()));
+            }
+            Some((seeds, shard, template.clone()))
+        }
+        None => None,
+    };
+    let bundle = load_bundle(&cli.file, &opts)?;
+    let pictures = Vulkan::new(opts.std_dir.clone()).posed(pose);
+    if bundle.extensions.creatures.is_some() {
+        if batch.is_some() {
+            return Err((
+                2,
+                "--seeds: creature evolution writes a gallery per run; run it once per seed instead".into(),
+            ));
+        }
+        if let Some(o) = &cli.output {
+            if o.extension().is_some() && !o.is_dir() {
+                return Err((
+                    2,
+                    format!(
+                        "-o {}: creature evolution writes a folder (one .glb per monster, pictures, index.html); give a folder name such as -o monsters/",
+                        o.display()
+                    ),
+                ));
+            }
+        }
+        let out_dir = cli.output.clone().unwrap_or_else(|| modes::creature::default_dir(&cli.file));
+        let common = common(cli, Some(&out_dir), cli.seed, size, &pictures);
+        return Ok(modes::creature::run(&bundle, &cli.creature, &common));
+    }
+    match batch {
+        Some((seeds, shard, template)) => run_batch(cli, &bundle, seeds, shard, &template, size, &pictures),
+        None => {
+            let is_grid = bundle.extensions.grid.is_some();
+            let output = match &cli.output {
+                Some(o) => o.clone(),
+                None if is_grid => default_output(&cli.file, "vox"),
+                None => default_output(&cli.file, format(cli)?.extension()),
+            };
+            run_one(cli, &bundle, cli.seed, &output, size, &pictures, true).map(|_| ExitCode::SUCCESS)
+        }
+    }
+}
+
+fn common<'a>(
+    cli: &'a Args,
+    output: Option<&'a Path>,
+    seed: Option<u64>,
+    size: (u32, u32),
+    pictures: &'a dyn Pictures,
+) -> Common<'a> {
+    Common { file: &cli.file, output, seed, stats: cli.stats, png: cli.png.as_deref(), size, pictures }
+}
+
+fn format(cli: &Args) -> Result<Format, Failure> {
+    match &cli.format {
+        Some(f) => Format::from_extension(f).ok_or((2, format!("unknown format `{f}` (glb, obj, stl, ply, json)"))),
+        None => Ok(cli.output.as_deref().and_then(Format::from_path).unwrap_or(Format::Glb)),
+    }
+}
+
+/// Evaluates one seed into `output` (and the picture, the frames); returns the
+/// vertex and triangle counts of a mesh output (`None` for a grid's voxels).
+fn run_one(
+    cli: &Args,
+    bundle: &Bundle,
+    seed: Option<u64>,
+    output: &Path,
+    size: (u32, u32),
+    pictures: &dyn Pictures,
+    say_wrote: bool,
+) -> Result<Option<(u64, u64)>, Failure> {
+    if bundle.extensions.grid.is_some() {
+        let common = common(cli, Some(output), seed, size, pictures);
+        let code = modes::grid::run(bundle, &cli.grid, &common);
+        return if code == ExitCode::SUCCESS {
+            Ok(None)
+        } else {
+            Err((1, format!("{} was not generated", output.display())))
+        };
+    }
+    let format = match &cli.format {
+        Some(_) => format(cli)?,
+        None => Format::from_path(output).unwrap_or(Format::Glb),
+    };
     let eval_opts = EvalOptions {
-        seed: cli.seed,
+        seed,
         max_vertices: cli.max_vertices.unwrap_or(mdg_vm::eval::DEFAULT_MAX_VERTICES),
         time_budget: cli.time_budget.map(Duration::from_secs_f64),
         time: cli.time,
@@ -173,15 +270,10 @@ pub fn run(cli: Args) -> ExitCode {
         bar.tick();
     };
     let mut out = if bundle.extensions.guided.is_some() {
-        match modes::guided::run(&bundle, &cli.guided, &common) {
-            Ok(out) => out,
-            Err(e) => {
-                eprintln!("mdg-run: {e}");
-                return ExitCode::from(1);
-            }
-        }
+        let common = common(cli, Some(output), seed, size, pictures);
+        modes::guided::run(bundle, &cli.guided, &common).map_err(|e| (1, e))?
     } else {
-        evaluate_with_progress(&bundle, &eval_opts, Some(&progress))
+        evaluate_with_progress(bundle, &eval_opts, Some(&progress))
     };
     bar.finish_and_clear();
     for d in &out.debug {
@@ -197,25 +289,19 @@ pub fn run(cli: Args) -> ExitCode {
         }
         None => {}
     }
-    if let Err(e) = export::write_file(format, &out, &output) {
-        eprintln!("mdg-run: cannot write {}: {e}", output.display());
-        return ExitCode::from(1);
+    if let Some(dir) = output.parent().filter(|d| !d.as_os_str().is_empty() && !d.exists()) {
+        std::fs::create_dir_all(dir).map_err(|e| (2, format!("cannot create {}: {e}", dir.display())))?;
     }
+    export::write_file(format, &out, output).map_err(|e| (1, format!("cannot write {}: {e}", output.display())))?;
     if let Some(png_path) = &cli.png {
         // With --time the pose is already baked into `out`.
-        match pictures.render(Some(&bundle), &out, (w, h)) {
-            Ok(bytes) => {
-                if let Err(e) = export::write_atomic(png_path, &bytes) {
-                    eprintln!("mdg-run: cannot write {}: {e}", png_path.display());
-                    return ExitCode::from(2);
-                }
-                eprintln!("wrote {}", display(png_path));
-            }
-            Err(e) => {
-                eprintln!("mdg-run: cannot render the picture: {e}");
-                return ExitCode::from(1);
-            }
-        }
+        let bytes =
+            pictures.render(Some(bundle), &out, size).map_err(|e| (1, format!("cannot render the picture: {e}")))?;
+        export::write_atomic(png_path, &bytes).map_err(|e| (2, format!("cannot write {}: {e}", png_path.display())))?;
+        eprintln!("wrote {}", png_path.display());
+    }
+    if let Some(dir) = &cli.frames {
+        write_frames(bundle, &out, dir, size, pictures)?;
     }
     if cli.stats {
         let s = &out.stats;
@@ -230,10 +316,106 @@ pub fn run(cli: Args) -> ExitCode {
             peak_rss_kib().map(|k| format!("{:.1} MiB", k as f64 / 1024.0)).unwrap_or_else(|| "n/a".into())
         );
     }
-    eprintln!("wrote {}", display(&output));
-    ExitCode::SUCCESS
+    if say_wrote {
+        eprintln!("wrote {}", output.display());
+    }
+    let flat = out.flattened();
+    Ok(Some((flat.positions.len() as u64, flat.triangles.len() as u64)))
 }
 
-fn display(p: &Path) -> String {
-    p.display().to_string()
+/// The most frames `--frames` writes.
+pub const MAX_FRAMES: u64 = 100_000;
+
+/// `--frames DIR`: the animation at `fps` for `duration` seconds as numbered PNGs,
+/// then `animation.mp4` when ffmpeg is installed.
+fn write_frames(
+    bundle: &Bundle,
+    out: &Output,
+    dir: &Path,
+    size: (u32, u32),
+    pictures: &dyn Pictures,
+) -> Result<(), Failure> {
+    let (fps, duration) = (bundle.settings.fps, bundle.settings.duration);
+    if !(fps.is_finite() && fps > 0.0 && duration.is_finite() && duration > 0.0) {
+        return Err((1, format!("--frames: the grammar's fps ({fps}) and duration ({duration}) give no frames")));
+    }
+    let n = (f64::from(duration) * f64::from(fps)).ceil().max(1.0);
+    if n > MAX_FRAMES as f64 {
+        return Err((2, format!("--frames: {n} frames (duration {duration} s at {fps} fps); at most {MAX_FRAMES}: lower `duration` or `fps`")));
+    }
+    std::fs::create_dir_all(dir).map_err(|e| (2, format!("cannot create {}: {e}", dir.display())))?;
+    let n = n as u64;
+    let bar = indicatif::ProgressBar::new(n);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} frames  {elapsed}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    for i in 0..n {
+        let t = i as f32 / fps;
+        let png =
+            pictures.render_at(Some(bundle), out, size, t).map_err(|e| (1, format!("cannot render frame {i}: {e}")))?;
+        let path = dir.join(format!("frame-{i:05}.png"));
+        export::write_atomic(&path, &png).map_err(|e| (2, format!("cannot write {}: {e}", path.display())))?;
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    eprintln!("wrote {n} frames to {}", dir.display());
+    let mp4 = dir.join("animation.mp4");
+    let ffmpeg = std::process::Command::new("ffmpeg")
+        .args(["-loglevel", "error", "-y", "-framerate"])
+        .arg(format!("{fps}"))
+        .arg("-i")
+        .arg(dir.join("frame-%05d.png"))
+        .args(["-c:v", "libx264", "-pix_fmt", "yuv420p", "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2"])
+        .arg(&mp4)
+        .status();
+    match ffmpeg {
+        Ok(s) if s.success() => eprintln!("wrote {}", mp4.display()),
+        Ok(s) => eprintln!("warning: ffmpeg failed ({s}); the PNG frames are in {}", dir.display()),
+        Err(_) => eprintln!("note: no ffmpeg on PATH, so no animation.mp4 (the PNG frames are in {})", dir.display()),
+    }
+    Ok(())
+}
+
+/// `--seeds`: every seed of this shard, skipping the finished ones.
+fn run_batch(
+    cli: &Args,
+    bundle: &Bundle,
+    seeds: Seeds,
+    shard: Shard,
+    template: &Path,
+    size: (u32, u32),
+    pictures: &dyn Pictures,
+) -> Result<ExitCode, Failure> {
+    if cli.png.is_some() || cli.frames.is_some() {
+        return Err((2, "--seeds writes one model per seed; --png and --frames are for single runs".into()));
+    }
+    let mut manifest = Manifest::open(&batch::manifest_path(template, shard)).map_err(|e| (2, e))?;
+    let (mut ran, mut skipped) = (0u64, 0u64);
+    let todo: Vec<u64> = batch::shard_seeds(seeds, shard).collect();
+    let bar = indicatif::ProgressBar::new(todo.len() as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} seeds  {elapsed} (eta {eta})")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    for seed in todo {
+        let output = batch::output_for(template, seed).map_err(|e| (2, e))?;
+        if manifest.is_done(seed, &output) {
+            skipped += 1;
+            bar.inc(1);
+            continue;
+        }
+        let counts = bar.suspend(|| run_one(cli, bundle, Some(seed), &output, size, pictures, false))?;
+        manifest.record(&batch::Entry { seed, file: output, counts }).map_err(|e| (2, e))?;
+        ran += 1;
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    eprintln!(
+        "{ran} seeds run, {skipped} already done (shard {}/{}); manifest {}",
+        shard.index,
+        shard.count,
+        manifest.path().display()
+    );
+    Ok(ExitCode::SUCCESS)
 }

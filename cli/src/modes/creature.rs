@@ -387,9 +387,9 @@ table.d td,table.d th{{padding:2px 10px;text-align:right}}\
     write(&out_dir.join("index.html"), html.as_bytes())
 }
 
-/// Where `mdg-run` puts a run's files by default: beside the grammar, named after it.
+/// Where `mdg-run` puts a run's files by default: a folder in the current directory, named after the grammar.
 pub fn default_dir(file: &Path) -> PathBuf {
-    file.with_extension("")
+    PathBuf::from(file.file_stem().unwrap_or(std::ffi::OsStr::new("monsters")))
 }
 
 /// Evolves `generations` generations from the table's regular creatures (the
