@@ -319,8 +319,24 @@ fn run_one(
     if say_wrote {
         eprintln!("wrote {}", output.display());
     }
-    let flat = out.flattened();
-    Ok(Some((flat.positions.len() as u64, flat.triangles.len() as u64)))
+    Ok(Some(counts(&out)))
+}
+
+/// Vertices and triangles of the flattened model (what OBJ, STL and PLY hold),
+/// counted without building it.
+fn counts(out: &Output) -> (u64, u64) {
+    let (mut v, mut t) = (0u64, 0u64);
+    for m in [&out.mesh, &out.sweeps] {
+        v += m.positions.len() as u64;
+        t += m.triangles.len() as u64;
+    }
+    for inst in &out.instances {
+        if let Some((_, shared)) = out.shared_meshes.get(inst.mesh as usize) {
+            v += shared.positions.len() as u64;
+            t += shared.triangles.len() as u64;
+        }
+    }
+    (v, t)
 }
 
 /// The most frames `--frames` writes.
