@@ -24,3 +24,4 @@ pub mod parse;
 pub mod shaders;
 pub mod source;
 pub mod span;
+pub mod stdlib;

@@ -534,7 +534,7 @@ impl Walker<'_, '_> {
                     }
                     self.adj_list(adj);
                 }
-                BodyKind::Iterate { count, divisor, adj, item: inner } => {
+                BodyKind::Iterate { count, divisor, adj, item: inner, .. } => {
                     let header = count.span().to(adj.span);
                     self.syn(
                         header,
