@@ -298,10 +298,16 @@ impl Document {
             Some(c) => format!("{} step(s)", fmt_num(c)),
             None => "steps".to_string(),
         };
-        if step.transform.is_empty() {
-            format!("`{header}` → {runs} in place")
+        let chained = if info.chain {
+            "; chained: run 1 starts from the iterator's frame, each later run from the end state of the run \\
+             before it (its last drawable or MOVETO), composed with the step"
         } else {
-            format!("`{header}` → {runs} of `{}`", step.transform)
+            ""
+        };
+        if step.transform.is_empty() {
+            format!("`{header}` → {runs} in place{chained}")
+        } else {
+            format!("`{header}` → {runs} of `{}`{chained}", step.transform)
         }
     }
 
