@@ -457,7 +457,11 @@ impl<'a> Checker<'a> {
                                             "`{}` is defined by the std library `{lib}`, which is not imported",
                                             name.text
                                         ))
-                                        .with_suggestion(format!("add `@import {lib}`"), top, format!("@import {lib}\n"));
+                                        .with_suggestion(
+                                            format!("add `@import {lib}`"),
+                                            top,
+                                            format!("@import {lib}\n"),
+                                        );
                                 } else if let Some(s) = did_you_mean(&name.text, cands) {
                                     d = d.with_suggestion(format!("did you mean `{s}`?"), name.span, s.to_string());
                                 } else {

@@ -612,7 +612,9 @@ fn balance(tokens: Vec<Token>, sources: &Sources) -> (Vec<Token>, Vec<Diagnostic
                         .with_label(format!("this is never closed; expected `{}`", closer_text(open.closer)))
                         .with_secondary(t.span, "the next rule starts here"),
                 );
-                let at = out.last().map_or(t.span.start, |p| if p.span.file == t.span.file { p.span.end } else { t.span.start });
+                let at =
+                    out.last()
+                        .map_or(t.span.start, |p| if p.span.file == t.span.file { p.span.end } else { t.span.start });
                 close_all(&mut stack, &mut out, at, t.span.file);
             }
         }
@@ -662,7 +664,11 @@ fn balance(tokens: Vec<Token>, sources: &Sources) -> (Vec<Token>, Vec<Diagnostic
                     if use_outer {
                         format!("this is never closed; expected `{}`", closer_text(top.closer))
                     } else {
-                        format!("unclosed delimiter; `{}` is read as the `{}` it needs", closer_text(t.kind), closer_text(top.closer))
+                        format!(
+                            "unclosed delimiter; `{}` is read as the `{}` it needs",
+                            closer_text(t.kind),
+                            closer_text(top.closer)
+                        )
                     },
                 ),
         );

@@ -542,7 +542,14 @@ fn run_isolated(name: &str, src: &str) -> Isolated {
     let num = |k: &str| field(k).and_then(|v| v.parse::<u64>().ok()).unwrap_or_else(|| panic!("no {k} in {stdout}"));
     let warnings = stdout.lines().filter_map(|l| after(l, "ISOLATED warning ")).collect();
     let glb_bytes = std::fs::metadata(&glb).map(|m| m.len()).unwrap_or(0);
-    let r = Isolated { took, cpu: Duration::from_millis(num("cpu_ms")), peak_kib: num("peak_kib"), warnings, vertices: num("vertices"), glb_bytes };
+    let r = Isolated {
+        took,
+        cpu: Duration::from_millis(num("cpu_ms")),
+        peak_kib: num("peak_kib"),
+        warnings,
+        vertices: num("vertices"),
+        glb_bytes,
+    };
     eprintln!(
         "{name}: {:.2?} wall, {:.2?} CPU, peak RSS {} MiB, {} vertices, .glb {} MiB, warnings {:?}",
         r.took,

@@ -98,7 +98,10 @@ fn atoms_and_bonds(out: &Output) -> (Vec<Atom>, Vec<(Vec3, Vec3)>) {
     let atoms = out
         .instances
         .iter()
-        .map(|i| Atom { p: Vec3::new(i.transform.w_axis.x, i.transform.w_axis.y, i.transform.w_axis.z), si: i.scale > 0.26 })
+        .map(|i| Atom {
+            p: Vec3::new(i.transform.w_axis.x, i.transform.w_axis.y, i.transform.w_axis.z),
+            si: i.scale > 0.26,
+        })
         .collect();
     let bonds = out.lines.iter().filter(|l| l.points.len() == 2).map(|l| (v(l.points[0]), v(l.points[1]))).collect();
     (atoms, bonds)

@@ -904,7 +904,10 @@ impl<'b> Eval<'b> {
         let b = self.b;
         let name = b.string(b.rules[rule as usize].name).to_string();
         if needed > max {
-            self.warn_once(format!("{}transform rule `{name}`: only its first {max} frames are sampled", self.rule_at(rule)));
+            self.warn_once(format!(
+                "{}transform rule `{name}`: only its first {max} frames are sampled",
+                self.rule_at(rule)
+            ));
         }
         let needed = needed.clamp(1, max.max(1));
         if let Some(&k) = self.track_ids.get(&rule) {

@@ -299,7 +299,7 @@ impl Document {
             None => "steps".to_string(),
         };
         let chained = if info.chain {
-            "; chained: run 1 starts from the iterator's frame, each later run from the end state of the run \\
+            "; chained: run 1 starts from the iterator's frame, each later run from the end state of the run \
              before it (its last drawable or MOVETO), composed with the step"
         } else {
             ""
@@ -440,6 +440,21 @@ mod tests {
             "`(n) * {rz (360 / n)}` → 6 step(s) of `rz 60°`"
         );
         assert_eq!(hover("rule A { 4 * {$0} B {} }\nrule B { VERTEX {} }"), "`4 * {}` → 4 step(s) in place");
+    }
+
+    #[test]
+    fn chained_iterator_says_its_runs_chain() {
+        let chained =
+            "; chained: run 1 starts from the iterator's frame, each later run from the end state of the run \
+                       before it (its last drawable or MOVETO), composed with the step";
+        assert_eq!(
+            hover("rule A { 2 $0* {} \\ B {} }\nrule B { VERTEX {} }"),
+            format!("`2 * {{}}` → 2 step(s) in place{chained}")
+        );
+        assert_eq!(
+            hover("rule A { 4/4 * {rz 36$00} \\ B {} }\nrule B { VERTEX {} }"),
+            format!("`4/4 * {{rz 360}}` → 4 step(s) of `rz 90°`{chained}")
+        );
     }
 
     #[test]
