@@ -623,8 +623,22 @@ fn balance(tokens: Vec<Token>, sources: &Sources) -> (Vec<Token>, Vec<Diagnostic
             out.push(t);
             continue;
         }
-        if stack.is_empty() && t.kind == Tok::KwRule {
-            top_rule = true;
+        if stack.is_empty() {
+            match t.kind {
+                Tok::KwRule => top_rule = true,
+                // Another top-level item: a `{` after it is not a rule body.
+                Tok::KwStartshape
+                | Tok::KwSelector
+                | Tok::KwLinerule
+                | Tok::KwCamerarule
+                | Tok::KwNamespace
+                | Tok::KwFunction
+                | Tok::KwIsosurface
+                | Tok::KwProgram
+                | Tok::KwUniform
+                | Tok::KwSection => top_rule = false,
+                _ => {}
+            }
         }
         if !matches!(t.kind, Tok::RBrace | Tok::RBracket | Tok::RParen) {
             out.push(t);
