@@ -315,3 +315,17 @@ fn json_dumps_of_two_runs_are_byte_identical_and_hold_no_timings() {
     assert!(!text.contains("elapsed"), "no timings in the dump");
     assert!(text.contains("\"rule_calls\""), "the counters stay");
 }
+
+#[test]
+fn the_std_spiral_rings_use_all_3600_frames_without_a_long_duration() {
+    let path = mdg_tests::root().join("std/examples/spiral_ring.mdg");
+    let text = std::fs::read_to_string(&path).expect("read");
+    assert!(!text.contains("\nduration"), "the example no longer needs a long duration");
+    let a = mdg_tests::analyze_file(&path, true);
+    let b = mdg_compiler::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).expect("lowers");
+    let out = evaluate(&b, &EvalOptions::default());
+    assert!(out.stats.warnings.is_empty(), "{:?}", out.stats.warnings);
+    // Three rings of 3600 samples, each line starting at its MOVETO.
+    let lens: Vec<usize> = out.lines.iter().map(|l| l.points.len()).collect();
+    assert_eq!(lens, [3601, 3601, 3601]);
+}

@@ -666,7 +666,7 @@ impl<'b> Eval<'b> {
                     let mirrored = lin.1 != x.mirrored;
                     let m = &mut self.out.mesh;
                     let k = m.push_vertex(p, n, color, weight, act.bone) + 1;
-                    if k % 3 == 0 {
+                    if k.is_multiple_of(3) {
                         m.push_triangle([k - 3, k - 2, k - 1], mirrored);
                     }
                     if self.needs_last {
@@ -1029,7 +1029,7 @@ impl<'b> Eval<'b> {
                 let m = &mut self.out.mesh;
                 m.push_vertex(s.f.u, n, s.display_color(), s.weight, bone);
                 let k = m.n_vertices() as u32;
-                if k % 3 == 0 {
+                if k.is_multiple_of(3) {
                     m.push_triangle([k - 3, k - 2, k - 1], s.f.mirrored());
                 }
             }

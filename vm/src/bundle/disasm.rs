@@ -67,9 +67,7 @@ pub fn disassemble(b: &Bundle) -> String {
             .operands()
             .into_iter()
             .map(|(n, v)| match (op, n) {
-                (Op::Call { .. }, "rule") => {
-                    format!("{}", b.string(b.rules.get(v as usize).map(|r| r.name).unwrap_or(0)))
-                }
+                (Op::Call { .. }, "rule") => b.string(b.rules.get(v as usize).map(|r| r.name).unwrap_or(0)).to_string(),
                 (Op::Draw { .. }, "kind") => ops::DRAWABLE_KINDS.get(v as usize).unwrap_or(&"?").to_string(),
                 (_, "xf" | "step") => format!("X{v}"),
                 (_, "profile") if v == NONE as u64 => "-".to_string(),
