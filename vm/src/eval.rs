@@ -40,9 +40,10 @@ use std::time::{Duration, Instant};
 pub const DEFAULT_MAXITER: u64 = 10_000_000;
 /// Default maximum stack depth (activations).
 pub const DEFAULT_STACKSIZE: u32 = 100_000;
-/// Default vertex budget (VERTEX and sweep vertices together): 4,000,000 vertices
-/// take about 450 MB with their `.glb` export (10 times the largest std example);
-/// the 6- and 10-million-vertex benchmarks ask for more with `--max-vertices`.
+/// Default vertex budget (VERTEX and sweep vertices together): a run of 4,000,000
+/// vertices peaks at about 360 MB with its `.glb` export (10 times the largest std
+/// example); the 6- and 10-million-vertex benchmarks ask for more with
+/// `--max-vertices` (the 10M sweep peaks at 1.13 GB).
 pub const DEFAULT_MAX_VERTICES: u64 = 4_000_000;
 /// Default frame budget of a convolution's iterator rule (see [`EvalOptions::max_frames`]).
 pub const DEFAULT_MAX_FRAMES: u64 = 10_000_000;
