@@ -193,11 +193,15 @@ pub enum BodyKind {
         profile: Option<Name>,
         adj: AdjList,
     },
-    /// `COUNT[/DIV] * {ADJ} ITEM`.
+    /// `COUNT[/DIV] * {ADJ} [\\] ITEM`.
     Iterate {
         count: Count,
         divisor: Option<Count>,
         adj: AdjList,
+        /// `M * {T} \ ITEM`: each run continues from the previous run's end state
+        /// (composed with the step) instead of the iterator's frame (SPEC resolved
+        /// semantics 6).
+        chain: bool,
         item: Box<BodyItem>,
     },
     /// `{ BODY }`.

@@ -448,7 +448,21 @@ impl<'a> Checker<'a> {
                                 cands.extend(self.sym.isosurfaces.keys().map(|k| k.as_str()));
                                 let mut d =
                                     Diagnostic::error("E0301", name.span, format!("unknown rule `{}`", name.text));
-                                if let Some(s) = did_you_mean(&name.text, cands) {
+                                if let Some(lib) = crate::stdlib::library_defining(&name.text) {
+                                    // A std name (thesis Listing 4.1 calls `SPHERE {}` as if it
+                                    // were built in): the fix adds the import.
+                                    let top = crate::span::Span::new(name.span.file, 0, 0);
+                                    d = d
+                                        .with_label(format!(
+                                            "`{}` is defined by the std library `{lib}`, which is not imported",
+                                            name.text
+                                        ))
+                                        .with_suggestion(
+                                            format!("add `@import {lib}`"),
+                                            top,
+                                            format!("@import {lib}\n"),
+                                        );
+                                } else if let Some(s) = did_you_mean(&name.text, cands) {
                                     d = d.with_suggestion(format!("did you mean `{s}`?"), name.span, s.to_string());
                                 } else {
                                     d = d.with_label("no rule or drawable has this name");
@@ -459,7 +473,7 @@ impl<'a> Checker<'a> {
                     }
                     self.adj_list(adj);
                 }
-                BodyKind::Iterate { count, divisor, adj, item } => {
+                BodyKind::Iterate { count, divisor, adj, item, .. } => {
                     self.count(count, false);
                     if let Some(d) = divisor {
                         self.count(d, true);

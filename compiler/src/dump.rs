@@ -174,10 +174,11 @@ impl Dumper {
                 let p = profile.as_ref().map(|p| format!(" profile={}", p.text)).unwrap_or_default();
                 self.nested(&format!("Call {}{p} {at}", name.text), |d| d.adj_list(adj));
             }
-            BodyKind::Iterate { count, divisor, adj, item } => {
+            BodyKind::Iterate { count, divisor, adj, chain, item } => {
                 let c = count_text(count);
                 let dv = divisor.as_ref().map(|d| format!("/{}", count_text(d))).unwrap_or_default();
-                self.nested(&format!("Iterate {c}{dv} {at}"), |d| {
+                let ch = if *chain { " chained" } else { "" };
+                self.nested(&format!("Iterate {c}{dv}{ch} {at}"), |d| {
                     if let Count::Expr(e) = count {
                         d.nested("Count", |d| d.expr(e));
                     }

@@ -390,7 +390,7 @@ impl<'a> Expander<'a> {
                 }
                 Pre::Bad => {}
             },
-            BodyKind::Iterate { count, divisor, adj, item: inner } => {
+            BodyKind::Iterate { count, divisor, adj, chain, item: inner } => {
                 let mut v = Vec::new();
                 self.nest += 1;
                 self.body_item(*inner, &mut v);
@@ -401,7 +401,10 @@ impl<'a> Expander<'a> {
                     let span = v.first().map(|f| f.span).unwrap_or(item.span);
                     BodyItem { kind: BodyKind::Block(v), cont: false, span }
                 };
-                out.push(BodyItem { kind: BodyKind::Iterate { count, divisor, adj, item: Box::new(inner) }, ..item });
+                out.push(BodyItem {
+                    kind: BodyKind::Iterate { count, divisor, adj, chain, item: Box::new(inner) },
+                    ..item
+                });
             }
             BodyKind::Block(items) => {
                 self.nest += 1;

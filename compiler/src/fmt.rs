@@ -409,7 +409,7 @@ impl<'a> Printer<'a> {
                 self.out.push(' ');
                 self.out.push_str(&adj_list(adj));
             }
-            BodyKind::Iterate { count, divisor, adj, item: inner } => {
+            BodyKind::Iterate { count, divisor, adj, chain, item: inner } => {
                 self.out.push_str(&count_text(count));
                 if let Some(d) = divisor {
                     self.out.push('/');
@@ -417,7 +417,7 @@ impl<'a> Printer<'a> {
                 }
                 self.out.push_str(" * ");
                 self.out.push_str(&adj_list(adj));
-                self.out.push(' ');
+                self.out.push_str(if *chain { " \\ " } else { " " });
                 self.body_kind(inner);
             }
             BodyKind::Block(items) => self.body_block(items, item.span.end),

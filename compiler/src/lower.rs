@@ -506,12 +506,18 @@ impl<'a> Lower<'a> {
                     self.code.push(Op::Call { rule, xf, flags });
                 }
             }
-            BodyKind::Iterate { count, divisor, adj, item: inner } => {
+            BodyKind::Iterate { count, divisor, adj, chain, item: inner } => {
                 let n = self.count_value(count).max(0.0) as u64;
                 let div = divisor.as_ref().map(|d| self.count_value(d)).unwrap_or(1.0);
                 let step = self.transform(adj, if div > 0.0 { div } else { 1.0 });
                 let begin = self.code.len() as u32;
-                self.code.push(Op::Loop { count: n, step, end: 0, chain: cont_next as u8 });
+                // The runs chain (run k + 1 starts from run k's end state composed with
+                // the step) for `M * {T} \ ITEM`, for a block whose last item ends with
+                // `\` (`M * {T} { A {} \ }`), and for an iterator followed by `\`.
+                let block_chains =
+                    matches!(&inner.kind, BodyKind::Block(items) if items.last().is_some_and(|i| i.cont));
+                let chains = *chain || block_chains || cont_next;
+                self.code.push(Op::Loop { count: n, step, end: 0, chain: chains as u8 });
                 self.item(inner, cont_next, ns);
                 let end = self.code.len() as u32;
                 self.code.push(Op::EndLoop { begin });

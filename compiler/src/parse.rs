@@ -506,39 +506,217 @@ fn limit_nesting(tokens: Vec<Token>, budget: usize, diags: &mut Vec<Diagnostic>)
     (out, first)
 }
 
-/// Reports the innermost bracket still open at the end of input (E0104).
-fn unclosed_bracket(tokens: &[Token]) -> Option<Diagnostic> {
-    let mut stack: Vec<Token> = Vec::new();
+/// The closer that ends an opener, or `None` for a token that opens nothing.
+fn closer_of(t: Tok) -> Option<Tok> {
+    match t {
+        Tok::LBrace => Some(Tok::RBrace),
+        Tok::LBracket => Some(Tok::RBracket),
+        Tok::LParen | Tok::CallOpen => Some(Tok::RParen),
+        _ => None,
+    }
+}
+
+fn closer_text(t: Tok) -> &'static str {
+    match t {
+        Tok::RBrace => "}",
+        Tok::RBracket => "]",
+        _ => ")",
+    }
+}
+
+/// One open bracket during [`balance`].
+#[derive(Clone, Copy)]
+struct Open {
+    tok: Token,
+    closer: Tok,
+    /// The `{` of a top-level `rule`'s body.
+    rule_body: bool,
+}
+
+/// The span of an opener's bracket itself (a `NAME(` call token ends with it).
+fn bracket_span(t: &Token) -> Span {
+    Span::new(t.span.file, t.span.end.saturating_sub(1), t.span.end)
+}
+
+/// How many repairs the rest of `tokens` would need with `stack` open, substituting
+/// every mismatched closer (the cheap model [`balance`] uses to choose a repair).
+fn repairs_after(tokens: &[Token], stack: &[Tok]) -> usize {
+    let mut stack = stack.to_vec();
+    let mut n = 0;
     for t in tokens {
-        match t.kind {
-            Tok::LBrace | Tok::LBracket | Tok::LParen | Tok::CallOpen => stack.push(*t),
-            Tok::RBrace | Tok::RBracket | Tok::RParen => {
-                let want = match t.kind {
-                    Tok::RBrace => Tok::LBrace,
-                    Tok::RBracket => Tok::LBracket,
-                    _ => Tok::LParen,
-                };
-                // Pop back to the matching opener; a closer with no opener at all is a
-                // syntax error the parser reports.
-                let is_match = |t: &Token| (if t.kind == Tok::CallOpen { Tok::LParen } else { t.kind }) == want;
-                if let Some(pos) = stack.iter().rposition(is_match) {
-                    stack.truncate(pos);
-                }
+        if let Some(c) = closer_of(t.kind) {
+            stack.push(c);
+        } else if matches!(t.kind, Tok::RBrace | Tok::RBracket | Tok::RParen) {
+            match stack.pop() {
+                Some(c) if c == t.kind => {}
+                Some(_) => n += 1,
+                None => {}
             }
-            _ => {}
         }
     }
-    let open = stack.first()?;
-    let span = Span::new(open.span.file, open.span.end - 1, open.span.end);
-    let closer = match open.kind {
-        Tok::LBrace => "}",
-        Tok::LBracket => "]",
-        _ => ")",
+    n + usize::from(!stack.is_empty())
+}
+
+/// Repairs mismatched and unclosed brackets before parsing, one error each, the way
+/// rustc does: a closer that does not match the innermost open bracket is reported
+/// once ("mismatched closing delimiter", with the opener as a secondary label) and
+/// treated as the closer that was meant, so the rest of the file parses normally.
+/// Which closer was meant is decided by what the rest of the input needs: the
+/// innermost bracket's (a typo, `B{x 2 ]`), or an outer one's when that leaves fewer
+/// repairs for the rest (a forgotten closer, `rule A { B{x 2 }` … `}`): the missing
+/// closers are inserted before it. A top-level `rule` at the start of a line, not
+/// indented more than the line that opened a still-open rule body, ends that body (a
+/// forgotten `}`), and brackets still open at the end of input are closed there; each
+/// is one E0104. Closers with no opener at all are left to the parser.
+fn balance(tokens: Vec<Token>, sources: &Sources) -> (Vec<Token>, Vec<Diagnostic>) {
+    let mut out: Vec<Token> = Vec::with_capacity(tokens.len());
+    let mut diags = Vec::new();
+    let mut stack: Vec<Open> = Vec::new();
+    let mut top_rule = false;
+    let mut lookaheads = 0usize;
+    let line_start_col = |span: Span| -> Option<(usize, usize)> {
+        // (line, indentation of that line) of an offset, when `span` starts its line.
+        let f = sources.files.get(span.file.0 as usize)?;
+        let text = &f.text;
+        let start = span.start as usize;
+        let ls = text[..start.min(text.len())].rfind('\n').map_or(0, |i| i + 1);
+        Some((ls, start - ls))
     };
-    Some(
-        Diagnostic::error("E0104", span, "unexpected end of file")
-            .with_label(format!("this is never closed; expected `{closer}`")),
-    )
+    let indent_of = |span: Span| -> Option<usize> {
+        let f = sources.files.get(span.file.0 as usize)?;
+        let text = &f.text;
+        let start = (span.start as usize).min(text.len());
+        let ls = text[..start].rfind('\n').map_or(0, |i| i + 1);
+        Some(text[ls..].len() - text[ls..].trim_start_matches([' ', '\t']).len())
+    };
+    let first_on_line = |t: &Token| -> Option<usize> {
+        let (ls, col) = line_start_col(t.span)?;
+        let f = sources.files.get(t.span.file.0 as usize)?;
+        f.text[ls..t.span.start as usize].trim().is_empty().then_some(col)
+    };
+    let close_all = |stack: &mut Vec<Open>, out: &mut Vec<Token>, at: u32, file: FileId| {
+        while let Some(o) = stack.pop() {
+            out.push(Token { kind: o.closer, span: Span::new(file, at, at) });
+        }
+    };
+    for (i, t) in tokens.iter().enumerate() {
+        let t = *t;
+        if t.kind == Tok::KwRule && stack.first().is_some_and(|o| o.rule_body) {
+            let body = stack[0];
+            let ends_body = body.tok.span.file == t.span.file
+                && first_on_line(&t).zip(indent_of(body.tok.span)).is_some_and(|(col, ind)| col <= ind);
+            if ends_body {
+                let open = stack.last().copied().unwrap_or(body);
+                diags.push(
+                    Diagnostic::error("E0104", bracket_span(&open.tok), "unclosed delimiter")
+                        .with_label(format!("this is never closed; expected `{}`", closer_text(open.closer)))
+                        .with_secondary(t.span, "the next rule starts here"),
+                );
+                let at =
+                    out.last()
+                        .map_or(t.span.start, |p| if p.span.file == t.span.file { p.span.end } else { t.span.start });
+                close_all(&mut stack, &mut out, at, t.span.file);
+            }
+        }
+        if let Some(c) = closer_of(t.kind) {
+            stack.push(Open { tok: t, closer: c, rule_body: stack.is_empty() && top_rule && t.kind == Tok::LBrace });
+            out.push(t);
+            continue;
+        }
+        if stack.is_empty() {
+            match t.kind {
+                Tok::KwRule => top_rule = true,
+                // Another top-level item: a `{` after it is not a rule body.
+                Tok::KwStartshape
+                | Tok::KwSelector
+                | Tok::KwLinerule
+                | Tok::KwCamerarule
+                | Tok::KwNamespace
+                | Tok::KwFunction
+                | Tok::KwIsosurface
+                | Tok::KwProgram
+                | Tok::KwUniform
+                | Tok::KwSection => top_rule = false,
+                _ => {}
+            }
+        }
+        if !matches!(t.kind, Tok::RBrace | Tok::RBracket | Tok::RParen) {
+            out.push(t);
+            continue;
+        }
+        let Some(top) = stack.last().copied() else {
+            out.push(t);
+            continue;
+        };
+        if top.closer == t.kind {
+            stack.pop();
+            if stack.is_empty() {
+                top_rule = false;
+            }
+            out.push(t);
+            continue;
+        }
+        // A mismatched closer: a typo for the innermost closer, or the closer of an
+        // outer bracket after forgotten inner ones.
+        let outer = stack.iter().rposition(|o| o.closer == t.kind);
+        let use_outer = outer.is_some_and(|pos| {
+            lookaheads += 1;
+            if lookaheads > 64 {
+                return false;
+            }
+            let rest = &tokens[i + 1..];
+            let kinds: Vec<Tok> = stack.iter().map(|o| o.closer).collect();
+            let typo = repairs_after(rest, &kinds[..kinds.len() - 1]);
+            let forgot = repairs_after(rest, &kinds[..pos]);
+            forgot < typo
+        });
+        diags.push(
+            Diagnostic::error("E0106", t.span, format!("mismatched closing delimiter: `{}`", closer_text(t.kind)))
+                .with_label("mismatched closing delimiter")
+                .with_secondary(
+                    bracket_span(&top.tok),
+                    if use_outer {
+                        format!("this is never closed; expected `{}`", closer_text(top.closer))
+                    } else {
+                        format!(
+                            "unclosed delimiter; `{}` is read as the `{}` it needs",
+                            closer_text(t.kind),
+                            closer_text(top.closer)
+                        )
+                    },
+                ),
+        );
+        match (use_outer, outer) {
+            (true, Some(pos)) => {
+                while stack.len() > pos + 1 {
+                    if let Some(o) = stack.pop() {
+                        out.push(Token { kind: o.closer, span: Span::new(t.span.file, t.span.start, t.span.start) });
+                    }
+                }
+                stack.pop();
+                out.push(t);
+            }
+            _ => {
+                stack.pop();
+                out.push(Token { kind: top.closer, span: t.span });
+            }
+        }
+        if stack.is_empty() {
+            top_rule = false;
+        }
+    }
+    if let Some(open) = stack.first().copied() {
+        diags.push(
+            Diagnostic::error("E0104", bracket_span(&open.tok), "unexpected end of file")
+                .with_label(format!("this is never closed; expected `{}`", closer_text(open.closer))),
+        );
+        let (file, at) = match out.last() {
+            Some(p) => (p.span.file, p.span.end),
+            None => (open.tok.span.file, open.tok.span.end),
+        };
+        close_all(&mut stack, &mut out, at, file);
+    }
+    (out, diags)
 }
 
 fn describe_expected(expected: &[String]) -> String {
@@ -640,8 +818,9 @@ fn run(
 ) -> (Out, Vec<Diagnostic>) {
     let ctx = Ctx::new(sources);
     let tokens = prepass(tokens, sources, &ctx);
+    let (tokens, bracket) = balance(tokens, sources);
+    let unclosed = bracket.iter().any(|d| d.code == "E0104");
     let (tokens, cut) = limit_nesting(tokens, budget, &mut diags);
-    let bracket = unclosed_bracket(&tokens);
     let eof = match tokens.last() {
         Some(t) => Span::new(t.span.file, t.span.end, t.span.end),
         None => {
@@ -662,18 +841,22 @@ fn run(
         if let Some(d) = d {
             // One mistake, one error: an unclosed bracket explains any end-of-file error,
             // and a second error on the same line as the previous one is a cascade.
-            if d.code == "E0104" && bracket.is_some() {
+            if d.code == "E0104" && unclosed {
                 return;
             }
             // Syntax errors after a nesting cut come from the cut itself.
             if cut.is_some_and(|c| d.span.file == c.file && d.span.start >= c.start) {
                 return;
             }
+            let line = |s: Span| sources.files.get(s.file.0 as usize).map(|f| f.line_col(s.start).0);
             if let Some(prev) = syntax.last() {
-                let line = |s: Span| sources.files.get(s.file.0 as usize).map(|f| f.line_col(s.start).0);
                 if prev.span.file == d.span.file && line(prev.span) == line(d.span) {
                     return;
                 }
+            }
+            // A repaired bracket explains an error on its own line.
+            if bracket.iter().any(|b| b.span.file == d.span.file && line(b.span) == line(d.span)) {
+                return;
             }
             syntax.push(d);
         }

@@ -1,15 +1,72 @@
-//! The std library built into the compiler, so that an installed `mdgc`, `mdg-run`,
-//! `mdg-view` or `mdg-lsp` works from any directory without the source checkout.
+//! The std library built into the compiler.
 //!
-//! The files are embedded at build time ([`include_dir`]) and written once, on first
-//! use, to a cache directory named after their content hash
-//! (`$XDG_CACHE_HOME/mdg/std-HASH`, else `~/.cache/mdg/std-HASH`, else the
-//! temporary directory): the compiler, the viewer's shader program and the
-//! language server's go-to-definition then read real files. `$MDG_STD` (or
-//! `--std`) still chooses another std directory.
+//! Two uses. (1) What the std library defines, for the hint on an unknown name: a
+//! call of a rule or isosurface that a std library file defines (`SPHERE {}` without
+//! `@import primitives`, as thesis Listing 4.1 is printed) gets E0301 with a
+//! suggestion that adds the right `@import` (a quick fix in the editor). See
+//! docs/decisions.md (issue 17) for why this is a fix and not an implicit prelude.
+//! `tests/tests/check.rs` checks that every file of `std/` is listed in [`LIBRARIES`].
+//!
+//! (2) The whole std directory, so that an installed `mdgc`, `mdg-run`, `mdg-view` or
+//! `mdg-lsp` works from any directory without the source checkout: embedded at build
+//! time ([`include_dir`]) and written once, on first use, to a cache directory named
+//! after the content hash (`$XDG_CACHE_HOME/mdg/std-HASH`, else `~/.cache/mdg/std-HASH`,
+//! else the temporary directory) by [`materialize`]: the compiler, the viewer's shader
+//! program and the language server's go-to-definition then read real files.
+//! `$MDG_STD` (or `--std`) still chooses another std directory.
 
+use crate::lexer::{self, Tok};
+use crate::span::FileId;
 use include_dir::{include_dir, Dir, DirEntry};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+/// Every std library: its `@import` name and its text.
+pub const LIBRARIES: &[(&str, &str)] = &[
+    ("creatures", include_str!("../../std/creatures.mdg")),
+    ("lines", include_str!("../../std/lines.mdg")),
+    ("lsystems", include_str!("../../std/lsystems.mdg")),
+    ("molecules", include_str!("../../std/molecules.mdg")),
+    ("plants", include_str!("../../std/plants.mdg")),
+    ("polyhedra", include_str!("../../std/polyhedra.mdg")),
+    ("primitives", include_str!("../../std/primitives.mdg")),
+    ("shaders", include_str!("../../std/shaders.mdg")),
+    ("sphereflake", include_str!("../../std/sphereflake.mdg")),
+];
+
+/// The names each library declares at its top level (`rule NAME`, `isosurface NAME`),
+/// mapped to the first library (in [`LIBRARIES`] order) that declares them.
+fn index() -> &'static HashMap<String, &'static str> {
+    static INDEX: OnceLock<HashMap<String, &'static str>> = OnceLock::new();
+    INDEX.get_or_init(|| {
+        let mut map = HashMap::new();
+        for (lib, text) in LIBRARIES {
+            let lexed = lexer::lex(text, FileId(0));
+            let mut depth = 0usize;
+            let toks = &lexed.tokens;
+            for (i, t) in toks.iter().enumerate() {
+                match t.kind {
+                    Tok::LBrace | Tok::LBracket | Tok::LParen | Tok::CallOpen => depth += 1,
+                    Tok::RBrace | Tok::RBracket | Tok::RParen => depth = depth.saturating_sub(1),
+                    Tok::KwRule | Tok::KwIsosurface if depth == 0 => {
+                        if let Some(n) = toks.get(i + 1).filter(|n| n.kind == Tok::Ident) {
+                            let name = &text[n.span.start as usize..n.span.end as usize];
+                            map.entry(name.to_string()).or_insert(*lib);
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        }
+        map
+    })
+}
+
+/// The std library that defines rule or isosurface `name`, if any.
+pub fn library_defining(name: &str) -> Option<&'static str> {
+    index().get(name).copied()
+}
 
 /// The std directory as it was when this compiler was built.
 static STD: Dir<'static> = include_dir!("$CARGO_MANIFEST_DIR/../std");
@@ -81,6 +138,19 @@ pub fn materialize() -> Option<PathBuf> {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
+    #[test]
+    fn std_names_map_to_their_library() {
+        assert_eq!(library_defining("SPHERE"), Some("primitives"));
+        assert_eq!(library_defining("cube"), Some("primitives"));
+        assert_eq!(library_defining("sic_lattice"), Some("molecules"));
+        assert_eq!(library_defining("no_such_rule_anywhere"), None);
+    }
+}
+
+#[cfg(test)]
+mod embedded_tests {
     use super::*;
 
     #[test]

@@ -319,10 +319,15 @@ fn knot_family_winds_the_stated_number_of_times_about_each_axis() {
 
 #[test]
 fn a_convolution_iterator_that_does_not_end_stops_with_a_warning() {
-    let out = run_source(
-        "startshape R\nfps 10\nduration 2\nmaxdepth 5000\nrule R * I { VERTEX {} }\nrule I { FRAME {} I {x 1} }\n",
-    );
-    // duration·fps = 20: frames 0..=20 are used.
+    // An iterator rule that ends (here at maxdepth) contributes all its frames, far
+    // more than duration·fps + 1 = 21 (SPEC §8, issue 17).
+    let src =
+        "startshape R\nfps 10\nduration 2\nmaxdepth 5000\nrule R * I { VERTEX {} }\nrule I { FRAME {} I {x 1} }\n";
+    let out = run_source(src);
+    assert_eq!(out.mesh.n_vertices(), 5001, "depths 0..=5000");
+    assert!(!out.stats.warnings.iter().any(|w| w.contains("convolution")), "{:?}", out.stats.warnings);
+    // One that has not ended within the frame budget is cut there, with a warning.
+    let out = evaluate(&build_source(src), &EvalOptions { max_frames: 21, ..EvalOptions::default() });
     assert_eq!(out.mesh.n_vertices(), 21);
     let w = out
         .stats
@@ -330,7 +335,7 @@ fn a_convolution_iterator_that_does_not_end_stops_with_a_warning() {
         .iter()
         .find(|w| w.contains("convolution `R`"))
         .unwrap_or_else(|| panic!("{:?}", out.stats.warnings));
-    assert!(w.contains("iterator rule `I`") && w.contains("21 frames") && w.contains("inline.mdg:5"), "{w}");
+    assert!(w.contains("iterator rule `I`") && w.contains("21 frames") && w.contains("inline.mdg:6"), "{w}");
     // Transform rules needing each other 100 deep: cut at a fixed nesting, no overflow
     // (this runs on a 2 MiB test thread).
     let mut src = String::from("startshape S\nrule S { R0 {} }\n");

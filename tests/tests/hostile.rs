@@ -86,7 +86,10 @@ fn infinite_recursion_without_limits_ends_at_the_default_stack_size() {
 fn exponential_branching_ends_at_maxiter_and_keeps_the_output() {
     let src = "startshape A\nmaxiter 20000\nrule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} A {z 1} A {x 1} }\n";
     let out = run_source(src);
-    assert_eq!(warning(&out, "maxiter"), "maxiter 20000 reached: the run stopped; the output so far is kept");
+    assert_eq!(
+        warning(&out, "maxiter"),
+        "maxiter 20000 reached in rule `A` (inline.mdg:3): the run stopped; the output so far is kept (raise the limit with `maxiter N` in the grammar)"
+    );
     // The start shape and the 20,000 admitted calls each drew 3 vertices (call 20,001
     // was refused and stopped the run).
     assert_eq!(out.mesh.n_vertices(), 3 * (1 + 20_000));
@@ -99,7 +102,7 @@ fn exponential_branching_ends_at_the_vertex_budget() {
     let out = evaluate(&b, &EvalOptions { max_vertices: 5_000, ..EvalOptions::default() });
     assert_eq!(
         warning(&out, "vertex budget"),
-        "vertex budget 5000 reached: the run stopped; the output so far is kept"
+        "vertex budget 5000 reached in rule `A` (inline.mdg:2): the run stopped; the output so far is kept (raise the limit with `--max-vertices N`)"
     );
     // The budget is checked every 4,096 calls: the output overshoots by less than that.
     let n = out.mesh.n_vertices();
@@ -115,7 +118,9 @@ fn exponential_branching_ends_at_the_time_budget() {
     let out =
         evaluate(&b, &EvalOptions { time_budget: Some(budget), maxiter: Some(u64::MAX), ..EvalOptions::default() });
     let took = t0.elapsed();
-    assert_eq!(warning(&out, "time budget"), "time budget reached: the run stopped; the output so far is kept");
+    let w = warning(&out, "time budget");
+    assert!(w.starts_with("time budget reached in rule `A` (inline.mdg:2): the run stopped"), "{w}");
+    assert!(w.ends_with("(raise the limit with `--time-budget SECONDS`)"), "{w}");
     assert!(took >= budget && took < budget + Duration::from_secs(2), "took {took:?}");
     assert!(out.stats.rule_calls > 1_000, "calls before the budget ended the run are counted");
 }
@@ -132,7 +137,7 @@ fn bones_with_ever_faster_tracks_end_at_the_animation_budget() {
     let out = evaluate(&b, &EvalOptions { max_vertices: 200_000, ..EvalOptions::default() });
     assert_eq!(
         warning(&out, "animation"),
-        "animation budget of 200000 keyframes reached: the run stopped; the output so far is kept"
+        "animation budget of 200000 keyframes reached in rule `A` (inline.mdg:4): the run stopped; the output so far is kept (at most 10000000; a smaller `--max-vertices N` lowers it)"
     );
     // Bone k (k ≥ 1, the start shape is bone 1) runs at 1000·k fps: 10,000·k + 1
     // keyframes. The sum passes 200,000 at k = 6: that call stops the run before its
@@ -147,7 +152,10 @@ fn bones_with_ever_faster_tracks_end_at_the_animation_budget() {
 #[test]
 fn an_iterator_with_ten_to_the_twelve_runs_ends_at_maxiter() {
     let out = run_source("startshape A\nmaxiter 30000\nrule A { VERTEX {} 1000000000000 * {x 1} VERTEX {} }\n");
-    assert_eq!(warning(&out, "maxiter"), "maxiter 30000 reached: the run stopped; the output so far is kept");
+    assert_eq!(
+        warning(&out, "maxiter"),
+        "maxiter 30000 reached in rule `A` (inline.mdg:3): the run stopped; the output so far is kept (raise the limit with `maxiter N` in the grammar)"
+    );
     // Run 1 belongs to the start call; runs 2, 3, … count as calls, and the run that
     // makes call 30,001 still draws before the run stops: the first VERTEX and 30,001
     // runs, each kept.
@@ -160,7 +168,10 @@ fn an_iterator_with_ten_to_the_twelve_runs_ends_at_maxiter() {
 #[test]
 fn an_iterator_count_beyond_u64_saturates_and_ends_at_maxiter() {
     let out = run_source("startshape A\nmaxiter 5000\nrule A { 1e30 * {x 1} VERTEX {} }\n");
-    assert_eq!(warning(&out, "maxiter"), "maxiter 5000 reached: the run stopped; the output so far is kept");
+    assert_eq!(
+        warning(&out, "maxiter"),
+        "maxiter 5000 reached in rule `A` (inline.mdg:3): the run stopped; the output so far is kept (raise the limit with `maxiter N` in the grammar)"
+    );
     assert_eq!(out.mesh.n_vertices(), 5_001, "runs 1..=5001, as for any count past maxiter");
 }
 

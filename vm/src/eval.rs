@@ -34,12 +34,19 @@ use std::collections::HashMap;
 use std::rc::Rc;
 use std::time::{Duration, Instant};
 
-/// Default limits, used when the grammar sets none (documented in docs/reference.md).
-pub const DEFAULT_MAXITER: u64 = 50_000_000;
+/// Default limits, used when the grammar or the caller sets none (docs/limits.md).
+/// They end a runaway grammar within seconds and 1 GB: 10,000,000 rule calls is 5
+/// times the largest benchmark (the 2^20 tree) and 50 times the largest std example.
+pub const DEFAULT_MAXITER: u64 = 10_000_000;
 /// Default maximum stack depth (activations).
 pub const DEFAULT_STACKSIZE: u32 = 100_000;
-/// Default vertex budget (VERTEX and sweep vertices together).
-pub const DEFAULT_MAX_VERTICES: u64 = 50_000_000;
+/// Default vertex budget (VERTEX and sweep vertices together): a run of 4,000,000
+/// vertices peaks at about 360 MB with its `.glb` export (10 times the largest std
+/// example); the 6- and 10-million-vertex benchmarks ask for more with
+/// `--max-vertices` (the 10M sweep peaks at 1.13 GB).
+pub const DEFAULT_MAX_VERTICES: u64 = 4_000_000;
+/// Default frame budget of a convolution's iterator rule (see [`EvalOptions::max_frames`]).
+pub const DEFAULT_MAX_FRAMES: u64 = 10_000_000;
 /// Default largest isosurface grid, in cells.
 pub const DEFAULT_MAX_ISO_CELLS: u64 = 16_000_000;
 /// The most keyframes all bones together may have (each bone has one per frame of its
@@ -66,6 +73,9 @@ pub struct EvalOptions {
     pub max_iso_cells: u64,
     /// Overrides `maxiter` (total rule calls).
     pub maxiter: Option<u64>,
+    /// The frame budget: the most frames a convolution's iterator rule (and the
+    /// transform rules sampled with it) may contribute before it is cut with a warning.
+    pub max_frames: u64,
     /// Sample transform rules far enough to pose the model at this time too (in
     /// seconds; `mdg-run --time`), when it is beyond `duration`.
     pub time: Option<f64>,
@@ -79,6 +89,7 @@ impl Default for EvalOptions {
             time_budget: None,
             max_iso_cells: DEFAULT_MAX_ISO_CELLS,
             maxiter: None,
+            max_frames: DEFAULT_MAX_FRAMES,
             time: None,
         }
     }
@@ -341,7 +352,7 @@ struct Act {
 /// The remaining runs of a convolution rule's body.
 struct Conv {
     /// `I[i]·A[i]·B[i]` for every frame index i of the iterator rule.
-    frames: Rc<[Frame]>,
+    frames: Rc<Vec<Frame>>,
     /// The next frame index to run.
     next: usize,
     /// The body's first op (the definition chosen at the call).
@@ -426,8 +437,10 @@ struct Eval<'b> {
     halt: bool,
     /// Tracks cover `0 ≤ t ≤ horizon` seconds: `duration`, or `--time` beyond it.
     horizon: f64,
-    /// Convolution rule and frame cap → the products `I[i]·A[i]·B[i]`.
-    conv_cache: HashMap<(u32, usize), Rc<[Frame]>>,
+    /// The op that was running when a limit stopped the run (for the warning).
+    stop_pc: Option<u32>,
+    /// Convolution rule → the products `I[i]·A[i]·B[i]`.
+    conv_cache: HashMap<u32, Rc<Vec<Frame>>>,
 }
 
 /// Evaluates a verified bundle from its start shape.
@@ -494,6 +507,7 @@ impl<'b> Eval<'b> {
                 _ => (s.duration as f64).max(0.0),
             },
             conv_cache: HashMap::new(),
+            stop_pc: None,
             needs_last: b
                 .code
                 .iter()
@@ -548,7 +562,7 @@ impl<'b> Eval<'b> {
         let pc = self.select(rule, &start, depth);
         let first = if b.rules[rule as usize].iter != NONE {
             // The start shape (or a sampled rule) is itself a convolution.
-            let frames = self.convolution(rule, start.fps);
+            let frames = self.convolution(rule);
             let Some(f) = frames.first().copied() else { return };
             let base = State { f: start.f.compose(&f), ..start };
             Act {
@@ -574,6 +588,10 @@ impl<'b> Eval<'b> {
         let code = &b.code;
         while let Some(act) = stack.last_mut() {
             if self.stopped || self.halt {
+                if self.stopped && self.stop_pc.is_none() {
+                    // The op that tripped the limit (every op advances `pc` first).
+                    self.stop_pc = Some(act.pc.saturating_sub(1));
+                }
                 break;
             }
             let op = code[act.pc as usize];
@@ -596,7 +614,7 @@ impl<'b> Eval<'b> {
                     let r = &b.rules[rule as usize];
                     if r.iter != NONE {
                         // Convolution: the body runs once per frame of the iterator rule.
-                        let frames = self.convolution(rule, child.fps);
+                        let frames = self.convolution(rule);
                         let Some(f) = frames.first().copied() else { continue };
                         let base = State { f: child.f.compose(&f), ..child };
                         let conv = Some(Box::new(Conv { frames, next: 1, pc, origin: child }));
@@ -691,6 +709,10 @@ impl<'b> Eval<'b> {
                     loops.push(LoopRec { remaining: count, step, saved_base: act.base, chain: chain != 0 });
                     act.base = from.compose(&c);
                     act.base_lin = None;
+                    if chain != 0 {
+                        // A run that reaches no drawable ends where it started.
+                        self.last = act.base;
+                    }
                     act.pc += 1;
                 }
                 Op::EndLoop { begin: _ } => {
@@ -703,11 +725,15 @@ impl<'b> Eval<'b> {
                     };
                     l.remaining -= 1;
                     if l.remaining > 0 {
-                        let from = if l.chain { self.last } else { act.base };
+                        let chain = l.chain;
+                        let from = if chain { self.last } else { act.base };
                         let step = l.step;
                         let c = self.transform(step);
                         act.base = from.compose(&c);
                         act.base_lin = None;
+                        if chain {
+                            self.last = act.base;
+                        }
                         // Back to the op after LOOP.
                         if let Op::EndLoop { begin } = op {
                             act.pc = begin + 1;
@@ -768,6 +794,10 @@ impl<'b> Eval<'b> {
             self.check_budgets();
             if let Some(p) = self.progress {
                 p(self.calls);
+            }
+            if self.stopped {
+                // A budget ran out: this call is not made (the warning names its line).
+                return false;
             }
         }
         if self.calls > self.maxiter {
@@ -866,15 +896,21 @@ impl<'b> Eval<'b> {
     /// them, if it ends sooner): from the cache, extended by a fresh sampling run when
     /// a cut track is too short. Returns its index in `out.animation.tracks`.
     fn track(&mut self, rule: u32, needed: usize) -> u32 {
+        self.track_within(rule, needed, MAX_TRACK_FRAMES)
+    }
+
+    /// [`Eval::track`] with at most `max` frames sampled (a convolution samples its
+    /// rules up to its frame budget instead of [`MAX_TRACK_FRAMES`]).
+    fn track_within(&mut self, rule: u32, needed: usize, max: usize) -> u32 {
         let b = self.b;
         let name = b.string(b.rules[rule as usize].name).to_string();
-        if needed > MAX_TRACK_FRAMES {
+        if needed > max {
             self.warn_once(format!(
-                "{}transform rule `{name}`: only its first {MAX_TRACK_FRAMES} frames are sampled",
+                "{}transform rule `{name}`: only its first {max} frames are sampled",
                 self.rule_at(rule)
             ));
         }
-        let needed = needed.clamp(1, MAX_TRACK_FRAMES);
+        let needed = needed.clamp(1, max.max(1));
         if let Some(&k) = self.track_ids.get(&rule) {
             let t = &self.out.animation.tracks[k as usize];
             if t.complete || t.frames.len() >= needed || self.computing.contains(&rule) {
@@ -921,7 +957,8 @@ impl<'b> Eval<'b> {
         let saved_halt = std::mem::replace(&mut self.halt, false);
         let saved_last = self.last;
         self.run(rule, State::start(self.b.settings.fps), Mode::Transform);
-        let complete = !self.halt;
+        // A run stopped by a limit did not end by itself either.
+        let complete = !self.halt && !self.stopped;
         let frames = std::mem::replace(&mut self.frame_sink, saved_sink);
         self.rng = saved_rng;
         self.sequential = saved_seq;
@@ -934,41 +971,37 @@ impl<'b> Eval<'b> {
 
     /// The frames a convolution rule's body runs under (`I[i]·A[i]·B[i]` for every
     /// frame index i of its iterator rule I; A, B… sampled by index and clamped to
-    /// their last frame), for a call whose `fps` is `fps`. I may have at most
-    /// `⌊duration·fps⌋ + 1` frames; beyond that it is cut with a warning.
-    fn convolution(&mut self, rule: u32, fps: f32) -> Rc<[Frame]> {
+    /// their last frame). A terminating I contributes **all** its frames (SPEC §8:
+    /// `duration·fps` bounds the animation, not a convolution); one that has not ended
+    /// within the frame budget (`EvalOptions::max_frames`) is cut there with a warning.
+    fn convolution(&mut self, rule: u32) -> Rc<Vec<Frame>> {
         let b = self.b;
-        let fps = if fps.is_finite() && fps > 0.0 { fps } else { 0.0 };
-        let cap = frames_needed(b.settings.duration as f64, fps);
-        if let Some(c) = self.conv_cache.get(&(rule, cap)) {
+        if let Some(c) = self.conv_cache.get(&rule) {
             return c.clone();
         }
+        let budget = self.opts.max_frames.clamp(1, usize::MAX as u64) as usize;
         let r = &b.rules[rule as usize];
-        let it = self.track(r.iter, cap) as usize;
+        let it = self.track_within(r.iter, budget, budget) as usize;
         let t = &self.out.animation.tracks[it];
-        let exceeded = t.frames.len() > cap || !t.complete;
-        let n = t.frames.len().min(cap);
-        let iter_frames: Vec<Frame> = t.frames[..n].to_vec();
-        if exceeded {
+        let n = t.frames.len().min(budget);
+        if !t.complete && !self.stopped {
             let msg = format!(
-                "{}convolution `{}`: iterator rule `{}` did not end within {cap} frames (duration {} s × {fps} fps, frames 0..={}); an iterator must terminate, so only those frames are used (raise `duration` or `fps` for more)",
-                self.rule_at(rule),
+                "{}convolution `{}`: iterator rule `{}` did not end within the frame budget of {budget} frames; only those are used (an iterator rule must terminate; `EvalOptions::max_frames` raises the budget)",
+                self.rule_at(r.iter),
                 b.string(r.name),
                 b.string(b.rules[r.iter as usize].name),
-                b.settings.duration,
-                cap - 1
             );
             self.warn_once(msg);
         }
-        let parts: Vec<u32> = r.transforms.iter().map(|&x| self.track(x, n)).collect();
+        let parts: Vec<u32> = r.transforms.iter().map(|&x| self.track_within(x, n, budget)).collect();
         let tracks = &self.out.animation.tracks;
-        let frames: Vec<Frame> = iter_frames
+        let frames: Vec<Frame> = tracks[it].frames[..n]
             .iter()
             .enumerate()
             .map(|(i, f)| parts.iter().fold(*f, |acc, &k| acc.compose(&tracks[k as usize].clamped(i as u64))))
             .collect();
-        let frames: Rc<[Frame]> = frames.into();
-        self.conv_cache.insert((rule, cap), frames.clone());
+        let frames = Rc::new(frames);
+        self.conv_cache.insert(rule, frames.clone());
         frames
     }
 
@@ -1155,21 +1188,30 @@ impl<'b> Eval<'b> {
         if self.limits.stacksize > 0 {
             w.push(format!("stack size {} reached: {} branch(es) ended there", self.stacksize, self.limits.stacksize));
         }
+        let at = self.stop_pc.map(|pc| where_op(self.b, pc)).unwrap_or_default();
+        let w = &mut self.out.stats.warnings;
         if self.limits.maxiter {
-            w.push(format!("maxiter {} reached: the run stopped; the output so far is kept", self.maxiter));
+            w.push(format!(
+                "maxiter {} reached{at}: the run stopped; the output so far is kept (raise the limit with `maxiter N` in the grammar)",
+                self.maxiter
+            ));
         }
         if self.limits.vertices {
             w.push(format!(
-                "vertex budget {} reached: the run stopped; the output so far is kept",
+                "vertex budget {} reached{at}: the run stopped; the output so far is kept (raise the limit with `--max-vertices N`)",
                 self.opts.max_vertices
             ));
         }
         if self.limits.time {
-            w.push("time budget reached: the run stopped; the output so far is kept".to_string());
+            w.push(format!(
+                "time budget reached{at}: the run stopped; the output so far is kept (raise the limit with `--time-budget SECONDS`)"
+            ));
         }
         if self.limits.animation {
             let n = MAX_KEYFRAMES.min(self.opts.max_vertices);
-            w.push(format!("animation budget of {n} keyframes reached: the run stopped; the output so far is kept"));
+            w.push(format!(
+                "animation budget of {n} keyframes reached{at}: the run stopped; the output so far is kept (at most {MAX_KEYFRAMES}; a smaller `--max-vertices N` lowers it)"
+            ));
         }
         let st = &mut self.out.stats;
         st.rule_calls = self.calls.min(self.maxiter);
@@ -1177,6 +1219,26 @@ impl<'b> Eval<'b> {
         st.triangles = (self.out.mesh.triangles.len() + self.out.sweeps.triangles.len()) as u64;
         st.elapsed_ms = self.started.elapsed().as_secs_f64() * 1000.0;
         self.out
+    }
+}
+
+/// " in rule `NAME` (FILE:LINE)" for the op at `pc`: the rule whose definition holds
+/// it and the source line of the op, or "" when the bundle has no such information.
+fn where_op(b: &Bundle, pc: u32) -> String {
+    let mut best: Option<(u32, u32)> = None;
+    for r in &b.rules {
+        for d in &r.defs {
+            if d.start <= pc && best.is_none_or(|(s, _)| d.start > s) {
+                best = Some((d.start, r.name));
+            }
+        }
+    }
+    let name = best.map(|(_, n)| b.string(n).to_string());
+    match (name, b.source_of(pc)) {
+        (Some(n), Some((f, l))) => format!(" in rule `{n}` ({f}:{l})"),
+        (Some(n), None) => format!(" in rule `{n}`"),
+        (None, Some((f, l))) => format!(" at {f}:{l}"),
+        (None, None) => String::new(),
     }
 }
 

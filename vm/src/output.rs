@@ -143,13 +143,16 @@ pub struct Instance {
     pub bone: u32,
 }
 
-/// Counters reported by `--stats` and stored in the JSON dump.
+/// Counters reported by `--stats` and stored in the JSON dump (all but the elapsed
+/// time: a dump is byte-identical from run to run; timings go to `--stats`).
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct Stats {
     pub rule_calls: u64,
     pub vertices: u64,
     pub triangles: u64,
     pub max_depth: u32,
+    /// Wall-clock time of the evaluation (`--stats` only; never in the dump).
+    #[serde(skip)]
     pub elapsed_ms: f64,
     /// Limits that ended branches or the run, with a message each.
     pub warnings: Vec<String>,

@@ -155,6 +155,15 @@ mod tests {
     }
 
     #[test]
+    fn adds_the_import_of_a_std_name() {
+        // Thesis Listing 4.1 calls SPHERE as if it were built in.
+        let out = fix("startshape A\nrule A { SPH$0ERE {} }", "Add `@import primitives`");
+        assert_eq!(out, "@import primitives\nstartshape A\nrule A { SPHERE {} }");
+        let (d, _) = doc(&out);
+        assert!(d.diagnostics().is_empty(), "{:?}", d.diagnostics());
+    }
+
+    #[test]
     fn no_actions_away_from_diagnostics() {
         let (d, at) = doc("startshape A\nrule A {$0 VERTEX {} }\nrule B { nope {} }");
         assert!(d.code_actions(at, at).is_empty());

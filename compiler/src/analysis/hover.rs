@@ -298,10 +298,16 @@ impl Document {
             Some(c) => format!("{} step(s)", fmt_num(c)),
             None => "steps".to_string(),
         };
-        if step.transform.is_empty() {
-            format!("`{header}` → {runs} in place")
+        let chained = if info.chain {
+            "; chained: run 1 starts from the iterator's frame, each later run from the end state of the run \
+             before it (its last drawable or MOVETO), composed with the step"
         } else {
-            format!("`{header}` → {runs} of `{}`", step.transform)
+            ""
+        };
+        if step.transform.is_empty() {
+            format!("`{header}` → {runs} in place{chained}")
+        } else {
+            format!("`{header}` → {runs} of `{}`{chained}", step.transform)
         }
     }
 
@@ -434,6 +440,21 @@ mod tests {
             "`(n) * {rz (360 / n)}` → 6 step(s) of `rz 60°`"
         );
         assert_eq!(hover("rule A { 4 * {$0} B {} }\nrule B { VERTEX {} }"), "`4 * {}` → 4 step(s) in place");
+    }
+
+    #[test]
+    fn chained_iterator_says_its_runs_chain() {
+        let chained =
+            "; chained: run 1 starts from the iterator's frame, each later run from the end state of the run \
+                       before it (its last drawable or MOVETO), composed with the step";
+        assert_eq!(
+            hover("rule A { 2 $0* {} \\ B {} }\nrule B { VERTEX {} }"),
+            format!("`2 * {{}}` → 2 step(s) in place{chained}")
+        );
+        assert_eq!(
+            hover("rule A { 4/4 * {rz 36$00} \\ B {} }\nrule B { VERTEX {} }"),
+            format!("`4/4 * {{rz 360}}` → 4 step(s) of `rz 90°`{chained}")
+        );
     }
 
     #[test]

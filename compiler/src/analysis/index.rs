@@ -66,6 +66,8 @@ pub struct IterInfo {
     pub count: Count,
     pub divisor: Option<Count>,
     pub adj: AdjList,
+    /// `M * {T} \\ ITEM`: the runs chain (each continues from the previous one's end).
+    pub chain: bool,
 }
 
 /// What an occurrence is.
@@ -534,7 +536,7 @@ impl Walker<'_, '_> {
                     }
                     self.adj_list(adj);
                 }
-                BodyKind::Iterate { count, divisor, adj, item: inner } => {
+                BodyKind::Iterate { count, divisor, adj, chain, item: inner } => {
                     let header = count.span().to(adj.span);
                     self.syn(
                         header,
@@ -542,6 +544,7 @@ impl Walker<'_, '_> {
                             count: count.clone(),
                             divisor: divisor.clone(),
                             adj: adj.clone(),
+                            chain: *chain,
                         })),
                     );
                     self.count(count);

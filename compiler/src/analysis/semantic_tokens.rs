@@ -220,6 +220,24 @@ Number \"1\"";
     }
 
     #[test]
+    fn the_chain_backslash_of_an_iterator_is_an_operator() {
+        let src = "rule A { 4/4 * {rz 360} \\ B {} }\nrule B { VERTEX {} }";
+        let expected = "\
+Keyword \"rule\"
+Rule* \"A\"
+Number \"4\"
+Number \"4\"
+Adjustment \"rz\"
+Number \"360\"
+Operator \"\\\\\"
+Rule \"B\"
+Keyword \"rule\"
+Rule* \"B\"
+Drawable \"VERTEX\"";
+        assert_eq!(tokens(src), expected);
+    }
+
+    #[test]
     fn sections_keys_strings_and_values() {
         let src = "\
 @define W 2

@@ -382,6 +382,7 @@ Namespace n
     SectionBlock zz_inner x
 Section search
 Rule h_torso
+Section grid g
 "
         );
         let syms = d.document_symbols();
