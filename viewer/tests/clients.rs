@@ -1,0 +1,446 @@
+//! Real clients we did not write open every std example's files: Blender (PyPI
+//! `bpy`, headless), three.js's `GLTFLoader` under Node, and assimp (`assimp info`).
+//!
+//! For each example `mdg-run` writes `.glb` (with `--stats` and a `--png` picture),
+//! and `.ply`, `.obj`, `.stl` of the pose at t = 0 (`--time 0`). The PLY (z up,
+//! MDG's axes, every instance expanded) gives the expected counts and bounding box.
+//! Then, with one Blender process and one Node process for all files:
+//!
+//! * Blender and three.js import every `.glb` without an error;
+//! * the model is upright: Blender's bounding box (z up) equals MDG's, three.js's
+//!   (y up) equals MDG's turned (x, y, z) → (x, z, −y), within 1e-3 of the size;
+//! * three.js draws as many vertices and triangles as the PLY holds, Blender has as
+//!   many polygons; mesh objects other than `geometry` are the instances, as many as
+//!   `--stats` counts unless there are more than the exporter writes as nodes
+//!   ([`mdg_vm::export::glb::MAX_INSTANCE_NODES`]), when there are none;
+//!   `--stats` vertices and triangles are at most the drawn ones (instances add);
+//! * animated examples (the `.glb` has animations) have Blender actions and
+//!   three.js clips with tracks; at least two std examples are animated;
+//! * the mean colour of what Blender renders (Cycles, uniform white light, no tone
+//!   mapping: surfaces show their own colour) is within [`COLOUR_TOLERANCE`] of the
+//!   mean colour of the model in `mdg-run --png`'s picture (pixels that differ
+//!   from its background), per channel in 0..1 display values; writing display
+//!   (sRGB) colours where glTF wants linear ones fails this by 0.15 to 0.3;
+//! * `assimp info` reads every format of every example (exit 0, faces reported).
+//!
+//! The clients are installed by `.ci/run`: the `bpy` venv at
+//! `$MDG_BPY_PYTHON` (default `~/.cache/mdg/bpy-venv/bin/python`), `three` by
+//! `npm ci --prefix tests/clients`, `assimp` from Debian's `assimp-utils`. A missing
+//! client fails the test with what to install; `MDG_SKIP_CLIENT_TESTS=1` skips it.
+//! `MDG_CLIENTS_KEEP=DIR` keeps every file written (the pictures, the renders).
+
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+/// Largest difference allowed per channel (0..1, display values) between the mean
+/// colour of Blender's render and of MDG's own picture. The lighting differs
+/// (MDG: Lambert with a key light and ambient; Blender: a uniform white sky), and
+/// the views differ where the grammar has its own camera; the washed-out colours of
+/// display values read as linear are further off.
+const COLOUR_TOLERANCE: f64 = 0.12;
+
+/// Picture size for `--png` and Blender's render.
+const SIZE: (u32, u32) = (96, 72);
+
+/// The `mdg-run` binary. The one place the tests look for it (it moves with the CLI).
+fn mdg_run() -> PathBuf {
+    PathBuf::from(env!("CARGO_BIN_EXE_mdg-run"))
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..").canonicalize().expect("workspace root")
+}
+
+/// The Python interpreter of the venv holding `bpy`.
+fn bpy_python() -> PathBuf {
+    if let Some(p) = std::env::var_os("MDG_BPY_PYTHON") {
+        return PathBuf::from(p);
+    }
+    let cache = std::env::var_os("XDG_CACHE_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))
+        .unwrap_or_else(|| PathBuf::from(".cache"));
+    cache.join("mdg/bpy-venv/bin/python")
+}
+
+fn find_on_path(name: &str) -> Option<PathBuf> {
+    std::env::split_paths(&std::env::var_os("PATH")?).map(|d| d.join(name)).find(|p| p.is_file())
+}
+
+/// Every client, or a message saying what is missing and how to install it.
+fn clients() -> Result<(PathBuf, PathBuf), String> {
+    let mut missing = Vec::new();
+    let python = bpy_python();
+    let bpy_ok = Command::new(&python).args(["-c", "import bpy"]).output().is_ok_and(|o| o.status.success());
+    if !bpy_ok {
+        missing.push(format!(
+            "Blender's `bpy` (no `import bpy` with {}: python3.11 -m venv ~/.cache/mdg/bpy-venv && ~/.cache/mdg/bpy-venv/bin/pip install 'bpy>=5,<6', or set MDG_BPY_PYTHON)",
+            python.display()
+        ));
+    }
+    if !root().join("tests/clients/node_modules/three").is_dir() {
+        missing.push("three.js (npm ci --prefix tests/clients)".into());
+    }
+    let node = find_on_path("node");
+    if node.is_none() {
+        missing.push("Node.js (apt-get install nodejs)".into());
+    }
+    if find_on_path("assimp").is_none() {
+        missing.push("assimp (apt-get install assimp-utils)".into());
+    }
+    if missing.is_empty() {
+        Ok((python, node.unwrap_or_default()))
+    } else {
+        Err(format!(
+            "the real-client test needs: {}.\n`bash .ci/run` installs them all; set MDG_SKIP_CLIENT_TESTS=1 to skip this test.",
+            missing.join("; ")
+        ))
+    }
+}
+
+/// What `mdg-run --stats` printed: (vertices, triangles, instances).
+fn parse_stats(stderr: &str) -> Option<(u64, u64, u64)> {
+    let line = stderr.lines().find(|l| l.starts_with("rule calls "))?;
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let after = |key: &str| -> Option<u64> {
+        let i = words.iter().position(|w| *w == key)?;
+        words.get(i + 1)?.parse().ok()
+    };
+    Some((after("vertices")?, after("triangles")?, after("instances")?))
+}
+
+/// A binary PLY written by MDG: (vertex count, face count, min, max).
+fn read_ply(path: &Path) -> (usize, usize, [f64; 3], [f64; 3]) {
+    let bytes = std::fs::read(path).expect("read ply");
+    let end = bytes.windows(11).position(|w| w == b"end_header\n").expect("PLY header") + 11;
+    let header = String::from_utf8_lossy(&bytes[..end]);
+    let count = |el: &str| -> usize {
+        header
+            .lines()
+            .find_map(|l| l.strip_prefix(&format!("element {el} ")))
+            .and_then(|n| n.parse().ok())
+            .expect("element count")
+    };
+    let (n, f) = (count("vertex"), count("face"));
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for i in 0..n {
+        let o = end + i * 28;
+        for k in 0..3 {
+            let x = f32::from_le_bytes(bytes[o + 4 * k..o + 4 * k + 4].try_into().expect("4 bytes")) as f64;
+            lo[k] = lo[k].min(x);
+            hi[k] = hi[k].max(x);
+        }
+    }
+    (n, f, lo, hi)
+}
+
+/// The mean RGB (0..1) of the pixels of an RGBA PNG that `keep` accepts, and their number.
+fn mean_colour(path: &Path, keep: impl Fn(&[u8]) -> bool) -> ([f64; 3], usize) {
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).expect("open png")));
+    let mut reader = decoder.read_info().expect("png header");
+    let mut buf = vec![0; reader.output_buffer_size().expect("size")];
+    let info = reader.next_frame(&mut buf).expect("png data");
+    let channels = info.color_type.samples();
+    let mut sum = [0.0; 3];
+    let mut n = 0;
+    for px in buf[..info.buffer_size()].chunks(channels) {
+        let rgba = [px[0], px[1], px[2], if channels == 4 { px[3] } else { 255 }];
+        if keep(&rgba) {
+            for k in 0..3 {
+                sum[k] += rgba[k] as f64 / 255.0;
+            }
+            n += 1;
+        }
+    }
+    (sum.map(|s| s / n.max(1) as f64), n)
+}
+
+fn close(a: &[f64], b: &[f64], tol: f64) -> bool {
+    a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tol)
+}
+
+fn floats(v: &Value) -> Vec<f64> {
+    v.as_array().map(|a| a.iter().filter_map(Value::as_f64).collect()).unwrap_or_default()
+}
+
+/// One example's files and what MDG says about it.
+struct Example {
+    name: String,
+    glb: PathBuf,
+    picture: PathBuf,
+    render: PathBuf,
+    /// `--stats`: vertices, triangles, instances.
+    stats: (u64, u64, u64),
+    /// The PLY at t = 0: vertices, faces, bounding box.
+    ply: (usize, usize, [f64; 3], [f64; 3]),
+    animated: bool,
+    background: [u8; 3],
+}
+
+fn run_mdg(args: &[&std::ffi::OsStr]) -> Result<String, String> {
+    let out = Command::new(mdg_run()).args(args).output().map_err(|e| format!("cannot run mdg-run: {e}"))?;
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    if out.status.success() {
+        Ok(stderr)
+    } else {
+        Err(stderr)
+    }
+}
+
+#[test]
+fn blender_three_and_assimp_open_every_std_example() {
+    if std::env::var("MDG_SKIP_CLIENT_TESTS").is_ok_and(|v| v == "1") {
+        eprintln!("skipped: MDG_SKIP_CLIENT_TESTS=1");
+        return;
+    }
+    let (python, node) = clients().unwrap_or_else(|e| panic!("{e}"));
+    let dir = match std::env::var_os("MDG_CLIENTS_KEEP") {
+        Some(d) => PathBuf::from(d),
+        None => std::env::temp_dir().join(format!("mdg-clients-{}", std::process::id())),
+    };
+    std::fs::create_dir_all(&dir).expect("output dir");
+    let started = Instant::now();
+    let mut sources: Vec<PathBuf> = std::fs::read_dir(root().join("std/examples"))
+        .expect("std/examples")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "mdg"))
+        .collect();
+    sources.sort();
+    assert!(sources.len() >= 12, "std examples");
+
+    let mut failures = Vec::new();
+    let mut examples = Vec::new();
+    let mut all_files = Vec::new();
+    for src in &sources {
+        let name = src.file_stem().expect("name").to_string_lossy().into_owned();
+        let file = |ext: &str| dir.join(format!("{name}.{ext}"));
+        let (glb, picture) = (file("glb"), dir.join(format!("{name}.mdg.png")));
+        let size = format!("{}x{}", SIZE.0, SIZE.1);
+        let stderr = match run_mdg(&[
+            src.as_os_str(),
+            "-o".as_ref(),
+            glb.as_os_str(),
+            "--stats".as_ref(),
+            "--png".as_ref(),
+            picture.as_os_str(),
+            "--size".as_ref(),
+            size.as_ref(),
+        ]) {
+            Ok(s) => s,
+            Err(e) => {
+                failures.push(format!("{name}: mdg-run failed:\n{e}"));
+                continue;
+            }
+        };
+        if !glb.is_file() {
+            // A mode writing several files (the creature mode's generations) is
+            // exercised by its own tests.
+            eprintln!("{name}: no single .glb written, not a client check");
+            continue;
+        }
+        let Some(stats) = parse_stats(&stderr) else {
+            eprintln!("{name}: no --stats counters (a mode of its own): not a client check");
+            continue;
+        };
+        for ext in ["ply", "obj", "stl"] {
+            let out = file(ext);
+            if let Err(e) = run_mdg(&[src.as_os_str(), "--time".as_ref(), "0".as_ref(), "-o".as_ref(), out.as_os_str()])
+            {
+                failures.push(format!("{name}: mdg-run -o {ext} failed:\n{e}"));
+            }
+            all_files.push(out);
+        }
+        all_files.push(glb.clone());
+        let bytes = std::fs::read(&glb).expect("read glb");
+        let json_len = u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes")) as usize;
+        let doc: Value = serde_json::from_slice(&bytes[20..20 + json_len]).expect("glTF JSON");
+        let animated = doc.get("animations").is_some();
+        // The picture's background is its corner pixel (the grammar's `background`).
+        let bg = {
+            let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&picture).expect("png")));
+            let mut r = decoder.read_info().expect("png header");
+            let mut buf = vec![0; r.output_buffer_size().expect("size")];
+            r.next_frame(&mut buf).expect("png data");
+            [buf[0], buf[1], buf[2]]
+        };
+        examples.push(Example {
+            render: dir.join(format!("{name}.blender.png")),
+            ply: read_ply(&file("ply")),
+            name,
+            glb,
+            picture,
+            stats,
+            animated,
+            background: bg,
+        });
+    }
+    let mdg_seconds = started.elapsed().as_secs_f64();
+
+    // Blender: one process for every file.
+    let jobs: Vec<Value> = examples
+        .iter()
+        .map(|e| {
+            serde_json::json!({
+                "name": e.name,
+                "glb": e.glb,
+                "png": e.render,
+                "size": [SIZE.0, SIZE.1],
+            })
+        })
+        .collect();
+    let jobs_path = dir.join("blender-jobs.json");
+    let result_path = dir.join("blender-result.json");
+    std::fs::write(&jobs_path, serde_json::to_vec(&jobs).expect("json")).expect("write jobs");
+    let t = Instant::now();
+    let out = Command::new(&python)
+        .arg(root().join("tests/clients/blender_check.py"))
+        .arg(&jobs_path)
+        .arg(&result_path)
+        .output()
+        .expect("run Blender's Python");
+    let blender_seconds = t.elapsed().as_secs_f64();
+    assert!(
+        out.status.success(),
+        "Blender check failed:\n{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let blender: Value = serde_json::from_slice(&std::fs::read(&result_path).expect("Blender result")).expect("json");
+    let blender: BTreeMap<String, Value> = blender["results"]
+        .as_array()
+        .expect("results")
+        .iter()
+        .map(|r| (r["name"].as_str().unwrap_or_default().to_string(), r.clone()))
+        .collect();
+
+    // three.js: one Node process for every file.
+    let t = Instant::now();
+    let out = Command::new(&node)
+        .arg(root().join("tests/clients/three_check.mjs"))
+        .args(examples.iter().map(|e| &e.glb))
+        .output()
+        .expect("run node");
+    let three_seconds = t.elapsed().as_secs_f64();
+    assert!(out.status.success(), "three.js check failed:\n{}", String::from_utf8_lossy(&out.stderr));
+    let three: Value = serde_json::from_slice(&out.stdout).expect("three.js JSON");
+    let three: Vec<Value> = three["results"].as_array().expect("results").clone();
+    assert_eq!(three.len(), examples.len());
+
+    let max_nodes = mdg_vm::export::glb::MAX_INSTANCE_NODES as u64;
+    let mut animated = 0;
+    for (e, t) in examples.iter().zip(&three) {
+        let name = &e.name;
+        let (vertices, faces, lo, hi) = e.ply;
+        let (stat_v, stat_t, instances) = e.stats;
+        let size = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+        let tol = 1e-3 * size.max(1e-3);
+        if stat_v > vertices as u64 || stat_t > faces as u64 || (instances == 0 && stat_t != faces as u64) {
+            failures.push(format!("{name}: --stats {stat_v} vertices {stat_t} triangles, the PLY {vertices} and {faces}"));
+        }
+        // three.js
+        if let Some(err) = t.get("error") {
+            failures.push(format!("{name}: three.js cannot load the .glb: {err}"));
+        } else {
+            if t["vertices"].as_u64() != Some(vertices as u64) || t["triangles"].as_u64() != Some(faces as u64) {
+                failures.push(format!(
+                    "{name}: three.js draws {} vertices {} triangles, MDG has {vertices} and {faces}",
+                    t["vertices"], t["triangles"]
+                ));
+            }
+            let y_up_lo = [lo[0], lo[2], -hi[1]];
+            let y_up_hi = [hi[0], hi[2], -lo[1]];
+            if !close(&floats(&t["min"]), &y_up_lo, tol) || !close(&floats(&t["max"]), &y_up_hi, tol) {
+                failures.push(format!(
+                    "{name}: three.js (y up) bounds {} .. {}, expected {y_up_lo:?} .. {y_up_hi:?}",
+                    t["min"], t["max"]
+                ));
+            }
+            let instance_objects = t["meshes"].as_u64().unwrap_or(0).saturating_sub(t["geometry"].as_u64().unwrap_or(0));
+            let expected = if instances > max_nodes { 0 } else { instances };
+            if instance_objects != expected {
+                failures.push(format!(
+                    "{name}: three.js has {instance_objects} instance objects, --stats {instances} instances (expected {expected})"
+                ));
+            }
+            let clips = t["animations"].as_array().map(Vec::len).unwrap_or(0);
+            if e.animated && (clips == 0 || t["animations"][0]["tracks"].as_u64().unwrap_or(0) == 0) {
+                failures.push(format!("{name}: animated, but three.js has no animation tracks"));
+            }
+        }
+        // Blender
+        let Some(b) = blender.get(name) else {
+            failures.push(format!("{name}: no Blender result"));
+            continue;
+        };
+        if let Some(err) = b.get("error") {
+            failures.push(format!("{name}: Blender cannot import the .glb: {err}"));
+            continue;
+        }
+        if b["polygons"].as_u64() != Some(faces as u64) {
+            failures.push(format!("{name}: Blender has {} polygons, MDG {faces} triangles", b["polygons"]));
+        }
+        if !close(&floats(&b["min"]), &lo, tol) || !close(&floats(&b["max"]), &hi, tol) {
+            failures.push(format!("{name}: Blender (z up) bounds {} .. {}, MDG {lo:?} .. {hi:?}", b["min"], b["max"]));
+        }
+        if e.animated {
+            animated += 1;
+            if b["actions"].as_array().is_none_or(Vec::is_empty) {
+                failures.push(format!("{name}: animated, but Blender has no actions"));
+            }
+        }
+        let bg = e.background;
+        let (mdg_mean, mdg_n) =
+            mean_colour(&e.picture, |p| (0..3).any(|k| (p[k] as i32 - bg[k] as i32).abs() > 6));
+        let (blender_mean, blender_n) = mean_colour(&e.render, |p| p[3] == 255);
+        eprintln!(
+            "{name}: colour MDG {mdg_mean:.3?} ({mdg_n} px), Blender {blender_mean:.3?} ({blender_n} px), import {:.2} s",
+            b["import_seconds"].as_f64().unwrap_or(0.0)
+        );
+        if mdg_n > 0 && blender_n > 0 && !close(&mdg_mean, &blender_mean, COLOUR_TOLERANCE) {
+            failures.push(format!(
+                "{name}: Blender's render has mean colour {blender_mean:.3?}, MDG's picture {mdg_mean:.3?} (tolerance {COLOUR_TOLERANCE})"
+            ));
+        }
+        if mdg_n == 0 || blender_n == 0 {
+            failures.push(format!("{name}: nothing drawn (MDG {mdg_n} pixels, Blender {blender_n})"));
+        }
+    }
+    if animated < 2 {
+        failures.push(format!("only {animated} std examples are animated; the animation check needs two"));
+    }
+
+    // assimp: every format of every example.
+    let t = Instant::now();
+    for f in &all_files {
+        let out = Command::new("assimp").arg("info").arg(f).output().expect("run assimp");
+        let text = String::from_utf8_lossy(&out.stdout);
+        let faces = text
+            .lines()
+            .find_map(|l| l.trim().strip_prefix("Faces:"))
+            .and_then(|n| n.trim().parse::<u64>().ok())
+            .unwrap_or(0);
+        if !out.status.success() || faces == 0 {
+            failures.push(format!(
+                "assimp info {} failed ({}, {faces} faces):\n{text}{}",
+                f.display(),
+                out.status,
+                String::from_utf8_lossy(&out.stderr)
+            ));
+        }
+    }
+    let assimp_seconds = t.elapsed().as_secs_f64();
+    eprintln!(
+        "{} examples: mdg-run {mdg_seconds:.1} s, Blender {blender_seconds:.1} s ({}), three.js {three_seconds:.1} s, assimp {assimp_seconds:.1} s ({} files)",
+        examples.len(),
+        blender.len(),
+        all_files.len()
+    );
+    if std::env::var_os("MDG_CLIENTS_KEEP").is_none() {
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    assert!(failures.is_empty(), "{} problems:\n{}", failures.len(), failures.join("\n"));
+}
