@@ -6,14 +6,21 @@ empty scene: import it with Blender's own glTF importer, then record the import
 time, the mesh objects and their vertex and polygon counts, the world bounding box
 (Blender is z up, like MDG), the actions, and render it with Cycles on the CPU from
 MDG's home view (azimuth 35°, elevation 25°, vertical field of view 40°, the
-bounding sphere framed) into `png`, transparent where nothing was hit, lit only by
-a uniform white world (so a surface shows its own colour), "Standard" view
-transform (no tone mapping). One Blender process for every file. An import that
-raises is recorded as an error, not fatal.
+bounding sphere framed) into `png`, transparent where nothing was hit, "Standard"
+view transform (no tone mapping). The light imitates MDG's pictures (display colour
+times 0.15 + 0.85·max(n·l, 0), l MDG's default key light): a sun without shadows
+from l whose strength shows a lit face in its own colour, and a uniform world of
+0.15 in display terms (0.15^2.2 linear). One Blender process for every file. An
+import that raises is recorded as an error, not fatal.
+
+With MDG_WASHED_OUT=1 every imported colour c is replaced by linear_to_srgb(c),
+which is what a file that stores display colours as glTF's linear ones shows: the
+test's tolerance is measured against that.
 """
 
 import json
 import math
+import os
 import sys
 import time
 
@@ -56,14 +63,26 @@ def render(path, size, lo, hi):
     scene.render.image_settings.color_mode = "RGBA"
     scene.view_settings.view_transform = "Standard"
     scene.view_settings.look = "None"
-    world = bpy.data.worlds.new("white")
+    world = bpy.data.worlds.new("ambient")
     world.use_nodes = True
     bg = world.node_tree.nodes.get("Background")
     bg.inputs[0].default_value = (1.0, 1.0, 1.0, 1.0)
-    bg.inputs[1].default_value = 1.0
+    bg.inputs[1].default_value = 0.15**2.2
     scene.world = world
     center = (lo + hi) * 0.5
     radius = max((hi - lo).length * 0.5, 1e-4)
+    # MDG's default key light (viewer/src/uniforms.rs, default_light).
+    haz, hel = math.radians(35.0), math.radians(25.0)
+    toward = Vector((math.cos(hel) * math.sin(haz), -math.cos(hel) * math.cos(haz), math.sin(hel)))
+    right = Vector((0.0, 0.0, 1.0)).cross(toward).normalized()
+    light_dir = (toward * 0.5 + Vector((0.0, 0.0, 0.8)) - right * 0.1).normalized()
+    sun_data = bpy.data.lights.new("key", type="SUN")
+    sun_data.energy = math.pi * (1.0 - 0.15**2.2)  # a face towards it: radiance = albedo
+    sun_data.use_shadow = False
+    sun_data.angle = 0.0
+    sun = bpy.data.objects.new("key", sun_data)
+    scene.collection.objects.link(sun)
+    sun.rotation_euler = (-light_dir).to_track_quat("-Z", "Y").to_euler()
     flat = (hi.z - lo.z) < radius * 0.01
     az, el = (0.0, 89.0) if flat else (35.0, 25.0)
     az, el = math.radians(az), math.radians(el)
@@ -86,6 +105,25 @@ def render(path, size, lo, hi):
     bpy.ops.render.render(write_still=True)
 
 
+def to_srgb(c):
+    return c * 12.92 if c <= 0.0031308 else 1.055 * c ** (1.0 / 2.4) - 0.055
+
+
+def wash_out():
+    for me in bpy.data.meshes:
+        for attr in me.color_attributes:
+            for d in attr.data:
+                r, g, b, a = d.color
+                d.color = (to_srgb(r), to_srgb(g), to_srgb(b), a)
+    for mat in bpy.data.materials:
+        if mat.node_tree is None:
+            continue
+        for node in mat.node_tree.nodes:
+            if node.type == "BSDF_PRINCIPLED":
+                r, g, b, a = node.inputs["Base Color"].default_value
+                node.inputs["Base Color"].default_value = (to_srgb(r), to_srgb(g), to_srgb(b), a)
+
+
 def check(job):
     reset()
     started = time.monotonic()
@@ -94,6 +132,19 @@ def check(job):
     except Exception as e:  # the importer's own error, reported to the test
         return {"name": job["name"], "error": str(e)}
     seconds = time.monotonic() - started
+    if os.environ.get("MDG_WASHED_OUT") == "1":
+        wash_out()
+    # The importer adds a mesh (an icosphere) as the custom shape of the bones: not
+    # the model's; removed before counting and rendering.
+    shapes = {
+        pb.custom_shape
+        for o in bpy.context.scene.objects
+        if o.type == "ARMATURE"
+        for pb in o.pose.bones
+        if pb.custom_shape is not None
+    }
+    for o in shapes:
+        bpy.data.objects.remove(o, do_unlink=True)
     meshes = [o for o in bpy.context.scene.objects if o.type == "MESH"]
     tri_objects = [o for o in meshes if len(o.data.polygons) > 0]
     result = {
@@ -105,6 +156,7 @@ def check(job):
         "line_edges": sum(len(o.data.edges) for o in meshes if len(o.data.polygons) == 0),
         "actions": sorted(a.name for a in bpy.data.actions),
         "armatures": len([o for o in bpy.context.scene.objects if o.type == "ARMATURE"]),
+        "bone_shapes_removed": len(shapes),
         "color_attributes": sum(len(o.data.color_attributes) for o in tri_objects),
     }
     if tri_objects:
@@ -121,4 +173,5 @@ def main():
     json.dump({"blender": bpy.app.version_string, "results": results}, open(sys.argv[2], "w"), indent=1)
 
 
-main()
+if __name__ == "__main__":
+    main()

@@ -1,27 +1,37 @@
 //! Real clients we did not write open every std example's files: Blender (PyPI
 //! `bpy`, headless), three.js's `GLTFLoader` under Node, and assimp (`assimp info`).
 //!
-//! For each example `mdg-run` writes `.glb` (with `--stats` and a `--png` picture),
-//! and `.ply`, `.obj`, `.stl` of the pose at t = 0 (`--time 0`). The PLY (z up,
-//! MDG's axes, every instance expanded) gives the expected counts and bounding box.
-//! Then, with one Blender process and one Node process for all files:
+//! For each example `mdg-run` writes `.glb` (with `--stats` and a `--png` picture).
+//! What MDG itself holds at t = 0 (the pose a client shows) gives the expected
+//! counts and bounding box: evaluated here through the library, every instance
+//! expanded, or, for the grid and guided modes (which `mdg-run` runs its own way),
+//! read back from `mdg-run --time 0 -o X.ply` (z up, MDG's axes, flattened).
+//! Examples of at most [`FLAT_LIMIT`] expanded vertices are also written as `.ply`,
+//! `.obj`, `.stl` for assimp (the biggest expand to gigabytes). Then, with one
+//! Blender process and one Node process for all files:
 //!
 //! * Blender and three.js import every `.glb` without an error;
 //! * the model is upright: Blender's bounding box (z up) equals MDG's, three.js's
 //!   (y up) equals MDG's turned (x, y, z) → (x, z, −y), within 1e-3 of the size;
-//! * three.js draws as many vertices and triangles as the PLY holds, Blender has as
+//! * three.js draws as many vertices and triangles as MDG holds, Blender has as
 //!   many polygons; mesh objects other than `geometry` are the instances, as many as
 //!   `--stats` counts unless there are more than the exporter writes as nodes
 //!   ([`mdg_vm::export::glb::MAX_INSTANCE_NODES`]), when there are none;
 //!   `--stats` vertices and triangles are at most the drawn ones (instances add);
 //! * animated examples (the `.glb` has animations) have Blender actions and
 //!   three.js clips with tracks; at least two std examples are animated;
-//! * the mean colour of what Blender renders (Cycles, uniform white light, no tone
-//!   mapping: surfaces show their own colour) is within [`COLOUR_TOLERANCE`] of the
-//!   mean colour of the model in `mdg-run --png`'s picture (pixels that differ
-//!   from its background), per channel in 0..1 display values; writing display
-//!   (sRGB) colours where glTF wants linear ones fails this by 0.15 to 0.3;
-//! * `assimp info` reads every format of every example (exit 0, faces reported).
+//! * the mean colour of what Blender renders (Cycles from MDG's home view, lit like
+//!   MDG's pictures, no tone mapping, composited over the picture's background) is
+//!   close to the mean colour of `mdg-run --png`'s picture, both over the pixels
+//!   that differ from the background: its chromaticity (r, g, b)/(r + g + b) within
+//!   [`CHROMA_TOLERANCE`], each channel (0..1 display values) within
+//!   [`CHANNEL_TOLERANCE`] (the renderers light differently: Blender lights in
+//!   linear light, MDG in display values). Display colours written where glTF wants
+//!   linear ones are desaturated and brighter in Blender (measured in
+//!   docs/decisions.md, issue 21). Not for the guided mode, whose picture draws
+//!   the guide curves over the model;
+//! * `assimp info` reads every `.glb`, and the `.ply`, `.obj`, `.stl` written (exit 0,
+//!   faces reported).
 //!
 //! The clients are installed by `.ci/run`: the `bpy` venv at
 //! `$MDG_BPY_PYTHON` (default `~/.cache/mdg/bpy-venv/bin/python`), `three` by
@@ -35,12 +45,15 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
-/// Largest difference allowed per channel (0..1, display values) between the mean
-/// colour of Blender's render and of MDG's own picture. The lighting differs
-/// (MDG: Lambert with a key light and ambient; Blender: a uniform white sky), and
-/// the views differ where the grammar has its own camera; the washed-out colours of
-/// display values read as linear are further off.
-const COLOUR_TOLERANCE: f64 = 0.12;
+/// Largest difference allowed between the chromaticities (r, g, b)/(r + g + b) of the
+/// mean colours of Blender's render and MDG's picture.
+const CHROMA_TOLERANCE: f64 = 0.05;
+/// Largest difference allowed per channel (0..1, display values) between those mean
+/// colours: the same light lights a little brighter in linear light (Blender) than
+/// in display values (MDG), and views differ where the grammar has its own camera.
+const CHANNEL_TOLERANCE: f64 = 0.2;
+/// The most expanded vertices for which OBJ, STL and PLY are written for assimp.
+const FLAT_LIMIT: usize = 100_000;
 
 /// Picture size for `--png` and Blender's render.
 const SIZE: (u32, u32) = (96, 72);
@@ -138,25 +151,78 @@ fn read_ply(path: &Path) -> (usize, usize, [f64; 3], [f64; 3]) {
     (n, f, lo, hi)
 }
 
-/// The mean RGB (0..1) of the pixels of an RGBA PNG that `keep` accepts, and their number.
-fn mean_colour(path: &Path, keep: impl Fn(&[u8]) -> bool) -> ([f64; 3], usize) {
+/// The pixels of a PNG as RGBA floats in 0..1.
+fn pixels(path: &Path) -> Vec<[f64; 4]> {
     let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).expect("open png")));
     let mut reader = decoder.read_info().expect("png header");
     let mut buf = vec![0; reader.output_buffer_size().expect("size")];
     let info = reader.next_frame(&mut buf).expect("png data");
     let channels = info.color_type.samples();
+    buf[..info.buffer_size()]
+        .chunks(channels)
+        .map(|p| {
+            let a = if channels == 4 { p[3] } else { 255 };
+            [p[0], p[1], p[2], a].map(|x| x as f64 / 255.0)
+        })
+        .collect()
+}
+
+/// The mean RGB of the pixels of `px` (composited over `bg`) that differ from `bg`
+/// by more than 6/255 in some channel, and their number.
+fn mean_colour(px: &[[f64; 4]], bg: [f64; 3]) -> ([f64; 3], usize) {
     let mut sum = [0.0; 3];
     let mut n = 0;
-    for px in buf[..info.buffer_size()].chunks(channels) {
-        let rgba = [px[0], px[1], px[2], if channels == 4 { px[3] } else { 255 }];
-        if keep(&rgba) {
+    for p in px {
+        let c: [f64; 3] = std::array::from_fn(|k| p[k] * p[3] + bg[k] * (1.0 - p[3]));
+        if (0..3).any(|k| (c[k] - bg[k]).abs() > 6.0 / 255.0) {
             for k in 0..3 {
-                sum[k] += rgba[k] as f64 / 255.0;
+                sum[k] += c[k];
             }
             n += 1;
         }
     }
     (sum.map(|s| s / n.max(1) as f64), n)
+}
+
+fn chromaticity(c: [f64; 3]) -> [f64; 3] {
+    let s = (c[0] + c[1] + c[2]).max(1e-9);
+    c.map(|x| x / s)
+}
+
+/// What MDG holds at t = 0 (the pose a glTF client shows): vertices and triangles
+/// with every instance expanded (instances of meshes without triangles are not
+/// drawn), and the bounding box of those vertices.
+fn expected_in_process(bundle: &mdg_vm::bundle::Bundle) -> (usize, usize, [f64; 3], [f64; 3]) {
+    let opts = mdg_vm::eval::EvalOptions { time: Some(0.0), ..Default::default() };
+    let out = mdg_vm::eval::evaluate(bundle, &opts).posed(0.0);
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    let mut grow = |p: [f32; 3]| {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k] as f64);
+            hi[k] = hi[k].max(p[k] as f64);
+        }
+    };
+    let (mut v, mut t) = (0, 0);
+    for m in [&out.mesh, &out.sweeps] {
+        if !m.triangles.is_empty() {
+            v += m.positions.len();
+            t += m.triangles.len();
+            m.positions.iter().for_each(|p| grow(*p));
+        }
+    }
+    for inst in &out.instances {
+        let Some((_, shared)) = out.shared_meshes.get(inst.mesh as usize) else { continue };
+        if shared.triangles.is_empty() {
+            continue;
+        }
+        v += shared.positions.len();
+        t += shared.triangles.len();
+        for p in &shared.positions {
+            grow(inst.transform.transform_point3(glam::Vec3::from(*p)).to_array());
+        }
+    }
+    (v, t, lo, hi)
 }
 
 fn close(a: &[f64], b: &[f64], tol: f64) -> bool {
@@ -173,12 +239,13 @@ struct Example {
     glb: PathBuf,
     picture: PathBuf,
     render: PathBuf,
-    /// `--stats`: vertices, triangles, instances.
-    stats: (u64, u64, u64),
-    /// The PLY at t = 0: vertices, faces, bounding box.
+    /// `--stats`: vertices, triangles, instances (`None` for the grid mode).
+    stats: Option<(u64, u64, u64)>,
+    /// MDG at t = 0: vertices, triangles, bounding box.
     ply: (usize, usize, [f64; 3], [f64; 3]),
     animated: bool,
-    background: [u8; 3],
+    /// The guided mode's picture draws the guides over the model: no colour check.
+    guided: bool,
 }
 
 fn run_mdg(args: &[&std::ffi::OsStr]) -> Result<String, String> {
@@ -217,6 +284,22 @@ fn blender_three_and_assimp_open_every_std_example() {
     let mut all_files = Vec::new();
     for src in &sources {
         let name = src.file_stem().expect("name").to_string_lossy().into_owned();
+        let example_started = Instant::now();
+        // The creature mode writes a directory of generations, not one model; its own
+        // tests (tests/tests/creature.rs) validate those files.
+        let opts = mdg_compiler::expand::Options { std_dir: Some(root().join("std")), ..Default::default() };
+        let bundle = match mdg_compiler::driver::build(&mdg_compiler::source::FsLoader, src, &opts) {
+            Ok((bundle, _)) if bundle.extensions.creatures.is_some() => {
+                eprintln!("{name}: the creature mode writes many models: not a client check");
+                continue;
+            }
+            Ok((bundle, _)) => bundle,
+            Err(_) => {
+                failures.push(format!("{name}: does not compile"));
+                continue;
+            }
+        };
+        let own_mode = bundle.extensions.grid.is_some() || bundle.extensions.guided.is_some();
         let file = |ext: &str| dir.join(format!("{name}.{ext}"));
         let (glb, picture) = (file("glb"), dir.join(format!("{name}.mdg.png")));
         let size = format!("{}x{}", SIZE.0, SIZE.1);
@@ -237,45 +320,57 @@ fn blender_three_and_assimp_open_every_std_example() {
             }
         };
         if !glb.is_file() {
-            // A mode writing several files (the creature mode's generations) is
-            // exercised by its own tests.
-            eprintln!("{name}: no single .glb written, not a client check");
+            failures.push(format!("{name}: mdg-run wrote no {}", glb.display()));
             continue;
         }
-        let Some(stats) = parse_stats(&stderr) else {
-            eprintln!("{name}: no --stats counters (a mode of its own): not a client check");
-            continue;
-        };
-        for ext in ["ply", "obj", "stl"] {
+        // The grid mode prints its own counters (steps, blocks), none of these.
+        let stats = parse_stats(&stderr);
+        let write_flat = |ext: &str| -> Result<PathBuf, String> {
             let out = file(ext);
-            if let Err(e) = run_mdg(&[src.as_os_str(), "--time".as_ref(), "0".as_ref(), "-o".as_ref(), out.as_os_str()])
-            {
-                failures.push(format!("{name}: mdg-run -o {ext} failed:\n{e}"));
+            run_mdg(&[src.as_os_str(), "--time".as_ref(), "0".as_ref(), "-o".as_ref(), out.as_os_str()])
+                .map(|_| out)
+                .map_err(|e| format!("{name}: mdg-run -o {ext} failed:\n{e}"))
+        };
+        let expected = if own_mode {
+            match write_flat("ply") {
+                Ok(ply) => {
+                    all_files.push(ply.clone());
+                    read_ply(&ply)
+                }
+                Err(e) => {
+                    failures.push(e);
+                    continue;
+                }
             }
-            all_files.push(out);
+        } else {
+            expected_in_process(&bundle)
+        };
+        if expected.0 <= FLAT_LIMIT {
+            for ext in ["ply", "obj", "stl"] {
+                if own_mode && ext == "ply" {
+                    continue;
+                }
+                match write_flat(ext) {
+                    Ok(f) => all_files.push(f),
+                    Err(e) => failures.push(e),
+                }
+            }
         }
         all_files.push(glb.clone());
         let bytes = std::fs::read(&glb).expect("read glb");
         let json_len = u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes")) as usize;
         let doc: Value = serde_json::from_slice(&bytes[20..20 + json_len]).expect("glTF JSON");
         let animated = doc.get("animations").is_some();
-        // The picture's background is its corner pixel (the grammar's `background`).
-        let bg = {
-            let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&picture).expect("png")));
-            let mut r = decoder.read_info().expect("png header");
-            let mut buf = vec![0; r.output_buffer_size().expect("size")];
-            r.next_frame(&mut buf).expect("png data");
-            [buf[0], buf[1], buf[2]]
-        };
+        eprintln!("{name}: files written in {:.1} s", example_started.elapsed().as_secs_f64());
         examples.push(Example {
             render: dir.join(format!("{name}.blender.png")),
-            ply: read_ply(&file("ply")),
+            ply: expected,
             name,
             glb,
             picture,
             stats,
             animated,
-            background: bg,
+            guided: bundle.extensions.guided.is_some(),
         });
     }
     let mdg_seconds = started.elapsed().as_secs_f64();
@@ -335,10 +430,12 @@ fn blender_three_and_assimp_open_every_std_example() {
     for (e, t) in examples.iter().zip(&three) {
         let name = &e.name;
         let (vertices, faces, lo, hi) = e.ply;
-        let (stat_v, stat_t, instances) = e.stats;
+        let (stat_v, stat_t, instances) = e.stats.unwrap_or((0, 0, 0));
         let size = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
         let tol = 1e-3 * size.max(1e-3);
-        if stat_v > vertices as u64 || stat_t > faces as u64 || (instances == 0 && stat_t != faces as u64) {
+        if e.stats.is_some()
+            && (stat_v > vertices as u64 || stat_t > faces as u64 || (instances == 0 && stat_t != faces as u64))
+        {
             failures.push(format!("{name}: --stats {stat_v} vertices {stat_t} triangles, the PLY {vertices} and {faces}"));
         }
         // three.js
@@ -392,17 +489,23 @@ fn blender_three_and_assimp_open_every_std_example() {
                 failures.push(format!("{name}: animated, but Blender has no actions"));
             }
         }
-        let bg = e.background;
-        let (mdg_mean, mdg_n) =
-            mean_colour(&e.picture, |p| (0..3).any(|k| (p[k] as i32 - bg[k] as i32).abs() > 6));
-        let (blender_mean, blender_n) = mean_colour(&e.render, |p| p[3] == 255);
+        // The picture's background is its corner pixel (the grammar's `background`).
+        let picture = pixels(&e.picture);
+        let bg = [picture[0][0], picture[0][1], picture[0][2]];
+        let (mdg_mean, mdg_n) = mean_colour(&picture, bg);
+        let (blender_mean, blender_n) = mean_colour(&pixels(&e.render), bg);
+        let (cm, cb) = (chromaticity(mdg_mean), chromaticity(blender_mean));
         eprintln!(
-            "{name}: colour MDG {mdg_mean:.3?} ({mdg_n} px), Blender {blender_mean:.3?} ({blender_n} px), import {:.2} s",
+            "{name}: colour MDG {mdg_mean:.3?} ({mdg_n} px), Blender {blender_mean:.3?} ({blender_n} px), chromaticity MDG {cm:.3?} Blender {cb:.3?}, import {:.2} s",
             b["import_seconds"].as_f64().unwrap_or(0.0)
         );
-        if mdg_n > 0 && blender_n > 0 && !close(&mdg_mean, &blender_mean, COLOUR_TOLERANCE) {
+        if !e.guided
+            && mdg_n > 0
+            && blender_n > 0
+            && (!close(&cm, &cb, CHROMA_TOLERANCE) || !close(&mdg_mean, &blender_mean, CHANNEL_TOLERANCE))
+        {
             failures.push(format!(
-                "{name}: Blender's render has mean colour {blender_mean:.3?}, MDG's picture {mdg_mean:.3?} (tolerance {COLOUR_TOLERANCE})"
+                "{name}: Blender's render has mean colour {blender_mean:.3?} (chromaticity {cb:.3?}), MDG's picture {mdg_mean:.3?} ({cm:.3?}); tolerances {CHROMA_TOLERANCE} and {CHANNEL_TOLERANCE}"
             ));
         }
         if mdg_n == 0 || blender_n == 0 {
