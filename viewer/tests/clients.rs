@@ -16,7 +16,7 @@
 //! * three.js draws as many vertices and triangles as MDG holds, Blender has as
 //!   many polygons; mesh objects other than `geometry` are the instances, as many as
 //!   `--stats` counts unless there are more than the exporter writes as nodes
-//!   ([`mdg_vm::export::glb::MAX_INSTANCE_NODES`]), when there are none;
+//!   ([`mdg_vm::export::glb::MAX_INSTANCE_NODES`]), when at most as many;
 //!   `--stats` vertices and triangles are at most the drawn ones (instances add);
 //! * animated examples (the `.glb` has animations) have Blender actions and
 //!   three.js clips with tracks; at least two std examples are animated;
@@ -436,7 +436,8 @@ fn blender_three_and_assimp_open_every_std_example() {
         if e.stats.is_some()
             && (stat_v > vertices as u64 || stat_t > faces as u64 || (instances == 0 && stat_t != faces as u64))
         {
-            failures.push(format!("{name}: --stats {stat_v} vertices {stat_t} triangles, the PLY {vertices} and {faces}"));
+            failures
+                .push(format!("{name}: --stats {stat_v} vertices {stat_t} triangles, the PLY {vertices} and {faces}"));
         }
         // three.js
         if let Some(err) = t.get("error") {
@@ -456,11 +457,13 @@ fn blender_three_and_assimp_open_every_std_example() {
                     t["min"], t["max"]
                 ));
             }
-            let instance_objects = t["meshes"].as_u64().unwrap_or(0).saturating_sub(t["geometry"].as_u64().unwrap_or(0));
-            let expected = if instances > max_nodes { 0 } else { instances };
-            if instance_objects != expected {
+            let instance_objects =
+                t["meshes"].as_u64().unwrap_or(0).saturating_sub(t["geometry"].as_u64().unwrap_or(0));
+            // Above the node limit the exporter merges instances of small meshes.
+            let ok = if instances > max_nodes { instance_objects <= instances } else { instance_objects == instances };
+            if !ok {
                 failures.push(format!(
-                    "{name}: three.js has {instance_objects} instance objects, --stats {instances} instances (expected {expected})"
+                    "{name}: three.js has {instance_objects} instance objects, --stats {instances} instances"
                 ));
             }
             let clips = t["animations"].as_array().map(Vec::len).unwrap_or(0);

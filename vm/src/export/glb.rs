@@ -31,8 +31,9 @@
 //!   shared mesh, x negated and triangles reversed; mesh `NAME mirrored`). Negative
 //!   scales are avoided because validators and viewers disagree on them.
 //! * Instances that are degenerate or not a similarity are baked into the geometry.
-//! * More than [`MAX_INSTANCE_NODES`] instances are all baked (merged into the
-//!   geometry): importers spend time per node, and a batched mesh loads in seconds.
+//! * Above [`MAX_INSTANCE_NODES`] instances, those of small shared meshes (at most
+//!   [`MAX_MERGED_MESH_VERTICES`] vertices) are baked (merged into the geometry):
+//!   importers spend time per node, and a batched mesh of leaves loads in seconds.
 //!
 //! Nodes use TRS rather than `matrix` because glTF only lets TRS nodes be animation
 //! targets. All numbers are written as f32 with serde_json's shortest round-trip
@@ -76,9 +77,14 @@ use crate::output::{Animation, Mesh, Output};
 const FLOAT: u32 = 5126;
 const UNSIGNED_INT: u32 = 5125;
 const UNSIGNED_SHORT: u32 = 5123;
-/// The most instances written as nodes; more are merged into the geometry (importers
-/// such as Blender take about a millisecond per node: 227k leaves took 269 s).
+/// The most instances written as nodes; above it, instances of meshes of at most
+/// [`MAX_MERGED_MESH_VERTICES`] vertices are merged into the geometry (Blender
+/// imports 9,900 nodes in 13 s, the same 10,100 octahedra merged in 0.7 s).
 pub const MAX_INSTANCE_NODES: usize = 10_000;
+/// The biggest shared mesh whose instances are merged when there are too many
+/// nodes: Blender takes as long for a node as for about 50 merged vertices (10,100
+/// balls of ~150 vertices: 37 s merged, 13 s for 9,900 as nodes).
+pub const MAX_MERGED_MESH_VERTICES: usize = 48;
 /// The root node's rotation (x, y, z, w): −90° about x, MDG's z up to glTF's y up,
 /// (x, y, z) → (x, z, −y).
 pub const Y_UP_ROTATION: [f32; 4] = [-std::f32::consts::FRAC_1_SQRT_2, 0.0, 0.0, std::f32::consts::FRAC_1_SQRT_2];
@@ -142,14 +148,17 @@ pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
             None => bake_instance(&mut baked, shared, inst),
         }
     }
-    // Thousands of nodes make importers crawl (Blender spends about a millisecond on
-    // each object): above the limit every instance is merged into the geometry.
+    // Thousands of nodes make importers crawl (Blender spends over a millisecond on
+    // each object, about as long as on 50 vertices): above the limit, instances of
+    // small meshes are merged into the geometry; big ones stay nodes.
     if as_nodes.len() > MAX_INSTANCE_NODES {
-        for (inst, _, _) in as_nodes.drain(..) {
-            if let Some((_, shared)) = out.shared_meshes.get(inst.mesh as usize) {
+        as_nodes.retain(|(inst, _, _)| match out.shared_meshes.get(inst.mesh as usize) {
+            Some((_, shared)) if shared.positions.len() <= MAX_MERGED_MESH_VERTICES => {
                 bake_instance(&mut baked, shared, inst);
+                false
             }
-        }
+            _ => true,
+        });
     }
 
     // Nodes under the y-up root; skinned meshes stay at the scene root (a skinned
@@ -201,10 +210,13 @@ pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
             Some(m) => *m,
             None => {
                 let material = g.material(color, acc.double_sided);
-                let name = out
-                    .shared_meshes
-                    .get(inst.mesh as usize)
-                    .map(|(n, _)| if mirror { format!("{n} mirrored") } else { n.clone() });
+                let name = out.shared_meshes.get(inst.mesh as usize).map(|(n, _)| {
+                    if mirror {
+                        format!("{n} mirrored")
+                    } else {
+                        n.clone()
+                    }
+                });
                 let mut attributes = BTreeMap::new();
                 attributes.insert("POSITION", acc.position);
                 attributes.insert("NORMAL", acc.normal);
@@ -1051,11 +1063,7 @@ pub(crate) mod tests {
         };
         let (t, r, sc) = (v("translation", &[0.0; 3]), v("rotation", &[0.0, 0.0, 0.0, 1.0]), v("scale", &[1.0; 3]));
         let m = parent
-            * Mat4::from_scale_rotation_translation(
-                Vec3::from_slice(&sc),
-                Quat::from_slice(&r),
-                Vec3::from_slice(&t),
-            );
+            * Mat4::from_scale_rotation_translation(Vec3::from_slice(&sc), Quat::from_slice(&r), Vec3::from_slice(&t));
         if let Some(mesh) = n["mesh"].as_u64() {
             for p in json["meshes"][mesh as usize]["primitives"].as_array().expect("prims") {
                 if p.get("mode").is_some() {
@@ -1109,7 +1117,8 @@ pub(crate) mod tests {
         want.sort();
         assert_eq!(got, want);
         // One mirrored copy of CUBE, used by the mirrored instance.
-        let names: Vec<&str> = json["meshes"].as_array().expect("meshes").iter().filter_map(|m| m["name"].as_str()).collect();
+        let names: Vec<&str> =
+            json["meshes"].as_array().expect("meshes").iter().filter_map(|m| m["name"].as_str()).collect();
         assert_eq!(names.iter().filter(|n| **n == "CUBE mirrored").count(), 1);
     }
 
@@ -1143,8 +1152,12 @@ pub(crate) mod tests {
         let cube = json["nodes"].as_array().expect("nodes").iter().find(|n| n["name"] == "CUBE").expect("cube");
         let m = material(&json["meshes"][cube["mesh"].as_u64().expect("mesh") as usize]["primitives"][0]);
         assert!(m.get("doubleSided").is_none(), "a closed cube culls its back faces");
-        let factor: Vec<f64> =
-            m["pbrMetallicRoughness"]["baseColorFactor"].as_array().expect("factor").iter().filter_map(Value::as_f64).collect();
+        let factor: Vec<f64> = m["pbrMetallicRoughness"]["baseColorFactor"]
+            .as_array()
+            .expect("factor")
+            .iter()
+            .filter_map(Value::as_f64)
+            .collect();
         assert!((factor[0] - 1.0).abs() < 1e-6 && (factor[1] - 0.214_041_14).abs() < 1e-6 && factor[2] == 0.0);
         assert_eq!(factor[3], 0.5, "alpha stays as it is");
     }
@@ -1175,6 +1188,21 @@ pub(crate) mod tests {
         assert_eq!(nodes.len(), 2, "geometry and the root: {nodes:?}");
         let pos = json["meshes"][0]["primitives"][0]["attributes"]["POSITION"].as_u64().expect("positions");
         assert_eq!(floats(&bin, &json, pos).len(), 3 * 24 * (MAX_INSTANCE_NODES + 1));
+        // Instances of a big mesh stay nodes (merging them would import slower).
+        let mut big = Mesh::default();
+        for k in 0..=MAX_MERGED_MESH_VERTICES as u32 {
+            big.push_vertex(Vec3::new(k as f32, 0.0, 0.0), Vec3::Z, [1.0; 4], [0.0; 4], 0);
+            big.push_vertex(Vec3::new(k as f32, 1.0, 0.0), Vec3::Z, [1.0; 4], [0.0; 4], 0);
+        }
+        big.push_triangle([0, 1, 2], false);
+        out.shared_meshes.push(("BIG".into(), big));
+        out.instances.push(crate::output::Instance { mesh: 1, name: "BIG".into(), ..inst(0) });
+        let mut b = Vec::new();
+        write_glb(&out, &mut b).expect("writes");
+        let (json, _) = parse_glb(&b);
+        let names: Vec<&str> =
+            json["nodes"].as_array().expect("nodes").iter().filter_map(|n| n["name"].as_str()).collect();
+        assert_eq!(names, vec!["geometry", "BIG", "mdg z-up"]);
     }
 
     #[test]
@@ -1204,8 +1232,10 @@ pub(crate) mod tests {
         assert!(m.chunks(16).all(|c| c == Mat4::IDENTITY.to_cols_array()));
         // The skinned geometry is a scene root (its transforms are ignored); the
         // bones are under the y-up root.
-        let scene: Vec<u64> = json["scenes"][0]["nodes"].as_array().expect("scene").iter().filter_map(Value::as_u64).collect();
-        let names: Vec<&str> = scene.iter().map(|&n| json["nodes"][n as usize]["name"].as_str().expect("name")).collect();
+        let scene: Vec<u64> =
+            json["scenes"][0]["nodes"].as_array().expect("scene").iter().filter_map(Value::as_u64).collect();
+        let names: Vec<&str> =
+            scene.iter().map(|&n| json["nodes"][n as usize]["name"].as_str().expect("name")).collect();
         assert_eq!(names, vec!["mdg z-up", "geometry", "lines"]);
     }
 
