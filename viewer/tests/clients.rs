@@ -54,7 +54,7 @@ const CHROMA_TOLERANCE: f64 = 0.05;
 /// in display values (MDG), and views differ where the grammar has its own camera.
 const CHANNEL_TOLERANCE: f64 = 0.2;
 /// The most expanded vertices for which MDG's picture is drawn and compared.
-const PICTURE_LIMIT: usize = 2_000_000;
+const PICTURE_LIMIT: usize = 5_000_000;
 /// The most expanded vertices for which OBJ, STL and PLY are written for assimp.
 const FLAT_LIMIT: usize = 100_000;
 
