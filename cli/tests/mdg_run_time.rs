@@ -11,14 +11,15 @@ fn temp_dir(name: &str) -> PathBuf {
     dir
 }
 
-/// The `v x y z …` lines of an OBJ file.
+/// The `v x y z …` lines of an OBJ file, in MDG's z-up axes (OBJ is written y up:
+/// MDG's (x, y, z) as (x, z, −y)).
 fn obj_vertices(path: &std::path::Path) -> Vec<[f64; 3]> {
     let text = std::fs::read_to_string(path).expect("read obj");
     text.lines()
         .filter_map(|l| l.strip_prefix("v "))
         .map(|l| {
             let v: Vec<f64> = l.split_whitespace().take(3).map(|x| x.parse().expect("number")).collect();
-            [v[0], v[1], v[2]]
+            [v[0], -v[2], v[1]]
         })
         .collect()
 }

@@ -119,8 +119,9 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
             let mut out = Output { background: [1.0; 4], ..Output::default() };
             out.mesh = mesh::mesh(&made.model, [0.0; 3]);
             out.mesh.append(&site_mesh);
+            // Exporters take MDG's z-up space (glTF/OBJ turn it y up, STL/PLY keep it).
             let mut b = Vec::new();
-            export::write(f, &out, &mut b).map_err(|e| (1, format!("cannot export: {e}")))?;
+            export::write(f, &mesh::z_up(&out), &mut b).map_err(|e| (1, format!("cannot export: {e}")))?;
             b
         }
     };

@@ -173,6 +173,73 @@ pub(crate) fn clamp_color(c: [f32; 4]) -> [f32; 4] {
     c.map(|x| if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) })
 }
 
+/// An sRGB-encoded (display) channel value in 0..1 as linear light (IEC 61966-2-1).
+/// MDG colours are display values, as the picture shows them; glTF's vertex colours
+/// and `baseColorFactor` are linear, so the glTF writer converts with this.
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// The inverse of [`srgb_to_linear`]: a linear channel value in 0..1 as sRGB.
+pub fn linear_to_srgb(c: f32) -> f32 {
+    if c <= 0.003_130_8 {
+        c * 12.92
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// A clamped display colour with its RGB channels made linear (alpha is linear already).
+pub(crate) fn linear_color(c: [f32; 4]) -> [f32; 4] {
+    let c = clamp_color(c);
+    [srgb_to_linear(c[0]), srgb_to_linear(c[1]), srgb_to_linear(c[2]), c[3]]
+}
+
+/// MDG space (z up) turned to the y-up convention of glTF and OBJ: a −90° rotation
+/// about x, (x, y, z) → (x, z, −y). STL and PLY stay z up.
+pub fn z_up_to_y_up(p: [f32; 3]) -> [f32; 3] {
+    [p[0], p[2], -p[1]]
+}
+
+/// Whether the oriented triangles `tris` of `m` form closed surfaces: after welding
+/// vertices at bit-identical positions, every directed edge a→b is matched by as many
+/// b→a (each edge is shared by faces on both sides). Open surfaces (a leaf, a
+/// sheet) are seen from behind, so their materials are written double-sided.
+pub(crate) fn is_closed(m: &Mesh, tris: &[[u32; 3]]) -> bool {
+    if tris.is_empty() {
+        return true;
+    }
+    // Weld by position bits: sort the vertex indices by position, give equal ones one id.
+    let key = |i: usize| m.positions.get(i).map(|p| p.map(|x| if x == 0.0 { 0 } else { x.to_bits() }));
+    let mut order: Vec<u32> = (0..m.positions.len() as u32).collect();
+    order.sort_unstable_by_key(|&i| key(i as usize));
+    let mut id = vec![0u32; m.positions.len()];
+    let mut next = 0u32;
+    for (k, &i) in order.iter().enumerate() {
+        if k > 0 && key(i as usize) != key(order[k - 1] as usize) {
+            next += 1;
+        }
+        id[i as usize] = next;
+    }
+    let mut fwd: Vec<(u32, u32)> = Vec::with_capacity(tris.len() * 3);
+    for t in tris {
+        let w = t.map(|i| id.get(i as usize).copied().unwrap_or(u32::MAX));
+        for (a, b) in [(w[0], w[1]), (w[1], w[2]), (w[2], w[0])] {
+            if a != b {
+                fwd.push((a, b));
+            }
+        }
+    }
+    let mut back: Vec<(u32, u32)> = fwd.iter().map(|&(a, b)| (b, a)).collect();
+    fwd.sort_unstable();
+    back.sort_unstable();
+    fwd == back
+}
+
 /// The colour of vertex `i`, white where the mesh has none.
 pub(crate) fn color_at(m: &Mesh, i: usize) -> [f32; 4] {
     clamp_color(m.colors.get(i).copied().unwrap_or([1.0; 4]))

@@ -1,5 +1,7 @@
 //! Binary little-endian PLY writer: float position and normal, uchar RGBA colour per
 //! vertex, and faces as `list uchar uint`.
+//! Z up, MDG's own axes (Blender's PLY importer and most PLY tools expect z up);
+//! colours are the display (sRGB) values MDG shows.
 
 use std::fmt::Write as _;
 

@@ -1,5 +1,6 @@
 //! Binary STL writer: 80-byte header, triangle count, then per triangle a normal,
 //! three vertices and a zero attribute word.
+//! Z up, MDG's own axes (slicers and Blender's STL importer expect z up).
 
 use glam::Vec3;
 
