@@ -5,6 +5,7 @@ use crate::documents::{Documents, Snapshot};
 use crate::guard::guard;
 use crate::handlers;
 use crate::position::LineIndex;
+use crate::workspace::Workspace;
 use mdg_compiler::analysis::{CompletionConfig, Document};
 use mdg_compiler::expand::Options;
 use mdg_compiler::span::{FileId, Span};
@@ -51,6 +52,8 @@ impl Config {
 pub struct Backend {
     pub client: Client,
     pub docs: Arc<Documents>,
+    /// Every `.mdg` file of the workspace folders, open or not.
+    pub workspace: Arc<Workspace>,
     pub config: Arc<Config>,
     /// Set by `shutdown`; decides the exit code after `exit`.
     pub shutdown_requested: Arc<AtomicBool>,
@@ -59,7 +62,13 @@ pub struct Backend {
 impl Backend {
     /// A server talking to `client`.
     pub fn new(client: Client, config: Config, shutdown_requested: Arc<AtomicBool>) -> Backend {
-        Backend { client, docs: Arc::new(Documents::default()), config: Arc::new(config), shutdown_requested }
+        Backend {
+            client,
+            docs: Arc::new(Documents::default()),
+            workspace: Arc::new(Workspace::default()),
+            config: Arc::new(config),
+            shutdown_requested,
+        }
     }
 
     /// Analyses `snap` (on the current thread).
@@ -174,6 +183,7 @@ impl Backend {
 
 impl LanguageServer for Backend {
     async fn initialize(&self, params: InitializeParams) -> Result<InitializeResult> {
+        handlers::workspace::configure(self, &params);
         Ok(handlers::capabilities::initialize(self, params))
     }
 
@@ -188,6 +198,7 @@ impl LanguageServer for Backend {
         self.client
             .log_message(MessageType::INFO, format!("mdg-lsp {} ready (std: {std})", env!("CARGO_PKG_VERSION")))
             .await;
+        handlers::workspace::start(self);
     }
 
     async fn shutdown(&self) -> Result<()> {
@@ -209,6 +220,14 @@ impl LanguageServer for Backend {
 
     async fn did_close(&self, params: DidCloseTextDocumentParams) {
         handlers::sync::did_close(self, params).await;
+    }
+
+    async fn did_change_watched_files(&self, params: DidChangeWatchedFilesParams) {
+        handlers::workspace::did_change_watched_files(self, params).await;
+    }
+
+    async fn did_change_workspace_folders(&self, params: DidChangeWorkspaceFoldersParams) {
+        handlers::workspace::did_change_workspace_folders(self, params).await;
     }
 
     async fn hover(&self, params: HoverParams) -> Result<Option<Hover>> {

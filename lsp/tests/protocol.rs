@@ -327,3 +327,118 @@ fn version_flag() {
     assert!(out.status.success());
     assert!(String::from_utf8_lossy(&out.stdout).starts_with("mdg-lsp "));
 }
+
+/// The files of a workspace test: a library, two importers and an unrelated file
+/// with its own rule of the same name.
+const WS_LIB: &str = "rule shape { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n";
+const WS_A: &str = "@import lib.mdg\nstartshape A\nrule A { shape {} }\n";
+const WS_B: &str =
+    "@import lib.mdg\nstartshape B\nrule B { shape {x 2} shape {y 2} twig {} }\nrule twig { VERTEX {} }\n";
+const WS_OTHER: &str = "startshape C\nrule C { shape {} }\nrule shape { VERTEX {} }\n";
+
+/// (file name, start line, start character) of each location, sorted.
+fn places(locations: &Value) -> Vec<(String, u64, u64)> {
+    let mut v: Vec<(String, u64, u64)> = locations
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|l| {
+            let u = l["uri"].as_str().unwrap_or("");
+            let name = u.rsplit('/').next().unwrap_or("").to_string();
+            let s = &l["range"]["start"];
+            (name, s["line"].as_u64().unwrap_or(0), s["character"].as_u64().unwrap_or(0))
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+/// The (file name, number of edits) of a workspace edit, sorted.
+fn edit_counts(edit: &Value) -> Vec<(String, usize)> {
+    let mut v: Vec<(String, usize)> = edit["changes"]
+        .as_object()
+        .into_iter()
+        .flatten()
+        .map(|(u, e)| (u.rsplit('/').next().unwrap_or("").to_string(), e.as_array().map(Vec::len).unwrap_or(0)))
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn the_workspace_not_only_the_open_files() {
+    let dir = common::canonical_scratch("workspace");
+    for (name, text) in [("lib.mdg", WS_LIB), ("a.mdg", WS_A), ("b.mdg", WS_B), ("other.mdg", WS_OTHER)] {
+        std::fs::write(dir.join(name), text).expect("write");
+    }
+    let (ul, ua, ub) = (uri(&dir.join("lib.mdg")), uri(&dir.join("a.mdg")), uri(&dir.join("b.mdg")));
+    let mut c = Client::spawn();
+    c.initialize(&dir);
+    // The library and one importer are open; `b.mdg` stays closed.
+    c.open(&ul, 1, WS_LIB);
+    c.open(&ua, 1, WS_A);
+    assert!(c.diagnostics(&ul, 1).is_empty());
+    assert!(c.diagnostics(&ua, 1).is_empty());
+
+    // Workspace symbols cover the closed files (and wait for the index).
+    let ws = c.call("workspace/symbol", json!({"query": "twig"}));
+    assert_eq!(
+        places(&ws.as_array().map(|a| a.iter().map(|s| s["location"].clone()).collect()).unwrap_or(json!([]))),
+        [("b.mdg".to_string(), 3, 5)]
+    );
+    assert!(c.logs.iter().any(|l| l.contains("indexed 4 files of the workspace")), "{:?}", c.logs);
+
+    // References from the definition in the library reach both importers, open or
+    // not, and not the unrelated rule of the same name.
+    let want = [
+        ("a.mdg".to_string(), 2, 9),
+        ("b.mdg".to_string(), 2, 9),
+        ("b.mdg".to_string(), 2, 21),
+        ("lib.mdg".to_string(), 0, 5),
+    ];
+    let refs = c.call("textDocument/references", json!({"textDocument": {"uri": ul}, "position": pos_of(WS_LIB, "shape", 0), "context": {"includeDeclaration": true}}));
+    assert_eq!(places(&refs), want, "{refs}");
+    // The same from a use in an importer.
+    let refs = c.call("textDocument/references", json!({"textDocument": {"uri": ua}, "position": pos_of(WS_A, "shape {}", 1), "context": {"includeDeclaration": true}}));
+    assert_eq!(places(&refs), want, "{refs}");
+    let refs = c.call("textDocument/references", json!({"textDocument": {"uri": ua}, "position": pos_of(WS_A, "shape {}", 1), "context": {"includeDeclaration": false}}));
+    assert_eq!(places(&refs).len(), 3, "{refs}");
+
+    // Rename edits the library and both importers.
+    let edit = c.call(
+        "textDocument/rename",
+        json!({"textDocument": {"uri": ua}, "position": pos_of(WS_A, "shape {}", 1), "newName": "form"}),
+    );
+    assert_eq!(edit_counts(&edit), [("a.mdg".to_string(), 1), ("b.mdg".to_string(), 2), ("lib.mdg".to_string(), 1)]);
+    assert!(edit["changes"][ub.as_str()].as_array().into_iter().flatten().all(|e| e["newText"] == "form"), "{edit}");
+    // A name that clashes in the closed importer is refused, naming it.
+    let clash = c.request(
+        "textDocument/rename",
+        json!({"textDocument": {"uri": ul}, "position": pos_of(WS_LIB, "shape", 0), "newName": "twig"}),
+    );
+    let message = clash["error"]["message"].as_str().unwrap_or("");
+    assert!(message.contains("a rule named `twig` already exists (in b.mdg)"), "{clash}");
+
+    // An edit of the library that breaks the closed importer publishes its diagnostics...
+    c.change(&ul, 2, "rule form { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n");
+    let closed = c.notification("textDocument/publishDiagnostics", |p| p["uri"] == ub.as_str());
+    assert!(closed["version"].is_null(), "{closed}");
+    let codes: Vec<&str> =
+        closed["diagnostics"].as_array().into_iter().flatten().filter_map(|d| d["code"].as_str()).collect();
+    assert_eq!(codes, ["E0301", "E0301"], "{closed}");
+    assert_eq!(closed["diagnostics"][0]["range"]["start"], json!({"line": 2, "character": 9}));
+    // ... and mending it clears them.
+    c.change(&ul, 3, WS_LIB);
+    let closed = c.notification("textDocument/publishDiagnostics", |p| p["uri"] == ub.as_str());
+    assert_eq!(closed["diagnostics"], json!([]), "{closed}");
+
+    // Files created and deleted on disk, announced by the client's watcher.
+    let uc = uri(&dir.join("c.mdg"));
+    std::fs::write(dir.join("c.mdg"), "@import lib.mdg\nstartshape D\nrule D { shape {} }\n").expect("write");
+    std::fs::remove_file(dir.join("b.mdg")).expect("remove");
+    c.notify("workspace/didChangeWatchedFiles", json!({"changes": [{"uri": uc, "type": 1}, {"uri": ub, "type": 3}]}));
+    c.notification("window/logMessage", |p| p["message"].as_str().unwrap_or("").contains("2 watched file(s) changed"));
+    let refs = c.call("textDocument/references", json!({"textDocument": {"uri": ul}, "position": pos_of(WS_LIB, "shape", 0), "context": {"includeDeclaration": false}}));
+    assert_eq!(places(&refs), [("a.mdg".to_string(), 2, 9), ("c.mdg".to_string(), 2, 9)], "{refs}");
+    assert!(c.shutdown_and_exit().success());
+}

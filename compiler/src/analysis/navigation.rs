@@ -58,6 +58,29 @@ impl Document {
     pub fn symbol_at(&self, offset: u32) -> Option<(Symbol, Span)> {
         self.index().symbol_at(offset).map(|(s, sp)| (s.clone(), sp))
     }
+
+    /// Every definition of `sym` in this analysis (any file), sorted. With
+    /// [`Document::symbol_references`], this lets a caller holding the analyses of
+    /// several files (a workspace) ask each about a symbol found in another.
+    pub fn symbol_definitions(&self, sym: &Symbol) -> Vec<Span> {
+        let mut out: Vec<Span> = self.index().definitions(sym).collect();
+        out.sort();
+        out.dedup();
+        out
+    }
+
+    /// Every use of `sym` in this analysis, with its definitions when
+    /// `include_declaration`; sorted by file and position.
+    pub fn symbol_references(&self, sym: &Symbol, include_declaration: bool) -> Vec<Span> {
+        let idx = self.index();
+        let mut out: Vec<Span> = idx.references(sym).collect();
+        if include_declaration {
+            out.extend(idx.definitions(sym));
+        }
+        out.sort();
+        out.dedup();
+        out
+    }
 }
 
 #[cfg(test)]

@@ -49,6 +49,13 @@ pub fn initialize(b: &Backend, _params: InitializeParams) -> InitializeResult {
             })),
             inlay_hint_provider: Some(OneOf::Left(true)),
             execute_command_provider,
+            workspace: Some(WorkspaceServerCapabilities {
+                workspace_folders: Some(WorkspaceFoldersServerCapabilities {
+                    supported: Some(true),
+                    change_notifications: Some(OneOf::Left(true)),
+                }),
+                file_operations: None,
+            }),
             ..Default::default()
         },
         server_info: Some(ServerInfo {

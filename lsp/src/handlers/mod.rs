@@ -17,6 +17,7 @@ pub mod references;
 pub mod rename;
 pub mod semantic_tokens;
 pub mod sync;
+pub mod workspace;
 pub mod workspace_symbols;
 
 use crate::position::LineIndex;
