@@ -3,7 +3,8 @@
 //! playwright-core. The test packages the extension afresh, installs it, opens a
 //! workspace of the std examples plus a library and two importers, and checks
 //! highlighting, hover, go to definition into std, a diagnostic after typing and
-//! its quick fix, completion, formatting and a rename across both importers.
+//! its quick fix, completion, formatting, a rename across both importers, and the
+//! live preview panel (the model, the changed model after an unsaved edit, an error).
 //! Screenshots (one per check) go to the folder the test prints:
 //! `$CARGO_TARGET_TMPDIR/vscode-e2e/screenshots`.
 //!
@@ -30,9 +31,15 @@ const CHECKS: &[&str] = &[
     "completion",
     "format",
     "rename across two importers",
+    "preview panel",
+    "preview after an edit",
+    "preview shows errors",
+    "preview animation",
+    "preview of a std example",
 ];
 
-const PARTS: &str = "// Parts shared by the garden and the meadow.\nrule petal {\n  VERTEX {}\n  VERTEX {x 1}\n  VERTEX {y 1}\n}\n";
+const PARTS: &str =
+    "// Parts shared by the garden and the meadow.\nrule petal {\n  VERTEX {}\n  VERTEX {x 1}\n  VERTEX {y 1}\n}\n";
 const GARDEN: &str = "@import lib/parts.mdg\nstartshape garden\nrule garden {\n  6 * {rz 60} petal {}\n}\n";
 const MEADOW: &str = "@import lib/parts.mdg\nstartshape meadow\nrule meadow {\n  petal {}\n  petal {x 2}\n}\n";
 const SCRATCH: &str = "@import lib/parts.mdg primitives\nstartshape S\nrule S {\n  petal {}\n}\n";
@@ -78,6 +85,12 @@ fn vscode_in_code_server() {
         "Chromium is not at {} (`apt-get install chromium`, or set MDG_CHROMIUM), so the VS Code test cannot run; \
          MDG_SKIP_VSCODE_TESTS=1 skips it.",
         chromium.display()
+    );
+    let mdg_run = Path::new(env!("CARGO_BIN_EXE_mdg-lsp")).with_file_name("mdg-run");
+    assert!(
+        mdg_run.is_file(),
+        "{} is missing (the preview panel runs it): `cargo build -p mdg-viewer --bin mdg-run` (`cargo test --workspace` builds it)",
+        mdg_run.display()
     );
     let ext = root().join("editors/vscode");
     assert!(
@@ -126,6 +139,7 @@ fn vscode_in_code_server() {
         .env("MDG_VSIX", &vsix)
         .env("MDG_LSP", env!("CARGO_BIN_EXE_mdg-lsp"))
         .env("MDG_STD", root().join("std"))
+        .env("MDG_RUN", &mdg_run)
         .env("MDG_WORKSPACE", &ws)
         .env("MDG_SHOTS", &shots)
         .env("MDG_RESULTS", &results)

@@ -6,7 +6,7 @@
 // Environment:
 //   MDG_E2E_DIR    where install.sh put code-server and playwright-core
 //   MDG_VSIX       the freshly packaged extension
-//   MDG_LSP        the mdg-lsp binary; MDG_STD the std directory
+//   MDG_LSP        the mdg-lsp binary; MDG_STD the std directory; MDG_RUN mdg-run
 //   MDG_WORKSPACE  the folder to open (std examples, a library and its importers)
 //   MDG_SHOTS      the folder screenshots are written to (one per check)
 //   MDG_RESULTS    the JSON file the check results are written to
@@ -27,6 +27,7 @@ const e2eDir = env('MDG_E2E_DIR');
 const vsix = env('MDG_VSIX');
 const lsp = env('MDG_LSP');
 const std = env('MDG_STD');
+const mdgRun = env('MDG_RUN');
 const ws = env('MDG_WORKSPACE');
 const shots = env('MDG_SHOTS');
 const resultsFile = env('MDG_RESULTS');
@@ -79,6 +80,7 @@ fs.writeFileSync(
     {
       'mdg.serverPath': lsp,
       'mdg.stdPath': std,
+      'mdg.runPath': mdgRun,
       'security.workspace.trust.enabled': false,
       'workbench.startupEditor': 'none',
       'workbench.tips.enabled': false,
@@ -119,7 +121,12 @@ const base = `http://127.0.0.1:${port}`;
 await until('code-server /healthz', async () => (await fetch(`${base}/healthz`)).ok, 60000);
 log(`code-server on ${base}`);
 
-const browser = await chromium.launch({ executablePath: chromiumPath, headless: true, args: ['--no-sandbox'] });
+const browser = await chromium.launch({
+  executablePath: chromiumPath,
+  headless: true,
+  // WebGL for the preview panel, on the CPU.
+  args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist'],
+});
 const page = await browser.newPage({ viewport: { width: 1400, height: 900 } });
 const mod = 'Control';
 
@@ -205,7 +212,7 @@ try {
       await s.waitFor({ state: 'visible' });
       return s.evaluate((el) => getComputedStyle(el).color);
     };
-    const keyword = await colour('startshape');
+    const keyword = await until('the keyword colour', async () => (await colour('startshape')) || undefined);
     const rule = await until('semantic colouring of a rule call', async () => {
       const c = await colour('tree');
       return c !== (await colour('randseed')) ? c : undefined;
@@ -216,7 +223,7 @@ try {
       .first()
       .evaluate((el) => getComputedStyle(el).color);
     const distinct = new Set([keyword, rule, number, comment]);
-    if (distinct.size < 4) throw new Error(`keyword ${keyword}, rule ${rule}, number ${number}, comment ${comment}: not 4 colours`);
+    if (distinct.size < 4 || ![...distinct].every((c) => c.startsWith('rgb'))) throw new Error(`keyword ${keyword}, rule ${rule}, number ${number}, comment ${comment}: not 4 colours`);
     return `keyword ${keyword}, rule call ${rule}, number ${number}, comment ${comment}`;
   });
 
@@ -247,11 +254,16 @@ try {
     // A second definition of the start rule, calling a rule that does not exist.
     await page.keyboard.type('\nrule S { nope {} }\n');
     await page.locator('.editor-instance .squiggly-error').first().waitFor({ state: 'visible', timeout: 15000 });
-    await page.keyboard.press('F8');
-    const widget = page.locator('.zone-widget .marker-widget, .peekview-widget').first();
-    await widget.waitFor({ state: 'visible', timeout: 10000 });
-    const text = await page.locator('.zone-widget').first().innerText();
-    if (!text.includes('E0301') || !text.includes('nope')) throw new Error(`problem widget: ${text}`);
+    // Typed a key at a time, earlier versions had other errors: wait for the last.
+    let text = '';
+    await until('the E0301 problem', async () => {
+      await page.keyboard.press('Escape');
+      await page.keyboard.press('F8');
+      const widget = page.locator('.zone-widget').first();
+      await widget.waitFor({ state: 'visible', timeout: 5000 });
+      text = await widget.innerText();
+      return text.includes('E0301') && text.includes('nope');
+    }, 20000);
     await page.keyboard.press('Escape');
     await sleep(300);
     return JSON.stringify(text.split('\n').find((l) => l.includes('nope')));
@@ -317,6 +329,88 @@ try {
     );
     return files.map((f) => `${f}: ${readWs(f).split('bloom').length - 1}×bloom`).join(', ');
   });
+
+  // The live preview: the model, then the changed model after an edit (not
+  // saved: the editor's text is evaluated), then an error shown in the panel.
+  const preview = () => page.frameLocator('iframe.webview').frameLocator('iframe#active-frame');
+  // The preview frame of a file, among every webview's frames.
+  const previewOf = (name) =>
+    until(`the preview of ${name}`, async () => {
+      for (const f of page.frames()) {
+        const t = await f.locator('#status').innerText({ timeout: 200 }).catch(() => '');
+        if (t.startsWith(`${name}:`)) return f;
+      }
+      return undefined;
+    }, 30000);
+  const triangles = async () => Number((await preview().locator('#status').getAttribute('data-triangles', { timeout: 1000 })) ?? -1);
+  await check('preview panel', async () => {
+    await openFile('garden.mdg');
+    await palette('MDG: Preview');
+    await preview().locator('#status[data-triangles]').waitFor({ state: 'attached', timeout: 30000 });
+    const status = await preview().locator('#status').innerText();
+    if (!/garden\.mdg: \d+ triangles/.test(status)) throw new Error(`status: ${status}`);
+    const n = await triangles();
+    if (n <= 0) throw new Error(`no triangles: ${status}`);
+    await sleep(500);
+    return status;
+  });
+
+  await check('preview after an edit', async () => {
+    const before = await triangles();
+    await page.locator('.editor-instance .monaco-editor .view-lines').first().click();
+    await page.keyboard.press(`${mod}+KeyG`);
+    await page.keyboard.type('4');
+    await page.keyboard.press('Enter');
+    await page.keyboard.press('End');
+    await page.keyboard.type(' bloom {x 2}');
+    const after = await until('the re-evaluated model', async () => {
+      const n = await triangles();
+      return n !== before ? n : undefined;
+    }, 20000);
+    if (after !== before + 1) throw new Error(`triangles ${before} → ${after}, expected one more`);
+    await sleep(500);
+    return `${before} → ${after} triangles without saving`;
+  });
+
+  await check('preview shows errors', async () => {
+    await page.keyboard.type(' nope {}');
+    const box = preview().locator('#error');
+    await box.waitFor({ state: 'visible', timeout: 20000 });
+    const text = await box.innerText();
+    if (!text.includes('E0301') || !text.includes('nope')) throw new Error(`error box: ${text}`);
+    return JSON.stringify(text.split('\n')[0]);
+  });
+
+  await check('preview animation', async () => {
+    await openFile('examples/solar_system.mdg');
+    await palette('MDG: Preview');
+    const frame = await previewOf('solar_system.mdg');
+    const text = await frame.locator('#status').innerText();
+    if (!/animation/.test(text)) throw new Error(`no animation: ${text}`);
+    const time = frame.locator('#time');
+    await time.waitFor({ state: 'visible' });
+    const t1 = await time.innerText();
+    const t2 = await until('the animation to play', async () => {
+      const t = await time.innerText();
+      return t !== t1 ? t : undefined;
+    }, 5000);
+    await frame.locator('#play').click();
+    const t3 = await time.innerText();
+    await sleep(500);
+    if ((await time.innerText()) !== t3) throw new Error('Pause does not stop the animation');
+    return `${text}; playing ${t1} → ${t2}, paused at ${t3}`;
+  });
+  await check('preview of a std example', async () => {
+    await palette('View: Single Column Editor Layout');
+    await openFile('examples/tree.mdg');
+    await palette('MDG: Preview');
+    const frame = await previewOf('tree.mdg');
+    const text = await frame.locator('#status').innerText();
+    if (!/tree\.mdg: \d{4,} triangles/.test(text)) throw new Error(`status: ${text}`);
+    await sleep(1000);
+    return text;
+  });
+
 } finally {
   fs.writeFileSync(resultsFile, JSON.stringify({ seconds: (Date.now() - t0) / 1000, checks: results }, null, 2));
   await browser.close().catch(() => {});

@@ -8,7 +8,7 @@ use clap::Parser;
 use mdg_compiler::diag::render_plain;
 use mdg_compiler::driver;
 use mdg_compiler::modes::{self, Common};
-use mdg_compiler::source::FsLoader;
+use mdg_compiler::source::{FsLoader, MemLoader};
 use mdg_vm::eval::{evaluate_with_progress, EvalOptions};
 use mdg_vm::export::{self, Format};
 use std::path::{Path, PathBuf};
@@ -39,6 +39,10 @@ struct Cli {
     seed: Option<u64>,
     #[command(flatten)]
     compile: mdg_compiler::cli::CompileArgs,
+    /// Read the source from standard input; FILE still names it, so `@import`s
+    /// resolve beside it (editors preview unsaved text this way).
+    #[arg(long)]
+    stdin: bool,
     /// Print rule calls, vertices, triangles, time and peak memory.
     #[arg(long)]
     stats: bool,
@@ -102,7 +106,18 @@ fn main() -> ExitCode {
             }
         }
     } else {
-        match driver::build(&FsLoader, &cli.file, &opts) {
+        let built = if cli.stdin {
+            let mut text = String::new();
+            if let Err(e) = std::io::Read::read_to_string(&mut std::io::stdin(), &mut text) {
+                eprintln!("mdg-run: cannot read standard input: {e}");
+                return ExitCode::from(2);
+            }
+            let loader = MemLoader { files: [(cli.file.clone(), text)].into(), disk_fallback: true };
+            driver::build(&loader, &cli.file, &opts)
+        } else {
+            driver::build(&FsLoader, &cli.file, &opts)
+        };
+        match built {
             Ok((b, a)) => {
                 eprint!("{}", render_plain(&a.diagnostics, &a.sources));
                 b
