@@ -24,6 +24,9 @@ pub struct DocState {
     pub analysis: Option<(i32, Arc<Document>)>,
     /// Whether an analysis loop is running for this document (at most one is).
     pub analyzing: bool,
+    /// Whether the running loop must analyse once more although the version is the
+    /// same (a file it imports changed meanwhile).
+    pub again: bool,
 }
 
 /// What an analysis of one version needs, taken under the lock.
@@ -81,8 +84,10 @@ impl Documents {
     pub fn open(&self, uri: Uri, version: i32, text: String) {
         let path = path_of(&uri);
         let canon = crate::workspace::canon(&path);
-        self.lock()
-            .insert(uri, DocState { version, text: Arc::from(text), path, canon, analysis: None, analyzing: false });
+        self.lock().insert(
+            uri,
+            DocState { version, text: Arc::from(text), path, canon, analysis: None, analyzing: false, again: false },
+        );
     }
 
     /// Closes a document.
@@ -152,22 +157,30 @@ impl Documents {
     }
 
     /// Claims the document's analysis loop: false if one is already running (it
-    /// will pick up the newest version before it stops).
+    /// will analyse once more, with the newest text of the document and its imports,
+    /// before it stops).
     pub fn begin_analysis(&self, uri: &Uri) -> bool {
         match self.lock().get_mut(uri) {
             Some(d) if !d.analyzing => {
                 d.analyzing = true;
                 true
             }
-            _ => false,
+            Some(d) => {
+                d.again = true;
+                false
+            }
+            None => false,
         }
     }
 
-    /// Ends the analysis loop if `version` is still the newest (or the document was
-    /// closed); false means a newer version arrived and the loop must go on.
+    /// Ends the analysis loop if `version` is still the newest and nothing it read
+    /// changed meanwhile (or the document was closed); false means the loop must go on.
     pub fn end_analysis(&self, uri: &Uri, version: i32) -> bool {
         match self.lock().get_mut(uri) {
-            Some(d) if d.version != version => false,
+            Some(d) if d.version != version || d.again => {
+                d.again = false;
+                false
+            }
             Some(d) => {
                 d.analyzing = false;
                 true
@@ -273,6 +286,10 @@ mod tests {
         assert!(!docs.end_analysis(&uri(), 1), "version 2 still needs analysing");
         assert!(docs.end_analysis(&uri(), 2));
         assert!(docs.begin_analysis(&uri()));
+        // A refused refresh (an import changed) makes the running loop go round once more.
+        assert!(!docs.begin_analysis(&uri()));
+        assert!(!docs.end_analysis(&uri(), 2), "once more for the changed import");
+        assert!(docs.end_analysis(&uri(), 2));
     }
 
     #[test]

@@ -22,6 +22,8 @@ pub struct Config {
     pub completion: CompletionConfig,
     /// Whether the `mdg.debug.panic` command exists (for testing panic isolation).
     pub panic_command: bool,
+    /// `docs/diagnostics.md` beside the std library, where a diagnostic's code links to.
+    pub diagnostics_doc: Option<Uri>,
 }
 
 impl Config {
@@ -39,7 +41,14 @@ impl Config {
             })
             .unwrap_or_default();
         std_libraries.sort();
+        let diagnostics_doc = std_dir
+            .as_ref()
+            .and_then(|d| d.parent())
+            .map(|root| root.join("docs/diagnostics.md"))
+            .filter(|p| p.is_file())
+            .and_then(Uri::from_file_path);
         Config {
+            diagnostics_doc,
             options: Options { std_dir, ..Options::default() },
             completion: CompletionConfig { std_libraries },
             panic_command: std::env::var("MDG_LSP_PANIC_COMMAND").is_ok_and(|v| v == "1"),
@@ -256,6 +265,17 @@ impl LanguageServer for Backend {
 
     async fn completion(&self, params: CompletionParams) -> Result<Option<CompletionResponse>> {
         handlers::completion::completion(self, params).await
+    }
+
+    async fn document_link(&self, params: DocumentLinkParams) -> Result<Option<Vec<DocumentLink>>> {
+        handlers::document_links::document_links(self, params).await
+    }
+
+    async fn semantic_tokens_range(
+        &self,
+        params: SemanticTokensRangeParams,
+    ) -> Result<Option<SemanticTokensRangeResult>> {
+        handlers::semantic_tokens::semantic_tokens_range(self, params).await
     }
 
     async fn document_symbol(&self, params: DocumentSymbolParams) -> Result<Option<DocumentSymbolResponse>> {

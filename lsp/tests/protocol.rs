@@ -25,6 +25,8 @@ fn initialize_announces_the_features() {
     let mut c = Client::spawn();
     let caps = c.initialize(&dir);
     assert_eq!(caps["textDocumentSync"]["change"], 1, "full sync");
+    assert_eq!(caps["semanticTokensProvider"]["range"], true);
+    assert_eq!(caps["workspace"]["workspaceFolders"]["supported"], true);
     for cap in [
         "hoverProvider",
         "definitionProvider",
@@ -38,6 +40,7 @@ fn initialize_announces_the_features() {
         "documentFormattingProvider",
         "codeActionProvider",
         "inlayHintProvider",
+        "documentLinkProvider",
     ] {
         assert!(!caps[cap].is_null(), "missing {cap} in {caps}");
     }
@@ -62,6 +65,7 @@ fn diagnostics_hover_definition_completion_formatting() {
     assert_eq!(d["source"], "mdg");
     assert_eq!(d["range"], json!({"start": {"line": 2, "character": 12}, "end": {"line": 2, "character": 18}}));
     assert!(d["message"].as_str().unwrap_or("").starts_with("unknown rule `branch`"), "{d}");
+    assert!(d["codeDescription"]["href"].as_str().unwrap_or("").ends_with("/docs/diagnostics.md"), "{d}");
 
     // Hover: a drawable's docs and an iterator's step.
     let h = c.call("textDocument/hover", at(&u, MAIN, "VERTEX", 1));
@@ -386,7 +390,9 @@ fn the_workspace_not_only_the_open_files() {
         places(&ws.as_array().map(|a| a.iter().map(|s| s["location"].clone()).collect()).unwrap_or(json!([]))),
         [("b.mdg".to_string(), 3, 5)]
     );
-    assert!(c.logs.iter().any(|l| l.contains("indexed 4 files of the workspace")), "{:?}", c.logs);
+    c.notification("window/logMessage", |p| {
+        p["message"].as_str().unwrap_or("").contains("indexed 4 files of the workspace")
+    });
 
     // References from the definition in the library reach both importers, open or
     // not, and not the unrelated rule of the same name.
@@ -440,5 +446,51 @@ fn the_workspace_not_only_the_open_files() {
     c.notification("window/logMessage", |p| p["message"].as_str().unwrap_or("").contains("2 watched file(s) changed"));
     let refs = c.call("textDocument/references", json!({"textDocument": {"uri": ul}, "position": pos_of(WS_LIB, "shape", 0), "context": {"includeDeclaration": false}}));
     assert_eq!(places(&refs), [("a.mdg".to_string(), 2, 9), ("c.mdg".to_string(), 2, 9)], "{refs}");
+    assert!(c.shutdown_and_exit().success());
+}
+
+#[test]
+fn links_token_ranges_and_format_errors() {
+    let dir = common::canonical_scratch("links");
+    std::fs::write(dir.join("lib.mdg"), "rule shape { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n").expect("write");
+    let u = uri(&dir.join("main.mdg"));
+    let text = "@import lib.mdg primitives\nstartshape A\nrule A {\n  shape {}\n  cube {x 2}\n}\nrule B { shape {} }\n";
+    let mut c = Client::spawn();
+    c.initialize(&dir);
+    c.open(&u, 1, text);
+    c.diagnostics(&u, 1);
+
+    // Each @import word links to its file.
+    let links = c.call("textDocument/documentLink", json!({"textDocument": text_doc(&u)}));
+    let targets: Vec<&str> = links.as_array().into_iter().flatten().filter_map(|l| l["target"].as_str()).collect();
+    assert_eq!(targets.len(), 2, "{links}");
+    assert_eq!(targets[0], uri(&dir.join("lib.mdg")));
+    assert!(targets[1].ends_with("/std/primitives.mdg"), "{links}");
+    assert_eq!(links[0]["range"], json!({"start": {"line": 0, "character": 8}, "end": {"line": 0, "character": 15}}));
+
+    // Tokens of a range are the full tokens on those lines, encoded the same way.
+    let full =
+        decode_tokens(&c.call("textDocument/semanticTokens/full", json!({"textDocument": text_doc(&u)}))["data"]);
+    let range = c.call(
+        "textDocument/semanticTokens/range",
+        json!({"textDocument": text_doc(&u), "range": {"start": {"line": 3, "character": 0}, "end": {"line": 5, "character": 0}}}),
+    );
+    let part = decode_tokens(&range["data"]);
+    let want: Vec<[u64; 5]> = full.iter().filter(|t| (3..5).contains(&t[0])).copied().collect();
+    assert!(!want.is_empty());
+    assert_eq!(part, want);
+
+    // Formatting a file with a syntax error says why, where the user looks.
+    c.change(&u, 2, "startshape A\nrule A { VERTEX {x 1 }\n");
+    c.diagnostics(&u, 2);
+    let r = c.call(
+        "textDocument/formatting",
+        json!({"textDocument": text_doc(&u), "options": {"tabSize": 2, "insertSpaces": true}}),
+    );
+    assert!(r.is_null(), "{r}");
+    let shown = c.notification("window/showMessage", |_| true);
+    assert_eq!(shown["type"], 2, "a warning: {shown}");
+    assert!(shown["message"].as_str().unwrap_or("").contains("not formatting, the file has syntax errors"), "{shown}");
+
     assert!(c.shutdown_and_exit().success());
 }

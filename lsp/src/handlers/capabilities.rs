@@ -32,12 +32,16 @@ pub fn initialize(b: &Backend, _params: InitializeParams) -> InitializeResult {
                 ..Default::default()
             }),
             document_symbol_provider: Some(OneOf::Left(true)),
+            document_link_provider: Some(DocumentLinkOptions {
+                resolve_provider: Some(false),
+                work_done_progress_options: Default::default(),
+            }),
             workspace_symbol_provider: Some(OneOf::Left(true)),
             semantic_tokens_provider: Some(SemanticTokensServerCapabilities::SemanticTokensOptions(
                 SemanticTokensOptions {
                     legend: legend(),
                     full: Some(SemanticTokensFullOptions::Bool(true)),
-                    range: None,
+                    range: Some(true),
                     ..Default::default()
                 },
             )),
