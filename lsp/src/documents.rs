@@ -18,10 +18,15 @@ pub struct DocState {
     pub version: i32,
     pub text: Arc<str>,
     pub path: PathBuf,
+    /// `path` in the workspace index's form ([`crate::workspace::canon`]).
+    pub canon: PathBuf,
     /// The latest analysis and the version it analysed.
     pub analysis: Option<(i32, Arc<Document>)>,
     /// Whether an analysis loop is running for this document (at most one is).
     pub analyzing: bool,
+    /// Whether the running loop must analyse once more although the version is the
+    /// same (a file it imports changed meanwhile).
+    pub again: bool,
 }
 
 /// What an analysis of one version needs, taken under the lock.
@@ -52,6 +57,22 @@ pub fn path_of(uri: &Uri) -> PathBuf {
     PathBuf::from("/untitled").join(name)
 }
 
+/// Whether a document's latest analysis read the file at `path` (or `canon`) besides its own.
+fn reads(d: &DocState, path: &Path, canon: &Path) -> bool {
+    d.analysis.as_ref().is_some_and(|(_, a)| {
+        a.files().iter().skip(1).any(|f| a.file_path(*f).is_some_and(|p| p == path || p == canon))
+    })
+}
+
+/// The open documents as a loader.
+fn overlay(map: &HashMap<Uri, DocState>) -> OverlayLoader {
+    let mut loader = OverlayLoader::default();
+    for d in map.values() {
+        loader.insert(&d.path, d.text.clone());
+    }
+    loader
+}
+
 impl Documents {
     fn lock(&self) -> MutexGuard<'_, HashMap<Uri, DocState>> {
         // A panic never happens while the lock is held, but if one did the map is
@@ -62,7 +83,11 @@ impl Documents {
     /// Opens (or reopens) a document.
     pub fn open(&self, uri: Uri, version: i32, text: String) {
         let path = path_of(&uri);
-        self.lock().insert(uri, DocState { version, text: Arc::from(text), path, analysis: None, analyzing: false });
+        let canon = crate::workspace::canon(&path);
+        self.lock().insert(
+            uri,
+            DocState { version, text: Arc::from(text), path, canon, analysis: None, analyzing: false, again: false },
+        );
     }
 
     /// Closes a document.
@@ -99,11 +124,25 @@ impl Documents {
     pub fn snapshot(&self, uri: &Uri) -> Option<Snapshot> {
         let map = self.lock();
         let doc = map.get(uri)?;
-        let mut loader = OverlayLoader::default();
-        for d in map.values() {
-            loader.insert(&d.path, d.text.clone());
-        }
+        let loader = overlay(&map);
         Some(Snapshot { version: doc.version, path: doc.path.clone(), text: doc.text.clone(), loader })
+    }
+
+    /// A loader that reads the open documents' text before the disk.
+    pub fn overlay(&self) -> OverlayLoader {
+        overlay(&self.lock())
+    }
+
+    /// Every open document's URI and canonical path.
+    pub fn open_documents(&self) -> Vec<(Uri, PathBuf)> {
+        let mut v: Vec<(Uri, PathBuf)> = self.lock().iter().map(|(u, d)| (u.clone(), d.canon.clone())).collect();
+        v.sort_by(|a, b| a.0.as_str().cmp(b.0.as_str()));
+        v
+    }
+
+    /// The URI of the open document whose canonical path is `canon`.
+    pub fn uri_of_canon(&self, canon: &Path) -> Option<Uri> {
+        self.lock().iter().find(|(_, d)| d.canon == canon).map(|(u, _)| u.clone())
     }
 
     /// The current version of `uri`, if it is open.
@@ -118,22 +157,30 @@ impl Documents {
     }
 
     /// Claims the document's analysis loop: false if one is already running (it
-    /// will pick up the newest version before it stops).
+    /// will analyse once more, with the newest text of the document and its imports,
+    /// before it stops).
     pub fn begin_analysis(&self, uri: &Uri) -> bool {
         match self.lock().get_mut(uri) {
             Some(d) if !d.analyzing => {
                 d.analyzing = true;
                 true
             }
-            _ => false,
+            Some(d) => {
+                d.again = true;
+                false
+            }
+            None => false,
         }
     }
 
-    /// Ends the analysis loop if `version` is still the newest (or the document was
-    /// closed); false means a newer version arrived and the loop must go on.
+    /// Ends the analysis loop if `version` is still the newest and nothing it read
+    /// changed meanwhile (or the document was closed); false means the loop must go on.
     pub fn end_analysis(&self, uri: &Uri, version: i32) -> bool {
         match self.lock().get_mut(uri) {
-            Some(d) if d.version != version => false,
+            Some(d) if d.version != version || d.again => {
+                d.again = false;
+                false
+            }
             Some(d) => {
                 d.analyzing = false;
                 true
@@ -164,24 +211,16 @@ impl Documents {
         }
     }
 
-    /// The latest analysis of every open document (with its URI).
-    pub fn analyses(&self) -> Vec<(Uri, Arc<Document>)> {
-        self.lock().iter().filter_map(|(u, d)| d.analysis.as_ref().map(|(_, a)| (u.clone(), a.clone()))).collect()
-    }
-
     /// Open documents other than `uri` whose latest analysis read the file at `path`.
     pub fn dependents(&self, uri: &Uri, path: &Path) -> Vec<Uri> {
-        let canon = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
-        self.lock()
-            .iter()
-            .filter(|(u, _)| *u != uri)
-            .filter(|(_, d)| {
-                d.analysis.as_ref().is_some_and(|(_, a)| {
-                    a.files().iter().skip(1).any(|f| a.file_path(*f).is_some_and(|p| p == path || p == canon))
-                })
-            })
-            .map(|(u, _)| u.clone())
-            .collect()
+        let canon = crate::workspace::canon(path);
+        let map = self.lock();
+        map.iter().filter(|(u, d)| *u != uri && reads(d, path, &canon)).map(|(u, _)| u.clone()).collect()
+    }
+
+    /// Whether the latest analysis of `uri` read the file at `canon` (besides its own).
+    pub fn reads(&self, uri: &Uri, canon: &Path) -> bool {
+        self.lock().get(uri).is_some_and(|d| reads(d, canon, canon))
     }
 
     /// The URI of the open document at `path`, if any.
@@ -247,6 +286,10 @@ mod tests {
         assert!(!docs.end_analysis(&uri(), 1), "version 2 still needs analysing");
         assert!(docs.end_analysis(&uri(), 2));
         assert!(docs.begin_analysis(&uri()));
+        // A refused refresh (an import changed) makes the running loop go round once more.
+        assert!(!docs.begin_analysis(&uri()));
+        assert!(!docs.end_analysis(&uri(), 2), "once more for the changed import");
+        assert!(docs.end_analysis(&uri(), 2));
     }
 
     #[test]

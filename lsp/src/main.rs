@@ -10,6 +10,7 @@ mod handlers;
 mod loader;
 mod position;
 mod server;
+mod workspace;
 
 use server::{Backend, Config};
 use std::process::ExitCode;

@@ -5,6 +5,7 @@ use crate::documents::{Documents, Snapshot};
 use crate::guard::guard;
 use crate::handlers;
 use crate::position::LineIndex;
+use crate::workspace::Workspace;
 use mdg_compiler::analysis::{CompletionConfig, Document};
 use mdg_compiler::expand::Options;
 use mdg_compiler::span::{FileId, Span};
@@ -21,6 +22,8 @@ pub struct Config {
     pub completion: CompletionConfig,
     /// Whether the `mdg.debug.panic` command exists (for testing panic isolation).
     pub panic_command: bool,
+    /// `docs/diagnostics.md` beside the std library, where a diagnostic's code links to.
+    pub diagnostics_doc: Option<Uri>,
 }
 
 impl Config {
@@ -38,7 +41,14 @@ impl Config {
             })
             .unwrap_or_default();
         std_libraries.sort();
+        let diagnostics_doc = std_dir
+            .as_ref()
+            .and_then(|d| d.parent())
+            .map(|root| root.join("docs/diagnostics.md"))
+            .filter(|p| p.is_file())
+            .and_then(Uri::from_file_path);
         Config {
+            diagnostics_doc,
             options: Options { std_dir, ..Options::default() },
             completion: CompletionConfig { std_libraries },
             panic_command: std::env::var("MDG_LSP_PANIC_COMMAND").is_ok_and(|v| v == "1"),
@@ -51,6 +61,8 @@ impl Config {
 pub struct Backend {
     pub client: Client,
     pub docs: Arc<Documents>,
+    /// Every `.mdg` file of the workspace folders, open or not.
+    pub workspace: Arc<Workspace>,
     pub config: Arc<Config>,
     /// Set by `shutdown`; decides the exit code after `exit`.
     pub shutdown_requested: Arc<AtomicBool>,
@@ -59,7 +71,13 @@ pub struct Backend {
 impl Backend {
     /// A server talking to `client`.
     pub fn new(client: Client, config: Config, shutdown_requested: Arc<AtomicBool>) -> Backend {
-        Backend { client, docs: Arc::new(Documents::default()), config: Arc::new(config), shutdown_requested }
+        Backend {
+            client,
+            docs: Arc::new(Documents::default()),
+            workspace: Arc::new(Workspace::default()),
+            config: Arc::new(config),
+            shutdown_requested,
+        }
     }
 
     /// Analyses `snap` (on the current thread).
@@ -174,6 +192,7 @@ impl Backend {
 
 impl LanguageServer for Backend {
     async fn initialize(&self, params: InitializeParams) -> Result<InitializeResult> {
+        handlers::workspace::configure(self, &params);
         Ok(handlers::capabilities::initialize(self, params))
     }
 
@@ -188,6 +207,7 @@ impl LanguageServer for Backend {
         self.client
             .log_message(MessageType::INFO, format!("mdg-lsp {} ready (std: {std})", env!("CARGO_PKG_VERSION")))
             .await;
+        handlers::workspace::start(self);
     }
 
     async fn shutdown(&self) -> Result<()> {
@@ -209,6 +229,14 @@ impl LanguageServer for Backend {
 
     async fn did_close(&self, params: DidCloseTextDocumentParams) {
         handlers::sync::did_close(self, params).await;
+    }
+
+    async fn did_change_watched_files(&self, params: DidChangeWatchedFilesParams) {
+        handlers::workspace::did_change_watched_files(self, params).await;
+    }
+
+    async fn did_change_workspace_folders(&self, params: DidChangeWorkspaceFoldersParams) {
+        handlers::workspace::did_change_workspace_folders(self, params).await;
     }
 
     async fn hover(&self, params: HoverParams) -> Result<Option<Hover>> {
@@ -237,6 +265,17 @@ impl LanguageServer for Backend {
 
     async fn completion(&self, params: CompletionParams) -> Result<Option<CompletionResponse>> {
         handlers::completion::completion(self, params).await
+    }
+
+    async fn document_link(&self, params: DocumentLinkParams) -> Result<Option<Vec<DocumentLink>>> {
+        handlers::document_links::document_links(self, params).await
+    }
+
+    async fn semantic_tokens_range(
+        &self,
+        params: SemanticTokensRangeParams,
+    ) -> Result<Option<SemanticTokensRangeResult>> {
+        handlers::semantic_tokens::semantic_tokens_range(self, params).await
     }
 
     async fn document_symbol(&self, params: DocumentSymbolParams) -> Result<Option<DocumentSymbolResponse>> {

@@ -25,6 +25,8 @@ fn initialize_announces_the_features() {
     let mut c = Client::spawn();
     let caps = c.initialize(&dir);
     assert_eq!(caps["textDocumentSync"]["change"], 1, "full sync");
+    assert_eq!(caps["semanticTokensProvider"]["range"], true);
+    assert_eq!(caps["workspace"]["workspaceFolders"]["supported"], true);
     for cap in [
         "hoverProvider",
         "definitionProvider",
@@ -38,6 +40,7 @@ fn initialize_announces_the_features() {
         "documentFormattingProvider",
         "codeActionProvider",
         "inlayHintProvider",
+        "documentLinkProvider",
     ] {
         assert!(!caps[cap].is_null(), "missing {cap} in {caps}");
     }
@@ -62,6 +65,7 @@ fn diagnostics_hover_definition_completion_formatting() {
     assert_eq!(d["source"], "mdg");
     assert_eq!(d["range"], json!({"start": {"line": 2, "character": 12}, "end": {"line": 2, "character": 18}}));
     assert!(d["message"].as_str().unwrap_or("").starts_with("unknown rule `branch`"), "{d}");
+    assert!(d["codeDescription"]["href"].as_str().unwrap_or("").ends_with("/docs/diagnostics.md"), "{d}");
 
     // Hover: a drawable's docs and an iterator's step.
     let h = c.call("textDocument/hover", at(&u, MAIN, "VERTEX", 1));
@@ -326,4 +330,167 @@ fn version_flag() {
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_mdg-lsp")).arg("--version").output().expect("run");
     assert!(out.status.success());
     assert!(String::from_utf8_lossy(&out.stdout).starts_with("mdg-lsp "));
+}
+
+/// The files of a workspace test: a library, two importers and an unrelated file
+/// with its own rule of the same name.
+const WS_LIB: &str = "rule shape { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n";
+const WS_A: &str = "@import lib.mdg\nstartshape A\nrule A { shape {} }\n";
+const WS_B: &str =
+    "@import lib.mdg\nstartshape B\nrule B { shape {x 2} shape {y 2} twig {} }\nrule twig { VERTEX {} }\n";
+const WS_OTHER: &str = "startshape C\nrule C { shape {} }\nrule shape { VERTEX {} }\n";
+
+/// (file name, start line, start character) of each location, sorted.
+fn places(locations: &Value) -> Vec<(String, u64, u64)> {
+    let mut v: Vec<(String, u64, u64)> = locations
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|l| {
+            let u = l["uri"].as_str().unwrap_or("");
+            let name = u.rsplit('/').next().unwrap_or("").to_string();
+            let s = &l["range"]["start"];
+            (name, s["line"].as_u64().unwrap_or(0), s["character"].as_u64().unwrap_or(0))
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+/// The (file name, number of edits) of a workspace edit, sorted.
+fn edit_counts(edit: &Value) -> Vec<(String, usize)> {
+    let mut v: Vec<(String, usize)> = edit["changes"]
+        .as_object()
+        .into_iter()
+        .flatten()
+        .map(|(u, e)| (u.rsplit('/').next().unwrap_or("").to_string(), e.as_array().map(Vec::len).unwrap_or(0)))
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn the_workspace_not_only_the_open_files() {
+    let dir = common::canonical_scratch("workspace");
+    for (name, text) in [("lib.mdg", WS_LIB), ("a.mdg", WS_A), ("b.mdg", WS_B), ("other.mdg", WS_OTHER)] {
+        std::fs::write(dir.join(name), text).expect("write");
+    }
+    let (ul, ua, ub) = (uri(&dir.join("lib.mdg")), uri(&dir.join("a.mdg")), uri(&dir.join("b.mdg")));
+    let mut c = Client::spawn();
+    c.initialize(&dir);
+    // The library and one importer are open; `b.mdg` stays closed.
+    c.open(&ul, 1, WS_LIB);
+    c.open(&ua, 1, WS_A);
+    assert!(c.diagnostics(&ul, 1).is_empty());
+    assert!(c.diagnostics(&ua, 1).is_empty());
+
+    // Workspace symbols cover the closed files (and wait for the index).
+    let ws = c.call("workspace/symbol", json!({"query": "twig"}));
+    assert_eq!(
+        places(&ws.as_array().map(|a| a.iter().map(|s| s["location"].clone()).collect()).unwrap_or(json!([]))),
+        [("b.mdg".to_string(), 3, 5)]
+    );
+    c.notification("window/logMessage", |p| {
+        p["message"].as_str().unwrap_or("").contains("indexed 4 files of the workspace")
+    });
+
+    // References from the definition in the library reach both importers, open or
+    // not, and not the unrelated rule of the same name.
+    let want = [
+        ("a.mdg".to_string(), 2, 9),
+        ("b.mdg".to_string(), 2, 9),
+        ("b.mdg".to_string(), 2, 21),
+        ("lib.mdg".to_string(), 0, 5),
+    ];
+    let refs = c.call("textDocument/references", json!({"textDocument": {"uri": ul}, "position": pos_of(WS_LIB, "shape", 0), "context": {"includeDeclaration": true}}));
+    assert_eq!(places(&refs), want, "{refs}");
+    // The same from a use in an importer.
+    let refs = c.call("textDocument/references", json!({"textDocument": {"uri": ua}, "position": pos_of(WS_A, "shape {}", 1), "context": {"includeDeclaration": true}}));
+    assert_eq!(places(&refs), want, "{refs}");
+    let refs = c.call("textDocument/references", json!({"textDocument": {"uri": ua}, "position": pos_of(WS_A, "shape {}", 1), "context": {"includeDeclaration": false}}));
+    assert_eq!(places(&refs).len(), 3, "{refs}");
+
+    // Rename edits the library and both importers.
+    let edit = c.call(
+        "textDocument/rename",
+        json!({"textDocument": {"uri": ua}, "position": pos_of(WS_A, "shape {}", 1), "newName": "form"}),
+    );
+    assert_eq!(edit_counts(&edit), [("a.mdg".to_string(), 1), ("b.mdg".to_string(), 2), ("lib.mdg".to_string(), 1)]);
+    assert!(edit["changes"][ub.as_str()].as_array().into_iter().flatten().all(|e| e["newText"] == "form"), "{edit}");
+    // A name that clashes in the closed importer is refused, naming it.
+    let clash = c.request(
+        "textDocument/rename",
+        json!({"textDocument": {"uri": ul}, "position": pos_of(WS_LIB, "shape", 0), "newName": "twig"}),
+    );
+    let message = clash["error"]["message"].as_str().unwrap_or("");
+    assert!(message.contains("a rule named `twig` already exists (in b.mdg)"), "{clash}");
+
+    // An edit of the library that breaks the closed importer publishes its diagnostics...
+    c.change(&ul, 2, "rule form { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n");
+    let closed = c.notification("textDocument/publishDiagnostics", |p| p["uri"] == ub.as_str());
+    assert!(closed["version"].is_null(), "{closed}");
+    let codes: Vec<&str> =
+        closed["diagnostics"].as_array().into_iter().flatten().filter_map(|d| d["code"].as_str()).collect();
+    assert_eq!(codes, ["E0301", "E0301"], "{closed}");
+    assert_eq!(closed["diagnostics"][0]["range"]["start"], json!({"line": 2, "character": 9}));
+    // ... and mending it clears them.
+    c.change(&ul, 3, WS_LIB);
+    let closed = c.notification("textDocument/publishDiagnostics", |p| p["uri"] == ub.as_str());
+    assert_eq!(closed["diagnostics"], json!([]), "{closed}");
+
+    // Files created and deleted on disk, announced by the client's watcher.
+    let uc = uri(&dir.join("c.mdg"));
+    std::fs::write(dir.join("c.mdg"), "@import lib.mdg\nstartshape D\nrule D { shape {} }\n").expect("write");
+    std::fs::remove_file(dir.join("b.mdg")).expect("remove");
+    c.notify("workspace/didChangeWatchedFiles", json!({"changes": [{"uri": uc, "type": 1}, {"uri": ub, "type": 3}]}));
+    c.notification("window/logMessage", |p| p["message"].as_str().unwrap_or("").contains("2 watched file(s) changed"));
+    let refs = c.call("textDocument/references", json!({"textDocument": {"uri": ul}, "position": pos_of(WS_LIB, "shape", 0), "context": {"includeDeclaration": false}}));
+    assert_eq!(places(&refs), [("a.mdg".to_string(), 2, 9), ("c.mdg".to_string(), 2, 9)], "{refs}");
+    assert!(c.shutdown_and_exit().success());
+}
+
+#[test]
+fn links_token_ranges_and_format_errors() {
+    let dir = common::canonical_scratch("links");
+    std::fs::write(dir.join("lib.mdg"), "rule shape { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n").expect("write");
+    let u = uri(&dir.join("main.mdg"));
+    let text = "@import lib.mdg primitives\nstartshape A\nrule A {\n  shape {}\n  cube {x 2}\n}\nrule B { shape {} }\n";
+    let mut c = Client::spawn();
+    c.initialize(&dir);
+    c.open(&u, 1, text);
+    c.diagnostics(&u, 1);
+
+    // Each @import word links to its file.
+    let links = c.call("textDocument/documentLink", json!({"textDocument": text_doc(&u)}));
+    let targets: Vec<&str> = links.as_array().into_iter().flatten().filter_map(|l| l["target"].as_str()).collect();
+    assert_eq!(targets.len(), 2, "{links}");
+    assert_eq!(targets[0], uri(&dir.join("lib.mdg")));
+    assert!(targets[1].ends_with("/std/primitives.mdg"), "{links}");
+    assert_eq!(links[0]["range"], json!({"start": {"line": 0, "character": 8}, "end": {"line": 0, "character": 15}}));
+
+    // Tokens of a range are the full tokens on those lines, encoded the same way.
+    let full =
+        decode_tokens(&c.call("textDocument/semanticTokens/full", json!({"textDocument": text_doc(&u)}))["data"]);
+    let range = c.call(
+        "textDocument/semanticTokens/range",
+        json!({"textDocument": text_doc(&u), "range": {"start": {"line": 3, "character": 0}, "end": {"line": 5, "character": 0}}}),
+    );
+    let part = decode_tokens(&range["data"]);
+    let want: Vec<[u64; 5]> = full.iter().filter(|t| (3..5).contains(&t[0])).copied().collect();
+    assert!(!want.is_empty());
+    assert_eq!(part, want);
+
+    // Formatting a file with a syntax error says why, where the user looks.
+    c.change(&u, 2, "startshape A\nrule A { VERTEX {x 1 }\n");
+    c.diagnostics(&u, 2);
+    let r = c.call(
+        "textDocument/formatting",
+        json!({"textDocument": text_doc(&u), "options": {"tabSize": 2, "insertSpaces": true}}),
+    );
+    assert!(r.is_null(), "{r}");
+    let shown = c.notification("window/showMessage", |_| true);
+    assert_eq!(shown["type"], 2, "a warning: {shown}");
+    assert!(shown["message"].as_str().unwrap_or("").contains("not formatting, the file has syntax errors"), "{shown}");
+
+    assert!(c.shutdown_and_exit().success());
 }

@@ -9,7 +9,7 @@ use crate::modes::{self, Common};
 use crate::pictures::{Pictures, Vulkan};
 use mdg_compiler::diag::render_plain;
 use mdg_compiler::driver;
-use mdg_compiler::source::FsLoader;
+use mdg_compiler::source::{FsLoader, MemLoader};
 use mdg_viewer::camera::Pose;
 use mdg_vm::bundle::Bundle;
 use mdg_vm::eval::{evaluate_with_progress, EvalOptions};
@@ -47,6 +47,10 @@ pub struct Args {
     seed: Option<u64>,
     #[command(flatten)]
     compile: crate::args::CompileArgs,
+    /// Read the source from standard input; FILE still names it, so `@import`s
+    /// resolve beside it (editors preview unsaved text this way).
+    #[arg(long)]
+    stdin: bool,
     /// Print rule calls, vertices, triangles, time and peak memory.
     #[arg(long)]
     stats: bool,
@@ -122,12 +126,21 @@ fn parse_size(s: &str) -> Result<(u32, u32), Failure> {
     }
 }
 
-fn load_bundle(file: &Path, opts: &mdg_compiler::expand::Options) -> Result<Bundle, Failure> {
-    if file.extension().is_some_and(|e| e == "mdgb") {
+fn load_bundle(file: &Path, opts: &mdg_compiler::expand::Options, stdin: bool) -> Result<Bundle, Failure> {
+    if file.extension().is_some_and(|e| e == "mdgb") && !stdin {
         let bytes = std::fs::read(file).map_err(|e| (2, format!("cannot read {}: {e}", file.display())))?;
         return mdg_vm::bundle::load(&bytes).map_err(|e| (1, format!("{}: {e}", file.display())));
     }
-    match driver::build(&FsLoader, file, opts) {
+    let built = if stdin {
+        let mut text = String::new();
+        std::io::Read::read_to_string(&mut std::io::stdin(), &mut text)
+            .map_err(|e| (2, format!("cannot read standard input: {e}")))?;
+        let loader = MemLoader { files: [(file.to_path_buf(), text)].into(), disk_fallback: true };
+        driver::build(&loader, file, opts)
+    } else {
+        driver::build(&FsLoader, file, opts)
+    };
+    match built {
         Ok((b, a)) => {
             eprint!("{}", render_plain(&a.diagnostics, &a.sources));
             Ok(b)
@@ -170,7 +183,7 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
         }
         None => None,
     };
-    let bundle = load_bundle(&cli.file, &opts)?;
+    let bundle = load_bundle(&cli.file, &opts, cli.stdin)?;
     let pictures = Vulkan::new(opts.std_dir.clone()).posed(pose);
     if bundle.extensions.creatures.is_some() {
         if batch.is_some() {

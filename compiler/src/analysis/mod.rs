@@ -43,6 +43,7 @@ pub use code_actions::CodeAction;
 pub use completion::{CompletionConfig, CompletionItem, CompletionKind, Completions};
 pub use folding::{Fold, FoldKind};
 pub use hover::Hover;
+pub use index::Symbol;
 pub use inlay_hints::InlayHint;
 pub use semantic_tokens::{SemanticKind, SemanticToken};
 pub use symbols::{DocumentSymbol, SymbolKind, WorkspaceSymbol};

@@ -54,9 +54,45 @@ impl Document {
         out
     }
 
+    /// Every word of an `@import` line in the document that brought a file in: its
+    /// span and the file (for document links).
+    pub fn import_links(&self) -> Vec<(Span, crate::span::FileId)> {
+        self.index()
+            .main
+            .iter()
+            .filter_map(|o| match o.occ {
+                Occ::Import(Some(file)) => Some((o.span, file)),
+                _ => None,
+            })
+            .collect()
+    }
+
     /// The symbol at `offset`, for callers that need to know what it is.
     pub fn symbol_at(&self, offset: u32) -> Option<(Symbol, Span)> {
         self.index().symbol_at(offset).map(|(s, sp)| (s.clone(), sp))
+    }
+
+    /// Every definition of `sym` in this analysis (any file), sorted. With
+    /// [`Document::symbol_references`], this lets a caller holding the analyses of
+    /// several files (a workspace) ask each about a symbol found in another.
+    pub fn symbol_definitions(&self, sym: &Symbol) -> Vec<Span> {
+        let mut out: Vec<Span> = self.index().definitions(sym).collect();
+        out.sort();
+        out.dedup();
+        out
+    }
+
+    /// Every use of `sym` in this analysis, with its definitions when
+    /// `include_declaration`; sorted by file and position.
+    pub fn symbol_references(&self, sym: &Symbol, include_declaration: bool) -> Vec<Span> {
+        let idx = self.index();
+        let mut out: Vec<Span> = idx.references(sym).collect();
+        if include_declaration {
+            out.extend(idx.definitions(sym));
+        }
+        out.sort();
+        out.dedup();
+        out
     }
 }
 
@@ -150,6 +186,34 @@ mod tests {
         let src = "rule arm { VERTEX {} }\nnamespace n {\n  rule arm { VERTEX {} }\n  rule body { ar$0m {} }\n}\nstartshape n.body";
         let (d, at) = doc(src);
         assert_eq!(shown(&d, d.definition(at)), ["main.mdg:3:8 \"arm\""]);
+    }
+
+    #[test]
+    fn import_words_link_to_their_files() {
+        let (d, _) = doc_with(
+            "@import lib.mdg primitives\nstartshape A\nrule A { cube {} }",
+            &[("lib.mdg", "rule x { VERTEX {} }\n")],
+        );
+        let links: Vec<(String, String)> = d
+            .import_links()
+            .into_iter()
+            .map(|(s, f)| {
+                (
+                    show(&d, s),
+                    d.file_path(f)
+                        .and_then(|p| p.file_name())
+                        .map(|n| n.to_string_lossy().into_owned())
+                        .unwrap_or_default(),
+                )
+            })
+            .collect();
+        assert_eq!(
+            links,
+            [
+                ("main.mdg:1:9 \"lib.mdg\"".to_string(), "lib.mdg".to_string()),
+                ("main.mdg:1:17 \"primitives\"".to_string(), "primitives.mdg".to_string())
+            ]
+        );
     }
 
     #[test]

@@ -25,9 +25,18 @@ impl Document {
 
     /// The edits that rename the symbol at `offset` to `new_name`.
     pub fn rename(&self, offset: u32, new_name: &str) -> Result<Vec<Edit>, String> {
+        let (sym, _) = self
+            .index()
+            .symbol_at(offset)
+            .ok_or_else(|| "there is no rule or other symbol here to rename".to_string())?;
+        self.rename_symbol(&sym.clone(), new_name)
+    }
+
+    /// The edits that rename `sym` to `new_name` in every file of this analysis
+    /// (std excepted: a symbol std uses is refused). A workspace rename asks this of
+    /// the analysis of every file that sees the symbol and merges the edits.
+    pub fn rename_symbol(&self, sym: &Symbol, new_name: &str) -> Result<Vec<Edit>, String> {
         let idx = self.index();
-        let (sym, _) =
-            idx.symbol_at(offset).ok_or_else(|| "there is no rule or other symbol here to rename".to_string())?;
         self.check_renamable(sym)?;
         let valid = new_name.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
             && new_name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
@@ -128,6 +137,28 @@ mod tests {
         let edits = d.rename(at, "form").expect("rename");
         let shown: Vec<String> = edits.iter().map(|e| show(&d, e.span)).collect();
         assert_eq!(shown, ["main.mdg:3:10 \"shape\"", "lib.mdg:1:6 \"shape\""]);
+    }
+
+    #[test]
+    fn a_symbol_of_one_analysis_is_renamed_in_another() {
+        // The library alone, and a program importing it: the symbol found in the
+        // library's analysis names the same rule in the importer's.
+        let lib = "rule shape { VERTEX {} }\n";
+        let (l, at) = doc_with("rule sh$0ape { VERTEX {} }\n", &[]);
+        let (sym, _) = l.symbol_at(at).expect("symbol");
+        let (d, _) = doc_with("@import lib.mdg\nstartshape A\nrule A { shape {} shape {x 1} }", &[("lib.mdg", lib)]);
+        let defs: Vec<String> = d.symbol_definitions(&sym).into_iter().map(|s| show(&d, s)).collect();
+        assert_eq!(defs, ["lib.mdg:1:6 \"shape\""]);
+        assert_eq!(d.symbol_references(&sym, false).len(), 2);
+        assert_eq!(d.symbol_references(&sym, true).len(), 3);
+        let edits = d.rename_symbol(&sym, "form").expect("rename");
+        let shown: Vec<String> = edits.iter().map(|e| show(&d, e.span)).collect();
+        assert_eq!(shown, ["main.mdg:3:10 \"shape\"", "main.mdg:3:19 \"shape\"", "lib.mdg:1:6 \"shape\""]);
+        let (c, _) = doc_with(
+            "@import lib.mdg\nstartshape A\nrule A { shape {} }\nrule form { VERTEX {} }",
+            &[("lib.mdg", lib)],
+        );
+        assert_eq!(c.rename_symbol(&sym, "form"), Err("a rule named `form` already exists".to_string()));
     }
 
     #[test]

@@ -1,18 +1,19 @@
 // The MDG extension: starts the `mdg-lsp` language server for .mdg files and adds
-// "MDG: Preview", which opens the current file in `mdg-view` (or, without the
-// viewer, renders it with `mdg-run --png` and opens the picture).
+// "MDG: Preview", a live 3D view of the current file in a panel beside it
+// (src/preview.ts), and "MDG: Open in mdg-view", the external viewer window.
 
 import * as vscode from 'vscode';
-import * as fs from 'fs';
 import { spawn } from 'child_process';
 import { LanguageClient, LanguageClientOptions, ServerOptions, TransportKind } from 'vscode-languageclient/node';
-import { previewOutputs, resolveServerPath, runArgs } from './paths';
+import { resolveServerPath } from './paths';
+import { PreviewPanel } from './preview';
 
 let client: LanguageClient | undefined;
 
 export async function activate(context: vscode.ExtensionContext): Promise<void> {
   context.subscriptions.push(
-    vscode.commands.registerCommand('mdg.preview', preview),
+    vscode.commands.registerCommand('mdg.preview', () => preview(context)),
+    vscode.commands.registerCommand('mdg.openInViewer', openInViewer),
     vscode.commands.registerCommand('mdg.restartServer', restart),
     vscode.workspace.onDidChangeConfiguration(async (e) => {
       if (e.affectsConfiguration('mdg.serverPath') || e.affectsConfiguration('mdg.stdPath')) {
@@ -55,13 +56,17 @@ async function startClient(): Promise<void> {
     await client.start();
   } catch (e) {
     client = undefined;
-    const choice = await vscode.window.showErrorMessage(
-      `MDG: cannot start the language server \`${command}\` (${e}). Install mdg-lsp or set "mdg.serverPath".`,
-      'Open Settings',
-    );
-    if (choice === 'Open Settings') {
-      await vscode.commands.executeCommand('workbench.action.openSettings', 'mdg.serverPath');
-    }
+    // Not awaited: the notification stays up without blocking every command.
+    void vscode.window
+      .showErrorMessage(
+        `MDG: cannot start the language server \`${command}\` (${e}). Install mdg-lsp or set "mdg.serverPath".`,
+        'Open Settings',
+      )
+      .then((choice) => {
+        if (choice === 'Open Settings') {
+          void vscode.commands.executeCommand('workbench.action.openSettings', 'mdg.serverPath');
+        }
+      });
   }
 }
 
@@ -90,54 +95,40 @@ function launch(command: string, args: string[], cwd: string | undefined): Promi
   });
 }
 
-/** Runs `command args` to completion; resolves with its exit code and stderr. */
-function run(command: string, args: string[], cwd: string | undefined): Promise<{ code: number | null; stderr: string; missing: boolean }> {
-  return new Promise((resolve) => {
-    const child = spawn(command, args, { cwd, stdio: ['ignore', 'ignore', 'pipe'] });
-    let stderr = '';
-    child.stderr?.on('data', (d: Buffer) => (stderr += d.toString()));
-    child.once('error', (e: NodeJS.ErrnoException) => resolve({ code: null, stderr: e.message, missing: e.code === 'ENOENT' }));
-    child.once('close', (code) => resolve({ code, stderr, missing: false }));
-  });
-}
-
-async function preview(): Promise<void> {
+/** The .mdg file of the active editor, or an error shown (not awaited) and undefined. */
+function activeMdg(): vscode.TextDocument | undefined {
   const editor = vscode.window.activeTextEditor;
   if (!editor || editor.document.languageId !== 'mdg') {
-    await vscode.window.showErrorMessage('MDG: Preview needs an open .mdg file.');
+    void vscode.window.showErrorMessage('MDG: Preview needs an open .mdg file.');
+    return undefined;
+  }
+  return editor.document;
+}
+
+/** "MDG: Preview": the live 3D panel. */
+function preview(context: vscode.ExtensionContext): void {
+  const doc = activeMdg();
+  if (doc) {
+    PreviewPanel.show(context, doc, () => settings().get<string>('runPath', 'mdg-run'));
+  }
+}
+
+/** "MDG: Open in mdg-view": the saved file in the external viewer window. */
+async function openInViewer(): Promise<void> {
+  const doc = activeMdg();
+  if (!doc) {
     return;
   }
-  const doc = editor.document;
   if (doc.isUntitled) {
-    await vscode.window.showErrorMessage('MDG: save the file before previewing it.');
+    void vscode.window.showErrorMessage('MDG: save the file before opening it in mdg-view.');
     return;
   }
   if (doc.isDirty) {
     await doc.save();
   }
-  const file = doc.uri.fsPath;
   const cwd = vscode.workspace.getWorkspaceFolder(doc.uri)?.uri.fsPath;
-  if (await launch(settings().get<string>('viewerPath', 'mdg-view'), [file], cwd)) {
-    return;
+  const viewer = settings().get<string>('viewerPath', 'mdg-view');
+  if (!(await launch(viewer, [doc.uri.fsPath], cwd))) {
+    void vscode.window.showErrorMessage(`MDG: \`${viewer}\` was not found; set "mdg.viewerPath" (or use MDG: Preview, which needs only mdg-run).`);
   }
-  // No viewer: render a picture with mdg-run and show it beside the source.
-  const outputs = previewOutputs(file);
-  fs.mkdirSync(outputs.dir, { recursive: true });
-  const runner = settings().get<string>('runPath', 'mdg-run');
-  const result = await vscode.window.withProgress(
-    { location: vscode.ProgressLocation.Notification, title: 'MDG: rendering a preview…' },
-    () => run(runner, runArgs(file, outputs), cwd),
-  );
-  if (result.missing) {
-    await vscode.window.showErrorMessage('MDG: neither mdg-view nor mdg-run was found; set "mdg.viewerPath" or "mdg.runPath".');
-    return;
-  }
-  if (result.code !== 0) {
-    await vscode.window.showErrorMessage(`MDG: mdg-run failed: ${result.stderr.trim().split('\n').slice(0, 5).join(' ')}`);
-    return;
-  }
-  await vscode.commands.executeCommand('vscode.open', vscode.Uri.file(outputs.png), {
-    viewColumn: vscode.ViewColumn.Beside,
-    preview: true,
-  });
 }

@@ -22,14 +22,14 @@ export function resolveServerPath(setting: string | undefined, workspaceRoot?: s
   return workspaceRoot ? path.join(workspaceRoot, s) : s;
 }
 
-/** Where the PNG fallback of "MDG: Preview" writes for `file`: a mesh and a picture in a temporary directory. */
-export function previewOutputs(file: string, tmp: string = os.tmpdir()): { dir: string; glb: string; png: string } {
-  const dir = path.join(tmp, 'mdg-preview');
+/** Where the live preview of `file` writes its model: one `.glb` per source file
+ * (`id` tells files of the same name apart) in a temporary directory. */
+export function previewGlb(file: string, id: string, tmp: string = os.tmpdir()): string {
   const base = path.basename(file).replace(/\.mdg$/, '');
-  return { dir, glb: path.join(dir, `${base}.glb`), png: path.join(dir, `${base}.png`) };
+  return path.join(tmp, 'mdg-preview', `${base}-${id}.glb`);
 }
 
-/** The arguments of `mdg-run` for the PNG fallback. */
-export function runArgs(file: string, outputs: { glb: string; png: string }): string[] {
-  return [file, '-o', outputs.glb, '--png', outputs.png];
+/** The arguments of `mdg-run` for the live preview: the editor's text on stdin. */
+export function previewArgs(file: string, glb: string): string[] {
+  return [file, '--stdin', '-o', glb];
 }

@@ -32,12 +32,16 @@ pub fn initialize(b: &Backend, _params: InitializeParams) -> InitializeResult {
                 ..Default::default()
             }),
             document_symbol_provider: Some(OneOf::Left(true)),
+            document_link_provider: Some(DocumentLinkOptions {
+                resolve_provider: Some(false),
+                work_done_progress_options: Default::default(),
+            }),
             workspace_symbol_provider: Some(OneOf::Left(true)),
             semantic_tokens_provider: Some(SemanticTokensServerCapabilities::SemanticTokensOptions(
                 SemanticTokensOptions {
                     legend: legend(),
                     full: Some(SemanticTokensFullOptions::Bool(true)),
-                    range: None,
+                    range: Some(true),
                     ..Default::default()
                 },
             )),
@@ -49,6 +53,13 @@ pub fn initialize(b: &Backend, _params: InitializeParams) -> InitializeResult {
             })),
             inlay_hint_provider: Some(OneOf::Left(true)),
             execute_command_provider,
+            workspace: Some(WorkspaceServerCapabilities {
+                workspace_folders: Some(WorkspaceFoldersServerCapabilities {
+                    supported: Some(true),
+                    change_notifications: Some(OneOf::Left(true)),
+                }),
+                file_operations: None,
+            }),
             ..Default::default()
         },
         server_info: Some(ServerInfo {

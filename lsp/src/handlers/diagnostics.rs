@@ -47,6 +47,7 @@ pub fn convert(b: &Backend, uri: &Uri, doc: &Document, li: &LineIndex, d: &diag:
             Severity::Warning => DiagnosticSeverity::WARNING,
         }),
         code: Some(NumberOrString::String(d.code.to_string())),
+        code_description: b.config.diagnostics_doc.clone().map(|href| CodeDescription { href }),
         source: Some("mdg".to_string()),
         message,
         related_information: (!related.is_empty()).then_some(related),

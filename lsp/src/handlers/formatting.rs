@@ -1,5 +1,5 @@
 //! `textDocument/formatting`: `mdgc fmt`'s layout. It needs only the text, not an
-//! analysis; a file with syntax errors is left alone (and the reason logged).
+//! analysis; a file with syntax errors is left alone, and the user is told why.
 
 use crate::position::LineIndex;
 use crate::server::Backend;
@@ -26,12 +26,10 @@ pub async fn formatting(b: &Backend, p: DocumentFormattingParams) -> Result<Opti
         Err(errors) => {
             // The rendered errors can be long; the first one says enough.
             let first: String = errors.lines().take(3).collect::<Vec<_>>().join("\n");
-            b.client
-                .log_message(
-                    MessageType::INFO,
-                    format!("mdg-lsp: not formatting, the file has syntax errors:\n{first}"),
-                )
-                .await;
+            let message = format!("MDG: not formatting, the file has syntax errors:\n{first}");
+            b.client.log_message(MessageType::INFO, &message).await;
+            // Said where the user looks: formatting that silently does nothing looks broken.
+            b.client.show_message(MessageType::WARNING, message).await;
             Ok(None)
         }
     }

@@ -7,6 +7,7 @@ pub mod commands;
 pub mod completion;
 pub mod definition;
 pub mod diagnostics;
+pub mod document_links;
 pub mod document_symbols;
 pub mod folding;
 pub mod formatting;
@@ -17,6 +18,7 @@ pub mod references;
 pub mod rename;
 pub mod semantic_tokens;
 pub mod sync;
+pub mod workspace;
 pub mod workspace_symbols;
 
 use crate::position::LineIndex;

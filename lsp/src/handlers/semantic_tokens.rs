@@ -61,38 +61,58 @@ fn encode(k: K) -> (u32, u32) {
 /// All tokens of a document.
 pub async fn semantic_tokens_full(b: &Backend, p: SemanticTokensParams) -> Result<Option<SemanticTokensResult>> {
     let Some(doc) = b.document(&p.text_document.uri).await else { return Ok(None) };
+    b.run("semantic tokens", || Some(SemanticTokensResult::Tokens(encode_tokens(&doc, 0, u32::MAX)))).await
+}
+
+/// The tokens that overlap a range (the visible part of a long file, first).
+pub async fn semantic_tokens_range(
+    b: &Backend,
+    p: SemanticTokensRangeParams,
+) -> Result<Option<SemanticTokensRangeResult>> {
+    let Some(doc) = b.document(&p.text_document.uri).await else { return Ok(None) };
     b.run("semantic tokens", || {
-        let text = doc.text();
-        let li = LineIndex::new(text);
-        let mut data = Vec::new();
-        let (mut last_line, mut last_col) = (0u32, 0u32);
-        for t in doc.semantic_tokens() {
-            let (ty, mut mods) = encode(t.kind);
-            if t.declaration {
-                mods |= DECLARATION;
-            }
-            let end = (t.span.end as usize).min(text.len());
-            let mut s = (t.span.start as usize).min(end);
-            while s < end {
-                let line_end = text[s..end].find('\n').map(|i| s + i).unwrap_or(end);
-                let piece = text[s..line_end].trim_end_matches('\r');
-                if !piece.is_empty() {
-                    let pos = li.position(s as u32);
-                    let delta_line = pos.line - last_line;
-                    let delta_start = if delta_line == 0 { pos.character - last_col } else { pos.character };
-                    data.push(SemanticToken {
-                        delta_line,
-                        delta_start,
-                        length: piece.encode_utf16().count() as u32,
-                        token_type: ty,
-                        token_modifiers_bitset: mods,
-                    });
-                    (last_line, last_col) = (pos.line, pos.character);
-                }
-                s = line_end + 1;
-            }
-        }
-        Some(SemanticTokensResult::Tokens(SemanticTokens { result_id: None, data }))
+        let li = LineIndex::new(doc.text());
+        let (start, end) = (li.offset(p.range.start), li.offset(p.range.end));
+        Some(SemanticTokensRangeResult::Tokens(encode_tokens(&doc, start, end)))
     })
     .await
+}
+
+/// The tokens overlapping the byte range `[from, to)`, split at line ends and
+/// delta-encoded from the start of the document.
+fn encode_tokens(doc: &mdg_compiler::analysis::Document, from: u32, to: u32) -> SemanticTokens {
+    let text = doc.text();
+    let li = LineIndex::new(text);
+    let mut data = Vec::new();
+    let (mut last_line, mut last_col) = (0u32, 0u32);
+    for t in doc.semantic_tokens() {
+        if t.span.end <= from || t.span.start >= to {
+            continue;
+        }
+        let (ty, mut mods) = encode(t.kind);
+        if t.declaration {
+            mods |= DECLARATION;
+        }
+        let end = (t.span.end as usize).min(text.len());
+        let mut s = (t.span.start as usize).min(end);
+        while s < end {
+            let line_end = text[s..end].find('\n').map(|i| s + i).unwrap_or(end);
+            let piece = text[s..line_end].trim_end_matches('\r');
+            if !piece.is_empty() {
+                let pos = li.position(s as u32);
+                let delta_line = pos.line - last_line;
+                let delta_start = if delta_line == 0 { pos.character - last_col } else { pos.character };
+                data.push(SemanticToken {
+                    delta_line,
+                    delta_start,
+                    length: piece.encode_utf16().count() as u32,
+                    token_type: ty,
+                    token_modifiers_bitset: mods,
+                });
+                (last_line, last_col) = (pos.line, pos.character);
+            }
+            s = line_end + 1;
+        }
+    }
+    SemanticTokens { result_id: None, data }
 }

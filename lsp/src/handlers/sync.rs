@@ -34,13 +34,16 @@ pub async fn did_close(b: &Backend, p: DidCloseTextDocumentParams) {
     let uri = p.text_document.uri;
     b.docs.close(&uri);
     b.client.publish_diagnostics(uri.clone(), Vec::new(), None).await;
+    super::workspace::closed(b, &uri).await;
     refresh_dependents(b, &uri).await;
 }
 
-/// Re-analyses open documents that import `uri`'s file.
+/// Re-analyses the documents that import `uri`'s file: open ones, then closed
+/// ones of the workspace (whose diagnostics an edit may break or mend).
 async fn refresh_dependents(b: &Backend, uri: &Uri) {
     let path = crate::documents::path_of(uri);
     for dep in b.docs.dependents(uri, &path) {
         b.refresh(dep).await;
     }
+    super::workspace::refresh_importers(b, uri).await;
 }

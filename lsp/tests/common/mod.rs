@@ -267,3 +267,8 @@ pub fn pos_of(text: &str, needle: &str, delta: usize) -> Value {
     let col = before.rsplit('\n').next().unwrap_or("").encode_utf16().count();
     json!({"line": line, "character": col})
 }
+
+/// A fresh scratch directory with its canonical path (URIs the server reports are canonical).
+pub fn canonical_scratch(name: &str) -> PathBuf {
+    scratch(name).canonicalize().expect("canonical scratch dir")
+}

@@ -2,7 +2,7 @@
 
 import { test } from 'node:test';
 import * as assert from 'node:assert/strict';
-import { previewOutputs, resolveServerPath, runArgs } from '../paths';
+import { previewArgs, previewGlb, resolveServerPath } from '../paths';
 
 test('server path: default, home, workspace-relative, PATH names, absolute', () => {
   assert.equal(resolveServerPath(undefined), 'mdg-lsp');
@@ -13,8 +13,7 @@ test('server path: default, home, workspace-relative, PATH names, absolute', () 
   assert.equal(resolveServerPath('/opt/mdg/bin/mdg-lsp', '/work/proj'), '/opt/mdg/bin/mdg-lsp');
 });
 
-test('preview fallback writes beside each other in a temporary directory', () => {
-  const o = previewOutputs('/a/b/tree.mdg', '/tmp');
-  assert.deepEqual(o, { dir: '/tmp/mdg-preview', glb: '/tmp/mdg-preview/tree.glb', png: '/tmp/mdg-preview/tree.png' });
-  assert.deepEqual(runArgs('/a/b/tree.mdg', o), ['/a/b/tree.mdg', '-o', '/tmp/mdg-preview/tree.glb', '--png', '/tmp/mdg-preview/tree.png']);
+test('the live preview evaluates the editor text into a .glb in a temporary directory', () => {
+  assert.equal(previewGlb('/a/b/tree.mdg', '0123abcd', '/tmp'), '/tmp/mdg-preview/tree-0123abcd.glb');
+  assert.deepEqual(previewArgs('/a/b/tree.mdg', '/tmp/x.glb'), ['/a/b/tree.mdg', '--stdin', '-o', '/tmp/x.glb']);
 });

@@ -1,0 +1,423 @@
+// The MDG extension in a real VS Code: code-server 4.100.3 (VS Code 1.100.3)
+// driven by headless Debian Chromium through playwright-core (no browser download).
+// Started by lsp/tests/vscode.rs, which prepares the workspace and packages the
+// .vsix; every check below is an assertion on what VS Code shows or writes.
+//
+// Environment:
+//   MDG_E2E_DIR    where install.sh put code-server and playwright-core
+//   MDG_VSIX       the freshly packaged extension
+//   MDG_LSP        the mdg-lsp binary; MDG_STD the std directory; MDG_RUN mdg-run
+//   MDG_WORKSPACE  the folder to open (std examples, a library and its importers)
+//   MDG_SHOTS      the folder screenshots are written to (one per check)
+//   MDG_RESULTS    the JSON file the check results are written to
+//   MDG_CHROMIUM   the Chromium binary (default /usr/lib/chromium/chromium)
+
+import { createRequire } from 'node:module';
+import { spawn, execFileSync } from 'node:child_process';
+import * as fs from 'node:fs';
+import * as path from 'node:path';
+import * as net from 'node:net';
+
+const env = (k, d) => {
+  const v = process.env[k] ?? d;
+  if (v === undefined) throw new Error(`${k} is not set`);
+  return v;
+};
+const e2eDir = env('MDG_E2E_DIR');
+const vsix = env('MDG_VSIX');
+const lsp = env('MDG_LSP');
+const std = env('MDG_STD');
+const mdgRun = env('MDG_RUN');
+const ws = env('MDG_WORKSPACE');
+const shots = env('MDG_SHOTS');
+const resultsFile = env('MDG_RESULTS');
+const chromiumPath = env('MDG_CHROMIUM', '/usr/lib/chromium/chromium');
+const require = createRequire(path.join(e2eDir, 'package.json'));
+const { chromium } = require('playwright-core');
+const entry = path.join(e2eDir, 'node_modules/code-server/out/node/entry.js');
+
+const results = [];
+let shotNo = 0;
+const t0 = Date.now();
+const log = (m) => console.log(`[${((Date.now() - t0) / 1000).toFixed(1)} s] ${m}`);
+
+function freePort() {
+  return new Promise((resolve, reject) => {
+    const s = net.createServer();
+    s.listen(0, '127.0.0.1', () => {
+      const { port } = s.address();
+      s.close(() => resolve(port));
+    });
+    s.on('error', reject);
+  });
+}
+
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+
+async function until(what, fn, timeout = 30000) {
+  const end = Date.now() + timeout;
+  let last;
+  while (Date.now() < end) {
+    try {
+      const v = await fn();
+      if (v) return v;
+    } catch (e) {
+      last = e;
+    }
+    await sleep(200);
+  }
+  throw new Error(`timed out waiting for ${what}${last ? `: ${last.message}` : ''}`);
+}
+
+// --- code-server: fresh profile, the extension installed, then served. ---
+const home = fs.mkdtempSync(path.join(path.dirname(resultsFile), 'code-server-'));
+const userData = path.join(home, 'user-data');
+const extDir = path.join(home, 'extensions');
+fs.mkdirSync(path.join(userData, 'User'), { recursive: true });
+fs.writeFileSync(
+  path.join(userData, 'User', 'settings.json'),
+  JSON.stringify(
+    {
+      'mdg.serverPath': lsp,
+      'mdg.stdPath': std,
+      'mdg.runPath': mdgRun,
+      'security.workspace.trust.enabled': false,
+      'workbench.startupEditor': 'none',
+      'workbench.tips.enabled': false,
+      'workbench.enableExperiments': false,
+      'workbench.secondarySideBar.defaultVisibility': 'hidden',
+      'chat.commandCenter.enabled': false,
+      'telemetry.telemetryLevel': 'off',
+      'update.mode': 'none',
+      'extensions.autoCheckUpdates': false,
+      'extensions.ignoreRecommendations': true,
+      'editor.minimap.enabled': false,
+      'editor.hover.delay': 150,
+      'editor.quickSuggestions': { other: false, comments: false, strings: false },
+      'files.autoSave': 'off',
+      'window.restoreWindows': 'none',
+      'workbench.colorTheme': 'Default Dark Modern',
+    },
+    null,
+    2,
+  ),
+);
+const port = await freePort();
+const config = path.join(home, 'config.yaml');
+fs.writeFileSync(config, `bind-addr: 127.0.0.1:${port}\nauth: none\ncert: false\n`);
+const csArgs = ['--config', config, '--user-data-dir', userData, '--extensions-dir', extDir];
+log('installing the extension');
+execFileSync('node', [entry, ...csArgs, '--install-extension', vsix], { stdio: 'inherit' });
+const installed = fs.readdirSync(extDir).filter((d) => d.startsWith('mdg.mdg-'));
+if (installed.length !== 1) throw new Error(`the extension is not installed: ${fs.readdirSync(extDir)}`);
+const server = spawn('node', [entry, ...csArgs, '--disable-workspace-trust', ws], {
+  stdio: ['ignore', 'pipe', 'pipe'],
+  env: { ...process.env, HOME: home },
+});
+let serverLog = '';
+server.stdout.on('data', (d) => (serverLog += d));
+server.stderr.on('data', (d) => (serverLog += d));
+const base = `http://127.0.0.1:${port}`;
+await until('code-server /healthz', async () => (await fetch(`${base}/healthz`)).ok, 60000);
+log(`code-server on ${base}`);
+
+const browser = await chromium.launch({
+  executablePath: chromiumPath,
+  headless: true,
+  // WebGL for the preview panel, on the CPU.
+  args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist'],
+});
+const page = await browser.newPage({ viewport: { width: 1400, height: 900 } });
+const mod = 'Control';
+
+async function shot(name) {
+  shotNo += 1;
+  const file = path.join(shots, `${String(shotNo).padStart(2, '0')}-${name}.png`);
+  await page.screenshot({ path: file });
+  return file;
+}
+
+async function check(name, fn) {
+  const start = Date.now();
+  try {
+    const detail = await fn();
+    const file = await shot(name);
+    results.push({ name, ok: true, ms: Date.now() - start, detail: detail ?? '', screenshot: file });
+    log(`ok   ${name} ${detail ?? ''}`);
+  } catch (e) {
+    let file = '';
+    try {
+      file = await shot(`${name}-FAILED`);
+    } catch {}
+    results.push({ name, ok: false, ms: Date.now() - start, detail: String(e?.stack ?? e), screenshot: file });
+    log(`FAIL ${name}: ${e?.message ?? e}`);
+  }
+}
+
+/** The visible text of the active editor (Monaco renders spaces as U+00A0). */
+async function editorText() {
+  return (await page.locator('.editor-instance .monaco-editor .view-lines').first().innerText()).replace(/\u00a0/g, ' ');
+}
+
+/** Runs a command from the command palette by its title. */
+async function palette(title) {
+  await page.keyboard.press('F1');
+  const input = page.locator('.quick-input-widget input');
+  await input.waitFor({ state: 'visible' });
+  await input.fill(`>${title}`);
+  await page.locator('.quick-input-list .monaco-list-row', { hasText: title }).first().waitFor({ state: 'visible' });
+  await sleep(200);
+  await page.keyboard.press('Enter');
+  await input.waitFor({ state: 'hidden' });
+}
+
+/** Opens a workspace file with Quick Open and waits for its editor. */
+async function openFile(rel) {
+  await page.keyboard.press(`${mod}+KeyP`);
+  const input = page.locator('.quick-input-widget input');
+  await input.waitFor({ state: 'visible' });
+  await input.fill(rel);
+  const name = path.basename(rel);
+  await page.locator('.quick-input-list .monaco-list-row', { hasText: name }).first().waitFor({ state: 'visible' });
+  await sleep(300);
+  await page.keyboard.press('Enter');
+  await page.locator(`.tab.active[aria-label^="${name}"]`).waitFor({ state: 'visible', timeout: 20000 });
+  await page.locator('.editor-instance .monaco-editor .view-lines').first().waitFor({ state: 'visible' });
+  await sleep(300);
+}
+
+/** Puts the cursor on the first visible occurrence of a word (by clicking it). */
+async function clickWord(word, nth = 0) {
+  const span = page.locator('.editor-instance .view-lines span span', { hasText: new RegExp(`^${word}$`) }).nth(nth);
+  await span.waitFor({ state: 'visible' });
+  const box = await span.boundingBox();
+  await page.mouse.click(box.x + Math.min(box.width / 2, 6), box.y + box.height / 2);
+  return span;
+}
+
+const readWs = (rel) => fs.readFileSync(path.join(ws, rel), 'utf8');
+
+try {
+  await page.goto(`${base}/?folder=${encodeURIComponent(ws)}`);
+  await page.locator('.monaco-workbench').waitFor({ state: 'visible', timeout: 60000 });
+  await until('the explorer', () => page.locator('.explorer-folders-view').isVisible(), 60000);
+  log('workbench loaded');
+
+  await check('highlighting', async () => {
+    await openFile('examples/tree.mdg');
+    // TextMate and semantic tokens give the keyword, the rule names and the
+    // numbers their own colours.
+    const colour = async (word) => {
+      const s = page.locator('.editor-instance .view-lines span span', { hasText: new RegExp(`^${word}$`) }).first();
+      await s.waitFor({ state: 'visible' });
+      return s.evaluate((el) => getComputedStyle(el).color);
+    };
+    const keyword = await until('the keyword colour', async () => (await colour('startshape')) || undefined);
+    const rule = await until('semantic colouring of a rule call', async () => {
+      const c = await colour('tree');
+      return c !== (await colour('randseed')) ? c : undefined;
+    });
+    const number = await colour('7');
+    const comment = await page
+      .locator('.editor-instance .view-lines span span', { hasText: /^\/\/.A.random.tree/ })
+      .first()
+      .evaluate((el) => getComputedStyle(el).color);
+    const distinct = new Set([keyword, rule, number, comment]);
+    if (distinct.size < 4 || ![...distinct].every((c) => c.startsWith('rgb'))) throw new Error(`keyword ${keyword}, rule ${rule}, number ${number}, comment ${comment}: not 4 colours`);
+    return `keyword ${keyword}, rule call ${rule}, number ${number}, comment ${comment}`;
+  });
+
+  await check('hover', async () => {
+    const span = await clickWord('disc');
+    await span.hover();
+    const hover = page.locator('.monaco-hover:not(.hidden)').filter({ hasText: 'disc' }).first();
+    await hover.waitFor({ state: 'visible', timeout: 15000 });
+    const text = await hover.innerText();
+    if (!/rule/.test(text)) throw new Error(`hover text: ${text}`);
+    return JSON.stringify(text.slice(0, 80));
+  });
+
+  await check('definition into std', async () => {
+    await page.mouse.move(0, 0);
+    await page.keyboard.press('Escape');
+    await clickWord('disc');
+    await page.keyboard.press('F12');
+    await page.locator('.tab.active[aria-label^="primitives.mdg"]').waitFor({ state: 'visible', timeout: 15000 });
+    const text = await editorText();
+    if (!text.includes('rule disc')) throw new Error('the definition is not shown');
+    return 'primitives.mdg: rule disc';
+  });
+
+  await check('diagnostic after typing', async () => {
+    await openFile('scratch.mdg');
+    await page.keyboard.press(`${mod}+End`);
+    // A second definition of the start rule, calling a rule that does not exist.
+    await page.keyboard.type('\nrule S { nope {} }\n');
+    await page.locator('.editor-instance .squiggly-error').first().waitFor({ state: 'visible', timeout: 15000 });
+    // Typed a key at a time, earlier versions had other errors: wait for the last.
+    let text = '';
+    await until('the E0301 problem', async () => {
+      await page.keyboard.press('Escape');
+      await page.keyboard.press('F8');
+      const widget = page.locator('.zone-widget').first();
+      await widget.waitFor({ state: 'visible', timeout: 5000 });
+      text = await widget.innerText();
+      return text.includes('E0301') && text.includes('nope');
+    }, 20000);
+    await page.keyboard.press('Escape');
+    await sleep(300);
+    return JSON.stringify(text.split('\n').find((l) => l.includes('nope')));
+  });
+
+  await check('quick fix', async () => {
+    await clickWord('nope');
+    await page.keyboard.press(`${mod}+Period`);
+    const item = page.locator('.action-widget .monaco-list-row', { hasText: 'Create rule `nope`' }).first();
+    await item.waitFor({ state: 'visible', timeout: 10000 });
+    // The menu takes the keyboard: walk to the fix, then accept it.
+    const focused = page.locator('.action-widget .monaco-list-row.focused');
+    for (let i = 0; i < 10 && !((await focused.innerText().catch(() => '')).includes('Create rule `nope`')); i++) {
+      await page.keyboard.press('ArrowDown');
+      await sleep(100);
+    }
+    await page.keyboard.press('Enter');
+    await until('the created rule', async () => (await editorText()).includes('rule nope'), 10000);
+    await until('the error to go', async () => (await page.locator('.editor-instance .squiggly-error').count()) === 0, 15000);
+    return 'rule nope created, no error left';
+  });
+
+  await check('completion', async () => {
+    await page.keyboard.press(`${mod}+End`);
+    await page.keyboard.type('rule more {\n');
+    await page.keyboard.type('pet');
+    await page.keyboard.press(`${mod}+Space`);
+    const row = page.locator('.suggest-widget .monaco-list-row', { hasText: 'petal' }).first();
+    await row.waitFor({ state: 'visible', timeout: 15000 });
+    const labels = await page.locator('.suggest-widget .monaco-list-row .label-name').allInnerTexts();
+    await page.keyboard.press('Enter');
+    await until('the accepted completion', async () => /petal/.test((await editorText()).split('rule more')[1] ?? ''), 5000);
+    return `offered ${labels.slice(0, 5).join(', ')}`;
+  });
+
+  await check('format', async () => {
+    await openFile('messy.mdg');
+    await palette('Format Document');
+    await until('the formatted text', async () => (await editorText()).includes('  VERTEX {y 1}\n'), 10000);
+    await page.keyboard.press(`${mod}+KeyS`);
+    const want = 'startshape A\nrule A {\n  VERTEX {x 1}\n  VERTEX {y 1}\n  VERTEX {}\n}\n';
+    await until('the formatted file on disk', async () => readWs('messy.mdg') === want, 10000);
+    return 'messy.mdg formatted and saved';
+  });
+
+  await check('rename across two importers', async () => {
+    await openFile('lib/parts.mdg');
+    await clickWord('petal');
+    await page.keyboard.press('F2');
+    const input = page.locator('.rename-box .rename-input').first();
+    await input.waitFor({ state: 'visible', timeout: 10000 });
+    // The box opens with the old name selected once the server has answered prepareRename.
+    await until('the rename box to take the keyboard', () => input.evaluate((el) => el === document.activeElement && el.value === 'petal'), 10000);
+    await page.keyboard.type('bloom');
+    await page.keyboard.press('Enter');
+    await until('the renamed definition', async () => (await editorText()).includes('rule bloom'), 10000);
+    await palette('File: Save All');
+    const files = ['garden.mdg', 'meadow.mdg', 'lib/parts.mdg'];
+    await until(
+      'the importers renamed on disk',
+      async () => files.every((f) => readWs(f).includes('bloom') && !readWs(f).includes('petal')),
+      15000,
+    );
+    return files.map((f) => `${f}: ${readWs(f).split('bloom').length - 1}×bloom`).join(', ');
+  });
+
+  // The live preview: the model, then the changed model after an edit (not
+  // saved: the editor's text is evaluated), then an error shown in the panel.
+  const preview = () => page.frameLocator('iframe.webview').frameLocator('iframe#active-frame');
+  // The preview frame of a file, among every webview's frames.
+  const previewOf = (name) =>
+    until(`the preview of ${name}`, async () => {
+      for (const f of page.frames()) {
+        const t = await f.locator('#status').innerText({ timeout: 200 }).catch(() => '');
+        if (t.startsWith(`${name}:`)) return f;
+      }
+      return undefined;
+    }, 30000);
+  const triangles = async () => Number((await preview().locator('#status').getAttribute('data-triangles', { timeout: 1000 })) ?? -1);
+  await check('preview panel', async () => {
+    await openFile('garden.mdg');
+    await palette('MDG: Preview');
+    await preview().locator('#status[data-triangles]').waitFor({ state: 'attached', timeout: 30000 });
+    const status = await preview().locator('#status').innerText();
+    if (!/garden\.mdg: \d+ triangles/.test(status)) throw new Error(`status: ${status}`);
+    const n = await triangles();
+    if (n <= 0) throw new Error(`no triangles: ${status}`);
+    await sleep(500);
+    return status;
+  });
+
+  await check('preview after an edit', async () => {
+    const before = await triangles();
+    await page.locator('.editor-instance .monaco-editor .view-lines').first().click();
+    await page.keyboard.press(`${mod}+KeyG`);
+    await page.keyboard.type('4');
+    await page.keyboard.press('Enter');
+    await page.keyboard.press('End');
+    await page.keyboard.type(' bloom {x 2}');
+    const after = await until('the re-evaluated model', async () => {
+      const n = await triangles();
+      return n !== before ? n : undefined;
+    }, 20000);
+    if (after !== before + 1) throw new Error(`triangles ${before} → ${after}, expected one more`);
+    await sleep(500);
+    return `${before} → ${after} triangles without saving`;
+  });
+
+  await check('preview shows errors', async () => {
+    await page.keyboard.type(' nope {}');
+    const box = preview().locator('#error');
+    await box.waitFor({ state: 'visible', timeout: 20000 });
+    const text = await box.innerText();
+    if (!text.includes('E0301') || !text.includes('nope')) throw new Error(`error box: ${text}`);
+    return JSON.stringify(text.split('\n')[0]);
+  });
+
+  await check('preview animation', async () => {
+    await openFile('examples/solar_system.mdg');
+    await palette('MDG: Preview');
+    const frame = await previewOf('solar_system.mdg');
+    const text = await frame.locator('#status').innerText();
+    if (!/animation/.test(text)) throw new Error(`no animation: ${text}`);
+    const time = frame.locator('#time');
+    await time.waitFor({ state: 'visible' });
+    const t1 = await time.innerText();
+    const t2 = await until('the animation to play', async () => {
+      const t = await time.innerText();
+      return t !== t1 ? t : undefined;
+    }, 5000);
+    await frame.locator('#play').click();
+    const t3 = await time.innerText();
+    await sleep(500);
+    if ((await time.innerText()) !== t3) throw new Error('Pause does not stop the animation');
+    return `${text}; playing ${t1} → ${t2}, paused at ${t3}`;
+  });
+  await check('preview of a std example', async () => {
+    await palette('View: Single Column Editor Layout');
+    await openFile('examples/tree.mdg');
+    await palette('MDG: Preview');
+    const frame = await previewOf('tree.mdg');
+    const text = await frame.locator('#status').innerText();
+    if (!/tree\.mdg: \d{4,} triangles/.test(text)) throw new Error(`status: ${text}`);
+    await sleep(1000);
+    return text;
+  });
+
+} finally {
+  fs.writeFileSync(resultsFile, JSON.stringify({ seconds: (Date.now() - t0) / 1000, checks: results }, null, 2));
+  await browser.close().catch(() => {});
+  server.kill();
+  if (results.some((r) => !r.ok)) {
+    console.log('--- code-server log ---\n' + serverLog.slice(-4000));
+  }
+}
+log(`${results.filter((r) => r.ok).length}/${results.length} checks passed`);
+process.exit(results.every((r) => r.ok) ? 0 : 1);

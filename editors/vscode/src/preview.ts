@@ -1,0 +1,186 @@
+// "MDG: Preview": a live 3D view of the current file in a webview beside it. The
+// grammar is evaluated with `mdg-run FILE --stdin -o X.glb` (the editor's text on
+// standard input, so unsaved edits show and imports resolve beside the file) when
+// the panel opens, on save, and 600 ms after the last edit; the webview
+// (webview/preview.js, three.js) shows the model and keeps the camera. Errors
+// (the compiler's diagnostics, a missing mdg-run) are shown in the panel.
+
+import * as vscode from 'vscode';
+import * as fs from 'fs';
+import * as crypto from 'crypto';
+import * as path from 'path';
+import { spawn } from 'child_process';
+import { previewArgs, previewGlb } from './paths';
+
+const DEBOUNCE_MS = 600;
+
+/** Runs `command args` with `input` on stdin; its exit code and stderr. */
+function runWithInput(command: string, args: string[], cwd: string | undefined, input: string): Promise<{ code: number | null; stderr: string; missing: boolean }> {
+  return new Promise((resolve) => {
+    const child = spawn(command, args, { cwd, stdio: ['pipe', 'ignore', 'pipe'] });
+    let stderr = '';
+    child.stderr?.on('data', (d: Buffer) => (stderr += d.toString()));
+    child.once('error', (e: NodeJS.ErrnoException) => resolve({ code: null, stderr: e.message, missing: e.code === 'ENOENT' }));
+    child.once('close', (code) => resolve({ code, stderr, missing: false }));
+    child.stdin?.on('error', () => {});
+    child.stdin?.end(input);
+  });
+}
+
+export class PreviewPanel {
+  private static panels = new Map<string, PreviewPanel>();
+  private readonly disposables: vscode.Disposable[] = [];
+  private timer: NodeJS.Timeout | undefined;
+  private running = false;
+  private again = false;
+  /** The last message posted, for tests and the status. */
+  lastTriangles = -1;
+
+  /** Opens (or reveals) the preview of `doc`. */
+  static show(context: vscode.ExtensionContext, doc: vscode.TextDocument, runPath: () => string): PreviewPanel {
+    const key = doc.uri.toString();
+    const existing = PreviewPanel.panels.get(key);
+    if (existing) {
+      existing.panel.reveal(vscode.ViewColumn.Beside, true);
+      existing.evaluate();
+      return existing;
+    }
+    const p = new PreviewPanel(context, doc, runPath);
+    PreviewPanel.panels.set(key, p);
+    return p;
+  }
+
+  private readonly panel: vscode.WebviewPanel;
+
+  private constructor(
+    private readonly context: vscode.ExtensionContext,
+    private readonly doc: vscode.TextDocument,
+    private readonly runPath: () => string,
+  ) {
+    const media = vscode.Uri.joinPath(context.extensionUri, 'out', 'webview');
+    this.panel = vscode.window.createWebviewPanel(
+      'mdg.preview',
+      `Preview ${doc.uri.path.split('/').pop()}`,
+      { viewColumn: vscode.ViewColumn.Beside, preserveFocus: true },
+      { enableScripts: true, retainContextWhenHidden: true, localResourceRoots: [media] },
+    );
+    this.panel.webview.html = this.html(this.panel.webview.asWebviewUri(vscode.Uri.joinPath(media, 'preview.js')));
+    this.disposables.push(
+      this.panel.webview.onDidReceiveMessage((m) => {
+        if (m?.type === 'ready') {
+          this.evaluate();
+        } else if (m?.type === 'shown') {
+          this.lastTriangles = m.triangles;
+        }
+      }),
+      vscode.workspace.onDidSaveTextDocument((d) => {
+        if (d === this.doc) {
+          this.evaluate();
+        }
+      }),
+      vscode.workspace.onDidChangeTextDocument((e) => {
+        if (e.document === this.doc && e.contentChanges.length > 0) {
+          clearTimeout(this.timer);
+          this.timer = setTimeout(() => this.evaluate(), DEBOUNCE_MS);
+        }
+      }),
+      vscode.workspace.onDidCloseTextDocument((d) => {
+        if (d === this.doc) {
+          this.panel.dispose();
+        }
+      }),
+    );
+    this.panel.onDidDispose(() => this.dispose(), null, this.disposables);
+  }
+
+  private dispose(): void {
+    clearTimeout(this.timer);
+    PreviewPanel.panels.delete(this.doc.uri.toString());
+    for (const d of this.disposables.splice(0)) {
+      d.dispose();
+    }
+  }
+
+  /** Evaluates the current text; evaluations never overlap (one more runs after). */
+  async evaluate(): Promise<void> {
+    if (this.running) {
+      this.again = true;
+      return;
+    }
+    this.running = true;
+    try {
+      do {
+        this.again = false;
+        await this.evaluateOnce();
+      } while (this.again);
+    } finally {
+      this.running = false;
+    }
+  }
+
+  private async evaluateOnce(): Promise<void> {
+    const file = this.doc.uri.fsPath;
+    const id = crypto.createHash('sha1').update(file).digest('hex').slice(0, 12);
+    const glb = previewGlb(file, id);
+    fs.mkdirSync(path.dirname(glb), { recursive: true });
+    const cwd = vscode.workspace.getWorkspaceFolder(this.doc.uri)?.uri.fsPath;
+    const runner = this.runPath();
+    void this.panel.webview.postMessage({ type: 'busy' });
+    const result = await runWithInput(runner, previewArgs(file, glb), cwd, this.doc.getText());
+    if (result.missing) {
+      void this.panel.webview.postMessage({
+        type: 'error',
+        message: `mdg-run was not found (\`${runner}\`). Install it or set "mdg.runPath".`,
+      });
+      return;
+    }
+    if (result.code !== 0) {
+      const message = result.stderr.trim() || `mdg-run exited with ${result.code}`;
+      void this.panel.webview.postMessage({ type: 'error', message });
+      return;
+    }
+    let bytes: Buffer;
+    try {
+      bytes = fs.readFileSync(glb);
+    } catch (e) {
+      void this.panel.webview.postMessage({ type: 'error', message: `cannot read ${glb}: ${e}` });
+      return;
+    }
+    const name = path.basename(file);
+    void this.panel.webview.postMessage({ type: 'model', glb: bytes.toString('base64'), name });
+  }
+
+  private html(script: vscode.Uri): string {
+    const nonce = crypto.randomBytes(16).toString('base64');
+    const csp = [
+      "default-src 'none'",
+      `img-src ${this.panel.webview.cspSource} data: blob:`,
+      `style-src 'nonce-${nonce}'`,
+      `script-src 'nonce-${nonce}'`,
+      `connect-src ${this.panel.webview.cspSource} data: blob:`,
+    ].join('; ');
+    return `<!DOCTYPE html>
+<html lang="en">
+<head>
+<meta charset="UTF-8">
+<meta http-equiv="Content-Security-Policy" content="${csp}">
+<meta name="viewport" content="width=device-width, initial-scale=1.0">
+<style nonce="${nonce}">
+  html, body { margin: 0; padding: 0; height: 100%; overflow: hidden; background: #1e2228; color: #ccc; font: 12px var(--vscode-font-family, sans-serif); }
+  #view { width: 100%; height: 100%; display: block; }
+  #bar { position: absolute; left: 0; right: 0; bottom: 0; padding: 4px 8px; background: rgba(0,0,0,0.45); display: flex; gap: 8px; align-items: center; }
+  #status { flex: 1; }
+  #error { position: absolute; left: 8px; right: 8px; top: 8px; margin: 0; padding: 8px; max-height: 60%; overflow: auto; white-space: pre-wrap;
+           background: rgba(90,20,20,0.92); color: #fdd; border: 1px solid #c55; font: 12px var(--vscode-editor-font-family, monospace); }
+  button { font: inherit; }
+</style>
+</head>
+<body>
+<canvas id="view"></canvas>
+<pre id="error" hidden></pre>
+<div id="bar"><span id="status">evaluating…</span><button id="play" hidden>Pause</button><span id="time" hidden></span></div>
+<script nonce="${nonce}" src="${script}"></script>
+</body>
+</html>`;
+  }
+}

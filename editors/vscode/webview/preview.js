@@ -1,0 +1,192 @@
+// The live 3D preview inside VS Code: a three.js glTF viewer in a webview. The
+// extension (src/preview.ts) evaluates the grammar with `mdg-run` and posts the
+// `.glb` it writes; this page shows it, keeping the camera between models.
+// Bundled with esbuild into out/webview/preview.js (npm run bundle).
+//
+// Messages in:  {type: 'model', glb: base64, name}  {type: 'error', message}  {type: 'busy'}
+// Messages out: {type: 'ready'}  {type: 'shown', triangles, vertices, animations}
+
+import * as THREE from 'three';
+import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
+import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
+
+const vscode = acquireVsCodeApi();
+const canvas = document.getElementById('view');
+const status = document.getElementById('status');
+const errorBox = document.getElementById('error');
+const play = document.getElementById('play');
+const timeLabel = document.getElementById('time');
+
+const renderer = new THREE.WebGLRenderer({ canvas, antialias: true });
+renderer.setPixelRatio(window.devicePixelRatio || 1);
+const scene = new THREE.Scene();
+scene.background = new THREE.Color(0x1e2228);
+scene.add(new THREE.HemisphereLight(0xffffff, 0x404050, 2.2));
+const sun = new THREE.DirectionalLight(0xffffff, 2.0);
+sun.position.set(3, 6, 4);
+scene.add(sun);
+const camera = new THREE.PerspectiveCamera(45, 1, 0.01, 1000);
+camera.position.set(3, 2, 4);
+// Left drag orbits, right drag (or shift) pans, the wheel zooms.
+const controls = new OrbitControls(camera, canvas);
+controls.enableDamping = true;
+controls.screenSpacePanning = true;
+controls.addEventListener('change', () => requestRender());
+
+const loader = new GLTFLoader();
+const clock = new THREE.Clock();
+let model = null;
+let mixer = null;
+let duration = 0;
+let playing = true;
+// The camera is placed once, on the first model (or restored from the saved
+// state); later models are shown from wherever the user left it.
+const saved = vscode.getState();
+let framed = false;
+if (saved && saved.camera) {
+  camera.position.fromArray(saved.camera.position);
+  controls.target.fromArray(saved.camera.target);
+  framed = true;
+}
+
+// Frames are drawn on demand (a new model, the camera moving, an animation
+// playing), so an idle panel costs nothing.
+let scheduled = false;
+function requestRender() {
+  if (!scheduled) {
+    scheduled = true;
+    requestAnimationFrame(tick);
+  }
+}
+new ResizeObserver(() => requestRender()).observe(canvas);
+
+function resize() {
+  const w = canvas.clientWidth;
+  const h = canvas.clientHeight;
+  if (canvas.width !== Math.floor(w * renderer.getPixelRatio()) || canvas.height !== Math.floor(h * renderer.getPixelRatio())) {
+    renderer.setSize(w, h, false);
+    camera.aspect = w / Math.max(h, 1);
+    camera.updateProjectionMatrix();
+  }
+}
+
+function frameObject(object) {
+  const box = new THREE.Box3().setFromObject(object);
+  if (box.isEmpty()) return;
+  const sphere = box.getBoundingSphere(new THREE.Sphere());
+  const size = sphere.radius * 2;
+  const center = sphere.center;
+  const dir = new THREE.Vector3(0.6, 0.45, 0.8).normalize();
+  // Far enough for the bounding sphere to fit the narrower field of view.
+  const halfFov = THREE.MathUtils.degToRad(camera.fov / 2);
+  const fit = Math.min(halfFov, Math.atan(Math.tan(halfFov) * Math.max(camera.aspect, 1e-3)));
+  controls.target.copy(center);
+  camera.position.copy(center).addScaledVector(dir, (sphere.radius / Math.sin(fit)) * 1.05 + 0.01);
+  camera.near = Math.max(size / 1000, 1e-4);
+  camera.far = size * 100 + 10;
+  camera.updateProjectionMatrix();
+  controls.update();
+}
+
+function counts(object) {
+  let triangles = 0;
+  let vertices = 0;
+  object.traverse((o) => {
+    if (o.isMesh && o.geometry) {
+      // An instanced mesh (EXT_mesh_gpu_instancing) draws its geometry `count` times.
+      const copies = o.isInstancedMesh ? o.count : 1;
+      const pos = o.geometry.getAttribute('position');
+      const n = pos ? pos.count : 0;
+      vertices += n * copies;
+      triangles += (o.geometry.index ? o.geometry.index.count / 3 : n / 3) * copies;
+    }
+  });
+  return { triangles: Math.round(triangles), vertices };
+}
+
+function showError(message) {
+  errorBox.textContent = message;
+  errorBox.hidden = false;
+  status.textContent = model ? 'showing the last model that evaluated' : 'no model';
+}
+
+function show(gltf, name) {
+  if (model) {
+    scene.remove(model);
+    model.traverse((o) => {
+      if (o.geometry) o.geometry.dispose();
+      if (o.material) [].concat(o.material).forEach((m) => m.dispose());
+    });
+  }
+  model = gltf.scene;
+  scene.add(model);
+  resize();
+  if (!framed) {
+    frameObject(model);
+    framed = true;
+  }
+  mixer = null;
+  duration = 0;
+  if (gltf.animations.length > 0) {
+    mixer = new THREE.AnimationMixer(model);
+    for (const clip of gltf.animations) {
+      mixer.clipAction(clip).play();
+      duration = Math.max(duration, clip.duration);
+    }
+  }
+  play.hidden = !mixer;
+  timeLabel.hidden = !mixer;
+  const c = counts(model);
+  errorBox.hidden = true;
+  const anim = gltf.animations.length ? ` · ${gltf.animations.length} animation(s), ${duration.toFixed(1)} s` : '';
+  status.textContent = `${name}: ${c.triangles} triangles · ${c.vertices} vertices${anim}`;
+  status.dataset.triangles = String(c.triangles);
+  clock.getDelta();
+  requestRender();
+  vscode.postMessage({ type: 'shown', triangles: c.triangles, vertices: c.vertices, animations: gltf.animations.length });
+}
+
+window.addEventListener('message', (event) => {
+  const m = event.data;
+  if (m.type === 'model') {
+    const bin = atob(m.glb);
+    const bytes = new Uint8Array(bin.length);
+    for (let i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
+    loader.parse(bytes.buffer, '', (gltf) => show(gltf, m.name), (e) => showError(`cannot read the model: ${e.message ?? e}`));
+  } else if (m.type === 'error') {
+    showError(m.message);
+  } else if (m.type === 'busy') {
+    status.textContent = 'evaluating…';
+  }
+});
+
+play.addEventListener('click', () => {
+  playing = !playing;
+  play.textContent = playing ? 'Pause' : 'Play';
+  clock.getDelta();
+  requestRender();
+});
+
+let lastSave = 0;
+function tick() {
+  scheduled = false;
+  resize();
+  const dt = clock.getDelta();
+  let again = false;
+  if (mixer && playing) {
+    mixer.update(dt);
+    timeLabel.textContent = `${(mixer.time % Math.max(duration, 1e-6)).toFixed(2)} s`;
+    again = true;
+  }
+  // With damping the camera keeps moving a little after the mouse stops.
+  again = controls.update() || again;
+  renderer.render(scene, camera);
+  if (again) requestRender();
+  const now = performance.now();
+  if (now - lastSave > 500) {
+    lastSave = now;
+    vscode.setState({ camera: { position: camera.position.toArray(), target: controls.target.toArray() } });
+  }
+}
+requestRender();
+vscode.postMessage({ type: 'ready' });
