@@ -313,10 +313,22 @@ try {
     await openFile('lib/parts.mdg');
     await clickWord('petal');
     await page.keyboard.press('F2');
-    const input = page.locator('.rename-box .rename-input').first();
-    await input.waitFor({ state: 'visible', timeout: 10000 });
-    // The box opens with the old name selected once the server has answered prepareRename.
-    await until('the rename box to take the keyboard', () => input.evaluate((el) => el === document.activeElement && el.value === 'petal'), 10000);
+    const box = page.locator('.rename-box').first();
+    await box.waitFor({ state: 'visible', timeout: 20000 });
+    // The box opens with the old name selected once the server has answered
+    // prepareRename; type only once it has the keyboard.
+    await until(
+      'the rename box to take the keyboard',
+      () =>
+        box.evaluate((el) => {
+          const a = document.activeElement;
+          return !!a && el.contains(a) && ((a.value ?? a.textContent) || '').includes('petal');
+        }),
+      20000,
+    ).catch(async (e) => {
+      const where = await box.evaluate((el) => `active: ${document.activeElement?.outerHTML.slice(0, 300)}; box: ${el.innerHTML.slice(0, 600)}`);
+      throw new Error(`${e.message}; ${where}`);
+    });
     await page.keyboard.type('bloom');
     await page.keyboard.press('Enter');
     await until('the renamed definition', async () => (await editorText()).includes('rule bloom'), 10000);
