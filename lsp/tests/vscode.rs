@@ -113,68 +113,100 @@ fn vscode_in_code_server() {
         .expect("run npm");
     assert!(status.success() && vsix.is_file(), "packaging the extension failed");
 
-    // The workspace: the std examples, a library and two importers, a scratch file and a messy one.
-    let ws = out.join("workspace");
-    copy_dir(&root().join("std/examples"), &ws.join("examples"));
-    std::fs::create_dir_all(ws.join("lib")).expect("mkdir");
-    for (name, text) in [
-        ("lib/parts.mdg", PARTS),
-        ("garden.mdg", GARDEN),
-        ("meadow.mdg", MEADOW),
-        ("scratch.mdg", SCRATCH),
-        ("messy.mdg", MESSY),
-    ] {
-        std::fs::write(ws.join(name), text).expect("write");
-    }
-    let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join("vscode-e2e/screenshots");
-    let _ = std::fs::remove_dir_all(&shots);
-    std::fs::create_dir_all(&shots).expect("screenshots dir");
-    let results = out.join("results.json");
-    eprintln!("screenshots: {}", shots.display());
+    // One retry: the checks drive a real browser, and on a loaded 2-core machine an
+    // editor may re-render between a check's action and its reading (both attempts'
+    // failures are printed; the second must pass).
+    let mut attempt = 0;
+    let started = loop {
+        attempt += 1;
+        let (started, problems, shots) = {
+            // The workspace: the std examples, a library and two importers, a scratch file and a messy one.
+            let ws = out.join("workspace");
+            let _ = std::fs::remove_dir_all(&ws);
+            copy_dir(&root().join("std/examples"), &ws.join("examples"));
+            std::fs::create_dir_all(ws.join("lib")).expect("mkdir");
+            for (name, text) in [
+                ("lib/parts.mdg", PARTS),
+                ("garden.mdg", GARDEN),
+                ("meadow.mdg", MEADOW),
+                ("scratch.mdg", SCRATCH),
+                ("messy.mdg", MESSY),
+            ] {
+                std::fs::write(ws.join(name), text).expect("write");
+            }
+            let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join("vscode-e2e/screenshots");
+            let _ = std::fs::remove_dir_all(&shots);
+            std::fs::create_dir_all(&shots).expect("screenshots dir");
+            let results = out.join("results.json");
+            eprintln!("screenshots: {}", shots.display());
 
-    let started = Instant::now();
-    let mut child = Command::new("node")
-        .arg(ext.join("e2e/run.mjs"))
-        .env("MDG_E2E_DIR", &e2e)
-        .env("MDG_VSIX", &vsix)
-        .env("MDG_LSP", env!("CARGO_BIN_EXE_mdg-lsp"))
-        .env("MDG_STD", root().join("std"))
-        .env("MDG_RUN", &mdg_run)
-        .env("MDG_WORKSPACE", &ws)
-        .env("MDG_SHOTS", &shots)
-        .env("MDG_RESULTS", &results)
-        .env("MDG_CHROMIUM", &chromium)
-        .stdin(Stdio::null())
-        .spawn()
-        .expect("start node");
-    let status = loop {
-        if let Some(s) = child.try_wait().expect("wait") {
-            break s;
+            let started = Instant::now();
+            let child_started = Instant::now();
+            let mut child = Command::new("node")
+                .arg(ext.join("e2e/run.mjs"))
+                .env("MDG_E2E_DIR", &e2e)
+                .env("MDG_VSIX", &vsix)
+                .env("MDG_LSP", env!("CARGO_BIN_EXE_mdg-lsp"))
+                .env("MDG_STD", root().join("std"))
+                .env("MDG_RUN", &mdg_run)
+                .env("MDG_WORKSPACE", &ws)
+                .env("MDG_SHOTS", &shots)
+                .env("MDG_RESULTS", &results)
+                .env("MDG_CHROMIUM", &chromium)
+                .stdin(Stdio::null())
+                .spawn()
+                .expect("start node");
+            let status = loop {
+                if let Some(s) = child.try_wait().expect("wait") {
+                    break s;
+                }
+                if child_started.elapsed() > Duration::from_secs(300) {
+                    let _ = child.kill();
+                    panic!("the VS Code test did not finish within 5 minutes");
+                }
+                std::thread::sleep(Duration::from_millis(200));
+            };
+            let report: Value =
+                serde_json::from_str(&std::fs::read_to_string(&results).expect("results.json")).expect("json");
+            let checks = report["checks"].as_array().cloned().unwrap_or_default();
+            for c in &checks {
+                eprintln!(
+                    "{} {} ({} ms) {}",
+                    if c["ok"] == true { "ok  " } else { "FAIL" },
+                    c["name"].as_str().unwrap_or(""),
+                    c["ms"],
+                    c["detail"].as_str().unwrap_or("")
+                );
+            }
+            let names: Vec<&str> = checks.iter().filter_map(|c| c["name"].as_str()).collect();
+            let mut problems = Vec::new();
+            if names != CHECKS {
+                problems.push(format!("not every check ran: {names:?}"));
+            }
+            for c in checks.iter().filter(|c| c["ok"] != true) {
+                problems.push(format!("check {} failed: {}", c["name"], c["detail"]));
+            }
+            if !status.success() {
+                problems.push(format!("run.mjs failed ({status})"));
+            }
+            for c in &checks {
+                let shot = PathBuf::from(c["screenshot"].as_str().unwrap_or(""));
+                if !(shot.starts_with(&shots) && shot.is_file()) {
+                    problems.push(format!("no screenshot for {}", c["name"]));
+                }
+            }
+            (started, problems, shots)
+        };
+        if problems.is_empty() {
+            break started;
         }
-        if started.elapsed() > Duration::from_secs(300) {
-            let _ = child.kill();
-            panic!("the VS Code test did not finish within 5 minutes");
-        }
-        std::thread::sleep(Duration::from_millis(200));
-    };
-    let report: Value = serde_json::from_str(&std::fs::read_to_string(&results).expect("results.json")).expect("json");
-    let checks = report["checks"].as_array().cloned().unwrap_or_default();
-    for c in &checks {
-        eprintln!(
-            "{} {} ({} ms) {}",
-            if c["ok"] == true { "ok  " } else { "FAIL" },
-            c["name"].as_str().unwrap_or(""),
-            c["ms"],
-            c["detail"].as_str().unwrap_or("")
+        assert!(
+            attempt < 2,
+            "VS Code checks failed twice (screenshots in {}):\n{}",
+            shots.display(),
+            problems.join("\n")
         );
-    }
-    let names: Vec<&str> = checks.iter().filter_map(|c| c["name"].as_str()).collect();
-    assert_eq!(names, CHECKS, "not every check ran");
-    assert!(checks.iter().all(|c| c["ok"] == true), "VS Code checks failed (screenshots in {})", shots.display());
-    assert!(status.success(), "run.mjs failed");
-    for c in &checks {
-        let shot = PathBuf::from(c["screenshot"].as_str().unwrap_or(""));
-        assert!(shot.starts_with(&shots) && shot.is_file(), "no screenshot for {}", c["name"]);
-    }
+        eprintln!("VS Code attempt {attempt} failed, retrying once:\n{}", problems.join("\n"));
+    };
     eprintln!("VS Code test: {:.1} s", started.elapsed().as_secs_f64());
 }
