@@ -205,7 +205,7 @@ impl Dumper {
                         Arg::Expr(_) => "<expr>".to_string(),
                     })
                     .collect();
-                d.nested(&format!("{} {}", a.name.text, simple.join(" ")).trim_end().to_string(), |d| {
+                d.nested(format!("{} {}", a.name.text, simple.join(" ")).trim_end(), |d| {
                     for x in &a.args {
                         if let Arg::Expr(e) = x {
                             d.expr(e);

@@ -107,7 +107,8 @@ pub fn dump_without_spans(file: &mdg_compiler::ast::File) -> String {
 pub struct Rng(pub u64);
 
 impl Rng {
-    /// The next 64 random bits.
+    /// The next 64 random bits (not an `Iterator`: the stream never ends).
+    #[allow(clippy::should_implement_trait)]
     pub fn next(&mut self) -> u64 {
         self.0 ^= self.0 >> 12;
         self.0 ^= self.0 << 25;
