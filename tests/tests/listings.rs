@@ -291,7 +291,7 @@ fn a_runaway_iterator_rule_is_cut_at_the_frame_budget_with_its_own_warning() {
     let w: Vec<&String> = out.stats.warnings.iter().filter(|w| w.contains("frame budget")).collect();
     assert_eq!(
         w,
-        ["inline.mdg:4: convolution `S`: iterator rule `spin` did not end within the frame budget of 5000 frames; only those are used (an iterator rule must terminate; `EvalOptions::max_frames` raises the budget)"],
+        ["inline.mdg:4: convolution `S`: iterator rule `spin` did not end within the frame budget of 5000 frames; only those are used (an iterator rule must terminate; raise the budget with `--max-frames N`)"],
         "{:?}",
         out.stats.warnings
     );

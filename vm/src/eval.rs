@@ -986,7 +986,7 @@ impl<'b> Eval<'b> {
         let n = t.frames.len().min(budget);
         if !t.complete && !self.stopped {
             let msg = format!(
-                "{}convolution `{}`: iterator rule `{}` did not end within the frame budget of {budget} frames; only those are used (an iterator rule must terminate; `EvalOptions::max_frames` raises the budget)",
+                "{}convolution `{}`: iterator rule `{}` did not end within the frame budget of {budget} frames; only those are used (an iterator rule must terminate; raise the budget with `--max-frames N`)",
                 self.rule_at(r.iter),
                 b.string(r.name),
                 b.string(b.rules[r.iter as usize].name),

@@ -54,9 +54,13 @@ pub struct Args {
     /// Print rule calls, vertices, triangles, time and peak memory.
     #[arg(long)]
     stats: bool,
-    /// Stop after this many vertices (default 50,000,000).
+    /// Stop after this many vertices (default 4,000,000; docs/limits.md).
     #[arg(long)]
     max_vertices: Option<u64>,
+    /// Frames a convolution takes from one iterator rule (default 10,000,000; a
+    /// terminating iterator rule contributes all its frames up to this).
+    #[arg(long, value_name = "N")]
+    max_frames: Option<u64>,
     /// Stop after this many seconds of evaluation.
     #[arg(long)]
     time_budget: Option<f64>,
@@ -265,6 +269,7 @@ fn run_one(
     let eval_opts = EvalOptions {
         seed,
         max_vertices: cli.max_vertices.unwrap_or(mdg_vm::eval::DEFAULT_MAX_VERTICES),
+        max_frames: cli.max_frames.unwrap_or(mdg_vm::eval::DEFAULT_MAX_FRAMES),
         time_budget: cli.time_budget.map(Duration::from_secs_f64),
         time: cli.time,
         ..EvalOptions::default()
