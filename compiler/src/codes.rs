@@ -24,8 +24,10 @@ pub struct Code {
     pub example: Example,
 }
 
-/// A source that triggers a code. It is checked as the file `example.mdg` in an
-/// otherwise empty project directory, with the std library available.
+/// A source that triggers a code. It is checked as the file `project/example.mdg`,
+/// alone in its project directory, with the std library available; beside the
+/// project lies one file, `outside.mdg` (only E0202's example, an import that
+/// leaves the project, needs it).
 #[derive(Clone, Copy, Debug)]
 pub enum Example {
     /// Checked as a library (no start shape required).
@@ -202,11 +204,11 @@ rule A {
         title: "import path escapes the project",
         explanation: r#"`@import`: path escapes the project root and the std directory.
 
-In the example: the import path leaves the project root (the directory of this file).
+In the example: the import path leaves the project root (the directory of the main file). This is the one code whose example needs a second file: `../outside.mdg` must exist, since importing a file that does not exist is E0201 wherever it is (the registry test creates it beside the project).
 
 Fix: Import files under the directory of the main file, or from the std library."#,
         example: Library(
-            r#"@import ../ok/0001_minimal.mdg
+            r#"@import ../outside.mdg
 
 startshape A
 
@@ -640,7 +642,7 @@ rule B {
     Code {
         code: "E0312",
         severity: Error,
-        title: "given twice",
+        title: "`startshape`, `selector` or directive given twice",
         explanation: r#"`startshape`, `selector` or directive given twice.
 
 In the example: startshape is given twice.
@@ -1442,7 +1444,7 @@ Fix: Give the part a `joint { … }`; only torsos have slots."#,
     Code {
         code: "E0812",
         severity: Error,
-        title: "defined twice",
+        title: "part, slot, shape or rule defined twice",
         explanation: r#"Creature grammar: a part, slot, shape or rule defined twice, or a slot filled twice.
 
 In the example: two parts with one name.
@@ -1920,7 +1922,7 @@ mod tests {
     use crate::check::CheckOptions;
     use crate::driver::analyze_text;
     use crate::expand::Options;
-    use crate::source::MemLoader;
+    use crate::source::FsLoader;
     use std::path::{Path, PathBuf};
 
     fn workspace() -> PathBuf {
@@ -1945,25 +1947,29 @@ mod tests {
         assert!(lookup("E9999").is_none() && lookup("").is_none() && lookup("rule").is_none());
     }
 
-    /// Every example, checked as `example.mdg` in an empty project, produces its code
-    /// (and no other error).
+    /// Every example, checked as `project/example.mdg` on disk (beside `project/`
+    /// lies `outside.mdg`, for E0202), produces its code and no other error.
     #[test]
     fn every_example_triggers_its_code() {
-        let dir = Path::new("/mdg-registry-example");
-        let path = dir.join("example.mdg");
+        let scratch = std::env::temp_dir().join(format!("mdg-codes-{}", std::process::id()));
+        let project = scratch.join("project");
+        std::fs::create_dir_all(&project).expect("create the example project");
+        std::fs::write(scratch.join("outside.mdg"), "rule outside { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n")
+            .expect("write outside.mdg");
+        let path = project.join("example.mdg");
         let opts = Options { std_dir: Some(workspace().join("std")), ..Options::default() };
         let mut failures = Vec::new();
         for c in CODES {
             let text = c.example.text();
-            let mut loader = MemLoader { disk_fallback: true, ..MemLoader::default() };
-            loader.files.insert(path.clone(), text.to_string());
-            let a = analyze_text(&loader, &path, text, &opts, CheckOptions { require_start: c.example.is_program() });
+            std::fs::write(&path, text).expect("write example.mdg");
+            let a = analyze_text(&FsLoader, &path, text, &opts, CheckOptions { require_start: c.example.is_program() });
             let got: Vec<&str> = a.diagnostics.iter().map(|d| d.code).collect();
             let others = a.diagnostics.iter().any(|d| d.is_error() && d.code != c.code);
             if !got.contains(&c.code) || others {
                 failures.push(format!("{}: the example gives {got:?}", c.code));
             }
         }
+        let _ = std::fs::remove_dir_all(&scratch);
         assert!(failures.is_empty(), "{}", failures.join("\n"));
     }
 
@@ -2022,21 +2028,22 @@ mod tests {
         assert!(files.len() > 20, "found only {} source files", files.len());
         let this = Path::new(file!()).file_name().expect("file name");
         let mut unknown = Vec::new();
-        let mut emitted = std::collections::BTreeSet::new();
+        let mut emitted = std::collections::BTreeSet::<String>::new();
         for f in &files {
             let text = std::fs::read_to_string(f).expect("read source");
+            if f.file_name() == Some(this) {
+                continue; // the registry itself
+            }
             for code in code_literals(&text) {
                 if lookup(code).is_none_or(|c| c.code != code) {
                     unknown.push(format!("{}: {code}", f.display()));
                 }
             }
-            if f.file_name() != Some(this) {
-                let live = text.split("#[cfg(test)]").next().unwrap_or_default();
-                emitted.extend(code_literals(live));
-            }
+            let live = text.split("#[cfg(test)]").next().unwrap_or_default();
+            emitted.extend(code_literals(live).into_iter().map(str::to_string));
         }
         assert!(unknown.is_empty(), "codes not in compiler/src/codes.rs: {unknown:?}");
-        let never: Vec<&str> = CODES.iter().map(|c| c.code).filter(|c| !emitted.contains(c)).collect();
+        let never: Vec<&str> = CODES.iter().map(|c| c.code).filter(|c| !emitted.contains(*c)).collect();
         assert!(never.is_empty(), "registered codes that nothing emits: {never:?}");
     }
 }
