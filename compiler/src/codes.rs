@@ -417,7 +417,7 @@ rule A {
         code: "E0301",
         severity: Error,
         title: "unknown rule",
-        explanation: r#"A rule call, or a creature part's `rule`, names a rule that no `rule` definition declares (names are case-sensitive; in a namespace, names resolve in the namespace first).
+        explanation: r#"A rule call, or a creature part's `rule`, names a rule that no `rule` definition declares (names are case-sensitive).
 
 In the example: the rule `Bee` is called but never defined.
 
@@ -784,11 +784,11 @@ rule B {
         code: "E0404",
         severity: Error,
         title: "unit suffix on a value that is not an angle",
-        explanation: r#"A unit suffix (`d` for degrees, `r` for radians) is only allowed on angles.
+        explanation: r#"A unit suffix (`d` degrees, `r` radians, `o` orbits, `t` atan) is only allowed on angles.
 
 In the example: the unit suffix `d` on a translation, which is not an angle.
 
-Fix: Remove the suffix; only angles take `d` or `r`."#,
+Fix: Remove the suffix; only angles take one."#,
         example: Library(
             r#"startshape A
 
@@ -2045,5 +2045,19 @@ mod tests {
         assert!(unknown.is_empty(), "codes not in compiler/src/codes.rs: {unknown:?}");
         let never: Vec<&str> = CODES.iter().map(|c| c.code).filter(|c| !emitted.contains(*c)).collect();
         assert!(never.is_empty(), "registered codes that nothing emits: {never:?}");
+    }
+
+    #[test]
+    #[cfg(debug_assertions)]
+    #[should_panic(expected = "is not registered")]
+    fn unregistered_code_panics_in_debug_builds() {
+        let _ = crate::diag::Diagnostic::error("E0000", crate::span::Span::default(), "no such code");
+    }
+
+    #[test]
+    #[cfg(debug_assertions)]
+    #[should_panic(expected = "is not registered as a Warning")]
+    fn wrong_severity_panics_in_debug_builds() {
+        let _ = crate::diag::Diagnostic::warning("E0301", crate::span::Span::default(), "an error code");
     }
 }
