@@ -50,23 +50,33 @@ pub struct Diagnostic {
 }
 
 impl Diagnostic {
-    /// An error with a code, message and primary span.
+    /// An error with a code, message and primary span. The code must be an error
+    /// in the registry ([`crate::codes`]; checked in debug builds).
     pub fn error(code: &'static str, span: Span, message: impl Into<String>) -> Diagnostic {
+        Diagnostic::new(Severity::Error, code, span, message.into())
+    }
+
+    /// A warning with a code, message and primary span. The code must be a warning
+    /// in the registry ([`crate::codes`]; checked in debug builds).
+    pub fn warning(code: &'static str, span: Span, message: impl Into<String>) -> Diagnostic {
+        Diagnostic::new(Severity::Warning, code, span, message.into())
+    }
+
+    fn new(severity: Severity, code: &'static str, span: Span, message: String) -> Diagnostic {
+        debug_assert!(
+            crate::codes::lookup(code).is_some_and(|c| c.code == code && c.severity == severity),
+            "diagnostic code {code} is not registered as a {severity:?} in compiler/src/codes.rs"
+        );
         Diagnostic {
-            severity: Severity::Error,
+            severity,
             code,
-            message: message.into(),
+            message,
             span,
             label: String::new(),
             secondary: vec![],
             notes: vec![],
             suggestion: None,
         }
-    }
-
-    /// A warning with a code, message and primary span.
-    pub fn warning(code: &'static str, span: Span, message: impl Into<String>) -> Diagnostic {
-        Diagnostic { severity: Severity::Warning, ..Diagnostic::error(code, span, message) }
     }
 
     /// Sets the primary label.

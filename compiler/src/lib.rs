@@ -8,6 +8,7 @@
 pub mod analysis;
 pub mod ast;
 pub mod check;
+pub mod codes;
 pub mod consteval;
 pub mod diag;
 pub mod driver;

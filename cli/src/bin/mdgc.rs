@@ -2,13 +2,13 @@
 //! diagnostic code. Each subcommand is a module of [`mdg_cli::commands`].
 
 use clap::{Parser, Subcommand};
-use mdg_cli::commands::{build, check, disasm, fmt, induce};
+use mdg_cli::commands::{build, check, disasm, explain, fmt, induce};
 use std::process::ExitCode;
 
 #[derive(Parser)]
 #[command(name = "mdgc", version, about = "The MDG compiler: check, format and build shape grammars")]
 #[command(
-    after_help = "Examples:\n  mdgc check std/examples/tree.mdg\n  mdgc check --message-format json a.mdg b.mdg\n  mdgc fmt --check std/*.mdg\n\nExit codes: 0 clean (warnings allowed), 1 errors found (or `fmt --check` found\nunformatted files), 2 usage or IO errors."
+    after_help = "Examples:\n  mdgc check std/examples/tree.mdg\n  mdgc check --message-format json a.mdg b.mdg\n  mdgc fmt --check std/*.mdg\n  mdgc explain E0301\n\nExit codes: 0 clean (warnings allowed), 1 errors found (or `fmt --check` found\nunformatted files), 2 usage or IO errors."
 )]
 struct Cli {
     #[command(subcommand)]
@@ -22,6 +22,7 @@ enum Command {
     Disasm(disasm::Args),
     Induce(induce::Args),
     Fmt(fmt::Args),
+    Explain(explain::Args),
 }
 
 fn main() -> ExitCode {
@@ -31,5 +32,6 @@ fn main() -> ExitCode {
         Command::Disasm(a) => disasm::run(a),
         Command::Induce(a) => induce::run(a),
         Command::Fmt(a) => fmt::run(a),
+        Command::Explain(a) => explain::run(a),
     }
 }

@@ -8,7 +8,7 @@
 pub mod build;
 pub mod check;
 pub mod disasm;
-
+pub mod explain;
 pub mod fmt;
 pub mod induce;
 pub mod run;
