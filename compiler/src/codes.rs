@@ -146,12 +146,12 @@ rule A {
     Code {
         code: "E0104",
         severity: Error,
-        title: "unexpected end of file",
-        explanation: r#"Unexpected end of file (an unclosed `{` or `[`).
+        title: "unclosed delimiter",
+        explanation: r#"An unclosed `{`, `[` or `(`: at the end of the file ("unexpected end of file"), or before the next top-level `rule` at the start of a line ("unclosed delimiter"). The bracket is taken as closed there and the rest of the file checks normally, so one forgotten `}` gives one error.
 
 In the example: the function's `{` is never closed: the file ends first.
 
-Fix: Close every `{` and `[` that the file opens."#,
+Fix: Close every `{`, `[` and `(` that the file opens."#,
         example: Library(
             r#"startshape A
 
@@ -175,6 +175,25 @@ Fix: Split the expression or the nested blocks into rules, functions or `@define
         example: Library(
             r#"startshape A
 rule A { VERTEX {x ((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((1))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))} }
+"#,
+        ),
+    },
+    Code {
+        code: "E0106",
+        severity: Error,
+        title: "mismatched closing delimiter",
+        explanation: r#"A closing bracket that does not match the innermost open one, such as `]` closing a `{`. As in rustc there is one error, at the closer, with the opener as a secondary label; the closer is read as the one that was meant (a typo for the innermost closer, or an outer closer after forgotten inner ones, whichever leaves fewer repairs), so the rest of the file checks normally.
+
+In the example: `B{x 2 ]` opens an adjustment with `{` and closes it with `]`.
+
+Fix: Use the closer that matches the opener: `B{x 2}` (or `B[x 2]`)."#,
+        example: Library(
+            r#"rule A {
+  B{x 2 ]
+  C {}
+}
+rule B { }
+rule C { }
 "#,
         ),
     },
