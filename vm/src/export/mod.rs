@@ -213,31 +213,51 @@ pub(crate) fn is_closed(m: &Mesh, tris: &[[u32; 3]]) -> bool {
     if tris.is_empty() {
         return true;
     }
-    // Weld by position bits: sort the vertex indices by position, give equal ones one id.
-    let key = |i: usize| m.positions.get(i).map(|p| p.map(|x| if x == 0.0 { 0 } else { x.to_bits() }));
-    let mut order: Vec<u32> = (0..m.positions.len() as u32).collect();
-    order.sort_unstable_by_key(|&i| key(i as usize));
+    // Weld by position bits (−0 and +0 alike): sort (position, index) pairs once,
+    // give equal positions one id.
+    let bits = |p: &[f32; 3]| p.map(|x| if x == 0.0 { 0 } else { x.to_bits() });
+    let mut order: Vec<([u32; 3], u32)> = m.positions.iter().enumerate().map(|(i, p)| (bits(p), i as u32)).collect();
+    order.sort_unstable();
     let mut id = vec![0u32; m.positions.len()];
     let mut next = 0u32;
-    for (k, &i) in order.iter().enumerate() {
-        if k > 0 && key(i as usize) != key(order[k - 1] as usize) {
+    for (k, &(key, i)) in order.iter().enumerate() {
+        if k > 0 && key != order[k - 1].0 {
             next += 1;
         }
         id[i as usize] = next;
     }
-    let mut fwd: Vec<(u32, u32)> = Vec::with_capacity(tris.len() * 3);
+    drop(order);
+    // Closed: every directed edge a→b is matched by as many b→a. Each edge is keyed
+    // by its unordered pair, with its direction in the lowest bit; one sort, then
+    // each pair's run must hold as many of one direction as of the other.
+    let mut edges: Vec<u128> = Vec::with_capacity(tris.len() * 3);
     for t in tris {
         let w = t.map(|i| id.get(i as usize).copied().unwrap_or(u32::MAX));
         for (a, b) in [(w[0], w[1]), (w[1], w[2]), (w[2], w[0])] {
             if a != b {
-                fwd.push((a, b));
+                let (lo, hi, dir) = if a < b { (a, b, 0) } else { (b, a, 1) };
+                edges.push((u128::from(lo) << 65) | (u128::from(hi) << 1) | dir);
             }
         }
     }
-    let mut back: Vec<(u32, u32)> = fwd.iter().map(|&(a, b)| (b, a)).collect();
-    fwd.sort_unstable();
-    back.sort_unstable();
-    fwd == back
+    edges.sort_unstable();
+    let mut k = 0;
+    while k < edges.len() {
+        let pair = edges[k] >> 1;
+        let (mut fwd, mut back) = (0usize, 0usize);
+        while k < edges.len() && edges[k] >> 1 == pair {
+            if edges[k] & 1 == 0 {
+                fwd += 1;
+            } else {
+                back += 1;
+            }
+            k += 1;
+        }
+        if fwd != back {
+            return false;
+        }
+    }
+    true
 }
 
 /// The colour of vertex `i`, white where the mesh has none.
