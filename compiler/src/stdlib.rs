@@ -5,7 +5,7 @@
 //! `@import primitives`, as thesis Listing 4.1 is printed) gets E0301 with a
 //! suggestion that adds the right `@import` (a quick fix in the editor). See
 //! docs/decisions.md (issue 17) for why this is a fix and not an implicit prelude.
-//! `tests/tests/check.rs` checks that every file of `std/` is listed in [`LIBRARIES`].
+//! The libraries are the embedded std directory's top-level files ([`libraries`]).
 //!
 //! (2) The whole std directory, so that an installed `mdgc`, `mdg-run`, `mdg-view` or
 //! `mdg-lsp` works from any directory without the source checkout: embedded at build
@@ -22,26 +22,25 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-/// Every std library: its `@import` name and its text.
-pub const LIBRARIES: &[(&str, &str)] = &[
-    ("creatures", include_str!("../../std/creatures.mdg")),
-    ("lines", include_str!("../../std/lines.mdg")),
-    ("lsystems", include_str!("../../std/lsystems.mdg")),
-    ("molecules", include_str!("../../std/molecules.mdg")),
-    ("plants", include_str!("../../std/plants.mdg")),
-    ("polyhedra", include_str!("../../std/polyhedra.mdg")),
-    ("primitives", include_str!("../../std/primitives.mdg")),
-    ("shaders", include_str!("../../std/shaders.mdg")),
-    ("sphereflake", include_str!("../../std/sphereflake.mdg")),
-];
+/// Every std library: its `@import` name and its text — the `.mdg` files at the top
+/// of the embedded std directory, in name order (so the list is complete by
+/// construction).
+pub fn libraries() -> Vec<(&'static str, &'static str)> {
+    STD.files()
+        .filter(|f| f.path().extension().is_some_and(|e| e == "mdg"))
+        .filter_map(|f| Some((f.path().file_stem()?.to_str()?, f.contents_utf8()?)))
+        .collect::<std::collections::BTreeMap<_, _>>()
+        .into_iter()
+        .collect()
+}
 
 /// The names each library declares at its top level (`rule NAME`, `isosurface NAME`),
-/// mapped to the first library (in [`LIBRARIES`] order) that declares them.
+/// mapped to the first library (in [`libraries`] order) that declares them.
 fn index() -> &'static HashMap<String, &'static str> {
     static INDEX: OnceLock<HashMap<String, &'static str>> = OnceLock::new();
     INDEX.get_or_init(|| {
         let mut map = HashMap::new();
-        for (lib, text) in LIBRARIES {
+        for (lib, text) in libraries() {
             let lexed = lexer::lex(text, FileId(0));
             let mut depth = 0usize;
             let toks = &lexed.tokens;
@@ -52,7 +51,7 @@ fn index() -> &'static HashMap<String, &'static str> {
                     Tok::KwRule | Tok::KwIsosurface if depth == 0 => {
                         if let Some(n) = toks.get(i + 1).filter(|n| n.kind == Tok::Ident) {
                             let name = &text[n.span.start as usize..n.span.end as usize];
-                            map.entry(name.to_string()).or_insert(*lib);
+                            map.entry(name.to_string()).or_insert(lib);
                         }
                     }
                     _ => {}
@@ -131,9 +130,11 @@ pub fn materialize_in(root: &Path) -> std::io::Result<PathBuf> {
 }
 
 /// The embedded std, written to the cache directory if it is not there yet; `None`
-/// when no cache directory can be written.
+/// when no cache directory can be written. Done once per process (every analysis
+/// asks for the std directory).
 pub fn materialize() -> Option<PathBuf> {
-    materialize_in(&cache_root()).ok()
+    static DIR: OnceLock<Option<PathBuf>> = OnceLock::new();
+    DIR.get_or_init(|| materialize_in(&cache_root()).ok()).clone()
 }
 
 #[cfg(test)]
@@ -161,6 +162,22 @@ mod embedded_tests {
         for (rel, bytes) in &files {
             assert_eq!(std::fs::read(on_disk.join(rel)).expect("std file"), *bytes, "{}", rel.display());
         }
+    }
+
+    #[test]
+    fn the_libraries_are_the_top_level_std_files() {
+        let on_disk = Path::new(env!("CARGO_MANIFEST_DIR")).join("../std");
+        let mut names: Vec<String> = std::fs::read_dir(&on_disk)
+            .expect("std dir")
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| p.extension().is_some_and(|e| e == "mdg"))
+            .filter_map(|p| Some(p.file_stem()?.to_str()?.to_string()))
+            .collect();
+        names.sort();
+        let libs: Vec<&str> = libraries().iter().map(|(n, _)| *n).collect();
+        assert_eq!(libs, names);
+        assert!(libs.contains(&"primitives") && libs.contains(&"molecules"));
     }
 
     #[test]
