@@ -3,8 +3,8 @@
 //! hold nothing or a complete, valid `.glb`: the previous one or the new one, never a
 //! truncated mix. A killed writer may leave its temporary file, named
 //! `.NAME.PID.N.tmp` beside the target (hidden, never the final name); the test checks
-//! the names of any leftovers. (`mdgc build`'s twin is
-//! `cli/tests/atomic_output_mdgc.rs`.)
+//! the names of any leftovers. The same holds for `mdgc build` and its bundle: killed
+//! while compiling and while writing, the path holds nothing or a bundle that loads.
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -165,5 +165,55 @@ fn a_killed_mdg_run_never_leaves_a_partial_mesh() {
     let status = Command::new(bin).args([&src, Path::new("-o"), &out]).stderr(Stdio::null()).status().expect("run");
     assert!(status.success());
     check_glb(&std::fs::read(&out).expect("output")).expect("valid after a clean run");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_killed_mdgc_build_never_leaves_a_partial_bundle() {
+    let dir = scratch("build");
+    let src = dir.join("big.mdg");
+    let mut text = String::from("startshape r0\n");
+    for i in 0..5_000 {
+        text.push_str(&format!(
+            "rule r{i} {{ VERTEX {{x {i}}} VERTEX {{y 1}} VERTEX {{z 1}} r{} {{s 0.5}} }}\n",
+            i + 1
+        ));
+    }
+    text.push_str("rule r5000 { VERTEX {} }\n");
+    std::fs::write(&src, text).expect("write");
+    let out = dir.join("big.mdgb");
+    let bin = env!("CARGO_BIN_EXE_mdgc");
+    let mut killed = Vec::new();
+    let (mut absent, mut complete) = (0, 0);
+    for round in 0..6 {
+        let child = spawn(bin, &[Path::new("build"), &src, Path::new("-o"), &out], &[]);
+        let extra = Duration::from_micros([0u64, 200, 1_000, 5_000, 20_000, 0][round]);
+        let mut seen: Option<Instant> = None;
+        let t0 = Instant::now();
+        let (was_killed, pid) = kill_when(child, || {
+            if round == 5 {
+                return t0.elapsed() > Duration::from_millis(100); // while compiling
+            }
+            if seen.is_none() && !temps(&dir, "big.mdgb").is_empty() {
+                seen = Some(Instant::now());
+            }
+            seen.is_some_and(|s| s.elapsed() >= extra)
+        });
+        if was_killed {
+            killed.push(pid);
+        }
+        match std::fs::read(&out) {
+            Err(_) => absent += 1,
+            Ok(bytes) => {
+                if let Err(e) = mdg_vm::bundle::load(&bytes) {
+                    panic!("round {round}: {} holds a broken bundle ({} bytes): {e}", out.display(), bytes.len());
+                }
+                complete += 1;
+            }
+        }
+        check_leftovers(&dir, "big.mdgb", &killed);
+    }
+    assert!(!killed.is_empty(), "no build was killed");
+    assert_eq!(absent + complete, 6);
     let _ = std::fs::remove_dir_all(&dir);
 }
