@@ -133,16 +133,44 @@ pub enum DirArg {
     Expr(Expr),
 }
 
-/// `rule NAME [* ITER] [: XF]… [WEIGHT] { BODY }`.
+/// `rule NAME[(TYPE P [= DEFAULT], …)] [* ITER] [: XF]… [WEIGHT] { BODY }`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Rule {
     pub name: Name,
+    /// The parameter list, when written with parentheses (`rule tree(int n)`).
+    pub params: Option<Params>,
     pub iter: Option<Name>,
     pub transforms: Vec<Name>,
     pub weight: Option<Weight>,
     pub body: Vec<BodyItem>,
     /// The span of `{ … }`.
     pub body_span: Span,
+}
+
+/// A rule's parameter list `( … )`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Params {
+    pub params: Vec<ParamDecl>,
+    /// The span of `( … )` (with the name before it, for `rule tree(`: from `(`).
+    pub span: Span,
+}
+
+/// One parameter: `int n`, `float len = 1`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParamDecl {
+    /// `int`, `float` or `bool` (the checker rejects other words).
+    pub ty: Name,
+    pub name: Name,
+    pub default: Option<Expr>,
+    pub span: Span,
+}
+
+/// The arguments of a rule call `NAME(a, b) {ADJ}`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CallArgs {
+    pub args: Vec<Expr>,
+    /// The span of `( … )`.
+    pub span: Span,
 }
 
 /// A rule weight, possibly negated (which the checker rejects).
@@ -187,11 +215,37 @@ pub struct BodyItem {
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum BodyKind {
-    /// `NAME {ADJ}`, `DRAWABLE {ADJ}`, `ns.LINETO PROFILE {ADJ}`.
+    /// `NAME {ADJ}`, `NAME(ARG, …) {ADJ}`, `DRAWABLE {ADJ}`, `ns.LINETO PROFILE {ADJ}`.
     Call {
         name: Name,
+        args: Option<CallArgs>,
         profile: Option<Name>,
         adj: AdjList,
+    },
+    /// `if (COND) { BODY } [else { BODY } | else if …]`.
+    If {
+        cond: Expr,
+        then: Vec<BodyItem>,
+        /// The span of the `then` braces.
+        then_span: Span,
+        /// A `Block` (`else { … }`) or another `If` (`else if …`).
+        otherwise: Option<Box<BodyItem>>,
+    },
+    /// `let NAME = EXPR;`: a local binding, visible to the items after it in its block.
+    Let {
+        name: Name,
+        value: Expr,
+    },
+    /// `loop NAME = START, END [, STEP] {ADJ} ITEM`: ITEM runs once for each value of
+    /// NAME from START while below END (above it for a negative STEP), STEP apart
+    /// (default 1), each run under the adjustment applied once more (like `N * {ADJ}`).
+    Loop {
+        var: Name,
+        start: Expr,
+        end: Expr,
+        step: Option<Expr>,
+        adj: AdjList,
+        item: Box<BodyItem>,
     },
     /// `COUNT[/DIV] * {ADJ} [\\] ITEM`.
     Iterate {
@@ -281,12 +335,16 @@ pub enum ExprKind {
     Call(Name, Vec<Expr>),
     /// Parentheses as written (kept so formatting reproduces the same tree).
     Paren(Box<Expr>),
+    /// `!e`: 1 when `e` is 0, else 0.
+    Not(Box<Expr>),
     Error,
 }
 
 /// Binary operators, loosest first.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BinOp {
+    Or,
+    And,
     Lt,
     Le,
     Gt,
@@ -304,6 +362,8 @@ impl BinOp {
     /// The operator as written.
     pub fn symbol(self) -> &'static str {
         match self {
+            BinOp::Or => "||",
+            BinOp::And => "&&",
             BinOp::Lt => "<",
             BinOp::Le => "<=",
             BinOp::Gt => ">",

@@ -8,6 +8,7 @@ use crate::ast::*;
 use crate::diag::{did_you_mean, Diagnostic};
 use crate::expand::{ExpItem, Expanded};
 use crate::span::Span;
+use crate::types::{type_of, SigParam, Signature, Ty, TYPE_NAMES};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 
 /// Built-in drawables (SPEC §3, §7). This is the VM's `DRAW` kind table itself: lowering
@@ -193,6 +194,8 @@ pub struct Symbols {
     pub components: Components,
     /// Resolved rule references: (span of the use, full rule name).
     pub references: Vec<(Span, String)>,
+    /// Rule full name → its parameters (rules without a parameter list have none).
+    pub signatures: BTreeMap<String, Signature>,
 }
 
 impl Symbols {
@@ -234,7 +237,17 @@ pub struct Checked {
 
 /// Checks an expanded program.
 pub fn check(ex: &Expanded, opts: CheckOptions) -> Checked {
-    let mut c = Checker { ex, sym: Symbols::default(), diags: Vec::new(), call_graph: HashMap::new() };
+    let mut c = Checker {
+        ex,
+        sym: Symbols::default(),
+        diags: Vec::new(),
+        call_graph: HashMap::new(),
+        must_graph: HashMap::new(),
+        scope: None,
+        guards: Vec::new(),
+        conditional: 0,
+        rule_name: None,
+    };
     c.collect();
     c.items();
     c.whole_program(opts);
@@ -248,6 +261,38 @@ struct Checker<'a> {
     diags: Vec<Diagnostic>,
     /// Rule full name → rules its definitions call (per definition).
     call_graph: HashMap<String, Vec<Vec<String>>>,
+    /// Like `call_graph`, only the calls every run of the definition makes (not those
+    /// inside an `if` or a loop whose count is known only at run time).
+    must_graph: HashMap<String, Vec<Vec<String>>>,
+    /// The parameters and locals in scope while a rule body is checked (`None`
+    /// outside rule bodies).
+    scope: Option<Vec<Local>>,
+    /// The `if` conditions around the item being checked, with the branch taken
+    /// (`true`: then).
+    guards: Vec<(&'a Expr, bool)>,
+    /// How many `if` branches or run-time loops enclose the item being checked.
+    conditional: u32,
+    /// The full name of the rule whose body is being checked.
+    rule_name: Option<String>,
+}
+
+/// A parameter, `let` binding or loop variable in scope.
+#[derive(Clone, Debug)]
+struct Local {
+    name: String,
+    ty: Ty,
+    span: Span,
+    used: bool,
+    /// Its index in the rule's parameter list, for a parameter.
+    param: Option<usize>,
+}
+
+/// `e` without the parentheses around it.
+fn strip(e: &Expr) -> &Expr {
+    match &e.kind {
+        ExprKind::Paren(x) => strip(x),
+        _ => e,
+    }
 }
 
 fn qualify(ns: &Option<String>, name: &str) -> String {
@@ -290,6 +335,10 @@ impl<'a> Checker<'a> {
                             .with_note("rename the rule"),
                         );
                     }
+                    if !self.sym.rules.contains_key(&full) {
+                        let sig = self.signature(r);
+                        self.sym.signatures.insert(full.clone(), sig);
+                    }
                     self.sym.rules.entry(full).or_default().push(RuleDef {
                         item: idx,
                         name_span: r.name.span,
@@ -325,6 +374,40 @@ impl<'a> Checker<'a> {
                 }
                 _ => {}
             }
+        }
+    }
+
+    /// The signature a definition declares (bad types count as `float`; they are
+    /// reported when the definition is checked).
+    fn signature(&self, r: &Rule) -> Signature {
+        let params = r.params.iter().flat_map(|p| &p.params);
+        Signature {
+            params: params
+                .map(|p| SigParam {
+                    name: p.name.text.clone(),
+                    ty: Ty::parse(&p.ty.text).unwrap_or(Ty::Float),
+                    default: p.default.as_ref().and_then(|d| self.const_value(d)),
+                    span: p.span,
+                })
+                .collect(),
+        }
+    }
+
+    /// Reports a rule used where no caller passes arguments (start shape, profile,
+    /// transform, iterator, line or camera rule) that has a parameter without default.
+    fn no_arguments_needed(&mut self, full: &str, at: Span, what: &str) {
+        let Some(sig) = self.sym.signatures.get(full) else { return };
+        if let Some(p) = sig.params.iter().find(|p| p.default.is_none()) {
+            let label = sig.label(full);
+            let d = Diagnostic::error(
+                "E0324",
+                at,
+                format!("the {what} `{full}` is run without arguments, but its parameter `{}` has no default", p.name),
+            )
+            .with_label(format!("`{label}`"))
+            .with_secondary(p.span, "give this parameter a default")
+            .with_note(format!("write `{} {} = VALUE` in the parameter list", p.ty.name(), p.name));
+            self.diags.push(d);
         }
     }
 
@@ -364,7 +447,8 @@ impl<'a> Checker<'a> {
 
     fn items(&mut self) {
         let mut seen_directives: HashMap<String, Span> = HashMap::new();
-        for ExpItem { item, namespace } in &self.ex.items {
+        let ex = self.ex;
+        for ExpItem { item, namespace } in &ex.items {
             match &item.kind {
                 ItemKind::Startshape(n) => {
                     if let Some((_, prev)) = &self.sym.startshape {
@@ -377,16 +461,21 @@ impl<'a> Checker<'a> {
                     }
                     self.sym.startshape = Some((n.text.clone(), n.span));
                     if let Some(full) = self.rule_ref(n, namespace, "E0307", "start shape") {
+                        self.no_arguments_needed(&full, n.span, "start shape");
                         self.sym.startshape = Some((full, n.span));
                     }
                 }
                 ItemKind::Rule(r) => self.rule(r, namespace),
                 ItemKind::Selector { rules, mode } => self.selector(rules, mode, namespace),
                 ItemKind::Linerule(n) => {
-                    self.rule_ref(n, namespace, "E0308", "line rule");
+                    if let Some(full) = self.rule_ref(n, namespace, "E0308", "line rule") {
+                        self.no_arguments_needed(&full, n.span, "line rule");
+                    }
                 }
                 ItemKind::Camerarule(n) => {
-                    self.rule_ref(n, namespace, "E0308", "camera rule");
+                    if let Some(full) = self.rule_ref(n, namespace, "E0308", "camera rule") {
+                        self.no_arguments_needed(&full, n.span, "camera rule");
+                    }
                 }
                 ItemKind::Directive { name, args } => self.directive(name, args, namespace, &mut seen_directives),
                 ItemKind::Function { body, .. } => self.expr(body, true, false),
@@ -399,26 +488,301 @@ impl<'a> Checker<'a> {
         }
     }
 
-    fn rule(&mut self, r: &Rule, ns: &Option<String>) {
+    fn rule(&mut self, r: &'a Rule, ns: &Option<String>) {
         if let Some(i) = &r.iter {
-            self.rule_ref(i, ns, "E0308", "iterator rule");
+            if let Some(full) = self.rule_ref(i, ns, "E0308", "iterator rule") {
+                self.no_arguments_needed(&full, i.span, "iterator rule");
+            }
         }
         for t in &r.transforms {
-            self.rule_ref(t, ns, "E0308", "transform rule");
+            if let Some(full) = self.rule_ref(t, ns, "E0308", "transform rule") {
+                self.no_arguments_needed(&full, t.span, "transform rule");
+            }
         }
+        let full = (!r.name.text.is_empty()).then(|| qualify(ns, &r.name.text));
+        self.params(r, full.as_deref());
+        self.rule_name = full.clone();
         let mut calls = Vec::new();
-        self.body(&r.body, ns, &mut calls);
-        if !r.name.text.is_empty() {
-            let full = qualify(ns, &r.name.text);
-            self.call_graph.entry(full).or_default().push(calls);
+        let mut must = Vec::new();
+        self.body(&r.body, ns, &mut calls, &mut must);
+        self.unused_locals(0);
+        self.scope = None;
+        self.rule_name = None;
+        if let Some(full) = full {
+            self.call_graph.entry(full.clone()).or_default().push(calls);
+            self.must_graph.entry(full).or_default().push(must);
         }
     }
 
-    fn body(&mut self, items: &[BodyItem], ns: &Option<String>, calls: &mut Vec<String>) {
+    /// Checks a definition's parameter list against the rule's signature and opens
+    /// the body's scope with the parameters.
+    fn params(&mut self, r: &'a Rule, full: Option<&str>) {
+        let mut scope = Vec::new();
+        if let Some(p) = &r.params {
+            let mut seen_default: Option<Span> = None;
+            for (i, d) in p.params.iter().enumerate() {
+                let ty = match Ty::parse(&d.ty.text) {
+                    Some(t) => t,
+                    None => {
+                        let mut diag = Diagnostic::error(
+                            "E0325",
+                            d.ty.span,
+                            format!("unknown parameter type `{}`", d.ty.text),
+                        );
+                        // Context Free's `natural` and `number`.
+                        let fix = match d.ty.text.as_str() {
+                            "natural" | "integer" => Some("int"),
+                            "number" | "real" | "double" => Some("float"),
+                            "boolean" => Some("bool"),
+                            t => did_you_mean(t, TYPE_NAMES.iter().copied()),
+                        };
+                        diag = match fix {
+                            Some(f) => diag.with_suggestion(format!("write `{f}`"), d.ty.span, f.to_string()),
+                            None => diag.with_label("not a type"),
+                        };
+                        self.diags.push(diag.with_note("parameter types: int, float, bool"));
+                        Ty::Float
+                    }
+                };
+                if let Some(prev) = scope.iter().find(|l: &&Local| l.name == d.name.text) {
+                    let prev = prev.span;
+                    self.diags.push(
+                        Diagnostic::error("E0321", d.name.span, format!("parameter `{}` is declared twice", d.name.text))
+                            .with_secondary(prev, "first declared here"),
+                    );
+                }
+                match &d.default {
+                    Some(e) => {
+                        self.expr(e, false, false);
+                        match self.const_value(e) {
+                            None => self.diags.push(
+                                Diagnostic::error("E0408", e.span, "a parameter default must be a compile-time constant")
+                                    .with_note("defaults may use numbers, @param and @define names"),
+                            ),
+                            Some(_) => {
+                                let given = type_of(e, &|n| self.global_type(n));
+                                self.type_mismatch(ty, given, e, &format!("the default of `{}`", d.name.text));
+                            }
+                        }
+                        seen_default = Some(d.span);
+                    }
+                    None => {
+                        if let Some(prev) = seen_default {
+                            self.diags.push(
+                                Diagnostic::error(
+                                    "E0326",
+                                    d.span,
+                                    format!("parameter `{}` has no default but comes after one that has", d.name.text),
+                                )
+                                .with_secondary(prev, "this one has a default")
+                                .with_note("parameters with defaults come last (calls pass arguments by position)"),
+                            );
+                        }
+                    }
+                }
+                scope.push(Local { name: d.name.text.clone(), ty, span: d.name.span, used: false, param: Some(i) });
+            }
+        }
+        // Every definition of a rule takes the same parameters as its first.
+        if let Some(sig) = full.and_then(|f| self.sym.signatures.get(f)) {
+            let mine = self.signature(r);
+            let same = mine.params.len() == sig.params.len()
+                && mine.params.iter().zip(&sig.params).all(|(a, b)| a.ty == b.ty && a.name == b.name);
+            if !same {
+                let first = self.sym.rules.get(full.unwrap_or_default()).and_then(|d| d.first()).map(|d| d.name_span);
+                let at = r.params.as_ref().map(|p| p.span).unwrap_or(r.name.span);
+                let mut d = Diagnostic::error(
+                    "E0320",
+                    at,
+                    format!("this definition of `{}` takes different parameters", r.name.text),
+                )
+                .with_label(format!("the rule is `{}`", sig.label(&r.name.text)));
+                if let Some(f) = first.filter(|f| *f != r.name.span) {
+                    d = d.with_secondary(f, "its first definition");
+                }
+                self.diags.push(d.with_note("every definition of a rule has the same parameter list"));
+            }
+        }
+        self.scope = Some(scope);
+    }
+
+    /// Warns about parameters and locals from `from` on that were never read, and
+    /// closes their scope.
+    fn unused_locals(&mut self, from: usize) {
+        let Some(scope) = self.scope.as_mut() else { return };
+        let gone: Vec<Local> = scope.drain(from.min(scope.len())..).collect();
+        for l in gone.into_iter().filter(|l| !l.used && !l.name.starts_with('_')) {
+            let what = if l.param.is_some() { "parameter" } else { "local" };
+            self.diags.push(
+                Diagnostic::warning("W0006", l.span, format!("{what} `{}` is never used", l.name))
+                    .with_label("never read")
+                    .with_note(format!("use it, remove it, or name it `_{}`", l.name)),
+            );
+        }
+    }
+
+    /// Opens a binding (`let`, loop variable) in the current scope.
+    fn bind(&mut self, name: &Name, ty: Ty) {
+        let Some(scope) = self.scope.as_mut() else { return };
+        if let Some(prev) = scope.iter().find(|l| l.name == name.text) {
+            let prev = prev.span;
+            self.diags.push(
+                Diagnostic::error("E0321", name.span, format!("`{}` is already defined in this rule", name.text))
+                    .with_secondary(prev, "defined here")
+                    .with_note("give the new binding another name (bindings cannot shadow each other)"),
+            );
+            return;
+        }
+        scope.push(Local { name: name.text.clone(), ty, span: name.span, used: false, param: None });
+    }
+
+    /// The type of a name outside rule bodies: `@param` by its declared type,
+    /// `@define` by its value, `true`/`false`, and the run-time variables.
+    fn global_type(&self, name: &str) -> Option<Ty> {
+        if let Some(p) = self.ex.params.iter().find(|p| p.name.text == name) {
+            return Ty::parse(&p.ty).or(Some(Ty::Float));
+        }
+        if let Some(v) = self.ex.defines.get(name) {
+            return Some(if v.is_some_and(|v| v.fract() != 0.0) { Ty::Float } else { Ty::Int });
+        }
+        match name {
+            "true" | "false" => Some(Ty::Bool),
+            "depth" => Some(Ty::Int),
+            _ => None,
+        }
+    }
+
+    /// The type of a name in the current scope.
+    fn var_type(&self, name: &str) -> Option<Ty> {
+        if let Some(l) = self.scope.as_ref().and_then(|s| s.iter().rev().find(|l| l.name == name)) {
+            return Some(l.ty);
+        }
+        self.global_type(name)
+    }
+
+    /// Reports `e` (of type `given`) where a `want` is expected.
+    fn type_mismatch(&mut self, want: Ty, given: Ty, e: &Expr, what: &str) {
+        if want.accepts(given) {
+            return;
+        }
+        let text = crate::fmt::expr(e);
+        let mut d = Diagnostic::error(
+            "E0323",
+            e.span,
+            format!("{what} is a `{}`, but this is a `{}`", want.name(), given.name()),
+        );
+        d = match crate::types::conversion(want, given, &text) {
+            Some(fix) => d.with_suggestion(format!("convert it: `{fix}`"), e.span, fix),
+            None => d.with_label(format!("expected `{}`", want.name())),
+        };
+        self.diags.push(d);
+    }
+
+    /// Checks a call's arguments against the callee's signature.
+    fn call_args(&mut self, full: &str, name: &Name, args: Option<&'a CallArgs>) {
+        let sig = self.sym.signatures.get(full).cloned().unwrap_or_default();
+        let given = args.map(|a| a.args.len()).unwrap_or(0);
+        let (lo, hi) = (sig.required(), sig.params.len());
+        if given < lo || given > hi {
+            let want = if lo == hi { format!("{lo}") } else { format!("{lo} to {hi}") };
+            let at = args.map(|a| a.span).unwrap_or(name.span);
+            let mut d = Diagnostic::error(
+                "E0322",
+                at,
+                format!("`{}` takes {want} argument(s) but {given} were given", name.text),
+            )
+            .with_label(format!("the rule is `{}`", sig.label(&name.text)));
+            if args.is_none() && lo > 0 {
+                let names: Vec<&str> = sig.params[..lo].iter().map(|p| p.name.as_str()).collect();
+                let end = Span::new(name.span.file, name.span.end, name.span.end);
+                d = d.with_suggestion("pass the arguments", end, format!("({})", names.join(", ")));
+            }
+            self.diags.push(d);
+        }
+        let Some(args) = args else { return };
+        for (a, p) in args.args.iter().zip(&sig.params) {
+            self.expr(a, false, true);
+            let given = type_of(a, &|n| self.var_type(n));
+            self.type_mismatch(p.ty, given, a, &format!("parameter `{}` of `{}`", p.name, name.text));
+        }
+        for a in args.args.iter().skip(sig.params.len()) {
+            self.expr(a, false, true);
+        }
+        self.runaway(full, name, &sig, args);
+    }
+
+    /// W0007: a direct recursion whose guard can never become false (`if (n > 0)`
+    /// around `R(n + 1)`), in a program with no `maxdepth` or `minsize`.
+    fn runaway(&mut self, full: &str, name: &Name, sig: &Signature, args: &CallArgs) {
+        if self.rule_name.as_deref() != Some(full) || self.guards.is_empty() || self.has_limit() {
+            return;
+        }
+        let param_of = |e: &Expr| -> Option<usize> {
+            match &strip(e).kind {
+                ExprKind::Var(v) => sig.params.iter().position(|p| p.name == v.text),
+                _ => None,
+            }
+        };
+        // The change an argument makes to parameter i: `p`, `p + k`, `p - k`.
+        let change = |i: usize, a: &Expr| -> Option<f64> {
+            let a = strip(a);
+            if param_of(a) == Some(i) {
+                return Some(0.0);
+            }
+            match &a.kind {
+                ExprKind::Binary(op @ (BinOp::Add | BinOp::Sub), x, k) if param_of(x) == Some(i) => {
+                    let k = self.const_value(k)?;
+                    Some(if *op == BinOp::Add { k } else { -k })
+                }
+                _ => None,
+            }
+        };
+        for &(cond, taken) in &self.guards {
+            let ExprKind::Binary(op, l, r) = &strip(cond).kind else { continue };
+            let Some(i) = param_of(l) else { continue };
+            if self.const_value(r).is_none() {
+                continue;
+            }
+            let Some(arg) = args.args.get(i) else { continue };
+            let Some(delta) = change(i, arg) else { continue };
+            // Whether the guard, true now, stays true for the argument.
+            let stays = match (op, taken) {
+                (BinOp::Gt | BinOp::Ge, true) | (BinOp::Lt | BinOp::Le, false) => delta >= 0.0,
+                (BinOp::Lt | BinOp::Le, true) | (BinOp::Gt | BinOp::Ge, false) => delta <= 0.0,
+                _ => false,
+            };
+            if stays {
+                let p = &sig.params[i].name;
+                let dir = if delta > 0.0 { "grows" } else if delta < 0.0 { "shrinks" } else { "stays the same" };
+                self.diags.push(
+                    Diagnostic::warning("W0007", arg.span, format!("this recursion of `{}` never stops", name.text))
+                        .with_label(format!("`{p}` {dir} here"))
+                        .with_secondary(cond.span, "so this condition stays true")
+                        .with_note("move the parameter towards the end of the condition, or add `maxdepth N`"),
+                );
+                return;
+            }
+        }
+    }
+
+    fn has_limit(&self) -> bool {
+        self.ex.items.iter().any(|ExpItem { item, .. }| {
+            matches!(&item.kind, ItemKind::Directive { name, .. } if name.text == "maxdepth" || name.text == "minsize")
+        })
+    }
+
+    fn body(&mut self, items: &'a [BodyItem], ns: &Option<String>, calls: &mut Vec<String>, must: &mut Vec<String>) {
+        let scope_at = self.scope.as_ref().map(|s| s.len()).unwrap_or(0);
         for item in items {
             match &item.kind {
-                BodyKind::Call { name, profile, adj } => {
+                BodyKind::Call { name, args, profile, adj } => {
                     if self.sym.is_drawable(&name.text) {
+                        if let Some(a) = args {
+                            self.diags.push(
+                                Diagnostic::error("E0322", a.span, format!("`{}` takes no arguments", name.text))
+                                    .with_suggestion("remove them", a.span, String::new()),
+                            );
+                        }
                         if let Some(p) = profile {
                             let last = name.text.rsplit('.').next().unwrap_or("");
                             if !PROFILE_DRAWABLES.contains(&last) {
@@ -428,7 +792,8 @@ impl<'a> Checker<'a> {
                                     format!("`{}` does not take a profile rule", name.text),
                                 ));
                             } else if let Some(full) = self.rule_ref(p, ns, "E0301", "profile rule") {
-                                calls.push(full);
+                                self.no_arguments_needed(&full, p.span, "profile rule");
+                                self.called(full, calls, must);
                             }
                         }
                     } else if let Some(p) = profile {
@@ -440,68 +805,146 @@ impl<'a> Checker<'a> {
                         match self.sym.resolve(&name.text, ns.as_deref()) {
                             Some(full) => {
                                 self.sym.references.push((name.span, full.clone()));
-                                calls.push(full);
+                                self.call_args(&full, name, args.as_ref());
+                                self.called(full, calls, must);
                             }
                             None => {
-                                let mut cands: Vec<&str> = self.sym.rules.keys().map(|k| k.as_str()).collect();
-                                cands.extend(DRAWABLES);
-                                cands.extend(self.sym.isosurfaces.keys().map(|k| k.as_str()));
-                                let mut d =
-                                    Diagnostic::error("E0301", name.span, format!("unknown rule `{}`", name.text));
-                                if let Some(lib) = crate::stdlib::library_defining(&name.text) {
-                                    // A std name (thesis Listing 4.1 calls `SPHERE {}` as if it
-                                    // were built in): the fix adds the import.
-                                    let top = crate::span::Span::new(name.span.file, 0, 0);
-                                    d = d
-                                        .with_label(format!(
-                                            "`{}` is defined by the std library `{lib}`, which is not imported",
-                                            name.text
-                                        ))
-                                        .with_suggestion(
-                                            format!("add `@import {lib}`"),
-                                            top,
-                                            format!("@import {lib}\n"),
-                                        );
-                                } else if let Some(s) = did_you_mean(&name.text, cands) {
-                                    d = d.with_suggestion(format!("did you mean `{s}`?"), name.span, s.to_string());
-                                } else {
-                                    d = d.with_label("no rule or drawable has this name");
+                                self.unknown_rule(name);
+                                for a in args.iter().flat_map(|a| &a.args) {
+                                    self.expr(a, false, true);
                                 }
-                                self.diags.push(d);
                             }
                         }
                     }
                     self.adj_list(adj);
                 }
                 BodyKind::Iterate { count, divisor, adj, item, .. } => {
-                    self.count(count, false);
+                    let dynamic = self.count(count, false);
                     if let Some(d) = divisor {
                         self.count(d, true);
                     }
                     self.adj_list(adj);
-                    self.body(std::slice::from_ref(item), ns, calls);
+                    self.conditional += dynamic as u32;
+                    self.body(std::slice::from_ref(item), ns, calls, must);
+                    self.conditional -= dynamic as u32;
                 }
-                BodyKind::Block(items) => self.body(items, ns, calls),
+                BodyKind::Block(items) => self.body(items, ns, calls, must),
+                BodyKind::If { cond, then, otherwise, .. } => {
+                    self.expr(cond, false, true);
+                    self.conditional += 1;
+                    self.guards.push((cond, true));
+                    self.body(then, ns, calls, must);
+                    self.guards.pop();
+                    if let Some(o) = otherwise {
+                        self.guards.push((cond, false));
+                        self.body(std::slice::from_ref(o), ns, calls, must);
+                        self.guards.pop();
+                    }
+                    self.conditional -= 1;
+                }
+                BodyKind::Let { name, value } => {
+                    self.expr(value, false, true);
+                    let ty = type_of(value, &|n| self.var_type(n));
+                    if self.scope.is_some() {
+                        self.bind(name, ty);
+                    }
+                }
+                BodyKind::Loop { var, start, end, step, adj, item } => {
+                    for e in [Some(start), Some(end), step.as_ref()].into_iter().flatten() {
+                        self.expr(e, false, true);
+                    }
+                    let tys: Vec<Ty> = [Some(start), step.as_ref()]
+                        .into_iter()
+                        .flatten()
+                        .map(|e| type_of(e, &|n| self.var_type(n)))
+                        .collect();
+                    if let Some(s) = step {
+                        if self.const_value(s) == Some(0.0) {
+                            self.diags.push(
+                                Diagnostic::error("E0403", s.span, "a loop step of 0 never reaches the end")
+                                    .with_label("this is 0"),
+                            );
+                        }
+                    }
+                    self.adj_list(adj);
+                    let mark = self.scope.as_ref().map(|s| s.len()).unwrap_or(0);
+                    let ty = if tys.iter().all(|t| *t == Ty::Int) { Ty::Int } else { Ty::Float };
+                    self.bind(var, ty);
+                    self.conditional += 1;
+                    self.body(std::slice::from_ref(item), ns, calls, must);
+                    self.conditional -= 1;
+                    self.unused_locals(mark);
+                }
                 BodyKind::Pre(_) | BodyKind::Error => {}
             }
         }
+        self.unused_locals(scope_at);
+    }
+
+    /// Records a call of rule `full` in the call graphs.
+    fn called(&mut self, full: String, calls: &mut Vec<String>, must: &mut Vec<String>) {
+        if self.conditional == 0 {
+            must.push(full.clone());
+        }
+        calls.push(full);
+    }
+
+    fn unknown_rule(&mut self, name: &Name) {
+        let mut cands: Vec<&str> = self.sym.rules.keys().map(|k| k.as_str()).collect();
+        cands.extend(DRAWABLES);
+        cands.extend(self.sym.isosurfaces.keys().map(|k| k.as_str()));
+        let mut d = Diagnostic::error("E0301", name.span, format!("unknown rule `{}`", name.text));
+        if let Some(lib) = crate::stdlib::library_defining(&name.text) {
+            // A std name (thesis Listing 4.1 calls `SPHERE {}` as if it
+            // were built in): the fix adds the import.
+            let top = crate::span::Span::new(name.span.file, 0, 0);
+            d = d
+                .with_label(format!("`{}` is defined by the std library `{lib}`, which is not imported", name.text))
+                .with_suggestion(format!("add `@import {lib}`"), top, format!("@import {lib}\n"));
+        } else if let Some(s) = did_you_mean(&name.text, cands) {
+            d = d.with_suggestion(format!("did you mean `{s}`?"), name.span, s.to_string());
+        } else {
+            d = d.with_label("no rule or drawable has this name");
+        }
+        self.diags.push(d);
     }
 
     /// The compile-time value of a count expression, if it has one.
     fn const_value(&self, e: &Expr) -> Option<f64> {
-        crate::consteval::eval(e, &|n| self.ex.constant(n))
+        let scope = self.scope.as_deref().unwrap_or(&[]);
+        crate::consteval::eval(e, &|n| {
+            if scope.iter().any(|l| l.name == n) {
+                return None;
+            }
+            match n {
+                "true" => Some(1.0),
+                "false" => Some(0.0),
+                _ => self.ex.constant(n),
+            }
+        })
     }
 
-    fn count(&mut self, c: &Count, divisor: bool) {
+    /// Checks an iterator count (or divisor); returns whether it is known only at run
+    /// time (a count over parameters, locals, `depth` or `scale`).
+    fn count(&mut self, c: &Count, divisor: bool) -> bool {
         let value = match c {
             Count::Num(n) => {
                 if n.unit.is_some() {
                     self.unit_error(n);
-                    return;
+                    return false;
                 }
                 n.value
             }
             Count::Neg(n) => -n.value,
+            Count::Expr(e) if !divisor && self.const_value(e).is_none() => {
+                let before = self.diags.len();
+                self.expr(e, false, false);
+                if self.diags.len() == before {
+                    let given = type_of(e, &|n| self.var_type(n));
+                    self.type_mismatch(Ty::Int, given, e, "an iteration count");
+                }
+                return true;
+            }
             Count::Expr(e) => {
                 // Run-time variables are known names here, just not constants.
                 let before = self.diags.len();
@@ -514,14 +957,12 @@ impl<'a> Checker<'a> {
                                 Diagnostic::error(
                                     "E0408",
                                     e.span,
-                                    "an iteration count must be a compile-time constant",
+                                    "an iterator divisor must be a compile-time constant",
                                 )
-                                .with_note(
-                                    "counts may use numbers, @param and @define names, not x, y, z, depth, scale or g",
-                                ),
+                                .with_note("divisors may use numbers, @param and @define names"),
                             );
                         }
-                        return;
+                        return false;
                     }
                 }
             }
@@ -539,6 +980,7 @@ impl<'a> Checker<'a> {
                     .with_label(format!("this is {value}")),
             );
         }
+        false
     }
 
     fn unit_error(&mut self, n: &Number) {
@@ -597,8 +1039,15 @@ impl<'a> Checker<'a> {
         match &e.kind {
             ExprKind::Num(_) | ExprKind::Error => {}
             ExprKind::Var(v) => {
+                if let Some(l) = self.scope.as_mut().and_then(|s| s.iter_mut().rev().find(|l| l.name == v.text)) {
+                    l.used = true;
+                    return;
+                }
+                let in_body = self.scope.is_some();
                 let known = self.ex.constant(&v.text).is_some()
                     || self.ex.params.iter().any(|p| p.name.text == v.text)
+                    || matches!(v.text.as_str(), "true" | "false")
+                    || (in_body && matches!(v.text.as_str(), "depth" | "scale"))
                     || (function_vars && FUNCTION_VARS.contains(&v.text.as_str()));
                 if !known {
                     let mut cands: Vec<&str> = self.ex.params.iter().map(|p| p.name.text.as_str()).collect();
@@ -606,18 +1055,27 @@ impl<'a> Checker<'a> {
                     if function_vars {
                         cands.extend(FUNCTION_VARS);
                     }
+                    let locals: Vec<String> = self.scope.iter().flatten().map(|l| l.name.clone()).collect();
+                    cands.extend(locals.iter().map(|s| s.as_str()));
+                    if in_body {
+                        cands.extend(["depth", "scale"]);
+                    }
                     let mut d = Diagnostic::error("E0311", v.span, format!("unknown variable `{}`", v.text));
                     if let Some(s) = did_you_mean(&v.text, cands) {
                         d = d.with_suggestion(format!("did you mean `{s}`?"), v.span, s.to_string());
                     } else if function_vars {
                         d = d.with_note("expressions may use x, y, z, depth, scale, g and @param names");
+                    } else if in_body {
+                        d = d.with_note(
+                            "in a rule body expressions may use the rule's parameters, `let` bindings, loop variables, depth, scale and @param/@define names",
+                        );
                     } else {
                         d = d.with_note("here expressions may use numbers and @param/@define names");
                     }
                     self.diags.push(d);
                 }
             }
-            ExprKind::Neg(x) | ExprKind::Paren(x) => self.expr(x, function_vars, random),
+            ExprKind::Neg(x) | ExprKind::Paren(x) | ExprKind::Not(x) => self.expr(x, function_vars, random),
             ExprKind::Binary(_, a, b) => {
                 self.expr(a, function_vars, random);
                 self.expr(b, function_vars, random);
@@ -1123,7 +1581,7 @@ impl<'a> Checker<'a> {
         let mut callers: HashMap<&str, Vec<(&str, usize)>> = HashMap::new();
         let mut left: HashMap<(&str, usize), usize> = HashMap::new();
         let mut queue: Vec<&str> = Vec::new();
-        for (full, defs) in &self.call_graph {
+        for (full, defs) in &self.must_graph {
             for (i, calls) in defs.iter().enumerate() {
                 let open: BTreeSet<&str> = calls
                     .iter()

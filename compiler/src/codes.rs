@@ -737,6 +737,138 @@ rule A {
         ),
     },
     Code {
+        code: "E0320",
+        severity: Error,
+        title: "definitions with different parameters",
+        explanation: r#"Two definitions of one rule declare different parameter lists.
+
+A call passes its arguments by position to whichever definition the selector picks, so every definition of a rule takes the same parameters (same names, same types, in the same order).
+
+In the example: the second definition of `tree` has no `len`.
+
+Fix: Give every definition the parameter list of the first."#,
+        example: Library(
+            r#"rule tree(int n, float len) {
+  VERTEX {} VERTEX {x len} VERTEX {y n}
+}
+
+rule tree(int n) 0.5 {
+  VERTEX {} VERTEX {x 1} VERTEX {y n}
+}
+"#,
+        ),
+    },
+    Code {
+        code: "E0321",
+        severity: Error,
+        title: "name defined twice in a rule",
+        explanation: r#"A parameter, `let` binding or loop variable has the name of another one already in scope.
+
+Bindings cannot shadow each other: a name means one value throughout its scope.
+
+In the example: `let n` inside `tree` names a second `n`.
+
+Fix: Give the new binding another name."#,
+        example: Library(
+            r#"rule tree(int n) {
+  let n = 2;
+  VERTEX {} VERTEX {x n} VERTEX {y 1}
+}
+"#,
+        ),
+    },
+    Code {
+        code: "E0322",
+        severity: Error,
+        title: "wrong number of arguments",
+        explanation: r#"A rule call passes more arguments than the rule has parameters, or fewer than its parameters without a default; or a drawable is given arguments.
+
+In the example: `tree` needs `n` (it has no default), and the call passes nothing.
+
+Fix: Pass one argument per parameter, in order; parameters with a default may be left out at the end."#,
+        example: Library(
+            r#"rule A { tree {} }
+
+rule tree(int n, float len = 1) {
+  VERTEX {} VERTEX {x len} VERTEX {y n}
+}
+"#,
+        ),
+    },
+    Code {
+        code: "E0323",
+        severity: Error,
+        title: "mismatched types",
+        explanation: r#"A value of one type where another is expected: a `float` passed to an `int` parameter, a number to a `bool` one, a fractional iteration count.
+
+An `int` is accepted where a `float` is expected; nothing else converts by itself. `floor(x)` and `ceil(x)` make an `int`, a comparison (`x != 0`) makes a `bool`. `/` and `^` always give a `float`.
+
+In the example: `n / 2` is a `float`, and `n` is an `int` parameter.
+
+Fix: Convert the value (the fix shows how), or change the parameter's type."#,
+        example: Library(
+            r#"rule tree(int n) {
+  VERTEX {} VERTEX {x 1} VERTEX {y 1}
+  if (n > 1) { tree(n / 2) {s 0.5} }
+}
+"#,
+        ),
+    },
+    Code {
+        code: "E0324",
+        severity: Error,
+        title: "rule needs arguments where none are passed",
+        explanation: r#"A rule with a parameter that has no default is used where no call passes arguments: as the start shape, a profile, transform, iterator, line or camera rule.
+
+Those runs start at the rule itself, so every parameter takes its default.
+
+In the example: the start shape `tree` has a parameter `n` without a default.
+
+Fix: Give the parameters defaults (`int n = 8`), or start from a rule that calls `tree(8) {}`."#,
+        example: Program(
+            r#"startshape tree
+
+rule tree(int n) {
+  VERTEX {} VERTEX {x 1} VERTEX {y n}
+}
+"#,
+        ),
+    },
+    Code {
+        code: "E0325",
+        severity: Error,
+        title: "unknown parameter type",
+        explanation: r#"A parameter's type is not `int`, `float` or `bool`.
+
+In the example: `natural` is Context Free's word for a whole number; MDG says `int`.
+
+Fix: Use `int` (whole numbers), `float` (any number) or `bool` (true or false)."#,
+        example: Library(
+            r#"rule tree(natural n) {
+  VERTEX {} VERTEX {x 1} VERTEX {y n}
+}
+"#,
+        ),
+    },
+    Code {
+        code: "E0326",
+        severity: Error,
+        title: "parameter without default after one with",
+        explanation: r#"A parameter without a default follows one that has a default.
+
+Arguments are passed by position and only trailing ones may be left out, so the parameters with defaults come last.
+
+In the example: `n` has no default but comes after `len = 1`.
+
+Fix: Move the parameters with defaults to the end, or give this one a default too."#,
+        example: Library(
+            r#"rule tree(float len = 1, int n) {
+  VERTEX {} VERTEX {x len} VERTEX {y n}
+}
+"#,
+        ),
+    },
+    Code {
         code: "E0401",
         severity: Error,
         title: "wrong number of arguments",
@@ -893,16 +1025,18 @@ rule A {
         code: "E0408",
         severity: Error,
         title: "not a compile-time constant",
-        explanation: r#"Expression is not a compile-time constant where one is required.
+        explanation: r#"Expression is not a compile-time constant where one is required: an iterator divisor, a parameter default, a directive value.
 
-In the example: an iterator count must be a compile-time constant, but `depth` is only known at run time.
+Iterator counts may be known only at run time (`(n) * {…}` over a parameter), but divisors and defaults are fixed when the grammar is compiled.
 
-Fix: Use literals, `@param`/`@define` constants and functions of them; run-time values such as `depth` cannot be used here."#,
+In the example: an iterator divisor reads `depth`, which is only known at run time.
+
+Fix: Use literals, `@param`/`@define` constants and functions of them."#,
         example: Library(
             r#"startshape A
 
 rule A {
-  (depth) * {z 1} B {}
+  4/(depth) * {z 1} B {}
 }
 
 rule B {
@@ -1874,6 +2008,41 @@ selector A random
 
 rule A {
   VERTEX {} VERTEX {x 1} VERTEX {y 1}
+}
+"#,
+        ),
+    },
+    Code {
+        code: "W0006",
+        severity: Warning,
+        title: "parameter or local never used",
+        explanation: r#"A rule parameter, `let` binding or loop variable is never read.
+
+In the example: the loop variable `i` is not used in the loop's body.
+
+Fix: Use it, remove it, or start its name with `_` to say it is unused on purpose (`loop _i = 0, 5 …`)."#,
+        example: Library(
+            r#"rule ring {
+  loop i = 0, 5 {rz 72} VERTEX {y 1}
+}
+"#,
+        ),
+    },
+    Code {
+        code: "W0007",
+        severity: Warning,
+        title: "recursion on a parameter that never stops",
+        explanation: r#"A rule calls itself inside an `if` whose condition the call's arguments keep true: `if (n > 0) { R(n + 1) {…} }` recurses for ever.
+
+The checker reports the decidable case: a comparison of a parameter with a constant, and an argument that is the parameter plus or minus a constant moving away from the end. Runs stop at the rule-call limit (`--maxiter`) with a warning.
+
+In the example: `n` grows while `n > 0` requires it to stay above 0.
+
+Fix: Move the parameter towards the end of the condition (`n - 1`), or bound the recursion with `maxdepth N`."#,
+        example: Library(
+            r#"rule tree(int n) {
+  VERTEX {} VERTEX {x 1} VERTEX {y 1}
+  if (n > 0) { tree(n + 1) {y 1 s 0.9} }
 }
 "#,
         ),

@@ -12,6 +12,7 @@ pub fn eval(e: &Expr, var: &dyn Fn(&str) -> Option<f64>) -> Option<f64> {
         ExprKind::Num(n) => n.value,
         ExprKind::Var(v) => var(&v.text)?,
         ExprKind::Neg(x) => -eval(x, var)?,
+        ExprKind::Not(x) => (eval(x, var)? == 0.0) as u8 as f64,
         ExprKind::Paren(x) => eval(x, var)?,
         ExprKind::Binary(op, a, b) => {
             let i = BINOPS.iter().position(|s| *s == op.symbol())?;

@@ -41,6 +41,17 @@ impl Dumper {
             ItemKind::Startshape(n) => self.line(&format!("Startshape {} {at}", n.text)),
             ItemKind::Rule(r) => {
                 let mut head = format!("Rule {}", r.name.text);
+                if let Some(p) = &r.params {
+                    let list: Vec<String> = p
+                        .params
+                        .iter()
+                        .map(|d| {
+                            let def = if d.default.is_some() { "=…" } else { "" };
+                            format!("{} {}{def}", d.ty.text, d.name.text)
+                        })
+                        .collect();
+                    let _ = write!(head, "({})", list.join(", "));
+                }
                 if let Some(i) = &r.iter {
                     let _ = write!(head, " *{}", i.text);
                 }
@@ -170,9 +181,39 @@ impl Dumper {
     fn body_item(&mut self, item: &BodyItem) {
         let at = format!("{}@{}..{}", if item.cont { "\\ " } else { "" }, item.span.start, item.span.end);
         match &item.kind {
-            BodyKind::Call { name, profile, adj } => {
+            BodyKind::Call { name, args, profile, adj } => {
                 let p = profile.as_ref().map(|p| format!(" profile={}", p.text)).unwrap_or_default();
-                self.nested(&format!("Call {}{p} {at}", name.text), |d| d.adj_list(adj));
+                self.nested(&format!("Call {}{p} {at}", name.text), |d| {
+                    if let Some(args) = args {
+                        d.nested(&format!("Args @{}..{}", args.span.start, args.span.end), |d| {
+                            for a in &args.args {
+                                d.expr(a);
+                            }
+                        });
+                    }
+                    d.adj_list(adj)
+                });
+            }
+            BodyKind::If { cond, then, then_span, otherwise } => {
+                self.nested(&format!("If {at}"), |d| {
+                    d.nested("Cond", |d| d.expr(cond));
+                    d.nested(&format!("Then @{}..{}", then_span.start, then_span.end), |d| d.body(then));
+                    if let Some(o) = otherwise {
+                        d.nested("Else", |d| d.body_item(o));
+                    }
+                });
+            }
+            BodyKind::Let { name, value } => self.nested(&format!("Let {} {at}", name.text), |d| d.expr(value)),
+            BodyKind::Loop { var, start, end, step, adj, item } => {
+                self.nested(&format!("Loop {} {at}", var.text), |d| {
+                    d.expr(start);
+                    d.expr(end);
+                    if let Some(s) = step {
+                        d.nested("Step", |d| d.expr(s));
+                    }
+                    d.adj_list(adj);
+                    d.body_item(item);
+                });
             }
             BodyKind::Iterate { count, divisor, adj, chain, item } => {
                 let c = count_text(count);
@@ -230,6 +271,7 @@ impl Dumper {
             ExprKind::Num(n) => self.line(&format!("Num {}", n.text)),
             ExprKind::Var(v) => self.line(&format!("Var {}", v.text)),
             ExprKind::Neg(x) => self.nested("Neg", |d| d.expr(x)),
+            ExprKind::Not(x) => self.nested("Not", |d| d.expr(x)),
             ExprKind::Binary(op, a, b) => self.nested(&format!("Binary {}", op.symbol()), |d| {
                 d.expr(a);
                 d.expr(b);

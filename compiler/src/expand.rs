@@ -391,20 +391,22 @@ impl<'a> Expander<'a> {
                 Pre::Bad => {}
             },
             BodyKind::Iterate { count, divisor, adj, chain, item: inner } => {
-                let mut v = Vec::new();
-                self.nest += 1;
-                self.body_item(*inner, &mut v);
-                self.nest -= 1;
-                let inner = if v.len() == 1 {
-                    v.pop().unwrap_or(BodyItem { kind: BodyKind::Error, cont: false, span: item.span })
-                } else {
-                    let span = v.first().map(|f| f.span).unwrap_or(item.span);
-                    BodyItem { kind: BodyKind::Block(v), cont: false, span }
-                };
+                let inner = self.single(*inner, item.span);
                 out.push(BodyItem {
                     kind: BodyKind::Iterate { count, divisor, adj, chain, item: Box::new(inner) },
                     ..item
                 });
+            }
+            BodyKind::Loop { var, start, end, step, adj, item: inner } => {
+                let inner = self.single(*inner, item.span);
+                out.push(BodyItem { kind: BodyKind::Loop { var, start, end, step, adj, item: Box::new(inner) }, ..item });
+            }
+            BodyKind::If { cond, then, then_span, otherwise } => {
+                self.nest += 1;
+                let then = self.body(then);
+                self.nest -= 1;
+                let otherwise = otherwise.map(|o| Box::new(self.single(*o, item.span)));
+                out.push(BodyItem { kind: BodyKind::If { cond, then, then_span, otherwise }, ..item });
             }
             BodyKind::Block(items) => {
                 self.nest += 1;
@@ -413,6 +415,21 @@ impl<'a> Expander<'a> {
                 out.push(BodyItem { kind: BodyKind::Block(items), ..item });
             }
             kind => out.push(BodyItem { kind, ..item }),
+        }
+    }
+
+    /// Expands an item that must stay one item (an iterator's or `else`'s): what a
+    /// macro turns it into is wrapped in a block.
+    fn single(&mut self, inner: BodyItem, at: Span) -> BodyItem {
+        let mut v = Vec::new();
+        self.nest += 1;
+        self.body_item(inner, &mut v);
+        self.nest -= 1;
+        if v.len() == 1 {
+            v.pop().unwrap_or(BodyItem { kind: BodyKind::Error, cont: false, span: at })
+        } else {
+            let span = v.first().map(|f| f.span).unwrap_or(at);
+            BodyItem { kind: BodyKind::Block(v), cont: false, span }
         }
     }
 

@@ -169,6 +169,9 @@ impl<'a> Printer<'a> {
             ItemKind::Camerarule(n) => self.out.push_str(&format!("camerarule {}", n.text)),
             ItemKind::Rule(r) => {
                 let mut head = format!("rule {}", r.name.text);
+                if let Some(p) = &r.params {
+                    head.push_str(&params(p));
+                }
                 if let Some(i) = &r.iter {
                     head.push_str(&format!(" * {}", i.text));
                 }
@@ -400,8 +403,12 @@ impl<'a> Printer<'a> {
 
     fn body_kind(&mut self, item: &BodyItem) {
         match &item.kind {
-            BodyKind::Call { name, profile, adj } => {
+            BodyKind::Call { name, args, profile, adj } => {
                 self.out.push_str(&name.text);
+                if let Some(a) = args {
+                    let a: Vec<String> = a.args.iter().map(expr).collect();
+                    self.out.push_str(&format!("({})", a.join(", ")));
+                }
                 if let Some(p) = profile {
                     self.out.push(' ');
                     self.out.push_str(&p.text);
@@ -421,6 +428,25 @@ impl<'a> Printer<'a> {
                 self.body_kind(inner);
             }
             BodyKind::Block(items) => self.body_block(items, item.span.end),
+            BodyKind::If { cond, then, then_span, otherwise } => {
+                self.out.push_str(&format!("if ({}) ", expr(cond)));
+                self.body_block(then, then_span.end);
+                if let Some(o) = otherwise {
+                    self.out.push_str(" else ");
+                    self.body_kind(o);
+                }
+            }
+            BodyKind::Let { name, value } => self.out.push_str(&format!("let {} = {};", name.text, expr(value))),
+            BodyKind::Loop { var, start, end, step, adj, item: inner } => {
+                self.out.push_str(&format!("loop {} = {}, {}", var.text, expr(start), expr(end)));
+                if let Some(s) = step {
+                    self.out.push_str(&format!(", {}", expr(s)));
+                }
+                self.out.push(' ');
+                self.out.push_str(&adj_list(adj));
+                self.out.push(' ');
+                self.body_kind(inner);
+            }
             BodyKind::Pre(p) => {
                 // The item's span ends after its continuation `\`, which is printed
                 // separately: verbatim text (shader, macro) must stop before it.
@@ -440,6 +466,19 @@ impl<'a> Printer<'a> {
             }
         }
     }
+}
+
+/// A rule's parameter list: `(int n, float len = 1)`.
+fn params(p: &Params) -> String {
+    let list: Vec<String> = p
+        .params
+        .iter()
+        .map(|d| match &d.default {
+            Some(e) => format!("{} {} = {}", d.ty.text, d.name.text, expr(e)),
+            None => format!("{} {}", d.ty.text, d.name.text),
+        })
+        .collect();
+    format!("({})", list.join(", "))
 }
 
 fn count_text(c: &Count) -> String {
@@ -496,6 +535,7 @@ pub fn expr(e: &Expr) -> String {
         ExprKind::Num(n) => n.text.clone(),
         ExprKind::Var(v) => v.text.clone(),
         ExprKind::Neg(x) => format!("-{}", expr(x)),
+        ExprKind::Not(x) => format!("!{}", expr(x)),
         ExprKind::Binary(op, a, b) => format!("{} {} {}", expr(a), op.symbol(), expr(b)),
         ExprKind::Call(f, args) => {
             let a: Vec<String> = args.iter().map(expr).collect();

@@ -74,6 +74,10 @@ pub const KEYWORDS: &[&str] = &[
     "grid",
 ];
 
+/// Words reserved for control flow inside rule bodies (`if (…) { } else { }`,
+/// `let x = …;`, `loop i = a, b {ADJ} ITEM`): never rule names.
+pub const CONTROL_KEYWORDS: &[&str] = &["if", "else", "let", "loop"];
+
 /// The words that open a SPEC §11 extension section (`KIND [NAME] { KEY VALUE… ; … }`).
 pub const SECTION_KINDS: &[&str] = &["guide", "search", "creature", "grid"];
 
@@ -132,6 +136,14 @@ pub enum Tok {
     #[token("creature")]
     #[token("grid")]
     KwSection,
+    #[token("if")]
+    KwIf,
+    #[token("else")]
+    KwElse,
+    #[token("let")]
+    KwLet,
+    #[token("loop")]
+    KwLoop,
     /// A string literal `"…"` on one line (paths in extension sections).
     #[regex(r#""[^"\n]*""#)]
     Str,
@@ -188,6 +200,14 @@ pub enum Tok {
     EqEq,
     #[token("!=")]
     Ne,
+    #[token("=")]
+    Assign,
+    #[token("&&")]
+    AndAnd,
+    #[token("||")]
+    OrOr,
+    #[token("!")]
+    Bang,
 
     #[regex(r"//[^\n]*", allow_greedy = true)]
     LineComment,
@@ -248,6 +268,10 @@ impl Tok {
             KwColor => "`color`",
             KwWeight => "`weight`",
             KwSection => "a section keyword",
+            KwIf => "`if`",
+            KwElse => "`else`",
+            KwLet => "`let`",
+            KwLoop => "`loop`",
             Str => "a string",
             Ident | Dotted => "a name",
             CallOpen => "a call",
@@ -273,6 +297,10 @@ impl Tok {
             Ge => "`>=`",
             EqEq => "`==`",
             Ne => "`!=`",
+            Assign => "`=`",
+            AndAnd => "`&&`",
+            OrOr => "`||`",
+            Bang => "`!`",
             LineComment | BlockComment => "a comment",
             AtImport => "`@import`",
             AtDefine => "`@define`",
@@ -327,6 +355,24 @@ pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
         match res {
             Ok(Tok::LineComment) => out.comments.push(Comment { span, block: false }),
             Ok(Tok::BlockComment) => out.comments.push(Comment { span, block: true }),
+            Ok(Tok::CallOpen) => {
+                // `if(`, `loop(`: a control keyword then `(`, not a call.
+                let word = &text[r.start..r.end - 1];
+                let kw = match word {
+                    "if" => Some(Tok::KwIf),
+                    "loop" => Some(Tok::KwLoop),
+                    "let" => Some(Tok::KwLet),
+                    "else" => Some(Tok::KwElse),
+                    _ => None,
+                };
+                match kw {
+                    Some(kind) => {
+                        out.tokens.push(Token { kind, span: Span::new(file, span.start, span.end - 1) });
+                        out.tokens.push(Token { kind: Tok::LParen, span: Span::new(file, span.end - 1, span.end) });
+                    }
+                    None => out.tokens.push(Token { kind: Tok::CallOpen, span }),
+                }
+            }
             Ok(kind) => out.tokens.push(Token { kind, span }),
             Err(LexError::InvalidChar) => {
                 let ch = text[r.clone()].chars().next().unwrap_or('?');

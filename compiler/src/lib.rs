@@ -24,3 +24,4 @@ pub mod shaders;
 pub mod source;
 pub mod span;
 pub mod stdlib;
+pub mod types;

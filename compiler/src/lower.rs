@@ -42,6 +42,12 @@ struct Lower<'a> {
     source_map: Vec<SourceLoc>,
     angle: AngleMode,
     diags: Vec<Diagnostic>,
+    /// The parameters and locals in scope in the definition being lowered.
+    scope: Scope,
+    /// The next free slot of the definition being lowered, and the most any
+    /// definition of the rule needs.
+    next_slot: u16,
+    frame: u16,
 }
 
 /// Lowers a checked program. Diagnostics here are run-time-relevant problems the
@@ -62,6 +68,9 @@ pub fn lower(ex: &Expanded, sym: &Symbols, sources: &Sources) -> Result<Bundle, 
         source_map: Vec::new(),
         angle: AngleMode::Degrees,
         diags: Vec::new(),
+        scope: Vec::new(),
+        next_slot: 0,
+        frame: 0,
     };
     let b = l.run();
     if l.diags.iter().any(|d| d.is_error()) {
@@ -85,10 +94,14 @@ fn angle_factor(angle: AngleMode, unit: Option<char>) -> f64 {
     }
 }
 
-/// Compiles an expression to expression code: variables by index, constants folded
-/// from `@param`/`@define`, numbers with units in radians.
-fn expr_code(ex: &Expanded, angle: AngleMode, e: &Expr, out: &mut Vec<ExprOp>) {
-    let rec = |e: &Expr, out: &mut Vec<ExprOp>| expr_code(ex, angle, e, out);
+/// The slots of the parameters and locals in scope, innermost last.
+type Scope = Vec<(String, u16)>;
+
+/// Compiles an expression to expression code: parameters and locals by slot,
+/// variables by index, constants folded from `@param`/`@define`, numbers with units
+/// in radians.
+fn expr_code(ex: &Expanded, angle: AngleMode, scope: &[(String, u16)], e: &Expr, out: &mut Vec<ExprOp>) {
+    let rec = |e: &Expr, out: &mut Vec<ExprOp>| expr_code(ex, angle, scope, e, out);
     match &e.kind {
         ExprKind::Num(n) => {
             let v = match n.unit {
@@ -98,20 +111,29 @@ fn expr_code(ex: &Expanded, angle: AngleMode, e: &Expr, out: &mut Vec<ExprOp>) {
             };
             out.push(ExprOp::Push(v));
         }
-        ExprKind::Var(v) => match VARIABLES.iter().position(|x| *x == v.text) {
-            Some(i) => out.push(ExprOp::Var(i as u8)),
-            None => out.push(ExprOp::Push(ex.constant(&v.text).unwrap_or(0.0))),
-        },
+        ExprKind::Var(v) => {
+            if let Some((_, slot)) = scope.iter().rev().find(|(n, _)| *n == v.text) {
+                out.push(ExprOp::Slot(*slot));
+                return;
+            }
+            match VARIABLES.iter().position(|x| *x == v.text) {
+                Some(i) => out.push(ExprOp::Var(i as u8)),
+                None => out.push(ExprOp::Push(constant(ex, &v.text).unwrap_or(0.0))),
+            }
+        }
         ExprKind::Neg(x) => {
             rec(x, out);
             out.push(ExprOp::Neg);
+        }
+        ExprKind::Not(x) => {
+            rec(x, out);
+            out.extend([ExprOp::Push(0.0), ExprOp::Bin(binop_index("=="))]);
         }
         ExprKind::Paren(x) => rec(x, out),
         ExprKind::Binary(op, a, b) => {
             rec(a, out);
             rec(b, out);
-            let i = BINOPS.iter().position(|s| *s == op.symbol()).unwrap_or(0);
-            out.push(ExprOp::Bin(i as u8));
+            out.push(ExprOp::Bin(binop_index(op.symbol())));
         }
         ExprKind::Call(f, args) => {
             for a in args {
@@ -121,6 +143,25 @@ fn expr_code(ex: &Expanded, angle: AngleMode, e: &Expr, out: &mut Vec<ExprOp>) {
             out.push(ExprOp::Call(i as u8));
         }
         ExprKind::Error => out.push(ExprOp::Push(0.0)),
+    }
+}
+
+/// The VM's index of a math function.
+fn function_index(name: &str) -> u8 {
+    FUNCTIONS.iter().position(|(n, _)| *n == name).unwrap_or(0) as u8
+}
+
+/// The VM's index of a binary operator.
+fn binop_index(symbol: &str) -> u8 {
+    BINOPS.iter().position(|s| *s == symbol).unwrap_or(0) as u8
+}
+
+/// The value of a constant name: `@param`, `@define`, `true`, `false`.
+fn constant(ex: &Expanded, name: &str) -> Option<f64> {
+    match name {
+        "true" => Some(1.0),
+        "false" => Some(0.0),
+        _ => ex.constant(name),
     }
 }
 
@@ -141,7 +182,7 @@ impl LowerCx<'_> {
     /// Expression code for `e` (variables are `mdg_vm::expr::VARIABLES`, e.g. `g`).
     pub fn expr(&self, e: &Expr) -> Vec<ExprOp> {
         let mut out = Vec::new();
-        expr_code(self.ex, self.angle, e, &mut out);
+        expr_code(self.ex, self.angle, &[], e, &mut out);
         out
     }
 
@@ -236,11 +277,23 @@ impl<'a> Lower<'a> {
             let mut out_defs = Vec::new();
             let mut transforms = Vec::new();
             let mut iter = NONE;
+            let sig = self.sym.signatures.get(name).cloned().unwrap_or_default();
+            self.frame = sig.params.len() as u16;
             for def in defs {
                 let ExpItem { item, namespace } = &self.ex.items[def.item];
                 let ItemKind::Rule(r) = &item.kind else { continue };
                 let start = self.code.len() as u32;
                 self.mark(r.name.span);
+                // Parameters take the first slots, by position (the names of this
+                // definition's list).
+                self.scope = r
+                    .params
+                    .iter()
+                    .flat_map(|p| &p.params)
+                    .enumerate()
+                    .map(|(i, p)| (p.name.text.clone(), i as u16))
+                    .collect();
+                self.next_slot = sig.params.len() as u16;
                 self.body(&r.body, namespace.as_deref());
                 self.code.push(Op::Ret {});
                 let w =
@@ -254,6 +307,8 @@ impl<'a> Lower<'a> {
                     iter = r.iter.as_ref().and_then(|t| self.rule_index(&t.text, namespace.as_deref())).unwrap_or(NONE);
                 }
             }
+            // A selector reads the call's arguments by the first definition's names.
+            self.scope = sig.params.iter().enumerate().map(|(i, p)| (p.name.clone(), i as u16)).collect();
             let selector = match self.sym.selectors.get(name).map(|(m, _)| m.clone()) {
                 None => Selector::Random,
                 Some(SelectorMode::Word(w)) => match w.text.as_str() {
@@ -272,7 +327,9 @@ impl<'a> Lower<'a> {
                     }
                 }
             };
-            rules.push(bundle::Rule { name: name_id, selector, defs: out_defs, transforms, iter });
+            self.scope.clear();
+            let params = sig.params.iter().map(|p| p.default.unwrap_or(f64::NAN)).collect();
+            rules.push(bundle::Rule { name: name_id, selector, defs: out_defs, transforms, iter, params, frame: self.frame });
         }
         let mut isosurfaces = Vec::new();
         for ExpItem { item, .. } in &self.ex.items {
@@ -468,11 +525,62 @@ impl<'a> Lower<'a> {
     }
 
     fn body(&mut self, items: &[BodyItem], ns: Option<&str>) {
+        // `let` bindings are visible to the items after them in this block.
+        let scope_at = self.scope.len();
         for item in items {
             self.item(item, item.cont, ns);
             if item.cont {
                 self.code.push(Op::Cont {});
             }
+        }
+        self.scope.truncate(scope_at);
+    }
+
+    /// A new slot for a binding named `name`, in scope from now on.
+    fn bind(&mut self, name: &str) -> u16 {
+        let slot = self.next_slot;
+        self.next_slot = self.next_slot.saturating_add(1);
+        self.frame = self.frame.max(self.next_slot);
+        self.scope.push((name.to_string(), slot));
+        slot
+    }
+
+    /// Points the jump at op `at` to the next op.
+    fn patch_jump(&mut self, at: usize) {
+        let here = self.code.len() as u32;
+        match &mut self.code[at] {
+            Op::Jump { target } | Op::JumpIfNot { target, .. } => *target = here,
+            _ => {}
+        }
+    }
+
+    /// Emits a LOOP (constant count) or LOOPN (count expression `dynamic`) around
+    /// `inner`; `after_run` emits ops at the end of each run (a loop variable's step).
+    fn emit_loop(
+        &mut self,
+        count: u64,
+        dynamic: Option<u32>,
+        step: u32,
+        chain: bool,
+        inner: &BodyItem,
+        cont_next: bool,
+        ns: Option<&str>,
+        after_run: Option<(u16, u32)>,
+    ) {
+        let begin = self.code.len() as u32;
+        let chain = chain as u8;
+        match dynamic {
+            Some(e) => self.code.push(Op::LoopN { count: e, step, end: 0, chain }),
+            None => self.code.push(Op::Loop { count, step, end: 0, chain }),
+        }
+        self.item(inner, cont_next, ns);
+        if let Some((slot, expr)) = after_run {
+            self.code.push(Op::Set { slot, expr });
+        }
+        let end = self.code.len() as u32;
+        self.code.push(Op::EndLoop { begin });
+        if let Op::Loop { end: e, .. } | Op::LoopN { end: e, .. } = &mut self.code[begin as usize] {
+            *e = end;
         }
     }
 
@@ -480,7 +588,7 @@ impl<'a> Lower<'a> {
         self.mark(item.span);
         let flags = if cont_next { CONT_NEXT } else { 0 };
         match &item.kind {
-            BodyKind::Call { name, profile, adj } => {
+            BodyKind::Call { name, args, profile, adj } => {
                 let xf = self.transform(adj, 1.0);
                 let (prefix, last) = match name.text.rsplit_once('.') {
                     Some((p, l)) => (p, l),
@@ -503,27 +611,90 @@ impl<'a> Lower<'a> {
                         self.code.push(Op::Iso { iso: iso as u32, xf, flags });
                     }
                 } else if let Some(rule) = self.rule_index(&name.text, ns) {
+                    // Arguments by position; the parameters not passed take their defaults.
+                    let full = self.sym.resolve(&name.text, ns).unwrap_or_default();
+                    let sig = self.sym.signatures.get(&full).cloned().unwrap_or_default();
+                    let given = args.as_ref().map(|a| a.args.as_slice()).unwrap_or(&[]);
+                    for (i, p) in sig.params.iter().enumerate() {
+                        let expr = match given.get(i) {
+                            Some(a) => match self.const_eval(a) {
+                                Some(v) => self.push_expr(vec![ExprOp::Push(v)]),
+                                None => self.expr(a, 1.0),
+                            },
+                            None => self.push_expr(vec![ExprOp::Push(p.default.unwrap_or(0.0))]),
+                        };
+                        self.code.push(Op::Arg { expr });
+                    }
                     self.code.push(Op::Call { rule, xf, flags });
                 }
             }
             BodyKind::Iterate { count, divisor, adj, chain, item: inner } => {
-                let n = self.count_value(count).max(0.0) as u64;
+                let dynamic = match count {
+                    Count::Expr(e) if self.const_eval(e).is_none() => Some(self.expr(e, 1.0)),
+                    _ => None,
+                };
+                let n = if dynamic.is_some() { 0 } else { self.count_value(count).max(0.0) as u64 };
                 let div = divisor.as_ref().map(|d| self.count_value(d)).unwrap_or(1.0);
                 let step = self.transform(adj, if div > 0.0 { div } else { 1.0 });
-                let begin = self.code.len() as u32;
                 // The runs chain (run k + 1 starts from run k's end state composed with
                 // the step) for `M * {T} \ ITEM`, for a block whose last item ends with
                 // `\` (`M * {T} { A {} \ }`), and for an iterator followed by `\`.
                 let block_chains =
                     matches!(&inner.kind, BodyKind::Block(items) if items.last().is_some_and(|i| i.cont));
                 let chains = *chain || block_chains || cont_next;
-                self.code.push(Op::Loop { count: n, step, end: 0, chain: chains as u8 });
-                self.item(inner, cont_next, ns);
-                let end = self.code.len() as u32;
-                self.code.push(Op::EndLoop { begin });
-                if let Op::Loop { end: e, .. } = &mut self.code[begin as usize] {
-                    *e = end;
+                self.emit_loop(n, dynamic, step, chains, inner, cont_next, ns, None);
+            }
+            BodyKind::Loop { var, start, end, step, adj, item: inner } => {
+                // slot := START; runs = ceil((END - slot) / STEP); after each run
+                // slot := slot + STEP.
+                let start_e = self.expr(start, 1.0);
+                let scope_at = self.scope.len();
+                let slot = self.bind(&var.text);
+                self.code.push(Op::Set { slot, expr: start_e });
+                let mut step_code = Vec::new();
+                match step {
+                    Some(s) => self.expr_code(s, &mut step_code),
+                    None => step_code.push(ExprOp::Push(1.0)),
                 }
+                let mut count = Vec::new();
+                self.expr_code(end, &mut count);
+                count.extend([ExprOp::Slot(slot), ExprOp::Bin(binop_index("-"))]);
+                count.extend(step_code.iter().copied());
+                count.extend([ExprOp::Bin(binop_index("/")), ExprOp::Call(function_index("ceil"))]);
+                let count = self.push_expr(count);
+                let mut next = vec![ExprOp::Slot(slot)];
+                next.extend(step_code);
+                next.push(ExprOp::Bin(binop_index("+")));
+                let next = self.push_expr(next);
+                let xf = self.transform(adj, 1.0);
+                let block_chains =
+                    matches!(&inner.kind, BodyKind::Block(items) if items.last().is_some_and(|i| i.cont));
+                self.emit_loop(0, Some(count), xf, block_chains || cont_next, inner, cont_next, ns, Some((slot, next)));
+                self.scope.truncate(scope_at);
+            }
+            BodyKind::If { cond, then, otherwise, .. } => {
+                let c = self.expr(cond, 1.0);
+                let jz = self.code.len();
+                self.code.push(Op::JumpIfNot { expr: c, target: 0 });
+                self.body(then, ns);
+                match otherwise {
+                    Some(o) => {
+                        let jmp = self.code.len();
+                        self.code.push(Op::Jump { target: 0 });
+                        self.patch_jump(jz);
+                        match &o.kind {
+                            BodyKind::Block(items) => self.body(items, ns),
+                            _ => self.item(o, false, ns),
+                        }
+                        self.patch_jump(jmp);
+                    }
+                    None => self.patch_jump(jz),
+                }
+            }
+            BodyKind::Let { name, value } => {
+                let expr = self.expr(value, 1.0);
+                let slot = self.bind(&name.text);
+                self.code.push(Op::Set { slot, expr });
             }
             BodyKind::Block(items) => {
                 let begin = self.code.len() as u32;
@@ -546,8 +717,25 @@ impl<'a> Lower<'a> {
         match c {
             Count::Num(n) => n.value,
             Count::Neg(n) => -n.value,
-            Count::Expr(e) => crate::consteval::eval(e, &|v| self.ex.constant(v)).unwrap_or(0.0),
+            Count::Expr(e) => self.const_eval(e).unwrap_or(0.0),
         }
+    }
+
+    /// The compile-time value of `e`, if it reads no parameter or local.
+    fn const_eval(&self, e: &Expr) -> Option<f64> {
+        let scope = &self.scope;
+        crate::consteval::eval(e, &|v| {
+            if scope.iter().any(|(n, _)| n == v) {
+                None
+            } else {
+                constant(self.ex, v)
+            }
+        })
+    }
+
+    fn push_expr(&mut self, code: Vec<ExprOp>) -> u32 {
+        self.exprs.push(code);
+        self.exprs.len() as u32 - 1
     }
 
     fn angle_factor(&self, unit: Option<char>) -> f64 {
@@ -560,7 +748,7 @@ impl<'a> Lower<'a> {
         let n = match a {
             Arg::Num(n) => (n.value, n.unit),
             Arg::Neg(n) => (-n.value, n.unit),
-            Arg::Expr(e) => match crate::consteval::eval(e, &|v| self.ex.constant(v)) {
+            Arg::Expr(e) => match self.const_eval(e) {
                 Some(v) => (v, None),
                 None => {
                     let factor = if angle { self.angle_factor(None) } else { 1.0 };
@@ -642,7 +830,7 @@ impl<'a> Lower<'a> {
     }
 
     fn expr_code(&self, e: &Expr, out: &mut Vec<ExprOp>) {
-        expr_code(self.ex, self.angle, e, out)
+        expr_code(self.ex, self.angle, &self.scope, e, out)
     }
 
     fn isosurface(&mut self, name: &Name, entries: &[IsoEntry]) -> Option<bundle::Isosurface> {

@@ -942,3 +942,68 @@ pub fn parse_body_items_within(
         (_, d) => (vec![], d),
     }
 }
+
+/// One word of an adjustment list as parsed: an adjustment name, an argument, or a
+/// recovered syntax error.
+pub enum AdjWord {
+    Name(Name),
+    Arg(Arg),
+    Error(Span),
+}
+
+/// Groups the words of an adjustment list into adjustments. A bare name is an
+/// argument (a rule parameter, a local, a `@define`: `{y len rz a}`) while the
+/// adjustment before it still needs arguments, or when it is no adjustment's name and
+/// that adjustment takes more; otherwise it starts the next adjustment. So a name
+/// that is also an adjustment's (`s`, `x`, `w`) is read as an argument only where one
+/// is required; elsewhere it is written in parentheses: `{x 1 (s)}`.
+pub fn group_adjustments(words: Vec<AdjWord>) -> Vec<Adj> {
+    let comps = crate::check::Components::default();
+    let mut out: Vec<Adj> = Vec::new();
+    // The adjustment being filled and its (min, max) argument count.
+    let mut open: Option<(usize, usize)> = None;
+    for w in words {
+        match w {
+            AdjWord::Arg(a) => match out.last_mut() {
+                Some(adj) if open.is_some() => {
+                    adj.span = adj.span.to(a.span());
+                    adj.args.push(a);
+                }
+                _ => {
+                    // An argument with no adjustment before it: an adjustment without a
+                    // name, reported by the checker as unknown.
+                    let span = a.span();
+                    out.push(Adj { name: Name { text: String::new(), span }, args: vec![a], span });
+                    open = None;
+                }
+            },
+            AdjWord::Name(n) => {
+                let kind = comps.adj_kind(&n.text);
+                let is_arg = match (open, out.last()) {
+                    (Some((min, max)), Some(adj)) => {
+                        let k = adj.args.len();
+                        k < min || (kind.is_none() && k < max)
+                    }
+                    _ => false,
+                };
+                if is_arg {
+                    if let Some(adj) = out.last_mut() {
+                        adj.span = adj.span.to(n.span);
+                        let span = n.span;
+                        adj.args.push(Arg::Expr(Expr { kind: ExprKind::Var(n), span }));
+                    }
+                    continue;
+                }
+                // An unknown adjustment (or a renamed colour component) takes any number.
+                open = Some(kind.map(|k| k.arity()).unwrap_or((0, usize::MAX)));
+                let span = n.span;
+                out.push(Adj { name: n, args: vec![], span });
+            }
+            AdjWord::Error(span) => {
+                out.push(Adj { name: Name { text: String::new(), span }, args: vec![], span });
+                open = None;
+            }
+        }
+    }
+    out
+}

@@ -167,6 +167,9 @@ pub struct Expander<'b> {
     expr_stack: Vec<f64>,
     sequential: HashMap<u32, (usize, u32)>,
     loops: Vec<LoopRec>,
+    /// The expanded body's frame (its parameters take their defaults: the compiler
+    /// rejects skeleton rules with parameters and calls from them that pass arguments).
+    slots: Vec<f64>,
 }
 
 impl<'b> Expander<'b> {
@@ -178,6 +181,7 @@ impl<'b> Expander<'b> {
             expr_stack: Vec::with_capacity(16),
             sequential: HashMap::new(),
             loops: Vec::new(),
+            slots: Vec::new(),
         };
         e.reseed(0, 0);
         e
@@ -218,11 +222,16 @@ impl<'b> Expander<'b> {
         let b = self.b;
         let code = &b.code;
         let s = &b.settings;
+        let r = &b.rules[call.rule as usize];
+        self.slots.clear();
+        self.slots.extend(r.params.iter().map(|d| if d.is_nan() { 0.0 } else { *d }));
+        self.slots.resize(r.frame as usize, 0.0);
         let mut pc = select_def(
             b,
             call.rule,
             &call.state,
             call.depth,
+            &self.slots,
             &mut self.rng,
             &mut self.sequential,
             &mut self.expr_stack,
@@ -239,7 +248,8 @@ impl<'b> Expander<'b> {
                 Op::Call { rule, xf, flags } => {
                     pc += 1;
                     let from = cont.take().unwrap_or(base);
-                    let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack);
+                    let env = Env { at: &from, depth: call.depth, slots: &self.slots };
+                    let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack, &env);
                     let child = from.compose(&c);
                     if flags & CONT_NEXT != 0 {
                         last = child;
@@ -259,16 +269,27 @@ impl<'b> Expander<'b> {
                 Op::Draw { xf, .. } | Op::Iso { xf, .. } => {
                     pc += 1;
                     let from = cont.take().unwrap_or(base);
-                    let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack);
+                    let env = Env { at: &from, depth: call.depth, slots: &self.slots };
+                    let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack, &env);
                     last = from.compose(&c);
                 }
-                Op::Loop { count, step, end, chain } => {
+                Op::Loop { step, end, chain, .. } | Op::LoopN { step, end, chain, .. } => {
+                    let count = match op {
+                        Op::LoopN { count: e, .. } => {
+                            let at = cont.unwrap_or(base);
+                            let env = Env { at: &at, depth: call.depth, slots: &self.slots };
+                            env.eval(&b.exprs[e as usize], &mut self.rng, &mut self.expr_stack) as u64
+                        }
+                        Op::Loop { count, .. } => count,
+                        _ => 0,
+                    };
                     let from = cont.take().unwrap_or(base);
                     if count == 0 {
                         pc = end as usize + 1;
                         continue;
                     }
-                    let c = eval_transform(b, step, &mut self.rng, &mut self.expr_stack);
+                    let env = Env { at: &from, depth: call.depth, slots: &self.slots };
+                    let c = eval_transform(b, step, &mut self.rng, &mut self.expr_stack, &env);
                     self.loops.push(LoopRec { remaining: count, step, saved_base: base, chain: chain != 0 });
                     base = from.compose(&c);
                     pc += 1;
@@ -286,7 +307,8 @@ impl<'b> Expander<'b> {
                         }
                         let from = if l.chain { last } else { base };
                         let step = l.step;
-                        let c = eval_transform(b, step, &mut self.rng, &mut self.expr_stack);
+                        let env = Env { at: &from, depth: call.depth, slots: &self.slots };
+                        let c = eval_transform(b, step, &mut self.rng, &mut self.expr_stack, &env);
                         base = from.compose(&c);
                         pc = begin as usize + 1;
                         // Runs count like calls, so a huge iterator is cut too.
@@ -300,6 +322,23 @@ impl<'b> Expander<'b> {
                 Op::Cont {} => {
                     pc += 1;
                     cont = Some(last);
+                }
+                Op::Arg { .. } => pc += 1,
+                Op::Set { slot, expr } => {
+                    pc += 1;
+                    let at = cont.unwrap_or(base);
+                    let env = Env { at: &at, depth: call.depth, slots: &self.slots };
+                    let v = env.eval(&b.exprs[expr as usize], &mut self.rng, &mut self.expr_stack);
+                    if let Some(s) = self.slots.get_mut(slot as usize) {
+                        *s = v;
+                    }
+                }
+                Op::Jump { target } => pc = target as usize,
+                Op::JumpIfNot { expr, target } => {
+                    let at = cont.unwrap_or(base);
+                    let env = Env { at: &at, depth: call.depth, slots: &self.slots };
+                    let v = env.eval(&b.exprs[expr as usize], &mut self.rng, &mut self.expr_stack);
+                    pc = if expr::truthy(v) { pc + 1 } else { target as usize };
                 }
                 Op::Ret {} => break,
             }
@@ -337,6 +376,10 @@ fn linear(f: &Frame) -> (Mat3, bool) {
 
 struct Act {
     pc: u32,
+    /// The activation's frame is `slots[slot_base..slot_top]` (parameters, then locals);
+    /// `ARG`s for the next call are pushed above it.
+    slot_base: u32,
+    slot_top: u32,
     base: State,
     /// `linear(base.f)`, computed when first needed and dropped when `base` changes.
     base_lin: Option<(Mat3, bool)>,
@@ -417,6 +460,9 @@ struct Eval<'b> {
     maxiter: u64,
     stacksize: u32,
     expr_stack: Vec<f64>,
+    /// The value stack of rule parameters and locals (see [`Act::slot_base`]): grown
+    /// once to the deepest derivation's need, never allocated per call.
+    slots: Vec<f64>,
     profile_points: Vec<Vec3>,
     progress: Option<&'b dyn Fn(u64)>,
     xf_info: Vec<Option<XfInfo>>,
@@ -494,6 +540,7 @@ impl<'b> Eval<'b> {
             maxiter: opts.maxiter.unwrap_or(if s.maxiter > 0 { s.maxiter } else { DEFAULT_MAXITER }),
             stacksize: if s.stacksize > 0 { s.stacksize } else { DEFAULT_STACKSIZE },
             expr_stack: Vec::with_capacity(16),
+            slots: Vec::new(),
             profile_points: Vec::new(),
             progress,
             seed,
@@ -543,12 +590,33 @@ impl<'b> Eval<'b> {
 }
 
 impl<'b> Eval<'b> {
-    fn transform(&mut self, xf: u32) -> Composite {
-        eval_transform(self.b, xf, &mut self.rng, &mut self.expr_stack)
+    /// Transform `xf` at state `at` and `depth` in the frame `slots[base..top]`.
+    fn transform(&mut self, xf: u32, at: &State, depth: u32, base: u32, top: u32) -> Composite {
+        let slots = self.slots.get(base as usize..top as usize).unwrap_or(&[]);
+        eval_transform(self.b, xf, &mut self.rng, &mut self.expr_stack, &Env { at, depth, slots })
     }
 
-    fn select(&mut self, rule_idx: u32, child: &State, depth: u32) -> u32 {
-        select_def(self.b, rule_idx, child, depth, &mut self.rng, &mut self.sequential, &mut self.expr_stack)
+    /// Expression `e` at state `at` and `depth` in the frame `slots[base..top]`.
+    fn value(&mut self, e: u32, at: &State, depth: u32, base: u32, top: u32) -> f64 {
+        let slots = self.slots.get(base as usize..top as usize).unwrap_or(&[]);
+        Env { at, depth, slots }.eval(&self.b.exprs[e as usize], &mut self.rng, &mut self.expr_stack)
+    }
+
+    /// The definition of `rule_idx` for a call in state `child` at `depth` whose
+    /// arguments are `slots[args..]`.
+    fn select(&mut self, rule_idx: u32, child: &State, depth: u32, args: usize) -> u32 {
+        let slots = self.slots.get(args..).unwrap_or(&[]);
+        select_def(self.b, rule_idx, child, depth, slots, &mut self.rng, &mut self.sequential, &mut self.expr_stack)
+    }
+
+    /// Pushes a frame for a run that starts at `rule` (no caller passes arguments: the
+    /// parameters take their defaults); returns its base.
+    fn default_frame(&mut self, rule: u32) -> (u32, u32) {
+        let r = &self.b.rules[rule as usize];
+        let base = self.slots.len();
+        self.slots.extend(r.params.iter().map(|d| if d.is_nan() { 0.0 } else { *d }));
+        self.slots.resize(base + r.frame as usize, 0.0);
+        (base as u32, self.slots.len() as u32)
     }
 
     /// Runs `rule` from `start` until its whole derivation is done.
@@ -559,14 +627,20 @@ impl<'b> Eval<'b> {
     /// Runs a call of `rule` in state `start` at `depth` until its whole derivation is done.
     fn run_from(&mut self, rule: u32, start: State, depth: u32, mode: Mode) {
         let b = self.b;
-        let pc = self.select(rule, &start, depth);
+        let (slot_base, slot_top) = self.default_frame(rule);
+        let pc = self.select(rule, &start, depth, slot_base as usize);
         let first = if b.rules[rule as usize].iter != NONE {
             // The start shape (or a sampled rule) is itself a convolution.
             let frames = self.convolution(rule);
-            let Some(f) = frames.first().copied() else { return };
+            let Some(f) = frames.first().copied() else {
+                self.slots.truncate(slot_base as usize);
+                return;
+            };
             let base = State { f: start.f.compose(&f), ..start };
             Act {
                 pc,
+                slot_base,
+                slot_top,
                 base,
                 base_lin: None,
                 depth,
@@ -581,7 +655,7 @@ impl<'b> Eval<'b> {
             } else {
                 0
             };
-            Act { pc, base: start, base_lin: None, depth, cont: None, loops_at: 0, bone, conv: None }
+            Act { pc, slot_base, slot_top, base: start, base_lin: None, depth, cont: None, loops_at: 0, bone, conv: None }
         };
         let mut stack: Vec<Act> = vec![first];
         let mut loops: Vec<LoopRec> = Vec::new();
@@ -601,25 +675,37 @@ impl<'b> Eval<'b> {
                     let from = act.cont.take().unwrap_or(act.base);
                     let depth = act.depth + 1;
                     let parent_bone = act.bone;
-                    let c = self.transform(xf);
+                    let c = self.transform(xf, &from, act.depth, act.slot_base, act.slot_top);
                     let child = from.compose(&c);
                     if flags & CONT_NEXT != 0 {
                         self.last = child;
                     }
+                    // The ARGs before this CALL are the callee's first slots (the
+                    // verifier checked their number).
+                    let r = &b.rules[rule as usize];
+                    let args = act.slot_top as usize;
                     if !self.admit(&child, depth, stack.len()) {
+                        self.slots.truncate(args);
                         continue;
                     }
-                    let pc = self.select(rule, &child, depth);
+                    self.slots.resize(args + r.params.len(), f64::NAN);
+                    let pc = self.select(rule, &child, depth, args);
+                    self.slots.resize(args + r.frame as usize, 0.0);
+                    let (slot_base, slot_top) = (args as u32, (args + r.frame as usize) as u32);
                     let loops_at = loops.len() as u32;
-                    let r = &b.rules[rule as usize];
                     if r.iter != NONE {
                         // Convolution: the body runs once per frame of the iterator rule.
                         let frames = self.convolution(rule);
-                        let Some(f) = frames.first().copied() else { continue };
+                        let Some(f) = frames.first().copied() else {
+                            self.slots.truncate(args);
+                            continue;
+                        };
                         let base = State { f: child.f.compose(&f), ..child };
                         let conv = Some(Box::new(Conv { frames, next: 1, pc, origin: child }));
                         stack.push(Act {
                             pc,
+                            slot_base,
+                            slot_top,
                             base,
                             base_lin: None,
                             depth,
@@ -636,6 +722,8 @@ impl<'b> Eval<'b> {
                         };
                         stack.push(Act {
                             pc,
+                            slot_base,
+                            slot_top,
                             base: child,
                             base_lin: None,
                             depth,
@@ -682,7 +770,7 @@ impl<'b> Eval<'b> {
                 Op::Draw { kind, xf, ns, profile, flags: _ } => {
                     act.pc += 1;
                     let from = act.cont.take().unwrap_or(act.base);
-                    let c = self.transform(xf);
+                    let c = self.transform(xf, &from, act.depth, act.slot_base, act.slot_top);
                     let s = from.compose(&c);
                     self.last = s;
                     let bone = act.bone;
@@ -691,7 +779,7 @@ impl<'b> Eval<'b> {
                 Op::Iso { iso, xf, flags: _ } => {
                     act.pc += 1;
                     let from = act.cont.take().unwrap_or(act.base);
-                    let c = self.transform(xf);
+                    let c = self.transform(xf, &from, act.depth, act.slot_base, act.slot_top);
                     let s = from.compose(&c);
                     self.last = s;
                     if mode == Mode::Model {
@@ -699,13 +787,22 @@ impl<'b> Eval<'b> {
                         self.instance(iso, &s, act.pc - 1, bone);
                     }
                 }
-                Op::Loop { count, step, end, chain } => {
+                Op::Loop { step, end, chain, .. } | Op::LoopN { step, end, chain, .. } => {
+                    let count = match op {
+                        Op::LoopN { count: e, .. } => {
+                            let at = act.cont.unwrap_or(act.base);
+                            // Saturating: negative and NaN counts give no runs.
+                            self.value(e, &at, act.depth, act.slot_base, act.slot_top) as u64
+                        }
+                        Op::Loop { count, .. } => count,
+                        _ => 0,
+                    };
                     let from = act.cont.take().unwrap_or(act.base);
                     if count == 0 {
                         act.pc = end + 1;
                         continue;
                     }
-                    let c = self.transform(step);
+                    let c = self.transform(step, &from, act.depth, act.slot_base, act.slot_top);
                     loops.push(LoopRec { remaining: count, step, saved_base: act.base, chain: chain != 0 });
                     act.base = from.compose(&c);
                     act.base_lin = None;
@@ -728,7 +825,7 @@ impl<'b> Eval<'b> {
                         let chain = l.chain;
                         let from = if chain { self.last } else { act.base };
                         let step = l.step;
-                        let c = self.transform(step);
+                        let c = self.transform(step, &from, act.depth, act.slot_base, act.slot_top);
                         act.base = from.compose(&c);
                         act.base_lin = None;
                         if chain {
@@ -758,6 +855,26 @@ impl<'b> Eval<'b> {
                     act.pc += 1;
                     act.cont = Some(self.last);
                 }
+                Op::Arg { expr } => {
+                    act.pc += 1;
+                    let at = act.cont.unwrap_or(act.base);
+                    let v = self.value(expr, &at, act.depth, act.slot_base, act.slot_top);
+                    self.slots.push(v);
+                }
+                Op::Set { slot, expr } => {
+                    act.pc += 1;
+                    let at = act.cont.unwrap_or(act.base);
+                    let v = self.value(expr, &at, act.depth, act.slot_base, act.slot_top);
+                    if let Some(s) = self.slots.get_mut(act.slot_base as usize + slot as usize) {
+                        *s = v;
+                    }
+                }
+                Op::Jump { target } => act.pc = target,
+                Op::JumpIfNot { expr, target } => {
+                    let at = act.cont.unwrap_or(act.base);
+                    let v = self.value(expr, &at, act.depth, act.slot_base, act.slot_top);
+                    act.pc = if expr::truthy(v) { act.pc + 1 } else { target };
+                }
                 Op::Ret {} => {
                     let at = act.loops_at as usize;
                     loops.truncate(at);
@@ -781,10 +898,14 @@ impl<'b> Eval<'b> {
                             continue;
                         }
                     }
+                    let base = act.slot_base as usize;
                     stack.pop();
+                    self.slots.truncate(base);
                 }
             }
         }
+        // A run ended by a limit leaves its frames: the caller's slots end here.
+        self.slots.truncate(slot_base as usize);
     }
 
     /// Whether a call may proceed; counts the limits that stop it.
@@ -1145,7 +1266,7 @@ impl<'b> Eval<'b> {
                 let stack = std::cell::RefCell::new(Vec::new());
                 let f = |p: Vec3| {
                     let vars = [p.x as f64, p.y as f64, p.z as f64, 0.0, 1.0, 0.0];
-                    expr::eval(code, &vars, &mut *rng.borrow_mut(), &mut stack.borrow_mut()) as f32
+                    expr::eval(code, &vars, &[], &mut *rng.borrow_mut(), &mut stack.borrow_mut()) as f32
                 };
                 let name = self.b.string(decl.name).to_string();
                 let r = match marching::polygonize(&grid, &f, self.opts.max_iso_cells) {
@@ -1244,8 +1365,24 @@ fn where_op(b: &Bundle, pc: u32) -> String {
 
 /// Evaluates transform `xf`: a constant composite, or a dynamic list with its random
 /// draws taken from `rng`.
+/// Where an expression is evaluated: the state its position and scale are read from,
+/// the rule depth, and the running rule's frame.
+struct Env<'a> {
+    at: &'a State,
+    depth: u32,
+    slots: &'a [f64],
+}
+
+impl Env<'_> {
+    fn eval(&self, code: &[ExprOp], rng: &mut Pcg, stack: &mut Vec<f64>) -> f64 {
+        let p = self.at.f.u;
+        let vars = [p.x as f64, p.y as f64, p.z as f64, self.depth as f64, self.at.f.scale_factor() as f64, 0.0];
+        expr::eval(code, &vars, self.slots, rng, stack)
+    }
+}
+
 #[inline]
-fn eval_transform(b: &Bundle, xf: u32, rng: &mut Pcg, stack: &mut Vec<f64>) -> Composite {
+fn eval_transform(b: &Bundle, xf: u32, rng: &mut Pcg, stack: &mut Vec<f64>, env: &Env) -> Composite {
     match &b.transforms[xf as usize] {
         Transform::Const(c) => *c,
         Transform::Dynamic { adjs, divisor } => {
@@ -1260,7 +1397,7 @@ fn eval_transform(b: &Bundle, xf: u32, rng: &mut Pcg, stack: &mut Vec<f64>) -> C
                         bundle::Arg::Const(v) => *v,
                         bundle::Arg::Expr(e) => {
                             let code: &[ExprOp] = &b.exprs[*e as usize];
-                            let v = expr::eval(code, &[0.0; 6], rng, stack);
+                            let v = env.eval(code, rng, stack);
                             if v.is_finite() {
                                 v as f32
                             } else {
@@ -1281,11 +1418,13 @@ fn eval_transform(b: &Bundle, xf: u32, rng: &mut Pcg, stack: &mut Vec<f64>) -> C
 
 /// Picks the definition of `rule_idx` its selector chooses for a call in state `child`
 /// at `depth`; returns its first op.
+#[allow(clippy::too_many_arguments)]
 fn select_def(
     b: &Bundle,
     rule_idx: u32,
     child: &State,
     depth: u32,
+    args: &[f64],
     rng: &mut Pcg,
     sequential: &mut HashMap<u32, (usize, u32)>,
     stack: &mut Vec<f64>,
@@ -1361,7 +1500,7 @@ fn select_def(
         Selector::Function(e) => {
             let p = child.f.u;
             let vars = [p.x as f64, p.y as f64, p.z as f64, depth as f64, child.f.scale_factor() as f64, 0.0];
-            let v = expr::eval(&b.exprs[e as usize], &vars, rng, stack);
+            let v = expr::eval(&b.exprs[e as usize], &vars, args, rng, stack);
             if v.is_finite() {
                 threshold(v)
             } else {

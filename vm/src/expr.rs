@@ -37,8 +37,10 @@ pub const FUNCTIONS: &[(&str, usize)] = &[
 /// Variables an expression may read at run time, by index.
 pub const VARIABLES: &[&str] = &["x", "y", "z", "depth", "scale", "g"];
 
-/// Binary operators, by index: `+ - * / ^ < <= > >= == !=`.
-pub const BINOPS: &[&str] = &["+", "-", "*", "/", "^", "<", "<=", ">", ">=", "==", "!="];
+/// Binary operators, by index: `+ - * / ^ < <= > >= == != && ||`. `&&` and `||`
+/// read 0 (and NaN) as false, anything else as true, and give 1 or 0; both sides are
+/// always evaluated (so the random stream does not depend on a condition).
+pub const BINOPS: &[&str] = &["+", "-", "*", "/", "^", "<", "<=", ">", ">=", "==", "!=", "&&", "||"];
 
 /// One expression instruction.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -53,6 +55,15 @@ pub enum ExprOp {
     Bin(u8),
     /// Pop `arity` arguments, push `FUNCTIONS[i](…)`.
     Call(u8),
+    /// Push slot `i` of the running rule's frame (a parameter, a `let` binding or a
+    /// loop variable; see `bundle::Rule::frame`).
+    Slot(u16),
+}
+
+/// Whether a value counts as true (`if`, `&&`, `||`): not 0 and not NaN.
+#[inline]
+pub fn truthy(v: f64) -> bool {
+    v != 0.0 && !v.is_nan()
 }
 
 /// Applies binary operator `BINOPS[op]`.
@@ -69,7 +80,9 @@ pub fn binop(op: u8, a: f64, b: f64) -> f64 {
         7 => t(a > b),
         8 => t(a >= b),
         9 => t(a == b),
-        _ => t(a != b),
+        10 => t(a != b),
+        11 => t(truthy(a) && truthy(b)),
+        _ => t(truthy(a) || truthy(b)),
     }
 }
 
@@ -122,13 +135,15 @@ pub trait Random {
     fn normal(&mut self) -> f64;
 }
 
-/// Evaluates verified expression code with `vars` (indexed like [`VARIABLES`]).
-/// Verified code never underflows; on malformed code the result is NaN, never a panic.
-pub fn eval(code: &[ExprOp], vars: &[f64; 6], rng: &mut dyn Random, stack: &mut Vec<f64>) -> f64 {
+/// Evaluates verified expression code with `vars` (indexed like [`VARIABLES`]) and
+/// the running rule's frame `slots`. Verified code never underflows; on malformed
+/// code (or a slot beyond `slots`) the result is NaN, never a panic.
+pub fn eval(code: &[ExprOp], vars: &[f64; 6], slots: &[f64], rng: &mut dyn Random, stack: &mut Vec<f64>) -> f64 {
     stack.clear();
     for op in code {
         match *op {
             ExprOp::Push(v) => stack.push(v),
+            ExprOp::Slot(i) => stack.push(slots.get(i as usize).copied().unwrap_or(f64::NAN)),
             ExprOp::Var(i) => stack.push(vars.get(i as usize).copied().unwrap_or(f64::NAN)),
             ExprOp::Neg => {
                 if let Some(t) = stack.last_mut() {
@@ -157,6 +172,12 @@ pub fn eval(code: &[ExprOp], vars: &[f64; 6], rng: &mut dyn Random, stack: &mut 
     stack.pop().unwrap_or(f64::NAN)
 }
 
+/// The highest slot `code` reads, plus one (0 when it reads none): the bundle
+/// verifier checks it against the frame of every rule that uses the expression.
+pub fn slots_needed(code: &[ExprOp]) -> usize {
+    code.iter().map(|op| if let ExprOp::Slot(i) = op { *i as usize + 1 } else { 0 }).max().unwrap_or(0)
+}
+
 /// Checks stack discipline: never underflows, ends with exactly one value.
 pub fn verify(code: &[ExprOp]) -> Result<(), String> {
     let mut depth: i64 = 0;
@@ -174,6 +195,7 @@ pub fn verify(code: &[ExprOp]) -> Result<(), String> {
                 }
                 (0, 1)
             }
+            ExprOp::Slot(_) => (0, 1),
             ExprOp::Neg => (1, 1),
             ExprOp::Bin(o) => {
                 if *o as usize >= BINOPS.len() {

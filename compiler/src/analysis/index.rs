@@ -529,12 +529,32 @@ impl Walker<'_, '_> {
     fn body(&mut self, items: &[BodyItem], ns: Option<&str>) {
         for item in items {
             match &item.kind {
-                BodyKind::Call { name, profile, adj } => {
+                BodyKind::Call { name, args, profile, adj } => {
                     self.call_name(name, ns);
                     if let Some(p) = profile {
                         self.rule_ref(p, ns);
                     }
+                    for a in args.iter().flat_map(|a| &a.args) {
+                        self.expr(a);
+                    }
                     self.adj_list(adj);
+                }
+                BodyKind::If { cond, then, otherwise, .. } => {
+                    self.expr(cond);
+                    self.body(then, ns);
+                    if let Some(o) = otherwise {
+                        self.body(std::slice::from_ref(o), ns);
+                    }
+                }
+                BodyKind::Let { value, .. } => self.expr(value),
+                BodyKind::Loop { start, end, step, adj, item: inner, .. } => {
+                    self.expr(start);
+                    self.expr(end);
+                    if let Some(s) = step {
+                        self.expr(s);
+                    }
+                    self.adj_list(adj);
+                    self.body(std::slice::from_ref(inner), ns);
                 }
                 BodyKind::Iterate { count, divisor, adj, chain, item: inner } => {
                     let header = count.span().to(adj.span);
@@ -668,7 +688,7 @@ impl Walker<'_, '_> {
                 };
                 self.syn(v.span, occ);
             }
-            ExprKind::Neg(x) | ExprKind::Paren(x) => self.expr(x),
+            ExprKind::Neg(x) | ExprKind::Paren(x) | ExprKind::Not(x) => self.expr(x),
             ExprKind::Binary(_, a, b) => {
                 self.expr(a);
                 self.expr(b);

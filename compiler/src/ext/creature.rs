@@ -1416,6 +1416,12 @@ impl<'a> Builder<'a, '_> {
                 ok
             }
             ExprKind::Paren(x) => self.expr(x, condition, out),
+            ExprKind::Not(x) => {
+                let ok = self.expr(x, condition, out);
+                let eq = BINOPS.iter().position(|s| *s == "==").unwrap_or(0);
+                out.extend([CondOp::Push(0.0), CondOp::Bin(eq as u8)]);
+                ok
+            }
             ExprKind::Binary(op, a, b) => {
                 let ok = self.expr(a, condition, out) & self.expr(b, condition, out);
                 let i = BINOPS.iter().position(|s| *s == op.symbol()).unwrap_or(0);

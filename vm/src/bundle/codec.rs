@@ -211,6 +211,10 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
                     w.u8(4);
                     w.u8(*f);
                 }
+                ExprOp::Slot(i) => {
+                    w.u8(5);
+                    w.u16(*i);
+                }
             }
         }
     }
@@ -239,6 +243,17 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
             w.u32(*t);
         }
         w.u32(r.iter);
+        // Parameters: a default flag, then the default (no default: NaN in memory).
+        w.len(r.params.len());
+        for p in &r.params {
+            if p.is_nan() {
+                w.u8(0);
+            } else {
+                w.u8(1);
+                w.f64(*p);
+            }
+        }
+        w.u16(r.frame);
     }
     // Code.
     let mut code = Vec::new();
@@ -438,13 +453,14 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
                 2 => ExprOp::Neg,
                 3 => ExprOp::Bin(r.u8()?),
                 4 => ExprOp::Call(r.u8()?),
+                5 => ExprOp::Slot(r.u16()?),
                 t => return Err(r.err(&format!("unknown expression op {t}"))),
             });
         }
         exprs.push(e);
     }
     r.section = "rules";
-    let n = r.len(17)?;
+    let n = r.len(23)?;
     let mut rules = Vec::with_capacity(n);
     for _ in 0..n {
         let name = r.u32()?;
@@ -468,7 +484,17 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
             tr.push(r.u32()?);
         }
         let iter = r.u32()?;
-        rules.push(Rule { name, selector, defs, transforms: tr, iter });
+        let m = r.len(1)?;
+        let mut params = Vec::with_capacity(m);
+        for _ in 0..m {
+            params.push(match r.u8()? {
+                0 => f64::NAN,
+                1 => r.f64()?,
+                t => return Err(r.err(&format!("unknown parameter flag {t}"))),
+            });
+        }
+        let frame = r.u16()?;
+        rules.push(Rule { name, selector, defs, transforms: tr, iter, params, frame });
     }
     r.section = "code";
     let n_ops = r.len(1)?;

@@ -18,6 +18,54 @@ fn composite(c: &Composite) -> String {
     s
 }
 
+/// Expression code as infix text: `s0` is slot 0 of the rule's frame.
+pub fn expr_text(code: &[crate::expr::ExprOp]) -> String {
+    use crate::expr::{ExprOp, BINOPS, FUNCTIONS, VARIABLES};
+    // (text, binds loosely: needs parentheses as an operand)
+    let mut st: Vec<(String, bool)> = Vec::new();
+    let pop = |st: &mut Vec<(String, bool)>| st.pop().unwrap_or_else(|| ("?".into(), false));
+    for op in code {
+        match *op {
+            ExprOp::Push(v) => st.push((format!("{v}"), v < 0.0)),
+            ExprOp::Var(i) => st.push((VARIABLES.get(i as usize).unwrap_or(&"?").to_string(), false)),
+            ExprOp::Slot(i) => st.push((format!("s{i}"), false)),
+            ExprOp::Neg => {
+                let (a, loose) = pop(&mut st);
+                st.push((if loose { format!("-({a})") } else { format!("-{a}") }, false));
+            }
+            ExprOp::Bin(o) => {
+                let (b, lb) = pop(&mut st);
+                let (a, la) = pop(&mut st);
+                let wrap = |t: String, loose: bool| if loose { format!("({t})") } else { t };
+                let sym = BINOPS.get(o as usize).unwrap_or(&"?");
+                st.push((format!("{} {sym} {}", wrap(a, la), wrap(b, lb)), true));
+            }
+            ExprOp::Call(f) => {
+                let (name, arity) = FUNCTIONS.get(f as usize).copied().unwrap_or(("?", 0));
+                let at = st.len().saturating_sub(arity);
+                let args: Vec<String> = st.drain(at..).map(|(t, _)| t).collect();
+                st.push((format!("{name}({})", args.join(", ")), false));
+            }
+        }
+    }
+    st.pop().map(|(t, _)| t).unwrap_or_default()
+}
+
+/// The name of adjustment kind `kind` with `axis` (see [`PrimAdj`]).
+fn prim_name(kind: u8, axis: u8) -> String {
+    let ax = |a: u8| ["x", "y", "z", "xyz"].get(a as usize).copied().unwrap_or("?");
+    match kind {
+        0 => format!("translate.{}", ax(axis)),
+        1 => format!("rotate.{}", ax(axis)),
+        2 => "scale".into(),
+        3 => format!("flip.{}", if axis == 3 { "normal" } else { ax(axis) }),
+        4 => format!("color.{axis}"),
+        5 => format!("weight.{axis}"),
+        6 => "fps".into(),
+        _ => format!("kind{kind}"),
+    }
+}
+
 /// Renders the whole bundle.
 pub fn disassemble(b: &Bundle) -> String {
     let mut o = String::new();
@@ -38,20 +86,49 @@ pub fn disassemble(b: &Bundle) -> String {
                 let _ = writeln!(o, "X{i:<4} {}", composite(c));
             }
             Transform::Dynamic { adjs, divisor } => {
-                let _ = writeln!(o, "X{i:<4} dynamic /{divisor} {:?}", adjs);
+                let list: Vec<String> = adjs
+                    .iter()
+                    .map(|a| {
+                        let args: Vec<String> = a
+                            .args
+                            .iter()
+                            .map(|arg| match arg {
+                                Arg::Const(v) => format!("{v}"),
+                                Arg::Expr(e) => format!("E{e}"),
+                            })
+                            .collect();
+                        format!("{} {}", prim_name(a.kind, a.axis), args.join(" "))
+                    })
+                    .collect();
+                let _ = writeln!(o, "X{i:<4} dynamic /{divisor} {{{}}}", list.join("; "));
             }
         }
     }
     if !b.exprs.is_empty() {
         let _ = writeln!(o, "\n; expressions");
         for (i, e) in b.exprs.iter().enumerate() {
-            let _ = writeln!(o, "E{i:<4} {:?}", e);
+            let _ = writeln!(o, "E{i:<4} {}", expr_text(e));
         }
     }
     let _ = writeln!(o, "\n; rules");
     for (i, r) in b.rules.iter().enumerate() {
         let defs: Vec<String> = r.defs.iter().map(|d| format!("@{} w={}", d.start, d.weight)).collect();
-        let _ = writeln!(o, "R{i:<4} {} {:?} [{}]", b.string(r.name), r.selector, defs.join(", "));
+        let params = if r.params.is_empty() {
+            if r.frame > 0 {
+                format!(" frame={}", r.frame)
+            } else {
+                String::new()
+            }
+        } else {
+            let p: Vec<String> = r
+                .params
+                .iter()
+                .enumerate()
+                .map(|(k, d)| if d.is_nan() { format!("s{k}") } else { format!("s{k}={d}") })
+                .collect();
+            format!("({}) frame={}", p.join(", "), r.frame)
+        };
+        let _ = writeln!(o, "R{i:<4} {}{params} {:?} [{}]", b.string(r.name), r.selector, defs.join(", "));
     }
     let _ = writeln!(o, "\n; code");
     let mut last_src = None;
@@ -70,6 +147,9 @@ pub fn disassemble(b: &Bundle) -> String {
                 (Op::Call { .. }, "rule") => b.string(b.rules.get(v as usize).map(|r| r.name).unwrap_or(0)).to_string(),
                 (Op::Draw { .. }, "kind") => ops::DRAWABLE_KINDS.get(v as usize).unwrap_or(&"?").to_string(),
                 (_, "xf" | "step") => format!("X{v}"),
+                (Op::LoopN { .. }, "count") | (_, "expr") => format!("E{v}"),
+                (_, "slot") => format!("s{v}"),
+                (_, "target" | "end" | "begin") => format!("@{v}"),
                 (_, "profile") if v == NONE as u64 => "-".to_string(),
                 _ => format!("{n}={v}"),
             })

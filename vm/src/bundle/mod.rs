@@ -14,7 +14,7 @@ pub mod ops;
 mod verify;
 
 pub use codec::{decode, encode};
-pub use disasm::disassemble;
+pub use disasm::{disassemble, expr_text};
 pub use ops::{Op, CONT_NEXT, NONE};
 pub use verify::verify;
 
@@ -23,7 +23,7 @@ use crate::expr::ExprOp;
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"MDGB";
 /// Format version; bumped on any change to the layout.
-pub const VERSION: u16 = 3;
+pub const VERSION: u16 = 4;
 
 /// A precomputed adjustment list: thesis eqs. 4.1–4.9 folded into (q, q̂, u) plus
 /// colour, weight and fps deltas (SPEC §4).
@@ -114,6 +114,15 @@ pub struct Rule {
     pub transforms: Vec<u32>,
     /// Iterator rule (`* I`), or [`NONE`].
     pub iter: u32,
+    /// One entry per parameter (`rule tree(int n, float len = 1)`): its default value,
+    /// or NaN where it has none. A call passes exactly this many `ARG`s; a run that
+    /// starts at the rule (start shape, profile, transform or iterator rule) uses the
+    /// defaults.
+    pub params: Vec<f64>,
+    /// Slots in an activation of the rule: the parameters, then the `let` bindings and
+    /// loop variables of its largest definition. Expressions read them with
+    /// `ExprOp::Slot`; the verifier checks every slot index against this.
+    pub frame: u16,
 }
 
 /// An isosurface declaration.

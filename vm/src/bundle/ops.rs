@@ -36,6 +36,16 @@ macro_rules! for_each_op {
                 "         the next item starts from last (continuation)");
             (0x07, Ret, "RET", { },
                 "         pop frame; return to the caller");
+            (0x08, Arg, "ARG", { expr: u32 },
+                "e        push the value of e (in the caller's frame) as the next argument of the CALL that follows");
+            (0x09, Set, "SET", { slot: u16, expr: u32 },
+                "s e      slot s := e (a `let` binding or a loop variable)");
+            (0x0A, Jump, "JUMP", { target: u32 },
+                "j        continue at op j (forward, within the definition and its loop)");
+            (0x0B, JumpIfNot, "JUMPZ", { expr: u32, target: u32 },
+                "e j      if e is 0 (false) or NaN, continue at op j (`if`/`else`)");
+            (0x0C, LoopN, "LOOPN", { count: u32, step: u32, end: u32, chain: u8 },
+                "e x j f  LOOP whose count is expression e, evaluated once on entry (negative or NaN: 0 runs)");
         }
     };
 }

@@ -66,17 +66,39 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
         }
         if let Selector::Function(e) = r.selector {
             expr_ok(e, "selector")?;
+            // A selector reads the call's arguments, not the body's locals.
+            if expr::slots_needed(&b.exprs[e as usize]) > r.params.len() {
+                return Err(bad(format!("rule {i}: the selector reads a slot beyond the parameters")));
+            }
+        }
+        if r.params.len() > r.frame as usize {
+            return Err(bad(format!("rule {i}: {} parameters in a frame of {}", r.params.len(), r.frame)));
         }
         for d in &r.defs {
             if d.start >= n_ops {
                 return Err(bad(format!("rule {i}: definition starts at op {} beyond the code", d.start)));
             }
-            verify_body(b, d.start)?;
         }
         for t in &r.transforms {
             rule_ok(*t, "transform rule")?;
         }
         rule_or_none(r.iter, "iterator rule")?;
+    }
+    for (pc, op) in b.code.iter().enumerate() {
+        // Operands checked before any body walk reads through them.
+        let expr_operand = match *op {
+            Op::Arg { expr } | Op::Set { expr, .. } | Op::JumpIfNot { expr, .. } => Some(expr),
+            Op::LoopN { count, .. } => Some(count),
+            _ => None,
+        };
+        if let Some(e) = expr_operand {
+            expr_ok(e, &format!("op {pc} ({})", op.mnemonic()))?;
+        }
+    }
+    for (i, r) in b.rules.iter().enumerate() {
+        for d in &r.defs {
+            verify_body(b, i, d.start)?;
+        }
     }
     for (pc, op) in b.code.iter().enumerate() {
         let at = |what: &str| format!("op {pc} ({what})");
@@ -98,7 +120,7 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
                     return Err(bad(format!("{}: operand out of range", at("ISO"))));
                 }
             }
-            Op::Loop { step, end, .. } => {
+            Op::Loop { step, end, .. } | Op::LoopN { step, end, .. } => {
                 if step >= n_xf {
                     return Err(bad(format!("{}: transform out of range", at("LOOP"))));
                 }
@@ -108,9 +130,11 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
                 }
             }
             Op::EndLoop { begin } => match b.code.get(begin as usize) {
-                Some(Op::Loop { end, .. }) if *end as usize == pc => {}
+                Some(Op::Loop { end, .. } | Op::LoopN { end, .. }) if *end as usize == pc => {}
                 _ => return Err(bad(format!("{}: begin {begin} is not its LOOP", at("ENDLOOP")))),
             },
+            // Checked per definition by `verify_body`.
+            Op::Arg { .. } | Op::Set { .. } | Op::Jump { .. } | Op::JumpIfNot { .. } => {}
             Op::Cont {} | Op::Ret {} => {}
         }
     }
@@ -178,20 +202,96 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
     Ok(())
 }
 
-/// A definition body runs from `start` to a `RET` at loop depth 0, with loops nested.
-fn verify_body(b: &Bundle, start: u32) -> Result<(), LoadError> {
-    let mut depth = 0usize;
+/// A definition of rule `rule` runs from `start` to a `RET` at loop depth 0, with
+/// loops nested; every `CALL` is preceded by exactly as many `ARG`s as its rule has
+/// parameters (and nothing else happens between them); jumps go forward to an op of
+/// the same definition inside the same loop, never between an `ARG` and its `CALL`;
+/// every slot read or written lies in the rule's frame.
+fn verify_body(b: &Bundle, rule: usize, start: u32) -> Result<(), LoadError> {
+    let frame = b.rules[rule].frame as usize;
+    let slots_ok = |e: u32, pc: usize| {
+        if expr::slots_needed(&b.exprs[e as usize]) > frame {
+            Err(bad(format!("op {pc}: expression {e} reads a slot beyond the frame of {frame}")))
+        } else {
+            Ok(())
+        }
+    };
+    let xf_ok = |xf: u32, pc: usize| -> Result<(), LoadError> {
+        if let Some(Transform::Dynamic { adjs, .. }) = b.transforms.get(xf as usize) {
+            for a in adjs {
+                for arg in &a.args {
+                    if let Arg::Expr(e) = arg {
+                        if (*e as usize) < b.exprs.len() {
+                            slots_ok(*e, pc)?;
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    };
+    // The innermost open loop (its LOOP op) and the pending ARG count, per op.
+    let mut loops: Vec<usize> = Vec::new();
+    let mut pending = 0usize;
+    let mut at: Vec<(Option<usize>, usize)> = Vec::new();
+    let mut jumps: Vec<(usize, u32)> = Vec::new();
     let mut pc = start as usize;
     while let Some(op) = b.code.get(pc) {
-        match op {
-            Op::Loop { .. } => depth += 1,
+        at.push((loops.last().copied(), pending));
+        if pending > 0 && !matches!(op, Op::Arg { .. } | Op::Call { .. }) {
+            return Err(bad(format!("op {pc}: {} between an ARG and its CALL", op.mnemonic())));
+        }
+        match *op {
+            Op::Loop { step, .. } => {
+                xf_ok(step, pc)?;
+                loops.push(pc);
+            }
+            Op::LoopN { count, step, .. } => {
+                slots_ok(count, pc)?;
+                xf_ok(step, pc)?;
+                loops.push(pc);
+            }
             Op::EndLoop { .. } => {
-                depth = depth.checked_sub(1).ok_or_else(|| bad(format!("ENDLOOP without LOOP at op {pc}")))?;
+                loops.pop().ok_or_else(|| bad(format!("ENDLOOP without LOOP at op {pc}")))?;
             }
+            Op::Arg { expr } => {
+                slots_ok(expr, pc)?;
+                pending += 1;
+            }
+            Op::Call { rule: callee, xf, .. } => {
+                xf_ok(xf, pc)?;
+                let want = b.rules.get(callee as usize).map(|r| r.params.len()).unwrap_or(0);
+                if pending != want {
+                    return Err(bad(format!("op {pc}: CALL with {pending} arguments for {want} parameters")));
+                }
+                pending = 0;
+            }
+            Op::Draw { xf, .. } | Op::Iso { xf, .. } => xf_ok(xf, pc)?,
+            Op::Set { slot, expr } => {
+                slots_ok(expr, pc)?;
+                if slot as usize >= frame {
+                    return Err(bad(format!("op {pc}: SET of slot {slot} beyond the frame of {frame}")));
+                }
+            }
+            Op::Jump { target } => jumps.push((pc, target)),
+            Op::JumpIfNot { expr, target } => {
+                slots_ok(expr, pc)?;
+                jumps.push((pc, target));
+            }
+            Op::Cont {} => {}
             Op::Ret {} => {
-                return if depth == 0 { Ok(()) } else { Err(bad(format!("RET inside a loop at op {pc}"))) };
+                if !loops.is_empty() {
+                    return Err(bad(format!("RET inside a loop at op {pc}")));
+                }
+                for (from, target) in jumps {
+                    let t = target as usize;
+                    let ok = t > from && t <= pc && at[t - start as usize] == (at[from - start as usize].0, 0);
+                    if !ok {
+                        return Err(bad(format!("op {from}: jump to op {t} leaves its definition or loop")));
+                    }
+                }
+                return Ok(());
             }
-            _ => {}
         }
         pc += 1;
     }
@@ -216,6 +316,8 @@ mod tests {
                 defs: vec![Def { weight: 1.0, start: 0 }],
                 transforms: vec![],
                 iter: NONE,
+                params: vec![],
+                frame: 0,
             }],
             code: vec![Op::Ret {}],
             isosurfaces: vec![],
