@@ -247,9 +247,12 @@ pub fn check(ex: &Expanded, opts: CheckOptions) -> Checked {
         guards: Vec::new(),
         conditional: 0,
         rule_name: None,
+        param_reads: BTreeSet::new(),
+        unread_params: Vec::new(),
     };
     c.collect();
     c.items();
+    c.unread_params();
     c.whole_program(opts);
     crate::ext::check(ex, &c.sym, &mut c.diags);
     Checked { symbols: c.sym, diagnostics: c.diags }
@@ -274,6 +277,12 @@ struct Checker<'a> {
     conditional: u32,
     /// The full name of the rule whose body is being checked.
     rule_name: Option<String>,
+    /// Parameters read somewhere (rule, parameter index): by any definition's body
+    /// or by the rule's selector.
+    param_reads: BTreeSet<(String, usize)>,
+    /// Parameters a definition did not read: (rule, index, span), reported when no
+    /// definition and no selector reads them.
+    unread_params: Vec<(String, usize, Span, String)>,
 }
 
 /// A parameter, `let` binding or loop variable in scope.
@@ -285,6 +294,13 @@ struct Local {
     used: bool,
     /// Its index in the rule's parameter list, for a parameter.
     param: Option<usize>,
+}
+
+/// W0006 for a binding that is never read.
+fn unused(l: &Local, what: &str) -> Diagnostic {
+    Diagnostic::warning("W0006", l.span, format!("{what} `{}` is never used", l.name))
+        .with_label("never read")
+        .with_note(format!("use it, remove it, or name it `_{}`", l.name))
 }
 
 /// `e` without the parentheses around it.
@@ -524,11 +540,8 @@ impl<'a> Checker<'a> {
                 let ty = match Ty::parse(&d.ty.text) {
                     Some(t) => t,
                     None => {
-                        let mut diag = Diagnostic::error(
-                            "E0325",
-                            d.ty.span,
-                            format!("unknown parameter type `{}`", d.ty.text),
-                        );
+                        let mut diag =
+                            Diagnostic::error("E0325", d.ty.span, format!("unknown parameter type `{}`", d.ty.text));
                         // Context Free's `natural` and `number`.
                         let fix = match d.ty.text.as_str() {
                             "natural" | "integer" => Some("int"),
@@ -544,20 +557,30 @@ impl<'a> Checker<'a> {
                         Ty::Float
                     }
                 };
-                if let Some(prev) = scope.iter().find(|l: &&Local| l.name == d.name.text) {
-                    let prev = prev.span;
+                let twice = scope.iter().find(|l: &&Local| l.name == d.name.text).map(|l| l.span);
+                if let Some(prev) = twice {
                     self.diags.push(
-                        Diagnostic::error("E0321", d.name.span, format!("parameter `{}` is declared twice", d.name.text))
-                            .with_secondary(prev, "first declared here"),
+                        Diagnostic::error(
+                            "E0321",
+                            d.name.span,
+                            format!("parameter `{}` is declared twice", d.name.text),
+                        )
+                        .with_secondary(prev, "first declared here"),
                     );
                 }
                 match &d.default {
                     Some(e) => {
+                        let before = self.diags.len();
                         self.expr(e, false, false);
                         match self.const_value(e) {
+                            None if self.diags.len() > before => {}
                             None => self.diags.push(
-                                Diagnostic::error("E0408", e.span, "a parameter default must be a compile-time constant")
-                                    .with_note("defaults may use numbers, @param and @define names"),
+                                Diagnostic::error(
+                                    "E0408",
+                                    e.span,
+                                    "a parameter default must be a compile-time constant",
+                                )
+                                .with_note("defaults may use numbers, @param and @define names"),
                             ),
                             Some(_) => {
                                 let given = type_of(e, &|n| self.global_type(n));
@@ -580,7 +603,9 @@ impl<'a> Checker<'a> {
                         }
                     }
                 }
-                scope.push(Local { name: d.name.text.clone(), ty, span: d.name.span, used: false, param: Some(i) });
+                if twice.is_none() {
+                    scope.push(Local { name: d.name.text.clone(), ty, span: d.name.span, used: false, param: Some(i) });
+                }
             }
         }
         // Every definition of a rule takes the same parameters as its first.
@@ -606,18 +631,36 @@ impl<'a> Checker<'a> {
         self.scope = Some(scope);
     }
 
-    /// Warns about parameters and locals from `from` on that were never read, and
-    /// closes their scope.
+    /// Warns about locals from `from` on that were never read, and closes their
+    /// scope (parameters are reported once the whole rule is known).
     fn unused_locals(&mut self, from: usize) {
         let Some(scope) = self.scope.as_mut() else { return };
         let gone: Vec<Local> = scope.drain(from.min(scope.len())..).collect();
-        for l in gone.into_iter().filter(|l| !l.used && !l.name.starts_with('_')) {
-            let what = if l.param.is_some() { "parameter" } else { "local" };
-            self.diags.push(
-                Diagnostic::warning("W0006", l.span, format!("{what} `{}` is never used", l.name))
-                    .with_label("never read")
-                    .with_note(format!("use it, remove it, or name it `_{}`", l.name)),
-            );
+        for l in gone {
+            match (l.param, &self.rule_name) {
+                (Some(i), Some(rule)) if l.used => {
+                    self.param_reads.insert((rule.clone(), i));
+                }
+                (Some(i), Some(rule)) => self.unread_params.push((rule.clone(), i, l.span, l.name)),
+                (Some(_), None) => {}
+                (None, _) if !l.used && !l.name.starts_with('_') => self.diags.push(unused(&l, "local")),
+                (None, _) => {}
+            }
+        }
+    }
+
+    /// W0006 for the parameters no definition and no selector reads (at the first
+    /// definition that declares them).
+    fn unread_params(&mut self) {
+        let mut seen = BTreeSet::new();
+        for (rule, i, span, name) in std::mem::take(&mut self.unread_params) {
+            if self.param_reads.contains(&(rule.clone(), i)) || !seen.insert((rule.clone(), i)) {
+                continue;
+            }
+            if !name.starts_with('_') {
+                let l = Local { name, ty: Ty::Float, span, used: false, param: Some(i) };
+                self.diags.push(unused(&l, "parameter"));
+            }
         }
     }
 
@@ -665,11 +708,11 @@ impl<'a> Checker<'a> {
         if want.accepts(given) {
             return;
         }
-        let text = crate::fmt::expr(e);
+        let text = crate::fmt::expr(strip(e));
         let mut d = Diagnostic::error(
             "E0323",
             e.span,
-            format!("{what} is a `{}`, but this is a `{}`", want.name(), given.name()),
+            format!("{what} is {}, but this is {}", want.article(), given.article()),
         );
         d = match crate::types::conversion(want, given, &text) {
             Some(fix) => d.with_suggestion(format!("convert it: `{fix}`"), e.span, fix),
@@ -753,7 +796,13 @@ impl<'a> Checker<'a> {
             };
             if stays {
                 let p = &sig.params[i].name;
-                let dir = if delta > 0.0 { "grows" } else if delta < 0.0 { "shrinks" } else { "stays the same" };
+                let dir = if delta > 0.0 {
+                    "grows"
+                } else if delta < 0.0 {
+                    "shrinks"
+                } else {
+                    "stays the same"
+                };
                 self.diags.push(
                     Diagnostic::warning("W0007", arg.span, format!("this recursion of `{}` never stops", name.text))
                         .with_label(format!("`{p}` {dir} here"))
@@ -1156,7 +1205,25 @@ impl<'a> Checker<'a> {
                     self.diags.push(d);
                 }
             }
-            SelectorMode::FunctionBody(e) => self.expr(e, true, false),
+            SelectorMode::FunctionBody(e) => {
+                // The expression sees the call's arguments: the (first) rule's parameters.
+                let full = rules.first().and_then(|r| self.sym.resolve(&r.text, ns.as_deref()));
+                let sig = full.as_ref().and_then(|f| self.sym.signatures.get(f)).cloned().unwrap_or_default();
+                let scope = sig
+                    .params
+                    .iter()
+                    .enumerate()
+                    .map(|(i, p)| Local { name: p.name.clone(), ty: p.ty, span: p.span, used: false, param: Some(i) })
+                    .collect();
+                self.scope = Some(scope);
+                self.expr(e, true, false);
+                let scope = self.scope.take().unwrap_or_default();
+                if let Some(full) = full {
+                    for l in scope.iter().filter(|l| l.used) {
+                        self.param_reads.insert((full.clone(), l.param.unwrap_or(0)));
+                    }
+                }
+            }
         }
     }
 

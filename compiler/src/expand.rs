@@ -399,7 +399,10 @@ impl<'a> Expander<'a> {
             }
             BodyKind::Loop { var, start, end, step, adj, item: inner } => {
                 let inner = self.single(*inner, item.span);
-                out.push(BodyItem { kind: BodyKind::Loop { var, start, end, step, adj, item: Box::new(inner) }, ..item });
+                out.push(BodyItem {
+                    kind: BodyKind::Loop { var, start, end, step, adj, item: Box::new(inner) },
+                    ..item
+                });
             }
             BodyKind::If { cond, then, then_span, otherwise } => {
                 self.nest += 1;

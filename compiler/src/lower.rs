@@ -329,7 +329,15 @@ impl<'a> Lower<'a> {
             };
             self.scope.clear();
             let params = sig.params.iter().map(|p| p.default.unwrap_or(f64::NAN)).collect();
-            rules.push(bundle::Rule { name: name_id, selector, defs: out_defs, transforms, iter, params, frame: self.frame });
+            rules.push(bundle::Rule {
+                name: name_id,
+                selector,
+                defs: out_defs,
+                transforms,
+                iter,
+                params,
+                frame: self.frame,
+            });
         }
         let mut isosurfaces = Vec::new();
         for ExpItem { item, .. } in &self.ex.items {

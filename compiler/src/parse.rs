@@ -32,11 +32,36 @@ pub struct Ctx<'c> {
     macros: RefCell<HashMap<Loc, MacroDef>>,
     expands: RefCell<HashMap<Loc, (Name, Vec<MacroArg>)>>,
     diags: RefCell<Vec<Diagnostic>>,
+    /// The adjustment names in force, with the colour and weight components the
+    /// file renames (`color red green blue alpha`), for grouping adjustment lists.
+    components: crate::check::Components,
 }
 
 impl<'c> Ctx<'c> {
-    fn new(sources: &'c Sources) -> Ctx<'c> {
-        Ctx { sources, macros: RefCell::default(), expands: RefCell::default(), diags: RefCell::default() }
+    fn new(sources: &'c Sources, tokens: &[Token]) -> Ctx<'c> {
+        let mut components = crate::check::Components::default();
+        for (i, t) in tokens.iter().enumerate() {
+            let words = || -> Option<[String; 4]> {
+                let w: Vec<String> = tokens
+                    .get(i + 1..i + 5)?
+                    .iter()
+                    .filter(|t| t.kind == Tok::Ident)
+                    .map(|t| sources.text(t.span).to_string())
+                    .collect();
+                w.try_into().ok()
+            };
+            match t.kind {
+                Tok::KwColor => components.color = words().unwrap_or(components.color),
+                Tok::KwWeight => components.weight = words().unwrap_or(components.weight),
+                _ => {}
+            }
+        }
+        Ctx { sources, macros: RefCell::default(), expands: RefCell::default(), diags: RefCell::default(), components }
+    }
+
+    /// See [`group_adjustments`].
+    pub fn group_adjustments(&self, words: Vec<AdjWord>) -> Vec<Adj> {
+        group_adjustments(words, &self.components)
     }
 
     fn text(&self, l: Loc, r: Loc) -> &'c str {
@@ -816,7 +841,7 @@ fn run(
     mut diags: Vec<Diagnostic>,
     budget: usize,
 ) -> (Out, Vec<Diagnostic>) {
-    let ctx = Ctx::new(sources);
+    let ctx = Ctx::new(sources, &tokens);
     let tokens = prepass(tokens, sources, &ctx);
     let (tokens, bracket) = balance(tokens, sources);
     let unclosed = bracket.iter().any(|d| d.code == "E0104");
@@ -957,8 +982,7 @@ pub enum AdjWord {
 /// that adjustment takes more; otherwise it starts the next adjustment. So a name
 /// that is also an adjustment's (`s`, `x`, `w`) is read as an argument only where one
 /// is required; elsewhere it is written in parentheses: `{x 1 (s)}`.
-pub fn group_adjustments(words: Vec<AdjWord>) -> Vec<Adj> {
-    let comps = crate::check::Components::default();
+pub fn group_adjustments(words: Vec<AdjWord>, comps: &crate::check::Components) -> Vec<Adj> {
     let mut out: Vec<Adj> = Vec::new();
     // The adjustment being filled and its (min, max) argument count.
     let mut open: Option<(usize, usize)> = None;
@@ -994,13 +1018,23 @@ pub fn group_adjustments(words: Vec<AdjWord>) -> Vec<Adj> {
                     }
                     continue;
                 }
-                // An unknown adjustment (or a renamed colour component) takes any number.
-                open = Some(kind.map(|k| k.arity()).unwrap_or((0, usize::MAX)));
+                // An unknown adjustment takes the numbers and parenthesised arguments
+                // after it (the checker reports it); a bare name starts the next one.
+                open = Some(kind.map(|k| k.arity()).unwrap_or((0, 0)));
                 let span = n.span;
                 out.push(Adj { name: n, args: vec![], span });
             }
             AdjWord::Error(span) => {
-                out.push(Adj { name: Name { text: String::new(), span }, args: vec![], span });
+                // Most likely a malformed argument of the adjustment being filled: it
+                // stands in for one, so its arity is not reported on top of the error.
+                let needs = matches!((open, out.last()), (Some((min, _)), Some(adj)) if adj.args.len() < min.max(1));
+                match out.last_mut() {
+                    Some(adj) if needs => {
+                        adj.span = adj.span.to(span);
+                        adj.args.push(Arg::Expr(Expr { kind: ExprKind::Error, span }));
+                    }
+                    _ => out.push(Adj { name: Name { text: String::new(), span }, args: vec![], span }),
+                }
                 open = None;
             }
         }

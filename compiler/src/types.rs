@@ -40,6 +40,15 @@ impl Ty {
         }
     }
 
+    /// "an `int`", "a `float`", "a `bool`".
+    pub fn article(self) -> &'static str {
+        match self {
+            Ty::Int => "an `int`",
+            Ty::Float => "a `float`",
+            Ty::Bool => "a `bool`",
+        }
+    }
+
     /// Whether a value of type `given` may be passed where `self` is expected.
     pub fn accepts(self, given: Ty) -> bool {
         self == given || (self == Ty::Float && given == Ty::Int)
@@ -118,9 +127,7 @@ pub fn type_of(e: &Expr, var: &dyn Fn(&str) -> Option<Ty>) -> Ty {
         },
         ExprKind::Call(f, args) => match f.text.as_str() {
             "floor" | "ceil" => Ty::Int,
-            "abs" | "min" | "max" | "mod" | "clamp" => {
-                args.iter().map(|a| type_of(a, var)).fold(Ty::Int, Ty::numeric)
-            }
+            "abs" | "min" | "max" | "mod" | "clamp" => args.iter().map(|a| type_of(a, var)).fold(Ty::Int, Ty::numeric),
             _ => Ty::Float,
         },
         ExprKind::Error => Ty::Float,

@@ -330,7 +330,7 @@ fn a_long_call_chain_is_checked_in_linear_time() {
     for i in 0..n {
         src.push_str(&format!("rule r{i} {{ VERTEX {{x {i}}} r{} {{s 0.5}} }}\n", i + 1));
     }
-    src.push_str(&format!("rule r{n} {{ VERTEX {{}} }}\nrule loop {{ loop {{}} }}\nrule a {{ loop {{}} }}\n"));
+    src.push_str(&format!("rule r{n} {{ VERTEX {{}} }}\nrule spin {{ spin {{}} }}\nrule a {{ spin {{}} }}\n"));
     src.push_str("rule b { b {} }\nrule b { VERTEX {} }\n");
     let t0 = Instant::now();
     let a = analyze_mem(&src);
@@ -340,13 +340,13 @@ fn a_long_call_chain_is_checked_in_linear_time() {
     assert_eq!(
         w,
         [
-            ("W0002", "rule `loop` is unreachable from the start shape".to_string()),
+            ("W0002", "rule `spin` is unreachable from the start shape".to_string()),
             ("W0001", "rule `a` is never used".to_string()),
             ("W0002", "rule `b` is unreachable from the start shape".to_string()),
         ],
     );
     let out =
-        run_source(&format!("maxiter 100000\n{}", src.replace("rule loop { loop {} }\nrule a { loop {} }\n", "")));
+        run_source(&format!("maxiter 100000\n{}", src.replace("rule spin { spin {} }\nrule a { spin {} }\n", "")));
     assert_eq!(out.mesh.n_vertices(), n + 1, "every rule of the chain ran once");
 }
 

@@ -655,7 +655,18 @@ impl<'b> Eval<'b> {
             } else {
                 0
             };
-            Act { pc, slot_base, slot_top, base: start, base_lin: None, depth, cont: None, loops_at: 0, bone, conv: None }
+            Act {
+                pc,
+                slot_base,
+                slot_top,
+                base: start,
+                base_lin: None,
+                depth,
+                cont: None,
+                loops_at: 0,
+                bone,
+                conv: None,
+            }
         };
         let mut stack: Vec<Act> = vec![first];
         let mut loops: Vec<LoopRec> = Vec::new();
