@@ -249,8 +249,10 @@ pub fn check(ex: &Expanded, opts: CheckOptions) -> Checked {
         rule_name: None,
         param_reads: BTreeSet::new(),
         unread_params: Vec::new(),
+        profile_rules: BTreeSet::new(),
     };
     c.collect();
+    c.collect_profiles();
     c.items();
     c.unread_params();
     c.whole_program(opts);
@@ -277,6 +279,8 @@ struct Checker<'a> {
     conditional: u32,
     /// The full name of the rule whose body is being checked.
     rule_name: Option<String>,
+    /// Rules some drawable uses as its profile (`LINETO circle {…}`), by full name.
+    profile_rules: BTreeSet<String>,
     /// Parameters read somewhere (rule, parameter index): by any definition's body
     /// or by the rule's selector.
     param_reads: BTreeSet<(String, usize)>,
@@ -389,6 +393,39 @@ impl<'a> Checker<'a> {
                     }
                 }
                 _ => {}
+            }
+        }
+    }
+
+    /// The rules used as profiles anywhere in the program (for W0010).
+    fn collect_profiles(&mut self) {
+        fn walk(items: &[BodyItem], out: &mut Vec<Name>) {
+            for item in items {
+                match &item.kind {
+                    BodyKind::Call { profile: Some(p), .. } => out.push(p.clone()),
+                    BodyKind::Iterate { item, .. } | BodyKind::Loop { item, .. } => {
+                        walk(std::slice::from_ref(item), out)
+                    }
+                    BodyKind::Block(items) => walk(items, out),
+                    BodyKind::If { then, otherwise, .. } => {
+                        walk(then, out);
+                        if let Some(o) = otherwise {
+                            walk(std::slice::from_ref(o), out);
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        }
+        for ExpItem { item, namespace } in &self.ex.items {
+            if let ItemKind::Rule(r) = &item.kind {
+                let mut names = Vec::new();
+                walk(&r.body, &mut names);
+                for n in names {
+                    if let Some(full) = self.sym.resolve(&n.text, namespace.as_deref()) {
+                        self.profile_rules.insert(full);
+                    }
+                }
             }
         }
     }
@@ -823,111 +860,150 @@ impl<'a> Checker<'a> {
     fn body(&mut self, items: &'a [BodyItem], ns: &Option<String>, calls: &mut Vec<String>, must: &mut Vec<String>) {
         let scope_at = self.scope.as_ref().map(|s| s.len()).unwrap_or(0);
         for item in items {
-            match &item.kind {
-                BodyKind::Call { name, args, profile, adj } => {
-                    if self.sym.is_drawable(&name.text) {
-                        if let Some(a) = args {
-                            self.diags.push(
-                                Diagnostic::error("E0322", a.span, format!("`{}` takes no arguments", name.text))
-                                    .with_suggestion("remove them", a.span, String::new()),
-                            );
-                        }
-                        if let Some(p) = profile {
-                            let last = name.text.rsplit('.').next().unwrap_or("");
-                            if !PROFILE_DRAWABLES.contains(&last) {
-                                self.diags.push(Diagnostic::error(
-                                    "E0101",
-                                    p.span,
-                                    format!("`{}` does not take a profile rule", name.text),
-                                ));
-                            } else if let Some(full) = self.rule_ref(p, ns, "E0301", "profile rule") {
-                                self.no_arguments_needed(&full, p.span, "profile rule");
-                                self.called(full, calls, must);
-                            }
-                        }
-                    } else if let Some(p) = profile {
-                        self.diags.push(
-                            Diagnostic::error("E0101", p.span, format!("unexpected `{}` after the rule name", p.text))
-                                .with_label("only MOVETO, LINETO, BLENDTO, SLINETO and ALINETO take a profile rule"),
-                        );
-                    } else {
-                        match self.sym.resolve(&name.text, ns.as_deref()) {
-                            Some(full) => {
-                                self.sym.references.push((name.span, full.clone()));
-                                self.call_args(&full, name, args.as_ref());
-                                self.called(full, calls, must);
-                            }
-                            None => {
-                                self.unknown_rule(name);
-                                for a in args.iter().flat_map(|a| &a.args) {
-                                    self.expr(a, false, true);
-                                }
-                            }
-                        }
-                    }
-                    self.adj_list(adj);
-                }
-                BodyKind::Iterate { count, divisor, adj, item, .. } => {
-                    let dynamic = self.count(count, false);
-                    if let Some(d) = divisor {
-                        self.count(d, true);
-                    }
-                    self.adj_list(adj);
-                    self.conditional += dynamic as u32;
-                    self.body(std::slice::from_ref(item), ns, calls, must);
-                    self.conditional -= dynamic as u32;
-                }
-                BodyKind::Block(items) => self.body(items, ns, calls, must),
-                BodyKind::If { cond, then, otherwise, .. } => {
-                    self.expr(cond, false, true);
-                    self.conditional += 1;
-                    self.guards.push((cond, true));
-                    self.body(then, ns, calls, must);
-                    self.guards.pop();
-                    if let Some(o) = otherwise {
-                        self.guards.push((cond, false));
-                        self.body(std::slice::from_ref(o), ns, calls, must);
-                        self.guards.pop();
-                    }
-                    self.conditional -= 1;
-                }
-                BodyKind::Let { name, value } => {
-                    self.expr(value, false, true);
-                    let ty = type_of(value, &|n| self.var_type(n));
-                    if self.scope.is_some() {
-                        self.bind(name, ty);
-                    }
-                }
-                BodyKind::Loop { var, start, end, step, adj, item } => {
-                    for e in [Some(start), Some(end), step.as_ref()].into_iter().flatten() {
-                        self.expr(e, false, true);
-                    }
-                    let tys: Vec<Ty> = [Some(start), step.as_ref()]
-                        .into_iter()
-                        .flatten()
-                        .map(|e| type_of(e, &|n| self.var_type(n)))
-                        .collect();
-                    if let Some(s) = step {
-                        if self.const_value(s) == Some(0.0) {
-                            self.diags.push(
-                                Diagnostic::error("E0403", s.span, "a loop step of 0 never reaches the end")
-                                    .with_label("this is 0"),
-                            );
-                        }
-                    }
-                    self.adj_list(adj);
-                    let mark = self.scope.as_ref().map(|s| s.len()).unwrap_or(0);
-                    let ty = if tys.iter().all(|t| *t == Ty::Int) { Ty::Int } else { Ty::Float };
-                    self.bind(var, ty);
-                    self.conditional += 1;
-                    self.body(std::slice::from_ref(item), ns, calls, must);
-                    self.conditional -= 1;
-                    self.unused_locals(mark);
-                }
-                BodyKind::Pre(_) | BodyKind::Error => {}
-            }
+            self.item(item, ns, calls, must);
         }
         self.unused_locals(scope_at);
+    }
+
+    /// One body item. Kept small (the heavy cases are functions of their own): blocks
+    /// nest up to the parse limit, and each level costs this frame and `body`'s on the
+    /// stack of the language server's analysis thread.
+    fn item(&mut self, item: &'a BodyItem, ns: &Option<String>, calls: &mut Vec<String>, must: &mut Vec<String>) {
+        match &item.kind {
+            BodyKind::Call { name, args, profile, adj } => {
+                self.call_item(name, args.as_ref(), profile.as_ref(), adj, ns, calls, must)
+            }
+            BodyKind::Iterate { count, divisor, adj, item, .. } => {
+                let dynamic = self.count(count, false);
+                if let Some(d) = divisor {
+                    self.count(d, true);
+                }
+                self.adj_list(adj);
+                self.conditional += dynamic as u32;
+                self.body(std::slice::from_ref(item), ns, calls, must);
+                self.conditional -= dynamic as u32;
+            }
+            BodyKind::Block(items) => self.body(items, ns, calls, must),
+            BodyKind::If { cond, then, otherwise, .. } => {
+                self.expr(cond, false, true);
+                self.conditional += 1;
+                self.guards.push((cond, true));
+                self.body(then, ns, calls, must);
+                self.guards.pop();
+                if let Some(o) = otherwise {
+                    self.guards.push((cond, false));
+                    self.body(std::slice::from_ref(o), ns, calls, must);
+                    self.guards.pop();
+                }
+                self.conditional -= 1;
+            }
+            BodyKind::Let { name, value } => {
+                self.expr(value, false, true);
+                let ty = type_of(value, &|n| self.var_type(n));
+                if self.scope.is_some() {
+                    self.bind(name, ty);
+                }
+            }
+            BodyKind::Loop { var, start, end, step, adj, item } => {
+                for e in [Some(start), Some(end), step.as_ref()].into_iter().flatten() {
+                    self.expr(e, false, true);
+                }
+                let tys: Vec<Ty> = [Some(start), step.as_ref()]
+                    .into_iter()
+                    .flatten()
+                    .map(|e| type_of(e, &|n| self.var_type(n)))
+                    .collect();
+                if let Some(s) = step {
+                    if self.const_value(s) == Some(0.0) {
+                        self.diags.push(
+                            Diagnostic::error("E0403", s.span, "a loop step of 0 never reaches the end")
+                                .with_label("this is 0"),
+                        );
+                    }
+                }
+                self.adj_list(adj);
+                let mark = self.scope.as_ref().map(|s| s.len()).unwrap_or(0);
+                let ty = if tys.iter().all(|t| *t == Ty::Int) { Ty::Int } else { Ty::Float };
+                self.bind(var, ty);
+                self.conditional += 1;
+                self.body(std::slice::from_ref(item), ns, calls, must);
+                self.conditional -= 1;
+                self.unused_locals(mark);
+            }
+            BodyKind::Pre(_) | BodyKind::Error => {}
+        }
+    }
+
+    #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
+    fn call_item(
+        &mut self,
+        name: &'a Name,
+        args: Option<&'a CallArgs>,
+        profile: Option<&'a Name>,
+        adj: &'a AdjList,
+        ns: &Option<String>,
+        calls: &mut Vec<String>,
+        must: &mut Vec<String>,
+    ) {
+        if self.sym.is_drawable(&name.text) {
+            if let Some(a) = args {
+                self.diags.push(
+                    Diagnostic::error("E0322", a.span, format!("`{}` takes no arguments", name.text)).with_suggestion(
+                        "remove them",
+                        a.span,
+                        String::new(),
+                    ),
+                );
+            }
+            if let Some(p) = profile {
+                let last = name.text.rsplit('.').next().unwrap_or("");
+                if !PROFILE_DRAWABLES.contains(&last) {
+                    self.diags.push(Diagnostic::error(
+                        "E0101",
+                        p.span,
+                        format!("`{}` does not take a profile rule", name.text),
+                    ));
+                } else if let Some(full) = self.rule_ref(p, ns, "E0301", "profile rule") {
+                    self.no_arguments_needed(&full, p.span, "profile rule");
+                    self.called(full, calls, must);
+                }
+            }
+        } else if let Some(p) = profile {
+            self.diags.push(
+                Diagnostic::error("E0101", p.span, format!("unexpected `{}` after the rule name", p.text))
+                    .with_label("only MOVETO, LINETO, BLENDTO, SLINETO and ALINETO take a profile rule"),
+            );
+        } else {
+            match self.sym.resolve(&name.text, ns.as_deref()) {
+                Some(full) => {
+                    self.sym.references.push((name.span, full.clone()));
+                    self.call_args(&full, name, args);
+                    if self.profile_rules.contains(&full) {
+                        self.diags.push(
+                            Diagnostic::warning(
+                                "W0010",
+                                name.span,
+                                format!("`{}` is a profile rule, called here as a shape", name.text),
+                            )
+                            .with_label("its VERTEX points outline a swept profile; here they draw triangles")
+                            .with_note(format!(
+                                "sweep it along a path: `MOVETO {{}} LINETO {} {{z 1}}` (Context Free's `CIRCLE` is a shape; MDG's `circle` is a profile, `SPHERE` or `disc` are shapes)",
+                                name.text
+                            )),
+                        );
+                    }
+                    self.called(full, calls, must);
+                }
+                None => {
+                    self.unknown_rule(name);
+                    for a in args.iter().flat_map(|a| &a.args) {
+                        self.expr(a, false, true);
+                    }
+                }
+            }
+        }
+        self.adj_list(adj);
     }
 
     /// Records a call of rule `full` in the call graphs.
@@ -1042,6 +1118,7 @@ impl<'a> Checker<'a> {
     }
 
     fn adj_list(&mut self, adj: &AdjList) {
+        self.context_free_order(adj);
         for a in &adj.adjs {
             if a.name.text.is_empty() {
                 continue; // A recovered syntax error, already reported.
@@ -1080,6 +1157,88 @@ impl<'a> Checker<'a> {
                 }
             }
         }
+    }
+
+    /// W0008: a `[ … ]` list that Context Free would reorder (CF3 applies single-bracket
+    /// lists as translate, rotate, scale, flip; MDG applies every list as written), where
+    /// the two orders give different frames: a rotation before a translation off its
+    /// axis, or a scale or flip before a translation.
+    fn context_free_order(&mut self, adj: &AdjList) {
+        if !adj.square {
+            return;
+        }
+        for a in &adj.adjs {
+            if matches!(a.name.text.as_str(), "r" | "rotate") && a.args.len() == 1 {
+                let arg = match &a.args[0] {
+                    Arg::Num(n) => n.text.clone(),
+                    Arg::Neg(n) => format!("-{}", n.text),
+                    Arg::Expr(e) => crate::fmt::expr(e),
+                };
+                self.diags.push(
+                    Diagnostic::warning("W0011", a.span, format!("`{} {arg}` turns about x", a.name.text))
+                        .with_label("one angle is a rotation about the x axis")
+                        .with_suggestion("turn about z, as Context Free's `r` does", a.span, format!("rz {arg}"))
+                        .with_note("`r X Y Z` turns about x, then y, then z; write `rx`, `ry` or `rz` for one axis"),
+                );
+            }
+        }
+        let comps = &self.sym.components;
+        let rank = |a: &Adj| match comps.adj_kind(&a.name.text) {
+            Some(AdjKind::Translate(_)) => 0,
+            Some(AdjKind::Rotate(_) | AdjKind::Turn(..)) => 1,
+            Some(AdjKind::Scale) => 2,
+            Some(AdjKind::Flip(_)) => 3,
+            _ => 4,
+        };
+        // The translation axes (0..2, or all for `x X Y Z`) and the rotation axis.
+        let axis = |a: &Adj| match comps.adj_kind(&a.name.text) {
+            Some(AdjKind::Translate(0)) if a.args.len() > 1 => 3,
+            Some(AdjKind::Translate(ax) | AdjKind::Rotate(ax) | AdjKind::Turn(ax, _)) => ax,
+            _ => 3,
+        };
+        let mut differs = false;
+        for (i, a) in adj.adjs.iter().enumerate() {
+            if rank(a) != 0 {
+                continue;
+            }
+            for b in &adj.adjs[..i] {
+                let r = rank(b);
+                let commutes = r == 1 && axis(b) != 3 && axis(b) == axis(a);
+                if (1..=3).contains(&r) && !commutes {
+                    differs = true;
+                }
+            }
+        }
+        if !differs {
+            return;
+        }
+        let mut sorted: Vec<&Adj> = adj.adjs.iter().collect();
+        sorted.sort_by_key(|a| rank(a));
+        let text: Vec<String> = sorted
+            .iter()
+            .map(|a| {
+                let mut t = a.name.text.clone();
+                for arg in &a.args {
+                    t.push(' ');
+                    t.push_str(&match arg {
+                        Arg::Num(n) => n.text.clone(),
+                        Arg::Neg(n) => format!("-{}", n.text),
+                        Arg::Expr(e) => crate::fmt::expr(e),
+                    });
+                }
+                t
+            })
+            .collect();
+        self.diags.push(
+            Diagnostic::warning("W0008", adj.span, "Context Free would apply this list in another order")
+                .with_label("MDG applies adjustments in the order written")
+                .with_suggestion(
+                    "reorder it as Context Free would (translate, rotate, scale, flip)",
+                    adj.span,
+                    format!("[{}]", text.join(" ")),
+                )
+                .with_note("in Context Free 3, `[ … ]` is reordered and `[[ … ]]` keeps the written order; in MDG both brackets keep it"),
+        );
     }
 
     /// Checks an expression. `function_vars`: x y z depth scale g are in scope;
@@ -1152,6 +1311,28 @@ impl<'a> Checker<'a> {
                             d = d.with_suggestion(format!("did you mean `{s}`?"), f.span, s.to_string());
                         }
                         self.diags.push(d);
+                    }
+                }
+                if matches!(f.text.as_str(), "sin" | "cos" | "tan") {
+                    if let [a] = args.as_slice() {
+                        if let ExprKind::Num(n) = &strip(a).kind {
+                            let v = n.value;
+                            if n.unit.is_none() && v.fract() == 0.0 && v.abs() > std::f64::consts::TAU {
+                                self.diags.push(
+                                    Diagnostic::warning(
+                                        "W0009",
+                                        a.span,
+                                        format!("`{}` takes radians; `{}` looks like degrees", f.text, n.text),
+                                    )
+                                    .with_suggestion(
+                                        "convert from degrees",
+                                        a.span,
+                                        format!("radians({})", n.text),
+                                    )
+                                    .with_note("math functions take radians; adjustments (`rz 90`) and Context Free's functions take degrees"),
+                                );
+                            }
+                        }
                     }
                 }
                 for a in args {

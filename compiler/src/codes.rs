@@ -1428,6 +1428,28 @@ rule leaf { VERTEX {} VERTEX {x 1} VERTEX {y 1} }
         ),
     },
     Code {
+        code: "E0713",
+        severity: Error,
+        title: "skeleton rule with parameters",
+        explanation: r#"A skeleton rule of a `search` section takes parameters, or passes arguments in a call.
+
+Guided search keeps pending skeleton calls as small records (rule, frame, depth) that carry no arguments, so a skeleton rule cannot take parameters and its calls pass none: the rules it calls run with their defaults.
+
+In the example: the skeleton rule `branch` takes a parameter `n`.
+
+Fix: Drive the skeleton with depth selection or `@define` constants, and pass values to geometry rules from a non-skeleton rule."#,
+        example: Library(
+            r#"rule branch(int n = 3) {
+  branch(n) {y 1 rz 20}
+}
+
+search {
+  skeleton branch;
+}
+"#,
+        ),
+    },
+    Code {
         code: "E0801",
         severity: Error,
         title: "unknown part type",
@@ -2043,6 +2065,91 @@ Fix: Move the parameter towards the end of the condition (`n - 1`), or bound the
             r#"rule tree(int n) {
   VERTEX {} VERTEX {x 1} VERTEX {y 1}
   if (n > 0) { tree(n + 1) {y 1 s 0.9} }
+}
+"#,
+        ),
+    },
+    Code {
+        code: "W0008",
+        severity: Warning,
+        title: "adjustment order differs from Context Free",
+        explanation: r#"A `[ … ]` adjustment list that Context Free 3 would apply in another order.
+
+Context Free reorders a single-bracket list to translate, rotate, scale, flip (only `[[ … ]]` keeps the written order); MDG applies every list, `{ }` or `[ ]`, in the order written. The warning is given where the two orders give different frames: a rotation before a translation off its axis, or a scale or flip before a translation. A program ported from Context Free then silently moves its shapes.
+
+In the example: `[r 45 x 1]` in Context Free moves 1 along x, then turns; MDG turns, then moves along the turned x.
+
+Fix: If the list came from Context Free, take the fix (it writes the Context Free order); if you meant the written order, use `{ }` braces, which Context Free users read as ordered."#,
+        example: Library(
+            r#"rule A {
+  B [r 45 x 1]
+}
+
+rule B {
+  VERTEX {} VERTEX {x 1} VERTEX {y 1}
+}
+"#,
+        ),
+    },
+    Code {
+        code: "W0009",
+        severity: Warning,
+        title: "trigonometry on a number that looks like degrees",
+        explanation: r#"`sin`, `cos` or `tan` of a whole number larger than 2π: it is most likely meant in degrees.
+
+Adjustments read angles in degrees (`rz 90`), and so do Context Free's trigonometric functions; MDG's math functions read radians, as most programming languages do. A program ported from Context Free keeps `sin(90)` and silently changes.
+
+In the example: `sin(90)` is sin of 90 radians, about 0.89, not 1.
+
+Fix: Write `sin(radians(90))`, or the angle in radians."#,
+        example: Library(
+            r#"rule A {
+  VERTEX {} VERTEX {x (sin(90))} VERTEX {y 1}
+}
+"#,
+        ),
+    },
+    Code {
+        code: "W0010",
+        severity: Warning,
+        title: "profile rule called as a shape",
+        explanation: r#"A rule that serves as a profile (`LINETO circle {…}`) is called as a shape.
+
+A profile rule's VERTEX points outline the cross-section that `MOVETO`/`LINETO` sweep; called as a shape, the same points are read three at a time as triangles and draw a fan of slivers. Context Free users expect `CIRCLE` to be a filled shape; MDG's std `circle` is a profile.
+
+In the example: `ring` is the profile of the tube and is also called as a shape.
+
+Fix: Sweep the profile along a path (`MOVETO {} LINETO ring {z 1}`), or call a shape (std `SPHERE`, `disc`)."#,
+        example: Library(
+            r#"rule A {
+  MOVETO {} LINETO ring {z 1}
+  ring {}
+}
+
+rule ring {
+  12 * {rz 30} VERTEX {x 0.2}
+}
+"#,
+        ),
+    },
+    Code {
+        code: "W0011",
+        severity: Warning,
+        title: "`r` with one angle turns about x",
+        explanation: r#"`r A` (or `rotate A`) in a `[ ]` list: with one angle, MDG's `r` turns about the x axis.
+
+MDG's `r X Y Z` turns about x, then y, then z; Context Free's `r A` turns about z, the axis perpendicular to its 2D plane. A list written for Context Free (`[y 1 r 25]`) then folds the shape out of the plane.
+
+In the example: `[y 1 r 25]` tilts the branch about x.
+
+Fix: Write `rz 25` (the fix), or `rx`/`ry` for the axis you mean."#,
+        example: Library(
+            r#"rule A {
+  B [y 1 r 25]
+}
+
+rule B {
+  VERTEX {} VERTEX {x 1} VERTEX {y 1}
 }
 "#,
         ),

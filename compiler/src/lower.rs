@@ -564,19 +564,19 @@ impl<'a> Lower<'a> {
 
     /// Emits a LOOP (constant count) or LOOPN (count expression `dynamic`) around
     /// `inner`; `after_run` emits ops at the end of each run (a loop variable's step).
+    #[allow(clippy::too_many_arguments)]
     fn emit_loop(
         &mut self,
         count: u64,
         dynamic: Option<u32>,
         step: u32,
-        chain: bool,
+        chain: u8,
         inner: &BodyItem,
         cont_next: bool,
         ns: Option<&str>,
         after_run: Option<(u16, u32)>,
     ) {
         let begin = self.code.len() as u32;
-        let chain = chain as u8;
         match dynamic {
             Some(e) => self.code.push(Op::LoopN { count: e, step, end: 0, chain }),
             None => self.code.push(Op::Loop { count, step, end: 0, chain }),
@@ -650,7 +650,7 @@ impl<'a> Lower<'a> {
                 let block_chains =
                     matches!(&inner.kind, BodyKind::Block(items) if items.last().is_some_and(|i| i.cont));
                 let chains = *chain || block_chains || cont_next;
-                self.emit_loop(n, dynamic, step, chains, inner, cont_next, ns, None);
+                self.emit_loop(n, dynamic, step, chains as u8, inner, cont_next, ns, None);
             }
             BodyKind::Loop { var, start, end, step, adj, item: inner } => {
                 // slot := START; runs = ceil((END - slot) / STEP); after each run
@@ -677,7 +677,8 @@ impl<'a> Lower<'a> {
                 let xf = self.transform(adj, 1.0);
                 let block_chains =
                     matches!(&inner.kind, BodyKind::Block(items) if items.last().is_some_and(|i| i.cont));
-                self.emit_loop(0, Some(count), xf, block_chains || cont_next, inner, cont_next, ns, Some((slot, next)));
+                let flags = (block_chains || cont_next) as u8 | bundle::ops::LOOP_FIRST_PLAIN;
+                self.emit_loop(0, Some(count), xf, flags, inner, cont_next, ns, Some((slot, next)));
                 self.scope.truncate(scope_at);
             }
             BodyKind::If { cond, then, otherwise, .. } => {

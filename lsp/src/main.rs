@@ -18,6 +18,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use tower_lsp_server::{LspService, Server};
 
+/// Stack of each analysis thread (see `main`).
+const ANALYSIS_STACK: usize = 32 << 20;
+
 fn main() -> ExitCode {
     for arg in std::env::args().skip(1) {
         match arg.as_str() {
@@ -40,7 +43,14 @@ fn main() -> ExitCode {
     // Panics are caught per request and reported to the client; on stderr a line
     // is enough (capturing a backtrace in a debug build costs seconds and memory).
     std::panic::set_hook(Box::new(|info| eprintln!("mdg-lsp: {info}")));
-    let runtime = match tokio::runtime::Builder::new_current_thread().enable_all().build() {
+    // Analyses run on the blocking pool. Their recursion over a program nested to the
+    // parse limit (256 levels of blocks, `if`s and loops) needs more than the 2 MiB
+    // tokio gives a thread in a debug build; the CLI's main thread has 8 MiB.
+    let runtime = match tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .thread_stack_size(ANALYSIS_STACK)
+        .build()
+    {
         Ok(rt) => rt,
         Err(e) => {
             eprintln!("mdg-lsp: cannot start the runtime: {e}");

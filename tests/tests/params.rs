@@ -68,10 +68,13 @@ fn a_parameter_counted_loop_equals_the_constant_iterator() {
     );
     let constant = format!("startshape ring\n{TRIANGLE}rule ring {{ 7 * {{rz 30 x 1}} tri {{}} }}\n");
     assert_eq!(mesh(&counted), mesh(&constant));
+    // `loop` is Context Free's: the first run is under the frame itself, the
+    // adjustment applies between runs.
     let looped = format!(
         "startshape top\n{TRIANGLE}rule top {{ ring(7) {{}} }}\nrule ring(int k) {{ loop i = 0, k {{rz 30 x 1}} tri {{s (1 + i * 0)}} }}\n"
     );
-    assert_eq!(mesh(&looped), mesh(&constant));
+    let unrolled = format!("startshape ring\n{TRIANGLE}rule ring {{ tri {{}} 6 * {{rz 30 x 1}} tri {{}} }}\n");
+    assert_eq!(mesh(&looped), mesh(&unrolled));
 }
 
 #[test]
@@ -198,4 +201,34 @@ fn grammars_without_parameters_compile_to_the_same_code_as_before() {
         Op::Arg { .. } | Op::Set { .. } | Op::Jump { .. } | Op::JumpIfNot { .. } | Op::LoopN { .. }
     )));
     assert!(b.rules.iter().all(|r| r.params.is_empty() && r.frame == 0));
+}
+
+#[test]
+fn deeply_nested_ifs_and_loops_are_cut_at_the_nesting_limit_without_overflowing() {
+    // 300 levels of `if` and of `loop`, checked on a thread with the main thread's
+    // 8 MiB stack: the nesting limit (E0105) ends them, nothing overflows.
+    for (open, close) in [("if (true) { ", " }"), ("loop i = 0, 2 {} { ", " }")] {
+        let src = format!(
+            "startshape A\nrule A {{ {}VERTEX {{}} VERTEX {{x 1}} VERTEX {{y 1}}{} }}\n",
+            open.repeat(300),
+            close.repeat(300)
+        );
+        let codes = std::thread::Builder::new()
+            .stack_size(8 << 20)
+            .spawn(move || {
+                let path = mdg_tests::root().join("tests/inline.mdg");
+                let a = mdg_compiler::driver::analyze_text(
+                    &mdg_compiler::source::FsLoader,
+                    &path,
+                    &src,
+                    &mdg_tests::options(),
+                    mdg_compiler::check::CheckOptions { require_start: true },
+                );
+                a.diagnostics.iter().map(|d| d.code).collect::<Vec<_>>()
+            })
+            .expect("thread")
+            .join()
+            .expect("no overflow");
+        assert!(codes.contains(&"E0105"), "{codes:?}");
+    }
 }

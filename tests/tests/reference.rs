@@ -8,7 +8,18 @@ use mdg_tests::{options, root};
 
 #[test]
 fn reference_examples_check_clean() {
-    let doc = std::fs::read_to_string(root().join("docs/reference.md")).expect("docs/reference.md");
+    check_doc("docs/reference.md", 30);
+}
+
+#[test]
+fn context_free_porting_examples_check_clean() {
+    check_doc("docs/from-context-free.md", 5);
+}
+
+/// Every ```mdg block of the document `rel` checks with no diagnostics; it has at
+/// least `min` of them.
+fn check_doc(rel: &str, min: usize) {
+    let doc = std::fs::read_to_string(root().join(rel)).expect(rel);
     let mut blocks = Vec::new();
     let mut cur: Option<(usize, String)> = None;
     for (i, line) in doc.lines().enumerate() {
@@ -25,16 +36,14 @@ fn reference_examples_check_clean() {
             None => {}
         }
     }
-    assert!(blocks.len() >= 30, "the reference has only {} mdg examples", blocks.len());
+    assert!(blocks.len() >= min, "{rel} has only {} mdg examples", blocks.len());
     let mut failures = Vec::new();
     for (line, text) in blocks {
-        let path = root().join("docs/reference.md.mdg");
+        let path = root().join(format!("{rel}.mdg"));
         let a = analyze_text(&FsLoader, &path, &text, &options(), CheckOptions::default());
         if !a.diagnostics.is_empty() {
-            failures.push(format!(
-                "docs/reference.md line {line}:\n{}",
-                mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources)
-            ));
+            failures
+                .push(format!("{rel} line {line}:\n{}", mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources)));
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));

@@ -289,8 +289,13 @@ impl<'b> Expander<'b> {
                         continue;
                     }
                     let env = Env { at: &from, depth: call.depth, slots: &self.slots };
-                    let c = eval_transform(b, step, &mut self.rng, &mut self.expr_stack, &env);
-                    self.loops.push(LoopRec { remaining: count, step, saved_base: base, chain: chain != 0 });
+                    let c = if chain & bundle::ops::LOOP_FIRST_PLAIN != 0 {
+                        Composite::IDENTITY
+                    } else {
+                        eval_transform(b, step, &mut self.rng, &mut self.expr_stack, &env)
+                    };
+                    let chain = chain & bundle::ops::LOOP_CHAIN != 0;
+                    self.loops.push(LoopRec { remaining: count, step, saved_base: base, chain });
                     base = from.compose(&c);
                     pc += 1;
                 }
@@ -555,10 +560,11 @@ impl<'b> Eval<'b> {
             },
             conv_cache: HashMap::new(),
             stop_pc: None,
-            needs_last: b
-                .code
-                .iter()
-                .any(|op| matches!(op, Op::Cont {} | Op::Loop { chain: 1, .. } | Op::Draw { kind: 9, .. })),
+            needs_last: b.code.iter().any(|op| match op {
+                Op::Loop { chain, .. } | Op::LoopN { chain, .. } => chain & bundle::ops::LOOP_CHAIN != 0,
+                Op::Cont {} | Op::Draw { kind: 9, .. } => true,
+                _ => false,
+            }),
             xf_info: b
                 .transforms
                 .iter()
@@ -813,11 +819,17 @@ impl<'b> Eval<'b> {
                         act.pc = end + 1;
                         continue;
                     }
-                    let c = self.transform(step, &from, act.depth, act.slot_base, act.slot_top);
-                    loops.push(LoopRec { remaining: count, step, saved_base: act.base, chain: chain != 0 });
+                    // Context Free's `loop`: the first run is under the frame itself.
+                    let c = if chain & bundle::ops::LOOP_FIRST_PLAIN != 0 {
+                        Composite::IDENTITY
+                    } else {
+                        self.transform(step, &from, act.depth, act.slot_base, act.slot_top)
+                    };
+                    let chain = chain & bundle::ops::LOOP_CHAIN != 0;
+                    loops.push(LoopRec { remaining: count, step, saved_base: act.base, chain });
                     act.base = from.compose(&c);
                     act.base_lin = None;
-                    if chain != 0 {
+                    if chain {
                         // A run that reaches no drawable ends where it started.
                         self.last = act.base;
                     }

@@ -32,6 +32,8 @@ pub const FUNCTIONS: &[(&str, usize)] = &[
     ("smoothstep", 3),
     ("rand", 2),
     ("randn", 2),
+    ("radians", 1),
+    ("degrees", 1),
 ];
 
 /// Variables an expression may read at run time, by index.
@@ -108,6 +110,8 @@ pub fn call(name: &str, a: &[f64]) -> Option<f64> {
         "floor" => arg(0)?.floor(),
         "ceil" => arg(0)?.ceil(),
         "fract" => arg(0)?.fract(),
+        "radians" => arg(0)?.to_radians(),
+        "degrees" => arg(0)?.to_degrees(),
         "mod" => arg(0)?.rem_euclid(arg(1)?),
         "clamp" => arg(0)?.clamp(arg(1)?.min(arg(2)?), arg(2)?.max(arg(1)?)),
         "mix" => arg(0)? + (arg(1)? - arg(0)?) * arg(2)?,

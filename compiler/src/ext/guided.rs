@@ -354,6 +354,25 @@ fn skeleton_rule_ok(k: &Skel, cx: &CheckCx, diags: &mut Vec<Diagnostic>) {
             );
             return;
         }
+        if let Some(p) = &r.params {
+            diags.push(
+                Diagnostic::error("E0713", p.span, format!("skeleton rule `{}` takes parameters", k.full))
+                    .with_label("skeleton rules take no parameters")
+                    .with_secondary(k.at, "declared a skeleton rule here")
+                    .with_note("pending skeleton calls carry no arguments; pass values to the geometry rules through `@define` constants, or make the parameter a selector on depth"),
+            );
+            return;
+        }
+        let mut calls = Vec::new();
+        body_calls(&r.body, &mut calls);
+        if let Some(args) = calls.iter().find_map(|(_, a)| a.filter(|a| !a.args.is_empty())) {
+            diags.push(
+                Diagnostic::error("E0713", args.span, format!("skeleton rule `{}` passes arguments", k.full))
+                    .with_label("calls from a skeleton rule pass no arguments (the callee takes its defaults)")
+                    .with_secondary(k.at, "declared a skeleton rule here"),
+            );
+            return;
+        }
         if let Some(at) = first_drawable(&r.body, cx) {
             diags.push(
                 Diagnostic::error("E0701", at, format!("skeleton rule `{}` draws", k.full))
@@ -366,25 +385,29 @@ fn skeleton_rule_ok(k: &Skel, cx: &CheckCx, diags: &mut Vec<Diagnostic>) {
     }
 }
 
-/// The span of the first drawable call in a body (nested iterators and blocks included).
-fn first_drawable(items: &[BodyItem], cx: &CheckCx) -> Option<Span> {
+/// Every call in a body, in order (iterators, loops, blocks and `if` branches included).
+fn body_calls<'b>(items: &'b [BodyItem], out: &mut Vec<(&'b Name, Option<&'b crate::ast::CallArgs>)>) {
     for it in items {
         match &it.kind {
-            BodyKind::Call { name, .. } if cx.sym.is_drawable(&name.text) => return Some(name.span),
-            BodyKind::Iterate { item, .. } => {
-                if let Some(s) = first_drawable(std::slice::from_ref(item), cx) {
-                    return Some(s);
-                }
-            }
-            BodyKind::Block(inner) => {
-                if let Some(s) = first_drawable(inner, cx) {
-                    return Some(s);
+            BodyKind::Call { name, args, .. } => out.push((name, args.as_ref())),
+            BodyKind::Iterate { item, .. } | BodyKind::Loop { item, .. } => body_calls(std::slice::from_ref(item), out),
+            BodyKind::Block(inner) => body_calls(inner, out),
+            BodyKind::If { then, otherwise, .. } => {
+                body_calls(then, out);
+                if let Some(o) = otherwise {
+                    body_calls(std::slice::from_ref(o), out);
                 }
             }
             _ => {}
         }
     }
-    None
+}
+
+/// The span of the first drawable call in a body.
+fn first_drawable(items: &[BodyItem], cx: &CheckCx) -> Option<Span> {
+    let mut calls = Vec::new();
+    body_calls(items, &mut calls);
+    calls.into_iter().find(|(n, _)| cx.sym.is_drawable(&n.text)).map(|(n, _)| n.span)
 }
 
 fn check_guide(sec: &Sec, cx: &CheckCx, diags: &mut Vec<Diagnostic>) {

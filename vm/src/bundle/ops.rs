@@ -13,6 +13,12 @@
 /// Flag: the item is followed by `\`.
 pub const CONT_NEXT: u8 = 1;
 
+/// `LOOP`/`LOOPN` flag bit: the runs chain through `last` (`M * {T} \ ITEM`).
+pub const LOOP_CHAIN: u8 = 1;
+/// `LOOPN` flag bit: the first run is under the start frame itself and the step is
+/// applied between runs (Context Free's `loop`), not before the first run too.
+pub const LOOP_FIRST_PLAIN: u8 = 2;
+
 /// Sentinel for "no rule" in `p` operands.
 pub const NONE: u32 = u32::MAX;
 
@@ -45,7 +51,7 @@ macro_rules! for_each_op {
             (0x0B, JumpIfNot, "JUMPZ", { expr: u32, target: u32 },
                 "e j      if e is 0 (false) or NaN, continue at op j (`if`/`else`)");
             (0x0C, LoopN, "LOOPN", { count: u32, step: u32, end: u32, chain: u8 },
-                "e x j f  LOOP whose count is expression e, evaluated once on entry (negative or NaN: 0 runs)");
+                "e x j f  LOOP whose count is expression e, evaluated once on entry (negative or NaN: 0 runs); f bit 1: the first run is under start itself");
         }
     };
 }

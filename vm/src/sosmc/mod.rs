@@ -299,7 +299,7 @@ fn body_draws(b: &Bundle, start: u32) -> bool {
     for op in b.code.iter().skip(start as usize) {
         match op {
             Op::Draw { .. } | Op::Iso { .. } => return true,
-            Op::Loop { .. } => depth += 1,
+            Op::Loop { .. } | Op::LoopN { .. } => depth += 1,
             Op::EndLoop { .. } => depth = depth.saturating_sub(1),
             Op::Ret {} if depth == 0 => return false,
             _ => {}
