@@ -46,17 +46,14 @@ fn main() -> ExitCode {
     // Analyses run on the blocking pool. Their recursion over a program nested to the
     // parse limit (256 levels of blocks, `if`s and loops) needs more than the 2 MiB
     // tokio gives a thread in a debug build; the CLI's main thread has 8 MiB.
-    let runtime = match tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .thread_stack_size(ANALYSIS_STACK)
-        .build()
-    {
-        Ok(rt) => rt,
-        Err(e) => {
-            eprintln!("mdg-lsp: cannot start the runtime: {e}");
-            return ExitCode::FAILURE;
-        }
-    };
+    let runtime =
+        match tokio::runtime::Builder::new_current_thread().enable_all().thread_stack_size(ANALYSIS_STACK).build() {
+            Ok(rt) => rt,
+            Err(e) => {
+                eprintln!("mdg-lsp: cannot start the runtime: {e}");
+                return ExitCode::FAILURE;
+            }
+        };
     let shutdown = Arc::new(AtomicBool::new(false));
     let flag = shutdown.clone();
     runtime.block_on(async move {

@@ -306,6 +306,10 @@ impl LanguageServer for Backend {
         handlers::inlay_hints::inlay_hint(self, params).await
     }
 
+    async fn signature_help(&self, params: SignatureHelpParams) -> Result<Option<SignatureHelp>> {
+        handlers::signature_help::signature_help(self, params).await
+    }
+
     async fn execute_command(&self, params: ExecuteCommandParams) -> Result<Option<LSPAny>> {
         handlers::commands::execute_command(self, params).await
     }

@@ -163,6 +163,11 @@ impl Document {
                 _ => None,
             })
         };
+        // `if (…) {` opens a block, `tree(…) {` an adjustment list; `loop i = a, b {` an
+        // adjustment list too.
+        let mut closed_if = false;
+        let mut open_ifs: Vec<bool> = Vec::new();
+        let mut loop_header = false;
         for (i, t) in before.iter().enumerate() {
             let top_level = matches!(stack.last(), None | Some(Frame::Namespace(_)));
             let prev = if i > 0 { Some(before[i - 1].kind) } else { None };
@@ -196,7 +201,9 @@ impl Document {
                             Frame::Section { path, key: None }
                         }
                         Some(Frame::Rule) | Some(Frame::Block) => match prev {
+                            _ if loop_header => Frame::Adj,
                             Some(Tok::Ident) | Some(Tok::Dotted) | Some(Tok::Star) => Frame::Adj,
+                            Some(Tok::RParen) if !closed_if => Frame::Adj,
                             _ => Frame::Block,
                         },
                         Some(Frame::Iso) => Frame::Expr { position_vars: true },
@@ -204,16 +211,27 @@ impl Document {
                     };
                     stack.push(frame);
                     pending = None;
+                    loop_header = false;
                 }
-                Tok::LBracket => stack.push(match stack.last() {
-                    Some(Frame::Rule) | Some(Frame::Block) => Frame::Adj,
-                    _ => Frame::Other,
-                }),
+                Tok::LBracket => {
+                    loop_header = false;
+                    stack.push(match stack.last() {
+                        Some(Frame::Rule) | Some(Frame::Block) => Frame::Adj,
+                        _ => Frame::Other,
+                    })
+                }
+                Tok::KwLoop => loop_header = true,
                 Tok::LParen | Tok::CallOpen => {
                     let position_vars = matches!(stack.last(), Some(Frame::Expr { position_vars: true }) | Some(Frame::Iso));
+                    open_ifs.push(prev == Some(Tok::KwIf));
                     stack.push(Frame::Expr { position_vars });
                 }
-                Tok::RBrace | Tok::RBracket | Tok::RParen => {
+                Tok::RParen => {
+                    // A rule's parameter list `rule tree(…)` keeps the rule pending.
+                    stack.pop();
+                    closed_if = open_ifs.pop().unwrap_or(false);
+                }
+                Tok::RBrace | Tok::RBracket => {
                     let closed = stack.pop();
                     pending = None;
                     // A nested block ends its entry.
@@ -357,7 +375,7 @@ impl Document {
         false
     }
 
-    fn items_for(&self, context: &Context, config: &CompletionConfig, _offset: usize) -> Vec<CompletionItem> {
+    fn items_for(&self, context: &Context, config: &CompletionConfig, offset: usize) -> Vec<CompletionItem> {
         let mut out = Vec::new();
         match context {
             Context::TopLevel => {
@@ -420,6 +438,19 @@ impl Document {
                     "${1:30}/${2:30} * [${3:ry 360}] $0",
                 ));
                 out.push(snippet("block", "{ BODY }: group items (for iterators)", "{\n\t$0\n}"));
+                out.push(snippet("if", "if (CONDITION) { BODY } else { BODY }", "if (${1:n > 0}) {\n\t$0\n}"));
+                out.push(snippet(
+                    "if else",
+                    "if (CONDITION) { BODY } else { BODY }",
+                    "if (${1:n > 0}) {\n\t$2\n} else {\n\t$0\n}",
+                ));
+                out.push(snippet("let", "let NAME = EXPRESSION; a local binding", "let ${1:name} = ${2:0};"));
+                out.push(snippet(
+                    "loop",
+                    "loop NAME = START, END {ADJ} ITEM: Context Free's loop with a variable",
+                    "loop ${1:i} = ${2:0}, ${3:10} {${4:x 1}} $0",
+                ));
+                self.local_items(offset, &mut out);
             }
             Context::RuleName { ns } => self.rule_items(ns.as_deref(), false, &mut out),
             Context::Adjustment => {
@@ -440,8 +471,11 @@ impl Document {
                     item.label = name.to_string();
                     out.push(item);
                 }
+                // A bare name after an adjustment is its argument: `{y len}`.
+                self.local_items(offset, &mut out);
             }
             Context::Expression { position_vars } => {
+                self.local_items(offset, &mut out);
                 for (name, arity) in FUNCTIONS {
                     let args: Vec<String> = (1..=*arity).map(|i| format!("${i}")).collect();
                     out.push(builtin(
@@ -575,6 +609,28 @@ impl Document {
 
     /// Rules callable from namespace `ns`: that namespace's rules by their short
     /// names, then every rule by its full name.
+    /// The parameters and locals declared before `offset` in the rule around it.
+    fn local_items(&self, offset: usize, out: &mut Vec<CompletionItem>) {
+        let offset = offset as u32;
+        let main = self.main_file();
+        let Some(rule) = rule_around(&self.analysis.expanded.main_ast.items, offset) else { return };
+        let mut seen = std::collections::BTreeSet::new();
+        for o in &self.index().main {
+            let Occ::Def(Symbol::Local { name, decl, what }) = &o.occ else { continue };
+            if decl.file != main || decl.start >= offset || !rule.contains(decl.start) || !seen.insert(name.clone()) {
+                continue;
+            }
+            out.push(CompletionItem {
+                label: name.clone(),
+                kind: CompletionKind::Variable,
+                detail: Some(what.clone()),
+                documentation: None,
+                insert_text: name.clone(),
+                snippet: false,
+            });
+        }
+    }
+
     fn rule_items(&self, ns: Option<&str>, call_braces: bool, out: &mut Vec<CompletionItem>) {
         let sym = &self.analysis.checked.symbols;
         let mut push = |label: String, full: &str| {
@@ -586,13 +642,31 @@ impl Document {
             };
             let detail =
                 if n_defs == 1 { format!("rule{from}") } else { format!("rule · {n_defs} definitions{from}") };
+            // A rule with parameters is inserted with a placeholder per parameter
+            // it needs (those without defaults).
+            let sig = sym.signatures.get(full);
+            let args: Vec<String> = sig
+                .map(|s| {
+                    s.params
+                        .iter()
+                        .take(s.required())
+                        .enumerate()
+                        .map(|(i, p)| format!("${{{}:{}}}", i + 1, p.name))
+                        .collect()
+                })
+                .unwrap_or_default();
+            let call = if args.is_empty() { label.clone() } else { format!("{label}({})", args.join(", ")) };
+            let detail = match sig.filter(|s| !s.params.is_empty()) {
+                Some(s) => format!("{} · {detail}", s.label(&label)),
+                None => detail,
+            };
             out.push(CompletionItem {
-                insert_text: if call_braces { format!("{label} {{$0}}") } else { label.clone() },
+                insert_text: if call_braces { format!("{call} {{$0}}") } else { call.clone() },
+                snippet: call_braces || !args.is_empty(),
                 label,
                 kind: CompletionKind::Rule,
                 detail: Some(detail),
                 documentation: None,
-                snippet: call_braces,
             });
         };
         if let Some(ns) = ns {
@@ -624,6 +698,26 @@ impl Document {
         v.dedup();
         v
     }
+}
+
+/// The span of the rule definition (in namespaces and `@ifdef` branches too) that
+/// contains `offset`.
+fn rule_around(items: &[crate::ast::Item], offset: u32) -> Option<Span> {
+    use crate::ast::{ItemKind, Pre};
+    for item in items {
+        if !(item.span.start <= offset && offset <= item.span.end) {
+            continue;
+        }
+        match &item.kind {
+            ItemKind::Rule(_) => return Some(item.span),
+            ItemKind::Namespace { items, .. } => return rule_around(items, offset),
+            ItemKind::Pre(Pre::IfDef { then, otherwise, .. }) => {
+                return rule_around(then, offset).or_else(|| otherwise.as_deref().and_then(|o| rule_around(o, offset)))
+            }
+            _ => {}
+        }
+    }
+    None
 }
 
 fn builtin(kind: DocKind, name: &str, ckind: CompletionKind, insert: &str) -> CompletionItem {
@@ -762,6 +856,30 @@ mod tests {
         for w in unwanted {
             assert!(!got.iter().any(|g| g == w), "`{w}` unexpected in {got:?} for {src:?}");
         }
+    }
+
+    #[test]
+    fn parameters_and_locals_in_scope_are_offered() {
+        let rules = "rule tree(int n, float len = 1) {\n  let half = len / 2;\n  $0\n  let later = 1;\n}\nrule other(int k) { VERTEX {} }";
+        // In the body: control-flow snippets, the parameters and the earlier `let`.
+        has(rules, &["if", "let", "loop", "n", "len", "half"]);
+        lacks(rules, &["later", "k"]);
+        // In an expression and after an adjustment (a bare name is its argument).
+        has("rule tree(int n) { VERTEX {x (n$0)} }", &["n", "sin"]);
+        has("rule tree(float len) { VERTEX {y $0} }", &["len", "rz"]);
+        // Outside rules, none.
+        lacks("rule tree(int n) { VERTEX {} }\nfunction f { $0 }", &["n"]);
+    }
+
+    #[test]
+    fn rules_with_parameters_insert_their_required_arguments() {
+        let (d, at) =
+            doc("rule A {\n  $0\n}\nrule tree(int n, float len = 1) { VERTEX {x len} VERTEX {y n} VERTEX {} }");
+        let config = CompletionConfig { std_libraries: vec![] };
+        let items = d.completion(at, &config).items;
+        let tree = items.iter().find(|i| i.label == "tree").expect("tree offered");
+        assert_eq!(tree.insert_text, "tree(${1:n}) {$0}");
+        assert!(tree.detail.as_deref().unwrap_or("").starts_with("tree(int n, float len = 1)"), "{:?}", tree.detail);
     }
 
     #[test]

@@ -108,6 +108,14 @@ impl Document {
                     None => Some(format!("macro `{m}` (not defined)")),
                 }
             }
+            Symbol::Local { name, decl, what } => {
+                let (kind, ty) = match what.split_once(' ') {
+                    Some(("parameter", ty)) => ("parameter", Some(ty)),
+                    _ => (what.as_str(), None),
+                };
+                let ty = ty.map(|t| format!(": `{t}`")).unwrap_or_default();
+                Some(format!("**{kind} `{name}`**{ty}\n\n```mdg\n{}\n```", self.line_of(*decl).trim()))
+            }
             Symbol::Shader { vertex, name } => {
                 let def = self.index().definitions(sym).next();
                 let kind = if *vertex { "vertex" } else { "fragment" };

@@ -31,6 +31,14 @@ pub enum Symbol {
         vertex: bool,
         name: String,
     },
+    /// A rule parameter, `let` binding or loop variable: its name and the span of its
+    /// declaration (which makes it unique), and what it is (`parameter`, `local`,
+    /// `loop variable`, with the parameter's type: `parameter int`).
+    Local {
+        name: String,
+        decl: Span,
+        what: String,
+    },
 }
 
 impl Symbol {
@@ -42,7 +50,8 @@ impl Symbol {
             | Symbol::Function(n)
             | Symbol::Isosurface(n)
             | Symbol::Macro(n)
-            | Symbol::Shader { name: n, .. } => n,
+            | Symbol::Shader { name: n, .. }
+            | Symbol::Local { name: n, .. } => n,
         }
     }
 
@@ -56,6 +65,9 @@ impl Symbol {
             Symbol::Macro(_) => "macro",
             Symbol::Shader { vertex: true, .. } => "vertex shader",
             Symbol::Shader { vertex: false, .. } => "fragment shader",
+            Symbol::Local { what, .. } if what.starts_with("parameter") => "parameter",
+            Symbol::Local { what, .. } if what.starts_with("loop") => "loop variable",
+            Symbol::Local { .. } => "local",
         }
     }
 }
@@ -121,8 +133,19 @@ pub struct Occurrence {
     pub occ: Occ,
 }
 
+/// A rule call with an argument list in the main file (for parameter-name hints).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CallSite {
+    /// The callee's full name.
+    pub rule: String,
+    /// Each argument's span.
+    pub args: Vec<Span>,
+}
+
 /// The index of one analysis.
 pub struct Index {
+    /// The main file's rule calls with argument lists.
+    pub calls: Vec<CallSite>,
     /// Occurrences in the main file, sorted by start.
     pub main: Vec<Occurrence>,
     /// Definitions and references of symbols in every file.
@@ -139,16 +162,33 @@ impl Index {
         let mut all = Vec::new();
         // The expanded program: symbols in every file.
         {
-            let mut w = Walker { sym, ex: &a.expanded, sources: &a.sources, out: &mut all, syntax: false };
+            let mut w = Walker {
+                sym,
+                ex: &a.expanded,
+                sources: &a.sources,
+                out: &mut all,
+                syntax: false,
+                scope: Vec::new(),
+                calls: Vec::new(),
+            };
             for e in &a.expanded.items {
                 w.item(&e.item, e.namespace.as_deref());
             }
         }
         // The main file as written: everything, inactive branches included.
-        {
-            let mut w = Walker { sym, ex: &a.expanded, sources: &a.sources, out: &mut all, syntax: true };
+        let calls = {
+            let mut w = Walker {
+                sym,
+                ex: &a.expanded,
+                sources: &a.sources,
+                out: &mut all,
+                syntax: true,
+                scope: Vec::new(),
+                calls: Vec::new(),
+            };
             w.items(&a.expanded.main_ast.items, None);
-        }
+            w.calls
+        };
         for sh in &a.expanded.shaders {
             all.push(Occurrence {
                 span: sh.name.span,
@@ -172,7 +212,7 @@ impl Index {
         all.dedup();
         let symbols = all.iter().filter(|o| o.occ.rank() == 0).cloned().collect();
         let main = all.into_iter().filter(|o| o.span.file == main).collect();
-        Index { main, symbols, tokens: lexed.tokens, comments: lexed.comments }
+        Index { calls, main, symbols, tokens: lexed.tokens, comments: lexed.comments }
     }
 
     /// The innermost occurrence at `offset` in the main file (a cursor just after a
@@ -265,7 +305,11 @@ fn keywords(tokens: &[Token], text: &str, sections: &[Span], out: &mut Vec<Occur
             | Tok::KwAngle
             | Tok::KwColor
             | Tok::KwWeight
-            | Tok::KwSection => out.push(Occurrence { span: t.span, occ: Occ::Directive(s.to_string()) }),
+            | Tok::KwSection
+            | Tok::KwIf
+            | Tok::KwElse
+            | Tok::KwLet
+            | Tok::KwLoop => out.push(Occurrence { span: t.span, occ: Occ::Directive(s.to_string()) }),
             Tok::AtImport
             | Tok::AtDefine
             | Tok::AtParam
@@ -335,6 +379,10 @@ struct Walker<'a, 'o> {
     out: &'o mut Vec<Occurrence>,
     /// Whether to record syntax-level occurrences too (the main file's own tree).
     syntax: bool,
+    /// The parameters and locals in scope in the rule body being walked.
+    scope: Vec<Symbol>,
+    /// Calls with arguments (syntax walk only).
+    calls: Vec<CallSite>,
 }
 
 impl Walker<'_, '_> {
@@ -370,7 +418,16 @@ impl Walker<'_, '_> {
                 if let Some(w) = &r.weight {
                     self.number(&w.number);
                 }
+                self.scope.clear();
+                for p in r.params.iter().flat_map(|p| &p.params) {
+                    self.syn(p.ty.span, Occ::Directive(p.ty.text.clone()));
+                    if let Some(d) = &p.default {
+                        self.expr(d);
+                    }
+                    self.bind(&p.name, format!("parameter {}", p.ty.text));
+                }
                 self.body(&r.body, ns);
+                self.scope.clear();
             }
             ItemKind::Selector { rules, mode } => {
                 for r in rules {
@@ -526,11 +583,29 @@ impl Walker<'_, '_> {
         }
     }
 
+    /// Declares a local (a definition occurrence) in the current scope.
+    fn bind(&mut self, name: &Name, what: String) {
+        let sym = Symbol::Local { name: name.text.clone(), decl: name.span, what };
+        self.push(name.span, Occ::Def(sym.clone()));
+        self.scope.push(sym);
+    }
+
     fn body(&mut self, items: &[BodyItem], ns: Option<&str>) {
+        let at = self.scope.len();
         for item in items {
+            self.body_item(item, ns);
+        }
+        self.scope.truncate(at);
+    }
+
+    fn body_item(&mut self, item: &BodyItem, ns: Option<&str>) {
+        {
             match &item.kind {
                 BodyKind::Call { name, args, profile, adj } => {
                     self.call_name(name, ns);
+                    if let (true, Some(a), Some(rule)) = (self.syntax, args, self.sym.resolve(&name.text, ns)) {
+                        self.calls.push(CallSite { rule, args: a.args.iter().map(|e| e.span).collect() });
+                    }
                     if let Some(p) = profile {
                         self.rule_ref(p, ns);
                     }
@@ -546,15 +621,21 @@ impl Walker<'_, '_> {
                         self.body(std::slice::from_ref(o), ns);
                     }
                 }
-                BodyKind::Let { value, .. } => self.expr(value),
-                BodyKind::Loop { start, end, step, adj, item: inner, .. } => {
+                BodyKind::Let { name, value } => {
+                    self.expr(value);
+                    self.bind(name, "local".to_string());
+                }
+                BodyKind::Loop { var, start, end, step, adj, item: inner } => {
                     self.expr(start);
                     self.expr(end);
                     if let Some(s) = step {
                         self.expr(s);
                     }
                     self.adj_list(adj);
+                    let at = self.scope.len();
+                    self.bind(var, "loop variable".to_string());
                     self.body(std::slice::from_ref(inner), ns);
+                    self.scope.truncate(at);
                 }
                 BodyKind::Iterate { count, divisor, adj, chain, item: inner } => {
                     let header = count.span().to(adj.span);
@@ -645,9 +726,6 @@ impl Walker<'_, '_> {
     }
 
     fn adj_list(&mut self, adj: &AdjList) {
-        if !self.syntax {
-            return;
-        }
         for a in &adj.adjs {
             if !a.name.text.is_empty() {
                 self.syn(a.name.span, Occ::Adjustment(a.name.text.clone()));
@@ -674,12 +752,15 @@ impl Walker<'_, '_> {
         }
     }
 
+    /// An expression: its locals in every walk, its other names in the syntax walk.
     fn expr(&mut self, e: &Expr) {
-        if !self.syntax {
-            return;
-        }
         match &e.kind {
             ExprKind::Num(n) => self.number(n),
+            ExprKind::Var(v) if self.scope.iter().any(|s| s.name() == v.text) => {
+                if let Some(sym) = self.scope.iter().rev().find(|s| s.name() == v.text).cloned() {
+                    self.push(v.span, Occ::Ref(sym));
+                }
+            }
             ExprKind::Var(v) => {
                 let occ = if crate::check::FUNCTION_VARS.contains(&v.text.as_str()) {
                     Occ::Variable(v.text.clone())

@@ -1,5 +1,6 @@
 //! Inlay hints: the per-step transform of iterators with a divisor, shown after
-//! the adjustment list: `30/30 * [ry 360]` → `30 × ry 12°`.
+//! the adjustment list: `30/30 * [ry 360]` → `30 × ry 12°`; and the parameter
+//! names before the arguments of rule calls: `tree(n: 3, len: 0.8)`.
 
 use super::index::Occ;
 use super::iterator::fmt_num;
@@ -11,6 +12,8 @@ pub struct InlayHint {
     pub offset: u32,
     pub label: String,
     pub tooltip: String,
+    /// A parameter name before an argument (shown before the text, not after).
+    pub parameter: bool,
 }
 
 impl Document {
@@ -31,8 +34,26 @@ impl Document {
                 offset: o.span.end,
                 label: format!("{count} × {}", step.transform),
                 tooltip: format!("each of the {count} steps applies `{}`", step.transform),
+                parameter: false,
             });
         }
+        let sigs = &self.analysis.checked.symbols.signatures;
+        for c in &self.index().calls {
+            let Some(sig) = sigs.get(&c.rule) else { continue };
+            for (arg, p) in c.args.iter().zip(&sig.params) {
+                // An argument that is the parameter's own name needs no hint.
+                if arg.start < start || arg.start > end || self.span_text(*arg) == p.name {
+                    continue;
+                }
+                out.push(InlayHint {
+                    offset: arg.start,
+                    label: format!("{}:", p.name),
+                    tooltip: format!("parameter `{} {}` of `{}`", p.ty.name(), p.name, c.rule),
+                    parameter: true,
+                });
+            }
+        }
+        out.sort_by_key(|h| h.offset);
         out
     }
 }
@@ -58,5 +79,23 @@ mod tests {
             ]
         );
         assert!(d.inlay_hints(0, 5).is_empty());
+    }
+
+    #[test]
+    fn parameter_names_before_arguments() {
+        let src = "rule A { tree(3, n) {} tree(2) {} }\nrule tree(int n, float len = 1) { VERTEX {x len} VERTEX {y n} VERTEX {} }";
+        let (d, _) = doc(src);
+        let hints: Vec<(u32, String, bool)> =
+            d.inlay_hints(0, d.text().len() as u32).into_iter().map(|h| (h.offset, h.label, h.parameter)).collect();
+        let at = |needle: &str| d.text().find(needle).unwrap() as u32;
+        // `n` passed as `len` is labelled; `3` and `2` as `n`.
+        assert_eq!(
+            hints,
+            [
+                (at("3, n"), "n:".to_string(), true),
+                (at("n) {}"), "len:".to_string(), true),
+                (at("2)"), "n:".to_string(), true)
+            ]
+        );
     }
 }

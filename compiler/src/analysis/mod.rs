@@ -8,7 +8,8 @@
 //!
 //! One file per feature: [`hover`], [`navigation`] (definition, references),
 //! [`rename`], [`completion`], [`symbols`] (document and workspace), [`semantic_tokens`],
-//! [`folding`], [`formatting`], [`code_actions`], [`inlay_hints`] and [`diagnostics`];
+//! [`folding`], [`formatting`], [`code_actions`], [`inlay_hints`], [`signature`] and
+//! [`diagnostics`];
 //! [`docs`] holds the documentation of every built-in word.
 
 pub mod code_actions;
@@ -24,6 +25,7 @@ pub mod iterator;
 pub mod navigation;
 pub mod rename;
 pub mod semantic_tokens;
+pub mod signature;
 pub mod symbols;
 
 #[cfg(test)]
@@ -46,6 +48,7 @@ pub use hover::Hover;
 pub use index::Symbol;
 pub use inlay_hints::InlayHint;
 pub use semantic_tokens::{SemanticKind, SemanticToken};
+pub use signature::SignatureHelp;
 pub use symbols::{DocumentSymbol, SymbolKind, WorkspaceSymbol};
 
 /// A text edit: replace `span` (in the file `span.file`) with `new_text`.

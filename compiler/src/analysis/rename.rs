@@ -40,7 +40,7 @@ impl Document {
         self.check_renamable(sym)?;
         let valid = new_name.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
             && new_name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
-        if !valid || KEYWORDS.contains(&new_name) {
+        if !valid || KEYWORDS.contains(&new_name) || crate::lexer::CONTROL_KEYWORDS.contains(&new_name) {
             return Err(format!("`{new_name}` is not a valid name"));
         }
         if let Symbol::Rule(full) = sym {
@@ -113,6 +113,25 @@ mod tests {
             edits.into_iter().map(|e| (e.span.start as usize, e.span.end as usize, e.new_text)).collect(),
         );
         assert_eq!(out, "startshape A\nselector twig random\nrule A { twig {} 3 * {x 1} twig {} }\nrule twig 2 { VERTEX {} }\nrule twig { twig {} }\n");
+    }
+
+    #[test]
+    fn a_parameter_is_renamed_in_its_rule_only() {
+        let src = "rule tree(int $0n) {\n  VERTEX {y n}\n  if (n > 0) { tree(n - 1) {s 0.5} }\n}\nrule other(int n) { VERTEX {y n} }\n";
+        let (d, at) = doc(src);
+        let edits = d.rename(at, "levels").expect("rename");
+        let out = apply(
+            d.text(),
+            edits.into_iter().map(|e| (e.span.start as usize, e.span.end as usize, e.new_text)).collect(),
+        );
+        assert_eq!(
+            out,
+            "rule tree(int levels) {\n  VERTEX {y levels}\n  if (levels > 0) { tree(levels - 1) {s 0.5} }\n}\nrule other(int n) { VERTEX {y n} }\n"
+        );
+        // From a use, too; and never to a keyword.
+        let at_use = d.text().find("n - 1").unwrap() as u32;
+        assert_eq!(d.rename(at_use, "m").expect("rename").len(), 4);
+        assert!(d.rename(at_use, "loop").is_err());
     }
 
     #[test]

@@ -45,6 +45,10 @@ pub enum SemanticKind {
     Property,
     /// A `"string"` (section values).
     String,
+    /// A rule parameter.
+    Parameter,
+    /// A `let` binding or loop variable.
+    Local,
 }
 
 /// One token: a span in the document (it may cross lines only for comments).
@@ -148,6 +152,8 @@ fn symbol_kind(s: &Symbol) -> SemanticKind {
         Symbol::Isosurface(_) => SemanticKind::Isosurface,
         Symbol::Macro(_) => SemanticKind::Macro,
         Symbol::Shader { .. } => SemanticKind::Shader,
+        Symbol::Local { what, .. } if what.starts_with("parameter") => SemanticKind::Parameter,
+        Symbol::Local { .. } => SemanticKind::Local,
     }
 }
 

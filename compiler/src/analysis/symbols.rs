@@ -220,6 +220,8 @@ impl Document {
                     Symbol::Isosurface(_) => SymbolKind::Isosurface,
                     Symbol::Macro(_) => SymbolKind::Macro,
                     Symbol::Shader { .. } => SymbolKind::Shader,
+                    // Locals are not workspace symbols.
+                    Symbol::Local { .. } => return None,
                 };
                 let name = sym.name().to_string();
                 if !fuzzy(&name.to_lowercase(), &query) {

@@ -52,6 +52,11 @@ pub fn initialize(b: &Backend, _params: InitializeParams) -> InitializeResult {
                 ..Default::default()
             })),
             inlay_hint_provider: Some(OneOf::Left(true)),
+            signature_help_provider: Some(SignatureHelpOptions {
+                trigger_characters: Some(vec!["(".to_string(), ",".to_string()]),
+                retrigger_characters: None,
+                work_done_progress_options: Default::default(),
+            }),
             execute_command_provider,
             workspace: Some(WorkspaceServerCapabilities {
                 workspace_folders: Some(WorkspaceFoldersServerCapabilities {

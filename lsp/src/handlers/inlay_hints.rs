@@ -1,4 +1,5 @@
-//! `textDocument/inlayHint`: per-step transforms of divisor iterators.
+//! `textDocument/inlayHint`: per-step transforms of divisor iterators, and
+//! parameter names at rule calls.
 
 use crate::position::LineIndex;
 use crate::server::Backend;
@@ -17,11 +18,11 @@ pub async fn inlay_hint(b: &Backend, p: InlayHintParams) -> Result<Option<Vec<In
             .map(|h| InlayHint {
                 position: li.position(h.offset),
                 label: InlayHintLabel::String(h.label),
-                kind: None,
+                kind: h.parameter.then_some(InlayHintKind::PARAMETER),
                 text_edits: None,
                 tooltip: Some(InlayHintTooltip::String(h.tooltip)),
-                padding_left: Some(true),
-                padding_right: None,
+                padding_left: Some(!h.parameter),
+                padding_right: Some(h.parameter),
                 data: None,
             })
             .collect();

@@ -17,6 +17,7 @@ pub mod inlay_hints;
 pub mod references;
 pub mod rename;
 pub mod semantic_tokens;
+pub mod signature_help;
 pub mod sync;
 pub mod workspace;
 pub mod workspace_symbols;

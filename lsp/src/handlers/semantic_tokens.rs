@@ -21,6 +21,7 @@ const TYPES: &[SemanticTokenType] = &[
     SemanticTokenType::VARIABLE,    // 10 expression variables and constants
     SemanticTokenType::STRING,      // 11 import names, strings
     SemanticTokenType::OPERATOR,    // 12 continuation
+    SemanticTokenType::PARAMETER,   // 13 rule parameters
 ];
 
 const MODIFIERS: &[SemanticTokenModifier] =
@@ -55,6 +56,8 @@ fn encode(k: K) -> (u32, u32) {
         K::Operator => (12, 0),
         K::Property => (3, 0),
         K::String => (11, 0),
+        K::Parameter => (13, 0),
+        K::Local => (10, 0),
     }
 }
 
