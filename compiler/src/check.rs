@@ -594,6 +594,17 @@ impl<'a> Checker<'a> {
                         Ty::Float
                     }
                 };
+                let reserved = crate::lexer::KEYWORDS.contains(&d.name.text.as_str()) || d.name.text.contains('.');
+                if reserved {
+                    self.diags.push(
+                        Diagnostic::error("E0327", d.name.span, format!("`{}` cannot name a parameter", d.name.text))
+                            .with_label("a reserved word (or a dotted name)")
+                            .with_note(format!(
+                                "reserved words: {}; pick another name",
+                                crate::lexer::KEYWORDS.join(", ")
+                            )),
+                    );
+                }
                 let twice = scope.iter().find(|l: &&Local| l.name == d.name.text).map(|l| l.span);
                 if let Some(prev) = twice {
                     self.diags.push(
@@ -640,7 +651,7 @@ impl<'a> Checker<'a> {
                         }
                     }
                 }
-                if twice.is_none() {
+                if twice.is_none() && !reserved {
                     scope.push(Local { name: d.name.text.clone(), ty, span: d.name.span, used: false, param: Some(i) });
                 }
             }

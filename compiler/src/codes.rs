@@ -869,6 +869,24 @@ Fix: Move the parameters with defaults to the end, or give this one a default to
         ),
     },
     Code {
+        code: "E0327",
+        severity: Error,
+        title: "reserved word as a parameter name",
+        explanation: r#"A parameter is named with a reserved word (`angle`, `color`, `weight`, `rule`, a section keyword …) or a dotted name.
+
+Reserved words start top-level items, so they cannot be read as values in expressions or adjustment lists.
+
+In the example: `angle` is the directive that sets the angle unit.
+
+Fix: Choose another name (`spread`, `turn`)."#,
+        example: Library(
+            r#"rule fan(float angle) {
+  VERTEX {} VERTEX {x 1} VERTEX {y 1}
+}
+"#,
+        ),
+    },
+    Code {
         code: "E0401",
         severity: Error,
         title: "wrong number of arguments",

@@ -328,7 +328,7 @@ impl<'a> Lower<'a> {
                 }
             };
             self.scope.clear();
-            let params = sig.params.iter().map(|p| p.default.unwrap_or(f64::NAN)).collect();
+            let params = sig.params.iter().map(|p| p.default).collect();
             rules.push(bundle::Rule {
                 name: name_id,
                 selector,

@@ -224,7 +224,7 @@ impl<'b> Expander<'b> {
         let s = &b.settings;
         let r = &b.rules[call.rule as usize];
         self.slots.clear();
-        self.slots.extend(r.params.iter().map(|d| if d.is_nan() { 0.0 } else { *d }));
+        self.slots.extend(r.params.iter().map(|d| d.unwrap_or(0.0)));
         self.slots.resize(r.frame as usize, 0.0);
         let mut pc = select_def(
             b,
@@ -620,7 +620,7 @@ impl<'b> Eval<'b> {
     fn default_frame(&mut self, rule: u32) -> (u32, u32) {
         let r = &self.b.rules[rule as usize];
         let base = self.slots.len();
-        self.slots.extend(r.params.iter().map(|d| if d.is_nan() { 0.0 } else { *d }));
+        self.slots.extend(r.params.iter().map(|d| d.unwrap_or(0.0)));
         self.slots.resize(base + r.frame as usize, 0.0);
         (base as u32, self.slots.len() as u32)
     }

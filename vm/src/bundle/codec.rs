@@ -243,14 +243,15 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
             w.u32(*t);
         }
         w.u32(r.iter);
-        // Parameters: a default flag, then the default (no default: NaN in memory).
+        // Parameters: a default flag, then the default.
         w.len(r.params.len());
         for p in &r.params {
-            if p.is_nan() {
-                w.u8(0);
-            } else {
-                w.u8(1);
-                w.f64(*p);
+            match p {
+                None => w.u8(0),
+                Some(v) => {
+                    w.u8(1);
+                    w.f64(*v);
+                }
             }
         }
         w.u16(r.frame);
@@ -488,8 +489,8 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
         let mut params = Vec::with_capacity(m);
         for _ in 0..m {
             params.push(match r.u8()? {
-                0 => f64::NAN,
-                1 => r.f64()?,
+                0 => None,
+                1 => Some(r.f64()?),
                 t => return Err(r.err(&format!("unknown parameter flag {t}"))),
             });
         }

@@ -124,7 +124,10 @@ pub fn disassemble(b: &Bundle) -> String {
                 .params
                 .iter()
                 .enumerate()
-                .map(|(k, d)| if d.is_nan() { format!("s{k}") } else { format!("s{k}={d}") })
+                .map(|(k, d)| match d {
+                    None => format!("s{k}"),
+                    Some(d) => format!("s{k}={d}"),
+                })
                 .collect();
             format!("({}) frame={}", p.join(", "), r.frame)
         };

@@ -115,10 +115,10 @@ pub struct Rule {
     /// Iterator rule (`* I`), or [`NONE`].
     pub iter: u32,
     /// One entry per parameter (`rule tree(int n, float len = 1)`): its default value,
-    /// or NaN where it has none. A call passes exactly this many `ARG`s; a run that
-    /// starts at the rule (start shape, profile, transform or iterator rule) uses the
-    /// defaults.
-    pub params: Vec<f64>,
+    /// if it has one. A call passes exactly this many `ARG`s; a run that starts at the
+    /// rule (start shape, profile, transform or iterator rule) uses the defaults (the
+    /// compiler requires them there; a missing one reads 0).
+    pub params: Vec<Option<f64>>,
     /// Slots in an activation of the rule: the parameters, then the `let` bindings and
     /// loop variables of its largest definition. Expressions read them with
     /// `ExprOp::Slot`; the verifier checks every slot index against this.
