@@ -597,7 +597,12 @@ impl<'b> Eval<'b> {
 
 impl<'b> Eval<'b> {
     /// Transform `xf` at state `at` and `depth` in the frame `slots[base..top]`.
+    #[inline]
     fn transform(&mut self, xf: u32, at: &State, depth: u32, base: u32, top: u32) -> Composite {
+        // Constant transforms (nearly all) need no environment.
+        if let Transform::Const(c) = &self.b.transforms[xf as usize] {
+            return *c;
+        }
         let slots = self.slots.get(base as usize..top as usize).unwrap_or(&[]);
         eval_transform(self.b, xf, &mut self.rng, &mut self.expr_stack, &Env { at, depth, slots })
     }
@@ -702,12 +707,19 @@ impl<'b> Eval<'b> {
                     let r = &b.rules[rule as usize];
                     let args = act.slot_top as usize;
                     if !self.admit(&child, depth, stack.len()) {
-                        self.slots.truncate(args);
+                        if self.slots.len() > args {
+                            self.slots.truncate(args);
+                        }
                         continue;
                     }
-                    self.slots.resize(args + r.params.len(), f64::NAN);
+                    // (Rules without parameters or locals touch no slot.)
+                    if self.slots.len() != args + r.params.len() {
+                        self.slots.resize(args + r.params.len(), f64::NAN);
+                    }
                     let pc = self.select(rule, &child, depth, args);
-                    self.slots.resize(args + r.frame as usize, 0.0);
+                    if r.frame as usize != r.params.len() {
+                        self.slots.resize(args + r.frame as usize, 0.0);
+                    }
                     let (slot_base, slot_top) = (args as u32, (args + r.frame as usize) as u32);
                     let loops_at = loops.len() as u32;
                     if r.iter != NONE {
@@ -923,7 +935,9 @@ impl<'b> Eval<'b> {
                     }
                     let base = act.slot_base as usize;
                     stack.pop();
-                    self.slots.truncate(base);
+                    if self.slots.len() > base {
+                        self.slots.truncate(base);
+                    }
                 }
             }
         }
