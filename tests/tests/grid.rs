@@ -732,3 +732,70 @@ fn flate2_read(bytes: &[u8], out: &mut Vec<u8>) {
     let text = format::nbt::nbt_bytes(bytes).expect("gzip");
     out.extend_from_slice(&text);
 }
+
+/// An L-shaped building: two stone wings (one 5 × 2 × 2, one 2 × 2 × 4 beside it) under
+/// one flat glass roof. 3D inference makes solid shapes that are one block thick (the
+/// roof), which the written grammar must keep solid (`plane none`).
+fn l_building() -> String {
+    let mut v = Vec::new();
+    let inside =
+        |x: i32, z: i32| (0..5).contains(&x) && (0..2).contains(&z) || (0..2).contains(&x) && (2..6).contains(&z);
+    for x in 0..5 {
+        for z in 0..6 {
+            if !inside(x, z) {
+                continue;
+            }
+            for y in 0..2 {
+                v.push(([x, y, z], "1:0"));
+            }
+            v.push(([x, 2, z], "20:0"));
+        }
+    }
+    lines(&v)
+}
+
+#[test]
+fn solid_induction_of_an_l_shaped_building_round_trips() {
+    let dir = temp_dir("solid");
+    for (name, text) in [
+        ("l.txt", l_building()),
+        // The issue's five blocks: a flat 2 × 2 stone square and a glass block behind it.
+        ("five.txt", "0 0 0 1:0\n1 0 0 1:0\n0 1 0 1:0\n1 1 0 1:0\n0 0 1 20:0\n".to_string()),
+    ] {
+        let example = dir.join(name);
+        std::fs::write(&example, text).expect("write example");
+        for cost in [Cost::Product, Cost::Sum] {
+            for ops in [Ops::Merge, Ops::Split, Ops::Both] {
+                let opts = InferOptions { spec: Spec::Solid, alpha: 1.0, ops, overlap: false, cost };
+                let (g, _) = mdg_compiler::induce::induce_files(&[example.as_path()], &opts, "l", &mut |_, _| {})
+                    .expect("induces");
+                assert!(g.shapes.iter().all(|s| s.plane.is_none()), "3D shapes have no plane");
+                let text = mdg_compiler::induce::write_checked(&g, &[], &dir.join("style.mdg"))
+                    .unwrap_or_else(|e| panic!("{name} {cost:?} {ops:?}: {e}"));
+                // Compiled again from the text on disk, through a build.
+                let style = dir.join("style.mdg");
+                std::fs::write(&style, &text).expect("write source");
+                let (bundle, _) =
+                    mdg_compiler::driver::build(&mdg_compiler::source::FsLoader, &style, &mdg_tests::options())
+                        .unwrap_or_else(|a| panic!("does not compile:\n{}", mdg_tests::render(&a)));
+                assert_eq!(bundle.extensions.grid.as_ref(), Some(&g));
+            }
+        }
+    }
+    // The flat roof of the L (merged by the product cost, which keeps kinds apart) is
+    // one block thick yet solid: written `plane none`.
+    let opts = InferOptions { spec: Spec::Solid, alpha: 1.0, ops: Ops::Merge, overlap: false, cost: Cost::Product };
+    let (g, _) = mdg_compiler::induce::induce_files(&[dir.join("l.txt").as_path()], &opts, "l", &mut |_, _| {})
+        .expect("induces");
+    let thin = g.shapes.iter().filter(|s| s.size.iter().filter(|&&e| e == 1).count() == 1).count();
+    assert!(thin > 0, "some shape is one block thick: {:?}", g.shapes.iter().map(|s| s.size).collect::<Vec<_>>());
+    let text = mdg_compiler::induce::write_checked(&g, &[], &dir.join("style.mdg")).expect("round trip");
+    assert!(text.contains("plane none;"));
+    // `plane none` on a source shape keeps it out of the enclosure constraint's reach.
+    let src = "startshape s\nrule s {}\ngrid g {\n  palette { a \"1:0\"; }\n  \
+               shape p { size 2 1 2; plane none; blocks a a a a; }\n  start p;\n}\n";
+    assert_eq!(build_source(src).extensions.grid.expect("grid").shapes[0].plane, None);
+    let flat = src.replace("plane none; ", "");
+    assert_eq!(build_source(&flat).extensions.grid.expect("grid").shapes[0].plane, Some(1), "without it: flat along y");
+    let _ = std::fs::remove_dir_all(&dir);
+}

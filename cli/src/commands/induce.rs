@@ -1,9 +1,5 @@
 //! `mdgc induce EXAMPLE…`: induce a grid grammar from example buildings.
 
-use mdg_compiler::check::CheckOptions;
-use mdg_compiler::driver;
-use mdg_compiler::expand::Options;
-use mdg_compiler::source::FsLoader;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -119,20 +115,14 @@ pub fn run(args: Args) -> ExitCode {
             output.display()
         ),
     ];
-    let text = mdg_compiler::induce::write_source(&grammar, &comment);
-    // The written source must compile back to the same grammar.
-    let opts = Options { std_dir: driver::default_std_dir(), ..Options::default() };
-    let a = driver::analyze_text(&FsLoader, output, &text, &opts, CheckOptions { require_start: true });
-    let back = if a.has_errors() {
-        None
-    } else {
-        mdg_compiler::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).ok().and_then(|b| b.extensions.grid)
+    // The written source must fit a source file and compile back to the same grammar.
+    let text = match mdg_compiler::induce::write_checked(&grammar, &comment, output) {
+        Ok(t) => t,
+        Err(e) => {
+            eprintln!("mdgc induce: {e}");
+            return ExitCode::from(1);
+        }
     };
-    if back.as_ref() != Some(&grammar) {
-        eprint!("{}", mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources));
-        eprintln!("mdgc induce: internal error: the written grammar does not compile back to the induced one");
-        return ExitCode::from(1);
-    }
     if let Err(e) = mdg_vm::export::write_atomic(output, text.as_bytes()) {
         eprintln!("mdgc induce: cannot write {}: {e}", output.display());
         return ExitCode::from(2);
