@@ -288,7 +288,7 @@ fn every_block_is_covered_with_and_without_overlap() {
         for ops in [Ops::Merge, Ops::Split, Ops::Both] {
             for overlap in [false, true] {
                 for c in [Cost::Product, Cost::Sum] {
-                    let opts = InferOptions { spec, alpha: 1.0, ops, overlap, cost: c };
+                    let opts = InferOptions { spec, alpha: 1.0, ops, overlap, cost: c, post_split: false };
                     let inf = infer(&m, &opts, &mut |_| {});
                     let mut count = vec![0; m.blocks.len()];
                     for s in &inf.shapes {
@@ -341,7 +341,14 @@ fn bounds(m: &VoxelModel, blocks: &[u32]) -> ([i32; 3], [i32; 3]) {
 #[test]
 fn inference_is_deterministic() {
     let m = model(&house());
-    let opts = InferOptions { spec: Spec::Planar, alpha: 0.75, ops: Ops::Both, overlap: true, cost: Cost::Sum };
+    let opts = InferOptions {
+        spec: Spec::Planar,
+        alpha: 0.75,
+        ops: Ops::Both,
+        overlap: true,
+        cost: Cost::Sum,
+        post_split: false,
+    };
     let a = infer(&m, &opts, &mut |_| {});
     let b = infer(&m, &opts, &mut |_| {});
     assert_eq!(a.shapes, b.shapes);
@@ -361,7 +368,14 @@ fn matching_shapes_are_found_under_quarter_turns() {
         blocks.push((add(rotate(1, *p), [20, 0, 10]), *b));
     }
     let m = model(&lines(&blocks));
-    let opts = InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost: Cost::Sum };
+    let opts = InferOptions {
+        spec: Spec::Rect,
+        alpha: 1.0,
+        ops: Ops::Both,
+        overlap: false,
+        cost: Cost::Sum,
+        post_split: false,
+    };
     let inf = infer(&m, &opts, &mut |_| {});
     assert_eq!(inf.shapes.len(), 2, "each wall is one shape");
     let g = induce(&[Example { name: "two walls".into(), model: &m }], &[inf], "walls").expect("induces");
@@ -386,7 +400,8 @@ fn matching_shapes_are_found_under_quarter_turns() {
 
 fn house_grammar(c: Cost) -> (VoxelModel, GridGrammar) {
     let m = model(&house());
-    let opts = InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost: c };
+    let opts =
+        InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost: c, post_split: false };
     let inf = infer(&m, &opts, &mut |_| {});
     let g = induce(&[Example { name: "house.txt".into(), model: &m }], &[inf], "house").expect("induces");
     (m, g)
@@ -549,7 +564,14 @@ fn induce_write_compile_generate_round_trip() {
     let dir = temp_dir("roundtrip");
     let example = dir.join("house.txt");
     std::fs::write(&example, house()).expect("write example");
-    let opts = InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost: Cost::Sum };
+    let opts = InferOptions {
+        spec: Spec::Rect,
+        alpha: 1.0,
+        ops: Ops::Both,
+        overlap: false,
+        cost: Cost::Sum,
+        post_split: false,
+    };
     let (g, reports) =
         mdg_compiler::induce::induce_files(&[example.as_path()], &opts, "house", &mut |_, _| {}).expect("induces");
     assert_eq!(reports.len(), 1);
@@ -632,7 +654,14 @@ fn two_examples_share_one_style() {
         })
         .collect();
     let b = model(&shifted);
-    let opts = InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost: Cost::Sum };
+    let opts = InferOptions {
+        spec: Spec::Rect,
+        alpha: 1.0,
+        ops: Ops::Both,
+        overlap: false,
+        cost: Cost::Sum,
+        post_split: false,
+    };
     let ia = infer(&a, &opts, &mut |_| {});
     let ib = infer(&b, &opts, &mut |_| {});
     let g = induce(
@@ -766,7 +795,7 @@ fn solid_induction_of_an_l_shaped_building_round_trips() {
         std::fs::write(&example, text).expect("write example");
         for cost in [Cost::Product, Cost::Sum] {
             for ops in [Ops::Merge, Ops::Split, Ops::Both] {
-                let opts = InferOptions { spec: Spec::Solid, alpha: 1.0, ops, overlap: false, cost };
+                let opts = InferOptions { spec: Spec::Solid, alpha: 1.0, ops, overlap: false, cost, post_split: false };
                 let (g, _) = mdg_compiler::induce::induce_files(&[example.as_path()], &opts, "l", &mut |_, _| {})
                     .expect("induces");
                 assert!(g.shapes.iter().all(|s| s.plane.is_none()), "3D shapes have no plane");
@@ -784,7 +813,14 @@ fn solid_induction_of_an_l_shaped_building_round_trips() {
     }
     // The flat roof of the L (merged by the product cost, which keeps kinds apart) is
     // one block thick yet solid: written `plane none`.
-    let opts = InferOptions { spec: Spec::Solid, alpha: 1.0, ops: Ops::Merge, overlap: false, cost: Cost::Product };
+    let opts = InferOptions {
+        spec: Spec::Solid,
+        alpha: 1.0,
+        ops: Ops::Merge,
+        overlap: false,
+        cost: Cost::Product,
+        post_split: false,
+    };
     let (g, _) = mdg_compiler::induce::induce_files(&[dir.join("l.txt").as_path()], &opts, "l", &mut |_, _| {})
         .expect("induces");
     let thin = g.shapes.iter().filter(|s| s.size.iter().filter(|&&e| e == 1).count() == 1).count();
@@ -798,4 +834,70 @@ fn solid_induction_of_an_l_shaped_building_round_trips() {
     let flat = src.replace("plane none; ", "");
     assert_eq!(build_source(&flat).extensions.grid.expect("grid").shapes[0].plane, Some(1), "without it: flat along y");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_default_cost_is_the_reference_sum_and_kinds_weighs_entropy_by_kinds() {
+    assert_eq!(InferOptions::default().cost, Cost::Sum);
+    assert_eq!(Cost::parse("kinds"), Some(Cost::Kinds));
+    // Two shapes of the wall with a window: all eight stones, and the glass.
+    let m = wall_with_window();
+    let glass = m.blocks.iter().position(|b| b.pos == [1, 1, 0]).expect("glass") as u32;
+    let stones: Vec<u32> = (0..m.blocks.len() as u32).filter(|&b| b != glass).collect();
+    let all: Vec<u32> = (0..m.blocks.len() as u32).collect();
+    let h = entropy(&[8, 1]);
+    for (c, want) in
+        [(Cost::Sum, 0.5 * 2.0 + h), (Cost::Kinds, 0.5 * 2.0 + 2.0 * h), (Cost::Product, 2f64.powf(0.5) * h)]
+    {
+        let mut s = Search::new(&m, Spec::Planar, 0.5);
+        s.set_cost(c);
+        s.init_from(&[(2, all.clone())]);
+        assert!((s.cost() - want).abs() < 1e-12, "{c:?}: {} vs {want}", s.cost());
+        s.init_from(&[(2, stones.clone()), (2, vec![glass])]);
+        assert!((s.cost() - c.eval(2, 0.0, 0.5)).abs() < 1e-12, "{c:?}: pure shapes have no entropy");
+    }
+}
+
+#[test]
+fn both_operations_split_and_merge() {
+    // From the maximal shapes (the row a a b b in the y and z layers), a low α cuts
+    // the mixed row into its pure halves.
+    let m = model(&lines(&[([0, 0, 0], "a"), ([1, 0, 0], "a"), ([2, 0, 0], "b"), ([3, 0, 0], "b")]));
+    let opts = InferOptions { spec: Spec::Rect, alpha: 0.25, ops: Ops::Both, ..InferOptions::default() };
+    let inf = infer(&m, &opts, &mut |_| {});
+    assert!(inf.stats.splits > 0, "{:?}", inf.stats);
+    assert_eq!(inf.shapes.len(), 2, "a a | b b");
+    let split_only = infer(&m, &InferOptions { ops: Ops::Split, ..opts }, &mut |_| {});
+    assert!(inf.stats.cost <= split_only.stats.cost + 1e-12, "merges after splits never cost more");
+}
+
+#[test]
+fn post_split_cuts_a_wall_along_the_floor_it_touches() {
+    // A stone wall at x = −1 (y 0..3, z 0..4) and a plank floor at y = 1 beside it.
+    let mut v = Vec::new();
+    for y in 0..3 {
+        for z in 0..4 {
+            v.push(([-1, y, z], "stone"));
+        }
+    }
+    for x in 0..3 {
+        for z in 0..4 {
+            v.push(([x, 1, z], "planks"));
+        }
+    }
+    let m = model(&lines(&v));
+    let opts = InferOptions { spec: Spec::Rect, alpha: 0.25, ops: Ops::Merge, ..InferOptions::default() };
+    let sizes = |post_split: bool| {
+        let inf = infer(&m, &InferOptions { post_split, ..opts }, &mut |_| {});
+        let mut covered: Vec<u32> = inf.shapes.iter().flat_map(|s| s.blocks.clone()).collect();
+        covered.sort_unstable();
+        assert_eq!(covered, (0..m.blocks.len() as u32).collect::<Vec<_>>(), "every block once");
+        let mut v: Vec<(usize, [i32; 3])> =
+            inf.shapes.iter().map(|s| (s.blocks.len(), bounds(&m, &s.blocks).0)).collect();
+        v.sort();
+        v
+    };
+    assert_eq!(sizes(false), vec![(12, [-1, 0, 0]), (12, [0, 1, 0])]);
+    // The wall's top row (above the floor) and the rest (the floor's height and below).
+    assert_eq!(sizes(true), vec![(4, [-1, 2, 0]), (8, [-1, 0, 0]), (12, [0, 1, 0])]);
 }

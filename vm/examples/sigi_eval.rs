@@ -140,7 +140,7 @@ fn sweep(buildings: &[Building], cost: Cost) -> Vec<Run> {
             for alpha in ALPHAS {
                 for ops in OPS {
                     for overlap in [false, true] {
-                        jobs.push((b, InferOptions { spec, alpha, ops, overlap, cost }));
+                        jobs.push((b, InferOptions { spec, alpha, ops, overlap, cost, post_split: false }));
                     }
                 }
             }
@@ -156,7 +156,7 @@ fn sweep(buildings: &[Building], cost: Cost) -> Vec<Run> {
 }
 
 fn timing(buildings: &[Building], cost: Cost) {
-    let opts = InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost };
+    let opts = InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost, post_split: false };
     println!(
         "\n## Inference time ({} cost, rect, α = 1, both operations, no overlap; one thread, best of 5)\n",
         cost.name()
@@ -199,7 +199,14 @@ fn generation(buildings: &[Building]) {
         "| building | shapes | rules | example kept, seal 0 | seal 1 | seal 2 | non-empty of 20 | mean blocks | mean time |"
     );
     println!("|---|---|---|---|---|---|---|---|---|");
-    let opts = InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost: Cost::Sum };
+    let opts = InferOptions {
+        spec: Spec::Rect,
+        alpha: 1.0,
+        ops: Ops::Both,
+        overlap: false,
+        cost: Cost::Sum,
+        post_split: false,
+    };
     for b in buildings {
         let inf = infer(&b.model, &opts, &mut |_| {});
         let g = match induce(&[Example { name: b.name.clone(), model: &b.model }], &[inf], &b.name) {
@@ -248,6 +255,68 @@ fn generation(buildings: &[Building]) {
     }
 }
 
+/// The derivation count of the issue: per configuration, 10 derivations (seeds 1–10,
+/// 50 steps, enclosure with seal 1) from each building's grammar; how many of them
+/// give fewer than 50 blocks, and how many none.
+fn derivations(buildings: &[Building]) {
+    println!("\n## Derivations: {} buildings × 10 seeds, 50 steps, enclosure (seal 1)\n", buildings.len());
+    println!("| cost | spec | α | ops | overlap | post-split | derivations | < 50 blocks | empty | median blocks |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    let base = InferOptions::default();
+    let mut configs = vec![
+        InferOptions { cost: Cost::Product, ..base },
+        InferOptions { cost: Cost::Product, ops: Ops::Merge, ..base },
+        InferOptions { cost: Cost::Sum, ops: Ops::Merge, ..base },
+        base,
+        InferOptions { post_split: true, ..base },
+        InferOptions { cost: Cost::Kinds, ..base },
+        InferOptions { cost: Cost::Kinds, ops: Ops::Merge, ..base },
+    ];
+    for a in [0.25, 0.5, 2.0] {
+        configs.push(InferOptions { alpha: a, ..base });
+        configs.push(InferOptions { alpha: a, cost: Cost::Product, ..base });
+    }
+    configs.push(InferOptions { ops: Ops::Merge, post_split: true, ..base });
+    configs.push(InferOptions { overlap: true, ..base });
+    configs.push(InferOptions { overlap: true, ops: Ops::Merge, ..base });
+    configs.push(InferOptions { overlap: true, post_split: true, ..base });
+    configs.push(InferOptions { spec: Spec::Planar, ops: Ops::Merge, ..base });
+    configs.push(InferOptions { spec: Spec::Planar, ..base });
+    configs.push(InferOptions { spec: Spec::Solid, ..base });
+    for opts in configs {
+        let counts: Vec<usize> = buildings
+            .par_iter()
+            .flat_map(|b| {
+                let inf = infer(&b.model, &opts, &mut |_| {});
+                let g = induce(&[Example { name: b.name.clone(), model: &b.model }], &[inf], &b.name).ok();
+                (1..=10u64)
+                    .map(|seed| {
+                        g.as_ref()
+                            .and_then(|g| {
+                                generate(g, &GenerateOptions { steps: 50, enclosure: true, seal: 1, seed }).ok()
+                            })
+                            .map(|m| m.model.blocks.len())
+                            .unwrap_or(0)
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        println!(
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            opts.cost.name(),
+            opts.spec.name(),
+            opts.alpha,
+            opts.ops.name(),
+            if opts.overlap { "yes" } else { "no" },
+            if opts.post_split { "yes" } else { "no" },
+            counts.len(),
+            counts.iter().filter(|&&c| c < 50).count(),
+            counts.iter().filter(|&&c| c == 0).count(),
+            median(counts.iter().map(|&c| c as f64).collect())
+        );
+    }
+}
+
 fn main() -> ExitCode {
     let Some(dir) = std::env::args_os().nth(1).map(PathBuf::from) else {
         eprintln!("usage: sigi_eval DATA_DIR   (the folder with sigi-examples/ and gdmc2023/)");
@@ -280,6 +349,13 @@ fn main() -> ExitCode {
         }
     }
     println!("# SIGI evaluation\n\nData: {}", dir.display());
+    if std::env::args().any(|a| a == "--derivations-only") {
+        for (title, buildings) in &sets {
+            println!("\n# {title}");
+            derivations(buildings);
+        }
+        return ExitCode::SUCCESS;
+    }
     for (title, buildings) in &sets {
         println!("\n# {title}");
         for cost in [Cost::Product, Cost::Sum] {
