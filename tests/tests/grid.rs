@@ -6,7 +6,7 @@
 use mdg_cli::modes::{grid::GridArgs, Common};
 use mdg_tests::{build_source, root};
 use mdg_vm::grid::format::{self, VoxelFormat};
-use mdg_vm::grid::generate::{enclosure, generate, Derivation, GenerateOptions, Instance};
+use mdg_vm::grid::generate::{enclosure, generate, Bounds, Derivation, GenerateOptions, Instance};
 use mdg_vm::grid::induce::{induce, Example};
 use mdg_vm::grid::infer::{cost, entropy, infer, Cost, InferOptions, Move, Ops, Search, Spec};
 use mdg_vm::grid::voxel::VoxelModel;
@@ -611,7 +611,9 @@ fn induce_write_compile_generate_round_trip() {
     let txt = run(&dir.join("a.txt"), 7, &args);
     let generated = format::read_bytes(VoxelFormat::Text, &txt).expect("reads back");
     let direct =
-        generate(&g, &GenerateOptions { steps: 30, enclosure: true, seal: 1, seed: 7 }).expect("generates").model;
+        generate(&g, &GenerateOptions { steps: 30, enclosure: true, seal: 1, seed: 7, ..GenerateOptions::default() })
+            .expect("generates")
+            .model;
     assert_eq!(ids(&generated), ids(&direct), "mdg-run writes what generate made");
     assert!(!generated.blocks.is_empty(), "seed 7 keeps an enclosed building");
     for f in [VoxelFormat::Vox, VoxelFormat::Nbt, VoxelFormat::Schem] {
@@ -677,7 +679,9 @@ fn two_examples_share_one_style() {
     // every rule's left side has a rule set reachable from the start.
     let d = Derivation::new(&g);
     assert!(!d.rules_for(g.start).is_empty());
-    let made = generate(&g, &GenerateOptions { steps: 40, enclosure: false, seal: 1, seed: 3 }).expect("generates");
+    let made =
+        generate(&g, &GenerateOptions { steps: 40, enclosure: false, seal: 1, seed: 3, ..GenerateOptions::default() })
+            .expect("generates");
     assert!(made.applied > 0);
 }
 
@@ -708,8 +712,11 @@ fn the_std_grid_example_generates_a_building() {
     let text = std::fs::read_to_string(&path).expect("std/examples/grid_cottage.mdg");
     let bundle = build_source(&text);
     let g = bundle.extensions.grid.as_ref().expect("a grid section");
-    let made = generate(g, &GenerateOptions { steps: g.generate.steps, enclosure: true, seal: 1, seed: 1 })
-        .expect("generates");
+    let made = generate(
+        g,
+        &GenerateOptions { steps: g.generate.steps, enclosure: true, seal: 1, seed: 1, ..GenerateOptions::default() },
+    )
+    .expect("generates");
     assert!(!made.model.blocks.is_empty());
 }
 
@@ -900,4 +907,77 @@ fn post_split_cuts_a_wall_along_the_floor_it_touches() {
     assert_eq!(sizes(false), vec![(12, [-1, 0, 0]), (12, [0, 1, 0])]);
     // The wall's top row (above the floor) and the rest (the floor's height and below).
     assert_eq!(sizes(true), vec![(4, [-1, 2, 0]), (8, [-1, 0, 0]), (12, [0, 1, 0])]);
+}
+
+/// The 6-connected pieces of a model, and whether each reaches the model's lowest level.
+fn pieces(m: &VoxelModel) -> Vec<(usize, bool)> {
+    let cells: HashSet<[i32; 3]> = m.blocks.iter().map(|b| b.pos).collect();
+    let ground = m.blocks.iter().map(|b| b.pos[1]).min().unwrap_or(0);
+    let mut seen = HashSet::new();
+    let mut out = Vec::new();
+    let mut sorted: Vec<[i32; 3]> = cells.iter().copied().collect();
+    sorted.sort();
+    for c in sorted {
+        if !seen.insert(c) {
+            continue;
+        }
+        let (mut n, mut grounded) = (0, false);
+        let mut stack = vec![c];
+        while let Some(p) = stack.pop() {
+            n += 1;
+            grounded |= p[1] == ground;
+            for d in mdg_vm::grid::voxel::NEIGHBOURS {
+                let q = add(p, d);
+                if cells.contains(&q) && seen.insert(q) {
+                    stack.push(q);
+                }
+            }
+        }
+        out.push((n, grounded));
+    }
+    out
+}
+
+#[test]
+fn generated_buildings_hold_together_inside_their_bounds() {
+    // Two houses side by side joined by a plank bridge: a grammar whose derivations,
+    // once the enclosure constraint removes the exposed bridge pieces, fall apart.
+    let mut text = house();
+    for l in house().lines() {
+        let f: Vec<&str> = l.split_whitespace().collect();
+        let x: i32 = f[0].parse().expect("x");
+        text.push_str(&format!("{} {} {} {}\n", x + 10, f[1], f[2], f[3]));
+    }
+    for x in 7..10 {
+        text.push_str(&format!("{x} 0 2 planks\n"));
+    }
+    let m = model(&text);
+    let opts = InferOptions { spec: Spec::Rect, ..InferOptions::default() };
+    let inf = infer(&m, &opts, &mut |_| {});
+    let g = induce(&[Example { name: "two.txt".into(), model: &m }], &[inf], "two").expect("induces");
+    let plain = GenerateOptions { steps: 60, bounds: Bounds::None, keep_largest: false, ..GenerateOptions::default() };
+    let (mut floating, mut kept_pieces, mut starts) = (0, 0, HashSet::new());
+    for seed in 0..40 {
+        let loose = generate(&g, &GenerateOptions { seed, ..plain }).expect("generates");
+        floating += (pieces(&loose.model).len() > 1) as usize;
+        let held = generate(&g, &GenerateOptions { seed, keep_largest: true, ..plain }).expect("generates");
+        let p = pieces(&held.model);
+        assert!(p.len() <= 1 && p.iter().all(|x| x.1), "seed {seed}: {p:?}");
+        kept_pieces += p.len();
+        // Inside a box: no extent over the limit.
+        let boxed = GenerateOptions { seed, bounds: Bounds::Box([9, 4, 9]), ..plain };
+        let b = generate(&g, &boxed).expect("generates");
+        if let Some((lo, hi)) = b.model.bounds() {
+            assert!(hi[0] - lo[0] < 9 && hi[1] - lo[1] < 4 && hi[2] - lo[2] < 9, "seed {seed}: {lo:?}..{hi:?}");
+        }
+        let random = GenerateOptions { seed, random_start: true, enclosure: false, ..plain };
+        let r = generate(&g, &random).expect("generates");
+        assert_eq!(ids(&r.model), ids(&generate(&g, &random).expect("again").model), "a seed, a building");
+        starts.insert(r.instances[0].shape);
+    }
+    assert!(floating > 0, "without the largest piece rule some derivation floats (else this test proves nothing)");
+    assert!(kept_pieces > 20, "most derivations keep a building");
+    assert!(starts.len() > 1, "random starts differ between seeds");
+    // The default box is 2 × the example's extents (x and z alike).
+    assert_eq!(Bounds::Examples(2).resolve(&g), Some([34, 8, 34]));
 }

@@ -14,7 +14,7 @@
 //! sum (see `mdg_vm::grid::infer::Cost`). `--timing-only` stops after the timings.
 
 use mdg_vm::grid::format;
-use mdg_vm::grid::generate::{enclosure, generate, GenerateOptions, Instance};
+use mdg_vm::grid::generate::{enclosure, generate, Bounds, GenerateOptions, Instance};
 use mdg_vm::grid::induce::{induce, measures, Example, Measures};
 use mdg_vm::grid::infer::{infer, Cost, InferOptions, Ops, Spec};
 use mdg_vm::grid::voxel::VoxelModel;
@@ -235,7 +235,10 @@ fn generation(buildings: &[Building]) {
         let (mut non_empty, mut blocks, mut secs) = (0, 0usize, 0.0);
         for seed in 1..=20 {
             let t = Instant::now();
-            if let Ok(made) = generate(&g, &GenerateOptions { steps: 50, enclosure: true, seal: 1, seed }) {
+            if let Ok(made) = generate(
+                &g,
+                &GenerateOptions { steps: 50, enclosure: true, seal: 1, seed, ..GenerateOptions::default() },
+            ) {
                 secs += t.elapsed().as_secs_f64();
                 non_empty += (!made.model.blocks.is_empty()) as usize;
                 blocks += made.model.blocks.len();
@@ -255,20 +258,87 @@ fn generation(buildings: &[Building]) {
     }
 }
 
-/// The derivation count of the issue: per configuration, 10 derivations (seeds 1–10,
-/// 50 steps, enclosure with seal 1) from each building's grammar; how many of them
-/// give fewer than 50 blocks, and how many none.
+/// The number of 6-connected pieces of a model.
+fn pieces(m: &VoxelModel) -> usize {
+    let cells: std::collections::HashSet<[i32; 3]> = m.blocks.iter().map(|b| b.pos).collect();
+    let mut seen = std::collections::HashSet::new();
+    let mut n = 0;
+    for &c in &cells {
+        if !seen.insert(c) {
+            continue;
+        }
+        n += 1;
+        let mut stack = vec![c];
+        while let Some(p) = stack.pop() {
+            for d in mdg_vm::grid::voxel::NEIGHBOURS {
+                let q = mdg_vm::grid::add(p, d);
+                if cells.contains(&q) && seen.insert(q) {
+                    stack.push(q);
+                }
+            }
+        }
+    }
+    n
+}
+
+/// One row of the derivation table: 10 derivations (seeds 1–10) from each building's
+/// grammar.
+fn derivation_row(buildings: &[Building], opts: &InferOptions, gen: &GenerateOptions, what: &str) {
+    let made: Vec<(usize, usize, u32)> = buildings
+        .par_iter()
+        .flat_map(|b| {
+            let inf = infer(&b.model, opts, &mut |_| {});
+            let g = induce(&[Example { name: b.name.clone(), model: &b.model }], &[inf], &b.name).ok();
+            (1..=10u64)
+                .map(|seed| {
+                    let m =
+                        g.as_ref().and_then(|g| generate(g, &GenerateOptions { seed, ..*gen }).ok()).map(|m| m.model);
+                    let ext = m
+                        .as_ref()
+                        .and_then(|m| m.bounds())
+                        .map(|(lo, hi)| (0..3).map(|a| (hi[a] - lo[a] + 1) as u32).max().unwrap_or(0))
+                        .unwrap_or(0);
+                    m.map(|m| (m.blocks.len(), pieces(&m), ext)).unwrap_or((0, 0, 0))
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    println!(
+        "| {} | {} | {} | {} | {} | {} | {what} | {} | {} | {} | {} | {} | {} |",
+        opts.cost.name(),
+        opts.spec.name(),
+        opts.alpha,
+        opts.ops.name(),
+        if opts.overlap { "yes" } else { "no" },
+        if opts.post_split { "yes" } else { "no" },
+        made.len(),
+        made.iter().filter(|m| m.0 < 50).count(),
+        made.iter().filter(|m| m.0 == 0).count(),
+        median(made.iter().map(|m| m.0 as f64).collect()),
+        made.iter().filter(|m| m.1 > 1).count(),
+        made.iter().map(|m| m.2).max().unwrap_or(0)
+    );
+}
+
+/// The derivation counts of the issue: per configuration, 10 derivations (seeds 1–10,
+/// 50 steps, enclosure with seal 1) from each building's grammar; how many give fewer
+/// than 50 blocks, how many none, how many have floating pieces, the largest extent.
 fn derivations(buildings: &[Building]) {
     println!("\n## Derivations: {} buildings × 10 seeds, 50 steps, enclosure (seal 1)\n", buildings.len());
-    println!("| cost | spec | α | ops | overlap | post-split | derivations | < 50 blocks | empty | median blocks |");
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!(
+        "| cost | spec | α | ops | overlap | post-split | generation | derivations | < 50 blocks | empty | median blocks | \
+         with floating pieces | largest extent |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let base = InferOptions::default();
+    let plain = GenerateOptions { bounds: Bounds::None, keep_largest: false, ..GenerateOptions::default() };
     let mut configs = vec![
-        InferOptions { cost: Cost::Product, ..base },
         InferOptions { cost: Cost::Product, ops: Ops::Merge, ..base },
+        InferOptions { cost: Cost::Product, ..base },
         InferOptions { cost: Cost::Sum, ops: Ops::Merge, ..base },
         base,
         InferOptions { post_split: true, ..base },
+        InferOptions { ops: Ops::Merge, post_split: true, ..base },
         InferOptions { cost: Cost::Kinds, ..base },
         InferOptions { cost: Cost::Kinds, ops: Ops::Merge, ..base },
     ];
@@ -276,45 +346,29 @@ fn derivations(buildings: &[Building]) {
         configs.push(InferOptions { alpha: a, ..base });
         configs.push(InferOptions { alpha: a, cost: Cost::Product, ..base });
     }
-    configs.push(InferOptions { ops: Ops::Merge, post_split: true, ..base });
     configs.push(InferOptions { overlap: true, ..base });
     configs.push(InferOptions { overlap: true, ops: Ops::Merge, ..base });
-    configs.push(InferOptions { overlap: true, post_split: true, ..base });
     configs.push(InferOptions { spec: Spec::Planar, ops: Ops::Merge, ..base });
     configs.push(InferOptions { spec: Spec::Planar, ..base });
-    configs.push(InferOptions { spec: Spec::Solid, ..base });
     for opts in configs {
-        let counts: Vec<usize> = buildings
-            .par_iter()
-            .flat_map(|b| {
-                let inf = infer(&b.model, &opts, &mut |_| {});
-                let g = induce(&[Example { name: b.name.clone(), model: &b.model }], &[inf], &b.name).ok();
-                (1..=10u64)
-                    .map(|seed| {
-                        g.as_ref()
-                            .and_then(|g| {
-                                generate(g, &GenerateOptions { steps: 50, enclosure: true, seal: 1, seed }).ok()
-                            })
-                            .map(|m| m.model.blocks.len())
-                            .unwrap_or(0)
-                    })
-                    .collect::<Vec<_>>()
-            })
-            .collect();
-        println!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
-            opts.cost.name(),
-            opts.spec.name(),
-            opts.alpha,
-            opts.ops.name(),
-            if opts.overlap { "yes" } else { "no" },
-            if opts.post_split { "yes" } else { "no" },
-            counts.len(),
-            counts.iter().filter(|&&c| c < 50).count(),
-            counts.iter().filter(|&&c| c == 0).count(),
-            median(counts.iter().map(|&c| c as f64).collect())
-        );
+        derivation_row(buildings, &opts, &plain, "plain");
     }
+    // Generation options, on the default inference.
+    let default = GenerateOptions::default();
+    for (gen, what) in [
+        (plain, "plain"),
+        (GenerateOptions { keep_largest: false, ..default }, "bounds 2×"),
+        (GenerateOptions { bounds: Bounds::None, ..default }, "largest piece"),
+        (default, "bounds 2× + largest piece (default)"),
+        (GenerateOptions { bounds: Bounds::Box([25; 3]), ..default }, "bounds 25³ + largest piece"),
+        (GenerateOptions { random_start: true, ..default }, "default + random start"),
+        (GenerateOptions { random_start: true, ..plain }, "plain + random start"),
+    ] {
+        derivation_row(buildings, &base, &gen, what);
+    }
+    let ps = InferOptions { post_split: true, ..base };
+    derivation_row(buildings, &ps, &default, "default");
+    derivation_row(buildings, &ps, &GenerateOptions { random_start: true, ..default }, "default + random start");
 }
 
 fn main() -> ExitCode {
