@@ -382,7 +382,7 @@ fn matching_shapes_are_found_under_quarter_turns() {
     assert_eq!(g.matches.len(), 1);
     let mt = g.matches[0];
     assert!(mt.turn % 2 == 1, "a quarter turn (1 or 3), got {}", mt.turn);
-    let (turned, size) = turned_blocks(&g.shapes[mt.a as usize], mt.turn);
+    let (turned, size) = turned_blocks(&g.shapes[mt.a as usize], mt.turn, &g.kind_turns());
     assert_eq!((turned, size), (g.shapes[mt.b as usize].blocks.clone(), g.shapes[mt.b as usize].size));
     // The same wall with its window one row lower is no turn of it.
     let mut lower = wall.clone();
@@ -980,4 +980,71 @@ fn generated_buildings_hold_together_inside_their_bounds() {
     assert!(starts.len() > 1, "random starts differ between seeds");
     // The default box is 2 × the example's extents (x and z alike).
     assert_eq!(Bounds::Examples(2).resolve(&g), Some([34, 8, 34]));
+}
+
+#[test]
+fn a_stair_turned_by_a_rule_faces_the_right_way() {
+    use mdg_vm::grid::blocks::turn_block;
+    // One quarter turn maps (x, y, z) to (z, y, −x): east (+x) becomes north (−z).
+    assert_eq!(
+        turn_block("minecraft:oak_stairs[facing=east,half=top]", 1).as_deref(),
+        Some("minecraft:oak_stairs[facing=north,half=top]")
+    );
+    assert_eq!(
+        turn_block("minecraft:oak_stairs[facing=east,half=top]", 2).as_deref(),
+        Some("minecraft:oak_stairs[facing=west,half=top]")
+    );
+    assert_eq!(turn_block("minecraft:oak_log[axis=x]", 1).as_deref(), Some("minecraft:oak_log[axis=z]"));
+    assert_eq!(turn_block("minecraft:oak_log[axis=y]", 1), None);
+    assert_eq!(
+        turn_block("minecraft:oak_fence[east=true,north=false,south=false,west=false]", 1).as_deref(),
+        Some("minecraft:oak_fence[east=false,north=true,south=false,west=false]")
+    );
+    assert_eq!(turn_block("minecraft:rail[shape=north_east]", 1).as_deref(), Some("minecraft:rail[shape=north_west]"));
+    assert_eq!(turn_block("minecraft:oak_sign[rotation=0]", 1).as_deref(), Some("minecraft:oak_sign[rotation=12]"));
+    assert_eq!(turn_block("minecraft:stone", 1), None);
+    // Legacy data values: stairs 0 east → 3 north, logs 4 (x) → 8 (z), door lower half 0 east → 3 north.
+    assert_eq!(turn_block("53:0", 1).as_deref(), Some("53:3"));
+    assert_eq!(turn_block("53:4", 1).as_deref(), Some("53:7"), "upside down stays");
+    assert_eq!(turn_block("17:5", 1).as_deref(), Some("17:9"));
+    assert_eq!(turn_block("64:0", 1).as_deref(), Some("64:3"));
+    assert_eq!(turn_block("64:8", 1), None, "an upper door half has no facing");
+    for id in ["53:1", "minecraft:oak_stairs[facing=south,half=bottom]", "17:4", "50:2", "86:1"] {
+        let mut t = id.to_string();
+        for _ in 0..4 {
+            t = turn_block(&t, 1).unwrap_or(t);
+        }
+        assert_eq!(t, id, "four quarter turns are none");
+    }
+    // A grammar whose rule places the step shape turned a quarter: its stair faces north.
+    let src = "startshape s\nrule s {}\ngrid g {\n  palette { st \"minecraft:oak_stairs[facing=east,half=bottom]\"; p \"minecraft:oak_planks\"; }\n  \
+               shape base { size 1 1 1; blocks p; }\n  shape step { size 1 1 1; blocks st; }\n  \
+               rule base step at 1 0 0;\n  rule base step at 0 0 -1 turn 1;\n  start base;\n}\n";
+    let g = build_source(src).extensions.grid.expect("grid");
+    let mut seen = BTreeMap::new();
+    for seed in 0..8 {
+        let made = generate(&g, &GenerateOptions { steps: 2, enclosure: false, seed, ..GenerateOptions::default() })
+            .expect("generates");
+        for b in &made.model.blocks {
+            seen.insert(b.pos, made.model.kinds[b.kind as usize].id.clone());
+        }
+    }
+    assert_eq!(seen.get(&[1, 0, 0]).map(String::as_str), Some("minecraft:oak_stairs[facing=east,half=bottom]"));
+    assert_eq!(seen.get(&[0, 0, -1]).map(String::as_str), Some("minecraft:oak_stairs[facing=north,half=bottom]"));
+    // Matching treats the turned stair as the same block turned: two steps facing east
+    // and north match under a quarter turn.
+    let shapes = vec![
+        vec![
+            mdg_vm::grid::ShapeBlock { pos: [0, 0, 0], kind: 0 },
+            mdg_vm::grid::ShapeBlock { pos: [1, 0, 0], kind: 1 },
+        ],
+        vec![
+            mdg_vm::grid::ShapeBlock { pos: [0, 0, 1], kind: 2 },
+            mdg_vm::grid::ShapeBlock { pos: [0, 0, 0], kind: 1 },
+        ],
+    ];
+    let ids = ["53:0", "5:0", "53:3"];
+    let turns = mdg_vm::grid::kind_turns(&ids);
+    assert_eq!(mdg_vm::grid::matching::Classes::of(&shapes, &turns).class, vec![0, 0]);
+    assert_eq!(mdg_vm::grid::matching::Classes::of(&shapes, &[]).class, vec![0, 1], "without turning kinds");
 }

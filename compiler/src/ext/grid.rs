@@ -307,6 +307,7 @@ fn parse(sec: &Section, ex: &Expanded, diags: &mut Vec<Diagnostic>) -> Option<Gr
         diags.push(d);
         None
     };
+    let turns = g.kind_turns();
     for e in entries.iter().filter(|e| e.key.text == "match") {
         let form = "`match A B [turn T]`";
         let (a, b, turn) = match e.values.as_slice() {
@@ -330,7 +331,7 @@ fn parse(sec: &Section, ex: &Expanded, diags: &mut Vec<Diagnostic>) -> Option<Gr
         };
         let (Some(ia), Some(ib)) = (lookup(a, diags), lookup(b, diags)) else { continue };
         let (sa, sb) = (&shapes[ia as usize].shape, &shapes[ib as usize].shape);
-        let (blocks, size) = turned_blocks(sa, turn);
+        let (blocks, size) = turned_blocks(sa, turn, &turns);
         if size != sb.size || blocks != sb.blocks {
             let why = if size != sb.size {
                 format!(
@@ -352,7 +353,7 @@ fn parse(sec: &Section, ex: &Expanded, diags: &mut Vec<Diagnostic>) -> Option<Gr
             );
             // Another turn may be the right one.
             let right = (0..4u8).find(|&t| {
-                let (bl, sz) = turned_blocks(sa, t);
+                let (bl, sz) = turned_blocks(sa, t, &turns);
                 sz == sb.size && bl == sb.blocks
             });
             match (right, e.values.get(3)) {

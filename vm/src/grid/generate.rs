@@ -139,6 +139,10 @@ pub struct Derivation<'g> {
     to_rep: Vec<Placement>,
     /// Per class: rule indices whose `from` is in the class.
     rules: Vec<Vec<u32>>,
+    /// The block kinds of a production: the palette, then the turned blocks it lacks.
+    pub kinds: Vec<BlockKind>,
+    /// Per palette kind and quarter turn: the production kind (index into `kinds`).
+    turns: Vec<[u32; 4]>,
 }
 
 impl<'g> Derivation<'g> {
@@ -183,7 +187,22 @@ impl<'g> Derivation<'g> {
                 rules[c as usize].push(i as u32);
             }
         }
-        Derivation { grammar, class, to_rep, rules }
+        // Turned blocks the palette lacks become kinds of their own.
+        let mut kinds: Vec<BlockKind> =
+            grammar.palette.iter().map(|p| BlockKind { id: p.block.clone(), color: p.color }).collect();
+        let n_pal = kinds.len() as u32;
+        let mut turns = grammar.kind_turns();
+        for (k, row) in turns.iter_mut().enumerate() {
+            for (t, v) in row.iter_mut().enumerate() {
+                if *v >= n_pal {
+                    let p = &grammar.palette[k];
+                    let id = super::blocks::turn_block(&p.block, t as u8).unwrap_or_else(|| p.block.clone());
+                    *v = kinds.len() as u32;
+                    kinds.push(BlockKind { id, color: p.color });
+                }
+            }
+        }
+        Derivation { grammar, class, to_rep, rules, kinds, turns }
     }
 
     /// The start instance: the start shape at its example position (or the origin).
@@ -228,7 +247,10 @@ impl<'g> Derivation<'g> {
     pub fn blocks(&self, inst: &Instance) -> impl Iterator<Item = ([i32; 3], u32)> + '_ {
         let shape = self.grammar.shapes.get(inst.shape as usize);
         let place = inst.place;
-        shape.into_iter().flat_map(move |s| s.blocks.iter().map(move |b| (place.apply(b.pos), b.kind)))
+        let turns = &self.turns;
+        shape.into_iter().flat_map(move |s| {
+            s.blocks.iter().map(move |b| (place.apply(b.pos), super::turn_kind(turns, b.kind, place.turn)))
+        })
     }
 }
 
@@ -272,10 +294,9 @@ impl World {
         }
     }
 
-    /// The blocks as a model with the grammar's palette.
-    fn model(&self, grammar: &GridGrammar) -> VoxelModel {
-        let kinds: Vec<BlockKind> =
-            grammar.palette.iter().map(|p| BlockKind { id: p.block.clone(), color: p.color }).collect();
+    /// The blocks as a model with the production's kinds.
+    fn model(&self, kinds: &[BlockKind]) -> VoxelModel {
+        let kinds = kinds.to_vec();
         let mut blocks: Vec<Block> = self.cells.iter().map(|(p, (k, _))| Block { pos: *p, kind: *k }).collect();
         blocks.sort_by_key(|b| (b.pos[1], b.pos[2], b.pos[0]));
         VoxelModel { kinds, blocks }
@@ -366,7 +387,7 @@ pub fn generate(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generat
     if opts.keep_largest {
         removed += keep_largest_supported(&d, &mut instances, &mut world);
     }
-    Ok(Generated { model: world.model(grammar), instances, applied, removed, enclosure_rounds: rounds, note })
+    Ok(Generated { model: world.model(&d.kinds), instances, applied, removed, enclosure_rounds: rounds, note })
 }
 
 /// The smallest box holding both boxes (inclusive corners).
@@ -482,7 +503,7 @@ pub fn enclosure(
     }
     let mut kept = instances.to_vec();
     let (removed, _) = enclose(&d, &mut kept, &mut world, seal)?;
-    Ok((kept, world.model(grammar), removed))
+    Ok((kept, world.model(&d.kinds), removed))
 }
 
 /// Dilates a cell mask of a grid with `dims` by `r` cells in every direction (a box,

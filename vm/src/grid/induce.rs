@@ -70,7 +70,8 @@ pub fn measures(model: &VoxelModel, inference: &Inference) -> Measures {
     if n == 0 {
         return Measures::default();
     }
-    let classes = Classes::of(&shapes);
+    let ids: Vec<&str> = model.kinds.iter().map(|k| k.id.as_str()).collect();
+    let classes = Classes::of(&shapes, &super::kind_turns(&ids));
     let size = shapes.iter().map(|s| s.len() as f64).sum::<f64>() / n as f64;
     let complexity = shapes
         .iter()
@@ -143,7 +144,8 @@ pub fn induce(examples: &[Example], inferences: &[Inference], name: &str) -> Res
     if shapes.is_empty() {
         return Err("no shapes (the examples are empty)".into());
     }
-    let classes = Classes::of(&shapes.iter().map(|s| s.blocks.clone()).collect::<Vec<_>>());
+    let ids: Vec<&str> = palette.iter().map(|p| p.block.as_str()).collect();
+    let classes = Classes::of(&shapes.iter().map(|s| s.blocks.clone()).collect::<Vec<_>>(), &super::kind_turns(&ids));
     let mut matches = Vec::new();
     for (i, &c) in classes.class.iter().enumerate() {
         let rep = classes.rep[c as usize];
