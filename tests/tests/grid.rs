@@ -675,6 +675,12 @@ fn two_examples_share_one_style() {
     assert_eq!(g.examples, ["a.txt", "b.txt"]);
     let cross = g.matches.iter().any(|m| g.shapes[m.a as usize].example != g.shapes[m.b as usize].example);
     assert!(cross, "a shape of one example matches one of the other");
+    let shared = mdg_vm::grid::induce::shared_shapes(&g);
+    assert!(shared >= 2 && shared <= g.shapes.len(), "{shared}");
+    // Each example alone shares nothing.
+    let alone =
+        induce(&[Example { name: "a.txt".into(), model: &a }], &[infer(&a, &opts, &mut |_| {})], "a").expect("induces");
+    assert_eq!(mdg_vm::grid::induce::shared_shapes(&alone), 0);
     // Rules of the second example's shapes are shared with the first's (deduplicated):
     // every rule's left side has a rule set reachable from the start.
     let d = Derivation::new(&g);

@@ -101,6 +101,16 @@ pub fn run(args: Args) -> ExitCode {
             r.seconds * 1e3
         );
     }
+    if examples.len() > 1 {
+        let shared = mdg_vm::grid::induce::shared_shapes(&grammar);
+        eprintln!("shared style: {shared} of {} shapes match a shape of another example", grammar.shapes.len());
+        if shared == 0 {
+            eprintln!(
+                "warning: no shape of one example matches a shape of another, so the grammar is the examples' \
+                 grammars side by side (no shared style); try --overlap, another --alpha or --spec"
+            );
+        }
+    }
     let args: Vec<String> = examples.iter().map(|p| p.display().to_string()).collect();
     let comment = vec![
         format!(
