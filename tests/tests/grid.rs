@@ -1015,6 +1015,8 @@ fn a_stair_turned_by_a_rule_faces_the_right_way() {
     assert_eq!(turn_block("17:5", 1).as_deref(), Some("17:9"));
     assert_eq!(turn_block("64:0", 1).as_deref(), Some("64:3"));
     assert_eq!(turn_block("64:8", 1), None, "an upper door half has no facing");
+    assert_eq!(mdg_vm::grid::blocks::to_modern("43:8").as_deref(), Some("minecraft:smooth_stone"));
+    assert_eq!(mdg_vm::grid::blocks::to_modern("43:0").as_deref(), Some("minecraft:smooth_stone_slab[type=double]"));
     for id in ["53:1", "minecraft:oak_stairs[facing=south,half=bottom]", "17:4", "50:2", "86:1"] {
         let mut t = id.to_string();
         for _ in 0..4 {

@@ -378,6 +378,10 @@ pub fn modern_state(id: u16, data: u8) -> Option<String> {
             };
             return mc(&v);
         }
+        // 43:8, 43:9 and 43:15 are the full smooth blocks (all six faces smooth).
+        43 if data == 8 => return mc("smooth_stone"),
+        43 if data == 9 => return mc("smooth_sandstone"),
+        43 if data == 15 => return mc("smooth_quartz"),
         43 => return mc(&format!("{}[type=double]", STONE_SLABS[(data & 7) as usize])),
         44 => {
             let half = if data & 8 != 0 { "top" } else { "bottom" };
