@@ -67,7 +67,10 @@ pub fn induce_models(
         inferences.push(inf);
     }
     let examples: Vec<Example> = models.iter().map(|(n, m)| Example { name: n.clone(), model: m }).collect();
-    let g = induce(&examples, &inferences, name)?;
+    // The grid section's limits (blocks in all shapes, a shape's extent) are the only
+    // way a valid example set fails here: the code of a grid value out of range.
+    let g = induce(&examples, &inferences, name)
+        .map_err(|e| format!("error[E0912]: the induced grammar is over a grid grammar's limits: {e}"))?;
     Ok((g, reports))
 }
 
@@ -103,8 +106,14 @@ pub fn write_source(g: &GridGrammar, comment: &[String]) -> String {
         let _ = writeln!(s, "  shape {} {{", shape.name);
         let [sx, sy, sz] = shape.size;
         let _ = writeln!(s, "    size {sx} {sy} {sz};");
-        if let Some(p) = shape.plane {
-            let _ = writeln!(s, "    plane {};", AXIS_NAMES[p as usize]);
+        match shape.plane {
+            Some(p) => {
+                let _ = writeln!(s, "    plane {};", AXIS_NAMES[p as usize]);
+            }
+            // A shape one block thick along exactly one axis reads as flat along it
+            // unless it says it is solid.
+            None if shape.size.iter().filter(|&&e| e == 1).count() == 1 => s.push_str("    plane none;\n"),
+            None => {}
         }
         if let Some(at) = shape.at {
             let _ = writeln!(s, "    at {} {} {};", at[0], at[1], at[2]);
@@ -156,4 +165,43 @@ pub fn write_source(g: &GridGrammar, comment: &[String]) -> String {
     s.push_str("  }\n}\n");
     // The layout above is the formatter's; run it anyway so the file is canonical.
     crate::fmt::format_source(&s).unwrap_or(s)
+}
+
+/// [`write_source`], checked: the text must fit a source file (16 MiB, error `E0201` as
+/// for any source over the limit) and compile back to exactly `g` (anything else is a
+/// bug of the writer or the grid section, reported as an internal error). `path` names
+/// the file in diagnostics.
+pub fn write_checked(g: &GridGrammar, comment: &[String], path: &Path) -> Result<String, String> {
+    let text = write_source(g, comment);
+    let max = crate::parse::MAX_SOURCE_BYTES;
+    if text.len() > max {
+        return Err(format!(
+            "error[E0201]: the written grammar would be {} bytes, over the {} MiB limit of a source file \
+             ({} shapes, {} blocks in all); induce from fewer or smaller examples, or with a larger --alpha",
+            text.len(),
+            max >> 20,
+            g.shapes.len(),
+            g.shapes.iter().map(|s| s.blocks.len()).sum::<usize>()
+        ));
+    }
+    let opts = crate::expand::Options { std_dir: crate::driver::default_std_dir(), ..Default::default() };
+    let a = crate::driver::analyze_text(
+        &crate::source::FsLoader,
+        path,
+        &text,
+        &opts,
+        crate::check::CheckOptions { require_start: true },
+    );
+    let back = if a.has_errors() {
+        None
+    } else {
+        crate::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).ok().and_then(|b| b.extensions.grid)
+    };
+    if back.as_ref() != Some(g) {
+        return Err(format!(
+            "{}internal error: the written grammar does not compile back to the induced one",
+            crate::diag::render_plain(&a.diagnostics, &a.sources)
+        ));
+    }
+    Ok(text)
 }

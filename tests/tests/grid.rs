@@ -6,7 +6,7 @@
 use mdg_cli::modes::{grid::GridArgs, Common};
 use mdg_tests::{build_source, root};
 use mdg_vm::grid::format::{self, VoxelFormat};
-use mdg_vm::grid::generate::{enclosure, generate, Derivation, GenerateOptions, Instance};
+use mdg_vm::grid::generate::{enclosure, generate, Bounds, Derivation, GenerateOptions, Instance};
 use mdg_vm::grid::induce::{induce, Example};
 use mdg_vm::grid::infer::{cost, entropy, infer, Cost, InferOptions, Move, Ops, Search, Spec};
 use mdg_vm::grid::voxel::VoxelModel;
@@ -288,7 +288,7 @@ fn every_block_is_covered_with_and_without_overlap() {
         for ops in [Ops::Merge, Ops::Split, Ops::Both] {
             for overlap in [false, true] {
                 for c in [Cost::Product, Cost::Sum] {
-                    let opts = InferOptions { spec, alpha: 1.0, ops, overlap, cost: c };
+                    let opts = InferOptions { spec, alpha: 1.0, ops, overlap, cost: c, post_split: false };
                     let inf = infer(&m, &opts, &mut |_| {});
                     let mut count = vec![0; m.blocks.len()];
                     for s in &inf.shapes {
@@ -341,7 +341,14 @@ fn bounds(m: &VoxelModel, blocks: &[u32]) -> ([i32; 3], [i32; 3]) {
 #[test]
 fn inference_is_deterministic() {
     let m = model(&house());
-    let opts = InferOptions { spec: Spec::Planar, alpha: 0.75, ops: Ops::Both, overlap: true, cost: Cost::Sum };
+    let opts = InferOptions {
+        spec: Spec::Planar,
+        alpha: 0.75,
+        ops: Ops::Both,
+        overlap: true,
+        cost: Cost::Sum,
+        post_split: false,
+    };
     let a = infer(&m, &opts, &mut |_| {});
     let b = infer(&m, &opts, &mut |_| {});
     assert_eq!(a.shapes, b.shapes);
@@ -361,14 +368,21 @@ fn matching_shapes_are_found_under_quarter_turns() {
         blocks.push((add(rotate(1, *p), [20, 0, 10]), *b));
     }
     let m = model(&lines(&blocks));
-    let opts = InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost: Cost::Sum };
+    let opts = InferOptions {
+        spec: Spec::Rect,
+        alpha: 1.0,
+        ops: Ops::Both,
+        overlap: false,
+        cost: Cost::Sum,
+        post_split: false,
+    };
     let inf = infer(&m, &opts, &mut |_| {});
     assert_eq!(inf.shapes.len(), 2, "each wall is one shape");
     let g = induce(&[Example { name: "two walls".into(), model: &m }], &[inf], "walls").expect("induces");
     assert_eq!(g.matches.len(), 1);
     let mt = g.matches[0];
     assert!(mt.turn % 2 == 1, "a quarter turn (1 or 3), got {}", mt.turn);
-    let (turned, size) = turned_blocks(&g.shapes[mt.a as usize], mt.turn);
+    let (turned, size) = turned_blocks(&g.shapes[mt.a as usize], mt.turn, &g.kind_turns());
     assert_eq!((turned, size), (g.shapes[mt.b as usize].blocks.clone(), g.shapes[mt.b as usize].size));
     // The same wall with its window one row lower is no turn of it.
     let mut lower = wall.clone();
@@ -386,7 +400,8 @@ fn matching_shapes_are_found_under_quarter_turns() {
 
 fn house_grammar(c: Cost) -> (VoxelModel, GridGrammar) {
     let m = model(&house());
-    let opts = InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost: c };
+    let opts =
+        InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost: c, post_split: false };
     let inf = infer(&m, &opts, &mut |_| {});
     let g = induce(&[Example { name: "house.txt".into(), model: &m }], &[inf], "house").expect("induces");
     (m, g)
@@ -549,7 +564,14 @@ fn induce_write_compile_generate_round_trip() {
     let dir = temp_dir("roundtrip");
     let example = dir.join("house.txt");
     std::fs::write(&example, house()).expect("write example");
-    let opts = InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost: Cost::Sum };
+    let opts = InferOptions {
+        spec: Spec::Rect,
+        alpha: 1.0,
+        ops: Ops::Both,
+        overlap: false,
+        cost: Cost::Sum,
+        post_split: false,
+    };
     let (g, reports) =
         mdg_compiler::induce::induce_files(&[example.as_path()], &opts, "house", &mut |_, _| {}).expect("induces");
     assert_eq!(reports.len(), 1);
@@ -589,7 +611,9 @@ fn induce_write_compile_generate_round_trip() {
     let txt = run(&dir.join("a.txt"), 7, &args);
     let generated = format::read_bytes(VoxelFormat::Text, &txt).expect("reads back");
     let direct =
-        generate(&g, &GenerateOptions { steps: 30, enclosure: true, seal: 1, seed: 7 }).expect("generates").model;
+        generate(&g, &GenerateOptions { steps: 30, enclosure: true, seal: 1, seed: 7, ..GenerateOptions::default() })
+            .expect("generates")
+            .model;
     assert_eq!(ids(&generated), ids(&direct), "mdg-run writes what generate made");
     assert!(!generated.blocks.is_empty(), "seed 7 keeps an enclosed building");
     for f in [VoxelFormat::Vox, VoxelFormat::Nbt, VoxelFormat::Schem] {
@@ -632,7 +656,14 @@ fn two_examples_share_one_style() {
         })
         .collect();
     let b = model(&shifted);
-    let opts = InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost: Cost::Sum };
+    let opts = InferOptions {
+        spec: Spec::Rect,
+        alpha: 1.0,
+        ops: Ops::Both,
+        overlap: false,
+        cost: Cost::Sum,
+        post_split: false,
+    };
     let ia = infer(&a, &opts, &mut |_| {});
     let ib = infer(&b, &opts, &mut |_| {});
     let g = induce(
@@ -644,11 +675,19 @@ fn two_examples_share_one_style() {
     assert_eq!(g.examples, ["a.txt", "b.txt"]);
     let cross = g.matches.iter().any(|m| g.shapes[m.a as usize].example != g.shapes[m.b as usize].example);
     assert!(cross, "a shape of one example matches one of the other");
+    let shared = mdg_vm::grid::induce::shared_shapes(&g);
+    assert!(shared >= 2 && shared <= g.shapes.len(), "{shared}");
+    // Each example alone shares nothing.
+    let alone =
+        induce(&[Example { name: "a.txt".into(), model: &a }], &[infer(&a, &opts, &mut |_| {})], "a").expect("induces");
+    assert_eq!(mdg_vm::grid::induce::shared_shapes(&alone), 0);
     // Rules of the second example's shapes are shared with the first's (deduplicated):
     // every rule's left side has a rule set reachable from the start.
     let d = Derivation::new(&g);
     assert!(!d.rules_for(g.start).is_empty());
-    let made = generate(&g, &GenerateOptions { steps: 40, enclosure: false, seal: 1, seed: 3 }).expect("generates");
+    let made =
+        generate(&g, &GenerateOptions { steps: 40, enclosure: false, seal: 1, seed: 3, ..GenerateOptions::default() })
+            .expect("generates");
     assert!(made.applied > 0);
 }
 
@@ -679,8 +718,11 @@ fn the_std_grid_example_generates_a_building() {
     let text = std::fs::read_to_string(&path).expect("std/examples/grid_cottage.mdg");
     let bundle = build_source(&text);
     let g = bundle.extensions.grid.as_ref().expect("a grid section");
-    let made = generate(g, &GenerateOptions { steps: g.generate.steps, enclosure: true, seal: 1, seed: 1 })
-        .expect("generates");
+    let made = generate(
+        g,
+        &GenerateOptions { steps: g.generate.steps, enclosure: true, seal: 1, seed: 1, ..GenerateOptions::default() },
+    )
+    .expect("generates");
     assert!(!made.model.blocks.is_empty());
 }
 
@@ -731,4 +773,286 @@ fn mutated_voxel_files_never_panic() {
 fn flate2_read(bytes: &[u8], out: &mut Vec<u8>) {
     let text = format::nbt::nbt_bytes(bytes).expect("gzip");
     out.extend_from_slice(&text);
+}
+
+/// An L-shaped building: two stone wings (one 5 × 2 × 2, one 2 × 2 × 4 beside it) under
+/// one flat glass roof. 3D inference makes solid shapes that are one block thick (the
+/// roof), which the written grammar must keep solid (`plane none`).
+fn l_building() -> String {
+    let mut v = Vec::new();
+    let inside =
+        |x: i32, z: i32| (0..5).contains(&x) && (0..2).contains(&z) || (0..2).contains(&x) && (2..6).contains(&z);
+    for x in 0..5 {
+        for z in 0..6 {
+            if !inside(x, z) {
+                continue;
+            }
+            for y in 0..2 {
+                v.push(([x, y, z], "1:0"));
+            }
+            v.push(([x, 2, z], "20:0"));
+        }
+    }
+    lines(&v)
+}
+
+#[test]
+fn solid_induction_of_an_l_shaped_building_round_trips() {
+    let dir = temp_dir("solid");
+    for (name, text) in [
+        ("l.txt", l_building()),
+        // The issue's five blocks: a flat 2 × 2 stone square and a glass block behind it.
+        ("five.txt", "0 0 0 1:0\n1 0 0 1:0\n0 1 0 1:0\n1 1 0 1:0\n0 0 1 20:0\n".to_string()),
+    ] {
+        let example = dir.join(name);
+        std::fs::write(&example, text).expect("write example");
+        for cost in [Cost::Product, Cost::Sum] {
+            for ops in [Ops::Merge, Ops::Split, Ops::Both] {
+                let opts = InferOptions { spec: Spec::Solid, alpha: 1.0, ops, overlap: false, cost, post_split: false };
+                let (g, _) = mdg_compiler::induce::induce_files(&[example.as_path()], &opts, "l", &mut |_, _| {})
+                    .expect("induces");
+                assert!(g.shapes.iter().all(|s| s.plane.is_none()), "3D shapes have no plane");
+                let text = mdg_compiler::induce::write_checked(&g, &[], &dir.join("style.mdg"))
+                    .unwrap_or_else(|e| panic!("{name} {cost:?} {ops:?}: {e}"));
+                // Compiled again from the text on disk, through a build.
+                let style = dir.join("style.mdg");
+                std::fs::write(&style, &text).expect("write source");
+                let (bundle, _) =
+                    mdg_compiler::driver::build(&mdg_compiler::source::FsLoader, &style, &mdg_tests::options())
+                        .unwrap_or_else(|a| panic!("does not compile:\n{}", mdg_tests::render(&a)));
+                assert_eq!(bundle.extensions.grid.as_ref(), Some(&g));
+            }
+        }
+    }
+    // The flat roof of the L (merged by the product cost, which keeps kinds apart) is
+    // one block thick yet solid: written `plane none`.
+    let opts = InferOptions {
+        spec: Spec::Solid,
+        alpha: 1.0,
+        ops: Ops::Merge,
+        overlap: false,
+        cost: Cost::Product,
+        post_split: false,
+    };
+    let (g, _) = mdg_compiler::induce::induce_files(&[dir.join("l.txt").as_path()], &opts, "l", &mut |_, _| {})
+        .expect("induces");
+    let thin = g.shapes.iter().filter(|s| s.size.iter().filter(|&&e| e == 1).count() == 1).count();
+    assert!(thin > 0, "some shape is one block thick: {:?}", g.shapes.iter().map(|s| s.size).collect::<Vec<_>>());
+    let text = mdg_compiler::induce::write_checked(&g, &[], &dir.join("style.mdg")).expect("round trip");
+    assert!(text.contains("plane none;"));
+    // `plane none` on a source shape keeps it out of the enclosure constraint's reach.
+    let src = "startshape s\nrule s {}\ngrid g {\n  palette { a \"1:0\"; }\n  \
+               shape p { size 2 1 2; plane none; blocks a a a a; }\n  start p;\n}\n";
+    assert_eq!(build_source(src).extensions.grid.expect("grid").shapes[0].plane, None);
+    let flat = src.replace("plane none; ", "");
+    assert_eq!(build_source(&flat).extensions.grid.expect("grid").shapes[0].plane, Some(1), "without it: flat along y");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_default_cost_is_the_reference_sum_and_kinds_weighs_entropy_by_kinds() {
+    assert_eq!(InferOptions::default().cost, Cost::Sum);
+    assert_eq!(Cost::parse("kinds"), Some(Cost::Kinds));
+    // Two shapes of the wall with a window: all eight stones, and the glass.
+    let m = wall_with_window();
+    let glass = m.blocks.iter().position(|b| b.pos == [1, 1, 0]).expect("glass") as u32;
+    let stones: Vec<u32> = (0..m.blocks.len() as u32).filter(|&b| b != glass).collect();
+    let all: Vec<u32> = (0..m.blocks.len() as u32).collect();
+    let h = entropy(&[8, 1]);
+    for (c, want) in
+        [(Cost::Sum, 0.5 * 2.0 + h), (Cost::Kinds, 0.5 * 2.0 + 2.0 * h), (Cost::Product, 2f64.powf(0.5) * h)]
+    {
+        let mut s = Search::new(&m, Spec::Planar, 0.5);
+        s.set_cost(c);
+        s.init_from(&[(2, all.clone())]);
+        assert!((s.cost() - want).abs() < 1e-12, "{c:?}: {} vs {want}", s.cost());
+        s.init_from(&[(2, stones.clone()), (2, vec![glass])]);
+        assert!((s.cost() - c.eval(2, 0.0, 0.5)).abs() < 1e-12, "{c:?}: pure shapes have no entropy");
+    }
+}
+
+#[test]
+fn both_operations_split_and_merge() {
+    // From the maximal shapes (the row a a b b in the y and z layers), a low α cuts
+    // the mixed row into its pure halves.
+    let m = model(&lines(&[([0, 0, 0], "a"), ([1, 0, 0], "a"), ([2, 0, 0], "b"), ([3, 0, 0], "b")]));
+    let opts = InferOptions { spec: Spec::Rect, alpha: 0.25, ops: Ops::Both, ..InferOptions::default() };
+    let inf = infer(&m, &opts, &mut |_| {});
+    assert!(inf.stats.splits > 0, "{:?}", inf.stats);
+    assert_eq!(inf.shapes.len(), 2, "a a | b b");
+    let split_only = infer(&m, &InferOptions { ops: Ops::Split, ..opts }, &mut |_| {});
+    assert!(inf.stats.cost <= split_only.stats.cost + 1e-12, "merges after splits never cost more");
+}
+
+#[test]
+fn post_split_cuts_a_wall_along_the_floor_it_touches() {
+    // A stone wall at x = −1 (y 0..3, z 0..4) and a plank floor at y = 1 beside it.
+    let mut v = Vec::new();
+    for y in 0..3 {
+        for z in 0..4 {
+            v.push(([-1, y, z], "stone"));
+        }
+    }
+    for x in 0..3 {
+        for z in 0..4 {
+            v.push(([x, 1, z], "planks"));
+        }
+    }
+    let m = model(&lines(&v));
+    let opts = InferOptions { spec: Spec::Rect, alpha: 0.25, ops: Ops::Merge, ..InferOptions::default() };
+    let sizes = |post_split: bool| {
+        let inf = infer(&m, &InferOptions { post_split, ..opts }, &mut |_| {});
+        let mut covered: Vec<u32> = inf.shapes.iter().flat_map(|s| s.blocks.clone()).collect();
+        covered.sort_unstable();
+        assert_eq!(covered, (0..m.blocks.len() as u32).collect::<Vec<_>>(), "every block once");
+        let mut v: Vec<(usize, [i32; 3])> =
+            inf.shapes.iter().map(|s| (s.blocks.len(), bounds(&m, &s.blocks).0)).collect();
+        v.sort();
+        v
+    };
+    assert_eq!(sizes(false), vec![(12, [-1, 0, 0]), (12, [0, 1, 0])]);
+    // The wall's top row (above the floor) and the rest (the floor's height and below).
+    assert_eq!(sizes(true), vec![(4, [-1, 2, 0]), (8, [-1, 0, 0]), (12, [0, 1, 0])]);
+}
+
+/// The 6-connected pieces of a model, and whether each reaches the model's lowest level.
+fn pieces(m: &VoxelModel) -> Vec<(usize, bool)> {
+    let cells: HashSet<[i32; 3]> = m.blocks.iter().map(|b| b.pos).collect();
+    let ground = m.blocks.iter().map(|b| b.pos[1]).min().unwrap_or(0);
+    let mut seen = HashSet::new();
+    let mut out = Vec::new();
+    let mut sorted: Vec<[i32; 3]> = cells.iter().copied().collect();
+    sorted.sort();
+    for c in sorted {
+        if !seen.insert(c) {
+            continue;
+        }
+        let (mut n, mut grounded) = (0, false);
+        let mut stack = vec![c];
+        while let Some(p) = stack.pop() {
+            n += 1;
+            grounded |= p[1] == ground;
+            for d in mdg_vm::grid::voxel::NEIGHBOURS {
+                let q = add(p, d);
+                if cells.contains(&q) && seen.insert(q) {
+                    stack.push(q);
+                }
+            }
+        }
+        out.push((n, grounded));
+    }
+    out
+}
+
+#[test]
+fn generated_buildings_hold_together_inside_their_bounds() {
+    // Two houses side by side joined by a plank bridge: a grammar whose derivations,
+    // once the enclosure constraint removes the exposed bridge pieces, fall apart.
+    let mut text = house();
+    for l in house().lines() {
+        let f: Vec<&str> = l.split_whitespace().collect();
+        let x: i32 = f[0].parse().expect("x");
+        text.push_str(&format!("{} {} {} {}\n", x + 10, f[1], f[2], f[3]));
+    }
+    for x in 7..10 {
+        text.push_str(&format!("{x} 0 2 planks\n"));
+    }
+    let m = model(&text);
+    let opts = InferOptions { spec: Spec::Rect, ..InferOptions::default() };
+    let inf = infer(&m, &opts, &mut |_| {});
+    let g = induce(&[Example { name: "two.txt".into(), model: &m }], &[inf], "two").expect("induces");
+    let plain = GenerateOptions { steps: 60, bounds: Bounds::None, keep_largest: false, ..GenerateOptions::default() };
+    let (mut floating, mut kept_pieces, mut starts) = (0, 0, HashSet::new());
+    for seed in 0..40 {
+        let loose = generate(&g, &GenerateOptions { seed, ..plain }).expect("generates");
+        floating += (pieces(&loose.model).len() > 1) as usize;
+        let held = generate(&g, &GenerateOptions { seed, keep_largest: true, ..plain }).expect("generates");
+        let p = pieces(&held.model);
+        assert!(p.len() <= 1 && p.iter().all(|x| x.1), "seed {seed}: {p:?}");
+        kept_pieces += p.len();
+        // Inside a box: no extent over the limit.
+        let boxed = GenerateOptions { seed, bounds: Bounds::Box([9, 4, 9]), ..plain };
+        let b = generate(&g, &boxed).expect("generates");
+        if let Some((lo, hi)) = b.model.bounds() {
+            assert!(hi[0] - lo[0] < 9 && hi[1] - lo[1] < 4 && hi[2] - lo[2] < 9, "seed {seed}: {lo:?}..{hi:?}");
+        }
+        let random = GenerateOptions { seed, random_start: true, enclosure: false, ..plain };
+        let r = generate(&g, &random).expect("generates");
+        assert_eq!(ids(&r.model), ids(&generate(&g, &random).expect("again").model), "a seed, a building");
+        starts.insert(r.instances[0].shape);
+    }
+    assert!(floating > 0, "without the largest piece rule some derivation floats (else this test proves nothing)");
+    assert!(kept_pieces > 20, "most derivations keep a building");
+    assert!(starts.len() > 1, "random starts differ between seeds");
+    // The default box is 2 × the example's extents (x and z alike).
+    assert_eq!(Bounds::Examples(2).resolve(&g), Some([34, 8, 34]));
+}
+
+#[test]
+fn a_stair_turned_by_a_rule_faces_the_right_way() {
+    use mdg_vm::grid::blocks::turn_block;
+    // One quarter turn maps (x, y, z) to (z, y, −x): east (+x) becomes north (−z).
+    assert_eq!(
+        turn_block("minecraft:oak_stairs[facing=east,half=top]", 1).as_deref(),
+        Some("minecraft:oak_stairs[facing=north,half=top]")
+    );
+    assert_eq!(
+        turn_block("minecraft:oak_stairs[facing=east,half=top]", 2).as_deref(),
+        Some("minecraft:oak_stairs[facing=west,half=top]")
+    );
+    assert_eq!(turn_block("minecraft:oak_log[axis=x]", 1).as_deref(), Some("minecraft:oak_log[axis=z]"));
+    assert_eq!(turn_block("minecraft:oak_log[axis=y]", 1), None);
+    assert_eq!(
+        turn_block("minecraft:oak_fence[east=true,north=false,south=false,west=false]", 1).as_deref(),
+        Some("minecraft:oak_fence[east=false,north=true,south=false,west=false]")
+    );
+    assert_eq!(turn_block("minecraft:rail[shape=north_east]", 1).as_deref(), Some("minecraft:rail[shape=north_west]"));
+    assert_eq!(turn_block("minecraft:oak_sign[rotation=0]", 1).as_deref(), Some("minecraft:oak_sign[rotation=12]"));
+    assert_eq!(turn_block("minecraft:stone", 1), None);
+    // Legacy data values: stairs 0 east → 3 north, logs 4 (x) → 8 (z), door lower half 0 east → 3 north.
+    assert_eq!(turn_block("53:0", 1).as_deref(), Some("53:3"));
+    assert_eq!(turn_block("53:4", 1).as_deref(), Some("53:7"), "upside down stays");
+    assert_eq!(turn_block("17:5", 1).as_deref(), Some("17:9"));
+    assert_eq!(turn_block("64:0", 1).as_deref(), Some("64:3"));
+    assert_eq!(turn_block("64:8", 1), None, "an upper door half has no facing");
+    assert_eq!(mdg_vm::grid::blocks::to_modern("43:8").as_deref(), Some("minecraft:smooth_stone"));
+    assert_eq!(mdg_vm::grid::blocks::to_modern("43:0").as_deref(), Some("minecraft:smooth_stone_slab[type=double]"));
+    for id in ["53:1", "minecraft:oak_stairs[facing=south,half=bottom]", "17:4", "50:2", "86:1"] {
+        let mut t = id.to_string();
+        for _ in 0..4 {
+            t = turn_block(&t, 1).unwrap_or(t);
+        }
+        assert_eq!(t, id, "four quarter turns are none");
+    }
+    // A grammar whose rule places the step shape turned a quarter: its stair faces north.
+    let src = "startshape s\nrule s {}\ngrid g {\n  palette { st \"minecraft:oak_stairs[facing=east,half=bottom]\"; p \"minecraft:oak_planks\"; }\n  \
+               shape base { size 1 1 1; blocks p; }\n  shape step { size 1 1 1; blocks st; }\n  \
+               rule base step at 1 0 0;\n  rule base step at 0 0 -1 turn 1;\n  start base;\n}\n";
+    let g = build_source(src).extensions.grid.expect("grid");
+    let mut seen = BTreeMap::new();
+    for seed in 0..8 {
+        let made = generate(&g, &GenerateOptions { steps: 2, enclosure: false, seed, ..GenerateOptions::default() })
+            .expect("generates");
+        for b in &made.model.blocks {
+            seen.insert(b.pos, made.model.kinds[b.kind as usize].id.clone());
+        }
+    }
+    assert_eq!(seen.get(&[1, 0, 0]).map(String::as_str), Some("minecraft:oak_stairs[facing=east,half=bottom]"));
+    assert_eq!(seen.get(&[0, 0, -1]).map(String::as_str), Some("minecraft:oak_stairs[facing=north,half=bottom]"));
+    // Matching treats the turned stair as the same block turned: two steps facing east
+    // and north match under a quarter turn.
+    let shapes = vec![
+        vec![
+            mdg_vm::grid::ShapeBlock { pos: [0, 0, 0], kind: 0 },
+            mdg_vm::grid::ShapeBlock { pos: [1, 0, 0], kind: 1 },
+        ],
+        vec![
+            mdg_vm::grid::ShapeBlock { pos: [0, 0, 1], kind: 2 },
+            mdg_vm::grid::ShapeBlock { pos: [0, 0, 0], kind: 1 },
+        ],
+    ];
+    let ids = ["53:0", "5:0", "53:3"];
+    let turns = mdg_vm::grid::kind_turns(&ids);
+    assert_eq!(mdg_vm::grid::matching::Classes::of(&shapes, &turns).class, vec![0, 0]);
+    assert_eq!(mdg_vm::grid::matching::Classes::of(&shapes, &[]).class, vec![0, 1], "without turning kinds");
 }

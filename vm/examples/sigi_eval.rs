@@ -14,7 +14,7 @@
 //! sum (see `mdg_vm::grid::infer::Cost`). `--timing-only` stops after the timings.
 
 use mdg_vm::grid::format;
-use mdg_vm::grid::generate::{enclosure, generate, GenerateOptions, Instance};
+use mdg_vm::grid::generate::{enclosure, generate, Bounds, GenerateOptions, Instance};
 use mdg_vm::grid::induce::{induce, measures, Example, Measures};
 use mdg_vm::grid::infer::{infer, Cost, InferOptions, Ops, Spec};
 use mdg_vm::grid::voxel::VoxelModel;
@@ -140,7 +140,7 @@ fn sweep(buildings: &[Building], cost: Cost) -> Vec<Run> {
             for alpha in ALPHAS {
                 for ops in OPS {
                     for overlap in [false, true] {
-                        jobs.push((b, InferOptions { spec, alpha, ops, overlap, cost }));
+                        jobs.push((b, InferOptions { spec, alpha, ops, overlap, cost, post_split: false }));
                     }
                 }
             }
@@ -156,7 +156,7 @@ fn sweep(buildings: &[Building], cost: Cost) -> Vec<Run> {
 }
 
 fn timing(buildings: &[Building], cost: Cost) {
-    let opts = InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost };
+    let opts = InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost, post_split: false };
     println!(
         "\n## Inference time ({} cost, rect, α = 1, both operations, no overlap; one thread, best of 5)\n",
         cost.name()
@@ -199,7 +199,14 @@ fn generation(buildings: &[Building]) {
         "| building | shapes | rules | example kept, seal 0 | seal 1 | seal 2 | non-empty of 20 | mean blocks | mean time |"
     );
     println!("|---|---|---|---|---|---|---|---|---|");
-    let opts = InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost: Cost::Sum };
+    let opts = InferOptions {
+        spec: Spec::Rect,
+        alpha: 1.0,
+        ops: Ops::Both,
+        overlap: false,
+        cost: Cost::Sum,
+        post_split: false,
+    };
     for b in buildings {
         let inf = infer(&b.model, &opts, &mut |_| {});
         let g = match induce(&[Example { name: b.name.clone(), model: &b.model }], &[inf], &b.name) {
@@ -228,7 +235,10 @@ fn generation(buildings: &[Building]) {
         let (mut non_empty, mut blocks, mut secs) = (0, 0usize, 0.0);
         for seed in 1..=20 {
             let t = Instant::now();
-            if let Ok(made) = generate(&g, &GenerateOptions { steps: 50, enclosure: true, seal: 1, seed }) {
+            if let Ok(made) = generate(
+                &g,
+                &GenerateOptions { steps: 50, enclosure: true, seal: 1, seed, ..GenerateOptions::default() },
+            ) {
                 secs += t.elapsed().as_secs_f64();
                 non_empty += (!made.model.blocks.is_empty()) as usize;
                 blocks += made.model.blocks.len();
@@ -246,6 +256,119 @@ fn generation(buildings: &[Building]) {
             secs * 1e3 / 20.0
         );
     }
+}
+
+/// The number of 6-connected pieces of a model.
+fn pieces(m: &VoxelModel) -> usize {
+    let cells: std::collections::HashSet<[i32; 3]> = m.blocks.iter().map(|b| b.pos).collect();
+    let mut seen = std::collections::HashSet::new();
+    let mut n = 0;
+    for &c in &cells {
+        if !seen.insert(c) {
+            continue;
+        }
+        n += 1;
+        let mut stack = vec![c];
+        while let Some(p) = stack.pop() {
+            for d in mdg_vm::grid::voxel::NEIGHBOURS {
+                let q = mdg_vm::grid::add(p, d);
+                if cells.contains(&q) && seen.insert(q) {
+                    stack.push(q);
+                }
+            }
+        }
+    }
+    n
+}
+
+/// One row of the derivation table: 10 derivations (seeds 1–10) from each building's
+/// grammar.
+fn derivation_row(buildings: &[Building], opts: &InferOptions, gen: &GenerateOptions, what: &str) {
+    let made: Vec<(usize, usize, u32)> = buildings
+        .par_iter()
+        .flat_map(|b| {
+            let inf = infer(&b.model, opts, &mut |_| {});
+            let g = induce(&[Example { name: b.name.clone(), model: &b.model }], &[inf], &b.name).ok();
+            (1..=10u64)
+                .map(|seed| {
+                    let m =
+                        g.as_ref().and_then(|g| generate(g, &GenerateOptions { seed, ..*gen }).ok()).map(|m| m.model);
+                    let ext = m
+                        .as_ref()
+                        .and_then(|m| m.bounds())
+                        .map(|(lo, hi)| (0..3).map(|a| (hi[a] - lo[a] + 1) as u32).max().unwrap_or(0))
+                        .unwrap_or(0);
+                    m.map(|m| (m.blocks.len(), pieces(&m), ext)).unwrap_or((0, 0, 0))
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    println!(
+        "| {} | {} | {} | {} | {} | {} | {what} | {} | {} | {} | {} | {} | {} |",
+        opts.cost.name(),
+        opts.spec.name(),
+        opts.alpha,
+        opts.ops.name(),
+        if opts.overlap { "yes" } else { "no" },
+        if opts.post_split { "yes" } else { "no" },
+        made.len(),
+        made.iter().filter(|m| m.0 < 50).count(),
+        made.iter().filter(|m| m.0 == 0).count(),
+        median(made.iter().map(|m| m.0 as f64).collect()),
+        made.iter().filter(|m| m.1 > 1).count(),
+        made.iter().map(|m| m.2).max().unwrap_or(0)
+    );
+}
+
+/// The derivation counts of the issue: per configuration, 10 derivations (seeds 1–10,
+/// 50 steps, enclosure with seal 1) from each building's grammar; how many give fewer
+/// than 50 blocks, how many none, how many have floating pieces, the largest extent.
+fn derivations(buildings: &[Building]) {
+    println!("\n## Derivations: {} buildings × 10 seeds, 50 steps, enclosure (seal 1)\n", buildings.len());
+    println!(
+        "| cost | spec | α | ops | overlap | post-split | generation | derivations | < 50 blocks | empty | median blocks | \
+         with floating pieces | largest extent |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let base = InferOptions::default();
+    let plain = GenerateOptions { bounds: Bounds::None, keep_largest: false, ..GenerateOptions::default() };
+    let mut configs = vec![
+        InferOptions { cost: Cost::Product, ops: Ops::Merge, ..base },
+        InferOptions { cost: Cost::Product, ..base },
+        InferOptions { cost: Cost::Sum, ops: Ops::Merge, ..base },
+        base,
+        InferOptions { post_split: true, ..base },
+        InferOptions { ops: Ops::Merge, post_split: true, ..base },
+        InferOptions { cost: Cost::Kinds, ..base },
+        InferOptions { cost: Cost::Kinds, ops: Ops::Merge, ..base },
+    ];
+    for a in [0.25, 0.5, 2.0] {
+        configs.push(InferOptions { alpha: a, ..base });
+        configs.push(InferOptions { alpha: a, cost: Cost::Product, ..base });
+    }
+    configs.push(InferOptions { overlap: true, ..base });
+    configs.push(InferOptions { overlap: true, ops: Ops::Merge, ..base });
+    configs.push(InferOptions { spec: Spec::Planar, ops: Ops::Merge, ..base });
+    configs.push(InferOptions { spec: Spec::Planar, ..base });
+    for opts in configs {
+        derivation_row(buildings, &opts, &plain, "plain");
+    }
+    // Generation options, on the default inference.
+    let default = GenerateOptions::default();
+    for (gen, what) in [
+        (plain, "plain"),
+        (GenerateOptions { keep_largest: false, ..default }, "bounds 2×"),
+        (GenerateOptions { bounds: Bounds::None, ..default }, "largest piece"),
+        (default, "bounds 2× + largest piece (default)"),
+        (GenerateOptions { bounds: Bounds::Box([25; 3]), ..default }, "bounds 25³ + largest piece"),
+        (GenerateOptions { random_start: true, ..default }, "default + random start"),
+        (GenerateOptions { random_start: true, ..plain }, "plain + random start"),
+    ] {
+        derivation_row(buildings, &base, &gen, what);
+    }
+    let ps = InferOptions { post_split: true, ..base };
+    derivation_row(buildings, &ps, &default, "default");
+    derivation_row(buildings, &ps, &GenerateOptions { random_start: true, ..default }, "default + random start");
 }
 
 fn main() -> ExitCode {
@@ -280,6 +403,13 @@ fn main() -> ExitCode {
         }
     }
     println!("# SIGI evaluation\n\nData: {}", dir.display());
+    if std::env::args().any(|a| a == "--derivations-only") {
+        for (title, buildings) in &sets {
+            println!("\n# {title}");
+            derivations(buildings);
+        }
+        return ExitCode::SUCCESS;
+    }
     for (title, buildings) in &sets {
         println!("\n# {title}");
         for cost in [Cost::Product, Cost::Sum] {

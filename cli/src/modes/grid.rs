@@ -35,6 +35,35 @@ pub struct GridArgs {
     /// `seal`, else 1; 0 = the paper's plain flood fill).
     #[arg(long, value_name = "R")]
     pub seal: Option<u32>,
+    /// Grid grammars: the largest box the building may fill: `auto` (2 × the examples' extents, x and z
+    /// alike), `none`, `N` (N × N × N; the paper's reference used 25) or `X,Y,Z`.
+    #[arg(long, value_name = "auto|none|N|X,Y,Z")]
+    pub bounds: Option<String>,
+    /// Grid grammars: keep every piece after the enclosure constraint (default: only the largest piece
+    /// standing on the ground, so nothing floats).
+    #[arg(long)]
+    pub keep_all: bool,
+    /// Grid grammars: start from a shape drawn at random (as the paper's reference implementation does)
+    /// instead of the grammar's `start`.
+    #[arg(long)]
+    pub random_start: bool,
+}
+
+/// Reads `--bounds`.
+pub fn parse_bounds(s: &str) -> Option<generate::Bounds> {
+    let n = |t: &str| t.trim().parse::<u32>().ok().filter(|&v| v >= 1);
+    match s.trim() {
+        "auto" => Some(generate::Bounds::Examples(generate::BOUNDS_FACTOR)),
+        "none" => Some(generate::Bounds::None),
+        t => {
+            let parts: Vec<&str> = t.split(',').collect();
+            match parts[..] {
+                [a] => n(a).map(|v| generate::Bounds::Box([v; 3])),
+                [x, y, z] => Some(generate::Bounds::Box([n(x)?, n(y)?, n(z)?])),
+                _ => None,
+            }
+        }
+    }
 }
 
 /// Where the output goes and in which form.
@@ -98,7 +127,21 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
     if seal > generate::MAX_SEAL {
         return Err((2, format!("--seal {seal}: at most {}", generate::MAX_SEAL)));
     }
-    let opts = GenerateOptions { steps, enclosure, seed, seal };
+    let bounds = match args.bounds.as_deref() {
+        None => GenerateOptions::default().bounds,
+        Some(b) => {
+            parse_bounds(b).ok_or_else(|| (2, format!("--bounds {b}: expected auto, none, N or X,Y,Z (each ≥ 1)")))?
+        }
+    };
+    let opts = GenerateOptions {
+        steps,
+        enclosure,
+        seed,
+        seal,
+        bounds,
+        keep_largest: !args.keep_all,
+        random_start: args.random_start,
+    };
     let made = generate::generate(g, &opts).map_err(|e| (1, e))?;
     let elapsed = started.elapsed().as_secs_f64();
     if let Some(n) = &made.note {

@@ -89,9 +89,10 @@ const SHAPE_KEYS: &[Key] = &[
     },
     Key {
         name: "plane",
-        values: "x|y|z",
+        values: "x|y|z|none",
         doc: "The axis the shape is flat along (its size there is 1): its two sides, for the enclosure constraint. \
-              Without it a flat shape uses its one thin axis, and other shapes are never removed by enclosure.",
+              Without it a flat shape uses its one thin axis, and other shapes are never removed by enclosure; \
+              `none` says a shape is solid even where it is one block thick (3D shapes, `mdgc induce --spec 3d`).",
     },
     Key { name: "at", values: "X Y Z", doc: "Where the shape's box corner stands in its example building." },
     Key { name: "example", values: "N", doc: "Which of the `examples` the shape came from (default 0)." },
@@ -306,6 +307,7 @@ fn parse(sec: &Section, ex: &Expanded, diags: &mut Vec<Diagnostic>) -> Option<Gr
         diags.push(d);
         None
     };
+    let turns = g.kind_turns();
     for e in entries.iter().filter(|e| e.key.text == "match") {
         let form = "`match A B [turn T]`";
         let (a, b, turn) = match e.values.as_slice() {
@@ -329,7 +331,7 @@ fn parse(sec: &Section, ex: &Expanded, diags: &mut Vec<Diagnostic>) -> Option<Gr
         };
         let (Some(ia), Some(ib)) = (lookup(a, diags), lookup(b, diags)) else { continue };
         let (sa, sb) = (&shapes[ia as usize].shape, &shapes[ib as usize].shape);
-        let (blocks, size) = turned_blocks(sa, turn);
+        let (blocks, size) = turned_blocks(sa, turn, &turns);
         if size != sb.size || blocks != sb.blocks {
             let why = if size != sb.size {
                 format!(
@@ -351,7 +353,7 @@ fn parse(sec: &Section, ex: &Expanded, diags: &mut Vec<Diagnostic>) -> Option<Gr
             );
             // Another turn may be the right one.
             let right = (0..4u8).find(|&t| {
-                let (bl, sz) = turned_blocks(sa, t);
+                let (bl, sz) = turned_blocks(sa, t, &turns);
                 sz == sb.size && bl == sb.blocks
             });
             match (right, e.values.get(3)) {
@@ -617,14 +619,15 @@ fn shape(
     };
     let plane_entry = find("plane");
     let plane = match plane_entry {
-        Some(p) if expect_count(p, 1, 1, "an axis: x, y or z", diags) => {
+        Some(p) if expect_count(p, 1, 1, "an axis: x, y, z or none", diags) => {
             match word(&p.values[0]).map(|w| w.text.as_str()) {
                 Some("x") => Some(Some(0u8)),
                 Some("y") => Some(Some(1)),
                 Some("z") => Some(Some(2)),
+                Some("none") => Some(None),
                 _ => {
                     diags.push(
-                        Diagnostic::error("E0910", p.values[0].span(), "`plane` takes an axis: x, y or z")
+                        Diagnostic::error("E0910", p.values[0].span(), "`plane` takes an axis: x, y, z or none")
                             .with_label("not an axis"),
                     );
                     None
@@ -745,8 +748,13 @@ fn shape(
             return fail;
         }
     }
-    // Without `plane`, a shape with exactly one thin axis is flat along it.
+    // Without `plane`, a shape with exactly one thin axis is flat along it (`plane none`
+    // keeps it solid).
+    let explicit_none = plane_entry.is_some();
     let plane = plane.or_else(|| {
+        if explicit_none {
+            return None;
+        }
         let thin: Vec<u8> = (0..3u8).filter(|&k| size[k as usize] == 1).collect();
         (thin.len() == 1).then(|| thin[0])
     });

@@ -378,6 +378,10 @@ pub fn modern_state(id: u16, data: u8) -> Option<String> {
             };
             return mc(&v);
         }
+        // 43:8, 43:9 and 43:15 are the full smooth blocks (all six faces smooth).
+        43 if data == 8 => return mc("smooth_stone"),
+        43 if data == 9 => return mc("smooth_sandstone"),
+        43 if data == 15 => return mc("smooth_quartz"),
         43 => return mc(&format!("{}[type=double]", STONE_SLABS[(data & 7) as usize])),
         44 => {
             let half = if data & 8 != 0 { "top" } else { "bottom" };
@@ -422,6 +426,140 @@ pub fn modern_state(id: u16, data: u8) -> Option<String> {
         _ => {}
     }
     SIMPLE.iter().chain(SIMPLE2.iter()).find(|(i, _)| *i == id).and_then(|(_, n)| mc(n))
+}
+
+/// Horizontal directions in the order one quarter turn about +y moves them (a turn maps
+/// (x, y, z) to (z, y, −x): east → north → west → south → east).
+const TURN_ORDER: [&str; 4] = ["east", "north", "west", "south"];
+
+/// `dir` turned `turn` quarter turns, or none for a word that is no horizontal direction.
+fn turn_direction(dir: &str, turn: u8) -> Option<&'static str> {
+    let i = TURN_ORDER.iter().position(|d| *d == dir)?;
+    Some(TURN_ORDER[(i + turn as usize) % 4])
+}
+
+/// A rail `shape` turned (`north_south`, `ascending_east`, `south_east`…).
+fn turn_rail_shape(v: &str, turn: u8) -> Option<String> {
+    if let Some(d) = v.strip_prefix("ascending_") {
+        return turn_direction(d, turn).map(|d| format!("ascending_{d}"));
+    }
+    let (a, b) = v.split_once('_')?;
+    let (a, b) = (turn_direction(a, turn)?, turn_direction(b, turn)?);
+    // Written north/south first, then east/west (`north_east`, `south_west`, `north_south`).
+    let rank = |d: &str| match d {
+        "north" => 0,
+        "south" => 1,
+        "east" => 2,
+        _ => 3,
+    };
+    let (a, b) = if rank(a) <= rank(b) { (a, b) } else { (b, a) };
+    Some(format!("{a}_{b}"))
+}
+
+/// Legacy data values of blocks whose low bits are a horizontal direction: (ids,
+/// directions by value, the mask of the direction bits).
+const LEGACY_FACING: &[(&[u16], &[&str], u8)] = &[
+    // Stairs: 0 east, 1 west, 2 south, 3 north (bit 4: upside down).
+    (&[53, 67, 108, 109, 114, 128, 134, 135, 136, 156, 163, 164, 180, 203], &["east", "west", "south", "north"], 3),
+    // Torches: 1 east, 2 west, 3 south, 4 north (5: standing).
+    (&[50, 75, 76], &["", "east", "west", "south", "north"], 7),
+    // Ladders, chests, furnaces, wall signs, dispensers: 2 north, 3 south, 4 west, 5 east.
+    (&[23, 54, 61, 62, 65, 68, 130, 146, 158], &["", "", "north", "south", "west", "east"], 7),
+    // Pumpkins, fence gates: 0 south, 1 west, 2 north, 3 east.
+    (&[86, 91, 107, 183, 184, 185, 186, 187], &["south", "west", "north", "east"], 3),
+];
+
+/// A legacy `id:data` turned `turn` quarter turns about the vertical axis, or none when
+/// the data value does not orient the block (or the table does not know it).
+fn turn_legacy(id: u16, data: u8, turn: u8) -> Option<String> {
+    for (ids, dirs, mask) in LEGACY_FACING {
+        if ids.contains(&id) {
+            let d = *dirs.get((data & mask) as usize).filter(|d| !d.is_empty())?;
+            let t = turn_direction(d, turn)?;
+            let v = dirs.iter().position(|x| *x == t)? as u8;
+            return Some(format!("{id}:{}", (data & !mask) | v));
+        }
+    }
+    let odd = turn % 2 == 1;
+    match id {
+        // Logs, hay, purpur pillars, bone blocks: bits 2–3 are the axis (4 x, 8 z).
+        17 | 162 | 170 | 202 | 216 => {
+            let axis = (data >> 2) & 3;
+            let turned = if odd && (axis == 1 || axis == 2) { 3 - axis } else { axis };
+            (turned != axis).then(|| format!("{id}:{}", (data & 3) | (turned << 2)))
+        }
+        // Quartz pillars: 3 x, 4 z.
+        155 if odd && (data == 3 || data == 4) => Some(format!("{id}:{}", 7 - data)),
+        // Doors, lower half: 0 east, 1 south, 2 west, 3 north (the upper half holds no facing).
+        64 | 71 | 193..=197 if data & 8 == 0 => {
+            let d = ["east", "south", "west", "north"][(data & 3) as usize];
+            let t = turn_direction(d, turn)?;
+            let v = ["east", "south", "west", "north"].iter().position(|x| *x == t)? as u8;
+            Some(format!("{id}:{}", (data & !3) | v))
+        }
+        // Standing signs and banners: 16 rotations, 0 south, 4 west, 8 north, 12 east.
+        63 | 176 => Some(format!("{id}:{}", (data as u32 + 12 * turn as u32) % 16)),
+        _ => None,
+    }
+}
+
+/// A block id turned `turn` quarter turns about the vertical axis (as Minecraft and
+/// WorldEdit turn a template): `facing`, `axis`, `rotation`, a rail's `shape` and the
+/// `north`/`east`/`south`/`west` connections of a block state turn; `hinge`, `half` and
+/// a stair's `shape` stay (they are relative to the block). Legacy `id:data` values
+/// turn by table. None when turning leaves the block as it is.
+pub fn turn_block(id: &str, turn: u8) -> Option<String> {
+    let turn = turn % 4;
+    if turn == 0 {
+        return None;
+    }
+    if let Some((i, d)) = parse_legacy(id) {
+        return turn_legacy(i, d, turn).filter(|t| t != id);
+    }
+    let (name, rest) = id.split_once('[')?;
+    let props = rest.strip_suffix(']')?;
+    let rail = name.ends_with("rail");
+    let mut out: Vec<(String, String)> = Vec::new();
+    for p in props.split(',') {
+        let (k, v) = p.split_once('=')?;
+        let (k, v) = (k.trim(), v.trim());
+        let (nk, nv) = match k {
+            "facing" => (k.to_string(), turn_direction(v, turn).unwrap_or(v).to_string()),
+            "axis" if turn % 2 == 1 => (
+                k.to_string(),
+                match v {
+                    "x" => "z",
+                    "z" => "x",
+                    o => o,
+                }
+                .to_string(),
+            ),
+            "rotation" => match v.parse::<u32>() {
+                Ok(r) => (k.to_string(), ((r + 12 * turn as u32) % 16).to_string()),
+                Err(_) => (k.to_string(), v.to_string()),
+            },
+            "shape" if rail => (k.to_string(), turn_rail_shape(v, turn).unwrap_or_else(|| v.to_string())),
+            "north" | "east" | "south" | "west" => (turn_direction(k, turn).unwrap_or(k).to_string(), v.to_string()),
+            _ => (k.to_string(), v.to_string()),
+        };
+        out.push((nk, nv));
+    }
+    // Properties in the order they were written, connections keep their slots' order.
+    let turned = format!("{name}[{}]", out.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(","));
+    let canon = |s: &str| {
+        let mut v: Vec<&str> =
+            s.split_once('[').map(|(_, r)| r.trim_end_matches(']')).unwrap_or("").split(',').collect();
+        v.sort_unstable();
+        v.join(",")
+    };
+    // Same properties in another order is the same block.
+    (canon(&turned) != canon(id)).then(|| {
+        let mut sorted: Vec<String> = out.iter().map(|(k, v)| format!("{k}={v}")).collect();
+        let original: Vec<&str> = props.split(',').map(str::trim).map(|p| p.split('=').next().unwrap_or("")).collect();
+        // Keep the original key order: each key's new value in the slot the key had.
+        sorted.sort_by_key(|kv| original.iter().position(|k| kv.split('=').next() == Some(*k)).unwrap_or(usize::MAX));
+        format!("{name}[{}]", sorted.join(","))
+    })
 }
 
 /// A block id as a modern block state for `.nbt`/`.schem` output: namespaced ids pass

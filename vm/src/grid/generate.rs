@@ -37,6 +37,71 @@ pub struct GenerateOptions {
     /// plain flood fill).
     pub seal: u32,
     pub seed: u64,
+    /// The largest box (x, y, z) the production may fill: an application that would
+    /// make it larger is not possible. See [`Bounds`].
+    pub bounds: Bounds,
+    /// After the enclosure constraint, keep only the largest connected piece that
+    /// stands on the ground (no floating pieces).
+    pub keep_largest: bool,
+    /// Start from a shape drawn at random (among those with rules) instead of the
+    /// grammar's start shape, as the paper's reference implementation does.
+    pub random_start: bool,
+}
+
+impl Default for GenerateOptions {
+    fn default() -> Self {
+        GenerateOptions {
+            steps: 50,
+            enclosure: true,
+            seal: 1,
+            seed: 0,
+            bounds: Bounds::Examples(BOUNDS_FACTOR),
+            keep_largest: true,
+            random_start: false,
+        }
+    }
+}
+
+/// A limit on the production's box.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Bounds {
+    /// No limit.
+    None,
+    /// At most this many blocks along x, y and z (the reference implementation's
+    /// limit is 25 × 25 × 25).
+    Box([u32; 3]),
+    /// `k` times the largest example's extents (x and z both take the larger of the
+    /// two, since rules turn shapes; rebuilt from the shapes' `at`), or no limit for a
+    /// grammar without example positions.
+    Examples(u32),
+}
+
+/// The default factor of [`Bounds::Examples`].
+pub const BOUNDS_FACTOR: u32 = 2;
+
+impl Bounds {
+    /// The box for `grammar`, if any.
+    pub fn resolve(self, grammar: &GridGrammar) -> Option<[u32; 3]> {
+        match self {
+            Bounds::None => None,
+            Bounds::Box(b) => Some(b),
+            Bounds::Examples(k) => {
+                let mut ext = [0u32; 3];
+                for m in examples(grammar) {
+                    if let Some((lo, hi)) = m.bounds() {
+                        for a in 0..3 {
+                            ext[a] = ext[a].max((hi[a] - lo[a] + 1) as u32);
+                        }
+                    }
+                }
+                if ext == [0; 3] {
+                    return None;
+                }
+                let h = ext[0].max(ext[2]).saturating_mul(k);
+                Some([h, ext[1].saturating_mul(k), h])
+            }
+        }
+    }
 }
 
 /// The largest `seal`.
@@ -74,6 +139,10 @@ pub struct Derivation<'g> {
     to_rep: Vec<Placement>,
     /// Per class: rule indices whose `from` is in the class.
     rules: Vec<Vec<u32>>,
+    /// The block kinds of a production: the palette, then the turned blocks it lacks.
+    pub kinds: Vec<BlockKind>,
+    /// Per palette kind and quarter turn: the production kind (index into `kinds`).
+    turns: Vec<[u32; 4]>,
 }
 
 impl<'g> Derivation<'g> {
@@ -118,7 +187,22 @@ impl<'g> Derivation<'g> {
                 rules[c as usize].push(i as u32);
             }
         }
-        Derivation { grammar, class, to_rep, rules }
+        // Turned blocks the palette lacks become kinds of their own.
+        let mut kinds: Vec<BlockKind> =
+            grammar.palette.iter().map(|p| BlockKind { id: p.block.clone(), color: p.color }).collect();
+        let n_pal = kinds.len() as u32;
+        let mut turns = grammar.kind_turns();
+        for (k, row) in turns.iter_mut().enumerate() {
+            for (t, v) in row.iter_mut().enumerate() {
+                if *v >= n_pal {
+                    let p = &grammar.palette[k];
+                    let id = super::blocks::turn_block(&p.block, t as u8).unwrap_or_else(|| p.block.clone());
+                    *v = kinds.len() as u32;
+                    kinds.push(BlockKind { id, color: p.color });
+                }
+            }
+        }
+        Derivation { grammar, class, to_rep, rules, kinds, turns }
     }
 
     /// The start instance: the start shape at its example position (or the origin).
@@ -145,11 +229,28 @@ impl<'g> Derivation<'g> {
         Some(Instance { shape: r.to, place: inst.place.compose(&f_to_s).compose(&r.place) })
     }
 
+    /// The world box of an instance (inclusive corners).
+    pub fn bounds(&self, inst: &Instance) -> ([i32; 3], [i32; 3]) {
+        let size = self.grammar.shapes.get(inst.shape as usize).map(|s| s.size).unwrap_or([1; 3]);
+        let hi = [size[0] as i32 - 1, size[1] as i32 - 1, size[2] as i32 - 1];
+        let (a, b) = (inst.place.apply([0, 0, 0]), inst.place.apply(hi));
+        let mut lo = a;
+        let mut up = a;
+        for k in 0..3 {
+            lo[k] = a[k].min(b[k]);
+            up[k] = a[k].max(b[k]);
+        }
+        (lo, up)
+    }
+
     /// The world blocks of an instance.
     pub fn blocks(&self, inst: &Instance) -> impl Iterator<Item = ([i32; 3], u32)> + '_ {
         let shape = self.grammar.shapes.get(inst.shape as usize);
         let place = inst.place;
-        shape.into_iter().flat_map(move |s| s.blocks.iter().map(move |b| (place.apply(b.pos), b.kind)))
+        let turns = &self.turns;
+        shape.into_iter().flat_map(move |s| {
+            s.blocks.iter().map(move |b| (place.apply(b.pos), super::turn_kind(turns, b.kind, place.turn)))
+        })
     }
 }
 
@@ -193,10 +294,9 @@ impl World {
         }
     }
 
-    /// The blocks as a model with the grammar's palette.
-    fn model(&self, grammar: &GridGrammar) -> VoxelModel {
-        let kinds: Vec<BlockKind> =
-            grammar.palette.iter().map(|p| BlockKind { id: p.block.clone(), color: p.color }).collect();
+    /// The blocks as a model with the production's kinds.
+    fn model(&self, kinds: &[BlockKind]) -> VoxelModel {
+        let kinds = kinds.to_vec();
         let mut blocks: Vec<Block> = self.cells.iter().map(|(p, (k, _))| Block { pos: *p, kind: *k }).collect();
         blocks.sort_by_key(|b| (b.pos[1], b.pos[2], b.pos[0]));
         VoxelModel { kinds, blocks }
@@ -221,8 +321,22 @@ pub fn generate(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generat
     let d = Derivation::new(grammar);
     let mut rng = Pcg64::seed_from_u64(opts.seed);
     let mut world = World::default();
-    let start = d.start();
+    let limit = opts.bounds.resolve(grammar);
+    let start = if opts.random_start {
+        let with_rules: Vec<u32> = (0..grammar.shapes.len() as u32).filter(|&s| !d.rules_for(s).is_empty()).collect();
+        match with_rules.len() {
+            0 => d.start(),
+            n => {
+                let s = with_rules[below(&mut rng, n)];
+                let at = grammar.shapes[s as usize].at.unwrap_or([0, 0, 0]);
+                Instance { shape: s, place: Placement::translation(at) }
+            }
+        }
+    } else {
+        d.start()
+    };
     world.add(d.blocks(&start));
+    let mut bbox = d.bounds(&start);
     let mut instances = vec![start];
     // Per instance: the rules not yet found impossible (a rule that cannot apply now
     // never can: the world only grows while rules are applied), copied from the class's
@@ -237,8 +351,14 @@ pub fn generate(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generat
         let rules = open[i].get_or_insert_with(|| d.rules_for(instances[i].shape).to_vec());
         let ri = below(&mut rng, rules.len());
         let rule = rules[ri];
+        let within = |new: &Instance| {
+            let Some(limit) = limit else { return true };
+            let (lo, hi) = union_box(bbox, d.bounds(new));
+            (0..3).all(|a| (hi[a] - lo[a] + 1) as u32 <= limit[a])
+        };
         match d.apply(&instances[i], rule) {
-            Some(new) if world.fits(d.blocks(&new)) => {
+            Some(new) if within(&new) && world.fits(d.blocks(&new)) => {
+                bbox = union_box(bbox, d.bounds(&new));
                 if world.cells.len() + grammar.shapes[new.shape as usize].blocks.len() > MAX_BLOCKS {
                     note = Some(format!("stopped at {MAX_BLOCKS} blocks"));
                     break;
@@ -264,7 +384,78 @@ pub fn generate(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generat
     if opts.enclosure {
         (removed, rounds) = enclose(&d, &mut instances, &mut world, opts.seal)?;
     }
-    Ok(Generated { model: world.model(grammar), instances, applied, removed, enclosure_rounds: rounds, note })
+    if opts.keep_largest {
+        removed += keep_largest_supported(&d, &mut instances, &mut world);
+    }
+    Ok(Generated { model: world.model(&d.kinds), instances, applied, removed, enclosure_rounds: rounds, note })
+}
+
+/// The smallest box holding both boxes (inclusive corners).
+fn union_box(a: ([i32; 3], [i32; 3]), b: ([i32; 3], [i32; 3])) -> ([i32; 3], [i32; 3]) {
+    let mut out = a;
+    for k in 0..3 {
+        out.0[k] = a.0[k].min(b.0[k]);
+        out.1[k] = a.1[k].max(b.1[k]);
+    }
+    out
+}
+
+/// Keeps the largest 6-connected piece of the production that reaches its lowest
+/// level (ties: the piece with the smallest lowest block), and the instances in it;
+/// returns how many instances were removed. Each instance is connected, so it lies
+/// in one piece.
+fn keep_largest_supported(d: &Derivation, instances: &mut Vec<Instance>, world: &mut World) -> usize {
+    let Some(ground) = world.cells.keys().map(|p| p[1]).min() else { return 0 };
+    let mut cells: Vec<[i32; 3]> = world.cells.keys().copied().collect();
+    cells.sort_by_key(|p| (p[1], p[2], p[0]));
+    let mut piece: HashMap<[i32; 3], u32> = HashMap::with_capacity(cells.len());
+    let mut best: Option<(usize, u32)> = None;
+    let mut n_pieces = 0u32;
+    for &c in &cells {
+        if piece.contains_key(&c) {
+            continue;
+        }
+        let id = n_pieces;
+        n_pieces += 1;
+        let (mut size, mut grounded) = (0usize, false);
+        let mut stack = vec![c];
+        piece.insert(c, id);
+        while let Some(p) = stack.pop() {
+            size += 1;
+            grounded |= p[1] == ground;
+            for dl in NEIGHBOURS {
+                let q = super::add(p, dl);
+                if world.cells.contains_key(&q) && !piece.contains_key(&q) {
+                    piece.insert(q, id);
+                    stack.push(q);
+                }
+            }
+        }
+        if grounded && best.is_none_or(|(s, _)| size > s) {
+            best = Some((size, id));
+        }
+    }
+    let Some((_, keep)) = best else { return 0 };
+    if n_pieces == 1 {
+        return 0;
+    }
+    let before = instances.len();
+    let mut gone = Vec::new();
+    instances.retain(|inst| {
+        let first = d.blocks(inst).next().map(|(p, _)| p);
+        let stays = first.and_then(|p| piece.get(&p)).is_some_and(|&id| id == keep);
+        if !stays {
+            gone.push(*inst);
+        }
+        stays
+    });
+    for inst in &gone {
+        world.remove(d.blocks(inst));
+    }
+    // Blocks of removed pieces that no instance held (none: every block is an
+    // instance's) would stay; drop any cell outside the kept piece all the same.
+    world.cells.retain(|p, _| piece.get(p) == Some(&keep));
+    before - instances.len()
 }
 
 /// The enclosure constraint on a production: removes exposed instances (and their
@@ -312,7 +503,7 @@ pub fn enclosure(
     }
     let mut kept = instances.to_vec();
     let (removed, _) = enclose(&d, &mut kept, &mut world, seal)?;
-    Ok((kept, world.model(grammar), removed))
+    Ok((kept, world.model(&d.kinds), removed))
 }
 
 /// Dilates a cell mask of a grid with `dims` by `r` cells in every direction (a box,

@@ -70,7 +70,8 @@ pub fn measures(model: &VoxelModel, inference: &Inference) -> Measures {
     if n == 0 {
         return Measures::default();
     }
-    let classes = Classes::of(&shapes);
+    let ids: Vec<&str> = model.kinds.iter().map(|k| k.id.as_str()).collect();
+    let classes = Classes::of(&shapes, &super::kind_turns(&ids));
     let size = shapes.iter().map(|s| s.len() as f64).sum::<f64>() / n as f64;
     let complexity = shapes
         .iter()
@@ -143,7 +144,8 @@ pub fn induce(examples: &[Example], inferences: &[Inference], name: &str) -> Res
     if shapes.is_empty() {
         return Err("no shapes (the examples are empty)".into());
     }
-    let classes = Classes::of(&shapes.iter().map(|s| s.blocks.clone()).collect::<Vec<_>>());
+    let ids: Vec<&str> = palette.iter().map(|p| p.block.as_str()).collect();
+    let classes = Classes::of(&shapes.iter().map(|s| s.blocks.clone()).collect::<Vec<_>>(), &super::kind_turns(&ids));
     let mut matches = Vec::new();
     for (i, &c) in classes.class.iter().enumerate() {
         let rep = classes.rep[c as usize];
@@ -205,6 +207,33 @@ pub fn induce(examples: &[Example], inferences: &[Inference], name: &str) -> Res
     };
     g.validate()?;
     Ok(g)
+}
+
+/// How many shapes match a shape of another example (through the grammar's matches):
+/// what links the examples into one style. Zero for one example.
+pub fn shared_shapes(g: &GridGrammar) -> usize {
+    let n = g.shapes.len();
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn find(p: &mut [usize], mut x: usize) -> usize {
+        while p[x] != x {
+            p[x] = p[p[x]];
+            x = p[x];
+        }
+        x
+    }
+    for m in &g.matches {
+        let (a, b) = (m.a as usize, m.b as usize);
+        if a < n && b < n {
+            let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+            parent[ra.max(rb)] = ra.min(rb);
+        }
+    }
+    let mut examples: HashMap<usize, HashSet<u32>> = HashMap::new();
+    for (i, s) in g.shapes.iter().enumerate() {
+        let r = find(&mut parent, i);
+        examples.entry(r).or_default().insert(s.example);
+    }
+    (0..n).filter(|&i| examples.get(&find(&mut parent, i)).is_some_and(|e| e.len() > 1)).count()
 }
 
 /// `base`, or `base_2`, `base_3`… whichever is not taken yet (and takes it).

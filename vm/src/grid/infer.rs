@@ -107,22 +107,28 @@ impl Ops {
 /// The cost function of the search.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Cost {
-    /// `(1 + #S)^α · Σ entropy`: the paper's equation 4.
-    #[default]
+    /// `(1 + #S)^α · Σ entropy`: the paper's equation 4 as printed. From one shape per
+    /// block (Σ entropy = 0, cost 0) it accepts no merge that mixes block kinds, so α
+    /// has no effect and shapes stay pure.
     Product,
     /// `α · (1 + #S) + Σ entropy`: what the paper's reference implementation computes
-    /// (its tables come from this one). Unlike the product it can trade entropy for
-    /// fewer shapes when every shape is pure: from one shape per block (Σ entropy = 0,
-    /// cost 0) the product accepts no merge that mixes block kinds.
+    /// (its tables and pictures come from this one): the default. It trades entropy
+    /// for fewer shapes.
+    #[default]
     Sum,
+    /// `α · (1 + #S) + Σ entropy · kinds`: the reference implementation's second cost
+    /// function ("cost grows more for every block type"): each shape's entropy weighed
+    /// by its number of block kinds, so mixed shapes cost more.
+    Kinds,
 }
 
 impl Cost {
-    /// `product` or `sum`.
+    /// `product`, `sum` or `kinds`.
     pub fn parse(s: &str) -> Option<Cost> {
         match s {
             "product" => Some(Cost::Product),
             "sum" => Some(Cost::Sum),
+            "kinds" => Some(Cost::Kinds),
             _ => None,
         }
     }
@@ -132,6 +138,7 @@ impl Cost {
         match self {
             Cost::Product => "product",
             Cost::Sum => "sum",
+            Cost::Kinds => "kinds",
         }
     }
 
@@ -141,15 +148,25 @@ impl Cost {
         match self {
             Cost::Product if entropy_sum <= 0.0 => f64::NEG_INFINITY,
             Cost::Product => alpha * (1.0 + n_shapes as f64).ln() + entropy_sum.ln(),
-            Cost::Sum => self.eval(n_shapes, entropy_sum, alpha),
+            Cost::Sum | Cost::Kinds => self.eval(n_shapes, entropy_sum, alpha),
         }
     }
 
-    /// The cost of `n_shapes` shapes with entropy sum `entropy_sum`.
+    /// The cost of `n_shapes` shapes whose terms sum to `entropy_sum` (see
+    /// [`Cost::term`]).
     pub fn eval(self, n_shapes: usize, entropy_sum: f64, alpha: f64) -> f64 {
         match self {
             Cost::Product => cost(n_shapes, entropy_sum, alpha),
-            Cost::Sum => alpha * (1.0 + n_shapes as f64) + entropy_sum,
+            Cost::Sum | Cost::Kinds => alpha * (1.0 + n_shapes as f64) + entropy_sum,
+        }
+    }
+
+    /// A shape's term in the sum: its entropy, times its number of kinds for
+    /// [`Cost::Kinds`].
+    pub fn term(self, entropy: f64, kinds: usize) -> f64 {
+        match self {
+            Cost::Kinds => entropy * kinds as f64,
+            Cost::Product | Cost::Sum => entropy,
         }
     }
 }
@@ -164,11 +181,21 @@ pub struct InferOptions {
     /// Keep overlapping shapes in the result.
     pub overlap: bool,
     pub cost: Cost,
+    /// After the search, cut shapes along the floors and walls they touch (the
+    /// reference implementation's post-split; see [`Search::post_split`]).
+    pub post_split: bool,
 }
 
 impl Default for InferOptions {
     fn default() -> Self {
-        InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, overlap: false, cost: Cost::Product }
+        InferOptions {
+            spec: Spec::Rect,
+            alpha: 1.0,
+            ops: Ops::Both,
+            overlap: false,
+            cost: Cost::default(),
+            post_split: false,
+        }
     }
 }
 
@@ -240,12 +267,18 @@ pub struct Inference {
 pub fn infer(model: &VoxelModel, opts: &InferOptions, progress: &mut dyn FnMut(Progress)) -> Inference {
     let mut s = Search::new(model, opts.spec, opts.alpha);
     s.set_cost(opts.cost);
+    // Both operations start from the maximal set: from the minimal one the merges
+    // reach sets where no cut pays (a cut lowers Σ entropy by more than α only where
+    // a merge raised it by more than α), so `both` would never split.
     match opts.ops {
-        Ops::Split => s.init_maximal(),
-        Ops::Merge | Ops::Both => s.init_minimal(),
+        Ops::Split | Ops::Both => s.init_maximal(),
+        Ops::Merge => s.init_minimal(),
     }
     s.run(opts.ops, progress);
-    let shapes = s.result(opts.overlap);
+    let mut shapes = s.result(opts.overlap);
+    if opts.post_split {
+        shapes = s.post_split(shapes);
+    }
     Inference { shapes, stats: s.stats.clone() }
 }
 
@@ -427,7 +460,7 @@ impl<'m> Search<'m> {
         s.lo = lo;
         s.hi = hi;
         s.sclog = hist.iter().map(|&(_, c)| self.clog[c as usize]).sum();
-        s.entropy = self.entropy_of(s.blocks.len(), s.sclog);
+        s.entropy = self.term_of(s.blocks.len(), s.sclog, hist.len());
         s.hist = hist;
     }
 
@@ -436,6 +469,11 @@ impl<'m> Search<'m> {
             return 0.0;
         }
         ((n as f64).log2() - sclog / n as f64).max(0.0)
+    }
+
+    /// A shape's term in the cost: its entropy (times its kinds for [`Cost::Kinds`]).
+    fn term_of(&self, n: usize, sclog: f64, kinds: usize) -> f64 {
+        self.cost_model.term(self.entropy_of(n, sclog), kinds)
     }
 
     fn reset(&mut self) {
@@ -573,7 +611,7 @@ impl<'m> Search<'m> {
         let tol = match self.cost_model {
             // The logarithm of the product: a relative tolerance.
             Cost::Product => 1e-12,
-            Cost::Sum => 1e-10 * (1.0 + k_old.abs()),
+            Cost::Sum | Cost::Kinds => 1e-10 * (1.0 + k_old.abs()),
         };
         k_new < k_old - tol || (k_new <= k_old + tol && n < self.n_alive)
     }
@@ -668,8 +706,9 @@ impl<'m> Search<'m> {
     /// The change of Σ entropy if `x` and `y` merged.
     fn merge_delta(&self, x: u32, y: u32) -> f64 {
         let (s, t) = (&self.shapes[x as usize], &self.shapes[y as usize]);
-        let (mut i, mut j, mut sclog) = (0, 0, 0.0);
+        let (mut i, mut j, mut sclog, mut kinds) = (0, 0, 0.0, 0);
         while i < s.hist.len() || j < t.hist.len() {
+            kinds += 1;
             let (ks, kt) = (s.hist.get(i).map(|h| h.0), t.hist.get(j).map(|h| h.0));
             let c = match (ks, kt) {
                 (Some(a), Some(b)) if a == b => {
@@ -693,7 +732,7 @@ impl<'m> Search<'m> {
             };
             sclog += self.clog[c as usize];
         }
-        self.entropy_of(s.blocks.len() + t.blocks.len(), sclog) - s.entropy - t.entropy
+        self.term_of(s.blocks.len() + t.blocks.len(), sclog, kinds) - s.entropy - t.entropy
     }
 
     /// One pass of merges; returns how many were applied.
@@ -777,7 +816,7 @@ impl<'m> Search<'m> {
         }
         k.sclog = hist.iter().map(|&(_, c)| self.clog[c as usize]).sum();
         k.hist = hist;
-        k.entropy = self.entropy_of(k.blocks.len(), k.sclog);
+        k.entropy = self.term_of(k.blocks.len(), k.sclog, k.hist.len());
         self.shapes[kept as usize] = k;
         self.shapes[gone as usize] = SShape { alive: false, layer: g.layer, ..SShape::default() };
         self.n_alive -= 1;
@@ -839,6 +878,8 @@ impl<'m> Search<'m> {
             let total: Vec<u32> = s.hist.iter().map(|h| h.1).collect();
             let mut prefix = vec![0u32; total.len()];
             let (mut sp, mut ss) = (0.0, s.sclog);
+            // Kinds below and above the cut.
+            let (mut kp, mut ks) = (0usize, total.len());
             for cut in 1..extent {
                 for &b in &order[per_slice[cut - 1]..per_slice[cut]] {
                     let k = self.kind(b);
@@ -846,13 +887,15 @@ impl<'m> Search<'m> {
                     let (p, t) = (prefix[j] as usize, total[j] as usize);
                     sp += self.clog[p + 1] - self.clog[p];
                     ss += self.clog[t - p - 1] - self.clog[t - p];
+                    kp += (p == 0) as usize;
+                    ks -= (t - p == 1) as usize;
                     prefix[j] += 1;
                 }
                 let np = per_slice[cut];
                 if np == 0 || np == n {
                     continue;
                 }
-                let dh = self.entropy_of(np, sp) + self.entropy_of(n - np, ss) - s.entropy;
+                let dh = self.term_of(np, sp, kp) + self.term_of(n - np, ss, ks) - s.entropy;
                 let h = self.entropy_sum + dh;
                 if self.improves(self.n_alive + 1, h) {
                     found.push((self.key_of(self.n_alive + 1, h), d, s.lo[d] + cut as i32, dh));
@@ -973,6 +1016,72 @@ impl<'m> Search<'m> {
         }
         chosen.sort_by(|a, b| b.blocks.len().cmp(&a.blocks.len()).then_with(|| a.blocks.cmp(&b.blocks)));
         chosen
+    }
+
+    /// The reference implementation's post-split: for the planes y (floors), then z and
+    /// x (walls), every flat shape of that plane cuts each shape touching it face to face
+    /// that has blocks on both sides of its coordinate: the blocks above it and the rest
+    /// (the blocks at the coordinate go with the lower part, so no block is doubled)
+    /// become shapes, each cut into valid pieces. Splitters are the plane's shapes
+    /// before its round; a splitter cut by an earlier one still cuts.
+    pub fn post_split(&self, shapes: Vec<InferredShape>) -> Vec<InferredShape> {
+        let n = self.model.blocks.len();
+        let mut all: Vec<Option<InferredShape>> = shapes.into_iter().map(Some).collect();
+        let mut of_block: Vec<Vec<u32>> = vec![Vec::new(); n];
+        for (i, s) in all.iter().enumerate() {
+            for &b in s.iter().flat_map(|s| &s.blocks) {
+                of_block[b as usize].push(i as u32);
+            }
+        }
+        for axis in [1u8, 2, 0] {
+            let a = axis as usize;
+            let splitters: Vec<(Vec<u32>, i32)> = all
+                .iter()
+                .flatten()
+                .filter(|s| s.plane == Some(axis))
+                .map(|s| (s.blocks.clone(), self.pos(s.blocks[0])[a]))
+                .collect();
+            for (sb, at) in splitters {
+                let mut near: Vec<u32> = Vec::new();
+                for &b in &sb {
+                    for d in super::voxel::NEIGHBOURS {
+                        let c = self.grid.get(super::add(self.pos(b), d));
+                        if c != Grid::EMPTY {
+                            near.extend_from_slice(&of_block[c as usize]);
+                        }
+                    }
+                }
+                near.sort_unstable();
+                near.dedup();
+                for i in near {
+                    let Some(s) = &all[i as usize] else { continue };
+                    if s.blocks == sb {
+                        continue;
+                    }
+                    let (top, bottom): (Vec<u32>, Vec<u32>) = s.blocks.iter().partition(|&&b| self.pos(b)[a] > at);
+                    if top.is_empty() || !bottom.iter().any(|&b| self.pos(b)[a] < at) {
+                        continue;
+                    }
+                    let plane = s.plane;
+                    let old = all[i as usize].take().map(|s| s.blocks).unwrap_or_default();
+                    for &b in &old {
+                        of_block[b as usize].retain(|&x| x != i);
+                    }
+                    for part in [top, bottom] {
+                        for piece in self.pieces(&part, plane) {
+                            let id = all.len() as u32;
+                            piece.iter().for_each(|&b| of_block[b as usize].push(id));
+                            let plane =
+                                if self.spec == Spec::Solid { None } else { self.plane_of(&piece, plane.unwrap_or(0)) };
+                            all.push(Some(InferredShape { blocks: piece, plane }));
+                        }
+                    }
+                }
+            }
+        }
+        let mut out: Vec<InferredShape> = all.into_iter().flatten().collect();
+        out.sort_by(|a, b| b.blocks.len().cmp(&a.blocks.len()).then_with(|| a.blocks.cmp(&b.blocks)));
+        out
     }
 
     /// The plane of a final shape: its flat axis; for lines and single blocks, the flat

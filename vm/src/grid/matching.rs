@@ -9,7 +9,7 @@ use std::collections::HashMap;
 /// The canonical form of a block set and the placement taking the blocks to it (a
 /// turn, then the translation to the origin). Among equal turned forms the smallest
 /// turn is chosen, so the result is deterministic for symmetric shapes.
-pub fn canonical(blocks: &[ShapeBlock]) -> (Vec<ShapeBlock>, Placement) {
+pub fn canonical(blocks: &[ShapeBlock], turns: &[[u32; 4]]) -> (Vec<ShapeBlock>, Placement) {
     let mut best: Option<(Vec<ShapeBlock>, Placement)> = None;
     for turn in 0..4u8 {
         let mut lo = [i32::MAX; 3];
@@ -20,8 +20,10 @@ pub fn canonical(blocks: &[ShapeBlock]) -> (Vec<ShapeBlock>, Placement) {
             }
         }
         let place = Placement { turn, offset: [-lo[0], -lo[1], -lo[2]] };
-        let mut v: Vec<ShapeBlock> =
-            blocks.iter().map(|b| ShapeBlock { pos: place.apply(b.pos), kind: b.kind }).collect();
+        let mut v: Vec<ShapeBlock> = blocks
+            .iter()
+            .map(|b| ShapeBlock { pos: place.apply(b.pos), kind: super::turn_kind(turns, b.kind, turn) })
+            .collect();
         sort_blocks(&mut v);
         if best.as_ref().is_none_or(|(bv, _)| v < *bv) {
             best = Some((v, place));
@@ -45,13 +47,14 @@ pub struct Classes {
 }
 
 impl Classes {
-    /// Groups `shapes` (block sets in any frame) into matching classes.
-    pub fn of(shapes: &[Vec<ShapeBlock>]) -> Classes {
+    /// Groups `shapes` (block sets in any frame) into matching classes; kinds turn with
+    /// the shape by `turns` (see [`super::kind_turns`]; empty: kinds do not turn).
+    pub fn of(shapes: &[Vec<ShapeBlock>], turns: &[[u32; 4]]) -> Classes {
         let mut by_key: HashMap<Vec<ShapeBlock>, u32> = HashMap::new();
         let mut c = Classes::default();
         let mut to_canon: Vec<Placement> = Vec::with_capacity(shapes.len());
         for (i, s) in shapes.iter().enumerate() {
-            let (key, place) = canonical(s);
+            let (key, place) = canonical(s, turns);
             to_canon.push(place);
             let next = c.rep.len() as u32;
             let class = *by_key.entry(key).or_insert(next);
@@ -101,7 +104,7 @@ mod tests {
             .collect();
         let mirrored: Vec<ShapeBlock> =
             l.iter().map(|b| ShapeBlock { pos: [-b.pos[0], b.pos[1], b.pos[2]], kind: b.kind }).collect();
-        let c = Classes::of(&[l.clone(), turned.clone(), mirrored]);
+        let c = Classes::of(&[l.clone(), turned.clone(), mirrored], &[]);
         assert_eq!(c.class, vec![0, 0, 1]);
         // to_rep maps the turned copy's blocks onto the original's.
         let mut back: Vec<ShapeBlock> =

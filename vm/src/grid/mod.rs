@@ -212,13 +212,42 @@ pub struct GridGrammar {
 }
 
 /// The blocks of `shape` turned `turn` quarter turns inside its box (sorted like
-/// [`GridShape::blocks`]), and the turned box size.
-pub fn turned_blocks(shape: &GridShape, turn: u8) -> (Vec<ShapeBlock>, [u32; 3]) {
+/// [`GridShape::blocks`]), and the turned box size. Block kinds turn by `turns` (see
+/// [`kind_turns`]; an empty table leaves them).
+pub fn turned_blocks(shape: &GridShape, turn: u8, turns: &[[u32; 4]]) -> (Vec<ShapeBlock>, [u32; 3]) {
     let (p, size) = turn_box(shape.size, turn);
     let mut v: Vec<ShapeBlock> =
-        shape.blocks.iter().map(|b| ShapeBlock { pos: p.apply(b.pos), kind: b.kind }).collect();
+        shape.blocks.iter().map(|b| ShapeBlock { pos: p.apply(b.pos), kind: turn_kind(turns, b.kind, turn) }).collect();
     sort_blocks(&mut v);
     (v, size)
+}
+
+/// Kind `k` turned `turn` quarter turns by the table (itself when the table does not
+/// know it).
+pub fn turn_kind(turns: &[[u32; 4]], k: u32, turn: u8) -> u32 {
+    turns.get(k as usize).map(|t| t[(turn % 4) as usize]).unwrap_or(k)
+}
+
+/// The state-rotation table of a palette (block ids by index): entry `[k][t]` is the
+/// kind `k` becomes turned `t` quarter turns about the vertical axis (stairs, logs,
+/// doors… turn; see [`blocks::turn_block`]): its index when the palette holds the
+/// turned block, else `n + 4k + t` (n = the palette's length), a kind no block of the
+/// palette has.
+pub fn kind_turns(ids: &[&str]) -> Vec<[u32; 4]> {
+    let n = ids.len() as u32;
+    let index: std::collections::HashMap<&str, u32> =
+        ids.iter().enumerate().rev().map(|(i, id)| (*id, i as u32)).collect();
+    (0..n)
+        .map(|k| {
+            let mut row = [k; 4];
+            for t in 1..4u8 {
+                if let Some(turned) = blocks::turn_block(ids[k as usize], t) {
+                    row[t as usize] = index.get(turned.as_str()).copied().unwrap_or(n + 4 * k + t as u32);
+                }
+            }
+            row
+        })
+        .collect()
 }
 
 /// Sorts blocks by (y, z, x).
@@ -245,6 +274,11 @@ pub fn connected(blocks: &[ShapeBlock]) -> bool {
 }
 
 impl GridGrammar {
+    /// The palette's state-rotation table (see [`kind_turns`]).
+    pub fn kind_turns(&self) -> Vec<[u32; 4]> {
+        kind_turns(&self.palette.iter().map(|p| p.block.as_str()).collect::<Vec<_>>())
+    }
+
     /// Checks every index, size and match (called by the bundle verifier, so a
     /// corrupt bundle is rejected before generation reads it).
     pub fn verify(&self, _bundle: &crate::bundle::Bundle) -> Result<(), String> {
@@ -295,12 +329,13 @@ impl GridGrammar {
                 }
             }
         }
+        let turns = self.kind_turns();
         for m in &self.matches {
             if m.a >= n_shapes || m.b >= n_shapes || m.turn > 3 {
                 return Err(format!("match {m:?} out of range"));
             }
             let (a, b) = (&self.shapes[m.a as usize], &self.shapes[m.b as usize]);
-            let (blocks, size) = turned_blocks(a, m.turn);
+            let (blocks, size) = turned_blocks(a, m.turn, &turns);
             if size != b.size || blocks != b.blocks {
                 return Err(format!("shape `{}` is not shape `{}` turned {} quarter turns", b.name, a.name, m.turn));
             }
