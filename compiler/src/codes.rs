@@ -1890,11 +1890,13 @@ Fix: Make every block touch another one face to face."#,
         code: "E0910",
         severity: Error,
         title: "bad `plane`",
-        explanation: r#"Grid grammar: a bad `plane` (not x, y or z, or the shape is not one block thick along it).
+        explanation: r#"Grid grammar: a bad `plane` (not `x`, `y`, `z` or `none`, or the shape is not one block thick along the axis named).
+
+`none` says that a shape has no plane (a solid, or a flat shape that is not split along one), as induction with `--spec 3d` writes it.
 
 In the example: a 2-wide shape is not flat along x.
 
-Fix: Use `x`, `y` or `z`, along which the shape is one block thick."#,
+Fix: Use `x`, `y` or `z`, along which the shape is one block thick, or `none`."#,
         example: Library(
             r#"grid g {
   palette { stone "minecraft:stone"; }
