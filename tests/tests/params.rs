@@ -164,26 +164,26 @@ fn bundles_with_parameters_round_trip_and_the_verifier_rejects_bad_slots_and_arg
     ));
     let bytes = bundle::encode(&b);
     assert_eq!(bundle::load(&bytes).expect("loads"), b);
-    let t = b.rules.iter().position(|r| b.string(r.name) == "t").unwrap();
+    let t = b.rules.iter().position(|r| b.string(r.name) == "t").expect("rule t");
     assert_eq!(b.rules[t].params.len(), 2);
     assert_eq!(b.rules[t].params, [None, Some(1.5)]);
     assert_eq!(b.rules[t].frame, 3, "n, k and m");
 
     // A SET beyond the frame.
     let mut bad = b.clone();
-    let set = bad.code.iter().position(|op| matches!(op, Op::Set { .. })).unwrap();
+    let set = bad.code.iter().position(|op| matches!(op, Op::Set { .. })).expect("a SET");
     if let Op::Set { slot, .. } = &mut bad.code[set] {
         *slot = 9;
     }
     assert!(bundle::verify(&bad).is_err(), "slot beyond the frame");
     // A CALL with one ARG too few.
     let mut bad = b.clone();
-    let arg = bad.code.iter().position(|op| matches!(op, Op::Arg { .. })).unwrap();
+    let arg = bad.code.iter().position(|op| matches!(op, Op::Arg { .. })).expect("an ARG");
     bad.code[arg] = Op::Cont {};
     assert!(bundle::verify(&bad).is_err(), "missing argument");
     // A jump out of its definition.
     let mut bad = b.clone();
-    let jz = bad.code.iter().position(|op| matches!(op, Op::JumpIfNot { .. })).unwrap();
+    let jz = bad.code.iter().position(|op| matches!(op, Op::JumpIfNot { .. })).expect("a JUMPZ");
     if let Op::JumpIfNot { target, .. } = &mut bad.code[jz] {
         *target = 0;
     }

@@ -87,7 +87,7 @@ mod tests {
         let (d, _) = doc(src);
         let hints: Vec<(u32, String, bool)> =
             d.inlay_hints(0, d.text().len() as u32).into_iter().map(|h| (h.offset, h.label, h.parameter)).collect();
-        let at = |needle: &str| d.text().find(needle).unwrap() as u32;
+        let at = |needle: &str| d.text().find(needle).expect("needle in the text") as u32;
         // `n` passed as `len` is labelled; `3` and `2` as `n`.
         assert_eq!(
             hints,

@@ -129,7 +129,7 @@ mod tests {
             "rule tree(int levels) {\n  VERTEX {y levels}\n  if (levels > 0) { tree(levels - 1) {s 0.5} }\n}\nrule other(int n) { VERTEX {y n} }\n"
         );
         // From a use, too; and never to a keyword.
-        let at_use = d.text().find("n - 1").unwrap() as u32;
+        let at_use = d.text().find("n - 1").expect("a use") as u32;
         assert_eq!(d.rename(at_use, "m").expect("rename").len(), 4);
         assert!(d.rename(at_use, "loop").is_err());
     }

@@ -123,7 +123,7 @@ mod tests {
     fn help_inside_a_rule_call_and_a_function_call() {
         let src = "rule A { tree(3, 0.5) {} VERTEX {x (atan2(1, 2))} }\nrule tree(int n, float len = 1) { VERTEX {x len} VERTEX {y n} VERTEX {} }";
         let (d, _) = doc(src);
-        let at = |needle: &str| d.text().find(needle).unwrap() as u32;
+        let at = |needle: &str| d.text().find(needle).expect("needle in the text") as u32;
         let h = d.signature_help(at("3, 0.5") + 1).expect("in the call");
         assert_eq!(h.label, "tree(int n, float len = 1)");
         assert_eq!(h.active, 0);
