@@ -241,9 +241,9 @@ pub enum BodyKind {
     /// (default 1), each run under the adjustment applied once more (like `N * {ADJ}`).
     Loop {
         var: Name,
-        start: Expr,
-        end: Expr,
-        step: Option<Expr>,
+        /// Boxed: body items are moved and matched by value along deep recursions,
+        /// so the variants stay small.
+        range: Box<LoopRange>,
         adj: AdjList,
         item: Box<BodyItem>,
     },
@@ -262,6 +262,14 @@ pub enum BodyKind {
     Block(Vec<BodyItem>),
     Pre(Pre<BodyItem>),
     Error,
+}
+
+/// The bounds of a `loop`: `START, END [, STEP]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoopRange {
+    pub start: Expr,
+    pub end: Expr,
+    pub step: Option<Expr>,
 }
 
 /// An iterator count or divisor.

@@ -915,7 +915,8 @@ impl<'a> Checker<'a> {
                     self.bind(name, ty);
                 }
             }
-            BodyKind::Loop { var, start, end, step, adj, item } => {
+            BodyKind::Loop { var, range, adj, item } => {
+                let LoopRange { start, end, step } = &**range;
                 for e in [Some(start), Some(end), step.as_ref()].into_iter().flatten() {
                     self.expr(e, false, true);
                 }

@@ -204,7 +204,8 @@ impl Dumper {
                 });
             }
             BodyKind::Let { name, value } => self.nested(&format!("Let {} {at}", name.text), |d| d.expr(value)),
-            BodyKind::Loop { var, start, end, step, adj, item } => {
+            BodyKind::Loop { var, range, adj, item } => {
+                let LoopRange { start, end, step } = &**range;
                 self.nested(&format!("Loop {} {at}", var.text), |d| {
                     d.expr(start);
                     d.expr(end);

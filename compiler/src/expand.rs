@@ -347,78 +347,92 @@ impl<'a> Expander<'a> {
     }
 
     fn body_item(&mut self, item: BodyItem, out: &mut Vec<BodyItem>) {
+        // Kept small, with the work in functions of their own: iterators and blocks
+        // recurse through here once per nesting level (see `nested_item`).
         match item.kind {
-            BodyKind::Pre(pre) => match pre {
-                Pre::Expand { name, args } => {
-                    if let Some(tokens) = self.expand_tokens(&name, &args, item.span) {
-                        let budget = parse::MAX_NESTING.saturating_sub(self.nest);
-                        let (items, diags) =
-                            parse::parse_body_items_within(self.sources, name.span.file, tokens, budget);
-                        self.out.diagnostics.extend(diags);
-                        self.depth += 1;
-                        let mut expanded = self.body(items);
-                        self.depth -= 1;
-                        if item.cont {
-                            if let Some(last) = expanded.last_mut() {
-                                last.cont = true;
-                            }
-                        }
-                        out.extend(expanded);
-                    }
-                }
-                Pre::IfDef { name, then, otherwise } => {
-                    let chosen = if self.out.defines.contains_key(&name.text) { Some(then) } else { otherwise };
-                    if let Some(items) = chosen {
-                        for i in items {
-                            self.body_item(i, out);
-                        }
-                    }
-                }
-                Pre::Macro(m) => self.define_macro(m),
-                Pre::Define { name, value } => {
-                    self.out.defines.insert(name.text, value.map(|v| v.value));
-                }
-                Pre::Import(_) | Pre::Param(_) | Pre::Presets(_) | Pre::Shader { .. } => {
-                    self.out.diagnostics.push(
-                        Diagnostic::error(
-                            "E0209",
-                            item.span,
-                            "this directive belongs at the top level, not inside a rule",
-                        )
-                        .with_label("move it out of the rule body"),
-                    );
-                }
-                Pre::Bad => {}
-            },
-            BodyKind::Iterate { count, divisor, adj, chain, item: inner } => {
-                let inner = self.single(*inner, item.span);
-                out.push(BodyItem {
-                    kind: BodyKind::Iterate { count, divisor, adj, chain, item: Box::new(inner) },
-                    ..item
-                });
+            BodyKind::Pre(pre) => self.pre_item(pre, item.span, item.cont, out),
+            kind @ (BodyKind::Iterate { .. } | BodyKind::Loop { .. } | BodyKind::If { .. } | BodyKind::Block(_)) => {
+                out.push(self.nested_item(BodyItem { kind, ..item }));
             }
-            BodyKind::Loop { var, start, end, step, adj, item: inner } => {
-                let inner = self.single(*inner, item.span);
-                out.push(BodyItem {
-                    kind: BodyKind::Loop { var, start, end, step, adj, item: Box::new(inner) },
-                    ..item
-                });
+            kind => out.push(BodyItem { kind, ..item }),
+        }
+    }
+
+    /// A preprocessor construct in a rule body.
+    #[inline(never)]
+    fn pre_item(&mut self, pre: Pre<BodyItem>, span: Span, cont: bool, out: &mut Vec<BodyItem>) {
+        let item = BodyItem { kind: BodyKind::Error, cont, span };
+        match pre {
+            Pre::Expand { name, args } => {
+                if let Some(tokens) = self.expand_tokens(&name, &args, item.span) {
+                    let budget = parse::MAX_NESTING.saturating_sub(self.nest);
+                    let (items, diags) = parse::parse_body_items_within(self.sources, name.span.file, tokens, budget);
+                    self.out.diagnostics.extend(diags);
+                    self.depth += 1;
+                    let mut expanded = self.body(items);
+                    self.depth -= 1;
+                    if item.cont {
+                        if let Some(last) = expanded.last_mut() {
+                            last.cont = true;
+                        }
+                    }
+                    out.extend(expanded);
+                }
+            }
+            Pre::IfDef { name, then, otherwise } => {
+                let chosen = if self.out.defines.contains_key(&name.text) { Some(then) } else { otherwise };
+                if let Some(items) = chosen {
+                    for i in items {
+                        self.body_item(i, out);
+                    }
+                }
+            }
+            Pre::Macro(m) => self.define_macro(m),
+            Pre::Define { name, value } => {
+                self.out.defines.insert(name.text, value.map(|v| v.value));
+            }
+            Pre::Import(_) | Pre::Param(_) | Pre::Presets(_) | Pre::Shader { .. } => {
+                self.out.diagnostics.push(
+                    Diagnostic::error("E0209", item.span, "this directive belongs at the top level, not inside a rule")
+                        .with_label("move it out of the rule body"),
+                );
+            }
+            Pre::Bad => {}
+        }
+    }
+
+    /// An item with items inside (iterator, loop, `if`, block), expanded inside.
+    /// Apart from `body_item` so that its frame, on the stack once per nesting level,
+    /// stays small: a program may nest to the parse limit on the language server's
+    /// 2 MiB analysis threads.
+    #[inline(never)]
+    fn nested_item(&mut self, item: BodyItem) -> BodyItem {
+        let span = item.span;
+        let kind = match item.kind {
+            BodyKind::Iterate { count, divisor, adj, chain, item: inner } => {
+                let inner = self.single(*inner, span);
+                BodyKind::Iterate { count, divisor, adj, chain, item: Box::new(inner) }
+            }
+            BodyKind::Loop { var, range, adj, item: inner } => {
+                let inner = self.single(*inner, span);
+                BodyKind::Loop { var, range, adj, item: Box::new(inner) }
             }
             BodyKind::If { cond, then, then_span, otherwise } => {
                 self.nest += 1;
                 let then = self.body(then);
                 self.nest -= 1;
-                let otherwise = otherwise.map(|o| Box::new(self.single(*o, item.span)));
-                out.push(BodyItem { kind: BodyKind::If { cond, then, then_span, otherwise }, ..item });
+                let otherwise = otherwise.map(|o| Box::new(self.single(*o, span)));
+                BodyKind::If { cond, then, then_span, otherwise }
             }
             BodyKind::Block(items) => {
                 self.nest += 1;
                 let items = self.body(items);
                 self.nest -= 1;
-                out.push(BodyItem { kind: BodyKind::Block(items), ..item });
+                BodyKind::Block(items)
             }
-            kind => out.push(BodyItem { kind, ..item }),
-        }
+            kind => kind,
+        };
+        BodyItem { kind, ..item }
     }
 
     /// Expands an item that must stay one item (an iterator's or `else`'s): what a

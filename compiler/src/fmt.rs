@@ -437,7 +437,8 @@ impl<'a> Printer<'a> {
                 }
             }
             BodyKind::Let { name, value } => self.out.push_str(&format!("let {} = {};", name.text, expr(value))),
-            BodyKind::Loop { var, start, end, step, adj, item: inner } => {
+            BodyKind::Loop { var, range, adj, item: inner } => {
+                let LoopRange { start, end, step } = &**range;
                 self.out.push_str(&format!("loop {} = {}, {}", var.text, expr(start), expr(end)));
                 if let Some(s) = step {
                     self.out.push_str(&format!(", {}", expr(s)));

@@ -652,7 +652,8 @@ impl<'a> Lower<'a> {
                 let chains = *chain || block_chains || cont_next;
                 self.emit_loop(n, dynamic, step, chains as u8, inner, cont_next, ns, None);
             }
-            BodyKind::Loop { var, start, end, step, adj, item: inner } => {
+            BodyKind::Loop { var, range, adj, item: inner } => {
+                let LoopRange { start, end, step } = &**range;
                 // slot := START; runs = ceil((END - slot) / STEP); after each run
                 // slot := slot + STEP.
                 let start_e = self.expr(start, 1.0);

@@ -443,6 +443,9 @@ fn limit_nesting(tokens: Vec<Token>, budget: usize, diags: &mut Vec<Diagnostic>)
     let mut first: Option<Span> = None;
     let mut out = Vec::with_capacity(tokens.len());
     let mut prev = Tok::Semi;
+    // Inside a `loop` header: its adjustment list, like an iterator's after `*`, does
+    // not end the item (a chain of loops nests like a chain of iterators).
+    let mut loop_header = false;
     for t in tokens {
         let closer = match t.kind {
             Tok::LBrace => Some(Tok::RBrace),
@@ -464,11 +467,24 @@ fn limit_nesting(tokens: Vec<Token>, budget: usize, diags: &mut Vec<Diagnostic>)
                 | Tok::Ge
                 | Tok::EqEq
                 | Tok::Ne
+                | Tok::KwLoop
         );
+        if t.kind == Tok::KwLoop {
+            loop_header = true;
+        }
         let mut keep = skip_below.is_none();
         if let Some(c) = closer {
             let over = keep && depth + 1 > budget;
-            levels.push(Level { closer: c, ops: 0, after_star: prev == Tok::Star, dropped: over || !keep });
+            let after_header = loop_header && c != Tok::RParen;
+            if after_header {
+                loop_header = false;
+            }
+            levels.push(Level {
+                closer: c,
+                ops: 0,
+                after_star: prev == Tok::Star || after_header,
+                dropped: over || !keep,
+            });
             depth += 1;
             if over {
                 skip_below = Some(levels.len() - 1);

@@ -256,12 +256,15 @@ fn nested(kind: &str, n: usize) -> String {
         "iterators" => format!("rule A {{ {}VERTEX {{}} }}", "2 * {x 1} ".repeat(n)),
         "namespaces" => format!("{}rule A {{ VERTEX {{}} }}{}", "namespace n { ".repeat(n), " }".repeat(n)),
         "ifdefs" => format!("@define D\n{}rule A {{ VERTEX {{}} }}\n{}", "@ifdef D\n".repeat(n), "@endif\n".repeat(n)),
+        "ifs" => format!("rule A {{ {}VERTEX {{}}{} }}", "if (true) { ".repeat(n), " }".repeat(n)),
+        "loops" => format!("rule A {{ {}VERTEX {{}} }}", "loop i = 0, 2 {x i} ".repeat(n)),
         _ => unreachable!(),
     };
     format!("startshape A\n{body}\nrule after {{ missing {{}} }}\n")
 }
 
-const KINDS: [&str; 8] = ["braces", "parens", "negation", "power", "sum", "iterators", "namespaces", "ifdefs"];
+const KINDS: [&str; 10] =
+    ["braces", "parens", "negation", "power", "sum", "iterators", "namespaces", "ifdefs", "ifs", "loops"];
 
 #[test]
 fn deep_nesting_is_cut_with_e0105_on_a_small_stack() {

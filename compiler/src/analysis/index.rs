@@ -625,7 +625,8 @@ impl Walker<'_, '_> {
                     self.expr(value);
                     self.bind(name, "local".to_string());
                 }
-                BodyKind::Loop { var, start, end, step, adj, item: inner } => {
+                BodyKind::Loop { var, range, adj, item: inner } => {
+                    let LoopRange { start, end, step } = &**range;
                     self.expr(start);
                     self.expr(end);
                     if let Some(s) = step {
