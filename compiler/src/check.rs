@@ -1226,21 +1226,7 @@ impl<'a> Checker<'a> {
         }
         let mut sorted: Vec<&Adj> = adj.adjs.iter().collect();
         sorted.sort_by_key(|a| rank(a));
-        let text: Vec<String> = sorted
-            .iter()
-            .map(|a| {
-                let mut t = a.name.text.clone();
-                for arg in &a.args {
-                    t.push(' ');
-                    t.push_str(&match arg {
-                        Arg::Num(n) => n.text.clone(),
-                        Arg::Neg(n) => format!("-{}", n.text),
-                        Arg::Expr(e) => crate::fmt::expr(e),
-                    });
-                }
-                t
-            })
-            .collect();
+        let text: Vec<String> = sorted.iter().map(|a| crate::fmt::adjustment(a)).collect();
         self.diags.push(
             Diagnostic::warning("W0008", adj.span, "Context Free would apply this list in another order")
                 .with_label("MDG applies adjustments in the order written")

@@ -490,23 +490,22 @@ fn count_text(c: &Count) -> String {
     }
 }
 
+/// One adjustment as written: `rz 25`, `x (a + 1)`.
+pub fn adjustment(adj: &Adj) -> String {
+    let mut s = adj.name.text.clone();
+    for arg in &adj.args {
+        s.push(' ');
+        s.push_str(&match arg {
+            Arg::Num(n) => n.text.clone(),
+            Arg::Neg(n) => format!("-{}", n.text),
+            Arg::Expr(e) => expr(e),
+        });
+    }
+    s
+}
+
 fn adj_list(a: &AdjList) -> String {
-    let inner: Vec<String> = a
-        .adjs
-        .iter()
-        .map(|adj| {
-            let mut s = adj.name.text.clone();
-            for arg in &adj.args {
-                s.push(' ');
-                s.push_str(&match arg {
-                    Arg::Num(n) => n.text.clone(),
-                    Arg::Neg(n) => format!("-{}", n.text),
-                    Arg::Expr(e) => expr(e),
-                });
-            }
-            s
-        })
-        .collect();
+    let inner: Vec<String> = a.adjs.iter().map(adjustment).collect();
     let (o, c) = if a.square { ('[', ']') } else { ('{', '}') };
     format!("{o}{}{c}", inner.join(" "))
 }

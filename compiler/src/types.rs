@@ -75,6 +75,16 @@ pub struct SigParam {
     pub span: Span,
 }
 
+impl SigParam {
+    /// `float len = 1`.
+    pub fn label(&self) -> String {
+        match self.default {
+            Some(d) => format!("{} {} = {d}", self.ty.name(), self.name),
+            None => format!("{} {}", self.ty.name(), self.name),
+        }
+    }
+}
+
 /// The parameters of a rule (the same for every definition).
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct Signature {
@@ -89,14 +99,7 @@ impl Signature {
 
     /// `tree(int n, float len = 1)`.
     pub fn label(&self, name: &str) -> String {
-        let list: Vec<String> = self
-            .params
-            .iter()
-            .map(|p| match p.default {
-                Some(d) => format!("{} {} = {d}", p.ty.name(), p.name),
-                None => format!("{} {}", p.ty.name(), p.name),
-            })
-            .collect();
+        let list: Vec<String> = self.params.iter().map(SigParam::label).collect();
         format!("{name}({})", list.join(", "))
     }
 }

@@ -83,14 +83,7 @@ impl Document {
         });
         let (names, doc) = match full.as_ref().and_then(|f| sym.signatures.get(f).map(|s| (f, s))) {
             Some((f, sig)) => {
-                let names: Vec<String> = sig
-                    .params
-                    .iter()
-                    .map(|p| match p.default {
-                        Some(d) => format!("{} {} = {d}", p.ty.name(), p.name),
-                        None => format!("{} {}", p.ty.name(), p.name),
-                    })
-                    .collect();
+                let names: Vec<String> = sig.params.iter().map(crate::types::SigParam::label).collect();
                 let defs = sym.rules.get(f).map(|d| d.len()).unwrap_or(0);
                 (names, format!("rule `{f}`, {defs} definition(s); arguments by position, defaults may be left out"))
             }
