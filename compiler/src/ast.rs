@@ -272,6 +272,25 @@ pub struct LoopRange {
     pub step: Option<Expr>,
 }
 
+/// Calls `f` on every item of `items` and on the items nested in them (an iterator's
+/// or loop's item, a block's items, both branches of an `if`), in source order.
+pub fn walk_body<'a>(items: &'a [BodyItem], f: &mut dyn FnMut(&'a BodyItem)) {
+    for item in items {
+        f(item);
+        match &item.kind {
+            BodyKind::Iterate { item, .. } | BodyKind::Loop { item, .. } => walk_body(std::slice::from_ref(item), f),
+            BodyKind::Block(inner) => walk_body(inner, f),
+            BodyKind::If { then, otherwise, .. } => {
+                walk_body(then, f);
+                if let Some(o) = otherwise {
+                    walk_body(std::slice::from_ref(o), f);
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
 /// An iterator count or divisor.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Count {

@@ -399,33 +399,14 @@ impl<'a> Checker<'a> {
 
     /// The rules used as profiles anywhere in the program (for W0010).
     fn collect_profiles(&mut self) {
-        fn walk(items: &[BodyItem], out: &mut Vec<Name>) {
-            for item in items {
-                match &item.kind {
-                    BodyKind::Call { profile: Some(p), .. } => out.push(p.clone()),
-                    BodyKind::Iterate { item, .. } | BodyKind::Loop { item, .. } => {
-                        walk(std::slice::from_ref(item), out)
-                    }
-                    BodyKind::Block(items) => walk(items, out),
-                    BodyKind::If { then, otherwise, .. } => {
-                        walk(then, out);
-                        if let Some(o) = otherwise {
-                            walk(std::slice::from_ref(o), out);
-                        }
-                    }
-                    _ => {}
-                }
-            }
-        }
         for ExpItem { item, namespace } in &self.ex.items {
             if let ItemKind::Rule(r) = &item.kind {
-                let mut names = Vec::new();
-                walk(&r.body, &mut names);
-                for n in names {
-                    if let Some(full) = self.sym.resolve(&n.text, namespace.as_deref()) {
-                        self.profile_rules.insert(full);
+                let (sym, profiles) = (&self.sym, &mut self.profile_rules);
+                walk_body(&r.body, &mut |it| {
+                    if let BodyKind::Call { profile: Some(p), .. } = &it.kind {
+                        profiles.extend(sym.resolve(&p.text, namespace.as_deref()));
                     }
-                }
+                });
             }
         }
     }
@@ -1053,11 +1034,7 @@ impl<'a> Checker<'a> {
             if scope.iter().any(|l| l.name == n) {
                 return None;
             }
-            match n {
-                "true" => Some(1.0),
-                "false" => Some(0.0),
-                _ => self.ex.constant(n),
-            }
+            self.ex.constant(n)
         })
     }
 
@@ -1252,7 +1229,6 @@ impl<'a> Checker<'a> {
                 let in_body = self.scope.is_some();
                 let known = self.ex.constant(&v.text).is_some()
                     || self.ex.params.iter().any(|p| p.name.text == v.text)
-                    || matches!(v.text.as_str(), "true" | "false")
                     || (in_body && matches!(v.text.as_str(), "depth" | "scale"))
                     || (function_vars && FUNCTION_VARS.contains(&v.text.as_str()));
                 if !known {

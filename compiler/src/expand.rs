@@ -90,12 +90,20 @@ pub struct Expanded {
 }
 
 impl Expanded {
-    /// The value of a compile-time constant (`@param` or valued `@define`).
+    /// The value of a compile-time constant: a `@param`, a valued `@define`, `true` (1)
+    /// or `false` (0).
     pub fn constant(&self, name: &str) -> Option<f64> {
         if let Some(p) = self.params.iter().find(|p| p.name.text == name) {
             return Some(p.value);
         }
-        self.defines.get(name).copied().flatten()
+        match self.defines.get(name) {
+            Some(v) => *v,
+            None => match name {
+                "true" => Some(1.0),
+                "false" => Some(0.0),
+                _ => None,
+            },
+        }
     }
 }
 

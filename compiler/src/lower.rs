@@ -118,7 +118,7 @@ fn expr_code(ex: &Expanded, angle: AngleMode, scope: &[(String, u16)], e: &Expr,
             }
             match VARIABLES.iter().position(|x| *x == v.text) {
                 Some(i) => out.push(ExprOp::Var(i as u8)),
-                None => out.push(ExprOp::Push(constant(ex, &v.text).unwrap_or(0.0))),
+                None => out.push(ExprOp::Push(ex.constant(&v.text).unwrap_or(0.0))),
             }
         }
         ExprKind::Neg(x) => {
@@ -154,15 +154,6 @@ fn function_index(name: &str) -> u8 {
 /// The VM's index of a binary operator.
 fn binop_index(symbol: &str) -> u8 {
     BINOPS.iter().position(|s| *s == symbol).unwrap_or(0) as u8
-}
-
-/// The value of a constant name: `@param`, `@define`, `true`, `false`.
-fn constant(ex: &Expanded, name: &str) -> Option<f64> {
-    match name {
-        "true" => Some(1.0),
-        "false" => Some(0.0),
-        _ => ex.constant(name),
-    }
 }
 
 /// What lowering an extension section needs (see [`crate::ext`]).
@@ -738,7 +729,7 @@ impl<'a> Lower<'a> {
             if scope.iter().any(|(n, _)| n == v) {
                 None
             } else {
-                constant(self.ex, v)
+                self.ex.constant(v)
             }
         })
     }

@@ -387,20 +387,11 @@ fn skeleton_rule_ok(k: &Skel, cx: &CheckCx, diags: &mut Vec<Diagnostic>) {
 
 /// Every call in a body, in order (iterators, loops, blocks and `if` branches included).
 fn body_calls<'b>(items: &'b [BodyItem], out: &mut Vec<(&'b Name, Option<&'b crate::ast::CallArgs>)>) {
-    for it in items {
-        match &it.kind {
-            BodyKind::Call { name, args, .. } => out.push((name, args.as_ref())),
-            BodyKind::Iterate { item, .. } | BodyKind::Loop { item, .. } => body_calls(std::slice::from_ref(item), out),
-            BodyKind::Block(inner) => body_calls(inner, out),
-            BodyKind::If { then, otherwise, .. } => {
-                body_calls(then, out);
-                if let Some(o) = otherwise {
-                    body_calls(std::slice::from_ref(o), out);
-                }
-            }
-            _ => {}
+    crate::ast::walk_body(items, &mut |it| {
+        if let BodyKind::Call { name, args, .. } = &it.kind {
+            out.push((name, args.as_ref()));
         }
-    }
+    });
 }
 
 /// The span of the first drawable call in a body.
