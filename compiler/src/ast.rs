@@ -142,6 +142,9 @@ pub struct Rule {
     pub iter: Option<Name>,
     pub transforms: Vec<Name>,
     pub weight: Option<Weight>,
+    /// `rule leaf(int n) (EXPR) { … }`: a weight computed per call from the arguments
+    /// (only after a parameter list; then `weight` is `None`).
+    pub weight_expr: Option<Expr>,
     pub body: Vec<BodyItem>,
     /// The span of `{ … }`.
     pub body_span: Span,

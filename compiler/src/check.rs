@@ -71,13 +71,15 @@ pub enum AdjKind {
     Fps,
     Color(u8),
     Weight(u8),
+    /// `hue` (0), `sat`/`saturation` (1), `b`/`brightness` (2): Context Free's HSB.
+    Hsb(u8),
 }
 
 impl AdjKind {
     /// (min, max) argument count.
     pub fn arity(self) -> (usize, usize) {
         match self {
-            AdjKind::Translate(0) | AdjKind::Rotate(3) => (1, 3),
+            AdjKind::Translate(0) | AdjKind::Rotate(3) | AdjKind::Scale => (1, 3),
             AdjKind::Turn(..) => (0, 1),
             AdjKind::Flip(3) => (3, 3),
             AdjKind::Flip(_) => (0, 0),
@@ -133,7 +135,13 @@ impl Components {
                 } else if let Some(i) = self.weight.iter().position(|c| c == name) {
                     AdjKind::Weight(i as u8)
                 } else {
-                    return None;
+                    // After the components, so a file that renames a colour `b` keeps it.
+                    match name {
+                        "hue" => AdjKind::Hsb(0),
+                        "sat" | "saturation" => AdjKind::Hsb(1),
+                        "b" | "brightness" => AdjKind::Hsb(2),
+                        _ => return None,
+                    }
                 }
             }
         })
@@ -165,6 +173,11 @@ impl Components {
             "fy",
             "fz",
             "fps",
+            "hue",
+            "sat",
+            "saturation",
+            "b",
+            "brightness",
         ];
         v.extend(self.color.iter().map(|s| s.as_str()));
         v.extend(self.weight.iter().map(|s| s.as_str()));
@@ -535,6 +548,14 @@ impl<'a> Checker<'a> {
         }
         let full = (!r.name.text.is_empty()).then(|| qualify(ns, &r.name.text));
         self.params(r, full.as_deref());
+        if let Some(e) = &r.weight_expr {
+            let before = self.diags.len();
+            self.expr(e, false, true);
+            if self.diags.len() == before {
+                let given = type_of(e, &|n| self.var_type(n));
+                self.type_mismatch(Ty::Float, given, e, "a weight");
+            }
+        }
         self.rule_name = full.clone();
         let mut calls = Vec::new();
         let mut must = Vec::new();

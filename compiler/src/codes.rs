@@ -1468,6 +1468,28 @@ search {
         ),
     },
     Code {
+        code: "E0714",
+        severity: Error,
+        title: "skeleton rule with a non-uniform scale",
+        explanation: r#"A skeleton rule of a `search` section scales its frame by different factors per axis (`s X Y Z`).
+
+Guided search keeps pending skeleton calls as small records whose frame is a similarity (rotation, one scale, translation), so it cannot carry a non-uniform scale.
+
+In the example: the skeleton rule `branch` calls itself with `s 1 0.8 1`.
+
+Fix: Scale uniformly in the skeleton (`s 0.8`) and stretch the geometry in the rules it calls."#,
+        example: Library(
+            r#"rule branch {
+  branch {y 1 s 1 0.8 1}
+}
+
+search {
+  skeleton branch;
+}
+"#,
+        ),
+    },
+    Code {
         code: "E0801",
         severity: Error,
         title: "unknown part type",

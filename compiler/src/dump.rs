@@ -58,6 +58,9 @@ impl Dumper {
                 for t in &r.transforms {
                     let _ = write!(head, " :{}", t.text);
                 }
+                if let Some(e) = &r.weight_expr {
+                    let _ = write!(head, " weight=({})", crate::fmt::expr(e));
+                }
                 if let Some(w) = &r.weight {
                     let _ = write!(head, " weight={}{}", if w.negative { "-" } else { "" }, w.number.text);
                 }

@@ -181,6 +181,9 @@ impl<'a> Printer<'a> {
                 if let Some(w) = &r.weight {
                     head.push_str(&format!(" {}{}", if w.negative { "-" } else { "" }, w.number.text));
                 }
+                if let Some(e) = &r.weight_expr {
+                    head.push_str(&format!(" ({})", expr(e)));
+                }
                 self.out.push_str(&head);
                 self.out.push(' ');
                 self.body_block(&r.body, r.body_span.end);

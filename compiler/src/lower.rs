@@ -196,6 +196,11 @@ fn key(c: &Composite) -> Vec<u32> {
         .chain(&c.weight)
         .chain(std::iter::once(&c.fps))
         .map(|f| f.to_bits())
+        // (A tag before each optional part keeps the keys of different shapes apart.)
+        .chain(std::iter::once(u32::from(c.n.is_some())))
+        .chain(c.n.iter().flatten().map(|f| f.to_bits()))
+        .chain(std::iter::once(u32::from(c.hsb.is_some())))
+        .chain(c.hsb.iter().flatten().map(|f| f.to_bits()))
         .collect()
 }
 
@@ -285,11 +290,13 @@ impl<'a> Lower<'a> {
                     .map(|(i, p)| (p.name.text.clone(), i as u16))
                     .collect();
                 self.next_slot = sig.params.len() as u16;
+                // A weight over the parameters is evaluated per call, in the callee's frame.
+                let weight_expr = r.weight_expr.as_ref().map_or(NONE, |e| self.expr(e, 1.0));
                 self.body(&r.body, namespace.as_deref());
                 self.code.push(Op::Ret {});
                 let w =
                     r.weight.as_ref().map(|w| if w.negative { -w.number.value } else { w.number.value }).unwrap_or(1.0);
-                out_defs.push(Def { weight: w as f32, start });
+                out_defs.push(Def { weight: w as f32, weight_expr, start });
                 if transforms.is_empty() {
                     transforms =
                         r.transforms.iter().filter_map(|t| self.rule_index(&t.text, namespace.as_deref())).collect();
@@ -807,6 +814,7 @@ impl<'a> Lower<'a> {
                 AdjKind::Color(i) => (4, i),
                 AdjKind::Weight(i) => (5, i),
                 AdjKind::Fps => (6, 0),
+                AdjKind::Hsb(i) => (7, i),
             };
             prims.push(PrimAdj { kind: k, axis, args });
         }

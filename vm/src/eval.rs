@@ -24,7 +24,7 @@
 use crate::anim::{frames_needed, MAX_TRACK_FRAMES};
 use crate::bundle::{self, Bundle, Composite, Op, Selector, Transform, CONT_NEXT, NONE};
 use crate::expr::{self, ExprOp, Random};
-use crate::geom::quat::Frame;
+use crate::geom::quat::{Affine, Frame};
 use crate::geom::{blend, marching, sweep};
 use crate::output::{Bone, Camera, Instance, Output, Polyline, Track};
 use glam::{Mat3, Quat, Vec3};
@@ -102,28 +102,107 @@ pub struct State {
     pub color: [f32; 4],
     pub weight: [f32; 4],
     pub fps: f32,
+    /// The frame's non-uniform factor N (`geom::quat::Affine`): an index into the
+    /// evaluation's [`Lins`], 0 for none (every frame that has met no `s X Y Z`).
+    pub lin: u32,
+    /// `∛det N` (1 without one): the factor's share of the scale, and its sign the
+    /// factor's mirroring, readable without the table.
+    pub ndet: f32,
 }
 
 impl State {
-    fn start(fps: f32) -> State {
-        State { f: Frame::identity(), color: START_COLOR, weight: [0.0; 4], fps }
+    /// The state at the start of a run: identity frame, white, no weights.
+    pub fn start(fps: f32) -> State {
+        State { f: Frame::identity(), color: START_COLOR, weight: [0.0; 4], fps, lin: 0, ndet: 1.0 }
     }
 
-    /// `self ∘ c`.
-    fn compose(&self, c: &Composite) -> State {
-        let child = Frame { q: Quat::from_array(c.q), qh: Quat::from_array(c.qh), u: Vec3::from_array(c.u) };
+    /// `self ∘ c`. The non-uniform factors of a frame live in `lins`, which gains an
+    /// entry only when `c` itself holds a non-uniform scale.
+    #[inline(always)]
+    fn compose(&self, c: &Composite, lins: &mut Lins) -> State {
         let add = |a: [f32; 4], b: [f32; 4]| [a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]];
-        State {
-            f: self.f.compose(&child),
-            color: add(self.color, c.color),
-            weight: add(self.weight, c.weight),
-            fps: self.fps + c.fps,
+        let mut color = add(self.color, c.color);
+        if let Some(h) = &c.hsb {
+            color = apply_hsb(color, h);
         }
+        let (f, lin, ndet) = if self.lin == 0 && c.n.is_none() {
+            (self.f.compose(&composite_frame(c)), 0, 1.0)
+        } else {
+            self.compose_general(c, lins)
+        };
+        State { f, color, weight: add(self.weight, c.weight), fps: self.fps + c.fps, lin, ndet }
+    }
+
+    /// The frame part of [`State::compose`] when a non-uniform factor is involved.
+    #[cold]
+    #[inline(never)]
+    fn compose_general(&self, c: &Composite, lins: &mut Lins) -> (Frame, u32, f32) {
+        let child = Affine { f: composite_frame(c), n: c.n.map(|n| Mat3::from_cols_array(&n)) };
+        let a = lins.affine(self).compose(&child);
+        if c.n.is_none() {
+            (a.f, self.lin, self.ndet)
+        } else {
+            let (lin, ndet) = lins.put(a.n);
+            (a.f, lin, ndet)
+        }
+    }
+
+    /// `self ∘ f` for a plain frame (a convolution's or a sampled track's).
+    fn then(&self, f: &Frame, lins: &Lins) -> State {
+        if self.lin == 0 {
+            State { f: self.f.compose(f), ..*self }
+        } else {
+            State { f: lins.affine(self).compose(&Affine::from(*f)).f, ..*self }
+        }
+    }
+
+    /// The linear scale (SPEC resolved semantics 7; with `∛|det N|` under a
+    /// non-uniform scale): what `minsize`, `scale` selection and `scale` read.
+    #[inline]
+    pub fn scale(&self) -> f32 {
+        self.f.scale_factor() * self.ndet.abs()
+    }
+
+    /// Whether the frame mirrors.
+    pub fn mirrored(&self) -> bool {
+        self.f.mirrored() ^ (self.ndet < 0.0)
     }
 
     /// The colour as shown: every component clamped to 0..1.
     fn display_color(&self) -> [f32; 4] {
         self.color.map(|c| c.clamp(0.0, 1.0))
+    }
+}
+
+/// The non-uniform factors N of one evaluation's frames, shared by the states that
+/// carry the same one (index 0 is none). Entries are only added, by a composition
+/// with a non-uniform scale.
+#[derive(Debug)]
+pub struct Lins(Vec<Mat3>);
+
+impl Default for Lins {
+    fn default() -> Self {
+        Lins(vec![Mat3::IDENTITY])
+    }
+}
+
+impl Lins {
+    /// `s`'s frame with its factor.
+    #[inline]
+    fn affine(&self, s: &State) -> Affine {
+        let n = if s.lin == 0 { None } else { self.0.get(s.lin as usize).copied() };
+        Affine { f: s.f, n }
+    }
+
+    /// Stores `n`: its index and `∛det n` (0 and 1 for none).
+    fn put(&mut self, n: Option<Mat3>) -> (u32, f32) {
+        match n {
+            None => (0, 1.0),
+            Some(n) => {
+                self.0.push(n);
+                ((self.0.len() - 1) as u32, n.determinant().cbrt())
+            }
+        }
     }
 }
 
@@ -170,6 +249,10 @@ pub struct Expander<'b> {
     /// The expanded body's frame (its parameters take their defaults: the compiler
     /// rejects skeleton rules with parameters and calls from them that pass arguments).
     slots: Vec<f64>,
+    /// (The compiler rejects non-uniform scales in skeleton rules, so the states an
+    /// expansion returns carry none; this only keeps a hand-made bundle harmless.)
+    lins: Lins,
+    weights: Weights,
 }
 
 impl<'b> Expander<'b> {
@@ -182,6 +265,8 @@ impl<'b> Expander<'b> {
             sequential: HashMap::new(),
             loops: Vec::new(),
             slots: Vec::new(),
+            lins: Lins::default(),
+            weights: Weights::new(b),
         };
         e.reseed(0, 0);
         e
@@ -235,6 +320,7 @@ impl<'b> Expander<'b> {
             &mut self.rng,
             &mut self.sequential,
             &mut self.expr_stack,
+            &mut self.weights,
         ) as usize;
         self.sequential.clear();
         self.loops.clear();
@@ -250,14 +336,14 @@ impl<'b> Expander<'b> {
                     let from = cont.take().unwrap_or(base);
                     let env = Env { at: &from, depth: call.depth, slots: &self.slots };
                     let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack, &env);
-                    let child = from.compose(&c);
+                    let child = from.compose(&c, &mut self.lins);
                     if flags & CONT_NEXT != 0 {
                         last = child;
                     }
                     if s.maxdepth > 0 && depth > s.maxdepth {
                         continue;
                     }
-                    if s.minsize > 0.0 && child.f.scale_factor() < s.minsize {
+                    if s.minsize > 0.0 && child.scale() < s.minsize {
                         continue;
                     }
                     if made >= MAX_EXPANSION_CALLS {
@@ -271,7 +357,7 @@ impl<'b> Expander<'b> {
                     let from = cont.take().unwrap_or(base);
                     let env = Env { at: &from, depth: call.depth, slots: &self.slots };
                     let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack, &env);
-                    last = from.compose(&c);
+                    last = from.compose(&c, &mut self.lins);
                 }
                 Op::Loop { step, end, chain, .. } | Op::LoopN { step, end, chain, .. } => {
                     let count = match op {
@@ -296,7 +382,7 @@ impl<'b> Expander<'b> {
                     };
                     let chain = chain & bundle::ops::LOOP_CHAIN != 0;
                     self.loops.push(LoopRec { remaining: count, step, saved_base: base, chain });
-                    base = from.compose(&c);
+                    base = from.compose(&c, &mut self.lins);
                     pc += 1;
                 }
                 Op::EndLoop { begin } => {
@@ -314,7 +400,7 @@ impl<'b> Expander<'b> {
                         let step = l.step;
                         let env = Env { at: &from, depth: call.depth, slots: &self.slots };
                         let c = eval_transform(b, step, &mut self.rng, &mut self.expr_stack, &env);
-                        base = from.compose(&c);
+                        base = from.compose(&c, &mut self.lins);
                         pc = begin as usize + 1;
                         // Runs count like calls, so a huge iterator is cut too.
                         made += 1;
@@ -492,6 +578,9 @@ struct Eval<'b> {
     stop_pc: Option<u32>,
     /// Convolution rule → the products `I[i]·A[i]·B[i]`.
     conv_cache: HashMap<u32, Rc<Vec<Frame>>>,
+    /// The non-uniform factors of this evaluation's states.
+    lins: Lins,
+    weights: Weights,
 }
 
 /// Evaluates a verified bundle from its start shape.
@@ -559,6 +648,8 @@ impl<'b> Eval<'b> {
                 _ => (s.duration as f64).max(0.0),
             },
             conv_cache: HashMap::new(),
+            lins: Lins::default(),
+            weights: Weights::new(b),
             stop_pc: None,
             needs_last: b.code.iter().any(|op| match op {
                 Op::Loop { chain, .. } | Op::LoopN { chain, .. } => chain & bundle::ops::LOOP_CHAIN != 0,
@@ -569,12 +660,14 @@ impl<'b> Eval<'b> {
                 .transforms
                 .iter()
                 .map(|t| match t {
-                    Transform::Const(c) => {
-                        let frame =
-                            Frame { q: Quat::from_array(c.q), qh: Quat::from_array(c.qh), u: Vec3::from_array(c.u) };
+                    // (Not for a non-uniform scale, whose normals need the inverse
+                    // transpose, nor for HSB, which is no delta.)
+                    Transform::Const(c) if c.n.is_none() && c.hsb.is_none() => {
+                        let frame = composite_frame(c);
                         let (lin, mirrored) = linear(&frame);
                         Some(XfInfo { frame, normal: lin * Vec3::from_array(s.normal), mirrored })
                     }
+                    Transform::Const(_) => None,
                     Transform::Dynamic { .. } => None,
                 })
                 .collect(),
@@ -596,6 +689,18 @@ impl<'b> Eval<'b> {
 }
 
 impl<'b> Eval<'b> {
+    /// `from` composed with transform `xf` (at `depth`, in the frame `slots[base..top]`).
+    #[inline(always)]
+    fn apply(&mut self, xf: u32, from: &State, depth: u32, base: u32, top: u32) -> State {
+        let b = self.b;
+        // A constant transform is composed where it lies (a composite is too big to copy).
+        if let Transform::Const(c) = &b.transforms[xf as usize] {
+            return from.compose(c, &mut self.lins);
+        }
+        let c = self.transform(xf, from, depth, base, top);
+        from.compose(&c, &mut self.lins)
+    }
+
     /// Transform `xf` at state `at` and `depth` in the frame `slots[base..top]`.
     #[inline]
     fn transform(&mut self, xf: u32, at: &State, depth: u32, base: u32, top: u32) -> Composite {
@@ -608,16 +713,31 @@ impl<'b> Eval<'b> {
     }
 
     /// Expression `e` at state `at` and `depth` in the frame `slots[base..top]`.
+    #[inline]
     fn value(&mut self, e: u32, at: &State, depth: u32, base: u32, top: u32) -> f64 {
         let slots = self.slots.get(base as usize..top as usize).unwrap_or(&[]);
-        Env { at, depth, slots }.eval(&self.b.exprs[e as usize], &mut self.rng, &mut self.expr_stack)
+        let code: &[ExprOp] = &self.b.exprs[e as usize];
+        if let Some(v) = expr::quick(code, slots) {
+            return v;
+        }
+        Env { at, depth, slots }.eval(code, &mut self.rng, &mut self.expr_stack)
     }
 
     /// The definition of `rule_idx` for a call in state `child` at `depth` whose
     /// arguments are `slots[args..]`.
     fn select(&mut self, rule_idx: u32, child: &State, depth: u32, args: usize) -> u32 {
         let slots = self.slots.get(args..).unwrap_or(&[]);
-        select_def(self.b, rule_idx, child, depth, slots, &mut self.rng, &mut self.sequential, &mut self.expr_stack)
+        select_def(
+            self.b,
+            rule_idx,
+            child,
+            depth,
+            slots,
+            &mut self.rng,
+            &mut self.sequential,
+            &mut self.expr_stack,
+            &mut self.weights,
+        )
     }
 
     /// Pushes a frame for a run that starts at `rule` (no caller passes arguments: the
@@ -647,7 +767,7 @@ impl<'b> Eval<'b> {
                 self.slots.truncate(slot_base as usize);
                 return;
             };
-            let base = State { f: start.f.compose(&f), ..start };
+            let base = start.then(&f, &self.lins);
             Act {
                 pc,
                 slot_base,
@@ -697,8 +817,7 @@ impl<'b> Eval<'b> {
                     let from = act.cont.take().unwrap_or(act.base);
                     let depth = act.depth + 1;
                     let parent_bone = act.bone;
-                    let c = self.transform(xf, &from, act.depth, act.slot_base, act.slot_top);
-                    let child = from.compose(&c);
+                    let child = self.apply(xf, &from, act.depth, act.slot_base, act.slot_top);
                     if flags & CONT_NEXT != 0 {
                         self.last = child;
                     }
@@ -729,7 +848,7 @@ impl<'b> Eval<'b> {
                             self.slots.truncate(args);
                             continue;
                         };
-                        let base = State { f: child.f.compose(&f), ..child };
+                        let base = child.then(&f, &self.lins);
                         let conv = Some(Box::new(Conv { frames, next: 1, pc, origin: child }));
                         stack.push(Act {
                             pc,
@@ -763,7 +882,7 @@ impl<'b> Eval<'b> {
                         });
                     }
                 }
-                Op::Draw { kind: 0, xf, flags: _, .. }
+                Op::Draw { kind: 0, xf, ns, profile, flags: _ }
                     if mode == Mode::Model && self.xf_info[xf as usize].is_some() =>
                 {
                     // VERTEX with a constant transform: position, normal and mirroring
@@ -773,11 +892,19 @@ impl<'b> Eval<'b> {
                         Some(c) => (c, linear(&c.f)),
                         None => (act.base, *act.base_lin.get_or_insert_with(|| linear(&act.base.f))),
                     };
+                    let Transform::Const(c) = &b.transforms[xf as usize] else { continue };
+                    if from.lin != 0 {
+                        // Under a non-uniform scale, the general path (a normal takes the
+                        // inverse transpose of the whole linear map).
+                        let s = from.compose(c, &mut self.lins);
+                        self.last = s;
+                        let bone = act.bone;
+                        self.draw(0, s, ns, profile, mode, bone);
+                        continue;
+                    }
                     let Some(x) = &self.xf_info[xf as usize] else { continue };
                     let p = from.f.u + lin.0 * x.frame.u;
                     let n = (lin.0 * x.normal).normalize_or(Vec3::Z);
-                    let c = &self.b.transforms[xf as usize];
-                    let Transform::Const(c) = c else { continue };
                     let add = |a: [f32; 4], b: [f32; 4]| [a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]];
                     let color = add(from.color, c.color).map(|v| v.clamp(0.0, 1.0));
                     let weight = add(from.weight, c.weight);
@@ -793,14 +920,14 @@ impl<'b> Eval<'b> {
                             color: add(from.color, c.color),
                             weight,
                             fps: from.fps + c.fps,
+                            ..from
                         };
                     }
                 }
                 Op::Draw { kind, xf, ns, profile, flags: _ } => {
                     act.pc += 1;
                     let from = act.cont.take().unwrap_or(act.base);
-                    let c = self.transform(xf, &from, act.depth, act.slot_base, act.slot_top);
-                    let s = from.compose(&c);
+                    let s = self.apply(xf, &from, act.depth, act.slot_base, act.slot_top);
                     self.last = s;
                     let bone = act.bone;
                     self.draw(kind, s, ns, profile, mode, bone);
@@ -808,8 +935,7 @@ impl<'b> Eval<'b> {
                 Op::Iso { iso, xf, flags: _ } => {
                     act.pc += 1;
                     let from = act.cont.take().unwrap_or(act.base);
-                    let c = self.transform(xf, &from, act.depth, act.slot_base, act.slot_top);
-                    let s = from.compose(&c);
+                    let s = self.apply(xf, &from, act.depth, act.slot_base, act.slot_top);
                     self.last = s;
                     if mode == Mode::Model {
                         let bone = act.bone;
@@ -832,14 +958,14 @@ impl<'b> Eval<'b> {
                         continue;
                     }
                     // Context Free's `loop`: the first run is under the frame itself.
-                    let c = if chain & bundle::ops::LOOP_FIRST_PLAIN != 0 {
-                        Composite::IDENTITY
+                    let next = if chain & bundle::ops::LOOP_FIRST_PLAIN != 0 {
+                        from.compose(&Composite::IDENTITY, &mut self.lins)
                     } else {
-                        self.transform(step, &from, act.depth, act.slot_base, act.slot_top)
+                        self.apply(step, &from, act.depth, act.slot_base, act.slot_top)
                     };
                     let chain = chain & bundle::ops::LOOP_CHAIN != 0;
                     loops.push(LoopRec { remaining: count, step, saved_base: act.base, chain });
-                    act.base = from.compose(&c);
+                    act.base = next;
                     act.base_lin = None;
                     if chain {
                         // A run that reaches no drawable ends where it started.
@@ -860,8 +986,7 @@ impl<'b> Eval<'b> {
                         let chain = l.chain;
                         let from = if chain { self.last } else { act.base };
                         let step = l.step;
-                        let c = self.transform(step, &from, act.depth, act.slot_base, act.slot_top);
-                        act.base = from.compose(&c);
+                        act.base = self.apply(step, &from, act.depth, act.slot_base, act.slot_top);
                         act.base_lin = None;
                         if chain {
                             self.last = act.base;
@@ -892,22 +1017,22 @@ impl<'b> Eval<'b> {
                 }
                 Op::Arg { expr } => {
                     act.pc += 1;
-                    let at = act.cont.unwrap_or(act.base);
-                    let v = self.value(expr, &at, act.depth, act.slot_base, act.slot_top);
+                    let at = act.cont.as_ref().unwrap_or(&act.base);
+                    let v = self.value(expr, at, act.depth, act.slot_base, act.slot_top);
                     self.slots.push(v);
                 }
                 Op::Set { slot, expr } => {
                     act.pc += 1;
-                    let at = act.cont.unwrap_or(act.base);
-                    let v = self.value(expr, &at, act.depth, act.slot_base, act.slot_top);
+                    let at = act.cont.as_ref().unwrap_or(&act.base);
+                    let v = self.value(expr, at, act.depth, act.slot_base, act.slot_top);
                     if let Some(s) = self.slots.get_mut(act.slot_base as usize + slot as usize) {
                         *s = v;
                     }
                 }
                 Op::Jump { target } => act.pc = target,
                 Op::JumpIfNot { expr, target } => {
-                    let at = act.cont.unwrap_or(act.base);
-                    let v = self.value(expr, &at, act.depth, act.slot_base, act.slot_top);
+                    let at = act.cont.as_ref().unwrap_or(&act.base);
+                    let v = self.value(expr, at, act.depth, act.slot_base, act.slot_top);
                     act.pc = if expr::truthy(v) { act.pc + 1 } else { target };
                 }
                 Op::Ret {} => {
@@ -916,7 +1041,7 @@ impl<'b> Eval<'b> {
                     if let Some(conv) = act.conv.as_mut() {
                         if let Some(f) = conv.frames.get(conv.next) {
                             // The next run of a convolution body, under R's frame · frame i.
-                            act.base = State { f: conv.origin.f.compose(f), ..conv.origin };
+                            act.base = conv.origin.then(f, &self.lins);
                             act.base_lin = None;
                             act.cont = None;
                             act.pc = conv.pc;
@@ -968,7 +1093,7 @@ impl<'b> Eval<'b> {
             self.limits.maxdepth += 1;
             return false;
         }
-        if s.minsize > 0.0 && child.f.scale_factor() < s.minsize {
+        if s.minsize > 0.0 && child.scale() < s.minsize {
             self.limits.minsize += 1;
             return false;
         }
@@ -1184,12 +1309,12 @@ impl<'b> Eval<'b> {
         let ns_i = ns as usize;
         match kind {
             0 => {
-                let n = s.f.apply_normal(Vec3::from_array(self.b.settings.normal));
+                let n = self.lins.affine(&s).apply_normal(Vec3::from_array(self.b.settings.normal));
                 let m = &mut self.out.mesh;
                 m.push_vertex(s.f.u, n, s.display_color(), s.weight, bone);
                 let k = m.n_vertices() as u32;
                 if k.is_multiple_of(3) {
-                    m.push_triangle([k - 3, k - 2, k - 1], s.f.mirrored());
+                    m.push_triangle([k - 3, k - 2, k - 1], s.mirrored());
                 }
             }
             1 => {
@@ -1199,7 +1324,7 @@ impl<'b> Eval<'b> {
                     let p = |i: usize| Vec3::from_array(m.positions[i]);
                     let (a, b, c) = (p(k - 3), p(k - 2), p(k - 1));
                     let mut n = (b - a).cross(c - a).normalize_or_zero();
-                    if s.f.mirrored() {
+                    if s.mirrored() {
                         n = -n;
                     }
                     for i in k - 3..k {
@@ -1225,14 +1350,31 @@ impl<'b> Eval<'b> {
                         let (ca, cb) = (pen.state.display_color(), s.display_color());
                         let m = &mut self.out.sweeps;
                         let first = m.n_vertices();
+                        // Rings carry their end's non-uniform factor (an elliptic tube
+                        // from a round profile); BLENDTO's spline, SLINETO's turn and
+                        // ALINETO's averaging act on the frames' similarity parts.
+                        let (na, nb) = (self.lins.affine(&pen.state).n, self.lins.affine(&s).n);
+                        let ring = |f: Frame, n| Affine { f, n };
                         match kind {
-                            3 => sweep::sweep(m, &pts, &pen.state.f, &s.f, ca, cb, bone),
+                            3 => sweep::sweep(m, &pts, &ring(pen.state.f, na), &ring(s.f, nb), ca, cb, bone),
                             4 => {
                                 let frames = blend::blend_frames(&pen.state.f, &s.f, BLEND_SEGMENTS);
-                                sweep::sweep_path(m, &pts, &frames, ca, cb, bone);
+                                let last = frames.len().saturating_sub(1);
+                                let rings: Vec<Affine> = frames
+                                    .iter()
+                                    .enumerate()
+                                    .map(|(i, f)| ring(*f, if i == last { nb } else { na }))
+                                    .collect();
+                                sweep::sweep_path(m, &pts, &rings, ca, cb, bone);
                             }
-                            5 => sweep::sweep_oriented(m, &pts, &pen.state.f, &s.f, ca, cb, bone),
-                            _ => sweep::sweep_averaged(m, &pts, &pen.state.f, &s.f, ca, cb, bone),
+                            _ => {
+                                let (a, b) = if kind == 5 {
+                                    sweep::oriented_pair(&pen.state.f, &s.f)
+                                } else {
+                                    sweep::averaged_pair(&pen.state.f, &s.f)
+                                };
+                                sweep::sweep(m, &pts, &ring(a, na), &ring(b, nb), ca, cb, bone)
+                            }
                         }
                         // The first ring stays with the bone the pen started in, so a
                         // tube from outside a bone into it stretches as the bone moves.
@@ -1266,8 +1408,8 @@ impl<'b> Eval<'b> {
                         p.x,
                         p.y,
                         p.z,
-                        s.f.scale_factor(),
-                        s.f.mirrored(),
+                        s.scale(),
+                        s.mirrored(),
                         s.color,
                         s.weight
                     ));
@@ -1326,10 +1468,10 @@ impl<'b> Eval<'b> {
         self.out.instances.push(Instance {
             name,
             mesh,
-            transform: s.f.to_mat4(),
-            scale: s.f.scale_factor(),
+            transform: self.lins.affine(s).to_mat4(),
+            scale: s.scale(),
             color: s.display_color(),
-            mirrored: s.f.mirrored(),
+            mirrored: s.mirrored(),
             bone,
         });
     }
@@ -1411,9 +1553,13 @@ struct Env<'a> {
 }
 
 impl Env<'_> {
+    #[inline]
     fn eval(&self, code: &[ExprOp], rng: &mut Pcg, stack: &mut Vec<f64>) -> f64 {
+        if let Some(v) = expr::quick(code, self.slots) {
+            return v;
+        }
         let p = self.at.f.u;
-        let vars = [p.x as f64, p.y as f64, p.z as f64, self.depth as f64, self.at.f.scale_factor() as f64, 0.0];
+        let vars = [p.x as f64, p.y as f64, p.z as f64, self.depth as f64, self.at.scale() as f64, 0.0];
         expr::eval(code, &vars, self.slots, rng, stack)
     }
 }
@@ -1425,7 +1571,7 @@ fn eval_transform(b: &Bundle, xf: u32, rng: &mut Pcg, stack: &mut Vec<f64>, env:
         Transform::Dynamic { adjs, divisor } => {
             // As `compose_prims` over the evaluated arguments (same operations, same
             // order of random draws), without building the argument lists.
-            let mut f = Frame::identity();
+            let mut f = Affine::identity();
             let mut c = Composite::IDENTITY;
             for a in adjs {
                 let mut vals = [0.0f32; 3];
@@ -1445,11 +1591,23 @@ fn eval_transform(b: &Bundle, xf: u32, rng: &mut Pcg, stack: &mut Vec<f64>, env:
                 }
                 apply_prim(&mut f, &mut c, a.kind, a.axis, &vals, a.args.len(), *divisor);
             }
-            c.q = f.q.to_array();
-            c.qh = f.qh.to_array();
-            c.u = f.u.to_array();
+            set_frame(&mut c, &f);
             c
         }
+    }
+}
+
+/// The weights of definitions computed per call (`rule leaf(int n) (1 / (n + 1))`):
+/// which rules have any, and room for one call's values.
+struct Weights {
+    dynamic: Vec<bool>,
+    values: Vec<f32>,
+}
+
+impl Weights {
+    fn new(b: &Bundle) -> Weights {
+        let dynamic = b.rules.iter().map(|r| r.defs.iter().any(|d| d.weight_expr != NONE)).collect();
+        Weights { dynamic, values: Vec::new() }
     }
 }
 
@@ -1465,33 +1623,59 @@ fn select_def(
     rng: &mut Pcg,
     sequential: &mut HashMap<u32, (usize, u32)>,
     stack: &mut Vec<f64>,
+    weights: &mut Weights,
 ) -> u32 {
     let rule = &b.rules[rule_idx as usize];
     let defs = &rule.defs;
     if defs.len() == 1 {
         return defs[0].start;
     }
+    let p = child.f.u;
+    let vars = || [p.x as f64, p.y as f64, p.z as f64, depth as f64, child.scale() as f64, 0.0];
+    // Weights over the parameters, each evaluated once per call, in definition order
+    // (so `rand()` in a weight draws the same numbers whichever definition wins).
+    let dynamic = weights.dynamic.get(rule_idx as usize).copied().unwrap_or(false);
+    if dynamic {
+        weights.values.clear();
+        let vars = vars();
+        for d in defs {
+            let w = match b.exprs.get(d.weight_expr as usize) {
+                Some(code) if d.weight_expr != NONE => {
+                    let v = expr::eval(code, &vars, args, rng, stack);
+                    if v.is_finite() {
+                        v as f32
+                    } else {
+                        0.0
+                    }
+                }
+                _ => d.weight,
+            };
+            weights.values.push(w);
+        }
+    }
+    let values = &weights.values;
+    let weight = |i: usize| if dynamic { values[i] } else { defs[i].weight };
     let threshold = |v: f64| -> usize {
         // Smallest weight ≥ v, else the largest (SPEC resolved semantics 5).
         let mut best: Option<usize> = None;
-        for (i, d) in defs.iter().enumerate() {
-            if d.weight as f64 >= v && best.is_none_or(|b| d.weight < defs[b].weight) {
+        for i in 0..defs.len() {
+            if weight(i) as f64 >= v && best.is_none_or(|b| weight(i) < weight(b)) {
                 best = Some(i);
             }
         }
-        best.unwrap_or_else(|| (0..defs.len()).fold(0, |b, i| if defs[i].weight > defs[b].weight { i } else { b }))
+        best.unwrap_or_else(|| (0..defs.len()).fold(0, |b, i| if weight(i) > weight(b) { i } else { b }))
     };
     let i = match rule.selector {
         Selector::Random => {
-            let total: f64 = defs.iter().map(|d| d.weight.max(0.0) as f64).sum();
+            let total: f64 = (0..defs.len()).map(|i| weight(i).max(0.0) as f64).sum();
             if total <= 0.0 {
                 0
             } else {
                 let r = rng.uniform() * total;
                 let mut acc = 0.0;
                 let mut pick = defs.len() - 1;
-                for (i, d) in defs.iter().enumerate() {
-                    acc += d.weight.max(0.0) as f64;
+                for i in 0..defs.len() {
+                    acc += weight(i).max(0.0) as f64;
                     if r < acc {
                         pick = i;
                         break;
@@ -1502,28 +1686,28 @@ fn select_def(
         }
         Selector::Depth => threshold(depth as f64),
         Selector::Scale => {
-            let s = child.f.scale_factor() as f64;
+            let s = child.scale() as f64;
             let mut best: Option<usize> = None;
-            for (i, d) in defs.iter().enumerate() {
-                if (d.weight as f64) <= s && best.is_none_or(|b| d.weight > defs[b].weight) {
+            for i in 0..defs.len() {
+                if (weight(i) as f64) <= s && best.is_none_or(|b| weight(i) > weight(b)) {
                     best = Some(i);
                 }
             }
-            best.unwrap_or_else(|| (0..defs.len()).fold(0, |b, i| if defs[i].weight < defs[b].weight { i } else { b }))
+            best.unwrap_or_else(|| (0..defs.len()).fold(0, |b, i| if weight(i) < weight(b) { i } else { b }))
         }
         Selector::Sequential => {
             let n = defs.len();
             let entry = sequential.entry(rule_idx).or_insert((0, 0));
             // Skip definitions with a zero count (at most one full cycle).
             for _ in 0..n {
-                if (defs[entry.0].weight.max(0.0) as u32) > entry.1 {
+                if (weight(entry.0).max(0.0) as u32) > entry.1 {
                     break;
                 }
                 *entry = ((entry.0 + 1) % n, 0);
             }
             let i = entry.0;
             entry.1 += 1;
-            if entry.1 >= defs[i].weight.max(0.0) as u32 {
+            if entry.1 >= weight(i).max(0.0) as u32 {
                 *entry = ((i + 1) % n, 0);
             }
             i
@@ -1535,9 +1719,7 @@ fn select_def(
             i
         }
         Selector::Function(e) => {
-            let p = child.f.u;
-            let vars = [p.x as f64, p.y as f64, p.z as f64, depth as f64, child.f.scale_factor() as f64, 0.0];
-            let v = expr::eval(&b.exprs[e as usize], &vars, args, rng, stack);
+            let v = expr::eval(&b.exprs[e as usize], &vars(), args, rng, stack);
             if v.is_finite() {
                 threshold(v)
             } else {
@@ -1553,7 +1735,7 @@ fn select_def(
 /// The compiler folds constant lists with this same function, so run-time and
 /// compile-time composites agree bit for bit.
 pub fn compose_prims(prims: &[bundle::PrimAdj], divisor: f32) -> Composite {
-    let mut f = Frame::identity();
+    let mut f = Affine::identity();
     let mut c = Composite::IDENTITY;
     for p in prims {
         let mut vals = [0.0f32; 3];
@@ -1564,16 +1746,63 @@ pub fn compose_prims(prims: &[bundle::PrimAdj], divisor: f32) -> Composite {
         }
         apply_prim(&mut f, &mut c, p.kind, p.axis, &vals, p.args.len(), divisor);
     }
-    c.q = f.q.to_array();
-    c.qh = f.qh.to_array();
-    c.u = f.u.to_array();
+    set_frame(&mut c, &f);
     c
+}
+
+/// The frame of a composite (without its non-uniform factor, [`Composite::n`]).
+#[inline]
+fn composite_frame(c: &Composite) -> Frame {
+    Frame { q: Quat::from_array(c.q), qh: Quat::from_array(c.qh), u: Vec3::from_array(c.u) }
+}
+
+/// Stores `a` in composite `c`.
+fn set_frame(c: &mut Composite, a: &Affine) {
+    c.q = a.f.q.to_array();
+    c.qh = a.f.qh.to_array();
+    c.u = a.f.u.to_array();
+    c.n = a.n.map(|n| n.to_cols_array());
+}
+
+/// Applies HSB adjustments `h` (see [`Composite::hsb`]) to an RGBA colour: the colour
+/// is clamped to 0..1 (HSB is defined there), converted to hue, saturation and
+/// brightness (HSV), adjusted, and converted back. Alpha is kept.
+fn apply_hsb(c: [f32; 4], h: &[f32; 5]) -> [f32; 4] {
+    let [r, g, b] = [c[0], c[1], c[2]].map(|v| v.clamp(0.0, 1.0));
+    let max = r.max(g).max(b);
+    let min = r.min(g).min(b);
+    let d = max - min;
+    let hue = if d <= 0.0 {
+        0.0
+    } else if max == r {
+        60.0 * ((g - b) / d).rem_euclid(6.0)
+    } else if max == g {
+        60.0 * ((b - r) / d + 2.0)
+    } else {
+        60.0 * ((r - g) / d + 4.0)
+    };
+    let sat = if max > 0.0 { d / max } else { 0.0 };
+    let hue = (hue + h[0]).rem_euclid(360.0);
+    let sat = (sat * h[1] + h[2]).clamp(0.0, 1.0);
+    let v = (max * h[3] + h[4]).clamp(0.0, 1.0);
+    // HSV to RGB.
+    let k = |n: f32| {
+        let k = (n + hue / 60.0).rem_euclid(6.0);
+        v - v * sat * k.min(4.0 - k).clamp(0.0, 1.0)
+    };
+    [k(5.0), k(3.0), k(1.0), c[3]]
+}
+
+/// Composes the affine channel map `(m, a)` (`v ↦ m v + a`) after the one at `h[i..i+2]`.
+fn then_affine(h: &mut [f32; 5], i: usize, m: f32, a: f32) {
+    h[i + 1] = m * h[i + 1] + a;
+    h[i] *= m;
 }
 
 /// Applies one primitive adjustment with argument values `args` (`n_args` of them
 /// given; missing ones are 0) to the frame `f` and the deltas `c` (see [`compose_prims`]).
 #[inline]
-fn apply_prim(f: &mut Frame, c: &mut Composite, kind: u8, axis: u8, args: &[f32; 3], n_args: usize, divisor: f32) {
+fn apply_prim(f: &mut Affine, c: &mut Composite, kind: u8, axis: u8, args: &[f32; 3], n_args: usize, divisor: f32) {
     let arg = |i: usize| if i < n_args { args[i] } else { 0.0 };
     match kind {
         0 => {
@@ -1596,8 +1825,14 @@ fn apply_prim(f: &mut Frame, c: &mut Composite, kind: u8, axis: u8, args: &[f32;
             }
         }
         2 => {
-            let s = arg(0);
-            *f = f.scale(if divisor == 1.0 { s } else { s.signum() * s.abs().powf(1.0 / divisor) });
+            let root = |s: f32| if divisor == 1.0 { s } else { s.signum() * s.abs().powf(1.0 / divisor) };
+            *f = if n_args >= 2 {
+                // `s X Y [Z]` (Z defaults to 1, as Context Free's `s X Y`).
+                let z = if n_args >= 3 { arg(2) } else { 1.0 };
+                f.scale3(Vec3::new(root(arg(0)), root(arg(1)), root(z)))
+            } else {
+                f.scale(root(arg(0)))
+            };
         }
         3 => {
             let n = match axis {
@@ -1609,7 +1844,102 @@ fn apply_prim(f: &mut Frame, c: &mut Composite, kind: u8, axis: u8, args: &[f32;
             *f = f.reflect(n);
         }
         4 => c.color[axis as usize & 3] += arg(0) / divisor,
+        7 => {
+            // Hue, saturation (axis 1) or brightness (axis 2), Context Free's
+            // semantics: `hue h` adds h degrees; `sat s`/`b s` with s in -1..1 move the
+            // channel the fraction s of the way to 1 (s > 0) or to 0 (s < 0). An
+            // iterator's step is the divisor-th root of that map, so the steps of
+            // `M/N * {sat s}` compose to exactly `sat s`.
+            let h = c.hsb.get_or_insert(bundle::HSB_IDENTITY);
+            if axis == 0 {
+                h[0] += arg(0) / divisor;
+            } else {
+                let s = arg(0).clamp(-1.0, 1.0);
+                let keep = if divisor == 1.0 { 1.0 - s.abs() } else { (1.0 - s.abs()).powf(1.0 / divisor) };
+                let i = if axis == 1 { 1 } else { 3 };
+                then_affine(h, i, keep, if s > 0.0 { 1.0 - keep } else { 0.0 });
+            }
+        }
         5 => c.weight[axis as usize & 3] += arg(0) / divisor,
         _ => c.fps += arg(0) / divisor,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn affine(c: &Composite) -> Affine {
+        Affine { f: composite_frame(c), n: c.n.map(|n| Mat3::from_cols_array(&n)) }
+    }
+
+    fn close(a: [f32; 4], b: [f32; 4]) -> bool {
+        a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-5)
+    }
+
+    fn hsb(kind_axis: &[(u8, f32)], divisor: f32) -> [f32; 5] {
+        let prims: Vec<bundle::PrimAdj> = kind_axis
+            .iter()
+            .map(|&(axis, v)| bundle::PrimAdj { kind: 7, axis, args: vec![bundle::Arg::Const(v)] })
+            .collect();
+        compose_prims(&prims, divisor).hsb.expect("an HSB part")
+    }
+
+    #[test]
+    fn hue_turns_and_saturation_and_brightness_move_toward_their_ends() {
+        let red = [1.0, 0.0, 0.0, 1.0];
+        assert!(close(apply_hsb(red, &hsb(&[(0, 120.0)], 1.0)), [0.0, 1.0, 0.0, 1.0]));
+        assert!(close(apply_hsb(red, &hsb(&[(0, -120.0)], 1.0)), [0.0, 0.0, 1.0, 1.0]));
+        // Brightness halfway to 0, then saturation halfway to 0 (Context Free's `b -0.5 sat -0.5`).
+        assert!(close(apply_hsb(red, &hsb(&[(2, -0.5)], 1.0)), [0.5, 0.0, 0.0, 1.0]));
+        assert!(close(apply_hsb(red, &hsb(&[(1, -0.5)], 1.0)), [1.0, 0.5, 0.5, 1.0]));
+        // White has no hue; saturating it toward 1 gives red (hue 0).
+        assert!(close(apply_hsb([1.0; 4], &hsb(&[(0, 77.0)], 1.0)), [1.0; 4]));
+        assert!(close(apply_hsb([1.0; 4], &hsb(&[(1, 1.0)], 1.0)), [1.0, 0.0, 0.0, 1.0]));
+        // Alpha is kept; out-of-range channels are clamped first.
+        assert!(close(apply_hsb([2.0, -1.0, 0.0, 0.25], &hsb(&[(0, 0.0)], 1.0)), [1.0, 0.0, 0.0, 0.25]));
+    }
+
+    #[test]
+    fn a_list_of_hsb_changes_folds_into_one_and_iterator_steps_compose_to_the_whole() {
+        // Two `sat 0.5` in a row: 0 → 0.5 → 0.75.
+        let h = hsb(&[(1, 0.5), (1, 0.5)], 1.0);
+        assert!((h[1] * 0.0 + h[2] - 0.75).abs() < 1e-6);
+        // Four steps of `4/4 * {b -0.5}`... each the 4th root: together exactly `b -0.5`.
+        let whole = hsb(&[(2, -0.5)], 1.0);
+        let step = hsb(&[(2, -0.5)], 4.0);
+        let (mut m, mut a) = (1.0f32, 0.0f32);
+        for _ in 0..4 {
+            (m, a) = (step[3] * m, step[3] * a + step[4]);
+        }
+        assert!((m - whole[3]).abs() < 1e-6 && (a - whole[4]).abs() < 1e-6);
+        let step = hsb(&[(1, 0.6)], 3.0);
+        let (mut m, mut a) = (1.0f32, 0.0f32);
+        for _ in 0..3 {
+            (m, a) = (step[1] * m, step[1] * a + step[2]);
+        }
+        let whole = hsb(&[(1, 0.6)], 1.0);
+        assert!((m - whole[1]).abs() < 1e-5 && (a - whole[2]).abs() < 1e-5);
+    }
+
+    #[test]
+    fn a_non_uniform_scale_is_per_axis_and_its_steps_are_roots() {
+        let prims = [bundle::PrimAdj {
+            kind: 2,
+            axis: 0,
+            args: vec![bundle::Arg::Const(8.0), bundle::Arg::Const(1.0), bundle::Arg::Const(27.0)],
+        }];
+        let f = affine(&compose_prims(&prims, 1.0));
+        assert!((f.apply_vector(Vec3::X) - Vec3::new(8.0, 0.0, 0.0)).length() < 1e-5);
+        assert!((f.apply_vector(Vec3::Z) - Vec3::new(0.0, 0.0, 27.0)).length() < 1e-4);
+        let step = affine(&compose_prims(&prims, 3.0));
+        let three = step.compose(&step).compose(&step);
+        for v in [Vec3::X, Vec3::Y, Vec3::Z] {
+            assert!((three.apply_vector(v) - f.apply_vector(v)).length() < 1e-4);
+        }
+        // `s X Y` leaves z alone.
+        let two = [bundle::PrimAdj { kind: 2, axis: 0, args: vec![bundle::Arg::Const(0.1), bundle::Arg::Const(1.0)] }];
+        let g = affine(&compose_prims(&two, 1.0));
+        assert!((g.apply_vector(Vec3::new(1.0, 1.0, 1.0)) - Vec3::new(0.1, 1.0, 1.0)).length() < 1e-6);
     }
 }

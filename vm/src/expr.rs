@@ -139,6 +139,22 @@ pub trait Random {
     fn normal(&mut self) -> f64;
 }
 
+/// The value of the shapes of expression a call argument or a condition over
+/// parameters nearly always has (`n`, `n - 1`, `len * 0.8`, `n > 0`, a constant),
+/// computed without the stack or the variables; `None` for any other code. Gives
+/// exactly what [`eval`] gives.
+#[inline(always)]
+pub fn quick(code: &[ExprOp], slots: &[f64]) -> Option<f64> {
+    let slot = |i: u16| slots.get(i as usize).copied().unwrap_or(f64::NAN);
+    match *code {
+        [ExprOp::Slot(i)] => Some(slot(i)),
+        [ExprOp::Slot(i), ExprOp::Push(c), ExprOp::Bin(o)] => Some(binop(o, slot(i), c)),
+        [ExprOp::Push(c), ExprOp::Slot(i), ExprOp::Bin(o)] => Some(binop(o, c, slot(i))),
+        [ExprOp::Push(c)] => Some(c),
+        _ => None,
+    }
+}
+
 /// Evaluates verified expression code with `vars` (indexed like [`VARIABLES`]) and
 /// the running rule's frame `slots`. Verified code never underflows; on malformed
 /// code (or a slot beyond `slots`) the result is NaN, never a panic.

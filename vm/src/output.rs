@@ -33,6 +33,7 @@ pub struct Mesh {
 
 impl Mesh {
     /// Appends one vertex and returns its index.
+    #[inline]
     pub fn push_vertex(&mut self, p: Vec3, n: Vec3, color: [f32; 4], weight: [f32; 4], bone: u32) -> u32 {
         let i = self.positions.len();
         self.positions.push(p.to_array());
@@ -60,6 +61,7 @@ impl Mesh {
     }
 
     /// Appends a triangle.
+    #[inline]
     pub fn push_triangle(&mut self, t: [u32; 3], mirrored: bool) {
         self.triangles.push(t);
         self.mirrored.push(mirrored);

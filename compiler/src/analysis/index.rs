@@ -426,6 +426,9 @@ impl Walker<'_, '_> {
                     }
                     self.bind(&p.name, format!("parameter {}", p.ty.text));
                 }
+                if let Some(e) = &r.weight_expr {
+                    self.expr(e);
+                }
                 self.body(&r.body, ns);
                 self.scope.clear();
             }

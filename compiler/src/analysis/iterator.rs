@@ -138,20 +138,15 @@ fn adjustment(a: &Adj, n: Option<f64>, cx: &StepContext) -> Option<String> {
             std::iter::once(name.clone()).chain(raw).collect::<Vec<_>>().join(" ")
         }
         AdjKind::Scale => {
-            let v = match (args.into_iter().next(), n) {
-                (Some(Value::Known(k)), Some(n)) => fmt_num(k.powf(1.0 / n)),
-                (Some(Value::Known(k)), None) => format!("{}^(1/?)", fmt_num(k)),
-                (Some(Value::Text(t)), Some(n)) => {
-                    if n == 1.0 {
-                        t
-                    } else {
-                        format!("{t}^(1/{})", fmt_num(n))
-                    }
-                }
-                (Some(Value::Text(t)), None) => format!("{t}^(1/?)"),
-                (None, _) => String::new(),
+            // The n-th root of each factor.
+            let root = |v: Value| match (v, n) {
+                (Value::Known(k), Some(n)) => fmt_num(k.powf(1.0 / n)),
+                (Value::Known(k), None) => format!("{}^(1/?)", fmt_num(k)),
+                (Value::Text(t), Some(n)) if n == 1.0 => t,
+                (Value::Text(t), Some(n)) => format!("{t}^(1/{})", fmt_num(n)),
+                (Value::Text(t), None) => format!("{t}^(1/?)"),
             };
-            format!("{name} {v}")
+            std::iter::once(name.clone()).chain(args.into_iter().map(root)).collect::<Vec<_>>().join(" ")
         }
         AdjKind::Turn(..) if args.is_empty() => format!("{name} {}", divided(Value::Known(90.0))),
         _ => {

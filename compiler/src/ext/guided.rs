@@ -373,6 +373,15 @@ fn skeleton_rule_ok(k: &Skel, cx: &CheckCx, diags: &mut Vec<Diagnostic>) {
             );
             return;
         }
+        if let Some(at) = first_non_uniform_scale(&r.body, cx) {
+            diags.push(
+                Diagnostic::error("E0714", at, format!("skeleton rule `{}` scales non-uniformly", k.full))
+                    .with_label("a skeleton call keeps a similarity frame: one scale for all three axes")
+                    .with_secondary(k.at, "declared a skeleton rule here")
+                    .with_note("scale the geometry rules the skeleton calls instead, or use one factor (`s S`)"),
+            );
+            return;
+        }
         if let Some(at) = first_drawable(&r.body, cx) {
             diags.push(
                 Diagnostic::error("E0701", at, format!("skeleton rule `{}` draws", k.full))
@@ -395,6 +404,22 @@ fn body_calls<'b>(items: &'b [BodyItem], out: &mut Vec<(&'b Name, Option<&'b cra
 }
 
 /// The span of the first drawable call in a body.
+/// The first `s X Y [Z]` in a body.
+fn first_non_uniform_scale(items: &[BodyItem], cx: &CheckCx) -> Option<Span> {
+    let mut at = None;
+    crate::ast::walk_body(items, &mut |it| {
+        let adj = match &it.kind {
+            BodyKind::Call { adj, .. } | BodyKind::Loop { adj, .. } | BodyKind::Iterate { adj, .. } => adj,
+            _ => return,
+        };
+        let scale = |a: &&crate::ast::Adj| {
+            a.args.len() > 1 && cx.sym.components.adj_kind(&a.name.text) == Some(crate::check::AdjKind::Scale)
+        };
+        at = at.or_else(|| adj.adjs.iter().find(scale).map(|a| a.span));
+    });
+    at
+}
+
 fn first_drawable(items: &[BodyItem], cx: &CheckCx) -> Option<Span> {
     let mut calls = Vec::new();
     body_calls(items, &mut calls);

@@ -121,10 +121,25 @@ fn encode_composite(w: &mut W, c: &Composite) {
     w.f32s(&c.color);
     w.f32s(&c.weight);
     w.f32(c.fps);
+    // Flags: 1 = non-uniform factor follows, 2 = HSB adjustments follow.
+    w.u8(u8::from(c.n.is_some()) | (u8::from(c.hsb.is_some()) << 1));
+    if let Some(n) = &c.n {
+        w.f32s(n);
+    }
+    if let Some(h) = &c.hsb {
+        w.f32s(h);
+    }
 }
 
 fn decode_composite(r: &mut R) -> Result<Composite, LoadError> {
-    Ok(Composite { q: r.f32s()?, qh: r.f32s()?, u: r.f32s()?, color: r.f32s()?, weight: r.f32s()?, fps: r.f32()? })
+    let (q, qh, u, color, weight, fps) = (r.f32s()?, r.f32s()?, r.f32s()?, r.f32s()?, r.f32s()?, r.f32()?);
+    let flags = r.u8()?;
+    if flags > 3 {
+        return Err(r.err("unknown composite flags"));
+    }
+    let n = if flags & 1 != 0 { Some(r.f32s()?) } else { None };
+    let hsb = if flags & 2 != 0 { Some(r.f32s()?) } else { None };
+    Ok(Composite { q, qh, u, color, weight, fps, n, hsb })
 }
 
 /// Encodes a bundle to bytes (deterministic).
@@ -236,6 +251,7 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
         w.len(r.defs.len());
         for d in &r.defs {
             w.f32(d.weight);
+            w.u32(d.weight_expr);
             w.u32(d.start);
         }
         w.len(r.transforms.len());
@@ -474,10 +490,10 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
             5 => Selector::Function(r.u32()?),
             t => return Err(r.err(&format!("unknown selector {t}"))),
         };
-        let m = r.len(8)?;
+        let m = r.len(12)?;
         let mut defs = Vec::with_capacity(m);
         for _ in 0..m {
-            defs.push(Def { weight: r.f32()?, start: r.u32()? });
+            defs.push(Def { weight: r.f32()?, weight_expr: r.u32()?, start: r.u32()? });
         }
         let m = r.len(4)?;
         let mut tr = Vec::with_capacity(m);

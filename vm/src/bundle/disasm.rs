@@ -15,6 +15,12 @@ fn composite(c: &Composite) -> String {
     if c.fps != 0.0 {
         let _ = write!(s, " fps+={}", c.fps);
     }
+    if let Some(n) = &c.n {
+        let _ = write!(s, " N=({})", f(n));
+    }
+    if let Some(h) = &c.hsb {
+        let _ = write!(s, " hue+={} sat*={}+{} b*={}+{}", h[0], h[1], h[2], h[3], h[4]);
+    }
     s
 }
 
@@ -112,7 +118,14 @@ pub fn disassemble(b: &Bundle) -> String {
     }
     let _ = writeln!(o, "\n; rules");
     for (i, r) in b.rules.iter().enumerate() {
-        let defs: Vec<String> = r.defs.iter().map(|d| format!("@{} w={}", d.start, d.weight)).collect();
+        let defs: Vec<String> = r
+            .defs
+            .iter()
+            .map(|d| match b.exprs.get(d.weight_expr as usize) {
+                Some(e) if d.weight_expr != NONE => format!("@{} w=({})", d.start, expr_text(e)),
+                _ => format!("@{} w={}", d.start, d.weight),
+            })
+            .collect();
         let params = if r.params.is_empty() {
             if r.frame > 0 {
                 format!(" frame={}", r.frame)

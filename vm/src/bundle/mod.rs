@@ -23,7 +23,7 @@ use crate::expr::ExprOp;
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"MDGB";
 /// Format version; bumped on any change to the layout.
-pub const VERSION: u16 = 4;
+pub const VERSION: u16 = 5;
 
 /// A precomputed adjustment list: thesis eqs. 4.1–4.9 folded into (q, q̂, u) plus
 /// colour, weight and fps deltas (SPEC §4).
@@ -36,7 +36,18 @@ pub struct Composite {
     pub color: [f32; 4],
     pub weight: [f32; 4],
     pub fps: f32,
+    /// The world-side general linear factor of a list with a non-uniform scale
+    /// (`s X Y Z`), column-major; `None` for the identity (see `geom::quat`).
+    pub n: Option<[f32; 9]>,
+    /// Hue, saturation and brightness adjustments (`hue`, `sat`, `b`), applied after
+    /// the RGBA deltas: `[hue degrees, sat ×, sat +, bright ×, bright +]` (saturation
+    /// and brightness changes are affine maps of the channel, so a list of them folds
+    /// into one). `None` when the list has none.
+    pub hsb: Option<[f32; 5]>,
 }
+
+/// The identity of [`Composite::hsb`].
+pub const HSB_IDENTITY: [f32; 5] = [0.0, 1.0, 0.0, 1.0, 0.0];
 
 impl Composite {
     /// The identity transform with no deltas.
@@ -47,13 +58,17 @@ impl Composite {
         color: [0.0; 4],
         weight: [0.0; 4],
         fps: 0.0,
+        n: None,
+        hsb: None,
     };
 }
 
 /// A primitive adjustment evaluated at run time (when an argument draws random numbers).
 #[derive(Clone, Debug, PartialEq)]
 pub struct PrimAdj {
-    /// 0 translate, 1 rotate, 2 scale, 3 flip, 4 colour, 5 weight, 6 fps.
+    /// 0 translate, 1 rotate, 2 scale (one argument: uniform; two or three: per
+    /// axis), 3 flip, 4 colour, 5 weight, 6 fps, 7 HSB (axis 0 hue, 1 saturation,
+    /// 2 brightness).
     pub kind: u8,
     /// For translate/rotate: 0..2 a single axis, 3 all three (`x X Y Z`, `r X Y Z`);
     /// for flip: 0..2 axis, 3 a normal from the arguments; for colour/weight: component.
@@ -99,6 +114,9 @@ pub enum Selector {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Def {
     pub weight: f32,
+    /// An expression over the rule's parameters that gives the weight per call
+    /// (`rule leaf(int n) (1 / (n + 1))`), or [`NONE`] for the constant `weight`.
+    pub weight_expr: u32,
     /// Index of its first op in [`Bundle::code`] (op index, not byte offset).
     pub start: u32,
 }

@@ -43,9 +43,8 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
             }
             for a in adjs {
                 let max_args = match a.kind {
-                    0 | 1 => 3,
-                    2 | 4 | 5 | 6 => 1,
-                    3 => 3,
+                    0 | 1 | 2 | 3 => 3,
+                    4..=7 => 1,
                     k => return Err(bad(format!("transform {i}: unknown adjustment kind {k}"))),
                 };
                 if a.axis > 3 || a.args.len() > max_args {
@@ -77,6 +76,13 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
         for d in &r.defs {
             if d.start >= n_ops {
                 return Err(bad(format!("rule {i}: definition starts at op {} beyond the code", d.start)));
+            }
+            if d.weight_expr != NONE {
+                expr_ok(d.weight_expr, "weight")?;
+                // Like a selector, a weight reads the call's arguments only.
+                if expr::slots_needed(&b.exprs[d.weight_expr as usize]) > r.params.len() {
+                    return Err(bad(format!("rule {i}: a weight reads a slot beyond the parameters")));
+                }
             }
         }
         for t in &r.transforms {
@@ -313,7 +319,7 @@ mod tests {
             rules: vec![Rule {
                 name: 0,
                 selector: Selector::Random,
-                defs: vec![Def { weight: 1.0, start: 0 }],
+                defs: vec![Def { weight: 1.0, weight_expr: NONE, start: 0 }],
                 transforms: vec![],
                 iter: NONE,
                 params: vec![],

@@ -12,6 +12,6 @@ pub mod sweep;
 
 pub use blend::{blend_frames, BLEND_LAMBDA};
 pub use marching::{polygonize, Grid};
-pub use quat::Frame;
+pub use quat::{Affine, Frame};
 pub use rotation::rotation_between;
 pub use sweep::{average_frame, sweep, sweep_averaged, sweep_oriented, sweep_path};

@@ -14,11 +14,22 @@
 //! a similarity whose determinant has the sign of ε. The functions below do not
 //! rely on the invariant where a general formula is as cheap (normals, mirroring).
 //!
+//! # Non-uniform scale
+//!
+//! A non-uniform scale `s X Y Z` is no similarity, so it cannot live in the norm of
+//! q. An [`Affine`] is a frame with a general linear factor N on the *world side*:
+//! `x ↦ u + N (q x q̂)`, N = `None` (the identity) until a non-uniform scale is
+//! applied, so every frame that never meets one keeps the thesis's representation and
+//! cost. On the world side N changes only when another non-uniform scale is applied
+//! (`Q D = (R D Rᵀ) Q` for the similarity Q = s R): rotations, reflections, uniform
+//! scales and translations after it act on q, q̂ and u exactly as before, and
+//! composition stays exact.
+//!
 //! Quaternion products are written out here (not `glam::Quat * Quat`) so that they are
 //! plain Hamilton products for any norm and give bit-identical results on every target,
 //! whichever SIMD path glam would pick.
 
-use glam::{Mat4, Quat, Vec3};
+use glam::{Mat3, Mat4, Quat, Vec3};
 
 /// The Hamilton product `a b`, valid for quaternions of any norm.
 pub fn hamilton(a: Quat, b: Quat) -> Quat {
@@ -199,6 +210,156 @@ impl Frame {
     }
 }
 
+/// A [`Frame`] with a world-side general linear factor N: `x ↦ u + N (q x q̂)` (see
+/// the module docs). N is `None` until a non-uniform scale is applied.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Affine {
+    pub f: Frame,
+    pub n: Option<Mat3>,
+}
+
+impl From<Frame> for Affine {
+    fn from(f: Frame) -> Affine {
+        Affine { f, n: None }
+    }
+}
+
+impl Affine {
+    /// The identity.
+    pub fn identity() -> Affine {
+        Frame::identity().into()
+    }
+
+    /// Translation by `v` in the current frame: `u ← u + N q v q̂`.
+    #[must_use]
+    pub fn translate(mut self, v: Vec3) -> Affine {
+        self.f.u += self.apply_vector(v);
+        self
+    }
+
+    /// [`Frame::rotate`] (N is on the world side and does not change).
+    #[must_use]
+    pub fn rotate(self, r: Quat) -> Affine {
+        Affine { f: self.f.rotate(r), ..self }
+    }
+
+    /// [`Frame::reflect`].
+    #[must_use]
+    pub fn reflect(self, n: Vec3) -> Affine {
+        Affine { f: self.f.reflect(n), ..self }
+    }
+
+    /// [`Frame::scale`].
+    #[must_use]
+    pub fn scale(self, s: f32) -> Affine {
+        Affine { f: self.f.scale(s), ..self }
+    }
+
+    /// Scale by `v.x`, `v.y`, `v.z` along the frame's own axes. Equal factors are the
+    /// uniform [`Frame::scale`]; otherwise `N ← N · R D Rᵀ`, D = diag(v), R the
+    /// rotation part of q.
+    #[must_use]
+    pub fn scale3(self, v: Vec3) -> Affine {
+        if v.x == v.y && v.y == v.z {
+            return self.scale(v.x);
+        }
+        let r = rotation_matrix(&self.f);
+        let d = r * Mat3::from_diagonal(v) * r.transpose();
+        Affine { n: Some(self.n.map_or(d, |n| n * d)), ..self }
+    }
+
+    /// `self ∘ child`: q, q̂ and u as [`Frame::compose`] (with N applied to the
+    /// child's offset), and `N' = N · R N_c Rᵀ`.
+    #[must_use]
+    pub fn compose(&self, child: &Affine) -> Affine {
+        let n = match (self.n, child.n) {
+            (n, None) => n,
+            (n, Some(nc)) => {
+                let r = rotation_matrix(&self.f);
+                Some(n.unwrap_or(Mat3::IDENTITY) * r * nc * r.transpose())
+            }
+        };
+        let f = Frame {
+            q: hamilton(self.f.q, child.f.q),
+            qh: hamilton(child.f.qh, self.f.qh),
+            u: self.f.u + self.apply_vector(child.f.u),
+        };
+        Affine { f, n }
+    }
+
+    /// The inverse map, `None` for a singular or non-finite one.
+    pub fn inverse(&self) -> Option<Affine> {
+        let inv = self.f.inverse()?;
+        let Some(n) = self.n else { return Some(inv.into()) };
+        // (N Q)⁻¹ = Q⁻¹ N⁻¹ = (Rᵀ N⁻¹ R) Q⁻¹ on the world side.
+        if n.determinant() == 0.0 {
+            return None;
+        }
+        let r = rotation_matrix(&self.f);
+        let n = r.transpose() * n.inverse() * r;
+        if !n.is_finite() {
+            return None;
+        }
+        let lin = Affine { f: Frame { u: Vec3::ZERO, ..inv }, n: Some(n) };
+        Some(Affine { f: Frame { u: -lin.apply_vector(self.f.u), ..inv }, n: Some(n) })
+    }
+
+    /// Maps a point: `u + N q x q̂`.
+    pub fn apply_point(&self, x: Vec3) -> Vec3 {
+        self.f.u + self.apply_vector(x)
+    }
+
+    /// Maps a direction: `N q x q̂`.
+    pub fn apply_vector(&self, x: Vec3) -> Vec3 {
+        let v = self.f.apply_vector(x);
+        match self.n {
+            None => v,
+            Some(n) => n * v,
+        }
+    }
+
+    /// Maps a surface normal by the inverse transpose (cofactor form, on the unit
+    /// parts of q and q̂ as [`Frame::apply_normal`]) and normalises it.
+    pub fn apply_normal(&self, n: Vec3) -> Vec3 {
+        let Some(m) = self.n else { return self.f.apply_normal(n) };
+        let fallback = n.normalize_or(Vec3::Z);
+        let Some(r) = self.f.unit_linear() else { return fallback };
+        let [a, b, c] = r.axes().map(|v| m * v);
+        let det = a.dot(b.cross(c));
+        let v = n.x * b.cross(c) + n.y * c.cross(a) + n.z * a.cross(b);
+        (v * det.signum()).normalize_or(fallback)
+    }
+
+    /// The linear scale: the similarity's times `∛|det N|`, the geometric mean of N's
+    /// axis scales (`s 2 2 2` and `s 8 1 1` both read 2: a cube of the same volume).
+    pub fn scale_factor(&self) -> f32 {
+        self.f.scale_factor() * self.n.map_or(1.0, |n| n.determinant().abs().cbrt())
+    }
+
+    /// True when the linear map has a negative determinant.
+    pub fn mirrored(&self) -> bool {
+        self.f.mirrored() ^ self.n.is_some_and(|n| n.determinant() < 0.0)
+    }
+
+    /// The map as an affine matrix (column vectors).
+    pub fn to_mat4(&self) -> Mat4 {
+        let [a, b, c] = [Vec3::X, Vec3::Y, Vec3::Z].map(|v| self.apply_vector(v));
+        Mat4::from_cols(a.extend(0.0), b.extend(0.0), c.extend(0.0), self.f.u.extend(1.0))
+    }
+}
+
+/// The rotation (or rotation-reflection) part of `f`'s `q x q̂` as an orthogonal
+/// matrix; the identity for a zero or non-finite scale.
+fn rotation_matrix(f: &Frame) -> Mat3 {
+    match f.unit_linear() {
+        Some(u) => {
+            let [a, b, c] = u.axes();
+            Mat3::from_cols(a, b, c)
+        }
+        None => Mat3::IDENTITY,
+    }
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
@@ -234,6 +395,67 @@ pub(crate) mod tests {
             }
             f
         }
+        /// A frame that also meets non-uniform scales (some of them mirroring).
+        pub(crate) fn affine(&mut self) -> Affine {
+            let mut f = Affine::identity();
+            for _ in 0..5 {
+                f = if self.next_f32() < 0.4 {
+                    let mut v = self.vec(0.3, 2.0);
+                    if self.next_f32() < 0.2 {
+                        v.y = -v.y;
+                    }
+                    f.scale3(v)
+                } else {
+                    f.compose(&self.frame().into())
+                };
+            }
+            f
+        }
+    }
+
+    /// The affine matrix of `a` built from its definition, independently of `to_mat4`.
+    fn reference_matrix(a: &Affine) -> Mat4 {
+        let [x, y, z] = a.f.axes();
+        let lin = a.n.unwrap_or(Mat3::IDENTITY) * Mat3::from_cols(x, y, z);
+        Mat4::from_cols(lin.x_axis.extend(0.0), lin.y_axis.extend(0.0), lin.z_axis.extend(0.0), a.f.u.extend(1.0))
+    }
+
+    #[test]
+    fn a_non_uniform_scale_composes_exactly_like_matrices() {
+        let mut rng = Lcg(17);
+        let mut general = 0;
+        for _ in 0..100 {
+            let (a, b, c) = (rng.affine(), rng.affine(), rng.affine());
+            general += usize::from(a.n.is_some());
+            let l = a.compose(&b).compose(&c);
+            let r = a.compose(&b.compose(&c));
+            let m = reference_matrix(&a) * reference_matrix(&b) * reference_matrix(&c);
+            let x = rng.vec(-1.0, 1.0);
+            assert!(close(l.apply_point(x), r.apply_point(x), 1e-3));
+            assert!(close(l.apply_point(x), m.transform_point3(x), 1e-3));
+            assert!(close(l.to_mat4().transform_point3(x), m.transform_point3(x), 1e-3));
+            assert_eq!(l.mirrored(), m.determinant() < 0.0);
+            assert!((l.scale_factor() - m.determinant().abs().cbrt()).abs() < 1e-3 * l.scale_factor().max(1.0));
+            let n = rng.vec(-1.0, 1.0).normalize();
+            let expect = m.inverse().transpose().transform_vector3(n).normalize();
+            assert!(close(l.apply_normal(n), expect, 1e-3));
+            let inv = l.inverse().expect("invertible");
+            assert!(close(inv.apply_point(l.apply_point(x)), x, 1e-3));
+            // Translation after a non-uniform scale moves along the scaled axis.
+            assert!(close(l.translate(Vec3::X).f.u, m.transform_point3(Vec3::X), 1e-3));
+        }
+        assert!(general > 30, "the generator meets non-uniform scales ({general} of 100)");
+    }
+
+    #[test]
+    fn equal_factors_are_a_uniform_scale_and_leave_no_factor() {
+        let f = Affine::identity().rotate(rot(Vec3::Z, 30.0)).scale3(Vec3::splat(2.0));
+        assert_eq!(f, Affine::from(Frame::identity().rotate(rot(Vec3::Z, 30.0)).scale(2.0)));
+        assert!(f.n.is_none());
+        // A non-uniform scale is along the frame's own axes: x after rz 90 is world y.
+        let g = Affine::identity().rotate(rot(Vec3::Z, 90.0)).scale3(Vec3::new(3.0, 1.0, 1.0));
+        assert!(close(g.apply_vector(Vec3::X), Vec3::new(0.0, 3.0, 0.0), 1e-5));
+        assert!(close(g.apply_vector(Vec3::Y), Vec3::new(-1.0, 0.0, 0.0), 1e-5));
     }
 
     pub(crate) fn close(a: Vec3, b: Vec3, eps: f32) -> bool {

@@ -18,18 +18,48 @@
 
 use glam::{Quat, Vec3, Vec4};
 
-use super::quat::{conj, hamilton, scaled, Frame};
+use super::quat::{conj, hamilton, scaled, Affine, Frame};
 use super::rotation::rotation_between;
 use crate::output::Mesh;
+
+/// A frame a profile ring can be placed in: a [`Frame`], or an [`Affine`] (a frame
+/// under a non-uniform scale, which makes an elliptic tube of a round profile).
+pub trait Ring: Copy {
+    fn apply_point(&self, x: Vec3) -> Vec3;
+    fn apply_normal(&self, n: Vec3) -> Vec3;
+    fn scale_factor(&self) -> f32;
+    fn mirrored(&self) -> bool;
+}
+
+macro_rules! ring {
+    ($t:ty) => {
+        impl Ring for $t {
+            fn apply_point(&self, x: Vec3) -> Vec3 {
+                <$t>::apply_point(self, x)
+            }
+            fn apply_normal(&self, n: Vec3) -> Vec3 {
+                <$t>::apply_normal(self, n)
+            }
+            fn scale_factor(&self) -> f32 {
+                <$t>::scale_factor(self)
+            }
+            fn mirrored(&self) -> bool {
+                <$t>::mirrored(self)
+            }
+        }
+    };
+}
+ring!(Frame);
+ring!(Affine);
 
 /// Sweeps `profile` from the frame `from` to the frame `to` (`LINETO`): two rings
 /// joined by two triangles per profile edge, the loop closed when the profile has
 /// three or more points. Colours go from `color_from` (first ring) to `color_to`.
-pub fn sweep(
+pub fn sweep<R: Ring>(
     mesh: &mut Mesh,
     profile: &[Vec3],
-    from: &Frame,
-    to: &Frame,
+    from: &R,
+    to: &R,
     color_from: [f32; 4],
     color_to: [f32; 4],
     bone: u32,
@@ -41,10 +71,10 @@ pub fn sweep(
 /// [`super::blend_frames`] for `BLENDTO`), sharing each intermediate ring between the
 /// two segments it joins. Colours are interpolated linearly along the frame list.
 /// Fewer than two frames or fewer than two profile points emit nothing.
-pub fn sweep_path(
+pub fn sweep_path<R: Ring>(
     mesh: &mut Mesh,
     profile: &[Vec3],
-    frames: &[Frame],
+    frames: &[R],
     color_from: [f32; 4],
     color_to: [f32; 4],
     bone: u32,
@@ -56,7 +86,7 @@ pub fn sweep_path(
     let local_normals = profile_normals(profile);
     let rings: Vec<Vec<Vec3>> =
         frames.iter().map(|f| local_normals.iter().map(|&ln| f.apply_normal(ln)).collect()).collect();
-    let degenerate = |f: &Frame| f.scale_factor().is_nan() || f.scale_factor() <= 1e-12;
+    let degenerate = |f: &R| f.scale_factor().is_nan() || f.scale_factor() <= 1e-12;
     let last = frames.len() - 1;
     let base = mesh.positions.len() as u32;
     for (k, f) in frames.iter().enumerate() {
@@ -108,14 +138,18 @@ pub fn sweep_oriented(
     color_to: [f32; 4],
     bone: u32,
 ) {
+    let (a, b) = oriented_pair(from, to);
+    sweep(mesh, profile, &a, &b, color_from, color_to, bone);
+}
+
+/// The two ring frames of [`sweep_oriented`]: `from` and `to` turned on the world side
+/// so that +z points along `to.u − from.u` (unchanged for a zero-length segment).
+pub fn oriented_pair(from: &Frame, to: &Frame) -> (Frame, Frame) {
     let dir = to.u - from.u;
     if dir.length_squared() == 0.0 {
-        sweep(mesh, profile, from, to, color_from, color_to, bone);
-        return;
+        return (*from, *to);
     }
-    let a = orient_along(from, dir);
-    let b = orient_along(to, dir);
-    sweep(mesh, profile, &a, &b, color_from, color_to, bone);
+    (orient_along(from, dir), orient_along(to, dir))
 }
 
 /// `ALINETO`: like [`sweep`], but both rings use the orientation of
@@ -131,10 +165,15 @@ pub fn sweep_averaged(
     color_to: [f32; 4],
     bone: u32,
 ) {
-    let avg = average_frame(from, to);
-    let a = with_scale(&avg, from.scale_factor(), from.u);
-    let b = with_scale(&avg, to.scale_factor(), to.u);
+    let (a, b) = averaged_pair(from, to);
     sweep(mesh, profile, &a, &b, color_from, color_to, bone);
+}
+
+/// The two ring frames of [`sweep_averaged`]: the orientation of
+/// [`average_frame`]`(from, to)`, each with its own position and scale.
+pub fn averaged_pair(from: &Frame, to: &Frame) -> (Frame, Frame) {
+    let avg = average_frame(from, to);
+    (with_scale(&avg, from.scale_factor(), from.u), with_scale(&avg, to.scale_factor(), to.u))
 }
 
 /// The average of two frames: the normalised LERP (at ½, same hemisphere) of the unit

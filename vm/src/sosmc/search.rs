@@ -1001,13 +1001,8 @@ mod tests {
     #[test]
     fn compaction_keeps_each_referenced_call_once_and_rewrites_the_references() {
         use crate::eval::State;
-        use crate::geom::quat::Frame;
         let call = |rule: u32| Pending {
-            call: Call {
-                rule,
-                state: State { f: Frame::identity(), color: [1.0; 4], weight: [0.0; 4], fps: 0.0 },
-                depth: rule,
-            },
+            call: Call { rule, state: State { color: [1.0; 4], ..State::start(0.0) }, depth: rule },
             near: None,
         };
         // Segment 0 holds calls 0..4, segment 1 calls 10..13.
