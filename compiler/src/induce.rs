@@ -22,7 +22,14 @@ pub struct ExampleReport {
     pub merges: usize,
     pub splits: usize,
     pub seconds: f64,
+    /// Shapes of this example cut to share a piece with another example
+    /// ([`mdg_vm::grid::share`]).
+    pub shared_cuts: usize,
 }
+
+/// The default smallest piece (blocks) that sub-shape matching cuts out of shapes of
+/// two examples to share it (`mdgc induce --share`; 0 turns it off).
+pub const DEFAULT_SHARE: usize = 4;
 
 /// Reads the examples, infers shapes and induces the grammar. `progress` hears about
 /// each example (its index) and each search pass.
@@ -32,6 +39,13 @@ pub fn induce_files(
     name: &str,
     progress: &mut dyn FnMut(usize, Progress),
 ) -> Result<(GridGrammar, Vec<ExampleReport>), String> {
+    let models = read_examples(paths)?;
+    induce_models(&models, opts, DEFAULT_SHARE, name, progress)
+}
+
+/// Reads example buildings (any voxel format): (file name, model) each; an empty one
+/// is an error.
+pub fn read_examples(paths: &[&Path]) -> Result<Vec<(String, VoxelModel)>, String> {
     let mut models: Vec<(String, VoxelModel)> = Vec::new();
     for p in paths {
         let m = mdg_vm::grid::format::read(p)?;
@@ -41,13 +55,15 @@ pub fn induce_files(
         let file = p.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| p.display().to_string());
         models.push((file, m));
     }
-    induce_models(&models, opts, name, progress)
+    Ok(models)
 }
 
-/// [`induce_files`] on models already read (name, model).
+/// [`induce_files`] on models already read (name, model), with the smallest shared
+/// piece of sub-shape matching (`share` blocks; 0: off).
 pub fn induce_models(
     models: &[(String, VoxelModel)],
     opts: &InferOptions,
+    share: usize,
     name: &str,
     progress: &mut dyn FnMut(usize, Progress),
 ) -> Result<(GridGrammar, Vec<ExampleReport>), String> {
@@ -63,8 +79,23 @@ pub fn induce_models(
             merges: inf.stats.merges,
             splits: inf.stats.splits,
             seconds: t.elapsed().as_secs_f64(),
+            shared_cuts: 0,
         });
         inferences.push(inf);
+    }
+    if share > 0 && models.len() > 1 {
+        let refs: Vec<&VoxelModel> = models.iter().map(|(_, m)| m).collect();
+        let before: Vec<usize> = inferences.iter().map(|i| i.shapes.len()).collect();
+        let t = std::time::Instant::now();
+        let stats = mdg_vm::grid::share::share(&refs, opts.spec, &mut inferences, share);
+        let seconds = t.elapsed().as_secs_f64() / models.len() as f64;
+        for (i, r) in reports.iter_mut().enumerate() {
+            if inferences[i].shapes.len() != before[i] {
+                r.measures = measures(&models[i].1, &inferences[i]);
+            }
+            r.shared_cuts = stats.cut_per_example[i];
+            r.seconds += seconds;
+        }
     }
     let examples: Vec<Example> = models.iter().map(|(n, m)| Example { name: n.clone(), model: m }).collect();
     // The grid section's limits (blocks in all shapes, a shape's extent) are the only

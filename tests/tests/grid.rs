@@ -1056,3 +1056,79 @@ fn a_stair_turned_by_a_rule_faces_the_right_way() {
     assert_eq!(mdg_vm::grid::matching::Classes::of(&shapes, &turns).class, vec![0, 0]);
     assert_eq!(mdg_vm::grid::matching::Classes::of(&shapes, &[]).class, vec![0, 1], "without turning kinds");
 }
+
+/// Two different buildings with one wall style: a stone wall with 2-wide glass windows
+/// framed by stone. The long house has two windows, a plank floor and no roof; the
+/// tower's wall is one window's panel, with a brick roof and a wool floor.
+fn long_house_and_tower() -> (VoxelModel, VoxelModel) {
+    let mut a = Vec::new();
+    for x in 0..7 {
+        for z in 0..3 {
+            a.push(([x, 0, z], "planks"));
+        }
+        for y in 1..4 {
+            let glass = y == 2 && x % 3 != 0;
+            a.push(([x, y, 0], if glass { "glass" } else { "stone" }));
+        }
+    }
+    let mut b = Vec::new();
+    for x in 0..4 {
+        for z in 0..2 {
+            b.push(([x + 20, 0, z + 10], "wool"));
+            b.push(([x + 20, 4, z + 10], "bricks"));
+        }
+        for y in 1..4 {
+            let glass = y == 2 && x % 3 != 0;
+            b.push(([x + 20, y, 10], if glass { "glass" } else { "stone" }));
+        }
+    }
+    (model(&lines(&a)), model(&lines(&b)))
+}
+
+#[test]
+fn two_different_buildings_with_one_wall_style_share_its_rules() {
+    let (a, b) = long_house_and_tower();
+    let opts = InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, ..InferOptions::default() };
+    let models = vec![("house.txt".to_string(), a.clone()), ("tower.txt".to_string(), b.clone())];
+    // Whole shapes alone: the house's wall is longer than the tower's, nothing matches.
+    let (plain, _) = mdg_compiler::induce::induce_models(&models, &opts, 0, "plain", &mut |_, _| {}).expect("induces");
+    assert_eq!(mdg_vm::grid::induce::shared_shapes(&plain), 0);
+    // Sub-shape matching cuts the window panel out of the house's wall.
+    let (g, reports) =
+        mdg_compiler::induce::induce_models(&models, &opts, 4, "shared", &mut |_, _| {}).expect("induces");
+    assert_eq!(reports.iter().map(|r| r.shared_cuts).collect::<Vec<_>>(), [1, 1]);
+    assert!(mdg_vm::grid::induce::shared_shapes(&g) >= 2);
+    let d = Derivation::new(&g);
+    let cross: Vec<_> =
+        g.matches.iter().filter(|m| g.shapes[m.a as usize].example != g.shapes[m.b as usize].example).collect();
+    assert!(!cross.is_empty(), "a shape of the house matches one of the tower");
+    let m = cross[0];
+    let panel_kinds = |s: u32| -> HashSet<String> {
+        g.shapes[s as usize].blocks.iter().map(|b| g.palette[b.kind as usize].block.clone()).collect()
+    };
+    assert_eq!(panel_kinds(m.a), HashSet::from(["stone".to_string(), "glass".to_string()]));
+    // The shared rule set: each panel gets the other example's rules, so a panel of the
+    // house can grow the tower's roof, and the tower's panel the house's floor.
+    let adds = |s: u32| -> HashSet<u32> {
+        d.rules_for(s).iter().map(|&r| g.shapes[g.rules[r as usize].to as usize].example).collect()
+    };
+    assert_eq!(adds(m.a), HashSet::from([0, 1]));
+    assert_eq!(adds(m.b), HashSet::from([0, 1]));
+    // And derivations do combine the styles: some building has the house's planks and
+    // the tower's bricks.
+    let mixed = (1..=30u64).any(|seed| {
+        let made = generate(
+            &g,
+            &GenerateOptions { steps: 30, enclosure: false, seed, bounds: Bounds::None, ..GenerateOptions::default() },
+        )
+        .expect("generates");
+        let ids: HashSet<&str> =
+            made.model.blocks.iter().map(|b| made.model.kinds[b.kind as usize].id.as_str()).collect();
+        ids.contains("planks") && ids.contains("bricks")
+    });
+    assert!(mixed, "no derivation combined the two examples' styles");
+    // The written grammar compiles back to the same grammar.
+    let dir = temp_dir("share");
+    mdg_compiler::induce::write_checked(&g, &[], &dir.join("style.mdg")).expect("round trip");
+    let _ = std::fs::remove_dir_all(&dir);
+}

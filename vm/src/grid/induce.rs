@@ -35,8 +35,12 @@ pub struct Example<'a> {
 pub struct Measures {
     /// Number of shapes.
     pub shapes: usize,
-    /// Percentage of shapes that match another shape.
+    /// Percentage of shapes that match another shape (oriented blocks turned with the
+    /// shape: a stair facing east matches one facing north in a turned shape).
     pub matching: f64,
+    /// The same with blocks compared by id only, as the paper's reference does (a turned
+    /// stair is another block).
+    pub matching_exact: f64,
     /// Mean blocks per shape.
     pub size: f64,
     /// Mean of (block kinds in the shape / blocks in the shape).
@@ -72,6 +76,7 @@ pub fn measures(model: &VoxelModel, inference: &Inference) -> Measures {
     }
     let ids: Vec<&str> = model.kinds.iter().map(|k| k.id.as_str()).collect();
     let classes = Classes::of(&shapes, &super::kind_turns(&ids));
+    let exact = Classes::of(&shapes, &[]);
     let size = shapes.iter().map(|s| s.len() as f64).sum::<f64>() / n as f64;
     let complexity = shapes
         .iter()
@@ -81,7 +86,13 @@ pub fn measures(model: &VoxelModel, inference: &Inference) -> Measures {
         })
         .sum::<f64>()
         / n as f64;
-    Measures { shapes: n, matching: classes.matching_percent(), size, complexity }
+    Measures {
+        shapes: n,
+        matching: classes.matching_percent(),
+        matching_exact: exact.matching_percent(),
+        size,
+        complexity,
+    }
 }
 
 /// Builds the grammar from examples and their inferred shapes (same order).
