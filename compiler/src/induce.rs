@@ -67,6 +67,11 @@ pub fn induce_models(
     name: &str,
     progress: &mut dyn FnMut(usize, Progress),
 ) -> Result<(GridGrammar, Vec<ExampleReport>), String> {
+    let original_blocks: Vec<usize> = models.iter().map(|(_, m)| m.blocks.len()).collect();
+    // A door's two halves are one block for inference and matching (written back as two).
+    let joined: Vec<(String, VoxelModel)> =
+        models.iter().map(|(n, m)| (n.clone(), mdg_vm::grid::blocks::merge_doors(m).0)).collect();
+    let models = &joined[..];
     let mut inferences: Vec<Inference> = Vec::new();
     let mut reports = Vec::new();
     for (i, (file, m)) in models.iter().enumerate() {
@@ -74,7 +79,7 @@ pub fn induce_models(
         let inf = infer(m, opts, &mut |p| progress(i, p));
         reports.push(ExampleReport {
             name: file.clone(),
-            blocks: m.blocks.len(),
+            blocks: original_blocks[i],
             measures: measures(m, &inf),
             merges: inf.stats.merges,
             splits: inf.stats.splits,

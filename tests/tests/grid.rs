@@ -1132,3 +1132,102 @@ fn two_different_buildings_with_one_wall_style_share_its_rules() {
     mdg_compiler::induce::write_checked(&g, &[], &dir.join("style.mdg")).expect("round trip");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The face-neighbour pairs of a model: (kind id, neighbour's kind id, direction).
+fn neighbour_pairs(m: &VoxelModel) -> HashSet<(String, String, [i32; 3])> {
+    let at: BTreeMap<[i32; 3], &str> = m.blocks.iter().map(|b| (b.pos, m.kinds[b.kind as usize].id.as_str())).collect();
+    let mut out = HashSet::new();
+    for (&p, &k) in &at {
+        for d in mdg_vm::grid::voxel::NEIGHBOURS {
+            if let Some(&n) = at.get(&add(p, d)) {
+                out.insert((k.to_string(), n.to_string(), d));
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn the_adjacency_constraint_keeps_every_neighbour_pair_of_the_example() {
+    let m = model(&house());
+    let opts = InferOptions { spec: Spec::Rect, alpha: 0.25, ops: Ops::Merge, ..InferOptions::default() };
+    let inf = infer(&m, &opts, &mut |_| {});
+    let g = induce(&[Example { name: "house.txt".into(), model: &m }], &[inf], "house").expect("induces");
+    // The example's pairs under the four quarter turns (its blocks have no orientation).
+    let mut allowed = HashSet::new();
+    for (a, b, d) in neighbour_pairs(&m) {
+        for t in 0..4 {
+            allowed.insert((a.clone(), b.clone(), rotate(t, d)));
+        }
+    }
+    let plain = GenerateOptions { steps: 60, enclosure: false, keep_largest: false, ..GenerateOptions::default() };
+    let (mut strange_without, mut blocks_with) = (0, 0);
+    for seed in 0..20 {
+        let free = generate(&g, &GenerateOptions { seed, ..plain }).expect("generates");
+        strange_without += neighbour_pairs(&free.model).difference(&allowed).count();
+        let held = generate(&g, &GenerateOptions { seed, adjacency: true, ..plain }).expect("generates");
+        let strange: Vec<_> = neighbour_pairs(&held.model).difference(&allowed).cloned().collect();
+        assert!(strange.is_empty(), "seed {seed}: pairs no example has: {strange:?}");
+        blocks_with += held.model.blocks.len();
+        assert!(held.applied > 0, "seed {seed}: some rule still applies");
+    }
+    assert!(strange_without > 0, "without the constraint some derivation makes a new pair (else this proves nothing)");
+    assert!(blocks_with > 20 * m.blocks.len() / 4, "derivations still grow: {blocks_with}");
+}
+
+#[test]
+fn door_halves_are_one_block_for_induction_and_two_when_written() {
+    use mdg_vm::grid::blocks::{merge_doors, split_doors, turn_block};
+    // A wall with a legacy oak door (lower half facing east, upper half hinge left) and
+    // one with a modern spruce door.
+    let mut v: Vec<([i32; 3], &str)> = Vec::new();
+    for x in 0..5 {
+        for y in 0..3 {
+            let id = match (x, y) {
+                (1, 0) => "64:0",
+                (1, 1) => "64:8",
+                (3, 0) => "minecraft:spruce_door[facing=east,half=lower,hinge=left]",
+                (3, 1) => "minecraft:spruce_door[facing=east,half=upper,hinge=left]",
+                _ => "stone",
+            };
+            v.push(([x, y, 0], id));
+        }
+    }
+    let m = model(&lines(&v));
+    let (joined, n) = merge_doors(&m);
+    assert_eq!(n, 2);
+    assert_eq!(joined.blocks.len(), m.blocks.len() - 2);
+    let ids: HashSet<&str> = joined.kinds.iter().map(|k| k.id.as_str()).collect();
+    assert!(ids.contains("64:0+64:8"), "{ids:?}");
+    assert!(!ids.contains("64:8"), "the upper half's kind is gone");
+    // Turned, both halves turn (the lower half's facing; the upper holds none).
+    assert_eq!(turn_block("64:0+64:8", 1).as_deref(), Some("64:3+64:8"));
+    assert_eq!(
+        turn_block(
+            "minecraft:spruce_door[facing=east,half=lower,hinge=left]+minecraft:spruce_door[facing=east,half=upper,hinge=left]",
+            1
+        )
+        .as_deref(),
+        Some(
+            "minecraft:spruce_door[facing=north,half=lower,hinge=left]+minecraft:spruce_door[facing=north,half=upper,hinge=left]"
+        )
+    );
+    // Written back as two blocks: the same building.
+    let (back, lost) = split_doors(&joined);
+    assert_eq!(lost, 0);
+    assert_eq!(ids_of(&back), ids_of(&m));
+    // Through induction and generation: a generated door has both halves.
+    let models = vec![("doors.txt".to_string(), m.clone())];
+    let opts = InferOptions { spec: Spec::Rect, alpha: 0.0, ops: Ops::Merge, ..InferOptions::default() };
+    let (g, _) = mdg_compiler::induce::induce_models(&models, &opts, 0, "doors", &mut |_, _| {}).expect("induces");
+    assert!(g.palette.iter().any(|p| p.block == "64:0+64:8"));
+    // A writer given joined doors writes both halves.
+    let text = String::from_utf8(format::write(VoxelFormat::Text, &joined).expect("writes")).expect("utf8");
+    assert!(!text.contains('+') && text.contains("1 1 0 64:8"), "{text}");
+    let rebuilt = &mdg_vm::grid::generate::examples(&g)[0];
+    assert_eq!(ids_of(rebuilt), ids_of(&m), "the example rebuilt from the grammar has both halves");
+}
+
+fn ids_of(m: &VoxelModel) -> BTreeMap<[i32; 3], String> {
+    m.blocks.iter().map(|b| (b.pos, m.kinds[b.kind as usize].id.clone())).collect()
+}

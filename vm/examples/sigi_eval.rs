@@ -517,6 +517,9 @@ fn derivations(buildings: &[Building]) {
         (GenerateOptions { bounds: Bounds::Box([25; 3]), ..default }, "bounds 25³ + largest piece"),
         (GenerateOptions { random_start: true, ..default }, "default + random start"),
         (GenerateOptions { random_start: true, ..plain }, "plain + random start"),
+        (GenerateOptions { adjacency: true, ..default }, "default + adjacency"),
+        (GenerateOptions { adjacency: true, enclosure: false, ..default }, "adjacency instead of enclosure"),
+        (GenerateOptions { adjacency: true, enclosure: false, ..plain }, "plain, adjacency instead of enclosure"),
     ] {
         derivation_row(buildings, &base, &gen, what);
     }

@@ -47,6 +47,10 @@ pub struct GridArgs {
     /// instead of the grammar's `start`.
     #[arg(long)]
     pub random_start: bool,
+    /// Grid grammars: the adjacency constraint (the paper's alternative to enclosure): a rule applies only
+    /// where every block it adds stands beside blocks it stands beside in an example or a shape.
+    #[arg(long)]
+    pub adjacency: bool,
 }
 
 /// Reads `--bounds`.
@@ -141,6 +145,7 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
         bounds,
         keep_largest: !args.keep_all,
         random_start: args.random_start,
+        adjacency: args.adjacency,
     };
     let made = generate::generate(g, &opts).map_err(|e| (1, e))?;
     let elapsed = started.elapsed().as_secs_f64();

@@ -79,8 +79,16 @@ pub fn read(path: &Path) -> Result<VoxelModel, String> {
     read_bytes(format, &bytes).map_err(|e| format!("{}: {e}", path.display()))
 }
 
-/// Writes a voxel model in `format`.
+/// Writes a voxel model in `format`. Doors joined for induction (`LOWER+UPPER`, see
+/// [`super::blocks::merge_doors`]) are written as their two halves.
 pub fn write(format: VoxelFormat, model: &VoxelModel) -> Result<Vec<u8>, String> {
+    let split;
+    let model = if model.kinds.iter().any(|k| k.id.contains(super::blocks::DOOR_JOIN)) {
+        split = super::blocks::split_doors(model).0;
+        &split
+    } else {
+        model
+    };
     match format {
         VoxelFormat::Text => Ok(text::write(model).into_bytes()),
         VoxelFormat::Vox => vox::write(model),
