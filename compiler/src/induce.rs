@@ -138,7 +138,11 @@ pub fn write_source(g: &GridGrammar, comment: &[String]) -> String {
         let _ = writeln!(s, "    {} {} {} {} {};", p.name, quoted(&p.block), p.color[0], p.color[1], p.color[2]);
     }
     s.push_str("  }\n");
-    for shape in &g.shapes {
+    // Each shape's matches and rules under it when the grammar lists them by source
+    // shape (induced grammars do); else all of them after the shapes.
+    let grouped = g.matches.windows(2).all(|w| w[0].a <= w[1].a) && g.rules.windows(2).all(|w| w[0].from <= w[1].from);
+    let (mut next_match, mut next_rule) = (0, 0);
+    for (si, shape) in g.shapes.iter().enumerate() {
         let _ = writeln!(s, "  shape {} {{", shape.name);
         let [sx, sy, sz] = shape.size;
         let _ = writeln!(s, "    size {sx} {sy} {sz};");
@@ -173,19 +177,22 @@ pub fn write_source(g: &GridGrammar, comment: &[String]) -> String {
             let _ = write!(s, "\n      {}", line.join(" "));
         }
         s.push_str(";\n  }\n");
-    }
-    for m in &g.matches {
-        let (a, b) = (&g.shapes[m.a as usize].name, &g.shapes[m.b as usize].name);
-        let _ = writeln!(s, "  match {a} {b} turn {};", m.turn);
-    }
-    for r in &g.rules {
-        let (a, b) = (&g.shapes[r.from as usize].name, &g.shapes[r.to as usize].name);
-        let [x, y, z] = r.place.offset;
-        let _ = write!(s, "  rule {a} {b} at {x} {y} {z}");
-        if r.place.turn != 0 {
-            let _ = write!(s, " turn {}", r.place.turn);
+        if grouped {
+            while next_match < g.matches.len() && g.matches[next_match].a as usize <= si {
+                write_match(&mut s, g, next_match);
+                next_match += 1;
+            }
+            while next_rule < g.rules.len() && g.rules[next_rule].from as usize <= si {
+                write_rule(&mut s, g, next_rule);
+                next_rule += 1;
+            }
         }
-        s.push_str(";\n");
+    }
+    for m in next_match..g.matches.len() {
+        write_match(&mut s, g, m);
+    }
+    for r in next_rule..g.rules.len() {
+        write_rule(&mut s, g, r);
     }
     if let Some(start) = g.shapes.get(g.start as usize) {
         let _ = writeln!(s, "  start {};", start.name);
@@ -201,6 +208,23 @@ pub fn write_source(g: &GridGrammar, comment: &[String]) -> String {
     s.push_str("  }\n}\n");
     // The layout above is the formatter's; run it anyway so the file is canonical.
     crate::fmt::format_source(&s).unwrap_or(s)
+}
+
+fn write_match(s: &mut String, g: &GridGrammar, i: usize) {
+    let m = &g.matches[i];
+    let (a, b) = (&g.shapes[m.a as usize].name, &g.shapes[m.b as usize].name);
+    let _ = writeln!(s, "  match {a} {b} turn {};", m.turn);
+}
+
+fn write_rule(s: &mut String, g: &GridGrammar, i: usize) {
+    let r = &g.rules[i];
+    let (a, b) = (&g.shapes[r.from as usize].name, &g.shapes[r.to as usize].name);
+    let [x, y, z] = r.place.offset;
+    let _ = write!(s, "  rule {a} {b} at {x} {y} {z}");
+    if r.place.turn != 0 {
+        let _ = write!(s, " turn {}", r.place.turn);
+    }
+    s.push_str(";\n");
 }
 
 /// [`write_source`], checked: the text must fit a source file (16 MiB, error `E0201` as

@@ -1231,3 +1231,38 @@ fn door_halves_are_one_block_for_induction_and_two_when_written() {
 fn ids_of(m: &VoxelModel) -> BTreeMap<[i32; 3], String> {
     m.blocks.iter().map(|b| (b.pos, m.kinds[b.kind as usize].id.clone())).collect()
 }
+
+#[test]
+fn induced_shapes_are_named_by_role_and_their_rules_written_under_them() {
+    let m = model(&house());
+    let opts = InferOptions { spec: Spec::Rect, ..InferOptions::default() };
+    let inf = infer(&m, &opts, &mut |_| {});
+    let g = induce(&[Example { name: "house.txt".into(), model: &m }], &[inf], "house").expect("induces");
+    let names: Vec<&str> = g.shapes.iter().map(|s| s.name.as_str()).collect();
+    assert!(names.contains(&"floor_planks_1"), "{names:?}");
+    assert!(names.contains(&"roof_slab_1"), "{names:?}");
+    assert!(names.iter().any(|n| n.starts_with("wall_stone_")), "{names:?}");
+    for s in &g.shapes {
+        let role = s.name.split('_').next().expect("a role");
+        match s.plane {
+            Some(1) => assert!(role == "floor" || role == "roof", "{}", s.name),
+            Some(_) => assert_eq!(role, "wall", "{}", s.name),
+            None => assert_eq!(role, "solid", "{}", s.name),
+        }
+    }
+    // Each rule line follows its source shape's block (and precedes the next shape).
+    let dir = temp_dir("names");
+    let text = mdg_compiler::induce::write_checked(&g, &[], &dir.join("house.mdg")).expect("round trip");
+    let mut current = String::new();
+    let mut rules = 0;
+    for line in text.lines().map(str::trim) {
+        if let Some(rest) = line.strip_prefix("shape ") {
+            current = rest.split_whitespace().next().unwrap_or_default().to_string();
+        } else if let Some(rest) = line.strip_prefix("rule ").filter(|_| !current.is_empty()) {
+            assert_eq!(rest.split_whitespace().next(), Some(current.as_str()), "{line}");
+            rules += 1;
+        }
+    }
+    assert_eq!(rules, g.rules.len());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -51,6 +51,9 @@ pub struct GridArgs {
     /// where every block it adds stands beside blocks it stands beside in an example or a shape.
     #[arg(long)]
     pub adjacency: bool,
+    /// Grid grammars: `--png` also draws N more buildings, generated from the seeds after `--seed`.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub more: u32,
 }
 
 /// Reads `--bounds`.
@@ -178,11 +181,20 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
         let examples = generate::examples(g);
         let mut models: Vec<&mdg_vm::grid::voxel::VoxelModel> =
             examples.iter().filter(|m| !m.blocks.is_empty()).collect();
+        let first = models.len();
         models.push(&made.model);
+        if args.more > 16 {
+            return Err((2, format!("--more {}: at most 16", args.more)));
+        }
+        let more: Vec<mdg_vm::grid::voxel::VoxelModel> = (1..=args.more as u64)
+            .map(|i| generate::generate(g, &GenerateOptions { seed: seed.wrapping_add(i), ..opts }).map(|m| m.model))
+            .collect::<Result<_, _>>()
+            .map_err(|e| (1, e))?;
+        models.extend(more.iter().filter(|m| !m.blocks.is_empty()));
         let mut out = mesh::output_side_by_side(&models, 4);
         if let (Some((lo, _)), false) = (made.model.bounds(), site_mesh.positions.is_empty()) {
-            // The generated building is the last one; move the site with it.
-            let shift = generated_shift(&models, lo);
+            // The generated building follows the examples; move the site with it.
+            let shift = generated_shift(&models[..=first], lo);
             let mut s = site_mesh.clone();
             s.positions.iter_mut().for_each(|p| *p = [p[0] + shift[0], p[1] + shift[1], p[2] + shift[2]]);
             out.mesh.append(&s);

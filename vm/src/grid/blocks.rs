@@ -689,7 +689,8 @@ pub fn identifier(id: &str) -> String {
         return match modern_state(i, d) {
             Some(m) => {
                 let base = base_name(&m).to_string();
-                let keeps_data = DYED.iter().any(|(x, _)| *x == i) || matches!(i, 1 | 3 | 5 | 6 | 12 | 24 | 98 | 179);
+                let keeps_data =
+                    DYED.iter().any(|(x, _)| *x == i) || matches!(i, 1 | 3 | 5 | 6 | 12 | 24 | 43 | 98 | 179);
                 if d == 0 || keeps_data {
                     sanitize(&base)
                 } else {
@@ -713,34 +714,6 @@ pub fn sanitize(s: &str) -> String {
         out.push('b');
     }
     out
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn legacy_ids_become_modern_states() {
-        assert_eq!(modern_state(5, 5).as_deref(), Some("minecraft:dark_oak_planks"));
-        assert_eq!(modern_state(35, 14).as_deref(), Some("minecraft:red_wool"));
-        assert_eq!(modern_state(53, 5).as_deref(), Some("minecraft:oak_stairs[facing=west,half=top]"));
-        assert_eq!(modern_state(44, 13).as_deref(), Some("minecraft:stone_brick_slab[type=top]"));
-        assert_eq!(identifier("5:5"), "dark_oak_planks");
-        assert_eq!(identifier("53:2"), "oak_stairs_2");
-        assert_eq!(identifier("minecraft:oak_stairs[facing=east]"), "oak_stairs");
-        assert_eq!(identifier("#a0b0c0"), "color_a0b0c0");
-        assert_eq!(identifier("3000:1"), "block_3000_1");
-        assert!(is_air("minecraft:air") && is_air("0:0") && !is_air("1:0"));
-    }
-
-    #[test]
-    fn colours_are_stable_and_known_blocks_use_the_table() {
-        assert_eq!(color_of("1:0"), [125, 125, 125]);
-        assert_eq!(color_of("minecraft:stone"), [125, 125, 125]);
-        assert_eq!(color_of("#102030"), [16, 32, 48]);
-        assert_eq!(color_of("35:14"), DYES[14].1);
-        assert_eq!(hash_color("mystery"), hash_color("mystery"));
-    }
 }
 
 /// Joins a door's two halves into one kind id: `LOWER+UPPER` (see [`merge_doors`]).
@@ -871,4 +844,32 @@ pub fn split_doors(m: &super::voxel::VoxelModel) -> (super::voxel::VoxelModel, u
     }
     blocks.sort_by_key(|b| (b.pos[1], b.pos[2], b.pos[0]));
     (super::voxel::VoxelModel { kinds, blocks }, lost)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn legacy_ids_become_modern_states() {
+        assert_eq!(modern_state(5, 5).as_deref(), Some("minecraft:dark_oak_planks"));
+        assert_eq!(modern_state(35, 14).as_deref(), Some("minecraft:red_wool"));
+        assert_eq!(modern_state(53, 5).as_deref(), Some("minecraft:oak_stairs[facing=west,half=top]"));
+        assert_eq!(modern_state(44, 13).as_deref(), Some("minecraft:stone_brick_slab[type=top]"));
+        assert_eq!(identifier("5:5"), "dark_oak_planks");
+        assert_eq!(identifier("53:2"), "oak_stairs_2");
+        assert_eq!(identifier("minecraft:oak_stairs[facing=east]"), "oak_stairs");
+        assert_eq!(identifier("#a0b0c0"), "color_a0b0c0");
+        assert_eq!(identifier("3000:1"), "block_3000_1");
+        assert!(is_air("minecraft:air") && is_air("0:0") && !is_air("1:0"));
+    }
+
+    #[test]
+    fn colours_are_stable_and_known_blocks_use_the_table() {
+        assert_eq!(color_of("1:0"), [125, 125, 125]);
+        assert_eq!(color_of("minecraft:stone"), [125, 125, 125]);
+        assert_eq!(color_of("#102030"), [16, 32, 48]);
+        assert_eq!(color_of("35:14"), DYES[14].1);
+        assert_eq!(hash_color("mystery"), hash_color("mystery"));
+    }
 }
