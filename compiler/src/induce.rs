@@ -39,23 +39,27 @@ pub fn induce_files(
     name: &str,
     progress: &mut dyn FnMut(usize, Progress),
 ) -> Result<(GridGrammar, Vec<ExampleReport>), String> {
-    let models = read_examples(paths)?;
+    let (models, _) = read_examples(paths)?;
     induce_models(&models, opts, DEFAULT_SHARE, name, progress)
 }
 
 /// Reads example buildings (any voxel format): (file name, model) each; an empty one
-/// is an error.
-pub fn read_examples(paths: &[&Path]) -> Result<Vec<(String, VoxelModel)>, String> {
+/// is an error. Also returns notes on what the files hold that the models do not keep
+/// (block entities, explicit air), each starting with the file's name.
+#[allow(clippy::type_complexity)]
+pub fn read_examples(paths: &[&Path]) -> Result<(Vec<(String, VoxelModel)>, Vec<String>), String> {
     let mut models: Vec<(String, VoxelModel)> = Vec::new();
+    let mut all_notes = Vec::new();
     for p in paths {
-        let m = mdg_vm::grid::format::read(p)?;
+        let (m, notes) = mdg_vm::grid::format::read_with_notes(p)?;
+        all_notes.extend(notes.into_iter().map(|n| format!("{}: {n}", p.display())));
         if m.blocks.is_empty() {
             return Err(format!("{}: no blocks", p.display()));
         }
         let file = p.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| p.display().to_string());
         models.push((file, m));
     }
-    Ok(models)
+    Ok((models, all_notes))
 }
 
 /// [`induce_files`] on models already read (name, model), with the smallest shared

@@ -1266,3 +1266,18 @@ fn induced_shapes_are_named_by_role_and_their_rules_written_under_them() {
     assert_eq!(rules, g.rules.len());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn writers_warn_past_the_build_height_and_the_structure_blocks_48() {
+    use mdg_vm::grid::format::write_notes;
+    let column: String = (0..400).map(|y| format!("0 {y} 0 stone\n")).collect();
+    let tall = model(&column);
+    assert_eq!(write_notes(VoxelFormat::Schem, &tall).len(), 1, "taller than 384");
+    assert_eq!(write_notes(VoxelFormat::Nbt, &tall).len(), 2, "and over 48");
+    assert!(write_notes(VoxelFormat::Text, &tall).is_empty(), "text files have no limit");
+    let long = model(&(0..49).map(|x| format!("{x} 0 0 stone\n")).collect::<String>());
+    let notes = write_notes(VoxelFormat::Nbt, &long);
+    assert!(notes.len() == 1 && notes[0].contains("49×1×1"), "{notes:?}");
+    assert!(write_notes(VoxelFormat::Schem, &long).is_empty());
+    assert!(write_notes(VoxelFormat::Nbt, &model(&house())).is_empty());
+}

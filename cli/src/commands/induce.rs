@@ -82,8 +82,12 @@ pub fn run(args: Args) -> ExitCode {
             files.get(i).and_then(|f| f.file_name()).map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
         bar.set_message(format!("{file}: pass {}, {} shapes, cost {:.2}", p.pass, p.shapes, p.cost));
     };
-    let result = mdg_compiler::induce::read_examples(&files)
-        .and_then(|models| mdg_compiler::induce::induce_models(&models, &opts, share, &name, &mut progress));
+    let result = mdg_compiler::induce::read_examples(&files).and_then(|(models, notes)| {
+        for n in notes {
+            bar.suspend(|| eprintln!("warning: {n}"));
+        }
+        mdg_compiler::induce::induce_models(&models, &opts, share, &name, &mut progress)
+    });
     bar.finish_and_clear();
     let (grammar, reports) = match result {
         Ok(r) => r,

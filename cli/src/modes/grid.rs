@@ -164,6 +164,9 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
     };
     let bytes = match target {
         Target::Voxels(f) => {
+            for n in voxfmt::write_notes(f, &made.model) {
+                eprintln!("warning: {}: {n}", output.display());
+            }
             voxfmt::write(f, &made.model).map_err(|e| (1, format!("cannot write {}: {e}", output.display())))?
         }
         Target::Mesh(f) => {
