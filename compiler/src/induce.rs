@@ -29,7 +29,7 @@ pub struct ExampleReport {
 
 /// The default smallest piece (blocks) that sub-shape matching cuts out of shapes of
 /// two examples to share it (`mdgc induce --share`; 0 turns it off).
-pub const DEFAULT_SHARE: usize = 4;
+pub const DEFAULT_SHARE: usize = 3;
 
 /// Reads the examples, infers shapes and induces the grammar. `progress` hears about
 /// each example (its index) and each search pass.

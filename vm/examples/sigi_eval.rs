@@ -373,7 +373,8 @@ fn generation(buildings: &[Building]) {
 
 /// Shared style: pairs of SIGI examples induced into one grammar (rect, α = 1, both,
 /// sum cost): how many shapes match a shape of the other example without and with
-/// sub-shape matching (`mdgc induce --share N`).
+/// sub-shape matching (`mdgc induce --share N`), and how many of 20 derivations (random
+/// start) build with shapes of both examples ("mixed").
 fn pairs(buildings: &[Building]) {
     let find = |n: &str| buildings.iter().position(|b| b.name == n);
     let list = [
@@ -386,7 +387,10 @@ fn pairs(buildings: &[Building]) {
         ("building06", "building09"),
     ];
     println!("\n## Shared style: pairs (rect, α = 1, both operations, sum cost)\n");
-    println!("| pair | shapes | shared, whole shapes | --share 4 (cuts) | --share 3 | --share 2 |\n|---|---|---|---|---|---|");
+    println!(
+        "| pair | shapes | shared, whole shapes | --share 4 (cuts) | --share 3 | --share 2 |\n\
+         |---|---|---|---|---|---|"
+    );
     let opts = InferOptions::default();
     for (a, b) in list {
         let (Some(a), Some(b)) = (find(a), find(b)) else { continue };
@@ -399,12 +403,28 @@ fn pairs(buildings: &[Building]) {
         for min in [0usize, 4, 3, 2] {
             let mut infs = base.clone();
             let cuts = if min > 0 { share(&models, opts.spec, &mut infs, min).cuts } else { 0 };
+            // Derivations (seeds 1–20, random start, default generation) whose building
+            // holds shapes of both examples.
+            let mixed = |g: &mdg_vm::grid::GridGrammar| {
+                (1..=20u64)
+                    .filter(|&seed| {
+                        let opts = GenerateOptions { seed, random_start: true, ..GenerateOptions::default() };
+                        generate(g, &opts).is_ok_and(|m| {
+                            let ex: std::collections::HashSet<u32> =
+                                m.instances.iter().map(|i| g.shapes[i.shape as usize].example).collect();
+                            ex.len() > 1
+                        })
+                    })
+                    .count()
+            };
             match induce(&examples, &infs, "pair") {
                 Ok(g) if min == 0 => {
                     n_plain = g.shapes.len();
-                    cells.push(format!("{}", shared_shapes(&g)));
+                    cells.push(format!("{}; mixed {}", shared_shapes(&g), mixed(&g)));
                 }
-                Ok(g) => cells.push(format!("{} of {} ({cuts})", shared_shapes(&g), g.shapes.len())),
+                Ok(g) => {
+                    cells.push(format!("{} of {} ({cuts}); mixed {}", shared_shapes(&g), g.shapes.len(), mixed(&g)))
+                }
                 Err(e) => cells.push(e),
             }
         }

@@ -207,10 +207,14 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
         eprintln!("wrote {}", png.display());
     }
     if common.stats {
+        let examples: std::collections::BTreeSet<u32> =
+            made.instances.iter().filter_map(|i| g.shapes.get(i.shape as usize)).map(|s| s.example).collect();
         eprintln!(
-            "steps {} of {steps}  instances {}  blocks {}  removed by enclosure {} ({} rounds)  seed {seed}  time {:.1} ms",
+            "steps {} of {steps}  instances {} (from {} of {} examples)  blocks {}  removed by enclosure {} ({} rounds)  seed {seed}  time {:.1} ms",
             made.applied,
             made.instances.len(),
+            examples.len(),
+            g.examples.len().max(1),
             made.model.blocks.len(),
             made.removed,
             made.enclosure_rounds,
