@@ -22,7 +22,14 @@ pub struct ExampleReport {
     pub merges: usize,
     pub splits: usize,
     pub seconds: f64,
+    /// Shapes of this example cut to share a piece with another example
+    /// ([`mdg_vm::grid::share`]).
+    pub shared_cuts: usize,
 }
+
+/// The default smallest piece (blocks) that sub-shape matching cuts out of shapes of
+/// two examples to share it (`mdgc induce --share`; 0 turns it off).
+pub const DEFAULT_SHARE: usize = 3;
 
 /// Reads the examples, infers shapes and induces the grammar. `progress` hears about
 /// each example (its index) and each search pass.
@@ -32,25 +39,43 @@ pub fn induce_files(
     name: &str,
     progress: &mut dyn FnMut(usize, Progress),
 ) -> Result<(GridGrammar, Vec<ExampleReport>), String> {
+    let (models, _) = read_examples(paths)?;
+    induce_models(&models, opts, DEFAULT_SHARE, name, progress)
+}
+
+/// Reads example buildings (any voxel format): (file name, model) each; an empty one
+/// is an error. Also returns notes on what the files hold that the models do not keep
+/// (block entities, explicit air), each starting with the file's name.
+#[allow(clippy::type_complexity)]
+pub fn read_examples(paths: &[&Path]) -> Result<(Vec<(String, VoxelModel)>, Vec<String>), String> {
     let mut models: Vec<(String, VoxelModel)> = Vec::new();
+    let mut all_notes = Vec::new();
     for p in paths {
-        let m = mdg_vm::grid::format::read(p)?;
+        let (m, notes) = mdg_vm::grid::format::read_with_notes(p)?;
+        all_notes.extend(notes.into_iter().map(|n| format!("{}: {n}", p.display())));
         if m.blocks.is_empty() {
             return Err(format!("{}: no blocks", p.display()));
         }
         let file = p.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| p.display().to_string());
         models.push((file, m));
     }
-    induce_models(&models, opts, name, progress)
+    Ok((models, all_notes))
 }
 
-/// [`induce_files`] on models already read (name, model).
+/// [`induce_files`] on models already read (name, model), with the smallest shared
+/// piece of sub-shape matching (`share` blocks; 0: off).
 pub fn induce_models(
     models: &[(String, VoxelModel)],
     opts: &InferOptions,
+    share: usize,
     name: &str,
     progress: &mut dyn FnMut(usize, Progress),
 ) -> Result<(GridGrammar, Vec<ExampleReport>), String> {
+    let original_blocks: Vec<usize> = models.iter().map(|(_, m)| m.blocks.len()).collect();
+    // A door's two halves are one block for inference and matching (written back as two).
+    let joined: Vec<(String, VoxelModel)> =
+        models.iter().map(|(n, m)| (n.clone(), mdg_vm::grid::blocks::merge_doors(m).0)).collect();
+    let models = &joined[..];
     let mut inferences: Vec<Inference> = Vec::new();
     let mut reports = Vec::new();
     for (i, (file, m)) in models.iter().enumerate() {
@@ -58,13 +83,28 @@ pub fn induce_models(
         let inf = infer(m, opts, &mut |p| progress(i, p));
         reports.push(ExampleReport {
             name: file.clone(),
-            blocks: m.blocks.len(),
+            blocks: original_blocks[i],
             measures: measures(m, &inf),
             merges: inf.stats.merges,
             splits: inf.stats.splits,
             seconds: t.elapsed().as_secs_f64(),
+            shared_cuts: 0,
         });
         inferences.push(inf);
+    }
+    if share > 0 && models.len() > 1 {
+        let refs: Vec<&VoxelModel> = models.iter().map(|(_, m)| m).collect();
+        let before: Vec<usize> = inferences.iter().map(|i| i.shapes.len()).collect();
+        let t = std::time::Instant::now();
+        let stats = mdg_vm::grid::share::share(&refs, opts.spec, &mut inferences, share);
+        let seconds = t.elapsed().as_secs_f64() / models.len() as f64;
+        for (i, r) in reports.iter_mut().enumerate() {
+            if inferences[i].shapes.len() != before[i] {
+                r.measures = measures(&models[i].1, &inferences[i]);
+            }
+            r.shared_cuts = stats.cut_per_example[i];
+            r.seconds += seconds;
+        }
     }
     let examples: Vec<Example> = models.iter().map(|(n, m)| Example { name: n.clone(), model: m }).collect();
     // The grid section's limits (blocks in all shapes, a shape's extent) are the only
@@ -102,7 +142,11 @@ pub fn write_source(g: &GridGrammar, comment: &[String]) -> String {
         let _ = writeln!(s, "    {} {} {} {} {};", p.name, quoted(&p.block), p.color[0], p.color[1], p.color[2]);
     }
     s.push_str("  }\n");
-    for shape in &g.shapes {
+    // Each shape's matches and rules under it when the grammar lists them by source
+    // shape (induced grammars do); else all of them after the shapes.
+    let grouped = g.matches.windows(2).all(|w| w[0].a <= w[1].a) && g.rules.windows(2).all(|w| w[0].from <= w[1].from);
+    let (mut next_match, mut next_rule) = (0, 0);
+    for (si, shape) in g.shapes.iter().enumerate() {
         let _ = writeln!(s, "  shape {} {{", shape.name);
         let [sx, sy, sz] = shape.size;
         let _ = writeln!(s, "    size {sx} {sy} {sz};");
@@ -137,19 +181,22 @@ pub fn write_source(g: &GridGrammar, comment: &[String]) -> String {
             let _ = write!(s, "\n      {}", line.join(" "));
         }
         s.push_str(";\n  }\n");
-    }
-    for m in &g.matches {
-        let (a, b) = (&g.shapes[m.a as usize].name, &g.shapes[m.b as usize].name);
-        let _ = writeln!(s, "  match {a} {b} turn {};", m.turn);
-    }
-    for r in &g.rules {
-        let (a, b) = (&g.shapes[r.from as usize].name, &g.shapes[r.to as usize].name);
-        let [x, y, z] = r.place.offset;
-        let _ = write!(s, "  rule {a} {b} at {x} {y} {z}");
-        if r.place.turn != 0 {
-            let _ = write!(s, " turn {}", r.place.turn);
+        if grouped {
+            while next_match < g.matches.len() && g.matches[next_match].a as usize <= si {
+                write_match(&mut s, g, next_match);
+                next_match += 1;
+            }
+            while next_rule < g.rules.len() && g.rules[next_rule].from as usize <= si {
+                write_rule(&mut s, g, next_rule);
+                next_rule += 1;
+            }
         }
-        s.push_str(";\n");
+    }
+    for m in next_match..g.matches.len() {
+        write_match(&mut s, g, m);
+    }
+    for r in next_rule..g.rules.len() {
+        write_rule(&mut s, g, r);
     }
     if let Some(start) = g.shapes.get(g.start as usize) {
         let _ = writeln!(s, "  start {};", start.name);
@@ -165,6 +212,23 @@ pub fn write_source(g: &GridGrammar, comment: &[String]) -> String {
     s.push_str("  }\n}\n");
     // The layout above is the formatter's; run it anyway so the file is canonical.
     crate::fmt::format_source(&s).unwrap_or(s)
+}
+
+fn write_match(s: &mut String, g: &GridGrammar, i: usize) {
+    let m = &g.matches[i];
+    let (a, b) = (&g.shapes[m.a as usize].name, &g.shapes[m.b as usize].name);
+    let _ = writeln!(s, "  match {a} {b} turn {};", m.turn);
+}
+
+fn write_rule(s: &mut String, g: &GridGrammar, i: usize) {
+    let r = &g.rules[i];
+    let (a, b) = (&g.shapes[r.from as usize].name, &g.shapes[r.to as usize].name);
+    let [x, y, z] = r.place.offset;
+    let _ = write!(s, "  rule {a} {b} at {x} {y} {z}");
+    if r.place.turn != 0 {
+        let _ = write!(s, " turn {}", r.place.turn);
+    }
+    s.push_str(";\n");
 }
 
 /// [`write_source`], checked: the text must fit a source file (16 MiB, error `E0201` as

@@ -1056,3 +1056,228 @@ fn a_stair_turned_by_a_rule_faces_the_right_way() {
     assert_eq!(mdg_vm::grid::matching::Classes::of(&shapes, &turns).class, vec![0, 0]);
     assert_eq!(mdg_vm::grid::matching::Classes::of(&shapes, &[]).class, vec![0, 1], "without turning kinds");
 }
+
+/// Two different buildings with one wall style: a stone wall with 2-wide glass windows
+/// framed by stone. The long house has two windows, a plank floor and no roof; the
+/// tower's wall is one window's panel, with a brick roof and a wool floor.
+fn long_house_and_tower() -> (VoxelModel, VoxelModel) {
+    let mut a = Vec::new();
+    for x in 0..7 {
+        for z in 0..3 {
+            a.push(([x, 0, z], "planks"));
+        }
+        for y in 1..4 {
+            let glass = y == 2 && x % 3 != 0;
+            a.push(([x, y, 0], if glass { "glass" } else { "stone" }));
+        }
+    }
+    let mut b = Vec::new();
+    for x in 0..4 {
+        for z in 0..2 {
+            b.push(([x + 20, 0, z + 10], "wool"));
+            b.push(([x + 20, 4, z + 10], "bricks"));
+        }
+        for y in 1..4 {
+            let glass = y == 2 && x % 3 != 0;
+            b.push(([x + 20, y, 10], if glass { "glass" } else { "stone" }));
+        }
+    }
+    (model(&lines(&a)), model(&lines(&b)))
+}
+
+#[test]
+fn two_different_buildings_with_one_wall_style_share_its_rules() {
+    let (a, b) = long_house_and_tower();
+    let opts = InferOptions { spec: Spec::Rect, alpha: 1.0, ops: Ops::Both, ..InferOptions::default() };
+    let models = vec![("house.txt".to_string(), a.clone()), ("tower.txt".to_string(), b.clone())];
+    // Whole shapes alone: the house's wall is longer than the tower's, nothing matches.
+    let (plain, _) = mdg_compiler::induce::induce_models(&models, &opts, 0, "plain", &mut |_, _| {}).expect("induces");
+    assert_eq!(mdg_vm::grid::induce::shared_shapes(&plain), 0);
+    // Sub-shape matching cuts the window panel out of the house's wall.
+    let (g, reports) =
+        mdg_compiler::induce::induce_models(&models, &opts, 4, "shared", &mut |_, _| {}).expect("induces");
+    assert_eq!(reports.iter().map(|r| r.shared_cuts).collect::<Vec<_>>(), [1, 1]);
+    assert!(mdg_vm::grid::induce::shared_shapes(&g) >= 2);
+    let d = Derivation::new(&g);
+    let cross: Vec<_> =
+        g.matches.iter().filter(|m| g.shapes[m.a as usize].example != g.shapes[m.b as usize].example).collect();
+    assert!(!cross.is_empty(), "a shape of the house matches one of the tower");
+    let m = cross[0];
+    let panel_kinds = |s: u32| -> HashSet<String> {
+        g.shapes[s as usize].blocks.iter().map(|b| g.palette[b.kind as usize].block.clone()).collect()
+    };
+    assert_eq!(panel_kinds(m.a), HashSet::from(["stone".to_string(), "glass".to_string()]));
+    // The shared rule set: each panel gets the other example's rules, so a panel of the
+    // house can grow the tower's roof, and the tower's panel the house's floor.
+    let adds = |s: u32| -> HashSet<u32> {
+        d.rules_for(s).iter().map(|&r| g.shapes[g.rules[r as usize].to as usize].example).collect()
+    };
+    assert_eq!(adds(m.a), HashSet::from([0, 1]));
+    assert_eq!(adds(m.b), HashSet::from([0, 1]));
+    // And derivations do combine the styles: some building has the house's planks and
+    // the tower's bricks.
+    let mixed = (1..=30u64).any(|seed| {
+        let made = generate(
+            &g,
+            &GenerateOptions { steps: 30, enclosure: false, seed, bounds: Bounds::None, ..GenerateOptions::default() },
+        )
+        .expect("generates");
+        let ids: HashSet<&str> =
+            made.model.blocks.iter().map(|b| made.model.kinds[b.kind as usize].id.as_str()).collect();
+        ids.contains("planks") && ids.contains("bricks")
+    });
+    assert!(mixed, "no derivation combined the two examples' styles");
+    // The written grammar compiles back to the same grammar.
+    let dir = temp_dir("share");
+    mdg_compiler::induce::write_checked(&g, &[], &dir.join("style.mdg")).expect("round trip");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The face-neighbour pairs of a model: (kind id, neighbour's kind id, direction).
+fn neighbour_pairs(m: &VoxelModel) -> HashSet<(String, String, [i32; 3])> {
+    let at: BTreeMap<[i32; 3], &str> = m.blocks.iter().map(|b| (b.pos, m.kinds[b.kind as usize].id.as_str())).collect();
+    let mut out = HashSet::new();
+    for (&p, &k) in &at {
+        for d in mdg_vm::grid::voxel::NEIGHBOURS {
+            if let Some(&n) = at.get(&add(p, d)) {
+                out.insert((k.to_string(), n.to_string(), d));
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn the_adjacency_constraint_keeps_every_neighbour_pair_of_the_example() {
+    let m = model(&house());
+    let opts = InferOptions { spec: Spec::Rect, alpha: 0.25, ops: Ops::Merge, ..InferOptions::default() };
+    let inf = infer(&m, &opts, &mut |_| {});
+    let g = induce(&[Example { name: "house.txt".into(), model: &m }], &[inf], "house").expect("induces");
+    // The example's pairs under the four quarter turns (its blocks have no orientation).
+    let mut allowed = HashSet::new();
+    for (a, b, d) in neighbour_pairs(&m) {
+        for t in 0..4 {
+            allowed.insert((a.clone(), b.clone(), rotate(t, d)));
+        }
+    }
+    let plain = GenerateOptions { steps: 60, enclosure: false, keep_largest: false, ..GenerateOptions::default() };
+    let (mut strange_without, mut blocks_with) = (0, 0);
+    for seed in 0..20 {
+        let free = generate(&g, &GenerateOptions { seed, ..plain }).expect("generates");
+        strange_without += neighbour_pairs(&free.model).difference(&allowed).count();
+        let held = generate(&g, &GenerateOptions { seed, adjacency: true, ..plain }).expect("generates");
+        let strange: Vec<_> = neighbour_pairs(&held.model).difference(&allowed).cloned().collect();
+        assert!(strange.is_empty(), "seed {seed}: pairs no example has: {strange:?}");
+        blocks_with += held.model.blocks.len();
+        assert!(held.applied > 0, "seed {seed}: some rule still applies");
+    }
+    assert!(strange_without > 0, "without the constraint some derivation makes a new pair (else this proves nothing)");
+    assert!(blocks_with > 20 * m.blocks.len() / 4, "derivations still grow: {blocks_with}");
+}
+
+#[test]
+fn door_halves_are_one_block_for_induction_and_two_when_written() {
+    use mdg_vm::grid::blocks::{merge_doors, split_doors, turn_block};
+    // A wall with a legacy oak door (lower half facing east, upper half hinge left) and
+    // one with a modern spruce door.
+    let mut v: Vec<([i32; 3], &str)> = Vec::new();
+    for x in 0..5 {
+        for y in 0..3 {
+            let id = match (x, y) {
+                (1, 0) => "64:0",
+                (1, 1) => "64:8",
+                (3, 0) => "minecraft:spruce_door[facing=east,half=lower,hinge=left]",
+                (3, 1) => "minecraft:spruce_door[facing=east,half=upper,hinge=left]",
+                _ => "stone",
+            };
+            v.push(([x, y, 0], id));
+        }
+    }
+    let m = model(&lines(&v));
+    let (joined, n) = merge_doors(&m);
+    assert_eq!(n, 2);
+    assert_eq!(joined.blocks.len(), m.blocks.len() - 2);
+    let ids: HashSet<&str> = joined.kinds.iter().map(|k| k.id.as_str()).collect();
+    assert!(ids.contains("64:0+64:8"), "{ids:?}");
+    assert!(!ids.contains("64:8"), "the upper half's kind is gone");
+    // Turned, both halves turn (the lower half's facing; the upper holds none).
+    assert_eq!(turn_block("64:0+64:8", 1).as_deref(), Some("64:3+64:8"));
+    assert_eq!(
+        turn_block(
+            "minecraft:spruce_door[facing=east,half=lower,hinge=left]+minecraft:spruce_door[facing=east,half=upper,hinge=left]",
+            1
+        )
+        .as_deref(),
+        Some(
+            "minecraft:spruce_door[facing=north,half=lower,hinge=left]+minecraft:spruce_door[facing=north,half=upper,hinge=left]"
+        )
+    );
+    // Written back as two blocks: the same building.
+    let (back, lost) = split_doors(&joined);
+    assert_eq!(lost, 0);
+    assert_eq!(ids_of(&back), ids_of(&m));
+    // Through induction and generation: a generated door has both halves.
+    let models = vec![("doors.txt".to_string(), m.clone())];
+    let opts = InferOptions { spec: Spec::Rect, alpha: 0.0, ops: Ops::Merge, ..InferOptions::default() };
+    let (g, _) = mdg_compiler::induce::induce_models(&models, &opts, 0, "doors", &mut |_, _| {}).expect("induces");
+    assert!(g.palette.iter().any(|p| p.block == "64:0+64:8"));
+    // A writer given joined doors writes both halves.
+    let text = String::from_utf8(format::write(VoxelFormat::Text, &joined).expect("writes")).expect("utf8");
+    assert!(!text.contains('+') && text.contains("1 1 0 64:8"), "{text}");
+    let rebuilt = &mdg_vm::grid::generate::examples(&g)[0];
+    assert_eq!(ids_of(rebuilt), ids_of(&m), "the example rebuilt from the grammar has both halves");
+}
+
+fn ids_of(m: &VoxelModel) -> BTreeMap<[i32; 3], String> {
+    m.blocks.iter().map(|b| (b.pos, m.kinds[b.kind as usize].id.clone())).collect()
+}
+
+#[test]
+fn induced_shapes_are_named_by_role_and_their_rules_written_under_them() {
+    let m = model(&house());
+    let opts = InferOptions { spec: Spec::Rect, ..InferOptions::default() };
+    let inf = infer(&m, &opts, &mut |_| {});
+    let g = induce(&[Example { name: "house.txt".into(), model: &m }], &[inf], "house").expect("induces");
+    let names: Vec<&str> = g.shapes.iter().map(|s| s.name.as_str()).collect();
+    assert!(names.contains(&"floor_planks_1"), "{names:?}");
+    assert!(names.contains(&"roof_slab_1"), "{names:?}");
+    assert!(names.iter().any(|n| n.starts_with("wall_stone_")), "{names:?}");
+    for s in &g.shapes {
+        let role = s.name.split('_').next().expect("a role");
+        match s.plane {
+            Some(1) => assert!(role == "floor" || role == "roof", "{}", s.name),
+            Some(_) => assert_eq!(role, "wall", "{}", s.name),
+            None => assert_eq!(role, "solid", "{}", s.name),
+        }
+    }
+    // Each rule line follows its source shape's block (and precedes the next shape).
+    let dir = temp_dir("names");
+    let text = mdg_compiler::induce::write_checked(&g, &[], &dir.join("house.mdg")).expect("round trip");
+    let mut current = String::new();
+    let mut rules = 0;
+    for line in text.lines().map(str::trim) {
+        if let Some(rest) = line.strip_prefix("shape ") {
+            current = rest.split_whitespace().next().unwrap_or_default().to_string();
+        } else if let Some(rest) = line.strip_prefix("rule ").filter(|_| !current.is_empty()) {
+            assert_eq!(rest.split_whitespace().next(), Some(current.as_str()), "{line}");
+            rules += 1;
+        }
+    }
+    assert_eq!(rules, g.rules.len());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn writers_warn_past_the_build_height_and_the_structure_blocks_48() {
+    use mdg_vm::grid::format::write_notes;
+    let column: String = (0..400).map(|y| format!("0 {y} 0 stone\n")).collect();
+    let tall = model(&column);
+    assert_eq!(write_notes(VoxelFormat::Schem, &tall).len(), 1, "taller than 384");
+    assert_eq!(write_notes(VoxelFormat::Nbt, &tall).len(), 2, "and over 48");
+    assert!(write_notes(VoxelFormat::Text, &tall).is_empty(), "text files have no limit");
+    let long = model(&(0..49).map(|x| format!("{x} 0 0 stone\n")).collect::<String>());
+    let notes = write_notes(VoxelFormat::Nbt, &long);
+    assert!(notes.len() == 1 && notes[0].contains("49×1×1"), "{notes:?}");
+    assert!(write_notes(VoxelFormat::Schem, &long).is_empty());
+    assert!(write_notes(VoxelFormat::Nbt, &model(&house())).is_empty());
+}

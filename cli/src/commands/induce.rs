@@ -32,6 +32,11 @@ pub struct Args {
     /// After the search, cut shapes along the floors and walls they touch (the reference's post-split).
     #[arg(long)]
     pub post_split: bool,
+    /// With several examples: cut the largest piece (at least N blocks) two shapes of different
+    /// examples have in common out of both, so they match and share rules (sub-shape matching;
+    /// 0 turns it off).
+    #[arg(long, default_value_t = mdg_compiler::induce::DEFAULT_SHARE, value_name = "N")]
+    pub share: usize,
     /// The grammar's name (default: the first example's file name).
     #[arg(long)]
     pub name: Option<String>,
@@ -43,7 +48,7 @@ pub struct Args {
 /// `mdgc induce`: infer shapes, induce the grammar, write it, and check that the
 /// written source compiles back to the same grammar.
 pub fn run(args: Args) -> ExitCode {
-    let Args { examples, spec, alpha, ops, overlap, cost, post_split, name, output } = args;
+    let Args { examples, spec, alpha, ops, overlap, cost, post_split, share, name, output } = args;
     let (examples, spec, ops, cost, name, output) =
         (&examples[..], spec.as_str(), ops.as_str(), cost.as_str(), name.as_deref(), output.as_path());
     use mdg_vm::grid::infer::{Cost, InferOptions, Ops, Spec};
@@ -77,7 +82,12 @@ pub fn run(args: Args) -> ExitCode {
             files.get(i).and_then(|f| f.file_name()).map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
         bar.set_message(format!("{file}: pass {}, {} shapes, cost {:.2}", p.pass, p.shapes, p.cost));
     };
-    let result = mdg_compiler::induce::induce_files(&files, &opts, &name, &mut progress);
+    let result = mdg_compiler::induce::read_examples(&files).and_then(|(models, notes)| {
+        for n in notes {
+            bar.suspend(|| eprintln!("warning: {n}"));
+        }
+        mdg_compiler::induce::induce_models(&models, &opts, share, &name, &mut progress)
+    });
     bar.finish_and_clear();
     let (grammar, reports) = match result {
         Ok(r) => r,
@@ -100,6 +110,9 @@ pub fn run(args: Args) -> ExitCode {
             r.splits,
             r.seconds * 1e3
         );
+        if r.shared_cuts > 0 {
+            eprintln!("  {} of its shapes cut to share a piece with another example", r.shared_cuts);
+        }
     }
     if examples.len() > 1 {
         let shared = mdg_vm::grid::induce::shared_shapes(&grammar);
@@ -107,20 +120,21 @@ pub fn run(args: Args) -> ExitCode {
         if shared == 0 {
             eprintln!(
                 "warning: no shape of one example matches a shape of another, so the grammar is the examples' \
-                 grammars side by side (no shared style); try --overlap, another --alpha or --spec"
+                 grammars side by side (no shared style); try a smaller --share, --overlap, another --alpha or --spec"
             );
         }
     }
     let args: Vec<String> = examples.iter().map(|p| p.display().to_string()).collect();
     let comment = vec![
         format!(
-            "Induced by `mdgc induce {} --spec {} --alpha {alpha} --ops {} --cost {}{}{}`.",
+            "Induced by `mdgc induce {} --spec {} --alpha {alpha} --ops {} --cost {}{}{}{}`.",
             args.join(" "),
             spec.name(),
             ops.name(),
             cost.name(),
             if overlap { " --overlap" } else { "" },
-            if post_split { " --post-split" } else { "" }
+            if post_split { " --post-split" } else { "" },
+            if share != mdg_compiler::induce::DEFAULT_SHARE { format!(" --share {share}") } else { String::new() }
         ),
         format!(
             "{} shapes, {} matches, {} rules. Generate: mdg-run {} --steps 50 --seed 1 -o house.vox",

@@ -47,6 +47,13 @@ pub struct GridArgs {
     /// instead of the grammar's `start`.
     #[arg(long)]
     pub random_start: bool,
+    /// Grid grammars: the adjacency constraint (the paper's alternative to enclosure): a rule applies only
+    /// where every block it adds stands beside blocks it stands beside in an example or a shape.
+    #[arg(long)]
+    pub adjacency: bool,
+    /// Grid grammars: `--png` also draws N more buildings, generated from the seeds after `--seed`.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub more: u32,
 }
 
 /// Reads `--bounds`.
@@ -141,6 +148,7 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
         bounds,
         keep_largest: !args.keep_all,
         random_start: args.random_start,
+        adjacency: args.adjacency,
     };
     let made = generate::generate(g, &opts).map_err(|e| (1, e))?;
     let elapsed = started.elapsed().as_secs_f64();
@@ -156,6 +164,9 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
     };
     let bytes = match target {
         Target::Voxels(f) => {
+            for n in voxfmt::write_notes(f, &made.model) {
+                eprintln!("warning: {}: {n}", output.display());
+            }
             voxfmt::write(f, &made.model).map_err(|e| (1, format!("cannot write {}: {e}", output.display())))?
         }
         Target::Mesh(f) => {
@@ -173,11 +184,20 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
         let examples = generate::examples(g);
         let mut models: Vec<&mdg_vm::grid::voxel::VoxelModel> =
             examples.iter().filter(|m| !m.blocks.is_empty()).collect();
+        let first = models.len();
         models.push(&made.model);
+        if args.more > 16 {
+            return Err((2, format!("--more {}: at most 16", args.more)));
+        }
+        let more: Vec<mdg_vm::grid::voxel::VoxelModel> = (1..=args.more as u64)
+            .map(|i| generate::generate(g, &GenerateOptions { seed: seed.wrapping_add(i), ..opts }).map(|m| m.model))
+            .collect::<Result<_, _>>()
+            .map_err(|e| (1, e))?;
+        models.extend(more.iter().filter(|m| !m.blocks.is_empty()));
         let mut out = mesh::output_side_by_side(&models, 4);
         if let (Some((lo, _)), false) = (made.model.bounds(), site_mesh.positions.is_empty()) {
-            // The generated building is the last one; move the site with it.
-            let shift = generated_shift(&models, lo);
+            // The generated building follows the examples; move the site with it.
+            let shift = generated_shift(&models[..=first], lo);
             let mut s = site_mesh.clone();
             s.positions.iter_mut().for_each(|p| *p = [p[0] + shift[0], p[1] + shift[1], p[2] + shift[2]]);
             out.mesh.append(&s);
@@ -187,10 +207,14 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
         eprintln!("wrote {}", png.display());
     }
     if common.stats {
+        let examples: std::collections::BTreeSet<u32> =
+            made.instances.iter().filter_map(|i| g.shapes.get(i.shape as usize)).map(|s| s.example).collect();
         eprintln!(
-            "steps {} of {steps}  instances {}  blocks {}  removed by enclosure {} ({} rounds)  seed {seed}  time {:.1} ms",
+            "steps {} of {steps}  instances {} (from {} of {} examples)  blocks {}  removed by enclosure {} ({} rounds)  seed {seed}  time {:.1} ms",
             made.applied,
             made.instances.len(),
+            examples.len(),
+            g.examples.len().max(1),
             made.model.blocks.len(),
             made.removed,
             made.enclosure_rounds,

@@ -46,6 +46,12 @@ pub struct GenerateOptions {
     /// Start from a shape drawn at random (among those with rules) instead of the
     /// grammar's start shape, as the paper's reference implementation does.
     pub random_start: bool,
+    /// The adjacency constraint (the paper's alternative to enclosure, from model
+    /// synthesis): a rule application is possible only when every pair of face
+    /// neighbours it makes (a new block beside another block) stands beside each other,
+    /// the same way round, somewhere in an example (turned, oriented blocks turned
+    /// with it) or inside a shape.
+    pub adjacency: bool,
 }
 
 impl Default for GenerateOptions {
@@ -58,6 +64,7 @@ impl Default for GenerateOptions {
             bounds: Bounds::Examples(BOUNDS_FACTOR),
             keep_largest: true,
             random_start: false,
+            adjacency: false,
         }
     }
 }
@@ -345,6 +352,7 @@ pub fn generate(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generat
     let mut open_instances: Vec<usize> = if d.rules_for(start.shape).is_empty() { vec![] } else { vec![0] };
     let mut applied = 0;
     let mut note = None;
+    let adjacent = opts.adjacency.then(|| Adjacency::of(&d));
     while applied < opts.steps && !open_instances.is_empty() {
         let oi = below(&mut rng, open_instances.len());
         let i = open_instances[oi];
@@ -357,7 +365,11 @@ pub fn generate(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generat
             (0..3).all(|a| (hi[a] - lo[a] + 1) as u32 <= limit[a])
         };
         match d.apply(&instances[i], rule) {
-            Some(new) if within(&new) && world.fits(d.blocks(&new)) => {
+            Some(new)
+                if within(&new)
+                    && world.fits(d.blocks(&new))
+                    && adjacent.as_ref().is_none_or(|a| a.allows(&world, d.blocks(&new))) =>
+            {
                 bbox = union_box(bbox, d.bounds(&new));
                 if world.cells.len() + grammar.shapes[new.shape as usize].blocks.len() > MAX_BLOCKS {
                     note = Some(format!("stopped at {MAX_BLOCKS} blocks"));
@@ -387,7 +399,56 @@ pub fn generate(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generat
     if opts.keep_largest {
         removed += keep_largest_supported(&d, &mut instances, &mut world);
     }
-    Ok(Generated { model: world.model(&d.kinds), instances, applied, removed, enclosure_rounds: rounds, note })
+    // Doors joined for induction are two blocks again.
+    let (model, _) = super::blocks::split_doors(&world.model(&d.kinds));
+    Ok(Generated { model, instances, applied, removed, enclosure_rounds: rounds, note })
+}
+
+/// The pairs of face neighbours the adjacency constraint allows: (kind, neighbour's
+/// kind, direction index into [`NEIGHBOURS`]), in production kinds.
+struct Adjacency {
+    allowed: std::collections::HashSet<(u32, u32, u8)>,
+}
+
+impl Adjacency {
+    /// Every pair of face neighbours of the examples (rebuilt from the shapes' places)
+    /// and inside each shape, under the four quarter turns.
+    fn of(d: &Derivation) -> Adjacency {
+        let mut allowed = std::collections::HashSet::new();
+        let mut add_all = |cells: &HashMap<[i32; 3], u32>| {
+            for (&p, &k) in cells {
+                for (di, dir) in NEIGHBOURS.iter().enumerate() {
+                    let Some(&n) = cells.get(&super::add(p, *dir)) else { continue };
+                    for t in 0..4u8 {
+                        let td = super::rotate(t, *dir);
+                        let tdi = NEIGHBOURS.iter().position(|x| *x == td).unwrap_or(di) as u8;
+                        allowed.insert((super::turn_kind(&d.turns, k, t), super::turn_kind(&d.turns, n, t), tdi));
+                    }
+                }
+            }
+        };
+        for m in examples(d.grammar) {
+            add_all(&m.blocks.iter().map(|b| (b.pos, b.kind)).collect());
+        }
+        for s in &d.grammar.shapes {
+            add_all(&s.blocks.iter().map(|b| (b.pos, b.kind)).collect());
+        }
+        Adjacency { allowed }
+    }
+
+    /// Whether adding `blocks` (production kinds) to the world makes only allowed pairs.
+    fn allows(&self, world: &World, blocks: impl Iterator<Item = ([i32; 3], u32)>) -> bool {
+        let new: HashMap<[i32; 3], u32> = blocks.collect();
+        new.iter().all(|(&p, &k)| {
+            NEIGHBOURS.iter().enumerate().all(|(di, dir)| {
+                let q = super::add(p, *dir);
+                match world.cells.get(&q).map(|c| c.0).or_else(|| new.get(&q).copied()) {
+                    Some(n) => self.allowed.contains(&(k, n, di as u8)),
+                    None => true,
+                }
+            })
+        })
+    }
 }
 
 /// The smallest box holding both boxes (inclusive corners).
@@ -626,7 +687,7 @@ pub fn examples(grammar: &GridGrammar) -> Vec<VoxelModel> {
         .map(|c| {
             let mut blocks: Vec<Block> = c.into_iter().map(|(pos, kind)| Block { pos, kind }).collect();
             blocks.sort_by_key(|b| (b.pos[1], b.pos[2], b.pos[0]));
-            VoxelModel { kinds: kinds.clone(), blocks }
+            super::blocks::split_doors(&VoxelModel { kinds: kinds.clone(), blocks }).0
         })
         .collect()
 }

@@ -13,6 +13,9 @@
 //!   Matching shapes of different examples link their rules: one grammar, one shared
 //!   style.
 //! * The **start** shape is the largest shape.
+//! * **Names** say a shape's role and material: `wall_stone_1`, `floor_planks_2`,
+//!   `roof_slab_1`, `solid_stone_1` (from its plane and height in the example and its
+//!   most common block kind).
 
 use super::infer::Inference;
 use super::matching::Classes;
@@ -35,8 +38,12 @@ pub struct Example<'a> {
 pub struct Measures {
     /// Number of shapes.
     pub shapes: usize,
-    /// Percentage of shapes that match another shape.
+    /// Percentage of shapes that match another shape (oriented blocks turned with the
+    /// shape: a stair facing east matches one facing north in a turned shape).
     pub matching: f64,
+    /// The same with blocks compared by id only, as the paper's reference does (a turned
+    /// stair is another block).
+    pub matching_exact: f64,
     /// Mean blocks per shape.
     pub size: f64,
     /// Mean of (block kinds in the shape / blocks in the shape).
@@ -72,6 +79,7 @@ pub fn measures(model: &VoxelModel, inference: &Inference) -> Measures {
     }
     let ids: Vec<&str> = model.kinds.iter().map(|k| k.id.as_str()).collect();
     let classes = Classes::of(&shapes, &super::kind_turns(&ids));
+    let exact = Classes::of(&shapes, &[]);
     let size = shapes.iter().map(|s| s.len() as f64).sum::<f64>() / n as f64;
     let complexity = shapes
         .iter()
@@ -81,7 +89,13 @@ pub fn measures(model: &VoxelModel, inference: &Inference) -> Measures {
         })
         .sum::<f64>()
         / n as f64;
-    Measures { shapes: n, matching: classes.matching_percent(), size, complexity }
+    Measures {
+        shapes: n,
+        matching: classes.matching_percent(),
+        matching_exact: exact.matching_percent(),
+        size,
+        complexity,
+    }
 }
 
 /// Builds the grammar from examples and their inferred shapes (same order).
@@ -118,6 +132,7 @@ pub fn induce(examples: &[Example], inferences: &[Inference], name: &str) -> Res
     let mut first_of_example = Vec::new();
     for (ei, (e, inf)) in examples.iter().zip(inferences).enumerate() {
         first_of_example.push(shapes.len());
+        let (lo_y, hi_y) = e.model.bounds().map(|(lo, hi)| (lo[1], hi[1])).unwrap_or((0, 0));
         for s in &inf.shapes {
             let (mut local, at) = local_blocks(e.model, &s.blocks);
             for b in &mut local {
@@ -134,7 +149,16 @@ pub fn induce(examples: &[Example], inferences: &[Inference], name: &str) -> Res
             local.iter().for_each(|b| *counts.entry(b.kind).or_insert(0) += 1);
             let dominant =
                 counts.iter().max_by_key(|(k, c)| (**c, std::cmp::Reverse(**k))).map(|(k, _)| *k).unwrap_or(0);
-            let base = palette[dominant as usize].name.clone();
+            // Named by role and material: `floor_…` (flat along y at the example's lowest
+            // level, or inside it), `roof_…` (flat along y at its top), `wall_…` (flat
+            // along x or z), `solid_…` (3D), then the most common block kind.
+            let role = match s.plane {
+                Some(1) if at[1] == hi_y && at[1] > lo_y => "roof",
+                Some(1) => "floor",
+                Some(_) => "wall",
+                None => "solid",
+            };
+            let base = format!("{role}_{}", palette[dominant as usize].name);
             let n = per_name.entry(base.clone()).or_insert(0);
             *n += 1;
             let name = unique(&format!("{base}_{n}"), &mut shape_names);
@@ -194,6 +218,10 @@ pub fn induce(examples: &[Example], inferences: &[Inference], name: &str) -> Res
             }
         }
     }
+    // Grouped by their source shape (stable: the example order within a group), so the
+    // written grammar lists each shape's matches and rules under it.
+    matches.sort_by_key(|m| m.a);
+    rules.sort_by_key(|r| r.from);
     let start = (0..shapes.len()).max_by_key(|&i| (shapes[i].blocks.len(), std::cmp::Reverse(i))).unwrap_or(0) as u32;
     let g = GridGrammar {
         name: blocks::sanitize(name),

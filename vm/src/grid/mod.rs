@@ -20,6 +20,7 @@ pub mod induce;
 pub mod infer;
 pub mod matching;
 pub mod mesh;
+pub mod share;
 pub mod voxel;
 
 use serde::{Deserialize, Serialize};

@@ -79,8 +79,66 @@ pub fn read(path: &Path) -> Result<VoxelModel, String> {
     read_bytes(format, &bytes).map_err(|e| format!("{}: {e}", path.display()))
 }
 
-/// Writes a voxel model in `format`.
+/// Reads a voxel file, with notes on what the model does not keep (block entities,
+/// explicit air) for the caller to show as warnings.
+pub fn read_with_notes(path: &Path) -> Result<(VoxelModel, Vec<String>), String> {
+    let format = VoxelFormat::from_path(path)
+        .ok_or_else(|| format!("{}: unknown voxel format (expected .txt, .vox, .nbt or .schem)", path.display()))?;
+    let at = |e: String| format!("{}: {e}", path.display());
+    match format {
+        VoxelFormat::Nbt | VoxelFormat::Schem => {
+            let meta = std::fs::metadata(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            if meta.len() > MAX_FILE_BYTES {
+                return Err(format!("{}: larger than {MAX_FILE_BYTES} bytes", path.display()));
+            }
+            let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            let r = if format == VoxelFormat::Nbt {
+                nbt::read_structure_notes(&bytes)
+            } else {
+                nbt::read_schem_notes(&bytes)
+            };
+            r.map_err(at)
+        }
+        _ => read(path).map(|m| (m, Vec::new())),
+    }
+}
+
+/// Minecraft's build height (y from −64 to 319): a taller `.nbt` or `.schem` cannot be
+/// placed whole.
+pub const BUILD_HEIGHT: i32 = 384;
+/// The largest structure a structure block saves or loads, along each axis.
+pub const STRUCTURE_BLOCK_MAX: i32 = 48;
+
+/// Warnings for writing `model` as `format`: Minecraft formats taller than the build
+/// height, structure files over the structure block's 48 blocks along an axis (they
+/// still load with commands such as `/place template`).
+pub fn write_notes(format: VoxelFormat, model: &VoxelModel) -> Vec<String> {
+    let Some((lo, hi)) = model.bounds() else { return Vec::new() };
+    let size = [hi[0] - lo[0] + 1, hi[1] - lo[1] + 1, hi[2] - lo[2] + 1];
+    let mut notes = Vec::new();
+    if matches!(format, VoxelFormat::Nbt | VoxelFormat::Schem) && size[1] > BUILD_HEIGHT {
+        notes.push(format!("the building is {} blocks tall, over Minecraft's build height of {BUILD_HEIGHT}", size[1]));
+    }
+    if format == VoxelFormat::Nbt && size.iter().any(|&e| e > STRUCTURE_BLOCK_MAX) {
+        notes.push(format!(
+            "the structure is {}×{}×{}: a structure block loads at most {STRUCTURE_BLOCK_MAX} along each axis \
+             (use /place template, or write .schem)",
+            size[0], size[1], size[2]
+        ));
+    }
+    notes
+}
+
+/// Writes a voxel model in `format`. Doors joined for induction (`LOWER+UPPER`, see
+/// [`super::blocks::merge_doors`]) are written as their two halves.
 pub fn write(format: VoxelFormat, model: &VoxelModel) -> Result<Vec<u8>, String> {
+    let split;
+    let model = if model.kinds.iter().any(|k| k.id.contains(super::blocks::DOOR_JOIN)) {
+        split = super::blocks::split_doors(model).0;
+        &split
+    } else {
+        model
+    };
     match format {
         VoxelFormat::Text => Ok(text::write(model).into_bytes()),
         VoxelFormat::Vox => vox::write(model),

@@ -200,6 +200,9 @@ struct PaletteState {
 struct StructureBlock {
     pos: Vec<i32>,
     state: i32,
+    /// A block entity's data (a chest's items, a sign's text): not kept.
+    #[serde(default)]
+    nbt: Option<fastnbt::Value>,
 }
 
 #[derive(Deserialize)]
@@ -213,6 +216,13 @@ struct Structure {
 
 /// Reads a structure-block `.nbt` file (with several palettes, the first is used).
 pub fn read_structure(bytes: &[u8]) -> Result<VoxelModel, String> {
+    read_structure_notes(bytes).map(|(m, _)| m)
+}
+
+/// [`read_structure`], with notes on what the model does not keep: block entities
+/// (their data) and explicit air blocks (which clear cells when the structure is
+/// placed; the model's empty space does not).
+pub fn read_structure_notes(bytes: &[u8]) -> Result<(VoxelModel, Vec<String>), String> {
     let data = decompress(bytes)?;
     let s: Structure = parse(&data)?;
     let palette = match (s.palette, s.palettes) {
@@ -223,7 +233,9 @@ pub fn read_structure(bytes: &[u8]) -> Result<VoxelModel, String> {
     let states: Vec<String> = palette.iter().map(|p| state_string(&p.name, &p.properties)).collect();
     let mut b = ModelBuilder::new();
     let mut kinds: HashMap<usize, u32> = HashMap::new();
+    let (mut air, mut entities) = (0usize, 0usize);
     for blk in &s.blocks {
+        entities += blk.nbt.is_some() as usize;
         let [x, y, z] = blk.pos[..] else {
             return Err(format!("a block's `pos` has {} values, expected 3", blk.pos.len()));
         };
@@ -231,6 +243,7 @@ pub fn read_structure(bytes: &[u8]) -> Result<VoxelModel, String> {
             format!("block at {x} {y} {z} has state {} but the palette has {}", blk.state, states.len())
         })?;
         if blocks::is_air(&states[idx]) {
+            air += 1;
             continue;
         }
         let kind = match kinds.get(&idx) {
@@ -243,7 +256,18 @@ pub fn read_structure(bytes: &[u8]) -> Result<VoxelModel, String> {
         };
         b.add([x, y, z], kind)?;
     }
-    b.finish()
+    let mut notes = Vec::new();
+    if entities > 0 {
+        notes.push(format!(
+            "{entities} block entities (chest contents, sign text…) are not kept: only block states are"
+        ));
+    }
+    if air > 0 {
+        notes.push(format!(
+            "{air} explicit air blocks are read as empty space (placing a written file will not clear those cells)"
+        ));
+    }
+    Ok((b.finish()?, notes))
 }
 
 #[derive(Serialize)]
@@ -317,6 +341,8 @@ struct SchemBlocks {
     palette: HashMap<String, i32>,
     #[serde(rename = "Data")]
     data: fastnbt::ByteArray,
+    #[serde(rename = "BlockEntities", default)]
+    block_entities: Option<Vec<fastnbt::Value>>,
 }
 
 #[derive(Deserialize)]
@@ -335,6 +361,8 @@ struct Schem {
     block_data: Option<fastnbt::ByteArray>,
     #[serde(rename = "Blocks", default)]
     blocks: Option<SchemBlocks>,
+    #[serde(rename = "BlockEntities", default)]
+    block_entities: Option<Vec<fastnbt::Value>>,
     /// Version 3 wraps everything in a `Schematic` compound.
     #[serde(rename = "Schematic", default)]
     schematic: Option<Box<Schem>>,
@@ -342,6 +370,11 @@ struct Schem {
 
 /// Reads a Sponge `.schem` file (version 2 or 3).
 pub fn read_schem(bytes: &[u8]) -> Result<VoxelModel, String> {
+    read_schem_notes(bytes).map(|(m, _)| m)
+}
+
+/// [`read_schem`], with a note on block entities (their data is not kept).
+pub fn read_schem_notes(bytes: &[u8]) -> Result<(VoxelModel, Vec<String>), String> {
     let data = decompress(bytes)?;
     let mut s: Schem = parse(&data)?;
     if let Some(inner) = s.schematic.take() {
@@ -363,9 +396,13 @@ pub fn read_schem(bytes: &[u8]) -> Result<VoxelModel, String> {
             crate::grid::voxel::MAX_CELLS
         ));
     }
+    let mut entities = s.block_entities.as_ref().map_or(0, |v| v.len());
     let (palette, block_data) = match (s.palette, s.block_data, s.blocks) {
         (Some(p), Some(d), _) => (p, d),
-        (_, _, Some(b)) => (b.palette, b.data),
+        (_, _, Some(b)) => {
+            entities += b.block_entities.as_ref().map_or(0, |v| v.len());
+            (b.palette, b.data)
+        }
         _ => return Err("the schematic has no palette and block data".into()),
     };
     let mut states: BTreeMap<i32, String> = BTreeMap::new();
@@ -420,7 +457,12 @@ pub fn read_schem(bytes: &[u8]) -> Result<VoxelModel, String> {
     if cell != w * h * l {
         return Err(format!("block data has {cell} entries, expected {}", w * h * l));
     }
-    b.finish()
+    let notes = if entities > 0 {
+        vec![format!("{entities} block entities (chest contents, sign text…) are not kept: only block states are")]
+    } else {
+        Vec::new()
+    };
+    Ok((b.finish()?, notes))
 }
 
 #[derive(Serialize)]
@@ -445,6 +487,19 @@ struct SchemOut {
     block_data: fastnbt::ByteArray,
     #[serde(rename = "BlockEntities")]
     block_entities: Vec<fastnbt::Value>,
+    /// WorldEdit's paste offset; older WorldEdit versions refuse a schematic without it.
+    #[serde(rename = "Metadata")]
+    metadata: SchemMetadata,
+}
+
+#[derive(Serialize)]
+struct SchemMetadata {
+    #[serde(rename = "WEOffsetX")]
+    x: i32,
+    #[serde(rename = "WEOffsetY")]
+    y: i32,
+    #[serde(rename = "WEOffsetZ")]
+    z: i32,
 }
 
 /// Writes a Sponge schematic, version 2 (the model moved to the origin).
@@ -491,6 +546,7 @@ pub fn write_schem(model: &VoxelModel) -> Result<Vec<u8>, String> {
         palette,
         block_data: fastnbt::ByteArray::new(data),
         block_entities: Vec::new(),
+        metadata: SchemMetadata { x: 0, y: 0, z: 0 },
     };
     let raw = fastnbt::to_bytes_with_opts(&out, fastnbt::SerOpts::new().root_name("Schematic"))
         .map_err(|e| format!("cannot encode NBT: {e}"))?;
@@ -522,6 +578,50 @@ mod tests {
         let c = write_schem(&m).expect("schem");
         assert_eq!(ids(&read_schem(&c).expect("reads schem")), want);
         assert_eq!(write_schem(&m).expect("again"), c, "deterministic");
+    }
+
+    #[test]
+    fn schematics_carry_worldedit_metadata_and_readers_note_what_they_drop() {
+        let c = write_schem(&sample()).expect("schem");
+        let raw = decompress(&c).expect("gunzip");
+        let v: fastnbt::Value = fastnbt::from_bytes(&raw).expect("nbt");
+        let fastnbt::Value::Compound(root) = v else { panic!("a compound") };
+        let Some(fastnbt::Value::Compound(meta)) = root.get("Metadata") else { panic!("Metadata: {root:?}") };
+        assert_eq!(meta.get("WEOffsetX"), Some(&fastnbt::Value::Int(0)));
+        assert!(meta.contains_key("WEOffsetY") && meta.contains_key("WEOffsetZ"));
+        // A structure with an explicit air block and a chest holding items.
+        #[derive(Serialize)]
+        struct B {
+            pos: Vec<i32>,
+            state: i32,
+            #[serde(skip_serializing_if = "Option::is_none")]
+            nbt: Option<fastnbt::Value>,
+        }
+        #[derive(Serialize)]
+        struct S {
+            size: Vec<i32>,
+            palette: Vec<PaletteOut>,
+            blocks: Vec<B>,
+        }
+        let items = fastnbt::Value::Compound(Default::default());
+        let s = S {
+            size: vec![2, 1, 1],
+            palette: vec![
+                PaletteOut { name: "minecraft:air".into(), properties: BTreeMap::new() },
+                PaletteOut { name: "minecraft:chest".into(), properties: BTreeMap::new() },
+            ],
+            blocks: vec![
+                B { pos: vec![0, 0, 0], state: 0, nbt: None },
+                B { pos: vec![1, 0, 0], state: 1, nbt: Some(items) },
+            ],
+        };
+        let bytes = gzip(&fastnbt::to_bytes(&s).expect("encode")).expect("gzip");
+        let (m, notes) = read_structure_notes(&bytes).expect("reads");
+        assert_eq!(m.blocks.len(), 1);
+        assert_eq!(notes.len(), 2, "{notes:?}");
+        assert!(notes[0].contains("1 block entities") && notes[1].contains("1 explicit air"), "{notes:?}");
+        // Nothing to say about a plain structure.
+        assert!(read_structure_notes(&write_structure(&sample()).expect("nbt")).expect("reads").1.is_empty());
     }
 
     #[test]
