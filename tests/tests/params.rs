@@ -232,3 +232,69 @@ fn deeply_nested_ifs_and_loops_are_cut_at_the_nesting_limit_without_overflowing(
         assert!(codes.contains(&"E0105"), "{codes:?}");
     }
 }
+
+/// Positions of a run, for comparison within `tol`.
+fn positions_close(a: &[[f32; 3]], b: &[[f32; 3]], tol: f32) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(p, q)| (0..3).all(|k| (p[k] - q[k]).abs() <= tol))
+}
+
+#[test]
+fn a_non_uniform_scale_stretches_the_frames_own_axes_and_what_follows_it() {
+    // A unit triangle under `s 3 0.5`, then turned: the same as its stretched corners.
+    let scaled = "startshape A\nrule A { T {x 1 s 3 0.5 rz 90} }\nrule T { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n";
+    // rz 90 after the scale turns inside the stretched frame: x → (0, 0.5·1)… in world terms
+    // local x maps to (0, 0.5), local y to (−3, 0).
+    let plain = "startshape A\nrule A { VERTEX {x 1} VERTEX {x 1 y 0.5} VERTEX {x -2} }\n";
+    let (a, b) = (mesh(scaled), mesh(plain));
+    assert!(positions_close(&a.0, &b.0, 1e-5), "{:?} vs {:?}", a.0, b.0);
+    // Along a chain: each level stretches x by 2 and moves 1 along its own x.
+    let chain = "startshape A\nmaxdepth 3\nrule A { VERTEX {} A {x 1 s 2 1 1} }\n";
+    let xs: Vec<f32> = run_source(chain).mesh.positions.iter().map(|p| p[0]).collect();
+    assert_eq!(xs, [0.0, 1.0, 3.0, 7.0]);
+}
+
+#[test]
+fn a_non_uniform_scale_gives_normals_perpendicular_to_the_stretched_surface() {
+    // `s 1 2 1 rx 45`: the local xy plane is spanned by (1, 0, 0) and (0, 2c, c), c = cos 45°,
+    // so its normal is (0, −1, 2)/√5; mapping the normal like a vector would give (0, −2, 1)/√5.
+    let src = "startshape A\nnormal 0 0 1\nrule A { VERTEX {s 1 2 1 rx 45} VERTEX {x 1} VERTEX {y 1} }\n";
+    let out = run_source(src);
+    let n = out.mesh.normals[0];
+    let want = [0.0, -1.0 / 5f32.sqrt(), 2.0 / 5f32.sqrt()];
+    assert!((0..3).all(|k| (n[k] - want[k]).abs() < 1e-5), "{n:?}");
+}
+
+#[test]
+fn hue_saturation_and_brightness_adjust_the_colour_as_context_free_does() {
+    let colour = |adj: &str| {
+        let src = format!("startshape A\nrule A {{ VERTEX {{{adj}}} VERTEX {{x 1}} VERTEX {{y 1}} }}\n");
+        run_source(&src).mesh.colors[0]
+    };
+    let close = |a: [f32; 4], b: [f32; 4]| (0..4).all(|k| (a[k] - b[k]).abs() < 1e-5);
+    assert!(close(colour("G -1 B -1 hue 120"), [0.0, 1.0, 0.0, 1.0]), "red turned 120° is green");
+    assert!(close(colour("G -1 B -1 b -0.5"), [0.5, 0.0, 0.0, 1.0]), "half the brightness");
+    assert!(close(colour("G -1 B -1 sat -0.5"), [1.0, 0.5, 0.5, 1.0]), "half the saturation");
+    assert!(close(colour("hue 120"), [1.0; 4]), "white has no hue to turn");
+    // Three iterator steps of a third of `hue 120` each reach the same green.
+    let src =
+        "startshape A\nrule A { r {G -1 B -1} }\nrule r { 3 * {hue 40} { VERTEX {} VERTEX {x 1} VERTEX {y 1} } }\n";
+    let out = run_source(src);
+    assert!(close(out.mesh.colors[8], [0.0, 1.0, 0.0, 1.0]), "{:?}", out.mesh.colors[8]);
+}
+
+#[test]
+fn a_weight_over_the_parameters_chooses_per_call() {
+    // Weight n for the second definition: never with n = 0, always with the first at weight 0.
+    let src = |n: i32| {
+        format!(
+            "startshape A\nrule A {{ 100 * {{x 1}} leaf({n}) {{}} }}\n\
+             rule leaf(int n) (1 - min(n, 1)) {{ VERTEX {{}} VERTEX {{x 0.5}} VERTEX {{y 0.5}} }}\n\
+             rule leaf(int n) (n) {{ 2 * {{z 1}} {{ VERTEX {{}} VERTEX {{x 0.5}} VERTEX {{y 0.5}} }} }}\n"
+        )
+    };
+    assert_eq!(run_source(&src(0)).mesh.triangles.len(), 100);
+    assert_eq!(run_source(&src(3)).mesh.triangles.len(), 200);
+    let b = build_source(&src(3));
+    let r = b.rules.iter().find(|r| b.string(r.name) == "leaf").expect("leaf");
+    assert!(r.defs.iter().all(|d| d.weight_expr != bundle::NONE));
+}
