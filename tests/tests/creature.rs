@@ -316,3 +316,237 @@ fn the_documented_example_compiles_and_evolves() {
     let g = evo.step(&mut pop, None);
     assert_eq!(g.presented.len(), 12);
 }
+
+/// Evolves `generations` generations of `monsters.mdg` from `seed` without the
+/// contact test (so a detached part would be presented, not rejected): every
+/// presented and background monster.
+fn evolve_without_contact_test(
+    t: &mdg_vm::creature::table::CreatureTable,
+    lib: &Library,
+    seed: u64,
+    generations: u32,
+) -> Vec<mdg_vm::creature::evolve::Individual> {
+    let mut o = EvolveOptions::from_table(t);
+    o.seed = seed;
+    o.require_contact = false;
+    let evo = Evolution::new(t, lib, o);
+    let (mut pop, g0) = evo.start();
+    let mut all = g0.presented;
+    for _ in 0..generations {
+        let g = evo.step(&mut pop, None);
+        all.extend(g.presented);
+        all.extend(g.background);
+    }
+    all
+}
+
+#[test]
+fn every_placed_part_touches_its_torso_over_many_seeds() {
+    let b = monsters();
+    let t = b.extensions.creatures.as_ref().expect("table");
+    let mut lib = Library::build(&b, t).expect("library");
+    let (mut parts, mut monsters) = (0, 0);
+    for seed in [1, 2, 3, 5, 7, 11, 42] {
+        for ind in evolve_without_contact_test(t, &lib, seed, 3) {
+            assert!(
+                ind.layout.detached.is_empty(),
+                "seed {seed}, {}: meta-parts {:?} touch nothing of their torso ({})",
+                ind.id,
+                ind.layout.detached,
+                ind.shape.describe(t)
+            );
+            // The same check, spelled out: every part is within ε of its torso.
+            for sp in &ind.shape.supers {
+                let Some(a) = sp.attach else { continue };
+                let parent = ind.shape.supers[a.parent as usize].metas[0].id;
+                let pp = ind.layout.placed.iter().find(|p| p.meta == parent).expect("torso placed");
+                for m in &sp.metas {
+                    let cp = ind.layout.placed.iter().find(|p| p.meta == m.id).expect("part placed");
+                    assert!(mdg_vm::creature::geometry::touches(&lib, cp, pp));
+                    parts += 1;
+                }
+            }
+            monsters += 1;
+        }
+    }
+    assert!(monsters > 300 && parts > 3000, "{monsters} monsters, {parts} parts");
+    // The test can fail: with the plain arrangement offsets (copies not seated on
+    // the torso's surface) some outer copies hang in the air.
+    lib.seat = false;
+    let detached: usize = [1, 3, 7]
+        .iter()
+        .flat_map(|&seed| evolve_without_contact_test(t, &lib, seed, 3))
+        .filter(|i| !i.layout.detached.is_empty())
+        .count();
+    assert!(detached > 0, "plain offsets leave some parts touching nothing");
+}
+
+/// The JSON chunk of a `.glb`.
+fn glb_json(bytes: &[u8]) -> serde_json::Value {
+    assert_eq!(&bytes[..4], b"glTF");
+    let len = u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes")) as usize;
+    serde_json::from_slice(&bytes[20..20 + len]).expect("glTF JSON")
+}
+
+/// A monster of generation 2 with a row or stack of copies and mirrored parts.
+fn a_monster(t: &mdg_vm::creature::table::CreatureTable, lib: &Library) -> mdg_vm::creature::evolve::Individual {
+    let mut o = EvolveOptions::from_table(t);
+    o.seed = 3;
+    let evo = Evolution::new(t, lib, o);
+    let (mut pop, _) = evo.start();
+    evo.step(&mut pop, None);
+    let g = evo.step(&mut pop, None);
+    g.presented.into_iter().find(|i| i.shape.supers.iter().any(|s| s.metas.len() > 1)).expect("a monster with copies")
+}
+
+#[test]
+fn a_monster_glb_has_one_named_node_per_part_sharing_one_mesh_per_library_part() {
+    use mdg_vm::creature::geometry::{node_name, write_glb};
+    let b = monsters();
+    let t = b.extensions.creatures.as_ref().expect("table");
+    let lib = Library::build(&b, t).expect("library");
+    let ind = a_monster(t, &lib);
+    let bytes = write_glb(t, &lib, &ind.id, &ind.shape, &ind.layout.placed).expect("glb");
+    let json = glb_json(&bytes);
+    let nodes = json["nodes"].as_array().expect("nodes");
+    // One root (the y-up turn, named after the monster) holding one node per part.
+    let roots = json["scenes"][0]["nodes"].as_array().expect("scene");
+    assert_eq!(roots.len(), 1);
+    let root = &nodes[roots[0].as_u64().expect("index") as usize];
+    assert_eq!(root["name"], ind.id.as_str());
+    let children = root["children"].as_array().expect("children");
+    assert_eq!(children.len(), ind.layout.placed.len());
+    let names: Vec<&str> =
+        children.iter().map(|c| nodes[c.as_u64().expect("index") as usize]["name"].as_str().expect("name")).collect();
+    let expected: Vec<String> = ind.layout.placed.iter().map(|p| node_name(t, &ind.shape, p.meta)).collect();
+    assert_eq!(names, expected);
+    assert!(names.iter().any(|n| n.starts_with("S0.torso[0] ")), "{names:?}");
+    assert!(names.iter().all(|n| n.contains('[') && n.contains("] ")), "{names:?}");
+    // Every mesh is a library part (or its mirror image), written once.
+    let meshes: Vec<&str> =
+        json["meshes"].as_array().expect("meshes").iter().map(|m| m["name"].as_str().expect("name")).collect();
+    let mut distinct = meshes.clone();
+    distinct.sort_unstable();
+    distinct.dedup();
+    assert_eq!(distinct.len(), meshes.len(), "{meshes:?}");
+    assert!(meshes.len() < ind.layout.placed.len(), "parts share meshes: {meshes:?}");
+    for m in &meshes {
+        let part = m.strip_suffix(" mirrored").unwrap_or(m);
+        assert!(t.parts.iter().any(|p| p.name == part), "{m}");
+    }
+    // Shared meshes make the file smaller than the baked monster.
+    let mut baked = mdg_vm::output::Mesh::default();
+    mdg_vm::creature::geometry::assemble(&lib, &ind.layout.placed, glam::Vec3::ZERO, &mut baked);
+    let mut one = Vec::new();
+    mdg_vm::export::glb::write_glb(&mdg_vm::creature::geometry::output_of(baked, [1.0; 4]), &mut one).expect("glb");
+    assert!(bytes.len() < one.len(), "{} bytes as parts, {} baked", bytes.len(), one.len());
+    // Deterministic.
+    assert_eq!(bytes, write_glb(t, &lib, &ind.id, &ind.shape, &ind.layout.placed).expect("glb"));
+}
+
+/// The Python interpreter of the venv holding `bpy` (installed by `.ci/run`).
+fn bpy_python() -> std::path::PathBuf {
+    if let Some(p) = std::env::var_os("MDG_BPY_PYTHON") {
+        return p.into();
+    }
+    let cache = std::env::var_os("XDG_CACHE_HOME")
+        .map(std::path::PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| std::path::PathBuf::from(h).join(".cache")))
+        .unwrap_or_else(|| ".cache".into());
+    cache.join("mdg/bpy-venv/bin/python")
+}
+
+#[test]
+fn blender_imports_monsters_as_named_parts_standing_upright() {
+    use mdg_vm::creature::geometry::{node_name, write_glb};
+    if std::env::var_os("MDG_SKIP_CLIENT_TESTS").is_some() {
+        return;
+    }
+    let python = bpy_python();
+    let ok = std::process::Command::new(&python).args(["-c", "import bpy"]).output().is_ok_and(|o| o.status.success());
+    assert!(
+        ok,
+        "Blender's `bpy` is missing ({}): `bash .ci/run` installs it; set MDG_SKIP_CLIENT_TESTS=1 to skip",
+        python.display()
+    );
+    let b = monsters();
+    let t = b.extensions.creatures.as_ref().expect("table");
+    let lib = Library::build(&b, t).expect("library");
+    let dir = std::env::temp_dir().join(format!("mdg-creature-blender-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let mut monsters = vec![a_monster(t, &lib)];
+    let mut humanoid = Evolution::new(t, &lib, EvolveOptions::from_table(t)).initial().presented;
+    monsters.push(humanoid.remove(0));
+    let mut jobs = Vec::new();
+    for m in &monsters {
+        let path = dir.join(format!("{}.glb", m.id));
+        std::fs::write(&path, write_glb(t, &lib, &m.id, &m.shape, &m.layout.placed).expect("glb")).expect("write");
+        jobs.push(serde_json::json!({ "name": m.id, "glb": path }));
+    }
+    let (jobs_path, result_path) = (dir.join("jobs.json"), dir.join("result.json"));
+    std::fs::write(&jobs_path, serde_json::to_vec(&jobs).expect("json")).expect("write");
+    let out = std::process::Command::new(&python)
+        .arg(root().join("tests/clients/blender_creature.py"))
+        .arg(&jobs_path)
+        .arg(&result_path)
+        .output()
+        .expect("run Blender");
+    assert!(out.status.success(), "Blender: {}", String::from_utf8_lossy(&out.stderr));
+    let result: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&result_path).expect("result")).expect("json");
+    for m in &monsters {
+        let r = &result["results"][m.id.as_str()];
+        assert!(r.get("error").is_none(), "{}: {}", m.id, r["error"]);
+        let objects = r["objects"].as_array().expect("objects");
+        let meshes: Vec<&serde_json::Value> = objects.iter().filter(|o| o["type"] == "MESH").collect();
+        assert_eq!(meshes.len(), m.layout.placed.len(), "{}: one object per part", m.id);
+        let size = (m.layout.max - m.layout.min).length();
+        for p in &m.layout.placed {
+            let name = node_name(t, &m.shape, p.meta);
+            let o =
+                meshes.iter().find(|o| o["name"] == name.as_str()).unwrap_or_else(|| panic!("{}: no `{name}`", m.id));
+            // Where MDG put the part (z up, feet on the ground): Blender is z up too,
+            // so the imported object's world box is the same box.
+            let (mut lo, mut hi) = (glam::Vec3::splat(f32::MAX), glam::Vec3::splat(f32::MIN));
+            for q in &lib.parts[p.part as usize].mesh.positions {
+                let w = p.transform.transform_point3(glam::Vec3::from(*q));
+                lo = lo.min(w);
+                hi = hi.max(w);
+            }
+            let got = |k: &str| -> glam::Vec3 {
+                let v: Vec<f32> = o[k].as_array().expect("box").iter().map(|x| x.as_f64().expect("f") as f32).collect();
+                glam::Vec3::new(v[0], v[1], v[2])
+            };
+            assert!(
+                (got("min") - lo).length() < 1e-3 * size && (got("max") - hi).length() < 1e-3 * size,
+                "{} `{name}`: Blender box {:?}..{:?}, MDG {lo}..{hi}",
+                m.id,
+                got("min"),
+                got("max")
+            );
+            let part = &t.parts[p.part as usize].name;
+            assert!(o["mesh"].as_str().expect("mesh").starts_with(part.as_str()), "{name}: mesh {}", o["mesh"]);
+        }
+        // Upright: the feet at z = 0, the head above the torso's centre.
+        let min_z = meshes.iter().map(|o| o["min"][2].as_f64().expect("z")).fold(f64::MAX, f64::min);
+        // (MDG grounds the model on a sample of surface points, one per 1/14 of a
+        // part's diagonal, so the lowest vertex may be a little below z = 0.)
+        assert!(min_z.abs() < 1e-2 * size as f64, "{}: lowest point {min_z}", m.id);
+        let centre_z = |prefix: &str| {
+            meshes
+                .iter()
+                .find(|o| o["name"].as_str().expect("name").split_once('.').is_some_and(|(_, r)| r.starts_with(prefix)))
+                .map(|o| (o["min"][2].as_f64().expect("z") + o["max"][2].as_f64().expect("z")) / 2.0)
+        };
+        if let (Some(head), Some(torso)) = (centre_z("head["), centre_z("torso[0]")) {
+            assert!(head > torso, "{}: the head ({head}) stands above the torso ({torso})", m.id);
+        }
+        // Parts of one library part share one Blender mesh.
+        let data: std::collections::BTreeSet<&str> = meshes.iter().map(|o| o["mesh"].as_str().expect("mesh")).collect();
+        if m.shape.supers.iter().any(|s| s.metas.len() > 1) {
+            assert!(data.len() < meshes.len(), "{}: shared meshes {data:?}", m.id);
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -14,7 +14,8 @@
 //! presented set are printed too.
 //!
 //! Run: `cargo run --release -p mdg-vm --example creature_eval [-- SEEDS GENERATIONS]`
-//! (default 8 seeds, 6 generations). The grammar is compiled by `mdgc` first
+//! (default 8 seeds, 6 generations); `-- touch` measures how many presented monsters
+//! have a part touching nothing. The grammar is compiled by `mdgc` first
 //! (`cargo run --release --bin mdgc -- build …`) unless `MDG_CREATURE_BUNDLE`
 //! names a compiled `.mdgb`.
 
@@ -64,8 +65,55 @@ fn run(evo: &Evolution) -> Vec<[f64; 4]> {
         .collect()
 }
 
+/// `touch`: the share of presented monsters (generations 0–5, population 18,
+/// seeds 1, 3, 7, 11, 42) with a part touching nothing of its torso, with the
+/// copies of arrangements placed by their plain offsets (as before issue 22) and
+/// seated on the torso's surface; evolution rejecting detached layouts or not.
+fn touch(bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
+    let table = bundle.extensions.creatures.as_ref().ok_or("no creature table")?;
+    let mut lib = Library::build(bundle, table)?;
+    println!("| placement | contact test in evolution | presented monsters | with a detached part | rate | tries rejected as detached |");
+    println!("|---|---|---|---|---|---|");
+    for (seat, require) in [(false, false), (true, false), (true, true)] {
+        lib.seat = seat;
+        let (mut n, mut bad, mut rejected) = (0usize, 0usize, 0usize);
+        for seed in [1u64, 3, 7, 11, 42] {
+            let mut o = EvolveOptions::from_table(table);
+            o.seed = seed;
+            o.generations = 5;
+            o.population = 18;
+            o.offspring = 54;
+            o.require_contact = require;
+            let evo = Evolution::new(table, &lib, o);
+            let (mut pop, g0) = evo.start();
+            let mut gens = vec![g0];
+            for _ in 0..5 {
+                gens.push(evo.step(&mut pop, None));
+            }
+            for g in &gens {
+                n += g.presented.len();
+                bad += g.presented.iter().filter(|i| !i.layout.detached.is_empty()).count();
+                rejected += g.n_detached;
+            }
+        }
+        println!(
+            "| {} | {} | {n} | {bad} | {:.1}% | {rejected} |",
+            if seat { "seated on the surface" } else { "plain offsets" },
+            if require { "on" } else { "off" },
+            100.0 * bad as f64 / n.max(1) as f64
+        );
+    }
+    Ok(())
+}
+
 fn main() -> Result<(), String> {
     let args: Vec<String> = std::env::args().collect();
+    if args.get(1).map(String::as_str) == Some("touch") {
+        let path = bundle_path()?;
+        let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
+        return touch(&bundle);
+    }
     let seeds: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(8);
     let gens: u32 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(6);
     let path = bundle_path()?;

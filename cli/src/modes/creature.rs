@@ -7,10 +7,10 @@ use super::Common;
 use crate::pictures::Pictures;
 use mdg_vm::bundle::Bundle;
 use mdg_vm::creature::evolve::{structure_key, Evolution, EvolveOptions, Generation, Individual, Population};
-use mdg_vm::creature::geometry::{assemble, output_of, program_text, Library};
+use mdg_vm::creature::geometry::{assemble, output_of, program_text, write_glb, Library};
 use mdg_vm::creature::sheet::compose;
 use mdg_vm::creature::table::{CreatureTable, RuleKind, MAX_GENERATIONS, MAX_POPULATION};
-use mdg_vm::export::{self, Format};
+use mdg_vm::export;
 use mdg_vm::output::Mesh;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -171,7 +171,7 @@ fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<()
         let d = &g.diversity;
         let o = &g.offspring_diversity;
         eprintln!(
-            "generation {}: {} monsters; diversity HDM {:.2} ({} structures) of {} offspring, {:.2} ({} structures) presented; mean C_s {:.1}, mean meta-parts {:.1}; {} unstable tries rejected",
+            "generation {}: {} monsters; diversity HDM {:.2} ({} structures) of {} offspring, {:.2} ({} structures) presented; mean C_s {:.1}, mean meta-parts {:.1}; {} unstable tries rejected, {} with a part touching nothing",
             g.index,
             g.presented.len(),
             o.hdm,
@@ -181,7 +181,8 @@ fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<()
             d.clusters,
             d.mean_complexity,
             d.mean_metas,
-            g.n_unstable
+            g.n_unstable,
+            g.n_detached
         );
     }
     if common.stats {
@@ -343,9 +344,7 @@ table.d td,table.d th{{padding:2px 10px;text-align:right}}\
         );
         let mut tiles = Vec::new();
         for ind in &g.presented {
-            let mesh = monster_mesh(lib, ind, glam::Vec3::ZERO);
-            let mut bytes = Vec::new();
-            export::write(Format::Glb, &output_of(mesh, BACKGROUND), &mut bytes)?;
+            let bytes = write_glb(t, lib, &ind.id, &ind.shape, &ind.layout.placed)?;
             write(&dir.join(format!("{}.glb", ind.id)), &bytes)?;
             let thumb = picture(pictures, lib, ind, (TILE, TILE))?;
             write(&dir.join(format!("{}.png", ind.id)), &thumb)?;

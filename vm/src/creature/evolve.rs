@@ -46,12 +46,23 @@ pub struct Generation {
     pub n_offspring: usize,
     /// Offspring attempts rejected by the stability test.
     pub n_unstable: usize,
+    /// Offspring attempts rejected because a part touched nothing of its torso.
+    pub n_detached: usize,
     /// Offspring slots that found no valid offspring within their attempts.
     pub n_failed: usize,
     /// The diversity of the presented set.
     pub diversity: Diversity,
     /// The diversity of all offspring made (before diversity control).
     pub offspring_diversity: Diversity,
+}
+
+/// Offspring tries rejected, by reason.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Rejected {
+    /// By the stability test.
+    pub unstable: usize,
+    /// Because a part touched nothing of the torso it is attached to.
+    pub detached: usize,
 }
 
 /// Options of a run (defaults from the table's `evolve` block).
@@ -69,6 +80,8 @@ pub struct EvolveOptions {
     pub disabled: Vec<RuleKind>,
     /// Diversity control on (else the presented set is a uniform sample).
     pub diversity_control: bool,
+    /// Reject offspring with a part touching nothing of its torso.
+    pub require_contact: bool,
 }
 
 impl EvolveOptions {
@@ -86,6 +99,7 @@ impl EvolveOptions {
             maxparts: e.maxparts,
             disabled: Vec::new(),
             diversity_control: true,
+            require_contact: true,
         }
     }
 }
@@ -137,6 +151,7 @@ impl<'a> Evolution<'a> {
             presented,
             background: Vec::new(),
             n_unstable: 0,
+            n_detached: 0,
             n_failed: 0,
             diversity,
         }
@@ -162,8 +177,8 @@ impl<'a> Evolution<'a> {
 
     /// Offspring `index` of generation `g` from `pop`: up to `attempts` tries of
     /// select → derive → lay out → stability test, with the offspring's own random
-    /// stream. Returns the offspring (if any) and the number of unstable tries.
-    pub fn offspring(&self, pop: &Population, g: u32, index: usize) -> (Option<Individual>, usize) {
+    /// stream. Returns the offspring (if any) and the tries rejected.
+    pub fn offspring(&self, pop: &Population, g: u32, index: usize) -> (Option<Individual>, Rejected) {
         let mut rng = Rng::stream(self.opts.seed, g as u64, index as u64);
         let bases = &pop.current;
         let assists: Vec<&Individual> = pop.current.iter().chain(&pop.background).collect();
@@ -175,7 +190,7 @@ impl<'a> Evolution<'a> {
             strategy: self.table.select_rules,
             disabled: self.opts.disabled.clone(),
         };
-        let mut unstable = 0;
+        let mut unstable = Rejected::default();
         for _ in 0..self.opts.attempts {
             let Some(b) = select(self.table.select_shapes, &base_metric, &mut rng) else { return (None, unstable) };
             let base = &bases[b];
@@ -193,8 +208,12 @@ impl<'a> Evolution<'a> {
                 continue;
             }
             let ind = self.individual(shape, String::new(), (base.id.clone(), assist.id.clone()), applied);
+            if self.opts.require_contact && !ind.layout.detached.is_empty() {
+                unstable.detached += 1;
+                continue;
+            }
             if !ind.layout.stability.stable {
-                unstable += 1;
+                unstable.unstable += 1;
                 continue;
             }
             return (Some(ind), unstable);
@@ -207,7 +226,7 @@ impl<'a> Evolution<'a> {
         let g = pop.generation + 1;
         let total = self.opts.offspring as usize;
         let done = std::sync::atomic::AtomicUsize::new(0);
-        let made: Vec<(Option<Individual>, usize)> = (0..total)
+        let made: Vec<(Option<Individual>, Rejected)> = (0..total)
             .into_par_iter()
             .map(|i| {
                 let r = self.offspring(pop, g, i);
@@ -218,7 +237,8 @@ impl<'a> Evolution<'a> {
                 r
             })
             .collect();
-        let n_unstable = made.iter().map(|m| m.1).sum();
+        let n_unstable = made.iter().map(|m| m.1.unstable).sum();
+        let n_detached = made.iter().map(|m| m.1.detached).sum();
         let n_failed = made.iter().filter(|m| m.0.is_none()).count();
         let offspring: Vec<Individual> = made.into_iter().filter_map(|m| m.0).collect();
         let n_offspring = offspring.len();
@@ -274,6 +294,7 @@ impl<'a> Evolution<'a> {
             background,
             n_offspring,
             n_unstable,
+            n_detached,
             n_failed,
             diversity,
             offspring_diversity,
