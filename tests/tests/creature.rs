@@ -550,3 +550,79 @@ fn blender_imports_monsters_as_named_parts_standing_upright() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A grammar of fliers without legs (std bird parts): `floats` is `floats;` or "".
+fn fliers(floats: &str) -> String {
+    format!(
+        r#"@import creatures
+startshape show
+rule show {{
+  b_torso {{}}
+}}
+creature sky {{
+  shape flier {{ torso b_torso; attach neck b_head; attach wing_l b_wing; attach tail b_tail; {floats} }}
+  rule heads {{ kind increase; predecessor head; max 3; }}
+  rule wings {{ kind increase; predecessor wing; arrange stack; max 3; }}
+  evolve {{ population 4; generations 2; seed 1; }}
+}}
+"#
+    )
+}
+
+#[test]
+fn creatures_that_do_not_stand_are_warned_about_an_empty_generation_is_an_error_and_floats_evolves() {
+    // The checker warns: nothing to stand on.
+    let path = root().join("tests/inline.mdg");
+    let a = mdg_compiler::driver::analyze_text(
+        &FsLoader,
+        &path,
+        &fliers(""),
+        &compile_options(),
+        CheckOptions { require_start: true },
+    );
+    assert!(!a.has_errors());
+    assert!(a.diagnostics.iter().any(|d| d.code == "W0801"), "{:?}", a.diagnostics);
+    let a = mdg_compiler::driver::analyze_text(
+        &FsLoader,
+        &path,
+        &fliers("floats;"),
+        &compile_options(),
+        CheckOptions { require_start: true },
+    );
+    assert!(a.diagnostics.iter().all(|d| d.code != "W0801"));
+    // Without `floats` no offspring stands: the mode stops with exit status 3.
+    let out = std::env::temp_dir().join(format!("mdg-creature-fliers-{}", std::process::id()));
+    let common = Common {
+        file: &path,
+        output: Some(&out),
+        seed: None,
+        stats: false,
+        png: None,
+        size: (800, 600),
+        pictures: &mdg_cli::pictures::Software,
+    };
+    let b = mdg_tests::build_source(&fliers(""));
+    let t = b.extensions.creatures.as_ref().expect("table");
+    let lib = Library::build(&b, t).expect("library");
+    let evo = Evolution::new(t, &lib, EvolveOptions::from_table(t));
+    let (mut pop, _) = evo.start();
+    let g = evo.step(&mut pop, None);
+    let why = g.empty(&evo.opts).expect("an empty generation");
+    assert!(why.contains("generation 1 is empty") && why.contains("floats"), "{why}");
+    assert_eq!(run(&b, &CreatureArgs::default(), &common), std::process::ExitCode::from(3));
+    // With `floats;` they evolve.
+    let b = mdg_tests::build_source(&fliers("floats;"));
+    let t = b.extensions.creatures.as_ref().expect("table");
+    assert!(t.shapes[0].floats);
+    let lib = Library::build(&b, t).expect("library");
+    let evo = Evolution::new(t, &lib, EvolveOptions::from_table(t));
+    let (mut pop, _) = evo.start();
+    let g = evo.step(&mut pop, None);
+    assert_eq!(g.presented.len(), 4);
+    assert!(g.presented.iter().all(|i| i.shape.floats && !i.layout.stability.stable));
+    assert_eq!(run(&b, &CreatureArgs::default(), &common), std::process::ExitCode::SUCCESS);
+    // So does the grammar with `stability off;`.
+    let b = mdg_tests::build_source(&fliers("").replace("seed 1;", "seed 1; stability off;"));
+    assert!(!b.extensions.creatures.as_ref().expect("table").evolve.stability);
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -131,6 +131,14 @@ fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<()
     let lib_ms = started.elapsed().as_secs_f64() * 1000.0;
     let evo = Evolution::new(table, &lib, opts.clone());
     let (mut pop, g0) = evo.start();
+    if opts.stability {
+        for ind in g0.presented.iter().filter(|i| !i.shape.floats && !i.layout.stability.stable) {
+            eprintln!(
+                "mdg-run: warning: regular creature `{}` does not stand (stability margin {:.3}); its offspring must (a swimmer or a flier says `floats;`)",
+                ind.name, ind.layout.stability.margin
+            );
+        }
+    }
     let mut generations: Vec<Generation> = Vec::new();
     let mut note = String::new();
     let total_steps;
@@ -152,7 +160,12 @@ fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<()
         note = format!("continued from {} (generation {upto}, replayed with seed {})", args.keep.join(", "), opts.seed);
         eprintln!("replayed {upto} generation(s); continuing from {}", args.keep.join(", "));
         for _ in 0..opts.generations {
-            generations.push(evo.step(&mut pop, Some(&tick)));
+            let g = evo.step(&mut pop, Some(&tick));
+            if let Some(why) = g.empty(&opts) {
+                bar.finish_and_clear();
+                return Err((3, why));
+            }
+            generations.push(g);
         }
         bar.finish_and_clear();
     } else {
@@ -161,7 +174,12 @@ fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<()
         let tick = |_g: u32, _d: usize, _t: usize| bar.inc(1);
         generations.push(g0);
         for _ in 0..opts.generations {
-            generations.push(evo.step(&mut pop, Some(&tick)));
+            let g = evo.step(&mut pop, Some(&tick));
+            if let Some(why) = g.empty(&opts) {
+                bar.finish_and_clear();
+                return Err((3, why));
+            }
+            generations.push(g);
         }
         bar.finish_and_clear();
     }

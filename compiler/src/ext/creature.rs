@@ -97,6 +97,7 @@ const SLOT_KEYS: &[Key] = &[
 const SHAPE_KEYS: &[Key] = &[
     Key { name: "torso", values: "PART", doc: "The creature's torso part." },
     Key { name: "attach", values: "SLOT PART [COUNT [MODE]]", doc: "Attach COUNT copies (default 1) of PART to the torso's SLOT, arranged by MODE (`row`, `stack`, `fan`). A symmetric slot's mirror gets a mirrored copy." },
+    Key { name: "floats", values: "", doc: "The creature does not stand (a swimmer, a flier): it and the monsters evolved from it are not subject to the stability test." },
 ];
 
 const RULE_KEYS: &[Key] = &[
@@ -139,6 +140,7 @@ const EVOLVE_KEYS: &[Key] = &[
     },
     Key { name: "maxparts", values: "N", doc: "Offspring with more meta-parts are rejected (default 24, at most 64)." },
     Key { name: "seed", values: "N", doc: "Seed of the evolution (default 1; `mdg-run --seed` overrides it)." },
+    Key { name: "stability", values: "on|off", doc: "Whether offspring must pass the stability test (default `on`; `off` for a grammar of swimmers or fliers; a single creature says `floats;`)." },
 ];
 
 /// The keys accepted at `path` (see [`super::keys`]).
@@ -459,6 +461,7 @@ impl<'a> Builder<'a, '_> {
                 _ => {}
             }
         }
+        self.cannot_stand(&shape_names);
         let mut rule_names: Vec<(String, Span)> = Vec::new();
         let mut rule_entries = Vec::new();
         for e in entries.iter().filter(|e| e.key.text == "rule") {
@@ -480,6 +483,34 @@ impl<'a> Builder<'a, '_> {
             self.never_match(&rule_entries);
         }
         self.probabilities(&rule_entries);
+    }
+
+    /// W0801: a regular creature subject to the stability test that cannot pass it
+    /// (none of its parts is a `support` part, so it has no support points).
+    fn cannot_stand(&mut self, shape_names: &[(String, Span)]) {
+        if !self.t.evolve.stability {
+            return;
+        }
+        let mut found = Vec::new();
+        for s in &self.t.shapes {
+            if s.floats {
+                continue;
+            }
+            let support = |p: u32| self.t.parts.get(p as usize).is_some_and(|p| p.support);
+            if support(s.torso) || s.attach.iter().any(|a| support(a.part)) {
+                continue;
+            }
+            let Some((_, span)) = shape_names.iter().find(|(n, _)| *n == s.name) else { continue };
+            let d = Diagnostic::warning(
+                "W0801",
+                *span,
+                format!("regular creature `{}` cannot pass the stability test", s.name),
+            )
+            .with_label("none of its parts is a `support` part: it has nothing to stand on")
+            .with_note("a swimmer or a flier says `floats;` in its shape (or the grammar `stability off;` in `evolve`); a walker needs `support;` parts (legs)");
+            found.push(d);
+        }
+        self.diags.extend(found);
     }
 
     fn family(&mut self, e: &Entry, spans: &mut Vec<(u32, Span)>) {
@@ -1046,7 +1077,14 @@ impl<'a> Builder<'a, '_> {
             };
             attach.push(AttachDef { slot, part, count, mode });
         }
-        ok.then(|| ShapeDef { name: name.text.clone(), torso, attach })
+        let floats = match es.iter().find(|x| x.key.text == "floats") {
+            Some(x) => {
+                self.no_block(x);
+                expect_count(x, 0, 0, "no values", self.diags)
+            }
+            None => false,
+        };
+        ok.then(|| ShapeDef { name: name.text.clone(), torso, attach, floats })
     }
 
     fn mode(&mut self, v: &Value) -> Option<Mode> {
@@ -1123,6 +1161,15 @@ impl<'a> Builder<'a, '_> {
                 "attempts" => self.count(x, 1, tb::MAX_ATTEMPTS),
                 "maxparts" => self.count(x, 2, tb::MAX_PARTS),
                 "seed" => self.count(x, 0, u32::MAX),
+                "stability" => {
+                    match x.values.first() {
+                        Some(Value::Word(w)) if x.values.len() == 1 && (w.text == "on" || w.text == "off") => {
+                            s.stability = w.text == "on"
+                        }
+                        _ => self.push(err("E0602", x.span, "`stability` is `on` or `off`")),
+                    }
+                    None
+                }
                 _ => None,
             };
             let Some(v) = v else { continue };
@@ -1826,7 +1873,7 @@ creature c {
   }
   part arm { type arm; category a; rule blob; joint { at 0 0 0; normal -2 0 0; size 0.1; } }
   part wing { type wing; category b; rule blob; scale 1.5; joint { at 0 0 0; normal -1 0 0; up 0 1 1; size 0.1; } }
-  shape s { torso body; attach side_r arm 2 stack; }
+  shape s { torso body; attach side_r arm 2 stack; floats; }
   rule r { kind replace; predecessor arm; probability (0.5 + 0 * g); }
   select rules rank;
   evolve { population 4; }
@@ -1842,6 +1889,7 @@ creature c {
             [("torso", true), ("arm", false), ("wing", false)]
         );
         assert_eq!(t.families, vec![vec![1, 2]]);
+        assert!(t.shapes[0].floats, "a creature without legs says `floats`");
         let body = &t.parts[0];
         assert_eq!(body.geometry, Geometry::Rule(7));
         // `symmetric` declares the mirror slot; `accepts arm` takes the whole family.

@@ -56,6 +56,27 @@ pub struct Generation {
     pub offspring_diversity: Diversity,
 }
 
+impl Generation {
+    /// `Some(explanation)` when a generation after the first made no offspring
+    /// at all: every offspring slot ran out of tries.
+    pub fn empty(&self, opts: &EvolveOptions) -> Option<String> {
+        if self.index == 0 || !self.presented.is_empty() {
+            return None;
+        }
+        let tries = self.n_failed * opts.attempts as usize;
+        let mut why = format!(
+            "generation {} is empty: none of its {} offspring found a monster in {} tries each ({} tries in all: {} did not stand, {} had a part touching nothing, the others changed nothing or had more than {} meta-parts)",
+            self.index, self.n_failed, opts.attempts, tries, self.n_unstable, self.n_detached, opts.maxparts
+        );
+        if self.n_unstable * 2 >= tries && tries > 0 {
+            why.push_str(
+                "; creatures that cannot stand (swimmers, fliers) say `floats;` in their `shape`, or the grammar `stability off;` in `evolve` (see W0801)",
+            );
+        }
+        Some(why)
+    }
+}
+
 /// Offspring tries rejected, by reason.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Rejected {
@@ -82,6 +103,9 @@ pub struct EvolveOptions {
     pub diversity_control: bool,
     /// Reject offspring with a part touching nothing of its torso.
     pub require_contact: bool,
+    /// Reject offspring that do not stand (the stability test), except those of
+    /// `floats` creatures.
+    pub stability: bool,
 }
 
 impl EvolveOptions {
@@ -100,6 +124,7 @@ impl EvolveOptions {
             disabled: Vec::new(),
             diversity_control: true,
             require_contact: true,
+            stability: e.stability,
         }
     }
 }
@@ -212,7 +237,7 @@ impl<'a> Evolution<'a> {
                 unstable.detached += 1;
                 continue;
             }
-            if !ind.layout.stability.stable {
+            if self.opts.stability && !ind.shape.floats && !ind.layout.stability.stable {
                 unstable.unstable += 1;
                 continue;
             }

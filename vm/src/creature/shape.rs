@@ -50,6 +50,9 @@ pub struct Shape {
     pub next_id: u32,
     /// The next free symmetry group id.
     pub next_sym: u32,
+    /// Not subject to the stability test (from a `floats` regular creature, the
+    /// base shape of every offspring passing it on).
+    pub floats: bool,
 }
 
 /// ω in C_s = ω·n_e + Σ(v_i − v̄)².
@@ -59,7 +62,7 @@ impl Shape {
     /// The abstract shape of a regular creature. Attaching to a slot with a mirror
     /// partner fills the partner too (one symmetry group).
     pub fn from_def(t: &CreatureTable, def: &ShapeDef) -> Shape {
-        let mut s = Shape { supers: Vec::new(), next_id: 0, next_sym: 0 };
+        let mut s = Shape { supers: Vec::new(), next_id: 0, next_sym: 0, floats: def.floats };
         let torso_kind = t.parts.get(def.torso as usize).map(|p| p.kind).unwrap_or(0);
         let root_sym = s.new_sym();
         let torso_meta = s.new_meta(torso_kind, def.torso);

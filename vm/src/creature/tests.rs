@@ -143,6 +143,7 @@ fn table() -> CreatureTable {
     let shapes = vec![
         ShapeDef {
             name: "humanoid".into(),
+            floats: false,
             torso: H_TORSO,
             attach: vec![
                 AttachDef { slot: 0, part: H_HEAD, count: 1, mode: Mode::Def },
@@ -152,6 +153,7 @@ fn table() -> CreatureTable {
         },
         ShapeDef {
             name: "quadruped".into(),
+            floats: false,
             torso: Q_TORSO,
             attach: vec![
                 AttachDef { slot: 0, part: Q_HEAD, count: 1, mode: Mode::Def },
