@@ -249,19 +249,60 @@ fn the_mode_writes_models_pictures_and_a_gallery_and_keeps_chosen_monsters() {
             .expect("run node");
         assert!(status.success(), "glTF validation failed");
     }
+    // The run's record: grammar hash, options, every monster's abstract shape;
+    // the gallery has a checkbox per monster and the command they build.
+    let record: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("run.json")).expect("run.json")).expect("json");
+    assert_eq!(record["grammar"]["sha256"].as_str().map(str::len), Some(64));
+    assert_eq!(record["options"]["seed"], 4);
+    assert_eq!(record["options"]["population"], 6);
+    assert_eq!(record["generations"][2]["presented"].as_array().map(Vec::len), Some(6));
+    assert!(record["generations"][2]["presented"][0]["shape"]["supers"].is_array());
+    assert!(html.contains("<input type=\"checkbox\" class=\"keep\" value=\"g2-05\">"));
+    assert!(html.contains("--keep IDS --from ") && html.contains("--seed 4 --population 6"));
     // Continue from two monsters of generation 2: generations 3 and 4 follow.
     let more = out.join("more");
     let common = Common { output: Some(&more), ..common };
-    let keep = CreatureArgs { keep: vec!["g2-01".into(), "g2-04".into()], ..args.clone() };
+    let keep = CreatureArgs { keep: vec!["g2-01".into(), "g2-04".into()], from: Some(out.clone()), ..args.clone() };
     assert_eq!(run(&b, &keep, &common), std::process::ExitCode::SUCCESS);
     let html = std::fs::read_to_string(more.join("index.html")).expect("gallery");
     assert!(html.contains("continued from g2-01, g2-04"));
     assert!(more.join("gen4/g4-00.glb").is_file() && !more.join("gen1").exists());
     // The kept monsters are the parents of generation 3.
     assert!(html.contains("base g2-01") || html.contains("base g2-04"));
-    // An unknown id is a clear error.
-    let bad = CreatureArgs { keep: vec!["g2-77".into()], ..args.clone() };
+    // Continuing from the record is continuing the replayed run.
+    let t = b.extensions.creatures.as_ref().expect("table");
+    let lib = Library::build(&b, t).expect("library");
+    let o = options(t, &args, Some(4)).expect("options");
+    let evo = Evolution::new(t, &lib, o.clone());
+    let (mut pop, _) = evo.start();
+    evo.step(&mut pop, None);
+    evo.step(&mut pop, None);
+    let replayed = mdg_cli::modes::creature::continue_from(&evo, &mut pop, &keep.keep, 1).expect("replay");
+    let more_record: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(more.join("run.json")).expect("run.json")).expect("json");
+    let from_record: Vec<&str> = more_record["generations"][0]["presented"]
+        .as_array()
+        .expect("generation 3")
+        .iter()
+        .map(|m| m["structure"].as_str().expect("structure"))
+        .collect();
+    let from_replay: Vec<String> = replayed[0].presented.iter().map(|i| i.shape.describe(t)).collect();
+    assert_eq!(from_record, from_replay);
+    // An unknown id is a clear error, and so are other options or another grammar.
+    let bad = CreatureArgs { keep: vec!["g2-77".into()], from: Some(out.clone()), ..args.clone() };
     assert_eq!(run(&b, &bad, &common), std::process::ExitCode::from(2));
+    let other = CreatureArgs { population: Some(7), ..keep.clone() };
+    assert_eq!(run(&b, &other, &common), std::process::ExitCode::from(2));
+    let no_record = CreatureArgs { from: Some(more.join("gen3")), ..keep.clone() };
+    assert_eq!(run(&b, &no_record, &common), std::process::ExitCode::from(2));
+    let forged = out.join("forged");
+    std::fs::create_dir_all(&forged).expect("dir");
+    let mut r = record.clone();
+    r["grammar"]["sha256"] = serde_json::json!("0".repeat(64));
+    std::fs::write(forged.join("run.json"), serde_json::to_vec(&r).expect("json")).expect("write");
+    let forged_args = CreatureArgs { from: Some(forged), ..keep.clone() };
+    assert_eq!(run(&b, &forged_args, &common), std::process::ExitCode::from(2));
     let _ = std::fs::remove_dir_all(&out);
 }
 

@@ -194,6 +194,20 @@ impl<'a> Evolution<'a> {
         (p, g0)
     }
 
+    /// A monster from its abstract shape (read from a run's record): laid out
+    /// again, with its id.
+    pub fn revive(&self, shape: Shape, id: String) -> Individual {
+        self.individual(shape, id, (String::new(), String::new()), Vec::new())
+    }
+
+    /// The population after generation `generation` when the user keeps `kept`
+    /// of its monsters: they are the current set, `background` (the rest of the
+    /// generation's presented set and its background set) the background set —
+    /// what [`Evolution::keep`] makes after replaying the run.
+    pub fn resume(&self, generation: u32, kept: Vec<Individual>, background: Vec<Individual>) -> Population {
+        Population { generation, presented: kept.clone(), current: kept, background }
+    }
+
     fn individual(&self, shape: Shape, id: String, parents: (String, String), applied: Vec<Applied>) -> Individual {
         let layout = layout(self.table, self.lib, &shape);
         let complexity = shape.complexity();
