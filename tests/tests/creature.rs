@@ -319,6 +319,9 @@ fn command_line_options_override_the_evolve_block() {
     let o = options(t, &args, Some(99)).expect("options");
     assert_eq!((o.generations, o.population, o.offspring, o.seed), (7, 10, 30, 99));
     assert_eq!(o.disabled, vec![RuleKind::Increase]);
+    assert!(o.diversity_control);
+    let off = CreatureArgs { no_diversity_control: true, ..CreatureArgs::default() };
+    assert!(!options(t, &off, None).expect("options").diversity_control);
     let bad = CreatureArgs { without_rules: vec!["grow".into()], ..CreatureArgs::default() };
     assert!(options(t, &bad, None).is_err());
     let bad = CreatureArgs { generations: Some(5000), ..CreatureArgs::default() };
@@ -411,6 +414,22 @@ fn every_placed_part_touches_its_torso_over_many_seeds() {
         }
     }
     assert!(monsters > 300 && parts > 3000, "{monsters} monsters, {parts} parts");
+    // No presented set holds one abstract shape twice, with diversity control or without.
+    for control in [true, false] {
+        let mut o = EvolveOptions::from_table(t);
+        o.seed = 5;
+        o.diversity_control = control;
+        let evo = Evolution::new(t, &lib, o);
+        let (mut pop, _) = evo.start();
+        for _ in 0..4 {
+            let g = evo.step(&mut pop, None);
+            let mut shapes: Vec<String> = g.presented.iter().map(|i| i.shape.describe(t)).collect();
+            shapes.sort_unstable();
+            let n = shapes.len();
+            shapes.dedup();
+            assert_eq!(shapes.len(), n, "generation {} presents a monster twice", g.index);
+        }
+    }
     // The test can fail: with the plain arrangement offsets (copies not seated on
     // the torso's surface) some outer copies hang in the air.
     lib.seat = false;

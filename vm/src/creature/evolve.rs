@@ -50,6 +50,9 @@ pub struct Generation {
     pub n_detached: usize,
     /// Offspring slots that found no valid offspring within their attempts.
     pub n_failed: usize,
+    /// Offspring dropped before diversity control because an earlier offspring
+    /// of the generation has the same abstract shape.
+    pub n_duplicates: usize,
     /// The diversity of the presented set.
     pub diversity: Diversity,
     /// The diversity of all offspring made (before diversity control).
@@ -178,6 +181,7 @@ impl<'a> Evolution<'a> {
             n_unstable: 0,
             n_detached: 0,
             n_failed: 0,
+            n_duplicates: 0,
             diversity,
         }
     }
@@ -282,6 +286,12 @@ impl<'a> Evolution<'a> {
         let offspring: Vec<Individual> = made.into_iter().filter_map(|m| m.0).collect();
         let n_offspring = offspring.len();
         let offspring_diversity = diversity(self.table, &offspring);
+        // Equal abstract shapes (the same parts on the same slots, arranged alike:
+        // equal descriptions, whatever their ids) are one monster: keep the first.
+        let mut seen = std::collections::BTreeSet::new();
+        let offspring: Vec<Individual> =
+            offspring.into_iter().filter(|i| seen.insert(i.shape.describe(self.table))).collect();
+        let n_duplicates = n_offspring - offspring.len();
         let mut rng = Rng::stream(self.opts.seed, g as u64, u64::MAX);
         let picked = if self.opts.diversity_control {
             diversity_control(self.table, &offspring, self.opts.population as usize, &mut rng)
@@ -335,6 +345,7 @@ impl<'a> Evolution<'a> {
             n_unstable,
             n_detached,
             n_failed,
+            n_duplicates,
             diversity,
             offspring_diversity,
         }
