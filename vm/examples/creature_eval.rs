@@ -19,7 +19,7 @@
 //! (`cargo run --release --bin mdgc -- build …`) unless `MDG_CREATURE_BUNDLE`
 //! names a compiled `.mdgb`.
 
-use mdg_vm::creature::evolve::{diversity, Evolution, EvolveOptions};
+use mdg_vm::creature::evolve::{Evolution, EvolveOptions};
 use mdg_vm::creature::geometry::Library;
 use mdg_vm::creature::table::RuleKind;
 use std::path::{Path, PathBuf};
@@ -49,18 +49,15 @@ fn mean_sd(v: &[f64]) -> (f64, f64) {
     (m, (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / n).sqrt())
 }
 
-/// Per generation (1..=G): (offspring HDM, offspring clusters, presented clusters, mean C_s).
-fn run(evo: &Evolution) -> Vec<[f64; 4]> {
+/// Per generation (1..=G): (offspring HDM, offspring clusters, presented HDM,
+/// presented clusters, offspring made).
+fn run(evo: &Evolution) -> Vec<[f64; 5]> {
     let (mut pop, _) = evo.start();
     (1..=evo.opts.generations)
-        .map(|g| {
-            // The offspring of generation g, before diversity control (the same
-            // streams `step` uses, so this is exactly the set it chooses from).
-            let offspring: Vec<_> =
-                (0..evo.opts.offspring as usize).filter_map(|i| evo.offspring(&pop, g, i).0).collect();
-            let d = diversity(evo.table, &offspring);
-            let gen = evo.step(&mut pop, None);
-            [d.hdm, d.clusters as f64, gen.diversity.clusters as f64, d.mean_complexity]
+        .map(|_| {
+            let g = evo.step(&mut pop, None);
+            let (o, d) = (&g.offspring_diversity, &g.diversity);
+            [o.hdm, o.clusters as f64, d.hdm, d.clusters as f64, g.n_offspring as f64]
         })
         .collect()
 }
@@ -114,51 +111,66 @@ fn main() -> Result<(), String> {
         let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
         return touch(&bundle);
     }
-    let seeds: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(8);
-    let gens: u32 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(6);
+    let seeds: Vec<u64> = match args.get(1).and_then(|s| s.parse::<u64>().ok()) {
+        Some(n) => (1..=n).collect(),
+        None => vec![1, 3, 7, 11, 42],
+    };
+    let gens: u32 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(5);
     let path = bundle_path()?;
     let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
     let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
     let table = bundle.extensions.creatures.as_ref().ok_or("no creature table")?;
     let lib = Library::build(&bundle, table)?;
-    let mut results: [Vec<Vec<[f64; 4]>>; 2] = [Vec::new(), Vec::new()];
-    for (variant, disabled) in [vec![], vec![RuleKind::Increase]].into_iter().enumerate() {
-        for seed in 1..=seeds {
-            let mut o = EvolveOptions::from_table(table);
-            o.seed = seed;
-            o.generations = gens;
-            o.disabled = disabled.clone();
-            results[variant].push(run(&Evolution::new(table, &lib, o)));
+    let population = 18u32;
+    println!(
+        "Ablation of increase rules (paper Fig. 13): std/examples/monsters.mdg, seeds {seeds:?}, {gens} generations, population {population}"
+    );
+    println!("HDM = N + Σ D_i (N structure clusters, D_i the spread of the geometric descriptor in cluster i over the largest); mean ± sd over seeds and generations 1–{gens}\n");
+    println!("| sample | n (mean) | HDM, all rules | HDM, no increase | ratio | ratio per generation | clusters all / no incr. |");
+    println!("|---|---|---|---|---|---|---|");
+    for offspring in [54u32, 162, 540] {
+        // results[variant][seed][generation]
+        let mut results: [Vec<Vec<[f64; 5]>>; 2] = [Vec::new(), Vec::new()];
+        for (variant, disabled) in [vec![], vec![RuleKind::Increase]].into_iter().enumerate() {
+            for &seed in &seeds {
+                let mut o = EvolveOptions::from_table(table);
+                o.seed = seed;
+                o.generations = gens;
+                o.population = population;
+                o.offspring = offspring;
+                o.disabled = disabled.clone();
+                results[variant].push(run(&Evolution::new(table, &lib, o)));
+            }
+        }
+        // The presented set (18) once, from the runs with 54 offspring (the default).
+        let samples: &[(usize, usize, &str)] =
+            if offspring == 54 { &[(2, 3, "presented set"), (0, 1, "offspring")] } else { &[(0, 1, "offspring")] };
+        for &(hdm, clusters, what) in samples {
+            let all: Vec<f64> = results[0].iter().flat_map(|r| r.iter().map(|g| g[hdm])).collect();
+            let none: Vec<f64> = results[1].iter().flat_map(|r| r.iter().map(|g| g[hdm])).collect();
+            let n: Vec<f64> = results[0]
+                .iter()
+                .flat_map(|r| r.iter().map(|g| if hdm == 2 { population as f64 } else { g[4] }))
+                .collect();
+            let per_gen: Vec<String> = (0..gens as usize)
+                .map(|g| {
+                    let a = mean_sd(&results[0].iter().map(|r| r[g][hdm]).collect::<Vec<_>>()).0;
+                    let b = mean_sd(&results[1].iter().map(|r| r[g][hdm]).collect::<Vec<_>>()).0;
+                    format!("{:.2}", b / a)
+                })
+                .collect();
+            let ca: Vec<f64> = results[0].iter().flat_map(|r| r.iter().map(|g| g[clusters])).collect();
+            let cb: Vec<f64> = results[1].iter().flat_map(|r| r.iter().map(|g| g[clusters])).collect();
+            let ((a, sa), (b, sb)) = (mean_sd(&all), mean_sd(&none));
+            println!(
+                "| {what} of {offspring} | {:.0} | {a:.2} ± {sa:.2} | {b:.2} ± {sb:.2} | {:.2} | {} | {:.1} / {:.1} |",
+                mean_sd(&n).0,
+                b / a,
+                per_gen.join(" "),
+                mean_sd(&ca).0,
+                mean_sd(&cb).0
+            );
         }
     }
-    let e = &table.evolve;
-    println!(
-        "Ablation of increase rules (paper Fig. 13): std/examples/monsters.mdg, {seeds} seeds, population {}, {} offspring per generation",
-        e.population, e.offspring
-    );
-    println!("HDM = N + Σ D_i over each generation's offspring; N = structure clusters; mean ± sd over seeds\n");
-    println!(
-        "| generation | HDM, all rules | HDM, no increase | ratio | clusters (offspring) all / no incr. | clusters presented all / no incr. | mean C_s all / no incr. |"
-    );
-    println!("|---|---|---|---|---|---|---|");
-    let col = |v: usize, g: usize, k: usize| -> Vec<f64> { results[v].iter().map(|r| r[g][k]).collect() };
-    let mut ratios = Vec::new();
-    for g in 0..gens as usize {
-        let (a, sa) = mean_sd(&col(0, g, 0));
-        let (b, sb) = mean_sd(&col(1, g, 0));
-        ratios.push(b / a);
-        println!(
-            "| {} | {a:.2} ± {sa:.2} | {b:.2} ± {sb:.2} | {:.2} | {:.1} / {:.1} | {:.1} / {:.1} | {:.1} / {:.1} |",
-            g + 1,
-            b / a,
-            mean_sd(&col(0, g, 1)).0,
-            mean_sd(&col(1, g, 1)).0,
-            mean_sd(&col(0, g, 2)).0,
-            mean_sd(&col(1, g, 2)).0,
-            mean_sd(&col(0, g, 3)).0,
-            mean_sd(&col(1, g, 3)).0,
-        );
-    }
-    println!("\nmean ratio (no increase / all rules) over generations: {:.2}", mean_sd(&ratios).0);
     Ok(())
 }

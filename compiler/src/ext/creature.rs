@@ -224,6 +224,17 @@ struct Names {
     parts: Vec<(String, Span)>,
 }
 
+/// A name for the mirror image of slot `name`: `_l` ↔ `_r`, else `NAME_r`.
+fn mirror_name(name: &str) -> String {
+    if let Some(b) = name.strip_suffix("_l") {
+        format!("{b}_r")
+    } else if let Some(b) = name.strip_suffix("_r") {
+        format!("{b}_l")
+    } else {
+        format!("{name}_r")
+    }
+}
+
 fn err(code: &'static str, span: Span, msg: impl Into<String>) -> Diagnostic {
     Diagnostic::error(code, span, msg)
 }
@@ -844,10 +855,18 @@ impl<'a> Builder<'a, '_> {
                         continue;
                     };
                     if let Some(i) = slots.iter().position(|o| o.name == s.name) {
-                        self.push(
+                        let d = if slots[i].mirror_of.is_some() {
+                            err("E0812", n.span, format!("slot `{}` is declared by `symmetric` already", n.text))
+                                .with_secondary(slot_spans[i], "`symmetric` declares the mirror slot here")
+                                .with_note(format!(
+                                    "`symmetric {}` makes the mirror image of its slot: remove this `slot {} {{ … }}`",
+                                    n.text, n.text
+                                ))
+                        } else {
                             err("E0812", n.span, format!("slot `{}` is defined twice in part `{}`", n.text, name.text))
-                                .with_secondary(slot_spans[i], "first defined here"),
-                        );
+                                .with_secondary(slot_spans[i], "first defined here")
+                        };
+                        self.push(d);
                         ok = false;
                         continue;
                     }
@@ -855,7 +874,31 @@ impl<'a> Builder<'a, '_> {
                     slots.push(s.clone());
                     slot_spans.push(n.span);
                     if let Some(m) = sym {
+                        if m.text == n.text {
+                            self.push(
+                                err("E0812", m.span, format!("slot `{}` cannot be its own mirror slot", n.text))
+                                    .with_label("`symmetric` names the mirror slot it declares")
+                                    .with_note(format!(
+                                        "give the mirror image its own name, e.g. `symmetric {}`",
+                                        mirror_name(&n.text)
+                                    )),
+                            );
+                            ok = false;
+                            continue;
+                        }
                         if let Some(i) = slots.iter().position(|o| o.name == m.text) {
+                            if slots[i].mirror_of.is_none() && slots[i].partner.is_none() {
+                                self.push(
+                                    err("E0812", m.span, format!("`symmetric {}` declares a slot that exists", m.text))
+                                        .with_secondary(slot_spans[i], "declared here already")
+                                        .with_note(format!(
+                                            "`symmetric {}` makes the mirror image of slot `{}` itself: remove the separate `slot {} {{ … }}`",
+                                            m.text, n.text, m.text
+                                        )),
+                                );
+                                ok = false;
+                                continue;
+                            }
                             self.push(
                                 err(
                                     "E0812",
@@ -990,18 +1033,15 @@ impl<'a> Builder<'a, '_> {
         }
         let mut attach: Vec<AttachDef> = Vec::new();
         let mut used: Vec<(u32, Span)> = Vec::new();
-        let mut ok = true;
         for x in es.iter().filter(|x| x.key.text == "attach") {
             self.no_block(x);
             if !expect_count(x, 2, 4, "SLOT PART [COUNT [MODE]]", self.diags) {
-                ok = false;
                 continue;
             }
             let (Some(Value::Word(sn)), Some(Value::Word(pn))) = (x.values.first(), x.values.get(1)) else {
                 let bad =
                     x.values.iter().take(2).find(|v| !matches!(v, Value::Word(_))).map(|v| v.span()).unwrap_or(x.span);
                 self.push(err("E0602", bad, "`attach` takes SLOT PART [COUNT [MODE]]").with_label("not a name"));
-                ok = false;
                 continue;
             };
             let Some(mut slot) = tp.slots.iter().position(|s| s.name == sn.text).map(|i| i as u32) else {
@@ -1018,14 +1058,12 @@ impl<'a> Builder<'a, '_> {
                     )),
                 };
                 self.push(d);
-                ok = false;
                 continue;
             };
             if let Some(m) = tp.slots[slot as usize].mirror_of {
                 slot = m;
             }
             let Some(part) = self.part_index(pn, names) else {
-                ok = false;
                 continue;
             };
             let pk = self.t.parts[part as usize].kind;
@@ -1037,7 +1075,6 @@ impl<'a> Builder<'a, '_> {
                         .with_label(format!("a `{}`", self.t.kinds[pk as usize].name))
                         .with_note(format!("slot `{}` accepts: {}", sn.text, accepts.join(", "))),
                 );
-                ok = false;
                 continue;
             }
             if let Some((_, prev)) = used.iter().find(|(s, _)| *s == slot) {
@@ -1045,7 +1082,6 @@ impl<'a> Builder<'a, '_> {
                     err("E0812", sn.span, format!("slot `{}` is filled twice", sn.text))
                         .with_secondary(*prev, "filled here (or by its mirror slot)"),
                 );
-                ok = false;
                 continue;
             }
             used.push((slot, sn.span));
@@ -1058,7 +1094,6 @@ impl<'a> Builder<'a, '_> {
                             v.span(),
                             format!("COUNT must be a whole number from 1 to {}", tb::MAX_COUNT),
                         ));
-                        ok = false;
                         continue;
                     }
                 },
@@ -1068,7 +1103,6 @@ impl<'a> Builder<'a, '_> {
                 Some(v) => match self.mode(v) {
                     Some(m) => m,
                     None => {
-                        ok = false;
                         continue;
                     }
                 },
@@ -1084,7 +1118,9 @@ impl<'a> Builder<'a, '_> {
             }
             None => false,
         };
-        ok.then(|| ShapeDef { name: name.text.clone(), torso, attach, floats })
+        // An attach in error is left out (and reported); the others stay, so rules
+        // on the parts they attach are not reported as never matching.
+        Some(ShapeDef { name: name.text.clone(), torso, attach, floats })
     }
 
     fn mode(&mut self, v: &Value) -> Option<Mode> {
@@ -1935,6 +1971,54 @@ creature c {
             }
         }
         assert!(keys(&["creature", "nothing"]).is_empty());
+    }
+
+    /// A one-torso grammar with `slots` on the torso and `attach` in its creature.
+    fn grammar(slots: &str, attach: &str) -> String {
+        format!(
+            r#"
+rule blob {{ VERTEX {{}} VERTEX {{x 1}} VERTEX {{y 1}} }}
+creature c {{
+  part body {{ type torso; category a; rule blob;
+    slot neck {{ at 0 0 1; normal 0 0 1; size 0.2; accepts head; }}
+    {slots}
+  }}
+  part head {{ type head; category a; rule blob; support; joint {{ at 0 0 0; normal 0 0 -1; size 0.2; }} }}
+  shape s {{ torso body; attach neck head; {attach} }}
+  rule two {{ kind increase; predecessor head; }}
+}}
+"#
+        )
+    }
+
+    #[test]
+    fn a_bad_attach_keeps_the_shape_and_a_misused_symmetric_is_explained() {
+        // The bad attach is reported; the good one stays, so `two` can match.
+        let (t, d) = table_of(&grammar("", "attach nose head;"));
+        let codes: Vec<&str> = d.iter().map(|d| d.code).collect();
+        assert_eq!(codes, ["E0802"], "{d:?}");
+        assert_eq!(t.shapes[0].attach.len(), 1);
+        let slot = "slot arm_l { at 0.2 0 0.5; normal 1 0 0; size 0.1; accepts head;";
+        let (_, d) = table_of(&grammar(&format!("{slot} symmetric arm_l; }}"), ""));
+        assert_eq!(d.len(), 1, "{d:?}");
+        assert!(d[0].message.contains("cannot be its own mirror slot"), "{d:?}");
+        assert!(d[0].notes.iter().any(|n| n.contains("symmetric arm_r")), "{d:?}");
+        let (_, d) = table_of(&grammar(
+            &format!(
+                "{slot} symmetric arm_r; }}\n slot arm_r {{ at -0.2 0 0.5; normal -1 0 0; size 0.1; accepts head; }}"
+            ),
+            "",
+        ));
+        assert_eq!(d.len(), 1, "{d:?}");
+        assert!(d[0].message.contains("is declared by `symmetric` already"), "{d:?}");
+        let (_, d) = table_of(&grammar(
+            &format!(
+                "slot arm_r {{ at -0.2 0 0.5; normal -1 0 0; size 0.1; accepts head; }}\n {slot} symmetric arm_r; }}"
+            ),
+            "",
+        ));
+        assert_eq!(d.len(), 1, "{d:?}");
+        assert!(d[0].message.contains("declares a slot that exists"), "{d:?}");
     }
 
     #[test]

@@ -411,9 +411,17 @@ pub fn clusters(t: &CreatureTable, set: &[Individual]) -> Vec<Vec<usize>> {
 /// field descriptor of Fit and Diverse): proportions of the grounded model —
 /// width, depth and centre-of-mass height over height, the height itself, and the
 /// mean and spread of the part centres' distances from the centre of mass over
-/// height — plus the part geometry ids, so equal structures built from different
-/// parts differ.
-pub fn descriptor(ind: &Individual) -> Vec<f64> {
+/// height — and the multiset of part geometries it is built from (compared as a
+/// set, see [`distance`]), so equal structures built from different parts differ.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Descriptor {
+    pub proportions: Vec<f64>,
+    /// Library part index → how many of it are placed.
+    pub parts: BTreeMap<u32, u32>,
+}
+
+/// See [`Descriptor`].
+pub fn descriptor(ind: &Individual) -> Descriptor {
     let l = &ind.layout;
     let size = l.max - l.min;
     let h = size.z.max(1e-6) as f64;
@@ -422,15 +430,44 @@ pub fn descriptor(ind: &Individual) -> Vec<f64> {
         l.placed.iter().map(|p| (p.transform.transform_point3(Vec3::ZERO) - com).length() as f64 / h).collect();
     let mean = d.iter().sum::<f64>() / d.len().max(1) as f64;
     let sd = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / d.len().max(1) as f64).sqrt();
-    let mut parts: Vec<u32> = l.placed.iter().map(|p| p.part).collect();
-    parts.sort_unstable();
-    parts.dedup();
-    let part_hash = parts.iter().fold(0u64, |h, &p| h.wrapping_mul(31).wrapping_add(p as u64 + 1)) % 997;
-    vec![size.x as f64 / h, size.y as f64 / h, com.z as f64 / h, h, mean, sd, part_hash as f64 / 997.0]
+    let mut parts = BTreeMap::new();
+    for p in &l.placed {
+        *parts.entry(p.part).or_insert(0) += 1;
+    }
+    Descriptor { proportions: vec![size.x as f64 / h, size.y as f64 / h, com.z as f64 / h, h, mean, sd], parts }
 }
 
-fn dist(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt()
+/// The distance between two descriptors: Euclidean over the proportions, and the
+/// weighted Jaccard distance 1 − Σ min / Σ max of the part multisets (0 for the
+/// same parts, 1 for disjoint ones), combined as √(d_p² + d_J²).
+pub fn distance(a: &Descriptor, b: &Descriptor) -> f64 {
+    let dp2: f64 = a.proportions.iter().zip(&b.proportions).map(|(x, y)| (x - y).powi(2)).sum();
+    let (mut lo, mut hi) = (0u32, 0u32);
+    for k in a.parts.keys().chain(b.parts.keys().filter(|k| !a.parts.contains_key(k))) {
+        let (x, y) = (a.parts.get(k).copied().unwrap_or(0), b.parts.get(k).copied().unwrap_or(0));
+        lo += x.min(y);
+        hi += x.max(y);
+    }
+    let dj = if hi == 0 { 0.0 } else { 1.0 - lo as f64 / hi as f64 };
+    (dp2 + dj * dj).sqrt()
+}
+
+/// The spread of a set of descriptors: √(Σ_{a,b} d(a,b)² / 2n²) — for a Euclidean
+/// distance exactly the root-mean-square distance to the mean, defined for
+/// [`distance`], which has no mean.
+pub fn spread(desc: &[Descriptor]) -> f64 {
+    let n = desc.len();
+    if n < 2 {
+        return 0.0;
+    }
+    let mut sum = 0.0;
+    for i in 0..n {
+        for j in i + 1..n {
+            sum += distance(&desc[i], &desc[j]).powi(2);
+        }
+    }
+    // Σ over ordered pairs is twice the sum over unordered ones.
+    (2.0 * sum / (2.0 * (n * n) as f64)).sqrt()
 }
 
 /// Structure-based diversity control (paper §4): cluster by structure vector,
@@ -484,12 +521,12 @@ pub fn diversity_control(t: &CreatureTable, set: &[Individual], k: usize, rng: &
         if q == 0 {
             continue;
         }
-        let desc: Vec<Vec<f64>> = c.iter().map(|&i| descriptor(&set[i])).collect();
+        let desc: Vec<Descriptor> = c.iter().map(|&i| descriptor(&set[i])).collect();
         let mut chosen = vec![rng.below(c.len())];
         while chosen.len() < q.min(c.len()) {
             let next = (0..c.len()).filter(|j| !chosen.contains(j)).max_by(|&a, &b| {
-                let da = chosen.iter().map(|&s| dist(&desc[a], &desc[s])).fold(f64::INFINITY, f64::min);
-                let db = chosen.iter().map(|&s| dist(&desc[b], &desc[s])).fold(f64::INFINITY, f64::min);
+                let da = chosen.iter().map(|&s| distance(&desc[a], &desc[s])).fold(f64::INFINITY, f64::min);
+                let db = chosen.iter().map(|&s| distance(&desc[b], &desc[s])).fold(f64::INFINITY, f64::min);
                 da.total_cmp(&db).then(b.cmp(&a))
             });
             match next {
@@ -505,8 +542,9 @@ pub fn diversity_control(t: &CreatureTable, set: &[Individual], k: usize, rng: &
 
 /// The hierarchical diversity measure of a set (paper §5):
 /// HDM = N + Σ_i D_i with N the number of structure clusters and
-/// D_i = SD_i / max_j SD_j, SD_i the standard deviation (root-mean-square distance
-/// to the cluster mean) of the geometric [`descriptor`] in cluster i.
+/// D_i = SD_i / max_j SD_j, SD_i the [`spread`] of the geometric [`descriptor`]s
+/// in cluster i (for a Euclidean descriptor: the root-mean-square distance to the
+/// cluster mean).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Diversity {
     pub hdm: f64,
@@ -526,10 +564,8 @@ pub fn diversity(t: &CreatureTable, set: &[Individual]) -> Diversity {
     let sd: Vec<f64> = cl
         .iter()
         .map(|c| {
-            let desc: Vec<Vec<f64>> = c.iter().map(|&i| descriptor(&set[i])).collect();
-            let dim = desc.first().map(|d| d.len()).unwrap_or(0);
-            let mean: Vec<f64> = (0..dim).map(|k| desc.iter().map(|d| d[k]).sum::<f64>() / desc.len() as f64).collect();
-            (desc.iter().map(|d| dist(d, &mean).powi(2)).sum::<f64>() / desc.len() as f64).sqrt()
+            let desc: Vec<Descriptor> = c.iter().map(|&i| descriptor(&set[i])).collect();
+            spread(&desc)
         })
         .collect();
     let max = sd.iter().cloned().fold(0.0, f64::max);
