@@ -499,7 +499,8 @@ impl<'a> Builder<'a, '_> {
     /// W0801: a regular creature subject to the stability test that cannot pass it
     /// (none of its parts is a `support` part, so it has no support points).
     fn cannot_stand(&mut self, shape_names: &[(String, Span)]) {
-        if !self.t.evolve.stability {
+        // Not after errors: a shape missing a bad attach is no evidence.
+        if !self.t.evolve.stability || self.diags.iter().any(|d| d.is_error()) {
             return;
         }
         let mut found = Vec::new();
