@@ -375,8 +375,8 @@ fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<()
     let record = record(table, common.file, &hash, &opts, &generations, continued);
     let record_text = serde_json::to_string_pretty(&record).map_err(|e| (2, format!("run.json: {e}")))?;
     let keep_command = keep_command(common.file, &out_dir, &opts, args);
-    write_outputs(table, &lib, &generations, &out_dir, &note, &opts, common.pictures, &keep_command)
-        .map_err(|e| (2, e))?;
+    let text = GalleryText { note: &note, keep_command: &keep_command };
+    write_outputs(table, &lib, &generations, &out_dir, &text, &opts, common.pictures).map_err(|e| (2, e))?;
     write(&out_dir.join("run.json"), format!("{record_text}\n").as_bytes()).map_err(|e| (2, e))?;
     eprintln!("wrote {}", out_dir.join("index.html").display());
     Ok(())
@@ -464,16 +464,23 @@ fn html_escape(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
 }
 
+/// The gallery's texts about the run: where it was continued from, and the
+/// command that continues it (`IDS` for the ticked monsters).
+struct GalleryText<'a> {
+    note: &'a str,
+    keep_command: &'a str,
+}
+
 fn write_outputs(
     t: &CreatureTable,
     lib: &Library,
     gens: &[Generation],
     out_dir: &Path,
-    note: &str,
+    text: &GalleryText,
     opts: &EvolveOptions,
     pictures: &dyn Pictures,
-    keep_command: &str,
 ) -> Result<(), String> {
+    let (note, keep_command) = (text.note, text.keep_command);
     let mut html = String::new();
     let title = if t.name.is_empty() { "creatures".to_string() } else { t.name.clone() };
     let _ = write!(
