@@ -103,8 +103,46 @@ fn touch(bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
     Ok(())
 }
 
+/// `time`: the time of one layout (geometry rules, seating, grounding, stability)
+/// and of its contact test, over the presented monsters of seed 3, generations 0–5.
+fn time(bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
+    use mdg_vm::creature::geometry::{detached, layout};
+    let table = bundle.extensions.creatures.as_ref().ok_or("no creature table")?;
+    let mut lib = Library::build(bundle, table)?;
+    let mut o = EvolveOptions::from_table(table);
+    o.seed = 3;
+    let evo = Evolution::new(table, &lib, o);
+    let (mut pop, g0) = evo.start();
+    let mut shapes: Vec<_> = g0.presented.iter().map(|i| i.shape.clone()).collect();
+    for _ in 0..5 {
+        shapes.extend(evo.step(&mut pop, None).presented.into_iter().map(|i| i.shape));
+    }
+    for seat in [false, true] {
+        lib.seat = seat;
+        let t = std::time::Instant::now();
+        let layouts: Vec<_> = (0..5).flat_map(|_| shapes.iter().map(|s| layout(table, &lib, s))).collect();
+        let per = t.elapsed().as_secs_f64() * 1e3 / layouts.len() as f64;
+        let t = std::time::Instant::now();
+        for (l, s) in layouts.iter().zip(shapes.iter().cycle()) {
+            std::hint::black_box(detached(&lib, s, &l.placed));
+        }
+        let contact = t.elapsed().as_secs_f64() * 1e3 / layouts.len() as f64;
+        println!(
+            "seat {seat}: layout {per:.3} ms (of which the contact test {contact:.3} ms) per monster, {} monsters",
+            shapes.len()
+        );
+    }
+    Ok(())
+}
+
 fn main() -> Result<(), String> {
     let args: Vec<String> = std::env::args().collect();
+    if args.get(1).map(String::as_str) == Some("time") {
+        let path = bundle_path()?;
+        let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
+        return time(&bundle);
+    }
     if args.get(1).map(String::as_str) == Some("touch") {
         let path = bundle_path()?;
         let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;

@@ -289,9 +289,31 @@ impl<'a> Evolution<'a> {
         // Equal abstract shapes (the same parts on the same slots, arranged alike:
         // equal descriptions, whatever their ids) are one monster: keep the first.
         let mut seen = std::collections::BTreeSet::new();
-        let offspring: Vec<Individual> =
+        let mut offspring: Vec<Individual> =
             offspring.into_iter().filter(|i| seen.insert(i.shape.describe(self.table))).collect();
-        let n_duplicates = n_offspring - offspring.len();
+        let mut n_duplicates = n_offspring - offspring.len();
+        // Too few distinct monsters for the presented set: up to three more rounds
+        // of offspring (streams `total`, `total + 1`, …), as long as they add some.
+        for round in 1..=3usize {
+            if offspring.len() >= self.opts.population as usize || n_offspring == 0 {
+                break;
+            }
+            let more: Vec<Individual> = (total * round..total * (round + 1))
+                .into_par_iter()
+                .filter_map(|i| self.offspring(pop, g, i).0)
+                .collect();
+            let before = offspring.len();
+            for ind in more {
+                if seen.insert(ind.shape.describe(self.table)) {
+                    offspring.push(ind);
+                } else {
+                    n_duplicates += 1;
+                }
+            }
+            if offspring.len() == before {
+                break;
+            }
+        }
         let mut rng = Rng::stream(self.opts.seed, g as u64, u64::MAX);
         let picked = if self.opts.diversity_control {
             diversity_control(self.table, &offspring, self.opts.population as usize, &mut rng)

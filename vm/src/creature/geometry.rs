@@ -31,8 +31,8 @@ pub struct PartGeometry {
     /// nearest to the joint first: a part touching its parent does so near its joint.
     pub contact_points: Vec<Vec3>,
     /// Triangles (indices into the mesh's), bucketed by the cells of
-    /// [`CONTACT_EPSILON`] × `diag` their bounding boxes overlap, to find the
-    /// surface near a point.
+    /// [`CONTACT_EPSILON`] × `diag` within that distance of their bounding boxes,
+    /// to find the surface near a point from its own cell.
     pub grid: std::collections::HashMap<(i32, i32, i32), Vec<u32>>,
 }
 
@@ -48,7 +48,13 @@ pub struct Library {
     /// Seat every copy of an arrangement on its torso's surface (see [`seat`]);
     /// `false` keeps the plain arrangement offsets (for measuring the difference).
     pub seat: bool,
+    /// Seated offsets by (torso part, slot, offset bits): [`seat`] is a pure
+    /// function of them, and the same few arrangements recur in every offspring.
+    pub seat_cache: SeatCache,
 }
+
+/// See [`Library::seat_cache`].
+pub type SeatCache = std::sync::Arc<std::sync::RwLock<std::collections::HashMap<(u32, u32, [u32; 3]), Vec3>>>;
 
 impl PartGeometry {
     /// Whether `q` (in the part's coordinates) is within [`CONTACT_EPSILON`] ×
@@ -56,22 +62,14 @@ impl PartGeometry {
     pub fn near_surface(&self, q: Vec3) -> bool {
         let e = CONTACT_EPSILON * self.diag;
         let k = (q / e).floor().as_ivec3();
-        for dx in -1..=1 {
-            for dy in -1..=1 {
-                for dz in -1..=1 {
-                    let Some(tris) = self.grid.get(&(k.x + dx, k.y + dy, k.z + dz)) else { continue };
-                    for &ti in tris {
-                        let Some(t) = self.mesh.triangles.get(ti as usize) else { continue };
-                        let [a, b, c] =
-                            t.map(|i| Vec3::from(self.mesh.positions.get(i as usize).copied().unwrap_or_default()));
-                        if closest_on_triangle(q, a, b, c).distance_squared(q) <= e * e {
-                            return true;
-                        }
-                    }
-                }
-            }
-        }
-        false
+        let Some(tris) = self.grid.get(&(k.x, k.y, k.z)) else { return false };
+        tris.iter().any(|&ti| {
+            let Some(t) = self.mesh.triangles.get(ti as usize) else { return false };
+            let [a, b, c] = t.map(|i| Vec3::from(self.mesh.positions.get(i as usize).copied().unwrap_or_default()));
+            // The box test first: most triangles of the cell are farther than ε.
+            let (lo, hi) = (a.min(b).min(c) - Vec3::splat(e), a.max(b).max(c) + Vec3::splat(e));
+            q.cmpge(lo).all() && q.cmple(hi).all() && closest_on_triangle(q, a, b, c).distance_squared(q) <= e * e
+        })
     }
 }
 
@@ -163,7 +161,7 @@ impl Library {
                 Ok(PartGeometry::new(mesh, p))
             })
             .collect::<Result<Vec<_>, String>>()?;
-        Ok(Library { parts, seat: true })
+        Ok(Library { parts, seat: true, seat_cache: SeatCache::default() })
     }
 }
 
@@ -255,8 +253,9 @@ impl PartGeometry {
         let mut grid: std::collections::HashMap<(i32, i32, i32), Vec<u32>> = std::collections::HashMap::new();
         for (i, t) in mesh.triangles.iter().enumerate() {
             let [a, b, c] = tri_pos(t);
-            let k0 = (a.min(b).min(c) / gcell).floor().as_ivec3();
-            let k1 = (a.max(b).max(c) / gcell).floor().as_ivec3();
+            // Every cell within ε of the triangle's box: a point needs only its own cell.
+            let k0 = ((a.min(b).min(c) - Vec3::splat(gcell)) / gcell).floor().as_ivec3();
+            let k1 = ((a.max(b).max(c) + Vec3::splat(gcell)) / gcell).floor().as_ivec3();
             for x in k0.x..=k1.x {
                 for y in k0.y..=k1.y {
                     for z in k0.z..=k1.z {
@@ -457,7 +456,18 @@ fn children(t: &CreatureTable, lib: &Library, shape: &Shape, torso: usize, ops: 
             };
             let (mut offset, tilt) = arrange(sp.mode, k as u32, n, spacing);
             if lib.seat && offset != Vec3::ZERO {
-                offset = seat(torso_part, lib.parts.get(torso_geo as usize), a.slot, offset);
+                let key = (torso_geo, a.slot, offset.to_array().map(f32::to_bits));
+                let cached = lib.seat_cache.read().ok().and_then(|c| c.get(&key).copied());
+                offset = match cached {
+                    Some(o) => o,
+                    None => {
+                        let o = seat(torso_part, lib.parts.get(torso_geo as usize), a.slot, offset);
+                        if let Ok(mut c) = lib.seat_cache.write() {
+                            c.insert(key, o);
+                        }
+                        o
+                    }
+                };
             }
             ops.push(GeoOp::Push);
             ops.push(GeoOp::Slot { part: torso_geo, slot: a.slot });
