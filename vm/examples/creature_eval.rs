@@ -50,14 +50,14 @@ fn mean_sd(v: &[f64]) -> (f64, f64) {
 }
 
 /// Per generation (1..=G): (offspring HDM, offspring clusters, presented HDM,
-/// presented clusters, offspring made).
-fn run(evo: &Evolution) -> Vec<[f64; 5]> {
+/// presented clusters, offspring made, monsters presented).
+fn run(evo: &Evolution) -> Vec<[f64; 6]> {
     let (mut pop, _) = evo.start();
     (1..=evo.opts.generations)
         .map(|_| {
             let g = evo.step(&mut pop, None);
             let (o, d) = (&g.offspring_diversity, &g.diversity);
-            [o.hdm, o.clusters as f64, d.hdm, d.clusters as f64, g.n_offspring as f64]
+            [o.hdm, o.clusters as f64, d.hdm, d.clusters as f64, g.n_offspring as f64, g.presented.len() as f64]
         })
         .collect()
 }
@@ -164,11 +164,11 @@ fn main() -> Result<(), String> {
         "Ablation of increase rules (paper Fig. 13): std/examples/monsters.mdg, seeds {seeds:?}, {gens} generations, population {population}"
     );
     println!("HDM = N + Σ D_i (N structure clusters, D_i the spread of the geometric descriptor in cluster i over the largest); mean ± sd over seeds and generations 1–{gens}\n");
-    println!("| sample | n (mean) | HDM, all rules | HDM, no increase | ratio | ratio per generation | clusters all / no incr. |");
+    println!("| sample | n (mean, both variants) | HDM, all rules | HDM, no increase | ratio | ratio per generation | clusters all / no incr. |");
     println!("|---|---|---|---|---|---|---|");
     for offspring in [54u32, 162, 540] {
         // results[variant][seed][generation]
-        let mut results: [Vec<Vec<[f64; 5]>>; 2] = [Vec::new(), Vec::new()];
+        let mut results: [Vec<Vec<[f64; 6]>>; 2] = [Vec::new(), Vec::new()];
         for (variant, disabled) in [vec![], vec![RuleKind::Increase]].into_iter().enumerate() {
             for &seed in &seeds {
                 let mut o = EvolveOptions::from_table(table);
@@ -186,10 +186,8 @@ fn main() -> Result<(), String> {
         for &(hdm, clusters, what) in samples {
             let all: Vec<f64> = results[0].iter().flat_map(|r| r.iter().map(|g| g[hdm])).collect();
             let none: Vec<f64> = results[1].iter().flat_map(|r| r.iter().map(|g| g[hdm])).collect();
-            let n: Vec<f64> = results[0]
-                .iter()
-                .flat_map(|r| r.iter().map(|g| if hdm == 2 { population as f64 } else { g[4] }))
-                .collect();
+            let size = if hdm == 2 { 5 } else { 4 };
+            let n: Vec<f64> = results.iter().flatten().flat_map(|r| r.iter().map(|g| g[size])).collect();
             let per_gen: Vec<String> = (0..gens as usize)
                 .map(|g| {
                     let a = mean_sd(&results[0].iter().map(|r| r[g][hdm]).collect::<Vec<_>>()).0;
