@@ -2196,6 +2196,34 @@ rule B {
 "#,
         ),
     },
+    Code {
+        code: "W0801",
+        severity: Warning,
+        title: "regular creature cannot pass the stability test",
+        explanation: r#"A regular creature (`shape`) is subject to the stability test — its centre of mass must lie over the convex hull of its support points — but none of its parts is a `support` part, so it has no support points and neither it nor any monster evolved from it without legs can stand. Evolution rejects every such offspring; with only such creatures, a generation is empty.
+
+In the example: the fish has a body and a tail, and nothing to stand on.
+
+Fix: A swimmer or a flier says `floats;` in its `shape` (it and its offspring skip the test), or the whole grammar says `stability off;` in `evolve`. A walker needs `support;` parts (legs)."#,
+        example: Program(
+            r#"startshape blob
+
+rule blob {
+  VERTEX {} VERTEX {x 0.1} VERTEX {y 0.1}
+}
+
+creature sea {
+  part body { type torso; category fish; rule blob;
+    slot tail { at 0 0.5 0; normal 0 1 0; size 0.2; accepts tail; }
+  }
+  part fin { type tail; category fish; rule blob;
+    joint { at 0 0 0; normal 0 -1 0; size 0.2; }
+  }
+  shape fish { torso body; attach tail fin; }
+}
+"#,
+        ),
+    },
 ];
 
 /// The entry for `code` (`E0301`, `w0001`: case does not matter).

@@ -249,19 +249,60 @@ fn the_mode_writes_models_pictures_and_a_gallery_and_keeps_chosen_monsters() {
             .expect("run node");
         assert!(status.success(), "glTF validation failed");
     }
+    // The run's record: grammar hash, options, every monster's abstract shape;
+    // the gallery has a checkbox per monster and the command they build.
+    let record: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("run.json")).expect("run.json")).expect("json");
+    assert_eq!(record["grammar"]["sha256"].as_str().map(str::len), Some(64));
+    assert_eq!(record["options"]["seed"], 4);
+    assert_eq!(record["options"]["population"], 6);
+    assert_eq!(record["generations"][2]["presented"].as_array().map(Vec::len), Some(6));
+    assert!(record["generations"][2]["presented"][0]["shape"]["supers"].is_array());
+    assert!(html.contains("<input type=\"checkbox\" class=\"keep\" value=\"g2-05\">"));
+    assert!(html.contains("--keep IDS --from ") && html.contains("--seed 4 --population 6"));
     // Continue from two monsters of generation 2: generations 3 and 4 follow.
     let more = out.join("more");
     let common = Common { output: Some(&more), ..common };
-    let keep = CreatureArgs { keep: vec!["g2-01".into(), "g2-04".into()], ..args.clone() };
+    let keep = CreatureArgs { keep: vec!["g2-01".into(), "g2-04".into()], from: Some(out.clone()), ..args.clone() };
     assert_eq!(run(&b, &keep, &common), std::process::ExitCode::SUCCESS);
     let html = std::fs::read_to_string(more.join("index.html")).expect("gallery");
     assert!(html.contains("continued from g2-01, g2-04"));
     assert!(more.join("gen4/g4-00.glb").is_file() && !more.join("gen1").exists());
     // The kept monsters are the parents of generation 3.
     assert!(html.contains("base g2-01") || html.contains("base g2-04"));
-    // An unknown id is a clear error.
-    let bad = CreatureArgs { keep: vec!["g2-77".into()], ..args.clone() };
+    // Continuing from the record is continuing the replayed run.
+    let t = b.extensions.creatures.as_ref().expect("table");
+    let lib = Library::build(&b, t).expect("library");
+    let o = options(t, &args, Some(4)).expect("options");
+    let evo = Evolution::new(t, &lib, o.clone());
+    let (mut pop, _) = evo.start();
+    evo.step(&mut pop, None);
+    evo.step(&mut pop, None);
+    let replayed = mdg_cli::modes::creature::continue_from(&evo, &mut pop, &keep.keep, 1).expect("replay");
+    let more_record: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(more.join("run.json")).expect("run.json")).expect("json");
+    let from_record: Vec<&str> = more_record["generations"][0]["presented"]
+        .as_array()
+        .expect("generation 3")
+        .iter()
+        .map(|m| m["structure"].as_str().expect("structure"))
+        .collect();
+    let from_replay: Vec<String> = replayed[0].presented.iter().map(|i| i.shape.describe(t)).collect();
+    assert_eq!(from_record, from_replay);
+    // An unknown id is a clear error, and so are other options or another grammar.
+    let bad = CreatureArgs { keep: vec!["g2-77".into()], from: Some(out.clone()), ..args.clone() };
     assert_eq!(run(&b, &bad, &common), std::process::ExitCode::from(2));
+    let other = CreatureArgs { population: Some(7), ..keep.clone() };
+    assert_eq!(run(&b, &other, &common), std::process::ExitCode::from(2));
+    let no_record = CreatureArgs { from: Some(more.join("gen3")), ..keep.clone() };
+    assert_eq!(run(&b, &no_record, &common), std::process::ExitCode::from(2));
+    let forged = out.join("forged");
+    std::fs::create_dir_all(&forged).expect("dir");
+    let mut r = record.clone();
+    r["grammar"]["sha256"] = serde_json::json!("0".repeat(64));
+    std::fs::write(forged.join("run.json"), serde_json::to_vec(&r).expect("json")).expect("write");
+    let forged_args = CreatureArgs { from: Some(forged), ..keep.clone() };
+    assert_eq!(run(&b, &forged_args, &common), std::process::ExitCode::from(2));
     let _ = std::fs::remove_dir_all(&out);
 }
 
@@ -278,6 +319,9 @@ fn command_line_options_override_the_evolve_block() {
     let o = options(t, &args, Some(99)).expect("options");
     assert_eq!((o.generations, o.population, o.offspring, o.seed), (7, 10, 30, 99));
     assert_eq!(o.disabled, vec![RuleKind::Increase]);
+    assert!(o.diversity_control);
+    let off = CreatureArgs { no_diversity_control: true, ..CreatureArgs::default() };
+    assert!(!options(t, &off, None).expect("options").diversity_control);
     let bad = CreatureArgs { without_rules: vec!["grow".into()], ..CreatureArgs::default() };
     assert!(options(t, &bad, None).is_err());
     let bad = CreatureArgs { generations: Some(5000), ..CreatureArgs::default() };
@@ -315,4 +359,331 @@ fn the_documented_example_compiles_and_evolves() {
     let (mut pop, _) = evo.start();
     let g = evo.step(&mut pop, None);
     assert_eq!(g.presented.len(), 12);
+}
+
+/// Evolves `generations` generations of `monsters.mdg` from `seed` without the
+/// contact test (so a detached part would be presented, not rejected): every
+/// presented and background monster.
+fn evolve_without_contact_test(
+    t: &mdg_vm::creature::table::CreatureTable,
+    lib: &Library,
+    seed: u64,
+    generations: u32,
+) -> Vec<mdg_vm::creature::evolve::Individual> {
+    let mut o = EvolveOptions::from_table(t);
+    o.seed = seed;
+    o.require_contact = false;
+    let evo = Evolution::new(t, lib, o);
+    let (mut pop, g0) = evo.start();
+    let mut all = g0.presented;
+    for _ in 0..generations {
+        let g = evo.step(&mut pop, None);
+        all.extend(g.presented);
+        all.extend(g.background);
+    }
+    all
+}
+
+#[test]
+fn every_placed_part_touches_its_torso_over_many_seeds() {
+    let b = monsters();
+    let t = b.extensions.creatures.as_ref().expect("table");
+    let mut lib = Library::build(&b, t).expect("library");
+    let (mut parts, mut monsters) = (0, 0);
+    for seed in [1, 2, 3, 5, 7, 11, 42] {
+        for ind in evolve_without_contact_test(t, &lib, seed, 3) {
+            assert!(
+                ind.layout.detached.is_empty(),
+                "seed {seed}, {}: meta-parts {:?} touch nothing of their torso ({})",
+                ind.id,
+                ind.layout.detached,
+                ind.shape.describe(t)
+            );
+            // The same check, spelled out: every part is within ε of its torso.
+            for sp in &ind.shape.supers {
+                let Some(a) = sp.attach else { continue };
+                let parent = ind.shape.supers[a.parent as usize].metas[0].id;
+                let pp = ind.layout.placed.iter().find(|p| p.meta == parent).expect("torso placed");
+                for m in &sp.metas {
+                    let cp = ind.layout.placed.iter().find(|p| p.meta == m.id).expect("part placed");
+                    assert!(mdg_vm::creature::geometry::touches(&lib, cp, pp));
+                    parts += 1;
+                }
+            }
+            monsters += 1;
+        }
+    }
+    assert!(monsters > 300 && parts > 3000, "{monsters} monsters, {parts} parts");
+    // No presented set holds one abstract shape twice, with diversity control or without.
+    for control in [true, false] {
+        let mut o = EvolveOptions::from_table(t);
+        o.seed = 5;
+        o.diversity_control = control;
+        let evo = Evolution::new(t, &lib, o);
+        let (mut pop, _) = evo.start();
+        for _ in 0..4 {
+            let g = evo.step(&mut pop, None);
+            let mut shapes: Vec<String> = g.presented.iter().map(|i| i.shape.describe(t)).collect();
+            shapes.sort_unstable();
+            let n = shapes.len();
+            shapes.dedup();
+            assert_eq!(shapes.len(), n, "generation {} presents a monster twice", g.index);
+        }
+    }
+    // The test can fail: with the plain arrangement offsets (copies not seated on
+    // the torso's surface) some outer copies hang in the air.
+    lib.seat = false;
+    let detached: usize = [1, 3, 7]
+        .iter()
+        .flat_map(|&seed| evolve_without_contact_test(t, &lib, seed, 3))
+        .filter(|i| !i.layout.detached.is_empty())
+        .count();
+    assert!(detached > 0, "plain offsets leave some parts touching nothing");
+}
+
+/// The JSON chunk of a `.glb`.
+fn glb_json(bytes: &[u8]) -> serde_json::Value {
+    assert_eq!(&bytes[..4], b"glTF");
+    let len = u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes")) as usize;
+    serde_json::from_slice(&bytes[20..20 + len]).expect("glTF JSON")
+}
+
+/// A monster of generation 2 with a row or stack of copies and mirrored parts.
+fn a_monster(t: &mdg_vm::creature::table::CreatureTable, lib: &Library) -> mdg_vm::creature::evolve::Individual {
+    let mut o = EvolveOptions::from_table(t);
+    o.seed = 3;
+    let evo = Evolution::new(t, lib, o);
+    let (mut pop, _) = evo.start();
+    evo.step(&mut pop, None);
+    let g = evo.step(&mut pop, None);
+    g.presented.into_iter().find(|i| i.shape.supers.iter().any(|s| s.metas.len() > 1)).expect("a monster with copies")
+}
+
+#[test]
+fn a_monster_glb_has_one_named_node_per_part_sharing_one_mesh_per_library_part() {
+    use mdg_vm::creature::geometry::{node_name, write_glb};
+    let b = monsters();
+    let t = b.extensions.creatures.as_ref().expect("table");
+    let lib = Library::build(&b, t).expect("library");
+    let ind = a_monster(t, &lib);
+    let bytes = write_glb(t, &lib, &ind.id, &ind.shape, &ind.layout.placed).expect("glb");
+    let json = glb_json(&bytes);
+    let nodes = json["nodes"].as_array().expect("nodes");
+    // One root (the y-up turn, named after the monster) holding one node per part.
+    let roots = json["scenes"][0]["nodes"].as_array().expect("scene");
+    assert_eq!(roots.len(), 1);
+    let root = &nodes[roots[0].as_u64().expect("index") as usize];
+    assert_eq!(root["name"], ind.id.as_str());
+    let children = root["children"].as_array().expect("children");
+    assert_eq!(children.len(), ind.layout.placed.len());
+    let names: Vec<&str> =
+        children.iter().map(|c| nodes[c.as_u64().expect("index") as usize]["name"].as_str().expect("name")).collect();
+    let expected: Vec<String> = ind.layout.placed.iter().map(|p| node_name(t, &ind.shape, p.meta)).collect();
+    assert_eq!(names, expected);
+    assert!(names.iter().any(|n| n.starts_with("S0.torso[0] ")), "{names:?}");
+    assert!(names.iter().all(|n| n.contains('[') && n.contains("] ")), "{names:?}");
+    // Every mesh is a library part (or its mirror image), written once.
+    let meshes: Vec<&str> =
+        json["meshes"].as_array().expect("meshes").iter().map(|m| m["name"].as_str().expect("name")).collect();
+    let mut distinct = meshes.clone();
+    distinct.sort_unstable();
+    distinct.dedup();
+    assert_eq!(distinct.len(), meshes.len(), "{meshes:?}");
+    assert!(meshes.len() < ind.layout.placed.len(), "parts share meshes: {meshes:?}");
+    for m in &meshes {
+        let part = m.strip_suffix(" mirrored").unwrap_or(m);
+        assert!(t.parts.iter().any(|p| p.name == part), "{m}");
+    }
+    // Shared meshes make the file smaller than the baked monster.
+    let mut baked = mdg_vm::output::Mesh::default();
+    mdg_vm::creature::geometry::assemble(&lib, &ind.layout.placed, glam::Vec3::ZERO, &mut baked);
+    let mut one = Vec::new();
+    mdg_vm::export::glb::write_glb(&mdg_vm::creature::geometry::output_of(baked, [1.0; 4]), &mut one).expect("glb");
+    assert!(bytes.len() < one.len(), "{} bytes as parts, {} baked", bytes.len(), one.len());
+    // Deterministic.
+    assert_eq!(bytes, write_glb(t, &lib, &ind.id, &ind.shape, &ind.layout.placed).expect("glb"));
+}
+
+/// The Python interpreter of the venv holding `bpy` (installed by `.ci/run`).
+fn bpy_python() -> std::path::PathBuf {
+    if let Some(p) = std::env::var_os("MDG_BPY_PYTHON") {
+        return p.into();
+    }
+    let cache = std::env::var_os("XDG_CACHE_HOME")
+        .map(std::path::PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| std::path::PathBuf::from(h).join(".cache")))
+        .unwrap_or_else(|| ".cache".into());
+    cache.join("mdg/bpy-venv/bin/python")
+}
+
+#[test]
+fn blender_imports_monsters_as_named_parts_standing_upright() {
+    use mdg_vm::creature::geometry::{node_name, write_glb};
+    if std::env::var_os("MDG_SKIP_CLIENT_TESTS").is_some() {
+        return;
+    }
+    let python = bpy_python();
+    let ok = std::process::Command::new(&python).args(["-c", "import bpy"]).output().is_ok_and(|o| o.status.success());
+    assert!(
+        ok,
+        "Blender's `bpy` is missing ({}): `bash .ci/run` installs it; set MDG_SKIP_CLIENT_TESTS=1 to skip",
+        python.display()
+    );
+    let b = monsters();
+    let t = b.extensions.creatures.as_ref().expect("table");
+    let lib = Library::build(&b, t).expect("library");
+    let dir = std::env::temp_dir().join(format!("mdg-creature-blender-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let mut monsters = vec![a_monster(t, &lib)];
+    let mut humanoid = Evolution::new(t, &lib, EvolveOptions::from_table(t)).initial().presented;
+    monsters.push(humanoid.remove(0));
+    let mut jobs = Vec::new();
+    for m in &monsters {
+        let path = dir.join(format!("{}.glb", m.id));
+        std::fs::write(&path, write_glb(t, &lib, &m.id, &m.shape, &m.layout.placed).expect("glb")).expect("write");
+        jobs.push(serde_json::json!({ "name": m.id, "glb": path }));
+    }
+    let (jobs_path, result_path) = (dir.join("jobs.json"), dir.join("result.json"));
+    std::fs::write(&jobs_path, serde_json::to_vec(&jobs).expect("json")).expect("write");
+    let out = std::process::Command::new(&python)
+        .arg(root().join("tests/clients/blender_creature.py"))
+        .arg(&jobs_path)
+        .arg(&result_path)
+        .output()
+        .expect("run Blender");
+    assert!(out.status.success(), "Blender: {}", String::from_utf8_lossy(&out.stderr));
+    let result: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&result_path).expect("result")).expect("json");
+    for m in &monsters {
+        let r = &result["results"][m.id.as_str()];
+        assert!(r.get("error").is_none(), "{}: {}", m.id, r["error"]);
+        let objects = r["objects"].as_array().expect("objects");
+        let meshes: Vec<&serde_json::Value> = objects.iter().filter(|o| o["type"] == "MESH").collect();
+        assert_eq!(meshes.len(), m.layout.placed.len(), "{}: one object per part", m.id);
+        let size = (m.layout.max - m.layout.min).length();
+        for p in &m.layout.placed {
+            let name = node_name(t, &m.shape, p.meta);
+            let o =
+                meshes.iter().find(|o| o["name"] == name.as_str()).unwrap_or_else(|| panic!("{}: no `{name}`", m.id));
+            // Where MDG put the part (z up, feet on the ground): Blender is z up too,
+            // so the imported object's world box is the same box.
+            let (mut lo, mut hi) = (glam::Vec3::splat(f32::MAX), glam::Vec3::splat(f32::MIN));
+            for q in &lib.parts[p.part as usize].mesh.positions {
+                let w = p.transform.transform_point3(glam::Vec3::from(*q));
+                lo = lo.min(w);
+                hi = hi.max(w);
+            }
+            let got = |k: &str| -> glam::Vec3 {
+                let v: Vec<f32> = o[k].as_array().expect("box").iter().map(|x| x.as_f64().expect("f") as f32).collect();
+                glam::Vec3::new(v[0], v[1], v[2])
+            };
+            assert!(
+                (got("min") - lo).length() < 1e-3 * size && (got("max") - hi).length() < 1e-3 * size,
+                "{} `{name}`: Blender box {:?}..{:?}, MDG {lo}..{hi}",
+                m.id,
+                got("min"),
+                got("max")
+            );
+            let part = &t.parts[p.part as usize].name;
+            assert!(o["mesh"].as_str().expect("mesh").starts_with(part.as_str()), "{name}: mesh {}", o["mesh"]);
+        }
+        // Upright: the feet at z = 0, the head above the torso's centre.
+        let min_z = meshes.iter().map(|o| o["min"][2].as_f64().expect("z")).fold(f64::MAX, f64::min);
+        // (MDG grounds the model on a sample of surface points, one per 1/14 of a
+        // part's diagonal, so the lowest vertex may be a little below z = 0.)
+        assert!(min_z.abs() < 1e-2 * size as f64, "{}: lowest point {min_z}", m.id);
+        let centre_z = |prefix: &str| {
+            meshes
+                .iter()
+                .find(|o| o["name"].as_str().expect("name").split_once('.').is_some_and(|(_, r)| r.starts_with(prefix)))
+                .map(|o| (o["min"][2].as_f64().expect("z") + o["max"][2].as_f64().expect("z")) / 2.0)
+        };
+        if let (Some(head), Some(torso)) = (centre_z("head["), centre_z("torso[0]")) {
+            assert!(head > torso, "{}: the head ({head}) stands above the torso ({torso})", m.id);
+        }
+        // Parts of one library part share one Blender mesh.
+        let data: std::collections::BTreeSet<&str> = meshes.iter().map(|o| o["mesh"].as_str().expect("mesh")).collect();
+        if m.shape.supers.iter().any(|s| s.metas.len() > 1) {
+            assert!(data.len() < meshes.len(), "{}: shared meshes {data:?}", m.id);
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A grammar of fliers without legs (std bird parts): `floats` is `floats;` or "".
+fn fliers(floats: &str) -> String {
+    format!(
+        r#"@import creatures
+startshape show
+rule show {{
+  b_torso {{}}
+}}
+creature sky {{
+  shape flier {{ torso b_torso; attach neck b_head; attach wing_l b_wing; attach tail b_tail; {floats} }}
+  rule heads {{ kind increase; predecessor head; max 3; }}
+  rule wings {{ kind increase; predecessor wing; arrange stack; max 3; }}
+  evolve {{ population 4; generations 2; seed 1; }}
+}}
+"#
+    )
+}
+
+#[test]
+fn creatures_that_do_not_stand_are_warned_about_an_empty_generation_is_an_error_and_floats_evolves() {
+    // The checker warns: nothing to stand on.
+    let path = root().join("tests/inline.mdg");
+    let a = mdg_compiler::driver::analyze_text(
+        &FsLoader,
+        &path,
+        &fliers(""),
+        &compile_options(),
+        CheckOptions { require_start: true },
+    );
+    assert!(!a.has_errors());
+    assert!(a.diagnostics.iter().any(|d| d.code == "W0801"), "{:?}", a.diagnostics);
+    let a = mdg_compiler::driver::analyze_text(
+        &FsLoader,
+        &path,
+        &fliers("floats;"),
+        &compile_options(),
+        CheckOptions { require_start: true },
+    );
+    assert!(a.diagnostics.iter().all(|d| d.code != "W0801"));
+    // Without `floats` no offspring stands: the mode stops with exit status 3.
+    let out = std::env::temp_dir().join(format!("mdg-creature-fliers-{}", std::process::id()));
+    let common = Common {
+        file: &path,
+        output: Some(&out),
+        seed: None,
+        stats: false,
+        png: None,
+        size: (800, 600),
+        pictures: &mdg_cli::pictures::Software,
+    };
+    let b = mdg_tests::build_source(&fliers(""));
+    let t = b.extensions.creatures.as_ref().expect("table");
+    let lib = Library::build(&b, t).expect("library");
+    let evo = Evolution::new(t, &lib, EvolveOptions::from_table(t));
+    let (mut pop, _) = evo.start();
+    let g = evo.step(&mut pop, None);
+    let why = g.empty(&evo.opts).expect("an empty generation");
+    assert!(why.contains("generation 1 is empty") && why.contains("floats"), "{why}");
+    assert_eq!(run(&b, &CreatureArgs::default(), &common), std::process::ExitCode::from(3));
+    // With `floats;` they evolve.
+    let b = mdg_tests::build_source(&fliers("floats;"));
+    let t = b.extensions.creatures.as_ref().expect("table");
+    assert!(t.shapes[0].floats);
+    let lib = Library::build(&b, t).expect("library");
+    let evo = Evolution::new(t, &lib, EvolveOptions::from_table(t));
+    let (mut pop, _) = evo.start();
+    let g = evo.step(&mut pop, None);
+    // (Two increase rules and two steps make only a few distinct fliers.)
+    assert!(!g.presented.is_empty() && g.presented.len() <= 4, "{}", g.presented.len());
+    assert!(g.presented.iter().all(|i| i.shape.floats && !i.layout.stability.stable));
+    assert_eq!(run(&b, &CreatureArgs::default(), &common), std::process::ExitCode::SUCCESS);
+    // So does the grammar with `stability off;`.
+    let b = mdg_tests::build_source(&fliers("").replace("seed 1;", "seed 1; stability off;"));
+    assert!(!b.extensions.creatures.as_ref().expect("table").evolve.stability);
+    let _ = std::fs::remove_dir_all(&out);
 }

@@ -14,11 +14,12 @@
 //! presented set are printed too.
 //!
 //! Run: `cargo run --release -p mdg-vm --example creature_eval [-- SEEDS GENERATIONS]`
-//! (default 8 seeds, 6 generations). The grammar is compiled by `mdgc` first
+//! (default 8 seeds, 6 generations); `-- touch` measures how many presented monsters
+//! have a part touching nothing. The grammar is compiled by `mdgc` first
 //! (`cargo run --release --bin mdgc -- build …`) unless `MDG_CREATURE_BUNDLE`
 //! names a compiled `.mdgb`.
 
-use mdg_vm::creature::evolve::{diversity, Evolution, EvolveOptions};
+use mdg_vm::creature::evolve::{Evolution, EvolveOptions};
 use mdg_vm::creature::geometry::Library;
 use mdg_vm::creature::table::RuleKind;
 use std::path::{Path, PathBuf};
@@ -48,69 +49,164 @@ fn mean_sd(v: &[f64]) -> (f64, f64) {
     (m, (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / n).sqrt())
 }
 
-/// Per generation (1..=G): (offspring HDM, offspring clusters, presented clusters, mean C_s).
-fn run(evo: &Evolution) -> Vec<[f64; 4]> {
+/// Per generation (1..=G): (offspring HDM, offspring clusters, presented HDM,
+/// presented clusters, offspring made, monsters presented).
+fn run(evo: &Evolution) -> Vec<[f64; 6]> {
     let (mut pop, _) = evo.start();
     (1..=evo.opts.generations)
-        .map(|g| {
-            // The offspring of generation g, before diversity control (the same
-            // streams `step` uses, so this is exactly the set it chooses from).
-            let offspring: Vec<_> =
-                (0..evo.opts.offspring as usize).filter_map(|i| evo.offspring(&pop, g, i).0).collect();
-            let d = diversity(evo.table, &offspring);
-            let gen = evo.step(&mut pop, None);
-            [d.hdm, d.clusters as f64, gen.diversity.clusters as f64, d.mean_complexity]
+        .map(|_| {
+            let g = evo.step(&mut pop, None);
+            let (o, d) = (&g.offspring_diversity, &g.diversity);
+            [o.hdm, o.clusters as f64, d.hdm, d.clusters as f64, g.n_offspring as f64, g.presented.len() as f64]
         })
         .collect()
 }
 
+/// `touch`: the share of presented monsters (generations 0–5, population 18,
+/// seeds 1, 3, 7, 11, 42) with a part touching nothing of its torso, with the
+/// copies of arrangements placed by their plain offsets (as before issue 22) and
+/// seated on the torso's surface; evolution rejecting detached layouts or not.
+fn touch(bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
+    let table = bundle.extensions.creatures.as_ref().ok_or("no creature table")?;
+    let mut lib = Library::build(bundle, table)?;
+    println!("| placement | contact test in evolution | presented monsters | with a detached part | rate | tries rejected as detached |");
+    println!("|---|---|---|---|---|---|");
+    for (seat, require) in [(false, false), (true, false), (true, true)] {
+        lib.seat = seat;
+        let (mut n, mut bad, mut rejected) = (0usize, 0usize, 0usize);
+        for seed in [1u64, 3, 7, 11, 42] {
+            let mut o = EvolveOptions::from_table(table);
+            o.seed = seed;
+            o.generations = 5;
+            o.population = 18;
+            o.offspring = 54;
+            o.require_contact = require;
+            let evo = Evolution::new(table, &lib, o);
+            let (mut pop, g0) = evo.start();
+            let mut gens = vec![g0];
+            for _ in 0..5 {
+                gens.push(evo.step(&mut pop, None));
+            }
+            for g in &gens {
+                n += g.presented.len();
+                bad += g.presented.iter().filter(|i| !i.layout.detached.is_empty()).count();
+                rejected += g.n_detached;
+            }
+        }
+        println!(
+            "| {} | {} | {n} | {bad} | {:.1}% | {rejected} |",
+            if seat { "seated on the surface" } else { "plain offsets" },
+            if require { "on" } else { "off" },
+            100.0 * bad as f64 / n.max(1) as f64
+        );
+    }
+    Ok(())
+}
+
+/// `time`: the time of one layout (geometry rules, seating, grounding, stability)
+/// and of its contact test, over the presented monsters of seed 3, generations 0–5.
+fn time(bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
+    use mdg_vm::creature::geometry::{detached, layout};
+    let table = bundle.extensions.creatures.as_ref().ok_or("no creature table")?;
+    let mut lib = Library::build(bundle, table)?;
+    let mut o = EvolveOptions::from_table(table);
+    o.seed = 3;
+    let evo = Evolution::new(table, &lib, o);
+    let (mut pop, g0) = evo.start();
+    let mut shapes: Vec<_> = g0.presented.iter().map(|i| i.shape.clone()).collect();
+    for _ in 0..5 {
+        shapes.extend(evo.step(&mut pop, None).presented.into_iter().map(|i| i.shape));
+    }
+    for seat in [false, true] {
+        lib.seat = seat;
+        let t = std::time::Instant::now();
+        let layouts: Vec<_> = (0..5).flat_map(|_| shapes.iter().map(|s| layout(table, &lib, s))).collect();
+        let per = t.elapsed().as_secs_f64() * 1e3 / layouts.len() as f64;
+        let t = std::time::Instant::now();
+        for (l, s) in layouts.iter().zip(shapes.iter().cycle()) {
+            std::hint::black_box(detached(&lib, s, &l.placed));
+        }
+        let contact = t.elapsed().as_secs_f64() * 1e3 / layouts.len() as f64;
+        println!(
+            "seat {seat}: layout {per:.3} ms (of which the contact test {contact:.3} ms) per monster, {} monsters",
+            shapes.len()
+        );
+    }
+    Ok(())
+}
+
 fn main() -> Result<(), String> {
     let args: Vec<String> = std::env::args().collect();
-    let seeds: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(8);
-    let gens: u32 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(6);
+    if args.get(1).map(String::as_str) == Some("time") {
+        let path = bundle_path()?;
+        let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
+        return time(&bundle);
+    }
+    if args.get(1).map(String::as_str) == Some("touch") {
+        let path = bundle_path()?;
+        let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
+        return touch(&bundle);
+    }
+    let seeds: Vec<u64> = match args.get(1).and_then(|s| s.parse::<u64>().ok()) {
+        Some(n) => (1..=n).collect(),
+        None => vec![1, 3, 7, 11, 42],
+    };
+    let gens: u32 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(5);
     let path = bundle_path()?;
     let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
     let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
     let table = bundle.extensions.creatures.as_ref().ok_or("no creature table")?;
     let lib = Library::build(&bundle, table)?;
-    let mut results: [Vec<Vec<[f64; 4]>>; 2] = [Vec::new(), Vec::new()];
-    for (variant, disabled) in [vec![], vec![RuleKind::Increase]].into_iter().enumerate() {
-        for seed in 1..=seeds {
-            let mut o = EvolveOptions::from_table(table);
-            o.seed = seed;
-            o.generations = gens;
-            o.disabled = disabled.clone();
-            results[variant].push(run(&Evolution::new(table, &lib, o)));
+    let population = 18u32;
+    println!(
+        "Ablation of increase rules (paper Fig. 13): std/examples/monsters.mdg, seeds {seeds:?}, {gens} generations, population {population}"
+    );
+    println!("HDM = N + Σ D_i (N structure clusters, D_i the spread of the geometric descriptor in cluster i over the largest); mean ± sd over seeds and generations 1–{gens}\n");
+    println!("| sample | n (mean, both variants) | HDM, all rules | HDM, no increase | ratio | ratio per generation | clusters all / no incr. |");
+    println!("|---|---|---|---|---|---|---|");
+    for offspring in [54u32, 162, 540] {
+        // results[variant][seed][generation]
+        let mut results: [Vec<Vec<[f64; 6]>>; 2] = [Vec::new(), Vec::new()];
+        for (variant, disabled) in [vec![], vec![RuleKind::Increase]].into_iter().enumerate() {
+            for &seed in &seeds {
+                let mut o = EvolveOptions::from_table(table);
+                o.seed = seed;
+                o.generations = gens;
+                o.population = population;
+                o.offspring = offspring;
+                o.disabled = disabled.clone();
+                results[variant].push(run(&Evolution::new(table, &lib, o)));
+            }
+        }
+        // The presented set (18) once, from the runs with 54 offspring (the default).
+        let samples: &[(usize, usize, &str)] =
+            if offspring == 54 { &[(2, 3, "presented set"), (0, 1, "offspring")] } else { &[(0, 1, "offspring")] };
+        for &(hdm, clusters, what) in samples {
+            let all: Vec<f64> = results[0].iter().flat_map(|r| r.iter().map(|g| g[hdm])).collect();
+            let none: Vec<f64> = results[1].iter().flat_map(|r| r.iter().map(|g| g[hdm])).collect();
+            let size = if hdm == 2 { 5 } else { 4 };
+            let n: Vec<f64> = results.iter().flatten().flat_map(|r| r.iter().map(|g| g[size])).collect();
+            let per_gen: Vec<String> = (0..gens as usize)
+                .map(|g| {
+                    let a = mean_sd(&results[0].iter().map(|r| r[g][hdm]).collect::<Vec<_>>()).0;
+                    let b = mean_sd(&results[1].iter().map(|r| r[g][hdm]).collect::<Vec<_>>()).0;
+                    format!("{:.2}", b / a)
+                })
+                .collect();
+            let ca: Vec<f64> = results[0].iter().flat_map(|r| r.iter().map(|g| g[clusters])).collect();
+            let cb: Vec<f64> = results[1].iter().flat_map(|r| r.iter().map(|g| g[clusters])).collect();
+            let ((a, sa), (b, sb)) = (mean_sd(&all), mean_sd(&none));
+            println!(
+                "| {what} of {offspring} | {:.0} | {a:.2} ± {sa:.2} | {b:.2} ± {sb:.2} | {:.2} | {} | {:.1} / {:.1} |",
+                mean_sd(&n).0,
+                b / a,
+                per_gen.join(" "),
+                mean_sd(&ca).0,
+                mean_sd(&cb).0
+            );
         }
     }
-    let e = &table.evolve;
-    println!(
-        "Ablation of increase rules (paper Fig. 13): std/examples/monsters.mdg, {seeds} seeds, population {}, {} offspring per generation",
-        e.population, e.offspring
-    );
-    println!("HDM = N + Σ D_i over each generation's offspring; N = structure clusters; mean ± sd over seeds\n");
-    println!(
-        "| generation | HDM, all rules | HDM, no increase | ratio | clusters (offspring) all / no incr. | clusters presented all / no incr. | mean C_s all / no incr. |"
-    );
-    println!("|---|---|---|---|---|---|---|");
-    let col = |v: usize, g: usize, k: usize| -> Vec<f64> { results[v].iter().map(|r| r[g][k]).collect() };
-    let mut ratios = Vec::new();
-    for g in 0..gens as usize {
-        let (a, sa) = mean_sd(&col(0, g, 0));
-        let (b, sb) = mean_sd(&col(1, g, 0));
-        ratios.push(b / a);
-        println!(
-            "| {} | {a:.2} ± {sa:.2} | {b:.2} ± {sb:.2} | {:.2} | {:.1} / {:.1} | {:.1} / {:.1} | {:.1} / {:.1} |",
-            g + 1,
-            b / a,
-            mean_sd(&col(0, g, 1)).0,
-            mean_sd(&col(1, g, 1)).0,
-            mean_sd(&col(0, g, 2)).0,
-            mean_sd(&col(1, g, 2)).0,
-            mean_sd(&col(0, g, 3)).0,
-            mean_sd(&col(1, g, 3)).0,
-        );
-    }
-    println!("\nmean ratio (no increase / all rules) over generations: {:.2}", mean_sd(&ratios).0);
     Ok(())
 }

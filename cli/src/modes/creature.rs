@@ -7,10 +7,10 @@ use super::Common;
 use crate::pictures::Pictures;
 use mdg_vm::bundle::Bundle;
 use mdg_vm::creature::evolve::{structure_key, Evolution, EvolveOptions, Generation, Individual, Population};
-use mdg_vm::creature::geometry::{assemble, output_of, program_text, Library};
+use mdg_vm::creature::geometry::{assemble, output_of, program_text, write_glb, Library};
 use mdg_vm::creature::sheet::compose;
 use mdg_vm::creature::table::{CreatureTable, RuleKind, MAX_GENERATIONS, MAX_POPULATION};
-use mdg_vm::export::{self, Format};
+use mdg_vm::export;
 use mdg_vm::output::Mesh;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -27,10 +27,19 @@ pub struct CreatureArgs {
     #[arg(long, value_name = "N")]
     pub population: Option<u32>,
     /// Creature grammar: continue evolution from these monsters (ids from the
-    /// gallery, e.g. `g3-04,g3-11`; same grammar, seed and options as the run that
-    /// made them, which is replayed up to their generation).
+    /// gallery, e.g. `g3-04,g3-11`, of one generation), read from the record
+    /// (`run.json`) of the run that made them (see `--from`); that run's grammar
+    /// and options must be this one's.
     #[arg(long, value_name = "ID,ID", value_delimiter = ',')]
     pub keep: Vec<String>,
+    /// Creature grammar: the folder of the run `--keep` continues (its
+    /// `run.json`; default: the folder a run without `-o` writes).
+    #[arg(long, value_name = "DIR")]
+    pub from: Option<PathBuf>,
+    /// Creature grammar: pick the presented, background and next sets uniformly
+    /// at random instead of by structure-based diversity control (paper Figs. 11–12).
+    #[arg(long)]
+    pub no_diversity_control: bool,
     /// Creature grammar: leave out the structure rules of these kinds
     /// (`increase`, `insert`, `replace`, `combine`), e.g. for an ablation.
     #[arg(long, value_name = "KIND,KIND", value_delimiter = ',')]
@@ -59,6 +68,7 @@ pub fn options(t: &CreatureTable, args: &CreatureArgs, seed: Option<u64>) -> Res
         }
         o.population = p;
     }
+    o.diversity_control = !args.no_diversity_control;
     for w in &args.without_rules {
         match RuleKind::NAMES.iter().find(|(n, _)| n == w) {
             Some((_, k)) => o.disabled.push(*k),
@@ -66,6 +76,163 @@ pub fn options(t: &CreatureTable, args: &CreatureArgs, seed: Option<u64>) -> Res
         }
     }
     Ok(o)
+}
+
+/// The SHA-256 of the compiled grammar (the bundle's encoding), hex.
+pub fn grammar_hash(bundle: &Bundle) -> String {
+    use sha2::{Digest, Sha256};
+    Sha256::digest(mdg_vm::bundle::encode(bundle)).iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// The options a continuation must share with the run it continues (all but
+/// the number of generations).
+fn options_record(o: &EvolveOptions) -> serde_json::Value {
+    let mut disabled: Vec<&str> =
+        o.disabled.iter().filter_map(|k| RuleKind::NAMES.iter().find(|(_, x)| x == k).map(|(n, _)| *n)).collect();
+    disabled.sort_unstable();
+    serde_json::json!({
+        "seed": o.seed,
+        "population": o.population,
+        "background": o.background,
+        "offspring": o.offspring,
+        "steps": o.steps,
+        "attempts": o.attempts,
+        "maxparts": o.maxparts,
+        "without_rules": disabled,
+        "diversity_control": o.diversity_control,
+        "stability": o.stability,
+        "require_contact": o.require_contact,
+    })
+}
+
+/// A monster in the record: id, structure (as in the gallery) and abstract shape.
+fn monster_record(t: &CreatureTable, i: &Individual) -> serde_json::Value {
+    serde_json::json!({
+        "id": i.id,
+        "structure": i.shape.describe(t),
+        "vector": structure_key(t, &i.shape),
+        "shape": i.shape,
+    })
+}
+
+/// `run.json`: what made the run (grammar hash, every option) and, per
+/// generation, every presented and background monster's abstract shape.
+fn record(
+    t: &CreatureTable,
+    file: &Path,
+    hash: &str,
+    opts: &EvolveOptions,
+    gens: &[Generation],
+    continued: serde_json::Value,
+) -> serde_json::Value {
+    let generations: Vec<serde_json::Value> = gens
+        .iter()
+        .map(|g| {
+            serde_json::json!({
+                "index": g.index,
+                "presented": g.presented.iter().map(|i| monster_record(t, i)).collect::<Vec<_>>(),
+                "background": g.background.iter().map(|i| monster_record(t, i)).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    serde_json::json!({
+        "grammar": { "file": file.display().to_string(), "sha256": hash },
+        "options": options_record(opts),
+        "generations_run": opts.generations,
+        "continued_from": continued,
+        "generations": generations,
+    })
+}
+
+/// Reads the kept monsters from the record in `dir`: (their generation, the kept
+/// monsters, the background set — the rest of that generation's presented set and
+/// its background). Refuses a record of another grammar or other options.
+fn read_record(
+    evo: &Evolution,
+    dir: &Path,
+    keep: &[String],
+    hash: &str,
+) -> Result<(u32, Vec<Individual>, Vec<Individual>), String> {
+    let path = dir.join("run.json");
+    let text = std::fs::read_to_string(&path).map_err(|e| {
+        format!("--keep needs the record of the run that made the monsters: cannot read {} ({e}); give --from DIR, that run's folder", path.display())
+    })?;
+    let rec: serde_json::Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+    if rec["grammar"]["sha256"].as_str() != Some(hash) {
+        return Err(format!(
+            "{} records a run of another grammar (or another version of it): its monsters' ids mean other monsters here",
+            path.display()
+        ));
+    }
+    let mine = options_record(&evo.opts);
+    let theirs = &rec["options"];
+    let differ: Vec<String> = mine
+        .as_object()
+        .into_iter()
+        .flatten()
+        .filter(|(k, v)| theirs.get(k.as_str()) != Some(v))
+        .map(|(k, v)| format!("{k} {v} here, {} there", theirs.get(k.as_str()).unwrap_or(&serde_json::Value::Null)))
+        .collect();
+    if !differ.is_empty() {
+        return Err(format!("{} was made with other options: {}", path.display(), differ.join("; ")));
+    }
+    let mut upto = None;
+    for id in keep {
+        let g = id_generation(id).ok_or_else(|| format!("--keep {id}: expected a monster id like g3-07"))?;
+        if upto.is_some_and(|u| u != g) {
+            return Err(format!("--keep {}: monsters of one generation", keep.join(",")));
+        }
+        upto = Some(g);
+    }
+    let upto = upto.unwrap_or(0);
+    let gens = rec["generations"].as_array().cloned().unwrap_or_default();
+    let gen = gens
+        .iter()
+        .find(|g| g["index"].as_u64() == Some(upto as u64))
+        .ok_or_else(|| format!("{} has no generation {upto}", path.display()))?;
+    let revive = |m: &serde_json::Value| -> Result<Individual, String> {
+        let id = m["id"].as_str().unwrap_or("?").to_string();
+        let shape: mdg_vm::creature::shape::Shape =
+            serde_json::from_value(m["shape"].clone()).map_err(|e| format!("{}: monster {id}: {e}", path.display()))?;
+        shape.check(evo.table).map_err(|e| format!("{}: monster {id}: {e}", path.display()))?;
+        Ok(evo.revive(shape, id))
+    };
+    let presented = gen["presented"].as_array().cloned().unwrap_or_default();
+    let mut kept = Vec::new();
+    for id in keep {
+        let m = presented.iter().find(|m| m["id"].as_str() == Some(id)).ok_or_else(|| {
+            let have: Vec<&str> = presented.iter().filter_map(|m| m["id"].as_str()).collect();
+            format!("no monster `{id}` in generation {upto} (presented: {})", have.join(", "))
+        })?;
+        kept.push(revive(m)?);
+    }
+    let mut background = Vec::new();
+    for m in gen["background"].as_array().into_iter().flatten().chain(&presented) {
+        if !m["id"].as_str().is_some_and(|id| keep.iter().any(|k| k == id)) {
+            background.push(revive(m)?);
+        }
+    }
+    Ok((upto, kept, background))
+}
+
+/// The command that continues this run from the monsters ticked in the gallery
+/// (`IDS` stands for them).
+fn keep_command(file: &Path, out_dir: &Path, o: &EvolveOptions, args: &CreatureArgs) -> String {
+    let quote = |s: String| if s.contains([' ', '\'', '"']) { format!("'{}'", s.replace('\'', "'\\''")) } else { s };
+    let mut c = format!(
+        "mdg-run {} --keep IDS --from {}",
+        quote(file.display().to_string()),
+        quote(out_dir.display().to_string())
+    );
+    c.push_str(&format!(" --seed {} --population {}", o.seed, o.population));
+    if !args.without_rules.is_empty() {
+        c.push_str(&format!(" --without-rules {}", args.without_rules.join(",")));
+    }
+    if !o.diversity_control {
+        c.push_str(" --no-diversity-control");
+    }
+    c.push_str(&format!(" -o {}", quote(format!("{}-more", out_dir.display()))));
+    c
 }
 
 /// Parses a monster id `gN-K` into its generation.
@@ -131,28 +298,36 @@ fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<()
     let lib_ms = started.elapsed().as_secs_f64() * 1000.0;
     let evo = Evolution::new(table, &lib, opts.clone());
     let (mut pop, g0) = evo.start();
+    if opts.stability {
+        for ind in g0.presented.iter().filter(|i| !i.shape.floats && !i.layout.stability.stable) {
+            eprintln!(
+                "mdg-run: warning: regular creature `{}` does not stand (stability margin {:.3}); its offspring must (a swimmer or a flier says `floats;`)",
+                ind.name, ind.layout.stability.margin
+            );
+        }
+    }
     let mut generations: Vec<Generation> = Vec::new();
     let mut note = String::new();
     let total_steps;
+    let hash = grammar_hash(bundle);
+    let mut continued = serde_json::Value::Null;
     if !args.keep.is_empty() {
-        let mut upto = 0;
-        for id in &args.keep {
-            match id_generation(id) {
-                Some(g) => upto = upto.max(g),
-                None => return Err((2, format!("--keep {id}: expected a monster id like g3-07"))),
-            }
-        }
-        total_steps = upto + opts.generations;
+        let from = args.from.clone().unwrap_or_else(|| default_dir(common.file));
+        let (upto, kept, background) = read_record(&evo, &from, &args.keep, &hash).map_err(|e| (2, e))?;
+        pop = evo.resume(upto, kept, background);
+        total_steps = opts.generations;
         let bar = progress_bar(total_steps as u64 * opts.offspring as u64);
         let tick = |_g: u32, _d: usize, _t: usize| bar.inc(1);
-        for _ in 0..upto {
-            evo.step(&mut pop, Some(&tick));
-        }
-        evo.keep(&mut pop, &args.keep).map_err(|e| (2, e))?;
-        note = format!("continued from {} (generation {upto}, replayed with seed {})", args.keep.join(", "), opts.seed);
-        eprintln!("replayed {upto} generation(s); continuing from {}", args.keep.join(", "));
+        note = format!("continued from {} (generation {upto} of the run in {})", args.keep.join(", "), from.display());
+        continued = serde_json::json!({ "from": from.display().to_string(), "generation": upto, "keep": args.keep });
+        eprintln!("continuing from {} (generation {upto} of {})", args.keep.join(", "), from.display());
         for _ in 0..opts.generations {
-            generations.push(evo.step(&mut pop, Some(&tick)));
+            let g = evo.step(&mut pop, Some(&tick));
+            if let Some(why) = g.empty(&opts) {
+                bar.finish_and_clear();
+                return Err((3, why));
+            }
+            generations.push(g);
         }
         bar.finish_and_clear();
     } else {
@@ -161,7 +336,12 @@ fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<()
         let tick = |_g: u32, _d: usize, _t: usize| bar.inc(1);
         generations.push(g0);
         for _ in 0..opts.generations {
-            generations.push(evo.step(&mut pop, Some(&tick)));
+            let g = evo.step(&mut pop, Some(&tick));
+            if let Some(why) = g.empty(&opts) {
+                bar.finish_and_clear();
+                return Err((3, why));
+            }
+            generations.push(g);
         }
         bar.finish_and_clear();
     }
@@ -171,7 +351,7 @@ fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<()
         let d = &g.diversity;
         let o = &g.offspring_diversity;
         eprintln!(
-            "generation {}: {} monsters; diversity HDM {:.2} ({} structures) of {} offspring, {:.2} ({} structures) presented; mean C_s {:.1}, mean meta-parts {:.1}; {} unstable tries rejected",
+            "generation {}: {} monsters; diversity HDM {:.2} ({} structures) of {} offspring, {:.2} ({} structures) presented; mean C_s {:.1}, mean meta-parts {:.1}; {} unstable tries rejected, {} with a part touching nothing",
             g.index,
             g.presented.len(),
             o.hdm,
@@ -181,7 +361,8 @@ fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<()
             d.clusters,
             d.mean_complexity,
             d.mean_metas,
-            g.n_unstable
+            g.n_unstable,
+            g.n_detached
         );
     }
     if common.stats {
@@ -191,7 +372,12 @@ fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<()
         );
     }
     let _ = total_steps;
-    write_outputs(table, &lib, &generations, &out_dir, &note, &opts, common.pictures).map_err(|e| (2, e))?;
+    let record = record(table, common.file, &hash, &opts, &generations, continued);
+    let record_text = serde_json::to_string_pretty(&record).map_err(|e| (2, format!("run.json: {e}")))?;
+    let keep_command = keep_command(common.file, &out_dir, &opts, args);
+    let text = GalleryText { note: &note, keep_command: &keep_command };
+    write_outputs(table, &lib, &generations, &out_dir, &text, &opts, common.pictures).map_err(|e| (2, e))?;
+    write(&out_dir.join("run.json"), format!("{record_text}\n").as_bytes()).map_err(|e| (2, e))?;
     eprintln!("wrote {}", out_dir.join("index.html").display());
     Ok(())
 }
@@ -278,15 +464,23 @@ fn html_escape(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
 }
 
+/// The gallery's texts about the run: where it was continued from, and the
+/// command that continues it (`IDS` for the ticked monsters).
+struct GalleryText<'a> {
+    note: &'a str,
+    keep_command: &'a str,
+}
+
 fn write_outputs(
     t: &CreatureTable,
     lib: &Library,
     gens: &[Generation],
     out_dir: &Path,
-    note: &str,
+    text: &GalleryText,
     opts: &EvolveOptions,
     pictures: &dyn Pictures,
 ) -> Result<(), String> {
+    let (note, keep_command) = (text.note, text.keep_command);
     let mut html = String::new();
     let title = if t.name.is_empty() { "creatures".to_string() } else { t.name.clone() };
     let _ = write!(
@@ -329,6 +523,11 @@ table.d td,table.d th{{padding:2px 10px;text-align:right}}\
         );
     }
     html.push_str("</table>\n<p>HDM = N + Σ D<sub>i</sub>: N structure clusters (equal structure vectors), D<sub>i</sub> the spread of the geometric descriptor in cluster i over the largest spread (see docs/creatures.md).</p>\n");
+    let _ = writeln!(
+        html,
+        "<p>Tick the monsters to keep; this command continues the run from them (the run's record is <a href=\"run.json\">run.json</a>):</p>\n<pre id=\"keep\" data-command=\"{}\"></pre>\n<script>\nfunction keepCommand() {{\n  const ids = [...document.querySelectorAll('input.keep:checked')].map(e => e.value);\n  const pre = document.getElementById('keep');\n  pre.textContent = ids.length ? pre.dataset.command.replace('IDS', ids.join(',')) : '(tick the monsters of one generation to keep)';\n}}\ndocument.addEventListener('change', keepCommand);\ndocument.addEventListener('DOMContentLoaded', keepCommand);\n</script>",
+        html_escape(keep_command)
+    );
     for g in gens {
         let dir_name = format!("gen{}", g.index);
         let dir = out_dir.join(&dir_name);
@@ -343,9 +542,7 @@ table.d td,table.d th{{padding:2px 10px;text-align:right}}\
         );
         let mut tiles = Vec::new();
         for ind in &g.presented {
-            let mesh = monster_mesh(lib, ind, glam::Vec3::ZERO);
-            let mut bytes = Vec::new();
-            export::write(Format::Glb, &output_of(mesh, BACKGROUND), &mut bytes)?;
+            let bytes = write_glb(t, lib, &ind.id, &ind.shape, &ind.layout.placed)?;
             write(&dir.join(format!("{}.glb", ind.id)), &bytes)?;
             let thumb = picture(pictures, lib, ind, (TILE, TILE))?;
             write(&dir.join(format!("{}.png", ind.id)), &thumb)?;
@@ -363,7 +560,7 @@ table.d td,table.d th{{padding:2px 10px;text-align:right}}\
             let s = &ind.layout.stability;
             let _ = writeln!(
                 html,
-                "<div class=\"m\"><a href=\"{dir}/{id}.glb\"><img src=\"{dir}/{id}.png\" alt=\"{id}\"></a><br><b>{id}</b> — {origin}<br>rules: {rules}<br>C<sub>s</sub> = {cs:.2}, {n} meta-parts, stability margin {margin:.3}<br>structure: <code>{structure}</code><br>vector: <code>{vector}</code><br>geometry rules: <code>{program}</code></div>",
+                "<div class=\"m\"><a href=\"{dir}/{id}.glb\"><img src=\"{dir}/{id}.png\" alt=\"{id}\"></a><br><label><input type=\"checkbox\" class=\"keep\" value=\"{id}\"> <b>{id}</b></label> — {origin}<br>rules: {rules}<br>C<sub>s</sub> = {cs:.2}, {n} meta-parts, stability margin {margin:.3}<br>structure: <code>{structure}</code><br>vector: <code>{vector}</code><br>geometry rules: <code>{program}</code></div>",
                 dir = dir_name,
                 id = html_escape(&ind.id),
                 origin = html_escape(&origin),

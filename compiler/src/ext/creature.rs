@@ -97,6 +97,7 @@ const SLOT_KEYS: &[Key] = &[
 const SHAPE_KEYS: &[Key] = &[
     Key { name: "torso", values: "PART", doc: "The creature's torso part." },
     Key { name: "attach", values: "SLOT PART [COUNT [MODE]]", doc: "Attach COUNT copies (default 1) of PART to the torso's SLOT, arranged by MODE (`row`, `stack`, `fan`). A symmetric slot's mirror gets a mirrored copy." },
+    Key { name: "floats", values: "", doc: "The creature does not stand (a swimmer, a flier): it and the monsters evolved from it are not subject to the stability test." },
 ];
 
 const RULE_KEYS: &[Key] = &[
@@ -139,6 +140,7 @@ const EVOLVE_KEYS: &[Key] = &[
     },
     Key { name: "maxparts", values: "N", doc: "Offspring with more meta-parts are rejected (default 24, at most 64)." },
     Key { name: "seed", values: "N", doc: "Seed of the evolution (default 1; `mdg-run --seed` overrides it)." },
+    Key { name: "stability", values: "on|off", doc: "Whether offspring must pass the stability test (default `on`; `off` for a grammar of swimmers or fliers; a single creature says `floats;`)." },
 ];
 
 /// The keys accepted at `path` (see [`super::keys`]).
@@ -220,6 +222,17 @@ struct Builder<'a, 'd> {
 /// Part names with their spans, for messages.
 struct Names {
     parts: Vec<(String, Span)>,
+}
+
+/// A name for the mirror image of slot `name`: `_l` ↔ `_r`, else `NAME_r`.
+fn mirror_name(name: &str) -> String {
+    if let Some(b) = name.strip_suffix("_l") {
+        format!("{b}_r")
+    } else if let Some(b) = name.strip_suffix("_r") {
+        format!("{b}_l")
+    } else {
+        format!("{name}_r")
+    }
 }
 
 fn err(code: &'static str, span: Span, msg: impl Into<String>) -> Diagnostic {
@@ -459,6 +472,7 @@ impl<'a> Builder<'a, '_> {
                 _ => {}
             }
         }
+        self.cannot_stand(&shape_names);
         let mut rule_names: Vec<(String, Span)> = Vec::new();
         let mut rule_entries = Vec::new();
         for e in entries.iter().filter(|e| e.key.text == "rule") {
@@ -480,6 +494,35 @@ impl<'a> Builder<'a, '_> {
             self.never_match(&rule_entries);
         }
         self.probabilities(&rule_entries);
+    }
+
+    /// W0801: a regular creature subject to the stability test that cannot pass it
+    /// (none of its parts is a `support` part, so it has no support points).
+    fn cannot_stand(&mut self, shape_names: &[(String, Span)]) {
+        // Not after errors: a shape missing a bad attach is no evidence.
+        if !self.t.evolve.stability || self.diags.iter().any(|d| d.is_error()) {
+            return;
+        }
+        let mut found = Vec::new();
+        for s in &self.t.shapes {
+            if s.floats {
+                continue;
+            }
+            let support = |p: u32| self.t.parts.get(p as usize).is_some_and(|p| p.support);
+            if support(s.torso) || s.attach.iter().any(|a| support(a.part)) {
+                continue;
+            }
+            let Some((_, span)) = shape_names.iter().find(|(n, _)| *n == s.name) else { continue };
+            let d = Diagnostic::warning(
+                "W0801",
+                *span,
+                format!("regular creature `{}` cannot pass the stability test", s.name),
+            )
+            .with_label("none of its parts is a `support` part: it has nothing to stand on")
+            .with_note("a swimmer or a flier says `floats;` in its shape (or the grammar `stability off;` in `evolve`); a walker needs `support;` parts (legs)");
+            found.push(d);
+        }
+        self.diags.extend(found);
     }
 
     fn family(&mut self, e: &Entry, spans: &mut Vec<(u32, Span)>) {
@@ -813,10 +856,18 @@ impl<'a> Builder<'a, '_> {
                         continue;
                     };
                     if let Some(i) = slots.iter().position(|o| o.name == s.name) {
-                        self.push(
+                        let d = if slots[i].mirror_of.is_some() {
+                            err("E0812", n.span, format!("slot `{}` is declared by `symmetric` already", n.text))
+                                .with_secondary(slot_spans[i], "`symmetric` declares the mirror slot here")
+                                .with_note(format!(
+                                    "`symmetric {}` makes the mirror image of its slot: remove this `slot {} {{ … }}`",
+                                    n.text, n.text
+                                ))
+                        } else {
                             err("E0812", n.span, format!("slot `{}` is defined twice in part `{}`", n.text, name.text))
-                                .with_secondary(slot_spans[i], "first defined here"),
-                        );
+                                .with_secondary(slot_spans[i], "first defined here")
+                        };
+                        self.push(d);
                         ok = false;
                         continue;
                     }
@@ -824,7 +875,31 @@ impl<'a> Builder<'a, '_> {
                     slots.push(s.clone());
                     slot_spans.push(n.span);
                     if let Some(m) = sym {
+                        if m.text == n.text {
+                            self.push(
+                                err("E0812", m.span, format!("slot `{}` cannot be its own mirror slot", n.text))
+                                    .with_label("`symmetric` names the mirror slot it declares")
+                                    .with_note(format!(
+                                        "give the mirror image its own name, e.g. `symmetric {}`",
+                                        mirror_name(&n.text)
+                                    )),
+                            );
+                            ok = false;
+                            continue;
+                        }
                         if let Some(i) = slots.iter().position(|o| o.name == m.text) {
+                            if slots[i].mirror_of.is_none() && slots[i].partner.is_none() {
+                                self.push(
+                                    err("E0812", m.span, format!("`symmetric {}` declares a slot that exists", m.text))
+                                        .with_secondary(slot_spans[i], "declared here already")
+                                        .with_note(format!(
+                                            "`symmetric {}` makes the mirror image of slot `{}` itself: remove the separate `slot {} {{ … }}`",
+                                            m.text, n.text, m.text
+                                        )),
+                                );
+                                ok = false;
+                                continue;
+                            }
                             self.push(
                                 err(
                                     "E0812",
@@ -959,18 +1034,15 @@ impl<'a> Builder<'a, '_> {
         }
         let mut attach: Vec<AttachDef> = Vec::new();
         let mut used: Vec<(u32, Span)> = Vec::new();
-        let mut ok = true;
         for x in es.iter().filter(|x| x.key.text == "attach") {
             self.no_block(x);
             if !expect_count(x, 2, 4, "SLOT PART [COUNT [MODE]]", self.diags) {
-                ok = false;
                 continue;
             }
             let (Some(Value::Word(sn)), Some(Value::Word(pn))) = (x.values.first(), x.values.get(1)) else {
                 let bad =
                     x.values.iter().take(2).find(|v| !matches!(v, Value::Word(_))).map(|v| v.span()).unwrap_or(x.span);
                 self.push(err("E0602", bad, "`attach` takes SLOT PART [COUNT [MODE]]").with_label("not a name"));
-                ok = false;
                 continue;
             };
             let Some(mut slot) = tp.slots.iter().position(|s| s.name == sn.text).map(|i| i as u32) else {
@@ -987,14 +1059,12 @@ impl<'a> Builder<'a, '_> {
                     )),
                 };
                 self.push(d);
-                ok = false;
                 continue;
             };
             if let Some(m) = tp.slots[slot as usize].mirror_of {
                 slot = m;
             }
             let Some(part) = self.part_index(pn, names) else {
-                ok = false;
                 continue;
             };
             let pk = self.t.parts[part as usize].kind;
@@ -1006,7 +1076,6 @@ impl<'a> Builder<'a, '_> {
                         .with_label(format!("a `{}`", self.t.kinds[pk as usize].name))
                         .with_note(format!("slot `{}` accepts: {}", sn.text, accepts.join(", "))),
                 );
-                ok = false;
                 continue;
             }
             if let Some((_, prev)) = used.iter().find(|(s, _)| *s == slot) {
@@ -1014,7 +1083,6 @@ impl<'a> Builder<'a, '_> {
                     err("E0812", sn.span, format!("slot `{}` is filled twice", sn.text))
                         .with_secondary(*prev, "filled here (or by its mirror slot)"),
                 );
-                ok = false;
                 continue;
             }
             used.push((slot, sn.span));
@@ -1027,7 +1095,6 @@ impl<'a> Builder<'a, '_> {
                             v.span(),
                             format!("COUNT must be a whole number from 1 to {}", tb::MAX_COUNT),
                         ));
-                        ok = false;
                         continue;
                     }
                 },
@@ -1037,7 +1104,6 @@ impl<'a> Builder<'a, '_> {
                 Some(v) => match self.mode(v) {
                     Some(m) => m,
                     None => {
-                        ok = false;
                         continue;
                     }
                 },
@@ -1046,7 +1112,16 @@ impl<'a> Builder<'a, '_> {
             };
             attach.push(AttachDef { slot, part, count, mode });
         }
-        ok.then(|| ShapeDef { name: name.text.clone(), torso, attach })
+        let floats = match es.iter().find(|x| x.key.text == "floats") {
+            Some(x) => {
+                self.no_block(x);
+                expect_count(x, 0, 0, "no values", self.diags)
+            }
+            None => false,
+        };
+        // An attach in error is left out (and reported); the others stay, so rules
+        // on the parts they attach are not reported as never matching.
+        Some(ShapeDef { name: name.text.clone(), torso, attach, floats })
     }
 
     fn mode(&mut self, v: &Value) -> Option<Mode> {
@@ -1123,6 +1198,15 @@ impl<'a> Builder<'a, '_> {
                 "attempts" => self.count(x, 1, tb::MAX_ATTEMPTS),
                 "maxparts" => self.count(x, 2, tb::MAX_PARTS),
                 "seed" => self.count(x, 0, u32::MAX),
+                "stability" => {
+                    match x.values.first() {
+                        Some(Value::Word(w)) if x.values.len() == 1 && (w.text == "on" || w.text == "off") => {
+                            s.stability = w.text == "on"
+                        }
+                        _ => self.push(err("E0602", x.span, "`stability` is `on` or `off`")),
+                    }
+                    None
+                }
                 _ => None,
             };
             let Some(v) = v else { continue };
@@ -1826,7 +1910,7 @@ creature c {
   }
   part arm { type arm; category a; rule blob; joint { at 0 0 0; normal -2 0 0; size 0.1; } }
   part wing { type wing; category b; rule blob; scale 1.5; joint { at 0 0 0; normal -1 0 0; up 0 1 1; size 0.1; } }
-  shape s { torso body; attach side_r arm 2 stack; }
+  shape s { torso body; attach side_r arm 2 stack; floats; }
   rule r { kind replace; predecessor arm; probability (0.5 + 0 * g); }
   select rules rank;
   evolve { population 4; }
@@ -1842,6 +1926,7 @@ creature c {
             [("torso", true), ("arm", false), ("wing", false)]
         );
         assert_eq!(t.families, vec![vec![1, 2]]);
+        assert!(t.shapes[0].floats, "a creature without legs says `floats`");
         let body = &t.parts[0];
         assert_eq!(body.geometry, Geometry::Rule(7));
         // `symmetric` declares the mirror slot; `accepts arm` takes the whole family.
@@ -1887,6 +1972,54 @@ creature c {
             }
         }
         assert!(keys(&["creature", "nothing"]).is_empty());
+    }
+
+    /// A one-torso grammar with `slots` on the torso and `attach` in its creature.
+    fn grammar(slots: &str, attach: &str) -> String {
+        format!(
+            r#"
+rule blob {{ VERTEX {{}} VERTEX {{x 1}} VERTEX {{y 1}} }}
+creature c {{
+  part body {{ type torso; category a; rule blob;
+    slot neck {{ at 0 0 1; normal 0 0 1; size 0.2; accepts head; }}
+    {slots}
+  }}
+  part head {{ type head; category a; rule blob; support; joint {{ at 0 0 0; normal 0 0 -1; size 0.2; }} }}
+  shape s {{ torso body; attach neck head; {attach} }}
+  rule two {{ kind increase; predecessor head; }}
+}}
+"#
+        )
+    }
+
+    #[test]
+    fn a_bad_attach_keeps_the_shape_and_a_misused_symmetric_is_explained() {
+        // The bad attach is reported; the good one stays, so `two` can match.
+        let (t, d) = table_of(&grammar("", "attach nose head;"));
+        let codes: Vec<&str> = d.iter().map(|d| d.code).collect();
+        assert_eq!(codes, ["E0802"], "{d:?}");
+        assert_eq!(t.shapes[0].attach.len(), 1);
+        let slot = "slot arm_l { at 0.2 0 0.5; normal 1 0 0; size 0.1; accepts head;";
+        let (_, d) = table_of(&grammar(&format!("{slot} symmetric arm_l; }}"), ""));
+        assert_eq!(d.len(), 1, "{d:?}");
+        assert!(d[0].message.contains("cannot be its own mirror slot"), "{d:?}");
+        assert!(d[0].notes.iter().any(|n| n.contains("symmetric arm_r")), "{d:?}");
+        let (_, d) = table_of(&grammar(
+            &format!(
+                "{slot} symmetric arm_r; }}\n slot arm_r {{ at -0.2 0 0.5; normal -1 0 0; size 0.1; accepts head; }}"
+            ),
+            "",
+        ));
+        assert_eq!(d.len(), 1, "{d:?}");
+        assert!(d[0].message.contains("is declared by `symmetric` already"), "{d:?}");
+        let (_, d) = table_of(&grammar(
+            &format!(
+                "slot arm_r {{ at -0.2 0 0.5; normal -1 0 0; size 0.1; accepts head; }}\n {slot} symmetric arm_r; }}"
+            ),
+            "",
+        ));
+        assert_eq!(d.len(), 1, "{d:?}");
+        assert!(d[0].message.contains("declares a slot that exists"), "{d:?}");
     }
 
     #[test]

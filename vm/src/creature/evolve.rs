@@ -46,12 +46,47 @@ pub struct Generation {
     pub n_offspring: usize,
     /// Offspring attempts rejected by the stability test.
     pub n_unstable: usize,
+    /// Offspring attempts rejected because a part touched nothing of its torso.
+    pub n_detached: usize,
     /// Offspring slots that found no valid offspring within their attempts.
     pub n_failed: usize,
+    /// Offspring dropped before diversity control because an earlier offspring
+    /// of the generation has the same abstract shape.
+    pub n_duplicates: usize,
     /// The diversity of the presented set.
     pub diversity: Diversity,
     /// The diversity of all offspring made (before diversity control).
     pub offspring_diversity: Diversity,
+}
+
+impl Generation {
+    /// `Some(explanation)` when a generation after the first made no offspring
+    /// at all: every offspring slot ran out of tries.
+    pub fn empty(&self, opts: &EvolveOptions) -> Option<String> {
+        if self.index == 0 || !self.presented.is_empty() {
+            return None;
+        }
+        let tries = self.n_failed * opts.attempts as usize;
+        let mut why = format!(
+            "generation {} is empty: none of its {} offspring found a monster in {} tries each ({} tries in all: {} did not stand, {} had a part touching nothing, the others changed nothing or had more than {} meta-parts)",
+            self.index, self.n_failed, opts.attempts, tries, self.n_unstable, self.n_detached, opts.maxparts
+        );
+        if self.n_unstable * 2 >= tries && tries > 0 {
+            why.push_str(
+                "; creatures that cannot stand (swimmers, fliers) say `floats;` in their `shape`, or the grammar `stability off;` in `evolve` (see W0801)",
+            );
+        }
+        Some(why)
+    }
+}
+
+/// Offspring tries rejected, by reason.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Rejected {
+    /// By the stability test.
+    pub unstable: usize,
+    /// Because a part touched nothing of the torso it is attached to.
+    pub detached: usize,
 }
 
 /// Options of a run (defaults from the table's `evolve` block).
@@ -69,6 +104,11 @@ pub struct EvolveOptions {
     pub disabled: Vec<RuleKind>,
     /// Diversity control on (else the presented set is a uniform sample).
     pub diversity_control: bool,
+    /// Reject offspring with a part touching nothing of its torso.
+    pub require_contact: bool,
+    /// Reject offspring that do not stand (the stability test), except those of
+    /// `floats` creatures.
+    pub stability: bool,
 }
 
 impl EvolveOptions {
@@ -86,6 +126,8 @@ impl EvolveOptions {
             maxparts: e.maxparts,
             disabled: Vec::new(),
             diversity_control: true,
+            require_contact: true,
+            stability: e.stability,
         }
     }
 }
@@ -137,7 +179,9 @@ impl<'a> Evolution<'a> {
             presented,
             background: Vec::new(),
             n_unstable: 0,
+            n_detached: 0,
             n_failed: 0,
+            n_duplicates: 0,
             diversity,
         }
     }
@@ -154,6 +198,20 @@ impl<'a> Evolution<'a> {
         (p, g0)
     }
 
+    /// A monster from its abstract shape (read from a run's record): laid out
+    /// again, with its id.
+    pub fn revive(&self, shape: Shape, id: String) -> Individual {
+        self.individual(shape, id, (String::new(), String::new()), Vec::new())
+    }
+
+    /// The population after generation `generation` when the user keeps `kept`
+    /// of its monsters: they are the current set, `background` (the rest of the
+    /// generation's presented set and its background set) the background set —
+    /// what [`Evolution::keep`] makes after replaying the run.
+    pub fn resume(&self, generation: u32, kept: Vec<Individual>, background: Vec<Individual>) -> Population {
+        Population { generation, presented: kept.clone(), current: kept, background }
+    }
+
     fn individual(&self, shape: Shape, id: String, parents: (String, String), applied: Vec<Applied>) -> Individual {
         let layout = layout(self.table, self.lib, &shape);
         let complexity = shape.complexity();
@@ -162,8 +220,8 @@ impl<'a> Evolution<'a> {
 
     /// Offspring `index` of generation `g` from `pop`: up to `attempts` tries of
     /// select → derive → lay out → stability test, with the offspring's own random
-    /// stream. Returns the offspring (if any) and the number of unstable tries.
-    pub fn offspring(&self, pop: &Population, g: u32, index: usize) -> (Option<Individual>, usize) {
+    /// stream. Returns the offspring (if any) and the tries rejected.
+    pub fn offspring(&self, pop: &Population, g: u32, index: usize) -> (Option<Individual>, Rejected) {
         let mut rng = Rng::stream(self.opts.seed, g as u64, index as u64);
         let bases = &pop.current;
         let assists: Vec<&Individual> = pop.current.iter().chain(&pop.background).collect();
@@ -175,7 +233,7 @@ impl<'a> Evolution<'a> {
             strategy: self.table.select_rules,
             disabled: self.opts.disabled.clone(),
         };
-        let mut unstable = 0;
+        let mut unstable = Rejected::default();
         for _ in 0..self.opts.attempts {
             let Some(b) = select(self.table.select_shapes, &base_metric, &mut rng) else { return (None, unstable) };
             let base = &bases[b];
@@ -193,8 +251,12 @@ impl<'a> Evolution<'a> {
                 continue;
             }
             let ind = self.individual(shape, String::new(), (base.id.clone(), assist.id.clone()), applied);
-            if !ind.layout.stability.stable {
-                unstable += 1;
+            if self.opts.require_contact && !ind.layout.detached.is_empty() {
+                unstable.detached += 1;
+                continue;
+            }
+            if self.opts.stability && !ind.shape.floats && !ind.layout.stability.stable {
+                unstable.unstable += 1;
                 continue;
             }
             return (Some(ind), unstable);
@@ -207,7 +269,7 @@ impl<'a> Evolution<'a> {
         let g = pop.generation + 1;
         let total = self.opts.offspring as usize;
         let done = std::sync::atomic::AtomicUsize::new(0);
-        let made: Vec<(Option<Individual>, usize)> = (0..total)
+        let made: Vec<(Option<Individual>, Rejected)> = (0..total)
             .into_par_iter()
             .map(|i| {
                 let r = self.offspring(pop, g, i);
@@ -218,11 +280,40 @@ impl<'a> Evolution<'a> {
                 r
             })
             .collect();
-        let n_unstable = made.iter().map(|m| m.1).sum();
+        let n_unstable = made.iter().map(|m| m.1.unstable).sum();
+        let n_detached = made.iter().map(|m| m.1.detached).sum();
         let n_failed = made.iter().filter(|m| m.0.is_none()).count();
         let offspring: Vec<Individual> = made.into_iter().filter_map(|m| m.0).collect();
         let n_offspring = offspring.len();
         let offspring_diversity = diversity(self.table, &offspring);
+        // Equal abstract shapes (the same parts on the same slots, arranged alike:
+        // equal descriptions, whatever their ids) are one monster: keep the first.
+        let mut seen = std::collections::BTreeSet::new();
+        let mut offspring: Vec<Individual> =
+            offspring.into_iter().filter(|i| seen.insert(i.shape.describe(self.table))).collect();
+        let mut n_duplicates = n_offspring - offspring.len();
+        // Too few distinct monsters for the presented set: up to three more rounds
+        // of offspring (streams `total`, `total + 1`, …), as long as they add some.
+        for round in 1..=3usize {
+            if offspring.len() >= self.opts.population as usize || n_offspring == 0 {
+                break;
+            }
+            let more: Vec<Individual> = (total * round..total * (round + 1))
+                .into_par_iter()
+                .filter_map(|i| self.offspring(pop, g, i).0)
+                .collect();
+            let before = offspring.len();
+            for ind in more {
+                if seen.insert(ind.shape.describe(self.table)) {
+                    offspring.push(ind);
+                } else {
+                    n_duplicates += 1;
+                }
+            }
+            if offspring.len() == before {
+                break;
+            }
+        }
         let mut rng = Rng::stream(self.opts.seed, g as u64, u64::MAX);
         let picked = if self.opts.diversity_control {
             diversity_control(self.table, &offspring, self.opts.population as usize, &mut rng)
@@ -274,7 +365,9 @@ impl<'a> Evolution<'a> {
             background,
             n_offspring,
             n_unstable,
+            n_detached,
             n_failed,
+            n_duplicates,
             diversity,
             offspring_diversity,
         }
@@ -340,9 +433,17 @@ pub fn clusters(t: &CreatureTable, set: &[Individual]) -> Vec<Vec<usize>> {
 /// field descriptor of Fit and Diverse): proportions of the grounded model —
 /// width, depth and centre-of-mass height over height, the height itself, and the
 /// mean and spread of the part centres' distances from the centre of mass over
-/// height — plus the part geometry ids, so equal structures built from different
-/// parts differ.
-pub fn descriptor(ind: &Individual) -> Vec<f64> {
+/// height — and the multiset of part geometries it is built from (compared as a
+/// set, see [`distance`]), so equal structures built from different parts differ.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Descriptor {
+    pub proportions: Vec<f64>,
+    /// Library part index → how many of it are placed.
+    pub parts: BTreeMap<u32, u32>,
+}
+
+/// See [`Descriptor`].
+pub fn descriptor(ind: &Individual) -> Descriptor {
     let l = &ind.layout;
     let size = l.max - l.min;
     let h = size.z.max(1e-6) as f64;
@@ -351,15 +452,44 @@ pub fn descriptor(ind: &Individual) -> Vec<f64> {
         l.placed.iter().map(|p| (p.transform.transform_point3(Vec3::ZERO) - com).length() as f64 / h).collect();
     let mean = d.iter().sum::<f64>() / d.len().max(1) as f64;
     let sd = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / d.len().max(1) as f64).sqrt();
-    let mut parts: Vec<u32> = l.placed.iter().map(|p| p.part).collect();
-    parts.sort_unstable();
-    parts.dedup();
-    let part_hash = parts.iter().fold(0u64, |h, &p| h.wrapping_mul(31).wrapping_add(p as u64 + 1)) % 997;
-    vec![size.x as f64 / h, size.y as f64 / h, com.z as f64 / h, h, mean, sd, part_hash as f64 / 997.0]
+    let mut parts = BTreeMap::new();
+    for p in &l.placed {
+        *parts.entry(p.part).or_insert(0) += 1;
+    }
+    Descriptor { proportions: vec![size.x as f64 / h, size.y as f64 / h, com.z as f64 / h, h, mean, sd], parts }
 }
 
-fn dist(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt()
+/// The distance between two descriptors: Euclidean over the proportions, and the
+/// weighted Jaccard distance 1 − Σ min / Σ max of the part multisets (0 for the
+/// same parts, 1 for disjoint ones), combined as √(d_p² + d_J²).
+pub fn distance(a: &Descriptor, b: &Descriptor) -> f64 {
+    let dp2: f64 = a.proportions.iter().zip(&b.proportions).map(|(x, y)| (x - y).powi(2)).sum();
+    let (mut lo, mut hi) = (0u32, 0u32);
+    for k in a.parts.keys().chain(b.parts.keys().filter(|k| !a.parts.contains_key(k))) {
+        let (x, y) = (a.parts.get(k).copied().unwrap_or(0), b.parts.get(k).copied().unwrap_or(0));
+        lo += x.min(y);
+        hi += x.max(y);
+    }
+    let dj = if hi == 0 { 0.0 } else { 1.0 - lo as f64 / hi as f64 };
+    (dp2 + dj * dj).sqrt()
+}
+
+/// The spread of a set of descriptors: √(Σ_{a,b} d(a,b)² / 2n²) — for a Euclidean
+/// distance exactly the root-mean-square distance to the mean, defined for
+/// [`distance`], which has no mean.
+pub fn spread(desc: &[Descriptor]) -> f64 {
+    let n = desc.len();
+    if n < 2 {
+        return 0.0;
+    }
+    let mut sum = 0.0;
+    for i in 0..n {
+        for j in i + 1..n {
+            sum += distance(&desc[i], &desc[j]).powi(2);
+        }
+    }
+    // Σ over ordered pairs is twice the sum over unordered ones.
+    (2.0 * sum / (2.0 * (n * n) as f64)).sqrt()
 }
 
 /// Structure-based diversity control (paper §4): cluster by structure vector,
@@ -413,12 +543,12 @@ pub fn diversity_control(t: &CreatureTable, set: &[Individual], k: usize, rng: &
         if q == 0 {
             continue;
         }
-        let desc: Vec<Vec<f64>> = c.iter().map(|&i| descriptor(&set[i])).collect();
+        let desc: Vec<Descriptor> = c.iter().map(|&i| descriptor(&set[i])).collect();
         let mut chosen = vec![rng.below(c.len())];
         while chosen.len() < q.min(c.len()) {
             let next = (0..c.len()).filter(|j| !chosen.contains(j)).max_by(|&a, &b| {
-                let da = chosen.iter().map(|&s| dist(&desc[a], &desc[s])).fold(f64::INFINITY, f64::min);
-                let db = chosen.iter().map(|&s| dist(&desc[b], &desc[s])).fold(f64::INFINITY, f64::min);
+                let da = chosen.iter().map(|&s| distance(&desc[a], &desc[s])).fold(f64::INFINITY, f64::min);
+                let db = chosen.iter().map(|&s| distance(&desc[b], &desc[s])).fold(f64::INFINITY, f64::min);
                 da.total_cmp(&db).then(b.cmp(&a))
             });
             match next {
@@ -434,8 +564,9 @@ pub fn diversity_control(t: &CreatureTable, set: &[Individual], k: usize, rng: &
 
 /// The hierarchical diversity measure of a set (paper §5):
 /// HDM = N + Σ_i D_i with N the number of structure clusters and
-/// D_i = SD_i / max_j SD_j, SD_i the standard deviation (root-mean-square distance
-/// to the cluster mean) of the geometric [`descriptor`] in cluster i.
+/// D_i = SD_i / max_j SD_j, SD_i the [`spread`] of the geometric [`descriptor`]s
+/// in cluster i (for a Euclidean descriptor: the root-mean-square distance to the
+/// cluster mean).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Diversity {
     pub hdm: f64,
@@ -455,10 +586,8 @@ pub fn diversity(t: &CreatureTable, set: &[Individual]) -> Diversity {
     let sd: Vec<f64> = cl
         .iter()
         .map(|c| {
-            let desc: Vec<Vec<f64>> = c.iter().map(|&i| descriptor(&set[i])).collect();
-            let dim = desc.first().map(|d| d.len()).unwrap_or(0);
-            let mean: Vec<f64> = (0..dim).map(|k| desc.iter().map(|d| d[k]).sum::<f64>() / desc.len() as f64).collect();
-            (desc.iter().map(|d| dist(d, &mean).powi(2)).sum::<f64>() / desc.len() as f64).sqrt()
+            let desc: Vec<Descriptor> = c.iter().map(|&i| descriptor(&set[i])).collect();
+            spread(&desc)
         })
         .collect();
     let max = sd.iter().cloned().fold(0.0, f64::max);

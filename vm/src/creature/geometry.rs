@@ -25,12 +25,90 @@ pub struct PartGeometry {
     pub centroid: Vec3,
     /// Extent along the joint frame's x and y axes (for spacing arrangements).
     pub joint_extent: Vec2,
+    /// Diagonal of the bounding box (part units).
+    pub diag: f32,
+    /// Surface points for the contact test (one per cell of 1/40 of the diagonal),
+    /// nearest to the joint first: a part touching its parent does so near its joint.
+    pub contact_points: Vec<Vec3>,
+    /// Triangles (indices into the mesh's), bucketed by the cells of
+    /// [`CONTACT_EPSILON`] × `diag` within that distance of their bounding boxes,
+    /// to find the surface near a point from its own cell.
+    pub grid: std::collections::HashMap<(i32, i32, i32), Vec<u32>>,
 }
+
+/// Contact tolerance: a part touches its parent when a point of its surface is
+/// within this fraction of the parent part's bounding-box diagonal (in the parent's
+/// units, so it scales with the parent) of the parent's surface.
+pub const CONTACT_EPSILON: f32 = 0.03;
 
 /// The geometry of every part of a table (index-aligned with `table.parts`).
 #[derive(Clone, Debug)]
 pub struct Library {
     pub parts: Vec<PartGeometry>,
+    /// Seat every copy of an arrangement on its torso's surface (see [`seat`]);
+    /// `false` keeps the plain arrangement offsets (for measuring the difference).
+    pub seat: bool,
+    /// Seated offsets by (torso part, slot, offset bits): [`seat`] is a pure
+    /// function of them, and the same few arrangements recur in every offspring.
+    pub seat_cache: SeatCache,
+}
+
+/// See [`Library::seat_cache`].
+pub type SeatCache = std::sync::Arc<std::sync::RwLock<std::collections::HashMap<(u32, u32, [u32; 3]), Vec3>>>;
+
+impl PartGeometry {
+    /// Whether `q` (in the part's coordinates) is within [`CONTACT_EPSILON`] ×
+    /// `diag` of the part's surface.
+    pub fn near_surface(&self, q: Vec3) -> bool {
+        let e = CONTACT_EPSILON * self.diag;
+        let k = (q / e).floor().as_ivec3();
+        let Some(tris) = self.grid.get(&(k.x, k.y, k.z)) else { return false };
+        tris.iter().any(|&ti| {
+            let Some(t) = self.mesh.triangles.get(ti as usize) else { return false };
+            let [a, b, c] = t.map(|i| Vec3::from(self.mesh.positions.get(i as usize).copied().unwrap_or_default()));
+            // The box test first: most triangles of the cell are farther than ε.
+            let (lo, hi) = (a.min(b).min(c) - Vec3::splat(e), a.max(b).max(c) + Vec3::splat(e));
+            q.cmpge(lo).all() && q.cmple(hi).all() && closest_on_triangle(q, a, b, c).distance_squared(q) <= e * e
+        })
+    }
+}
+
+/// The point of triangle (a, b, c) closest to `p` (Ericson, *Real-Time Collision
+/// Detection*, 5.1.5).
+pub fn closest_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = va + vb + vc;
+    if denom.abs() < 1e-30 {
+        return a;
+    }
+    let (v, w) = (vb / denom, vc / denom);
+    a + ab * v + ac * w
 }
 
 /// The orthonormal frame of a slot: x = up × normal, y = up, z = normal, origin at
@@ -83,7 +161,7 @@ impl Library {
                 Ok(PartGeometry::new(mesh, p))
             })
             .collect::<Result<Vec<_>, String>>()?;
-        Ok(Library { parts })
+        Ok(Library { parts, seat: true, seat_cache: SeatCache::default() })
     }
 }
 
@@ -158,7 +236,35 @@ impl PartGeometry {
             }
             None => Vec2::new(hi.x - lo.x, hi.z - lo.z),
         };
-        PartGeometry { mesh, points, volume, centroid, joint_extent }
+        let joint_at = def.joint.as_ref().map(|j| Vec3::from(j.at)).unwrap_or((lo + hi) * 0.5);
+        let fine = diag / 40.0;
+        let mut fine_cells = std::collections::BTreeSet::new();
+        let mut contact_points: Vec<Vec3> = Vec::new();
+        let tri_pos = |t: &[u32; 3]| t.map(|i| pos.get(i as usize).copied().unwrap_or_default());
+        let centroids: Vec<Vec3> = mesh.triangles.iter().map(|t| tri_pos(t).iter().sum::<Vec3>() / 3.0).collect();
+        for p in pos.iter().chain(&centroids) {
+            let k = ((p - lo) / fine).floor().as_ivec3();
+            if fine_cells.insert((k.x, k.y, k.z)) {
+                contact_points.push(*p);
+            }
+        }
+        contact_points.sort_by(|a, b| a.distance_squared(joint_at).total_cmp(&b.distance_squared(joint_at)));
+        let gcell = CONTACT_EPSILON * diag;
+        let mut grid: std::collections::HashMap<(i32, i32, i32), Vec<u32>> = std::collections::HashMap::new();
+        for (i, t) in mesh.triangles.iter().enumerate() {
+            let [a, b, c] = tri_pos(t);
+            // Every cell within ε of the triangle's box: a point needs only its own cell.
+            let k0 = ((a.min(b).min(c) - Vec3::splat(gcell)) / gcell).floor().as_ivec3();
+            let k1 = ((a.max(b).max(c) + Vec3::splat(gcell)) / gcell).floor().as_ivec3();
+            for x in k0.x..=k1.x {
+                for y in k0.y..=k1.y {
+                    for z in k0.z..=k1.z {
+                        grid.entry((x, y, z)).or_default().push(i as u32);
+                    }
+                }
+            }
+        }
+        PartGeometry { mesh, points, volume, centroid, joint_extent, diag, contact_points, grid }
     }
 }
 
@@ -220,6 +326,9 @@ pub struct Layout {
     /// Bounding box after grounding (min z = 0, centred on x = y = 0).
     pub min: Vec3,
     pub max: Vec3,
+    /// Meta-part ids of placed parts that touch nothing of the torso they are
+    /// attached to (see [`touches`]); evolution rejects such layouts.
+    pub detached: Vec<u32>,
 }
 
 /// Arrangement geometry: the offset and tilt of meta-part `k` of `n`.
@@ -233,6 +342,74 @@ fn arrange(mode: Mode, k: u32, n: u32, spacing: Vec2) -> (Vec3, Vec3) {
         Mode::Stack => (Vec3::new(0.0, -t * spacing.y, 0.0), Vec3::new(t * 22f32.to_radians(), 0.0, 0.0)),
         Mode::Fan => (Vec3::new(t * spacing.x * 0.25, 0.0, 0.0), Vec3::new(0.0, t * 30f32.to_radians(), 0.0)),
     }
+}
+
+/// Seats a copy of an arrangement on the torso's surface: its offset `offset` (in
+/// the slot frame: x, y across the slot, z along its normal) is moved along the
+/// normal so the copy's joint is as deep below the torso's surface as the slot
+/// centre is, the surface found by a ray cast against the torso's mesh from
+/// outside along −normal. Where the ray misses the torso near the slot (the copy
+/// would hang beside a narrow neck), the offset is shrunk towards the centre until
+/// it meets the surface — the spacing becomes the torso's width at the slot.
+pub fn seat(torso: &PartDef, geometry: Option<&PartGeometry>, slot: u32, offset: Vec3) -> Vec3 {
+    let (Some(g), Some(frame), Some(s)) = (geometry, part_slot_frame(torso, slot), torso.slots.get(slot as usize))
+    else {
+        return offset;
+    };
+    let window = s.size.max(1e-4);
+    let depth_at = |x: f32, y: f32| surface_depth(&g.mesh, &frame, x, y, g.diag, window);
+    let centre = depth_at(0.0, 0.0).unwrap_or(0.0);
+    let mut f = 1.0f32;
+    for _ in 0..12 {
+        let (x, y) = (offset.x * f, offset.y * f);
+        if let Some(z) = depth_at(x, y) {
+            return Vec3::new(x, y, offset.z + z - centre);
+        }
+        f *= 0.8;
+    }
+    Vec3::new(0.0, 0.0, offset.z)
+}
+
+/// The outermost point of `mesh` on the line through (x, y) along the z axis of
+/// slot frame `frame` (slot coordinates), within `window` of the slot plane: its z,
+/// or `None` when the line meets no surface there.
+fn surface_depth(mesh: &Mesh, frame: &Mat4, x: f32, y: f32, reach: f32, window: f32) -> Option<f32> {
+    let o = frame.transform_point3(Vec3::new(x, y, reach));
+    let d = frame.transform_vector3(Vec3::new(0.0, 0.0, -1.0));
+    let len = d.length();
+    if len <= 0.0 || !o.is_finite() {
+        return None;
+    }
+    let d = d / len;
+    let mut best: Option<f32> = None;
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| Vec3::from(mesh.positions.get(i as usize).copied().unwrap_or_default()));
+        // Möller–Trumbore, both sides.
+        let (e1, e2) = (b - a, c - a);
+        let p = d.cross(e2);
+        let det = e1.dot(p);
+        if det.abs() < 1e-12 {
+            continue;
+        }
+        let inv = 1.0 / det;
+        let s = o - a;
+        let u = s.dot(p) * inv;
+        if !(0.0..=1.0).contains(&u) {
+            continue;
+        }
+        let q = s.cross(e1);
+        let v = d.dot(q) * inv;
+        if v < 0.0 || u + v > 1.0 {
+            continue;
+        }
+        let dist = e2.dot(q) * inv;
+        // Slot-frame z of the hit: the frame's z axis is a unit vector.
+        let z = reach - dist / len;
+        if z.abs() <= window && best.is_none_or(|b| z > b) {
+            best = Some(z);
+        }
+    }
+    best
 }
 
 fn rot_xyz(r: Vec3) -> Mat4 {
@@ -277,7 +454,21 @@ fn children(t: &CreatureTable, lib: &Library, shape: &Shape, torso: usize, ops: 
                     * part.scale
                     * 1.05
             };
-            let (offset, tilt) = arrange(sp.mode, k as u32, n, spacing);
+            let (mut offset, tilt) = arrange(sp.mode, k as u32, n, spacing);
+            if lib.seat && offset != Vec3::ZERO {
+                let key = (torso_geo, a.slot, offset.to_array().map(f32::to_bits));
+                let cached = lib.seat_cache.read().ok().and_then(|c| c.get(&key).copied());
+                offset = match cached {
+                    Some(o) => o,
+                    None => {
+                        let o = seat(torso_part, lib.parts.get(torso_geo as usize), a.slot, offset);
+                        if let Ok(mut c) = lib.seat_cache.write() {
+                            c.insert(key, o);
+                        }
+                        o
+                    }
+                };
+            }
             ops.push(GeoOp::Push);
             ops.push(GeoOp::Slot { part: torso_geo, slot: a.slot });
             ops.push(GeoOp::Arrange { mode: sp.mode, k: k as u32, n, offset, tilt });
@@ -376,7 +567,41 @@ pub fn layout(t: &CreatureTable, lib: &Library, shape: &Shape) -> Layout {
         p.transform = Mat4::from_translation(shift) * p.transform;
     }
     let stability = stability(t, lib, &placed, hi.z - lo.z);
-    Layout { program: ops, placed, stability, min: lo + shift, max: hi + shift }
+    let detached = detached(lib, shape, &placed);
+    Layout { program: ops, placed, stability, min: lo + shift, max: hi + shift, detached }
+}
+
+/// Whether placed part `child` touches placed part `parent`: a point of the
+/// child's surface lies within [`CONTACT_EPSILON`] of the parent's diagonal of the
+/// parent's surface.
+pub fn touches(lib: &Library, child: &Placed, parent: &Placed) -> bool {
+    let (Some(c), Some(p)) = (lib.parts.get(child.part as usize), lib.parts.get(parent.part as usize)) else {
+        return false;
+    };
+    let to_parent = parent.transform.inverse() * child.transform;
+    if !to_parent.is_finite() {
+        return false;
+    }
+    c.contact_points.iter().any(|q| p.near_surface(to_parent.transform_point3(*q)))
+}
+
+/// Meta-part ids of the placed parts that do not touch the torso they are attached to.
+pub fn detached(lib: &Library, shape: &Shape, placed: &[Placed]) -> Vec<u32> {
+    let by_meta: std::collections::BTreeMap<u32, &Placed> = placed.iter().map(|p| (p.meta, p)).collect();
+    let mut out = Vec::new();
+    for sp in &shape.supers {
+        let Some(a) = sp.attach else { continue };
+        let Some(parent) = shape.supers.get(a.parent as usize).and_then(|s| s.metas.first()) else { continue };
+        let Some(pp) = by_meta.get(&parent.id) else { continue };
+        for m in &sp.metas {
+            if let Some(cp) = by_meta.get(&m.id) {
+                if !touches(lib, cp, pp) {
+                    out.push(m.id);
+                }
+            }
+        }
+    }
+    out
 }
 
 /// The stability test (paper §4, after Fit and Diverse): the centre of mass,
@@ -496,6 +721,62 @@ pub fn assemble(lib: &Library, placed: &[Placed], offset: Vec3, out: &mut Mesh) 
             }
         }
     }
+}
+
+/// The name of the node of meta-part `meta` in a monster's `.glb`: its super-part,
+/// type and place in the arrangement, and its part, e.g. `S3.arm[1] h_arm`.
+pub fn node_name(t: &CreatureTable, shape: &Shape, meta: u32) -> String {
+    for (i, sp) in shape.supers.iter().enumerate() {
+        if let Some(k) = sp.metas.iter().position(|m| m.id == meta) {
+            let part = t.parts.get(sp.metas[k].geometry as usize).map(|p| p.name.as_str()).unwrap_or("?");
+            return format!("S{i}.{}[{k}] {part}", super::shape::kind_name(t, sp.kind));
+        }
+    }
+    format!("M{meta}")
+}
+
+/// A monster as a scene of parts: one node per placed meta-part (named by
+/// [`node_name`]) referring to one shared mesh per library part it uses, moved by
+/// `offset`.
+pub fn part_nodes(
+    t: &CreatureTable,
+    lib: &Library,
+    shape: &Shape,
+    placed: &[Placed],
+    offset: Vec3,
+) -> (Vec<(String, Mesh)>, Vec<crate::export::glb::MeshNode>) {
+    let mut meshes = Vec::new();
+    let mut index = std::collections::BTreeMap::new();
+    let mut nodes = Vec::new();
+    for p in placed {
+        let Some(g) = lib.parts.get(p.part as usize) else { continue };
+        let mesh = *index.entry(p.part).or_insert_with(|| {
+            let name = t.parts.get(p.part as usize).map(|d| d.name.clone()).unwrap_or_default();
+            meshes.push((name, g.mesh.clone()));
+            meshes.len() as u32 - 1
+        });
+        nodes.push(crate::export::glb::MeshNode {
+            name: node_name(t, shape, p.meta),
+            mesh,
+            transform: Mat4::from_translation(offset) * p.transform,
+        });
+    }
+    (meshes, nodes)
+}
+
+/// A monster's `.glb`: its parts as named nodes (see [`part_nodes`]) under a root
+/// node named `name` that stands it up in glTF's y-up convention.
+pub fn write_glb(
+    t: &CreatureTable,
+    lib: &Library,
+    name: &str,
+    shape: &Shape,
+    placed: &[Placed],
+) -> Result<Vec<u8>, String> {
+    let (meshes, nodes) = part_nodes(t, lib, shape, placed, Vec3::ZERO);
+    let mut bytes = Vec::new();
+    crate::export::glb::write_glb_nodes(name, &meshes, &nodes, &mut bytes)?;
+    Ok(bytes)
 }
 
 /// An [`Output`] holding `meshes` (a monster or a sheet of them) on `background`.

@@ -463,7 +463,7 @@ fn combine(
     }
     let slot = root_slot?;
     // The assist torso becomes the root; the base hangs from its slot.
-    let mut out = Shape { supers: Vec::new(), next_id: s.next_id, next_sym: s.next_sym };
+    let mut out = Shape { supers: Vec::new(), next_id: s.next_id, next_sym: s.next_sym, floats: s.floats };
     let root = bring(&mut out, other, None);
     out.supers.push(root);
     for &c in &taken {

@@ -3,10 +3,11 @@
 //! structure vector used for diversity control.
 
 use super::table::{CreatureTable, Mode, ShapeDef};
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 /// A meta-part M(m0, m1, m2, m3, m4).
-#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct MetaPart {
     /// m0: its type (index into [`CreatureTable::kinds`]).
     pub kind: u32,
@@ -17,7 +18,7 @@ pub struct MetaPart {
 }
 
 /// Where a super-part is attached: a slot of a torso super-part.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct Attachment {
     /// Index of the torso super-part in [`Shape::supers`] (m4 of its meta-parts).
     pub parent: u32,
@@ -26,7 +27,7 @@ pub struct Attachment {
 }
 
 /// A super-part S(s0, s1, s2): meta-parts of one type in one region.
-#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct SuperPart {
     /// s0: the type.
     pub kind: u32,
@@ -41,7 +42,7 @@ pub struct SuperPart {
 }
 
 /// An abstract shape: the 3D layout of a creature as super-parts.
-#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct Shape {
     /// Super-parts; index 0 is the root torso, and a parent always comes before
     /// the super-parts attached to it.
@@ -50,6 +51,10 @@ pub struct Shape {
     pub next_id: u32,
     /// The next free symmetry group id.
     pub next_sym: u32,
+    /// Not subject to the stability test (from a `floats` regular creature, the
+    /// base shape of every offspring passing it on).
+    #[serde(default)]
+    pub floats: bool,
 }
 
 /// ω in C_s = ω·n_e + Σ(v_i − v̄)².
@@ -59,7 +64,7 @@ impl Shape {
     /// The abstract shape of a regular creature. Attaching to a slot with a mirror
     /// partner fills the partner too (one symmetry group).
     pub fn from_def(t: &CreatureTable, def: &ShapeDef) -> Shape {
-        let mut s = Shape { supers: Vec::new(), next_id: 0, next_sym: 0 };
+        let mut s = Shape { supers: Vec::new(), next_id: 0, next_sym: 0, floats: def.floats };
         let torso_kind = t.parts.get(def.torso as usize).map(|p| p.kind).unwrap_or(0);
         let root_sym = s.new_sym();
         let torso_meta = s.new_meta(torso_kind, def.torso);
@@ -80,6 +85,41 @@ impl Shape {
             }
         }
         s
+    }
+
+    /// Checks a shape read from outside (a run's record) against the table: every
+    /// index in range, parents before the super-parts attached to them, torsos
+    /// with one meta-part, ids below `next_id`.
+    pub fn check(&self, t: &CreatureTable) -> Result<(), String> {
+        if self.supers.is_empty() {
+            return Err("no super-parts".into());
+        }
+        for (i, sp) in self.supers.iter().enumerate() {
+            let kind = t.kinds.get(sp.kind as usize).ok_or(format!("S{i}: no type {}", sp.kind))?;
+            if sp.metas.is_empty() || (kind.torso && sp.metas.len() != 1) {
+                return Err(format!("S{i}: {} meta-parts", sp.metas.len()));
+            }
+            for m in &sp.metas {
+                let part = t.parts.get(m.geometry as usize).ok_or(format!("S{i}: no part {}", m.geometry))?;
+                if m.kind != sp.kind || m.id >= self.next_id || (i > 0 && part.joint.is_none()) {
+                    return Err(format!("S{i}: meta-part {} does not fit", m.id));
+                }
+            }
+            match sp.attach {
+                None if i == 0 => {}
+                Some(a) if (a.parent as usize) < i => {
+                    let parent = &self.supers[a.parent as usize];
+                    let torso = parent.metas.first().and_then(|m| t.parts.get(m.geometry as usize));
+                    if !t.kinds.get(parent.kind as usize).is_some_and(|k| k.torso)
+                        || torso.is_none_or(|p| a.slot as usize >= p.slots.len())
+                    {
+                        return Err(format!("S{i}: attached to no slot of a torso"));
+                    }
+                }
+                _ => return Err(format!("S{i}: bad attachment")),
+            }
+        }
+        Ok(())
     }
 
     /// A fresh meta-part id.

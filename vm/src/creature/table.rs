@@ -155,6 +155,10 @@ pub struct ShapeDef {
     /// Part index of the torso.
     pub torso: u32,
     pub attach: Vec<AttachDef>,
+    /// `floats`: the creature does not stand (a swimmer, a flier): it and the
+    /// monsters evolved from it are not subject to the stability test.
+    #[serde(default)]
+    pub floats: bool,
 }
 
 /// `attach SLOT PART [COUNT [MODE]]` in a regular creature.
@@ -279,6 +283,13 @@ pub struct EvolveSettings {
     pub maxparts: u32,
     /// Seed of the evolution (overridden by `--seed`).
     pub seed: u64,
+    /// `stability on|off`: whether offspring must pass the stability test.
+    #[serde(default = "stability_default")]
+    pub stability: bool,
+}
+
+fn stability_default() -> bool {
+    true
 }
 
 impl Default for EvolveSettings {
@@ -292,6 +303,7 @@ impl Default for EvolveSettings {
             attempts: 24,
             maxparts: 24,
             seed: 1,
+            stability: true,
         }
     }
 }

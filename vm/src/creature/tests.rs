@@ -143,6 +143,7 @@ fn table() -> CreatureTable {
     let shapes = vec![
         ShapeDef {
             name: "humanoid".into(),
+            floats: false,
             torso: H_TORSO,
             attach: vec![
                 AttachDef { slot: 0, part: H_HEAD, count: 1, mode: Mode::Def },
@@ -152,6 +153,7 @@ fn table() -> CreatureTable {
         },
         ShapeDef {
             name: "quadruped".into(),
+            floats: false,
             torso: Q_TORSO,
             attach: vec![
                 AttachDef { slot: 0, part: Q_HEAD, count: 1, mode: Mode::Def },
@@ -506,4 +508,40 @@ fn same_seed_same_generations_for_any_thread_count() {
     assert_eq!(a, run(4, 5));
     assert_eq!(a, run(2, 5));
     assert_ne!(a, run(2, 6), "another seed gives other monsters");
+}
+
+#[test]
+fn copies_of_an_arrangement_are_seated_on_the_torso_and_touch_it() {
+    use super::geometry::{detached, touches};
+    let t = table();
+    let mut lib = Library::build(&Bundle::empty(), &t).expect("library");
+    // Five arms in a row on the left shoulder: the plain spacing (the arm's width)
+    // puts the outer ones beside the torso, which is only 0.2 deep.
+    let mut h = humanoid(&t);
+    let arm = h.supers.iter().position(|s| s.kind == ARM).expect("arm");
+    for _ in 0..4 {
+        let m = h.new_meta(ARM, H_ARM);
+        h.supers[arm].metas.push(m);
+    }
+    h.supers[arm].mode = Mode::Row;
+    lib.seat = false;
+    let plain = layout(&t, &lib, &h);
+    assert!(!plain.detached.is_empty(), "the outer arms hang in the air");
+    lib.seat = true;
+    let seated = layout(&t, &lib, &h);
+    assert!(seated.detached.is_empty(), "{:?}", seated.detached);
+    let torso = seated.placed.iter().find(|p| p.meta == 0).expect("torso");
+    let to_torso = torso.transform.inverse();
+    for m in &h.supers[arm].metas {
+        let p = seated.placed.iter().find(|p| p.meta == m.id).expect("placed");
+        // The joint (the arm's origin) is on the torso's side face x = 0.2, within its depth.
+        let j = to_torso.transform_point3(p.transform.transform_point3(glam::Vec3::ZERO));
+        assert!((j.x - 0.2).abs() < 1e-4 && j.y.abs() <= 0.1 + 1e-4, "{j}");
+        assert!(touches(&lib, p, torso));
+    }
+    // Moved off the torso by 0.1 a part touches nothing.
+    let mut off = seated.placed.clone();
+    let k = off.iter().position(|p| p.part == H_HEAD).expect("head");
+    off[k].transform = glam::Mat4::from_translation(glam::Vec3::new(0.0, 0.0, 0.1)) * off[k].transform;
+    assert_eq!(detached(&lib, &h, &off), vec![off[k].meta]);
 }

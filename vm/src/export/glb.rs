@@ -264,6 +264,113 @@ pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
     g.finish(w)
 }
 
+/// One node of a [`write_glb_nodes`] scene: shared mesh `mesh` placed by
+/// `transform` (rotation, uniform scale, translation; may be mirrored).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshNode {
+    pub name: String,
+    pub mesh: u32,
+    pub transform: Mat4,
+}
+
+/// Writes a scene of named nodes, each placing one of `meshes` — a model made of
+/// parts (a creature: one node per placed part). Every mesh is written once, in its
+/// own coordinates with its vertex colours, and shared by the nodes that place it; a
+/// mirrored placement refers to a copy mirrored in x (written once per mesh, mesh
+/// `NAME mirrored`), so every node has a proper TRS. A placement that is not a
+/// similarity is baked into a mesh of its own. The nodes are children of one root
+/// node named `root` that turns MDG's z up into glTF's y up.
+pub fn write_glb_nodes(
+    root: &str,
+    meshes: &[(String, Mesh)],
+    nodes: &[MeshNode],
+    w: &mut dyn std::io::Write,
+) -> Result<(), String> {
+    let mut g = Builder::default();
+    let mut gltf_meshes: BTreeMap<(u32, bool), u32> = BTreeMap::new();
+    let mut children = Vec::new();
+    for n in nodes {
+        let Some((name, mesh)) = meshes.get(n.mesh as usize) else {
+            return Err(format!("node `{}`: no mesh {}", n.name, n.mesh));
+        };
+        let mirrored = glam::Mat3::from_mat4(n.transform).determinant() < 0.0;
+        let proper = if mirrored { n.transform * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)) } else { n.transform };
+        let node = match similarity_trs(&proper) {
+            Some((t, r, s)) => {
+                let m = match gltf_meshes.get(&(n.mesh, mirrored)) {
+                    Some(&m) => m,
+                    None => {
+                        let flipped;
+                        let src = if mirrored {
+                            flipped = mirrored_copy(mesh);
+                            &flipped
+                        } else {
+                            mesh
+                        };
+                        let what = if mirrored { format!("{name} mirrored") } else { name.clone() };
+                        let Some(p) = g.colored_primitive(src, &what)? else { continue };
+                        let m = g.push_mesh(GMesh { name: Some(what), primitives: vec![p] });
+                        gltf_meshes.insert((n.mesh, mirrored), m);
+                        m
+                    }
+                };
+                Node {
+                    name: Some(n.name.clone()),
+                    mesh: Some(m),
+                    translation: Some(finite3(t.to_array())),
+                    rotation: Some(r.to_array()),
+                    scale: Some([finite(s); 3]),
+                    ..Node::default()
+                }
+            }
+            None => {
+                let mut baked = Mesh::default();
+                let inst = crate::output::Instance {
+                    name: n.name.clone(),
+                    mesh: n.mesh,
+                    transform: n.transform,
+                    scale: 1.0,
+                    color: [1.0; 4],
+                    mirrored,
+                    bone: 0,
+                };
+                bake_instance(&mut baked, mesh, &inst);
+                // Keep the part's own colours (bake_instance paints the instance colour).
+                baked.colors = mesh.colors.clone();
+                let what = format!("{name} baked");
+                let Some(p) = g.colored_primitive(&baked, &what)? else { continue };
+                let m = g.push_mesh(GMesh { name: Some(what), primitives: vec![p] });
+                Node { name: Some(n.name.clone()), mesh: Some(m), ..Node::default() }
+            }
+        };
+        children.push(g.push_node(node));
+    }
+    let mut top = Vec::new();
+    if !children.is_empty() {
+        top.push(g.push_node(Node {
+            name: Some(root.to_string()),
+            rotation: Some(Y_UP_ROTATION),
+            children,
+            ..Node::default()
+        }));
+    }
+    g.root.scenes.push(Scene { nodes: top });
+    g.finish(w)
+}
+
+/// `m` mirrored in x: positions and normals with x negated, every triangle reversed.
+fn mirrored_copy(m: &Mesh) -> Mesh {
+    let mut c = m.clone();
+    for p in &mut c.positions {
+        p[0] = -p[0];
+    }
+    for n in &mut c.normals {
+        n[0] = -n[0];
+    }
+    c.mirrored = (0..c.triangles.len()).map(|i| !m.mirrored.get(i).copied().unwrap_or(false)).collect();
+    c
+}
+
 /// A frame's TRS as glTF arrays: translation, unit rotation (x, y, z, w) and a uniform
 /// scale (see [`trs`]); non-finite values become 0 (the rotation the identity).
 fn gltf_trs(f: &Frame) -> ([f32; 3], [f32; 4], f32) {
