@@ -142,7 +142,7 @@ fn adjustment(a: &Adj, n: Option<f64>, cx: &StepContext) -> Option<String> {
             let root = |v: Value| match (v, n) {
                 (Value::Known(k), Some(n)) => fmt_num(k.powf(1.0 / n)),
                 (Value::Known(k), None) => format!("{}^(1/?)", fmt_num(k)),
-                (Value::Text(t), Some(n)) if n == 1.0 => t,
+                (Value::Text(t), Some(1.0)) => t,
                 (Value::Text(t), Some(n)) => format!("{t}^(1/{})", fmt_num(n)),
                 (Value::Text(t), None) => format!("{t}^(1/?)"),
             };

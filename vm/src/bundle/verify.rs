@@ -43,7 +43,7 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
             }
             for a in adjs {
                 let max_args = match a.kind {
-                    0 | 1 | 2 | 3 => 3,
+                    0..=3 => 3,
                     4..=7 => 1,
                     k => return Err(bad(format!("transform {i}: unknown adjustment kind {k}"))),
                 };
