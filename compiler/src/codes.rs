@@ -1975,6 +1975,44 @@ Fix: Use a value in the range the message gives."#,
         ),
     },
     Code {
+        code: "E0913",
+        severity: Error,
+        title: "`like` with `size` or `blocks`",
+        explanation: r#"Grid grammar: a shape that is a reference (`like A [turn T]`) also gives its own `size` or `blocks`. A reference's size and blocks follow from the shape it refers to.
+
+In the example: `b` is `a` turned, and also lists blocks.
+
+Fix: Remove `size` and `blocks` from the reference, or remove `like` and write the shape in full."#,
+        example: Library(
+            r#"grid g {
+  palette { stone "minecraft:stone"; }
+  shape a { size 2 1 1; blocks stone stone; }
+  shape b { like a turn 1; blocks stone stone; }
+  start a;
+}
+"#,
+        ),
+    },
+    Code {
+        code: "E0914",
+        severity: Error,
+        title: "cycle of `like`",
+        explanation: r#"Grid grammar: shapes that are references (`like`) refer round to themselves, so none of them has blocks. A `like` may refer to another `like`, but the chain must end at a shape written in full.
+
+In the example: `a` is like `b` and `b` is like `a`.
+
+Fix: Write one shape of the cycle in full (`size` and `blocks`)."#,
+        example: Library(
+            r#"grid g {
+  palette { stone "minecraft:stone"; }
+  shape a { like b turn 1; }
+  shape b { like a turn 3; }
+  start a;
+}
+"#,
+        ),
+    },
+    Code {
         code: "W0001",
         severity: Warning,
         title: "rule is never used",
