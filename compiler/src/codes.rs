@@ -1753,7 +1753,7 @@ Fix: Add the block kind to the `palette` or fix the name."#,
         code: "E0902",
         severity: Error,
         title: "unknown shape",
-        explanation: r#"Grid grammar: a `match`, `rule` or `start` names an unknown shape.
+        explanation: r#"Grid grammar: a `match`, `rule`, `start` or a shape's `like` names an unknown shape.
 
 In the example: a rule names a shape that does not exist.
 
@@ -1854,12 +1854,12 @@ Fix: Give the number of quarter turns that maps the first shape onto the second.
     Code {
         code: "E0907",
         severity: Error,
-        title: "malformed `rule`, `match` or `start`",
-        explanation: r#"Grid grammar: a malformed `rule`, `match` or `start` entry.
+        title: "malformed `rule`, `match`, `start` or `like`",
+        explanation: r#"Grid grammar: a malformed `rule`, `match`, `start` or `like` entry.
 
 In the example: a rule without `at` before its offset.
 
-Fix: Follow the forms `rule A B at X Y Z [turn N];`, `match A B turn N;`, `start A;`."#,
+Fix: Follow the forms `rule A B at X Y Z [turn N];`, `match A B turn N;`, `start A;`, `like A [turn N];`."#,
         example: Library(
             r#"grid g {
   palette { stone "minecraft:stone"; }

@@ -198,8 +198,8 @@ pub fn write_source_with(g: &GridGrammar, comment: &[String], like: bool) -> Str
             }
         }
     }
-    for m in next_match..g.matches.len() {
-        if !used[m] {
+    for (m, &u) in used.iter().enumerate().skip(next_match) {
+        if !u {
             write_match(&mut s, g, m);
         }
     }
