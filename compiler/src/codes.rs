@@ -1753,7 +1753,7 @@ Fix: Add the block kind to the `palette` or fix the name."#,
         code: "E0902",
         severity: Error,
         title: "unknown shape",
-        explanation: r#"Grid grammar: a `match`, `rule` or `start` names an unknown shape.
+        explanation: r#"Grid grammar: a `match`, `rule`, `start` or a shape's `like` names an unknown shape.
 
 In the example: a rule names a shape that does not exist.
 
@@ -1854,12 +1854,12 @@ Fix: Give the number of quarter turns that maps the first shape onto the second.
     Code {
         code: "E0907",
         severity: Error,
-        title: "malformed `rule`, `match` or `start`",
-        explanation: r#"Grid grammar: a malformed `rule`, `match` or `start` entry.
+        title: "malformed `rule`, `match`, `start` or `like`",
+        explanation: r#"Grid grammar: a malformed `rule`, `match`, `start` or `like` entry.
 
 In the example: a rule without `at` before its offset.
 
-Fix: Follow the forms `rule A B at X Y Z [turn N];`, `match A B turn N;`, `start A;`."#,
+Fix: Follow the forms `rule A B at X Y Z [turn N];`, `match A B turn N;`, `start A;`, `like A [turn N];`."#,
         example: Library(
             r#"grid g {
   palette { stone "minecraft:stone"; }
@@ -1969,6 +1969,44 @@ Fix: Use a value in the range the message gives."#,
   palette { stone "minecraft:stone"; }
   shape a { size 1 1 1; blocks stone; }
   rule a a at 1 0 0 turn 4;
+  start a;
+}
+"#,
+        ),
+    },
+    Code {
+        code: "E0913",
+        severity: Error,
+        title: "`like` with `size` or `blocks`",
+        explanation: r#"Grid grammar: a shape that is a reference (`like A [turn T]`) also gives its own `size` or `blocks`. A reference's size and blocks follow from the shape it refers to.
+
+In the example: `b` is `a` turned, and also lists blocks.
+
+Fix: Remove `size` and `blocks` from the reference, or remove `like` and write the shape in full."#,
+        example: Library(
+            r#"grid g {
+  palette { stone "minecraft:stone"; }
+  shape a { size 2 1 1; blocks stone stone; }
+  shape b { like a turn 1; blocks stone stone; }
+  start a;
+}
+"#,
+        ),
+    },
+    Code {
+        code: "E0914",
+        severity: Error,
+        title: "cycle of `like`",
+        explanation: r#"Grid grammar: shapes that are references (`like`) refer round to themselves, so none of them has blocks. A `like` may refer to another `like`, but the chain must end at a shape written in full.
+
+In the example: `a` is like `b` and `b` is like `a`.
+
+Fix: Write one shape of the cycle in full (`size` and `blocks`)."#,
+        example: Library(
+            r#"grid g {
+  palette { stone "minecraft:stone"; }
+  shape a { like b turn 1; }
+  shape b { like a turn 3; }
   start a;
 }
 "#,

@@ -4,12 +4,13 @@
 //! [`mdg_vm::grid::induce`] builds the grammar); this module reads the examples, and
 //! prints the grammar as a `grid` section that [`crate::ext::grid`] compiles back to
 //! the same table (a tested round trip). The text is laid out as `mdgc fmt` prints it,
-//! with each shape's `blocks` one row a line, so a person can read and edit it.
+//! with each shape's `blocks` one row a line, so a person can read and edit it, and each
+//! class of matching shapes written once (its other members are `like` references).
 
 use mdg_vm::grid::induce::{induce, measures, Example, Measures};
 use mdg_vm::grid::infer::{infer, InferOptions, Inference, Progress};
 use mdg_vm::grid::voxel::VoxelModel;
-use mdg_vm::grid::{GridGrammar, AXIS_NAMES};
+use mdg_vm::grid::{turned_blocks, GridGrammar, ShapeMatch, AXIS_NAMES};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -122,8 +123,15 @@ fn quoted(s: &str) -> String {
 
 /// The grammar as MDG source: a start rule `site` (every program needs one; it draws
 /// nothing here, and `mdg-run` adds what it draws under the building) and the `grid`
-/// section. `comment` lines go on top as `//` comments.
+/// section. `comment` lines go on top as `//` comments. Each class of matching shapes
+/// is written once: its first member in full, the others as `like` references.
 pub fn write_source(g: &GridGrammar, comment: &[String]) -> String {
+    write_source_with(g, comment, true)
+}
+
+/// [`write_source`]; with `like` false every shape is written in full (its `size` and
+/// `blocks`) and every match as a `match` line (`mdgc induce --full`).
+pub fn write_source_with(g: &GridGrammar, comment: &[String], like: bool) -> String {
     let mut s = String::new();
     for c in comment {
         let _ = writeln!(s, "// {c}");
@@ -146,8 +154,110 @@ pub fn write_source(g: &GridGrammar, comment: &[String]) -> String {
     // shape (induced grammars do); else all of them after the shapes.
     let grouped = g.matches.windows(2).all(|w| w[0].a <= w[1].a) && g.rules.windows(2).all(|w| w[0].from <= w[1].from);
     let (mut next_match, mut next_rule) = (0, 0);
+    let likes = if like { like_plan(g) } else { vec![None; g.shapes.len()] };
+    let used: Vec<bool> = {
+        let mut u = vec![false; g.matches.len()];
+        for &m in likes.iter().flatten() {
+            u[m] = true;
+        }
+        u
+    };
     for (si, shape) in g.shapes.iter().enumerate() {
         let _ = writeln!(s, "  shape {} {{", shape.name);
+        if let Some(m) = likes[si].map(|m| &g.matches[m]) {
+            let a = &g.shapes[m.a as usize];
+            if m.turn == 0 {
+                let _ = writeln!(s, "    like {};", a.name);
+            } else {
+                let _ = writeln!(s, "    like {} turn {};", a.name, m.turn);
+            }
+            if shape.plane != like_plane(a.plane, m.turn) {
+                let axis = shape.plane.map(|p| AXIS_NAMES[p as usize]).unwrap_or("none");
+                let _ = writeln!(s, "    plane {axis};");
+            }
+            if let Some(at) = shape.at {
+                let _ = writeln!(s, "    at {} {} {};", at[0], at[1], at[2]);
+            }
+            if shape.example != 0 {
+                let _ = writeln!(s, "    example {};", shape.example);
+            }
+            s.push_str("  }\n");
+        } else {
+            write_full_shape(&mut s, g, shape);
+        }
+        if grouped {
+            while next_match < g.matches.len() && g.matches[next_match].a as usize <= si {
+                if !used[next_match] {
+                    write_match(&mut s, g, next_match);
+                }
+                next_match += 1;
+            }
+            while next_rule < g.rules.len() && g.rules[next_rule].from as usize <= si {
+                write_rule(&mut s, g, next_rule);
+                next_rule += 1;
+            }
+        }
+    }
+    for (m, &u) in used.iter().enumerate().skip(next_match) {
+        if !u {
+            write_match(&mut s, g, m);
+        }
+    }
+    for r in next_rule..g.rules.len() {
+        write_rule(&mut s, g, r);
+    }
+    if let Some(start) = g.shapes.get(g.start as usize) {
+        let _ = writeln!(s, "  start {};", start.name);
+    }
+    let gen = &g.generate;
+    s.push_str("  generate {\n");
+    let _ = writeln!(s, "    steps {};", gen.steps);
+    let _ = writeln!(s, "    enclosure {};", if gen.enclosure { "on" } else { "off" });
+    let _ = writeln!(s, "    seal {};", gen.seal);
+    if let Some(seed) = gen.seed {
+        let _ = writeln!(s, "    seed {seed};");
+    }
+    s.push_str("  }\n}\n");
+    // The layout above is the formatter's; run it anyway so the file is canonical.
+    crate::fmt::format_source(&s).unwrap_or(s)
+}
+
+/// The plane a `like` shape gets from its target's `plane` turned `turn` quarter turns
+/// (odd turns swap x and z), as the grid section derives it.
+fn like_plane(plane: Option<u8>, turn: u8) -> Option<u8> {
+    plane.map(|a| if turn % 2 == 1 && a != 1 { 2 - a } else { a })
+}
+
+/// Per shape, the match (index into `g.matches`) it is written as `like` of: shape B of
+/// a match A B with A earlier (a class's first member is written in full, every other
+/// member as a reference to it). None for every shape when the grid section would
+/// order the matches of that text differently from `g` (its `like`s in shape order,
+/// then `match` lines, stably by first shape), so the text always compiles back to `g`.
+fn like_plan(g: &GridGrammar) -> Vec<Option<usize>> {
+    let n = g.shapes.len();
+    let mut plan: Vec<Option<usize>> = vec![None; n];
+    let turns = g.kind_turns();
+    for (mi, m) in g.matches.iter().enumerate() {
+        let (a, b) = (m.a as usize, m.b as usize);
+        if a < b && b < n && plan[b].is_none() {
+            let (blocks, size) = turned_blocks(&g.shapes[a], m.turn, &turns);
+            if size == g.shapes[b].size && blocks == g.shapes[b].blocks {
+                plan[b] = Some(mi);
+            }
+        }
+    }
+    let mut order: Vec<ShapeMatch> = plan.iter().flatten().map(|&m| g.matches[m]).collect();
+    order.extend(g.matches.iter().enumerate().filter(|(i, _)| !plan.contains(&Some(*i))).map(|(_, m)| *m));
+    order.sort_by_key(|m| m.a);
+    if order != g.matches {
+        return vec![None; n];
+    }
+    plan
+}
+
+/// A shape with its `size`, `plane`, `at`, `example` and `blocks`.
+fn write_full_shape(s: &mut String, g: &GridGrammar, shape: &mdg_vm::grid::GridShape) {
+    {
         let [sx, sy, sz] = shape.size;
         let _ = writeln!(s, "    size {sx} {sy} {sz};");
         match shape.plane {
@@ -181,37 +291,7 @@ pub fn write_source(g: &GridGrammar, comment: &[String]) -> String {
             let _ = write!(s, "\n      {}", line.join(" "));
         }
         s.push_str(";\n  }\n");
-        if grouped {
-            while next_match < g.matches.len() && g.matches[next_match].a as usize <= si {
-                write_match(&mut s, g, next_match);
-                next_match += 1;
-            }
-            while next_rule < g.rules.len() && g.rules[next_rule].from as usize <= si {
-                write_rule(&mut s, g, next_rule);
-                next_rule += 1;
-            }
-        }
     }
-    for m in next_match..g.matches.len() {
-        write_match(&mut s, g, m);
-    }
-    for r in next_rule..g.rules.len() {
-        write_rule(&mut s, g, r);
-    }
-    if let Some(start) = g.shapes.get(g.start as usize) {
-        let _ = writeln!(s, "  start {};", start.name);
-    }
-    let gen = &g.generate;
-    s.push_str("  generate {\n");
-    let _ = writeln!(s, "    steps {};", gen.steps);
-    let _ = writeln!(s, "    enclosure {};", if gen.enclosure { "on" } else { "off" });
-    let _ = writeln!(s, "    seal {};", gen.seal);
-    if let Some(seed) = gen.seed {
-        let _ = writeln!(s, "    seed {seed};");
-    }
-    s.push_str("  }\n}\n");
-    // The layout above is the formatter's; run it anyway so the file is canonical.
-    crate::fmt::format_source(&s).unwrap_or(s)
 }
 
 fn write_match(s: &mut String, g: &GridGrammar, i: usize) {
@@ -236,7 +316,12 @@ fn write_rule(s: &mut String, g: &GridGrammar, i: usize) {
 /// bug of the writer or the grid section, reported as an internal error). `path` names
 /// the file in diagnostics.
 pub fn write_checked(g: &GridGrammar, comment: &[String], path: &Path) -> Result<String, String> {
-    let text = write_source(g, comment);
+    write_checked_with(g, comment, path, true)
+}
+
+/// [`write_checked`] of [`write_source_with`].
+pub fn write_checked_with(g: &GridGrammar, comment: &[String], path: &Path, like: bool) -> Result<String, String> {
+    let text = write_source_with(g, comment, like);
     let max = crate::parse::MAX_SOURCE_BYTES;
     if text.len() > max {
         return Err(format!(

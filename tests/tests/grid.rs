@@ -579,7 +579,16 @@ fn induce_write_compile_generate_round_trip() {
     // Written as source: formatted, and it compiles back to the same grammar.
     let text = mdg_compiler::induce::write_source(&g, &["a test".into()]);
     assert_eq!(mdg_compiler::fmt::format_source(&text).expect("parses"), text, "the writer's layout is canonical");
-    assert!(text.contains("grid house {") && text.contains("palette {") && text.contains("match "));
+    assert!(text.contains("grid house {") && text.contains("palette {") && text.contains("like "));
+    // Each class written once: every match is a `like` (induced matches go from a class's
+    // first member), and the grammar written out in full is the same table.
+    assert_eq!(text.matches("\n    like ").count(), g.matches.len());
+    assert!(!text.contains("\n  match "));
+    let full = mdg_compiler::induce::write_checked_with(&g, &["a test".into()], &dir.join("full.mdg"), false)
+        .expect("the full form compiles back");
+    assert_eq!(full.matches("\n  match ").count(), g.matches.len());
+    assert!(!full.contains(" like "));
+    assert!(full.len() > text.len() && full.lines().count() > text.lines().count());
     let style = dir.join("style.mdg");
     std::fs::write(&style, &text).expect("write source");
     let (bundle, _) = match mdg_compiler::driver::build(&mdg_compiler::source::FsLoader, &style, &mdg_tests::options())

@@ -40,6 +40,10 @@ pub struct Args {
     /// The grammar's name (default: the first example's file name).
     #[arg(long)]
     pub name: Option<String>,
+    /// Write every shape in full and every match as a `match` line (by default each class of
+    /// matching shapes is written once, its other members as `like` references).
+    #[arg(long)]
+    pub full: bool,
     /// The grammar source to write.
     #[arg(short, long, value_name = "STYLE.mdg")]
     pub output: PathBuf,
@@ -48,7 +52,7 @@ pub struct Args {
 /// `mdgc induce`: infer shapes, induce the grammar, write it, and check that the
 /// written source compiles back to the same grammar.
 pub fn run(args: Args) -> ExitCode {
-    let Args { examples, spec, alpha, ops, overlap, cost, post_split, share, name, output } = args;
+    let Args { examples, spec, alpha, ops, overlap, cost, post_split, share, name, full, output } = args;
     let (examples, spec, ops, cost, name, output) =
         (&examples[..], spec.as_str(), ops.as_str(), cost.as_str(), name.as_deref(), output.as_path());
     use mdg_vm::grid::infer::{Cost, InferOptions, Ops, Spec};
@@ -145,7 +149,7 @@ pub fn run(args: Args) -> ExitCode {
         ),
     ];
     // The written source must fit a source file and compile back to the same grammar.
-    let text = match mdg_compiler::induce::write_checked(&grammar, &comment, output) {
+    let text = match mdg_compiler::induce::write_checked_with(&grammar, &comment, output, !full) {
         Ok(t) => t,
         Err(e) => {
             eprintln!("mdgc induce: {e}");

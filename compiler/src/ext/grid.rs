@@ -48,9 +48,10 @@ const GRID_KEYS: &[Key] = &[
     },
     Key {
         name: "shape",
-        values: "NAME { size …; blocks …; [plane …;] [at …;] [example …;] }",
+        values: "NAME { size …; blocks …; [plane …;] [at …;] [example …;] } | NAME { like A [turn T]; [at …;] … }",
         doc: "A shape: a connected set of blocks in its own box. `blocks` lists the box's cells, top layer first, \
-              each layer row by row (z from 0), each row along x; `_` is an empty cell.",
+              each layer row by row (z from 0), each row along x; `_` is an empty cell. A shape with `like A \
+              [turn T]` instead of `size` and `blocks` is shape A turned T quarter turns, and matches A.",
     },
     Key {
         name: "match",
@@ -80,6 +81,14 @@ const GRID_KEYS: &[Key] = &[
 ];
 
 const SHAPE_KEYS: &[Key] = &[
+    Key {
+        name: "like",
+        values: "A [turn T]",
+        doc: "The shape is shape A turned T quarter turns about the vertical axis (T in 0..3, default 0): its size, \
+              blocks and plane follow from A's (a `plane` may still be given), and it matches A as `match A B turn T` \
+              would say. A may itself be a `like` (resolved through); a cycle is an error, and so is `like` with \
+              `size` or `blocks`.",
+    },
     Key { name: "size", values: "X Y Z", doc: "The shape's box in blocks (each 1 or more)." },
     Key {
         name: "blocks",
@@ -208,6 +217,17 @@ fn int_in(
 struct ParsedShape {
     name: Name,
     shape: GridShape,
+    /// `like A [turn T]`: size, blocks and (without `plane`) plane come from A, resolved
+    /// after every shape is read.
+    like: Option<Like>,
+}
+
+/// A shape's `like A [turn T]`.
+struct Like {
+    target: Name,
+    turn: u8,
+    /// The `plane` value when the shape gives one (checked against the derived size).
+    plane: Option<Span>,
 }
 
 /// Parses (and checks) one `grid` section. Returns the grammar when it is complete;
@@ -308,6 +328,94 @@ fn parse(sec: &Section, ex: &Expanded, diags: &mut Vec<Diagnostic>) -> Option<Gr
         None
     };
     let turns = g.kind_turns();
+    // `like` shapes: size, blocks and plane from their targets (through chains of
+    // `like`), each with the match it declares. 0 unresolved, 1 on the current chain,
+    // 2 done, 3 failed (reported, or depending on a broken shape).
+    let mut state: Vec<u8> = shapes.iter().map(|p| if p.like.is_some() { 0 } else { 2 }).collect();
+    let mut like_matches: Vec<ShapeMatch> = Vec::new();
+    for i in 0..shapes.len() {
+        let mut chain: Vec<usize> = Vec::new();
+        let mut cur = i;
+        let mut failed = false;
+        while state[cur] == 0 {
+            state[cur] = 1;
+            chain.push(cur);
+            let target = &shapes[cur].like.as_ref().expect("state 0 is a like").target;
+            match lookup(target, diags) {
+                Some(t) if state[t as usize] == 1 => {
+                    // A cycle: from t round to cur.
+                    let from = chain.iter().position(|&c| c == t as usize).unwrap_or(0);
+                    let cycle = &chain[from..];
+                    let names: Vec<&str> = cycle.iter().map(|&c| shapes[c].name.text.as_str()).collect();
+                    let first = &shapes[cycle[0]];
+                    let mut d = Diagnostic::error(
+                        "E0914",
+                        first.like.as_ref().map(|l| l.target.span).unwrap_or(first.name.span),
+                        format!("shape `{}` is a `like` of itself", first.name.text),
+                    )
+                    .with_label(format!("{} → {}", names.join(" → "), names[0]))
+                    .with_note("one shape of a class is written in full; the others refer to it");
+                    for &c in &cycle[1..] {
+                        if let Some(l) = &shapes[c].like {
+                            d = d.with_secondary(
+                                l.target.span,
+                                format!("`{}` is like `{}`", shapes[c].name.text, l.target.text),
+                            );
+                        }
+                    }
+                    diags.push(d);
+                    failed = true;
+                    break;
+                }
+                Some(t) => cur = t as usize,
+                None => {
+                    failed = true;
+                    break;
+                }
+            }
+        }
+        failed |= state[cur] == 3;
+        for &c in chain.iter().rev() {
+            if failed {
+                state[c] = 3;
+                continue;
+            }
+            let l = shapes[c].like.as_ref().expect("a like");
+            let t = shape_ids[&l.target.text] as usize;
+            let (blocks, size) = turned_blocks(&shapes[t].shape, l.turn, &turns);
+            let plane = match l.plane {
+                Some(span) => {
+                    let plane = shapes[c].shape.plane;
+                    if let Some(axis) = plane.filter(|&a| size[a as usize] != 1) {
+                        let axis_name = mdg_vm::grid::AXIS_NAMES[axis as usize];
+                        diags.push(
+                            Diagnostic::error(
+                                "E0910",
+                                span,
+                                format!("shape `{}` is not flat along {axis_name}", shapes[c].name.text),
+                            )
+                            .with_label(format!(
+                                "`{}` turned {} is {}×{}×{}",
+                                l.target.text, l.turn, size[0], size[1], size[2]
+                            )),
+                        );
+                        failed = true;
+                        state[c] = 3;
+                        continue;
+                    }
+                    plane
+                }
+                // A's flat axis, turned: odd turns swap x and z.
+                None => shapes[t].shape.plane.map(|a| if l.turn % 2 == 1 && a != 1 { 2 - a } else { a }),
+            };
+            like_matches.push(ShapeMatch { a: t as u32, b: c as u32, turn: l.turn });
+            let s = &mut shapes[c].shape;
+            (s.blocks, s.size, s.plane) = (blocks, size, plane);
+            state[c] = 2;
+        }
+    }
+    // In shape order (a chain resolves from its end).
+    like_matches.sort_by_key(|m| m.b);
     for e in entries.iter().filter(|e| e.key.text == "match") {
         let form = "`match A B [turn T]`";
         let (a, b, turn) = match e.values.as_slice() {
@@ -330,6 +438,9 @@ fn parse(sec: &Section, ex: &Expanded, diags: &mut Vec<Diagnostic>) -> Option<Gr
             None => 0,
         };
         let (Some(ia), Some(ib)) = (lookup(a, diags), lookup(b, diags)) else { continue };
+        if state[ia as usize] != 2 || state[ib as usize] != 2 {
+            continue;
+        }
         let (sa, sb) = (&shapes[ia as usize].shape, &shapes[ib as usize].shape);
         let (blocks, size) = turned_blocks(sa, turn, &turns);
         if size != sb.size || blocks != sb.blocks {
@@ -433,6 +544,13 @@ fn parse(sec: &Section, ex: &Expanded, diags: &mut Vec<Diagnostic>) -> Option<Gr
             sec.kind.span,
             format!("the shapes hold {total} blocks (at most {MAX_GRAMMAR_BLOCKS})"),
         ));
+    }
+    // With `like`, matches are ordered by their first shape (stable: `like`s in shape
+    // order, then `match` lines in source order), as `mdgc induce` lists them.
+    if !like_matches.is_empty() {
+        like_matches.append(&mut g.matches);
+        like_matches.sort_by_key(|m| m.a);
+        g.matches = like_matches;
     }
     g.shapes = shapes.into_iter().map(|p| p.shape).collect();
     if diags.iter().filter(|d| d.is_error()).count() > before {
@@ -572,7 +690,50 @@ fn shape(
     at_most_once(&entries, diags);
     let find = |k: &str| entries.iter().copied().find(|e| e.key.text == k);
     let mut ok = true;
+    let like_entry = find("like");
+    let like = match like_entry {
+        Some(l) => {
+            let (target, turn) = match l.values.as_slice() {
+                [a] => (word(a), None),
+                [a, t, n] if word(t).is_some_and(|w| w.text == "turn") => (word(a), Some(n)),
+                _ => (None, None),
+            };
+            let Some(target) = target.cloned() else {
+                diags.push(malformed(l, "`like A [turn T]`"));
+                return fail;
+            };
+            let turn = match turn {
+                Some(v) => match int_in(ex, "turn", v, 0..=3, diags) {
+                    Some(t) => t as u8,
+                    None => return fail,
+                },
+                None => 0,
+            };
+            let mut own = false;
+            for k in ["size", "blocks"] {
+                if let Some(own_entry) = find(k) {
+                    diags.push(
+                        Diagnostic::error(
+                            "E0913",
+                            own_entry.key.span,
+                            format!("shape `{}` has both `like` and `{k}`", name.text),
+                        )
+                        .with_label(format!("its {k} follows from `{}`", target.text))
+                        .with_secondary(l.key.span, "the shape is a reference here")
+                        .with_note("remove `like` to write the shape in full, or remove its `size` and `blocks`"),
+                    );
+                    own = true;
+                }
+            }
+            if own {
+                return fail;
+            }
+            Some(Like { target, turn, plane: None })
+        }
+        None => None,
+    };
     let size = match find("size") {
+        _ if like.is_some() => Some([0; 3]),
         Some(s) if expect_count(s, 3, 3, "X Y Z", diags) => {
             let v: Vec<Option<i64>> =
                 s.values.iter().map(|v| int_in(ex, "size", v, 1..=MAX_SHAPE_EXTENT as i64, diags)).collect();
@@ -637,6 +798,15 @@ fn shape(
         Some(_) => None,
         None => Some(None),
     };
+    if let Some(mut l) = like {
+        let (Some(example), Some(plane)) = (example, plane) else { return fail };
+        if !ok {
+            return fail;
+        }
+        l.plane = plane_entry.map(|p| p.values[0].span());
+        let shape = GridShape { name: name.text.clone(), size: [0; 3], blocks: Vec::new(), plane, at, example };
+        return Ok(ParsedShape { name, shape, like: Some(l) });
+    }
     let Some(blocks_entry) = find("blocks") else {
         if report_missing {
             diags.push(
@@ -758,7 +928,11 @@ fn shape(
         let thin: Vec<u8> = (0..3u8).filter(|&k| size[k as usize] == 1).collect();
         (thin.len() == 1).then(|| thin[0])
     });
-    Ok(ParsedShape { name: name.clone(), shape: GridShape { name: name.text, size, blocks, plane, at, example } })
+    Ok(ParsedShape {
+        name: name.clone(),
+        shape: GridShape { name: name.text, size, blocks, plane, at, example },
+        like: None,
+    })
 }
 
 /// The `generate { … }` block.
@@ -868,6 +1042,38 @@ mod tests {
         assert_eq!(g.rules, vec![GridRule { from: 0, to: 1, place: Placement { turn: 1, offset: [-1, 0, 2] } }]);
         assert_eq!(g.start, 1);
         assert_eq!(g.generate, GenerateSettings { steps: 7, enclosure: false, seal: 2, seed: Some(9) });
+    }
+
+    #[test]
+    fn a_like_shape_is_its_target_turned_and_matches_it() {
+        // Two interleaved classes, one member a chain (r like q like p), and a `match`
+        // line among the `like`s: the same table as the grammar written out in full.
+        let head = "startshape s\nrule s {}\ngrid g {\n  palette { a \"minecraft:stone\"; b \"minecraft:glass\"; }\n";
+        let tail = "  rule p q at 2 0 0;\n  start p;\n}\n";
+        let full = format!(
+            "{head}  shape p {{ size 2 2 1; at 0 0 0; blocks a a b a; }}\n  shape w {{ size 1 1 1; blocks a; }}\n  \
+             shape q {{ size 1 2 2; at 5 0 0; blocks a a a b; }}\n  shape v {{ size 1 1 1; blocks a; }}\n  \
+             shape r {{ size 2 2 1; at 9 0 0; blocks a a a b; }}\n  \
+             match p q turn 1;\n  match p r turn 2;\n  match w v;\n  match q r turn 1;\n{tail}"
+        );
+        let like = format!(
+            "{head}  shape p {{ size 2 2 1; at 0 0 0; blocks a a b a; }}\n  shape w {{ size 1 1 1; blocks a; }}\n  \
+             shape q {{ like p turn 1; at 5 0 0; }}\n  shape v {{ like w; }}\n  \
+             match p r turn 2;\n  shape r {{ at 9 0 0; like q turn 1; }}\n{tail}"
+        );
+        let (gf, gl) = (grammar(&full), grammar(&like));
+        assert_eq!(gl.shapes[2].plane, Some(0), "p's plane z turned once is x");
+        // The `like`s' matches (p q 1), (w v 0), (q r 1) and the `match` line, stably by first shape.
+        assert_eq!(
+            gl.matches,
+            vec![
+                ShapeMatch { a: 0, b: 2, turn: 1 },
+                ShapeMatch { a: 0, b: 4, turn: 2 },
+                ShapeMatch { a: 1, b: 3, turn: 0 },
+                ShapeMatch { a: 2, b: 4, turn: 1 },
+            ]
+        );
+        assert_eq!(gl, gf);
     }
 
     #[test]
