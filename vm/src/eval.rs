@@ -139,11 +139,13 @@ impl State {
     fn compose_general(&self, c: &Composite, lins: &mut Lins) -> (Frame, u32, f32) {
         let child = Affine { f: composite_frame(c), n: c.n.map(|n| Mat3::from_cols_array(&n)) };
         let a = lins.affine(self).compose(&child);
-        if c.n.is_none() {
-            (a.f, self.lin, self.ndet)
-        } else {
-            let (lin, ndet) = lins.put(a.n);
-            (a.f, lin, ndet)
+        // N changes only when `c` brings a non-uniform scale of its own.
+        match (c.n, a.n) {
+            (Some(_), Some(n)) => {
+                let (lin, ndet) = lins.put(n);
+                (a.f, lin, ndet)
+            }
+            _ => (a.f, self.lin, self.ndet),
         }
     }
 
@@ -194,15 +196,10 @@ impl Lins {
         Affine { f: s.f, n }
     }
 
-    /// Stores `n`: its index and `∛det n` (0 and 1 for none).
-    fn put(&mut self, n: Option<Mat3>) -> (u32, f32) {
-        match n {
-            None => (0, 1.0),
-            Some(n) => {
-                self.0.push(n);
-                ((self.0.len() - 1) as u32, n.determinant().cbrt())
-            }
-        }
+    /// Stores `n`: its index and `∛det n`.
+    fn put(&mut self, n: Mat3) -> (u32, f32) {
+        self.0.push(n);
+        ((self.0.len() - 1) as u32, n.determinant().cbrt())
     }
 }
 
@@ -697,19 +694,9 @@ impl<'b> Eval<'b> {
         if let Transform::Const(c) = &b.transforms[xf as usize] {
             return from.compose(c, &mut self.lins);
         }
-        let c = self.transform(xf, from, depth, base, top);
-        from.compose(&c, &mut self.lins)
-    }
-
-    /// Transform `xf` at state `at` and `depth` in the frame `slots[base..top]`.
-    #[inline]
-    fn transform(&mut self, xf: u32, at: &State, depth: u32, base: u32, top: u32) -> Composite {
-        // Constant transforms (nearly all) need no environment.
-        if let Transform::Const(c) = &self.b.transforms[xf as usize] {
-            return *c;
-        }
         let slots = self.slots.get(base as usize..top as usize).unwrap_or(&[]);
-        eval_transform(self.b, xf, &mut self.rng, &mut self.expr_stack, &Env { at, depth, slots })
+        let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack, &Env { at: from, depth, slots });
+        from.compose(&c, &mut self.lins)
     }
 
     /// Expression `e` at state `at` and `depth` in the frame `slots[base..top]`.
@@ -717,10 +704,11 @@ impl<'b> Eval<'b> {
     fn value(&mut self, e: u32, at: &State, depth: u32, base: u32, top: u32) -> f64 {
         let slots = self.slots.get(base as usize..top as usize).unwrap_or(&[]);
         let code: &[ExprOp] = &self.b.exprs[e as usize];
+        // (Tried before the environment is built: most arguments are `n - 1`.)
         if let Some(v) = expr::quick(code, slots) {
             return v;
         }
-        Env { at, depth, slots }.eval(code, &mut self.rng, &mut self.expr_stack)
+        Env { at, depth, slots }.eval_full(code, &mut self.rng, &mut self.expr_stack)
     }
 
     /// The definition of `rule_idx` for a call in state `child` at `depth` whose
@@ -1555,9 +1543,14 @@ struct Env<'a> {
 impl Env<'_> {
     #[inline]
     fn eval(&self, code: &[ExprOp], rng: &mut Pcg, stack: &mut Vec<f64>) -> f64 {
-        if let Some(v) = expr::quick(code, self.slots) {
-            return v;
+        match expr::quick(code, self.slots) {
+            Some(v) => v,
+            None => self.eval_full(code, rng, stack),
         }
+    }
+
+    /// [`Env::eval`] on the expression stack (code [`expr::quick`] does not take).
+    fn eval_full(&self, code: &[ExprOp], rng: &mut Pcg, stack: &mut Vec<f64>) -> f64 {
         let p = self.at.f.u;
         let vars = [p.x as f64, p.y as f64, p.z as f64, self.depth as f64, self.at.scale() as f64, 0.0];
         expr::eval(code, &vars, self.slots, rng, stack)
@@ -1600,14 +1593,18 @@ fn eval_transform(b: &Bundle, xf: u32, rng: &mut Pcg, stack: &mut Vec<f64>, env:
 /// The weights of definitions computed per call (`rule leaf(int n) (1 / (n + 1))`):
 /// which rules have any, and room for one call's values.
 struct Weights {
+    /// Per rule, its definitions' constant weights (what a selector reads unless the
+    /// rule has weight expressions).
+    constant: Vec<Vec<f32>>,
     dynamic: Vec<bool>,
     values: Vec<f32>,
 }
 
 impl Weights {
     fn new(b: &Bundle) -> Weights {
+        let constant = b.rules.iter().map(|r| r.defs.iter().map(|d| d.weight).collect()).collect();
         let dynamic = b.rules.iter().map(|r| r.defs.iter().any(|d| d.weight_expr != NONE)).collect();
-        Weights { dynamic, values: Vec::new() }
+        Weights { constant, dynamic, values: Vec::new() }
     }
 }
 
@@ -1653,29 +1650,54 @@ fn select_def(
             weights.values.push(w);
         }
     }
-    let values = &weights.values;
-    let weight = |i: usize| if dynamic { values[i] } else { defs[i].weight };
+    // (The function selector's value is drawn here, after the weights, as before.)
+    let function = match rule.selector {
+        Selector::Function(e) => expr::eval(&b.exprs[e as usize], &vars(), args, rng, stack),
+        _ => 0.0,
+    };
+    let w = if dynamic { &weights.values } else { &weights.constant[rule_idx as usize] };
+    let i = pick(w, rule, rule_idx, child, depth, function, rng, sequential);
+    defs[i].start
+}
+
+/// The index of the definition `rule`'s selector picks, with `w[i]` the weight of
+/// definition `i` and `function` the value of a function selector.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn pick(
+    w: &[f32],
+    rule: &bundle::Rule,
+    rule_idx: u32,
+    child: &State,
+    depth: u32,
+    function: f64,
+    rng: &mut Pcg,
+    sequential: &mut HashMap<u32, (usize, u32)>,
+) -> usize {
+    let n = w.len();
+    // The first index whose weight `better` prefers to every other one's.
+    let first_best = |better: fn(f32, f32) -> bool| (0..n).fold(0, |b, i| if better(w[i], w[b]) { i } else { b });
     let threshold = |v: f64| -> usize {
         // Smallest weight ≥ v, else the largest (SPEC resolved semantics 5).
         let mut best: Option<usize> = None;
-        for i in 0..defs.len() {
-            if weight(i) as f64 >= v && best.is_none_or(|b| weight(i) < weight(b)) {
+        for (i, &x) in w.iter().enumerate() {
+            if x as f64 >= v && best.is_none_or(|b| x < w[b]) {
                 best = Some(i);
             }
         }
-        best.unwrap_or_else(|| (0..defs.len()).fold(0, |b, i| if weight(i) > weight(b) { i } else { b }))
+        best.unwrap_or_else(|| first_best(|a, b| a > b))
     };
-    let i = match rule.selector {
+    match rule.selector {
         Selector::Random => {
-            let total: f64 = (0..defs.len()).map(|i| weight(i).max(0.0) as f64).sum();
+            let total: f64 = w.iter().map(|x| x.max(0.0) as f64).sum();
             if total <= 0.0 {
                 0
             } else {
                 let r = rng.uniform() * total;
                 let mut acc = 0.0;
-                let mut pick = defs.len() - 1;
-                for i in 0..defs.len() {
-                    acc += weight(i).max(0.0) as f64;
+                let mut pick = n - 1;
+                for (i, x) in w.iter().enumerate() {
+                    acc += x.max(0.0) as f64;
                     if r < acc {
                         pick = i;
                         break;
@@ -1688,46 +1710,43 @@ fn select_def(
         Selector::Scale => {
             let s = child.scale() as f64;
             let mut best: Option<usize> = None;
-            for i in 0..defs.len() {
-                if (weight(i) as f64) <= s && best.is_none_or(|b| weight(i) > weight(b)) {
+            for (i, &x) in w.iter().enumerate() {
+                if (x as f64) <= s && best.is_none_or(|b| x > w[b]) {
                     best = Some(i);
                 }
             }
-            best.unwrap_or_else(|| (0..defs.len()).fold(0, |b, i| if weight(i) < weight(b) { i } else { b }))
+            best.unwrap_or_else(|| first_best(|a, b| a < b))
         }
         Selector::Sequential => {
-            let n = defs.len();
             let entry = sequential.entry(rule_idx).or_insert((0, 0));
             // Skip definitions with a zero count (at most one full cycle).
             for _ in 0..n {
-                if (weight(entry.0).max(0.0) as u32) > entry.1 {
+                if (w[entry.0].max(0.0) as u32) > entry.1 {
                     break;
                 }
                 *entry = ((entry.0 + 1) % n, 0);
             }
             let i = entry.0;
             entry.1 += 1;
-            if entry.1 >= weight(i).max(0.0) as u32 {
+            if entry.1 >= w[i].max(0.0) as u32 {
                 *entry = ((i + 1) % n, 0);
             }
             i
         }
         Selector::Pattern => {
             let entry = sequential.entry(rule_idx).or_insert((0, 0));
-            let i = entry.0 % defs.len();
-            entry.0 = (i + 1) % defs.len();
+            let i = entry.0 % n;
+            entry.0 = (i + 1) % n;
             i
         }
-        Selector::Function(e) => {
-            let v = expr::eval(&b.exprs[e as usize], &vars(), args, rng, stack);
-            if v.is_finite() {
-                threshold(v)
+        Selector::Function(_) => {
+            if function.is_finite() {
+                threshold(function)
             } else {
                 0
             }
         }
-    };
-    defs[i].start
+    }
 }
 
 /// Composes primitive adjustments (constant arguments) into one composite, each

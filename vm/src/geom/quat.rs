@@ -166,12 +166,10 @@ impl Frame {
     /// parts of q and q̂ so tiny scales do not underflow. A degenerate frame (zero
     /// scale) returns `n` normalised (or +z).
     pub fn apply_normal(&self, n: Vec3) -> Vec3 {
-        let fallback = n.normalize_or(Vec3::Z);
-        let Some(unit) = self.unit_linear() else { return fallback };
-        let [a, b, c] = unit.axes();
-        let det = a.dot(b.cross(c));
-        let m = n.x * b.cross(c) + n.y * c.cross(a) + n.z * a.cross(b);
-        (m * det.signum()).normalize_or(fallback)
+        match self.unit_linear() {
+            Some(unit) => cofactor_normal(unit.axes(), n),
+            None => n.normalize_or(Vec3::Z),
+        }
     }
 
     /// The linear scale of the frame: `|q| |q̂|`, which equals the thesis's `N(q) = q q̄`
@@ -279,11 +277,11 @@ impl Affine {
                 Some(n.unwrap_or(Mat3::IDENTITY) * r * nc * r.transpose())
             }
         };
-        let f = Frame {
-            q: hamilton(self.f.q, child.f.q),
-            qh: hamilton(child.f.qh, self.f.qh),
-            u: self.f.u + self.apply_vector(child.f.u),
-        };
+        // q and q̂ compose as plain frames; only the child's offset also meets N.
+        let mut f = self.f.compose(&child.f);
+        if self.n.is_some() {
+            f.u = self.f.u + self.apply_vector(child.f.u);
+        }
         Affine { f, n }
     }
 
@@ -322,12 +320,10 @@ impl Affine {
     /// parts of q and q̂ as [`Frame::apply_normal`]) and normalises it.
     pub fn apply_normal(&self, n: Vec3) -> Vec3 {
         let Some(m) = self.n else { return self.f.apply_normal(n) };
-        let fallback = n.normalize_or(Vec3::Z);
-        let Some(r) = self.f.unit_linear() else { return fallback };
-        let [a, b, c] = r.axes().map(|v| m * v);
-        let det = a.dot(b.cross(c));
-        let v = n.x * b.cross(c) + n.y * c.cross(a) + n.z * a.cross(b);
-        (v * det.signum()).normalize_or(fallback)
+        match self.f.unit_linear() {
+            Some(unit) => cofactor_normal(unit.axes().map(|v| m * v), n),
+            None => n.normalize_or(Vec3::Z),
+        }
     }
 
     /// The linear scale: the similarity's times `∛|det N|`, the geometric mean of N's
@@ -346,6 +342,15 @@ impl Affine {
         let [a, b, c] = [Vec3::X, Vec3::Y, Vec3::Z].map(|v| self.apply_vector(v));
         Mat4::from_cols(a.extend(0.0), b.extend(0.0), c.extend(0.0), self.f.u.extend(1.0))
     }
+}
+
+/// The normal `n` mapped by the inverse transpose of the linear map with columns
+/// `[a, b, c]`, in cofactor form (`[b×c, c×a, a×b]`, signed by the determinant),
+/// normalised; `n` normalised (or +z) where the map is degenerate.
+fn cofactor_normal([a, b, c]: [Vec3; 3], n: Vec3) -> Vec3 {
+    let det = a.dot(b.cross(c));
+    let m = n.x * b.cross(c) + n.y * c.cross(a) + n.z * a.cross(b);
+    (m * det.signum()).normalize_or(n.normalize_or(Vec3::Z))
 }
 
 /// The rotation (or rotation-reflection) part of `f`'s `q x q̂` as an orthogonal
