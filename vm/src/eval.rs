@@ -802,10 +802,11 @@ impl<'b> Eval<'b> {
             match op {
                 Op::Call { rule, xf, flags } => {
                     act.pc += 1;
-                    let from = act.cont.take().unwrap_or(act.base);
                     let depth = act.depth + 1;
                     let parent_bone = act.bone;
-                    let child = self.apply(xf, &from, act.depth, act.slot_base, act.slot_top);
+                    let from = act.cont.as_ref().unwrap_or(&act.base);
+                    let child = self.apply(xf, from, act.depth, act.slot_base, act.slot_top);
+                    act.cont = None;
                     if flags & CONT_NEXT != 0 {
                         self.last = child;
                     }
@@ -876,21 +877,29 @@ impl<'b> Eval<'b> {
                     // VERTEX with a constant transform: position, normal and mirroring
                     // from the cached linear maps, without composing quaternions.
                     act.pc += 1;
-                    let (from, lin) = match act.cont.take() {
+                    // `from` is borrowed, not copied: this runs once per vertex.
+                    let (from, lin) = match &act.cont {
                         Some(c) => (c, linear(&c.f)),
-                        None => (act.base, *act.base_lin.get_or_insert_with(|| linear(&act.base.f))),
+                        None => (&act.base, *act.base_lin.get_or_insert_with(|| linear(&act.base.f))),
                     };
-                    let Transform::Const(c) = &b.transforms[xf as usize] else { continue };
+                    let Transform::Const(c) = &b.transforms[xf as usize] else {
+                        act.cont = None;
+                        continue;
+                    };
                     if from.lin != 0 {
                         // Under a non-uniform scale, the general path (a normal takes the
                         // inverse transpose of the whole linear map).
                         let s = from.compose(c, &mut self.lins);
+                        act.cont = None;
                         self.last = s;
                         let bone = act.bone;
                         self.draw(0, s, ns, profile, mode, bone);
                         continue;
                     }
-                    let Some(x) = &self.xf_info[xf as usize] else { continue };
+                    let Some(x) = &self.xf_info[xf as usize] else {
+                        act.cont = None;
+                        continue;
+                    };
                     let p = from.f.u + lin.0 * x.frame.u;
                     let n = (lin.0 * x.normal).normalize_or(Vec3::Z);
                     let add = |a: [f32; 4], b: [f32; 4]| [a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]];
@@ -908,22 +917,25 @@ impl<'b> Eval<'b> {
                             color: add(from.color, c.color),
                             weight,
                             fps: from.fps + c.fps,
-                            ..from
+                            ..*from
                         };
                     }
+                    act.cont = None;
                 }
                 Op::Draw { kind, xf, ns, profile, flags: _ } => {
                     act.pc += 1;
-                    let from = act.cont.take().unwrap_or(act.base);
-                    let s = self.apply(xf, &from, act.depth, act.slot_base, act.slot_top);
+                    let from = act.cont.as_ref().unwrap_or(&act.base);
+                    let s = self.apply(xf, from, act.depth, act.slot_base, act.slot_top);
+                    act.cont = None;
                     self.last = s;
                     let bone = act.bone;
                     self.draw(kind, s, ns, profile, mode, bone);
                 }
                 Op::Iso { iso, xf, flags: _ } => {
                     act.pc += 1;
-                    let from = act.cont.take().unwrap_or(act.base);
-                    let s = self.apply(xf, &from, act.depth, act.slot_base, act.slot_top);
+                    let from = act.cont.as_ref().unwrap_or(&act.base);
+                    let s = self.apply(xf, from, act.depth, act.slot_base, act.slot_top);
+                    act.cont = None;
                     self.last = s;
                     if mode == Mode::Model {
                         let bone = act.bone;
