@@ -139,9 +139,9 @@ pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
             continue;
         }
         let placed = if inst.mirrored {
-            similarity_trs(&(inst.transform * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)))).map(|trs| (trs, true))
+            orthogonal_trs(&(inst.transform * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)))).map(|trs| (trs, true))
         } else {
-            similarity_trs(&inst.transform).map(|trs| (trs, false))
+            orthogonal_trs(&inst.transform).map(|trs| (trs, false))
         };
         match placed {
             Some((trs, mirror)) => as_nodes.push((inst, trs, mirror)),
@@ -231,7 +231,7 @@ pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
             mesh: Some(mesh),
             translation: Some(t.to_array()),
             rotation: Some(r.to_array()),
-            scale: Some([s; 3]),
+            scale: Some(s.to_array()),
             ..Node::default()
         };
         let n = g.push_node(node);
@@ -295,7 +295,7 @@ pub fn write_glb_nodes(
         };
         let mirrored = glam::Mat3::from_mat4(n.transform).determinant() < 0.0;
         let proper = if mirrored { n.transform * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)) } else { n.transform };
-        let node = match similarity_trs(&proper) {
+        let node = match orthogonal_trs(&proper) {
             Some((t, r, s)) => {
                 let m = match gltf_meshes.get(&(n.mesh, mirrored)) {
                     Some(&m) => m,
@@ -319,7 +319,7 @@ pub fn write_glb_nodes(
                     mesh: Some(m),
                     translation: Some(finite3(t.to_array())),
                     rotation: Some(r.to_array()),
-                    scale: Some([finite(s); 3]),
+                    scale: Some(finite3(s.to_array())),
                     ..Node::default()
                 }
             }
@@ -389,29 +389,26 @@ struct SharedAccessors {
     double_sided: bool,
 }
 
-/// Translation, rotation and uniform scale of a proper similarity transform, or
-/// `None` when the matrix is mirrored, degenerate, non-finite, sheared or
-/// non-uniformly scaled (relative tolerance 1e-3).
-fn similarity_trs(m: &Mat4) -> Option<(Vec3, Quat, f32)> {
+/// Translation, rotation and per-axis scale of a proper transform whose axes are
+/// orthogonal (a rotation times a scale along the object's own axes: a similarity, or
+/// `s X Y Z` applied in the object's frame), or `None` when the matrix is mirrored,
+/// degenerate, non-finite or sheared (relative tolerance 1e-3): glTF's TRS cannot hold
+/// those, and their instances are baked.
+fn orthogonal_trs(m: &Mat4) -> Option<(Vec3, Quat, Vec3)> {
     if !m.is_finite() || m.row(3).truncate().length_squared() != 0.0 || m.row(3).w != 1.0 {
         return None;
     }
     let (a, b, c) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
     let (la, lb, lc) = (a.length(), b.length(), c.length());
-    let s = (la + lb + lc) / 3.0;
-    if s.is_nan() || s <= 1e-12 || a.dot(b.cross(c)) <= 0.0 {
+    let big = la.max(lb).max(lc);
+    if big.is_nan() || la.min(lb).min(lc) <= 1e-6 * big || big <= 1e-12 || a.dot(b.cross(c)) <= 0.0 {
         return None;
     }
-    let tol = 1e-3 * s;
-    if (la - s).abs() > tol || (lb - s).abs() > tol || (lc - s).abs() > tol {
-        return None;
-    }
-    let tol2 = 1e-3 * s * s;
-    if a.dot(b).abs() > tol2 || b.dot(c).abs() > tol2 || c.dot(a).abs() > tol2 {
+    if a.dot(b).abs() > 1e-3 * la * lb || b.dot(c).abs() > 1e-3 * lb * lc || c.dot(a).abs() > 1e-3 * lc * la {
         return None;
     }
     let rot = Quat::from_mat3(&glam::Mat3::from_cols(a / la, b / lb, c / lc)).normalize();
-    Some((m.w_axis.truncate(), rot, s))
+    Some((m.w_axis.truncate(), rot, Vec3::new(la, lb, lc)))
 }
 
 /// The document plus the binary buffer under construction.
@@ -1409,11 +1406,19 @@ pub(crate) mod tests {
             Quat::from_rotation_z(1.0),
             Vec3::new(1.0, 2.0, 3.0),
         );
-        let (t, r, s) = similarity_trs(&m).expect("similarity");
-        assert!((s - 0.5).abs() < 1e-6 && (t - Vec3::new(1.0, 2.0, 3.0)).length() < 1e-6);
+        let (t, r, s) = orthogonal_trs(&m).expect("similarity");
+        assert!((s - Vec3::splat(0.5)).length() < 1e-6 && (t - Vec3::new(1.0, 2.0, 3.0)).length() < 1e-6);
         assert!(r.dot(Quat::from_rotation_z(1.0)).abs() > 1.0 - 1e-6);
-        assert!(similarity_trs(&Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0))).is_none());
-        assert!(similarity_trs(&Mat4::from_scale(Vec3::new(1.0, 2.0, 1.0))).is_none());
-        assert!(similarity_trs(&Mat4::from_scale(Vec3::ZERO)).is_none());
+        // A scale along the object's own (rotated) axes is a TRS too.
+        let m = Mat4::from_scale_rotation_translation(Vec3::new(2.0, 0.5, 1.0), Quat::from_rotation_z(0.7), Vec3::X);
+        let (t, r, s) = orthogonal_trs(&m).expect("rotation times axis scale");
+        let back = Mat4::from_scale_rotation_translation(s, r, t);
+        assert!(back.abs_diff_eq(m, 1e-5), "{back:?} vs {m:?}");
+        assert!(orthogonal_trs(&Mat4::from_scale(Vec3::new(1.0, 2.0, 1.0))).is_some());
+        // A scale along world axes after a rotation shears the object's axes: baked.
+        let sheared = Mat4::from_scale(Vec3::new(3.0, 1.0, 1.0)) * Mat4::from_rotation_z(0.7);
+        assert!(orthogonal_trs(&sheared).is_none());
+        assert!(orthogonal_trs(&Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0))).is_none());
+        assert!(orthogonal_trs(&Mat4::from_scale(Vec3::ZERO)).is_none());
     }
 }
