@@ -8,13 +8,14 @@
 //! same source and options give byte-identical bundles.
 
 use crate::ast::*;
-use crate::check::{AdjKind, Symbols, DRAWABLES};
+use crate::check::{AdjKind, Symbols};
 use crate::diag::Diagnostic;
 use crate::expand::{ExpItem, Expanded};
 use crate::source::Sources;
 use crate::span::Span;
 use mdg_vm::bundle::{
-    self, Bundle, Composite, Def, Op, PrimAdj, Selector, Settings, SourceLoc, Transform, CONT_NEXT, NONE,
+    self, AdjOp, Bundle, Composite, Def, Drawable, Op, PrimAdj, Selector, Settings, SourceLoc, Transform, CONT_NEXT,
+    NONE,
 };
 use mdg_vm::expr::{ExprOp, BINOPS, FUNCTIONS, VARIABLES};
 use std::collections::HashMap;
@@ -600,14 +601,12 @@ impl<'a> Lower<'a> {
                     Some((p, l)) => (p, l),
                     None => ("", name.text.as_str()),
                 };
-                if let Some(kind) = DRAWABLES
-                    .iter()
-                    .position(|d| *d == last)
+                if let Some(kind) = Drawable::from_name(last)
                     .filter(|_| self.sym.resolve(&name.text, ns).is_none() || prefix.is_empty())
                 {
                     let ns_id = self.namespace(prefix);
                     let profile = profile.as_ref().and_then(|p| self.rule_index(&p.text, ns)).unwrap_or(NONE);
-                    self.code.push(Op::Draw { kind: kind as u8, xf, ns: ns_id, profile, flags });
+                    self.code.push(Op::Draw { kind, xf, ns: ns_id, profile, flags });
                 } else if self.sym.isosurfaces.contains_key(&name.text) {
                     let iso =
                         self.ex.items.iter().filter(|i| matches!(i.item.kind, ItemKind::Isosurface { .. })).position(
@@ -793,8 +792,8 @@ impl<'a> Lower<'a> {
                 }
             }
             let (k, axis) = match kind {
-                AdjKind::Translate(ax) => (0u8, if ax == 0 && args.len() > 1 { 3 } else { ax }),
-                AdjKind::Rotate(ax) => (1, ax),
+                AdjKind::Translate(ax) => (AdjOp::Translate, if ax == 0 && args.len() > 1 { 3 } else { ax }),
+                AdjKind::Rotate(ax) => (AdjOp::Rotate, ax),
                 AdjKind::Turn(ax, sign) => {
                     let v = match args.first() {
                         Some(bundle::Arg::Const(v)) => bundle::Arg::Const(*v * sign as f32),
@@ -807,14 +806,14 @@ impl<'a> Lower<'a> {
                         None => bundle::Arg::Const(std::f32::consts::FRAC_PI_2 * sign as f32),
                     };
                     args = vec![v];
-                    (1, ax)
+                    (AdjOp::Rotate, ax)
                 }
-                AdjKind::Scale => (2, 0),
-                AdjKind::Flip(ax) => (3, ax),
-                AdjKind::Color(i) => (4, i),
-                AdjKind::Weight(i) => (5, i),
-                AdjKind::Fps => (6, 0),
-                AdjKind::Hsb(i) => (7, i),
+                AdjKind::Scale => (AdjOp::Scale, 0),
+                AdjKind::Flip(ax) => (AdjOp::Flip, ax),
+                AdjKind::Color(i) => (AdjOp::Color, i),
+                AdjKind::Weight(i) => (AdjOp::Weight, i),
+                AdjKind::Fps => (AdjOp::Fps, 0),
+                AdjKind::Hsb(i) => (AdjOp::Hsb, i),
             };
             prims.push(PrimAdj { kind: k, axis, args });
         }

@@ -10,6 +10,10 @@ fn disassembly_snapshots() {
         let text = std::fs::read_to_string(&path).expect("read");
         let bundle = build_source(&text);
         let dis = mdg_vm::bundle::disassemble(&bundle);
+        // Readable text, not Rust debug output of the bundle's structures.
+        for leak in ["Some(", "None", "Call(", "Push(", "Bin(", "PrimAdj", "kind", "::", "?", ".0,", " { "] {
+            assert!(!dis.contains(leak), "{}: the disassembly shows `{leak}`:\n{dis}", path.display());
+        }
         snapshot(&path.with_extension("disasm"), &dis).expect("snapshot");
     }
 }
@@ -48,6 +52,14 @@ fn opcode_documentation_is_generated_from_the_table() {
             .iter()
             .enumerate()
             .map(|(i, k)| format!("{i} `{k}`"))
+            .collect::<Vec<_>>()
+            .join(", "),
+    );
+    doc.push_str(".\n\nAdjustment ops of dynamic transforms (one byte each, then an axis byte): ");
+    doc.push_str(
+        &mdg_vm::bundle::AdjOp::ALL
+            .iter()
+            .map(|a| format!("{} `{}` (≤ {} arguments)", *a as u8, a.family(), a.max_args()))
             .collect::<Vec<_>>()
             .join(", "),
     );

@@ -22,7 +22,7 @@
 //! a seed gives the same stream on every machine and rand version.
 
 use crate::anim::{frames_needed, MAX_TRACK_FRAMES};
-use crate::bundle::{self, Bundle, Composite, Op, Selector, Transform, CONT_NEXT, NONE};
+use crate::bundle::{self, Bundle, Composite, Drawable, Op, Selector, Transform, CONT_NEXT, NONE};
 use crate::expr::{self, ExprOp, Random};
 use crate::geom::quat::{Affine, Frame};
 use crate::geom::{blend, marching, sweep};
@@ -650,7 +650,7 @@ impl<'b> Eval<'b> {
             stop_pc: None,
             needs_last: b.code.iter().any(|op| match op {
                 Op::Loop { chain, .. } | Op::LoopN { chain, .. } => chain & bundle::ops::LOOP_CHAIN != 0,
-                Op::Cont {} | Op::Draw { kind: 9, .. } => true,
+                Op::Cont {} | Op::Draw { kind: Drawable::Reset, .. } => true,
                 _ => false,
             }),
             xf_info: b
@@ -871,7 +871,7 @@ impl<'b> Eval<'b> {
                         });
                     }
                 }
-                Op::Draw { kind: 0, xf, ns, profile, flags: _ }
+                Op::Draw { kind: Drawable::Vertex, xf, ns, profile, flags: _ }
                     if mode == Mode::Model && self.xf_info[xf as usize].is_some() =>
                 {
                     // VERTEX with a constant transform: position, normal and mirroring
@@ -893,7 +893,7 @@ impl<'b> Eval<'b> {
                         act.cont = None;
                         self.last = s;
                         let bone = act.bone;
-                        self.draw(0, s, ns, profile, mode, bone);
+                        self.draw(Drawable::Vertex, s, ns, profile, mode, bone);
                         continue;
                     }
                     let Some(x) = &self.xf_info[xf as usize] else {
@@ -1288,16 +1288,16 @@ impl<'b> Eval<'b> {
         frames
     }
 
-    fn draw(&mut self, kind: u8, s: State, ns: u32, profile: u32, mode: Mode, bone: u32) {
+    fn draw(&mut self, kind: Drawable, s: State, ns: u32, profile: u32, mode: Mode, bone: u32) {
         if mode == Mode::Profile {
-            if kind == 0 {
+            if kind == Drawable::Vertex {
                 self.profile_points.push(s.f.u);
             }
             return;
         }
         if mode == Mode::Transform {
             // Only FRAME counts while a transform rule is sampled.
-            if kind == 8 {
+            if kind == Drawable::Frame {
                 if self.frame_sink.len() >= self.frame_limit {
                     self.halt = true;
                 } else {
@@ -1308,7 +1308,7 @@ impl<'b> Eval<'b> {
         }
         let ns_i = ns as usize;
         match kind {
-            0 => {
+            Drawable::Vertex => {
                 let n = self.lins.affine(&s).apply_normal(Vec3::from_array(self.b.settings.normal));
                 let m = &mut self.out.mesh;
                 m.push_vertex(s.f.u, n, s.display_color(), s.weight, bone);
@@ -1317,7 +1317,7 @@ impl<'b> Eval<'b> {
                     m.push_triangle([k - 3, k - 2, k - 1], s.mirrored());
                 }
             }
-            1 => {
+            Drawable::FaceNormals => {
                 let m = &mut self.out.mesh;
                 let k = m.n_vertices();
                 if k >= 3 {
@@ -1332,11 +1332,11 @@ impl<'b> Eval<'b> {
                     }
                 }
             }
-            2 => {
+            Drawable::MoveTo => {
                 self.pens[ns_i] = Pen { state: s, lifted: false, line: None, bone };
                 self.new_line(ns_i, s.f.u, bone);
             }
-            3..=6 => {
+            Drawable::LineTo | Drawable::BlendTo | Drawable::SLineTo | Drawable::ALineTo => {
                 let pen = self.pens[ns_i];
                 if pen.lifted {
                     self.pens[ns_i] = Pen { state: s, lifted: false, line: None, bone };
@@ -1356,8 +1356,10 @@ impl<'b> Eval<'b> {
                         let (na, nb) = (self.lins.affine(&pen.state).n, self.lins.affine(&s).n);
                         let ring = |f: Frame, n| Affine { f, n };
                         match kind {
-                            3 => sweep::sweep(m, &pts, &ring(pen.state.f, na), &ring(s.f, nb), ca, cb, bone),
-                            4 => {
+                            Drawable::LineTo => {
+                                sweep::sweep(m, &pts, &ring(pen.state.f, na), &ring(s.f, nb), ca, cb, bone)
+                            }
+                            Drawable::BlendTo => {
                                 let frames = blend::blend_frames(&pen.state.f, &s.f, BLEND_SEGMENTS);
                                 let last = frames.len().saturating_sub(1);
                                 let rings: Vec<Affine> = frames
@@ -1368,7 +1370,7 @@ impl<'b> Eval<'b> {
                                 sweep::sweep_path(m, &pts, &rings, ca, cb, bone);
                             }
                             _ => {
-                                let (a, b) = if kind == 5 {
+                                let (a, b) = if kind == Drawable::SLineTo {
                                     sweep::oriented_pair(&pen.state.f, &s.f)
                                 } else {
                                     sweep::averaged_pair(&pen.state.f, &s.f)
@@ -1395,11 +1397,11 @@ impl<'b> Eval<'b> {
                 self.pens[ns_i].state = s;
                 self.pens[ns_i].bone = bone;
             }
-            7 => self.pens[ns_i].lifted = true,
+            Drawable::NewLine => self.pens[ns_i].lifted = true,
             // FRAME draws nothing in a model: it only counts when a transform rule is sampled.
-            8 => {}
-            9 => self.last = self.pens[ns_i].state,
-            _ => {
+            Drawable::Frame => {}
+            Drawable::Reset => self.last = self.pens[ns_i].state,
+            Drawable::Debug => {
                 let p = s.f.u;
                 let debug = &mut self.out.debug;
                 if debug.len() < crate::output::MAX_DEBUG_LINES {
@@ -1833,10 +1835,19 @@ fn then_affine(h: &mut [f32; 5], i: usize, m: f32, a: f32) {
 /// Applies one primitive adjustment with argument values `args` (`n_args` of them
 /// given; missing ones are 0) to the frame `f` and the deltas `c` (see [`compose_prims`]).
 #[inline]
-fn apply_prim(f: &mut Affine, c: &mut Composite, kind: u8, axis: u8, args: &[f32; 3], n_args: usize, divisor: f32) {
+fn apply_prim(
+    f: &mut Affine,
+    c: &mut Composite,
+    kind: bundle::AdjOp,
+    axis: u8,
+    args: &[f32; 3],
+    n_args: usize,
+    divisor: f32,
+) {
     let arg = |i: usize| if i < n_args { args[i] } else { 0.0 };
+    use bundle::AdjOp;
     match kind {
-        0 => {
+        AdjOp::Translate => {
             let v = match axis {
                 0 => Vec3::new(arg(0), 0.0, 0.0),
                 1 => Vec3::new(0.0, arg(0), 0.0),
@@ -1845,7 +1856,7 @@ fn apply_prim(f: &mut Affine, c: &mut Composite, kind: u8, axis: u8, args: &[f32
             };
             *f = f.translate(v / divisor);
         }
-        1 => {
+        AdjOp::Rotate => {
             let axes = [Vec3::X, Vec3::Y, Vec3::Z];
             if axis == 3 {
                 for (i, a) in axes.iter().enumerate().take(n_args.min(3)) {
@@ -1855,7 +1866,7 @@ fn apply_prim(f: &mut Affine, c: &mut Composite, kind: u8, axis: u8, args: &[f32
                 *f = f.rotate(Quat::from_axis_angle(axes[axis as usize % 3], arg(0) / divisor));
             }
         }
-        2 => {
+        AdjOp::Scale => {
             let root = |s: f32| if divisor == 1.0 { s } else { s.signum() * s.abs().powf(1.0 / divisor) };
             *f = if n_args >= 2 {
                 // `s X Y [Z]` (Z defaults to 1, as Context Free's `s X Y`).
@@ -1865,7 +1876,7 @@ fn apply_prim(f: &mut Affine, c: &mut Composite, kind: u8, axis: u8, args: &[f32
                 f.scale(root(arg(0)))
             };
         }
-        3 => {
+        AdjOp::Flip => {
             let n = match axis {
                 0 => Vec3::X,
                 1 => Vec3::Y,
@@ -1874,8 +1885,8 @@ fn apply_prim(f: &mut Affine, c: &mut Composite, kind: u8, axis: u8, args: &[f32
             };
             *f = f.reflect(n);
         }
-        4 => c.color[axis as usize & 3] += arg(0) / divisor,
-        7 => {
+        AdjOp::Color => c.color[axis as usize & 3] += arg(0) / divisor,
+        AdjOp::Hsb => {
             // Hue, saturation (axis 1) or brightness (axis 2), Context Free's
             // semantics: `hue h` adds h degrees; `sat s`/`b s` with s in -1..1 move the
             // channel the fraction s of the way to 1 (s > 0) or to 0 (s < 0). An
@@ -1891,8 +1902,8 @@ fn apply_prim(f: &mut Affine, c: &mut Composite, kind: u8, axis: u8, args: &[f32
                 then_affine(h, i, keep, if s > 0.0 { 1.0 - keep } else { 0.0 });
             }
         }
-        5 => c.weight[axis as usize & 3] += arg(0) / divisor,
-        _ => c.fps += arg(0) / divisor,
+        AdjOp::Weight => c.weight[axis as usize & 3] += arg(0) / divisor,
+        AdjOp::Fps => c.fps += arg(0) / divisor,
     }
 }
 
@@ -1911,7 +1922,7 @@ mod tests {
     fn hsb(kind_axis: &[(u8, f32)], divisor: f32) -> [f32; 5] {
         let prims: Vec<bundle::PrimAdj> = kind_axis
             .iter()
-            .map(|&(axis, v)| bundle::PrimAdj { kind: 7, axis, args: vec![bundle::Arg::Const(v)] })
+            .map(|&(axis, v)| bundle::PrimAdj { kind: bundle::AdjOp::Hsb, axis, args: vec![bundle::Arg::Const(v)] })
             .collect();
         compose_prims(&prims, divisor).hsb.expect("an HSB part")
     }
@@ -1956,7 +1967,7 @@ mod tests {
     #[test]
     fn a_non_uniform_scale_is_per_axis_and_its_steps_are_roots() {
         let prims = [bundle::PrimAdj {
-            kind: 2,
+            kind: bundle::AdjOp::Scale,
             axis: 0,
             args: vec![bundle::Arg::Const(8.0), bundle::Arg::Const(1.0), bundle::Arg::Const(27.0)],
         }];
@@ -1969,7 +1980,11 @@ mod tests {
             assert!((three.apply_vector(v) - f.apply_vector(v)).length() < 1e-4);
         }
         // `s X Y` leaves z alone.
-        let two = [bundle::PrimAdj { kind: 2, axis: 0, args: vec![bundle::Arg::Const(0.1), bundle::Arg::Const(1.0)] }];
+        let two = [bundle::PrimAdj {
+            kind: bundle::AdjOp::Scale,
+            axis: 0,
+            args: vec![bundle::Arg::Const(0.1), bundle::Arg::Const(1.0)],
+        }];
         let g = affine(&compose_prims(&two, 1.0));
         assert!((g.apply_vector(Vec3::new(1.0, 1.0, 1.0)) - Vec3::new(0.1, 1.0, 1.0)).length() < 1e-6);
     }

@@ -184,7 +184,7 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
                 w.f32(*divisor);
                 w.len(adjs.len());
                 for a in adjs {
-                    w.u8(a.kind);
+                    w.u8(a.kind as u8);
                     w.u8(a.axis);
                     w.len(a.args.len());
                     for arg in &a.args {
@@ -439,7 +439,8 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
                 let n = r.len(6)?;
                 let mut adjs = Vec::with_capacity(n);
                 for _ in 0..n {
-                    let kind = r.u8()?;
+                    let k = r.u8()?;
+                    let kind = AdjOp::from_byte(k).ok_or_else(|| r.err(&format!("unknown adjustment kind {k}")))?;
                     let axis = r.u8()?;
                     let n = r.len(5)?;
                     let mut args = Vec::with_capacity(n);

@@ -57,19 +57,10 @@ pub fn expr_text(code: &[crate::expr::ExprOp]) -> String {
     st.pop().map(|(t, _)| t).unwrap_or_default()
 }
 
-/// The name of adjustment kind `kind` with `axis` (see [`PrimAdj`]).
-fn prim_name(kind: u8, axis: u8) -> String {
-    let ax = |a: u8| ["x", "y", "z", "xyz"].get(a as usize).copied().unwrap_or("?");
-    match kind {
-        0 => format!("translate.{}", ax(axis)),
-        1 => format!("rotate.{}", ax(axis)),
-        2 => "scale".into(),
-        3 => format!("flip.{}", if axis == 3 { "normal" } else { ax(axis) }),
-        4 => format!("color.{axis}"),
-        5 => format!("weight.{axis}"),
-        6 => "fps".into(),
-        _ => format!("kind{kind}"),
-    }
+/// `(a b c)`: a list of numbers as the disassembler writes them.
+fn tuple<T: std::fmt::Display>(v: &[T]) -> String {
+    let parts: Vec<String> = v.iter().map(|x| x.to_string()).collect();
+    format!("({})", parts.join(" "))
 }
 
 /// Renders the whole bundle.
@@ -84,7 +75,8 @@ pub fn disassemble(b: &Bundle) -> String {
         s.maxdepth, s.minsize, s.maxiter, s.stacksize, s.randseed, s.fps, s.duration
     );
     let ns: Vec<&str> = s.namespaces.iter().map(|n| b.string(*n)).collect();
-    let _ = writeln!(o, "namespaces {:?}", ns);
+    let ns: Vec<String> = ns.iter().map(|n| format!("\"{n}\"")).collect();
+    let _ = writeln!(o, "namespaces [{}]", ns.join(", "));
     let _ = writeln!(o, "\n; transforms");
     for (i, t) in b.transforms.iter().enumerate() {
         match t {
@@ -103,7 +95,7 @@ pub fn disassemble(b: &Bundle) -> String {
                                 Arg::Expr(e) => format!("E{e}"),
                             })
                             .collect();
-                        format!("{} {}", prim_name(a.kind, a.axis), args.join(" "))
+                        std::iter::once(a.kind.name(a.axis)).chain(args).collect::<Vec<_>>().join(" ")
                     })
                     .collect();
                 let _ = writeln!(o, "X{i:<4} dynamic /{divisor} {{{}}}", list.join("; "));
@@ -144,7 +136,15 @@ pub fn disassemble(b: &Bundle) -> String {
                 .collect();
             format!("({}) frame={}", p.join(", "), r.frame)
         };
-        let _ = writeln!(o, "R{i:<4} {}{params} {:?} [{}]", b.string(r.name), r.selector, defs.join(", "));
+        let selector = match r.selector {
+            Selector::Random => "random".to_string(),
+            Selector::Depth => "depth".to_string(),
+            Selector::Scale => "scale".to_string(),
+            Selector::Sequential => "sequential".to_string(),
+            Selector::Pattern => "pattern".to_string(),
+            Selector::Function(e) => format!("function E{e}"),
+        };
+        let _ = writeln!(o, "R{i:<4} {}{params} {selector} [{}]", b.string(r.name), defs.join(", "));
     }
     let _ = writeln!(o, "\n; code");
     let mut last_src = None;
@@ -161,25 +161,29 @@ pub fn disassemble(b: &Bundle) -> String {
             .into_iter()
             .map(|(n, v)| match (op, n) {
                 (Op::Call { .. }, "rule") => b.string(b.rules.get(v as usize).map(|r| r.name).unwrap_or(0)).to_string(),
-                (Op::Draw { .. }, "kind") => ops::DRAWABLE_KINDS.get(v as usize).unwrap_or(&"?").to_string(),
+                (Op::Draw { kind, .. }, "kind") => kind.name().to_string(),
                 (_, "xf" | "step") => format!("X{v}"),
                 (Op::LoopN { .. }, "count") | (_, "expr") => format!("E{v}"),
                 (_, "slot") => format!("s{v}"),
                 (_, "target" | "end" | "begin") => format!("@{v}"),
                 (_, "profile") if v == NONE as u64 => "-".to_string(),
+                (_, "profile") => {
+                    format!("profile={}", b.string(b.rules.get(v as usize).map(|r| r.name).unwrap_or(0)))
+                }
                 _ => format!("{n}={v}"),
             })
             .collect();
-        let _ = writeln!(o, "{pc:>6}  {:<8} {}", op.mnemonic(), operands.join(" "));
+        let line = format!("{pc:>6}  {:<8} {}", op.mnemonic(), operands.join(" "));
+        let _ = writeln!(o, "{}", line.trim_end());
     }
     for (i, iso) in b.isosurfaces.iter().enumerate() {
         let _ = writeln!(
             o,
-            "\nI{i} isosurface {} min={:?} max={:?} res={:?} f=E{}",
+            "\nI{i} isosurface {} min={} max={} res={} f=E{}",
             b.string(iso.name),
-            iso.min,
-            iso.max,
-            iso.res,
+            tuple(&iso.min),
+            tuple(&iso.max),
+            tuple(&iso.res),
             iso.function
         );
     }
@@ -194,7 +198,7 @@ pub fn disassemble(b: &Bundle) -> String {
     for u in &b.uniforms {
         match u.source {
             UniformSource::Const(v) => {
-                let _ = writeln!(o, "uniform {} {:?}", b.string(u.name), v);
+                let _ = writeln!(o, "uniform {} {}", b.string(u.name), tuple(&v));
             }
             UniformSource::Frame { rule, prop } => {
                 let rule = b.string(b.rules.get(rule as usize).map(|r| r.name).unwrap_or(0));

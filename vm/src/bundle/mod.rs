@@ -15,7 +15,7 @@ mod verify;
 
 pub use codec::{decode, encode};
 pub use disasm::{disassemble, expr_text};
-pub use ops::{Op, CONT_NEXT, NONE};
+pub use ops::{Drawable, Op, CONT_NEXT, NONE};
 pub use verify::verify;
 
 use crate::expr::ExprOp;
@@ -63,15 +63,82 @@ impl Composite {
     };
 }
 
+/// What a run-time adjustment does (one byte in the bundle).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[repr(u8)]
+pub enum AdjOp {
+    /// Translate along one axis, or by (X, Y, Z) with axis 3.
+    Translate = 0,
+    /// Rotate about one axis, or about x, then y, then z with axis 3.
+    Rotate = 1,
+    /// Scale: one argument uniform; two or three per axis (`s X Y [Z]`).
+    Scale = 2,
+    /// Mirror across the plane normal to an axis, or to the arguments' vector (axis 3).
+    Flip = 3,
+    /// Add to the colour component `axis` (R, G, B, A).
+    Color = 4,
+    /// Add to the weight component `axis`.
+    Weight = 5,
+    /// Add to the frames per second of the subtree.
+    Fps = 6,
+    /// Hue (axis 0), saturation (1) or brightness (2), Context Free's meaning.
+    Hsb = 7,
+}
+
+impl AdjOp {
+    /// Every op, in byte order.
+    pub const ALL: [AdjOp; 8] = [
+        AdjOp::Translate,
+        AdjOp::Rotate,
+        AdjOp::Scale,
+        AdjOp::Flip,
+        AdjOp::Color,
+        AdjOp::Weight,
+        AdjOp::Fps,
+        AdjOp::Hsb,
+    ];
+
+    /// The op of a bundle byte.
+    pub fn from_byte(b: u8) -> Option<AdjOp> {
+        AdjOp::ALL.get(b as usize).copied()
+    }
+
+    /// The most arguments the op takes.
+    pub fn max_args(self) -> usize {
+        match self {
+            AdjOp::Translate | AdjOp::Rotate | AdjOp::Scale | AdjOp::Flip => 3,
+            AdjOp::Color | AdjOp::Weight | AdjOp::Fps | AdjOp::Hsb => 1,
+        }
+    }
+
+    /// The op's name without an axis (`translate`, `hsb`).
+    pub fn family(self) -> &'static str {
+        ["translate", "rotate", "scale", "flip", "color", "weight", "fps", "hsb"][self as usize]
+    }
+
+    /// The op and axis as the disassembler prints them (`translate.x`, `hue`).
+    pub fn name(self, axis: u8) -> String {
+        let ax = ["x", "y", "z", "xyz"].get(axis as usize).copied().unwrap_or("?");
+        match self {
+            AdjOp::Translate => format!("translate.{ax}"),
+            AdjOp::Rotate => format!("rotate.{ax}"),
+            AdjOp::Scale => "scale".into(),
+            AdjOp::Flip => format!("flip.{}", if axis == 3 { "normal" } else { ax }),
+            AdjOp::Color => format!("color.{}", ["r", "g", "b", "a"].get(axis as usize).unwrap_or(&"?")),
+            AdjOp::Weight => format!("weight.{axis}"),
+            AdjOp::Fps => "fps".into(),
+            AdjOp::Hsb => ["hue", "sat", "b"].get(axis as usize).unwrap_or(&"hsb?").to_string(),
+        }
+    }
+}
+
 /// A primitive adjustment evaluated at run time (when an argument draws random numbers).
 #[derive(Clone, Debug, PartialEq)]
 pub struct PrimAdj {
-    /// 0 translate, 1 rotate, 2 scale (one argument: uniform; two or three: per
-    /// axis), 3 flip, 4 colour, 5 weight, 6 fps, 7 HSB (axis 0 hue, 1 saturation,
-    /// 2 brightness).
-    pub kind: u8,
+    pub kind: AdjOp,
     /// For translate/rotate: 0..2 a single axis, 3 all three (`x X Y Z`, `r X Y Z`);
-    /// for flip: 0..2 axis, 3 a normal from the arguments; for colour/weight: component.
+    /// for flip: 0..2 axis, 3 a normal from the arguments; for colour/weight: component;
+    /// for HSB: 0 hue, 1 saturation, 2 brightness.
     pub axis: u8,
     /// Argument values: constants or expression indices.
     pub args: Vec<Arg>,

@@ -30,7 +30,7 @@ macro_rules! for_each_op {
         $m! {
             (0x01, Call, "CALL", { rule: u32, xf: u32, flags: u8 },
                 "r x f    push frame; S := start ∘ X[x]; run the definition of rule r its selector picks");
-            (0x02, Draw, "DRAW", { kind: u8, xf: u32, ns: u32, profile: u32, flags: u8 },
+            (0x02, Draw, "DRAW", { kind: Drawable, xf: u32, ns: u32, profile: u32, flags: u8 },
                 "k x n p f  S := start ∘ X[x]; drawable k on namespace n's pen (profile rule p or NONE); last := S");
             (0x03, Iso, "ISO", { iso: u32, xf: u32, flags: u8 },
                 "i x f    S := start ∘ X[x]; place an instance of isosurface i; last := S");
@@ -83,7 +83,7 @@ macro_rules! define_ops {
                 match *self {
                     $(Op::$name { $($f),* } => {
                         out.push($byte);
-                        $( out.extend_from_slice(&$f.to_le_bytes()); )*
+                        $( Operand::write($f, out); )*
                     })*
                 }
             }
@@ -95,12 +95,9 @@ macro_rules! define_ops {
                 #[allow(unused_macros)]
                 macro_rules! read {
                     ($ty:ty) => {{
-                        const N: usize = std::mem::size_of::<$ty>();
-                        let bytes = code.get(at..at + N).ok_or_else(|| format!("code ends inside an instruction at byte {pos}"))?;
-                        at += N;
-                        let mut arr = [0u8; N];
-                        arr.copy_from_slice(bytes);
-                        <$ty>::from_le_bytes(arr)
+                        let (v, n) = <$ty as Operand>::read(code, at).ok_or_else(|| format!("code ends inside an instruction at byte {pos}"))??;
+                        at += n;
+                        v
                     }};
                 }
                 let op = match byte {
@@ -113,7 +110,7 @@ macro_rules! define_ops {
             /// The operands as `name=value` text, for the disassembler.
             pub fn operands(&self) -> Vec<(&'static str, u64)> {
                 match *self {
-                    $(Op::$name { $($f),* } => vec![$((stringify!($f), $f as u64)),*],)*
+                    $(Op::$name { $($f),* } => vec![$((stringify!($f), Operand::value($f))),*],)*
                 }
             }
         }
@@ -125,17 +122,103 @@ macro_rules! define_ops {
 
 for_each_op!(define_ops);
 
-/// Drawable kinds used by `DRAW`.
-pub const DRAWABLE_KINDS: &[&str] = &[
-    "VERTEX",
-    "FACENORMALS",
-    "MOVETO",
-    "LINETO",
-    "BLENDTO",
-    "SLINETO",
-    "ALINETO",
-    "NEWLINE",
-    "FRAME",
-    "RESET",
-    "DEBUG",
-];
+/// An operand of the op table: little-endian bytes in the code.
+pub trait Operand: Copy {
+    /// Appends the encoding.
+    fn write(self, out: &mut Vec<u8>);
+    /// Decodes the operand at `at`: `None` when the code ends first, `Some(Err)` when
+    /// the bytes are not a value of the type; else the value and its length.
+    fn read(code: &[u8], at: usize) -> Option<Result<(Self, usize), String>>;
+    /// The value as a number, for the disassembler.
+    fn value(self) -> u64;
+}
+
+macro_rules! int_operands {
+    ($($t:ty),*) => {$(
+        impl Operand for $t {
+            fn write(self, out: &mut Vec<u8>) {
+                out.extend_from_slice(&self.to_le_bytes());
+            }
+            fn read(code: &[u8], at: usize) -> Option<Result<(Self, usize), String>> {
+                const N: usize = std::mem::size_of::<$t>();
+                let bytes: [u8; N] = code.get(at..at + N)?.try_into().ok()?;
+                Some(Ok((<$t>::from_le_bytes(bytes), N)))
+            }
+            fn value(self) -> u64 {
+                u64::from(self)
+            }
+        }
+    )*};
+}
+int_operands!(u8, u16, u32, u64);
+
+/// Declares [`Drawable`] and [`DRAWABLE_KINDS`] from one list.
+macro_rules! drawables {
+    ($( $(#[$doc:meta])* $v:ident = $name:expr ),* $(,)?) => {
+        /// The drawable a `DRAW` emits (operand `k`; one byte in the code).
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+        #[repr(u8)]
+        pub enum Drawable {
+            $( $(#[$doc])* $v, )*
+        }
+
+        /// Drawable names by kind byte, as the language spells them.
+        pub const DRAWABLE_KINDS: &[&str] = &[$($name),*];
+
+        impl Drawable {
+            /// Every drawable, in kind-byte order.
+            pub const ALL: &[Drawable] = &[$(Drawable::$v),*];
+
+            /// The name in the language (`VERTEX`, `LINETO`, …).
+            pub fn name(self) -> &'static str {
+                DRAWABLE_KINDS[self as usize]
+            }
+
+            /// The drawable called `name` in the language.
+            pub fn from_name(name: &str) -> Option<Drawable> {
+                DRAWABLE_KINDS.iter().position(|n| *n == name).map(|i| Drawable::ALL[i])
+            }
+        }
+    };
+}
+
+drawables! {
+    /// A vertex at the frame's origin; every third closes a triangle.
+    Vertex = "VERTEX",
+    /// Recomputes the normals of the last three vertices (flat).
+    FaceNormals = "FACENORMALS",
+    /// Puts the pen down at the frame (a new polyline starts there).
+    MoveTo = "MOVETO",
+    /// A straight line (and a sweep of the profile) to the frame.
+    LineTo = "LINETO",
+    /// LINETO interpolating position, orientation and scale along a spline.
+    BlendTo = "BLENDTO",
+    /// LINETO with the profile orthogonal to the segment.
+    SLineTo = "SLINETO",
+    /// LINETO whose profile averages the two ends' orientations.
+    ALineTo = "ALINETO",
+    /// Lifts the pen: the next line starts a new polyline.
+    NewLine = "NEWLINE",
+    /// A frame sample of a transform rule (nothing in a model).
+    Frame = "FRAME",
+    /// Returns the transform to the namespace's last MOVETO/LINETO frame.
+    Reset = "RESET",
+    /// Reports the frame (position, scale, colour) in the run's debug lines.
+    Debug = "DEBUG",
+}
+
+impl Operand for Drawable {
+    fn write(self, out: &mut Vec<u8>) {
+        out.push(self as u8);
+    }
+    fn read(code: &[u8], at: usize) -> Option<Result<(Self, usize), String>> {
+        let k = *code.get(at)?;
+        Some(match Drawable::ALL.get(k as usize) {
+            Some(d) => Ok((*d, 1)),
+            None => Err(format!("unknown drawable kind {k} at byte {at}")),
+        })
+    }
+    fn value(self) -> u64 {
+        self as u64
+    }
+}

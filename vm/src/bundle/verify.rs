@@ -42,11 +42,7 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
                 return Err(bad(format!("transform {i}: divisor {divisor} ≤ 0")));
             }
             for a in adjs {
-                let max_args = match a.kind {
-                    0..=3 => 3,
-                    4..=7 => 1,
-                    k => return Err(bad(format!("transform {i}: unknown adjustment kind {k}"))),
-                };
+                let max_args = a.kind.max_args();
                 if a.axis > 3 || a.args.len() > max_args {
                     return Err(bad(format!("transform {i}: malformed adjustment")));
                 }
@@ -115,8 +111,8 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
                     return Err(bad(format!("{}: transform {xf} out of range", at("CALL"))));
                 }
             }
-            Op::Draw { kind, xf, ns, profile, .. } => {
-                if kind as usize >= ops::DRAWABLE_KINDS.len() || xf >= n_xf || ns as usize >= s.namespaces.len() {
+            Op::Draw { xf, ns, profile, .. } => {
+                if xf >= n_xf || ns as usize >= s.namespaces.len() {
                     return Err(bad(format!("{}: operand out of range", at("DRAW"))));
                 }
                 rule_or_none(profile, &at("DRAW"))?;
