@@ -63,5 +63,6 @@ fn main() -> ExitCode {
     // The stdin reader is a blocking thread that would keep the runtime (and the
     // process) alive; exit now. The LSP exit code: 0 after `shutdown`, else 1.
     let code = if shutdown.load(Ordering::SeqCst) { 0 } else { 1 };
+    server::join_warm_glsl();
     std::process::exit(code)
 }
