@@ -33,3 +33,31 @@ export function previewGlb(file: string, id: string, tmp: string = os.tmpdir()):
 export function previewArgs(file: string, glb: string): string[] {
   return [file, '--stdin', '-o', glb];
 }
+
+/** What a code lens runs with `mdg-run` on a saved file. */
+export type RunKind = 'render' | 'stats' | 'search' | 'evolve';
+
+/** The `.mdg` file's path with another ending: `tree.mdg` -> `tree.glb`. */
+export function besides(file: string, ending: string): string {
+  return file.replace(/\.mdg$/, '') + ending;
+}
+
+/**
+ * The arguments of `mdg-run` for a code lens: **Render .glb** writes `FILE.glb`
+ * beside the source; **Stats** prints the counters and writes the model to a
+ * temporary directory; **Run search** runs the guided search into `FILE.glb`
+ * beside the source; **Evolve** evolves the creature grammar into mdg-run's
+ * default folder beside the source.
+ */
+export function runArgs(kind: RunKind, file: string, tmp: string = os.tmpdir()): string[] {
+  switch (kind) {
+    case 'render':
+      return [file, '-o', besides(file, '.glb'), '--stats'];
+    case 'stats':
+      return [file, '--stats', '-o', path.join(tmp, 'mdg-stats', path.basename(besides(file, '.glb')))];
+    case 'search':
+      return [file, '--stats', '-o', besides(file, '.glb')];
+    case 'evolve':
+      return [file, '--stats'];
+  }
+}
