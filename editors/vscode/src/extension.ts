@@ -8,12 +8,15 @@ import * as vscode from 'vscode';
 import { spawn } from 'child_process';
 import * as path from 'path';
 import { LanguageClient, LanguageClientOptions, ServerOptions, TransportKind } from 'vscode-languageclient/node';
-import { resolveServerPath, runArgs, RunKind } from './paths';
+import { resolveProgram, runArgs, RunKind } from './paths';
 import { PreviewPanel } from './preview';
 
 let client: LanguageClient | undefined;
+/** The extension's folder (a platform .vsix carries bin/mdg-lsp, bin/mdg-run, std/). */
+let extensionPath: string | undefined;
 
 export async function activate(context: vscode.ExtensionContext): Promise<void> {
+  extensionPath = context.extensionPath;
   context.subscriptions.push(
     vscode.commands.registerCommand('mdg.preview', (uri?: string | vscode.Uri) => preview(context, uri)),
     vscode.commands.registerCommand('mdg.renderGlb', (uri?: string | vscode.Uri) => runTask('render', uri)),
@@ -40,12 +43,17 @@ function settings(): vscode.WorkspaceConfiguration {
   return vscode.workspace.getConfiguration('mdg');
 }
 
+/** `mdg-run`: the setting, else the platform .vsix's own, else the one on PATH. */
+function runProgram(): string {
+  return resolveProgram('mdg-run', settings().get<string>('runPath'), extensionPath, workspaceRoot());
+}
+
 function workspaceRoot(): string | undefined {
   return vscode.workspace.workspaceFolders?.[0]?.uri.fsPath;
 }
 
 async function startClient(): Promise<void> {
-  const command = resolveServerPath(settings().get<string>('serverPath'), workspaceRoot());
+  const command = resolveProgram('mdg-lsp', settings().get<string>('serverPath'), extensionPath, workspaceRoot());
   const env: NodeJS.ProcessEnv = { ...process.env };
   const std = settings().get<string>('stdPath', '').trim();
   if (std !== '') {
@@ -133,7 +141,7 @@ function activeMdg(): vscode.TextDocument | undefined {
 async function preview(context: vscode.ExtensionContext, uri?: string | vscode.Uri): Promise<void> {
   const doc = await targetMdg(uri);
   if (doc) {
-    PreviewPanel.show(context, doc, () => settings().get<string>('runPath', 'mdg-run'));
+    PreviewPanel.show(context, doc, runProgram);
   }
 }
 
@@ -173,7 +181,7 @@ async function runTask(kind: RunKind, uri?: string | vscode.Uri): Promise<void> 
     await doc.save();
   }
   const file = doc.uri.fsPath;
-  const run = settings().get<string>('runPath', 'mdg-run');
+  const run = runProgram();
   const folder = vscode.workspace.getWorkspaceFolder(doc.uri);
   const execution = new vscode.ProcessExecution(run, runArgs(kind, file), { cwd: path.dirname(file) });
   const task = new vscode.Task(

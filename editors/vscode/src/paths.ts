@@ -1,5 +1,6 @@
 // Pure helpers of the extension (no `vscode` import), unit-tested with node:test.
 
+import * as fs from 'fs';
 import * as os from 'os';
 import * as path from 'path';
 
@@ -60,4 +61,27 @@ export function runArgs(kind: RunKind, file: string, tmp: string = os.tmpdir()):
     case 'evolve':
       return [file, '--stats'];
   }
+}
+
+/**
+ * A program of a platform `.vsix` (`scripts/package-platform.sh` puts `mdg-lsp` and
+ * `mdg-run` in the extension's `bin/`, with `std/` beside it): used when the setting
+ * is left at its default (empty or the bare program name) and the file is there;
+ * otherwise the setting, resolved as `resolveServerPath` does.
+ */
+export function resolveProgram(
+  name: string,
+  setting: string | undefined,
+  extensionPath: string | undefined,
+  workspaceRoot?: string,
+  exists: (p: string) => boolean = (p) => fs.existsSync(p),
+): string {
+  const s = (setting ?? '').trim();
+  if ((s === '' || s === name) && extensionPath) {
+    const bundled = path.join(extensionPath, 'bin', process.platform === 'win32' ? `${name}.exe` : name);
+    if (exists(bundled)) {
+      return bundled;
+    }
+  }
+  return s === '' ? name : resolveServerPath(s, workspaceRoot);
 }

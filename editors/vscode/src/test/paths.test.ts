@@ -2,7 +2,7 @@
 
 import { test } from 'node:test';
 import * as assert from 'node:assert/strict';
-import { previewArgs, previewGlb, resolveServerPath, runArgs } from '../paths';
+import { previewArgs, previewGlb, resolveProgram, resolveServerPath, runArgs } from '../paths';
 
 test('server path: default, home, workspace-relative, PATH names, absolute', () => {
   assert.equal(resolveServerPath(undefined), 'mdg-lsp');
@@ -23,4 +23,13 @@ test('code lenses run mdg-run on the saved file', () => {
   assert.deepEqual(runArgs('stats', '/a/tree.mdg', '/tmp'), ['/a/tree.mdg', '--stats', '-o', '/tmp/mdg-stats/tree.glb']);
   assert.deepEqual(runArgs('search', '/a/guided.mdg'), ['/a/guided.mdg', '--stats', '-o', '/a/guided.glb']);
   assert.deepEqual(runArgs('evolve', '/a/monsters.mdg'), ['/a/monsters.mdg', '--stats']);
+});
+
+test('a platform .vsix runs its own binaries unless a setting names others', () => {
+  const there = (p: string) => p === '/ext/bin/mdg-lsp' || p === '/ext/bin/mdg-run';
+  assert.equal(resolveProgram('mdg-lsp', '', '/ext', undefined, there), '/ext/bin/mdg-lsp');
+  assert.equal(resolveProgram('mdg-run', 'mdg-run', '/ext', undefined, there), '/ext/bin/mdg-run');
+  assert.equal(resolveProgram('mdg-lsp', 'target/debug/mdg-lsp', '/ext', '/w', there), '/w/target/debug/mdg-lsp');
+  assert.equal(resolveProgram('mdg-lsp', '', '/other', undefined, there), 'mdg-lsp');
+  assert.equal(resolveProgram('mdg-run', undefined, undefined, undefined, there), 'mdg-run');
 });
