@@ -81,3 +81,29 @@ fn rules(items: &[Item], ns: Option<&str>, out: &mut Vec<RuleDef>) {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::fixture::doc_with;
+
+    #[test]
+    fn callers_and_callees_across_files_and_namespaces() {
+        let (d, _) = doc_with(
+            "@import lib.mdg\nstartshape ns.top\nnamespace ns {\n  rule top { leaf {} 3 * {x 1} leaf {} twig {} }\n}\n",
+            &[("lib.mdg", "rule leaf { VERTEX {} }\nrule twig { leaf {} }\n")],
+        );
+        let defs = d.rule_definitions();
+        let names: Vec<&str> = defs.iter().map(|r| r.name.as_str()).collect();
+        assert_eq!(names, ["ns.top", "leaf", "twig"]);
+        let top = &defs[0];
+        let calls: Vec<String> = d.outgoing_calls(top).into_iter().map(|c| c.callee).collect();
+        assert_eq!(calls, ["leaf", "leaf", "twig"]);
+        // The call of `leaf` in the library is inside `twig`.
+        let twig = &defs[2];
+        let call = d.outgoing_calls(twig)[0].span;
+        assert_eq!(d.enclosing_rule(call).map(|r| r.name), Some("twig".to_string()));
+        // `startshape` is in no rule.
+        let start = d.index().main.iter().find(|o| o.span.start == 27).map(|o| o.span);
+        assert_eq!(start.and_then(|s| d.enclosing_rule(s)), None);
+    }
+}

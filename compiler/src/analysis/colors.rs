@@ -175,3 +175,27 @@ fn adj_lists<'a>(items: &'a [Item], out: &mut Vec<&'a AdjList>) {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::fixture::doc;
+    use super::ColorForm;
+
+    #[test]
+    fn renamed_components_and_lists_without_a_plain_colour() {
+        let src = "color red green blue alpha\nstartshape A\nrule A {\n  t {red -0.5 x 1}\n  t {R -1}\n  t {blue (1/2)}\n  3 * {green -0.1} t {}\n}\nrule t { VERTEX {} }\n";
+        let (d, _) = doc(src);
+        let cs = d.colors();
+        assert_eq!(cs.len(), 1, "{cs:?}");
+        assert_eq!(&src[cs[0].span.range()], "red -0.5");
+        assert_eq!(cs[0].form, ColorForm::Deltas);
+        assert_eq!(cs[0].rgba, [0.5, 1.0, 1.0, 1.0]);
+        assert_eq!(d.color_presentation(cs[0].span, [1.0, 1.0, 1.0, 1.0]).as_deref(), Some("red 0"));
+        assert_eq!(
+            d.color_presentation(cs[0].span, [0.25, 0.123456, 1.0, 1.0]).as_deref(),
+            Some("red -0.75 green -0.877")
+        );
+        // Only where a literal is.
+        assert_eq!(d.color_presentation(crate::span::Span::new(d.main_file(), 0, 3), [1.0; 4]), None);
+    }
+}

@@ -133,3 +133,34 @@ mod tests {
         assert!(format_edit(FileId(0), "rule A { VERTEX {").is_err());
     }
 }
+
+#[cfg(test)]
+mod range_tests {
+    use super::*;
+
+    fn apply(text: &str, e: &Edit) -> String {
+        let mut out = text.to_string();
+        out.replace_range(e.span.range(), &e.new_text);
+        out
+    }
+
+    #[test]
+    fn only_the_items_the_range_touches() {
+        let src =
+            "startshape A\nrule A {   VERTEX {} }\nnamespace n {\n    rule b {VERTEX {}}\n}\nrule C {VERTEX {}}\n";
+        // A cursor inside the namespace: the whole namespace (one item) and nothing else.
+        let at = src.find("rule b").unwrap_or(0) as u32;
+        let e = format_range_edit(FileId(0), src, at, at).expect("parses").expect("changes");
+        assert_eq!(
+            apply(src, &e),
+            "startshape A\nrule A {   VERTEX {} }\nnamespace n {\n  rule b {\n    VERTEX {}\n  }\n}\nrule C {VERTEX {}}\n"
+        );
+        // A range over two items formats both.
+        let (s, t) = (src.find("rule A").unwrap_or(0) as u32, src.find("rule C").unwrap_or(0) as u32 + 2);
+        let e = format_range_edit(FileId(0), src, s, t).expect("parses").expect("changes");
+        assert_eq!(apply(src, &e), crate::fmt::format_source(src).expect("fmt"));
+        // Formatted already: no edit.
+        assert_eq!(format_range_edit(FileId(0), src, 0, 3), Ok(None));
+        assert!(format_range_edit(FileId(0), "rule A { VERTEX {", 0, 1).is_err());
+    }
+}

@@ -65,3 +65,28 @@ fn sections(items: &[Item], out: &mut Vec<LensTarget>) {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::fixture::doc;
+    use super::LensKind;
+
+    #[test]
+    fn lenses_in_namespaces_and_both_ifdef_branches() {
+        let src = "@ifdef BIG\nstartshape ns.a\n@else\nstartshape ns.b\n@endif\nnamespace ns {\n  rule a { b {} }\n  rule b { VERTEX {} }\n}\nsearch { skeleton ns.a; }\ncreature m { }\n";
+        let (d, _) = doc(src);
+        let kinds: Vec<(LensKind, &str)> =
+            d.lens_targets().into_iter().map(|l| (l.kind, &src[l.span.start as usize..l.span.end as usize])).collect();
+        assert_eq!(
+            kinds,
+            [
+                (LensKind::Startshape, "startshape ns.a"),
+                (LensKind::Startshape, "startshape ns.b"),
+                (LensKind::Rule("ns.a".into()), "a"),
+                (LensKind::Rule("ns.b".into()), "b"),
+                (LensKind::Search, "search"),
+                (LensKind::Creature, "creature"),
+            ]
+        );
+    }
+}

@@ -334,3 +334,31 @@ impl Collect<'_> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::fixture::doc;
+
+    #[test]
+    fn every_offset_gets_a_chain_of_nested_spans_ending_with_the_file() {
+        let src = "@define N 3\nnamespace ns {\n  rule r(int n) { if (n > 0) { loop i = 0, N {x 1} r(n - 1) {s 0.5 rz (i * 10)} } else { VERTEX {} } }\n}\nguide g { points 0 0 0  1 1 1; }\nstartshape ns.r\n";
+        let (d, _) = doc(src);
+        for offset in 0..=src.len() as u32 {
+            let chain = d.selection_ranges(offset);
+            let last = chain.last().copied().unwrap_or_default();
+            assert_eq!((last.start, last.end), (0, src.len() as u32), "offset {offset}");
+            for w in chain.windows(2) {
+                let (inner, outer) = (w[0], w[1]);
+                assert!(inner.contains(offset), "offset {offset}: {inner:?}");
+                assert!(
+                    outer.start <= inner.start && inner.end <= outer.end && inner != outer,
+                    "offset {offset}: {chain:?}"
+                );
+            }
+        }
+        // Inside `(i * 10)`: the variable, the product, the parentheses, the adjustment, the list…
+        let at = src.find("i * 10").unwrap_or(0) as u32;
+        let texts: Vec<&str> = d.selection_ranges(at).iter().map(|s| &src[s.range()]).collect();
+        assert_eq!(&texts[..5], ["i", "i * 10", "(i * 10)", "rz (i * 10)", "s 0.5 rz (i * 10)"]);
+    }
+}
