@@ -29,7 +29,7 @@ fn main() -> ExitCode {
                 return ExitCode::SUCCESS;
             }
             "--help" | "-h" => {
-                println!("mdg-lsp {}: the MDG language server. It speaks LSP on stdin/stdout; start it from an editor.\n\nEnvironment: MDG_STD=DIR selects the std library.", env!("CARGO_PKG_VERSION"));
+                println!("mdg-lsp {}: the MDG language server. It speaks LSP on stdin/stdout; start it from an editor.\n\nEnvironment: MDG_STD=DIR selects the std library; MDG_DOCS_URL=URL (a published docs/ folder) is where diagnostic codes link (URL/diagnostics.md#CODE), else the docs installed beside std.", env!("CARGO_PKG_VERSION"));
                 return ExitCode::SUCCESS;
             }
             // Clients may say how to talk; stdio is the only way.
@@ -63,5 +63,6 @@ fn main() -> ExitCode {
     // The stdin reader is a blocking thread that would keep the runtime (and the
     // process) alive; exit now. The LSP exit code: 0 after `shutdown`, else 1.
     let code = if shutdown.load(Ordering::SeqCst) { 0 } else { 1 };
+    server::join_warm_glsl();
     std::process::exit(code)
 }

@@ -10,7 +10,7 @@ use mdg_compiler::analysis::{CompletionConfig, Document};
 use mdg_compiler::expand::Options;
 use mdg_compiler::span::{FileId, Span};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use tower_lsp_server::jsonrpc::{Error, Result};
 use tower_lsp_server::ls_types::*;
 use tower_lsp_server::{Client, LanguageServer};
@@ -22,7 +22,9 @@ pub struct Config {
     pub completion: CompletionConfig,
     /// Whether the `mdg.debug.panic` command exists (for testing panic isolation).
     pub panic_command: bool,
-    /// `docs/diagnostics.md` beside the std library, where a diagnostic's code links to.
+    /// `docs/diagnostics.md`, where a diagnostic's code links to (its entry's anchor
+    /// added): under `$MDG_DOCS_URL` (the URL of a `docs/` folder) when set, else the
+    /// file beside the std library.
     pub diagnostics_doc: Option<Uri>,
 }
 
@@ -41,12 +43,18 @@ impl Config {
             })
             .unwrap_or_default();
         std_libraries.sort();
-        let diagnostics_doc = std_dir
-            .as_ref()
-            .and_then(|d| d.parent())
-            .map(|root| root.join("docs/diagnostics.md"))
-            .filter(|p| p.is_file())
-            .and_then(Uri::from_file_path);
+        let published = std::env::var("MDG_DOCS_URL")
+            .ok()
+            .filter(|u| !u.trim().is_empty())
+            .and_then(|u| format!("{}/diagnostics.md", u.trim().trim_end_matches('/')).parse::<Uri>().ok());
+        let diagnostics_doc = published.or_else(|| {
+            std_dir
+                .as_ref()
+                .and_then(|d| d.parent())
+                .map(|root| root.join("docs/diagnostics.md"))
+                .filter(|p| p.is_file())
+                .and_then(Uri::from_file_path)
+        });
         Config {
             diagnostics_doc,
             options: Options { std_dir, ..Options::default() },
@@ -190,6 +198,30 @@ impl Backend {
     }
 }
 
+/// The thread warming glslang, joined before the process exits: glslang's static
+/// destructors must not run while it compiles.
+static WARM_GLSL: Mutex<Option<std::thread::JoinHandle<()>>> = Mutex::new(None);
+
+/// Compiles a trivial shader on a thread of its own, which initialises glslang.
+fn warm_glsl() {
+    let spawned = std::thread::Builder::new().name("mdg-lsp glslang warm-up".into()).spawn(|| {
+        let _ = guard(|| {
+            mdg_compiler::shaders::compile_glsl("#version 450\nvoid main() { gl_Position = vec4(0.0); }\n", true)
+        });
+    });
+    if let (Ok(handle), Ok(mut slot)) = (spawned, WARM_GLSL.lock()) {
+        *slot = Some(handle);
+    }
+}
+
+/// Waits for the glslang warm-up to finish (before `exit`).
+pub fn join_warm_glsl() {
+    let handle = WARM_GLSL.lock().ok().and_then(|mut s| s.take());
+    if let Some(h) = handle {
+        let _ = h.join();
+    }
+}
+
 impl LanguageServer for Backend {
     async fn initialize(&self, params: InitializeParams) -> Result<InitializeResult> {
         handlers::workspace::configure(self, &params);
@@ -208,6 +240,9 @@ impl LanguageServer for Backend {
             .log_message(MessageType::INFO, format!("mdg-lsp {} ready (std: {std})", env!("CARGO_PKG_VERSION")))
             .await;
         handlers::workspace::start(self);
+        // glslang's first compilation pays for its initialisation (0.6–0.8 s): done
+        // now, off the message loop, so the first shader block checked does not wait.
+        warm_glsl();
     }
 
     async fn shutdown(&self) -> Result<()> {
@@ -308,6 +343,47 @@ impl LanguageServer for Backend {
 
     async fn signature_help(&self, params: SignatureHelpParams) -> Result<Option<SignatureHelp>> {
         handlers::signature_help::signature_help(self, params).await
+    }
+
+    async fn code_lens(&self, params: CodeLensParams) -> Result<Option<Vec<CodeLens>>> {
+        handlers::code_lens::code_lens(self, params).await
+    }
+
+    async fn prepare_call_hierarchy(
+        &self,
+        params: CallHierarchyPrepareParams,
+    ) -> Result<Option<Vec<CallHierarchyItem>>> {
+        handlers::call_hierarchy::prepare(self, params).await
+    }
+
+    async fn incoming_calls(
+        &self,
+        params: CallHierarchyIncomingCallsParams,
+    ) -> Result<Option<Vec<CallHierarchyIncomingCall>>> {
+        handlers::call_hierarchy::incoming(self, params).await
+    }
+
+    async fn outgoing_calls(
+        &self,
+        params: CallHierarchyOutgoingCallsParams,
+    ) -> Result<Option<Vec<CallHierarchyOutgoingCall>>> {
+        handlers::call_hierarchy::outgoing(self, params).await
+    }
+
+    async fn selection_range(&self, params: SelectionRangeParams) -> Result<Option<Vec<SelectionRange>>> {
+        handlers::selection_range::selection_range(self, params).await
+    }
+
+    async fn range_formatting(&self, params: DocumentRangeFormattingParams) -> Result<Option<Vec<TextEdit>>> {
+        handlers::formatting::range_formatting(self, params).await
+    }
+
+    async fn document_color(&self, params: DocumentColorParams) -> Result<Vec<ColorInformation>> {
+        handlers::colors::document_color(self, params).await
+    }
+
+    async fn color_presentation(&self, params: ColorPresentationParams) -> Result<Vec<ColorPresentation>> {
+        handlers::colors::color_presentation(self, params).await
     }
 
     async fn execute_command(&self, params: ExecuteCommandParams) -> Result<Option<LSPAny>> {

@@ -41,6 +41,11 @@ fn initialize_announces_the_features() {
         "codeActionProvider",
         "inlayHintProvider",
         "documentLinkProvider",
+        "documentRangeFormattingProvider",
+        "codeLensProvider",
+        "callHierarchyProvider",
+        "selectionRangeProvider",
+        "colorProvider",
     ] {
         assert!(!caps[cap].is_null(), "missing {cap} in {caps}");
     }
@@ -65,7 +70,9 @@ fn diagnostics_hover_definition_completion_formatting() {
     assert_eq!(d["source"], "mdg");
     assert_eq!(d["range"], json!({"start": {"line": 2, "character": 12}, "end": {"line": 2, "character": 18}}));
     assert!(d["message"].as_str().unwrap_or("").starts_with("unknown rule `branch`"), "{d}");
-    assert!(d["codeDescription"]["href"].as_str().unwrap_or("").ends_with("/docs/diagnostics.md"), "{d}");
+    // The code links to its entry in the docs installed beside std.
+    let href = d["codeDescription"]["href"].as_str().unwrap_or("");
+    assert!(href.starts_with("file:///") && href.ends_with("/docs/diagnostics.md#e0301"), "{d}");
 
     // Hover: a drawable's docs and an iterator's step.
     let h = c.call("textDocument/hover", at(&u, MAIN, "VERTEX", 1));
@@ -492,5 +499,234 @@ fn links_token_ranges_and_format_errors() {
     assert_eq!(shown["type"], 2, "a warning: {shown}");
     assert!(shown["message"].as_str().unwrap_or("").contains("not formatting, the file has syntax errors"), "{shown}");
 
+    assert!(c.shutdown_and_exit().success());
+}
+
+/// The text of an LSP range (ASCII text only).
+fn text_of(text: &str, range: &Value) -> String {
+    let offset = |p: &Value| {
+        let line = p["line"].as_u64().unwrap_or(0) as usize;
+        let col = p["character"].as_u64().unwrap_or(0) as usize;
+        text.split_inclusive('\n').take(line).map(str::len).sum::<usize>() + col
+    };
+    text[offset(&range["start"])..offset(&range["end"])].to_string()
+}
+
+/// (title, command, line) of each lens, in order.
+fn lens_rows(lenses: &Value) -> Vec<(String, String, u64)> {
+    lenses
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|l| {
+            (
+                l["command"]["title"].as_str().unwrap_or("").to_string(),
+                l["command"]["command"].as_str().unwrap_or("").to_string(),
+                l["range"]["start"]["line"].as_u64().unwrap_or(99),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn code_lenses_and_call_hierarchy_across_the_workspace() {
+    let dir = common::canonical_scratch("lenses");
+    for (name, text) in [("lib.mdg", WS_LIB), ("a.mdg", WS_A), ("b.mdg", WS_B), ("sections.mdg", SECTIONS)] {
+        std::fs::write(dir.join(name), text).expect("write");
+    }
+    let (ul, ua, us) = (uri(&dir.join("lib.mdg")), uri(&dir.join("a.mdg")), uri(&dir.join("sections.mdg")));
+    let ub = uri(&dir.join("b.mdg"));
+    let s = |v: &str| v.to_string();
+    let mut c = Client::spawn();
+    c.initialize(&dir);
+    // `b.mdg` stays closed: its calls count from the workspace index.
+    c.open(&ul, 1, WS_LIB);
+    c.open(&ua, 1, WS_A);
+    c.open(&us, 1, SECTIONS);
+    c.diagnostics(&ua, 1);
+
+    // The importer: run lenses over `startshape`, the count over its rule.
+    let lenses = c.call("textDocument/codeLens", json!({"textDocument": text_doc(&ua)}));
+    assert_eq!(
+        lens_rows(&lenses),
+        [
+            (s("▶ Preview"), s("mdg.preview"), 1),
+            (s("Render .glb"), s("mdg.renderGlb"), 1),
+            (s("Stats"), s("mdg.stats"), 1),
+            (s("1 reference"), s("mdg.showReferences"), 2),
+        ],
+        "{lenses}"
+    );
+    assert_eq!(lenses[0]["command"]["arguments"], json!([ua]));
+    // The library's rule: called once in a.mdg and twice in the closed b.mdg.
+    let lenses = c.call("textDocument/codeLens", json!({"textDocument": text_doc(&ul)}));
+    assert_eq!(lens_rows(&lenses), [(s("3 references"), s("mdg.showReferences"), 0)], "{lenses}");
+    let args = &lenses[0]["command"]["arguments"];
+    assert_eq!(args[0], ul.as_str());
+    assert_eq!(args[1], json!({"line": 0, "character": 5}));
+    assert_eq!(places(&args[2]), [(s("a.mdg"), 2, 9), (s("b.mdg"), 2, 9), (s("b.mdg"), 2, 21)], "{lenses}");
+    // Extension sections: the guided search and the creature evolution.
+    let lenses = c.call("textDocument/codeLens", json!({"textDocument": text_doc(&us)}));
+    let rows = lens_rows(&lenses);
+    assert_eq!(rows[0], (s("Run search"), s("mdg.runSearch"), 0), "{lenses}");
+    assert!(rows.contains(&(s("Evolve"), s("mdg.evolve"), 7)), "{lenses}");
+
+    // Call hierarchy of the library's rule: called by A (open) and B (closed).
+    let items = c.call("textDocument/prepareCallHierarchy", at(&ul, WS_LIB, "shape", 1));
+    assert_eq!(items.as_array().map(Vec::len), Some(1), "{items}");
+    assert_eq!(items[0]["name"], "shape");
+    assert_eq!(items[0]["uri"], ul.as_str());
+    assert_eq!(items[0]["selectionRange"]["start"], json!({"line": 0, "character": 5}));
+    let incoming = c.call("callHierarchy/incomingCalls", json!({"item": items[0]}));
+    let callers: Vec<(String, String, usize)> = incoming
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|i| {
+            let u = i["from"]["uri"].as_str().unwrap_or("");
+            (
+                i["from"]["name"].as_str().unwrap_or("").to_string(),
+                u.rsplit('/').next().unwrap_or("").to_string(),
+                i["fromRanges"].as_array().map(Vec::len).unwrap_or(0),
+            )
+        })
+        .collect();
+    assert_eq!(callers, [(s("A"), s("a.mdg"), 1), (s("B"), s("b.mdg"), 2)], "{incoming}");
+    // Outgoing calls of the closed file's rule B: `shape` twice (into the library), `twig` once.
+    let b_item = &incoming[1]["from"];
+    assert_eq!(b_item["uri"], ub.as_str());
+    let outgoing = c.call("callHierarchy/outgoingCalls", json!({"item": b_item}));
+    let callees: Vec<(String, String, usize)> = outgoing
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|o| {
+            let u = o["to"]["uri"].as_str().unwrap_or("");
+            (
+                o["to"]["name"].as_str().unwrap_or("").to_string(),
+                u.rsplit('/').next().unwrap_or("").to_string(),
+                o["fromRanges"].as_array().map(Vec::len).unwrap_or(0),
+            )
+        })
+        .collect();
+    assert_eq!(callees, [(s("shape"), s("lib.mdg"), 2), (s("twig"), s("b.mdg"), 1)], "{outgoing}");
+    assert_eq!(outgoing[0]["fromRanges"][1]["start"], json!({"line": 2, "character": 21}));
+    // From a call: the callee's definitions.
+    let items = c.call("textDocument/prepareCallHierarchy", at(&ua, WS_A, "shape {}", 1));
+    assert_eq!(items[0]["uri"], ul.as_str(), "{items}");
+    // Nothing for a word that is no rule.
+    let none = c.call("textDocument/prepareCallHierarchy", at(&ua, WS_A, "startshape", 1));
+    assert!(none.is_null(), "{none}");
+    assert!(c.shutdown_and_exit().success());
+}
+
+/// A file with colours, a messy rule and nested syntax.
+const COLOURS: &str = "background 0.2 0.4 0.6 1\nstartshape A\nrule A {\n  tri {G -1 x 1 B -1}\n  tri {hue 30 R -1}\n}\nrule tri { VERTEX {}   VERTEX {x 0.8} VERTEX {y 0.8} }\n";
+
+#[test]
+fn selection_ranges_colours_range_formatting_and_code_links() {
+    let dir = scratch("colours");
+    let u = uri(&dir.join("main.mdg"));
+    let mut c = Client::spawn_with(&[("MDG_DOCS_URL", "https://mdg.example/docs/")]);
+    c.initialize(&dir);
+    c.open(&u, 1, COLOURS);
+    assert!(c.diagnostics(&u, 1).is_empty());
+
+    // Expand selection from inside a number: each enclosing node, then the file.
+    let sel = c.call(
+        "textDocument/selectionRange",
+        json!({"textDocument": text_doc(&u), "positions": [pos_of(COLOURS, "0.8}", 1)]}),
+    );
+    let mut texts = Vec::new();
+    let mut r = &sel[0];
+    while !r.is_null() {
+        texts.push(text_of(COLOURS, &r["range"]));
+        r = &r["parent"];
+    }
+    assert_eq!(
+        texts,
+        [
+            "0.8",
+            "x 0.8",
+            "{x 0.8}",
+            "VERTEX {x 0.8}",
+            " VERTEX {}   VERTEX {x 0.8} VERTEX {y 0.8} ",
+            "{ VERTEX {}   VERTEX {x 0.8} VERTEX {y 0.8} }",
+            "rule tri { VERTEX {}   VERTEX {x 0.8} VERTEX {y 0.8} }",
+            COLOURS,
+        ],
+        "{sel}"
+    );
+
+    // Colours: the background as written, the deltas as the colour they give from
+    // white (a list that turns the hue has none).
+    let colours = c.call("textDocument/documentColor", json!({"textDocument": text_doc(&u)}));
+    let got: Vec<(String, Vec<f64>)> = colours
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|ci| {
+            let col = &ci["color"];
+            let v =
+                ["red", "green", "blue", "alpha"].map(|k| (col[k].as_f64().unwrap_or(-1.0) * 1000.0).round() / 1000.0);
+            (text_of(COLOURS, &ci["range"]), v.to_vec())
+        })
+        .collect();
+    assert_eq!(
+        got,
+        [
+            (String::from("0.2 0.4 0.6 1"), vec![0.2, 0.4, 0.6, 1.0]),
+            (String::from("G -1 x 1 B -1"), vec![1.0, 0.0, 0.0, 1.0])
+        ],
+        "{colours}"
+    );
+    let present = |c: &mut Client, range: &Value, rgba: [f64; 4]| {
+        let color = json!({"red": rgba[0], "green": rgba[1], "blue": rgba[2], "alpha": rgba[3]});
+        let p = c.call(
+            "textDocument/colorPresentation",
+            json!({"textDocument": text_doc(&u), "color": color, "range": range}),
+        );
+        assert_eq!(p[0]["textEdit"]["range"], *range, "{p}");
+        p[0]["textEdit"]["newText"].as_str().unwrap_or("").to_string()
+    };
+    assert_eq!(present(&mut c, &colours[0]["range"], [1.0, 0.5, 0.0, 1.0]), "1 0.5 0 1");
+    // Deltas from white, the other adjustments kept after them.
+    assert_eq!(present(&mut c, &colours[1]["range"], [0.0, 0.5, 1.0, 0.75]), "R -1 G -0.5 A -0.25 x 1");
+
+    // Range formatting: only the rule the range touches changes.
+    let range = json!({"start": pos_of(COLOURS, "VERTEX {x", 0), "end": pos_of(COLOURS, "VERTEX {x", 3)});
+    let edits = c.call(
+        "textDocument/rangeFormatting",
+        json!({"textDocument": text_doc(&u), "range": range, "options": {"tabSize": 2, "insertSpaces": true}}),
+    );
+    assert_eq!(edits.as_array().map(Vec::len), Some(1), "{edits}");
+    let formatted = mdg_format(COLOURS, &edits[0]);
+    let (head, _) = COLOURS.split_at(COLOURS.find("rule tri").unwrap_or(0));
+    assert_eq!(formatted, format!("{head}rule tri {{\n  VERTEX {{}}\n  VERTEX {{x 0.8}}\n  VERTEX {{y 0.8}}\n}}\n"));
+    // A range over formatted items only: no edit.
+    let top = json!({"start": {"line": 0, "character": 0}, "end": {"line": 1, "character": 3}});
+    let edits = c.call(
+        "textDocument/rangeFormatting",
+        json!({"textDocument": text_doc(&u), "range": top, "options": {"tabSize": 2, "insertSpaces": true}}),
+    );
+    assert_eq!(edits, json!([]));
+
+    // A syntax error: range formatting says why too.
+    c.change(&u, 2, "startshape A\nrule A { VERTEX {x 1 }\n");
+    let diags = c.diagnostics(&u, 2);
+    let r = c.call(
+        "textDocument/rangeFormatting",
+        json!({"textDocument": text_doc(&u), "range": top, "options": {"tabSize": 2, "insertSpaces": true}}),
+    );
+    assert!(r.is_null(), "{r}");
+    let shown = c.notification("window/showMessage", |_| true);
+    assert!(shown["message"].as_str().unwrap_or("").contains("not formatting, the file has syntax errors"), "{shown}");
+    // The code links to its entry under $MDG_DOCS_URL.
+    let code = diags[0]["code"].as_str().unwrap_or("").to_ascii_lowercase();
+    assert_eq!(
+        diags[0]["codeDescription"]["href"],
+        format!("https://mdg.example/docs/diagnostics.md#{code}"),
+        "{diags:?}"
+    );
     assert!(c.shutdown_and_exit().success());
 }

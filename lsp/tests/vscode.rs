@@ -31,6 +31,7 @@ const CHECKS: &[&str] = &[
     "completion",
     "format",
     "rename across two importers",
+    "code lenses",
     "preview panel",
     "preview after an edit",
     "preview shows errors",

@@ -8,11 +8,13 @@
 //!
 //! One file per feature: [`hover`], [`navigation`] (definition, references),
 //! [`rename`], [`completion`], [`symbols`] (document and workspace), [`semantic_tokens`],
-//! [`folding`], [`formatting`], [`code_actions`], [`inlay_hints`], [`signature`] and
-//! [`diagnostics`];
+//! [`folding`], [`formatting`], [`code_actions`], [`inlay_hints`], [`signature`],
+//! [`lenses`], [`calls`] (call hierarchy), [`selection`], [`colors`] and [`diagnostics`];
 //! [`docs`] holds the documentation of every built-in word.
 
+pub mod calls;
 pub mod code_actions;
+pub mod colors;
 pub mod completion;
 pub mod diagnostics;
 pub mod docs;
@@ -22,8 +24,10 @@ pub mod hover;
 pub mod index;
 pub mod inlay_hints;
 pub mod iterator;
+pub mod lenses;
 pub mod navigation;
 pub mod rename;
+pub mod selection;
 pub mod semantic_tokens;
 pub mod signature;
 pub mod symbols;
@@ -41,12 +45,15 @@ use crate::span::{FileId, Span};
 use std::path::Path;
 use std::sync::OnceLock;
 
+pub use calls::{OutgoingCall, RuleDef};
 pub use code_actions::CodeAction;
+pub use colors::{ColorForm, ColorLiteral};
 pub use completion::{CompletionConfig, CompletionItem, CompletionKind, Completions};
 pub use folding::{Fold, FoldKind};
 pub use hover::Hover;
 pub use index::Symbol;
 pub use inlay_hints::InlayHint;
+pub use lenses::{LensKind, LensTarget};
 pub use semantic_tokens::{SemanticKind, SemanticToken};
 pub use signature::SignatureHelp;
 pub use symbols::{DocumentSymbol, SymbolKind, WorkspaceSymbol};

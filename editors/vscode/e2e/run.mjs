@@ -369,6 +369,31 @@ try {
     return files.map((f) => `${f}: ${readWs(f).split('bloom').length - 1}×bloom`).join(', ');
   });
 
+  await check('code lenses', async () => {
+    // lib/parts.mdg is open after the rename: its rule's count covers the importers
+    // (garden once, meadow twice, and the scratch file), open or not.
+    const lenses = () => page.locator('.editor-instance .codelens-decoration:visible a');
+    const refs = lenses().filter({ hasText: /^\d+ references?$/ }).first();
+    await refs.waitFor({ state: 'visible', timeout: 30000 });
+    const count = await refs.innerText();
+    if (Number(count.split(' ')[0]) < 3) throw new Error(`lens: ${count}`);
+    await refs.click();
+    const peek = page.locator('.peekview-widget').first();
+    await peek.waitFor({ state: 'visible', timeout: 15000 });
+    const files = await until('the peeked references', async () => {
+      const t = (await peek.innerText().catch(() => '')).replace(/\s+/g, ' ');
+      return t.includes('garden.mdg') && t.includes('meadow.mdg') ? t : undefined;
+    }, 15000);
+    await shot('code-lens-references');
+    await page.keyboard.press('Escape');
+    await openFile('garden.mdg');
+    const all = await until('the run lenses over startshape', async () => {
+      const texts = await lenses().allInnerTexts();
+      return ['Preview', 'Render .glb', 'Stats'].every((w) => texts.some((t) => t.includes(w))) ? texts : undefined;
+    }, 30000);
+    return `${count} (peek: ${files.slice(0, 60)}…); garden.mdg: ${all.join(' | ')}`;
+  });
+
   // The live preview: the model, then the changed model after an edit (not
   // saved: the editor's text is evaluated), then an error shown in the panel.
   const preview = () => page.frameLocator('iframe.webview').frameLocator('iframe#active-frame');

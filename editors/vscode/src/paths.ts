@@ -1,5 +1,6 @@
 // Pure helpers of the extension (no `vscode` import), unit-tested with node:test.
 
+import * as fs from 'fs';
 import * as os from 'os';
 import * as path from 'path';
 
@@ -32,4 +33,55 @@ export function previewGlb(file: string, id: string, tmp: string = os.tmpdir()):
 /** The arguments of `mdg-run` for the live preview: the editor's text on stdin. */
 export function previewArgs(file: string, glb: string): string[] {
   return [file, '--stdin', '-o', glb];
+}
+
+/** What a code lens runs with `mdg-run` on a saved file. */
+export type RunKind = 'render' | 'stats' | 'search' | 'evolve';
+
+/** The `.mdg` file's path with another ending: `tree.mdg` -> `tree.glb`. */
+export function besides(file: string, ending: string): string {
+  return file.replace(/\.mdg$/, '') + ending;
+}
+
+/**
+ * The arguments of `mdg-run` for a code lens: **Render .glb** writes `FILE.glb`
+ * beside the source; **Stats** prints the counters and writes the model to a
+ * temporary directory; **Run search** runs the guided search into `FILE.glb`
+ * beside the source; **Evolve** evolves the creature grammar into mdg-run's
+ * default folder beside the source.
+ */
+export function runArgs(kind: RunKind, file: string, tmp: string = os.tmpdir()): string[] {
+  switch (kind) {
+    case 'render':
+      return [file, '-o', besides(file, '.glb'), '--stats'];
+    case 'stats':
+      return [file, '--stats', '-o', path.join(tmp, 'mdg-stats', path.basename(besides(file, '.glb')))];
+    case 'search':
+      return [file, '--stats', '-o', besides(file, '.glb')];
+    case 'evolve':
+      return [file, '--stats'];
+  }
+}
+
+/**
+ * A program of a platform `.vsix` (`scripts/package-platform.sh` puts `mdg-lsp` and
+ * `mdg-run` in the extension's `bin/`, with `std/` beside it): used when the setting
+ * is left at its default (empty or the bare program name) and the file is there;
+ * otherwise the setting, resolved as `resolveServerPath` does.
+ */
+export function resolveProgram(
+  name: string,
+  setting: string | undefined,
+  extensionPath: string | undefined,
+  workspaceRoot?: string,
+  exists: (p: string) => boolean = (p) => fs.existsSync(p),
+): string {
+  const s = (setting ?? '').trim();
+  if ((s === '' || s === name) && extensionPath) {
+    const bundled = path.join(extensionPath, 'bin', process.platform === 'win32' ? `${name}.exe` : name);
+    if (exists(bundled)) {
+      return bundled;
+    }
+  }
+  return s === '' ? name : resolveServerPath(s, workspaceRoot);
 }

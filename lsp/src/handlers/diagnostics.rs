@@ -19,6 +19,13 @@ pub fn convert_all(b: &Backend, uri: &Uri, doc: &Document) -> Vec<Diagnostic> {
     doc.diagnostics().iter().map(|d| convert(b, uri, doc, &li, d)).collect()
 }
 
+/// The link of a diagnostic code: its entry (`#e0301`) in `docs/diagnostics.md`, at
+/// `$MDG_DOCS_URL` when set, else in the docs installed beside std.
+pub fn code_href(b: &Backend, code: &str) -> Option<Uri> {
+    let doc = b.config.diagnostics_doc.as_ref()?;
+    format!("{}#{}", doc.as_str(), code.to_ascii_lowercase()).parse().ok()
+}
+
 /// One diagnostic, converted; `li` indexes the document's text.
 pub fn convert(b: &Backend, uri: &Uri, doc: &Document, li: &LineIndex, d: &diag::Diagnostic) -> Diagnostic {
     let mut message = d.message.clone();
@@ -47,7 +54,7 @@ pub fn convert(b: &Backend, uri: &Uri, doc: &Document, li: &LineIndex, d: &diag:
             Severity::Warning => DiagnosticSeverity::WARNING,
         }),
         code: Some(NumberOrString::String(d.code.to_string())),
-        code_description: b.config.diagnostics_doc.clone().map(|href| CodeDescription { href }),
+        code_description: code_href(b, d.code).map(|href| CodeDescription { href }),
         source: Some("mdg".to_string()),
         message,
         related_information: (!related.is_empty()).then_some(related),

@@ -1,8 +1,11 @@
 //! One file per LSP feature. Each handler converts positions to byte offsets, asks
 //! the analysis API under the panic guard, and converts the answer back.
 
+pub mod call_hierarchy;
 pub mod capabilities;
 pub mod code_actions;
+pub mod code_lens;
+pub mod colors;
 pub mod commands;
 pub mod completion;
 pub mod definition;
@@ -16,6 +19,7 @@ pub mod hover;
 pub mod inlay_hints;
 pub mod references;
 pub mod rename;
+pub mod selection_range;
 pub mod semantic_tokens;
 pub mod signature_help;
 pub mod sync;

@@ -264,7 +264,7 @@ pub fn file_canon(doc: &Document, file: mdg_compiler::span::FileId) -> Option<Pa
 }
 
 /// Where `sym` is defined in an analysis: (canonical file, start) pairs.
-fn definition_keys(doc: &Document, sym: &Symbol) -> BTreeSet<(PathBuf, u32)> {
+pub(crate) fn definition_keys(doc: &Document, sym: &Symbol) -> BTreeSet<(PathBuf, u32)> {
     guard(|| {
         doc.symbol_definitions(sym).into_iter().filter_map(|s| Some((file_canon(doc, s.file)?, s.start))).collect()
     })
