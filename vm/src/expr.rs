@@ -5,36 +5,94 @@
 
 use serde::Serialize;
 
-/// Math functions: name and arity. The index is the function id in `CALL`.
-/// `rand` and `randn` draw from the run's seeded stream.
-pub const FUNCTIONS: &[(&str, usize)] = &[
-    ("sin", 1),
-    ("cos", 1),
-    ("tan", 1),
-    ("asin", 1),
-    ("acos", 1),
-    ("atan", 1),
-    ("atan2", 2),
-    ("sqrt", 1),
-    ("abs", 1),
-    ("min", 2),
-    ("max", 2),
-    ("pow", 2),
-    ("exp", 1),
-    ("log", 1),
-    ("floor", 1),
-    ("ceil", 1),
-    ("fract", 1),
-    ("mod", 2),
-    ("clamp", 3),
-    ("mix", 3),
-    ("step", 2),
-    ("smoothstep", 3),
-    ("rand", 2),
-    ("randn", 2),
-    ("radians", 1),
-    ("degrees", 1),
-];
+/// Declares [`Func`], [`FUNCTIONS`] and the functions' definitions from one list.
+macro_rules! functions {
+    ($( $v:ident $name:literal $arity:literal => |$a:ident, $r:ident| $body:expr ),* $(,)?) => {
+        /// A math function of the expression language, resolved when code is decoded
+        /// (the index in `CALL` is its position in [`FUNCTIONS`]): evaluation matches on
+        /// it, never on a name.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+        pub enum Func {
+            $( #[doc = $name] $v, )*
+        }
+
+        /// Math functions: name and arity. The index is the function id in `CALL`.
+        /// `rand` and `randn` draw from the run's seeded stream.
+        pub const FUNCTIONS: &[(&str, usize)] = &[$(($name, $arity)),*];
+
+        impl Func {
+            /// Every function, by id.
+            pub const ALL: &[Func] = &[$(Func::$v),*];
+
+            /// The function with id `i` (its index in [`FUNCTIONS`]).
+            #[inline]
+            pub fn from_id(i: u8) -> Option<Func> {
+                Func::ALL.get(i as usize).copied()
+            }
+
+            /// The function called `name` in the language.
+            pub fn from_name(name: &str) -> Option<Func> {
+                FUNCTIONS.iter().position(|(n, _)| *n == name).map(|i| Func::ALL[i])
+            }
+
+            /// The name in the language.
+            pub fn name(self) -> &'static str {
+                FUNCTIONS[self as usize].0
+            }
+
+            /// The number of arguments.
+            pub fn arity(self) -> usize {
+                FUNCTIONS[self as usize].1
+            }
+
+            /// The value on `a` (the first `arity` entries are read), drawing from
+            /// `rng` for `rand`/`randn`.
+            #[inline]
+            pub fn apply(self, args: &[f64; 3], rng: &mut dyn Random) -> f64 {
+                match self {
+                    $( Func::$v => {
+                        let $a = args;
+                        let $r = &mut *rng;
+                        let _ = &$r;
+                        $body
+                    } )*
+                }
+            }
+        }
+    };
+}
+
+functions! {
+    Sin "sin" 1 => |a, r| a[0].sin(),
+    Cos "cos" 1 => |a, r| a[0].cos(),
+    Tan "tan" 1 => |a, r| a[0].tan(),
+    Asin "asin" 1 => |a, r| a[0].asin(),
+    Acos "acos" 1 => |a, r| a[0].acos(),
+    Atan "atan" 1 => |a, r| a[0].atan(),
+    Atan2 "atan2" 2 => |a, r| a[0].atan2(a[1]),
+    Sqrt "sqrt" 1 => |a, r| a[0].sqrt(),
+    Abs "abs" 1 => |a, r| a[0].abs(),
+    Min "min" 2 => |a, r| a[0].min(a[1]),
+    Max "max" 2 => |a, r| a[0].max(a[1]),
+    Pow "pow" 2 => |a, r| a[0].powf(a[1]),
+    Exp "exp" 1 => |a, r| a[0].exp(),
+    Log "log" 1 => |a, r| a[0].ln(),
+    Floor "floor" 1 => |a, r| a[0].floor(),
+    Ceil "ceil" 1 => |a, r| a[0].ceil(),
+    Fract "fract" 1 => |a, r| a[0].fract(),
+    Mod "mod" 2 => |a, r| a[0].rem_euclid(a[1]),
+    Clamp "clamp" 3 => |a, r| a[0].clamp(a[1].min(a[2]), a[2].max(a[1])),
+    Mix "mix" 3 => |a, r| a[0] + (a[1] - a[0]) * a[2],
+    Step "step" 2 => |a, r| if a[1] < a[0] { 0.0 } else { 1.0 },
+    Smoothstep "smoothstep" 3 => |a, r| {
+        let t = ((a[2] - a[0]) / (a[1] - a[0])).clamp(0.0, 1.0);
+        t * t * (3.0 - 2.0 * t)
+    },
+    Rand "rand" 2 => |a, r| a[0] + (a[1] - a[0]) * r.uniform(),
+    Randn "randn" 2 => |a, r| a[0] + a[1] * r.normal(),
+    Radians "radians" 1 => |a, r| a[0].to_radians(),
+    Degrees "degrees" 1 => |a, r| a[0].to_degrees(),
+}
 
 /// Variables an expression may read at run time, by index.
 pub const VARIABLES: &[&str] = &["x", "y", "z", "depth", "scale", "g"];
@@ -88,47 +146,28 @@ pub fn binop(op: u8, a: f64, b: f64) -> f64 {
     }
 }
 
-/// Applies a deterministic math function by name (`None` for unknown names and for
-/// `rand`/`randn`, which need the run's random stream).
+/// Applies a deterministic math function by name (`None` for unknown names, a
+/// missing argument, and `rand`/`randn`, which need the run's random stream). For the
+/// compiler's constant folder; evaluation dispatches on [`Func`].
 pub fn call(name: &str, a: &[f64]) -> Option<f64> {
-    let arg = |i: usize| a.get(i).copied();
-    Some(match name {
-        "sin" => arg(0)?.sin(),
-        "cos" => arg(0)?.cos(),
-        "tan" => arg(0)?.tan(),
-        "asin" => arg(0)?.asin(),
-        "acos" => arg(0)?.acos(),
-        "atan" => arg(0)?.atan(),
-        "atan2" => arg(0)?.atan2(arg(1)?),
-        "sqrt" => arg(0)?.sqrt(),
-        "abs" => arg(0)?.abs(),
-        "min" => arg(0)?.min(arg(1)?),
-        "max" => arg(0)?.max(arg(1)?),
-        "pow" => arg(0)?.powf(arg(1)?),
-        "exp" => arg(0)?.exp(),
-        "log" => arg(0)?.ln(),
-        "floor" => arg(0)?.floor(),
-        "ceil" => arg(0)?.ceil(),
-        "fract" => arg(0)?.fract(),
-        "radians" => arg(0)?.to_radians(),
-        "degrees" => arg(0)?.to_degrees(),
-        "mod" => arg(0)?.rem_euclid(arg(1)?),
-        "clamp" => arg(0)?.clamp(arg(1)?.min(arg(2)?), arg(2)?.max(arg(1)?)),
-        "mix" => arg(0)? + (arg(1)? - arg(0)?) * arg(2)?,
-        "step" => {
-            if arg(1)? < arg(0)? {
-                0.0
-            } else {
-                1.0
-            }
-        }
-        "smoothstep" => {
-            let (e0, e1, x) = (arg(0)?, arg(1)?, arg(2)?);
-            let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
-            t * t * (3.0 - 2.0 * t)
-        }
-        _ => return None,
-    })
+    let f = Func::from_name(name).filter(|f| !matches!(f, Func::Rand | Func::Randn))?;
+    if a.len() < f.arity() {
+        return None;
+    }
+    let args: [f64; 3] = std::array::from_fn(|i| a.get(i).copied().unwrap_or(f64::NAN));
+    Some(f.apply(&args, &mut NoRandom))
+}
+
+/// A stream for functions that draw nothing.
+struct NoRandom;
+
+impl Random for NoRandom {
+    fn uniform(&mut self) -> f64 {
+        f64::NAN
+    }
+    fn normal(&mut self) -> f64 {
+        f64::NAN
+    }
 }
 
 /// A source of random numbers for `rand`/`randn` (the evaluator's seeded stream).
@@ -176,16 +215,11 @@ pub fn eval(code: &[ExprOp], vars: &[f64; 6], slots: &[f64], rng: &mut dyn Rando
                 stack.push(binop(o, a, b));
             }
             ExprOp::Call(f) => {
-                let Some(&(name, arity)) = FUNCTIONS.get(f as usize) else { return f64::NAN };
-                let at = stack.len().saturating_sub(arity);
+                let Some(func) = Func::from_id(f) else { return f64::NAN };
+                let at = stack.len().saturating_sub(func.arity());
                 let args: [f64; 3] = std::array::from_fn(|i| stack.get(at + i).copied().unwrap_or(f64::NAN));
                 stack.truncate(at);
-                let v = match name {
-                    "rand" => args[0] + (args[1] - args[0]) * rng.uniform(),
-                    "randn" => args[0] + args[1] * rng.normal(),
-                    _ => call(name, &args[..arity]).unwrap_or(f64::NAN),
-                };
-                stack.push(v);
+                stack.push(func.apply(&args, rng));
             }
         }
     }
