@@ -887,6 +887,23 @@ Fix: Choose another name (`spread`, `turn`)."#,
         ),
     },
     Code {
+        code: "E0328",
+        severity: Error,
+        title: "a function calls itself or a later function",
+        explanation: r#"A function with parameters (`function NAME(a, b) { EXPR }`) calls itself, or a function declared after it.
+
+Calls of such functions are inlined at compile time (the body with the parameters replaced by the arguments), so a function may call only functions declared before it: that rules out recursion, which could not be inlined.
+
+In the example: `blob` calls `ball`, which is declared after it.
+
+Fix: Declare the called function first (move `ball` above `blob`)."#,
+        example: Library(
+            r#"function blob(a) { ball(a, 1) }
+function ball(p, r) { p * p - r }
+"#,
+        ),
+    },
+    Code {
         code: "E0401",
         severity: Error,
         title: "wrong number of arguments",
