@@ -34,7 +34,10 @@ fn shape_named(b: &Bundle, name: &str) -> Shape {
 fn monsters_compile_into_a_verified_table_that_round_trips() {
     let b = monsters();
     let t = b.extensions.creatures.as_ref().expect("creature table");
-    assert_eq!(t.shapes.iter().map(|s| s.name.as_str()).collect::<Vec<_>>(), ["humanoid", "bird", "quadruped", "ogre", "heron", "boar"]);
+    assert_eq!(
+        t.shapes.iter().map(|s| s.name.as_str()).collect::<Vec<_>>(),
+        ["humanoid", "bird", "quadruped", "ogre", "heron", "boar"]
+    );
     for k in ["torso", "head", "arm", "wing", "leg", "lowerlimb", "foreleg", "hindleg", "tail"] {
         assert!(t.kind(k).is_some(), "std parts have a `{k}`");
     }
