@@ -287,8 +287,7 @@ pub fn never_hold(conditions: &[&[CondOp]], b: &Bounds, budget: u64) -> Option<b
                             }
                         }
                         let mut i = 0;
-                        loop {
-                            let Some(x) = idx.get_mut(i) else { break };
+                        while let Some(x) = idx.get_mut(i) {
                             if *x < top {
                                 *x += 1;
                                 break;
