@@ -57,8 +57,12 @@ pub enum ItemKind {
         name: Name,
         args: Vec<DirArg>,
     },
+    /// `function NAME { EXPR }`, or with parameters `function NAME(a, b) { EXPR }`:
+    /// called like a math function, `NAME(1, 2)`, its body inlined with the
+    /// parameters replaced by the arguments.
     Function {
         name: Name,
+        params: Vec<Name>,
         body: Expr,
     },
     Isosurface {

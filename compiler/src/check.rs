@@ -263,6 +263,7 @@ pub fn check(ex: &Expanded, opts: CheckOptions) -> Checked {
         param_reads: BTreeSet::new(),
         unread_params: Vec::new(),
         profile_rules: BTreeSet::new(),
+        function: None,
     };
     c.collect();
     c.collect_profiles();
@@ -275,6 +276,9 @@ pub fn check(ex: &Expanded, opts: CheckOptions) -> Checked {
 
 struct Checker<'a> {
     ex: &'a Expanded,
+    /// While a function's body is checked: its index among the items and its
+    /// parameters (a function may call only functions declared before it).
+    function: Option<(usize, Vec<String>)>,
     sym: Symbols,
     diags: Vec<Diagnostic>,
     /// Rule full name → rules its definitions call (per definition).
@@ -495,7 +499,7 @@ impl<'a> Checker<'a> {
     fn items(&mut self) {
         let mut seen_directives: HashMap<String, Span> = HashMap::new();
         let ex = self.ex;
-        for ExpItem { item, namespace } in &ex.items {
+        for (index, ExpItem { item, namespace }) in ex.items.iter().enumerate() {
             match &item.kind {
                 ItemKind::Startshape(n) => {
                     if let Some((_, prev)) = &self.sym.startshape {
@@ -525,7 +529,12 @@ impl<'a> Checker<'a> {
                     }
                 }
                 ItemKind::Directive { name, args } => self.directive(name, args, namespace, &mut seen_directives),
-                ItemKind::Function { body, .. } => self.expr(body, true, false),
+                ItemKind::Function { body, params, .. } => {
+                    self.function_params(params);
+                    self.function = Some((index, params.iter().map(|p| p.text.clone()).collect()));
+                    self.expr(body, true, false);
+                    self.function = None;
+                }
                 ItemKind::Isosurface { name, entries } => self.isosurface(name, entries),
                 ItemKind::Program { words } => self.program(words),
                 // Checked by `crate::ext` once every rule is known.
@@ -1239,12 +1248,91 @@ impl<'a> Checker<'a> {
 
     /// Checks an expression. `function_vars`: x y z depth scale g are in scope;
     /// `random`: rand/randn are allowed.
+    /// `function F` names a function of x, y, z: one with parameters must be called.
+    fn function_ref_arity(&mut self, f: &Name) {
+        if let Some((_, decl, params, _)) = self.ex.user_function(&f.text) {
+            self.diags.push(
+                Diagnostic::error("E0401", f.span, format!("`{}` takes {} argument(s)", f.text, params.len()))
+                    .with_secondary(decl.span, "declared here")
+                    .with_note(format!("call it inside an expression: `function {{ {}(…) }}`", f.text)),
+            );
+        }
+    }
+
+    /// The parameters of `function NAME(a, b)`: plain names, each once.
+    fn function_params(&mut self, params: &[Name]) {
+        for (i, p) in params.iter().enumerate() {
+            if let Some(prev) = params[..i].iter().find(|q| q.text == p.text) {
+                self.diags.push(
+                    Diagnostic::error("E0321", p.span, format!("parameter `{}` is declared twice", p.text))
+                        .with_secondary(prev.span, "first declared here"),
+                );
+            } else if p.text.contains('.') || FUNCTION_VARS.contains(&p.text.as_str()) {
+                self.diags.push(
+                    Diagnostic::error("E0327", p.span, format!("`{}` cannot name a function parameter", p.text))
+                        .with_note("x, y, z, depth, scale, g and dotted names are reserved; pass them as arguments"),
+                );
+            }
+        }
+    }
+
+    /// A call of a name that is no math function: a function declared with
+    /// parameters (`function NAME(a, b) { … }`), declared before the function being
+    /// checked, with as many arguments as it has parameters.
+    fn user_call(&mut self, e: &Expr, f: &Name, args: &[Expr]) {
+        let Some((index, decl, params, _)) = self.ex.user_function(&f.text) else {
+            let mut names: Vec<&str> = FUNCTIONS.iter().map(|(n, _)| *n).collect();
+            let users: Vec<String> = self
+                .ex
+                .items
+                .iter()
+                .filter_map(|i| match &i.item.kind {
+                    ItemKind::Function { name, params, .. } if !params.is_empty() => Some(name.text.clone()),
+                    _ => None,
+                })
+                .collect();
+            names.extend(users.iter().map(|s| s.as_str()));
+            let mut d = Diagnostic::error("E0310", f.span, format!("unknown function `{}`", f.text));
+            if let Some(s) = did_you_mean(&f.text, names) {
+                d = d.with_suggestion(format!("did you mean `{s}`?"), f.span, s.to_string());
+            }
+            self.diags.push(d);
+            return;
+        };
+        if let Some((current, _)) = &self.function {
+            if index >= *current {
+                let what = if index == *current { "itself" } else { "a function declared after it" };
+                self.diags.push(
+                    Diagnostic::error("E0328", f.span, format!("a function calls {what}: `{}`", f.text))
+                        .with_secondary(decl.span, "declared here")
+                        .with_note(
+                            "a function may call only functions declared before it (so every call can be inlined)",
+                        ),
+                );
+                return;
+            }
+        }
+        if args.len() != params.len() {
+            self.diags.push(
+                Diagnostic::error(
+                    "E0401",
+                    e.span,
+                    format!("`{}` takes {} argument(s) but {} were given", f.text, params.len(), args.len()),
+                )
+                .with_secondary(decl.span, "declared here"),
+            );
+        }
+    }
+
     fn expr(&mut self, e: &Expr, function_vars: bool, random: bool) {
         match &e.kind {
             ExprKind::Num(_) | ExprKind::Error => {}
             ExprKind::Var(v) => {
                 if let Some(l) = self.scope.as_mut().and_then(|s| s.iter_mut().rev().find(|l| l.name == v.text)) {
                     l.used = true;
+                    return;
+                }
+                if self.function.as_ref().is_some_and(|(_, ps)| ps.contains(&v.text)) {
                     return;
                 }
                 let in_body = self.scope.is_some();
@@ -1300,13 +1388,7 @@ impl<'a> Checker<'a> {
                             ));
                         }
                     }
-                    None => {
-                        let mut d = Diagnostic::error("E0310", f.span, format!("unknown function `{}`", f.text));
-                        if let Some(s) = did_you_mean(&f.text, FUNCTIONS.iter().map(|(n, _)| *n)) {
-                            d = d.with_suggestion(format!("did you mean `{s}`?"), f.span, s.to_string());
-                        }
-                        self.diags.push(d);
-                    }
+                    None => self.user_call(e, f, args),
                 }
                 if matches!(f.text.as_str(), "sin" | "cos" | "tan") {
                     if let [a] = args.as_slice() {
@@ -1373,6 +1455,7 @@ impl<'a> Checker<'a> {
                 }
             }
             SelectorMode::FunctionRef(f) => {
+                self.function_ref_arity(f);
                 if self.sym.resolve_function(&f.text, ns.as_deref()).is_none() {
                     let mut d = Diagnostic::error("E0310", f.span, format!("unknown function `{}`", f.text));
                     if let Some(s) = did_you_mean(&f.text, self.sym.functions.keys().map(|k| k.as_str())) {
@@ -1597,6 +1680,7 @@ impl<'a> Checker<'a> {
                 }
                 IsoEntry::FunctionRef(f) => {
                     has_function = true;
+                    self.function_ref_arity(f);
                     if self.sym.resolve_function(&f.text, None).is_none() {
                         let mut d = Diagnostic::error("E0310", f.span, format!("unknown function `{}`", f.text));
                         if let Some(s) = did_you_mean(&f.text, self.sym.functions.keys().map(|k| k.as_str())) {

@@ -887,6 +887,23 @@ Fix: Choose another name (`spread`, `turn`)."#,
         ),
     },
     Code {
+        code: "E0328",
+        severity: Error,
+        title: "a function calls itself or a later function",
+        explanation: r#"A function with parameters (`function NAME(a, b) { EXPR }`) calls itself, or a function declared after it.
+
+Calls of such functions are inlined at compile time (the body with the parameters replaced by the arguments), so a function may call only functions declared before it: that rules out recursion, which could not be inlined.
+
+In the example: `blob` calls `ball`, which is declared after it.
+
+Fix: Declare the called function first (move `ball` above `blob`)."#,
+        example: Library(
+            r#"function blob(a) { ball(a, 1) }
+function ball(p, r) { p * p - r }
+"#,
+        ),
+    },
+    Code {
         code: "E0401",
         severity: Error,
         title: "wrong number of arguments",
@@ -2258,6 +2275,38 @@ creature sea {
     joint { at 0 0 0; normal 0 -1 0; size 0.2; }
   }
   shape fish { torso body; attach tail fin; }
+}
+"#,
+        ),
+    },
+    Code {
+        code: "W0802",
+        severity: Warning,
+        title: "structure rule whose conditions never hold",
+        explanation: r#"Creature grammar: a structure rule's predecessor can match, but its conditions (all of them together) hold for no shape the evolution can make, so the rule never applies.
+
+The checker evaluates the conditions at every generation g = 1..1000 and every value of the counts they read that a shape of at most `maxparts` meta-parts can have (1 ≤ torsos ≤ superparts ≤ metaparts ≤ maxparts, 1 ≤ count ≤ metaparts, parts(…) of a type no creature can have is 0). A condition reading `complexity` (a real number) is not checked.
+
+In the example: with `maxparts 12` no shape has more than 12 super-parts.
+
+Fix: Loosen the condition (or raise `maxparts`), or remove the rule."#,
+        example: Program(
+            r#"startshape blob
+
+rule blob {
+  VERTEX {} VERTEX {x 0.1} VERTEX {y 0.1}
+}
+
+creature beasts {
+  part body { type torso; category beast; rule blob;
+    slot neck { at 0 0 1; normal 0 0 1; size 0.2; accepts head; }
+  }
+  part head { type head; category beast; rule blob;
+    joint { at 0 0 0; normal 0 0 -1; size 0.2; }
+  }
+  shape beast { torso body; attach neck head; floats; }
+  rule more_heads { kind increase; predecessor head; condition (superparts > 20); }
+  evolve { maxparts 12; }
 }
 "#,
         ),

@@ -88,7 +88,11 @@ impl Dumper {
                     }
                 });
             }
-            ItemKind::Function { name, body } => self.nested(&format!("Function {} {at}", name.text), |d| d.expr(body)),
+            ItemKind::Function { name, params, body } => {
+                let ps: Vec<&str> = params.iter().map(|p| p.text.as_str()).collect();
+                let ps = if ps.is_empty() { String::new() } else { format!("({}) ", ps.join(", ")) };
+                self.nested(&format!("Function {} {ps}{at}", name.text), |d| d.expr(body))
+            }
             ItemKind::Isosurface { name, entries } => self.nested(&format!("Isosurface {} {at}", name.text), |d| {
                 for e in entries {
                     match e {

@@ -90,6 +90,24 @@ pub struct Expanded {
 }
 
 impl Expanded {
+    /// A function declared with parameters (`function NAME(a, b) { EXPR }`) that a
+    /// call `NAME(…)` names: its index among the items, parameters and body.
+    pub fn user_function(
+        &self,
+        name: &str,
+    ) -> Option<(usize, &crate::ast::Name, &[crate::ast::Name], &crate::ast::Expr)> {
+        self.items.iter().enumerate().find_map(|(i, ExpItem { item, namespace })| match &item.kind {
+            crate::ast::ItemKind::Function { name: n, params, body } if !params.is_empty() => {
+                let full = match namespace {
+                    Some(ns) => format!("{ns}.{}", n.text),
+                    None => n.text.clone(),
+                };
+                (full == name || n.text == name).then_some((i, n, params.as_slice(), body))
+            }
+            _ => None,
+        })
+    }
+
     /// The value of a compile-time constant: a `@param`, a valued `@define`, `true` (1)
     /// or `false` (0).
     pub fn constant(&self, name: &str) -> Option<f64> {

@@ -212,7 +212,11 @@ impl<'a> Printer<'a> {
                     self.out.push_str(&dir_arg(a));
                 }
             }
-            ItemKind::Function { name, body } => {
+            ItemKind::Function { name, params, body } if !params.is_empty() => {
+                let ps: Vec<&str> = params.iter().map(|p| p.text.as_str()).collect();
+                self.out.push_str(&format!("function {}({}) {{ {} }}", name.text, ps.join(", "), expr(body)))
+            }
+            ItemKind::Function { name, body, .. } => {
                 self.out.push_str(&format!("function {} {{ {} }}", name.text, expr(body)))
             }
             ItemKind::Isosurface { name, entries } => {

@@ -137,6 +137,14 @@ fn expr_code(ex: &Expanded, angle: AngleMode, scope: &[(String, u16)], e: &Expr,
             out.push(ExprOp::Bin(binop_index(op.symbol())));
         }
         ExprKind::Call(f, args) => {
+            if !FUNCTIONS.iter().any(|(n, _)| *n == f.text) {
+                if let Some((_, _, params, body)) = ex.user_function(&f.text) {
+                    // Inlined: the checker allows calls to functions declared earlier
+                    // only, so this terminates.
+                    rec(&inline_call(params, body, args), out);
+                    return;
+                }
+            }
             for a in args {
                 rec(a, out);
             }
@@ -144,6 +152,89 @@ fn expr_code(ex: &Expanded, angle: AngleMode, scope: &[(String, u16)], e: &Expr,
             out.push(ExprOp::Call(i as u8));
         }
         ExprKind::Error => out.push(ExprOp::Push(0.0)),
+    }
+}
+
+/// The body of a function with parameters, each parameter replaced by its argument
+/// (in parentheses), with the operations on plain numbers it then has folded (with
+/// the VM's arithmetic, as `consteval` does), so a helper called with constants
+/// costs no more than the formula written out.
+pub(crate) fn inline_call(params: &[crate::ast::Name], body: &Expr, args: &[Expr]) -> Expr {
+    let e = substitute(params, body, args);
+    fold(e)
+}
+
+fn substitute(params: &[crate::ast::Name], body: &Expr, args: &[Expr]) -> Expr {
+    let rec = |e: &Expr| Box::new(substitute(params, e, args));
+    let kind = match &body.kind {
+        ExprKind::Var(v) => match params.iter().position(|p| p.text == v.text) {
+            Some(i) => match args.get(i) {
+                Some(a) => ExprKind::Paren(Box::new(a.clone())),
+                None => ExprKind::Error,
+            },
+            None => ExprKind::Var(v.clone()),
+        },
+        ExprKind::Neg(x) => ExprKind::Neg(rec(x)),
+        ExprKind::Not(x) => ExprKind::Not(rec(x)),
+        ExprKind::Paren(x) => ExprKind::Paren(rec(x)),
+        ExprKind::Binary(op, a, b) => ExprKind::Binary(*op, rec(a), rec(b)),
+        ExprKind::Call(f, xs) => ExprKind::Call(f.clone(), xs.iter().map(|x| substitute(params, x, args)).collect()),
+        k @ (ExprKind::Num(_) | ExprKind::Error) => k.clone(),
+    };
+    Expr { kind, span: body.span }
+}
+
+/// Folds operations whose operands are numbers without a unit, bottom up.
+fn fold(e: Expr) -> Expr {
+    let plain = |e: &Expr| match &e.kind {
+        ExprKind::Num(n) if n.unit.is_none() => Some(n.value),
+        _ => None,
+    };
+    let num = |value: f64, span: Span| Expr {
+        kind: ExprKind::Num(crate::ast::Number { value, unit: None, text: format!("{value}"), span }),
+        span,
+    };
+    let span = e.span;
+    match e.kind {
+        ExprKind::Paren(x) => {
+            let x = fold(*x);
+            match plain(&x) {
+                Some(v) => num(v, span),
+                None => Expr { kind: ExprKind::Paren(Box::new(x)), span },
+            }
+        }
+        ExprKind::Neg(x) => {
+            let x = fold(*x);
+            match plain(&x) {
+                Some(v) => num(-v, span),
+                None => Expr { kind: ExprKind::Neg(Box::new(x)), span },
+            }
+        }
+        ExprKind::Not(x) => Expr { kind: ExprKind::Not(Box::new(fold(*x))), span },
+        ExprKind::Binary(op, a, b) => {
+            let (a, b) = (fold(*a), fold(*b));
+            match (plain(&a), plain(&b)) {
+                (Some(u), Some(v)) => num(mdg_vm::expr::binop(binop_index(op.symbol()), u, v), span),
+                // x - 0, x + 0, x * 1 and x / 1 are x.
+                (None, Some(v))
+                    if (v == 0.0 && matches!(op, BinOp::Add | BinOp::Sub))
+                        || (v == 1.0 && matches!(op, BinOp::Mul | BinOp::Div)) =>
+                {
+                    a
+                }
+                _ => Expr { kind: ExprKind::Binary(op, Box::new(a), Box::new(b)), span },
+            }
+        }
+        ExprKind::Call(f, xs) => {
+            let xs: Vec<Expr> = xs.into_iter().map(fold).collect();
+            let values: Option<Vec<f64>> = xs.iter().map(plain).collect();
+            let random = matches!(f.text.as_str(), "rand" | "randn");
+            match values.filter(|_| !random).and_then(|v| mdg_vm::expr::call(&f.text, &v)) {
+                Some(v) => num(v, span),
+                None => Expr { kind: ExprKind::Call(f, xs), span },
+            }
+        }
+        kind => Expr { kind, span },
     }
 }
 
@@ -495,7 +586,7 @@ impl<'a> Lower<'a> {
 
     fn function_body(&self, name: &str) -> Option<Expr> {
         self.ex.items.iter().find_map(|ExpItem { item, namespace }| match &item.kind {
-            ItemKind::Function { name: n, body } => {
+            ItemKind::Function { name: n, body, .. } => {
                 let full = match namespace {
                     Some(ns) => format!("{ns}.{}", n.text),
                     None => n.text.clone(),

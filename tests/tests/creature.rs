@@ -9,7 +9,7 @@ use mdg_compiler::check::CheckOptions;
 use mdg_compiler::driver::analyze;
 use mdg_compiler::ext::creature as ext;
 use mdg_compiler::source::FsLoader;
-use mdg_tests::{options as compile_options, root};
+use mdg_tests::{options as compile_options, root, run_source};
 use mdg_vm::bundle::Bundle;
 use mdg_vm::creature::evolve::{Evolution, EvolveOptions};
 use mdg_vm::creature::geometry::{layout, Library};
@@ -34,7 +34,10 @@ fn shape_named(b: &Bundle, name: &str) -> Shape {
 fn monsters_compile_into_a_verified_table_that_round_trips() {
     let b = monsters();
     let t = b.extensions.creatures.as_ref().expect("creature table");
-    assert_eq!(t.shapes.iter().map(|s| s.name.as_str()).collect::<Vec<_>>(), ["humanoid", "bird", "quadruped"]);
+    assert_eq!(
+        t.shapes.iter().map(|s| s.name.as_str()).collect::<Vec<_>>(),
+        ["humanoid", "bird", "quadruped", "ogre", "heron", "boar"]
+    );
     for k in ["torso", "head", "arm", "wing", "leg", "lowerlimb", "foreleg", "hindleg", "tail"] {
         assert!(t.kind(k).is_some(), "std parts have a `{k}`");
     }
@@ -342,7 +345,50 @@ fn editor_hooks_know_the_keys_and_the_rule_references() {
     let sec = mdg_compiler::ext::sections(&a.expanded, "creature");
     let refs: Vec<&str> =
         sec.iter().flat_map(|s| mdg_compiler::ext::rule_refs(s.section)).map(|n| n.text.as_str()).collect();
-    assert!(refs.contains(&"h_torso") && refs.contains(&"q_hindleg") && refs.len() == 14, "{refs:?}");
+    assert!(refs.contains(&"h_torso") && refs.contains(&"q_hindleg") && refs.len() == 28, "{refs:?}");
+}
+
+/// Variety: the std library has at least two parts of every (type, category) it
+/// has a part of, each with its own geometry rule.
+#[test]
+fn std_library_has_two_variants_per_type_and_category() {
+    let b = monsters();
+    let t = b.extensions.creatures.as_ref().expect("a creature table");
+    let mut per: std::collections::BTreeMap<(String, String), Vec<u32>> = Default::default();
+    for p in &t.parts {
+        let key = (t.kinds[p.kind as usize].name.clone(), t.categories[p.category as usize].clone());
+        let mdg_vm::creature::table::Geometry::Rule(r) = p.geometry else { panic!("{}: not a rule", p.name) };
+        per.entry(key).or_default().push(r);
+    }
+    assert_eq!(per.len(), 14, "{:?}", per.keys());
+    for (key, rules) in &per {
+        let mut distinct = rules.clone();
+        distinct.sort_unstable();
+        distinct.dedup();
+        assert!(distinct.len() >= 2, "{key:?} has {} variant(s)", distinct.len());
+    }
+}
+
+/// The std/sdf.mdg helpers inline to the formula written out: the same mesh, bit
+/// for bit, as the hand-written distance (an ellipsoid and a capsule, smoothly
+/// united).
+#[test]
+fn sdf_helpers_give_the_written_out_surface() {
+    let helpers = "@import sdf\nstartshape A\nisosurface I { xyz -1.5 1.5 24 ; function { \
+        smooth_union(ellipsoid(x, y, z, 0.1, 0, 0, 1, 0.5, 0.5), capsule(x, y, z, 0, 0, 0, 1.2, 0, 0.6, 0.2, 0.05), 0.1) } }\n\
+        rule A { I {} }\n";
+    let t = "clamp((x * 1.2 + y * 0 + z * 0.6) / 1.7999999999999998, 0, 1)";
+    let written = format!(
+        "startshape A\nisosurface I {{ xyz -1.5 1.5 24 ; function {{ \
+        -0.1 * log(exp(-((sqrt(((x - 0.1))^2 + (y / 0.5)^2 + (z / 0.5)^2) - 1) * 0.5) / 0.1) \
+        + exp(-(sqrt((x - {t} * 1.2)^2 + (y - {t} * 0)^2 + (z - {t} * 0.6)^2) - (0.2 + -0.15000000000000002 * {t})) / 0.1)) }} }}\n\
+        rule A {{ I {{}} }}\n"
+    );
+    let a = run_source(helpers);
+    let b = run_source(&written);
+    let verts = |o: &mdg_vm::output::Output| format!("{:?}", o.shared_meshes);
+    assert!(a.shared_meshes.first().is_some_and(|(_, m)| m.positions.len() > 500), "a surface is made");
+    assert_eq!(verts(&a), verts(&b));
 }
 
 #[test]

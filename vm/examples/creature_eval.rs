@@ -114,9 +114,20 @@ fn time(bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
     let evo = Evolution::new(table, &lib, o);
     let (mut pop, g0) = evo.start();
     let mut shapes: Vec<_> = g0.presented.iter().map(|i| i.shape.clone()).collect();
+    // Whole generations (selection, structure rules, layout, contact and stability
+    // tests, retries, diversity control), per offspring made; run with
+    // RAYON_NUM_THREADS=1 for the time of one thread.
+    let (mut made, t) = (0usize, std::time::Instant::now());
     for _ in 0..5 {
-        shapes.extend(evo.step(&mut pop, None).presented.into_iter().map(|i| i.shape));
+        let g = evo.step(&mut pop, None);
+        made += g.n_offspring;
+        shapes.extend(g.presented.into_iter().map(|i| i.shape));
     }
+    println!(
+        "generations 1-5: {:.3} ms per offspring ({made} offspring, {} thread(s))",
+        t.elapsed().as_secs_f64() * 1e3 / made.max(1) as f64,
+        rayon::current_num_threads()
+    );
     for seat in [false, true] {
         lib.seat = seat;
         let t = std::time::Instant::now();

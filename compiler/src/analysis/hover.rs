@@ -72,7 +72,7 @@ impl Document {
             Symbol::Function(f) => {
                 let def = self.index().definitions(sym).next()?;
                 let body = self.analysis.expanded.items.iter().find_map(|e| match &e.item.kind {
-                    ItemKind::Function { name, body } if name.span == def => Some(crate::fmt::expr(body)),
+                    ItemKind::Function { name, body, .. } if name.span == def => Some(crate::fmt::expr(body)),
                     _ => None,
                 })?;
                 Some(format!("```mdg\nfunction {f} {{ {body} }}\n```\n{}", location_text(self, def)))

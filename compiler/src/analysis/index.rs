@@ -462,7 +462,7 @@ impl Walker<'_, '_> {
                     }
                 }
             }
-            ItemKind::Function { name, body } => {
+            ItemKind::Function { name, body, .. } => {
                 self.push(name.span, Occ::Def(Symbol::Function(qualify(ns, &name.text))));
                 self.expr(body);
             }

@@ -118,7 +118,7 @@ impl Document {
                         children: self.level(items, Some(&full)),
                     });
                 }
-                ItemKind::Function { name, body } => out.push(DocumentSymbol {
+                ItemKind::Function { name, body, .. } => out.push(DocumentSymbol {
                     name: name.text.clone(),
                     detail: Some(crate::fmt::expr(body)),
                     kind: SymbolKind::Function,

@@ -235,6 +235,9 @@ fn mirror_name(name: &str) -> String {
     }
 }
 
+/// Evaluations [`cond::never_hold`] may spend on one rule's conditions.
+const NEVER_HOLD_BUDGET: u64 = 4_000_000;
+
 fn err(code: &'static str, span: Span, msg: impl Into<String>) -> Diagnostic {
     Diagnostic::error(code, span, msg)
 }
@@ -1590,7 +1593,8 @@ impl<'a> Builder<'a, '_> {
         }
     }
 
-    /// E0804: rules whose predecessor no evolved shape can ever present.
+    /// E0804: rules whose predecessor no evolved shape can ever present; W0802:
+    /// rules whose conditions hold for no shape.
     fn never_match(&mut self, rules: &[(usize, &Entry)]) {
         let t = &self.t;
         let is_torso = |k: u32| t.kinds.get(k as usize).is_some_and(|k| k.torso);
@@ -1736,6 +1740,34 @@ impl<'a> Builder<'a, '_> {
                 let pe = e.block.iter().flat_map(|(b, _)| b).find(|x| x.key.text == "predecessor");
                 let span = pe.map(|p| p.span).unwrap_or(e.key.span);
                 found.push(err("E0804", span, format!("rule `{}` can never match", r.id)).with_label(why));
+            } else if !r.conditions.is_empty() {
+                // W0802: its predecessor can match, but its conditions hold together
+                // for no shape (every generation and count the evolution allows;
+                // kinds no creature can have count 0).
+                let absent: Vec<u32> = (0..t.kinds.len() as u32).filter(|k| !reach.contains(k)).collect();
+                let bounds = cond::Bounds { max_g: tb::MAX_GENERATIONS, max_parts: t.evolve.maxparts, absent };
+                let codes: Vec<&[CondOp]> = r.conditions.iter().map(|c| c.0.as_slice()).collect();
+                if cond::never_hold(&codes, &bounds, NEVER_HOLD_BUDGET) == Some(true) {
+                    let ce: Vec<&Entry> =
+                        e.block.iter().flat_map(|(b, _)| b).filter(|x| x.key.text == "condition").collect();
+                    let span = ce.first().map(|c| c.span).unwrap_or(e.key.span);
+                    let mut d = Diagnostic::warning("W0802", span, format!("rule `{}` can never match", r.id))
+                        .with_label(if ce.len() > 1 {
+                            "these conditions hold together for no shape"
+                        } else {
+                            "this condition holds for no shape"
+                        })
+                        .with_note(format!(
+                            "checked at every generation g = 1..{} and every count a shape of at most {} meta-parts (maxparts) can have{}",
+                            tb::MAX_GENERATIONS,
+                            t.evolve.maxparts,
+                            if bounds.absent.is_empty() { "" } else { "; parts(…) of a type no creature can have is 0" }
+                        ));
+                    for c in ce.iter().skip(1) {
+                        d = d.with_secondary(c.span, "and this one");
+                    }
+                    found.push(d);
+                }
             }
         }
         self.diags.extend(found);

@@ -191,6 +191,121 @@ pub fn probability_escape(code: &[CondOp], max_g: u32, max_count: u32) -> Option
     }
 }
 
+/// What the compiler knows of the shapes a rule could be applied to, for
+/// [`never_hold`].
+#[derive(Clone, Debug)]
+pub struct Bounds {
+    /// The largest generation (`g` runs 1..=max_g).
+    pub max_g: u32,
+    /// The most meta-parts a shape may have (`maxparts`).
+    pub max_parts: u32,
+    /// Kinds no shape can ever have: `parts(kind)` is 0 for them.
+    pub absent: Vec<u32>,
+}
+
+/// Whether the conjunction of `conditions` is false for every shape the bounds
+/// allow: every generation 1..=max_g and every value of the counts the conditions
+/// read with 1 ≤ torsos ≤ superparts ≤ metaparts ≤ max_parts, 1 ≤ count ≤
+/// metaparts and 0 ≤ parts(kind) ≤ superparts (0 for an absent kind): more than shapes can
+/// be, never less, so a `true` holds for every real shape. The check
+/// is exhaustive, so `true` is a proof; `None` when it cannot be made (a condition
+/// reads `complexity`, a real number, or the enumeration would exceed `budget`
+/// evaluations).
+pub fn never_hold(conditions: &[&[CondOp]], b: &Bounds, budget: u64) -> Option<bool> {
+    let mut vars: Vec<u8> = Vec::new();
+    let mut kinds: Vec<u32> = Vec::new();
+    for c in conditions {
+        vars.extend(reads(c).0);
+        kinds.extend(c.iter().filter_map(|op| match op {
+            CondOp::Parts(k) if !b.absent.contains(k) => Some(*k),
+            _ => None,
+        }));
+    }
+    vars.sort_unstable();
+    vars.dedup();
+    kinds.sort_unstable();
+    kinds.dedup();
+    if vars.contains(&COMPLEXITY) {
+        return None;
+    }
+    // The counts, outermost first, so that each one's range depends on those
+    // before it: superparts, metaparts, torsos, count, then parts(…).
+    const G: u8 = 0;
+    const SUPER: u8 = 1;
+    const META: u8 = 2;
+    const COUNT: u8 = 3;
+    const TORSOS: u8 = 4;
+    let reads_any = |v: u8| vars.contains(&v);
+    // Shape counts are read when a condition reads them or a later range needs them.
+    let need_meta = reads_any(META) || reads_any(COUNT);
+    let need_super = reads_any(SUPER) || need_meta || reads_any(TORSOS) || !kinds.is_empty();
+    let m = b.max_parts.max(1);
+    let mut evaluations: u64 = 0;
+    let mut stack = Vec::new();
+    struct At<'a> {
+        vars: [f64; 6],
+        kinds: &'a [u32],
+        parts: Vec<f64>,
+    }
+    impl Env for At<'_> {
+        fn var(&self, i: u8) -> f64 {
+            self.vars.get(i as usize).copied().unwrap_or(f64::NAN)
+        }
+        fn parts(&self, kind: u32) -> f64 {
+            self.kinds.iter().position(|&k| k == kind).map_or(0.0, |i| self.parts[i])
+        }
+    }
+    let mut at = At { vars: [0.0; 6], kinds: &kinds, parts: vec![0.0; kinds.len()] };
+    let gs: Vec<u32> = if reads_any(G) { (1..=b.max_g.max(1)).collect() } else { vec![1] };
+    let supers: Vec<u32> = if need_super { (1..=m).collect() } else { vec![1] };
+    for &sp in &supers {
+        let metas: Vec<u32> = if need_meta { (sp..=m).collect() } else { vec![sp] };
+        for &mp in &metas {
+            let torsos: Vec<u32> = if reads_any(TORSOS) { (1..=sp).collect() } else { vec![1] };
+            let counts: Vec<u32> = if reads_any(COUNT) { (1..=mp).collect() } else { vec![1] };
+            for &tr in &torsos {
+                for &ct in &counts {
+                    // parts(…) of each kind read: 0 ≤ n ≤ superparts (an odometer).
+                    let top = sp;
+                    let mut idx = vec![0u32; kinds.len()];
+                    loop {
+                        for &g in &gs {
+                            evaluations += 1;
+                            if evaluations > budget {
+                                return None;
+                            }
+                            at.vars = [g as f64, sp as f64, mp as f64, ct as f64, tr as f64, 0.0];
+                            for (slot, &v) in at.parts.iter_mut().zip(&idx) {
+                                *slot = v as f64;
+                            }
+                            // As the evolution reads a condition: finite and non-zero.
+                            if conditions.iter().all(|c| {
+                                let v = eval(c, &at, &mut stack);
+                                v.is_finite() && v != 0.0
+                            }) {
+                                return Some(false);
+                            }
+                        }
+                        let mut i = 0;
+                        while let Some(x) = idx.get_mut(i) {
+                            if *x < top {
+                                *x += 1;
+                                break;
+                            }
+                            *x = 0;
+                            i += 1;
+                        }
+                        if i == idx.len() {
+                            break;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    Some(true)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -208,6 +323,33 @@ mod tests {
         // 0.4·e^{0.1 g} > 1 first at g = 10 (0.4·e^{0.9} = 0.98, 0.4·e^{1.0} = 1.087).
         assert_eq!(at, "g = 10");
         assert!((p - 0.4 * 1f64.exp()).abs() < 1e-12);
+    }
+
+    fn bin(op: &str) -> CondOp {
+        CondOp::Bin(BINOPS.iter().position(|s| *s == op).expect("op") as u8)
+    }
+
+    #[test]
+    fn conditions_that_never_hold() {
+        let b = Bounds { max_g: 1000, max_parts: 24, absent: vec![7] };
+        let gt = |v: u8, n: f64| vec![CondOp::Var(v), CondOp::Push(n), bin(">")];
+        let lt = |v: u8, n: f64| vec![CondOp::Var(v), CondOp::Push(n), bin("<")];
+        // superparts > 30 with at most 24 meta-parts: never.
+        assert_eq!(never_hold(&[&gt(1, 30.0)], &b, 10_000_000), Some(true));
+        assert_eq!(never_hold(&[&gt(1, 20.0)], &b, 10_000_000), Some(false));
+        // superparts > 10 and metaparts < 8: metaparts >= superparts, so never.
+        assert_eq!(never_hold(&[&gt(1, 10.0), &lt(2, 8.0)], &b, 10_000_000), Some(true));
+        assert_eq!(never_hold(&[&gt(1, 5.0), &lt(2, 8.0)], &b, 10_000_000), Some(false));
+        // g > 1000: past the last generation.
+        assert_eq!(never_hold(&[&gt(0, 1000.0)], &b, 10_000_000), Some(true));
+        // parts(7) > 0 where kind 7 is absent; parts(3) > 0 is possible.
+        let parts = |k: u32| vec![CondOp::Parts(k), CondOp::Push(0.0), bin(">")];
+        assert_eq!(never_hold(&[&parts(7)], &b, 10_000_000), Some(true));
+        assert_eq!(never_hold(&[&parts(3)], &b, 10_000_000), Some(false));
+        // complexity is a real number: no proof.
+        assert_eq!(never_hold(&[&gt(5, 1e9)], &b, 10_000_000), None);
+        // Over budget: no proof.
+        assert_eq!(never_hold(&[&gt(0, 2000.0), &gt(2, 99.0), &gt(3, 99.0)], &b, 1000), None);
     }
 
     #[test]
