@@ -61,9 +61,10 @@ pub struct Args {
     /// terminating iterator rule contributes all its frames up to this).
     #[arg(long, value_name = "N")]
     max_frames: Option<u64>,
-    /// Stop after this many seconds of evaluation.
-    #[arg(long)]
-    time_budget: Option<f64>,
+    /// Stop after this much evaluation time: `2` (seconds), `1.5s`, `500ms` or `none`
+    /// (at most 10000000 s).
+    #[arg(long, value_name = "TIME", value_parser = time_budget)]
+    time_budget: Option<crate::args::TimeLimit>,
     /// Also write a picture (Vulkan offscreen, lavapipe without a GPU; the software
     /// renderer where no Vulkan is installed).
     #[arg(long)]
@@ -98,6 +99,11 @@ pub struct Args {
     creature: crate::modes::creature::CreatureArgs,
     #[command(flatten)]
     grid: crate::modes::grid::GridArgs,
+}
+
+/// `--time-budget`, parsed as every duration flag is.
+fn time_budget(s: &str) -> Result<crate::args::TimeLimit, String> {
+    crate::args::parse_duration("--time-budget", s, crate::args::BareUnit::Seconds).map(crate::args::TimeLimit)
 }
 
 fn peak_rss_kib() -> Option<u64> {
@@ -270,7 +276,7 @@ fn run_one(
         seed,
         max_vertices: cli.max_vertices.unwrap_or(mdg_vm::eval::DEFAULT_MAX_VERTICES),
         max_frames: cli.max_frames.unwrap_or(mdg_vm::eval::DEFAULT_MAX_FRAMES),
-        time_budget: cli.time_budget.map(Duration::from_secs_f64),
+        time_budget: cli.time_budget.and_then(|t| t.0),
         time: cli.time,
         ..EvalOptions::default()
     };
