@@ -26,7 +26,8 @@ fn run_in(dir: &Path, bin: &str, args: &[&str]) -> (Output, Duration) {
     let t0 = Instant::now();
     let out = Command::new("sh")
         .arg("-c")
-        .arg(format!("ulimit -v {VMEM_KIB}; exec \"$0\" \"$@\""))
+        // `timeout`: a child that blocks (on a named pipe) ends with 124 and fails.
+        .arg(format!("ulimit -v {VMEM_KIB}; exec timeout 120 \"$0\" \"$@\""))
         .arg(bin)
         .args(args)
         .current_dir(dir)
@@ -117,4 +118,38 @@ fn a_grid_rule_placing_a_shape_16_million_blocks_away_ends_with_an_error() {
     let (o, took) = mdg_run(&dir, &["far.mdg", "--bounds", "none", "-o", "far.obj"]);
     assert_ended(&o, took, 1, 60);
     assert!(stderr(&o).contains("too large for the enclosure constraint"), "{}", stderr(&o));
+}
+
+// ------------------------------------------------------------- reading
+
+#[cfg(unix)]
+#[test]
+fn devices_and_named_pipes_are_refused_without_blocking() {
+    let dir = scratch("not-regular");
+    // mdgc check /dev/zero grew to 8 GB in 12 s.
+    let (o, took) = mdgc(&dir, &["check", "/dev/zero"]);
+    assert_ended(&o, took, 1, 60);
+    let e = stderr(&o);
+    assert!(e.contains("error[E0201]: cannot read `/dev/zero`: not a regular file (a device)"), "{e}");
+    // --guides /dev/zero reached 22.8 GB.
+    let tree = Path::new(env!("CARGO_MANIFEST_DIR")).join("../std/examples/guided_tree.mdg");
+    std::fs::copy(tree, dir.join("tree.mdg")).unwrap();
+    let (o, took) = mdg_run(&dir, &["tree.mdg", "--guides", "/dev/zero", "-o", "t.obj"]);
+    assert_ended(&o, took, 1, 60);
+    assert!(stderr(&o).contains("cannot read /dev/zero: not a regular file (a device)"), "{}", stderr(&o));
+    // A named pipe imported in a project froze mdgc (open blocks until a writer comes).
+    let fifo = dir.join("pipe.mdg");
+    let made = Command::new("mkfifo").arg(&fifo).status().expect("mkfifo");
+    assert!(made.success());
+    std::fs::write(dir.join("main.mdg"), format!("@import pipe.mdg\n{TRIANGLE}")).unwrap();
+    let (o, took) = mdgc(&dir, &["check", "main.mdg"]);
+    assert_ended(&o, took, 1, 60);
+    let e = stderr(&o);
+    assert!(e.contains("error[E0201]: cannot read `pipe.mdg`: not a regular file (a named pipe)"), "{e}");
+    // So did a pipe given as the bundle to run.
+    let fifo = dir.join("pipe.mdgb");
+    assert!(Command::new("mkfifo").arg(&fifo).status().expect("mkfifo").success());
+    let (o, took) = mdg_run(&dir, &["pipe.mdgb", "-o", "p.obj"]);
+    assert_ended(&o, took, 2, 60);
+    assert!(stderr(&o).contains("not a regular file (a named pipe)"), "{}", stderr(&o));
 }

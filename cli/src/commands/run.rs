@@ -138,7 +138,8 @@ fn parse_size(s: &str) -> Result<(u32, u32), Failure> {
 
 fn load_bundle(file: &Path, opts: &mdg_compiler::expand::Options, stdin: bool) -> Result<Bundle, Failure> {
     if file.extension().is_some_and(|e| e == "mdgb") && !stdin {
-        let bytes = std::fs::read(file).map_err(|e| (2, format!("cannot read {}: {e}", file.display())))?;
+        let bytes = mdg_vm::input::read_bounded(file, mdg_vm::input::MAX_DATA_BYTES)
+            .map_err(|e| (2, format!("cannot read {}: {e}", file.display())))?;
         return mdg_vm::bundle::load(&bytes).map_err(|e| (1, format!("{}: {e}", file.display())));
     }
     let built = if stdin {

@@ -113,7 +113,8 @@ pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common) -> Result<Output
     let table = bundle.extensions.guided.as_ref().ok_or("the program has no `search` section")?;
     let guides = match &args.guides {
         Some(path) => {
-            let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            let text = mdg_vm::input::read_text_bounded(path, mdg_vm::input::MAX_DATA_BYTES)
+                .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
             guides_from_json(&text).map_err(|e| format!("{}: {e}", path.display()))?
         }
         None => table.guides.clone(),
