@@ -153,3 +153,25 @@ fn devices_and_named_pipes_are_refused_without_blocking() {
     assert_ended(&o, took, 2, 60);
     assert!(stderr(&o).contains("not a regular file (a named pipe)"), "{}", stderr(&o));
 }
+
+// ------------------------------------------------------------- writing
+
+#[test]
+fn an_output_that_is_an_input_is_refused_and_the_source_kept() {
+    let dir = scratch("output-is-input");
+    std::fs::write(dir.join("lib.mdg"), "rule B { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n").unwrap();
+    let main = format!("@import lib.mdg\n{TRIANGLE}");
+    std::fs::write(dir.join("x.mdg"), &main).unwrap();
+    for (bin, args) in [
+        ("mdg-run", vec!["x.mdg", "-o", "x.mdg"]),
+        ("mdg-run", vec!["x.mdg", "-o", "lib.mdg", "--format", "obj"]),
+        ("mdg-run", vec!["x.mdg", "-o", "x.obj", "--png", "./x.mdg"]),
+        ("mdgc", vec!["build", "x.mdg", "-o", "lib.mdg"]),
+    ] {
+        let (o, took) = if bin == "mdgc" { mdgc(&dir, &args) } else { mdg_run(&dir, &args) };
+        assert_ended(&o, took, 2, 60);
+        assert!(stderr(&o).contains("that is an input"), "{args:?}: {}", stderr(&o));
+    }
+    assert_eq!(std::fs::read_to_string(dir.join("x.mdg")).unwrap(), main);
+    assert!(std::fs::read_to_string(dir.join("lib.mdg")).unwrap().starts_with("rule B"));
+}
