@@ -64,7 +64,7 @@ const TRIANGLE: &str = "startshape A\nrule A { VERTEX {} VERTEX {x 1} VERTEX {y 
 #[test]
 fn time_budgets_that_are_not_positive_finite_times_are_refused() {
     let dir = scratch("time-budget");
-    std::fs::write(dir.join("a.mdg"), TRIANGLE).unwrap();
+    std::fs::write(dir.join("a.mdg"), TRIANGLE).expect("ok");
     for bad in ["-1", "nan", "inf", "-inf", "0", "1e23", "1e400", "10000001", "soon"] {
         let flag = format!("--time-budget={bad}");
         let (o, took) = mdg_run(&dir, &["a.mdg", "-o", "a.obj", &flag]);
@@ -84,12 +84,12 @@ fn a_guide_file_with_points_near_f64_max_is_refused() {
     let dir = scratch("guide-max");
     let src = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../std/examples/guided_tree.mdg"))
         .expect("guided_tree.mdg");
-    std::fs::write(dir.join("tree.mdg"), src).unwrap();
+    std::fs::write(dir.join("tree.mdg"), src).expect("ok");
     std::fs::write(
         dir.join("g.json"),
         r#"{"guides": [{"name": "far", "points": [[0,0,0],[1e308,0,0],[0,1e308,0],[-1e308,0,1e308]]}]}"#,
     )
-    .unwrap();
+    .expect("ok");
     let (o, took) = mdg_run(&dir, &["tree.mdg", "--guides", "g.json", "-o", "t.obj", "--budget", "50ms"]);
     assert_ended(&o, took, 1, 60);
     assert!(stderr(&o).contains("beyond ±1000000000"), "{}", stderr(&o));
@@ -99,7 +99,7 @@ fn a_guide_file_with_points_near_f64_max_is_refused() {
         dir.join("long.json"),
         r#"{"guides": [{"name": "long", "points": [[0,0,0],[1e6,0,0],[0,1e6,0],[-1e6,0,1e6]]}]}"#,
     )
-    .unwrap();
+    .expect("ok");
     let (o, took) = mdg_run(&dir, &["tree.mdg", "--guides", "long.json", "-o", "t.obj", "--budget", "50ms"]);
     assert_ended(&o, took, 1, 60);
     assert!(stderr(&o).contains("utilisation counts"), "{}", stderr(&o));
@@ -112,7 +112,7 @@ fn a_grid_rule_placing_a_shape_16_million_blocks_away_ends_with_an_error() {
         .expect("grid_cottage.mdg");
     let far = src.replace("rule floor floor at 6 0 0;", "rule floor floor at 16000000 0 0;");
     assert_ne!(far, src, "the example changed: update this test");
-    std::fs::write(dir.join("far.mdg"), far).unwrap();
+    std::fs::write(dir.join("far.mdg"), far).expect("ok");
     // The checker accepts the offset (within ±16777216); the enclosure constraint's
     // grid is refused before it is allocated (it was 29 GB).
     let (o, took) = mdg_run(&dir, &["far.mdg", "--bounds", "none", "-o", "far.obj"]);
@@ -133,7 +133,7 @@ fn devices_and_named_pipes_are_refused_without_blocking() {
     assert!(e.contains("error[E0201]: cannot read `/dev/zero`: not a regular file (a device)"), "{e}");
     // --guides /dev/zero reached 22.8 GB.
     let tree = Path::new(env!("CARGO_MANIFEST_DIR")).join("../std/examples/guided_tree.mdg");
-    std::fs::copy(tree, dir.join("tree.mdg")).unwrap();
+    std::fs::copy(tree, dir.join("tree.mdg")).expect("ok");
     let (o, took) = mdg_run(&dir, &["tree.mdg", "--guides", "/dev/zero", "-o", "t.obj"]);
     assert_ended(&o, took, 1, 60);
     assert!(stderr(&o).contains("cannot read /dev/zero: not a regular file (a device)"), "{}", stderr(&o));
@@ -141,7 +141,7 @@ fn devices_and_named_pipes_are_refused_without_blocking() {
     let fifo = dir.join("pipe.mdg");
     let made = Command::new("mkfifo").arg(&fifo).status().expect("mkfifo");
     assert!(made.success());
-    std::fs::write(dir.join("main.mdg"), format!("@import pipe.mdg\n{TRIANGLE}")).unwrap();
+    std::fs::write(dir.join("main.mdg"), format!("@import pipe.mdg\n{TRIANGLE}")).expect("ok");
     let (o, took) = mdgc(&dir, &["check", "main.mdg"]);
     assert_ended(&o, took, 1, 60);
     let e = stderr(&o);
@@ -159,9 +159,9 @@ fn devices_and_named_pipes_are_refused_without_blocking() {
 #[test]
 fn an_output_that_is_an_input_is_refused_and_the_source_kept() {
     let dir = scratch("output-is-input");
-    std::fs::write(dir.join("lib.mdg"), "rule B { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n").unwrap();
+    std::fs::write(dir.join("lib.mdg"), "rule B { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n").expect("ok");
     let main = format!("@import lib.mdg\n{TRIANGLE}");
-    std::fs::write(dir.join("x.mdg"), &main).unwrap();
+    std::fs::write(dir.join("x.mdg"), &main).expect("ok");
     for (bin, args) in [
         ("mdg-run", vec!["x.mdg", "-o", "x.mdg"]),
         ("mdg-run", vec!["x.mdg", "-o", "lib.mdg", "--format", "obj"]),
@@ -172,6 +172,6 @@ fn an_output_that_is_an_input_is_refused_and_the_source_kept() {
         assert_ended(&o, took, 2, 60);
         assert!(stderr(&o).contains("that is an input"), "{args:?}: {}", stderr(&o));
     }
-    assert_eq!(std::fs::read_to_string(dir.join("x.mdg")).unwrap(), main);
-    assert!(std::fs::read_to_string(dir.join("lib.mdg")).unwrap().starts_with("rule B"));
+    assert_eq!(std::fs::read_to_string(dir.join("x.mdg")).expect("ok"), main);
+    assert!(std::fs::read_to_string(dir.join("lib.mdg")).expect("ok").starts_with("rule B"));
 }

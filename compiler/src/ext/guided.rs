@@ -451,7 +451,7 @@ fn check_guide(sec: &Sec, cx: &CheckCx, diags: &mut Vec<Diagnostic>) {
                     continue;
                 }
                 if let Some((_, val)) =
-                    v.iter().zip(&e.values).find(|(x, _)| !(x.abs() <= mdg_vm::sosmc::MAX_GUIDE_COORD))
+                    v.iter().zip(&e.values).find(|(x, _)| x.is_nan() || x.abs() > mdg_vm::sosmc::MAX_GUIDE_COORD)
                 {
                     range_error(val.span(), "control point", "a coordinate from -1000000000 to 1000000000", diags);
                     continue;

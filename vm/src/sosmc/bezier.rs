@@ -179,7 +179,8 @@ impl Path {
         let id = self.nodes.len() as u32;
         // A flatness that is not a number (coordinates near f64::MAX overflow) counts
         // as flat: subdividing such a curve to MAX_LEVELS made 2^24 leaves a segment.
-        if level >= MAX_LEVELS || !(uniform_flatness(p) > self.eps) {
+        let flatness = uniform_flatness(p);
+        if level >= MAX_LEVELS || flatness.is_nan() || flatness <= self.eps {
             self.nodes.push(Node { lo, hi, a: LEAF, b: self.leaves.len() as u32 });
             self.leaves.push(Leaf {
                 p: *p,
