@@ -34,3 +34,79 @@ impl CompileArgs {
         })
     }
 }
+
+/// The longest duration any flag takes: 10,000,000 s (about 116 days). Beyond it
+/// `Duration` arithmetic can overflow, and no run needs more.
+pub const MAX_DURATION_SECS: f64 = 1e7;
+
+/// A parsed duration flag (`None`: no limit).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TimeLimit(pub Option<std::time::Duration>);
+
+/// The unit of a duration written without one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BareUnit {
+    Seconds,
+    Milliseconds,
+}
+
+/// Parses a duration flag: `200ms`, `0.5s`, a bare number in `bare`'s unit, or
+/// `none` (no limit). The value must be finite, positive and at most
+/// [`MAX_DURATION_SECS`]; the error names the flag and what it expects.
+pub fn parse_duration(flag: &str, s: &str, bare: BareUnit) -> Result<Option<std::time::Duration>, String> {
+    let t = s.trim();
+    if t == "none" {
+        return Ok(None);
+    }
+    let bare_scale = match bare {
+        BareUnit::Seconds => 1.0,
+        BareUnit::Milliseconds => 1e-3,
+    };
+    let (num, scale) = if let Some(n) = t.strip_suffix("ms") {
+        (n, 1e-3)
+    } else if let Some(n) = t.strip_suffix('s') {
+        (n, 1.0)
+    } else {
+        (t, bare_scale)
+    };
+    let example = match bare {
+        BareUnit::Seconds => "2",
+        BareUnit::Milliseconds => "150",
+    };
+    match num.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v * scale <= MAX_DURATION_SECS => {
+            Ok(Some(std::time::Duration::from_secs_f64(v * scale)))
+        }
+        _ => {
+            let shown: String = s.chars().take(40).collect();
+            let cut = if shown.len() < s.len() { "…" } else { "" };
+            Err(format!(
+                "{flag} {shown}{cut}: expected a positive time of at most 10000000 s such as 200ms, 0.5s or {example} \
+                 ({}), or `none`",
+                if bare == BareUnit::Seconds { "seconds" } else { "milliseconds" }
+            ))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+
+    #[test]
+    fn durations_parse_and_bad_ones_are_refused() {
+        let s = |x| parse_duration("--time-budget", x, BareUnit::Seconds);
+        assert_eq!(s("2"), Ok(Some(Duration::from_secs(2))));
+        assert_eq!(s("250ms"), Ok(Some(Duration::from_millis(250))));
+        assert_eq!(s("1.5s"), Ok(Some(Duration::from_millis(1500))));
+        assert_eq!(s("none"), Ok(None));
+        assert_eq!(s("10000000"), Ok(Some(Duration::from_secs(10_000_000))));
+        for bad in ["-1", "nan", "NaN", "inf", "-inf", "0", "1e23", "10000001", "", "soon", "1e400"] {
+            let e = s(bad).expect_err("refused");
+            assert!(e.starts_with("--time-budget "), "{e}");
+        }
+        let e = s(&"9".repeat(1000)).expect_err("refused");
+        assert!(e.len() < 200, "the message shows a short prefix: {e}");
+    }
+}

@@ -27,7 +27,7 @@ impl Loader for Toolchain {
         let fail = |error: Error, files: Vec<PathBuf>| Box::new(LoadFailure { error, files });
         let is_bundle = path.extension().is_some_and(|e| e == "mdgb");
         let (bundle, files, warnings) = if is_bundle {
-            let bytes = std::fs::read(path)
+            let bytes = mdg_vm::input::read_bounded(path, mdg_vm::input::MAX_DATA_BYTES)
                 .map_err(|e| fail(Error::Io(format!("cannot read {}: {e}", path.display())), vec![path.into()]))?;
             let b = mdg_vm::bundle::load(&bytes)
                 .map_err(|e| fail(Error::Compile(format!("{}: {e}", path.display())), vec![path.into()]))?;

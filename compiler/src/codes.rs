@@ -433,6 +433,26 @@ rule A {
         ),
     },
     Code {
+        code: "E0212",
+        severity: Error,
+        title: "imports nest too deeply",
+        explanation: r#"A chain of `@import`s (a file importing a file importing a file …) holds more than 64 files.
+
+In the example: `chain/c0.mdg` imports `c1.mdg`, which imports `c2.mdg`, and so on, 65 files deep.
+
+Fix: Import the files from one file (a list of `@import`s) instead of each from the one before."#,
+        example: Library(
+            r#"@import chain/c0.mdg
+
+startshape A
+
+rule A {
+  VERTEX {} VERTEX {x 1} VERTEX {y 1}
+}
+"#,
+        ),
+    },
+    Code {
         code: "E0301",
         severity: Error,
         title: "unknown rule",
@@ -2400,7 +2420,9 @@ mod tests {
     }
 
     /// Every example, checked as `project/example.mdg` on disk (beside `project/`
-    /// lies `outside.mdg`, for E0202), produces its code and no other error.
+    /// lies `outside.mdg`, for E0202; in `project/chain/` a chain of files each
+    /// importing the next, one longer than `MAX_IMPORT_DEPTH`, for E0212), produces
+    /// its code and no other error.
     #[test]
     fn every_example_triggers_its_code() {
         let scratch = std::env::temp_dir().join(format!("mdg-codes-{}", std::process::id()));
@@ -2408,6 +2430,14 @@ mod tests {
         std::fs::create_dir_all(&project).expect("create the example project");
         std::fs::write(scratch.join("outside.mdg"), "rule outside { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n")
             .expect("write outside.mdg");
+        let chain = project.join("chain");
+        std::fs::create_dir_all(&chain).expect("create the chain");
+        for i in 0..crate::expand::MAX_IMPORT_DEPTH {
+            std::fs::write(chain.join(format!("c{i}.mdg")), format!("@import c{}.mdg\nrule c{i} {{ }}\n", i + 1))
+                .expect("write a chain file");
+        }
+        let last = crate::expand::MAX_IMPORT_DEPTH;
+        std::fs::write(chain.join(format!("c{last}.mdg")), format!("rule c{last} {{ }}\n")).expect("write the last");
         let path = project.join("example.mdg");
         let opts = Options { std_dir: Some(workspace().join("std")), ..Options::default() };
         let mut failures = Vec::new();

@@ -33,6 +33,10 @@ pub const MAX_EXPANSIONS: usize = 10_000;
 /// How many tokens all macro expansions of one compilation may produce together (a
 /// macro whose argument doubles at each level would otherwise make 2^32).
 pub const MAX_EXPANDED_TOKENS: usize = 1_000_000;
+/// Most files in one chain of imports (the main file importing a file importing a
+/// file …). Imports are walked on the native stack: 1,000 chained files overflowed
+/// the language server's 2 MiB analysis threads, 5,000 the compiler's main thread.
+pub const MAX_IMPORT_DEPTH: usize = 64;
 
 /// A parameter declared with `@param`.
 #[derive(Clone, Debug, PartialEq)]
@@ -616,6 +620,23 @@ impl<'a> Expander<'a> {
             return;
         }
         if !self.imported.insert(canon.clone()) {
+            return;
+        }
+        if self.import_stack.len() >= MAX_IMPORT_DEPTH {
+            let name_of = |p: &PathBuf| p.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
+            let n = self.import_stack.len();
+            let chain: Vec<String> = self.import_stack.iter().take(3).map(name_of).collect();
+            let tail: Vec<String> = self.import_stack.iter().skip(n.saturating_sub(2).max(3)).map(name_of).collect();
+            self.out.diagnostics.push(
+                Diagnostic::error(
+                    "E0212",
+                    name.span,
+                    format!("imports nest too deeply: `{}` would be file {} of one import chain", name.text, n + 1),
+                )
+                .with_label(format!("a chain of imports may hold {MAX_IMPORT_DEPTH} files"))
+                .with_note(format!("chain: {} → … → {} → {}", chain.join(" → "), tail.join(" → "), name_of(&canon)))
+                .with_note("import the files from one file instead of each from the one before"),
+            );
             return;
         }
         let text = match self.loader.read(&canon) {

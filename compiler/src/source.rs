@@ -20,13 +20,16 @@ pub struct FsLoader;
 impl FileLoader for FsLoader {
     fn read(&self, path: &Path) -> Result<String, String> {
         // Refuse huge files before reading them (the parser refuses longer texts too, E0201).
-        let max = crate::parse::MAX_SOURCE_BYTES;
-        if let Ok(m) = std::fs::metadata(path) {
-            if m.is_file() && m.len() > max as u64 {
-                return Err(format!("source file too large: {} bytes (at most {max})", m.len()));
+        // Only regular files, opened without blocking (a named pipe froze the
+        // compiler, `/dev/zero` grew to gigabytes), at most MAX_SOURCE_BYTES.
+        let max = crate::parse::MAX_SOURCE_BYTES as u64;
+        match mdg_vm::input::read_bounded(path, max) {
+            Ok(bytes) => String::from_utf8(bytes).map_err(|_| "stream did not contain valid UTF-8".to_string()),
+            Err(mdg_vm::input::ReadError::TooLarge { len, max }) => {
+                Err(format!("source file too large: {len} bytes (at most {max})"))
             }
+            Err(e) => Err(e.to_string()),
         }
-        std::fs::read_to_string(path).map_err(|e| e.to_string())
     }
     fn canonicalize(&self, path: &Path) -> Result<PathBuf, String> {
         std::fs::canonicalize(path).map_err(|e| e.to_string())

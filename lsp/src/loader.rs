@@ -28,7 +28,7 @@ impl FileLoader for OverlayLoader {
         if let Some(t) = self.open.get(path) {
             return Ok(t.to_string());
         }
-        std::fs::read_to_string(path).map_err(|e| e.to_string())
+        mdg_compiler::source::FsLoader.read(path)
     }
 
     fn canonicalize(&self, path: &Path) -> Result<PathBuf, String> {

@@ -430,6 +430,55 @@ fn self_importing_files_and_cycles_are_reported_and_their_rules_kept() {
     assert_eq!(a.sources.files.len(), 4, "each file is read once");
 }
 
+/// Writes `c0.mdg … c{n-1}.mdg` in `dir`, each importing the next and defining
+/// `rule C{i}`, and `main.mdg` importing `c0.mdg`.
+fn import_chain(dir: &Path, n: usize) {
+    for i in 0..n {
+        let next = if i + 1 < n { format!("@import c{}.mdg\n", i + 1) } else { String::new() };
+        std::fs::write(dir.join(format!("c{i}.mdg")), format!("{next}rule C{i} {{ VERTEX {{}} }}\n")).expect("write");
+    }
+    std::fs::write(dir.join("main.mdg"), "@import c0.mdg\nstartshape A\nrule A { C0 {} }\n").expect("write");
+}
+
+#[test]
+fn a_chain_of_a_thousand_imports_stops_at_the_import_depth_on_a_small_stack() {
+    // 1,000 chained files overflowed the language server's 2 MiB stack (5,000 the
+    // compiler's main thread): the chain stops at MAX_IMPORT_DEPTH with E0212.
+    let dir = scratch("import_chain");
+    import_chain(&dir, 1000);
+    let main = dir.join("main.mdg");
+    let t0 = Instant::now();
+    let a = on_small_stack(move || {
+        mdg_compiler::driver::analyze(&FsLoader, &main, &Options::default(), CheckOptions { require_start: true })
+    });
+    assert!(t0.elapsed() < Duration::from_secs(30), "took {:?}", t0.elapsed());
+    let depth = mdg_compiler::expand::MAX_IMPORT_DEPTH;
+    // main.mdg and c0 … c{depth-2} fill the chain; c{depth-1} is refused.
+    assert_eq!(
+        messages(&a, "E0212"),
+        [format!("imports nest too deeply: `c{}.mdg` would be file {} of one import chain", depth - 1, depth + 1)]
+    );
+    assert_eq!(codes(&a).iter().filter(|c| c.starts_with('E')).count(), 1, "{:?}", codes(&a));
+    for i in 0..depth - 1 {
+        assert!(has_rule(&a, &format!("C{i}")), "rule C{i} of a file within the limit is kept");
+    }
+    assert!(!has_rule(&a, &format!("C{}", depth - 1)));
+    assert_eq!(a.sources.files.len(), depth, "nothing past the limit is read");
+}
+
+#[test]
+fn a_chain_of_imports_at_the_limit_compiles_on_a_small_stack() {
+    let dir = scratch("import_chain_ok");
+    let depth = mdg_compiler::expand::MAX_IMPORT_DEPTH;
+    import_chain(&dir, depth - 1);
+    let main = dir.join("main.mdg");
+    let a = on_small_stack(move || {
+        mdg_compiler::driver::analyze(&FsLoader, &main, &Options::default(), CheckOptions { require_start: true })
+    });
+    assert!(!a.diagnostics.iter().any(|d| d.is_error()), "{:?}", codes(&a));
+    assert!(has_rule(&a, &format!("C{}", depth - 2)));
+}
+
 #[test]
 fn imports_cannot_leave_the_project_or_std_even_through_symlinks() {
     let dir = scratch("containment");

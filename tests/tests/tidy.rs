@@ -140,11 +140,15 @@ fn files_are_written_only_through_write_atomic() {
         for (n, code) in code_lines(text) {
             if ["fs::write(", "File::create(", "OpenOptions::new("].iter().any(|p| code.contains(p))
                 && !f.ends_with("vm/src/export/mod.rs")
+                // The bounded reader opens files read-only (checked below).
+                && !(f.ends_with("vm/src/input.rs") && code.contains("OpenOptions::new("))
             {
                 found.push(format!("{}:{n}: {}", f.strip_prefix(root()).unwrap_or(&f).display(), code.trim()));
             }
         }
     }
+    let input = std::fs::read_to_string(root().join("vm/src/input.rs")).unwrap_or_default();
+    assert!(input.contains(".read(true)") && !input.contains(".write(") && !input.contains(".create("));
     assert!(found.is_empty(), "files written without write_atomic:\n{}", found.join("\n"));
 }
 

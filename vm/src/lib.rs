@@ -12,6 +12,7 @@ pub mod export;
 pub mod expr;
 pub mod geom;
 pub mod grid;
+pub mod input;
 pub mod output;
 pub mod preview;
 pub mod sosmc;

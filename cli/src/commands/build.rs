@@ -26,6 +26,14 @@ pub fn run(args: Args) -> ExitCode {
         Ok((bundle, a)) => {
             emit(&a, args.common.message_format);
             let out = args.output.unwrap_or_else(|| args.file.with_extension("mdgb"));
+            if let Some(f) = a.sources.files.iter().find(|f| mdg_vm::export::same_file(&f.path, &out)) {
+                let msg = format!(
+                    "-o {}: that is an input ({}); choose another output file",
+                    out.display(),
+                    f.path.display()
+                );
+                return fail("mdgc build", msg, 2);
+            }
             let bytes = mdg_vm::bundle::encode(&bundle);
             if let Err(e) = mdg_vm::export::write_atomic(&out, &bytes) {
                 return fail("mdgc build", format!("cannot write {}: {e}", out.display()), 2);

@@ -16,7 +16,7 @@ pub struct Args {
 pub fn run(args: Args) -> ExitCode {
     let file = &args.file;
     let bundle = if file.extension().is_some_and(|e| e == "mdgb") {
-        let bytes = match std::fs::read(file) {
+        let bytes = match mdg_vm::input::read_bounded(file, mdg_vm::input::MAX_DATA_BYTES) {
             Ok(b) => b,
             Err(e) => return fail("mdgc disasm", format!("cannot read {}: {e}", file.display()), 2),
         };

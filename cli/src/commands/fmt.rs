@@ -16,7 +16,7 @@ pub struct Args {
 pub fn run(args: Args) -> ExitCode {
     let mut changed = false;
     for f in &args.files {
-        let text = match std::fs::read_to_string(f) {
+        let text = match mdg_compiler::source::FileLoader::read(&mdg_compiler::source::FsLoader, f) {
             Ok(t) => t,
             Err(e) => return fail("mdgc fmt", format!("cannot read {}: {e}", f.display()), 2),
         };

@@ -61,9 +61,10 @@ pub struct Args {
     /// terminating iterator rule contributes all its frames up to this).
     #[arg(long, value_name = "N")]
     max_frames: Option<u64>,
-    /// Stop after this many seconds of evaluation.
-    #[arg(long)]
-    time_budget: Option<f64>,
+    /// Stop after this much evaluation time: `2` (seconds), `1.5s`, `500ms` or `none`
+    /// (at most 10000000 s).
+    #[arg(long, value_name = "TIME", value_parser = time_budget)]
+    time_budget: Option<crate::args::TimeLimit>,
     /// Also write a picture (Vulkan offscreen, lavapipe without a GPU; the software
     /// renderer where no Vulkan is installed).
     #[arg(long)]
@@ -100,6 +101,11 @@ pub struct Args {
     grid: crate::modes::grid::GridArgs,
 }
 
+/// `--time-budget`, parsed as every duration flag is.
+fn time_budget(s: &str) -> Result<crate::args::TimeLimit, String> {
+    crate::args::parse_duration("--time-budget", s, crate::args::BareUnit::Seconds).map(crate::args::TimeLimit)
+}
+
 fn peak_rss_kib() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
@@ -130,10 +136,17 @@ fn parse_size(s: &str) -> Result<(u32, u32), Failure> {
     }
 }
 
-fn load_bundle(file: &Path, opts: &mdg_compiler::expand::Options, stdin: bool) -> Result<Bundle, Failure> {
+/// The bundle of `file`, and the files read to make it (the source and its imports).
+fn load_bundle(
+    file: &Path,
+    opts: &mdg_compiler::expand::Options,
+    stdin: bool,
+) -> Result<(Bundle, Vec<PathBuf>), Failure> {
     if file.extension().is_some_and(|e| e == "mdgb") && !stdin {
-        let bytes = std::fs::read(file).map_err(|e| (2, format!("cannot read {}: {e}", file.display())))?;
-        return mdg_vm::bundle::load(&bytes).map_err(|e| (1, format!("{}: {e}", file.display())));
+        let bytes = mdg_vm::input::read_bounded(file, mdg_vm::input::MAX_DATA_BYTES)
+            .map_err(|e| (2, format!("cannot read {}: {e}", file.display())))?;
+        let b = mdg_vm::bundle::load(&bytes).map_err(|e| (1, format!("{}: {e}", file.display())))?;
+        return Ok((b, vec![file.to_path_buf()]));
     }
     let built = if stdin {
         let mut text = String::new();
@@ -147,7 +160,9 @@ fn load_bundle(file: &Path, opts: &mdg_compiler::expand::Options, stdin: bool) -
     match built {
         Ok((b, a)) => {
             eprint!("{}", render_plain(&a.diagnostics, &a.sources));
-            Ok(b)
+            let mut inputs: Vec<PathBuf> = a.sources.files.iter().map(|f| f.path.clone()).collect();
+            inputs.push(file.to_path_buf());
+            Ok((b, inputs))
         }
         Err(a) => {
             eprint!("{}", render_plain(&a.diagnostics, &a.sources));
@@ -187,7 +202,15 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
         }
         None => None,
     };
-    let bundle = load_bundle(&cli.file, &opts, cli.stdin)?;
+    let (bundle, inputs) = load_bundle(&cli.file, &opts, cli.stdin)?;
+    // An output that is an input would destroy the source (`mdg-run x.mdg -o x.mdg`).
+    let outputs = [("-o", cli.output.as_ref().filter(|_| cli.seeds.is_none())), ("--png", cli.png.as_ref())];
+    for (flag, o) in outputs.iter().filter_map(|(f, o)| o.map(|o| (f, o))) {
+        if let Some(i) = inputs.iter().find(|i| mdg_vm::export::same_file(i, o)) {
+            let (o, i) = (o.display(), i.display());
+            return Err((2, format!("{flag} {o}: that is an input ({i}); choose another output file")));
+        }
+    }
     let pictures = Vulkan::new(opts.std_dir.clone()).posed(pose);
     if bundle.extensions.creatures.is_some() {
         if batch.is_some() {
@@ -270,7 +293,7 @@ fn run_one(
         seed,
         max_vertices: cli.max_vertices.unwrap_or(mdg_vm::eval::DEFAULT_MAX_VERTICES),
         max_frames: cli.max_frames.unwrap_or(mdg_vm::eval::DEFAULT_MAX_FRAMES),
-        time_budget: cli.time_budget.map(Duration::from_secs_f64),
+        time_budget: cli.time_budget.and_then(|t| t.0),
         time: cli.time,
         ..EvalOptions::default()
     };

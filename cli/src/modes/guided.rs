@@ -45,23 +45,10 @@ pub struct GuidedArgs {
     pub no_skeleton_lines: bool,
 }
 
-/// Parses `--budget`: `200ms`, `0.5s`, `150` (ms), or `none`.
+/// Parses `--budget`: `200ms`, `0.5s`, `150` (ms), or `none` (bounded like every
+/// duration flag: [`crate::args::parse_duration`]).
 pub fn parse_budget(s: &str) -> Result<Option<Duration>, String> {
-    let t = s.trim();
-    if t == "none" {
-        return Ok(None);
-    }
-    let (num, scale) = if let Some(n) = t.strip_suffix("ms") {
-        (n, 1e-3)
-    } else if let Some(n) = t.strip_suffix('s') {
-        (n, 1.0)
-    } else {
-        (t, 1e-3)
-    };
-    match num.trim().parse::<f64>() {
-        Ok(v) if v.is_finite() && v > 0.0 && v * scale < 1e7 => Ok(Some(Duration::from_secs_f64(v * scale))),
-        _ => Err(format!("--budget {s}: expected a positive time such as 200ms, 0.5s or 150, or `none`")),
-    }
+    crate::args::parse_duration("--budget", s, crate::args::BareUnit::Milliseconds)
 }
 
 /// Parses `--particles`: `N` or `FIRST:LAST`.
@@ -126,7 +113,8 @@ pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common) -> Result<Output
     let table = bundle.extensions.guided.as_ref().ok_or("the program has no `search` section")?;
     let guides = match &args.guides {
         Some(path) => {
-            let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            let text = mdg_vm::input::read_text_bounded(path, mdg_vm::input::MAX_DATA_BYTES)
+                .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
             guides_from_json(&text).map_err(|e| format!("{}: {e}", path.display()))?
         }
         None => table.guides.clone(),
@@ -134,6 +122,7 @@ pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common) -> Result<Output
     let seed = common.seed.unwrap_or(bundle.settings.randseed);
     let opts = options(&table.settings, args, seed)?;
     let prepared = Prepared::new(bundle, table, &guides)?;
+    prepared.check_size(&opts)?;
     let bar = indicatif::ProgressBar::new(opts.generations as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} generations  {msg}")

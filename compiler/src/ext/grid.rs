@@ -495,7 +495,7 @@ fn parse(sec: &Section, ex: &Expanded, diags: &mut Vec<Diagnostic>) -> Option<Gr
             diags.push(malformed(e, form));
             continue;
         };
-        let limit = 4 * MAX_SHAPE_EXTENT as i64 * 1024;
+        let limit = mdg_vm::grid::MAX_RULE_OFFSET as i64;
         let offset: Vec<Option<i64>> = vals[3..6].iter().map(|v| int_in(ex, "at", v, -limit..=limit, diags)).collect();
         let turn = match vals.get(7) {
             Some(v) => int_in(ex, "turn", v, 0..=3, diags),
@@ -755,8 +755,19 @@ fn shape(
     };
     let at = match find("at") {
         Some(a) if expect_count(a, 3, 3, "X Y Z", diags) => {
-            let v: Vec<Option<i64>> =
-                a.values.iter().map(|v| int_in(ex, "at", v, -(1 << 24)..=(1 << 24), diags)).collect();
+            let v: Vec<Option<i64>> = a
+                .values
+                .iter()
+                .map(|v| {
+                    int_in(
+                        ex,
+                        "at",
+                        v,
+                        -(mdg_vm::grid::voxel::MAX_COORD as i64)..=mdg_vm::grid::voxel::MAX_COORD as i64,
+                        diags,
+                    )
+                })
+                .collect();
             match (v[0], v[1], v[2]) {
                 (Some(x), Some(y), Some(z)) => Some([x as i32, y as i32, z as i32]),
                 _ => {

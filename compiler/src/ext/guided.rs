@@ -261,8 +261,8 @@ fn check_search(sec: &Sec, cx: &CheckCx, diags: &mut Vec<Diagnostic>) {
                     continue;
                 }
                 if let Some(v) = numbers(cx.ex, e, diags) {
-                    if v[0] < 0.0 {
-                        range_error(e.values[0].span(), "heuristic scale", "a number ≥ 0", diags);
+                    if !(v[0].is_finite() && v[0] >= 0.0) {
+                        range_error(e.values[0].span(), "heuristic scale", "a finite number ≥ 0", diags);
                     }
                     if let Some(f) = v.get(1) {
                         if !(0.0..=1.0).contains(f) {
@@ -278,8 +278,13 @@ fn check_search(sec: &Sec, cx: &CheckCx, diags: &mut Vec<Diagnostic>) {
                 match &e.values[0] {
                     Value::Word(w) if w.text == "none" => {}
                     v => match cx.number(v) {
-                        Some(x) if x.is_finite() && x > 0.0 => {}
-                        Some(_) => range_error(v.span(), "budget", "a positive number of milliseconds", diags),
+                        Some(x) if x.is_finite() && x > 0.0 && x <= mdg_vm::sosmc::MAX_BUDGET_MS => {}
+                        Some(_) => range_error(
+                            v.span(),
+                            "budget",
+                            "a positive number of milliseconds, at most 10000000000 (10000000 s), or `none`",
+                            diags,
+                        ),
                         None => diags.push(
                             Diagnostic::error("E0602", v.span(), "`budget` takes milliseconds or `none`")
                                 .with_label("not a constant number"),
@@ -443,6 +448,12 @@ fn check_guide(sec: &Sec, cx: &CheckCx, diags: &mut Vec<Diagnostic>) {
                         v.len() % 3,
                         if v.len() % 3 == 1 { "" } else { "s" }
                     )));
+                    continue;
+                }
+                if let Some((_, val)) =
+                    v.iter().zip(&e.values).find(|(x, _)| x.is_nan() || x.abs() > mdg_vm::sosmc::MAX_GUIDE_COORD)
+                {
+                    range_error(val.span(), "control point", "a coordinate from -1000000000 to 1000000000", diags);
                     continue;
                 }
                 let n = v.len() / 3;
@@ -727,6 +738,14 @@ rule wood { VERTEX {} VERTEX {x 0.1} VERTEX {z 1} }
         assert_eq!(codes(&prog("skeleton tree; heuristic 1 2;", "")), ["E0707"]);
         assert_eq!(codes(&prog("skeleton tree; generations 2.5;", "")), ["E0707"]);
         assert_eq!(codes(&prog("skeleton tree; budget 0;", "")), ["E0707"]);
+        assert_eq!(codes(&prog("skeleton tree; budget 1e23;", "")), ["E0707"], "past Duration's range");
+        assert_eq!(codes(&prog("skeleton tree; budget 10000000001;", "")), ["E0707"]);
+        assert_eq!(codes(&prog("skeleton tree; budget 10000000000;", "")), Vec::<&str>::new());
+        assert_eq!(
+            codes(&prog("skeleton tree;", "guide h { points 0 0 0 0 0 1 0 0 2 0 0 1e308; }")),
+            ["E0707"],
+            "a coordinate past MAX_GUIDE_COORD"
+        );
         assert_eq!(codes(&prog("skeleton tree; budget soon;", "")), ["E0602"]);
         assert_eq!(codes(&prog("skeleton tree; resample stratified;", "")), ["E0602"]);
         assert_eq!(codes(&prog("skeleton tree; particles;", "")), ["E0602"]);

@@ -13,7 +13,7 @@ pub mod ply;
 pub mod stl;
 
 use std::io::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::{Mat4, Vec3};
@@ -106,15 +106,67 @@ static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 /// Writes `bytes` to `path` atomically: into a temporary file in the same directory
 /// (named after the target, the process id and a counter), flushed to disk, then
 /// renamed over `path`. Readers see the old file or the whole new one, never a part.
+/// See [`write_atomic_with`] for symlinks, modes and devices.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     write_atomic_with(path, &mut |file| file.write_all(bytes))
 }
 
+/// Follows `path` through symlinks (up to 40, as the kernel does) to the file they
+/// name, which need not exist yet: writing over a symlink writes its target and
+/// keeps the link.
+pub fn resolve_symlinks(path: &Path) -> std::io::Result<PathBuf> {
+    let mut p = path.to_path_buf();
+    for _ in 0..40 {
+        match std::fs::symlink_metadata(&p) {
+            Ok(m) if m.file_type().is_symlink() => {
+                let target = std::fs::read_link(&p)?;
+                p = match p.parent() {
+                    Some(d) if target.is_relative() => d.join(target),
+                    _ => target,
+                };
+            }
+            _ => return Ok(p),
+        }
+    }
+    Err(std::io::Error::other(format!("{}: too many levels of symbolic links", path.display())))
+}
+
+/// Whether `a` and `b` are the same existing file (same device and inode on Unix,
+/// the same canonical path elsewhere). Used to refuse an output that is an input.
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        match (std::fs::metadata(a), std::fs::metadata(b)) {
+            (Ok(x), Ok(y)) => x.dev() == y.dev() && x.ino() == y.ino(),
+            _ => false,
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        matches!((std::fs::canonicalize(a), std::fs::canonicalize(b)), (Ok(x), Ok(y)) if x == y)
+    }
+}
+
 /// Like [`write_atomic`], with the content written by `fill` into the temporary file.
+///
+/// * A symlink is followed: its target is replaced, the link stays.
+/// * An existing file keeps its permissions (a 0600 file stays 0600) and, where the
+///   process may, its owner and group.
+/// * A character device (`/dev/null`, `/dev/full`) or a named pipe is written
+///   through, not replaced by a regular file (a pipe without a reader is refused
+///   instead of blocking); a directory or any other kind of file is refused.
 pub fn write_atomic_with(
     path: &Path,
     fill: &mut dyn FnMut(&mut std::fs::File) -> std::io::Result<()>,
 ) -> std::io::Result<()> {
+    let path = &resolve_symlinks(path)?;
+    let existing = std::fs::metadata(path).ok();
+    if let Some(m) = &existing {
+        if !m.is_file() {
+            return write_through(path, m, fill);
+        }
+    }
     let name = path.file_name().ok_or_else(|| {
         std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("{} has no file name", path.display()))
     })?;
@@ -126,6 +178,15 @@ pub fn write_atomic_with(
     let tmp = dir.join(format!(".{}.{}.{n}.tmp", name.to_string_lossy(), std::process::id()));
     let result = (|| {
         let mut file = std::fs::OpenOptions::new().write(true).create_new(true).open(&tmp)?;
+        if let Some(m) = &existing {
+            file.set_permissions(m.permissions())?;
+            #[cfg(unix)]
+            {
+                use std::os::unix::fs::MetadataExt;
+                // Only root may give a file away; others keep their own (best effort).
+                let _ = std::os::unix::fs::fchown(&file, Some(m.uid()), Some(m.gid()));
+            }
+        }
         fill(&mut file)?;
         file.sync_all()?;
         drop(file);
@@ -142,6 +203,51 @@ pub fn write_atomic_with(
         let _ = d.sync_all();
     }
     Ok(())
+}
+
+/// Writes into an existing file that is not a regular file: character devices and
+/// named pipes (opened without blocking, so a pipe nobody reads is an error); the
+/// rest is refused.
+fn write_through(
+    path: &Path,
+    m: &std::fs::Metadata,
+    fill: &mut dyn FnMut(&mut std::fs::File) -> std::io::Result<()>,
+) -> std::io::Result<()> {
+    let refuse = |what: &str| -> std::io::Result<()> {
+        Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("{what}, not a file to write")))
+    };
+    if m.is_dir() {
+        return refuse("a directory");
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::{FileTypeExt, OpenOptionsExt};
+        let t = m.file_type();
+        if t.is_char_device() || t.is_fifo() {
+            if t.is_fifo() {
+                // Probe without blocking: a pipe nobody reads is an error, not a hang.
+                let probe = std::fs::OpenOptions::new().write(true).custom_flags(libc::O_NONBLOCK).open(path);
+                if let Err(e) = probe {
+                    return Err(if e.raw_os_error() == Some(libc::ENXIO) {
+                        std::io::Error::other("a named pipe that nobody reads")
+                    } else {
+                        e
+                    });
+                }
+            }
+            // A reader is there (or it is a device): blocking writes from here on.
+            let mut file = std::fs::OpenOptions::new().write(true).open(path)?;
+            fill(&mut file)?;
+            return file.flush();
+        }
+        if t.is_block_device() {
+            return refuse("a block device");
+        }
+        if t.is_socket() {
+            return refuse("a socket");
+        }
+    }
+    refuse("not a regular file")
 }
 
 /// A finite float (non-finite values become 0, which every format can store).
@@ -431,6 +537,63 @@ pub(crate) mod tests {
         for f in Format::ALL {
             assert!(write(f, &out, &mut Vec::new()).is_err(), "{f:?}");
         }
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn writing_keeps_symlinks_modes_and_devices() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = std::env::temp_dir().join(format!("mdg-write-through-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("dir");
+        // A 0600 file stays 0600 (it became 0644).
+        let f = dir.join("secret.obj");
+        std::fs::write(&f, "old").expect("write");
+        std::fs::set_permissions(&f, std::fs::Permissions::from_mode(0o600)).expect("chmod");
+        write_atomic(&f, b"new").expect("write_atomic");
+        assert_eq!(std::fs::metadata(&f).expect("meta").permissions().mode() & 0o777, 0o600);
+        assert_eq!(std::fs::read(&f).expect("read"), b"new");
+        // Writing over a symlink writes its target and keeps the link (it became a file).
+        let link = dir.join("link.obj");
+        std::os::unix::fs::symlink("secret.obj", &link).expect("symlink");
+        write_atomic(&link, b"through the link").expect("write_atomic");
+        assert!(std::fs::symlink_metadata(&link).expect("meta").file_type().is_symlink());
+        assert_eq!(std::fs::read(&f).expect("read"), b"through the link");
+        // A dangling symlink: the file it names is created.
+        let dangling = dir.join("dangling.obj");
+        std::os::unix::fs::symlink("made.obj", &dangling).expect("symlink");
+        write_atomic(&dangling, b"made").expect("write_atomic");
+        assert!(std::fs::symlink_metadata(&dangling).expect("meta").file_type().is_symlink());
+        assert_eq!(std::fs::read(dir.join("made.obj")).expect("read"), b"made");
+        // /dev/null is written through, never replaced (as root it became a file).
+        // As root a regression would replace the machine's /dev/null, so only an
+        // unprivileged run tries it (there the old rename failed with EACCES).
+        let root = std::fs::read_to_string("/proc/self/status")
+            .is_ok_and(|s| s.lines().any(|l| l.starts_with("Uid:") && l.split_whitespace().nth(2) == Some("0")));
+        if !root {
+            write_atomic(Path::new("/dev/null"), b"discarded").expect("write /dev/null");
+            assert!(!std::fs::metadata("/dev/null").expect("meta").is_file());
+        }
+        // /dev/full reports its error.
+        if Path::new("/dev/full").exists() {
+            assert!(write_atomic(Path::new("/dev/full"), b"x").is_err());
+        }
+        // A named pipe nobody reads is refused at once; a directory is refused.
+        let fifo = dir.join("pipe.obj");
+        if std::process::Command::new("mkfifo").arg(&fifo).status().is_ok_and(|s| s.success()) {
+            let e = write_atomic(&fifo, b"x").expect_err("no reader");
+            assert!(e.to_string().contains("nobody reads"), "{e}");
+        }
+        let e = write_atomic(&dir, b"x").expect_err("a directory");
+        assert!(e.to_string().contains("a directory"), "{e}");
+        // Nothing left behind but what was written.
+        let mut names: Vec<String> = std::fs::read_dir(&dir)
+            .expect("list")
+            .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert!(names.iter().all(|n| !n.ends_with(".tmp")), "{names:?}");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

@@ -617,10 +617,16 @@ fn exposed_instances(d: &Derivation, instances: &[Instance], world: &World, seal
         return Ok(Vec::new());
     }
     let r = seal.min(MAX_SEAL) as i32;
-    let grid = Grid::new(&blocks, r + 1);
-    if grid.len() as u64 > MAX_CELLS * 4 {
-        return Err(format!("the production is too large for the enclosure constraint ({} cells)", grid.len()));
+    // Checked before the grid is allocated: a rule placing a shape 16,000,000 blocks
+    // away made a 29 GB grid.
+    let cells = Grid::cells_needed(&blocks, r + 1);
+    if cells > MAX_CELLS * 4 {
+        return Err(format!(
+            "the production is too large for the enclosure constraint ({cells} cells in its bounding box, at most {})",
+            MAX_CELLS * 4
+        ));
     }
+    let grid = Grid::new(&blocks, r + 1);
     let n = grid.len();
     // The production stands on the ground: cells below its lowest blocks are solid.
     let ground = blocks.iter().map(|b| b.pos[1]).min().unwrap_or(0);

@@ -31,6 +31,8 @@ pub const MAX_GRAMMAR_BLOCKS: usize = 4_000_000;
 pub const MAX_SHAPE_EXTENT: u32 = 4096;
 /// The largest number of generation steps.
 pub const MAX_STEPS: u32 = 100_000;
+/// The largest rule offset (`rule A B at X Y Z`) in any direction, in blocks.
+pub const MAX_RULE_OFFSET: i32 = 4 * MAX_SHAPE_EXTENT as i32 * 1024;
 
 /// An axis: 0 = x, 1 = y (vertical), 2 = z.
 pub type Axis = u8;
@@ -309,6 +311,9 @@ impl GridGrammar {
             if s.size.iter().any(|&e| e == 0 || e > MAX_SHAPE_EXTENT) {
                 return Err(format!("{} has size {:?} (each 1..{MAX_SHAPE_EXTENT})", what(), s.size));
             }
+            if s.at.is_some_and(|a| a.iter().any(|c| c.unsigned_abs() > voxel::MAX_COORD as u32)) {
+                return Err(format!("{} stands at {:?}, beyond ±{}", what(), s.at, voxel::MAX_COORD));
+            }
             if s.plane.is_some_and(|a| a > 2) {
                 return Err(format!("{} has an invalid plane axis", what()));
             }
@@ -344,6 +349,9 @@ impl GridGrammar {
         for r in &self.rules {
             if r.from >= n_shapes || r.to >= n_shapes || r.place.turn > 3 {
                 return Err(format!("rule {r:?} out of range"));
+            }
+            if r.place.offset.iter().any(|c| c.unsigned_abs() > MAX_RULE_OFFSET as u32) {
+                return Err(format!("rule {r:?} places a shape beyond ±{MAX_RULE_OFFSET} blocks"));
             }
         }
         if self.generate.seal > generate::MAX_SEAL {

@@ -170,7 +170,23 @@ impl Grid {
     /// The value of a cell without a block.
     pub const EMPTY: u32 = u32::MAX;
 
-    /// The grid of `blocks` (positions within the limits of [`ModelBuilder::finish`]).
+    /// The cells [`Grid::new`] would allocate for `blocks` grown by `pad`, computed
+    /// without allocating (check it against a limit first: blocks far apart make a
+    /// bounding box of many gigabytes).
+    pub fn cells_needed(blocks: &[Block], pad: i32) -> u64 {
+        let Some(f) = blocks.first() else { return 0 };
+        let (mut lo, mut hi) = (f.pos.map(i64::from), f.pos.map(i64::from));
+        for b in blocks {
+            for k in 0..3 {
+                lo[k] = lo[k].min(i64::from(b.pos[k]));
+                hi[k] = hi[k].max(i64::from(b.pos[k]));
+            }
+        }
+        (0..3).map(|k| (hi[k] - lo[k] + 1 + 2 * i64::from(pad.max(0))) as u64).fold(1u64, u64::saturating_mul)
+    }
+
+    /// The grid of `blocks` (positions within the limits of [`ModelBuilder::finish`];
+    /// others: check [`Grid::cells_needed`] first).
     pub fn new(blocks: &[Block], pad: i32) -> Grid {
         let (mut lo, mut hi) = ([0; 3], [-1; 3]);
         if let Some(f) = blocks.first() {

@@ -177,7 +177,10 @@ impl Path {
     fn build(&mut self, p: &[DVec3; 4], segment: u32, t0: f64, t1: f64, level: u32) -> u32 {
         let (lo, hi) = bounds(p);
         let id = self.nodes.len() as u32;
-        if level >= MAX_LEVELS || uniform_flatness(p) <= self.eps {
+        // A flatness that is not a number (coordinates near f64::MAX overflow) counts
+        // as flat: subdividing such a curve to MAX_LEVELS made 2^24 leaves a segment.
+        let flatness = uniform_flatness(p);
+        if level >= MAX_LEVELS || flatness.is_nan() || flatness <= self.eps {
             self.nodes.push(Node { lo, hi, a: LEAF, b: self.leaves.len() as u32 });
             self.leaves.push(Leaf {
                 p: *p,
@@ -687,6 +690,16 @@ impl PathSet {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn points_near_f64_max_make_a_small_path() {
+        // The flatness of such a curve overflows to NaN; it used to subdivide to
+        // MAX_LEVELS (2^24 leaves a segment, 5.6 GB). The validator refuses these
+        // points; the path must still not blow up.
+        let m = 1e308;
+        let p = Path::new(&[[0.0, 0.0, 0.0], [m, 0.0, 0.0], [0.0, m, 0.0], [-m, 0.0, m]]).expect("path");
+        assert!(p.leaves.len() <= 64, "{} leaves", p.leaves.len());
+    }
 
     fn s_curve() -> Path {
         Path::new(&[

@@ -36,6 +36,18 @@ pub const DEFAULT_HEURISTIC_SCALE: f64 = 1.0;
 pub const DEFAULT_HEURISTIC_FRACTION: f64 = 0.4;
 /// Default time budget in milliseconds.
 pub const DEFAULT_BUDGET_MS: f64 = 200.0;
+/// The longest time budget: 10,000,000 s in milliseconds (the command line's
+/// duration limit); beyond about 1.8e22 ms a `Duration` cannot hold it.
+pub const MAX_BUDGET_MS: f64 = 1e10;
+/// The largest guide control point coordinate (in either direction): distances
+/// and lengths between such points stay far from overflow.
+pub const MAX_GUIDE_COORD: f64 = 1e9;
+/// The most particles in a generation.
+pub const MAX_PARTICLES: u32 = 1_000_000;
+/// The most generations.
+pub const MAX_GENERATIONS: u32 = 10_000_000;
+/// The most EXPECTED samples per skeleton rule, and expansions in each.
+pub const MAX_EXPECTED: u32 = 1_000_000;
 /// Default forward samples per skeleton rule for the EXPECTED vectors, and the
 /// expansions in each.
 pub const DEFAULT_EXPECTED: (u32, u32) = (64, 32);
@@ -150,6 +162,9 @@ impl Guide {
         if self.points.iter().flatten().any(|c| !c.is_finite()) {
             return Err("a control point is not a finite number".into());
         }
+        if self.points.iter().flatten().any(|c| c.abs() > MAX_GUIDE_COORD) {
+            return Err(format!("a control point coordinate is beyond ±{MAX_GUIDE_COORD}"));
+        }
         let finite = self.scale_d.iter().chain([&self.scale_a, &self.delta_a, &self.scale_u, &self.segment]);
         if finite.into_iter().any(|v| !v.is_finite()) {
             return Err("a parameter is not a finite number".into());
@@ -215,6 +230,12 @@ impl SearchSettings {
         if self.particles.0 == 0 || self.particles.1 == 0 {
             return Err("a generation needs at least 1 particle".into());
         }
+        if self.particles.0.max(self.particles.1) > MAX_PARTICLES {
+            return Err(format!("more than {MAX_PARTICLES} particles in a generation"));
+        }
+        if self.generations == 0 || self.generations > MAX_GENERATIONS {
+            return Err(format!("{} generations: expected 1 to {MAX_GENERATIONS}", self.generations));
+        }
         if !(self.heuristic_scale.is_finite() && self.heuristic_scale >= 0.0) {
             return Err(format!("heuristic scale {} is not a number ≥ 0", self.heuristic_scale));
         }
@@ -222,12 +243,15 @@ impl SearchSettings {
             return Err(format!("heuristic fraction {} is outside [0, 1]", self.heuristic_fraction));
         }
         if let Some(b) = self.budget_ms {
-            if !(b.is_finite() && b > 0.0) {
-                return Err(format!("budget {b} ms is not positive"));
+            if !(b.is_finite() && b > 0.0 && b <= MAX_BUDGET_MS) {
+                return Err(format!("budget {b} ms is not a positive number of at most {MAX_BUDGET_MS} ms"));
             }
         }
         if self.expected.0 == 0 || self.expected.1 == 0 {
             return Err("the EXPECTED estimate needs at least 1 sample of at least 1 expansion".into());
+        }
+        if self.expected.0.max(self.expected.1) > MAX_EXPECTED {
+            return Err(format!("more than {MAX_EXPECTED} EXPECTED samples or expansions"));
         }
         Ok(())
     }

@@ -91,7 +91,12 @@ impl SearchOptions {
             generations: s.generations,
             heuristic_scale: s.heuristic_scale,
             heuristic_fraction: s.heuristic_fraction,
-            budget: s.budget_ms.map(|ms| Duration::from_secs_f64(ms / 1000.0)),
+            // Validated settings hold at most MAX_BUDGET_MS; anything else is clamped
+            // (NaN to the default) rather than panicking in `Duration`.
+            budget: s.budget_ms.map(|ms| {
+                let ms = if ms.is_nan() { super::DEFAULT_BUDGET_MS } else { ms.clamp(0.0, super::MAX_BUDGET_MS) };
+                Duration::from_secs_f64(ms / 1000.0)
+            }),
             resampling: s.resampling,
             seed,
             threads: None,
@@ -415,6 +420,10 @@ fn to_d(v: Vec3) -> DVec3 {
     DVec3::new(v.x as f64, v.y as f64, v.z as f64)
 }
 
+/// The most utilisation counts a search keeps (4 bytes each: 256 MiB); see
+/// [`Prepared::check_size`].
+pub const MAX_UTILISATION_COUNTS: u64 = 1 << 26;
+
 impl<'b> Prepared<'b> {
     /// Prepares `b`'s guided table with `guides` (those of the table, or a guide file's).
     pub fn new(b: &'b Bundle, table: &GuidedTable, guides: &[Guide]) -> Result<Prepared<'b>, String> {
@@ -589,6 +598,24 @@ impl<'b> Prepared<'b> {
             p.history = Some(Arc::new(Record::new(p.history.take(), items)));
         }
         expansions
+    }
+
+    /// Checks that a search with `opts` fits in memory: each particle of the two
+    /// generations kept keeps one utilisation count per segment of every guide, so
+    /// `2 × particles × segments` must stay within [`MAX_UTILISATION_COUNTS`] (long
+    /// guides with short segments and many particles made gigabytes). Call it before
+    /// [`Prepared::search`].
+    pub fn check_size(&self, opts: &SearchOptions) -> Result<(), String> {
+        let largest = u64::from(opts.particles.0.max(opts.particles.1).max(1));
+        let segments = self.guides.n_segments() as u64;
+        let counts = 2 * largest * segments;
+        if counts > MAX_UTILISATION_COUNTS {
+            return Err(format!(
+                "the search would keep {counts} utilisation counts (2 generations × {largest} particles × {segments} \
+                 segments of the guides), more than {MAX_UTILISATION_COUNTS}: use fewer particles or a longer `segment`"
+            ));
+        }
+        Ok(())
     }
 
     /// Runs the search.

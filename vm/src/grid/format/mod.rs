@@ -67,15 +67,19 @@ pub fn read_bytes(format: VoxelFormat, bytes: &[u8]) -> Result<VoxelModel, Strin
     }
 }
 
+/// The bytes of a voxel file: a regular file of at most [`MAX_FILE_BYTES`].
+fn read_file(path: &Path) -> Result<Vec<u8>, String> {
+    crate::input::read_bounded(path, MAX_FILE_BYTES).map_err(|e| match e {
+        crate::input::ReadError::TooLarge { .. } => format!("{}: larger than {MAX_FILE_BYTES} bytes", path.display()),
+        e => format!("cannot read {}: {e}", path.display()),
+    })
+}
+
 /// Reads the voxel file at `path` (format from the extension).
 pub fn read(path: &Path) -> Result<VoxelModel, String> {
     let format = VoxelFormat::from_path(path)
         .ok_or_else(|| format!("{}: unknown voxel format (expected .txt, .vox, .nbt or .schem)", path.display()))?;
-    let meta = std::fs::metadata(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    if meta.len() > MAX_FILE_BYTES {
-        return Err(format!("{}: larger than {MAX_FILE_BYTES} bytes", path.display()));
-    }
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let bytes = read_file(path)?;
     read_bytes(format, &bytes).map_err(|e| format!("{}: {e}", path.display()))
 }
 
@@ -87,11 +91,7 @@ pub fn read_with_notes(path: &Path) -> Result<(VoxelModel, Vec<String>), String>
     let at = |e: String| format!("{}: {e}", path.display());
     match format {
         VoxelFormat::Nbt | VoxelFormat::Schem => {
-            let meta = std::fs::metadata(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-            if meta.len() > MAX_FILE_BYTES {
-                return Err(format!("{}: larger than {MAX_FILE_BYTES} bytes", path.display()));
-            }
-            let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            let bytes = read_file(path)?;
             let r = if format == VoxelFormat::Nbt {
                 nbt::read_structure_notes(&bytes)
             } else {

@@ -1,0 +1,177 @@
+//! Hostile and careless command lines (issue 25): numbers that used to panic,
+//! values the checker accepted that allocated gigabytes, files that are not regular
+//! files, outputs that overwrite their inputs. Each binary runs in its own process
+//! under `ulimit -v` (virtual memory, a stricter bound than peak RSS), so a dense
+//! allocation past the bound fails the test instead of exhausting the machine.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::time::{Duration, Instant};
+
+/// Virtual memory each child may map (KiB): 3 GiB. Every case below needs well
+/// under 100 MB; the failures they guard against mapped 5–29 GB.
+const VMEM_KIB: u64 = 3 * 1024 * 1024;
+
+/// A fresh scratch directory for one test.
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("mdg-hostile-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("scratch dir");
+    d
+}
+
+/// Runs `bin` with `args` in `dir` under the memory bound; returns the output and the
+/// wall time.
+fn run_in(dir: &Path, bin: &str, args: &[&str]) -> (Output, Duration) {
+    let t0 = Instant::now();
+    let out = Command::new("sh")
+        .arg("-c")
+        // `timeout`: a child that blocks (on a named pipe) ends with 124 and fails.
+        .arg(format!("ulimit -v {VMEM_KIB}; exec timeout 120 \"$0\" \"$@\""))
+        .arg(bin)
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run");
+    (out, t0.elapsed())
+}
+
+fn mdg_run(dir: &Path, args: &[&str]) -> (Output, Duration) {
+    run_in(dir, env!("CARGO_BIN_EXE_mdg-run"), args)
+}
+
+fn mdgc(dir: &Path, args: &[&str]) -> (Output, Duration) {
+    run_in(dir, env!("CARGO_BIN_EXE_mdgc"), args)
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// The run ended by itself (no signal, so no panic abort or memory kill) with `code`,
+/// printed no panic, and took less than `secs` (generous: the machine is shared).
+fn assert_ended(o: &Output, took: Duration, code: i32, secs: u64) {
+    let e = stderr(o);
+    assert!(!e.contains("panicked"), "panicked: {e}");
+    assert_eq!(o.status.code(), Some(code), "status {:?}, stderr: {e}", o.status);
+    assert!(took < Duration::from_secs(secs), "took {took:?}");
+}
+
+const TRIANGLE: &str = "startshape A\nrule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n";
+
+// ----------------------------------------------------------------- numbers
+
+#[test]
+fn time_budgets_that_are_not_positive_finite_times_are_refused() {
+    let dir = scratch("time-budget");
+    std::fs::write(dir.join("a.mdg"), TRIANGLE).expect("ok");
+    for bad in ["-1", "nan", "inf", "-inf", "0", "1e23", "1e400", "10000001", "soon"] {
+        let flag = format!("--time-budget={bad}");
+        let (o, took) = mdg_run(&dir, &["a.mdg", "-o", "a.obj", &flag]);
+        // clap's usage error: exit 2, naming the flag and what it takes.
+        assert_ended(&o, took, 2, 60);
+        let e = stderr(&o);
+        assert!(e.contains("--time-budget") && e.contains("expected a positive time"), "{bad}: {e}");
+    }
+    for good in ["2", "1.5s", "500ms", "none", "10000000"] {
+        let (o, took) = mdg_run(&dir, &["a.mdg", "-o", "a.obj", "--time-budget", good]);
+        assert_ended(&o, took, 0, 60);
+    }
+}
+
+#[test]
+fn a_guide_file_with_points_near_f64_max_is_refused() {
+    let dir = scratch("guide-max");
+    let src = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../std/examples/guided_tree.mdg"))
+        .expect("guided_tree.mdg");
+    std::fs::write(dir.join("tree.mdg"), src).expect("ok");
+    std::fs::write(
+        dir.join("g.json"),
+        r#"{"guides": [{"name": "far", "points": [[0,0,0],[1e308,0,0],[0,1e308,0],[-1e308,0,1e308]]}]}"#,
+    )
+    .expect("ok");
+    let (o, took) = mdg_run(&dir, &["tree.mdg", "--guides", "g.json", "-o", "t.obj", "--budget", "50ms"]);
+    assert_ended(&o, took, 1, 60);
+    assert!(stderr(&o).contains("beyond ±1000000000"), "{}", stderr(&o));
+    // Within the coordinate bound but 1e6 long with 0.25 segments: a million
+    // utilisation counts per particle (it took gigabytes); refused before the search.
+    std::fs::write(
+        dir.join("long.json"),
+        r#"{"guides": [{"name": "long", "points": [[0,0,0],[1e6,0,0],[0,1e6,0],[-1e6,0,1e6]]}]}"#,
+    )
+    .expect("ok");
+    let (o, took) = mdg_run(&dir, &["tree.mdg", "--guides", "long.json", "-o", "t.obj", "--budget", "50ms"]);
+    assert_ended(&o, took, 1, 60);
+    assert!(stderr(&o).contains("utilisation counts"), "{}", stderr(&o));
+}
+
+#[test]
+fn a_grid_rule_placing_a_shape_16_million_blocks_away_ends_with_an_error() {
+    let dir = scratch("grid-far");
+    let src = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../std/examples/grid_cottage.mdg"))
+        .expect("grid_cottage.mdg");
+    let far = src.replace("rule floor floor at 6 0 0;", "rule floor floor at 16000000 0 0;");
+    assert_ne!(far, src, "the example changed: update this test");
+    std::fs::write(dir.join("far.mdg"), far).expect("ok");
+    // The checker accepts the offset (within ±16777216); the enclosure constraint's
+    // grid is refused before it is allocated (it was 29 GB).
+    let (o, took) = mdg_run(&dir, &["far.mdg", "--bounds", "none", "-o", "far.obj"]);
+    assert_ended(&o, took, 1, 60);
+    assert!(stderr(&o).contains("too large for the enclosure constraint"), "{}", stderr(&o));
+}
+
+// ------------------------------------------------------------- reading
+
+#[cfg(unix)]
+#[test]
+fn devices_and_named_pipes_are_refused_without_blocking() {
+    let dir = scratch("not-regular");
+    // mdgc check /dev/zero grew to 8 GB in 12 s.
+    let (o, took) = mdgc(&dir, &["check", "/dev/zero"]);
+    assert_ended(&o, took, 1, 60);
+    let e = stderr(&o);
+    assert!(e.contains("error[E0201]: cannot read `/dev/zero`: not a regular file (a device)"), "{e}");
+    // --guides /dev/zero reached 22.8 GB.
+    let tree = Path::new(env!("CARGO_MANIFEST_DIR")).join("../std/examples/guided_tree.mdg");
+    std::fs::copy(tree, dir.join("tree.mdg")).expect("ok");
+    let (o, took) = mdg_run(&dir, &["tree.mdg", "--guides", "/dev/zero", "-o", "t.obj"]);
+    assert_ended(&o, took, 1, 60);
+    assert!(stderr(&o).contains("cannot read /dev/zero: not a regular file (a device)"), "{}", stderr(&o));
+    // A named pipe imported in a project froze mdgc (open blocks until a writer comes).
+    let fifo = dir.join("pipe.mdg");
+    let made = Command::new("mkfifo").arg(&fifo).status().expect("mkfifo");
+    assert!(made.success());
+    std::fs::write(dir.join("main.mdg"), format!("@import pipe.mdg\n{TRIANGLE}")).expect("ok");
+    let (o, took) = mdgc(&dir, &["check", "main.mdg"]);
+    assert_ended(&o, took, 1, 60);
+    let e = stderr(&o);
+    assert!(e.contains("error[E0201]: cannot read `pipe.mdg`: not a regular file (a named pipe)"), "{e}");
+    // So did a pipe given as the bundle to run.
+    let fifo = dir.join("pipe.mdgb");
+    assert!(Command::new("mkfifo").arg(&fifo).status().expect("mkfifo").success());
+    let (o, took) = mdg_run(&dir, &["pipe.mdgb", "-o", "p.obj"]);
+    assert_ended(&o, took, 2, 60);
+    assert!(stderr(&o).contains("not a regular file (a named pipe)"), "{}", stderr(&o));
+}
+
+// ------------------------------------------------------------- writing
+
+#[test]
+fn an_output_that_is_an_input_is_refused_and_the_source_kept() {
+    let dir = scratch("output-is-input");
+    std::fs::write(dir.join("lib.mdg"), "rule B { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n").expect("ok");
+    let main = format!("@import lib.mdg\n{TRIANGLE}");
+    std::fs::write(dir.join("x.mdg"), &main).expect("ok");
+    for (bin, args) in [
+        ("mdg-run", vec!["x.mdg", "-o", "x.mdg"]),
+        ("mdg-run", vec!["x.mdg", "-o", "lib.mdg", "--format", "obj"]),
+        ("mdg-run", vec!["x.mdg", "-o", "x.obj", "--png", "./x.mdg"]),
+        ("mdgc", vec!["build", "x.mdg", "-o", "lib.mdg"]),
+    ] {
+        let (o, took) = if bin == "mdgc" { mdgc(&dir, &args) } else { mdg_run(&dir, &args) };
+        assert_ended(&o, took, 2, 60);
+        assert!(stderr(&o).contains("that is an input"), "{args:?}: {}", stderr(&o));
+    }
+    assert_eq!(std::fs::read_to_string(dir.join("x.mdg")).expect("ok"), main);
+    assert!(std::fs::read_to_string(dir.join("lib.mdg")).expect("ok").starts_with("rule B"));
+}
