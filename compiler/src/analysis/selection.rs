@@ -106,7 +106,7 @@ impl Collect<'_> {
                     self.dir_arg(a);
                 }
             }
-            ItemKind::Function { name, body } => {
+            ItemKind::Function { name, body, .. } => {
                 self.name(name);
                 self.expr(body);
             }
