@@ -51,6 +51,10 @@ pub struct Args {
     /// resolve beside it (editors preview unsaved text this way).
     #[arg(long)]
     stdin: bool,
+    /// Also write the grammar's `@param` declarations (name, type, value in force,
+    /// min, max) as JSON to PATH, before evaluating (the editor's sliders read it).
+    #[arg(long, value_name = "PATH")]
+    params_json: Option<PathBuf>,
     /// Print rule calls, vertices, triangles, time and peak memory.
     #[arg(long)]
     stats: bool,
@@ -188,6 +192,10 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
         None => None,
     };
     let bundle = load_bundle(&cli.file, &opts, cli.stdin)?;
+    if let Some(p) = &cli.params_json {
+        export::write_atomic(p, bundle.params_json().as_bytes())
+            .map_err(|e| (2, format!("cannot write {}: {e}", p.display())))?;
+    }
     let pictures = Vulkan::new(opts.std_dir.clone()).posed(pose);
     if bundle.extensions.creatures.is_some() {
         if batch.is_some() {
