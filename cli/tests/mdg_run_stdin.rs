@@ -59,3 +59,41 @@ fn stdin_text_is_the_file_and_imports_resolve_beside_it() {
     assert!(err.contains("E0301") && err.contains("unsaved.mdg:2:10"), "{err}");
     std::fs::remove_dir_all(&dir).expect("cleanup");
 }
+
+/// `--params-json PATH`: the compiled `@param` declarations, the values in force
+/// (overrides clamped to the range), written before evaluating; not written when
+/// the text does not compile (the editor keeps its sliders).
+#[test]
+fn params_json_lists_the_declarations_with_the_values_in_force() {
+    let dir = temp_dir("params");
+    let file = dir.join("p.mdg");
+    let json = dir.join("p.json");
+    let out = dir.join("p.obj");
+    let text = "@param int count 5 1 20\n@param float spacing 1.5\n@param bool coloured true\nstartshape A\n\
+                rule A { (count) * {x (spacing)} B {} }\nrule B { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n";
+    let args = |extra: &[&str]| {
+        let mut a: Vec<std::ffi::OsString> =
+            vec![file.clone().into(), "--stdin".into(), "-o".into(), out.clone().into(), "--params-json".into()];
+        a.push(json.clone().into());
+        a.extend(extra.iter().map(|s| s.into()));
+        a
+    };
+    let run = |extra: &[&str], input: &str| {
+        let a = args(extra);
+        let refs: Vec<&std::ffi::OsStr> = a.iter().map(|s| s.as_os_str()).collect();
+        run_with_stdin(&refs, input)
+    };
+    let r = run(&["--param", "count=40", "--param", "spacing=2.25"], text);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert_eq!(
+        std::fs::read_to_string(&json).expect("params json"),
+        r#"[{"max":20.0,"min":1.0,"name":"count","type":"int","value":20.0},{"max":null,"min":null,"name":"spacing","type":"float","value":2.25},{"max":null,"min":null,"name":"coloured","type":"bool","value":1.0}]"#
+    );
+    assert_eq!(vertex_count(&out), 60);
+
+    std::fs::remove_file(&json).expect("remove");
+    let r = run(&[], "@param int count 5 1 20\nstartshape A\nrule A { nope {} }\n");
+    assert_eq!(r.status.code(), Some(1));
+    assert!(!json.exists(), "written for a text with errors");
+    std::fs::remove_dir_all(&dir).expect("cleanup");
+}

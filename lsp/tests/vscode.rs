@@ -37,6 +37,7 @@ const CHECKS: &[&str] = &[
     "preview shows errors",
     "preview animation",
     "preview of a std example",
+    "preview sliders",
 ];
 
 const PARTS: &str =

@@ -51,6 +51,10 @@ pub struct Args {
     /// resolve beside it (editors preview unsaved text this way).
     #[arg(long)]
     stdin: bool,
+    /// Also write the grammar's `@param` declarations (name, type, value in force,
+    /// min, max) as JSON to PATH, before evaluating (the editor's sliders read it).
+    #[arg(long, value_name = "PATH")]
+    params_json: Option<PathBuf>,
     /// Print rule calls, vertices, triangles, time and peak memory.
     #[arg(long)]
     stats: bool,
@@ -204,12 +208,20 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
     };
     let (bundle, inputs) = load_bundle(&cli.file, &opts, cli.stdin)?;
     // An output that is an input would destroy the source (`mdg-run x.mdg -o x.mdg`).
-    let outputs = [("-o", cli.output.as_ref().filter(|_| cli.seeds.is_none())), ("--png", cli.png.as_ref())];
+    let outputs = [
+        ("-o", cli.output.as_ref().filter(|_| cli.seeds.is_none())),
+        ("--png", cli.png.as_ref()),
+        ("--params-json", cli.params_json.as_ref()),
+    ];
     for (flag, o) in outputs.iter().filter_map(|(f, o)| o.map(|o| (f, o))) {
         if let Some(i) = inputs.iter().find(|i| mdg_vm::export::same_file(i, o)) {
             let (o, i) = (o.display(), i.display());
             return Err((2, format!("{flag} {o}: that is an input ({i}); choose another output file")));
         }
+    }
+    if let Some(p) = &cli.params_json {
+        export::write_atomic(p, bundle.params_json().as_bytes())
+            .map_err(|e| (2, format!("cannot write {}: {e}", p.display())))?;
     }
     let pictures = Vulkan::new(opts.std_dir.clone()).posed(pose);
     if bundle.extensions.creatures.is_some() {

@@ -475,6 +475,31 @@ try {
     return text;
   });
 
+  // `@param` sliders: one per declaration, with its declared range; moving one
+  // (the keyboard: Home is the minimum) re-runs mdg-run with `--param`.
+  await check('preview sliders', async () => {
+    await openFile('examples/parametric_tree.mdg');
+    await palette('MDG: Preview');
+    const frame = await previewOf('parametric_tree.mdg');
+    const levels = frame.locator('input[data-name="levels"]');
+    await levels.waitFor({ state: 'visible', timeout: 30000 });
+    const names = await frame.locator('#params input').evaluateAll((l) => l.map((e) => `${e.dataset.name} ${e.min}..${e.max}`));
+    if (names.join(', ') !== 'levels 1..7, forks 2..5, spread 5..60') throw new Error(`sliders: ${names.join(', ')}`);
+    const count = async () => Number((await frame.locator('#status').getAttribute('data-triangles', { timeout: 1000 })) ?? -1);
+    const before = await count();
+    await levels.focus();
+    await page.keyboard.press('Home');
+    const after = await until('the model with levels=1', async () => {
+      const n = await count();
+      return n !== before ? n : undefined;
+    }, 30000);
+    if (!(after > 0 && after < before)) throw new Error(`triangles ${before} → ${after}, expected fewer`);
+    const shown = await frame.locator('#params output').first().innerText();
+    if (shown !== '1') throw new Error(`levels shows ${shown}`);
+    await sleep(500);
+    return `levels 5 → 1: ${before} → ${after} triangles`;
+  });
+
 } finally {
   fs.writeFileSync(resultsFile, JSON.stringify({ seconds: (Date.now() - t0) / 1000, checks: results }, null, 2));
   await browser.close().catch(() => {});

@@ -30,9 +30,79 @@ export function previewGlb(file: string, id: string, tmp: string = os.tmpdir()):
   return path.join(tmp, 'mdg-preview', `${base}-${id}.glb`);
 }
 
-/** The arguments of `mdg-run` for the live preview: the editor's text on stdin. */
-export function previewArgs(file: string, glb: string): string[] {
-  return [file, '--stdin', '-o', glb];
+/** A `@param` declaration as `mdg-run --params-json` writes it. */
+export interface ParamDecl {
+  name: string;
+  type: 'int' | 'float' | 'bool';
+  /** The value in force (the default or the override passed). */
+  value: number;
+  /** `null` where the `@param` line declares no range. */
+  min: number | null;
+  max: number | null;
+}
+
+/**
+ * The arguments of `mdg-run` for the live preview: the editor's text on stdin;
+ * with `paramsJson`, the `@param` declarations are written there, and each of
+ * `values` (the sliders moved, by name) is passed as `--param NAME=V`, in name
+ * order so that the same sliders give the same command.
+ */
+export function previewArgs(file: string, glb: string, paramsJson?: string, values: Record<string, number> = {}): string[] {
+  const args = [file, '--stdin', '-o', glb];
+  if (paramsJson !== undefined) {
+    args.push('--params-json', paramsJson);
+  }
+  for (const name of Object.keys(values).sort()) {
+    const v = values[name];
+    if (Number.isFinite(v)) {
+      args.push('--param', `${name}=${v}`);
+    }
+  }
+  return args;
+}
+
+/**
+ * The slider values still worth passing: those of parameters `declared` now (a
+ * `@param` deleted or renamed in the editor drops its slider's value), ints
+ * rounded, each clamped to its declared range.
+ */
+export function keptValues(values: Record<string, number>, declared: ParamDecl[]): Record<string, number> {
+  const kept: Record<string, number> = {};
+  for (const d of declared) {
+    if (!(d.name in values)) continue;
+    let v = values[d.name];
+    if (d.type === 'int') v = Math.round(v);
+    if (d.type === 'bool') v = v ? 1 : 0;
+    if (d.min !== null && d.max !== null) v = Math.min(Math.max(v, Math.min(d.min, d.max)), Math.max(d.min, d.max));
+    kept[d.name] = v;
+  }
+  return kept;
+}
+
+/**
+ * A slider's range: the declared one; without one, the value's own scale around
+ * it (0..2v for a positive value, 2v..0 for a negative one, 0..1 for zero). Ints
+ * step by 1, floats in a hundred steps.
+ */
+export function sliderRange(d: ParamDecl): { min: number; max: number; step: number } {
+  let lo: number;
+  let hi: number;
+  if (d.min !== null && d.max !== null && d.min !== d.max) {
+    lo = Math.min(d.min, d.max);
+    hi = Math.max(d.min, d.max);
+  } else if (d.value > 0) {
+    lo = 0;
+    hi = 2 * d.value;
+  } else if (d.value < 0) {
+    lo = 2 * d.value;
+    hi = 0;
+  } else {
+    lo = 0;
+    hi = 1;
+  }
+  if (d.type === 'bool') return { min: 0, max: 1, step: 1 };
+  if (d.type === 'int') return { min: Math.floor(lo), max: Math.max(Math.ceil(hi), Math.floor(lo) + 1), step: 1 };
+  return { min: lo, max: hi, step: (hi - lo) / 100 };
 }
 
 /** What a code lens runs with `mdg-run` on a saved file. */

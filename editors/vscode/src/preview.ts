@@ -3,16 +3,20 @@
 // standard input, so unsaved edits show and imports resolve beside the file) when
 // the panel opens, on save, and 600 ms after the last edit; the webview
 // (webview/preview.js, three.js) shows the model and keeps the camera. Errors
-// (the compiler's diagnostics, a missing mdg-run) are shown in the panel.
+// (the compiler's diagnostics, a missing mdg-run) are shown in the panel. Each
+// `@param` gets a slider: mdg-run writes the declarations (`--params-json`, from
+// the compiled bundle) and a moved slider re-runs it with `--param NAME=V`.
 
 import * as vscode from 'vscode';
 import * as fs from 'fs';
 import * as crypto from 'crypto';
 import * as path from 'path';
 import { spawn } from 'child_process';
-import { previewArgs, previewGlb } from './paths';
+import { keptValues, ParamDecl, previewArgs, previewGlb, sliderRange } from './paths';
 
 const DEBOUNCE_MS = 600;
+/** A slider re-evaluates this long after it stops moving. */
+const SLIDER_DEBOUNCE_MS = 250;
 
 /** Runs `command args` with `input` on stdin; its exit code and stderr. */
 function runWithInput(command: string, args: string[], cwd: string | undefined, input: string): Promise<{ code: number | null; stderr: string; missing: boolean }> {
@@ -35,6 +39,10 @@ export class PreviewPanel {
   private again = false;
   /** The last message posted, for tests and the status. */
   lastTriangles = -1;
+  /** The `@param`s of the last compile (from `mdg-run --params-json`). */
+  private declared: ParamDecl[] = [];
+  /** The values the sliders were moved to, by name (passed as `--param`). */
+  private values: Record<string, number> = {};
 
   /** Opens (or reveals) the preview of `doc`. */
   static show(context: vscode.ExtensionContext, doc: vscode.TextDocument, runPath: () => string): PreviewPanel {
@@ -71,6 +79,10 @@ export class PreviewPanel {
           this.evaluate();
         } else if (m?.type === 'shown') {
           this.lastTriangles = m.triangles;
+        } else if (m?.type === 'param' && typeof m.name === 'string' && typeof m.value === 'number') {
+          this.values[m.name] = m.value;
+          clearTimeout(this.timer);
+          this.timer = setTimeout(() => this.evaluate(), SLIDER_DEBOUNCE_MS);
         }
       }),
       vscode.workspace.onDidSaveTextDocument((d) => {
@@ -126,7 +138,20 @@ export class PreviewPanel {
     const cwd = vscode.workspace.getWorkspaceFolder(this.doc.uri)?.uri.fsPath;
     const runner = this.runPath();
     void this.panel.webview.postMessage({ type: 'busy' });
-    const result = await runWithInput(runner, previewArgs(file, glb), cwd, this.doc.getText());
+    const paramsFile = glb.replace(/\.glb$/, '.params.json');
+    fs.rmSync(paramsFile, { force: true });
+    this.values = keptValues(this.values, this.declared);
+    const args = previewArgs(file, glb, paramsFile, this.values);
+    const result = await runWithInput(runner, args, cwd, this.doc.getText());
+    // The declarations are written once the grammar compiles (before evaluating);
+    // after a compile error the sliders of the last good text stay.
+    try {
+      this.declared = JSON.parse(fs.readFileSync(paramsFile, 'utf8')) as ParamDecl[];
+      const params = this.declared.map((d) => ({ ...d, range: sliderRange(d) }));
+      void this.panel.webview.postMessage({ type: 'params', params });
+    } catch {
+      // not compiled: keep the sliders
+    }
     if (result.missing) {
       void this.panel.webview.postMessage({
         type: 'error',
@@ -170,6 +195,8 @@ export class PreviewPanel {
   #view { width: 100%; height: 100%; display: block; }
   #bar { position: absolute; left: 0; right: 0; bottom: 0; padding: 4px 8px; background: rgba(0,0,0,0.45); display: flex; gap: 8px; align-items: center; }
   #status { flex: 1; }
+  #params { position: absolute; right: 8px; top: 8px; padding: 6px 8px; background: rgba(0,0,0,0.45); display: grid; grid-template-columns: auto 10em 3.5em; gap: 2px 6px; align-items: center; }
+  #params output { text-align: right; font-variant-numeric: tabular-nums; }
   #error { position: absolute; left: 8px; right: 8px; top: 8px; margin: 0; padding: 8px; max-height: 60%; overflow: auto; white-space: pre-wrap;
            background: rgba(90,20,20,0.92); color: #fdd; border: 1px solid #c55; font: 12px var(--vscode-editor-font-family, monospace); }
   button { font: inherit; }
@@ -177,6 +204,7 @@ export class PreviewPanel {
 </head>
 <body>
 <canvas id="view"></canvas>
+<div id="params" hidden></div>
 <pre id="error" hidden></pre>
 <div id="bar"><span id="status">evaluating…</span><button id="play" hidden>Pause</button><span id="time" hidden></span></div>
 <script nonce="${nonce}" src="${script}"></script>

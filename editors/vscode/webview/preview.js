@@ -4,7 +4,9 @@
 // Bundled with esbuild into out/webview/preview.js (npm run bundle).
 //
 // Messages in:  {type: 'model', glb: base64, name}  {type: 'error', message}  {type: 'busy'}
+//               {type: 'params', params: [{name, type, value, min, max, range: {min, max, step}}]}
 // Messages out: {type: 'ready'}  {type: 'shown', triangles, vertices, animations}
+//               {type: 'param', name, value}  (a slider moved)
 
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
@@ -16,6 +18,7 @@ const status = document.getElementById('status');
 const errorBox = document.getElementById('error');
 const play = document.getElementById('play');
 const timeLabel = document.getElementById('time');
+const paramsBox = document.getElementById('params');
 
 const renderer = new THREE.WebGLRenderer({ canvas, antialias: true });
 renderer.setPixelRatio(window.devicePixelRatio || 1);
@@ -146,6 +149,56 @@ function show(gltf, name) {
   vscode.postMessage({ type: 'shown', triangles: c.triangles, vertices: c.vertices, animations: gltf.animations.length });
 }
 
+// One slider per `@param` (a checkbox for a bool), rebuilt only when the
+// declarations change (names, types, ranges), so dragging one is not interrupted
+// by the model it asked for. The extension debounces the re-evaluation.
+let paramsKey = '';
+function fmt(p, v) {
+  return p.type === 'int' ? String(Math.round(v)) : String(Number(v.toPrecision(4)));
+}
+function showParams(params) {
+  const key = JSON.stringify(params.map((p) => [p.name, p.type, p.min, p.max]));
+  if (key !== paramsKey) {
+    paramsKey = key;
+    paramsBox.replaceChildren();
+    for (const p of params) {
+      const label = document.createElement('label');
+      label.textContent = p.name;
+      const input = document.createElement('input');
+      input.dataset.name = p.name;
+      input.id = `param-${p.name}`;
+      label.htmlFor = input.id;
+      const out = document.createElement('output');
+      if (p.type === 'bool') {
+        input.type = 'checkbox';
+        input.addEventListener('change', () => {
+          out.textContent = input.checked ? 'true' : 'false';
+          vscode.postMessage({ type: 'param', name: p.name, value: input.checked ? 1 : 0 });
+        });
+      } else {
+        const r = p.range;
+        input.type = 'range';
+        input.min = String(r.min);
+        input.max = String(r.max);
+        input.step = String(r.step);
+        input.addEventListener('input', () => {
+          out.textContent = fmt(p, Number(input.value));
+          vscode.postMessage({ type: 'param', name: p.name, value: Number(input.value) });
+        });
+      }
+      paramsBox.append(label, input, out);
+    }
+  }
+  for (const p of params) {
+    const input = paramsBox.querySelector(`input[data-name="${CSS.escape(p.name)}"]`);
+    if (!input || document.activeElement === input) continue;
+    if (p.type === 'bool') input.checked = p.value !== 0;
+    else input.value = String(p.value);
+    input.nextElementSibling.textContent = p.type === 'bool' ? (p.value ? 'true' : 'false') : fmt(p, p.value);
+  }
+  paramsBox.hidden = params.length === 0;
+}
+
 window.addEventListener('message', (event) => {
   const m = event.data;
   if (m.type === 'model') {
@@ -155,6 +208,8 @@ window.addEventListener('message', (event) => {
     loader.parse(bytes.buffer, '', (gltf) => show(gltf, m.name), (e) => showError(`cannot read the model: ${e.message ?? e}`));
   } else if (m.type === 'error') {
     showError(m.message);
+  } else if (m.type === 'params') {
+    showParams(m.params);
   } else if (m.type === 'busy') {
     status.textContent = 'evaluating…';
   }

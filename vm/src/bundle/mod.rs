@@ -402,6 +402,34 @@ impl Bundle {
         let loc = self.source_map.get(i.checked_sub(1)?)?;
         Some((self.string(loc.file), loc.line))
     }
+
+    /// The `@param` declarations as one line of JSON, for editors (the live
+    /// preview's sliders): `[{"name", "type": "int"|"float"|"bool", "value", "min",
+    /// "max"}]` in declaration order; `value` is the one in force (the default or a
+    /// `--param` override); `min`/`max` are `null` where the line declares no range.
+    pub fn params_json(&self) -> String {
+        let list: Vec<serde_json::Value> = self
+            .params
+            .iter()
+            .map(|p| {
+                let ty = match p.ty {
+                    0 => "int",
+                    1 => "float",
+                    _ => "bool",
+                };
+                let ranged = p.ty != 2 && !(p.min == 0.0 && p.max == 0.0);
+                let num = |v: f64| serde_json::Number::from_f64(v).map(serde_json::Value::Number);
+                serde_json::json!({
+                    "name": self.string(p.name),
+                    "type": ty,
+                    "value": num(p.value),
+                    "min": if ranged { num(p.min) } else { None },
+                    "max": if ranged { num(p.max) } else { None },
+                })
+            })
+            .collect();
+        serde_json::Value::Array(list).to_string()
+    }
 }
 
 /// Why a bundle could not be loaded.
@@ -431,4 +459,28 @@ pub fn load(bytes: &[u8]) -> Result<Bundle, LoadError> {
     let b = decode(bytes)?;
     verify(&b)?;
     Ok(b)
+}
+
+#[cfg(test)]
+mod params_tests {
+    use super::*;
+
+    #[test]
+    fn params_json_lists_declarations_in_order_with_ranges() {
+        let mut b = Bundle::empty();
+        for n in ["levels", "spread", "leafy", "free"] {
+            b.strings.push(n.into());
+        }
+        b.params = vec![
+            Param { name: 1, ty: 0, value: 5.0, min: 1.0, max: 7.0 },
+            Param { name: 2, ty: 1, value: 32.5, min: 5.0, max: 60.0 },
+            Param { name: 3, ty: 2, value: 1.0, min: 0.0, max: 0.0 },
+            Param { name: 4, ty: 1, value: -2.0, min: 0.0, max: 0.0 },
+        ];
+        assert_eq!(
+            b.params_json(),
+            r#"[{"max":7.0,"min":1.0,"name":"levels","type":"int","value":5.0},{"max":60.0,"min":5.0,"name":"spread","type":"float","value":32.5},{"max":null,"min":null,"name":"leafy","type":"bool","value":1.0},{"max":null,"min":null,"name":"free","type":"float","value":-2.0}]"#
+        );
+        assert_eq!(Bundle::empty().params_json(), "[]");
+    }
 }

@@ -2,7 +2,7 @@
 
 import { test } from 'node:test';
 import * as assert from 'node:assert/strict';
-import { previewArgs, previewGlb, resolveProgram, resolveServerPath, runArgs } from '../paths';
+import { keptValues, ParamDecl, previewArgs, previewGlb, resolveProgram, resolveServerPath, runArgs, sliderRange } from '../paths';
 
 test('server path: default, home, workspace-relative, PATH names, absolute', () => {
   assert.equal(resolveServerPath(undefined), 'mdg-lsp');
@@ -16,6 +16,31 @@ test('server path: default, home, workspace-relative, PATH names, absolute', () 
 test('the live preview evaluates the editor text into a .glb in a temporary directory', () => {
   assert.equal(previewGlb('/a/b/tree.mdg', '0123abcd', '/tmp'), '/tmp/mdg-preview/tree-0123abcd.glb');
   assert.deepEqual(previewArgs('/a/b/tree.mdg', '/tmp/x.glb'), ['/a/b/tree.mdg', '--stdin', '-o', '/tmp/x.glb']);
+});
+
+test('the preview passes the moved sliders as --param, in name order, and asks for the declarations', () => {
+  assert.deepEqual(previewArgs('/a/t.mdg', '/tmp/x.glb', '/tmp/x.json'), ['/a/t.mdg', '--stdin', '-o', '/tmp/x.glb', '--params-json', '/tmp/x.json']);
+  assert.deepEqual(previewArgs('/a/t.mdg', '/tmp/x.glb', '/tmp/x.json', { spread: 12.5, levels: 3, bad: NaN }), [
+    '/a/t.mdg', '--stdin', '-o', '/tmp/x.glb', '--params-json', '/tmp/x.json', '--param', 'levels=3', '--param', 'spread=12.5',
+  ]);
+});
+
+test('slider values: only declared parameters, ints rounded, clamped to the range', () => {
+  const declared: ParamDecl[] = [
+    { name: 'levels', type: 'int', value: 5, min: 1, max: 7 },
+    { name: 'spread', type: 'float', value: 32, min: 5, max: 60 },
+    { name: 'leafy', type: 'bool', value: 1, min: null, max: null },
+  ];
+  assert.deepEqual(keptValues({ levels: 9.4, spread: 7.25, gone: 3, leafy: 0 }, declared), { levels: 7, spread: 7.25, leafy: 0 });
+  assert.deepEqual(keptValues({ levels: 2.6 }, declared), { levels: 3 });
+});
+
+test('slider ranges: declared, or around the value; ints step by one', () => {
+  assert.deepEqual(sliderRange({ name: 'n', type: 'int', value: 5, min: 1, max: 7 }), { min: 1, max: 7, step: 1 });
+  assert.deepEqual(sliderRange({ name: 'f', type: 'float', value: 1.5, min: 0.5, max: 2.5 }), { min: 0.5, max: 2.5, step: 0.02 });
+  assert.deepEqual(sliderRange({ name: 'f', type: 'float', value: -2, min: null, max: null }), { min: -4, max: 0, step: 0.04 });
+  assert.deepEqual(sliderRange({ name: 'n', type: 'int', value: 0, min: null, max: null }), { min: 0, max: 1, step: 1 });
+  assert.deepEqual(sliderRange({ name: 'b', type: 'bool', value: 1, min: null, max: null }), { min: 0, max: 1, step: 1 });
 });
 
 test('code lenses run mdg-run on the saved file', () => {
