@@ -182,7 +182,11 @@ pub fn run(edits: usize, sample_every: usize) -> Soak {
                     assert_eq!(e["code"], -32602, "request {id} failed: {r}");
                 }
             }
-            c.clear();
+            // (Not after the last edit: the final version's diagnostics may already
+            // have arrived with the responses, and they are waited for below.)
+            if i + 1 < edits {
+                c.clear();
+            }
             if let Some(k) = c.rss_kib() {
                 rss.push((i + 1, k));
             }
