@@ -17,7 +17,7 @@ use mdg_vm::bundle::{
     self, AdjOp, Bundle, Composite, Def, Drawable, Op, PrimAdj, Selector, Settings, SourceLoc, Transform, CONT_NEXT,
     NONE,
 };
-use mdg_vm::expr::{ExprOp, BINOPS, FUNCTIONS, VARIABLES};
+use mdg_vm::expr::{ExprOp, Func, BINOPS, VARIABLES};
 use std::collections::HashMap;
 
 /// How `angle` reads plain numbers.
@@ -137,7 +137,8 @@ fn expr_code(ex: &Expanded, angle: AngleMode, scope: &[(String, u16)], e: &Expr,
             out.push(ExprOp::Bin(binop_index(op.symbol())));
         }
         ExprKind::Call(f, args) => {
-            if !FUNCTIONS.iter().any(|(n, _)| *n == f.text) {
+            let func = Func::from_name(&f.text);
+            if func.is_none() {
                 if let Some((_, _, params, body)) = ex.user_function(&f.text) {
                     // Inlined: the checker allows calls to functions declared earlier
                     // only, so this terminates.
@@ -148,8 +149,7 @@ fn expr_code(ex: &Expanded, angle: AngleMode, scope: &[(String, u16)], e: &Expr,
             for a in args {
                 rec(a, out);
             }
-            let i = FUNCTIONS.iter().position(|(n, _)| *n == f.text).unwrap_or(0);
-            out.push(ExprOp::Call(i as u8));
+            out.push(ExprOp::Call(func.map_or(0, |f| f as u8)));
         }
         ExprKind::Error => out.push(ExprOp::Push(0.0)),
     }
@@ -240,7 +240,7 @@ fn fold(e: Expr) -> Expr {
 
 /// The VM's index of a math function.
 fn function_index(name: &str) -> u8 {
-    FUNCTIONS.iter().position(|(n, _)| *n == name).unwrap_or(0) as u8
+    Func::from_name(name).map_or(0, |f| f as u8)
 }
 
 /// The VM's index of a binary operator.

@@ -150,12 +150,23 @@ pub fn binop(op: u8, a: f64, b: f64) -> f64 {
 /// missing argument, and `rand`/`randn`, which need the run's random stream). For the
 /// compiler's constant folder; evaluation dispatches on [`Func`].
 pub fn call(name: &str, a: &[f64]) -> Option<f64> {
-    let f = Func::from_name(name).filter(|f| !matches!(f, Func::Rand | Func::Randn))?;
+    let f = Func::from_name(name)?;
     if a.len() < f.arity() {
         return None;
     }
-    let args: [f64; 3] = std::array::from_fn(|i| a.get(i).copied().unwrap_or(f64::NAN));
-    Some(f.apply(&args, &mut NoRandom))
+    f.deterministic(&std::array::from_fn(|i| a.get(i).copied().unwrap_or(f64::NAN)))
+}
+
+impl Func {
+    /// Whether the function draws from the run's random stream.
+    pub fn is_random(self) -> bool {
+        matches!(self, Func::Rand | Func::Randn)
+    }
+
+    /// The value on `a` of a function that draws nothing; `None` for `rand`/`randn`.
+    pub fn deterministic(self, a: &[f64; 3]) -> Option<f64> {
+        (!self.is_random()).then(|| self.apply(a, &mut NoRandom))
+    }
 }
 
 /// A stream for functions that draw nothing.

@@ -5,7 +5,7 @@
 //! super-parts of a kind the shape has). `rand`/`randn` are not allowed: a rule's
 //! probability is the chance of its function branch, drawn by the evolution.
 
-use crate::expr::{binop, call, BINOPS, FUNCTIONS};
+use crate::expr::{binop, Func, BINOPS};
 use serde::{Deserialize, Serialize};
 
 /// Variables a condition or probability may read, by index.
@@ -62,11 +62,11 @@ pub fn eval(code: &[CondOp], env: &dyn Env, stack: &mut Vec<f64>) -> f64 {
                 stack.push(binop(o, a, b));
             }
             CondOp::Call(f) => {
-                let Some(&(name, arity)) = FUNCTIONS.get(f as usize) else { return f64::NAN };
-                let at = stack.len().saturating_sub(arity);
+                let Some(func) = Func::from_id(f) else { return f64::NAN };
+                let at = stack.len().saturating_sub(func.arity());
                 let args: [f64; 3] = std::array::from_fn(|i| stack.get(at + i).copied().unwrap_or(f64::NAN));
                 stack.truncate(at);
-                stack.push(call(name, &args[..arity.min(3)]).unwrap_or(f64::NAN));
+                stack.push(func.deterministic(&args).unwrap_or(f64::NAN));
             }
         }
     }
@@ -87,9 +87,9 @@ pub fn verify(code: &[CondOp], n_kinds: u32) -> Result<(), String> {
             CondOp::Neg => (1, 1),
             CondOp::Bin(o) if o as usize >= BINOPS.len() => return Err(format!("unknown operator {o} at {i}")),
             CondOp::Bin(_) => (2, 1),
-            CondOp::Call(f) => match FUNCTIONS.get(f as usize) {
-                Some((name, _)) if name.starts_with("rand") => return Err(format!("random function at {i}")),
-                Some((_, arity)) => (*arity as i64, 1),
+            CondOp::Call(f) => match Func::from_id(f) {
+                Some(func) if func.is_random() => return Err(format!("random function at {i}")),
+                Some(func) => (func.arity() as i64, 1),
                 None => return Err(format!("unknown function {f} at {i}")),
             },
         };
@@ -312,7 +312,7 @@ mod tests {
 
     fn g_expr(a: f64, b: f64) -> Vec<CondOp> {
         // a * exp(b * g)
-        let exp = FUNCTIONS.iter().position(|(n, _)| *n == "exp").expect("exp") as u8;
+        let exp = Func::Exp as u8;
         vec![CondOp::Push(a), CondOp::Push(b), CondOp::Var(0), CondOp::Bin(2), CondOp::Call(exp), CondOp::Bin(2)]
     }
 
@@ -355,7 +355,7 @@ mod tests {
     #[test]
     fn verify_rejects_underflow_and_random() {
         assert!(verify(&[CondOp::Bin(0)], 1).is_err());
-        let rand = FUNCTIONS.iter().position(|(n, _)| *n == "rand").expect("rand") as u8;
+        let rand = Func::Rand as u8;
         assert!(verify(&[CondOp::Push(0.0), CondOp::Push(1.0), CondOp::Call(rand)], 1).is_err());
         assert!(verify(&[CondOp::Parts(3)], 2).is_err());
         assert!(verify(&g_expr(0.5, 0.1), 1).is_ok());
