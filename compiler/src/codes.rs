@@ -9,7 +9,15 @@
 //! equal the generated text, and that every code in the sources is registered and
 //! every registered code is emitted.
 
-use crate::diag::Severity;
+use serde::Serialize;
+
+/// How bad a diagnostic is (each code has one severity).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Severity {
+    Warning,
+    Error,
+}
 
 /// One diagnostic code.
 #[derive(Clone, Copy, Debug)]

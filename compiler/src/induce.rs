@@ -322,7 +322,7 @@ pub fn write_checked(g: &GridGrammar, comment: &[String], path: &Path) -> Result
 /// [`write_checked`] of [`write_source_with`].
 pub fn write_checked_with(g: &GridGrammar, comment: &[String], path: &Path, like: bool) -> Result<String, String> {
     let text = write_source_with(g, comment, like);
-    let max = crate::parse::MAX_SOURCE_BYTES;
+    let max = crate::source::MAX_SOURCE_BYTES;
     if text.len() > max {
         return Err(format!(
             "error[E0201]: the written grammar would be {} bytes, over the {} MiB limit of a source file \

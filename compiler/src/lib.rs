@@ -5,6 +5,7 @@
 //! SPIR-V) → lowering. Diagnostics
 //! are data ([`diag::Diagnostic`]) accumulated along the way.
 
+pub mod adjust;
 pub mod analysis;
 pub mod ast;
 pub mod check;

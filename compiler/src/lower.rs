@@ -9,6 +9,7 @@
 
 use crate::ast::*;
 use crate::check::{AdjKind, Symbols};
+use crate::consteval::{self, binop_index, Call, Leaves};
 use crate::diag::Diagnostic;
 use crate::expand::{ExpItem, Expanded};
 use crate::source::Sources;
@@ -17,7 +18,7 @@ use mdg_vm::bundle::{
     self, AdjOp, Bundle, Composite, Def, Drawable, Op, PrimAdj, Selector, Settings, SourceLoc, Transform, CONT_NEXT,
     NONE,
 };
-use mdg_vm::expr::{ExprOp, Func, BINOPS, VARIABLES};
+use mdg_vm::expr::{ExprOp, Func, VARIABLES};
 use std::collections::HashMap;
 
 /// How `angle` reads plain numbers.
@@ -98,61 +99,56 @@ fn angle_factor(angle: AngleMode, unit: Option<char>) -> f64 {
 /// The slots of the parameters and locals in scope, innermost last.
 type Scope = Vec<(String, u16)>;
 
-/// Compiles an expression to expression code: parameters and locals by slot,
-/// variables by index, constants folded from `@param`/`@define`, numbers with units
-/// in radians.
-fn expr_code(ex: &Expanded, angle: AngleMode, scope: &[(String, u16)], e: &Expr, out: &mut Vec<ExprOp>) {
-    let rec = |e: &Expr, out: &mut Vec<ExprOp>| expr_code(ex, angle, scope, e, out);
-    match &e.kind {
-        ExprKind::Num(n) => {
-            let v = match n.unit {
-                Some('t') => n.value.atan(),
-                Some(u) => n.value * angle_factor(angle, Some(u)),
-                None => n.value,
-            };
-            out.push(ExprOp::Push(v));
-        }
-        ExprKind::Var(v) => {
-            if let Some((_, slot)) = scope.iter().rev().find(|(n, _)| *n == v.text) {
-                out.push(ExprOp::Slot(*slot));
-                return;
-            }
-            match VARIABLES.iter().position(|x| *x == v.text) {
-                Some(i) => out.push(ExprOp::Var(i as u8)),
-                None => out.push(ExprOp::Push(ex.constant(&v.text).unwrap_or(0.0))),
-            }
-        }
-        ExprKind::Neg(x) => {
-            rec(x, out);
-            out.push(ExprOp::Neg);
-        }
-        ExprKind::Not(x) => {
-            rec(x, out);
-            out.extend([ExprOp::Push(0.0), ExprOp::Bin(binop_index("=="))]);
-        }
-        ExprKind::Paren(x) => rec(x, out),
-        ExprKind::Binary(op, a, b) => {
-            rec(a, out);
-            rec(b, out);
-            out.push(ExprOp::Bin(binop_index(op.symbol())));
-        }
-        ExprKind::Call(f, args) => {
-            let func = Func::from_name(&f.text);
-            if func.is_none() {
-                if let Some((_, _, params, body)) = ex.user_function(&f.text) {
-                    // Inlined: the checker allows calls to functions declared earlier
-                    // only, so this terminates.
-                    rec(&inline_call(params, body, args), out);
-                    return;
-                }
-            }
-            for a in args {
-                rec(a, out);
-            }
-            out.push(ExprOp::Call(func.map_or(0, |f| f as u8)));
-        }
-        ExprKind::Error => out.push(ExprOp::Push(0.0)),
+/// The geometric expression language: parameters and locals by slot, variables by
+/// index, constants folded from `@param`/`@define`, numbers with units in radians,
+/// calls of user functions inlined.
+struct Geometric<'a> {
+    ex: &'a Expanded,
+    angle: AngleMode,
+    scope: &'a [(String, u16)],
+}
+
+impl Leaves<ExprOp> for Geometric<'_> {
+    fn num(&mut self, n: &Number, out: &mut Vec<ExprOp>) -> bool {
+        out.push(ExprOp::Push(match n.unit {
+            Some('t') => n.value.atan(),
+            Some(u) => n.value * angle_factor(self.angle, Some(u)),
+            None => n.value,
+        }));
+        true
     }
+
+    fn var(&mut self, v: &Name, out: &mut Vec<ExprOp>) -> bool {
+        if let Some((_, slot)) = self.scope.iter().rev().find(|(n, _)| *n == v.text) {
+            out.push(ExprOp::Slot(*slot));
+        } else if let Some(i) = VARIABLES.iter().position(|x| *x == v.text) {
+            out.push(ExprOp::Var(i as u8));
+        } else {
+            out.push(ExprOp::Push(self.ex.constant(&v.text).unwrap_or(0.0)));
+        }
+        true
+    }
+
+    fn call(&mut self, _: &Expr, f: &Name, args: &[Expr], out: &mut Vec<ExprOp>) -> Call {
+        if let Some(func) = Func::from_name(&f.text) {
+            return Call::Builtin(func);
+        }
+        match self.ex.user_function(&f.text) {
+            // Inlined: the checker allows calls to functions declared earlier only,
+            // so this terminates.
+            Some((_, _, params, body)) => Call::Done(consteval::lower(self, &inline_call(params, body, args), out)),
+            // The checker reports unknown functions before lowering.
+            None => {
+                out.push(ExprOp::Push(0.0));
+                Call::Done(false)
+            }
+        }
+    }
+}
+
+/// Compiles an expression to expression code in the [`Geometric`] language.
+fn expr_code(ex: &Expanded, angle: AngleMode, scope: &[(String, u16)], e: &Expr, out: &mut Vec<ExprOp>) {
+    consteval::lower(&mut Geometric { ex, angle, scope }, e, out);
 }
 
 /// The body of a function with parameters, each parameter replaced by its argument
@@ -243,11 +239,6 @@ fn function_index(name: &str) -> u8 {
     Func::from_name(name).map_or(0, |f| f as u8)
 }
 
-/// The VM's index of a binary operator.
-fn binop_index(symbol: &str) -> u8 {
-    BINOPS.iter().position(|s| *s == symbol).unwrap_or(0) as u8
-}
-
 /// What lowering an extension section needs (see [`crate::ext`]).
 pub struct LowerCx<'a> {
     pub ex: &'a Expanded,
@@ -333,7 +324,7 @@ impl<'a> Lower<'a> {
                     .filter_map(|a| match a {
                         DirArg::Num(n) => Some(n.value),
                         DirArg::Neg(n) => Some(-n.value),
-                        DirArg::Expr(e) => crate::consteval::eval(e, &|v| self.ex.constant(v)),
+                        DirArg::Expr(e) => consteval::eval(e, &|v| self.ex.constant(v)),
                         DirArg::Word(_) => None,
                     })
                     .collect(),
@@ -572,7 +563,7 @@ impl<'a> Lower<'a> {
                     *slot = match a {
                         DirArg::Num(n) => n.value as f32,
                         DirArg::Neg(n) => -n.value as f32,
-                        DirArg::Expr(e) => crate::consteval::eval(e, &|c| ex.constant(c)).unwrap_or(0.0) as f32,
+                        DirArg::Expr(e) => consteval::eval(e, &|c| ex.constant(c)).unwrap_or(0.0) as f32,
                         DirArg::Word(_) => 0.0,
                     };
                 }
@@ -822,7 +813,7 @@ impl<'a> Lower<'a> {
     /// The compile-time value of `e`, if it reads no parameter or local.
     fn const_eval(&self, e: &Expr) -> Option<f64> {
         let scope = &self.scope;
-        crate::consteval::eval(e, &|v| {
+        consteval::eval(e, &|v| {
             if scope.iter().any(|(n, _)| n == v) {
                 None
             } else {
@@ -945,7 +936,7 @@ impl<'a> Lower<'a> {
                         .filter_map(|a| match a {
                             DirArg::Num(n) => Some(n.value),
                             DirArg::Neg(n) => Some(-n.value),
-                            DirArg::Expr(e) => crate::consteval::eval(e, &|v| self.ex.constant(v)),
+                            DirArg::Expr(e) => consteval::eval(e, &|v| self.ex.constant(v)),
                             DirArg::Word(_) => None,
                         })
                         .collect();

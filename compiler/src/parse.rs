@@ -34,12 +34,12 @@ pub struct Ctx<'c> {
     diags: RefCell<Vec<Diagnostic>>,
     /// The adjustment names in force, with the colour and weight components the
     /// file renames (`color red green blue alpha`), for grouping adjustment lists.
-    components: crate::check::Components,
+    components: crate::adjust::Components,
 }
 
 impl<'c> Ctx<'c> {
     fn new(sources: &'c Sources, tokens: &[Token]) -> Ctx<'c> {
-        let mut components = crate::check::Components::default();
+        let mut components = crate::adjust::Components::default();
         for (i, t) in tokens.iter().enumerate() {
             let words = || -> Option<[String; 4]> {
                 let w: Vec<String> = tokens
@@ -417,8 +417,7 @@ fn arg_of(tokens: Vec<Token>) -> MacroArg {
 /// that walks the tree recursively can overflow its stack (2 MiB threads included).
 pub const MAX_NESTING: usize = 256;
 
-/// The largest source file the compiler reads, in bytes (E0201 beyond it).
-pub const MAX_SOURCE_BYTES: usize = 16 * 1024 * 1024;
+use crate::source::MAX_SOURCE_BYTES;
 
 /// One open bracket (or `@ifdef`) during the nesting scan.
 struct Level {
@@ -998,7 +997,7 @@ pub enum AdjWord {
 /// that adjustment takes more; otherwise it starts the next adjustment. So a name
 /// that is also an adjustment's (`s`, `x`, `w`) is read as an argument only where one
 /// is required; elsewhere it is written in parentheses: `{x 1 (s)}`.
-pub fn group_adjustments(words: Vec<AdjWord>, comps: &crate::check::Components) -> Vec<Adj> {
+pub fn group_adjustments(words: Vec<AdjWord>, comps: &crate::adjust::Components) -> Vec<Adj> {
     let mut out: Vec<Adj> = Vec::new();
     // The adjustment being filled and its (min, max) argument count.
     let mut open: Option<(usize, usize)> = None;

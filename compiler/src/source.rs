@@ -6,6 +6,9 @@
 use crate::span::{FileId, Span};
 use std::path::{Path, PathBuf};
 
+/// The largest source file the compiler reads, in bytes (E0201 beyond it).
+pub const MAX_SOURCE_BYTES: usize = 16 * 1024 * 1024;
+
 /// Reads source files. The only IO the compiler does goes through this trait.
 pub trait FileLoader {
     /// The text of `path`, or an error message.
@@ -22,7 +25,7 @@ impl FileLoader for FsLoader {
         // Refuse huge files before reading them (the parser refuses longer texts too, E0201).
         // Only regular files, opened without blocking (a named pipe froze the
         // compiler, `/dev/zero` grew to gigabytes), at most MAX_SOURCE_BYTES.
-        let max = crate::parse::MAX_SOURCE_BYTES as u64;
+        let max = MAX_SOURCE_BYTES as u64;
         match mdg_vm::input::read_bounded(path, max) {
             Ok(bytes) => String::from_utf8(bytes).map_err(|_| "stream did not contain valid UTF-8".to_string()),
             Err(mdg_vm::input::ReadError::TooLarge { len, max }) => {

@@ -7,7 +7,8 @@
 use mdg_compiler::check::CheckOptions;
 use mdg_compiler::driver::{analyze_text, Analysis};
 use mdg_compiler::expand::{Options, MAX_EXPANDED_TOKENS, MAX_EXPANSIONS, MAX_EXPANSION_DEPTH};
-use mdg_compiler::parse::{MAX_NESTING, MAX_SOURCE_BYTES};
+use mdg_compiler::parse::MAX_NESTING;
+use mdg_compiler::source::MAX_SOURCE_BYTES;
 use mdg_compiler::source::{FsLoader, MemLoader};
 use mdg_tests::{build_source, run_source};
 use mdg_vm::eval::{evaluate, EvalOptions, DEFAULT_MAX_ISO_CELLS, DEFAULT_STACKSIZE};

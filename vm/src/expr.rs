@@ -205,36 +205,148 @@ pub fn quick(code: &[ExprOp], slots: &[f64]) -> Option<f64> {
     }
 }
 
-/// Evaluates verified expression code with `vars` (indexed like [`VARIABLES`]) and
-/// the running rule's frame `slots`. Verified code never underflows; on malformed
-/// code (or a slot beyond `slots`) the result is NaN, never a panic.
-pub fn eval(code: &[ExprOp], vars: &[f64; 6], slots: &[f64], rng: &mut dyn Random, stack: &mut Vec<f64>) -> f64 {
+/// The one stack machine: what an instruction of an expression language does, as
+/// far as the shared arithmetic is concerned. [`ExprOp`] (geometric expressions) and
+/// the creature condition code (`creature::cond::CondOp`) are both this machine with
+/// their own leaves (the instructions that push a value read from outside).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Core<L> {
+    /// Push a constant.
+    Push(f64),
+    /// Push the value of a leaf (a variable, a slot, a count).
+    Leaf(L),
+    /// Negate the top.
+    Neg,
+    /// Pop b, pop a, push `a BINOPS[i] b`.
+    Bin(u8),
+    /// Pop `arity` arguments, push `FUNCTIONS[i](…)`.
+    Call(u8),
+}
+
+/// An instruction of the shared stack machine ([`Core`]): its encoder-side
+/// constructors and its decoder-side view, so the compiler's lowering, [`run`] and
+/// [`check`] are written once for every expression language.
+pub trait StackOp: Copy {
+    /// The instruction seen as the shared machine sees it.
+    fn core(self) -> Core<Self>;
+    /// The instruction that does `c` (a leaf is the instruction itself).
+    fn from_core(c: Core<Self>) -> Self;
+}
+
+impl StackOp for ExprOp {
+    #[inline(always)]
+    fn core(self) -> Core<Self> {
+        match self {
+            ExprOp::Push(v) => Core::Push(v),
+            ExprOp::Neg => Core::Neg,
+            ExprOp::Bin(o) => Core::Bin(o),
+            ExprOp::Call(f) => Core::Call(f),
+            leaf @ (ExprOp::Var(_) | ExprOp::Slot(_)) => Core::Leaf(leaf),
+        }
+    }
+
+    fn from_core(c: Core<Self>) -> Self {
+        match c {
+            Core::Push(v) => ExprOp::Push(v),
+            Core::Neg => ExprOp::Neg,
+            Core::Bin(o) => ExprOp::Bin(o),
+            Core::Call(f) => ExprOp::Call(f),
+            Core::Leaf(op) => op,
+        }
+    }
+}
+
+/// Runs verified code on the shared machine: `leaf` gives a leaf's value, `call`
+/// applies a function to its arguments. On malformed code the result is NaN, never
+/// a panic.
+#[inline(always)]
+pub fn run<O: StackOp>(
+    code: &[O],
+    stack: &mut Vec<f64>,
+    mut leaf: impl FnMut(O) -> f64,
+    mut call: impl FnMut(Func, &[f64; 3]) -> f64,
+) -> f64 {
     stack.clear();
     for op in code {
-        match *op {
-            ExprOp::Push(v) => stack.push(v),
-            ExprOp::Slot(i) => stack.push(slots.get(i as usize).copied().unwrap_or(f64::NAN)),
-            ExprOp::Var(i) => stack.push(vars.get(i as usize).copied().unwrap_or(f64::NAN)),
-            ExprOp::Neg => {
+        match op.core() {
+            Core::Push(v) => stack.push(v),
+            Core::Leaf(l) => stack.push(leaf(l)),
+            Core::Neg => {
                 if let Some(t) = stack.last_mut() {
                     *t = -*t;
                 }
             }
-            ExprOp::Bin(o) => {
+            Core::Bin(o) => {
                 let b = stack.pop().unwrap_or(f64::NAN);
                 let a = stack.pop().unwrap_or(f64::NAN);
                 stack.push(binop(o, a, b));
             }
-            ExprOp::Call(f) => {
+            Core::Call(f) => {
                 let Some(func) = Func::from_id(f) else { return f64::NAN };
                 let at = stack.len().saturating_sub(func.arity());
                 let args: [f64; 3] = std::array::from_fn(|i| stack.get(at + i).copied().unwrap_or(f64::NAN));
                 stack.truncate(at);
-                stack.push(func.apply(&args, rng));
+                stack.push(call(func, &args));
             }
         }
     }
     stack.pop().unwrap_or(f64::NAN)
+}
+
+/// Checks code for the shared machine: constants finite, operators and functions
+/// known, the stack never underflows and ends with exactly one value. `leaf` checks
+/// a leaf's index, `func` whether a function is allowed; both get the instruction's
+/// position for the message.
+pub fn check<O: StackOp>(
+    code: &[O],
+    mut leaf: impl FnMut(usize, O) -> Result<(), String>,
+    mut func: impl FnMut(usize, Func) -> Result<(), String>,
+) -> Result<(), String> {
+    let mut depth: i64 = 0;
+    for (i, op) in code.iter().enumerate() {
+        let pop = match op.core() {
+            Core::Push(v) if !v.is_finite() => return Err(format!("non-finite constant at {i}")),
+            Core::Push(_) => 0,
+            Core::Leaf(l) => {
+                leaf(i, l)?;
+                0
+            }
+            Core::Neg => 1,
+            Core::Bin(o) if o as usize >= BINOPS.len() => return Err(format!("unknown operator {o} at {i}")),
+            Core::Bin(_) => 2,
+            Core::Call(f) => match Func::from_id(f) {
+                Some(f) => {
+                    func(i, f)?;
+                    f.arity() as i64
+                }
+                None => return Err(format!("unknown function {f} at {i}")),
+            },
+        };
+        if depth < pop {
+            return Err(format!("stack underflow at {i}"));
+        }
+        depth = depth - pop + 1;
+    }
+    if depth != 1 {
+        return Err(format!("expression leaves {depth} values"));
+    }
+    Ok(())
+}
+
+/// Evaluates verified expression code with `vars` (indexed like [`VARIABLES`]) and
+/// the running rule's frame `slots`. Verified code never underflows; on malformed
+/// code (or a slot beyond `slots`) the result is NaN, never a panic.
+pub fn eval(code: &[ExprOp], vars: &[f64; 6], slots: &[f64], rng: &mut dyn Random, stack: &mut Vec<f64>) -> f64 {
+    run(
+        code,
+        stack,
+        |leaf| match leaf {
+            ExprOp::Slot(i) => slots.get(i as usize).copied().unwrap_or(f64::NAN),
+            ExprOp::Var(i) => vars.get(i as usize).copied().unwrap_or(f64::NAN),
+            _ => f64::NAN,
+        },
+        |f, args| f.apply(args, rng),
+    )
 }
 
 /// The highest slot `code` reads, plus one (0 when it reads none): the bundle
@@ -245,41 +357,12 @@ pub fn slots_needed(code: &[ExprOp]) -> usize {
 
 /// Checks stack discipline: never underflows, ends with exactly one value.
 pub fn verify(code: &[ExprOp]) -> Result<(), String> {
-    let mut depth: i64 = 0;
-    for (i, op) in code.iter().enumerate() {
-        let (pop, push) = match op {
-            ExprOp::Push(v) => {
-                if !v.is_finite() {
-                    return Err(format!("non-finite constant at {i}"));
-                }
-                (0, 1)
-            }
-            ExprOp::Var(v) => {
-                if *v as usize >= VARIABLES.len() {
-                    return Err(format!("unknown variable {v} at {i}"));
-                }
-                (0, 1)
-            }
-            ExprOp::Slot(_) => (0, 1),
-            ExprOp::Neg => (1, 1),
-            ExprOp::Bin(o) => {
-                if *o as usize >= BINOPS.len() {
-                    return Err(format!("unknown operator {o} at {i}"));
-                }
-                (2, 1)
-            }
-            ExprOp::Call(f) => match FUNCTIONS.get(*f as usize) {
-                Some((_, arity)) => (*arity as i64, 1),
-                None => return Err(format!("unknown function {f} at {i}")),
-            },
-        };
-        if depth < pop {
-            return Err(format!("stack underflow at {i}"));
-        }
-        depth = depth - pop + push;
-    }
-    if depth != 1 {
-        return Err(format!("expression leaves {depth} values"));
-    }
-    Ok(())
+    check(
+        code,
+        |i, leaf| match leaf {
+            ExprOp::Var(v) if v as usize >= VARIABLES.len() => Err(format!("unknown variable {v} at {i}")),
+            _ => Ok(()),
+        },
+        |_, _| Ok(()),
+    )
 }

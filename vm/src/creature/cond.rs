@@ -5,7 +5,7 @@
 //! super-parts of a kind the shape has). `rand`/`randn` are not allowed: a rule's
 //! probability is the chance of its function branch, drawn by the evolution.
 
-use crate::expr::{binop, Func, BINOPS};
+use crate::expr::{self, Core, StackOp};
 use serde::{Deserialize, Serialize};
 
 /// Variables a condition or probability may read, by index.
@@ -43,65 +43,56 @@ pub trait Env {
     fn parts(&self, kind: u32) -> f64;
 }
 
-/// Evaluates verified code; malformed code gives NaN, never a panic.
-pub fn eval(code: &[CondOp], env: &dyn Env, stack: &mut Vec<f64>) -> f64 {
-    stack.clear();
-    for op in code {
-        match *op {
-            CondOp::Push(v) => stack.push(v),
-            CondOp::Var(i) => stack.push(env.var(i)),
-            CondOp::Parts(k) => stack.push(env.parts(k)),
-            CondOp::Neg => {
-                if let Some(t) = stack.last_mut() {
-                    *t = -*t;
-                }
-            }
-            CondOp::Bin(o) => {
-                let b = stack.pop().unwrap_or(f64::NAN);
-                let a = stack.pop().unwrap_or(f64::NAN);
-                stack.push(binop(o, a, b));
-            }
-            CondOp::Call(f) => {
-                let Some(func) = Func::from_id(f) else { return f64::NAN };
-                let at = stack.len().saturating_sub(func.arity());
-                let args: [f64; 3] = std::array::from_fn(|i| stack.get(at + i).copied().unwrap_or(f64::NAN));
-                stack.truncate(at);
-                stack.push(func.deterministic(&args).unwrap_or(f64::NAN));
-            }
+impl StackOp for CondOp {
+    #[inline(always)]
+    fn core(self) -> Core<Self> {
+        match self {
+            CondOp::Push(v) => Core::Push(v),
+            CondOp::Neg => Core::Neg,
+            CondOp::Bin(o) => Core::Bin(o),
+            CondOp::Call(f) => Core::Call(f),
+            leaf @ (CondOp::Var(_) | CondOp::Parts(_)) => Core::Leaf(leaf),
         }
     }
-    stack.pop().unwrap_or(f64::NAN)
+
+    fn from_core(c: Core<Self>) -> Self {
+        match c {
+            Core::Push(v) => CondOp::Push(v),
+            Core::Neg => CondOp::Neg,
+            Core::Bin(o) => CondOp::Bin(o),
+            Core::Call(f) => CondOp::Call(f),
+            Core::Leaf(op) => op,
+        }
+    }
 }
 
-/// Checks stack discipline and indices (`n_kinds` bounds `parts(…)`).
+/// Evaluates verified code on the shared machine ([`expr::run`]); malformed code
+/// gives NaN, never a panic.
+pub fn eval(code: &[CondOp], env: &dyn Env, stack: &mut Vec<f64>) -> f64 {
+    expr::run(
+        code,
+        stack,
+        |leaf| match leaf {
+            CondOp::Var(i) => env.var(i),
+            CondOp::Parts(k) => env.parts(k),
+            _ => f64::NAN,
+        },
+        |f, args| f.deterministic(args).unwrap_or(f64::NAN),
+    )
+}
+
+/// Checks stack discipline and indices (`n_kinds` bounds `parts(…)`) with
+/// [`expr::check`]; `rand`/`randn` are refused.
 pub fn verify(code: &[CondOp], n_kinds: u32) -> Result<(), String> {
-    let mut depth: i64 = 0;
-    for (i, op) in code.iter().enumerate() {
-        let (pop, push) = match *op {
-            CondOp::Push(v) if !v.is_finite() => return Err(format!("non-finite constant at {i}")),
-            CondOp::Push(_) => (0, 1),
-            CondOp::Var(v) if v as usize >= VARIABLES.len() => return Err(format!("unknown variable {v} at {i}")),
-            CondOp::Var(_) => (0, 1),
-            CondOp::Parts(k) if k >= n_kinds => return Err(format!("unknown kind {k} at {i}")),
-            CondOp::Parts(_) => (0, 1),
-            CondOp::Neg => (1, 1),
-            CondOp::Bin(o) if o as usize >= BINOPS.len() => return Err(format!("unknown operator {o} at {i}")),
-            CondOp::Bin(_) => (2, 1),
-            CondOp::Call(f) => match Func::from_id(f) {
-                Some(func) if func.is_random() => return Err(format!("random function at {i}")),
-                Some(func) => (func.arity() as i64, 1),
-                None => return Err(format!("unknown function {f} at {i}")),
-            },
-        };
-        if depth < pop {
-            return Err(format!("stack underflow at {i}"));
-        }
-        depth = depth - pop + push;
-    }
-    if depth != 1 {
-        return Err(format!("expression leaves {depth} values"));
-    }
-    Ok(())
+    expr::check(
+        code,
+        |i, leaf| match leaf {
+            CondOp::Var(v) if v as usize >= VARIABLES.len() => Err(format!("unknown variable {v} at {i}")),
+            CondOp::Parts(k) if k >= n_kinds => Err(format!("unknown kind {k} at {i}")),
+            _ => Ok(()),
+        },
+        |i, f| if f.is_random() { Err(format!("random function at {i}")) } else { Ok(()) },
+    )
 }
 
 /// The variables an expression reads (indices into [`VARIABLES`]) and whether it
@@ -309,6 +300,7 @@ pub fn never_hold(conditions: &[&[CondOp]], b: &Bounds, budget: u64) -> Option<b
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::expr::{Func, BINOPS};
 
     fn g_expr(a: f64, b: f64) -> Vec<CondOp> {
         // a * exp(b * g)

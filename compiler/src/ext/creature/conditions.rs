@@ -3,6 +3,9 @@
 //! and conditions that can never hold (W0802).
 
 use super::*;
+use crate::ast::Number;
+use crate::consteval::{self, Call, Leaves};
+use mdg_vm::expr::Func;
 
 /// Evaluations [`cond::never_hold`] may spend on one rule's conditions.
 const NEVER_HOLD_BUDGET: u64 = 4_000_000;
@@ -45,116 +48,9 @@ impl Builder<'_, '_> {
         Some(Code(out))
     }
 
+    /// Lowers `e` in the creature condition language ([`Condition`]).
     pub(super) fn expr(&mut self, e: &Expr, condition: bool, out: &mut Vec<CondOp>) -> bool {
-        match &e.kind {
-            ExprKind::Num(n) => {
-                if n.unit.is_some() {
-                    self.push(err("E0814", n.span, "numbers in creature expressions take no unit suffix"));
-                    return false;
-                }
-                out.push(CondOp::Push(n.value));
-                true
-            }
-            ExprKind::Var(v) => {
-                if let Some(i) = VARIABLES.iter().position(|x| *x == v.text) {
-                    if i as u8 == cond::COMPLEXITY && !condition {
-                        self.push(
-                            err("E0814", v.span, "a probability cannot read `complexity`")
-                                .with_label("only conditions may")
-                                .with_note("probabilities are checked at every value of their variables; C_s is not a whole number"),
-                        );
-                        return false;
-                    }
-                    out.push(CondOp::Var(i as u8));
-                    return true;
-                }
-                if let Some(c) = self.ex.constant(&v.text) {
-                    out.push(CondOp::Push(c));
-                    return true;
-                }
-                let allowed: Vec<&str> =
-                    VARIABLES.iter().copied().filter(|n| condition || *n != "complexity").collect();
-                let mut d = err("E0814", v.span, format!("unknown name `{}` in a creature expression", v.text));
-                d = match did_you_mean(&v.text, allowed.iter().copied()) {
-                    Some(s) => d.with_label(format!("did you mean `{s}`?")).with_suggestion(
-                        format!("replace with `{s}`"),
-                        v.span,
-                        s,
-                    ),
-                    None => d.with_note(format!("variables: {}; and `parts(TYPE)`", allowed.join(", "))),
-                };
-                self.push(d);
-                false
-            }
-            ExprKind::Neg(x) => {
-                let ok = self.expr(x, condition, out);
-                out.push(CondOp::Neg);
-                ok
-            }
-            ExprKind::Paren(x) => self.expr(x, condition, out),
-            ExprKind::Not(x) => {
-                let ok = self.expr(x, condition, out);
-                let eq = BINOPS.iter().position(|s| *s == "==").unwrap_or(0);
-                out.extend([CondOp::Push(0.0), CondOp::Bin(eq as u8)]);
-                ok
-            }
-            ExprKind::Binary(op, a, b) => {
-                let ok = self.expr(a, condition, out) & self.expr(b, condition, out);
-                let i = BINOPS.iter().position(|s| *s == op.symbol()).unwrap_or(0);
-                out.push(CondOp::Bin(i as u8));
-                ok
-            }
-            ExprKind::Call(f, args) => {
-                if f.text == "parts" {
-                    return match args.as_slice() {
-                        [Expr { kind: ExprKind::Var(k), .. }] => match self.kind_index(k) {
-                            Some(k) => {
-                                out.push(CondOp::Parts(k));
-                                true
-                            }
-                            None => false,
-                        },
-                        _ => {
-                            self.push(err("E0814", e.span, "`parts` takes one part type: `parts(wing)`"));
-                            false
-                        }
-                    };
-                }
-                let Some(fi) = FUNCTIONS.iter().position(|(n, _)| *n == f.text) else {
-                    let names = FUNCTIONS.iter().map(|(n, _)| *n).filter(|n| !n.starts_with("rand")).chain(["parts"]);
-                    let mut d = err("E0814", f.span, format!("unknown function `{}`", f.text));
-                    if let Some(s) = did_you_mean(&f.text, names) {
-                        d = d.with_label(format!("did you mean `{s}`?"));
-                    }
-                    self.push(d);
-                    return false;
-                };
-                let (fname, arity) = FUNCTIONS[fi];
-                if fname.starts_with("rand") {
-                    self.push(
-                        err("E0814", f.span, format!("`{fname}` is not allowed in a rule's condition or probability"))
-                            .with_label("the evolution draws the branch itself")
-                            .with_note("write the chance of the function branch as the probability"),
-                    );
-                    return false;
-                }
-                if args.len() != arity {
-                    self.push(err(
-                        "E0814",
-                        e.span,
-                        format!("`{fname}` takes {arity} argument{}", if arity == 1 { "" } else { "s" }),
-                    ));
-                    return false;
-                }
-                let mut ok = true;
-                for a in args {
-                    ok &= self.expr(a, condition, out);
-                }
-                out.push(CondOp::Call(fi as u8));
-                ok
-            }
-            ExprKind::Error => false,
-        }
+        consteval::lower(&mut Condition { b: self, condition }, e, out)
     }
 
     /// E0805: a probability that leaves [0, 1] at some generation (up to
@@ -360,5 +256,101 @@ impl Builder<'_, '_> {
             }
         }
         self.diags.extend(found);
+    }
+}
+
+/// The creature condition language (`docs/creatures.md`): the creature variables,
+/// named constants, `parts(TYPE)`, deterministic built-ins; numbers without units.
+/// A probability (`condition` false) may not read `complexity`.
+struct Condition<'b, 'a, 'd> {
+    b: &'b mut Builder<'a, 'd>,
+    condition: bool,
+}
+
+impl Leaves<CondOp> for Condition<'_, '_, '_> {
+    fn num(&mut self, n: &Number, out: &mut Vec<CondOp>) -> bool {
+        if n.unit.is_some() {
+            self.b.push(err("E0814", n.span, "numbers in creature expressions take no unit suffix"));
+            return false;
+        }
+        out.push(CondOp::Push(n.value));
+        true
+    }
+
+    fn var(&mut self, v: &Name, out: &mut Vec<CondOp>) -> bool {
+        let condition = self.condition;
+        if let Some(i) = VARIABLES.iter().position(|x| *x == v.text) {
+            if i as u8 == cond::COMPLEXITY && !condition {
+                self.b.push(
+                    err("E0814", v.span, "a probability cannot read `complexity`")
+                        .with_label("only conditions may")
+                        .with_note(
+                            "probabilities are checked at every value of their variables; C_s is not a whole number",
+                        ),
+                );
+                return false;
+            }
+            out.push(CondOp::Var(i as u8));
+            return true;
+        }
+        if let Some(c) = self.b.ex.constant(&v.text) {
+            out.push(CondOp::Push(c));
+            return true;
+        }
+        let allowed: Vec<&str> = VARIABLES.iter().copied().filter(|n| condition || *n != "complexity").collect();
+        let mut d = err("E0814", v.span, format!("unknown name `{}` in a creature expression", v.text));
+        d = match did_you_mean(&v.text, allowed.iter().copied()) {
+            Some(s) => {
+                d.with_label(format!("did you mean `{s}`?")).with_suggestion(format!("replace with `{s}`"), v.span, s)
+            }
+            None => d.with_note(format!("variables: {}; and `parts(TYPE)`", allowed.join(", "))),
+        };
+        self.b.push(d);
+        false
+    }
+
+    fn call(&mut self, e: &Expr, f: &Name, args: &[Expr], out: &mut Vec<CondOp>) -> Call {
+        if f.text == "parts" {
+            return Call::Done(match args {
+                [Expr { kind: ExprKind::Var(k), .. }] => match self.b.kind_index(k) {
+                    Some(k) => {
+                        out.push(CondOp::Parts(k));
+                        true
+                    }
+                    None => false,
+                },
+                _ => {
+                    self.b.push(err("E0814", e.span, "`parts` takes one part type: `parts(wing)`"));
+                    false
+                }
+            });
+        }
+        let Some(func) = Func::from_name(&f.text) else {
+            let names = Func::ALL.iter().filter(|f| !f.is_random()).map(|f| f.name()).chain(["parts"]);
+            let mut d = err("E0814", f.span, format!("unknown function `{}`", f.text));
+            if let Some(s) = did_you_mean(&f.text, names) {
+                d = d.with_label(format!("did you mean `{s}`?"));
+            }
+            self.b.push(d);
+            return Call::Done(false);
+        };
+        let (fname, arity) = (func.name(), func.arity());
+        if func.is_random() {
+            self.b.push(
+                err("E0814", f.span, format!("`{fname}` is not allowed in a rule's condition or probability"))
+                    .with_label("the evolution draws the branch itself")
+                    .with_note("write the chance of the function branch as the probability"),
+            );
+            return Call::Done(false);
+        }
+        if args.len() != arity {
+            self.b.push(err(
+                "E0814",
+                e.span,
+                format!("`{fname}` takes {arity} argument{}", if arity == 1 { "" } else { "s" }),
+            ));
+            return Call::Done(false);
+        }
+        Call::Builtin(func)
     }
 }

@@ -37,7 +37,6 @@ use mdg_vm::creature::table::{
     self as tb, AttachDef, Code, CreatureTable, EvolveSettings, Geometry, Kind, Mode, PartDef, PartMesh, RuleDef,
     RuleKind, ShapeDef, Slot, Strategy,
 };
-use mdg_vm::expr::{BINOPS, FUNCTIONS};
 
 /// The largest coordinate, normal component or size a creature part may give.
 pub const MAX_COORDINATE: f64 = 1e6;
