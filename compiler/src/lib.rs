@@ -25,4 +25,5 @@ pub mod shaders;
 pub mod source;
 pub mod span;
 pub mod stdlib;
+pub mod symbols;
 pub mod types;

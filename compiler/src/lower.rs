@@ -12,6 +12,7 @@ use crate::check::{AdjKind, Symbols};
 use crate::consteval::{self, binop_index, Call, Leaves};
 use crate::diag::Diagnostic;
 use crate::expand::{ExpItem, Expanded};
+use crate::ext::LowerCx;
 use crate::source::Sources;
 use crate::span::Span;
 use mdg_vm::bundle::{
@@ -239,38 +240,6 @@ fn function_index(name: &str) -> u8 {
     Func::from_name(name).map_or(0, |f| f as u8)
 }
 
-/// What lowering an extension section needs (see [`crate::ext`]).
-pub struct LowerCx<'a> {
-    pub ex: &'a Expanded,
-    pub sym: &'a Symbols,
-    rule_ids: &'a HashMap<String, u32>,
-    angle: AngleMode,
-}
-
-impl LowerCx<'_> {
-    /// The bundle index of a rule named as a call in namespace `ns` would name it.
-    pub fn rule(&self, name: &str, ns: Option<&str>) -> Option<u32> {
-        self.sym.resolve(name, ns).and_then(|f| self.rule_ids.get(&f).copied())
-    }
-
-    /// Expression code for `e` (variables are `mdg_vm::expr::VARIABLES`, e.g. `g`).
-    pub fn expr(&self, e: &Expr) -> Vec<ExprOp> {
-        let mut out = Vec::new();
-        expr_code(self.ex, self.angle, &[], e, &mut out);
-        out
-    }
-
-    /// A constant number value (see [`crate::ext::number`]).
-    pub fn number(&self, v: &Value) -> Option<f64> {
-        crate::ext::number(self.ex, v)
-    }
-
-    /// Radians for an angle written as a plain number under the program's `angle` mode.
-    pub fn angle(&self, value: f64) -> f64 {
-        value * angle_factor(self.angle, None)
-    }
-}
-
 fn key(c: &Composite) -> Vec<u32> {
     c.q.iter()
         .chain(&c.qh)
@@ -477,7 +446,18 @@ impl<'a> Lower<'a> {
             });
         }
         let mut extensions = bundle::Extensions::default();
-        let cx = LowerCx { ex: self.ex, sym: self.sym, rule_ids: &self.rule_ids, angle: self.angle };
+        let (ex, angle) = (self.ex, self.angle);
+        let cx = LowerCx {
+            ex,
+            sym: self.sym,
+            rule_ids: &self.rule_ids,
+            expr_code: &|e: &Expr| {
+                let mut out = Vec::new();
+                expr_code(ex, angle, &[], e, &mut out);
+                out
+            },
+            angle_factor: angle_factor(angle, None),
+        };
         crate::ext::lower(&cx, &mut extensions);
         let namespaces: Vec<String> = self.namespaces.clone();
         let namespace_ids = namespaces.iter().map(|n| self.string(n)).collect();

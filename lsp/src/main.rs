@@ -4,6 +4,7 @@
 //! speaks byte offsets; positions become UTF-16 only in [`position`]. Each LSP
 //! feature has its own file in [`handlers`].
 
+mod backend;
 mod documents;
 mod guard;
 mod handlers;
@@ -12,7 +13,7 @@ mod position;
 mod server;
 mod workspace;
 
-use server::{Backend, Config};
+use backend::{Backend, Config};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -63,6 +64,6 @@ fn main() -> ExitCode {
     // The stdin reader is a blocking thread that would keep the runtime (and the
     // process) alive; exit now. The LSP exit code: 0 after `shutdown`, else 1.
     let code = if shutdown.load(Ordering::SeqCst) { 0 } else { 1 };
-    server::join_warm_glsl();
+    backend::join_warm_glsl();
     std::process::exit(code)
 }

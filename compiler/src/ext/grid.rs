@@ -26,11 +26,11 @@
 //! Codes E09xx; unknown keys, wrong value counts and repeated keys are E0601–E0603.
 //! The language is documented in docs/grid.md.
 
+use super::LowerCx;
 use super::{at_most_once, expect_count, known_entries, CheckCx, Key, Sec};
 use crate::ast::{Entry, Name, Section, Value};
 use crate::diag::{did_you_mean, Diagnostic};
 use crate::expand::Expanded;
-use crate::lower::LowerCx;
 use crate::span::Span;
 use mdg_vm::grid::{
     connected, sort_blocks, turned_blocks, GenerateSettings, GridGrammar, GridRule, GridShape, PaletteEntry, Placement,

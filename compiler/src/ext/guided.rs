@@ -18,10 +18,10 @@
 //! Codes E07xx; unknown keys, wrong value counts and repeated keys are E0601–E0603
 //! (see [`super`]). The language is documented in docs/guided.md.
 
+use super::LowerCx;
 use super::{at_most_once, expect_count, known_entries, numbers, words, CheckCx, Key, Sec};
 use crate::ast::{BodyItem, BodyKind, Entry, ItemKind, Name, Section, Value};
 use crate::diag::Diagnostic;
-use crate::lower::LowerCx;
 use crate::span::Span;
 use mdg_vm::sosmc::{Guide, GuidedTable, Resampling, SearchSettings};
 
@@ -418,7 +418,7 @@ fn first_non_uniform_scale(items: &[BodyItem], cx: &CheckCx) -> Option<Span> {
             _ => return,
         };
         let scale = |a: &&crate::ast::Adj| {
-            a.args.len() > 1 && cx.sym.components.adj_kind(&a.name.text) == Some(crate::check::AdjKind::Scale)
+            a.args.len() > 1 && cx.sym.components.adj_kind(&a.name.text) == Some(crate::adjust::AdjKind::Scale)
         };
         at = at.or_else(|| adj.adjs.iter().find(scale).map(|a| a.span));
     });

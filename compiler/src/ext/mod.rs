@@ -12,9 +12,11 @@ pub mod grid;
 pub mod guided;
 
 use crate::ast::{Entry, Expr, ItemKind, Name, Section, Value};
-use crate::check::Symbols;
 use crate::diag::{did_you_mean, Diagnostic};
 use crate::expand::{ExpItem, Expanded};
+use crate::symbols::Symbols;
+use mdg_vm::expr::ExprOp;
+use std::collections::HashMap;
 
 /// A section and the namespace it appears in.
 #[derive(Clone, Copy)]
@@ -222,9 +224,44 @@ pub fn rule_refs(sec: &Section) -> Vec<&Name> {
     }
 }
 
+/// What lowering an extension section needs: given by `crate::lower`, which calls
+/// [`lower`] (so this module does not depend on the lowering of rules).
+pub struct LowerCx<'a> {
+    pub ex: &'a Expanded,
+    pub sym: &'a Symbols,
+    /// Rule full name → bundle rule index.
+    pub rule_ids: &'a HashMap<String, u32>,
+    /// Expression code in the program's geometric expression language.
+    pub expr_code: &'a dyn Fn(&Expr) -> Vec<ExprOp>,
+    /// Radians per plain angle number under the program's `angle` mode.
+    pub angle_factor: f64,
+}
+
+impl LowerCx<'_> {
+    /// The bundle index of a rule named as a call in namespace `ns` would name it.
+    pub fn rule(&self, name: &str, ns: Option<&str>) -> Option<u32> {
+        self.sym.resolve(name, ns).and_then(|f| self.rule_ids.get(&f).copied())
+    }
+
+    /// Expression code for `e` (variables are `mdg_vm::expr::VARIABLES`, e.g. `g`).
+    pub fn expr(&self, e: &Expr) -> Vec<ExprOp> {
+        (self.expr_code)(e)
+    }
+
+    /// A constant number value (see [`number`]).
+    pub fn number(&self, v: &Value) -> Option<f64> {
+        number(self.ex, v)
+    }
+
+    /// Radians for an angle written as a plain number under the program's `angle` mode.
+    pub fn angle(&self, value: f64) -> f64 {
+        value * self.angle_factor
+    }
+}
+
 /// Lowers every section into the bundle's extension tables. Called after checking
 /// found no errors.
-pub fn lower(cx: &crate::lower::LowerCx, ext: &mut mdg_vm::bundle::Extensions) {
+pub fn lower(cx: &LowerCx, ext: &mut mdg_vm::bundle::Extensions) {
     let mut guides = sections(cx.ex, "guide");
     guides.extend(sections(cx.ex, "search"));
     if !guides.is_empty() {

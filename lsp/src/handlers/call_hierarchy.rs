@@ -6,9 +6,9 @@
 
 use super::workspace::{all_views, file_canon, own_files, views};
 use super::{at_position, uri};
+use crate::backend::Backend;
 use crate::documents::path_of;
 use crate::position::LineIndex;
-use crate::server::Backend;
 use crate::workspace::canon;
 use mdg_compiler::analysis::{Document, RuleDef, Symbol};
 use serde_json::json;

@@ -2,7 +2,7 @@
 
 use super::commands::PANIC_COMMAND;
 use super::semantic_tokens::legend;
-use crate::server::Backend;
+use crate::backend::Backend;
 use tower_lsp_server::ls_types::*;
 
 /// The initialize result: full document sync and every feature the server has.

@@ -2,8 +2,8 @@
 //! "create rule" for undefined rules.
 
 use super::workspace_edit;
+use crate::backend::Backend;
 use crate::position::LineIndex;
-use crate::server::Backend;
 use tower_lsp_server::jsonrpc::Result;
 use tower_lsp_server::ls_types::*;
 

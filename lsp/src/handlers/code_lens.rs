@@ -6,8 +6,8 @@
 //! URI, and for `mdg.showReferences` a position and the locations).
 
 use super::workspace::{all_views, definition_keys, file_canon, View};
+use crate::backend::Backend;
 use crate::position::LineIndex;
-use crate::server::Backend;
 use mdg_compiler::analysis::{LensKind, Symbol};
 use serde_json::json;
 use std::collections::{BTreeSet, HashSet};

@@ -2,8 +2,8 @@
 //! `background r g b a` and on a call's colour deltas (the colour they give from
 //! white), and a picked colour written back in the same form.
 
+use crate::backend::Backend;
 use crate::position::LineIndex;
-use crate::server::Backend;
 use mdg_compiler::span::Span;
 use tower_lsp_server::jsonrpc::Result;
 use tower_lsp_server::ls_types::*;

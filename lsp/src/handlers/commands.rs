@@ -2,7 +2,7 @@
 //! `MDG_LSP_PANIC_COMMAND=1`: it panics inside a handler so tests can check that the
 //! server survives.
 
-use crate::server::Backend;
+use crate::backend::Backend;
 use tower_lsp_server::jsonrpc::{Error, Result};
 use tower_lsp_server::ls_types::*;
 

@@ -2,8 +2,8 @@
 //! replace range covering the word typed so far.
 
 use super::at_position;
+use crate::backend::Backend;
 use crate::position::LineIndex;
-use crate::server::Backend;
 use mdg_compiler::analysis::CompletionKind as K;
 use tower_lsp_server::jsonrpc::Result;
 use tower_lsp_server::ls_types::*;

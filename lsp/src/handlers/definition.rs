@@ -2,7 +2,7 @@
 //! isosurfaces, macros, shaders and imported files, in any file.
 
 use super::{at_position, uri};
-use crate::server::Backend;
+use crate::backend::Backend;
 use tower_lsp_server::jsonrpc::Result;
 use tower_lsp_server::ls_types::*;
 

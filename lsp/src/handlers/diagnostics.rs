@@ -1,8 +1,8 @@
 //! `textDocument/publishDiagnostics`: every compiler diagnostic with its code,
 //! notes and suggestion in the message, and secondary labels as related information.
 
+use crate::backend::Backend;
 use crate::position::LineIndex;
-use crate::server::Backend;
 use mdg_compiler::analysis::Document;
 use mdg_compiler::diag::{self, Severity};
 use tower_lsp_server::ls_types::*;

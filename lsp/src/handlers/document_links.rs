@@ -1,8 +1,8 @@
 //! `textDocument/documentLink`: each word of an `@import` line links to the file it
 //! brings in (std libraries included).
 
+use crate::backend::Backend;
 use crate::position::LineIndex;
-use crate::server::Backend;
 use tower_lsp_server::jsonrpc::Result;
 use tower_lsp_server::ls_types::*;
 

@@ -1,7 +1,7 @@
 //! `textDocument/documentSymbol`: the outline.
 
+use crate::backend::Backend;
 use crate::position::LineIndex;
-use crate::server::Backend;
 use mdg_compiler::analysis::{DocumentSymbol as Sym, SymbolKind as K};
 use tower_lsp_server::jsonrpc::Result;
 use tower_lsp_server::ls_types::*;

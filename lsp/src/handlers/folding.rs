@@ -1,7 +1,7 @@
 //! `textDocument/foldingRange`: line ranges; a closing `}` on its own line stays visible.
 
+use crate::backend::Backend;
 use crate::position::LineIndex;
-use crate::server::Backend;
 use mdg_compiler::analysis::FoldKind;
 use tower_lsp_server::jsonrpc::Result;
 use tower_lsp_server::ls_types::*;

@@ -3,8 +3,8 @@
 //! only the text, not an analysis; a file with syntax errors is left alone, and the
 //! user is told why.
 
+use crate::backend::Backend;
 use crate::position::LineIndex;
-use crate::server::Backend;
 use mdg_compiler::analysis::formatting::{format_edit, format_range_edit};
 use mdg_compiler::analysis::Edit;
 use mdg_compiler::span::FileId;

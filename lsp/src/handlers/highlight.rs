@@ -1,8 +1,8 @@
 //! `textDocument/documentHighlight`: the symbol's occurrences in this document.
 
 use super::at_position;
+use crate::backend::Backend;
 use crate::position::LineIndex;
-use crate::server::Backend;
 use tower_lsp_server::jsonrpc::Result;
 use tower_lsp_server::ls_types::*;
 

@@ -1,8 +1,8 @@
 //! `textDocument/inlayHint`: per-step transforms of divisor iterators, and
 //! parameter names at rule calls.
 
+use crate::backend::Backend;
 use crate::position::LineIndex;
-use crate::server::Backend;
 use tower_lsp_server::jsonrpc::Result;
 use tower_lsp_server::ls_types::*;
 

@@ -26,8 +26,8 @@ pub mod sync;
 pub mod workspace;
 pub mod workspace_symbols;
 
+use crate::backend::Backend;
 use crate::position::LineIndex;
-use crate::server::Backend;
 use mdg_compiler::analysis::Document;
 use std::sync::Arc;
 use tower_lsp_server::ls_types::{TextDocumentPositionParams, Uri};

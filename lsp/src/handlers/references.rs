@@ -4,7 +4,7 @@
 
 use super::workspace::{file_canon, own_files, views};
 use super::{at_position, uri};
-use crate::server::Backend;
+use crate::backend::Backend;
 use std::collections::HashSet;
 use tower_lsp_server::jsonrpc::Result;
 use tower_lsp_server::ls_types::*;

@@ -4,8 +4,8 @@
 
 use super::workspace::{file_canon, own_files, views};
 use super::{at_position, uri};
+use crate::backend::Backend;
 use crate::position::LineIndex;
-use crate::server::Backend;
 use std::collections::{HashMap, HashSet};
 use tower_lsp_server::jsonrpc::{Error, Result};
 use tower_lsp_server::ls_types::*;

@@ -1,8 +1,8 @@
 //! `textDocument/selectionRange`: for each position, the word, then each enclosing
 //! node of the syntax tree, then the file.
 
+use crate::backend::Backend;
 use crate::position::LineIndex;
-use crate::server::Backend;
 use tower_lsp_server::jsonrpc::Result;
 use tower_lsp_server::ls_types::*;
 

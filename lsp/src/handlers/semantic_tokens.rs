@@ -1,8 +1,8 @@
 //! `textDocument/semanticTokens/full`: the analysis's byte-span tokens, split at
 //! line ends and delta-encoded in UTF-16 columns.
 
+use crate::backend::Backend;
 use crate::position::LineIndex;
-use crate::server::Backend;
 use mdg_compiler::analysis::SemanticKind as K;
 use tower_lsp_server::jsonrpc::Result;
 use tower_lsp_server::ls_types::*;

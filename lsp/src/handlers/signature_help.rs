@@ -1,7 +1,7 @@
 //! `textDocument/signatureHelp`: a rule's parameters while its arguments are typed.
 
 use super::at_position;
-use crate::server::Backend;
+use crate::backend::Backend;
 use tower_lsp_server::jsonrpc::Result;
 use tower_lsp_server::ls_types::*;
 

@@ -1,6 +1,8 @@
 //! Document synchronisation: open, change (full text, version-checked), save, close.
 
-use crate::server::Backend;
+use crate::backend::Backend;
+use crate::guard::guard;
+use std::sync::Arc;
 use tower_lsp_server::ls_types::*;
 
 /// `textDocument/didOpen`: store the text and analyse it.
@@ -8,7 +10,7 @@ pub async fn did_open(b: &Backend, p: DidOpenTextDocumentParams) {
     let uri = p.text_document.uri;
     let version = p.text_document.version;
     b.docs.open(uri.clone(), version, p.text_document.text);
-    b.refresh(uri.clone()).await;
+    refresh(b, uri.clone()).await;
     refresh_dependents(b, &uri).await;
 }
 
@@ -20,7 +22,7 @@ pub async fn did_change(b: &Backend, p: DidChangeTextDocumentParams) {
         b.client.log_message(MessageType::WARNING, format!("mdg-lsp: {e}")).await;
         return;
     }
-    b.refresh(uri.clone()).await;
+    refresh(b, uri.clone()).await;
     refresh_dependents(b, &uri).await;
 }
 
@@ -43,7 +45,49 @@ pub async fn did_close(b: &Backend, p: DidCloseTextDocumentParams) {
 async fn refresh_dependents(b: &Backend, uri: &Uri) {
     let path = crate::documents::path_of(uri);
     for dep in b.docs.dependents(uri, &path) {
-        b.refresh(dep).await;
+        refresh(b, dep).await;
     }
     super::workspace::refresh_importers(b, uri).await;
+}
+
+/// Analyses the newest version of `uri` off the message loop, stores it and
+/// publishes its diagnostics, then again while newer versions have arrived.
+/// At most one such loop runs per document: edits that come faster than
+/// analyses are folded into the next one, so typing never queues work.
+pub async fn refresh(b: &Backend, uri: Uri) {
+    if !b.docs.begin_analysis(&uri) {
+        return;
+    }
+    loop {
+        let docs = b.docs.clone();
+        let config = b.config.clone();
+        let u = uri.clone();
+        let result = tokio::task::spawn_blocking(move || {
+            let snap = docs.snapshot(&u)?;
+            Some((snap.version, guard(|| Backend::analyze(&snap, &config))))
+        })
+        .await;
+        let version = match result {
+            Ok(Some((version, Ok(doc)))) => {
+                let doc = Arc::new(doc);
+                if b.docs.store(&uri, version, doc.clone()) {
+                    super::diagnostics::publish(b, &uri, version, &doc).await;
+                }
+                version
+            }
+            Ok(Some((version, Err(panic)))) => {
+                b.log_panic("analysis", &panic).await;
+                version
+            }
+            // Closed meanwhile.
+            Ok(None) => i32::MIN,
+            Err(e) => {
+                b.log_panic("analysis", &e.to_string()).await;
+                i32::MIN
+            }
+        };
+        if b.docs.end_analysis(&uri, version) {
+            return;
+        }
+    }
 }

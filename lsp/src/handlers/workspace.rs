@@ -4,9 +4,9 @@
 //! (references, rename, workspace symbols) asks. The index itself is
 //! [`crate::workspace`].
 
+use crate::backend::Backend;
 use crate::documents::path_of;
 use crate::guard::guard;
-use crate::server::Backend;
 use crate::workspace::{analyze, canon, is_mdg, scan};
 use mdg_compiler::analysis::{Document, Symbol};
 use std::collections::BTreeSet;
@@ -205,7 +205,7 @@ pub async fn did_change_watched_files(b: &Backend, p: DidChangeWatchedFilesParam
     // appeared or vanished (an import may now resolve, or no longer).
     for (u, _) in b.docs.open_documents() {
         if created || deleted || changed.iter().any(|c| b.docs.reads(&u, c)) {
-            b.refresh(u).await;
+            super::sync::refresh(b, u).await;
         }
     }
     closed.extend(b.workspace.importers(&changed));

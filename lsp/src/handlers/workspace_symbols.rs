@@ -2,7 +2,7 @@
 //! document, with the files they import.
 
 use super::workspace::{all_views, file_canon, own_files};
-use crate::server::Backend;
+use crate::backend::Backend;
 use tower_lsp_server::jsonrpc::Result;
 use tower_lsp_server::ls_types::*;
 

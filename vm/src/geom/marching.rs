@@ -32,7 +32,7 @@ use std::collections::HashMap;
 
 use glam::Vec3;
 
-use crate::output::Mesh;
+use super::Mesh;
 
 /// A sampling grid: the box `[min, max]` divided into `res` cells per axis.
 #[derive(Clone, Copy, Debug, PartialEq)]

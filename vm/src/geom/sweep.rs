@@ -20,7 +20,7 @@ use glam::{Quat, Vec3, Vec4};
 
 use super::quat::{conj, hamilton, scaled, Affine, Frame};
 use super::rotation::rotation_between;
-use crate::output::Mesh;
+use super::Mesh;
 
 /// A frame a profile ring can be placed in: a [`Frame`], or an [`Affine`] (a frame
 /// under a non-uniform scale, which makes an elliptic tube of a round profile).

@@ -27,10 +27,10 @@ mod parts;
 mod rules;
 mod shapes;
 
+use super::LowerCx;
 use super::{at_most_once, expect_count, known_entries, numbers, words, CheckCx, Key, Sec};
 use crate::ast::{Entry, Expr, ExprKind, Name, Section, Value};
 use crate::diag::{did_you_mean, Diagnostic};
-use crate::lower::LowerCx;
 use crate::span::Span;
 use mdg_vm::creature::cond::{self, CondOp, VARIABLES};
 use mdg_vm::creature::table::{

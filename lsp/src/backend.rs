@@ -1,0 +1,181 @@
+//! The server state ([`Backend`]: the client handle, the documents, the
+//! configuration) and what every handler shares: analysing a document, running
+//! feature code under the panic guard, mapping spans to locations.
+
+use crate::documents::{Documents, Snapshot};
+use crate::guard::guard;
+use crate::position::LineIndex;
+use crate::workspace::Workspace;
+use mdg_compiler::analysis::{CompletionConfig, Document};
+use mdg_compiler::expand::Options;
+use mdg_compiler::span::{FileId, Span};
+use std::sync::atomic::AtomicBool;
+use std::sync::{Arc, Mutex};
+use tower_lsp_server::jsonrpc::{Error, Result};
+use tower_lsp_server::ls_types::*;
+use tower_lsp_server::Client;
+
+/// Settings fixed at start-up.
+pub struct Config {
+    /// Preprocessor options (where the std library is).
+    pub options: Options,
+    pub completion: CompletionConfig,
+    /// Whether the `mdg.debug.panic` command exists (for testing panic isolation).
+    pub panic_command: bool,
+    /// `docs/diagnostics.md`, where a diagnostic's code links to (its entry's anchor
+    /// added): under `$MDG_DOCS_URL` (the URL of a `docs/` folder) when set, else the
+    /// file beside the std library.
+    pub diagnostics_doc: Option<Uri>,
+}
+
+impl Config {
+    /// The configuration from the environment: std from `$MDG_STD` or beside the
+    /// executable; `MDG_LSP_PANIC_COMMAND=1` enables the test command.
+    pub fn from_env() -> Config {
+        let std_dir = mdg_compiler::driver::default_std_dir();
+        let mut std_libraries: Vec<String> = std_dir
+            .as_ref()
+            .and_then(|d| std::fs::read_dir(d).ok())
+            .map(|rd| {
+                rd.filter_map(|e| e.ok())
+                    .filter_map(|e| e.file_name().to_str().and_then(|n| n.strip_suffix(".mdg")).map(str::to_string))
+                    .collect()
+            })
+            .unwrap_or_default();
+        std_libraries.sort();
+        let published = std::env::var("MDG_DOCS_URL")
+            .ok()
+            .filter(|u| !u.trim().is_empty())
+            .and_then(|u| format!("{}/diagnostics.md", u.trim().trim_end_matches('/')).parse::<Uri>().ok());
+        let diagnostics_doc = published.or_else(|| {
+            std_dir
+                .as_ref()
+                .and_then(|d| d.parent())
+                .map(|root| root.join("docs/diagnostics.md"))
+                .filter(|p| p.is_file())
+                .and_then(Uri::from_file_path)
+        });
+        Config {
+            diagnostics_doc,
+            options: Options { std_dir, ..Options::default() },
+            completion: CompletionConfig { std_libraries },
+            panic_command: std::env::var("MDG_LSP_PANIC_COMMAND").is_ok_and(|v| v == "1"),
+        }
+    }
+}
+
+/// The server: the client handle, the documents and the configuration.
+#[derive(Clone)]
+pub struct Backend {
+    pub client: Client,
+    pub docs: Arc<Documents>,
+    /// Every `.mdg` file of the workspace folders, open or not.
+    pub workspace: Arc<Workspace>,
+    pub config: Arc<Config>,
+    /// Set by `shutdown`; decides the exit code after `exit`.
+    pub shutdown_requested: Arc<AtomicBool>,
+}
+
+impl Backend {
+    /// A server talking to `client`.
+    pub fn new(client: Client, config: Config, shutdown_requested: Arc<AtomicBool>) -> Backend {
+        Backend {
+            client,
+            docs: Arc::new(Documents::default()),
+            workspace: Arc::new(Workspace::default()),
+            config: Arc::new(config),
+            shutdown_requested,
+        }
+    }
+
+    /// Analyses `snap` (on the current thread).
+    pub fn analyze(snap: &Snapshot, config: &Config) -> Document {
+        Document::new(&snap.loader, &snap.path, &snap.text, &config.options)
+    }
+
+    /// The analysis of the current version of `uri`, computed now if the latest
+    /// one is out of date.
+    pub async fn document(&self, uri: &Uri) -> Option<Arc<Document>> {
+        if let Some(d) = self.docs.current_analysis(uri) {
+            return Some(d);
+        }
+        let snap = self.docs.snapshot(uri)?;
+        let config = self.config.clone();
+        let version = snap.version;
+        let result = tokio::task::spawn_blocking(move || guard(|| Backend::analyze(&snap, &config))).await;
+        match result {
+            Ok(Ok(doc)) => {
+                let doc = Arc::new(doc);
+                self.docs.store(uri, version, doc.clone());
+                Some(doc)
+            }
+            Ok(Err(panic)) => {
+                self.log_panic("analysis", &panic).await;
+                None
+            }
+            Err(e) => {
+                self.log_panic("analysis", &e.to_string()).await;
+                None
+            }
+        }
+    }
+
+    /// Runs feature code under the panic guard: a panic is logged and becomes an
+    /// internal-error response.
+    pub async fn run<T>(&self, what: &str, f: impl FnOnce() -> T) -> Result<T> {
+        match guard(f) {
+            Ok(v) => Ok(v),
+            Err(panic) => {
+                self.log_panic(what, &panic).await;
+                let mut e = Error::internal_error();
+                e.message = format!("mdg-lsp: {what} failed: {panic}").into();
+                Err(e)
+            }
+        }
+    }
+
+    /// Logs a caught panic to the client.
+    pub async fn log_panic(&self, what: &str, message: &str) {
+        self.client.log_message(MessageType::ERROR, format!("mdg-lsp: panic in {what}: {message}")).await;
+    }
+
+    /// The URI of a file of an analysis: the document's own URI for its main file.
+    pub fn uri_of(&self, doc: &Document, main_uri: &Uri, file: FileId) -> Option<Uri> {
+        if file == doc.main_file() {
+            return Some(main_uri.clone());
+        }
+        let path = doc.file_path(file)?;
+        self.docs.uri_of(path).or_else(|| Uri::from_file_path(path))
+    }
+
+    /// The LSP location of a span of an analysis.
+    pub fn location(&self, doc: &Document, main_uri: &Uri, span: Span) -> Option<Location> {
+        let uri = self.uri_of(doc, main_uri, span.file)?;
+        let li = LineIndex::new(doc.file_text(span.file));
+        Some(Location { uri, range: li.range(span.start, span.end) })
+    }
+}
+
+/// The thread warming glslang, joined before the process exits: glslang's static
+/// destructors must not run while it compiles.
+static WARM_GLSL: Mutex<Option<std::thread::JoinHandle<()>>> = Mutex::new(None);
+
+/// Compiles a trivial shader on a thread of its own, which initialises glslang.
+pub fn warm_glsl() {
+    let spawned = std::thread::Builder::new().name("mdg-lsp glslang warm-up".into()).spawn(|| {
+        let _ = guard(|| {
+            mdg_compiler::shaders::compile_glsl("#version 450\nvoid main() { gl_Position = vec4(0.0); }\n", true)
+        });
+    });
+    if let (Ok(handle), Ok(mut slot)) = (spawned, WARM_GLSL.lock()) {
+        *slot = Some(handle);
+    }
+}
+
+/// Waits for the glslang warm-up to finish (before `exit`).
+pub fn join_warm_glsl() {
+    let handle = WARM_GLSL.lock().ok().and_then(|mut s| s.take());
+    if let Some(h) = handle {
+        let _ = h.join();
+    }
+}

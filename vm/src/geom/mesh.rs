@@ -1,0 +1,95 @@
+//! The triangle mesh the geometry kernels append to (and evaluation's output
+//! holds, see [`crate::output`]).
+
+use glam::Vec3;
+
+/// A triangle mesh as flat per-vertex buffers plus an index list.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    pub positions: Vec<[f32; 3]>,
+    pub normals: Vec<[f32; 3]>,
+    /// RGBA, each in 0..1 after clamping by the exporters.
+    pub colors: Vec<[f32; 4]>,
+    /// Weight per vertex, or empty while every weight is zero (most models), which
+    /// saves a third of the memory of big outputs. Read with [`Mesh::weight`].
+    pub weights: Vec<[f32; 4]>,
+    /// Bone index per vertex (0 = the root, unanimated), or empty while all are 0.
+    /// Read with [`Mesh::bone`].
+    pub bones: Vec<u32>,
+    /// Triangles as vertex indices, in emission order.
+    pub triangles: Vec<[u32; 3]>,
+    /// Per triangle: emitted in a mirrored frame (odd number of flips). Exporters
+    /// reverse the winding of these so every face faces outward (SPEC resolved semantics 8).
+    pub mirrored: Vec<bool>,
+}
+
+impl Mesh {
+    /// Appends one vertex and returns its index.
+    #[inline]
+    pub fn push_vertex(&mut self, p: Vec3, n: Vec3, color: [f32; 4], weight: [f32; 4], bone: u32) -> u32 {
+        let i = self.positions.len();
+        self.positions.push(p.to_array());
+        self.normals.push(n.to_array());
+        self.colors.push(color);
+        if weight != [0.0; 4] || !self.weights.is_empty() {
+            self.weights.resize(i, [0.0; 4]);
+            self.weights.push(weight);
+        }
+        if bone != 0 || !self.bones.is_empty() {
+            self.bones.resize(i, 0);
+            self.bones.push(bone);
+        }
+        i as u32
+    }
+
+    /// The weight of vertex `i` (zero when weights are not stored).
+    pub fn weight(&self, i: usize) -> [f32; 4] {
+        self.weights.get(i).copied().unwrap_or([0.0; 4])
+    }
+
+    /// The bone of vertex `i` (0 when bones are not stored).
+    pub fn bone(&self, i: usize) -> u32 {
+        self.bones.get(i).copied().unwrap_or(0)
+    }
+
+    /// Appends a triangle.
+    #[inline]
+    pub fn push_triangle(&mut self, t: [u32; 3], mirrored: bool) {
+        self.triangles.push(t);
+        self.mirrored.push(mirrored);
+    }
+
+    /// Triangles with the winding corrected for mirrored frames: what exporters write.
+    pub fn oriented_triangles(&self) -> impl Iterator<Item = [u32; 3]> + '_ {
+        self.triangles.iter().zip(self.mirrored.iter().chain(std::iter::repeat(&false))).map(|(t, m)| {
+            if *m {
+                [t[0], t[2], t[1]]
+            } else {
+                *t
+            }
+        })
+    }
+
+    /// Number of vertices.
+    pub fn n_vertices(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Appends all of `other`, offsetting its indices.
+    pub fn append(&mut self, other: &Mesh) {
+        let base = self.positions.len() as u32;
+        self.positions.extend_from_slice(&other.positions);
+        self.normals.extend_from_slice(&other.normals);
+        self.colors.extend_from_slice(&other.colors);
+        if !self.weights.is_empty() || !other.weights.is_empty() {
+            self.weights.resize(base as usize, [0.0; 4]);
+            self.weights.extend((0..other.n_vertices()).map(|i| other.weight(i)));
+        }
+        if !self.bones.is_empty() || !other.bones.is_empty() {
+            self.bones.resize(base as usize, 0);
+            self.bones.extend((0..other.n_vertices()).map(|i| other.bone(i)));
+        }
+        self.triangles.extend(other.triangles.iter().map(|t| [t[0] + base, t[1] + base, t[2] + base]));
+        self.mirrored.extend_from_slice(&other.mirrored);
+    }
+}
