@@ -234,3 +234,117 @@ fn dependencies_point_one_way() {
         assert_eq!(got, want, "{krate}/Cargo.toml: workspace dependencies (normal and dev) {got:?}, want {want:?}");
     }
 }
+
+/// The top-level module a `.rs` file of `src` belongs to (`lib`/`main` for the root).
+fn top_module(src: &std::path::Path, file: &std::path::Path) -> String {
+    let rel = file.strip_prefix(src).unwrap_or(file);
+    let first = rel.components().next().map(|c| c.as_os_str().to_string_lossy().into_owned()).unwrap_or_default();
+    first.trim_end_matches(".rs").to_string()
+}
+
+/// The top-level modules `code` names as `crate::NAME` (also inside `crate::{a, b}`).
+fn crate_refs(code: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut rest = code;
+    while let Some(i) = rest.find("crate::") {
+        rest = &rest[i + "crate::".len()..];
+        if let Some(group) = rest.strip_prefix('{') {
+            let inner = group.split('}').next().unwrap_or("");
+            for part in inner.split(',') {
+                let name: String = part.trim().chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+                out.push(name);
+            }
+        } else {
+            out.push(rest.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect());
+        }
+    }
+    out.retain(|n| !n.is_empty() && n.chars().next().is_some_and(|c| c.is_lowercase()));
+    out
+}
+
+/// A cycle in `graph` (module → modules it uses), if there is one.
+fn find_cycle(graph: &std::collections::BTreeMap<String, std::collections::BTreeSet<String>>) -> Option<Vec<String>> {
+    fn visit(
+        m: &str,
+        graph: &std::collections::BTreeMap<String, std::collections::BTreeSet<String>>,
+        state: &mut std::collections::BTreeMap<String, u8>,
+        path: &mut Vec<String>,
+    ) -> Option<Vec<String>> {
+        match state.get(m) {
+            Some(2) => return None,
+            Some(1) => {
+                let at = path.iter().position(|p| p == m).unwrap_or(0);
+                let mut cycle = path[at..].to_vec();
+                cycle.push(m.to_string());
+                return Some(cycle);
+            }
+            _ => {}
+        }
+        state.insert(m.to_string(), 1);
+        path.push(m.to_string());
+        for next in graph.get(m).into_iter().flatten() {
+            if let Some(c) = visit(next, graph, state, path) {
+                return Some(c);
+            }
+        }
+        path.pop();
+        state.insert(m.to_string(), 2);
+        None
+    }
+    let mut state = std::collections::BTreeMap::new();
+    graph.keys().find_map(|m| visit(m, graph, &mut state, &mut Vec::new()))
+}
+
+/// The modules of each crate import one another without cycles, so each can be read
+/// (and would compile) after the ones it uses. One exception, by design: the bundle
+/// carries the extension tables (`vm/src/bundle` names the types of
+/// `creature`, `grid` and `sosmc`), whose code reads the bundle; see
+/// docs/decisions.md "Module layering".
+#[test]
+fn modules_import_one_another_without_cycles() {
+    let allowed: &[(&str, &str, &str)] =
+        &[("vm", "bundle", "creature"), ("vm", "bundle", "grid"), ("vm", "bundle", "sosmc")];
+    let mut found = Vec::new();
+    for krate in ["compiler", "vm", "lsp", "viewer", "cli"] {
+        let src = root().join(krate).join("src");
+        let mut files = Vec::new();
+        rs_files(&src, &mut files);
+        assert!(!files.is_empty(), "{krate}/src has no sources");
+        let mut graph = std::collections::BTreeMap::<String, std::collections::BTreeSet<String>>::new();
+        for f in files.iter().filter(|f| !is_test_module(f)) {
+            let from = top_module(&src, f);
+            if from == "bin" {
+                continue;
+            }
+            let text = std::fs::read_to_string(f).unwrap_or_default();
+            let text = text.split("#[cfg(test)]").next().unwrap_or("");
+            let entry = graph.entry(from.clone()).or_default();
+            for (_, code) in code_lines(text) {
+                for to in crate_refs(code) {
+                    if to != from && !allowed.contains(&(krate, from.as_str(), to.as_str())) {
+                        entry.insert(to);
+                    }
+                }
+            }
+        }
+        if let Some(cycle) = find_cycle(&graph) {
+            found.push(format!("{krate}: {}", cycle.join(" → ")));
+        }
+    }
+    assert!(found.is_empty(), "module import cycles (break them, or move the shared item down):\n{}", found.join("\n"));
+}
+
+#[test]
+fn the_cycle_finder_finds_cycles() {
+    let g = |edges: &[(&str, &str)]| {
+        let mut m = std::collections::BTreeMap::<String, std::collections::BTreeSet<String>>::new();
+        for (a, b) in edges {
+            m.entry(a.to_string()).or_default().insert(b.to_string());
+            m.entry(b.to_string()).or_default();
+        }
+        m
+    };
+    assert_eq!(find_cycle(&g(&[("a", "b"), ("b", "c")])), None);
+    assert_eq!(find_cycle(&g(&[("a", "b"), ("b", "c"), ("c", "a")])).map(|c| c.len()), Some(4));
+    assert_eq!(crate_refs("use crate::{ast::Expr, diag}; x = crate::lower::f();"), ["ast", "diag", "lower"]);
+}

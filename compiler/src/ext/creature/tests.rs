@@ -1,3 +1,4 @@
+//! Tests of the creature section: checks, lowering, never-match and never-hold analyses.
 use super::*;
 use crate::check::CheckOptions;
 use crate::source::MemLoader;
