@@ -348,3 +348,32 @@ fn the_cycle_finder_finds_cycles() {
     assert_eq!(find_cycle(&g(&[("a", "b"), ("b", "c"), ("c", "a")])).map(|c| c.len()), Some(4));
     assert_eq!(crate_refs("use crate::{ast::Expr, diag}; x = crate::lower::f();"), ["ast", "diag", "lower"]);
 }
+
+/// The README's code map names every top-level folder and every folder of a crate's
+/// `src/` (as `` `PATH/` ``), so a newcomer finds each in it.
+#[test]
+fn the_readme_code_map_names_every_folder() {
+    let readme = std::fs::read_to_string(root().join("README.md")).expect("README.md");
+    let map = readme.split("### Code map").nth(1).expect("a `### Code map` section");
+    let map = map.split("\n## ").next().unwrap_or(map);
+    let dirs = |p: &std::path::Path| -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(p)
+            .map(|rd| {
+                rd.flatten()
+                    .filter(|e| e.path().is_dir())
+                    .map(|e| e.file_name().to_string_lossy().into_owned())
+                    .filter(|n| n != "target" && n != "node_modules" && (!n.starts_with('.') || n == ".ci"))
+                    .collect()
+            })
+            .unwrap_or_default();
+        v.sort();
+        v
+    };
+    let mut want: Vec<String> = dirs(&root()).into_iter().map(|d| format!("{d}/")).collect();
+    for krate in ["cli", "compiler", "vm", "lsp", "viewer"] {
+        want.extend(dirs(&root().join(krate).join("src")).into_iter().map(|d| format!("{krate}/src/{d}/")));
+    }
+    assert!(want.len() > 15, "found only {want:?}");
+    let missing: Vec<&String> = want.iter().filter(|d| !map.contains(&format!("`{d}`"))).collect();
+    assert!(missing.is_empty(), "folders the README's code map does not name: {missing:?}");
+}
