@@ -1372,19 +1372,25 @@ impl<'a> Checker<'a> {
                     }
                     for a in args {
                         self.dir_value(a, integer && !matches!(n, "randseed") || n == "randseed");
-                        if let Some((v, num)) = num_of(a) {
-                            let bad = match n {
-                                "maxdepth" | "maxiter" | "stacksize" => v < 0.0,
-                                "minsize" | "duration" => v < 0.0,
-                                "fps" => v <= 0.0,
-                                "camerafov" => v <= 0.0 || v >= 180.0,
-                                "cameranearplane" | "camerafarplane" => v <= 0.0,
-                                _ => false,
-                            };
+                        let value = match a {
+                            DirArg::Expr(e) => crate::consteval::eval(e, &|c| self.ex.constant(c)).map(|v| (v, e.span)),
+                            // A literal beyond range already has E0109.
+                            _ => num_of(a).filter(|(v, _)| v.is_finite()).map(|(v, num)| (v, num.span)),
+                        };
+                        if let Some((v, span)) = value {
+                            let bad = !v.is_finite()
+                                || match n {
+                                    "maxdepth" | "maxiter" | "stacksize" => v < 0.0,
+                                    "minsize" | "duration" => v < 0.0,
+                                    "fps" => v <= 0.0,
+                                    "camerafov" => v <= 0.0 || v >= 180.0,
+                                    "cameranearplane" | "camerafarplane" => v <= 0.0,
+                                    _ => false,
+                                };
                             if bad {
                                 self.diags.push(
-                                    Diagnostic::error("E0407", num.span, format!("invalid value {v} for `{n}`"))
-                                        .with_label("out of range"),
+                                    Diagnostic::error("E0407", span, format!("invalid value {v} for `{n}`"))
+                                        .with_label(if v.is_finite() { "out of range" } else { "not a finite number" }),
                                 );
                             }
                         }

@@ -206,6 +206,21 @@ rule C { }
         ),
     },
     Code {
+        code: "E0109",
+        severity: Error,
+        title: "number too large",
+        explanation: r#"A number literal beyond the range of 64-bit floats (about ±1.8e308), which would read as infinity and make geometry, timing or limits meaningless.
+
+In the example: `x 1e999` is too large to be a number.
+
+Fix: Write a number within range."#,
+        example: Library(
+            r#"rule A { B {x 1e999} }
+rule B { }
+"#,
+        ),
+    },
+    Code {
         code: "E0201",
         severity: Error,
         title: "file not found or unreadable",

@@ -162,16 +162,165 @@ fn to_codespan(d: &Diagnostic, sources: &Sources) -> cs::Diagnostic<u32> {
     cs::Diagnostic::new(sev).with_code(d.code).with_message(d.message.clone()).with_labels(labels).with_notes(notes)
 }
 
+/// The longest source line a rendered diagnostic shows whole (in bytes); a longer
+/// line is cut to a window of about this size around the labels, marked with `…`.
+pub const MAX_SHOWN_LINE: usize = 240;
+
 /// Renders diagnostics as plain text (no colour), the form used in snapshots and logs.
 pub fn render_plain(diags: &[Diagnostic], sources: &Sources) -> String {
     let config = term::Config::default();
     let files = CsFiles(sources);
     let mut out = String::new();
     for d in diags {
+        let cd = to_codespan(d, sources);
         // Rendering fails only if a span points outside its file, which `to_codespan` prevents.
-        let _ = term::emit_to_string(&mut out, &config, &files, &to_codespan(d, sources));
+        match Clipped::of(&cd, sources) {
+            Some((clipped, cd)) => {
+                let _ = term::emit_to_string(&mut out, &config, &clipped, &cd);
+            }
+            None => {
+                let _ = term::emit_to_string(&mut out, &config, &files, &cd);
+            }
+        }
     }
     out
+}
+
+/// The files of one diagnostic with its long lines cut (see [`MAX_SHOWN_LINE`]): the
+/// lines keep their numbers; a labelled line keeps a window around its labels, other
+/// long lines their start. Built only for a diagnostic that touches a long line.
+struct Clipped<'s> {
+    sources: &'s Sources,
+    /// By file id (`None`: not touched).
+    files: Vec<Option<ClippedFile>>,
+}
+
+struct ClippedFile {
+    text: String,
+    /// Line starts in `text`.
+    starts: Vec<usize>,
+    /// Per line: where the window starts in the original text, and where in `text`
+    /// its first byte went.
+    windows: Vec<(usize, usize)>,
+}
+
+impl<'s> Clipped<'s> {
+    /// The clipped files and the diagnostic with its labels moved into them, or `None`
+    /// when no label lies on a long line.
+    fn of(d: &cs::Diagnostic<u32>, sources: &'s Sources) -> Option<(Clipped<'s>, cs::Diagnostic<u32>)> {
+        let long = |l: &cs::Label<u32>| {
+            let f = &sources.files[l.file_id as usize];
+            [l.range.start, l.range.end].iter().any(|&o| {
+                let line = f.line_col(o as u32).0;
+                let end =
+                    if (line as usize) + 1 < f.n_lines() { f.line_start(line + 1) as usize } else { f.text.len() };
+                end - f.line_start(line) as usize > MAX_SHOWN_LINE
+            })
+        };
+        if !d.labels.iter().any(long) {
+            return None;
+        }
+        let mut files: Vec<Option<ClippedFile>> = (0..sources.files.len()).map(|_| None).collect();
+        let mut d = d.clone();
+        let ids: std::collections::BTreeSet<u32> = d.labels.iter().map(|l| l.file_id).collect();
+        for id in ids {
+            let f = &sources.files[id as usize];
+            let offsets: Vec<usize> =
+                d.labels.iter().filter(|l| l.file_id == id).flat_map(|l| [l.range.start, l.range.end]).collect();
+            let mut text = String::new();
+            let mut starts = Vec::with_capacity(f.n_lines());
+            // Per line: window start and end in the original, and where its start went.
+            let mut spans = Vec::with_capacity(f.n_lines());
+            for line in 0..f.n_lines() as u32 {
+                let start = f.line_start(line) as usize;
+                let end =
+                    if (line as usize) + 1 < f.n_lines() { f.line_start(line + 1) as usize } else { f.text.len() };
+                let body = f.text[start..end].trim_end_matches(['\n', '\r']);
+                let on: Vec<usize> =
+                    offsets.iter().copied().filter(|&o| o >= start && o <= start + body.len()).collect();
+                starts.push(text.len());
+                let (ws, we) = if body.len() <= MAX_SHOWN_LINE {
+                    (start, start + body.len())
+                } else if on.is_empty() {
+                    (start, start + MAX_SHOWN_LINE)
+                } else {
+                    let lo = on.iter().min().copied().unwrap_or(start);
+                    let ws = lo.saturating_sub(MAX_SHOWN_LINE / 4).max(start);
+                    (ws, (ws + MAX_SHOWN_LINE).min(start + body.len()))
+                };
+                let (ws, we) = (floor_char(&f.text, ws), floor_char(&f.text, we));
+                if ws > start {
+                    text.push('…');
+                }
+                spans.push((ws, we, text.len()));
+                text.push_str(&f.text[ws..we]);
+                if we < start + body.len() {
+                    text.push('…');
+                }
+                text.push('\n');
+            }
+            let map = |o: usize| {
+                let line = f.line_col(o as u32).0 as usize;
+                let (ws, we, at) = spans[line];
+                at + o.clamp(ws, we) - ws
+            };
+            for l in d.labels.iter_mut().filter(|l| l.file_id == id) {
+                l.range = map(l.range.start)..map(l.range.end);
+            }
+            let windows = spans.iter().map(|&(ws, _, at)| (ws, at)).collect();
+            files[id as usize] = Some(ClippedFile { text, starts, windows });
+        }
+        Some((Clipped { sources, files }, d))
+    }
+
+    fn file(&self, id: u32) -> Result<&ClippedFile, FilesError> {
+        self.files.get(id as usize).and_then(Option::as_ref).ok_or(FilesError::FileMissing)
+    }
+}
+
+/// `i`, moved back to the start of the character it falls in.
+fn floor_char(text: &str, mut i: usize) -> usize {
+    while i > 0 && !text.is_char_boundary(i) {
+        i -= 1;
+    }
+    i
+}
+
+impl<'a> Files<'a> for Clipped<'_> {
+    type FileId = u32;
+    type Name = &'a str;
+    type Source = &'a str;
+
+    fn name(&'a self, id: u32) -> Result<&'a str, FilesError> {
+        self.sources.files.get(id as usize).map(|f| f.name.as_str()).ok_or(FilesError::FileMissing)
+    }
+    fn source(&'a self, id: u32) -> Result<&'a str, FilesError> {
+        Ok(self.file(id)?.text.as_str())
+    }
+    fn line_index(&'a self, id: u32, byte_index: usize) -> Result<usize, FilesError> {
+        let starts = &self.file(id)?.starts;
+        Ok(match starts.binary_search(&byte_index) {
+            Ok(l) => l,
+            Err(l) => l.saturating_sub(1),
+        })
+    }
+    /// The position in the original file (the header shows where the label really is).
+    fn location(&'a self, id: u32, byte_index: usize) -> Result<codespan_reporting::files::Location, FilesError> {
+        let line = self.line_index(id, byte_index)?;
+        let f = self.file(id)?;
+        let (ws, at) = f.windows[line];
+        let original = ws + byte_index.saturating_sub(at.max(f.starts[line]));
+        let orig = self.sources.files.get(id as usize).ok_or(FilesError::FileMissing)?;
+        let line_start = orig.line_start(line as u32) as usize;
+        let column = orig.text.get(line_start..original).map_or(0, |t| t.chars().count()) + 1;
+        Ok(codespan_reporting::files::Location { line_number: line + 1, column_number: column })
+    }
+    fn line_range(&'a self, id: u32, line_index: usize) -> Result<std::ops::Range<usize>, FilesError> {
+        let ClippedFile { text, starts, .. } = self.file(id)?;
+        let start = *starts.get(line_index).ok_or(FilesError::LineTooLarge { given: line_index, max: starts.len() })?;
+        let end = starts.get(line_index + 1).copied().unwrap_or(text.len());
+        Ok(start..end)
+    }
 }
 
 /// A diagnostic with resolved file names and line/column positions, for JSON output.

@@ -54,8 +54,12 @@ fn finish(sources: Sources, expanded: Expanded, opts: CheckOptions) -> Analysis 
     // Shader blocks are compiled for every analysis, not only in `build`, so that
     // `mdgc check` and the editor report GLSL errors too (cached per block).
     let (spirv, shader_diags) = crate::shaders::compile_all(&expanded, &sources);
+    // A main file that could not be read has no `startshape` to miss: say only why.
+    let unread = sources.files.first().is_some_and(|f| f.text.is_empty())
+        && expanded.diagnostics.iter().any(|d| d.code == "E0201" && d.span.file == crate::span::FileId(0));
+    let checked_diags = checked.diagnostics.iter().filter(|d| !(unread && d.code == "E0306"));
     let mut diagnostics: Vec<Diagnostic> =
-        expanded.diagnostics.iter().chain(checked.diagnostics.iter()).chain(shader_diags.iter()).cloned().collect();
+        expanded.diagnostics.iter().chain(checked_diags).chain(shader_diags.iter()).cloned().collect();
     diagnostics.sort_by(|a, b| (a.span.file, a.span.start, a.code).cmp(&(b.span.file, b.span.start, b.code)));
     diagnostics.dedup_by(|a, b| a.span == b.span && a.code == b.code && a.message == b.message);
     Analysis { sources, expanded, checked, spirv, diagnostics }

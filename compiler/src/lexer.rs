@@ -373,6 +373,16 @@ pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
                     None => out.tokens.push(Token { kind: Tok::CallOpen, span }),
                 }
             }
+            Ok(Tok::Number) => {
+                if !parse_number(&text[r.clone()]).0.is_finite() {
+                    out.diagnostics.push(
+                        Diagnostic::error("E0109", span, format!("number `{}` is too large", &text[r.clone()]))
+                            .with_label("beyond the largest number, about 1.8e308")
+                            .with_note("numbers are 64-bit floats; write a smaller value"),
+                    );
+                }
+                out.tokens.push(Token { kind: Tok::Number, span });
+            }
             Ok(kind) => out.tokens.push(Token { kind, span }),
             Err(LexError::InvalidChar) => {
                 let ch = text[r.clone()].chars().next().unwrap_or('?');
@@ -412,7 +422,11 @@ pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
 
 /// Lexes a whole file.
 pub fn lex(text: &str, file: FileId) -> Lexed {
-    lex_at(text, file, 0)
+    // A byte-order mark (an editor's, in text given directly) is not part of the text.
+    match text.strip_prefix('\u{feff}') {
+        Some(rest) => lex_at(rest, file, '\u{feff}'.len_utf8() as u32),
+        None => lex_at(text, file, 0),
+    }
 }
 
 /// The numeric value and unit suffix of a number token's text.

@@ -27,7 +27,7 @@ impl FileLoader for FsLoader {
         // compiler, `/dev/zero` grew to gigabytes), at most MAX_SOURCE_BYTES.
         let max = MAX_SOURCE_BYTES as u64;
         match mdg_vm::input::read_bounded(path, max) {
-            Ok(bytes) => String::from_utf8(bytes).map_err(|_| "stream did not contain valid UTF-8".to_string()),
+            Ok(bytes) => decode_source(bytes),
             Err(mdg_vm::input::ReadError::TooLarge { len, max }) => {
                 Err(format!("source file too large: {len} bytes (at most {max})"))
             }
@@ -37,6 +37,35 @@ impl FileLoader for FsLoader {
     fn canonicalize(&self, path: &Path) -> Result<PathBuf, String> {
         std::fs::canonicalize(path).map_err(|e| e.to_string())
     }
+}
+
+/// The text of a source file's bytes: UTF-8, a leading byte-order mark dropped (as
+/// editors write it on Windows). UTF-16 (with or without its mark) and other
+/// encodings get a message saying what the file is and where it stops being UTF-8.
+pub fn decode_source(mut bytes: Vec<u8>) -> Result<String, String> {
+    if bytes.starts_with(&[0xEF, 0xBB, 0xBF]) {
+        bytes.drain(..3);
+    }
+    let utf16 = bytes.starts_with(&[0xFF, 0xFE]) || bytes.starts_with(&[0xFE, 0xFF]);
+    // ASCII text in UTF-16 without a mark: every other byte is 0.
+    let head = &bytes[..bytes.len().min(512)];
+    let unmarked_utf16 = head.len() >= 4 && head.iter().filter(|b| **b == 0).count() * 3 >= head.len();
+    if utf16 || unmarked_utf16 {
+        return Err("the file is UTF-16, not UTF-8 (MDG reads UTF-8): save it as UTF-8 (in VS Code: \
+             the encoding in the status bar, then `Save with Encoding`)"
+            .to_string());
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let b = e.as_bytes();
+        let line = b[..at].iter().filter(|c| **c == b'\n').count() + 1;
+        let col = at - b[..at].iter().rposition(|c| *c == b'\n').map_or(0, |p| p + 1) + 1;
+        format!(
+            "not valid UTF-8 at line {line}, byte {col} of the line (byte 0x{:02X}): the file is in another encoding; \
+             save it as UTF-8",
+            b[at]
+        )
+    })
 }
 
 /// Serves files from memory first, then (optionally) from disk.

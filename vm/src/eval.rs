@@ -1515,6 +1515,12 @@ impl<'b> Eval<'b> {
                 "animation budget of {n} keyframes reached{at}: the run stopped; the output so far is kept (at most {MAX_KEYFRAMES}; a smaller `--max-vertices N` lowers it)"
             ));
         }
+        let bad = self.out.non_finite_positions();
+        if bad > 0 {
+            self.out.stats.warnings.push(format!(
+                "{bad} position(s) are not finite numbers (a translation or scale overflowed): the files write them as 0"
+            ));
+        }
         let st = &mut self.out.stats;
         st.rule_calls = self.calls.min(self.maxiter);
         st.vertices = (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64;

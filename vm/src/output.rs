@@ -152,6 +152,18 @@ pub struct Output {
 pub const MAX_DEBUG_LINES: usize = 10_000;
 
 impl Output {
+    /// How many positions of the geometry are not finite (vertices, line points,
+    /// instance transforms): exporters write them as 0, so the run warns.
+    pub fn non_finite_positions(&self) -> usize {
+        let bad = |p: &[f32; 3]| !p.iter().all(|c| c.is_finite());
+        let mesh = |m: &Mesh| m.positions.iter().filter(|p| bad(p)).count();
+        mesh(&self.mesh)
+            + mesh(&self.sweeps)
+            + self.shared_meshes.iter().map(|(_, m)| mesh(m)).sum::<usize>()
+            + self.lines.iter().map(|l| l.points.iter().filter(|p| bad(p)).count()).sum::<usize>()
+            + self.instances.iter().filter(|i| !i.transform.is_finite()).count()
+    }
+
     /// All geometry as one mesh in world space: VERTEX triangles, sweeps and every
     /// instance expanded (formats without instancing use this).
     pub fn flattened(&self) -> Mesh {
