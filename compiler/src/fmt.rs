@@ -12,11 +12,19 @@ use crate::ast::*;
 use crate::diag::render_plain;
 use crate::lexer::Comment;
 use crate::parse;
-use crate::source::Sources;
+use crate::source::{Sources, MAX_SOURCE_BYTES};
 use crate::span::Span;
 
-/// Formats source text; fails (with rendered diagnostics) if the file has syntax errors.
+/// Formats source text; fails (with rendered diagnostics) if the file has syntax errors,
+/// or if the formatted text is one the compiler would refuse (over the source size
+/// limit, or nested past the limit once laid out), so a formatted file always compiles
+/// as the original did.
 pub fn format_source(text: &str) -> Result<String, String> {
+    format_within(text, MAX_SOURCE_BYTES)
+}
+
+/// The parse of `text`, or the syntax diagnostics that stop formatting, rendered.
+fn syntax_errors(text: &str) -> Result<parse::Parsed, String> {
     let mut sources = Sources::default();
     let id = sources.add("<fmt>", "<input>", text);
     let parsed = parse::parse_file(&sources, id);
@@ -29,17 +37,41 @@ pub fn format_source(text: &str) -> Result<String, String> {
         .filter(|d| d.code.starts_with("E01") || matches!(d.code, "E0201" | "E0206" | "E0207" | "E0210"))
         .cloned()
         .collect();
-    if !syntax.is_empty() {
-        return Err(render_plain(&syntax, &sources));
+    if syntax.is_empty() {
+        Ok(parsed)
+    } else {
+        Err(render_plain(&syntax, &sources))
     }
+}
+
+/// [`format_source`] with the size limit as a parameter (tests use a small one).
+fn format_within(text: &str, max_bytes: usize) -> Result<String, String> {
+    let out = layout(text, syntax_errors(text)?);
+    if out.len() > max_bytes {
+        return Err(format!(
+            "formatting would make the file {} bytes, more than the {max_bytes} bytes the compiler reads (E0201); \
+             the file is left as it is: split it into files joined with `@import`",
+            out.len()
+        ));
+    }
+    if let Err(e) = syntax_errors(&out) {
+        return Err(format!(
+            "formatting would make a file the compiler refuses; the file is left as it is (please report this):\n{e}"
+        ));
+    }
+    Ok(out)
+}
+
+/// The canonical layout of a parsed file.
+fn layout(text: &str, parsed: parse::Parsed) -> String {
     let mut p = Printer { src: text, comments: parsed.comments, next: 0, out: String::new(), indent: 0, last_end: 0 };
     p.items(&parsed.file.items, text.len() as u32);
     let mut out = p.out.trim_end().to_string();
     out.push('\n');
     if out.trim().is_empty() {
-        return Ok(String::new());
+        return String::new();
     }
-    Ok(out)
+    out
 }
 
 struct Printer<'a> {
@@ -550,5 +582,22 @@ pub fn expr(e: &Expr) -> String {
         }
         ExprKind::Paren(x) => format!("({})", expr(x)),
         ExprKind::Error => String::new(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_file_that_would_grow_past_the_size_limit_is_left_as_it_is() {
+        // One line of 200 calls becomes 200 indented lines: about 1.4 times longer.
+        let text = format!("rule A {{ {}}}\nrule B {{ }}\n", "B {} ".repeat(200));
+        let limit = text.len() + 100;
+        let e = format_within(&text, limit).expect_err("grows past the limit");
+        assert!(e.contains("more than") && e.contains("left as it is"), "{e}");
+        let ok = format_within(&text, 10 * text.len()).expect("fits");
+        assert!(ok.len() > limit && ok.lines().count() > 200);
+        assert_eq!(format_source(&ok).as_deref(), Ok(ok.as_str()), "idempotent");
     }
 }

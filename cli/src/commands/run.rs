@@ -345,7 +345,7 @@ fn run_one(
     if let Some(dir) = output.parent().filter(|d| !d.as_os_str().is_empty() && !d.exists()) {
         std::fs::create_dir_all(dir).map_err(|e| (2, format!("cannot create {}: {e}", dir.display())))?;
     }
-    export::write_file(format, &out, output).map_err(|e| (1, format!("cannot write {}: {e}", output.display())))?;
+    export::write_file(format, &out, output).map_err(|e| (1, e))?;
     if let Some(png_path) = &cli.png {
         // With --time the pose is already baked into `out`.
         let bytes =

@@ -73,7 +73,8 @@ pub fn write(format: Format, out: &Output, buf: &mut Vec<u8>) -> Result<(), Stri
     }
 }
 
-/// Writes `out` in `format` to the file `path`, atomically (see [`write_atomic_with`]).
+/// Writes `out` in `format` to the file `path`, atomically (see [`write_atomic_with`]);
+/// the error says `cannot write PATH: …`.
 /// `.glb` is streamed into the file, so no second copy of the model is held in
 /// memory; the text formats are assembled first.
 pub fn write_file(format: Format, out: &Output, path: &Path) -> Result<(), String> {
@@ -95,7 +96,7 @@ pub fn write_file(format: Format, out: &Output, path: &Path) -> Result<(), Strin
     });
     match (r, failed) {
         (Ok(()), _) => Ok(()),
-        (Err(_), Some(e)) => Err(e),
+        (Err(_), Some(e)) => Err(format!("cannot write {}: {e}", path.display())),
         (Err(e), None) => Err(format!("cannot write {}: {e}", path.display())),
     }
 }
