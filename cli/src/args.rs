@@ -35,6 +35,47 @@ impl CompileArgs {
     }
 }
 
+/// `--max-vertices`, `--max-frames`, `--max-iso-cells`, `--time-budget`: the limits of
+/// one evaluation, the same for `mdg-run` and `mdg-view` (docs/limits.md).
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct LimitArgs {
+    /// Stop after this many vertices: the mesh, sweeps, every instance's vertices and
+    /// every line point, as the files hold them (default 4,000,000; docs/limits.md).
+    #[arg(long, value_name = "N")]
+    pub max_vertices: Option<u64>,
+    /// Frames a convolution takes from one iterator rule (default 10,000,000; a
+    /// terminating iterator rule contributes all its frames up to this).
+    #[arg(long, value_name = "N")]
+    pub max_frames: Option<u64>,
+    /// Isosurface grid cells polygonised in one run, all isosurfaces together
+    /// (default 16,000,000).
+    #[arg(long, value_name = "N")]
+    pub max_iso_cells: Option<u64>,
+    /// Stop after this much evaluation time: `2` (seconds), `1.5s`, `500ms` or `none`
+    /// (at most 10000000 s). Checked inside isosurface polygonisation too.
+    #[arg(long, value_name = "TIME", value_parser = time_budget)]
+    pub time_budget: Option<TimeLimit>,
+}
+
+/// `--time-budget`, parsed as every duration flag is.
+fn time_budget(s: &str) -> Result<TimeLimit, String> {
+    parse_duration("--time-budget", s, BareUnit::Seconds).map(TimeLimit)
+}
+
+impl LimitArgs {
+    /// The evaluation options these flags ask for (defaults elsewhere).
+    pub fn eval_options(&self) -> mdg_vm::eval::EvalOptions {
+        let d = mdg_vm::eval::EvalOptions::default();
+        mdg_vm::eval::EvalOptions {
+            max_vertices: self.max_vertices.unwrap_or(d.max_vertices),
+            max_frames: self.max_frames.unwrap_or(d.max_frames),
+            max_iso_cells: self.max_iso_cells.unwrap_or(d.max_iso_cells),
+            time_budget: self.time_budget.and_then(|t| t.0),
+            ..d
+        }
+    }
+}
+
 /// The longest duration any flag takes: 10,000,000 s (about 116 days). Beyond it
 /// `Duration` arithmetic can overflow, and no run needs more.
 pub const MAX_DURATION_SECS: f64 = 1e7;

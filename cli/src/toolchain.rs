@@ -11,7 +11,7 @@ use mdg_compiler::source::FsLoader;
 use mdg_viewer::model::{LoadFailure, LoadOptions, Loader, Model};
 use mdg_viewer::program::{ProgramSpirv, Programs, LINE_FS, LINE_VS};
 use mdg_viewer::Error;
-use mdg_vm::eval::{evaluate, EvalOptions};
+use mdg_vm::eval::evaluate;
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, OnceLock};
 
@@ -52,8 +52,7 @@ impl Loader for Toolchain {
                 }
             }
         };
-        let eval_opts = EvalOptions { seed: opts.seed, ..EvalOptions::default() };
-        let output = evaluate(&bundle, &eval_opts);
+        let output = evaluate(&bundle, &opts.eval);
         Ok((Model { bundle, output, warnings }, files))
     }
 

@@ -116,3 +116,76 @@ fn a_megabyte_line_is_shown_as_a_window_around_the_error() {
     let a = analyze_mem("startshape A\nrule A { VERTEX { $ } }\n");
     assert!(!render_plain(&a.diagnostics, &a.sources).contains('…'));
 }
+
+fn build(text: &str) -> mdg_vm::bundle::Bundle {
+    mdg_tests::build_source(text)
+}
+
+#[test]
+fn the_time_budget_stops_isosurfaces_midway() {
+    // Twenty 200³ isosurfaces: minutes of sampling without a deadline inside.
+    let mut text = String::from("startshape A\n");
+    for i in 0..20 {
+        text.push_str(&format!("isosurface S{i} {{ xyz -1 1 200 ; function {{ x*x + y*y + z*z - 0.{i}5 }} }}\n"));
+    }
+    text.push_str("rule A {\n  VERTEX {} VERTEX {x 1} VERTEX {y 1}\n");
+    for i in 0..20 {
+        text.push_str(&format!("  S{i} {{x {i}}}\n"));
+    }
+    text.push_str("}\n");
+    let opts = mdg_vm::eval::EvalOptions {
+        time_budget: Some(std::time::Duration::from_millis(200)),
+        max_iso_cells: u64::MAX,
+        ..Default::default()
+    };
+    let started = std::time::Instant::now();
+    let out = mdg_vm::eval::evaluate(&build(&text), &opts);
+    let took = started.elapsed();
+    assert!(took < std::time::Duration::from_secs(20), "took {took:?}");
+    assert!(out.stats.warnings.iter().any(|w| w.starts_with("time budget reached")), "{:?}", out.stats.warnings);
+    assert_eq!(out.mesh.n_vertices(), 3, "what came before is kept");
+    assert!(out.instances.len() < 20);
+}
+
+#[test]
+fn the_cell_limit_counts_every_isosurface_of_the_run() {
+    let text = "startshape A\nisosurface P { xyz -1 1 100 ; function { x*x + y*y + z*z - 0.5 } }\n\
+                isosurface Q { xyz -1 1 100 ; function { x*x + y*y + z*z - 0.25 } }\n\
+                rule A { P {} P {x 3} Q {x 6} }\n";
+    let opts = mdg_vm::eval::EvalOptions { max_iso_cells: 1_500_000, ..Default::default() };
+    let out = mdg_vm::eval::evaluate(&build(text), &opts);
+    let w: Vec<&String> = out.stats.warnings.iter().filter(|w| w.contains("isosurface `Q` not built")).collect();
+    assert_eq!(w.len(), 1, "{:?}", out.stats.warnings);
+    assert!(
+        w[0].contains("would take the run past the limit of 1500000 cells for all isosurfaces (1000000 already used")
+            && w[0].contains("--max-iso-cells"),
+        "{}",
+        w[0]
+    );
+    assert_eq!(out.instances.iter().filter(|i| i.name == "P").count(), 2, "P is built once, instanced twice");
+}
+
+#[test]
+fn the_vertex_budget_counts_instances_and_line_points() {
+    // Lines only: no mesh vertex at all, yet a budget of 10,000 stops the run (checked
+    // every 4,096 rule calls).
+    let lines = "startshape A\nrule A { 100000 * {x 1} LINETO {} }\n";
+    let opts = mdg_vm::eval::EvalOptions { max_vertices: 10_000, ..Default::default() };
+    let out = mdg_vm::eval::evaluate(&build(lines), &opts);
+    let points: usize = out.lines.iter().map(|l| l.points.len()).sum();
+    assert!(points <= 10_000 + 4096, "{points} line points");
+    assert!(out.stats.warnings.iter().any(|w| w.contains("vertex budget 10000")), "{:?}", out.stats.warnings);
+    // A shared mesh counts its vertices once, each instance one.
+    let inst = "startshape A\nisosurface S { xyz -1 1 8 ; function { x*x + y*y + z*z - 0.5 } }\n\
+                rule A { 100000 * {x 3} S {} }\n";
+    let out = mdg_vm::eval::evaluate(&build(inst), &opts);
+    let per = out.shared_meshes[0].1.n_vertices();
+    assert!(per > 10 && out.instances.len() + per <= 10_000 + 4096, "{} instances of {per}", out.instances.len());
+    assert!(out.stats.warnings.iter().any(|w| w.contains("vertex budget 10000")), "{:?}", out.stats.warnings);
+    // An isosurface mesh larger than the budget stops the run when it is built.
+    let big = "startshape A\nisosurface S { xyz -1 1 100 ; function { x*x + y*y + z*z - 0.5 } }\n\
+               rule A { S {} VERTEX {} }\n";
+    let out = mdg_vm::eval::evaluate(&build(big), &opts);
+    assert!(out.stats.warnings.iter().any(|w| w.contains("vertex budget 10000")), "{:?}", out.stats.warnings);
+    assert_eq!(out.mesh.n_vertices(), 0, "nothing after it ran");
+}

@@ -188,7 +188,7 @@ fn a_huge_isosurface_grid_is_skipped_with_a_warning_and_the_rest_kept() {
         w,
         format!(
             "inline.mdg:6: isosurface `BIG` not built: isosurface grid has 1000000000000000 cells, more than the \
-             limit of {DEFAULT_MAX_ISO_CELLS}"
+             limit of {DEFAULT_MAX_ISO_CELLS} (raise it with `--max-iso-cells N`)"
         )
     );
     assert_eq!(out.stats.warnings.iter().filter(|w| w.contains("BIG")).count(), 1, "reported once");

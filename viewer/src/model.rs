@@ -16,7 +16,8 @@ pub struct LoadOptions {
     pub params: Vec<(String, String)>,
     /// Presets (defined names).
     pub presets: Vec<String>,
-    pub seed: Option<u64>,
+    /// The seed and the limits of the evaluation.
+    pub eval: mdg_vm::eval::EvalOptions,
 }
 
 /// A compiled and evaluated grammar.

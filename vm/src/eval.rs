@@ -541,6 +541,12 @@ struct Eval<'b> {
     sequential: HashMap<u32, (usize, u32)>,
     profiles: HashMap<u32, Vec<Vec3>>,
     iso_meshes: HashMap<u32, Option<u32>>,
+    /// What the output holds beyond the mesh and sweeps: the vertices of every shared
+    /// (isosurface) mesh, one per instance (its transform) and every line point.
+    /// Counted against `max_vertices` with the rest.
+    extra_vertices: u64,
+    /// Isosurface cells polygonised so far in this run (against `max_iso_cells`).
+    iso_cells: u64,
     limits: LimitCounts,
     stopped: bool,
     started: Instant,
@@ -624,6 +630,8 @@ impl<'b> Eval<'b> {
             sequential: HashMap::new(),
             profiles: HashMap::new(),
             iso_meshes: HashMap::new(),
+            extra_vertices: 0,
+            iso_cells: 0,
             limits: LimitCounts::default(),
             stopped: false,
             started: Instant::now(),
@@ -1105,7 +1113,7 @@ impl<'b> Eval<'b> {
     }
 
     fn check_budgets(&mut self) {
-        let n = (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64;
+        let n = (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64 + self.extra_vertices;
         if n > self.opts.max_vertices {
             self.limits.vertices = true;
             self.stopped = true;
@@ -1394,6 +1402,7 @@ impl<'b> Eval<'b> {
                     None => self.new_line(ns_i, pen.state.f.u, pen.bone),
                 };
                 self.out.lines[l].push(s.f.u, bone);
+                self.extra_vertices += 1;
                 self.pens[ns_i].state = s;
                 self.pens[ns_i].bone = bone;
             }
@@ -1429,6 +1438,7 @@ impl<'b> Eval<'b> {
         let name = self.b.string(self.b.settings.namespaces[ns]).to_string();
         let mut line = Polyline { namespace: name, ..Polyline::default() };
         line.push(start, bone);
+        self.extra_vertices += 1;
         self.out.lines.push(line);
         let l = self.out.lines.len() - 1;
         self.pens[ns].line = Some(l);
@@ -1450,13 +1460,41 @@ impl<'b> Eval<'b> {
                     expr::eval(code, &vars, &[], &mut *rng.borrow_mut(), &mut stack.borrow_mut()) as f32
                 };
                 let name = self.b.string(decl.name).to_string();
-                let r = match marching::polygonize(&grid, &f, self.opts.max_iso_cells) {
+                // One cell limit for the run, and the time budget checked inside.
+                let cells_left = self.opts.max_iso_cells.saturating_sub(self.iso_cells);
+                let (started, budget) = (self.started, self.opts.time_budget);
+                let out_of_time = || budget.is_some_and(|t| started.elapsed() > t);
+                let r = match marching::polygonize(&grid, &f, cells_left, &out_of_time) {
                     Ok(m) => {
+                        self.iso_cells += grid.n_cells();
+                        // A shared mesh can hold many vertices: check now, not every
+                        // 4,096 calls.
+                        self.extra_vertices += m.n_vertices() as u64;
+                        self.check_budgets();
                         self.out.shared_meshes.push((name, m));
                         Some(self.out.shared_meshes.len() as u32 - 1)
                     }
+                    Err(marching::Refused::OutOfTime) => {
+                        self.limits.time = true;
+                        self.stopped = true;
+                        self.stop_pc.get_or_insert(pc);
+                        None
+                    }
                     Err(e) => {
                         let at = self.b.source_of(pc).map(|(f, l)| format!("{f}:{l}: ")).unwrap_or_default();
+                        let e = match e {
+                            marching::Refused::TooManyCells(n) if n <= self.opts.max_iso_cells => format!(
+                                "its {n} cells would take the run past the limit of {} cells for all isosurfaces \
+                                 ({} already used; raise it with `--max-iso-cells N`)",
+                                self.opts.max_iso_cells, self.iso_cells
+                            ),
+                            marching::Refused::TooManyCells(n) => format!(
+                                "isosurface grid has {n} cells, more than the limit of {} \
+                                 (raise it with `--max-iso-cells N`)",
+                                self.opts.max_iso_cells
+                            ),
+                            e => e.to_string(),
+                        };
                         self.out.stats.warnings.push(format!("{at}isosurface `{name}` not built: {e}"));
                         None
                     }
@@ -1466,6 +1504,7 @@ impl<'b> Eval<'b> {
             }
         };
         let Some(mesh) = mesh else { return };
+        self.extra_vertices += 1;
         let name = self.b.string(self.b.isosurfaces[iso as usize].name).to_string();
         self.out.instances.push(Instance {
             name,

@@ -61,7 +61,7 @@ fn outputs() -> Vec<(&'static str, Output)> {
     v.push(("mirrored", mirrored));
 
     let grid = Grid { min: Vec3::splat(-1.0), max: Vec3::splat(1.0), res: [10, 10, 10] };
-    let sphere = polygonize(&grid, &|p: Vec3| p.length() - 0.8, 1 << 20).expect("sphere");
+    let sphere = polygonize(&grid, &|p: Vec3| p.length() - 0.8, 1 << 20, &|| false).expect("sphere");
     let inst = |t: Mat4, mirrored: bool, color: [f32; 4]| Instance {
         name: "SPHERE".into(),
         mesh: 0,

@@ -58,17 +58,8 @@ pub struct Args {
     /// Print rule calls, vertices, triangles, time and peak memory.
     #[arg(long)]
     stats: bool,
-    /// Stop after this many vertices (default 4,000,000; docs/limits.md).
-    #[arg(long)]
-    max_vertices: Option<u64>,
-    /// Frames a convolution takes from one iterator rule (default 10,000,000; a
-    /// terminating iterator rule contributes all its frames up to this).
-    #[arg(long, value_name = "N")]
-    max_frames: Option<u64>,
-    /// Stop after this much evaluation time: `2` (seconds), `1.5s`, `500ms` or `none`
-    /// (at most 10000000 s).
-    #[arg(long, value_name = "TIME", value_parser = time_budget)]
-    time_budget: Option<crate::args::TimeLimit>,
+    #[command(flatten)]
+    limits: crate::args::LimitArgs,
     /// Also write a picture (Vulkan offscreen, lavapipe without a GPU; the software
     /// renderer where no Vulkan is installed).
     #[arg(long)]
@@ -103,11 +94,6 @@ pub struct Args {
     creature: crate::modes::creature::CreatureArgs,
     #[command(flatten)]
     grid: crate::modes::grid::GridArgs,
-}
-
-/// `--time-budget`, parsed as every duration flag is.
-fn time_budget(s: &str) -> Result<crate::args::TimeLimit, String> {
-    crate::args::parse_duration("--time-budget", s, crate::args::BareUnit::Seconds).map(crate::args::TimeLimit)
 }
 
 fn peak_rss_kib() -> Option<u64> {
@@ -301,14 +287,7 @@ fn run_one(
         Some(_) => format(cli)?,
         None => Format::from_path(output).unwrap_or(Format::Glb),
     };
-    let eval_opts = EvalOptions {
-        seed,
-        max_vertices: cli.max_vertices.unwrap_or(mdg_vm::eval::DEFAULT_MAX_VERTICES),
-        max_frames: cli.max_frames.unwrap_or(mdg_vm::eval::DEFAULT_MAX_FRAMES),
-        time_budget: cli.time_budget.and_then(|t| t.0),
-        time: cli.time,
-        ..EvalOptions::default()
-    };
+    let eval_opts = EvalOptions { seed, time: cli.time, ..cli.limits.eval_options() };
     let started = std::time::Instant::now();
     let bar = indicatif::ProgressBar::hidden();
     let progress = |calls: u64| {

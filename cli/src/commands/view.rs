@@ -9,6 +9,7 @@ use mdg_viewer::program::Programs;
 use mdg_viewer::renderer::FrameParams;
 use mdg_viewer::window::{self, WindowOptions};
 use mdg_viewer::Error;
+use mdg_vm::eval::EvalOptions;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -70,6 +71,8 @@ pub struct Args {
     seed: Option<u64>,
     #[command(flatten)]
     compile: crate::args::CompileArgs,
+    #[command(flatten)]
+    limits: crate::args::LimitArgs,
 }
 
 fn parse_size(s: &str) -> Option<(u32, u32)> {
@@ -171,7 +174,8 @@ pub fn run(cli: Args) -> ExitCode {
         eprintln!("mdg-view: --turntable needs --png");
         return ExitCode::from(2);
     }
-    let load = LoadOptions { std_dir: opts.std_dir, params: opts.params, presets: opts.defines, seed: cli.seed };
+    let eval = EvalOptions { seed: cli.seed, ..cli.limits.eval_options() };
+    let load = LoadOptions { std_dir: opts.std_dir, params: opts.params, presets: opts.defines, eval };
     let (model, files) = match Toolchain.load(&cli.file, &load) {
         Ok(m) => m,
         Err(fail) => {

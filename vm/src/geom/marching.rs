@@ -76,21 +76,50 @@ fn edge_index(a: u8, b: u8) -> usize {
     EDGES.iter().position(|&e| e == (lo, hi)).unwrap_or(0)
 }
 
+/// Why an isosurface was not built.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Refused {
+    /// The grid has this many cells, more than allowed.
+    TooManyCells(u64),
+    /// The time budget ran out while polygonising.
+    OutOfTime,
+    /// A grid that cannot be polygonised (no cells, an empty or non-finite box).
+    Bad(String),
+}
+
+impl std::fmt::Display for Refused {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Refused::TooManyCells(n) => write!(f, "isosurface grid has {n} cells, more than the limit"),
+            Refused::OutOfTime => write!(f, "the time budget ran out while it was polygonised"),
+            Refused::Bad(m) => write!(f, "{m}"),
+        }
+    }
+}
+
 /// Extracts the surface `f = 0` (inside where `f < 0`) as an indexed, welded mesh with
 /// outward-facing (counter-clockwise from outside) triangles, white vertex colours and
 /// gradient normals.
 ///
 /// Errors when a resolution is zero, the box is empty or not finite, or the grid has
 /// more than `max_cells` cells (a guard against runaway memory and time).
-pub fn polygonize(grid: &Grid, f: &dyn Fn(Vec3) -> f32, max_cells: u64) -> Result<Mesh, String> {
+pub fn polygonize(
+    grid: &Grid,
+    f: &dyn Fn(Vec3) -> f32,
+    max_cells: u64,
+    out_of_time: &dyn Fn() -> bool,
+) -> Result<Mesh, Refused> {
     if grid.res.contains(&0) {
-        return Err(format!("isosurface grid resolution must be at least 1 per axis, got {:?}", grid.res));
+        return Err(Refused::Bad(format!(
+            "isosurface grid resolution must be at least 1 per axis, got {:?}",
+            grid.res
+        )));
     }
     if !(grid.min.is_finite() && grid.max.is_finite() && grid.min.cmplt(grid.max).all()) {
-        return Err(format!("isosurface box is empty or not finite: min {} max {}", grid.min, grid.max));
+        return Err(Refused::Bad(format!("isosurface box is empty or not finite: min {} max {}", grid.min, grid.max)));
     }
     if grid.n_cells() > max_cells {
-        return Err(format!("isosurface grid has {} cells, more than the limit of {max_cells}", grid.n_cells()));
+        return Err(Refused::TooManyCells(grid.n_cells()));
     }
     let [nx, ny, nz] = grid.res;
     let layer_len = ((nx + 1) * (ny + 1)) as usize;
@@ -107,6 +136,11 @@ pub fn polygonize(grid: &Grid, f: &dyn Fn(Vec3) -> f32, max_cells: u64) -> Resul
     let mut builder = Builder { grid, f, h: cell * 0.5, mesh: Mesh::default(), edge_vertices: HashMap::new() };
     let mut lower = sample_layer(0);
     for k in 0..nz {
+        // The time budget is checked once per layer of cells (a 256² layer samples
+        // 66,000 function values), so a budget bounds a large grid too.
+        if out_of_time() {
+            return Err(Refused::OutOfTime);
+        }
         let upper = sample_layer(k + 1);
         for j in 0..ny {
             for i in 0..nx {
@@ -291,7 +325,7 @@ mod tests {
 
     fn sphere_mesh(res: u32) -> Mesh {
         let grid = Grid { min: Vec3::splat(-1.0), max: Vec3::splat(1.0), res: [res; 3] };
-        polygonize(&grid, &|p: Vec3| p.length() - 0.8, 1 << 20).expect("grid within limits")
+        polygonize(&grid, &|p: Vec3| p.length() - 0.8, 1 << 20, &|| false).expect("grid within limits")
     }
 
     fn signed_volume(m: &Mesh) -> f32 {
@@ -333,6 +367,19 @@ mod tests {
     }
 
     #[test]
+    fn the_time_budget_is_checked_inside_a_grid() {
+        let grid = Grid { min: Vec3::splat(-1.0), max: Vec3::splat(1.0), res: [40, 40, 40] };
+        let layers = std::cell::Cell::new(0);
+        let stop_after_3 = || {
+            layers.set(layers.get() + 1);
+            layers.get() > 3
+        };
+        let err = polygonize(&grid, &|p: Vec3| p.length() - 0.5, 1 << 20, &stop_after_3).expect_err("out of time");
+        assert_eq!(err, Refused::OutOfTime);
+        assert_eq!(layers.get(), 4, "checked once per layer, stopped at the first late one");
+    }
+
+    #[test]
     fn saddle_cells_stay_watertight() {
         // Two close spheres and a torus produce ambiguous faces and tunnel cells.
         let grid = Grid { min: Vec3::splat(-1.5), max: Vec3::splat(1.5), res: [19, 17, 23] };
@@ -342,13 +389,13 @@ mod tests {
             let q = Vec3::new(Vec3::new(p.x, p.y, 0.0).length() - 0.9, p.z, 0.0);
             a.min(b).min(q.length() - 0.25)
         };
-        let m = polygonize(&grid, &f, 1 << 20).expect("within limits");
+        let m = polygonize(&grid, &f, 1 << 20, &|| false).expect("within limits");
         assert_closed_and_oriented(&m);
         assert!(signed_volume(&m) > 0.0);
         // A noisy field with many sign changes.
         let g = |p: Vec3| (p.x * 7.1).sin() * (p.y * 5.3).cos() + (p.z * 6.7).sin() * 0.7 + 0.05;
         let grid = Grid { min: Vec3::splat(-1.0), max: Vec3::splat(1.0), res: [12, 12, 12] };
-        let m = polygonize(&grid, &g, 1 << 20).expect("within limits");
+        let m = polygonize(&grid, &g, 1 << 20, &|| false).expect("within limits");
         // Surfaces cut by the box are open at the box; check interior edges only by
         // requiring that no edge is used twice in the same direction.
         let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
@@ -363,18 +410,18 @@ mod tests {
     #[test]
     fn refuses_oversized_and_invalid_grids() {
         let grid = Grid { min: Vec3::splat(-1.0), max: Vec3::splat(1.0), res: [100, 100, 100] };
-        let err = polygonize(&grid, &|p: Vec3| p.length() - 0.5, 999_999).expect_err("too many cells");
-        assert!(err.contains("1000000"), "{err}");
+        let err = polygonize(&grid, &|p: Vec3| p.length() - 0.5, 999_999, &|| false).expect_err("too many cells");
+        assert_eq!(err, Refused::TooManyCells(1_000_000));
         let grid = Grid { min: Vec3::splat(-1.0), max: Vec3::splat(1.0), res: [0, 4, 4] };
-        assert!(polygonize(&grid, &|p: Vec3| p.length(), 1000).is_err());
+        assert!(polygonize(&grid, &|p: Vec3| p.length(), 1000, &|| false).is_err());
         let grid = Grid { min: Vec3::splat(1.0), max: Vec3::splat(-1.0), res: [4, 4, 4] };
-        assert!(polygonize(&grid, &|p: Vec3| p.length(), 1000).is_err());
+        assert!(polygonize(&grid, &|p: Vec3| p.length(), 1000, &|| false).is_err());
     }
 
     #[test]
     fn empty_and_full_fields_give_empty_meshes() {
         let grid = Grid { min: Vec3::splat(-1.0), max: Vec3::splat(1.0), res: [4, 4, 4] };
-        assert!(polygonize(&grid, &|_| 1.0, 1000).expect("ok").triangles.is_empty());
-        assert!(polygonize(&grid, &|_| -1.0, 1000).expect("ok").triangles.is_empty());
+        assert!(polygonize(&grid, &|_| 1.0, 1000, &|| false).expect("ok").triangles.is_empty());
+        assert!(polygonize(&grid, &|_| -1.0, 1000, &|| false).expect("ok").triangles.is_empty());
     }
 }
