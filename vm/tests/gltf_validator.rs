@@ -165,7 +165,8 @@ fn animated() -> Output {
     line.push(b_rest.u, 3);
     out.lines.push(line);
     let grid = Grid { min: Vec3::splat(-1.0), max: Vec3::splat(1.0), res: [6, 6, 6] };
-    out.shared_meshes.push(("SPHERE".into(), polygonize(&grid, &|p: Vec3| p.length() - 0.8, 1 << 16).expect("sphere")));
+    out.shared_meshes
+        .push(("SPHERE".into(), polygonize(&grid, &|p: Vec3| p.length() - 0.8, 1 << 16, &|| false).expect("sphere")));
     out.instances.push(Instance {
         name: "SPHERE".into(),
         mesh: 0,
