@@ -177,6 +177,48 @@ pub fn contact_sheet(images: &[Vec<u8>], width: u32, height: u32, gap: [u8; 4]) 
     (out, sw, sh)
 }
 
+/// The widest contact sheet [`sheet_factor`] allows, in pixels.
+pub const MAX_SHEET_WIDTH: u32 = 4096;
+
+/// The integer factor views are shrunk by so a contact sheet of `n` views `width`
+/// pixels wide stays within [`MAX_SHEET_WIDTH`] (1: full size).
+pub fn sheet_factor(n: u32, width: u32) -> u32 {
+    let cols = (n.max(1) as f32).sqrt().ceil() as u32;
+    (cols * width).div_ceil(MAX_SHEET_WIDTH).max(1)
+}
+
+/// RGBA pixels `width`×`height` shrunk by the integer factor `k` (box filter): the
+/// new pixels and size.
+pub fn shrink(rgba: &[u8], width: u32, height: u32, k: u32) -> (Vec<u8>, u32, u32) {
+    if k <= 1 {
+        return (rgba.to_vec(), width, height);
+    }
+    let (w, h) = ((width / k).max(1), (height / k).max(1));
+    let mut out = Vec::with_capacity((w * h * 4) as usize);
+    for y in 0..h {
+        for x in 0..w {
+            let mut sum = [0u32; 4];
+            let mut n = 0;
+            for dy in 0..k {
+                for dx in 0..k {
+                    let (sx, sy) = (x * k + dx, y * k + dy);
+                    if sx < width && sy < height {
+                        let i = ((sy * width + sx) * 4) as usize;
+                        if let Some(p) = rgba.get(i..i + 4) {
+                            for c in 0..4 {
+                                sum[c] += p[c] as u32;
+                            }
+                            n += 1;
+                        }
+                    }
+                }
+            }
+            out.extend(sum.map(|v| (v + n / 2).checked_div(n).unwrap_or(0) as u8));
+        }
+    }
+    (out, w, h)
+}
+
 /// Writes RGBA pixels as a PNG file.
 pub fn write_png(path: &Path, rgba: &[u8], width: u32, height: u32) -> Result<(), Error> {
     let bytes = mdg_vm::preview::encode_png(rgba, width, height).map_err(|e| Error::Io(format!("encode PNG: {e}")))?;
@@ -187,6 +229,18 @@ pub fn write_png(path: &Path, rgba: &[u8], width: u32, height: u32) -> Result<()
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn big_turntables_shrink_their_views_to_a_bounded_sheet() {
+        assert_eq!(sheet_factor(8, 1024), 1);
+        let k = sheet_factor(360, 1024);
+        let cols = 19;
+        assert!(cols * 1024 / k <= MAX_SHEET_WIDTH && k > 1, "k = {k}");
+        let px = [10u8, 20, 30, 255, 30, 40, 50, 255].repeat(2);
+        let (small, w, h) = shrink(&px, 2, 2, 2);
+        assert_eq!((w, h), (1, 1));
+        assert_eq!(small, [20, 30, 40, 255]);
+    }
 
     #[test]
     fn contact_sheet_places_tiles_in_a_grid() {

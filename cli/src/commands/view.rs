@@ -47,9 +47,10 @@ pub struct Args {
     /// times closer (window and offscreen), e.g. `--camera 0,90` looks down.
     #[arg(long, default_value = "auto")]
     camera: String,
-    /// With --png: render N views around the model, written as FILE-NN.png, and a
-    /// contact sheet of them at FILE.
-    #[arg(long, value_name = "N")]
+    /// With --png: render N views around the model (1 to 360), written as
+    /// FILE-NN.png as they are made, and a contact sheet of them at FILE (at most
+    /// 4096 pixels wide: the views shrink to fit).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=MAX_TURNTABLE as i64))]
     turntable: Option<u32>,
     /// Window: exit after N frames.
     #[arg(long, value_name = "N")]
@@ -74,6 +75,9 @@ pub struct Args {
     #[command(flatten)]
     limits: crate::args::LimitArgs,
 }
+
+/// The most views `--turntable` renders.
+const MAX_TURNTABLE: u32 = 360;
 
 fn parse_size(s: &str) -> Option<(u32, u32)> {
     let (w, h) = s.split_once(['x', 'X'])?;
@@ -127,14 +131,19 @@ fn offscreen(cli: &Args, model: &model::Model, size: (u32, u32), programs: &Prog
             offscreen::write_png(png, &px, size.0, size.1)?;
         }
         Some(n) => {
+            // Only the sheet's shrunk copies are kept: memory stays that of one sheet.
+            let k = offscreen::sheet_factor(n, size.0);
             let mut views = Vec::new();
+            let mut tile = size;
             for (i, cam) in offscreen::turntable(&home, n).into_iter().enumerate() {
                 let px = off.render(&frame(cam))?;
                 offscreen::write_png(&numbered(png, i as u32, n), &px, size.0, size.1)?;
-                views.push(px);
+                let (small, w, h) = offscreen::shrink(&px, size.0, size.1, k);
+                tile = (w, h);
+                views.push(small);
             }
             let bg = info.background.map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8);
-            let (sheet, w, h) = offscreen::contact_sheet(&views, size.0, size.1, bg);
+            let (sheet, w, h) = offscreen::contact_sheet(&views, tile.0, tile.1, bg);
             offscreen::write_png(png, &sheet, w, h)?;
         }
     }
