@@ -203,7 +203,35 @@ pub fn write_atomic_with(
     if let Ok(d) = std::fs::File::open(dir) {
         let _ = d.sync_all();
     }
+    remove_stale_temporaries(dir, &name.to_string_lossy());
     Ok(())
+}
+
+/// Removes the temporary files an earlier writer of `name` left in `dir` when it was
+/// killed (`.NAME.PID.N.tmp` whose process no longer runs): the next successful write
+/// of a file cleans up after the runs of it that died. Only on Linux, where a
+/// process's liveness is `/proc/PID`; a temporary file of a live writer is never
+/// touched.
+fn remove_stale_temporaries(dir: &Path, name: &str) {
+    if !cfg!(target_os = "linux") || !Path::new("/proc/self").exists() {
+        return;
+    }
+    let prefix = format!(".{name}.");
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    for e in entries.flatten() {
+        let file = e.file_name();
+        let Some(rest) = file.to_str().and_then(|f| f.strip_prefix(&prefix)).and_then(|f| f.strip_suffix(".tmp"))
+        else {
+            continue;
+        };
+        let Some((pid, n)) = rest.split_once('.') else { continue };
+        let (Ok(pid), true) = (pid.parse::<u32>(), n.bytes().all(|b| b.is_ascii_digit()) && !n.is_empty()) else {
+            continue;
+        };
+        if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
 }
 
 /// Writes into an existing file that is not a regular file: character devices and
@@ -594,6 +622,26 @@ pub(crate) mod tests {
             .collect();
         names.sort();
         assert!(names.iter().all(|n| !n.ends_with(".tmp")), "{names:?}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    #[cfg(target_os = "linux")]
+    fn a_write_removes_the_temporaries_of_killed_writers_only() {
+        let dir = std::env::temp_dir().join(format!("mdg-stale-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("dir");
+        // A pid above the kernel's maximum (2^22) never runs; ours always does.
+        let dead = dir.join(".out.obj.4194399.0.tmp");
+        let live = dir.join(format!(".out.obj.{}.77.tmp", std::process::id()));
+        let other = dir.join(".other.obj.4194399.0.tmp");
+        let unrelated = dir.join(".out.obj.notapid.tmp");
+        for f in [&dead, &live, &other, &unrelated] {
+            std::fs::write(f, b"partial").expect("write");
+        }
+        write_atomic(&dir.join("out.obj"), b"whole").expect("write");
+        assert!(!dead.exists(), "the killed writer's temporary file is removed");
+        assert!(live.exists() && other.exists() && unrelated.exists(), "nothing else is touched");
         let _ = std::fs::remove_dir_all(&dir);
     }
 
