@@ -47,6 +47,11 @@ pub enum Target {
     VmRun,
     /// `guide` / `search` / `creature` / `grid` sections through the checker and lowering.
     ExtSources,
+    /// Real bundles with extension tables (guided search, creatures, grid grammars),
+    /// one number inside the tables replaced by an extreme value: the verifier refuses
+    /// it or the section's mode runs (search, evolution, generation) under tight
+    /// limits without panicking.
+    ExtTables,
     /// The voxel readers (`mdg_vm::grid::format`: text, `.vox`, `.nbt`, `.schem`); a
     /// model read is written back and must read again with as many blocks. The first
     /// input byte picks the format.
@@ -55,13 +60,14 @@ pub enum Target {
 
 impl Target {
     /// Every target, in the order `fuzz/run` runs them.
-    pub const ALL: [Target; 7] = [
+    pub const ALL: [Target; 8] = [
         Target::ParseCheck,
         Target::FmtIdempotent,
         Target::Preprocess,
         Target::BundleLoad,
         Target::VmRun,
         Target::ExtSources,
+        Target::ExtTables,
         Target::VoxelReaders,
     ];
 
@@ -74,6 +80,7 @@ impl Target {
             Target::BundleLoad => "bundle_load",
             Target::VmRun => "vm_run",
             Target::ExtSources => "ext_sources",
+            Target::ExtTables => "ext_tables",
             Target::VoxelReaders => "voxel_readers",
         }
     }
@@ -85,13 +92,13 @@ impl Target {
 
     /// Whether inputs are binary (mutated byte-wise only).
     pub fn binary(self) -> bool {
-        matches!(self, Target::BundleLoad | Target::VoxelReaders)
+        matches!(self, Target::BundleLoad | Target::ExtTables | Target::VoxelReaders)
     }
 
     /// The extension of saved inputs.
     pub fn extension(self) -> &'static str {
         match self {
-            Target::BundleLoad => "mdgb",
+            Target::BundleLoad | Target::ExtTables => "mdgb",
             Target::VoxelReaders => "bin",
             _ => "mdg",
         }
@@ -100,7 +107,7 @@ impl Target {
     /// The largest input the mutators produce.
     pub fn max_len(self) -> usize {
         match self {
-            Target::BundleLoad | Target::VoxelReaders => 256 * 1024,
+            Target::BundleLoad | Target::ExtTables | Target::VoxelReaders => 256 * 1024,
             // Extension examples are longer (a creature grammar is about 3 KB).
             Target::ExtSources => 4 * 1024,
             _ => 2 * 1024,
@@ -110,9 +117,13 @@ impl Target {
     /// Turns a corpus file into an input: text as is; for `bundle_load`, a `.mdg`
     /// program is compiled into bundle bytes (a `.mdgb` file is taken as is).
     pub fn seed(self, path: &Path, bytes: Vec<u8>) -> Option<Vec<u8>> {
-        if self == Target::BundleLoad && path.extension().is_some_and(|e| e == "mdg") {
+        if matches!(self, Target::BundleLoad | Target::ExtTables) && path.extension().is_some_and(|e| e == "mdg") {
             let text = String::from_utf8_lossy(&bytes);
-            return compile(&text, path).map(|b| bundle::encode(&b));
+            let b = compile(&text, path)?;
+            if self == Target::ExtTables && b.extensions.is_empty() {
+                return None;
+            }
+            return Some(bundle::encode(&b));
         }
         if self == Target::VoxelReaders {
             // A voxel file: its format's index, then its bytes (saved inputs, `.bin`,
@@ -279,6 +290,7 @@ impl Target {
             Target::FmtIdempotent => fmt_idempotent(input),
             Target::Preprocess => preprocess(input),
             Target::BundleLoad => bundle_load(input),
+            Target::ExtTables => ext_tables(input),
             Target::VmRun => vm_run(input),
             Target::VoxelReaders => voxel_readers(input),
         }
@@ -576,6 +588,179 @@ fn bundle_load(input: &[u8]) -> u64 {
             warnings_signature(&out) ^ 0x5555
         }
     }
+}
+
+/// Values that break code trusting a table: zeros, negatives, huge and tiny
+/// magnitudes, the integer edges, one past common limits.
+const EXTREME_NUMBERS: &[f64] = &[
+    0.0,
+    -1.0,
+    1.0,
+    0.5,
+    -0.5,
+    2.0,
+    3.0,
+    1e-300,
+    -1e-300,
+    1e9,
+    1e10,
+    1e23,
+    1e308,
+    -1e308,
+    4294967295.0,
+    4294967296.0,
+    2147483647.0,
+    -2147483648.0,
+    9007199254740993.0,
+    18446744073709551615.0,
+    65536.0,
+    16000001.0,
+    100001.0,
+    1001.0,
+    1000001.0,
+];
+
+/// The paths (object keys and array indices) of every number in `v`, in order.
+fn number_paths(v: &serde_json::Value, at: &mut Vec<String>, out: &mut Vec<Vec<String>>) {
+    match v {
+        serde_json::Value::Number(_) => out.push(at.clone()),
+        serde_json::Value::Array(xs) => {
+            for (i, x) in xs.iter().enumerate() {
+                at.push(i.to_string());
+                number_paths(x, at, out);
+                at.pop();
+            }
+        }
+        serde_json::Value::Object(m) => {
+            for (k, x) in m {
+                at.push(k.clone());
+                number_paths(x, at, out);
+                at.pop();
+            }
+        }
+        _ => {}
+    }
+}
+
+/// The number at `path` in `v`, for replacing.
+fn number_at<'v>(v: &'v mut serde_json::Value, path: &[String]) -> Option<&'v mut serde_json::Value> {
+    let mut cur = v;
+    for p in path {
+        cur = match cur {
+            serde_json::Value::Array(xs) => xs.get_mut(p.parse::<usize>().ok()?)?,
+            serde_json::Value::Object(m) => m.get_mut(p)?,
+            _ => return None,
+        };
+    }
+    Some(cur)
+}
+
+/// The `ext_tables` corpus compiled once: what an input that no longer loads is
+/// replaced by (byte mutations break most bundles; the numbers are what matters).
+fn ext_seeds() -> &'static [bundle::Bundle] {
+    static SEEDS: std::sync::OnceLock<Vec<bundle::Bundle>> = std::sync::OnceLock::new();
+    SEEDS.get_or_init(|| {
+        let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("corpus/ext_tables");
+        let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+            .map(|rd| rd.flatten().map(|e| e.path()).filter(|p| p.extension().is_some_and(|e| e == "mdg")).collect())
+            .unwrap_or_default();
+        files.sort();
+        files
+            .iter()
+            .filter_map(|p| compile(&std::fs::read_to_string(p).ok()?, p))
+            .filter(|b| !b.extensions.is_empty())
+            .collect()
+    })
+}
+
+fn ext_tables(input: &[u8]) -> u64 {
+    let h = hash(input);
+    let mut b = match bundle::load(input) {
+        Ok(b) if !b.extensions.is_empty() => b,
+        _ => match ext_seeds() {
+            [] => return 1,
+            seeds => seeds[(h % seeds.len() as u64) as usize].clone(),
+        },
+    };
+    let Ok(mut tables) = serde_json::to_value(&b.extensions) else { return 2 };
+    let mut paths = Vec::new();
+    number_paths(&tables, &mut Vec::new(), &mut paths);
+    if paths.is_empty() {
+        return 3;
+    }
+    // The input's own bytes choose the number and its new value (inputs mutate).
+    let path = &paths[(h % paths.len() as u64) as usize];
+    let value = EXTREME_NUMBERS[((h >> 20) % EXTREME_NUMBERS.len() as u64) as usize];
+    let Some(slot) = number_at(&mut tables, path) else { return 4 };
+    // Integers stay integers (a float where a u32 is expected does not deserialize).
+    *slot = if slot.is_f64() {
+        serde_json::json!(value)
+    } else if value >= 0.0 && value.fract() == 0.0 && value < 1.9e19 {
+        serde_json::json!(value as u64)
+    } else if value.fract() == 0.0 && value > -9.3e18 {
+        serde_json::json!(value as i64)
+    } else {
+        serde_json::json!(value)
+    };
+    if std::env::var_os("MDG_FUZZ_DEBUG").is_some() {
+        println!("ext_tables: {} = {value}", path.join("/"));
+    }
+    let key = hash(path.join("/").as_bytes()) & 0xFFFF;
+    let Ok(ext) = serde_json::from_value(tables) else { return 5 ^ (key << 8) };
+    b.extensions = ext;
+    // The verifier applies the checker's limits to the tables: a bundle it accepts
+    // must run in its section's mode without a panic.
+    let b = match bundle::load(&bundle::encode(&b)) {
+        Err(e) => {
+            let msg = e.to_string();
+            return hash(msg.chars().filter(|c| !c.is_ascii_digit()).take(40).collect::<String>().as_bytes()) ^ key;
+        }
+        Ok(b) => b,
+    };
+    deep();
+    let mut sig = 0x7777 ^ key;
+    if let Some(t) = &b.extensions.guided {
+        if let Ok(p) = mdg_vm::sosmc::Prepared::new(&b, t, &t.guides) {
+            let full = mdg_vm::sosmc::SearchOptions::from_settings(&t.settings, b.settings.randseed);
+            // The table's own sizes are checked (that is where huge values are refused);
+            // the run itself is kept short.
+            sig ^= u64::from(p.check_size(&full).is_ok()) << 1;
+            let opts = mdg_vm::sosmc::SearchOptions {
+                particles: (full.particles.0.min(8), full.particles.1.min(8)),
+                generations: full.generations.min(3),
+                budget: Some(Duration::from_millis(50)),
+                threads: Some(1),
+                ..full
+            };
+            if p.check_size(&opts).is_ok() {
+                let r = p.search(&opts, None);
+                let out = p.geometry(&r.model, &tight(), true);
+                sig ^= warnings_signature(&out);
+            }
+        }
+    }
+    if let Some(t) = &b.extensions.creatures {
+        if let Ok(lib) = mdg_vm::creature::geometry::Library::build(&b, t) {
+            let mut o = mdg_vm::creature::evolve::EvolveOptions::from_table(t);
+            o.population = o.population.min(3);
+            o.background = o.background.min(3);
+            o.offspring = o.offspring.min(6);
+            o.generations = 1;
+            let evo = mdg_vm::creature::evolve::Evolution::new(t, &lib, o);
+            let (mut pop, _) = evo.start();
+            let g = evo.step(&mut pop, None);
+            sig ^= (g.presented.len() as u64) << 3;
+        }
+    }
+    if let Some(g) = &b.extensions.grid {
+        let d = mdg_vm::grid::generate::GenerateOptions::default();
+        let o = mdg_vm::grid::generate::GenerateOptions { steps: g.generate.steps.min(20), seal: g.generate.seal, ..d };
+        sig ^= match mdg_vm::grid::generate::generate(g, &o) {
+            Ok(m) => (m.model.blocks.len() as u64).min(8) << 5,
+            Err(e) => hash(e.chars().filter(|c| !c.is_ascii_digit()).take(30).collect::<String>().as_bytes()),
+        };
+    }
+    sig
 }
 
 fn vm_run(input: &[u8]) -> u64 {
