@@ -1170,6 +1170,44 @@ rule A {
         ),
     },
     Code {
+        code: "E0502",
+        severity: Error,
+        title: "shader block exceeds a limit of the shader compiler",
+        explanation: r#"A `@vertexshader` / `@fragmentshader` block is too large or too complex to give to glslang, or glslang took too long on it. Before compiling, every block is checked against fixed limits (see `docs/limits.md`): at most 256 KiB of text, at most 262,144 tokens after its `#define`s are expanded, at most 2,048 operators in one statement after expansion, and macro calls nested at most 64 deep in macro arguments. A block within them is compiled with a deadline of 5 s. Without these limits a few hundred bytes of GLSL could overflow the compiler's stack or make it run for ever.
+
+In the example: each `#define` uses the one before twice, so 12 levels make `L` 4,096 copies of `x` joined by 4,095 `+`: one statement with more than 2,048 operators.
+
+Fix: Write long expressions as several statements with intermediate variables (or a loop), and use functions instead of macros that repeat their arguments."#,
+        example: Library(
+            r#"startshape A
+
+@vertexshader doubling_vs
+#version 450
+#define A x+x
+#define B A+A
+#define C B+B
+#define D C+C
+#define E D+D
+#define F E+E
+#define G F+F
+#define H G+G
+#define I H+H
+#define J I+I
+#define K J+J
+#define L K+K
+void main() {
+    float x = 1.0;
+    gl_Position = vec4(L);
+}
+@endshader
+
+rule A {
+  VERTEX {} VERTEX {x 1} VERTEX {y 1}
+}
+"#,
+        ),
+    },
+    Code {
         code: "E0601",
         severity: Error,
         title: "unknown key",
