@@ -19,7 +19,8 @@ pub struct Analysis {
     /// SPIR-V of each shader block, index-aligned with `expanded.shaders` (`None`
     /// where GLSL errors were reported); see [`crate::shaders`].
     pub spirv: Vec<Option<Vec<u32>>>,
-    /// All diagnostics, sorted by file and position, duplicates removed.
+    /// All diagnostics, sorted by file and position, duplicates removed, at most
+    /// 100 errors and 100 warnings (then an N0001 note saying how many more).
     pub diagnostics: Vec<Diagnostic>,
 }
 
@@ -58,6 +59,8 @@ fn finish(sources: Sources, expanded: Expanded, opts: CheckOptions) -> Analysis 
         expanded.diagnostics.iter().chain(checked.diagnostics.iter()).chain(shader_diags.iter()).cloned().collect();
     diagnostics.sort_by(|a, b| (a.span.file, a.span.start, a.code).cmp(&(b.span.file, b.span.start, b.code)));
     diagnostics.dedup_by(|a, b| a.span == b.span && a.code == b.code && a.message == b.message);
+    // At most 100 errors and 100 warnings, then a note with how many more.
+    crate::diag::limit_report(&mut diagnostics, expanded.suppressed);
     Analysis { sources, expanded, checked, spirv, diagnostics }
 }
 
