@@ -75,7 +75,11 @@ pub fn hostile_shaders() -> Vec<(&'static str, String, &'static str)> {
             with_shader(&format!("void main() {{ float x = 1.0; gl_Position = vec4({terms}); }}")),
             "expression too complex: more than 2048 operators in one statement",
         ),
-        ("doubled statements", with_shader(&statements), "shader too large after preprocessing: more than 262144 tokens"),
+        (
+            "doubled statements",
+            with_shader(&statements),
+            "shader too large after preprocessing: more than 262144 tokens",
+        ),
     ]
 }
 
@@ -110,18 +114,17 @@ fn hostile_shaders_get_e0502_quickly() {
 /// 2 MB of junk: random tokens and characters, a few per line. Every bad token
 /// used to be kept (about 2 KB each in the parser's recovery records).
 pub fn junk(bytes: usize) -> String {
-    const WORDS: &[&str] = &[
-        "rule", "{", "}", "(", ")", "[", "]", "x", "1", "+", "*", ";", "@define", "foo", "startshape", "VERTEX", "=",
-        "%", "$", "\"s\"", "2.5", "-", "/", ":", "#", "?", "!", "|", "@macro", "@endmacro",
-    ];
+    const WORDS: &str =
+        "rule { } ( ) [ ] x 1 + * ; @define foo startshape VERTEX = % $ \"s\" 2.5 - / : # ? ! | @macro @endmacro";
+    let words: Vec<&str> = WORDS.split(' ').collect();
     let mut s = String::with_capacity(bytes + 16);
     let mut state = 0x2545_f491_u64;
     while s.len() < bytes {
         state ^= state << 13;
         state ^= state >> 7;
         state ^= state << 17;
-        s.push_str(WORDS[(state % WORDS.len() as u64) as usize]);
-        s.push(if state % 5 == 0 { '\n' } else { ' ' });
+        s.push_str(words[(state % words.len() as u64) as usize]);
+        s.push(if state.is_multiple_of(5) { '\n' } else { ' ' });
     }
     s
 }

@@ -2575,7 +2575,11 @@ mod tests {
         let mut v = Vec::new();
         for i in 0..b.len().saturating_sub(6) {
             let w = &b[i..i + 7];
-            if w[0] == b'"' && w[6] == b'"' && matches!(w[1], b'E' | b'W' | b'N') && w[2..6].iter().all(u8::is_ascii_digit) {
+            if w[0] == b'"'
+                && w[6] == b'"'
+                && matches!(w[1], b'E' | b'W' | b'N')
+                && w[2..6].iter().all(u8::is_ascii_digit)
+            {
                 v.push(&text[i + 1..i + 6]);
             }
         }

@@ -976,8 +976,7 @@ pub fn parse_file(sources: &Sources, file: FileId) -> Parsed {
         return Parsed { file: File::default(), comments: Vec::new(), diagnostics: vec![d], suppressed: 0 };
     }
     let lexed = lexer::lex(text, file);
-    let (out, diagnostics, suppressed) =
-        run(lexed.tokens, sources, file, Start::File, lexed.diagnostics, MAX_NESTING);
+    let (out, diagnostics, suppressed) = run(lexed.tokens, sources, file, Start::File, lexed.diagnostics, MAX_NESTING);
     let file_ast = match out {
         Out::File(f) => f,
         _ => File::default(),

@@ -56,7 +56,7 @@ pub struct Refusal {
 }
 
 /// Checks `code` (the text of one shader block) against the limits above.
-pub fn check(code: &str) -> Result<(), Refusal> {
+pub fn check(code: &str) -> Result<(), Box<Refusal>> {
     if code.len() > MAX_SHADER_BYTES {
         let mut at = MAX_SHADER_BYTES;
         while !code.is_char_boundary(at) {
@@ -64,14 +64,14 @@ pub fn check(code: &str) -> Result<(), Refusal> {
         }
         let start = code[..at].rfind('\n').map_or(0, |i| i + 1);
         let end = code[at..].find('\n').map_or(code.len(), |i| at + i);
-        return Err(Refusal {
+        return Err(Box::new(Refusal {
             start,
             end,
             message: format!("shader block too large: {} bytes (at most {MAX_SHADER_BYTES})", code.len()),
             label: format!("the block passes {MAX_SHADER_BYTES} bytes on this line"),
             context: None,
             note: "split the shader into smaller blocks, or move large tables into buffers or textures".into(),
-        });
+        }));
     }
     let events = tokenize(code);
     let mut pre = Pre::new(code, events);
@@ -103,12 +103,18 @@ struct Raw {
 enum Event {
     Tok(Raw),
     /// `#` at the start of a line, then the line's tokens; `at` is the `#`.
-    Directive { at: u32, end: u32, toks: Vec<Raw> },
+    Directive {
+        at: u32,
+        end: u32,
+        toks: Vec<Raw>,
+    },
 }
 
 const PUNCT3: &[&str] = &["<<=", ">>="];
-const PUNCT2: &[&str] =
-    &["++", "--", "<<", ">>", "<=", ">=", "==", "!=", "&&", "||", "^^", "+=", "-=", "*=", "/=", "%=", "&=", "|=", "^=", "##"];
+const PUNCT2: &[&str] = &[
+    "++", "--", "<<", ">>", "<=", ">=", "==", "!=", "&&", "||", "^^", "+=", "-=", "*=", "/=", "%=", "&=", "|=", "^=",
+    "##",
+];
 
 /// Splits the source into tokens and directive lines: comments dropped, `\` at the
 /// end of a line joining it to the next.
@@ -177,9 +183,7 @@ fn token_at(code: &str, i: usize) -> (Kind, usize) {
         // A preprocessing number: digits, letters, `_`, `.`, and a sign after an exponent.
         let mut j = i + 1;
         while j < b.len() {
-            if word(j) || b[j] == b'.' {
-                j += 1;
-            } else if matches!(b[j], b'+' | b'-') && matches!(b[j - 1], b'e' | b'E') {
+            if word(j) || b[j] == b'.' || (matches!(b[j], b'+' | b'-') && matches!(b[j - 1], b'e' | b'E')) {
                 j += 1;
             } else {
                 break;
@@ -292,7 +296,7 @@ impl<'a> Pre<'a> {
         &self.code[r.start as usize..r.end as usize]
     }
 
-    fn run(&mut self) -> Result<(), Refusal> {
+    fn run(&mut self) -> Result<(), Box<Refusal>> {
         let mut top = Stream { pending: VecDeque::new(), source: true };
         while let Some(t) = self.next_expanded(&mut top, 0)? {
             self.emit(&t)?;
@@ -300,10 +304,10 @@ impl<'a> Pre<'a> {
         Ok(())
     }
 
-    fn step(&mut self, n: u64, origin: (u32, u32)) -> Result<(), Refusal> {
+    fn step(&mut self, n: u64, origin: (u32, u32)) -> Result<(), Box<Refusal>> {
         self.steps += n;
         if self.steps > MAX_EXPANSION_STEPS {
-            return Err(Refusal {
+            return Err(Box::new(Refusal {
                 start: origin.0 as usize,
                 end: origin.1 as usize,
                 message: format!(
@@ -313,13 +317,13 @@ impl<'a> Pre<'a> {
                 label: "the expansion passes the limit here".into(),
                 context: None,
                 note: expansion_note(),
-            });
+            }));
         }
         Ok(())
     }
 
     /// One token out of the preprocessor: counted against the output and statement limits.
-    fn emit(&mut self, t: &Ptok) -> Result<(), Refusal> {
+    fn emit(&mut self, t: &Ptok) -> Result<(), Box<Refusal>> {
         self.total += 1;
         if self.total > MAX_PREPROCESSED_TOKENS {
             let what = if t.hide.is_some() {
@@ -327,16 +331,14 @@ impl<'a> Pre<'a> {
             } else {
                 "the text passes the limit here".to_string()
             };
-            return Err(Refusal {
+            return Err(Box::new(Refusal {
                 start: t.origin.0 as usize,
                 end: t.origin.1 as usize,
-                message: format!(
-                    "shader too large after preprocessing: more than {MAX_PREPROCESSED_TOKENS} tokens"
-                ),
+                message: format!("shader too large after preprocessing: more than {MAX_PREPROCESSED_TOKENS} tokens"),
                 label: what,
                 context: None,
                 note: expansion_note(),
-            });
+            }));
         }
         match t.raw.kind {
             Kind::Sep => {
@@ -363,7 +365,7 @@ impl<'a> Pre<'a> {
                         let first = self.stmt_first;
                         let context = (first.0 != t.origin.0)
                             .then(|| (first.0 as usize, first.1 as usize, "the statement starts here".to_string()));
-                        return Err(Refusal {
+                        return Err(Box::new(Refusal {
                             start: lo,
                             end: hi,
                             message: format!(
@@ -372,9 +374,8 @@ impl<'a> Pre<'a> {
                             ),
                             label,
                             context,
-                            note: "split the expression into several statements with intermediate variables"
-                                .into(),
-                        });
+                            note: "split the expression into several statements with intermediate variables".into(),
+                        }));
                     }
                 }
             }
@@ -384,7 +385,7 @@ impl<'a> Pre<'a> {
 
     /// The next token of `s` before expansion; directive lines met on the way are
     /// carried out.
-    fn next_raw(&mut self, s: &mut Stream, depth: usize) -> Result<Option<Ptok>, Refusal> {
+    fn next_raw(&mut self, s: &mut Stream, depth: usize) -> Result<Option<Ptok>, Box<Refusal>> {
         if let Some(t) = s.pending.pop_front() {
             self.step(1, t.origin)?;
             return Ok(Some(t));
@@ -410,7 +411,7 @@ impl<'a> Pre<'a> {
         Ok(None)
     }
 
-    fn directive(&mut self, at: u32, end: u32, toks: &[Raw], depth: usize) -> Result<(), Refusal> {
+    fn directive(&mut self, at: u32, end: u32, toks: &[Raw], depth: usize) -> Result<(), Box<Refusal>> {
         let Some(&name) = toks.first() else { return Ok(()) };
         self.step(toks.len() as u64, (at, end))?;
         match self.text(name) {
@@ -420,17 +421,16 @@ impl<'a> Pre<'a> {
                 let (params, body_at) = if function_like {
                     let close = toks[3..].iter().position(|t| self.text(*t) == ")").map(|p| p + 3);
                     match close {
-                        Some(c) => (Some(toks[3..c].iter().copied().filter(|t| t.kind == Kind::Ident).collect()), c + 1),
+                        Some(c) => {
+                            (Some(toks[3..c].iter().copied().filter(|t| t.kind == Kind::Ident).collect()), c + 1)
+                        }
                         None => (Some(Vec::new()), toks.len()),
                     }
                 } else {
                     (None, 2)
                 };
-                let body: Vec<Raw> = toks[body_at.min(toks.len())..]
-                    .iter()
-                    .copied()
-                    .filter(|t| self.text(*t) != "##")
-                    .collect();
+                let body: Vec<Raw> =
+                    toks[body_at.min(toks.len())..].iter().copied().filter(|t| self.text(*t) != "##").collect();
                 self.next_id += 1;
                 self.macros.insert(self.text(m), Rc::new(Macro { id: self.next_id, params, body }));
             }
@@ -471,7 +471,7 @@ impl<'a> Pre<'a> {
 
     /// The next token of `s` after expansion: macros met are replaced by their bodies
     /// (pushed back in front of `s`, so they are rescanned with what follows).
-    fn next_expanded(&mut self, s: &mut Stream, depth: usize) -> Result<Option<Ptok>, Refusal> {
+    fn next_expanded(&mut self, s: &mut Stream, depth: usize) -> Result<Option<Ptok>, Box<Refusal>> {
         loop {
             let Some(t) = self.next_raw(s, depth)? else { return Ok(None) };
             if t.raw.kind != Kind::Ident {
@@ -534,7 +534,7 @@ impl<'a> Pre<'a> {
 
     /// The arguments of a call whose `(` was just read: up to the matching `)` (or
     /// the end of the stream), split at the commas outside inner parentheses.
-    fn arguments(&mut self, s: &mut Stream, depth: usize) -> Result<Vec<Vec<Ptok>>, Refusal> {
+    fn arguments(&mut self, s: &mut Stream, depth: usize) -> Result<Vec<Vec<Ptok>>, Box<Refusal>> {
         let mut args = vec![Vec::new()];
         let mut level = 0usize;
         while let Some(t) = self.next_raw(s, depth)? {
@@ -556,9 +556,9 @@ impl<'a> Pre<'a> {
     }
 
     /// An argument expanded on its own, as the preprocessor does before substituting it.
-    fn expand_argument(&mut self, arg: &[Ptok], depth: usize, origin: (u32, u32)) -> Result<Vec<Ptok>, Refusal> {
+    fn expand_argument(&mut self, arg: &[Ptok], depth: usize, origin: (u32, u32)) -> Result<Vec<Ptok>, Box<Refusal>> {
         if depth > MAX_MACRO_ARG_NESTING {
-            return Err(Refusal {
+            return Err(Box::new(Refusal {
                 start: origin.0 as usize,
                 end: origin.1 as usize,
                 message: format!(
@@ -568,7 +568,7 @@ impl<'a> Pre<'a> {
                 label: "this call passes the limit".into(),
                 context: None,
                 note: "use intermediate variables or functions instead of nested macro calls".into(),
-            });
+            }));
         }
         let mut sub = Stream { pending: arg.iter().cloned().collect(), source: false };
         let mut out = Vec::new();

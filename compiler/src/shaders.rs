@@ -157,9 +157,7 @@ fn timed_out(deadline: Duration) -> Vec<GlslError> {
 /// A source that passed the limits: from the cache, from a compile of the same
 /// source already running, or compiled on a new thread.
 fn compile_checked(source: &str, vertex: bool, deadline: Duration) -> CompileResult {
-    if let Err(e) = precheck(source) {
-        return Err(e);
-    }
+    precheck(source)?;
     let key: Key = (vertex, source.to_string());
     let (m, cv) = state();
     let start = Instant::now();
@@ -192,10 +190,8 @@ fn compile_checked(source: &str, vertex: bool, deadline: Duration) -> CompileRes
 
     let (tx, rx) = mpsc::channel();
     let src = key.1.clone();
-    let spawned = std::thread::Builder::new()
-        .name("mdg glslang".into())
-        .stack_size(COMPILE_STACK_BYTES)
-        .spawn(move || {
+    let spawned =
+        std::thread::Builder::new().name("mdg glslang".into()).stack_size(COMPILE_STACK_BYTES).spawn(move || {
             let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| compile_uncached(&src, vertex)))
                 .unwrap_or_else(|_| Err(vec![GlslError::glsl(None, None, "glslang failed on this shader")]));
             let _ = tx.send(result.clone());
@@ -438,7 +434,9 @@ pub fn compile_all(ex: &Expanded, sources: &Sources) -> (Vec<Option<Vec<u32>>>, 
             diags.push(
                 d.with_secondary(sh.name.span, format!("in {stage} shader `{}`", sh.name.text))
                     .with_note(r.note)
-                    .with_note("shader blocks are checked against these limits before glslang compiles them (docs/limits.md)"),
+                    .with_note(
+                        "shader blocks are checked against these limits before glslang compiles them (docs/limits.md)",
+                    ),
             );
             spirv.push(None);
             continue;
@@ -529,13 +527,15 @@ mod tests {
     #[test]
     fn concurrent_compiles_agree_with_serial_ones() {
         let source = |i: usize| {
-            let bad = if i % 3 == 0 { " + nope" } else { "" };
+            let bad = if i.is_multiple_of(3) { " + nope" } else { "" };
             format!("#version 450\nlayout(location = 0) in vec3 p;\nvoid main() {{ float a{i} = {i}.0; gl_Position = vec4(p * a{i}, 1.0){bad}; }}\n")
         };
         let serial: Vec<CompileResult> = (0..12).map(|i| compile_uncached(&source(i), true)).collect();
         let threads: Vec<_> = (0..4)
             .map(|k| {
-                std::thread::spawn(move || (0..12).map(|i| (i, compile_glsl(&source((i + k) % 12), true))).collect::<Vec<_>>())
+                std::thread::spawn(move || {
+                    (0..12).map(|i| (i, compile_glsl(&source((i + k) % 12), true))).collect::<Vec<_>>()
+                })
             })
             .collect();
         for (k, h) in threads.into_iter().enumerate() {
