@@ -57,10 +57,14 @@ fn finish(sources: Sources, expanded: Expanded, opts: CheckOptions) -> Analysis 
     let (spirv, shader_diags) = crate::shaders::compile_all(&expanded, &sources);
     let mut diagnostics: Vec<Diagnostic> =
         expanded.diagnostics.iter().chain(checked.diagnostics.iter()).chain(shader_diags.iter()).cloned().collect();
+    // At most 100 errors and 100 warnings: the first ones found, as a compiler that
+    // stops at an error limit reports them (preprocessing and syntax before checking,
+    // so the cut of a deep nesting is never pushed out by what the checker then says
+    // about the levels before it), then a last note with how many more.
+    let more = crate::diag::limit_report(&mut diagnostics, expanded.suppressed);
     diagnostics.sort_by(|a, b| (a.span.file, a.span.start, a.code).cmp(&(b.span.file, b.span.start, b.code)));
     diagnostics.dedup_by(|a, b| a.span == b.span && a.code == b.code && a.message == b.message);
-    // At most 100 errors and 100 warnings, then a note with how many more.
-    crate::diag::limit_report(&mut diagnostics, expanded.suppressed);
+    diagnostics.extend(more);
     Analysis { sources, expanded, checked, spirv, diagnostics }
 }
 

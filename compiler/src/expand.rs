@@ -93,7 +93,7 @@ pub struct Expanded {
     /// The diagnostics of files and expansions are kept up to
     /// [`MAX_ERRORS`](crate::diag::MAX_ERRORS) in all; the rest are counted in `suppressed`.
     pub diagnostics: Vec<Diagnostic>,
-    pub suppressed: usize,
+    pub suppressed: crate::diag::Suppressed,
 }
 
 impl Expanded {
@@ -672,14 +672,14 @@ impl<'a> Expander<'a> {
     /// parser did not keep: kept while the expansion holds fewer than
     /// [`MAX_ERRORS`](crate::diag::MAX_ERRORS) from parsing, else counted (10,000
     /// expansions of a macro with one bad token would otherwise keep 10,000).
-    fn absorb(&mut self, diags: Vec<Diagnostic>, suppressed: usize) {
+    fn absorb(&mut self, diags: Vec<Diagnostic>, suppressed: crate::diag::Suppressed) {
         self.out.suppressed += suppressed;
         for d in diags {
             if self.parse_diags < crate::diag::MAX_ERRORS {
                 self.parse_diags += 1;
                 self.out.diagnostics.push(d);
             } else {
-                self.out.suppressed += 1;
+                self.out.suppressed.add(d.span);
             }
         }
     }

@@ -343,7 +343,7 @@ pub struct Lexed {
     pub comments: Vec<Comment>,
     /// At most [`MAX_ERRORS`](crate::diag::MAX_ERRORS); the rest are counted in `suppressed`.
     pub diagnostics: Vec<Diagnostic>,
-    pub suppressed: usize,
+    pub suppressed: crate::diag::Suppressed,
 }
 
 /// Lexes `text` (the contents of `file`), starting at byte `base` (for lexing macro
@@ -384,7 +384,7 @@ pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
                 // Merge runs of invalid characters into one diagnostic.
                 if invalid_end == Some(span.start) {
                     invalid_end = Some(span.end);
-                    if let Some(last) = diags.list.last_mut().filter(|_| diags.suppressed == 0) {
+                    if let Some(last) = diags.list.last_mut().filter(|_| diags.suppressed.count == 0) {
                         last.span.end = span.end;
                     }
                     continue;

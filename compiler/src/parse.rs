@@ -6,7 +6,7 @@
 //! always returned.
 
 use crate::ast::*;
-use crate::diag::{Capped, Diagnostic};
+use crate::diag::{Capped, Diagnostic, Suppressed};
 use crate::lexer::{self, Comment, Tok, Token};
 use crate::source::Sources;
 use crate::span::{loc, span_of, FileId, Loc, Span};
@@ -25,7 +25,7 @@ pub struct Parsed {
     pub comments: Vec<Comment>,
     pub diagnostics: Vec<Diagnostic>,
     /// Diagnostics not kept (past [`MAX_ERRORS`](crate::diag::MAX_ERRORS) per stage).
-    pub suppressed: usize,
+    pub suppressed: Suppressed,
 }
 
 /// The grammar's recovered syntax errors, converted as they come and kept up to
@@ -909,7 +909,7 @@ fn run(
     start: Start,
     mut diags: Vec<Diagnostic>,
     budget: usize,
-) -> (Out, Vec<Diagnostic>, usize) {
+) -> (Out, Vec<Diagnostic>, Suppressed) {
     let ctx = Ctx::new(sources, &tokens);
     let tokens = prepass(tokens, sources, &ctx);
     let (tokens, bracket) = balance(tokens, sources);
@@ -973,7 +973,12 @@ pub fn parse_file(sources: &Sources, file: FileId) -> Parsed {
             ),
         )
         .with_note("split the grammar into files joined with `@import`");
-        return Parsed { file: File::default(), comments: Vec::new(), diagnostics: vec![d], suppressed: 0 };
+        return Parsed {
+            file: File::default(),
+            comments: Vec::new(),
+            diagnostics: vec![d],
+            suppressed: Suppressed::default(),
+        };
     }
     let lexed = lexer::lex(text, file);
     let (out, diagnostics, suppressed) = run(lexed.tokens, sources, file, Start::File, lexed.diagnostics, MAX_NESTING);
@@ -997,7 +1002,7 @@ pub fn parse_items_within(
     file: FileId,
     tokens: Vec<Token>,
     budget: usize,
-) -> (Vec<Item>, Vec<Diagnostic>, usize) {
+) -> (Vec<Item>, Vec<Diagnostic>, Suppressed) {
     match run(tokens, sources, file, Start::Items, vec![], budget) {
         (Out::Items(v), d, n) => (v, d, n),
         (_, d, n) => (vec![], d, n),
@@ -1017,7 +1022,7 @@ pub fn parse_body_items_within(
     file: FileId,
     tokens: Vec<Token>,
     budget: usize,
-) -> (Vec<BodyItem>, Vec<Diagnostic>, usize) {
+) -> (Vec<BodyItem>, Vec<Diagnostic>, Suppressed) {
     match run(tokens, sources, file, Start::BodyItems, vec![], budget) {
         (Out::Body(v), d, n) => (v, d, n),
         (_, d, n) => (vec![], d, n),

@@ -683,6 +683,30 @@ mod tests {
         assert_eq!(check("#version 450\n#define A 1\n#if defined(A) && defined A\n#endif\nvoid main() {}\n"), Ok(()));
     }
 
+    /// Random text built from the preprocessor's pieces: never a panic, and a
+    /// refusal's range always lies inside the text on character boundaries.
+    #[test]
+    fn random_text_never_panics() {
+        const PIECES: &[&str] = &[
+            "#define ", "#undef ", "#if ", "#elif ", "defined", "\n", "\\\n", "\\", "/*", "*/", "//", "(", ")", ",",
+            "A", "B", "F", "G", "x", "+", "##", "#", ";", "{", "}", " ", "1.5e+3", ".", "é", "\r\n", "F(", "A A",
+        ];
+        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+        for _ in 0..3000 {
+            let mut text = String::new();
+            for _ in 0..(state % 60) {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                text.push_str(PIECES[(state % PIECES.len() as u64) as usize]);
+            }
+            if let Err(r) = check(&text) {
+                assert!(r.start <= r.end && r.end <= text.len(), "{text:?}: {r:?}");
+                assert!(text.is_char_boundary(r.start) && text.is_char_boundary(r.end), "{text:?}: {r:?}");
+            }
+        }
+    }
+
     #[test]
     fn size_limit_points_at_the_line_that_passes_it() {
         let line = "float v = 1.0;\n";

@@ -176,9 +176,8 @@ fn compile_checked(source: &str, vertex: bool, deadline: Duration) -> CompileRes
                 return Err(timed_out(deadline));
             }
             return Err(vec![GlslError::limit(format!(
-                "shader not compiled: glslang is busy with {} compilations (the most at once), which ran past \
-                 the {} limit",
-                st.threads,
+                "shader not compiled: all {MAX_COMPILE_THREADS} glslang threads stayed busy for {} (a compilation \
+                 past its deadline keeps its thread until it ends)",
                 seconds(deadline)
             ))]);
         }
@@ -217,6 +216,10 @@ fn compile_checked(source: &str, vertex: bool, deadline: Duration) -> CompileRes
     match rx.recv_timeout(deadline) {
         Ok(r) => r,
         Err(_) => {
+            // Finished just now after all?
+            if let Ok(r) = rx.try_recv() {
+                return r;
+            }
             // Abandoned: the thread finishes on its own and stores its result.
             let r = Err(timed_out(deadline));
             let mut st = lock(m);
@@ -513,9 +516,16 @@ mod tests {
     #[test]
     fn a_compile_past_its_deadline_is_abandoned_not_waited_for() {
         let src = "#version 450\nvoid main() { gl_Position = vec4(0.125, 0.25, 0.5, 1.0); }\n// deadline test\n";
-        let t = Instant::now();
-        let errs = compile_glsl_within(src, true, Duration::ZERO).expect_err("no time at all");
-        assert!(t.elapsed() < Duration::from_secs(1), "{:?}", t.elapsed());
+        let errs = loop {
+            let t = Instant::now();
+            let errs = compile_glsl_within(src, true, Duration::ZERO).expect_err("no time at all");
+            assert!(t.elapsed() < Duration::from_secs(1), "{:?}", t.elapsed());
+            // Other tests may hold every compile thread for a moment.
+            if !errs[0].message.starts_with("shader not compiled: all") {
+                break errs;
+            }
+            wait_for_compiles(Duration::from_secs(60));
+        };
         assert!(errs[0].limit && errs[0].message.starts_with("shader compilation took longer than 0 ms"), "{errs:?}");
         // Other sources compile meanwhile: nothing is locked by the abandoned one.
         compile_glsl("#version 450\nvoid main() { gl_Position = vec4(1.0); }\n// other\n", true).expect("compiles");
