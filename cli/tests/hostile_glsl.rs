@@ -22,8 +22,13 @@ fn scratch(name: &str) -> PathBuf {
 /// `mdgc ARGS` in `dir` under the memory bound and a 60 s timeout; the output and
 /// the wall time.
 fn mdgc(dir: &Path, args: &[&str]) -> (Output, Duration) {
+    mdgc_env(dir, args, &[])
+}
+
+fn mdgc_env(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> (Output, Duration) {
     let t0 = Instant::now();
     let out = Command::new("sh")
+        .envs(env.iter().copied())
         .arg("-c")
         .arg(format!("ulimit -v {VMEM_KIB}; exec timeout 60 \"$0\" \"$@\""))
         .arg(env!("CARGO_BIN_EXE_mdgc"))
@@ -108,6 +113,22 @@ fn hostile_shaders_get_e0502_quickly() {
     std::fs::write(dir.join("bad.mdg"), with_shader("void main() { gl_Position = vec4(nope); }")).expect("write");
     let (o, _) = mdgc(&dir, &["check", "bad.mdg"]);
     assert!(String::from_utf8_lossy(&o.stderr).contains("error[E0501]: GLSL: 'nope'"), "{o:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Behind the text limits, the deadline: with them turned off (a test hook), the
+/// 16-million-statement shader runs glslang into the 5 s limit; `mdgc` reports it
+/// and exits although glslang is still running.
+#[test]
+fn a_compile_past_the_deadline_is_abandoned_and_mdgc_exits() {
+    let dir = scratch("deadline");
+    let (_, source, _) = hostile_shaders().pop().expect("the doubled statements");
+    std::fs::write(dir.join("slow.mdg"), &source).expect("write");
+    let (o, took) = mdgc_env(&dir, &["check", "slow.mdg"], &[("MDG_TEST_NO_SHADER_LIMITS", "1")]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "status {:?} after {took:?}: {e}", o.status);
+    assert!(e.contains("error[E0502]: shader compilation took longer than 5 s (the limit for one shader)"), "{e}");
+    assert!(took >= Duration::from_secs(5) && took < Duration::from_secs(30), "took {took:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -148,8 +148,8 @@ fn seconds(d: Duration) -> String {
 
 fn timed_out(deadline: Duration) -> Vec<GlslError> {
     vec![GlslError::limit(format!(
-        "shader compilation took longer than {} (the limit for one shader); glslang goes on in the background \
-         and its result is used when it ends",
+        "shader compilation took longer than {} (the limit for one shader); glslang was left to finish in the \
+         background",
         seconds(deadline)
     ))]
 }

@@ -118,6 +118,45 @@ fn hostile_shaders_get_e0502_and_the_server_exits() {
     assert!(t.elapsed() < std::time::Duration::from_secs(10), "exit took {:?}", t.elapsed());
 }
 
+/// Behind the text limits, the deadline (the limits turned off by a test hook): the
+/// 16-million-statement shader runs glslang past 5 s. Meanwhile another document
+/// is served; then the document gets its E0502, a new shader compiles although the
+/// abandoned compile still runs, and the server exits.
+#[test]
+fn a_compile_past_the_deadline_does_not_block_the_server() {
+    let dir = scratch("hostile-deadline");
+    let u = uri(&dir.join("slow.mdg"));
+    let other = uri(&dir.join("other.mdg"));
+    let mut c = Client::spawn_with(&[("MDG_TEST_NO_SHADER_LIMITS", "1")]);
+    c.initialize(&dir);
+    c.open(&other, 1, "startshape B\nrule B { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n");
+    assert!(c.diagnostics(&other, 1).is_empty());
+    let mut statements = String::from("#define S0 x = x * 0.5 + sin(x) * cos(x) - 1.0;\n");
+    for i in 1..24 {
+        statements.push_str(&format!("#define S{i} S{} S{}\n", i - 1, i - 1));
+    }
+    statements.push_str("void main() { float x = 1.0; S23 gl_Position = vec4(x); }");
+    let t = std::time::Instant::now();
+    c.open(&u, 1, &with_shader(&statements));
+    // While the shader compiles, the other document answers at once.
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let asked = std::time::Instant::now();
+    let h =
+        c.call("textDocument/hover", json!({"textDocument": {"uri": other}, "position": {"line": 1, "character": 10}}));
+    assert!(h["contents"]["value"].as_str().unwrap_or("").contains("VERTEX"), "{h}");
+    assert!(asked.elapsed() < std::time::Duration::from_secs(2), "hover took {:?}", asked.elapsed());
+    let d = c.diagnostics(&u, 1);
+    assert_eq!(codes(&d), ["E0502"], "{d:?}");
+    assert!(d[0]["message"].as_str().unwrap_or("").starts_with("shader compilation took longer than 5 s"), "{d:?}");
+    assert!(t.elapsed() < std::time::Duration::from_secs(15), "took {:?}", t.elapsed());
+    // The abandoned compile holds nothing: another shader compiles now.
+    c.change(&u, 2, &with_shader("void main() { gl_Position = vec4(2.0); }"));
+    assert!(c.diagnostics(&u, 2).is_empty());
+    let t = std::time::Instant::now();
+    assert!(c.shutdown_and_exit().success());
+    assert!(t.elapsed() < std::time::Duration::from_secs(15), "exit took {:?}", t.elapsed());
+}
+
 /// A junk document: at most 100 errors, then one note with how many more.
 #[test]
 fn a_junk_document_gets_a_bounded_number_of_diagnostics() {
