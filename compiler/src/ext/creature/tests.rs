@@ -1,3 +1,5 @@
+//! Tests of the creature section: parts, shapes, rules, conditions and evolution.
+
 use super::*;
 use crate::check::CheckOptions;
 use crate::source::MemLoader;
