@@ -15,8 +15,29 @@ use serde::Serialize;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Severity {
+    /// Information about the other diagnostics (N0001: how many were not shown).
+    Note,
     Warning,
     Error,
+}
+
+impl Severity {
+    /// `error`, `warning` or `note`, as the diagnostics print it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Severity::Note => "note",
+            Severity::Warning => "warning",
+            Severity::Error => "error",
+        }
+    }
+    /// The letter of its codes: `E`, `W`, `N`.
+    pub fn letter(self) -> u8 {
+        match self {
+            Severity::Note => b'N',
+            Severity::Warning => b'W',
+            Severity::Error => b'E',
+        }
+    }
 }
 
 /// One diagnostic code.
@@ -86,7 +107,7 @@ creature beasts {
 }
 
 use Example::{Library, Program};
-use Severity::{Error, Warning};
+use Severity::{Error, Note, Warning};
 
 /// Every code, sorted.
 pub static CODES: &[Code] = &[
@@ -1185,6 +1206,44 @@ rule A {
         ),
     },
     Code {
+        code: "E0502",
+        severity: Error,
+        title: "shader block exceeds a limit of the shader compiler",
+        explanation: r#"A `@vertexshader` / `@fragmentshader` block is too large or too complex to give to glslang, or glslang took too long on it. Before compiling, every block is checked against fixed limits (see `docs/limits.md`): at most 256 KiB of text, at most 262,144 tokens after its `#define`s are expanded, at most 2,048 operators in one statement after expansion, and macro calls nested at most 64 deep in macro arguments. A block within them is compiled with a deadline of 5 s. Without these limits a few hundred bytes of GLSL could overflow the compiler's stack or make it run for ever.
+
+In the example: each `#define` uses the one before twice, so 12 levels make `L` 4,096 copies of `x` joined by 4,095 `+`: one statement with more than 2,048 operators.
+
+Fix: Write long expressions as several statements with intermediate variables (or a loop), and use functions instead of macros that repeat their arguments."#,
+        example: Library(
+            r#"startshape A
+
+@vertexshader doubling_vs
+#version 450
+#define A x+x
+#define B A+A
+#define C B+B
+#define D C+C
+#define E D+D
+#define F E+E
+#define G F+F
+#define H G+G
+#define I H+H
+#define J I+I
+#define K J+J
+#define L K+K
+void main() {
+    float x = 1.0;
+    gl_Position = vec4(L);
+}
+@endshader
+
+rule A {
+  VERTEX {} VERTEX {x 1} VERTEX {y 1}
+}
+"#,
+        ),
+    },
+    Code {
         code: "E0601",
         severity: Error,
         title: "unknown key",
@@ -2073,6 +2132,24 @@ Fix: Write one shape of the cycle in full (`size` and `blocks`)."#,
         ),
     },
     Code {
+        code: "N0001",
+        severity: Note,
+        title: "more diagnostics than are reported",
+        explanation: r#"An analysis reports at most 100 errors and 100 warnings, in the order of the source, like compilers that stop after an error limit. This note comes last and says how many more there were. The limit also bounds memory: the lexer, the parser and the preprocessor stop keeping diagnostics after 100 each, so a file of junk costs no more than a file with 100 errors.
+
+In the example: 150 invalid characters, one per line, are 150 errors; the first 100 are shown.
+
+Fix: Fix the first errors and check again: later errors are often consequences of earlier ones."#,
+        example: Library(concat!(
+            "% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n",
+            "% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n",
+            "% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n",
+            "% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n",
+            "% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n",
+            "% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n% \n",
+        )),
+    },
+    Code {
         code: "W0001",
         severity: Warning,
         title: "rule is never used",
@@ -2364,10 +2441,7 @@ pub fn lookup(code: &str) -> Option<&'static Code> {
 
 /// The text `mdgc explain CODE` prints: the title, the explanation and the example.
 pub fn explain(code: &Code) -> String {
-    let sev = match code.severity {
-        Error => "error",
-        Warning => "warning",
-    };
+    let sev = code.severity.name();
     let mut s = format!("{} ({sev}): {}\n\n{}\n\nExample", code.code, code.title, code.explanation);
     if code.example.is_program() {
         s.push_str(" (checked as a program)");
@@ -2384,7 +2458,8 @@ pub fn explain(code: &Code) -> String {
 /// The introduction of `docs/diagnostics.md`.
 const DOC_INTRO: &str = "# Diagnostic codes
 
-Every diagnostic the compiler emits has a code. Errors are `E`, warnings `W`.
+Every diagnostic the compiler emits has a code. Errors are `E`, warnings `W`,
+notes `N`.
 Each code has a test in `tests/check/err/` (or `tests/parse/err/`) that shows its
 rendered text. `mdgc explain CODE` prints a code's entry below.
 
@@ -2398,7 +2473,7 @@ pub fn markdown() -> String {
     let mut s = String::from(DOC_INTRO);
     s.push_str("\n| code | severity | meaning |\n|---|---|---|\n");
     for c in CODES {
-        let sev = if c.severity == Error { "error" } else { "warning" };
+        let sev = c.severity.name();
         s.push_str(&format!("| [{0}](#{1}) | {sev} | {2} |\n", c.code, c.code.to_ascii_lowercase(), c.title));
     }
     for c in CODES {
@@ -2432,7 +2507,7 @@ mod tests {
         for c in CODES {
             let b = c.code.as_bytes();
             assert!(b.len() == 5 && b[1..].iter().all(u8::is_ascii_digit), "{}: not a code", c.code);
-            let letter = if c.severity == Error { b'E' } else { b'W' };
+            let letter = c.severity.letter();
             assert_eq!(b[0], letter, "{}: the letter does not match the severity", c.code);
             assert!(!c.title.is_empty() && !c.title.contains('\n') && !c.title.ends_with('.'), "{}: title", c.code);
             assert!(c.explanation.len() > c.title.len() && c.explanation.contains("Fix:"), "{}: explanation", c.code);
@@ -2445,7 +2520,7 @@ mod tests {
     /// Every example, checked as `project/example.mdg` on disk (beside `project/`
     /// lies `outside.mdg`, for E0202; in `project/chain/` a chain of files each
     /// importing the next, one longer than `MAX_IMPORT_DEPTH`, for E0212), produces
-    /// its code and no other error.
+    /// its code and no other error (a note's example is all about other errors).
     #[test]
     fn every_example_triggers_its_code() {
         let scratch = std::env::temp_dir().join(format!("mdg-codes-{}", std::process::id()));
@@ -2469,7 +2544,7 @@ mod tests {
             std::fs::write(&path, text).expect("write example.mdg");
             let a = analyze_text(&FsLoader, &path, text, &opts, CheckOptions { require_start: c.example.is_program() });
             let got: Vec<&str> = a.diagnostics.iter().map(|d| d.code).collect();
-            let others = a.diagnostics.iter().any(|d| d.is_error() && d.code != c.code);
+            let others = c.severity != Note && a.diagnostics.iter().any(|d| d.is_error() && d.code != c.code);
             if !got.contains(&c.code) || others {
                 failures.push(format!("{}: the example gives {got:?}", c.code));
             }
@@ -2515,7 +2590,11 @@ mod tests {
         let mut v = Vec::new();
         for i in 0..b.len().saturating_sub(6) {
             let w = &b[i..i + 7];
-            if w[0] == b'"' && w[6] == b'"' && matches!(w[1], b'E' | b'W') && w[2..6].iter().all(u8::is_ascii_digit) {
+            if w[0] == b'"'
+                && w[6] == b'"'
+                && matches!(w[1], b'E' | b'W' | b'N')
+                && w[2..6].iter().all(u8::is_ascii_digit)
+            {
                 v.push(&text[i + 1..i + 6]);
             }
         }

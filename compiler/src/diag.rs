@@ -56,6 +56,12 @@ impl Diagnostic {
         Diagnostic::new(Severity::Warning, code, span, message.into())
     }
 
+    /// A note (information about the other diagnostics) with a code registered as a
+    /// note.
+    pub fn note(code: &'static str, span: Span, message: impl Into<String>) -> Diagnostic {
+        Diagnostic::new(Severity::Note, code, span, message.into())
+    }
+
     fn new(severity: Severity, code: &'static str, span: Span, message: String) -> Diagnostic {
         debug_assert!(
             crate::codes::lookup(code).is_some_and(|c| c.code == code && c.severity == severity),
@@ -108,6 +114,124 @@ impl Diagnostic {
     }
 }
 
+/// Most errors an analysis reports (see [`limit_report`]); also the most
+/// diagnostics the lexer, the parser and the preprocessor keep for one file or
+/// expansion ([`Capped`]), so junk input costs bounded memory.
+pub const MAX_ERRORS: usize = 100;
+/// Most warnings an analysis reports.
+pub const MAX_WARNINGS: usize = 100;
+
+/// Diagnostics left out by a [`Capped`] list: how many, and the earliest place of one.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Suppressed {
+    pub count: usize,
+    pub first: Option<Span>,
+}
+
+impl Suppressed {
+    /// Counts one left out at `span`.
+    pub fn add(&mut self, span: Span) {
+        *self += Suppressed { count: 1, first: Some(span) };
+    }
+}
+
+impl std::ops::AddAssign for Suppressed {
+    fn add_assign(&mut self, o: Suppressed) {
+        self.count += o.count;
+        self.first = match (self.first, o.first) {
+            (Some(a), Some(b)) => Some(if (b.file, b.start) < (a.file, a.start) { b } else { a }),
+            (a, b) => a.or(b),
+        };
+    }
+}
+
+impl std::ops::Add for Suppressed {
+    type Output = Suppressed;
+    fn add(mut self, o: Suppressed) -> Suppressed {
+        self += o;
+        self
+    }
+}
+
+/// A list of diagnostics that keeps the first [`MAX_ERRORS`] and counts the rest.
+#[derive(Debug, Default)]
+pub struct Capped {
+    pub list: Vec<Diagnostic>,
+    /// Diagnostics not kept.
+    pub suppressed: Suppressed,
+}
+
+impl Capped {
+    /// Keeps `d` if there is room, else counts it.
+    pub fn push(&mut self, d: Diagnostic) {
+        if self.list.len() < MAX_ERRORS {
+            self.list.push(d);
+        } else {
+            self.suppressed.add(d.span);
+        }
+    }
+
+    /// Whether another diagnostic would be kept.
+    pub fn has_room(&self) -> bool {
+        self.list.len() < MAX_ERRORS
+    }
+}
+
+/// Limits a list of diagnostics to its first [`MAX_ERRORS`] errors and
+/// [`MAX_WARNINGS`] warnings, and returns the note (N0001) to show last, saying how
+/// many more there were: those dropped here and `suppressed` (dropped earlier, by
+/// a [`Capped`] list). The order of `diags` decides which are kept.
+pub fn limit_report(diags: &mut Vec<Diagnostic>, suppressed: Suppressed) -> Option<Diagnostic> {
+    let (mut errors, mut warnings) = (0usize, 0usize);
+    let (mut more_errors, mut more_warnings) = (suppressed.count, 0usize);
+    let mut first_dropped: Option<Span> = None;
+    let mut last_kept = None;
+    diags.retain(|d| {
+        let keep = match d.severity {
+            Severity::Error => {
+                errors += 1;
+                errors <= MAX_ERRORS || {
+                    more_errors += 1;
+                    false
+                }
+            }
+            Severity::Warning => {
+                warnings += 1;
+                warnings <= MAX_WARNINGS || {
+                    more_warnings += 1;
+                    false
+                }
+            }
+            Severity::Note => true,
+        };
+        if keep {
+            last_kept = Some(d.span);
+        } else if first_dropped.is_none_or(|f| (d.span.file, d.span.start) < (f.file, f.start)) {
+            first_dropped = Some(d.span);
+        }
+        keep
+    });
+    if more_errors + more_warnings == 0 {
+        return None;
+    }
+    let plural = |n: usize, what: &str| format!("{n} more {what}{}", if n == 1 { "" } else { "s" });
+    let what = match (more_errors, more_warnings) {
+        (e, 0) => plural(e, "error"),
+        (0, w) => plural(w, "warning"),
+        (e, w) => format!("{} and {}", plural(e, "error"), plural(w, "warning")),
+    };
+    let first_dropped = (Suppressed { count: 0, first: first_dropped } + suppressed).first;
+    let span = first_dropped.or(last_kept).unwrap_or_default();
+    Some(
+        Diagnostic::note("N0001", span, format!("{what} not shown"))
+            .with_label(if first_dropped.is_some() { "the first one not shown is here" } else { "" })
+            .with_note(format!(
+                "at most {MAX_ERRORS} errors and {MAX_WARNINGS} warnings are reported; fix the first ones and \
+                 check again (later errors are often their consequences)"
+            )),
+    )
+}
+
 /// Adapter so codespan-reporting can read our [`Sources`].
 struct CsFiles<'a>(&'a Sources);
 
@@ -148,6 +272,7 @@ fn to_codespan(d: &Diagnostic, sources: &Sources) -> cs::Diagnostic<u32> {
     let sev = match d.severity {
         Severity::Error => cs::Severity::Error,
         Severity::Warning => cs::Severity::Warning,
+        Severity::Note => cs::Severity::Note,
     };
     let (f, r) = clamp(d.span);
     let mut labels = vec![cs::Label::primary(f, r).with_message(d.label.clone())];

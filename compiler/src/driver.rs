@@ -19,7 +19,8 @@ pub struct Analysis {
     /// SPIR-V of each shader block, index-aligned with `expanded.shaders` (`None`
     /// where GLSL errors were reported); see [`crate::shaders`].
     pub spirv: Vec<Option<Vec<u32>>>,
-    /// All diagnostics, sorted by file and position, duplicates removed.
+    /// All diagnostics, sorted by file and position, duplicates removed, at most
+    /// 100 errors and 100 warnings (then an N0001 note saying how many more).
     pub diagnostics: Vec<Diagnostic>,
 }
 
@@ -60,8 +61,14 @@ fn finish(sources: Sources, expanded: Expanded, opts: CheckOptions) -> Analysis 
     let checked_diags = checked.diagnostics.iter().filter(|d| !(unread && d.code == "E0306"));
     let mut diagnostics: Vec<Diagnostic> =
         expanded.diagnostics.iter().chain(checked_diags).chain(shader_diags.iter()).cloned().collect();
+    // At most 100 errors and 100 warnings: the first ones found, as a compiler that
+    // stops at an error limit reports them (preprocessing and syntax before checking,
+    // so the cut of a deep nesting is never pushed out by what the checker then says
+    // about the levels before it), then a last note with how many more.
+    let more = crate::diag::limit_report(&mut diagnostics, expanded.suppressed);
     diagnostics.sort_by(|a, b| (a.span.file, a.span.start, a.code).cmp(&(b.span.file, b.span.start, b.code)));
     diagnostics.dedup_by(|a, b| a.span == b.span && a.code == b.code && a.message == b.message);
+    diagnostics.extend(more);
     Analysis { sources, expanded, checked, spirv, diagnostics }
 }
 

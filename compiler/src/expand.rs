@@ -90,7 +90,10 @@ pub struct Expanded {
     pub files: Vec<FileId>,
     /// The parsed main file (for the formatter and the language server).
     pub main_ast: File,
+    /// The diagnostics of files and expansions are kept up to
+    /// [`MAX_ERRORS`](crate::diag::MAX_ERRORS) in all; the rest are counted in `suppressed`.
     pub diagnostics: Vec<Diagnostic>,
+    pub suppressed: crate::diag::Suppressed,
 }
 
 impl Expanded {
@@ -150,6 +153,8 @@ struct Expander<'a> {
     /// Set after the first E0208: a recursive macro can branch, so once one is found no
     /// further expansion happens (otherwise the cost is exponential in the depth limit).
     expansion_stopped: bool,
+    /// Diagnostics kept from parsing files and expansions (see [`Expander::absorb`]).
+    parse_diags: usize,
 }
 
 /// Loads `path` as the main file and expands it.
@@ -192,6 +197,7 @@ pub fn expand_file(sources: &mut Sources, loader: &dyn FileLoader, main: FileId,
         n_expansions: 0,
         n_tokens: 0,
         expansion_stopped: false,
+        parse_diags: 0,
     };
     for d in &opts.defines {
         ex.out.defines.insert(d.clone(), None);
@@ -201,7 +207,7 @@ pub fn expand_file(sources: &mut Sources, loader: &dyn FileLoader, main: FileId,
         ex.import_stack.push(c);
     }
     let parsed = parse::parse_file(ex.sources, main);
-    ex.out.diagnostics.extend(parsed.diagnostics);
+    ex.absorb(parsed.diagnostics, parsed.suppressed);
     ex.out.files.push(main);
     // Parameters and defines are collected first so `@ifdef` can see them anywhere.
     ex.collect_constants(&parsed.file.items);
@@ -349,8 +355,8 @@ impl<'a> Expander<'a> {
                 if let Some(tokens) = self.expand_tokens(&name, &args, span) {
                     let file = name.span.file;
                     let budget = parse::MAX_NESTING.saturating_sub(self.nest);
-                    let (items, diags) = parse::parse_items_within(self.sources, file, tokens, budget);
-                    self.out.diagnostics.extend(diags);
+                    let (items, diags, suppressed) = parse::parse_items_within(self.sources, file, tokens, budget);
+                    self.absorb(diags, suppressed);
                     self.depth += 1;
                     self.collect_constants(&items);
                     self.top_items(items, ns.clone());
@@ -396,8 +402,9 @@ impl<'a> Expander<'a> {
             Pre::Expand { name, args } => {
                 if let Some(tokens) = self.expand_tokens(&name, &args, item.span) {
                     let budget = parse::MAX_NESTING.saturating_sub(self.nest);
-                    let (items, diags) = parse::parse_body_items_within(self.sources, name.span.file, tokens, budget);
-                    self.out.diagnostics.extend(diags);
+                    let (items, diags, suppressed) =
+                        parse::parse_body_items_within(self.sources, name.span.file, tokens, budget);
+                    self.absorb(diags, suppressed);
                     self.depth += 1;
                     let mut expanded = self.body(items);
                     self.depth -= 1;
@@ -654,11 +661,27 @@ impl<'a> Expander<'a> {
         let id = self.sources.add(canon.clone(), display, text);
         self.out.files.push(id);
         let parsed = parse::parse_file(self.sources, id);
-        self.out.diagnostics.extend(parsed.diagnostics);
+        self.absorb(parsed.diagnostics, parsed.suppressed);
         self.import_stack.push(canon);
         self.collect_constants(&parsed.file.items);
         self.top_items(parsed.file.items, None);
         self.import_stack.pop();
+    }
+
+    /// Takes the diagnostics of a parsed file or expansion, and the count of those its
+    /// parser did not keep: kept while the expansion holds fewer than
+    /// [`MAX_ERRORS`](crate::diag::MAX_ERRORS) from parsing, else counted (10,000
+    /// expansions of a macro with one bad token would otherwise keep 10,000).
+    fn absorb(&mut self, diags: Vec<Diagnostic>, suppressed: crate::diag::Suppressed) {
+        self.out.suppressed += suppressed;
+        for d in diags {
+            if self.parse_diags < crate::diag::MAX_ERRORS {
+                self.parse_diags += 1;
+                self.out.diagnostics.push(d);
+            } else {
+                self.out.suppressed.add(d.span);
+            }
+        }
     }
 
     /// Adds "in this expansion" labels to diagnostics inside macro bodies.

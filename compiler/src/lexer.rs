@@ -341,13 +341,18 @@ pub struct Comment {
 pub struct Lexed {
     pub tokens: Vec<Token>,
     pub comments: Vec<Comment>,
+    /// At most [`MAX_ERRORS`](crate::diag::MAX_ERRORS); the rest are counted in `suppressed`.
     pub diagnostics: Vec<Diagnostic>,
+    pub suppressed: crate::diag::Suppressed,
 }
 
 /// Lexes `text` (the contents of `file`), starting at byte `base` (for lexing macro
 /// arguments in place).
 pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
     let mut out = Lexed::default();
+    let mut diags = crate::diag::Capped::default();
+    // The end of the last run of invalid characters (one diagnostic per run).
+    let mut invalid_end: Option<u32> = None;
     let mut lexer = Tok::lexer(text);
     while let Some(res) = lexer.next() {
         let r = lexer.span();
@@ -375,7 +380,7 @@ pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
             }
             Ok(Tok::Number) => {
                 if !parse_number(&text[r.clone()]).0.is_finite() {
-                    out.diagnostics.push(
+                    diags.push(
                         Diagnostic::error("E0109", span, format!("number `{}` is too large", &text[r.clone()]))
                             .with_label("beyond the largest number, about 1.8e308")
                             .with_note("numbers are 64-bit floats; write a smaller value"),
@@ -387,20 +392,22 @@ pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
             Err(LexError::InvalidChar) => {
                 let ch = text[r.clone()].chars().next().unwrap_or('?');
                 // Merge runs of invalid characters into one diagnostic.
-                if let Some(last) = out.diagnostics.last_mut() {
-                    if last.code == "E0103" && last.span.end == span.start {
+                if invalid_end == Some(span.start) {
+                    invalid_end = Some(span.end);
+                    if let Some(last) = diags.list.last_mut().filter(|_| diags.suppressed.count == 0) {
                         last.span.end = span.end;
-                        continue;
                     }
+                    continue;
                 }
-                out.diagnostics.push(
+                invalid_end = Some(span.end);
+                diags.push(
                     Diagnostic::error("E0103", span, format!("invalid character `{}`", ch.escape_debug()))
                         .with_label("not part of the language"),
                 );
             }
             Err(LexError::UnterminatedComment) => {
                 let s = Span::new(file, span.start, span.start + 2);
-                out.diagnostics.push(
+                diags.push(
                     Diagnostic::error("E0102", s, "unterminated block comment")
                         .with_label("this comment is never closed")
                         .with_note("add `*/` where the comment should end"),
@@ -410,13 +417,15 @@ pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
             Err(LexError::UnterminatedShader) => {
                 let head_len = text[r.clone()].find(char::is_whitespace).unwrap_or(r.len());
                 let s = Span::new(file, span.start, span.start + head_len as u32);
-                out.diagnostics.push(
+                diags.push(
                     Diagnostic::error("E0206", s, "unterminated shader block")
                         .with_label("this shader block has no `@endshader`"),
                 );
             }
         }
     }
+    out.diagnostics = diags.list;
+    out.suppressed = diags.suppressed;
     out
 }
 

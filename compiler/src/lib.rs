@@ -21,6 +21,7 @@ pub mod induce;
 pub mod lexer;
 pub mod lower;
 pub mod parse;
+pub mod shader_limits;
 pub mod shaders;
 pub mod source;
 pub mod span;

@@ -6,7 +6,7 @@
 //! always returned.
 
 use crate::ast::*;
-use crate::diag::Diagnostic;
+use crate::diag::{Capped, Diagnostic, Suppressed};
 use crate::lexer::{self, Comment, Tok, Token};
 use crate::source::Sources;
 use crate::span::{loc, span_of, FileId, Loc, Span};
@@ -24,6 +24,60 @@ pub struct Parsed {
     pub file: File,
     pub comments: Vec<Comment>,
     pub diagnostics: Vec<Diagnostic>,
+    /// Diagnostics not kept (past [`MAX_ERRORS`](crate::diag::MAX_ERRORS) per stage).
+    pub suppressed: Suppressed,
+}
+
+/// The grammar's recovered syntax errors, converted as they come and kept up to
+/// [`MAX_ERRORS`](crate::diag::MAX_ERRORS): LALRPOP's own record of an error (the
+/// expected tokens, the dropped ones) is about 2 KB, so junk input kept them all
+/// used to cost gigabytes.
+pub struct Recovered<'r> {
+    sources: &'r Sources,
+    eof: Span,
+    /// An unclosed bracket explains an end-of-file error.
+    unclosed: bool,
+    /// Syntax errors after a nesting cut come from the cut itself.
+    cut: Option<Span>,
+    /// (file, line) of each repaired bracket: it explains an error on its line.
+    bracket_lines: Vec<(FileId, u32)>,
+    /// The line of the last error taken (kept or counted): another on it is a cascade.
+    last_line: Option<(FileId, u32)>,
+    syntax: Capped,
+}
+
+impl Recovered<'_> {
+    /// Takes one recovered error (called by the grammar's `!` actions).
+    pub fn push(&mut self, e: ErrorRecovery<Loc, Tok, ()>) {
+        let d = convert_error(e.error, self.sources, self.eof);
+        self.take(d);
+    }
+
+    fn line(&self, s: Span) -> Option<(FileId, u32)> {
+        self.sources.files.get(s.file.0 as usize).map(|f| (s.file, f.line_col(s.start).0))
+    }
+
+    fn take(&mut self, d: Option<Diagnostic>) {
+        let Some(d) = d else { return };
+        // One mistake, one error: an unclosed bracket explains any end-of-file error,
+        // and a second error on the same line as the previous one is a cascade.
+        if d.code == "E0104" && self.unclosed {
+            return;
+        }
+        if self.cut.is_some_and(|c| d.span.file == c.file && d.span.start >= c.start) {
+            return;
+        }
+        let line = self.line(d.span);
+        if line.is_some() && line == self.last_line {
+            return;
+        }
+        // A repaired bracket explains an error on its own line.
+        if line.is_some_and(|l| self.bracket_lines.contains(&l)) {
+            return;
+        }
+        self.last_line = line;
+        self.syntax.push(d);
+    }
 }
 
 /// What the grammar's actions read text and side tables through.
@@ -31,7 +85,7 @@ pub struct Ctx<'c> {
     sources: &'c Sources,
     macros: RefCell<HashMap<Loc, MacroDef>>,
     expands: RefCell<HashMap<Loc, (Name, Vec<MacroArg>)>>,
-    diags: RefCell<Vec<Diagnostic>>,
+    diags: RefCell<Capped>,
     /// The adjustment names in force, with the colour and weight components the
     /// file renames (`color red green blue alpha`), for grouping adjustment lists.
     components: crate::adjust::Components,
@@ -608,9 +662,9 @@ fn repairs_after(tokens: &[Token], stack: &[Tok]) -> usize {
 /// indented more than the line that opened a still-open rule body, ends that body (a
 /// forgotten `}`), and brackets still open at the end of input are closed there; each
 /// is one E0104. Closers with no opener at all are left to the parser.
-fn balance(tokens: Vec<Token>, sources: &Sources) -> (Vec<Token>, Vec<Diagnostic>) {
+fn balance(tokens: Vec<Token>, sources: &Sources) -> (Vec<Token>, Capped) {
     let mut out: Vec<Token> = Vec::with_capacity(tokens.len());
-    let mut diags = Vec::new();
+    let mut diags = Capped::default();
     let mut stack: Vec<Open> = Vec::new();
     let mut top_rule = false;
     let mut lookaheads = 0usize;
@@ -855,11 +909,11 @@ fn run(
     start: Start,
     mut diags: Vec<Diagnostic>,
     budget: usize,
-) -> (Out, Vec<Diagnostic>) {
+) -> (Out, Vec<Diagnostic>, Suppressed) {
     let ctx = Ctx::new(sources, &tokens);
     let tokens = prepass(tokens, sources, &ctx);
     let (tokens, bracket) = balance(tokens, sources);
-    let unclosed = bracket.iter().any(|d| d.code == "E0104");
+    let unclosed = bracket.list.iter().any(|d| d.code == "E0104");
     let (tokens, cut) = limit_nesting(tokens, budget, &mut diags);
     let eof = match tokens.last() {
         Some(t) => Span::new(t.span.file, t.span.end, t.span.end),
@@ -869,45 +923,28 @@ fn run(
         }
     };
     let stream = tokens.iter().map(|t| Ok((loc(t.span.file, t.span.start), t.kind, loc(t.span.file, t.span.end))));
-    let mut errors: Vec<ErrorRecovery<Loc, Tok, ()>> = Vec::new();
+    let mut errors = Recovered {
+        sources,
+        eof,
+        unclosed,
+        cut,
+        bracket_lines: Vec::new(),
+        last_line: None,
+        syntax: Capped::default(),
+    };
+    errors.bracket_lines = bracket.list.iter().filter_map(|b| errors.line(b.span)).collect();
     let result = match start {
         Start::File => generated::FileParser::new().parse(&ctx, &mut errors, stream).map(Out::File),
         Start::Items => generated::ItemsParser::new().parse(&ctx, &mut errors, stream).map(Out::Items),
         Start::BodyItems => generated::BodyItemsParser::new().parse(&ctx, &mut errors, stream).map(Out::Body),
     };
-    diags.extend(ctx.diags.take());
-    let mut syntax: Vec<Diagnostic> = Vec::new();
-    let push = |d: Option<Diagnostic>, syntax: &mut Vec<Diagnostic>| {
-        if let Some(d) = d {
-            // One mistake, one error: an unclosed bracket explains any end-of-file error,
-            // and a second error on the same line as the previous one is a cascade.
-            if d.code == "E0104" && unclosed {
-                return;
-            }
-            // Syntax errors after a nesting cut come from the cut itself.
-            if cut.is_some_and(|c| d.span.file == c.file && d.span.start >= c.start) {
-                return;
-            }
-            let line = |s: Span| sources.files.get(s.file.0 as usize).map(|f| f.line_col(s.start).0);
-            if let Some(prev) = syntax.last() {
-                if prev.span.file == d.span.file && line(prev.span) == line(d.span) {
-                    return;
-                }
-            }
-            // A repaired bracket explains an error on its own line.
-            if bracket.iter().any(|b| b.span.file == d.span.file && line(b.span) == line(d.span)) {
-                return;
-            }
-            syntax.push(d);
-        }
-    };
-    for e in errors {
-        push(convert_error(e.error, sources, eof), &mut syntax);
-    }
+    let own = ctx.diags.take();
+    diags.extend(own.list);
     let out = match result {
         Ok(out) => out,
         Err(e) => {
-            push(convert_error(e, sources, eof), &mut syntax);
+            let d = convert_error(e, sources, eof);
+            errors.take(d);
             match start {
                 Start::File => Out::File(File::default()),
                 Start::Items => Out::Items(vec![]),
@@ -915,9 +952,10 @@ fn run(
             }
         }
     };
-    diags.extend(bracket);
-    diags.extend(syntax);
-    (out, diags)
+    let suppressed = own.suppressed + bracket.suppressed + errors.syntax.suppressed;
+    diags.extend(bracket.list);
+    diags.extend(errors.syntax.list);
+    (out, diags, suppressed)
 }
 
 /// Parses one whole file that is already in `sources`.
@@ -935,51 +973,59 @@ pub fn parse_file(sources: &Sources, file: FileId) -> Parsed {
             ),
         )
         .with_note("split the grammar into files joined with `@import`");
-        return Parsed { file: File::default(), comments: Vec::new(), diagnostics: vec![d] };
+        return Parsed {
+            file: File::default(),
+            comments: Vec::new(),
+            diagnostics: vec![d],
+            suppressed: Suppressed::default(),
+        };
     }
     let lexed = lexer::lex(text, file);
-    let (out, diagnostics) = run(lexed.tokens, sources, file, Start::File, lexed.diagnostics, MAX_NESTING);
+    let (out, diagnostics, suppressed) = run(lexed.tokens, sources, file, Start::File, lexed.diagnostics, MAX_NESTING);
     let file_ast = match out {
         Out::File(f) => f,
         _ => File::default(),
     };
-    Parsed { file: file_ast, comments: lexed.comments, diagnostics }
+    Parsed { file: file_ast, comments: lexed.comments, diagnostics, suppressed: suppressed + lexed.suppressed }
 }
 
 /// Parses tokens (a macro expansion) as top-level items.
 pub fn parse_items(sources: &Sources, file: FileId, tokens: Vec<Token>) -> (Vec<Item>, Vec<Diagnostic>) {
-    parse_items_within(sources, file, tokens, MAX_NESTING)
+    let (items, diags, _) = parse_items_within(sources, file, tokens, MAX_NESTING);
+    (items, diags)
 }
 
 /// [`parse_items`] with at most `budget` levels of nesting (what [`MAX_NESTING`] leaves
-/// after the levels around the expansion).
+/// after the levels around the expansion), and how many diagnostics were not kept.
 pub fn parse_items_within(
     sources: &Sources,
     file: FileId,
     tokens: Vec<Token>,
     budget: usize,
-) -> (Vec<Item>, Vec<Diagnostic>) {
+) -> (Vec<Item>, Vec<Diagnostic>, Suppressed) {
     match run(tokens, sources, file, Start::Items, vec![], budget) {
-        (Out::Items(v), d) => (v, d),
-        (_, d) => (vec![], d),
+        (Out::Items(v), d, n) => (v, d, n),
+        (_, d, n) => (vec![], d, n),
     }
 }
 
 /// Parses tokens (a macro expansion) as rule-body items.
 pub fn parse_body_items(sources: &Sources, file: FileId, tokens: Vec<Token>) -> (Vec<BodyItem>, Vec<Diagnostic>) {
-    parse_body_items_within(sources, file, tokens, MAX_NESTING)
+    let (items, diags, _) = parse_body_items_within(sources, file, tokens, MAX_NESTING);
+    (items, diags)
 }
 
-/// [`parse_body_items`] with at most `budget` levels of nesting.
+/// [`parse_body_items`] with at most `budget` levels of nesting, and how many
+/// diagnostics were not kept.
 pub fn parse_body_items_within(
     sources: &Sources,
     file: FileId,
     tokens: Vec<Token>,
     budget: usize,
-) -> (Vec<BodyItem>, Vec<Diagnostic>) {
+) -> (Vec<BodyItem>, Vec<Diagnostic>, Suppressed) {
     match run(tokens, sources, file, Start::BodyItems, vec![], budget) {
-        (Out::Body(v), d) => (v, d),
-        (_, d) => (vec![], d),
+        (Out::Body(v), d, n) => (v, d, n),
+        (_, d, n) => (vec![], d, n),
     }
 }
 

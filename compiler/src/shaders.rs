@@ -11,13 +11,38 @@
 //! show GLSL errors too) and attaches the SPIR-V to the bundle in `build`. Results
 //! are cached by (stage, source), so re-analysing an edited file recompiles only the
 //! blocks that changed.
+//!
+//! # Bounds (issue 25)
+//!
+//! glslang recurses on the native stack, expands `#define`s without a bound and
+//! cannot be interrupted. So a block is first checked against the limits of
+//! [`crate::shader_limits`] (size, preprocessed size, operators per statement):
+//! past them it is refused with E0502 and glslang never sees it. What passes is
+//! compiled on a thread of its own with a [`COMPILE_STACK_BYTES`] stack, and the
+//! caller waits at most [`COMPILE_DEADLINE`]; past it the caller gets an E0502
+//! ("took longer than 5 s") and returns, and the thread is **abandoned**: it runs
+//! to its end in the background (glslang has no way to stop it), then stores its
+//! result in the cache and exits. At most [`MAX_COMPILE_THREADS`] compile threads
+//! live at once, abandoned ones included; when that many are busy a new compile
+//! waits for one to end, up to its own deadline, and is then refused (E0502, not
+//! cached, so a later analysis tries again).
+//!
+//! The cache's lock is held only to look up and store results, never while glslang
+//! runs, so an abandoned compile holds no lock. Compilations of different sources
+//! run side by side (glslang is thread-safe once initialised; the test
+//! `concurrent_compiles_agree_with_serial_ones` checks it); a caller asking for a
+//! source that is being compiled waits for that compile instead of starting
+//! another. A timed-out source is cached as timed out, so re-analysing the same
+//! text does not start it again, until its thread ends and replaces that entry
+//! with the real result.
 
 use crate::diag::Diagnostic;
 use crate::expand::{Expanded, Shader};
 use crate::source::Sources;
 use crate::span::Span;
-use std::collections::HashMap;
-use std::sync::{Mutex, OnceLock};
+use std::collections::{HashMap, HashSet};
+use std::sync::{mpsc, Condvar, Mutex, MutexGuard, OnceLock};
+use std::time::{Duration, Instant};
 
 /// One GLSL error as glslang reports it, positions relative to the shader source.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -27,6 +52,18 @@ pub struct GlslError {
     /// 1-based column, when glslang gives one.
     pub column: Option<u32>,
     pub message: String,
+    /// Whether this is a limit of the shader stage (E0502: too large, too complex,
+    /// too slow) rather than an error in the GLSL (E0501).
+    pub limit: bool,
+}
+
+impl GlslError {
+    fn glsl(line: Option<u32>, column: Option<u32>, message: impl Into<String>) -> GlslError {
+        GlslError { line, column, message: message.into(), limit: false }
+    }
+    fn limit(message: impl Into<String>) -> GlslError {
+        GlslError { line: None, column: None, message: message.into(), limit: true }
+    }
 }
 
 /// The result of compiling one shader source.
@@ -36,69 +73,198 @@ pub type CompileResult = Result<Vec<u32>, Vec<GlslError>>;
 /// editor session produces one entry per edited version of a block).
 const CACHE_LIMIT: usize = 256;
 
-fn cache() -> &'static Mutex<HashMap<(bool, String), CompileResult>> {
-    static CACHE: OnceLock<Mutex<HashMap<(bool, String), CompileResult>>> = OnceLock::new();
-    CACHE.get_or_init(|| Mutex::new(HashMap::new()))
+/// How long a caller waits for one glslang compilation (not counting a wait for a
+/// free compile thread, which has the same bound).
+pub const COMPILE_DEADLINE: Duration = Duration::from_secs(5);
+/// The stack of a compile thread (reserved, not committed: only what glslang
+/// touches is memory). 256 MiB takes an expression nested 200,000 deep, far
+/// past what [`crate::shader_limits`] lets through.
+pub const COMPILE_STACK_BYTES: usize = 256 << 20;
+/// Most compile threads alive at once, abandoned ones included.
+pub const MAX_COMPILE_THREADS: usize = 4;
+
+type Key = (bool, String);
+
+#[derive(Default)]
+struct State {
+    cache: HashMap<Key, CompileResult>,
+    /// Sources a thread is compiling now (its caller may have given up on it).
+    running: HashSet<Key>,
+    /// Compile threads alive.
+    threads: usize,
 }
 
-/// Compiles one GLSL source for the vertex (`vertex = true`) or fragment stage.
-///
-/// Compilations are serialised through the cache's lock: glslang's process-wide
-/// state is initialised once, and one compile takes a few milliseconds.
+fn state() -> &'static (Mutex<State>, Condvar) {
+    static STATE: OnceLock<(Mutex<State>, Condvar)> = OnceLock::new();
+    STATE.get_or_init(|| (Mutex::new(State::default()), Condvar::new()))
+}
+
+/// The state, whatever a panicking holder left: it is only finished results and
+/// counts updated in single steps.
+fn lock(m: &Mutex<State>) -> MutexGuard<'_, State> {
+    m.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// Compiles one GLSL source for the vertex (`vertex = true`) or fragment stage,
+/// within the limits of [`crate::shader_limits`] and [`COMPILE_DEADLINE`].
 pub fn compile_glsl(source: &str, vertex: bool) -> CompileResult {
-    let key = (vertex, source.to_string());
-    let mut cache = match cache().lock() {
-        Ok(c) => c,
-        // A panic while holding the lock leaves only a possibly partial map of
-        // finished results behind; start afresh.
-        Err(poisoned) => {
-            let mut c = poisoned.into_inner();
-            c.clear();
-            c
-        }
-    };
-    if let Some(r) = cache.get(&key) {
-        return r.clone();
-    }
-    let result = compile_uncached(source, vertex);
-    if cache.len() >= CACHE_LIMIT {
-        cache.clear();
-    }
-    cache.insert(key, result.clone());
-    result
+    compile_glsl_within(source, vertex, COMPILE_DEADLINE)
 }
 
-fn compile_uncached(source: &str, vertex: bool) -> CompileResult {
-    use glslang::{Compiler, CompilerOptions, ShaderInput, ShaderMessage, ShaderSource, ShaderStage};
+/// [`compile_glsl`] with another deadline.
+pub fn compile_glsl_within(source: &str, vertex: bool, deadline: Duration) -> CompileResult {
+    if let Err(r) = crate::shader_limits::check(source) {
+        let (line, column) = line_col(source, r.start);
+        return Err(vec![GlslError { line: Some(line), column: Some(column), message: r.message, limit: true }]);
+    }
+    compile_checked(source, vertex, deadline)
+}
+
+/// Waits until no compile thread is running, at most `timeout`; whether none is.
+/// Called before a process exits: glslang's static destructors must not run under
+/// a compilation (an abandoned one that outlives `timeout` is left to the exit).
+pub fn wait_for_compiles(timeout: Duration) -> bool {
+    let (m, cv) = state();
+    let start = Instant::now();
+    let mut st = lock(m);
+    while st.threads > 0 {
+        let left = timeout.saturating_sub(start.elapsed());
+        if left.is_zero() {
+            return false;
+        }
+        st = cv.wait_timeout(st, left).map(|(g, _)| g).unwrap_or_else(|p| p.into_inner().0);
+    }
+    true
+}
+
+fn seconds(d: Duration) -> String {
+    let s = d.as_secs_f64();
+    if s >= 1.0 && s.fract() == 0.0 {
+        format!("{s:.0} s")
+    } else {
+        format!("{} ms", d.as_millis())
+    }
+}
+
+fn timed_out(deadline: Duration) -> Vec<GlslError> {
+    vec![GlslError::limit(format!(
+        "shader compilation took longer than {} (the limit for one shader); glslang was left to finish in the \
+         background",
+        seconds(deadline)
+    ))]
+}
+
+/// A source that passed the limits: from the cache, from a compile of the same
+/// source already running, or compiled on a new thread.
+fn compile_checked(source: &str, vertex: bool, deadline: Duration) -> CompileResult {
+    precheck(source)?;
+    let key: Key = (vertex, source.to_string());
+    let (m, cv) = state();
+    let start = Instant::now();
+    let mut st = lock(m);
+    loop {
+        if let Some(r) = st.cache.get(&key) {
+            return r.clone();
+        }
+        let same_running = st.running.contains(&key);
+        if !same_running && st.threads < MAX_COMPILE_THREADS {
+            break;
+        }
+        let left = deadline.saturating_sub(start.elapsed());
+        if left.is_zero() {
+            if same_running {
+                return Err(timed_out(deadline));
+            }
+            return Err(vec![GlslError::limit(format!(
+                "shader not compiled: all {MAX_COMPILE_THREADS} glslang threads stayed busy for {} (a compilation \
+                 past its deadline keeps its thread until it ends)",
+                seconds(deadline)
+            ))]);
+        }
+        st = cv.wait_timeout(st, left).map(|(g, _)| g).unwrap_or_else(|p| p.into_inner().0);
+    }
+    st.running.insert(key.clone());
+    st.threads += 1;
+    drop(st);
+
+    let (tx, rx) = mpsc::channel();
+    let src = key.1.clone();
+    let spawned =
+        std::thread::Builder::new().name("mdg glslang".into()).stack_size(COMPILE_STACK_BYTES).spawn(move || {
+            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| compile_uncached(&src, vertex)))
+                .unwrap_or_else(|_| Err(vec![GlslError::glsl(None, None, "glslang failed on this shader")]));
+            let _ = tx.send(result.clone());
+            let (m, cv) = state();
+            let mut st = lock(m);
+            let key = (vertex, src);
+            st.running.remove(&key);
+            st.threads -= 1;
+            if st.cache.len() >= CACHE_LIMIT {
+                st.cache.clear();
+            }
+            // Replaces a "took too long" entry its caller may have left.
+            st.cache.insert(key, result);
+            cv.notify_all();
+        });
+    if let Err(e) = spawned {
+        let mut st = lock(m);
+        st.running.remove(&key);
+        st.threads -= 1;
+        cv.notify_all();
+        return Err(vec![GlslError::limit(format!("shader not compiled: cannot start a compile thread: {e}"))]);
+    }
+    match rx.recv_timeout(deadline) {
+        Ok(r) => r,
+        Err(_) => {
+            // Finished just now after all?
+            if let Ok(r) = rx.try_recv() {
+                return r;
+            }
+            // Abandoned: the thread finishes on its own and stores its result.
+            let r = Err(timed_out(deadline));
+            let mut st = lock(m);
+            if st.running.contains(&key) {
+                st.cache.entry(key).or_insert_with(|| r.clone());
+            }
+            cv.notify_all();
+            r
+        }
+    }
+}
+
+/// What is refused before glslang: NUL characters and a missing or non-ASCII
+/// `#version` line.
+fn precheck(source: &str) -> Result<(), Vec<GlslError>> {
     // glslang takes a C string: a NUL inside the block cannot be passed on (and would
     // make the crate's conversion panic), so report it here.
     if let Some(at) = source.find('\0') {
         let (line, column) = line_col(source, at);
-        return Err(vec![GlslError {
-            line: Some(line),
-            column: Some(column),
-            message: "NUL character in shader source".into(),
-        }]);
+        return Err(vec![GlslError::glsl(Some(line), Some(column), "NUL character in shader source")]);
     }
     // Without a `#version` line glslang assumes ES 1.00 and says so obscurely.
     if !source.lines().any(|l| l.trim_start().starts_with("#version")) {
-        return Err(vec![GlslError {
-            line: None,
-            column: None,
-            message: "no `#version` line: Vulkan GLSL shaders start with `#version 450`".into(),
-        }]);
+        return Err(vec![GlslError::glsl(
+            None,
+            None,
+            "no `#version` line: Vulkan GLSL shaders start with `#version 450`",
+        )]);
     }
     // The glslang crate slices the `#version` line by bytes and panics inside a
     // multi-byte character: refuse a non-ASCII one here.
     if let Some(i) = source.lines().position(|l| l.trim_start().starts_with("#version") && !l.is_ascii()) {
-        return Err(vec![GlslError {
-            line: Some(i as u32 + 1),
-            column: None,
-            message: "the `#version` line must be plain ASCII, like `#version 450`".into(),
-        }]);
+        return Err(vec![GlslError::glsl(
+            Some(i as u32 + 1),
+            None,
+            "the `#version` line must be plain ASCII, like `#version 450`",
+        )]);
     }
+    Ok(())
+}
+
+fn compile_uncached(source: &str, vertex: bool) -> CompileResult {
+    use glslang::{Compiler, CompilerOptions, ShaderInput, ShaderMessage, ShaderSource, ShaderStage};
     let Some(compiler) = Compiler::acquire() else {
-        return Err(vec![GlslError { line: None, column: None, message: "glslang could not be initialised".into() }]);
+        return Err(vec![GlslError::glsl(None, None, "glslang could not be initialised")]);
     };
     let stage = if vertex { ShaderStage::Vertex } else { ShaderStage::Fragment };
     let src = ShaderSource::from(source);
@@ -108,11 +274,7 @@ fn compile_uncached(source: &str, vertex: bool) -> CompileResult {
         Err(e) => {
             // Rejected before parsing: an unsupported `#version` line.
             let line = source.lines().position(|l| l.trim_start().starts_with("#version")).map(|i| i as u32 + 1);
-            return Err(vec![GlslError {
-                line,
-                column: None,
-                message: format!("{e} (Vulkan GLSL needs `#version 450`)"),
-            }]);
+            return Err(vec![GlslError::glsl(line, None, format!("{e} (Vulkan GLSL needs `#version 450`)"))]);
         }
     };
     let shader = match compiler.create_shader(input) {
@@ -130,11 +292,11 @@ fn errors_of(e: &glslang::error::GlslangError) -> Vec<GlslError> {
     use glslang::error::GlslangError as G;
     let log = match e {
         G::PreprocessError(l) | G::ParseError(l) | G::MapIoError(l) | G::LinkError(l) => l.log.clone(),
-        other => return vec![GlslError { line: None, column: None, message: other.to_string() }],
+        other => return vec![GlslError::glsl(None, None, other.to_string())],
     };
     let errors = parse_log(&log);
     if errors.is_empty() {
-        vec![GlslError { line: None, column: None, message: log.trim().to_string() }]
+        vec![GlslError::glsl(None, None, log.trim())]
     } else {
         errors
     }
@@ -175,8 +337,8 @@ pub fn parse_log(log: &str) -> Vec<GlslError> {
             }
         })();
         match parsed {
-            Some((line, column, message)) => out.push(GlslError { line: Some(line), column, message: tidy(&message) }),
-            None => out.push(GlslError { line: None, column: None, message: tidy(rest) }),
+            Some((line, column, message)) => out.push(GlslError::glsl(Some(line), column, tidy(&message))),
+            None => out.push(GlslError::glsl(None, None, tidy(rest))),
         }
     }
     out
@@ -264,15 +426,37 @@ pub fn compile_all(ex: &Expanded, sources: &Sources) -> (Vec<Option<Vec<u32>>>, 
     let mut spirv = Vec::with_capacity(ex.shaders.len());
     let mut diags = Vec::new();
     for sh in &ex.shaders {
-        match compile_glsl(&sh.code, sh.vertex) {
+        let stage = if sh.vertex { "vertex" } else { "fragment" };
+        if let Err(r) = crate::shader_limits::check(&sh.code) {
+            let base = sh.code_span.start;
+            let span = Span::new(sh.code_span.file, base + r.start as u32, base + r.end as u32);
+            let mut d = Diagnostic::error("E0502", span, r.message).with_label(r.label);
+            if let Some((a, b, what)) = r.context {
+                d = d.with_secondary(Span::new(sh.code_span.file, base + a as u32, base + b as u32), what);
+            }
+            diags.push(
+                d.with_secondary(sh.name.span, format!("in {stage} shader `{}`", sh.name.text))
+                    .with_note(r.note)
+                    .with_note(
+                        "shader blocks are checked against these limits before glslang compiles them (docs/limits.md)",
+                    ),
+            );
+            spirv.push(None);
+            continue;
+        }
+        match compile_checked(&sh.code, sh.vertex, COMPILE_DEADLINE) {
             Ok(words) => spirv.push(Some(words)),
             Err(errors) => {
-                let stage = if sh.vertex { "vertex" } else { "fragment" };
                 for e in &errors {
-                    let span = span_of(sh, sources, e);
-                    let d = Diagnostic::error("E0501", span, format!("GLSL: {}", e.message))
-                        .with_label(format!("in {stage} shader `{}`", sh.name.text))
-                        .with_note("shaders are Vulkan GLSL 450; the inputs and uniforms provided are in docs/reference.md §13");
+                    let d = if e.limit {
+                        Diagnostic::error("E0502", sh.name.span, e.message.clone())
+                            .with_label(format!("{stage} shader `{}`", sh.name.text))
+                            .with_note("shader blocks are compiled within the limits in docs/limits.md")
+                    } else {
+                        Diagnostic::error("E0501", span_of(sh, sources, e), format!("GLSL: {}", e.message))
+                            .with_label(format!("in {stage} shader `{}`", sh.name.text))
+                            .with_note("shaders are Vulkan GLSL 450; the inputs and uniforms provided are in docs/reference.md §13")
+                    };
                     diags.push(d);
                 }
                 spirv.push(None);
@@ -299,7 +483,7 @@ mod tests {
         let log = "ERROR: 0:5:12: 'foo' : undeclared identifier\nERROR: 0:7: '' : syntax error\nERROR: 0:7:3: '' : compilation terminated\nERROR: Linking vertex stage: \nERROR: Missing entry point: Each stage requires one entry point\nERROR: 2 compilation errors.  No code generated.\n";
         let e = parse_log(log);
         assert_eq!(e.len(), 3, "{e:?}");
-        assert_eq!(e[0], GlslError { line: Some(5), column: Some(12), message: "'foo': undeclared identifier".into() });
+        assert_eq!(e[0], GlslError::glsl(Some(5), Some(12), "'foo': undeclared identifier"));
         assert_eq!(e[1].line, Some(7));
         assert_eq!(e[1].column, None);
         assert_eq!(e[2].line, None);
@@ -315,5 +499,59 @@ mod tests {
         let errs = compile_glsl(bad, true).expect_err("fails");
         assert_eq!(errs[0].line, Some(4), "{errs:?}");
         assert!(errs[0].message.contains("nope"), "{errs:?}");
+        assert!(!errs[0].limit);
+    }
+
+    #[test]
+    fn limits_are_checked_before_glslang() {
+        let terms = vec!["x"; 10_000].join("+");
+        let src = format!("#version 450\nvoid main() {{ float x = 1.0;\n gl_Position = vec4({terms}); }}\n");
+        let errs = compile_glsl(&src, true).expect_err("refused");
+        assert!(errs[0].limit && errs[0].message.starts_with("expression too complex"), "{errs:?}");
+        assert_eq!(errs[0].line, Some(3), "{errs:?}");
+    }
+
+    /// A compile past its deadline returns at once; its thread ends on its own and
+    /// leaves the real result in the cache, and no lock stays held meanwhile.
+    #[test]
+    fn a_compile_past_its_deadline_is_abandoned_not_waited_for() {
+        let src = "#version 450\nvoid main() { gl_Position = vec4(0.125, 0.25, 0.5, 1.0); }\n// deadline test\n";
+        let errs = loop {
+            let t = Instant::now();
+            let errs = compile_glsl_within(src, true, Duration::ZERO).expect_err("no time at all");
+            assert!(t.elapsed() < Duration::from_secs(1), "{:?}", t.elapsed());
+            // Other tests may hold every compile thread for a moment.
+            if !errs[0].message.starts_with("shader not compiled: all") {
+                break errs;
+            }
+            wait_for_compiles(Duration::from_secs(60));
+        };
+        assert!(errs[0].limit && errs[0].message.starts_with("shader compilation took longer than 0 ms"), "{errs:?}");
+        // Other sources compile meanwhile: nothing is locked by the abandoned one.
+        compile_glsl("#version 450\nvoid main() { gl_Position = vec4(1.0); }\n// other\n", true).expect("compiles");
+        assert!(wait_for_compiles(Duration::from_secs(60)), "the abandoned compile never ended");
+        let words = compile_glsl(src, true).expect("the abandoned compile's result replaced the timeout");
+        assert_eq!(words.first(), Some(&mdg_vm::bundle::SPIRV_MAGIC));
+    }
+
+    #[test]
+    fn concurrent_compiles_agree_with_serial_ones() {
+        let source = |i: usize| {
+            let bad = if i.is_multiple_of(3) { " + nope" } else { "" };
+            format!("#version 450\nlayout(location = 0) in vec3 p;\nvoid main() {{ float a{i} = {i}.0; gl_Position = vec4(p * a{i}, 1.0){bad}; }}\n")
+        };
+        let serial: Vec<CompileResult> = (0..12).map(|i| compile_uncached(&source(i), true)).collect();
+        let threads: Vec<_> = (0..4)
+            .map(|k| {
+                std::thread::spawn(move || {
+                    (0..12).map(|i| (i, compile_glsl(&source((i + k) % 12), true))).collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        for (k, h) in threads.into_iter().enumerate() {
+            for (i, r) in h.join().expect("no panic") {
+                assert_eq!(r, serial[(i + k) % 12], "source {}", (i + k) % 12);
+            }
+        }
     }
 }

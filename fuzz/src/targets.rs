@@ -352,7 +352,7 @@ fn check_diagnostics(a: &Analysis, salt: u64) {
     for d in &a.diagnostics {
         let code = d.code;
         assert!(
-            code.len() == 5 && (code.starts_with('E') || code.starts_with('W')),
+            code.len() == 5 && (code.starts_with('E') || code.starts_with('W') || code.starts_with('N')),
             "malformed diagnostic code {code:?}"
         );
         let Some(f) = a.sources.files.get(d.span.file.0 as usize) else {

@@ -157,7 +157,9 @@ impl Backend {
 }
 
 /// The thread warming glslang, joined before the process exits: glslang's static
-/// destructors must not run while it compiles.
+/// destructors must not run while it compiles. The join is bounded: the compile
+/// itself runs on glslang's own thread, which the warm-up waits for at most
+/// `shaders::COMPILE_DEADLINE`.
 static WARM_GLSL: Mutex<Option<std::thread::JoinHandle<()>>> = Mutex::new(None);
 
 /// Compiles a trivial shader on a thread of its own, which initialises glslang.

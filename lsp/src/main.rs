@@ -65,5 +65,9 @@ fn main() -> ExitCode {
     // process) alive; exit now. The LSP exit code: 0 after `shutdown`, else 1.
     let code = if shutdown.load(Ordering::SeqCst) { 0 } else { 1 };
     backend::join_warm_glsl();
+    // glslang's static destructors must not run under a compilation: wait for the
+    // compile threads, but not for ever (one abandoned past its deadline may never
+    // end; see `mdg_compiler::shaders`).
+    mdg_compiler::shaders::wait_for_compiles(mdg_compiler::shaders::COMPILE_DEADLINE);
     std::process::exit(code)
 }

@@ -53,3 +53,126 @@ fn hostile_documents_get_diagnostics_and_the_server_keeps_serving() {
     assert!(!c.logs.iter().any(|l| l.contains("panic")), "{:?}", c.logs);
     assert!(c.shutdown_and_exit().success());
 }
+
+/// A program whose vertex shader is `glsl` (after `#version 450`).
+fn with_shader(glsl: &str) -> String {
+    format!(
+        "startshape A\n@vertexshader vs\n#version 450\n{glsl}\n@endshader\n\
+         rule A {{ VERTEX {{}} VERTEX {{x 1}} VERTEX {{y 1}} }}\n"
+    )
+}
+
+/// Shader blocks that killed the server (a 12-level `#define` doubling chain and a
+/// 10,000-term sum overflowed the analysis thread's stack inside glslang) or hung it
+/// for good (statements doubled 24 times by macros: glslang never finished, held
+/// the compile lock, and `exit` waited for it). Each now gets its E0502 quickly,
+/// another document is served meanwhile, and the server exits.
+#[test]
+fn hostile_shaders_get_e0502_and_the_server_exits() {
+    let dir = scratch("hostile-glsl");
+    let u = uri(&dir.join("shader.mdg"));
+    let other = uri(&dir.join("other.mdg"));
+    let mut c = Client::spawn();
+    c.initialize(&dir);
+    c.open(&other, 1, "startshape B\nrule B { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n");
+    assert!(c.diagnostics(&other, 1).is_empty());
+
+    let mut chain = String::from("#define M0 x+x\n");
+    for i in 1..12 {
+        chain.push_str(&format!("#define M{i} M{}+M{}\n", i - 1, i - 1));
+    }
+    chain.push_str("void main() { float x = 1.0; gl_Position = vec4(M11); }");
+    let terms = vec!["x"; 10_000].join("+");
+    let mut statements = String::from("#define S0 x = x * 0.5 + sin(x) * cos(x) - 1.0;\n");
+    for i in 1..24 {
+        statements.push_str(&format!("#define S{i} S{} S{}\n", i - 1, i - 1));
+    }
+    statements.push_str("void main() { float x = 1.0; S23 gl_Position = vec4(x); }");
+    let cases = [
+        (chain, "expression too complex: more than 2048 operators in one statement after macro expansion"),
+        (format!("void main() {{ float x = 1.0; gl_Position = vec4({terms}); }}"), "expression too complex"),
+        (statements, "shader too large after preprocessing: more than 262144 tokens"),
+    ];
+    for (version, (glsl, message)) in (1..).zip(cases) {
+        let t = std::time::Instant::now();
+        c.open(&u, version, &with_shader(&glsl));
+        let d = c.diagnostics(&u, version);
+        assert_eq!(codes(&d), ["E0502"], "{d:?}");
+        assert!(d[0]["message"].as_str().unwrap_or("").starts_with(message), "{d:?}");
+        assert!(t.elapsed() < std::time::Duration::from_secs(15), "took {:?}", t.elapsed());
+        // The other document answers meanwhile.
+        let h = c.call(
+            "textDocument/hover",
+            json!({"textDocument": {"uri": other}, "position": {"line": 1, "character": 10}}),
+        );
+        assert!(h["contents"]["value"].as_str().unwrap_or("").contains("VERTEX"), "{h}");
+        c.notify("textDocument/didClose", json!({"textDocument": {"uri": u}}));
+    }
+    // A shader within the limits compiles.
+    c.open(&u, 10, &with_shader("void main() { gl_Position = vec4(1.0); }"));
+    assert!(c.diagnostics(&u, 10).is_empty());
+    c.clear();
+    assert!(!c.logs.iter().any(|l| l.contains("panic")), "{:?}", c.logs);
+    let t = std::time::Instant::now();
+    assert!(c.shutdown_and_exit().success());
+    assert!(t.elapsed() < std::time::Duration::from_secs(10), "exit took {:?}", t.elapsed());
+}
+
+/// Behind the text limits, the deadline (the limits turned off by a test hook): the
+/// 16-million-statement shader runs glslang past 5 s. Meanwhile another document
+/// is served; then the document gets its E0502, a new shader compiles although the
+/// abandoned compile still runs, and the server exits.
+#[test]
+fn a_compile_past_the_deadline_does_not_block_the_server() {
+    let dir = scratch("hostile-deadline");
+    let u = uri(&dir.join("slow.mdg"));
+    let other = uri(&dir.join("other.mdg"));
+    let mut c = Client::spawn_with(&[("MDG_TEST_NO_SHADER_LIMITS", "1")]);
+    c.initialize(&dir);
+    c.open(&other, 1, "startshape B\nrule B { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n");
+    assert!(c.diagnostics(&other, 1).is_empty());
+    let mut statements = String::from("#define S0 x = x * 0.5 + sin(x) * cos(x) - 1.0;\n");
+    for i in 1..24 {
+        statements.push_str(&format!("#define S{i} S{} S{}\n", i - 1, i - 1));
+    }
+    statements.push_str("void main() { float x = 1.0; S23 gl_Position = vec4(x); }");
+    let t = std::time::Instant::now();
+    c.open(&u, 1, &with_shader(&statements));
+    // While the shader compiles, the other document answers at once.
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let asked = std::time::Instant::now();
+    let h =
+        c.call("textDocument/hover", json!({"textDocument": {"uri": other}, "position": {"line": 1, "character": 10}}));
+    assert!(h["contents"]["value"].as_str().unwrap_or("").contains("VERTEX"), "{h}");
+    assert!(asked.elapsed() < std::time::Duration::from_secs(2), "hover took {:?}", asked.elapsed());
+    let d = c.diagnostics(&u, 1);
+    assert_eq!(codes(&d), ["E0502"], "{d:?}");
+    assert!(d[0]["message"].as_str().unwrap_or("").starts_with("shader compilation took longer than 5 s"), "{d:?}");
+    assert!(t.elapsed() < std::time::Duration::from_secs(15), "took {:?}", t.elapsed());
+    // The abandoned compile holds nothing: another shader compiles now.
+    c.change(&u, 2, &with_shader("void main() { gl_Position = vec4(2.0); }"));
+    assert!(c.diagnostics(&u, 2).is_empty());
+    let t = std::time::Instant::now();
+    assert!(c.shutdown_and_exit().success());
+    assert!(t.elapsed() < std::time::Duration::from_secs(15), "exit took {:?}", t.elapsed());
+}
+
+/// A junk document: at most 100 errors, then one note with how many more.
+#[test]
+fn a_junk_document_gets_a_bounded_number_of_diagnostics() {
+    let dir = scratch("hostile-junk");
+    let u = uri(&dir.join("junk.mdg"));
+    let mut c = Client::spawn();
+    c.initialize(&dir);
+    let junk = "% ] ( rule\n".repeat(100_000);
+    c.open(&u, 1, &junk);
+    let d = c.diagnostics(&u, 1);
+    assert!(d.len() <= 101, "{} diagnostics", d.len());
+    let last = d.last().expect("diagnostics");
+    assert_eq!(last["code"], "N0001", "{last}");
+    assert_eq!(last["severity"], 3, "information: {last}");
+    assert!(last["message"].as_str().unwrap_or("").contains(" more errors"), "{last}");
+    let rss = c.rss_kib().unwrap_or(0);
+    assert!(rss < 1024 * 1024, "RSS {rss} KiB");
+    assert!(c.shutdown_and_exit().success());
+}

@@ -19,7 +19,7 @@ pub struct Args {
 pub fn run(args: Args) -> ExitCode {
     if args.list {
         for c in codes::CODES {
-            let sev = if c.severity == mdg_compiler::diag::Severity::Error { "error" } else { "warning" };
+            let sev = c.severity.name();
             println!("{}  {sev:<7}  {}", c.code, c.title);
         }
         return ExitCode::SUCCESS;

@@ -52,6 +52,7 @@ pub fn convert(b: &Backend, uri: &Uri, doc: &Document, li: &LineIndex, d: &diag:
         severity: Some(match d.severity {
             Severity::Error => DiagnosticSeverity::ERROR,
             Severity::Warning => DiagnosticSeverity::WARNING,
+            Severity::Note => DiagnosticSeverity::INFORMATION,
         }),
         code: Some(NumberOrString::String(d.code.to_string())),
         code_description: code_href(b, d.code).map(|href| CodeDescription { href }),
