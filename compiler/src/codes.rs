@@ -63,13 +63,16 @@ pub enum Example {
     Library(&'static str),
     /// Checked as a program (`mdgc build`: a start shape is required).
     Program(&'static str),
+    /// Made by the language server only, for a document it is given; the text says
+    /// which (the test of the code is in `lsp/tests`).
+    Editor(&'static str),
 }
 
 impl Example {
     /// The source text.
     pub fn text(&self) -> &'static str {
         match self {
-            Example::Library(t) | Example::Program(t) => t,
+            Example::Library(t) | Example::Program(t) | Example::Editor(t) => t,
         }
     }
     /// Whether it is checked as a program.
@@ -106,7 +109,7 @@ creature beasts {
     };
 }
 
-use Example::{Library, Program};
+use Example::{Editor, Library, Program};
 use Severity::{Error, Note, Warning};
 
 /// Every code, sorted.
@@ -2372,6 +2375,17 @@ rule B {
         ),
     },
     Code {
+        code: "W0012",
+        severity: Warning,
+        title: "document too large to analyse as you type",
+        explanation: r#"The language server analyses an open document on every edit; past 2 MiB (`analysis::MAX_LIVE_BYTES`) it stops: a 15 MB grammar took 5.8 GB of memory and 29 s per analysis, and every feature waited for it. The document gets this one warning at its start; hover, completion and the other features answer nothing for it, and the rest of the workspace is served as usual.
+
+In the example: a 3 MB grammar opened in the editor.
+
+Fix: Check the file with `mdgc check FILE` (which reads up to 16 MiB), split the grammar into files joined with `@import`, or start the server with a larger `MDG_LSP_MAX_LIVE_BYTES` (in bytes)."#,
+        example: Editor("a document of more than 2 MiB opened in the editor"),
+    },
+    Code {
         code: "W0801",
         severity: Warning,
         title: "regular creature cannot pass the stability test",
@@ -2443,6 +2457,10 @@ pub fn lookup(code: &str) -> Option<&'static Code> {
 pub fn explain(code: &Code) -> String {
     let sev = code.severity.name();
     let mut s = format!("{} ({sev}): {}\n\n{}\n\nExample", code.code, code.title, code.explanation);
+    if let Example::Editor(t) = code.example {
+        s.push_str(&format!(": {t}\n"));
+        return s;
+    }
     if code.example.is_program() {
         s.push_str(" (checked as a program)");
     }
@@ -2478,6 +2496,10 @@ pub fn markdown() -> String {
     }
     for c in CODES {
         s.push_str(&format!("\n## {}\n\n**{}**\n\n{}\n\n", c.code, c.title, c.explanation));
+        if let Example::Editor(t) = c.example {
+            s.push_str(&format!("Example: {t}.\n"));
+            continue;
+        }
         s.push_str(if c.example.is_program() { "Example (checked as a program):\n" } else { "Example:\n" });
         s.push_str("\n```mdg\n");
         s.push_str(c.example.text());
@@ -2540,6 +2562,9 @@ mod tests {
         let opts = Options { std_dir: Some(workspace().join("std")), ..Options::default() };
         let mut failures = Vec::new();
         for c in CODES {
+            if matches!(c.example, Example::Editor(_)) {
+                continue;
+            }
             let text = c.example.text();
             std::fs::write(&path, text).expect("write example.mdg");
             let a = analyze_text(&FsLoader, &path, text, &opts, CheckOptions { require_start: c.example.is_program() });
@@ -2623,7 +2648,12 @@ mod tests {
                     unknown.push(format!("{}: {code}", f.display()));
                 }
             }
-            let live = text.split("#[cfg(test)]").next().unwrap_or_default();
+            // Up to the first inline test module (`#[cfg(test)] mod x;` declarations
+            // of test files do not end the live code).
+            let live = text
+                .match_indices("#[cfg(test)]")
+                .find(|(i, m)| text[i + m.len()..].lines().nth(1).is_some_and(|l| l.trim_end().ends_with('{')))
+                .map_or(text.as_str(), |(i, _)| &text[..i]);
             emitted.extend(code_literals(live).into_iter().map(str::to_string));
         }
         assert!(unknown.is_empty(), "codes not in compiler/src/codes.rs: {unknown:?}");

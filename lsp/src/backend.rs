@@ -26,6 +26,9 @@ pub struct Config {
     /// added): under `$MDG_DOCS_URL` (the URL of a `docs/` folder) when set, else the
     /// file beside the std library.
     pub diagnostics_doc: Option<Uri>,
+    /// The largest open document analysed as the user types, in bytes
+    /// (`$MDG_LSP_MAX_LIVE_BYTES`, default `analysis::MAX_LIVE_BYTES`).
+    pub max_live_bytes: usize,
 }
 
 impl Config {
@@ -55,7 +58,12 @@ impl Config {
                 .filter(|p| p.is_file())
                 .and_then(Uri::from_file_path)
         });
+        let max_live_bytes = std::env::var("MDG_LSP_MAX_LIVE_BYTES")
+            .ok()
+            .and_then(|v| v.trim().parse::<usize>().ok())
+            .unwrap_or(mdg_compiler::analysis::MAX_LIVE_BYTES);
         Config {
+            max_live_bytes,
             diagnostics_doc,
             options: Options { std_dir, ..Options::default() },
             completion: CompletionConfig { std_libraries },
@@ -88,8 +96,18 @@ impl Backend {
         }
     }
 
-    /// Analyses `snap` (on the current thread).
+    /// Analyses `snap` (on the current thread); a document over the live-analysis
+    /// limit is not analysed (one W0012 warning says so).
     pub fn analyze(snap: &Snapshot, config: &Config) -> Document {
+        if snap.text.len() > config.max_live_bytes {
+            return Document::too_large(
+                &snap.loader,
+                &snap.path,
+                snap.text.len(),
+                config.max_live_bytes,
+                &config.options,
+            );
+        }
         Document::new(&snap.loader, &snap.path, &snap.text, &config.options)
     }
 

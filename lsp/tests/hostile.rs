@@ -176,3 +176,42 @@ fn a_junk_document_gets_a_bounded_number_of_diagnostics() {
     assert!(rss < 1024 * 1024, "RSS {rss} KiB");
     assert!(c.shutdown_and_exit().success());
 }
+
+/// A document past the live-analysis limit (2 MiB) is not analysed: one W0012 at its
+/// start, features answer nothing for it, memory stays that of its text, and other
+/// documents are served. A 15 MB grammar used to take 5.8 GB and 29 s per edit.
+#[test]
+fn a_document_past_the_live_limit_gets_w0012_and_costs_only_its_text() {
+    let dir = scratch("hostile-live");
+    let u = uri(&dir.join("big.mdg"));
+    let small = uri(&dir.join("small.mdg"));
+    let mut c = Client::spawn();
+    c.initialize(&dir);
+    let big =
+        format!("startshape A\n{}", "rule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n".repeat((15 << 20) / 48 + 1));
+    assert!(big.len() > 14 << 20);
+    let started = std::time::Instant::now();
+    c.open(&u, 1, &big);
+    let d = c.diagnostics(&u, 1);
+    assert_eq!(codes(&d), ["W0012"], "{d:?}");
+    let msg = d[0]["message"].as_str().unwrap_or("");
+    assert!(msg.contains("MiB: the editor analyses documents of up to 2.0 MiB"), "{msg}");
+    assert_eq!(d[0]["range"]["start"], json!({"line": 0, "character": 0}));
+    let h = c.call("textDocument/hover", json!({"textDocument": {"uri": u}, "position": {"line": 1, "character": 10}}));
+    assert!(h.is_null(), "{h}");
+    assert!(started.elapsed() < std::time::Duration::from_secs(30), "took {:?}", started.elapsed());
+    if let Some(kib) = c.rss_kib() {
+        assert!(kib < 1 << 20, "{kib} KiB resident for a 15 MB document");
+    }
+    // Another document is analysed as usual.
+    c.open(&small, 1, "startshape B\nrule B { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n");
+    assert!(c.diagnostics(&small, 1).is_empty());
+    assert!(c.shutdown_and_exit().success());
+
+    // The limit is the server's to raise (or lower).
+    let mut c = Client::spawn_with(&[("MDG_LSP_MAX_LIVE_BYTES", "100")]);
+    c.initialize(&dir);
+    c.open(&small, 1, &format!("startshape B\nrule B {{ VERTEX {{}} }}\n{}", "// padding\n".repeat(20)));
+    assert_eq!(codes(&c.diagnostics(&small, 1)), ["W0012"]);
+    assert!(c.shutdown_and_exit().success());
+}
