@@ -445,6 +445,16 @@ pub fn compile_all(ex: &Expanded, sources: &Sources) -> (Vec<Option<Vec<u32>>>, 
             continue;
         }
         match compile_checked(&sh.code, sh.vertex, COMPILE_DEADLINE) {
+            Ok(words) if mdg_vm::bundle::spirv::largest_array(&words) > mdg_vm::bundle::spirv::MAX_ARRAY_ELEMENTS => {
+                let n = mdg_vm::bundle::spirv::largest_array(&words);
+                let max = mdg_vm::bundle::spirv::MAX_ARRAY_ELEMENTS;
+                diags.push(
+                    Diagnostic::error("E0502", sh.name.span, format!("shader array too large: {n} elements (at most {max})"))
+                        .with_label(format!("{stage} shader `{}` declares it", sh.name.text))
+                        .with_note("the Vulkan driver allocates every array a shader declares (a `float[100000000]` took 7.8 GB); keep large tables in buffers or textures"),
+                );
+                spirv.push(None);
+            }
             Ok(words) => spirv.push(Some(words)),
             Err(errors) => {
                 for e in &errors {

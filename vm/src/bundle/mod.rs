@@ -11,6 +11,7 @@
 mod codec;
 mod disasm;
 pub mod ops;
+pub mod spirv;
 mod verify;
 
 pub use codec::{decode, encode};

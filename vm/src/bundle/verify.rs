@@ -157,6 +157,13 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
         if !sh.spirv.is_empty() && (sh.spirv.len() < 6 || sh.spirv[0] != SPIRV_MAGIC) {
             return Err(bad(format!("shader {i}: SPIR-V without the module header")));
         }
+        let n = super::spirv::largest_array(&sh.spirv);
+        if n > super::spirv::MAX_ARRAY_ELEMENTS {
+            return Err(bad(format!(
+                "shader {i}: an array of {n} elements (at most {})",
+                super::spirv::MAX_ARRAY_ELEMENTS
+            )));
+        }
     }
     if let Some(p) = &b.program {
         for (idx, vertex, what) in [(p.vertex, true, "vertex"), (p.fragment, false, "fragment")] {
@@ -351,6 +358,12 @@ mod tests {
         let mut b = bundle();
         b.shaders[0].spirv = vec![1, 2, 3, 4, 5, 6];
         assert!(verify(&b).is_err(), "SPIR-V without the magic number");
+        // `float[100000000]`: (the capability's operand,) OpConstant %int %10 100000000,
+        // OpTypeArray %20 %float %10.
+        let mut b = bundle();
+        b.shaders[1].spirv.extend([1, (4 << 16) | 43, 1, 10, 100_000_000, (4 << 16) | 28, 20, 5, 10]);
+        let e = verify(&b).expect_err("a huge array").to_string();
+        assert!(e.contains("an array of 100000000 elements (at most 65536)"), "{e}");
         let mut b = bundle();
         b.program = Some(Program { vertex: 1, fragment: 1 });
         assert!(verify(&b).is_err(), "a fragment shader as the vertex stage");
