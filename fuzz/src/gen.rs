@@ -266,6 +266,121 @@ impl Gen<'_> {
     }
 }
 
+const GLSL_OPS: &[&str] = &["+", "-", "*", "/", "<", ">", "==", "&&", "||", "?", ":", ".", "%", "<<", "&"];
+
+/// A random GLSL shader for the `glsl_limits` target: `#define` chains (object- and
+/// function-like, doubling, self-referring, `#undef`, `#if`), expressions long,
+/// deep and mixed, arrays with literal and constant-expression sizes, loops. Some
+/// are valid GLSL; the bounds must hold for all.
+pub fn glsl(rng: &mut Rng) -> String {
+    let mut s = String::from("#version 450\nlayout(location = 0) out vec4 color;\n");
+    let n_macros = rng.below(30);
+    for i in 0..n_macros {
+        let prev = if i == 0 { "x".to_string() } else { format!("M{}", rng.below(i)) };
+        match rng.below(7) {
+            0 => {
+                let _ = writeln!(s, "#define M{i} {prev}+{prev}");
+            }
+            1 => {
+                let _ = writeln!(s, "#define M{i}(a) (a*{prev}+a)");
+            }
+            2 => {
+                let _ = writeln!(s, "#define M{i} M{i}+1");
+            }
+            3 => {
+                let _ = writeln!(s, "#define M{i}(a, b) a b a");
+            }
+            4 => {
+                let _ = writeln!(s, "#undef M{}", rng.below(i + 1));
+            }
+            5 => {
+                let _ = writeln!(s, "#if {} > 1\n#define M{i} ({prev})\n#else\n#define M{i} 2\n#endif", rng.below(3));
+            }
+            _ => {
+                let _ = writeln!(s, "#define M{i} {prev}*{prev}*{prev}");
+            }
+        }
+    }
+    if rng.one_in(3) {
+        let n = [1u64, 16, 1000, 65_536, 65_537, 1 << 20, 100_000_000][rng.below(7)];
+        let size = if rng.one_in(2) { n.to_string() } else { format!("{} * 2", n / 2) };
+        let _ = writeln!(s, "float table[{size}];");
+    }
+    s.push_str("void main() {\n  float x = gl_FragCoord.x;\n");
+    for _ in 0..1 + rng.below(4) {
+        let terms = [1usize, 10, 100, 2000, 2049, 10_000][rng.below(6)];
+        let mut e = String::from("x");
+        for t in 0..terms {
+            let op = rng.pick(GLSL_OPS).copied().unwrap_or("+");
+            if op == "?" || op == ":" || op == "." {
+                e.push_str(" + x");
+            } else {
+                let _ = write!(e, " {op} ");
+                if n_macros > 0 && rng.one_in(8) {
+                    let m = rng.below(n_macros);
+                    let _ = write!(e, "M{m}");
+                    if rng.one_in(2) {
+                        let _ = write!(e, "(x)");
+                    }
+                } else {
+                    let _ = write!(e, "{}", t % 7);
+                }
+            }
+        }
+        let depth = [0usize, 3, 100, 300][rng.below(4)];
+        let _ = writeln!(s, "  x = {}{e}{};", "(".repeat(depth), ")".repeat(depth));
+        if rng.one_in(4) {
+            let _ = writeln!(s, "  for (int i = 0; i < {}; i++) {{ x += float(i); }}", rng.small(1, 1000));
+        }
+    }
+    s.push_str("  color = vec4(x);\n}\n");
+    s
+}
+
+/// A random project for the `preprocess` target: the main file and up to 300 more
+/// (`//@file NAME` lines), importing one another in chains, cycles, diamonds and
+/// fans, across directories, with `..` and std imports, some defining macros the
+/// others expand.
+pub fn imports(rng: &mut Rng) -> String {
+    let n = [2usize, 10, 70, 300][rng.below(4)];
+    let name = |i: usize| if i == 0 { "main.mdg".to_string() } else { format!("d{}/f{i}.mdg", i % 4) };
+    let mut s = String::new();
+    for i in 0..n {
+        if i > 0 {
+            let _ = writeln!(s, "//@file {}", name(i));
+        }
+        let dir_up = if i == 0 { "" } else { "../" };
+        let imports = match rng.below(5) {
+            // A chain.
+            0 => vec![i + 1],
+            // A fan and a diamond.
+            1 => vec![i + 1, i + 2, (i + 3).min(n)],
+            // A cycle back.
+            2 => vec![rng.below(i + 1), i + 1],
+            // Itself.
+            3 => vec![i],
+            _ => vec![rng.below(n + 2)],
+        };
+        for j in imports {
+            if j < n {
+                let _ = writeln!(s, "@import {dir_up}{}", name(j));
+            } else if j == n {
+                s.push_str("@import prims\n");
+            } else {
+                let _ = writeln!(s, "@import {dir_up}missing{j}.mdg");
+            }
+        }
+        if rng.one_in(3) {
+            let _ = writeln!(s, "@macro F{i}(a)\nrule MF{i} {{ VERTEX {{x a}} }}\n@endmacro");
+        }
+        if i > 0 && rng.one_in(3) {
+            let _ = writeln!(s, "@expand F{}(1)", rng.below(i));
+        }
+        let _ = writeln!(s, "rule R{i} {{ VERTEX {{}} }}");
+    }
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

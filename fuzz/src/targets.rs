@@ -52,6 +52,11 @@ pub enum Target {
     /// it or the section's mode runs (search, evolution, generation) under tight
     /// limits without panicking.
     ExtTables,
+    /// Shader text through the bounds checked before glslang
+    /// (`shader_limits::check`), and glslang itself on one input in 64 that passes:
+    /// generated shaders (`gen::glsl`: macro chains, long and deep expressions,
+    /// arrays) and mutated ones.
+    GlslLimits,
     /// The voxel readers (`mdg_vm::grid::format`: text, `.vox`, `.nbt`, `.schem`); a
     /// model read is written back and must read again with as many blocks. The first
     /// input byte picks the format.
@@ -60,7 +65,7 @@ pub enum Target {
 
 impl Target {
     /// Every target, in the order `fuzz/run` runs them.
-    pub const ALL: [Target; 8] = [
+    pub const ALL: [Target; 9] = [
         Target::ParseCheck,
         Target::FmtIdempotent,
         Target::Preprocess,
@@ -68,6 +73,7 @@ impl Target {
         Target::VmRun,
         Target::ExtSources,
         Target::ExtTables,
+        Target::GlslLimits,
         Target::VoxelReaders,
     ];
 
@@ -81,6 +87,7 @@ impl Target {
             Target::VmRun => "vm_run",
             Target::ExtSources => "ext_sources",
             Target::ExtTables => "ext_tables",
+            Target::GlslLimits => "glsl_limits",
             Target::VoxelReaders => "voxel_readers",
         }
     }
@@ -110,6 +117,11 @@ impl Target {
             Target::BundleLoad | Target::ExtTables | Target::VoxelReaders => 256 * 1024,
             // Extension examples are longer (a creature grammar is about 3 KB).
             Target::ExtSources => 4 * 1024,
+            // Generated shaders hold up to four 10,000-term statements (about 200 KB);
+            // past 256 KiB the size limit is what they meet. Generated projects of 300
+            // files are about 20 KB.
+            Target::GlslLimits => 320 * 1024,
+            Target::Preprocess => 32 * 1024,
             _ => 2 * 1024,
         }
     }
@@ -268,6 +280,12 @@ impl Target {
         if self == Target::VmRun && (pool.is_empty() || !rng.one_in(4)) {
             return crate::gen::program(rng).into_bytes();
         }
+        if self == Target::GlslLimits && (pool.is_empty() || rng.one_in(2)) {
+            return crate::gen::glsl(rng).into_bytes();
+        }
+        if self == Target::Preprocess && (pool.is_empty() || rng.one_in(3)) {
+            return crate::gen::imports(rng).into_bytes();
+        }
         let from = if seeds > 0 && rng.one_in(2) { &pool[..seeds.min(pool.len())] } else { pool };
         let base = rng.pick(from).cloned().unwrap_or_default();
         if self.binary() {
@@ -291,6 +309,7 @@ impl Target {
             Target::Preprocess => preprocess(input),
             Target::BundleLoad => bundle_load(input),
             Target::ExtTables => ext_tables(input),
+            Target::GlslLimits => glsl_limits(input),
             Target::VmRun => vm_run(input),
             Target::VoxelReaders => voxel_readers(input),
         }
@@ -761,6 +780,31 @@ fn ext_tables(input: &[u8]) -> u64 {
         };
     }
     sig
+}
+
+fn glsl_limits(input: &[u8]) -> u64 {
+    let text = text(input);
+    match mdg_compiler::shader_limits::check(&text) {
+        Err(r) => {
+            // The refusal points inside the text, on character boundaries.
+            assert!(r.start <= r.end && r.end <= text.len(), "refusal span {}..{} of {}", r.start, r.end, text.len());
+            assert!(text.is_char_boundary(r.start) && text.is_char_boundary(r.end), "refusal span off a boundary");
+            hash(r.message.chars().filter(|c| !c.is_ascii_digit()).take(30).collect::<String>().as_bytes())
+        }
+        Ok(()) => {
+            deep();
+            // What passes the bounds is what glslang must survive (on its own thread,
+            // with the deadline): once in 64 inputs, it is slow.
+            if hash(input).is_multiple_of(64) {
+                match mdg_compiler::shaders::compile_glsl(&text, hash(input) & 64 == 0) {
+                    Ok(_) => 0x11,
+                    Err(e) => 0x22 ^ (e.len().min(4) as u64),
+                }
+            } else {
+                0x33
+            }
+        }
+    }
 }
 
 fn vm_run(input: &[u8]) -> u64 {
