@@ -18,6 +18,11 @@ fn explain_prints_every_code() {
         assert!(text.contains(c.title), "{}: no title in {text}", c.code);
         let first = c.explanation.lines().next().expect("explanation");
         assert!(text.contains(first), "{}: no explanation in {text}", c.code);
+        if let mdg_compiler::codes::Example::Editor(what) = c.example {
+            // Made by the language server: the example says for what document.
+            assert!(text.contains(&format!("Example: {what}")), "{}: no example in {text}", c.code);
+            continue;
+        }
         let example_line = c.example.text().lines().find(|l| !l.trim().is_empty()).expect("example");
         assert!(text.contains(&format!("    {example_line}")), "{}: no example in {text}", c.code);
     }
