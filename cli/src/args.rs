@@ -39,8 +39,8 @@ impl CompileArgs {
 /// one evaluation, the same for `mdg-run` and `mdg-view` (docs/limits.md).
 #[derive(clap::Args, Clone, Debug, Default)]
 pub struct LimitArgs {
-    /// Stop after this many vertices: the mesh, sweeps, every instance's vertices and
-    /// every line point, as the files hold them (default 4,000,000; docs/limits.md).
+    /// Stop after this many vertices: the mesh and sweeps, every isosurface mesh (once),
+    /// one per instance and every line point (default 4,000,000; docs/limits.md).
     #[arg(long, value_name = "N")]
     pub max_vertices: Option<u64>,
     /// Frames a convolution takes from one iterator rule (default 10,000,000; a

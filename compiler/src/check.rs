@@ -1373,7 +1373,7 @@ impl<'a> Checker<'a> {
                     for a in args {
                         self.dir_value(a, integer && !matches!(n, "randseed") || n == "randseed");
                         let value = match a {
-                            DirArg::Expr(e) => crate::consteval::eval(e, &|c| self.ex.constant(c)).map(|v| (v, e.span)),
+                            DirArg::Expr(e) => self.const_value(e).map(|v| (v, e.span)),
                             // A literal beyond range already has E0109.
                             _ => num_of(a).filter(|(v, _)| v.is_finite()).map(|(v, num)| (v, num.span)),
                         };

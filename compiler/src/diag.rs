@@ -256,8 +256,7 @@ impl<'a> Files<'a> for CsFiles<'a> {
             return Err(FilesError::LineTooLarge { given: line_index, max: f.n_lines() - 1 });
         }
         let start = f.line_start(line_index as u32) as usize;
-        let end =
-            if line_index + 1 < f.n_lines() { f.line_start(line_index as u32 + 1) as usize } else { f.text.len() };
+        let end = f.line_end(line_index as u32) as usize;
         Ok(start..end)
     }
 }
@@ -337,8 +336,7 @@ impl<'s> Clipped<'s> {
             let f = &sources.files[l.file_id as usize];
             [l.range.start, l.range.end].iter().any(|&o| {
                 let line = f.line_col(o as u32).0;
-                let end =
-                    if (line as usize) + 1 < f.n_lines() { f.line_start(line + 1) as usize } else { f.text.len() };
+                let end = f.line_end(line) as usize;
                 end - f.line_start(line) as usize > MAX_SHOWN_LINE
             })
         };
@@ -358,8 +356,7 @@ impl<'s> Clipped<'s> {
             let mut spans = Vec::with_capacity(f.n_lines());
             for line in 0..f.n_lines() as u32 {
                 let start = f.line_start(line) as usize;
-                let end =
-                    if (line as usize) + 1 < f.n_lines() { f.line_start(line + 1) as usize } else { f.text.len() };
+                let end = f.line_end(line) as usize;
                 let body = f.text[start..end].trim_end_matches(['\n', '\r']);
                 let on: Vec<usize> =
                     offsets.iter().copied().filter(|&o| o >= start && o <= start + body.len()).collect();

@@ -146,6 +146,12 @@ impl SourceFile {
         self.line_starts.get(line as usize).copied().unwrap_or(self.text.len() as u32)
     }
 
+    /// Byte offset where zero-based `line` ends: the start of the next line (after
+    /// the line's `\n`), or the end of the text for the last line.
+    pub fn line_end(&self, line: u32) -> u32 {
+        self.line_start(line + 1)
+    }
+
     /// Number of lines.
     pub fn n_lines(&self) -> usize {
         self.line_starts.len()

@@ -1475,8 +1475,7 @@ impl<'b> Eval<'b> {
                         Some(self.out.shared_meshes.len() as u32 - 1)
                     }
                     Err(marching::Refused::OutOfTime) => {
-                        self.limits.time = true;
-                        self.stopped = true;
+                        self.check_budgets();
                         self.stop_pc.get_or_insert(pc);
                         None
                     }

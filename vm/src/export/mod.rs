@@ -12,9 +12,11 @@ pub mod obj;
 pub mod ply;
 pub mod stl;
 
+use std::collections::{BTreeMap, HashMap};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
 
 use glam::{Mat4, Vec3};
 
@@ -211,27 +213,41 @@ pub fn write_atomic_with(
 /// killed (`.NAME.PID.N.tmp` whose process no longer runs): the next successful write
 /// of a file cleans up after the runs of it that died. Only on Linux, where a
 /// process's liveness is `/proc/PID`; a temporary file of a live writer is never
-/// touched.
+/// touched. A directory is listed once per process (a batch writes thousands of files
+/// into one), when it is first written to.
 fn remove_stale_temporaries(dir: &Path, name: &str) {
     if !cfg!(target_os = "linux") || !Path::new("/proc/self").exists() {
         return;
     }
-    let prefix = format!(".{name}.");
-    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    static STALE: Mutex<BTreeMap<PathBuf, HashMap<String, Vec<PathBuf>>>> = Mutex::new(BTreeMap::new());
+    let mut stale = STALE.lock().unwrap_or_else(|e| e.into_inner());
+    let found = stale.entry(dir.to_path_buf()).or_insert_with(|| stale_temporaries(dir));
+    for p in found.remove(name).unwrap_or_default() {
+        let _ = std::fs::remove_file(p);
+    }
+}
+
+/// The temporary files in `dir` whose writer no longer runs, by the name of the file
+/// they were written for.
+fn stale_temporaries(dir: &Path) -> HashMap<String, Vec<PathBuf>> {
+    let mut out: HashMap<String, Vec<PathBuf>> = HashMap::new();
+    let Ok(entries) = std::fs::read_dir(dir) else { return out };
     for e in entries.flatten() {
         let file = e.file_name();
-        let Some(rest) = file.to_str().and_then(|f| f.strip_prefix(&prefix)).and_then(|f| f.strip_suffix(".tmp"))
-        else {
+        // `.NAME.PID.N.tmp`, read from the right (NAME may hold dots).
+        let Some(rest) = file.to_str().and_then(|f| f.strip_prefix('.')).and_then(|f| f.strip_suffix(".tmp")) else {
             continue;
         };
-        let Some((pid, n)) = rest.split_once('.') else { continue };
-        let (Ok(pid), true) = (pid.parse::<u32>(), n.bytes().all(|b| b.is_ascii_digit()) && !n.is_empty()) else {
+        let Some((rest, n)) = rest.rsplit_once('.') else { continue };
+        let Some((name, pid)) = rest.rsplit_once('.') else { continue };
+        let (Ok(pid), true) = (pid.parse::<u32>(), !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit())) else {
             continue;
         };
         if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
-            let _ = std::fs::remove_file(e.path());
+            out.entry(name.to_string()).or_default().push(e.path());
         }
     }
+    out
 }
 
 /// Writes into an existing file that is not a regular file: character devices and
