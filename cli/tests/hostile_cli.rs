@@ -1,16 +1,21 @@
 //! Hostile and careless command lines (issue 25): numbers that used to panic,
 //! values the checker accepted that allocated gigabytes, files that are not regular
 //! files, outputs that overwrite their inputs. Each binary runs in its own process
-//! under `ulimit -v` (virtual memory, a stricter bound than peak RSS), so a dense
-//! allocation past the bound fails the test instead of exhausting the machine.
+//! under `ulimit -v` (virtual memory), so a dense allocation past the bound fails the
+//! test instead of exhausting the machine, and its peak resident memory and time
+//! are bounded too.
+
+mod bounded;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Virtual memory each child may map (KiB): 3 GiB. Every case below needs well
 /// under 100 MB; the failures they guard against mapped 5–29 GB.
 const VMEM_KIB: u64 = 3 * 1024 * 1024;
+/// Peak resident memory each child may reach (KiB): 256 MiB.
+const PEAK_KIB: u64 = 256 * 1024;
 
 /// A fresh scratch directory for one test.
 fn scratch(name: &str) -> PathBuf {
@@ -20,20 +25,21 @@ fn scratch(name: &str) -> PathBuf {
     d
 }
 
-/// Runs `bin` with `args` in `dir` under the memory bound; returns the output and the
-/// wall time.
+/// Runs `bin` with `args` in `dir` under the memory bound and a 120 s limit (a
+/// child that blocks, on a named pipe say, is killed and fails); asserts its peak
+/// resident memory stayed under [`PEAK_KIB`]; returns the output and the wall time.
 fn run_in(dir: &Path, bin: &str, args: &[&str]) -> (Output, Duration) {
-    let t0 = Instant::now();
-    let out = Command::new("sh")
-        .arg("-c")
-        // `timeout`: a child that blocks (on a named pipe) ends with 124 and fails.
-        .arg(format!("ulimit -v {VMEM_KIB}; exec timeout 120 \"$0\" \"$@\""))
-        .arg(bin)
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run");
-    (out, t0.elapsed())
+    let r = bounded::run(dir, bin, args, &[], VMEM_KIB, Duration::from_secs(120));
+    eprintln!(
+        "{} {}: peak RSS {:.1} MiB, {:?}",
+        bin.rsplit('/').next().unwrap_or(bin),
+        args.join(" "),
+        r.peak_kib as f64 / 1024.0,
+        r.took
+    );
+    assert!(!r.timed_out, "{args:?} ran past 120 s");
+    assert!(r.peak_kib < PEAK_KIB, "{args:?}: peak RSS {} KiB, more than {PEAK_KIB} KiB", r.peak_kib);
+    (r.output, r.took)
 }
 
 fn mdg_run(dir: &Path, args: &[&str]) -> (Output, Duration) {

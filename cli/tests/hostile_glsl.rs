@@ -1,16 +1,21 @@
 //! Hostile shader blocks and junk sources through `mdgc check` (issue 25): GLSL that
 //! overflowed glslang's stack or never finished, and a 2 MB junk file whose every
 //! bad token used to be kept as an error. Each run is its own process under
-//! `ulimit -v` and `timeout`, so a stack overflow (a signal), a hang (exit 124) or
-//! an allocation past the bound fails the test.
+//! `ulimit -v` and a time limit, so a stack overflow (a signal), a hang (killed) or
+//! an allocation past the bound fails the test; its peak resident memory is bounded
+//! too.
+
+mod bounded;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-use std::time::{Duration, Instant};
+use std::process::Output;
+use std::time::Duration;
 
 /// Virtual memory each child may map (KiB): 3 GiB (glslang's thread reserves a
 /// 256 MiB stack; the runs below need well under 200 MB).
 const VMEM_KIB: u64 = 3 * 1024 * 1024;
+/// Peak resident memory each run may reach (KiB): 512 MiB.
+const PEAK_KIB: u64 = 512 * 1024;
 
 fn scratch(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("mdg-hostile-glsl-{name}-{}", std::process::id()));
@@ -26,17 +31,11 @@ fn mdgc(dir: &Path, args: &[&str]) -> (Output, Duration) {
 }
 
 fn mdgc_env(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> (Output, Duration) {
-    let t0 = Instant::now();
-    let out = Command::new("sh")
-        .envs(env.iter().copied())
-        .arg("-c")
-        .arg(format!("ulimit -v {VMEM_KIB}; exec timeout 60 \"$0\" \"$@\""))
-        .arg(env!("CARGO_BIN_EXE_mdgc"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run mdgc");
-    (out, t0.elapsed())
+    let r = bounded::run(dir, env!("CARGO_BIN_EXE_mdgc"), args, env, VMEM_KIB, Duration::from_secs(60));
+    eprintln!("mdgc {}: peak RSS {:.1} MiB, {:?}", args.join(" "), r.peak_kib as f64 / 1024.0, r.took);
+    assert!(!r.timed_out, "mdgc {args:?} ran past 60 s");
+    assert!(r.peak_kib < PEAK_KIB, "mdgc {args:?}: peak RSS {} KiB, more than {PEAK_KIB} KiB", r.peak_kib);
+    (r.output, r.took)
 }
 
 /// A program whose vertex shader is `glsl` (after `#version 450`).

@@ -50,11 +50,58 @@ pub fn default_std_dir() -> Option<PathBuf> {
     crate::stdlib::materialize()
 }
 
-fn finish(sources: Sources, expanded: Expanded, opts: CheckOptions) -> Analysis {
+/// How much of an analysis to do, and when to give it up. The default is the whole
+/// analysis, never given up.
+#[derive(Clone, Copy, Default)]
+pub struct Effort<'a> {
+    /// Leave the shader blocks uncompiled (no SPIR-V, no GLSL diagnostics): what the
+    /// language server's structural features need, without waiting for glslang.
+    pub skip_shaders: bool,
+    /// Polled between the phases and while a shader compiles: once it says true, the
+    /// analysis stops and [`analyze_text_with`] returns `None` (the language server's
+    /// analysis of a version the user has already replaced).
+    pub cancelled: crate::shaders::Cancel<'a>,
+}
+
+impl Effort<'_> {
+    fn stop(&self) -> bool {
+        self.cancelled.is_some_and(|c| c())
+    }
+}
+
+fn finish(sources: Sources, expanded: Expanded, opts: CheckOptions, effort: Effort) -> Option<Analysis> {
+    if effort.stop() {
+        return None;
+    }
+    let checked = check::check(&expanded, opts);
+    if effort.stop() {
+        return None;
+    }
+    let shaders = if effort.skip_shaders {
+        (vec![None; expanded.shaders.len()], Vec::new())
+    } else {
+        crate::shaders::compile_all(&expanded, &sources, effort.cancelled)?
+    };
+    Some(assemble(sources, expanded, checked, shaders))
+}
+
+/// The whole analysis (never cancelled).
+fn finish_all(sources: Sources, expanded: Expanded, opts: CheckOptions) -> Analysis {
     let checked = check::check(&expanded, opts);
     // Shader blocks are compiled for every analysis, not only in `build`, so that
     // `mdgc check` and the editor report GLSL errors too (cached per block).
-    let (spirv, shader_diags) = crate::shaders::compile_all(&expanded, &sources);
+    let shaders = crate::shaders::compile_all(&expanded, &sources, None)
+        .unwrap_or_else(|| (vec![None; expanded.shaders.len()], Vec::new()));
+    assemble(sources, expanded, checked, shaders)
+}
+
+/// The diagnostics of every phase, limited, sorted and deduplicated.
+fn assemble(
+    sources: Sources,
+    expanded: Expanded,
+    checked: Checked,
+    (spirv, shader_diags): crate::shaders::Compiled,
+) -> Analysis {
     // A main file that could not be read has no `startshape` to miss: say only why.
     let unread = sources.files.first().is_some_and(|f| f.text.is_empty())
         && expanded.diagnostics.iter().any(|d| d.code == "E0201" && d.span.file == crate::span::FileId(0));
@@ -76,7 +123,7 @@ fn finish(sources: Sources, expanded: Expanded, opts: CheckOptions) -> Analysis 
 pub fn analyze(loader: &dyn FileLoader, path: &Path, opts: &Options, check: CheckOptions) -> Analysis {
     let mut sources = Sources::default();
     let expanded = expand::expand_path(&mut sources, loader, path, opts);
-    finish(sources, expanded, check)
+    finish_all(sources, expanded, check)
 }
 
 /// Analyzes `text` as if it were the file at `path` (imports read through `loader`).
@@ -84,7 +131,23 @@ pub fn analyze_text(loader: &dyn FileLoader, path: &Path, text: &str, opts: &Opt
     let mut sources = Sources::default();
     let id: FileId = sources.add(path, path.display().to_string(), text);
     let expanded = expand::expand_file(&mut sources, loader, id, opts);
-    finish(sources, expanded, check)
+    finish_all(sources, expanded, check)
+}
+
+/// [`analyze_text`] with less work or a cancel check ([`Effort`]); `None` if it was
+/// cancelled.
+pub fn analyze_text_with(
+    loader: &dyn FileLoader,
+    path: &Path,
+    text: &str,
+    opts: &Options,
+    check: CheckOptions,
+    effort: Effort,
+) -> Option<Analysis> {
+    let mut sources = Sources::default();
+    let id: FileId = sources.add(path, path.display().to_string(), text);
+    let expanded = expand::expand_file(&mut sources, loader, id, opts);
+    finish(sources, expanded, check, effort)
 }
 
 /// Compiles the program at `path` to a bundle. On errors, returns the analysis

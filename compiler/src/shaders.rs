@@ -117,7 +117,27 @@ pub fn compile_glsl_within(source: &str, vertex: bool, deadline: Duration) -> Co
         let (line, column) = line_col(source, r.start);
         return Err(vec![GlslError { line: Some(line), column: Some(column), message: r.message, limit: true }]);
     }
-    compile_checked(source, vertex, deadline)
+    // Without a cancel check the compile always answers.
+    compile_checked(source, vertex, deadline, None).unwrap_or_else(|| Err(timed_out(deadline)))
+}
+
+/// How often a caller with a cancel check looks at it while it waits for glslang.
+const CANCEL_POLL: Duration = Duration::from_millis(10);
+
+/// The SPIR-V of each shader block (`None` where it failed) and the diagnostics.
+pub type Compiled = (Vec<Option<Vec<u32>>>, Vec<Diagnostic>);
+
+/// A cancel check (see [`crate::driver::Effort`]).
+pub type Cancel<'a> = Option<&'a (dyn Fn() -> bool + Sync)>;
+
+/// How long to wait next: what is left of `left`, at most [`CANCEL_POLL`] when
+/// there is a cancel check to look at.
+fn slice(left: Duration, cancel: Cancel) -> Duration {
+    if cancel.is_some() {
+        left.min(CANCEL_POLL)
+    } else {
+        left
+    }
 }
 
 /// Waits until no compile thread is running, at most `timeout`; whether none is.
@@ -155,16 +175,23 @@ fn timed_out(deadline: Duration) -> Vec<GlslError> {
 }
 
 /// A source that passed the limits: from the cache, from a compile of the same
-/// source already running, or compiled on a new thread.
-fn compile_checked(source: &str, vertex: bool, deadline: Duration) -> CompileResult {
-    precheck(source)?;
+/// source already running, or compiled on a new thread. `None` once `cancel` says
+/// so (a compile it started goes on and stores its result in the cache).
+fn compile_checked(source: &str, vertex: bool, deadline: Duration, cancel: Cancel) -> Option<CompileResult> {
+    if let Err(e) = precheck(source) {
+        return Some(Err(e));
+    }
+    let cancelled = || cancel.is_some_and(|c| c());
     let key: Key = (vertex, source.to_string());
     let (m, cv) = state();
     let start = Instant::now();
     let mut st = lock(m);
     loop {
         if let Some(r) = st.cache.get(&key) {
-            return r.clone();
+            return Some(r.clone());
+        }
+        if cancelled() {
+            return None;
         }
         let same_running = st.running.contains(&key);
         if !same_running && st.threads < MAX_COMPILE_THREADS {
@@ -173,15 +200,15 @@ fn compile_checked(source: &str, vertex: bool, deadline: Duration) -> CompileRes
         let left = deadline.saturating_sub(start.elapsed());
         if left.is_zero() {
             if same_running {
-                return Err(timed_out(deadline));
+                return Some(Err(timed_out(deadline)));
             }
-            return Err(vec![GlslError::limit(format!(
+            return Some(Err(vec![GlslError::limit(format!(
                 "shader not compiled: all {MAX_COMPILE_THREADS} glslang threads stayed busy for {} (a compilation \
                  past its deadline keeps its thread until it ends)",
                 seconds(deadline)
-            ))]);
+            ))]));
         }
-        st = cv.wait_timeout(st, left).map(|(g, _)| g).unwrap_or_else(|p| p.into_inner().0);
+        st = cv.wait_timeout(st, slice(left, cancel)).map(|(g, _)| g).unwrap_or_else(|p| p.into_inner().0);
     }
     st.running.insert(key.clone());
     st.threads += 1;
@@ -211,25 +238,31 @@ fn compile_checked(source: &str, vertex: bool, deadline: Duration) -> CompileRes
         st.running.remove(&key);
         st.threads -= 1;
         cv.notify_all();
-        return Err(vec![GlslError::limit(format!("shader not compiled: cannot start a compile thread: {e}"))]);
+        return Some(Err(vec![GlslError::limit(format!("shader not compiled: cannot start a compile thread: {e}"))]));
     }
-    match rx.recv_timeout(deadline) {
-        Ok(r) => r,
-        Err(_) => {
-            // Finished just now after all?
-            if let Ok(r) = rx.try_recv() {
-                return r;
-            }
-            // Abandoned: the thread finishes on its own and stores its result.
-            let r = Err(timed_out(deadline));
-            let mut st = lock(m);
-            if st.running.contains(&key) {
-                st.cache.entry(key).or_insert_with(|| r.clone());
-            }
-            cv.notify_all();
-            r
+    let compiling = Instant::now();
+    loop {
+        let left = deadline.saturating_sub(compiling.elapsed());
+        match rx.recv_timeout(slice(left, cancel)) {
+            Ok(r) => return Some(r),
+            // Given up: the thread finishes on its own and stores its result.
+            Err(mpsc::RecvTimeoutError::Timeout) if cancelled() => return None,
+            Err(mpsc::RecvTimeoutError::Timeout) if !left.is_zero() => {}
+            Err(_) => break,
         }
     }
+    // Finished just now after all?
+    if let Ok(r) = rx.try_recv() {
+        return Some(r);
+    }
+    // Abandoned: the thread finishes on its own and stores its result.
+    let r = Err(timed_out(deadline));
+    let mut st = lock(m);
+    if st.running.contains(&key) {
+        st.cache.entry(key).or_insert_with(|| r.clone());
+    }
+    cv.notify_all();
+    Some(r)
 }
 
 /// What is refused before glslang: NUL characters and a missing or non-ASCII
@@ -422,7 +455,8 @@ fn quoted_token(message: &str) -> Option<&str> {
 /// Compiles every shader block of an expanded program. Returns the SPIR-V of each
 /// block, index-aligned with `ex.shaders` (`None` where it failed), and the
 /// diagnostics.
-pub fn compile_all(ex: &Expanded, sources: &Sources) -> (Vec<Option<Vec<u32>>>, Vec<Diagnostic>) {
+/// `None` once `cancel` says so.
+pub fn compile_all(ex: &Expanded, sources: &Sources, cancel: Cancel) -> Option<Compiled> {
     let mut spirv = Vec::with_capacity(ex.shaders.len());
     let mut diags = Vec::new();
     for sh in &ex.shaders {
@@ -444,7 +478,7 @@ pub fn compile_all(ex: &Expanded, sources: &Sources) -> (Vec<Option<Vec<u32>>>, 
             spirv.push(None);
             continue;
         }
-        match compile_checked(&sh.code, sh.vertex, COMPILE_DEADLINE) {
+        match compile_checked(&sh.code, sh.vertex, COMPILE_DEADLINE, cancel)? {
             Ok(words) if mdg_vm::bundle::spirv::largest_array(&words) > mdg_vm::bundle::spirv::MAX_ARRAY_ELEMENTS => {
                 let n = mdg_vm::bundle::spirv::largest_array(&words);
                 let max = mdg_vm::bundle::spirv::MAX_ARRAY_ELEMENTS;
@@ -473,7 +507,7 @@ pub fn compile_all(ex: &Expanded, sources: &Sources) -> (Vec<Option<Vec<u32>>>, 
             }
         }
     }
-    (spirv, diags)
+    Some((spirv, diags))
 }
 
 /// Stores compiled SPIR-V in a lowered bundle (whose shader list was lowered from

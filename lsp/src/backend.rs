@@ -7,6 +7,7 @@ use crate::guard::guard;
 use crate::position::LineIndex;
 use crate::workspace::Workspace;
 use mdg_compiler::analysis::{CompletionConfig, Document};
+use mdg_compiler::driver::Effort;
 use mdg_compiler::expand::Options;
 use mdg_compiler::span::{FileId, Span};
 use std::sync::atomic::AtomicBool;
@@ -97,37 +98,48 @@ impl Backend {
     }
 
     /// Analyses `snap` (on the current thread); a document over the live-analysis
-    /// limit is not analysed (one W0012 warning says so).
-    pub fn analyze(snap: &Snapshot, config: &Config) -> Document {
+    /// limit is not analysed (one W0012 warning says so). `None` if the document
+    /// changed meanwhile (the analysis gave up). `quick` leaves the shaders
+    /// uncompiled.
+    pub fn analyze(snap: &Snapshot, config: &Config, quick: bool) -> Option<Document> {
         if snap.text.len() > config.max_live_bytes {
-            return Document::too_large(
+            return Some(Document::too_large(
                 &snap.loader,
                 &snap.path,
                 snap.text.len(),
                 config.max_live_bytes,
                 &config.options,
-            );
+            ));
         }
-        Document::new(&snap.loader, &snap.path, &snap.text, &config.options)
+        let outdated = || snap.outdated();
+        let effort = Effort { skip_shaders: quick, cancelled: Some(&outdated) };
+        Document::with_effort(&snap.loader, &snap.path, &snap.text, &config.options, effort)
     }
 
-    /// The analysis of the current version of `uri`, computed now if the latest
-    /// one is out of date.
+    /// An analysis of the current text of `uri` for a request: the full one if it
+    /// is done, else one without compiled shaders, made now if need be, so that a
+    /// request never waits for glslang (the full analysis runs in
+    /// [`crate::handlers::sync::refresh`]). `None` if the document is not open or
+    /// changed while it was analysed.
     pub async fn document(&self, uri: &Uri) -> Option<Arc<Document>> {
-        if let Some(d) = self.docs.current_analysis(uri) {
+        if let Some(d) = self.docs.current_analysis(uri).or_else(|| self.docs.quick(uri)) {
             return Some(d);
         }
         let snap = self.docs.snapshot(uri)?;
         let config = self.config.clone();
-        let version = snap.version;
-        let result = tokio::task::spawn_blocking(move || guard(|| Backend::analyze(&snap, &config))).await;
+        let result = tokio::task::spawn_blocking(move || {
+            let doc = guard(|| Backend::analyze(&snap, &config, true));
+            (snap, doc)
+        })
+        .await;
         match result {
-            Ok(Ok(doc)) => {
+            Ok((snap, Ok(Some(doc)))) => {
                 let doc = Arc::new(doc);
-                self.docs.store(uri, version, doc.clone());
+                self.docs.store_quick(uri, &snap, doc.clone());
                 Some(doc)
             }
-            Ok(Err(panic)) => {
+            Ok((_, Ok(None))) => None,
+            Ok((_, Err(panic))) => {
                 self.log_panic("analysis", &panic).await;
                 None
             }

@@ -10,6 +10,7 @@ use crate::position::LineIndex;
 use mdg_compiler::analysis::Document;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use tower_lsp_server::ls_types::{TextDocumentContentChangeEvent, Uri};
 
@@ -27,15 +28,32 @@ pub struct DocState {
     /// Whether the running loop must analyse once more although the version is the
     /// same (a file it imports changed meanwhile).
     pub again: bool,
+    /// Counts what makes an analysis outdated (an edit, a changed import, closing):
+    /// a running analysis whose snapshot saw an older count gives up.
+    pub generation: Arc<AtomicU64>,
+    /// An analysis without compiled shaders ([`Documents::quick`]) and the
+    /// generation it analysed: what requests use while the full one is running.
+    pub quick: Option<(u64, Arc<Document>)>,
 }
 
 /// What an analysis of one version needs, taken under the lock.
 pub struct Snapshot {
     pub version: i32,
+    /// The document's generation when the snapshot was taken, and the counter.
+    pub generation: u64,
+    pub counter: Arc<AtomicU64>,
     pub path: PathBuf,
     pub text: Arc<str>,
     /// Every open document, for imports of unsaved files.
     pub loader: OverlayLoader,
+}
+
+impl Snapshot {
+    /// Whether the document has changed since the snapshot (or was closed), so that
+    /// an analysis of it is no longer wanted.
+    pub fn outdated(&self) -> bool {
+        self.counter.load(Ordering::SeqCst) != self.generation
+    }
 }
 
 /// All open documents.
@@ -86,13 +104,25 @@ impl Documents {
         let canon = crate::workspace::canon(&path);
         self.lock().insert(
             uri,
-            DocState { version, text: Arc::from(text), path, canon, analysis: None, analyzing: false, again: false },
+            DocState {
+                version,
+                text: Arc::from(text),
+                path,
+                canon,
+                analysis: None,
+                analyzing: false,
+                again: false,
+                generation: Arc::default(),
+                quick: None,
+            },
         );
     }
 
-    /// Closes a document.
+    /// Closes a document (its running analyses give up).
     pub fn close(&self, uri: &Uri) {
-        self.lock().remove(uri);
+        if let Some(d) = self.lock().remove(uri) {
+            d.generation.fetch_add(1, Ordering::SeqCst);
+        }
     }
 
     /// Applies changes that bring a document to `version`. Errors if the document is
@@ -117,6 +147,7 @@ impl Documents {
         }
         doc.text = Arc::from(text);
         doc.version = version;
+        doc.generation.fetch_add(1, Ordering::SeqCst);
         Ok(())
     }
 
@@ -125,7 +156,14 @@ impl Documents {
         let map = self.lock();
         let doc = map.get(uri)?;
         let loader = overlay(&map);
-        Some(Snapshot { version: doc.version, path: doc.path.clone(), text: doc.text.clone(), loader })
+        Some(Snapshot {
+            version: doc.version,
+            generation: doc.generation.load(Ordering::SeqCst),
+            counter: doc.generation.clone(),
+            path: doc.path.clone(),
+            text: doc.text.clone(),
+            loader,
+        })
     }
 
     /// A loader that reads the open documents' text before the disk.
@@ -167,6 +205,8 @@ impl Documents {
             }
             Some(d) => {
                 d.again = true;
+                // What the running analysis read has changed: it gives up.
+                d.generation.fetch_add(1, Ordering::SeqCst);
                 false
             }
             None => false,
@@ -195,6 +235,8 @@ impl Documents {
         match self.lock().get_mut(uri) {
             Some(d) if d.version == version => {
                 d.analysis = Some((version, analysis));
+                // The full analysis replaces the quick one.
+                d.quick = None;
                 true
             }
             _ => false,
@@ -208,6 +250,28 @@ impl Documents {
         match &d.analysis {
             Some((v, a)) if *v == d.version => Some(a.clone()),
             _ => None,
+        }
+    }
+
+    /// The analysis without compiled shaders of the current text, if there is one.
+    pub fn quick(&self, uri: &Uri) -> Option<Arc<Document>> {
+        let map = self.lock();
+        let d = map.get(uri)?;
+        match &d.quick {
+            Some((g, a)) if *g == d.generation.load(Ordering::SeqCst) => Some(a.clone()),
+            _ => None,
+        }
+    }
+
+    /// Stores an analysis without compiled shaders of the snapshot `snap`; false if
+    /// the document has changed since.
+    pub fn store_quick(&self, uri: &Uri, snap: &Snapshot, analysis: Arc<Document>) -> bool {
+        match self.lock().get_mut(uri) {
+            Some(d) if d.generation.load(Ordering::SeqCst) == snap.generation => {
+                d.quick = Some((snap.generation, analysis));
+                true
+            }
+            _ => false,
         }
     }
 

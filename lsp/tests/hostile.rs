@@ -8,6 +8,11 @@ mod common;
 use common::{scratch, uri, Client};
 use serde_json::json;
 
+/// The most resident memory the server may reach in any of these tests (MiB).
+/// Each test prints its peak (16–205 MiB measured); the failures they guard against
+/// reached 1.9–5.8 GB.
+const PEAK_MIB: u64 = 512;
+
 fn codes(diags: &[serde_json::Value]) -> Vec<String> {
     diags.iter().filter_map(|d| d["code"].as_str().map(str::to_string)).collect()
 }
@@ -53,6 +58,7 @@ fn hostile_documents_get_diagnostics_and_the_server_keeps_serving() {
     assert!(h["contents"]["value"].as_str().unwrap_or("").contains("VERTEX"), "{h}");
     c.clear();
     assert!(!c.logs.iter().any(|l| l.contains("panic")), "{:?}", c.logs);
+    c.assert_peak_below(PEAK_MIB);
     assert!(c.shutdown_and_exit().success());
 }
 
@@ -116,8 +122,61 @@ fn hostile_shaders_get_e0502_and_the_server_exits() {
     c.clear();
     assert!(!c.logs.iter().any(|l| l.contains("panic")), "{:?}", c.logs);
     let t = std::time::Instant::now();
+    c.assert_peak_below(PEAK_MIB);
     assert!(c.shutdown_and_exit().success());
     assert!(t.elapsed() < std::time::Duration::from_secs(10), "exit took {:?}", t.elapsed());
+}
+
+/// 2^23 statements made by 24 doubling `#define`s: past the shader limits (which a
+/// test hook turns off) glslang takes longer than its 5 s deadline on them.
+fn slow_statements() -> String {
+    let mut statements = String::from("#define S0 x = x * 0.5 + sin(x) * cos(x) - 1.0;\n");
+    for i in 1..24 {
+        statements.push_str(&format!("#define S{i} S{} S{}\n", i - 1, i - 1));
+    }
+    statements.push_str("void main() { float x = 1.0; S23 gl_Position = vec4(x); }");
+    statements
+}
+
+/// While a document's shader compiles (for seconds), requests on that document are
+/// answered at once from an analysis without the shaders, and an edit makes the
+/// running analysis give up: the new version's diagnostics come without waiting
+/// for glslang's deadline.
+#[test]
+fn requests_do_not_wait_for_a_slow_shader_and_an_edit_cancels_it() {
+    let dir = scratch("hostile-cancel");
+    let u = uri(&dir.join("slow.mdg"));
+    let mut c = Client::spawn_with(&[("MDG_TEST_NO_SHADER_LIMITS", "1")]);
+    c.initialize(&dir);
+    let slow = format!("{}\nrule Leaf {{ VERTEX {{}} }}\n", with_shader(&slow_statements()));
+    c.open(&u, 1, &slow);
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let asked = std::time::Instant::now();
+    let symbols = c.call("textDocument/documentSymbol", json!({"textDocument": {"uri": u}}));
+    let names: Vec<&str> = symbols.as_array().into_iter().flatten().filter_map(|s| s["name"].as_str()).collect();
+    assert!(names.contains(&"Leaf"), "{symbols}");
+    let folds = c.call("textDocument/foldingRange", json!({"textDocument": {"uri": u}}));
+    assert!(folds.as_array().is_some_and(|f| !f.is_empty()), "{folds}");
+    let toks = c.call("textDocument/semanticTokens/full", json!({"textDocument": {"uri": u}}));
+    assert!(toks["data"].as_array().is_some_and(|d| !d.is_empty()), "{toks}");
+    let line = slow[..slow.find("rule Leaf").unwrap_or(0)].matches('\n').count();
+    let h =
+        c.call("textDocument/hover", json!({"textDocument": {"uri": u}, "position": {"line": line, "character": 13}}));
+    assert!(h["contents"]["value"].as_str().unwrap_or("").contains("VERTEX"), "{h}");
+    let answered = asked.elapsed();
+    assert!(answered < std::time::Duration::from_secs(2), "requests took {answered:?} (waited for glslang?)");
+
+    // An edit while the shader still compiles: version 1's analysis gives up and
+    // version 2 is published well before version 1's 5 s deadline.
+    let edited = std::time::Instant::now();
+    c.change(&u, 2, "startshape A\nrule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n");
+    assert!(c.diagnostics(&u, 2).is_empty());
+    let took = edited.elapsed();
+    assert!(took < std::time::Duration::from_secs(3), "the edit's diagnostics took {took:?}");
+    c.clear();
+    assert!(!c.logs.iter().any(|l| l.contains("panic")), "{:?}", c.logs);
+    c.assert_peak_below(PEAK_MIB);
+    assert!(c.shutdown_and_exit().success());
 }
 
 /// Behind the text limits, the deadline (the limits turned off by a test hook): the
@@ -133,13 +192,8 @@ fn a_compile_past_the_deadline_does_not_block_the_server() {
     c.initialize(&dir);
     c.open(&other, 1, "startshape B\nrule B { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n");
     assert!(c.diagnostics(&other, 1).is_empty());
-    let mut statements = String::from("#define S0 x = x * 0.5 + sin(x) * cos(x) - 1.0;\n");
-    for i in 1..24 {
-        statements.push_str(&format!("#define S{i} S{} S{}\n", i - 1, i - 1));
-    }
-    statements.push_str("void main() { float x = 1.0; S23 gl_Position = vec4(x); }");
     let t = std::time::Instant::now();
-    c.open(&u, 1, &with_shader(&statements));
+    c.open(&u, 1, &with_shader(&slow_statements()));
     // While the shader compiles, the other document answers at once.
     std::thread::sleep(std::time::Duration::from_millis(500));
     let asked = std::time::Instant::now();
@@ -155,6 +209,7 @@ fn a_compile_past_the_deadline_does_not_block_the_server() {
     c.change(&u, 2, &with_shader("void main() { gl_Position = vec4(2.0); }"));
     assert!(c.diagnostics(&u, 2).is_empty());
     let t = std::time::Instant::now();
+    c.assert_peak_below(PEAK_MIB);
     assert!(c.shutdown_and_exit().success());
     assert!(t.elapsed() < std::time::Duration::from_secs(15), "exit took {:?}", t.elapsed());
 }
@@ -176,6 +231,7 @@ fn a_junk_document_gets_a_bounded_number_of_diagnostics() {
     assert!(last["message"].as_str().unwrap_or("").contains(" more errors"), "{last}");
     let rss = c.rss_kib().unwrap_or(0);
     assert!(rss < 1024 * 1024, "RSS {rss} KiB");
+    c.assert_peak_below(PEAK_MIB);
     assert!(c.shutdown_and_exit().success());
 }
 
@@ -208,6 +264,7 @@ fn a_document_past_the_live_limit_gets_w0012_and_costs_only_its_text() {
     // Another document is analysed as usual.
     c.open(&small, 1, "startshape B\nrule B { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n");
     assert!(c.diagnostics(&small, 1).is_empty());
+    c.assert_peak_below(PEAK_MIB);
     assert!(c.shutdown_and_exit().success());
 
     // The limit is the server's to raise (or lower).
@@ -215,5 +272,6 @@ fn a_document_past_the_live_limit_gets_w0012_and_costs_only_its_text() {
     c.initialize(&dir);
     c.open(&small, 1, &format!("startshape B\nrule B {{ VERTEX {{}} }}\n{}", "// padding\n".repeat(20)));
     assert_eq!(codes(&c.diagnostics(&small, 1)), ["W0012"]);
+    c.assert_peak_below(PEAK_MIB);
     assert!(c.shutdown_and_exit().success());
 }

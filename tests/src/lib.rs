@@ -7,6 +7,8 @@ use mdg_compiler::expand::Options;
 use mdg_compiler::source::FsLoader;
 use std::path::{Path, PathBuf};
 
+pub mod alloc;
+
 /// The workspace root.
 pub fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..").canonicalize().expect("workspace root")

@@ -85,6 +85,20 @@ impl Document {
         Document::from_analysis(analysis)
     }
 
+    /// [`Document::new`] with less work or a cancel check; `None` if it was
+    /// cancelled. With `effort.skip_shaders` the shader blocks are not compiled: the
+    /// document serves every feature but has no GLSL diagnostics.
+    pub fn with_effort(
+        loader: &dyn FileLoader,
+        path: &Path,
+        text: &str,
+        opts: &Options,
+        effort: driver::Effort,
+    ) -> Option<Document> {
+        driver::analyze_text_with(loader, path, text, opts, CheckOptions::default(), effort)
+            .map(Document::from_analysis)
+    }
+
     /// A document too large to analyse as the user types (`len` bytes, more than
     /// `limit`): nothing of it is analysed, and one W0012 warning at its start says so
     /// and how to check it. A 15 MB grammar took 5.8 GB and 29 s per analysis.

@@ -64,17 +64,18 @@ pub async fn refresh(b: &Backend, uri: Uri) {
         let u = uri.clone();
         let result = tokio::task::spawn_blocking(move || {
             let snap = docs.snapshot(&u)?;
-            Some((snap.version, guard(|| Backend::analyze(&snap, &config))))
+            Some((snap.version, guard(|| Backend::analyze(&snap, &config, false).map(Arc::new))))
         })
         .await;
         let version = match result {
-            Ok(Some((version, Ok(doc)))) => {
-                let doc = Arc::new(doc);
+            Ok(Some((version, Ok(Some(doc))))) => {
                 if b.docs.store(&uri, version, doc.clone()) {
                     super::diagnostics::publish(b, &uri, version, &doc).await;
                 }
                 version
             }
+            // Given up: the document changed meanwhile (the loop goes round again).
+            Ok(Some((version, Ok(None)))) => version,
             Ok(Some((version, Err(panic)))) => {
                 b.log_panic("analysis", &panic).await;
                 version

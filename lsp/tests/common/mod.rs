@@ -246,9 +246,27 @@ impl Client {
 
     /// The server's resident memory in KiB (Linux), if it can be read.
     pub fn rss_kib(&self) -> Option<u64> {
+        self.status_kib("VmRSS:")
+    }
+
+    /// The most memory the server has held resident so far, in KiB (Linux).
+    pub fn peak_kib(&self) -> Option<u64> {
+        self.status_kib("VmHWM:")
+    }
+
+    fn status_kib(&self, field: &str) -> Option<u64> {
         let status = std::fs::read_to_string(format!("/proc/{}/status", self.child.id())).ok()?;
-        let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
+        let line = status.lines().find(|l| l.starts_with(field))?;
         line.split_whitespace().nth(1)?.parse().ok()
+    }
+
+    /// Fails unless the server's peak resident memory so far is under `mib` MiB
+    /// (where `/proc` can tell).
+    pub fn assert_peak_below(&self, mib: u64) {
+        if let Some(kib) = self.peak_kib() {
+            eprintln!("mdg-lsp peak RSS: {:.1} MiB", kib as f64 / 1024.0);
+            assert!(kib < mib * 1024, "the server's peak RSS was {kib} KiB, more than {mib} MiB");
+        }
     }
 }
 
