@@ -555,3 +555,45 @@ fn blender_three_and_assimp_open_every_std_example() {
     }
     assert!(failures.is_empty(), "{} problems:\n{}", failures.len(), failures.join("\n"));
 }
+
+/// What the editor's preview reads, as three.js reads it: a guided grammar's guides
+/// and bones as line nodes of their own (`guides`, `bones`, besides the pen `lines`),
+/// and with `--sites` the rule and line of every `VERTEX` triangle in the geometry's
+/// extras (three.js puts them in `geometry.userData.mdg_sites`); without, none.
+#[test]
+fn three_reads_guides_bones_and_sites() {
+    if std::env::var("MDG_SKIP_CLIENT_TESTS").is_ok_and(|v| v == "1") {
+        eprintln!("skipped: MDG_SKIP_CLIENT_TESTS=1");
+        return;
+    }
+    let (_, node) = clients().unwrap_or_else(|e| panic!("{e}"));
+    let dir = std::env::temp_dir().join(format!("mdg-clients-sites-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("output dir");
+    let (guided, with, without) = (dir.join("guided.glb"), dir.join("tree_sites.glb"), dir.join("tree.glb"));
+    let example = |name: &str| root().join("std/examples").join(name);
+    let os = std::ffi::OsStr::new;
+    // A fixed number of generations: the same model whatever the machine's speed.
+    let g = example("guided_tree.mdg");
+    let search = ["--search-generations", "30", "--budget", "none", "-o"].map(os);
+    run_mdg(&[&[g.as_os_str()], &search[..], &[guided.as_os_str()]].concat()).unwrap_or_else(|e| panic!("{e}"));
+    let t = example("tree.mdg");
+    run_mdg(&[t.as_os_str(), os("--sites"), os("-o"), with.as_os_str()]).unwrap_or_else(|e| panic!("{e}"));
+    run_mdg(&[t.as_os_str(), os("-o"), without.as_os_str()]).unwrap_or_else(|e| panic!("{e}"));
+    let out = Command::new(&node)
+        .arg(root().join("tests/clients/three_check.mjs"))
+        .args([&guided, &with, &without])
+        .output()
+        .expect("run node");
+    assert!(out.status.success(), "three.js check failed:\n{}", String::from_utf8_lossy(&out.stderr));
+    let report: Value = serde_json::from_slice(&out.stdout).expect("three.js JSON");
+    let results = report["results"].as_array().expect("results");
+    let (g, w, wo) = (&results[0], &results[1], &results[2]);
+    let named = &g["named_lines"];
+    assert!(named["guides"].as_f64().unwrap_or(0.0) > 10.0, "guide segments: {g}");
+    assert!(named["bones"].as_f64().unwrap_or(0.0) > 5.0, "bone segments: {g}");
+    assert!(w["error"].is_null(), "{w}");
+    assert!(w["sites"].as_u64().unwrap_or(0) > 0, "no sites with --sites: {w}");
+    assert_eq!(wo["sites"].as_u64(), Some(0), "sites without --sites: {wo}");
+    assert_eq!(w["triangles"], wo["triangles"], "--sites changes only the extras");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -37,7 +37,9 @@ const CHECKS: &[&str] = &[
     "preview shows errors",
     "preview animation",
     "preview of a std example",
+    "preview guides and bones",
     "preview sliders",
+    "preview click names the rule",
 ];
 
 const PARTS: &str =
@@ -46,6 +48,8 @@ const GARDEN: &str = "@import lib/parts.mdg\nstartshape garden\nrule garden {\n 
 const MEADOW: &str = "@import lib/parts.mdg\nstartshape meadow\nrule meadow {\n  petal {}\n  petal {x 2}\n}\n";
 const SCRATCH: &str = "@import lib/parts.mdg primitives\nstartshape S\nrule S {\n  petal {}\n}\n";
 const MESSY: &str = "startshape A\nrule A {\nVERTEX {x 1}   VERTEX {y 1} VERTEX {}\n}\n";
+/// Four petals around the origin, for the preview's click-to-source check.
+const PINWHEEL: &str = "@import lib/parts.mdg\nstartshape pinwheel\nrule pinwheel {\n  4 * {rz 90} petal {s 2}\n}\n";
 
 fn copy_dir(from: &Path, to: &Path) {
     std::fs::create_dir_all(to).expect("mkdir");
@@ -133,6 +137,7 @@ fn vscode_in_code_server() {
                 ("meadow.mdg", MEADOW),
                 ("scratch.mdg", SCRATCH),
                 ("messy.mdg", MESSY),
+                ("pinwheel.mdg", PINWHEEL),
             ] {
                 std::fs::write(ws.join(name), text).expect("write");
             }

@@ -19,7 +19,9 @@ for (const path of process.argv.slice(2)) {
     const gltf = await load(path);
     const scene = gltf.scene;
     scene.updateMatrixWorld(true);
-    let meshes = 0, geometry = 0, lines = 0, vertices = 0, triangles = 0;
+    let meshes = 0, geometry = 0, lines = 0, vertices = 0, triangles = 0, sites = 0;
+    // Line segments per glTF node name (`lines`, a search's `guides` and `bones`).
+    const namedLines = {};
     const box = new THREE.Box3();
     const p = new THREE.Vector3();
     scene.traverse((o) => {
@@ -28,6 +30,8 @@ for (const path of process.argv.slice(2)) {
         // Parts of the `geometry` node (one mesh per primitive); the rest are instances.
         for (let a = o; a; a = a.parent) if (a.name === "geometry") { geometry += 1; break; }
         const g = o.geometry;
+        // `mdg-run --sites`: which rule drew each triangle, in the primitive's extras.
+        if (g.userData.mdg_sites) sites += g.userData.mdg_sites.runs.length;
         vertices += g.attributes.position.count;
         triangles += (g.index ? g.index.count : g.attributes.position.count) / 3;
         // Skinned meshes: skinned by the bones' poses at t = 0, as drawn.
@@ -40,6 +44,9 @@ for (const path of process.argv.slice(2)) {
         }
       } else if (o.isLine || o.isLineSegments) {
         lines += 1;
+        const name = o.userData.name ?? o.name;
+        const g = o.geometry;
+        namedLines[name] = (namedLines[name] ?? 0) + (g.index ? g.index.count : g.attributes.position.count) / 2;
       }
     });
     results.push({
@@ -47,6 +54,8 @@ for (const path of process.argv.slice(2)) {
       meshes,
       geometry,
       lines,
+      named_lines: namedLines,
+      sites,
       vertices,
       triangles,
       min: box.isEmpty() ? null : box.min.toArray(),

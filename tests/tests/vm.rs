@@ -358,3 +358,28 @@ fn json_dump_has_the_documented_keys() {
     assert!((j["instances"][0]["scale"].as_f64().unwrap_or(0.0) - 0.5).abs() < 1e-6);
     assert!(j["stats"]["rule_calls"].as_u64().is_some());
 }
+
+/// `record_sites`: every mesh triangle maps to the rule and source line that drew it
+/// (a face's VERTEXes on one line are one site); nothing is recorded unless asked,
+/// and recording changes no geometry.
+#[test]
+fn sites_name_the_rule_and_line_of_every_triangle() {
+    let src = "startshape A\n\
+               rule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} B {z 1} C {z 2} }\n\
+               rule B { VERTEX {} VERTEX {x 1} VERTEX {y 1} VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n\
+               rule C { B {} \n VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n";
+    let b = build_source(src);
+    let plain = evaluate(&b, &EvalOptions::default());
+    assert!(plain.sites.runs.is_empty() && plain.sites.sites.is_empty());
+    let out = evaluate(&b, &EvalOptions { record_sites: true, ..EvalOptions::default() });
+    assert_eq!(out.mesh, plain.mesh, "recording sites changes no geometry");
+    let t = out.mesh.triangles.len() as u32;
+    assert_eq!(t, 1 + 2 + 2 + 1);
+    let named: Vec<(String, u32)> =
+        (0..t).map(|i| out.sites.of(i).map(|s| (s.rule.clone(), s.line)).expect("a site")).collect();
+    let want = [("A", 2), ("B", 3), ("B", 3), ("B", 3), ("B", 3), ("C", 5)];
+    assert_eq!(named, want.map(|(r, l)| (r.to_string(), l)).to_vec());
+    assert!(out.sites.sites.iter().all(|s| s.file == "inline.mdg"), "{:?}", out.sites.sites);
+    // One site per (rule, line): A, B, C.
+    assert_eq!(out.sites.sites.len(), 3);
+}

@@ -79,6 +79,8 @@ pub struct EvalOptions {
     /// Sample transform rules far enough to pose the model at this time too (in
     /// seconds; `mdg-run --time`), when it is beyond `duration`.
     pub time: Option<f64>,
+    /// Record which op drew each mesh triangle ([`crate::output::Sites`]).
+    pub record_sites: bool,
 }
 
 impl Default for EvalOptions {
@@ -91,6 +93,7 @@ impl Default for EvalOptions {
             maxiter: None,
             max_frames: DEFAULT_MAX_FRAMES,
             time: None,
+            record_sites: false,
         }
     }
 }
@@ -584,6 +587,11 @@ struct Eval<'b> {
     /// The non-uniform factors of this evaluation's states.
     lins: Lins,
     weights: Weights,
+    /// With `record_sites`: the op that ran last, the mesh's triangle count when it
+    /// began, and each op's index in `out.sites.sites`.
+    site_pc: u32,
+    site_mark: usize,
+    site_ids: HashMap<u32, u32>,
 }
 
 /// Evaluates a verified bundle from its start shape.
@@ -655,6 +663,9 @@ impl<'b> Eval<'b> {
             conv_cache: HashMap::new(),
             lins: Lins::default(),
             weights: Weights::new(b),
+            site_pc: 0,
+            site_mark: 0,
+            site_ids: HashMap::new(),
             stop_pc: None,
             needs_last: b.code.iter().any(|op| match op {
                 Op::Loop { chain, .. } | Op::LoopN { chain, .. } => chain & bundle::ops::LOOP_CHAIN != 0,
@@ -798,7 +809,13 @@ impl<'b> Eval<'b> {
         let mut stack: Vec<Act> = vec![first];
         let mut loops: Vec<LoopRec> = Vec::new();
         let code = &b.code;
+        let record_sites = self.opts.record_sites;
+        // (A nested run, sampling a transform rule, returns to the op that started it.)
+        let outer_site = self.site_pc;
         while let Some(act) = stack.last_mut() {
+            if record_sites {
+                self.note_site(act.pc);
+            }
             if self.stopped || self.halt {
                 if self.stopped && self.stop_pc.is_none() {
                     // The op that tripped the limit (every op advances `pc` first).
@@ -1074,8 +1091,39 @@ impl<'b> Eval<'b> {
                 }
             }
         }
+        if record_sites {
+            self.note_site(outer_site);
+        }
         // A run ended by a limit leaves its frames: the caller's slots end here.
         self.slots.truncate(slot_base as usize);
+    }
+
+    /// With `record_sites`, before the op at `pc` runs: the triangles made since the
+    /// last note were drawn by the op that ran last.
+    fn note_site(&mut self, pc: u32) {
+        let t = self.out.mesh.triangles.len();
+        if t != self.site_mark {
+            let site = match self.site_ids.get(&self.site_pc) {
+                Some(&i) => i,
+                None => {
+                    // Ops of one line of one rule (the VERTEXes of a face) are one site.
+                    let new = site_of(self.b, self.site_pc);
+                    let sites = &mut self.out.sites.sites;
+                    let i = sites.iter().rposition(|s| *s == new).unwrap_or_else(|| {
+                        sites.push(new);
+                        sites.len() - 1
+                    }) as u32;
+                    self.site_ids.insert(self.site_pc, i);
+                    i
+                }
+            };
+            let runs = &mut self.out.sites.runs;
+            if runs.last().is_none_or(|r| r[1] != site) {
+                runs.push([self.site_mark as u32, site]);
+            }
+            self.site_mark = t;
+        }
+        self.site_pc = pc;
     }
 
     /// Whether a call may proceed; counts the limits that stop it.
@@ -1568,9 +1616,8 @@ impl<'b> Eval<'b> {
     }
 }
 
-/// " in rule `NAME` (FILE:LINE)" for the op at `pc`: the rule whose definition holds
-/// it and the source line of the op, or "" when the bundle has no such information.
-fn where_op(b: &Bundle, pc: u32) -> String {
+/// The name of the rule whose definition holds the op at `pc`.
+fn rule_of_op(b: &Bundle, pc: u32) -> Option<&str> {
     let mut best: Option<(u32, u32)> = None;
     for r in &b.rules {
         for d in &r.defs {
@@ -1579,7 +1626,19 @@ fn where_op(b: &Bundle, pc: u32) -> String {
             }
         }
     }
-    let name = best.map(|(_, n)| b.string(n).to_string());
+    best.map(|(_, n)| b.string(n))
+}
+
+/// The rule and source line of the op at `pc`.
+fn site_of(b: &Bundle, pc: u32) -> crate::output::Site {
+    let (file, line) = b.source_of(pc).map(|(f, l)| (f.to_string(), l)).unwrap_or_default();
+    crate::output::Site { rule: rule_of_op(b, pc).unwrap_or_default().to_string(), file, line }
+}
+
+/// " in rule `NAME` (FILE:LINE)" for the op at `pc`: the rule whose definition holds
+/// it and the source line of the op, or "" when the bundle has no such information.
+fn where_op(b: &Bundle, pc: u32) -> String {
+    let name = rule_of_op(b, pc).map(str::to_string);
     match (name, b.source_of(pc)) {
         (Some(n), Some((f, l))) => format!(" in rule `{n}` ({f}:{l})"),
         (Some(n), None) => format!(" in rule `{n}`"),

@@ -129,6 +129,38 @@ pub struct Animation {
     pub camera: Option<Camera>,
 }
 
+/// Which op of the grammar drew each triangle of [`Output::mesh`], recorded when
+/// [`crate::eval::EvalOptions::record_sites`] is set: what an editor needs to go
+/// from a click on the model to the source (`mdg-run --sites`). Sweeps, instances
+/// and isosurfaces are not recorded.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Sites {
+    /// `[first triangle, site]`, in triangle order: triangles from `first` up to the
+    /// next run's first were drawn at `sites[site]`.
+    pub runs: Vec<[u32; 2]>,
+    pub sites: Vec<Site>,
+}
+
+/// One drawing op of the grammar: its rule and source line.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Site {
+    /// The rule whose definition holds the op (`ns.NAME`), "" if the bundle has no
+    /// such information.
+    pub rule: String,
+    /// The source file and 1-based line of the op, as the bundle records them
+    /// ("" and 0 without a source map).
+    pub file: String,
+    pub line: u32,
+}
+
+impl Sites {
+    /// The site of triangle `t`.
+    pub fn of(&self, t: u32) -> Option<&Site> {
+        let i = self.runs.partition_point(|r| r[0] <= t).checked_sub(1)?;
+        self.sites.get(self.runs[i][1] as usize)
+    }
+}
+
 /// Everything an evaluation produced.
 #[derive(Clone, Debug, Default)]
 pub struct Output {
@@ -145,6 +177,8 @@ pub struct Output {
     /// What `DEBUG {}` items reported, in order (at most [`MAX_DEBUG_LINES`]; the
     /// caller prints them: the VM prints nothing).
     pub debug: Vec<String>,
+    /// Which op drew each mesh triangle (empty unless asked for).
+    pub sites: Sites,
 }
 
 /// How many `DEBUG {}` reports one run keeps (a loop over a DEBUG item would fill

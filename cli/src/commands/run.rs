@@ -55,6 +55,12 @@ pub struct Args {
     /// min, max) as JSON to PATH, before evaluating (the editor's sliders read it).
     #[arg(long, value_name = "PATH")]
     params_json: Option<PathBuf>,
+    /// Record which rule and source line drew each triangle, in the `.glb`'s extras
+    /// (`mdg_sites` on the geometry primitive): the editor's preview uses it to go
+    /// from a click on the model to the source. Off by default (the file stays as
+    /// without it).
+    #[arg(long)]
+    sites: bool,
     /// Print rule calls, vertices, triangles, time and peak memory.
     #[arg(long)]
     stats: bool,
@@ -287,7 +293,7 @@ fn run_one(
         Some(_) => format(cli)?,
         None => Format::from_path(output).unwrap_or(Format::Glb),
     };
-    let eval_opts = EvalOptions { seed, time: cli.time, ..cli.limits.eval_options() };
+    let eval_opts = EvalOptions { seed, time: cli.time, record_sites: cli.sites, ..cli.limits.eval_options() };
     let started = std::time::Instant::now();
     let bar = indicatif::ProgressBar::hidden();
     let progress = |calls: u64| {

@@ -475,6 +475,27 @@ try {
     return text;
   });
 
+  // A guided grammar: the search's guides and bones drawn over the model, toggled
+  // by the button (and G); the status counts them.
+  await check('preview guides and bones', async () => {
+    await openFile('examples/guided_tree.mdg');
+    await palette('MDG: Preview');
+    const frame = await previewOf('guided_tree.mdg');
+    const status = frame.locator('#status');
+    const bones = Number(await status.getAttribute('data-bones'));
+    const guides = Number(await status.getAttribute('data-guides'));
+    if (!(bones > 10 && guides > 10)) throw new Error(`bones ${bones}, guide segments ${guides}: ${await status.innerText()}`);
+    const button = frame.locator('#guides');
+    await button.waitFor({ state: 'visible' });
+    if ((await button.getAttribute('aria-pressed')) !== 'true') throw new Error('the overlays start hidden');
+    await button.click();
+    if ((await button.getAttribute('aria-pressed')) !== 'false') throw new Error('the button does not hide them');
+    await button.click();
+    if ((await button.getAttribute('aria-pressed')) !== 'true') throw new Error('the button does not show them again');
+    await sleep(500);
+    return await status.innerText();
+  });
+
   // `@param` sliders: one per declaration, with its declared range; moving one
   // (the keyboard: Home is the minimum) re-runs mdg-run with `--param`.
   await check('preview sliders', async () => {
@@ -498,6 +519,40 @@ try {
     if (shown !== '1') throw new Error(`levels shows ${shown}`);
     await sleep(500);
     return `levels 5 → 1: ${before} → ${after} triangles`;
+  });
+
+  // A click on the model (no drag) names the rule and line that drew the triangle
+  // under the pointer (`mdg-run --sites`) and shows that line in the editor.
+  await check('preview click names the rule', async () => {
+    // Four petals around the origin: the middle of the view is the model.
+    await openFile('pinwheel.mdg');
+    await palette('MDG: Preview');
+    const frame = await previewOf('pinwheel.mdg');
+    const view = frame.locator('#view');
+    const box = await view.boundingBox();
+    const site = frame.locator('#site');
+    let label = '';
+    // The middle of the view may be sky between the branches: try a few points.
+    for (const [fx, fy] of [[0.5, 0.5], [0.5, 0.6], [0.45, 0.55], [0.55, 0.45], [0.5, 0.4], [0.5, 0.7], [0.4, 0.5], [0.6, 0.5]]) {
+      await view.click({ position: { x: box.width * fx, y: box.height * fy } });
+      await sleep(300);
+      if (await site.isVisible()) {
+        label = await site.innerText();
+        break;
+      }
+    }
+    const m = /^(\S+) · (\S+):(\d+)$/.exec(label);
+    if (!m) throw new Error(`no site named after clicking the model: ${JSON.stringify(label)}`);
+    const [, rule, file, line] = m;
+    await page.locator(`.tab.active[aria-label^="${path.basename(file)}"]`).waitFor({ state: 'visible', timeout: 15000 });
+    const cursor = await until('the cursor on the line', async () => {
+      const t = await page.locator('.statusbar-item[id="status.editor.selection"]').innerText({ timeout: 1000 }).catch(() => '');
+      return new RegExp(`Ln ${line},`).test(t) ? t : undefined;
+    }, 10000);
+    // The active group's editor (earlier checks left several side by side).
+    const text = (await page.locator('.editor-group-container.active .monaco-editor .view-lines').first().innerText()).replace(/\u00a0/g, ' ');
+    if (!text.includes(`rule ${rule.split('.').pop()}`)) throw new Error(`rule ${rule} not shown in ${file}`);
+    return `${label}; the editor shows ${path.basename(file)} at ${cursor}`;
   });
 
 } finally {

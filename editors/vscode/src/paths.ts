@@ -48,7 +48,8 @@ export interface ParamDecl {
  * order so that the same sliders give the same command.
  */
 export function previewArgs(file: string, glb: string, paramsJson?: string, values: Record<string, number> = {}): string[] {
-  const args = [file, '--stdin', '-o', glb];
+  // `--sites`: which rule drew each triangle, for a click on the model.
+  const args = [file, '--stdin', '-o', glb, '--sites'];
   if (paramsJson !== undefined) {
     args.push('--params-json', paramsJson);
   }
@@ -59,6 +60,23 @@ export function previewArgs(file: string, glb: string, paramsJson?: string, valu
     }
   }
   return args;
+}
+
+/**
+ * Where the file a click on the model names may be (the bundle names the main
+ * file by its base name, an import relative to the main file's folder, the std
+ * library's files as `std/NAME`): the candidates in order, the first that exists
+ * wins.
+ */
+export function siteCandidates(siteFile: string, docFile: string, stdDirs: string[]): string[] {
+  if (siteFile === '') return [];
+  if (siteFile === path.basename(docFile)) return [docFile];
+  if (path.isAbsolute(siteFile)) return [siteFile];
+  const out = [path.join(path.dirname(docFile), siteFile)];
+  if (siteFile.startsWith('std/')) {
+    for (const d of stdDirs) out.push(path.join(d, siteFile.slice(4)));
+  }
+  return out;
 }
 
 /**

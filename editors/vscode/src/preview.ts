@@ -12,7 +12,7 @@ import * as fs from 'fs';
 import * as crypto from 'crypto';
 import * as path from 'path';
 import { spawn } from 'child_process';
-import { keptValues, ParamDecl, previewArgs, previewGlb, sliderRange } from './paths';
+import { keptValues, ParamDecl, previewArgs, previewGlb, siteCandidates, sliderRange } from './paths';
 
 const DEBOUNCE_MS = 600;
 /** A slider re-evaluates this long after it stops moving. */
@@ -79,6 +79,8 @@ export class PreviewPanel {
           this.evaluate();
         } else if (m?.type === 'shown') {
           this.lastTriangles = m.triangles;
+        } else if (m?.type === 'site' && typeof m.file === 'string' && typeof m.line === 'number') {
+          void this.reveal(m.file, m.line, typeof m.rule === 'string' ? m.rule : '');
         } else if (m?.type === 'param' && typeof m.name === 'string' && typeof m.value === 'number') {
           this.values[m.name] = m.value;
           clearTimeout(this.timer);
@@ -103,6 +105,24 @@ export class PreviewPanel {
       }),
     );
     this.panel.onDidDispose(() => this.dispose(), null, this.disposables);
+  }
+
+  /** Shows the line a click on the model named, in the editor beside the panel. */
+  private async reveal(file: string, line: number, rule: string): Promise<void> {
+    const std = vscode.workspace.getConfiguration('mdg').get<string>('stdPath', '').trim();
+    const stdDirs = [std, path.join(this.context.extensionPath, 'std')];
+    const root = vscode.workspace.getWorkspaceFolder(this.doc.uri)?.uri.fsPath;
+    if (root) stdDirs.push(path.join(root, 'std'));
+    const found = siteCandidates(file, this.doc.uri.fsPath, stdDirs.filter((d) => d !== '')).find((f) => fs.existsSync(f));
+    if (!found) {
+      void vscode.window.showInformationMessage(`MDG: drawn by rule ${rule} at ${file}:${line} (file not found)`);
+      return;
+    }
+    const pos = new vscode.Position(Math.max(line - 1, 0), 0);
+    const column = vscode.window.visibleTextEditors.find((e) => e.document === this.doc)?.viewColumn ?? vscode.ViewColumn.One;
+    const editor = await vscode.window.showTextDocument(vscode.Uri.file(found), { viewColumn: column, preserveFocus: false });
+    editor.selection = new vscode.Selection(pos, editor.document.lineAt(pos.line).range.end);
+    editor.revealRange(editor.selection, vscode.TextEditorRevealType.InCenterIfOutsideViewport);
   }
 
   private dispose(): void {
@@ -195,6 +215,7 @@ export class PreviewPanel {
   #view { width: 100%; height: 100%; display: block; }
   #bar { position: absolute; left: 0; right: 0; bottom: 0; padding: 4px 8px; background: rgba(0,0,0,0.45); display: flex; gap: 8px; align-items: center; }
   #status { flex: 1; }
+  #site { color: #ffd27a; font: 12px var(--vscode-editor-font-family, monospace); }
   #params { position: absolute; right: 8px; top: 8px; padding: 6px 8px; background: rgba(0,0,0,0.45); display: grid; grid-template-columns: auto 10em 3.5em; gap: 2px 6px; align-items: center; }
   #params output { text-align: right; font-variant-numeric: tabular-nums; }
   #error { position: absolute; left: 8px; right: 8px; top: 8px; margin: 0; padding: 8px; max-height: 60%; overflow: auto; white-space: pre-wrap;
@@ -206,7 +227,7 @@ export class PreviewPanel {
 <canvas id="view"></canvas>
 <div id="params" hidden></div>
 <pre id="error" hidden></pre>
-<div id="bar"><span id="status">evaluating…</span><button id="play" hidden>Pause</button><span id="time" hidden></span></div>
+<div id="bar"><span id="status">evaluating…</span><span id="site" hidden></span><button id="guides" hidden aria-pressed="true" title="Show or hide the guides and bones (G)">Hide guides</button><button id="play" hidden>Pause</button><span id="time" hidden></span></div>
 <script nonce="${nonce}" src="${script}"></script>
 </body>
 </html>`;

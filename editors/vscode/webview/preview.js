@@ -5,8 +5,15 @@
 //
 // Messages in:  {type: 'model', glb: base64, name}  {type: 'error', message}  {type: 'busy'}
 //               {type: 'params', params: [{name, type, value, min, max, range: {min, max, step}}]}
-// Messages out: {type: 'ready'}  {type: 'shown', triangles, vertices, animations}
+// Messages out: {type: 'ready'}  {type: 'shown', triangles, vertices, animations, guides, bones}
 //               {type: 'param', name, value}  (a slider moved)
+//               {type: 'site', rule, file, line}  (a click on the model: the rule that drew it)
+//
+// A guided grammar's `.glb` has nodes `guides` and `bones` (the search's curves and
+// the skeleton it grew): they are drawn over the model in colours of their own,
+// toggled with the Guides button or the G key. `mdg-run --sites` puts in the
+// geometry's extras which rule and line drew each triangle (`mdg_sites`): a click
+// on the model names it and the extension shows the line.
 
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
@@ -19,6 +26,8 @@ const errorBox = document.getElementById('error');
 const play = document.getElementById('play');
 const timeLabel = document.getElementById('time');
 const paramsBox = document.getElementById('params');
+const guidesButton = document.getElementById('guides');
+const siteLabel = document.getElementById('site');
 
 const renderer = new THREE.WebGLRenderer({ canvas, antialias: true });
 renderer.setPixelRatio(window.devicePixelRatio || 1);
@@ -107,6 +116,92 @@ function counts(object) {
   return { triangles: Math.round(triangles), vertices };
 }
 
+// Guides and bones: over the model (no depth test), guides amber, bones cyan.
+const OVERLAYS = { guides: 0xffb040, bones: 0x40d8ff };
+let overlays = [];
+let overlaysShown = saved && saved.overlays === false ? false : true;
+function styleOverlays(object) {
+  overlays = [];
+  object.traverse((o) => {
+    const kind = o.isLineSegments || o.isLine ? overlayKind(o) : null;
+    if (!kind) return;
+    o.material = new THREE.LineBasicMaterial({ color: OVERLAYS[kind], depthTest: false, transparent: true, opacity: 0.95 });
+    o.renderOrder = kind === 'bones' ? 11 : 10;
+    o.visible = overlaysShown;
+    overlays.push({ kind, object: o, segments: o.geometry.index ? o.geometry.index.count / 2 : 0 });
+  });
+}
+/** 'guides' or 'bones' for the lines of those glTF nodes (the node, or its parent
+ * when the mesh has several primitives). */
+function overlayKind(o) {
+  for (let n = o; n; n = n.parent) {
+    // (GLTFLoader keeps a node's glTF name in userData.name and may suffix `name`.)
+    for (const name of [n.userData && n.userData.name, n.name && n.name.replace(/_\d+$/, '')]) {
+      if (name && Object.hasOwn(OVERLAYS, name)) return name;
+    }
+  }
+  return null;
+}
+function setOverlays(on) {
+  overlaysShown = on;
+  for (const ov of overlays) ov.object.visible = on;
+  guidesButton.textContent = on ? 'Hide guides' : 'Show guides';
+  guidesButton.setAttribute('aria-pressed', String(on));
+  requestRender();
+}
+guidesButton.addEventListener('click', () => setOverlays(!overlaysShown));
+window.addEventListener('keydown', (e) => {
+  if ((e.key === 'g' || e.key === 'G') && overlays.length > 0 && !(e.target instanceof HTMLInputElement)) {
+    setOverlays(!overlaysShown);
+  }
+});
+
+// A click (a press and release that did not drag) on the model: the rule and line
+// that drew the triangle under the pointer, from the geometry's `mdg_sites`.
+const raycaster = new THREE.Raycaster();
+let pressed = null;
+canvas.addEventListener('pointerdown', (e) => {
+  pressed = { x: e.clientX, y: e.clientY, button: e.button };
+});
+canvas.addEventListener('pointerup', (e) => {
+  const p = pressed;
+  pressed = null;
+  if (!p || p.button !== 0 || Math.hypot(e.clientX - p.x, e.clientY - p.y) > 4 || !model) return;
+  const site = siteAt(e.clientX, e.clientY);
+  if (site) {
+    siteLabel.textContent = `${site.rule || '(no rule)'} · ${site.file}:${site.line}`;
+    siteLabel.hidden = false;
+    vscode.postMessage({ type: 'site', rule: site.rule, file: site.file, line: site.line });
+  } else {
+    siteLabel.hidden = true;
+  }
+});
+function siteAt(clientX, clientY) {
+  const r = canvas.getBoundingClientRect();
+  const ndc = new THREE.Vector2(((clientX - r.left) / r.width) * 2 - 1, -((clientY - r.top) / r.height) * 2 + 1);
+  raycaster.setFromCamera(ndc, camera);
+  const meshes = [];
+  model.traverse((o) => {
+    if (o.isMesh && o.visible) meshes.push(o);
+  });
+  for (const hit of raycaster.intersectObjects(meshes, false)) {
+    const sites = hit.object.geometry && hit.object.geometry.userData.mdg_sites;
+    if (!sites || hit.faceIndex == null) return null;
+    // The run holding the triangle: the last whose first triangle is at most it.
+    const runs = sites.runs;
+    let lo = 0;
+    let hi = runs.length - 1;
+    if (hi < 0 || runs[0][0] > hit.faceIndex) return null;
+    while (lo < hi) {
+      const mid = (lo + hi + 1) >> 1;
+      if (runs[mid][0] <= hit.faceIndex) lo = mid;
+      else hi = mid - 1;
+    }
+    return sites.sites[runs[lo][1]] || null;
+  }
+  return null;
+}
+
 function showError(message) {
   errorBox.textContent = message;
   errorBox.hidden = false;
@@ -123,6 +218,9 @@ function show(gltf, name) {
   }
   model = gltf.scene;
   scene.add(model);
+  styleOverlays(model);
+  guidesButton.hidden = overlays.length === 0;
+  if (overlays.length > 0) setOverlays(overlaysShown);
   resize();
   if (!framed) {
     frameObject(model);
@@ -142,11 +240,17 @@ function show(gltf, name) {
   const c = counts(model);
   errorBox.hidden = true;
   const anim = gltf.animations.length ? ` · ${gltf.animations.length} animation(s), ${duration.toFixed(1)} s` : '';
-  status.textContent = `${name}: ${c.triangles} triangles · ${c.vertices} vertices${anim}`;
+  const seg = (kind) => overlays.filter((o) => o.kind === kind).reduce((n, o) => n + o.segments, 0);
+  const guides = seg('guides');
+  const bones = seg('bones');
+  const guided = overlays.length ? ` · ${bones} bones, ${guides} guide segments` : '';
+  status.textContent = `${name}: ${c.triangles} triangles · ${c.vertices} vertices${anim}${guided}`;
   status.dataset.triangles = String(c.triangles);
+  status.dataset.bones = String(bones);
+  status.dataset.guides = String(guides);
   clock.getDelta();
   requestRender();
-  vscode.postMessage({ type: 'shown', triangles: c.triangles, vertices: c.vertices, animations: gltf.animations.length });
+  vscode.postMessage({ type: 'shown', triangles: c.triangles, vertices: c.vertices, animations: gltf.animations.length, guides, bones });
 }
 
 // One slider per `@param` (a checkbox for a bool), rebuilt only when the
@@ -240,7 +344,7 @@ function tick() {
   const now = performance.now();
   if (now - lastSave > 500) {
     lastSave = now;
-    vscode.setState({ camera: { position: camera.position.toArray(), target: controls.target.toArray() } });
+    vscode.setState({ camera: { position: camera.position.toArray(), target: controls.target.toArray() }, overlays: overlaysShown });
   }
 }
 requestRender();

@@ -72,7 +72,7 @@ use super::{
 };
 use crate::anim::{frames_needed, trs};
 use crate::geom::quat::Frame;
-use crate::output::{Animation, Mesh, Output};
+use crate::output::{Animation, Mesh, Output, Polyline};
 
 const FLOAT: u32 = 5126;
 const UNSIGNED_INT: u32 = 5125;
@@ -166,7 +166,10 @@ pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
     let mut top_nodes = Vec::new();
     let mut primitives = Vec::new();
     for (m, what) in [(&out.mesh, "VERTEX mesh"), (&out.sweeps, "sweeps"), (&baked, "baked instances")] {
-        if let Some(p) = g.colored_primitive(m, what)? {
+        if let Some(mut p) = g.colored_primitive(m, what)? {
+            if std::ptr::eq(m, &out.mesh) && !out.sites.runs.is_empty() {
+                p.extras = Some(sites_extras(&out.sites));
+            }
             primitives.push(p);
         }
     }
@@ -181,14 +184,22 @@ pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
         }
     }
 
-    if let Some(p) = g.lines_primitive(out) {
-        let mesh = g.push_mesh(GMesh { name: Some("lines".into()), primitives: vec![p] });
-        let skin = g.skinned.then(|| g.skin(&bone_nodes));
-        let node = g.push_node(Node { name: Some("lines".into()), mesh: Some(mesh), skin, ..Node::default() });
-        if g.skinned {
-            top_nodes.push(node);
-        } else {
-            scene_nodes.push(node);
+    // The pen lines; a guided search's guides and bones in nodes of their own, so
+    // that viewers can tell them apart (the editor's preview draws them as overlays).
+    for name in ["lines", "guides", "bones"] {
+        let pick = |l: &Polyline| match name {
+            "lines" => !SEARCH_LINES.contains(&l.namespace.as_str()),
+            ns => l.namespace == ns,
+        };
+        if let Some(p) = g.lines_primitive(out, &pick) {
+            let mesh = g.push_mesh(GMesh { name: Some(name.into()), primitives: vec![p] });
+            let skin = g.skinned.then(|| g.skin(&bone_nodes));
+            let node = g.push_node(Node { name: Some(name.into()), mesh: Some(mesh), skin, ..Node::default() });
+            if g.skinned {
+                top_nodes.push(node);
+            } else {
+                scene_nodes.push(node);
+            }
         }
     }
 
@@ -220,7 +231,13 @@ pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
                 let mut attributes = BTreeMap::new();
                 attributes.insert("POSITION", acc.position);
                 attributes.insert("NORMAL", acc.normal);
-                let prim = Primitive { attributes, indices: Some(acc.indices), material: Some(material), mode: None };
+                let prim = Primitive {
+                    attributes,
+                    indices: Some(acc.indices),
+                    material: Some(material),
+                    mode: None,
+                    extras: None,
+                };
                 let m = g.push_mesh(GMesh { name, primitives: vec![prim] });
                 instance_meshes.insert(key, m);
                 m
@@ -764,7 +781,7 @@ impl Builder {
         }
         let indices = Some(self.indices_of(tris.len() * 3, tris.iter().flatten().copied()));
         let material = Some(self.material([1.0; 4], !is_closed(m, &tris)));
-        Ok(Some(Primitive { attributes, indices, material, mode: None }))
+        Ok(Some(Primitive { attributes, indices, material, mode: None, extras: None }))
     }
 
     /// Positions, normals and indices of a shared mesh in its own space, or of its
@@ -784,12 +801,12 @@ impl Builder {
         Ok(SharedAccessors { position, normal, indices, double_sided })
     }
 
-    /// All polylines with two or more points as one `LINES` primitive.
-    fn lines_primitive(&mut self, out: &Output) -> Option<Primitive> {
+    /// The polylines `pick` chooses with two or more points as one `LINES` primitive.
+    fn lines_primitive(&mut self, out: &Output, pick: &dyn Fn(&Polyline) -> bool) -> Option<Primitive> {
         let mut positions = Vec::new();
         let mut bones = Vec::new();
         let mut indices = Vec::new();
-        for line in out.lines.iter().filter(|l| l.points.len() >= 2) {
+        for line in out.lines.iter().filter(|l| l.points.len() >= 2 && pick(l)) {
             let base = positions.len() as u32;
             positions.extend(line.points.iter().map(|p| finite3(*p)));
             bones.extend((0..line.points.len()).map(|i| line.bone(i)));
@@ -807,7 +824,7 @@ impl Builder {
         }
         let indices = Some(self.indices(&indices));
         let material = Some(self.material([1.0; 4], false));
-        Some(Primitive { attributes, indices, material, mode: Some(MODE_LINES) })
+        Some(Primitive { attributes, indices, material, mode: Some(MODE_LINES), extras: None })
     }
 
     fn push_mesh(&mut self, m: GMesh) -> u32 {
@@ -991,6 +1008,17 @@ struct GMesh {
     primitives: Vec<Primitive>,
 }
 
+/// The namespaces of the lines a guided search adds (`sosmc::search`): each gets a
+/// node of its own.
+const SEARCH_LINES: [&str; 2] = ["guides", "bones"];
+
+/// `{"mdg_sites": {"runs": [[first triangle, site], …], "sites": [{"rule", "file",
+/// "line"}, …]}}`: which rule and line drew each triangle of the primitive (three.js
+/// puts a primitive's extras in its geometry's `userData`).
+fn sites_extras(sites: &crate::output::Sites) -> serde_json::Value {
+    serde_json::json!({ "mdg_sites": { "runs": sites.runs, "sites": sites.sites } })
+}
+
 #[derive(Serialize)]
 struct Primitive {
     attributes: BTreeMap<&'static str, u32>,
@@ -1000,6 +1028,8 @@ struct Primitive {
     material: Option<u32>,
     #[serde(skip_serializing_if = "Option::is_none")]
     mode: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    extras: Option<serde_json::Value>,
 }
 
 #[derive(Serialize)]
@@ -1341,6 +1371,49 @@ pub(crate) mod tests {
         let names: Vec<&str> =
             scene.iter().map(|&n| json["nodes"][n as usize]["name"].as_str().expect("name")).collect();
         assert_eq!(names, vec!["mdg z-up", "geometry", "lines"]);
+    }
+
+    #[test]
+    fn a_search_s_guides_and_bones_get_nodes_of_their_own_and_sites_go_in_the_extras() {
+        let mut out = sample_output();
+        let line = |ns: &str, x: f32| Polyline {
+            namespace: ns.into(),
+            points: vec![[x, 0.0, 0.0], [x, 1.0, 0.0]],
+            bones: vec![],
+        };
+        out.lines.extend([line("guides", 1.0), line("bones", 2.0), line("bones", 3.0)]);
+        let mut b = Vec::new();
+        write_glb(&out, &mut b).expect("writes");
+        let (json, _) = parse_glb(&b);
+        let node = |name: &str| json["nodes"].as_array().expect("nodes").iter().find(|n| n["name"] == name).cloned();
+        let segments = |name: &str| {
+            let n = node(name).unwrap_or_else(|| panic!("no node {name}: {json}"));
+            let p = &json["meshes"][n["mesh"].as_u64().expect("mesh") as usize]["primitives"][0];
+            assert_eq!(p["mode"], MODE_LINES);
+            json["accessors"][p["indices"].as_u64().expect("indices") as usize]["count"].as_u64().expect("count") / 2
+        };
+        // The pen line of the sample (3 points), one guide, two bones.
+        assert_eq!((segments("lines"), segments("guides"), segments("bones")), (2, 1, 2));
+        // No sites unless recorded.
+        let geometry = node("geometry").expect("geometry");
+        let prim = &json["meshes"][geometry["mesh"].as_u64().expect("mesh") as usize]["primitives"][0];
+        assert!(prim.get("extras").is_none(), "{prim}");
+
+        let site = |rule: &str, line: u32| crate::output::Site { rule: rule.into(), file: "a.mdg".into(), line };
+        out.sites = crate::output::Sites { runs: vec![[0, 0], [4, 1]], sites: vec![site("A", 3), site("ns.B", 7)] };
+        let mut b = Vec::new();
+        write_glb(&out, &mut b).expect("writes");
+        let (json, _) = parse_glb(&b);
+        let geometry =
+            json["nodes"].as_array().expect("nodes").iter().find(|n| n["name"] == "geometry").expect("geometry");
+        let prim = &json["meshes"][geometry["mesh"].as_u64().expect("mesh") as usize]["primitives"][0];
+        assert_eq!(
+            prim["extras"],
+            serde_json::json!({"mdg_sites": {"runs": [[0, 0], [4, 1]], "sites": [
+                {"rule": "A", "file": "a.mdg", "line": 3}, {"rule": "ns.B", "file": "a.mdg", "line": 7}]}})
+        );
+        assert_eq!(out.sites.of(3).map(|s| s.line), Some(3));
+        assert_eq!(out.sites.of(4).map(|s| s.rule.as_str()), Some("ns.B"));
     }
 
     #[test]

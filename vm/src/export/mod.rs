@@ -548,6 +548,7 @@ pub(crate) mod tests {
             background: [0.0, 0.0, 0.0, 1.0],
             animation: Default::default(),
             debug: Vec::new(),
+            sites: Default::default(),
         }
     }
 

@@ -2,7 +2,7 @@
 
 import { test } from 'node:test';
 import * as assert from 'node:assert/strict';
-import { keptValues, ParamDecl, previewArgs, previewGlb, resolveProgram, resolveServerPath, runArgs, sliderRange } from '../paths';
+import { keptValues, ParamDecl, previewArgs, previewGlb, resolveProgram, resolveServerPath, runArgs, siteCandidates, sliderRange } from '../paths';
 
 test('server path: default, home, workspace-relative, PATH names, absolute', () => {
   assert.equal(resolveServerPath(undefined), 'mdg-lsp');
@@ -15,13 +15,13 @@ test('server path: default, home, workspace-relative, PATH names, absolute', () 
 
 test('the live preview evaluates the editor text into a .glb in a temporary directory', () => {
   assert.equal(previewGlb('/a/b/tree.mdg', '0123abcd', '/tmp'), '/tmp/mdg-preview/tree-0123abcd.glb');
-  assert.deepEqual(previewArgs('/a/b/tree.mdg', '/tmp/x.glb'), ['/a/b/tree.mdg', '--stdin', '-o', '/tmp/x.glb']);
+  assert.deepEqual(previewArgs('/a/b/tree.mdg', '/tmp/x.glb'), ['/a/b/tree.mdg', '--stdin', '-o', '/tmp/x.glb', '--sites']);
 });
 
 test('the preview passes the moved sliders as --param, in name order, and asks for the declarations', () => {
-  assert.deepEqual(previewArgs('/a/t.mdg', '/tmp/x.glb', '/tmp/x.json'), ['/a/t.mdg', '--stdin', '-o', '/tmp/x.glb', '--params-json', '/tmp/x.json']);
+  assert.deepEqual(previewArgs('/a/t.mdg', '/tmp/x.glb', '/tmp/x.json'), ['/a/t.mdg', '--stdin', '-o', '/tmp/x.glb', '--sites', '--params-json', '/tmp/x.json']);
   assert.deepEqual(previewArgs('/a/t.mdg', '/tmp/x.glb', '/tmp/x.json', { spread: 12.5, levels: 3, bad: NaN }), [
-    '/a/t.mdg', '--stdin', '-o', '/tmp/x.glb', '--params-json', '/tmp/x.json', '--param', 'levels=3', '--param', 'spread=12.5',
+    '/a/t.mdg', '--stdin', '-o', '/tmp/x.glb', '--sites', '--params-json', '/tmp/x.json', '--param', 'levels=3', '--param', 'spread=12.5',
   ]);
 });
 
@@ -57,4 +57,13 @@ test('a platform .vsix runs its own binaries unless a setting names others', () 
   assert.equal(resolveProgram('mdg-lsp', 'target/debug/mdg-lsp', '/ext', '/w', there), '/w/target/debug/mdg-lsp');
   assert.equal(resolveProgram('mdg-lsp', '', '/other', undefined, there), 'mdg-lsp');
   assert.equal(resolveProgram('mdg-run', undefined, undefined, undefined, there), 'mdg-run');
+});
+
+test('a clicked site names the open file, an import beside it, or a std file', () => {
+  assert.deepEqual(siteCandidates('tree.mdg', '/w/ex/tree.mdg', ['/std']), ['/w/ex/tree.mdg']);
+  assert.deepEqual(siteCandidates('lib/leaf.mdg', '/w/ex/tree.mdg', ['/std']), ['/w/ex/lib/leaf.mdg']);
+  assert.deepEqual(siteCandidates('std/primitives.mdg', '/w/ex/tree.mdg', ['/s1', '/s2']), [
+    '/w/ex/std/primitives.mdg', '/s1/primitives.mdg', '/s2/primitives.mdg',
+  ]);
+  assert.deepEqual(siteCandidates('', '/w/ex/tree.mdg', ['/std']), []);
 });
