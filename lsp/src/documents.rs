@@ -357,6 +357,34 @@ mod tests {
     }
 
     #[test]
+    fn an_edit_a_changed_import_or_closing_outdates_a_snapshot() {
+        let docs = Documents::default();
+        docs.open(uri(), 1, "rule A {}".to_string());
+        let snap = docs.snapshot(&uri()).expect("open");
+        assert!(!snap.outdated());
+        docs.change(&uri(), 2, vec![change(None, "rule B {}")]).expect("v2");
+        assert!(snap.outdated(), "an edit");
+        // A file it imports changed while its analysis runs (the refresh is refused).
+        let snap = docs.snapshot(&uri()).expect("open");
+        assert!(docs.begin_analysis(&uri()));
+        assert!(!snap.outdated(), "starting the analysis changes nothing");
+        assert!(!docs.begin_analysis(&uri()));
+        assert!(snap.outdated(), "a changed import");
+        let snap = docs.snapshot(&uri()).expect("open");
+        docs.close(&uri());
+        assert!(snap.outdated(), "closing");
+        // A quick analysis is kept only for the text it analysed.
+        docs.open(uri(), 1, "rule A { VERTEX {} }".to_string());
+        let snap = docs.snapshot(&uri()).expect("open");
+        let doc = Arc::new(Document::new(&snap.loader, &snap.path, &snap.text, &Default::default()));
+        assert!(docs.store_quick(&uri(), &snap, doc.clone()));
+        assert!(docs.quick(&uri()).is_some());
+        docs.change(&uri(), 2, vec![change(None, "rule A { }")]).expect("v2");
+        assert!(docs.quick(&uri()).is_none(), "the edit outdates it");
+        assert!(!docs.store_quick(&uri(), &snap, doc), "an outdated one is not stored");
+    }
+
+    #[test]
     fn untitled_documents_get_a_path() {
         let u = Uri::from_str("untitled:Untitled-1").expect("uri");
         assert_eq!(path_of(&u), PathBuf::from("/untitled/untitled_Untitled_1"));
