@@ -107,22 +107,34 @@ fn search_is_deterministic_for_any_thread_count() {
 }
 
 #[test]
-fn the_reported_model_is_the_minimum_cost_final_particle() {
+fn the_reported_model_is_the_lowest_cost_of_any_generation() {
     let b = std_tree();
     let t = table(&b);
     let p = Prepared::new(&b, &t, &t.guides).expect("prepared");
-    for seed in 1..=4 {
-        let r = p.search(&opts(seed), None);
+    let mut earlier = 0;
+    for seed in 1..=6 {
+        // Each generation's lowest cost, as the progress report gives it.
+        let lows = std::sync::Mutex::new(Vec::new());
+        let report = |g: &mdg_vm::sosmc::Progress| lows.lock().expect("lock").push(g.best_cost);
+        let r = p.search(&opts(seed), Some(&report));
+        let lows = lows.into_inner().expect("lock");
+        assert_eq!(lows.len() as u32, r.generations);
+        let min = lows.iter().copied().fold(f64::INFINITY, f64::min);
+        assert_eq!(r.model.cost.total(), min, "seed {seed}: the model is the lowest of every generation");
+        // The earliest generation that reached it.
+        let first = lows.iter().position(|&c| c == min).expect("min") as u32 + 1;
+        assert_eq!(r.model_generation, first, "seed {seed}");
         assert!(r.final_costs.len() >= 2);
-        let min = r.final_costs.iter().copied().fold(f64::INFINITY, f64::min);
-        assert_eq!(r.model.cost.total(), min, "seed {seed}");
-        assert_eq!(r.final_costs[r.chosen], min);
-        assert!(r.final_costs[..r.chosen].iter().all(|&c| c > min), "the first of equal minima");
-        // Not the first particle by accident: over these seeds the minimum is elsewhere too.
+        let final_min = r.final_costs.iter().copied().fold(f64::INFINITY, f64::min);
+        assert_eq!(r.final_costs[r.chosen], final_min);
+        assert!(r.final_costs[..r.chosen].iter().all(|&c| c > final_min), "the first of equal minima");
+        assert!(min <= final_min);
+        earlier += usize::from(r.model_generation < r.generations);
         // The model's cost, recomputed from its bones from scratch, agrees.
         let again = p.cost_of(&r.model.bones);
         assert!((again.total() - r.model.cost.total()).abs() < 1e-9, "{again:?} vs {:?}", r.model.cost);
     }
+    eprintln!("{earlier} of 6 searches kept a model from before the last generation");
     let chosen: Vec<usize> = (1..=8).map(|s| p.search(&opts(s), None).chosen).collect();
     assert!(chosen.iter().any(|&c| c != 0), "the pick is not always the first particle: {chosen:?}");
 }
@@ -304,7 +316,7 @@ fn mdg_run_mode_exports_the_model_with_bones_and_guides() {
     let b = std_tree();
     let file = root().join("std/examples/guided_tree.mdg");
     let args = GuidedArgs { generations: Some(30), particles: Some("30:10".into()), ..GuidedArgs::default() };
-    let out = mdg_cli::modes::guided::run(&b, &args, &common(&file, true)).expect("runs");
+    let out = mdg_cli::modes::guided::run(&b, &args, &common(&file, true), &EvalOptions::default()).expect("runs");
     assert!(out.mesh.n_vertices() > 0);
     let guides: Vec<_> = out.lines.iter().filter(|l| l.namespace == "guides").collect();
     assert_eq!(guides.len(), 3);
@@ -313,10 +325,10 @@ fn mdg_run_mode_exports_the_model_with_bones_and_guides() {
     assert!(bones > 0);
     assert!(out.lines.iter().filter(|l| l.namespace == "bones").all(|l| l.points.len() == 2));
     // Same seed and options, same model.
-    let again = mdg_cli::modes::guided::run(&b, &args, &common(&file, false)).expect("runs");
+    let again = mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default()).expect("runs");
     assert_eq!(again.mesh, out.mesh);
     let bare = GuidedArgs { no_skeleton_lines: true, ..args };
-    let plain = mdg_cli::modes::guided::run(&b, &bare, &common(&file, false)).expect("runs");
+    let plain = mdg_cli::modes::guided::run(&b, &bare, &common(&file, false), &EvalOptions::default()).expect("runs");
     assert!(plain.lines.is_empty());
     // The bundle evaluated without the search is a random tree (what the viewer shows).
     assert!(evaluate(&b, &EvalOptions::default()).mesh.n_vertices() > 0);
@@ -331,7 +343,7 @@ fn guide_files_replace_the_source_guides() {
         let text = std::fs::read_to_string(&path).expect("example guide file");
         let want = mdg_vm::sosmc::guides_from_json(&text).expect("valid");
         let args = GuidedArgs { guides: Some(path), generations: Some(20), ..GuidedArgs::default() };
-        let out = mdg_cli::modes::guided::run(&b, &args, &common(&file, false)).expect("runs");
+        let out = mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default()).expect("runs");
         let lines: Vec<_> = out.lines.iter().filter(|l| l.namespace == "guides").collect();
         assert_eq!(lines.len(), want.len(), "{name}");
         let first = want[0].points[0].map(|c| c as f32);
@@ -342,14 +354,17 @@ fn guide_files_replace_the_source_guides() {
     let bad = dir.join("bad.json");
     std::fs::write(&bad, r#"{"guides": [{"points": [[0,0,0],[0,0,1]], "delta_a": 0.5}]}"#).expect("write");
     let args = GuidedArgs { guides: Some(bad.clone()), ..GuidedArgs::default() };
-    let err = mdg_cli::modes::guided::run(&b, &args, &common(&file, false)).expect_err("too few points");
+    let err = mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default())
+        .expect_err("too few points");
     assert!(err.contains("bad.json") && err.contains("at least 4"), "{err}");
     let args = GuidedArgs { guides: Some(dir.join("missing.json")), ..GuidedArgs::default() };
-    assert!(mdg_cli::modes::guided::run(&b, &args, &common(&file, false))
+    assert!(mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default())
         .expect_err("missing")
         .contains("cannot read"));
     let args = GuidedArgs { budget: Some("soon".into()), ..GuidedArgs::default() };
-    assert!(mdg_cli::modes::guided::run(&b, &args, &common(&file, false)).expect_err("budget").contains("--budget"));
+    assert!(mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default())
+        .expect_err("budget")
+        .contains("--budget"));
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -407,4 +422,27 @@ fn closest_guide_distance_is_exact_on_a_straight_guide() {
         let n = set.nearest(DVec3::from_array(p)).expect("near");
         assert!((n.dist - want).abs() < 1e-12, "{p:?}: {}", n.dist);
     }
+}
+
+/// `mdg-run` runs every generation unless `--budget` is given: the `search`
+/// section's `budget` (here 1 ms, far less than 3,000 generations take) is for
+/// interactive use, so a batch run gives the same model on any machine. An explicit
+/// `--budget` still ends the search, with its warning.
+#[test]
+fn mdg_run_ignores_the_section_budget_and_honours_an_explicit_one() {
+    let src = std::fs::read_to_string(root().join("std/examples/guided_tree.mdg")).expect("example");
+    assert!(src.contains("budget 200;") && src.contains("generations 100;"));
+    let src = src.replace("budget 200;", "budget 1;").replace("generations 100;", "generations 3000;");
+    let b = mdg_tests::build_source(&src);
+    let file = root().join("std/examples/guided_tree.mdg");
+    let warned =
+        |out: &mdg_vm::output::Output| out.stats.warnings.iter().any(|w| w.contains("time budget ended the search"));
+    let args = GuidedArgs::default();
+    let out = mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default()).expect("runs");
+    assert!(!warned(&out), "{:?}", out.stats.warnings);
+    let again = mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default()).expect("runs");
+    assert_eq!(again.mesh, out.mesh, "the same model every run");
+    let args = GuidedArgs { budget: Some("1ms".into()), ..GuidedArgs::default() };
+    let cut = mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default()).expect("runs");
+    assert!(warned(&cut), "{:?}", cut.stats.warnings);
 }

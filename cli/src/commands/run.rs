@@ -309,7 +309,7 @@ fn run_one(
     };
     let mut out = if bundle.extensions.guided.is_some() {
         let common = common(cli, Some(output), seed, size, pictures);
-        modes::guided::run(bundle, &cli.guided, &common).map_err(|e| (1, e))?
+        modes::guided::run(bundle, &cli.guided, &common, &eval_opts).map_err(|e| (1, e))?
     } else {
         evaluate_with_progress(bundle, &eval_opts, Some(&progress))
     };

@@ -17,7 +17,8 @@ pub struct GuidedArgs {
     #[arg(long, value_name = "FILE.json")]
     pub guides: Option<PathBuf>,
     /// Guided search: time budget, e.g. `200ms`, `0.5s`, `150` (milliseconds) or
-    /// `none` (default: the `search` section's, else 200ms).
+    /// `none` (the default: every generation runs, so the model is the same on any
+    /// machine; the `search` section's `budget` is for interactive use, `mdg-view`).
     #[arg(long, value_name = "TIME")]
     pub budget: Option<String>,
     /// Guided search: particles in the first and the last generation, `N` or `FIRST:LAST`.
@@ -74,9 +75,11 @@ pub fn options(
     seed: u64,
 ) -> Result<SearchOptions, String> {
     let mut o = SearchOptions::from_settings(settings, seed);
-    if let Some(b) = &args.budget {
-        o.budget = parse_budget(b)?;
-    }
+    // A batch run is repeatable: a time budget only when asked for.
+    o.budget = match &args.budget {
+        Some(b) => parse_budget(b)?,
+        None => None,
+    };
     if let Some(p) = &args.particles {
         o.particles = parse_particles(p)?;
     }
@@ -108,8 +111,9 @@ pub fn options(
     Ok(o)
 }
 
-/// Runs the search and returns the model to export.
-pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common) -> Result<Output, String> {
+/// Runs the search and returns the model to export, evaluated with `eval` (the
+/// limits and `--sites` of the command line; the seed is the search's).
+pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common, eval: &EvalOptions) -> Result<Output, String> {
     let table = bundle.extensions.guided.as_ref().ok_or("the program has no `search` section")?;
     let guides = match &args.guides {
         Some(path) => {
@@ -134,7 +138,7 @@ pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common) -> Result<Output
     };
     let result = prepared.search(&opts, Some(&report));
     bar.finish_and_clear();
-    let eval_opts = EvalOptions { seed: Some(seed), ..EvalOptions::default() };
+    let eval_opts = EvalOptions { seed: Some(seed), ..eval.clone() };
     let mut out = prepared.geometry(&result.model, &eval_opts, !args.no_skeleton_lines);
     if result.stop == Stop::Budget {
         out.stats.warnings.push(format!(
@@ -151,8 +155,10 @@ pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common) -> Result<Output
             Stop::Complete => "no pending skeleton calls",
         };
         eprintln!(
-            "guided search: {} generations ({stop}), {} particle-steps, {} expansions, {:.1} ms (+{:.1} ms preparing)",
+            "guided search: {} generations ({stop}), the model from generation {}, {} particle-steps, {} expansions, \
+             {:.1} ms (+{:.1} ms preparing)",
             result.generations,
+            result.model_generation,
             result.particle_steps,
             result.expansions,
             result.elapsed.as_secs_f64() * 1e3,

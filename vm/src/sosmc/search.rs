@@ -169,11 +169,17 @@ pub struct Model {
 /// What a search did and found.
 #[derive(Clone, Debug)]
 pub struct SearchResult {
+    /// The lowest-COST model of any generation (the earliest of equal ones): the cost
+    /// of the last generation rises again in long searches, so the best one seen is
+    /// kept.
     pub model: Model,
-    /// COST of every particle of the final generation (the model is the minimum).
+    /// COST of every particle of the final generation.
     pub final_costs: Vec<f64>,
-    /// Index of the chosen particle among them.
+    /// Index of the lowest among them (the first of equal ones).
     pub chosen: usize,
+    /// The generation the model comes from: after how many generations its particle
+    /// was what it is (`generations` when it is the final generation's).
+    pub model_generation: u32,
     /// Generations run.
     pub generations: u32,
     /// Particle-steps taken (one per particle per generation, while it had pending calls).
@@ -704,6 +710,8 @@ impl<'b> Prepared<'b> {
         let mut generation = 0u32;
         let mut stop = Stop::Generations;
         let mut results: Vec<(u32, bool, f64)> = Vec::new();
+        // The lowest-cost particle seen after any generation, and that generation.
+        let mut best: Option<(f64, u32, Particle)> = None;
         // The population is always `picks` into the previous generation (`src`).
         let is_done = |p: &Option<Particle>| p.as_ref().is_none_or(|p| p.pending.is_empty());
         while generation < opts.generations {
@@ -747,12 +755,27 @@ impl<'b> Prepared<'b> {
                 steps += *active as u64;
             }
             generation += 1;
+            // The lowest cost of this generation (the first of equal ones), kept if it
+            // is lower than every earlier generation's.
+            let mut low: Option<(f64, usize)> = None;
+            for (k, c) in stepped.iter().enumerate() {
+                if let Some(p) = read(c).p.as_ref() {
+                    let cost = p.cost.total();
+                    if low.is_none_or(|(l, _)| cost < l) {
+                        low = Some((cost, k));
+                    }
+                }
+            }
+            if let Some((cost, k)) = low {
+                if best.as_ref().is_none_or(|(b, _, _)| cost < *b) {
+                    if let Some(p) = read(&stepped[k]).p.as_ref() {
+                        best = Some((cost, generation, p.clone()));
+                    }
+                }
+            }
             if let Some(f) = progress {
-                let best = stepped
-                    .iter()
-                    .filter_map(|c| read(c).p.as_ref().map(|p| p.cost.total()))
-                    .fold(f64::INFINITY, f64::min);
-                f(&Progress { generation, generations: opts.generations, best_cost: best });
+                let best_cost = low.map_or(f64::INFINITY, |(c, _)| c);
+                f(&Progress { generation, generations: opts.generations, best_cost });
             }
             let picks = if generation < opts.generations {
                 let lw: Vec<f64> = results.iter().map(|r| r.2).collect();
@@ -772,9 +795,14 @@ impl<'b> Prepared<'b> {
                 let mut picked: Vec<usize> = picks.clone();
                 picked.dedup();
                 let mut guards: Vec<_> = picked.iter().filter_map(|&k| stepped.get(k)).map(write).collect();
-                let live: usize = guards.iter().filter_map(|c| c.p.as_ref()).map(|p| p.pending.len()).sum();
+                let kept = best.as_ref().map_or(0, |(_, _, p)| p.pending.len());
+                let live: usize =
+                    guards.iter().filter_map(|c| c.p.as_ref()).map(|p| p.pending.len()).sum::<usize>() + kept;
                 if stored > 2 * live + COMPACT_SLACK {
-                    let seg = compact(&frozen, guards.iter_mut().filter_map(|c| c.p.as_mut()));
+                    // (The best particle kept refers to the store too.)
+                    let particles =
+                        guards.iter_mut().filter_map(|c| c.p.as_mut()).chain(best.as_mut().map(|b| &mut b.2));
+                    let seg = compact(&frozen, particles);
                     *frozen = vec![seg];
                 }
             }
@@ -789,14 +817,22 @@ impl<'b> Prepared<'b> {
         let chosen = argmin(&final_costs);
         let frozen = read(&sh.frozen);
         let store = Store { frozen: &frozen, id: u32::MAX, local: &mut Vec::new() };
-        let model = match finals.get(chosen) {
-            Some(p) => self.wrap_up(p, &store),
-            None => Model { cost: Cost::default(), bones: Vec::new(), calls: Vec::new(), wrapped: 0, dropped: 0 },
+        // The best of any generation; the final one's pick when nothing earlier was
+        // lower (or no generation ran).
+        let final_cost = final_costs.get(chosen).copied().unwrap_or(f64::INFINITY);
+        let (model, model_generation) = match (&best, finals.get(chosen)) {
+            (Some((cost, g, p)), _) if *cost < final_cost => (self.wrap_up(p, &store), *g),
+            (_, Some(p)) => (self.wrap_up(p, &store), generation),
+            (_, None) => (
+                Model { cost: Cost::default(), bones: Vec::new(), calls: Vec::new(), wrapped: 0, dropped: 0 },
+                generation,
+            ),
         };
         SearchResult {
             model,
             final_costs,
             chosen,
+            model_generation,
             generations: generation,
             particle_steps: steps,
             expansions,
@@ -851,6 +887,7 @@ impl<'b> Prepared<'b> {
             model,
             final_costs,
             chosen,
+            model_generation: steps,
             generations: steps,
             particle_steps: done.iter().map(|r| r.2).sum(),
             expansions: done.iter().map(|r| r.3).sum(),
