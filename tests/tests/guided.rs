@@ -38,6 +38,7 @@ fn opts(seed: u64) -> SearchOptions {
         seed,
         threads: None,
         parallel_min: mdg_vm::sosmc::PARALLEL_MIN_PARTICLES,
+        clock: None,
     }
 }
 
@@ -214,13 +215,43 @@ fn leftover_skeleton_calls_are_wrapped_up() {
 }
 
 #[test]
-fn a_tiny_budget_stops_after_one_generation() {
+fn a_tiny_budget_stops_before_the_first_particle_step() {
     let b = std_tree();
     let t = table(&b);
     let p = Prepared::new(&b, &t, &t.guides).expect("prepared");
     let r = p.search(&SearchOptions { budget: Some(std::time::Duration::from_nanos(1)), ..opts(1) }, None);
     assert_eq!(r.stop, Stop::Budget);
-    assert_eq!(r.generations, 1);
+    assert_eq!((r.generations, r.particle_steps), (0, 0));
+    // The model is the start, wrapped up: no bones.
+    assert!(r.model.bones.is_empty());
+}
+
+/// The budget is checked inside a generation (before every particle-step): one
+/// generation of 200,000 particles takes seconds, but a 300 ms budget ends the search
+/// within it, dropping that generation for the one before. And it covers preparing
+/// the guides when the caller starts the clock before preparing.
+#[test]
+fn the_budget_ends_a_long_generation_and_covers_preparation() {
+    let b = std_tree();
+    let t = table(&b);
+    let p = Prepared::new(&b, &t, &t.guides).expect("prepared");
+    let budget = std::time::Duration::from_millis(300);
+    let big = SearchOptions { particles: (20, 200_000), generations: 2, budget: Some(budget), ..opts(1) };
+    let started = std::time::Instant::now();
+    let r = p.search(&big, None);
+    let took = started.elapsed();
+    assert_eq!(r.stop, Stop::Budget);
+    assert_eq!(r.generations, 1, "the cut generation is dropped");
+    assert!(took < budget + std::time::Duration::from_millis(1500), "took {took:?}");
+    assert!(r.particle_steps <= 20, "the first generation's steps only: {}", r.particle_steps);
+
+    // The clock started long ago: no time is left once preparation is done.
+    let long_ago = std::time::Instant::now() - std::time::Duration::from_secs(1);
+    let deadline = long_ago + budget;
+    let e = Prepared::new_within(&b, &t, &t.guides, Some(deadline)).err().expect("past the deadline");
+    assert!(e.contains("the time budget ran out while preparing the guides (0 of 3 prepared)"), "{e}");
+    let r = p.search(&SearchOptions { clock: Some(long_ago), ..big }, None);
+    assert_eq!((r.stop, r.generations), (Stop::Budget, 0));
 }
 
 #[test]

@@ -124,8 +124,11 @@ pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common, eval: &EvalOptio
         None => table.guides.clone(),
     };
     let seed = common.seed.unwrap_or(bundle.settings.randseed);
-    let opts = options(&table.settings, args, seed)?;
-    let prepared = Prepared::new(bundle, table, &guides)?;
+    let mut opts = options(&table.settings, args, seed)?;
+    // A budget covers preparing the guides too.
+    let clock = std::time::Instant::now();
+    opts.clock = Some(clock);
+    let prepared = Prepared::new_within(bundle, table, &guides, opts.budget.and_then(|b| clock.checked_add(b)))?;
     prepared.check_size(&opts)?;
     let bar = indicatif::ProgressBar::new(opts.generations as u64);
     bar.set_style(

@@ -92,9 +92,21 @@ fn exp_neg(k: u32) -> f64 {
 impl Guides {
     /// Prepares `guides` (each validated by [`Guide::validate`]).
     pub fn new(guides: &[Guide]) -> Result<Guides, String> {
+        Guides::new_within(guides, None)
+    }
+
+    /// [`Guides::new`] that gives up once `deadline` has passed (checked before each guide).
+    pub fn new_within(guides: &[Guide], deadline: Option<std::time::Instant>) -> Result<Guides, String> {
         let (mut paths, mut params, mut first, mut count) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut next = 0u32;
         for (i, guide) in guides.iter().enumerate() {
+            if deadline.is_some_and(|d| std::time::Instant::now() >= d) {
+                return Err(format!(
+                    "the time budget ran out while preparing the guides ({i} of {} prepared): raise --budget or use \
+                     fewer guides",
+                    guides.len()
+                ));
+            }
             guide.validate().map_err(|e| format!("{}: {e}", guide.label(i)))?;
             let path = Path::new(&guide.points).ok_or_else(|| format!("{}: too few control points", guide.label(i)))?;
             let n = ((path.length() / guide.segment).ceil() as u64).clamp(1, 1 << 20) as u32;

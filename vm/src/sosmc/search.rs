@@ -41,7 +41,7 @@ use crate::eval::{evaluate_calls, Call, EvalOptions, Expander};
 use crate::output::{Output, Polyline};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, RwLock, RwLockReadGuard, RwLockWriteGuard};
 use std::time::{Duration, Instant};
 
@@ -68,8 +68,14 @@ pub struct SearchOptions {
     pub heuristic_scale: f64,
     /// Fraction of the generations over which HEURISTICSCALE ramps down to 0.
     pub heuristic_fraction: f64,
-    /// Stop between generations once this much time has passed.
+    /// Stop once this much time has passed since `clock` (checked before every
+    /// particle-step: a generation the budget cuts short is dropped, and the model is
+    /// the best of the generations before).
     pub budget: Option<Duration>,
+    /// When the budget's clock started (`None`: when the search starts). A caller
+    /// that prepares the guides first passes the instant before preparing
+    /// ([`Prepared::new_within`]), so the budget covers both.
+    pub clock: Option<Instant>,
     pub resampling: Resampling,
     pub seed: u64,
     /// Worker threads (`None`: rayon's global pool). Results do not depend on it.
@@ -101,6 +107,7 @@ impl SearchOptions {
             seed,
             threads: None,
             parallel_min: PARALLEL_MIN_PARTICLES,
+            clock: None,
         }
     }
 
@@ -374,6 +381,8 @@ struct Job {
     /// Which of the two cell arrays holds the previous generation (the other one
     /// receives this generation).
     src: usize,
+    /// When the time budget ends: members take no particle after it.
+    deadline: Option<Instant>,
 }
 
 /// The state a search's team shares: the generation being stepped (set by the lead
@@ -394,6 +403,8 @@ struct Shared<'b> {
     picks: RwLock<Vec<usize>>,
     next: AtomicUsize,
     cur: Vec<Mutex<Slot<'b>>>,
+    /// Set by a member that found the deadline passed: the round was cut short.
+    cut: AtomicBool,
 }
 
 fn read<T>(l: &RwLock<T>) -> RwLockReadGuard<'_, T> {
@@ -433,6 +444,17 @@ pub const MAX_UTILISATION_COUNTS: u64 = 1 << 26;
 impl<'b> Prepared<'b> {
     /// Prepares `b`'s guided table with `guides` (those of the table, or a guide file's).
     pub fn new(b: &'b Bundle, table: &GuidedTable, guides: &[Guide]) -> Result<Prepared<'b>, String> {
+        Prepared::new_within(b, table, guides, None)
+    }
+
+    /// [`Prepared::new`] that gives up once `deadline` has passed (checked between
+    /// guides: ten thousand curves take seconds to prepare).
+    pub fn new_within(
+        b: &'b Bundle,
+        table: &GuidedTable,
+        guides: &[Guide],
+        deadline: Option<Instant>,
+    ) -> Result<Prepared<'b>, String> {
         let started = Instant::now();
         if guides.is_empty() {
             return Err("no guiding curves: add a `guide` section or give a guide file".into());
@@ -447,7 +469,7 @@ impl<'b> Prepared<'b> {
         for &(from, to) in &table.wrapups {
             wrapup[from as usize] = to;
         }
-        let guides = Guides::new(guides)?;
+        let guides = Guides::new_within(guides, deadline)?;
         let mut p = Prepared { b, skeleton, wrapup, guides, expected: vec![None; n], prepare_time: Duration::ZERO };
         p.expected = p.estimate_expected(table.settings.expected);
         p.prepare_time = started.elapsed();
@@ -631,7 +653,7 @@ impl<'b> Prepared<'b> {
         let members = if threads > 1 && largest >= opts.parallel_min.max(1) { threads } else { 1 };
         let b = self.b;
         let sh = Shared {
-            job: RwLock::new(Job { g: 0, n: 0, h: 0.0, seed: opts.seed, first: 0, src: 0 }),
+            job: RwLock::new(Job { g: 0, n: 0, h: 0.0, seed: opts.seed, first: 0, src: 0, deadline: None }),
             frozen: RwLock::new(Vec::new()),
             // No generation has more particles than the larger end of the ramp.
             cells: [0, 1].map(|_| (0..largest.max(1)).map(|_| RwLock::new(Cell::default())).collect()),
@@ -647,6 +669,7 @@ impl<'b> Prepared<'b> {
                     })
                 })
                 .collect(),
+            cut: AtomicBool::new(false),
         };
         let member = |t: usize| self.member(&sh, t);
         Team::run(members, &member, |team| self.lead(team, &sh, opts, progress))
@@ -655,7 +678,7 @@ impl<'b> Prepared<'b> {
     /// Member `t`'s part of a generation: each particle it takes, copied from its
     /// parent and stepped.
     fn member(&self, sh: &Shared<'b>, t: usize) {
-        let Job { g, n, h, seed, first, src } = *read(&sh.job);
+        let Job { g, n, h, seed, first, src, deadline } = *read(&sh.job);
         let (from, to) = (&sh.cells[src], &sh.cells[1 - src]);
         let picks = read(&sh.picks);
         let frozen = read(&sh.frozen);
@@ -663,6 +686,10 @@ impl<'b> Prepared<'b> {
         let Slot { local, ex, out, items } = &mut *slot;
         let mut store = Store { frozen: &frozen, id: first + t as u32, local };
         loop {
+            if deadline.is_some_and(|d| Instant::now() >= d) {
+                sh.cut.store(true, Ordering::Relaxed);
+                break;
+            }
             let j = sh.next.fetch_add(1, Ordering::Relaxed);
             let (Some(cell), Some(source)) = (to.get(j).filter(|_| j < n), picks.get(j).and_then(|&k| from.get(k)))
             else {
@@ -694,6 +721,7 @@ impl<'b> Prepared<'b> {
         progress: Option<&(dyn Fn(&Progress) + Sync)>,
     ) -> SearchResult {
         let started = Instant::now();
+        let deadline = opts.budget.and_then(|b| opts.clock.unwrap_or(started).checked_add(b));
         let mut master = Expander::new(self.b);
         master.reseed(opts.seed, RESAMPLE_STREAM);
         let mut seg0 = Vec::new();
@@ -719,16 +747,14 @@ impl<'b> Prepared<'b> {
                 stop = Stop::Complete;
                 break;
             }
-            if let Some(budget) = opts.budget {
-                if generation > 0 && started.elapsed() >= budget {
-                    stop = Stop::Budget;
-                    break;
-                }
+            if deadline.is_some_and(|d| Instant::now() >= d) {
+                stop = Stop::Budget;
+                break;
             }
             let g = generation;
             let n = read(&sh.picks).len().min(sh.cells[src].len());
             let first = read(&sh.frozen).len() as u32;
-            *write(&sh.job) = Job { g, n, h: opts.heuristic_at(g), seed: opts.seed, first, src };
+            *write(&sh.job) = Job { g, n, h: opts.heuristic_at(g), seed: opts.seed, first, src, deadline };
             sh.next.store(0, Ordering::Relaxed);
             // Small generations stay on this thread (handing them over costs more
             // than it saves).
@@ -736,6 +762,12 @@ impl<'b> Prepared<'b> {
                 self.member(sh, 0);
             } else {
                 team.round();
+            }
+            // Cut short by the budget: this generation is dropped (the previous one
+            // and the best seen stand).
+            if sh.cut.load(Ordering::Relaxed) {
+                stop = Stop::Budget;
+                break;
             }
             src = 1 - src;
             let stepped = &sh.cells[src][..n];
@@ -1052,6 +1084,7 @@ mod tests {
             seed: 0,
             threads: None,
             parallel_min: PARALLEL_MIN_PARTICLES,
+            clock: None,
         };
         assert_eq!(o.particles_at(0), 100);
         assert_eq!(o.particles_at(99), 15);
