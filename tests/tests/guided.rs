@@ -477,3 +477,48 @@ fn mdg_run_ignores_the_section_budget_and_honours_an_explicit_one() {
     let cut = mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default()).expect("runs");
     assert!(warned(&cut), "{:?}", cut.stats.warnings);
 }
+
+/// Careless guides: one of zero length is a warning (it attracts nothing), a
+/// `segment` that would cut a guide into more than 2^20 utilisation segments is an
+/// error naming the guide (it used to be clamped silently), and a search that grows
+/// no bones says so.
+#[test]
+fn careless_guides_and_boneless_searches_are_reported() {
+    let b = std_tree();
+    let file = root().join("std/examples/guided_tree.mdg");
+    let dir = std::env::temp_dir().join(format!("mdg-guided-careless-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let write = |name: &str, json: &str| {
+        let p = dir.join(name);
+        std::fs::write(&p, json).expect("write");
+        p
+    };
+    let run = |guides: std::path::PathBuf| {
+        let args = GuidedArgs { guides: Some(guides), generations: Some(10), ..GuidedArgs::default() };
+        mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default())
+    };
+    let zero = write(
+        "zero.json",
+        r#"{"guides": [{"name": "dot", "points": [[1,1,1],[1,1,1],[1,1,1],[1,1,1]]}, {"points": [[0,0,0],[0,0,1],[0,0,2],[0,0,3]]}]}"#,
+    );
+    let out = run(zero).expect("runs");
+    assert!(
+        out.stats.warnings.iter().any(|w| w.contains("dot has zero length: it attracts nothing")),
+        "{:?}",
+        out.stats.warnings
+    );
+    let fine =
+        write("fine.json", r#"{"guides": [{"points": [[0,0,0],[0,0,1],[0,0,2],[0,0,3]], "segment": 0.000001}]}"#);
+    let e = run(fine).expect_err("too many segments");
+    assert!(e.contains("guide 1: `segment` 0.000001 cuts the guide (length 3.0000) into 3000000 utilisation segments, more than 1048576"), "{e}");
+
+    // A skeleton rule whose calls never move: no bone is ever made.
+    let flat = mdg_tests::build_source(
+        "startshape A\nmaxdepth 20\nsearch { skeleton A; generations 5; particles 4; }\n\
+         guide g { points 0 0 0  0 0 1  0 0 2  0 0 3; }\nrule A { A {} leaf {} }\nrule leaf { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n",
+    );
+    let args = GuidedArgs::default();
+    let out = mdg_cli::modes::guided::run(&flat, &args, &common(&file, false), &EvalOptions::default()).expect("runs");
+    assert!(out.stats.warnings.iter().any(|w| w.contains("the model has no bones")), "{:?}", out.stats.warnings);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -311,7 +311,11 @@ fn run_one(
         let common = common(cli, Some(output), seed, size, pictures);
         modes::guided::run(bundle, &cli.guided, &common, &eval_opts).map_err(|e| (1, e))?
     } else {
-        evaluate_with_progress(bundle, &eval_opts, Some(&progress))
+        let mut out = evaluate_with_progress(bundle, &eval_opts, Some(&progress));
+        if let Some(flag) = cli.guided.given() {
+            out.stats.warnings.push(format!("{flag} is ignored: the grammar has no `search` section (docs/guided.md)"));
+        }
+        out
     };
     bar.finish_and_clear();
     for d in &out.debug {

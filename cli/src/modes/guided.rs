@@ -46,6 +46,25 @@ pub struct GuidedArgs {
     pub no_skeleton_lines: bool,
 }
 
+impl GuidedArgs {
+    /// The first search flag given, if any (they mean nothing without a `search`
+    /// section).
+    pub fn given(&self) -> Option<&'static str> {
+        let flags = [
+            (self.guides.is_some(), "--guides"),
+            (self.budget.is_some(), "--budget"),
+            (self.particles.is_some(), "--particles"),
+            (self.generations.is_some(), "--search-generations"),
+            (self.heuristic_scale.is_some(), "--heuristic-scale"),
+            (self.no_heuristic, "--no-heuristic"),
+            (self.resample.is_some(), "--resample"),
+            (self.search_threads.is_some(), "--search-threads"),
+            (self.no_skeleton_lines, "--no-skeleton-lines"),
+        ];
+        flags.iter().find(|(on, _)| *on).map(|(_, f)| *f)
+    }
+}
+
 /// Parses `--budget`: `200ms`, `0.5s`, `150` (ms), or `none` (bounded like every
 /// duration flag: [`crate::args::parse_duration`]).
 pub fn parse_budget(s: &str) -> Result<Option<Duration>, String> {
@@ -141,8 +160,25 @@ pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common, eval: &EvalOptio
     };
     let result = prepared.search(&opts, Some(&report));
     bar.finish_and_clear();
+    let mut warnings = Vec::new();
+    for i in 0..prepared.guides().len() {
+        if prepared.guides().path(i).length() < 1e-9 {
+            warnings.push(format!(
+                "guided search: {} has zero length: it attracts nothing (its control points coincide)",
+                prepared.guides().guide(i).label(i)
+            ));
+        }
+    }
+    if result.model.bones.is_empty() {
+        warnings.push(
+            "guided search: the model has no bones (no skeleton rule call was expanded: check the `skeleton` rules, \
+             and --budget if one was given)"
+                .to_string(),
+        );
+    }
     let eval_opts = EvalOptions { seed: Some(seed), ..eval.clone() };
     let mut out = prepared.geometry(&result.model, &eval_opts, !args.no_skeleton_lines);
+    out.stats.warnings.extend(warnings);
     if result.stop == Stop::Budget {
         out.stats.warnings.push(format!(
             "guided search: the time budget ended the search after {} of {} generations (the result depends on the \

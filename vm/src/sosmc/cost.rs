@@ -89,6 +89,11 @@ fn exp_neg(k: u32) -> f64 {
     }
 }
 
+/// Utilisation segments one guide may have (`length / segment`).
+pub const MAX_GUIDE_SEGMENTS: u32 = 1 << 20;
+/// Utilisation segments of all guides together.
+pub const MAX_TOTAL_SEGMENTS: u32 = 1 << 22;
+
 impl Guides {
     /// Prepares `guides` (each validated by [`Guide::validate`]).
     pub fn new(guides: &[Guide]) -> Result<Guides, String> {
@@ -109,13 +114,26 @@ impl Guides {
             }
             guide.validate().map_err(|e| format!("{}: {e}", guide.label(i)))?;
             let path = Path::new(&guide.points).ok_or_else(|| format!("{}: too few control points", guide.label(i)))?;
-            let n = ((path.length() / guide.segment).ceil() as u64).clamp(1, 1 << 20) as u32;
+            let wanted = (path.length() / guide.segment).ceil();
+            if wanted > MAX_GUIDE_SEGMENTS as f64 {
+                return Err(format!(
+                    "{}: `segment` {} cuts the guide (length {:.4}) into {wanted:.0} utilisation segments, more than \
+                     {MAX_GUIDE_SEGMENTS}: use a longer `segment`",
+                    guide.label(i),
+                    guide.segment,
+                    path.length()
+                ));
+            }
+            let n = (wanted as u32).max(1);
             first.push(next);
             count.push(n);
-            next = next
-                .checked_add(n)
-                .filter(|&t| t <= 1 << 22)
-                .ok_or_else(|| format!("{}: too many utilisation segments (use a longer `segment`)", guide.label(i)))?;
+            next = next.checked_add(n).filter(|&t| t <= MAX_TOTAL_SEGMENTS).ok_or_else(|| {
+                format!(
+                    "{}: the guides have more than {MAX_TOTAL_SEGMENTS} utilisation segments in all: use a longer \
+                         `segment` or fewer guides",
+                    guide.label(i)
+                )
+            })?;
             paths.push(path);
             params.push(guide.clone());
         }
