@@ -522,3 +522,24 @@ fn careless_guides_and_boneless_searches_are_reported() {
     assert!(out.stats.warnings.iter().any(|w| w.contains("the model has no bones")), "{:?}", out.stats.warnings);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The paper's Appendix A grammar ships as written: the start is an ordinary branch
+/// (bent 0–80°), `maybe_branch` is 1 : 1, and a search grows a skeleton from it.
+#[test]
+fn the_papers_own_tree_grammar_searches() {
+    let path = root().join("std/examples/guided_tree_paper.mdg");
+    let text = std::fs::read_to_string(&path).expect("example");
+    assert!(
+        text.contains("branch {rz rand(0, 360) rx rand(0, 80) s (0.7 * rand(0.9, 1.3))}\n}"),
+        "the start is a branch"
+    );
+    assert!(text.contains("rule maybe_branch 1 {\n  branch") && text.contains("rule maybe_branch 1 {\n}"), "1 : 1");
+    let a = analyze_file(&path, true);
+    assert!(!a.has_errors(), "{}", mdg_tests::render(&a));
+    let b = mdg_compiler::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).expect("lowers");
+    let t = table(&b);
+    let p = Prepared::new(&b, &t, &t.guides).expect("prepared");
+    let r = p.search(&opts(4), None);
+    assert!(r.model.bones.len() >= 3, "{} bones", r.model.bones.len());
+    assert_eq!(r.model.cost.total(), p.search(&opts(4), None).model.cost.total(), "deterministic");
+}
