@@ -543,3 +543,20 @@ fn the_papers_own_tree_grammar_searches() {
     assert!(r.model.bones.len() >= 3, "{} bones", r.model.bones.len());
     assert_eq!(r.model.cost.total(), p.search(&opts(4), None).model.cost.total(), "deterministic");
 }
+
+/// `--utilisation`: `paper` (the default) or `local`; they pick different models;
+/// anything else is an error naming the flag.
+#[test]
+fn the_utilisation_term_is_chosen_by_name() {
+    let b = std_tree();
+    let file = root().join("std/examples/guided_tree.mdg");
+    let run = |u: Option<&str>| {
+        let args = GuidedArgs { utilisation: u.map(str::to_string), generations: Some(30), ..GuidedArgs::default() };
+        mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default())
+    };
+    let default = run(None).expect("runs");
+    assert_eq!(run(Some("paper")).expect("runs").mesh, default.mesh);
+    assert_ne!(run(Some("local")).expect("runs").mesh, default.mesh);
+    let e = run(Some("eq7")).expect_err("unknown");
+    assert_eq!(e, "--utilisation eq7: expected `paper` or `local`");
+}

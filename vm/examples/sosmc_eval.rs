@@ -5,7 +5,14 @@
 //! cargo run --release -p mdg-vm --example sosmc_eval -- fig4 [--runs 200]
 //! cargo run --release -p mdg-vm --example sosmc_eval -- run [--guides F.json] [--seed N] [--no-heuristic] [--repeat N]
 //! cargo run --release -p mdg-vm --example sosmc_eval -- plot OUT.png [GUIDES.json…] [--seed N] [--particles A:B]
+//! cargo run --release -p mdg-vm --example sosmc_eval -- helix [--runs 40]
 //! ```
+//!
+//! `helix`: one helical guide (radius 1.2, 2.5 turns from z 0.3 to z 6); per seed a
+//! search with the paper's utilisation term, one with the local variant
+//! ([`Utilisation::Local`]) and an unguided tree (one forward sample); prints the cost,
+//! the bones and the *coverage*: the fraction of 400 points spread along the helix
+//! that have a bone within 0.35.
 //!
 //! The grammar is `std/examples/guided_tree.mdg`, compiled with `mdgc build` (the VM
 //! does not depend on the compiler): from `$MDG_SOSMC_BUNDLE` if set (relative to the workspace root), else built into
@@ -21,7 +28,7 @@
 use glam::{DVec3, Vec3};
 use mdg_vm::bundle::Bundle;
 use mdg_vm::eval::EvalOptions;
-use mdg_vm::sosmc::{guides_from_json, Guide, Prepared, SearchOptions, SearchResult};
+use mdg_vm::sosmc::{guides_from_json, Guide, Prepared, SearchOptions, SearchResult, Utilisation};
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 use std::time::Instant;
@@ -89,7 +96,8 @@ fn main() -> ExitCode {
         Some("run") => run(&args[1..]),
         Some("fig4") => fig4(&args[1..]),
         Some("plot") => plot(&args[1..]),
-        _ => Err("usage: sosmc_eval run|fig4|plot … (see the file's docs)".into()),
+        Some("helix") => helix(&args[1..]),
+        _ => Err("usage: sosmc_eval run|fig4|plot|helix … (see the file's docs)".into()),
     };
     match r {
         Ok(()) => ExitCode::SUCCESS,
@@ -157,6 +165,79 @@ fn print_result(p: &Prepared, r: &SearchResult) {
         m.wrapped,
         m.dropped
     );
+}
+
+/// A helix of `turns` turns of radius `r` from z `z0` to `z1`, as a cubic Bézier chain
+/// (four pieces a turn; handles (4/3)·tan(Δφ/4) of the tangent per radian).
+fn helix_guide(r: f64, turns: f64, z0: f64, z1: f64) -> Guide {
+    let pieces = (turns * 4.0).ceil() as usize;
+    let dphi = turns * std::f64::consts::TAU / pieces as f64;
+    let dz = (z1 - z0) / (turns * std::f64::consts::TAU);
+    let at = |phi: f64| DVec3::new(r * phi.cos(), r * phi.sin(), z0 + dz * phi);
+    let tangent = |phi: f64| DVec3::new(-r * phi.sin(), r * phi.cos(), dz);
+    let h = 4.0 / 3.0 * (dphi / 4.0).tan();
+    let mut points = vec![at(0.0).to_array()];
+    for i in 0..pieces {
+        let (a, b) = (i as f64 * dphi, (i + 1) as f64 * dphi);
+        points.push((at(a) + tangent(a) * h).to_array());
+        points.push((at(b) - tangent(b) * h).to_array());
+        points.push(at(b).to_array());
+    }
+    let mut g: Guide = serde_json::from_str(r#"{"points": [[0,0,0],[0,0,1],[0,0,2],[0,0,3]]}"#).expect("guide");
+    g.name = "helix".into();
+    g.points = points;
+    g
+}
+
+/// The distance from `p` to the segment `a`–`b`.
+fn to_segment(p: DVec3, a: DVec3, b: DVec3) -> f64 {
+    let ab = b - a;
+    let t = if ab.length_squared() > 0.0 { ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0) } else { 0.0 };
+    (a + ab * t - p).length()
+}
+
+fn helix(args: &[String]) -> Result<(), String> {
+    let runs: u64 = arg(args, "--runs").map(|s| s.parse().map_err(|_| "bad --runs")).transpose()?.unwrap_or(40);
+    let b = bundle()?;
+    let table = b.extensions.guided.clone().ok_or("no search section")?;
+    let guide = helix_guide(1.2, 2.5, 0.3, 6.0);
+    // 400 points along the helix (its parameter is proportional to arc length).
+    let samples: Vec<DVec3> = (0..400)
+        .map(|i| {
+            let phi = (i as f64 + 0.5) / 400.0 * 2.5 * std::f64::consts::TAU;
+            DVec3::new(1.2 * phi.cos(), 1.2 * phi.sin(), 0.3 + (6.0 - 0.3) * phi / (2.5 * std::f64::consts::TAU))
+        })
+        .collect();
+    let coverage = |bones: &[mdg_vm::sosmc::search::Bone]| {
+        let near = |p: DVec3| bones.iter().any(|bo| to_segment(p, bo.base, bo.tip) < 0.35);
+        samples.iter().filter(|p| near(**p)).count() as f64 / samples.len() as f64
+    };
+    let paper = Prepared::new(&b, &table, std::slice::from_ref(&guide))?;
+    let local = Prepared::new(&b, &table, std::slice::from_ref(&guide))?.with_utilisation(Utilisation::Local);
+    let o = options(&b, args)?;
+    let mut rows: Vec<[f64; 9]> = Vec::new();
+    for seed in 1..=runs {
+        let rp = paper.search(&SearchOptions { seed, ..o.clone() }, None);
+        let rl = local.search(&SearchOptions { seed, ..o.clone() }, None);
+        let ru = paper.forward_best(1, o.generations, seed, None);
+        let row = |r: &SearchResult| [coverage(&r.model.bones), r.model.cost.total(), r.model.bones.len() as f64];
+        let (a, c, u) = (row(&rp), row(&rl), row(&ru));
+        rows.push([a[0], a[1], a[2], c[0], c[1], c[2], u[0], u[1], u[2]]);
+    }
+    let col = |k: usize| {
+        let mut v: Vec<f64> = rows.iter().map(|r| r[k]).collect();
+        v.sort_by(f64::total_cmp);
+        (quantile(&v, 0.5), v.iter().sum::<f64>() / v.len() as f64)
+    };
+    println!("{runs} seeds, one helical guide (r 1.2, 2.5 turns), coverage = share of the helix within 0.35 of a bone");
+    println!("{:<28} {:>16} {:>16} {:>12}", "", "coverage med/mean", "cost med/mean", "bones med");
+    for (name, k) in [("paper's utilisation (eq. 7)", 0), ("local utilisation", 3), ("unguided (forward sample)", 6)] {
+        let (cm, ca) = col(k);
+        let (sm, sa) = col(k + 1);
+        let (bm, _) = col(k + 2);
+        println!("{name:<28} {:>7.3} / {:<7.3} {:>7.2} / {:<7.2} {:>12.0}", cm, ca, sm, sa, bm);
+    }
+    Ok(())
 }
 
 fn fig4(args: &[String]) -> Result<(), String> {

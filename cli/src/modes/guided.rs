@@ -5,7 +5,7 @@ use super::Common;
 use mdg_vm::bundle::Bundle;
 use mdg_vm::eval::EvalOptions;
 use mdg_vm::output::Output;
-use mdg_vm::sosmc::{guides_from_json, Prepared, Progress, Resampling, SearchOptions, Stop};
+use mdg_vm::sosmc::{guides_from_json, Prepared, Progress, Resampling, SearchOptions, Stop, Utilisation};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -37,6 +37,11 @@ pub struct GuidedArgs {
     /// Guided search: resampling scheme, `systematic` or `multinomial`.
     #[arg(long, value_name = "SCHEME")]
     pub resample: Option<String>,
+    /// Guided search: the utilisation term, `paper` (eq. 7 as written: a bone credits
+    /// every segment between the points of the guide closest to its base and its tip)
+    /// or `local` (only the arc within the bone's own length of its base).
+    #[arg(long, value_name = "TERM")]
+    pub utilisation: Option<String>,
     /// Guided search: worker threads (results are the same for any number).
     #[arg(long, value_name = "N")]
     pub search_threads: Option<usize>,
@@ -59,6 +64,7 @@ impl GuidedArgs {
             (self.no_heuristic, "--no-heuristic"),
             (self.resample.is_some(), "--resample"),
             (self.search_threads.is_some(), "--search-threads"),
+            (self.utilisation.is_some(), "--utilisation"),
             (self.no_skeleton_lines, "--no-skeleton-lines"),
         ];
         flags.iter().find(|(on, _)| *on).map(|(_, f)| *f)
@@ -147,7 +153,14 @@ pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common, eval: &EvalOptio
     // A budget covers preparing the guides too.
     let clock = std::time::Instant::now();
     opts.clock = Some(clock);
-    let prepared = Prepared::new_within(bundle, table, &guides, opts.budget.and_then(|b| clock.checked_add(b)))?;
+    let utilisation = match &args.utilisation {
+        None => Utilisation::default(),
+        Some(u) => {
+            Utilisation::from_name(u).ok_or_else(|| format!("--utilisation {u}: expected `paper` or `local`"))?
+        }
+    };
+    let prepared = Prepared::new_within(bundle, table, &guides, opts.budget.and_then(|b| clock.checked_add(b)))?
+        .with_utilisation(utilisation);
     prepared.check_size(&opts)?;
     let bar = indicatif::ProgressBar::new(opts.generations as u64);
     bar.set_style(

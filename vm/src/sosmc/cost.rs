@@ -65,6 +65,33 @@ pub struct Near {
     /// The utilisation segment holding the closest point (index into the counts of
     /// all guides, see [`Guides::n_segments`]).
     pub segment: u32,
+    /// The closest point's arc length along γ.
+    pub arc: f64,
+}
+
+/// Which segments of a guide a bone's utilisation term (eq. 7) credits.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Utilisation {
+    /// Eq. 7 as written: every segment from the one holding CLOSEST(γ, BASE) to the
+    /// one holding CLOSEST(γ, TIP). A short bone across the turns of a helix, whose
+    /// tip is closest to another turn, credits all the turns between.
+    #[default]
+    Paper,
+    /// Only the segments within the bone's own length of CLOSEST(γ, BASE) along γ:
+    /// the tip's arc position is clamped to arc(BASE) ± |TIP − BASE|, so a bone
+    /// credits no more of the curve than it could lie along.
+    Local,
+}
+
+impl Utilisation {
+    /// From its name (`paper`, `local`).
+    pub fn from_name(s: &str) -> Option<Utilisation> {
+        match s {
+            "paper" => Some(Utilisation::Paper),
+            "local" => Some(Utilisation::Local),
+            _ => None,
+        }
+    }
 }
 
 /// The guides of a search, prepared for cost evaluation.
@@ -75,6 +102,8 @@ pub struct Guides {
     /// First utilisation segment of each guide, and how many it has.
     first: Vec<u32>,
     count: Vec<u32>,
+    /// Which segments a bone credits.
+    pub utilisation: Utilisation,
 }
 
 /// e^(−k) for small k.
@@ -137,7 +166,7 @@ impl Guides {
             paths.push(path);
             params.push(guide.clone());
         }
-        Ok(Guides { paths: PathSet::new(paths), params, first, count })
+        Ok(Guides { paths: PathSet::new(paths), params, first, count, utilisation: Utilisation::default() })
     }
 
     /// Number of guides.
@@ -174,7 +203,7 @@ impl Guides {
     }
 
     fn near_of(&self, curve: usize, c: &Closest) -> Near {
-        Near { curve: curve as u32, dist: c.dist, dir: c.tangent, segment: self.segment_at(curve, c.arc) }
+        Near { curve: curve as u32, dist: c.dist, dir: c.tangent, segment: self.segment_at(curve, c.arc), arc: c.arc }
     }
 
     /// The closest guide γ to `p` and the closest point on it (eq. 1), within the
@@ -197,18 +226,31 @@ impl Guides {
         (d_bone.dot(near.dir) + g.delta_a) * g.scale_a
     }
 
-    /// COST_u of a bone from `base` (at `near`) to `tip` (eq. 7); increments the counts
-    /// of the segments it uses. `tip_near` is the guide nearest to `tip` if known (when
-    /// it is γ, its segment is the tip's; otherwise the tip is projected onto γ).
-    pub fn utilisation_cost(&self, near: &Near, tip: DVec3, tip_near: Option<&Near>, counts: &mut [u32]) -> f64 {
+    /// COST_u of a bone of length `len` from BASE (at `near`) to `tip` (eq. 7, or its
+    /// [`Utilisation::Local`] variant); increments the counts of the segments it uses.
+    /// `tip_near` is the guide nearest to `tip` if known (when it is γ, its segment is
+    /// the tip's; otherwise the tip is projected onto γ).
+    pub fn utilisation_cost(
+        &self,
+        near: &Near,
+        tip: DVec3,
+        len: f64,
+        tip_near: Option<&Near>,
+        counts: &mut [u32],
+    ) -> f64 {
         let curve = near.curve as usize;
         let g = &self.params[curve];
         if g.scale_u == 0.0 {
             return 0.0;
         }
-        let s_tip = match tip_near {
-            Some(t) if t.curve == near.curve => t.segment,
-            _ => self.segment_at(curve, self.path(curve).closest(tip).arc),
+        let arc_tip = || match tip_near {
+            Some(t) if t.curve == near.curve => t.arc,
+            _ => self.path(curve).closest(tip).arc,
+        };
+        let s_tip = match (self.utilisation, tip_near) {
+            (Utilisation::Paper, Some(t)) if t.curve == near.curve => t.segment,
+            (Utilisation::Paper, _) => self.segment_at(curve, arc_tip()),
+            (Utilisation::Local, _) => self.segment_at(curve, arc_tip().clamp(near.arc - len, near.arc + len)),
         };
         let (lo, hi) = if near.segment <= s_tip { (near.segment, s_tip) } else { (s_tip, near.segment) };
         let mut sum = 0.0;
@@ -240,7 +282,7 @@ impl Guides {
         Some(Cost {
             d: self.distance_cost(near.curve, near.dist),
             a: self.alignment_cost(near, v),
-            u: self.utilisation_cost(near, tip, tip_near, counts),
+            u: self.utilisation_cost(near, tip, len, tip_near, counts),
         })
     }
 
@@ -310,20 +352,46 @@ mod tests {
         let base = DVec3::new(0.1, 0.0, 0.5);
         let near = g.nearest(base).expect("near");
         assert_eq!(near.segment, 0);
-        let u = g.utilisation_cost(&near, DVec3::new(0.1, 0.0, 2.5), None, &mut counts);
+        let u = g.utilisation_cost(&near, DVec3::new(0.1, 0.0, 2.5), 2.0, None, &mut counts);
         assert!((u - -2.1).abs() < 1e-12, "{u}");
         assert_eq!(counts, vec![1, 1, 1]);
         // Bone within segment 1 (z 1.2 → 1.8): S = {1}, used once before: −0.7·e^(−1).
         let near = g.nearest(DVec3::new(0.0, 0.3, 1.2)).expect("near");
-        let u = g.utilisation_cost(&near, DVec3::new(0.0, 0.3, 1.8), None, &mut counts);
+        let u = g.utilisation_cost(&near, DVec3::new(0.0, 0.3, 1.8), 0.67, None, &mut counts);
         assert!((u - -0.7 * (-1.0f64).exp()).abs() < 1e-12);
         // Downwards (z 2.9 → 0.1) spans all three again: −0.7·(e^(−1) + e^(−2) + e^(−1)).
         let near = g.nearest(DVec3::new(0.0, 0.0, 2.9)).expect("near");
         let tip = DVec3::new(0.0, 0.0, 0.1);
-        let u = g.utilisation_cost(&near, tip, g.nearest(tip).as_ref(), &mut counts);
+        let u = g.utilisation_cost(&near, tip, 2.0, g.nearest(tip).as_ref(), &mut counts);
         let want = -0.7 * (2.0 * (-1.0f64).exp() + (-2.0f64).exp());
         assert!((u - want).abs() < 1e-12);
         assert_eq!(counts, vec![2, 3, 2]);
+    }
+
+    /// The local variant credits only the arc within the bone's length of its base: a
+    /// 0.5-long bone from z 0.2 whose tip is closest to z 2.6 (a jump, as across the
+    /// turns of a helix) credits segments 0..2 as written, segment 0 only when local.
+    #[test]
+    fn the_local_utilisation_credits_only_the_bones_own_arc() {
+        let mut g = line();
+        let base = DVec3::new(0.0, 0.0, 0.2);
+        let near = g.nearest(base).expect("near");
+        let tip = DVec3::new(0.0, 0.0, 2.6);
+        let mut counts = vec![0u32; 3];
+        let paper = g.utilisation_cost(&near, tip, 0.5, None, &mut counts);
+        assert!((paper - -2.1).abs() < 1e-12, "{paper}");
+        g.utilisation = Utilisation::Local;
+        let mut counts = vec![0u32; 3];
+        let local = g.utilisation_cost(&near, tip, 0.5, None, &mut counts);
+        assert!((local - -0.7).abs() < 1e-12, "{local}");
+        assert_eq!(counts, vec![1, 0, 0]);
+        // A bone that lies along the guide credits the same either way.
+        let mut counts = vec![0u32; 3];
+        let along = g.utilisation_cost(&near, DVec3::new(0.0, 0.0, 2.2), 2.0, None, &mut counts);
+        assert!((along - -2.1).abs() < 1e-12, "{along}");
+        assert_eq!(Utilisation::from_name("local"), Some(Utilisation::Local));
+        assert_eq!(Utilisation::from_name("paper"), Some(Utilisation::Paper));
+        assert_eq!(Utilisation::from_name("eq7"), None);
     }
 
     #[test]

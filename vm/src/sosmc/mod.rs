@@ -21,6 +21,7 @@ pub mod resample;
 pub mod search;
 pub mod team;
 
+pub use cost::Utilisation;
 pub use search::{Model, Prepared, Progress, SearchOptions, SearchResult, Stop, PARALLEL_MIN_PARTICLES};
 
 use crate::bundle::{Bundle, Op, NONE};

@@ -32,7 +32,7 @@
 //! among a [`Team`] of threads that stays awake for the whole search (`threads`, or
 //! rayon's thread count); the weights and resampling run on the calling thread.
 
-use super::cost::{Cost, Guides, Near};
+use super::cost::{Cost, Guides, Near, Utilisation};
 use super::resample::{resample, weights_from_log};
 use super::team::Team;
 use super::{Guide, GuidedTable, Resampling, SearchSettings};
@@ -479,6 +479,12 @@ impl<'b> Prepared<'b> {
     /// The prepared guides.
     pub fn guides(&self) -> &Guides {
         &self.guides
+    }
+
+    /// These guides with another utilisation term ([`Utilisation`]).
+    pub fn with_utilisation(mut self, u: Utilisation) -> Prepared<'b> {
+        self.guides.utilisation = u;
+        self
     }
 
     /// EXPECTED(rule), if estimated.
