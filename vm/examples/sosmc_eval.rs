@@ -2,7 +2,7 @@
 //! std tree grammar, the forward-sampling baseline, and projection plots.
 //!
 //! ```sh
-//! cargo run --release -p mdg-vm --example sosmc_eval -- fig4 [--runs 200]
+//! cargo run --release -p mdg-vm --example sosmc_eval -- fig4 [--runs 500] [--guides program,A.json,…]
 //! cargo run --release -p mdg-vm --example sosmc_eval -- run [--guides F.json] [--seed N] [--no-heuristic] [--repeat N]
 //! cargo run --release -p mdg-vm --example sosmc_eval -- plot OUT.png [GUIDES.json…] [--seed N] [--particles A:B]
 //! cargo run --release -p mdg-vm --example sosmc_eval -- helix [--runs 40]
@@ -23,7 +23,10 @@
 //! only, ramp and heuristic, and the forward-sampling baseline (best of N complete
 //! samples); all at the same budget of particle-steps (the default schedule, 5,750). It
 //! prints the median, quartiles and mean of the final COST, and the median time per
-//! search.
+//! search; then the heuristic's gain paired by seed (mean, 95% bootstrap interval, how
+//! many seeds it helped) and the difference of the two offsets' gains. Per guide set:
+//! `--guides program,A.json,…` (paths from the workspace root); default the grammar's
+//! own, `arch.json` and `windswept.json`.
 
 use glam::{DVec3, Vec3};
 use mdg_vm::bundle::Bundle;
@@ -250,7 +253,7 @@ fn fig4(args: &[String]) -> Result<(), String> {
     let steps = base.scheduled_steps();
     let flat = (steps as f64 / base.generations as f64).round() as u32;
     println!(
-        "Fig. 4 on std/examples/guided_tree.mdg: {runs} runs per row (seeds 1..={runs}), {} generations, \
+        "Fig. 4: {runs} runs per row (seeds 1..={runs}, the same seeds in every row), {} generations, \
          equal budget of {steps} particle-steps per search",
         base.generations
     );
@@ -258,93 +261,117 @@ fn fig4(args: &[String]) -> Result<(), String> {
         "heuristic: scale {h0} ramped to 0 over the first {}% of the generations",
         base.heuristic_fraction * 100.0
     );
-    println!();
-    println!(
-        "{:<7} {:<34} {:>10} {:>10} {:>10} {:>10} {:>9}",
-        "delta_a", "method", "median", "p25", "p75", "mean", "ms/run"
-    );
-    let source = guides_of(&b, arg(args, "--guides"))?;
-    for delta in [0.6, 0.5] {
-        let mut guides = source.clone();
-        for g in &mut guides {
-            g.delta_a = delta;
-        }
-        let p = Prepared::new(&b, &table, &guides)?;
-        let configs: [(&str, Option<SearchOptions>); 4] = [
-            (
-                "no heuristic, constant size",
-                Some(SearchOptions { particles: (flat, flat), heuristic_scale: 0.0, ..base.clone() }),
-            ),
-            ("no heuristic, ramped size", Some(SearchOptions { heuristic_scale: 0.0, ..base.clone() })),
-            ("heuristic, ramped size", Some(SearchOptions { heuristic_scale: h0, ..base.clone() })),
-            ("forward sampling, best of N", None),
-        ];
-        let mut medians = Vec::new();
-        let mut samples: Vec<Vec<f64>> = Vec::new();
-        for (name, cfg) in configs.iter() {
-            let mut costs = Vec::with_capacity(runs as usize);
-            let mut times = Vec::with_capacity(runs as usize);
-            for seed in 1..=runs {
-                let t = Instant::now();
-                let r = match cfg {
-                    Some(o) => p.search(&SearchOptions { seed, ..o.clone() }, None),
-                    None => p.forward_best(flat, base.generations, seed, None),
-                };
-                times.push(t.elapsed().as_secs_f64() * 1e3);
-                costs.push(r.model.cost.total());
-            }
-            costs.sort_by(f64::total_cmp);
-            times.sort_by(f64::total_cmp);
-            let mean = costs.iter().sum::<f64>() / costs.len() as f64;
-            let med = quantile(&costs, 0.5);
-            medians.push(med);
-            samples.push(costs.clone());
-            println!(
-                "{:<7} {:<34} {:>10.3} {:>10.3} {:>10.3} {:>10.3} {:>9.2}",
-                delta,
-                name,
-                med,
-                quantile(&costs, 0.25),
-                quantile(&costs, 0.75),
-                mean,
-                quantile(&times, 0.5)
-            );
-        }
-        let (lo, hi) = bootstrap_gain(&samples[1], &samples[2]);
-        let iqr = quantile(&samples[1], 0.75) - quantile(&samples[1], 0.25);
-        println!(
-            "{:<7} heuristic gain in median (ramped, no heuristic − heuristic): {:+.3} (95% bootstrap CI {:+.3} … {:+.3}; {:.0}% of the no-heuristic IQR)",
-            delta,
-            medians[1] - medians[2],
-            lo,
-            hi,
-            (medians[1] - medians[2]) / iqr * 100.0
-        );
+    // `--guides A.json,B.json`: guide sets (`program` is the grammar's own); default:
+    // the grammar's, then the two std guide files.
+    let sets: Vec<String> = match arg(args, "--guides") {
+        Some(list) => list.split(',').map(str::to_string).collect(),
+        None => ["program", "std/examples/guides/arch.json", "std/examples/guides/windswept.json"]
+            .map(str::to_string)
+            .to_vec(),
+    };
+    for set in &sets {
+        let file = (set != "program").then(|| root().join(set).to_string_lossy().into_owned());
+        let source = guides_of(&b, file.as_deref())?;
         println!();
+        println!("guides: {set} ({} curves)", source.len());
+        println!(
+            "{:<7} {:<34} {:>10} {:>10} {:>10} {:>10} {:>9}",
+            "delta_a", "method", "median", "p25", "p75", "mean", "ms/run"
+        );
+        // Per offset, the per-seed paired gain of the heuristic (no heuristic − heuristic).
+        let mut gains: Vec<Vec<f64>> = Vec::new();
+        for delta in [0.6, 0.5] {
+            let mut guides = source.clone();
+            for g in &mut guides {
+                g.delta_a = delta;
+            }
+            let p = Prepared::new(&b, &table, &guides)?;
+            let configs: [(&str, Option<SearchOptions>); 4] = [
+                (
+                    "no heuristic, constant size",
+                    Some(SearchOptions { particles: (flat, flat), heuristic_scale: 0.0, ..base.clone() }),
+                ),
+                ("no heuristic, ramped size", Some(SearchOptions { heuristic_scale: 0.0, ..base.clone() })),
+                ("heuristic, ramped size", Some(SearchOptions { heuristic_scale: h0, ..base.clone() })),
+                ("forward sampling, best of N", None),
+            ];
+            let mut by_seed: Vec<Vec<f64>> = Vec::new();
+            for (name, cfg) in configs.iter() {
+                let mut costs = Vec::with_capacity(runs as usize);
+                let mut times = Vec::with_capacity(runs as usize);
+                for seed in 1..=runs {
+                    let t = Instant::now();
+                    let r = match cfg {
+                        Some(o) => p.search(&SearchOptions { seed, ..o.clone() }, None),
+                        None => p.forward_best(flat, base.generations, seed, None),
+                    };
+                    times.push(t.elapsed().as_secs_f64() * 1e3);
+                    costs.push(r.model.cost.total());
+                }
+                by_seed.push(costs.clone());
+                costs.sort_by(f64::total_cmp);
+                times.sort_by(f64::total_cmp);
+                let mean = costs.iter().sum::<f64>() / costs.len() as f64;
+                println!(
+                    "{:<7} {:<34} {:>10.3} {:>10.3} {:>10.3} {:>10.3} {:>9.2}",
+                    delta,
+                    name,
+                    quantile(&costs, 0.5),
+                    quantile(&costs, 0.25),
+                    quantile(&costs, 0.75),
+                    mean,
+                    quantile(&times, 0.5)
+                );
+            }
+            let gain: Vec<f64> = by_seed[1].iter().zip(&by_seed[2]).map(|(a, h)| a - h).collect();
+            let (lo, hi) = bootstrap_mean(&[&gain], |g| g[0]);
+            let better = gain.iter().filter(|&&g| g > 0.0).count();
+            println!(
+                "{:<7} heuristic gain, paired by seed (no heuristic − heuristic): mean {:+.3} (95% bootstrap CI {:+.3} … {:+.3}); \
+                 lower cost with the heuristic in {better} of {runs} seeds",
+                delta,
+                mean_of(&gain),
+                lo,
+                hi,
+            );
+            gains.push(gain);
+        }
+        let (lo, hi) = bootstrap_mean(&[&gains[0], &gains[1]], |g| g[0] - g[1]);
+        println!(
+            "difference of gains (offset 0.6 − offset 0.5): {:+.3} (95% bootstrap CI {:+.3} … {:+.3}, seeds resampled jointly)",
+            mean_of(&gains[0]) - mean_of(&gains[1]),
+            lo,
+            hi
+        );
     }
     Ok(())
 }
 
-/// 95% percentile-bootstrap interval of median(a) − median(b) (2,000 resamples of
-/// each group, a fixed stream so the table is reproducible).
-fn bootstrap_gain(a: &[f64], b: &[f64]) -> (f64, f64) {
+fn mean_of(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+/// 95% percentile-bootstrap interval of `stat` of the means of `series` (per-seed
+/// values, all of one length), resampling the seeds jointly (2,000 resamples, a
+/// fixed stream so the table is reproducible).
+fn bootstrap_mean(series: &[&[f64]], stat: impl Fn(&[f64]) -> f64) -> (f64, f64) {
+    let n = series.first().map_or(0, |s| s.len());
     let mut s = 0x2545_F491_4F6C_DD1Du64;
     let mut next = |n: usize| {
         s ^= s << 13;
         s ^= s >> 7;
         s ^= s << 17;
-        (s % n as u64) as usize
+        (s % n.max(1) as u64) as usize
     };
-    let mut diffs = Vec::with_capacity(2000);
+    let mut stats = Vec::with_capacity(2000);
     for _ in 0..2000 {
-        let mut ra: Vec<f64> = (0..a.len()).map(|_| a[next(a.len())]).collect();
-        let mut rb: Vec<f64> = (0..b.len()).map(|_| b[next(b.len())]).collect();
-        ra.sort_by(f64::total_cmp);
-        rb.sort_by(f64::total_cmp);
-        diffs.push(quantile(&ra, 0.5) - quantile(&rb, 0.5));
+        let picks: Vec<usize> = (0..n).map(|_| next(n)).collect();
+        let means: Vec<f64> =
+            series.iter().map(|v| picks.iter().map(|&i| v[i]).sum::<f64>() / n.max(1) as f64).collect();
+        stats.push(stat(&means));
     }
-    diffs.sort_by(f64::total_cmp);
-    (quantile(&diffs, 0.025), quantile(&diffs, 0.975))
+    stats.sort_by(f64::total_cmp);
+    (quantile(&stats, 0.025), quantile(&stats, 0.975))
 }
 
 /// A front view (x right, z up) of the model found for each guide file (or the
