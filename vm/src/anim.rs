@@ -44,10 +44,11 @@ pub fn frame_index(t: f64, fps: f32) -> u64 {
 }
 
 /// How many frames a track running at `fps` needs to cover `0 ≤ t ≤ span`: frame
-/// indices `0..=⌊span·fps⌋`, at most [`MAX_TRACK_FRAMES`]. At least 1.
+/// indices `0..=⌊span·fps⌋`, at least 1, and at most one more than
+/// [`MAX_TRACK_FRAMES`] (so that a caller can tell a track it must cut, and say so).
 pub fn frames_needed(span: f64, fps: f32) -> usize {
     let last = frame_index(span, fps);
-    (last.saturating_add(1)).min(MAX_TRACK_FRAMES as u64) as usize
+    (last.saturating_add(1)).min(MAX_TRACK_FRAMES as u64 + 1) as usize
 }
 
 impl Track {
@@ -236,7 +237,7 @@ mod tests {
         assert_eq!(frame_index(1.0, f32::NAN), 0);
         assert_eq!(frames_needed(4.0, 25.0), 101);
         assert_eq!(frames_needed(0.0, 25.0), 1);
-        assert_eq!(frames_needed(1e30, 1e9), MAX_TRACK_FRAMES);
+        assert_eq!(frames_needed(1e30, 1e9), MAX_TRACK_FRAMES + 1);
     }
 
     #[test]

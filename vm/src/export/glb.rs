@@ -601,7 +601,7 @@ impl Builder {
             if !(bone.fps > 0.0 && bone.fps.is_finite()) {
                 continue;
             }
-            let n = frames_needed(anim.duration as f64, bone.fps);
+            let n = frames_needed(anim.duration as f64, bone.fps).min(crate::anim::MAX_TRACK_FRAMES);
             let frames: Vec<Frame> = (0..n as u64).map(|i| anim.local(b, i)).collect();
             if n < 2 || frames.iter().all(|f| *f == frames[0]) {
                 continue;
@@ -634,7 +634,7 @@ impl Builder {
             ..Node::default()
         });
         if cam.fps > 0.0 && cam.fps.is_finite() {
-            let n = frames_needed(anim.duration as f64, cam.fps);
+            let n = frames_needed(anim.duration as f64, cam.fps).min(crate::anim::MAX_TRACK_FRAMES);
             let frames: Vec<Frame> = (0..n as u64).map(|i| track.at(i)).collect();
             if n >= 2 && frames.iter().any(|f| *f != frames[0]) {
                 let input = self.key_times(cam.fps, n);
