@@ -366,3 +366,20 @@ fn json_dump_has_the_documented_keys() {
     assert!((j["instances"][0]["scale"].as_f64().unwrap_or(0.0) - 0.5).abs() < 1e-6);
     assert!(j["stats"]["rule_calls"].as_u64().is_some());
 }
+
+#[test]
+fn numbers_that_overflow_f32_are_encoded_finite_so_the_bundle_loads() {
+    // 1e308 is a finite f64 but infinite as f32: the encoder writes it as the largest
+    // finite f32, so the bundle the compiler writes loads (the loader refuses
+    // non-finite numbers).
+    for src in [
+        "startshape A\nrule A { VERTEX {z 1e308} VERTEX {x 1} VERTEX {y 1} }\n",
+        "startshape A\nrule A { B {s 1e300 x -1e308} }\nrule B { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n",
+    ] {
+        let b = build_source(src);
+        let bytes = mdg_vm::bundle::encode(&b);
+        let loaded = mdg_vm::bundle::load(&bytes).unwrap_or_else(|e| panic!("{src}: {e}"));
+        let out = evaluate(&loaded, &EvalOptions::default());
+        assert_eq!(out.mesh.n_vertices(), 3, "{src}");
+    }
+}
