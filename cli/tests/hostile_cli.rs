@@ -181,3 +181,166 @@ fn an_output_that_is_an_input_is_refused_and_the_source_kept() {
     assert_eq!(std::fs::read_to_string(dir.join("x.mdg")).expect("ok"), main);
     assert!(std::fs::read_to_string(dir.join("lib.mdg")).expect("ok").starts_with("rule B"));
 }
+
+#[cfg(unix)]
+#[test]
+fn an_output_that_is_an_input_through_a_hard_link_or_a_symlink_is_refused() {
+    let dir = scratch("output-is-linked-input");
+    std::fs::write(dir.join("x.mdg"), TRIANGLE).expect("ok");
+    std::fs::hard_link(dir.join("x.mdg"), dir.join("hard.obj")).expect("hard link");
+    std::os::unix::fs::symlink("x.mdg", dir.join("soft.obj")).expect("symlink");
+    for out in ["hard.obj", "soft.obj"] {
+        let (o, took) = mdg_run(&dir, &["x.mdg", "-o", out]);
+        assert_ended(&o, took, 2, 60);
+        assert!(stderr(&o).contains("that is an input"), "{out}: {}", stderr(&o));
+    }
+    assert_eq!(std::fs::read_to_string(dir.join("x.mdg")).expect("ok"), TRIANGLE, "the source is kept");
+    assert!(std::fs::symlink_metadata(dir.join("soft.obj")).expect("ok").file_type().is_symlink());
+}
+
+#[test]
+fn writing_to_dev_full_says_no_space_left_on_device() {
+    if !Path::new("/dev/full").exists() {
+        eprintln!("no /dev/full here: skipped");
+        return;
+    }
+    let dir = scratch("dev-full");
+    std::fs::write(dir.join("a.mdg"), TRIANGLE).expect("ok");
+    let (o, took) = mdg_run(&dir, &["a.mdg", "-o", "/dev/full", "--format", "obj"]);
+    assert_ended(&o, took, 1, 60);
+    assert!(stderr(&o).contains("No space left on device"), "{}", stderr(&o));
+}
+
+#[cfg(unix)]
+#[test]
+fn directories_and_sockets_are_refused_as_sources() {
+    let dir = scratch("dir-socket");
+    std::fs::create_dir_all(dir.join("sub")).expect("ok");
+    let (o, took) = mdgc(&dir, &["check", "sub"]);
+    assert_ended(&o, took, 1, 60);
+    let e = stderr(&o);
+    assert!(
+        e.contains("error[E0201]: cannot read `sub`: not a regular file (a directory); only regular files are read"),
+        "{e}"
+    );
+    // A socket is refused at once too, but by `open` itself (ENXIO on Linux), before
+    // `read_bounded` can name it: docs/limits.md's "(a socket)" is not what is printed.
+    let _listener = std::os::unix::net::UnixListener::bind(dir.join("sock.mdg")).expect("bind");
+    let (o, took) = mdgc(&dir, &["check", "sock.mdg"]);
+    assert_ended(&o, took, 1, 60);
+    let e = stderr(&o);
+    assert!(e.contains("error[E0201]: cannot read `sock.mdg`: "), "{e}");
+}
+
+#[test]
+fn a_corrupted_bundle_is_an_invalid_bundle_not_a_panic() {
+    let dir = scratch("corrupt-bundle");
+    std::fs::write(dir.join("a.mdg"), TRIANGLE).expect("ok");
+    let (o, took) = mdgc(&dir, &["build", "a.mdg", "-o", "a.mdgb"]);
+    assert_ended(&o, took, 0, 60);
+    let (o, took) = mdg_run(&dir, &["a.mdgb", "-o", "a.obj"]);
+    assert_ended(&o, took, 0, 60);
+    let mut bytes = std::fs::read(dir.join("a.mdgb")).expect("bundle");
+    let mid = bytes.len() / 2;
+    bytes[mid] ^= 0x5a;
+    std::fs::write(dir.join("bad.mdgb"), &bytes).expect("ok");
+    let (o, took) = mdg_run(&dir, &["bad.mdgb", "-o", "bad.obj"]);
+    assert_ended(&o, took, 1, 60);
+    assert!(stderr(&o).starts_with("mdg-run: bad.mdgb: invalid bundle: "), "{}", stderr(&o));
+    assert!(!dir.join("bad.obj").exists());
+}
+
+#[test]
+fn a_picture_larger_than_8192_is_a_usage_error() {
+    let dir = scratch("size");
+    std::fs::write(dir.join("a.mdg"), TRIANGLE).expect("ok");
+    for bad in ["8193x10", "10x8193", "0x10"] {
+        let (o, took) = mdg_run(&dir, &["a.mdg", "-o", "a.obj", "--size", bad]);
+        assert_ended(&o, took, 2, 60);
+        assert_eq!(stderr(&o), format!("mdg-run: --size {bad}: expected WIDTHxHEIGHT, each 1..8192\n"));
+    }
+    let (o, took) = mdg_run(&dir, &["a.mdg", "-o", "a.obj", "--size", "8192x8192"]);
+    assert_ended(&o, took, 0, 60);
+}
+
+/// The `warning:` lines of a run's stderr.
+fn warnings(o: &Output) -> Vec<String> {
+    stderr(o).lines().filter(|l| l.starts_with("warning:")).map(str::to_string).collect()
+}
+
+#[test]
+fn a_limit_reached_is_one_warning_line_and_the_run_succeeds() {
+    let dir = scratch("one-warning");
+    std::fs::write(
+        dir.join("r.mdg"),
+        "startshape A\nmaxiter 10\nrule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} A {z 1} }\n",
+    )
+    .expect("ok");
+    let (o, took) = mdg_run(&dir, &["r.mdg", "-o", "r.obj"]);
+    assert_ended(&o, took, 0, 60);
+    assert_eq!(
+        warnings(&o),
+        ["warning: maxiter 10 reached in rule `A` (r.mdg:3): the run stopped; the output so far is kept (raise the limit with `maxiter N` in the grammar)"],
+        "{}",
+        stderr(&o)
+    );
+    let obj = std::fs::read_to_string(dir.join("r.obj")).expect("the output is written");
+    assert_eq!(obj.lines().filter(|l| l.starts_with("v ")).count(), 3 * 11, "the output so far is kept");
+}
+
+#[test]
+fn the_evaluation_limit_flags_change_the_limits() {
+    let dir = scratch("limit-flags");
+    std::fs::write(
+        dir.join("grow.mdg"),
+        "startshape A\nrule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} A {z 1} A {x 1} }\n",
+    )
+    .expect("ok");
+    let (o, took) = mdg_run(&dir, &["grow.mdg", "-o", "g.obj", "--max-vertices", "1234"]);
+    assert_ended(&o, took, 0, 60);
+    assert_eq!(
+        warnings(&o),
+        ["warning: vertex budget 1234 reached in rule `A` (grow.mdg:2): the run stopped; the output so far is kept (raise the limit with `--max-vertices N`)"]
+    );
+    std::fs::write(
+        dir.join("conv.mdg"),
+        "startshape S\nmaxiter 100000000\nrule S * spin { VERTEX {x 1} VERTEX {x 2} VERTEX {y 1} }\n\
+         rule spin { 1000000000000 * {rz 1} FRAME {} }\n",
+    )
+    .expect("ok");
+    let (o, took) = mdg_run(&dir, &["conv.mdg", "-o", "c.obj", "--max-frames", "321"]);
+    assert_ended(&o, took, 0, 60);
+    assert_eq!(
+        warnings(&o),
+        ["warning: conv.mdg:4: convolution `S`: iterator rule `spin` did not end within the frame budget of 321 frames; only those are used (an iterator rule must terminate; raise the budget with `--max-frames N`)"]
+    );
+    std::fs::write(
+        dir.join("iso.mdg"),
+        "startshape A\nisosurface BALL { xyz -1 1 10 ; function { x*x + y*y + z*z - 1 } }\nrule A { VERTEX {} BALL {} }\n",
+    )
+    .expect("ok");
+    let (o, took) = mdg_run(&dir, &["iso.mdg", "-o", "i.obj", "--max-iso-cells", "999"]);
+    assert_ended(&o, took, 0, 60);
+    assert_eq!(
+        warnings(&o),
+        ["warning: iso.mdg:3: isosurface `BALL` not built: isosurface grid has 1000 cells, more than the limit of 999 (raise it with `--max-iso-cells N`)"]
+    );
+    let (o, took) = mdg_run(&dir, &["iso.mdg", "-o", "i.obj", "--max-iso-cells", "1000"]);
+    assert_ended(&o, took, 0, 60);
+    assert_eq!(warnings(&o), Vec::<String>::new(), "1000 cells are within a limit of 1000");
+}
+
+#[test]
+fn a_turntable_past_360_views_is_a_usage_error() {
+    let dir = scratch("turntable");
+    std::fs::write(dir.join("a.mdg"), TRIANGLE).expect("ok");
+    // clap refuses it before any Vulkan is touched.
+    let (o, took) = run_in(&dir, env!("CARGO_BIN_EXE_mdg-view"), &["a.mdg", "--png", "t.png", "--turntable", "10000"]);
+    assert_ended(&o, took, 2, 60);
+    assert!(
+        stderr(&o).starts_with("error: invalid value '10000' for '--turntable <N>': 10000 is not in 1..=360"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!dir.join("t.png").exists());
+}

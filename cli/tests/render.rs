@@ -316,3 +316,32 @@ fn camera_rule_looks_along_its_minus_z() {
     });
     assert_eq!(stray, 0, "pixels drawn outside the expected square");
 }
+
+#[test]
+fn a_turntable_writes_its_numbered_views_and_the_sheet() {
+    if skip_vulkan() {
+        return;
+    }
+    let dir = out_dir().join("turntable");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("dir");
+    std::fs::write(dir.join("a.mdg"), "startshape A\nrule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n").expect("write");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_mdg-view"))
+        .args(["a.mdg", "--png", "sheet.png", "--turntable", "3", "--size", "64x48"])
+        .current_dir(&dir)
+        .output()
+        .expect("run mdg-view");
+    assert!(out.status.success(), "mdg-view failed: {}", String::from_utf8_lossy(&out.stderr));
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .expect("list")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".png"))
+        .collect();
+    names.sort();
+    assert_eq!(names, ["sheet-00.png", "sheet-01.png", "sheet-02.png", "sheet.png"]);
+    for n in &names[..3] {
+        let view = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(dir.join(n)).expect("open")));
+        let info = view.read_info().expect("a PNG").info().clone();
+        assert_eq!((info.width, info.height), (64, 48), "{n}");
+    }
+}

@@ -722,8 +722,80 @@ mod tests {
         let line = "float v = 1.0;\n";
         let src = format!("#version 450\n{}", line.repeat(MAX_SHADER_BYTES / line.len() + 2));
         let r = check(&src).expect_err("too large");
-        assert!(r.message.starts_with("shader block too large"), "{r:?}");
+        assert_eq!(r.message, format!("shader block too large: {} bytes (at most 262144)", src.len()));
+        assert_eq!(r.label, "the block passes 262144 bytes on this line");
+        assert_eq!(r.note, "split the shader into smaller blocks, or move large tables into buffers or textures");
         assert!(r.start <= MAX_SHADER_BYTES && MAX_SHADER_BYTES <= r.end, "{r:?}");
         assert_eq!(&src[r.start..r.end], line.trim_end());
+        // A block of exactly the limit is not refused for its size.
+        let mut exact = String::from("#version 450\n");
+        while exact.len() + line.len() <= MAX_SHADER_BYTES {
+            exact.push_str(line);
+        }
+        exact.push_str(&" ".repeat(MAX_SHADER_BYTES - exact.len()));
+        assert_eq!(exact.len(), MAX_SHADER_BYTES);
+        assert_eq!(check(&exact), Ok(()));
+    }
+
+    /// A doubling chain of object-like macros `M0 … M{levels-1}` whose use is the
+    /// argument of `A`, which hands it to `B`, which drops it: the expansion works
+    /// (2^levels tokens) but emits nothing.
+    fn silent_chain(levels: usize) -> String {
+        let mut s = String::from("#version 450\n#define B(y)\n#define A(x) B(x)\n#define M0 1\n");
+        for i in 1..levels {
+            s.push_str(&format!("#define M{i} M{} M{}\n", i - 1, i - 1));
+        }
+        s.push_str(&format!("void main() {{ A(M{}) }}\n", levels - 1));
+        s
+    }
+
+    #[test]
+    fn expansion_work_without_output_is_refused_at_the_steps_limit() {
+        assert_eq!(check(&silent_chain(12)), Ok(()), "2^11 tokens of work");
+        let src = silent_chain(22);
+        let r = check(&src).expect_err("2^21 tokens of work, none emitted");
+        assert_eq!(
+            r.message,
+            "shader too large after preprocessing: expanding its macros takes more than 4194304 steps"
+        );
+        assert_eq!(r.label, "the expansion passes the limit here");
+        assert!(r.note.starts_with("each `#define` that uses the one before twice doubles the text"), "{r:?}");
+        assert_eq!(&src[r.start..r.end], "M21");
+    }
+
+    #[test]
+    fn macro_calls_nest_in_arguments_64_deep_not_65() {
+        let nest = |n: usize| {
+            format!("#version 450\n#define F(a) a\nvoid main() {{ {}x{}; }}\n", "F(".repeat(n), ")".repeat(n))
+        };
+        assert_eq!(check(&nest(MAX_MACRO_ARG_NESTING)), Ok(()));
+        let r = check(&nest(MAX_MACRO_ARG_NESTING + 1)).expect_err("65 levels");
+        assert_eq!(r.message, "macro calls nest too deeply: more than 64 levels of macro calls in macro arguments");
+        assert_eq!(r.label, "this call passes the limit");
+        assert_eq!(r.note, "use intermediate variables or functions instead of nested macro calls");
+    }
+
+    #[test]
+    fn brackets_members_and_conditionals_count_as_operators() {
+        // A statement of `v` and n member selections: n operators.
+        let dots = |n: usize| format!("#version 450\nvoid main() {{ v{}; }}\n", ".x".repeat(n));
+        assert_eq!(check(&dots(2048)), Ok(()));
+        let src = dots(2049);
+        let r = check(&src).expect_err("2049 `.`");
+        assert_eq!(r.message, "expression too complex: more than 2048 operators in one statement");
+        assert_eq!(r.label, "operator 2049 of the statement");
+        assert_eq!(&src[r.start..r.end], ".");
+        assert_eq!(src[..r.start].matches('.').count(), 2048);
+        // `[` counts, `]` does not.
+        let index = |n: usize| format!("#version 450\nvoid main() {{ a{}; }}\n", "[0]".repeat(n));
+        assert_eq!(check(&index(2048)), Ok(()));
+        assert_eq!(check(&index(2049)).expect_err("2049 `[`").label, "operator 2049 of the statement");
+        // `?` and `:` count one each.
+        let cond = |n: usize| format!("#version 450\nvoid main() {{ {}c; }}\n", "c ? 1 : ".repeat(n));
+        assert_eq!(check(&cond(1024)), Ok(()));
+        let src = cond(1025);
+        let r = check(&src).expect_err("2050 `?`/`:`");
+        assert_eq!(r.label, "operator 2049 of the statement");
+        assert_eq!(&src[r.start..r.end], "?");
     }
 }

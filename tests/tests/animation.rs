@@ -91,6 +91,21 @@ fn infinite_transform_rules_are_sampled_lazily() {
     assert!(out.stats.rule_calls < 1000);
 }
 
+#[test]
+fn a_track_needing_more_than_its_frame_limit_is_sampled_to_the_limit() {
+    // 1,048,577 fps for 1 s needs frames 0..=1048577: two past the limit.
+    let out = run_source(
+        "startshape A\nfps 1048577\nduration 1\nrule A : X { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n\
+         rule X { 1000000000000 * {x 1} FRAME {} }\n",
+    );
+    let max = mdg_vm::anim::MAX_TRACK_FRAMES;
+    assert_eq!(max, 1_048_576);
+    assert_eq!(track(&out, "X").frames.len(), max);
+    let want = format!("transform rule `X`: only its first {max} frames are sampled");
+    assert!(out.stats.warnings.iter().any(|w| w.ends_with(&want)), "{:?}", out.stats.warnings);
+    assert_eq!(out.mesh.n_vertices(), 3, "the run goes on");
+}
+
 /// Bones nested two deep: `arm` (rest frame {x 2 rz 30 s 1.5}) with two transform
 /// rules, and `hand` inside it with one, at twice the rate.
 const ARM: &str =

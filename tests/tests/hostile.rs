@@ -198,6 +198,14 @@ fn an_iterator_count_beyond_u64_saturates_and_ends_at_maxiter() {
             "maxiter 5000 reached in rule `A` (inline.mdg:3): the run stopped; the output so far is kept (raise the limit with `maxiter N` in the grammar)"
         );
         assert_eq!(out.mesh.n_vertices(), 5_001, "runs 1..=5001, as for any count past maxiter");
+        // 2^64 exactly: wrapped it would be 0 runs (no vertex, no warning); saturated it
+        // is u64::MAX runs and ends at maxiter like 1e30.
+        let out = run_source("startshape A\nmaxiter 5000\nrule A { 18446744073709551616 * {x 1} VERTEX {} }\n");
+        assert_eq!(
+            warning(&out, "maxiter"),
+            "maxiter 5000 reached in rule `A` (inline.mdg:3): the run stopped; the output so far is kept (raise the limit with `maxiter N` in the grammar)"
+        );
+        assert_eq!(out.mesh.n_vertices(), 5_001);
     });
 }
 
@@ -231,6 +239,21 @@ fn an_isosurface_resolution_past_u32_is_capped() {
         let out =
             run_source("startshape A\nisosurface H { xyz -1 1 1e12 ; function { x } }\nrule A { VERTEX {} H {} }\n");
         assert!(warning(&out, "H").contains("more than the limit"), "{:?}", out.stats.warnings);
+        assert_eq!(out.mesh.n_vertices(), 1);
+        // 2^32 + 4: wrapped it would be a 4³ grid, built and instanced; saturated it is
+        // (2^32 − 1)³ cells (the count saturates too) and refused.
+        let out = run_source(
+            "startshape A\nisosurface H { xyz -1 1 4294967300 ; function { x } }\nrule A { VERTEX {} H {} }\n",
+        );
+        assert_eq!(
+            warning(&out, "H"),
+            format!(
+                "inline.mdg:3: isosurface `H` not built: isosurface grid has {} cells, more than the limit of \
+                 {DEFAULT_MAX_ISO_CELLS} (raise it with `--max-iso-cells N`)",
+                u64::MAX
+            )
+        );
+        assert!(out.instances.is_empty(), "not built, so not instanced");
         assert_eq!(out.mesh.n_vertices(), 1);
     });
 }
@@ -471,6 +494,27 @@ fn a_macro_whose_arguments_double_at_each_level_ends_quickly() {
     });
 }
 
+#[test]
+fn ten_thousand_and_one_shallow_expansions_stop_at_the_expansion_count() {
+    bounded(HEAP, "ten_thousand_and_one_shallow_expansions_stop_at_the_expansion_count", BOUND_MIB, BOUND_SECS, || {
+        // Top-level expansions of a one-rule macro: never deeper than 1, few tokens, so
+        // only the count can stop them.
+        let mut src = String::from("startshape R0\n@macro M(n)\nrule n { VERTEX {} }\n@endmacro\n");
+        for i in 0..=MAX_EXPANSIONS {
+            src.push_str(&format!("@expand M(R{i})\n"));
+        }
+        let t0 = Instant::now();
+        let a = analyze_mem(&src);
+        assert!(t0.elapsed() < Duration::from_secs(20), "took {:?}", t0.elapsed());
+        assert_eq!(messages(&a, "E0208"), ["expansion of macro `M` nests too deeply"]);
+        assert_eq!(a.expanded.expansions.len(), MAX_EXPANSIONS);
+        for i in [0, 1, MAX_EXPANSIONS / 2, MAX_EXPANSIONS - 1] {
+            assert!(has_rule(&a, &format!("R{i}")), "rule R{i} from expansion {i} is kept");
+        }
+        assert!(!has_rule(&a, &format!("R{MAX_EXPANSIONS}")), "expansion 10,001 is not made");
+    });
+}
+
 // --------------------------------------------------------------------- imports
 
 #[test]
@@ -557,6 +601,34 @@ fn a_chain_of_a_thousand_imports_stops_at_the_import_depth_on_a_small_stack() {
             assert_eq!(a.sources.files.len(), depth, "nothing past the limit is read");
         },
     );
+}
+
+#[test]
+fn many_files_imported_from_one_file_are_not_a_chain() {
+    bounded(HEAP, "many_files_imported_from_one_file_are_not_a_chain", BOUND_MIB, BOUND_SECS, || {
+        let dir = scratch("import_flat");
+        let n = 100;
+        assert!(n > mdg_compiler::expand::MAX_IMPORT_DEPTH);
+        let mut main = String::new();
+        for i in 0..n {
+            std::fs::write(dir.join(format!("f{i}.mdg")), format!("rule F{i} {{ VERTEX {{}} }}\n")).expect("write");
+            main.push_str(&format!("@import f{i}.mdg\n"));
+        }
+        main.push_str("startshape A\nrule A { F0 {} }\n");
+        std::fs::write(dir.join("main.mdg"), main).expect("write");
+        let a = mdg_compiler::driver::analyze(
+            &FsLoader,
+            &dir.join("main.mdg"),
+            &Options::default(),
+            CheckOptions { require_start: true },
+        );
+        assert!(!codes(&a).contains(&"E0212"), "{:?}", messages(&a, "E0212"));
+        assert!(!a.diagnostics.iter().any(|d| d.is_error()), "{:?}", codes(&a));
+        for i in 0..n {
+            assert!(has_rule(&a, &format!("F{i}")), "rule F{i} is kept");
+        }
+        assert_eq!(a.sources.files.len(), n + 1);
+    });
 }
 
 #[test]

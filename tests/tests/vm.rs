@@ -259,9 +259,17 @@ fn limits_end_runs_cleanly_and_keep_output() {
     );
     let out = run_source("startshape A\nmaxdepth 5\nrule A { VERTEX {} A {z 1} }\n");
     assert_eq!(out.mesh.n_vertices(), 6);
-    assert!(out.stats.warnings.iter().any(|w| w.contains("maxdepth 5")));
+    assert_eq!(out.stats.warnings, ["maxdepth 5 reached: 1 branch(es) ended there"]);
     let out = run_source("startshape A\nminsize 0.1\nrule A { VERTEX {} A {s 0.5} }\n");
     assert_eq!(out.mesh.n_vertices(), 4, "scales 1, 0.5, 0.25, 0.125 pass; 0.0625 < 0.1 stops");
+    assert_eq!(out.stats.warnings, ["minsize 0.1 reached: 1 branch(es) ended there"]);
+    // Two calls per level: depths 0..=5 draw 63 vertices, and the 64 calls at depth 6 end.
+    let out = run_source("startshape A\nmaxdepth 5\nrule A { VERTEX {} A {z 1} A {x 1} }\n");
+    assert_eq!(out.mesh.n_vertices(), 63);
+    assert_eq!(out.stats.warnings, ["maxdepth 5 reached: 64 branch(es) ended there"]);
+    let out = run_source("startshape A\nminsize 0.1\nrule A { VERTEX {} A {s 0.5} A {s 0.5 x 1} }\n");
+    assert_eq!(out.mesh.n_vertices(), 15, "scales 1 … 0.125: 1 + 2 + 4 + 8");
+    assert_eq!(out.stats.warnings, ["minsize 0.1 reached: 16 branch(es) ended there"]);
     let out = run_source("startshape A\nstacksize 10\nrule A { VERTEX {} A {z 1} }\n");
     assert_eq!(out.mesh.n_vertices(), 10);
     // An iterator with 10^12 runs ends at maxiter.
@@ -382,4 +390,21 @@ fn sites_name_the_rule_and_line_of_every_triangle() {
     assert!(out.sites.sites.iter().all(|s| s.file == "inline.mdg"), "{:?}", out.sites.sites);
     // One site per (rule, line): A, B, C.
     assert_eq!(out.sites.sites.len(), 3);
+}
+
+#[test]
+fn numbers_that_overflow_f32_are_encoded_finite_so_the_bundle_loads() {
+    // 1e308 is a finite f64 but infinite as f32: the encoder writes it as the largest
+    // finite f32, so the bundle the compiler writes loads (the loader refuses
+    // non-finite numbers).
+    for src in [
+        "startshape A\nrule A { VERTEX {z 1e308} VERTEX {x 1} VERTEX {y 1} }\n",
+        "startshape A\nrule A { B {s 1e300 x -1e308} }\nrule B { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n",
+    ] {
+        let b = build_source(src);
+        let bytes = mdg_vm::bundle::encode(&b);
+        let loaded = mdg_vm::bundle::load(&bytes).unwrap_or_else(|e| panic!("{src}: {e}"));
+        let out = evaluate(&loaded, &EvalOptions::default());
+        assert_eq!(out.mesh.n_vertices(), 3, "{src}");
+    }
 }

@@ -104,4 +104,19 @@ mod tests {
         assert!(matches!(read_bounded(&me, 10).expect_err("refused"), ReadError::TooLarge { max: 10, .. }));
         assert!(read_text_bounded(&me, 1 << 20).expect("ok").contains("read_bounded"));
     }
+
+    /// A file whose reported size is below the limit but whose content is not (a
+    /// `/proc` file reports 0, as a file that grows after the check would) is read
+    /// only to the limit and refused: `take(max + 1)`, not the metadata, stops it.
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_file_longer_than_its_reported_size_is_read_only_to_the_limit() {
+        let p = Path::new("/proc/self/status");
+        assert_eq!(std::fs::metadata(p).expect("meta").len(), 0, "/proc reports no size");
+        let whole = read_bounded(p, 1 << 20).expect("within the limit");
+        assert!(whole.len() > 100, "{} bytes", whole.len());
+        let e = read_bounded(p, 100).expect_err("longer than 100 bytes");
+        assert!(matches!(e, ReadError::TooLarge { len: 101, max: 100 }), "{e:?}");
+        assert_eq!(e.to_string(), "file too large: 101 bytes (at most 100)");
+    }
 }

@@ -1085,6 +1085,34 @@ pub(crate) mod tests {
     use super::*;
     use crate::export::tests::sample_output;
 
+    #[test]
+    fn more_bones_than_gltf_holds_is_an_error_and_nothing_is_written() {
+        let mut out = sample_output();
+        let bone = crate::output::Bone {
+            rule: "B".into(),
+            parent: 0,
+            rest: crate::geom::quat::Frame::default(),
+            fps: 1.0,
+            tracks: Vec::new(),
+        };
+        out.animation.bones = vec![bone; MAX_GLTF_BONES + 1];
+        let dir = std::env::temp_dir().join(format!("mdg-glb-bones-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("dir");
+        let path = dir.join("out.glb");
+        let e = crate::export::write_file(crate::export::Format::Glb, &out, &path).expect_err("too many bones");
+        assert_eq!(
+            e,
+            format!(
+                "cannot write {}: 65537 bones: glTF export holds at most 65536 (write one pose with --time instead)",
+                path.display()
+            )
+        );
+        assert!(!path.exists(), "nothing is written");
+        assert_eq!(std::fs::read_dir(&dir).expect("list").count(), 0, "no temporary file is left");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
     /// Splits a GLB into its JSON document and binary chunk, checking the container.
     pub(crate) fn parse_glb(b: &[u8]) -> (Value, Vec<u8>) {
         let u32_at = |o: usize| u32::from_le_bytes(b[o..o + 4].try_into().expect("4 bytes"));

@@ -622,7 +622,8 @@ pub(crate) mod tests {
         }
         // /dev/full reports its error.
         if Path::new("/dev/full").exists() {
-            assert!(write_atomic(Path::new("/dev/full"), b"x").is_err());
+            let e = write_atomic(Path::new("/dev/full"), b"x").expect_err("/dev/full");
+            assert!(e.to_string().contains("No space left on device"), "{e}");
         }
         // A named pipe nobody reads is refused at once; a directory is refused.
         let fifo = dir.join("pipe.obj");
@@ -638,6 +639,44 @@ pub(crate) mod tests {
             .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
             .collect();
         names.sort();
+        assert!(names.iter().all(|n| !n.ends_with(".tmp")), "{names:?}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_named_pipe_with_a_reader_is_written_through_and_a_socket_is_refused() {
+        use std::io::Read;
+        use std::os::unix::fs::{FileTypeExt, OpenOptionsExt};
+        let dir = std::env::temp_dir().join(format!("mdg-write-special-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("dir");
+        let fifo = dir.join("pipe.obj");
+        if std::process::Command::new("mkfifo").arg(&fifo).status().is_ok_and(|s| s.success()) {
+            // The reader is there before the write (opened without blocking, so no
+            // writer is needed to open it); the bytes fit in the pipe's buffer.
+            let mut reader = std::fs::OpenOptions::new()
+                .read(true)
+                .custom_flags(libc::O_NONBLOCK)
+                .open(&fifo)
+                .expect("open the reading end");
+            let bytes: Vec<u8> = (0..4000u32).map(|i| (i % 251) as u8).collect();
+            write_atomic(&fifo, &bytes).expect("written through the pipe");
+            // The writer has closed: the reader gets the bytes, then the end.
+            let mut got = Vec::new();
+            reader.read_to_end(&mut got).expect("read");
+            assert_eq!(got, bytes);
+            assert!(std::fs::symlink_metadata(&fifo).expect("meta").file_type().is_fifo(), "still a pipe");
+        }
+        let sock = dir.join("sock.obj");
+        let _listener = std::os::unix::net::UnixListener::bind(&sock).expect("bind");
+        let e = write_atomic(&sock, b"x").expect_err("a socket");
+        assert_eq!(e.to_string(), "a socket, not a file to write");
+        assert!(std::fs::symlink_metadata(&sock).expect("meta").file_type().is_socket(), "still a socket");
+        let names: Vec<String> = std::fs::read_dir(&dir)
+            .expect("list")
+            .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+            .collect();
         assert!(names.iter().all(|n| !n.ends_with(".tmp")), "{names:?}");
         let _ = std::fs::remove_dir_all(&dir);
     }
