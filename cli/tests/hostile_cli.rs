@@ -261,6 +261,10 @@ fn a_picture_larger_than_8192_is_a_usage_error() {
     }
     let (o, took) = mdg_run(&dir, &["a.mdg", "-o", "a.obj", "--size", "8192x8192"]);
     assert_ended(&o, took, 0, 60);
+    // mdg-view has the same limit (checked before any Vulkan work).
+    let (o, took) = run_in(&dir, env!("CARGO_BIN_EXE_mdg-view"), &["a.mdg", "--png", "a.png", "--size", "16384x10"]);
+    assert_ended(&o, took, 2, 60);
+    assert_eq!(stderr(&o), "mdg-view: --size 16384x10: expected WIDTHxHEIGHT, each 1..8192, e.g. 1024x768\n");
 }
 
 /// The `warning:` lines of a run's stderr.
