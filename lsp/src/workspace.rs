@@ -295,6 +295,29 @@ mod tests {
     }
 
     #[test]
+    fn closed_files_over_a_mebibyte_are_not_indexed() {
+        let dir = std::env::temp_dir().join(format!("mdg-lsp-big-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("dir");
+        // Sparse files: one of exactly the limit, one a byte past it.
+        for (name, len) in [("at.mdg", MAX_FILE_BYTES), ("over.mdg", MAX_FILE_BYTES + 1)] {
+            std::fs::File::create(dir.join(name)).expect("create").set_len(len).expect("set_len");
+        }
+        let root = canon(&dir);
+        let (files, truncated) = scan(std::slice::from_ref(&root));
+        assert_eq!(files, [root.join("at.mdg")], "the larger file is left out of the walk");
+        assert!(!truncated);
+        let over = root.join("over.mdg");
+        let closed = OverlayLoader::default();
+        assert!(analyze(&over, &closed, &Options::default()).is_none(), "a closed large file is not analysed");
+        // Opened, it is analysed (the editor's text, whatever the file's size).
+        let mut open = OverlayLoader::default();
+        open.open.insert(over.clone(), Arc::from("startshape A\nrule A { VERTEX {} }\n"));
+        assert!(analyze(&over, &open, &Options::default()).is_some(), "an open document is analysed");
+        std::fs::remove_dir_all(&dir).expect("cleanup");
+    }
+
+    #[test]
     fn importers_come_from_the_closures() {
         let dir = std::env::temp_dir().join(format!("mdg-lsp-graph-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
