@@ -99,8 +99,9 @@ fn a_guide_file_with_points_near_f64_max_is_refused() {
     let (o, took) = mdg_run(&dir, &["tree.mdg", "--guides", "g.json", "-o", "t.obj", "--budget", "50ms"]);
     assert_ended(&o, took, 1, 60);
     assert!(stderr(&o).contains("beyond ±1000000000"), "{}", stderr(&o));
-    // Within the coordinate bound but 1e6 long with 0.25 segments: a million
-    // utilisation counts per particle (it took gigabytes); refused before the search.
+    // Within the coordinate bound but 2.4e6 long with 0.25 segments: ten million
+    // utilisation segments, a count each per particle (it took gigabytes); refused
+    // while preparing the guides, before the search.
     std::fs::write(
         dir.join("long.json"),
         r#"{"guides": [{"name": "long", "points": [[0,0,0],[1e6,0,0],[0,1e6,0],[-1e6,0,1e6]]}]}"#,
@@ -108,7 +109,17 @@ fn a_guide_file_with_points_near_f64_max_is_refused() {
     .expect("ok");
     let (o, took) = mdg_run(&dir, &["tree.mdg", "--guides", "long.json", "-o", "t.obj", "--budget", "50ms"]);
     assert_ended(&o, took, 1, 60);
-    assert!(stderr(&o).contains("utilisation counts"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("into 9689759 utilisation segments, more than 1048576"), "{}", stderr(&o));
+    // A tenth of that passes the per-guide limit, but 100 particles would keep 2 × 100
+    // counts of each of its segments: refused before the search.
+    std::fs::write(
+        dir.join("longish.json"),
+        r#"{"guides": [{"name": "longish", "points": [[0,0,0],[1e5,0,0],[0,1e5,0],[-1e5,0,1e5]]}]}"#,
+    )
+    .expect("ok");
+    let (o, took) = mdg_run(&dir, &["tree.mdg", "--guides", "longish.json", "-o", "t.obj"]);
+    assert_ended(&o, took, 1, 60);
+    assert!(stderr(&o).contains("utilisation counts") && stderr(&o).contains("more than 67108864"), "{}", stderr(&o));
 }
 
 #[test]
