@@ -207,24 +207,14 @@ fn expected_in_process(bundle: &mdg_vm::bundle::Bundle) -> (usize, usize, [f64; 
         }
     };
     let (mut v, mut t) = (0, 0);
-    for m in [&out.mesh, &out.sweeps] {
-        if !m.triangles.is_empty() {
-            v += m.positions.len();
-            t += m.triangles.len();
-            m.positions.iter().for_each(|p| grow(*p));
+    let _ = out.for_each_piece::<()>(mdg_vm::output::Groups::ALL, |p| {
+        if !p.triangles.is_empty() {
+            v += p.vertices.len();
+            t += p.triangles.len();
+            p.mesh.positions[p.vertices.clone()].iter().for_each(|q| grow(*q));
         }
-    }
-    for inst in &out.instances {
-        let Some((_, shared)) = out.shared_meshes.get(inst.mesh as usize) else { continue };
-        if shared.triangles.is_empty() {
-            continue;
-        }
-        v += shared.positions.len();
-        t += shared.triangles.len();
-        for p in &shared.positions {
-            grow(inst.transform.transform_point3(glam::Vec3::from(*p)).to_array());
-        }
-    }
+        Ok(())
+    });
     (v, t, lo, hi)
 }
 

@@ -16,8 +16,8 @@ use crate::ext::LowerCx;
 use crate::source::Sources;
 use crate::span::Span;
 use mdg_vm::bundle::{
-    self, AdjOp, Bundle, Composite, Def, Drawable, Op, PrimAdj, Selector, Settings, SourceLoc, Transform, CONT_NEXT,
-    NONE,
+    self, proto, AdjOp, Bundle, Composite, Def, Drawable, Op, PrimAdj, Selector, Settings, SourceLoc, Transform,
+    CONT_NEXT, NONE,
 };
 use mdg_vm::expr::{ExprOp, Func, VARIABLES};
 use std::collections::HashMap;
@@ -51,6 +51,8 @@ struct Lower<'a> {
     /// definition of the rule needs.
     next_slot: u16,
     frame: u16,
+    /// `INST` ops emitted so far (the next prototype's ordinal).
+    n_protos: u32,
 }
 
 /// Lowers a checked program. Diagnostics here are run-time-relevant problems the
@@ -74,6 +76,7 @@ pub fn lower(ex: &Expanded, sym: &Symbols, sources: &Sources) -> Result<Bundle, 
         scope: Vec::new(),
         next_slot: 0,
         frame: 0,
+        n_protos: 0,
     };
     let b = l.run();
     if l.diags.iter().any(|d| d.is_error()) {
@@ -346,6 +349,7 @@ impl<'a> Lower<'a> {
                 let weight_expr = r.weight_expr.as_ref().map_or(NONE, |e| self.expr(e, 1.0));
                 self.body(&r.body, namespace.as_deref());
                 self.code.push(Op::Ret {});
+                self.insert_prototypes(start as usize);
                 let w =
                     r.weight.as_ref().map(|w| if w.negative { -w.number.value } else { w.number.value }).unwrap_or(1.0);
                 out_defs.push(Def { weight: w as f32, weight_expr, start });
@@ -603,6 +607,55 @@ impl<'a> Lower<'a> {
             }
         }
         self.scope.truncate(scope_at);
+    }
+
+    /// Puts an `INST` op before every prototype run of the definition that starts at
+    /// op `start` and ends the code (see `mdg_vm::bundle::proto`): the longest runs of
+    /// whole triangles of `VERTEX`/`FACENORMALS` items with constant transforms, not
+    /// right after a continuation (whose first item starts from another frame). Jump
+    /// targets, loop ends and the source map move with the ops; a jump to a run's
+    /// first item lands on its `INST`.
+    fn insert_prototypes(&mut self, start: usize) {
+        let mut runs: Vec<(usize, usize)> = Vec::new();
+        let mut pc = start;
+        while pc < self.code.len() {
+            let after_cont = pc > start && matches!(self.code[pc - 1], Op::Cont {});
+            let len = if after_cont { 0 } else { proto::run_length(&self.code[pc..], &self.transforms) };
+            if len > 0 {
+                runs.push((pc, len));
+                pc += len;
+            } else {
+                pc += 1;
+            }
+        }
+        if runs.is_empty() {
+            return;
+        }
+        // Old op i moves past the INSTs of the runs that start before it.
+        let moved = |i: u32| i + runs.partition_point(|r| (r.0 as u32) < i) as u32;
+        let tail: Vec<Op> = self.code.drain(start..).collect();
+        let mut next_run = runs.iter().peekable();
+        for (k, mut op) in tail.into_iter().enumerate() {
+            if let Some(&&(first, count)) = next_run.peek() {
+                if first == start + k {
+                    self.code.push(Op::Inst { proto: self.n_protos, count: count as u32 });
+                    self.n_protos += 1;
+                    next_run.next();
+                }
+            }
+            match &mut op {
+                Op::Loop { end, .. } | Op::LoopN { end, .. } => *end = moved(*end),
+                Op::EndLoop { begin } => *begin = moved(*begin),
+                Op::Jump { target } | Op::JumpIfNot { target, .. } => *target = moved(*target),
+                _ => {}
+            }
+            self.code.push(op);
+        }
+        for loc in &mut self.source_map {
+            if loc.op as usize >= start {
+                loc.op = moved(loc.op);
+            }
+        }
     }
 
     /// A new slot for a binding named `name`, in scope from now on.

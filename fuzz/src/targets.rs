@@ -843,7 +843,7 @@ fn digest(out: &mdg_vm::output::Output) -> u64 {
     let mut h: u64 = 0;
     let mut add = |x: u32| h = (h.rotate_left(5) ^ u64::from(x)).wrapping_mul(0x517c_c1b7_2722_0a95);
     let meshes =
-        std::iter::once(&out.mesh).chain(std::iter::once(&out.sweeps)).chain(out.shared_meshes.iter().map(|s| &s.1));
+        std::iter::once(&out.mesh).chain(std::iter::once(&out.sweeps)).chain(out.shared_meshes.iter().map(|s| &s.mesh));
     for m in meshes {
         m.positions.iter().flatten().chain(m.normals.iter().flatten()).for_each(|x| add(x.to_bits()));
         m.colors.iter().flatten().chain(m.weights.iter().flatten()).for_each(|x| add(x.to_bits()));
@@ -851,7 +851,8 @@ fn digest(out: &mdg_vm::output::Output) -> u64 {
     }
     out.lines.iter().flat_map(|l| l.points.iter().flatten()).for_each(|x| add(x.to_bits()));
     for i in &out.instances {
-        i.transform.to_cols_array().iter().chain(i.color.iter()).for_each(|x| add(x.to_bits()));
+        out.instance_transform(i).to_cols_array().iter().chain(i.color.iter()).for_each(|x| add(x.to_bits()));
+        add(i.mesh);
     }
     add(out.animation.bones.len() as u32);
     h ^ hash(out.stats.warnings.join("\n").as_bytes())

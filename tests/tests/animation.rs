@@ -103,7 +103,7 @@ fn a_track_needing_more_than_its_frame_limit_is_sampled_to_the_limit() {
     assert_eq!(track(&out, "X").frames.len(), max);
     let want = format!("transform rule `X`: only its first {max} frames are sampled");
     assert!(out.stats.warnings.iter().any(|w| w.ends_with(&want)), "{:?}", out.stats.warnings);
-    assert_eq!(out.mesh.n_vertices(), 3, "the run goes on");
+    assert_eq!(out.vertex_mesh().n_vertices(), 3, "the run goes on");
 }
 
 /// Bones nested two deep: `arm` (rest frame {x 2 rz 30 s 1.5}) with two transform
@@ -161,7 +161,7 @@ fn bone_vertices_at_time_t_are_rest_vertices_moved_by_the_product_of_their_frame
         ("hand", 1, 20.0),
         "fps 10 adds to the directive's 10"
     );
-    let m = &out.mesh;
+    let m = &out.vertex_mesh();
     let bones: Vec<u32> = (0..m.n_vertices()).map(|i| m.bone(i)).collect();
     assert_eq!(bones, vec![0, 0, 0, 1, 1, 1, 2, 2, 2], "innermost animated rule wins");
     // Rest pose: the geometry as drawn.
@@ -178,14 +178,14 @@ fn bone_vertices_at_time_t_are_rest_vertices_moved_by_the_product_of_their_frame
     // Tolerance 2e-4 (f32 frames composed 20 times, coordinates up to ~6).
     for t in [0.0, 0.35, 0.7, 1.75, 2.95, 7.3] {
         let posed = out.posed(t);
-        assert!(posed.mesh.bones.is_empty() && posed.animation.bones.is_empty(), "a posed output is static");
+        assert!(posed.vertex_mesh().bones.is_empty() && posed.animation.bones.is_empty(), "a posed output is static");
         for (k, r) in rest.iter().enumerate() {
             let want = match bones[k] {
                 0 => *r,
                 1 => arm_at(t).transform_point3(*r),
                 _ => hand_at(t).transform_point3(*r),
             };
-            let got = d(Vec3::from_array(posed.mesh.positions[k]));
+            let got = d(Vec3::from_array(posed.vertex_mesh().positions[k]));
             assert!(close(got, want, 2e-4), "t = {t}, vertex {k}: {got} vs {want}");
         }
         // The pose API agrees: M_b(t) applied to the rest vertex.
@@ -200,8 +200,8 @@ fn bone_vertices_at_time_t_are_rest_vertices_moved_by_the_product_of_their_frame
     let out = run_source("startshape s\nfps 10\nrule s { a {x 3 y 1 rx 40} }\nrule a : spin { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\nrule spin { 10/10 * {rz 360} FRAME {} }\n");
     for t in [0.0, 0.45, 0.99] {
         let p = out.posed(t);
-        assert!(close(d(Vec3::from_array(p.mesh.positions[0])), DVec3::new(3.0, 1.0, 0.0), 1e-5));
-        let arm = d(Vec3::from_array(p.mesh.positions[1])) - DVec3::new(3.0, 1.0, 0.0);
+        assert!(close(d(Vec3::from_array(p.vertex_mesh().positions[0])), DVec3::new(3.0, 1.0, 0.0), 1e-5));
+        let arm = d(Vec3::from_array(p.vertex_mesh().positions[1])) - DVec3::new(3.0, 1.0, 0.0);
         assert!((arm.length() - 1.0).abs() < 1e-5);
     }
 }
@@ -259,7 +259,7 @@ fn convolution_runs_the_body_once_per_iterator_frame_under_i_a_b() {
         "startshape R\nrule R * I : A : B { VERTEX {x 0.5} }\n\
          rule I { 8/8 * {rz 360} FRAME {x 4} }\nrule A { 8/8 * {rx 720} FRAME {y 1} }\nrule B { 3 * {z 0.25} FRAME {} }\n",
     );
-    let pts: Vec<DVec3> = out.mesh.positions.iter().map(|p| d(Vec3::from_array(*p))).collect();
+    let pts: Vec<DVec3> = out.vertex_mesh().positions.iter().map(|p| d(Vec3::from_array(*p))).collect();
     assert_eq!(pts.len(), 8, "one body run per iterator frame");
     for (i, p) in pts.iter().enumerate() {
         let k = (i + 1) as f64;
@@ -339,11 +339,11 @@ fn a_convolution_iterator_that_does_not_end_stops_with_a_warning() {
     let src =
         "startshape R\nfps 10\nduration 2\nmaxdepth 5000\nrule R * I { VERTEX {} }\nrule I { FRAME {} I {x 1} }\n";
     let out = run_source(src);
-    assert_eq!(out.mesh.n_vertices(), 5001, "depths 0..=5000");
+    assert_eq!(out.vertex_mesh().n_vertices(), 5001, "depths 0..=5000");
     assert!(!out.stats.warnings.iter().any(|w| w.contains("convolution")), "{:?}", out.stats.warnings);
     // One that has not ended within the frame budget is cut there, with a warning.
     let out = evaluate(&build_source(src), &EvalOptions { max_frames: 21, ..EvalOptions::default() });
-    assert_eq!(out.mesh.n_vertices(), 21);
+    assert_eq!(out.vertex_mesh().n_vertices(), 21);
     let w = out
         .stats
         .warnings

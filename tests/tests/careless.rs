@@ -166,7 +166,7 @@ fn the_time_budget_stops_isosurfaces_midway() {
         let took = started.elapsed();
         assert!(took < std::time::Duration::from_secs(20), "took {took:?}");
         assert!(out.stats.warnings.iter().any(|w| w.starts_with("time budget reached")), "{:?}", out.stats.warnings);
-        assert_eq!(out.mesh.n_vertices(), 3, "what came before is kept");
+        assert_eq!(out.vertex_mesh().n_vertices(), 3, "what came before is kept");
         assert!(out.instances.len() < 20);
     });
 }
@@ -188,7 +188,11 @@ fn the_cell_limit_counts_every_isosurface_of_the_run() {
             "{}",
             w[0]
         );
-        assert_eq!(out.instances.iter().filter(|i| i.name == "P").count(), 2, "P is built once, instanced twice");
+        assert_eq!(
+            out.instances.iter().filter(|i| out.shared(i).is_some_and(|s| s.name == "P")).count(),
+            2,
+            "P is built once, instanced twice"
+        );
     });
 }
 
@@ -207,7 +211,7 @@ fn the_vertex_budget_counts_instances_and_line_points() {
         let inst = "startshape A\nisosurface S { xyz -1 1 8 ; function { x*x + y*y + z*z - 0.5 } }\n\
                     rule A { 100000 * {x 3} S {} }\n";
         let out = mdg_vm::eval::evaluate(&build(inst), &opts);
-        let per = out.shared_meshes[0].1.n_vertices();
+        let per = out.shared_meshes[0].mesh.n_vertices();
         assert!(per > 10 && out.instances.len() + per <= 10_000 + 4096, "{} instances of {per}", out.instances.len());
         assert!(out.stats.warnings.iter().any(|w| w.contains("vertex budget 10000")), "{:?}", out.stats.warnings);
         // An isosurface mesh larger than the budget stops the run when it is built.
@@ -215,6 +219,6 @@ fn the_vertex_budget_counts_instances_and_line_points() {
                    rule A { S {} VERTEX {} }\n";
         let out = mdg_vm::eval::evaluate(&build(big), &opts);
         assert!(out.stats.warnings.iter().any(|w| w.contains("vertex budget 10000")), "{:?}", out.stats.warnings);
-        assert_eq!(out.mesh.n_vertices(), 0, "nothing after it ran");
+        assert_eq!(out.vertex_mesh().n_vertices(), 0, "nothing after it ran");
     });
 }

@@ -387,7 +387,7 @@ fn sdf_helpers_give_the_written_out_surface() {
     let a = run_source(helpers);
     let b = run_source(&written);
     let verts = |o: &mdg_vm::output::Output| format!("{:?}", o.shared_meshes);
-    assert!(a.shared_meshes.first().is_some_and(|(_, m)| m.positions.len() > 500), "a surface is made");
+    assert!(a.shared_meshes.first().is_some_and(|s| s.mesh.positions.len() > 500), "a surface is made");
     assert_eq!(verts(&a), verts(&b));
 }
 

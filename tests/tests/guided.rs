@@ -102,7 +102,7 @@ fn search_is_deterministic_for_any_thread_count() {
     assert_eq!((one.particle_steps, one.expansions), (three.particle_steps, three.expansions));
     // The geometry is the same too, and another seed gives another tree.
     let eval = EvalOptions { seed: Some(5), ..EvalOptions::default() };
-    assert_eq!(p.geometry(&one.model, &eval, true).mesh, p.geometry(&three.model, &eval, true).mesh);
+    assert_eq!(p.geometry(&one.model, &eval, true).vertex_mesh(), p.geometry(&three.model, &eval, true).vertex_mesh());
     let other = p.search(&SearchOptions { threads: Some(2), ..opts(6) }, None);
     assert_ne!(other.model.bones, one.model.bones);
 }
@@ -210,7 +210,7 @@ fn leftover_skeleton_calls_are_wrapped_up() {
     // No skeleton call reaches the geometry phase.
     assert!(m.calls.iter().all(|c| !p.is_skeleton(c.rule)));
     let out = p.geometry(m, &EvalOptions::default(), false);
-    assert!(out.mesh.n_vertices() > 0);
+    assert!(out.vertex_mesh().n_vertices() > 0);
     assert!(out.lines.is_empty());
 }
 
@@ -348,7 +348,7 @@ fn mdg_run_mode_exports_the_model_with_bones_and_guides() {
     let file = root().join("std/examples/guided_tree.mdg");
     let args = GuidedArgs { generations: Some(30), particles: Some("30:10".into()), ..GuidedArgs::default() };
     let out = mdg_cli::modes::guided::run(&b, &args, &common(&file, true), &EvalOptions::default()).expect("runs");
-    assert!(out.mesh.n_vertices() > 0);
+    assert!(out.vertex_mesh().n_vertices() > 0);
     let guides: Vec<_> = out.lines.iter().filter(|l| l.namespace == "guides").collect();
     assert_eq!(guides.len(), 3);
     assert_eq!(guides[0].points[0], [0.0, 0.0, 0.0]);
@@ -357,12 +357,12 @@ fn mdg_run_mode_exports_the_model_with_bones_and_guides() {
     assert!(out.lines.iter().filter(|l| l.namespace == "bones").all(|l| l.points.len() == 2));
     // Same seed and options, same model.
     let again = mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default()).expect("runs");
-    assert_eq!(again.mesh, out.mesh);
+    assert_eq!(again.vertex_mesh(), out.vertex_mesh());
     let bare = GuidedArgs { no_skeleton_lines: true, ..args };
     let plain = mdg_cli::modes::guided::run(&b, &bare, &common(&file, false), &EvalOptions::default()).expect("runs");
     assert!(plain.lines.is_empty());
     // The bundle evaluated without the search is a random tree (what the viewer shows).
-    assert!(evaluate(&b, &EvalOptions::default()).mesh.n_vertices() > 0);
+    assert!(evaluate(&b, &EvalOptions::default()).vertex_mesh().n_vertices() > 0);
 }
 
 #[test]
@@ -427,7 +427,7 @@ fn expander_returns_the_calls_a_body_makes() {
     // Evaluating the start call alone is plain evaluation.
     let plain = evaluate(&b, &EvalOptions::default());
     let calls = evaluate_calls(&b, &EvalOptions::default(), &[Call::start(&b)]);
-    assert_eq!(plain.mesh, calls.mesh);
+    assert_eq!(plain.vertex_mesh(), calls.vertex_mesh());
 }
 
 #[test]
@@ -437,7 +437,7 @@ fn evaluate_calls_matches_evaluate_on_std_examples() {
         let b = mdg_compiler::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).expect("lowers");
         let o = EvalOptions::default();
         let (x, y) = (evaluate(&b, &o), evaluate_calls(&b, &o, &[Call::start(&b)]));
-        assert_eq!(x.mesh, y.mesh, "{name}");
+        assert_eq!(x.vertex_mesh(), y.vertex_mesh(), "{name}");
         assert_eq!(x.sweeps, y.sweeps, "{name}");
         assert_eq!(x.lines, y.lines, "{name}");
         assert_eq!(x.instances.len(), y.instances.len(), "{name}");
@@ -472,7 +472,7 @@ fn mdg_run_ignores_the_section_budget_and_honours_an_explicit_one() {
     let out = mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default()).expect("runs");
     assert!(!warned(&out), "{:?}", out.stats.warnings);
     let again = mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default()).expect("runs");
-    assert_eq!(again.mesh, out.mesh, "the same model every run");
+    assert_eq!(again.vertex_mesh(), out.vertex_mesh(), "the same model every run");
     let args = GuidedArgs { budget: Some("1ms".into()), ..GuidedArgs::default() };
     let cut = mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default()).expect("runs");
     assert!(warned(&cut), "{:?}", cut.stats.warnings);
@@ -555,8 +555,8 @@ fn the_utilisation_term_is_chosen_by_name() {
         mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default())
     };
     let default = run(None).expect("runs");
-    assert_eq!(run(Some("paper")).expect("runs").mesh, default.mesh);
-    assert_ne!(run(Some("local")).expect("runs").mesh, default.mesh);
+    assert_eq!(run(Some("paper")).expect("runs").vertex_mesh(), default.vertex_mesh());
+    assert_ne!(run(Some("local")).expect("runs").vertex_mesh(), default.vertex_mesh());
     let e = run(Some("eq7")).expect_err("unknown");
     assert_eq!(e, "--utilisation eq7: expected `paper` or `local`");
 }

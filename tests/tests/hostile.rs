@@ -91,7 +91,7 @@ fn infinite_recursion_without_limits_ends_at_the_default_stack_size() {
         // The start shape and the 99,999 calls admitted under it drew their triangles
         // (the stack then holds 100,000 activations), all kept; the refused call counts as
         // a rule call too.
-        assert_eq!(out.mesh.n_vertices() as u64, 3 * u64::from(DEFAULT_STACKSIZE));
+        assert_eq!(out.vertex_mesh().n_vertices() as u64, 3 * u64::from(DEFAULT_STACKSIZE));
         assert_eq!(out.stats.rule_calls, u64::from(DEFAULT_STACKSIZE));
     });
 }
@@ -107,7 +107,7 @@ fn exponential_branching_ends_at_maxiter_and_keeps_the_output() {
         );
         // The start shape and the 20,000 admitted calls each drew 3 vertices (call 20,001
         // was refused and stopped the run).
-        assert_eq!(out.mesh.n_vertices(), 3 * (1 + 20_000));
+        assert_eq!(out.vertex_mesh().n_vertices(), 3 * (1 + 20_000));
         assert_eq!(out.stats.rule_calls, 20_000);
     });
 }
@@ -122,7 +122,7 @@ fn exponential_branching_ends_at_the_vertex_budget() {
             "vertex budget 5000 reached in rule `A` (inline.mdg:2): the run stopped; the output so far is kept (raise the limit with `--max-vertices N`)"
         );
         // The budget is checked every 4,096 calls: the output overshoots by less than that.
-        let n = out.mesh.n_vertices();
+        let n = out.vertex_mesh().n_vertices();
         assert!(n > 5_000 && n <= 5_000 + 3 * 4_096, "{n} vertices");
         assert_eq!(out.stats.vertices, n as u64);
     });
@@ -164,7 +164,7 @@ fn bones_with_ever_faster_tracks_end_at_the_animation_budget() {
         // keyframes. The sum passes 200,000 at k = 6: that call stops the run before its
         // body, and the bones and triangles made until then are kept.
         assert_eq!(out.animation.bones.len(), 1 + 6, "the root and six bones");
-        assert_eq!(out.mesh.n_vertices(), 3 * 5);
+        assert_eq!(out.vertex_mesh().n_vertices(), 3 * 5);
         let mut glb = Vec::new();
         mdg_vm::export::write(mdg_vm::export::Format::Glb, &out, &mut glb).expect("export");
         assert!(glb.len() < 64 << 20, "{} bytes", glb.len());
@@ -182,9 +182,9 @@ fn an_iterator_with_ten_to_the_twelve_runs_ends_at_maxiter() {
         // Run 1 belongs to the start call; runs 2, 3, … count as calls, and the run that
         // makes call 30,001 still draws before the run stops: the first VERTEX and 30,001
         // runs, each kept.
-        let n = out.mesh.n_vertices();
+        let n = out.vertex_mesh().n_vertices();
         assert_eq!(n, 1 + 30_001);
-        let last = out.mesh.positions[n - 1];
+        let last = out.vertex_mesh().positions[n - 1];
         assert!((last[0] - (n - 1) as f32).abs() < 1e-3, "run i is at x = i: {last:?}");
     });
 }
@@ -197,7 +197,7 @@ fn an_iterator_count_beyond_u64_saturates_and_ends_at_maxiter() {
             warning(&out, "maxiter"),
             "maxiter 5000 reached in rule `A` (inline.mdg:3): the run stopped; the output so far is kept (raise the limit with `maxiter N` in the grammar)"
         );
-        assert_eq!(out.mesh.n_vertices(), 5_001, "runs 1..=5001, as for any count past maxiter");
+        assert_eq!(out.vertex_mesh().n_vertices(), 5_001, "runs 1..=5001, as for any count past maxiter");
         // 2^64 exactly: wrapped it would be 0 runs (no vertex, no warning); saturated it
         // is u64::MAX runs and ends at maxiter like 1e30.
         let out = run_source("startshape A\nmaxiter 5000\nrule A { 18446744073709551616 * {x 1} VERTEX {} }\n");
@@ -205,7 +205,7 @@ fn an_iterator_count_beyond_u64_saturates_and_ends_at_maxiter() {
             warning(&out, "maxiter"),
             "maxiter 5000 reached in rule `A` (inline.mdg:3): the run stopped; the output so far is kept (raise the limit with `maxiter N` in the grammar)"
         );
-        assert_eq!(out.mesh.n_vertices(), 5_001);
+        assert_eq!(out.vertex_mesh().n_vertices(), 5_001);
     });
 }
 
@@ -226,9 +226,10 @@ fn a_huge_isosurface_grid_is_skipped_with_a_warning_and_the_rest_kept() {
             )
         );
         assert_eq!(out.stats.warnings.iter().filter(|w| w.contains("BIG")).count(), 1, "reported once");
-        assert_eq!(out.mesh.n_vertices(), 3, "the triangle before it is kept");
-        assert_eq!(out.instances.len(), 1, "the small isosurface after it is instanced");
-        assert_eq!(out.instances[0].name, "OK");
+        assert_eq!(out.vertex_mesh().n_vertices(), 3, "the triangle before it is kept");
+        let isos: Vec<_> = out.instances.iter().filter(|i| !out.is_prototype_instance(i)).collect();
+        assert_eq!(isos.len(), 1, "the small isosurface after it is instanced");
+        assert_eq!(out.shared(isos[0]).map(|s| s.name.as_str()), Some("OK"));
     });
 }
 
@@ -239,7 +240,7 @@ fn an_isosurface_resolution_past_u32_is_capped() {
         let out =
             run_source("startshape A\nisosurface H { xyz -1 1 1e12 ; function { x } }\nrule A { VERTEX {} H {} }\n");
         assert!(warning(&out, "H").contains("more than the limit"), "{:?}", out.stats.warnings);
-        assert_eq!(out.mesh.n_vertices(), 1);
+        assert_eq!(out.vertex_mesh().n_vertices(), 1);
         // 2^32 + 4: wrapped it would be a 4³ grid, built and instanced; saturated it is
         // (2^32 − 1)³ cells (the count saturates too) and refused.
         let out = run_source(
@@ -254,7 +255,7 @@ fn an_isosurface_resolution_past_u32_is_capped() {
             )
         );
         assert!(out.instances.is_empty(), "not built, so not instanced");
-        assert_eq!(out.mesh.n_vertices(), 1);
+        assert_eq!(out.vertex_mesh().n_vertices(), 1);
     });
 }
 
@@ -430,7 +431,7 @@ fn a_long_call_chain_is_checked_in_linear_time() {
         );
         let out =
             run_source(&format!("maxiter 100000\n{}", src.replace("rule spin { spin {} }\nrule a { spin {} }\n", "")));
-        assert_eq!(out.mesh.n_vertices(), n + 1, "every rule of the chain ran once");
+        assert_eq!(out.vertex_mesh().n_vertices(), n + 1, "every rule of the chain ran once");
     });
 }
 

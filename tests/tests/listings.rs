@@ -16,7 +16,7 @@ fn v(p: [f32; 3]) -> Vec3 {
 }
 
 fn vertices(o: &Output) -> Vec<Vec3> {
-    o.mesh.positions.iter().map(|p| v(*p)).collect()
+    o.vertex_mesh().positions.iter().map(|p| v(*p)).collect()
 }
 
 // ------------------------------------------------------------- chained iterators
@@ -69,7 +69,7 @@ fn nested_iterators_before_the_backslash_chain_only_the_innermost_runs() {
 fn a_block_ending_in_a_backslash_chains_the_runs_as_before() {
     let block = run_source("startshape A\nrule A { 4/4 * {rz 360} { VERTEX {x 1} \\ } }\n");
     let prefix = run_source("startshape A\nrule A { 4/4 * {rz 360} \\ VERTEX {x 1} }\n");
-    assert_eq!(block.mesh.positions, prefix.mesh.positions);
+    assert_eq!(block.vertex_mesh().positions, prefix.vertex_mesh().positions);
 }
 
 #[test]
@@ -98,10 +98,7 @@ fn atoms_and_bonds(out: &Output) -> (Vec<Atom>, Vec<(Vec3, Vec3)>) {
     let atoms = out
         .instances
         .iter()
-        .map(|i| Atom {
-            p: Vec3::new(i.transform.w_axis.x, i.transform.w_axis.y, i.transform.w_axis.z),
-            si: i.scale > 0.26,
-        })
+        .map(|i| Atom { p: out.instance_transform(i).w_axis.truncate(), si: out.instance_scale(i) > 0.26 })
         .collect();
     let bonds = out.lines.iter().filter(|l| l.points.len() == 2).map(|l| (v(l.points[0]), v(l.points[1]))).collect();
     (atoms, bonds)
@@ -295,7 +292,7 @@ fn a_runaway_iterator_rule_is_cut_at_the_frame_budget_with_its_own_warning() {
         "{:?}",
         out.stats.warnings
     );
-    assert_eq!(out.mesh.n_vertices(), 3 * 5000);
+    assert_eq!(out.vertex_mesh().n_vertices(), 3 * 5000);
 }
 
 // ------------------------------------------------------------------- determinism

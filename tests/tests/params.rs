@@ -10,7 +10,7 @@ use mdg_vm::eval::{evaluate, EvalOptions};
 fn mesh(src: &str) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
     let out = run_source(src);
     assert!(out.stats.warnings.is_empty(), "{:?}", out.stats.warnings);
-    (out.mesh.positions, out.mesh.triangles)
+    (out.vertex_mesh().positions, out.vertex_mesh().triangles)
 }
 
 const TRIANGLE: &str = "rule tri { VERTEX {} VERTEX {x 0.2} VERTEX {y 0.2} }\n";
@@ -103,7 +103,7 @@ fn recursion_ended_by_if_equals_recursion_ended_by_maxdepth() {
     );
     let a = mesh(&by_if);
     let out = run_source(&by_depth);
-    assert_eq!(a, (out.mesh.positions, out.mesh.triangles));
+    assert_eq!(a, (out.vertex_mesh().positions, out.vertex_mesh().triangles));
 }
 
 #[test]
@@ -137,7 +137,7 @@ fn depth_and_scale_are_readable_in_adjustments() {
     // Four levels (maxdepth 4 counts the start shape): each call moves by the depth of
     // the rule that makes it.
     let src = format!("startshape a\nmaxdepth 4\n{TRIANGLE}rule a {{ tri {{}} a {{x (depth)}} }}\n");
-    let p = run_source(&src).mesh.positions;
+    let p = run_source(&src).vertex_mesh().positions;
     let xs: Vec<f32> = p.chunks(3).map(|t| t[0][0]).collect();
     // The call from depth d moves by d: 0, 0 + 0, 0 + 1, 1 + 2.
     assert_eq!(xs, vec![0.0, 0.0, 1.0, 3.0]);
@@ -151,8 +151,8 @@ fn random_arguments_are_drawn_per_call_and_runs_are_deterministic() {
     let b = build_source(&src);
     let x = evaluate(&b, &EvalOptions { seed: Some(7), ..Default::default() });
     let y = evaluate(&b, &EvalOptions { seed: Some(7), ..Default::default() });
-    assert_eq!(x.mesh.positions, y.mesh.positions);
-    let sizes: Vec<f32> = x.mesh.positions.chunks(3).map(|t| t[1][0] - t[0][0]).collect();
+    assert_eq!(x.vertex_mesh().positions, y.vertex_mesh().positions);
+    let sizes: Vec<f32> = x.vertex_mesh().positions.chunks(3).map(|t| t[1][0] - t[0][0]).collect();
     assert!(sizes.iter().all(|s| (0.1..=0.4).contains(s)), "{sizes:?}");
     assert!(sizes.windows(2).any(|w| w[0] != w[1]), "one draw per call: {sizes:?}");
 }
@@ -249,7 +249,7 @@ fn a_non_uniform_scale_stretches_the_frames_own_axes_and_what_follows_it() {
     assert!(positions_close(&a.0, &b.0, 1e-5), "{:?} vs {:?}", a.0, b.0);
     // Along a chain: each level stretches x by 2 and moves 1 along its own x.
     let chain = "startshape A\nmaxdepth 3\nrule A { VERTEX {} A {x 1 s 2 1 1} }\n";
-    let xs: Vec<f32> = run_source(chain).mesh.positions.iter().map(|p| p[0]).collect();
+    let xs: Vec<f32> = run_source(chain).vertex_mesh().positions.iter().map(|p| p[0]).collect();
     assert_eq!(xs, [0.0, 1.0, 3.0, 7.0]);
 }
 
@@ -259,7 +259,7 @@ fn a_non_uniform_scale_gives_normals_perpendicular_to_the_stretched_surface() {
     // so its normal is (0, −1, 2)/√5; mapping the normal like a vector would give (0, −2, 1)/√5.
     let src = "startshape A\nnormal 0 0 1\nrule A { VERTEX {s 1 2 1 rx 45} VERTEX {x 1} VERTEX {y 1} }\n";
     let out = run_source(src);
-    let n = out.mesh.normals[0];
+    let n = out.vertex_mesh().normals[0];
     let want = [0.0, -1.0 / 5f32.sqrt(), 2.0 / 5f32.sqrt()];
     assert!((0..3).all(|k| (n[k] - want[k]).abs() < 1e-5), "{n:?}");
 }
@@ -268,7 +268,7 @@ fn a_non_uniform_scale_gives_normals_perpendicular_to_the_stretched_surface() {
 fn hue_saturation_and_brightness_adjust_the_colour_as_context_free_does() {
     let colour = |adj: &str| {
         let src = format!("startshape A\nrule A {{ VERTEX {{{adj}}} VERTEX {{x 1}} VERTEX {{y 1}} }}\n");
-        run_source(&src).mesh.colors[0]
+        run_source(&src).vertex_mesh().colors[0]
     };
     let close = |a: [f32; 4], b: [f32; 4]| (0..4).all(|k| (a[k] - b[k]).abs() < 1e-5);
     assert!(close(colour("G -1 B -1 hue 120"), [0.0, 1.0, 0.0, 1.0]), "red turned 120° is green");
@@ -279,7 +279,7 @@ fn hue_saturation_and_brightness_adjust_the_colour_as_context_free_does() {
     let src =
         "startshape A\nrule A { r {G -1 B -1} }\nrule r { 3 * {hue 40} { VERTEX {} VERTEX {x 1} VERTEX {y 1} } }\n";
     let out = run_source(src);
-    assert!(close(out.mesh.colors[8], [0.0, 1.0, 0.0, 1.0]), "{:?}", out.mesh.colors[8]);
+    assert!(close(out.vertex_mesh().colors[8], [0.0, 1.0, 0.0, 1.0]), "{:?}", out.vertex_mesh().colors[8]);
 }
 
 #[test]
@@ -292,8 +292,8 @@ fn a_weight_over_the_parameters_chooses_per_call() {
              rule leaf(int n) (n) {{ 2 * {{z 1}} {{ VERTEX {{}} VERTEX {{x 0.5}} VERTEX {{y 0.5}} }} }}\n"
         )
     };
-    assert_eq!(run_source(&src(0)).mesh.triangles.len(), 100);
-    assert_eq!(run_source(&src(3)).mesh.triangles.len(), 200);
+    assert_eq!(run_source(&src(0)).vertex_mesh().triangles.len(), 100);
+    assert_eq!(run_source(&src(3)).vertex_mesh().triangles.len(), 200);
     let b = build_source(&src(3));
     let r = b.rules.iter().find(|r| b.string(r.name) == "leaf").expect("leaf");
     assert!(r.defs.iter().all(|d| d.weight_expr != bundle::NONE));

@@ -27,7 +27,7 @@ fn distinct(points: impl IntoIterator<Item = Vec3>, tol: f32) -> Vec<Vec3> {
 fn icosahedron_from_iterators_and_t_angles_is_exact() {
     let out = run_source("@import polyhedra\nstartshape I\nrule I { icosahedron {} }\n");
     // Vertices: SPHERE instances; edges: the pen lines (MOVETO + LINETO per edge).
-    let verts = distinct(out.instances.iter().map(|i| i.transform.w_axis.truncate()), TOL);
+    let verts = distinct(out.instances.iter().map(|i| out.instance_transform(i).w_axis.truncate()), TOL);
     assert_eq!(verts.len(), 12, "an icosahedron has 12 vertices");
     for p in &verts {
         assert!((p.length() - 1.0).abs() < TOL, "vertex {p} not on the unit circumsphere");
@@ -127,7 +127,7 @@ fn divisor_steps_make_the_stated_number_of_turns() {
     );
     // Scale divides as an N-th root: 4/4 * {s 16} grows by 2 per run.
     let out = run_source("startshape A\nrule A { 4/4 * {s 16} VERTEX {x 1} }\n");
-    let xs: Vec<f32> = out.mesh.positions.iter().map(|p| p[0]).collect();
+    let xs: Vec<f32> = out.vertex_mesh().positions.iter().map(|p| p[0]).collect();
     for (i, x) in xs.iter().enumerate() {
         assert!((x - 2f32.powi(i as i32 + 1)).abs() < 1e-3, "run {i}: x = {x}");
     }
@@ -149,18 +149,26 @@ fn flips_mirror_and_exported_faces_stay_outward() {
     let flipped = run_source("@import primitives\nstartshape A\nrule A { cube {fx x 3} }\n");
     // fx maps (x, y, z) to (−x, y, z), applied before the translation: the cube lands at x = −3.
     let c = |m: &mdg_vm::output::Mesh| m.positions.iter().map(|p| v(*p)).sum::<Vec3>() / m.positions.len() as f32;
-    assert!(c(&plain.mesh).distance(Vec3::new(3.0, 0.0, 0.0)) < TOL);
-    assert!(c(&flipped.mesh).distance(Vec3::new(-3.0, 0.0, 0.0)) < TOL);
-    assert!(flipped.mesh.mirrored.iter().all(|m| *m), "every triangle of the flipped cube is marked mirrored");
+    assert!(c(&plain.vertex_mesh()).distance(Vec3::new(3.0, 0.0, 0.0)) < TOL);
+    assert!(c(&flipped.vertex_mesh()).distance(Vec3::new(-3.0, 0.0, 0.0)) < TOL);
+    assert!(flipped.vertex_mesh().mirrored.iter().all(|m| *m), "every triangle of the flipped cube is marked mirrored");
     // With the exporters' winding correction both cubes enclose a positive volume of 1.
-    assert!((signed_volume(&plain.mesh) - 1.0).abs() < 1e-3, "plain volume {}", signed_volume(&plain.mesh));
-    assert!((signed_volume(&flipped.mesh) - 1.0).abs() < 1e-3, "flipped volume {}", signed_volume(&flipped.mesh));
+    assert!(
+        (signed_volume(&plain.vertex_mesh()) - 1.0).abs() < 1e-3,
+        "plain volume {}",
+        signed_volume(&plain.vertex_mesh())
+    );
+    assert!(
+        (signed_volume(&flipped.vertex_mesh()) - 1.0).abs() < 1e-3,
+        "flipped volume {}",
+        signed_volume(&flipped.vertex_mesh())
+    );
     // fx fx is the identity.
     let twice = run_source("@import primitives\nstartshape A\nrule A { cube {fx fx x 3} }\n");
-    assert_eq!(twice.mesh.positions, plain.mesh.positions);
-    assert!(twice.mesh.mirrored.iter().all(|m| !*m));
+    assert_eq!(twice.vertex_mesh().positions, plain.vertex_mesh().positions);
+    assert!(twice.vertex_mesh().mirrored.iter().all(|m| !*m));
     // Exported face normals (recomputed from the oriented triangles) point away from the centre.
-    let m = &flipped.mesh;
+    let m = &flipped.vertex_mesh();
     let centre = c(m);
     for t in m.oriented_triangles() {
         let (a, b, cc) = (v(m.positions[t[0] as usize]), v(m.positions[t[1] as usize]), v(m.positions[t[2] as usize]));
@@ -172,7 +180,7 @@ fn flips_mirror_and_exported_faces_stay_outward() {
 #[test]
 fn rotations_are_right_handed_and_adjustments_apply_in_written_order() {
     let out = run_source("startshape A\nrule A { VERTEX {rx 90 z 1} VERTEX {z 1 rx 90} VERTEX {s 2 x 1} }\n");
-    let p: Vec<Vec3> = out.mesh.positions.iter().map(|p| v(*p)).collect();
+    let p: Vec<Vec3> = out.vertex_mesh().positions.iter().map(|p| v(*p)).collect();
     assert!(p[0].distance(Vec3::new(0.0, -1.0, 0.0)) < TOL, "rx 90 sends +z to −y: {}", p[0]);
     assert!(p[1].distance(Vec3::new(0.0, 0.0, 1.0)) < TOL, "{}", p[1]);
     assert!(p[2].distance(Vec3::new(2.0, 0.0, 0.0)) < TOL, "s 2 then x 1 moves by 2: {}", p[2]);
@@ -183,7 +191,7 @@ fn unit_suffixes_and_angle_modes() {
     let out = run_source(
         "startshape A\nangle radians\nrule A { VERTEX {rz 90d x 1} VERTEX {rz 0.25o x 1} VERTEX {rz 1t x 1} VERTEX {rz 1.5707963 x 1} }\n",
     );
-    let p: Vec<Vec3> = out.mesh.positions.iter().map(|p| v(*p)).collect();
+    let p: Vec<Vec3> = out.vertex_mesh().positions.iter().map(|p| v(*p)).collect();
     assert!(p[0].distance(Vec3::Y) < TOL);
     assert!(p[1].distance(Vec3::Y) < TOL);
     let h = std::f32::consts::FRAC_1_SQRT_2;
@@ -205,7 +213,7 @@ fn continuation_in_iterators_chains_runs() {
     assert!(b[2].distance(Vec3::new(-1.0, 1.0, 0.0)) < TOL, "{b:?}");
     assert!(b[3].distance(Vec3::new(-1.0, 0.0, 0.0)) < TOL, "{b:?}");
     // The item after the chained iterator continues from its last drawable.
-    assert!(v(chained.mesh.positions[0]).distance(Vec3::new(-1.0, 0.0, 0.0)) < TOL);
+    assert!(v(chained.vertex_mesh().positions[0]).distance(Vec3::new(-1.0, 0.0, 0.0)) < TOL);
 }
 
 #[test]
@@ -214,13 +222,13 @@ fn selectors_depth_scale_sequential_function() {
     let out = run_source(
         "startshape S\nselector A sequential\nrule S { 5 * {x 1} A {} }\nrule A 2 { VERTEX {y 1} }\nrule A 1 { VERTEX {y 2} }\n",
     );
-    let ys: Vec<f32> = out.mesh.positions.iter().map(|p| p[1]).collect();
+    let ys: Vec<f32> = out.vertex_mesh().positions.iter().map(|p| p[1]).collect();
     assert_eq!(ys, vec![1.0, 1.0, 2.0, 1.0, 1.0]);
     // Scale: the largest weight ≤ the linear scale, else the smallest.
     let out = run_source(
         "startshape S\nselector A scale\nrule S { A {s 3} A {s 0.5} A {s 0.1} }\nrule A 1 { VERTEX {y 1} }\nrule A 0.4 { VERTEX {y 2} }\nrule A 2 { VERTEX {y 3} }\n",
     );
-    let ys: Vec<f32> = out.mesh.positions.iter().map(|p| p[1]).collect();
+    let ys: Vec<f32> = out.vertex_mesh().positions.iter().map(|p| p[1]).collect();
     // Scale 3 picks weight 2 (y 3 → 9); 0.5 picks 0.4 (y 2 → 1); 0.1 has none ≤ it, so the smallest, 0.4 (y 2 → 0.2).
     for (y, want) in ys.iter().zip([9.0, 1.0, 0.2]) {
         assert!((y - want).abs() < TOL, "{ys:?}");
@@ -229,7 +237,7 @@ fn selectors_depth_scale_sequential_function() {
     let out = run_source(
         "startshape S\nselector A function { x }\nrule S { A {x 0.5} A {x 1.5} A {x 9} }\nrule A 1 { VERTEX {y 1} }\nrule A 2 { VERTEX {y 2} }\n",
     );
-    let ys: Vec<f32> = out.mesh.positions.iter().map(|p| p[1]).collect();
+    let ys: Vec<f32> = out.vertex_mesh().positions.iter().map(|p| p[1]).collect();
     assert_eq!(ys, vec![1.0, 2.0, 2.0]);
 }
 
@@ -239,7 +247,7 @@ fn limits_end_runs_cleanly_and_keep_output() {
     let b = build_source(grow);
     let out = evaluate(&b, &EvalOptions { maxiter: Some(1000), ..EvalOptions::default() });
     assert!(out.stats.warnings.iter().any(|w| w.contains("maxiter 1000")), "{:?}", out.stats.warnings);
-    assert!(out.mesh.n_vertices() >= 3 * 999, "output so far is kept");
+    assert!(out.vertex_mesh().n_vertices() >= 3 * 999, "output so far is kept");
     let out = evaluate(&b, &EvalOptions { max_vertices: 3000, ..EvalOptions::default() });
     assert!(out.stats.warnings.iter().any(|w| w.contains("vertex budget")), "{:?}", out.stats.warnings);
     let out = evaluate(
@@ -258,20 +266,20 @@ fn limits_end_runs_cleanly_and_keep_output() {
         out.stats.warnings
     );
     let out = run_source("startshape A\nmaxdepth 5\nrule A { VERTEX {} A {z 1} }\n");
-    assert_eq!(out.mesh.n_vertices(), 6);
+    assert_eq!(out.vertex_mesh().n_vertices(), 6);
     assert_eq!(out.stats.warnings, ["maxdepth 5 reached: 1 branch(es) ended there"]);
     let out = run_source("startshape A\nminsize 0.1\nrule A { VERTEX {} A {s 0.5} }\n");
-    assert_eq!(out.mesh.n_vertices(), 4, "scales 1, 0.5, 0.25, 0.125 pass; 0.0625 < 0.1 stops");
+    assert_eq!(out.vertex_mesh().n_vertices(), 4, "scales 1, 0.5, 0.25, 0.125 pass; 0.0625 < 0.1 stops");
     assert_eq!(out.stats.warnings, ["minsize 0.1 reached: 1 branch(es) ended there"]);
     // Two calls per level: depths 0..=5 draw 63 vertices, and the 64 calls at depth 6 end.
     let out = run_source("startshape A\nmaxdepth 5\nrule A { VERTEX {} A {z 1} A {x 1} }\n");
-    assert_eq!(out.mesh.n_vertices(), 63);
+    assert_eq!(out.vertex_mesh().n_vertices(), 63);
     assert_eq!(out.stats.warnings, ["maxdepth 5 reached: 64 branch(es) ended there"]);
     let out = run_source("startshape A\nminsize 0.1\nrule A { VERTEX {} A {s 0.5} A {s 0.5 x 1} }\n");
-    assert_eq!(out.mesh.n_vertices(), 15, "scales 1 … 0.125: 1 + 2 + 4 + 8");
+    assert_eq!(out.vertex_mesh().n_vertices(), 15, "scales 1 … 0.125: 1 + 2 + 4 + 8");
     assert_eq!(out.stats.warnings, ["minsize 0.1 reached: 16 branch(es) ended there"]);
     let out = run_source("startshape A\nstacksize 10\nrule A { VERTEX {} A {z 1} }\n");
-    assert_eq!(out.mesh.n_vertices(), 10);
+    assert_eq!(out.vertex_mesh().n_vertices(), 10);
     // An iterator with 10^12 runs ends at maxiter.
     let out = run_source("startshape A\nmaxiter 10000\nrule A { 1000000000000 * {x 1} FACENORMALS {} }\n");
     assert!(out.stats.warnings.iter().any(|w| w.contains("maxiter")), "{:?}", out.stats.warnings);
@@ -380,8 +388,8 @@ fn sites_name_the_rule_and_line_of_every_triangle() {
     let plain = evaluate(&b, &EvalOptions::default());
     assert!(plain.sites.runs.is_empty() && plain.sites.sites.is_empty());
     let out = evaluate(&b, &EvalOptions { record_sites: true, ..EvalOptions::default() });
-    assert_eq!(out.mesh, plain.mesh, "recording sites changes no geometry");
-    let t = out.mesh.triangles.len() as u32;
+    assert_eq!(out.vertex_mesh(), plain.vertex_mesh(), "recording sites changes no geometry");
+    let t = out.vertex_mesh().triangles.len() as u32;
     assert_eq!(t, 1 + 2 + 2 + 1);
     let named: Vec<(String, u32)> =
         (0..t).map(|i| out.sites.of(i).map(|s| (s.rule.clone(), s.line)).expect("a site")).collect();
@@ -405,6 +413,6 @@ fn numbers_that_overflow_f32_are_encoded_finite_so_the_bundle_loads() {
         let bytes = mdg_vm::bundle::encode(&b);
         let loaded = mdg_vm::bundle::load(&bytes).unwrap_or_else(|e| panic!("{src}: {e}"));
         let out = evaluate(&loaded, &EvalOptions::default());
-        assert_eq!(out.mesh.n_vertices(), 3, "{src}");
+        assert_eq!(out.vertex_mesh().n_vertices(), 3, "{src}");
     }
 }

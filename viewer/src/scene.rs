@@ -9,8 +9,8 @@
 //! (location 4, `uint`); most models have neither, and then binding 1 is one zero
 //! element read with stride 0, which saves 45% of the memory of a big model.
 
-use glam::{Mat4, Vec3};
-use mdg_vm::output::{Mesh, Output};
+use glam::Vec3;
+use mdg_vm::output::{Groups, Output, Piece};
 
 /// Bytes per vertex in binding 0.
 pub const VERTEX_STRIDE: u32 = 24;
@@ -128,35 +128,28 @@ struct Builder {
 }
 
 impl Builder {
-    /// Appends a mesh (optionally transformed), with oriented triangles.
-    fn mesh(&mut self, m: &Mesh, xf: Option<(&Mat4, bool, [f32; 4], u32)>) {
+    /// Appends a flat piece of the output (world space), with oriented triangles.
+    fn piece(&mut self, p: &Piece) {
+        let m = p.mesh;
         let base = self.s.n_vertices;
-        let n = m.n_vertices();
-        let normal_mat = xf.map(|(t, ..)| t.inverse().transpose());
-        for i in 0..n {
-            let p = Vec3::from_array(m.positions[i]);
+        for i in p.vertices.clone() {
+            let pos = Vec3::from_array(m.positions[i]);
             let nn = Vec3::from_array(m.normals.get(i).copied().unwrap_or([0.0, 0.0, 1.0]));
-            let (p, nn, c, bone) = match (xf, normal_mat) {
-                (Some((t, _, color, bone)), Some(nm)) => (t.transform_point3(p), nm.transform_vector3(nn), color, bone),
-                _ => (p, nn, m.colors.get(i).copied().unwrap_or([1.0; 4]), m.bone(i)),
-            };
-            self.s.bounds.add(p);
-            push_vertex(&mut self.s.vertices, p, nn, c);
-            let w = if xf.is_some() { [0.0; 4] } else { m.weight(i) };
+            let c = m.colors.get(i).copied().unwrap_or([1.0; 4]);
+            let bone = m.bone(i);
+            self.s.bounds.add(pos);
+            push_vertex(&mut self.s.vertices, pos, nn, c);
             if self.skinned {
-                push_skin(&mut self.s.skins, w, bone);
+                push_skin(&mut self.s.skins, m.weight(i), bone);
             }
             self.s.max_bone = self.s.max_bone.max(bone);
         }
-        let flip = xf.is_some_and(|(_, mirrored, ..)| mirrored);
-        for t in m.oriented_triangles() {
-            if t.iter().any(|&k| k as usize >= n) {
-                continue;
+        for k in p.triangles.clone() {
+            if let Some(t) = p.oriented(k) {
+                self.s.indices.extend(t.map(|v| v - p.base + base));
             }
-            let t = if flip { [t[0], t[2], t[1]] } else { t };
-            self.s.indices.extend(t.map(|k| k + base));
         }
-        self.s.n_vertices += n as u32;
+        self.s.n_vertices += p.vertices.len() as u32;
     }
 }
 
@@ -167,21 +160,18 @@ pub fn build(out: &Output) -> Scene {
         || !out.mesh.bones.is_empty()
         || !out.sweeps.weights.is_empty()
         || !out.sweeps.bones.is_empty()
+        || !out.instance_weights.is_empty()
         || out.instances.iter().any(|i| i.bone != 0);
-    let n_instance_vertices: usize =
-        out.instances.iter().filter_map(|i| out.shared_meshes.get(i.mesh as usize)).map(|(_, m)| m.n_vertices()).sum();
-    let n_vertices = out.mesh.n_vertices() + out.sweeps.n_vertices() + n_instance_vertices;
+    let (n_vertices, _) = out.flat_counts(Groups::ALL);
     let mut b = Builder { s: Scene { bounds: Bounds::EMPTY, ..Scene::default() }, skinned };
     b.s.vertices.reserve(n_vertices * VERTEX_STRIDE as usize);
     if skinned {
         b.s.skins.reserve(n_vertices * SKIN_STRIDE as usize);
     }
-    b.mesh(&out.mesh, None);
-    b.mesh(&out.sweeps, None);
-    for inst in &out.instances {
-        let Some((_, shared)) = out.shared_meshes.get(inst.mesh as usize) else { continue };
-        b.mesh(shared, Some((&inst.transform, inst.mirrored, inst.color, inst.bone)));
-    }
+    let _ = out.for_each_piece::<()>(Groups::ALL, |p| {
+        b.piece(p);
+        Ok(())
+    });
     let is_overlay = |l: &mdg_vm::output::Polyline| OVERLAYS.iter().any(|(ns, _)| *ns == l.namespace);
     if out.sweeps.triangles.is_empty() {
         let ink = ink(out.background);

@@ -179,6 +179,10 @@ impl Output {
     pub fn posed(&self, t: f64) -> Output {
         let pose = self.animation.pose(t);
         let mut o = self.clone();
+        if o.instances.iter().any(|i| i.bone != 0 && self.is_prototype_instance(i)) {
+            // Posed vertex by vertex, as the evaluator's vertices would be.
+            o.expand_prototypes();
+        }
         pose_mesh(&mut o.mesh, &pose);
         pose_mesh(&mut o.sweeps, &pose);
         for line in &mut o.lines {
@@ -196,9 +200,16 @@ impl Output {
                 continue;
             }
             if let Some(f) = pose.get(b) {
-                inst.transform = f.to_mat4() * inst.transform;
-                inst.scale *= f.scale_factor();
-                inst.mirrored ^= f.mirrored();
+                let n = if inst.lin == 0 { None } else { o.lins.get(inst.lin as usize).map(|l| l.0) };
+                let a = crate::geom::Affine::from(*f).compose(&crate::geom::Affine { f: inst.frame, n });
+                inst.frame = a.f;
+                if let Some(n) = a.n {
+                    if o.lins.is_empty() {
+                        o.lins.push((glam::Mat3::IDENTITY, 1.0));
+                    }
+                    o.lins.push((n, n.determinant().cbrt()));
+                    inst.lin = o.lins.len() as u32 - 1;
+                }
             }
             inst.bone = 0;
         }

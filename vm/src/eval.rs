@@ -25,8 +25,9 @@ use crate::anim::{frames_needed, MAX_TRACK_FRAMES};
 use crate::bundle::{self, Bundle, Composite, Drawable, Op, Selector, Transform, CONT_NEXT, NONE};
 use crate::expr::{self, ExprOp, Random};
 use crate::geom::quat::{Affine, Frame};
+use crate::geom::Mesh;
 use crate::geom::{blend, marching, sweep};
-use crate::output::{Bone, Camera, Instance, Output, Polyline, Track};
+use crate::output::{Bone, Camera, Instance, Output, Polyline, SharedKind, SharedMesh, Track};
 use glam::{Mat3, Quat, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -79,8 +80,14 @@ pub struct EvalOptions {
     /// Sample transform rules far enough to pose the model at this time too (in
     /// seconds; `mdg-run --time`), when it is beyond `duration`.
     pub time: Option<f64>,
-    /// Record which op drew each mesh triangle ([`crate::output::Sites`]).
+    /// Record which op drew each mesh triangle ([`crate::output::Sites`]). Sites are
+    /// per triangle, so this also turns instancing off.
     pub record_sites: bool,
+    /// Emit one instance record per run of prototype items (`INST`) instead of their
+    /// vertices (the default). Off, every item runs one by one: the output then has
+    /// the same geometry with every prototype instance expanded in place (tests
+    /// compare the two).
+    pub instancing: bool,
 }
 
 impl Default for EvalOptions {
@@ -94,6 +101,7 @@ impl Default for EvalOptions {
             max_frames: DEFAULT_MAX_FRAMES,
             time: None,
             record_sites: false,
+            instancing: true,
         }
     }
 }
@@ -414,7 +422,8 @@ impl<'b> Expander<'b> {
                     pc += 1;
                     cont = Some(last);
                 }
-                Op::Arg { .. } => pc += 1,
+                // The items it covers are drawables, skipped one by one.
+                Op::Arg { .. } | Op::Inst { .. } => pc += 1,
                 Op::Set { slot, expr } => {
                     pc += 1;
                     let at = cont.unwrap_or(base);
@@ -459,10 +468,16 @@ struct XfInfo {
     mirrored: bool,
 }
 
-/// The linear map of a frame as a matrix, and whether it mirrors.
-fn linear(f: &Frame) -> (Mat3, bool) {
-    let [a, b, c] = f.axes();
-    (Mat3::from_cols(a, b, c), a.dot(b.cross(c)) < 0.0)
+/// A prototype of the bundle (an `INST` op): where its items are, and its mesh in the
+/// output once an instance of it has been made.
+struct ProtoSlot {
+    /// The op after the `INST` (its first item) and how many items it covers.
+    first: u32,
+    count: u32,
+    /// Index into `Output::shared_meshes`, or `NONE` until the first instance.
+    mesh: u32,
+    /// Vertices per instance.
+    vertices: u32,
 }
 
 struct Act {
@@ -472,7 +487,7 @@ struct Act {
     slot_base: u32,
     slot_top: u32,
     base: State,
-    /// `linear(base.f)`, computed when first needed and dropped when `base` changes.
+    /// `base.f.linear()`, computed when first needed and dropped when `base` changes.
     base_lin: Option<(Mat3, bool)>,
     depth: u32,
     cont: Option<State>,
@@ -566,6 +581,16 @@ struct Eval<'b> {
     /// Whether any op reads the continuation register (CONT, chained loops, RESET);
     /// if not, the VERTEX fast path need not compute the full frame for it.
     needs_last: bool,
+    /// The bundle's prototypes, by `INST` ordinal.
+    protos: Vec<ProtoSlot>,
+    /// Whether `INST` makes instances (see [`EvalOptions::instancing`]).
+    instancing: bool,
+    /// Vertices of the prototype instances made so far (they count as vertices for
+    /// the budget and the statistics, as they would have run one by one).
+    instanced_vertices: u64,
+    /// Whether an instance refers to a non-uniform factor (then `lins` goes into the
+    /// output).
+    lins_used: bool,
     /// The run's seed (transform rules derive their own streams from it).
     seed: u64,
     /// Transform rule → its track in `out.animation.tracks`.
@@ -667,6 +692,27 @@ impl<'b> Eval<'b> {
             site_mark: 0,
             site_ids: HashMap::new(),
             stop_pc: None,
+            protos: b
+                .code
+                .iter()
+                .enumerate()
+                .filter_map(|(pc, op)| match *op {
+                    Op::Inst { count, .. } => Some(ProtoSlot {
+                        first: pc as u32 + 1,
+                        count,
+                        mesh: NONE,
+                        vertices: b.code[pc + 1..]
+                            .iter()
+                            .take(count as usize)
+                            .filter(|op| matches!(op, Op::Draw { kind: Drawable::Vertex, .. }))
+                            .count() as u32,
+                    }),
+                    _ => None,
+                })
+                .collect(),
+            instancing: opts.instancing && !opts.record_sites,
+            instanced_vertices: 0,
+            lins_used: false,
             needs_last: b.code.iter().any(|op| match op {
                 Op::Loop { chain, .. } | Op::LoopN { chain, .. } => chain & bundle::ops::LOOP_CHAIN != 0,
                 Op::Cont {} | Op::Draw { kind: Drawable::Reset, .. } => true,
@@ -680,7 +726,7 @@ impl<'b> Eval<'b> {
                     // transpose, nor for HSB, which is no delta.)
                     Transform::Const(c) if c.n.is_none() && c.hsb.is_none() => {
                         let frame = composite_frame(c);
-                        let (lin, mirrored) = linear(&frame);
+                        let (lin, mirrored) = frame.linear();
                         Some(XfInfo { frame, normal: lin * Vec3::from_array(s.normal), mirrored })
                     }
                     Transform::Const(_) => None,
@@ -904,8 +950,8 @@ impl<'b> Eval<'b> {
                     act.pc += 1;
                     // `from` is borrowed, not copied: this runs once per vertex.
                     let (from, lin) = match &act.cont {
-                        Some(c) => (c, linear(&c.f)),
-                        None => (&act.base, *act.base_lin.get_or_insert_with(|| linear(&act.base.f))),
+                        Some(c) => (c, c.f.linear()),
+                        None => (&act.base, *act.base_lin.get_or_insert_with(|| act.base.f.linear())),
                     };
                     let Transform::Const(c) = &b.transforms[xf as usize] else {
                         act.cont = None;
@@ -1036,6 +1082,63 @@ impl<'b> Eval<'b> {
                         act.pc += 1;
                     }
                 }
+                Op::Inst { proto, count } => {
+                    act.pc += 1;
+                    // An instance where it gives the very triangles the items would: a
+                    // model run, in a similarity frame, from the body's frame (no
+                    // continuation), with a whole number of triangles before it.
+                    // Otherwise the items run one by one.
+                    if !self.instancing
+                        || mode != Mode::Model
+                        || act.cont.is_some()
+                        || act.base.lin != 0
+                        || !self.out.mesh.n_vertices().is_multiple_of(3)
+                    {
+                        continue;
+                    }
+                    let Some(slot) = self.protos.get(proto as usize) else { continue };
+                    let (mesh, vertices) = (slot.mesh, slot.vertices);
+                    let mesh = if mesh == NONE { self.make_prototype(proto as usize) } else { mesh };
+                    let base = &act.base;
+                    let out = &mut self.out;
+                    if base.weight != [0.0; 4] || !out.instance_weights.is_empty() {
+                        out.instance_weights.resize(out.instances.len(), [0.0; 4]);
+                        out.instance_weights.push(base.weight);
+                    }
+                    out.instances.push(Instance {
+                        frame: base.f,
+                        color: base.color,
+                        mesh,
+                        bone: act.bone,
+                        lin: 0,
+                        at: out.mesh.n_vertices() as u32,
+                    });
+                    self.instanced_vertices += u64::from(vertices);
+                    act.pc += count;
+                    if self.needs_last {
+                        // `last` as the run's last item leaves it.
+                        if let Op::Draw { kind, xf, .. } = code[act.pc as usize - 1] {
+                            if let (Transform::Const(c), Some(x)) =
+                                (&b.transforms[xf as usize], &self.xf_info[xf as usize])
+                            {
+                                let add =
+                                    |a: [f32; 4], b: [f32; 4]| [a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]];
+                                let from = act.base;
+                                self.last = if kind == Drawable::Vertex {
+                                    State {
+                                        f: from.f.compose(&x.frame),
+                                        color: add(from.color, c.color),
+                                        weight: add(from.weight, c.weight),
+                                        fps: from.fps + c.fps,
+                                        ..from
+                                    }
+                                } else {
+                                    from.compose(c, &mut self.lins)
+                                };
+                            }
+                        }
+                    }
+                }
                 Op::Cont {} => {
                     act.pc += 1;
                     act.cont = Some(self.last);
@@ -1096,6 +1199,48 @@ impl<'b> Eval<'b> {
         }
         // A run ended by a limit leaves its frames: the caller's slots end here.
         self.slots.truncate(slot_base as usize);
+    }
+
+    /// Builds prototype `p`'s mesh from its items (positions, normals, colour and
+    /// weight deltas in the run's frame; see [`SharedKind::Prototype`]), adds it to
+    /// the output's shared meshes and returns its index.
+    #[cold]
+    fn make_prototype(&mut self, p: usize) -> u32 {
+        let b = self.b;
+        let Some(slot) = self.protos.get(p) else { return NONE };
+        let (first, count) = (slot.first as usize, slot.count as usize);
+        let mut m = Mesh::default();
+        let mut face_normals = Vec::new();
+        for op in b.code.iter().skip(first).take(count) {
+            let Op::Draw { kind, xf, .. } = *op else { continue };
+            let (Some(Transform::Const(c)), Some(Some(x))) =
+                (b.transforms.get(xf as usize), self.xf_info.get(xf as usize))
+            else {
+                continue;
+            };
+            match kind {
+                Drawable::Vertex => {
+                    let k = m.push_vertex(x.frame.u, x.normal, c.color, c.weight, 0) + 1;
+                    if k.is_multiple_of(3) {
+                        m.push_triangle([k - 3, k - 2, k - 1], x.mirrored);
+                        face_normals.push(None);
+                    }
+                }
+                Drawable::FaceNormals => {
+                    if let Some(f) = face_normals.last_mut() {
+                        *f = Some(x.frame);
+                    }
+                }
+                _ => {}
+            }
+        }
+        let name = rule_of_op(b, first as u32).unwrap_or("").to_string();
+        self.out.shared_meshes.push(SharedMesh { name, mesh: m, kind: SharedKind::Prototype { face_normals } });
+        let mesh = self.out.shared_meshes.len() as u32 - 1;
+        if let Some(slot) = self.protos.get_mut(p) {
+            slot.mesh = mesh;
+        }
+        mesh
     }
 
     /// With `record_sites`, before the op at `pc` runs: the triangles made since the
@@ -1161,7 +1306,9 @@ impl<'b> Eval<'b> {
     }
 
     fn check_budgets(&mut self) {
-        let n = (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64 + self.extra_vertices;
+        let n = (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64
+            + self.extra_vertices
+            + self.instanced_vertices;
         if n > self.opts.max_vertices {
             self.limits.vertices = true;
             self.stopped = true;
@@ -1519,7 +1666,7 @@ impl<'b> Eval<'b> {
                         // 4,096 calls.
                         self.extra_vertices += m.n_vertices() as u64;
                         self.check_budgets();
-                        self.out.shared_meshes.push((name, m));
+                        self.out.shared_meshes.push(SharedMesh::isosurface(name, m));
                         Some(self.out.shared_meshes.len() as u32 - 1)
                     }
                     Err(marching::Refused::OutOfTime) => {
@@ -1552,16 +1699,10 @@ impl<'b> Eval<'b> {
         };
         let Some(mesh) = mesh else { return };
         self.extra_vertices += 1;
-        let name = self.b.string(self.b.isosurfaces[iso as usize].name).to_string();
-        self.out.instances.push(Instance {
-            name,
-            mesh,
-            transform: self.lins.affine(s).to_mat4(),
-            scale: s.scale(),
-            color: s.display_color(),
-            mirrored: s.mirrored(),
-            bone,
-        });
+        self.out.instances.push(Instance { frame: s.f, color: s.color, mesh, bone, lin: s.lin, at: 0 });
+        if s.lin != 0 {
+            self.lins_used = true;
+        }
     }
 
     fn finish(mut self) -> Output {
@@ -1601,6 +1742,10 @@ impl<'b> Eval<'b> {
                 "animation budget of {n} keyframes reached{at}: the run stopped; the output so far is kept (at most {MAX_KEYFRAMES}; a smaller `--max-vertices N` lowers it)"
             ));
         }
+        if self.lins_used {
+            // Isosurface instances under non-uniform scales refer to these.
+            self.out.lins = std::mem::take(&mut self.lins.0).into_iter().map(|n| (n, n.determinant().cbrt())).collect();
+        }
         let bad = self.out.non_finite_positions();
         if bad > 0 {
             self.out.stats.warnings.push(format!(
@@ -1609,8 +1754,9 @@ impl<'b> Eval<'b> {
         }
         let st = &mut self.out.stats;
         st.rule_calls = self.calls.min(self.maxiter);
-        st.vertices = (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64;
-        st.triangles = (self.out.mesh.triangles.len() + self.out.sweeps.triangles.len()) as u64;
+        st.vertices = (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64 + self.instanced_vertices;
+        st.triangles =
+            (self.out.mesh.triangles.len() + self.out.sweeps.triangles.len()) as u64 + self.instanced_vertices / 3;
         st.elapsed_ms = self.started.elapsed().as_secs_f64() * 1000.0;
         self.out
     }

@@ -7,9 +7,10 @@
 //! the frame tracks of their transform rules, and the camera's track; vertices refer
 //! to their bone by index ([`Mesh::bones`]). Sampling at a time is in [`crate::anim`].
 
-use crate::geom::quat::Frame;
-use glam::{Mat4, Vec3};
+use crate::geom::quat::{Affine, Frame};
+use glam::{Mat3, Mat4, Vec3};
 use serde::Serialize;
+use std::ops::Range;
 
 pub use crate::geom::Mesh;
 
@@ -40,20 +41,135 @@ impl Polyline {
     }
 }
 
-/// One placement of a shared mesh (an isosurface, say).
-#[derive(Clone, Debug, PartialEq)]
+/// One placement of a shared mesh: an isosurface's, or a prototype's (a rule's run
+/// of `VERTEX`/`FACENORMALS` items compiled once, bytecode `INST`). A compact
+/// record (80 bytes): the big trees of a grammar are a million of these rather
+/// than six million vertices.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Instance {
-    /// The drawable's name, e.g. `SPHERE`.
-    pub name: String,
+    /// The frame the mesh is placed in (for an isosurface, with the non-uniform
+    /// factor [`Instance::lin`]).
+    pub frame: Frame,
+    /// The frame's colour, as the evaluator holds it (not clamped): an isosurface is
+    /// painted in it (clamped); a prototype's vertices add their colour deltas to it.
+    pub color: [f32; 4],
     /// Index into [`Output::shared_meshes`].
     pub mesh: u32,
-    /// Object-to-world transform (rotation, uniform scale, translation; may be mirrored).
-    pub transform: Mat4,
-    /// Linear scale of the frame (the quaternion norm, SPEC resolved semantics 7).
-    pub scale: f32,
-    pub color: [f32; 4],
-    pub mirrored: bool,
     pub bone: u32,
+    /// The frame's non-uniform factor: an index into [`Output::lins`], 0 for none
+    /// (always 0 for prototypes).
+    pub lin: u32,
+    /// Prototypes: how many vertices [`Output::mesh`] held when the instance was made,
+    /// so that flattening puts its vertices back where the evaluator would have
+    /// emitted them (0 for isosurfaces).
+    pub at: u32,
+}
+
+/// What a shared mesh is, which decides how an instance of it is expanded.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SharedKind {
+    /// An isosurface (marching cubes in its own space): an instance is the mesh under
+    /// its transform, painted in its colour, with zero weights.
+    Isosurface,
+    /// A prototype. Its mesh holds, per vertex, the position of the `VERTEX` item in
+    /// the run's frame, the `normal` directive turned by the item's transform (not
+    /// normalised), and the item's colour and weight *deltas*; triangle t is vertices
+    /// 3t..3t+2, flagged mirrored when its third item's transform mirrors.
+    /// `face_normals[t]` is the transform of the `FACENORMALS` item that last
+    /// recomputed triangle t's normals, if one did.
+    Prototype { face_normals: Vec<Option<Frame>> },
+}
+
+/// A mesh that instances place: an isosurface or a prototype.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SharedMesh {
+    /// The drawable's name (`SPHERE`) or the prototype's rule (`ns.NAME`).
+    pub name: String,
+    pub mesh: Mesh,
+    pub kind: SharedKind,
+}
+
+impl SharedMesh {
+    /// An isosurface's mesh.
+    pub fn isosurface(name: impl Into<String>, mesh: Mesh) -> SharedMesh {
+        SharedMesh { name: name.into(), mesh, kind: SharedKind::Isosurface }
+    }
+
+    /// Whether this is a prototype.
+    pub fn is_prototype(&self) -> bool {
+        matches!(self.kind, SharedKind::Prototype { .. })
+    }
+
+    /// The normal of vertex `i` in the mesh's own space, as a renderer that places
+    /// the mesh by a transform needs it: for a prototype, the face normal where a
+    /// `FACENORMALS` recomputed it, else the item's normal, normalised.
+    pub fn local_normal(&self, i: usize) -> Vec3 {
+        let m = &self.mesh;
+        let stored = Vec3::from(m.normals.get(i).copied().unwrap_or([0.0, 0.0, 1.0]));
+        let SharedKind::Prototype { face_normals } = &self.kind else { return stored };
+        let t = i / 3;
+        match face_normals.get(t).copied().flatten() {
+            Some(f) if 3 * t + 2 < m.positions.len() => {
+                let p = |k: usize| Vec3::from(m.positions[3 * t + k]);
+                let n = (p(1) - p(0)).cross(p(2) - p(0)).normalize_or_zero();
+                if f.mirrored() {
+                    -n
+                } else {
+                    n
+                }
+            }
+            _ => stored.normalize_or(Vec3::Z),
+        }
+    }
+}
+
+/// A run of flattened geometry handed to a visitor (see [`Output::for_each_piece`]):
+/// vertices `vertices` of `mesh`, which become the flat vertices from `base` on, and
+/// the triangles `triangles` of `mesh`, which refer to those vertices.
+#[derive(Clone, Debug)]
+pub struct Piece<'a> {
+    pub mesh: &'a Mesh,
+    pub vertices: Range<usize>,
+    pub triangles: Range<usize>,
+    pub base: u32,
+}
+
+impl Piece<'_> {
+    /// Triangle `t` (an index into `mesh.triangles`) in flat vertex indices, with the
+    /// winding reversed when it was emitted in a mirrored frame (what exporters
+    /// write), or `None` if it refers outside the piece.
+    pub fn oriented(&self, t: usize) -> Option<[u32; 3]> {
+        let tri = *self.mesh.triangles.get(t)?;
+        let mirrored = self.mesh.mirrored.get(t).copied().unwrap_or(false);
+        let (lo, hi) = (self.vertices.start as u64, self.vertices.end as u64);
+        let mut out = [0u32; 3];
+        for (o, &v) in out.iter_mut().zip(&tri) {
+            let v = v as u64;
+            if v < lo || v >= hi {
+                return None;
+            }
+            *o = (v - lo) as u32 + self.base;
+        }
+        Some(if mirrored { [out[0], out[2], out[1]] } else { out })
+    }
+}
+
+/// Which groups of geometry a flat walk visits, in this order: the `VERTEX`
+/// triangles (with prototype instances expanded where they were made), the sweeps,
+/// the isosurface instances.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Groups {
+    pub vertex: bool,
+    pub sweeps: bool,
+    pub isosurfaces: bool,
+}
+
+impl Groups {
+    /// Everything: what formats without instancing write.
+    pub const ALL: Groups = Groups { vertex: true, sweeps: true, isosurfaces: true };
+    /// The `VERTEX` triangles only (the JSON dump's, and what `Output::mesh` held
+    /// before prototypes).
+    pub const VERTEX: Groups = Groups { vertex: true, sweeps: false, isosurfaces: false };
 }
 
 /// Counters reported by `--stats` and stored in the JSON dump (all but the elapsed
@@ -164,11 +280,22 @@ impl Sites {
 /// Everything an evaluation produced.
 #[derive(Clone, Debug, Default)]
 pub struct Output {
+    /// The `VERTEX` triangles the evaluator emitted vertex by vertex (runs of items
+    /// that are prototypes are instances instead, see [`Output::instances`]; a flat
+    /// walk, [`Output::for_each_piece`], puts them back in order).
     pub mesh: Mesh,
     pub sweeps: Mesh,
     pub lines: Vec<Polyline>,
-    pub shared_meshes: Vec<(String, Mesh)>,
+    /// The meshes instances place: isosurfaces and prototypes.
+    pub shared_meshes: Vec<SharedMesh>,
+    /// Placements of shared meshes, in the order they were made.
     pub instances: Vec<Instance>,
+    /// Weight per instance (a prototype's vertices add their deltas to it), or empty
+    /// while every weight is zero. Read with [`Output::instance_weight`].
+    pub instance_weights: Vec<[f32; 4]>,
+    /// Non-uniform factors of instance frames and `∛det` of each (index 0 is the
+    /// identity and stands for none); see [`Instance::lin`].
+    pub lins: Vec<(Mat3, f32)>,
     pub stats: Stats,
     /// `background r g b a`.
     pub background: [f32; 4],
@@ -186,39 +313,302 @@ pub struct Output {
 pub const MAX_DEBUG_LINES: usize = 10_000;
 
 impl Output {
+    /// The shared mesh instance `inst` places.
+    pub fn shared(&self, inst: &Instance) -> Option<&SharedMesh> {
+        self.shared_meshes.get(inst.mesh as usize)
+    }
+
+    /// Whether `inst` places a prototype (its vertices belong to the `VERTEX` group).
+    pub fn is_prototype_instance(&self, inst: &Instance) -> bool {
+        self.shared(inst).is_some_and(SharedMesh::is_prototype)
+    }
+
+    /// The weight of instance `i` (zero when weights are not stored).
+    pub fn instance_weight(&self, i: usize) -> [f32; 4] {
+        self.instance_weights.get(i).copied().unwrap_or([0.0; 4])
+    }
+
+    /// The frame of `inst` with its non-uniform factor.
+    pub fn instance_affine(&self, inst: &Instance) -> Affine {
+        let n = if inst.lin == 0 { None } else { self.lins.get(inst.lin as usize).map(|l| l.0) };
+        Affine { f: inst.frame, n }
+    }
+
+    /// Object-to-world transform of `inst` (rotation, scale, translation; may be
+    /// mirrored, and with a non-uniform factor need not be a similarity).
+    pub fn instance_transform(&self, inst: &Instance) -> Mat4 {
+        self.instance_affine(inst).to_mat4()
+    }
+
+    /// `∛det` of the non-uniform factor of `inst` (1 without one).
+    fn instance_ndet(&self, inst: &Instance) -> f32 {
+        if inst.lin == 0 {
+            1.0
+        } else {
+            self.lins.get(inst.lin as usize).map_or(1.0, |l| l.1)
+        }
+    }
+
+    /// The linear scale of `inst`'s frame (SPEC resolved semantics 7; with `∛|det N|`
+    /// under a non-uniform scale), as `minsize` reads it.
+    pub fn instance_scale(&self, inst: &Instance) -> f32 {
+        inst.frame.scale_factor() * self.instance_ndet(inst).abs()
+    }
+
+    /// Whether `inst`'s frame mirrors.
+    pub fn instance_mirrored(&self, inst: &Instance) -> bool {
+        inst.frame.mirrored() ^ (self.instance_ndet(inst) < 0.0)
+    }
+
+    /// Vertices and triangles of a flat walk over `groups`, without making it.
+    pub fn flat_counts(&self, groups: Groups) -> (usize, usize) {
+        self.flat_counts_where(groups, |_| true)
+    }
+
+    /// [`Output::flat_counts`] of [`Output::for_each_piece_where`].
+    pub fn flat_counts_where(&self, groups: Groups, expand: impl Fn(usize) -> bool) -> (usize, usize) {
+        let (mut v, mut t) = (0, 0);
+        if groups.vertex {
+            v += self.mesh.n_vertices();
+            t += self.mesh.triangles.len();
+        }
+        if groups.sweeps {
+            v += self.sweeps.n_vertices();
+            t += self.sweeps.triangles.len();
+        }
+        for (i, inst) in self.instances.iter().enumerate() {
+            let Some(s) = self.shared(inst).filter(|_| expand(i)) else { continue };
+            if (s.is_prototype() && groups.vertex) || (!s.is_prototype() && groups.isosurfaces) {
+                v += s.mesh.n_vertices();
+                t += s.mesh.triangles.len();
+            }
+        }
+        (v, t)
+    }
+
+    /// Walks the geometry of `groups` as flat pieces, in the order formats without
+    /// instancing write it: the `VERTEX` triangles with every prototype instance
+    /// expanded where it was made (the same vertices, bit for bit, as the evaluator
+    /// emits when it runs the items one by one), then the sweeps, then every
+    /// isosurface instance expanded. Instances are expanded one at a time into a
+    /// scratch mesh, so a walk holds no copy of the model.
+    pub fn for_each_piece<E>(&self, groups: Groups, f: impl FnMut(&Piece) -> Result<(), E>) -> Result<(), E> {
+        self.for_each_piece_where(groups, |_| true, f)
+    }
+
+    /// [`Output::for_each_piece`] over the instances `expand(i)` keeps (by index into
+    /// [`Output::instances`]); the others are left out (an exporter that places them
+    /// otherwise).
+    pub fn for_each_piece_where<E>(
+        &self,
+        groups: Groups,
+        expand: impl Fn(usize) -> bool,
+        mut f: impl FnMut(&Piece) -> Result<(), E>,
+    ) -> Result<(), E> {
+        let mut base = 0u32;
+        let mut scratch = Mesh::default();
+        let whole = |f: &mut dyn FnMut(&Piece) -> Result<(), E>, m: &Mesh, base: &mut u32| {
+            let piece = Piece { mesh: m, vertices: 0..m.n_vertices(), triangles: 0..m.triangles.len(), base: *base };
+            *base += m.n_vertices() as u32;
+            f(&piece)
+        };
+        if groups.vertex {
+            let m = &self.mesh;
+            // Mesh vertices [done, at) go before an instance made at `at`; a triangle
+            // belongs to the run that holds its last vertex.
+            let mut cursor = (0usize, 0usize, &mut base);
+            let run = |f: &mut dyn FnMut(&Piece) -> Result<(), E>, to: usize, c: &mut (usize, usize, &mut u32)| {
+                let (done, tri) = (c.0, c.1);
+                let end_tri = if to >= m.n_vertices() {
+                    m.triangles.len()
+                } else {
+                    tri + m.triangles[tri..].partition_point(|t| t.iter().all(|&v| (v as usize) < to))
+                };
+                let piece = Piece { mesh: m, vertices: done..to, triangles: tri..end_tri, base: *c.2 };
+                *c.2 += (to - done) as u32;
+                c.0 = to;
+                c.1 = end_tri;
+                f(&piece)
+            };
+            for (i, inst) in self.instances.iter().enumerate() {
+                let Some(shared) = self.shared(inst).filter(|s| s.is_prototype() && expand(i)) else { continue };
+                let at = (inst.at as usize).clamp(cursor.0, m.n_vertices());
+                if at > cursor.0 {
+                    run(&mut f, at, &mut cursor)?;
+                }
+                scratch.clear();
+                expand_prototype(&mut scratch, shared, inst, self.instance_weight(i));
+                whole(&mut f, &scratch, cursor.2)?;
+            }
+            if cursor.0 < m.n_vertices() || cursor.1 < m.triangles.len() {
+                run(&mut f, m.n_vertices(), &mut cursor)?;
+            }
+        }
+        if groups.sweeps {
+            whole(&mut f, &self.sweeps, &mut base)?;
+        }
+        if groups.isosurfaces {
+            for (i, inst) in self.instances.iter().enumerate() {
+                let Some(shared) = self.shared(inst).filter(|s| !s.is_prototype() && expand(i)) else { continue };
+                scratch.clear();
+                expand_isosurface(&mut scratch, &shared.mesh, self, inst);
+                whole(&mut f, &scratch, &mut base)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The geometry of `groups` as one mesh in world space.
+    pub fn flat_mesh(&self, groups: Groups) -> Mesh {
+        let mut m = Mesh::default();
+        let (v, t) = self.flat_counts(groups);
+        m.reserve(v, t);
+        let _ = self.for_each_piece::<()>(groups, |p| {
+            m.append_range(p.mesh, p.vertices.clone(), p.triangles.clone());
+            Ok(())
+        });
+        m
+    }
+
+    /// All geometry as one mesh in world space: VERTEX triangles, sweeps and every
+    /// instance expanded (formats without instancing write this, streamed through
+    /// [`Output::for_each_piece`]).
+    pub fn flattened(&self) -> Mesh {
+        self.flat_mesh(Groups::ALL)
+    }
+
+    /// The `VERTEX` triangles with prototype instances expanded in place: what the
+    /// evaluator emits when it runs every item one by one.
+    pub fn vertex_mesh(&self) -> Mesh {
+        self.flat_mesh(Groups::VERTEX)
+    }
+
+    /// Expands every prototype instance into [`Output::mesh`], where it was made, and
+    /// drops them: the output the evaluator makes with instancing off.
+    pub fn expand_prototypes(&mut self) {
+        if !self.instances.iter().any(|i| self.is_prototype_instance(i)) {
+            return;
+        }
+        self.mesh = self.vertex_mesh();
+        let shared = &self.shared_meshes;
+        let keep = |i: &Instance| shared.get(i.mesh as usize).is_some_and(|s| !s.is_prototype());
+        self.instances.retain(keep);
+        // Only prototypes read instance weights.
+        self.instance_weights.clear();
+    }
+
     /// How many positions of the geometry are not finite (vertices, line points,
-    /// instance transforms): exporters write them as 0, so the run warns.
+    /// instance transforms; a prototype instance counts the vertices it expands to):
+    /// exporters write them as 0, so the run warns.
     pub fn non_finite_positions(&self) -> usize {
         let bad = |p: &[f32; 3]| !p.iter().all(|c| c.is_finite());
         // Nearly always all finite: a branch-free pass (it vectorises) decides that.
         let all_finite = |ps: &[[f32; 3]]| ps.as_flattened().iter().fold(true, |ok, c| ok & c.is_finite());
         let mesh = |m: &Mesh| if all_finite(&m.positions) { 0 } else { m.positions.iter().filter(|p| bad(p)).count() };
+        let mut scratch = Mesh::default();
+        let instances: usize = self
+            .instances
+            .iter()
+            .enumerate()
+            .map(|(i, inst)| match self.shared(inst) {
+                Some(s) if s.is_prototype() => {
+                    if prototype_surely_finite(inst, &s.mesh) {
+                        0
+                    } else {
+                        scratch.clear();
+                        expand_prototype(&mut scratch, s, inst, self.instance_weight(i));
+                        scratch.positions.iter().filter(|p| bad(p)).count()
+                    }
+                }
+                _ => usize::from(!self.instance_transform(inst).is_finite()),
+            })
+            .sum();
         mesh(&self.mesh)
             + mesh(&self.sweeps)
-            + self.shared_meshes.iter().map(|(_, m)| mesh(m)).sum::<usize>()
+            + self.shared_meshes.iter().filter(|s| !s.is_prototype()).map(|s| mesh(&s.mesh)).sum::<usize>()
             + self.lines.iter().map(|l| l.points.iter().filter(|p| bad(p)).count()).sum::<usize>()
-            + self.instances.iter().filter(|i| !i.transform.is_finite()).count()
+            + instances
     }
+}
 
-    /// All geometry as one mesh in world space: VERTEX triangles, sweeps and every
-    /// instance expanded (formats without instancing use this).
-    pub fn flattened(&self) -> Mesh {
-        let mut m = self.mesh.clone();
-        m.append(&self.sweeps);
-        for inst in &self.instances {
-            let Some((_, shared)) = self.shared_meshes.get(inst.mesh as usize) else { continue };
-            let base = m.positions.len() as u32;
-            let normal_mat = inst.transform.inverse().transpose();
-            for (i, p) in shared.positions.iter().enumerate() {
-                let wp = inst.transform.transform_point3(Vec3::from(*p));
-                let n = shared.normals.get(i).copied().unwrap_or([0.0, 0.0, 1.0]);
-                let wn = normal_mat.transform_vector3(Vec3::from(n)).normalize_or_zero();
-                m.push_vertex(wp, wn, inst.color, [0.0; 4], inst.bone);
-            }
-            for (t, mir) in shared.triangles.iter().zip(shared.mirrored.iter().chain(std::iter::repeat(&false))) {
-                m.push_triangle([t[0] + base, t[1] + base, t[2] + base], *mir != inst.mirrored);
+/// Whether every vertex of a prototype instance is surely finite, by a bound: a
+/// finite frame of moderate scale and translation over a mesh of moderate extent.
+fn prototype_surely_finite(inst: &Instance, m: &Mesh) -> bool {
+    const BIG: f32 = 1e15;
+    let f = &inst.frame;
+    let frame_ok = f.q.is_finite()
+        && f.qh.is_finite()
+        && f.u.abs().max_element() < BIG
+        && f.q.length_squared() < BIG
+        && f.qh.length_squared() < BIG;
+    // |lin · p| <= |q| |q̂| |p| < BIG · |p|, and |p| < BIG: at most 1e30 + 1e15.
+    frame_ok && m.positions.iter().all(|p| p.iter().all(|c| c.abs() < BIG))
+}
+
+/// Appends prototype instance `inst` (weight `weight`) to `m` in world space: the
+/// vertices the evaluator would have emitted for the prototype's items, computed by
+/// the same expressions in the same order (eval.rs, the `VERTEX` fast path and
+/// `FACENORMALS`), so the bits are the same.
+pub fn expand_prototype(m: &mut Mesh, shared: &SharedMesh, inst: &Instance, weight: [f32; 4]) {
+    let p = &shared.mesh;
+    let (lin, mirrored) = inst.frame.linear();
+    let add = |a: [f32; 4], b: [f32; 4]| [a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]];
+    let first = m.n_vertices();
+    for i in 0..p.n_vertices() {
+        let pos = inst.frame.u + lin * Vec3::from(p.positions[i]);
+        let normal = (lin * Vec3::from(p.normals.get(i).copied().unwrap_or([0.0, 0.0, 1.0]))).normalize_or(Vec3::Z);
+        let color = add(inst.color, p.colors.get(i).copied().unwrap_or([0.0; 4])).map(|v| v.clamp(0.0, 1.0));
+        m.push_vertex(pos, normal, color, add(weight, p.weight(i)), inst.bone);
+    }
+    let face_normals = match &shared.kind {
+        SharedKind::Prototype { face_normals } => face_normals.as_slice(),
+        SharedKind::Isosurface => &[],
+    };
+    for (t, tri) in p.triangles.iter().enumerate() {
+        let k = first as u32;
+        m.push_triangle([tri[0] + k, tri[1] + k, tri[2] + k], mirrored != p.mirrored.get(t).copied().unwrap_or(false));
+        if let Some(Some(f)) = face_normals.get(t) {
+            // FACENORMALS: the flat normal of the last three vertices, in the item's frame.
+            let at = first + tri[2] as usize;
+            if at >= 2 && at < m.n_vertices() {
+                let q = |i: usize| Vec3::from_array(m.positions[i]);
+                let (a, b, c) = (q(at - 2), q(at - 1), q(at));
+                let mut n = (b - a).cross(c - a).normalize_or_zero();
+                if inst.frame.compose(f).mirrored() {
+                    n = -n;
+                }
+                for i in at - 2..=at {
+                    m.normals[i] = n.to_array();
+                }
             }
         }
-        m
+    }
+}
+
+/// Appends isosurface instance `inst` of `shared` to `m` in world space: positions
+/// through the transform, normals through its inverse transpose, the instance's
+/// colour, zero weights.
+pub fn expand_isosurface(m: &mut Mesh, shared: &Mesh, out: &Output, inst: &Instance) {
+    let color = inst.color.map(|c| c.clamp(0.0, 1.0));
+    let mirrored = out.instance_mirrored(inst);
+    place_mesh(m, shared, &out.instance_transform(inst), Some(color), mirrored, inst.bone);
+}
+
+/// Appends `shared` placed by `transform` to `m`: positions through it, normals
+/// through its inverse transpose (normalised), every vertex of colour `color` (or
+/// the mesh's own colours when `None`) with zero weights and bone `bone`; triangles
+/// keep their mirrored flags, flipped when `mirrored` (the transform mirrors).
+pub fn place_mesh(m: &mut Mesh, shared: &Mesh, transform: &Mat4, color: Option<[f32; 4]>, mirrored: bool, bone: u32) {
+    let base = m.positions.len() as u32;
+    let normal_mat = transform.inverse().transpose();
+    for (i, p) in shared.positions.iter().enumerate() {
+        let wp = transform.transform_point3(Vec3::from(*p));
+        let n = shared.normals.get(i).copied().unwrap_or([0.0, 0.0, 1.0]);
+        let wn = normal_mat.transform_vector3(Vec3::from(n)).normalize_or_zero();
+        let c = color.unwrap_or_else(|| shared.colors.get(i).copied().unwrap_or([1.0; 4]));
+        m.push_vertex(wp, wn, c, [0.0; 4], bone);
+    }
+    for (t, mir) in shared.triangles.iter().zip(shared.mirrored.iter().chain(std::iter::repeat(&false))) {
+        m.push_triangle([t[0] + base, t[1] + base, t[2] + base], *mir != mirrored);
     }
 }

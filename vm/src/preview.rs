@@ -169,36 +169,23 @@ struct Tri {
 /// Calls `f` for every triangle of the output: VERTEX mesh, sweeps, then each
 /// instance's shared mesh transformed into place.
 fn for_each_triangle(out: &Output, f: &mut dyn FnMut(Tri)) {
-    for m in [&out.mesh, &out.sweeps] {
-        for t in m.oriented_triangles() {
-            let i = t.map(|i| i as usize);
-            if i.iter().any(|&k| k >= m.positions.len() || k >= m.normals.len() || k >= m.colors.len()) {
+    let _ = out.for_each_piece::<()>(crate::output::Groups::ALL, |p| {
+        let m = p.mesh;
+        for k in p.triangles.clone() {
+            let t = m.triangles[k];
+            let mirrored = m.mirrored.get(k).copied().unwrap_or(false);
+            let i = if mirrored { [t[0], t[2], t[1]] } else { t }.map(|i| i as usize);
+            if i.iter().any(|&j| j >= m.positions.len() || j >= m.normals.len() || j >= m.colors.len()) {
                 continue;
             }
             f(Tri {
-                p: i.map(|k| Vec3::from_array(m.positions[k])),
-                n: i.map(|k| Vec3::from_array(m.normals[k])),
-                c: i.map(|k| m.colors[k]),
+                p: i.map(|j| Vec3::from_array(m.positions[j])),
+                n: i.map(|j| Vec3::from_array(m.normals[j])),
+                c: i.map(|j| m.colors[j]),
             });
         }
-    }
-    for inst in &out.instances {
-        let Some((_, m)) = out.shared_meshes.get(inst.mesh as usize) else { continue };
-        let normal_mat = inst.transform.inverse().transpose();
-        for (k, t) in m.triangles.iter().enumerate() {
-            let i = t.map(|i| i as usize);
-            if i.iter().any(|&j| j >= m.positions.len() || j >= m.normals.len()) {
-                continue;
-            }
-            let mirrored = m.mirrored.get(k).copied().unwrap_or(false) != inst.mirrored;
-            let order = if mirrored { [i[0], i[2], i[1]] } else { i };
-            f(Tri {
-                p: order.map(|j| inst.transform.transform_point3(Vec3::from_array(m.positions[j]))),
-                n: order.map(|j| normal_mat.transform_vector3(Vec3::from_array(m.normals[j])).normalize_or_zero()),
-                c: [inst.color; 3],
-            });
-        }
-    }
+        Ok(())
+    });
 }
 
 /// Encodes RGBA8 pixels as PNG bytes.

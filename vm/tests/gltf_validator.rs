@@ -6,10 +6,10 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use glam::{Mat4, Quat, Vec3};
+use glam::{Quat, Vec3};
 use mdg_vm::export::{write, Format};
 use mdg_vm::geom::{blend_frames, polygonize, sweep, sweep_averaged, sweep_oriented, sweep_path, Frame, Grid};
-use mdg_vm::output::{Animation, Bone, Camera, Instance, Mesh, Output, Polyline, Track};
+use mdg_vm::output::{Animation, Bone, Camera, Instance, Mesh, Output, Polyline, SharedMesh, Track};
 
 /// Emits a unit cube as VERTEX triangles in `frame` (mirrored frames flag their
 /// triangles, as the VM does).
@@ -62,27 +62,20 @@ fn outputs() -> Vec<(&'static str, Output)> {
 
     let grid = Grid { min: Vec3::splat(-1.0), max: Vec3::splat(1.0), res: [10, 10, 10] };
     let sphere = polygonize(&grid, &|p: Vec3| p.length() - 0.8, 1 << 20, &|| false).expect("sphere");
-    let inst = |t: Mat4, mirrored: bool, color: [f32; 4]| Instance {
-        name: "SPHERE".into(),
-        mesh: 0,
-        transform: t,
-        scale: 1.0,
-        color,
-        mirrored,
-        bone: 0,
-    };
+    let inst = |frame: Frame, color: [f32; 4]| Instance { frame, color, mesh: 0, bone: 0, lin: 0, at: 0 };
     let frame = Frame::identity().translate(Vec3::new(0.0, 3.0, 0.0)).rotate(Quat::from_rotation_z(0.7)).scale(0.3);
     let mirror = Frame::identity().translate(Vec3::new(-3.0, 0.0, 0.0)).reflect(Vec3::Y);
+    let at = |x: f32, y: f32| Frame::identity().translate(Vec3::new(x, y, 0.0));
     let instanced = Output {
-        shared_meshes: vec![("SPHERE".into(), sphere), ("EMPTY".into(), Mesh::default())],
+        shared_meshes: vec![SharedMesh::isosurface("SPHERE", sphere), SharedMesh::isosurface("EMPTY", Mesh::default())],
         instances: vec![
-            inst(Mat4::from_translation(Vec3::new(3.0, 0.0, 0.0)), false, [1.0, 0.0, 0.0, 1.0]),
-            inst(frame.to_mat4(), false, [0.0, 1.0, 0.0, 1.0]),
-            inst(Mat4::from_translation(Vec3::new(0.0, -3.0, 0.0)), false, [1.0, 0.0, 0.0, 1.0]),
-            inst(mirror.to_mat4(), mirror.mirrored(), [0.0, 0.0, 1.0, 0.5]),
-            inst(Frame::identity().scale(0.0).to_mat4(), false, [1.0; 4]),
-            Instance { mesh: 1, ..inst(Mat4::IDENTITY, false, [1.0; 4]) },
-            Instance { mesh: 7, ..inst(Mat4::IDENTITY, false, [1.0; 4]) },
+            inst(at(3.0, 0.0), [1.0, 0.0, 0.0, 1.0]),
+            inst(frame, [0.0, 1.0, 0.0, 1.0]),
+            inst(at(0.0, -3.0), [1.0, 0.0, 0.0, 1.0]),
+            inst(mirror, [0.0, 0.0, 1.0, 0.5]),
+            inst(Frame::identity().scale(0.0), [1.0; 4]),
+            Instance { mesh: 1, ..inst(Frame::identity(), [1.0; 4]) },
+            Instance { mesh: 7, ..inst(Frame::identity(), [1.0; 4]) },
         ],
         ..Output::default()
     };
@@ -165,16 +158,15 @@ fn animated() -> Output {
     line.push(b_rest.u, 3);
     out.lines.push(line);
     let grid = Grid { min: Vec3::splat(-1.0), max: Vec3::splat(1.0), res: [6, 6, 6] };
-    out.shared_meshes
-        .push(("SPHERE".into(), polygonize(&grid, &|p: Vec3| p.length() - 0.8, 1 << 16, &|| false).expect("sphere")));
+    let sphere = polygonize(&grid, &|p: Vec3| p.length() - 0.8, 1 << 16, &|| false).expect("sphere");
+    out.shared_meshes.push(SharedMesh::isosurface("SPHERE", sphere));
     out.instances.push(Instance {
-        name: "SPHERE".into(),
-        mesh: 0,
-        transform: b_rest.translate(Vec3::Z).to_mat4(),
-        scale: 0.5,
+        frame: b_rest.translate(Vec3::Z),
         color: [0.2, 0.2, 1.0, 1.0],
-        mirrored: false,
+        mesh: 0,
         bone: 3,
+        lin: 0,
+        at: 0,
     });
     out.animation = Animation {
         duration: 2.0,

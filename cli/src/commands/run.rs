@@ -367,18 +367,8 @@ fn run_one(
 /// Vertices and triangles of the flattened model (what OBJ, STL and PLY hold),
 /// counted without building it.
 fn counts(out: &Output) -> (u64, u64) {
-    let (mut v, mut t) = (0u64, 0u64);
-    for m in [&out.mesh, &out.sweeps] {
-        v += m.positions.len() as u64;
-        t += m.triangles.len() as u64;
-    }
-    for inst in &out.instances {
-        if let Some((_, shared)) = out.shared_meshes.get(inst.mesh as usize) {
-            v += shared.positions.len() as u64;
-            t += shared.triangles.len() as u64;
-        }
-    }
-    (v, t)
+    let (v, t) = out.flat_counts(mdg_vm::output::Groups::ALL);
+    (v as u64, t as u64)
 }
 
 /// The most frames `--frames` writes.

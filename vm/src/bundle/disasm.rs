@@ -163,6 +163,8 @@ pub fn disassemble(b: &Bundle) -> String {
                 (Op::Call { .. }, "rule") => b.string(b.rules.get(v as usize).map(|r| r.name).unwrap_or(0)).to_string(),
                 (Op::Draw { kind, .. }, "kind") => kind.name().to_string(),
                 (_, "xf" | "step") => format!("X{v}"),
+                (Op::Inst { .. }, "proto") => format!("P{v}"),
+                (Op::Inst { .. }, "count") => format!("n={v}"),
                 (Op::LoopN { .. }, "count") | (_, "expr") => format!("E{v}"),
                 (_, "slot") => format!("s{v}"),
                 (_, "target" | "end" | "begin") => format!("@{v}"),
@@ -173,7 +175,14 @@ pub fn disassemble(b: &Bundle) -> String {
                 _ => format!("{n}={v}"),
             })
             .collect();
-        let line = format!("{pc:>6}  {:<8} {}", op.mnemonic(), operands.join(" "));
+        let mut line = format!("{pc:>6}  {:<8} {}", op.mnemonic(), operands.join(" "));
+        if let Op::Inst { count, .. } = op {
+            // What the prototype holds: the items it covers, one instance per run.
+            let items = b.code.iter().skip(pc + 1).take(*count as usize);
+            let vertices = items.filter(|o| matches!(o, Op::Draw { kind: Drawable::Vertex, .. })).count();
+            let t = vertices / 3;
+            let _ = write!(line, "    ; prototype: {vertices} vertices, {t} triangle{}", if t == 1 { "" } else { "s" });
+        }
         let _ = writeln!(o, "{}", line.trim_end());
     }
     for (i, iso) in b.isosurfaces.iter().enumerate() {

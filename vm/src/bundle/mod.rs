@@ -11,6 +11,7 @@
 mod codec;
 mod disasm;
 pub mod ops;
+pub mod proto;
 pub mod spirv;
 mod verify;
 
@@ -24,7 +25,7 @@ use crate::expr::ExprOp;
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"MDGB";
 /// Format version; bumped on any change to the layout.
-pub const VERSION: u16 = 5;
+pub const VERSION: u16 = 6;
 
 /// A precomputed adjustment list: thesis eqs. 4.1–4.9 folded into (q, q̂, u) plus
 /// colour, weight and fps deltas (SPEC §4).

@@ -6,7 +6,8 @@
 //! iterator run's frame, or the continuation state after `\`); `X[x]` is transform
 //! `x`; `last` is the continuation register (the frame of the last drawable).
 //! Operand kinds: `r` rule, `x` transform, `k` drawable kind, `n` namespace, `p` rule
-//! or NONE, `i` isosurface, `c` count (u64), `j` op index (jump), `f` flags.
+//! or NONE, `i` isosurface, `c` count (u64), `j` op index (jump), `f` flags, `P`
+//! prototype (the ordinal of its `INST` op in the code).
 //! Flags bit 0 (`CONT_NEXT`): the item is followed by `\`, so `last` is set to the
 //! item's own frame before it runs (a drawable inside it then overrides it).
 
@@ -52,6 +53,8 @@ macro_rules! for_each_op {
                 "e j      if e is 0 (false) or NaN, continue at op j (`if`/`else`)");
             (0x0C, LoopN, "LOOPN", { count: u32, step: u32, end: u32, chain: u8 },
                 "e x j f  LOOP whose count is expression e, evaluated once on entry (negative or NaN: 0 runs); f bit 1: the first run is under start itself");
+            (0x0D, Inst, "INST", { proto: u32, count: u32 },
+                "P n      the next n ops (VERTEX/FACENORMALS, constant transforms) are prototype P: one instance of P under start, skipping them; or run them one by one");
         }
     };
 }

@@ -102,9 +102,23 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
             verify_body(b, i, d.start)?;
         }
     }
+    let mut n_protos = 0u32;
     for (pc, op) in b.code.iter().enumerate() {
         let at = |what: &str| format!("op {pc} ({what})");
         match *op {
+            Op::Inst { proto, count } => {
+                if proto != n_protos {
+                    return Err(bad(format!("{}: prototype {proto}, expected {n_protos}", at("INST"))));
+                }
+                n_protos += 1;
+                let covered = b.code.get(pc + 1..).and_then(|c| c.get(..count as usize));
+                if !covered.is_some_and(|c| super::proto::is_run(c, &b.transforms)) {
+                    return Err(bad(format!(
+                        "{}: the next {count} ops are not a run of VERTEX/FACENORMALS with constant transforms",
+                        at("INST")
+                    )));
+                }
+            }
             Op::Call { rule, xf, .. } => {
                 rule_ok(rule, &at("CALL"))?;
                 if xf >= n_xf {
@@ -287,7 +301,7 @@ fn verify_body(b: &Bundle, rule: usize, start: u32) -> Result<(), LoadError> {
                 slots_ok(expr, pc)?;
                 jumps.push((pc, target));
             }
-            Op::Cont {} => {}
+            Op::Cont {} | Op::Inst { .. } => {}
             Op::Ret {} => {
                 if !loops.is_empty() {
                     return Err(bad(format!("RET inside a loop at op {pc}")));

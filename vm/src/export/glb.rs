@@ -67,12 +67,10 @@ use std::collections::BTreeMap;
 use glam::{Mat4, Quat, Vec3};
 use serde::Serialize;
 
-use super::{
-    bake_instance, checked_triangles, clamp_color, color_at, finite, finite3, is_closed, linear_color, normal_at,
-};
+use super::{checked_triangles, clamp_color, color_at, finite, finite3, is_closed, linear_color, normal_at};
 use crate::anim::{frames_needed, trs};
 use crate::geom::quat::Frame;
-use crate::output::{Animation, Mesh, Output, Polyline};
+use crate::output::{expand_isosurface, place_mesh, Animation, Groups, Mesh, Output, Piece, Polyline};
 
 const FLOAT: u32 = 5126;
 const UNSIGNED_INT: u32 = 5125;
@@ -97,6 +95,17 @@ const GLB_MAGIC: &[u8; 4] = b"glTF";
 const CHUNK_JSON: u32 = 0x4E4F_534A;
 const CHUNK_BIN: u32 = 0x004E_4942;
 
+/// Options of the glTF writer.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GlbOptions {
+    /// Write prototype instances with `EXT_mesh_gpu_instancing` (one mesh per
+    /// prototype, translation/rotation/scale per instance) instead of expanding them
+    /// into the geometry: small files that engines and three.js draw with GPU
+    /// instancing. Off by default: Blender makes an object of every instance, and
+    /// importers without the extension show one instance only.
+    pub instances: bool,
+}
+
 /// Appends `out` as a glTF 2.0 binary to `buf`.
 pub fn write_glb(out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
     write_glb_to(out, buf)
@@ -105,14 +114,12 @@ pub fn write_glb(out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
 /// Writes `out` as a glTF 2.0 binary to `w` (a file, say: no copy of the whole
 /// file is held in memory, only the binary chunk being assembled).
 pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), String> {
+    write_glb_with(out, &GlbOptions::default(), w)
+}
+
+/// [`write_glb_to`] with options.
+pub fn write_glb_with(out: &Output, opts: &GlbOptions, w: &mut dyn std::io::Write) -> Result<(), String> {
     let mut g = Builder::default();
-    // The binary chunk's size is known well enough in advance: reserve it once, so
-    // it never grows by doubling (which would briefly hold two copies).
-    let per_vertex = 40 + if out.animation.bones.len() > 1 { 24 } else { 0 };
-    let estimate =
-        [&out.mesh, &out.sweeps].iter().map(|m| m.positions.len() * per_vertex + m.triangles.len() * 12).sum::<usize>()
-            + out.shared_meshes.iter().map(|(_, m)| m.positions.len() * 24 + m.triangles.len() * 12).sum::<usize>();
-    g.bin.reserve(estimate + 4096);
     let mut scene_nodes = Vec::new();
     let anim = &out.animation;
     g.skinned = anim.bones.len() > 1;
@@ -122,39 +129,55 @@ pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
             anim.bones.len()
         ));
     }
+    // Prototype instances that become instanced nodes (with --instances); the rest
+    // are expanded into the geometry where they were made.
+    let gpu = if opts.instances { gpu_instance_groups(out, g.skinned) } else { GpuGroups::default() };
+    let expand = |i: usize| !gpu.instanced.get(i).copied().unwrap_or(false);
+
+    // The binary chunk's size is known well enough in advance: reserve it once, so
+    // it never grows by doubling (which would briefly hold two copies).
+    let per_vertex = 40 + if g.skinned { 24 } else { 0 };
+    let (flat_v, flat_t) = out.flat_counts_where(Groups::VERTEX, expand);
+    let estimate = (flat_v + out.sweeps.positions.len()) * per_vertex
+        + (flat_t + out.sweeps.triangles.len()) * 12
+        + out.shared_meshes.iter().map(|s| s.mesh.positions.len() * 24 + s.mesh.triangles.len() * 12).sum::<usize>()
+        + gpu.instanced.iter().filter(|i| **i).count() * 52;
+    g.bin.reserve(estimate + 4096);
     // Bone nodes first, so instances can be attached to them.
     let bone_nodes: Vec<u32> = if g.skinned { g.bone_nodes(anim) } else { Vec::new() };
     if let Some(&root) = bone_nodes.first() {
         scene_nodes.push(root);
     }
 
-    // Split instances into ones that can be nodes and ones that must be baked. A
-    // mirrored similarity is a node too: its transform times a mirror in x is a proper
-    // TRS, placed over a copy of the shared mesh mirrored in x (one copy per mesh).
+    // Split isosurface instances into ones that can be nodes and ones that must be
+    // baked. A mirrored similarity is a node too: its transform times a mirror in x
+    // is a proper TRS, placed over a copy of the shared mesh mirrored in x (one copy
+    // per mesh).
     let mut baked = Mesh::default();
     let mut as_nodes = Vec::new();
     for inst in &out.instances {
-        let Some((_, shared)) = out.shared_meshes.get(inst.mesh as usize) else { continue };
-        if shared.triangles.is_empty() {
+        let Some(shared) = out.shared(inst).filter(|s| !s.is_prototype()) else { continue };
+        if shared.mesh.triangles.is_empty() {
             continue;
         }
-        let placed = if inst.mirrored {
-            orthogonal_trs(&(inst.transform * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)))).map(|trs| (trs, true))
+        let transform = out.instance_transform(inst);
+        let placed = if out.instance_mirrored(inst) {
+            orthogonal_trs(&(transform * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)))).map(|trs| (trs, true))
         } else {
-            orthogonal_trs(&inst.transform).map(|trs| (trs, false))
+            orthogonal_trs(&transform).map(|trs| (trs, false))
         };
         match placed {
             Some((trs, mirror)) => as_nodes.push((inst, trs, mirror)),
-            None => bake_instance(&mut baked, shared, inst),
+            None => expand_isosurface(&mut baked, &shared.mesh, out, inst),
         }
     }
     // Thousands of nodes make importers crawl (Blender spends over a millisecond on
     // each object, about as long as on 50 vertices): above the limit, instances of
     // small meshes are merged into the geometry; big ones stay nodes.
     if as_nodes.len() > MAX_INSTANCE_NODES {
-        as_nodes.retain(|(inst, _, _)| match out.shared_meshes.get(inst.mesh as usize) {
-            Some((_, shared)) if shared.positions.len() <= MAX_MERGED_MESH_VERTICES => {
-                bake_instance(&mut baked, shared, inst);
+        as_nodes.retain(|(inst, _, _)| match out.shared(inst) {
+            Some(shared) if shared.mesh.positions.len() <= MAX_MERGED_MESH_VERTICES => {
+                expand_isosurface(&mut baked, &shared.mesh, out, inst);
                 false
             }
             _ => true,
@@ -165,11 +188,14 @@ pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
     // mesh ignores its node's transforms and follows its joints, which are under it).
     let mut top_nodes = Vec::new();
     let mut primitives = Vec::new();
-    for (m, what) in [(&out.mesh, "VERTEX mesh"), (&out.sweeps, "sweeps"), (&baked, "baked instances")] {
-        if let Some(mut p) = g.colored_primitive(m, what)? {
-            if std::ptr::eq(m, &out.mesh) && !out.sites.runs.is_empty() {
-                p.extras = Some(sites_extras(&out.sites));
-            }
+    if let Some(mut p) = g.vertex_primitive(out, &expand)? {
+        if !out.sites.runs.is_empty() {
+            p.extras = Some(sites_extras(&out.sites));
+        }
+        primitives.push(p);
+    }
+    for (m, what) in [(&out.sweeps, "sweeps"), (&baked, "baked instances")] {
+        if let Some(p) = g.colored_primitive(m, what)? {
             primitives.push(p);
         }
     }
@@ -206,11 +232,11 @@ pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
     let mut shared_accessors: BTreeMap<(u32, bool), SharedAccessors> = BTreeMap::new();
     let mut instance_meshes: BTreeMap<(u32, bool, [u32; 4]), u32> = BTreeMap::new();
     for (inst, (t, r, s), mirror) in as_nodes {
+        let Some(shared) = out.shared(inst) else { continue };
         let acc = match shared_accessors.get(&(inst.mesh, mirror)) {
             Some(a) => *a,
             None => {
-                let Some((name, shared)) = out.shared_meshes.get(inst.mesh as usize) else { continue };
-                let a = g.shared_accessors(shared, name, mirror)?;
+                let a = g.shared_accessors(&shared.mesh, &shared.name, mirror)?;
                 shared_accessors.insert((inst.mesh, mirror), a);
                 a
             }
@@ -221,13 +247,7 @@ pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
             Some(m) => *m,
             None => {
                 let material = g.material(color, acc.double_sided);
-                let name = out.shared_meshes.get(inst.mesh as usize).map(|(n, _)| {
-                    if mirror {
-                        format!("{n} mirrored")
-                    } else {
-                        n.clone()
-                    }
-                });
+                let name = Some(if mirror { format!("{} mirrored", shared.name) } else { shared.name.clone() });
                 let mut attributes = BTreeMap::new();
                 attributes.insert("POSITION", acc.position);
                 attributes.insert("NORMAL", acc.normal);
@@ -244,7 +264,7 @@ pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
             }
         };
         let node = Node {
-            name: Some(inst.name.clone()),
+            name: Some(shared.name.clone()),
             mesh: Some(mesh),
             translation: Some(t.to_array()),
             rotation: Some(r.to_array()),
@@ -255,6 +275,13 @@ pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
         match bone_nodes.get(inst.bone as usize) {
             Some(&parent) if inst.bone != 0 => g.root.nodes[parent as usize].children.push(n),
             _ => scene_nodes.push(n),
+        }
+    }
+
+    // Prototype instances with EXT_mesh_gpu_instancing: one node per group.
+    for group in &gpu.groups {
+        if let Some(node) = g.instanced_node(out, group)? {
+            scene_nodes.push(node);
         }
     }
 
@@ -279,6 +306,84 @@ pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
     }
     g.root.scenes.push(Scene { nodes: top_nodes });
     g.finish(w)
+}
+
+/// The most glTF meshes one prototype gets for colour variants under `--instances`
+/// (a prototype whose items add colours to the frame's needs one per distinct frame
+/// colour); the instances of further colours are expanded into the geometry.
+pub const MAX_COLOR_VARIANTS: usize = 64;
+
+/// Prototype instances drawn by one instanced node: same prototype, same mirroring,
+/// and (for a prototype whose items add colour deltas) the same frame colour.
+struct GpuGroup {
+    mesh: u32,
+    mirrored: bool,
+    /// The frame colour baked into the mesh's COLOR_0 (prototypes with colour
+    /// deltas); `None`: the mesh is white and each instance's colour is `_COLOR_0`.
+    color: Option<[f32; 4]>,
+    instances: Vec<u32>,
+}
+
+/// Which prototype instances become instanced nodes, and their groups.
+#[derive(Default)]
+struct GpuGroups {
+    /// Per instance: placed by an instanced node (not expanded).
+    instanced: Vec<bool>,
+    groups: Vec<GpuGroup>,
+}
+
+/// Groups the prototype instances for `EXT_mesh_gpu_instancing`. Left to the
+/// geometry: instances of animated bones in a skinned output (three.js cannot
+/// instance skinned meshes), degenerate or non-finite frames, and colour variants
+/// past [`MAX_COLOR_VARIANTS`].
+fn gpu_instance_groups(out: &Output, skinned: bool) -> GpuGroups {
+    let mut g = GpuGroups { instanced: vec![false; out.instances.len()], groups: Vec::new() };
+    let mut index: BTreeMap<(u32, bool, Option<[u32; 4]>), usize> = BTreeMap::new();
+    let mut variants: BTreeMap<u32, usize> = BTreeMap::new();
+    for (i, inst) in out.instances.iter().enumerate() {
+        let Some(shared) = out.shared(inst).filter(|s| s.is_prototype()) else { continue };
+        if (skinned && inst.bone != 0) || prototype_trs(inst).is_none() || shared.mesh.triangles.is_empty() {
+            continue;
+        }
+        let mirrored = inst.frame.linear().1;
+        let deltas = shared.mesh.colors.iter().any(|c| *c != [0.0; 4]);
+        let color = deltas.then_some(inst.color);
+        let key = (inst.mesh, mirrored, color.map(|c| c.map(f32::to_bits)));
+        let k = match index.get(&key) {
+            Some(&k) => k,
+            None => {
+                let n = variants.entry(inst.mesh).or_insert(0);
+                if color.is_some() && *n >= MAX_COLOR_VARIANTS {
+                    continue;
+                }
+                *n += 1;
+                g.groups.push(GpuGroup { mesh: inst.mesh, mirrored, color, instances: Vec::new() });
+                index.insert(key, g.groups.len() - 1);
+                g.groups.len() - 1
+            }
+        };
+        g.groups[k].instances.push(i as u32);
+        g.instanced[i] = true;
+    }
+    g
+}
+
+/// The TRS of a prototype instance as glTF holds it (translation, unit rotation,
+/// uniform scale): for a mirrored frame, of the frame times a mirror in x, which
+/// places the prototype's copy mirrored in x. `None` for a degenerate or non-finite
+/// frame.
+fn prototype_trs(inst: &crate::output::Instance) -> Option<([f32; 3], [f32; 4], f32)> {
+    let f = &inst.frame;
+    let (lq, lqh) = (f.q.length(), f.qh.length());
+    let s = lq * lqh;
+    if !(s.is_finite() && s > 0.0 && f.u.is_finite()) {
+        return None;
+    }
+    let r = crate::geom::quat::scaled(f.q, 1.0 / lq);
+    // A frame built by the adjustments has q̂ = ±q̄ (geom::quat): x ↦ ±s R x. The
+    // sign is the mirroring; −I·(mirror in x) is a half turn about x.
+    let r = if f.linear().1 { crate::geom::quat::hamilton(r, Quat::from_xyzw(1.0, 0.0, 0.0, 0.0)) } else { r };
+    Some((f.u.to_array(), r.normalize().to_array(), s))
 }
 
 /// One node of a [`write_glb_nodes`] scene: shared mesh `mesh` placed by
@@ -341,19 +446,9 @@ pub fn write_glb_nodes(
                 }
             }
             None => {
+                // The part keeps its own colours.
                 let mut baked = Mesh::default();
-                let inst = crate::output::Instance {
-                    name: n.name.clone(),
-                    mesh: n.mesh,
-                    transform: n.transform,
-                    scale: 1.0,
-                    color: [1.0; 4],
-                    mirrored,
-                    bone: 0,
-                };
-                bake_instance(&mut baked, mesh, &inst);
-                // Keep the part's own colours (bake_instance paints the instance colour).
-                baked.colors = mesh.colors.clone();
+                place_mesh(&mut baked, mesh, &n.transform, None, mirrored, 0);
                 let what = format!("{name} baked");
                 let Some(p) = g.colored_primitive(&baked, &what)? else { continue };
                 let m = g.push_mesh(GMesh { name: Some(what), primitives: vec![p] });
@@ -373,6 +468,33 @@ pub fn write_glb_nodes(
     }
     g.root.scenes.push(Scene { nodes: top });
     g.finish(w)
+}
+
+/// A prototype's mesh as an instanced node draws it: in its own space, normals as
+/// [`crate::output::SharedMesh::local_normal`], colours `frame colour + delta` when
+/// `color` is given (else white), triangles oriented for an unmirrored frame (and
+/// the whole mesh mirrored in x when `mirrored`).
+fn prototype_local_mesh(shared: &crate::output::SharedMesh, color: Option<[f32; 4]>, mirrored: bool) -> Mesh {
+    let p = &shared.mesh;
+    let mut m = Mesh::default();
+    for i in 0..p.n_vertices() {
+        let c = match color {
+            Some(f) => {
+                let d = p.colors.get(i).copied().unwrap_or([0.0; 4]);
+                [f[0] + d[0], f[1] + d[1], f[2] + d[2], f[3] + d[3]]
+            }
+            None => [1.0; 4],
+        };
+        m.push_vertex(Vec3::from(p.positions[i]), shared.local_normal(i), c, [0.0; 4], 0);
+    }
+    for (t, tri) in p.triangles.iter().enumerate() {
+        m.push_triangle(*tri, p.mirrored.get(t).copied().unwrap_or(false));
+    }
+    if mirrored {
+        mirrored_copy(&m)
+    } else {
+        m
+    }
 }
 
 /// `m` mirrored in x: positions and normals with x negated, every triangle reversed.
@@ -771,17 +893,219 @@ impl Builder {
         if tris.is_empty() {
             return Ok(None);
         }
-        let n = m.positions.len();
+        let piece = Piece { mesh: m, vertices: 0..m.n_vertices(), triangles: 0..m.triangles.len(), base: 0 };
+        let double_sided = !is_closed(m, &tris);
+        drop(tris);
+        self.pieces_primitive((m.n_vertices(), m.triangles.len()), double_sided, what, &mut |f| f(&piece))
+    }
+
+    /// The primitive of the `VERTEX` triangles with the prototype instances `expand`
+    /// keeps expanded where they were made, or `None` when there are no triangles.
+    /// Double-sided unless the triangles emitted one by one form closed surfaces and
+    /// so does every expanded prototype on its own (exact where there are no
+    /// prototype instances; otherwise a piece that is only closed by another piece is
+    /// taken as open, which shows nothing wrong: see docs/decisions.md).
+    fn vertex_primitive(&mut self, out: &Output, expand: &dyn Fn(usize) -> bool) -> Result<Option<Primitive>, String> {
+        let counts = out.flat_counts_where(Groups::VERTEX, expand);
+        if counts.1 == 0 {
+            return Ok(None);
+        }
+        let mut closed = is_closed(&out.mesh, &checked_triangles(&out.mesh, "VERTEX mesh")?);
+        let mut seen = vec![false; out.shared_meshes.len()];
+        for (i, inst) in out.instances.iter().enumerate() {
+            match out.shared(inst) {
+                Some(s) if closed && s.is_prototype() && expand(i) && !seen[inst.mesh as usize] => {
+                    seen[inst.mesh as usize] = true;
+                    closed = is_closed(&s.mesh, &checked_triangles(&s.mesh, &s.name)?);
+                }
+                _ => {}
+            }
+        }
+        self.pieces_primitive(counts, !closed, "VERTEX mesh", &mut |f| {
+            out.for_each_piece_where(Groups::VERTEX, expand, f)
+        })
+    }
+
+    /// A triangle primitive with vertex colours (and the skin attributes of a skinned
+    /// output) from the pieces `walk` hands out, `counts` (vertices, triangles) in
+    /// all: every attribute's buffer view is laid out first and filled in one walk,
+    /// so instances are expanded once, straight into the binary chunk.
+    fn pieces_primitive(
+        &mut self,
+        counts: (usize, usize),
+        double_sided: bool,
+        what: &str,
+        walk: &mut dyn FnMut(&mut dyn FnMut(&Piece) -> Result<(), String>) -> Result<(), String>,
+    ) -> Result<Option<Primitive>, String> {
+        let (n, n_tris) = counts;
+        if n_tris == 0 {
+            return Ok(None);
+        }
+        let skinned = self.skinned;
+        let start = self.bin.len().next_multiple_of(4);
+        let mut at = start;
+        let mut region = |bytes: usize| {
+            let r = at;
+            at += bytes;
+            r
+        };
+        let (pos, nrm, col) = (region(12 * n), region(12 * n), region(16 * n));
+        let (jnt, wgt) = if skinned { (region(8 * n), region(16 * n)) } else { (0, 0) };
+        let idx = region(12 * n_tris);
+        self.bin.resize(at, 0);
+        let mut lo = [f32::INFINITY; 3];
+        let mut hi = [f32::NEG_INFINITY; 3];
+        let (mut k, mut t) = (0usize, 0usize);
+        let bin = &mut self.bin;
+        let put = |bin: &mut Vec<u8>, off: usize, xs: &[f32]| {
+            for (j, x) in xs.iter().enumerate() {
+                bin[off + 4 * j..off + 4 * j + 4].copy_from_slice(&x.to_le_bytes());
+            }
+        };
+        walk(&mut |p: &Piece| {
+            let m = p.mesh;
+            if p.base as usize != k || k + p.vertices.len() > n || t + p.triangles.len() > n_tris {
+                return Err(format!("{what}: the pieces do not add up to {n} vertices and {n_tris} triangles"));
+            }
+            for v in p.vertices.clone() {
+                let q = finite3(m.positions[v]);
+                for c in 0..3 {
+                    lo[c] = lo[c].min(q[c]);
+                    hi[c] = hi[c].max(q[c]);
+                }
+                put(bin, pos + 12 * k, &q);
+                put(bin, nrm + 12 * k, &normal_at(m, v));
+                put(bin, col + 16 * k, &linear_color(color_at(m, v)));
+                if skinned {
+                    let b = (m.bone(v).min(u16::MAX as u32) as u16).to_le_bytes();
+                    bin[jnt + 8 * k..jnt + 8 * k + 2].copy_from_slice(&b);
+                    put(bin, wgt + 16 * k, &[1.0, 0.0, 0.0, 0.0]);
+                }
+                k += 1;
+            }
+            for tri in p.triangles.clone() {
+                let Some(o) = p.oriented(tri) else {
+                    return Err(format!(
+                        "{what}: triangle {:?} refers past the {} vertices",
+                        m.triangles[tri],
+                        p.vertices.len()
+                    ));
+                };
+                for (j, x) in o.iter().enumerate() {
+                    bin[idx + 12 * t + 4 * j..idx + 12 * t + 4 * j + 4].copy_from_slice(&x.to_le_bytes());
+                }
+                t += 1;
+            }
+            Ok(())
+        })?;
+        if k != n || t != n_tris {
+            return Err(format!("{what}: the pieces do not add up to {n} vertices and {n_tris} triangles"));
+        }
+        let mut view = |offset: usize, len: usize, target: u32| {
+            self.root.buffer_views.push(BufferView {
+                buffer: 0,
+                byte_offset: offset,
+                byte_length: len,
+                target: Some(target),
+            });
+            self.root.buffer_views.len() as u32 - 1
+        };
+        let views = [
+            view(pos, 12 * n, ARRAY_BUFFER),
+            view(nrm, 12 * n, ARRAY_BUFFER),
+            view(col, 16 * n, ARRAY_BUFFER),
+            if skinned { view(jnt, 8 * n, ARRAY_BUFFER) } else { 0 },
+            if skinned { view(wgt, 16 * n, ARRAY_BUFFER) } else { 0 },
+            view(idx, 12 * n_tris, ELEMENT_ARRAY_BUFFER),
+        ];
         let mut attributes = BTreeMap::new();
-        attributes.insert("POSITION", self.vec3_from(n, |i| finite3(m.positions[i]), true));
-        attributes.insert("NORMAL", self.vec3_from(n, |i| normal_at(m, i), false));
-        attributes.insert("COLOR_0", self.vec4_from(n, |i| linear_color(color_at(m, i))));
-        if self.skinned {
-            self.skin_attributes(&mut attributes, n, |i| m.bone(i));
+        let mut acc = |buffer_view, component_type, count, kind, bounds: Option<(Vec<f32>, Vec<f32>)>| {
+            let (min, max) = bounds.map_or((None, None), |(a, b)| (Some(a), Some(b)));
+            self.accessor(Accessor { buffer_view, component_type, count, kind, min, max })
+        };
+        attributes.insert("POSITION", acc(views[0], FLOAT, n, "VEC3", Some((lo.to_vec(), hi.to_vec()))));
+        attributes.insert("NORMAL", acc(views[1], FLOAT, n, "VEC3", None));
+        attributes.insert("COLOR_0", acc(views[2], FLOAT, n, "VEC4", None));
+        if skinned {
+            attributes.insert("JOINTS_0", acc(views[3], UNSIGNED_SHORT, n, "VEC4", None));
+            attributes.insert("WEIGHTS_0", acc(views[4], FLOAT, n, "VEC4", None));
+        }
+        let indices = Some(acc(views[5], UNSIGNED_INT, 3 * n_tris, "SCALAR", None));
+        let material = Some(self.material([1.0; 4], double_sided));
+        Ok(Some(Primitive { attributes, indices, material, mode: None, extras: None }))
+    }
+
+    /// One node drawing `group`'s instances with `EXT_mesh_gpu_instancing`: the
+    /// prototype's mesh in its own space (mirrored in x for mirrored frames), and
+    /// per instance TRANSLATION, ROTATION and SCALE, plus `_COLOR_0` (linear RGB,
+    /// which three.js reads as the instance colour) when the colours differ; a
+    /// colour shared by every instance goes in the material instead.
+    fn instanced_node(&mut self, out: &Output, group: &GpuGroup) -> Result<Option<u32>, String> {
+        let Some(shared) = out.shared_meshes.get(group.mesh as usize) else { return Ok(None) };
+        let local = prototype_local_mesh(shared, group.color, group.mirrored);
+        let name = if group.mirrored { format!("{} mirrored", shared.name) } else { shared.name.clone() };
+        let tris = checked_triangles(&local, &name)?;
+        if tris.is_empty() {
+            return Ok(None);
+        }
+        let n = local.positions.len();
+        let double_sided = !is_closed(&local, &tris);
+        let mut attributes = BTreeMap::new();
+        attributes.insert("POSITION", self.vec3_from(n, |i| finite3(local.positions[i]), true));
+        attributes.insert("NORMAL", self.vec3_from(n, |i| normal_at(&local, i), false));
+        if group.color.is_some() {
+            attributes.insert("COLOR_0", self.vec4_from(n, |i| linear_color(color_at(&local, i))));
         }
         let indices = Some(self.indices_of(tris.len() * 3, tris.iter().flatten().copied()));
-        let material = Some(self.material([1.0; 4], !is_closed(m, &tris)));
-        Ok(Some(Primitive { attributes, indices, material, mode: None, extras: None }))
+        let insts: Vec<&crate::output::Instance> =
+            group.instances.iter().filter_map(|&i| out.instances.get(i as usize)).collect();
+        let colors: Vec<[f32; 4]> = insts.iter().map(|i| clamp_color(i.color)).collect();
+        let shared_color = match (group.color, colors.first()) {
+            (None, Some(c)) if colors.iter().all(|x| x == c) => Some(*c),
+            _ => None,
+        };
+        let material = Some(self.material(shared_color.unwrap_or([1.0; 4]), double_sided));
+        let mesh = self.push_mesh(GMesh {
+            name: Some(name.clone()),
+            primitives: vec![Primitive { attributes, indices, material, mode: None, extras: None }],
+        });
+        let trs: Vec<([f32; 3], [f32; 4], f32)> =
+            insts.iter().map(|i| prototype_trs(i).unwrap_or(([0.0; 3], [0.0, 0.0, 0.0, 1.0], 0.0))).collect();
+        let mut inst_attrs = BTreeMap::new();
+        let t = self.instance_floats(trs.len(), |i| trs[i].0.to_vec(), "VEC3");
+        let r = self.instance_floats(trs.len(), |i| trs[i].1.to_vec(), "VEC4");
+        let s = self.instance_floats(trs.len(), |i| vec![trs[i].2; 3], "VEC3");
+        inst_attrs.insert("TRANSLATION", t);
+        inst_attrs.insert("ROTATION", r);
+        inst_attrs.insert("SCALE", s);
+        if group.color.is_none() && shared_color.is_none() {
+            let c = self.instance_floats(colors.len(), |i| linear_color(colors[i])[..3].to_vec(), "VEC3");
+            inst_attrs.insert("_COLOR_0", c);
+        }
+        self.root.extensions_used = vec![EXT_INSTANCING];
+        let node = self.push_node(Node {
+            name: Some(name),
+            mesh: Some(mesh),
+            extensions: Some(NodeExtensions { instancing: Instancing { attributes: inst_attrs } }),
+            ..Node::default()
+        });
+        Ok(Some(node))
+    }
+
+    /// A float accessor of `n` items of `kind` for instance attributes (no target:
+    /// they are not vertex data).
+    fn instance_floats(&mut self, n: usize, item: impl Fn(usize) -> Vec<f32>, kind: &'static str) -> u32 {
+        self.bin.resize(self.bin.len().next_multiple_of(4), 0);
+        let offset = self.bin.len();
+        for i in 0..n {
+            for x in item(i) {
+                self.bin.extend_from_slice(&finite(x).to_le_bytes());
+            }
+        }
+        let byte_length = self.bin.len() - offset;
+        self.root.buffer_views.push(BufferView { buffer: 0, byte_offset: offset, byte_length, target: None });
+        let view = self.root.buffer_views.len() as u32 - 1;
+        self.accessor(Accessor { buffer_view: view, component_type: FLOAT, count: n, kind, min: None, max: None })
     }
 
     /// Positions, normals and indices of a shared mesh in its own space, or of its
@@ -876,6 +1200,8 @@ impl Builder {
 #[serde(rename_all = "camelCase")]
 struct Root {
     asset: Asset,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    extensions_used: Vec<&'static str>,
     scene: u32,
     scenes: Vec<Scene>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -902,6 +1228,7 @@ impl Default for Root {
     fn default() -> Self {
         Root {
             asset: Asset { version: "2.0", generator: "mdg" },
+            extensions_used: Vec::new(),
             scene: 0,
             scenes: Vec::new(),
             nodes: Vec::new(),
@@ -947,6 +1274,22 @@ struct Node {
     skin: Option<u32>,
     #[serde(skip_serializing_if = "Option::is_none")]
     camera: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    extensions: Option<NodeExtensions>,
+}
+
+/// The extension name of GPU instancing.
+const EXT_INSTANCING: &str = "EXT_mesh_gpu_instancing";
+
+#[derive(Serialize)]
+struct NodeExtensions {
+    #[serde(rename = "EXT_mesh_gpu_instancing")]
+    instancing: Instancing,
+}
+
+#[derive(Serialize)]
+struct Instancing {
+    attributes: BTreeMap<&'static str, u32>,
 }
 
 #[derive(Serialize)]
@@ -1084,6 +1427,12 @@ pub(crate) mod tests {
 
     use super::*;
     use crate::export::tests::sample_output;
+    use crate::output::SharedMesh;
+
+    /// An instance of shared mesh `mesh` in `frame`.
+    fn iso(mesh: u32, frame: Frame, color: [f32; 4]) -> crate::output::Instance {
+        crate::output::Instance { frame, color, mesh, bone: 0, lin: 0, at: 0 }
+    }
 
     #[test]
     fn more_bones_than_gltf_holds_is_an_error_and_nothing_is_written() {
@@ -1293,16 +1642,8 @@ pub(crate) mod tests {
         }
         out.mesh.push_triangle([0, 1, 2], false);
         out.mesh.push_triangle([0, 2, 3], false);
-        out.shared_meshes.push(("CUBE".into(), crate::export::tests::cube(false)));
-        out.instances.push(crate::output::Instance {
-            name: "CUBE".into(),
-            mesh: 0,
-            transform: Mat4::IDENTITY,
-            scale: 1.0,
-            color: [1.0, 0.5, 0.0, 0.5],
-            mirrored: false,
-            bone: 0,
-        });
+        out.shared_meshes.push(SharedMesh::isosurface("CUBE", crate::export::tests::cube(false)));
+        out.instances.push(iso(0, Frame::identity(), [1.0, 0.5, 0.0, 0.5]));
         let mut b = Vec::new();
         write_glb(&out, &mut b).expect("writes");
         let (json, bin) = parse_glb(&b);
@@ -1327,16 +1668,8 @@ pub(crate) mod tests {
     #[test]
     fn many_instances_are_merged_into_the_geometry() {
         let mut out = Output::default();
-        out.shared_meshes.push(("CUBE".into(), crate::export::tests::cube(false)));
-        let inst = |k: usize| crate::output::Instance {
-            name: "CUBE".into(),
-            mesh: 0,
-            transform: Mat4::from_translation(Vec3::new(k as f32 * 2.0, 0.0, 0.0)),
-            scale: 1.0,
-            color: [1.0; 4],
-            mirrored: false,
-            bone: 0,
-        };
+        out.shared_meshes.push(SharedMesh::isosurface("CUBE", crate::export::tests::cube(false)));
+        let inst = |k: usize| iso(0, Frame::identity().translate(Vec3::new(k as f32 * 2.0, 0.0, 0.0)), [1.0; 4]);
         out.instances = (0..MAX_INSTANCE_NODES).map(inst).collect();
         let mut b = Vec::new();
         write_glb(&out, &mut b).expect("writes");
@@ -1357,8 +1690,8 @@ pub(crate) mod tests {
             big.push_vertex(Vec3::new(k as f32, 1.0, 0.0), Vec3::Z, [1.0; 4], [0.0; 4], 0);
         }
         big.push_triangle([0, 1, 2], false);
-        out.shared_meshes.push(("BIG".into(), big));
-        out.instances.push(crate::output::Instance { mesh: 1, name: "BIG".into(), ..inst(0) });
+        out.shared_meshes.push(SharedMesh::isosurface("BIG", big));
+        out.instances.push(crate::output::Instance { mesh: 1, ..inst(0) });
         let mut b = Vec::new();
         write_glb(&out, &mut b).expect("writes");
         let (json, _) = parse_glb(&b);

@@ -3,20 +3,11 @@
 
 use serde::Serialize;
 
-use super::checked_triangles;
-use crate::output::{Output, Polyline, Stats};
+use super::local_oriented;
+use crate::output::{Groups, Output};
 
-/// The dump's top-level object.
-#[derive(Serialize)]
-struct Dump<'a> {
-    vertices: &'a [[f32; 3]],
-    triangles: Vec<[u32; 3]>,
-    lines: &'a [Polyline],
-    instances: Vec<DumpInstance<'a>>,
-    stats: &'a Stats,
-}
-
-/// One instance: its drawable name, position (the transform's translation) and scale.
+/// One isosurface instance: its drawable name, position (the transform's
+/// translation) and scale.
 #[derive(Serialize)]
 struct DumpInstance<'a> {
     name: &'a str,
@@ -28,23 +19,64 @@ struct DumpInstance<'a> {
 /// `{"vertices": [[x,y,z],…], "triangles": [[i,j,k],…], "lines": [{"namespace", "points", "bones"?}],
 /// "instances": [{"name", "position", "scale"}], "stats": {…}}`.
 /// A line's `bones` (the bone of each point) is present only when one is animated.
-/// Vertices and triangles are only [`Output::mesh`] (the `VERTEX` geometry), with the
-/// oriented (mirror-corrected) winding. Floats are printed as the shortest decimal that
+/// Vertices and triangles are the `VERTEX` geometry (prototype instances expanded
+/// where they were made), with the oriented (mirror-corrected) winding; `instances`
+/// are the isosurface placements. Floats are printed as the shortest decimal that
 /// reads back as the same f32; non-finite values become `null`.
 pub fn write_json(out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
-    let dump = Dump {
-        vertices: &out.mesh.positions,
-        triangles: checked_triangles(&out.mesh, "VERTEX mesh")?,
-        lines: &out.lines,
-        instances: out
-            .instances
-            .iter()
-            .map(|i| DumpInstance { name: &i.name, position: i.transform.w_axis.truncate().to_array(), scale: i.scale })
-            .collect(),
-        stats: &out.stats,
-    };
-    serde_json::to_writer(&mut *buf, &dump).map_err(|e| format!("JSON dump: {e}"))?;
-    buf.push(b'\n');
+    write_json_to(out, buf)
+}
+
+/// Writes the dump to `w`, expanding prototype instances as it goes.
+pub fn write_json_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), String> {
+    let io = |e: std::io::Error| e.to_string();
+    let js = |e: serde_json::Error| format!("JSON dump: {e}");
+    // Every triangle is checked before anything is written.
+    out.for_each_piece::<String>(Groups::VERTEX, |piece| {
+        piece.triangles.clone().try_for_each(|k| local_oriented(piece, k).map(|_| ()))
+    })?;
+    w.write_all(b"{\"vertices\":[").map_err(io)?;
+    let mut first = true;
+    out.for_each_piece::<String>(Groups::VERTEX, |piece| {
+        for p in &piece.mesh.positions[piece.vertices.clone()] {
+            if !std::mem::take(&mut first) {
+                w.write_all(b",").map_err(io)?;
+            }
+            serde_json::to_writer(&mut *w, p).map_err(js)?;
+        }
+        Ok(())
+    })?;
+    w.write_all(b"],\"triangles\":[").map_err(io)?;
+    let mut first = true;
+    out.for_each_piece::<String>(Groups::VERTEX, |piece| {
+        for k in piece.triangles.clone() {
+            let Some(t) = piece.oriented(k) else { continue };
+            if !std::mem::take(&mut first) {
+                w.write_all(b",").map_err(io)?;
+            }
+            serde_json::to_writer(&mut *w, &t).map_err(js)?;
+        }
+        Ok(())
+    })?;
+    w.write_all(b"],\"lines\":").map_err(io)?;
+    serde_json::to_writer(&mut *w, &out.lines).map_err(js)?;
+    w.write_all(b",\"instances\":").map_err(io)?;
+    let instances: Vec<DumpInstance> = out
+        .instances
+        .iter()
+        .filter_map(|i| {
+            let shared = out.shared(i).filter(|s| !s.is_prototype())?;
+            Some(DumpInstance {
+                name: &shared.name,
+                position: out.instance_transform(i).w_axis.truncate().to_array(),
+                scale: out.instance_scale(i),
+            })
+        })
+        .collect();
+    serde_json::to_writer(&mut *w, &instances).map_err(js)?;
+    w.write_all(b",\"stats\":").map_err(io)?;
+    serde_json::to_writer(&mut *w, &out.stats).map_err(js)?;
+    w.write_all(b"}\n").map_err(io)?;
     Ok(())
 }
 

@@ -3,7 +3,8 @@
 //!
 //! Every format writes triangles through [`Mesh::oriented_triangles`], so triangles
 //! emitted in mirrored frames get their winding reversed and face outward (SPEC
-//! resolved semantics 8). Formats without instancing use [`Output::flattened`].
+//! resolved semantics 8). Formats without instancing walk [`Output::for_each_piece`],
+//! which expands instances one at a time as the file is written.
 //! All writers are deterministic: the same output gives the same bytes.
 
 pub mod glb;
@@ -18,9 +19,9 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 
-use glam::{Mat4, Vec3};
+use glam::Vec3;
 
-use crate::output::{Instance, Mesh, Output};
+use crate::output::{Mesh, Output};
 
 /// An output file format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -66,30 +67,45 @@ impl Format {
 
 /// Appends `out` in `format` to `buf`.
 pub fn write(format: Format, out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
+    write_to(format, out, buf)
+}
+
+/// Writes `out` in `format` to `w`. Every format streams: instances are expanded
+/// as the file is written, and no copy of the model is held in memory (the `.glb`
+/// assembles its binary chunk first).
+pub fn write_to(format: Format, out: &Output, w: &mut dyn std::io::Write) -> Result<(), String> {
+    write_with(format, out, &glb::GlbOptions::default(), w)
+}
+
+/// [`write_to`] with the glTF writer's options.
+pub fn write_with(
+    format: Format,
+    out: &Output,
+    glb_opts: &glb::GlbOptions,
+    w: &mut dyn std::io::Write,
+) -> Result<(), String> {
     match format {
-        Format::Glb => glb::write_glb(out, buf),
-        Format::Obj => obj::write_obj(out, buf),
-        Format::Stl => stl::write_stl(out, buf),
-        Format::Ply => ply::write_ply(out, buf),
-        Format::Json => json::write_json(out, buf),
+        Format::Glb => glb::write_glb_with(out, glb_opts, w),
+        Format::Obj => obj::write_obj_to(out, w),
+        Format::Stl => stl::write_stl_to(out, w),
+        Format::Ply => ply::write_ply_to(out, w),
+        Format::Json => json::write_json_to(out, w),
     }
 }
 
 /// Writes `out` in `format` to the file `path`, atomically (see [`write_atomic_with`]);
-/// the error says `cannot write PATH: …`.
-/// `.glb` is streamed into the file, so no second copy of the model is held in
-/// memory; the text formats are assembled first.
+/// the error says `cannot write PATH: …`. Every format is streamed into the file
+/// (see [`write_to`]).
 pub fn write_file(format: Format, out: &Output, path: &Path) -> Result<(), String> {
+    write_file_with(format, out, &glb::GlbOptions::default(), path)
+}
+
+/// [`write_file`] with the glTF writer's options.
+pub fn write_file_with(format: Format, out: &Output, glb_opts: &glb::GlbOptions, path: &Path) -> Result<(), String> {
     let mut failed = None;
     let r = write_atomic_with(path, &mut |file| {
         let mut w = std::io::BufWriter::with_capacity(1 << 20, file);
-        let res = match format {
-            Format::Glb => glb::write_glb_to(out, &mut w),
-            _ => {
-                let mut buf = Vec::new();
-                write(format, out, &mut buf).and_then(|()| w.write_all(&buf).map_err(|e| e.to_string()))
-            }
-        };
+        let res = write_with(format, out, glb_opts, &mut w);
         if let Err(e) = res {
             failed = Some(e.clone());
             return Err(std::io::Error::other(e));
@@ -421,6 +437,19 @@ pub(crate) fn normal_at(m: &Mesh, i: usize) -> [f32; 3] {
     unit_normal(m.normals.get(i).copied().unwrap_or([0.0, 0.0, 1.0]))
 }
 
+/// Triangle `k` of a flat piece, oriented, as indices into the piece's mesh, or an
+/// error if it refers outside the piece's vertices.
+pub(crate) fn local_oriented(piece: &crate::output::Piece, k: usize) -> Result<[usize; 3], String> {
+    match piece.oriented(k) {
+        Some(t) => Ok(t.map(|i| (i - piece.base) as usize + piece.vertices.start)),
+        None => Err(format!(
+            "flattened mesh: triangle {:?} refers past the {} vertices",
+            piece.mesh.triangles.get(k).copied().unwrap_or_default(),
+            piece.vertices.len()
+        )),
+    }
+}
+
 /// The oriented triangles of `m`, checked against its vertex count.
 pub(crate) fn checked_triangles(m: &Mesh, what: &str) -> Result<Vec<[u32; 3]>, String> {
     let n = m.positions.len();
@@ -431,28 +460,13 @@ pub(crate) fn checked_triangles(m: &Mesh, what: &str) -> Result<Vec<[u32; 3]>, S
     Ok(tris)
 }
 
-/// Appends one instance of `shared` to `m` in world space, exactly as
-/// [`Output::flattened`] expands instances.
-pub(crate) fn bake_instance(m: &mut Mesh, shared: &Mesh, inst: &Instance) {
-    let base = m.positions.len() as u32;
-    let normal_mat: Mat4 = inst.transform.inverse().transpose();
-    for (i, p) in shared.positions.iter().enumerate() {
-        let wp = inst.transform.transform_point3(Vec3::from(*p));
-        let n = shared.normals.get(i).copied().unwrap_or([0.0, 0.0, 1.0]);
-        let wn = normal_mat.transform_vector3(Vec3::from(n)).normalize_or_zero();
-        m.push_vertex(wp, wn, inst.color, [0.0; 4], inst.bone);
-    }
-    for (t, mir) in shared.triangles.iter().zip(shared.mirrored.iter().chain(std::iter::repeat(&false))) {
-        m.push_triangle([t[0] + base, t[1] + base, t[2] + base], *mir != inst.mirrored);
-    }
-}
-
 #[cfg(test)]
 pub(crate) mod tests {
-    use glam::{Mat4, Quat, Vec3};
+    use glam::{Quat, Vec3};
 
     use super::*;
-    use crate::output::{Instance, Polyline, Stats};
+    use crate::geom::Frame;
+    use crate::output::{Instance, Polyline, SharedMesh, Stats};
 
     /// A unit cube as 12 VERTEX-style triangles (outward, counter-clockwise).
     pub(crate) fn cube(mirror_first: bool) -> Mesh {
@@ -502,15 +516,8 @@ pub(crate) mod tests {
             0,
         );
         let shared = cube(false);
-        let inst = |t: Mat4, mirrored: bool, color: [f32; 4]| Instance {
-            name: "CUBE".into(),
-            mesh: 0,
-            transform: t,
-            scale: 1.0,
-            color,
-            mirrored,
-            bone: 0,
-        };
+        let inst = |frame: Frame, color: [f32; 4]| Instance { frame, color, mesh: 0, bone: 0, lin: 0, at: 0 };
+        let id = Frame::identity();
         Output {
             mesh: cube(true),
             sweeps,
@@ -519,24 +526,17 @@ pub(crate) mod tests {
                 points: vec![[0.0; 3], [0.0, 1.0, 2.0], [1.0, 1.0, 2.0]],
                 bones: Vec::new(),
             }],
-            shared_meshes: vec![("CUBE".into(), shared)],
+            shared_meshes: vec![SharedMesh::isosurface("CUBE", shared)],
             instances: vec![
-                inst(Mat4::from_translation(Vec3::new(3.0, 0.0, 0.0)), false, [1.0, 0.0, 0.0, 1.0]),
+                inst(id.translate(Vec3::new(3.0, 0.0, 0.0)), [1.0, 0.0, 0.0, 1.0]),
                 inst(
-                    Mat4::from_scale_rotation_translation(
-                        Vec3::splat(2.0),
-                        Quat::from_rotation_y(0.3),
-                        Vec3::new(0.0, 3.0, 0.0),
-                    ),
-                    false,
+                    id.translate(Vec3::new(0.0, 3.0, 0.0)).rotate(Quat::from_rotation_y(0.3)).scale(2.0),
                     [0.0, 1.0, 0.0, 1.0],
                 ),
-                inst(
-                    Mat4::from_translation(Vec3::new(-3.0, 0.0, 0.0)) * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)),
-                    true,
-                    [2.0, -1.0, 0.5, 1.0],
-                ),
+                inst(id.translate(Vec3::new(-3.0, 0.0, 0.0)).reflect(Vec3::X), [2.0, -1.0, 0.5, 1.0]),
             ],
+            instance_weights: Vec::new(),
+            lins: Vec::new(),
             stats: Stats {
                 rule_calls: 5,
                 vertices: 36,

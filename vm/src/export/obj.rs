@@ -3,48 +3,65 @@
 //! (x, y, z) is written (x, z, −y) (see [`z_up_to_y_up`]). Colours are the display
 //! (sRGB) values MDG shows, as 0..1 floats.
 
-use std::fmt::Write as _;
-
-use super::{checked_triangles, color_at, finite3, normal_at, z_up_to_y_up};
-use crate::output::Output;
+use super::{color_at, finite3, local_oriented, normal_at, z_up_to_y_up};
+use crate::output::{Groups, Output};
 
 /// Appends `out` (flattened: VERTEX triangles, sweeps and expanded instances) as OBJ.
 /// Indices are 1-based; triangles use the oriented (mirror-corrected) winding. Line
 /// points are written as extra vertices (white) after the mesh vertices, one `l`
 /// element per polyline with two or more points.
 pub fn write_obj(out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
-    let m = out.flattened();
-    let tris = checked_triangles(&m, "flattened mesh")?;
-    let mut s = String::with_capacity(64 * (m.positions.len() + tris.len()) + 64);
-    s.push_str("# mdg\n");
-    for (i, p) in m.positions.iter().enumerate() {
-        let p = z_up_to_y_up(finite3(*p));
-        let c = color_at(&m, i);
-        let _ = writeln!(s, "v {} {} {} {} {} {}", p[0], p[1], p[2], c[0], c[1], c[2]);
-    }
-    for i in 0..m.positions.len() {
-        let n = z_up_to_y_up(normal_at(&m, i));
-        let _ = writeln!(s, "vn {} {} {}", n[0], n[1], n[2]);
-    }
-    for t in &tris {
-        let (a, b, c) = (t[0] as u64 + 1, t[1] as u64 + 1, t[2] as u64 + 1);
-        let _ = writeln!(s, "f {a}//{a} {b}//{b} {c}//{c}");
-    }
-    let mut next = m.positions.len() as u64 + 1;
+    write_obj_to(out, buf)
+}
+
+/// Writes `out` as OBJ to `w`, expanding instances as it goes (once for the `v`
+/// lines, once for the `vn` lines, once for the faces).
+pub fn write_obj_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), String> {
+    let io = |e: std::io::Error| e.to_string();
+    // Every triangle is checked before anything is written.
+    out.for_each_piece::<String>(Groups::ALL, |piece| {
+        piece.triangles.clone().try_for_each(|k| local_oriented(piece, k).map(|_| ()))
+    })?;
+    w.write_all(b"# mdg\n").map_err(io)?;
+    out.for_each_piece::<String>(Groups::ALL, |piece| {
+        let m = piece.mesh;
+        for i in piece.vertices.clone() {
+            let p = z_up_to_y_up(finite3(m.positions[i]));
+            let c = color_at(m, i);
+            writeln!(w, "v {} {} {} {} {} {}", p[0], p[1], p[2], c[0], c[1], c[2]).map_err(io)?;
+        }
+        Ok(())
+    })?;
+    out.for_each_piece::<String>(Groups::ALL, |piece| {
+        for i in piece.vertices.clone() {
+            let n = z_up_to_y_up(normal_at(piece.mesh, i));
+            writeln!(w, "vn {} {} {}", n[0], n[1], n[2]).map_err(io)?;
+        }
+        Ok(())
+    })?;
+    out.for_each_piece::<String>(Groups::ALL, |piece| {
+        for k in piece.triangles.clone() {
+            let Some(t) = piece.oriented(k) else { continue };
+            let (a, b, c) = (t[0] as u64 + 1, t[1] as u64 + 1, t[2] as u64 + 1);
+            writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}").map_err(io)?;
+        }
+        Ok(())
+    })?;
+    let (n_vertices, _) = out.flat_counts(Groups::ALL);
+    let mut next = n_vertices as u64 + 1;
     for line in out.lines.iter().filter(|l| l.points.len() >= 2) {
-        let _ = writeln!(s, "g line {}", if line.namespace.is_empty() { "default" } else { &line.namespace });
+        writeln!(w, "g line {}", if line.namespace.is_empty() { "default" } else { &line.namespace }).map_err(io)?;
         for p in &line.points {
             let p = z_up_to_y_up(finite3(*p));
-            let _ = writeln!(s, "v {} {} {} 1 1 1", p[0], p[1], p[2]);
+            writeln!(w, "v {} {} {} 1 1 1", p[0], p[1], p[2]).map_err(io)?;
         }
-        s.push('l');
+        w.write_all(b"l").map_err(io)?;
         for k in 0..line.points.len() as u64 {
-            let _ = write!(s, " {}", next + k);
+            write!(w, " {}", next + k).map_err(io)?;
         }
-        s.push('\n');
+        w.write_all(b"\n").map_err(io)?;
         next += line.points.len() as u64;
     }
-    buf.extend_from_slice(s.as_bytes());
     Ok(())
 }
 

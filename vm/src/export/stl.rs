@@ -4,8 +4,8 @@
 
 use glam::Vec3;
 
-use super::{checked_triangles, finite3};
-use crate::output::Output;
+use super::{finite3, local_oriented};
+use crate::output::{Groups, Output};
 
 /// The STL header. It must not begin with `solid`, which marks ASCII STL.
 const HEADER: &[u8] = b"MDG binary STL";
@@ -13,25 +13,34 @@ const HEADER: &[u8] = b"MDG binary STL";
 /// Appends `out` (flattened) as binary STL. Each facet normal is computed from the
 /// oriented (mirror-corrected) triangle; degenerate triangles get a zero normal.
 pub fn write_stl(out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
-    let m = out.flattened();
-    let tris = checked_triangles(&m, "flattened mesh")?;
-    let n = u32::try_from(tris.len()).map_err(|_| format!("{} triangles exceed the STL limit", tris.len()))?;
-    buf.reserve(84 + 50 * tris.len());
+    write_stl_to(out, buf)
+}
+
+/// Writes `out` as binary STL to `w`, expanding instances as it goes.
+pub fn write_stl_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), String> {
+    let (_, n_tris) = out.flat_counts(Groups::ALL);
+    let n = u32::try_from(n_tris).map_err(|_| format!("{n_tris} triangles exceed the STL limit"))?;
     let mut header = [0u8; 80];
     header[..HEADER.len()].copy_from_slice(HEADER);
-    buf.extend_from_slice(&header);
-    buf.extend_from_slice(&n.to_le_bytes());
-    for t in &tris {
-        let p = t.map(|i| Vec3::from(finite3(m.positions[i as usize])));
-        let normal = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
-        for v in [normal, p[0], p[1], p[2]] {
-            for x in v.to_array() {
-                buf.extend_from_slice(&x.to_le_bytes());
+    let io = |e: std::io::Error| e.to_string();
+    w.write_all(&header).map_err(io)?;
+    w.write_all(&n.to_le_bytes()).map_err(io)?;
+    let mut facet = [0u8; 50];
+    out.for_each_piece::<String>(Groups::ALL, |piece| {
+        let m = piece.mesh;
+        for k in piece.triangles.clone() {
+            let t = local_oriented(piece, k)?;
+            let p = t.map(|i| Vec3::from(finite3(m.positions[i])));
+            let normal = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+            for (j, v) in [normal, p[0], p[1], p[2]].iter().enumerate() {
+                for (c, x) in v.to_array().iter().enumerate() {
+                    facet[12 * j + 4 * c..12 * j + 4 * c + 4].copy_from_slice(&x.to_le_bytes());
+                }
             }
+            w.write_all(&facet).map_err(io)?;
         }
-        buf.extend_from_slice(&0u16.to_le_bytes());
-    }
-    Ok(())
+        Ok(())
+    })
 }
 
 #[cfg(test)]

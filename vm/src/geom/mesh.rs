@@ -75,6 +75,42 @@ impl Mesh {
         self.positions.len()
     }
 
+    /// Removes everything, keeping the buffers' capacity.
+    pub fn clear(&mut self) {
+        self.positions.clear();
+        self.normals.clear();
+        self.colors.clear();
+        self.weights.clear();
+        self.bones.clear();
+        self.triangles.clear();
+        self.mirrored.clear();
+    }
+
+    /// Makes room for `vertices` more vertices and `triangles` more triangles.
+    pub fn reserve(&mut self, vertices: usize, triangles: usize) {
+        self.positions.reserve(vertices);
+        self.normals.reserve(vertices);
+        self.colors.reserve(vertices);
+        self.triangles.reserve(triangles);
+        self.mirrored.reserve(triangles);
+    }
+
+    /// Appends vertices `vertices` of `other` (vertex by vertex, as [`Mesh::push_vertex`]
+    /// would) and its triangles `triangles`, which refer to those vertices (indices
+    /// are moved to where the vertices land).
+    pub fn append_range(&mut self, other: &Mesh, vertices: std::ops::Range<usize>, triangles: std::ops::Range<usize>) {
+        let base = self.positions.len() as i64 - vertices.start as i64;
+        for i in vertices {
+            let n = other.normals.get(i).copied().unwrap_or([0.0, 0.0, 1.0]);
+            let c = other.colors.get(i).copied().unwrap_or([1.0; 4]);
+            self.push_vertex(Vec3::from(other.positions[i]), Vec3::from(n), c, other.weight(i), other.bone(i));
+        }
+        for t in triangles {
+            let tri = other.triangles[t].map(|v| (v as i64 + base) as u32);
+            self.push_triangle(tri, other.mirrored.get(t).copied().unwrap_or(false));
+        }
+    }
+
     /// Appends all of `other`, offsetting its indices.
     pub fn append(&mut self, other: &Mesh) {
         let base = self.positions.len() as u32;

@@ -191,6 +191,16 @@ impl Frame {
         [self.apply_vector(Vec3::X), self.apply_vector(Vec3::Y), self.apply_vector(Vec3::Z)]
     }
 
+    /// The linear part as a matrix (its columns are [`Frame::axes`]) and whether its
+    /// determinant, taken on those scaled axes, is negative. The evaluator's `VERTEX`
+    /// path and the expansion of prototype instances both use this, so an instance
+    /// expands to the very bits the vertices would have had.
+    #[inline]
+    pub fn linear(&self) -> (Mat3, bool) {
+        let [a, b, c] = self.axes();
+        (Mat3::from_cols(a, b, c), a.dot(b.cross(c)) < 0.0)
+    }
+
     /// The frame as an affine matrix (column vectors, `M * (x, 1)`).
     pub fn to_mat4(&self) -> Mat4 {
         let [a, b, c] = self.axes();
