@@ -28,7 +28,7 @@ use crate::geom::quat::{Affine, Frame};
 use crate::geom::Mesh;
 use crate::geom::{blend, marching, sweep};
 use crate::output::{Bone, Camera, Instance, Output, Polyline, SharedKind, SharedMesh, Track};
-use glam::{Mat3, Quat, Vec3};
+use glam::{Mat3, Quat, Vec3, Vec4};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use std::collections::HashMap;
@@ -131,7 +131,6 @@ impl State {
     /// entry only when `c` itself holds a non-uniform scale.
     #[inline(always)]
     fn compose(&self, c: &Composite, lins: &mut Lins) -> State {
-        let add = |a: [f32; 4], b: [f32; 4]| [a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]];
         let mut color = add(self.color, c.color);
         if let Some(h) = &c.hsb {
             color = apply_hsb(color, h);
@@ -468,6 +467,13 @@ struct XfInfo {
     mirrored: bool,
 }
 
+/// `a + b` component-wise, four lanes at once (each lane one IEEE addition, as the
+/// scalar sum would be).
+#[inline(always)]
+fn add(a: [f32; 4], b: [f32; 4]) -> [f32; 4] {
+    (Vec4::from_array(a) + Vec4::from_array(b)).to_array()
+}
+
 /// A prototype of the bundle (an `INST` op): where its items are, and its mesh in the
 /// output once an instance of it has been made.
 struct ProtoSlot {
@@ -490,7 +496,6 @@ struct Act {
     /// `base.f.linear()`, computed when first needed and dropped when `base` changes.
     base_lin: Option<(Mat3, bool)>,
     depth: u32,
-    cont: Option<State>,
     loops_at: u32,
     /// The innermost bone (0 = the root): vertices emitted here carry it.
     bone: u32,
@@ -578,6 +583,9 @@ struct Eval<'b> {
     profile_points: Vec<Vec3>,
     progress: Option<&'b dyn Fn(u64)>,
     xf_info: Vec<Option<XfInfo>>,
+    /// Per transform: a constant without a non-uniform scale (composing it has no
+    /// effect but its result).
+    xf_pure: Vec<bool>,
     /// Whether any op reads the continuation register (CONT, chained loops, RESET);
     /// if not, the VERTEX fast path need not compute the full frame for it.
     needs_last: bool,
@@ -718,6 +726,7 @@ impl<'b> Eval<'b> {
                 Op::Cont {} | Op::Draw { kind: Drawable::Reset, .. } => true,
                 _ => false,
             }),
+            xf_pure: b.transforms.iter().map(|t| matches!(t, Transform::Const(c) if c.n.is_none())).collect(),
             xf_info: b
                 .transforms
                 .iter()
@@ -828,7 +837,6 @@ impl<'b> Eval<'b> {
                 base,
                 base_lin: None,
                 depth,
-                cont: None,
                 loops_at: 0,
                 bone: 0,
                 conv: Some(Box::new(Conv { frames, next: 1, pc, origin: start })),
@@ -839,20 +847,15 @@ impl<'b> Eval<'b> {
             } else {
                 0
             };
-            Act {
-                pc,
-                slot_base,
-                slot_top,
-                base: start,
-                base_lin: None,
-                depth,
-                cont: None,
-                loops_at: 0,
-                bone,
-                conv: None,
-            }
+            Act { pc, slot_base, slot_top, base: start, base_lin: None, depth, loops_at: 0, bone, conv: None }
         };
+        // `maxdepth` (0: none) as the depth past which calls are refused.
+        let maxdepth = if b.settings.maxdepth > 0 { b.settings.maxdepth } else { u32::MAX };
         let mut stack: Vec<Act> = vec![first];
+        // The continuation state after `\`: set by CONT and taken by the next item of
+        // the same body (a call takes it before its callee runs, so one register serves
+        // every activation).
+        let mut cont: Option<State> = None;
         let mut loops: Vec<LoopRec> = Vec::new();
         let code = &b.code;
         let record_sites = self.opts.record_sites;
@@ -874,10 +877,21 @@ impl<'b> Eval<'b> {
                 Op::Call { rule, xf, flags } => {
                     act.pc += 1;
                     let depth = act.depth + 1;
+                    if depth > maxdepth && flags & CONT_NEXT == 0 && self.xf_pure[xf as usize] {
+                        // Refused before its frame is composed: the frame would be
+                        // thrown away, and composing a constant changes nothing else.
+                        cont = None;
+                        self.refuse_deep_call();
+                        let args = act.slot_top as usize;
+                        if self.slots.len() > args {
+                            self.slots.truncate(args);
+                        }
+                        continue;
+                    }
                     let parent_bone = act.bone;
-                    let from = act.cont.as_ref().unwrap_or(&act.base);
+                    let from = cont.as_ref().unwrap_or(&act.base);
                     let child = self.apply(xf, from, act.depth, act.slot_base, act.slot_top);
-                    act.cont = None;
+                    cont = None;
                     if flags & CONT_NEXT != 0 {
                         self.last = child;
                     }
@@ -895,7 +909,10 @@ impl<'b> Eval<'b> {
                     if self.slots.len() != args + r.params.len() {
                         self.slots.resize(args + r.params.len(), f64::NAN);
                     }
-                    let pc = self.select(rule, &child, depth, args);
+                    let pc = match r.defs.as_slice() {
+                        [only] => only.start,
+                        _ => self.select(rule, &child, depth, args),
+                    };
                     if r.frame as usize != r.params.len() {
                         self.slots.resize(args + r.frame as usize, 0.0);
                     }
@@ -917,7 +934,6 @@ impl<'b> Eval<'b> {
                             base,
                             base_lin: None,
                             depth,
-                            cont: None,
                             loops_at,
                             bone: parent_bone,
                             conv,
@@ -935,7 +951,6 @@ impl<'b> Eval<'b> {
                             base: child,
                             base_lin: None,
                             depth,
-                            cont: None,
                             loops_at,
                             bone,
                             conv: None,
@@ -949,31 +964,30 @@ impl<'b> Eval<'b> {
                     // from the cached linear maps, without composing quaternions.
                     act.pc += 1;
                     // `from` is borrowed, not copied: this runs once per vertex.
-                    let (from, lin) = match &act.cont {
+                    let (from, lin) = match &cont {
                         Some(c) => (c, c.f.linear()),
                         None => (&act.base, *act.base_lin.get_or_insert_with(|| act.base.f.linear())),
                     };
                     let Transform::Const(c) = &b.transforms[xf as usize] else {
-                        act.cont = None;
+                        cont = None;
                         continue;
                     };
                     if from.lin != 0 {
                         // Under a non-uniform scale, the general path (a normal takes the
                         // inverse transpose of the whole linear map).
                         let s = from.compose(c, &mut self.lins);
-                        act.cont = None;
+                        cont = None;
                         self.last = s;
                         let bone = act.bone;
                         self.draw(Drawable::Vertex, s, ns, profile, mode, bone);
                         continue;
                     }
                     let Some(x) = &self.xf_info[xf as usize] else {
-                        act.cont = None;
+                        cont = None;
                         continue;
                     };
                     let p = from.f.u + lin.0 * x.frame.u;
                     let n = (lin.0 * x.normal).normalize_or(Vec3::Z);
-                    let add = |a: [f32; 4], b: [f32; 4]| [a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]];
                     let color = add(from.color, c.color).map(|v| v.clamp(0.0, 1.0));
                     let weight = add(from.weight, c.weight);
                     let mirrored = lin.1 != x.mirrored;
@@ -991,22 +1005,22 @@ impl<'b> Eval<'b> {
                             ..*from
                         };
                     }
-                    act.cont = None;
+                    cont = None;
                 }
                 Op::Draw { kind, xf, ns, profile, flags: _ } => {
                     act.pc += 1;
-                    let from = act.cont.as_ref().unwrap_or(&act.base);
+                    let from = cont.as_ref().unwrap_or(&act.base);
                     let s = self.apply(xf, from, act.depth, act.slot_base, act.slot_top);
-                    act.cont = None;
+                    cont = None;
                     self.last = s;
                     let bone = act.bone;
                     self.draw(kind, s, ns, profile, mode, bone);
                 }
                 Op::Iso { iso, xf, flags: _ } => {
                     act.pc += 1;
-                    let from = act.cont.as_ref().unwrap_or(&act.base);
+                    let from = cont.as_ref().unwrap_or(&act.base);
                     let s = self.apply(xf, from, act.depth, act.slot_base, act.slot_top);
-                    act.cont = None;
+                    cont = None;
                     self.last = s;
                     if mode == Mode::Model {
                         let bone = act.bone;
@@ -1016,14 +1030,14 @@ impl<'b> Eval<'b> {
                 Op::Loop { step, end, chain, .. } | Op::LoopN { step, end, chain, .. } => {
                     let count = match op {
                         Op::LoopN { count: e, .. } => {
-                            let at = act.cont.unwrap_or(act.base);
+                            let at = cont.unwrap_or(act.base);
                             // Saturating: negative and NaN counts give no runs.
                             self.value(e, &at, act.depth, act.slot_base, act.slot_top) as u64
                         }
                         Op::Loop { count, .. } => count,
                         _ => 0,
                     };
-                    let from = act.cont.take().unwrap_or(act.base);
+                    let from = cont.take().unwrap_or(act.base);
                     if count == 0 {
                         act.pc = end + 1;
                         continue;
@@ -1047,7 +1061,7 @@ impl<'b> Eval<'b> {
                 Op::EndLoop { begin: _ } => {
                     // A continuation chain is scoped to its body: it does not leak into
                     // the next run or out of the block.
-                    act.cont = None;
+                    cont = None;
                     let Some(l) = loops.last_mut() else {
                         act.pc += 1;
                         continue;
@@ -1090,7 +1104,7 @@ impl<'b> Eval<'b> {
                     // Otherwise the items run one by one.
                     if !self.instancing
                         || mode != Mode::Model
-                        || act.cont.is_some()
+                        || cont.is_some()
                         || act.base.lin != 0
                         || !self.out.mesh.n_vertices().is_multiple_of(3)
                     {
@@ -1141,17 +1155,17 @@ impl<'b> Eval<'b> {
                 }
                 Op::Cont {} => {
                     act.pc += 1;
-                    act.cont = Some(self.last);
+                    cont = Some(self.last);
                 }
                 Op::Arg { expr } => {
                     act.pc += 1;
-                    let at = act.cont.as_ref().unwrap_or(&act.base);
+                    let at = cont.as_ref().unwrap_or(&act.base);
                     let v = self.value(expr, at, act.depth, act.slot_base, act.slot_top);
                     self.slots.push(v);
                 }
                 Op::Set { slot, expr } => {
                     act.pc += 1;
-                    let at = act.cont.as_ref().unwrap_or(&act.base);
+                    let at = cont.as_ref().unwrap_or(&act.base);
                     let v = self.value(expr, at, act.depth, act.slot_base, act.slot_top);
                     if let Some(s) = self.slots.get_mut(act.slot_base as usize + slot as usize) {
                         *s = v;
@@ -1159,7 +1173,7 @@ impl<'b> Eval<'b> {
                 }
                 Op::Jump { target } => act.pc = target,
                 Op::JumpIfNot { expr, target } => {
-                    let at = act.cont.as_ref().unwrap_or(&act.base);
+                    let at = cont.as_ref().unwrap_or(&act.base);
                     let v = self.value(expr, at, act.depth, act.slot_base, act.slot_top);
                     act.pc = if expr::truthy(v) { act.pc + 1 } else { target };
                 }
@@ -1171,7 +1185,7 @@ impl<'b> Eval<'b> {
                             // The next run of a convolution body, under R's frame · frame i.
                             act.base = conv.origin.then(f, &self.lins);
                             act.base_lin = None;
-                            act.cont = None;
+                            cont = None;
                             act.pc = conv.pc;
                             conv.next += 1;
                             // Body runs count as calls, so `maxiter` also bounds them.
@@ -1271,8 +1285,18 @@ impl<'b> Eval<'b> {
         self.site_pc = pc;
     }
 
-    /// Whether a call may proceed; counts the limits that stop it.
-    fn admit(&mut self, child: &State, depth: u32, stack_len: usize) -> bool {
+    /// A call refused by `maxdepth` before its frame was made: counted as
+    /// [`Eval::admit`] counts it (the run-wide limits come first).
+    fn refuse_deep_call(&mut self) {
+        if self.count_call() {
+            self.limits.maxdepth += 1;
+        }
+    }
+
+    /// Counts a call against the run-wide limits (checking the budgets now and
+    /// then); whether the run goes on.
+    #[inline]
+    fn count_call(&mut self) -> bool {
         self.calls += 1;
         if self.calls & 0xFFF == 0 {
             self.check_budgets();
@@ -1289,6 +1313,20 @@ impl<'b> Eval<'b> {
             self.stopped = true;
             return false;
         }
+        true
+    }
+
+    /// Whether a call may proceed; counts the limits that stop it.
+    fn admit(&mut self, child: &State, depth: u32, stack_len: usize) -> bool {
+        if !self.count_call() {
+            return false;
+        }
+        self.admit_rest(child, depth, stack_len)
+    }
+
+    /// The per-branch limits of a call: `maxdepth`, `minsize`, the stack size.
+    #[inline]
+    fn admit_rest(&mut self, child: &State, depth: u32, stack_len: usize) -> bool {
         let s = &self.b.settings;
         if s.maxdepth > 0 && depth > s.maxdepth {
             self.limits.maxdepth += 1;

@@ -505,24 +505,21 @@ impl Output {
         // Nearly always all finite: a branch-free pass (it vectorises) decides that.
         let all_finite = |ps: &[[f32; 3]]| ps.as_flattened().iter().fold(true, |ok, c| ok & c.is_finite());
         let mesh = |m: &Mesh| if all_finite(&m.positions) { 0 } else { m.positions.iter().filter(|p| bad(p)).count() };
+        // Prototype instances: by a bound first (a finite frame of moderate size over a
+        // mesh of moderate extent), expanded only where it does not hold.
+        let extents: Vec<f32> = self.shared_meshes.iter().map(|s| max_abs(&s.mesh.positions)).collect();
         let mut scratch = Mesh::default();
-        let instances: usize = self
-            .instances
-            .iter()
-            .enumerate()
-            .map(|(i, inst)| match self.shared(inst) {
-                Some(s) if s.is_prototype() => {
-                    if prototype_surely_finite(inst, &s.mesh) {
-                        0
-                    } else {
-                        scratch.clear();
-                        expand_prototype(&mut scratch, s, inst, self.instance_weight(i));
-                        scratch.positions.iter().filter(|p| bad(p)).count()
-                    }
-                }
-                _ => usize::from(!self.instance_transform(inst).is_finite()),
-            })
-            .sum();
+        let mut instances = 0;
+        for (i, inst) in self.instances.iter().enumerate() {
+            let Some(s) = self.shared(inst) else { continue };
+            if !s.is_prototype() {
+                instances += usize::from(!self.instance_transform(inst).is_finite());
+            } else if !frame_surely_maps_finite(&inst.frame, extents[inst.mesh as usize]) {
+                scratch.clear();
+                expand_prototype(&mut scratch, s, inst, self.instance_weight(i));
+                instances += scratch.positions.iter().filter(|p| bad(p)).count();
+            }
+        }
         mesh(&self.mesh)
             + mesh(&self.sweeps)
             + self.shared_meshes.iter().filter(|s| !s.is_prototype()).map(|s| mesh(&s.mesh)).sum::<usize>()
@@ -531,18 +528,20 @@ impl Output {
     }
 }
 
-/// Whether every vertex of a prototype instance is surely finite, by a bound: a
-/// finite frame of moderate scale and translation over a mesh of moderate extent.
-fn prototype_surely_finite(inst: &Instance, m: &Mesh) -> bool {
+/// The largest absolute coordinate of `positions` (infinite if one is not finite).
+fn max_abs(positions: &[[f32; 3]]) -> f32 {
+    positions.as_flattened().iter().fold(0.0f32, |m, c| if c.is_finite() { m.max(c.abs()) } else { f32::INFINITY })
+}
+
+/// Whether `f` surely maps every point within `extent` of the origin (per
+/// coordinate) to finite coordinates: its numbers are finite, its scale below
+/// 1e15 (`|q|² < 1e15`, `|q̂|² < 1e15`), its translation and `extent` below 1e15,
+/// so a mapped point is under 1e30 + 1e15 · 3 ≪ f32::MAX.
+#[inline]
+fn frame_surely_maps_finite(f: &Frame, extent: f32) -> bool {
     const BIG: f32 = 1e15;
-    let f = &inst.frame;
-    let frame_ok = f.q.is_finite()
-        && f.qh.is_finite()
-        && f.u.abs().max_element() < BIG
-        && f.q.length_squared() < BIG
-        && f.qh.length_squared() < BIG;
-    // |lin · p| <= |q| |q̂| |p| < BIG · |p|, and |p| < BIG: at most 1e30 + 1e15.
-    frame_ok && m.positions.iter().all(|p| p.iter().all(|c| c.abs() < BIG))
+    // NaN fails every comparison, so non-finite numbers fail too.
+    f.q.length_squared() < BIG && f.qh.length_squared() < BIG && f.u.abs().max_element() < BIG && extent < BIG
 }
 
 /// Appends prototype instance `inst` (weight `weight`) to `m` in world space: the

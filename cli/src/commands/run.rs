@@ -61,6 +61,13 @@ pub struct Args {
     /// without it).
     #[arg(long)]
     sites: bool,
+    /// .glb: write prototype instances (the runs of VERTEX items the compiler marks,
+    /// see `mdgc disasm`) with EXT_mesh_gpu_instancing — one mesh per prototype and
+    /// a transform per instance, for game engines and three.js (drawn as
+    /// InstancedMesh). Off by default: Blender makes one object per instance and
+    /// importers without the extension show a single one (docs/instancing.md).
+    #[arg(long)]
+    instances: bool,
     /// Print rule calls, vertices, triangles, time and peak memory.
     #[arg(long)]
     stats: bool,
@@ -334,7 +341,11 @@ fn run_one(
     if let Some(dir) = output.parent().filter(|d| !d.as_os_str().is_empty() && !d.exists()) {
         std::fs::create_dir_all(dir).map_err(|e| (2, format!("cannot create {}: {e}", dir.display())))?;
     }
-    export::write_file(format, &out, output).map_err(|e| (1, e))?;
+    if cli.instances && format != Format::Glb {
+        eprintln!("note: --instances is for .glb; {} expands every instance", format.extension());
+    }
+    let glb = export::glb::GlbOptions { instances: cli.instances };
+    export::write_file_with(format, &out, &glb, output).map_err(|e| (1, e))?;
     if let Some(png_path) = &cli.png {
         // With --time the pose is already baked into `out`.
         let bytes =

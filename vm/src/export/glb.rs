@@ -340,50 +340,68 @@ fn gpu_instance_groups(out: &Output, skinned: bool) -> GpuGroups {
     let mut g = GpuGroups { instanced: vec![false; out.instances.len()], groups: Vec::new() };
     let mut index: BTreeMap<(u32, bool, Option<[u32; 4]>), usize> = BTreeMap::new();
     let mut variants: BTreeMap<u32, usize> = BTreeMap::new();
+    // Per shared mesh: a prototype with triangles, and whether its items add colours.
+    let kind: Vec<Option<bool>> = out
+        .shared_meshes
+        .iter()
+        .map(|s| {
+            (s.is_prototype() && !s.mesh.triangles.is_empty()).then(|| s.mesh.colors.iter().any(|c| *c != [0.0; 4]))
+        })
+        .collect();
+    // Consecutive instances mostly share a group: the last one is tried first.
+    let mut last: Option<((u32, bool, Option<[u32; 4]>), usize)> = None;
     for (i, inst) in out.instances.iter().enumerate() {
-        let Some(shared) = out.shared(inst).filter(|s| s.is_prototype()) else { continue };
-        if (skinned && inst.bone != 0) || prototype_trs(inst).is_none() || shared.mesh.triangles.is_empty() {
+        let Some(Some(deltas)) = kind.get(inst.mesh as usize).copied() else { continue };
+        if (skinned && inst.bone != 0) || !prototype_placeable(&inst.frame) {
             continue;
         }
-        let mirrored = inst.frame.linear().1;
-        let deltas = shared.mesh.colors.iter().any(|c| *c != [0.0; 4]);
-        let color = deltas.then_some(inst.color);
-        let key = (inst.mesh, mirrored, color.map(|c| c.map(f32::to_bits)));
-        let k = match index.get(&key) {
-            Some(&k) => k,
-            None => {
-                let n = variants.entry(inst.mesh).or_insert(0);
-                if color.is_some() && *n >= MAX_COLOR_VARIANTS {
-                    continue;
+        let key = (inst.mesh, frame_mirrors(&inst.frame), deltas.then(|| inst.color.map(f32::to_bits)));
+        let k = match last {
+            Some((k, at)) if k == key => at,
+            _ => match index.get(&key) {
+                Some(&k) => k,
+                None => {
+                    let n = variants.entry(inst.mesh).or_insert(0);
+                    if deltas && *n >= MAX_COLOR_VARIANTS {
+                        continue;
+                    }
+                    *n += 1;
+                    let color = deltas.then_some(inst.color);
+                    g.groups.push(GpuGroup { mesh: inst.mesh, mirrored: key.1, color, instances: Vec::new() });
+                    index.insert(key, g.groups.len() - 1);
+                    g.groups.len() - 1
                 }
-                *n += 1;
-                g.groups.push(GpuGroup { mesh: inst.mesh, mirrored, color, instances: Vec::new() });
-                index.insert(key, g.groups.len() - 1);
-                g.groups.len() - 1
-            }
+            },
         };
+        last = Some((key, k));
         g.groups[k].instances.push(i as u32);
         g.instanced[i] = true;
     }
     g
 }
 
-/// The TRS of a prototype instance as glTF holds it (translation, unit rotation,
-/// uniform scale): for a mirrored frame, of the frame times a mirror in x, which
-/// places the prototype's copy mirrored in x. `None` for a degenerate or non-finite
-/// frame.
-fn prototype_trs(inst: &crate::output::Instance) -> Option<([f32; 3], [f32; 4], f32)> {
-    let f = &inst.frame;
+/// Whether a frame built by the adjustments mirrors: `q̂ = ±q̄` (geom::quat), the
+/// sign being the mirroring, read off `q̂ · q̄`.
+fn frame_mirrors(f: &Frame) -> bool {
+    f.qh.dot(crate::geom::quat::conj(f.q)) < 0.0
+}
+
+/// Whether a prototype instance's frame can be a glTF TRS: finite, of non-zero scale.
+fn prototype_placeable(f: &Frame) -> bool {
+    let s = f.q.length_squared() * f.qh.length_squared();
+    s.is_finite() && s > 0.0 && f.u.is_finite()
+}
+
+/// The TRS of a placeable prototype instance's frame as glTF holds it
+/// (translation, unit rotation, uniform scale): for a mirrored frame, of the frame
+/// times a mirror in x, which places the prototype's copy mirrored in x. A frame
+/// built by the adjustments maps `x ↦ ±s R x` (q̂ = ±q̄): R is the rotation of
+/// q/|q|, s = |q| |q̂|; −I times the mirror in x is a half turn about x.
+fn prototype_trs(f: &Frame) -> ([f32; 3], [f32; 4], f32) {
     let (lq, lqh) = (f.q.length(), f.qh.length());
-    let s = lq * lqh;
-    if !(s.is_finite() && s > 0.0 && f.u.is_finite()) {
-        return None;
-    }
     let r = crate::geom::quat::scaled(f.q, 1.0 / lq);
-    // A frame built by the adjustments has q̂ = ±q̄ (geom::quat): x ↦ ±s R x. The
-    // sign is the mirroring; −I·(mirror in x) is a half turn about x.
-    let r = if f.linear().1 { crate::geom::quat::hamilton(r, Quat::from_xyzw(1.0, 0.0, 0.0, 0.0)) } else { r };
-    Some((f.u.to_array(), r.normalize().to_array(), s))
+    let r = if frame_mirrors(f) { crate::geom::quat::hamilton(r, Quat::from_xyzw(1.0, 0.0, 0.0, 0.0)) } else { r };
+    (f.u.to_array(), r.normalize().to_array(), lq * lqh)
 }
 
 /// One node of a [`write_glb_nodes`] scene: shared mesh `mesh` placed by
@@ -1069,18 +1087,48 @@ impl Builder {
             name: Some(name.clone()),
             primitives: vec![Primitive { attributes, indices, material, mode: None, extras: None }],
         });
-        let trs: Vec<([f32; 3], [f32; 4], f32)> =
-            insts.iter().map(|i| prototype_trs(i).unwrap_or(([0.0; 3], [0.0, 0.0, 0.0, 1.0], 0.0))).collect();
+        let n_inst = insts.len();
         let mut inst_attrs = BTreeMap::new();
-        let t = self.instance_floats(trs.len(), |i| trs[i].0.to_vec(), "VEC3");
-        let r = self.instance_floats(trs.len(), |i| trs[i].1.to_vec(), "VEC4");
-        let s = self.instance_floats(trs.len(), |i| vec![trs[i].2; 3], "VEC3");
-        inst_attrs.insert("TRANSLATION", t);
-        inst_attrs.insert("ROTATION", r);
-        inst_attrs.insert("SCALE", s);
-        if group.color.is_none() && shared_color.is_none() {
-            let c = self.instance_floats(colors.len(), |i| linear_color(colors[i])[..3].to_vec(), "VEC3");
-            inst_attrs.insert("_COLOR_0", c);
+        let per_color = group.color.is_none() && shared_color.is_none();
+        let widths: &[(&'static str, usize, &'static str)] = if per_color {
+            &[("TRANSLATION", 3, "VEC3"), ("ROTATION", 4, "VEC4"), ("SCALE", 3, "VEC3"), ("_COLOR_0", 3, "VEC3")]
+        } else {
+            &[("TRANSLATION", 3, "VEC3"), ("ROTATION", 4, "VEC4"), ("SCALE", 3, "VEC3")]
+        };
+        // One walk over the instances fills every attribute's view.
+        let mut offsets = Vec::with_capacity(widths.len());
+        let mut at = self.bin.len().next_multiple_of(4);
+        for (name, w, kind) in widths {
+            let len = 4 * w * n_inst;
+            self.root.buffer_views.push(BufferView { buffer: 0, byte_offset: at, byte_length: len, target: None });
+            let view = self.root.buffer_views.len() as u32 - 1;
+            let acc = self.accessor(Accessor {
+                buffer_view: view,
+                component_type: FLOAT,
+                count: n_inst,
+                kind,
+                min: None,
+                max: None,
+            });
+            inst_attrs.insert(*name, acc);
+            offsets.push(at);
+            at += len;
+        }
+        self.bin.resize(at, 0);
+        let bin = &mut self.bin;
+        let put = |bin: &mut Vec<u8>, off: usize, xs: &[f32]| {
+            for (j, x) in xs.iter().enumerate() {
+                bin[off + 4 * j..off + 4 * j + 4].copy_from_slice(&finite(*x).to_le_bytes());
+            }
+        };
+        for (k, inst) in insts.iter().enumerate() {
+            let (t, r, sc) = prototype_trs(&inst.frame);
+            put(bin, offsets[0] + 12 * k, &t);
+            put(bin, offsets[1] + 16 * k, &r);
+            put(bin, offsets[2] + 12 * k, &[sc; 3]);
+            if per_color {
+                put(bin, offsets[3] + 12 * k, &linear_color(colors[k])[..3]);
+            }
         }
         self.root.extensions_used = vec![EXT_INSTANCING];
         let node = self.push_node(Node {
@@ -1090,22 +1138,6 @@ impl Builder {
             ..Node::default()
         });
         Ok(Some(node))
-    }
-
-    /// A float accessor of `n` items of `kind` for instance attributes (no target:
-    /// they are not vertex data).
-    fn instance_floats(&mut self, n: usize, item: impl Fn(usize) -> Vec<f32>, kind: &'static str) -> u32 {
-        self.bin.resize(self.bin.len().next_multiple_of(4), 0);
-        let offset = self.bin.len();
-        for i in 0..n {
-            for x in item(i) {
-                self.bin.extend_from_slice(&finite(x).to_le_bytes());
-            }
-        }
-        let byte_length = self.bin.len() - offset;
-        self.root.buffer_views.push(BufferView { buffer: 0, byte_offset: offset, byte_length, target: None });
-        let view = self.root.buffer_views.len() as u32 - 1;
-        self.accessor(Accessor { buffer_view: view, component_type: FLOAT, count: n, kind, min: None, max: None })
     }
 
     /// Positions, normals and indices of a shared mesh in its own space, or of its
