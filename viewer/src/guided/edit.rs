@@ -11,7 +11,7 @@ use super::fit::{self, fit_stroke};
 use super::project::{distance_to_segment, ScreenView};
 use glam::{DVec2, DVec3};
 use mdg_vm::output::Polyline;
-use mdg_vm::sosmc::{Guide, GuideFile, DEFAULT_SCALE_D, MAX_GUIDE_COORD};
+use mdg_vm::sosmc::{Guide, DEFAULT_SCALE_D, MAX_GUIDE_COORD};
 
 /// How near (pixels) the cursor must be to a control point to pick it.
 pub const PICK_POINT_PX: f64 = 10.0;
@@ -495,13 +495,33 @@ impl Editor {
         true
     }
 
-    /// The guides as a guide file (`{"guides": [...]}`, every key written), the
-    /// format `mdg-run --guides` and `mdg-view --guides` read.
+    /// The guides as a guide file (`{"guides": [...]}`, every key written, a
+    /// control point per `[x, y, z]`, laid out as `std/examples/guides/*.json` are),
+    /// the format `mdg-run --guides` and `mdg-view --guides` read.
     pub fn to_json(&self) -> String {
-        let file = GuideFile { guides: self.guides.clone() };
-        let mut s = serde_json::to_string_pretty(&file).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"));
-        s.push('\n');
-        s
+        let num = |v: f64| serde_json::to_string(&v).unwrap_or_else(|_| "0".into());
+        let mut out = String::from("{\n  \"guides\": [\n");
+        for (i, g) in self.guides.iter().enumerate() {
+            let name = serde_json::to_string(&g.name).unwrap_or_else(|_| "\"\"".into());
+            let points: Vec<String> =
+                g.points.iter().map(|p| format!("[{}, {}, {}]", num(p[0]), num(p[1]), num(p[2]))).collect();
+            let d = g.scale_d.map(num);
+            out.push_str(&format!(
+                "    {{\n      \"name\": {name},\n      \"points\": [{}],\n      \"scale_d\": [{}, {}, {}], \"scale_a\": {}, \
+                 \"delta_a\": {}, \"scale_u\": {}, \"segment\": {}\n    }}{}\n",
+                points.join(", "),
+                d[0],
+                d[1],
+                d[2],
+                num(g.scale_a),
+                num(g.delta_a),
+                num(g.scale_u),
+                num(g.segment),
+                if i + 1 < self.guides.len() { "," } else { "" }
+            ));
+        }
+        out.push_str("  ]\n}\n");
+        out
     }
 
     /// The overlay: the guides that are not selected (namespace [`NS_GUIDES`]); the
@@ -706,6 +726,14 @@ mod tests {
         let json = e.to_json();
         let back = mdg_vm::sosmc::guides_from_json(&json).expect("mdg-run reads it");
         assert_eq!(back, e.guides());
+        assert!(
+            json.contains(r#""points": [[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 2.0], [0.0, 0.0, 3.0]]"#),
+            "{json}"
+        );
+        let mut odd = Editor::new(vec![Guide::new("a \"quoted\" name", two_guides()[1].points.clone())]);
+        odd.guides[0].points[1] = [0.1 + 0.2, -1e-7, 12345.678];
+        let back = mdg_vm::sosmc::guides_from_json(&odd.to_json()).expect("reads");
+        assert_eq!(back, odd.guides(), "names are escaped and numbers round-trip exactly");
 
         let overlay = e.overlay(0.1);
         let count = |ns: &str| overlay.iter().filter(|l| l.namespace == ns).count();

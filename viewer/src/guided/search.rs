@@ -16,6 +16,10 @@ use std::time::{Duration, Instant};
 /// Overlay namespace of the skeleton's bones (cyan in the viewer).
 pub const NS_BONES: &str = "bones";
 
+/// Searches of at most this many scheduled particle-steps run on one thread (the
+/// std tree's default search has 5,750).
+pub const ONE_THREAD_STEPS: u64 = 20_000;
+
 /// What to search.
 #[derive(Clone)]
 pub struct SearchRequest {
@@ -101,6 +105,13 @@ pub fn run_search(req: &SearchRequest, cancel: &Cancel) -> Result<Searched, Stri
     let mut opts = SearchOptions::from_settings(&table.settings, req.seed);
     opts.clock = Some(t0);
     opts.cancel = Some(cancel.clone());
+    // An interactive-size search runs on this thread: handing each of its small
+    // generations to a team costs more than it saves when the cores are shared (with
+    // the renderer's, on a CPU driver, or other work), and results do not depend on
+    // the number of threads (docs/decisions.md, issue 19).
+    if opts.scheduled_steps() <= ONE_THREAD_STEPS {
+        opts.threads = Some(1);
+    }
     let deadline = opts.budget.and_then(|d| t0.checked_add(d));
     let prepared = Prepared::new_within(b, table, &req.guides, deadline)?;
     prepared.check_size(&opts)?;
