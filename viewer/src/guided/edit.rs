@@ -33,10 +33,9 @@ pub const CURVE_POINTS: usize = 24;
 
 /// Overlay namespace of the guides that are not selected (amber in the viewer).
 pub const NS_GUIDES: &str = "guides";
-/// Overlay namespace of the selected guide, its control polygon and a stroke being
-/// drawn.
+/// Overlay namespace of the selected guide and a stroke being drawn.
 pub const NS_SELECTED: &str = "guide_selected";
-/// Overlay namespace of the control-point markers.
+/// Overlay namespace of the control-point markers and the selected guide's handles.
 pub const NS_POINTS: &str = "guide_points";
 
 /// A cost parameter of a guide that the keys tune.
@@ -525,8 +524,8 @@ impl Editor {
     }
 
     /// The overlay: the guides that are not selected (namespace [`NS_GUIDES`]); the
-    /// selected guide, its control polygon and a stroke being drawn
-    /// ([`NS_SELECTED`]); a cross of half-size `marker` at every control point
+    /// selected guide and a stroke being drawn ([`NS_SELECTED`]); a cross of
+    /// half-size `marker` at every control point and the selected guide's handles
     /// ([`NS_POINTS`]).
     pub fn overlay(&self, marker: f64) -> Vec<Polyline> {
         let f = |p: DVec3| [p.x as f32, p.y as f32, p.z as f32];
@@ -543,8 +542,8 @@ impl Editor {
         if let Some(g) = self.selected.and_then(|s| self.guides.get(s)) {
             // The handles: each end point to its neighbouring inner control point.
             for w in g.points.windows(4).step_by(3) {
-                lines.push(line(NS_SELECTED, vec![v(w[0]), v(w[1])]));
-                lines.push(line(NS_SELECTED, vec![v(w[2]), v(w[3])]));
+                lines.push(line(NS_POINTS, vec![v(w[0]), v(w[1])]));
+                lines.push(line(NS_POINTS, vec![v(w[2]), v(w[3])]));
             }
         }
         for g in &self.guides {
@@ -738,9 +737,8 @@ mod tests {
         let overlay = e.overlay(0.1);
         let count = |ns: &str| overlay.iter().filter(|l| l.namespace == ns).count();
         assert_eq!(count(NS_GUIDES), 1);
-        // The selected curve and its two handles.
-        assert_eq!(count(NS_SELECTED), 3);
-        assert_eq!(count(NS_POINTS), 3 * 8, "a three-line cross per control point");
+        assert_eq!(count(NS_SELECTED), 1);
+        assert_eq!(count(NS_POINTS), 3 * 8 + 2, "a three-line cross per control point, the selected guide's handles");
 
         assert_eq!(e.delete_selected().expect("deleted"), "deleted trunk");
         assert_eq!(e.guides().len(), 1);
