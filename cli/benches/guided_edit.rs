@@ -109,7 +109,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for i in 0..edits {
         let (g, p) = points[i % points.len()];
         let at = editor.point_on_screen(&screen, g, p).ok_or("a control point is off screen")?;
-        let sign = if (i / points.len()) % 2 == 0 { 1.0 } else { -1.0 };
+        let sign = if (i / points.len()).is_multiple_of(2) { 1.0 } else { -1.0 };
         if !editor.begin_drag(&screen, at, g, p) {
             return Err("cannot grab a control point".into());
         }

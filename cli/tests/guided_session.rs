@@ -38,7 +38,9 @@ fn session(model: &Model, save_to: &str) -> (Session, mpsc::Receiver<(u64, Outco
     let tx = Mutex::new(tx);
     let opts = SessionOptions { seed: 3, eval: Default::default(), guides: None, save_to: out_dir().join(save_to) };
     let s = Session::start(Arc::new(model.bundle.clone()), opts, move |id, out| {
-        let _ = tx.lock().map(|t| t.send((id, out)));
+        if let Ok(t) = tx.lock() {
+            let _ = t.send((id, out));
+        }
     })
     .expect("a session");
     (s, rx)

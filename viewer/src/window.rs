@@ -129,7 +129,7 @@ pub enum UserEvent {
     /// A rebuild after a `@param` change, numbered so that only the newest is shown.
     ParamRebuilt(u64, Reloaded),
     /// A guided search's answer (its request's number).
-    Searched(u64, Outcome),
+    Searched(u64, Box<Outcome>),
     /// The `--guides` file changed: its guides, or why they cannot be used.
     GuidesFile(Result<Vec<Guide>, String>),
 }
@@ -215,7 +215,9 @@ fn start_session(model: &Model, opts: &WindowOptions, proxy: &EventLoopProxy<Use
         save_to: opts.save_guides.clone(),
     };
     Session::start(Arc::new(model.bundle.clone()), session, move |id, outcome| {
-        let _ = proxy.lock().map(|p| p.send_event(UserEvent::Searched(id, outcome)));
+        if let Ok(p) = proxy.lock() {
+            let _ = p.send_event(UserEvent::Searched(id, Box::new(outcome)));
+        }
     })
 }
 
@@ -428,7 +430,9 @@ impl App {
         let Some((path, _)) = &self.opts.guides else { return };
         let proxy = Mutex::new(self.proxy.clone());
         match GuideWatch::start(path.clone(), move |r| {
-            let _ = proxy.lock().map(|p| p.send_event(UserEvent::GuidesFile(r)));
+            if let Ok(p) = proxy.lock() {
+                let _ = p.send_event(UserEvent::GuidesFile(r));
+            }
         }) {
             Ok(w) => self.guide_watch = Some(w),
             Err(e) => (self.opts.log)(&format!("mdg-view: the guide file is not watched: {e}")),
@@ -1369,7 +1373,7 @@ impl ApplicationHandler<UserEvent> for App {
                     self.show_param();
                 }
             }
-            UserEvent::Searched(id, outcome) => self.searched(id, outcome),
+            UserEvent::Searched(id, outcome) => self.searched(id, *outcome),
             UserEvent::GuidesFile(r) => self.guides_file_changed(r),
         }
     }

@@ -683,7 +683,7 @@ mod tests {
         let g = &e.guides()[2];
         assert_eq!(g.name, "drawn 1");
         g.validate().expect("valid");
-        assert!(g.points.len() >= 4 && (g.points.len() - 1) % 3 == 0);
+        assert!(g.points.len() >= 4 && (g.points.len() - 1).is_multiple_of(3));
         for p in &g.points {
             // On the plane through `plane` facing the camera: y = 0.5.
             assert!((p[1] - 0.5).abs() < 1e-9, "{p:?}");

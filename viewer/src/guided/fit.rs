@@ -292,7 +292,7 @@ mod tests {
             .collect();
         let tol = 0.02;
         let fit = fit_stroke(&pts, tol).expect("fits");
-        assert!(fit.len() > 4 && (fit.len() - 1) % 3 == 0, "{} points", fit.len());
+        assert!(fit.len() > 4 && (fit.len() - 1).is_multiple_of(3), "{} points", fit.len());
         for p in &pts {
             assert!(distance_to_chain(&fit, *p) <= tol, "{p:?}");
         }

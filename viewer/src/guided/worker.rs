@@ -164,7 +164,10 @@ mod tests {
         n
     }
 
-    fn worker() -> (Worker<Job, u32>, mpsc::Receiver<(u64, Option<u32>)>) {
+    /// Answers as the worker delivers them.
+    type Answers = mpsc::Receiver<(u64, Option<u32>)>;
+
+    fn worker() -> (Worker<Job, u32>, Answers) {
         let (tx, rx) = mpsc::channel();
         let tx = Mutex::new(tx);
         let w = Worker::start("test-worker", run, move |id, out| {
