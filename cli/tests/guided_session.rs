@@ -168,11 +168,40 @@ fn reloads_keep_edited_guides_files_replace_them_and_saving_writes_a_guide_file(
         .arg(out_dir().join("session2.json"))
         .args(["--format", "json", "-o"])
         .arg(out_dir().join("session2_tree.json"))
-        .arg("--std")
+        .args(["--seed", "3", "--std"])
         .arg(root().join("std"))
         .output()
         .expect("run mdg-run");
     assert!(run.status.success(), "mdg-run --guides reads the saved file: {}", String::from_utf8_lossy(&run.stderr));
+    // And grows the tree the window shows for those guides and that seed (no budget
+    // cut: every generation ran).
+    let shown = s.search_now().expect("search");
+    assert_eq!(shown.summary.stop, mdg_vm::sosmc::Stop::Generations);
+    let dump: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir().join("session2_tree.json")).expect("the dump"))
+            .expect("JSON");
+    let from_run: Vec<Vec<f64>> = dump["lines"]
+        .as_array()
+        .expect("lines")
+        .iter()
+        .filter(|l| l["namespace"] == "bones")
+        .map(|l| {
+            l["points"]
+                .as_array()
+                .expect("points")
+                .iter()
+                .flat_map(|p| p.as_array().expect("xyz").clone())
+                .map(|v| v.as_f64().expect("number"))
+                .collect()
+        })
+        .collect();
+    let from_view: Vec<Vec<f64>> =
+        bones_of(&shown.output).iter().map(|b| b.iter().flatten().map(|v| *v as f64).collect()).collect();
+    assert!(!from_view.is_empty());
+    assert_eq!(from_run.len(), from_view.len(), "as many bones");
+    for (a, b) in from_run.iter().zip(&from_view) {
+        assert!(a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-5), "{a:?} vs {b:?}");
+    }
 }
 
 /// `mdg-view --png` on a guided grammar runs the search first (as the window does):
