@@ -738,10 +738,11 @@ impl App {
             match s.editor.end_stroke(&view) {
                 Ok(i) => {
                     let g = &s.editor.guides()[i];
+                    let n = (g.points.len() - 1) / 3;
                     (self.opts.log)(&format!(
-                        "mdg-view: added {} ({} cubic segments)",
+                        "mdg-view: added {} ({n} cubic segment{})",
                         g.label(i),
-                        (g.points.len() - 1) / 3
+                        if n == 1 { "" } else { "s" }
                     ));
                     s.request(Preempt::Cancel);
                 }
