@@ -728,8 +728,9 @@ impl App {
         let Some(s) = &mut self.guided else { return };
         if s.editor.is_dragging() {
             if s.editor.end_drag() {
-                if let Some((g, i)) = s.editor.selected().map(|g| (g, &s.editor.guides()[g])) {
-                    (self.opts.log)(&format!("mdg-view: moved a control point of {}", i.label(g)));
+                if let Some((index, guide)) = s.editor.selected().and_then(|i| s.editor.guides().get(i).map(|g| (i, g)))
+                {
+                    (self.opts.log)(&format!("mdg-view: moved a control point of {}", guide.label(index)));
                 }
                 s.request_if_changed(Preempt::Wait);
             }
@@ -1051,6 +1052,9 @@ impl App {
     /// Runs the script's next steps; returns when to look again (`None`: it is over).
     fn run_script(&mut self, event_loop: &ActiveEventLoop) -> Option<std::time::Instant> {
         loop {
+            // Upload what changed now rather than at the next frame: `idle` must not
+            // wait for a redraw (a window that is not shown gets none).
+            self.sync_scene();
             let idle = self.is_idle();
             let now = std::time::Instant::now();
             let (step, line) = {
