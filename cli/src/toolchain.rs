@@ -52,7 +52,12 @@ impl Loader for Toolchain {
                 }
             }
         };
-        let output = evaluate(&bundle, &opts.eval);
+        // A guided grammar's model comes from its search, which the viewer runs.
+        let output = if opts.guided_search && bundle.extensions.guided.is_some() {
+            mdg_vm::output::Output::default()
+        } else {
+            evaluate(&bundle, &opts.eval)
+        };
         Ok((Model { bundle, output, warnings }, files))
     }
 

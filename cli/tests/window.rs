@@ -4,6 +4,9 @@
 //! mean validation errors). The screenshot must show the model. And hot reload in
 //! the window on a private Xvfb: a good edit reloads keeping the camera, a broken
 //! one prints its diagnostics and keeps the model, SIGINT closes cleanly.
+//! And the guide editor as a person uses it: a `--script` drags a control point of
+//! the std guided tree's guide and saves the guides; the saved file, the point and
+//! the bones in the screenshots are checked.
 //! X11 and signals: Unix only.
 #![cfg(unix)]
 
@@ -204,4 +207,198 @@ fn window_hot_reload_keeps_the_last_good_model_and_closes_on_sigint() {
         })
         .count();
     assert!(green_on_top_row > 0, "the camera moved on reload");
+}
+
+/// Reads a PNG written by mdg-view.
+fn read_png(path: &std::path::Path) -> Image {
+    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut decoder = png::Decoder::new(std::io::BufReader::new(file));
+    decoder.set_transformations(png::Transformations::EXPAND);
+    let mut reader = decoder.read_info().expect("PNG header");
+    let mut px = vec![0; reader.output_buffer_size().expect("size")];
+    let info = reader.next_frame(&mut px).expect("PNG data");
+    // RGB or RGBA: keep four channels.
+    let channels = px.len() / (info.width as usize * info.height as usize);
+    let px = if channels == 4 { px } else { px.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 255]).collect() };
+    Image { px, w: info.width, h: info.height }
+}
+
+/// The bones' colour (cyan, over the model) — also where it is blended into the
+/// background at a line's edge.
+fn cyan(c: [u8; 4]) -> bool {
+    let (r, g, b) = (c[0] as i32, c[1] as i32, c[2] as i32);
+    b - r > 60 && g - r > 40
+}
+
+/// The selected guide's colour (magenta).
+fn magenta(c: [u8; 4]) -> bool {
+    let (r, g, b) = (c[0] as i32, c[1] as i32, c[2] as i32);
+    r - g > 80 && b - g > 60
+}
+
+/// The control-point markers' ink (dark grey on a light background; the wood is
+/// brown, the leaves green).
+fn marker(c: [u8; 4]) -> bool {
+    let (lo, hi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
+    hi < 110 && hi - lo < 16
+}
+
+/// Pixels matching `f` within `r` pixels of (x, y).
+fn count_near(img: &Image, (x, y): (f64, f64), r: f64, f: impl Fn([u8; 4]) -> bool) -> usize {
+    img.count(|px, py, c| ((px as f64 - x).powi(2) + (py as f64 - y).powi(2)).sqrt() <= r && f(c))
+}
+
+/// `mdg-view: script line N: guide G point P is at pixel (X, Y)` from the log.
+fn pixel_of(log: &str, guide: usize, point: usize) -> (f64, f64) {
+    let needle = format!("guide {guide} point {point} is at pixel (");
+    let line = log.lines().find(|l| l.contains(&needle)).unwrap_or_else(|| panic!("no `{needle}` in:\n{log}"));
+    let rest = &line[line.find(&needle).expect("found") + needle.len()..];
+    let (x, y) = rest.trim_end_matches(')').split_once(", ").expect("x, y");
+    (x.parse().expect("x"), y.parse().expect("y"))
+}
+
+/// The guide editor, driven like a person would: under Xvfb, a script (the window's
+/// own input path) presses the left button on the right arch's end point, drags it
+/// 120 px right and 60 px up in 12 moves, releases, waits for the search, saves the
+/// guides with `S`, and takes screenshots before and after.
+///
+/// Checked: the saved file is a guide file `mdg-run --guides` reads; the dragged
+/// point is where the drag put it — from the front (`--camera 0,0`) the view plane
+/// is y = const, and the pixel scale there comes from where two known points of the
+/// guide were drawn, so the point moved by (120, 0, 60) pixels' worth within half a
+/// pixel — and nothing else changed; the point's marker is drawn under the cursor's
+/// end position; and the bones (cyan) moved toward the new curve: many more bone
+/// pixels lie near the dragged guide (drawn magenta, selected) than before the
+/// drag, and their centroid moved right, the way the point was dragged.
+#[test]
+fn guide_editor_drags_a_control_point_regrows_the_tree_and_saves_the_guides() {
+    if skip_vulkan() {
+        return;
+    }
+    let dir = out_dir().join("window-guides");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("mkdir");
+    let original_file = root().join("std/examples/guides/arch.json");
+    let guides_file = dir.join("arch.json");
+    std::fs::copy(&original_file, &guides_file).expect("copy the guides");
+    let original =
+        mdg_vm::sosmc::guides_from_json(&std::fs::read_to_string(&original_file).expect("read")).expect("valid");
+    let (before, after) = (dir.join("before.png"), dir.join("after.png"));
+    let (dx, dy) = (120.0, -60.0);
+    let script = dir.join("drag.txt");
+    std::fs::write(
+        &script,
+        format!(
+            "idle\nscreenshot {}\npoint 3 1\npoint 3 4\npress left\nmove-by {dx} {dy} 12\nrelease left\nidle\nkey s\n\
+             screenshot {}\nquit\n",
+            before.display(),
+            after.display()
+        ),
+    )
+    .expect("write the script");
+    let bin = env!("CARGO_BIN_EXE_mdg-view");
+    let mut cmd = if have("xvfb-run") {
+        let mut c = Command::new("xvfb-run");
+        c.args(["-a", "-s", "-screen 0 1024x768x24", bin]);
+        c
+    } else if std::env::var_os("DISPLAY").is_some() {
+        Command::new(bin)
+    } else {
+        panic!(
+            "no X server for the window test: run `bash .ci/run` (it installs xvfb), or set MDG_SKIP_VULKAN_TESTS=1"
+        );
+    };
+    let out = cmd
+        .arg(root().join("std/examples/guided_tree.mdg"))
+        .arg("--guides")
+        .arg(&guides_file)
+        .arg("--script")
+        .arg(&script)
+        .args(["--size", "800x600", "--camera", "0,0", "--seed", "3", "--no-watch", "--std"])
+        .arg(root().join("std"))
+        .env("MDG_VALIDATION", "1")
+        .output()
+        .expect("run mdg-view");
+    let log = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "mdg-view failed ({:?}):\n{log}", out.status);
+    assert!(log.contains("closed cleanly") && !log.contains("validation error"), "{log}");
+    assert!(log.contains("mdg-view: guided search: cost ") && log.contains("model from generation"), "{log}");
+    assert!(log.contains(&format!("saved 3 guides to {}", guides_file.display())), "{log}");
+
+    // The saved guides: what mdg-run --guides reads; only the dragged point moved.
+    let saved = mdg_vm::sosmc::guides_from_json(&std::fs::read_to_string(&guides_file).expect("read the saved file"))
+        .expect("the saved file is a valid guide file");
+    assert_eq!(saved.len(), 3);
+    for (g, (a, b)) in original.iter().zip(&saved).enumerate() {
+        assert_eq!((&a.name, a.delta_a, a.segment), (&b.name, b.delta_a, b.segment));
+        for (i, (pa, pb)) in a.points.iter().zip(&b.points).enumerate() {
+            if (g, i) != (2, 3) {
+                assert_eq!(pa, pb, "guide {} point {} moved", g + 1, i + 1);
+            }
+        }
+    }
+    // The pixel scale on the view plane y = 0, from two points of the guide.
+    let (p1, p4) = (original[2].points[0], original[2].points[3]);
+    let (s1, s4) = (pixel_of(&log, 3, 1), pixel_of(&log, 3, 4));
+    let world = ((p4[0] - p1[0]).powi(2) + (p4[2] - p1[2]).powi(2)).sqrt();
+    let pixels = ((s4.0 - s1.0).powi(2) + (s4.1 - s1.1).powi(2)).sqrt();
+    let scale = world / pixels;
+    // Seen from the front, +x is to the right and +z up, equally scaled.
+    let world_angle = (p4[2] - p1[2]).atan2(p4[0] - p1[0]);
+    let screen_angle = (-(s4.1 - s1.1)).atan2(s4.0 - s1.0);
+    assert!((world_angle - screen_angle).abs() < 0.01, "world {world_angle} vs screen {screen_angle}");
+    let moved = saved[2].points[3];
+    let expected = [p4[0] + dx * scale, p4[1], p4[2] - dy * scale];
+    let tolerance = 0.5 * scale;
+    for k in 0..3 {
+        assert!(
+            (moved[k] - expected[k]).abs() < tolerance,
+            "the dragged point is at {moved:?}, expected {expected:?} (±{tolerance:.4}, {scale:.5} per pixel)"
+        );
+    }
+
+    let (img0, img1) = (read_png(&before), read_png(&after));
+    assert_eq!((img1.w, img1.h), (800, 600));
+    // The point's marker is under the cursor: at the start before, at the end after.
+    let end = (s4.0 + dx, s4.1 + dy);
+    assert!(count_near(&img0, s4, 5.0, marker) >= 4, "no marker at the point before the drag");
+    assert!(count_near(&img1, end, 5.0, marker) >= 4, "no marker where the drag ended");
+    // The bones followed the curve: they are nearer to it (the mean distance from
+    // the dragged guide's pixels, drawn magenta as it is selected, to the nearest
+    // bone pixel), and those on its side of the tree moved the way it was dragged.
+    let pixels_of = |img: &Image, f: &dyn Fn([u8; 4]) -> bool| {
+        let mut v = Vec::new();
+        for y in 0..img.h {
+            for x in 0..img.w {
+                if f(img.at(x, y)) {
+                    v.push((x as f64, y as f64));
+                }
+            }
+        }
+        v
+    };
+    let curve = pixels_of(&img1, &magenta);
+    assert!(curve.len() > 200, "the selected guide is drawn in magenta: {} px", curve.len());
+    let (bones0, bones1) = (pixels_of(&img0, &cyan), pixels_of(&img1, &cyan));
+    assert!(bones0.len() > 300 && bones1.len() > 300, "bones are drawn: {} and {} cyan px", bones0.len(), bones1.len());
+    let mean_gap = |bones: &[(f64, f64)]| {
+        let nearest = |p: &(f64, f64)| bones.iter().map(|b| (b.0 - p.0).hypot(b.1 - p.1)).fold(f64::MAX, f64::min);
+        curve.iter().map(nearest).sum::<f64>() / curve.len() as f64
+    };
+    let (gap0, gap1) = (mean_gap(&bones0), mean_gap(&bones1));
+    assert!(
+        gap1 < 0.8 * gap0,
+        "the bones did not come nearer to the dragged guide: {gap0:.1} px from it on average before, {gap1:.1} after"
+    );
+    let centroid_right_of = |bones: &[(f64, f64)], x0: f64| {
+        let side: Vec<&(f64, f64)> = bones.iter().filter(|b| b.0 > x0).collect();
+        let n = side.len().max(1) as f64;
+        (side.iter().map(|b| b.0).sum::<f64>() / n, side.iter().map(|b| b.1).sum::<f64>() / n)
+    };
+    let (a, b) = (centroid_right_of(&bones0, s1.0), centroid_right_of(&bones1, s1.0));
+    let along = ((b.0 - a.0) * dx + (b.1 - a.1) * dy) / dx.hypot(dy);
+    assert!(
+        along > 4.0,
+        "the bones right of the guide's base moved {along:.1} px the way the point was dragged ({a:?} -> {b:?})"
+    );
 }

@@ -39,6 +39,7 @@ fn opts(seed: u64) -> SearchOptions {
         threads: None,
         parallel_min: mdg_vm::sosmc::PARALLEL_MIN_PARTICLES,
         clock: None,
+        cancel: None,
     }
 }
 
@@ -252,6 +253,46 @@ fn the_budget_ends_a_long_generation_and_covers_preparation() {
     assert!(e.contains("the time budget ran out while preparing the guides (0 of 3 prepared)"), "{e}");
     let r = p.search(&SearchOptions { clock: Some(long_ago), ..big }, None);
     assert_eq!((r.stop, r.generations), (Stop::Budget, 0));
+}
+
+/// A search stops as soon as its cancel flag is set, like at its budget: set before
+/// it starts, no generation runs; set between generations (here by the progress
+/// report after the third), no further generation runs; set by another thread while a
+/// generation of 200,000 particles runs, that generation is dropped within moments.
+#[test]
+fn a_cancelled_search_stops_at_the_next_particle_step() {
+    use mdg_vm::sosmc::Cancel;
+    let b = std_tree();
+    let t = table(&b);
+    let p = Prepared::new(&b, &t, &t.guides).expect("prepared");
+    let cancel = Cancel::new();
+    cancel.cancel();
+    let r = p.search(&SearchOptions { cancel: Some(cancel), ..opts(1) }, None);
+    assert_eq!((r.stop, r.generations, r.particle_steps), (Stop::Cancelled, 0, 0));
+
+    let cancel = Cancel::new();
+    let after_three = |pr: &mdg_vm::sosmc::Progress| {
+        if pr.generation == 3 {
+            cancel.cancel();
+        }
+    };
+    let r = p.search(&SearchOptions { cancel: Some(cancel.clone()), ..opts(1) }, Some(&after_three));
+    assert_eq!((r.stop, r.generations), (Stop::Cancelled, 3));
+    assert!(!r.model.bones.is_empty(), "the best of the three generations is kept");
+
+    let cancel = Cancel::new();
+    let big = SearchOptions { particles: (20, 200_000), generations: 2, cancel: Some(cancel.clone()), ..opts(1) };
+    let started = std::time::Instant::now();
+    let r = std::thread::scope(|s| {
+        s.spawn(|| {
+            std::thread::sleep(std::time::Duration::from_millis(150));
+            cancel.cancel();
+        });
+        p.search(&big, None)
+    });
+    let took = started.elapsed();
+    assert_eq!((r.stop, r.generations), (Stop::Cancelled, 1), "the cut generation is dropped");
+    assert!(took < std::time::Duration::from_millis(1500), "took {took:?}");
 }
 
 #[test]

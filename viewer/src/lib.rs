@@ -10,6 +10,10 @@
 //! evaluated grammar (compiled by the caller's [`model::Loader`]), [`scene`] packs the output into vertex buffers, [`camera`]
 //! frames and orbits, [`uniforms`] lays out the blocks of docs/reference.md §13, and
 //! [`program`] picks the SPIR-V (the bundle's `program` or std's Phong program).
+//! [`guided`] is the guide editor of grammars with a `search` section (the search
+//! in the background, editing guides, the overlay that shows them), plain Rust
+//! that the window drives; [`input`] is the window's input from winit or from a
+//! [`script`].
 //!
 //! The viewer compiles nothing and prints nothing: the program that drives it (the
 //! `mdg-view` and `mdg-run` commands in `cli/`) passes in a [`model::Loader`] and
@@ -23,7 +27,9 @@
 pub mod buffer;
 pub mod camera;
 pub mod context;
+pub mod guided;
 pub mod image;
+pub mod input;
 pub mod model;
 pub mod offscreen;
 pub mod pipeline;
@@ -31,6 +37,7 @@ pub mod program;
 pub mod reload;
 pub mod renderer;
 pub mod scene;
+pub mod script;
 pub mod swapchain;
 pub mod sync;
 pub mod uniforms;

@@ -18,6 +18,10 @@ pub struct LoadOptions {
     pub presets: Vec<String>,
     /// The seed and the limits of the evaluation.
     pub eval: mdg_vm::eval::EvalOptions,
+    /// The caller runs the guided search of a grammar with a `search` section
+    /// itself ([`crate::guided`]): the loader leaves its output empty instead of
+    /// evaluating it unguided.
+    pub guided_search: bool,
 }
 
 /// A compiled and evaluated grammar.

@@ -1,5 +1,6 @@
 //! Shader modules, the descriptor-set and pipeline layouts of reference §13, and
-//! graphics pipelines (filled, wireframe, lines). Each frees itself in `Drop`.
+//! graphics pipelines (filled, wireframe, lines, overlay lines). Each frees itself
+//! in `Drop`.
 //!
 //! Set 0: binding 0 `Globals` (uniform buffer), binding 1 `Bones` (storage buffer),
 //! binding 2 `User` (uniform buffer), all visible to both stages. Vertex inputs are
@@ -103,6 +104,8 @@ pub enum Kind {
     Fill,
     Wireframe,
     Lines,
+    /// Lines drawn over everything (no depth test): guides, bones, editor handles.
+    Overlay,
 }
 
 /// What a pipeline is made for.
@@ -183,7 +186,7 @@ impl Pipeline {
         let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
             .vertex_binding_descriptions(&bindings)
             .vertex_attribute_descriptions(&attrs);
-        let topology = if desc.kind == Kind::Lines {
+        let topology = if matches!(desc.kind, Kind::Lines | Kind::Overlay) {
             vk::PrimitiveTopology::LINE_LIST
         } else {
             vk::PrimitiveTopology::TRIANGLE_LIST
@@ -198,8 +201,8 @@ impl Pipeline {
             .line_width(1.0);
         let multisample = vk::PipelineMultisampleStateCreateInfo::default().rasterization_samples(desc.samples);
         let depth = vk::PipelineDepthStencilStateCreateInfo::default()
-            .depth_test_enable(true)
-            .depth_write_enable(true)
+            .depth_test_enable(desc.kind != Kind::Overlay)
+            .depth_write_enable(desc.kind != Kind::Overlay)
             .depth_compare_op(vk::CompareOp::LESS_OR_EQUAL);
         let blend_attachments = [vk::PipelineColorBlendAttachmentState::default()
             .blend_enable(true)

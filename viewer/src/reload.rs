@@ -36,7 +36,7 @@ pub struct ReloadHandle {
 
 /// `dir/name` with the directory canonicalised (the file itself may be gone
 /// mid-save).
-fn normalise(p: &Path) -> PathBuf {
+pub(crate) fn normalise(p: &Path) -> PathBuf {
     let abs = if p.is_absolute() {
         p.to_path_buf()
     } else {

@@ -214,6 +214,9 @@ struct GpuModel {
     fill: Pipeline,
     wire: Option<Pipeline>,
     lines: Option<Pipeline>,
+    overlay: Option<Pipeline>,
+    /// What the pipelines were built from: a model with the same key reuses them.
+    key: PipelineKey,
     vertices: Buffer,
     skins: Buffer,
     indices: Buffer,
@@ -229,6 +232,20 @@ struct GpuModel {
     uniforms: UniformSpec,
     animation: Animation,
 }
+
+/// What a model's pipelines depend on. A new model with the same key (the guide
+/// editor uploads one per search and per edit) keeps the pipelines: building them is
+/// most of an upload's time on a CPU driver.
+#[derive(Clone, Debug, PartialEq)]
+struct PipelineKey {
+    program: ProgramSpirv,
+    lines: ProgramSpirv,
+    skinned: bool,
+    has_lines: bool,
+}
+
+/// The filled, wireframe, line and overlay pipelines of a model.
+type Pipelines = (Pipeline, Option<Pipeline>, Option<Pipeline>, Option<Pipeline>);
 
 /// Facts about the loaded model.
 #[derive(Clone, Debug)]
@@ -272,7 +289,8 @@ pub struct Renderer {
     layout: Layout,
     pub samples: vk::SampleCountFlags,
     pub color_format: vk::Format,
-    /// Draw the overlay lines (guides, skeleton bones); on by default.
+    /// Draw the overlay lines (guides, skeleton bones, the guide editor's handles),
+    /// over the model; on by default.
     pub show_overlays: bool,
     depth_format: vk::Format,
     extent: vk::Extent2D,
@@ -328,25 +346,14 @@ impl Renderer {
     ) -> Result<&ModelInfo, Error> {
         let ctx = &self.ctx;
         let skinned = !scene.skins.is_empty();
-        let desc = |kind| PipelineDesc { kind, render_pass: self.render_pass.raw, samples: self.samples, skinned };
-        let fill = Pipeline::new(ctx, &self.layout, &program.vertex, &program.fragment, desc(Kind::Fill))?;
-        let wire = if ctx.wireframe {
-            Some(Pipeline::new(ctx, &self.layout, &program.vertex, &program.fragment, desc(Kind::Wireframe))?)
-        } else {
-            None
+        let key = PipelineKey {
+            program: program.clone(),
+            lines: lines.clone(),
+            skinned,
+            has_lines: scene.n_line_vertices > 0,
         };
-        let lines = if scene.n_line_vertices > 0 {
-            let lp = lines;
-            Some(Pipeline::new(
-                ctx,
-                &self.layout,
-                &lp.vertex,
-                &lp.fragment,
-                PipelineDesc { skinned: false, ..desc(Kind::Lines) },
-            )?)
-        } else {
-            None
-        };
+        let reuse = self.model.as_ref().is_some_and(|(old, _)| old.key == key);
+        let built = if reuse { None } else { Some(self.pipelines(&key)?) };
         let vertices = Buffer::with_data(ctx, &scene.vertices, vk::BufferUsageFlags::VERTEX_BUFFER)?;
         let skin_bytes: Vec<u8> = if skinned { scene.skins.clone() } else { vec![0u8; scene::SKIN_STRIDE as usize] };
         let skins = Buffer::with_data(ctx, &skin_bytes, vk::BufferUsageFlags::VERTEX_BUFFER)?;
@@ -384,10 +391,17 @@ impl Renderer {
             duration: s.duration,
             fps: s.fps,
         };
+        let (fill, wire, lines, overlay) = match (built, self.model.take()) {
+            (Some(p), _) => p,
+            (None, Some((old, _))) => (old.fill, old.wire, old.lines, old.overlay),
+            (None, None) => self.pipelines(&key)?,
+        };
         let gpu = GpuModel {
             fill,
             wire,
             lines,
+            overlay,
+            key,
             vertices,
             skins,
             indices,
@@ -405,6 +419,31 @@ impl Renderer {
         };
         self.model = Some((gpu, info));
         self.model.as_ref().map(|(_, i)| i).ok_or_else(|| Error::Other("model vanished".into()))
+    }
+
+    /// Builds the pipelines of `key`: filled, wireframe (when the device can), and
+    /// the line and overlay pipelines when there are lines.
+    fn pipelines(&self, key: &PipelineKey) -> Result<Pipelines, Error> {
+        let ctx = &self.ctx;
+        let desc = |kind| PipelineDesc {
+            kind,
+            render_pass: self.render_pass.raw,
+            samples: self.samples,
+            skinned: key.skinned,
+        };
+        let (p, l) = (&key.program, &key.lines);
+        let fill = Pipeline::new(ctx, &self.layout, &p.vertex, &p.fragment, desc(Kind::Fill))?;
+        let wire = if ctx.wireframe {
+            Some(Pipeline::new(ctx, &self.layout, &p.vertex, &p.fragment, desc(Kind::Wireframe))?)
+        } else {
+            None
+        };
+        let line = |kind| {
+            Pipeline::new(ctx, &self.layout, &l.vertex, &l.fragment, PipelineDesc { skinned: false, ..desc(kind) })
+        };
+        let (lines, overlay) =
+            if key.has_lines { (Some(line(Kind::Lines)?), Some(line(Kind::Overlay)?)) } else { (None, None) };
+        Ok((fill, wire, lines, overlay))
     }
 
     /// (Re)creates the multisampled attachments for `extent`. The GPU must be idle.
@@ -555,16 +594,17 @@ impl Renderer {
                     d.cmd_bind_index_buffer(cmd, gpu.indices.raw, 0, vk::IndexType::UINT32);
                     d.cmd_draw_indexed(cmd, gpu.n_indices, 1, 0, 0, 0);
                 }
-                if let (Some(p), Some(buf)) = (&gpu.lines, &gpu.line_vertices) {
-                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, p.raw);
+                if let Some(buf) = &gpu.line_vertices {
                     d.cmd_bind_vertex_buffers(cmd, 0, &[buf.raw, gpu.skins.raw], &[0, 0]);
-                    let n = if self.show_overlays {
-                        gpu.n_line_vertices
-                    } else {
-                        gpu.n_line_vertices - gpu.n_overlay_vertices
-                    };
-                    if n > 0 {
-                        d.cmd_draw(cmd, n, 1, 0, 0);
+                    // Pen lines first (depth-tested), then the overlays over everything.
+                    let n_pen = gpu.n_line_vertices - gpu.n_overlay_vertices;
+                    if let (Some(p), true) = (&gpu.lines, n_pen > 0) {
+                        d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, p.raw);
+                        d.cmd_draw(cmd, n_pen, 1, 0, 0);
+                    }
+                    if let (Some(p), true) = (&gpu.overlay, self.show_overlays && gpu.n_overlay_vertices > 0) {
+                        d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, p.raw);
+                        d.cmd_draw(cmd, gpu.n_overlay_vertices, 1, n_pen, 0);
                     }
                 }
             }

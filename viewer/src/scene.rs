@@ -79,9 +79,10 @@ pub struct Scene {
     pub n_vertices: u32,
     /// All line vertices: pen lines first, then the overlay lines.
     pub n_line_vertices: u32,
-    /// How many of the line vertices (the last ones) are overlays: guided search's
-    /// guide curves (namespace `guides`) and skeleton bones (namespace `bones`),
-    /// drawn whether or not anything was swept, in their own colours.
+    /// How many of the line vertices (the last ones) are overlays ([`OVERLAYS`]):
+    /// guided search's guide curves (namespace `guides`), skeleton bones (namespace
+    /// `bones`) and the guide editor's lines, drawn whether or not anything was
+    /// swept, in their own colours, over the model.
     pub n_overlay_vertices: u32,
     /// Largest bone index used (the bones buffer holds this many + 1 matrices).
     pub max_bone: u32,
@@ -187,6 +188,7 @@ pub fn build(out: &Output) -> Scene {
         }
     }
     for (ns, color) in OVERLAYS {
+        let color = color.unwrap_or_else(|| ink(out.background));
         for line in out.lines.iter().filter(|l| l.namespace == ns) {
             for seg in line.points.windows(2) {
                 for p in seg {
@@ -202,9 +204,16 @@ pub fn build(out: &Output) -> Scene {
     b.s
 }
 
-/// Line namespaces drawn as overlays, and their colours: guide curves magenta,
-/// skeleton bones orange.
-pub const OVERLAYS: [(&str, [f32; 4]); 2] = [("guides", [0.95, 0.2, 0.85, 1.0]), ("bones", [1.0, 0.55, 0.1, 1.0])];
+/// Line namespaces drawn as overlays (over the model, in this order), and their
+/// colours: guide curves amber, skeleton bones cyan (as the live preview draws
+/// them), and the guide editor's selected guide magenta and control-point markers in
+/// the ink colour (`None`: [`ink`]).
+pub const OVERLAYS: [(&str, Option<[f32; 4]>); 4] = [
+    ("guides", Some([1.0, 0.66, 0.0, 1.0])),
+    ("bones", Some([0.0, 0.78, 0.92, 1.0])),
+    ("guide_selected", Some([0.9, 0.1, 0.75, 1.0])),
+    ("guide_points", None),
+];
 
 /// The colour pen lines are drawn in: dark on a light background, light on a dark one.
 pub fn ink(background: [f32; 4]) -> [f32; 4] {

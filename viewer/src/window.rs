@@ -13,26 +13,52 @@
 //! and skeleton bones); `P` selects the next `@param`, `[` and `]` step it down and up
 //! (Shift: ten steps) and the model is rebuilt with the new value, keeping the
 //! camera; `Esc`/`Q` quit.
+//!
+//! Grammars with a `search` section are searched ([`crate::guided`]): on opening,
+//! on every reload and whenever the guides change, in the background, the newest
+//! search winning. Their guides can be edited: press the left button on a control
+//! point and drag it (in the plane through it facing the camera; the model follows
+//! while dragging), press on a curve to select its guide, `Tab` selects the next,
+//! `D` then a left drag (or Ctrl + left drag) draws a new guide, `Delete` or
+//! `Backspace` deletes the selected one, `T` (Shift: back) or `1`–`5` choose a cost
+//! parameter (`delta_a`, `scale_a`, `scale_d`, `scale_u`, `segment`) and `J` / `K`
+//! (or Page Down / Page Up) lower and raise it (Shift: ten steps), `R` reseeds,
+//! `U` or Ctrl+Z undoes, Shift+U or Ctrl+Y redoes, `S` saves the guides as JSON, and
+//! `Esc` abandons a drag or a stroke under way. The title bar shows the final cost,
+//! its three terms, the model's generation and why the search stopped.
+//!
+//! Input from winit and from a `--script` ([`crate::script`]) becomes the same
+//! [`Input`]s and goes through [`App::input`]; while a script runs, the real mouse
+//! and keyboard are ignored.
 
 use crate::buffer::Buffer;
 use crate::camera::OrbitCamera;
 use crate::context::{vkerr, Context, ContextOptions, Validation};
+use crate::guided::edit::{Param, Pick};
+use crate::guided::project::ScreenView;
+use crate::guided::session::{Accepted, Outcome, Session, SessionOptions};
+use crate::guided::watch::GuideWatch;
+use crate::guided::worker::Preempt;
+use crate::input::{Button, Input, Key, Modifiers};
 use crate::model::{LoadOptions, Loader, Model};
 use crate::program::Programs;
 use crate::reload::{ReloadHandle, Reloaded};
-use crate::renderer::{FrameParams, Renderer, RendererOptions};
+use crate::renderer::{FrameParams, ModelInfo, Renderer, RendererOptions};
+use crate::script::{self, Runner, Step};
 use crate::swapchain::{choose_format, Surface, Swapchain};
 use crate::sync::{Fence, Semaphore};
 use crate::Error;
 use ash::vk;
+use glam::DVec2;
+use mdg_vm::sosmc::Guide;
 use raw_window_handle::{HasDisplayHandle, HasWindowHandle};
-use std::path::PathBuf;
-use std::sync::Arc;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
-use winit::event::{ElementState, KeyEvent, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop, EventLoopProxy};
-use winit::keyboard::{Key, NamedKey};
+use winit::keyboard::{Key as WinitKey, NamedKey};
 use winit::window::{Window, WindowId};
 
 /// What the window is asked to do.
@@ -55,6 +81,13 @@ pub struct WindowOptions {
     /// Where the window's messages go (reloads, key help, errors it recovers
     /// from): the viewer prints nothing itself.
     pub log: fn(&str),
+    /// Guided search: guides from a file (`--guides`, watched when `watch` is on)
+    /// instead of the grammar's `guide` sections.
+    pub guides: Option<(PathBuf, Vec<Guide>)>,
+    /// Guided search: where `S` saves the guides.
+    pub save_guides: PathBuf,
+    /// Scripted input (`--script`); while it runs the mouse and keyboard are ignored.
+    pub script: Option<Vec<(usize, script::Command)>>,
 }
 
 /// How the run ended.
@@ -95,6 +128,10 @@ pub enum UserEvent {
     Reloaded(Reloaded),
     /// A rebuild after a `@param` change, numbered so that only the newest is shown.
     ParamRebuilt(u64, Reloaded),
+    /// A guided search's answer (its request's number).
+    Searched(u64, Box<Outcome>),
+    /// The `--guides` file changed: its guides, or why they cannot be used.
+    GuidesFile(Result<Vec<Guide>, String>),
 }
 
 /// Per-frame synchronisation: one frame in flight.
@@ -125,7 +162,6 @@ struct Mouse {
     pos: Option<(f64, f64)>,
     orbit: bool,
     pan: bool,
-    shift: bool,
 }
 
 struct App {
@@ -154,6 +190,51 @@ struct App {
     /// newest rebuild asked for.
     param: usize,
     param_generation: u64,
+    /// The guide editor and its searches (grammars with a `search` section).
+    guided: Option<Session>,
+    guide_watch: Option<GuideWatch>,
+    script: Option<Runner>,
+    modifiers: Modifiers,
+    /// The model or the guide overlay changed: upload before the next frame.
+    scene_dirty: bool,
+    /// The next left drag draws a guide (`D`).
+    draw_mode: bool,
+}
+
+/// How long a script waiting for a search looks again.
+const SCRIPT_POLL: std::time::Duration = std::time::Duration::from_millis(10);
+
+/// Starts a guided-search session on `model`'s grammar; its answers come to the
+/// event loop through `proxy`.
+fn start_session(model: &Model, opts: &WindowOptions, proxy: &EventLoopProxy<UserEvent>) -> Result<Session, String> {
+    let proxy = Mutex::new(proxy.clone());
+    let session = SessionOptions {
+        seed: opts.load.eval.seed.unwrap_or(model.bundle.settings.randseed),
+        eval: opts.load.eval.clone(),
+        guides: opts.guides.clone(),
+        save_to: opts.save_guides.clone(),
+    };
+    Session::start(Arc::new(model.bundle.clone()), session, move |id, outcome| {
+        if let Ok(p) = proxy.lock() {
+            let _ = p.send_event(UserEvent::Searched(id, Box::new(outcome)));
+        }
+    })
+}
+
+/// Uploads `model`, with the guide editor's overlay when there is one.
+fn upload(
+    renderer: &mut Renderer,
+    model: &mut Model,
+    guided: Option<&Session>,
+    programs: &Programs,
+) -> Result<ModelInfo, Error> {
+    let n = model.output.lines.len();
+    if let Some(s) = guided {
+        model.output.lines.extend(s.editor.overlay(s.editor.marker_size()));
+    }
+    let info = renderer.set_model(model, programs).cloned();
+    model.output.lines.truncate(n);
+    info
 }
 
 /// Opens a window showing `model` (compiled from `path`, read from `files`) until it
@@ -173,6 +254,23 @@ pub fn run(
     install_quit_signals();
     let proxy = event_loop.create_proxy();
     let start_time = opts.time;
+    let mut model = model;
+    // A guided grammar opens with its first search done here, so the first frame
+    // (and the home view's framing) shows the searched model.
+    let guided = match &model.bundle.extensions.guided {
+        Some(_) => {
+            let mut s = start_session(&model, &opts, &proxy).map_err(Error::Other)?;
+            let found = s.search_now().map_err(|e| Error::Other(format!("guided search: {e}")))?;
+            (opts.log)(&format!("mdg-view: guided search: {}", found.summary.line()));
+            for w in &found.output.stats.warnings {
+                (opts.log)(&format!("mdg-view: warning: {w}"));
+            }
+            model.output = found.output;
+            Some(s)
+        }
+        None => None,
+    };
+    let script = opts.script.clone().map(Runner::new);
     let mut app = App {
         opts,
         path,
@@ -194,6 +292,12 @@ pub fn run(
         error: None,
         param: 0,
         param_generation: 0,
+        guided,
+        guide_watch: None,
+        script,
+        modifiers: Modifiers::default(),
+        scene_dirty: false,
+        draw_mode: false,
     };
     app.time = start_time;
     event_loop.run_app(&mut app).map_err(|e| Error::Other(format!("event loop: {e}")))?;
@@ -215,6 +319,8 @@ impl App {
     /// Tears down in order, after the GPU is idle.
     fn shutdown(&mut self) {
         self.reload = None;
+        self.guide_watch = None;
+        self.guided = None;
         if let Some(g) = self.gpu.take() {
             g.ctx.wait_idle();
             self.summary.validation_errors = g.ctx.validation_log().errors();
@@ -254,8 +360,8 @@ impl App {
         )?;
         let size = window.inner_size();
         let swapchain = Swapchain::new(&ctx, &surface, format, (size.width, size.height), &mut renderer, None)?;
-        if let Some(m) = &self.model {
-            let info = renderer.set_model(m, &self.programs)?;
+        if let Some(m) = &mut self.model {
+            let info = upload(&mut renderer, m, self.guided.as_ref(), &self.programs)?;
             (self.opts.log)(&format!(
                 "mdg-view: {} triangles, {} line segments, program {} on {}",
                 info.n_triangles, info.n_line_segments, info.program, ctx.device_name
@@ -276,6 +382,14 @@ impl App {
             if info.animated {
                 (self.opts.log)(&format!("mdg-view: animated ({:.1} s at {} fps): Space plays, , and . step, C looks through the camera rule", info.duration, info.fps));
             }
+        }
+        if let Some(s) = &self.guided {
+            (self.opts.log)(&format!(
+                "mdg-view: guides: drag a control point to move it; Ctrl+drag (or D, then drag) draws a guide; Tab or a \
+                 click selects one, Delete deletes it; T or 1-5 choose a parameter, J/K change it; R reseeds; U undoes; \
+                 S saves to {}",
+                s.save_path().display()
+            ));
         }
         let alloc = vk::CommandBufferAllocateInfo::default()
             .command_pool(ctx.command_pool)
@@ -304,6 +418,24 @@ impl App {
         }) {
             Ok(h) => self.reload = Some(h),
             Err(e) => (self.opts.log)(&format!("mdg-view: hot reload is off: {e}")),
+        }
+        self.start_guide_watch();
+    }
+
+    /// Watches the `--guides` file of a guided grammar (with hot reload on).
+    fn start_guide_watch(&mut self) {
+        if !self.opts.watch || self.guide_watch.is_some() || self.guided.is_none() {
+            return;
+        }
+        let Some((path, _)) = &self.opts.guides else { return };
+        let proxy = Mutex::new(self.proxy.clone());
+        match GuideWatch::start(path.clone(), move |r| {
+            if let Ok(p) = proxy.lock() {
+                let _ = p.send_event(UserEvent::GuidesFile(r));
+            }
+        }) {
+            Ok(w) => self.guide_watch = Some(w),
+            Err(e) => (self.opts.log)(&format!("mdg-view: the guide file is not watched: {e}")),
         }
     }
 
@@ -334,6 +466,7 @@ impl App {
 
     /// Draws one frame; `screenshot` also copies it to the readback buffer.
     fn draw(&mut self, screenshot: bool) -> Result<Option<Vec<u8>>, Error> {
+        self.sync_scene();
         if self.gpu.as_ref().is_some_and(|g| g.stale) {
             self.recreate_swapchain()?;
             if self.gpu.as_ref().is_some_and(|g| g.stale) {
@@ -418,6 +551,11 @@ impl App {
     /// Draws one more frame, reads it back and writes the screenshot (if asked for).
     fn write_screenshot(&mut self) -> Result<(), Error> {
         let Some(path) = self.opts.screenshot.clone() else { return Ok(()) };
+        self.write_screenshot_to(&path)
+    }
+
+    /// Draws one more frame, reads it back and writes it to `path`.
+    fn write_screenshot_to(&mut self, path: &Path) -> Result<(), Error> {
         if !self.gpu.as_ref().is_some_and(|g| g.swapchain.can_read_back) {
             (self.opts.log)("mdg-view: this swapchain cannot be read back; no screenshot");
             return Ok(());
@@ -427,7 +565,7 @@ impl App {
             if let Some(px) = self.draw(true)? {
                 let Some(g) = &self.gpu else { return Ok(()) };
                 let e = g.swapchain.extent;
-                return crate::offscreen::write_png(&path, &px, e.width, e.height);
+                return crate::offscreen::write_png(path, &px, e.width, e.height);
             }
         }
         (self.opts.log)("mdg-view: no frame to write as the screenshot");
@@ -457,19 +595,255 @@ impl App {
         self.redraw();
     }
 
-    fn key(&mut self, event_loop: &ActiveEventLoop, ev: &KeyEvent) {
-        if ev.state != ElementState::Pressed {
+    /// Every input, from winit or from the script.
+    fn input(&mut self, event_loop: &ActiveEventLoop, input: Input) {
+        match input {
+            Input::Modifiers(m) => self.modifiers = m,
+            Input::Key(k) => self.key(event_loop, &k),
+            Input::Wheel(lines) => self.zoom(0.9f32.powf(lines)),
+            Input::Button { button, pressed } => self.button(button, pressed),
+            Input::CursorMoved(x, y) => self.cursor_moved(x, y),
+        }
+    }
+
+    fn button(&mut self, button: Button, pressed: bool) {
+        if !pressed {
+            if button == Button::Left {
+                self.guided_release();
+            }
+            self.mouse.orbit = false;
+            self.mouse.pan = false;
+            return;
+        }
+        match button {
+            Button::Left if self.modifiers.shift => self.mouse.pan = true,
+            Button::Left => {
+                if !self.guided_press() {
+                    self.mouse.orbit = true;
+                }
+            }
+            Button::Right | Button::Middle => self.mouse.pan = true,
+        }
+    }
+
+    fn cursor_moved(&mut self, x: f64, y: f64) {
+        let previous = self.mouse.pos.replace((x, y));
+        if self.guided.as_ref().is_some_and(|s| s.editor.is_dragging() || s.editor.is_drawing()) {
+            let Some(view) = self.screen_view() else { return };
+            let Some(s) = &mut self.guided else { return };
+            let px = DVec2::new(x, y);
+            if s.editor.is_dragging() {
+                if s.editor.drag_to(&view, px) {
+                    // A search per move; one running is let finish (Preempt::Wait), so
+                    // models keep coming while the point moves.
+                    s.request(Preempt::Wait);
+                    self.scene_changed();
+                }
+            } else if s.editor.extend_stroke(&view, px) {
+                self.scene_changed();
+            }
+            return;
+        }
+        let Some((px, py)) = previous else { return };
+        let h = self.gpu.as_ref().map(|g| g.swapchain.extent.height.max(1) as f64).unwrap_or(1.0);
+        let (dx, dy) = (((x - px) / h) as f32, ((y - py) / h) as f32);
+        if self.mouse.orbit {
+            self.orbit(dx * std::f32::consts::PI, dy * std::f32::consts::PI);
+        } else if self.mouse.pan {
+            if let Some(c) = &mut self.camera {
+                c.pan(dx, dy);
+                self.redraw();
+            }
+        }
+    }
+
+    /// What the window shows now, for mapping pixels to the world.
+    fn screen_view(&self) -> Option<ScreenView> {
+        let g = self.gpu.as_ref()?;
+        let camera = self.camera?;
+        let frame = FrameParams { camera, time: self.time, wireframe: self.wireframe, camera_rule: self.camera_rule };
+        let (view, proj, eye) = g.renderer.view_projection(&frame);
+        let e = g.swapchain.extent;
+        Some(ScreenView::new(view, proj, eye, e.width, e.height))
+    }
+
+    /// The guides or the model changed: upload before the next frame.
+    fn scene_changed(&mut self) {
+        self.scene_dirty = true;
+        self.update_title();
+        self.redraw();
+    }
+
+    /// Uploads the model and the guide overlay if they changed.
+    fn sync_scene(&mut self) {
+        if !self.scene_dirty {
+            return;
+        }
+        self.scene_dirty = false;
+        let (Some(g), Some(m)) = (&mut self.gpu, &mut self.model) else { return };
+        g.ctx.wait_idle();
+        if let Err(e) = upload(&mut g.renderer, m, self.guided.as_ref(), &self.programs) {
+            (self.opts.log)(&format!("mdg-view: cannot show the model: {e}"));
+        }
+    }
+
+    fn update_title(&self) {
+        let (Some(g), Some(s)) = (&self.gpu, &self.guided) else { return };
+        let mode = if self.draw_mode { " — D: drag with the left button to draw a guide" } else { "" };
+        g.window.set_title(&format!("mdg-view — {} — {}{mode}", self.path.display(), s.title()));
+    }
+
+    /// A left press with guides shown: starts a stroke (draw mode or Ctrl), a drag
+    /// of the control point under the cursor, or selects the guide whose curve is
+    /// under it. Returns false when it is none of these (the press orbits).
+    fn guided_press(&mut self) -> bool {
+        let overlays = self.gpu.as_ref().is_some_and(|g| g.renderer.show_overlays);
+        let (Some(pos), Some(view), true) = (self.mouse.pos, self.screen_view(), overlays) else { return false };
+        let target = self.camera.map(|c| c.target.as_dvec3()).unwrap_or_default();
+        let draw = std::mem::take(&mut self.draw_mode) || self.modifiers.ctrl;
+        let Some(s) = &mut self.guided else { return false };
+        let px = DVec2::new(pos.0, pos.1);
+        let handled = if draw {
+            s.editor.begin_stroke(&view, px, target)
+        } else {
+            match s.editor.pick(&view, px) {
+                Some(Pick::Point { guide, point }) => s.editor.begin_drag(&view, px, guide, point),
+                Some(Pick::Curve { guide }) => {
+                    s.editor.select(Some(guide));
+                    true
+                }
+                None => false,
+            }
+        };
+        if handled || draw {
+            self.scene_changed();
+        }
+        handled
+    }
+
+    /// A left release: ends a drag (its searches were asked for while it moved) or
+    /// a stroke (fitted and added as a guide).
+    fn guided_release(&mut self) {
+        let view = self.screen_view();
+        let Some(s) = &mut self.guided else { return };
+        if s.editor.is_dragging() {
+            if s.editor.end_drag() {
+                if let Some((index, guide)) = s.editor.selected().and_then(|i| s.editor.guides().get(i).map(|g| (i, g)))
+                {
+                    (self.opts.log)(&format!("mdg-view: moved a control point of {}", guide.label(index)));
+                }
+                s.request_if_changed(Preempt::Wait);
+            }
+        } else if s.editor.is_drawing() {
+            let Some(view) = view else { return };
+            match s.editor.end_stroke(&view) {
+                Ok(i) => {
+                    let g = &s.editor.guides()[i];
+                    let n = (g.points.len() - 1) / 3;
+                    (self.opts.log)(&format!(
+                        "mdg-view: added {} ({n} cubic segment{})",
+                        g.label(i),
+                        if n == 1 { "" } else { "s" }
+                    ));
+                    s.request(Preempt::Cancel);
+                }
+                Err(e) => (self.opts.log)(&format!("mdg-view: no guide drawn: {e}")),
+            }
+        } else {
+            return;
+        }
+        self.scene_changed();
+    }
+
+    /// The guide editor's keys. Returns whether `key` was one of them.
+    fn guided_key(&mut self, key: &Key) -> bool {
+        let Modifiers { shift, ctrl } = self.modifiers;
+        let log = self.opts.log;
+        let Some(s) = &mut self.guided else { return false };
+        let say = |r: Result<String, String>| match r {
+            Ok(m) | Err(m) => log(&format!("mdg-view: {m}")),
+        };
+        let steps = if shift { 10.0 } else { 1.0 };
+        let text = match key {
+            Key::Char(c) => c.to_lowercase(),
+            _ => String::new(),
+        };
+        match (key, text.as_str()) {
+            (Key::Escape, _) => {
+                if !s.editor.cancel_gesture() {
+                    return false;
+                }
+                log("mdg-view: cancelled");
+            }
+            (Key::Tab, _) => {
+                s.editor.select_next();
+                log(&format!("mdg-view: {}", s.editor.status()));
+            }
+            (Key::Delete | Key::Backspace, _) => say(s.editor.delete_selected()),
+            (Key::PageUp, _) => say(s.editor.step_param(steps)),
+            (Key::PageDown, _) => say(s.editor.step_param(-steps)),
+            (_, "z") if ctrl => {
+                if !s.editor.undo() {
+                    log("mdg-view: nothing to undo");
+                }
+            }
+            (_, "y") if ctrl => {
+                if !s.editor.redo() {
+                    log("mdg-view: nothing to redo");
+                }
+            }
+            (_, _) if ctrl => return false,
+            (_, "u") => {
+                let done = if shift { s.editor.redo() } else { s.editor.undo() };
+                if !done {
+                    log(if shift { "mdg-view: nothing to redo" } else { "mdg-view: nothing to undo" });
+                }
+            }
+            (_, "d") => {
+                self.draw_mode = !self.draw_mode;
+                log(if self.draw_mode {
+                    "mdg-view: drag with the left button to draw a guide"
+                } else {
+                    "mdg-view: drawing off"
+                });
+            }
+            (_, "t") => {
+                s.editor.set_param(s.editor.param().cycled(shift));
+                log(&format!("mdg-view: {}", s.editor.status()));
+            }
+            (_, "1" | "2" | "3" | "4" | "5") => {
+                let i = text.parse::<usize>().map_or(0, |i| i - 1);
+                s.editor.set_param(Param::ALL[i.min(Param::ALL.len() - 1)]);
+                log(&format!("mdg-view: {}", s.editor.status()));
+            }
+            (_, "j") => say(s.editor.step_param(-steps)),
+            (_, "k") => say(s.editor.step_param(steps)),
+            (_, "r") => {
+                let seed = s.reseed();
+                log(&format!("mdg-view: seed {seed}: searching"));
+                s.request(Preempt::Cancel);
+            }
+            (_, "s") => say(s.save()),
+            _ => return false,
+        }
+        s.request_if_changed(Preempt::Cancel);
+        self.scene_changed();
+        true
+    }
+
+    fn key(&mut self, event_loop: &ActiveEventLoop, key: &Key) {
+        if self.guided_key(key) {
             return;
         }
         let step = 10f32.to_radians();
-        match &ev.logical_key {
-            Key::Named(NamedKey::Escape) => event_loop.exit(),
-            Key::Named(NamedKey::ArrowLeft) => self.orbit(-step, 0.0),
-            Key::Named(NamedKey::ArrowRight) => self.orbit(step, 0.0),
-            Key::Named(NamedKey::ArrowUp) => self.orbit(0.0, step),
-            Key::Named(NamedKey::ArrowDown) => self.orbit(0.0, -step),
-            Key::Named(NamedKey::Home) => self.frame_model(true),
-            Key::Character(c) => match c.to_lowercase().as_str() {
+        match key {
+            Key::Escape => event_loop.exit(),
+            Key::ArrowLeft => self.orbit(-step, 0.0),
+            Key::ArrowRight => self.orbit(step, 0.0),
+            Key::ArrowUp => self.orbit(0.0, step),
+            Key::ArrowDown => self.orbit(0.0, -step),
+            Key::Home => self.frame_model(true),
+            Key::Char(c) => match c.to_lowercase().as_str() {
                 "q" => event_loop.exit(),
                 "f" => self.frame_model(false),
                 "h" => self.frame_model(true),
@@ -623,12 +997,163 @@ impl App {
         }
     }
 
+    /// A guided search answered.
+    fn searched(&mut self, id: u64, outcome: Outcome) {
+        let Some(s) = &mut self.guided else { return };
+        let dragging = s.editor.is_dragging();
+        match s.accept(id, outcome) {
+            Accepted::Show(found) => {
+                if !dragging {
+                    let t = found.timings;
+                    (self.opts.log)(&format!(
+                        "mdg-view: guided search: {} ({:.1} ms preparing, {:.1} ms searching, {:.1} ms geometry)",
+                        found.summary.line(),
+                        t.prepare.as_secs_f64() * 1e3,
+                        t.search.as_secs_f64() * 1e3,
+                        t.geometry.as_secs_f64() * 1e3
+                    ));
+                    for w in &found.output.stats.warnings {
+                        (self.opts.log)(&format!("mdg-view: warning: {w}"));
+                    }
+                }
+                if let Some(m) = &mut self.model {
+                    m.output = found.output;
+                }
+                self.scene_changed();
+            }
+            Accepted::Failed(e) => {
+                (self.opts.log)(&format!("mdg-view: guided search failed; keeping the last model: {e}"));
+            }
+            Accepted::Nothing => {}
+        }
+    }
+
+    /// The `--guides` file changed.
+    fn guides_file_changed(&mut self, r: Result<Vec<Guide>, String>) {
+        let Some(s) = &mut self.guided else { return };
+        match r {
+            Ok(guides) => {
+                if s.file_changed(guides) {
+                    (self.opts.log)("mdg-view: the guide file changed: searching");
+                    s.request(Preempt::Cancel);
+                    self.scene_changed();
+                }
+            }
+            Err(e) => (self.opts.log)(&format!("mdg-view: keeping the guides: {e}")),
+        }
+    }
+
+    /// Whether nothing is left to do for the script's `idle`: every search asked for
+    /// answered and the newest model uploaded.
+    fn is_idle(&self) -> bool {
+        self.guided.as_ref().is_none_or(Session::is_idle) && !self.scene_dirty
+    }
+
+    /// Runs the script's next steps; returns when to look again (`None`: it is over).
+    fn run_script(&mut self, event_loop: &ActiveEventLoop) -> Option<std::time::Instant> {
+        loop {
+            // Upload what changed now rather than at the next frame: `idle` must not
+            // wait for a redraw (a window that is not shown gets none).
+            self.sync_scene();
+            let idle = self.is_idle();
+            let now = std::time::Instant::now();
+            let (step, line) = {
+                let r = self.script.as_mut()?;
+                (r.next(now, idle, self.modifiers), r.line())
+            };
+            match step {
+                Step::Input(i) => self.input(event_loop, i),
+                Step::Point { guide, point } => {
+                    let at = match (self.screen_view(), &self.guided) {
+                        (Some(v), Some(s)) => s.editor.point_on_screen(&v, guide, point),
+                        _ => None,
+                    };
+                    let Some(px) = at else {
+                        let e = format!(
+                            "--script line {line}: guide {} has no control point {} on screen",
+                            guide + 1,
+                            point + 1
+                        );
+                        self.script = None;
+                        self.fail(event_loop, Error::Other(e));
+                        return None;
+                    };
+                    (self.opts.log)(&format!(
+                        "mdg-view: script line {line}: guide {} point {} is at pixel ({:.2}, {:.2})",
+                        guide + 1,
+                        point + 1,
+                        px.x,
+                        px.y
+                    ));
+                    if let Some(r) = &mut self.script {
+                        r.cursor_at(px.x, px.y);
+                    }
+                    self.input(event_loop, Input::CursorMoved(px.x, px.y));
+                }
+                Step::Screenshot(path) => {
+                    if let Err(e) = self.write_screenshot_to(&path) {
+                        self.script = None;
+                        self.fail(event_loop, e);
+                        return None;
+                    }
+                    (self.opts.log)(&format!("mdg-view: script line {line}: wrote {}", path.display()));
+                }
+                Step::Quit => {
+                    self.script = None;
+                    if let Err(e) = self.write_screenshot() {
+                        self.fail(event_loop, e);
+                    }
+                    event_loop.exit();
+                    return None;
+                }
+                Step::Wait(at) => return Some(at.unwrap_or(now + SCRIPT_POLL)),
+                Step::Done => {
+                    self.script = None;
+                    (self.opts.log)("mdg-view: the script is done");
+                    return None;
+                }
+            }
+        }
+    }
+
     fn reloaded(&mut self, r: Reloaded) {
         match r {
             Reloaded::Failed(msg) => {
                 (self.opts.log)(&format!("mdg-view: reload failed; keeping the last good model\n{msg}"));
             }
+            Reloaded::Model(mut m) if m.bundle.extensions.guided.is_some() => {
+                // A guided grammar: search with it; the model on screen stays until
+                // the search answers (the camera is kept).
+                let bundle = Arc::new(m.bundle.clone());
+                match &mut self.guided {
+                    Some(s) => s.set_bundle(bundle),
+                    None => match start_session(&m, &self.opts, &self.proxy) {
+                        Ok(s) => self.guided = Some(s),
+                        Err(e) => {
+                            (self.opts.log)(&format!("mdg-view: reload failed; keeping the last good model\n{e}"));
+                            return;
+                        }
+                    },
+                }
+                if !m.warnings.is_empty() {
+                    (self.opts.log)(m.warnings.trim_end());
+                }
+                if let Some(old) = self.model.take() {
+                    m.output = old.output;
+                }
+                self.model = Some(*m);
+                self.summary.reloads += 1;
+                (self.opts.log)("mdg-view: reloaded: searching");
+                if let Some(s) = &mut self.guided {
+                    s.request(Preempt::Cancel);
+                }
+                self.start_guide_watch();
+                self.scene_changed();
+            }
             Reloaded::Model(m) => {
+                // Not (or no longer) a guided grammar.
+                self.guide_watch = None;
+                self.guided = None;
                 let Some(g) = &mut self.gpu else { return };
                 g.ctx.wait_idle();
                 match g.renderer.set_model(&m, &self.programs) {
@@ -649,6 +1174,53 @@ impl App {
             }
         }
     }
+}
+
+/// The window's input from a winit event, if it is one the window handles.
+fn input_of(event: &WindowEvent) -> Option<Input> {
+    Some(match event {
+        WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
+            Input::Key(key_of(&event.logical_key)?)
+        }
+        WindowEvent::ModifiersChanged(m) => {
+            Input::Modifiers(Modifiers { shift: m.state().shift_key(), ctrl: m.state().control_key() })
+        }
+        WindowEvent::MouseInput { state, button, .. } => Input::Button {
+            button: match button {
+                MouseButton::Left => Button::Left,
+                MouseButton::Right => Button::Right,
+                MouseButton::Middle => Button::Middle,
+                _ => return None,
+            },
+            pressed: *state == ElementState::Pressed,
+        },
+        WindowEvent::CursorMoved { position, .. } => Input::CursorMoved(position.x, position.y),
+        WindowEvent::MouseWheel { delta, .. } => Input::Wheel(match delta {
+            MouseScrollDelta::LineDelta(_, y) => *y,
+            MouseScrollDelta::PixelDelta(p) => (p.y / 40.0) as f32,
+        }),
+        _ => return None,
+    })
+}
+
+/// The window's name for a winit key.
+fn key_of(key: &WinitKey) -> Option<Key> {
+    Some(match key {
+        WinitKey::Named(NamedKey::Escape) => Key::Escape,
+        WinitKey::Named(NamedKey::Tab) => Key::Tab,
+        WinitKey::Named(NamedKey::Delete) => Key::Delete,
+        WinitKey::Named(NamedKey::Backspace) => Key::Backspace,
+        WinitKey::Named(NamedKey::Home) => Key::Home,
+        WinitKey::Named(NamedKey::ArrowLeft) => Key::ArrowLeft,
+        WinitKey::Named(NamedKey::ArrowRight) => Key::ArrowRight,
+        WinitKey::Named(NamedKey::ArrowUp) => Key::ArrowUp,
+        WinitKey::Named(NamedKey::ArrowDown) => Key::ArrowDown,
+        WinitKey::Named(NamedKey::PageUp) => Key::PageUp,
+        WinitKey::Named(NamedKey::PageDown) => Key::PageDown,
+        WinitKey::Named(NamedKey::Space) => Key::Char(" ".into()),
+        WinitKey::Character(c) => Key::Char(c.to_string()),
+        _ => return None,
+    })
 }
 
 /// `p`'s value moved by `steps` steps — a bool flips; 1 for an int; a twentieth of the range, or
@@ -786,45 +1358,14 @@ impl ApplicationHandler<UserEvent> for App {
                     None => {}
                 }
             }
-            WindowEvent::KeyboardInput { event, .. } => self.key(event_loop, &event),
-            WindowEvent::ModifiersChanged(m) => self.mouse.shift = m.state().shift_key(),
-            WindowEvent::MouseInput { state, button, .. } => {
-                let down = state == ElementState::Pressed;
-                match button {
-                    MouseButton::Left if self.mouse.shift => self.mouse.pan = down,
-                    MouseButton::Left => self.mouse.orbit = down,
-                    MouseButton::Right | MouseButton::Middle => self.mouse.pan = down,
-                    _ => {}
-                }
-                if !down {
-                    self.mouse.orbit = false;
-                    self.mouse.pan = false;
-                }
-            }
-            WindowEvent::CursorMoved { position, .. } => {
-                let (x, y) = (position.x, position.y);
-                if let Some((px, py)) = self.mouse.pos {
-                    let h = self.gpu.as_ref().map(|g| g.swapchain.extent.height.max(1) as f64).unwrap_or(1.0);
-                    let (dx, dy) = (((x - px) / h) as f32, ((y - py) / h) as f32);
-                    if self.mouse.orbit {
-                        self.orbit(dx * std::f32::consts::PI, dy * std::f32::consts::PI);
-                    } else if self.mouse.pan {
-                        if let Some(c) = &mut self.camera {
-                            c.pan(dx, dy);
-                            self.redraw();
-                        }
+            // The mouse and keyboard become `Input`s (ignored while a script runs).
+            event => {
+                if self.script.is_none() {
+                    if let Some(input) = input_of(&event) {
+                        self.input(event_loop, input);
                     }
                 }
-                self.mouse.pos = Some((x, y));
             }
-            WindowEvent::MouseWheel { delta, .. } => {
-                let lines = match delta {
-                    MouseScrollDelta::LineDelta(_, y) => y,
-                    MouseScrollDelta::PixelDelta(p) => (p.y / 40.0) as f32,
-                };
-                self.zoom(0.9f32.powf(lines));
-            }
-            _ => {}
         }
     }
 
@@ -837,6 +1378,8 @@ impl ApplicationHandler<UserEvent> for App {
                     self.show_param();
                 }
             }
+            UserEvent::Searched(id, outcome) => self.searched(id, *outcome),
+            UserEvent::GuidesFile(r) => self.guides_file_changed(r),
         }
     }
 
@@ -849,8 +1392,14 @@ impl ApplicationHandler<UserEvent> for App {
             event_loop.exit();
             return;
         }
+        let mut wake = std::time::Instant::now() + QUIT_POLL;
+        if self.script.is_some() {
+            if let Some(at) = self.run_script(event_loop) {
+                wake = wake.min(at);
+            }
+        }
         // Wake up now and then to notice a signal while idle.
-        event_loop.set_control_flow(ControlFlow::WaitUntil(std::time::Instant::now() + QUIT_POLL));
+        event_loop.set_control_flow(ControlFlow::WaitUntil(wake));
     }
 
     fn exiting(&mut self, _event_loop: &ActiveEventLoop) {

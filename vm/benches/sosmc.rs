@@ -30,7 +30,7 @@ fn bundle() -> Result<Bundle, String> {
             std::fs::create_dir_all(root().join("target/sosmc")).map_err(|e| e.to_string())?;
             let status = Command::new(env!("CARGO"))
                 .current_dir(root())
-                .args(["run", "--release", "-q", "-p", "mdg-compiler", "--bin", "mdgc", "--", "build"])
+                .args(["run", "--release", "-q", "-p", "mdg-cli", "--bin", "mdgc", "--", "build"])
                 .arg("std/examples/guided_tree.mdg")
                 .arg("-o")
                 .arg(&out)

@@ -1,8 +1,13 @@
-//! `mdg-view FILE`: show a grammar in a window, or render it offscreen to PNG.
+//! `mdg-view FILE`: show a grammar in a window, or render it offscreen to PNG. A
+//! grammar with a `search` section is searched first (its guides from the grammar
+//! or `--guides`), and in the window its guides can be edited (docs/guided.md).
 
 use crate::toolchain::Toolchain;
 use mdg_viewer::camera::Pose;
 use mdg_viewer::context::{Context, ContextOptions, Validation};
+use mdg_viewer::guided::edit::Editor;
+use mdg_viewer::guided::search::{run_search, SearchRequest};
+use mdg_viewer::guided::watch::read_guides;
 use mdg_viewer::model::{self, LoadOptions, Loader};
 use mdg_viewer::offscreen::{self, Offscreen};
 use mdg_viewer::program::Programs;
@@ -10,6 +15,7 @@ use mdg_viewer::renderer::FrameParams;
 use mdg_viewer::window::{self, WindowOptions};
 use mdg_viewer::Error;
 use mdg_vm::eval::EvalOptions;
+use mdg_vm::sosmc::{Cancel, Guide, Stop};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -25,7 +31,26 @@ use std::sync::Arc;
 Window keys: drag = orbit, right/middle drag or shift+drag = pan, wheel = zoom,
 F = frame the model, H = home view, W = wireframe, arrows = orbit, +/- = zoom,
 Space = play/pause, , and . = step one frame back/forward, C = camera rule on/off,
-Esc/Q = quit.
+G = overlays on/off, P = next @param, [ and ] = change it ({ }: x10), Esc/Q = quit.
+
+Guided grammars (a `search` section) are searched on opening, on every reload and
+whenever the guides change; the title shows the final cost, its terms, the model's
+generation and why the search stopped. Editing the guides in the window:
+  left drag on a control point   move it in the view plane (the tree follows)
+  left click on a curve, Tab     select a guide
+  Ctrl+left drag, or D then drag draw a new guide (fitted with Bezier segments)
+  Delete / Backspace             delete the selected guide
+  T (Shift+T back), 1-5          choose delta_a, scale_a, scale_d, scale_u, segment
+  J / K (Shift: x10)             lower / raise it (also Page Down / Page Up)
+  R = reseed, U or Ctrl+Z = undo, Shift+U or Ctrl+Y = redo, Esc = abandon a drag
+  S                              save the guides as JSON (to --guides FILE, else
+                                 ./NAME.guides.json), the format of mdg-run --guides
+
+--script FILE feeds the window input from a file, one command a line: wait MS,
+idle (until the newest search is shown), move X Y, move-by DX DY [N], point G P
+(the cursor onto guide G's control point P, from 1), press/release left|right|middle,
+key K (a character or escape, tab, delete, backspace, home, left, right, up, down,
+pageup, pagedown, space; ctrl+ and shift+ prefixes), screenshot FILE.png, quit.
 
 Exit status: 0 ok, 1 compile or render error, 2 usage, 3 Vulkan validation errors.")]
 pub struct Args {
@@ -61,6 +86,14 @@ pub struct Args {
     /// Window: do not reload when the files change.
     #[arg(long)]
     no_watch: bool,
+    /// Guided search: guiding curves from a JSON file instead of the grammar's
+    /// `guide` sections (watched in the window; `S` saves the edited guides back to it).
+    #[arg(long, value_name = "FILE.json")]
+    guides: Option<PathBuf>,
+    /// Window: read input from FILE instead of the mouse and keyboard (commands
+    /// below).
+    #[arg(long, value_name = "FILE")]
+    script: Option<PathBuf>,
     /// Draw wireframe (offscreen; press W in the window).
     #[arg(long)]
     wireframe: bool,
@@ -93,6 +126,29 @@ fn numbered(path: &Path, i: u32, n: u32) -> PathBuf {
     let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "view".into());
     let digits = (n.max(1) - 1).to_string().len().max(2);
     path.with_file_name(format!("{stem}-{i:0digits$}.png"))
+}
+
+/// Runs the guided search as the window's first one does and puts its model, the
+/// guides and the bones (the window's overlay) into `model`.
+fn search_for_picture(model: &mut model::Model, guides: Option<Vec<Guide>>, eval: &EvalOptions) -> Result<(), Error> {
+    let Some(table) = &model.bundle.extensions.guided else { return Ok(()) };
+    let guides = guides.unwrap_or_else(|| table.guides.clone());
+    let seed = eval.seed.unwrap_or(model.bundle.settings.randseed);
+    let request =
+        SearchRequest { bundle: Arc::new(model.bundle.clone()), guides: guides.clone(), seed, eval: eval.clone() };
+    let found = run_search(&request, &Cancel::new()).map_err(|e| Error::Other(format!("guided search: {e}")))?;
+    eprintln!("mdg-view: guided search: {}", found.summary.line());
+    if found.summary.stop == Stop::Budget {
+        eprintln!(
+            "warning: guided search: the `search` section's time budget ended the search after {} of {} generations \
+             (the picture depends on the machine's speed)",
+            found.summary.generations, found.summary.scheduled
+        );
+    }
+    model.output = found.output;
+    let editor = Editor::new(guides);
+    model.output.lines.extend(editor.overlay(editor.marker_size()));
+    Ok(())
 }
 
 fn offscreen(cli: &Args, model: &model::Model, size: (u32, u32), programs: &Programs) -> Result<u32, Error> {
@@ -186,9 +242,29 @@ pub fn run(cli: Args) -> ExitCode {
         eprintln!("mdg-view: --turntable needs --png");
         return ExitCode::from(2);
     }
+    if cli.script.is_some() && (cli.png.is_some() || cli.frames.is_some()) {
+        eprintln!("mdg-view: --script drives the window: it cannot be combined with --png or --frames (use `quit`)");
+        return ExitCode::from(2);
+    }
+    let script = match &cli.script {
+        None => None,
+        Some(path) => {
+            match mdg_vm::input::read_text_bounded(path, mdg_vm::input::MAX_DATA_BYTES)
+                .map_err(|e| format!("cannot read {}: {e}", path.display()))
+                .and_then(|text| mdg_viewer::script::parse(&text).map_err(|e| format!("{}: {e}", path.display())))
+            {
+                Ok(s) => Some(s),
+                Err(e) => {
+                    eprintln!("mdg-view: --script {e}");
+                    return ExitCode::from(2);
+                }
+            }
+        }
+    };
     let eval = EvalOptions { seed: cli.seed, ..cli.limits.eval_options() };
-    let load = LoadOptions { std_dir: opts.std_dir, params: opts.params, presets: opts.defines, eval };
-    let (model, files) = match Toolchain.load(&cli.file, &load) {
+    let load =
+        LoadOptions { std_dir: opts.std_dir, params: opts.params, presets: opts.defines, eval, guided_search: true };
+    let (mut model, files) = match Toolchain.load(&cli.file, &load) {
         Ok(m) => m,
         Err(fail) => {
             eprint!("{}", fail.error);
@@ -199,12 +275,42 @@ pub fn run(cli: Args) -> ExitCode {
         }
     };
     eprint!("{}", model.warnings);
+    let guided = model.bundle.extensions.guided.is_some();
+    let guides = match (&cli.guides, guided) {
+        (Some(path), true) => match read_guides(path) {
+            Ok(g) => Some((path.clone(), g)),
+            Err(e) => {
+                eprintln!("mdg-view: {e}");
+                return ExitCode::from(1);
+            }
+        },
+        (Some(_), false) => {
+            eprintln!("warning: `--guides` is ignored: the grammar has no `search` section");
+            None
+        }
+        (None, _) => None,
+    };
+    if cli.png.is_some() {
+        if let Err(e) = search_for_picture(&mut model, guides.clone().map(|g| g.1), &load.eval) {
+            eprintln!("mdg-view: {e}");
+            return ExitCode::from(1);
+        }
+    }
     for d in &model.output.debug {
         eprintln!("{d}");
     }
     for w in &model.output.stats.warnings {
         eprintln!("warning: {w}");
     }
+    // `S` saves to the guide file, else to NAME.guides.json in the current directory.
+    let save_guides = match &guides {
+        Some((path, _)) => path.clone(),
+        None => {
+            let stem =
+                cli.file.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "guides".into());
+            PathBuf::from(format!("{stem}.guides.json"))
+        }
+    };
     let result = if cli.png.is_some() {
         Toolchain.programs(load.std_dir.as_deref()).and_then(|programs| offscreen(&cli, &model, size, &programs))
     } else {
@@ -220,6 +326,9 @@ pub fn run(cli: Args) -> ExitCode {
             time: cli.time,
             pose,
             log: crate::say,
+            guides,
+            save_guides,
+            script,
         };
         window::run(cli.file.clone(), model, files, opts, Arc::new(Toolchain)).map(|s| {
             eprintln!("mdg-view: closed cleanly after {} frames ({} reloads) on {}", s.frames, s.reloads, s.device);

@@ -205,6 +205,7 @@ pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common, eval: &EvalOptio
             Stop::Generations => "all generations ran",
             Stop::Budget => "time budget",
             Stop::Complete => "no pending skeleton calls",
+            Stop::Cancelled => "cancelled",
         };
         eprintln!(
             "guided search: {} generations ({stop}), the model from generation {}, {} particle-steps, {} expansions, \

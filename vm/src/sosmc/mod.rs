@@ -22,7 +22,7 @@ pub mod search;
 pub mod team;
 
 pub use cost::Utilisation;
-pub use search::{Model, Prepared, Progress, SearchOptions, SearchResult, Stop, PARALLEL_MIN_PARTICLES};
+pub use search::{Cancel, Model, Prepared, Progress, SearchOptions, SearchResult, Stop, PARALLEL_MIN_PARTICLES};
 
 use crate::bundle::{Bundle, Op, NONE};
 use serde::{Deserialize, Serialize};

@@ -20,9 +20,9 @@
 //! `heuristic_fraction` of the generations). After each particle's step its weight is
 //! the likelihood ratio exp(−[(COST + h_g·H)_now − (COST + h_{g−1}·H)_before]); then
 //! N_{g+1} particles are resampled. The search stops after the last generation, at
-//! the time budget (checked between generations), or when no particle has pending
-//! calls. The model is the final particle with the lowest COST (first on ties):
-//! leftover skeleton calls become their wrap-up rule's calls (calls of a rule
+//! the time budget or when cancelled (both checked before every particle-step), or
+//! when no particle has pending calls. The model is the final particle with the
+//! lowest COST (first on ties): leftover skeleton calls become their wrap-up rule's calls (calls of a rule
 //! without a wrap-up are dropped), and the geometry phase evaluates every deferred
 //! call with [`crate::eval::evaluate_calls`].
 //!
@@ -84,6 +84,38 @@ pub struct SearchOptions {
     /// larger ones are split among the threads (see [`super::team`] and
     /// docs/guided.md). Results do not depend on it.
     pub parallel_min: usize,
+    /// Stop as soon as this is cancelled (checked where the budget is: before every
+    /// particle-step and between generations). An editor cancels a search whose
+    /// guides were changed again before it finished.
+    pub cancel: Option<Cancel>,
+}
+
+/// A flag that stops a running search from another thread ([`SearchOptions::cancel`]).
+/// Clones share the flag; two are equal when they are the same flag.
+#[derive(Clone, Debug, Default)]
+pub struct Cancel(Arc<AtomicBool>);
+
+impl Cancel {
+    /// A flag not yet set.
+    pub fn new() -> Cancel {
+        Cancel::default()
+    }
+
+    /// Asks every search holding this flag to stop.
+    pub fn cancel(&self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+
+    /// Whether [`Cancel::cancel`] was called.
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
+}
+
+impl PartialEq for Cancel {
+    fn eq(&self, other: &Cancel) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
+    }
 }
 
 /// Default [`SearchOptions::parallel_min`].
@@ -108,6 +140,7 @@ impl SearchOptions {
             threads: None,
             parallel_min: PARALLEL_MIN_PARTICLES,
             clock: None,
+            cancel: None,
         }
     }
 
@@ -146,6 +179,8 @@ pub enum Stop {
     Budget,
     /// No particle had pending skeleton calls left.
     Complete,
+    /// [`SearchOptions::cancel`] was set (the result is the best seen before).
+    Cancelled,
 }
 
 /// A bone of the skeleton, in world space.
@@ -403,8 +438,11 @@ struct Shared<'b> {
     picks: RwLock<Vec<usize>>,
     next: AtomicUsize,
     cur: Vec<Mutex<Slot<'b>>>,
-    /// Set by a member that found the deadline passed: the round was cut short.
+    /// Set by a member that found the deadline passed or the search cancelled: the
+    /// round was cut short.
     cut: AtomicBool,
+    /// The search's cancel flag ([`SearchOptions::cancel`]).
+    cancel: Option<Cancel>,
 }
 
 fn read<T>(l: &RwLock<T>) -> RwLockReadGuard<'_, T> {
@@ -676,6 +714,7 @@ impl<'b> Prepared<'b> {
                 })
                 .collect(),
             cut: AtomicBool::new(false),
+            cancel: opts.cancel.clone(),
         };
         let member = |t: usize| self.member(&sh, t);
         Team::run(members, &member, |team| self.lead(team, &sh, opts, progress))
@@ -692,7 +731,7 @@ impl<'b> Prepared<'b> {
         let Slot { local, ex, out, items } = &mut *slot;
         let mut store = Store { frozen: &frozen, id: first + t as u32, local };
         loop {
-            if deadline.is_some_and(|d| Instant::now() >= d) {
+            if deadline.is_some_and(|d| Instant::now() >= d) || sh.cancel.as_ref().is_some_and(Cancel::is_cancelled) {
                 sh.cut.store(true, Ordering::Relaxed);
                 break;
             }
@@ -753,6 +792,10 @@ impl<'b> Prepared<'b> {
                 stop = Stop::Complete;
                 break;
             }
+            if opts.cancel.as_ref().is_some_and(Cancel::is_cancelled) {
+                stop = Stop::Cancelled;
+                break;
+            }
             if deadline.is_some_and(|d| Instant::now() >= d) {
                 stop = Stop::Budget;
                 break;
@@ -769,10 +812,11 @@ impl<'b> Prepared<'b> {
             } else {
                 team.round();
             }
-            // Cut short by the budget: this generation is dropped (the previous one
-            // and the best seen stand).
+            // Cut short by the budget or a cancel: this generation is dropped (the
+            // previous one and the best seen stand).
             if sh.cut.load(Ordering::Relaxed) {
-                stop = Stop::Budget;
+                stop =
+                    if opts.cancel.as_ref().is_some_and(Cancel::is_cancelled) { Stop::Cancelled } else { Stop::Budget };
                 break;
             }
             src = 1 - src;
@@ -1091,6 +1135,7 @@ mod tests {
             threads: None,
             parallel_min: PARALLEL_MIN_PARTICLES,
             clock: None,
+            cancel: None,
         };
         assert_eq!(o.particles_at(0), 100);
         assert_eq!(o.particles_at(99), 15);
