@@ -21,7 +21,7 @@ fn next(rx: &mpsc::Receiver<Reloaded>) -> Reloaded {
 
 fn triangles(r: Reloaded) -> usize {
     match r {
-        Reloaded::Model(m) => m.output.mesh.triangles.len(),
+        Reloaded::Model(m) => m.output.vertex_mesh().triangles.len(),
         Reloaded::Failed(msg) => panic!("expected a model, got:\n{msg}"),
     }
 }
@@ -43,7 +43,7 @@ fn edits_to_the_grammar_and_its_imports_reload() {
     std::fs::write(&lib, "rule tri { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n").expect("write");
     std::fs::write(&main, "@import lib.mdg\nstartshape A\nrule A { tri {} }\n").expect("write");
     let (model, files) = Toolchain.load(&main, &load_options()).map_err(|f| f.error.to_string()).expect("loads");
-    assert_eq!(model.output.mesh.triangles.len(), 1);
+    assert_eq!(model.output.vertex_mesh().triangles.len(), 1);
     assert!(files.iter().any(|f| f.ends_with("lib.mdg")), "{files:?}");
 
     let (tx, rx) = mpsc::channel();

@@ -112,7 +112,7 @@ fn mirrored_model_is_lit_on_the_outside() {
     let Some(ctx) = vulkan() else { return };
     let plain = render(&ctx, "cube.mdg", W, H);
     let mirrored_model = load(&data("mirrored_cube.mdg"));
-    assert!(mirrored_model.output.mesh.mirrored.iter().all(|m| *m), "the fx cube's triangles must be emitted mirrored");
+    assert!(mirrored_model.output.vertex_mesh().mirrored.iter().all(|m| *m), "the fx cube's triangles must be emitted mirrored");
     let mirrored = render_model(&ctx, &mirrored_model, W, H);
     plain.image.save("cube.png");
     mirrored.image.save("mirrored_cube.png");
@@ -130,6 +130,7 @@ fn mirrored_model_is_lit_on_the_outside() {
     // (as if `oriented_triangles` were ignored) is lit on the inside — dark where
     // the light falls — so the comparison above can fail.
     let mut wrong = mirrored_model.output.clone();
+    wrong.expand_prototypes();
     wrong.mesh.mirrored.iter_mut().for_each(|m| *m = false);
     let mut off = Offscreen::new(&ctx, W, H, 4).expect("offscreen");
     let prog = program::for_bundle(&mirrored_model.bundle, &programs()).expect("program");
