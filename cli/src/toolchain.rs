@@ -62,13 +62,22 @@ impl Loader for Toolchain {
     }
 
     fn programs(&self, std_dir: Option<&Path>) -> Result<Programs, Error> {
-        Ok(Programs { phong: std_program(std_dir)?, lines: line_program()? })
+        let std = std_programs(std_dir)?;
+        Ok(Programs { phong: std.phong, instanced: std.instanced, lines: line_program()? })
     }
 }
 
+/// std's Phong program and its instanced vertex shader with the same fragment
+/// shader (`None` for a std without `phong_instanced_vs`).
+#[derive(Clone, Debug)]
+pub struct StdPrograms {
+    pub phong: ProgramSpirv,
+    pub instanced: Option<ProgramSpirv>,
+}
+
 /// Compiles std's `shaders.mdg` (from `std_dir` if given and present) and returns
-/// its `program`'s shaders.
-fn compile_std(std_dir: Option<&Path>) -> Result<ProgramSpirv, String> {
+/// its `program`'s shaders and the instanced variant.
+fn compile_std(std_dir: Option<&Path>) -> Result<StdPrograms, String> {
     let opts = Options { std_dir: std_dir.map(Path::to_path_buf), ..Options::default() };
     let file = std_dir.map(|d| d.join("shaders.mdg")).filter(|p| p.is_file());
     let a = match &file {
@@ -90,18 +99,32 @@ fn compile_std(std_dir: Option<&Path>) -> Result<ProgramSpirv, String> {
     };
     match (pick(true, "phong_vs"), pick(false, "phong_fs")) {
         (Some(vertex), Some(fragment)) => {
-            Ok(ProgramSpirv { vertex, fragment, label: "std phong_vs + phong_fs".into() })
+            // (An older std without the instanced shader: instances are drawn expanded.)
+            let instanced = pick(true, "phong_instanced_vs").map(|v| ProgramSpirv {
+                vertex: v,
+                fragment: fragment.clone(),
+                label: "std phong_instanced_vs + phong_fs".into(),
+            });
+            Ok(StdPrograms {
+                phong: ProgramSpirv { vertex, fragment, label: "std phong_vs + phong_fs".into() },
+                instanced,
+            })
         }
         _ => Err("std/shaders.mdg has no phong_vs / phong_fs".into()),
     }
 }
 
 /// Compiled std programs by std directory.
-type StdCache = Mutex<Vec<(Option<PathBuf>, ProgramSpirv)>>;
+type StdCache = Mutex<Vec<(Option<PathBuf>, StdPrograms)>>;
 
-/// The std Phong program (compiled once per process and std directory; an
-/// installation's edited `shaders.mdg` is honoured).
+/// The std Phong program.
 pub fn std_program(std_dir: Option<&Path>) -> Result<ProgramSpirv, Error> {
+    std_programs(std_dir).map(|p| p.phong)
+}
+
+/// The std programs (compiled once per process and std directory; an
+/// installation's edited `shaders.mdg` is honoured).
+pub fn std_programs(std_dir: Option<&Path>) -> Result<StdPrograms, Error> {
     static CACHE: OnceLock<StdCache> = OnceLock::new();
     let cache = CACHE.get_or_init(|| Mutex::new(Vec::new()));
     let key = std_dir.map(Path::to_path_buf);

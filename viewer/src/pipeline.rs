@@ -9,7 +9,7 @@
 //! faces are front-facing (the scene's winding is corrected for mirrored frames).
 
 use crate::context::{vkerr, Context};
-use crate::scene::{SKIN_STRIDE, VERTEX_STRIDE};
+use crate::scene::{INSTANCE_STRIDE, PROTO_STRIDE, SKIN_STRIDE, VERTEX_STRIDE};
 use crate::Error;
 use ash::vk;
 use std::sync::Arc;
@@ -116,6 +116,10 @@ pub struct PipelineDesc {
     pub samples: vk::SampleCountFlags,
     /// Binding 1 holds one (weight, bone) per vertex; else one shared zero element.
     pub skinned: bool,
+    /// The instanced layout ([`crate::scene::PROTO_STRIDE`] per vertex in binding 0,
+    /// [`crate::scene::INSTANCE_STRIDE`] per instance in binding 1) for std's
+    /// `phong_instanced_vs`.
+    pub instanced: bool,
 }
 
 /// A graphics pipeline.
@@ -183,9 +187,43 @@ impl Pipeline {
                 .format(vk::Format::R32_UINT)
                 .offset(16),
         ];
-        let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
-            .vertex_binding_descriptions(&bindings)
-            .vertex_attribute_descriptions(&attrs);
+        let attribute = |location: u32, binding: u32, format: vk::Format, offset: u32| {
+            vk::VertexInputAttributeDescription::default()
+                .location(location)
+                .binding(binding)
+                .format(format)
+                .offset(offset)
+        };
+        let vec4 = vk::Format::R32G32B32A32_SFLOAT;
+        let instanced_bindings = [
+            vk::VertexInputBindingDescription::default()
+                .binding(0)
+                .stride(PROTO_STRIDE)
+                .input_rate(vk::VertexInputRate::VERTEX),
+            vk::VertexInputBindingDescription::default()
+                .binding(1)
+                .stride(INSTANCE_STRIDE)
+                .input_rate(vk::VertexInputRate::INSTANCE),
+        ];
+        let instanced_attrs = [
+            attribute(0, 0, vk::Format::R32G32B32_SFLOAT, 0),
+            attribute(1, 0, vk::Format::R16G16B16A16_SNORM, 12),
+            attribute(2, 0, vec4, 20),
+            attribute(4, 1, vk::Format::R32_UINT, 64),
+            attribute(5, 1, vec4, 0),
+            attribute(6, 1, vec4, 16),
+            attribute(7, 1, vec4, 32),
+            attribute(8, 1, vec4, 48),
+        ];
+        let vertex_input = if desc.instanced {
+            vk::PipelineVertexInputStateCreateInfo::default()
+                .vertex_binding_descriptions(&instanced_bindings)
+                .vertex_attribute_descriptions(&instanced_attrs)
+        } else {
+            vk::PipelineVertexInputStateCreateInfo::default()
+                .vertex_binding_descriptions(&bindings)
+                .vertex_attribute_descriptions(&attrs)
+        };
         let topology = if matches!(desc.kind, Kind::Lines | Kind::Overlay) {
             vk::PrimitiveTopology::LINE_LIST
         } else {

@@ -25,6 +25,9 @@ pub struct ProgramSpirv {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Programs {
     pub phong: ProgramSpirv,
+    /// std's `phong_instanced_vs` with `phong_fs`: instances drawn with GPU
+    /// instancing where a model's vertex shader is std's (`None`: they are expanded).
+    pub instanced: Option<ProgramSpirv>,
     pub lines: ProgramSpirv,
 }
 
@@ -70,6 +73,22 @@ pub fn for_bundle(bundle: &Bundle, programs: &Programs) -> Result<ProgramSpirv, 
         fragment: fs.map(|(_, s)| s).unwrap_or_else(|| std.fragment.clone()),
         label,
     })
+}
+
+/// The program that draws `bundle`'s instances with GPU instancing: std's instanced
+/// vertex shader with the bundle's fragment shader (or std's), when the bundle's
+/// vertex shader is std's `phong_vs` (none of its own); `None` when it has its own
+/// (which reads world-space vertices: its instances are expanded on the CPU) or
+/// std has no instanced shader.
+pub fn instanced_for_bundle(bundle: &Bundle, programs: &Programs) -> Result<Option<ProgramSpirv>, Error> {
+    let Some(inst) = &programs.instanced else { return Ok(None) };
+    if bundle.program.as_ref().is_some_and(|p| p.vertex != NONE) {
+        return Ok(None);
+    }
+    let mut p = for_bundle(bundle, programs)?;
+    p.vertex = inst.vertex.clone();
+    p.label = p.label.replacen("std phong_vs", "std phong_instanced_vs", 1);
+    Ok(Some(p))
 }
 
 /// Unlit vertex shader for pen lines: position and colour, nothing else.

@@ -217,6 +217,8 @@ struct GpuModel {
     overlay: Option<Pipeline>,
     /// What the pipelines were built from: a model with the same key reuses them.
     key: PipelineKey,
+    /// Instances drawn with GPU instancing, when the scene has them.
+    instanced: Option<GpuInstanced>,
     vertices: Buffer,
     skins: Buffer,
     indices: Buffer,
@@ -233,6 +235,16 @@ struct GpuModel {
     animation: Animation,
 }
 
+/// The instanced part of a model on the GPU (see [`scene::Instanced`]).
+struct GpuInstanced {
+    fill: Pipeline,
+    wire: Option<Pipeline>,
+    vertices: Buffer,
+    indices: Buffer,
+    instances: Buffer,
+    draws: Vec<scene::InstancedDraw>,
+}
+
 /// What a model's pipelines depend on. A new model with the same key (the guide
 /// editor uploads one per search and per edit) keeps the pipelines: building them is
 /// most of an upload's time on a CPU driver.
@@ -242,10 +254,19 @@ struct PipelineKey {
     lines: ProgramSpirv,
     skinned: bool,
     has_lines: bool,
+    /// The instanced program, when the model has instances to draw so.
+    instanced: Option<ProgramSpirv>,
 }
 
-/// The filled, wireframe, line and overlay pipelines of a model.
-type Pipelines = (Pipeline, Option<Pipeline>, Option<Pipeline>, Option<Pipeline>);
+/// The filled, wireframe, line and overlay pipelines of a model, and the filled and
+/// wireframe pipelines of its instances.
+struct Pipelines {
+    fill: Pipeline,
+    wire: Option<Pipeline>,
+    lines: Option<Pipeline>,
+    overlay: Option<Pipeline>,
+    instanced: Option<(Pipeline, Option<Pipeline>)>,
+}
 
 /// Facts about the loaded model.
 #[derive(Clone, Debug)]
@@ -331,11 +352,13 @@ impl Renderer {
     /// of either is made).
     pub fn set_output(&mut self, bundle: &Bundle, output: &Output, programs: &Programs) -> Result<&ModelInfo, Error> {
         let program = program::for_bundle(bundle, programs)?;
-        let scene = scene::build(output);
-        self.set_scene(&scene, bundle, output, &program, &programs.lines)
+        let instanced = program::instanced_for_bundle(bundle, programs)?;
+        let scene = scene::build_with(output, instanced.is_some());
+        self.set_scene_instanced(&scene, bundle, output, &program, &programs.lines, instanced.as_ref())
     }
 
-    /// Like [`Renderer::set_output`] with a prepared scene and program.
+    /// Like [`Renderer::set_output`] with a prepared scene and program (a scene of
+    /// expanded instances, [`scene::build`]).
     pub fn set_scene(
         &mut self,
         scene: &scene::Scene,
@@ -344,13 +367,35 @@ impl Renderer {
         program: &ProgramSpirv,
         lines: &ProgramSpirv,
     ) -> Result<&ModelInfo, Error> {
+        self.set_scene_instanced(scene, bundle, output, program, lines, None)
+    }
+
+    /// [`Renderer::set_scene`] for a scene that may hold instances to draw with GPU
+    /// instancing ([`scene::build_with`]) by `instanced`.
+    pub fn set_scene_instanced(
+        &mut self,
+        scene: &scene::Scene,
+        bundle: &Bundle,
+        output: &Output,
+        program: &ProgramSpirv,
+        lines: &ProgramSpirv,
+        instanced: Option<&ProgramSpirv>,
+    ) -> Result<&ModelInfo, Error> {
         let ctx = &self.ctx;
         let skinned = !scene.skins.is_empty();
+        let instanced = match (instanced, &scene.instanced) {
+            (Some(p), Some(i)) if !i.draws.is_empty() => Some(p.clone()),
+            (None, Some(i)) if !i.draws.is_empty() => {
+                return Err(Error::Other("a scene of GPU instances needs the instanced program".into()));
+            }
+            _ => None,
+        };
         let key = PipelineKey {
             program: program.clone(),
             lines: lines.clone(),
             skinned,
             has_lines: scene.n_line_vertices > 0,
+            instanced,
         };
         let reuse = self.model.as_ref().is_some_and(|(old, _)| old.key == key);
         let built = if reuse { None } else { Some(self.pipelines(&key)?) };
@@ -391,17 +436,39 @@ impl Renderer {
             duration: s.duration,
             fps: s.fps,
         };
-        let (fill, wire, lines, overlay) = match (built, self.model.take()) {
+        let p = match (built, self.model.take()) {
             (Some(p), _) => p,
-            (None, Some((old, _))) => (old.fill, old.wire, old.lines, old.overlay),
+            (None, Some((old, _))) => Pipelines {
+                fill: old.fill,
+                wire: old.wire,
+                lines: old.lines,
+                overlay: old.overlay,
+                instanced: old.instanced.map(|i| (i.fill, i.wire)),
+            },
             (None, None) => self.pipelines(&key)?,
         };
+        let instanced = match (p.instanced, &scene.instanced) {
+            (Some((fill, wire)), Some(i)) => Some(GpuInstanced {
+                fill,
+                wire,
+                vertices: Buffer::with_data(ctx, &i.vertices, vk::BufferUsageFlags::VERTEX_BUFFER)?,
+                indices: Buffer::with_data(
+                    ctx,
+                    &i.indices.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>(),
+                    vk::BufferUsageFlags::INDEX_BUFFER,
+                )?,
+                instances: Buffer::with_data(ctx, &i.instances, vk::BufferUsageFlags::VERTEX_BUFFER)?,
+                draws: i.draws.clone(),
+            }),
+            _ => None,
+        };
         let gpu = GpuModel {
-            fill,
-            wire,
-            lines,
-            overlay,
+            fill: p.fill,
+            wire: p.wire,
+            lines: p.lines,
+            overlay: p.overlay,
             key,
+            instanced,
             vertices,
             skins,
             indices,
@@ -430,6 +497,7 @@ impl Renderer {
             render_pass: self.render_pass.raw,
             samples: self.samples,
             skinned: key.skinned,
+            instanced: false,
         };
         let (p, l) = (&key.program, &key.lines);
         let fill = Pipeline::new(ctx, &self.layout, &p.vertex, &p.fragment, desc(Kind::Fill))?;
@@ -443,7 +511,20 @@ impl Renderer {
         };
         let (lines, overlay) =
             if key.has_lines { (Some(line(Kind::Lines)?), Some(line(Kind::Overlay)?)) } else { (None, None) };
-        Ok((fill, wire, lines, overlay))
+        let instanced = match &key.instanced {
+            Some(ip) => {
+                let inst = |kind| PipelineDesc { instanced: true, ..desc(kind) };
+                let fill = Pipeline::new(ctx, &self.layout, &ip.vertex, &ip.fragment, inst(Kind::Fill))?;
+                let wire = if ctx.wireframe {
+                    Some(Pipeline::new(ctx, &self.layout, &ip.vertex, &ip.fragment, inst(Kind::Wireframe))?)
+                } else {
+                    None
+                };
+                Some((fill, wire))
+            }
+            None => None,
+        };
+        Ok(Pipelines { fill, wire, lines, overlay, instanced })
     }
 
     /// (Re)creates the multisampled attachments for `extent`. The GPU must be idle.
@@ -593,6 +674,25 @@ impl Renderer {
                     d.cmd_bind_vertex_buffers(cmd, 0, &[gpu.vertices.raw, gpu.skins.raw], &[0, 0]);
                     d.cmd_bind_index_buffer(cmd, gpu.indices.raw, 0, vk::IndexType::UINT32);
                     d.cmd_draw_indexed(cmd, gpu.n_indices, 1, 0, 0, 0);
+                }
+                if let Some(inst) = &gpu.instanced {
+                    let pipeline = match (&inst.wire, frame.wireframe) {
+                        (Some(w), true) => w.raw,
+                        _ => inst.fill.raw,
+                    };
+                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
+                    d.cmd_bind_vertex_buffers(cmd, 0, &[inst.vertices.raw, inst.instances.raw], &[0, 0]);
+                    d.cmd_bind_index_buffer(cmd, inst.indices.raw, 0, vk::IndexType::UINT32);
+                    for dr in &inst.draws {
+                        d.cmd_draw_indexed(
+                            cmd,
+                            dr.index_count,
+                            dr.instance_count,
+                            dr.first_index,
+                            dr.vertex_offset,
+                            dr.first_instance,
+                        );
+                    }
                 }
                 if let Some(buf) = &gpu.line_vertices {
                     d.cmd_bind_vertex_buffers(cmd, 0, &[buf.raw, gpu.skins.raw], &[0, 0]);

@@ -48,6 +48,14 @@ impl Bounds {
         self.lo.x > self.hi.x
     }
 
+    /// Grows to include `other`.
+    pub fn add_bounds(&mut self, other: &Bounds) {
+        if !other.is_empty() {
+            self.add(other.lo);
+            self.add(other.hi);
+        }
+    }
+
     /// Centre and radius of the sphere around the box (unit sphere when empty).
     pub fn sphere(&self) -> (Vec3, f32) {
         if self.is_empty() {
@@ -87,13 +95,51 @@ pub struct Scene {
     /// Largest bone index used (the bones buffer holds this many + 1 matrices).
     pub max_bone: u32,
     pub bounds: Bounds,
+    /// The instances, when they are drawn with GPU instancing (see [`build_with`]);
+    /// else they are expanded into `vertices`.
+    pub instanced: Option<Instanced>,
 }
 
 impl Scene {
-    /// Number of triangles.
+    /// Number of triangles, instances' included.
     pub fn n_triangles(&self) -> usize {
-        self.indices.len() / 3
+        self.indices.len() / 3 + self.instanced.as_ref().map_or(0, |i| i.n_triangles as usize)
     }
+}
+
+/// Bytes per vertex of a shared mesh drawn instanced (binding 0 of the instanced
+/// pipeline): position `R32G32B32_SFLOAT` (location 0), normal
+/// `R16G16B16A16_SNORM` (location 1), colour delta `R32G32B32A32_SFLOAT` (location 2).
+pub const PROTO_STRIDE: u32 = 36;
+/// Bytes per instance (binding 1, per instance): the transform's rows 0..2 as three
+/// `R32G32B32A32_SFLOAT` (locations 5, 6, 7), the frame's colour
+/// `R32G32B32A32_SFLOAT` (location 8), the bone `R32_UINT` (location 4).
+pub const INSTANCE_STRIDE: u32 = 68;
+
+/// Instances drawn with GPU instancing: every shared mesh once, and one draw per
+/// shared mesh and handedness over its instances' transforms.
+#[derive(Clone, Debug, Default)]
+pub struct Instanced {
+    /// The shared meshes, [`PROTO_STRIDE`] bytes per vertex.
+    pub vertices: Vec<u8>,
+    /// Their triangles: per shared mesh, wound for unmirrored instances, then the
+    /// same reversed for mirrored ones.
+    pub indices: Vec<u32>,
+    /// [`INSTANCE_STRIDE`] bytes per instance, grouped by draw.
+    pub instances: Vec<u8>,
+    pub draws: Vec<InstancedDraw>,
+    /// Triangles drawn in all (every instance's).
+    pub n_triangles: u64,
+}
+
+/// One instanced draw (`vkCmdDrawIndexed`'s arguments).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct InstancedDraw {
+    pub first_index: u32,
+    pub index_count: u32,
+    pub vertex_offset: i32,
+    pub first_instance: u32,
+    pub instance_count: u32,
 }
 
 fn snorm16(v: f32) -> i16 {
@@ -157,22 +203,35 @@ impl Builder {
 /// Packs an output: the VERTEX mesh, sweeps and every instance (expanded in place),
 /// plus pen lines when there are no sweeps.
 pub fn build(out: &Output) -> Scene {
+    build_with(out, false)
+}
+
+/// [`build`], with the instances (prototypes and isosurfaces) left to GPU instancing
+/// when `instanced` (the program has std's instanced vertex shader).
+pub fn build_with(out: &Output, instanced: bool) -> Scene {
     let skinned = !out.mesh.weights.is_empty()
         || !out.mesh.bones.is_empty()
         || !out.sweeps.weights.is_empty()
         || !out.sweeps.bones.is_empty()
         || !out.instance_weights.is_empty()
         || out.instances.iter().any(|i| i.bone != 0);
-    let (n_vertices, _) = out.flat_counts(Groups::ALL);
+    let expand = |_: usize| !instanced;
+    let (n_vertices, _) = out.flat_counts_where(Groups::ALL, expand);
     let mut b = Builder { s: Scene { bounds: Bounds::EMPTY, ..Scene::default() }, skinned };
     b.s.vertices.reserve(n_vertices * VERTEX_STRIDE as usize);
     if skinned {
         b.s.skins.reserve(n_vertices * SKIN_STRIDE as usize);
     }
-    let _ = out.for_each_piece::<()>(Groups::ALL, |p| {
+    let _ = out.for_each_piece_where::<()>(Groups::ALL, expand, |p| {
         b.piece(p);
         Ok(())
     });
+    if instanced && !out.instances.is_empty() {
+        let (inst, bounds, max_bone) = build_instanced(out);
+        b.s.bounds.add_bounds(&bounds);
+        b.s.max_bone = b.s.max_bone.max(max_bone);
+        b.s.instanced = Some(inst);
+    }
     let is_overlay = |l: &mdg_vm::output::Polyline| OVERLAYS.iter().any(|(ns, _)| *ns == l.namespace);
     if out.sweeps.triangles.is_empty() {
         let ink = ink(out.background);
@@ -202,6 +261,99 @@ pub fn build(out: &Output) -> Scene {
         }
     }
     b.s
+}
+
+/// Packs the instances for GPU instancing; returns them with their bounds and the
+/// largest bone they use.
+fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
+    let mut inst = Instanced::default();
+    let mut bounds = Bounds::EMPTY;
+    let mut max_bone = 0;
+    // Per shared mesh: where its vertices and its two index runs are, its bounding
+    // sphere, and its instances by handedness.
+    struct Placed {
+        vertex_offset: i32,
+        first_index: u32,
+        index_count: u32,
+        instances: [Vec<u32>; 2],
+    }
+    let mut placed: Vec<Option<Placed>> = (0..out.shared_meshes.len()).map(|_| None).collect();
+    for (i, instance) in out.instances.iter().enumerate() {
+        let Some(shared) = out.shared(instance) else { continue };
+        let m = &shared.mesh;
+        if m.triangles.is_empty() {
+            continue;
+        }
+        let mirrored = if shared.is_prototype() { instance.frame.linear().1 } else { out.instance_mirrored(instance) };
+        let p = placed[instance.mesh as usize].get_or_insert_with(|| {
+            let vertex_offset = (inst.vertices.len() / PROTO_STRIDE as usize) as i32;
+            for v in 0..m.n_vertices() {
+                let pos = Vec3::from(m.positions[v]);
+                let n = shared.local_normal(v).normalize_or_zero();
+                let delta = if shared.is_prototype() { m.colors.get(v).copied().unwrap_or([0.0; 4]) } else { [0.0; 4] };
+                for x in pos.to_array() {
+                    inst.vertices.extend_from_slice(&x.to_le_bytes());
+                }
+                for x in [n.x, n.y, n.z, 0.0] {
+                    inst.vertices.extend_from_slice(&snorm16(x).to_le_bytes());
+                }
+                for x in delta {
+                    inst.vertices.extend_from_slice(&x.to_le_bytes());
+                }
+            }
+            let first_index = inst.indices.len() as u32;
+            let n = m.n_vertices() as u32;
+            let tris: Vec<[u32; 3]> = m.oriented_triangles().filter(|t| t.iter().all(|&k| k < n)).collect();
+            inst.indices.extend(tris.iter().flatten());
+            inst.indices.extend(tris.iter().flat_map(|t| [t[0], t[2], t[1]]));
+            Placed {
+                vertex_offset,
+                first_index,
+                index_count: 3 * tris.len() as u32,
+                instances: [Vec::new(), Vec::new()],
+            }
+        });
+        p.instances[usize::from(mirrored)].push(i as u32);
+    }
+    for p in placed.iter().flatten() {
+        for (side, list) in p.instances.iter().enumerate() {
+            if list.is_empty() {
+                continue;
+            }
+            inst.draws.push(InstancedDraw {
+                first_index: p.first_index + side as u32 * p.index_count,
+                index_count: p.index_count,
+                vertex_offset: p.vertex_offset,
+                first_instance: (inst.instances.len() / INSTANCE_STRIDE as usize) as u32,
+                instance_count: list.len() as u32,
+            });
+            inst.n_triangles += u64::from(p.index_count / 3) * list.len() as u64;
+            inst.instances.reserve(list.len() * INSTANCE_STRIDE as usize);
+            for &i in list {
+                let instance = &out.instances[i as usize];
+                let t = out.instance_transform(instance);
+                let rows = [t.row(0), t.row(1), t.row(2)];
+                for r in rows {
+                    for x in r.to_array() {
+                        inst.instances.extend_from_slice(&x.to_le_bytes());
+                    }
+                }
+                for x in instance.color {
+                    inst.instances.extend_from_slice(&x.to_le_bytes());
+                }
+                inst.instances.extend_from_slice(&instance.bone.to_le_bytes());
+                max_bone = max_bone.max(instance.bone);
+                // Exact bounds (the camera frames the model as when it was expanded):
+                // every vertex placed, but nothing stored.
+                let shared = &out.shared_meshes[instance.mesh as usize].mesh;
+                let t = glam::Affine3A::from_mat4(t);
+                for q in &shared.positions {
+                    bounds.add(t.transform_point3(Vec3::from(*q)));
+                }
+            }
+        }
+    }
+    (inst, bounds, max_bone)
 }
 
 /// Line namespaces drawn as overlays (over the model, in this order), and their
