@@ -358,13 +358,15 @@ fn run_one(
     }
     if cli.stats {
         let s = &out.stats;
+        let prototypes = out.instances.iter().filter(|i| out.is_prototype_instance(i)).count();
         eprintln!(
-            "rule calls {}  vertices {}  triangles {}  lines {}  instances {}  time {:.1} ms  peak memory {}",
+            "rule calls {}  vertices {}  triangles {}  lines {}  instances {}  prototype instances {}  time {:.1} ms  peak memory {}",
             s.rule_calls,
             s.vertices,
             s.triangles,
             out.lines.len(),
-            out.instances.len(),
+            out.instances.len() - prototypes,
+            prototypes,
             s.elapsed_ms,
             peak_rss_kib().map(|k| format!("{:.1} MiB", k as f64 / 1024.0)).unwrap_or_else(|| "n/a".into())
         );
