@@ -120,6 +120,8 @@ pub struct PipelineDesc {
     /// [`crate::scene::INSTANCE_STRIDE`] per instance in binding 1) for std's
     /// `phong_instanced_vs`.
     pub instanced: bool,
+    /// Cull back faces (closed meshes only: see [`crate::scene::InstancedDraw::closed`]).
+    pub cull_back: bool,
 }
 
 /// A graphics pipeline.
@@ -234,7 +236,7 @@ impl Pipeline {
         let polygon_mode = if desc.kind == Kind::Wireframe { vk::PolygonMode::LINE } else { vk::PolygonMode::FILL };
         let raster = vk::PipelineRasterizationStateCreateInfo::default()
             .polygon_mode(polygon_mode)
-            .cull_mode(vk::CullModeFlags::NONE)
+            .cull_mode(if desc.cull_back { vk::CullModeFlags::BACK } else { vk::CullModeFlags::NONE })
             .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
             .line_width(1.0);
         let multisample = vk::PipelineMultisampleStateCreateInfo::default().rasterization_samples(desc.samples);

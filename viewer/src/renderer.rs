@@ -238,6 +238,8 @@ struct GpuModel {
 /// The instanced part of a model on the GPU (see [`scene::Instanced`]).
 struct GpuInstanced {
     fill: Pipeline,
+    /// `fill` culling back faces, for closed meshes.
+    fill_closed: Pipeline,
     wire: Option<Pipeline>,
     vertices: Buffer,
     indices: Buffer,
@@ -265,7 +267,7 @@ struct Pipelines {
     wire: Option<Pipeline>,
     lines: Option<Pipeline>,
     overlay: Option<Pipeline>,
-    instanced: Option<(Pipeline, Option<Pipeline>)>,
+    instanced: Option<(Pipeline, Pipeline, Option<Pipeline>)>,
 }
 
 /// Facts about the loaded model.
@@ -443,13 +445,14 @@ impl Renderer {
                 wire: old.wire,
                 lines: old.lines,
                 overlay: old.overlay,
-                instanced: old.instanced.map(|i| (i.fill, i.wire)),
+                instanced: old.instanced.map(|i| (i.fill, i.fill_closed, i.wire)),
             },
             (None, None) => self.pipelines(&key)?,
         };
         let instanced = match (p.instanced, &scene.instanced) {
-            (Some((fill, wire)), Some(i)) => Some(GpuInstanced {
+            (Some((fill, fill_closed, wire)), Some(i)) => Some(GpuInstanced {
                 fill,
+                fill_closed,
                 wire,
                 vertices: Buffer::with_data(ctx, &i.vertices, vk::BufferUsageFlags::VERTEX_BUFFER)?,
                 indices: Buffer::with_data(
@@ -498,6 +501,7 @@ impl Renderer {
             samples: self.samples,
             skinned: key.skinned,
             instanced: false,
+            cull_back: false,
         };
         let (p, l) = (&key.program, &key.lines);
         let fill = Pipeline::new(ctx, &self.layout, &p.vertex, &p.fragment, desc(Kind::Fill))?;
@@ -515,12 +519,14 @@ impl Renderer {
             Some(ip) => {
                 let inst = |kind| PipelineDesc { instanced: true, ..desc(kind) };
                 let fill = Pipeline::new(ctx, &self.layout, &ip.vertex, &ip.fragment, inst(Kind::Fill))?;
+                let closed = PipelineDesc { cull_back: true, ..inst(Kind::Fill) };
+                let fill_closed = Pipeline::new(ctx, &self.layout, &ip.vertex, &ip.fragment, closed)?;
                 let wire = if ctx.wireframe {
                     Some(Pipeline::new(ctx, &self.layout, &ip.vertex, &ip.fragment, inst(Kind::Wireframe))?)
                 } else {
                     None
                 };
-                Some((fill, wire))
+                Some((fill, fill_closed, wire))
             }
             None => None,
         };
@@ -676,14 +682,19 @@ impl Renderer {
                     d.cmd_draw_indexed(cmd, gpu.n_indices, 1, 0, 0, 0);
                 }
                 if let Some(inst) = &gpu.instanced {
-                    let pipeline = match (&inst.wire, frame.wireframe) {
-                        (Some(w), true) => w.raw,
-                        _ => inst.fill.raw,
-                    };
-                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
                     d.cmd_bind_vertex_buffers(cmd, 0, &[inst.vertices.raw, inst.instances.raw], &[0, 0]);
                     d.cmd_bind_index_buffer(cmd, inst.indices.raw, 0, vk::IndexType::UINT32);
+                    let mut bound = vk::Pipeline::null();
                     for dr in &inst.draws {
+                        let pipeline = match (&inst.wire, frame.wireframe) {
+                            (Some(w), true) => w.raw,
+                            _ if dr.closed => inst.fill_closed.raw,
+                            _ => inst.fill.raw,
+                        };
+                        if pipeline != bound {
+                            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
+                            bound = pipeline;
+                        }
                         d.cmd_draw_indexed(
                             cmd,
                             dr.index_count,

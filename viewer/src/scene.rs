@@ -140,6 +140,10 @@ pub struct InstancedDraw {
     pub vertex_offset: i32,
     pub first_instance: u32,
     pub instance_count: u32,
+    /// The mesh is closed (`mdg_vm::export::is_closed`): its back faces are hidden
+    /// behind its front faces, and the draw culls them (half the triangles a CPU
+    /// driver rasterises).
+    pub closed: bool,
 }
 
 fn snorm16(v: f32) -> i16 {
@@ -275,6 +279,7 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
         vertex_offset: i32,
         first_index: u32,
         index_count: u32,
+        closed: bool,
         instances: [Vec<u32>; 2],
     }
     let mut placed: Vec<Option<Placed>> = (0..out.shared_meshes.len()).map(|_| None).collect();
@@ -287,29 +292,46 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
         let mirrored = if shared.is_prototype() { instance.frame.linear().1 } else { out.instance_mirrored(instance) };
         let p = placed[instance.mesh as usize].get_or_insert_with(|| {
             let vertex_offset = (inst.vertices.len() / PROTO_STRIDE as usize) as i32;
+            // Equal vertices (a cube's corners, shared by the two triangles of a face)
+            // are stored once: the driver shades each once per instance.
+            let mut seen: std::collections::HashMap<Vec<u8>, u32> = std::collections::HashMap::new();
+            let mut remap = Vec::with_capacity(m.n_vertices());
             for v in 0..m.n_vertices() {
                 let pos = Vec3::from(m.positions[v]);
                 let n = shared.local_normal(v).normalize_or_zero();
                 let delta = if shared.is_prototype() { m.colors.get(v).copied().unwrap_or([0.0; 4]) } else { [0.0; 4] };
+                let mut bytes = Vec::with_capacity(PROTO_STRIDE as usize);
                 for x in pos.to_array() {
-                    inst.vertices.extend_from_slice(&x.to_le_bytes());
+                    bytes.extend_from_slice(&x.to_le_bytes());
                 }
                 for x in [n.x, n.y, n.z, 0.0] {
-                    inst.vertices.extend_from_slice(&snorm16(x).to_le_bytes());
+                    bytes.extend_from_slice(&snorm16(x).to_le_bytes());
                 }
                 for x in delta {
-                    inst.vertices.extend_from_slice(&x.to_le_bytes());
+                    bytes.extend_from_slice(&x.to_le_bytes());
                 }
+                let next = seen.len() as u32;
+                let k = *seen.entry(bytes.clone()).or_insert_with(|| {
+                    inst.vertices.extend_from_slice(&bytes);
+                    next
+                });
+                remap.push(k);
             }
             let first_index = inst.indices.len() as u32;
             let n = m.n_vertices() as u32;
-            let tris: Vec<[u32; 3]> = m.oriented_triangles().filter(|t| t.iter().all(|&k| k < n)).collect();
+            let tris: Vec<[u32; 3]> = m
+                .oriented_triangles()
+                .filter(|t| t.iter().all(|&k| k < n))
+                .map(|t| t.map(|k| remap[k as usize]))
+                .collect();
             inst.indices.extend(tris.iter().flatten());
             inst.indices.extend(tris.iter().flat_map(|t| [t[0], t[2], t[1]]));
+            let oriented: Vec<[u32; 3]> = m.oriented_triangles().filter(|t| t.iter().all(|&k| k < n)).collect();
             Placed {
                 vertex_offset,
                 first_index,
                 index_count: 3 * tris.len() as u32,
+                closed: mdg_vm::export::is_closed(m, &oriented),
                 instances: [Vec::new(), Vec::new()],
             }
         });
@@ -326,6 +348,7 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
                 vertex_offset: p.vertex_offset,
                 first_instance: (inst.instances.len() / INSTANCE_STRIDE as usize) as u32,
                 instance_count: list.len() as u32,
+                closed: p.closed,
             });
             inst.n_triangles += u64::from(p.index_count / 3) * list.len() as u64;
             inst.instances.reserve(list.len() * INSTANCE_STRIDE as usize);

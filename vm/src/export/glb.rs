@@ -332,13 +332,20 @@ struct GpuGroups {
     groups: Vec<GpuGroup>,
 }
 
+/// What groups prototype instances: the shared mesh, the mirroring, and the frame
+/// colour's bits for a prototype whose items add colour deltas.
+type GroupKey = (u32, bool, Option<[u32; 4]>);
+
+/// Hands each flat piece of a primitive to a visitor (see [`Builder::pieces_primitive`]).
+type Walk<'a> = dyn FnMut(&mut dyn FnMut(&Piece) -> Result<(), String>) -> Result<(), String> + 'a;
+
 /// Groups the prototype instances for `EXT_mesh_gpu_instancing`. Left to the
 /// geometry: instances of animated bones in a skinned output (three.js cannot
 /// instance skinned meshes), degenerate or non-finite frames, and colour variants
 /// past [`MAX_COLOR_VARIANTS`].
 fn gpu_instance_groups(out: &Output, skinned: bool) -> GpuGroups {
     let mut g = GpuGroups { instanced: vec![false; out.instances.len()], groups: Vec::new() };
-    let mut index: BTreeMap<(u32, bool, Option<[u32; 4]>), usize> = BTreeMap::new();
+    let mut index: BTreeMap<GroupKey, usize> = BTreeMap::new();
     let mut variants: BTreeMap<u32, usize> = BTreeMap::new();
     // Per shared mesh: a prototype with triangles, and whether its items add colours.
     let kind: Vec<Option<bool>> = out
@@ -349,7 +356,7 @@ fn gpu_instance_groups(out: &Output, skinned: bool) -> GpuGroups {
         })
         .collect();
     // Consecutive instances mostly share a group: the last one is tried first.
-    let mut last: Option<((u32, bool, Option<[u32; 4]>), usize)> = None;
+    let mut last: Option<(GroupKey, usize)> = None;
     for (i, inst) in out.instances.iter().enumerate() {
         let Some(Some(deltas)) = kind.get(inst.mesh as usize).copied() else { continue };
         if (skinned && inst.bone != 0) || !prototype_placeable(&inst.frame) {
@@ -953,7 +960,7 @@ impl Builder {
         counts: (usize, usize),
         double_sided: bool,
         what: &str,
-        walk: &mut dyn FnMut(&mut dyn FnMut(&Piece) -> Result<(), String>) -> Result<(), String>,
+        walk: &mut Walk,
     ) -> Result<Option<Primitive>, String> {
         let (n, n_tris) = counts;
         if n_tris == 0 {

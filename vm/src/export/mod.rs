@@ -376,7 +376,7 @@ pub fn z_up_to_y_up(p: [f32; 3]) -> [f32; 3] {
 /// vertices at bit-identical positions, every directed edge a→b is matched by as many
 /// b→a (each edge is shared by faces on both sides). Open surfaces (a leaf, a
 /// sheet) are seen from behind, so their materials are written double-sided.
-pub(crate) fn is_closed(m: &Mesh, tris: &[[u32; 3]]) -> bool {
+pub fn is_closed(m: &Mesh, tris: &[[u32; 3]]) -> bool {
     if tris.is_empty() {
         return true;
     }
