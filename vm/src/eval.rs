@@ -474,6 +474,30 @@ fn add(a: [f32; 4], b: [f32; 4]) -> [f32; 4] {
     (Vec4::from_array(a) + Vec4::from_array(b)).to_array()
 }
 
+/// The last frame whose linear map the `VERTEX` path computed, and that map: the
+/// items of a body that run one by one share their frame, so it is computed once.
+struct LinCache {
+    frame: Frame,
+    lin: (Mat3, bool),
+}
+
+impl LinCache {
+    /// `f.linear()`, from the cache when `f` is the frame it holds (compared bit
+    /// for bit: equal frames have equal maps).
+    #[inline]
+    fn get(&mut self, f: &Frame) -> (Mat3, bool) {
+        let same = |a: &Frame, b: &Frame| {
+            a.q.to_array().map(f32::to_bits) == b.q.to_array().map(f32::to_bits)
+                && a.qh.to_array().map(f32::to_bits) == b.qh.to_array().map(f32::to_bits)
+                && a.u.to_array().map(f32::to_bits) == b.u.to_array().map(f32::to_bits)
+        };
+        if !same(&self.frame, f) {
+            *self = LinCache { frame: *f, lin: f.linear() };
+        }
+        self.lin
+    }
+}
+
 /// A prototype of the bundle (an `INST` op): where its items are, and its mesh in the
 /// output once an instance of it has been made.
 struct ProtoSlot {
@@ -493,8 +517,6 @@ struct Act {
     slot_base: u32,
     slot_top: u32,
     base: State,
-    /// `base.f.linear()`, computed when first needed and dropped when `base` changes.
-    base_lin: Option<(Mat3, bool)>,
     depth: u32,
     loops_at: u32,
     /// The innermost bone (0 = the root): vertices emitted here carry it.
@@ -835,7 +857,6 @@ impl<'b> Eval<'b> {
                 slot_base,
                 slot_top,
                 base,
-                base_lin: None,
                 depth,
                 loops_at: 0,
                 bone: 0,
@@ -847,7 +868,7 @@ impl<'b> Eval<'b> {
             } else {
                 0
             };
-            Act { pc, slot_base, slot_top, base: start, base_lin: None, depth, loops_at: 0, bone, conv: None }
+            Act { pc, slot_base, slot_top, base: start, depth, loops_at: 0, bone, conv: None }
         };
         // `maxdepth` (0: none) as the depth past which calls are refused.
         let maxdepth = if b.settings.maxdepth > 0 { b.settings.maxdepth } else { u32::MAX };
@@ -856,6 +877,7 @@ impl<'b> Eval<'b> {
         // the same body (a call takes it before its callee runs, so one register serves
         // every activation).
         let mut cont: Option<State> = None;
+        let mut lin_cache = LinCache { frame: Frame::identity(), lin: Frame::identity().linear() };
         let mut loops: Vec<LoopRec> = Vec::new();
         let code = &b.code;
         let record_sites = self.opts.record_sites;
@@ -932,8 +954,7 @@ impl<'b> Eval<'b> {
                             slot_base,
                             slot_top,
                             base,
-                            base_lin: None,
-                            depth,
+                                        depth,
                             loops_at,
                             bone: parent_bone,
                             conv,
@@ -949,8 +970,7 @@ impl<'b> Eval<'b> {
                             slot_base,
                             slot_top,
                             base: child,
-                            base_lin: None,
-                            depth,
+                                        depth,
                             loops_at,
                             bone,
                             conv: None,
@@ -966,7 +986,7 @@ impl<'b> Eval<'b> {
                     // `from` is borrowed, not copied: this runs once per vertex.
                     let (from, lin) = match &cont {
                         Some(c) => (c, c.f.linear()),
-                        None => (&act.base, *act.base_lin.get_or_insert_with(|| act.base.f.linear())),
+                        None => (&act.base, lin_cache.get(&act.base.f)),
                     };
                     let Transform::Const(c) = &b.transforms[xf as usize] else {
                         cont = None;
@@ -1051,7 +1071,6 @@ impl<'b> Eval<'b> {
                     let chain = chain & bundle::ops::LOOP_CHAIN != 0;
                     loops.push(LoopRec { remaining: count, step, saved_base: act.base, chain });
                     act.base = next;
-                    act.base_lin = None;
                     if chain {
                         // A run that reaches no drawable ends where it started.
                         self.last = act.base;
@@ -1072,8 +1091,7 @@ impl<'b> Eval<'b> {
                         let from = if chain { self.last } else { act.base };
                         let step = l.step;
                         act.base = self.apply(step, &from, act.depth, act.slot_base, act.slot_top);
-                        act.base_lin = None;
-                        if chain {
+                            if chain {
                             self.last = act.base;
                         }
                         // Back to the op after LOOP.
@@ -1091,8 +1109,7 @@ impl<'b> Eval<'b> {
                         }
                     } else {
                         act.base = l.saved_base;
-                        act.base_lin = None;
-                        loops.pop();
+                            loops.pop();
                         act.pc += 1;
                     }
                 }
@@ -1184,8 +1201,7 @@ impl<'b> Eval<'b> {
                         if let Some(f) = conv.frames.get(conv.next) {
                             // The next run of a convolution body, under R's frame · frame i.
                             act.base = conv.origin.then(f, &self.lins);
-                            act.base_lin = None;
-                            cont = None;
+                                    cont = None;
                             act.pc = conv.pc;
                             conv.next += 1;
                             // Body runs count as calls, so `maxiter` also bounds them.

@@ -507,17 +507,22 @@ impl Output {
         let mesh = |m: &Mesh| if all_finite(&m.positions) { 0 } else { m.positions.iter().filter(|p| bad(p)).count() };
         // Prototype instances: by a bound first (a finite frame of moderate size over a
         // mesh of moderate extent), expanded only where it does not hold.
-        let extents: Vec<f32> = self.shared_meshes.iter().map(|s| max_abs(&s.mesh.positions)).collect();
+        // Per shared mesh: the extent of a prototype, `None` for an isosurface.
+        let extents: Vec<Option<f32>> =
+            self.shared_meshes.iter().map(|s| s.is_prototype().then(|| max_abs(&s.mesh.positions))).collect();
         let mut scratch = Mesh::default();
         let mut instances = 0;
         for (i, inst) in self.instances.iter().enumerate() {
-            let Some(s) = self.shared(inst) else { continue };
-            if !s.is_prototype() {
-                instances += usize::from(!self.instance_transform(inst).is_finite());
-            } else if !frame_surely_maps_finite(&inst.frame, extents[inst.mesh as usize]) {
-                scratch.clear();
-                expand_prototype(&mut scratch, s, inst, self.instance_weight(i));
-                instances += scratch.positions.iter().filter(|p| bad(p)).count();
+            match extents.get(inst.mesh as usize) {
+                Some(Some(extent)) if frame_surely_maps_finite(&inst.frame, *extent) => {}
+                Some(Some(_)) => {
+                    let Some(s) = self.shared(inst) else { continue };
+                    scratch.clear();
+                    expand_prototype(&mut scratch, s, inst, self.instance_weight(i));
+                    instances += scratch.positions.iter().filter(|p| bad(p)).count();
+                }
+                Some(None) => instances += usize::from(!self.instance_transform(inst).is_finite()),
+                None => {}
             }
         }
         mesh(&self.mesh)
@@ -534,14 +539,14 @@ fn max_abs(positions: &[[f32; 3]]) -> f32 {
 }
 
 /// Whether `f` surely maps every point within `extent` of the origin (per
-/// coordinate) to finite coordinates: its numbers are finite, its scale below
-/// 1e15 (`|q|² < 1e15`, `|q̂|² < 1e15`), its translation and `extent` below 1e15,
-/// so a mapped point is under 1e30 + 1e15 · 3 ≪ f32::MAX.
+/// coordinate) to finite coordinates: every component of q and q̂ is below 1e7 in
+/// size (so its scale |q| |q̂| is below 4e14), of its translation and `extent`
+/// below 1e15, so a mapped point is under 1e15 + 3 · 4e14 · 1e15 ≪ f32::MAX. NaN
+/// fails the comparisons, so non-finite numbers fail too.
 #[inline]
 fn frame_surely_maps_finite(f: &Frame, extent: f32) -> bool {
-    const BIG: f32 = 1e15;
-    // NaN fails every comparison, so non-finite numbers fail too.
-    f.q.length_squared() < BIG && f.qh.length_squared() < BIG && f.u.abs().max_element() < BIG && extent < BIG
+    let small = |v: glam::Vec4, limit: f32| v.abs().cmplt(glam::Vec4::splat(limit)).all();
+    small(glam::Vec4::from(f.q), 1e7) && small(glam::Vec4::from(f.qh), 1e7) && small(f.u.extend(0.0), 1e15) && extent < 1e15
 }
 
 /// Appends prototype instance `inst` (weight `weight`) to `m` in world space: the
