@@ -324,6 +324,13 @@ struct GpuGroup {
     instances: Vec<u32>,
 }
 
+/// What instances share to be one instanced node: shared mesh, mirrored frame, and
+/// the colour's bits when the prototype's items add colours.
+type GroupKey = (u32, bool, Option<[u32; 4]>);
+
+/// Hands every piece of a primitive's geometry to the visitor it is given.
+type PieceWalk<'a> = dyn FnMut(&mut dyn FnMut(&Piece) -> Result<(), String>) -> Result<(), String> + 'a;
+
 /// Which prototype instances become instanced nodes, and their groups.
 #[derive(Default)]
 struct GpuGroups {
@@ -338,7 +345,7 @@ struct GpuGroups {
 /// past [`MAX_COLOR_VARIANTS`].
 fn gpu_instance_groups(out: &Output, skinned: bool) -> GpuGroups {
     let mut g = GpuGroups { instanced: vec![false; out.instances.len()], groups: Vec::new() };
-    let mut index: BTreeMap<(u32, bool, Option<[u32; 4]>), usize> = BTreeMap::new();
+    let mut index: BTreeMap<GroupKey, usize> = BTreeMap::new();
     let mut variants: BTreeMap<u32, usize> = BTreeMap::new();
     // Per shared mesh: a prototype with triangles, and whether its items add colours.
     let kind: Vec<Option<bool>> = out
@@ -349,7 +356,7 @@ fn gpu_instance_groups(out: &Output, skinned: bool) -> GpuGroups {
         })
         .collect();
     // Consecutive instances mostly share a group: the last one is tried first.
-    let mut last: Option<((u32, bool, Option<[u32; 4]>), usize)> = None;
+    let mut last: Option<(GroupKey, usize)> = None;
     for (i, inst) in out.instances.iter().enumerate() {
         let Some(Some(deltas)) = kind.get(inst.mesh as usize).copied() else { continue };
         if (skinned && inst.bone != 0) || !prototype_placeable(&inst.frame) {
@@ -953,7 +960,7 @@ impl Builder {
         counts: (usize, usize),
         double_sided: bool,
         what: &str,
-        walk: &mut dyn FnMut(&mut dyn FnMut(&Piece) -> Result<(), String>) -> Result<(), String>,
+        walk: &mut PieceWalk<'_>,
     ) -> Result<Option<Primitive>, String> {
         let (n, n_tris) = counts;
         if n_tris == 0 {
