@@ -2,7 +2,7 @@
 //! std tree grammar, the forward-sampling baseline, and projection plots.
 //!
 //! ```sh
-//! cargo run --release -p mdg-vm --example sosmc_eval -- fig4 [--runs 500] [--guides program,A.json,…]
+//! cargo run --release -p mdg-vm --example sosmc_eval -- fig4 [--runs 500] [--guides program,A.json,B.json@calder,…]
 //! cargo run --release -p mdg-vm --example sosmc_eval -- run [--guides F.json] [--seed N] [--no-heuristic] [--repeat N]
 //! cargo run --release -p mdg-vm --example sosmc_eval -- plot OUT.png [GUIDES.json…] [--seed N] [--particles A:B]
 //! cargo run --release -p mdg-vm --example sosmc_eval -- helix [--runs 40]
@@ -21,12 +21,21 @@
 //! `fig4`: for alignment offsets 0.6 and 0.5 (every guide's `delta_a`), `--runs` searches
 //! (seeds 1…N) under each of: no heuristic and no ramp (constant generation size), ramp
 //! only, ramp and heuristic, and the forward-sampling baseline (best of N complete
-//! samples); all at the same budget of particle-steps (the default schedule, 5,750). It
-//! prints the median, quartiles and mean of the final COST, and the median time per
-//! search; then the heuristic's gain paired by seed (mean, 95% bootstrap interval, how
-//! many seeds it helped) and the difference of the two offsets' gains. Per guide set:
-//! `--guides program,A.json,…` (paths from the workspace root); default the grammar's
-//! own, `arch.json` and `windswept.json`.
+//! samples); all at the same budget of particle-steps (the schedule's, 5,750 for
+//! particles 100 → 15 over 100 generations). It prints the median, quartiles and mean
+//! of the final COST, and the median time per search; then the heuristic's gain paired
+//! by seed (mean, 95% bootstrap interval, how many seeds it helped) and the difference
+//! of the two offsets' gains. Per guide set: `--guides program,A.json,B.json@calder,…`:
+//! `program` is the grammar's own guides, a file is a path from the workspace root
+//! (`../shared/…` and absolute paths work; a missing file is an error naming it, before
+//! any search); default the grammar's own, `arch.json` and `windswept.json`. A set is
+//! searched with the grammar's `search` section (and `--heuristic-scale`, `--particles`,
+//! `--generations`), or, with `@calder` after it, with Calder's playground search:
+//! 100 generations, particles 100 → 15, heuristic scale 0.013 ramped to 0 over the
+//! first 40%, EXPECTED from 4 samples of 20 expansions (≈ Calder's 10 growth steps).
+//! Calder's benchmark curves (with its cost parameters) are in
+//! `../shared/data/guides/calder_benchmark.json` where that folder exists (never
+//! committed; `benches/sosmc_eval.sh` skips them without it).
 
 use glam::{DVec3, Vec3};
 use mdg_vm::bundle::Bundle;
@@ -243,37 +252,93 @@ fn helix(args: &[String]) -> Result<(), String> {
     Ok(())
 }
 
+/// Calder's playground search (`@calder` after a guide set in `fig4 --guides`): 100
+/// generations, particles 100 → 15, heuristic scale 0.013 ramped to 0 over the first
+/// 40% of the generations, and EXPECTED from 4 samples per skeleton rule of
+/// [`CALDER_EXPECTED_EXPANSIONS`] expansions each.
+const CALDER_SEARCH: (u32, (u32, u32), f64, f64) = (100, (100, 15), 0.013, 0.4);
+/// Calder estimates each component's expected direction from 4 samples of 10 *growth
+/// steps*; a growth step expands pending calls until one adds a bone (our
+/// particle-step). Counted in the std tree grammar (20,000 samples per rule), 10 growth
+/// steps take 20 expansions from `branch` (21 from `tree` and `fork`, 14 from
+/// `maybe_branch`: `fork` and `maybe_branch` pass the origin on, and many samples run
+/// out of calls), so `expected` counts 20.
+const CALDER_EXPECTED_EXPANSIONS: u32 = 20;
+
+/// One `fig4 --guides` entry: `program` (the grammar's own guides) or a JSON file (a
+/// path from the workspace root, or absolute), optionally followed by `@calder`
+/// (Calder's playground search parameters instead of the grammar's).
+struct GuideSet {
+    label: String,
+    file: Option<PathBuf>,
+    calder: bool,
+}
+
+fn guide_set(entry: &str) -> Result<GuideSet, String> {
+    let (name, calder) = match entry.rsplit_once('@') {
+        Some((name, "calder")) => (name, true),
+        Some((_, other)) => return Err(format!("guide set `{entry}`: unknown parameters `@{other}` (only `@calder`)")),
+        None => (entry, false),
+    };
+    let file = (name != "program").then(|| {
+        // Relative paths are from the workspace root (`..` included); absolute ones as given.
+        let root = root().canonicalize().unwrap_or_else(|_| root());
+        root.join(name)
+    });
+    if let Some(f) = &file {
+        if !f.is_file() {
+            return Err(format!("guide set `{name}`: no such file {}", f.display()));
+        }
+    }
+    Ok(GuideSet { label: entry.to_string(), file, calder })
+}
+
 fn fig4(args: &[String]) -> Result<(), String> {
     let runs: u64 = arg(args, "--runs").map(|s| s.parse().map_err(|_| "bad --runs")).transpose()?.unwrap_or(200);
     let b = bundle()?;
     let table = b.extensions.guided.clone().ok_or("no search section")?;
-    let base = options(&b, args)?;
+    let grammar = options(&b, args)?;
     let heuristic = arg(args, "--heuristic-scale").map(|h| h.parse::<f64>()).transpose().map_err(|_| "bad scale")?;
-    let h0 = heuristic.unwrap_or(if base.heuristic_scale > 0.0 { base.heuristic_scale } else { 1.0 });
-    let steps = base.scheduled_steps();
-    let flat = (steps as f64 / base.generations as f64).round() as u32;
-    println!(
-        "Fig. 4: {runs} runs per row (seeds 1..={runs}, the same seeds in every row), {} generations, \
-         equal budget of {steps} particle-steps per search",
-        base.generations
-    );
-    println!(
-        "heuristic: scale {h0} ramped to 0 over the first {}% of the generations",
-        base.heuristic_fraction * 100.0
-    );
-    // `--guides A.json,B.json`: guide sets (`program` is the grammar's own); default:
-    // the grammar's, then the two std guide files.
-    let sets: Vec<String> = match arg(args, "--guides") {
-        Some(list) => list.split(',').map(str::to_string).collect(),
+    // `--guides A.json,B.json@calder`: guide sets (`program` is the grammar's own);
+    // default: the grammar's, then the two std guide files. Every file is checked
+    // before the first search.
+    let sets: Vec<GuideSet> = match arg(args, "--guides") {
+        Some(list) => list.split(',').map(guide_set).collect::<Result<_, _>>()?,
         None => ["program", "std/examples/guides/arch.json", "std/examples/guides/windswept.json"]
-            .map(str::to_string)
-            .to_vec(),
+            .into_iter()
+            .map(guide_set)
+            .collect::<Result<_, _>>()?,
     };
+    println!("Fig. 4: {runs} runs per row (seeds 1..={runs}, the same seeds in every row)");
     for set in &sets {
-        let file = (set != "program").then(|| root().join(set).to_string_lossy().into_owned());
-        let source = guides_of(&b, file.as_deref())?;
+        // The search parameters: the grammar's `search` section (and the command's
+        // options), or Calder's playground search.
+        let (mut base, mut table) = (grammar.clone(), table.clone());
+        let h0 = if set.calder {
+            let (generations, particles, scale, fraction) = CALDER_SEARCH;
+            (base.generations, base.particles, base.heuristic_fraction) = (generations, particles, fraction);
+            table.settings.expected = (4, CALDER_EXPECTED_EXPANSIONS);
+            scale
+        } else {
+            heuristic.unwrap_or(if base.heuristic_scale > 0.0 { base.heuristic_scale } else { 1.0 })
+        };
+        base.heuristic_scale = h0;
+        let steps = base.scheduled_steps();
+        let flat = (steps as f64 / base.generations as f64).round() as u32;
+        let source = guides_of(&b, set.file.as_ref().map(|f| f.to_string_lossy()).as_deref())?;
         println!();
-        println!("guides: {set} ({} curves)", source.len());
+        println!("guides: {} ({} curves)", set.label, source.len());
+        println!(
+            "search: {} ({} generations, particles {} → {}, equal budget of {steps} particle-steps per search; \
+             heuristic scale {h0} ramped to 0 over the first {}% of the generations; EXPECTED from {} samples × {} expansions)",
+            if set.calder { "Calder's playground" } else { "the grammar's" },
+            base.generations,
+            base.particles.0,
+            base.particles.1,
+            base.heuristic_fraction * 100.0,
+            table.settings.expected.0,
+            table.settings.expected.1,
+        );
         println!(
             "{:<7} {:<34} {:>10} {:>10} {:>10} {:>10} {:>9}",
             "delta_a", "method", "median", "p25", "p75", "mean", "ms/run"
