@@ -31,5 +31,17 @@ fn main() {
     };
     let max_vertices = args.next().and_then(|s| s.parse().ok()).unwrap_or(50_000_000);
     let out = evaluate(&b, &EvalOptions { max_vertices, ..EvalOptions::default() });
-    println!("{} vertices, {} rule calls", out.mesh.n_vertices(), out.stats.rule_calls);
+    // Peak resident memory of the process so far (the bundle and the evaluation).
+    let peak = std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| s.lines().find(|l| l.starts_with("VmHWM:")).map(str::to_string))
+        .and_then(|l| l.split_whitespace().nth(1).and_then(|k| k.parse::<f64>().ok()))
+        .map(|kib| format!(", peak RSS {:.1} MiB", kib / 1024.0))
+        .unwrap_or_default();
+    println!(
+        "{} vertices, {} rule calls, {} instances{peak}",
+        out.stats.vertices,
+        out.stats.rule_calls,
+        out.instances.len()
+    );
 }

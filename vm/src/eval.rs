@@ -27,7 +27,9 @@ use crate::expr::{self, ExprOp, Random};
 use crate::geom::quat::{Affine, Frame};
 use crate::geom::Mesh;
 use crate::geom::{blend, marching, sweep};
-use crate::output::{Bone, Camera, Instance, Output, Polyline, SharedKind, SharedMesh, Track};
+use crate::output::{
+    frame_surely_maps_finite, Bone, Camera, Instance, Output, Polyline, SharedKind, SharedMesh, Track,
+};
 use glam::{Mat3, Quat, Vec3, Vec4};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -508,6 +510,8 @@ struct ProtoSlot {
     mesh: u32,
     /// Vertices per instance.
     vertices: u32,
+    /// The largest coordinate of its mesh (see [`frame_surely_maps_finite`]).
+    extent: f32,
 }
 
 struct Act {
@@ -621,6 +625,9 @@ struct Eval<'b> {
     /// Whether an instance refers to a non-uniform factor (then `lins` goes into the
     /// output).
     lins_used: bool,
+    /// A prototype instance's frame failed the finiteness bound (its vertices are
+    /// counted one by one at the end).
+    suspect_instances: bool,
     /// The run's seed (transform rules derive their own streams from it).
     seed: u64,
     /// Transform rule → its track in `out.animation.tracks`.
@@ -731,6 +738,7 @@ impl<'b> Eval<'b> {
                         first: pc as u32 + 1,
                         count,
                         mesh: NONE,
+                        extent: 0.0,
                         vertices: b.code[pc + 1..]
                             .iter()
                             .take(count as usize)
@@ -743,6 +751,7 @@ impl<'b> Eval<'b> {
             instancing: opts.instancing && !opts.record_sites,
             instanced_vertices: 0,
             lins_used: false,
+            suspect_instances: false,
             needs_last: b.code.iter().any(|op| match op {
                 Op::Loop { chain, .. } | Op::LoopN { chain, .. } => chain & bundle::ops::LOOP_CHAIN != 0,
                 Op::Cont {} | Op::Draw { kind: Drawable::Reset, .. } => true,
@@ -841,6 +850,16 @@ impl<'b> Eval<'b> {
 
     /// Runs a call of `rule` in state `start` at `depth` until its whole derivation is done.
     fn run_from(&mut self, rule: u32, start: State, depth: u32, mode: Mode) {
+        // Two copies of the loop: the one without sites has no per-op check for them.
+        if self.opts.record_sites {
+            self.run_loop::<true>(rule, start, depth, mode)
+        } else {
+            self.run_loop::<false>(rule, start, depth, mode)
+        }
+    }
+
+    /// [`Eval::run_from`], recording sites when `SITES`.
+    fn run_loop<const SITES: bool>(&mut self, rule: u32, start: State, depth: u32, mode: Mode) {
         let b = self.b;
         let (slot_base, slot_top) = self.default_frame(rule);
         let pc = self.select(rule, &start, depth, slot_base as usize);
@@ -872,7 +891,9 @@ impl<'b> Eval<'b> {
         };
         // `maxdepth` (0: none) as the depth past which calls are refused.
         let maxdepth = if b.settings.maxdepth > 0 { b.settings.maxdepth } else { u32::MAX };
-        let mut stack: Vec<Act> = vec![first];
+        // The running activation; `stack` holds its callers.
+        let mut act: Act = first;
+        let mut stack: Vec<Act> = Vec::new();
         // The continuation state after `\`: set by CONT and taken by the next item of
         // the same body (a call takes it before its callee runs, so one register serves
         // every activation).
@@ -880,10 +901,10 @@ impl<'b> Eval<'b> {
         let mut lin_cache = LinCache { frame: Frame::identity(), lin: Frame::identity().linear() };
         let mut loops: Vec<LoopRec> = Vec::new();
         let code = &b.code;
-        let record_sites = self.opts.record_sites;
+        let record_sites = SITES;
         // (A nested run, sampling a transform rule, returns to the op that started it.)
         let outer_site = self.site_pc;
-        while let Some(act) = stack.last_mut() {
+        loop {
             if record_sites {
                 self.note_site(act.pc);
             }
@@ -921,7 +942,7 @@ impl<'b> Eval<'b> {
                     // verifier checked their number).
                     let r = &b.rules[rule as usize];
                     let args = act.slot_top as usize;
-                    if !self.admit(&child, depth, stack.len()) {
+                    if !self.admit(&child, depth, stack.len() + 1) {
                         if self.slots.len() > args {
                             self.slots.truncate(args);
                         }
@@ -949,32 +970,16 @@ impl<'b> Eval<'b> {
                         };
                         let base = child.then(&f, &self.lins);
                         let conv = Some(Box::new(Conv { frames, next: 1, pc, origin: child }));
-                        stack.push(Act {
-                            pc,
-                            slot_base,
-                            slot_top,
-                            base,
-                                        depth,
-                            loops_at,
-                            bone: parent_bone,
-                            conv,
-                        });
+                        let callee = Act { pc, slot_base, slot_top, base, depth, loops_at, bone: parent_bone, conv };
+                        stack.push(std::mem::replace(&mut act, callee));
                     } else {
                         let bone = if mode == Mode::Model && !r.transforms.is_empty() {
                             self.new_bone(rule, &child, parent_bone)
                         } else {
                             parent_bone
                         };
-                        stack.push(Act {
-                            pc,
-                            slot_base,
-                            slot_top,
-                            base: child,
-                                        depth,
-                            loops_at,
-                            bone,
-                            conv: None,
-                        });
+                        let callee = Act { pc, slot_base, slot_top, base: child, depth, loops_at, bone, conv: None };
+                        stack.push(std::mem::replace(&mut act, callee));
                     }
                 }
                 Op::Draw { kind: Drawable::Vertex, xf, ns, profile, flags: _ }
@@ -1091,7 +1096,7 @@ impl<'b> Eval<'b> {
                         let from = if chain { self.last } else { act.base };
                         let step = l.step;
                         act.base = self.apply(step, &from, act.depth, act.slot_base, act.slot_top);
-                            if chain {
+                        if chain {
                             self.last = act.base;
                         }
                         // Back to the op after LOOP.
@@ -1109,7 +1114,7 @@ impl<'b> Eval<'b> {
                         }
                     } else {
                         act.base = l.saved_base;
-                            loops.pop();
+                        loops.pop();
                         act.pc += 1;
                     }
                 }
@@ -1131,6 +1136,10 @@ impl<'b> Eval<'b> {
                     let (mesh, vertices) = (slot.mesh, slot.vertices);
                     let mesh = if mesh == NONE { self.make_prototype(proto as usize) } else { mesh };
                     let base = &act.base;
+                    // The finiteness bound, while the frame is at hand (see `finish`).
+                    if let Some(slot) = self.protos.get(proto as usize) {
+                        self.suspect_instances |= !frame_surely_maps_finite(&base.f, slot.extent);
+                    }
                     let out = &mut self.out;
                     if base.weight != [0.0; 4] || !out.instance_weights.is_empty() {
                         out.instance_weights.resize(out.instances.len(), [0.0; 4]);
@@ -1201,7 +1210,7 @@ impl<'b> Eval<'b> {
                         if let Some(f) = conv.frames.get(conv.next) {
                             // The next run of a convolution body, under R's frame · frame i.
                             act.base = conv.origin.then(f, &self.lins);
-                                    cont = None;
+                            cont = None;
                             act.pc = conv.pc;
                             conv.next += 1;
                             // Body runs count as calls, so `maxiter` also bounds them.
@@ -1217,9 +1226,12 @@ impl<'b> Eval<'b> {
                         }
                     }
                     let base = act.slot_base as usize;
-                    stack.pop();
                     if self.slots.len() > base {
                         self.slots.truncate(base);
+                    }
+                    match stack.pop() {
+                        Some(caller) => act = caller,
+                        None => break,
                     }
                 }
             }
@@ -1267,8 +1279,16 @@ impl<'b> Eval<'b> {
         let name = rule_of_op(b, first as u32).unwrap_or("").to_string();
         self.out.shared_meshes.push(SharedMesh { name, mesh: m, kind: SharedKind::Prototype { face_normals } });
         let mesh = self.out.shared_meshes.len() as u32 - 1;
+        let extent = self.out.shared_meshes[mesh as usize].mesh.positions.as_flattened().iter().fold(0.0f32, |m, c| {
+            if c.is_finite() {
+                m.max(c.abs())
+            } else {
+                f32::INFINITY
+            }
+        });
         if let Some(slot) = self.protos.get_mut(p) {
             slot.mesh = mesh;
+            slot.extent = extent;
         }
         mesh
     }
@@ -1800,7 +1820,7 @@ impl<'b> Eval<'b> {
             // Isosurface instances under non-uniform scales refer to these.
             self.out.lins = std::mem::take(&mut self.lins.0).into_iter().map(|n| (n, n.determinant().cbrt())).collect();
         }
-        let bad = self.out.non_finite_positions();
+        let bad = self.out.non_finite_positions_checking(self.suspect_instances);
         if bad > 0 {
             self.out.stats.warnings.push(format!(
                 "{bad} position(s) are not finite numbers (a translation or scale overflowed): the files write them as 0"

@@ -501,28 +501,47 @@ impl Output {
     /// instance transforms; a prototype instance counts the vertices it expands to):
     /// exporters write them as 0, so the run warns.
     pub fn non_finite_positions(&self) -> usize {
+        self.non_finite_positions_checking(true)
+    }
+
+    /// [`Output::non_finite_positions`], leaving out the prototype instances unless
+    /// `prototypes` (the evaluator checks each frame by the bound as it makes the
+    /// instance, and asks for them only if one failed it).
+    pub fn non_finite_positions_checking(&self, prototypes: bool) -> usize {
         let bad = |p: &[f32; 3]| !p.iter().all(|c| c.is_finite());
         // Nearly always all finite: a branch-free pass (it vectorises) decides that.
         let all_finite = |ps: &[[f32; 3]]| ps.as_flattened().iter().fold(true, |ok, c| ok & c.is_finite());
         let mesh = |m: &Mesh| if all_finite(&m.positions) { 0 } else { m.positions.iter().filter(|p| bad(p)).count() };
         // Prototype instances: by a bound first (a finite frame of moderate size over a
-        // mesh of moderate extent), expanded only where it does not hold.
-        // Per shared mesh: the extent of a prototype, `None` for an isosurface.
-        let extents: Vec<Option<f32>> =
-            self.shared_meshes.iter().map(|s| s.is_prototype().then(|| max_abs(&s.mesh.positions))).collect();
+        // mesh of moderate extent), expanded only where it does not hold. Per shared
+        // mesh: a prototype's extent (`None`: not checked here), or an isosurface.
+        enum Check {
+            Prototype(Option<f32>),
+            Isosurface,
+        }
+        let checks: Vec<Check> = self
+            .shared_meshes
+            .iter()
+            .map(|s| match s.is_prototype() {
+                true => Check::Prototype(prototypes.then(|| max_abs(&s.mesh.positions))),
+                false => Check::Isosurface,
+            })
+            .collect();
         let mut scratch = Mesh::default();
         let mut instances = 0;
-        for (i, inst) in self.instances.iter().enumerate() {
-            match extents.get(inst.mesh as usize) {
-                Some(Some(extent)) if frame_surely_maps_finite(&inst.frame, *extent) => {}
-                Some(Some(_)) => {
+        // (Skipped when there is nothing to check: the instances of a big model are
+        // most of its memory.)
+        let walk = checks.iter().any(|c| !matches!(c, Check::Prototype(None)));
+        for (i, inst) in self.instances.iter().enumerate().filter(|_| walk) {
+            match checks.get(inst.mesh as usize) {
+                Some(Check::Prototype(Some(extent))) if !frame_surely_maps_finite(&inst.frame, *extent) => {
                     let Some(s) = self.shared(inst) else { continue };
                     scratch.clear();
                     expand_prototype(&mut scratch, s, inst, self.instance_weight(i));
                     instances += scratch.positions.iter().filter(|p| bad(p)).count();
                 }
-                Some(None) => instances += usize::from(!self.instance_transform(inst).is_finite()),
-                None => {}
+                Some(Check::Isosurface) => instances += usize::from(!self.instance_transform(inst).is_finite()),
+                _ => {}
             }
         }
         mesh(&self.mesh)
@@ -544,9 +563,12 @@ fn max_abs(positions: &[[f32; 3]]) -> f32 {
 /// below 1e15, so a mapped point is under 1e15 + 3 · 4e14 · 1e15 ≪ f32::MAX. NaN
 /// fails the comparisons, so non-finite numbers fail too.
 #[inline]
-fn frame_surely_maps_finite(f: &Frame, extent: f32) -> bool {
+pub(crate) fn frame_surely_maps_finite(f: &Frame, extent: f32) -> bool {
     let small = |v: glam::Vec4, limit: f32| v.abs().cmplt(glam::Vec4::splat(limit)).all();
-    small(glam::Vec4::from(f.q), 1e7) && small(glam::Vec4::from(f.qh), 1e7) && small(f.u.extend(0.0), 1e15) && extent < 1e15
+    small(glam::Vec4::from(f.q), 1e7)
+        && small(glam::Vec4::from(f.qh), 1e7)
+        && small(f.u.extend(0.0), 1e15)
+        && extent < 1e15
 }
 
 /// Appends prototype instance `inst` (weight `weight`) to `m` in world space: the

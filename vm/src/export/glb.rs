@@ -981,6 +981,9 @@ impl Builder {
         let mut lo = [f32::INFINITY; 3];
         let mut hi = [f32::NEG_INFINITY; 3];
         let (mut k, mut t) = (0usize, 0usize);
+        // The last colour made linear: neighbouring vertices mostly share one, and the
+        // sRGB curve (three powers) would cost more than the rest of a vertex.
+        let mut last_color = ([1.0f32; 4], linear_color([1.0; 4]));
         let bin = &mut self.bin;
         let put = |bin: &mut Vec<u8>, off: usize, xs: &[f32]| {
             for (j, x) in xs.iter().enumerate() {
@@ -1000,7 +1003,11 @@ impl Builder {
                 }
                 put(bin, pos + 12 * k, &q);
                 put(bin, nrm + 12 * k, &normal_at(m, v));
-                put(bin, col + 16 * k, &linear_color(color_at(m, v)));
+                let c = color_at(m, v);
+                if c != last_color.0 {
+                    last_color = (c, linear_color(c));
+                }
+                put(bin, col + 16 * k, &last_color.1);
                 if skinned {
                     let b = (m.bone(v).min(u16::MAX as u32) as u16).to_le_bytes();
                     bin[jnt + 8 * k..jnt + 8 * k + 2].copy_from_slice(&b);
