@@ -112,7 +112,10 @@ fn mirrored_model_is_lit_on_the_outside() {
     let Some(ctx) = vulkan() else { return };
     let plain = render(&ctx, "cube.mdg", W, H);
     let mirrored_model = load(&data("mirrored_cube.mdg"));
-    assert!(mirrored_model.output.vertex_mesh().mirrored.iter().all(|m| *m), "the fx cube's triangles must be emitted mirrored");
+    assert!(
+        mirrored_model.output.vertex_mesh().mirrored.iter().all(|m| *m),
+        "the fx cube's triangles must be emitted mirrored"
+    );
     let mirrored = render_model(&ctx, &mirrored_model, W, H);
     plain.image.save("cube.png");
     mirrored.image.save("mirrored_cube.png");
