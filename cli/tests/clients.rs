@@ -514,29 +514,29 @@ fn blender_three_and_assimp_open_every_std_example() {
             guided: bundle.extensions.guided.is_some(),
         });
     }
-    // The draw-call claim: the benchmark tree at depth 16 (131,071 squares) is a
-    // handful of InstancedMesh objects in three.js. Too many objects for Blender.
+    // Every kind of prototype instance (colour variants, mirrored items, bones), and
+    // the draw-call claim: the benchmark tree at depth 16 (131,071 squares) is a
+    // handful of InstancedMesh objects in three.js (too many objects for Blender).
     let tree = dir.join("tree_workload_16.mdg");
     let text = std::fs::read_to_string(root().join("benches/workloads/tree.mdg")).expect("tree workload");
     assert!(text.contains("maxdepth 19"), "the tree workload changed");
     std::fs::write(&tree, text.replace("maxdepth 19", "maxdepth 16")).expect("write tree");
     let opts = mdg_compiler::expand::Options { std_dir: Some(root().join("std")), ..Default::default() };
-    let (bundle, _) = mdg_compiler::driver::build(&mdg_compiler::source::FsLoader, &tree, &opts)
-        .unwrap_or_else(|_| panic!("the tree workload does not compile"));
-    let Expected { geometry: expected, gpu, .. } = expected_in_process(&bundle);
-    assert_eq!(gpu, (1, (1 << 17) - 1), "the tree at depth 16: one prototype, 2^17 - 1 instances");
-    let tree_glb = dir.join("tree_workload_16.instances.glb");
-    run_mdg(&[tree.as_os_str(), "--instances".as_ref(), "-o".as_ref(), tree_glb.as_os_str()])
-        .unwrap_or_else(|e| panic!("mdg-run --instances on the tree failed:\n{e}"));
-    let json = glb_instancing(&glb_json(&std::fs::read(&tree_glb).expect("read glb")));
-    instanced.push(InstancedFile {
-        name: "tree_workload_16".into(),
-        glb: tree_glb,
-        expected,
-        gpu: Some(gpu),
-        json,
-        in_blender: false,
-    });
+    for (name, src, in_blender) in
+        [("prototypes", root().join("tests/instancing/prototypes.mdg"), true), ("tree_workload_16", tree, false)]
+    {
+        let (bundle, _) = mdg_compiler::driver::build(&mdg_compiler::source::FsLoader, &src, &opts)
+            .unwrap_or_else(|_| panic!("{name} does not compile"));
+        let Expected { geometry: expected, gpu, .. } = expected_in_process(&bundle);
+        if name == "tree_workload_16" {
+            assert_eq!(gpu, (1, (1 << 17) - 1), "the tree at depth 16: one prototype, 2^17 - 1 instances");
+        }
+        let glb = dir.join(format!("{name}.instances.glb"));
+        run_mdg(&[src.as_os_str(), "--instances".as_ref(), "-o".as_ref(), glb.as_os_str()])
+            .unwrap_or_else(|e| panic!("mdg-run --instances {name} failed:\n{e}"));
+        let json = glb_instancing(&glb_json(&std::fs::read(&glb).expect("read glb")));
+        instanced.push(InstancedFile { name: name.into(), glb, expected, gpu: Some(gpu), json, in_blender });
+    }
     let mdg_seconds = started.elapsed().as_secs_f64();
 
     // Blender: one process for every file.
