@@ -1,18 +1,21 @@
 //! Instances as the evaluator's output (issue 20) give the model that running every
-//! item one by one gives: for every std example `evaluate` runs and for the
-//! benchmark workloads at reduced size, the instanced path (`INST` ops emit one
+//! item one by one gives: for every std example `evaluate` runs, for the benchmark
+//! workloads at reduced size, a grid of squares and `tests/instancing/prototypes.mdg`
+//! (every kind of prototype instance), the instanced path (`INST` ops emit one
 //! prototype instance per run) and the flat path (`EvalOptions::instancing` off)
-//! give the same triangles, sweeps, lines and isosurface instances.
+//! give the same triangles, sweeps, lines, isosurface instances and counters.
 //!
 //! Compared, with the tolerances stated in the constants below: vertex and triangle
 //! counts, every position (within [`POSITION_TOLERANCE`] of the extent, the largest
 //! absolute coordinate), normal (within [`NORMAL_TOLERANCE`]), colour, weight and
 //! bone, and the oriented triangles (the winding exporters write) — of
 //! `Output::vertex_mesh()` of the instanced run against `Output::mesh` of the flat
-//! one, and of `Output::flattened()` of both; for animated examples also at two
-//! times through `Output::posed`. A grammar whose bundle has `INST` ops must make
-//! prototype instances (else the comparison would compare the flat path with
-//! itself).
+//! one, and of `Output::flattened()` of both (the meshes themselves where no
+//! prototype instance was made); for animated grammars also at two times through
+//! `Output::posed`. Where the flat run drew items that an `INST` op covers, the
+//! instanced run must have made prototype instances (else the comparison would
+//! compare the flat path with itself), except in the examples listed, with the
+//! reason, in [`LEFT_TO_THE_ITEMS`].
 
 use mdg_compiler::check::CheckOptions;
 use mdg_compiler::driver::{analyze_text, Analysis};
