@@ -14,8 +14,9 @@
 //! * the model is upright: Blender's bounding box (z up) equals MDG's, three.js's
 //!   (y up) equals MDG's turned (x, y, z) → (x, z, −y), within 1e-3 of the size;
 //! * three.js draws as many vertices and triangles as MDG holds, Blender has as
-//!   many polygons; mesh objects other than `geometry` are the instances, as many as
-//!   `--stats` counts unless there are more than the exporter writes as nodes
+//!   many polygons; mesh objects other than `geometry` are the isosurface instances
+//!   (prototype instances are expanded into the geometry), as many as MDG's output
+//!   has unless there are more than the exporter writes as nodes
 //!   ([`mdg_vm::export::glb::MAX_INSTANCE_NODES`]), when at most as many;
 //!   `--stats` vertices and triangles are at most the drawn ones (instances add);
 //! * animated examples (the `.glb` has animations) have Blender actions and
@@ -32,7 +33,14 @@
 //!   the guide curves over the model, nor above [`PICTURE_LIMIT`] vertices (coral:
 //!   30 million, minutes for the software picture);
 //! * `assimp info` reads every `.glb`, and the `.ply`, `.obj`, `.stl` written (exit 0,
-//!   faces reported).
+//!   faces reported);
+//! * `mdg-run --instances` (prototype instances as `EXT_mesh_gpu_instancing`): where
+//!   the output has nothing to instance, the file is the flat one byte for byte;
+//!   otherwise three.js makes one InstancedMesh per instanced node with the expected
+//!   instance counts, Blender (in the same process as the rest) an object per
+//!   instance, and both show MDG's geometry and bounding box; assimp opens the file
+//!   and shows each instanced mesh once; the benchmark tree at depth 16 (131,071
+//!   squares) is a handful of InstancedMesh objects (see [`check_instanced`]).
 //!
 //! The clients are installed by `.ci/run`: the `bpy` venv at
 //! `$MDG_BPY_PYTHON` (default `~/.cache/mdg/bpy-venv/bin/python`), `three` by
@@ -45,6 +53,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
+
+use mdg_vm::export::glb::MAX_COLOR_VARIANTS;
 
 /// Largest difference allowed between the chromaticities (r, g, b)/(r + g + b) of the
 /// mean colours of Blender's render and MDG's picture.
@@ -192,12 +202,33 @@ fn chromaticity(c: [f64; 3]) -> [f64; 3] {
     c.map(|x| x / s)
 }
 
+/// MDG's geometry as a client should show it: vertices, triangles, bounding box.
+type Geometry = (usize, usize, [f64; 3], [f64; 3]);
+
+/// What MDG's output says a client should show.
+struct Expected {
+    geometry: Geometry,
+    /// What `--instances` makes of the prototype instances ([`expected_gpu_instancing`]).
+    gpu: (usize, usize),
+    /// Isosurface instances with triangles: one node each in a `.glb` (prototype
+    /// instances are expanded into the geometry unless `--instances`).
+    isosurfaces: u64,
+}
+
 /// What MDG holds at t = 0 (the pose a glTF client shows): vertices and triangles
 /// with every instance expanded (instances of meshes without triangles are not
-/// drawn), and the bounding box of those vertices.
-fn expected_in_process(bundle: &mdg_vm::bundle::Bundle) -> (usize, usize, [f64; 3], [f64; 3]) {
+/// drawn), and the bounding box of those vertices; what `--instances` makes of the
+/// output's prototype instances; how many isosurface instances there are.
+fn expected_in_process(bundle: &mdg_vm::bundle::Bundle) -> Expected {
     let opts = mdg_vm::eval::EvalOptions { time: Some(0.0), ..Default::default() };
-    let out = mdg_vm::eval::evaluate(bundle, &opts).posed(0.0);
+    let unposed = mdg_vm::eval::evaluate(bundle, &opts);
+    let gpu = expected_gpu_instancing(&unposed);
+    let isosurfaces = unposed
+        .instances
+        .iter()
+        .filter(|i| unposed.shared(i).is_some_and(|s| !s.is_prototype() && !s.mesh.triangles.is_empty()))
+        .count() as u64;
+    let out = unposed.posed(0.0);
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     let mut grow = |p: [f32; 3]| {
@@ -215,7 +246,89 @@ fn expected_in_process(bundle: &mdg_vm::bundle::Bundle) -> (usize, usize, [f64; 
         }
         Ok(())
     });
-    (v, t, lo, hi)
+    Expected { geometry: (v, t, lo, hi), gpu, isosurfaces }
+}
+
+/// What `mdg-run --instances` should write for `out`'s prototype instances, grouped
+/// as the glTF writer documents it (`vm/src/export/glb.rs`): one instanced node per
+/// (prototype, mirrored, frame colour where the prototype's items add colours),
+/// at most [`MAX_COLOR_VARIANTS`] colours per prototype; left to the geometry:
+/// prototypes without triangles, instances of animated bones in a skinned output,
+/// frames of zero or non-finite scale. Returns (instanced nodes, instances they place).
+fn expected_gpu_instancing(out: &mdg_vm::output::Output) -> (usize, usize) {
+    let skinned = out.animation.bones.len() > 1;
+    let mut groups = std::collections::BTreeSet::new();
+    let mut variants: BTreeMap<u32, std::collections::BTreeSet<[u32; 4]>> = BTreeMap::new();
+    let mut instances = 0;
+    for inst in &out.instances {
+        let Some(shared) = out.shared(inst).filter(|s| s.is_prototype() && !s.mesh.triangles.is_empty()) else {
+            continue;
+        };
+        let f = &inst.frame;
+        let scale = f.q.length_squared() * f.qh.length_squared();
+        if (skinned && inst.bone != 0) || !(scale.is_finite() && scale > 0.0 && f.u.is_finite()) {
+            continue;
+        }
+        let colour = shared.mesh.colors.iter().any(|c| *c != [0.0; 4]).then(|| inst.color.map(f32::to_bits));
+        if let Some(c) = colour {
+            let seen = variants.entry(inst.mesh).or_default();
+            if !seen.contains(&c) && seen.len() >= MAX_COLOR_VARIANTS {
+                continue;
+            }
+            seen.insert(c);
+        }
+        groups.insert((inst.mesh, f.mirrored(), colour));
+        instances += 1;
+    }
+    (groups.len(), instances)
+}
+
+/// What a `.glb`'s JSON says about `EXT_mesh_gpu_instancing`.
+#[derive(Debug, Default)]
+struct GlbInstancing {
+    /// Per node with the extension: its instance count and whether it has `_COLOR_0`.
+    nodes: Vec<(u64, bool)>,
+    /// Nodes with a mesh and without the extension (objects a client makes besides
+    /// the instances).
+    plain_mesh_nodes: usize,
+}
+
+fn glb_instancing(doc: &Value) -> GlbInstancing {
+    let mut g = GlbInstancing::default();
+    for n in doc["nodes"].as_array().into_iter().flatten() {
+        match n.pointer("/extensions/EXT_mesh_gpu_instancing/attributes") {
+            Some(attrs) => {
+                let count = doc["accessors"][attrs["TRANSLATION"].as_u64().unwrap_or(u64::MAX) as usize]["count"]
+                    .as_u64()
+                    .unwrap_or(0);
+                g.nodes.push((count, attrs.get("_COLOR_0").is_some()));
+            }
+            None if n.get("mesh").is_some() => g.plain_mesh_nodes += 1,
+            None => {}
+        }
+    }
+    g
+}
+
+/// The JSON chunk of a `.glb`.
+fn glb_json(bytes: &[u8]) -> Value {
+    let json_len = u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes")) as usize;
+    serde_json::from_slice(&bytes[20..20 + json_len]).expect("glTF JSON")
+}
+
+/// A file written with `mdg-run --instances` that holds instanced nodes, and what
+/// clients should make of it.
+struct InstancedFile {
+    name: String,
+    glb: PathBuf,
+    /// MDG's geometry, as for the flat file.
+    expected: Geometry,
+    /// From MDG's output: (instanced nodes, instances) ([`expected_gpu_instancing`]);
+    /// `None` for the guided mode, whose search runs in `mdg-run`.
+    gpu: Option<(usize, usize)>,
+    json: GlbInstancing,
+    /// Imported by Blender too (one object per instance: not the depth-16 tree).
+    in_blender: bool,
 }
 
 fn close(a: &[f64], b: &[f64], tol: f64) -> bool {
@@ -235,6 +348,9 @@ struct Example {
     render: PathBuf,
     /// `--stats`: vertices, triangles, instances (`None` for the grid mode).
     stats: Option<(u64, u64, u64)>,
+    /// Isosurface instances with triangles (`None` for the guided and grid modes,
+    /// which `mdg-run` runs its own way).
+    isosurfaces: Option<u64>,
     /// MDG at t = 0: vertices, triangles, bounding box.
     ply: (usize, usize, [f64; 3], [f64; 3]),
     animated: bool,
@@ -276,6 +392,7 @@ fn blender_three_and_assimp_open_every_std_example() {
     let mut failures = Vec::new();
     let mut examples = Vec::new();
     let mut all_files = Vec::new();
+    let mut instanced: Vec<InstancedFile> = Vec::new();
     for src in &sources {
         let name = src.file_stem().expect("name").to_string_lossy().into_owned();
         let example_started = Instant::now();
@@ -302,11 +419,11 @@ fn blender_three_and_assimp_open_every_std_example() {
                 .map(|_| out)
                 .map_err(|e| format!("{name}: mdg-run -o {ext} failed:\n{e}"))
         };
-        let expected = if own_mode {
+        let (expected, gpu, isosurfaces) = if own_mode {
             match write_flat("ply") {
                 Ok(ply) => {
                     all_files.push(ply.clone());
-                    read_ply(&ply)
+                    (read_ply(&ply), None, None)
                 }
                 Err(e) => {
                     failures.push(e);
@@ -314,7 +431,8 @@ fn blender_three_and_assimp_open_every_std_example() {
                 }
             }
         } else {
-            expected_in_process(&bundle)
+            let e = expected_in_process(&bundle);
+            (e.geometry, Some(e.gpu), Some(e.isosurfaces))
         };
         let size = format!("{}x{}", SIZE.0, SIZE.1);
         // MDG's picture of a model of millions of vertices takes minutes on the CPU.
@@ -349,9 +467,40 @@ fn blender_three_and_assimp_open_every_std_example() {
         }
         all_files.push(glb.clone());
         let bytes = std::fs::read(&glb).expect("read glb");
-        let json_len = u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes")) as usize;
-        let doc: Value = serde_json::from_slice(&bytes[20..20 + json_len]).expect("glTF JSON");
+        let doc = glb_json(&bytes);
         let animated = doc.get("animations").is_some();
+        // With --instances (the grid mode makes no prototype instances): where there is
+        // nothing to instance, the flat file byte for byte.
+        if bundle.extensions.grid.is_none() {
+            let path = file("instances.glb");
+            match run_mdg(&[src.as_os_str(), "--instances".as_ref(), "-o".as_ref(), path.as_os_str()]) {
+                Err(e) => failures.push(format!("{name}: mdg-run --instances failed:\n{e}")),
+                Ok(_) => {
+                    let inst_bytes = std::fs::read(&path).expect("read glb");
+                    let json = glb_instancing(&glb_json(&inst_bytes));
+                    let made = (json.nodes.len(), json.nodes.iter().map(|n| n.0 as usize).sum::<usize>());
+                    if gpu.is_some_and(|g| g != made) {
+                        failures.push(format!(
+                            "{name}: --instances wrote {made:?} (instanced nodes, instances), MDG's output gives {gpu:?}"
+                        ));
+                    }
+                    if json.nodes.is_empty() {
+                        if inst_bytes != bytes {
+                            failures.push(format!("{name}: nothing instanced, yet --instances changed the .glb"));
+                        }
+                    } else {
+                        instanced.push(InstancedFile {
+                            name: name.clone(),
+                            glb: path,
+                            expected,
+                            gpu,
+                            json,
+                            in_blender: true,
+                        });
+                    }
+                }
+            }
+        }
         eprintln!("{name}: files written in {:.1} s", example_started.elapsed().as_secs_f64());
         examples.push(Example {
             render: dir.join(format!("{name}.blender.png")),
@@ -360,9 +509,33 @@ fn blender_three_and_assimp_open_every_std_example() {
             glb,
             picture: with_picture.then_some(picture),
             stats,
+            isosurfaces,
             animated,
             guided: bundle.extensions.guided.is_some(),
         });
+    }
+    // Every kind of prototype instance (colour variants, mirrored items, bones), and
+    // the draw-call claim: the benchmark tree at depth 16 (131,071 squares) is a
+    // handful of InstancedMesh objects in three.js (too many objects for Blender).
+    let tree = dir.join("tree_workload_16.mdg");
+    let text = std::fs::read_to_string(root().join("benches/workloads/tree.mdg")).expect("tree workload");
+    assert!(text.contains("maxdepth 19"), "the tree workload changed");
+    std::fs::write(&tree, text.replace("maxdepth 19", "maxdepth 16")).expect("write tree");
+    let opts = mdg_compiler::expand::Options { std_dir: Some(root().join("std")), ..Default::default() };
+    for (name, src, in_blender) in
+        [("prototypes", root().join("tests/instancing/prototypes.mdg"), true), ("tree_workload_16", tree, false)]
+    {
+        let (bundle, _) = mdg_compiler::driver::build(&mdg_compiler::source::FsLoader, &src, &opts)
+            .unwrap_or_else(|_| panic!("{name} does not compile"));
+        let Expected { geometry: expected, gpu, .. } = expected_in_process(&bundle);
+        if name == "tree_workload_16" {
+            assert_eq!(gpu, (1, (1 << 17) - 1), "the tree at depth 16: one prototype, 2^17 - 1 instances");
+        }
+        let glb = dir.join(format!("{name}.instances.glb"));
+        run_mdg(&[src.as_os_str(), "--instances".as_ref(), "-o".as_ref(), glb.as_os_str()])
+            .unwrap_or_else(|e| panic!("mdg-run --instances {name} failed:\n{e}"));
+        let json = glb_instancing(&glb_json(&std::fs::read(&glb).expect("read glb")));
+        instanced.push(InstancedFile { name: name.into(), glb, expected, gpu: Some(gpu), json, in_blender });
     }
     let mdg_seconds = started.elapsed().as_secs_f64();
 
@@ -377,6 +550,11 @@ fn blender_three_and_assimp_open_every_std_example() {
                 "size": [SIZE.0, SIZE.1],
             })
         })
+        // The --instances files in the same Blender process, not rendered (Blender
+        // drops the per-instance colours, `_COLOR_0`).
+        .chain(instanced.iter().filter(|i| i.in_blender).map(|i| {
+            serde_json::json!({"name": format!("{}.instances", i.name), "glb": i.glb, "png": null, "size": [SIZE.0, SIZE.1]})
+        }))
         .collect();
     let jobs_path = dir.join("blender-jobs.json");
     let result_path = dir.join("blender-result.json");
@@ -408,13 +586,15 @@ fn blender_three_and_assimp_open_every_std_example() {
     let out = Command::new(&node)
         .arg(root().join("tests/clients/three_check.mjs"))
         .args(examples.iter().map(|e| &e.glb))
+        .args(instanced.iter().map(|i| &i.glb))
         .output()
         .expect("run node");
     let three_seconds = t.elapsed().as_secs_f64();
     assert!(out.status.success(), "three.js check failed:\n{}", String::from_utf8_lossy(&out.stderr));
     let three: Value = serde_json::from_slice(&out.stdout).expect("three.js JSON");
-    let three: Vec<Value> = three["results"].as_array().expect("results").clone();
-    assert_eq!(three.len(), examples.len());
+    let mut three: Vec<Value> = three["results"].as_array().expect("results").clone();
+    assert_eq!(three.len(), examples.len() + instanced.len());
+    let three_instanced = three.split_off(examples.len());
 
     let max_nodes = mdg_vm::export::glb::MAX_INSTANCE_NODES as u64;
     let mut animated = 0;
@@ -450,11 +630,19 @@ fn blender_three_and_assimp_open_every_std_example() {
             }
             let instance_objects =
                 t["meshes"].as_u64().unwrap_or(0).saturating_sub(t["geometry"].as_u64().unwrap_or(0));
-            // Above the node limit the exporter merges instances of small meshes.
-            let ok = if instances > max_nodes { instance_objects <= instances } else { instance_objects == instances };
+            // The isosurface instances are nodes; prototype instances are expanded into
+            // the geometry (`--stats` counts both). Above the node limit the exporter
+            // merges instances of small meshes. The guided and grid modes' isosurfaces
+            // are not known here: at most `--stats`'s instances.
+            let ok = match e.isosurfaces {
+                Some(iso) if iso <= max_nodes => instance_objects == iso,
+                Some(iso) => instance_objects <= iso,
+                None => instance_objects <= instances,
+            };
             if !ok {
                 failures.push(format!(
-                    "{name}: three.js has {instance_objects} instance objects, --stats {instances} instances"
+                    "{name}: three.js has {instance_objects} instance objects, MDG {:?} isosurface instances (--stats {instances} instances)",
+                    e.isosurfaces
                 ));
             }
             let clips = t["animations"].as_array().map(Vec::len).unwrap_or(0);
@@ -534,6 +722,7 @@ fn blender_three_and_assimp_open_every_std_example() {
         }
     }
     let assimp_seconds = t.elapsed().as_secs_f64();
+    check_instanced(&instanced, &three_instanced, &blender, &mut failures);
     eprintln!(
         "{} examples: mdg-run {mdg_seconds:.1} s, Blender {blender_seconds:.1} s ({}), three.js {three_seconds:.1} s, assimp {assimp_seconds:.1} s ({} files)",
         examples.len(),
@@ -544,6 +733,140 @@ fn blender_three_and_assimp_open_every_std_example() {
         let _ = std::fs::remove_dir_all(&dir);
     }
     assert!(failures.is_empty(), "{} problems:\n{}", failures.len(), failures.join("\n"));
+}
+
+/// The `--instances` files as the clients read them (three.js's report `three`,
+/// Blender's `blender` by job name), and `assimp info` on each:
+///
+/// * three.js: one InstancedMesh per instanced node, as many as MDG's output gives
+///   (grouped as the writer groups), each with `instanceMatrix.count` = its count and
+///   `instanceColor` where the node has `_COLOR_0`; their counts add up to the
+///   instances MDG made (less those left to the geometry); drawn with every instance,
+///   the vertices, triangles and world bounding box (y up) are MDG's;
+/// * Blender makes an object of every instance: its mesh objects are the instances
+///   plus the file's other mesh nodes, its polygons and bounding box (z up) MDG's;
+/// * assimp ignores the extension: it opens the file and shows each instanced mesh
+///   once (the depth-16 tree: one square, 2 faces).
+fn check_instanced(
+    instanced: &[InstancedFile],
+    three: &[Value],
+    blender: &BTreeMap<String, Value>,
+    failures: &mut Vec<String>,
+) {
+    for (i, t) in instanced.iter().zip(three) {
+        let name = format!("{}.instances", i.name);
+        let (vertices, faces, lo, hi) = i.expected;
+        let size = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+        let tol = 1e-3 * size.max(1e-3);
+        let nodes = i.json.nodes.len();
+        let instances: u64 = i.json.nodes.iter().map(|n| n.0).sum();
+        if let Some(gpu) = i.gpu {
+            if gpu != (nodes, instances as usize) {
+                failures.push(format!("{name}: the file has {nodes} instanced nodes placing {instances} instances, MDG's output gives {gpu:?}"));
+            }
+        }
+        // three.js
+        if let Some(err) = t.get("error") {
+            failures.push(format!("{name}: three.js cannot load the .glb: {err}"));
+        } else {
+            let objects = t["instanced"].as_array().cloned().unwrap_or_default();
+            let mut got: Vec<(u64, bool)> =
+                objects.iter().map(|o| (o["count"].as_u64().unwrap_or(0), o["color"] == true)).collect();
+            let mut want = i.json.nodes.clone();
+            got.sort();
+            want.sort();
+            if got != want {
+                failures.push(format!(
+                    "{name}: three.js has InstancedMesh objects (count, instanceColor) {got:?}, the file's nodes {want:?}"
+                ));
+            }
+            if let Some(o) = objects.iter().find(|o| o["count"] != o["matrices"]) {
+                failures.push(format!(
+                    "{name}: InstancedMesh {} has count {} but {} matrices",
+                    o["name"], o["count"], o["matrices"]
+                ));
+            }
+            if t["drawn_vertices"].as_u64() != Some(vertices as u64)
+                || t["drawn_triangles"].as_u64() != Some(faces as u64)
+            {
+                failures.push(format!(
+                    "{name}: three.js draws {} vertices {} triangles with every instance, MDG has {vertices} and {faces}",
+                    t["drawn_vertices"], t["drawn_triangles"]
+                ));
+            }
+            let y_up_lo = [lo[0], lo[2], -hi[1]];
+            let y_up_hi = [hi[0], hi[2], -lo[1]];
+            if !close(&floats(&t["min"]), &y_up_lo, tol) || !close(&floats(&t["max"]), &y_up_hi, tol) {
+                failures.push(format!(
+                    "{name}: three.js (y up) bounds with every instance {} .. {}, expected {y_up_lo:?} .. {y_up_hi:?}",
+                    t["min"], t["max"]
+                ));
+            }
+            eprintln!(
+                "{name}: three.js {} InstancedMesh ({instances} instances), {} mesh objects in all (MDG: {faces} triangles)",
+                objects.len(),
+                t["meshes"]
+            );
+        }
+        // Blender
+        if i.in_blender {
+            match blender.get(&name) {
+                None => failures.push(format!("{name}: no Blender result")),
+                Some(b) if b.get("error").is_some() => {
+                    failures.push(format!("{name}: Blender cannot import the .glb: {}", b["error"]))
+                }
+                Some(b) => {
+                    let objects = i.json.plain_mesh_nodes as u64 + instances;
+                    if b["mesh_objects"].as_u64() != Some(objects) {
+                        failures.push(format!(
+                            "{name}: Blender has {} mesh objects, expected {objects} ({instances} instances and {} other mesh nodes)",
+                            b["mesh_objects"], i.json.plain_mesh_nodes
+                        ));
+                    }
+                    if b["polygons"].as_u64() != Some(faces as u64) {
+                        failures.push(format!("{name}: Blender has {} polygons, MDG {faces} triangles", b["polygons"]));
+                    }
+                    if !close(&floats(&b["min"]), &lo, tol) || !close(&floats(&b["max"]), &hi, tol) {
+                        failures.push(format!(
+                            "{name}: Blender (z up) bounds {} .. {}, MDG {lo:?} .. {hi:?}",
+                            b["min"], b["max"]
+                        ));
+                    }
+                    eprintln!(
+                        "{name}: Blender {} mesh objects ({} sharing their mesh data), {} empties, import {:.2} s",
+                        b["mesh_objects"],
+                        b["shared_mesh_objects"],
+                        b["empties"],
+                        b["import_seconds"].as_f64().unwrap_or(0.0)
+                    );
+                }
+            }
+        }
+        // assimp
+        let out = Command::new("assimp").arg("info").arg(&i.glb).output().expect("run assimp");
+        let text = String::from_utf8_lossy(&out.stdout);
+        let count = |key: &str| {
+            text.lines()
+                .find_map(|l| l.trim().strip_prefix(key))
+                .and_then(|n| n.trim().parse::<u64>().ok())
+                .unwrap_or(0)
+        };
+        let (assimp_faces, assimp_nodes) = (count("Faces:"), count("Nodes:"));
+        if !out.status.success() || assimp_faces == 0 {
+            failures.push(format!("{name}: assimp info failed ({}, {assimp_faces} faces):\n{text}", out.status));
+        } else if i.name == "tree_workload_16" && assimp_faces != 2 {
+            failures.push(format!("{name}: assimp shows {assimp_faces} faces, the one square of the prototype is 2"));
+        }
+        eprintln!("{name}: assimp {assimp_nodes} nodes, {assimp_faces} faces (MDG: {faces} triangles)");
+    }
+    // The draw-call claim: a handful of InstancedMesh objects, not 131,071 meshes.
+    match instanced.iter().zip(three).find(|(i, _)| i.name == "tree_workload_16") {
+        Some((_, t)) if t["meshes"].as_u64().is_some_and(|m| m <= 4) => {}
+        found => failures.push(format!(
+            "tree_workload_16.instances: three.js has {} mesh objects, a handful expected",
+            found.map(|(_, t)| t["meshes"].clone()).unwrap_or_default()
+        )),
+    }
 }
 
 /// What the editor's preview reads, as three.js reads it: a guided grammar's guides

@@ -1,10 +1,12 @@
 """Imports .glb files into Blender (PyPI `bpy`, headless) and reports what it got.
 
-Run by viewer/tests/clients.rs as `python blender_check.py JOBS.json RESULT.json`:
+Run by cli/tests/clients.rs as `python blender_check.py JOBS.json RESULT.json`:
 JOBS.json is a list of {"name", "glb", "png", "size": [w, h]}. For each file, from an
 empty scene: import it with Blender's own glTF importer, then record the import
-time, the mesh objects and their vertex and polygon counts, the world bounding box
-(Blender is z up, like MDG), the actions, and render it with Cycles on the CPU from
+time, the mesh objects and their vertex and polygon counts (Blender's importer makes
+an object of every EXT_mesh_gpu_instancing instance, all sharing one mesh), the
+world bounding box (Blender is z up, like MDG), the actions, and, when `png` is
+not null, render it with Cycles on the CPU from
 MDG's home view (azimuth 35°, elevation 25°, vertical field of view 40°, the
 bounding sphere framed) into `png`, transparent where nothing was hit, "Standard"
 view transform (no tone mapping). The light imitates MDG's pictures (display colour
@@ -151,6 +153,10 @@ def check(job):
         "name": job["name"],
         "import_seconds": seconds,
         "mesh_objects": len(meshes),
+        # Objects whose mesh data other objects use too (linked duplicates: what the
+        # importer makes of EXT_mesh_gpu_instancing's instances), and empties.
+        "shared_mesh_objects": len([o for o in meshes if o.data.users > 1]),
+        "empties": len([o for o in bpy.context.scene.objects if o.type == "EMPTY"]),
         "vertices": sum(len(o.data.vertices) for o in tri_objects),
         "polygons": sum(len(o.data.polygons) for o in tri_objects),
         "line_edges": sum(len(o.data.edges) for o in meshes if len(o.data.polygons) == 0),

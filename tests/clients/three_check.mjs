@@ -1,8 +1,11 @@
 // Loads .glb files with three.js's GLTFLoader under Node (no browser) and reports
 // what it got, as JSON on stdout: per file the mesh objects (triangles and lines),
-// their vertex and triangle counts as drawn (instances counted once per object),
-// the world bounding box (three.js is y up), the animation clips, or the error.
-// Used by viewer/tests/clients.rs: node three_check.mjs A.glb B.glb …
+// their vertex and triangle counts as stored (an InstancedMesh counted once) and as
+// drawn (an InstancedMesh counted once per instance), the InstancedMesh objects
+// (EXT_mesh_gpu_instancing: instance count, instanceMatrix.count, whether
+// instanceColor is set), the world bounding box with every instance placed (three.js
+// is y up), the animation clips, or the error.
+// Used by cli/tests/clients.rs: node three_check.mjs A.glb B.glb …
 import { readFileSync } from "node:fs";
 import * as THREE from "three";
 import { GLTFLoader } from "three/addons/loaders/GLTFLoader.js";
@@ -20,6 +23,9 @@ for (const path of process.argv.slice(2)) {
     const scene = gltf.scene;
     scene.updateMatrixWorld(true);
     let meshes = 0, geometry = 0, lines = 0, vertices = 0, triangles = 0, sites = 0;
+    let drawnVertices = 0, drawnTriangles = 0;
+    const instanced = [];
+    const m = new THREE.Matrix4();
     // Line segments per glTF node name (`lines`, a search's `guides` and `bones`).
     const namedLines = {};
     const box = new THREE.Box3();
@@ -32,10 +38,34 @@ for (const path of process.argv.slice(2)) {
         const g = o.geometry;
         // `mdg-run --sites`: which rule drew each triangle, in the primitive's extras.
         if (g.userData.mdg_sites) sites += g.userData.mdg_sites.runs.length;
-        vertices += g.attributes.position.count;
-        triangles += (g.index ? g.index.count : g.attributes.position.count) / 3;
-        // Skinned meshes: skinned by the bones' poses at t = 0, as drawn.
         const pos = g.attributes.position;
+        const tris = (g.index ? g.index.count : pos.count) / 3;
+        vertices += pos.count;
+        triangles += tris;
+        if (o.isInstancedMesh) {
+          // Every instance: its matrix, then the object's world matrix.
+          instanced.push({
+            name: o.name,
+            count: o.count,
+            matrices: o.instanceMatrix.count,
+            color: o.instanceColor != null,
+            vertices: pos.count,
+            triangles: tris,
+          });
+          drawnVertices += pos.count * o.count;
+          drawnTriangles += tris * o.count;
+          for (let k = 0; k < o.count; k++) {
+            o.getMatrixAt(k, m);
+            m.premultiply(o.matrixWorld);
+            for (let i = 0; i < pos.count; i++) {
+              box.expandByPoint(p.fromBufferAttribute(pos, i).applyMatrix4(m));
+            }
+          }
+          return;
+        }
+        drawnVertices += pos.count;
+        drawnTriangles += tris;
+        // Skinned meshes: skinned by the bones' poses at t = 0, as drawn.
         for (let i = 0; i < pos.count; i++) {
           p.fromBufferAttribute(pos, i);
           if (o.isSkinnedMesh) o.applyBoneTransform(i, p);
@@ -58,6 +88,9 @@ for (const path of process.argv.slice(2)) {
       sites,
       vertices,
       triangles,
+      drawn_vertices: drawnVertices,
+      drawn_triangles: drawnTriangles,
+      instanced,
       min: box.isEmpty() ? null : box.min.toArray(),
       max: box.isEmpty() ? null : box.max.toArray(),
       animations: gltf.animations.map((a) => ({ name: a.name, tracks: a.tracks.length, duration: a.duration })),

@@ -1,7 +1,8 @@
 // Validates .glb files with the Khronos glTF validator.
 // Usage: node tests/gltf/validate.mjs FILE.glb [FILE.glb ...]
-// Prints the error / warning / info counts per file and every error and warning
-// message; exits 1 if any file has errors (warnings are reported, not fatal).
+// Prints the error / warning / info counts per file, every error and warning
+// message and the infos' codes with their counts; exits 1 if any file has errors
+// (warnings and infos are reported, not fatal).
 import fs from 'node:fs';
 import validator from 'gltf-validator';
 
@@ -35,6 +36,11 @@ for (const path of files) {
     console.log(`  ${kind} ${m.code}: ${m.message}${m.pointer ? ` (${m.pointer})` : ''}`);
   }
   if (shown.length > MAX_SHOWN) console.log(`  ... and ${shown.length - MAX_SHOWN} more`);
+  const infos = {};
+  for (const m of issues.messages.filter((m) => m.severity === 2)) infos[m.code] = (infos[m.code] ?? 0) + 1;
+  if (Object.keys(infos).length > 0) {
+    console.log(`  infos: ${Object.entries(infos).map(([code, n]) => `${code} ×${n}`).join(', ')}`);
+  }
   if (issues.numErrors > 0) failed = true;
 }
 process.exit(failed ? 1 : 0);

@@ -1,4 +1,5 @@
-//! Validates the glTF exporter's output with the Khronos glTF validator (Node).
+//! Validates the glTF exporter's output with the Khronos glTF validator (Node), flat
+//! and with prototype instances as `EXT_mesh_gpu_instancing` (`GlbOptions::instances`).
 //!
 //! Needs `node` and `npm ci --prefix tests/gltf`; set `MDG_SKIP_NODE_TESTS=1` to skip
 //! where Node is not available.
@@ -7,9 +8,10 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use glam::{Quat, Vec3};
+use mdg_vm::export::glb::{write_glb_with, GlbOptions, MAX_COLOR_VARIANTS};
 use mdg_vm::export::{write, Format};
 use mdg_vm::geom::{blend_frames, polygonize, sweep, sweep_averaged, sweep_oriented, sweep_path, Frame, Grid};
-use mdg_vm::output::{Animation, Bone, Camera, Instance, Mesh, Output, Polyline, SharedMesh, Track};
+use mdg_vm::output::{Animation, Bone, Camera, Instance, Mesh, Output, Polyline, SharedKind, SharedMesh, Track};
 
 /// Emits a unit cube as VERTEX triangles in `frame` (mirrored frames flag their
 /// triangles, as the VM does).
@@ -108,7 +110,59 @@ fn outputs() -> Vec<(&'static str, Output)> {
 
     v.push(("empty", Output::default()));
     v.push(("animated", animated()));
+    v.push(("prototypes", prototypes()));
     v
+}
+
+/// A prototype as the evaluator makes one: a unit square of two triangles in its
+/// run's frame, with colour deltas `delta` on its vertices (zero for none).
+fn square_prototype(name: &str, delta: [f32; 4]) -> SharedMesh {
+    let mut m = Mesh::default();
+    for p in [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]] {
+        m.push_vertex(Vec3::from(p), Vec3::Z, delta, [0.0; 4], 0);
+    }
+    m.push_triangle([0, 1, 2], false);
+    m.push_triangle([3, 4, 5], false);
+    SharedMesh { name: name.into(), mesh: m, kind: SharedKind::Prototype { face_normals: vec![None, None] } }
+}
+
+/// Prototype instances the glTF writer groups for `EXT_mesh_gpu_instancing`: a
+/// white prototype in three colours (one node with `_COLOR_0`) and mirrored (a node
+/// over the mirrored copy), one placed at zero scale (baked: glTF cannot hold it); a
+/// prototype with colour deltas in more frame colours than the writer makes variant
+/// meshes for (the rest baked into the geometry).
+fn prototypes() -> Output {
+    let mut out = Output {
+        shared_meshes: vec![square_prototype("plain", [0.0; 4]), square_prototype("tinted", [-0.5, 0.0, 0.0, 0.0])],
+        ..Output::default()
+    };
+    let inst = |mesh: u32, frame: Frame, color: [f32; 4]| Instance { frame, color, mesh, bone: 0, lin: 0, at: 0 };
+    let at = |x: f32, y: f32| Frame::identity().translate(Vec3::new(x, y, 0.0));
+    for (k, c) in [[1.0, 0.0, 0.0, 1.0], [0.0, 1.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0]].into_iter().enumerate() {
+        out.instances.push(inst(0, at(2.0 * k as f32, 0.0).rotate(Quat::from_rotation_z(0.3)).scale(0.5), c));
+    }
+    out.instances.push(inst(0, at(0.0, 2.0).reflect(Vec3::X).rotate(Quat::from_rotation_z(0.5)), [1.0; 4]));
+    out.instances.push(inst(0, at(0.0, 4.0).scale(0.0), [1.0; 4]));
+    for k in 0..MAX_COLOR_VARIANTS + 6 {
+        let grey = k as f32 / (MAX_COLOR_VARIANTS + 6) as f32;
+        out.instances.push(inst(1, at(k as f32, 6.0), [1.0, grey, grey, 1.0]));
+    }
+    out
+}
+
+/// The instanced nodes of a `.glb` and the instances they place.
+fn gpu_instancing(bytes: &[u8]) -> (usize, u64) {
+    let json_len = u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes")) as usize;
+    let json: serde_json::Value = serde_json::from_slice(&bytes[20..20 + json_len]).expect("glTF JSON");
+    let mut nodes = 0;
+    let mut instances = 0;
+    for n in json["nodes"].as_array().into_iter().flatten() {
+        if let Some(a) = n.pointer("/extensions/EXT_mesh_gpu_instancing/attributes/TRANSLATION") {
+            nodes += 1;
+            instances += json["accessors"][a.as_u64().expect("accessor") as usize]["count"].as_u64().unwrap_or(0);
+        }
+    }
+    (nodes, instances)
 }
 
 /// Bones (one nested in another, one with a mirrored and scaled motion, one frozen),
@@ -168,6 +222,14 @@ fn animated() -> Output {
         lin: 0,
         at: 0,
     });
+    // A prototype on the root (instanced with `--instances`) and on a moving bone
+    // (expanded into the skinned geometry: three.js cannot instance skinned meshes).
+    out.shared_meshes.push(square_prototype("square", [0.0; 4]));
+    let at = out.mesh.n_vertices() as u32;
+    for (bone, x) in [(0, -2.0), (3, 0.0)] {
+        let frame = Frame::identity().translate(Vec3::new(x, -2.0, 0.0));
+        out.instances.push(Instance { frame, color: [1.0; 4], mesh: 1, bone, lin: 0, at });
+    }
     out.animation = Animation {
         duration: 2.0,
         bones: vec![
@@ -200,6 +262,19 @@ fn exported_glb_files_pass_the_khronos_validator() {
         let mut bytes = Vec::new();
         write(Format::Glb, &out, &mut bytes).expect("glb export");
         let p = dir.join(format!("{name}.glb"));
+        std::fs::write(&p, &bytes).expect("write glb");
+        paths.push(p);
+        let mut bytes = Vec::new();
+        write_glb_with(&out, &GlbOptions { instances: true }, &mut bytes).expect("glb export with instances");
+        let expected = match name {
+            // Plain in colours, plain mirrored, one node per colour of the tinted one.
+            "prototypes" => (2 + MAX_COLOR_VARIANTS, 4 + MAX_COLOR_VARIANTS as u64),
+            // The root's instance only.
+            "animated" => (1, 1),
+            _ => (0, 0),
+        };
+        assert_eq!(gpu_instancing(&bytes), expected, "{name}: instanced nodes and instances");
+        let p = dir.join(format!("{name}.instances.glb"));
         std::fs::write(&p, &bytes).expect("write glb");
         paths.push(p);
     }
