@@ -469,6 +469,27 @@ struct XfInfo {
     mirrored: bool,
 }
 
+/// Whether [`Eval::run_fast`] can run `b`'s model: no rule has parameters, bones or
+/// an iterator rule, and the code is only `INST` (with the items it covers), calls
+/// and `LOOP`s with constant transforms (no non-uniform scale; no `\` after a call,
+/// no chained runs), `ENDLOOP` and `RET`.
+fn fast_path_applies(b: &Bundle) -> bool {
+    let pure = |xf: u32| matches!(b.transforms.get(xf as usize), Some(Transform::Const(c)) if c.n.is_none());
+    let rules_ok =
+        b.rules.iter().all(|r| r.params.is_empty() && r.frame == 0 && r.transforms.is_empty() && r.iter == NONE);
+    let mut pc = 0usize;
+    while let Some(op) = b.code.get(pc) {
+        pc += match *op {
+            Op::Inst { count, .. } => 1 + count as usize,
+            Op::Call { xf, flags, .. } if flags == 0 && pure(xf) => 1,
+            Op::Loop { step, chain, .. } if chain & bundle::ops::LOOP_CHAIN == 0 && pure(step) => 1,
+            Op::EndLoop { .. } | Op::Ret {} => 1,
+            _ => return false,
+        };
+    }
+    rules_ok
+}
+
 /// `a + b` component-wise, four lanes at once (each lane one IEEE addition, as the
 /// scalar sum would be).
 #[inline(always)]
@@ -619,6 +640,9 @@ struct Eval<'b> {
     protos: Vec<ProtoSlot>,
     /// Whether `INST` makes instances (see [`EvalOptions::instancing`]).
     instancing: bool,
+    /// Whether model runs take [`Eval::run_fast`] (instancing on and
+    /// [`fast_path_applies`]).
+    fast: bool,
     /// Vertices of the prototype instances made so far (they count as vertices for
     /// the budget and the statistics, as they would have run one by one).
     instanced_vertices: u64,
@@ -749,6 +773,7 @@ impl<'b> Eval<'b> {
                 })
                 .collect(),
             instancing: opts.instancing && !opts.record_sites,
+            fast: opts.instancing && !opts.record_sites && fast_path_applies(b),
             instanced_vertices: 0,
             lins_used: false,
             suspect_instances: false,
@@ -850,6 +875,9 @@ impl<'b> Eval<'b> {
 
     /// Runs a call of `rule` in state `start` at `depth` until its whole derivation is done.
     fn run_from(&mut self, rule: u32, start: State, depth: u32, mode: Mode) {
+        if self.fast && mode == Mode::Model && !self.opts.record_sites {
+            return self.run_fast(rule, start, depth);
+        }
         // Two copies of the loop: the one without sites has no per-op check for them.
         if self.opts.record_sites {
             self.run_loop::<true>(rule, start, depth, mode)
@@ -1241,6 +1269,148 @@ impl<'b> Eval<'b> {
         }
         // A run ended by a limit leaves its frames: the caller's slots end here.
         self.slots.truncate(slot_base as usize);
+    }
+
+    /// [`Eval::run_from`] in a model run of a bundle whose code is only prototype
+    /// instances, calls and iterators with constant transforms, and returns
+    /// ([`fast_path_applies`]): the same steps, in the same order, with the same
+    /// arithmetic as the general loop (so the same output), for activations that
+    /// need no parameter slots, bones, convolutions or continuations.
+    fn run_fast(&mut self, rule: u32, start: State, depth: u32) {
+        /// One activation: the op to run, the body's (or iterator run's) state, the
+        /// depth, and where its iterators begin in `loops`.
+        struct FastAct {
+            pc: u32,
+            depth: u32,
+            loops_at: u32,
+            base: State,
+        }
+        let b = self.b;
+        let code = &b.code;
+        let maxdepth = if b.settings.maxdepth > 0 { b.settings.maxdepth } else { u32::MAX };
+        let args = self.slots.len();
+        let pc = self.select(rule, &start, depth, args);
+        let mut act = FastAct { pc, depth, loops_at: 0, base: start };
+        let mut stack: Vec<FastAct> = Vec::new();
+        let mut loops: Vec<LoopRec> = Vec::new();
+        // (A run stops only where a call or an iterator run is counted: the limit is
+        // checked there, and the op that tripped it named, as the general loop does.)
+        let stop = |e: &mut Self, pc: u32| {
+            e.stop_pc.get_or_insert(pc);
+        };
+        if self.stopped {
+            return;
+        }
+        loop {
+            match code[act.pc as usize] {
+                Op::Inst { proto, count } => {
+                    let Some(slot) = self.protos.get(proto as usize) else { break };
+                    let (mesh, vertices, extent) = (slot.mesh, slot.vertices, slot.extent);
+                    let (mesh, extent) = if mesh == NONE {
+                        let m = self.make_prototype(proto as usize);
+                        (m, self.protos.get(proto as usize).map_or(0.0, |s| s.extent))
+                    } else {
+                        (mesh, extent)
+                    };
+                    let base = &act.base;
+                    self.suspect_instances |= !frame_surely_maps_finite(&base.f, extent);
+                    let out = &mut self.out;
+                    if base.weight != [0.0; 4] || !out.instance_weights.is_empty() {
+                        out.instance_weights.resize(out.instances.len(), [0.0; 4]);
+                        out.instance_weights.push(base.weight);
+                    }
+                    // (No vertex is emitted one by one in such a bundle: `at` is 0.)
+                    out.instances.push(Instance { frame: base.f, color: base.color, mesh, bone: 0, lin: 0, at: 0 });
+                    self.instanced_vertices += u64::from(vertices);
+                    act.pc += 1 + count;
+                }
+                Op::Call { rule, xf, .. } => {
+                    act.pc += 1;
+                    let depth = act.depth + 1;
+                    if depth > maxdepth {
+                        self.refuse_deep_call();
+                        if self.stopped {
+                            stop(self, act.pc - 1);
+                            break;
+                        }
+                        continue;
+                    }
+                    let Transform::Const(c) = &b.transforms[xf as usize] else { break };
+                    let child = act.base.compose(c, &mut self.lins);
+                    if !self.admit(&child, depth, stack.len() + 1) {
+                        if self.stopped {
+                            stop(self, act.pc - 1);
+                            break;
+                        }
+                        continue;
+                    }
+                    let pc = match b.rules[rule as usize].defs.as_slice() {
+                        [only] => only.start,
+                        _ => self.select(rule, &child, depth, args),
+                    };
+                    let callee = FastAct { pc, depth, loops_at: loops.len() as u32, base: child };
+                    stack.push(std::mem::replace(&mut act, callee));
+                }
+                Op::Loop { count, step, end, chain } => {
+                    if count == 0 {
+                        act.pc = end + 1;
+                        continue;
+                    }
+                    let from = act.base;
+                    // Context Free's `loop`: the first run is under the frame itself.
+                    let next = match &b.transforms[step as usize] {
+                        _ if chain & bundle::ops::LOOP_FIRST_PLAIN != 0 => {
+                            from.compose(&Composite::IDENTITY, &mut self.lins)
+                        }
+                        Transform::Const(c) => from.compose(c, &mut self.lins),
+                        Transform::Dynamic { .. } => break,
+                    };
+                    loops.push(LoopRec { remaining: count, step, saved_base: act.base, chain: false });
+                    act.base = next;
+                    act.pc += 1;
+                }
+                Op::EndLoop { begin } => {
+                    let Some(l) = loops.last_mut() else {
+                        act.pc += 1;
+                        continue;
+                    };
+                    l.remaining -= 1;
+                    if l.remaining > 0 {
+                        let Transform::Const(c) = &b.transforms[l.step as usize] else { break };
+                        act.base = act.base.compose(c, &mut self.lins);
+                        act.pc = begin + 1;
+                        // Iterator runs count as calls, so `maxiter` also ends huge loops.
+                        self.calls += 1;
+                        if self.calls > self.maxiter {
+                            self.limits.maxiter = true;
+                            self.stopped = true;
+                        }
+                        if self.calls & 0xFFF == 0 {
+                            self.check_budgets();
+                        }
+                        if self.stopped {
+                            // (The general loop names the LOOP op: the run stops after
+                            // jumping back to it.)
+                            stop(self, begin);
+                            break;
+                        }
+                    } else {
+                        act.base = l.saved_base;
+                        loops.pop();
+                        act.pc += 1;
+                    }
+                }
+                Op::Ret {} => {
+                    loops.truncate(act.loops_at as usize);
+                    match stack.pop() {
+                        Some(caller) => act = caller,
+                        None => break,
+                    }
+                }
+                // Not in a bundle the fast path takes (see `fast_path_applies`).
+                _ => break,
+            }
+        }
     }
 
     /// Builds prototype `p`'s mesh from its items (positions, normals, colour and
