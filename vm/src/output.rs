@@ -376,11 +376,21 @@ impl Output {
             v += self.sweeps.n_vertices();
             t += self.sweeps.triangles.len();
         }
+        // Per shared mesh, what one instance adds (0 for a group left out).
+        let per: Vec<(usize, usize)> = self
+            .shared_meshes
+            .iter()
+            .map(|s| match (s.is_prototype() && groups.vertex) || (!s.is_prototype() && groups.isosurfaces) {
+                true => (s.mesh.n_vertices(), s.mesh.triangles.len()),
+                false => (0, 0),
+            })
+            .collect();
         for (i, inst) in self.instances.iter().enumerate() {
-            let Some(s) = self.shared(inst).filter(|_| expand(i)) else { continue };
-            if (s.is_prototype() && groups.vertex) || (!s.is_prototype() && groups.isosurfaces) {
-                v += s.mesh.n_vertices();
-                t += s.mesh.triangles.len();
+            if let Some(&(dv, dt)) = per.get(inst.mesh as usize) {
+                if expand(i) {
+                    v += dv;
+                    t += dt;
+                }
             }
         }
         (v, t)

@@ -374,7 +374,9 @@ fn run_one(
     if say_wrote {
         eprintln!("wrote {}", output.display());
     }
-    Ok(Some(counts(&out)))
+    // The counts go into a batch's manifest; a single run has no use for them (and
+    // counting walks every instance of a big model).
+    Ok(Some(if say_wrote { (0, 0) } else { counts(&out) }))
 }
 
 /// Vertices and triangles of the flattened model (what OBJ, STL and PLY hold),

@@ -137,7 +137,8 @@ pub fn write_glb_with(out: &Output, opts: &GlbOptions, w: &mut dyn std::io::Writ
     // The binary chunk's size is known well enough in advance: reserve it once, so
     // it never grows by doubling (which would briefly hold two copies).
     let per_vertex = 40 + if g.skinned { 24 } else { 0 };
-    let (flat_v, flat_t) = out.flat_counts_where(Groups::VERTEX, expand);
+    let flat = out.flat_counts_where(Groups::VERTEX, expand);
+    let (flat_v, flat_t) = flat;
     let estimate = (flat_v + out.sweeps.positions.len()) * per_vertex
         + (flat_t + out.sweeps.triangles.len()) * 12
         + out.shared_meshes.iter().map(|s| s.mesh.positions.len() * 24 + s.mesh.triangles.len() * 12).sum::<usize>()
@@ -188,7 +189,7 @@ pub fn write_glb_with(out: &Output, opts: &GlbOptions, w: &mut dyn std::io::Writ
     // mesh ignores its node's transforms and follows its joints, which are under it).
     let mut top_nodes = Vec::new();
     let mut primitives = Vec::new();
-    if let Some(mut p) = g.vertex_primitive(out, &expand)? {
+    if let Some(mut p) = g.vertex_primitive(out, &expand, flat)? {
         if !out.sites.runs.is_empty() {
             p.extras = Some(sites_extras(&out.sites));
         }
@@ -930,21 +931,24 @@ impl Builder {
     /// so does every expanded prototype on its own (exact where there are no
     /// prototype instances; otherwise a piece that is only closed by another piece is
     /// taken as open, which shows nothing wrong: see docs/decisions.md).
-    fn vertex_primitive(&mut self, out: &Output, expand: &dyn Fn(usize) -> bool) -> Result<Option<Primitive>, String> {
-        let counts = out.flat_counts_where(Groups::VERTEX, expand);
+    /// `counts` are [`Output::flat_counts_where`]'s for it.
+    fn vertex_primitive(
+        &mut self,
+        out: &Output,
+        expand: &dyn Fn(usize) -> bool,
+        counts: (usize, usize),
+    ) -> Result<Option<Primitive>, String> {
         if counts.1 == 0 {
             return Ok(None);
         }
+        // (Every prototype in the table has instances; with --instances some may all be
+        // instanced, and counting such a one errs on the double-sided side.)
         let mut closed = is_closed(&out.mesh, &checked_triangles(&out.mesh, "VERTEX mesh")?);
-        let mut seen = vec![false; out.shared_meshes.len()];
-        for (i, inst) in out.instances.iter().enumerate() {
-            match out.shared(inst) {
-                Some(s) if closed && s.is_prototype() && expand(i) && !seen[inst.mesh as usize] => {
-                    seen[inst.mesh as usize] = true;
-                    closed = is_closed(&s.mesh, &checked_triangles(&s.mesh, &s.name)?);
-                }
-                _ => {}
+        for s in out.shared_meshes.iter().filter(|s| s.is_prototype()) {
+            if !closed {
+                break;
             }
+            closed = is_closed(&s.mesh, &checked_triangles(&s.mesh, &s.name)?);
         }
         self.pieces_primitive(counts, !closed, "VERTEX mesh", &mut |f| {
             out.for_each_piece_where(Groups::VERTEX, expand, f)
@@ -1089,11 +1093,10 @@ impl Builder {
             attributes.insert("COLOR_0", self.vec4_from(n, |i| linear_color(color_at(&local, i))));
         }
         let indices = Some(self.indices_of(tris.len() * 3, tris.iter().flatten().copied()));
-        let insts: Vec<&crate::output::Instance> =
-            group.instances.iter().filter_map(|&i| out.instances.get(i as usize)).collect();
-        let colors: Vec<[f32; 4]> = insts.iter().map(|i| clamp_color(i.color)).collect();
-        let shared_color = match (group.color, colors.first()) {
-            (None, Some(c)) if colors.iter().all(|x| x == c) => Some(*c),
+        let insts = || group.instances.iter().filter_map(|&i| out.instances.get(i as usize));
+        let first = insts().next().map(|i| clamp_color(i.color));
+        let shared_color = match (group.color, first) {
+            (None, Some(c)) if insts().all(|i| clamp_color(i.color) == c) => Some(c),
             _ => None,
         };
         let material = Some(self.material(shared_color.unwrap_or([1.0; 4]), double_sided));
@@ -1101,7 +1104,7 @@ impl Builder {
             name: Some(name.clone()),
             primitives: vec![Primitive { attributes, indices, material, mode: None, extras: None }],
         });
-        let n_inst = insts.len();
+        let n_inst = insts().count();
         let mut inst_attrs = BTreeMap::new();
         let per_color = group.color.is_none() && shared_color.is_none();
         let widths: &[(&'static str, usize, &'static str)] = if per_color {
@@ -1135,13 +1138,18 @@ impl Builder {
                 bin[off + 4 * j..off + 4 * j + 4].copy_from_slice(&finite(*x).to_le_bytes());
             }
         };
-        for (k, inst) in insts.iter().enumerate() {
+        let mut last_color = ([1.0f32; 4], linear_color([1.0; 4]));
+        for (k, inst) in insts().enumerate() {
             let (t, r, sc) = prototype_trs(&inst.frame);
             put(bin, offsets[0] + 12 * k, &t);
             put(bin, offsets[1] + 16 * k, &r);
             put(bin, offsets[2] + 12 * k, &[sc; 3]);
             if per_color {
-                put(bin, offsets[3] + 12 * k, &linear_color(colors[k])[..3]);
+                let c = clamp_color(inst.color);
+                if c != last_color.0 {
+                    last_color = (c, linear_color(c));
+                }
+                put(bin, offsets[3] + 12 * k, &last_color.1[..3]);
             }
         }
         self.root.extensions_used = vec![EXT_INSTANCING];
