@@ -60,6 +60,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     })?);
     let programs = Toolchain.programs(Some(&root.join("std")))?;
     let prog = program::for_bundle(&m.bundle, &programs)?;
+    // The instanced program, as the window draws with (`Renderer::set_output`).
+    let inst_prog = program::instanced_for_bundle(&m.bundle, &programs)?;
     let (w, h) = (800u32, 600u32);
     let mut off = Offscreen::new(&ctx, w, h, 4)?;
     let mut editor = Editor::new(table.guides.clone());
@@ -77,9 +79,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut out = first.output;
     let n_lines = out.lines.len();
     out.lines.extend(editor.overlay(editor.marker_size()));
-    let sc = scene::build(&out);
+    let sc = scene::build_with(&out, inst_prog.is_some());
     let t = Instant::now();
-    off.renderer_mut().set_scene(&sc, &m.bundle, &out, &prog, &programs.lines)?;
+    off.renderer_mut().set_scene_instanced(&sc, &m.bundle, &out, &prog, &programs.lines, inst_prog.as_ref())?;
     let t_first_upload = ms(t);
     out.lines.truncate(n_lines);
     let camera = off.home_camera();
@@ -121,10 +123,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let t = Instant::now();
         let mut out = searched.output;
         out.lines.extend(editor.overlay(editor.marker_size()));
-        let sc = scene::build(&out);
+        let sc = scene::build_with(&out, inst_prog.is_some());
         let t_pack = ms(t);
         let t = Instant::now();
-        off.renderer_mut().set_scene(&sc, &m.bundle, &out, &prog, &programs.lines)?;
+        off.renderer_mut().set_scene_instanced(&sc, &m.bundle, &out, &prog, &programs.lines, inst_prog.as_ref())?;
         let t_upload = ms(t);
         let t = Instant::now();
         off.render(&frame)?;

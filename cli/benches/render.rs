@@ -41,7 +41,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let t = Instant::now();
     let (m, _) = Toolchain.load(&grammar, &opts).map_err(|f| f.error.to_string())?;
     let t_eval = ms(t);
-    let n_tri = m.output.mesh.triangles.len();
+    let n_tri = m.output.flat_counts(mdg_vm::output::Groups::ALL).1;
 
     let t = Instant::now();
     let ctx = Arc::new(Context::new(&ContextOptions {

@@ -1132,14 +1132,7 @@ impl<'b> Eval<'b> {
                             act.pc = begin + 1;
                         }
                         // Iterator runs count as calls, so `maxiter` also ends huge loops.
-                        self.calls += 1;
-                        if self.calls > self.maxiter {
-                            self.limits.maxiter = true;
-                            self.stopped = true;
-                        }
-                        if self.calls & 0xFFF == 0 {
-                            self.check_budgets();
-                        }
+                        self.count_run();
                     } else {
                         act.base = l.saved_base;
                         loops.pop();
@@ -1160,28 +1153,8 @@ impl<'b> Eval<'b> {
                     {
                         continue;
                     }
-                    let Some(slot) = self.protos.get(proto as usize) else { continue };
-                    let (mesh, vertices) = (slot.mesh, slot.vertices);
-                    let mesh = if mesh == NONE { self.make_prototype(proto as usize) } else { mesh };
-                    let base = &act.base;
-                    // The finiteness bound, while the frame is at hand (see `finish`).
-                    if let Some(slot) = self.protos.get(proto as usize) {
-                        self.suspect_instances |= !frame_surely_maps_finite(&base.f, slot.extent);
-                    }
-                    let out = &mut self.out;
-                    if base.weight != [0.0; 4] || !out.instance_weights.is_empty() {
-                        out.instance_weights.resize(out.instances.len(), [0.0; 4]);
-                        out.instance_weights.push(base.weight);
-                    }
-                    out.instances.push(Instance {
-                        frame: base.f,
-                        color: base.color,
-                        mesh,
-                        bone: act.bone,
-                        lin: 0,
-                        at: out.mesh.n_vertices() as u32,
-                    });
-                    self.instanced_vertices += u64::from(vertices);
+                    let bone = act.bone;
+                    self.emit_instance(proto, &act.base, bone);
                     act.pc += count;
                     if self.needs_last {
                         // `last` as the run's last item leaves it.
@@ -1242,14 +1215,7 @@ impl<'b> Eval<'b> {
                             act.pc = conv.pc;
                             conv.next += 1;
                             // Body runs count as calls, so `maxiter` also bounds them.
-                            self.calls += 1;
-                            if self.calls > self.maxiter {
-                                self.limits.maxiter = true;
-                                self.stopped = true;
-                            }
-                            if self.calls & 0xFFF == 0 {
-                                self.check_budgets();
-                            }
+                            self.count_run();
                             continue;
                         }
                     }
@@ -1304,24 +1270,7 @@ impl<'b> Eval<'b> {
         loop {
             match code[act.pc as usize] {
                 Op::Inst { proto, count } => {
-                    let Some(slot) = self.protos.get(proto as usize) else { break };
-                    let (mesh, vertices, extent) = (slot.mesh, slot.vertices, slot.extent);
-                    let (mesh, extent) = if mesh == NONE {
-                        let m = self.make_prototype(proto as usize);
-                        (m, self.protos.get(proto as usize).map_or(0.0, |s| s.extent))
-                    } else {
-                        (mesh, extent)
-                    };
-                    let base = &act.base;
-                    self.suspect_instances |= !frame_surely_maps_finite(&base.f, extent);
-                    let out = &mut self.out;
-                    if base.weight != [0.0; 4] || !out.instance_weights.is_empty() {
-                        out.instance_weights.resize(out.instances.len(), [0.0; 4]);
-                        out.instance_weights.push(base.weight);
-                    }
-                    // (No vertex is emitted one by one in such a bundle: `at` is 0.)
-                    out.instances.push(Instance { frame: base.f, color: base.color, mesh, bone: 0, lin: 0, at: 0 });
-                    self.instanced_vertices += u64::from(vertices);
+                    self.emit_instance(proto, &act.base, 0);
                     act.pc += 1 + count;
                 }
                 Op::Call { rule, xf, .. } => {
@@ -1380,14 +1329,7 @@ impl<'b> Eval<'b> {
                         act.base = act.base.compose(c, &mut self.lins);
                         act.pc = begin + 1;
                         // Iterator runs count as calls, so `maxiter` also ends huge loops.
-                        self.calls += 1;
-                        if self.calls > self.maxiter {
-                            self.limits.maxiter = true;
-                            self.stopped = true;
-                        }
-                        if self.calls & 0xFFF == 0 {
-                            self.check_budgets();
-                        }
+                        self.count_run();
                         if self.stopped {
                             // (The general loop names the LOOP op: the run stops after
                             // jumping back to it.)
@@ -1411,6 +1353,28 @@ impl<'b> Eval<'b> {
                 _ => break,
             }
         }
+    }
+
+    /// Adds an instance of prototype `proto` in state `base` (bone `bone`): the one
+    /// record its items stand for (see the `INST` op).
+    #[inline]
+    fn emit_instance(&mut self, proto: u32, base: &State, bone: u32) {
+        let Some(slot) = self.protos.get(proto as usize) else { return };
+        let (mut mesh, vertices, mut extent) = (slot.mesh, slot.vertices, slot.extent);
+        if mesh == NONE {
+            mesh = self.make_prototype(proto as usize);
+            extent = self.protos.get(proto as usize).map_or(0.0, |s| s.extent);
+        }
+        // The finiteness bound, while the frame is at hand (see `finish`).
+        self.suspect_instances |= !frame_surely_maps_finite(&base.f, extent);
+        let out = &mut self.out;
+        if base.weight != [0.0; 4] || !out.instance_weights.is_empty() {
+            out.instance_weights.resize(out.instances.len(), [0.0; 4]);
+            out.instance_weights.push(base.weight);
+        }
+        let at = out.mesh.n_vertices() as u32;
+        out.instances.push(Instance { frame: base.f, color: base.color, mesh, bone, lin: 0, at });
+        self.instanced_vertices += u64::from(vertices);
     }
 
     /// Builds prototype `p`'s mesh from its items (positions, normals, colour and
@@ -1489,6 +1453,20 @@ impl<'b> Eval<'b> {
             self.site_mark = t;
         }
         self.site_pc = pc;
+    }
+
+    /// Counts an iterator run or a convolution's body run as a call, so `maxiter`
+    /// bounds them too (checking the budgets now and then).
+    #[inline]
+    fn count_run(&mut self) {
+        self.calls += 1;
+        if self.calls > self.maxiter {
+            self.limits.maxiter = true;
+            self.stopped = true;
+        }
+        if self.calls & 0xFFF == 0 {
+            self.check_budgets();
+        }
     }
 
     /// A call refused by `maxdepth` before its frame was made: counted as
