@@ -1703,8 +1703,12 @@ impl<'b> Eval<'b> {
         }
         let parts: Vec<u32> = r.transforms.iter().map(|&x| self.track_within(x, n, budget)).collect();
         let tracks = &self.out.animation.tracks;
-        let frames: Vec<Frame> = tracks[it].frames[..n]
+        // (Sampling the parts can have re-sampled the iterator's track: a run stopped by
+        // a limit meanwhile leaves it shorter. Take what it holds.)
+        let frames: Vec<Frame> = tracks[it]
+            .frames
             .iter()
+            .take(n)
             .enumerate()
             .map(|(i, f)| parts.iter().fold(*f, |acc, &k| acc.compose(&tracks[k as usize].clamped(i as u64))))
             .collect();
