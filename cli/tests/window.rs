@@ -15,6 +15,23 @@ mod common;
 use common::*;
 use std::process::Command;
 
+/// A command running `bin` on a private X server (`xvfb-run`), which keeps the test
+/// off the developer's screen and works without one; a display of our own is the
+/// fallback.
+fn on_an_x_server(bin: &str) -> Command {
+    if have("xvfb-run") {
+        let mut c = Command::new("xvfb-run");
+        c.args(["-a", "-s", "-screen 0 1024x768x24", bin]);
+        c
+    } else if std::env::var_os("DISPLAY").is_some() {
+        Command::new(bin)
+    } else {
+        panic!(
+            "no X server for the window test: run `bash .ci/run` (it installs xvfb), or set MDG_SKIP_VULKAN_TESTS=1"
+        );
+    }
+}
+
 /// Whether a program is on PATH.
 fn have(program: &str) -> bool {
     std::env::var_os("PATH").is_some_and(|paths| std::env::split_paths(&paths).any(|d| d.join(program).is_file()))
@@ -40,19 +57,7 @@ fn window_opens_renders_frames_and_closes_cleanly() {
         "--std".into(),
         root().join("std").display().to_string(),
     ];
-    // A private X server keeps the test off the developer's screen and works
-    // without one; a display of our own is the fallback.
-    let mut cmd = if have("xvfb-run") {
-        let mut c = Command::new("xvfb-run");
-        c.args(["-a", "-s", "-screen 0 1024x768x24", bin]);
-        c
-    } else if std::env::var_os("DISPLAY").is_some() {
-        Command::new(bin)
-    } else {
-        panic!(
-            "no X server for the window test: run `bash .ci/run` (it installs xvfb), or set MDG_SKIP_VULKAN_TESTS=1"
-        );
-    };
+    let mut cmd = on_an_x_server(bin);
     let out = cmd.args(&args).env("MDG_VALIDATION", "1").output().expect("run mdg-view");
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "mdg-view failed ({:?}):\n{stderr}", out.status);
@@ -297,17 +302,7 @@ fn guide_editor_drags_a_control_point_regrows_the_tree_and_saves_the_guides() {
     )
     .expect("write the script");
     let bin = env!("CARGO_BIN_EXE_mdg-view");
-    let mut cmd = if have("xvfb-run") {
-        let mut c = Command::new("xvfb-run");
-        c.args(["-a", "-s", "-screen 0 1024x768x24", bin]);
-        c
-    } else if std::env::var_os("DISPLAY").is_some() {
-        Command::new(bin)
-    } else {
-        panic!(
-            "no X server for the window test: run `bash .ci/run` (it installs xvfb), or set MDG_SKIP_VULKAN_TESTS=1"
-        );
-    };
+    let mut cmd = on_an_x_server(bin);
     let out = cmd
         .arg(root().join("std/examples/guided_tree.mdg"))
         .arg("--guides")

@@ -587,20 +587,10 @@ impl Editor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::OrbitCamera;
-    use glam::Vec3;
 
     /// Looking along +y at the xz-plane (the std guides' plane), 800 × 600.
     fn front() -> ScreenView {
-        let cam = OrbitCamera {
-            target: Vec3::new(0.0, 0.0, 2.0),
-            distance: 10.0,
-            azimuth: 0.0,
-            elevation: 0.0,
-            fov_y: 40f32.to_radians(),
-            radius: 3.0,
-        };
-        ScreenView::new(cam.view(), cam.projection(800.0 / 600.0, 0.1, 100.0), cam.eye(), 800, 600)
+        crate::guided::project::tests::front_view().0
     }
 
     fn two_guides() -> Vec<Guide> {

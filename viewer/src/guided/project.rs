@@ -96,11 +96,13 @@ pub fn distance_to_segment(p: DVec2, a: DVec2, b: DVec2) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::camera::OrbitCamera;
 
-    fn front_view() -> (ScreenView, OrbitCamera) {
+    /// Looking along +y at the xz-plane (the std guides' plane), 800 × 600: the view
+    /// and its camera.
+    pub(crate) fn front_view() -> (ScreenView, OrbitCamera) {
         let cam = OrbitCamera {
             target: Vec3::new(0.0, 0.0, 2.0),
             distance: 10.0,
