@@ -473,8 +473,9 @@ struct XfInfo {
 /// an iterator rule, and the code is only `INST` (with the items it covers), calls
 /// and `LOOP`s with constant transforms (no non-uniform scale; no `\` after a call,
 /// no chained runs), `ENDLOOP` and `RET`.
-fn fast_path_applies(b: &Bundle) -> bool {
-    let pure = |xf: u32| matches!(b.transforms.get(xf as usize), Some(Transform::Const(c)) if c.n.is_none());
+/// `xf_pure` is [`Eval::xf_pure`].
+fn fast_path_applies(b: &Bundle, xf_pure: &[bool]) -> bool {
+    let pure = |xf: u32| xf_pure.get(xf as usize).copied().unwrap_or(false);
     let rules_ok =
         b.rules.iter().all(|r| r.params.is_empty() && r.frame == 0 && r.transforms.is_empty() && r.iter == NONE);
     let mut pc = 0usize;
@@ -488,6 +489,20 @@ fn fast_path_applies(b: &Bundle) -> bool {
         };
     }
     rules_ok
+}
+
+/// The state a constant `VERTEX` item (transform `c`, cached as `x`) leaves in
+/// `last` when it starts from `from`: what composing `c` gives, without its linear
+/// factor (the `VERTEX` fast path's frames have none).
+#[inline]
+fn vertex_state(from: &State, x: &XfInfo, c: &Composite) -> State {
+    State {
+        f: from.f.compose(&x.frame),
+        color: add(from.color, c.color),
+        weight: add(from.weight, c.weight),
+        fps: from.fps + c.fps,
+        ..*from
+    }
 }
 
 /// `a + b` component-wise, four lanes at once (each lane one IEEE addition, as the
@@ -640,7 +655,7 @@ struct Eval<'b> {
     protos: Vec<ProtoSlot>,
     /// Whether `INST` makes instances (see [`EvalOptions::instancing`]).
     instancing: bool,
-    /// Whether model runs take [`Eval::run_fast`] (instancing on and
+    /// Whether model runs take [`Eval::run_fast`] (instancing on, so no sites, and
     /// [`fast_path_applies`]).
     fast: bool,
     /// Vertices of the prototype instances made so far (they count as vertices for
@@ -714,6 +729,11 @@ impl<'b> Eval<'b> {
         let s = &b.settings;
         let seed = opts.seed.unwrap_or(s.randseed);
         let start = State::start(s.fps);
+        // (Sites are per triangle: recording them turns instancing off.)
+        let instancing = opts.instancing && !opts.record_sites;
+        let xf_pure: Vec<bool> =
+            b.transforms.iter().map(|t| matches!(t, Transform::Const(c) if c.n.is_none())).collect();
+        let fast = instancing && fast_path_applies(b, &xf_pure);
         let mut e = Eval {
             b,
             opts: opts.clone(),
@@ -772,8 +792,8 @@ impl<'b> Eval<'b> {
                     _ => None,
                 })
                 .collect(),
-            instancing: opts.instancing && !opts.record_sites,
-            fast: opts.instancing && !opts.record_sites && fast_path_applies(b),
+            instancing,
+            fast,
             instanced_vertices: 0,
             lins_used: false,
             suspect_instances: false,
@@ -782,7 +802,7 @@ impl<'b> Eval<'b> {
                 Op::Cont {} | Op::Draw { kind: Drawable::Reset, .. } => true,
                 _ => false,
             }),
-            xf_pure: b.transforms.iter().map(|t| matches!(t, Transform::Const(c) if c.n.is_none())).collect(),
+            xf_pure,
             xf_info: b
                 .transforms
                 .iter()
@@ -875,7 +895,7 @@ impl<'b> Eval<'b> {
 
     /// Runs a call of `rule` in state `start` at `depth` until its whole derivation is done.
     fn run_from(&mut self, rule: u32, start: State, depth: u32, mode: Mode) {
-        if self.fast && mode == Mode::Model && !self.opts.record_sites {
+        if self.fast && mode == Mode::Model {
             return self.run_fast(rule, start, depth);
         }
         // Two copies of the loop: the one without sites has no per-op check for them.
@@ -1050,13 +1070,7 @@ impl<'b> Eval<'b> {
                         m.push_triangle([k - 3, k - 2, k - 1], mirrored);
                     }
                     if self.needs_last {
-                        self.last = State {
-                            f: from.f.compose(&x.frame),
-                            color: add(from.color, c.color),
-                            weight,
-                            fps: from.fps + c.fps,
-                            ..*from
-                        };
+                        self.last = vertex_state(from, x, c);
                     }
                     cont = None;
                 }
@@ -1162,19 +1176,10 @@ impl<'b> Eval<'b> {
                             if let (Transform::Const(c), Some(x)) =
                                 (&b.transforms[xf as usize], &self.xf_info[xf as usize])
                             {
-                                let add =
-                                    |a: [f32; 4], b: [f32; 4]| [a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]];
-                                let from = act.base;
                                 self.last = if kind == Drawable::Vertex {
-                                    State {
-                                        f: from.f.compose(&x.frame),
-                                        color: add(from.color, c.color),
-                                        weight: add(from.weight, c.weight),
-                                        fps: from.fps + c.fps,
-                                        ..from
-                                    }
+                                    vertex_state(&act.base, x, c)
                                 } else {
-                                    from.compose(c, &mut self.lins)
+                                    act.base.compose(c, &mut self.lins)
                                 };
                             }
                         }
@@ -1413,13 +1418,7 @@ impl<'b> Eval<'b> {
         let name = rule_of_op(b, first as u32).unwrap_or("").to_string();
         self.out.shared_meshes.push(SharedMesh { name, mesh: m, kind: SharedKind::Prototype { face_normals } });
         let mesh = self.out.shared_meshes.len() as u32 - 1;
-        let extent = self.out.shared_meshes[mesh as usize].mesh.positions.as_flattened().iter().fold(0.0f32, |m, c| {
-            if c.is_finite() {
-                m.max(c.abs())
-            } else {
-                f32::INFINITY
-            }
-        });
+        let extent = crate::output::max_abs(&self.out.shared_meshes[mesh as usize].mesh.positions);
         if let Some(slot) = self.protos.get_mut(p) {
             slot.mesh = mesh;
             slot.extent = extent;

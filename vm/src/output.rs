@@ -563,7 +563,7 @@ impl Output {
 }
 
 /// The largest absolute coordinate of `positions` (infinite if one is not finite).
-fn max_abs(positions: &[[f32; 3]]) -> f32 {
+pub(crate) fn max_abs(positions: &[[f32; 3]]) -> f32 {
     positions.as_flattened().iter().fold(0.0f32, |m, c| if c.is_finite() { m.max(c.abs()) } else { f32::INFINITY })
 }
 
