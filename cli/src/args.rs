@@ -35,7 +35,8 @@ impl CompileArgs {
     }
 }
 
-/// `--max-vertices`, `--max-frames`, `--max-iso-cells`, `--time-budget`: the limits of
+/// `--max-vertices`, `--max-frames`, `--max-iso-cells`, `--time-budget`, `--max-iter`,
+/// `--max-stack`: the limits of
 /// one evaluation, the same for `mdg-run` and `mdg-view` (docs/limits.md).
 #[derive(clap::Args, Clone, Debug, Default)]
 pub struct LimitArgs {
@@ -55,6 +56,14 @@ pub struct LimitArgs {
     /// (at most 10000000 s). Checked inside isosurface polygonisation too.
     #[arg(long, value_name = "TIME", value_parser = time_budget)]
     pub time_budget: Option<TimeLimit>,
+    /// The most rule calls, whatever the grammar's `maxiter` says (default
+    /// 100,000,000; a grammar's `maxiter` above it is lowered with a warning).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    pub max_iter: Option<u64>,
+    /// The deepest stack of rule activations, whatever the grammar's `stacksize`
+    /// says (default 1,000,000, about 110 MB; lowered with a warning).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub max_stack: Option<u32>,
 }
 
 /// `--time-budget`, parsed as every duration flag is.
@@ -71,6 +80,8 @@ impl LimitArgs {
             max_frames: self.max_frames.unwrap_or(d.max_frames),
             max_iso_cells: self.max_iso_cells.unwrap_or(d.max_iso_cells),
             time_budget: self.time_budget.and_then(|t| t.0),
+            max_iter: self.max_iter.unwrap_or(d.max_iter),
+            max_stack: self.max_stack.unwrap_or(d.max_stack),
             ..d
         }
     }

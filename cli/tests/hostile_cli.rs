@@ -295,7 +295,7 @@ fn a_limit_reached_is_one_warning_line_and_the_run_succeeds() {
     assert_ended(&o, took, 0, 60);
     assert_eq!(
         warnings(&o),
-        ["warning: maxiter 10 reached in rule `A` (r.mdg:3): the run stopped; the output so far is kept (raise the limit with `maxiter N` in the grammar)"],
+        ["warning: maxiter 10 reached in rule `A` (r.mdg:3): the run stopped; the output so far is kept (raise the limit with `maxiter N` in the grammar, up to the cap set by `--max-iter N`)"],
         "{}",
         stderr(&o)
     );

@@ -651,10 +651,12 @@ impl<'a> Lower<'a> {
             }
             self.code.push(op);
         }
-        for loc in &mut self.source_map {
-            if loc.op as usize >= start {
-                loc.op = moved(loc.op);
-            }
+        // The map is in op order (entries are pushed as ops are), so this rule's
+        // entries are its tail: moving only those keeps lowering linear in the
+        // number of rules (every entry used to be visited for every rule).
+        let first = self.source_map.partition_point(|loc| (loc.op as usize) < start);
+        for loc in &mut self.source_map[first..] {
+            loc.op = moved(loc.op);
         }
     }
 

@@ -1081,9 +1081,12 @@ pub fn group_adjustments(words: Vec<AdjWord>, comps: &crate::adjust::Components)
                 }
                 // An unknown adjustment takes the numbers and parenthesised arguments
                 // after it (the checker reports it); a bare name starts the next one.
-                open = Some(kind.map(|k| k.arity()).unwrap_or((0, 0)));
+                let arity = kind.map(|k| k.arity()).unwrap_or((0, 0));
+                open = Some(arity);
                 let span = n.span;
-                out.push(Adj { name: n, args: vec![], span });
+                // Room for the arguments it needs (pushing to an empty `Vec` makes
+                // room for four).
+                out.push(Adj { name: n, args: Vec::with_capacity(arity.0), span });
             }
             AdjWord::Error(span) => {
                 // Most likely a malformed argument of the adjustment being filled: it
@@ -1100,5 +1103,12 @@ pub fn group_adjustments(words: Vec<AdjWord>, comps: &crate::adjust::Components)
             }
         }
     }
+    // A pushed-to `Vec` starts with room for four arguments; most adjustments take
+    // one. Trimmed, a call with a million adjustments keeps ~240 fewer bytes per
+    // adjustment (issue 35: memory per source byte).
+    for adj in &mut out {
+        adj.args.shrink_to_fit();
+    }
+    out.shrink_to_fit();
     out
 }

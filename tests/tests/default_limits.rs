@@ -168,7 +168,7 @@ fn recursion_that_draws_nothing_ends_at_the_default_maxiter() {
     let head = format!("maxiter {} reached in rule `A` (inline.mdg:", mdg_vm::eval::DEFAULT_MAXITER);
     assert!(w.starts_with(&head), "{w}");
     assert!(
-        w.ends_with("): the run stopped; the output so far is kept (raise the limit with `maxiter N` in the grammar)"),
+        w.ends_with("): the run stopped; the output so far is kept (raise the limit with `maxiter N` in the grammar, up to the cap set by `--max-iter N`)"),
         "{w}"
     );
 }

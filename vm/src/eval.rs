@@ -43,6 +43,14 @@ use std::time::{Duration, Instant};
 pub const DEFAULT_MAXITER: u64 = 10_000_000;
 /// Default maximum stack depth (activations).
 pub const DEFAULT_STACKSIZE: u32 = 100_000;
+/// The cap on `maxiter` that a grammar cannot raise (`--max-iter`,
+/// [`EvalOptions::max_iter`]): 10 times the default. 100,000,000 calls that draw
+/// nothing take about 6 s of CPU; a call holds no memory.
+pub const DEFAULT_MAX_ITER: u64 = 100_000_000;
+/// The cap on `stacksize` that a grammar cannot raise (`--max-stack`,
+/// [`EvalOptions::max_stack`]): 10 times the default. An activation takes about 110
+/// bytes, so the stack stays under ~110 MB.
+pub const DEFAULT_MAX_STACK: u32 = 1_000_000;
 /// Default vertex budget (VERTEX and sweep vertices together): a run of 4,000,000
 /// vertices peaks at about 360 MB with its `.glb` export (10 times the largest std
 /// example); the 6- and 10-million-vertex benchmarks ask for more with
@@ -65,6 +73,9 @@ pub const START_COLOR: [f32; 4] = [1.0, 1.0, 1.0, 1.0];
 pub const MAX_TRACK_NESTING: usize = 64;
 /// Segments per BLENDTO.
 pub const BLEND_SEGMENTS: usize = 8;
+/// The most points one profile rule contributes (a profile is one ring of a tube:
+/// real ones have tens of points). The rule's run stops there with a warning.
+pub const MAX_PROFILE_POINTS: usize = 65_536;
 
 /// Options of one evaluation.
 #[derive(Clone, Debug)]
@@ -76,6 +87,13 @@ pub struct EvalOptions {
     pub max_iso_cells: u64,
     /// Overrides `maxiter` (total rule calls).
     pub maxiter: Option<u64>,
+    /// The most rule calls whatever the grammar (or `maxiter` above) asks for: the
+    /// user's cap (`--max-iter`). A grammar's `maxiter` past it is lowered to it with
+    /// a warning.
+    pub max_iter: u64,
+    /// The deepest stack whatever the grammar's `stacksize` asks for (`--max-stack`);
+    /// likewise lowered with a warning.
+    pub max_stack: u32,
     /// The frame budget: the most frames a convolution's iterator rule (and the
     /// transform rules sampled with it) may contribute before it is cut with a warning.
     pub max_frames: u64,
@@ -100,6 +118,8 @@ impl Default for EvalOptions {
             time_budget: None,
             max_iso_cells: DEFAULT_MAX_ISO_CELLS,
             maxiter: None,
+            max_iter: DEFAULT_MAX_ITER,
+            max_stack: DEFAULT_MAX_STACK,
             max_frames: DEFAULT_MAX_FRAMES,
             time: None,
             record_sites: false,
@@ -624,7 +644,10 @@ struct Eval<'b> {
     pens: Vec<Pen>,
     last: State,
     sequential: HashMap<u32, (usize, u32)>,
-    profiles: HashMap<u32, Vec<Vec3>>,
+    profiles: HashMap<u32, std::rc::Rc<[Vec3]>>,
+    /// Profile rules cut at [`MAX_PROFILE_POINTS`] (or the vertex budget), for the
+    /// warning.
+    profiles_cut: Vec<(u32, usize)>,
     iso_meshes: HashMap<u32, Option<u32>>,
     /// What the output holds beyond the mesh and sweeps: the vertices of every shared
     /// (isosurface) mesh, one per instance (its transform) and every line point.
@@ -693,6 +716,10 @@ struct Eval<'b> {
     site_pc: u32,
     site_mark: usize,
     site_ids: HashMap<u32, u32>,
+    /// Rule definitions by first op (see [`def_starts`]), made on first use: naming
+    /// the rule of an op is then a binary search, not a walk over every rule (40,000
+    /// rules with a prototype each took seconds).
+    def_starts: Option<Vec<(u32, u32)>>,
 }
 
 /// Evaluates a verified bundle from its start shape.
@@ -743,6 +770,7 @@ impl<'b> Eval<'b> {
             last: start,
             sequential: HashMap::new(),
             profiles: HashMap::new(),
+            profiles_cut: Vec::new(),
             iso_meshes: HashMap::new(),
             extra_vertices: 0,
             iso_cells: 0,
@@ -750,8 +778,8 @@ impl<'b> Eval<'b> {
             stopped: false,
             started: Instant::now(),
             calls: 0,
-            maxiter: opts.maxiter.unwrap_or(if s.maxiter > 0 { s.maxiter } else { DEFAULT_MAXITER }),
-            stacksize: if s.stacksize > 0 { s.stacksize } else { DEFAULT_STACKSIZE },
+            maxiter: opts.maxiter.unwrap_or(if s.maxiter > 0 { s.maxiter } else { DEFAULT_MAXITER }).min(opts.max_iter),
+            stacksize: (if s.stacksize > 0 { s.stacksize } else { DEFAULT_STACKSIZE }).min(opts.max_stack),
             expr_stack: Vec::with_capacity(16),
             slots: Vec::new(),
             profile_points: Vec::new(),
@@ -772,6 +800,7 @@ impl<'b> Eval<'b> {
             site_pc: 0,
             site_mark: 0,
             site_ids: HashMap::new(),
+            def_starts: None,
             stop_pc: None,
             protos: b
                 .code
@@ -1386,6 +1415,18 @@ impl<'b> Eval<'b> {
     /// weight deltas in the run's frame; see [`SharedKind::Prototype`]), adds it to
     /// the output's shared meshes and returns its index.
     #[cold]
+    /// The rule holding op `pc` (see [`rule_in`]).
+    fn rule_of(&mut self, pc: u32) -> Option<&'b str> {
+        let b = self.b;
+        rule_in(self.def_starts.get_or_insert_with(|| def_starts(b)), b, pc)
+    }
+
+    /// The rule and source line of the op at `pc`.
+    fn site_of(&mut self, pc: u32) -> crate::output::Site {
+        let (file, line) = self.b.source_of(pc).map(|(f, l)| (f.to_string(), l)).unwrap_or_default();
+        crate::output::Site { rule: self.rule_of(pc).unwrap_or_default().to_string(), file, line }
+    }
+
     fn make_prototype(&mut self, p: usize) -> u32 {
         let b = self.b;
         let Some(slot) = self.protos.get(p) else { return NONE };
@@ -1415,7 +1456,7 @@ impl<'b> Eval<'b> {
                 _ => {}
             }
         }
-        let name = rule_of_op(b, first as u32).unwrap_or("").to_string();
+        let name = self.rule_of(first as u32).unwrap_or("").to_string();
         self.out.shared_meshes.push(SharedMesh { name, mesh: m, kind: SharedKind::Prototype { face_normals } });
         let mesh = self.out.shared_meshes.len() as u32 - 1;
         let extent = crate::output::max_abs(&self.out.shared_meshes[mesh as usize].mesh.positions);
@@ -1435,7 +1476,7 @@ impl<'b> Eval<'b> {
                 Some(&i) => i,
                 None => {
                     // Ops of one line of one rule (the VERTEXes of a face) are one site.
-                    let new = site_of(self.b, self.site_pc);
+                    let new = self.site_of(self.site_pc);
                     let sites = &mut self.out.sites.sites;
                     let i = sites.iter().rposition(|s| *s == new).unwrap_or_else(|| {
                         sites.push(new);
@@ -1542,17 +1583,45 @@ impl<'b> Eval<'b> {
         }
     }
 
-    fn profile(&mut self, rule: u32) -> Vec<Vec3> {
+    /// The points of profile rule `rule`, made on first use: at most
+    /// [`Eval::profile_limit`] (the run of the rule is halted there, with a warning
+    /// at the end), so a runaway profile costs neither memory nor time.
+    fn profile(&mut self, rule: u32) -> std::rc::Rc<[Vec3]> {
         if let Some(p) = self.profiles.get(&rule) {
             return p.clone();
         }
         let saved = std::mem::take(&mut self.profile_points);
         let saved_last = self.last;
+        let saved_halt = std::mem::replace(&mut self.halt, false);
         self.run(rule, State::start(self.b.settings.fps), Mode::Profile);
+        if self.halt {
+            self.profiles_cut.push((rule, self.profile_limit()));
+        }
+        self.halt = saved_halt;
         self.last = saved_last;
-        let pts = std::mem::replace(&mut self.profile_points, saved);
+        let pts: std::rc::Rc<[Vec3]> = std::mem::replace(&mut self.profile_points, saved).into();
         self.profiles.insert(rule, pts.clone());
         pts
+    }
+
+    /// The most points one profile keeps: [`MAX_PROFILE_POINTS`], and never more
+    /// than half the vertex budget (a sweep makes two rings of them).
+    fn profile_limit(&self) -> usize {
+        (MAX_PROFILE_POINTS as u64).min(self.opts.max_vertices / 2).max(2) as usize
+    }
+
+    /// Whether `more` vertices fit in the vertex budget; if not, the run stops there
+    /// (before they are made) with the budget's warning.
+    fn room_for(&mut self, more: usize) -> bool {
+        let n = (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64
+            + self.extra_vertices
+            + self.instanced_vertices;
+        if n.saturating_add(more as u64) > self.opts.max_vertices {
+            self.limits.vertices = true;
+            self.stopped = true;
+            return false;
+        }
+        true
     }
 
     /// Makes a bone for a call of model rule `rule` (which has transform rules) in
@@ -1719,7 +1788,11 @@ impl<'b> Eval<'b> {
     fn draw(&mut self, kind: Drawable, s: State, ns: u32, profile: u32, mode: Mode, bone: u32) {
         if mode == Mode::Profile {
             if kind == Drawable::Vertex {
-                self.profile_points.push(s.f.u);
+                if self.profile_points.len() >= self.profile_limit() {
+                    self.halt = true;
+                } else {
+                    self.profile_points.push(s.f.u);
+                }
             }
             return;
         }
@@ -1774,6 +1847,10 @@ impl<'b> Eval<'b> {
                 let prof_rule = if profile != NONE { profile } else { self.b.settings.linerule };
                 if prof_rule != NONE {
                     let pts = self.profile(prof_rule);
+                    let rings = if kind == Drawable::BlendTo { BLEND_SEGMENTS + 1 } else { 2 };
+                    if pts.len() >= 2 && !self.room_for(rings * pts.len()) {
+                        return;
+                    }
                     if pts.len() >= 2 {
                         let (ca, cb) = (pen.state.display_color(), s.display_color());
                         let m = &mut self.out.sweeps;
@@ -1933,20 +2010,44 @@ impl<'b> Eval<'b> {
     fn finish(mut self) -> Output {
         let s = &self.b.settings;
         let w = &mut self.out.stats.warnings;
+        // A grammar cannot switch its own protection off: its limits past the
+        // caller's caps were lowered to them (in `Eval::new`).
+        if self.opts.maxiter.is_none() && s.maxiter > self.opts.max_iter {
+            w.push(format!(
+                "the grammar's `maxiter {}` is above the cap of {} rule calls: capped at {} (a grammar cannot raise its limits past the command line's; raise the cap with `--max-iter N`)",
+                s.maxiter, self.opts.max_iter, self.opts.max_iter
+            ));
+        }
+        if s.stacksize > self.opts.max_stack {
+            let more = if s.stacksize == u32::MAX { " or more" } else { "" };
+            w.push(format!(
+                "the grammar's `stacksize {}{more}` is above the cap of {} activations: capped at {} (a grammar cannot raise its limits past the command line's; raise the cap with `--max-stack N`)",
+                s.stacksize, self.opts.max_stack, self.opts.max_stack
+            ));
+        }
         if self.limits.maxdepth > 0 {
             w.push(format!("maxdepth {} reached: {} branch(es) ended there", s.maxdepth, self.limits.maxdepth));
         }
         if self.limits.minsize > 0 {
             w.push(format!("minsize {} reached: {} branch(es) ended there", s.minsize, self.limits.minsize));
         }
+        for &(rule, n) in &self.profiles_cut {
+            let name = self.b.rules.get(rule as usize).map(|r| self.b.string(r.name)).unwrap_or("?");
+            w.push(format!(
+                "profile rule `{name}` makes more than {n} points: only the first {n} are used (a profile holds at most {MAX_PROFILE_POINTS} points, and half the vertex budget; raise the budget with `--max-vertices N`)"
+            ));
+        }
         if self.limits.stacksize > 0 {
-            w.push(format!("stack size {} reached: {} branch(es) ended there", self.stacksize, self.limits.stacksize));
+            w.push(format!(
+                "stack size {} reached: {} branch(es) ended there (raise the limit with `stacksize N` in the grammar, up to the cap set by `--max-stack N`)",
+                self.stacksize, self.limits.stacksize
+            ));
         }
         let at = self.stop_pc.map(|pc| where_op(self.b, pc)).unwrap_or_default();
         let w = &mut self.out.stats.warnings;
         if self.limits.maxiter {
             w.push(format!(
-                "maxiter {} reached{at}: the run stopped; the output so far is kept (raise the limit with `maxiter N` in the grammar)",
+                "maxiter {} reached{at}: the run stopped; the output so far is kept (raise the limit with `maxiter N` in the grammar, up to the cap set by `--max-iter N`)",
                 self.maxiter
             ));
         }
@@ -1989,22 +2090,23 @@ impl<'b> Eval<'b> {
 
 /// The name of the rule whose definition holds the op at `pc`.
 fn rule_of_op(b: &Bundle, pc: u32) -> Option<&str> {
-    let mut best: Option<(u32, u32)> = None;
-    for r in &b.rules {
-        for d in &r.defs {
-            if d.start <= pc && best.is_none_or(|(s, _)| d.start > s) {
-                best = Some((d.start, r.name));
-            }
-        }
-    }
-    best.map(|(_, n)| b.string(n))
+    rule_in(&def_starts(b), b, pc)
 }
 
-/// The rule and source line of the op at `pc`.
-fn site_of(b: &Bundle, pc: u32) -> crate::output::Site {
-    let (file, line) = b.source_of(pc).map(|(f, l)| (f.to_string(), l)).unwrap_or_default();
-    crate::output::Site { rule: rule_of_op(b, pc).unwrap_or_default().to_string(), file, line }
+/// Every rule definition's first op and the rule's name, sorted by op.
+fn def_starts(b: &Bundle) -> Vec<(u32, u32)> {
+    let mut v: Vec<(u32, u32)> = b.rules.iter().flat_map(|r| r.defs.iter().map(move |d| (d.start, r.name))).collect();
+    v.sort_unstable();
+    v
 }
+
+/// The name of the rule whose definition holds op `pc`: the definition starting
+/// last at or before it.
+fn rule_in<'b>(starts: &[(u32, u32)], b: &'b Bundle, pc: u32) -> Option<&'b str> {
+    let i = starts.partition_point(|&(s, _)| s <= pc);
+    starts.get(i.checked_sub(1)?).map(|&(_, n)| b.string(n))
+}
+
 
 /// " in rule `NAME` (FILE:LINE)" for the op at `pc`: the rule whose definition holds
 /// it and the source line of the op, or "" when the bundle has no such information.

@@ -242,11 +242,11 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
             }
         }
         let out_dir = cli.output.clone().unwrap_or_else(|| modes::creature::default_dir(&cli.file));
-        let common = common(cli, Some(&out_dir), cli.seed, size, &pictures);
+        let common = common(cli, &opts, Some(&out_dir), cli.seed, size, &pictures);
         return Ok(modes::creature::run(&bundle, &cli.creature, &common));
     }
     match batch {
-        Some((seeds, shard, template)) => run_batch(cli, &bundle, seeds, shard, &template, size, &pictures),
+        Some((seeds, shard, template)) => run_batch(cli, &opts, &bundle, seeds, shard, &template, size, &pictures),
         None => {
             let is_grid = bundle.extensions.grid.is_some();
             let output = match &cli.output {
@@ -254,19 +254,21 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
                 None if is_grid => default_output(&cli.file, "vox"),
                 None => default_output(&cli.file, format(cli)?.extension()),
             };
-            run_one(cli, &bundle, cli.seed, &output, size, &pictures, true).map(|_| ExitCode::SUCCESS)
+            run_one(cli, &opts, &bundle, cli.seed, &output, size, &pictures, true).map(|_| ExitCode::SUCCESS)
         }
     }
 }
 
 fn common<'a>(
     cli: &'a Args,
+    compile: &'a mdg_compiler::expand::Options,
     output: Option<&'a Path>,
     seed: Option<u64>,
     size: (u32, u32),
     pictures: &'a dyn Pictures,
 ) -> Common<'a> {
-    Common { file: &cli.file, output, seed, stats: cli.stats, png: cli.png.as_deref(), size, pictures }
+    let eval = EvalOptions { seed, time: cli.time, record_sites: cli.sites, ..cli.limits.eval_options() };
+    Common { file: &cli.file, output, seed, stats: cli.stats, png: cli.png.as_deref(), size, pictures, eval, compile }
 }
 
 fn format(cli: &Args) -> Result<Format, Failure> {
@@ -278,8 +280,10 @@ fn format(cli: &Args) -> Result<Format, Failure> {
 
 /// Evaluates one seed into `output` (and the picture, the frames); returns the
 /// vertex and triangle counts of a mesh output (`None` for a grid's voxels).
+#[allow(clippy::too_many_arguments)]
 fn run_one(
     cli: &Args,
+    opts: &mdg_compiler::expand::Options,
     bundle: &Bundle,
     seed: Option<u64>,
     output: &Path,
@@ -288,7 +292,7 @@ fn run_one(
     say_wrote: bool,
 ) -> Result<Option<(u64, u64)>, Failure> {
     if bundle.extensions.grid.is_some() {
-        let common = common(cli, Some(output), seed, size, pictures);
+        let common = common(cli, opts, Some(output), seed, size, pictures);
         let code = modes::grid::run(bundle, &cli.grid, &common);
         return if code == ExitCode::SUCCESS {
             Ok(None)
@@ -315,7 +319,7 @@ fn run_one(
         bar.tick();
     };
     let mut out = if bundle.extensions.guided.is_some() {
-        let common = common(cli, Some(output), seed, size, pictures);
+        let common = common(cli, opts, Some(output), seed, size, pictures);
         modes::guided::run(bundle, &cli.guided, &common, &eval_opts).map_err(|e| (1, e))?
     } else {
         let mut out = evaluate_with_progress(bundle, &eval_opts, Some(&progress));
@@ -441,8 +445,10 @@ fn write_frames(
 }
 
 /// `--seeds`: every seed of this shard, skipping the finished ones.
+#[allow(clippy::too_many_arguments)]
 fn run_batch(
     cli: &Args,
+    opts: &mdg_compiler::expand::Options,
     bundle: &Bundle,
     seeds: Seeds,
     shard: Shard,
@@ -468,7 +474,7 @@ fn run_batch(
             bar.inc(1);
             continue;
         }
-        let counts = bar.suspend(|| run_one(cli, bundle, Some(seed), &output, size, pictures, false))?;
+        let counts = bar.suspend(|| run_one(cli, opts, bundle, Some(seed), &output, size, pictures, false))?;
         manifest.record(&batch::Entry { seed, file: output, counts }).map_err(|e| (2, e))?;
         ran += 1;
         bar.inc(1);

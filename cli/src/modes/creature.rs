@@ -257,7 +257,11 @@ pub fn run(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> ExitCode {
 /// The bundle with its OBJ meshes embedded: as it is when they are, else (a
 /// bundle lowered without [`mdg_compiler::ext::creature::embed_meshes`]) read from the
 /// `.mdg` source through the compiler's file loader, with the same path rules.
-fn with_meshes<'b>(bundle: &'b Bundle, file: &Path) -> Result<std::borrow::Cow<'b, Bundle>, String> {
+fn with_meshes<'b>(
+    bundle: &'b Bundle,
+    file: &Path,
+    opts: &mdg_compiler::expand::Options,
+) -> Result<std::borrow::Cow<'b, Bundle>, String> {
     let Some(t) = bundle.extensions.creatures.as_ref() else { return Ok(std::borrow::Cow::Borrowed(bundle)) };
     if t.meshes.iter().all(|m| !m.triangles.is_empty()) {
         return Ok(std::borrow::Cow::Borrowed(bundle));
@@ -268,10 +272,10 @@ fn with_meshes<'b>(bundle: &'b Bundle, file: &Path) -> Result<std::borrow::Cow<'
             file.display()
         ));
     }
-    let opts = mdg_compiler::expand::Options { std_dir: mdg_compiler::driver::default_std_dir(), ..Default::default() };
+    // The command line's `--std`, `--param` and `--preset`, as the bundle was compiled.
     let loader = mdg_compiler::source::FsLoader;
     let a =
-        mdg_compiler::driver::analyze(&loader, file, &opts, mdg_compiler::check::CheckOptions { require_start: true });
+        mdg_compiler::driver::analyze(&loader, file, opts, mdg_compiler::check::CheckOptions { require_start: true });
     let mut b = bundle.clone();
     let d =
         mdg_compiler::ext::creature::embed_meshes(&mut b, &a.expanded, &a.sources, &loader, opts.std_dir.as_deref());
@@ -282,7 +286,7 @@ fn with_meshes<'b>(bundle: &'b Bundle, file: &Path) -> Result<std::borrow::Cow<'
 }
 
 fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<(), (u8, String)> {
-    let bundle = with_meshes(bundle, common.file).map_err(|e| (1, e))?;
+    let bundle = with_meshes(bundle, common.file, common.compile).map_err(|e| (1, e))?;
     let bundle = bundle.as_ref();
     let Some(table) = bundle.extensions.creatures.as_ref() else {
         return Err((1, "the grammar has no `creature` section".into()));
@@ -294,7 +298,10 @@ fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<()
     };
     std::fs::create_dir_all(&out_dir).map_err(|e| (2, format!("cannot create {}: {e}", out_dir.display())))?;
     let started = Instant::now();
-    let lib = Library::build(bundle, table).map_err(|e| (1, e))?;
+    let (lib, warnings) = Library::build_with(bundle, table, &common.eval).map_err(|e| (1, e))?;
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
     let lib_ms = started.elapsed().as_secs_f64() * 1000.0;
     let evo = Evolution::new(table, &lib, opts.clone());
     let (mut pop, g0) = evo.start();

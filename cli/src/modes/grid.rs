@@ -98,10 +98,14 @@ fn target(path: &Path) -> Option<Target> {
     Format::from_extension(ext).map(Target::Mesh)
 }
 
-/// What the MDG start rule draws, turned y-up (x, y, z) → (x, z, −y).
-fn site(bundle: &Bundle, seed: u64) -> Mesh {
-    let opts = mdg_vm::eval::EvalOptions { seed: Some(seed), ..Default::default() };
+/// What the MDG start rule draws, turned y-up (x, y, z) → (x, z, −y), evaluated
+/// with the command line's limits (their warnings are printed).
+fn site(bundle: &Bundle, seed: u64, eval: &mdg_vm::eval::EvalOptions) -> Mesh {
+    let opts = mdg_vm::eval::EvalOptions { seed: Some(seed), ..eval.clone() };
     let out = mdg_vm::eval::evaluate(bundle, &opts);
+    for w in &out.stats.warnings {
+        eprintln!("warning: the site (start rule): {w}");
+    }
     let mut m = out.flattened();
     let turn = |p: [f32; 3]| [p[0], p[2], -p[1]];
     m.positions.iter_mut().for_each(|p| *p = turn(*p));
@@ -160,7 +164,7 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
     }
     let site_mesh = match (&target, common.png) {
         (Target::Voxels(_), None) => Mesh::default(),
-        _ => site(bundle, seed),
+        _ => site(bundle, seed, &common.eval),
     };
     let bytes = match target {
         Target::Voxels(f) => {

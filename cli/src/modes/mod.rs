@@ -26,4 +26,10 @@ pub struct Common<'a> {
     /// What draws every picture a mode writes (`--png`, contact sheets, galleries),
     /// so every mode's pictures look alike.
     pub pictures: &'a dyn Pictures,
+    /// The evaluation limits from the command line (`--max-vertices`,
+    /// `--time-budget`, `--max-iter`, …): every evaluation a mode makes uses them.
+    pub eval: mdg_vm::eval::EvalOptions,
+    /// What the grammar was compiled with (`--std`, `--param`, `--preset`), for a
+    /// mode that reads the source again.
+    pub compile: &'a mdg_compiler::expand::Options,
 }

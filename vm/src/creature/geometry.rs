@@ -135,33 +135,51 @@ pub fn part_slot_frame(part: &PartDef, slot: u32) -> Option<Mat4> {
 }
 
 impl Library {
-    /// Evaluates every part's rule (with the bundle's own seed) or converts its
-    /// embedded mesh. Parts are independent, so they are made in parallel.
+    /// Evaluates every part's rule (with the bundle's own seed and the default
+    /// limits) or converts its embedded mesh: [`Library::build_with`], with the
+    /// limits' warnings dropped.
     pub fn build(bundle: &Bundle, t: &CreatureTable) -> Result<Library, String> {
-        let parts = t
+        Library::build_with(bundle, t, &EvalOptions::default()).map(|(lib, _)| lib)
+    }
+
+    /// Evaluates every part's rule (with the bundle's own seed, under the limits
+    /// of `opts`) or converts its embedded mesh; returns the library and the
+    /// evaluations' warnings, each naming its part. Parts are independent, so they
+    /// are made in parallel.
+    pub fn build_with(bundle: &Bundle, t: &CreatureTable, opts: &EvalOptions) -> Result<(Library, Vec<String>), String> {
+        let opts = EvalOptions { seed: None, record_sites: false, ..opts.clone() };
+        let built = t
             .parts
             .par_iter()
             .map(|p| {
-                let mesh = match &p.geometry {
+                let (mesh, warnings) = match &p.geometry {
                     Geometry::Rule(r) => {
                         let mut b = bundle.clone();
                         b.settings.startshape = *r;
                         b.settings.camerarule = crate::bundle::NONE;
-                        let out = evaluate(&b, &EvalOptions::default());
-                        out.flattened()
+                        let out = evaluate(&b, &opts);
+                        let w = out.stats.warnings.iter().map(|w| format!("part `{}`: {w}", p.name)).collect();
+                        (out.flattened(), w)
                     }
                     Geometry::Mesh(m) => {
                         let pm = t.meshes.get(*m as usize).ok_or_else(|| format!("part `{}`: no mesh", p.name))?;
-                        mesh_from_obj(&pm.positions, &pm.triangles, pm.color)
+                        (mesh_from_obj(&pm.positions, &pm.triangles, pm.color), Vec::new())
                     }
                 };
                 if mesh.triangles.is_empty() {
-                    return Err(format!("part `{}`: its geometry has no triangles", p.name));
+                    let why = warnings.first().map(|w: &String| format!(" ({w})")).unwrap_or_default();
+                    return Err(format!("part `{}`: its geometry has no triangles{why}", p.name));
                 }
-                Ok(PartGeometry::new(mesh, p))
+                Ok((PartGeometry::new(mesh, p), warnings))
             })
             .collect::<Result<Vec<_>, String>>()?;
-        Ok(Library { parts, seat: true, seat_cache: SeatCache::default() })
+        let mut parts = Vec::with_capacity(built.len());
+        let mut warnings = Vec::new();
+        for (part, w) in built {
+            parts.push(part);
+            warnings.extend(w);
+        }
+        Ok((Library { parts, seat: true, seat_cache: SeatCache::default() }, warnings))
     }
 }
 
