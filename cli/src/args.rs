@@ -137,17 +137,35 @@ mod tests {
 
     #[test]
     fn durations_parse_and_bad_ones_are_refused() {
-        let s = |x| parse_duration("--time-budget", x, BareUnit::Seconds);
-        assert_eq!(s("2"), Ok(Some(Duration::from_secs(2))));
+        let s = |x| time_budget(x).map(|t| t.0);
         assert_eq!(s("250ms"), Ok(Some(Duration::from_millis(250))));
         assert_eq!(s("1.5s"), Ok(Some(Duration::from_millis(1500))));
+        assert_eq!(s(" 2s "), Ok(Some(Duration::from_secs(2))));
         assert_eq!(s("none"), Ok(None));
-        assert_eq!(s("10000000"), Ok(Some(Duration::from_secs(10_000_000))));
-        for bad in ["-1", "nan", "NaN", "inf", "-inf", "0", "1e23", "10000001", "", "soon", "1e400"] {
+        assert_eq!(s("10000000s"), Ok(Some(Duration::from_secs(10_000_000))));
+        for bad in ["-1s", "nans", "NaNms", "infs", "-infs", "0s", "1e23s", "10000001s", "", "soon", "1e400ms", "s", "ms"] {
             let e = s(bad).expect_err("refused");
             assert!(e.starts_with("--time-budget "), "{e}");
+            assert!(e.contains("expected a positive time"), "{e}");
         }
         let e = s(&"9".repeat(1000)).expect_err("refused");
         assert!(e.len() < 200, "the message shows a short prefix: {e}");
+    }
+
+    /// `--budget 2` was milliseconds and `--time-budget 2` seconds: a bare number is
+    /// refused by both, with the two readings spelled out.
+    #[test]
+    fn a_bare_number_is_refused_by_every_duration_flag() {
+        let budget = crate::modes::guided::parse_budget;
+        let time = |x| time_budget(x).map(|t| t.0);
+        for (flag, e) in [("--budget", budget("2")), ("--time-budget", time("2"))] {
+            let e = e.expect_err("a bare number is refused");
+            assert!(e.starts_with(&format!("{flag} 2: ")), "{e}");
+            assert!(e.contains("needs a unit: write 2s or 2000ms"), "{e}");
+        }
+        let e = budget("0.5").expect_err("refused");
+        assert!(e.contains("write 0.5s or 500ms"), "{e}");
+        assert_eq!(budget("150ms"), Ok(Some(Duration::from_millis(150))));
+        assert_eq!(budget("none"), Ok(None));
     }
 }
