@@ -218,7 +218,7 @@ fn a_manifest_that_is_not_a_regular_file_is_refused_without_reading_it() {
     let o = run();
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{e}");
-    assert!(e.contains("out/manifest.jsonl") && e.contains("not a regular file (a character device)"), "{e}");
+    assert!(e.contains("out/manifest.jsonl") && e.contains("not a regular file (a device)"), "{e}");
     std::fs::remove_file(&manifest).expect("rm");
 
     let made = Command::new("mkfifo").arg(&manifest).status().expect("mkfifo");
