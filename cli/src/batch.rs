@@ -191,12 +191,14 @@ fn entry_seed(line: &[u8]) -> Result<u64, String> {
     let extra: Vec<&str> = obj.keys().map(String::as_str).filter(|k| *k != "mdg_manifest" && !KEYS.contains(k)).collect();
     let missing: Vec<&str> = KEYS.iter().copied().filter(|k| !obj.contains_key(*k)).collect();
     if !extra.is_empty() || !missing.is_empty() {
-        return Err(format!(
-            "its fields are not a manifest entry's ({}{}{})",
-            if missing.is_empty() { String::new() } else { format!("missing {}", missing.join(", ")) },
-            if missing.is_empty() || extra.is_empty() { "" } else { "; " },
-            if extra.is_empty() { String::new() } else { format!("not ours: {}", extra.join(", ")) },
-        ));
+        let mut why = Vec::new();
+        if !missing.is_empty() {
+            why.push(format!("no {}", missing.join(", ")));
+        }
+        if !extra.is_empty() {
+            why.push(format!("fields of another tool: {}", extra.join(", ")));
+        }
+        return Err(format!("its fields are not a manifest entry's ({})", why.join("; ")));
     }
     let counts_ok = match (&obj["vertices"], &obj["triangles"]) {
         (serde_json::Value::Null, serde_json::Value::Null) => true,
@@ -522,6 +524,91 @@ mod tests {
     }
 
     #[test]
+    fn lines_of_both_formats_are_ours_and_others_are_not() {
+        let hash = "0123456789abcdef".repeat(4);
+        let v1 = format!(r#"{{"bytes":10,"file":"out/3.glb","seed":3,"sha256":"{hash}","triangles":1,"vertices":3}}"#);
+        let v2 = format!(
+            r#"{{"mdg_manifest":2,"seed":4,"file":"out/4.vox","vertices":null,"triangles":null,"bytes":9,"sha256":"{hash}"}}"#
+        );
+        assert_eq!(entry_seed(v1.as_bytes()), Ok(3));
+        assert_eq!(entry_seed(v2.as_bytes()), Ok(4));
+        assert!(v2.starts_with(OPENINGS[0]) && v1.starts_with(OPENINGS[1]));
+        let bad = [
+            (v1.replace("\"seed\":3", "\"seed\":-3"), "seed"),
+            (v1.replace(&hash, "abc"), "values"),
+            (v1.replace("\"triangles\":1", "\"triangles\":null"), "values"),
+            (v2.replace("\"mdg_manifest\":2", "\"mdg_manifest\":3"), "newer mdg-run"),
+            (v2.replace("\"mdg_manifest\":2", "\"mdg_manifest\":\"x\""), "not a format"),
+            (v1.replace("\"bytes\"", "\"size\""), "no bytes; fields of another tool: size"),
+            ("[1,2]".to_string(), "not a JSON object"),
+            ("seed,file".to_string(), "not JSON"),
+        ];
+        for (line, why) in bad {
+            let e = entry_seed(line.as_bytes()).expect_err(&line);
+            assert!(e.contains(why), "{line}: {e}");
+        }
+        assert_eq!(entry_seed(&[0xff, 0xfe]), Err("it is not UTF-8 text".into()));
+        let line = Entry { seed: 4, file: PathBuf::from("/nonexistent/4.glb"), counts: None }.line();
+        assert!(line.is_err_and(|e| e.contains("/nonexistent/4.glb")));
+    }
+
+    fn scratch(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("mdg-manifest-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        d
+    }
+
+    #[test]
+    fn only_a_torn_last_line_is_cut_and_duplicates_count_once() {
+        let d = scratch("torn");
+        let path = d.join("manifest.jsonl");
+        let hash = "ab".repeat(32);
+        let line = |s: u64| format!(r#"{{"bytes":1,"file":"{s}.glb","seed":{s},"sha256":"{hash}","triangles":1,"vertices":3}}"#);
+        let opened = |keep: fn(u64) -> bool| Manifest::open(&path, keep).map(|(m, w)| (m.done.clone(), w));
+        // A manifest that is only the start of a line: cut to nothing.
+        std::fs::create_dir_all(&d).expect("dir");
+        std::fs::write(&path, "{\"mdg").expect("write");
+        let (done, warnings) = opened(|_| true).expect("opens");
+        assert!(done.is_empty() && warnings.len() == 1 && warnings[0].contains("dropped 5 bytes"), "{warnings:?}");
+        assert_eq!(std::fs::read(&path).expect("read"), b"");
+        // Duplicates (two runs of an older version at once) count once, with a
+        // warning; seeds outside the run are not kept; the torn tail is cut.
+        let text = format!("{}\n{}\n{}\n{}\n{}", line(1), line(2), line(1), line(9), &line(3)[..20]);
+        std::fs::write(&path, &text).expect("write");
+        let (done, warnings) = opened(|s| s < 5).expect("opens");
+        assert_eq!(done.into_iter().collect::<Vec<_>>(), vec![1, 2]);
+        assert!(warnings[0].contains("dropped 20 bytes") && warnings[1].contains("1 seeds are recorded more than once"));
+        assert_eq!(std::fs::read_to_string(&path).expect("read"), text[..text.len() - 20]);
+        assert!(!lock_path(&path).exists(), "the lock file outlives the run");
+        std::fs::remove_dir_all(&d).expect("cleanup");
+    }
+
+    #[test]
+    fn a_second_open_of_one_shard_is_busy_and_names_the_first() {
+        let d = scratch("busy");
+        let path = d.join("manifest-0-of-2.jsonl");
+        let (first, _) = Manifest::open(&path, |_| true).expect("the first opens");
+        let e = Manifest::open(&path, |_| true).err().expect("the second is refused");
+        let OpenError::Busy(m) = e else { panic!("{e}") };
+        assert!(m.contains(&format!("pid {} on host {}", std::process::id(), host_name())), "{m}");
+        assert!(m.contains("manifest-0-of-2.jsonl.lock"), "{m}");
+        drop(first);
+        assert!(!lock_path(&path).exists());
+        let again = Manifest::open(&path, |_| true);
+        assert!(again.is_ok(), "the lock is released with the first");
+        drop(again);
+        std::fs::remove_dir_all(&d).expect("cleanup");
+    }
+
+    #[test]
+    fn times_are_written_in_utc() {
+        assert_eq!(utc(0), "1970-01-01 00:00:00 UTC");
+        assert_eq!(utc(951_782_400), "2000-02-29 00:00:00 UTC");
+        assert_eq!(utc(1_796_406_377), "2026-12-04 17:46:17 UTC");
+        assert_eq!(utc(4_102_444_799), "2099-12-31 23:59:59 UTC");
+    }
+
+    #[test]
     fn templates_need_a_seed_and_the_manifest_sits_above_it() {
         assert_eq!(output_for(Path::new("out/{seed}.glb"), 7), Ok(PathBuf::from("out/7.glb")));
         assert!(output_for(Path::new("out/a.glb"), 7).is_err());
@@ -530,5 +617,6 @@ mod tests {
             manifest_path(Path::new("runs/x/{seed}/m.glb"), Shard { index: 1, count: 3 }),
             PathBuf::from("runs/x/manifest-1-of-3.jsonl")
         );
+        assert_eq!(lock_path(Path::new("out/manifest.jsonl")), PathBuf::from("out/manifest.jsonl.lock"));
     }
 }

@@ -237,10 +237,10 @@ fn a_manifest_that_is_not_a_regular_file_is_refused_without_reading_it() {
     assert!(!d.join("out/0.glb").exists(), "a seed ran");
 }
 
-/// A grammar that takes a while per seed (half a million rule calls), so a run is
-/// still going when the test looks at it.
-const SLOW: &str =
-    "startshape a\nmaxdepth 19\nrule a {\n  VERTEX {} VERTEX {x 1} VERTEX {y rand(0, 1)}\n  b {}\n}\nrule b {\n  b {z 0.3 s 0.9}\n  b {x 0.3 s 0.8}\n}\n";
+/// A grammar that takes a while per seed (a million rule calls), so a run is still
+/// going when the test looks at it.
+const SLOW: &str = "startshape a\nrule a {\n  VERTEX {} VERTEX {x 1} VERTEX {y rand(0, 1)}\n  1000 * {x 1} row {}\n}\n\
+                    rule row { 1000 * {y 1} dot {} }\nrule dot { }\n";
 
 /// The seeds of a manifest's lines, in file order.
 fn seeds_of(manifest: &Path) -> Vec<u64> {
