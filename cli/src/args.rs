@@ -130,7 +130,9 @@ mod tests {
         assert_eq!(s(" 2s "), Ok(Some(Duration::from_secs(2))));
         assert_eq!(s("none"), Ok(None));
         assert_eq!(s("10000000s"), Ok(Some(Duration::from_secs(10_000_000))));
-        for bad in ["-1s", "nans", "NaNms", "infs", "-infs", "0s", "1e23s", "10000001s", "", "soon", "1e400ms", "s", "ms"] {
+        for bad in
+            ["-1s", "nans", "NaNms", "infs", "-infs", "0s", "1e23s", "10000001s", "", "soon", "1e400ms", "s", "ms"]
+        {
             let e = s(bad).expect_err("refused");
             assert!(e.starts_with("--time-budget "), "{e}");
             assert!(e.contains("expected a positive time"), "{e}");

@@ -183,12 +183,15 @@ fn entry_seed(line: &[u8]) -> Result<u64, String> {
         match f.as_u64() {
             Some(FORMAT) => {}
             Some(n) if n > FORMAT => {
-                return Err(format!("it is format {n}, written by a newer mdg-run (this one reads formats 1 and {FORMAT})"))
+                return Err(format!(
+                    "it is format {n}, written by a newer mdg-run (this one reads formats 1 and {FORMAT})"
+                ))
             }
             _ => return Err(format!("its `mdg_manifest` is {f}, not a format this mdg-run reads (1 or {FORMAT})")),
         }
     }
-    let extra: Vec<&str> = obj.keys().map(String::as_str).filter(|k| *k != "mdg_manifest" && !KEYS.contains(k)).collect();
+    let extra: Vec<&str> =
+        obj.keys().map(String::as_str).filter(|k| *k != "mdg_manifest" && !KEYS.contains(k)).collect();
     let missing: Vec<&str> = KEYS.iter().copied().filter(|k| !obj.contains_key(*k)).collect();
     if !extra.is_empty() || !missing.is_empty() {
         let mut why = Vec::new();
@@ -247,7 +250,10 @@ fn open_regular(path: &Path, follow: bool) -> Result<File, String> {
     if let Ok(m) = if follow { std::fs::metadata(path) } else { std::fs::symlink_metadata(path) } {
         if !m.is_file() {
             let what = if m.file_type().is_symlink() { "a symbolic link" } else { mdg_vm::input::kind(&m) };
-            return Err(format!("{}: not a regular file ({what}); remove it or choose another -o folder", path.display()));
+            return Err(format!(
+                "{}: not a regular file ({what}); remove it or choose another -o folder",
+                path.display()
+            ));
         }
     }
     let mut o = std::fs::OpenOptions::new();
@@ -344,7 +350,8 @@ impl Lock {
                     )));
                 }
                 Err(std::fs::TryLockError::Error(e)) => {
-                    let unsupported = e.kind() == std::io::ErrorKind::Unsupported || e.raw_os_error() == Some(libc::ENOLCK);
+                    let unsupported =
+                        e.kind() == std::io::ErrorKind::Unsupported || e.raw_os_error() == Some(libc::ENOLCK);
                     if unsupported {
                         let w = format!(
                             "{}: cannot lock it ({e}; the file system has no locks), so a second run of this shard at \
@@ -358,7 +365,8 @@ impl Lock {
             }
             // The lock is ours if the path still names the file locked: a run that
             // ended may have removed it between our open and our lock.
-            let mine = file.metadata().map_err(|e| OpenError::Refused(format!("cannot read {}: {e}", path.display())))?;
+            let mine =
+                file.metadata().map_err(|e| OpenError::Refused(format!("cannot read {}: {e}", path.display())))?;
             match std::fs::symlink_metadata(path) {
                 Ok(m) if same_file(&m, &mine) => {}
                 _ => continue,
@@ -412,7 +420,8 @@ impl Manifest {
         let (lock, warning) = Lock::acquire(&lock_path(path), path)?;
         warnings.extend(warning);
         let file = open_regular(path, true).map_err(OpenError::Refused)?;
-        let len = file.metadata().map_err(|e| OpenError::Refused(format!("cannot read {}: {e}", path.display())))?.len();
+        let len =
+            file.metadata().map_err(|e| OpenError::Refused(format!("cannot read {}: {e}", path.display())))?.len();
         if len > MAX_MANIFEST_BYTES {
             return Err(OpenError::Refused(format!(
                 "{}: {len} bytes, more than a manifest is read ({MAX_MANIFEST_BYTES} bytes); move it away or choose \
@@ -461,7 +470,8 @@ impl Manifest {
         }
         drop(reader);
         if good_len < len {
-            file.set_len(good_len).map_err(|e| OpenError::Refused(format!("cannot shorten {}: {e}", path.display())))?;
+            file.set_len(good_len)
+                .map_err(|e| OpenError::Refused(format!("cannot shorten {}: {e}", path.display())))?;
             warnings.push(format!(
                 "{}: its last line was cut short (a run was stopped while writing it): dropped {} bytes; that seed runs again",
                 path.display(),
@@ -563,7 +573,9 @@ mod tests {
         let d = scratch("torn");
         let path = d.join("manifest.jsonl");
         let hash = "ab".repeat(32);
-        let line = |s: u64| format!(r#"{{"bytes":1,"file":"{s}.glb","seed":{s},"sha256":"{hash}","triangles":1,"vertices":3}}"#);
+        let line = |s: u64| {
+            format!(r#"{{"bytes":1,"file":"{s}.glb","seed":{s},"sha256":"{hash}","triangles":1,"vertices":3}}"#)
+        };
         let opened = |keep: fn(u64) -> bool| Manifest::open(&path, keep).map(|(m, w)| (m.done.clone(), w));
         // A manifest that is only the start of a line: cut to nothing.
         std::fs::create_dir_all(&d).expect("dir");
@@ -577,7 +589,9 @@ mod tests {
         std::fs::write(&path, &text).expect("write");
         let (done, warnings) = opened(|s| s < 5).expect("opens");
         assert_eq!(done.into_iter().collect::<Vec<_>>(), vec![1, 2]);
-        assert!(warnings[0].contains("dropped 20 bytes") && warnings[1].contains("1 seeds are recorded more than once"));
+        assert!(
+            warnings[0].contains("dropped 20 bytes") && warnings[1].contains("1 seeds are recorded more than once")
+        );
         assert_eq!(std::fs::read_to_string(&path).expect("read"), text[..text.len() - 20]);
         assert!(!lock_path(&path).exists(), "the lock file outlives the run");
         std::fs::remove_dir_all(&d).expect("cleanup");

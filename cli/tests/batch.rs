@@ -122,10 +122,13 @@ fn the_default_output_is_in_the_current_directory() {
 
 /// Runs mdg-run in `dir` under a 3 GiB virtual-memory bound and a 60 s limit (a
 /// child that blocks on a pipe or reads a device forever fails the test instead of
-/// hanging it or exhausting the machine).
+/// hanging it or exhausting the machine); its peak resident memory must stay under
+/// 256 MiB.
 fn mdg_run_bounded(dir: &Path, args: &[&str]) -> Output {
     let r = bounded::run(dir, env!("CARGO_BIN_EXE_mdg-run"), args, &[], 3 * 1024 * 1024, Duration::from_secs(60));
     assert!(!r.timed_out, "mdg-run {args:?} ran past 60 s (blocked?)");
+    eprintln!("mdg-run {}: peak RSS {} KiB, {:?}", args.join(" "), r.peak_kib, r.took);
+    assert!(r.peak_kib < 256 * 1024, "mdg-run {args:?}: peak RSS {} KiB, more than 256 MiB", r.peak_kib);
     r.output
 }
 

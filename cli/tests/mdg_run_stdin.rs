@@ -108,7 +108,8 @@ fn stdin_past_the_source_limit_is_refused_without_reading_it_all() {
     let out = dir.join("big.obj");
     // 17 MiB of comment lines, valid grammar text were it short enough.
     let line = format!("// {}\n", "x".repeat(1020));
-    let text = format!("startshape A\nrule A {{ VERTEX {{}} VERTEX {{x 1}} VERTEX {{y 1}} }}\n{}", line.repeat(17 * 1024));
+    let text =
+        format!("startshape A\nrule A {{ VERTEX {{}} VERTEX {{x 1}} VERTEX {{y 1}} }}\n{}", line.repeat(17 * 1024));
     assert!(text.len() > 17 << 20);
     let mut child = Command::new(env!("CARGO_BIN_EXE_mdg-run"))
         .args([file.as_os_str(), "--stdin".as_ref(), "-o".as_ref(), out.as_os_str()])

@@ -103,7 +103,8 @@ impl Cluster {
         for d in ["munge", "state", "spool", "log", "job"] {
             std::fs::create_dir_all(dir.join(d)).expect("cluster directories");
         }
-        let mut c = Cluster { dir: dir.to_path_buf(), conf: dir.join("slurm.conf"), daemons: Vec::new(), passed: false };
+        let mut c =
+            Cluster { dir: dir.to_path_buf(), conf: dir.join("slurm.conf"), daemons: Vec::new(), passed: false };
         use std::os::unix::fs::PermissionsExt;
         let munge = dir.join("munge");
         std::fs::set_permissions(&munge, std::fs::Permissions::from_mode(0o700)).expect("chmod");
@@ -251,8 +252,8 @@ fn whoami() -> String {
 /// exactly once, so a recipe that changes shape fails here instead of being
 /// silently not tested.
 fn recipe() -> String {
-    let doc = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/batch.md"))
-        .expect("docs/batch.md");
+    let doc =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/batch.md")).expect("docs/batch.md");
     let section = doc.split("## Slurm job arrays").nth(1).expect("docs/batch.md has a Slurm section");
     let script = section
         .split("```sh\n")
@@ -265,7 +266,11 @@ fn recipe() -> String {
         ("N=64 ", format!("N={SHARDS} ")),
         ("--seeds 0..100000", format!("--seeds 0..{SEEDS}")),
     ] {
-        assert_eq!(script.matches(from).count(), 1, "docs/batch.md's Slurm script should hold `{from}` once:\n{script}");
+        assert_eq!(
+            script.matches(from).count(),
+            1,
+            "docs/batch.md's Slurm script should hold `{from}` once:\n{script}"
+        );
         script = script.replace(from, &to);
     }
     assert!(script.starts_with("#!/bin/bash\n") && script.contains("mdg-run tree.mdg"), "{script}");
@@ -308,7 +313,11 @@ fn the_slurm_recipe_survives_a_killed_and_requeued_task() {
     // sbatch passes its environment to the tasks (PATH finds mdg-run); appending to
     // the task logs keeps both runs of the requeued task.
     let o = run(
-        cluster.slurm("sbatch").args(["--parsable", "--open-mode=append", "trees.sh"]).env("PATH", &path).current_dir(&job),
+        cluster
+            .slurm("sbatch")
+            .args(["--parsable", "--open-mode=append", "trees.sh"])
+            .env("PATH", &path)
+            .current_dir(&job),
         Duration::from_secs(30),
     );
     assert!(o.status.success(), "sbatch: {}", text(&o));
@@ -361,7 +370,11 @@ fn the_slurm_recipe_survives_a_killed_and_requeued_task() {
 
     // The recipe's other way back, a task resubmitted alone, finds its shard done.
     let o = run(
-        cluster.slurm("sbatch").args(["--parsable", "--wait", "--array=2", "trees.sh"]).env("PATH", &path).current_dir(&job),
+        cluster
+            .slurm("sbatch")
+            .args(["--parsable", "--wait", "--array=2", "trees.sh"])
+            .env("PATH", &path)
+            .current_dir(&job),
         Duration::from_secs(120),
     );
     let again = String::from_utf8_lossy(&o.stdout).trim().split(';').next().unwrap_or_default().to_string();

@@ -167,8 +167,8 @@ fn load_bundle(
                 ),
             ));
         }
-        let text = mdg_compiler::source::decode_source(bytes)
-            .map_err(|e| (2, format!("cannot read standard input: {e}")))?;
+        let text =
+            mdg_compiler::source::decode_source(bytes).map_err(|e| (2, format!("cannot read standard input: {e}")))?;
         let loader = MemLoader { files: [(file.to_path_buf(), text)].into(), disk_fallback: true };
         driver::build(&loader, file, opts)
     } else {
