@@ -480,8 +480,9 @@ impl Manifest {
         }
         if duplicates > 0 {
             warnings.push(format!(
-                "{}: {duplicates} seeds are recorded more than once (two runs of this shard at once, before runs \
-                 were locked); each counts once",
+                "{}: {duplicates} seeds of this run have more than one line (a seed run again after its output \
+                 was removed, or two runs of the shard at once before runs were locked); the last line is the \
+                 current one",
                 path.display()
             ));
         }
@@ -590,7 +591,8 @@ mod tests {
         let (done, warnings) = opened(|s| s < 5).expect("opens");
         assert_eq!(done.into_iter().collect::<Vec<_>>(), vec![1, 2]);
         assert!(
-            warnings[0].contains("dropped 20 bytes") && warnings[1].contains("1 seeds are recorded more than once")
+            warnings[0].contains("dropped 20 bytes")
+                && warnings[1].contains("1 seeds of this run have more than one line")
         );
         assert_eq!(std::fs::read_to_string(&path).expect("read"), text[..text.len() - 20]);
         assert!(!lock_path(&path).exists(), "the lock file outlives the run");

@@ -95,7 +95,8 @@ pub struct Args {
     #[arg(long, value_name = "DIR")]
     frames: Option<PathBuf>,
     /// A batch: run every seed in A..B (B excluded) or A..=B, each written to the -o
-    /// template with `{seed}` replaced, with a manifest; resumable (docs/batch.md).
+    /// template with `{seed}` replaced, with a manifest; resumable. One run per shard
+    /// at a time: a second stops with exit 75 naming the first (docs/batch.md).
     #[arg(long, value_name = "A..B")]
     seeds: Option<String>,
     /// With --seeds: run only shard K of N (the seeds at positions ≡ K mod N; K from 0).
