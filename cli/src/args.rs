@@ -52,8 +52,8 @@ pub struct LimitArgs {
     /// (default 16,000,000).
     #[arg(long, value_name = "N")]
     pub max_iso_cells: Option<u64>,
-    /// Stop after this much evaluation time: `2` (seconds), `1.5s`, `500ms` or `none`
-    /// (at most 10000000 s). Checked inside isosurface polygonisation too.
+    /// Stop after this much evaluation time: `2s`, `1.5s`, `500ms` or `none` (at most
+    /// 10000000 s; the unit is required). Checked inside isosurface polygonisation too.
     #[arg(long, value_name = "TIME", value_parser = time_budget)]
     pub time_budget: Option<TimeLimit>,
     /// The most rule calls, whatever the grammar's `maxiter` says (default
@@ -68,7 +68,7 @@ pub struct LimitArgs {
 
 /// `--time-budget`, parsed as every duration flag is.
 fn time_budget(s: &str) -> Result<TimeLimit, String> {
-    parse_duration("--time-budget", s, BareUnit::Seconds).map(TimeLimit)
+    parse_duration("--time-budget", s).map(TimeLimit)
 }
 
 impl LimitArgs {
@@ -95,49 +95,36 @@ pub const MAX_DURATION_SECS: f64 = 1e7;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct TimeLimit(pub Option<std::time::Duration>);
 
-/// The unit of a duration written without one.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum BareUnit {
-    Seconds,
-    Milliseconds,
-}
-
-/// Parses a duration flag: `200ms`, `0.5s`, a bare number in `bare`'s unit, or
-/// `none` (no limit). The value must be finite, positive and at most
-/// [`MAX_DURATION_SECS`]; the error names the flag and what it expects.
-pub fn parse_duration(flag: &str, s: &str, bare: BareUnit) -> Result<Option<std::time::Duration>, String> {
+/// Parses a duration flag: `200ms`, `0.5s` or `none` (no limit). A bare number is
+/// refused: `--budget` read it as milliseconds and `--time-budget` as seconds, so
+/// the message spells out both readings (`write 2s or 2000ms`). The value must be
+/// finite, positive and at most [`MAX_DURATION_SECS`]; the error names the flag and
+/// what it expects.
+pub fn parse_duration(flag: &str, s: &str) -> Result<Option<std::time::Duration>, String> {
     let t = s.trim();
     if t == "none" {
         return Ok(None);
     }
-    let bare_scale = match bare {
-        BareUnit::Seconds => 1.0,
-        BareUnit::Milliseconds => 1e-3,
-    };
+    let shown: String = s.chars().take(40).collect();
+    let cut = if shown.len() < s.len() { "…" } else { "" };
+    let expected = "expected a positive time of at most 10000000 s with its unit, such as 200ms or 0.5s, or `none`";
     let (num, scale) = if let Some(n) = t.strip_suffix("ms") {
         (n, 1e-3)
     } else if let Some(n) = t.strip_suffix('s') {
         (n, 1.0)
     } else {
-        (t, bare_scale)
-    };
-    let example = match bare {
-        BareUnit::Seconds => "2",
-        BareUnit::Milliseconds => "150",
+        return Err(match t.parse::<f64>() {
+            Ok(v) if v.is_finite() && v > 0.0 && v <= MAX_DURATION_SECS => {
+                format!("{flag} {shown}{cut}: needs a unit: write {t}s or {}ms ({expected})", v * 1000.0)
+            }
+            _ => format!("{flag} {shown}{cut}: {expected}"),
+        });
     };
     match num.trim().parse::<f64>() {
         Ok(v) if v.is_finite() && v > 0.0 && v * scale <= MAX_DURATION_SECS => {
             Ok(Some(std::time::Duration::from_secs_f64(v * scale)))
         }
-        _ => {
-            let shown: String = s.chars().take(40).collect();
-            let cut = if shown.len() < s.len() { "…" } else { "" };
-            Err(format!(
-                "{flag} {shown}{cut}: expected a positive time of at most 10000000 s such as 200ms, 0.5s or {example} \
-                 ({}), or `none`",
-                if bare == BareUnit::Seconds { "seconds" } else { "milliseconds" }
-            ))
-        }
+        _ => Err(format!("{flag} {shown}{cut}: {expected}")),
     }
 }
 
@@ -148,17 +135,37 @@ mod tests {
 
     #[test]
     fn durations_parse_and_bad_ones_are_refused() {
-        let s = |x| parse_duration("--time-budget", x, BareUnit::Seconds);
-        assert_eq!(s("2"), Ok(Some(Duration::from_secs(2))));
+        let s = |x| time_budget(x).map(|t| t.0);
         assert_eq!(s("250ms"), Ok(Some(Duration::from_millis(250))));
         assert_eq!(s("1.5s"), Ok(Some(Duration::from_millis(1500))));
+        assert_eq!(s(" 2s "), Ok(Some(Duration::from_secs(2))));
         assert_eq!(s("none"), Ok(None));
-        assert_eq!(s("10000000"), Ok(Some(Duration::from_secs(10_000_000))));
-        for bad in ["-1", "nan", "NaN", "inf", "-inf", "0", "1e23", "10000001", "", "soon", "1e400"] {
+        assert_eq!(s("10000000s"), Ok(Some(Duration::from_secs(10_000_000))));
+        for bad in
+            ["-1s", "nans", "NaNms", "infs", "-infs", "0s", "1e23s", "10000001s", "", "soon", "1e400ms", "s", "ms"]
+        {
             let e = s(bad).expect_err("refused");
             assert!(e.starts_with("--time-budget "), "{e}");
+            assert!(e.contains("expected a positive time"), "{e}");
         }
         let e = s(&"9".repeat(1000)).expect_err("refused");
         assert!(e.len() < 200, "the message shows a short prefix: {e}");
+    }
+
+    /// `--budget 2` was milliseconds and `--time-budget 2` seconds: a bare number is
+    /// refused by both, with the two readings spelled out.
+    #[test]
+    fn a_bare_number_is_refused_by_every_duration_flag() {
+        let budget = crate::modes::guided::parse_budget;
+        let time = |x| time_budget(x).map(|t| t.0);
+        for (flag, e) in [("--budget", budget("2")), ("--time-budget", time("2"))] {
+            let e = e.expect_err("a bare number is refused");
+            assert!(e.starts_with(&format!("{flag} 2: ")), "{e}");
+            assert!(e.contains("needs a unit: write 2s or 2000ms"), "{e}");
+        }
+        let e = budget("0.5").expect_err("refused");
+        assert!(e.contains("write 0.5s or 500ms"), "{e}");
+        assert_eq!(budget("150ms"), Ok(Some(Duration::from_millis(150))));
+        assert_eq!(budget("none"), Ok(None));
     }
 }

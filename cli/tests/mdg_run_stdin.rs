@@ -97,3 +97,38 @@ fn params_json_lists_the_declarations_with_the_values_in_force() {
     assert!(!json.exists(), "written for a text with errors");
     std::fs::remove_dir_all(&dir).expect("cleanup");
 }
+
+/// `--stdin` reads at most the compiler's 16 MiB source limit: 17 MiB of text is
+/// refused with a message naming standard input and the limit, after reading no
+/// more than the limit (the rest is never read, so the writer sees a closed pipe).
+#[test]
+fn stdin_past_the_source_limit_is_refused_without_reading_it_all() {
+    let dir = temp_dir("huge");
+    let file = dir.join("big.mdg");
+    let out = dir.join("big.obj");
+    // 17 MiB of comment lines, valid grammar text were it short enough.
+    let line = format!("// {}\n", "x".repeat(1020));
+    let text =
+        format!("startshape A\nrule A {{ VERTEX {{}} VERTEX {{x 1}} VERTEX {{y 1}} }}\n{}", line.repeat(17 * 1024));
+    assert!(text.len() > 17 << 20);
+    let mut child = Command::new(env!("CARGO_BIN_EXE_mdg-run"))
+        .args([file.as_os_str(), "--stdin".as_ref(), "-o".as_ref(), out.as_os_str()])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run mdg-run");
+    let mut stdin = child.stdin.take().expect("stdin");
+    let writer = std::thread::spawn(move || stdin.write_all(text.as_bytes()).map_err(|e| e.kind()));
+    let r = child.wait_with_output().expect("wait");
+    let written = writer.join().expect("writer");
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("standard input is larger than the 16 MiB source limit (16777216 bytes)"),
+        "the message names standard input and the limit: {err}"
+    );
+    assert_eq!(written, Err(std::io::ErrorKind::BrokenPipe), "mdg-run read all of standard input");
+    assert!(!out.exists());
+    std::fs::remove_dir_all(&dir).expect("cleanup");
+}

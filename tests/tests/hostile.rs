@@ -144,7 +144,7 @@ fn exponential_branching_ends_at_the_time_budget() {
         let took = t0.elapsed();
         let w = warning(&out, "time budget");
         assert!(w.starts_with("time budget reached in rule `A` (inline.mdg:2): the run stopped"), "{w}");
-        assert!(w.ends_with("(raise the limit with `--time-budget SECONDS`)"), "{w}");
+        assert!(w.ends_with("(raise the limit with `--time-budget TIME`, e.g. `--time-budget 30s`)"), "{w}");
         assert!(took >= budget && took < budget + Duration::from_secs(2), "took {took:?}");
         assert!(out.stats.rule_calls > 1_000, "calls before the budget ended the run are counted");
     });

@@ -2059,7 +2059,7 @@ impl<'b> Eval<'b> {
         }
         if self.limits.time {
             w.push(format!(
-                "time budget reached{at}: the run stopped; the output so far is kept (raise the limit with `--time-budget SECONDS`)"
+                "time budget reached{at}: the run stopped; the output so far is kept (raise the limit with `--time-budget TIME`, e.g. `--time-budget 30s`)"
             ));
         }
         if self.limits.animation {

@@ -31,7 +31,8 @@ impl std::fmt::Display for ReadError {
     }
 }
 
-fn kind(m: &std::fs::Metadata) -> &'static str {
+/// What a path that is not a regular file is, for messages ("a named pipe", "a device", …).
+pub fn kind(m: &std::fs::Metadata) -> &'static str {
     #[cfg(unix)]
     {
         use std::os::unix::fs::FileTypeExt;

@@ -95,7 +95,8 @@ pub struct Args {
     #[arg(long, value_name = "DIR")]
     frames: Option<PathBuf>,
     /// A batch: run every seed in A..B (B excluded) or A..=B, each written to the -o
-    /// template with `{seed}` replaced, with a manifest; resumable (docs/batch.md).
+    /// template with `{seed}` replaced, with a manifest; resumable. One run per shard
+    /// at a time: a second stops with exit 75 naming the first (docs/batch.md).
     #[arg(long, value_name = "A..B")]
     seeds: Option<String>,
     /// With --seeds: run only shard K of N (the seeds at positions ≡ K mod N; K from 0).
@@ -152,9 +153,23 @@ fn load_bundle(
         return Ok((b, vec![file.to_path_buf()]));
     }
     let built = if stdin {
-        let mut text = String::new();
-        std::io::Read::read_to_string(&mut std::io::stdin(), &mut text)
+        // At most the compiler's source limit: standard input can be endless.
+        let max = mdg_compiler::source::MAX_SOURCE_BYTES;
+        let mut bytes = Vec::new();
+        std::io::Read::read_to_end(&mut std::io::Read::take(std::io::stdin().lock(), max as u64 + 1), &mut bytes)
             .map_err(|e| (2, format!("cannot read standard input: {e}")))?;
+        if bytes.len() > max {
+            return Err((
+                2,
+                format!(
+                    "standard input is larger than the {} MiB source limit ({max} bytes); split the grammar into \
+                     files joined with `@import`",
+                    max >> 20
+                ),
+            ));
+        }
+        let text =
+            mdg_compiler::source::decode_source(bytes).map_err(|e| (2, format!("cannot read standard input: {e}")))?;
         let loader = MemLoader { files: [(file.to_path_buf(), text)].into(), disk_fallback: true };
         driver::build(&loader, file, opts)
     } else {
@@ -459,7 +474,16 @@ fn run_batch(
     if cli.png.is_some() || cli.frames.is_some() {
         return Err((2, "--seeds writes one model per seed; --png and --frames are for single runs".into()));
     }
-    let mut manifest = Manifest::open(&batch::manifest_path(template, shard)).map_err(|e| (2, e))?;
+    let in_shard = |s: u64| s >= seeds.start && s < seeds.end && (s - seeds.start) % shard.count == shard.index;
+    let (mut manifest, warnings) = match Manifest::open(&batch::manifest_path(template, shard), in_shard) {
+        Ok(m) => m,
+        // EX_TEMPFAIL: the shard is being run; try again later.
+        Err(batch::OpenError::Busy(m)) => return Err((75, m)),
+        Err(batch::OpenError::Refused(m)) => return Err((2, m)),
+    };
+    for w in warnings {
+        eprintln!("warning: {w}");
+    }
     let (mut ran, mut skipped) = (0u64, 0u64);
     let todo: Vec<u64> = batch::shard_seeds(seeds, shard).collect();
     let bar = indicatif::ProgressBar::new(todo.len() as u64);

@@ -16,8 +16,8 @@ pub struct GuidedArgs {
     /// `guide` sections (format in docs/guided.md).
     #[arg(long, value_name = "FILE.json")]
     pub guides: Option<PathBuf>,
-    /// Guided search: time budget, e.g. `200ms`, `0.5s`, `150` (milliseconds) or
-    /// `none` (the default: every generation runs, so the model is the same on any
+    /// Guided search: time budget with its unit, e.g. `200ms`, `0.5s`, or `none`
+    /// (a bare number is refused; the default: every generation runs, so the model is the same on any
     /// machine; the `search` section's `budget` is for interactive use, `mdg-view`).
     #[arg(long, value_name = "TIME")]
     pub budget: Option<String>,
@@ -71,10 +71,10 @@ impl GuidedArgs {
     }
 }
 
-/// Parses `--budget`: `200ms`, `0.5s`, `150` (ms), or `none` (bounded like every
-/// duration flag: [`crate::args::parse_duration`]).
+/// Parses `--budget`: `200ms`, `0.5s` or `none`; a bare number is refused (it was
+/// milliseconds here and seconds for `--time-budget`): [`crate::args::parse_duration`].
 pub fn parse_budget(s: &str) -> Result<Option<Duration>, String> {
-    crate::args::parse_duration("--budget", s, crate::args::BareUnit::Milliseconds)
+    crate::args::parse_duration("--budget", s)
 }
 
 /// Parses `--particles`: `N` or `FIRST:LAST`.
@@ -239,7 +239,7 @@ mod tests {
     fn budgets_and_particles_parse() {
         assert_eq!(parse_budget("200ms"), Ok(Some(Duration::from_millis(200))));
         assert_eq!(parse_budget("0.5s"), Ok(Some(Duration::from_millis(500))));
-        assert_eq!(parse_budget("150"), Ok(Some(Duration::from_millis(150))));
+        assert!(parse_budget("150").is_err_and(|e| e.contains("write 150s or 150000ms")));
         assert_eq!(parse_budget("none"), Ok(None));
         for bad in ["", "-3ms", "0", "fast", "1e30s"] {
             assert!(parse_budget(bad).is_err(), "{bad}");
