@@ -262,15 +262,20 @@ fn a_corrupted_bundle_is_an_invalid_bundle_not_a_panic() {
 }
 
 #[test]
-fn a_picture_larger_than_8192_is_a_usage_error() {
+fn a_picture_larger_than_8192_or_4096x4096_pixels_is_a_usage_error() {
     let dir = scratch("size");
     std::fs::write(dir.join("a.mdg"), TRIANGLE).expect("ok");
     for bad in ["8193x10", "10x8193", "0x10"] {
         let (o, took) = mdg_run(&dir, &["a.mdg", "-o", "a.obj", "--size", bad]);
         assert_ended(&o, took, 2, 60);
-        assert_eq!(stderr(&o), format!("mdg-run: --size {bad}: expected WIDTHxHEIGHT, each 1..8192\n"));
+        assert_eq!(stderr(&o), format!("mdg-run: --size {bad}: expected WIDTHxHEIGHT, each 1..8192, e.g. 1024x768\n"));
     }
+    // A side may be 8192, but a picture at most 4096x4096 pixels: 8192x8192 took
+    // 3.8 GB (issue 35).
     let (o, took) = mdg_run(&dir, &["a.mdg", "-o", "a.obj", "--size", "8192x8192"]);
+    assert_ended(&o, took, 2, 60);
+    assert!(stderr(&o).contains("67108864 pixels, more than the 16777216 (4096x4096)"), "{}", stderr(&o));
+    let (o, took) = mdg_run(&dir, &["a.mdg", "-o", "a.obj", "--size", "8192x2048"]);
     assert_ended(&o, took, 0, 60);
     // mdg-view has the same limit (checked before any Vulkan work).
     let (o, took) = run_in(&dir, env!("CARGO_BIN_EXE_mdg-view"), &["a.mdg", "--png", "a.png", "--size", "16384x10"]);

@@ -134,10 +134,7 @@ pub fn default_output(input: &Path, ext: &str) -> PathBuf {
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), Failure> {
-    match s.split_once('x').and_then(|(a, b)| Some((a.parse::<u32>().ok()?, b.parse::<u32>().ok()?))) {
-        Some((w, h)) if w > 0 && h > 0 && w <= 8192 && h <= 8192 => Ok((w, h)),
-        _ => Err((2, format!("--size {s}: expected WIDTHxHEIGHT, each 1..8192"))),
-    }
+    crate::args::parse_picture_size(s).map_err(|e| (2, e))
 }
 
 /// The bundle of `file`, and the files read to make it (the source and its imports).

@@ -112,14 +112,7 @@ pub struct Args {
 /// The most views `--turntable` renders.
 const MAX_TURNTABLE: u32 = 360;
 
-/// The largest picture side, as `mdg-run --size` (an 8192² RGBA picture is 256 MiB).
-const MAX_SIDE: u32 = 8192;
 
-fn parse_size(s: &str) -> Option<(u32, u32)> {
-    let (w, h) = s.split_once(['x', 'X'])?;
-    let (w, h) = (w.trim().parse().ok()?, h.trim().parse().ok()?);
-    (w > 0 && h > 0 && w <= MAX_SIDE && h <= MAX_SIDE).then_some((w, h))
-}
 
 /// `dir/stem-NN.ext` beside `path`.
 fn numbered(path: &Path, i: u32, n: u32) -> PathBuf {
@@ -220,9 +213,12 @@ fn camera_pose(arg: &str) -> Result<Option<Pose>, Error> {
 }
 
 pub fn run(cli: Args) -> ExitCode {
-    let Some(size) = parse_size(&cli.size) else {
-        eprintln!("mdg-view: --size {}: expected WIDTHxHEIGHT, each 1..{MAX_SIDE}, e.g. 1024x768", cli.size);
-        return ExitCode::from(2);
+    let size = match crate::args::parse_picture_size(&cli.size) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("mdg-view: {e}");
+            return ExitCode::from(2);
+        }
     };
     let opts = match cli.compile.options() {
         Ok(o) => o,

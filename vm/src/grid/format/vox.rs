@@ -14,14 +14,75 @@ const BLOCK_KEY: &str = "_mdg_block";
 /// The `_r` byte of the identity rotation.
 const IDENTITY_ROTATION: u8 = 0b0000100;
 
+/// Walks the chunks of a `.vox` file (`VOX `, version, then `MAIN` with its
+/// children, each chunk an id, a content size, a children size): every size must
+/// fit in the file, and an `XYZI` chunk must hold the voxels it counts. Returns the
+/// number of `XYZI` chunks; the error names the broken chunk and its byte offset.
+fn check_chunks(bytes: &[u8]) -> Result<usize, String> {
+    let word = |at: usize| -> Option<u32> { bytes.get(at..at + 4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])) };
+    let id = |at: usize| -> String {
+        bytes.get(at..at + 4).map(|b| b.iter().map(|&c| if c.is_ascii_graphic() { c as char } else { '?' }).collect()).unwrap_or_default()
+    };
+    if bytes.len() < 20 || bytes.get(8..12) != Some(b"MAIN") {
+        return Err("corrupt .vox file: no MAIN chunk after the header".into());
+    }
+    let (Some(content), Some(children)) = (word(12), word(16)) else {
+        return Err("corrupt .vox file: the MAIN chunk is cut short".into());
+    };
+    let start = 20usize.saturating_add(content as usize);
+    let end = start.saturating_add(children as usize);
+    if end > bytes.len() {
+        return Err(format!(
+            "corrupt .vox file: the MAIN chunk declares {} bytes of chunks, but the file ends {} bytes after it starts (truncated?)",
+            children,
+            bytes.len().saturating_sub(start)
+        ));
+    }
+    let mut at = start;
+    let mut models = 0;
+    while at < end {
+        let name = id(at);
+        let (Some(c), Some(ch)) = (word(at + 4), word(at + 8)) else {
+            return Err(format!("corrupt .vox file: chunk `{name}` at byte {at} is cut short (its header needs 12 bytes)"));
+        };
+        let next = at.saturating_add(12).saturating_add(c as usize).saturating_add(ch as usize);
+        if next > end {
+            return Err(format!(
+                "corrupt .vox file: chunk `{name}` at byte {at} declares {} bytes, more than the {} left in the file",
+                c as u64 + ch as u64,
+                end - at - 12.min(end - at)
+            ));
+        }
+        if name == "XYZI" {
+            let n = word(at + 12).unwrap_or(0) as u64;
+            if c < 4 || n.saturating_mul(4) > c as u64 - 4 {
+                return Err(format!(
+                    "corrupt .vox file: chunk `XYZI` at byte {at} counts {n} voxels but holds room for {}",
+                    (c as u64).saturating_sub(4) / 4
+                ));
+            }
+            models += 1;
+        }
+        at = next;
+    }
+    Ok(models)
+}
+
 /// Reads a `.vox` file.
 pub fn read(bytes: &[u8]) -> Result<VoxelModel, String> {
     if !bytes.starts_with(b"VOX ") {
         return Err("not a MagicaVoxel file (no `VOX ` header)".into());
     }
+    // `dot_vox` skips what it cannot parse, so a broken chunk used to surface as
+    // "no model": the chunk structure is checked first, to name what is broken.
+    let models = check_chunks(bytes)?;
     let data = dot_vox::load_bytes(bytes).map_err(|e| format!("corrupt .vox file: {e}"))?;
     if data.models.is_empty() {
-        return Err("the .vox file has no model".into());
+        return Err(if models == 0 {
+            "the .vox file has no model (no SIZE and XYZI chunks)".into()
+        } else {
+            format!("corrupt .vox file: its {models} model chunk(s) could not be read (a SIZE or XYZI chunk is malformed)")
+        });
     }
     let mut ids: Vec<Option<String>> = vec![None; 256];
     for m in &data.materials {
@@ -212,5 +273,36 @@ mod tests {
         for cut in [9, 20, 30, bytes.len() - 3] {
             assert!(read(&bytes[..cut]).is_err(), "truncated at {cut}");
         }
+    }
+
+    /// The offset of the first chunk named `id` inside MAIN.
+    fn chunk_at(bytes: &[u8], id: &[u8; 4]) -> usize {
+        (20..bytes.len() - 4).find(|&i| &bytes[i..i + 4] == id).expect("chunk")
+    }
+
+    #[test]
+    fn a_broken_chunk_is_named_not_reported_as_no_model() {
+        let m = crate::grid::format::text::read("0 0 0 1:0\n1 0 0 1:0\n").expect("text");
+        let good = write(&m).expect("writes");
+        // An XYZI chunk whose voxel count is larger than the chunk.
+        let mut bad = good.clone();
+        let at = chunk_at(&bad, b"XYZI");
+        bad[at + 12..at + 16].copy_from_slice(&1000u32.to_le_bytes());
+        let e = read(&bad).expect_err("broken");
+        assert!(e.contains("chunk `XYZI` at byte") && e.contains("counts 1000 voxels"), "{e}");
+        // A chunk whose size runs past the end of the file.
+        let mut bad = good.clone();
+        let at = chunk_at(&bad, b"SIZE");
+        bad[at + 4..at + 8].copy_from_slice(&100_000u32.to_le_bytes());
+        let e = read(&bad).expect_err("broken");
+        assert!(e.contains("chunk `SIZE` at byte") && e.contains("declares"), "{e}");
+        // MAIN that claims more children than the file holds: truncated.
+        let e = read(&good[..good.len() - 10]).expect_err("truncated");
+        assert!(e.contains("MAIN chunk declares") && e.contains("truncated"), "{e}");
+        // No model at all is still "no model".
+        let mut empty = b"VOX \x96\x00\x00\x00MAIN".to_vec();
+        empty.extend([0u8; 8]);
+        let e = read(&empty).expect_err("no model");
+        assert!(e.contains("no model"), "{e}");
     }
 }
