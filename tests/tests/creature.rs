@@ -175,6 +175,8 @@ creature blocks {
         png: None,
         size: (64, 64),
         pictures: &mdg_cli::pictures::Software,
+        eval: mdg_vm::eval::EvalOptions::default(),
+        compile: Box::leak(Box::default()),
     };
     let args = CreatureArgs { generations: Some(0), ..CreatureArgs::default() };
     assert_eq!(run(&bare, &args, &common), std::process::ExitCode::SUCCESS);
@@ -223,6 +225,8 @@ fn the_mode_writes_models_pictures_and_a_gallery_and_keeps_chosen_monsters() {
         png: None,
         size: (800, 600),
         pictures: &mdg_cli::pictures::Software,
+        eval: mdg_vm::eval::EvalOptions::default(),
+        compile: Box::leak(Box::default()),
     };
     let args = CreatureArgs { generations: Some(2), population: Some(6), ..CreatureArgs::default() };
     assert_eq!(run(&b, &args, &common), std::process::ExitCode::SUCCESS);
@@ -706,6 +710,8 @@ fn creatures_that_do_not_stand_are_warned_about_an_empty_generation_is_an_error_
         png: None,
         size: (800, 600),
         pictures: &mdg_cli::pictures::Software,
+        eval: mdg_vm::eval::EvalOptions::default(),
+        compile: Box::leak(Box::default()),
     };
     let b = mdg_tests::build_source(&fliers(""));
     let t = b.extensions.creatures.as_ref().expect("table");

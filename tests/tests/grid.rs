@@ -611,6 +611,8 @@ fn induce_write_compile_generate_round_trip() {
             png: None,
             size: (64, 48),
             pictures: &mdg_cli::pictures::Software,
+            eval: mdg_vm::eval::EvalOptions::default(),
+            compile: Box::leak(Box::default()),
         };
         let code = mdg_cli::modes::grid::run(&bundle, args, &common);
         assert_eq!(code, std::process::ExitCode::SUCCESS);

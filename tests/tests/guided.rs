@@ -380,6 +380,8 @@ fn common<'a>(file: &'a std::path::Path, stats: bool) -> Common<'a> {
         png: None,
         size: (64, 48),
         pictures: &mdg_cli::pictures::Software,
+        eval: EvalOptions::default(),
+        compile: Box::leak(Box::default()),
     }
 }
 
