@@ -176,3 +176,54 @@ fn param_values_that_are_not_finite_numbers_are_refused() {
     }
     assert!(!analyze_with_params(text, &[("k", "1.5")]).has_errors());
 }
+
+// ---------------------------------------------------------------- warnings and the dump
+
+fn warnings_with<'a>(out: &'a Output, needle: &str) -> Vec<&'a String> {
+    out.stats.warnings.iter().filter(|w| w.contains(needle)).collect()
+}
+
+/// A NaN or infinite adjustment argument computed at run time is used as 0, and the
+/// run says so once, naming the rule and the line (as the overflow warning does).
+#[test]
+fn nan_and_infinite_adjustment_arguments_are_warned_with_their_rule_and_line() {
+    let out = run_source(CLAMP_IN_AN_ADJUSTMENT);
+    let w = warnings_with(&out, "NaN");
+    assert_eq!(w.len(), 1, "{:?}", out.stats.warnings);
+    assert!(w[0].contains("rule `B`") && w[0].contains("inline.mdg:3") && w[0].contains("used as 0"), "{}", w[0]);
+    let out = run_source(
+        "startshape A
+rule A { 5 * {x 1} B(0) {} }
+rule B(float t) {
+  VERTEX {} VERTEX {x 1} VERTEX {y (1e308 * 10 + t)}
+}
+",
+    );
+    let w = warnings_with(&out, "infinite");
+    assert_eq!(w.len(), 1, "{:?}", out.stats.warnings);
+    assert!(w[0].starts_with("5 adjustment argument(s)"), "{}", w[0]);
+    assert!(w[0].contains("rule `B`") && w[0].contains("inline.mdg:4"), "{}", w[0]);
+    // A finite run has no such warning.
+    assert!(run_source(
+        "startshape A\nrule A { B(2) {} }\nrule B(float t) { VERTEX {} VERTEX {x 1} VERTEX {y (log(t))} }\n"
+    )
+    .stats
+    .warnings
+    .is_empty());
+}
+
+/// The JSON dump writes a position that is not a finite number as the other formats
+/// do (0, with the run's warning), not as `null`.
+#[test]
+fn the_json_dump_writes_non_finite_positions_as_0_like_the_other_formats() {
+    let out = run_source("startshape A\nrule A { B {s 1e30} }\nrule B { VERTEX {x 1e30} VERTEX {} VERTEX {y 1} }\n");
+    assert!(!warnings_with(&out, "not finite").is_empty(), "{:?}", out.stats.warnings);
+    let mut json = Vec::new();
+    mdg_vm::export::json::write_json(&out, &mut json).expect("dump");
+    let json = String::from_utf8(json).expect("utf-8");
+    assert!(!json.contains("null"), "{json}");
+    assert!(json.starts_with("{\"vertices\":[[0.0,0.0,0.0],[0.0,0.0,0.0],[0.0,"), "{json}");
+    let mut obj = Vec::new();
+    mdg_vm::export::write(mdg_vm::export::Format::Obj, &out, &mut obj).expect("obj");
+    assert!(String::from_utf8_lossy(&obj).contains("\nv 0 0 -0"), "the OBJ writes 0 too");
+}

@@ -262,6 +262,8 @@ pub struct Expander<'b> {
     /// expansion returns carry none; this only keeps a hand-made bundle harmless.)
     lins: Lins,
     weights: Weights,
+    /// Adjustment arguments that were not finite numbers (used as 0).
+    non_finite: NonFinite,
 }
 
 impl<'b> Expander<'b> {
@@ -276,9 +278,16 @@ impl<'b> Expander<'b> {
             slots: Vec::new(),
             lins: Lins::default(),
             weights: Weights::new(b),
+            non_finite: NonFinite::default(),
         };
         e.reseed(0, 0);
         e
+    }
+
+    /// What the expansions so far used in place of adjustment arguments that were
+    /// NaN or infinite (0), as warnings naming the rule and line; empty if none.
+    pub fn warnings(&self) -> Vec<String> {
+        self.non_finite.warnings(self.b)
     }
 
     /// Restarts the random stream: PCG-64 stream `stream` at a state derived from
@@ -344,7 +353,7 @@ impl<'b> Expander<'b> {
                     pc += 1;
                     let from = cont.take().unwrap_or(base);
                     let env = Env { at: &from, depth: call.depth, slots: &self.slots };
-                    let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack, &env);
+                    let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack, &env, &mut self.non_finite);
                     let child = from.compose(&c, &mut self.lins);
                     if flags & CONT_NEXT != 0 {
                         last = child;
@@ -365,7 +374,7 @@ impl<'b> Expander<'b> {
                     pc += 1;
                     let from = cont.take().unwrap_or(base);
                     let env = Env { at: &from, depth: call.depth, slots: &self.slots };
-                    let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack, &env);
+                    let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack, &env, &mut self.non_finite);
                     last = from.compose(&c, &mut self.lins);
                 }
                 Op::Loop { step, end, chain, .. } | Op::LoopN { step, end, chain, .. } => {
@@ -387,7 +396,7 @@ impl<'b> Expander<'b> {
                     let c = if chain & bundle::ops::LOOP_FIRST_PLAIN != 0 {
                         Composite::IDENTITY
                     } else {
-                        eval_transform(b, step, &mut self.rng, &mut self.expr_stack, &env)
+                        eval_transform(b, step, &mut self.rng, &mut self.expr_stack, &env, &mut self.non_finite)
                     };
                     let chain = chain & bundle::ops::LOOP_CHAIN != 0;
                     self.loops.push(LoopRec { remaining: count, step, saved_base: base, chain });
@@ -408,7 +417,8 @@ impl<'b> Expander<'b> {
                         let from = if l.chain { last } else { base };
                         let step = l.step;
                         let env = Env { at: &from, depth: call.depth, slots: &self.slots };
-                        let c = eval_transform(b, step, &mut self.rng, &mut self.expr_stack, &env);
+                        let c =
+                            eval_transform(b, step, &mut self.rng, &mut self.expr_stack, &env, &mut self.non_finite);
                         base = from.compose(&c, &mut self.lins);
                         pc = begin as usize + 1;
                         // Runs count like calls, so a huge iterator is cut too.
@@ -693,6 +703,8 @@ struct Eval<'b> {
     site_pc: u32,
     site_mark: usize,
     site_ids: HashMap<u32, u32>,
+    /// Adjustment arguments that were not finite numbers (used as 0).
+    non_finite: NonFinite,
 }
 
 /// Evaluates a verified bundle from its start shape.
@@ -772,6 +784,7 @@ impl<'b> Eval<'b> {
             site_pc: 0,
             site_mark: 0,
             site_ids: HashMap::new(),
+            non_finite: NonFinite::default(),
             stop_pc: None,
             protos: b
                 .code
@@ -845,7 +858,8 @@ impl<'b> Eval<'b> {
             return from.compose(c, &mut self.lins);
         }
         let slots = self.slots.get(base as usize..top as usize).unwrap_or(&[]);
-        let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack, &Env { at: from, depth, slots });
+        let env = Env { at: from, depth, slots };
+        let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack, &env, &mut self.non_finite);
         from.compose(&c, &mut self.lins)
     }
 
@@ -1971,6 +1985,8 @@ impl<'b> Eval<'b> {
             // Isosurface instances under non-uniform scales refer to these.
             self.out.lins = std::mem::take(&mut self.lins.0).into_iter().map(|n| (n, n.determinant().cbrt())).collect();
         }
+        let non_finite = self.non_finite.warnings(self.b);
+        self.out.stats.warnings.extend(non_finite);
         let bad = self.out.non_finite_positions_checking(self.suspect_instances);
         if bad > 0 {
             self.out.stats.warnings.push(format!(
@@ -2045,8 +2061,69 @@ impl Env<'_> {
     }
 }
 
+/// Adjustment arguments computed at run time that were NaN or infinite (each used
+/// as 0, which the run reports once per kind, at the first list that had one).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct NonFinite {
+    nan: u64,
+    infinite: u64,
+    /// The first dynamic transform with such an argument.
+    first_nan: Option<u32>,
+    first_infinite: Option<u32>,
+}
+
+impl NonFinite {
+    #[cold]
+    #[inline(never)]
+    fn note(&mut self, xf: u32, v: f64) {
+        if v.is_nan() {
+            self.nan += 1;
+            self.first_nan.get_or_insert(xf);
+        } else {
+            self.infinite += 1;
+            self.first_infinite.get_or_insert(xf);
+        }
+    }
+
+    /// The warnings for what was noted: where (the rule and line of the op whose
+    /// adjustment list has transform `xf`), what, and that 0 was used.
+    fn warnings(&self, b: &Bundle) -> Vec<String> {
+        let at = |xf: u32| {
+            let pc = b.code.iter().position(|op| match *op {
+                Op::Call { xf: x, .. } | Op::Draw { xf: x, .. } | Op::Iso { xf: x, .. } => x == xf,
+                Op::Loop { step, .. } | Op::LoopN { step, .. } => step == xf,
+                _ => false,
+            });
+            pc.map(|pc| where_op(b, pc as u32)).unwrap_or_default()
+        };
+        let mut w = Vec::new();
+        if let Some(xf) = self.first_nan {
+            w.push(format!(
+                "{} adjustment argument(s) computed as NaN (not a number: `0/0`, `log(-1)`, `sqrt(-1)`…){}: used as 0",
+                self.nan,
+                at(xf)
+            ));
+        }
+        if let Some(xf) = self.first_infinite {
+            w.push(format!(
+                "{} adjustment argument(s) computed as infinite (an overflow or a division by 0){}: used as 0",
+                self.infinite,
+                at(xf)
+            ));
+        }
+        w
+    }
+}
+
 #[inline]
-fn eval_transform(b: &Bundle, xf: u32, rng: &mut Pcg, stack: &mut Vec<f64>, env: &Env) -> Composite {
+fn eval_transform(
+    b: &Bundle,
+    xf: u32,
+    rng: &mut Pcg,
+    stack: &mut Vec<f64>,
+    env: &Env,
+    bad: &mut NonFinite,
+) -> Composite {
     match &b.transforms[xf as usize] {
         Transform::Const(c) => *c,
         Transform::Dynamic { adjs, divisor } => {
@@ -2065,6 +2142,7 @@ fn eval_transform(b: &Bundle, xf: u32, rng: &mut Pcg, stack: &mut Vec<f64>, env:
                             if v.is_finite() {
                                 v as f32
                             } else {
+                                bad.note(xf, v);
                                 0.0
                             }
                         }
