@@ -929,7 +929,8 @@ impl<'a> Checker<'a> {
             }
         };
         if divisor {
-            if value <= 0.0 {
+            // (NaN and infinity too: every step would be NaN or 0.)
+            if !(value > 0.0 && value.is_finite()) {
                 self.diags.push(
                     Diagnostic::error("E0402", c.span(), "the iterator divisor must be greater than 0")
                         .with_label(format!("this is {value}")),
@@ -1502,8 +1503,19 @@ impl<'a> Checker<'a> {
                             other => num_of(other).map(|x| x.0),
                         })
                         .collect();
+                    // The grid stores f32: a bound beyond it would be infinite.
+                    let finite = |x: f64| x.is_finite() && x.abs() <= f32::MAX as f64;
                     if let (Some(lo), Some(hi)) = (v[0], v[1]) {
-                        if lo >= hi {
+                        if !(finite(lo) && finite(hi)) {
+                            self.diags.push(
+                                Diagnostic::error(
+                                    "E0406",
+                                    dir_arg_span(&args[0]).to(dir_arg_span(&args[1])),
+                                    "the grid's minimum and maximum must be finite numbers",
+                                )
+                                .with_label(format!("this is {lo} to {hi}")),
+                            );
+                        } else if lo >= hi {
                             self.diags.push(Diagnostic::error(
                                 "E0406",
                                 dir_arg_span(&args[0]).to(dir_arg_span(&args[1])),

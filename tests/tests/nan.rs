@@ -227,3 +227,62 @@ fn the_json_dump_writes_non_finite_positions_as_0_like_the_other_formats() {
     mdg_vm::export::write(mdg_vm::export::Format::Obj, &out, &mut obj).expect("obj");
     assert!(String::from_utf8_lossy(&obj).contains("\nv 0 0 -0"), "the OBJ writes 0 too");
 }
+
+/// The other places a run uses a fallback for a value that is not a finite number
+/// say so too: a definition weight (used as 0), a selector function (the first
+/// definition), an iterator count (NaN runs nothing).
+#[test]
+fn nan_weights_selector_values_and_counts_are_warned() {
+    let out = run_source(
+        "startshape A
+rule A { B(0) {} }
+rule B(float t) (log(t - 1)) { VERTEX {} VERTEX {x 1} VERTEX {y 1} }
+rule B(float t) (1) { VERTEX {} VERTEX {x 2} VERTEX {y 2} }
+",
+    );
+    let w = warnings_with(&out, "weight");
+    assert_eq!(w.len(), 1, "{:?}", out.stats.warnings);
+    assert!(w[0].contains("rule `B`") && w[0].contains("used as 0"), "{}", w[0]);
+    // The NaN weight is 0, so the other definition runs.
+    assert_eq!(positions(&out)[1], [2.0, 0.0, 0.0]);
+
+    let out = run_source(
+        "startshape A
+selector B function { log(depth - 5) }
+rule A { B {} }
+rule B 1 { VERTEX {} VERTEX {x 1} VERTEX {y 1} }
+rule B 2 { VERTEX {} VERTEX {x 2} VERTEX {y 2} }
+",
+    );
+    let w = warnings_with(&out, "selector");
+    assert_eq!(w.len(), 1, "{:?}", out.stats.warnings);
+    assert!(w[0].contains("rule `B`") && w[0].contains("first definition"), "{}", w[0]);
+
+    let out = run_source(
+        "startshape A
+rule A { B(0) {} }
+rule B(int n) { VERTEX {} VERTEX {x 1} VERTEX {y 1} (floor(log(n - 1))) * {x 1} C {} }
+rule C { VERTEX {} VERTEX {x 1} VERTEX {y 1} }
+",
+    );
+    let w = warnings_with(&out, "count");
+    assert_eq!(w.len(), 1, "{:?}", out.stats.warnings);
+    assert!(w[0].contains("rule `B`") && w[0].contains("inline.mdg:3") && w[0].contains("no runs"), "{}", w[0]);
+    assert_eq!(positions(&out).len(), 3);
+}
+
+/// Compile-time values that must be finite: an iterator divisor (NaN passed the
+/// `> 0` test and made every step NaN) and an isosurface's range (NaN passed the
+/// `min < max` test, and ±1e39 is infinite as the f32 the grid stores).
+#[test]
+fn nan_or_infinite_divisors_and_isosurface_ranges_are_refused() {
+    let codes = |text: &str| -> Vec<&'static str> { analyze_mem(text).diagnostics.iter().map(|d| d.code).collect() };
+    for divisor in ["(0/0)", "(log(-1))", "(1e308 * 10)"] {
+        let text = format!("startshape A\nrule A {{ 5/{divisor} * {{x 1}} B {{}} }}\nrule B {{ VERTEX {{}} VERTEX {{x 1}} VERTEX {{y 1}} }}\n");
+        assert_eq!(codes(&text), vec!["E0402"], "divisor {divisor}");
+    }
+    for range in ["(0/0) 1 8", "-1 (0/0) 8", "(log(-1)) (sqrt(-1)) 8", "-1e39 1 8", "-1 (1e308 * 10) 8"] {
+        let text = format!("startshape A\nisosurface S {{ xyz {range} ; function {{ x*x + y*y + z*z - 0.5 }} }}\nrule A {{ S {{}} }}\n");
+        assert_eq!(codes(&text), vec!["E0406"], "range {range}");
+    }
+}

@@ -339,6 +339,7 @@ impl<'b> Expander<'b> {
             &mut self.sequential,
             &mut self.expr_stack,
             &mut self.weights,
+            &mut self.non_finite,
         ) as usize;
         self.sequential.clear();
         self.loops.clear();
@@ -382,7 +383,12 @@ impl<'b> Expander<'b> {
                         Op::LoopN { count: e, .. } => {
                             let at = cont.unwrap_or(base);
                             let env = Env { at: &at, depth: call.depth, slots: &self.slots };
-                            env.eval(&b.exprs[e as usize], &mut self.rng, &mut self.expr_stack) as u64
+                            let n = env.eval(&b.exprs[e as usize], &mut self.rng, &mut self.expr_stack);
+                            if n.is_nan() {
+                                self.non_finite.note(Fallback::Count, Site::Op(pc as u32));
+                            }
+                            // Saturating: negative and NaN counts give no runs.
+                            n as u64
                         }
                         Op::Loop { count, .. } => count,
                         _ => 0,
@@ -889,6 +895,7 @@ impl<'b> Eval<'b> {
             &mut self.sequential,
             &mut self.expr_stack,
             &mut self.weights,
+            &mut self.non_finite,
         )
     }
 
@@ -1112,8 +1119,12 @@ impl<'b> Eval<'b> {
                     let count = match op {
                         Op::LoopN { count: e, .. } => {
                             let at = cont.unwrap_or(act.base);
+                            let n = self.value(e, &at, act.depth, act.slot_base, act.slot_top);
+                            if n.is_nan() {
+                                self.non_finite.note(Fallback::Count, Site::Op(act.pc));
+                            }
                             // Saturating: negative and NaN counts give no runs.
-                            self.value(e, &at, act.depth, act.slot_base, act.slot_top) as u64
+                            n as u64
                         }
                         Op::Loop { count, .. } => count,
                         _ => 0,
@@ -2061,55 +2072,99 @@ impl Env<'_> {
     }
 }
 
-/// Adjustment arguments computed at run time that were NaN or infinite (each used
-/// as 0, which the run reports once per kind, at the first list that had one).
+/// Values computed at run time that were NaN or infinite where a finite number is
+/// needed, each replaced by a fallback the run reports once per kind, at the first
+/// place it happened.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct NonFinite {
-    nan: u64,
-    infinite: u64,
-    /// The first dynamic transform with such an argument.
-    first_nan: Option<u32>,
-    first_infinite: Option<u32>,
+    /// Per [`Fallback`]: how many, and where the first was.
+    count: [u64; 5],
+    first: [Option<Site>; 5],
+}
+
+/// What a value that was not a finite number was replaced by.
+#[derive(Clone, Copy, Debug)]
+enum Fallback {
+    /// An adjustment argument that was NaN: 0.
+    NanArgument,
+    /// An adjustment argument that was infinite: 0.
+    InfiniteArgument,
+    /// A definition weight: 0.
+    Weight,
+    /// A function selector's value: the first definition.
+    Selector,
+    /// A NaN iterator count: no runs.
+    Count,
+}
+
+/// Where a fallback happened: in an adjustment list (a dynamic transform), a rule's
+/// selection, or an op.
+#[derive(Clone, Copy, Debug)]
+enum Site {
+    Transform(u32),
+    Rule(u32),
+    Op(u32),
 }
 
 impl NonFinite {
     #[cold]
     #[inline(never)]
-    fn note(&mut self, xf: u32, v: f64) {
-        if v.is_nan() {
-            self.nan += 1;
-            self.first_nan.get_or_insert(xf);
-        } else {
-            self.infinite += 1;
-            self.first_infinite.get_or_insert(xf);
-        }
+    fn note(&mut self, what: Fallback, at: Site) {
+        let k = what as usize;
+        self.count[k] += 1;
+        self.first[k].get_or_insert(at);
     }
 
-    /// The warnings for what was noted: where (the rule and line of the op whose
-    /// adjustment list has transform `xf`), what, and that 0 was used.
+    /// An adjustment argument `v` of transform `xf` that is not finite.
+    #[cold]
+    #[inline(never)]
+    fn argument(&mut self, xf: u32, v: f64) {
+        let what = if v.is_nan() { Fallback::NanArgument } else { Fallback::InfiniteArgument };
+        self.note(what, Site::Transform(xf));
+    }
+
+    /// The warnings for what was noted, each naming the rule and line of its first
+    /// occurrence.
     fn warnings(&self, b: &Bundle) -> Vec<String> {
-        let at = |xf: u32| {
-            let pc = b.code.iter().position(|op| match *op {
-                Op::Call { xf: x, .. } | Op::Draw { xf: x, .. } | Op::Iso { xf: x, .. } => x == xf,
-                Op::Loop { step, .. } | Op::LoopN { step, .. } => step == xf,
-                _ => false,
-            });
-            pc.map(|pc| where_op(b, pc as u32)).unwrap_or_default()
+        let op_at = |pc: usize| where_op(b, pc as u32);
+        let at = |site: Site| match site {
+            Site::Transform(xf) => b
+                .code
+                .iter()
+                .position(|op| match *op {
+                    Op::Call { xf: x, .. } | Op::Draw { xf: x, .. } | Op::Iso { xf: x, .. } => x == xf,
+                    Op::Loop { step, .. } | Op::LoopN { step, .. } => step == xf,
+                    _ => false,
+                })
+                .map(op_at)
+                .unwrap_or_default(),
+            Site::Rule(r) => b
+                .rules
+                .get(r as usize)
+                .map(|rule| match rule.defs.first() {
+                    Some(d) => where_op(b, d.start),
+                    None => format!(" in rule `{}`", b.string(rule.name)),
+                })
+                .unwrap_or_default(),
+            Site::Op(pc) => op_at(pc as usize),
         };
         let mut w = Vec::new();
-        if let Some(xf) = self.first_nan {
-            w.push(format!(
-                "{} adjustment argument(s) computed as NaN (not a number: `0/0`, `log(-1)`, `sqrt(-1)`…){}: used as 0",
-                self.nan,
-                at(xf)
-            ));
-        }
-        if let Some(xf) = self.first_infinite {
-            w.push(format!(
-                "{} adjustment argument(s) computed as infinite (an overflow or a division by 0){}: used as 0",
-                self.infinite,
-                at(xf)
-            ));
+        for (k, (&n, first)) in self.count.iter().zip(&self.first).enumerate() {
+            let Some(site) = *first else { continue };
+            let at = at(site);
+            w.push(match k {
+                0 => format!(
+                    "{n} adjustment argument(s) computed as NaN (not a number: `0/0`, `log(-1)`, `sqrt(-1)`…){at}: used as 0"
+                ),
+                1 => format!(
+                    "{n} adjustment argument(s) computed as infinite (an overflow or a division by 0){at}: used as 0"
+                ),
+                2 => format!("{n} definition weight(s) computed as NaN or infinite{at}: used as 0"),
+                3 => format!(
+                    "{n} selector function value(s) computed as NaN or infinite{at}: the first definition was chosen"
+                ),
+                _ => format!("{n} iterator count(s) computed as NaN{at}: no runs"),
+            });
         }
         w
     }
@@ -2142,7 +2197,7 @@ fn eval_transform(
                             if v.is_finite() {
                                 v as f32
                             } else {
-                                bad.note(xf, v);
+                                bad.argument(xf, v);
                                 0.0
                             }
                         }
@@ -2187,6 +2242,7 @@ fn select_def(
     sequential: &mut HashMap<u32, (usize, u32)>,
     stack: &mut Vec<f64>,
     weights: &mut Weights,
+    bad: &mut NonFinite,
 ) -> u32 {
     let rule = &b.rules[rule_idx as usize];
     let defs = &rule.defs;
@@ -2208,6 +2264,7 @@ fn select_def(
                     if v.is_finite() {
                         v as f32
                     } else {
+                        bad.note(Fallback::Weight, Site::Rule(rule_idx));
                         0.0
                     }
                 }
@@ -2218,7 +2275,13 @@ fn select_def(
     }
     // (The function selector's value is drawn here, after the weights, as before.)
     let function = match rule.selector {
-        Selector::Function(e) => expr::eval(&b.exprs[e as usize], &vars(), args, rng, stack),
+        Selector::Function(e) => {
+            let v = expr::eval(&b.exprs[e as usize], &vars(), args, rng, stack);
+            if !v.is_finite() {
+                bad.note(Fallback::Selector, Site::Rule(rule_idx));
+            }
+            v
+        }
         _ => 0.0,
     };
     let w = if dynamic { &weights.values } else { &weights.constant[rule_idx as usize] };
