@@ -308,7 +308,8 @@ impl<'a> Expander<'a> {
             value = value.round();
         }
         if let (Some(lo), Some(hi)) = (min, max) {
-            value = value.clamp(lo.min(hi), hi.max(lo));
+            // (Finite bounds, checked above; the language's clamp never panics.)
+            value = mdg_vm::expr::clamp(value, lo, hi);
         }
         if ty.text == "bool" && value != 0.0 {
             self.out.defines.entry(name.text.clone()).or_insert(None);
