@@ -262,7 +262,7 @@ pub struct Expander<'b> {
     /// expansion returns carry none; this only keeps a hand-made bundle harmless.)
     lins: Lins,
     weights: Weights,
-    /// Adjustment arguments that were not finite numbers (used as 0).
+    /// Computed values that were not finite numbers, and the fallbacks used.
     non_finite: NonFinite,
 }
 
@@ -284,8 +284,9 @@ impl<'b> Expander<'b> {
         e
     }
 
-    /// What the expansions so far used in place of adjustment arguments that were
-    /// NaN or infinite (0), as warnings naming the rule and line; empty if none.
+    /// The fallbacks the expansions so far used for computed values that were NaN or
+    /// infinite (adjustment arguments, weights, selector values, counts), as
+    /// warnings naming the rule and line; empty if none.
     pub fn warnings(&self) -> Vec<String> {
         self.non_finite.warnings(self.b)
     }
@@ -709,7 +710,7 @@ struct Eval<'b> {
     site_pc: u32,
     site_mark: usize,
     site_ids: HashMap<u32, u32>,
-    /// Adjustment arguments that were not finite numbers (used as 0).
+    /// Computed values that were not finite numbers, and the fallbacks used.
     non_finite: NonFinite,
 }
 
