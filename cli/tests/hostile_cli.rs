@@ -85,6 +85,38 @@ fn time_budgets_that_are_not_positive_finite_times_are_refused() {
     }
 }
 
+/// Issue 35: `clamp` with NaN bounds (one `log(-1)` or `0/0` away) made `mdg-run`
+/// exit 101 and `mdgc build` panic while folding constants. Now every command ends
+/// normally, the run warns that NaN arguments were used as 0 and `mdgc check` shows
+/// the folded one (W0013); the source and its bundle give the same model.
+#[test]
+fn clamp_with_nan_bounds_runs_and_builds_without_a_panic() {
+    let dir = scratch("clamp-nan");
+    let src = "startshape A
+isosurface S { xyz -1 1 8 ; function { clamp(x*x + y*y + z*z - 0.5, log(-1), 0/0) } }
+rule A { B(0) {} S {} VERTEX {} VERTEX {x 1} VERTEX {y clamp(1, log(-1), 0/0) x 3} }
+rule B(float t) {
+  VERTEX {} VERTEX {x 1} VERTEX {y clamp(1, sqrt(t - 1), log(t - 1)) x 2}
+  if (clamp(1, sqrt(t - 1), log(t - 1)) > 0) { VERTEX {} }
+}
+";
+    std::fs::write(dir.join("a.mdg"), src).expect("ok");
+    let (o, took) = mdgc(&dir, &["check", "a.mdg"]);
+    assert_ended(&o, took, 0, 60);
+    assert!(stderr(&o).contains("W0013"), "{}", stderr(&o));
+    let (o, took) = mdgc(&dir, &["build", "a.mdg", "-o", "a.mdgb"]);
+    assert_ended(&o, took, 0, 60);
+    for input in ["a.mdg", "a.mdgb"] {
+        let out = format!("{input}.json");
+        let (o, took) = mdg_run(&dir, &[input, "-o", &out, "--format", "json"]);
+        assert_ended(&o, took, 0, 60);
+        assert!(stderr(&o).contains("computed as NaN") && stderr(&o).contains("used as 0"), "{}", stderr(&o));
+    }
+    let json = |f: &str| std::fs::read_to_string(dir.join(f)).expect("dump");
+    assert_eq!(json("a.mdg.json"), json("a.mdgb.json"));
+    assert!(json("a.mdg.json").starts_with("{\"vertices\":[[0.0,0.0,0.0],[1.0,0.0,0.0],[2.0,0.0,0.0]"));
+}
+
 #[test]
 fn a_guide_file_with_points_near_f64_max_is_refused() {
     let dir = scratch("guide-max");

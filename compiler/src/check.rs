@@ -933,7 +933,8 @@ impl<'a> Checker<'a> {
             }
         };
         if divisor {
-            if value <= 0.0 {
+            // (NaN and infinity too: every step would be NaN or 0.)
+            if !(value > 0.0 && value.is_finite()) {
                 self.diags.push(
                     Diagnostic::error("E0402", c.span(), "the iterator divisor must be greater than 0")
                         .with_label(format!("this is {value}")),
@@ -993,10 +994,33 @@ impl<'a> Checker<'a> {
                             self.unit_error(n);
                         }
                     }
-                    Arg::Expr(e) => self.expr(e, false, true),
+                    Arg::Expr(e) => {
+                        let before = self.diags.len();
+                        self.expr(e, false, true);
+                        if self.diags.len() == before {
+                            self.non_finite_argument(e);
+                        }
+                    }
                 }
             }
         }
+    }
+
+    /// W0013: an adjustment argument whose compile-time value is NaN or infinite
+    /// (`y (0/0)`, `s (1e308 * 10)`): the transform uses 0 for it, as evaluation does
+    /// for such a value computed at run time.
+    fn non_finite_argument(&mut self, e: &Expr) {
+        let Some(v) = self.const_value(e).filter(|v| !v.is_finite()) else { return };
+        let what = if v.is_nan() { "NaN (not a number)" } else { "infinite" };
+        self.diags.push(
+            Diagnostic::warning("W0013", e.span, format!("this adjustment argument is {what}"))
+                .with_label(match v {
+                    v if v.is_nan() => "this is NaN",
+                    v if v > 0.0 => "this is infinity",
+                    _ => "this is -infinity",
+                })
+                .with_note("an argument that is not a finite number is used as 0 (at run time too, with a warning)"),
+        );
     }
 
     /// W0008: a `[ … ]` list that Context Free would reorder (CF3 applies single-bracket
@@ -1483,8 +1507,19 @@ impl<'a> Checker<'a> {
                             other => num_of(other).map(|x| x.0),
                         })
                         .collect();
+                    // The grid stores f32: a bound beyond it would be infinite.
+                    let finite = |x: f64| x.is_finite() && x.abs() <= f32::MAX as f64;
                     if let (Some(lo), Some(hi)) = (v[0], v[1]) {
-                        if lo >= hi {
+                        if !(finite(lo) && finite(hi)) {
+                            self.diags.push(
+                                Diagnostic::error(
+                                    "E0406",
+                                    dir_arg_span(&args[0]).to(dir_arg_span(&args[1])),
+                                    "the grid's minimum and maximum must be finite numbers",
+                                )
+                                .with_label(format!("this is {lo} to {hi}")),
+                            );
+                        } else if lo >= hi {
                             self.diags.push(Diagnostic::error(
                                 "E0406",
                                 dir_arg_span(&args[0]).to(dir_arg_span(&args[1])),

@@ -2386,6 +2386,29 @@ Fix: Check the file with `mdgc check FILE` (which reads up to 16 MiB), split the
         example: Editor("a document of more than 2 MiB opened in the editor"),
     },
     Code {
+        code: "W0013",
+        severity: Warning,
+        title: "adjustment argument is not a finite number",
+        explanation: r#"An adjustment argument computed at compile time is NaN (not a number: `0/0`, `log(-1)`, `sqrt(-1)`, `asin(2)`, or a function of one, such as `clamp(1, log(-1), 2)`) or infinite (`1e308 * 10`, `1 / 0`, `exp(1000)`). No position, angle or scale can be made of it, so the adjustment uses 0 in its place (the other adjustments of the list still apply); an argument computed at run time that is not a finite number is also used as 0, and the run reports how many there were and where.
+
+In the example: `log(-1)` is NaN, so `y` moves the second triangle by 0.
+
+Fix: Compute a value that exists: keep the argument of `log` and `sqrt` positive (`log(max(v, 1e-9))`), divide by something that is not 0, and keep exponents small."#,
+        example: Program(
+            r#"startshape A
+
+rule A {
+  B {}
+  B {y (log(-1)) x 2}
+}
+
+rule B {
+  VERTEX {} VERTEX {x 1} VERTEX {y 1}
+}
+"#,
+        ),
+    },
+    Code {
         code: "W0801",
         severity: Warning,
         title: "regular creature cannot pass the stability test",

@@ -250,6 +250,14 @@ impl<'a> Expander<'a> {
             }
         };
         let parsed: Option<Vec<f64>> = rest.iter().map(num).collect();
+        // Rust reads `nan`, `inf` and `1e400` as numbers; a parameter is a finite one.
+        if let Some(w) = rest.iter().find(|w| num(w).is_some_and(|v| !v.is_finite())) {
+            self.out.diagnostics.push(
+                Diagnostic::error("E0209", w.span, format!("`@param` value `{}` is not a finite number", w.text))
+                    .with_label("not a finite number"),
+            );
+            return;
+        }
         let Some(values) = parsed else {
             self.out.diagnostics.push(bad("`@param` values must be numbers (or true/false for bool)"));
             return;
@@ -283,7 +291,12 @@ impl<'a> Expander<'a> {
                 t => t.parse::<f64>().ok(),
             };
             match parsed {
-                Some(p) => value = p,
+                Some(p) if p.is_finite() => value = p,
+                Some(_) => self.out.diagnostics.push(Diagnostic::error(
+                    "E0209",
+                    name.span,
+                    format!("`--param {}={v}`: the value is not a finite number", name.text),
+                )),
                 None => self.out.diagnostics.push(Diagnostic::error(
                     "E0209",
                     name.span,
@@ -295,7 +308,8 @@ impl<'a> Expander<'a> {
             value = value.round();
         }
         if let (Some(lo), Some(hi)) = (min, max) {
-            value = value.clamp(lo.min(hi), hi.max(lo));
+            // (Finite bounds, checked above; the language's clamp never panics.)
+            value = mdg_vm::expr::clamp(value, lo, hi);
         }
         if ty.text == "bool" && value != 0.0 {
             self.out.defines.entry(name.text.clone()).or_insert(None);

@@ -901,7 +901,10 @@ impl<'a> Lower<'a> {
             let mut args = Vec::new();
             for arg in &a.args {
                 match self.arg_value(arg, angle) {
-                    Ok(v) => args.push(bundle::Arg::Const(v as f32)),
+                    // As at run time (`eval_transform`): a NaN or infinite argument
+                    // is used as 0 (the checker warns, W0013), so the source and its
+                    // bundle run alike.
+                    Ok(v) => args.push(bundle::Arg::Const(if v.is_finite() { v as f32 } else { 0.0 })),
                     Err(e) => {
                         dynamic = true;
                         args.push(bundle::Arg::Expr(e));

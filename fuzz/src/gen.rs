@@ -1,18 +1,43 @@
 //! A generator of random well-formed MDG programs for the VM target: rules with
-//! several definitions, selectors, calls with adjustments (random draws and
-//! expressions included), iterators (huge counts too), blocks, continuations, pens
-//! and sweeps, isosurfaces, functions, namespaces, transform and convolution rules,
-//! limits. Most programs compile; the VM must run every one within its limits.
+//! several definitions, selectors (function selectors too), calls with adjustments
+//! (random draws and expressions included), iterators (huge counts too), blocks,
+//! continuations, pens and sweeps, isosurfaces, functions (with parameters too),
+//! a rule with a parameter (run-time arguments, weight expressions, `if`, counts
+//! from the parameter), namespaces, transform and convolution rules, limits. Most
+//! programs compile; the VM must run every one within its limits.
+//!
+//! Expressions call every function of the VM's table (`mdg_vm::expr::FUNCTIONS`, so
+//! a function added there is generated too), and their operands are often values
+//! that are not finite numbers ([`NON_FINITE`]: `0/0`, `log(-1)`, `sqrt(-1)`,
+//! `1e308*10`…), at compile time and, through the parameter, at run time; each
+//! program also has a probe calling one function of the table with such arguments
+//! only, in an adjustment, a condition, an iteration count and an isosurface.
 
 use crate::rng::Rng;
+use mdg_vm::expr::{Func, FUNCTIONS};
 use std::fmt::Write as _;
+
+/// Subexpressions whose value is NaN or infinite (the parameter variants add its
+/// value, so they are computed at run time, not folded).
+pub const NON_FINITE: &[&str] = &[
+    "(0/0)",
+    "log(-1)",
+    "sqrt(-1)",
+    "(1e308*10)",
+    "(-1e308*10)",
+    "(1/0)",
+    "log(0)",
+    "asin(2)",
+    "acos(-2)",
+    "exp(1000)",
+    "pow(-8, 1/3)",
+    "mod(1, 0)",
+];
 
 // (No DEBUG: it prints every call; the text targets cover it.)
 const DRAWABLES: &[&str] = &["VERTEX", "VERTEX", "VERTEX", "FACENORMALS", "NEWLINE", "RESET"];
 const PENS: &[&str] = &["MOVETO", "LINETO", "BLENDTO", "SLINETO", "ALINETO"];
 const SELECTORS: &[&str] = &["random", "frequency", "depth", "scale", "sequential", "pattern"];
-const FUNCS1: &[&str] = &["sin", "cos", "sqrt", "abs", "exp", "log", "floor", "fract", "tan", "asin", "acos", "atan"];
-const FUNCS2: &[&str] = &["min", "max", "pow", "mod", "atan2", "step"];
 const VARS: &[&str] = &["x", "y", "z", "depth", "scale", "g"];
 
 struct Gen<'r> {
@@ -22,6 +47,15 @@ struct Gen<'r> {
     profiles: Vec<String>,
     isos: Vec<String>,
     functions: Vec<String>,
+    /// Functions with parameters: name and arity.
+    helpers: Vec<(String, usize)>,
+    /// Names an expression may read besides numbers and `VARS` (the parameter `t`
+    /// inside the rule `PT`).
+    locals: Vec<String>,
+    /// Whether the rule `PT(float t)` is defined (calls to it are generated then).
+    param_rule: bool,
+    /// Whether expressions may draw random numbers (not in counts and weights).
+    no_random: bool,
 }
 
 /// A random program (text). Deterministic in the generator's state.
@@ -34,6 +68,10 @@ pub fn program(rng: &mut Rng) -> String {
         profiles: Vec::new(),
         isos: Vec::new(),
         functions: Vec::new(),
+        helpers: Vec::new(),
+        locals: Vec::new(),
+        param_rule: false,
+        no_random: false,
     };
     let mut s = String::new();
     let _ = writeln!(s, "startshape R0");
@@ -42,6 +80,19 @@ pub fn program(rng: &mut Rng) -> String {
         let _ = writeln!(s, "function F0 {{ {} }}", g.expr(3, true));
         g.functions.push("F0".into());
     }
+    if g.rng.one_in(4) {
+        // A helper with parameters, inlined and folded by the compiler.
+        let f = g.any_function(false);
+        let args: Vec<String> = (0..f.arity()).map(|i| ["a", "b", "c"][i % 3].to_string()).collect();
+        let params = ["a", "b", "c"][..f.arity().max(1)].join(", ");
+        let _ = writeln!(s, "function H0({params}) {{ {}({}) }}", f.name(), args.join(", "));
+        g.helpers.push(("H0".into(), f.arity().max(1)));
+    }
+    g.param_rule = g.rng.one_in(2);
+    if g.param_rule {
+        g.param_rule_text(&mut s);
+    }
+    g.probe(&mut s);
     if g.rng.one_in(3) {
         let res = 1 + g.rng.small(0, 12);
         let body = match g.functions.first() {
@@ -65,8 +116,12 @@ pub fn program(rng: &mut Rng) -> String {
         g.profiles.push("P0".into());
     }
     if g.rng.one_in(4) && g.rules.len() > 1 {
-        let sel = g.rng.pick(SELECTORS).copied().unwrap_or("random");
-        let _ = writeln!(s, "selector R1 {sel}");
+        if g.rng.one_in(4) {
+            let _ = writeln!(s, "selector R1 function {{ {} }}", g.expr(2, true));
+        } else {
+            let sel = g.rng.pick(SELECTORS).copied().unwrap_or("random");
+            let _ = writeln!(s, "selector R1 {sel}");
+        }
     }
     if g.rng.one_in(6) {
         let _ = writeln!(s, "linerule R0");
@@ -91,7 +146,11 @@ pub fn program(rng: &mut Rng) -> String {
                 let _ = write!(header, " {}", 1 + g.rng.below(9));
             }
             let n = 1 + g.rng.below(5);
-            let body = g.body(2, n);
+            let mut body = g.body(2, n);
+            if i == 0 {
+                // The probe runs in every program.
+                body.insert_str(0, "  Q0 {}\n");
+            }
             let _ = writeln!(s, "{header} {{\n{body}}}");
         }
     }
@@ -102,6 +161,73 @@ pub fn program(rng: &mut Rng) -> String {
 }
 
 impl Gen<'_> {
+    /// A function of the table; a random one (`rand`, `randn`) only if `random`.
+    fn any_function(&mut self, random: bool) -> Func {
+        loop {
+            let f = Func::ALL[self.rng.below(FUNCTIONS.len())];
+            if random || !f.is_random() {
+                return f;
+            }
+        }
+    }
+
+    /// A subexpression that is not a finite number; with the parameter in scope, often
+    /// one computed from it at run time.
+    fn non_finite(&mut self) -> String {
+        let v = NON_FINITE[self.rng.below(NON_FINITE.len())];
+        match self.locals.first() {
+            Some(t) if self.rng.one_in(2) => {
+                ["log(t - 1)", "sqrt(t - 1)", "(t / t)", "(1e308 * 10 + t)", "(0 * (1e308 * 10) + t)"]
+                    [self.rng.below(5)]
+                .replace('t', t)
+            }
+            _ => v.to_string(),
+        }
+    }
+
+    /// `PT(float t)`: one or two definitions with weight expressions over `t`, adjustments,
+    /// a condition and an iteration count computed from it, and a recursive call
+    /// whose argument is computed (so NaN can arrive from the caller).
+    fn param_rule_text(&mut self, s: &mut String) {
+        self.locals = vec!["t".into()];
+        for _ in 0..1 + self.rng.below(2) {
+            // (`/ 1`: a float, whatever the expression's type.)
+            self.no_random = true;
+            let weight = if self.rng.one_in(2) { format!(" (({}) / 1)", self.expr(2, false)) } else { String::new() };
+            let count = self.expr(2, false);
+            self.no_random = false;
+            let adj = self.bracket();
+            let cond = self.expr(2, false);
+            let arg = self.expr(2, false);
+            let _ = writeln!(s, "rule PT(float t){weight} {{");
+            let _ = writeln!(s, "  VERTEX {{}} VERTEX {{x 1}} VERTEX {adj}");
+            let _ =
+                writeln!(s, "  if ({cond}) {{ VERTEX {{}} VERTEX {{y 1}} VERTEX {{z 1}} }} else {{ VERTEX {{x 2}} }}");
+            let _ = writeln!(s, "  (floor({count} + 0 * t)) * {{x 1}} VERTEX {{}}");
+            let _ = writeln!(s, "  PT(({arg}) / 1) {{s 0.5}}\n}}");
+        }
+        self.locals.clear();
+    }
+
+    /// One function of the table called with arguments that are not finite numbers
+    /// only: in an adjustment, a condition, an iteration count and (when there is
+    /// one) an isosurface function, in a rule the start shape calls.
+    fn probe(&mut self, s: &mut String) {
+        let f = self.any_function(false);
+        let call = |g: &mut Self| {
+            let args: Vec<String> = (0..f.arity()).map(|_| g.non_finite()).collect();
+            format!("{}({})", f.name(), args.join(", "))
+        };
+        let (a, c, n) = (call(self), call(self), call(self));
+        let _ = writeln!(s, "rule Q0 {{ VERTEX {{}} VERTEX {{x 1}} VERTEX {{y ({a}) x 2}}");
+        let _ = writeln!(s, "  if ({c} > 0) {{ VERTEX {{}} }} (floor(max(0, min(2, {n})))) * {{x 1}} VERTEX {{}} }}");
+        if self.rng.one_in(2) {
+            let iso = call(self);
+            let _ = writeln!(s, "isosurface QISO {{ xyz -1 1 4 ; function {{ x*x + y*y + z*z - 0.5 + {iso} }} }}");
+            self.isos.push("QISO".into());
+        }
+    }
+
     fn directives(&mut self, s: &mut String) {
         if self.rng.one_in(2) {
             let _ = writeln!(s, "maxdepth {}", self.rng.small(1, 200));
@@ -129,10 +255,17 @@ impl Gen<'_> {
 
     fn number(&mut self) -> String {
         match self.rng.below(10) {
-            0 => crate::mutate::INTERESTING_NUMBERS[self.rng.below(crate::mutate::INTERESTING_NUMBERS.len())]
-                .trim_start_matches('-')
-                .trim_end_matches(|c: char| c.is_ascii_alphabetic())
-                .to_string(),
+            0 => {
+                let n = crate::mutate::INTERESTING_NUMBERS[self.rng.below(crate::mutate::INTERESTING_NUMBERS.len())]
+                    .trim_start_matches('-')
+                    .trim_end_matches(|c: char| c.is_ascii_alphabetic());
+                // A literal beyond f64 (`1e309`) is E0109 and the program would not
+                // run; infinities come from `NON_FINITE` instead.
+                match n.parse::<f64>() {
+                    Ok(v) if !v.is_finite() => "1e308".to_string(),
+                    _ => n.to_string(),
+                }
+            }
             1 => format!("{}", self.rng.below(360)),
             _ => format!("{}.{}", self.rng.below(4), self.rng.below(100)),
         }
@@ -177,21 +310,28 @@ impl Gen<'_> {
     /// and `depth`-free arithmetic.
     fn expr(&mut self, depth: usize, space: bool) -> String {
         if depth == 0 || self.rng.one_in(3) {
-            return if space && self.rng.one_in(2) {
-                self.rng.pick(VARS).copied().unwrap_or("x").to_string()
-            } else {
-                self.number()
+            return match self.rng.below(6) {
+                0 => self.non_finite(),
+                1 if !self.locals.is_empty() => self.locals[self.rng.below(self.locals.len())].clone(),
+                _ if space && self.rng.one_in(2) => self.rng.pick(VARS).copied().unwrap_or("x").to_string(),
+                _ => self.number(),
             };
         }
-        match self.rng.below(6) {
+        match self.rng.below(7) {
             0 => format!("-{}", self.expr(depth - 1, space)),
-            1 => {
-                let f = self.rng.pick(FUNCS1).copied().unwrap_or("sin");
-                format!("{f}({})", self.expr(depth - 1, space))
+            1 | 2 => {
+                // Any function of the table (random draws only in rule bodies), each
+                // argument a value that is not a finite number one time in three.
+                let f = self.any_function(!space && !self.no_random);
+                let args: Vec<String> = (0..f.arity())
+                    .map(|_| if self.rng.one_in(3) { self.non_finite() } else { self.expr(depth - 1, space) })
+                    .collect();
+                format!("{}({})", f.name(), args.join(", "))
             }
-            2 => {
-                let f = self.rng.pick(FUNCS2).copied().unwrap_or("min");
-                format!("{f}({}, {})", self.expr(depth - 1, space), self.expr(depth - 1, space))
+            3 if !self.helpers.is_empty() => {
+                let (h, n) = self.helpers[self.rng.below(self.helpers.len())].clone();
+                let args: Vec<String> = (0..n).map(|_| self.expr(depth - 1, space)).collect();
+                format!("{h}({})", args.join(", "))
             }
             3 => format!("({})", self.expr(depth - 1, space)),
             _ => {
@@ -260,7 +400,13 @@ impl Gen<'_> {
                 let n = 1 + self.rng.below(3);
                 format!("{{ {}}}", self.body(depth - 1, n).replace('\n', " "))
             }
-            10 if !self.isos.is_empty() => format!("ISO {}", self.bracket()),
+            10 if !self.isos.is_empty() => {
+                let iso = self.isos[self.rng.below(self.isos.len())].clone();
+                format!("{iso} {}", self.bracket())
+            }
+            11 if self.param_rule && self.rng.one_in(2) => {
+                format!("PT(({}) / 1) {}", self.expr(2, false), self.bracket())
+            }
             _ => format!("VERTEX {{}} VERTEX {{x 1}} VERTEX {{y {}}}", self.arg()),
         }
     }
@@ -399,7 +545,40 @@ mod tests {
                 mdg_compiler::check::CheckOptions { require_start: true },
             );
             ok += usize::from(!a.has_errors());
+            assert!(text.len() <= crate::Target::VmRun.max_len(), "{} bytes:\n{text}", text.len());
         }
         assert!(ok > 150, "only {ok} of 200 generated programs compile");
+    }
+
+    /// Every function of the VM's table is called with an argument that is not a
+    /// finite number (one of [`NON_FINITE`], or one computed from the parameter), and
+    /// with nothing but such arguments in the probe (`clamp(log(-1), 0/0, …)` is what
+    /// made `f64::clamp` panic); the parameter rule computes them at run time.
+    #[test]
+    fn every_function_gets_arguments_that_are_not_finite_numbers() {
+        let mut rng = Rng::new(11);
+        let programs: Vec<String> = (0..400).map(|_| program(&mut rng)).collect();
+        let all = programs.join("\n");
+        let leaves: Vec<String> = NON_FINITE
+            .iter()
+            .map(|s| s.to_string())
+            .chain(["log(t - 1)", "sqrt(t - 1)", "(t / t)"].map(String::from))
+            .collect();
+        for (name, arity) in FUNCTIONS {
+            let with_one = leaves.iter().any(|l| all.contains(&format!("{name}({l}")));
+            assert!(with_one, "`{name}` never gets a first argument that is not a finite number");
+            if !Func::from_name(name).is_some_and(Func::is_random) {
+                let probed = programs.iter().any(|p| {
+                    p.lines().find(|l| l.starts_with("rule Q0 ")).is_some_and(|l| {
+                        l.split("VERTEX {y (").nth(1).is_some_and(|call| {
+                            call.starts_with(&format!("{name}("))
+                                && leaves.iter().filter(|leaf| call.contains(leaf.as_str())).count() >= (*arity).min(2)
+                        })
+                    })
+                });
+                assert!(probed, "`{name}` is never probed with non-finite arguments only");
+            }
+        }
+        assert!(all.contains("rule PT(float t)") && all.contains("log(t - 1)"), "no run-time NaN");
     }
 }

@@ -1,7 +1,7 @@
 //! `mdg-fuzz`: runs one fuzz target for a time or a number of executions.
 //!
 //! ```text
-//! mdg-fuzz TARGET [--time SECS] [--runs N] [--seed S] [--corpus DIR] [--crashes DIR]
+//! mdg-fuzz TARGET [--time SECS] [--runs N] [--seed S] [--jobs J] [--corpus DIR] [--crashes DIR]
 //!                 [--timeout SECS] [--slow-ms MS] [--rss-limit-mb MB] [--stack-kb KB]
 //! mdg-fuzz replay TARGET FILE…     # run saved inputs once each (exit 1 if one fails)
 //! mdg-fuzz minimize TARGET FILE     # shrink a crashing input (same panic site) to FILE.min
@@ -16,6 +16,10 @@
 //! that killed it. Panics are caught per input in the worker. Crashing inputs go to
 //! `fuzz/crashes/TARGET/` (one per distinct panic location), with a `.txt` beside
 //! each saying what happened.
+//!
+//! `--jobs J` runs J such supervisors side by side, each with its own seed (job k,
+//! from 0, has seed `S + k·1,000,000,007`) and a share of `--runs`, and sums their
+//! totals (each job's lines are prefixed with `[k]`).
 
 use mdg_fuzz::rng::hash;
 use mdg_fuzz::{Rng, Target};
@@ -42,12 +46,13 @@ struct Args {
     slow_ms: u64,
     rss_limit_mb: u64,
     stack_kb: usize,
+    jobs: u64,
     worker: bool,
 }
 
 fn usage() -> ExitCode {
     eprintln!(
-        "usage: mdg-fuzz TARGET [--time SECS] [--runs N] [--seed S] [--corpus DIR] [--crashes DIR] [--timeout SECS] \
+        "usage: mdg-fuzz TARGET [--time SECS] [--runs N] [--seed S] [--jobs J] [--corpus DIR] [--crashes DIR] [--timeout SECS] \
          [--slow-ms MS] [--rss-limit-mb MB] [--stack-kb KB]\n       mdg-fuzz replay TARGET FILE...\n       \
          mdg-fuzz minimize TARGET FILE\n       mdg-fuzz list\ntargets: {}",
         Target::ALL.map(|t| t.name()).join(", ")
@@ -74,6 +79,7 @@ fn parse_args(argv: &[String]) -> Result<Args, String> {
         slow_ms: 2_000,
         rss_limit_mb: 4_096,
         stack_kb: 2_048,
+        jobs: 1,
         worker: false,
     };
     while let Some(flag) = it.next() {
@@ -93,6 +99,12 @@ fn parse_args(argv: &[String]) -> Result<Args, String> {
             "--slow-ms" => a.slow_ms = num(v)?,
             "--rss-limit-mb" => a.rss_limit_mb = num(v)?,
             "--stack-kb" => a.stack_kb = num(v)?.max(64) as usize,
+            "--jobs" => {
+                a.jobs = num(v)?;
+                if !(1..=1024).contains(&a.jobs) {
+                    return Err(format!("--jobs: `{v}` is not between 1 and 1024"));
+                }
+            }
             _ => return Err(format!("unknown option `{flag}`")),
         }
     }
@@ -126,6 +138,7 @@ fn main() -> ExitCode {
         }
         _ => match parse_args(&argv) {
             Ok(a) if a.worker => worker(&a),
+            Ok(a) if a.jobs > 1 => jobs(&a, &argv),
             Ok(a) => supervise(&a, &argv),
             Err(e) => {
                 eprintln!("mdg-fuzz: {e}");
@@ -313,7 +326,7 @@ fn minimize(argv: &[String]) -> ExitCode {
 }
 
 /// Totals across worker restarts.
-#[derive(Default)]
+#[derive(Clone, Copy, Default)]
 struct Totals {
     execs: u64,
     deep: u64,
@@ -478,7 +491,126 @@ fn supervise(a: &Args, argv: &[String]) -> ExitCode {
         a.slow_ms,
         restarts
     );
+    // For `--jobs`: the same numbers, to add up.
+    println!(
+        "totals: execs={} deep={} crashes={} slow={} restarts={restarts}",
+        totals.execs, totals.deep, totals.crashes, totals.slow
+    );
     if totals.crashes > 0 {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    }
+}
+
+/// The seed of job `k` of a `--jobs` run started with `--seed seed` (a prime stride:
+/// the supervisors' restart seeds step by 1,000,003, so the streams stay distinct).
+fn job_seed(seed: u64, k: u64) -> u64 {
+    seed.wrapping_add(k.wrapping_mul(1_000_000_007))
+}
+
+/// `--jobs J`: runs J supervisors (this command without `--jobs`, each with its
+/// seed and share of `--runs`) at once, prints their lines prefixed with `[k]`, and
+/// the sum of their totals. Fails if one failed or crashed.
+fn jobs(a: &Args, argv: &[String]) -> ExitCode {
+    let exe = match std::env::current_exe() {
+        Ok(e) => e,
+        Err(e) => {
+            eprintln!("mdg-fuzz: cannot find my own executable: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    // The options less those each job gets its own value of.
+    let mut common: Vec<String> = Vec::new();
+    let mut it = argv.iter().skip(1);
+    while let Some(v) = it.next() {
+        if ["--runs", "--seed", "--jobs"].contains(&v.as_str()) {
+            it.next();
+        } else {
+            common.push(v.clone());
+        }
+    }
+    let started = Instant::now();
+    println!("mdg-fuzz {}: {} jobs, seeds {} + k·1000000007", a.target.name(), a.jobs, a.seed);
+    let mut children = Vec::new();
+    for k in 0..a.jobs {
+        let mut args = vec![a.target.name().to_string()];
+        args.extend(common.iter().cloned());
+        args.extend(["--seed".into(), job_seed(a.seed, k).to_string()]);
+        if let Some(r) = a.runs {
+            let share = r / a.jobs + u64::from(k < r % a.jobs);
+            if share == 0 {
+                continue;
+            }
+            args.extend(["--runs".into(), share.to_string()]);
+        }
+        match Command::new(&exe).args(&args).stdout(Stdio::piped()).stderr(Stdio::inherit()).spawn() {
+            Ok(c) => children.push((k, c)),
+            Err(e) => {
+                eprintln!("mdg-fuzz: cannot start job {k}: {e}");
+                return ExitCode::FAILURE;
+            }
+        }
+    }
+    let totals = Arc::new(Mutex::new((Totals::default(), 0u64)));
+    let mut readers = Vec::new();
+    for (k, child) in &mut children {
+        let Some(out) = child.stdout.take() else { continue };
+        let (k, totals) = (*k, totals.clone());
+        readers.push(std::thread::spawn(move || {
+            for line in BufReader::new(out).lines().map_while(Result::ok) {
+                println!("[{k}] {line}");
+                if let Some(rest) = line.strip_prefix("totals:") {
+                    let Ok(mut t) = totals.lock() else { continue };
+                    for kv in rest.split_whitespace() {
+                        let Some((key, v)) = kv.split_once('=') else { continue };
+                        let v: u64 = v.parse().unwrap_or(0);
+                        match key {
+                            "execs" => t.0.execs += v,
+                            "deep" => t.0.deep += v,
+                            "crashes" => t.0.crashes += v,
+                            "slow" => t.0.slow += v,
+                            "restarts" => t.1 += v,
+                            _ => {}
+                        }
+                    }
+                }
+            }
+        }));
+    }
+    let mut failed = false;
+    for (k, mut child) in children {
+        match child.wait() {
+            Ok(s) if s.success() => {}
+            Ok(s) => {
+                println!("mdg-fuzz: job {k} ended with {s}");
+                failed = true;
+            }
+            Err(e) => {
+                eprintln!("mdg-fuzz: lost job {k}: {e}");
+                failed = true;
+            }
+        }
+    }
+    for r in readers {
+        let _ = r.join();
+    }
+    let secs = started.elapsed().as_secs_f64();
+    let (t, restarts) = totals.lock().map(|t| *t).unwrap_or_default();
+    println!(
+        "TOTAL {}: {} executions in {:.0} s ({:.0}/s), {} past the first stage, {} crashes, {} slow inputs (> {} ms), {} worker restarts, {} jobs",
+        a.target.name(),
+        t.execs,
+        secs,
+        t.execs as f64 / secs.max(1e-9),
+        t.deep,
+        t.crashes,
+        t.slow,
+        a.slow_ms,
+        restarts,
+        a.jobs
+    );
+    if failed || t.crashes > 0 {
         ExitCode::FAILURE
     } else {
         ExitCode::SUCCESS

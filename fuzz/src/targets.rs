@@ -117,6 +117,8 @@ impl Target {
             Target::BundleLoad | Target::ExtTables | Target::VoxelReaders => 256 * 1024,
             // Extension examples are longer (a creature grammar is about 3 KB).
             Target::ExtSources => 4 * 1024,
+            // Generated programs with the probe and the parameter rule reach about 2.5 KB.
+            Target::VmRun => 4 * 1024,
             // Generated shaders hold up to four 10,000-term statements (about 200 KB);
             // past 256 KiB the size limit is what they meet. Generated projects of 300
             // files are about 20 KB.

@@ -282,6 +282,8 @@ pub struct Expander<'b> {
     /// expansion returns carry none; this only keeps a hand-made bundle harmless.)
     lins: Lins,
     weights: Weights,
+    /// Computed values that were not finite numbers, and the fallbacks used.
+    non_finite: NonFinite,
 }
 
 impl<'b> Expander<'b> {
@@ -296,9 +298,17 @@ impl<'b> Expander<'b> {
             slots: Vec::new(),
             lins: Lins::default(),
             weights: Weights::new(b),
+            non_finite: NonFinite::default(),
         };
         e.reseed(0, 0);
         e
+    }
+
+    /// The fallbacks the expansions so far used for computed values that were NaN or
+    /// infinite (adjustment arguments, weights, selector values, counts), as
+    /// warnings naming the rule and line; empty if none.
+    pub fn warnings(&self) -> Vec<String> {
+        self.non_finite.warnings(self.b)
     }
 
     /// Restarts the random stream: PCG-64 stream `stream` at a state derived from
@@ -350,6 +360,7 @@ impl<'b> Expander<'b> {
             &mut self.sequential,
             &mut self.expr_stack,
             &mut self.weights,
+            &mut self.non_finite,
         ) as usize;
         self.sequential.clear();
         self.loops.clear();
@@ -364,7 +375,7 @@ impl<'b> Expander<'b> {
                     pc += 1;
                     let from = cont.take().unwrap_or(base);
                     let env = Env { at: &from, depth: call.depth, slots: &self.slots };
-                    let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack, &env);
+                    let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack, &env, &mut self.non_finite);
                     let child = from.compose(&c, &mut self.lins);
                     if flags & CONT_NEXT != 0 {
                         last = child;
@@ -385,7 +396,7 @@ impl<'b> Expander<'b> {
                     pc += 1;
                     let from = cont.take().unwrap_or(base);
                     let env = Env { at: &from, depth: call.depth, slots: &self.slots };
-                    let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack, &env);
+                    let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack, &env, &mut self.non_finite);
                     last = from.compose(&c, &mut self.lins);
                 }
                 Op::Loop { step, end, chain, .. } | Op::LoopN { step, end, chain, .. } => {
@@ -393,7 +404,12 @@ impl<'b> Expander<'b> {
                         Op::LoopN { count: e, .. } => {
                             let at = cont.unwrap_or(base);
                             let env = Env { at: &at, depth: call.depth, slots: &self.slots };
-                            env.eval(&b.exprs[e as usize], &mut self.rng, &mut self.expr_stack) as u64
+                            let n = env.eval(&b.exprs[e as usize], &mut self.rng, &mut self.expr_stack);
+                            if n.is_nan() {
+                                self.non_finite.note(Fallback::Count, Site::Op(pc as u32));
+                            }
+                            // Saturating: negative and NaN counts give no runs.
+                            n as u64
                         }
                         Op::Loop { count, .. } => count,
                         _ => 0,
@@ -407,7 +423,7 @@ impl<'b> Expander<'b> {
                     let c = if chain & bundle::ops::LOOP_FIRST_PLAIN != 0 {
                         Composite::IDENTITY
                     } else {
-                        eval_transform(b, step, &mut self.rng, &mut self.expr_stack, &env)
+                        eval_transform(b, step, &mut self.rng, &mut self.expr_stack, &env, &mut self.non_finite)
                     };
                     let chain = chain & bundle::ops::LOOP_CHAIN != 0;
                     self.loops.push(LoopRec { remaining: count, step, saved_base: base, chain });
@@ -428,7 +444,8 @@ impl<'b> Expander<'b> {
                         let from = if l.chain { last } else { base };
                         let step = l.step;
                         let env = Env { at: &from, depth: call.depth, slots: &self.slots };
-                        let c = eval_transform(b, step, &mut self.rng, &mut self.expr_stack, &env);
+                        let c =
+                            eval_transform(b, step, &mut self.rng, &mut self.expr_stack, &env, &mut self.non_finite);
                         base = from.compose(&c, &mut self.lins);
                         pc = begin as usize + 1;
                         // Runs count like calls, so a huge iterator is cut too.
@@ -720,6 +737,8 @@ struct Eval<'b> {
     /// the rule of an op is then a binary search, not a walk over every rule (40,000
     /// rules with a prototype each took seconds).
     def_starts: Option<Vec<(u32, u32)>>,
+    /// Computed values that were not finite numbers, and the fallbacks used.
+    non_finite: NonFinite,
 }
 
 /// Evaluates a verified bundle from its start shape.
@@ -801,6 +820,7 @@ impl<'b> Eval<'b> {
             site_mark: 0,
             site_ids: HashMap::new(),
             def_starts: None,
+            non_finite: NonFinite::default(),
             stop_pc: None,
             protos: b
                 .code
@@ -874,7 +894,8 @@ impl<'b> Eval<'b> {
             return from.compose(c, &mut self.lins);
         }
         let slots = self.slots.get(base as usize..top as usize).unwrap_or(&[]);
-        let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack, &Env { at: from, depth, slots });
+        let env = Env { at: from, depth, slots };
+        let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack, &env, &mut self.non_finite);
         from.compose(&c, &mut self.lins)
     }
 
@@ -904,6 +925,7 @@ impl<'b> Eval<'b> {
             &mut self.sequential,
             &mut self.expr_stack,
             &mut self.weights,
+            &mut self.non_finite,
         )
     }
 
@@ -1127,8 +1149,12 @@ impl<'b> Eval<'b> {
                     let count = match op {
                         Op::LoopN { count: e, .. } => {
                             let at = cont.unwrap_or(act.base);
+                            let n = self.value(e, &at, act.depth, act.slot_base, act.slot_top);
+                            if n.is_nan() {
+                                self.non_finite.note(Fallback::Count, Site::Op(act.pc));
+                            }
                             // Saturating: negative and NaN counts give no runs.
-                            self.value(e, &at, act.depth, act.slot_base, act.slot_top) as u64
+                            n as u64
                         }
                         Op::Loop { count, .. } => count,
                         _ => 0,
@@ -2072,6 +2098,8 @@ impl<'b> Eval<'b> {
             // Isosurface instances under non-uniform scales refer to these.
             self.out.lins = std::mem::take(&mut self.lins.0).into_iter().map(|n| (n, n.determinant().cbrt())).collect();
         }
+        let non_finite = self.non_finite.warnings(self.b);
+        self.out.stats.warnings.extend(non_finite);
         let bad = self.out.non_finite_positions_checking(self.suspect_instances);
         if bad > 0 {
             self.out.stats.warnings.push(format!(
@@ -2147,8 +2175,113 @@ impl Env<'_> {
     }
 }
 
+/// Values computed at run time that were NaN or infinite where a finite number is
+/// needed, each replaced by a fallback the run reports once per kind, at the first
+/// place it happened.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct NonFinite {
+    /// Per [`Fallback`]: how many, and where the first was.
+    count: [u64; 5],
+    first: [Option<Site>; 5],
+}
+
+/// What a value that was not a finite number was replaced by.
+#[derive(Clone, Copy, Debug)]
+enum Fallback {
+    /// An adjustment argument that was NaN: 0.
+    NanArgument,
+    /// An adjustment argument that was infinite: 0.
+    InfiniteArgument,
+    /// A definition weight: 0.
+    Weight,
+    /// A function selector's value: the first definition.
+    Selector,
+    /// A NaN iterator count: no runs.
+    Count,
+}
+
+/// Where a fallback happened: in an adjustment list (a dynamic transform), a rule's
+/// selection, or an op.
+#[derive(Clone, Copy, Debug)]
+enum Site {
+    Transform(u32),
+    Rule(u32),
+    Op(u32),
+}
+
+impl NonFinite {
+    #[cold]
+    #[inline(never)]
+    fn note(&mut self, what: Fallback, at: Site) {
+        let k = what as usize;
+        self.count[k] += 1;
+        self.first[k].get_or_insert(at);
+    }
+
+    /// An adjustment argument `v` of transform `xf` that is not finite.
+    #[cold]
+    #[inline(never)]
+    fn argument(&mut self, xf: u32, v: f64) {
+        let what = if v.is_nan() { Fallback::NanArgument } else { Fallback::InfiniteArgument };
+        self.note(what, Site::Transform(xf));
+    }
+
+    /// The warnings for what was noted, each naming the rule and line of its first
+    /// occurrence.
+    fn warnings(&self, b: &Bundle) -> Vec<String> {
+        let op_at = |pc: usize| where_op(b, pc as u32);
+        let at = |site: Site| match site {
+            Site::Transform(xf) => b
+                .code
+                .iter()
+                .position(|op| match *op {
+                    Op::Call { xf: x, .. } | Op::Draw { xf: x, .. } | Op::Iso { xf: x, .. } => x == xf,
+                    Op::Loop { step, .. } | Op::LoopN { step, .. } => step == xf,
+                    _ => false,
+                })
+                .map(op_at)
+                .unwrap_or_default(),
+            Site::Rule(r) => b
+                .rules
+                .get(r as usize)
+                .map(|rule| match rule.defs.first() {
+                    Some(d) => where_op(b, d.start),
+                    None => format!(" in rule `{}`", b.string(rule.name)),
+                })
+                .unwrap_or_default(),
+            Site::Op(pc) => op_at(pc as usize),
+        };
+        let mut w = Vec::new();
+        for (k, (&n, first)) in self.count.iter().zip(&self.first).enumerate() {
+            let Some(site) = *first else { continue };
+            let at = at(site);
+            w.push(match k {
+                0 => format!(
+                    "{n} adjustment argument(s) computed as NaN (not a number: `0/0`, `log(-1)`, `sqrt(-1)`…){at}: used as 0"
+                ),
+                1 => format!(
+                    "{n} adjustment argument(s) computed as infinite (an overflow or a division by 0){at}: used as 0"
+                ),
+                2 => format!("{n} definition weight(s) computed as NaN or infinite{at}: used as 0"),
+                3 => format!(
+                    "{n} selector function value(s) computed as NaN or infinite{at}: the first definition was chosen"
+                ),
+                _ => format!("{n} iterator count(s) computed as NaN{at}: no runs"),
+            });
+        }
+        w
+    }
+}
+
 #[inline]
-fn eval_transform(b: &Bundle, xf: u32, rng: &mut Pcg, stack: &mut Vec<f64>, env: &Env) -> Composite {
+fn eval_transform(
+    b: &Bundle,
+    xf: u32,
+    rng: &mut Pcg,
+    stack: &mut Vec<f64>,
+    env: &Env,
+    bad: &mut NonFinite,
+) -> Composite {
     match &b.transforms[xf as usize] {
         Transform::Const(c) => *c,
         Transform::Dynamic { adjs, divisor } => {
@@ -2167,6 +2300,7 @@ fn eval_transform(b: &Bundle, xf: u32, rng: &mut Pcg, stack: &mut Vec<f64>, env:
                             if v.is_finite() {
                                 v as f32
                             } else {
+                                bad.argument(xf, v);
                                 0.0
                             }
                         }
@@ -2211,6 +2345,7 @@ fn select_def(
     sequential: &mut HashMap<u32, (usize, u32)>,
     stack: &mut Vec<f64>,
     weights: &mut Weights,
+    bad: &mut NonFinite,
 ) -> u32 {
     let rule = &b.rules[rule_idx as usize];
     let defs = &rule.defs;
@@ -2232,6 +2367,7 @@ fn select_def(
                     if v.is_finite() {
                         v as f32
                     } else {
+                        bad.note(Fallback::Weight, Site::Rule(rule_idx));
                         0.0
                     }
                 }
@@ -2242,7 +2378,13 @@ fn select_def(
     }
     // (The function selector's value is drawn here, after the weights, as before.)
     let function = match rule.selector {
-        Selector::Function(e) => expr::eval(&b.exprs[e as usize], &vars(), args, rng, stack),
+        Selector::Function(e) => {
+            let v = expr::eval(&b.exprs[e as usize], &vars(), args, rng, stack);
+            if !v.is_finite() {
+                bad.note(Fallback::Selector, Site::Rule(rule_idx));
+            }
+            v
+        }
         _ => 0.0,
     };
     let w = if dynamic { &weights.values } else { &weights.constant[rule_idx as usize] };

@@ -81,7 +81,7 @@ functions! {
     Ceil "ceil" 1 => |a, r| a[0].ceil(),
     Fract "fract" 1 => |a, r| a[0].fract(),
     Mod "mod" 2 => |a, r| a[0].rem_euclid(a[1]),
-    Clamp "clamp" 3 => |a, r| a[0].clamp(a[1].min(a[2]), a[2].max(a[1])),
+    Clamp "clamp" 3 => |a, r| clamp(a[0], a[1], a[2]),
     Mix "mix" 3 => |a, r| a[0] + (a[1] - a[0]) * a[2],
     Step "step" 2 => |a, r| if a[1] < a[0] { 0.0 } else { 1.0 },
     Smoothstep "smoothstep" 3 => |a, r| {
@@ -92,6 +92,19 @@ functions! {
     Randn "randn" 2 => |a, r| a[0] + a[1] * r.normal(),
     Radians "radians" 1 => |a, r| a[0].to_radians(),
     Degrees "degrees" 1 => |a, r| a[0].to_degrees(),
+}
+
+/// `clamp(v, a, b)`: `v` limited to the range between `a` and `b` (in either order),
+/// NaN when any of the three is NaN (a NaN bound is not "no bound": it is an error
+/// upstream, `log(-1)` or `0/0`, and it stays visible). Never panics, unlike
+/// `f64::clamp`, so constant folding and evaluation give the same NaN.
+#[inline]
+pub fn clamp(v: f64, a: f64, b: f64) -> f64 {
+    if v.is_nan() || a.is_nan() || b.is_nan() {
+        return f64::NAN;
+    }
+    let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
+    v.max(lo).min(hi)
 }
 
 /// Variables an expression may read at run time, by index.
@@ -365,4 +378,78 @@ pub fn verify(code: &[ExprOp]) -> Result<(), String> {
         },
         |_, _| Ok(()),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fixed stream (the draws do not matter here, only that nothing panics).
+    struct Half;
+
+    impl Random for Half {
+        fn uniform(&mut self) -> f64 {
+            0.5
+        }
+        fn normal(&mut self) -> f64 {
+            0.5
+        }
+    }
+
+    /// Values one `log(-1)`, `0/0`, `1e308*10` or an underflow away.
+    const HOSTILE: [f64; 12] =
+        [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 1e308, -1e308, 0.0, -0.0, 1.0, -1.0, 5e-324, 1e-300, 0.5];
+
+    #[test]
+    fn clamp_with_a_nan_argument_is_nan() {
+        let nan = f64::NAN;
+        for args in [[1.0, nan, nan], [1.0, nan, 0.0], [1.0, 0.0, nan], [nan, 0.0, 1.0], [nan, nan, nan]] {
+            let v = Func::Clamp.apply(&args, &mut Half);
+            assert!(v.is_nan(), "clamp{args:?} = {v}");
+            assert!(call("clamp", &args).is_some_and(f64::is_nan), "the folder's clamp{args:?}");
+        }
+    }
+
+    #[test]
+    fn clamp_orders_its_bounds_and_takes_infinite_ones() {
+        let clamp = |a: [f64; 3]| Func::Clamp.apply(&a, &mut Half);
+        assert_eq!(clamp([5.0, 0.0, 1.0]), 1.0);
+        assert_eq!(clamp([5.0, 1.0, 0.0]), 1.0);
+        assert_eq!(clamp([-5.0, 1.0, 0.0]), 0.0);
+        assert_eq!(clamp([0.25, 1.0, 0.0]), 0.25);
+        assert_eq!(clamp([f64::NEG_INFINITY, 0.0, 1.0]), 0.0);
+        assert_eq!(clamp([0.5, f64::NEG_INFINITY, f64::INFINITY]), 0.5);
+        assert_eq!(clamp([f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY]), f64::INFINITY);
+    }
+
+    /// Every function of the table (so a function added later is covered) on every
+    /// combination of NaN, infinite, huge, tiny and plain arguments: no panic, and the
+    /// constant folder (`call`) gives what evaluation gives.
+    #[test]
+    fn every_function_takes_non_finite_and_huge_arguments() {
+        for &f in Func::ALL {
+            let n = f.arity();
+            let combos = HOSTILE.len().pow(n as u32);
+            for k in 0..combos {
+                let args: [f64; 3] = std::array::from_fn(|i| {
+                    if i < n {
+                        HOSTILE[k / HOSTILE.len().pow(i as u32) % HOSTILE.len()]
+                    } else {
+                        f64::NAN
+                    }
+                });
+                let v = f.apply(&args, &mut Half);
+                if let Some(folded) = call(f.name(), &args[..n]) {
+                    assert!(folded.to_bits() == v.to_bits() || (folded.is_nan() && v.is_nan()), "{}{args:?}", f.name());
+                }
+            }
+        }
+        for op in 0..BINOPS.len() as u8 {
+            for a in HOSTILE {
+                for b in HOSTILE {
+                    let _ = binop(op, a, b);
+                }
+            }
+        }
+    }
 }

@@ -3,8 +3,17 @@
 
 use serde::Serialize;
 
-use super::local_oriented;
+use super::{finite, finite3, local_oriented};
 use crate::output::{Groups, Output};
+
+/// One pen line, its points written as [`finite3`] writes them.
+#[derive(Serialize)]
+struct DumpLine<'a> {
+    namespace: &'a str,
+    points: Vec<[f32; 3]>,
+    #[serde(skip_serializing_if = "<[u32]>::is_empty")]
+    bones: &'a [u32],
+}
 
 /// One isosurface instance: its drawable name, position (the transform's
 /// translation) and scale.
@@ -22,7 +31,8 @@ struct DumpInstance<'a> {
 /// Vertices and triangles are the `VERTEX` geometry (prototype instances expanded
 /// where they were made), with the oriented (mirror-corrected) winding; `instances`
 /// are the isosurface placements. Floats are printed as the shortest decimal that
-/// reads back as the same f32; non-finite values become `null`.
+/// reads back as the same f32; a coordinate or scale that is not a finite number is
+/// written as 0, as every other format writes it (the run warns about them).
 pub fn write_json(out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
     write_json_to(out, buf)
 }
@@ -42,7 +52,7 @@ pub fn write_json_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Str
             if !std::mem::take(&mut first) {
                 w.write_all(b",").map_err(io)?;
             }
-            serde_json::to_writer(&mut *w, p).map_err(js)?;
+            serde_json::to_writer(&mut *w, &finite3(*p)).map_err(js)?;
         }
         Ok(())
     })?;
@@ -59,7 +69,16 @@ pub fn write_json_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Str
         Ok(())
     })?;
     w.write_all(b"],\"lines\":").map_err(io)?;
-    serde_json::to_writer(&mut *w, &out.lines).map_err(js)?;
+    let lines: Vec<DumpLine> = out
+        .lines
+        .iter()
+        .map(|l| DumpLine {
+            namespace: &l.namespace,
+            points: l.points.iter().map(|p| finite3(*p)).collect(),
+            bones: &l.bones,
+        })
+        .collect();
+    serde_json::to_writer(&mut *w, &lines).map_err(js)?;
     w.write_all(b",\"instances\":").map_err(io)?;
     let instances: Vec<DumpInstance> = out
         .instances
@@ -68,8 +87,8 @@ pub fn write_json_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Str
             let shared = out.shared(i).filter(|s| !s.is_prototype())?;
             Some(DumpInstance {
                 name: &shared.name,
-                position: out.instance_transform(i).w_axis.truncate().to_array(),
-                scale: out.instance_scale(i),
+                position: finite3(out.instance_transform(i).w_axis.truncate().to_array()),
+                scale: finite(out.instance_scale(i)),
             })
         })
         .collect();

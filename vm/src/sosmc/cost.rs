@@ -250,7 +250,10 @@ impl Guides {
         let s_tip = match (self.utilisation, tip_near) {
             (Utilisation::Paper, Some(t)) if t.curve == near.curve => t.segment,
             (Utilisation::Paper, _) => self.segment_at(curve, arc_tip()),
-            (Utilisation::Local, _) => self.segment_at(curve, arc_tip().clamp(near.arc - len, near.arc + len)),
+            // (NaN-safe, unlike `f64::clamp`, which panics on a NaN bound.)
+            (Utilisation::Local, _) => {
+                self.segment_at(curve, crate::expr::clamp(arc_tip(), near.arc - len, near.arc + len))
+            }
         };
         let (lo, hi) = if near.segment <= s_tip { (near.segment, s_tip) } else { (s_tip, near.segment) };
         let mut sum = 0.0;
