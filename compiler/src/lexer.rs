@@ -361,7 +361,9 @@ pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
         match res {
             Ok(Tok::LineComment | Tok::BlockComment) if !text[r.clone()].is_ascii() => {
                 let block = text[r.clone()].starts_with("/*");
-                if let Some(d) = text_flow_warning(&text[r.clone()], span, if block { "comment" } else { "line comment" }) {
+                if let Some(d) =
+                    text_flow_warning(&text[r.clone()], span, if block { "comment" } else { "line comment" })
+                {
                     diags.push(d);
                 }
                 out.comments.push(Comment { span, block });
@@ -513,21 +515,17 @@ fn text_flow_warning(text: &str, span: Span, what: &str) -> Option<Diagnostic> {
             more += 1;
         }
     }
-    let names: Vec<String> = distinct
-        .iter()
-        .map(|&c| format!("U+{:04X} {}", c as u32, text_flow_control(c).unwrap_or_default()))
-        .collect();
+    let names: Vec<String> =
+        distinct.iter().map(|&c| format!("U+{:04X} {}", c as u32, text_flow_control(c).unwrap_or_default())).collect();
     d.message = format!(
         "{what} holds invisible text-direction or line-break character{}: {}",
         if names.len() == 1 { "" } else { "s" },
         names.join(", ")
     );
-    d = d
-        .with_label(format!("U+{:04X}: the text may be shown in another order than it is read", c0 as u32))
-        .with_note(
-            "these characters make code look different from what the compiler reads (\"Trojan Source\"); \
+    d = d.with_label(format!("U+{:04X}: the text may be shown in another order than it is read", c0 as u32)).with_note(
+        "these characters make code look different from what the compiler reads (\"Trojan Source\"); \
              remove them unless they are meant",
-        );
+    );
     if more > 0 {
         d = d.with_note(format!("{more} more not labelled"));
     }

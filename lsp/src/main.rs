@@ -44,6 +44,8 @@ fn main() -> ExitCode {
     // Panics are caught per request and reported to the client; on stderr a line
     // is enough (capturing a backtrace in a debug build costs seconds and memory).
     std::panic::set_hook(Box::new(|info| eprintln!("mdg-lsp: {info}")));
+    // Compiled shaders are kept in the user cache directory (std's are compiled once).
+    mdg_compiler::shaders::DiskCache::install_default();
     // Analyses run on the blocking pool. Their recursion over a program nested to the
     // parse limit (256 levels of blocks, `if`s and loops) needs more than the 2 MiB
     // tokio gives a thread in a debug build; the CLI's main thread has 8 MiB.

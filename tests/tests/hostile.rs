@@ -714,27 +714,33 @@ fn has_raw_control(text: &str) -> Option<char> {
 /// still points at the error.
 #[test]
 fn diagnostics_escape_terminal_control_sequences_in_lines_and_file_names() {
-    bounded(HEAP, "diagnostics_escape_terminal_control_sequences_in_lines_and_file_names", BOUND_MIB, BOUND_SECS, || {
-        let line = "rule A { VERTEX {} } /* \u{1b}]0;pwned\u{7} \u{1b}[2J \u{9b}31m \u{7f} */ %";
-        let text = format!("startshape A\n{line}\n");
-        let a = analyze_text(
-            &MemLoader::default(),
-            Path::new("/hostile/ev\u{1b}[2Jil.mdg"),
-            &text,
-            &Options::default(),
-            CheckOptions { require_start: true },
-        );
-        assert!(!a.diagnostics.is_empty());
-        let shown = mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources);
-        assert_eq!(has_raw_control(&shown), None, "{shown:?}");
-        assert!(shown.contains(r"/* \u{1b}]0;pwned\u{7} \u{1b}[2J \u{9b}31m \u{7f} */ %"), "{shown}");
-        assert!(shown.contains(r"ev\u{1b}[2Jil.mdg:2:"), "the file name is escaped too: {shown}");
-        // The caret stands under the `%` of the escaped line.
-        let lines: Vec<&str> = shown.lines().collect();
-        let at = lines.iter().position(|l| l.contains("pwned")).expect("the source line");
-        let col = lines[at].find('%').expect("% in the shown line");
-        assert_eq!(lines[at + 1].find('^'), Some(col), "{shown}");
-    });
+    bounded(
+        HEAP,
+        "diagnostics_escape_terminal_control_sequences_in_lines_and_file_names",
+        BOUND_MIB,
+        BOUND_SECS,
+        || {
+            let line = "rule A { VERTEX {} } /* \u{1b}]0;pwned\u{7} \u{1b}[2J \u{9b}31m \u{7f} */ %";
+            let text = format!("startshape A\n{line}\n");
+            let a = analyze_text(
+                &MemLoader::default(),
+                Path::new("/hostile/ev\u{1b}[2Jil.mdg"),
+                &text,
+                &Options::default(),
+                CheckOptions { require_start: true },
+            );
+            assert!(!a.diagnostics.is_empty());
+            let shown = mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources);
+            assert_eq!(has_raw_control(&shown), None, "{shown:?}");
+            assert!(shown.contains(r"/* \u{1b}]0;pwned\u{7} \u{1b}[2J \u{9b}31m \u{7f} */ %"), "{shown}");
+            assert!(shown.contains(r"ev\u{1b}[2Jil.mdg:2:"), "the file name is escaped too: {shown}");
+            // The caret stands under the `%` of the escaped line.
+            let lines: Vec<&str> = shown.lines().collect();
+            let at = lines.iter().position(|l| l.contains("pwned")).expect("the source line");
+            let col = lines[at].find('%').expect("% in the shown line");
+            assert_eq!(lines[at + 1].find('^'), Some(col), "{shown}");
+        },
+    );
 }
 
 /// Bidirectional overrides and isolates, and line/paragraph separators, in comments

@@ -370,6 +370,8 @@ fn run_one(
             s.elapsed_ms,
             peak_rss_kib().map(|k| format!("{:.1} MiB", k as f64 / 1024.0)).unwrap_or_else(|| "n/a".into())
         );
+        let (compiled, cached) = mdg_compiler::shaders::compile_counts();
+        eprintln!("shaders compiled with glslang {compiled}  taken from the SPIR-V cache {cached}");
     }
     if say_wrote {
         eprintln!("wrote {}", output.display());
