@@ -11,6 +11,7 @@ mod handlers;
 mod loader;
 mod position;
 mod server;
+mod transport;
 mod workspace;
 
 use backend::{Backend, Config};
@@ -59,9 +60,13 @@ fn main() -> ExitCode {
         };
     let shutdown = Arc::new(AtomicBool::new(false));
     let flag = shutdown.clone();
+    let config = Config::from_env();
+    // Documents too large to analyse are not parsed on the message loop (see `transport`).
+    let oversize = Arc::new(transport::Oversize::new(config.max_live_bytes));
+    let input = transport::filter(std::io::stdin(), oversize.clone());
     runtime.block_on(async move {
-        let (service, socket) = LspService::new(move |client| Backend::new(client, Config::from_env(), flag));
-        Server::new(tokio::io::stdin(), tokio::io::stdout(), socket).serve(service).await;
+        let (service, socket) = LspService::new(move |client| Backend::new(client, config, flag, oversize));
+        Server::new(input, tokio::io::stdout(), socket).serve(service).await;
     });
     // The stdin reader is a blocking thread that would keep the runtime (and the
     // process) alive; exit now. The LSP exit code: 0 after `shutdown`, else 1.

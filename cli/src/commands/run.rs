@@ -326,10 +326,11 @@ fn run_one(
     };
     bar.finish_and_clear();
     for d in &out.debug {
-        eprintln!("{d}");
+        eprintln!("{}", mdg_compiler::diag::escape_text(d));
     }
     for w in &out.stats.warnings {
-        eprintln!("warning: {w}");
+        // Warnings quote names and paths from the grammar: printed escaped.
+        eprintln!("warning: {}", mdg_compiler::diag::escape_text(w));
     }
     match cli.time {
         Some(t) => out = out.posed(t),

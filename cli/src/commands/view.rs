@@ -297,10 +297,11 @@ pub fn run(cli: Args) -> ExitCode {
         }
     }
     for d in &model.output.debug {
-        eprintln!("{d}");
+        eprintln!("{}", mdg_compiler::diag::escape_text(d));
     }
     for w in &model.output.stats.warnings {
-        eprintln!("warning: {w}");
+        // Warnings quote names and paths from the grammar: printed escaped.
+        eprintln!("warning: {}", mdg_compiler::diag::escape_text(w));
     }
     // `S` saves to the guide file, else to NAME.guides.json in the current directory.
     let save_guides = match &guides {
