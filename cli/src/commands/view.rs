@@ -227,14 +227,14 @@ pub fn run(cli: Args) -> ExitCode {
     let opts = match cli.compile.options() {
         Ok(o) => o,
         Err(e) => {
-            eprintln!("mdg-view: {e}");
+            eprintln!("mdg-view: {}", mdg_compiler::diag::escape_text(&e.to_string()));
             return ExitCode::from(2);
         }
     };
     let pose = match camera_pose(&cli.camera) {
         Ok(p) => p,
         Err(e) => {
-            eprintln!("mdg-view: {e}");
+            eprintln!("mdg-view: {}", mdg_compiler::diag::escape_text(&e.to_string()));
             return ExitCode::from(2);
         }
     };
@@ -280,7 +280,7 @@ pub fn run(cli: Args) -> ExitCode {
         (Some(path), true) => match read_guides(path) {
             Ok(g) => Some((path.clone(), g)),
             Err(e) => {
-                eprintln!("mdg-view: {e}");
+                eprintln!("mdg-view: {}", mdg_compiler::diag::escape_text(&e.to_string()));
                 return ExitCode::from(1);
             }
         },
@@ -292,7 +292,7 @@ pub fn run(cli: Args) -> ExitCode {
     };
     if cli.png.is_some() {
         if let Err(e) = search_for_picture(&mut model, guides.clone().map(|g| g.1), &load.eval) {
-            eprintln!("mdg-view: {e}");
+            eprintln!("mdg-view: {}", mdg_compiler::diag::escape_text(&e.to_string()));
             return ExitCode::from(1);
         }
     }
@@ -343,7 +343,7 @@ pub fn run(cli: Args) -> ExitCode {
             ExitCode::from(3)
         }
         Err(e) => {
-            eprintln!("mdg-view: {e}");
+            eprintln!("mdg-view: {}", mdg_compiler::diag::escape_text(&e.to_string()));
             ExitCode::from(1)
         }
     }
