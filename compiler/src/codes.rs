@@ -2478,7 +2478,7 @@ pub fn explain(code: &Code) -> String {
         s.push_str(" (checked as a program)");
     }
     s.push_str(":\n\n");
-    for line in crate::diag::escape_text(code.example.text()).lines() {
+    for line in crate::text::escape_text(code.example.text()).lines() {
         s.push_str("    ");
         s.push_str(line);
         s.push('\n');
@@ -2515,7 +2515,7 @@ pub fn markdown() -> String {
         }
         s.push_str(if c.example.is_program() { "Example (checked as a program):\n" } else { "Example:\n" });
         s.push_str("\n```mdg\n");
-        s.push_str(&crate::diag::escape_text(c.example.text()));
+        s.push_str(&crate::text::escape_text(c.example.text()));
         s.push_str("```\n");
     }
     s

@@ -232,39 +232,8 @@ pub fn limit_report(diags: &mut Vec<Diagnostic>, suppressed: Suppressed) -> Opti
     )
 }
 
-/// Whether a character is shown escaped in rendered diagnostics: a C0 control other
-/// than tab and newline (ESC starts the sequences that retitle, clear or recolour a
-/// terminal), DEL, a C1 control (U+0080–U+009F: U+009B is CSI, U+009D OSC), or a
-/// character that reorders or breaks the displayed text
-/// ([`crate::lexer::text_flow_control`]).
-pub fn needs_escape(c: char) -> bool {
-    (c.is_control() && c != '\t' && c != '\n') || crate::lexer::text_flow_control(c).is_some()
-}
-
-/// `text` with every character [`needs_escape`] picks written as `\u{1b}` (Rust's
-/// escape form), so text from a source file or a file name can be printed to a
-/// terminal safely. Newlines and tabs are kept.
-pub fn escape_text(text: &str) -> std::borrow::Cow<'_, str> {
-    if !text.chars().any(needs_escape) {
-        return std::borrow::Cow::Borrowed(text);
-    }
-    let mut out = String::with_capacity(text.len() + 16);
-    for c in text.chars() {
-        push_escaped(&mut out, c);
-    }
-    std::borrow::Cow::Owned(out)
-}
-
-/// Appends `c`, escaped if [`needs_escape`]; returns how many bytes were added.
-fn push_escaped(out: &mut String, c: char) -> usize {
-    let before = out.len();
-    if needs_escape(c) {
-        out.push_str(&format!("\\u{{{:x}}}", c as u32));
-    } else {
-        out.push(c);
-    }
-    out.len() - before
-}
+use crate::text::push_escaped;
+pub use crate::text::{escape_text, needs_escape};
 
 fn to_codespan(d: &Diagnostic, sources: &Sources) -> cs::Diagnostic<u32> {
     let clamp = |s: Span| {

@@ -468,29 +468,6 @@ pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
     out
 }
 
-/// The name of a character that changes how the text around it is shown but not how
-/// it is read ("Trojan Source", CVE-2021-42574): the bidirectional embeddings,
-/// overrides and isolates (U+202A–U+202E, U+2066–U+2069), and the Unicode line
-/// breaks the lexer does not count as ones (U+2028, U+2029, U+0085 NEXT LINE), which
-/// editors show as a new line inside a comment or string.
-pub fn text_flow_control(c: char) -> Option<&'static str> {
-    Some(match c {
-        '\u{202a}' => "LEFT-TO-RIGHT EMBEDDING",
-        '\u{202b}' => "RIGHT-TO-LEFT EMBEDDING",
-        '\u{202c}' => "POP DIRECTIONAL FORMATTING",
-        '\u{202d}' => "LEFT-TO-RIGHT OVERRIDE",
-        '\u{202e}' => "RIGHT-TO-LEFT OVERRIDE",
-        '\u{2066}' => "LEFT-TO-RIGHT ISOLATE",
-        '\u{2067}' => "RIGHT-TO-LEFT ISOLATE",
-        '\u{2068}' => "FIRST STRONG ISOLATE",
-        '\u{2069}' => "POP DIRECTIONAL ISOLATE",
-        '\u{2028}' => "LINE SEPARATOR",
-        '\u{2029}' => "PARAGRAPH SEPARATOR",
-        '\u{85}' => "NEXT LINE",
-        _ => return None,
-    })
-}
-
 /// At most this many occurrences of text-flow controls in one comment or string
 /// get a label of their own (the message names every distinct one).
 const MAX_FLOW_LABELS: usize = 8;
@@ -499,7 +476,7 @@ const MAX_FLOW_LABELS: usize = 8;
 /// text-flow controls ([`text_flow_control`]): at the first one, naming each
 /// distinct code point, with labels at the next few.
 fn text_flow_warning(text: &str, span: Span, what: &str) -> Option<Diagnostic> {
-    let mut found = text.char_indices().filter(|(_, c)| text_flow_control(*c).is_some());
+    let mut found = text.char_indices().filter(|(_, c)| crate::text::text_flow_control(*c).is_some());
     let (first, c0) = found.next()?;
     let at = |i: usize, c: char| Span::new(span.file, span.start + i as u32, span.start + (i + c.len_utf8()) as u32);
     let mut distinct = vec![c0];
@@ -515,8 +492,10 @@ fn text_flow_warning(text: &str, span: Span, what: &str) -> Option<Diagnostic> {
             more += 1;
         }
     }
-    let names: Vec<String> =
-        distinct.iter().map(|&c| format!("U+{:04X} {}", c as u32, text_flow_control(c).unwrap_or_default())).collect();
+    let names: Vec<String> = distinct
+        .iter()
+        .map(|&c| format!("U+{:04X} {}", c as u32, crate::text::text_flow_control(c).unwrap_or_default()))
+        .collect();
     d.message = format!(
         "{what} holds invisible text-direction or line-break character{}: {}",
         if names.len() == 1 { "" } else { "s" },

@@ -408,12 +408,8 @@ impl SpirvStore for DiskCache {
         for w in words {
             bytes.extend_from_slice(&w.to_le_bytes());
         }
-        let path = self.path(key);
-        static SEQ: AtomicU64 = AtomicU64::new(0);
-        let tmp = path.with_extension(format!("tmp.{}.{}", std::process::id(), SEQ.fetch_add(1, Ordering::Relaxed)));
-        if std::fs::write(&tmp, &bytes).is_err() || std::fs::rename(&tmp, &path).is_err() {
-            let _ = std::fs::remove_file(&tmp);
-        }
+        // Temporary file + rename (never half a file for a concurrent reader); errors are dropped.
+        let _ = mdg_vm::export::write_atomic(&self.path(key), &bytes);
     }
 }
 

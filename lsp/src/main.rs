@@ -31,7 +31,7 @@ fn main() -> ExitCode {
                 return ExitCode::SUCCESS;
             }
             "--help" | "-h" => {
-                println!("mdg-lsp {}: the MDG language server. It speaks LSP on stdin/stdout; start it from an editor.\n\nEnvironment: MDG_STD=DIR selects the std library; MDG_DOCS_URL=URL (a published docs/ folder) is where diagnostic codes link (URL/diagnostics.md#CODE), else the docs installed beside std.", env!("CARGO_PKG_VERSION"));
+                println!("mdg-lsp {}: the MDG language server. It speaks LSP on stdin/stdout; start it from an editor.\n\nEnvironment: MDG_STD=DIR selects the std library; MDG_DOCS_URL=URL (a published docs/ folder) is where diagnostic codes link (URL/diagnostics.md#CODE), else the docs installed beside std; MDG_SPIRV_CACHE=0 turns off the cache of compiled shaders ($XDG_CACHE_HOME/mdg/spirv or ~/.cache/mdg/spirv).", env!("CARGO_PKG_VERSION"));
                 return ExitCode::SUCCESS;
             }
             // Clients may say how to talk; stdio is the only way.
