@@ -93,8 +93,11 @@ fn next_frame(r: &mut impl BufRead, oversize: &Oversize) -> Option<Vec<u8>> {
         }
     }
     let Some(len) = len else { return Some(header) };
-    let mut body = vec![0u8; len];
-    r.read_exact(&mut body).ok()?;
+    // Grown as the bytes arrive: a wrong or hostile length allocates nothing up front.
+    let mut body = Vec::new();
+    if r.by_ref().take(len as u64).read_to_end(&mut body).ok()? < len {
+        return None;
+    }
     let fields = if len > oversize.threshold() { message_fields(&body) } else { None };
     let replacement = match fields {
         Some((method, uri, version)) if method == "textDocument/didOpen" => Some((
@@ -247,6 +250,12 @@ mod tests {
         // A `uri` elsewhere does not count.
         let m = br#"{"method":"x","params":{"other":{"uri":"u","version":1},"textDocument":{"version":2,"uri":"v"}}}"#;
         assert_eq!(message_fields(m), Some(("x".into(), "v".into(), 2)));
+    }
+
+    #[test]
+    fn a_frame_claiming_more_than_it_has_ends_the_input_without_allocating_it() {
+        let mut r = std::io::Cursor::new(b"Content-Length: 999999999999999\r\n\r\n{}".to_vec());
+        assert!(next_frame(&mut r, &Oversize::new(10)).is_none());
     }
 
     #[test]
