@@ -676,7 +676,7 @@ fn line_col(text: &str, at: usize) -> (u32, u32) {
 /// column, else the whole line; errors with no line point at the block's name.
 fn span_of(sh: &Shader, sources: &Sources, e: &GlslError) -> Span {
     let Some(line) = e.line else { return sh.name.span };
-    let code = sources.text(sh.code_span);
+    let code = lone_cr_to_lf(sources.text(sh.code_span));
     // Byte offset of the start of GLSL line `line` within the block's code.
     let mut start = 0usize;
     for _ in 1..line {
@@ -723,6 +723,22 @@ fn span_of(sh: &Shader, sources: &Sources, e: &GlslError) -> Span {
     Span::new(sh.code_span.file, base + lo as u32, base + hi.max(lo) as u32)
 }
 
+/// `code` with every lone CR made a LF: the compiler ends lines at a lone CR
+/// ([`crate::source::line_starts`]) but glslang does not. Byte for byte, so offsets
+/// and line numbers stay those of the `.mdg` file.
+fn lone_cr_to_lf(code: &str) -> std::borrow::Cow<'_, str> {
+    let b = code.as_bytes();
+    if !b.iter().enumerate().any(|(i, &c)| c == b'\r' && b.get(i + 1) != Some(&b'\n')) {
+        return std::borrow::Cow::Borrowed(code);
+    }
+    let mut out = String::with_capacity(code.len());
+    let mut chars = code.chars().peekable();
+    while let Some(c) = chars.next() {
+        out.push(if c == '\r' && chars.peek() != Some(&'\n') { '\n' } else { c });
+    }
+    std::borrow::Cow::Owned(out)
+}
+
 /// The first `'…'` in a glslang message, the token it complains about.
 fn quoted_token(message: &str) -> Option<&str> {
     let a = message.find('\'')?;
@@ -739,7 +755,8 @@ pub fn compile_all(ex: &Expanded, sources: &Sources, cancel: Cancel) -> Option<C
     let mut diags = Vec::new();
     for sh in &ex.shaders {
         let stage = if sh.vertex { "vertex" } else { "fragment" };
-        if let Err(r) = crate::shader_limits::check(&sh.code) {
+        let code = lone_cr_to_lf(&sh.code);
+        if let Err(r) = crate::shader_limits::check(&code) {
             let base = sh.code_span.start;
             let span = Span::new(sh.code_span.file, base + r.start as u32, base + r.end as u32);
             let mut d = Diagnostic::error("E0502", span, r.message).with_label(r.label);
@@ -756,7 +773,7 @@ pub fn compile_all(ex: &Expanded, sources: &Sources, cancel: Cancel) -> Option<C
             spirv.push(None);
             continue;
         }
-        match compile_checked(&sh.code, sh.vertex, COMPILE_DEADLINE, cancel)? {
+        match compile_checked(&code, sh.vertex, COMPILE_DEADLINE, cancel)? {
             Ok(words) if mdg_vm::bundle::spirv::largest_array(&words) > mdg_vm::bundle::spirv::MAX_ARRAY_ELEMENTS => {
                 let n = mdg_vm::bundle::spirv::largest_array(&words);
                 let max = mdg_vm::bundle::spirv::MAX_ARRAY_ELEMENTS;

@@ -270,3 +270,29 @@ fn a_hash_comment_is_one_error_with_a_hint() {
         assert_eq!(a.diagnostics[0].suggestion.as_ref().map(|s| s.replacement.as_str()), Some("@"));
     });
 }
+
+/// A shader block in a CR-only file compiles like its LF twin (glslang itself does
+/// not end lines at a lone CR: the `#version` line ran on into the code), and a GLSL
+/// error is at the same line and column.
+#[test]
+fn a_shader_block_with_cr_only_line_endings_compiles_like_lf() {
+    bounded(HEAP, "a_shader_block_with_cr_only_line_endings_compiles_like_lf", BOUND_MIB, BOUND_SECS, || {
+        let lf = "startshape A\n@vertexshader vs\n#version 450\nvoid main() {\n  gl_Position = vec4(nope);\n}\n\
+                  @endshader\nrule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n";
+        let at = |a: &Analysis| -> Vec<(&'static str, u32, u32)> {
+            a.diagnostics
+                .iter()
+                .map(|d| {
+                    let (l, c) = a.sources.file(d.span.file).line_col(d.span.start);
+                    (d.code, l, c)
+                })
+                .collect()
+        };
+        let a_lf = analyze_mem(lf);
+        assert_eq!(at(&a_lf), [("E0501", 4, 21)], "{}", render_plain(&a_lf.diagnostics, &a_lf.sources));
+        let a_cr = analyze_mem(&lf.replace('\n', "\r"));
+        assert_eq!(at(&a_cr), at(&a_lf), "{}", render_plain(&a_cr.diagnostics, &a_cr.sources));
+        let good = analyze_mem(&lf.replace("nope", "1.0").replace('\n', "\r"));
+        assert!(!good.has_errors(), "{}", render_plain(&good.diagnostics, &good.sources));
+    });
+}
