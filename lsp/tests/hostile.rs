@@ -318,3 +318,21 @@ fn a_fifty_megabyte_document_is_not_parsed_and_does_not_hold_up_other_documents(
     c.assert_peak_below(100);
     assert!(c.shutdown_and_exit().success());
 }
+
+/// Trojan Source in the editor: the W0013 warning of the checker is published as a
+/// diagnostic at the invisible character (its UTF-16 range), and a lone CR ends a
+/// line for the server as it does for LSP clients.
+#[test]
+fn bidirectional_controls_are_warned_about_in_the_editor() {
+    let dir = scratch("hostile-bidi");
+    let u = uri(&dir.join("bidi.mdg"));
+    let mut c = Client::spawn();
+    c.initialize(&dir);
+    c.open(&u, 1, "startshape A\rrule A { VERTEX {} } // é \u{202e} }nimda{\r");
+    let d = c.diagnostics(&u, 1);
+    assert_eq!(codes(&d), ["W0013"], "{d:?}");
+    assert_eq!(d[0]["severity"], 2, "a warning: {d:?}");
+    assert!(d[0]["message"].as_str().unwrap_or("").contains("U+202E RIGHT-TO-LEFT OVERRIDE"), "{d:?}");
+    assert_eq!(d[0]["range"], json!({"start": {"line": 1, "character": 26}, "end": {"line": 1, "character": 27}}));
+    assert!(c.shutdown_and_exit().success());
+}
