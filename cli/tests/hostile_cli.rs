@@ -396,3 +396,22 @@ fn a_turntable_past_360_views_is_a_usage_error() {
     );
     assert!(!dir.join("t.png").exists());
 }
+
+/// A file whose name holds terminal control sequences (`ESC [2J` clears the screen,
+/// `ESC ] 0 ; … BEL` retitles the window): `mdgc check` and `mdg-run` name it in
+/// their messages with the controls escaped, never raw.
+#[test]
+fn file_names_with_terminal_controls_are_printed_escaped() {
+    let dir = scratch("controls");
+    let name = "ev\u{1b}[2Jil\u{1b}]0;pwned\u{7}.mdg";
+    std::fs::write(dir.join(name), "startshape A\nrule A { VERTEX {} } %\n").expect("write");
+    let (o, _) = mdgc(&dir, &["check", name]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(!e.contains('\u{1b}') && !e.contains('\u{7}'), "{e:?}");
+    assert!(e.contains(r"ev\u{1b}[2Jil\u{1b}]0;pwned\u{7}.mdg:2:22"), "{e}");
+    // A path that cannot be read: the command's own message.
+    let (o, _) = mdg_run(&dir, &["missing\u{1b}[2J.mdgb"]);
+    let e = stderr(&o);
+    assert!(!e.contains('\u{1b}') && e.contains(r"missing\u{1b}[2J.mdgb"), "{e:?}");
+}

@@ -31,9 +31,10 @@ fn mdgc(dir: &Path, args: &[&str]) -> (Output, Duration) {
 }
 
 fn mdgc_env(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> (Output, Duration) {
-    let r = bounded::run(dir, env!("CARGO_BIN_EXE_mdgc"), args, env, VMEM_KIB, Duration::from_secs(60));
+    // Past the 60 s wall-clock safety net of a shader compile.
+    let r = bounded::run(dir, env!("CARGO_BIN_EXE_mdgc"), args, env, VMEM_KIB, Duration::from_secs(120));
     eprintln!("mdgc {}: peak RSS {:.1} MiB, {:?}", args.join(" "), r.peak_kib as f64 / 1024.0, r.took);
-    assert!(!r.timed_out, "mdgc {args:?} ran past 60 s");
+    assert!(!r.timed_out, "mdgc {args:?} ran past 120 s");
     assert!(r.peak_kib < PEAK_KIB, "mdgc {args:?}: peak RSS {} KiB, more than {PEAK_KIB} KiB", r.peak_kib);
     (r.output, r.took)
 }
@@ -126,8 +127,17 @@ fn a_compile_past_the_deadline_is_abandoned_and_mdgc_exits() {
     let (o, took) = mdgc_env(&dir, &["check", "slow.mdg"], &[("MDG_TEST_NO_SHADER_LIMITS", "1")]);
     let e = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "status {:?} after {took:?}: {e}", o.status);
-    assert!(e.contains("error[E0502]: shader compilation took longer than 5 s (the limit for one shader)"), "{e}");
-    assert!(took >= Duration::from_secs(5) && took < Duration::from_secs(30), "took {took:?}");
+    // (On a machine so loaded that the compile got less than a tenth of a core, the
+    // 60 s wall-clock safety net answers instead.)
+    assert!(
+        e.contains(
+            "error[E0502]: shader compilation took longer than 5 s of processor time (the limit for one shader)"
+        ) || e.contains("error[E0502]: shader compilation took longer than 60 s of wall-clock time"),
+        "{e}"
+    );
+    // 5 s of the compile's processor time: at least 5 s, more on a loaded machine
+    // (up to the 60 s wall-clock safety net).
+    assert!(took >= Duration::from_secs(5) && took < Duration::from_secs(90), "took {took:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -2409,6 +2409,19 @@ rule B {
         ),
     },
     Code {
+        code: "W0014",
+        severity: Warning,
+        title: "invisible text-direction or line-break character in a comment or string",
+        explanation: r#"A comment, string, shader block or preprocessor line holds a character that changes how the text is shown but not how it is read: a bidirectional embedding, override or isolate (U+202A–U+202E, U+2066–U+2069), or a Unicode line break the language does not count as one (U+2028 LINE SEPARATOR, U+2029 PARAGRAPH SEPARATOR, U+0085 NEXT LINE).
+
+Editors and code review tools reorder the text after a right-to-left override, so a comment can appear to end where it does not, or code can appear inside a comment ("Trojan Source", CVE-2021-42574); a line separator shows as a new line that the compiler does not see. The warning names every such code point, at the first one. Rendered diagnostics show them escaped (`\u{202e}`), as they do terminal control characters.
+
+In the example: a right-to-left override in a comment makes `}nimda{` display reversed. (This page shows the invisible character as `\u{202e}`; the example file holds the character itself.)
+
+Fix: Delete the characters, unless the text is right-to-left prose that needs them."#,
+        example: Library("rule A {\n  VERTEX {} VERTEX {x 1} VERTEX {y 1} // check \u{202e} }nimda{ \n}\n"),
+    },
+    Code {
         code: "W0801",
         severity: Warning,
         title: "regular creature cannot pass the stability test",
@@ -2488,7 +2501,7 @@ pub fn explain(code: &Code) -> String {
         s.push_str(" (checked as a program)");
     }
     s.push_str(":\n\n");
-    for line in code.example.text().lines() {
+    for line in crate::text::escape_text(code.example.text()).lines() {
         s.push_str("    ");
         s.push_str(line);
         s.push('\n');
@@ -2525,7 +2538,7 @@ pub fn markdown() -> String {
         }
         s.push_str(if c.example.is_program() { "Example (checked as a program):\n" } else { "Example:\n" });
         s.push_str("\n```mdg\n");
-        s.push_str(c.example.text());
+        s.push_str(&crate::text::escape_text(c.example.text()));
         s.push_str("```\n");
     }
     s

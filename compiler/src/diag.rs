@@ -232,34 +232,8 @@ pub fn limit_report(diags: &mut Vec<Diagnostic>, suppressed: Suppressed) -> Opti
     )
 }
 
-/// Adapter so codespan-reporting can read our [`Sources`].
-struct CsFiles<'a>(&'a Sources);
-
-impl<'a> Files<'a> for CsFiles<'a> {
-    type FileId = u32;
-    type Name = &'a str;
-    type Source = &'a str;
-
-    fn name(&'a self, id: u32) -> Result<&'a str, FilesError> {
-        self.0.files.get(id as usize).map(|f| f.name.as_str()).ok_or(FilesError::FileMissing)
-    }
-    fn source(&'a self, id: u32) -> Result<&'a str, FilesError> {
-        self.0.files.get(id as usize).map(|f| f.text.as_str()).ok_or(FilesError::FileMissing)
-    }
-    fn line_index(&'a self, id: u32, byte_index: usize) -> Result<usize, FilesError> {
-        let f = self.0.files.get(id as usize).ok_or(FilesError::FileMissing)?;
-        Ok(f.line_col(byte_index as u32).0 as usize)
-    }
-    fn line_range(&'a self, id: u32, line_index: usize) -> Result<std::ops::Range<usize>, FilesError> {
-        let f = self.0.files.get(id as usize).ok_or(FilesError::FileMissing)?;
-        if line_index >= f.n_lines() {
-            return Err(FilesError::LineTooLarge { given: line_index, max: f.n_lines() - 1 });
-        }
-        let start = f.line_start(line_index as u32) as usize;
-        let end = f.line_end(line_index as u32) as usize;
-        Ok(start..end)
-    }
-}
+use crate::text::push_escaped;
+pub use crate::text::{escape_text, needs_escape};
 
 fn to_codespan(d: &Diagnostic, sources: &Sources) -> cs::Diagnostic<u32> {
     let clamp = |s: Span| {
@@ -273,17 +247,18 @@ fn to_codespan(d: &Diagnostic, sources: &Sources) -> cs::Diagnostic<u32> {
         Severity::Warning => cs::Severity::Warning,
         Severity::Note => cs::Severity::Note,
     };
+    let esc = |t: &str| escape_text(t).into_owned();
     let (f, r) = clamp(d.span);
-    let mut labels = vec![cs::Label::primary(f, r).with_message(d.label.clone())];
+    let mut labels = vec![cs::Label::primary(f, r).with_message(esc(&d.label))];
     for l in &d.secondary {
         let (f, r) = clamp(l.span);
-        labels.push(cs::Label::secondary(f, r).with_message(l.message.clone()));
+        labels.push(cs::Label::secondary(f, r).with_message(esc(&l.message)));
     }
-    let mut notes = d.notes.clone();
+    let mut notes: Vec<String> = d.notes.iter().map(|n| esc(n)).collect();
     if let Some(s) = &d.suggestion {
-        notes.push(format!("help: {}", s.message));
+        notes.push(format!("help: {}", esc(&s.message)));
     }
-    cs::Diagnostic::new(sev).with_code(d.code).with_message(d.message.clone()).with_labels(labels).with_notes(notes)
+    cs::Diagnostic::new(sev).with_code(d.code).with_message(esc(&d.message)).with_labels(labels).with_notes(notes)
 }
 
 /// The longest source line a rendered diagnostic shows whole (in bytes); a longer
@@ -291,76 +266,121 @@ fn to_codespan(d: &Diagnostic, sources: &Sources) -> cs::Diagnostic<u32> {
 pub const MAX_SHOWN_LINE: usize = 240;
 
 /// Renders diagnostics as plain text (no colour), the form used in snapshots and logs.
+/// Source lines, file names and messages are shown with control characters escaped
+/// ([`escape_text`]): a downloaded grammar cannot retitle, clear or recolour the
+/// terminal of whoever checks it.
 pub fn render_plain(diags: &[Diagnostic], sources: &Sources) -> String {
     let config = term::Config::default();
-    let files = CsFiles(sources);
     let mut out = String::new();
     for d in diags {
         let cd = to_codespan(d, sources);
+        let (shown, cd) = Shown::of(&cd, sources);
         // Rendering fails only if a span points outside its file, which `to_codespan` prevents.
-        match Clipped::of(&cd, sources) {
-            Some((clipped, cd)) => {
-                let _ = term::emit_to_string(&mut out, &config, &clipped, &cd);
-            }
-            None => {
-                let _ = term::emit_to_string(&mut out, &config, &files, &cd);
-            }
-        }
+        let _ = term::emit_to_string(&mut out, &config, &shown, &cd);
     }
     out
 }
 
-/// The files of one diagnostic with its long lines cut (see [`MAX_SHOWN_LINE`]): the
-/// lines keep their numbers; a labelled line keeps a window around its labels, other
-/// long lines their start. Built only for a diagnostic that touches a long line.
-struct Clipped<'s> {
+/// What one diagnostic shows of its files: the lines around its labels (the only
+/// ones codespan-reporting prints), each with its control characters escaped and,
+/// if longer than [`MAX_SHOWN_LINE`], cut to a window around its labels (other long
+/// lines keep their start). Lines keep their numbers and the header its real line
+/// and column; lines far from every label are left out of the text (they are never
+/// printed), so a diagnostic costs its shown lines, not its file.
+struct Shown<'s> {
     sources: &'s Sources,
-    /// By file id (`None`: not touched).
-    files: Vec<Option<ClippedFile>>,
+    /// By file id (`None`: no label in it).
+    files: Vec<Option<ShownFile>>,
 }
 
-struct ClippedFile {
+struct ShownFile {
+    /// The file name, escaped.
+    name: String,
+    /// The shown lines, each ending in `\n`.
     text: String,
-    /// Line starts in `text`.
-    starts: Vec<usize>,
-    /// Per line: where the window starts in the original text, and where in `text`
-    /// its first byte went.
-    windows: Vec<(usize, usize)>,
+    /// The shown lines in order: (line index, where it starts in `text`).
+    starts: Vec<(usize, usize)>,
+    /// Per shown line (as in `starts`): how it maps to the original.
+    windows: Vec<ShownLine>,
 }
 
-impl<'s> Clipped<'s> {
-    /// The clipped files and the diagnostic with its labels moved into them, or `None`
-    /// when no label lies on a long line.
-    fn of(d: &cs::Diagnostic<u32>, sources: &'s Sources) -> Option<(Clipped<'s>, cs::Diagnostic<u32>)> {
-        let long = |l: &cs::Label<u32>| {
-            let f = &sources.files[l.file_id as usize];
-            [l.range.start, l.range.end].iter().any(|&o| {
-                let line = f.line_col(o as u32).0;
-                let end = f.line_end(line) as usize;
-                end - f.line_start(line) as usize > MAX_SHOWN_LINE
-            })
-        };
-        if !d.labels.iter().any(long) {
-            return None;
+/// One shown line: its window `ws..we` in the original text, where the window's
+/// first byte went in the shown text, and per escaped character its original
+/// offset, its length and the bytes its escape adds.
+struct ShownLine {
+    ws: usize,
+    we: usize,
+    at: usize,
+    escapes: Vec<(usize, usize, usize)>,
+}
+
+impl ShownLine {
+    /// Where an original offset of this line went (clamped to the window).
+    fn to_shown(&self, o: usize) -> usize {
+        let o = o.clamp(self.ws, self.we);
+        let added: usize = self.escapes.iter().take_while(|(e, _, _)| *e < o).map(|(_, _, n)| n).sum();
+        self.at + o - self.ws + added
+    }
+
+    /// The original offset a shown offset came from (inside an escape: its character).
+    fn to_original(&self, s: usize) -> usize {
+        let mut o = self.ws;
+        let mut pos = self.at;
+        if s <= pos {
+            return o;
         }
-        let mut files: Vec<Option<ClippedFile>> = (0..sources.files.len()).map(|_| None).collect();
+        for &(e, len, n) in &self.escapes {
+            // Plain bytes up to the escaped character.
+            if s < pos + (e - o) {
+                return o + (s - pos);
+            }
+            pos += e - o;
+            // The escaped character: its escape is `n` bytes longer than it.
+            if s < pos + len + n {
+                return e;
+            }
+            pos += len + n;
+            o = e + len;
+        }
+        (o + (s - pos)).min(self.we)
+    }
+}
+
+/// Lines shown around a label that starts on line `a` and ends on line `b`: more
+/// than codespan-reporting prints by default (3 lines after the start and 1 before
+/// the end of a multi-line label).
+fn shown_lines(a: usize, b: usize, n_lines: usize, out: &mut std::collections::BTreeSet<usize>) {
+    let last = n_lines.saturating_sub(1);
+    out.extend(a.saturating_sub(2)..=(a + 5).min(b).min(last));
+    out.extend(b.saturating_sub(3).max(a)..=(b + 2).min(last));
+}
+
+impl<'s> Shown<'s> {
+    /// The shown files of `d`, and `d` with its labels moved into them.
+    fn of(d: &cs::Diagnostic<u32>, sources: &'s Sources) -> (Shown<'s>, cs::Diagnostic<u32>) {
+        let mut files: Vec<Option<ShownFile>> = (0..sources.files.len()).map(|_| None).collect();
         let mut d = d.clone();
         let ids: std::collections::BTreeSet<u32> = d.labels.iter().map(|l| l.file_id).collect();
         for id in ids {
-            let f = &sources.files[id as usize];
+            let Some(f) = sources.files.get(id as usize) else { continue };
             let offsets: Vec<usize> =
                 d.labels.iter().filter(|l| l.file_id == id).flat_map(|l| [l.range.start, l.range.end]).collect();
+            let mut lines = std::collections::BTreeSet::new();
+            for l in d.labels.iter().filter(|l| l.file_id == id) {
+                let a = f.line_col(l.range.start as u32).0 as usize;
+                let b = f.line_col(l.range.end as u32).0 as usize;
+                shown_lines(a, b, f.n_lines(), &mut lines);
+            }
             let mut text = String::new();
-            let mut starts = Vec::with_capacity(f.n_lines());
-            // Per line: window start and end in the original, and where its start went.
-            let mut spans = Vec::with_capacity(f.n_lines());
-            for line in 0..f.n_lines() as u32 {
-                let start = f.line_start(line) as usize;
-                let end = f.line_end(line) as usize;
+            let mut starts = Vec::with_capacity(lines.len());
+            let mut windows = Vec::with_capacity(lines.len());
+            for line in lines {
+                let start = f.line_start(line as u32) as usize;
+                let end = f.line_end(line as u32) as usize;
                 let body = f.text[start..end].trim_end_matches(['\n', '\r']);
                 let on: Vec<usize> =
                     offsets.iter().copied().filter(|&o| o >= start && o <= start + body.len()).collect();
-                starts.push(text.len());
+                starts.push((line, text.len()));
                 let (ws, we) = if body.len() <= MAX_SHOWN_LINE {
                     (start, start + body.len())
                 } else if on.is_empty() {
@@ -374,29 +394,50 @@ impl<'s> Clipped<'s> {
                 if ws > start {
                     text.push('…');
                 }
-                spans.push((ws, we, text.len()));
-                text.push_str(&f.text[ws..we]);
+                let at = text.len();
+                let mut escapes = Vec::new();
+                for (i, c) in f.text[ws..we].char_indices() {
+                    let added = push_escaped(&mut text, c);
+                    if added != c.len_utf8() {
+                        escapes.push((ws + i, c.len_utf8(), added - c.len_utf8()));
+                    }
+                }
+                windows.push(ShownLine { ws, we, at, escapes });
                 if we < start + body.len() {
                     text.push('…');
                 }
                 text.push('\n');
             }
-            let map = |o: usize| {
-                let line = f.line_col(o as u32).0 as usize;
-                let (ws, we, at) = spans[line];
-                at + o.clamp(ws, we) - ws
-            };
+            let file = ShownFile { name: escape_text(&f.name).into_owned(), text, starts, windows };
             for l in d.labels.iter_mut().filter(|l| l.file_id == id) {
-                l.range = map(l.range.start)..map(l.range.end);
+                l.range = file.to_shown(f, l.range.start)..file.to_shown(f, l.range.end);
             }
-            let windows = spans.iter().map(|&(ws, _, at)| (ws, at)).collect();
-            files[id as usize] = Some(ClippedFile { text, starts, windows });
+            files[id as usize] = Some(file);
         }
-        Some((Clipped { sources, files }, d))
+        (Shown { sources, files }, d)
     }
 
-    fn file(&self, id: u32) -> Result<&ClippedFile, FilesError> {
+    fn file(&self, id: u32) -> Result<&ShownFile, FilesError> {
         self.files.get(id as usize).and_then(Option::as_ref).ok_or(FilesError::FileMissing)
+    }
+}
+
+impl ShownFile {
+    /// Where an original offset went (its line is always shown: it is a label's).
+    fn to_shown(&self, f: &crate::source::SourceFile, o: usize) -> usize {
+        let line = f.line_col(o as u32).0 as usize;
+        match self.starts.binary_search_by_key(&line, |(l, _)| *l) {
+            Ok(i) => self.windows[i].to_shown(o),
+            Err(_) => self.text.len(),
+        }
+    }
+
+    /// The index in `starts` of the shown line holding shown offset `s`.
+    fn shown_line(&self, s: usize) -> usize {
+        match self.starts.binary_search_by_key(&s, |(_, at)| *at) {
+            Ok(i) => i,
+            Err(i) => i.saturating_sub(1),
+        }
     }
 }
 
@@ -408,40 +449,46 @@ fn floor_char(text: &str, mut i: usize) -> usize {
     i
 }
 
-impl<'a> Files<'a> for Clipped<'_> {
+impl<'a> Files<'a> for Shown<'_> {
     type FileId = u32;
     type Name = &'a str;
     type Source = &'a str;
 
     fn name(&'a self, id: u32) -> Result<&'a str, FilesError> {
-        self.sources.files.get(id as usize).map(|f| f.name.as_str()).ok_or(FilesError::FileMissing)
+        Ok(self.file(id)?.name.as_str())
     }
     fn source(&'a self, id: u32) -> Result<&'a str, FilesError> {
         Ok(self.file(id)?.text.as_str())
     }
     fn line_index(&'a self, id: u32, byte_index: usize) -> Result<usize, FilesError> {
-        let starts = &self.file(id)?.starts;
-        Ok(match starts.binary_search(&byte_index) {
-            Ok(l) => l,
-            Err(l) => l.saturating_sub(1),
-        })
+        let f = self.file(id)?;
+        Ok(f.starts.get(f.shown_line(byte_index)).map_or(0, |(l, _)| *l))
     }
     /// The position in the original file (the header shows where the label really is).
     fn location(&'a self, id: u32, byte_index: usize) -> Result<codespan_reporting::files::Location, FilesError> {
-        let line = self.line_index(id, byte_index)?;
         let f = self.file(id)?;
-        let (ws, at) = f.windows[line];
-        let original = ws + byte_index.saturating_sub(at.max(f.starts[line]));
+        let i = f.shown_line(byte_index);
+        let (line, _) = *f.starts.get(i).ok_or(FilesError::FileMissing)?;
+        let original = f.windows[i].to_original(byte_index);
         let orig = self.sources.files.get(id as usize).ok_or(FilesError::FileMissing)?;
         let line_start = orig.line_start(line as u32) as usize;
         let column = orig.text.get(line_start..original).map_or(0, |t| t.chars().count()) + 1;
         Ok(codespan_reporting::files::Location { line_number: line + 1, column_number: column })
     }
+    /// A shown line's range; a line left out is empty (it is never printed).
     fn line_range(&'a self, id: u32, line_index: usize) -> Result<std::ops::Range<usize>, FilesError> {
-        let ClippedFile { text, starts, .. } = self.file(id)?;
-        let start = *starts.get(line_index).ok_or(FilesError::LineTooLarge { given: line_index, max: starts.len() })?;
-        let end = starts.get(line_index + 1).copied().unwrap_or(text.len());
-        Ok(start..end)
+        let f = self.file(id)?;
+        let n = self.sources.files.get(id as usize).map_or(0, |s| s.n_lines());
+        if line_index >= n {
+            return Err(FilesError::LineTooLarge { given: line_index, max: n.saturating_sub(1) });
+        }
+        Ok(match f.starts.binary_search_by_key(&line_index, |(l, _)| *l) {
+            Ok(i) => f.starts[i].1..f.starts.get(i + 1).map_or(f.text.len(), |(_, at)| *at),
+            Err(i) => {
+                let at = f.starts.get(i).map_or(f.text.len(), |(_, at)| *at);
+                at..at
+            }
+        })
     }
 }
 
@@ -464,7 +511,8 @@ pub struct JsonDiagnostic<'a> {
     pub suggestion: &'a Option<Suggestion>,
 }
 
-/// Renders diagnostics as one JSON object per line.
+/// Renders diagnostics as one JSON object per line; no raw control character is
+/// written (strings hold them as `\u` escapes).
 pub fn render_json(diags: &[Diagnostic], sources: &Sources) -> String {
     let mut out = String::new();
     for d in diags {
@@ -487,7 +535,15 @@ pub fn render_json(diags: &[Diagnostic], sources: &Sources) -> String {
             notes: &d.notes,
             suggestion: &d.suggestion,
         };
-        out.push_str(&serde_json::to_string(&j).unwrap_or_default());
+        // JSON escapes C0 controls itself; C1 controls and text-flow characters are
+        // written as `\u` escapes too (the same string, safe on a terminal).
+        for c in serde_json::to_string(&j).unwrap_or_default().chars() {
+            if needs_escape(c) {
+                out.push_str(&format!("\\u{:04x}", c as u32));
+            } else {
+                out.push(c);
+            }
+        }
         out.push('\n');
     }
     out

@@ -44,10 +44,11 @@ fn shader_block(lex: &mut logos::Lexer<Tok>) -> Result<(), LexError> {
     }
 }
 
-/// Consumes the rest of the line (up to a `//` comment or the newline).
+/// Consumes the rest of the line (up to a `//` comment or the line break: `\n`,
+/// `\r\n` or a lone `\r`, as [`crate::source::line_starts`] counts lines).
 fn rest_of_line(lex: &mut logos::Lexer<Tok>) {
     let rem = lex.remainder();
-    let nl = rem.find('\n').unwrap_or(rem.len());
+    let nl = rem.find(['\n', '\r']).unwrap_or(rem.len());
     let cut = rem[..nl].find("//").unwrap_or(nl);
     lex.bump(rem[..cut].trim_end().len());
 }
@@ -145,7 +146,7 @@ pub enum Tok {
     #[token("loop")]
     KwLoop,
     /// A string literal `"…"` on one line (paths in extension sections).
-    #[regex(r#""[^"\n]*""#)]
+    #[regex(r#""[^"\n\r]*""#)]
     Str,
 
     #[regex(r"[A-Za-z_][A-Za-z0-9_]*")]
@@ -209,7 +210,7 @@ pub enum Tok {
     #[token("!")]
     Bang,
 
-    #[regex(r"//[^\n]*", allow_greedy = true)]
+    #[regex(r"//[^\n\r]*", allow_greedy = true)]
     LineComment,
     #[token("/*", block_comment)]
     BlockComment,
@@ -358,8 +359,36 @@ pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
         let r = lexer.span();
         let span = Span::new(file, base + r.start as u32, base + r.end as u32);
         match res {
+            Ok(Tok::LineComment | Tok::BlockComment) if !text[r.clone()].is_ascii() => {
+                let block = text[r.clone()].starts_with("/*");
+                if let Some(d) =
+                    text_flow_warning(&text[r.clone()], span, if block { "comment" } else { "line comment" })
+                {
+                    diags.push(d);
+                }
+                out.comments.push(Comment { span, block });
+            }
             Ok(Tok::LineComment) => out.comments.push(Comment { span, block: false }),
             Ok(Tok::BlockComment) => out.comments.push(Comment { span, block: true }),
+            Ok(
+                kind @ (Tok::Str
+                | Tok::Shader
+                | Tok::AtImport
+                | Tok::AtDefine
+                | Tok::AtParam
+                | Tok::AtPresets
+                | Tok::AtUnknown),
+            ) if !text[r.clone()].is_ascii() => {
+                let what = match kind {
+                    Tok::Str => "string",
+                    Tok::Shader => "shader block",
+                    _ => "preprocessor line",
+                };
+                if let Some(d) = text_flow_warning(&text[r.clone()], span, what) {
+                    diags.push(d);
+                }
+                out.tokens.push(Token { kind, span });
+            }
             Ok(Tok::CallOpen) => {
                 // `if(`, `loop(`: a control keyword then `(`, not a call.
                 let word = &text[r.start..r.end - 1];
@@ -389,6 +418,16 @@ pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
                 out.tokens.push(Token { kind: Tok::Number, span });
             }
             Ok(kind) => out.tokens.push(Token { kind, span }),
+            Err(LexError::InvalidChar) if text[r.clone()].starts_with('#') => {
+                // A `#` comment (shell, Python, Context Free) or a C-style `#define`:
+                // one error with the fix, and the rest of the line is skipped as the
+                // comment it was meant to be (not an error per word after it).
+                let rest = &text[r.end..];
+                let line_len = rest.find(['\n', '\r']).unwrap_or(rest.len());
+                lexer.bump(line_len);
+                invalid_end = None;
+                diags.push(hash_line(&text[r.start..r.end + line_len], span));
+            }
             Err(LexError::InvalidChar) => {
                 let ch = text[r.clone()].chars().next().unwrap_or('?');
                 // Merge runs of invalid characters into one diagnostic.
@@ -427,6 +466,67 @@ pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
     out.diagnostics = diags.list;
     out.suppressed = diags.suppressed;
     out
+}
+
+/// At most this many occurrences of text-flow controls in one comment or string
+/// get a label of their own (the message names every distinct one).
+const MAX_FLOW_LABELS: usize = 8;
+
+/// W0014 for a comment, string or other free text (`what`) at `span` holding
+/// text-flow controls ([`text_flow_control`]): at the first one, naming each
+/// distinct code point, with labels at the next few.
+fn text_flow_warning(text: &str, span: Span, what: &str) -> Option<Diagnostic> {
+    let mut found = text.char_indices().filter(|(_, c)| crate::text::text_flow_control(*c).is_some());
+    let (first, c0) = found.next()?;
+    let at = |i: usize, c: char| Span::new(span.file, span.start + i as u32, span.start + (i + c.len_utf8()) as u32);
+    let mut distinct = vec![c0];
+    let mut d = Diagnostic::warning("W0014", at(first, c0), "");
+    let mut more = 0usize;
+    for (i, c) in found {
+        if !distinct.contains(&c) {
+            distinct.push(c);
+        }
+        if d.secondary.len() < MAX_FLOW_LABELS {
+            d = d.with_secondary(at(i, c), format!("U+{:04X}", c as u32));
+        } else {
+            more += 1;
+        }
+    }
+    let names: Vec<String> = distinct
+        .iter()
+        .map(|&c| format!("U+{:04X} {}", c as u32, crate::text::text_flow_control(c).unwrap_or_default()))
+        .collect();
+    d.message = format!(
+        "{what} holds invisible text-direction or line-break character{}: {}",
+        if names.len() == 1 { "" } else { "s" },
+        names.join(", ")
+    );
+    d = d.with_label(format!("U+{:04X}: the text may be shown in another order than it is read", c0 as u32)).with_note(
+        "these characters make code look different from what the compiler reads (\"Trojan Source\"); \
+             remove them unless they are meant",
+    );
+    if more > 0 {
+        d = d.with_note(format!("{more} more not labelled"));
+    }
+    Some(d)
+}
+
+/// The error for a `#` at the start of `line` (the rest of the line is skipped): a
+/// known directive written the C way (`#define`) points at `@`, anything else is a
+/// comment written the shell way.
+fn hash_line(line: &str, span: Span) -> Diagnostic {
+    let word: String = line[1..].chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
+    let directive = format!("@{word}");
+    if !word.is_empty() && PREPROCESSOR_DIRECTIVES.contains(&directive.as_str()) {
+        return Diagnostic::error("E0103", span, format!("`#{word}` is not a directive in MDG"))
+            .with_label("`#` is not part of the language; the rest of the line is skipped")
+            .with_note(format!("MDG's preprocessor directives start with `@`: `{directive}`"))
+            .with_suggestion(format!("write `{directive}`"), span, "@");
+    }
+    Diagnostic::error("E0103", span, "`#` does not start a comment in MDG")
+        .with_label("not part of the language; the rest of the line is skipped")
+        .with_note("MDG comments are `//` or `/* */`")
+        .with_suggestion("write `//`", span, "//")
 }
 
 /// Lexes a whole file.

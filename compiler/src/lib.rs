@@ -27,4 +27,5 @@ pub mod source;
 pub mod span;
 pub mod stdlib;
 pub mod symbols;
+pub mod text;
 pub mod types;

@@ -673,14 +673,14 @@ fn balance(tokens: Vec<Token>, sources: &Sources) -> (Vec<Token>, Capped) {
         let f = sources.files.get(span.file.0 as usize)?;
         let text = &f.text;
         let start = span.start as usize;
-        let ls = text[..start.min(text.len())].rfind('\n').map_or(0, |i| i + 1);
+        let ls = text[..start.min(text.len())].rfind(['\n', '\r']).map_or(0, |i| i + 1);
         Some((ls, start - ls))
     };
     let indent_of = |span: Span| -> Option<usize> {
         let f = sources.files.get(span.file.0 as usize)?;
         let text = &f.text;
         let start = (span.start as usize).min(text.len());
-        let ls = text[..start].rfind('\n').map_or(0, |i| i + 1);
+        let ls = text[..start].rfind(['\n', '\r']).map_or(0, |i| i + 1);
         Some(text[ls..].len() - text[ls..].trim_start_matches([' ', '\t']).len())
     };
     let first_on_line = |t: &Token| -> Option<usize> {

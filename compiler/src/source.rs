@@ -112,6 +112,21 @@ pub fn normalize(path: &Path) -> PathBuf {
     out
 }
 
+/// Where the lines of `text` start: at 0 and after every line break, which is
+/// `\n`, `\r\n` or a lone `\r` (old Mac files; LSP counts it too). The lexer ends
+/// `//` comments and one-line tokens at the same breaks, so a file with CR-only
+/// line endings checks exactly like its LF twin.
+pub fn line_starts(text: &str) -> Vec<u32> {
+    let b = text.as_bytes();
+    let mut starts = vec![0u32];
+    for (i, &c) in b.iter().enumerate() {
+        if c == b'\n' || (c == b'\r' && b.get(i + 1) != Some(&b'\n')) {
+            starts.push(i as u32 + 1);
+        }
+    }
+    starts
+}
+
 /// One source file.
 pub struct SourceFile {
     pub path: PathBuf,
@@ -123,12 +138,7 @@ pub struct SourceFile {
 
 impl SourceFile {
     fn new(path: PathBuf, name: String, text: String) -> SourceFile {
-        let mut line_starts = vec![0u32];
-        for (i, b) in text.bytes().enumerate() {
-            if b == b'\n' {
-                line_starts.push(i as u32 + 1);
-            }
-        }
+        let line_starts = line_starts(&text);
         SourceFile { path, name, text, line_starts }
     }
 
@@ -147,7 +157,7 @@ impl SourceFile {
     }
 
     /// Byte offset where zero-based `line` ends: the start of the next line (after
-    /// the line's `\n`), or the end of the text for the last line.
+    /// the line's break), or the end of the text for the last line.
     pub fn line_end(&self, line: u32) -> u32 {
         self.line_start(line + 1)
     }

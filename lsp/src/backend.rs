@@ -83,17 +83,25 @@ pub struct Backend {
     pub config: Arc<Config>,
     /// Set by `shutdown`; decides the exit code after `exit`.
     pub shutdown_requested: Arc<AtomicBool>,
+    /// Sizes of documents whose text the input filter did not pass on.
+    pub oversize: Arc<crate::transport::Oversize>,
 }
 
 impl Backend {
     /// A server talking to `client`.
-    pub fn new(client: Client, config: Config, shutdown_requested: Arc<AtomicBool>) -> Backend {
+    pub fn new(
+        client: Client,
+        config: Config,
+        shutdown_requested: Arc<AtomicBool>,
+        oversize: Arc<crate::transport::Oversize>,
+    ) -> Backend {
         Backend {
             client,
             docs: Arc::new(Documents::default()),
             workspace: Arc::new(Workspace::default()),
             config: Arc::new(config),
             shutdown_requested,
+            oversize,
         }
     }
 
@@ -102,11 +110,11 @@ impl Backend {
     /// changed meanwhile (the analysis gave up). `quick` leaves the shaders
     /// uncompiled.
     pub fn analyze(snap: &Snapshot, config: &Config, quick: bool) -> Option<Document> {
-        if snap.text.len() > config.max_live_bytes {
+        if snap.size > config.max_live_bytes {
             return Some(Document::too_large(
                 &snap.loader,
                 &snap.path,
-                snap.text.len(),
+                snap.size,
                 config.max_live_bytes,
                 &config.options,
             ));

@@ -34,6 +34,9 @@ pub struct DocState {
     /// An analysis without compiled shaders ([`Documents::quick`]) and the
     /// generation it analysed: what requests use while the full one is running.
     pub quick: Option<(u64, Arc<Document>)>,
+    /// The size of a text too large to be passed on ([`crate::transport`]): `text`
+    /// is then empty and stands for nothing.
+    pub oversized: Option<usize>,
 }
 
 /// What an analysis of one version needs, taken under the lock.
@@ -44,6 +47,9 @@ pub struct Snapshot {
     pub counter: Arc<AtomicU64>,
     pub path: PathBuf,
     pub text: Arc<str>,
+    /// The text's size in bytes (for a document whose text was not passed on, the
+    /// size of the message that carried it).
+    pub size: usize,
     /// Every open document, for imports of unsaved files.
     pub loader: OverlayLoader,
 }
@@ -85,7 +91,8 @@ fn reads(d: &DocState, path: &Path, canon: &Path) -> bool {
 /// The open documents as a loader.
 fn overlay(map: &HashMap<Uri, DocState>) -> OverlayLoader {
     let mut loader = OverlayLoader::default();
-    for d in map.values() {
+    // A document whose text was not passed on is read from disk by its importers.
+    for d in map.values().filter(|d| d.oversized.is_none()) {
         loader.insert(&d.path, d.text.clone());
     }
     loader
@@ -98,8 +105,9 @@ impl Documents {
         self.map.lock().unwrap_or_else(|e| e.into_inner())
     }
 
-    /// Opens (or reopens) a document.
-    pub fn open(&self, uri: Uri, version: i32, text: String) {
+    /// Opens (or reopens) a document; `oversized` is the size of a text that was
+    /// not passed on (`text` is then empty).
+    pub fn open(&self, uri: Uri, version: i32, text: String, oversized: Option<usize>) {
         let path = path_of(&uri);
         let canon = crate::workspace::canon(&path);
         self.lock().insert(
@@ -114,6 +122,7 @@ impl Documents {
                 again: false,
                 generation: Arc::default(),
                 quick: None,
+                oversized,
             },
         );
     }
@@ -127,7 +136,14 @@ impl Documents {
 
     /// Applies changes that bring a document to `version`. Errors if the document is
     /// not open or the version is not newer (a stale or reordered notification).
-    pub fn change(&self, uri: &Uri, version: i32, changes: Vec<TextDocumentContentChangeEvent>) -> Result<(), String> {
+    /// `oversized`: as for [`Documents::open`].
+    pub fn change(
+        &self,
+        uri: &Uri,
+        version: i32,
+        changes: Vec<TextDocumentContentChangeEvent>,
+        oversized: Option<usize>,
+    ) -> Result<(), String> {
         let mut map = self.lock();
         let doc = map.get_mut(uri).ok_or_else(|| format!("change to a document that is not open: {}", uri.as_str()))?;
         if version <= doc.version {
@@ -146,6 +162,7 @@ impl Documents {
             }
         }
         doc.text = Arc::from(text);
+        doc.oversized = oversized;
         doc.version = version;
         doc.generation.fetch_add(1, Ordering::SeqCst);
         Ok(())
@@ -162,6 +179,7 @@ impl Documents {
             counter: doc.generation.clone(),
             path: doc.path.clone(),
             text: doc.text.clone(),
+            size: doc.oversized.unwrap_or(doc.text.len()),
             loader,
         })
     }
@@ -189,9 +207,9 @@ impl Documents {
         self.lock().get(uri).map(|d| d.version)
     }
 
-    /// The current text of `uri`.
+    /// The current text of `uri` (`None` for a text that was not passed on).
     pub fn text(&self, uri: &Uri) -> Option<Arc<str>> {
-        self.lock().get(uri).map(|d| d.text.clone())
+        self.lock().get(uri).filter(|d| d.oversized.is_none()).map(|d| d.text.clone())
     }
 
     /// Claims the document's analysis loop: false if one is already running (it
@@ -317,23 +335,28 @@ mod tests {
     #[test]
     fn changes_apply_in_order_and_stale_ones_are_dropped() {
         let docs = Documents::default();
-        docs.open(uri(), 1, "rule A {}\n".to_string());
-        docs.change(&uri(), 2, vec![change(Some(((0, 5), (0, 6))), "B"), change(Some(((1, 0), (1, 0))), "// é\n")])
-            .expect("v2");
+        docs.open(uri(), 1, "rule A {}\n".to_string(), None);
+        docs.change(
+            &uri(),
+            2,
+            vec![change(Some(((0, 5), (0, 6))), "B"), change(Some(((1, 0), (1, 0))), "// é\n")],
+            None,
+        )
+        .expect("v2");
         assert_eq!(docs.text(&uri()).as_deref(), Some("rule B {}\n// é\n"));
-        assert!(docs.change(&uri(), 2, vec![change(None, "old")]).is_err());
-        assert!(docs.change(&uri(), 1, vec![change(None, "older")]).is_err());
-        docs.change(&uri(), 5, vec![change(None, "new")]).expect("v5");
+        assert!(docs.change(&uri(), 2, vec![change(None, "old")], None).is_err());
+        assert!(docs.change(&uri(), 1, vec![change(None, "older")], None).is_err());
+        docs.change(&uri(), 5, vec![change(None, "new")], None).expect("v5");
         assert_eq!((docs.text(&uri()).as_deref(), docs.version(&uri())), (Some("new"), Some(5)));
     }
 
     #[test]
     fn analyses_are_stored_only_for_the_current_version() {
         let docs = Documents::default();
-        docs.open(uri(), 1, "rule A { VERTEX {} }".to_string());
+        docs.open(uri(), 1, "rule A { VERTEX {} }".to_string(), None);
         let snap = docs.snapshot(&uri()).expect("open");
         let doc = Arc::new(Document::new(&snap.loader, &snap.path, &snap.text, &Default::default()));
-        docs.change(&uri(), 2, vec![change(None, "rule A { }")]).expect("v2");
+        docs.change(&uri(), 2, vec![change(None, "rule A { }")], None).expect("v2");
         assert!(!docs.store(&uri(), 1, doc.clone()));
         assert!(docs.current_analysis(&uri()).is_none());
         assert!(docs.store(&uri(), 2, doc));
@@ -343,10 +366,10 @@ mod tests {
     #[test]
     fn one_analysis_loop_per_document() {
         let docs = Documents::default();
-        docs.open(uri(), 1, String::new());
+        docs.open(uri(), 1, String::new(), None);
         assert!(docs.begin_analysis(&uri()));
         assert!(!docs.begin_analysis(&uri()), "a second loop is refused");
-        docs.change(&uri(), 2, vec![change(None, "x")]).expect("v2");
+        docs.change(&uri(), 2, vec![change(None, "x")], None).expect("v2");
         assert!(!docs.end_analysis(&uri(), 1), "version 2 still needs analysing");
         assert!(docs.end_analysis(&uri(), 2));
         assert!(docs.begin_analysis(&uri()));
@@ -359,10 +382,10 @@ mod tests {
     #[test]
     fn an_edit_a_changed_import_or_closing_outdates_a_snapshot() {
         let docs = Documents::default();
-        docs.open(uri(), 1, "rule A {}".to_string());
+        docs.open(uri(), 1, "rule A {}".to_string(), None);
         let snap = docs.snapshot(&uri()).expect("open");
         assert!(!snap.outdated());
-        docs.change(&uri(), 2, vec![change(None, "rule B {}")]).expect("v2");
+        docs.change(&uri(), 2, vec![change(None, "rule B {}")], None).expect("v2");
         assert!(snap.outdated(), "an edit");
         // A file it imports changed while its analysis runs (the refresh is refused).
         let snap = docs.snapshot(&uri()).expect("open");
@@ -374,12 +397,12 @@ mod tests {
         docs.close(&uri());
         assert!(snap.outdated(), "closing");
         // A quick analysis is kept only for the text it analysed.
-        docs.open(uri(), 1, "rule A { VERTEX {} }".to_string());
+        docs.open(uri(), 1, "rule A { VERTEX {} }".to_string(), None);
         let snap = docs.snapshot(&uri()).expect("open");
         let doc = Arc::new(Document::new(&snap.loader, &snap.path, &snap.text, &Default::default()));
         assert!(docs.store_quick(&uri(), &snap, doc.clone()));
         assert!(docs.quick(&uri()).is_some());
-        docs.change(&uri(), 2, vec![change(None, "rule A { }")]).expect("v2");
+        docs.change(&uri(), 2, vec![change(None, "rule A { }")], None).expect("v2");
         assert!(docs.quick(&uri()).is_none(), "the edit outdates it");
         assert!(!docs.store_quick(&uri(), &snap, doc), "an outdated one is not stored");
     }

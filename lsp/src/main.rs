@@ -11,6 +11,7 @@ mod handlers;
 mod loader;
 mod position;
 mod server;
+mod transport;
 mod workspace;
 
 use backend::{Backend, Config};
@@ -30,7 +31,7 @@ fn main() -> ExitCode {
                 return ExitCode::SUCCESS;
             }
             "--help" | "-h" => {
-                println!("mdg-lsp {}: the MDG language server. It speaks LSP on stdin/stdout; start it from an editor.\n\nEnvironment: MDG_STD=DIR selects the std library; MDG_DOCS_URL=URL (a published docs/ folder) is where diagnostic codes link (URL/diagnostics.md#CODE), else the docs installed beside std.", env!("CARGO_PKG_VERSION"));
+                println!("mdg-lsp {}: the MDG language server. It speaks LSP on stdin/stdout; start it from an editor.\n\nEnvironment: MDG_STD=DIR selects the std library; MDG_DOCS_URL=URL (a published docs/ folder) is where diagnostic codes link (URL/diagnostics.md#CODE), else the docs installed beside std; MDG_SPIRV_CACHE=0 turns off the cache of compiled shaders ($XDG_CACHE_HOME/mdg/spirv or ~/.cache/mdg/spirv).", env!("CARGO_PKG_VERSION"));
                 return ExitCode::SUCCESS;
             }
             // Clients may say how to talk; stdio is the only way.
@@ -44,6 +45,8 @@ fn main() -> ExitCode {
     // Panics are caught per request and reported to the client; on stderr a line
     // is enough (capturing a backtrace in a debug build costs seconds and memory).
     std::panic::set_hook(Box::new(|info| eprintln!("mdg-lsp: {info}")));
+    // Compiled shaders are kept in the user cache directory (std's are compiled once).
+    mdg_compiler::shaders::DiskCache::install_default();
     // Analyses run on the blocking pool. Their recursion over a program nested to the
     // parse limit (256 levels of blocks, `if`s and loops) needs more than the 2 MiB
     // tokio gives a thread in a debug build; the CLI's main thread has 8 MiB.
@@ -57,9 +60,13 @@ fn main() -> ExitCode {
         };
     let shutdown = Arc::new(AtomicBool::new(false));
     let flag = shutdown.clone();
+    let config = Config::from_env();
+    // Documents too large to analyse are not parsed on the message loop (see `transport`).
+    let oversize = Arc::new(transport::Oversize::new(config.max_live_bytes));
+    let input = transport::filter(std::io::stdin(), oversize.clone());
     runtime.block_on(async move {
-        let (service, socket) = LspService::new(move |client| Backend::new(client, Config::from_env(), flag));
-        Server::new(tokio::io::stdin(), tokio::io::stdout(), socket).serve(service).await;
+        let (service, socket) = LspService::new(move |client| Backend::new(client, config, flag, oversize));
+        Server::new(input, tokio::io::stdout(), socket).serve(service).await;
     });
     // The stdin reader is a blocking thread that would keep the runtime (and the
     // process) alive; exit now. The LSP exit code: 0 after `shutdown`, else 1.

@@ -17,9 +17,8 @@ pub struct LineIndex<'a> {
 impl<'a> LineIndex<'a> {
     /// Indexes `text`.
     pub fn new(text: &'a str) -> LineIndex<'a> {
-        let mut line_starts = vec![0u32];
-        line_starts.extend(text.bytes().enumerate().filter(|(_, b)| *b == b'\n').map(|(i, _)| i as u32 + 1));
-        LineIndex { text, line_starts }
+        // Line breaks are `\n`, `\r\n` and a lone `\r`, for LSP and the compiler alike.
+        LineIndex { text, line_starts: mdg_compiler::source::line_starts(text) }
     }
 
     /// The position of a byte offset.
@@ -94,6 +93,19 @@ mod tests {
         let emoji = text.find('😀').expect("emoji") as u32;
         assert_eq!(li.offset(pos(0, 5)), x);
         assert_eq!(li.position(emoji + 1), li.position(emoji));
+    }
+
+    #[test]
+    fn a_lone_cr_ends_a_line_as_lsp_and_the_compiler_count_it() {
+        // LSP's line breaks are `\n`, `\r\n` and `\r`; the compiler's line table
+        // (`source::line_starts`) counts the same, so positions agree with spans.
+        let text = "ab\rcd\r\nef\ngh";
+        let li = LineIndex::new(text);
+        assert_eq!(li.position(3), pos(1, 0), "after the lone CR");
+        assert_eq!(li.position(7), pos(2, 0), "after CR LF");
+        assert_eq!(li.offset(pos(1, 9)), 5, "end of `cd`, before CR LF");
+        assert_eq!(li.offset(pos(0, 9)), 2, "end of `ab`, before the CR");
+        assert_eq!(li.offset(pos(3, 1)), 11);
     }
 
     #[test]

@@ -27,6 +27,45 @@ pub const MAX_FILES: usize = 5000;
 pub const MAX_FILE_BYTES: u64 = 1 << 20;
 /// Directories the walk does not enter, besides hidden ones.
 const SKIPPED_DIRS: &[&str] = &["node_modules", "target"];
+/// At most this many directory entries (files and folders) are looked at by one
+/// walk: a workspace folder of `/` or a home directory would otherwise be walked
+/// whole before the first cross-file request is answered (`rootUri` `/` took 42 s).
+pub const MAX_WALK_ENTRIES: usize = 40_000;
+/// Folders deeper than this below a workspace folder are not entered.
+pub const MAX_WALK_DEPTH: usize = 32;
+/// Pseudo-filesystems (and runtime state) the walk never enters: their files are
+/// not sources, and reading some of them blocks or never ends.
+const PSEUDO_FS: &[&str] = &["/proc", "/sys", "/dev", "/run"];
+
+/// What a walk found ([`scan`]).
+#[derive(Debug, Default)]
+pub struct Scan {
+    /// The `.mdg` files, sorted.
+    pub files: Vec<PathBuf>,
+    /// Whether it stopped at [`MAX_FILES`] files.
+    pub too_many_files: bool,
+    /// Whether it stopped at [`MAX_WALK_ENTRIES`] entries.
+    pub too_many_entries: bool,
+    /// Whether folders deeper than [`MAX_WALK_DEPTH`] were left out.
+    pub too_deep: bool,
+}
+
+impl Scan {
+    /// Why the walk stopped early, in words; `None` if it did not.
+    pub fn stopped(&self) -> Option<String> {
+        let mut why = Vec::new();
+        if self.too_many_files {
+            why.push(format!("at {MAX_FILES} files"));
+        }
+        if self.too_many_entries {
+            why.push(format!("after looking at {MAX_WALK_ENTRIES} files and folders"));
+        }
+        if self.too_deep {
+            why.push(format!("at folders nested {MAX_WALK_DEPTH} deep"));
+        }
+        (!why.is_empty()).then(|| why.join(" and "))
+    }
+}
 
 /// One indexed file.
 pub struct Entry {
@@ -78,38 +117,67 @@ pub fn is_mdg(path: &Path) -> bool {
     path.extension().is_some_and(|e| e == "mdg")
 }
 
-/// The `.mdg` files under `roots`, sorted, at most [`MAX_FILES`] (the second value
-/// says whether the walk stopped early). Hidden directories, `node_modules` and
-/// `target` are skipped and symbolic links to directories are not followed, so the
-/// walk ends on any tree.
-pub fn scan(roots: &[PathBuf]) -> (Vec<PathBuf>, bool) {
-    let mut out = BTreeSet::new();
-    let mut stack: Vec<PathBuf> = roots.iter().rev().cloned().collect();
-    while let Some(dir) = stack.pop() {
+/// The `.mdg` files under `roots`, sorted, at most [`MAX_FILES`]. The walk is
+/// breadth-first (files near a folder's top first) and bounded: at most
+/// [`MAX_WALK_ENTRIES`] entries looked at and [`MAX_WALK_DEPTH`] levels; hidden
+/// directories, `node_modules`, `target` and pseudo-filesystems (`/proc`, `/sys`,
+/// `/dev`, `/run`) are skipped and symbolic links to directories are not followed,
+/// so the walk ends soon on any tree. [`Scan`] says where it stopped.
+pub fn scan(roots: &[PathBuf]) -> Scan {
+    scan_within(roots, MAX_WALK_ENTRIES)
+}
+
+/// [`scan`] with another entry bound.
+pub fn scan_within(roots: &[PathBuf], max_entries: usize) -> Scan {
+    let mut found = BTreeSet::new();
+    let mut report = Scan::default();
+    let mut queue: std::collections::VecDeque<(PathBuf, usize)> = roots.iter().map(|r| (r.clone(), 0)).collect();
+    let mut entries = 0usize;
+    'walk: while let Some((dir, depth)) = queue.pop_front() {
+        if PSEUDO_FS.iter().any(|p| dir == Path::new(p)) {
+            continue;
+        }
         let Ok(rd) = std::fs::read_dir(&dir) else { continue };
-        let mut entries: Vec<_> = rd.filter_map(|e| e.ok()).collect();
-        entries.sort_by_key(|e| e.file_name());
-        let mut subdirs = Vec::new();
-        for e in entries {
+        let mut list = Vec::new();
+        for e in rd {
+            entries += 1;
+            if entries > max_entries {
+                report.too_many_entries = true;
+                break;
+            }
+            if let Ok(e) = e {
+                list.push(e);
+            }
+        }
+        list.sort_by_key(|e| e.file_name());
+        for e in list {
             let Ok(ft) = e.file_type() else { continue };
             let name = e.file_name();
             let name = name.to_string_lossy();
             let path = e.path();
             if ft.is_dir() {
                 if !name.starts_with('.') && !SKIPPED_DIRS.contains(&name.as_ref()) {
-                    subdirs.push(path);
+                    if depth + 1 > MAX_WALK_DEPTH {
+                        report.too_deep = true;
+                    } else {
+                        queue.push_back((path, depth + 1));
+                    }
                 }
             } else if is_mdg(&path) && std::fs::metadata(&path).is_ok_and(|m| m.is_file() && m.len() <= MAX_FILE_BYTES)
             {
-                if out.len() >= MAX_FILES {
-                    return (out.into_iter().collect(), true);
+                if found.len() >= MAX_FILES {
+                    report.too_many_files = true;
+                    break 'walk;
                 }
-                out.insert(canon(&path));
+                found.insert(canon(&path));
             }
         }
-        stack.extend(subdirs.into_iter().rev());
+        if report.too_many_entries {
+            break;
+        }
     }
-    (out.into_iter().collect(), false)
+    report.files = found.into_iter().collect();
+    report
 }
 
 /// Analyses the file at `path` (through `loader`, so open documents shadow the
@@ -286,12 +354,43 @@ mod tests {
             std::fs::write(dir.join(f), "").expect("write");
         }
         let root = canon(&dir);
-        let (files, truncated) = scan(std::slice::from_ref(&root));
+        let Scan { files, too_many_files: truncated, .. } = scan(std::slice::from_ref(&root));
         let rel: Vec<String> =
             files.iter().map(|p| p.strip_prefix(&root).expect("under root").display().to_string()).collect();
         assert_eq!(rel, ["a.mdg", "b/z.mdg", "lib/l.mdg"]);
         assert!(!truncated);
         std::fs::remove_dir_all(&dir).expect("cleanup");
+    }
+
+    /// A huge root (`/`, a home directory) is walked only so far: 50,000 files in
+    /// it, and the walk stops after MAX_WALK_ENTRIES of them and says so; files near
+    /// the top are found first. `/proc`, `/sys` and `/dev` are never entered.
+    #[test]
+    fn the_walk_of_a_huge_root_is_bounded_and_says_so() {
+        let dir = std::env::temp_dir().join(format!("mdg-lsp-huge-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        for d in 0..50 {
+            let sub = dir.join(format!("d{d:02}"));
+            std::fs::create_dir_all(&sub).expect("dir");
+            for f in 0..1000 {
+                std::fs::File::create(sub.join(format!("f{f:04}.txt"))).expect("create");
+            }
+        }
+        std::fs::write(dir.join("top.mdg"), "").expect("write");
+        std::fs::write(dir.join("d49").join("deep.mdg"), "").expect("write");
+        let root = canon(&dir);
+        let s = scan(std::slice::from_ref(&root));
+        assert!(s.too_many_entries && !s.too_many_files, "{s:?}");
+        assert_eq!(s.files, [root.join("top.mdg")], "the file at the top is found, the one past the bound is not");
+        assert!(s.stopped().is_some_and(|w| w.contains("40000 files and folders")), "{:?}", s.stopped());
+        // Within a larger bound the whole tree is walked.
+        let all = scan_within(std::slice::from_ref(&root), 60_000);
+        assert!(!all.too_many_entries && all.stopped().is_none());
+        assert_eq!(all.files.len(), 2);
+        std::fs::remove_dir_all(&dir).expect("cleanup");
+        // Pseudo-filesystems are skipped, even as a root.
+        let pseudo = scan(&[PathBuf::from("/proc"), PathBuf::from("/sys"), PathBuf::from("/dev")]);
+        assert!(pseudo.files.is_empty() && pseudo.stopped().is_none(), "{pseudo:?}");
     }
 
     #[test]
@@ -304,7 +403,7 @@ mod tests {
             std::fs::File::create(dir.join(name)).expect("create").set_len(len).expect("set_len");
         }
         let root = canon(&dir);
-        let (files, truncated) = scan(std::slice::from_ref(&root));
+        let Scan { files, too_many_files: truncated, .. } = scan(std::slice::from_ref(&root));
         assert_eq!(files, [root.join("at.mdg")], "the larger file is left out of the walk");
         assert!(!truncated);
         let over = root.join("over.mdg");

@@ -201,10 +201,12 @@ fn a_compile_past_the_deadline_does_not_block_the_server() {
         c.call("textDocument/hover", json!({"textDocument": {"uri": other}, "position": {"line": 1, "character": 10}}));
     assert!(h["contents"]["value"].as_str().unwrap_or("").contains("VERTEX"), "{h}");
     assert!(asked.elapsed() < std::time::Duration::from_secs(2), "hover took {:?}", asked.elapsed());
-    let d = c.diagnostics(&u, 1);
+    // The deadline is 5 s of the compile's processor time (a loaded machine
+    // stretches it in wall-clock time, up to the 60 s safety net).
+    let d = c.diagnostics_within(&u, 1, std::time::Duration::from_secs(90));
     assert_eq!(codes(&d), ["E0502"], "{d:?}");
-    assert!(d[0]["message"].as_str().unwrap_or("").starts_with("shader compilation took longer than 5 s"), "{d:?}");
-    assert!(t.elapsed() < std::time::Duration::from_secs(15), "took {:?}", t.elapsed());
+    assert!(d[0]["message"].as_str().unwrap_or("").starts_with("shader compilation took longer than "), "{d:?}");
+    assert!(t.elapsed() < std::time::Duration::from_secs(90), "took {:?}", t.elapsed());
     // The abandoned compile holds nothing: another shader compiles now.
     c.change(&u, 2, &with_shader("void main() { gl_Position = vec4(2.0); }"));
     assert!(c.diagnostics(&u, 2).is_empty());
@@ -273,5 +275,64 @@ fn a_document_past_the_live_limit_gets_w0012_and_costs_only_its_text() {
     c.open(&small, 1, &format!("startshape B\nrule B {{ VERTEX {{}} }}\n{}", "// padding\n".repeat(20)));
     assert_eq!(codes(&c.diagnostics(&small, 1)), ["W0012"]);
     c.assert_peak_below(PEAK_MIB);
+    assert!(c.shutdown_and_exit().success());
+}
+
+/// A 50 MB document (full sync: every open and change carries all of it) is past
+/// the live limit, so its text is not even parsed: the input filter reads the
+/// message's head and skips the rest. A request on another document is answered
+/// without waiting for 50 MB of JSON to be parsed and copied on the message loop
+/// (4.7 s measured), and the server never holds the text: its peak memory stays
+/// that of an idle server, where holding the text took three copies of it.
+#[test]
+fn a_fifty_megabyte_document_is_not_parsed_and_does_not_hold_up_other_documents() {
+    let dir = scratch("hostile-fifty");
+    let big = uri(&dir.join("big.mdg"));
+    let small = uri(&dir.join("small.mdg"));
+    let mut c = Client::spawn();
+    c.initialize(&dir);
+    c.open(&small, 1, "startshape B\nrule B { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n");
+    assert!(c.diagnostics(&small, 1).is_empty());
+    let text =
+        format!("startshape A\n{}", "rule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n".repeat((50 << 20) / 48 + 1));
+    assert!(text.len() > 50_000_000);
+    c.open(&big, 1, &text);
+    let id = c.request_async("textDocument/documentSymbol", json!({"textDocument": {"uri": small}}));
+    let symbols = c.response(id);
+    assert!(symbols["result"].as_array().is_some_and(|s| !s.is_empty()), "{symbols}");
+    let d = c.diagnostics(&big, 1);
+    assert_eq!(codes(&d), ["W0012"], "{d:?}");
+    assert!(d[0]["message"].as_str().unwrap_or("").contains("MiB: the editor analyses documents of up to 2.0 MiB"));
+    // The text was never held (the server held three copies of it: 150 MB and more).
+    c.assert_peak_below(100);
+    // A full-sync change of the same size: the same, and a small text is analysed again.
+    c.change(&big, 2, &text);
+    assert_eq!(codes(&c.diagnostics(&big, 2)), ["W0012"]);
+    let f = c.request(
+        "textDocument/formatting",
+        json!({"textDocument": {"uri": big}, "options": {"tabSize": 2, "insertSpaces": true}}),
+    );
+    assert!(f["result"].is_null(), "no edits computed from a text the server does not have: {f}");
+    c.change(&big, 3, "startshape A\nrule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n");
+    assert!(c.diagnostics(&big, 3).is_empty());
+    c.assert_peak_below(100);
+    assert!(c.shutdown_and_exit().success());
+}
+
+/// Trojan Source in the editor: the W0014 warning of the checker is published as a
+/// diagnostic at the invisible character (its UTF-16 range), and a lone CR ends a
+/// line for the server as it does for LSP clients.
+#[test]
+fn bidirectional_controls_are_warned_about_in_the_editor() {
+    let dir = scratch("hostile-bidi");
+    let u = uri(&dir.join("bidi.mdg"));
+    let mut c = Client::spawn();
+    c.initialize(&dir);
+    c.open(&u, 1, "startshape A\rrule A { VERTEX {} } // é \u{202e} }nimda{\r");
+    let d = c.diagnostics(&u, 1);
+    assert_eq!(codes(&d), ["W0014"], "{d:?}");
+    assert_eq!(d[0]["severity"], 2, "a warning: {d:?}");
+    assert!(d[0]["message"].as_str().unwrap_or("").contains("U+202E RIGHT-TO-LEFT OVERRIDE"), "{d:?}");
+    assert_eq!(d[0]["range"], json!({"start": {"line": 1, "character": 26}, "end": {"line": 1, "character": 27}}));
     assert!(c.shutdown_and_exit().success());
 }

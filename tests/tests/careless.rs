@@ -222,3 +222,77 @@ fn the_vertex_budget_counts_instances_and_line_points() {
         assert_eq!(out.vertex_mesh().n_vertices(), 0, "nothing after it ran");
     });
 }
+
+/// A file saved with old Mac line endings (a lone CR ends each line) checks exactly
+/// like its LF twin: `//` comments end at the CR, and every diagnostic is at the same
+/// line and column. It used to be one line, all of it a comment after the first `//`.
+#[test]
+fn cr_only_line_endings_check_like_lf() {
+    bounded(HEAP, "cr_only_line_endings_check_like_lf", BOUND_MIB, BOUND_SECS, || {
+        let lf = "// a tree\nstartshape A\n\nrule A { // the trunk\n  VERTEX {} VERTEX {x 1} VERTEX {y 1}\n  B {}\n}\n\
+                  rule C { \"s\" }\n";
+        let cr = lf.replace('\n', "\r");
+        let crlf = lf.replace('\n', "\r\n");
+        let where_ = |a: &Analysis| -> Vec<(&'static str, u32, u32)> {
+            a.diagnostics
+                .iter()
+                .map(|d| {
+                    let (l, c) = a.sources.file(d.span.file).line_col(d.span.start);
+                    (d.code, l, c)
+                })
+                .collect()
+        };
+        let (a_lf, a_cr, a_crlf) = (analyze_mem(lf), analyze_mem(&cr), analyze_mem(&crlf));
+        assert!(!where_(&a_lf).is_empty(), "the LF file has its errors");
+        assert_eq!(where_(&a_cr), where_(&a_lf), "{}", render_plain(&a_cr.diagnostics, &a_cr.sources));
+        assert_eq!(where_(&a_crlf), where_(&a_lf));
+        assert_eq!(a_cr.sources.file(a_cr.diagnostics[0].span.file).n_lines(), 9);
+        let shown = render_plain(&a_cr.diagnostics, &a_cr.sources);
+        assert_eq!(shown, render_plain(&a_lf.diagnostics, &a_lf.sources), "rendered alike");
+    });
+}
+
+/// A `#` comment (Python, shell, Context Free) is one error with the hint, not an
+/// error for `#` and more for every word after it; `#define` points at `@define`.
+#[test]
+fn a_hash_comment_is_one_error_with_a_hint() {
+    bounded(HEAP, "a_hash_comment_is_one_error_with_a_hint", BOUND_MIB, BOUND_SECS, || {
+        let a = analyze_mem("# a tree, with (brackets} and \"quotes\nstartshape A\nrule A { VERTEX {} } # trunk\n");
+        let shown = render_plain(&a.diagnostics, &a.sources);
+        assert_eq!(codes(&a), ["E0103", "E0103"], "{shown}");
+        assert!(a.diagnostics.iter().all(|d| a.sources.text(d.span) == "#"), "{shown}");
+        assert!(shown.contains("MDG comments are `//` or `/* */`"), "{shown}");
+        assert_eq!(a.diagnostics[0].suggestion.as_ref().map(|s| s.replacement.as_str()), Some("//"));
+        let a = analyze_mem("#define N 3\nstartshape A\nrule A { VERTEX {} }\n");
+        let shown = render_plain(&a.diagnostics, &a.sources);
+        assert_eq!(codes(&a), ["E0103"], "{shown}");
+        assert!(shown.contains("`@define`"), "{shown}");
+        assert_eq!(a.diagnostics[0].suggestion.as_ref().map(|s| s.replacement.as_str()), Some("@"));
+    });
+}
+
+/// A shader block in a CR-only file compiles like its LF twin (glslang itself does
+/// not end lines at a lone CR: the `#version` line ran on into the code), and a GLSL
+/// error is at the same line and column.
+#[test]
+fn a_shader_block_with_cr_only_line_endings_compiles_like_lf() {
+    bounded(HEAP, "a_shader_block_with_cr_only_line_endings_compiles_like_lf", BOUND_MIB, BOUND_SECS, || {
+        let lf = "startshape A\n@vertexshader vs\n#version 450\nvoid main() {\n  gl_Position = vec4(nope);\n}\n\
+                  @endshader\nrule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n";
+        let at = |a: &Analysis| -> Vec<(&'static str, u32, u32)> {
+            a.diagnostics
+                .iter()
+                .map(|d| {
+                    let (l, c) = a.sources.file(d.span.file).line_col(d.span.start);
+                    (d.code, l, c)
+                })
+                .collect()
+        };
+        let a_lf = analyze_mem(lf);
+        assert_eq!(at(&a_lf), [("E0501", 4, 21)], "{}", render_plain(&a_lf.diagnostics, &a_lf.sources));
+        let a_cr = analyze_mem(&lf.replace('\n', "\r"));
+        assert_eq!(at(&a_cr), at(&a_lf), "{}", render_plain(&a_cr.diagnostics, &a_cr.sources));
+        let good = analyze_mem(&lf.replace("nope", "1.0").replace('\n', "\r"));
+        assert!(!good.has_errors(), "{}", render_plain(&good.diagnostics, &good.sources));
+    });
+}

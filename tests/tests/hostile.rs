@@ -760,3 +760,77 @@ fn a_chain_of_80000_distinct_rules_compiles_and_evaluates_in_linear_time() {
         assert_eq!(out.stats.triangles, n as u64);
     });
 }
+
+// ------------------------------------------- terminal control text and Trojan Source
+
+/// Whether rendered text holds a character a terminal may act on: a C0 control
+/// other than newline, DEL, a C1 control, or a bidirectional control.
+fn has_raw_control(text: &str) -> Option<char> {
+    text.chars().find(|&c| {
+        (c.is_control() && c != '\n')
+            || matches!(c, '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}' | '\u{2028}' | '\u{2029}')
+    })
+}
+
+/// A grammar written to take over the terminal of whoever checks it: an OSC that
+/// retitles the window (`ESC ] 0 ; … BEL`), `ESC [2J` (clear screen), a C1 CSI
+/// (`U+009B`) colour change and DEL in a comment before an error, in a file whose name
+/// holds `ESC [2J` too. The rendered diagnostic shows them escaped, and the caret
+/// still points at the error.
+#[test]
+fn diagnostics_escape_terminal_control_sequences_in_lines_and_file_names() {
+    bounded(
+        HEAP,
+        "diagnostics_escape_terminal_control_sequences_in_lines_and_file_names",
+        BOUND_MIB,
+        BOUND_SECS,
+        || {
+            let line = "rule A { VERTEX {} } /* \u{1b}]0;pwned\u{7} \u{1b}[2J \u{9b}31m \u{7f} */ %";
+            let text = format!("startshape A\n{line}\n");
+            let a = analyze_text(
+                &MemLoader::default(),
+                Path::new("/hostile/ev\u{1b}[2Jil.mdg"),
+                &text,
+                &Options::default(),
+                CheckOptions { require_start: true },
+            );
+            assert!(!a.diagnostics.is_empty());
+            let shown = mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources);
+            assert_eq!(has_raw_control(&shown), None, "{shown:?}");
+            assert!(shown.contains(r"/* \u{1b}]0;pwned\u{7} \u{1b}[2J \u{9b}31m \u{7f} */ %"), "{shown}");
+            assert!(shown.contains(r"ev\u{1b}[2Jil.mdg:2:"), "the file name is escaped too: {shown}");
+            // The caret stands under the `%` of the escaped line.
+            let lines: Vec<&str> = shown.lines().collect();
+            let at = lines.iter().position(|l| l.contains("pwned")).expect("the source line");
+            let col = lines[at].find('%').expect("% in the shown line");
+            assert_eq!(lines[at + 1].find('^'), Some(col), "{shown}");
+        },
+    );
+}
+
+/// Bidirectional overrides and isolates, and line/paragraph separators, in comments
+/// and strings reorder what a reader sees ("Trojan Source"): each comment or string
+/// holding one gets a warning naming the code points, at the first one.
+#[test]
+fn bidirectional_controls_in_comments_and_strings_are_warned_about() {
+    bounded(HEAP, "bidirectional_controls_in_comments_and_strings_are_warned_about", BOUND_MIB, BOUND_SECS, || {
+        let text = "startshape A\n\
+                    // access \u{202e} }nimda{ \u{2066}check\u{2069}\n\
+                    rule A { VERTEX {} }\n\
+                    /* a\u{2028}b \u{85} */\n\
+                    grid g { source \"x\u{202b}.vox\"; }\n\
+                    // clean comment\n";
+        let a = analyze_mem(text);
+        let bidi: Vec<_> = a.diagnostics.iter().filter(|d| d.code == "W0014").collect();
+        assert_eq!(bidi.len(), 3, "{}", mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources));
+        assert!(bidi.iter().all(|d| !d.is_error()));
+        let first = bidi.iter().find(|d| d.message.contains("U+202E")).expect("the line comment");
+        assert!(first.message.contains("U+2066") && first.message.contains("U+2069"), "{}", first.message);
+        assert_eq!(&text[first.span.range()], "\u{202e}", "the span is the first code point");
+        assert!(bidi.iter().any(|d| d.message.contains("U+2028") && d.message.contains("U+0085")));
+        assert!(bidi.iter().any(|d| d.message.contains("U+202B")));
+        let shown = mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources);
+        assert_eq!(has_raw_control(&shown), None, "the snippet shows them escaped: {shown:?}");
+        assert!(shown.contains(r"\u{202e}"), "{shown}");
+    });
+}

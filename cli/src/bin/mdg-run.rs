@@ -3,5 +3,7 @@
 use clap::Parser;
 
 fn main() -> std::process::ExitCode {
+    // Compiled shaders are kept in the user cache directory (std's are compiled once).
+    mdg_compiler::shaders::DiskCache::install_default();
     mdg_cli::commands::run::run(mdg_cli::commands::run::Args::parse())
 }

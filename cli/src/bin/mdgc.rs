@@ -26,6 +26,8 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    // Compiled shaders are kept in the user cache directory (std's are compiled once).
+    mdg_compiler::shaders::DiskCache::install_default();
     match Cli::parse().command {
         Command::Check(a) => check::run(a),
         Command::Build(a) => build::run(a),

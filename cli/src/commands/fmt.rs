@@ -29,7 +29,7 @@ pub fn run(args: Args) -> ExitCode {
         if formatted != text {
             changed = true;
             if args.check {
-                println!("{} is not formatted", f.display());
+                println!("{} is not formatted", mdg_compiler::diag::escape_text(&f.display().to_string()));
             } else if let Err(e) = mdg_vm::export::write_atomic(f, formatted.as_bytes()) {
                 return fail("mdgc fmt", format!("cannot write {}: {e}", f.display()), 2);
             }

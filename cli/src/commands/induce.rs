@@ -96,7 +96,7 @@ pub fn run(args: Args) -> ExitCode {
     let (grammar, reports) = match result {
         Ok(r) => r,
         Err(e) => {
-            eprintln!("mdgc induce: {e}");
+            eprintln!("mdgc induce: {}", mdg_compiler::diag::escape_text(&e.to_string()));
             return ExitCode::from(1);
         }
     };
@@ -152,7 +152,7 @@ pub fn run(args: Args) -> ExitCode {
     let text = match mdg_compiler::induce::write_checked_with(&grammar, &comment, output, !full) {
         Ok(t) => t,
         Err(e) => {
-            eprintln!("mdgc induce: {e}");
+            eprintln!("mdgc induce: {}", mdg_compiler::diag::escape_text(&e.to_string()));
             return ExitCode::from(1);
         }
     };

@@ -46,8 +46,9 @@ pub fn emit(a: &driver::Analysis, format: MessageFormat) {
     }
 }
 
-/// `PROG: MESSAGE` on stderr, and the exit code.
+/// `PROG: MESSAGE` on stderr, and the exit code. The message often quotes a path
+/// or text from the input: control characters in it are printed escaped.
 pub fn fail(prog: &str, message: impl std::fmt::Display, code: u8) -> ExitCode {
-    eprintln!("{prog}: {message}");
+    eprintln!("{prog}: {}", mdg_compiler::diag::escape_text(&message.to_string()));
     ExitCode::from(code)
 }

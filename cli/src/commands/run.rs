@@ -342,10 +342,11 @@ fn run_one(
     };
     bar.finish_and_clear();
     for d in &out.debug {
-        eprintln!("{d}");
+        eprintln!("{}", mdg_compiler::diag::escape_text(d));
     }
     for w in &out.stats.warnings {
-        eprintln!("warning: {w}");
+        // Warnings quote names and paths from the grammar: printed escaped.
+        eprintln!("warning: {}", mdg_compiler::diag::escape_text(w));
     }
     match cli.time {
         Some(t) => out = out.posed(t),
@@ -386,6 +387,8 @@ fn run_one(
             s.elapsed_ms,
             peak_rss_kib().map(|k| format!("{:.1} MiB", k as f64 / 1024.0)).unwrap_or_else(|| "n/a".into())
         );
+        let (compiled, cached) = mdg_compiler::shaders::compile_counts();
+        eprintln!("shaders compiled with glslang {compiled}  taken from the SPIR-V cache {cached}");
     }
     if say_wrote {
         eprintln!("wrote {}", output.display());

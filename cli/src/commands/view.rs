@@ -223,14 +223,14 @@ pub fn run(cli: Args) -> ExitCode {
     let opts = match cli.compile.options() {
         Ok(o) => o,
         Err(e) => {
-            eprintln!("mdg-view: {e}");
+            eprintln!("mdg-view: {}", mdg_compiler::diag::escape_text(&e.to_string()));
             return ExitCode::from(2);
         }
     };
     let pose = match camera_pose(&cli.camera) {
         Ok(p) => p,
         Err(e) => {
-            eprintln!("mdg-view: {e}");
+            eprintln!("mdg-view: {}", mdg_compiler::diag::escape_text(&e.to_string()));
             return ExitCode::from(2);
         }
     };
@@ -276,7 +276,7 @@ pub fn run(cli: Args) -> ExitCode {
         (Some(path), true) => match read_guides(path) {
             Ok(g) => Some((path.clone(), g)),
             Err(e) => {
-                eprintln!("mdg-view: {e}");
+                eprintln!("mdg-view: {}", mdg_compiler::diag::escape_text(&e.to_string()));
                 return ExitCode::from(1);
             }
         },
@@ -288,15 +288,16 @@ pub fn run(cli: Args) -> ExitCode {
     };
     if cli.png.is_some() {
         if let Err(e) = search_for_picture(&mut model, guides.clone().map(|g| g.1), &load.eval) {
-            eprintln!("mdg-view: {e}");
+            eprintln!("mdg-view: {}", mdg_compiler::diag::escape_text(&e.to_string()));
             return ExitCode::from(1);
         }
     }
     for d in &model.output.debug {
-        eprintln!("{d}");
+        eprintln!("{}", mdg_compiler::diag::escape_text(d));
     }
     for w in &model.output.stats.warnings {
-        eprintln!("warning: {w}");
+        // Warnings quote names and paths from the grammar: printed escaped.
+        eprintln!("warning: {}", mdg_compiler::diag::escape_text(w));
     }
     // `S` saves to the guide file, else to NAME.guides.json in the current directory.
     let save_guides = match &guides {
@@ -338,7 +339,7 @@ pub fn run(cli: Args) -> ExitCode {
             ExitCode::from(3)
         }
         Err(e) => {
-            eprintln!("mdg-view: {e}");
+            eprintln!("mdg-view: {}", mdg_compiler::diag::escape_text(&e.to_string()));
             ExitCode::from(1)
         }
     }

@@ -84,7 +84,7 @@ pub fn run(bundle: &Bundle, args: &GridArgs, common: &Common) -> ExitCode {
     match run_inner(bundle, args, common) {
         Ok(()) => ExitCode::SUCCESS,
         Err((code, e)) => {
-            eprintln!("mdg-run: {e}");
+            eprintln!("mdg-run: {}", mdg_compiler::diag::escape_text(&e.to_string()));
             ExitCode::from(code)
         }
     }

@@ -9,7 +9,8 @@ use tower_lsp_server::ls_types::*;
 pub async fn did_open(b: &Backend, p: DidOpenTextDocumentParams) {
     let uri = p.text_document.uri;
     let version = p.text_document.version;
-    b.docs.open(uri.clone(), version, p.text_document.text);
+    let oversized = b.oversize.take(uri.as_str());
+    b.docs.open(uri.clone(), version, p.text_document.text, oversized);
     refresh(b, uri.clone()).await;
     refresh_dependents(b, &uri).await;
 }
@@ -18,7 +19,8 @@ pub async fn did_open(b: &Backend, p: DidOpenTextDocumentParams) {
 pub async fn did_change(b: &Backend, p: DidChangeTextDocumentParams) {
     let uri = p.text_document.uri;
     let version = p.text_document.version;
-    if let Err(e) = b.docs.change(&uri, version, p.content_changes) {
+    let oversized = b.oversize.take(uri.as_str());
+    if let Err(e) = b.docs.change(&uri, version, p.content_changes, oversized) {
         b.client.log_message(MessageType::WARNING, format!("mdg-lsp: {e}")).await;
         return;
     }

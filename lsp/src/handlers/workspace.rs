@@ -72,17 +72,28 @@ async fn index(b: &Backend, roots: Vec<PathBuf>) {
     }
     let t0 = Instant::now();
     let listed = tokio::task::spawn_blocking(move || scan(&roots)).await;
-    let Ok((files, truncated)) = listed else { return };
+    let Ok(listed) = listed else { return };
+    if let Some(why) = listed.stopped() {
+        // A huge folder (`/`, a home directory): say so where the user looks.
+        b.client
+            .show_message(
+                MessageType::WARNING,
+                format!(
+                    "mdg-lsp: the workspace is large; its walk for .mdg files stopped {why}. Files beyond are \
+                     analysed when opened; open a smaller folder for workspace-wide references and symbols."
+                ),
+            )
+            .await;
+    }
     let mut count = 0;
-    for path in files {
-        if analyze_and_store(b, &path, true).await.is_some() {
+    for path in &listed.files {
+        if analyze_and_store(b, path, true).await.is_some() {
             count += 1;
         }
     }
-    let more = if truncated {
-        format!(" (stopped at {} files; the rest are analysed when opened)", crate::workspace::MAX_FILES)
-    } else {
-        String::new()
+    let more = match listed.stopped() {
+        Some(why) => format!(" (the walk stopped {why}; the rest are analysed when opened)"),
+        None => String::new(),
     };
     b.client
         .log_message(

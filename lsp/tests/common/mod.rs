@@ -177,6 +177,30 @@ impl Client {
         }
     }
 
+    /// Waits for diagnostics of `uri` at `version`, up to `timeout` (for a result
+    /// that waits on a deadline of processor time, which a loaded machine stretches).
+    pub fn diagnostics_within(&mut self, uri: &str, version: i64, timeout: Duration) -> Vec<Value> {
+        let is_it = |v: &Value| {
+            v["method"] == "textDocument/publishDiagnostics"
+                && v["params"]["uri"] == uri
+                && v["params"]["version"] == version
+        };
+        let p = match self.pending.iter().position(is_it) {
+            Some(i) => self.pending.remove(i),
+            None => {
+                let deadline = Instant::now() + timeout;
+                loop {
+                    let v = self.next_message(deadline);
+                    if is_it(&v) {
+                        break v;
+                    }
+                    self.pending.push(v);
+                }
+            }
+        };
+        p["params"]["diagnostics"].as_array().cloned().unwrap_or_default()
+    }
+
     /// Waits for diagnostics of `uri` at `version`.
     pub fn diagnostics(&mut self, uri: &str, version: i64) -> Vec<Value> {
         let p = self.notification("textDocument/publishDiagnostics", |p| p["uri"] == uri && p["version"] == version);
