@@ -40,7 +40,11 @@ impl Loader for Toolchain {
             };
             match driver::build(&FsLoader, path, &copts) {
                 Ok((b, a)) => {
-                    let files = a.sources.files.iter().map(|f| f.path.clone()).collect();
+                    let files: Vec<PathBuf> = a.sources.files.iter().map(|f| f.path.clone()).collect();
+                    // (A usage error: `mdg-view` exits 2 on `Error::Other` from here.)
+                    if let Err(e) = crate::args::check_declared(&a, &copts) {
+                        return Err(fail(Error::Other(e), files));
+                    }
                     (b, files, render_plain(&a.diagnostics, &a.sources))
                 }
                 Err(a) => {
