@@ -172,3 +172,33 @@ fn std_is_found_when_home_cannot_be_written() {
     assert!(!e.contains("not found") && !e.contains("add `@import"), "{e}");
     assert!(work.join("c.obj").is_file());
 }
+
+fn std_example(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../std/examples").join(name).display().to_string()
+}
+
+/// Creature evolution writes a folder; `--png` is its last contact sheet (it used to
+/// be ignored without a word).
+#[test]
+fn creature_evolution_writes_the_png_it_is_asked_for() {
+    let dir = temp_dir("creature");
+    let src = std_example("monsters.mdg");
+    let o = run(MDG_RUN, &dir, &[&src, "--generations", "1", "--population", "2", "-o", "out", "--png", "sheet.png"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bytes = std::fs::read(dir.join("sheet.png")).expect("the picture is written");
+    assert_eq!(bytes, std::fs::read(dir.join("out/gen1/sheet.png")).expect("the last sheet"));
+}
+
+/// A grid grammar takes its format from -o's extension; a --format that disagrees
+/// is an error, one that agrees (or names the default output) is followed.
+#[test]
+fn a_grid_grammars_format_flag_must_agree() {
+    let dir = temp_dir("gridfmt");
+    let src = std_example("grid_cottage.mdg");
+    let o = run(MDG_RUN, &dir, &[&src, "--format", "obj", "-o", "x.vox"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--format obj") && stderr(&o).contains("x.vox"), "{}", stderr(&o));
+    let o = run(MDG_RUN, &dir, &[&src, "--format", "obj"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.join("grid_cottage.obj").is_file(), "--format names the default output's format");
+}
