@@ -21,9 +21,10 @@
 //! [`FsLoader`](crate::source::FsLoader) serves the files under it from the
 //! embedded copy ([`embedded_file`]). A writable `HOME` is never needed.
 
+use crate::embedded_std::STD;
+pub use crate::embedded_std::{embedded_file, files, is_embedded, EMBEDDED_ROOT};
 use crate::lexer::{self, Tok};
 use crate::span::FileId;
-use include_dir::{include_dir, Dir, DirEntry};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -73,26 +74,6 @@ pub fn library_defining(name: &str) -> Option<&'static str> {
     index().get(name).copied()
 }
 
-/// The std directory as it was when this compiler was built.
-static STD: Dir<'static> = include_dir!("$CARGO_MANIFEST_DIR/../std");
-
-/// Every embedded file: its path relative to the std directory and its bytes, in
-/// path order.
-pub fn files() -> Vec<(&'static Path, &'static [u8])> {
-    fn walk(d: &'static Dir<'static>, out: &mut Vec<(&'static Path, &'static [u8])>) {
-        for e in d.entries() {
-            match e {
-                DirEntry::Dir(sub) => walk(sub, out),
-                DirEntry::File(f) => out.push((f.path(), f.contents())),
-            }
-        }
-    }
-    let mut out = Vec::new();
-    walk(&STD, &mut out);
-    out.sort_by(|a, b| a.0.cmp(b.0));
-    out
-}
-
 /// FNV-1a over the paths and contents: names the cache directory, so a binary
 /// built from another std never reads this one's files.
 pub fn content_hash() -> u64 {
@@ -118,25 +99,6 @@ fn cache_roots() -> Vec<PathBuf> {
     }
     roots.push(std::env::temp_dir().join("mdg"));
     roots
-}
-
-/// The std directory when no cache directory can be written: a relative path that
-/// names no real directory; [`FsLoader`](crate::source::FsLoader) reads the files
-/// under it from memory, and diagnostics show them as `<built-in std>/NAME.mdg`.
-pub const EMBEDDED_ROOT: &str = "<built-in std>";
-
-/// The embedded file at `path` when `path` is under [`EMBEDDED_ROOT`].
-pub fn embedded_file(path: &Path) -> Option<&'static [u8]> {
-    let rel = path.strip_prefix(EMBEDDED_ROOT).ok()?;
-    STD.get_file(rel).map(|f| f.contents())
-}
-
-/// Whether `path` is [`EMBEDDED_ROOT`] or a file or folder under it.
-pub fn is_embedded(path: &Path) -> bool {
-    match path.strip_prefix(EMBEDDED_ROOT) {
-        Ok(rel) => rel.as_os_str().is_empty() || STD.get_file(rel).is_some() || STD.get_dir(rel).is_some(),
-        Err(_) => false,
-    }
 }
 
 /// The embedded std written out under `root` (once: a directory that holds the
