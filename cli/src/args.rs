@@ -59,6 +59,16 @@ pub fn check_declared(a: &mdg_compiler::driver::Analysis, opts: &Options) -> Res
     }
 }
 
+/// The first `--param`/`--preset` of `opts`, as written: they change how source
+/// compiles, so a compiled bundle (`.mdgb`) cannot take them.
+pub fn source_only_flag(opts: &Options) -> Option<String> {
+    match (opts.params.first(), opts.defines.first()) {
+        (Some((n, v)), _) => Some(format!("--param {n}={v}")),
+        (None, Some(p)) => Some(format!("--preset {p}")),
+        (None, None) => None,
+    }
+}
+
 /// [`check_declared`] over several files (`mdgc check a.mdg b.mdg`): a flag is an
 /// error only when no file uses it.
 pub fn check_declared_in_any(analyses: &[mdg_compiler::driver::Analysis], opts: &Options) -> Result<(), String> {

@@ -202,3 +202,25 @@ fn a_grid_grammars_format_flag_must_agree() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(dir.join("grid_cottage.obj").is_file(), "--format names the default output's format");
 }
+
+/// A compiled bundle cannot take `--param`/`--preset` (they change how source
+/// compiles); they were ignored.
+#[test]
+fn a_bundle_refuses_param_and_preset() {
+    let dir = temp_dir("bundle");
+    grammar(&dir);
+    let o = run(MDGC, &dir, &["build", "g.mdg", "-o", "g.mdgb"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for (bin, args) in [
+        (MDG_RUN, &["g.mdgb", "--param", "count=4"][..]),
+        (MDG_RUN, &["g.mdgb", "--preset", "small"]),
+        (MDG_VIEW, &["g.mdgb", "--param", "count=4", "--png", "v.png", "--size", "32x32"]),
+    ] {
+        let o = run(bin, &dir, args);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {e}");
+        assert!(e.contains("compiled bundle") && e.contains(args[2]), "{args:?}: {e}");
+    }
+    let o = run(MDG_RUN, &dir, &["g.mdgb"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}

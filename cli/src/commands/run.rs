@@ -146,6 +146,15 @@ fn load_bundle(
     stdin: bool,
 ) -> Result<(Bundle, Vec<PathBuf>), Failure> {
     if file.extension().is_some_and(|e| e == "mdgb") && !stdin {
+        if let Some(flag) = crate::args::source_only_flag(opts) {
+            return Err((
+                2,
+                format!(
+                    "{flag}: {} is a compiled bundle; {flag} applies when compiling the source (mdgc build {flag} …)",
+                    file.display()
+                ),
+            ));
+        }
         let bytes = mdg_vm::input::read_bounded(file, mdg_vm::input::MAX_DATA_BYTES)
             .map_err(|e| (2, format!("cannot read {}: {e}", file.display())))?;
         let b = mdg_vm::bundle::load(&bytes).map_err(|e| (1, format!("{}: {e}", file.display())))?;
