@@ -17,11 +17,24 @@ pub struct CompileArgs {
     /// Where `@import NAME` looks (default: $MDG_STD or the bundled std/).
     #[arg(long)]
     pub std: Option<PathBuf>,
+    /// Not a flag: colours are written in the grammar. Accepted (hidden) only to
+    /// answer a `--colour`/`--color` with how to change a colour, instead of clap's
+    /// suggestion of an unrelated flag.
+    #[arg(long = "colour", alias = "color", hide = true, num_args = 0..=1, value_name = "C")]
+    pub colour: Option<Option<String>>,
 }
+
+/// The answer to `--colour`: how colours are chosen.
+pub const NO_COLOUR_FLAG: &str = "there is no --colour flag: colours are written in the grammar, as adjustments \
+     (`{hue 120 sat 1}`, `{R -1}`: docs/reference.md §5, Colour and weight). To choose one from the command line, \
+     declare it with `@param float hue 120` and write `{hue hue sat 1}`, then pass --param hue=200";
 
 impl CompileArgs {
     /// The preprocessor options these arguments ask for; an error names a malformed `--param`.
     pub fn options(&self) -> Result<Options, String> {
+        if self.colour.is_some() {
+            return Err(NO_COLOUR_FLAG.to_string());
+        }
         let mut params = Vec::new();
         for p in &self.params {
             let (n, v) = p.split_once('=').ok_or_else(|| format!("--param {p}: expected NAME=VALUE"))?;
@@ -32,6 +45,44 @@ impl CompileArgs {
             params,
             std_dir: self.std.clone().or_else(driver::default_std_dir),
         })
+    }
+}
+
+/// `--param` and `--preset` names the grammar does not declare: a usage error naming
+/// the flag, with the closest declared name ("did you mean") or the list of them.
+/// Checked after the analysis, where the declarations are known (see
+/// [`mdg_compiler::expand::unused_command_line`]).
+pub fn check_declared(a: &mdg_compiler::driver::Analysis, opts: &Options) -> Result<(), String> {
+    match mdg_compiler::expand::unused_command_line(&a.expanded, &a.sources, opts).into_iter().next() {
+        Some((_, e)) => Err(e),
+        None => Ok(()),
+    }
+}
+
+/// The first `--param`/`--preset` of `opts`, as written: they change how source
+/// compiles, so a compiled bundle (`.mdgb`) cannot take them.
+pub fn source_only_flag(opts: &Options) -> Option<String> {
+    match (opts.params.first(), opts.defines.first()) {
+        (Some((n, v)), _) => Some(format!("--param {n}={v}")),
+        (None, Some(p)) => Some(format!("--preset {p}")),
+        (None, None) => None,
+    }
+}
+
+/// [`check_declared`] over several files (`mdgc check a.mdg b.mdg`): a flag is an
+/// error only when no file uses it.
+pub fn check_declared_in_any(analyses: &[mdg_compiler::driver::Analysis], opts: &Options) -> Result<(), String> {
+    let mut unused: Option<Vec<(String, String)>> = None;
+    for a in analyses {
+        let here = mdg_compiler::expand::unused_command_line(&a.expanded, &a.sources, opts);
+        unused = Some(match unused {
+            None => here,
+            Some(before) => before.into_iter().filter(|(f, _)| here.iter().any(|(g, _)| g == f)).collect(),
+        });
+    }
+    match unused.unwrap_or_default().into_iter().next() {
+        Some((_, e)) => Err(e),
+        None => Ok(()),
     }
 }
 

@@ -27,6 +27,14 @@ impl Loader for Toolchain {
         let fail = |error: Error, files: Vec<PathBuf>| Box::new(LoadFailure { error, files });
         let is_bundle = path.extension().is_some_and(|e| e == "mdgb");
         let (bundle, files, warnings) = if is_bundle {
+            let flag = opts.params.first().map(|(n, v)| format!("--param {n}={v}"));
+            if let Some(flag) = flag.or_else(|| opts.presets.first().map(|p| format!("--preset {p}"))) {
+                let msg = format!(
+                    "{flag}: {} is a compiled bundle; {flag} applies when compiling the source (mdgc build {flag} …)",
+                    path.display()
+                );
+                return Err(fail(Error::Other(msg), vec![path.into()]));
+            }
             let bytes = mdg_vm::input::read_bounded(path, mdg_vm::input::MAX_DATA_BYTES)
                 .map_err(|e| fail(Error::Io(format!("cannot read {}: {e}", path.display())), vec![path.into()]))?;
             let b = mdg_vm::bundle::load(&bytes)
@@ -40,7 +48,11 @@ impl Loader for Toolchain {
             };
             match driver::build(&FsLoader, path, &copts) {
                 Ok((b, a)) => {
-                    let files = a.sources.files.iter().map(|f| f.path.clone()).collect();
+                    let files: Vec<PathBuf> = a.sources.files.iter().map(|f| f.path.clone()).collect();
+                    // (A usage error: `mdg-view` exits 2 on `Error::Other` from here.)
+                    if let Err(e) = crate::args::check_declared(&a, &copts) {
+                        return Err(fail(Error::Other(e), files));
+                    }
                     (b, files, render_plain(&a.diagnostics, &a.sources))
                 }
                 Err(a) => {

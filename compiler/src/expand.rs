@@ -720,6 +720,9 @@ impl<'a> Expander<'a> {
 }
 
 fn std_names(dir: &Path) -> Vec<String> {
+    if dir == Path::new(crate::stdlib::EMBEDDED_ROOT) {
+        return crate::stdlib::libraries().into_iter().map(|(n, _)| n.to_string()).collect();
+    }
     let mut v: Vec<String> = std::fs::read_dir(dir)
         .map(|rd| {
             rd.filter_map(|e| e.ok())
@@ -729,4 +732,59 @@ fn std_names(dir: &Path) -> Vec<String> {
         .unwrap_or_default();
     v.sort();
     v
+}
+
+/// The names `@ifdef` tests anywhere in `sources`' files that took part (chosen
+/// branches or not): a `--preset` such a test reads is used even without `@presets`.
+fn ifdef_names(expanded: &Expanded, sources: &Sources) -> HashSet<String> {
+    let mut names = HashSet::new();
+    for &f in &expanded.files {
+        let lexed = crate::lexer::lex(&sources.file(f).text, f);
+        for w in lexed.tokens.windows(2) {
+            if w[0].kind == Tok::AtIfdef && w[1].kind == Tok::Ident {
+                names.insert(sources.text(w[1].span).to_string());
+            }
+        }
+    }
+    names
+}
+
+/// The `--param NAME=V` and `--preset P` of `opts` that do nothing in this program,
+/// each as the flag (`--param x=1`) and a message naming it, with "did you mean"
+/// (edit distance) or the declared names: a parameter must be declared by `@param`;
+/// a preset by `@presets` or tested by an `@ifdef` (of any branch). The commands
+/// report these as usage errors; they used to be ignored.
+pub fn unused_command_line(expanded: &Expanded, sources: &Sources, opts: &Options) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    let params: Vec<&str> = expanded.params.iter().map(|p| p.name.text.as_str()).collect();
+    for (name, value) in &opts.params {
+        if params.contains(&name.as_str()) {
+            continue;
+        }
+        let flag = format!("--param {name}={value}");
+        out.push((flag.clone(), format!("{flag}: {}", unknown("@param", name, &params))));
+    }
+    let tested = ifdef_names(expanded, sources);
+    let mut presets: Vec<&str> = expanded.presets.iter().map(|p| p.text.as_str()).collect();
+    presets.extend(tested.iter().map(String::as_str));
+    presets.sort_unstable();
+    presets.dedup();
+    for name in &opts.defines {
+        if presets.contains(&name.as_str()) {
+            continue;
+        }
+        let flag = format!("--preset {name}");
+        out.push((flag.clone(), format!("{flag}: {}", unknown("@presets", name, &presets))));
+    }
+    out
+}
+
+/// "the grammar declares no `@param` `x` (did you mean `y`? | it declares: a, b | it declares none)".
+fn unknown(what: &str, name: &str, declared: &[&str]) -> String {
+    let hint = match did_you_mean(name, declared.iter().copied()) {
+        Some(s) => format!("did you mean `{s}`?"),
+        None if declared.is_empty() => format!("it declares no {what}"),
+        None => format!("it declares {}", declared.iter().map(|d| format!("`{d}`")).collect::<Vec<_>>().join(", ")),
+    };
+    format!("the grammar has no {what} `{name}`, so this would do nothing ({hint})")
 }

@@ -20,13 +20,19 @@ use crate::span::Span;
 /// limit, or nested past the limit once laid out), so a formatted file always compiles
 /// as the original did.
 pub fn format_source(text: &str) -> Result<String, String> {
-    format_within(text, MAX_SOURCE_BYTES)
+    format_within("<input>", text, MAX_SOURCE_BYTES)
+}
+
+/// [`format_source`] for the file at `path`: its diagnostics name it
+/// (`broken.mdg:2:5`), as `mdgc check`'s do.
+pub fn format_file(path: &std::path::Path, text: &str) -> Result<String, String> {
+    format_within(&path.display().to_string(), text, MAX_SOURCE_BYTES)
 }
 
 /// The parse of `text`, or the syntax diagnostics that stop formatting, rendered.
-fn syntax_errors(text: &str) -> Result<parse::Parsed, String> {
+fn syntax_errors(name: &str, text: &str) -> Result<parse::Parsed, String> {
     let mut sources = Sources::default();
-    let id = sources.add("<fmt>", "<input>", text);
+    let id = sources.add(name, name, text);
     let parsed = parse::parse_file(&sources, id);
     let syntax: Vec<_> = parsed
         .diagnostics
@@ -45,8 +51,8 @@ fn syntax_errors(text: &str) -> Result<parse::Parsed, String> {
 }
 
 /// [`format_source`] with the size limit as a parameter (tests use a small one).
-fn format_within(text: &str, max_bytes: usize) -> Result<String, String> {
-    let out = layout(text, syntax_errors(text)?);
+fn format_within(name: &str, text: &str, max_bytes: usize) -> Result<String, String> {
+    let out = layout(text, syntax_errors(name, text)?);
     if out.len() > max_bytes {
         return Err(format!(
             "formatting would make the file {} bytes, more than the {max_bytes} bytes the compiler reads (E0201); \
@@ -54,7 +60,7 @@ fn format_within(text: &str, max_bytes: usize) -> Result<String, String> {
             out.len()
         ));
     }
-    if let Err(e) = syntax_errors(&out) {
+    if let Err(e) = syntax_errors(&format!("{name} (formatted)"), &out) {
         return Err(format!(
             "formatting would make a file the compiler refuses; the file is left as it is (please report this):\n{e}"
         ));
@@ -594,9 +600,9 @@ mod tests {
         // One line of 200 calls becomes 200 indented lines: about 1.4 times longer.
         let text = format!("rule A {{ {}}}\nrule B {{ }}\n", "B {} ".repeat(200));
         let limit = text.len() + 100;
-        let e = format_within(&text, limit).expect_err("grows past the limit");
+        let e = format_within("<input>", &text, limit).expect_err("grows past the limit");
         assert!(e.contains("more than") && e.contains("left as it is"), "{e}");
-        let ok = format_within(&text, 10 * text.len()).expect("fits");
+        let ok = format_within("<input>", &text, 10 * text.len()).expect("fits");
         assert!(ok.len() > limit && ok.lines().count() > 200);
         assert_eq!(format_source(&ok).as_deref(), Ok(ok.as_str()), "idempotent");
     }

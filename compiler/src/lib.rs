@@ -14,6 +14,7 @@ pub mod consteval;
 pub mod diag;
 pub mod driver;
 pub mod dump;
+pub mod embedded_std;
 pub mod expand;
 pub mod ext;
 pub mod fmt;

@@ -22,6 +22,10 @@ pub struct FsLoader;
 
 impl FileLoader for FsLoader {
     fn read(&self, path: &Path) -> Result<String, String> {
+        // The built-in std, when no directory could hold it (crate::stdlib).
+        if let Some(bytes) = crate::embedded_std::embedded_file(path) {
+            return decode_source(bytes.to_vec());
+        }
         // Refuse huge files before reading them (the parser refuses longer texts too, E0201).
         // Only regular files, opened without blocking (a named pipe froze the
         // compiler, `/dev/zero` grew to gigabytes), at most MAX_SOURCE_BYTES.
@@ -35,6 +39,9 @@ impl FileLoader for FsLoader {
         }
     }
     fn canonicalize(&self, path: &Path) -> Result<PathBuf, String> {
+        if crate::embedded_std::is_embedded(path) {
+            return Ok(normalize(path));
+        }
         std::fs::canonicalize(path).map_err(|e| e.to_string())
     }
 }

@@ -14,10 +14,17 @@
 //! else the temporary directory) by [`materialize`]: the compiler, the viewer's shader
 //! program and the language server's go-to-definition then read real files.
 //! `$MDG_STD` (or `--std`) still chooses another std directory.
+//!
+//! Where none of those directories can be written (a service user whose `HOME` does
+//! not exist, a read-only container), std is read from memory: [`materialize`]
+//! returns [`EMBEDDED_ROOT`], a path no file system holds, and
+//! [`FsLoader`](crate::source::FsLoader) serves the files under it from the
+//! embedded copy ([`embedded_file`]). A writable `HOME` is never needed.
 
+use crate::embedded_std::STD;
+pub use crate::embedded_std::{embedded_file, files, is_embedded, EMBEDDED_ROOT};
 use crate::lexer::{self, Tok};
 use crate::span::FileId;
-use include_dir::{include_dir, Dir, DirEntry};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -67,26 +74,6 @@ pub fn library_defining(name: &str) -> Option<&'static str> {
     index().get(name).copied()
 }
 
-/// The std directory as it was when this compiler was built.
-static STD: Dir<'static> = include_dir!("$CARGO_MANIFEST_DIR/../std");
-
-/// Every embedded file: its path relative to the std directory and its bytes, in
-/// path order.
-pub fn files() -> Vec<(&'static Path, &'static [u8])> {
-    fn walk(d: &'static Dir<'static>, out: &mut Vec<(&'static Path, &'static [u8])>) {
-        for e in d.entries() {
-            match e {
-                DirEntry::Dir(sub) => walk(sub, out),
-                DirEntry::File(f) => out.push((f.path(), f.contents())),
-            }
-        }
-    }
-    let mut out = Vec::new();
-    walk(&STD, &mut out);
-    out.sort_by(|a, b| a.0.cmp(b.0));
-    out
-}
-
 /// FNV-1a over the paths and contents: names the cache directory, so a binary
 /// built from another std never reads this one's files.
 pub fn content_hash() -> u64 {
@@ -100,14 +87,18 @@ pub fn content_hash() -> u64 {
     h
 }
 
-fn cache_root() -> PathBuf {
+/// Where the embedded std may be written, best first: `$XDG_CACHE_HOME/mdg`,
+/// `$HOME/.cache/mdg`, then the temporary directory.
+fn cache_roots() -> Vec<PathBuf> {
+    let mut roots = Vec::new();
     if let Some(x) = std::env::var_os("XDG_CACHE_HOME").filter(|x| !x.is_empty()) {
-        return PathBuf::from(x).join("mdg");
+        roots.push(PathBuf::from(x).join("mdg"));
     }
     if let Some(h) = std::env::var_os("HOME").filter(|h| !h.is_empty()) {
-        return PathBuf::from(h).join(".cache/mdg");
+        roots.push(PathBuf::from(h).join(".cache/mdg"));
     }
-    std::env::temp_dir().join("mdg")
+    roots.push(std::env::temp_dir().join("mdg"));
+    roots
 }
 
 /// The embedded std written out under `root` (once: a directory that holds the
@@ -129,12 +120,17 @@ pub fn materialize_in(root: &Path) -> std::io::Result<PathBuf> {
     Ok(dir)
 }
 
-/// The embedded std, written to the cache directory if it is not there yet; `None`
-/// when no cache directory can be written. Done once per process (every analysis
-/// asks for the std directory).
+/// The embedded std, written to the first cache directory that can be written if it
+/// is not there yet; [`EMBEDDED_ROOT`] (read from memory) when none can. Done once
+/// per process (every analysis asks for the std directory).
 pub fn materialize() -> Option<PathBuf> {
-    static DIR: OnceLock<Option<PathBuf>> = OnceLock::new();
-    DIR.get_or_init(|| materialize_in(&cache_root()).ok()).clone()
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    Some(DIR.get_or_init(|| materialize_first(&cache_roots())).clone())
+}
+
+/// The std written under the first of `roots` that takes it, else [`EMBEDDED_ROOT`].
+fn materialize_first(roots: &[PathBuf]) -> PathBuf {
+    roots.iter().find_map(|r| materialize_in(r).ok()).unwrap_or_else(|| PathBuf::from(EMBEDDED_ROOT))
 }
 
 #[cfg(test)]
@@ -178,6 +174,31 @@ mod embedded_tests {
         let libs: Vec<&str> = libraries().iter().map(|(n, _)| *n).collect();
         assert_eq!(libs, names);
         assert!(libs.contains(&"primitives") && libs.contains(&"molecules"));
+    }
+
+    #[test]
+    fn without_a_writable_directory_std_is_read_from_memory() {
+        // A path below a regular file can never be created, even as root.
+        let file = std::env::temp_dir().join(format!("mdg-stdlib-file-{}", std::process::id()));
+        std::fs::write(&file, "x").expect("write");
+        let dir = materialize_first(&[file.join("cache"), file.join("tmp")]);
+        assert_eq!(dir, PathBuf::from(EMBEDDED_ROOT));
+        let loader = crate::source::FsLoader;
+        let text = crate::source::FileLoader::read(&loader, &dir.join("primitives.mdg")).expect("read from memory");
+        assert!(text.contains("SPHERE"));
+        assert!(crate::source::FileLoader::canonicalize(&loader, &dir).is_ok());
+        assert!(crate::source::FileLoader::canonicalize(&loader, &dir.join("nope.mdg")).is_err());
+        // An ordinary program imports from it.
+        let opts = crate::expand::Options { std_dir: Some(dir), ..Default::default() };
+        let a = crate::driver::analyze_text(
+            &loader,
+            &file.with_extension("mdg"),
+            "@import primitives\nstartshape a\nrule a { cube {} }\n",
+            &opts,
+            crate::check::CheckOptions { require_start: true },
+        );
+        let _ = std::fs::remove_file(&file);
+        assert!(!a.has_errors(), "{}", crate::diag::render_plain(&a.diagnostics, &a.sources));
     }
 
     #[test]

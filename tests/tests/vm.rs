@@ -267,22 +267,33 @@ fn limits_end_runs_cleanly_and_keep_output() {
     );
     let out = run_source("startshape A\nmaxdepth 5\nrule A { VERTEX {} A {z 1} }\n");
     assert_eq!(out.vertex_mesh().n_vertices(), 6);
-    assert_eq!(out.stats.warnings, ["maxdepth 5 reached: 1 branch(es) ended there"]);
+    limit_warning(&out, "maxdepth 5 reached in rule `A` (", "inline.mdg:3): 1 branch(es) ended there");
     let out = run_source("startshape A\nminsize 0.1\nrule A { VERTEX {} A {s 0.5} }\n");
     assert_eq!(out.vertex_mesh().n_vertices(), 4, "scales 1, 0.5, 0.25, 0.125 pass; 0.0625 < 0.1 stops");
-    assert_eq!(out.stats.warnings, ["minsize 0.1 reached: 1 branch(es) ended there"]);
+    limit_warning(&out, "minsize 0.1 reached in rule `A` (", "inline.mdg:3): 1 branch(es) ended there");
     // Two calls per level: depths 0..=5 draw 63 vertices, and the 64 calls at depth 6 end.
     let out = run_source("startshape A\nmaxdepth 5\nrule A { VERTEX {} A {z 1} A {x 1} }\n");
     assert_eq!(out.vertex_mesh().n_vertices(), 63);
-    assert_eq!(out.stats.warnings, ["maxdepth 5 reached: 64 branch(es) ended there"]);
+    limit_warning(&out, "maxdepth 5 reached in rule `A` (", "inline.mdg:3): 64 branch(es) ended there");
     let out = run_source("startshape A\nminsize 0.1\nrule A { VERTEX {} A {s 0.5} A {s 0.5 x 1} }\n");
     assert_eq!(out.vertex_mesh().n_vertices(), 15, "scales 1 … 0.125: 1 + 2 + 4 + 8");
-    assert_eq!(out.stats.warnings, ["minsize 0.1 reached: 16 branch(es) ended there"]);
+    limit_warning(&out, "minsize 0.1 reached in rule `A` (", "inline.mdg:3): 16 branch(es) ended there");
     let out = run_source("startshape A\nstacksize 10\nrule A { VERTEX {} A {z 1} }\n");
     assert_eq!(out.vertex_mesh().n_vertices(), 10);
+    limit_warning(&out, "stack size 10 reached in rule `A` (", "inline.mdg:3): 1 branch(es) ended there");
+    // The line is the call's, in the rule that makes it (here on line 5, in `B`).
+    let out = run_source("startshape A\nmaxdepth 3\nrule A { B {} }\nrule B {\n  VERTEX {} A {z 1}\n}\n");
+    limit_warning(&out, "maxdepth 3 reached in rule `B` (", "inline.mdg:5): 1 branch(es) ended there");
     // An iterator with 10^12 runs ends at maxiter.
     let out = run_source("startshape A\nmaxiter 10000\nrule A { 1000000000000 * {x 1} FACENORMALS {} }\n");
     assert!(out.stats.warnings.iter().any(|w| w.contains("maxiter")), "{:?}", out.stats.warnings);
+}
+
+/// The only warning of `out` starts with `head` and ends with `tail` (the file's
+/// path, in between, depends on the checkout).
+fn limit_warning(out: &mdg_vm::output::Output, head: &str, tail: &str) {
+    let w = &out.stats.warnings;
+    assert!(w.len() == 1 && w[0].starts_with(head) && w[0].ends_with(tail), "{w:?}: want {head}…{tail}");
 }
 
 #[test]

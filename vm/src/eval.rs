@@ -636,6 +636,9 @@ struct LimitCounts {
     maxdepth: u64,
     minsize: u64,
     stacksize: u64,
+    /// The CALL op of the first call each per-branch limit refused (`maxdepth`,
+    /// `minsize`, stack size): its warning names that rule and line.
+    first_refused: [Option<u32>; 3],
     maxiter: bool,
     vertices: bool,
     time: bool,
@@ -1023,7 +1026,7 @@ impl<'b> Eval<'b> {
                         // Refused before its frame is composed: the frame would be
                         // thrown away, and composing a constant changes nothing else.
                         cont = None;
-                        self.refuse_deep_call();
+                        self.refuse_deep_call(act.pc - 1);
                         let args = act.slot_top as usize;
                         if self.slots.len() > args {
                             self.slots.truncate(args);
@@ -1041,7 +1044,7 @@ impl<'b> Eval<'b> {
                     // verifier checked their number).
                     let r = &b.rules[rule as usize];
                     let args = act.slot_top as usize;
-                    if !self.admit(&child, depth, stack.len() + 1) {
+                    if !self.admit(&child, depth, stack.len() + 1, act.pc - 1) {
                         if self.slots.len() > args {
                             self.slots.truncate(args);
                         }
@@ -1337,7 +1340,7 @@ impl<'b> Eval<'b> {
                     act.pc += 1;
                     let depth = act.depth + 1;
                     if depth > maxdepth {
-                        self.refuse_deep_call();
+                        self.refuse_deep_call(act.pc - 1);
                         if self.stopped {
                             stop(self, act.pc - 1);
                             break;
@@ -1346,7 +1349,7 @@ impl<'b> Eval<'b> {
                     }
                     let Transform::Const(c) = &b.transforms[xf as usize] else { break };
                     let child = act.base.compose(c, &mut self.lins);
-                    if !self.admit(&child, depth, stack.len() + 1) {
+                    if !self.admit(&child, depth, stack.len() + 1, act.pc - 1) {
                         if self.stopped {
                             stop(self, act.pc - 1);
                             break;
@@ -1537,9 +1540,10 @@ impl<'b> Eval<'b> {
 
     /// A call refused by `maxdepth` before its frame was made: counted as
     /// [`Eval::admit`] counts it (the run-wide limits come first).
-    fn refuse_deep_call(&mut self) {
+    fn refuse_deep_call(&mut self, pc: u32) {
         if self.count_call() {
             self.limits.maxdepth += 1;
+            self.limits.first_refused[0].get_or_insert(pc);
         }
     }
 
@@ -1567,30 +1571,32 @@ impl<'b> Eval<'b> {
     }
 
     /// Whether a call may proceed; counts the limits that stop it.
-    fn admit(&mut self, child: &State, depth: u32, stack_len: usize) -> bool {
+    /// `pc` is the CALL op's (for the warning's rule and line).
+    fn admit(&mut self, child: &State, depth: u32, stack_len: usize, pc: u32) -> bool {
         if !self.count_call() {
             return false;
         }
-        self.admit_rest(child, depth, stack_len)
+        self.admit_rest(child, depth, stack_len, pc)
     }
 
     /// The per-branch limits of a call: `maxdepth`, `minsize`, the stack size.
     #[inline]
-    fn admit_rest(&mut self, child: &State, depth: u32, stack_len: usize) -> bool {
+    fn admit_rest(&mut self, child: &State, depth: u32, stack_len: usize, pc: u32) -> bool {
         let s = &self.b.settings;
-        if s.maxdepth > 0 && depth > s.maxdepth {
+        let refused = if s.maxdepth > 0 && depth > s.maxdepth {
             self.limits.maxdepth += 1;
-            return false;
-        }
-        if s.minsize > 0.0 && child.scale() < s.minsize {
+            0
+        } else if s.minsize > 0.0 && child.scale() < s.minsize {
             self.limits.minsize += 1;
-            return false;
-        }
-        if stack_len >= self.stacksize as usize {
+            1
+        } else if stack_len >= self.stacksize as usize {
             self.limits.stacksize += 1;
-            return false;
-        }
-        true
+            2
+        } else {
+            return true;
+        };
+        self.limits.first_refused[refused].get_or_insert(pc);
+        false
     }
 
     fn check_budgets(&mut self) {
@@ -2035,6 +2041,9 @@ impl<'b> Eval<'b> {
 
     fn finish(mut self) -> Output {
         let s = &self.b.settings;
+        // Where the first refused call of each limit is (" in rule `R` (FILE:LINE)").
+        let [depth_at, size_at, stack_at] =
+            self.limits.first_refused.map(|pc| pc.map(|pc| where_op(self.b, pc)).unwrap_or_default());
         let w = &mut self.out.stats.warnings;
         // A grammar cannot switch its own protection off: its limits past the
         // caller's caps were lowered to them (in `Eval::new`).
@@ -2052,10 +2061,13 @@ impl<'b> Eval<'b> {
             ));
         }
         if self.limits.maxdepth > 0 {
-            w.push(format!("maxdepth {} reached: {} branch(es) ended there", s.maxdepth, self.limits.maxdepth));
+            w.push(format!(
+                "maxdepth {} reached{depth_at}: {} branch(es) ended there",
+                s.maxdepth, self.limits.maxdepth
+            ));
         }
         if self.limits.minsize > 0 {
-            w.push(format!("minsize {} reached: {} branch(es) ended there", s.minsize, self.limits.minsize));
+            w.push(format!("minsize {} reached{size_at}: {} branch(es) ended there", s.minsize, self.limits.minsize));
         }
         for &(rule, n) in &self.profiles_cut {
             let name = self.b.rules.get(rule as usize).map(|r| self.b.string(r.name)).unwrap_or("?");
@@ -2065,7 +2077,7 @@ impl<'b> Eval<'b> {
         }
         if self.limits.stacksize > 0 {
             w.push(format!(
-                "stack size {} reached: {} branch(es) ended there (raise the limit with `stacksize N` in the grammar, up to the cap set by `--max-stack N`)",
+                "stack size {} reached{stack_at}: {} branch(es) ended there (raise the limit with `stacksize N` in the grammar, up to the cap set by `--max-stack N`)",
                 self.stacksize, self.limits.stacksize
             ));
         }

@@ -25,6 +25,9 @@ pub fn run(args: Args) -> ExitCode {
     match driver::build(&FsLoader, &args.file, &opts) {
         Ok((bundle, a)) => {
             emit(&a, args.common.message_format);
+            if let Err(e) = crate::args::check_declared(&a, &opts) {
+                return fail("mdgc build", e, 2);
+            }
             let out = args.output.unwrap_or_else(|| args.file.with_extension("mdgb"));
             if let Some(f) = a.sources.files.iter().find(|f| mdg_vm::export::same_file(&f.path, &out)) {
                 let msg = format!(

@@ -27,10 +27,15 @@ pub fn run(args: Args) -> ExitCode {
         Err(e) => return fail("mdgc", e, 2),
     };
     let mut errors = false;
+    let mut analyses = Vec::new();
     for f in &args.files {
         let a = analyze(&FsLoader, f, &opts, CheckOptions { require_start: args.program });
         emit(&a, args.common.message_format);
         errors |= a.has_errors();
+        analyses.push(a);
+    }
+    if let Err(e) = crate::args::check_declared_in_any(&analyses, &opts) {
+        return fail("mdgc check", e, 2);
     }
     if errors {
         ExitCode::from(1)

@@ -20,7 +20,7 @@ pub fn run(args: Args) -> ExitCode {
             Ok(t) => t,
             Err(e) => return fail("mdgc fmt", format!("cannot read {}: {e}", f.display()), 2),
         };
-        let formatted = match mdg_compiler::fmt::format_source(&text) {
+        let formatted = match mdg_compiler::fmt::format_file(f, &text) {
             Ok(s) => s,
             Err(e) => {
                 return fail("mdgc fmt", format!("{}: not formatted, it has syntax errors:\n{e}", f.display()), 1)

@@ -144,6 +144,15 @@ fn load_bundle(
     stdin: bool,
 ) -> Result<(Bundle, Vec<PathBuf>), Failure> {
     if file.extension().is_some_and(|e| e == "mdgb") && !stdin {
+        if let Some(flag) = crate::args::source_only_flag(opts) {
+            return Err((
+                2,
+                format!(
+                    "{flag}: {} is a compiled bundle; {flag} applies when compiling the source (mdgc build {flag} …)",
+                    file.display()
+                ),
+            ));
+        }
         let bytes = mdg_vm::input::read_bounded(file, mdg_vm::input::MAX_DATA_BYTES)
             .map_err(|e| (2, format!("cannot read {}: {e}", file.display())))?;
         let b = mdg_vm::bundle::load(&bytes).map_err(|e| (1, format!("{}: {e}", file.display())))?;
@@ -175,6 +184,7 @@ fn load_bundle(
     match built {
         Ok((b, a)) => {
             eprint!("{}", render_plain(&a.diagnostics, &a.sources));
+            crate::args::check_declared(&a, opts).map_err(|e| (2, e))?;
             let mut inputs: Vec<PathBuf> = a.sources.files.iter().map(|f| f.path.clone()).collect();
             inputs.push(file.to_path_buf());
             Ok((b, inputs))
@@ -257,15 +267,37 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
         let common = common(cli, &opts, Some(&out_dir), cli.seed, size, &pictures);
         return Ok(modes::creature::run(&bundle, &cli.creature, &common));
     }
+    let is_grid = bundle.extensions.grid.is_some();
     match batch {
-        Some((seeds, shard, template)) => run_batch(cli, &opts, &bundle, seeds, shard, &template, size, &pictures),
+        Some((seeds, shard, template)) => {
+            if !is_grid && mesh_target(cli, &template)? == Target::Picture {
+                return Err((
+                    2,
+                    format!(
+                        "-o {}: --seeds writes one model per seed ({MESH_FORMATS}); pictures are for single runs",
+                        template.display()
+                    ),
+                ));
+            }
+            run_batch(cli, &opts, &bundle, seeds, shard, &template, size, &pictures)
+        }
         None => {
-            let is_grid = bundle.extensions.grid.is_some();
             let output = match &cli.output {
                 Some(o) => o.clone(),
-                None if is_grid => default_output(&cli.file, "vox"),
+                None if is_grid => default_output(&cli.file, cli.format.as_deref().unwrap_or("vox")),
                 None => default_output(&cli.file, format(cli)?.extension()),
             };
+            if is_grid {
+                grid_format_agrees(cli, &output)?;
+            } else if mesh_target(cli, &output)? == Target::Picture && cli.png.is_some() {
+                return Err((
+                    2,
+                    format!(
+                        "-o {} and --png: both are pictures; write the model with -o NAME.glb (or .obj, …) and the picture with --png",
+                        output.display()
+                    ),
+                ));
+            }
             run_one(cli, &opts, &bundle, cli.seed, &output, size, &pictures, true).map(|_| ExitCode::SUCCESS)
         }
     }
@@ -281,6 +313,84 @@ fn common<'a>(
 ) -> Common<'a> {
     let eval = EvalOptions { seed, time: cli.time, record_sites: cli.sites, ..cli.limits.eval_options() };
     Common { file: &cli.file, output, seed, stats: cli.stats, png: cli.png.as_deref(), size, pictures, eval, compile }
+}
+
+/// The formats a mesh grammar's `-o` takes, for messages.
+const MESH_FORMATS: &str = ".glb, .obj, .stl, .ply, .json";
+
+/// What `-o` asks a mesh grammar for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Target {
+    Model(Format),
+    /// `-o NAME.png`: the picture, as `--png NAME.png` draws it, and no model.
+    Picture,
+}
+
+/// What `-o path` asks a mesh grammar for, checked against `--format`: an extension
+/// no writer makes is an error listing the formats (the voxel ones say they are for
+/// grid grammars), `.png` is the picture, and `--format` must agree with the
+/// extension. No extension: `--format`, else glb.
+fn mesh_target(cli: &Args, path: &Path) -> Result<Target, Failure> {
+    let flag = match &cli.format {
+        Some(_) => Some(format(cli)?),
+        None => None,
+    };
+    let Some(ext) = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()) else {
+        return Ok(Target::Model(flag.unwrap_or(Format::Glb)));
+    };
+    let shown = path.display();
+    let target = match Format::from_extension(&ext) {
+        Some(f) => Target::Model(f),
+        None if ext == "png" => Target::Picture,
+        None if mdg_vm::grid::format::VoxelFormat::from_extension(&ext).is_some() => {
+            return Err((
+                2,
+                format!(
+                    "-o {shown}: .{ext} is a voxel format, written by grid grammars (a `grid` section: docs/grid.md); \
+                     this grammar makes a mesh: write {MESH_FORMATS}"
+                ),
+            ))
+        }
+        None => {
+            let hint = if ext == "gltf" { " (binary glTF is .glb)" } else { "" };
+            return Err((
+                2,
+                format!("-o {shown}: mdg-run does not write .{ext} files{hint}; it writes {MESH_FORMATS}, or a picture with .png"),
+            ));
+        }
+    };
+    match (flag, target) {
+        (Some(f), Target::Model(g)) if f != g => Err((
+            2,
+            format!(
+                "--format {} and -o {shown} disagree; drop --format or name the file .{}",
+                f.extension(),
+                f.extension()
+            ),
+        )),
+        (Some(f), Target::Picture) => {
+            Err((2, format!("--format {} and -o {shown} disagree: .png is the picture; drop --format", f.extension())))
+        }
+        _ => Ok(target),
+    }
+}
+
+/// A grid grammar's `--format` must agree with `-o`'s extension (its output format
+/// comes from the extension, docs/grid.md).
+fn grid_format_agrees(cli: &Args, output: &Path) -> Result<(), Failure> {
+    let Some(f) = &cli.format else { return Ok(()) };
+    format(cli)?;
+    let ext = output.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+    if ext.as_deref() != Some(f.to_ascii_lowercase().trim_start_matches('.')) {
+        return Err((
+            2,
+            format!(
+                "--format {f} and -o {} disagree; a grid grammar writes the format of -o's extension",
+                output.display()
+            ),
+        ));
+    }
+    Ok(())
 }
 
 fn format(cli: &Args) -> Result<Format, Failure> {
@@ -312,9 +422,9 @@ fn run_one(
             Err((1, format!("{} was not generated", output.display())))
         };
     }
-    let format = match &cli.format {
-        Some(_) => format(cli)?,
-        None => Format::from_path(output).unwrap_or(Format::Glb),
+    let (format, picture_only) = match mesh_target(cli, output)? {
+        Target::Model(f) => (f, false),
+        Target::Picture => (Format::Glb, true),
     };
     let eval_opts = EvalOptions { seed, time: cli.time, record_sites: cli.sites, ..cli.limits.eval_options() };
     let started = std::time::Instant::now();
@@ -358,12 +468,17 @@ fn run_one(
     if let Some(dir) = output.parent().filter(|d| !d.as_os_str().is_empty() && !d.exists()) {
         std::fs::create_dir_all(dir).map_err(|e| (2, format!("cannot create {}: {e}", dir.display())))?;
     }
-    if cli.instances && format != Format::Glb {
+    if cli.instances && picture_only {
+        eprintln!("note: --instances is for .glb; -o {} writes only the picture", output.display());
+    } else if cli.instances && format != Format::Glb {
         eprintln!("note: --instances is for .glb; {} expands every instance", format.extension());
     }
     let glb = export::glb::GlbOptions { instances: cli.instances };
-    export::write_file_with(format, &out, &glb, output).map_err(|e| (1, e))?;
-    if let Some(png_path) = &cli.png {
+    if !picture_only {
+        export::write_file_with(format, &out, &glb, output).map_err(|e| (1, e))?;
+    }
+    let picture = if picture_only { Some(output) } else { cli.png.as_deref() };
+    if let Some(png_path) = picture {
         // With --time the pose is already baked into `out`.
         let bytes =
             pictures.render(Some(bundle), &out, size).map_err(|e| (1, format!("cannot render the picture: {e}")))?;
@@ -390,7 +505,7 @@ fn run_one(
         let (compiled, cached) = mdg_compiler::shaders::compile_counts();
         eprintln!("shaders compiled with glslang {compiled}  taken from the SPIR-V cache {cached}");
     }
-    if say_wrote {
+    if say_wrote && !picture_only {
         eprintln!("wrote {}", output.display());
     }
     // The counts go into a batch's manifest; a single run has no use for them (and

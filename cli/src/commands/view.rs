@@ -263,11 +263,13 @@ pub fn run(cli: Args) -> ExitCode {
     let (mut model, files) = match Toolchain.load(&cli.file, &load) {
         Ok(m) => m,
         Err(fail) => {
-            eprint!("{}", fail.error);
+            // `Other` from the loader: flags the grammar does not use (a usage error).
+            let usage = matches!(fail.error, mdg_viewer::Error::Other(_));
+            eprint!("{}{}", if usage { "mdg-view: " } else { "" }, fail.error);
             if !fail.error.to_string().ends_with('\n') {
                 eprintln!();
             }
-            return ExitCode::from(1);
+            return ExitCode::from(if usage { 2 } else { 1 });
         }
     };
     eprint!("{}", model.warnings);

@@ -386,6 +386,13 @@ fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<()
     write_outputs(table, &lib, &generations, &out_dir, &text, &opts, common.pictures).map_err(|e| (2, e))?;
     write(&out_dir.join("run.json"), format!("{record_text}\n").as_bytes()).map_err(|e| (2, e))?;
     eprintln!("wrote {}", out_dir.join("index.html").display());
+    // `--png`: the last generation's contact sheet (it used to be ignored here).
+    if let (Some(png), Some(last)) = (common.png, generations.last()) {
+        let sheet = out_dir.join(format!("gen{}", last.index)).join("sheet.png");
+        let bytes = std::fs::read(&sheet).map_err(|e| (2, format!("cannot read {}: {e}", sheet.display())))?;
+        write(png, &bytes).map_err(|e| (2, e))?;
+        eprintln!("wrote {} (the contact sheet of generation {})", png.display(), last.index);
+    }
     Ok(())
 }
 
