@@ -695,10 +695,8 @@ fn blender_three_and_assimp_open_every_std_example() {
         if !close(&floats(&b["min"]), &lo, tol) || !close(&floats(&b["max"]), &hi, tol) {
             failures.push(format!("{name}: Blender (z up) bounds {} .. {}, MDG {lo:?} .. {hi:?}", b["min"], b["max"]));
         }
-        if e.animated {
-            if b["actions"].as_array().is_none_or(Vec::is_empty) {
-                failures.push(format!("{name}: animated, but Blender has no actions"));
-            }
+        if e.animated && b["actions"].as_array().is_none_or(Vec::is_empty) {
+            failures.push(format!("{name}: animated, but Blender has no actions"));
         }
         // The picture's background is its corner pixel (the grammar's `background`).
         let Some(picture) = &e.picture else {
