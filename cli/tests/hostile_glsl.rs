@@ -98,7 +98,9 @@ fn hostile_shaders_get_e0502_quickly() {
         assert_eq!(o.status.code(), Some(1), "{what}: status {:?} after {took:?}, stderr: {e}", o.status);
         assert!(e.contains(&format!("error[E0502]: {message}")), "{what}: {e}");
         assert!(!e.contains("E0501") && !e.contains("panicked") && !e.contains("internal error"), "{what}: {e}");
-        assert!(took < Duration::from_secs(20), "{what}: took {took:?}");
+        // The message shows the text limits refused it, not the 5 s deadline; this is
+        // the hang guard (a loaded 2-core machine can be slow).
+        assert!(took < Duration::from_secs(60), "{what}: took {took:?}");
         // The JSON form names the shader's line.
         let (o, _) = mdgc(&dir, &["check", "--message-format", "json", "s.mdg"]);
         let out = String::from_utf8_lossy(&o.stdout);

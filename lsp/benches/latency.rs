@@ -3,7 +3,11 @@
 //! for the `publishDiagnostics` of its version; prints p50 and p95 (target p95 ≤
 //! 20 ms). Then the soak: 100,000 random edits with feature requests in between
 //! (`tests/common/soak.rs`), printing the server's memory every 10,000 edits (it
-//! must stay flat).
+//! must stay flat). Between them, the latencies the hostile tests
+//! (`tests/hostile.rs`) check only by the order of messages: requests on a document
+//! whose shader glslang compiles for seconds (target ≤ 2 s, where waiting for the
+//! compile would take its 5 s deadline), and an edit that makes the compile give up
+//! (its diagnostics, target ≤ 3 s).
 //!
 //! Run: `cargo bench -p mdg-lsp --bench latency`.
 
@@ -67,6 +71,8 @@ fn main() {
 
     assert!(c.shutdown_and_exit().success());
 
+    slow_shader(&dir);
+
     // Soak: 100,000 random edits (the soak test's, ten times longer) with feature
     // requests in between, against a fresh server; its memory every 10,000 edits
     // must stay flat.
@@ -84,6 +90,51 @@ fn main() {
         (last as f64 - early as f64) / 1024.0
     );
     assert!(peak < early + early / 2 + 32 * 1024, "memory is not flat: {:?}", soak.rss);
+}
+
+/// 2^23 statements made by 24 doubling `#define`s: with the shader limits off (a test
+/// hook), glslang runs into its 5 s deadline on them.
+fn slow_statements() -> String {
+    let mut statements = String::from("#define S0 x = x * 0.5 + sin(x) * cos(x) - 1.0;\n");
+    for i in 1..24 {
+        statements.push_str(&format!("#define S{i} S{} S{}\n", i - 1, i - 1));
+    }
+    statements.push_str("void main() { float x = 1.0; S23 gl_Position = vec4(x); }");
+    // As the hostile tests write it (tests/hostile.rs: `with_shader`).
+    format!(
+        "startshape A\n@vertexshader vs\n#version 450\n{statements}\n@endshader\n\
+         rule A {{ VERTEX {{}} VERTEX {{x 1}} VERTEX {{y 1}} }}\n"
+    )
+}
+
+/// While a document's shader compiles: four requests on it (symbols, folding, tokens,
+/// hover), then an edit to a plain grammar and its diagnostics.
+fn slow_shader(dir: &std::path::Path) {
+    let u = uri(&dir.join("slow.mdg"));
+    let mut c = Client::spawn_with(&[("MDG_TEST_NO_SHADER_LIMITS", "1")]);
+    c.initialize(dir);
+    c.open(&u, 1, &slow_statements());
+    std::thread::sleep(Duration::from_millis(300));
+    let asked = Instant::now();
+    for method in ["textDocument/documentSymbol", "textDocument/foldingRange", "textDocument/semanticTokens/full"] {
+        c.call(method, serde_json::json!({"textDocument": {"uri": u}}));
+    }
+    c.call(
+        "textDocument/hover",
+        serde_json::json!({"textDocument": {"uri": u}, "position": {"line": 0, "character": 13}}),
+    );
+    let answered = asked.elapsed();
+    let edited = Instant::now();
+    c.change(&u, 2, "startshape A\nrule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n");
+    let d = c.diagnostics(&u, 2);
+    let took = edited.elapsed();
+    assert!(d.is_empty(), "{d:?}");
+    println!(
+        "while a shader compiles (5 s deadline): 4 requests answered in {:.1} ms (target ≤ 2 s), an edit's diagnostics in {:.1} ms (target ≤ 3 s)",
+        ms(answered),
+        ms(took)
+    );
+    assert!(c.shutdown_and_exit().success());
 }
 
 fn ms(d: Duration) -> f64 {

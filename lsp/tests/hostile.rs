@@ -63,6 +63,20 @@ fn hostile_documents_get_diagnostics_and_the_server_keeps_serving() {
 }
 
 /// A program whose vertex shader is `glsl` (after `#version 450`).
+/// Whether an E0502 (a shader refused or past its deadline) for `uri` has been
+/// published among the messages received so far while waiting for others. The tests
+/// below use the order of the server's messages, not the clock, to show that requests
+/// and edits do not wait for glslang: the deadline's E0502 comes 5 s after the open,
+/// and an answer that waited for glslang could not come before it. (Their latencies
+/// are measured by `cargo bench -p mdg-lsp --bench latency`.)
+fn e0502_published(c: &Client, uri: &str) -> bool {
+    c.pending.iter().any(|v| {
+        v["method"] == "textDocument/publishDiagnostics"
+            && v["params"]["uri"] == uri
+            && v["params"]["diagnostics"].as_array().is_some_and(|d| d.iter().any(|d| d["code"] == "E0502"))
+    })
+}
+
 fn with_shader(glsl: &str) -> String {
     format!(
         "startshape A\n@vertexshader vs\n#version 450\n{glsl}\n@endshader\n\
@@ -107,7 +121,9 @@ fn hostile_shaders_get_e0502_and_the_server_exits() {
         let d = c.diagnostics(&u, version);
         assert_eq!(codes(&d), ["E0502"], "{d:?}");
         assert!(d[0]["message"].as_str().unwrap_or("").starts_with(message), "{d:?}");
-        assert!(t.elapsed() < std::time::Duration::from_secs(15), "took {:?}", t.elapsed());
+        // The message shows the text limits refused it (not the deadline); this is the
+        // hang guard, long for a loaded machine.
+        assert!(t.elapsed() < std::time::Duration::from_secs(60), "took {:?}", t.elapsed());
         // The other document answers meanwhile.
         let h = c.call(
             "textDocument/hover",
@@ -124,7 +140,8 @@ fn hostile_shaders_get_e0502_and_the_server_exits() {
     let t = std::time::Instant::now();
     c.assert_peak_below(PEAK_MIB);
     assert!(c.shutdown_and_exit().success());
-    assert!(t.elapsed() < std::time::Duration::from_secs(10), "exit took {:?}", t.elapsed());
+    // Hang guard: a server that kept reading after `exit` would never end.
+    assert!(t.elapsed() < std::time::Duration::from_secs(60), "exit took {:?}", t.elapsed());
 }
 
 /// 2^23 statements made by 24 doubling `#define`s: past the shader limits (which a
@@ -164,7 +181,8 @@ fn requests_do_not_wait_for_a_slow_shader_and_an_edit_cancels_it() {
         c.call("textDocument/hover", json!({"textDocument": {"uri": u}, "position": {"line": line, "character": 13}}));
     assert!(h["contents"]["value"].as_str().unwrap_or("").contains("VERTEX"), "{h}");
     let answered = asked.elapsed();
-    assert!(answered < std::time::Duration::from_secs(2), "requests took {answered:?} (waited for glslang?)");
+    assert!(!e0502_published(&c, &u), "the requests were answered only after glslang's deadline ({answered:?})");
+    eprintln!("requests answered in {answered:?}");
 
     // An edit while the shader still compiles: version 1's analysis gives up and
     // version 2 is published well before version 1's 5 s deadline.
@@ -172,7 +190,8 @@ fn requests_do_not_wait_for_a_slow_shader_and_an_edit_cancels_it() {
     c.change(&u, 2, "startshape A\nrule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n");
     assert!(c.diagnostics(&u, 2).is_empty());
     let took = edited.elapsed();
-    assert!(took < std::time::Duration::from_secs(3), "the edit's diagnostics took {took:?}");
+    assert!(!e0502_published(&c, &u), "version 1 ran into the deadline before version 2 was published ({took:?})");
+    eprintln!("the edit's diagnostics came in {took:?}");
     c.clear();
     assert!(!c.logs.iter().any(|l| l.contains("panic")), "{:?}", c.logs);
     c.assert_peak_below(PEAK_MIB);
@@ -200,12 +219,13 @@ fn a_compile_past_the_deadline_does_not_block_the_server() {
     let h =
         c.call("textDocument/hover", json!({"textDocument": {"uri": other}, "position": {"line": 1, "character": 10}}));
     assert!(h["contents"]["value"].as_str().unwrap_or("").contains("VERTEX"), "{h}");
-    assert!(asked.elapsed() < std::time::Duration::from_secs(2), "hover took {:?}", asked.elapsed());
+    assert!(!e0502_published(&c, &u), "the hover was answered only after the deadline ({:?})", asked.elapsed());
     // The deadline is 5 s of the compile's processor time (a loaded machine
     // stretches it in wall-clock time, up to the 60 s safety net).
     let d = c.diagnostics_within(&u, 1, std::time::Duration::from_secs(90));
     assert_eq!(codes(&d), ["E0502"], "{d:?}");
     assert!(d[0]["message"].as_str().unwrap_or("").starts_with("shader compilation took longer than "), "{d:?}");
+    // Hang guard.
     assert!(t.elapsed() < std::time::Duration::from_secs(90), "took {:?}", t.elapsed());
     // The abandoned compile holds nothing: another shader compiles now.
     c.change(&u, 2, &with_shader("void main() { gl_Position = vec4(2.0); }"));
@@ -213,7 +233,8 @@ fn a_compile_past_the_deadline_does_not_block_the_server() {
     let t = std::time::Instant::now();
     c.assert_peak_below(PEAK_MIB);
     assert!(c.shutdown_and_exit().success());
-    assert!(t.elapsed() < std::time::Duration::from_secs(15), "exit took {:?}", t.elapsed());
+    // Hang guard: an exit waiting for the abandoned compile would take minutes.
+    assert!(t.elapsed() < std::time::Duration::from_secs(60), "exit took {:?}", t.elapsed());
 }
 
 /// A junk document: at most 100 errors, then one note with how many more.

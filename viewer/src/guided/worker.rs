@@ -143,6 +143,10 @@ mod tests {
     use std::sync::mpsc;
     use std::time::{Duration, Instant};
 
+    /// How long a test waits for what should come at once before it calls it a hang:
+    /// long, since tests share a loaded machine (timings are benchmarks' business).
+    const HANG: Duration = Duration::from_secs(60);
+
     /// A job that runs until released through its gate (or cancelled), then returns
     /// its number.
     type Job = (u32, Arc<(Mutex<bool>, Condvar)>);
@@ -178,7 +182,7 @@ mod tests {
     }
 
     fn wait_running(w: &Worker<Job, u32>) {
-        let deadline = Instant::now() + Duration::from_secs(10);
+        let deadline = Instant::now() + HANG;
         while lock(&w.shared.state).running.is_none() {
             assert!(Instant::now() < deadline, "the job never started");
             std::thread::sleep(Duration::from_millis(1));
@@ -196,13 +200,14 @@ mod tests {
         open(&g3);
         let third = w.submit((3, g3), Preempt::Wait);
         assert_eq!((first, second, third), (1, 2, 3));
-        // The second never runs: answered at once.
-        assert_eq!(rx.recv_timeout(Duration::from_secs(10)).expect("answer"), (2, None));
+        // The second never runs: answered at once. (The timeouts here and below are hang
+        // guards, long for a loaded machine.)
+        assert_eq!(rx.recv_timeout(HANG).expect("answer"), (2, None));
         assert!(w.is_busy());
         open(&g1);
-        assert_eq!(rx.recv_timeout(Duration::from_secs(10)).expect("answer"), (1, Some(1)));
-        assert_eq!(rx.recv_timeout(Duration::from_secs(10)).expect("answer"), (3, Some(3)));
-        let deadline = Instant::now() + Duration::from_secs(10);
+        assert_eq!(rx.recv_timeout(HANG).expect("answer"), (1, Some(1)));
+        assert_eq!(rx.recv_timeout(HANG).expect("answer"), (3, Some(3)));
+        let deadline = Instant::now() + HANG;
         while w.is_busy() {
             assert!(Instant::now() < deadline);
             std::thread::sleep(Duration::from_millis(1));
@@ -216,11 +221,10 @@ mod tests {
         wait_running(&w);
         let g = gate();
         open(&g);
-        let started = Instant::now();
+        // The first job's gate never opens: only the cancel can end it.
         let id = w.submit((2, g), Preempt::Cancel);
-        assert_eq!(rx.recv_timeout(Duration::from_secs(10)).expect("answer"), (1, None), "cancelled");
-        assert_eq!(rx.recv_timeout(Duration::from_secs(10)).expect("answer"), (id, Some(2)));
-        assert!(started.elapsed() < Duration::from_secs(5));
+        assert_eq!(rx.recv_timeout(HANG).expect("answer"), (1, None), "cancelled");
+        assert_eq!(rx.recv_timeout(HANG).expect("answer"), (id, Some(2)));
         // Dropping the worker with a job stuck in it returns (the job is cancelled).
         let _ = w.submit((3, gate()), Preempt::Wait);
         wait_running(&w);
