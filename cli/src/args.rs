@@ -179,6 +179,37 @@ pub fn parse_duration(flag: &str, s: &str) -> Result<Option<std::time::Duration>
     }
 }
 
+/// The longest picture side (`--size`).
+pub const MAX_PICTURE_SIDE: u32 = 8192;
+/// The most pixels in one picture: 4096 × 4096. Pictures are drawn with 4×
+/// multisampling, about 60 bytes a pixel in all (colour and depth samples, the
+/// resolved image, its read-back copy, the PNG's rows) on top of the ~0.5 GB the
+/// renderer starts with: 8192 × 8192 took 3.8 GB on lavapipe, 4096 × 4096 takes 1.5 GB.
+pub const MAX_PICTURE_PIXELS: u64 = 4096 * 4096;
+
+/// Parses `--size WIDTHxHEIGHT` for a picture: each side 1..8192 and at most
+/// [`MAX_PICTURE_PIXELS`] in all; the error says which bound and why.
+pub fn parse_picture_size(s: &str) -> Result<(u32, u32), String> {
+    let parsed = s
+        .split_once(['x', 'X'])
+        .and_then(|(a, b)| Some((a.trim().parse::<u32>().ok()?, b.trim().parse::<u32>().ok()?)));
+    match parsed {
+        Some((w, h)) if w > 0 && h > 0 && w <= MAX_PICTURE_SIDE && h <= MAX_PICTURE_SIDE => {
+            let px = w as u64 * h as u64;
+            if px > MAX_PICTURE_PIXELS {
+                Err(format!(
+                    "--size {s}: {px} pixels, more than the {MAX_PICTURE_PIXELS} (4096x4096) a picture may have: \
+                     it is drawn with 4x multisampling, about 60 bytes a pixel (8192x8192 needed 3.8 GB); \
+                     choose a smaller size, e.g. 4096x4096 or 8192x2048"
+                ))
+            } else {
+                Ok((w, h))
+            }
+        }
+        _ => Err(format!("--size {s}: expected WIDTHxHEIGHT, each 1..{MAX_PICTURE_SIDE}, e.g. 1024x768")),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -218,34 +249,5 @@ mod tests {
         assert!(e.contains("write 0.5s or 500ms"), "{e}");
         assert_eq!(budget("150ms"), Ok(Some(Duration::from_millis(150))));
         assert_eq!(budget("none"), Ok(None));
-    }
-}
-
-/// The longest picture side (`--size`).
-pub const MAX_PICTURE_SIDE: u32 = 8192;
-/// The most pixels in one picture: 4096 × 4096. Pictures are drawn with 4×
-/// multisampling, about 60 bytes a pixel in all (colour and depth samples, the
-/// resolved image, its read-back copy, the PNG's rows) on top of the ~0.5 GB the
-/// renderer starts with: 8192 × 8192 took 3.8 GB on lavapipe, 4096 × 4096 takes 1.5 GB.
-pub const MAX_PICTURE_PIXELS: u64 = 4096 * 4096;
-
-/// Parses `--size WIDTHxHEIGHT` for a picture: each side 1..8192 and at most
-/// [`MAX_PICTURE_PIXELS`] in all; the error says which bound and why.
-pub fn parse_picture_size(s: &str) -> Result<(u32, u32), String> {
-    let parsed = s.split_once(['x', 'X']).and_then(|(a, b)| Some((a.trim().parse::<u32>().ok()?, b.trim().parse::<u32>().ok()?)));
-    match parsed {
-        Some((w, h)) if w > 0 && h > 0 && w <= MAX_PICTURE_SIDE && h <= MAX_PICTURE_SIDE => {
-            let px = w as u64 * h as u64;
-            if px > MAX_PICTURE_PIXELS {
-                Err(format!(
-                    "--size {s}: {px} pixels, more than the {MAX_PICTURE_PIXELS} (4096x4096) a picture may have: \
-                     it is drawn with 4x multisampling, about 60 bytes a pixel (8192x8192 needed 3.8 GB); \
-                     choose a smaller size, e.g. 4096x4096 or 8192x2048"
-                ))
-            } else {
-                Ok((w, h))
-            }
-        }
-        _ => Err(format!("--size {s}: expected WIDTHxHEIGHT, each 1..{MAX_PICTURE_SIDE}, e.g. 1024x768")),
     }
 }

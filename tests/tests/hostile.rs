@@ -726,7 +726,7 @@ fn a_call_with_a_million_adjustments_checks_in_linear_memory() {
     }
     text.push_str("} }\nrule B { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n");
     let bytes = text.len();
-    bounded(HEAP, "a_call_with_a_million_adjustments", 120 * bytes >> 20, LINEAR_SECS, move || {
+    bounded(HEAP, "a_call_with_a_million_adjustments", (120 * bytes) >> 20, LINEAR_SECS, move || {
         let a = analyze_mem(&text);
         assert!(!a.has_errors(), "{:?}", codes(&a));
     });
@@ -740,7 +740,7 @@ fn a_rule_with_100000_parameters_checks_in_linear_time() {
     let params: Vec<String> = (0..n).map(|i| format!("float p{i} = 0")).collect();
     let text = format!("startshape A\nrule A({}) {{ VERTEX {{x p{}}} }}\n", params.join(", "), n - 1);
     let bytes = text.len();
-    bounded(HEAP, "a_rule_with_100000_parameters", 128 * bytes >> 20, LINEAR_SECS, move || {
+    bounded(HEAP, "a_rule_with_100000_parameters", (128 * bytes) >> 20, LINEAR_SECS, move || {
         let a = analyze_mem(&text);
         assert!(!a.has_errors(), "{:?}", &a.diagnostics.iter().take(3).map(|d| &d.message).collect::<Vec<_>>());
     });

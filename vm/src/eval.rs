@@ -2147,7 +2147,6 @@ fn rule_in<'b>(starts: &[(u32, u32)], b: &'b Bundle, pc: u32) -> Option<&'b str>
     starts.get(i.checked_sub(1)?).map(|&(_, n)| b.string(n))
 }
 
-
 /// " in rule `NAME` (FILE:LINE)" for the op at `pc`: the rule whose definition holds
 /// it and the source line of the op, or "" when the bundle has no such information.
 fn where_op(b: &Bundle, pc: u32) -> String {

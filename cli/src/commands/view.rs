@@ -112,8 +112,6 @@ pub struct Args {
 /// The most views `--turntable` renders.
 const MAX_TURNTABLE: u32 = 360;
 
-
-
 /// `dir/stem-NN.ext` beside `path`.
 fn numbered(path: &Path, i: u32, n: u32) -> PathBuf {
     let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "view".into());

@@ -146,7 +146,11 @@ impl Library {
     /// of `opts`) or converts its embedded mesh; returns the library and the
     /// evaluations' warnings, each naming its part. Parts are independent, so they
     /// are made in parallel.
-    pub fn build_with(bundle: &Bundle, t: &CreatureTable, opts: &EvalOptions) -> Result<(Library, Vec<String>), String> {
+    pub fn build_with(
+        bundle: &Bundle,
+        t: &CreatureTable,
+        opts: &EvalOptions,
+    ) -> Result<(Library, Vec<String>), String> {
         let opts = EvalOptions { seed: None, record_sites: false, ..opts.clone() };
         let built = t
             .parts

@@ -19,9 +19,13 @@ const IDENTITY_ROTATION: u8 = 0b0000100;
 /// fit in the file, and an `XYZI` chunk must hold the voxels it counts. Returns the
 /// number of `XYZI` chunks; the error names the broken chunk and its byte offset.
 fn check_chunks(bytes: &[u8]) -> Result<usize, String> {
-    let word = |at: usize| -> Option<u32> { bytes.get(at..at + 4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])) };
+    let word =
+        |at: usize| -> Option<u32> { bytes.get(at..at + 4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])) };
     let id = |at: usize| -> String {
-        bytes.get(at..at + 4).map(|b| b.iter().map(|&c| if c.is_ascii_graphic() { c as char } else { '?' }).collect()).unwrap_or_default()
+        bytes
+            .get(at..at + 4)
+            .map(|b| b.iter().map(|&c| if c.is_ascii_graphic() { c as char } else { '?' }).collect())
+            .unwrap_or_default()
     };
     if bytes.len() < 20 || bytes.get(8..12) != Some(b"MAIN") {
         return Err("corrupt .vox file: no MAIN chunk after the header".into());
@@ -43,7 +47,9 @@ fn check_chunks(bytes: &[u8]) -> Result<usize, String> {
     while at < end {
         let name = id(at);
         let (Some(c), Some(ch)) = (word(at + 4), word(at + 8)) else {
-            return Err(format!("corrupt .vox file: chunk `{name}` at byte {at} is cut short (its header needs 12 bytes)"));
+            return Err(format!(
+                "corrupt .vox file: chunk `{name}` at byte {at} is cut short (its header needs 12 bytes)"
+            ));
         };
         let next = at.saturating_add(12).saturating_add(c as usize).saturating_add(ch as usize);
         if next > end {
@@ -81,7 +87,9 @@ pub fn read(bytes: &[u8]) -> Result<VoxelModel, String> {
         return Err(if models == 0 {
             "the .vox file has no model (no SIZE and XYZI chunks)".into()
         } else {
-            format!("corrupt .vox file: its {models} model chunk(s) could not be read (a SIZE or XYZI chunk is malformed)")
+            format!(
+                "corrupt .vox file: its {models} model chunk(s) could not be read (a SIZE or XYZI chunk is malformed)"
+            )
         });
     }
     let mut ids: Vec<Option<String>> = vec![None; 256];
