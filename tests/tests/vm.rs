@@ -280,7 +280,11 @@ fn limits_end_runs_cleanly_and_keep_output() {
     limit_warning(&out, "minsize 0.1 reached in rule `A` (", "inline.mdg:3): 16 branch(es) ended there");
     let out = run_source("startshape A\nstacksize 10\nrule A { VERTEX {} A {z 1} }\n");
     assert_eq!(out.vertex_mesh().n_vertices(), 10);
-    limit_warning(&out, "stack size 10 reached in rule `A` (", "inline.mdg:3): 1 branch(es) ended there");
+    limit_warning(
+        &out,
+        "stack size 10 reached in rule `A` (",
+        "inline.mdg:3): 1 branch(es) ended there (raise the limit with `stacksize N` in the grammar, up to the cap set by `--max-stack N`)",
+    );
     // The line is the call's, in the rule that makes it (here on line 5, in `B`).
     let out = run_source("startshape A\nmaxdepth 3\nrule A { B {} }\nrule B {\n  VERTEX {} A {z 1}\n}\n");
     limit_warning(&out, "maxdepth 3 reached in rule `B` (", "inline.mdg:5): 1 branch(es) ended there");
