@@ -1440,10 +1440,6 @@ impl<'b> Eval<'b> {
         self.instanced_vertices += u64::from(vertices);
     }
 
-    /// Builds prototype `p`'s mesh from its items (positions, normals, colour and
-    /// weight deltas in the run's frame; see [`SharedKind::Prototype`]), adds it to
-    /// the output's shared meshes and returns its index.
-    #[cold]
     /// The rule holding op `pc` (see [`rule_in`]).
     fn rule_of(&mut self, pc: u32) -> Option<&'b str> {
         let b = self.b;
@@ -1456,6 +1452,10 @@ impl<'b> Eval<'b> {
         crate::output::Site { rule: self.rule_of(pc).unwrap_or_default().to_string(), file, line }
     }
 
+    /// Builds prototype `p`'s mesh from its items (positions, normals, colour and
+    /// weight deltas in the run's frame; see [`SharedKind::Prototype`]), adds it to
+    /// the output's shared meshes and returns its index.
+    #[cold]
     fn make_prototype(&mut self, p: usize) -> u32 {
         let b = self.b;
         let Some(slot) = self.protos.get(p) else { return NONE };
@@ -1599,11 +1599,15 @@ impl<'b> Eval<'b> {
         false
     }
 
-    fn check_budgets(&mut self) {
-        let n = (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64
+    /// The vertices the run has made so far, as the vertex budget counts them.
+    fn vertices_made(&self) -> u64 {
+        (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64
             + self.extra_vertices
-            + self.instanced_vertices;
-        if n > self.opts.max_vertices {
+            + self.instanced_vertices
+    }
+
+    fn check_budgets(&mut self) {
+        if self.vertices_made() > self.opts.max_vertices {
             self.limits.vertices = true;
             self.stopped = true;
         }
@@ -1645,10 +1649,7 @@ impl<'b> Eval<'b> {
     /// Whether `more` vertices fit in the vertex budget; if not, the run stops there
     /// (before they are made) with the budget's warning.
     fn room_for(&mut self, more: usize) -> bool {
-        let n = (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64
-            + self.extra_vertices
-            + self.instanced_vertices;
-        if n.saturating_add(more as u64) > self.opts.max_vertices {
+        if self.vertices_made().saturating_add(more as u64) > self.opts.max_vertices {
             self.limits.vertices = true;
             self.stopped = true;
             return false;

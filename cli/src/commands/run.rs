@@ -311,8 +311,13 @@ fn common<'a>(
     size: (u32, u32),
     pictures: &'a dyn Pictures,
 ) -> Common<'a> {
-    let eval = EvalOptions { seed, time: cli.time, record_sites: cli.sites, ..cli.limits.eval_options() };
+    let eval = eval_options(cli, seed);
     Common { file: &cli.file, output, seed, stats: cli.stats, png: cli.png.as_deref(), size, pictures, eval, compile }
+}
+
+/// The evaluation options of one run of `seed`: the limit flags, `--time`, `--sites`.
+fn eval_options(cli: &Args, seed: Option<u64>) -> EvalOptions {
+    EvalOptions { seed, time: cli.time, record_sites: cli.sites, ..cli.limits.eval_options() }
 }
 
 /// The formats a mesh grammar's `-o` takes, for messages.
@@ -426,7 +431,7 @@ fn run_one(
         Target::Model(f) => (f, false),
         Target::Picture => (Format::Glb, true),
     };
-    let eval_opts = EvalOptions { seed, time: cli.time, record_sites: cli.sites, ..cli.limits.eval_options() };
+    let eval_opts = eval_options(cli, seed);
     let started = std::time::Instant::now();
     let bar = indicatif::ProgressBar::hidden();
     let progress = |calls: u64| {
