@@ -335,11 +335,7 @@ impl DiskCache {
         if std::env::var("MDG_SPIRV_CACHE").is_ok_and(|v| matches!(v.trim(), "0" | "off")) {
             return None;
         }
-        let base = std::env::var_os("XDG_CACHE_HOME")
-            .map(PathBuf::from)
-            .filter(|p| p.is_absolute())
-            .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))?;
-        Some(base.join("mdg").join("spirv"))
+        crate::stdlib::user_cache_roots().into_iter().next().map(|root| root.join("spirv"))
     }
 
     /// Installs a disk cache in [`DiskCache::default_dir`], if there is one.

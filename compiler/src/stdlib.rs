@@ -87,16 +87,24 @@ pub fn content_hash() -> u64 {
     h
 }
 
-/// Where the embedded std may be written, best first: `$XDG_CACHE_HOME/mdg`,
-/// `$HOME/.cache/mdg`, then the temporary directory.
-fn cache_roots() -> Vec<PathBuf> {
+/// The user's cache directories for MDG, best first: `$XDG_CACHE_HOME/mdg` (an
+/// absolute path, as the XDG spec requires), then `$HOME/.cache/mdg`. The embedded
+/// std and the SPIR-V cache ([`crate::shaders::DiskCache`]) live under them.
+pub fn user_cache_roots() -> Vec<PathBuf> {
     let mut roots = Vec::new();
-    if let Some(x) = std::env::var_os("XDG_CACHE_HOME").filter(|x| !x.is_empty()) {
-        roots.push(PathBuf::from(x).join("mdg"));
+    if let Some(x) = std::env::var_os("XDG_CACHE_HOME").map(PathBuf::from).filter(|x| x.is_absolute()) {
+        roots.push(x.join("mdg"));
     }
     if let Some(h) = std::env::var_os("HOME").filter(|h| !h.is_empty()) {
         roots.push(PathBuf::from(h).join(".cache/mdg"));
     }
+    roots
+}
+
+/// Where the embedded std may be written, best first: [`user_cache_roots`], then
+/// the temporary directory.
+fn cache_roots() -> Vec<PathBuf> {
+    let mut roots = user_cache_roots();
     roots.push(std::env::temp_dir().join("mdg"));
     roots
 }
