@@ -334,6 +334,24 @@ struct Totals {
     slow: u64,
 }
 
+impl Totals {
+    /// The closing `TOTAL` line of a run of `secs` seconds.
+    fn line(&self, a: &Args, secs: f64, restarts: u64) -> String {
+        format!(
+            "TOTAL {}: {} executions in {:.0} s ({:.0}/s), {} past the first stage, {} crashes, {} slow inputs (> {} ms), {} worker restarts",
+            a.target.name(),
+            self.execs,
+            secs,
+            self.execs as f64 / secs.max(1e-9),
+            self.deep,
+            self.crashes,
+            self.slow,
+            a.slow_ms,
+            restarts
+        )
+    }
+}
+
 fn supervise(a: &Args, argv: &[String]) -> ExitCode {
     let exe = match std::env::current_exe() {
         Ok(e) => e,
@@ -479,18 +497,7 @@ fn supervise(a: &Args, argv: &[String]) -> ExitCode {
     }
     let _ = std::fs::remove_file(&current);
     let secs = started.elapsed().as_secs_f64();
-    println!(
-        "TOTAL {}: {} executions in {:.0} s ({:.0}/s), {} past the first stage, {} crashes, {} slow inputs (> {} ms), {} worker restarts",
-        a.target.name(),
-        totals.execs,
-        secs,
-        totals.execs as f64 / secs.max(1e-9),
-        totals.deep,
-        totals.crashes,
-        totals.slow,
-        a.slow_ms,
-        restarts
-    );
+    println!("{}", totals.line(a, secs, restarts));
     // For `--jobs`: the same numbers, to add up.
     println!(
         "totals: execs={} deep={} crashes={} slow={} restarts={restarts}",
@@ -597,19 +604,7 @@ fn jobs(a: &Args, argv: &[String]) -> ExitCode {
     }
     let secs = started.elapsed().as_secs_f64();
     let (t, restarts) = totals.lock().map(|t| *t).unwrap_or_default();
-    println!(
-        "TOTAL {}: {} executions in {:.0} s ({:.0}/s), {} past the first stage, {} crashes, {} slow inputs (> {} ms), {} worker restarts, {} jobs",
-        a.target.name(),
-        t.execs,
-        secs,
-        t.execs as f64 / secs.max(1e-9),
-        t.deep,
-        t.crashes,
-        t.slow,
-        a.slow_ms,
-        restarts,
-        a.jobs
-    );
+    println!("{}, {} jobs", t.line(a, secs, restarts), a.jobs);
     if failed || t.crashes > 0 {
         ExitCode::FAILURE
     } else {
