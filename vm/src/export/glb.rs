@@ -412,6 +412,22 @@ fn prototype_trs(f: &Frame) -> ([f32; 3], [f32; 4], f32) {
     (f.u.to_array(), r.normalize().to_array(), lq * lqh)
 }
 
+/// How a prototype instance of frame `f` is placed as a translation, a unit
+/// rotation (x, y, z, w) and a per-axis scale applied to the prototype's own mesh —
+/// what `--instances` writes, for other instancing consumers (the Python package,
+/// Blender's geometry nodes). A mirrored frame gets the scale (−s, s, s): the mirror
+/// in x, with the rotation that `--instances` gives its mirrored copy. `None` for a
+/// frame that cannot be placed so (zero or non-finite scale or translation): such an
+/// instance is expanded into the geometry instead.
+pub fn prototype_placement(f: &Frame) -> Option<([f32; 3], [f32; 4], [f32; 3])> {
+    if !prototype_placeable(f) {
+        return None;
+    }
+    let (t, r, s) = prototype_trs(f);
+    let sx = if frame_mirrors(f) { -s } else { s };
+    Some((t, r, [sx, s, s]))
+}
+
 /// One node of a [`write_glb_nodes`] scene: shared mesh `mesh` placed by
 /// `transform` (rotation, uniform scale, translation; may be mirrored).
 #[derive(Clone, Debug, PartialEq)]
