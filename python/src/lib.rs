@@ -108,7 +108,10 @@ fn diagnostic(d: &Diag, sources: &Sources) -> Diagnostic {
 #[derive(Clone, Debug)]
 enum Origin {
     /// Source text, named `path` in diagnostics (imports resolve beside it).
-    Text { path: PathBuf, text: String },
+    Text {
+        path: PathBuf,
+        text: String,
+    },
     File(PathBuf),
     /// A compiled bundle (`.mdgb`): params and presets are fixed.
     Bundle(PathBuf),
@@ -353,8 +356,14 @@ pub struct Program {
     opts: Options,
     base: Compiled,
     /// The last program compiled for other params/presets, with them.
-    variant: Mutex<Option<(Vec<(String, String)>, Vec<String>, Arc<Bundle>)>>,
+    variant: Mutex<Option<Variant>>,
 }
+
+/// A program compiled for other params and presets: the params, the presets, the bundle.
+type Variant = (Vec<(String, String)>, Vec<String>, Arc<Bundle>);
+
+/// One seed's evaluation in [`generate`] (written to its file if asked), or why not.
+type SeedResult = Result<(u64, Output), String>;
 
 /// One evaluation's settings, resolved from Python arguments.
 #[derive(Clone)]
@@ -475,8 +484,9 @@ impl Program {
         }
     }
 
-    /// The grammar's `background` colour would need a run; this is the run mode
-    /// (`"model"`, `"search"`, `"creatures"` or `"grid"`).
+    /// What running the grammar does: `"model"` (a mesh, what [`Program::run`]
+    /// makes), or the mdg-run mode of its extension section: `"search"`,
+    /// `"creatures"` or `"grid"`.
     #[getter]
     fn mode(&self) -> &'static str {
         let e = &self.base.bundle.extensions;
@@ -850,7 +860,11 @@ impl Model {
         })?;
         if !self.out.lines.is_empty() {
             let n = self.out.lines.len();
-            warn_all(py, [format!("to_trimesh: the model's {n} pen lines are not in the Trimesh (Model.lines has them)").as_str()])?;
+            warn_all(
+                py,
+                [format!("to_trimesh: the model's {n} pen lines are not in the Trimesh (Model.lines has them)")
+                    .as_str()],
+            )?;
         }
         let mesh = self.mesh(py)?;
         let m = mesh.get();
@@ -865,7 +879,11 @@ impl Model {
 
     fn __repr__(&self) -> String {
         let (v, t) = self.out.flat_counts(Groups::ALL);
-        format!("<mdg.Model {v} vertices, {t} triangles, {} instances, {} lines>", self.out.instances.len(), self.out.lines.len())
+        format!(
+            "<mdg.Model {v} vertices, {t} triangles, {} instances, {} lines>",
+            self.out.instances.len(),
+            self.out.lines.len()
+        )
     }
 }
 
@@ -937,9 +955,9 @@ fn run_window(
     seeds: &[u64],
     workers: usize,
     write: Option<&(String, Option<Format>)>,
-) -> Vec<Result<(u64, Output), String>> {
+) -> Vec<SeedResult> {
     let next = AtomicUsize::new(0);
-    let slots: Vec<Mutex<Option<Result<(u64, Output), String>>>> = seeds.iter().map(|_| Mutex::new(None)).collect();
+    let slots: Vec<Mutex<Option<SeedResult>>> = seeds.iter().map(|_| Mutex::new(None)).collect();
     let work = || loop {
         let i = next.fetch_add(1, Ordering::Relaxed);
         let Some(&seed) = seeds.get(i) else { break };
@@ -1007,10 +1025,9 @@ fn generate(
                 )));
             }
             let f = match &format {
-                Some(f) => Some(
-                    Format::from_extension(f)
-                        .ok_or_else(|| PyValueError::new_err(format!("format={f:?}: expected glb, obj, stl, ply or json")))?,
-                ),
+                Some(f) => Some(Format::from_extension(f).ok_or_else(|| {
+                    PyValueError::new_err(format!("format={f:?}: expected glb, obj, stl, ply or json"))
+                })?),
                 None => {
                     if Format::from_path(Path::new(&t)).is_none() {
                         return Err(PyValueError::new_err(format!(
@@ -1024,15 +1041,7 @@ fn generate(
         }
         None => None,
     };
-    Ok(Generation {
-        bundle,
-        settings,
-        seeds,
-        next: 0,
-        workers,
-        write,
-        ready: Default::default(),
-    })
+    Ok(Generation { bundle, settings, seeds, next: 0, workers, write, ready: Default::default() })
 }
 
 #[pymodule]

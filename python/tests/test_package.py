@@ -1,0 +1,266 @@
+"""The mdg package against mdg-run: arrays, files, errors, parameters, generate."""
+
+import pathlib
+import warnings
+
+import numpy as np
+import pytest
+
+import mdg
+from conftest import EXAMPLES, MODE_EXAMPLES, ROOT, json_dump, mdg_run
+
+
+def test_installed_package():
+    # The tests exercise the installed wheel, not python/mdg in the checkout.
+    here = pathlib.Path(mdg.__file__).resolve()
+    assert ROOT / "python" not in here.parents, here
+    assert hasattr(mdg, "_native") and mdg.__version__
+
+
+@pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
+def test_arrays_equal_the_json_dump(path, tmp_path):
+    program = mdg.compile(path)
+    if path.stem in MODE_EXAMPLES:
+        with pytest.raises(ValueError, match="mdg-run"):
+            program.run()
+        assert program.mode != "model"
+        return
+    assert program.mode == "model"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mdg.MdgWarning)
+        model = program.run()
+    dump = json_dump(path, tmp_path)
+    m = model.vertex_mesh
+    want = np.array(dump["vertices"], dtype=np.float32).reshape(-1, 3)
+    assert m.positions.dtype == np.float32 and m.positions.shape == want.shape
+    assert np.array_equal(m.positions, want)
+    tris = np.array(dump["triangles"], dtype=np.uint32).reshape(-1, 3)
+    assert np.array_equal(m.triangles, tris)
+    assert len(model.lines) == len(dump["lines"])
+    for got, line in zip(model.lines, dump["lines"]):
+        assert np.array_equal(got, np.array(line["points"], dtype=np.float32).reshape(-1, 3))
+    assert model.line_namespaces == [line["namespace"] for line in dump["lines"]]
+    assert len(model.isosurfaces) == len(dump["instances"])
+    for got, inst in zip(model.isosurfaces, dump["instances"]):
+        assert got["name"] == inst["name"]
+        assert np.array_equal(np.float32(got["position"]), np.float32(inst["position"]))
+        assert np.float32(got["scale"]) == np.float32(inst["scale"])
+    stats = model.stats
+    for k in ("rule_calls", "vertices", "triangles", "max_depth", "warnings"):
+        assert stats[k] == dump["stats"][k], k
+    # The whole model: the vertex group comes first, the counts are mdg-run's.
+    whole = model.mesh
+    n = len(want)
+    assert np.array_equal(whole.positions[:n], want)
+    assert whole.normals.shape == whole.positions.shape and whole.colors.shape == (len(whole.positions), 4)
+    assert whole.triangles.max(initial=0) < max(len(whole.positions), 1)
+    # base_mesh plus the placed instances is the whole model.
+    inst = model.instances
+    per = np.array([len(p.positions) for p in inst.prototypes], dtype=np.int64)
+    assert len(model.base_mesh.positions) + per[inst.prototype].sum() == len(whole.positions)
+
+
+def expand_instances(model):
+    """Every placed prototype instance in world space, by the documented TRS."""
+    inst = model.instances
+    out = []
+    for k in range(len(inst)):
+        proto = inst.prototypes[inst.prototype[k]].positions.astype(np.float64)
+        w, x, y, z = inst.rotation[k].astype(np.float64)
+        r = np.array(
+            [
+                [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+            ]
+        )
+        out.append(inst.translation[k] + (proto * inst.scale[k]) @ r.T)
+    return np.concatenate(out) if out else np.zeros((0, 3))
+
+
+@pytest.mark.parametrize("name", ["parametric_tree", "mirrored_sculpture", "cube_spiral"])
+def test_instances_place_the_prototypes_where_the_mesh_has_them(name):
+    model = mdg.compile(ROOT / "std" / "examples" / f"{name}.mdg").run()
+    inst = model.instances
+    assert inst.rotation.shape == (len(inst), 4) and inst.scale.shape == (len(inst), 3)
+    assert inst.color.shape == (len(inst), 4) and inst.translation.shape == (len(inst), 3)
+    placed = expand_instances(model)
+    together = np.concatenate([model.base_mesh.positions, placed])
+    whole = model.mesh.positions
+    assert len(together) == len(whole)
+    # The same points (up to float rounding), in another order.
+    a = np.unique(np.round(together, 3), axis=0)
+    b = np.unique(np.round(whole.astype(np.float64), 3), axis=0)
+    # Rounding can split a point the other side of a step: compare when it did not.
+    if len(a) == len(b):
+        assert np.allclose(a, b, atol=2e-3)
+    span = np.ptp(whole, axis=0).max()
+    assert np.allclose(together.min(axis=0), whole.min(axis=0), atol=1e-4 * span + 1e-5)
+    assert np.allclose(together.max(axis=0), whole.max(axis=0), atol=1e-4 * span + 1e-5)
+
+
+def test_some_example_has_instances_and_a_mirrored_one():
+    # The instance tests above mean something only if the examples have instances.
+    tree = mdg.compile(ROOT / "std" / "examples" / "tree.mdg").run()
+    assert len(tree.instances) > 0
+    mirrored = mdg.compile(ROOT / "std" / "examples" / "mirrored_sculpture.mdg").run()
+    assert (mirrored.instances.scale[:, 0] < 0).any() or len(mirrored.instances) == 0
+
+
+def test_arrays_are_views_of_rusts_buffers():
+    model = mdg.compile(ROOT / "std" / "examples" / "tree.mdg").run()
+    p = model.positions
+    # numpy does not own the data: it is the Vec the walk filled, kept alive by `base`.
+    assert not p.flags["OWNDATA"] and p.base is not None
+    assert p.flags["C_CONTIGUOUS"] and p.shape[1] == 3
+    # Made once, then the same array.
+    assert model.positions is model.mesh.positions
+    assert model.mesh is model.mesh
+
+
+@pytest.mark.parametrize("ext", ["glb", "obj", "stl", "ply", "json"])
+def test_write_is_byte_identical_to_mdg_run(ext, tmp_path):
+    # Mirrored prototype instances, isosurfaces and colours, in a small model.
+    src = ROOT / "std" / "examples" / "mirrored_sculpture.mdg"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mdg.MdgWarning)
+        mdg.compile(src).run(seed=5).write(tmp_path / f"py.{ext}")
+    mdg_run(src, "--seed", "5", "-o", tmp_path / f"cli.{ext}")
+    assert (tmp_path / f"py.{ext}").read_bytes() == (tmp_path / f"cli.{ext}").read_bytes()
+
+
+def test_write_instances_and_format_errors(tmp_path):
+    src = ROOT / "std" / "examples" / "tree.mdg"
+    model = mdg.compile(src).run()
+    model.write(tmp_path / "i.glb", instances=True)
+    mdg_run(src, "--instances", "-o", tmp_path / "cli.glb")
+    assert (tmp_path / "i.glb").read_bytes() == (tmp_path / "cli.glb").read_bytes()
+    with pytest.raises(ValueError, match=r"\.glb, \.obj"):
+        model.write(tmp_path / "x.fbx")
+    with pytest.raises(ValueError, match="format="):
+        model.write(tmp_path / "x", format="fbx")
+    model.write(tmp_path / "sub" / "x", format="stl")
+    assert (tmp_path / "sub" / "x").stat().st_size > 84
+
+
+def test_compile_error_carries_code_and_line():
+    src = "@import primitives\nstartshape A\n\nrule A {\n  cube {s 1}\n  foo\n}\n"
+    with pytest.raises(mdg.CompileError) as e:
+        mdg.compile(src, name="broken.mdg")
+    diags = [d for d in e.value.diagnostics if d.severity == "error"]
+    assert diags, e.value.diagnostics
+    d = diags[0]
+    assert d.code.startswith("E") and len(d.code) == 5
+    assert d.file == "broken.mdg"
+    assert d.line == 7 and d.column == 1, str(d)
+    assert d.code in str(e.value) and "broken.mdg:7" in str(e.value)
+    assert str(d).startswith("broken.mdg:7:1: error[")
+
+
+def test_compile_error_from_a_file_names_the_file(tmp_path):
+    f = tmp_path / "bad.mdg"
+    f.write_text("@import primitives\nstartshape A\nrule A { cube {} }\nrule B { NOPE {} }\n")
+    with pytest.raises(mdg.CompileError) as e:
+        mdg.compile(f)
+    d = next(d for d in e.value.diagnostics if d.severity == "error")
+    assert d.line == 4 and d.file.endswith("bad.mdg"), str(d)
+    assert d.code == "E0301" and d.column == 10
+    # The same through a str path.
+    with pytest.raises(mdg.CompileError):
+        mdg.compile(str(f))
+
+
+def test_bad_arguments_say_what_is_wrong(tmp_path):
+    with pytest.raises(OSError, match="missing.mdg"):
+        mdg.compile(str(tmp_path / "missing.mdg"))
+    tree = ROOT / "std" / "examples" / "parametric_tree.mdg"
+    with pytest.raises(ValueError, match="levelz"):
+        mdg.compile(tree, params={"levelz": 3})
+    program = mdg.compile(tree)
+    with pytest.raises(ValueError, match="unknown limit"):
+        program.run(limits={"max_vertexes": 10})
+    with pytest.raises(ValueError, match="time"):
+        program.run(time=-1)
+    with pytest.raises(TypeError, match="params"):
+        program.run(params={"levels": "three"})
+    with pytest.raises(TypeError):
+        mdg.compile(42)
+
+
+def test_params_presets_and_limits():
+    tree = ROOT / "std" / "examples" / "parametric_tree.mdg"
+    program = mdg.compile(tree)
+    names = [p["name"] for p in program.params]
+    assert names == ["levels", "forks", "spread"]
+    assert program.params[0] == {"name": "levels", "type": "int", "value": 5.0, "min": 1.0, "max": 7.0}
+    small = program.run(params={"levels": 2})
+    big = program.run(params={"levels": 4})
+    assert len(small.positions) < len(big.positions)
+    # The same as compiling with the param, and as mdg-run --param.
+    again = mdg.compile(tree, params={"levels": 2}).run()
+    assert np.array_equal(small.positions, again.positions)
+    assert mdg.compile(tree, params={"levels": 2}).params[0]["value"] == 2.0
+    with pytest.warns(mdg.MdgWarning, match="vertices"):
+        capped = program.run(limits={"max_vertices": 100})
+    assert capped.warnings and len(capped.positions) <= 100
+
+
+def test_params_match_mdg_run(tmp_path):
+    tree = ROOT / "std" / "examples" / "parametric_tree.mdg"
+    model = mdg.compile(tree).run(params={"levels": 3, "spread": 20.5}, seed=4)
+    dump = json_dump(tree, tmp_path, "--param", "levels=3", "--param", "spread=20.5", "--seed", "4")
+    assert np.array_equal(model.vertex_mesh.positions, np.array(dump["vertices"], dtype=np.float32).reshape(-1, 3))
+
+
+def test_animated_model_has_bones_tracks_and_poses(tmp_path):
+    src = ROOT / "std" / "examples" / "solar_system.mdg"
+    model = mdg.compile(src).run()
+    assert len(model.bones) > 1 and model.duration > 0
+    assert model.mesh.bones is not None and len(model.mesh.bones) == len(model.positions)
+    track = model.tracks[model.bones[1]["tracks"][0]]
+    assert track["frames"].shape[1:] == (4, 4) and len(track["frames"]) > 1
+    assert model.bones[1]["rest"].shape == (4, 4)
+    posed = model.pose(1.5)
+    dump = json_dump(src, tmp_path, "--time", "1.5")
+    want = np.array(dump["vertices"], dtype=np.float32).reshape(-1, 3)
+    timed = mdg.compile(src).run(time=1.5)
+    assert np.array_equal(timed.vertex_mesh.positions, want)
+    assert not np.array_equal(posed.positions, model.positions)
+    static = mdg.compile(ROOT / "std" / "examples" / "tree.mdg").run()
+    assert static.mesh.bones is None and static.bones == [] and static.tracks == []
+
+
+def test_generate_equals_one_by_one(tmp_path):
+    # Random pebbles (isosurface instances), few of them to stay quick.
+    program = mdg.compile(ROOT / "std" / "examples" / "pebbles.mdg", params={"stones": 12})
+    seeds = [3, 1, 4, 1, 5, 9, 2, 6]
+    got = list(mdg.generate(program, seeds, workers=3, write=str(tmp_path / "{seed}.ply")))
+    assert [s for s, _ in got] == seeds
+    for seed, model in got:
+        one = program.run(seed=seed)
+        assert model.seed == seed
+        assert np.array_equal(model.positions, one.positions)
+        assert np.array_equal(model.colors, one.colors)
+        assert np.array_equal(model.triangles, one.triangles)
+        one.write(tmp_path / f"one-{seed}.ply")
+        assert (tmp_path / f"{seed}.ply").read_bytes() == (tmp_path / f"one-{seed}.ply").read_bytes()
+    # Seeds give different trees (else the comparison above proves little).
+    assert not np.array_equal(got[0][1].positions, got[1][1].positions)
+    assert len(mdg.generate(program, range(10))) == 10
+    with pytest.raises(ValueError, match="seed"):
+        mdg.generate(program, range(3), write=str(tmp_path / "fixed.glb"))
+    with pytest.raises(ValueError, match="workers"):
+        mdg.generate(program, range(3), workers=0)
+    with pytest.raises(TypeError, match="seeds"):
+        mdg.generate(program, ["a"])
+
+
+def test_to_trimesh():
+    trimesh = pytest.importorskip("trimesh")
+    model = mdg.compile(ROOT / "std" / "examples" / "icosahedron.mdg").run()
+    t = model.to_trimesh()
+    assert isinstance(t, trimesh.Trimesh)
+    assert np.array_equal(np.asarray(t.vertices, dtype=np.float32), model.positions)
+    assert np.array_equal(np.asarray(t.faces), model.triangles.astype(np.int64))
+    want = np.round(model.colors * 255).astype(np.uint8)
+    assert np.array_equal(np.asarray(t.visual.vertex_colors), want)
