@@ -1,0 +1,499 @@
+"""MDG shape grammars in Blender (a Blender 4.2+ extension built on the `mdg` wheel).
+
+Add → MDG Model reads a `.mdg` grammar (or a compiled `.mdgb` bundle) and makes:
+
+* `NAME`: a mesh object with the model's flat geometry (triangles, sweeps,
+  isosurfaces), its colours in the point colour attribute `mdg_color`, which the
+  material `MDG vertex colour` reads;
+* `NAME instances` (when the model has prototype instances): a mesh of one point per
+  instance, with the point attributes `rotation` (quaternion), `scale` (vector),
+  `proto` (which prototype) and `mdg_color`, and a geometry-nodes modifier that puts
+  an instance of the prototype on every point (Blender draws and renders them
+  without an object per copy); the material `MDG instance colour` reads the colour
+  from the instancer. The prototypes are objects of the collection `NAME prototypes`,
+  which is not linked into the scene.
+
+The sidebar (N panel, tab MDG) shows the seed, the grammar's `@param`s and presets;
+changing one regenerates the model in place. `Live reload` watches the file.
+Errors show in Blender's report area (and the panel) with the grammar's file and line.
+"""
+
+import os
+import time
+
+import bpy
+import numpy as np
+from bpy.props import (
+    BoolProperty,
+    CollectionProperty,
+    FloatProperty,
+    IntProperty,
+    PointerProperty,
+    StringProperty,
+)
+
+import mdg
+
+# Compiled programs by (path, modification time); a changed file compiles again.
+_programs = {}
+# While filling the properties from a grammar, updates must not regenerate.
+_loading = set()
+
+
+def srgb_to_linear(c):
+    """MDG's display colours (sRGB) to Blender's scene-linear colours."""
+    c = np.clip(c, 0.0, 1.0)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(np.float32)
+
+
+def colors_linear(rgba):
+    out = np.empty_like(rgba, dtype=np.float32)
+    out[:, :3] = srgb_to_linear(rgba[:, :3])
+    out[:, 3] = rgba[:, 3]
+    return out
+
+
+class MdgError(Exception):
+    """A grammar error, with the report text (file:line: code: message)."""
+
+
+def program_for(path):
+    path = bpy.path.abspath(path)
+    try:
+        mtime = os.path.getmtime(path)
+    except OSError as e:
+        raise MdgError(f"cannot read {path}: {e.strerror}") from None
+    key = (path, mtime)
+    if key not in _programs:
+        try:
+            program = mdg.compile(path)
+        except mdg.CompileError as e:
+            raise MdgError(first_error(e)) from None
+        except (OSError, ValueError) as e:
+            raise MdgError(str(e)) from None
+        for k in [k for k in _programs if k[0] == path]:
+            del _programs[k]
+        _programs[key] = program
+    return _programs[key]
+
+
+def first_error(e):
+    errors = [d for d in e.diagnostics if d.severity == "error"] or list(e.diagnostics)
+    if not errors:
+        return str(e)
+    d = errors[0]
+    more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
+    return f"{d.file}:{d.line}:{d.column}: {d.code}: {d.message}{more}"
+
+
+# ---------------------------------------------------------------------------
+# Geometry
+
+
+def fill_mesh(me, positions, triangles, colors):
+    """Replaces `me`'s geometry: vertices, triangles, point colours `mdg_color`."""
+    me.clear_geometry()
+    n, m = len(positions), len(triangles)
+    me.vertices.add(n)
+    me.vertices.foreach_set("co", np.ascontiguousarray(positions, dtype=np.float32).ravel())
+    if m:
+        me.loops.add(3 * m)
+        me.loops.foreach_set("vertex_index", triangles.astype(np.int32).ravel())
+        me.polygons.add(m)
+        me.polygons.foreach_set("loop_start", np.arange(0, 3 * m, 3, dtype=np.int32))
+    me.update(calc_edges=True)
+    attr = me.color_attributes.new("mdg_color", "FLOAT_COLOR", "POINT")
+    if n:
+        attr.data.foreach_set("color", colors_linear(colors).ravel())
+    me.color_attributes.active_color = attr
+    me.color_attributes.render_color_index = me.color_attributes.active_color_index
+
+
+def quat_rotate(q, v):
+    """Rotates vectors v (n, 3) by unit quaternions q (n, 4: w, x, y, z)."""
+    w, u = q[:, :1], q[:, 1:]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+def expand(inst, which):
+    """Instances `which` (indices) in world space: positions, triangles, colours."""
+    pos, tri, col = [], [], []
+    base = 0
+    for k in which:
+        p = inst.prototypes[inst.prototype[k]]
+        q = np.repeat(inst.rotation[k : k + 1].astype(np.float64), len(p.positions), axis=0)
+        world = inst.translation[k] + quat_rotate(q, p.positions * inst.scale[k])
+        pos.append(world.astype(np.float32))
+        t = p.triangles.astype(np.int64)
+        if np.linalg.det(np.diag(inst.scale[k])) < 0:
+            t = t[:, [0, 2, 1]]
+        tri.append(t + base)
+        col.append(np.clip(inst.color[k] + p.colors, 0.0, 1.0).astype(np.float32))
+        base += len(p.positions)
+    if not pos:
+        return np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int64), np.zeros((0, 4), np.float32)
+    return np.concatenate(pos), np.concatenate(tri), np.concatenate(col)
+
+
+def material(name, attribute_type):
+    """A material whose base colour is the attribute `mdg_color` (of the geometry or
+    of the instancer)."""
+    mat = bpy.data.materials.get(name)
+    if mat is not None:
+        return mat
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    nodes = mat.node_tree.nodes
+    bsdf = nodes.get("Principled BSDF")
+    attr = nodes.new("ShaderNodeAttribute")
+    attr.attribute_type = attribute_type
+    attr.attribute_name = "mdg_color"
+    attr.location = (-300, 200)
+    mat.node_tree.links.new(attr.outputs["Color"], bsdf.inputs["Base Color"])
+    # Matte, as MDG draws and as glTF files come in (roughness 1, not metallic).
+    bsdf.inputs["Roughness"].default_value = 1.0
+    bsdf.inputs["Metallic"].default_value = 0.0
+    return mat
+
+
+def instancer_nodes():
+    """The geometry-nodes group that instances the prototypes on the points."""
+    ng = bpy.data.node_groups.get("MDG instance on points")
+    if ng is not None:
+        return ng
+    ng = bpy.data.node_groups.new("MDG instance on points", "GeometryNodeTree")
+    ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    ng.interface.new_socket("Prototypes", in_out="INPUT", socket_type="NodeSocketCollection")
+    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    n, link = ng.nodes, ng.links.new
+    gi, go = n.new("NodeGroupInput"), n.new("NodeGroupOutput")
+    info = n.new("GeometryNodeCollectionInfo")
+    info.inputs["Separate Children"].default_value = True
+    info.inputs["Reset Children"].default_value = True
+    iop = n.new("GeometryNodeInstanceOnPoints")
+    iop.inputs["Pick Instance"].default_value = True
+
+    def named(name, data_type):
+        a = n.new("GeometryNodeInputNamedAttribute")
+        a.data_type = data_type
+        a.inputs["Name"].default_value = name
+        return a.outputs["Attribute"]
+
+    link(gi.outputs["Geometry"], iop.inputs["Points"])
+    link(gi.outputs["Prototypes"], info.inputs["Collection"])
+    link(info.outputs["Instances"], iop.inputs["Instance"])
+    link(named("proto", "INT"), iop.inputs["Instance Index"])
+    link(named("rotation", "QUATERNION"), iop.inputs["Rotation"])
+    link(named("scale", "FLOAT_VECTOR"), iop.inputs["Scale"])
+    link(iop.outputs["Instances"], go.inputs["Geometry"])
+    return ng
+
+
+def point_attr(me, name, kind, values, key):
+    a = me.attributes.get(name)
+    if a is not None:
+        me.attributes.remove(a)
+    a = me.attributes.new(name, kind, "POINT")
+    if len(values):
+        a.data.foreach_set(key, np.ascontiguousarray(values).ravel())
+
+
+def build(obj, model):
+    """Puts `model` into `obj` (the base mesh) and its instancer child, in place."""
+    name = obj.name
+    inst = model.instances
+    # Instances whose prototype adds colours per vertex cannot take one colour per
+    # instance: they are expanded into the base mesh (exact colours).
+    deltas = np.array([bool(np.any(p.colors != 0)) for p in inst.prototypes], dtype=bool)
+    keep = ~deltas[inst.prototype] if len(inst) else np.zeros(0, dtype=bool)
+    base = model.base_mesh
+    pos, tri, col = base.positions, base.triangles.astype(np.int64), base.colors
+    if len(inst) and not keep.all():
+        ep, et, ec = expand(inst, np.nonzero(~keep)[0])
+        tri = np.concatenate([tri, et + len(pos)])
+        pos, col = np.concatenate([pos, ep]), np.concatenate([col, ec])
+    fill_mesh(obj.data, pos, tri, col)
+    if not obj.data.materials:
+        obj.data.materials.append(material("MDG vertex colour", "GEOMETRY"))
+    inst_obj = obj.mdg.instancer
+    kept = np.nonzero(keep)[0]
+    if len(kept) == 0:
+        if inst_obj is not None:
+            inst_obj.hide_viewport = inst_obj.hide_render = True
+            inst_obj.data.clear_geometry()
+        return
+    coll = bpy.data.collections.get(f"{name} prototypes") or bpy.data.collections.new(f"{name} prototypes")
+    for o in list(coll.objects):
+        me = o.data
+        bpy.data.objects.remove(o)
+        if me is not None and me.users == 0:
+            bpy.data.meshes.remove(me)
+    inst_mat = material("MDG instance colour", "INSTANCER")
+    for i, p in enumerate(inst.prototypes):
+        me = bpy.data.meshes.new(f"{name} prototype {i:04d}")
+        fill_mesh(me, p.positions, p.triangles, np.ones((len(p.positions), 4), np.float32))
+        me.materials.append(inst_mat)
+        # Collection Info lists the children by name: the index is in it.
+        coll.objects.link(bpy.data.objects.new(f"{name} prototype {i:04d}", me))
+    if inst_obj is None:
+        me = bpy.data.meshes.new(f"{name} instances")
+        inst_obj = bpy.data.objects.new(f"{name} instances", me)
+        for c in obj.users_collection:
+            c.objects.link(inst_obj)
+        inst_obj.parent = obj
+        obj.mdg.instancer = inst_obj
+        mod = inst_obj.modifiers.new("MDG instances", "NODES")
+        mod.node_group = instancer_nodes()
+    inst_obj.hide_viewport = inst_obj.hide_render = False
+    mod = inst_obj.modifiers.get("MDG instances")
+    mod[mod.node_group.interface.items_tree["Prototypes"].identifier] = coll
+    me = inst_obj.data
+    me.clear_geometry()
+    me.vertices.add(len(kept))
+    me.vertices.foreach_set("co", inst.translation[kept].ravel())
+    point_attr(me, "rotation", "QUATERNION", inst.rotation[kept], "value")
+    point_attr(me, "scale", "FLOAT_VECTOR", inst.scale[kept], "vector")
+    point_attr(me, "proto", "INT", inst.prototype[kept].astype(np.int32), "value")
+    point_attr(me, "mdg_color", "FLOAT_COLOR", colors_linear(inst.color[kept]), "color")
+    me.update()
+    inst_obj.update_tag()
+
+
+# ---------------------------------------------------------------------------
+# Properties
+
+
+def regenerate(obj, report=None):
+    """Runs the grammar with the object's settings and rebuilds it; an error is kept
+    in `obj.mdg.error` and given to `report` (an operator's)."""
+    s = obj.mdg
+    try:
+        program = program_for(s.path)
+        params = {}
+        for p in s.params:
+            params[p.name] = {"int": p.value_int, "float": p.value_float}.get(p.kind, p.value_bool)
+        presets = [p.name for p in s.presets if p.enabled]
+        started = time.perf_counter()
+        try:
+            model = program.run(
+                seed=s.seed if s.use_seed else None,
+                params=params or None,
+                presets=presets or None,
+                limits={"max_vertices": s.max_vertices},
+            )
+        except mdg.CompileError as e:
+            raise MdgError(first_error(e)) from None
+        except ValueError as e:
+            raise MdgError(str(e)) from None
+        build(obj, model)
+        s.seconds = time.perf_counter() - started
+        s.error = ""
+        s.warning = "; ".join(model.warnings)
+        if model.warnings and report is not None:
+            report({"WARNING"}, model.warnings[0])
+        return True
+    except MdgError as e:
+        s.error = str(e)
+        if report is not None:
+            report({"ERROR"}, str(e))
+        return False
+
+
+def changed(self, context):
+    obj = self.id_data
+    if obj.name in _loading:
+        return
+    regenerate(obj)
+
+
+class MDG_PG_param(bpy.types.PropertyGroup):
+    kind: StringProperty()
+    value_int: IntProperty(name="Value", update=changed)
+    value_float: FloatProperty(name="Value", update=changed)
+    value_bool: BoolProperty(name="Value", update=changed)
+    min: FloatProperty()
+    max: FloatProperty()
+    ranged: BoolProperty()
+
+
+class MDG_PG_preset(bpy.types.PropertyGroup):
+    enabled: BoolProperty(name="Enabled", update=changed)
+
+
+def reload_changed(self, context):
+    if self.live_reload and not bpy.app.timers.is_registered(watch):
+        bpy.app.timers.register(watch, first_interval=0.5, persistent=True)
+
+
+class MDG_PG_settings(bpy.types.PropertyGroup):
+    path: StringProperty(name="Grammar", subtype="FILE_PATH")
+    use_seed: BoolProperty(name="Seed", description="Use this seed instead of the grammar's randseed", update=changed)
+    seed: IntProperty(name="Seed", min=0, update=changed)
+    max_vertices: IntProperty(name="Max vertices", default=20_000_000, min=1, update=changed)
+    params: CollectionProperty(type=MDG_PG_param)
+    presets: CollectionProperty(type=MDG_PG_preset)
+    live_reload: BoolProperty(name="Live reload", description="Regenerate when the file changes", update=reload_changed)
+    mtime: FloatProperty()
+    error: StringProperty()
+    warning: StringProperty()
+    seconds: FloatProperty()
+    instancer: PointerProperty(type=bpy.types.Object)
+
+
+def load_settings(obj, path):
+    """Fills the object's params and presets from the grammar's declarations."""
+    program = program_for(path)
+    s = obj.mdg
+    _loading.add(obj.name)
+    try:
+        s.path = path
+        s.mtime = os.path.getmtime(bpy.path.abspath(path))
+        s.params.clear()
+        for d in program.params:
+            p = s.params.add()
+            p.name, p.kind = d["name"], d["type"]
+            if d["min"] is not None and d["max"] is not None:
+                p.min, p.max, p.ranged = d["min"], d["max"], True
+            if p.kind == "int":
+                p.value_int = int(d["value"])
+            elif p.kind == "float":
+                p.value_float = d["value"]
+            else:
+                p.value_bool = bool(d["value"])
+        s.presets.clear()
+        for name in program.presets:
+            s.presets.add().name = name
+    finally:
+        _loading.discard(obj.name)
+
+
+def watch():
+    """Live reload: regenerates every MDG object whose grammar file changed."""
+    any_live = False
+    for obj in bpy.data.objects:
+        s = getattr(obj, "mdg", None)
+        if s is None or not s.path or not s.live_reload:
+            continue
+        any_live = True
+        try:
+            mtime = os.path.getmtime(bpy.path.abspath(s.path))
+        except OSError:
+            continue
+        if mtime != s.mtime:
+            s.mtime = mtime
+            regenerate(obj)
+    return 0.5 if any_live else None
+
+
+# ---------------------------------------------------------------------------
+# Operators and UI
+
+
+class MDG_OT_add_model(bpy.types.Operator):
+    """Add a model generated by an MDG grammar (.mdg or .mdgb)"""
+
+    bl_idname = "mdg.add_model"
+    bl_label = "MDG Model"
+    bl_options = {"REGISTER", "UNDO"}
+
+    filepath: StringProperty(subtype="FILE_PATH")
+    filter_glob: StringProperty(default="*.mdg;*.mdgb", options={"HIDDEN"})
+
+    def invoke(self, context, event):
+        context.window_manager.fileselect_add(self)
+        return {"RUNNING_MODAL"}
+
+    def execute(self, context):
+        try:
+            program_for(self.filepath)
+        except MdgError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        name = os.path.splitext(os.path.basename(self.filepath))[0]
+        me = bpy.data.meshes.new(name)
+        obj = bpy.data.objects.new(name, me)
+        context.collection.objects.link(obj)
+        load_settings(obj, self.filepath)
+        if not regenerate(obj, self.report):
+            return {"CANCELLED"}
+        for o in context.view_layer.objects:
+            o.select_set(False)
+        obj.select_set(True)
+        context.view_layer.objects.active = obj
+        return {"FINISHED"}
+
+
+class MDG_OT_regenerate(bpy.types.Operator):
+    """Run the grammar again (reloading the file)"""
+
+    bl_idname = "mdg.regenerate"
+    bl_label = "Regenerate"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.object is not None and bool(context.object.mdg.path)
+
+    def execute(self, context):
+        return {"FINISHED"} if regenerate(context.object, self.report) else {"CANCELLED"}
+
+
+class MDG_PT_panel(bpy.types.Panel):
+    bl_label = "MDG"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "MDG"
+
+    @classmethod
+    def poll(cls, context):
+        return context.object is not None and bool(context.object.mdg.path)
+
+    def draw(self, context):
+        s = context.object.mdg
+        col = self.layout.column()
+        col.prop(s, "path")
+        row = col.row(align=True)
+        row.prop(s, "use_seed", text="")
+        sub = row.row()
+        sub.enabled = s.use_seed
+        sub.prop(s, "seed")
+        for p in s.params:
+            label = f"{p.name} ({p.min:g}..{p.max:g})" if p.ranged else p.name
+            col.prop(p, {"int": "value_int", "float": "value_float"}.get(p.kind, "value_bool"), text=label)
+        if len(s.presets):
+            col.label(text="Presets")
+            for p in s.presets:
+                col.prop(p, "enabled", text=p.name)
+        col.prop(s, "max_vertices")
+        col.prop(s, "live_reload")
+        col.operator("mdg.regenerate")
+        if s.error:
+            box = col.box()
+            box.alert = True
+            box.label(text=s.error, icon="ERROR")
+        elif s.warning:
+            col.label(text=s.warning, icon="INFO")
+        else:
+            col.label(text=f"generated in {s.seconds:.2f} s")
+
+
+def menu(self, context):
+    self.layout.operator(MDG_OT_add_model.bl_idname, icon="MESH_ICOSPHERE")
+
+
+classes = (MDG_PG_param, MDG_PG_preset, MDG_PG_settings, MDG_OT_add_model, MDG_OT_regenerate, MDG_PT_panel)
+
+
+def register():
+    for c in classes:
+        bpy.utils.register_class(c)
+    bpy.types.Object.mdg = PointerProperty(type=MDG_PG_settings)
+    bpy.types.VIEW3D_MT_add.append(menu)
+
+
+def unregister():
+    bpy.types.VIEW3D_MT_add.remove(menu)
+    del bpy.types.Object.mdg
+    for c in reversed(classes):
+        bpy.utils.unregister_class(c)
