@@ -210,8 +210,10 @@ def generate(
     limits: Optional[Limits] = None,
     write: Optional[str] = None,
     format: Optional[str] = None,
+    mesh: bool = True,
 ) -> Generation:
     """Runs every seed on `workers` threads (default: the CPUs; the GIL is released),
     yielding (seed, Model) in the order of `seeds`: the same models as
     program.run(seed=s) one by one. With `write` ("out/{seed}.glb"), each worker also
-    writes its model (format from the extension or `format`)."""
+    writes its model (format from the extension or `format`). `mesh`: the workers
+    also make each model's `mesh` arrays (False when only files are wanted)."""

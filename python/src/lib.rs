@@ -362,8 +362,12 @@ pub struct Program {
 /// A program compiled for other params and presets: the params, the presets, the bundle.
 type Variant = (Vec<(String, String)>, Vec<String>, Arc<Bundle>);
 
-/// One seed's evaluation in [`generate`] (written to its file if asked), or why not.
-type SeedResult = Result<(u64, Output), String>;
+/// One seed's evaluation in [`generate`]: the seed, the output, `mesh`'s buffers if
+/// the workers made them.
+type Evaluated = (u64, Output, Option<Flat>);
+
+/// One seed's evaluation (written to its file if asked), or why not.
+type SeedResult = Result<Evaluated, String>;
 
 /// One evaluation's settings, resolved from Python arguments.
 #[derive(Clone)]
@@ -597,10 +601,16 @@ pub struct Model {
     vertex_mesh: OnceLock<Py<Mesh>>,
     base_mesh: OnceLock<Py<Mesh>>,
     instances: OnceLock<Py<Instances>>,
+    /// `mesh`'s buffers made ahead (by [`generate`]'s workers), taken on first access.
+    flat: Mutex<Option<Flat>>,
 }
 
 impl Model {
     fn new(out: Output, seed: Option<u64>) -> Model {
+        Model::with_flat(out, seed, None)
+    }
+
+    fn with_flat(out: Output, seed: Option<u64>, flat: Option<Flat>) -> Model {
         Model {
             out: Arc::new(out),
             seed,
@@ -608,6 +618,7 @@ impl Model {
             vertex_mesh: OnceLock::new(),
             base_mesh: OnceLock::new(),
             instances: OnceLock::new(),
+            flat: Mutex::new(flat),
         }
     }
 
@@ -638,8 +649,9 @@ impl Model {
     #[getter]
     fn mesh(&self, py: Python<'_>) -> PyResult<Py<Mesh>> {
         Model::cached(py, &self.mesh, || {
+            let ready = self.flat.lock().ok().and_then(|mut f| f.take());
             let out = self.out.clone();
-            mesh_py(py, py.detach(|| flatten(&out, Groups::ALL, |_| true)))
+            mesh_py(py, ready.unwrap_or_else(|| py.detach(|| flatten(&out, Groups::ALL, |_| true))))
         })
     }
 
@@ -905,7 +917,9 @@ pub struct Generation {
     next: usize,
     workers: usize,
     write: Option<(String, Option<Format>)>,
-    ready: std::collections::VecDeque<(u64, Output)>,
+    /// Make each model's `mesh` on the workers too.
+    mesh: bool,
+    ready: std::collections::VecDeque<Evaluated>,
 }
 
 #[pymethods]
@@ -929,7 +943,8 @@ impl Generation {
             let window = self.seeds[self.next..end].to_vec();
             self.next = end;
             let (bundle, s, workers, write) = (&self.bundle, &self.settings, self.workers, &self.write);
-            let done = py.detach(|| run_window(bundle, s, &window, workers, write.as_ref()));
+            let mesh = self.mesh;
+            let done = py.detach(|| run_window(bundle, s, &window, workers, write.as_ref(), mesh));
             for r in done {
                 match r {
                     Ok(x) => self.ready.push_back(x),
@@ -937,9 +952,9 @@ impl Generation {
                 }
             }
         }
-        let Some((seed, out)) = self.ready.pop_front() else { return Ok(None) };
+        let Some((seed, out, flat)) = self.ready.pop_front() else { return Ok(None) };
         warn_all(py, out.stats.warnings.iter().map(|w| w.as_str()))?;
-        Ok(Some((seed, Model::new(out, Some(seed)))))
+        Ok(Some((seed, Model::with_flat(out, Some(seed), flat))))
     }
 }
 
@@ -955,6 +970,7 @@ fn run_window(
     seeds: &[u64],
     workers: usize,
     write: Option<&(String, Option<Format>)>,
+    mesh: bool,
 ) -> Vec<SeedResult> {
     let next = AtomicUsize::new(0);
     let slots: Vec<Mutex<Option<SeedResult>>> = seeds.iter().map(|_| Mutex::new(None)).collect();
@@ -962,13 +978,14 @@ fn run_window(
         let i = next.fetch_add(1, Ordering::Relaxed);
         let Some(&seed) = seeds.get(i) else { break };
         let out = run_once(bundle, s, Some(seed));
+        let flat = mesh.then(|| flatten(&out, Groups::ALL, |_| true));
         let r = match write {
             Some((template, format)) => {
                 let path = seed_path(template, seed);
                 let f = format.or_else(|| Format::from_path(&path)).unwrap_or(Format::Glb);
-                write_model(&out, f, &export::glb::GlbOptions::default(), &path).map(|()| (seed, out))
+                write_model(&out, f, &export::glb::GlbOptions::default(), &path).map(|()| (seed, out, flat))
             }
-            None => Ok((seed, out)),
+            None => Ok((seed, out, flat)),
         };
         if let Ok(mut slot) = slots[i].lock() {
             *slot = Some(r);
@@ -988,7 +1005,7 @@ fn run_window(
 
 /// Runs `program` for every seed of `seeds` on `workers` threads.
 #[pyfunction]
-#[pyo3(signature = (program, seeds, *, workers = None, params = None, presets = None, time = None, limits = None, write = None, format = None))]
+#[pyo3(signature = (program, seeds, *, workers = None, params = None, presets = None, time = None, limits = None, write = None, format = None, mesh = true))]
 #[allow(clippy::too_many_arguments)]
 fn generate(
     py: Python<'_>,
@@ -1001,6 +1018,7 @@ fn generate(
     limits: Option<&Bound<'_, PyDict>>,
     write: Option<String>,
     format: Option<String>,
+    mesh: bool,
 ) -> PyResult<Generation> {
     let seeds: Vec<u64> = seeds
         .try_iter()?
@@ -1041,7 +1059,7 @@ fn generate(
         }
         None => None,
     };
-    Ok(Generation { bundle, settings, seeds, next: 0, workers, write, ready: Default::default() })
+    Ok(Generation { bundle, settings, seeds, next: 0, workers, write, mesh, ready: Default::default() })
 }
 
 #[pymodule]

@@ -247,6 +247,9 @@ def test_generate_equals_one_by_one(tmp_path):
     # Seeds give different trees (else the comparison above proves little).
     assert not np.array_equal(got[0][1].positions, got[1][1].positions)
     assert len(mdg.generate(program, range(10))) == 10
+    # Without the workers' flattening, the same arrays (made on access).
+    (seed, lazy), = mdg.generate(program, [4], workers=2, mesh=False)
+    assert seed == 4 and np.array_equal(lazy.positions, program.run(seed=4).positions)
     with pytest.raises(ValueError, match="seed"):
         mdg.generate(program, range(3), write=str(tmp_path / "fixed.glb"))
     with pytest.raises(ValueError, match="workers"):
