@@ -24,6 +24,14 @@ def mdg_run_path():
     return p
 
 
+def mdgc_path():
+    """mdgc, beside mdg-run."""
+    p = mdg_run_path().with_name("mdgc")
+    if not p.is_file():
+        pytest.fail(f"no mdgc at {p}: build it (cargo build -p mdg-cli)")
+    return p
+
+
 def mdg_run(*args, cwd=None):
     """Runs mdg-run with ARGS; fails the test with its stderr if it fails."""
     r = subprocess.run([str(mdg_run_path()), *map(str, args)], capture_output=True, text=True, cwd=cwd)

@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 
 import mdg
-from conftest import EXAMPLES, MODE_EXAMPLES, ROOT, json_dump, mdg_run
+import subprocess
+
+from conftest import EXAMPLES, MODE_EXAMPLES, ROOT, json_dump, mdg_run, mdgc_path
 
 
 def test_installed_package():
@@ -267,3 +269,16 @@ def test_to_trimesh():
     assert np.array_equal(np.asarray(t.faces), model.triangles.astype(np.int64))
     want = np.round(model.colors * 255).astype(np.uint8)
     assert np.array_equal(np.asarray(t.visual.vertex_colors), want)
+
+
+def test_compiled_bundle_runs_and_refuses_params(tmp_path):
+    src = ROOT / "std" / "examples" / "parametric_tree.mdg"
+    bundle = tmp_path / "tree.mdgb"
+    subprocess.run([str(mdgc_path()), "build", str(src), "-o", str(bundle)], check=True, capture_output=True)
+    program = mdg.compile(bundle)
+    assert program.path == bundle and [p["name"] for p in program.params] == ["levels", "forks", "spread"]
+    assert np.array_equal(program.run(seed=2).positions, mdg.compile(src).run(seed=2).positions)
+    with pytest.raises(ValueError, match="compiled bundle"):
+        program.run(params={"levels": 2})
+    with pytest.raises(ValueError, match="compiled bundle"):
+        mdg.compile(str(bundle), presets=["x"])
