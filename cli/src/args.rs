@@ -179,6 +179,31 @@ pub fn parse_duration(flag: &str, s: &str) -> Result<Option<std::time::Duration>
     }
 }
 
+/// Parses `--samples auto|N`: 0 for `auto` (the device chooses: one sample and
+/// edge smoothing on a CPU driver, 4 on a GPU), else N in 1..=64.
+pub fn parse_samples(s: &str) -> Result<u32, String> {
+    match s.trim() {
+        "auto" => Ok(0),
+        t => match t.parse::<u32>() {
+            Ok(n) if (1..=64).contains(&n) => Ok(n),
+            _ => Err(format!("--samples {s}: expected auto or a sample count 1..64 (e.g. 1 or 4)")),
+        },
+    }
+}
+
+/// The warning for a sample count the device could not give (`None` when it gave
+/// the one asked for).
+pub fn samples_warning(choice: &mdg_viewer::image::SampleChoice, device: &str) -> Option<String> {
+    choice.differs().then(|| {
+        format!(
+            "warning: --samples {}: {device} offers {} samples; drawing with {}",
+            choice.wanted,
+            choice.offered(),
+            choice.count()
+        )
+    })
+}
+
 /// The longest picture side (`--size`).
 pub const MAX_PICTURE_SIDE: u32 = 8192;
 /// The most pixels in one picture: 4096 × 4096. Pictures are drawn with 4×
@@ -214,6 +239,17 @@ pub fn parse_picture_size(s: &str) -> Result<(u32, u32), String> {
 mod tests {
     use super::*;
     use std::time::Duration;
+
+    #[test]
+    fn samples_parse_and_bad_ones_are_refused() {
+        assert_eq!(parse_samples("auto"), Ok(0));
+        assert_eq!(parse_samples("1"), Ok(1));
+        assert_eq!(parse_samples("4"), Ok(4));
+        for bad in ["0", "65", "-1", "four", ""] {
+            let e = parse_samples(bad).expect_err("refused");
+            assert!(e.starts_with("--samples ") && e.contains("expected auto or"), "{e}");
+        }
+    }
 
     #[test]
     fn durations_parse_and_bad_ones_are_refused() {

@@ -80,6 +80,11 @@ pub struct Args {
     /// Picture size, WIDTHxHEIGHT.
     #[arg(long, default_value = "800x600")]
     size: String,
+    /// Picture samples: `auto` (one sample and edge smoothing on a CPU driver such
+    /// as lavapipe, 4x multisampling on a GPU) or a count (1 draws aliased edges;
+    /// a count the device lacks gives the next it has, with a warning).
+    #[arg(long, default_value = "auto", value_name = "auto|N", value_parser = crate::args::parse_samples)]
+    samples: u32,
     /// Write the pose at T seconds as a still model: every bone moved by its
     /// transform rules' frames at index ⌊T·fps⌋, the camera fixed there. For formats
     /// without animation (obj, stl, ply); applies to every format and the picture.
@@ -244,7 +249,7 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
         export::write_atomic(p, bundle.params_json().as_bytes())
             .map_err(|e| (2, format!("cannot write {}: {e}", p.display())))?;
     }
-    let pictures = Vulkan::new(opts.std_dir.clone()).posed(pose);
+    let pictures = Vulkan::new(opts.std_dir.clone()).posed(pose).samples(cli.samples);
     if bundle.extensions.creatures.is_some() {
         if batch.is_some() {
             return Err((
