@@ -281,6 +281,8 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
         index_count: u32,
         closed: bool,
         instances: [Vec<u32>; 2],
+        /// The mesh's distinct positions (for the bounds).
+        corners: Vec<Vec3>,
     }
     let mut placed: Vec<Option<Placed>> = (0..out.shared_meshes.len()).map(|_| None).collect();
     for (i, instance) in out.instances.iter().enumerate() {
@@ -333,6 +335,12 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
                 index_count: 3 * tris.len() as u32,
                 closed: mdg_vm::export::is_closed(m, &oriented),
                 instances: [Vec::new(), Vec::new()],
+                corners: {
+                    let mut c: Vec<[u32; 3]> = m.positions.iter().map(|q| q.map(f32::to_bits)).collect();
+                    c.sort_unstable();
+                    c.dedup();
+                    c.into_iter().map(|q| Vec3::from(q.map(f32::from_bits))).collect()
+                },
             }
         });
         p.instances[usize::from(mirrored)].push(i as u32);
@@ -367,11 +375,11 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
                 inst.instances.extend_from_slice(&instance.bone.to_le_bytes());
                 max_bone = max_bone.max(instance.bone);
                 // Exact bounds (the camera frames the model as when it was expanded):
-                // every vertex placed, but nothing stored.
-                let shared = &out.shared_meshes[instance.mesh as usize].mesh;
+                // every distinct vertex placed (a cube's 24 are 8 corners), but
+                // nothing stored.
                 let t = glam::Affine3A::from_mat4(t);
-                for q in &shared.positions {
-                    bounds.add(t.transform_point3(Vec3::from(*q)));
+                for q in &p.corners {
+                    bounds.add(t.transform_point3(*q));
                 }
             }
         }
