@@ -508,3 +508,36 @@ fn a_second_picture_recompiles_no_shader() {
     run();
     assert_eq!(files(), first, "the second run compiled shaders again");
 }
+
+/// The level of detail (scene::Lod): std's tree at 600 × 600 draws its 3,373 leaf
+/// blobs (~1,190 triangles each) with their coarse mesh, far fewer triangles, and
+/// the picture's mean colour stays within 2/255 of the full render in every channel.
+#[test]
+fn small_instances_use_their_level_of_detail_and_keep_the_mean_colour() {
+    let Some(ctx) = vulkan() else { return };
+    let (w, h) = (600, 600);
+    let model = load(&root().join("std/examples/tree.mdg"));
+    let programs = programs();
+    let draw = |lod: bool| {
+        let mut off = Offscreen::new(&ctx, w, h, 1).expect("offscreen");
+        off.smooth = true;
+        off.renderer_mut().lod = lod;
+        off.set_model(&model, &programs).expect("upload");
+        let camera = off.home_camera();
+        let px = off.render(&FrameParams { camera, time: 0.0, wireframe: false, camera_rule: false }).expect("render");
+        (Image { px, w, h }, off.renderer_mut().drawn_triangles())
+    };
+    let (full, full_tris) = draw(false);
+    let (coarse, coarse_tris) = draw(true);
+    full.save("lod-tree-full.png");
+    coarse.save("lod-tree-lod.png");
+    assert_no_validation_errors(&ctx);
+    eprintln!("level of detail: {coarse_tris} triangles drawn instead of {full_tris}");
+    assert!(coarse_tris * 4 < full_tris, "{coarse_tris} triangles with the level of detail, {full_tris} without");
+    let mean = |img: &Image, c: usize| img.px.chunks_exact(4).map(|p| f64::from(p[c])).sum::<f64>() / f64::from(w * h);
+    for c in 0..3 {
+        let (a, b) = (mean(&full, c), mean(&coarse, c));
+        eprintln!("channel {c}: mean {a:.2} full, {b:.2} with the level of detail");
+        assert!((a - b).abs() <= 2.0, "channel {c}: mean {a:.2} full, {b:.2} with the level of detail");
+    }
+}

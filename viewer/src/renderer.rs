@@ -261,6 +261,8 @@ struct GpuInstanced {
     indices: Buffer,
     instances: Buffer,
     draws: Vec<scene::InstancedDraw>,
+    /// Each draw's level of detail ([`scene::Lod`]).
+    lods: Vec<Option<scene::Lod>>,
 }
 
 /// What a model's pipelines depend on. A new model with the same key (the guide
@@ -334,6 +336,11 @@ pub struct Renderer {
     /// Draw the overlay lines (guides, skeleton bones, the guide editor's handles),
     /// over the model; on by default.
     pub show_overlays: bool,
+    /// Draw instances that are small on the screen with their shared mesh's level
+    /// of detail ([`scene::Lod`]); on by default.
+    pub lod: bool,
+    /// Triangles the last recorded frame drew (instances' at their level of detail).
+    drawn: std::cell::Cell<u64>,
     depth_format: vk::Format,
     extent: vk::Extent2D,
 }
@@ -355,6 +362,8 @@ impl Renderer {
             sample_choice,
             color_format: opts.color_format,
             show_overlays: true,
+            lod: true,
+            drawn: std::cell::Cell::new(0),
             depth_format: depth,
             extent: vk::Extent2D { width: 0, height: 0 },
         })
@@ -483,6 +492,7 @@ impl Renderer {
                 )?,
                 instances: Buffer::with_data(ctx, &i.instances, vk::BufferUsageFlags::VERTEX_BUFFER)?,
                 draws: i.draws.clone(),
+                lods: i.lods.clone(),
             }),
             _ => None,
         };
@@ -662,8 +672,32 @@ impl Renderer {
         Ok(())
     }
 
+    /// Triangles the last recorded frame drew, instances' at the level of detail
+    /// they were drawn with.
+    pub fn drawn_triangles(&self) -> u64 {
+        self.drawn.get()
+    }
+
+    /// How many pixels across a sphere of radius 1 at the model's nearest point
+    /// appears at most in this frame (`None` when the eye is inside the model's
+    /// bounds, where anything may be near).
+    fn pixels_per_unit(&self, frame: &FrameParams) -> Option<f32> {
+        let info = self.info()?;
+        if info.bounds.is_empty() {
+            return None;
+        }
+        let (_, projection, eye) = self.view_projection(frame);
+        let nearest = eye.clamp(info.bounds.lo, info.bounds.hi);
+        let d = eye.distance(nearest);
+        // The projection's y scale is 1 / tan(fov / 2): NDC units per unit at depth 1.
+        let focal = projection.y_axis.y.abs() * self.extent.height as f32 * 0.5;
+        (d > 1e-6 && focal.is_finite()).then(|| 2.0 * focal / d)
+    }
+
     /// Records the render pass drawing the model into `fb`.
     pub fn record(&self, cmd: vk::CommandBuffer, fb: &Framebuffer, frame: &FrameParams) {
+        let pixels_per_unit = if self.lod { self.pixels_per_unit(frame) } else { None };
+        let mut drawn = 0u64;
         let d = &self.ctx.device;
         let bg = self.info().map(|i| i.background).unwrap_or([0.12, 0.12, 0.14, 1.0]);
         let clears = [
@@ -712,12 +746,30 @@ impl Renderer {
                     d.cmd_bind_vertex_buffers(cmd, 0, &[gpu.vertices.raw, gpu.skins.raw], &[0, 0]);
                     d.cmd_bind_index_buffer(cmd, gpu.indices.raw, 0, vk::IndexType::UINT32);
                     d.cmd_draw_indexed(cmd, gpu.n_indices, 1, 0, 0, 0);
+                    drawn += u64::from(gpu.n_indices / 3);
                 }
                 if let Some(inst) = &gpu.instanced {
                     d.cmd_bind_vertex_buffers(cmd, 0, &[inst.vertices.raw, inst.instances.raw], &[0, 0]);
                     d.cmd_bind_index_buffer(cmd, inst.indices.raw, 0, vk::IndexType::UINT32);
                     let mut bound = vk::Pipeline::null();
-                    for dr in &inst.draws {
+                    for (k, dr) in inst.draws.iter().enumerate() {
+                        // Every instance of the draw at most LOD_PIXELS across (seen
+                        // from the model's nearest point): the coarse mesh, unculled.
+                        let lod = match (inst.lods.get(k).copied().flatten(), pixels_per_unit) {
+                            (Some(l), Some(ppu)) if l.radius * ppu <= scene::LOD_PIXELS => Some(l),
+                            _ => None,
+                        };
+                        let dr = match lod {
+                            Some(l) => scene::InstancedDraw {
+                                first_index: l.first_index,
+                                index_count: l.index_count,
+                                vertex_offset: l.vertex_offset,
+                                closed: false,
+                                ..*dr
+                            },
+                            None => *dr,
+                        };
+                        drawn += u64::from(dr.index_count / 3) * u64::from(dr.instance_count);
                         let pipeline = match (&inst.wire, frame.wireframe) {
                             (Some(w), true) => w.raw,
                             _ if dr.closed => inst.fill_closed.raw,
@@ -753,5 +805,6 @@ impl Renderer {
             }
             d.cmd_end_render_pass(cmd);
         }
+        self.drawn.set(drawn);
     }
 }
