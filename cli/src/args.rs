@@ -206,10 +206,11 @@ pub fn samples_warning(choice: &mdg_viewer::image::SampleChoice, device: &str) -
 
 /// The longest picture side (`--size`).
 pub const MAX_PICTURE_SIDE: u32 = 8192;
-/// The most pixels in one picture: 4096 × 4096. Pictures are drawn with 4×
-/// multisampling, about 60 bytes a pixel in all (colour and depth samples, the
-/// resolved image, its read-back copy, the PNG's rows) on top of the ~0.5 GB the
-/// renderer starts with: 8192 × 8192 took 3.8 GB on lavapipe, 4096 × 4096 takes 1.5 GB.
+/// The most pixels in one picture: 4096 × 4096. Pictures drawn with 4×
+/// multisampling (on a GPU, or `--samples 4`) take about 60 bytes a pixel in all
+/// (colour and depth samples, the resolved image, its read-back copy, the PNG's
+/// rows) on top of what the renderer starts with: 8192 × 8192 took 3.8 GB on
+/// lavapipe, 4096 × 4096 takes 1.5 GB; one sample takes about a third.
 pub const MAX_PICTURE_PIXELS: u64 = 4096 * 4096;
 
 /// Parses `--size WIDTHxHEIGHT` for a picture: each side 1..8192 and at most
@@ -224,7 +225,7 @@ pub fn parse_picture_size(s: &str) -> Result<(u32, u32), String> {
             if px > MAX_PICTURE_PIXELS {
                 Err(format!(
                     "--size {s}: {px} pixels, more than the {MAX_PICTURE_PIXELS} (4096x4096) a picture may have: \
-                     it is drawn with 4x multisampling, about 60 bytes a pixel (8192x8192 needed 3.8 GB); \
+                     with 4x multisampling (a GPU, or --samples 4) a picture takes about 60 bytes a pixel (8192x8192 needed 3.8 GB); \
                      choose a smaller size, e.g. 4096x4096 or 8192x2048"
                 ))
             } else {
