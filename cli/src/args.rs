@@ -210,7 +210,7 @@ pub const MAX_PICTURE_SIDE: u32 = 8192;
 /// multisampling (on a GPU, or `--samples 4`) take about 60 bytes a pixel in all
 /// (colour and depth samples, the resolved image, its read-back copy, the PNG's
 /// rows) on top of what the renderer starts with: 8192 × 8192 took 3.8 GB on
-/// lavapipe, 4096 × 4096 takes 1.5 GB; one sample takes about a third.
+/// lavapipe, 4096 × 4096 takes 1.5 GB; one sample needs no multisampled images.
 pub const MAX_PICTURE_PIXELS: u64 = 4096 * 4096;
 
 /// Parses `--size WIDTHxHEIGHT` for a picture: each side 1..8192 and at most
