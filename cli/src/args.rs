@@ -179,12 +179,38 @@ pub fn parse_duration(flag: &str, s: &str) -> Result<Option<std::time::Duration>
     }
 }
 
+/// Parses `--samples auto|N`: 0 for `auto` (the device chooses: one sample and
+/// edge smoothing on a CPU driver, 4 on a GPU), else N in 1..=64.
+pub fn parse_samples(s: &str) -> Result<u32, String> {
+    match s.trim() {
+        "auto" => Ok(0),
+        t => match t.parse::<u32>() {
+            Ok(n) if (1..=64).contains(&n) => Ok(n),
+            _ => Err(format!("--samples {s}: expected auto or a sample count 1..64 (e.g. 1 or 4)")),
+        },
+    }
+}
+
+/// The warning for a sample count the device could not give (`None` when it gave
+/// the one asked for).
+pub fn samples_warning(choice: &mdg_viewer::image::SampleChoice, device: &str) -> Option<String> {
+    choice.differs().then(|| {
+        format!(
+            "warning: --samples {}: {device} offers {} samples; drawing with {}",
+            choice.wanted,
+            choice.offered(),
+            choice.count()
+        )
+    })
+}
+
 /// The longest picture side (`--size`).
 pub const MAX_PICTURE_SIDE: u32 = 8192;
-/// The most pixels in one picture: 4096 × 4096. Pictures are drawn with 4×
-/// multisampling, about 60 bytes a pixel in all (colour and depth samples, the
-/// resolved image, its read-back copy, the PNG's rows) on top of the ~0.5 GB the
-/// renderer starts with: 8192 × 8192 took 3.8 GB on lavapipe, 4096 × 4096 takes 1.5 GB.
+/// The most pixels in one picture: 4096 × 4096. Pictures drawn with 4×
+/// multisampling (on a GPU, or `--samples 4`) take about 60 bytes a pixel in all
+/// (colour and depth samples, the resolved image, its read-back copy, the PNG's
+/// rows) on top of what the renderer starts with: 8192 × 8192 took 3.8 GB on
+/// lavapipe, 4096 × 4096 takes 1.5 GB; one sample needs no multisampled images.
 pub const MAX_PICTURE_PIXELS: u64 = 4096 * 4096;
 
 /// Parses `--size WIDTHxHEIGHT` for a picture: each side 1..8192 and at most
@@ -199,7 +225,7 @@ pub fn parse_picture_size(s: &str) -> Result<(u32, u32), String> {
             if px > MAX_PICTURE_PIXELS {
                 Err(format!(
                     "--size {s}: {px} pixels, more than the {MAX_PICTURE_PIXELS} (4096x4096) a picture may have: \
-                     it is drawn with 4x multisampling, about 60 bytes a pixel (8192x8192 needed 3.8 GB); \
+                     with 4x multisampling (a GPU, or --samples 4) a picture takes about 60 bytes a pixel (8192x8192 needed 3.8 GB); \
                      choose a smaller size, e.g. 4096x4096 or 8192x2048"
                 ))
             } else {
@@ -214,6 +240,17 @@ pub fn parse_picture_size(s: &str) -> Result<(u32, u32), String> {
 mod tests {
     use super::*;
     use std::time::Duration;
+
+    #[test]
+    fn samples_parse_and_bad_ones_are_refused() {
+        assert_eq!(parse_samples("auto"), Ok(0));
+        assert_eq!(parse_samples("1"), Ok(1));
+        assert_eq!(parse_samples("4"), Ok(4));
+        for bad in ["0", "65", "-1", "four", ""] {
+            let e = parse_samples(bad).expect_err("refused");
+            assert!(e.starts_with("--samples ") && e.contains("expected auto or"), "{e}");
+        }
+    }
 
     #[test]
     fn durations_parse_and_bad_ones_are_refused() {

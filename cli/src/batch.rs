@@ -18,6 +18,12 @@
 //! reading them, and reading is bounded. A lock file beside the manifest
 //! (`….jsonl.lock`, holding the pid and host of the run) stops a second run of the
 //! same shard at once.
+//!
+//! Seeds run side by side (`-j N`, [`run_in_order`]): workers take the next seed in
+//! order, and results are recorded in seed order, so outputs and manifest are byte
+//! for byte those of one worker, and a run killed part-way leaves a manifest that
+//! is a prefix of the whole one (plus, at most, outputs of the seeds then running,
+//! which a resumed run redoes).
 
 use sha2::{Digest, Sha256};
 use std::collections::BTreeSet;
@@ -509,6 +515,66 @@ impl Manifest {
     }
 }
 
+/// Runs `run(seed, output)` for each of `todo` (in order) on `jobs` threads and hands
+/// each result to `record` in `todo`'s order, as soon as it and every earlier one
+/// are done; returns how many were recorded. After a failure no new seed starts;
+/// the seeds before it are recorded and the first failure (in `todo`'s order) is
+/// returned, as one worker would have.
+pub fn run_in_order<R, E, F, G>(todo: &[(u64, PathBuf)], jobs: usize, run: F, mut record: G) -> Result<u64, E>
+where
+    R: Send,
+    E: Send,
+    F: Fn(u64, &Path) -> Result<R, E> + Sync,
+    G: FnMut(u64, &Path, R) -> Result<(), E>,
+{
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    let jobs = jobs.clamp(1, todo.len().max(1));
+    let next = AtomicUsize::new(0);
+    let failed = AtomicBool::new(false);
+    let (tx, rx) = std::sync::mpsc::channel::<(usize, Result<R, E>)>();
+    std::thread::scope(|scope| {
+        for _ in 0..jobs {
+            let tx = tx.clone();
+            let (next, failed, run) = (&next, &failed, &run);
+            scope.spawn(move || loop {
+                if failed.load(Ordering::SeqCst) {
+                    break;
+                }
+                let i = next.fetch_add(1, Ordering::SeqCst);
+                let Some((seed, output)) = todo.get(i) else { break };
+                let result = run(*seed, output);
+                if result.is_err() {
+                    failed.store(true, Ordering::SeqCst);
+                }
+                if tx.send((i, result)).is_err() {
+                    break;
+                }
+            });
+        }
+        drop(tx);
+        // Record in order: results that arrive early wait for the earlier ones.
+        let mut waiting = std::collections::BTreeMap::new();
+        let mut recorded = 0usize;
+        let mut outcome = Ok(());
+        for (i, result) in rx {
+            waiting.insert(i, result);
+            while let Some(result) = waiting.remove(&recorded) {
+                if outcome.is_err() {
+                    break;
+                }
+                let (seed, output) = &todo[recorded];
+                outcome = result.and_then(|r| record(*seed, output, r));
+                if outcome.is_err() {
+                    failed.store(true, Ordering::SeqCst);
+                    break;
+                }
+                recorded += 1;
+            }
+        }
+        outcome.map(|()| recorded as u64)
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -634,5 +700,35 @@ mod tests {
             PathBuf::from("runs/x/manifest-1-of-3.jsonl")
         );
         assert_eq!(lock_path(Path::new("out/manifest.jsonl")), PathBuf::from("out/manifest.jsonl.lock"));
+    }
+
+    #[test]
+    fn seeds_run_side_by_side_are_recorded_in_order_and_stop_at_the_first_failure() {
+        let todo: Vec<(u64, PathBuf)> = (0..40).map(|s| (s, PathBuf::from(format!("out/{s}.glb")))).collect();
+        // Later seeds finish first: without ordering they would be recorded first.
+        let run = |seed: u64, _: &Path| -> Result<u64, String> {
+            std::thread::sleep(std::time::Duration::from_millis(40u64.saturating_sub(seed)));
+            Ok(seed * seed)
+        };
+        for jobs in [1, 2, 7] {
+            let mut seen = Vec::new();
+            let n = run_in_order(&todo, jobs, run, |seed, _, r| {
+                seen.push((seed, r));
+                Ok(())
+            });
+            assert_eq!(n, Ok(40));
+            assert_eq!(seen, (0..40).map(|s| (s, s * s)).collect::<Vec<_>>(), "jobs {jobs}");
+        }
+        let failing =
+            |seed: u64, _: &Path| if seed == 9 || seed == 20 { Err(format!("seed {seed}")) } else { Ok(seed) };
+        for jobs in [1, 4] {
+            let mut seen = Vec::new();
+            let r = run_in_order(&todo, jobs, failing, |seed, _, _| {
+                seen.push(seed);
+                Ok(())
+            });
+            assert_eq!(r, Err("seed 9".to_string()), "jobs {jobs}");
+            assert_eq!(seen, (0..9).collect::<Vec<_>>(), "jobs {jobs}");
+        }
     }
 }

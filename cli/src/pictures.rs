@@ -75,10 +75,14 @@ struct Device {
     ctx: Arc<Context>,
     target: Option<Offscreen>,
     programs: Programs,
+    /// The samples asked for (0: the device's choice, [`mdg_viewer::image::default_samples`]).
+    samples: u32,
+    /// The warning that the device could not give them was printed.
+    warned: bool,
 }
 
 impl Device {
-    fn open(std_dir: Option<&std::path::Path>) -> Result<Device, Error> {
+    fn open(std_dir: Option<&std::path::Path>, samples: u32) -> Result<Device, Error> {
         let validation = match std::env::var("MDG_VALIDATION").as_deref() {
             Ok("1") => Validation::Required,
             _ => Validation::Off,
@@ -89,7 +93,7 @@ impl Device {
             surface_extensions: vec![],
             on_message: Some(crate::say),
         })?);
-        Ok(Device { ctx, target: None, programs })
+        Ok(Device { ctx, target: None, programs, samples, warned: false })
     }
 
     fn render(
@@ -103,7 +107,14 @@ impl Device {
         let reuse = self.target.as_ref().is_some_and(|t| (t.width, t.height) == size);
         if !reuse {
             self.target = None;
-            self.target = Some(Offscreen::new(&self.ctx, size.0, size.1, 4)?);
+            let off = Offscreen::new(&self.ctx, size.0, size.1, self.samples)?;
+            if let (Some(w), false) =
+                (crate::args::samples_warning(&off.sample_choice(), &self.ctx.device_name), self.warned)
+            {
+                eprintln!("{w}");
+                self.warned = true;
+            }
+            self.target = Some(off);
         }
         let Some(off) = self.target.as_mut() else { return Err(Error::Other("no render target".into())) };
         let info = off.set_output(bundle, output, &self.programs)?;
@@ -123,18 +134,26 @@ impl Device {
 pub struct Vulkan {
     std_dir: Option<PathBuf>,
     pose: Option<Pose>,
+    samples: u32,
     device: Mutex<Option<Result<Device, String>>>,
 }
 
 impl Vulkan {
     pub fn new(std_dir: Option<PathBuf>) -> Vulkan {
-        Vulkan { std_dir, pose: None, device: Mutex::new(None) }
+        Vulkan { std_dir, pose: None, samples: 0, device: Mutex::new(None) }
     }
 
     /// Pictures from this view (`--camera AZ,EL[,ZOOM]`) instead of the home view
     /// or the grammar's camera rule.
     pub fn posed(mut self, pose: Option<Pose>) -> Vulkan {
         self.pose = pose;
+        self
+    }
+
+    /// Pictures drawn with `samples` samples (`--samples`; 0, the default: one
+    /// sample and edge smoothing on a CPU driver, 4 on a GPU).
+    pub fn samples(mut self, samples: u32) -> Vulkan {
+        self.samples = samples;
         self
     }
 }
@@ -149,7 +168,7 @@ impl Pictures for Vulkan {
     ) -> Result<Vec<u8>, String> {
         let mut guard = self.device.lock().map_err(|_| "picture renderer poisoned".to_string())?;
         let device = guard.get_or_insert_with(|| {
-            Device::open(self.std_dir.as_deref()).map_err(|e| {
+            Device::open(self.std_dir.as_deref(), self.samples).map_err(|e| {
                 eprintln!("note: pictures are drawn by the software renderer, because Vulkan cannot start here: {e}");
                 e.to_string()
             })

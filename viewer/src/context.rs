@@ -91,6 +91,8 @@ pub struct Context {
     pub wireframe: bool,
     /// The device's name, e.g. `llvmpipe (LLVM 15.0.6, 256 bits)`.
     pub device_name: String,
+    /// A GPU or a CPU driver (lavapipe): pictures choose their samples by it.
+    pub device_type: vk::PhysicalDeviceType,
     /// Whether validation is on.
     pub validation: bool,
 }
@@ -248,6 +250,7 @@ impl Context {
                     command_pool,
                     memory,
                     limits: props.limits,
+                    device_type: props.device_type,
                     wireframe,
                     device_name,
                     validation,

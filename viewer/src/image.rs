@@ -1,5 +1,5 @@
-//! Images with their memory and a view: the multisampled colour and depth
-//! attachments and the offscreen resolve target. Each [`Image`] frees in `Drop`.
+//! Images with their memory and a view: the (multisampled) colour and depth
+//! attachments and the offscreen target, and the choice of sample count. Each [`Image`] frees in `Drop`.
 
 use crate::context::{vkerr, Context};
 use crate::Error;
@@ -122,21 +122,84 @@ impl Drop for Image {
     }
 }
 
-/// The largest sample count ≤ `want` (at least 2) that colour and depth
-/// attachments both support, else the smallest supported count above 1 (every
-/// device supports 4; lavapipe supports only 1 and 4).
-pub fn msaa_samples(ctx: &Context, want: u32) -> vk::SampleCountFlags {
+/// The sample count a picture is drawn with, and whether it is the one asked for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SampleChoice {
+    pub flags: vk::SampleCountFlags,
+    /// The count asked for (after [`default_samples`] for 0).
+    pub wanted: u32,
+    /// The counts the device offers for colour and depth together (1 always).
+    pub supported: vk::SampleCountFlags,
+}
+
+impl SampleChoice {
+    /// The count in use.
+    pub fn count(&self) -> u32 {
+        self.flags.as_raw()
+    }
+
+    /// The device could not give the count asked for (the caller says so: e.g.
+    /// lavapipe offers 1 or 4, so 2 gives 4).
+    pub fn differs(&self) -> bool {
+        self.count() != self.wanted
+    }
+
+    /// The offered counts as text, e.g. `1 or 4`.
+    pub fn offered(&self) -> String {
+        let n: Vec<String> = [1u32, 2, 4, 8, 16, 32, 64]
+            .iter()
+            .filter(|&&n| n == 1 || self.supported.contains(vk::SampleCountFlags::from_raw(n)))
+            .map(|n| n.to_string())
+            .collect();
+        match n.split_last() {
+            Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+            _ => n.join(""),
+        }
+    }
+}
+
+/// The samples a picture needs when none is asked for: 1 on a CPU driver
+/// (lavapipe rasterises every sample in software, so 4× costs about 4× the
+/// fragment work; the offscreen path smooths edges afterwards instead), 4 on a GPU
+/// (multisampling is nearly free there). docs/decisions.md, "Picture samples".
+pub fn default_samples(ctx: &Context) -> u32 {
+    if ctx.device_type == vk::PhysicalDeviceType::CPU {
+        1
+    } else {
+        4
+    }
+}
+
+/// The sample count for `want` (0: [`default_samples`]): `want` itself when colour
+/// and depth attachments both support it, else the smallest supported count above
+/// it (more smoothing rather than less), else the largest below it (1 is always
+/// supported; lavapipe supports 1 and 4, so 2 gives 4 and 8 gives 4).
+pub fn msaa_samples(ctx: &Context, want: u32) -> SampleChoice {
     let supported = ctx.limits.framebuffer_color_sample_counts & ctx.limits.framebuffer_depth_sample_counts;
-    let counts =
-        [(2, vk::SampleCountFlags::TYPE_2), (4, vk::SampleCountFlags::TYPE_4), (8, vk::SampleCountFlags::TYPE_8)];
-    let usable = counts.iter().filter(|(_, f)| supported.contains(*f));
-    let want = want.max(2);
+    let want = if want == 0 { default_samples(ctx) } else { want };
+    SampleChoice {
+        flags: choose_samples(supported, want),
+        wanted: want,
+        supported: supported | vk::SampleCountFlags::TYPE_1,
+    }
+}
+
+/// [`msaa_samples`]'s choice among the `supported` counts.
+fn choose_samples(supported: vk::SampleCountFlags, want: u32) -> vk::SampleCountFlags {
+    let counts = [
+        (1, vk::SampleCountFlags::TYPE_1),
+        (2, vk::SampleCountFlags::TYPE_2),
+        (4, vk::SampleCountFlags::TYPE_4),
+        (8, vk::SampleCountFlags::TYPE_8),
+    ];
+    // 1 is always supported (the Vulkan specification requires it).
+    let usable = counts.iter().filter(|(n, f)| *n == 1 || supported.contains(*f));
     usable
         .clone()
-        .rfind(|(n, _)| *n <= want)
-        .or_else(|| usable.clone().next())
+        .find(|(n, _)| *n >= want)
+        .or_else(|| usable.clone().next_back())
         .map(|(_, f)| *f)
-        .unwrap_or(vk::SampleCountFlags::TYPE_4)
+        .unwrap_or(vk::SampleCountFlags::TYPE_1)
 }
 
 /// The depth format: D32 float when supported as an attachment, else D24S8 / D16.
@@ -150,4 +213,28 @@ pub fn depth_format(ctx: &Context) -> vk::Format {
         }
     }
     vk::Format::D16_UNORM
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sample_counts_are_the_ones_asked_for_where_supported() {
+        let lavapipe = vk::SampleCountFlags::TYPE_1 | vk::SampleCountFlags::TYPE_4;
+        assert_eq!(choose_samples(lavapipe, 1), vk::SampleCountFlags::TYPE_1);
+        assert_eq!(choose_samples(lavapipe, 4), vk::SampleCountFlags::TYPE_4);
+        // 2 is not offered: the next above it.
+        assert_eq!(choose_samples(lavapipe, 2), vk::SampleCountFlags::TYPE_4);
+        assert_eq!(choose_samples(lavapipe, 3), vk::SampleCountFlags::TYPE_4);
+        assert_eq!(choose_samples(lavapipe, 8), vk::SampleCountFlags::TYPE_4);
+        let gpu = lavapipe | vk::SampleCountFlags::TYPE_2 | vk::SampleCountFlags::TYPE_8;
+        assert_eq!(choose_samples(gpu, 2), vk::SampleCountFlags::TYPE_2);
+        assert_eq!(choose_samples(gpu, 16), vk::SampleCountFlags::TYPE_8);
+        assert_eq!(choose_samples(vk::SampleCountFlags::empty(), 4), vk::SampleCountFlags::TYPE_1);
+        let choice = SampleChoice { flags: vk::SampleCountFlags::TYPE_4, wanted: 2, supported: lavapipe };
+        assert!(choice.differs());
+        assert_eq!(choice.offered(), "1 or 4");
+        assert_eq!(SampleChoice { supported: gpu, ..choice }.offered(), "1, 2, 4 or 8");
+    }
 }

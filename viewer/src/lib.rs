@@ -38,6 +38,7 @@ pub mod reload;
 pub mod renderer;
 pub mod scene;
 pub mod script;
+pub mod smooth;
 pub mod swapchain;
 pub mod sync;
 pub mod uniforms;

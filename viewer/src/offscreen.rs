@@ -29,10 +29,16 @@ pub struct Offscreen {
     ctx: Arc<Context>,
     pub width: u32,
     pub height: u32,
+    /// Smooth the edges of each read-back picture ([`crate::smooth`]): on by
+    /// default when the samples were left to the device (0) and it draws with one.
+    pub smooth: bool,
 }
 
 impl Offscreen {
-    /// A `width` × `height` target with `samples`× MSAA (4 is always supported).
+    /// A `width` × `height` target drawn with `samples` samples: 0 chooses by the
+    /// device ([`crate::image::default_samples`]: one sample plus edge smoothing on a
+    /// CPU driver, 4× on a GPU); any other count is used as the device allows
+    /// ([`crate::image::msaa_samples`], with no smoothing: [`Offscreen::smooth`]).
     pub fn new(ctx: &Arc<Context>, width: u32, height: u32, samples: u32) -> Result<Offscreen, Error> {
         if width == 0 || height == 0 || width > 16384 || height > 16384 {
             return Err(Error::Other(format!("image size {width}x{height} is out of range (1..16384)")));
@@ -56,7 +62,8 @@ impl Offscreen {
         )?;
         let fb = renderer.framebuffer(target.view)?;
         let readback = Buffer::host(ctx, width as u64 * height as u64 * 4, vk::BufferUsageFlags::TRANSFER_DST)?;
-        Ok(Offscreen { fb, readback, target, renderer, ctx: ctx.clone(), width, height })
+        let smooth = samples == 0 && renderer.samples == vk::SampleCountFlags::TYPE_1;
+        Ok(Offscreen { fb, readback, target, renderer, ctx: ctx.clone(), width, height, smooth })
     }
 
     /// Loads a model (see [`Renderer::set_model`]).
@@ -71,9 +78,14 @@ impl Offscreen {
         self.renderer.set_output(bundle, output, programs).cloned()
     }
 
-    /// The MSAA sample count in use.
+    /// The sample count in use.
     pub fn samples(&self) -> u32 {
         self.renderer.samples.as_raw()
+    }
+
+    /// The samples asked for and given (a caller warns when they differ).
+    pub fn sample_choice(&self) -> crate::image::SampleChoice {
+        self.renderer.sample_choice
     }
 
     /// The renderer (to load a prepared scene, say).
@@ -91,7 +103,8 @@ impl Offscreen {
         }
     }
 
-    /// Renders one frame and returns its pixels: RGBA8, rows top to bottom.
+    /// Renders one frame and returns its pixels: RGBA8, rows top to bottom, edges
+    /// smoothed when [`Offscreen::smooth`] is set.
     pub fn render(&mut self, frame: &FrameParams) -> Result<Vec<u8>, Error> {
         self.renderer.update(frame)?;
         let (w, h) = (self.width, self.height);
@@ -137,7 +150,11 @@ impl Offscreen {
                 );
             }
         })?;
-        self.readback.read(w as usize * h as usize * 4)
+        let mut px = self.readback.read(w as usize * h as usize * 4)?;
+        if self.smooth {
+            crate::smooth::smooth_edges(&mut px, w, h);
+        }
+        Ok(px)
     }
 }
 

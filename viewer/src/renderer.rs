@@ -1,5 +1,6 @@
 //! The renderer shared by the offscreen and window paths: a render pass with a
-//! multisampled colour and depth attachment resolved into the target image, the
+//! multisampled colour and depth attachment resolved into the target image (or, at
+//! one sample, drawing into the target with a depth attachment), the
 //! model's GPU buffers, the uniform buffers and descriptor set, the pipelines, and
 //! command recording for one frame.
 //!
@@ -11,7 +12,7 @@
 use crate::buffer::Buffer;
 use crate::camera::OrbitCamera;
 use crate::context::{vkerr, Context};
-use crate::image::{depth_format, msaa_samples, Image, ImageDesc};
+use crate::image::{depth_format, msaa_samples, Image, ImageDesc, SampleChoice};
 use crate::model::Model;
 use crate::pipeline::{Kind, Layout, Pipeline, PipelineDesc};
 use crate::program::{self, ProgramSpirv, Programs};
@@ -33,7 +34,10 @@ pub struct RendererOptions {
     /// Layout the target is left in: `TRANSFER_SRC_OPTIMAL` offscreen,
     /// `PRESENT_SRC_KHR` for a swapchain.
     pub final_layout: vk::ImageLayout,
-    /// MSAA samples wanted (the largest supported ≤ this is used; 4 always is).
+    /// Samples wanted (0: what the device needs, [`crate::image::default_samples`]);
+    /// the count used is [`crate::image::msaa_samples`]'s choice. At 1 the render
+    /// pass draws straight into the target, with no multisampled colour image and no
+    /// resolve.
     pub samples: u32,
 }
 
@@ -51,51 +55,63 @@ impl RenderPass {
         samples: vk::SampleCountFlags,
         final_layout: vk::ImageLayout,
     ) -> Result<RenderPass, Error> {
-        let attachments = [
-            // 0: multisampled colour, resolved, never stored.
-            vk::AttachmentDescription::default()
-                .format(color)
-                .samples(samples)
-                .load_op(vk::AttachmentLoadOp::CLEAR)
-                .store_op(vk::AttachmentStoreOp::DONT_CARE)
-                .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
-                .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
-                .initial_layout(vk::ImageLayout::UNDEFINED)
-                .final_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL),
-            // 1: multisampled depth.
-            vk::AttachmentDescription::default()
-                .format(depth)
-                .samples(samples)
-                .load_op(vk::AttachmentLoadOp::CLEAR)
-                .store_op(vk::AttachmentStoreOp::DONT_CARE)
-                .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
-                .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
-                .initial_layout(vk::ImageLayout::UNDEFINED)
-                .final_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL),
-            // 2: the target, written by the resolve.
-            vk::AttachmentDescription::default()
-                .format(color)
-                .samples(vk::SampleCountFlags::TYPE_1)
-                .load_op(vk::AttachmentLoadOp::DONT_CARE)
-                .store_op(vk::AttachmentStoreOp::STORE)
-                .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
-                .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
-                .initial_layout(vk::ImageLayout::UNDEFINED)
-                .final_layout(final_layout),
-        ];
+        let multisampled = samples != vk::SampleCountFlags::TYPE_1;
+        // The target: written by the resolve when multisampled, else drawn into.
+        let target = vk::AttachmentDescription::default()
+            .format(color)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .load_op(if multisampled { vk::AttachmentLoadOp::DONT_CARE } else { vk::AttachmentLoadOp::CLEAR })
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
+            .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
+            .initial_layout(vk::ImageLayout::UNDEFINED)
+            .final_layout(final_layout);
+        let depth_attachment = vk::AttachmentDescription::default()
+            .format(depth)
+            .samples(samples)
+            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .store_op(vk::AttachmentStoreOp::DONT_CARE)
+            .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
+            .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
+            .initial_layout(vk::ImageLayout::UNDEFINED)
+            .final_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL);
+        let attachments: Vec<vk::AttachmentDescription> = if multisampled {
+            vec![
+                // 0: multisampled colour, resolved, never stored.
+                vk::AttachmentDescription::default()
+                    .format(color)
+                    .samples(samples)
+                    .load_op(vk::AttachmentLoadOp::CLEAR)
+                    .store_op(vk::AttachmentStoreOp::DONT_CARE)
+                    .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
+                    .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
+                    .initial_layout(vk::ImageLayout::UNDEFINED)
+                    .final_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL),
+                // 1: multisampled depth.
+                depth_attachment,
+                // 2: the target, written by the resolve.
+                target,
+            ]
+        } else {
+            // 0: the target, drawn into; 1: depth. No resolve.
+            vec![target, depth_attachment]
+        };
         let color_ref = [vk::AttachmentReference { attachment: 0, layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL }];
         let depth_ref =
             vk::AttachmentReference { attachment: 1, layout: vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL };
         let resolve_ref =
             [vk::AttachmentReference { attachment: 2, layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL }];
-        let subpass = [vk::SubpassDescription::default()
+        let mut subpass = vk::SubpassDescription::default()
             .pipeline_bind_point(vk::PipelineBindPoint::GRAPHICS)
             .color_attachments(&color_ref)
-            .depth_stencil_attachment(&depth_ref)
-            .resolve_attachments(&resolve_ref)];
+            .depth_stencil_attachment(&depth_ref);
+        if multisampled {
+            subpass = subpass.resolve_attachments(&resolve_ref);
+        }
+        let subpass = [subpass];
         // Wait for the previous use of the attachments (and, for a swapchain, the
-        // acquire semaphore's stage) before writing; make the resolve visible to a
-        // following copy.
+        // acquire semaphore's stage) before writing; make the resolve (or, at one
+        // sample, the drawing) visible to a following copy.
         let deps = [
             vk::SubpassDependency::default()
                 .src_subpass(vk::SUBPASS_EXTERNAL)
@@ -245,6 +261,8 @@ struct GpuInstanced {
     indices: Buffer,
     instances: Buffer,
     draws: Vec<scene::InstancedDraw>,
+    /// Each draw's level of detail ([`scene::Lod`]).
+    lods: Vec<Option<scene::Lod>>,
 }
 
 /// What a model's pipelines depend on. A new model with the same key (the guide
@@ -307,21 +325,30 @@ pub struct FrameParams {
 pub struct Renderer {
     ctx: Arc<Context>,
     model: Option<(GpuModel, ModelInfo)>,
-    attachments: Option<(Image, Image)>,
+    /// The multisampled colour image (none at one sample) and the depth image.
+    attachments: Option<(Option<Image>, Image)>,
     pub render_pass: RenderPass,
     layout: Layout,
     pub samples: vk::SampleCountFlags,
+    /// The samples asked for and given.
+    pub sample_choice: SampleChoice,
     pub color_format: vk::Format,
     /// Draw the overlay lines (guides, skeleton bones, the guide editor's handles),
     /// over the model; on by default.
     pub show_overlays: bool,
+    /// Draw instances that are small on the screen with their shared mesh's level
+    /// of detail ([`scene::Lod`]); on by default.
+    pub lod: bool,
+    /// Triangles the last recorded frame drew (instances' at their level of detail).
+    drawn: std::cell::Cell<u64>,
     depth_format: vk::Format,
     extent: vk::Extent2D,
 }
 
 impl Renderer {
     pub fn new(ctx: &Arc<Context>, opts: RendererOptions) -> Result<Renderer, Error> {
-        let samples = msaa_samples(ctx, opts.samples);
+        let sample_choice = msaa_samples(ctx, opts.samples);
+        let samples = sample_choice.flags;
         let depth = depth_format(ctx);
         let render_pass = RenderPass::new(ctx, opts.color_format, depth, samples, opts.final_layout)?;
         let layout = Layout::new(ctx)?;
@@ -332,8 +359,11 @@ impl Renderer {
             render_pass,
             layout,
             samples,
+            sample_choice,
             color_format: opts.color_format,
             show_overlays: true,
+            lod: true,
+            drawn: std::cell::Cell::new(0),
             depth_format: depth,
             extent: vk::Extent2D { width: 0, height: 0 },
         })
@@ -462,6 +492,7 @@ impl Renderer {
                 )?,
                 instances: Buffer::with_data(ctx, &i.instances, vk::BufferUsageFlags::VERTEX_BUFFER)?,
                 draws: i.draws.clone(),
+                lods: i.lods.clone(),
             }),
             _ => None,
         };
@@ -533,23 +564,28 @@ impl Renderer {
         Ok(Pipelines { fill, wire, lines, overlay, instanced })
     }
 
-    /// (Re)creates the multisampled attachments for `extent`. The GPU must be idle.
+    /// (Re)creates the attachments for `extent` (depth, and the multisampled colour
+    /// image when there is more than one sample). The GPU must be idle.
     pub fn resize(&mut self, extent: vk::Extent2D) -> Result<(), Error> {
         if self.attachments.is_some() && extent == self.extent {
             return Ok(());
         }
         self.attachments = None;
-        let color = Image::new(
-            &self.ctx,
-            ImageDesc {
-                width: extent.width,
-                height: extent.height,
-                format: self.color_format,
-                samples: self.samples,
-                usage: vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSIENT_ATTACHMENT,
-                aspect: vk::ImageAspectFlags::COLOR,
-            },
-        )?;
+        let color = if self.samples == vk::SampleCountFlags::TYPE_1 {
+            None
+        } else {
+            Some(Image::new(
+                &self.ctx,
+                ImageDesc {
+                    width: extent.width,
+                    height: extent.height,
+                    format: self.color_format,
+                    samples: self.samples,
+                    usage: vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSIENT_ATTACHMENT,
+                    aspect: vk::ImageAspectFlags::COLOR,
+                },
+            )?)
+        };
         let mut aspect = vk::ImageAspectFlags::DEPTH;
         if self.depth_format == vk::Format::D24_UNORM_S8_UINT {
             aspect |= vk::ImageAspectFlags::STENCIL;
@@ -576,7 +612,10 @@ impl Renderer {
         let Some((color, depth)) = &self.attachments else {
             return Err(Error::Other("framebuffer before resize".into()));
         };
-        let views = [color.view, depth.view, target];
+        let views = match color {
+            Some(color) => vec![color.view, depth.view, target],
+            None => vec![target, depth.view],
+        };
         let info = vk::FramebufferCreateInfo::default()
             .render_pass(self.render_pass.raw)
             .attachments(&views)
@@ -633,8 +672,32 @@ impl Renderer {
         Ok(())
     }
 
+    /// Triangles the last recorded frame drew, instances' at the level of detail
+    /// they were drawn with.
+    pub fn drawn_triangles(&self) -> u64 {
+        self.drawn.get()
+    }
+
+    /// How many pixels across a sphere of radius 1 at the model's nearest point
+    /// appears at most in this frame (`None` when the eye is inside the model's
+    /// bounds, where anything may be near).
+    fn pixels_per_unit(&self, frame: &FrameParams) -> Option<f32> {
+        let info = self.info()?;
+        if info.bounds.is_empty() {
+            return None;
+        }
+        let (_, projection, eye) = self.view_projection(frame);
+        let nearest = eye.clamp(info.bounds.lo, info.bounds.hi);
+        let d = eye.distance(nearest);
+        // The projection's y scale is 1 / tan(fov / 2): NDC units per unit at depth 1.
+        let focal = projection.y_axis.y.abs() * self.extent.height as f32 * 0.5;
+        (d > 1e-6 && focal.is_finite()).then(|| 2.0 * focal / d)
+    }
+
     /// Records the render pass drawing the model into `fb`.
     pub fn record(&self, cmd: vk::CommandBuffer, fb: &Framebuffer, frame: &FrameParams) {
+        let pixels_per_unit = if self.lod { self.pixels_per_unit(frame) } else { None };
+        let mut drawn = 0u64;
         let d = &self.ctx.device;
         let bg = self.info().map(|i| i.background).unwrap_or([0.12, 0.12, 0.14, 1.0]);
         let clears = [
@@ -642,12 +705,15 @@ impl Renderer {
             vk::ClearValue { depth_stencil: vk::ClearDepthStencilValue { depth: 1.0, stencil: 0 } },
             vk::ClearValue { color: vk::ClearColorValue { float32: bg } },
         ];
+        // One clear value per attachment: colour and depth, and the resolve target
+        // when multisampled.
+        let clears = if self.samples == vk::SampleCountFlags::TYPE_1 { &clears[..2] } else { &clears[..] };
         let area = vk::Rect2D { offset: vk::Offset2D { x: 0, y: 0 }, extent: fb.extent };
         let begin = vk::RenderPassBeginInfo::default()
             .render_pass(self.render_pass.raw)
             .framebuffer(fb.raw)
             .render_area(area)
-            .clear_values(&clears);
+            .clear_values(clears);
         let viewport = vk::Viewport {
             x: 0.0,
             y: 0.0,
@@ -680,12 +746,30 @@ impl Renderer {
                     d.cmd_bind_vertex_buffers(cmd, 0, &[gpu.vertices.raw, gpu.skins.raw], &[0, 0]);
                     d.cmd_bind_index_buffer(cmd, gpu.indices.raw, 0, vk::IndexType::UINT32);
                     d.cmd_draw_indexed(cmd, gpu.n_indices, 1, 0, 0, 0);
+                    drawn += u64::from(gpu.n_indices / 3);
                 }
                 if let Some(inst) = &gpu.instanced {
                     d.cmd_bind_vertex_buffers(cmd, 0, &[inst.vertices.raw, inst.instances.raw], &[0, 0]);
                     d.cmd_bind_index_buffer(cmd, inst.indices.raw, 0, vk::IndexType::UINT32);
                     let mut bound = vk::Pipeline::null();
-                    for dr in &inst.draws {
+                    for (k, dr) in inst.draws.iter().enumerate() {
+                        // Every instance of the draw at most LOD_PIXELS across (seen
+                        // from the model's nearest point): the coarse mesh, unculled.
+                        let lod = match (inst.lods.get(k).copied().flatten(), pixels_per_unit) {
+                            (Some(l), Some(ppu)) if l.radius * ppu <= scene::LOD_PIXELS => Some(l),
+                            _ => None,
+                        };
+                        let dr = match lod {
+                            Some(l) => scene::InstancedDraw {
+                                first_index: l.first_index,
+                                index_count: l.index_count,
+                                vertex_offset: l.vertex_offset,
+                                closed: false,
+                                ..*dr
+                            },
+                            None => *dr,
+                        };
+                        drawn += u64::from(dr.index_count / 3) * u64::from(dr.instance_count);
                         let pipeline = match (&inst.wire, frame.wireframe) {
                             (Some(w), true) => w.raw,
                             _ if dr.closed => inst.fill_closed.raw,
@@ -721,5 +805,6 @@ impl Renderer {
             }
             d.cmd_end_render_pass(cmd);
         }
+        self.drawn.set(drawn);
     }
 }

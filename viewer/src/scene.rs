@@ -128,9 +128,35 @@ pub struct Instanced {
     /// [`INSTANCE_STRIDE`] bytes per instance, grouped by draw.
     pub instances: Vec<u8>,
     pub draws: Vec<InstancedDraw>,
+    /// Per draw, its level of detail: a coarser mesh for when every instance of the
+    /// draw is small on the screen (see [`Lod`]); `None` for small meshes.
+    pub lods: Vec<Option<Lod>>,
     /// Triangles drawn in all (every instance's).
     pub n_triangles: u64,
 }
+
+/// A shared mesh's level of detail: the mesh simplified by vertex clustering on a
+/// [`LOD_CELLS`]³ grid over its bounds, drawn instead of the full mesh when the
+/// renderer finds every instance of a draw smaller than
+/// [`LOD_PIXELS`] on the screen (a leaf blob of ~1,200 triangles 10 pixels wide
+/// needs not be 1,200 triangles). Not culled (clustering may open the mesh).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lod {
+    pub first_index: u32,
+    pub index_count: u32,
+    pub vertex_offset: i32,
+    /// The largest bounding-sphere radius of the draw's instances, in world units
+    /// (around each instance's origin).
+    pub radius: f32,
+}
+
+/// Meshes with more triangles than this get a [`Lod`].
+pub const LOD_MIN_TRIANGLES: usize = 256;
+/// Grid cells per axis of a [`Lod`]'s vertex clustering.
+pub const LOD_CELLS: u32 = 6;
+/// A draw uses its [`Lod`] when its instances' bounding spheres are at most this
+/// many pixels across.
+pub const LOD_PIXELS: f32 = 32.0;
 
 /// One instanced draw (`vkCmdDrawIndexed`'s arguments).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -269,6 +295,92 @@ pub fn build_with(out: &Output, instanced: bool) -> Scene {
 
 /// Packs the instances for GPU instancing; returns them with their bounds and the
 /// largest bone they use.
+/// Appends `shared`'s mesh simplified by vertex clustering ([`Lod`]) to the
+/// instanced vertices and indices (one winding, then the reversed one); returns its
+/// first index, index count (one winding) and vertex offset, or `None` when nothing
+/// is left of it.
+fn coarse_mesh(
+    shared: &mdg_vm::output::SharedMesh,
+    triangles: &[[u32; 3]],
+    vertices: &mut Vec<u8>,
+    indices: &mut Vec<u32>,
+) -> Option<(u32, u32, i32)> {
+    let m = &shared.mesh;
+    let mut lo = Vec3::splat(f32::MAX);
+    let mut hi = Vec3::splat(f32::MIN);
+    for q in &m.positions {
+        lo = lo.min(Vec3::from(*q));
+        hi = hi.max(Vec3::from(*q));
+    }
+    let size = (hi - lo).max(Vec3::splat(1e-12));
+    let cells = LOD_CELLS as f32;
+    let cell_of = |q: Vec3| {
+        let c = ((q - lo) / size * cells).floor().clamp(Vec3::ZERO, Vec3::splat(cells - 1.0));
+        (c.x as u32, c.y as u32, c.z as u32)
+    };
+    // Each cell's vertices become one: the mean position, colour delta and normal.
+    let mut cluster: std::collections::BTreeMap<(u32, u32, u32), u32> = std::collections::BTreeMap::new();
+    let mut sums: Vec<(Vec3, Vec3, [f32; 4], f32)> = Vec::new();
+    let mut of_vertex = Vec::with_capacity(m.n_vertices());
+    for v in 0..m.n_vertices() {
+        let q = Vec3::from(m.positions[v]);
+        let next = sums.len() as u32;
+        let k = *cluster.entry(cell_of(q)).or_insert(next);
+        if k == next {
+            sums.push((Vec3::ZERO, Vec3::ZERO, [0.0; 4], 0.0));
+        }
+        let s = &mut sums[k as usize];
+        s.0 += q;
+        s.1 += shared.local_normal(v).normalize_or_zero();
+        if shared.is_prototype() {
+            let c = m.colors.get(v).copied().unwrap_or([0.0; 4]);
+            for (a, b) in s.2.iter_mut().zip(c) {
+                *a += b;
+            }
+        }
+        s.3 += 1.0;
+        of_vertex.push(k);
+    }
+    let mut tris: Vec<[u32; 3]> = triangles
+        .iter()
+        .map(|t| t.map(|k| of_vertex.get(k as usize).copied().unwrap_or(0)))
+        .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+        .collect();
+    // The same triangle from several fine ones is drawn once.
+    let mut seen = std::collections::BTreeSet::new();
+    tris.retain(|t| {
+        let r = if t[0] < t[1] && t[0] < t[2] {
+            *t
+        } else if t[1] < t[2] {
+            [t[1], t[2], t[0]]
+        } else {
+            [t[2], t[0], t[1]]
+        };
+        seen.insert(r)
+    });
+    if tris.is_empty() {
+        return None;
+    }
+    let vertex_offset = (vertices.len() / PROTO_STRIDE as usize) as i32;
+    for (p, n, c, count) in &sums {
+        let p = *p / *count;
+        let n = n.normalize_or_zero();
+        for x in p.to_array() {
+            vertices.extend_from_slice(&x.to_le_bytes());
+        }
+        for x in [n.x, n.y, n.z, 0.0] {
+            vertices.extend_from_slice(&snorm16(x).to_le_bytes());
+        }
+        for x in c {
+            vertices.extend_from_slice(&(x / count).to_le_bytes());
+        }
+    }
+    let first_index = indices.len() as u32;
+    indices.extend(tris.iter().flatten());
+    indices.extend(tris.iter().flat_map(|t| [t[0], t[2], t[1]]));
+    Some((first_index, 3 * tris.len() as u32, vertex_offset))
+}
+
 fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
     let mut inst = Instanced::default();
     let mut bounds = Bounds::EMPTY;
@@ -281,6 +393,12 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
         index_count: u32,
         closed: bool,
         instances: [Vec<u32>; 2],
+        /// The mesh's distinct positions (for the bounds).
+        corners: Vec<Vec3>,
+        /// The coarse mesh: first index, index count (one winding), vertex offset.
+        coarse: Option<(u32, u32, i32)>,
+        /// The largest distance of a vertex from the mesh's origin.
+        radius: f32,
     }
     let mut placed: Vec<Option<Placed>> = (0..out.shared_meshes.len()).map(|_| None).collect();
     for (i, instance) in out.instances.iter().enumerate() {
@@ -327,12 +445,23 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
             inst.indices.extend(tris.iter().flatten());
             inst.indices.extend(tris.iter().flat_map(|t| [t[0], t[2], t[1]]));
             let oriented: Vec<[u32; 3]> = m.oriented_triangles().filter(|t| t.iter().all(|&k| k < n)).collect();
+            let coarse = (oriented.len() > LOD_MIN_TRIANGLES)
+                .then(|| coarse_mesh(shared, &oriented, &mut inst.vertices, &mut inst.indices))
+                .flatten();
             Placed {
+                coarse,
+                radius: m.positions.iter().map(|q| Vec3::from(*q).length()).fold(0.0, f32::max),
                 vertex_offset,
                 first_index,
                 index_count: 3 * tris.len() as u32,
                 closed: mdg_vm::export::is_closed(m, &oriented),
                 instances: [Vec::new(), Vec::new()],
+                corners: {
+                    let mut c: Vec<[u32; 3]> = m.positions.iter().map(|q| q.map(f32::to_bits)).collect();
+                    c.sort_unstable();
+                    c.dedup();
+                    c.into_iter().map(|q| Vec3::from(q.map(f32::from_bits))).collect()
+                },
             }
         });
         p.instances[usize::from(mirrored)].push(i as u32);
@@ -351,6 +480,7 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
                 closed: p.closed,
             });
             inst.n_triangles += u64::from(p.index_count / 3) * list.len() as u64;
+            let mut radius = 0.0f32;
             inst.instances.reserve(list.len() * INSTANCE_STRIDE as usize);
             for &i in list {
                 let instance = &out.instances[i as usize];
@@ -367,13 +497,21 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
                 inst.instances.extend_from_slice(&instance.bone.to_le_bytes());
                 max_bone = max_bone.max(instance.bone);
                 // Exact bounds (the camera frames the model as when it was expanded):
-                // every vertex placed, but nothing stored.
-                let shared = &out.shared_meshes[instance.mesh as usize].mesh;
+                // every distinct vertex placed (a cube's 24 are 8 corners), but
+                // nothing stored.
                 let t = glam::Affine3A::from_mat4(t);
-                for q in &shared.positions {
-                    bounds.add(t.transform_point3(Vec3::from(*q)));
+                for q in &p.corners {
+                    bounds.add(t.transform_point3(*q));
                 }
+                let scale = t.matrix3.x_axis.length().max(t.matrix3.y_axis.length()).max(t.matrix3.z_axis.length());
+                radius = radius.max(p.radius * scale);
             }
+            inst.lods.push(p.coarse.map(|(first, count, offset)| Lod {
+                first_index: first + side as u32 * count,
+                index_count: count,
+                vertex_offset: offset,
+                radius,
+            }));
         }
     }
     (inst, bounds, max_bone)

@@ -358,6 +358,16 @@ impl App {
                 samples: self.opts.samples,
             },
         )?;
+        let choice = renderer.sample_choice;
+        if choice.differs() {
+            (self.opts.log)(&format!(
+                "warning: --samples {}: {} offers {} samples; drawing with {}",
+                choice.wanted,
+                ctx.device_name,
+                choice.offered(),
+                choice.count()
+            ));
+        }
         let size = window.inner_size();
         let swapchain = Swapchain::new(&ctx, &surface, format, (size.width, size.height), &mut renderer, None)?;
         if let Some(m) = &mut self.model {

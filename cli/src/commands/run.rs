@@ -80,6 +80,11 @@ pub struct Args {
     /// Picture size, WIDTHxHEIGHT.
     #[arg(long, default_value = "800x600")]
     size: String,
+    /// Picture samples: `auto` (one sample and edge smoothing on a CPU driver such
+    /// as lavapipe, 4x multisampling on a GPU) or a count (1 draws aliased edges;
+    /// a count the device lacks gives the next it has, with a warning).
+    #[arg(long, default_value = "auto", value_name = "auto|N", value_parser = crate::args::parse_samples)]
+    samples: u32,
     /// Write the pose at T seconds as a still model: every bone moved by its
     /// transform rules' frames at index ⌊T·fps⌋, the camera fixed there. For formats
     /// without animation (obj, stl, ply); applies to every format and the picture.
@@ -102,6 +107,11 @@ pub struct Args {
     /// With --seeds: run only shard K of N (the seeds at positions ≡ K mod N; K from 0).
     #[arg(long, value_name = "K/N", requires = "seeds")]
     shard: Option<String>,
+    /// With --seeds: run N seeds at a time (default: the machine's cores). Outputs and
+    /// manifest are byte for byte those of -j 1.
+    #[arg(short = 'j', long = "jobs", value_name = "N", requires = "seeds",
+          value_parser = clap::value_parser!(u32).range(1..=1024))]
+    jobs: Option<u32>,
     #[command(flatten)]
     guided: crate::modes::guided::GuidedArgs,
     #[command(flatten)]
@@ -244,7 +254,7 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
         export::write_atomic(p, bundle.params_json().as_bytes())
             .map_err(|e| (2, format!("cannot write {}: {e}", p.display())))?;
     }
-    let pictures = Vulkan::new(opts.std_dir.clone()).posed(pose);
+    let pictures = Vulkan::new(opts.std_dir.clone()).posed(pose).samples(cli.samples);
     if bundle.extensions.creatures.is_some() {
         if batch.is_some() {
             return Err((
@@ -434,8 +444,9 @@ fn run_one(
     let eval_opts = eval_options(cli, seed);
     let started = std::time::Instant::now();
     let bar = indicatif::ProgressBar::hidden();
+    // (A batch shows its own bar: its seeds run side by side, without spinners.)
     let progress = |calls: u64| {
-        if bar.is_hidden() && started.elapsed() > Duration::from_secs(1) {
+        if say_wrote && bar.is_hidden() && started.elapsed() > Duration::from_secs(1) {
             bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
             bar.set_style(
                 indicatif::ProgressStyle::with_template("{spinner} {elapsed} {msg}")
@@ -604,25 +615,32 @@ fn run_batch(
     for w in warnings {
         eprintln!("warning: {w}");
     }
-    let (mut ran, mut skipped) = (0u64, 0u64);
-    let todo: Vec<u64> = batch::shard_seeds(seeds, shard).collect();
-    let bar = indicatif::ProgressBar::new(todo.len() as u64);
+    let mut skipped = 0u64;
+    let seeds_here: Vec<u64> = batch::shard_seeds(seeds, shard).collect();
+    let bar = indicatif::ProgressBar::new(seeds_here.len() as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} seeds  {elapsed} (eta {eta})")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
-    for seed in todo {
+    let mut todo = Vec::new();
+    for seed in seeds_here {
         let output = batch::output_for(template, seed).map_err(|e| (2, e))?;
         if manifest.is_done(seed, &output) {
             skipped += 1;
             bar.inc(1);
-            continue;
+        } else {
+            todo.push((seed, output));
         }
-        let counts = bar.suspend(|| run_one(cli, opts, bundle, Some(seed), &output, size, pictures, false))?;
-        manifest.record(&batch::Entry { seed, file: output, counts }).map_err(|e| (2, e))?;
-        ran += 1;
-        bar.inc(1);
     }
+    let jobs = cli
+        .jobs
+        .map(|j| j as usize)
+        .unwrap_or_else(|| std::thread::available_parallelism().map(std::num::NonZeroUsize::get).unwrap_or(1));
+    let run = |seed: u64, output: &Path| run_one(cli, opts, bundle, Some(seed), output, size, pictures, false);
+    let ran = batch::run_in_order(&todo, jobs, run, |seed, output, counts| {
+        bar.inc(1);
+        manifest.record(&batch::Entry { seed, file: output.to_path_buf(), counts }).map_err(|e| (2, e))
+    })?;
     bar.finish_and_clear();
     eprintln!(
         "{ran} seeds run, {skipped} already done (shard {}/{}); manifest {}",

@@ -97,8 +97,11 @@ pub struct Args {
     /// Draw wireframe (offscreen; press W in the window).
     #[arg(long)]
     wireframe: bool,
-    /// MSAA samples (the largest supported ≤ this, at least 2; 4 always works).
-    #[arg(long, default_value_t = 4)]
+    /// Samples: `auto` (offscreen: one sample and edge smoothing on a CPU driver
+    /// such as lavapipe, 4x multisampling on a GPU; the window: 4x) or a count (1
+    /// draws aliased edges; a count the device lacks gives the next it has, with a
+    /// warning).
+    #[arg(long, default_value = "auto", value_name = "auto|N", value_parser = crate::args::parse_samples)]
     samples: u32,
     /// Seed for the random stream (overrides `randseed`).
     #[arg(long)]
@@ -149,15 +152,19 @@ fn offscreen(cli: &Args, model: &model::Model, size: (u32, u32), programs: &Prog
         on_message: Some(crate::say),
     })?);
     let mut off = Offscreen::new(&ctx, size.0, size.1, cli.samples)?;
+    if let Some(w) = crate::args::samples_warning(&off.sample_choice(), &ctx.device_name) {
+        eprintln!("{w}");
+    }
     let t0 = std::time::Instant::now();
     let info = off.set_model(model, programs)?;
     eprintln!(
-        "mdg-view: {} triangles, {} line segments, program {} on {}, {}x MSAA (upload {:.0} ms)",
+        "mdg-view: {} triangles, {} line segments, program {} on {}, {} sample(s){} (upload {:.0} ms)",
         info.n_triangles,
         info.n_line_segments,
         info.program,
         ctx.device_name,
         off.samples(),
+        if off.smooth { " and edge smoothing" } else { "" },
         t0.elapsed().as_secs_f64() * 1e3
     );
     let Some(png) = &cli.png else { return Ok(0) };
@@ -319,7 +326,9 @@ pub fn run(cli: Args) -> ExitCode {
             watch: !cli.no_watch,
             load: load.clone(),
             validation: Validation::from_env(),
-            samples: cli.samples,
+            // The window keeps 4x multisampling unless asked otherwise: it has no
+            // smoothing pass.
+            samples: if cli.samples == 0 { 4 } else { cli.samples },
             time: cli.time,
             pose,
             log: crate::say,
