@@ -118,6 +118,59 @@ pub fn run(args: Args) -> ExitCode {
             eprintln!("  {} of its shapes cut to share a piece with another example", r.shared_cuts);
         }
     }
+    // What the grammar does: moves, shapes, matches, and what ten seeds generate.
+    use mdg_vm::grid::assess;
+    let moves: usize = reports.iter().map(|r| r.merges + r.splits).sum();
+    let gen_opts = mdg_vm::grid::generate::GenerateOptions::default();
+    let variety = assess::variety(&grammar, &gen_opts, assess::SEEDS);
+    match &variety {
+        Ok(v) => eprintln!(
+            "summary: {moves} moves, {} shapes, {} matches, {} rules; seeds 1–{} (default generation) give {} distinct \
+             buildings, {} complete (enclosed where the example is, one piece, ≥ {:.0}% of its blocks), {} with all \
+             its block kinds",
+            grammar.shapes.len(),
+            grammar.matches.len(),
+            grammar.rules.len(),
+            v.seeds,
+            v.distinct,
+            v.complete,
+            assess::COMPLETE_FRACTION * 100.0,
+            v.all_kinds
+        ),
+        Err(e) => eprintln!("warning: the grammar could not be generated to measure it: {e}"),
+    }
+    for r in &reports {
+        if r.merges + r.splits == 0 {
+            eprintln!(
+                "warning[{}]: {}: no move made: the shapes are the initial segmentation; try --alpha below 1 or \
+                 --cost kinds",
+                assess::W_NO_MOVE,
+                r.name
+            );
+        }
+    }
+    if grammar.matches.is_empty() {
+        eprintln!(
+            "warning[{}]: no match: no shape matches another, so this grammar only rebuilds the example{} (parts \
+             of it); {}",
+            assess::W_NO_MATCH,
+            if examples.len() > 1 { "s" } else { "" },
+            if spec == Spec::Solid {
+                "--spec 3d finds one solid shape per connected part; use --spec rect or 2d"
+            } else {
+                "try --alpha below 1, --cost kinds or another --spec"
+            }
+        );
+    }
+    if let Ok(v) = &variety {
+        if v.distinct <= 1 && v.seeds > 1 {
+            eprintln!(
+                "warning[{}]: seeds give identical outputs: all {} seeds generate the same building",
+                assess::W_SAME_OUTPUT,
+                v.seeds
+            );
+        }
+    }
     if examples.len() > 1 {
         let shared = mdg_vm::grid::induce::shared_shapes(&grammar);
         eprintln!("shared style: {shared} of {} shapes match a shape of another example", grammar.shapes.len());

@@ -162,7 +162,15 @@ pub fn induce(examples: &[Example], inferences: &[Inference], name: &str) -> Res
             let n = per_name.entry(base.clone()).or_insert(0);
             *n += 1;
             let name = unique(&format!("{base}_{n}"), &mut shape_names);
-            shapes.push(GridShape { name, size, blocks: local, plane: s.plane, at: Some(at), example: ei as u32 });
+            shapes.push(GridShape {
+                name,
+                size,
+                blocks: local,
+                plane: s.plane,
+                at: Some(at),
+                example: ei as u32,
+                open: false,
+            });
         }
     }
     if shapes.is_empty() {
@@ -223,7 +231,7 @@ pub fn induce(examples: &[Example], inferences: &[Inference], name: &str) -> Res
     matches.sort_by_key(|m| m.a);
     rules.sort_by_key(|r| r.from);
     let start = (0..shapes.len()).max_by_key(|&i| (shapes[i].blocks.len(), std::cmp::Reverse(i))).unwrap_or(0) as u32;
-    let g = GridGrammar {
+    let mut g = GridGrammar {
         name: blocks::sanitize(name),
         examples: examples.iter().map(|e| e.name.clone()).collect(),
         palette,
@@ -234,6 +242,12 @@ pub fn induce(examples: &[Example], inferences: &[Inference], name: &str) -> Res
         generate: GenerateSettings::default(),
     };
     g.validate()?;
+    // Shapes the enclosure constraint would remove from their own example (roofs,
+    // chimneys, porches) are open: generation keeps them.
+    let open = super::generate::open_in_examples(&g, g.generate.seal)?;
+    for (s, o) in g.shapes.iter_mut().zip(open) {
+        s.open = o;
+    }
     Ok(g)
 }
 
