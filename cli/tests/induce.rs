@@ -57,3 +57,108 @@ fn the_summary_says_what_the_grammar_generates_and_warns_with_codes() {
     assert!(solid.contains("1 distinct buildings"), "{solid}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The Python with nbtlib (`$MDG_NBTLIB_PYTHON`, default
+/// `~/.cache/mdg/nbtlib-venv/bin/python`, which `.ci/run` makes).
+fn nbtlib_python() -> std::path::PathBuf {
+    if let Some(p) = std::env::var_os("MDG_NBTLIB_PYTHON") {
+        return p.into();
+    }
+    let cache = std::env::var_os("XDG_CACHE_HOME")
+        .map(std::path::PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| std::path::PathBuf::from(h).join(".cache")))
+        .unwrap_or_else(|| ".cache".into());
+    cache.join("mdg/nbtlib-venv/bin/python")
+}
+
+/// Prints `x y z block[state]` for every non-air block of a structure-block `.nbt` or
+/// a Sponge v2 `.schem`, read by nbtlib (a reader that is not ours).
+const READ_BACK: &str = r#"
+import sys, nbtlib
+path = sys.argv[1]
+f = nbtlib.load(path)
+root = f.get("Schematic", f) if hasattr(f, "get") else f
+def state(name, props):
+    if props:
+        return name + "[" + ",".join(f"{k}={props[k]}" for k in sorted(props)) + "]"
+    return name
+out = []
+if path.endswith(".nbt"):
+    pal = [state(str(p["Name"]), {str(k): str(v) for k, v in p.get("Properties", {}).items()}) for p in root["palette"]]
+    for b in root["blocks"]:
+        x, y, z = (int(c) for c in b["pos"])
+        out.append((x, y, z, pal[int(b["state"])]))
+else:
+    w, h, l = int(root["Width"]), int(root["Height"]), int(root["Length"])
+    pal = {int(v): str(k) for k, v in root["Palette"].items()}
+    data = [int(b) & 0xFF for b in root["BlockData"]]
+    i = n = 0
+    while i < len(data):
+        v = shift = 0
+        while True:
+            v |= (data[i] & 0x7F) << shift
+            shift += 7
+            i += 1
+            if data[i - 1] < 0x80:
+                break
+        x, z, y = n % w, (n // w) % l, n // (w * l)
+        n += 1
+        out.append((x, y, z, pal[v]))
+for x, y, z, s in sorted(out):
+    if s not in ("minecraft:air", "minecraft:cave_air", "minecraft:void_air", "minecraft:structure_void"):
+        print(x, y, z, s)
+"#;
+
+#[test]
+fn generated_schem_and_nbt_read_back_by_nbtlib_with_the_same_blocks() {
+    if std::env::var("MDG_SKIP_CLIENT_TESTS").is_ok_and(|v| v == "1") {
+        eprintln!("SKIPPED: nbtlib read-back (MDG_SKIP_CLIENT_TESTS=1)");
+        return;
+    }
+    let python = nbtlib_python();
+    let ok = Command::new(&python).args(["-c", "import nbtlib"]).output().is_ok_and(|o| o.status.success());
+    assert!(
+        ok,
+        "no nbtlib with {}: python3 -m venv ~/.cache/mdg/nbtlib-venv && ~/.cache/mdg/nbtlib-venv/bin/pip install \
+         'nbtlib==2.0.4' (as .ci/run does), or set MDG_NBTLIB_PYTHON; MDG_SKIP_CLIENT_TESTS=1 skips",
+        python.display()
+    );
+    let dir = std::env::temp_dir().join(format!("mdg-induce-nbtlib-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    // The house with a porch step of stairs (an oriented block state).
+    let mut text = house();
+    for x in 0..5 {
+        text.push_str(&format!("{x} 0 -1 minecraft:oak_stairs[facing=north,half=bottom,shape=straight]\n"));
+    }
+    std::fs::write(dir.join("house.txt"), text).expect("write");
+    induce(&dir, &[]);
+    let run = |out: &str| {
+        let o = Command::new(env!("CARGO_BIN_EXE_mdg-run"))
+            .current_dir(&dir)
+            .args(["style.mdg", "--seed", "5", "-o", out])
+            .output()
+            .expect("run mdg-run");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    run("a.txt");
+    let model = mdg_vm::grid::format::read(&dir.join("a.txt")).expect("reads").normalized();
+    let mut want: Vec<String> = model
+        .blocks
+        .iter()
+        .map(|b| {
+            let id = mdg_vm::grid::blocks::to_modern(&model.kinds[b.kind as usize].id).expect("a minecraft name");
+            format!("{} {} {} {id}", b.pos[0], b.pos[1], b.pos[2])
+        })
+        .collect();
+    want.sort();
+    assert!(want.len() > 50 && want.iter().any(|l| l.contains("oak_stairs[")), "a house with its stairs: {want:?}");
+    for f in ["a.nbt", "a.schem"] {
+        run(f);
+        let o = Command::new(&python).arg("-c").arg(READ_BACK).arg(dir.join(f)).output().expect("run python");
+        assert!(o.status.success(), "{f}: {}", String::from_utf8_lossy(&o.stderr));
+        let mut got: Vec<String> = String::from_utf8_lossy(&o.stdout).lines().map(str::to_string).collect();
+        got.sort();
+        assert_eq!(got, want, "{f}: nbtlib reads other blocks than mdg-run generated");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
