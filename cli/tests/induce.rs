@@ -50,11 +50,21 @@ fn the_summary_says_what_the_grammar_generates_and_warns_with_codes() {
     assert!(!rect.contains("W0901") && !rect.contains("W0903"), "{rect}");
     // At α = 1 with the sum cost the maximal rectangles are a local optimum: said.
     assert!(rect.contains("warning[W0902]: house.txt: no move made") && rect.contains("--cost kinds"), "{rect}");
-    // 3d: one solid shape, nothing matches, every seed the example.
-    let solid = induce(&dir, &["--spec", "3d"]);
-    assert!(solid.contains("warning[W0901]: no match") && solid.contains("rebuilds the example"), "{solid}");
-    assert!(solid.contains("warning[W0903]: seeds give identical outputs"), "{solid}");
-    assert!(solid.contains("1 distinct buildings"), "{solid}");
+    // 3d: one solid shape, nothing matches: refused, saying why and what to use.
+    let out = Command::new(env!("CARGO_BIN_EXE_mdgc"))
+        .current_dir(&dir)
+        .args(["induce", "house.txt", "--spec", "3d", "-o", "solid.mdg"])
+        .output()
+        .expect("run mdgc");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("none matches another") && err.contains("use --spec rect"), "{err}");
+    assert!(!dir.join("solid.mdg").exists(), "nothing written");
+    // 2d at α = 0: shapes too mixed to match, every seed the example.
+    let planar = induce(&dir, &["--spec", "2d"]);
+    assert!(planar.contains("warning[W0901]: no match") && planar.contains("rebuilds the example"), "{planar}");
+    assert!(planar.contains("warning[W0903]: seeds give identical outputs"), "{planar}");
+    assert!(planar.contains("1 distinct buildings"), "{planar}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

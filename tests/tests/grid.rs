@@ -1483,3 +1483,25 @@ fn generated_buildings_are_checked_for_completeness_against_the_example() {
         assess(&g, &mdg_vm::grid::generate::Generated { model: m, instances: walls, ..made }, 0, 1).expect("assesses");
     assert!(!a.complete(), "walls without floor and roof are not complete: {a:?}");
 }
+
+#[test]
+fn the_default_search_splits_and_merges_and_alpha_trades_shapes_for_entropy() {
+    // Issue 42: at the old default (α = 1, sum, both from the maximal rectangles) no
+    // move was made. The default α now splits and merges, and a larger α gives fewer,
+    // larger shapes that match less (the paper's Table 2 trend).
+    let mut moved = 0;
+    for (name, text) in [("cottage", stair_cottage()), ("tower", parapet_tower()), ("l_house", l_house())] {
+        let m = model(&text);
+        let run = |alpha: f64| infer(&m, &InferOptions { alpha, ..InferOptions::default() }, &mut |_| {});
+        let d = run(InferOptions::default().alpha);
+        assert!(d.stats.splits > 0, "{name}: the default search splits: {:?}", d.stats);
+        moved += d.stats.merges + d.stats.splits;
+        // The search's shape set (all three planes, before the disjoint cover).
+        let counts: Vec<usize> = [0.0, 0.25, 0.5, 1.0, 5.0].iter().map(|&a| run(a).stats.search_shapes).collect();
+        assert!(counts.windows(2).all(|w| w[0] >= w[1]), "{name}: #S by α {counts:?}");
+        assert!(counts[0] > counts[4], "{name}: α changes the shapes: {counts:?}");
+        let one = run(1.0);
+        assert_eq!(one.stats.merges + one.stats.splits, 0, "{name}: at α = 1 no cut pays");
+    }
+    assert!(moved > 0);
+}

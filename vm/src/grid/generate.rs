@@ -76,6 +76,21 @@ impl Default for GenerateOptions {
     }
 }
 
+impl GenerateOptions {
+    /// The defaults with the grammar's `generate { }` settings (steps, enclosure,
+    /// seal, and its seed when it has one).
+    pub fn for_grammar(g: &GridGrammar) -> GenerateOptions {
+        let s = &g.generate;
+        GenerateOptions {
+            steps: s.steps,
+            enclosure: s.enclosure,
+            seal: s.seal,
+            seed: s.seed.unwrap_or(0),
+            ..GenerateOptions::default()
+        }
+    }
+}
+
 /// A limit on the production's box.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Bounds {

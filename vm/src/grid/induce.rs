@@ -26,6 +26,11 @@ use super::{
 };
 use std::collections::{HashMap, HashSet};
 
+/// Generation steps an induced grammar gets per shape of its largest example (at
+/// least 50): a derivation adds one shape a step, and some steps add shapes the
+/// enclosure constraint removes, so a whole building takes more steps than it has shapes.
+pub const STEPS_PER_SHAPE: u32 = 2;
+
 /// One example building.
 pub struct Example<'a> {
     /// The file it came from (written into the grammar's `examples`).
@@ -231,6 +236,13 @@ pub fn induce(examples: &[Example], inferences: &[Inference], name: &str) -> Res
     matches.sort_by_key(|m| m.a);
     rules.sort_by_key(|r| r.from);
     let start = (0..shapes.len()).max_by_key(|&i| (shapes[i].blocks.len(), std::cmp::Reverse(i))).unwrap_or(0) as u32;
+    // Enough rule applications to rebuild the largest example about twice over (each
+    // application adds one shape), at least the usual 50.
+    let most_shapes = inferences.iter().map(|i| i.shapes.len()).max().unwrap_or(0) as u32;
+    let generate = GenerateSettings {
+        steps: most_shapes.saturating_mul(STEPS_PER_SHAPE).clamp(GenerateSettings::default().steps, super::MAX_STEPS),
+        ..GenerateSettings::default()
+    };
     let mut g = GridGrammar {
         name: blocks::sanitize(name),
         examples: examples.iter().map(|e| e.name.clone()).collect(),
@@ -239,7 +251,7 @@ pub fn induce(examples: &[Example], inferences: &[Inference], name: &str) -> Res
         matches,
         rules,
         start,
-        generate: GenerateSettings::default(),
+        generate,
     };
     g.validate()?;
     // Shapes the enclosure constraint would remove from their own example (roofs,
