@@ -107,7 +107,7 @@ const SHAPE_KEYS: &[Key] = &[
     Key { name: "example", values: "N", doc: "Which of the `examples` the shape came from (default 0)." },
     Key {
         name: "open",
-        values: "",
+        values: "(no value: `open;`)",
         doc: "The shape is open in its example (a roof, a chimney, a porch: air on both of its sides there): the \
               enclosure constraint never removes it. `mdgc induce` marks these.",
     },
