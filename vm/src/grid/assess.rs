@@ -96,24 +96,44 @@ pub fn one_piece(m: &VoxelModel) -> bool {
     seen.len() == cells.len()
 }
 
+/// What a building is measured against: an example's blocks, rooms and block kinds
+/// (computed once for many buildings).
+#[derive(Clone, Debug)]
+pub struct Reference {
+    pub blocks: usize,
+    pub interior: usize,
+    pub kinds: BTreeSet<String>,
+}
+
+impl Reference {
+    /// Example `example` of `grammar` (rooms measured with `seal`).
+    pub fn of(grammar: &GridGrammar, example: u32, seal: u32) -> Result<Reference, String> {
+        let models = examples(grammar);
+        let ex = models.get(example as usize).ok_or_else(|| format!("no example {example}"))?;
+        let (_, interior) = enclosure_report(grammar, &example_instances(grammar, example), seal)?;
+        Ok(Reference { blocks: ex.blocks.len(), interior, kinds: kinds_of(ex) })
+    }
+}
+
 /// Measures a generated building against example `example` of `grammar` (the
 /// enclosure measured with `seal`).
 pub fn assess(grammar: &GridGrammar, made: &Generated, example: u32, seal: u32) -> Result<Assessment, String> {
-    let models = examples(grammar);
-    let ex = models.get(example as usize).ok_or_else(|| format!("no example {example}"))?;
-    let (_, example_interior) = enclosure_report(grammar, &example_instances(grammar, example), seal)?;
+    assess_with(grammar, &Reference::of(grammar, example, seal)?, made, seal)
+}
+
+/// [`assess`] against a reference computed before.
+pub fn assess_with(grammar: &GridGrammar, r: &Reference, made: &Generated, seal: u32) -> Result<Assessment, String> {
     let (exposed, interior) = enclosure_report(grammar, &made.instances, seal)?;
     let have = kinds_of(&made.model);
-    let want = kinds_of(ex);
     Ok(Assessment {
         blocks: made.model.blocks.len(),
-        example_blocks: ex.blocks.len(),
+        example_blocks: r.blocks,
         exposed,
         interior,
-        example_interior,
+        example_interior: r.interior,
         connected: one_piece(&made.model),
-        missing_kinds: want.difference(&have).cloned().collect(),
-        example_kinds: want.len(),
+        missing_kinds: r.kinds.difference(&have).cloned().collect(),
+        example_kinds: r.kinds.len(),
     })
 }
 
@@ -147,12 +167,13 @@ fn normalized(m: &VoxelModel) -> Vec<([i32; 3], String)> {
 /// them against the start shape's example.
 pub fn variety(grammar: &GridGrammar, opts: &GenerateOptions, seeds: u64) -> Result<Variety, String> {
     let example = grammar.shapes.get(grammar.start as usize).map(|s| s.example).unwrap_or(0);
+    let reference = Reference::of(grammar, example, opts.seal)?;
     let mut seen = HashSet::new();
     let mut v = Variety { seeds, ..Variety::default() };
     for i in 1..=seeds {
         let made = generate(grammar, &GenerateOptions { seed: opts.seed.wrapping_add(i), ..*opts })?;
         seen.insert(normalized(&made.model));
-        let a = assess(grammar, &made, example, opts.seal)?;
+        let a = assess_with(grammar, &reference, &made, opts.seal)?;
         v.complete += a.complete() as usize;
         v.all_kinds += a.missing_kinds.is_empty() as usize;
         v.assessments.push(a);

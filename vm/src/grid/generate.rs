@@ -360,13 +360,14 @@ pub fn generate(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generat
     if attempts == 1 || !has_example {
         return derive(grammar, opts);
     }
+    let reference = super::assess::Reference::of(grammar, example, opts.seal)?;
     let mut seeds = Pcg64::seed_from_u64(opts.seed ^ 0x9e37_79b9_7f4a_7c15);
     // (complete, kinds kept, blocks): the best so far.
     let mut best: Option<((bool, usize, usize), Generated)> = None;
     for a in 0..attempts {
         let seed = if a == 0 { opts.seed } else { seeds.next_u64() };
         let made = derive(grammar, &GenerateOptions { seed, ..*opts })?;
-        let m = super::assess::assess(grammar, &made, example, opts.seal)?;
+        let m = super::assess::assess_with(grammar, &reference, &made, opts.seal)?;
         let whole = m.complete() && m.missing_kinds.is_empty();
         if whole {
             return Ok(made);
