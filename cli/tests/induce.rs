@@ -65,6 +65,11 @@ fn the_summary_says_what_the_grammar_generates_and_warns_with_codes() {
     assert!(planar.contains("warning[W0901]: no match") && planar.contains("rebuilds the example"), "{planar}");
     assert!(planar.contains("warning[W0903]: seeds give identical outputs"), "{planar}");
     assert!(planar.contains("1 distinct buildings"), "{planar}");
+    // Each warning rendered with its code.
+    let all = format!("{rect}{planar}");
+    for code in ["W0901", "W0902", "W0903"] {
+        assert!(all.contains(&format!("warning[{code}]: ")), "{code} not shown: {all}");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 
