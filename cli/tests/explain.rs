@@ -18,7 +18,7 @@ fn explain_prints_every_code() {
         assert!(text.contains(c.title), "{}: no title in {text}", c.code);
         let first = c.explanation.lines().next().expect("explanation");
         assert!(text.contains(first), "{}: no explanation in {text}", c.code);
-        if let mdg_compiler::codes::Example::Editor(what) = c.example {
+        if let mdg_compiler::codes::Example::Editor(what) | mdg_compiler::codes::Example::Command(what) = c.example {
             // Made by the language server: the example says for what document.
             assert!(text.contains(&format!("Example: {what}")), "{}: no example in {text}", c.code);
             continue;

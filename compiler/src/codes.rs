@@ -66,13 +66,16 @@ pub enum Example {
     /// Made by the language server only, for a document it is given; the text says
     /// which (the test of the code is in `lsp/tests`).
     Editor(&'static str),
+    /// Made by a command, not by checking a source: the text is the command and what
+    /// it is given (`mdgc induce` on a building of no repeated part, say).
+    Command(&'static str),
 }
 
 impl Example {
     /// The source text.
     pub fn text(&self) -> &'static str {
         match self {
-            Example::Library(t) | Example::Program(t) | Example::Editor(t) => t,
+            Example::Library(t) | Example::Program(t) | Example::Editor(t) | Example::Command(t) => t,
         }
     }
     /// Whether it is checked as a program.
@@ -109,7 +112,7 @@ creature beasts {
     };
 }
 
-use Example::{Editor, Library, Program};
+use Example::{Command, Editor, Library, Program};
 use Severity::{Error, Note, Warning};
 
 /// Every code, sorted.
@@ -2481,6 +2484,33 @@ creature beasts {
 "#,
         ),
     },
+    Code {
+        code: "W0901",
+        severity: Warning,
+        title: "induced grammar only rebuilds its example",
+        explanation: r#"`mdgc induce`: no inferred shape matches another, so rules are never shared (paper eq. 6) and a derivation can only add shapes where the example has them: every building the grammar generates is a part of the example.
+
+Fix: Infer smaller, repeated shapes: `--ops both` with a smaller `--alpha`, `--spec rect`, or `--cost kinds`; give several examples (`--share`)."#,
+        example: Command("`mdgc induce tower.txt --spec 3d -o s.mdg` on a building whose one solid shape is the whole building"),
+    },
+    Code {
+        code: "W0902",
+        severity: Warning,
+        title: "shape inference made no move",
+        explanation: r#"`mdgc induce`: the hill climbing stopped where it started (no merge, no split): the shapes are the initial segmentation, whatever the cost function's weights. The cost's trade-off between the number of shapes and their entropy did not favour any move from there at this α.
+
+Fix: Try `--alpha` below 1 (splits pay when a cut lowers the entropy by more than α) or `--cost kinds` (mixed shapes cost more)."#,
+        example: Command("`mdgc induce house.txt --cost sum --alpha 1 -o s.mdg` on a house whose maximal rectangles are already its best shapes"),
+    },
+    Code {
+        code: "W0903",
+        severity: Warning,
+        title: "seeds give identical buildings",
+        explanation: r#"`mdgc induce`: the grammar was generated with ten seeds (the default options) and every seed gave the same building (up to where it stands): the seed has no effect, so the grammar describes one building, not a style.
+
+Fix: Infer shapes that repeat (see W0901), or generate with more `--steps` or `--random-start`."#,
+        example: Command("`mdgc induce hut.txt -o s.mdg` on a building whose shapes fit together only one way"),
+    },
 ];
 
 /// The entry for `code` (`E0301`, `w0001`: case does not matter).
@@ -2493,7 +2523,7 @@ pub fn lookup(code: &str) -> Option<&'static Code> {
 pub fn explain(code: &Code) -> String {
     let sev = code.severity.name();
     let mut s = format!("{} ({sev}): {}\n\n{}\n\nExample", code.code, code.title, code.explanation);
-    if let Example::Editor(t) = code.example {
+    if let Example::Editor(t) | Example::Command(t) = code.example {
         s.push_str(&format!(": {t}\n"));
         return s;
     }
@@ -2532,7 +2562,7 @@ pub fn markdown() -> String {
     }
     for c in CODES {
         s.push_str(&format!("\n## {}\n\n**{}**\n\n{}\n\n", c.code, c.title, c.explanation));
-        if let Example::Editor(t) = c.example {
+        if let Example::Editor(t) | Example::Command(t) = c.example {
             s.push_str(&format!("Example: {t}.\n"));
             continue;
         }
@@ -2598,7 +2628,7 @@ mod tests {
         let opts = Options { std_dir: Some(workspace().join("std")), ..Options::default() };
         let mut failures = Vec::new();
         for c in CODES {
-            if matches!(c.example, Example::Editor(_)) {
+            if matches!(c.example, Example::Editor(_) | Example::Command(_)) {
                 continue;
             }
             let text = c.example.text();

@@ -181,6 +181,9 @@ pub fn write_source_with(g: &GridGrammar, comment: &[String], like: bool) -> Str
             if shape.example != 0 {
                 let _ = writeln!(s, "    example {};", shape.example);
             }
+            if shape.open {
+                s.push_str("    open;\n");
+            }
             s.push_str("  }\n");
         } else {
             write_full_shape(&mut s, g, shape);
@@ -274,6 +277,9 @@ fn write_full_shape(s: &mut String, g: &GridGrammar, shape: &mdg_vm::grid::GridS
         }
         if shape.example != 0 {
             let _ = writeln!(s, "    example {};", shape.example);
+        }
+        if shape.open {
+            s.push_str("    open;\n");
         }
         // Cells top layer first, rows from z = 0, along x; a line per row (per layer
         // when rows are one block long).

@@ -775,7 +775,13 @@ fn ext_tables(input: &[u8]) -> u64 {
     }
     if let Some(g) = &b.extensions.grid {
         let d = mdg_vm::grid::generate::GenerateOptions::default();
-        let o = mdg_vm::grid::generate::GenerateOptions { steps: g.generate.steps.min(20), seal: g.generate.seal, ..d };
+        // Two attempts: the retry path (assessment against the example) is fuzzed too.
+        let o = mdg_vm::grid::generate::GenerateOptions {
+            steps: g.generate.steps.min(20),
+            seal: g.generate.seal,
+            attempts: 2,
+            ..d
+        };
         sig ^= match mdg_vm::grid::generate::generate(g, &o) {
             Ok(m) => (m.model.blocks.len() as u64).min(8) << 5,
             Err(e) => hash(e.chars().filter(|c| !c.is_ascii_digit()).take(30).collect::<String>().as_bytes()),

@@ -16,7 +16,7 @@ pub struct Args {
     #[arg(long, default_value = "rect", value_name = "rect|2d|3d")]
     pub spec: String,
     /// Weight of the number of shapes in the cost (≥ 0).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = mdg_vm::grid::infer::DEFAULT_ALPHA)]
     pub alpha: f64,
     /// Hill-climbing operations.
     #[arg(long, default_value = "both", value_name = "merge|split|both")]
@@ -116,6 +116,71 @@ pub fn run(args: Args) -> ExitCode {
         );
         if r.shared_cuts > 0 {
             eprintln!("  {} of its shapes cut to share a piece with another example", r.shared_cuts);
+        }
+    }
+    // --spec 3d whose solid shapes match nothing makes a grammar that can only rebuild
+    // the example: refused, saying why and what to use.
+    if spec == Spec::Solid && grammar.matches.is_empty() {
+        eprintln!(
+            "mdgc induce: --spec 3d found {} solid shape{} and none matches another (a connected solid shape spans \
+             whole walls, rooms or the whole building, so no two are alike): the grammar could only rebuild the \
+             example{} and is not written; use --spec rect (the default: walls, floors and roofs as rectangles that \
+             repeat) or --spec 2d",
+            grammar.shapes.len(),
+            if grammar.shapes.len() == 1 { "" } else { "s" },
+            if examples.len() > 1 { "s" } else { "" }
+        );
+        return ExitCode::from(1);
+    }
+    // What the grammar does: moves, shapes, matches, and what ten seeds generate.
+    use mdg_vm::grid::assess;
+    let moves: usize = reports.iter().map(|r| r.merges + r.splits).sum();
+    let gen_opts = mdg_vm::grid::generate::GenerateOptions {
+        seed: 0,
+        ..mdg_vm::grid::generate::GenerateOptions::for_grammar(&grammar)
+    };
+    let variety = assess::variety(&grammar, &gen_opts, assess::SEEDS);
+    match &variety {
+        Ok(v) => eprintln!(
+            "summary: {moves} moves, {} shapes, {} matches, {} rules; seeds 1–{} (the grammar's generate settings) give {} distinct \
+             buildings, {} complete (enclosed where the example is, one piece, ≥ {:.0}% of its blocks), {} with all \
+             its block kinds",
+            grammar.shapes.len(),
+            grammar.matches.len(),
+            grammar.rules.len(),
+            v.seeds,
+            v.distinct,
+            v.complete,
+            assess::COMPLETE_FRACTION * 100.0,
+            v.all_kinds
+        ),
+        Err(e) => eprintln!("warning: the grammar could not be generated to measure it: {e}"),
+    }
+    for r in &reports {
+        if r.merges + r.splits == 0 {
+            eprintln!(
+                "warning[{}]: {}: no move made: the shapes are the initial segmentation; try --alpha below 1 or \
+                 --cost kinds",
+                assess::W_NO_MOVE,
+                r.name
+            );
+        }
+    }
+    if grammar.matches.is_empty() {
+        eprintln!(
+            "warning[{}]: no match: no shape matches another, so this grammar only rebuilds the example{} (parts \
+             of it); try --alpha below 1, --ops merge, --cost kinds or another --spec",
+            assess::W_NO_MATCH,
+            if examples.len() > 1 { "s" } else { "" },
+        );
+    }
+    if let Ok(v) = &variety {
+        if v.distinct <= 1 && v.seeds > 1 {
+            eprintln!(
+                "warning[{}]: seeds give identical outputs: all {} seeds generate the same building",
+                assess::W_SAME_OUTPUT,
+                v.seeds
+            );
         }
     }
     if examples.len() > 1 {

@@ -51,6 +51,11 @@ pub struct GridArgs {
     /// where every block it adds stands beside blocks it stands beside in an example or a shape.
     #[arg(long)]
     pub adjacency: bool,
+    /// Grid grammars: derivations tried per seed; the first complete one is kept (enclosed where the
+    /// example is, one piece, ≥ 80 % of the example's blocks, all its block kinds), else the most
+    /// complete, with a warning (default 16; 1: the first derivation as it comes).
+    #[arg(long, value_name = "N")]
+    pub attempts: Option<u32>,
     /// Grid grammars: `--png` also draws N more buildings, generated from the seeds after `--seed`.
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub more: u32,
@@ -153,7 +158,11 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
         keep_largest: !args.keep_all,
         random_start: args.random_start,
         adjacency: args.adjacency,
+        attempts: args.attempts.unwrap_or(generate::DEFAULT_ATTEMPTS),
     };
+    if opts.attempts == 0 || opts.attempts > generate::MAX_ATTEMPTS {
+        return Err((2, format!("--attempts {}: expected 1 to {}", opts.attempts, generate::MAX_ATTEMPTS)));
+    }
     let made = generate::generate(g, &opts).map_err(|e| (1, e))?;
     let elapsed = started.elapsed().as_secs_f64();
     if let Some(n) = &made.note {

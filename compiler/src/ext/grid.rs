@@ -105,6 +105,12 @@ const SHAPE_KEYS: &[Key] = &[
     },
     Key { name: "at", values: "X Y Z", doc: "Where the shape's box corner stands in its example building." },
     Key { name: "example", values: "N", doc: "Which of the `examples` the shape came from (default 0)." },
+    Key {
+        name: "open",
+        values: "(no value: `open;`)",
+        doc: "The shape is open in its example (a roof, a chimney, a porch: air on both of its sides there): the \
+              enclosure constraint never removes it. `mdgc induce` marks these.",
+    },
 ];
 
 const GENERATE_KEYS: &[Key] = &[
@@ -789,6 +795,14 @@ fn shape(
         Some(_) => None,
         None => Some(0),
     };
+    let open = match find("open") {
+        Some(o) if expect_count(o, 0, 0, "no value (`open;`)", diags) => true,
+        Some(_) => {
+            ok = false;
+            false
+        }
+        None => false,
+    };
     let plane_entry = find("plane");
     let plane = match plane_entry {
         Some(p) if expect_count(p, 1, 1, "an axis: x, y, z or none", diags) => {
@@ -815,7 +829,7 @@ fn shape(
             return fail;
         }
         l.plane = plane_entry.map(|p| p.values[0].span());
-        let shape = GridShape { name: name.text.clone(), size: [0; 3], blocks: Vec::new(), plane, at, example };
+        let shape = GridShape { name: name.text.clone(), size: [0; 3], blocks: Vec::new(), plane, at, example, open };
         return Ok(ParsedShape { name, shape, like: Some(l) });
     }
     let Some(blocks_entry) = find("blocks") else {
@@ -941,7 +955,7 @@ fn shape(
     });
     Ok(ParsedShape {
         name: name.clone(),
-        shape: GridShape { name: name.text, size, blocks, plane, at, example },
+        shape: GridShape { name: name.text, size, blocks, plane, at, example, open },
         like: None,
     })
 }

@@ -52,6 +52,12 @@ pub struct GenerateOptions {
     /// the same way round, somewhere in an example (turned, oriented blocks turned
     /// with it) or inside a shape.
     pub adjacency: bool,
+    /// Derivations tried per seed: the first *complete* one (enclosed where the
+    /// example is, one piece, at least 80 % of the example's blocks, every block kind
+    /// of the example; see [`super::assess`]) is kept, else the best of them, with a
+    /// note. 1: the first derivation, as it comes. Attempt 0 is the plain seed, later
+    /// ones seeds drawn from it, so a seed still gives one building.
+    pub attempts: u32,
 }
 
 impl Default for GenerateOptions {
@@ -65,6 +71,22 @@ impl Default for GenerateOptions {
             keep_largest: true,
             random_start: false,
             adjacency: false,
+            attempts: DEFAULT_ATTEMPTS,
+        }
+    }
+}
+
+impl GenerateOptions {
+    /// The defaults with the grammar's `generate { }` settings (steps, enclosure,
+    /// seal, and its seed when it has one).
+    pub fn for_grammar(g: &GridGrammar) -> GenerateOptions {
+        let s = &g.generate;
+        GenerateOptions {
+            steps: s.steps,
+            enclosure: s.enclosure,
+            seal: s.seal,
+            seed: s.seed.unwrap_or(0),
+            ..GenerateOptions::default()
         }
     }
 }
@@ -110,6 +132,11 @@ impl Bounds {
         }
     }
 }
+
+/// The default [`GenerateOptions::attempts`].
+pub const DEFAULT_ATTEMPTS: u32 = 16;
+/// The largest [`GenerateOptions::attempts`].
+pub const MAX_ATTEMPTS: u32 = 1000;
 
 /// The largest `seal`.
 pub const MAX_SEAL: u32 = 8;
@@ -322,9 +349,47 @@ impl World {
 }
 
 /// Generates a building: `steps` random rule applications from the start shape, then
-/// (optionally) the enclosure constraint.
+/// (optionally) the enclosure constraint; with several [`GenerateOptions::attempts`],
+/// the first complete building of that many derivations (measured against the start
+/// shape's example), else the best one with a note saying so.
 pub fn generate(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generated, String> {
     grammar.validate()?;
+    let example = grammar.shapes.get(grammar.start as usize).map(|s| s.example).unwrap_or(0);
+    let has_example = grammar.shapes.iter().any(|s| s.at.is_some() && s.example == example);
+    let attempts = opts.attempts.clamp(1, MAX_ATTEMPTS);
+    if attempts == 1 || !has_example {
+        return derive(grammar, opts);
+    }
+    let reference = super::assess::Reference::of(grammar, example, opts.seal)?;
+    let mut seeds = Pcg64::seed_from_u64(opts.seed ^ 0x9e37_79b9_7f4a_7c15);
+    // (complete, kinds kept, blocks): the best so far.
+    let mut best: Option<((bool, usize, usize), Generated)> = None;
+    for a in 0..attempts {
+        let seed = if a == 0 { opts.seed } else { seeds.next_u64() };
+        let made = derive(grammar, &GenerateOptions { seed, ..*opts })?;
+        let m = super::assess::assess_with(grammar, &reference, &made, opts.seal)?;
+        let whole = m.complete() && m.missing_kinds.is_empty();
+        if whole {
+            return Ok(made);
+        }
+        let score = (m.complete(), m.example_kinds - m.missing_kinds.len(), m.blocks);
+        if best.as_ref().is_none_or(|(s, _)| score > *s) {
+            best = Some((score, made));
+        }
+    }
+    let Some((_, mut made)) = best else { return derive(grammar, opts) };
+    let why = format!(
+        "no complete building with all the example's block kinds in {attempts} derivations; the most complete is kept"
+    );
+    made.note = Some(match made.note.take() {
+        Some(n) => format!("{n}; {why}"),
+        None => why,
+    });
+    Ok(made)
+}
+
+/// One derivation (see [`generate`]).
+fn derive(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generated, String> {
     let d = Derivation::new(grammar);
     let mut rng = Pcg64::seed_from_u64(opts.seed);
     let mut world = World::default();
@@ -612,9 +677,20 @@ fn dilate(mask: &mut [bool], dims: [i32; 3], r: i32) {
 /// `seal` cells, and an empty cell is outside when it lies within `seal` cells of the
 /// fill (`seal` 0 is the paper's plain flood fill).
 fn exposed_instances(d: &Derivation, instances: &[Instance], world: &World, seal: u32) -> Result<Vec<usize>, String> {
+    Ok(exposed_and_interior(d, instances, world, seal)?.0)
+}
+
+/// [`exposed_instances`] and the number of *interior* cells: empty cells above the
+/// ground that the outside does not reach (the rooms a roof and walls enclose).
+fn exposed_and_interior(
+    d: &Derivation,
+    instances: &[Instance],
+    world: &World,
+    seal: u32,
+) -> Result<(Vec<usize>, usize), String> {
     let blocks: Vec<Block> = world.cells.iter().map(|(p, (k, _))| Block { pos: *p, kind: *k }).collect();
     if blocks.is_empty() {
-        return Ok(Vec::new());
+        return Ok((Vec::new(), 0));
     }
     let r = seal.min(MAX_SEAL) as i32;
     // Checked before the grid is allocated: a rule placing a shape 16,000,000 blocks
@@ -658,9 +734,11 @@ fn exposed_instances(d: &Derivation, instances: &[Instance], world: &World, seal
     }
     dilate(&mut fill, grid.dims, r);
     let is_out = |p: [i32; 3]| p[1] >= ground && grid.index(p).is_none_or(|c| fill[c] && !solid[c]);
+    let interior = (0..n).filter(|&c| !solid[c] && !fill[c]).count();
     let mut exposed = Vec::new();
     for (i, inst) in instances.iter().enumerate() {
-        let Some(plane) = d.grammar.shapes[inst.shape as usize].plane else { continue };
+        let shape = &d.grammar.shapes[inst.shape as usize];
+        let Some(plane) = shape.plane.filter(|_| !shape.open) else { continue };
         let axis = inst.place.axis(plane) as usize;
         let hit = d.blocks(inst).any(|(p, _)| {
             let (mut a, mut b) = (p, p);
@@ -672,7 +750,56 @@ fn exposed_instances(d: &Derivation, instances: &[Instance], world: &World, seal
             exposed.push(i);
         }
     }
-    Ok(exposed)
+    Ok((exposed, interior))
+}
+
+/// How enclosed a production is: (instances of shapes that are not open exposed on
+/// both sides, interior cells), with openings up to `2·seal` wide sealed.
+pub fn enclosure_report(grammar: &GridGrammar, instances: &[Instance], seal: u32) -> Result<(usize, usize), String> {
+    if instances.iter().any(|i| i.shape as usize >= grammar.shapes.len()) {
+        return Err("an instance names a shape out of range".into());
+    }
+    let d = Derivation::new(grammar);
+    let mut world = World::default();
+    for i in instances {
+        world.add(d.blocks(i));
+    }
+    let (exposed, interior) = exposed_and_interior(&d, instances, &world, seal)?;
+    Ok((exposed.len(), interior))
+}
+
+/// The shapes of example `e` placed where they stand in it (shapes without a
+/// position left out): the production that rebuilds the example.
+pub fn example_instances(grammar: &GridGrammar, e: u32) -> Vec<Instance> {
+    (0..grammar.shapes.len() as u32)
+        .filter_map(|i| {
+            let s = &grammar.shapes[i as usize];
+            s.at.filter(|_| s.example == e).map(|at| Instance { shape: i, place: Placement::translation(at) })
+        })
+        .collect()
+}
+
+/// Per shape: whether it is *open* in its example, i.e. the enclosure constraint
+/// (with `seal`) finds it exposed where the example has it (a roof's overhang, a
+/// chimney, a porch's floor). Such shapes are legitimately unenclosed (the paper's
+/// remedy for enclosure removing an example's own parts); generation never removes
+/// them. Shapes without a position are not open.
+pub fn open_in_examples(grammar: &GridGrammar, seal: u32) -> Result<Vec<bool>, String> {
+    let mut open = vec![false; grammar.shapes.len()];
+    let mut plain = grammar.clone();
+    plain.shapes.iter_mut().for_each(|s| s.open = false);
+    let d = Derivation::new(&plain);
+    for e in 0..grammar.examples.len().max(1) as u32 {
+        let instances = example_instances(grammar, e);
+        let mut world = World::default();
+        for i in &instances {
+            world.add(d.blocks(i));
+        }
+        for i in exposed_instances(&d, &instances, &world, seal)? {
+            open[instances[i].shape as usize] = true;
+        }
+    }
+    Ok(open)
 }
 
 /// The example buildings rebuilt from the shapes' `at` positions (one model per

@@ -26,6 +26,11 @@ use super::{
 };
 use std::collections::{HashMap, HashSet};
 
+/// Generation steps an induced grammar gets per shape of its largest example (at
+/// least 50): a derivation adds one shape a step, and some steps add shapes the
+/// enclosure constraint removes, so a whole building takes more steps than it has shapes.
+pub const STEPS_PER_SHAPE: u32 = 2;
+
 /// One example building.
 pub struct Example<'a> {
     /// The file it came from (written into the grammar's `examples`).
@@ -162,7 +167,15 @@ pub fn induce(examples: &[Example], inferences: &[Inference], name: &str) -> Res
             let n = per_name.entry(base.clone()).or_insert(0);
             *n += 1;
             let name = unique(&format!("{base}_{n}"), &mut shape_names);
-            shapes.push(GridShape { name, size, blocks: local, plane: s.plane, at: Some(at), example: ei as u32 });
+            shapes.push(GridShape {
+                name,
+                size,
+                blocks: local,
+                plane: s.plane,
+                at: Some(at),
+                example: ei as u32,
+                open: false,
+            });
         }
     }
     if shapes.is_empty() {
@@ -223,7 +236,14 @@ pub fn induce(examples: &[Example], inferences: &[Inference], name: &str) -> Res
     matches.sort_by_key(|m| m.a);
     rules.sort_by_key(|r| r.from);
     let start = (0..shapes.len()).max_by_key(|&i| (shapes[i].blocks.len(), std::cmp::Reverse(i))).unwrap_or(0) as u32;
-    let g = GridGrammar {
+    // Enough rule applications to rebuild the largest example about twice over (each
+    // application adds one shape), at least the usual 50.
+    let most_shapes = inferences.iter().map(|i| i.shapes.len()).max().unwrap_or(0) as u32;
+    let generate = GenerateSettings {
+        steps: most_shapes.saturating_mul(STEPS_PER_SHAPE).clamp(GenerateSettings::default().steps, super::MAX_STEPS),
+        ..GenerateSettings::default()
+    };
+    let mut g = GridGrammar {
         name: blocks::sanitize(name),
         examples: examples.iter().map(|e| e.name.clone()).collect(),
         palette,
@@ -231,9 +251,15 @@ pub fn induce(examples: &[Example], inferences: &[Inference], name: &str) -> Res
         matches,
         rules,
         start,
-        generate: GenerateSettings::default(),
+        generate,
     };
     g.validate()?;
+    // Shapes the enclosure constraint would remove from their own example (roofs,
+    // chimneys, porches) are open: generation keeps them.
+    let open = super::generate::open_in_examples(&g, g.generate.seal)?;
+    for (s, o) in g.shapes.iter_mut().zip(open) {
+        s.open = o;
+    }
     Ok(g)
 }
 

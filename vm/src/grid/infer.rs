@@ -171,6 +171,12 @@ impl Cost {
     }
 }
 
+/// The default α: with the default cost (`sum`) and operations (`both`, from the
+/// maximal shapes) the search splits and merges on real examples at α < 1 (at α ≥ 1
+/// no single cut pays: no move), and #S falls and matching falls as α grows from 0 to
+/// 1 (the paper's Table 2 trend); docs/grid.md "Whole buildings" has the measurements.
+pub const DEFAULT_ALPHA: f64 = 0.5;
+
 /// Inference options.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct InferOptions {
@@ -190,7 +196,7 @@ impl Default for InferOptions {
     fn default() -> Self {
         InferOptions {
             spec: Spec::Rect,
-            alpha: 1.0,
+            alpha: DEFAULT_ALPHA,
             ops: Ops::Both,
             overlap: false,
             cost: Cost::default(),

@@ -13,6 +13,7 @@
 //! [`matching`] (matching shapes), [`induce`] (rules and the grammar), [`generate`]
 //! (random derivation and the enclosure constraint).
 
+pub mod assess;
 pub mod blocks;
 pub mod format;
 pub mod generate;
@@ -159,6 +160,11 @@ pub struct GridShape {
     pub at: Option<[i32; 3]>,
     /// Which example (index into [`GridGrammar::examples`]) the shape came from.
     pub example: u32,
+    /// Open in its example (a roof, a chimney, a porch: air on both of its sides where
+    /// the example stands): the enclosure constraint never removes it. `mdgc induce`
+    /// marks these (see [`generate::open_in_examples`]); the source says `open;`.
+    #[serde(default)]
+    pub open: bool,
 }
 
 /// `b` is `a` turned `turn` quarter turns (box to box, see [`turn_box`]).
