@@ -85,6 +85,8 @@ pub struct Backend {
     pub shutdown_requested: Arc<AtomicBool>,
     /// Sizes of documents whose text the input filter did not pass on.
     pub oversize: Arc<crate::transport::Oversize>,
+    /// Each document's preview generation (`mdg/preview`, newest wins).
+    pub previews: Arc<crate::preview::Previews>,
 }
 
 impl Backend {
@@ -102,6 +104,7 @@ impl Backend {
             config: Arc::new(config),
             shutdown_requested,
             oversize,
+            previews: Arc::new(crate::preview::Previews::default()),
         }
     }
 

@@ -10,6 +10,7 @@ mod guard;
 mod handlers;
 mod loader;
 mod position;
+mod preview;
 mod server;
 mod transport;
 mod workspace;
@@ -65,7 +66,9 @@ fn main() -> ExitCode {
     let oversize = Arc::new(transport::Oversize::new(config.max_live_bytes));
     let input = transport::filter(std::io::stdin(), oversize.clone());
     runtime.block_on(async move {
-        let (service, socket) = LspService::new(move |client| Backend::new(client, config, flag, oversize));
+        let (service, socket) = LspService::build(move |client| Backend::new(client, config, flag, oversize))
+            .custom_method("mdg/preview", Backend::preview)
+            .finish();
         Server::new(input, tokio::io::stdout(), socket).serve(service).await;
     });
     // The stdin reader is a blocking thread that would keep the runtime (and the

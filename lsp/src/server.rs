@@ -8,6 +8,13 @@ use tower_lsp_server::jsonrpc::Result;
 use tower_lsp_server::ls_types::*;
 use tower_lsp_server::LanguageServer;
 
+impl Backend {
+    /// `mdg/preview`: the model of an open document (see [`crate::preview`]).
+    pub async fn preview(&self, params: crate::preview::PreviewParams) -> Result<crate::preview::PreviewResult> {
+        crate::preview::preview(self, params).await
+    }
+}
+
 impl LanguageServer for Backend {
     async fn initialize(&self, params: InitializeParams) -> Result<InitializeResult> {
         handlers::workspace::configure(self, &params);

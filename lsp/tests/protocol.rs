@@ -730,3 +730,61 @@ fn selection_ranges_colours_range_formatting_and_code_links() {
     );
     assert!(c.shutdown_and_exit().success());
 }
+
+/// A grammar that never ends: each call draws a triangle and calls itself twice.
+const RUNAWAY: &str =
+    "startshape a\nrule a { tri {} a {x 1} a {y 1} }\nrule tri { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n";
+
+#[test]
+fn the_preview_cuts_a_runaway_grammar_warns_and_previews_the_next_edit() {
+    let dir = scratch("preview");
+    let u = uri(&dir.join("a.mdg"));
+    let mut c = Client::spawn();
+    c.initialize(&dir);
+    c.open(&u, 1, RUNAWAY);
+    // The default budgets cut it (time or vertices, whichever comes first); the
+    // warning names the setting that raises it.
+    let started = std::time::Instant::now();
+    let r = c.call("mdg/preview", json!({"uri": u}));
+    let took = started.elapsed();
+    assert_eq!(r["status"], "model", "{}", r["message"]);
+    assert_eq!(r["version"], 1);
+    let warnings = r["warnings"].to_string();
+    assert!(
+        (warnings.contains("time budget reached") && warnings.contains("mdg.preview.timeBudget"))
+            || (warnings.contains("vertex budget 1000000 reached") && warnings.contains("mdg.preview.maxVertices")),
+        "{warnings}"
+    );
+    assert!(r["glb"].as_str().is_some_and(|g| g.starts_with("Z2xURg")), "not a .glb"); // "glTF"
+    assert!(r["stats"]["triangles"].as_u64().is_some_and(|t| t > 0));
+    eprintln!("runaway cut and answered in {took:?} (debug build): {}", r["stats"]);
+
+    // An edit while a run is going stops it (newest wins): a run with a long budget,
+    // then the grammar mended; the run answers `cancelled`, and the next preview
+    // shows the mended grammar.
+    let id =
+        c.request_async("mdg/preview", json!({"uri": u, "timeBudgetMs": 600_000, "maxVertices": 1_000_000_000_000u64}));
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let mended = RUNAWAY.replace("a {x 1} a {y 1}", "");
+    c.change(&u, 2, &mended);
+    let r = c.response(id);
+    assert_eq!(r["result"]["status"], "cancelled", "{}", r["result"]["message"]);
+    let r = c.call("mdg/preview", json!({"uri": u, "seed": "12"}));
+    assert_eq!(r["status"], "model", "{}", r["message"]);
+    assert_eq!(r["version"], 2);
+    assert_eq!(r["seed"], "12");
+    assert_eq!(r["stats"]["triangles"], 1);
+    assert_eq!(r["warnings"], json!([]));
+    // A newer request stops the one going, too.
+    c.change(&u, 3, RUNAWAY);
+    let id =
+        c.request_async("mdg/preview", json!({"uri": u, "timeBudgetMs": 600_000, "maxVertices": 1_000_000_000_000u64}));
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let next = c.request_async("mdg/preview", json!({"uri": u, "timeBudgetMs": 100}));
+    assert_eq!(c.response(id)["result"]["status"], "cancelled");
+    assert_eq!(c.response(next)["result"]["status"], "model");
+    // A document that is not open is an error response, not a panic.
+    let r = c.request("mdg/preview", json!({"uri": uri(&dir.join("closed.mdg"))}));
+    assert!(r["error"]["message"].as_str().is_some_and(|m| m.contains("is not open")), "{r}");
+    assert!(c.shutdown_and_exit().success());
+}
