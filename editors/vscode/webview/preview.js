@@ -1,13 +1,21 @@
 // The live 3D preview inside VS Code: a three.js glTF viewer in a webview. The
-// extension (src/preview.ts) evaluates the grammar with `mdg-run` and posts the
-// `.glb` it writes; this page shows it, keeping the camera between models.
-// Bundled with esbuild into out/webview/preview.js (npm run bundle).
+// extension (src/preview.ts) has the grammar evaluated (by the language server's
+// `mdg/preview`, or `mdg-run`) and posts the `.glb` bytes; this page shows them,
+// keeping the camera between models unless the model's size changes a lot (F
+// frames it again). Bundled with esbuild into out/webview/preview.js (npm run bundle).
 //
-// Messages in:  {type: 'model', glb: base64, name}  {type: 'error', message}  {type: 'busy'}
+// Messages in:  {type: 'model', glb: Uint8Array, name, warnings, seed?, custom?, editAt?, ms?}
+//               {type: 'error', message}  {type: 'busy'}
 //               {type: 'params', params: [{name, type, value, min, max, range: {min, max, step}}]}
 // Messages out: {type: 'ready'}  {type: 'shown', triangles, vertices, animations, guides, bones}
+//               {type: 'drawn', at, latency}  (the new model's first frame is drawn)
 //               {type: 'param', name, value}  (a slider moved)
+//               {type: 'seed', seed}  {type: 'variation', delta}  {type: 'keep'}
 //               {type: 'site', rule, file, line}  (a click on the model: the rule that drew it)
+//
+// The status keeps, for tests: data-triangles, data-drawn (a count of models
+// drawn), data-drawn-at (Date.now() when the last one was drawn), data-latency
+// (edit → drawn, ms, when an edit asked for it), data-seed.
 //
 // A guided grammar's `.glb` has nodes `guides` and `bones` (the search's curves and
 // the skeleton it grew): they are drawn over the model in colours of their own,
@@ -28,6 +36,9 @@ const timeLabel = document.getElementById('time');
 const paramsBox = document.getElementById('params');
 const guidesButton = document.getElementById('guides');
 const siteLabel = document.getElementById('site');
+const warnBox = document.getElementById('warn');
+const seedBox = document.getElementById('seedbox');
+const seedInput = document.getElementById('seed');
 
 const renderer = new THREE.WebGLRenderer({ canvas, antialias: true });
 renderer.setPixelRatio(window.devicePixelRatio || 1);
@@ -100,6 +111,16 @@ function frameObject(object) {
   controls.update();
 }
 
+let lastSphere = null;
+function boundsOf(object) {
+  const box = new THREE.Box3().setFromObject(object);
+  return box.isEmpty() ? null : box.getBoundingSphere(new THREE.Sphere());
+}
+function bigChange(a, b) {
+  const ratio = Math.max(a.radius, 1e-9) / Math.max(b.radius, 1e-9);
+  return ratio > 3 || ratio < 1 / 3 || a.center.distanceTo(b.center) > 2 * Math.max(a.radius, b.radius);
+}
+
 function counts(object) {
   let triangles = 0;
   let vertices = 0;
@@ -151,8 +172,27 @@ function setOverlays(on) {
 }
 guidesButton.addEventListener('click', () => setOverlays(!overlaysShown));
 window.addEventListener('keydown', (e) => {
-  if ((e.key === 'g' || e.key === 'G') && overlays.length > 0 && !(e.target instanceof HTMLInputElement)) {
+  if (e.target instanceof HTMLInputElement || e.ctrlKey || e.metaKey || e.altKey) return;
+  if ((e.key === 'g' || e.key === 'G') && overlays.length > 0) {
     setOverlays(!overlaysShown);
+  } else if ((e.key === 'f' || e.key === 'F') && model) {
+    frameObject(model);
+    requestRender();
+  } else if (!seedBox.hidden && (e.key === ']' || e.key === 'n' || e.key === 'N')) {
+    vscode.postMessage({ type: 'variation', delta: 1 });
+  } else if (!seedBox.hidden && (e.key === '[' || e.key === 'p' || e.key === 'P')) {
+    vscode.postMessage({ type: 'variation', delta: -1 });
+  } else if (!seedBox.hidden && (e.key === 'k' || e.key === 'K')) {
+    vscode.postMessage({ type: 'keep' });
+  }
+});
+document.getElementById('next').addEventListener('click', () => vscode.postMessage({ type: 'variation', delta: 1 }));
+document.getElementById('prev').addEventListener('click', () => vscode.postMessage({ type: 'variation', delta: -1 }));
+document.getElementById('keep').addEventListener('click', () => vscode.postMessage({ type: 'keep' }));
+seedInput.addEventListener('keydown', (e) => {
+  if (e.key === 'Enter') {
+    vscode.postMessage({ type: 'seed', seed: seedInput.value });
+    seedInput.blur();
   }
 });
 
@@ -208,7 +248,17 @@ function showError(message) {
   status.textContent = model ? 'showing the last model that evaluated' : 'no model';
 }
 
-function show(gltf, name) {
+// The model waiting for its first frame: the drawn report goes out after it.
+let pendingDrawn = null;
+let drawnCount = 0;
+
+function showWarnings(warnings) {
+  const list = (warnings || []).filter((w) => w);
+  warnBox.textContent = list.map((w) => `⚠ ${w}`).join('\n');
+  warnBox.hidden = list.length === 0;
+}
+
+function show(gltf, name, m) {
   if (model) {
     scene.remove(model);
     model.traverse((o) => {
@@ -217,15 +267,25 @@ function show(gltf, name) {
     });
   }
   model = gltf.scene;
+  // Two-sided: a flat triangle seen from below is lit as from above (three.js
+  // turns the normal of a back face), not dark on the dark background.
+  model.traverse((o) => {
+    if (o.isMesh && o.material) for (const m of [].concat(o.material)) m.side = THREE.DoubleSide;
+  });
   scene.add(model);
   styleOverlays(model);
   guidesButton.hidden = overlays.length === 0;
   if (overlays.length > 0) setOverlays(overlaysShown);
   resize();
-  if (!framed) {
+  // Framed on the first model, and again when the model's size changes by more
+  // than 3 times or it moves out of view (a different grammar, not an edit of
+  // the same); otherwise the camera stays where the user left it.
+  const sphere = boundsOf(model);
+  if (!framed || (sphere && lastSphere && bigChange(lastSphere, sphere))) {
     frameObject(model);
     framed = true;
   }
+  if (sphere) lastSphere = sphere;
   mixer = null;
   duration = 0;
   if (gltf.animations.length > 0) {
@@ -244,7 +304,17 @@ function show(gltf, name) {
   const guides = seg('guides');
   const bones = seg('bones');
   const guided = overlays.length ? ` · ${bones} bones, ${guides} guide segments` : '';
-  status.textContent = `${name}: ${c.triangles} triangles · ${c.vertices} vertices${anim}${guided}`;
+  const took = m.ms ? ` · ${Math.round(m.ms.total)} ms` : '';
+  status.textContent = `${name}: ${c.triangles} triangles · ${c.vertices} vertices${anim}${guided}${took}`;
+  showWarnings(m.warnings);
+  if (typeof m.seed === 'string') {
+    seedBox.hidden = false;
+    if (document.activeElement !== seedInput) seedInput.value = m.seed;
+    status.dataset.seed = m.seed;
+  } else {
+    seedBox.hidden = true;
+  }
+  pendingDrawn = { editAt: m.editAt };
   status.dataset.triangles = String(c.triangles);
   status.dataset.bones = String(bones);
   status.dataset.guides = String(guides);
@@ -306,10 +376,10 @@ function showParams(params) {
 window.addEventListener('message', (event) => {
   const m = event.data;
   if (m.type === 'model') {
-    const bin = atob(m.glb);
-    const bytes = new Uint8Array(bin.length);
-    for (let i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
-    loader.parse(bytes.buffer, '', (gltf) => show(gltf, m.name), (e) => showError(`cannot read the model: ${e.message ?? e}`));
+    const g = m.glb;
+    // Its own buffer (a view into a larger one is copied out).
+    const bytes = g.byteOffset === 0 && g.byteLength === g.buffer.byteLength ? g : g.slice();
+    loader.parse(bytes.buffer, '', (gltf) => show(gltf, m.name, m), (e) => showError(`cannot read the model: ${e.message ?? e}`));
   } else if (m.type === 'error') {
     showError(m.message);
   } else if (m.type === 'params') {
@@ -340,6 +410,17 @@ function tick() {
   // With damping the camera keeps moving a little after the mouse stops.
   again = controls.update() || again;
   renderer.render(scene, camera);
+  if (pendingDrawn) {
+    // The new model's first frame: say when (the editor measures edit → frame).
+    const at = Date.now();
+    const latency = pendingDrawn.editAt ? at - pendingDrawn.editAt : null;
+    pendingDrawn = null;
+    drawnCount += 1;
+    status.dataset.drawn = String(drawnCount);
+    status.dataset.drawnAt = String(at);
+    if (latency !== null) status.dataset.latency = String(latency);
+    vscode.postMessage({ type: 'drawn', at, latency });
+  }
   if (again) requestRender();
   const now = performance.now();
   if (now - lastSave > 500) {
