@@ -528,6 +528,15 @@ fn lens_rows(lenses: &Value) -> Vec<(String, String, u64)> {
         .collect()
 }
 
+/// The lenses with every unresolved one resolved (`codeLens/resolve`), as a client
+/// resolves those it shows.
+fn resolve_lenses(c: &mut Client, lenses: &Value) -> Value {
+    let all = lenses.as_array().into_iter().flatten();
+    Value::Array(
+        all.map(|l| if l["command"].is_null() { c.call("codeLens/resolve", l.clone()) } else { l.clone() }).collect(),
+    )
+}
+
 #[test]
 fn code_lenses_and_call_hierarchy_across_the_workspace() {
     let dir = common::canonical_scratch("lenses");
@@ -545,8 +554,13 @@ fn code_lenses_and_call_hierarchy_across_the_workspace() {
     c.open(&us, 1, SECTIONS);
     c.diagnostics(&ua, 1);
 
-    // The importer: run lenses over `startshape`, the count over its rule.
+    // The importer: run lenses over `startshape`, the count over its rule. The
+    // counts come unresolved (no command: the client resolves the visible ones).
     let lenses = c.call("textDocument/codeLens", json!({"textDocument": text_doc(&ua)}));
+    let unresolved: Vec<&Value> = lenses.as_array().into_iter().flatten().filter(|l| l["command"].is_null()).collect();
+    assert_eq!(unresolved.len(), 1, "{lenses}");
+    assert!(unresolved[0]["data"].is_object(), "{lenses}");
+    let lenses = resolve_lenses(&mut c, &lenses);
     assert_eq!(
         lens_rows(&lenses),
         [
@@ -560,6 +574,7 @@ fn code_lenses_and_call_hierarchy_across_the_workspace() {
     assert_eq!(lenses[0]["command"]["arguments"], json!([ua]));
     // The library's rule: called once in a.mdg and twice in the closed b.mdg.
     let lenses = c.call("textDocument/codeLens", json!({"textDocument": text_doc(&ul)}));
+    let lenses = resolve_lenses(&mut c, &lenses);
     assert_eq!(lens_rows(&lenses), [(s("3 references"), s("mdg.showReferences"), 0)], "{lenses}");
     let args = &lenses[0]["command"]["arguments"];
     assert_eq!(args[0], ul.as_str());
@@ -567,6 +582,7 @@ fn code_lenses_and_call_hierarchy_across_the_workspace() {
     assert_eq!(places(&args[2]), [(s("a.mdg"), 2, 9), (s("b.mdg"), 2, 9), (s("b.mdg"), 2, 21)], "{lenses}");
     // Extension sections: the guided search and the creature evolution.
     let lenses = c.call("textDocument/codeLens", json!({"textDocument": text_doc(&us)}));
+    let lenses = resolve_lenses(&mut c, &lenses);
     let rows = lens_rows(&lenses);
     assert_eq!(rows[0], (s("Run search"), s("mdg.runSearch"), 0), "{lenses}");
     assert!(rows.contains(&(s("Evolve"), s("mdg.evolve"), 7)), "{lenses}");

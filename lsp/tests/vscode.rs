@@ -37,9 +37,13 @@ const CHECKS: &[&str] = &[
     "preview shows errors",
     "preview animation",
     "preview of a std example",
+    "preview keystroke to frame",
+    "preview variations",
+    "preview runaway grammar",
     "preview guides and bones",
     "preview sliders",
     "preview click names the rule",
+    "preview cursor highlights the rule",
 ];
 
 const PARTS: &str =

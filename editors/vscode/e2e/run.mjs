@@ -475,6 +475,86 @@ try {
     return text;
   });
 
+  // Keystroke → new frame drawn, in the std example's preview: each key in a comment
+  // at the end of tree.mdg is a new text, so a new model (evaluated by the language
+  // server) and a new frame; the webview stamps the frame (data-drawn-at, Date.now()
+  // in the same browser as the key). The next key waits for the frame.
+  const attr = async (frame, name) => frame.locator('#status').getAttribute(name, { timeout: 1000 });
+  await check('preview keystroke to frame', async () => {
+    const frame = await previewOf('tree.mdg');
+    await page.locator('.editor-instance .monaco-editor .view-lines:visible').first().click();
+    await page.keyboard.press(`${mod}+End`);
+    await page.keyboard.press('Enter');
+    await page.keyboard.type('// ');
+    await sleep(1500);
+    const times = [];
+    for (const ch of 'variations!!') {
+      const drawn = Number((await attr(frame, 'data-drawn')) ?? 0);
+      const at0 = await page.evaluate(() => Date.now());
+      await page.keyboard.type(ch);
+      const end = Date.now() + 20000;
+      while (Number((await attr(frame, 'data-drawn')) ?? 0) <= drawn) {
+        if (Date.now() > end) throw new Error(`no new frame after typing ${JSON.stringify(ch)}`);
+        await sleep(10);
+      }
+      times.push(Number(await attr(frame, 'data-drawn-at')) - at0);
+      await sleep(150);
+    }
+    const sorted = [...times].sort((a, b) => a - b);
+    const pick = (q) => sorted[Math.min(sorted.length - 1, Math.ceil(q * sorted.length) - 1)];
+    return `keystroke → frame over ${times.length} keys: median ${pick(0.5)} ms, p95 ${pick(0.95)} ms (each: ${times.join(', ')} ms); ${await frame.locator('#status').innerText()}`;
+  });
+
+  // Variations: the next seed (the ▶ button), the previous (the P key in the panel),
+  // then Keep writes `randseed N` into the file.
+  await check('preview variations', async () => {
+    const frame = await previewOf('tree.mdg');
+    const seed0 = await attr(frame, 'data-seed');
+    if (seed0 === null) throw new Error('no seed shown');
+    const next = String(BigInt(seed0) + 1n);
+    await frame.locator('#next').click();
+    await until(`seed ${next}`, async () => (await attr(frame, 'data-seed')) === next, 20000);
+    const t1 = await attr(frame, 'data-triangles');
+    await frame.locator('#status').click();
+    await page.keyboard.press('KeyP');
+    await until(`seed ${seed0} again`, async () => (await attr(frame, 'data-seed')) === seed0, 20000);
+    await frame.locator('#next').click();
+    await until(`seed ${next} again`, async () => (await attr(frame, 'data-seed')) === next, 20000);
+    await sleep(500);
+    await shot('preview-variation');
+    await frame.locator('#keep').click();
+    await until(`randseed ${next} in the file`, async () => (await editorText()).includes(`randseed ${next}`), 10000);
+    return `seed ${seed0} → ${next} (${t1} triangles) → ${seed0} → ${next}, kept: randseed ${next} in tree.mdg`;
+  });
+
+  // A runaway grammar is cut by the preview's budgets with a warning naming the
+  // setting, and the next edit previews again.
+  await check('preview runaway grammar', async () => {
+    const frame = await previewOf('tree.mdg');
+    await page.locator('.editor-instance .monaco-editor .view-lines:visible').first().click();
+    await page.keyboard.press(`${mod}+KeyA`);
+    await page.keyboard.press('Delete');
+    // (The editor closes each brace as it is typed; `{y }` does not compile, so
+    // the grammar runs away from the last key, the 1.)
+    await page.keyboard.type('startshape a\nrule tri { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\nrule a { tri {} a {x 1} a {y ');
+    await sleep(500);
+    const typed = Date.now();
+    await page.keyboard.type('1');
+    const warn = frame.locator('#warn');
+    await warn.waitFor({ state: 'visible', timeout: 20000 });
+    const shownAfter = Date.now() - typed;
+    const text = await warn.innerText();
+    if (!/mdg\.preview\.(timeBudget|maxVertices)/.test(text)) throw new Error(`warning: ${text}`);
+    await sleep(500);
+    await shot('preview-runaway');
+    // The recursion removed: one triangle, no warning.
+    await page.keyboard.press(`${mod}+End`);
+    await page.keyboard.press(`Shift+Home`);
+    await page.keyboard.type('rule a { tri {} }');
+    await until('the mended model', async () => (await attr(frame, 'data-triangles')) === '1' && !(await warn.isVisible()), 20000);
+    return `warning shown ${shownAfter} ms after the last key: ${JSON.stringify(text.split('\n')[0].slice(0, 160))}; then 1 triangle`;
+  });
+
   // A guided grammar: the search's guides and bones drawn over the model, toggled
   // by the button (and G); the status counts them.
   await check('preview guides and bones', async () => {
@@ -553,6 +633,31 @@ try {
     const text = (await page.locator('.editor-group-container.active .monaco-editor .view-lines').first().innerText()).replace(/\u00a0/g, ' ');
     if (!text.includes(`rule ${rule.split('.').pop()}`)) throw new Error(`rule ${rule} not shown in ${file}`);
     return `${label}; the editor shows ${path.basename(file)} at ${cursor}`;
+  });
+
+  // Cursor → geometry: the cursor on a rule's name lights up the triangles that rule
+  // drew (all four petals of the pinwheel); on a line outside every rule, none.
+  await check('preview cursor highlights the rule', async () => {
+    await openFile('pinwheel.mdg');
+    const frame = await previewOf('pinwheel.mdg');
+    const lit = async () => Number((await frame.locator('#status').getAttribute('data-highlighted', { timeout: 1000 })) ?? -1);
+    const total = Number(await frame.locator('#status').getAttribute('data-triangles'));
+    // (In the active group: earlier checks left other editors open beside it.)
+    const clickHere = async (word) => {
+      const span = page.locator('.editor-group-container.active .monaco-editor .view-lines span span', { hasText: new RegExp(`^${word}$`) }).first();
+      await span.waitFor({ state: 'visible' });
+      const box = await span.boundingBox();
+      await page.mouse.click(box.x + Math.min(box.width / 2, 6), box.y + box.height / 2);
+    };
+    await clickHere('petal');
+    const n = await until('the petals lit', async () => ((await lit()) > 0 ? await lit() : undefined), 15000);
+    if (n !== total) throw new Error(`${n} of ${total} triangles lit for rule petal`);
+    const label = await frame.locator('#hl').innerText();
+    await sleep(500);
+    await shot('preview-highlight');
+    await clickHere('startshape');
+    await until('the light off', async () => (await lit()) === 0, 15000);
+    return `${label} (of ${total}); off on the startshape line`;
   });
 
 } finally {

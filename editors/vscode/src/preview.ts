@@ -29,6 +29,8 @@ interface PreviewAnswer {
   params: ParamDecl[] | null;
   stats: { compileMs: number; evalMs: number; exportMs: number; bytes: number; ruleCalls: number; vertices: number; triangles: number };
 }
+/** The cursor's rule is looked up this long after it stops moving. */
+const HIGHLIGHT_DEBOUNCE_MS = 80;
 /** A slider re-evaluates this long after it stops moving. */
 const SLIDER_DEBOUNCE_MS = 250;
 
@@ -49,6 +51,7 @@ export class PreviewPanel {
   private static panels = new Map<string, PreviewPanel>();
   private readonly disposables: vscode.Disposable[] = [];
   private timer: NodeJS.Timeout | undefined;
+  private highlightTimer: NodeJS.Timeout | undefined;
   private running = false;
   private again = false;
   /** Bumped by every evaluation asked of the server: an older answer is dropped. */
@@ -136,6 +139,13 @@ export class PreviewPanel {
           this.timer = setTimeout(() => this.evaluate(), adaptiveDebounce(this.lastMs));
         }
       }),
+      // Cursor → geometry: the rule under the cursor lights up in the preview.
+      vscode.window.onDidChangeTextEditorSelection((e) => {
+        if (e.textEditor.document === this.doc) {
+          clearTimeout(this.highlightTimer);
+          this.highlightTimer = setTimeout(() => void this.highlightAt(e.textEditor.selection.active), HIGHLIGHT_DEBOUNCE_MS);
+        }
+      }),
       vscode.workspace.onDidCloseTextDocument((d) => {
         if (d === this.doc) {
           this.panel.dispose();
@@ -163,8 +173,43 @@ export class PreviewPanel {
     editor.revealRange(editor.selection, vscode.TextEditorRevealType.InCenterIfOutsideViewport);
   }
 
+  /**
+   * What the cursor at `pos` names, for the preview to light up: on a rule's name
+   * (a call or a definition), the triangles that rule's own ops drew wherever it is
+   * defined; elsewhere inside a rule definition, those its ops on those lines drew.
+   */
+  private async highlightAt(pos: vscode.Position): Promise<void> {
+    const word = this.doc.getWordRangeAtPosition(pos, /[A-Za-z_][A-Za-z0-9_.]*/);
+    const name = word ? this.doc.getText(word) : '';
+    let range: vscode.Range | undefined;
+    try {
+      const symbols = (await vscode.commands.executeCommand<vscode.DocumentSymbol[]>('vscode.executeDocumentSymbolProvider', this.doc.uri)) ?? [];
+      const within: vscode.DocumentSymbol[] = [];
+      const walk = (list: vscode.DocumentSymbol[]) => {
+        for (const sym of list) {
+          if (sym.range.contains(pos)) within.push(sym);
+          walk(sym.children ?? []);
+        }
+      };
+      walk(symbols);
+      // The innermost: one definition of a rule, not the group of its definitions.
+      within.sort((a, b) => a.range.end.line - a.range.start.line - (b.range.end.line - b.range.start.line));
+      range = within[0]?.range;
+    } catch {
+      range = undefined;
+    }
+    void this.panel.webview.postMessage({
+      type: 'highlight',
+      rule: name,
+      file: path.basename(this.doc.uri.fsPath),
+      from: range ? range.start.line + 1 : 0,
+      to: range ? range.end.line + 1 : -1,
+    });
+  }
+
   private dispose(): void {
     clearTimeout(this.timer);
+    clearTimeout(this.highlightTimer);
     PreviewPanel.panels.delete(this.doc.uri.toString());
     for (const d of this.disposables.splice(0)) {
       d.dispose();
@@ -208,8 +253,14 @@ export class PreviewPanel {
     // The grammar's own seed is now this one.
     this.seed = undefined;
     const command = `mdg-run ${path.basename(this.doc.uri.fsPath)} --seed ${seed}`;
-    await vscode.env.clipboard.writeText(command);
-    void vscode.window.showInformationMessage(`MDG: kept seed ${seed}: \`randseed ${seed}\` is in the file (line ${edit.line + 1}); \`${command}\` is on the clipboard.`);
+    let copied = true;
+    try {
+      await vscode.env.clipboard.writeText(command);
+    } catch {
+      copied = false;
+    }
+    const where = copied ? 'is on the clipboard' : 'makes the same model (the clipboard could not be written)';
+    void vscode.window.showInformationMessage(`MDG: kept seed ${seed}: \`randseed ${seed}\` is in the file (line ${edit.line + 1}); \`${command}\` ${where}.`);
   }
 
   /** `mdg/preview`: the server evaluates the text it holds; the newest request wins
@@ -353,6 +404,7 @@ export class PreviewPanel {
   #view { width: 100%; height: 100%; display: block; }
   #bar { position: absolute; left: 0; right: 0; bottom: 0; padding: 4px 8px; background: rgba(0,0,0,0.45); display: flex; gap: 8px; align-items: center; }
   #status { flex: 1; }
+  #hl { color: #ffa020; }
   #site { color: #ffd27a; font: 12px var(--vscode-editor-font-family, monospace); }
   #params { position: absolute; right: 8px; top: 8px; padding: 6px 8px; background: rgba(0,0,0,0.45); display: grid; grid-template-columns: auto 10em 3.5em; gap: 2px 6px; align-items: center; }
   #params output { text-align: right; font-variant-numeric: tabular-nums; }
@@ -371,7 +423,7 @@ export class PreviewPanel {
 <div id="params" hidden></div>
 <pre id="error" hidden></pre>
 <pre id="warn" hidden></pre>
-<div id="bar"><span id="status">evaluating…</span><span id="seedbox" hidden title="The seed of this variation: type one, or [ and ] (or P and N) for the previous and next"><button id="prev" title="Previous variation ([ or P)">◀</button><label for="seed">seed</label><input id="seed" inputmode="numeric" spellcheck="false"><button id="next" title="Next variation (] or N)">▶</button><button id="keep" title="Keep this variation: write randseed into the file (K)">Keep</button></span><span id="site" hidden></span><button id="guides" hidden aria-pressed="true" title="Show or hide the guides and bones (G)">Hide guides</button><button id="play" hidden>Pause</button><span id="time" hidden></span></div>
+<div id="bar"><span id="status">evaluating…</span><span id="seedbox" hidden title="The seed of this variation: type one, or [ and ] (or P and N) for the previous and next"><button id="prev" title="Previous variation ([ or P)">◀</button><label for="seed">seed</label><input id="seed" inputmode="numeric" spellcheck="false"><button id="next" title="Next variation (] or N)">▶</button><button id="keep" title="Keep this variation: write randseed into the file (K)">Keep</button></span><span id="site" hidden></span><span id="hl" hidden></span><button id="guides" hidden aria-pressed="true" title="Show or hide the guides and bones (G)">Hide guides</button><button id="play" hidden>Pause</button><span id="time" hidden></span></div>
 <script nonce="${nonce}" src="${script}"></script>
 </body>
 </html>`;

@@ -7,6 +7,9 @@
 // Messages in:  {type: 'model', glb: Uint8Array, name, warnings, seed?, custom?, editAt?, ms?}
 //               {type: 'error', message}  {type: 'busy'}
 //               {type: 'params', params: [{name, type, value, min, max, range: {min, max, step}}]}
+//               {type: 'highlight', rule, file, from, to}  (the editor's cursor: light up
+//                 the triangles drawn by rule `rule`'s ops, else by the ops on lines
+//                 from..to of `file`)
 // Messages out: {type: 'ready'}  {type: 'shown', triangles, vertices, animations, guides, bones}
 //               {type: 'drawn', at, latency}  (the new model's first frame is drawn)
 //               {type: 'param', name, value}  (a slider moved)
@@ -15,7 +18,8 @@
 //
 // The status keeps, for tests: data-triangles, data-drawn (a count of models
 // drawn), data-drawn-at (Date.now() when the last one was drawn), data-latency
-// (edit → drawn, ms, when an edit asked for it), data-seed.
+// (edit → drawn, ms, when an edit asked for it), data-seed, data-highlighted
+// (the triangles lit by the cursor's rule).
 //
 // A guided grammar's `.glb` has nodes `guides` and `bones` (the search's curves and
 // the skeleton it grew): they are drawn over the model in colours of their own,
@@ -37,6 +41,7 @@ const paramsBox = document.getElementById('params');
 const guidesButton = document.getElementById('guides');
 const siteLabel = document.getElementById('site');
 const warnBox = document.getElementById('warn');
+const hlLabel = document.getElementById('hl');
 const seedBox = document.getElementById('seedbox');
 const seedInput = document.getElementById('seed');
 
@@ -242,6 +247,76 @@ function siteAt(clientX, clientY) {
   return null;
 }
 
+// Cursor → geometry: the triangles whose site (the op that drew them, from
+// `mdg_sites`) matches the editor's cursor, drawn again over the model in amber.
+// Sites are recorded for VERTEX triangles only (not sweeps, isosurfaces or
+// instances; docs/decisions.md).
+const highlightMaterial = new THREE.MeshBasicMaterial({
+  color: 0xffa020,
+  transparent: true,
+  opacity: 0.75,
+  side: THREE.DoubleSide,
+  polygonOffset: true,
+  polygonOffsetFactor: -2,
+  polygonOffsetUnits: -2,
+});
+let highlight = null;
+let highlightMeshes = [];
+function siteMatches(site, h) {
+  if (h.rule && site.rule && (site.rule === h.rule || site.rule.endsWith(`.${h.rule}`))) return 'rule';
+  return site.file === h.file && site.line >= h.from && site.line <= h.to ? 'lines' : null;
+}
+function applyHighlight() {
+  for (const m of highlightMeshes) {
+    m.parent?.remove(m);
+    m.geometry.dispose();
+  }
+  highlightMeshes = [];
+  let count = 0;
+  let byRule = false;
+  if (model && highlight) {
+    const meshes = [];
+    model.traverse((o) => {
+      if (o.isMesh && o.geometry && o.geometry.userData.mdg_sites) meshes.push(o);
+    });
+    // A rule named under the cursor wins over the lines of the definition around it.
+    const anyNamed = meshes.some((o) => o.geometry.userData.mdg_sites.sites.some((s) => siteMatches(s, highlight) === 'rule'));
+    for (const o of meshes) {
+      const sites = o.geometry.userData.mdg_sites;
+      const kinds = sites.sites.map((s) => siteMatches(s, highlight));
+      const hit = kinds.map((k) => (anyNamed ? k === 'rule' : k !== null));
+      const pos = o.geometry.getAttribute('position');
+      const index = o.geometry.index;
+      const triangles = index ? index.count / 3 : pos.count / 3;
+      const out = [];
+      for (let r = 0; r < sites.runs.length; r++) {
+        const [first, site] = sites.runs[r];
+        const end = r + 1 < sites.runs.length ? sites.runs[r + 1][0] : triangles;
+        if (!hit[site]) continue;
+        for (let t = first; t < end; t++) {
+          for (let k = 0; k < 3; k++) {
+            const v = index ? index.getX(3 * t + k) : 3 * t + k;
+            out.push(pos.getX(v), pos.getY(v), pos.getZ(v));
+          }
+        }
+        count += end - first;
+      }
+      if (out.length === 0) continue;
+      const g = new THREE.BufferGeometry();
+      g.setAttribute('position', new THREE.Float32BufferAttribute(out, 3));
+      const mesh = new THREE.Mesh(g, highlightMaterial);
+      mesh.renderOrder = 5;
+      o.add(mesh);
+      highlightMeshes.push(mesh);
+    }
+    byRule = anyNamed;
+  }
+  status.dataset.highlighted = String(count);
+  hlLabel.hidden = count === 0;
+  hlLabel.textContent = count === 0 ? '' : `${byRule ? `rule ${highlight.rule}` : `lines ${highlight.from}–${highlight.to}`}: ${count} triangles lit`;
+  requestRender();
+}
+
 function showError(message) {
   errorBox.textContent = message;
   errorBox.hidden = false;
@@ -315,6 +390,7 @@ function show(gltf, name, m) {
     seedBox.hidden = true;
   }
   pendingDrawn = { editAt: m.editAt };
+  applyHighlight();
   status.dataset.triangles = String(c.triangles);
   status.dataset.bones = String(bones);
   status.dataset.guides = String(guides);
@@ -384,6 +460,9 @@ window.addEventListener('message', (event) => {
     showError(m.message);
   } else if (m.type === 'params') {
     showParams(m.params);
+  } else if (m.type === 'highlight') {
+    highlight = m;
+    applyHighlight();
   } else if (m.type === 'busy') {
     status.textContent = 'evaluating…';
   }
