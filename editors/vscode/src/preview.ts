@@ -56,7 +56,7 @@ export class PreviewPanel {
   private again = false;
   /** Bumped by every evaluation asked of the server: an older answer is dropped. */
   private generation = 0;
-  /** How long the last evaluation took, request to answer (ms): the debounce. */
+  /** How long the server worked on the last evaluation (ms): the debounce. */
   private lastMs: number | undefined;
   /** When the first edit not yet shown was made (ms since the epoch), for the panel's latency. */
   private editAt: number | undefined;
@@ -125,6 +125,8 @@ export class PreviewPanel {
           if (next !== undefined) this.setSeed(next);
         } else if (m?.type === 'keep') {
           void this.keep();
+        } else if (m?.type === 'sheet') {
+          void this.sheet();
         }
       }),
       vscode.workspace.onDidSaveTextDocument((d) => {
@@ -263,6 +265,50 @@ export class PreviewPanel {
     void vscode.window.showInformationMessage(`MDG: kept seed ${seed}: \`randseed ${seed}\` is in the file (line ${edit.line + 1}); \`${command}\` ${where}.`);
   }
 
+  /**
+   * The contact sheet: the nine variations from the seed shown (seed, seed+1, …),
+   * evaluated one after the other by the server and posted together. An edit or a
+   * newer preview while it runs stops it (the server answers `cancelled`).
+   */
+  private async sheet(): Promise<void> {
+    const client = this.client();
+    const base = this.shownSeed;
+    if (!client?.isRunning() || base === undefined) {
+      void this.panel.webview.postMessage({ type: 'error', message: 'the contact sheet needs the language server to evaluate the grammar' });
+      return;
+    }
+    const generation = ++this.generation;
+    void this.panel.webview.postMessage({ type: 'busy', what: 'evaluating 9 variations…' });
+    const settings = vscode.workspace.getConfiguration('mdg.preview');
+    const timeBudget = settings.get<number>('timeBudget', 1);
+    const maxVertices = settings.get<number>('maxVertices', 1000000);
+    const items = [];
+    for (let i = 0; i < 9; i++) {
+      const seed = stepSeed(base, i) ?? base;
+      let r: PreviewAnswer;
+      try {
+        r = await client.sendRequest<PreviewAnswer>('mdg/preview', {
+          uri: this.doc.uri.toString(),
+          seed,
+          params: this.values,
+          timeBudgetMs: Number.isFinite(timeBudget) && timeBudget > 0 ? Math.round(timeBudget * 1000) : undefined,
+          maxVertices: Number.isFinite(maxVertices) && maxVertices > 0 ? Math.round(maxVertices) : undefined,
+        });
+      } catch (e) {
+        if (generation === this.generation) void this.panel.webview.postMessage({ type: 'error', message: `the contact sheet failed: ${e}` });
+        return;
+      }
+      if (generation !== this.generation || r.status === 'cancelled') return;
+      if (r.status !== 'model') {
+        void this.panel.webview.postMessage({ type: 'error', message: r.status === 'mode' ? `the contact sheet is for plain grammars (this one has a ${r.message} section)` : r.message });
+        return;
+      }
+      const bytes = Buffer.from(r.glb, 'base64');
+      items.push({ seed: r.seed, glb: new Uint8Array(bytes.buffer, bytes.byteOffset, bytes.byteLength), warnings: r.warnings.length });
+    }
+    void this.panel.webview.postMessage({ type: 'sheet', items, name: path.basename(this.doc.uri.fsPath) });
+  }
+
   /** `mdg/preview`: the server evaluates the text it holds; the newest request wins
    * (the server stops an older run, and an older answer is dropped here). */
   private async evaluateInServer(client: LanguageClient): Promise<void> {
@@ -290,7 +336,11 @@ export class PreviewPanel {
       return;
     }
     if (generation !== this.generation || r.status === 'cancelled') return;
-    this.lastMs = Date.now() - started;
+    const total = Date.now() - started;
+    // The debounce follows the server's work (compile, evaluation, export), not the
+    // transfer: a newer edit cancels the work, while a transfer under way is wasted
+    // however long the wait was.
+    this.lastMs = (r.stats?.compileMs ?? 0) + (r.stats?.evalMs ?? 0) + (r.stats?.exportMs ?? 0);
     if (r.params) {
       this.declared = r.params;
       const params = this.declared.map((d) => ({ ...d, range: sliderRange(d) }));
@@ -315,7 +365,7 @@ export class PreviewPanel {
       seed: r.seed,
       custom: this.seed !== undefined,
       editAt,
-      ms: { total: this.lastMs, compile: r.stats.compileMs, eval: r.stats.evalMs, export: r.stats.exportMs, bytes: r.stats.bytes },
+      ms: { total, compile: r.stats.compileMs, eval: r.stats.evalMs, export: r.stats.exportMs, bytes: r.stats.bytes },
     });
   }
 
@@ -412,6 +462,10 @@ export class PreviewPanel {
            background: rgba(90,20,20,0.92); color: #fdd; border: 1px solid #c55; font: 12px var(--vscode-editor-font-family, monospace); }
   #warn { position: absolute; left: 8px; right: 8px; bottom: 34px; margin: 0; padding: 6px 8px; max-height: 30%; overflow: auto; white-space: pre-wrap;
           background: rgba(90,70,10,0.92); color: #fec; border: 1px solid #c92; font: 12px var(--vscode-editor-font-family, monospace); }
+  #sheet { position: absolute; left: 0; top: 0; right: 0; bottom: 30px; display: grid; grid-template-columns: repeat(3, 1fr); grid-template-rows: repeat(3, 1fr); }
+  #sheet div { border: 1px solid rgba(255,255,255,0.15); cursor: pointer; display: flex; align-items: flex-end; justify-content: center; }
+  #sheet div:hover { border-color: #ffa020; }
+  #sheet span { background: rgba(0,0,0,0.5); padding: 1px 6px; margin-bottom: 4px; font-variant-numeric: tabular-nums; }
   #seedbox { display: flex; gap: 2px; align-items: center; }
   #seed { width: 8em; font: inherit; }
   button { font: inherit; }
@@ -423,7 +477,8 @@ export class PreviewPanel {
 <div id="params" hidden></div>
 <pre id="error" hidden></pre>
 <pre id="warn" hidden></pre>
-<div id="bar"><span id="status">evaluating…</span><span id="seedbox" hidden title="The seed of this variation: type one, or [ and ] (or P and N) for the previous and next"><button id="prev" title="Previous variation ([ or P)">◀</button><label for="seed">seed</label><input id="seed" inputmode="numeric" spellcheck="false"><button id="next" title="Next variation (] or N)">▶</button><button id="keep" title="Keep this variation: write randseed into the file (K)">Keep</button></span><span id="site" hidden></span><span id="hl" hidden></span><button id="guides" hidden aria-pressed="true" title="Show or hide the guides and bones (G)">Hide guides</button><button id="play" hidden>Pause</button><span id="time" hidden></span></div>
+<div id="sheet" hidden></div>
+<div id="bar"><span id="status">evaluating…</span><span id="seedbox" hidden title="The seed of this variation: type one, or [ and ] (or P and N) for the previous and next"><button id="prev" title="Previous variation ([ or P)">◀</button><label for="seed">seed</label><input id="seed" inputmode="numeric" spellcheck="false"><button id="next" title="Next variation (] or N)">▶</button><button id="keep" title="Keep this variation: write randseed into the file (K)">Keep</button><button id="sheetbutton" title="A contact sheet of 9 variations from this seed (S); click one to choose it">3×3</button></span><span id="site" hidden></span><span id="hl" hidden></span><button id="guides" hidden aria-pressed="true" title="Show or hide the guides and bones (G)">Hide guides</button><button id="play" hidden>Pause</button><span id="time" hidden></span></div>
 <script nonce="${nonce}" src="${script}"></script>
 </body>
 </html>`;

@@ -13,7 +13,8 @@
 // Messages out: {type: 'ready'}  {type: 'shown', triangles, vertices, animations, guides, bones}
 //               {type: 'drawn', at, latency}  (the new model's first frame is drawn)
 //               {type: 'param', name, value}  (a slider moved)
-//               {type: 'seed', seed}  {type: 'variation', delta}  {type: 'keep'}
+//               {type: 'seed', seed}  {type: 'variation', delta}  {type: 'keep'}  {type: 'sheet'}
+// Messages in (the contact sheet): {type: 'sheet', name, items: [{seed, glb: Uint8Array, warnings}]}
 //               {type: 'site', rule, file, line}  (a click on the model: the rule that drew it)
 //
 // The status keeps, for tests: data-triangles, data-drawn (a count of models
@@ -42,6 +43,7 @@ const guidesButton = document.getElementById('guides');
 const siteLabel = document.getElementById('site');
 const warnBox = document.getElementById('warn');
 const hlLabel = document.getElementById('hl');
+const sheetBox = document.getElementById('sheet');
 const seedBox = document.getElementById('seedbox');
 const seedInput = document.getElementById('seed');
 
@@ -189,8 +191,119 @@ window.addEventListener('keydown', (e) => {
     vscode.postMessage({ type: 'variation', delta: -1 });
   } else if (!seedBox.hidden && (e.key === 'k' || e.key === 'K')) {
     vscode.postMessage({ type: 'keep' });
+  } else if (!seedBox.hidden && (e.key === 's' || e.key === 'S')) {
+    vscode.postMessage({ type: 'sheet' });
+  } else if (e.key === 'Escape' && sheet) {
+    closeSheet();
   }
 });
+document.getElementById('sheetbutton').addEventListener('click', () => vscode.postMessage({ type: 'sheet' }));
+
+// The contact sheet: nine variations side by side (one viewport each, framed on
+// its own model, seen from the main camera's direction); a click on one chooses
+// its seed, Esc goes back.
+let sheet = null;
+const sheetScene = new THREE.Scene();
+sheetScene.background = scene.background;
+sheetScene.add(new THREE.HemisphereLight(0xffffff, 0x404050, 2.2));
+const sheetSun = new THREE.DirectionalLight(0xffffff, 2.0);
+sheetSun.position.set(3, 6, 4);
+sheetScene.add(sheetSun);
+const sheetCamera = new THREE.PerspectiveCamera(45, 1, 0.01, 1000);
+function closeSheet() {
+  if (!sheet) return;
+  for (const item of sheet) {
+    item.model?.traverse((o) => {
+      if (o.geometry) o.geometry.dispose();
+      if (o.material) [].concat(o.material).forEach((m) => m.dispose());
+    });
+  }
+  sheet = null;
+  sheetBox.hidden = true;
+  sheetBox.replaceChildren();
+  delete status.dataset.sheet;
+  requestRender();
+}
+function showSheet(m) {
+  closeSheet();
+  const items = m.items.map((it) => ({ seed: it.seed, warnings: it.warnings, model: null }));
+  let left = items.length;
+  m.items.forEach((it, i) => {
+    const g = it.glb;
+    const bytes = g.byteOffset === 0 && g.byteLength === g.buffer.byteLength ? g : g.slice();
+    loader.parse(
+      bytes.buffer,
+      '',
+      (gltf) => {
+        gltf.scene.traverse((o) => {
+          if (o.isMesh && o.material) for (const mat of [].concat(o.material)) mat.side = THREE.DoubleSide;
+        });
+        items[i].model = gltf.scene;
+        items[i].sphere = boundsOf(gltf.scene);
+        if (--left === 0) ready();
+      },
+      () => {
+        if (--left === 0) ready();
+      },
+    );
+  });
+  function ready() {
+    sheet = items;
+    sheetBox.replaceChildren(
+      ...items.map((it) => {
+        const cell = document.createElement('div');
+        cell.dataset.seed = it.seed;
+        cell.title = `seed ${it.seed}: click to choose it`;
+        const label = document.createElement('span');
+        label.textContent = `seed ${it.seed}${it.warnings ? ' ⚠' : ''}`;
+        cell.append(label);
+        cell.addEventListener('click', () => {
+          vscode.postMessage({ type: 'seed', seed: it.seed });
+          closeSheet();
+        });
+        return cell;
+      }),
+    );
+    sheetBox.hidden = false;
+    status.textContent = `${m.name}: 9 variations from seed ${items[0].seed} (click one to choose it, Esc to go back)`;
+    status.dataset.sheet = String(items.filter((it) => it.model).length);
+    requestRender();
+  }
+}
+function renderSheet() {
+  const area = canvas.getBoundingClientRect();
+  const dir = camera.position.clone().sub(controls.target).normalize();
+  renderer.setScissorTest(true);
+  const cells = sheetBox.children;
+  sheet.forEach((item, i) => {
+    const cell = cells[i];
+    if (!cell) return;
+    const r = cell.getBoundingClientRect();
+    const x = r.left - area.left;
+    const y = area.bottom - r.bottom;
+    renderer.setViewport(x, y, r.width, r.height);
+    renderer.setScissor(x, y, r.width, r.height);
+    if (!item.model || !item.sphere) {
+      renderer.setClearColor(0x1e2228);
+      renderer.clear();
+      return;
+    }
+    sheetCamera.aspect = r.width / Math.max(r.height, 1);
+    const halfFov = THREE.MathUtils.degToRad(sheetCamera.fov / 2);
+    const fit = Math.min(halfFov, Math.atan(Math.tan(halfFov) * sheetCamera.aspect));
+    const dist = item.sphere.radius / Math.sin(fit) * 1.05 + 0.01;
+    sheetCamera.position.copy(item.sphere.center).addScaledVector(dir, dist);
+    sheetCamera.near = Math.max(item.sphere.radius / 500, 1e-4);
+    sheetCamera.far = dist + item.sphere.radius * 4 + 10;
+    sheetCamera.lookAt(item.sphere.center);
+    sheetCamera.updateProjectionMatrix();
+    sheetScene.add(item.model);
+    renderer.render(sheetScene, sheetCamera);
+    sheetScene.remove(item.model);
+  });
+  renderer.setScissorTest(false);
+  renderer.setViewport(0, 0, canvas.clientWidth, canvas.clientHeight);
+}
 document.getElementById('next').addEventListener('click', () => vscode.postMessage({ type: 'variation', delta: 1 }));
 document.getElementById('prev').addEventListener('click', () => vscode.postMessage({ type: 'variation', delta: -1 }));
 document.getElementById('keep').addEventListener('click', () => vscode.postMessage({ type: 'keep' }));
@@ -334,6 +447,7 @@ function showWarnings(warnings) {
 }
 
 function show(gltf, name, m) {
+  closeSheet();
   if (model) {
     scene.remove(model);
     model.traverse((o) => {
@@ -460,11 +574,13 @@ window.addEventListener('message', (event) => {
     showError(m.message);
   } else if (m.type === 'params') {
     showParams(m.params);
+  } else if (m.type === 'sheet') {
+    showSheet(m);
   } else if (m.type === 'highlight') {
     highlight = m;
     applyHighlight();
   } else if (m.type === 'busy') {
-    status.textContent = 'evaluating…';
+    status.textContent = m.what || 'evaluating…';
   }
 });
 
@@ -488,7 +604,8 @@ function tick() {
   }
   // With damping the camera keeps moving a little after the mouse stops.
   again = controls.update() || again;
-  renderer.render(scene, camera);
+  if (sheet) renderSheet();
+  else renderer.render(scene, camera);
   if (pendingDrawn) {
     // The new model's first frame: say when (the editor measures edit → frame).
     const at = Date.now();
