@@ -78,7 +78,11 @@ fn previews(dir: &std::path::Path) {
         );
     }
     let all = trips.len();
-    println!("mdg/preview round trip over {all} std examples: median {:.1} ms, max {:.1} ms", median(&mut trips), trips.last().copied().unwrap_or(0.0));
+    println!(
+        "mdg/preview round trip over {all} std examples: median {:.1} ms, max {:.1} ms",
+        median(&mut trips),
+        trips.last().copied().unwrap_or(0.0)
+    );
     assert!(c.shutdown_and_exit().success());
 }
 
@@ -87,7 +91,11 @@ fn runaway(dir: &std::path::Path) {
     let u = uri(&dir.join("runaway.mdg"));
     let mut c = Client::spawn();
     c.initialize(dir);
-    c.open(&u, 1, "startshape a\nrule a { tri {} a {x 1} a {y 1} }\nrule tri { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n");
+    c.open(
+        &u,
+        1,
+        "startshape a\nrule a { tri {} a {x 1} a {y 1} }\nrule tri { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n",
+    );
     let t0 = Instant::now();
     let r = c.call("mdg/preview", json!({"uri": u}));
     println!(
@@ -120,7 +128,8 @@ fn lenses(dir: &std::path::Path) {
         let lenses = c.call("textDocument/codeLens", json!({"textDocument": {"uri": u}}));
         requests.push(ms(t0.elapsed()));
         bytes = lenses.to_string().len();
-        let screen: Vec<Value> = lenses.as_array().into_iter().flatten().filter(|l| l["command"].is_null()).take(40).cloned().collect();
+        let screen: Vec<Value> =
+            lenses.as_array().into_iter().flatten().filter(|l| l["command"].is_null()).take(40).cloned().collect();
         let t0 = Instant::now();
         for l in screen {
             c.call("codeLens/resolve", l);

@@ -253,7 +253,7 @@ pub fn run(
         r.status = Status::Cancelled;
         return r;
     }
-    r.warnings.extend(out.stats.warnings.iter().map(|w| preview_warning(w)));
+    r.warnings.extend(out.stats.warnings.iter().map(String::as_str).map(preview_warning));
     r.stats.rule_calls = out.stats.rule_calls;
     r.stats.vertices = out.stats.vertices;
     r.stats.triangles = out.stats.triangles;

@@ -580,6 +580,16 @@ fn code_lenses_and_call_hierarchy_across_the_workspace() {
     assert_eq!(args[0], ul.as_str());
     assert_eq!(args[1], json!({"line": 0, "character": 5}));
     assert_eq!(places(&args[2]), [(s("a.mdg"), 2, 9), (s("b.mdg"), 2, 9), (s("b.mdg"), 2, 21)], "{lenses}");
+    // A lens resolved after an edit counts the rule defined at its place now (the
+    // client resolves lenses it already had): made over `shapf` (no calls), resolved
+    // once the library says `shape` again.
+    c.change(&ul, 2, &WS_LIB.replace("shape", "shapf"));
+    c.diagnostics(&ul, 2);
+    let stale = c.call("textDocument/codeLens", json!({"textDocument": text_doc(&ul)}))[0].clone();
+    c.change(&ul, 3, WS_LIB);
+    c.diagnostics(&ul, 3);
+    let resolved = c.call("codeLens/resolve", stale);
+    assert_eq!(resolved["command"]["title"], "3 references", "{resolved}");
     // Extension sections: the guided search and the creature evolution.
     let lenses = c.call("textDocument/codeLens", json!({"textDocument": text_doc(&us)}));
     let lenses = resolve_lenses(&mut c, &lenses);

@@ -440,8 +440,17 @@ try {
     await page.keyboard.type(' nope {}');
     const box = preview().locator('#error');
     await box.waitFor({ state: 'visible', timeout: 20000 });
-    const text = await box.innerText();
-    if (!text.includes('E0301') || !text.includes('nope')) throw new Error(`error box: ${text}`);
+    // The preview follows the typing: the text in between (` nope` before its
+    // braces) may show its own error first.
+    let text = '';
+    try {
+      text = await until('the unknown rule error', async () => {
+        const t = await box.innerText();
+        return t.includes('E0301') && t.includes('nope') ? t : undefined;
+      }, 20000);
+    } catch {
+      throw new Error(`error box: ${await box.innerText()}`);
+    }
     return JSON.stringify(text.split('\n')[0]);
   });
 

@@ -262,7 +262,8 @@ export class PreviewPanel {
       copied = false;
     }
     const where = copied ? 'is on the clipboard' : 'makes the same model (the clipboard could not be written)';
-    void vscode.window.showInformationMessage(`MDG: kept seed ${seed}: \`randseed ${seed}\` is in the file (line ${edit.line + 1}); \`${command}\` ${where}.`);
+    // In the status bar, not a notification: a toast would cover the panel's bar.
+    vscode.window.setStatusBarMessage(`MDG: kept seed ${seed}: randseed ${seed} is in the file (line ${edit.line + 1}); \`${command}\` ${where}`, 15000);
   }
 
   /**

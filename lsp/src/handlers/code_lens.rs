@@ -82,6 +82,15 @@ pub async fn resolve(b: &Backend, mut lens: CodeLens) -> Result<CodeLens> {
         lens.command = Some(references_command(&uri, lens.range.start, Vec::new()));
         return Ok(lens);
     };
+    // The rule defined at the lens's place now: the text may have changed since the
+    // lens was made (a rename), and the client resolves lenses it already had.
+    let targets = b.run("code lens", || doc.lens_targets()).await?;
+    let li = LineIndex::new(doc.text());
+    let here = targets.into_iter().find_map(|t| match t.kind {
+        LensKind::Rule(name) if li.position(t.span.start) == lens.range.start => Some(name),
+        _ => None,
+    });
+    let rule = here.unwrap_or(rule);
     let views = all_views(b).await;
     let locations = b.run("code lens", || references(b, &views, &doc, &Symbol::Rule(rule))).await?;
     lens.command = Some(references_command(&uri, lens.range.start, locations));
