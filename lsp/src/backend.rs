@@ -85,6 +85,8 @@ pub struct Backend {
     pub shutdown_requested: Arc<AtomicBool>,
     /// Sizes of documents whose text the input filter did not pass on.
     pub oversize: Arc<crate::transport::Oversize>,
+    /// Each document's preview generation (`mdg/preview`, newest wins).
+    pub previews: Arc<crate::preview::Previews>,
 }
 
 impl Backend {
@@ -102,6 +104,7 @@ impl Backend {
             config: Arc::new(config),
             shutdown_requested,
             oversize,
+            previews: Arc::new(crate::preview::Previews::default()),
         }
     }
 
@@ -200,12 +203,24 @@ impl Backend {
 /// `shaders::COMPILE_DEADLINE`.
 static WARM_GLSL: Mutex<Option<std::thread::JoinHandle<()>>> = Mutex::new(None);
 
-/// Compiles a trivial shader on a thread of its own, which initialises glslang.
-pub fn warm_glsl() {
-    let spawned = std::thread::Builder::new().name("mdg-lsp glslang warm-up".into()).spawn(|| {
+/// On a thread of its own, started with the process (before the client opens a
+/// file): compiles a trivial shader, which initialises glslang, then checks the std
+/// library's `shaders` (through the SPIR-V caches), so the first file importing it
+/// finds them compiled.
+pub fn warm_glsl(options: Options) {
+    let spawned = std::thread::Builder::new().name("mdg-lsp glslang warm-up".into()).spawn(move || {
         let _ = guard(|| {
             mdg_compiler::shaders::compile_glsl("#version 450\nvoid main() { gl_Position = vec4(0.0); }\n", true)
         });
+        if options.std_dir.as_ref().is_some_and(|d| d.join("shaders.mdg").is_file()) {
+            let path = std::path::PathBuf::from("mdg-lsp-warm-up.mdg");
+            let loader = mdg_compiler::source::MemLoader {
+                files: [(path.clone(), "@import shaders\n".to_string())].into(),
+                disk_fallback: true,
+            };
+            let check = mdg_compiler::check::CheckOptions { require_start: false };
+            let _ = guard(|| mdg_compiler::driver::analyze(&loader, &path, &options, check));
+        }
     });
     if let (Ok(handle), Ok(mut slot)) = (spawned, WARM_GLSL.lock()) {
         *slot = Some(handle);

@@ -10,6 +10,7 @@ mod guard;
 mod handlers;
 mod loader;
 mod position;
+mod preview;
 mod server;
 mod transport;
 mod workspace;
@@ -61,11 +62,17 @@ fn main() -> ExitCode {
     let shutdown = Arc::new(AtomicBool::new(false));
     let flag = shutdown.clone();
     let config = Config::from_env();
+    // glslang's first compilation pays for its initialisation (0.6–0.8 s), and std's
+    // `shaders` library for its own: both now, off the message loop, before the
+    // client has even initialised, so the first file's shaders do not wait.
+    backend::warm_glsl(config.options.clone());
     // Documents too large to analyse are not parsed on the message loop (see `transport`).
     let oversize = Arc::new(transport::Oversize::new(config.max_live_bytes));
     let input = transport::filter(std::io::stdin(), oversize.clone());
     runtime.block_on(async move {
-        let (service, socket) = LspService::new(move |client| Backend::new(client, config, flag, oversize));
+        let (service, socket) = LspService::build(move |client| Backend::new(client, config, flag, oversize))
+            .custom_method("mdg/preview", Backend::preview)
+            .finish();
         Server::new(input, tokio::io::stdout(), socket).serve(service).await;
     });
     // The stdin reader is a blocking thread that would keep the runtime (and the

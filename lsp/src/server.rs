@@ -1,12 +1,19 @@
 //! The `LanguageServer` implementation, which only routes each request to its
 //! handler in [`crate::handlers`].
 
-use crate::backend::{warm_glsl, Backend};
+use crate::backend::Backend;
 use crate::handlers;
 use std::sync::atomic::Ordering;
 use tower_lsp_server::jsonrpc::Result;
 use tower_lsp_server::ls_types::*;
 use tower_lsp_server::LanguageServer;
+
+impl Backend {
+    /// `mdg/preview`: the model of an open document (see [`crate::preview`]).
+    pub async fn preview(&self, params: crate::preview::PreviewParams) -> Result<crate::preview::PreviewResult> {
+        crate::preview::preview(self, params).await
+    }
+}
 
 impl LanguageServer for Backend {
     async fn initialize(&self, params: InitializeParams) -> Result<InitializeResult> {
@@ -26,9 +33,6 @@ impl LanguageServer for Backend {
             .log_message(MessageType::INFO, format!("mdg-lsp {} ready (std: {std})", env!("CARGO_PKG_VERSION")))
             .await;
         handlers::workspace::start(self);
-        // glslang's first compilation pays for its initialisation (0.6–0.8 s): done
-        // now, off the message loop, so the first shader block checked does not wait.
-        warm_glsl();
     }
 
     async fn shutdown(&self) -> Result<()> {
@@ -133,6 +137,10 @@ impl LanguageServer for Backend {
 
     async fn code_lens(&self, params: CodeLensParams) -> Result<Option<Vec<CodeLens>>> {
         handlers::code_lens::code_lens(self, params).await
+    }
+
+    async fn code_lens_resolve(&self, params: CodeLens) -> Result<CodeLens> {
+        handlers::code_lens::resolve(self, params).await
     }
 
     async fn prepare_call_hierarchy(

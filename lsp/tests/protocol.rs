@@ -528,6 +528,15 @@ fn lens_rows(lenses: &Value) -> Vec<(String, String, u64)> {
         .collect()
 }
 
+/// The lenses with every unresolved one resolved (`codeLens/resolve`), as a client
+/// resolves those it shows.
+fn resolve_lenses(c: &mut Client, lenses: &Value) -> Value {
+    let all = lenses.as_array().into_iter().flatten();
+    Value::Array(
+        all.map(|l| if l["command"].is_null() { c.call("codeLens/resolve", l.clone()) } else { l.clone() }).collect(),
+    )
+}
+
 #[test]
 fn code_lenses_and_call_hierarchy_across_the_workspace() {
     let dir = common::canonical_scratch("lenses");
@@ -545,8 +554,13 @@ fn code_lenses_and_call_hierarchy_across_the_workspace() {
     c.open(&us, 1, SECTIONS);
     c.diagnostics(&ua, 1);
 
-    // The importer: run lenses over `startshape`, the count over its rule.
+    // The importer: run lenses over `startshape`, the count over its rule. The
+    // counts come unresolved (no command: the client resolves the visible ones).
     let lenses = c.call("textDocument/codeLens", json!({"textDocument": text_doc(&ua)}));
+    let unresolved: Vec<&Value> = lenses.as_array().into_iter().flatten().filter(|l| l["command"].is_null()).collect();
+    assert_eq!(unresolved.len(), 1, "{lenses}");
+    assert!(unresolved[0]["data"].is_object(), "{lenses}");
+    let lenses = resolve_lenses(&mut c, &lenses);
     assert_eq!(
         lens_rows(&lenses),
         [
@@ -560,13 +574,25 @@ fn code_lenses_and_call_hierarchy_across_the_workspace() {
     assert_eq!(lenses[0]["command"]["arguments"], json!([ua]));
     // The library's rule: called once in a.mdg and twice in the closed b.mdg.
     let lenses = c.call("textDocument/codeLens", json!({"textDocument": text_doc(&ul)}));
+    let lenses = resolve_lenses(&mut c, &lenses);
     assert_eq!(lens_rows(&lenses), [(s("3 references"), s("mdg.showReferences"), 0)], "{lenses}");
     let args = &lenses[0]["command"]["arguments"];
     assert_eq!(args[0], ul.as_str());
     assert_eq!(args[1], json!({"line": 0, "character": 5}));
     assert_eq!(places(&args[2]), [(s("a.mdg"), 2, 9), (s("b.mdg"), 2, 9), (s("b.mdg"), 2, 21)], "{lenses}");
+    // A lens resolved after an edit counts the rule defined at its place now (the
+    // client resolves lenses it already had): made over `shapf` (no calls), resolved
+    // once the library says `shape` again.
+    c.change(&ul, 2, &WS_LIB.replace("shape", "shapf"));
+    c.diagnostics(&ul, 2);
+    let stale = c.call("textDocument/codeLens", json!({"textDocument": text_doc(&ul)}))[0].clone();
+    c.change(&ul, 3, WS_LIB);
+    c.diagnostics(&ul, 3);
+    let resolved = c.call("codeLens/resolve", stale);
+    assert_eq!(resolved["command"]["title"], "3 references", "{resolved}");
     // Extension sections: the guided search and the creature evolution.
     let lenses = c.call("textDocument/codeLens", json!({"textDocument": text_doc(&us)}));
+    let lenses = resolve_lenses(&mut c, &lenses);
     let rows = lens_rows(&lenses);
     assert_eq!(rows[0], (s("Run search"), s("mdg.runSearch"), 0), "{lenses}");
     assert!(rows.contains(&(s("Evolve"), s("mdg.evolve"), 7)), "{lenses}");
@@ -728,5 +754,63 @@ fn selection_ranges_colours_range_formatting_and_code_links() {
         format!("https://mdg.example/docs/diagnostics.md#{code}"),
         "{diags:?}"
     );
+    assert!(c.shutdown_and_exit().success());
+}
+
+/// A grammar that never ends: each call draws a triangle and calls itself twice.
+const RUNAWAY: &str =
+    "startshape a\nrule a { tri {} a {x 1} a {y 1} }\nrule tri { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n";
+
+#[test]
+fn the_preview_cuts_a_runaway_grammar_warns_and_previews_the_next_edit() {
+    let dir = scratch("preview");
+    let u = uri(&dir.join("a.mdg"));
+    let mut c = Client::spawn();
+    c.initialize(&dir);
+    c.open(&u, 1, RUNAWAY);
+    // The default budgets cut it (time or vertices, whichever comes first); the
+    // warning names the setting that raises it.
+    let started = std::time::Instant::now();
+    let r = c.call("mdg/preview", json!({"uri": u}));
+    let took = started.elapsed();
+    assert_eq!(r["status"], "model", "{}", r["message"]);
+    assert_eq!(r["version"], 1);
+    let warnings = r["warnings"].to_string();
+    assert!(
+        (warnings.contains("time budget reached") && warnings.contains("mdg.preview.timeBudget"))
+            || (warnings.contains("vertex budget 1000000 reached") && warnings.contains("mdg.preview.maxVertices")),
+        "{warnings}"
+    );
+    assert!(r["glb"].as_str().is_some_and(|g| g.starts_with("Z2xURg")), "not a .glb"); // "glTF"
+    assert!(r["stats"]["triangles"].as_u64().is_some_and(|t| t > 0));
+    eprintln!("runaway cut and answered in {took:?} (debug build): {}", r["stats"]);
+
+    // An edit while a run is going stops it (newest wins): a run with a long budget,
+    // then the grammar mended; the run answers `cancelled`, and the next preview
+    // shows the mended grammar.
+    let id =
+        c.request_async("mdg/preview", json!({"uri": u, "timeBudgetMs": 600_000, "maxVertices": 1_000_000_000_000u64}));
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let mended = RUNAWAY.replace("a {x 1} a {y 1}", "");
+    c.change(&u, 2, &mended);
+    let r = c.response(id);
+    assert_eq!(r["result"]["status"], "cancelled", "{}", r["result"]["message"]);
+    let r = c.call("mdg/preview", json!({"uri": u, "seed": "12"}));
+    assert_eq!(r["status"], "model", "{}", r["message"]);
+    assert_eq!(r["version"], 2);
+    assert_eq!(r["seed"], "12");
+    assert_eq!(r["stats"]["triangles"], 1);
+    assert_eq!(r["warnings"], json!([]));
+    // A newer request stops the one going, too.
+    c.change(&u, 3, RUNAWAY);
+    let id =
+        c.request_async("mdg/preview", json!({"uri": u, "timeBudgetMs": 600_000, "maxVertices": 1_000_000_000_000u64}));
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let next = c.request_async("mdg/preview", json!({"uri": u, "timeBudgetMs": 100}));
+    assert_eq!(c.response(id)["result"]["status"], "cancelled");
+    assert_eq!(c.response(next)["result"]["status"], "model");
+    // A document that is not open is an error response, not a panic.
+    let r = c.request("mdg/preview", json!({"uri": uri(&dir.join("closed.mdg"))}));
+    assert!(r["error"]["message"].as_str().is_some_and(|m| m.contains("is not open")), "{r}");
     assert!(c.shutdown_and_exit().success());
 }

@@ -12,6 +12,8 @@
 //! (in `$MDG_E2E_DIR`, default `~/.cache/mdg/vscode-e2e`), Debian's `chromium`, and
 //! `npm ci` done in `editors/vscode`; `.ci/run` sees to all three. Without them the
 //! test fails, saying what is missing; `MDG_SKIP_VSCODE_TESTS=1` skips it.
+//! `MDG_E2E_LSP=PATH` runs another `mdg-lsp` (a release build, for the preview's
+//! timings) instead of the test's own.
 
 mod common;
 
@@ -37,9 +39,13 @@ const CHECKS: &[&str] = &[
     "preview shows errors",
     "preview animation",
     "preview of a std example",
+    "preview keystroke to frame",
+    "preview variations",
+    "preview runaway grammar",
     "preview guides and bones",
     "preview sliders",
     "preview click names the rule",
+    "preview cursor highlights the rule",
 ];
 
 const PARTS: &str =
@@ -93,6 +99,12 @@ fn vscode_in_code_server() {
         chromium.display()
     );
     let mdg_run = Path::new(env!("CARGO_BIN_EXE_mdg-lsp")).with_file_name("mdg-run");
+    // `MDG_E2E_LSP=target/release/mdg-lsp` measures the preview with a release
+    // server (the timings in docs/editors.md); the default is the test's build.
+    let lsp = std::env::var_os("MDG_E2E_LSP")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_BIN_EXE_mdg-lsp")));
+    assert!(lsp.is_file(), "MDG_E2E_LSP: {} is not a file", lsp.display());
     assert!(
         mdg_run.is_file(),
         "{} is missing (the preview panel runs it): `cargo build -p mdg-viewer --bin mdg-run` (`cargo test --workspace` builds it)",
@@ -153,7 +165,7 @@ fn vscode_in_code_server() {
                 .arg(ext.join("e2e/run.mjs"))
                 .env("MDG_E2E_DIR", &e2e)
                 .env("MDG_VSIX", &vsix)
-                .env("MDG_LSP", env!("CARGO_BIN_EXE_mdg-lsp"))
+                .env("MDG_LSP", &lsp)
                 .env("MDG_STD", root().join("std"))
                 .env("MDG_RUN", &mdg_run)
                 .env("MDG_WORKSPACE", &ws)

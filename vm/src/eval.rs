@@ -108,6 +108,19 @@ pub struct EvalOptions {
     /// the same geometry with every prototype instance expanded in place (tests
     /// compare the two).
     pub instancing: bool,
+    /// Asked with the budgets (every 4,096 calls): true stops the run at once, with
+    /// no warning (the caller no longer wants it: the editor's preview after an edit).
+    pub cancel: Option<Cancel>,
+}
+
+/// A cancellation check for [`EvalOptions::cancel`].
+#[derive(Clone)]
+pub struct Cancel(pub std::sync::Arc<dyn Fn() -> bool + Send + Sync>);
+
+impl std::fmt::Debug for Cancel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Cancel(..)")
+    }
 }
 
 impl Default for EvalOptions {
@@ -124,6 +137,7 @@ impl Default for EvalOptions {
             time: None,
             record_sites: false,
             instancing: true,
+            cancel: None,
         }
     }
 }
@@ -1607,6 +1621,9 @@ impl<'b> Eval<'b> {
     }
 
     fn check_budgets(&mut self) {
+        if self.opts.cancel.as_ref().is_some_and(|c| (c.0)()) {
+            self.stopped = true;
+        }
         if self.vertices_made() > self.opts.max_vertices {
             self.limits.vertices = true;
             self.stopped = true;

@@ -440,8 +440,17 @@ try {
     await page.keyboard.type(' nope {}');
     const box = preview().locator('#error');
     await box.waitFor({ state: 'visible', timeout: 20000 });
-    const text = await box.innerText();
-    if (!text.includes('E0301') || !text.includes('nope')) throw new Error(`error box: ${text}`);
+    // The preview follows the typing: the text in between (` nope` before its
+    // braces) may show its own error first.
+    let text = '';
+    try {
+      text = await until('the unknown rule error', async () => {
+        const t = await box.innerText();
+        return t.includes('E0301') && t.includes('nope') ? t : undefined;
+      }, 20000);
+    } catch {
+      throw new Error(`error box: ${await box.innerText()}`);
+    }
     return JSON.stringify(text.split('\n')[0]);
   });
 
@@ -473,6 +482,114 @@ try {
     if (!/tree\.mdg: \d{4,} triangles/.test(text)) throw new Error(`status: ${text}`);
     await sleep(1000);
     return text;
+  });
+
+  // Keystroke → new frame drawn, in the previews of two std examples: each key in a
+  // comment at the end of the file is a new text, so a new model (evaluated by the
+  // language server) and a new frame; the webview stamps the frame (data-drawn-at,
+  // Date.now() in the same browser as the key). The next key waits for the frame.
+  // (Light examples: the panel draws with SwiftShader, on the CPU.)
+  const attr = async (frame, name) => frame.locator('#status').getAttribute(name, { timeout: 5000 });
+  // The editor of `name` (the group whose active tab it is: the panel beside it may have the focus).
+  const editorOf = (name) =>
+    page.locator('.editor-group-container', { has: page.locator(`.tab.active[aria-label^="${name}"]`) }).locator('.monaco-editor .view-lines').first();
+  await check('preview keystroke to frame', async () => {
+    const all = [];
+    const each = [];
+    for (const file of ['examples/cube_spiral.mdg', 'examples/koch_snowflake.mdg']) {
+      await openFile(file);
+      await palette('MDG: Preview');
+      const frame = await previewOf(path.basename(file));
+      await editorOf(path.basename(file)).click();
+      await page.keyboard.press(`${mod}+End`);
+      await page.keyboard.press('Enter');
+      await page.keyboard.type('// ');
+      await sleep(1500);
+      const times = [];
+      for (const ch of 'variation!') {
+        const drawn = Number((await attr(frame, 'data-drawn')) ?? 0);
+        const at0 = await page.evaluate(() => Date.now());
+        await page.keyboard.type(ch);
+        const end = Date.now() + 20000;
+        while (Number((await attr(frame, 'data-drawn')) ?? 0) <= drawn) {
+          if (Date.now() > end) throw new Error(`no new frame after typing ${JSON.stringify(ch)} in ${file}`);
+          await sleep(10);
+        }
+        times.push(Number(await attr(frame, 'data-drawn-at')) - at0);
+        await sleep(150);
+      }
+      all.push(...times);
+      each.push(`${path.basename(file)}: ${times.join(', ')} ms`);
+    }
+    const sorted = [...all].sort((a, b) => a - b);
+    const pick = (q) => sorted[Math.min(sorted.length - 1, Math.ceil(q * sorted.length) - 1)];
+    return `keystroke → frame over ${all.length} keys: median ${pick(0.5)} ms, p95 ${pick(0.95)} ms (${each.join('; ')})`;
+  });
+
+  // Variations (pebbles.mdg, random): the next seed (the ▶ button), the previous
+  // (the P key in the panel), then Keep writes `randseed N` into the file.
+  await check('preview variations', async () => {
+    await openFile('examples/pebbles.mdg');
+    await palette('MDG: Preview');
+    const frame = await previewOf('pebbles.mdg');
+    const seed0 = await attr(frame, 'data-seed');
+    if (seed0 === null) throw new Error('no seed shown');
+    const next = String(BigInt(seed0) + 1n);
+    await frame.locator('#next').click();
+    await until(`seed ${next}`, async () => (await attr(frame, 'data-seed')) === next, 20000);
+    const t1 = await attr(frame, 'data-triangles');
+    await frame.locator('#status').click();
+    await page.keyboard.press('KeyP');
+    await until(`seed ${seed0} again`, async () => (await attr(frame, 'data-seed')) === seed0, 20000);
+    await frame.locator('#next').click();
+    await until(`seed ${next} again`, async () => (await attr(frame, 'data-seed')) === next, 20000);
+    await sleep(500);
+    await shot('preview-variation');
+    const drawnBeforeKeep = Number((await attr(frame, 'data-drawn')) ?? 0);
+    await frame.locator('#keep').click();
+    await until(`randseed ${next} in the file`, async () => (await editorOf('pebbles.mdg').innerText()).replace(/\u00a0/g, ' ').includes(`randseed ${next}`), 10000);
+    // The contact sheet: nine variations from the seed shown; a click chooses one.
+    // (After the model of the edited file: its evaluation would stop the sheet's.)
+    await until('the model after Keep', async () => Number((await attr(frame, 'data-drawn')) ?? 0) > drawnBeforeKeep, 20000);
+    await frame.locator('#sheetbutton').click();
+    await until('the contact sheet', async () => (await attr(frame, 'data-sheet')) === '9', 60000);
+    await sleep(1000);
+    await shot('preview-contact-sheet');
+    const cells = await frame.locator('#sheet div').evaluateAll((l) => l.map((e) => e.dataset.seed));
+    if (cells.length !== 9 || cells[0] !== next || cells[8] !== String(BigInt(next) + 8n)) throw new Error(`sheet seeds ${cells.join(', ')}`);
+    await frame.locator('#sheet div').nth(4).click();
+    await until(`seed ${cells[4]} chosen`, async () => (await attr(frame, 'data-seed')) === cells[4] && (await attr(frame, 'data-sheet')) === null, 20000);
+    return `seed ${seed0} → ${next} (${t1} triangles) → ${seed0} → ${next}, kept: randseed ${next} in pebbles.mdg; contact sheet of seeds ${cells[0]}…${cells[8]}, the middle one chosen (${cells[4]})`;
+  });
+
+  // A runaway grammar (a recursion that never ends, drawing nothing after its
+  // first triangle) is cut by the preview's time budget with a warning naming the
+  // setting, and the next edit previews again.
+  await check('preview runaway grammar', async () => {
+    const frame = await previewOf('pebbles.mdg');
+    await editorOf('pebbles.mdg').click();
+    await page.keyboard.press(`${mod}+KeyA`);
+    await page.keyboard.press('Delete');
+    // Inserted at once (typed, the editor would close the braces by itself).
+    const typed = Date.now();
+    await page.keyboard.insertText('startshape s\nrule tri { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\nrule s { tri {} a {} }\nrule a { a {x 1} a {y 1} }');
+    const warn = frame.locator('#warn');
+    await warn.waitFor({ state: 'visible', timeout: 20000 });
+    const shownAfter = Date.now() - typed;
+    const text = await warn.innerText();
+    // Which limit comes first depends on the machine's speed: the time budget, or
+    // `maxiter`'s 10,000,000 calls; each warning says how to raise it.
+    if (!/(time budget|maxiter \d+) reached/.test(text) || !/raise the limit with/.test(text)) throw new Error(`warning: ${text}`);
+    await sleep(500);
+    await shot('preview-runaway');
+    // The recursion removed: one triangle, no warning.
+    await editorOf('pebbles.mdg').click();
+    await page.keyboard.press(`${mod}+End`);
+    await page.keyboard.press('Shift+Home');
+    await page.keyboard.insertText('rule a { tri {} }');
+    await until('the mended model', async () => (await attr(frame, 'data-triangles')) === '2' && !(await warn.isVisible()), 20000);
+    const limit = text.split('\n').find((l) => /(time budget|maxiter \d+) reached/.test(l)) ?? '';
+    return `warning shown ${shownAfter} ms after the runaway text was inserted: ${JSON.stringify(limit.slice(0, 240))}; then the mended model`;
   });
 
   // A guided grammar: the search's guides and bones drawn over the model, toggled
@@ -553,6 +670,32 @@ try {
     const text = (await page.locator('.editor-group-container.active .monaco-editor .view-lines').first().innerText()).replace(/\u00a0/g, ' ');
     if (!text.includes(`rule ${rule.split('.').pop()}`)) throw new Error(`rule ${rule} not shown in ${file}`);
     return `${label}; the editor shows ${path.basename(file)} at ${cursor}`;
+  });
+
+  // Cursor → geometry: the cursor on a rule's name lights up the triangles that rule
+  // drew (all four petals of the pinwheel: `bloom`, as the rename check named the
+  // library's petal); on a line outside every rule, none.
+  await check('preview cursor highlights the rule', async () => {
+    await openFile('pinwheel.mdg');
+    const frame = await previewOf('pinwheel.mdg');
+    const lit = async () => Number((await frame.locator('#status').getAttribute('data-highlighted', { timeout: 1000 })) ?? -1);
+    const total = Number(await frame.locator('#status').getAttribute('data-triangles'));
+    // (In pinwheel's editor: earlier checks left other editors open beside it.)
+    const clickHere = async (word) => {
+      const span = editorOf('pinwheel.mdg').locator('span span', { hasText: new RegExp(`^${word}$`) }).first();
+      await span.waitFor({ state: 'visible' });
+      const box = await span.boundingBox();
+      await page.mouse.click(box.x + Math.min(box.width / 2, 6), box.y + box.height / 2);
+    };
+    await clickHere('bloom');
+    const n = await until('the petals lit', async () => ((await lit()) > 0 ? await lit() : undefined), 15000);
+    if (n !== total) throw new Error(`${n} of ${total} triangles lit for rule bloom`);
+    const label = await frame.locator('#hl').innerText();
+    await sleep(500);
+    await shot('preview-highlight');
+    await clickHere('startshape');
+    await until('the light off', async () => (await lit()) === 0, 15000);
+    return `${label} (of ${total}); off on the startshape line`;
   });
 
 } finally {

@@ -99,15 +99,32 @@ async function restart(): Promise<void> {
   await startClient();
 }
 
-/** Starts `command args` detached; false if the program does not exist. */
-function launch(command: string, args: string[], cwd: string | undefined): Promise<boolean> {
+/** How long a viewer that fails at once (no display, a bad file) is watched. */
+const VIEWER_WATCH_MS = 2000;
+
+/** Starts `command args` detached and watches it for its first two seconds: it is
+ * missing, it failed then (its exit code and the end of its stderr), or it runs. */
+function launchWatched(
+  command: string,
+  args: string[],
+  cwd: string | undefined,
+): Promise<{ kind: 'missing' } | { kind: 'failed'; code: number | null; stderr: string } | { kind: 'running' }> {
   return new Promise((resolve) => {
-    const child = spawn(command, args, { cwd, detached: true, stdio: 'ignore' });
-    child.once('error', () => resolve(false));
-    child.once('spawn', () => {
+    const child = spawn(command, args, { cwd, detached: true, stdio: ['ignore', 'ignore', 'pipe'] });
+    let stderr = '';
+    let done = false;
+    const finish = (v: { kind: 'missing' } | { kind: 'failed'; code: number | null; stderr: string } | { kind: 'running' }) => {
+      if (done) return;
+      done = true;
+      clearTimeout(timer);
+      // The pipe stays read (and dropped): a viewer writing to a closed stderr would fail.
       child.unref();
-      resolve(true);
-    });
+      resolve(v);
+    };
+    const timer = setTimeout(() => finish({ kind: 'running' }), VIEWER_WATCH_MS);
+    child.stderr?.on('data', (d: Buffer) => (stderr = (stderr + d.toString()).slice(-4000)));
+    child.once('error', (e: NodeJS.ErrnoException) => finish(e.code === 'ENOENT' ? { kind: 'missing' } : { kind: 'failed', code: null, stderr: e.message }));
+    child.once('exit', (code) => finish(code === 0 ? { kind: 'running' } : { kind: 'failed', code, stderr }));
   });
 }
 
@@ -141,7 +158,7 @@ function activeMdg(): vscode.TextDocument | undefined {
 async function preview(context: vscode.ExtensionContext, uri?: string | vscode.Uri): Promise<void> {
   const doc = await targetMdg(uri);
   if (doc) {
-    PreviewPanel.show(context, doc, runProgram);
+    PreviewPanel.show(context, doc, runProgram, () => client);
   }
 }
 
@@ -160,7 +177,20 @@ async function openInViewer(): Promise<void> {
   }
   const cwd = vscode.workspace.getWorkspaceFolder(doc.uri)?.uri.fsPath;
   const viewer = settings().get<string>('viewerPath', 'mdg-view');
-  if (!(await launch(viewer, [doc.uri.fsPath], cwd))) {
+  // A window needs a display where the extension host runs (a remote one,
+  // code-server or SSH, often has none): say so rather than fail silently.
+  if (process.platform === 'linux' && !process.env.DISPLAY && !process.env.WAYLAND_DISPLAY) {
+    void vscode.window.showErrorMessage(
+      'MDG: mdg-view opens a window, and there is no display here (neither DISPLAY nor WAYLAND_DISPLAY is set, as in a remote window). Use MDG: Preview, which draws inside VS Code.',
+    );
+    return;
+  }
+  const early = await launchWatched(viewer, [doc.uri.fsPath], cwd);
+  if (early.kind === 'failed') {
+    void vscode.window.showErrorMessage(`MDG: mdg-view exited with ${early.code}: ${early.stderr.trim().split('\n').slice(-3).join(' ') || '(no message)'}`);
+    return;
+  }
+  if (early.kind === 'missing') {
     void vscode.window.showErrorMessage(`MDG: \`${viewer}\` was not found; set "mdg.viewerPath" (or use MDG: Preview, which needs only mdg-run).`);
   }
 }

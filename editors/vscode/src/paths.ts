@@ -100,7 +100,7 @@ export function keptValues(values: Record<string, number>, declared: ParamDecl[]
 /**
  * A slider's range: the declared one; without one, the value's own scale around
  * it (0..2v for a positive value, 2v..0 for a negative one, 0..1 for zero). Ints
- * step by 1, floats in a hundred steps.
+ * step by 1, floats by a power of ten with the value on the grid ([`floatStep`]).
  */
 export function sliderRange(d: ParamDecl): { min: number; max: number; step: number } {
   let lo: number;
@@ -120,7 +120,7 @@ export function sliderRange(d: ParamDecl): { min: number; max: number; step: num
   }
   if (d.type === 'bool') return { min: 0, max: 1, step: 1 };
   if (d.type === 'int') return { min: Math.floor(lo), max: Math.max(Math.ceil(hi), Math.floor(lo) + 1), step: 1 };
-  return { min: lo, max: hi, step: (hi - lo) / 100 };
+  return { min: lo, max: hi, step: floatStep(lo, hi, d.value) };
 }
 
 /** What a code lens runs with `mdg-run` on a saved file. */
@@ -172,4 +172,54 @@ export function resolveProgram(
     }
   }
   return s === '' ? name : resolveServerPath(s, workspaceRoot);
+}
+
+/**
+ * A float slider's step: a power of ten about a hundredth of the range or finer,
+ * the largest with the declared value on its grid (min + k·step), so the slider
+ * shows 32 for 32 rather than the nearest hundredth of the range (31.95).
+ */
+function floatStep(lo: number, hi: number, value: number): number {
+  let step = 10 ** Math.floor(Math.log10((hi - lo) / 100));
+  for (let i = 0; i < 6; i++) {
+    const k = (value - lo) / step;
+    if (Math.abs(k - Math.round(k)) < 1e-6) return step;
+    step /= 10;
+  }
+  return Number(step.toPrecision(1));
+}
+
+/**
+ * How long the preview waits after a key before asking for the model: about as
+ * long as the last evaluation took (a fast grammar previews as you type, a slow
+ * one waits for a pause), within 10..400 ms; 150 ms before the first.
+ */
+export function adaptiveDebounce(lastMs: number | undefined): number {
+  if (lastMs === undefined || !Number.isFinite(lastMs)) return 150;
+  return Math.min(400, Math.max(10, Math.round(lastMs)));
+}
+
+const U64 = 1n << 64n;
+
+/** The seed `delta` variations from `seed` (decimal u64, wrapping); undefined if `seed` is not one. */
+export function stepSeed(seed: string, delta: number): string | undefined {
+  if (!/^\d{1,20}$/.test(seed.trim())) return undefined;
+  const n = BigInt(seed.trim());
+  if (n >= U64) return undefined;
+  return (((n + BigInt(delta)) % U64) + U64) % U64 + '';
+}
+
+/**
+ * "Keep this variation": the line that makes `seed` the grammar's own — the
+ * `randseed` directive replaced where there is one (its indent and comment
+ * kept), else a new line after `startshape` (or at the top).
+ */
+export function randseedEdit(text: string, seed: string): { line: number; replace: boolean; text: string } {
+  const lines = text.split('\n');
+  for (let i = 0; i < lines.length; i++) {
+    const m = /^(\s*)randseed\s+\S+(.*)$/.exec(lines[i]);
+    if (m) return { line: i, replace: true, text: `${m[1]}randseed ${seed}${m[2]}` };
+  }
+  const start = lines.findIndex((l) => /^\s*startshape\b/.test(l));
+  return { line: start >= 0 ? start + 1 : 0, replace: false, text: `randseed ${seed}` };
 }

@@ -48,7 +48,7 @@ pub fn initialize(b: &Backend, _params: InitializeParams) -> InitializeResult {
             folding_range_provider: Some(FoldingRangeProviderCapability::Simple(true)),
             document_formatting_provider: Some(OneOf::Left(true)),
             document_range_formatting_provider: Some(OneOf::Left(true)),
-            code_lens_provider: Some(CodeLensOptions { resolve_provider: Some(false) }),
+            code_lens_provider: Some(CodeLensOptions { resolve_provider: Some(true) }),
             call_hierarchy_provider: Some(CallHierarchyServerCapability::Simple(true)),
             selection_range_provider: Some(SelectionRangeProviderCapability::Simple(true)),
             color_provider: Some(ColorProviderCapability::Simple(true)),

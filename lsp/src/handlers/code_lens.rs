@@ -4,6 +4,12 @@
 //! (every open or indexed file that sees the definition). The commands are the VS
 //! Code extension's (`editors/vscode`); their arguments are JSON (the document's
 //! URI, and for `mdg.showReferences` a position and the locations).
+//!
+//! The reference counts are lazy: `textDocument/codeLens` answers them without a
+//! command (only the rule's name in `data`, which costs nothing), and
+//! `codeLens/resolve` counts one when the client shows it — VS Code resolves the
+//! lenses of the visible lines only, so a 3,000-line file costs what its screen
+//! does, not what every rule's references over the workspace do.
 
 use super::workspace::{all_views, definition_keys, file_canon, View};
 use crate::backend::Backend;
@@ -28,8 +34,6 @@ pub async fn code_lens(b: &Backend, p: CodeLensParams) -> Result<Option<Vec<Code
     let uri = &p.text_document.uri;
     let Some(doc) = b.document(uri).await else { return Ok(None) };
     let targets = b.run("code lens", || doc.lens_targets()).await?;
-    let views =
-        if targets.iter().any(|t| matches!(t.kind, LensKind::Rule(_))) { all_views(b).await } else { Vec::new() };
     b.run("code lens", || {
         let li = LineIndex::new(doc.text());
         let arg = json!(uri.as_str());
@@ -54,23 +58,53 @@ pub async fn code_lens(b: &Backend, p: CodeLensParams) -> Result<Option<Vec<Code
                 LensKind::Search => out.push(lens(range, "Run search", SEARCH, vec![arg.clone()])),
                 LensKind::Creature => out.push(lens(range, "Evolve", EVOLVE, vec![arg.clone()])),
                 LensKind::Rule(name) => {
-                    let sym = Symbol::Rule(name);
-                    let locations = references(b, &views, &doc, &sym);
-                    let n = locations.len();
-                    let title = if n == 1 { "1 reference".to_string() } else { format!("{n} references") };
-                    let position = li.position(t.span.start);
-                    out.push(lens(
-                        range,
-                        &title,
-                        SHOW_REFERENCES,
-                        vec![arg.clone(), json!(position), json!(locations)],
-                    ));
+                    out.push(CodeLens { range, command: None, data: Some(json!({"uri": uri.as_str(), "rule": name})) })
                 }
             }
         }
         Some(out)
     })
     .await
+}
+
+/// `codeLens/resolve`: a rule's reference count (the lens's `data` names the document
+/// and the rule), counted over the workspace now. A lens of a document no longer
+/// open, or of a rule no longer defined, says `0 references`.
+pub async fn resolve(b: &Backend, mut lens: CodeLens) -> Result<CodeLens> {
+    let data = lens.data.take().unwrap_or_default();
+    let (Some(uri), Some(rule)) = (
+        data.get("uri").and_then(|u| u.as_str()).and_then(|u| u.parse::<Uri>().ok()),
+        data.get("rule").and_then(|r| r.as_str()).map(str::to_string),
+    ) else {
+        return Ok(lens);
+    };
+    let Some(doc) = b.document(&uri).await else {
+        lens.command = Some(references_command(&uri, lens.range.start, Vec::new()));
+        return Ok(lens);
+    };
+    // The rule defined at the lens's place now: the text may have changed since the
+    // lens was made (a rename), and the client resolves lenses it already had.
+    let targets = b.run("code lens", || doc.lens_targets()).await?;
+    let li = LineIndex::new(doc.text());
+    let here = targets.into_iter().find_map(|t| match t.kind {
+        LensKind::Rule(name) if li.position(t.span.start) == lens.range.start => Some(name),
+        _ => None,
+    });
+    let rule = here.unwrap_or(rule);
+    let views = all_views(b).await;
+    let locations = b.run("code lens", || references(b, &views, &doc, &Symbol::Rule(rule))).await?;
+    lens.command = Some(references_command(&uri, lens.range.start, locations));
+    Ok(lens)
+}
+
+/// `N references`, listing them when clicked.
+fn references_command(uri: &Uri, position: Position, locations: Vec<Location>) -> Command {
+    let n = locations.len();
+    Command {
+        title: if n == 1 { "1 reference".to_string() } else { format!("{n} references") },
+        command: SHOW_REFERENCES.to_string(),
+        arguments: Some(vec![json!(uri.as_str()), json!(position), json!(locations)]),
+    }
 }
 
 /// The uses of `sym` (defined in `doc`) in every view that sees one of its

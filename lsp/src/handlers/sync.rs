@@ -37,6 +37,7 @@ pub async fn did_save(b: &Backend, p: DidSaveTextDocumentParams) {
 pub async fn did_close(b: &Backend, p: DidCloseTextDocumentParams) {
     let uri = p.text_document.uri;
     b.docs.close(&uri);
+    b.previews.forget(&uri);
     b.client.publish_diagnostics(uri.clone(), Vec::new(), None).await;
     super::workspace::closed(b, &uri).await;
     refresh_dependents(b, &uri).await;

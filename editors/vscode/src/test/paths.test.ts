@@ -2,7 +2,7 @@
 
 import { test } from 'node:test';
 import * as assert from 'node:assert/strict';
-import { keptValues, ParamDecl, previewArgs, previewGlb, resolveProgram, resolveServerPath, runArgs, siteCandidates, sliderRange } from '../paths';
+import { adaptiveDebounce, keptValues, ParamDecl, previewArgs, previewGlb, randseedEdit, resolveProgram, resolveServerPath, runArgs, siteCandidates, sliderRange, stepSeed } from '../paths';
 
 test('server path: default, home, workspace-relative, PATH names, absolute', () => {
   assert.equal(resolveServerPath(undefined), 'mdg-lsp');
@@ -37,8 +37,15 @@ test('slider values: only declared parameters, ints rounded, clamped to the rang
 
 test('slider ranges: declared, or around the value; ints step by one', () => {
   assert.deepEqual(sliderRange({ name: 'n', type: 'int', value: 5, min: 1, max: 7 }), { min: 1, max: 7, step: 1 });
-  assert.deepEqual(sliderRange({ name: 'f', type: 'float', value: 1.5, min: 0.5, max: 2.5 }), { min: 0.5, max: 2.5, step: 0.02 });
-  assert.deepEqual(sliderRange({ name: 'f', type: 'float', value: -2, min: null, max: null }), { min: -4, max: 0, step: 0.04 });
+  assert.deepEqual(sliderRange({ name: 'f', type: 'float', value: 1.5, min: 0.5, max: 2.5 }), { min: 0.5, max: 2.5, step: 0.01 });
+  assert.deepEqual(sliderRange({ name: 'f', type: 'float', value: -2, min: null, max: null }), { min: -4, max: 0, step: 0.01 });
+  // The declared value is on the slider's grid: 32 in 5..60 shows 32, not 31.95.
+  const spread = sliderRange({ name: 'spread', type: 'float', value: 32, min: 5, max: 60 });
+  assert.equal(spread.step, 0.1);
+  const k = (32 - spread.min) / spread.step;
+  assert.ok(Math.abs(k - Math.round(k)) < 1e-9, `32 is ${k} steps from 5`);
+  // A value off every decimal grid gets the finest step tried.
+  assert.equal(sliderRange({ name: 'p', type: 'float', value: Math.PI, min: 0, max: 10 }).step, 1e-7);
   assert.deepEqual(sliderRange({ name: 'n', type: 'int', value: 0, min: null, max: null }), { min: 0, max: 1, step: 1 });
   assert.deepEqual(sliderRange({ name: 'b', type: 'bool', value: 1, min: null, max: null }), { min: 0, max: 1, step: 1 });
 });
@@ -66,4 +73,30 @@ test('a clicked site names the open file, an import beside it, or a std file', (
     '/w/ex/std/primitives.mdg', '/s1/primitives.mdg', '/s2/primitives.mdg',
   ]);
   assert.deepEqual(siteCandidates('', '/w/ex/tree.mdg', ['/std']), []);
+});
+
+test('the preview waits after a key about as long as the grammar took, within 10..400 ms', () => {
+  assert.equal(adaptiveDebounce(undefined), 150);
+  assert.equal(adaptiveDebounce(3), 10);
+  assert.equal(adaptiveDebounce(42.4), 42);
+  assert.equal(adaptiveDebounce(5000), 400);
+  assert.equal(adaptiveDebounce(NaN), 150);
+});
+
+test('variations: the next and previous seed, wrapping at the ends of u64', () => {
+  assert.equal(stepSeed('0', 1), '1');
+  assert.equal(stepSeed('41', -1), '40');
+  assert.equal(stepSeed('0', -1), '18446744073709551615');
+  assert.equal(stepSeed('18446744073709551615', 1), '0');
+  assert.equal(stepSeed('9007199254740993', 1), '9007199254740994');
+  assert.equal(stepSeed('nonsense', 1), undefined);
+});
+
+test('keep: the seed written as the randseed directive (replaced, else after startshape)', () => {
+  assert.deepEqual(randseedEdit('startshape a\nrandseed 3\nrule a {}\n', '17'), { line: 1, replace: true, text: 'randseed 17' });
+  assert.deepEqual(randseedEdit('  randseed   3 // old\n', '5'), { line: 0, replace: true, text: '  randseed 5 // old' });
+  assert.deepEqual(randseedEdit('// tree\nstartshape a\nrule a {}\n', '9'), { line: 2, replace: false, text: 'randseed 9' });
+  assert.deepEqual(randseedEdit('rule a {}\n', '9'), { line: 0, replace: false, text: 'randseed 9' });
+  // A randseed inside a comment is not the directive.
+  assert.deepEqual(randseedEdit('// randseed 4\nstartshape a\n', '1'), { line: 2, replace: false, text: 'randseed 1' });
 });

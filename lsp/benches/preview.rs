@@ -1,0 +1,168 @@
+//! The live preview's and the editor's hot paths, through the real `mdg-lsp` over
+//! stdio (not a test; prints numbers):
+//!
+//! - `mdg/preview` on every std example the server evaluates (the compile, the
+//!   evaluation, the `.glb` export, its size, and the request's round trip as the
+//!   client sees it: the part of keystroke → frame the server owns);
+//! - a runaway grammar: request → the answer with the limit warning;
+//! - code lenses on a 3,000-line grammar: `textDocument/codeLens`, then resolving
+//!   the 40 lenses a screen shows (target ≤ 10 ms a request);
+//! - the first diagnostics of a file importing `shaders`, opened as soon as the
+//!   server has initialised (target ≤ 100 ms).
+//!
+//! Run: `cargo bench -p mdg-lsp --bench preview` (release), or add `--profile dev`
+//! for the debug build's numbers.
+
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use common::{root, scratch, uri, Client};
+use serde_json::{json, Value};
+use std::time::{Duration, Instant};
+
+fn ms(d: Duration) -> f64 {
+    d.as_secs_f64() * 1000.0
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() {
+    let dir = scratch("bench-preview");
+    previews(&dir);
+    runaway(&dir);
+    lenses(&dir);
+    first_shader_diagnostics(&dir);
+}
+
+/// `mdg/preview` five times on each std example (the first run warms the caches).
+fn previews(dir: &std::path::Path) {
+    let examples = root().join("std/examples");
+    let mut files: Vec<_> = std::fs::read_dir(&examples)
+        .expect("std/examples")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "mdg"))
+        .collect();
+    files.sort();
+    let mut c = Client::spawn();
+    c.initialize(dir);
+    let mut trips = Vec::new();
+    for f in files {
+        let text = std::fs::read_to_string(&f).expect("read");
+        let u = uri(&f);
+        c.open(&u, 1, &text);
+        let mut round = Vec::new();
+        let mut last = Value::Null;
+        for _ in 0..5 {
+            let t0 = Instant::now();
+            last = c.call("mdg/preview", json!({"uri": u}));
+            round.push(ms(t0.elapsed()));
+        }
+        let name = f.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+        if last["status"] != "model" {
+            println!("{name:<26} {} (mdg-run's mode)", last["status"]);
+            continue;
+        }
+        let s = &last["stats"];
+        let trip = median(&mut round);
+        trips.push(trip);
+        println!(
+            "{name:<26} round trip {trip:7.1} ms (compile {:6.1}, eval {:6.1}, export {:6.1}); {:>8} triangles, .glb {:>9} bytes",
+            s["compileMs"].as_f64().unwrap_or(0.0),
+            s["evalMs"].as_f64().unwrap_or(0.0),
+            s["exportMs"].as_f64().unwrap_or(0.0),
+            s["triangles"],
+            s["bytes"]
+        );
+    }
+    let all = trips.len();
+    println!(
+        "mdg/preview round trip over {all} std examples: median {:.1} ms, max {:.1} ms",
+        median(&mut trips),
+        trips.last().copied().unwrap_or(0.0)
+    );
+    assert!(c.shutdown_and_exit().success());
+}
+
+/// A grammar that never ends, with the preview's default budgets.
+fn runaway(dir: &std::path::Path) {
+    let u = uri(&dir.join("runaway.mdg"));
+    let mut c = Client::spawn();
+    c.initialize(dir);
+    c.open(
+        &u,
+        1,
+        "startshape a\nrule a { tri {} a {x 1} a {y 1} }\nrule tri { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n",
+    );
+    let t0 = Instant::now();
+    let r = c.call("mdg/preview", json!({"uri": u}));
+    println!(
+        "runaway grammar: answered with {} in {:.0} ms ({}; {} bytes of .glb)",
+        r["warnings"][0].as_str().unwrap_or("no warning").split(':').next().unwrap_or(""),
+        ms(t0.elapsed()),
+        r["stats"]["vertices"],
+        r["stats"]["bytes"]
+    );
+    assert!(c.shutdown_and_exit().success());
+}
+
+/// Code lenses on a 3,000-line grammar of 500 rules.
+fn lenses(dir: &std::path::Path) {
+    let mut text = String::from("startshape r0\n");
+    for i in 0..500 {
+        text.push_str(&format!("rule r{i} {{\n  VERTEX {{x 1}} VERTEX {{y 1}} VERTEX {{z 1}}\n  r{} {{x 1 s 0.9}}\n  r{} {{y 1 s 0.5}}\n}}\n\n", (i + 1) % 500, (i + 7) % 500));
+    }
+    let lines = text.lines().count();
+    let u = uri(&dir.join("lenses.mdg"));
+    let mut c = Client::spawn();
+    c.initialize(dir);
+    c.open(&u, 1, &text);
+    c.diagnostics(&u, 1);
+    let mut requests = Vec::new();
+    let mut resolves = Vec::new();
+    let mut bytes = 0;
+    for _ in 0..10 {
+        let t0 = Instant::now();
+        let lenses = c.call("textDocument/codeLens", json!({"textDocument": {"uri": u}}));
+        requests.push(ms(t0.elapsed()));
+        bytes = lenses.to_string().len();
+        let screen: Vec<Value> =
+            lenses.as_array().into_iter().flatten().filter(|l| l["command"].is_null()).take(40).cloned().collect();
+        let t0 = Instant::now();
+        for l in screen {
+            c.call("codeLens/resolve", l);
+        }
+        resolves.push(ms(t0.elapsed()) / 40.0);
+    }
+    println!(
+        "code lenses, {lines} lines: request median {:.2} ms ({bytes} bytes); resolve median {:.2} ms a lens (target ≤ 10 ms a request)",
+        median(&mut requests),
+        median(&mut resolves)
+    );
+    assert!(c.shutdown_and_exit().success());
+}
+
+/// A file importing `shaders`, opened right after `initialize`: its first diagnostics.
+fn first_shader_diagnostics(dir: &std::path::Path) {
+    // A fresh SPIR-V disk cache, so the numbers are those of a first start.
+    let cache = dir.join("spirv-cache");
+    let _ = std::fs::remove_dir_all(&cache);
+    // Then again with the cache the first server filled (every later start).
+    for cold in [true, false] {
+        let mut c = Client::spawn_with(&[("XDG_CACHE_HOME", cache.to_str().unwrap_or(""))]);
+        c.initialize(dir);
+        let u = uri(&dir.join("shaded.mdg"));
+        let t0 = Instant::now();
+        c.open(&u, 1, "@import shaders\nstartshape a\nrule a { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n");
+        let d = c.diagnostics(&u, 1);
+        let cache = if cold { "empty SPIR-V cache" } else { "SPIR-V disk cache filled" };
+        println!(
+            "first diagnostics of a file importing shaders ({cache}): {:.0} ms ({} diagnostics; target ≤ 100 ms)",
+            ms(t0.elapsed()),
+            d.len()
+        );
+        assert!(c.shutdown_and_exit().success());
+    }
+}
