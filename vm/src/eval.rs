@@ -20,10 +20,17 @@
 //! Random numbers come from PCG-64 (`rand_pcg::Pcg64`) seeded with the seed, turned
 //! into floats by this module (53 high bits for uniforms, Box–Muller for normals), so
 //! a seed gives the same stream on every machine and rand version.
+//!
+//! An iterator's runs (`N * {T}`) are under `F·T`, `F·T·T`, …: that running frame
+//! is composed in `f64` ([`Frame64`], see [`crate::geom::frame64`]) and stored in
+//! the `f32` frame the body runs under, so its error does not grow with the count.
+//! (A chained iterator, `N * {T} \ ITEM`, continues from each run's `f32` end
+//! state, and a frame under a non-uniform scale composes in `f32`.)
 
 use crate::anim::{frames_needed, MAX_TRACK_FRAMES};
 use crate::bundle::{self, Bundle, Composite, Drawable, Op, Selector, Transform, CONT_NEXT, NONE};
 use crate::expr::{self, ExprOp, Random};
+use crate::geom::frame64::Frame64;
 use crate::geom::quat::{Affine, Frame};
 use crate::geom::Mesh;
 use crate::geom::{blend, marching, sweep};
@@ -163,6 +170,25 @@ impl State {
             self.compose_general(c, lins)
         };
         State { f, color, weight: add(self.weight, c.weight), fps: self.fps + c.fps, lin, ndet }
+    }
+
+    /// `self ∘ c` for an iterator's step, where `acc` is `self`'s frame in `f64`:
+    /// the frame is composed there (the step read by [`Frame64::step`]) and rounded
+    /// to `f32`, so iterated steps do not accumulate `f32` error. Under a
+    /// non-uniform factor, as [`State::compose`] (and `acc` restarts from the result).
+    #[inline]
+    fn compose_step(&self, c: &Composite, acc: &mut Frame64, lins: &mut Lins) -> State {
+        if self.lin != 0 || c.n.is_some() {
+            let s = self.compose(c, lins);
+            *acc = Frame64::from(&s.f);
+            return s;
+        }
+        *acc = acc.compose(&Frame64::step(&composite_frame(c)));
+        let mut color = add(self.color, c.color);
+        if let Some(h) = &c.hsb {
+            color = apply_hsb(color, h);
+        }
+        State { f: acc.to_frame(), color, weight: add(self.weight, c.weight), fps: self.fps + c.fps, lin: 0, ndet: 1.0 }
     }
 
     /// The frame part of [`State::compose`] when a non-uniform factor is involved.
@@ -420,14 +446,17 @@ impl<'b> Expander<'b> {
                         continue;
                     }
                     let env = Env { at: &from, depth: call.depth, slots: &self.slots };
-                    let c = if chain & bundle::ops::LOOP_FIRST_PLAIN != 0 {
-                        Composite::IDENTITY
+                    let mut acc = Frame64::from(&from.f);
+                    let next = if chain & bundle::ops::LOOP_FIRST_PLAIN != 0 {
+                        from.compose(&Composite::IDENTITY, &mut self.lins)
                     } else {
-                        eval_transform(b, step, &mut self.rng, &mut self.expr_stack, &env, &mut self.non_finite)
+                        let c =
+                            eval_transform(b, step, &mut self.rng, &mut self.expr_stack, &env, &mut self.non_finite);
+                        from.compose_step(&c, &mut acc, &mut self.lins)
                     };
                     let chain = chain & bundle::ops::LOOP_CHAIN != 0;
-                    self.loops.push(LoopRec { remaining: count, step, saved_base: base, chain });
-                    base = from.compose(&c, &mut self.lins);
+                    self.loops.push(LoopRec { remaining: count, step, saved_base: base, chain, acc });
+                    base = next;
                     pc += 1;
                 }
                 Op::EndLoop { begin } => {
@@ -441,12 +470,19 @@ impl<'b> Expander<'b> {
                         if made >= MAX_EXPANSION_CALLS {
                             return false;
                         }
-                        let from = if l.chain { last } else { base };
-                        let step = l.step;
+                        let (chain, step, mut acc) = (l.chain, l.step, l.acc);
+                        let from = if chain { last } else { base };
                         let env = Env { at: &from, depth: call.depth, slots: &self.slots };
                         let c =
                             eval_transform(b, step, &mut self.rng, &mut self.expr_stack, &env, &mut self.non_finite);
-                        base = from.compose(&c, &mut self.lins);
+                        base = if chain {
+                            from.compose(&c, &mut self.lins)
+                        } else {
+                            from.compose_step(&c, &mut acc, &mut self.lins)
+                        };
+                        if let Some(l) = self.loops.last_mut() {
+                            l.acc = acc;
+                        }
                         pc = begin as usize + 1;
                         // Runs count like calls, so a huge iterator is cut too.
                         made += 1;
@@ -619,6 +655,8 @@ struct LoopRec {
     step: u32,
     saved_base: State,
     chain: bool,
+    /// The current run's frame in `f64` (see [`State::compose_step`]).
+    acc: Frame64,
 }
 
 #[derive(Clone, Copy)]
@@ -902,6 +940,20 @@ impl<'b> Eval<'b> {
         from.compose(&c, &mut self.lins)
     }
 
+    /// [`Eval::apply`] for an iterator's step: composed by [`State::compose_step`]
+    /// with the running frame `acc`.
+    #[inline]
+    fn apply_step(&mut self, xf: u32, from: &State, acc: &mut Frame64, depth: u32, base: u32, top: u32) -> State {
+        let b = self.b;
+        if let Transform::Const(c) = &b.transforms[xf as usize] {
+            return from.compose_step(c, acc, &mut self.lins);
+        }
+        let slots = self.slots.get(base as usize..top as usize).unwrap_or(&[]);
+        let env = Env { at: from, depth, slots };
+        let c = eval_transform(b, xf, &mut self.rng, &mut self.expr_stack, &env, &mut self.non_finite);
+        from.compose_step(&c, acc, &mut self.lins)
+    }
+
     /// Expression `e` at state `at` and `depth` in the frame `slots[base..top]`.
     #[inline]
     fn value(&mut self, e: u32, at: &State, depth: u32, base: u32, top: u32) -> f64 {
@@ -1168,13 +1220,14 @@ impl<'b> Eval<'b> {
                         continue;
                     }
                     // Context Free's `loop`: the first run is under the frame itself.
+                    let mut acc = Frame64::from(&from.f);
                     let next = if chain & bundle::ops::LOOP_FIRST_PLAIN != 0 {
                         from.compose(&Composite::IDENTITY, &mut self.lins)
                     } else {
-                        self.apply(step, &from, act.depth, act.slot_base, act.slot_top)
+                        self.apply_step(step, &from, &mut acc, act.depth, act.slot_base, act.slot_top)
                     };
                     let chain = chain & bundle::ops::LOOP_CHAIN != 0;
-                    loops.push(LoopRec { remaining: count, step, saved_base: act.base, chain });
+                    loops.push(LoopRec { remaining: count, step, saved_base: act.base, chain, acc });
                     act.base = next;
                     if chain {
                         // A run that reaches no drawable ends where it started.
@@ -1192,12 +1245,15 @@ impl<'b> Eval<'b> {
                     };
                     l.remaining -= 1;
                     if l.remaining > 0 {
-                        let chain = l.chain;
-                        let from = if chain { self.last } else { act.base };
                         let step = l.step;
-                        act.base = self.apply(step, &from, act.depth, act.slot_base, act.slot_top);
-                        if chain {
+                        if l.chain {
+                            // Each run continues from the last one's end state.
+                            let from = self.last;
+                            act.base = self.apply(step, &from, act.depth, act.slot_base, act.slot_top);
                             self.last = act.base;
+                        } else {
+                            let from = act.base;
+                            act.base = self.apply_step(step, &from, &mut l.acc, act.depth, act.slot_base, act.slot_top);
                         }
                         // Back to the op after LOOP.
                         if let Op::EndLoop { begin } = op {
@@ -1369,15 +1425,16 @@ impl<'b> Eval<'b> {
                         continue;
                     }
                     let from = act.base;
+                    let mut acc = Frame64::from(&from.f);
                     // Context Free's `loop`: the first run is under the frame itself.
                     let next = match &b.transforms[step as usize] {
                         _ if chain & bundle::ops::LOOP_FIRST_PLAIN != 0 => {
                             from.compose(&Composite::IDENTITY, &mut self.lins)
                         }
-                        Transform::Const(c) => from.compose(c, &mut self.lins),
+                        Transform::Const(c) => from.compose_step(c, &mut acc, &mut self.lins),
                         Transform::Dynamic { .. } => break,
                     };
-                    loops.push(LoopRec { remaining: count, step, saved_base: act.base, chain: false });
+                    loops.push(LoopRec { remaining: count, step, saved_base: act.base, chain: false, acc });
                     act.base = next;
                     act.pc += 1;
                 }
@@ -1389,7 +1446,7 @@ impl<'b> Eval<'b> {
                     l.remaining -= 1;
                     if l.remaining > 0 {
                         let Transform::Const(c) = &b.transforms[l.step as usize] else { break };
-                        act.base = act.base.compose(c, &mut self.lins);
+                        act.base = act.base.compose_step(c, &mut l.acc, &mut self.lins);
                         act.pc = begin + 1;
                         // Iterator runs count as calls, so `maxiter` also ends huge loops.
                         self.count_run();
