@@ -14,6 +14,7 @@
 //! (random derivation and the enclosure constraint).
 
 pub mod blocks;
+pub mod doors;
 pub mod format;
 pub mod generate;
 pub mod induce;
