@@ -622,3 +622,43 @@ fn string_errors_are_counted_across_lines() {
     );
     assert_eq!(string_error_fns("pub fn b(\n) -> Result<\n    Vec<u8>,\n    String>;"), 1);
 }
+
+/// No operator is written as a number: the expression languages' binary operators
+/// are `BinOp::Mul`, never `Bin(2)` (issue 38; the lowering once wrote `ExprOp::Bin(2)`
+/// to mean "multiply"). Looks for `Bin(` followed by a digit in the code of every
+/// crate.
+#[test]
+fn no_operator_is_written_as_a_number() {
+    let mut found = Vec::new();
+    for krate in ["compiler", "vm", "lsp", "viewer", "cli", "tests", "fuzz"] {
+        let mut files = Vec::new();
+        rs_files(&root().join(krate), &mut files);
+        // (This file names the pattern in its own test strings.)
+        for f in files.iter().filter(|f| !f.ends_with("tests/tests/tidy.rs")) {
+            let text = std::fs::read_to_string(f).unwrap_or_default();
+            for (n, code) in code_lines(&text) {
+                if numbered_operator(code) {
+                    found.push(format!("{}:{n}: {}", f.strip_prefix(root()).unwrap_or(f).display(), code.trim()));
+                }
+            }
+        }
+    }
+    assert!(found.is_empty(), "operators written as numbers (name them: `BinOp::Mul`):\n{}", found.join("\n"));
+}
+
+/// Whether `code` writes `Bin(` with a number.
+fn numbered_operator(code: &str) -> bool {
+    code.match_indices("Bin(").any(|(i, _)| {
+        let before = code[..i].chars().next_back();
+        let after = code[i + 4..].trim_start().chars().next();
+        !before.is_some_and(|c| c.is_alphanumeric() || c == '_') && after.is_some_and(|c| c.is_ascii_digit())
+    })
+}
+
+#[test]
+fn numbered_operators_are_recognised() {
+    assert!(numbered_operator("code.extend([ExprOp::Push(f), ExprOp::Bin(2)]);"));
+    assert!(numbered_operator("CondOp::Bin( 0 )"));
+    assert!(!numbered_operator("ExprOp::Bin(BinOp::Mul)"));
+    assert!(!numbered_operator("MyBin(2)"));
+}
