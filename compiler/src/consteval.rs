@@ -9,8 +9,8 @@
 //! folding at compile time and evaluating at run time cannot disagree: a constant
 //! is computed by running its code with `mdg_vm::expr::run`.
 
-use crate::ast::{Expr, ExprKind, Name, Number};
-use mdg_vm::expr::{self, Core, Func, StackOp, BINOPS};
+use crate::ast::{BinOp, Expr, ExprKind, Name, Number};
+use mdg_vm::expr::{self, BinOp as VmBinOp, Core, Func, StackOp};
 
 /// What a call lowers to.
 pub enum Call {
@@ -30,9 +30,23 @@ pub trait Leaves<O: StackOp> {
     fn call(&mut self, e: &Expr, f: &Name, args: &[Expr], out: &mut Vec<O>) -> Call;
 }
 
-/// The VM's index of a binary operator.
-pub fn binop_index(symbol: &str) -> u8 {
-    BINOPS.iter().position(|s| *s == symbol).unwrap_or(0) as u8
+/// The VM's operator for a source operator.
+pub fn vm_binop(op: BinOp) -> VmBinOp {
+    match op {
+        BinOp::Or => VmBinOp::Or,
+        BinOp::And => VmBinOp::And,
+        BinOp::Lt => VmBinOp::Lt,
+        BinOp::Le => VmBinOp::Le,
+        BinOp::Gt => VmBinOp::Gt,
+        BinOp::Ge => VmBinOp::Ge,
+        BinOp::Eq => VmBinOp::Eq,
+        BinOp::Ne => VmBinOp::Ne,
+        BinOp::Add => VmBinOp::Add,
+        BinOp::Sub => VmBinOp::Sub,
+        BinOp::Mul => VmBinOp::Mul,
+        BinOp::Div => VmBinOp::Div,
+        BinOp::Pow => VmBinOp::Pow,
+    }
 }
 
 /// Emits `e` in `lang`; false if any part was refused (every part is still walked,
@@ -50,12 +64,12 @@ pub fn lower<O: StackOp, L: Leaves<O> + ?Sized>(lang: &mut L, e: &Expr, out: &mu
         }
         ExprKind::Not(x) => {
             let ok = lower(lang, x, out);
-            out.extend([op(Core::Push(0.0)), op(Core::Bin(binop_index("==")))]);
+            out.extend([op(Core::Push(0.0)), op(Core::Bin(VmBinOp::Eq))]);
             ok
         }
         ExprKind::Binary(o, a, b) => {
             let ok = lower(lang, a, out) & lower(lang, b, out);
-            out.push(op(Core::Bin(binop_index(o.symbol()))));
+            out.push(op(Core::Bin(vm_binop(*o))));
             ok
         }
         ExprKind::Call(f, args) => match lang.call(e, f, args, out) {

@@ -75,7 +75,7 @@ pub fn induce_models(
     let original_blocks: Vec<usize> = models.iter().map(|(_, m)| m.blocks.len()).collect();
     // A door's two halves are one block for inference and matching (written back as two).
     let joined: Vec<(String, VoxelModel)> =
-        models.iter().map(|(n, m)| (n.clone(), mdg_vm::grid::blocks::merge_doors(m).0)).collect();
+        models.iter().map(|(n, m)| (n.clone(), mdg_vm::grid::doors::merge_doors(m).0)).collect();
     let models = &joined[..];
     let mut inferences: Vec<Inference> = Vec::new();
     let mut reports = Vec::new();

@@ -9,7 +9,7 @@
 
 use crate::ast::*;
 use crate::check::{AdjKind, Symbols};
-use crate::consteval::{self, binop_index, Call, Leaves};
+use crate::consteval::{self, vm_binop, Call, Leaves};
 use crate::diag::Diagnostic;
 use crate::expand::{ExpItem, Expanded};
 use crate::ext::LowerCx;
@@ -19,7 +19,7 @@ use mdg_vm::bundle::{
     self, proto, AdjOp, Bundle, Composite, Def, Drawable, Op, PrimAdj, Selector, Settings, SourceLoc, Transform,
     CONT_NEXT, NONE,
 };
-use mdg_vm::expr::{ExprOp, Func, VARIABLES};
+use mdg_vm::expr::{BinOp as VmBinOp, ExprOp, Func, VARIABLES};
 use std::collections::HashMap;
 
 /// How `angle` reads plain numbers.
@@ -214,7 +214,7 @@ fn fold(e: Expr) -> Expr {
         ExprKind::Binary(op, a, b) => {
             let (a, b) = (fold(*a), fold(*b));
             match (plain(&a), plain(&b)) {
-                (Some(u), Some(v)) => num(mdg_vm::expr::binop(binop_index(op.symbol()), u, v), span),
+                (Some(u), Some(v)) => num(vm_binop(op).apply(u, v), span),
                 // x - 0, x + 0, x * 1 and x / 1 are x.
                 (None, Some(v))
                     if (v == 0.0 && matches!(op, BinOp::Add | BinOp::Sub))
@@ -781,13 +781,13 @@ impl<'a> Lower<'a> {
                 }
                 let mut count = Vec::new();
                 self.expr_code(end, &mut count);
-                count.extend([ExprOp::Slot(slot), ExprOp::Bin(binop_index("-"))]);
+                count.extend([ExprOp::Slot(slot), ExprOp::Bin(VmBinOp::Sub)]);
                 count.extend(step_code.iter().copied());
-                count.extend([ExprOp::Bin(binop_index("/")), ExprOp::Call(function_index("ceil"))]);
+                count.extend([ExprOp::Bin(VmBinOp::Div), ExprOp::Call(function_index("ceil"))]);
                 let count = self.push_expr(count);
                 let mut next = vec![ExprOp::Slot(slot)];
                 next.extend(step_code);
-                next.push(ExprOp::Bin(binop_index("+")));
+                next.push(ExprOp::Bin(VmBinOp::Add));
                 let next = self.push_expr(next);
                 let xf = self.transform(adj, 1.0);
                 let block_chains =
@@ -919,7 +919,7 @@ impl<'a> Lower<'a> {
                         Some(bundle::Arg::Const(v)) => bundle::Arg::Const(*v * sign as f32),
                         Some(bundle::Arg::Expr(e)) => {
                             let mut code = self.exprs[*e as usize].clone();
-                            code.extend([ExprOp::Push(sign as f64), ExprOp::Bin(2)]);
+                            code.extend([ExprOp::Push(sign as f64), ExprOp::Bin(VmBinOp::Mul)]);
                             self.exprs.push(code);
                             bundle::Arg::Expr(self.exprs.len() as u32 - 1)
                         }
@@ -951,7 +951,7 @@ impl<'a> Lower<'a> {
         let mut code = Vec::new();
         self.expr_code(e, &mut code);
         if factor != 1.0 {
-            code.extend([ExprOp::Push(factor), ExprOp::Bin(2)]);
+            code.extend([ExprOp::Push(factor), ExprOp::Bin(VmBinOp::Mul)]);
         }
         self.exprs.push(code);
         self.exprs.len() as u32 - 1

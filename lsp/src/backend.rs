@@ -130,7 +130,7 @@ impl Backend {
     /// An analysis of the current text of `uri` for a request: the full one if it
     /// is done, else one without compiled shaders, made now if need be, so that a
     /// request never waits for glslang (the full analysis runs in
-    /// [`crate::handlers::sync::refresh`]). `None` if the document is not open or
+    /// [`crate::handlers::analysis::refresh`]). `None` if the document is not open or
     /// changed while it was analysed.
     pub async fn document(&self, uri: &Uri) -> Option<Arc<Document>> {
         if let Some(d) = self.docs.current_analysis(uri).or_else(|| self.docs.quick(uri)) {

@@ -105,23 +105,8 @@ pub fn dump_without_spans(file: &mdg_compiler::ast::File) -> String {
         .join("\n")
 }
 
-/// A small deterministic PRNG (xorshift64*) for bounded fuzz loops.
-pub struct Rng(pub u64);
-
-impl Rng {
-    /// The next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-
-    /// A number in `0..n`.
-    pub fn below(&mut self, n: usize) -> usize {
-        (self.next_u64() % n.max(1) as u64) as usize
-    }
-}
+/// The workspace's one test generator (xorshift64*), for bounded fuzz loops.
+pub use mdg_vm::rng::Rng;
 
 /// Compiles `text` (as if at `tests/inline.mdg`, std imports available) to a bundle.
 pub fn build_source(text: &str) -> mdg_vm::bundle::Bundle {

@@ -761,7 +761,7 @@ fn mutated_voxel_files_never_panic() {
                 for _ in 0..1 + rng.below(4) {
                     let i = rng.below(b.len());
                     match rng.below(3) {
-                        0 => b[i] = rng.next_u64() as u8,
+                        0 => b[i] = rng.bits() as u8,
                         1 => {
                             b.truncate(i);
                         }
@@ -1194,7 +1194,8 @@ fn the_adjacency_constraint_keeps_every_neighbour_pair_of_the_example() {
 
 #[test]
 fn door_halves_are_one_block_for_induction_and_two_when_written() {
-    use mdg_vm::grid::blocks::{merge_doors, split_doors, turn_block};
+    use mdg_vm::grid::blocks::turn_block;
+    use mdg_vm::grid::doors::{merge_doors, split_doors};
     // A wall with a legacy oak door (lower half facing east, upper half hinge left) and
     // one with a modern spruce door.
     let mut v: Vec<([i32; 3], &str)> = Vec::new();

@@ -252,6 +252,46 @@ fn a_torus_knot_convolution_uses_all_4000_frames() {
 }
 
 #[test]
+fn the_thesis_knot_closes_within_a_millionth_of_its_size_after_4000_steps() {
+    // Listing C.2's (2, 3) torus knot: 4000 steps of rz 0.18 and ry 0.27. The iterated
+    // frames are accumulated in f64 (issue 38); in f32 the knot missed its start by
+    // 3·10⁻⁴ of its size.
+    let out = run_source(
+        "startshape scene\nrule scene { MOVETO {x 2.5} knot {} }\n\
+         rule knot * around : twist { LINETO {x 0.5} }\n\
+         rule around { 4000/4000 * {rz 720} FRAME {x 2} }\n\
+         rule twist { 4000/4000 * {ry 1080} FRAME {} }\n",
+    );
+    let pts: Vec<Vec3> = out.lines[0].points.iter().map(|p| v(*p)).collect();
+    assert_eq!(pts.len(), 4001);
+    // The knot spans 5 (a diameter of 2 · 2.5).
+    let miss = pts[4000].distance(pts[0]) / 5.0;
+    assert!(miss <= 1e-6, "the knot misses its start by {miss:e} of its size: {} vs {}", pts[4000], pts[0]);
+}
+
+#[test]
+fn a_million_step_rz_iterator_closes_a_full_turn_within_a_millionth() {
+    // 10⁶ runs of rz 0.00036: the last run is a full turn, back on the first point.
+    // Both forms: the step written out, and the divided form (360° in 10⁶ steps).
+    for src in [
+        "startshape A\nmaxiter 2000000\nrule A { MOVETO {x 1} 1000000 * {rz 0.00036} LINETO {x 1} }\n",
+        "startshape A\nmaxiter 2000000\nrule A { MOVETO {x 1} 1000000/1000000 * {rz 360} LINETO {x 1} }\n",
+    ] {
+        let out = run_source(src);
+        assert!(out.stats.warnings.is_empty(), "{:?}", out.stats.warnings);
+        let pts = &out.lines[0].points;
+        assert_eq!(pts.len(), 1_000_001);
+        let (first, last) = (v(pts[0]), v(pts[1_000_000]));
+        // The circle's extent is its diameter, 2.
+        let miss = last.distance(first) / 2.0;
+        assert!(miss <= 1e-6, "{src}: the turn misses its start by {miss:e} of the extent: {last} vs {first}");
+        // Halfway is the opposite point.
+        let half = v(pts[500_000]).distance(-Vec3::X) / 2.0;
+        assert!(half <= 1e-6, "{src}: half a turn is off by {half:e}");
+    }
+}
+
+#[test]
 fn a_spiral_convolution_has_as_many_frames_and_turns_as_its_iterator() {
     // 2000/400 * [rz 360]: 2000 frames, 5 turns, rising 0.002 per frame.
     let out = run_source(

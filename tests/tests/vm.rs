@@ -357,7 +357,7 @@ fn mutated_bundles_are_rejected_or_run_safely() {
                     // Flips in the payload with the check value recomputed: exercises the decoder and verifier.
                     for _ in 0..1 + rng.below(4) {
                         let i = 24 + rng.below(bytes.len() - 24);
-                        bytes[i] = rng.next_u64() as u8;
+                        bytes[i] = rng.bits() as u8;
                     }
                     let check = mdg_vm::bundle::fnv1a(&bytes[24..]);
                     bytes[8..16].copy_from_slice(&check.to_le_bytes());

@@ -110,10 +110,102 @@ pub fn clamp(v: f64, a: f64, b: f64) -> f64 {
 /// Variables an expression may read at run time, by index.
 pub const VARIABLES: &[&str] = &["x", "y", "z", "depth", "scale", "g"];
 
-/// Binary operators, by index: `+ - * / ^ < <= > >= == != && ||`. `&&` and `||`
-/// read 0 (and NaN) as false, anything else as true, and give 1 or 0; both sides are
-/// always evaluated (so the random stream does not depend on a condition).
-pub const BINOPS: &[&str] = &["+", "-", "*", "/", "^", "<", "<=", ">", ">=", "==", "!=", "&&", "||"];
+/// Declares [`BinOp`], [`BINOPS`] and the operators' definitions from one list.
+macro_rules! binops {
+    ($( $v:ident $sym:literal => |$a:ident, $b:ident| $body:expr ),* $(,)?) => {
+        /// A binary operator of the expression languages. In a bundle it is written as
+        /// its id, its position in [`BINOPS`]; decoding resolves the id, so code holds
+        /// only known operators and evaluation matches on the operator, never a number.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+        pub enum BinOp {
+            $( #[doc = $sym] $v, )*
+        }
+
+        /// Binary operators' symbols, by id: `+ - * / ^ < <= > >= == != && ||`. `&&`
+        /// and `||` read 0 (and NaN) as false, anything else as true, and give 1 or 0;
+        /// both sides are always evaluated (so the random stream does not depend on a
+        /// condition).
+        pub const BINOPS: &[&str] = &[$($sym),*];
+
+        impl BinOp {
+            /// Every operator, by id.
+            pub const ALL: &[BinOp] = &[$(BinOp::$v),*];
+
+            /// The operator with id `i` (its index in [`BINOPS`]).
+            #[inline]
+            pub fn from_id(i: u8) -> Option<BinOp> {
+                BinOp::ALL.get(i as usize).copied()
+            }
+
+            /// The operator written `symbol`.
+            pub fn from_symbol(symbol: &str) -> Option<BinOp> {
+                BINOPS.iter().position(|s| *s == symbol).map(|i| BinOp::ALL[i])
+            }
+
+            /// The id written in a bundle.
+            pub fn id(self) -> u8 {
+                self as u8
+            }
+
+            /// The operator as written.
+            pub fn symbol(self) -> &'static str {
+                BINOPS[self as usize]
+            }
+
+            /// `a self b`.
+            #[inline]
+            pub fn apply(self, x: f64, y: f64) -> f64 {
+                match self {
+                    $( BinOp::$v => {
+                        let ($a, $b) = (x, y);
+                        $body
+                    } )*
+                }
+            }
+        }
+    };
+}
+
+/// 1 for true, 0 for false.
+#[inline]
+fn bool01(c: bool) -> f64 {
+    if c {
+        1.0
+    } else {
+        0.0
+    }
+}
+
+binops! {
+    Add "+" => |a, b| a + b,
+    Sub "-" => |a, b| a - b,
+    Mul "*" => |a, b| a * b,
+    Div "/" => |a, b| a / b,
+    Pow "^" => |a, b| a.powf(b),
+    Lt "<" => |a, b| bool01(a < b),
+    Le "<=" => |a, b| bool01(a <= b),
+    Gt ">" => |a, b| bool01(a > b),
+    Ge ">=" => |a, b| bool01(a >= b),
+    Eq "==" => |a, b| bool01(a == b),
+    Ne "!=" => |a, b| bool01(a != b),
+    And "&&" => |a, b| bool01(truthy(a) && truthy(b)),
+    Or "||" => |a, b| bool01(truthy(a) || truthy(b)),
+}
+
+/// Written as its id (a number), as in the bundle: the creature table's JSON keeps
+/// its bytes.
+impl Serialize for BinOp {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_u8(self.id())
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for BinOp {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<BinOp, D::Error> {
+        let id = <u8 as serde::Deserialize>::deserialize(d)?;
+        BinOp::from_id(id).ok_or_else(|| serde::de::Error::custom(format!("unknown operator {id}")))
+    }
+}
 
 /// One expression instruction.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -124,8 +216,8 @@ pub enum ExprOp {
     Var(u8),
     /// Negate the top.
     Neg,
-    /// Pop b, pop a, push `a BINOPS[i] b`.
-    Bin(u8),
+    /// Pop b, pop a, push `a op b`.
+    Bin(BinOp),
     /// Pop `arity` arguments, push `FUNCTIONS[i](…)`.
     Call(u8),
     /// Push slot `i` of the running rule's frame (a parameter, a `let` binding or a
@@ -137,26 +229,6 @@ pub enum ExprOp {
 #[inline]
 pub fn truthy(v: f64) -> bool {
     v != 0.0 && !v.is_nan()
-}
-
-/// Applies binary operator `BINOPS[op]`.
-pub fn binop(op: u8, a: f64, b: f64) -> f64 {
-    let t = |c: bool| if c { 1.0 } else { 0.0 };
-    match op {
-        0 => a + b,
-        1 => a - b,
-        2 => a * b,
-        3 => a / b,
-        4 => a.powf(b),
-        5 => t(a < b),
-        6 => t(a <= b),
-        7 => t(a > b),
-        8 => t(a >= b),
-        9 => t(a == b),
-        10 => t(a != b),
-        11 => t(truthy(a) && truthy(b)),
-        _ => t(truthy(a) || truthy(b)),
-    }
 }
 
 /// Applies a deterministic math function by name (`None` for unknown names, a
@@ -211,8 +283,8 @@ pub fn quick(code: &[ExprOp], slots: &[f64]) -> Option<f64> {
     let slot = |i: u16| slots.get(i as usize).copied().unwrap_or(f64::NAN);
     match *code {
         [ExprOp::Slot(i)] => Some(slot(i)),
-        [ExprOp::Slot(i), ExprOp::Push(c), ExprOp::Bin(o)] => Some(binop(o, slot(i), c)),
-        [ExprOp::Push(c), ExprOp::Slot(i), ExprOp::Bin(o)] => Some(binop(o, c, slot(i))),
+        [ExprOp::Slot(i), ExprOp::Push(c), ExprOp::Bin(o)] => Some(o.apply(slot(i), c)),
+        [ExprOp::Push(c), ExprOp::Slot(i), ExprOp::Bin(o)] => Some(o.apply(c, slot(i))),
         [ExprOp::Push(c)] => Some(c),
         _ => None,
     }
@@ -230,8 +302,8 @@ pub enum Core<L> {
     Leaf(L),
     /// Negate the top.
     Neg,
-    /// Pop b, pop a, push `a BINOPS[i] b`.
-    Bin(u8),
+    /// Pop b, pop a, push `a op b`.
+    Bin(BinOp),
     /// Pop `arity` arguments, push `FUNCTIONS[i](…)`.
     Call(u8),
 }
@@ -292,7 +364,7 @@ pub fn run<O: StackOp>(
             Core::Bin(o) => {
                 let b = stack.pop().unwrap_or(f64::NAN);
                 let a = stack.pop().unwrap_or(f64::NAN);
-                stack.push(binop(o, a, b));
+                stack.push(o.apply(a, b));
             }
             Core::Call(f) => {
                 let Some(func) = Func::from_id(f) else { return f64::NAN };
@@ -325,7 +397,6 @@ pub fn check<O: StackOp>(
                 0
             }
             Core::Neg => 1,
-            Core::Bin(o) if o as usize >= BINOPS.len() => return Err(format!("unknown operator {o} at {i}")),
             Core::Bin(_) => 2,
             Core::Call(f) => match Func::from_id(f) {
                 Some(f) => {
@@ -426,6 +497,27 @@ mod tests {
     /// combination of NaN, infinite, huge, tiny and plain arguments: no panic, and the
     /// constant folder (`call`) gives what evaluation gives.
     #[test]
+    fn operators_are_named_and_numbered_by_one_table() {
+        assert_eq!(BinOp::ALL.len(), BINOPS.len());
+        for (i, &op) in BinOp::ALL.iter().enumerate() {
+            assert_eq!(op.id() as usize, i);
+            assert_eq!(BinOp::from_id(op.id()), Some(op));
+            assert_eq!(BinOp::from_symbol(op.symbol()), Some(op));
+        }
+        assert_eq!(BinOp::from_id(BINOPS.len() as u8), None);
+        // The ids a bundle holds (docs/bytecode.md): `*` is 2, `||` is 12.
+        assert_eq!((BinOp::Mul.id(), BinOp::Or.id()), (2, 12));
+        assert_eq!(
+            (BinOp::Pow.apply(2.0, 10.0), BinOp::Le.apply(1.0, 1.0), BinOp::And.apply(f64::NAN, 1.0)),
+            (1024.0, 1.0, 0.0)
+        );
+        // Serialised as the id (the creature table's JSON), and read back.
+        assert_eq!(serde_json::to_string(&BinOp::Ge).ok().as_deref(), Some("8"));
+        assert_eq!(serde_json::from_str::<BinOp>("8").ok(), Some(BinOp::Ge));
+        assert!(serde_json::from_str::<BinOp>("13").is_err());
+    }
+
+    #[test]
     fn every_function_takes_non_finite_and_huge_arguments() {
         for &f in Func::ALL {
             let n = f.arity();
@@ -444,10 +536,10 @@ mod tests {
                 }
             }
         }
-        for op in 0..BINOPS.len() as u8 {
+        for &op in BinOp::ALL {
             for a in HOSTILE {
                 for b in HOSTILE {
-                    let _ = binop(op, a, b);
+                    let _ = op.apply(a, b);
                 }
             }
         }

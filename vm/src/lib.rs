@@ -15,4 +15,5 @@ pub mod grid;
 pub mod input;
 pub mod output;
 pub mod preview;
+pub mod rng;
 pub mod sosmc;

@@ -583,7 +583,7 @@ pub(crate) fn frame_surely_maps_finite(f: &Frame, extent: f32) -> bool {
 
 /// Appends prototype instance `inst` (weight `weight`) to `m` in world space: the
 /// vertices the evaluator would have emitted for the prototype's items, computed by
-/// the same expressions in the same order (eval.rs, the `VERTEX` fast path and
+/// the same expressions in the same order (`eval/run.rs`, the `VERTEX` fast path and
 /// `FACENORMALS`), so the bits are the same.
 pub fn expand_prototype(m: &mut Mesh, shared: &SharedMesh, inst: &Instance, weight: [f32; 4]) {
     let p = &shared.mesh;

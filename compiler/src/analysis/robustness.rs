@@ -4,6 +4,7 @@
 
 use super::fixture::doc;
 use super::CompletionConfig;
+use mdg_vm::rng::Rng;
 use std::time::{Duration, Instant};
 
 /// Fragments of MDG, whole and broken, inserted at random places.
@@ -72,21 +73,6 @@ pub const FRAGMENTS: &[&str] = &[
     "\"",
     "grid ",
 ];
-
-/// A small deterministic PRNG (xorshift64*).
-pub struct Rng(pub u64);
-
-impl Rng {
-    pub fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-    pub fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-}
 
 /// One random edit of `text` (an insertion of a fragment or a deletion), kept under 3,000 bytes.
 pub fn edit(rng: &mut Rng, text: &mut String) {

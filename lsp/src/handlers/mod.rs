@@ -1,6 +1,7 @@
 //! One file per LSP feature. Each handler converts positions to byte offsets, asks
 //! the analysis API under the panic guard, and converts the answer back.
 
+pub mod analysis;
 pub mod call_hierarchy;
 pub mod capabilities;
 pub mod code_actions;

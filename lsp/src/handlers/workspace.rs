@@ -216,7 +216,7 @@ pub async fn did_change_watched_files(b: &Backend, p: DidChangeWatchedFilesParam
     // appeared or vanished (an import may now resolve, or no longer).
     for (u, _) in b.docs.open_documents() {
         if created || deleted || changed.iter().any(|c| b.docs.reads(&u, c)) {
-            super::sync::refresh(b, u).await;
+            super::analysis::refresh(b, u).await;
         }
     }
     closed.extend(b.workspace.importers(&changed));

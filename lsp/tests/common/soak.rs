@@ -7,6 +7,7 @@
 #![allow(dead_code)]
 
 use super::{scratch, uri, Client};
+use mdg_vm::rng::Rng;
 use serde_json::{json, Value};
 use std::time::{Duration, Instant};
 
@@ -69,20 +70,6 @@ const FRAGMENTS: &[&str] = &[
 ];
 
 const START: &str = "startshape A\n@import primitives\nrule A {\n  leaf {x 1}\n  30/30 * [ry 360] cube {s 0.1}\n}\nrule leaf 2 { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\nrule leaf { leaf {s 0.5} }\n";
-
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-}
 
 /// One random edit: an insertion of a fragment or a deletion, the document kept
 /// under 3,000 bytes.

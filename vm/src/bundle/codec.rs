@@ -2,6 +2,7 @@
 //! against the bytes left before anything is allocated.
 
 use super::*;
+use crate::expr::BinOp;
 
 struct W(Vec<u8>);
 
@@ -220,7 +221,7 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
                 ExprOp::Neg => w.u8(2),
                 ExprOp::Bin(o) => {
                     w.u8(3);
-                    w.u8(*o);
+                    w.u8(o.id());
                 }
                 ExprOp::Call(f) => {
                     w.u8(4);
@@ -469,7 +470,10 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
                 0 => ExprOp::Push(r.f64()?),
                 1 => ExprOp::Var(r.u8()?),
                 2 => ExprOp::Neg,
-                3 => ExprOp::Bin(r.u8()?),
+                3 => {
+                    let id = r.u8()?;
+                    ExprOp::Bin(BinOp::from_id(id).ok_or_else(|| r.err(&format!("unknown operator {id}")))?)
+                }
                 4 => ExprOp::Call(r.u8()?),
                 5 => ExprOp::Slot(r.u16()?),
                 t => return Err(r.err(&format!("unknown expression op {t}"))),

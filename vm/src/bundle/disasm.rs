@@ -26,7 +26,7 @@ fn composite(c: &Composite) -> String {
 
 /// Expression code as infix text: `s0` is slot 0 of the rule's frame.
 pub fn expr_text(code: &[crate::expr::ExprOp]) -> String {
-    use crate::expr::{ExprOp, BINOPS, FUNCTIONS, VARIABLES};
+    use crate::expr::{ExprOp, FUNCTIONS, VARIABLES};
     // (text, binds loosely: needs parentheses as an operand)
     let mut st: Vec<(String, bool)> = Vec::new();
     let pop = |st: &mut Vec<(String, bool)>| st.pop().unwrap_or_else(|| ("?".into(), false));
@@ -43,7 +43,7 @@ pub fn expr_text(code: &[crate::expr::ExprOp]) -> String {
                 let (b, lb) = pop(&mut st);
                 let (a, la) = pop(&mut st);
                 let wrap = |t: String, loose: bool| if loose { format!("({t})") } else { t };
-                let sym = BINOPS.get(o as usize).unwrap_or(&"?");
+                let sym = o.symbol();
                 st.push((format!("{} {sym} {}", wrap(a, la), wrap(b, lb)), true));
             }
             ExprOp::Call(f) => {

@@ -5,7 +5,7 @@
 //! super-parts of a kind the shape has). `rand`/`randn` are not allowed: a rule's
 //! probability is the chance of its function branch, drawn by the evolution.
 
-use crate::expr::{self, Core, StackOp};
+use crate::expr::{self, BinOp, Core, StackOp};
 use serde::{Deserialize, Serialize};
 
 /// Variables a condition or probability may read, by index.
@@ -29,8 +29,8 @@ pub enum CondOp {
     /// Push the number of super-parts of kind `k`.
     Parts(u32),
     Neg,
-    /// Pop b, pop a, push `a BINOPS[i] b`.
-    Bin(u8),
+    /// Pop b, pop a, push `a op b`.
+    Bin(BinOp),
     /// Pop `arity` arguments, push `FUNCTIONS[i](…)` (never `rand`/`randn`).
     Call(u8),
 }
@@ -300,12 +300,19 @@ pub fn never_hold(conditions: &[&[CondOp]], b: &Bounds, budget: u64) -> Option<b
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::expr::{Func, BINOPS};
+    use crate::expr::{BinOp, Func};
 
     fn g_expr(a: f64, b: f64) -> Vec<CondOp> {
         // a * exp(b * g)
         let exp = Func::Exp as u8;
-        vec![CondOp::Push(a), CondOp::Push(b), CondOp::Var(0), CondOp::Bin(2), CondOp::Call(exp), CondOp::Bin(2)]
+        vec![
+            CondOp::Push(a),
+            CondOp::Push(b),
+            CondOp::Var(0),
+            CondOp::Bin(BinOp::Mul),
+            CondOp::Call(exp),
+            CondOp::Bin(BinOp::Mul),
+        ]
     }
 
     #[test]
@@ -318,7 +325,7 @@ mod tests {
     }
 
     fn bin(op: &str) -> CondOp {
-        CondOp::Bin(BINOPS.iter().position(|s| *s == op).expect("op") as u8)
+        CondOp::Bin(BinOp::from_symbol(op).expect("op"))
     }
 
     #[test]
@@ -346,7 +353,7 @@ mod tests {
 
     #[test]
     fn verify_rejects_underflow_and_random() {
-        assert!(verify(&[CondOp::Bin(0)], 1).is_err());
+        assert!(verify(&[CondOp::Bin(BinOp::Add)], 1).is_err());
         let rand = Func::Rand as u8;
         assert!(verify(&[CondOp::Push(0.0), CondOp::Push(1.0), CondOp::Call(rand)], 1).is_err());
         assert!(verify(&[CondOp::Parts(3)], 2).is_err());

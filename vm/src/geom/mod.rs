@@ -6,6 +6,7 @@
 //! of it knows about bytecode or rule evaluation.
 
 pub mod blend;
+pub mod frame64;
 pub mod marching;
 pub mod mesh;
 pub mod quat;

@@ -465,7 +465,7 @@ fn derive(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generated, St
         removed += keep_largest_supported(&d, &mut instances, &mut world);
     }
     // Doors joined for induction are two blocks again.
-    let (model, _) = super::blocks::split_doors(&world.model(&d.kinds));
+    let (model, _) = super::doors::split_doors(&world.model(&d.kinds));
     Ok(Generated { model, instances, applied, removed, enclosure_rounds: rounds, note })
 }
 
@@ -820,7 +820,7 @@ pub fn examples(grammar: &GridGrammar) -> Vec<VoxelModel> {
         .map(|c| {
             let mut blocks: Vec<Block> = c.into_iter().map(|(pos, kind)| Block { pos, kind }).collect();
             blocks.sort_by_key(|b| (b.pos[1], b.pos[2], b.pos[0]));
-            super::blocks::split_doors(&VoxelModel { kinds: kinds.clone(), blocks }).0
+            super::doors::split_doors(&VoxelModel { kinds: kinds.clone(), blocks }).0
         })
         .collect()
 }

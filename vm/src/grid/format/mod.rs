@@ -130,11 +130,11 @@ pub fn write_notes(format: VoxelFormat, model: &VoxelModel) -> Vec<String> {
 }
 
 /// Writes a voxel model in `format`. Doors joined for induction (`LOWER+UPPER`, see
-/// [`super::blocks::merge_doors`]) are written as their two halves.
+/// [`super::doors::merge_doors`]) are written as their two halves.
 pub fn write(format: VoxelFormat, model: &VoxelModel) -> Result<Vec<u8>, String> {
     let split;
     let model = if model.kinds.iter().any(|k| k.id.contains(super::blocks::DOOR_JOIN)) {
-        split = super::blocks::split_doors(model).0;
+        split = super::doors::split_doors(model).0;
         &split
     } else {
         model

@@ -1,0 +1,153 @@
+//! Limits and budgets: calls, depth, size, stack, vertices, time, keyframes; the
+//! counts behind their warnings.
+
+use super::*;
+
+#[derive(Default)]
+pub(super) struct LimitCounts {
+    pub(super) maxdepth: u64,
+    pub(super) minsize: u64,
+    pub(super) stacksize: u64,
+    /// The CALL op of the first call each per-branch limit refused (`maxdepth`,
+    /// `minsize`, stack size): its warning names that rule and line.
+    pub(super) first_refused: [Option<u32>; 3],
+    pub(super) maxiter: bool,
+    pub(super) vertices: bool,
+    pub(super) time: bool,
+    /// Keyframes of the bones made so far (see [`MAX_KEYFRAMES`]).
+    pub(super) keyframes: u64,
+    pub(super) animation: bool,
+}
+
+impl<'b> Eval<'b> {
+    /// Counts an iterator run or a convolution's body run as a call, so `maxiter`
+    /// bounds them too (checking the budgets now and then).
+    #[inline]
+    pub(super) fn count_run(&mut self) {
+        self.calls += 1;
+        if self.calls > self.maxiter {
+            self.limits.maxiter = true;
+            self.stopped = true;
+        }
+        if self.calls & 0xFFF == 0 {
+            self.check_budgets();
+        }
+    }
+
+    /// A call refused by `maxdepth` before its frame was made: counted as
+    /// [`Eval::admit`] counts it (the run-wide limits come first).
+    pub(super) fn refuse_deep_call(&mut self, pc: u32) {
+        if self.count_call() {
+            self.limits.maxdepth += 1;
+            self.limits.first_refused[0].get_or_insert(pc);
+        }
+    }
+
+    /// Counts a call against the run-wide limits (checking the budgets now and
+    /// then); whether the run goes on.
+    #[inline]
+    pub(super) fn count_call(&mut self) -> bool {
+        self.calls += 1;
+        if self.calls & 0xFFF == 0 {
+            self.check_budgets();
+            if let Some(p) = self.progress {
+                p(self.calls);
+            }
+            if self.stopped {
+                // A budget ran out: this call is not made (the warning names its line).
+                return false;
+            }
+        }
+        if self.calls > self.maxiter {
+            self.limits.maxiter = true;
+            self.stopped = true;
+            return false;
+        }
+        true
+    }
+
+    /// Whether a call may proceed; counts the limits that stop it.
+    /// `pc` is the CALL op's (for the warning's rule and line).
+    pub(super) fn admit(&mut self, child: &State, depth: u32, stack_len: usize, pc: u32) -> bool {
+        if !self.count_call() {
+            return false;
+        }
+        self.admit_rest(child, depth, stack_len, pc)
+    }
+
+    /// The per-branch limits of a call: `maxdepth`, `minsize`, the stack size.
+    #[inline]
+    pub(super) fn admit_rest(&mut self, child: &State, depth: u32, stack_len: usize, pc: u32) -> bool {
+        let s = &self.b.settings;
+        let refused = if s.maxdepth > 0 && depth > s.maxdepth {
+            self.limits.maxdepth += 1;
+            0
+        } else if s.minsize > 0.0 && child.scale() < s.minsize {
+            self.limits.minsize += 1;
+            1
+        } else if stack_len >= self.stacksize as usize {
+            self.limits.stacksize += 1;
+            2
+        } else {
+            return true;
+        };
+        self.limits.first_refused[refused].get_or_insert(pc);
+        false
+    }
+
+    /// The vertices the run has made so far, as the vertex budget counts them.
+    pub(super) fn vertices_made(&self) -> u64 {
+        (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64
+            + self.extra_vertices
+            + self.instanced_vertices
+    }
+
+    pub(super) fn check_budgets(&mut self) {
+        if self.opts.cancel.as_ref().is_some_and(|c| (c.0)()) {
+            self.stopped = true;
+        }
+        if self.vertices_made() > self.opts.max_vertices {
+            self.limits.vertices = true;
+            self.stopped = true;
+        }
+        if let Some(t) = self.opts.time_budget {
+            if self.started.elapsed() > t {
+                self.limits.time = true;
+                self.stopped = true;
+            }
+        }
+    }
+}
+
+impl<'b> Eval<'b> {
+    /// The most points one profile keeps: [`MAX_PROFILE_POINTS`], and never more
+    /// than half the vertex budget (a sweep makes two rings of them).
+    pub(super) fn profile_limit(&self) -> usize {
+        (MAX_PROFILE_POINTS as u64).min(self.opts.max_vertices / 2).max(2) as usize
+    }
+
+    /// Whether `more` vertices fit in the vertex budget; if not, the run stops there
+    /// (before they are made) with the budget's warning.
+    pub(super) fn room_for(&mut self, more: usize) -> bool {
+        if self.vertices_made().saturating_add(more as u64) > self.opts.max_vertices {
+            self.limits.vertices = true;
+            self.stopped = true;
+            return false;
+        }
+        true
+    }
+}
+
+impl<'b> Eval<'b> {
+    /// The keyframe budget: [`MAX_KEYFRAMES`], or the vertex budget when smaller.
+    pub(super) fn keyframe_budget(&self) -> u64 {
+        MAX_KEYFRAMES.min(self.opts.max_vertices)
+    }
+
+    /// Records a warning once.
+    pub(super) fn warn_once(&mut self, msg: String) {
+        if !self.out.stats.warnings.contains(&msg) {
+            self.out.stats.warnings.push(msg);
+        }
+    }
+}

@@ -1,0 +1,407 @@
+//! The evaluator: runs a verified bundle depth-first with an explicit stack.
+//!
+//! Each activation holds the rule body's program counter, the frame items start from
+//! (the body's frame, or the current iterator run's frame), its depth, and the
+//! continuation register. The native stack is never used for recursion, so deep
+//! grammars cannot overflow it. Limits (`maxdepth`, `minsize`, `stacksize`,
+//! `maxiter`, a vertex budget and a time budget) end branches or the run cleanly,
+//! keep everything produced so far, and are reported as warnings.
+//!
+//! Animation (thesis §4.4–4.5, SPEC §8): a call of a model rule with transform rules
+//! (`rule A : X1 : X2`) makes a *bone*; every vertex emitted inside its derivation
+//! carries the innermost bone's index. A transform rule's frames are sampled once by
+//! evaluating it from the identity in transform mode (each `FRAME {adj}` records
+//! the current frame composed with `adj`) and cached as a track in the output; an
+//! infinite rule is cut at the frames the run needs and extended if a later use needs
+//! more (each track has its own random stream, so a re-run repeats the same prefix).
+//! A call of a convolution rule (`rule R * I : A : B`) runs R's body once per frame
+//! index i of I under `R's frame · I[i]·A[i]·B[i]`. See [`crate::anim`] for sampling.
+//!
+//! Random numbers come from PCG-64 (`rand_pcg::Pcg64`) seeded with the seed, turned
+//! into floats by this module (53 high bits for uniforms, Box–Muller for normals), so
+//! a seed gives the same stream on every machine and rand version.
+//!
+//! The module is split by concern: `options` (what a caller sets, the default
+//! limits), `state` (the state a frame carries and its algebra), `run` (the
+//! interpreter loops and their activation records), `select` (which definition a
+//! call runs), `env` (expressions, random numbers, run-time transforms, non-finite
+//! values), `draw` (geometry and prototype instances), `tracks` (bones, sampled
+//! transform rules, convolutions), `budget` (limits and their counts), `sites`
+//! (source positions of ops) and `guided` (one body's expansion for the guided
+//! search). This file holds the evaluation's state (`Eval`'s fields), its entry
+//! points and the assembly of the output.
+//!
+//! An iterator's runs (`N * {T}`) are under `F·T`, `F·T·T`, …: that running frame
+//! is composed in `f64` ([`Frame64`], see [`crate::geom::frame64`]) and stored in
+//! the `f32` frame the body runs under, so its error does not grow with the count.
+//! (A chained iterator, `N * {T} \ ITEM`, continues from each run's `f32` end
+//! state, and a frame under a non-uniform scale composes in `f32`.)
+
+use crate::anim::{frames_needed, MAX_TRACK_FRAMES};
+use crate::bundle::{self, Bundle, Composite, Drawable, Op, Selector, Transform, CONT_NEXT, NONE};
+use crate::expr::{self, ExprOp, Random};
+use crate::geom::frame64::Frame64;
+use crate::geom::quat::{Affine, Frame};
+use crate::geom::Mesh;
+use crate::geom::{blend, marching, sweep};
+use crate::output::{
+    frame_surely_maps_finite, Bone, Camera, Instance, Output, Polyline, SharedKind, SharedMesh, Track,
+};
+use glam::{Mat3, Quat, Vec3, Vec4};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+use std::collections::HashMap;
+use std::rc::Rc;
+use std::time::{Duration, Instant};
+
+mod budget;
+mod draw;
+mod env;
+mod guided;
+mod options;
+mod run;
+mod select;
+mod sites;
+mod state;
+mod tracks;
+
+use budget::*;
+use draw::*;
+use env::*;
+pub use guided::{Call, Expander, MAX_EXPANSION_CALLS};
+pub use options::*;
+use run::*;
+use select::*;
+use sites::*;
+use state::*;
+pub use state::{compose_prims, Lins, State};
+
+/// What `run` collects: full geometry, only the points of a profile rule, or only
+/// the frames of a transform rule.
+#[derive(Clone, Copy, PartialEq)]
+enum Mode {
+    Model,
+    Profile,
+    Transform,
+}
+
+struct Eval<'b> {
+    b: &'b Bundle,
+    opts: EvalOptions,
+    rng: Pcg,
+    out: Output,
+    pens: Vec<Pen>,
+    last: State,
+    sequential: HashMap<u32, (usize, u32)>,
+    profiles: HashMap<u32, std::rc::Rc<[Vec3]>>,
+    /// Profile rules cut at [`MAX_PROFILE_POINTS`] (or the vertex budget), for the
+    /// warning.
+    profiles_cut: Vec<(u32, usize)>,
+    iso_meshes: HashMap<u32, Option<u32>>,
+    /// What the output holds beyond the mesh and sweeps: the vertices of every shared
+    /// (isosurface) mesh, one per instance (its transform) and every line point.
+    /// Counted against `max_vertices` with the rest.
+    extra_vertices: u64,
+    /// Isosurface cells polygonised so far in this run (against `max_iso_cells`).
+    iso_cells: u64,
+    limits: LimitCounts,
+    stopped: bool,
+    started: Instant,
+    calls: u64,
+    maxiter: u64,
+    stacksize: u32,
+    expr_stack: Vec<f64>,
+    /// The value stack of rule parameters and locals (see [`Act::slot_base`]): grown
+    /// once to the deepest derivation's need, never allocated per call.
+    slots: Vec<f64>,
+    profile_points: Vec<Vec3>,
+    progress: Option<&'b dyn Fn(u64)>,
+    xf_info: Vec<Option<XfInfo>>,
+    /// Per transform: a constant without a non-uniform scale (composing it has no
+    /// effect but its result).
+    xf_pure: Vec<bool>,
+    /// Whether any op reads the continuation register (CONT, chained loops, RESET);
+    /// if not, the VERTEX fast path need not compute the full frame for it.
+    needs_last: bool,
+    /// The bundle's prototypes, by `INST` ordinal.
+    protos: Vec<ProtoSlot>,
+    /// Whether `INST` makes instances (see [`EvalOptions::instancing`]).
+    instancing: bool,
+    /// Whether model runs take [`Eval::run_fast`] (instancing on, so no sites, and
+    /// [`fast_path_applies`]).
+    fast: bool,
+    /// Vertices of the prototype instances made so far (they count as vertices for
+    /// the budget and the statistics, as they would have run one by one).
+    instanced_vertices: u64,
+    /// Whether an instance refers to a non-uniform factor (then `lins` goes into the
+    /// output).
+    lins_used: bool,
+    /// A prototype instance's frame failed the finiteness bound (its vertices are
+    /// counted one by one at the end).
+    suspect_instances: bool,
+    /// The run's seed (transform rules derive their own streams from it).
+    seed: u64,
+    /// Transform rule → its track in `out.animation.tracks`.
+    track_ids: HashMap<u32, u32>,
+    /// Transform rules whose frames are being sampled (to break cycles).
+    computing: Vec<u32>,
+    /// Frames recorded by the transform rule being sampled.
+    frame_sink: Vec<Frame>,
+    /// How many frames that rule may record before its run is cut.
+    frame_limit: usize,
+    /// Set when the rule being sampled reached `frame_limit`: its run ends.
+    halt: bool,
+    /// Tracks cover `0 ≤ t ≤ horizon` seconds: `duration`, or `--time` beyond it.
+    horizon: f64,
+    /// The op that was running when a limit stopped the run (for the warning).
+    stop_pc: Option<u32>,
+    /// Convolution rule → the products `I[i]·A[i]·B[i]`.
+    conv_cache: HashMap<u32, Rc<Vec<Frame>>>,
+    /// The non-uniform factors of this evaluation's states.
+    lins: Lins,
+    weights: Weights,
+    /// With `record_sites`: the op that ran last, the mesh's triangle count when it
+    /// began, and each op's index in `out.sites.sites`.
+    site_pc: u32,
+    site_mark: usize,
+    site_ids: HashMap<u32, u32>,
+    /// Rule definitions by first op (see [`def_starts`]), made on first use: naming
+    /// the rule of an op is then a binary search, not a walk over every rule (40,000
+    /// rules with a prototype each took seconds).
+    def_starts: Option<Vec<(u32, u32)>>,
+    /// Computed values that were not finite numbers, and the fallbacks used.
+    non_finite: NonFinite,
+}
+
+/// Evaluates a verified bundle from its start shape.
+pub fn evaluate(b: &Bundle, opts: &EvalOptions) -> Output {
+    evaluate_with_progress(b, opts, None)
+}
+
+/// Like [`evaluate`], calling `progress(rule_calls)` now and then (for a progress bar).
+pub fn evaluate_with_progress(b: &Bundle, opts: &EvalOptions, progress: Option<&dyn Fn(u64)>) -> Output {
+    let mut e = Eval::new(b, opts, progress);
+    let start = State::start(b.settings.fps);
+    e.run(b.settings.startshape, start, Mode::Model);
+    e.camera_and_finish()
+}
+
+/// Evaluates the given calls one after the other, each to the end of its derivation,
+/// into one output (the geometry phase of guided search: the calls a skeleton left
+/// for it, see [`Expander`]). Pens, the continuation register and the random stream
+/// carry over from one call to the next, as if the calls were items of one body; the
+/// limits, the camera rule and the warnings are those of [`evaluate`].
+pub fn evaluate_calls(b: &Bundle, opts: &EvalOptions, calls: &[Call]) -> Output {
+    let mut e = Eval::new(b, opts, None);
+    for c in calls {
+        if e.stopped {
+            break;
+        }
+        e.run_from(c.rule, c.state, c.depth, Mode::Model);
+    }
+    e.camera_and_finish()
+}
+
+impl<'b> Eval<'b> {
+    fn new(b: &'b Bundle, opts: &EvalOptions, progress: Option<&'b dyn Fn(u64)>) -> Eval<'b> {
+        let s = &b.settings;
+        let seed = opts.seed.unwrap_or(s.randseed);
+        let start = State::start(s.fps);
+        // (Sites are per triangle: recording them turns instancing off.)
+        let instancing = opts.instancing && !opts.record_sites;
+        let xf_pure: Vec<bool> =
+            b.transforms.iter().map(|t| matches!(t, Transform::Const(c) if c.n.is_none())).collect();
+        let fast = instancing && fast_path_applies(b, &xf_pure);
+        let mut e = Eval {
+            b,
+            opts: opts.clone(),
+            rng: Pcg(Pcg64::seed_from_u64(seed)),
+            out: Output { background: s.background, ..Output::default() },
+            pens: vec![Pen { state: start, lifted: false, line: None, bone: 0 }; s.namespaces.len()],
+            last: start,
+            sequential: HashMap::new(),
+            profiles: HashMap::new(),
+            profiles_cut: Vec::new(),
+            iso_meshes: HashMap::new(),
+            extra_vertices: 0,
+            iso_cells: 0,
+            limits: LimitCounts::default(),
+            stopped: false,
+            started: Instant::now(),
+            calls: 0,
+            maxiter: opts.maxiter.unwrap_or(if s.maxiter > 0 { s.maxiter } else { DEFAULT_MAXITER }).min(opts.max_iter),
+            stacksize: (if s.stacksize > 0 { s.stacksize } else { DEFAULT_STACKSIZE }).min(opts.max_stack),
+            expr_stack: Vec::with_capacity(16),
+            slots: Vec::new(),
+            profile_points: Vec::new(),
+            progress,
+            seed,
+            track_ids: HashMap::new(),
+            computing: Vec::new(),
+            frame_sink: Vec::new(),
+            frame_limit: 0,
+            halt: false,
+            horizon: match opts.time {
+                Some(t) if t.is_finite() && t > s.duration as f64 => t,
+                _ => (s.duration as f64).max(0.0),
+            },
+            conv_cache: HashMap::new(),
+            lins: Lins::default(),
+            weights: Weights::new(b),
+            site_pc: 0,
+            site_mark: 0,
+            site_ids: HashMap::new(),
+            def_starts: None,
+            non_finite: NonFinite::default(),
+            stop_pc: None,
+            protos: b
+                .code
+                .iter()
+                .enumerate()
+                .filter_map(|(pc, op)| match *op {
+                    Op::Inst { count, .. } => Some(ProtoSlot {
+                        first: pc as u32 + 1,
+                        count,
+                        mesh: NONE,
+                        extent: 0.0,
+                        vertices: b.code[pc + 1..]
+                            .iter()
+                            .take(count as usize)
+                            .filter(|op| matches!(op, Op::Draw { kind: Drawable::Vertex, .. }))
+                            .count() as u32,
+                    }),
+                    _ => None,
+                })
+                .collect(),
+            instancing,
+            fast,
+            instanced_vertices: 0,
+            lins_used: false,
+            suspect_instances: false,
+            needs_last: b.code.iter().any(|op| match op {
+                Op::Loop { chain, .. } | Op::LoopN { chain, .. } => chain & bundle::ops::LOOP_CHAIN != 0,
+                Op::Cont {} | Op::Draw { kind: Drawable::Reset, .. } => true,
+                _ => false,
+            }),
+            xf_pure,
+            xf_info: b
+                .transforms
+                .iter()
+                .map(|t| match t {
+                    // (Not for a non-uniform scale, whose normals need the inverse
+                    // transpose, nor for HSB, which is no delta.)
+                    Transform::Const(c) if c.n.is_none() && c.hsb.is_none() => {
+                        let frame = composite_frame(c);
+                        let (lin, mirrored) = frame.linear();
+                        Some(XfInfo { frame, normal: lin * Vec3::from_array(s.normal), mirrored })
+                    }
+                    Transform::Const(_) => None,
+                    Transform::Dynamic { .. } => None,
+                })
+                .collect(),
+        };
+        e.out.animation.duration = s.duration;
+        e
+    }
+
+    /// Samples the camera rule (if any) and returns the output with its counters.
+    fn camera_and_finish(mut self) -> Output {
+        let s = &self.b.settings;
+        if s.camerarule != NONE && !self.stopped {
+            let fps = if s.fps.is_finite() && s.fps > 0.0 { s.fps } else { 0.0 };
+            let track = self.track(s.camerarule, frames_needed(self.horizon, fps));
+            self.out.animation.camera = Some(Camera { track, fps, fov: s.camerafov, near: s.near, far: s.far });
+        }
+        self.finish()
+    }
+}
+
+impl<'b> Eval<'b> {
+    fn finish(mut self) -> Output {
+        let s = &self.b.settings;
+        // Where the first refused call of each limit is (" in rule `R` (FILE:LINE)").
+        let [depth_at, size_at, stack_at] =
+            self.limits.first_refused.map(|pc| pc.map(|pc| where_op(self.b, pc)).unwrap_or_default());
+        let w = &mut self.out.stats.warnings;
+        // A grammar cannot switch its own protection off: its limits past the
+        // caller's caps were lowered to them (in `Eval::new`).
+        if self.opts.maxiter.is_none() && s.maxiter > self.opts.max_iter {
+            w.push(format!(
+                "the grammar's `maxiter {}` is above the cap of {} rule calls: capped at {} (a grammar cannot raise its limits past the command line's; raise the cap with `--max-iter N`)",
+                s.maxiter, self.opts.max_iter, self.opts.max_iter
+            ));
+        }
+        if s.stacksize > self.opts.max_stack {
+            let more = if s.stacksize == u32::MAX { " or more" } else { "" };
+            w.push(format!(
+                "the grammar's `stacksize {}{more}` is above the cap of {} activations: capped at {} (a grammar cannot raise its limits past the command line's; raise the cap with `--max-stack N`)",
+                s.stacksize, self.opts.max_stack, self.opts.max_stack
+            ));
+        }
+        if self.limits.maxdepth > 0 {
+            w.push(format!(
+                "maxdepth {} reached{depth_at}: {} branch(es) ended there",
+                s.maxdepth, self.limits.maxdepth
+            ));
+        }
+        if self.limits.minsize > 0 {
+            w.push(format!("minsize {} reached{size_at}: {} branch(es) ended there", s.minsize, self.limits.minsize));
+        }
+        for &(rule, n) in &self.profiles_cut {
+            let name = self.b.rules.get(rule as usize).map(|r| self.b.string(r.name)).unwrap_or("?");
+            w.push(format!(
+                "profile rule `{name}` makes more than {n} points: only the first {n} are used (a profile holds at most {MAX_PROFILE_POINTS} points, and half the vertex budget; raise the budget with `--max-vertices N`)"
+            ));
+        }
+        if self.limits.stacksize > 0 {
+            w.push(format!(
+                "stack size {} reached{stack_at}: {} branch(es) ended there (raise the limit with `stacksize N` in the grammar, up to the cap set by `--max-stack N`)",
+                self.stacksize, self.limits.stacksize
+            ));
+        }
+        let at = self.stop_pc.map(|pc| where_op(self.b, pc)).unwrap_or_default();
+        let w = &mut self.out.stats.warnings;
+        if self.limits.maxiter {
+            w.push(format!(
+                "maxiter {} reached{at}: the run stopped; the output so far is kept (raise the limit with `maxiter N` in the grammar, up to the cap set by `--max-iter N`)",
+                self.maxiter
+            ));
+        }
+        if self.limits.vertices {
+            w.push(format!(
+                "vertex budget {} reached{at}: the run stopped; the output so far is kept (raise the limit with `--max-vertices N`)",
+                self.opts.max_vertices
+            ));
+        }
+        if self.limits.time {
+            w.push(format!(
+                "time budget reached{at}: the run stopped; the output so far is kept (raise the limit with `--time-budget TIME`, e.g. `--time-budget 30s`)"
+            ));
+        }
+        if self.limits.animation {
+            let n = MAX_KEYFRAMES.min(self.opts.max_vertices);
+            w.push(format!(
+                "animation budget of {n} keyframes reached{at}: the run stopped; the output so far is kept (at most {MAX_KEYFRAMES}; a smaller `--max-vertices N` lowers it)"
+            ));
+        }
+        if self.lins_used {
+            // Isosurface instances under non-uniform scales refer to these.
+            self.out.lins = std::mem::take(&mut self.lins.0).into_iter().map(|n| (n, n.determinant().cbrt())).collect();
+        }
+        let non_finite = self.non_finite.warnings(self.b);
+        self.out.stats.warnings.extend(non_finite);
+        let bad = self.out.non_finite_positions_checking(self.suspect_instances);
+        if bad > 0 {
+            self.out.stats.warnings.push(format!(
+                "{bad} position(s) are not finite numbers (a translation or scale overflowed): the files write them as 0"
+            ));
+        }
+        let st = &mut self.out.stats;
+        st.rule_calls = self.calls.min(self.maxiter);
+        st.vertices = (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64 + self.instanced_vertices;
+        st.triangles =
+            (self.out.mesh.triangles.len() + self.out.sweeps.triangles.len()) as u64 + self.instanced_vertices / 3;
+        st.elapsed_ms = self.started.elapsed().as_secs_f64() * 1000.0;
+        self.out
+    }
+}
