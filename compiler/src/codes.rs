@@ -2422,6 +2422,47 @@ Fix: Delete the characters, unless the text is right-to-left prose that needs th
         example: Library("rule A {\n  VERTEX {} VERTEX {x 1} VERTEX {y 1} // check \u{202e} }nimda{ \n}\n"),
     },
     Code {
+        code: "W0015",
+        severity: Warning,
+        title: "rule also defined in another file",
+        explanation: r#"Definitions of one rule name are alternatives: each call picks one of them at random, by weight. A rule defined in the std library or an imported file and again in your file therefore gets a second, random definition; without this warning that happened in silence (a port of Mondrian's `rule square` under `@import primitives` drew 70 triangles instead of 120, because half of the calls ran std's `square`). The warning is on the definition in the file nearest the main file and points at the other file's definition.
+
+In the example: `@import primitives` defines `square`, and the file defines its own.
+
+Fix: Rename the rule if it is a new one (`rule tile`). If adding a definition to the other file's rule is what you mean, say so: `rule square += { … }` (the weight, if any, after it: `rule square += 0.5 { … }`); the quick fix writes `+=`."#,
+        example: Program(
+            r#"@import primitives
+startshape A
+
+rule A {
+  square {}
+}
+
+rule square {
+  VERTEX {} VERTEX {x 1} VERTEX {y 1}
+}
+"#,
+        ),
+    },
+    Code {
+        code: "W0016",
+        severity: Warning,
+        title: "`+=` on a rule no other file defines",
+        explanation: r#"`rule NAME += { … }` says that the definition adds to a rule that the std library or an imported file defines (W0015). No other file defines this rule, so there is nothing to add to: the definition is the rule's own, as if `+=` were not written. Usually the import that defines the rule is missing or the name is misspelt.
+
+In the example: `tile` is defined only here.
+
+Fix: Remove `+=`, or import the file that defines the rule you meant to add to."#,
+        example: Program(
+            r#"startshape tile
+
+rule tile += {
+  VERTEX {} VERTEX {x 1} VERTEX {y 1}
+}
+"#,
+        ),
+    },
+    Code {
         code: "W0801",
         severity: Warning,
         title: "regular creature cannot pass the stability test",

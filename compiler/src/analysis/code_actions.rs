@@ -164,6 +164,19 @@ mod tests {
     }
 
     #[test]
+    fn adds_to_a_std_rule_on_purpose() {
+        // W0015: a rule named like std's `square` adds to it; the fix says so with `+=`.
+        let src = "@import primitives\nstartshape A\nrule A { square {} }\nrule squ$0are { VERTEX {} }\n";
+        let out = fix(src, "Add to `square` on purpose: `rule square +=`");
+        assert_eq!(out, "@import primitives\nstartshape A\nrule A { square {} }\nrule square += { VERTEX {} }\n");
+        let (d, _) = doc(&out);
+        assert!(d.diagnostics().is_empty(), "{:?}", d.diagnostics());
+        // W0016: `+=` with nothing to add to; the fix removes only `+=`.
+        let out = fix("startshape t\nrule t(int n = 1) +$0= 0.5 { VERTEX {} }\n", "Remove `+=`");
+        assert_eq!(out, "startshape t\nrule t(int n = 1) 0.5 { VERTEX {} }\n");
+    }
+
+    #[test]
     fn no_actions_away_from_diagnostics() {
         let (d, at) = doc("startshape A\nrule A {$0 VERTEX {} }\nrule B { nope {} }");
         assert!(d.code_actions(at, at).is_empty());
