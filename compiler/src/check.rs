@@ -1221,7 +1221,11 @@ impl<'a> Checker<'a> {
                 .collect();
             names.extend(users.iter().map(|s| s.as_str()));
             let mut d = Diagnostic::error("E0310", f.span, format!("unknown function `{}`", f.text));
-            if let Some(s) = did_you_mean(&f.text, names) {
+            let printed: Vec<String> = args.iter().map(crate::fmt::expr).collect();
+            if let Some((mdg, what)) = crate::cfdg::function(&f.text, &printed) {
+                // Context Free's function: the MDG expression that does the same.
+                d = d.with_label(what).with_suggestion(format!("write `{mdg}`"), e.span, mdg);
+            } else if let Some(s) = did_you_mean(&f.text, names) {
                 d = d.with_suggestion(format!("did you mean `{s}`?"), f.span, s.to_string());
             }
             self.diags.push(d);

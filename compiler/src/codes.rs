@@ -245,6 +245,43 @@ rule B { }
         ),
     },
     Code {
+        code: "E0110",
+        severity: Error,
+        title: "Context Free syntax",
+        explanation: r#"A construct of Context Free's CFDG 3 language that MDG spells differently. The error names the MDG spelling and, where it is mechanical, offers it as the fix (a quick fix in the editor); the rest of the file is then read as if the fix were made, so one construct gives one error.
+
+| Context Free | MDG |
+|---|---|
+| `shape X { … }` | `rule X { … }` |
+| `shape X` then `rule 0.5 { … } rule { … }` | `rule X 0.5 { … } rule X { … }` |
+| `CF::MinimumSize = 0.01` | `minsize 0.01` |
+| `CF::Background = [b -1]` | `background 0 0 0` |
+| `CF::StartShape = X` | `startshape X` |
+| `startshape X(8)`, `startshape X [hue 120]` | `startshape start_X` and `rule start_X { X(8) {} }` |
+| `loop 5 [x 1] ITEM` | `5 * [x 1] ITEM` (MDG applies the adjustment before the first run too; `loop i = 0, 5 [x 1] ITEM` starts where Context Free does) |
+| `loop i = 5 [x 1] ITEM` | `loop i = 0, 5 [x 1] ITEM` |
+| `X(=)` | `X(a, b)`: the calling rule's parameters, written out |
+| `switch (k) { case 1: … case 2, 3: … else: … }` | `if (k == 1) { … } else if (k == 2 \|\| k == 3) { … } else { … }` |
+| `n -- 1` (natural subtraction) | `n - 1` (`--` would read as minus a negative number) |
+| `import "x.cfdg"`, `include "x.cfdg"` | `@import x.mdg` |
+
+`path` and the other `CF::` settings (`Tile`, `Symmetry`, `Size`, `MaxShapes`, …) have no MDG equivalent; the error says what to do instead.
+
+In the example: `shape` and `CF::MinimumSize`.
+
+Fix: Take the suggested spelling (`mdgc check` prints it after `help:`); docs/from-context-free.md puts whole programs side by side."#,
+        example: Program(
+            r#"startshape spiral
+CF::MinimumSize = 0.01
+
+shape spiral {
+  VERTEX {} VERTEX {x 1} VERTEX {y 1}
+  spiral {y 0.5 rz 10 s 0.95}
+}
+"#,
+        ),
+    },
+    Code {
         code: "E0201",
         severity: Error,
         title: "file not found or unreadable",
