@@ -431,3 +431,46 @@ fn numbers_that_overflow_f32_are_encoded_finite_so_the_bundle_loads() {
         assert_eq!(out.vertex_mesh().n_vertices(), 3, "{src}");
     }
 }
+
+/// Signed area of a mesh's triangles seen from +z (counter-clockwise positive).
+fn area_z(m: &mdg_vm::output::Mesh) -> f32 {
+    m.oriented_triangles()
+        .map(|t| {
+            let (a, b, c) =
+                (v(m.positions[t[0] as usize]), v(m.positions[t[1] as usize]), v(m.positions[t[2] as usize]));
+            (b - a).cross(c - a).z / 2.0
+        })
+        .sum()
+}
+
+#[test]
+fn context_free_flat_primitives_are_built_in_at_its_sizes() {
+    // No import: CIRCLE, SQUARE and TRIANGLE are there as in Context Free, flat in
+    // the xy-plane, facing +z, centred on the frame's origin.
+    let circle = run_source("startshape A\nrule A { CIRCLE {} }\n");
+    let m = circle.vertex_mesh();
+    let r = m.positions.iter().map(|p| v(*p).length()).fold(0f32, f32::max);
+    assert!((r - 0.5).abs() < TOL, "CIRCLE has diameter 1: radius {r}");
+    assert!(m.positions.iter().all(|p| p[2].abs() < TOL), "CIRCLE is flat");
+    // A 32-gon inscribed in radius 0.5: area 32/2 · 0.25 · sin(2π/32), within 1% of π/4.
+    let want = 16.0 * 0.25 * (std::f32::consts::TAU / 32.0).sin();
+    assert!((area_z(&m) - want).abs() < 1e-3, "CIRCLE area {} (want {want})", area_z(&m));
+
+    let square = run_source("startshape A\nrule A { SQUARE {} }\n");
+    let m = square.vertex_mesh();
+    assert!((area_z(&m) - 1.0).abs() < TOL, "SQUARE has side 1: area {}", area_z(&m));
+    assert!(m.positions.iter().all(|p| (p[0].abs() - 0.5).abs() < TOL && (p[1].abs() - 0.5).abs() < TOL));
+
+    // Context Free's TRIANGLE: equilateral, side 1, centroid at the origin, a vertex up.
+    let tri = run_source("startshape A\nrule A { TRIANGLE {} }\n");
+    let m = tri.vertex_mesh();
+    let p: Vec<Vec3> = m.positions.iter().map(|p| v(*p)).collect();
+    assert_eq!(p.len(), 3);
+    for i in 0..3 {
+        let side = p[i].distance(p[(i + 1) % 3]);
+        assert!((side - 1.0).abs() < TOL, "TRIANGLE side {side}");
+    }
+    assert!((p.iter().copied().sum::<Vec3>() / 3.0).length() < TOL, "TRIANGLE centroid at the origin");
+    assert!(p.iter().any(|q| (q.y - 1.0 / 3f32.sqrt()).abs() < TOL && q.x.abs() < TOL), "a vertex up: {p:?}");
+    assert!(area_z(&m) > 0.0, "TRIANGLE faces +z");
+}
