@@ -220,6 +220,16 @@ mod tests {
             format!("startshape A\nrule A {{ B(1) {{}} }}\nrule B(int k) {{\n  if (k == 1) {{ C {{}} }} else if (k == 2 || k == 3) {{ C {{}} C {{x 1}} }} else {{ C {{y 1}} }}\n}}\nrule C {{ {v} }}\n")
         );
         clean(&out);
+        // `case 2..4:` is Context Free's inclusive range.
+        let src = format!(
+            "startshape A\nrule A {{ B(1) {{}} }}\nrule B(int k) {{ swi$0tch (k) {{ case 2..4: C {{}} else: C {{x 1}} }} }}\nrule C {{ {v} }}\n"
+        );
+        let out = fix(&src, "Write it as an `if` chain");
+        assert_eq!(
+            out,
+            format!("startshape A\nrule A {{ B(1) {{}} }}\nrule B(int k) {{ if (k >= 2 && k <= 4) {{ C {{}} }} else {{ C {{x 1}} }} }}\nrule C {{ {v} }}\n")
+        );
+        clean(&out);
         let out = fix(
             &format!("startshape A\nrule A {{ B(4) {{}} }}\nrule B(int n) {{ {v} B(=$0) {{s 0.5}} }}\nmaxdepth 3\n"),
             "Write `n`",
