@@ -203,6 +203,13 @@ impl Rewriter<'_> {
                     self.switch(i, i + 1)
                 }
                 Tok::CallOpen if depth > 0 && self.text(i) == "switch(" => self.switch(i, i),
+                Tok::LBracket
+                    if depth > 0
+                        && next == Some(Tok::LBracket)
+                        && self.toks.get(i + 1).is_some_and(|n| n.span.start == t.span.end) =>
+                {
+                    self.ordered_list(i)
+                }
                 // A binary `a -- b` (after an operand, not a run of minus signs).
                 Tok::Minus
                     if depth > 0
@@ -576,6 +583,28 @@ impl Rewriter<'_> {
         Some(j)
     }
 
+    /// `[[ … ]]`: Context Free's adjustments in the written order, which is what every
+    /// MDG list does.
+    fn ordered_list(&mut self, i: usize) -> Option<usize> {
+        let inner_close = self.closing(i + 1)?;
+        let outer_close = self.closing(i)?;
+        let adjacent = self.toks[inner_close].span.end == self.toks[outer_close].span.start;
+        if outer_close != inner_close + 1 || !adjacent {
+            return None;
+        }
+        let inner = if inner_close > i + 2 { self.src(i + 2, inner_close - 1) } else { String::new() };
+        let span = self.span(i, outer_close);
+        self.diags.push(
+            error(span, "`[[ … ]]` is Context Free's list in the written order: every MDG list keeps it".to_string())
+                .with_suggestion(format!("write `{{{inner}}}`"), span, format!("{{{inner}}}")),
+        );
+        // Read as the inner list.
+        self.out.push(self.toks[i + 1]);
+        self.out.extend_from_slice(&self.toks[i + 2..inner_close]);
+        self.out.push(self.toks[inner_close]);
+        Some(outer_close + 1)
+    }
+
     /// `X(=)`: the calling rule's own arguments.
     fn same_arguments(&mut self, i: usize) -> Option<usize> {
         let eq = self.toks[i + 1];
@@ -856,7 +885,7 @@ mod tests {
     fn truncated_and_cut_context_free_never_panics() {
         let program = "startshape tree(8) [hue 3]\nCF::MinimumSize = 0.01\nCF::Background = [b -1 sat 0.5]\n\
             import \"a.cfdg\"\nshape leaf\nrule 2 { SQUARE [] }\nrule { CIRCLE [] }\n\
-            shape tree(natural n) {\n  loop 3 [x 1] leaf []\n  loop i = n [y 1] leaf []\n  tree(n--1) []\n  tree(=) []\n\
+            shape tree(natural n) {\n  loop 3 [x 1] leaf []\n  loop i = n [y 1] leaf []\n  tree(n--1) []\n  tree(=) [[x 1 r 2]]\n\
             switch (n) { case 1: leaf [] case 2, 3..4: { leaf [] } else: leaf [] }\n}\npath p { MOVETO(0, 0) }\n";
         let mut cuts: Vec<String> =
             (0..=program.len()).filter(|i| program.is_char_boundary(*i)).map(|i| program[..i].to_string()).collect();

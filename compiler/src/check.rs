@@ -1061,14 +1061,36 @@ impl<'a> Checker<'a> {
             let (lo, hi) = kind.arity();
             if a.args.len() < lo || a.args.len() > hi {
                 let want = if lo == hi { format!("{lo}") } else { format!("{lo} to {hi}") };
-                self.diags.push(
-                    Diagnostic::error(
-                        "E0401",
-                        a.span,
-                        format!("`{}` takes {want} argument(s) but {} were given", a.name.text, a.args.len()),
-                    )
-                    .with_label("wrong number of arguments"),
-                );
+                let mut d = Diagnostic::error(
+                    "E0401",
+                    a.span,
+                    format!("`{}` takes {want} argument(s) but {} were given", a.name.text, a.args.len()),
+                )
+                .with_label("wrong number of arguments");
+                // Context Free's `f A` (`flip A`) reflects across the line at angle A:
+                // MDG's `f X Y Z` takes the plane's normal, (−sin A, cos A, 0).
+                if matches!(a.name.text.as_str(), "f" | "flip") && a.args.len() == 1 {
+                    if let Some(Arg::Num(n) | Arg::Neg(n)) = a.args.first() {
+                        let deg = if matches!(a.args.first(), Some(Arg::Neg(_))) { -n.value } else { n.value };
+                        let (s, c) = deg.to_radians().sin_cos();
+                        let r = |v: f64| {
+                            let v = (v * 1e6).round() / 1e6;
+                            if v == 0.0 {
+                                "0".to_string()
+                            } else {
+                                format!("{v}")
+                            }
+                        };
+                        let mdg = format!("{} {} {} 0", a.name.text, r(-s), r(c));
+                        d = d
+                            .with_note(format!(
+                                "Context Free's `{} A` reflects across the line at angle A; MDG's takes the mirror's normal",
+                                a.name.text
+                            ))
+                            .with_suggestion(format!("write `{mdg}`"), a.span, mdg);
+                    }
+                }
+                self.diags.push(d);
             }
             for arg in &a.args {
                 match arg {
