@@ -145,6 +145,9 @@ pub struct Rule {
     pub params: Option<Params>,
     pub iter: Option<Name>,
     pub transforms: Vec<Name>,
+    /// `rule square += { … }`: the span of `+=`, written when this definition adds to
+    /// a rule another file (std or an import) defines on purpose (else W0015).
+    pub adds: Option<Span>,
     pub weight: Option<Weight>,
     /// `rule leaf(int n) (EXPR) { … }`: a weight computed per call from the arguments
     /// (only after a parameter list; then `weight` is `None`).

@@ -83,6 +83,7 @@ pub fn check(ex: &Expanded, opts: CheckOptions) -> Checked {
         function: None,
     };
     c.collect();
+    c.cross_file_definitions();
     c.collect_profiles();
     c.items();
     c.unread_params();
@@ -229,6 +230,88 @@ impl<'a> Checker<'a> {
                 _ => {}
             }
         }
+    }
+
+    /// W0015 and W0016: definitions of one rule in several files merge into one
+    /// random choice between them. That is said, naming both places, unless the
+    /// definition is written `rule NAME += …`; a `+=` with nothing to add to is said too.
+    /// The warning goes to the file nearest the main file (the one a user edits):
+    /// the definer read last (std, or the deepest import) owns the rule.
+    fn cross_file_definitions(&mut self) {
+        let order = |f: crate::span::FileId| self.ex.files.iter().position(|x| *x == f).unwrap_or(0);
+        let adds = |d: &RuleDef| match self.ex.items.get(d.item).map(|i| &i.item.kind) {
+            Some(ItemKind::Rule(r)) => r.adds.map(|a| (a, r)),
+            _ => None,
+        };
+        let mut out = Vec::new();
+        for (full, defs) in &self.sym.rules {
+            let mut files: Vec<crate::span::FileId> = Vec::new();
+            for d in defs {
+                if !files.contains(&d.name_span.file) {
+                    files.push(d.name_span.file);
+                }
+            }
+            let Some(owner) = files.iter().copied().max_by_key(|f| order(*f)) else { continue };
+            if files.len() < 2 {
+                for d in defs {
+                    if let Some((at, r)) = adds(d) {
+                        // The fix rewrites what precedes `+=` up to it (an empty
+                        // replacement would make editors delete the whole line).
+                        let (from, keep) = match &r.params {
+                            Some(p) => (p.span.end.saturating_sub(1), ")".to_string()),
+                            None => (r.name.span.start, r.name.text.clone()),
+                        };
+                        out.push(
+                            Diagnostic::warning(
+                                "W0016",
+                                at,
+                                format!("`+=` adds to `{full}`, but no other file defines it"),
+                            )
+                            .with_label("nothing to add to")
+                            .with_note(
+                                "`+=` marks a definition that adds to a rule of an imported file or the std \
+                                     library; remove it, or import the file that defines the rule",
+                            )
+                            .with_suggestion(
+                                "remove `+=`",
+                                Span::new(at.file, from, at.end),
+                                keep,
+                            ),
+                        );
+                    }
+                }
+                continue;
+            }
+            let Some(home) = defs.iter().find(|d| d.name_span.file == owner) else { continue };
+            for f in files.iter().copied().filter(|f| *f != owner) {
+                let here: Vec<&RuleDef> = defs.iter().filter(|d| d.name_span.file == f).collect();
+                if here.iter().any(|d| adds(d).is_some()) {
+                    continue;
+                }
+                let Some(first) = here.first() else { continue };
+                let lib =
+                    crate::stdlib::library_defining(full).map(|l| format!(" (std library `{l}`)")).unwrap_or_default();
+                let after = match self.ex.items.get(first.item).map(|i| &i.item.kind) {
+                    Some(ItemKind::Rule(Rule { params: Some(p), .. })) => p.span.end,
+                    _ => first.name_span.end,
+                };
+                let insert = Span::new(f, after, after);
+                out.push(
+                    Diagnostic::warning(
+                        "W0015",
+                        first.name_span,
+                        format!("rule `{full}` is also defined in another file{lib}: this adds a definition to it"),
+                    )
+                    .with_label("a second definition: each call picks one of them at random, by weight")
+                    .with_secondary(home.name_span, format!("`{full}` is defined here"))
+                    .with_note(format!(
+                        "rename this rule if it is a new one; write `rule {full} += …` to add to the other file's rule on purpose"
+                    ))
+                    .with_suggestion(format!("add to `{full}` on purpose: `rule {full} +=`"), insert, " +=".to_string()),
+                );
+            }
+        }
+        self.diags.extend(out);
     }
 
     /// The rules used as profiles anywhere in the program (for W0010).
@@ -978,14 +1061,36 @@ impl<'a> Checker<'a> {
             let (lo, hi) = kind.arity();
             if a.args.len() < lo || a.args.len() > hi {
                 let want = if lo == hi { format!("{lo}") } else { format!("{lo} to {hi}") };
-                self.diags.push(
-                    Diagnostic::error(
-                        "E0401",
-                        a.span,
-                        format!("`{}` takes {want} argument(s) but {} were given", a.name.text, a.args.len()),
-                    )
-                    .with_label("wrong number of arguments"),
-                );
+                let mut d = Diagnostic::error(
+                    "E0401",
+                    a.span,
+                    format!("`{}` takes {want} argument(s) but {} were given", a.name.text, a.args.len()),
+                )
+                .with_label("wrong number of arguments");
+                // Context Free's `f A` (`flip A`) reflects across the line at angle A:
+                // MDG's `f X Y Z` takes the plane's normal, (−sin A, cos A, 0).
+                if matches!(a.name.text.as_str(), "f" | "flip") && a.args.len() == 1 {
+                    if let Some(Arg::Num(n) | Arg::Neg(n)) = a.args.first() {
+                        let deg = if matches!(a.args.first(), Some(Arg::Neg(_))) { -n.value } else { n.value };
+                        let (s, c) = deg.to_radians().sin_cos();
+                        let r = |v: f64| {
+                            let v = (v * 1e6).round() / 1e6;
+                            if v == 0.0 {
+                                "0".to_string()
+                            } else {
+                                format!("{v}")
+                            }
+                        };
+                        let mdg = format!("{} {} {} 0", a.name.text, r(-s), r(c));
+                        d = d
+                            .with_note(format!(
+                                "Context Free's `{} A` reflects across the line at angle A; MDG's takes the mirror's normal",
+                                a.name.text
+                            ))
+                            .with_suggestion(format!("write `{mdg}`"), a.span, mdg);
+                    }
+                }
+                self.diags.push(d);
             }
             for arg in &a.args {
                 match arg {
@@ -1138,7 +1243,11 @@ impl<'a> Checker<'a> {
                 .collect();
             names.extend(users.iter().map(|s| s.as_str()));
             let mut d = Diagnostic::error("E0310", f.span, format!("unknown function `{}`", f.text));
-            if let Some(s) = did_you_mean(&f.text, names) {
+            let printed: Vec<String> = args.iter().map(crate::fmt::expr).collect();
+            if let Some((mdg, what)) = crate::cfdg::function(&f.text, &printed) {
+                // Context Free's function: the MDG expression that does the same.
+                d = d.with_label(what).with_suggestion(format!("write `{mdg}`"), e.span, mdg);
+            } else if let Some(s) = did_you_mean(&f.text, names) {
                 d = d.with_suggestion(format!("did you mean `{s}`?"), f.span, s.to_string());
             }
             self.diags.push(d);

@@ -248,6 +248,44 @@ rule B { }
         ),
     },
     Code {
+        code: "E0110",
+        severity: Error,
+        title: "Context Free syntax",
+        explanation: r#"A construct of Context Free's CFDG 3 language that MDG spells differently. The error names the MDG spelling and, where it is mechanical, offers it as the fix (a quick fix in the editor); the rest of the file is then read as if the fix were made, so one construct gives one error.
+
+| Context Free | MDG |
+|---|---|
+| `shape X { … }` | `rule X { … }` |
+| `shape X` then `rule 0.5 { … } rule { … }` | `rule X 0.5 { … } rule X { … }` |
+| `CF::MinimumSize = 0.01` | `minsize 0.01` |
+| `CF::Background = [b -1]` | `background 0 0 0` |
+| `CF::StartShape = X` | `startshape X` |
+| `startshape X(8)`, `startshape X [hue 120]` | `startshape start_X` and `rule start_X { X(8) {} }` |
+| `loop 5 [x 1] ITEM` | `5 * [x 1] ITEM` (MDG applies the adjustment before the first run too; `loop i = 0, 5 [x 1] ITEM` starts where Context Free does) |
+| `loop i = 5 [x 1] ITEM` | `loop i = 0, 5 [x 1] ITEM` |
+| `X(=)` | `X(a, b)`: the calling rule's parameters, written out |
+| `switch (k) { case 1: … case 2, 3: … case 5..9: … else: … }` | `if (k == 1) { … } else if (k == 2 \|\| k == 3) { … } else if (k >= 5 && k <= 9) { … } else { … }` |
+| `SQUARE [[x 1 s 0.5]]` (written order) | `SQUARE {x 1 s 0.5}`: every MDG list keeps the written order |
+| `n -- 1` (natural subtraction) | `n - 1` (`--` would read as minus a negative number) |
+| `import "x.cfdg"`, `include "x.cfdg"` | `@import x.mdg` |
+
+`path` and the other `CF::` settings (`Tile`, `Symmetry`, `Size`, `MaxShapes`, …) have no MDG equivalent; the error says what to do instead.
+
+In the example: `shape` and `CF::MinimumSize`.
+
+Fix: Take the suggested spelling (`mdgc check` prints it after `help:`); docs/from-context-free.md puts whole programs side by side."#,
+        example: Program(
+            r#"startshape spiral
+CF::MinimumSize = 0.01
+
+shape spiral {
+  VERTEX {} VERTEX {x 1} VERTEX {y 1}
+  spiral {y 0.5 rz 10 s 0.95}
+}
+"#,
+        ),
+    },
+    Code {
         code: "E0201",
         severity: Error,
         title: "file not found or unreadable",
@@ -2423,6 +2461,47 @@ In the example: a right-to-left override in a comment makes `}nimda{` display re
 
 Fix: Delete the characters, unless the text is right-to-left prose that needs them."#,
         example: Library("rule A {\n  VERTEX {} VERTEX {x 1} VERTEX {y 1} // check \u{202e} }nimda{ \n}\n"),
+    },
+    Code {
+        code: "W0015",
+        severity: Warning,
+        title: "rule also defined in another file",
+        explanation: r#"Definitions of one rule name are alternatives: each call picks one of them at random, by weight. A rule defined in the std library or an imported file and again in your file therefore gets a second, random definition; without this warning that happened in silence (a port of Mondrian's `rule square` under `@import primitives` drew 70 triangles instead of 120, because half of the calls ran std's `square`). The warning is on the definition in the file nearest the main file and points at the other file's definition.
+
+In the example: `@import primitives` defines `square`, and the file defines its own.
+
+Fix: Rename the rule if it is a new one (`rule tile`). If adding a definition to the other file's rule is what you mean, say so: `rule square += { … }` (the weight, if any, after it: `rule square += 0.5 { … }`); the quick fix writes `+=`."#,
+        example: Program(
+            r#"@import primitives
+startshape A
+
+rule A {
+  square {}
+}
+
+rule square {
+  VERTEX {} VERTEX {x 1} VERTEX {y 1}
+}
+"#,
+        ),
+    },
+    Code {
+        code: "W0016",
+        severity: Warning,
+        title: "`+=` on a rule no other file defines",
+        explanation: r#"`rule NAME += { … }` says that the definition adds to a rule that the std library or an imported file defines (W0015). No other file defines this rule, so there is nothing to add to: the definition is the rule's own, as if `+=` were not written. Usually the import that defines the rule is missing or the name is misspelt.
+
+In the example: `tile` is defined only here.
+
+Fix: Remove `+=`, or import the file that defines the rule you meant to add to."#,
+        example: Program(
+            r#"startshape tile
+
+rule tile += {
+  VERTEX {} VERTEX {x 1} VERTEX {y 1}
+}
+"#,
+        ),
     },
     Code {
         code: "W0801",

@@ -105,7 +105,13 @@ fn assemble(
     // A main file that could not be read has no `startshape` to miss: say only why.
     let unread = sources.files.first().is_some_and(|f| f.text.is_empty())
         && expanded.diagnostics.iter().any(|d| d.code == "E0201" && d.span.file == crate::span::FileId(0));
-    let checked_diags = checked.diagnostics.iter().filter(|d| !(unread && d.code == "E0306"));
+    // A Context Free construct (E0110) explains what the checker says inside it (the
+    // arguments of `startshape tree(8)`, read as `startshape tree`).
+    let cf: Vec<crate::span::Span> =
+        expanded.diagnostics.iter().filter(|d| d.code == "E0110").map(|d| d.span).collect();
+    let inside_cf =
+        |d: &Diagnostic| cf.iter().any(|s| s.file == d.span.file && s.start <= d.span.start && d.span.end <= s.end);
+    let checked_diags = checked.diagnostics.iter().filter(|d| !(unread && d.code == "E0306")).filter(|d| !inside_cf(d));
     let mut diagnostics: Vec<Diagnostic> =
         expanded.diagnostics.iter().chain(checked_diags).chain(shader_diags.iter()).cloned().collect();
     // At most 100 errors and 100 warnings: the first ones found, as a compiler that

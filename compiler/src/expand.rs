@@ -212,12 +212,37 @@ pub fn expand_file(sources: &mut Sources, loader: &dyn FileLoader, main: FileId,
     // Parameters and defines are collected first so `@ifdef` can see them anywhere.
     ex.collect_constants(&parsed.file.items);
     ex.top_items(parsed.file.items.clone(), None);
+    ex.flat_primitives(main);
     ex.out.main_ast = parsed.file;
     ex.label_expansions();
     ex.out
 }
 
+/// Context Free's flat primitives, built in: std `flat` defines them, imported
+/// without an `@import` when a program calls one it does not define.
+pub const FLAT_PRIMITIVES: &[&str] = &["CIRCLE", "SQUARE", "TRIANGLE"];
+
 impl<'a> Expander<'a> {
+    /// Imports std `flat` when a rule calls `CIRCLE`, `SQUARE` or `TRIANGLE` and no
+    /// file defines it.
+    fn flat_primitives(&mut self, main: FileId) {
+        let mut called = false;
+        let mut defined = false;
+        for it in &self.out.items {
+            if let ItemKind::Rule(r) = &it.item.kind {
+                defined |= it.namespace.is_none() && FLAT_PRIMITIVES.contains(&r.name.text.as_str());
+                walk_body(&r.body, &mut |b| {
+                    if let BodyKind::Call { name, .. } = &b.kind {
+                        called |= FLAT_PRIMITIVES.contains(&name.text.as_str());
+                    }
+                });
+            }
+        }
+        if called && !defined {
+            self.import(&Name { text: "flat".to_string(), span: Span::new(main, 0, 0) });
+        }
+    }
+
     /// Collects `@param`s and top-level macro definitions before expansion, so both
     /// may be used above the line that declares them.
     fn collect_constants(&mut self, items: &[Item]) {

@@ -216,6 +216,9 @@ impl<'a> Printer<'a> {
                 for t in &r.transforms {
                     head.push_str(&format!(" : {}", t.text));
                 }
+                if r.adds.is_some() {
+                    head.push_str(" +=");
+                }
                 if let Some(w) = &r.weight {
                     head.push_str(&format!(" {}{}", if w.negative { "-" } else { "" }, w.number.text));
                 }

@@ -8,6 +8,7 @@
 pub mod adjust;
 pub mod analysis;
 pub mod ast;
+pub mod cfdg;
 pub mod check;
 pub mod codes;
 pub mod consteval;

@@ -980,8 +980,17 @@ pub fn parse_file(sources: &Sources, file: FileId) -> Parsed {
             suppressed: Suppressed::default(),
         };
     }
-    let lexed = lexer::lex(text, file);
-    let (out, diagnostics, suppressed) = run(lexed.tokens, sources, file, Start::File, lexed.diagnostics, MAX_NESTING);
+    let mut lexed = lexer::lex(text, file);
+    // Context Free's constructs: an error with the MDG spelling each, read as that spelling.
+    let (tokens, cf) = crate::cfdg::rewrite(lexed.tokens, sources);
+    for d in cf {
+        if lexed.diagnostics.len() < crate::diag::MAX_ERRORS {
+            lexed.diagnostics.push(d);
+        } else {
+            lexed.suppressed.add(d.span);
+        }
+    }
+    let (out, diagnostics, suppressed) = run(tokens, sources, file, Start::File, lexed.diagnostics, MAX_NESTING);
     let file_ast = match out {
         Out::File(f) => f,
         _ => File::default(),

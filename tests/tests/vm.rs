@@ -431,3 +431,86 @@ fn numbers_that_overflow_f32_are_encoded_finite_so_the_bundle_loads() {
         assert_eq!(out.vertex_mesh().n_vertices(), 3, "{src}");
     }
 }
+
+/// Signed area of a mesh's triangles seen from +z (counter-clockwise positive).
+fn area_z(m: &mdg_vm::output::Mesh) -> f32 {
+    m.oriented_triangles()
+        .map(|t| {
+            let (a, b, c) =
+                (v(m.positions[t[0] as usize]), v(m.positions[t[1] as usize]), v(m.positions[t[2] as usize]));
+            (b - a).cross(c - a).z / 2.0
+        })
+        .sum()
+}
+
+#[test]
+fn context_free_flat_primitives_are_built_in_at_its_sizes() {
+    // No import: CIRCLE, SQUARE and TRIANGLE are there as in Context Free, flat in
+    // the xy-plane, facing +z, centred on the frame's origin.
+    let circle = run_source("startshape A\nrule A { CIRCLE {} }\n");
+    let m = circle.vertex_mesh();
+    let r = m.positions.iter().map(|p| v(*p).length()).fold(0f32, f32::max);
+    assert!((r - 0.5).abs() < TOL, "CIRCLE has diameter 1: radius {r}");
+    assert!(m.positions.iter().all(|p| p[2].abs() < TOL), "CIRCLE is flat");
+    // A 32-gon inscribed in radius 0.5: area 32/2 · 0.25 · sin(2π/32), within 1% of π/4.
+    let want = 16.0 * 0.25 * (std::f32::consts::TAU / 32.0).sin();
+    assert!((area_z(&m) - want).abs() < 1e-3, "CIRCLE area {} (want {want})", area_z(&m));
+
+    let square = run_source("startshape A\nrule A { SQUARE {} }\n");
+    let m = square.vertex_mesh();
+    assert!((area_z(&m) - 1.0).abs() < TOL, "SQUARE has side 1: area {}", area_z(&m));
+    assert!(m.positions.iter().all(|p| (p[0].abs() - 0.5).abs() < TOL && (p[1].abs() - 0.5).abs() < TOL));
+
+    // Context Free's TRIANGLE: equilateral, side 1, centroid at the origin, a vertex up.
+    let tri = run_source("startshape A\nrule A { TRIANGLE {} }\n");
+    let m = tri.vertex_mesh();
+    let p: Vec<Vec3> = m.positions.iter().map(|p| v(*p)).collect();
+    assert_eq!(p.len(), 3);
+    for i in 0..3 {
+        let side = p[i].distance(p[(i + 1) % 3]);
+        assert!((side - 1.0).abs() < TOL, "TRIANGLE side {side}");
+    }
+    assert!((p.iter().copied().sum::<Vec3>() / 3.0).length() < TOL, "TRIANGLE centroid at the origin");
+    assert!(p.iter().any(|q| (q.y - 1.0 / 3f32.sqrt()).abs() < TOL && q.x.abs() < TOL), "a vertex up: {p:?}");
+    assert!(area_z(&m) > 0.0, "TRIANGLE faces +z");
+}
+
+/// Red, green and blue of hue `h` degrees at full saturation and brightness.
+fn hue_rgb(h: f32) -> [f32; 3] {
+    let k = |n: f32| {
+        let k = (n + h / 60.0).rem_euclid(6.0);
+        1.0 - k.min(4.0 - k).clamp(0.0, 1.0)
+    };
+    [k(5.0), k(3.0), k(1.0)]
+}
+
+#[test]
+fn hue_turns_accumulate_on_greys_as_in_context_free() {
+    // Context Free's rainbow: the hue turns of S accumulate on the (white) parent,
+    // and each CIRCLE shows them once it is given saturation.
+    let out = run_source("startshape S\nmaxdepth 8\nrule S { SQUARE {sat 1 b 1} S {x 1.2 hue 30} }\n");
+    let m = out.vertex_mesh();
+    assert_eq!(m.positions.len(), 8 * 6, "8 squares");
+    for i in 0..8 {
+        let c = m.colors[i * 6];
+        let want = hue_rgb(30.0 * i as f32);
+        let x = m.positions[i * 6][0];
+        assert!((x - (1.2 * i as f32 - 0.5)).abs() < 1e-3, "square {i} at x {x}");
+        assert!(
+            (0..3).all(|k| (c[k] - want[k]).abs() < 1e-3),
+            "square {i}: colour {c:?}, want hue {} = {want:?}",
+            30 * i
+        );
+    }
+    // A grey keeps its hue through RGBA deltas that leave it grey, and a grammar of
+    // RGBA deltas alone draws what the thesis says (white plus the deltas).
+    let out = run_source("startshape A\nrule A { B {hue 120 R -0.5 G -0.5 B -0.5} }\nrule B { SQUARE {sat 1} }\n");
+    let c = out.vertex_mesh().colors[0];
+    assert!(
+        (c[0]).abs() < 1e-3 && (c[1] - 0.5).abs() < 1e-3 && (c[2]).abs() < 1e-3,
+        "a grey turned 120°, then saturated: {c:?}"
+    );
+    let out = run_source("startshape A\nrule A { SQUARE {R -0.25 B -1} }\n");
+    let c = out.vertex_mesh().colors[0];
+    assert!((c[0] - 0.75).abs() < 1e-6 && (c[1] - 1.0).abs() < 1e-6 && c[2].abs() < 1e-6, "RGBA deltas: {c:?}");
+}

@@ -164,6 +164,90 @@ mod tests {
     }
 
     #[test]
+    fn adds_to_a_std_rule_on_purpose() {
+        // W0015: a rule named like std's `square` adds to it; the fix says so with `+=`.
+        let src = "@import primitives\nstartshape A\nrule A { square {} }\nrule squ$0are { VERTEX {} }\n";
+        let out = fix(src, "Add to `square` on purpose: `rule square +=`");
+        assert_eq!(out, "@import primitives\nstartshape A\nrule A { square {} }\nrule square += { VERTEX {} }\n");
+        let (d, _) = doc(&out);
+        assert!(d.diagnostics().is_empty(), "{:?}", d.diagnostics());
+        // W0016: `+=` with nothing to add to; the fix removes only `+=`.
+        let out = fix("startshape t\nrule t(int n = 1) +$0= 0.5 { VERTEX {} }\n", "Remove `+=`");
+        assert_eq!(out, "startshape t\nrule t(int n = 1) 0.5 { VERTEX {} }\n");
+    }
+
+    #[test]
+    fn writes_context_free_constructs_in_mdg() {
+        let clean = |out: &str| {
+            let (d, _) = doc(out);
+            let errors: Vec<_> = d.diagnostics().into_iter().filter(|d| d.is_error()).collect();
+            assert!(errors.is_empty(), "{out}\n{errors:?}");
+        };
+        let v = "VERTEX {} VERTEX {x 1} VERTEX {y 1}";
+        let out = fix(&format!("startshape A\nsha$0pe A {{ {v} }}\n"), "Write `rule`");
+        assert_eq!(out, format!("startshape A\nrule A {{ {v} }}\n"));
+        clean(&out);
+        let out = fix(
+            &format!("startshape A\nshape A$0\nrule 2 {{ {v} }}\nrule {{ {v} }}\n"),
+            "Name each definition `rule A`",
+        );
+        assert_eq!(out, format!("startshape A\nrule A 2 {{ {v} }}\nrule A {{ {v} }}\n"));
+        clean(&out);
+        let out = fix(
+            &format!("startshape A\nCF::Minim$0umSize = 0.01\nrule A {{ {v} A {{s 0.5}} }}\n"),
+            "Write `minsize 0.01`",
+        );
+        assert_eq!(out, format!("startshape A\nminsize 0.01\nrule A {{ {v} A {{s 0.5}} }}\n"));
+        clean(&out);
+        let out = fix(&format!("startshape A\nrule A {{ lo$0op 5 [x 1] B {{}} }}\nrule B {{ {v} }}\n"), "Write `5 *`");
+        assert_eq!(out, format!("startshape A\nrule A {{ 5 * [x 1] B {{}} }}\nrule B {{ {v} }}\n"));
+        clean(&out);
+        let out = fix(
+            &format!("startshape t$0ree(8)\nrule tree(int n) {{ {v} }}\n"),
+            "Start with a rule `start_tree` that calls it",
+        );
+        assert_eq!(
+            out,
+            format!("startshape start_tree\n\nrule start_tree {{ tree(8) {{}} }}\nrule tree(int n) {{ {v} }}\n")
+        );
+        clean(&out);
+        let src = format!(
+            "startshape A\nrule A {{ B(1) {{}} }}\nrule B(int k) {{\n  swi$0tch (k) {{\n    case 1: C {{}}\n    case 2, 3: {{ C {{}} C {{x 1}} }}\n    else: C {{y 1}}\n  }}\n}}\nrule C {{ {v} }}\n"
+        );
+        let out = fix(&src, "Write it as an `if` chain");
+        assert_eq!(
+            out,
+            format!("startshape A\nrule A {{ B(1) {{}} }}\nrule B(int k) {{\n  if (k == 1) {{ C {{}} }} else if (k == 2 || k == 3) {{ C {{}} C {{x 1}} }} else {{ C {{y 1}} }}\n}}\nrule C {{ {v} }}\n")
+        );
+        clean(&out);
+        // `case 2..4:` is Context Free's inclusive range.
+        let src = format!(
+            "startshape A\nrule A {{ B(1) {{}} }}\nrule B(int k) {{ swi$0tch (k) {{ case 2..4: C {{}} else: C {{x 1}} }} }}\nrule C {{ {v} }}\n"
+        );
+        let out = fix(&src, "Write it as an `if` chain");
+        assert_eq!(
+            out,
+            format!("startshape A\nrule A {{ B(1) {{}} }}\nrule B(int k) {{ if (k >= 2 && k <= 4) {{ C {{}} }} else {{ C {{x 1}} }} }}\nrule C {{ {v} }}\n")
+        );
+        clean(&out);
+        let out = fix(
+            &format!("startshape A\nrule A {{ B(4) {{}} }}\nrule B(int n) {{ {v} B(=$0) {{s 0.5}} }}\nmaxdepth 3\n"),
+            "Write `n`",
+        );
+        assert_eq!(
+            out,
+            format!("startshape A\nrule A {{ B(4) {{}} }}\nrule B(int n) {{ {v} B(n) {{s 0.5}} }}\nmaxdepth 3\n")
+        );
+        clean(&out);
+        let out = fix(
+            &format!("startshape A\nrule A {{ VERTEX {{x (rand$0int(1, 4))}} {v} }}\n"),
+            "Write `floor(rand(1, 4))`",
+        );
+        assert_eq!(out, format!("startshape A\nrule A {{ VERTEX {{x (floor(rand(1, 4)))}} {v} }}\n"));
+        clean(&out);
+    }
+
+    #[test]
     fn no_actions_away_from_diagnostics() {
         let (d, at) = doc("startshape A\nrule A {$0 VERTEX {} }\nrule B { nope {} }");
         assert!(d.code_actions(at, at).is_empty());

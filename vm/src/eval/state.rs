@@ -16,12 +16,16 @@ pub struct State {
     /// `∛det N` (1 without one): the factor's share of the scale, and its sign the
     /// factor's mirroring, readable without the table.
     pub ndet: f32,
+    /// The hue (degrees) the last `hue`/`sat`/`b` change left: Context Free keeps hue
+    /// while the colour is grey, where RGB has none, so a hue turn on a grey shows
+    /// once a descendant gives saturation (see [`apply_hsb_keeping`]).
+    pub hue: f32,
 }
 
 impl State {
     /// The state at the start of a run: identity frame, white, no weights.
     pub fn start(fps: f32) -> State {
-        State { f: Frame::identity(), color: START_COLOR, weight: [0.0; 4], fps, lin: 0, ndet: 1.0 }
+        State { f: Frame::identity(), color: START_COLOR, weight: [0.0; 4], fps, lin: 0, ndet: 1.0, hue: 0.0 }
     }
 
     /// `self ∘ c`. The non-uniform factors of a frame live in `lins`, which gains an
@@ -29,15 +33,16 @@ impl State {
     #[inline(always)]
     pub(super) fn compose(&self, c: &Composite, lins: &mut Lins) -> State {
         let mut color = add(self.color, c.color);
+        let mut hue = self.hue;
         if let Some(h) = &c.hsb {
-            color = apply_hsb(color, h);
+            (color, hue) = apply_hsb_keeping(color, hue, h);
         }
         let (f, lin, ndet) = if self.lin == 0 && c.n.is_none() {
             (self.f.compose(&composite_frame(c)), 0, 1.0)
         } else {
             self.compose_general(c, lins)
         };
-        State { f, color, weight: add(self.weight, c.weight), fps: self.fps + c.fps, lin, ndet }
+        State { f, color, weight: add(self.weight, c.weight), fps: self.fps + c.fps, lin, ndet, hue }
     }
 
     /// `self ∘ c` for an iterator's step, where `acc` is `self`'s frame in `f64`:
@@ -53,10 +58,11 @@ impl State {
         }
         *acc = acc.compose(&Frame64::step(&composite_frame(c)));
         let mut color = add(self.color, c.color);
+        let mut hue = self.hue;
         if let Some(h) = &c.hsb {
-            color = apply_hsb(color, h);
+            (color, hue) = apply_hsb_keeping(color, hue, h);
         }
-        State { f: acc.to_frame(), color, weight: add(self.weight, c.weight), fps: self.fps + c.fps, lin: 0, ndet: 1.0 }
+        State { f: acc.to_frame(), color, weight: add(self.weight, c.weight), fps: self.fps + c.fps, lin: 0, ndet: 1.0, hue }
     }
 
     /// The frame part of [`State::compose`] when a non-uniform factor is involved.
@@ -172,14 +178,16 @@ pub(super) fn set_frame(c: &mut Composite, a: &Affine) {
 
 /// Applies HSB adjustments `h` (see [`Composite::hsb`]) to an RGBA colour: the colour
 /// is clamped to 0..1 (HSB is defined there), converted to hue, saturation and
-/// brightness (HSV), adjusted, and converted back. Alpha is kept.
-pub(super) fn apply_hsb(c: [f32; 4], h: &[f32; 5]) -> [f32; 4] {
+/// brightness (HSV), adjusted, and converted back. Alpha is kept. A grey has no hue
+/// of its own: it takes `grey_hue`, the hue its frame kept (Context Free's colour
+/// state). Returns the colour and the hue it leaves (kept even if it ends grey).
+pub(super) fn apply_hsb_keeping(c: [f32; 4], grey_hue: f32, h: &[f32; 5]) -> ([f32; 4], f32) {
     let [r, g, b] = [c[0], c[1], c[2]].map(|v| v.clamp(0.0, 1.0));
     let max = r.max(g).max(b);
     let min = r.min(g).min(b);
     let d = max - min;
     let hue = if d <= 0.0 {
-        0.0
+        grey_hue
     } else if max == r {
         60.0 * ((g - b) / d).rem_euclid(6.0)
     } else if max == g {
@@ -196,7 +204,13 @@ pub(super) fn apply_hsb(c: [f32; 4], h: &[f32; 5]) -> [f32; 4] {
         let k = (n + hue / 60.0).rem_euclid(6.0);
         v - v * sat * k.min(4.0 - k).clamp(0.0, 1.0)
     };
-    [k(5.0), k(3.0), k(1.0), c[3]]
+    ([k(5.0), k(3.0), k(1.0), c[3]], hue)
+}
+
+/// [`apply_hsb_keeping`] for a frame that kept no hue (hue 0: red).
+#[cfg(test)]
+fn apply_hsb(c: [f32; 4], h: &[f32; 5]) -> [f32; 4] {
+    apply_hsb_keeping(c, 0.0, h).0
 }
 
 /// Composes the affine channel map `(m, a)` (`v ↦ m v + a`) after the one at `h[i..i+2]`.
