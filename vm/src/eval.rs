@@ -108,6 +108,11 @@ pub struct EvalOptions {
     /// the same geometry with every prototype instance expanded in place (tests
     /// compare the two).
     pub instancing: bool,
+    /// The output keeps prototype instances as instances (a `.glb` written with
+    /// `--instances`): each costs the vertex budget one (its record, as an
+    /// isosurface instance does) instead of its expanded vertices. The counters
+    /// (`Stats::vertices`) still count the vertices the instances stand for.
+    pub instances_stored: bool,
 }
 
 impl Default for EvalOptions {
@@ -124,6 +129,7 @@ impl Default for EvalOptions {
             time: None,
             record_sites: false,
             instancing: true,
+            instances_stored: false,
         }
     }
 }
@@ -704,6 +710,9 @@ struct Eval<'b> {
     /// Vertices of the prototype instances made so far (they count as vertices for
     /// the budget and the statistics, as they would have run one by one).
     instanced_vertices: u64,
+    /// Prototype instances made so far (the vertex budget's count of them when
+    /// [`EvalOptions::instances_stored`]).
+    prototype_instances: u64,
     /// Whether an instance refers to a non-uniform factor (then `lins` goes into the
     /// output).
     lins_used: bool,
@@ -847,6 +856,7 @@ impl<'b> Eval<'b> {
             instancing,
             fast,
             instanced_vertices: 0,
+            prototype_instances: 0,
             lins_used: false,
             suspect_instances: false,
             needs_last: b.code.iter().any(|op| match op {
@@ -1438,6 +1448,7 @@ impl<'b> Eval<'b> {
         let at = out.mesh.n_vertices() as u32;
         out.instances.push(Instance { frame: base.f, color: base.color, mesh, bone, lin: 0, at });
         self.instanced_vertices += u64::from(vertices);
+        self.prototype_instances += 1;
     }
 
     /// The rule holding op `pc` (see [`rule_in`]).
@@ -1599,11 +1610,12 @@ impl<'b> Eval<'b> {
         false
     }
 
-    /// The vertices the run has made so far, as the vertex budget counts them.
+    /// The vertices the run has made so far, as the vertex budget counts them: a
+    /// prototype instance as its expanded vertices, or as one record when the output
+    /// keeps it instanced ([`EvalOptions::instances_stored`]).
     fn vertices_made(&self) -> u64 {
-        (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64
-            + self.extra_vertices
-            + self.instanced_vertices
+        let instances = if self.opts.instances_stored { self.prototype_instances } else { self.instanced_vertices };
+        (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64 + self.extra_vertices + instances
     }
 
     fn check_budgets(&mut self) {
