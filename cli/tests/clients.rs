@@ -573,7 +573,7 @@ fn blender_three_and_assimp_open_every_std_example() {
     let spheres = dir.join("spheres_12000.mdg");
     std::fs::write(
         &spheres,
-        "startshape grid\nrule grid { 30 * {x 1} 20 * {y 1} 10 * {z 1} { SPHERE {s 0.4} SPHERE {z 0.5 s 0.3 B -1} } }\n",
+        "@import primitives\nstartshape grid\nrule grid { 30 * {x 1} 20 * {y 1} 10 * {z 1} { SPHERE {s 0.4} SPHERE {z 0.5 s 0.3 B -1} } }\n",
     )
     .expect("write spheres");
     let opts = mdg_compiler::expand::Options { std_dir: Some(root().join("std")), ..Default::default() };
