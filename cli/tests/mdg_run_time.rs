@@ -175,15 +175,15 @@ fn format_none_writes_nothing_and_stats_report_cpu_time() {
 }
 
 /// A `.glb` written with `--instances` keeps prototype instances as records, and the
-/// vertex budget counts them so: the 2,047 squares of a tree (12,282 vertices when
-/// expanded) pass a budget of 5,000 whole, while the flat file stops at it.
+/// vertex budget counts them so: the 8,191 squares of a tree (49,146 vertices when
+/// expanded) pass a budget of 20,000 whole, while the flat file stops at it.
 #[test]
 fn instances_kept_instanced_cost_the_budget_their_records() {
     let dir = temp_dir("budget");
     let src = dir.join("tree.mdg");
     std::fs::write(
         &src,
-        "startshape T\nmaxdepth 10\nrule T {\n  VERTEX [x -0.5 y -0.5] VERTEX [x 0.5 y -0.5] VERTEX [x 0.5 y 0.5]\n  \
+        "startshape T\nmaxdepth 12\nrule T {\n  VERTEX [x -0.5 y -0.5] VERTEX [x 0.5 y -0.5] VERTEX [x 0.5 y 0.5]\n  \
          VERTEX [x -0.5 y -0.5] VERTEX [x 0.5 y 0.5] VERTEX [x -0.5 y 0.5]\n  T [y 1 rz 25 s 0.75]\n  T [y 1 rz -25 s 0.75]\n}\n",
     )
     .expect("write source");
@@ -194,16 +194,16 @@ fn instances_kept_instanced_cost_the_budget_their_records() {
         glb.to_str().expect("utf-8 path"),
         "--stats",
         "--max-vertices",
-        "5000",
+        "20000",
     ];
     let flat = run(&args);
     let flat_err = String::from_utf8_lossy(&flat.stderr);
     assert!(flat.status.success(), "{flat_err}");
-    assert!(flat_err.contains("vertex budget 5000 reached"), "{flat_err}");
+    assert!(flat_err.contains("vertex budget 20000 reached"), "{flat_err}");
     let inst = run(&[&args[..], &["--instances"]].concat());
     let inst_err = String::from_utf8_lossy(&inst.stderr);
     assert!(inst.status.success(), "{inst_err}");
     assert!(!inst_err.contains("vertex budget"), "{inst_err}");
-    assert!(inst_err.contains("vertices 12282 "), "every square: {inst_err}");
+    assert!(inst_err.contains("vertices 49146 "), "every square: {inst_err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
