@@ -1514,9 +1514,9 @@ fn flat_plan(src: &FlatSource, what: &str, infos: &mut Option<ProtoInfos>) -> Re
         }
     };
     let bound = |plan: &mut FlatPlan, q: [f32; 3]| {
-        for c in 0..3 {
-            plan.lo[c] = plan.lo[c].min(q[c]);
-            plan.hi[c] = plan.hi[c].max(q[c]);
+        for (c, x) in q.into_iter().enumerate() {
+            plan.lo[c] = plan.lo[c].min(x);
+            plan.hi[c] = plan.hi[c].max(x);
         }
     };
     let out = src.output();
