@@ -407,9 +407,11 @@ fn prototype_placeable(f: &Frame) -> bool {
 /// q/|q|, s = |q| |q̂|; −I times the mirror in x is a half turn about x.
 fn prototype_trs(f: &Frame) -> ([f32; 3], [f32; 4], f32) {
     let (lq, lqh) = (f.q.length(), f.qh.length());
+    // q/|q| is a unit quaternion; times the unit x quaternion (a half turn about x)
+    // it stays one: r·i = (w, z, −y, −x) in (x, y, z, w), no normalisation needed.
     let r = crate::geom::quat::scaled(f.q, 1.0 / lq);
-    let r = if frame_mirrors(f) { crate::geom::quat::hamilton(r, Quat::from_xyzw(1.0, 0.0, 0.0, 0.0)) } else { r };
-    (f.u.to_array(), r.normalize().to_array(), lq * lqh)
+    let r = if frame_mirrors(f) { Quat::from_xyzw(r.w, r.z, -r.y, -r.x) } else { r };
+    (f.u.to_array(), r.to_array(), lq * lqh)
 }
 
 /// One node of a [`write_glb_nodes`] scene: shared mesh `mesh` placed by
@@ -1140,24 +1142,38 @@ impl<'a> Builder<'a> {
             at += len;
         }
         self.bin.resize(at, 0);
-        let bin = &mut self.bin;
-        let put = |bin: &mut Vec<u8>, off: usize, xs: &[f32]| {
-            for (j, x) in xs.iter().enumerate() {
-                bin[off + 4 * j..off + 4 * j + 4].copy_from_slice(&finite(*x).to_le_bytes());
+        // Each attribute's region, cut into per-instance records.
+        let (head, colors) = self.bin.split_at_mut(if per_color { offsets[3] } else { at });
+        let (head, scales) = head.split_at_mut(offsets[2]);
+        let (head, rotations) = head.split_at_mut(offsets[1]);
+        let translations = &mut head[offsets[0]..];
+        let mut records = translations
+            .chunks_exact_mut(12)
+            .zip(rotations.chunks_exact_mut(16))
+            .zip(scales.chunks_exact_mut(12))
+            .zip(colors.chunks_exact_mut(12).map(Some).chain(std::iter::repeat_with(|| None)));
+        let put = |dst: &mut [u8], xs: &[f32]| {
+            for (d, x) in dst.chunks_exact_mut(4).zip(xs) {
+                d.copy_from_slice(&x.to_le_bytes());
             }
         };
         let mut last_color = ([1.0f32; 4], linear_color([1.0; 4]));
-        for (k, inst) in insts().enumerate() {
-            let (t, r, sc) = prototype_trs(&inst.frame);
-            put(bin, offsets[0] + 12 * k, &t);
-            put(bin, offsets[1] + 16 * k, &r);
-            put(bin, offsets[2] + 12 * k, &[sc; 3]);
-            if per_color {
+        for inst in insts() {
+            let Some((((t_out, r_out), s_out), c_out)) = records.next() else { break };
+            let (mut t, mut r, mut sc) = prototype_trs(&inst.frame);
+            // One test for the usual case: all ten numbers finite (the sum is).
+            if !(t[0] + t[1] + t[2] + r[0] + r[1] + r[2] + r[3] + sc).is_finite() {
+                (t, r, sc) = (t.map(finite), r.map(finite), finite(sc));
+            }
+            put(t_out, &t);
+            put(r_out, &r);
+            put(s_out, &[sc; 3]);
+            if let (true, Some(c_out)) = (per_color, c_out) {
                 let c = clamp_color(inst.color);
                 if c != last_color.0 {
                     last_color = (c, linear_color(c));
                 }
-                put(bin, offsets[3] + 12 * k, &last_color.1[..3]);
+                put(c_out, &last_color.1[..3]);
             }
         }
         self.root.extensions_used = vec![EXT_INSTANCING];
