@@ -260,27 +260,30 @@ fn expected_in_process(bundle: &mdg_vm::bundle::Bundle) -> Expected {
     Expected { geometry: (v, t, lo, hi), gpu, isosurfaces }
 }
 
-/// What `mdg-run --instances` should write for `out`'s prototype instances, grouped
-/// as the glTF writer documents it (`vm/src/export/glb.rs`): one instanced node per
-/// (prototype, mirrored, frame colour where the prototype's items add colours),
-/// at most [`MAX_COLOR_VARIANTS`] colours per prototype; left to the geometry:
-/// prototypes without triangles, instances of animated bones in a skinned output,
-/// frames of zero or non-finite scale. Returns (instanced nodes, instances they place).
+/// What `mdg-run --instances` should write for `out`'s instances of shared meshes
+/// (prototypes and isosurfaces), grouped as the glTF writer documents it
+/// (`vm/src/export/glb.rs`): one instanced node per (shared mesh, mirrored, frame
+/// colour where a prototype's items add colours), at most [`MAX_COLOR_VARIANTS`]
+/// colours per prototype; left to the geometry or to nodes: meshes without
+/// triangles, instances of animated bones in a skinned output, frames of zero or
+/// non-finite scale, isosurfaces in frames with a non-uniform factor. Returns
+/// (instanced nodes, instances they place).
 fn expected_gpu_instancing(out: &mdg_vm::output::Output) -> (usize, usize) {
     let skinned = out.animation.bones.len() > 1;
     let mut groups = std::collections::BTreeSet::new();
     let mut variants: BTreeMap<u32, std::collections::BTreeSet<[u32; 4]>> = BTreeMap::new();
     let mut instances = 0;
     for inst in &out.instances {
-        let Some(shared) = out.shared(inst).filter(|s| s.is_prototype() && !s.mesh.triangles.is_empty()) else {
+        let Some(shared) = out.shared(inst).filter(|s| !s.mesh.triangles.is_empty()) else {
             continue;
         };
         let f = &inst.frame;
         let scale = f.q.length_squared() * f.qh.length_squared();
-        if (skinned && inst.bone != 0) || !(scale.is_finite() && scale > 0.0 && f.u.is_finite()) {
+        if (skinned && inst.bone != 0) || !(scale.is_finite() && scale > 0.0 && f.u.is_finite()) || inst.lin != 0 {
             continue;
         }
-        let colour = shared.mesh.colors.iter().any(|c| *c != [0.0; 4]).then(|| inst.color.map(f32::to_bits));
+        let deltas = shared.is_prototype() && shared.mesh.colors.iter().any(|c| *c != [0.0; 4]);
+        let colour = deltas.then(|| inst.color.map(f32::to_bits));
         if let Some(c) = colour {
             let seen = variants.entry(inst.mesh).or_default();
             if !seen.contains(&c) && seen.len() >= MAX_COLOR_VARIANTS {
@@ -565,15 +568,28 @@ fn blender_three_and_assimp_open_every_std_example() {
     let text = std::fs::read_to_string(root().join("benches/workloads/tree.mdg")).expect("tree workload");
     assert!(text.contains("maxdepth 19"), "the tree workload changed");
     std::fs::write(&tree, text.replace("maxdepth 19", "maxdepth 16")).expect("write tree");
+    // And isosurfaces: 12,000 spheres in two colours are two InstancedMesh objects
+    // (they were 12,000 nodes, each a draw call).
+    let spheres = dir.join("spheres_12000.mdg");
+    std::fs::write(
+        &spheres,
+        "@import primitives\nstartshape grid\nrule grid { 30 * {x 1} 20 * {y 1} 10 * {z 1} { SPHERE {s 0.4} SPHERE {z 0.5 s 0.3 B -1} } }\n",
+    )
+    .expect("write spheres");
     let opts = mdg_compiler::expand::Options { std_dir: Some(root().join("std")), ..Default::default() };
-    for (name, src, in_blender) in
-        [("prototypes", root().join("tests/instancing/prototypes.mdg"), true), ("tree_workload_16", tree, false)]
-    {
+    for (name, src, in_blender) in [
+        ("prototypes", root().join("tests/instancing/prototypes.mdg"), true),
+        ("tree_workload_16", tree, false),
+        ("spheres_12000", spheres, false),
+    ] {
         let (bundle, _) = mdg_compiler::driver::build(&mdg_compiler::source::FsLoader, &src, &opts)
             .unwrap_or_else(|_| panic!("{name} does not compile"));
         let Expected { geometry: expected, gpu, .. } = expected_in_process(&bundle);
         if name == "tree_workload_16" {
             assert_eq!(gpu, (1, (1 << 17) - 1), "the tree at depth 16: one prototype, 2^17 - 1 instances");
+        }
+        if name == "spheres_12000" {
+            assert_eq!(gpu, (1, 12_000), "12,000 isosurface spheres: one shared mesh, one instanced node");
         }
         let glb = dir.join(format!("{name}.instances.glb"));
         run_mdg(&[src.as_os_str(), "--instances".as_ref(), "-o".as_ref(), glb.as_os_str()])
@@ -887,12 +903,23 @@ fn check_instanced(
         }
         eprintln!("{name}: assimp {assimp_nodes} nodes, {assimp_faces} faces (MDG: {faces} triangles)");
     }
-    // The draw-call claim: a handful of InstancedMesh objects, not 131,071 meshes.
+    // The draw-call claim: a handful of InstancedMesh objects, not 131,071 meshes;
+    // and the 12,000 isosurface spheres one InstancedMesh for their shared mesh.
     match instanced.iter().zip(three).find(|(i, _)| i.name == "tree_workload_16") {
         Some((_, t)) if t["meshes"].as_u64().is_some_and(|m| m <= 4) => {}
         found => failures.push(format!(
             "tree_workload_16.instances: three.js has {} mesh objects, a handful expected",
             found.map(|(_, t)| t["meshes"].clone()).unwrap_or_default()
+        )),
+    }
+    match instanced.iter().zip(three).find(|(i, _)| i.name == "spheres_12000") {
+        Some((_, t))
+            if t["meshes"].as_u64() == Some(1)
+                && t["instanced"].as_array().is_some_and(|a| a.len() == 1 && a[0]["count"] == 12_000) => {}
+        found => failures.push(format!(
+            "spheres_12000.instances: three.js has {} mesh objects ({}), one InstancedMesh of 12,000 expected",
+            found.map(|(_, t)| t["meshes"].clone()).unwrap_or_default(),
+            found.map(|(_, t)| t["instanced"].clone()).unwrap_or_default()
         )),
     }
 }

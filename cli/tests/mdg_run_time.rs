@@ -136,3 +136,74 @@ fn help_lists_every_modes_flags() {
         assert!(text.contains(flag), "--help lacks {flag}:\n{text}");
     }
 }
+
+/// `--format none` evaluates and writes nothing, and `--stats` reports the wall and
+/// CPU time of each phase (issue 37); `-o` with it is refused, naming the flags.
+#[test]
+fn format_none_writes_nothing_and_stats_report_cpu_time() {
+    let dir = temp_dir("none");
+    let src = dir.join("squares.mdg");
+    std::fs::write(&src, "startshape s\nrule s { 3 * {x 2} { VERTEX {} VERTEX {x 1} VERTEX {y 1} } }\n")
+        .expect("write source");
+    let out = Command::new(env!("CARGO_BIN_EXE_mdg-run"))
+        .current_dir(&dir)
+        .args([src.to_str().expect("utf-8 path"), "--format", "none", "--stats"])
+        .output()
+        .expect("run mdg-run");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let files: Vec<String> = std::fs::read_dir(&dir)
+        .expect("list")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into())
+        .collect();
+    assert_eq!(files, vec!["squares.mdg".to_string()], "nothing written: {stderr}");
+    assert!(!stderr.contains("wrote"), "{stderr}");
+    assert!(stderr.contains("vertices 9 "), "{stderr}");
+    let times = stderr.lines().find(|l| l.starts_with("time: ")).unwrap_or_else(|| panic!("no time line: {stderr}"));
+    assert!(times.contains("evaluate ") && times.contains(" ms wall ") && times.contains(" ms CPU"), "{times}");
+    assert!(times.contains("process ") && !times.contains("write "), "no write phase: {times}");
+    // With a model written, the write phase is timed too.
+    let glb = dir.join("squares.glb");
+    let out = run(&[src.to_str().expect("utf-8 path"), "-o", glb.to_str().expect("utf-8 path"), "--stats"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && glb.exists(), "{stderr}");
+    assert!(stderr.lines().any(|l| l.starts_with("time: ") && l.contains("write ")), "{stderr}");
+    let out = run(&[src.to_str().expect("utf-8 path"), "--format", "none", "-o", glb.to_str().expect("utf-8 path")]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--format none writes no model; drop -o"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A `.glb` written with `--instances` keeps prototype instances as records, and the
+/// vertex budget counts them so: the 8,191 squares of a tree (49,146 vertices when
+/// expanded) pass a budget of 20,000 whole, while the flat file stops at it.
+#[test]
+fn instances_kept_instanced_cost_the_budget_their_records() {
+    let dir = temp_dir("budget");
+    let src = dir.join("tree.mdg");
+    std::fs::write(
+        &src,
+        "startshape T\nmaxdepth 12\nrule T {\n  VERTEX [x -0.5 y -0.5] VERTEX [x 0.5 y -0.5] VERTEX [x 0.5 y 0.5]\n  \
+         VERTEX [x -0.5 y -0.5] VERTEX [x 0.5 y 0.5] VERTEX [x -0.5 y 0.5]\n  T [y 1 rz 25 s 0.75]\n  T [y 1 rz -25 s 0.75]\n}\n",
+    )
+    .expect("write source");
+    let glb = dir.join("tree.glb");
+    let args = [
+        src.to_str().expect("utf-8 path"),
+        "-o",
+        glb.to_str().expect("utf-8 path"),
+        "--stats",
+        "--max-vertices",
+        "20000",
+    ];
+    let flat = run(&args);
+    let flat_err = String::from_utf8_lossy(&flat.stderr);
+    assert!(flat.status.success(), "{flat_err}");
+    assert!(flat_err.contains("vertex budget 20000 reached"), "{flat_err}");
+    let inst = run(&[&args[..], &["--instances"]].concat());
+    let inst_err = String::from_utf8_lossy(&inst.stderr);
+    assert!(inst.status.success(), "{inst_err}");
+    assert!(!inst_err.contains("vertex budget"), "{inst_err}");
+    assert!(inst_err.contains("vertices 49146 "), "every square: {inst_err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -399,11 +399,29 @@ fn parse_glb(b: &[u8]) -> (Value, Vec<u8>) {
     (json, bin)
 }
 
-fn accessor_bytes<'a>(json: &Value, bin: &'a [u8], a: &Value) -> &'a [u8] {
+/// An accessor's elements, packed (read through the view's offset and stride and
+/// the accessor's own offset: vertex attributes are interleaved).
+fn accessor_bytes(json: &Value, bin: &[u8], a: &Value) -> Vec<u8> {
     let acc = &json["accessors"][a.as_u64().expect("accessor index") as usize];
     let view = &json["bufferViews"][acc["bufferView"].as_u64().expect("view") as usize];
-    let off = view["byteOffset"].as_u64().unwrap_or(0) as usize;
-    &bin[off..off + view["byteLength"].as_u64().expect("length") as usize]
+    let width = match acc["type"].as_str().expect("type") {
+        "SCALAR" => 1,
+        "VEC2" => 2,
+        "VEC3" => 3,
+        "VEC4" => 4,
+        "MAT4" => 16,
+        t => panic!("accessor type {t}"),
+    };
+    let size = match acc["componentType"].as_u64().expect("component type") {
+        5120 | 5121 => 1,
+        5122 | 5123 => 2,
+        _ => 4,
+    };
+    let element = width * size;
+    let start = view["byteOffset"].as_u64().unwrap_or(0) as usize + acc["byteOffset"].as_u64().unwrap_or(0) as usize;
+    let stride = view["byteStride"].as_u64().map_or(element, |s| s as usize);
+    let count = acc["count"].as_u64().expect("count") as usize;
+    (0..count).flat_map(|i| bin[start + i * stride..start + i * stride + element].iter().copied()).collect()
 }
 
 fn floats(json: &Value, bin: &[u8], a: &Value) -> Vec<f64> {

@@ -371,3 +371,47 @@ fn benchmark_workloads_give_the_same_triangles_instanced_and_flat() {
     }
     assert!(problems.is_empty(), "{} problems:\n{}", problems.len(), problems.join("\n"));
 }
+
+/// The binary chunk of a `.glb` (after the JSON chunk).
+fn glb_binary(b: &[u8]) -> &[u8] {
+    let json_len = u32::from_le_bytes(b[12..16].try_into().expect("4 bytes")) as usize;
+    let o = 20 + json_len;
+    if o >= b.len() {
+        return &[];
+    }
+    &b[o + 8..]
+}
+
+/// The flat `.glb` writer expands each prototype instance from its frame itself (one
+/// record per vertex, straight into the file): its binary chunk must be byte for byte
+/// the one written from the same output with every prototype expanded into the mesh
+/// first (`Output::expand_prototypes`, the evaluator's own expansion), for the
+/// prototypes of every kind (mirrored, colour deltas, FACENORMALS, bones).
+#[test]
+fn the_flat_glb_expands_prototypes_as_the_evaluator_does() {
+    let mut sources = vec![(
+        "prototypes.mdg".to_string(),
+        lower("prototypes.mdg", &analyze_file(&root().join("tests/instancing/prototypes.mdg"), true)),
+    )];
+    sources.extend(std_examples());
+    sources.push(workload("tree.mdg", &[("maxdepth 19", "maxdepth 10")]));
+    let mut compared = 0;
+    let mut problems = Vec::new();
+    for (name, b) in &sources {
+        let out = evaluate(b, &EvalOptions::default());
+        if prototype_instances(&out) == 0 {
+            continue;
+        }
+        let mut expanded = out.clone();
+        expanded.expand_prototypes();
+        let (mut a, mut e) = (Vec::new(), Vec::new());
+        mdg_vm::export::write(mdg_vm::export::Format::Glb, &out, &mut a).expect("writes");
+        mdg_vm::export::write(mdg_vm::export::Format::Glb, &expanded, &mut e).expect("writes");
+        if glb_binary(&a) != glb_binary(&e) {
+            problems.push(format!("{name}: the binary chunks differ ({} and {} bytes)", a.len(), e.len()));
+        }
+        compared += 1;
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+    assert!(compared >= 8, "only {compared} outputs with prototype instances");
+}

@@ -154,6 +154,16 @@ impl Piece<'_> {
     }
 }
 
+/// A part of the `VERTEX` group's flat walk (see [`Output::for_each_vertex_part`]).
+#[derive(Clone, Debug)]
+pub enum VertexPart<'a> {
+    /// A run of [`Output::mesh`].
+    Piece(Piece<'a>),
+    /// Prototype instance `instance` (an index into [`Output::instances`]), whose
+    /// expanded vertices become the flat vertices from `base` on.
+    Prototype { instance: usize, base: u32 },
+}
+
 /// Which groups of geometry a flat walk visits, in this order: the `VERTEX`
 /// triangles (with prototype instances expanded where they were made), the sweeps,
 /// the isosurface instances.
@@ -423,36 +433,20 @@ impl Output {
             f(&piece)
         };
         if groups.vertex {
-            let m = &self.mesh;
-            // Mesh vertices [done, at) go before an instance made at `at`; a triangle
-            // belongs to the run that holds its last vertex.
-            let mut cursor = (0usize, 0usize, &mut base);
-            let run = |f: &mut dyn FnMut(&Piece) -> Result<(), E>, to: usize, c: &mut (usize, usize, &mut u32)| {
-                let (done, tri) = (c.0, c.1);
-                let end_tri = if to >= m.n_vertices() {
-                    m.triangles.len()
-                } else {
-                    tri + m.triangles[tri..].partition_point(|t| t.iter().all(|&v| (v as usize) < to))
-                };
-                let piece = Piece { mesh: m, vertices: done..to, triangles: tri..end_tri, base: *c.2 };
-                *c.2 += (to - done) as u32;
-                c.0 = to;
-                c.1 = end_tri;
-                f(&piece)
-            };
-            for (i, inst) in self.instances.iter().enumerate() {
-                let Some(shared) = self.shared(inst).filter(|s| s.is_prototype() && expand(i)) else { continue };
-                let at = (inst.at as usize).clamp(cursor.0, m.n_vertices());
-                if at > cursor.0 {
-                    run(&mut f, at, &mut cursor)?;
+            self.for_each_vertex_part(&expand, |part| match part {
+                VertexPart::Piece(p) => {
+                    base = p.base + p.vertices.len() as u32;
+                    f(&p)
                 }
-                scratch.clear();
-                expand_prototype(&mut scratch, shared, inst, self.instance_weight(i));
-                whole(&mut f, &scratch, cursor.2)?;
-            }
-            if cursor.0 < m.n_vertices() || cursor.1 < m.triangles.len() {
-                run(&mut f, m.n_vertices(), &mut cursor)?;
-            }
+                VertexPart::Prototype { instance, base: b } => {
+                    let inst = &self.instances[instance];
+                    let Some(shared) = self.shared(inst) else { return Ok(()) };
+                    scratch.clear();
+                    expand_prototype(&mut scratch, shared, inst, self.instance_weight(instance));
+                    base = b;
+                    whole(&mut f, &scratch, &mut base)
+                }
+            })?;
         }
         if groups.sweeps {
             whole(&mut f, &self.sweeps, &mut base)?;
@@ -464,6 +458,51 @@ impl Output {
                 expand_isosurface(&mut scratch, &shared.mesh, self, inst);
                 whole(&mut f, &scratch, &mut base)?;
             }
+        }
+        Ok(())
+    }
+
+    /// The `VERTEX` group of a flat walk ([`Output::for_each_piece_where`]) without
+    /// expanding the prototype instances: runs of [`Output::mesh`] as pieces, and each
+    /// prototype instance `expand` keeps as its index and the flat index of its first
+    /// vertex (an exporter that writes instances its own way expands them itself, in
+    /// the same order).
+    pub fn for_each_vertex_part<'s, E>(
+        &'s self,
+        expand: &dyn Fn(usize) -> bool,
+        mut f: impl FnMut(VertexPart<'s>) -> Result<(), E>,
+    ) -> Result<(), E> {
+        let m = &self.mesh;
+        // Mesh vertices [done, at) go before an instance made at `at`; a triangle
+        // belongs to the run that holds its last vertex.
+        let (mut done, mut tri, mut base) = (0usize, 0usize, 0u32);
+        let run = |f: &mut dyn FnMut(VertexPart<'s>) -> Result<(), E>,
+                   to: usize,
+                   done: &mut usize,
+                   tri: &mut usize,
+                   base: &mut u32| {
+            let end_tri = if to >= m.n_vertices() {
+                m.triangles.len()
+            } else {
+                *tri + m.triangles[*tri..].partition_point(|t| t.iter().all(|&v| (v as usize) < to))
+            };
+            let piece = Piece { mesh: m, vertices: *done..to, triangles: *tri..end_tri, base: *base };
+            *base += (to - *done) as u32;
+            *done = to;
+            *tri = end_tri;
+            f(VertexPart::Piece(piece))
+        };
+        for (i, inst) in self.instances.iter().enumerate() {
+            let Some(shared) = self.shared(inst).filter(|s| s.is_prototype() && expand(i)) else { continue };
+            let at = (inst.at as usize).clamp(done, m.n_vertices());
+            if at > done {
+                run(&mut f, at, &mut done, &mut tri, &mut base)?;
+            }
+            f(VertexPart::Prototype { instance: i, base })?;
+            base += shared.mesh.n_vertices() as u32;
+        }
+        if done < m.n_vertices() || tri < m.triangles.len() {
+            run(&mut f, m.n_vertices(), &mut done, &mut tri, &mut base)?;
         }
         Ok(())
     }

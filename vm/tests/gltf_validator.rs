@@ -271,6 +271,9 @@ fn exported_glb_files_pass_the_khronos_validator() {
             "prototypes" => (2 + MAX_COLOR_VARIANTS, 4 + MAX_COLOR_VARIANTS as u64),
             // The root's instance only.
             "animated" => (1, 1),
+            // The sphere's isosurface instances: three plain, one mirrored (the
+            // degenerate one is baked, the empty mesh and the missing one are skipped).
+            "instanced" => (2, 4),
             _ => (0, 0),
         };
         assert_eq!(gpu_instancing(&bytes), expected, "{name}: instanced nodes and instances");

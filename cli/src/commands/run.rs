@@ -39,7 +39,9 @@ pub struct Args {
     /// the format's extension). With --seeds, a template holding `{seed}`.
     #[arg(short, long)]
     output: Option<PathBuf>,
-    /// Output format: glb, obj, stl, ply, json (default: from -o's extension, else glb).
+    /// Output format: glb, obj, stl, ply, json (default: from -o's extension, else
+    /// glb), or none: evaluate only and write no model (for timing with --stats;
+    /// warnings, --stats and --png still apply).
     #[arg(long)]
     format: Option<String>,
     /// Seed for the random stream (overrides `randseed`).
@@ -68,7 +70,8 @@ pub struct Args {
     /// importers without the extension show a single one (docs/instancing.md).
     #[arg(long)]
     instances: bool,
-    /// Print rule calls, vertices, triangles, time and peak memory.
+    /// Print rule calls, vertices, triangles, time and peak memory, and the wall and
+    /// CPU time of each phase (evaluate, write, picture) and of the whole process.
     #[arg(long)]
     stats: bool,
     #[command(flatten)]
@@ -124,6 +127,63 @@ fn peak_rss_kib() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
     line.split_whitespace().nth(1)?.parse().ok()
+}
+
+/// The CPU time (user + system) of the whole process so far, all its threads, in
+/// milliseconds: fields 14 and 15 of `/proc/self/stat`, in the kernel's USER_HZ
+/// ticks (100 a second on every Linux: a resolution of 10 ms). `None` elsewhere.
+pub fn process_cpu_ms() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // The command name (field 2) is in parentheses and may hold spaces.
+    let rest = &stat[stat.rfind(')')? + 1..];
+    let fields: Vec<&str> = rest.split_whitespace().collect();
+    let ticks = |i: usize| fields.get(i).and_then(|f| f.parse::<u64>().ok());
+    Some((ticks(11)? + ticks(12)?) as f64 * 10.0)
+}
+
+/// The wall and CPU time of a run's phases (`--stats`): evaluate, write, picture.
+struct Phases {
+    at: (std::time::Instant, Option<f64>),
+    done: Vec<(&'static str, f64, Option<f64>)>,
+}
+
+impl Phases {
+    fn start() -> Phases {
+        Phases { at: (std::time::Instant::now(), process_cpu_ms()), done: Vec::new() }
+    }
+
+    /// A phase starts now (what ran since the last one is not counted).
+    fn restart(&mut self) {
+        self.at = (std::time::Instant::now(), process_cpu_ms());
+    }
+
+    /// The phase `name` ends now.
+    fn end(&mut self, name: &'static str) {
+        let cpu = process_cpu_ms();
+        let wall = self.at.0.elapsed().as_secs_f64() * 1000.0;
+        self.done.push((name, wall, cpu.zip(self.at.1).map(|(b, a)| b - a)));
+        self.restart();
+    }
+
+    /// `time: evaluate 61.2 ms wall 60 ms CPU, write …, process 180.3 ms wall 170 ms CPU`.
+    fn line(&self) -> String {
+        let cpu = |c: Option<f64>| c.map_or_else(|| "n/a".to_string(), |c| format!("{c:.0} ms"));
+        let mut parts: Vec<String> =
+            self.done.iter().map(|(n, w, c)| format!("{n} {w:.1} ms wall {} CPU", cpu(*c))).collect();
+        parts.push(format!("process {} wall {} CPU", cpu(process_wall_ms()), cpu(process_cpu_ms())));
+        format!("time: {} (CPU: user + system, 10 ms ticks)", parts.join(", "))
+    }
+}
+
+/// Milliseconds since the process started: `/proc/self/stat` field 22 (the start,
+/// in USER_HZ ticks since boot) against `/proc/uptime` (10 ms resolution). `None`
+/// where they cannot be read.
+fn process_wall_ms() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let rest = &stat[stat.rfind(')')? + 1..];
+    let start_ticks: f64 = rest.split_whitespace().nth(19)?.parse().ok()?;
+    let up: f64 = std::fs::read_to_string("/proc/uptime").ok()?.split_whitespace().next()?.parse().ok()?;
+    Some((up - start_ticks / 100.0) * 1000.0)
 }
 
 /// A failed run: the exit code and the message.
@@ -237,6 +297,14 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
         }
         None => None,
     };
+    if format_none(cli) {
+        if let Some(o) = &cli.output {
+            return Err((2, format!("--format none writes no model; drop -o {} (or choose a format)", o.display())));
+        }
+        if cli.seeds.is_some() {
+            return Err((2, "--format none and --seeds: a batch writes one model per seed; choose a format".into()));
+        }
+    }
     let (bundle, inputs) = load_bundle(&cli.file, &opts, cli.stdin)?;
     // An output that is an input would destroy the source (`mdg-run x.mdg -o x.mdg`).
     let outputs = [
@@ -278,6 +346,12 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
         return Ok(modes::creature::run(&bundle, &cli.creature, &common));
     }
     let is_grid = bundle.extensions.grid.is_some();
+    if is_grid && format_none(cli) {
+        return Err((
+            2,
+            "--format none is for mesh grammars; a grid grammar writes a voxel file (docs/grid.md)".into(),
+        ));
+    }
     match batch {
         Some((seeds, shard, template)) => {
             if !is_grid && mesh_target(cli, &template)? == Target::Picture {
@@ -295,6 +369,8 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
             let output = match &cli.output {
                 Some(o) => o.clone(),
                 None if is_grid => default_output(&cli.file, cli.format.as_deref().unwrap_or("vox")),
+                // (--format none writes nothing: the name is only for messages.)
+                None if format_none(cli) => default_output(&cli.file, "glb"),
                 None => default_output(&cli.file, format(cli)?.extension()),
             };
             if is_grid {
@@ -337,6 +413,8 @@ const MESH_FORMATS: &str = ".glb, .obj, .stl, .ply, .json";
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Target {
     Model(Format),
+    /// `--format none`: evaluate only, no model file.
+    Nothing,
     /// `-o NAME.png`: the picture, as `--png NAME.png` draws it, and no model.
     Picture,
 }
@@ -346,6 +424,9 @@ enum Target {
 /// grid grammars), `.png` is the picture, and `--format` must agree with the
 /// extension. No extension: `--format`, else glb.
 fn mesh_target(cli: &Args, path: &Path) -> Result<Target, Failure> {
+    if format_none(cli) {
+        return Ok(Target::Nothing);
+    }
     let flag = match &cli.format {
         Some(_) => Some(format(cli)?),
         None => None,
@@ -408,9 +489,16 @@ fn grid_format_agrees(cli: &Args, output: &Path) -> Result<(), Failure> {
     Ok(())
 }
 
+/// Whether `--format none` asks for an evaluation that writes no model.
+fn format_none(cli: &Args) -> bool {
+    cli.format.as_deref().is_some_and(|f| f.eq_ignore_ascii_case("none"))
+}
+
 fn format(cli: &Args) -> Result<Format, Failure> {
     match &cli.format {
-        Some(f) => Format::from_extension(f).ok_or((2, format!("unknown format `{f}` (glb, obj, stl, ply, json)"))),
+        Some(f) => {
+            Format::from_extension(f).ok_or((2, format!("unknown format `{f}` (glb, obj, stl, ply, json, none)")))
+        }
         None => Ok(cli.output.as_deref().and_then(Format::from_path).unwrap_or(Format::Glb)),
     }
 }
@@ -437,11 +525,16 @@ fn run_one(
             Err((1, format!("{} was not generated", output.display())))
         };
     }
-    let (format, picture_only) = match mesh_target(cli, output)? {
-        Target::Model(f) => (f, false),
-        Target::Picture => (Format::Glb, true),
+    let (format, picture_only, nothing) = match mesh_target(cli, output)? {
+        Target::Model(f) => (f, false, false),
+        Target::Picture => (Format::Glb, true, false),
+        Target::Nothing => (Format::Glb, false, true),
     };
-    let eval_opts = eval_options(cli, seed);
+    // A `.glb` written with --instances keeps prototype instances as records: the
+    // vertex budget counts them so (docs/limits.md).
+    let stored = cli.instances && format == Format::Glb && !picture_only && !nothing;
+    let eval_opts = EvalOptions { instances_stored: stored, ..eval_options(cli, seed) };
+    let mut phases = Phases::start();
     let started = std::time::Instant::now();
     let bar = indicatif::ProgressBar::hidden();
     // (A batch shows its own bar: its seeds run side by side, without spinners.)
@@ -467,6 +560,7 @@ fn run_one(
         out
     };
     bar.finish_and_clear();
+    phases.end("evaluate");
     for d in &out.debug {
         eprintln!("{}", mdg_compiler::diag::escape_text(d));
     }
@@ -486,19 +580,25 @@ fn run_one(
     }
     if cli.instances && picture_only {
         eprintln!("note: --instances is for .glb; -o {} writes only the picture", output.display());
+    } else if cli.instances && nothing {
+        eprintln!("note: --instances is for .glb; --format none writes no model");
     } else if cli.instances && format != Format::Glb {
         eprintln!("note: --instances is for .glb; {} expands every instance", format.extension());
     }
     let glb = export::glb::GlbOptions { instances: cli.instances };
-    if !picture_only {
+    if !picture_only && !nothing {
+        phases.restart();
         export::write_file_with(format, &out, &glb, output).map_err(|e| (1, e))?;
+        phases.end("write");
     }
     let picture = if picture_only { Some(output) } else { cli.png.as_deref() };
     if let Some(png_path) = picture {
         // With --time the pose is already baked into `out`.
+        phases.restart();
         let bytes =
             pictures.render(Some(bundle), &out, size).map_err(|e| (1, format!("cannot render the picture: {e}")))?;
         export::write_atomic(png_path, &bytes).map_err(|e| (2, format!("cannot write {}: {e}", png_path.display())))?;
+        phases.end("picture");
         eprintln!("wrote {}", png_path.display());
     }
     if let Some(dir) = &cli.frames {
@@ -518,10 +618,11 @@ fn run_one(
             s.elapsed_ms,
             peak_rss_kib().map(|k| format!("{:.1} MiB", k as f64 / 1024.0)).unwrap_or_else(|| "n/a".into())
         );
+        eprintln!("{}", phases.line());
         let (compiled, cached) = mdg_compiler::shaders::compile_counts();
         eprintln!("shaders compiled with glslang {compiled}  taken from the SPIR-V cache {cached}");
     }
-    if say_wrote && !picture_only {
+    if say_wrote && !picture_only && !nothing {
         eprintln!("wrote {}", output.display());
     }
     // The counts go into a batch's manifest; a single run has no use for them (and

@@ -95,11 +95,12 @@ impl<'b> Eval<'b> {
         false
     }
 
-    /// The vertices the run has made so far, as the vertex budget counts them.
+    /// The vertices the run has made so far, as the vertex budget counts them: a
+    /// prototype instance as its expanded vertices, or as one record when the output
+    /// keeps it instanced ([`EvalOptions::instances_stored`]).
     pub(super) fn vertices_made(&self) -> u64 {
-        (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64
-            + self.extra_vertices
-            + self.instanced_vertices
+        let instances = if self.opts.instances_stored { self.prototype_instances } else { self.instanced_vertices };
+        (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64 + self.extra_vertices + instances
     }
 
     pub(super) fn check_budgets(&mut self) {

@@ -133,6 +133,9 @@ struct Eval<'b> {
     /// Vertices of the prototype instances made so far (they count as vertices for
     /// the budget and the statistics, as they would have run one by one).
     instanced_vertices: u64,
+    /// Prototype instances made so far (the vertex budget's count of them when
+    /// [`EvalOptions::instances_stored`]).
+    prototype_instances: u64,
     /// Whether an instance refers to a non-uniform factor (then `lins` goes into the
     /// output).
     lins_used: bool,
@@ -276,6 +279,7 @@ impl<'b> Eval<'b> {
             instancing,
             fast,
             instanced_vertices: 0,
+            prototype_instances: 0,
             lins_used: false,
             suspect_instances: false,
             needs_last: b.code.iter().any(|op| match op {

@@ -76,6 +76,11 @@ pub struct EvalOptions {
     /// Asked with the budgets (every 4,096 calls): true stops the run at once, with
     /// no warning (the caller no longer wants it: the editor's preview after an edit).
     pub cancel: Option<Cancel>,
+    /// The output keeps prototype instances as instances (a `.glb` written with
+    /// `--instances`): each costs the vertex budget one (its record, as an
+    /// isosurface instance does) instead of its expanded vertices. The counters
+    /// (`Stats::vertices`) still count the vertices the instances stand for.
+    pub instances_stored: bool,
 }
 
 /// A cancellation check for [`EvalOptions::cancel`].
@@ -103,6 +108,7 @@ impl Default for EvalOptions {
             record_sites: false,
             instancing: true,
             cancel: None,
+            instances_stored: false,
         }
     }
 }

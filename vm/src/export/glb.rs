@@ -67,14 +67,20 @@ use std::collections::BTreeMap;
 use glam::{Mat4, Quat, Vec3};
 use serde::Serialize;
 
-use super::{checked_triangles, clamp_color, color_at, finite, finite3, is_closed, linear_color, normal_at};
+use super::{
+    checked_triangles, clamp_color, color_at, finite, finite3, is_closed, linear_color, normal_at, unit_normal,
+};
 use crate::anim::{frames_needed, trs};
 use crate::geom::quat::Frame;
-use crate::output::{expand_isosurface, place_mesh, Animation, Groups, Mesh, Output, Piece, Polyline};
+use crate::output::{
+    expand_isosurface, expand_prototype, place_mesh, Animation, Groups, Mesh, Output, Piece, Polyline, SharedKind,
+    SharedMesh, VertexPart,
+};
 
 const FLOAT: u32 = 5126;
 const UNSIGNED_INT: u32 = 5125;
 const UNSIGNED_SHORT: u32 = 5123;
+const UNSIGNED_BYTE: u32 = 5121;
 /// The most instances written as nodes; above it, instances of meshes of at most
 /// [`MAX_MERGED_MESH_VERTICES`] vertices are merged into the geometry (Blender
 /// imports 9,900 nodes in 13 s, the same 10,100 octahedra merged in 0.7 s).
@@ -98,9 +104,10 @@ const CHUNK_BIN: u32 = 0x004E_4942;
 /// Options of the glTF writer.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct GlbOptions {
-    /// Write prototype instances with `EXT_mesh_gpu_instancing` (one mesh per
-    /// prototype, translation/rotation/scale per instance) instead of expanding them
-    /// into the geometry: small files that engines and three.js draw with GPU
+    /// Write the instances of every shared mesh (prototypes and isosurfaces) with
+    /// `EXT_mesh_gpu_instancing` (one mesh per shared mesh, translation/rotation/scale
+    /// per instance) instead of expanding them into the geometry or making a node of
+    /// each: small files that engines and three.js draw with GPU
     /// instancing. Off by default: Blender makes an object of every instance, and
     /// importers without the extension show one instance only.
     pub instances: bool,
@@ -119,10 +126,8 @@ pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
 
 /// [`write_glb_to`] with options.
 pub fn write_glb_with(out: &Output, opts: &GlbOptions, w: &mut dyn std::io::Write) -> Result<(), String> {
-    let mut g = Builder::default();
-    let mut scene_nodes = Vec::new();
     let anim = &out.animation;
-    g.skinned = anim.bones.len() > 1;
+    let skinned = anim.bones.len() > 1;
     if anim.bones.len() > MAX_GLTF_BONES {
         return Err(format!(
             "{} bones: glTF export holds at most {MAX_GLTF_BONES} (write one pose with --time instead)",
@@ -131,24 +136,7 @@ pub fn write_glb_with(out: &Output, opts: &GlbOptions, w: &mut dyn std::io::Writ
     }
     // Prototype instances that become instanced nodes (with --instances); the rest
     // are expanded into the geometry where they were made.
-    let gpu = if opts.instances { gpu_instance_groups(out, g.skinned) } else { GpuGroups::default() };
-    let expand = |i: usize| !gpu.instanced.get(i).copied().unwrap_or(false);
-
-    // The binary chunk's size is known well enough in advance: reserve it once, so
-    // it never grows by doubling (which would briefly hold two copies).
-    let per_vertex = 40 + if g.skinned { 24 } else { 0 };
-    let flat = out.flat_counts_where(Groups::VERTEX, expand);
-    let (flat_v, flat_t) = flat;
-    let estimate = (flat_v + out.sweeps.positions.len()) * per_vertex
-        + (flat_t + out.sweeps.triangles.len()) * 12
-        + out.shared_meshes.iter().map(|s| s.mesh.positions.len() * 24 + s.mesh.triangles.len() * 12).sum::<usize>()
-        + gpu.instanced.iter().filter(|i| **i).count() * 52;
-    g.bin.reserve(estimate + 4096);
-    // Bone nodes first, so instances can be attached to them.
-    let bone_nodes: Vec<u32> = if g.skinned { g.bone_nodes(anim) } else { Vec::new() };
-    if let Some(&root) = bone_nodes.first() {
-        scene_nodes.push(root);
-    }
+    let gpu = if opts.instances { gpu_instance_groups(out, skinned) } else { GpuGroups::default() };
 
     // Split isosurface instances into ones that can be nodes and ones that must be
     // baked. A mirrored similarity is a node too: its transform times a mirror in x
@@ -156,7 +144,10 @@ pub fn write_glb_with(out: &Output, opts: &GlbOptions, w: &mut dyn std::io::Writ
     // per mesh).
     let mut baked = Mesh::default();
     let mut as_nodes = Vec::new();
-    for inst in &out.instances {
+    for (i, inst) in out.instances.iter().enumerate() {
+        if gpu.instanced.get(i).copied().unwrap_or(false) {
+            continue;
+        }
         let Some(shared) = out.shared(inst).filter(|s| !s.is_prototype()) else { continue };
         if shared.mesh.triangles.is_empty() {
             continue;
@@ -185,18 +176,27 @@ pub fn write_glb_with(out: &Output, opts: &GlbOptions, w: &mut dyn std::io::Writ
         });
     }
 
+    // The flat geometry (the VERTEX group, the sweeps, the baked instances) is
+    // streamed into the file when it is written: the binary chunk holds no copy of it.
+    let mut g = Builder { skinned, ..Builder::default() };
+    let mut scene_nodes = Vec::new();
+    // Bone nodes first, so instances can be attached to them.
+    let bone_nodes: Vec<u32> = if g.skinned { g.bone_nodes(anim) } else { Vec::new() };
+    if let Some(&root) = bone_nodes.first() {
+        scene_nodes.push(root);
+    }
     // Nodes under the y-up root; skinned meshes stay at the scene root (a skinned
     // mesh ignores its node's transforms and follows its joints, which are under it).
     let mut top_nodes = Vec::new();
     let mut primitives = Vec::new();
-    if let Some(mut p) = g.vertex_primitive(out, &expand, flat)? {
+    if let Some(mut p) = g.vertex_primitive(out, &gpu.instanced)? {
         if !out.sites.runs.is_empty() {
             p.extras = Some(sites_extras(&out.sites));
         }
         primitives.push(p);
     }
     for (m, what) in [(&out.sweeps, "sweeps"), (&baked, "baked instances")] {
-        if let Some(p) = g.colored_primitive(m, what)? {
+        if let Some(p) = g.colored_primitive(FlatSource::Mesh(m), what)? {
             primitives.push(p);
         }
     }
@@ -337,30 +337,30 @@ struct GpuGroups {
 /// colour's bits for a prototype whose items add colour deltas.
 type GroupKey = (u32, bool, Option<[u32; 4]>);
 
-/// Hands each flat piece of a primitive to a visitor (see [`Builder::pieces_primitive`]).
-type Walk<'a> = dyn FnMut(&mut dyn FnMut(&Piece) -> Result<(), String>) -> Result<(), String> + 'a;
-
-/// Groups the prototype instances for `EXT_mesh_gpu_instancing`. Left to the
-/// geometry: instances of animated bones in a skinned output (three.js cannot
-/// instance skinned meshes), degenerate or non-finite frames, and colour variants
-/// past [`MAX_COLOR_VARIANTS`].
+/// Groups the instances of every shared mesh — prototypes and isosurfaces alike —
+/// for `EXT_mesh_gpu_instancing`. Left to the geometry (prototypes) or to nodes and
+/// baking (isosurfaces): instances of animated bones in a skinned output (three.js
+/// cannot instance skinned meshes), degenerate or non-finite frames, isosurfaces in
+/// frames with a non-uniform factor, and colour variants past [`MAX_COLOR_VARIANTS`].
 fn gpu_instance_groups(out: &Output, skinned: bool) -> GpuGroups {
     let mut g = GpuGroups { instanced: vec![false; out.instances.len()], groups: Vec::new() };
     let mut index: BTreeMap<GroupKey, usize> = BTreeMap::new();
     let mut variants: BTreeMap<u32, usize> = BTreeMap::new();
-    // Per shared mesh: a prototype with triangles, and whether its items add colours.
+    // Per shared mesh with triangles (a prototype or an isosurface): whether its
+    // vertices add colours to the instance's (a prototype's items' deltas).
     let kind: Vec<Option<bool>> = out
         .shared_meshes
         .iter()
         .map(|s| {
-            (s.is_prototype() && !s.mesh.triangles.is_empty()).then(|| s.mesh.colors.iter().any(|c| *c != [0.0; 4]))
+            (!s.mesh.triangles.is_empty()).then(|| s.is_prototype() && s.mesh.colors.iter().any(|c| *c != [0.0; 4]))
         })
         .collect();
     // Consecutive instances mostly share a group: the last one is tried first.
     let mut last: Option<(GroupKey, usize)> = None;
     for (i, inst) in out.instances.iter().enumerate() {
         let Some(Some(deltas)) = kind.get(inst.mesh as usize).copied() else { continue };
-        if (skinned && inst.bone != 0) || !prototype_placeable(&inst.frame) {
+        // (An isosurface in a frame with a non-uniform factor is no TRS: a node or baked.)
+        if (skinned && inst.bone != 0) || !prototype_placeable(&inst.frame) || inst.lin != 0 {
             continue;
         }
         let key = (inst.mesh, frame_mirrors(&inst.frame), deltas.then(|| inst.color.map(f32::to_bits)));
@@ -407,9 +407,11 @@ fn prototype_placeable(f: &Frame) -> bool {
 /// q/|q|, s = |q| |q̂|; −I times the mirror in x is a half turn about x.
 fn prototype_trs(f: &Frame) -> ([f32; 3], [f32; 4], f32) {
     let (lq, lqh) = (f.q.length(), f.qh.length());
+    // q/|q| is a unit quaternion; times the unit x quaternion (a half turn about x)
+    // it stays one: r·i = (w, z, −y, −x) in (x, y, z, w), no normalisation needed.
     let r = crate::geom::quat::scaled(f.q, 1.0 / lq);
-    let r = if frame_mirrors(f) { crate::geom::quat::hamilton(r, Quat::from_xyzw(1.0, 0.0, 0.0, 0.0)) } else { r };
-    (f.u.to_array(), r.normalize().to_array(), lq * lqh)
+    let r = if frame_mirrors(f) { Quat::from_xyzw(r.w, r.z, -r.y, -r.x) } else { r };
+    (f.u.to_array(), r.to_array(), lq * lqh)
 }
 
 /// How a prototype instance of frame `f` is placed as a translation, a unit
@@ -464,13 +466,8 @@ pub fn write_glb_nodes(
                 let m = match gltf_meshes.get(&(n.mesh, mirrored)) {
                     Some(&m) => m,
                     None => {
-                        let flipped;
-                        let src = if mirrored {
-                            flipped = mirrored_copy(mesh);
-                            &flipped
-                        } else {
-                            mesh
-                        };
+                        let src =
+                            if mirrored { FlatSource::Owned(mirrored_copy(mesh)) } else { FlatSource::Mesh(mesh) };
                         let what = if mirrored { format!("{name} mirrored") } else { name.clone() };
                         let Some(p) = g.colored_primitive(src, &what)? else { continue };
                         let m = g.push_mesh(GMesh { name: Some(what), primitives: vec![p] });
@@ -492,7 +489,7 @@ pub fn write_glb_nodes(
                 let mut baked = Mesh::default();
                 place_mesh(&mut baked, mesh, &n.transform, None, mirrored, 0);
                 let what = format!("{name} baked");
-                let Some(p) = g.colored_primitive(&baked, &what)? else { continue };
+                let Some(p) = g.colored_primitive(FlatSource::Owned(baked), &what)? else { continue };
                 let m = g.push_mesh(GMesh { name: Some(what), primitives: vec![p] });
                 Node { name: Some(n.name.clone()), mesh: Some(m), ..Node::default() }
             }
@@ -592,11 +589,16 @@ fn orthogonal_trs(m: &Mat4) -> Option<(Vec3, Quat, Vec3)> {
     Some((m.w_axis.truncate(), rot, Vec3::new(la, lb, lc)))
 }
 
-/// The document plus the binary buffer under construction.
+/// The document plus the binary buffer under construction: the bytes made so far
+/// (`bin`, from offset `base` of the chunk) after the segments before them, some of
+/// which are written only when the file is (the flat geometry, streamed).
 #[derive(Default)]
-struct Builder {
+struct Builder<'a> {
     root: Root,
     bin: Vec<u8>,
+    segments: Vec<Segment<'a>>,
+    /// The chunk offset of `bin[0]`: the bytes of the segments before it.
+    base: usize,
     materials: BTreeMap<([u32; 4], bool), u32>,
     /// Geometry primitives carry JOINTS_0/WEIGHTS_0 (the output has bones).
     skinned: bool,
@@ -604,7 +606,26 @@ struct Builder {
     times: BTreeMap<(u32, usize), u32>,
 }
 
-impl Builder {
+impl<'a> Builder<'a> {
+    /// The chunk offset where the next bytes go, padded to 4 bytes.
+    fn aligned_end(&mut self) -> usize {
+        self.bin.resize(self.bin.len().next_multiple_of(4), 0);
+        self.base + self.bin.len()
+    }
+
+    /// Reserves `len` bytes (a multiple of 4) at the current end of the chunk, to be
+    /// written by `write` when the file is written; returns their offset.
+    fn stream(&mut self, len: usize, write: Box<StreamFn<'a>>) -> usize {
+        let offset = self.aligned_end();
+        let held = std::mem::take(&mut self.bin);
+        if !held.is_empty() {
+            self.segments.push(Segment::Bytes(held));
+        }
+        self.segments.push(Segment::Stream { len, write });
+        self.base = offset + len;
+        offset
+    }
+
     /// Appends `bytes` (4-byte aligned) as a buffer view and returns its index.
     fn view(&mut self, bytes: &[u8], target: u32) -> u32 {
         self.view_for(bytes, Some(target))
@@ -612,10 +633,15 @@ impl Builder {
 
     /// A buffer view with an optional target (animation data has none).
     fn view_for(&mut self, bytes: &[u8], target: Option<u32>) -> u32 {
-        self.bin.resize(self.bin.len().next_multiple_of(4), 0);
-        let offset = self.bin.len();
+        let offset = self.aligned_end();
         self.bin.extend_from_slice(bytes);
-        self.root.buffer_views.push(BufferView { buffer: 0, byte_offset: offset, byte_length: bytes.len(), target });
+        self.root.buffer_views.push(BufferView {
+            buffer: 0,
+            byte_offset: offset,
+            byte_length: bytes.len(),
+            target,
+            byte_stride: None,
+        });
         self.root.buffer_views.len() as u32 - 1
     }
 
@@ -634,6 +660,7 @@ impl Builder {
                 kind: "MAT4",
                 min: None,
                 max: None,
+                ..Accessor::default()
             }));
             self.root.skins.push(Skin {
                 inverse_bind_matrices,
@@ -658,6 +685,7 @@ impl Builder {
             kind: "VEC4",
             min: None,
             max: None,
+            ..Accessor::default()
         });
         attributes.insert("JOINTS_0", j);
         let weights = vec![[1.0, 0.0, 0.0, 0.0]; n];
@@ -680,6 +708,7 @@ impl Builder {
             kind: "SCALAR",
             min: Some(vec![lo]),
             max: Some(vec![hi]),
+            ..Accessor::default()
         });
         self.times.insert((fps.to_bits(), count), a);
         a
@@ -696,6 +725,7 @@ impl Builder {
             kind,
             min: None,
             max: None,
+            ..Accessor::default()
         })
     }
 
@@ -821,20 +851,20 @@ impl Builder {
     /// Appends `n` items of `width` floats, `item(i)` each, straight into the binary
     /// chunk (no intermediate copy), as a vertex-attribute buffer view.
     fn floats_view<const W: usize>(&mut self, n: usize, mut item: impl FnMut(usize) -> [f32; W]) -> u32 {
-        self.bin.resize(self.bin.len().next_multiple_of(4), 0);
-        let offset = self.bin.len();
+        let offset = self.aligned_end();
         self.bin.reserve(n * W * 4);
         for i in 0..n {
             for x in item(i) {
                 self.bin.extend_from_slice(&x.to_le_bytes());
             }
         }
-        let byte_length = self.bin.len() - offset;
+        let byte_length = self.base + self.bin.len() - offset;
         self.root.buffer_views.push(BufferView {
             buffer: 0,
             byte_offset: offset,
             byte_length,
             target: Some(ARRAY_BUFFER),
+            byte_stride: None,
         });
         self.root.buffer_views.len() as u32 - 1
     }
@@ -854,7 +884,15 @@ impl Builder {
             p
         });
         let (min, max) = if bounds { (Some(lo.to_vec()), Some(hi.to_vec())) } else { (None, None) };
-        self.accessor(Accessor { buffer_view: view, component_type: FLOAT, count: n, kind: "VEC3", min, max })
+        self.accessor(Accessor {
+            buffer_view: view,
+            component_type: FLOAT,
+            count: n,
+            kind: "VEC3",
+            min,
+            max,
+            ..Accessor::default()
+        })
     }
 
     /// A VEC4 float vertex attribute.
@@ -872,6 +910,7 @@ impl Builder {
             kind: "VEC4",
             min: None,
             max: None,
+            ..Accessor::default()
         })
     }
 
@@ -882,18 +921,18 @@ impl Builder {
 
     /// A u32 index list of `n` indices, written straight into the binary chunk.
     fn indices_of(&mut self, n: usize, data: impl Iterator<Item = u32>) -> u32 {
-        self.bin.resize(self.bin.len().next_multiple_of(4), 0);
-        let offset = self.bin.len();
+        let offset = self.aligned_end();
         self.bin.reserve(n * 4);
         for x in data {
             self.bin.extend_from_slice(&x.to_le_bytes());
         }
-        let byte_length = self.bin.len() - offset;
+        let byte_length = self.base + self.bin.len() - offset;
         self.root.buffer_views.push(BufferView {
             buffer: 0,
             byte_offset: offset,
             byte_length,
             target: Some(ELEMENT_ARRAY_BUFFER),
+            byte_stride: None,
         });
         let view = self.root.buffer_views.len() as u32 - 1;
         self.accessor(Accessor {
@@ -903,6 +942,7 @@ impl Builder {
             kind: "SCALAR",
             min: None,
             max: None,
+            ..Accessor::default()
         })
     }
 
@@ -930,31 +970,30 @@ impl Builder {
 
     /// A triangle primitive with vertex colours for `m` (world space), or `None` when
     /// it has no triangles.
-    fn colored_primitive(&mut self, m: &Mesh, what: &str) -> Result<Option<Primitive>, String> {
+    fn colored_primitive(&mut self, src: FlatSource<'a>, what: &str) -> Result<Option<Primitive>, String> {
+        let m = match &src {
+            FlatSource::Mesh(m) => *m,
+            FlatSource::Owned(m) => m,
+            FlatSource::Vertex { .. } => return Err(format!("{what}: not one mesh")),
+        };
         let tris = checked_triangles(m, what)?;
         if tris.is_empty() {
             return Ok(None);
         }
-        let piece = Piece { mesh: m, vertices: 0..m.n_vertices(), triangles: 0..m.triangles.len(), base: 0 };
         let double_sided = !is_closed(m, &tris);
         drop(tris);
-        self.pieces_primitive((m.n_vertices(), m.triangles.len()), double_sided, what, &mut |f| f(&piece))
+        self.flat_primitive(src, double_sided, what)
     }
 
-    /// The primitive of the `VERTEX` triangles with the prototype instances `expand`
-    /// keeps expanded where they were made, or `None` when there are no triangles.
-    /// Double-sided unless the triangles emitted one by one form closed surfaces and
-    /// so does every expanded prototype on its own (exact where there are no
-    /// prototype instances; otherwise a piece that is only closed by another piece is
-    /// taken as open, which shows nothing wrong: see docs/decisions.md).
-    /// `counts` are [`Output::flat_counts_where`]'s for it.
-    fn vertex_primitive(
-        &mut self,
-        out: &Output,
-        expand: &dyn Fn(usize) -> bool,
-        counts: (usize, usize),
-    ) -> Result<Option<Primitive>, String> {
-        if counts.1 == 0 {
+    /// The primitive of the `VERTEX` triangles with the prototype instances not in
+    /// `instanced` expanded where they were made, or `None` when there are no
+    /// triangles. Double-sided unless the triangles emitted one by one form closed
+    /// surfaces and so does every expanded prototype on its own (exact where there
+    /// are no prototype instances; otherwise a piece that is only closed by another
+    /// piece is taken as open, which shows nothing wrong: see docs/decisions.md).
+    fn vertex_primitive(&mut self, out: &'a Output, instanced: &'a [bool]) -> Result<Option<Primitive>, String> {
+        let expand = |i: usize| !instanced.get(i).copied().unwrap_or(false);
+        if out.flat_counts_where(Groups::VERTEX, expand).1 == 0 {
             return Ok(None);
         }
         // (Every prototype in the table has instances; with --instances some may all be
@@ -966,123 +1005,86 @@ impl Builder {
             }
             closed = is_closed(&s.mesh, &checked_triangles(&s.mesh, &s.name)?);
         }
-        self.pieces_primitive(counts, !closed, "VERTEX mesh", &mut |f| {
-            out.for_each_piece_where(Groups::VERTEX, expand, f)
-        })
+        self.flat_primitive(FlatSource::Vertex { out, instanced }, !closed, "VERTEX mesh")
     }
 
     /// A triangle primitive with vertex colours (and the skin attributes of a skinned
-    /// output) from the pieces `walk` hands out, `counts` (vertices, triangles) in
-    /// all: every attribute's buffer view is laid out first and filled in one walk,
-    /// so instances are expanded once, straight into the binary chunk.
-    fn pieces_primitive(
+    /// output) from the pieces of `src`, streamed into the file: a first walk finds
+    /// the counts, the bounds, the colour precision and whether an index buffer is
+    /// needed; the file's second walk writes the vertices as interleaved records
+    /// ([`VertexRecord`]) straight to the output, expanding each prototype instance
+    /// from its frame. Without indices (the usual case: every vertex in one triangle,
+    /// in order) the vertices go in each triangle's oriented order.
+    fn flat_primitive(
         &mut self,
-        counts: (usize, usize),
+        src: FlatSource<'a>,
         double_sided: bool,
         what: &str,
-        walk: &mut Walk,
     ) -> Result<Option<Primitive>, String> {
-        let (n, n_tris) = counts;
-        if n_tris == 0 {
+        let mut infos = src.output().map(ProtoInfos::new);
+        let plan = flat_plan(&src, what, &mut infos)?;
+        if plan.n_tris == 0 {
             return Ok(None);
         }
         let skinned = self.skinned;
-        let start = self.bin.len().next_multiple_of(4);
-        let mut at = start;
-        let mut region = |bytes: usize| {
-            let r = at;
-            at += bytes;
-            r
+        let stride = flat_stride(plan.wide, skinned);
+        let vertex_bytes = plan.n * stride;
+        let index_bytes = if plan.sequential { 0 } else { 12 * plan.n_tris };
+        let (n, n_tris, wide, sequential, lo, hi) = (plan.n, plan.n_tris, plan.wide, plan.sequential, plan.lo, plan.hi);
+        let offset = self.stream(
+            vertex_bytes + index_bytes,
+            Box::new(move |sink: &mut Sink| flat_write(&src, &plan, skinned, &mut infos, sink)),
+        );
+        self.root.buffer_views.push(BufferView {
+            buffer: 0,
+            byte_offset: offset,
+            byte_length: vertex_bytes,
+            target: Some(ARRAY_BUFFER),
+            byte_stride: Some(stride),
+        });
+        let vertices = self.root.buffer_views.len() as u32 - 1;
+        let mut attributes = BTreeMap::new();
+        let mut acc = |byte_offset, component_type, normalized, kind, bounds: Option<([f32; 3], [f32; 3])>| {
+            let (min, max) = bounds.map_or((None, None), |(a, b)| (Some(a.to_vec()), Some(b.to_vec())));
+            self.accessor(Accessor {
+                buffer_view: vertices,
+                byte_offset,
+                component_type,
+                normalized,
+                count: n,
+                kind,
+                min,
+                max,
+            })
         };
-        let (pos, nrm, col) = (region(12 * n), region(12 * n), region(16 * n));
-        let (jnt, wgt) = if skinned { (region(8 * n), region(16 * n)) } else { (0, 0) };
-        let idx = region(12 * n_tris);
-        self.bin.resize(at, 0);
-        let mut lo = [f32::INFINITY; 3];
-        let mut hi = [f32::NEG_INFINITY; 3];
-        let (mut k, mut t) = (0usize, 0usize);
-        // The last colour made linear: neighbouring vertices mostly share one, and the
-        // sRGB curve (three powers) would cost more than the rest of a vertex.
-        let mut last_color = ([1.0f32; 4], linear_color([1.0; 4]));
-        let bin = &mut self.bin;
-        let put = |bin: &mut Vec<u8>, off: usize, xs: &[f32]| {
-            for (j, x) in xs.iter().enumerate() {
-                bin[off + 4 * j..off + 4 * j + 4].copy_from_slice(&x.to_le_bytes());
-            }
-        };
-        walk(&mut |p: &Piece| {
-            let m = p.mesh;
-            if p.base as usize != k || k + p.vertices.len() > n || t + p.triangles.len() > n_tris {
-                return Err(format!("{what}: the pieces do not add up to {n} vertices and {n_tris} triangles"));
-            }
-            for v in p.vertices.clone() {
-                let q = finite3(m.positions[v]);
-                for c in 0..3 {
-                    lo[c] = lo[c].min(q[c]);
-                    hi[c] = hi[c].max(q[c]);
-                }
-                put(bin, pos + 12 * k, &q);
-                put(bin, nrm + 12 * k, &normal_at(m, v));
-                let c = color_at(m, v);
-                if c != last_color.0 {
-                    last_color = (c, linear_color(c));
-                }
-                put(bin, col + 16 * k, &last_color.1);
-                if skinned {
-                    let b = (m.bone(v).min(u16::MAX as u32) as u16).to_le_bytes();
-                    bin[jnt + 8 * k..jnt + 8 * k + 2].copy_from_slice(&b);
-                    put(bin, wgt + 16 * k, &[1.0, 0.0, 0.0, 0.0]);
-                }
-                k += 1;
-            }
-            for tri in p.triangles.clone() {
-                let Some(o) = p.oriented(tri) else {
-                    return Err(format!(
-                        "{what}: triangle {:?} refers past the {} vertices",
-                        m.triangles[tri],
-                        p.vertices.len()
-                    ));
-                };
-                for (j, x) in o.iter().enumerate() {
-                    bin[idx + 12 * t + 4 * j..idx + 12 * t + 4 * j + 4].copy_from_slice(&x.to_le_bytes());
-                }
-                t += 1;
-            }
-            Ok(())
-        })?;
-        if k != n || t != n_tris {
-            return Err(format!("{what}: the pieces do not add up to {n} vertices and {n_tris} triangles"));
+        attributes.insert("POSITION", acc(0, FLOAT, false, "VEC3", Some((lo, hi))));
+        attributes.insert("NORMAL", acc(12, FLOAT, false, "VEC3", None));
+        let color_type = if wide { UNSIGNED_SHORT } else { UNSIGNED_BYTE };
+        attributes.insert("COLOR_0", acc(24, color_type, true, "VEC4", None));
+        if skinned {
+            let w = if wide { 32 } else { 28 };
+            attributes.insert("JOINTS_0", acc(w, UNSIGNED_SHORT, false, "VEC4", None));
+            attributes.insert("WEIGHTS_0", acc(w + 8, FLOAT, false, "VEC4", None));
         }
-        let mut view = |offset: usize, len: usize, target: u32| {
+        let indices = if sequential {
+            None
+        } else {
             self.root.buffer_views.push(BufferView {
                 buffer: 0,
-                byte_offset: offset,
-                byte_length: len,
-                target: Some(target),
+                byte_offset: offset + vertex_bytes,
+                byte_length: index_bytes,
+                target: Some(ELEMENT_ARRAY_BUFFER),
+                byte_stride: None,
             });
-            self.root.buffer_views.len() as u32 - 1
+            let view = self.root.buffer_views.len() as u32 - 1;
+            Some(self.accessor(Accessor {
+                buffer_view: view,
+                component_type: UNSIGNED_INT,
+                count: 3 * n_tris,
+                kind: "SCALAR",
+                ..Accessor::default()
+            }))
         };
-        let views = [
-            view(pos, 12 * n, ARRAY_BUFFER),
-            view(nrm, 12 * n, ARRAY_BUFFER),
-            view(col, 16 * n, ARRAY_BUFFER),
-            if skinned { view(jnt, 8 * n, ARRAY_BUFFER) } else { 0 },
-            if skinned { view(wgt, 16 * n, ARRAY_BUFFER) } else { 0 },
-            view(idx, 12 * n_tris, ELEMENT_ARRAY_BUFFER),
-        ];
-        let mut attributes = BTreeMap::new();
-        let mut acc = |buffer_view, component_type, count, kind, bounds: Option<(Vec<f32>, Vec<f32>)>| {
-            let (min, max) = bounds.map_or((None, None), |(a, b)| (Some(a), Some(b)));
-            self.accessor(Accessor { buffer_view, component_type, count, kind, min, max })
-        };
-        attributes.insert("POSITION", acc(views[0], FLOAT, n, "VEC3", Some((lo.to_vec(), hi.to_vec()))));
-        attributes.insert("NORMAL", acc(views[1], FLOAT, n, "VEC3", None));
-        attributes.insert("COLOR_0", acc(views[2], FLOAT, n, "VEC4", None));
-        if skinned {
-            attributes.insert("JOINTS_0", acc(views[3], UNSIGNED_SHORT, n, "VEC4", None));
-            attributes.insert("WEIGHTS_0", acc(views[4], FLOAT, n, "VEC4", None));
-        }
-        let indices = Some(acc(views[5], UNSIGNED_INT, 3 * n_tris, "SCALAR", None));
         let material = Some(self.material([1.0; 4], double_sided));
         Ok(Some(Primitive { attributes, indices, material, mode: None, extras: None }))
     }
@@ -1129,11 +1131,18 @@ impl Builder {
             &[("TRANSLATION", 3, "VEC3"), ("ROTATION", 4, "VEC4"), ("SCALE", 3, "VEC3")]
         };
         // One walk over the instances fills every attribute's view.
+        // (`at` and `offsets` are indices into `bin`, which starts at chunk offset `base`.)
         let mut offsets = Vec::with_capacity(widths.len());
-        let mut at = self.bin.len().next_multiple_of(4);
+        let mut at = self.aligned_end() - self.base;
         for (name, w, kind) in widths {
             let len = 4 * w * n_inst;
-            self.root.buffer_views.push(BufferView { buffer: 0, byte_offset: at, byte_length: len, target: None });
+            self.root.buffer_views.push(BufferView {
+                buffer: 0,
+                byte_offset: self.base + at,
+                byte_length: len,
+                target: None,
+                byte_stride: None,
+            });
             let view = self.root.buffer_views.len() as u32 - 1;
             let acc = self.accessor(Accessor {
                 buffer_view: view,
@@ -1142,30 +1151,45 @@ impl Builder {
                 kind,
                 min: None,
                 max: None,
+                ..Accessor::default()
             });
             inst_attrs.insert(*name, acc);
             offsets.push(at);
             at += len;
         }
         self.bin.resize(at, 0);
-        let bin = &mut self.bin;
-        let put = |bin: &mut Vec<u8>, off: usize, xs: &[f32]| {
-            for (j, x) in xs.iter().enumerate() {
-                bin[off + 4 * j..off + 4 * j + 4].copy_from_slice(&finite(*x).to_le_bytes());
+        // Each attribute's region, cut into per-instance records.
+        let (head, colors) = self.bin.split_at_mut(if per_color { offsets[3] } else { at });
+        let (head, scales) = head.split_at_mut(offsets[2]);
+        let (head, rotations) = head.split_at_mut(offsets[1]);
+        let translations = &mut head[offsets[0]..];
+        let mut records = translations
+            .chunks_exact_mut(12)
+            .zip(rotations.chunks_exact_mut(16))
+            .zip(scales.chunks_exact_mut(12))
+            .zip(colors.chunks_exact_mut(12).map(Some).chain(std::iter::repeat_with(|| None)));
+        let put = |dst: &mut [u8], xs: &[f32]| {
+            for (d, x) in dst.chunks_exact_mut(4).zip(xs) {
+                d.copy_from_slice(&x.to_le_bytes());
             }
         };
         let mut last_color = ([1.0f32; 4], linear_color([1.0; 4]));
-        for (k, inst) in insts().enumerate() {
-            let (t, r, sc) = prototype_trs(&inst.frame);
-            put(bin, offsets[0] + 12 * k, &t);
-            put(bin, offsets[1] + 16 * k, &r);
-            put(bin, offsets[2] + 12 * k, &[sc; 3]);
-            if per_color {
+        for inst in insts() {
+            let Some((((t_out, r_out), s_out), c_out)) = records.next() else { break };
+            let (mut t, mut r, mut sc) = prototype_trs(&inst.frame);
+            // One test for the usual case: all ten numbers finite (the sum is).
+            if !(t[0] + t[1] + t[2] + r[0] + r[1] + r[2] + r[3] + sc).is_finite() {
+                (t, r, sc) = (t.map(finite), r.map(finite), finite(sc));
+            }
+            put(t_out, &t);
+            put(r_out, &r);
+            put(s_out, &[sc; 3]);
+            if let (true, Some(c_out)) = (per_color, c_out) {
                 let c = clamp_color(inst.color);
                 if c != last_color.0 {
                     last_color = (c, linear_color(c));
                 }
-                put(bin, offsets[3] + 12 * k, &last_color.1[..3]);
+                put(c_out, &last_color.1[..3]);
             }
         }
         self.root.extensions_used = vec![EXT_INSTANCING];
@@ -1233,13 +1257,13 @@ impl Builder {
 
     /// Serialises the document and writes the GLB container.
     fn finish(mut self, w: &mut dyn std::io::Write) -> Result<(), String> {
-        self.bin.resize(self.bin.len().next_multiple_of(4), 0);
-        if !self.bin.is_empty() {
-            self.root.buffers.push(Buffer { byte_length: self.bin.len() });
+        let bin_len = self.aligned_end();
+        if bin_len > 0 {
+            self.root.buffers.push(Buffer { byte_length: bin_len });
         }
         let mut json = serde_json::to_vec(&self.root).map_err(|e| format!("glTF JSON: {e}"))?;
         json.resize(json.len().next_multiple_of(4), b' ');
-        let bin_chunk = if self.bin.is_empty() { 0 } else { 8 + self.bin.len() };
+        let bin_chunk = if bin_len == 0 { 0 } else { 8 + bin_len };
         let total = 12 + 8 + json.len() + bin_chunk;
         let total =
             u32::try_from(total).map_err(|_| format!("glTF binary of {total} bytes exceeds the 4 GiB GLB limit"))?;
@@ -1252,15 +1276,562 @@ impl Builder {
         let io = |e: std::io::Error| format!("cannot write: {e}");
         w.write_all(&head).map_err(io)?;
         w.write_all(&json).map_err(io)?;
-        if !self.bin.is_empty() {
+        if bin_len > 0 {
             let mut bin_head = Vec::with_capacity(8);
-            bin_head.extend_from_slice(&(self.bin.len() as u32).to_le_bytes());
+            bin_head.extend_from_slice(&(bin_len as u32).to_le_bytes());
             bin_head.extend_from_slice(&CHUNK_BIN.to_le_bytes());
             w.write_all(&bin_head).map_err(io)?;
+            for seg in self.segments {
+                match seg {
+                    Segment::Bytes(b) => w.write_all(&b).map_err(io)?,
+                    Segment::Stream { len, write } => {
+                        let mut sink = Sink::new(w);
+                        write(&mut sink)?;
+                        sink.flush()?;
+                        if sink.written != len {
+                            return Err(format!(
+                                "glTF binary: a streamed part wrote {} bytes where {len} were laid out",
+                                sink.written
+                            ));
+                        }
+                    }
+                }
+            }
             w.write_all(&self.bin).map_err(io)?;
         }
         Ok(())
     }
+}
+
+/// Writes a streamed part of the binary chunk into a [`Sink`].
+type StreamFn<'a> = dyn FnOnce(&mut Sink) -> Result<(), String> + 'a;
+
+/// A part of the binary chunk: bytes made in advance, or `len` bytes that `write`
+/// makes while the file is written.
+enum Segment<'a> {
+    Bytes(Vec<u8>),
+    Stream { len: usize, write: Box<StreamFn<'a>> },
+}
+
+/// How many bytes a [`Sink`] gathers before handing them on.
+const SINK_BYTES: usize = 1 << 16;
+
+/// The writer a streamed part writes into: a fixed buffer (`buf[..len]` filled) in
+/// front of the output, counting what went through.
+struct Sink<'w> {
+    buf: Box<[u8]>,
+    len: usize,
+    w: &'w mut dyn std::io::Write,
+    written: usize,
+}
+
+impl<'w> Sink<'w> {
+    fn new(w: &'w mut dyn std::io::Write) -> Sink<'w> {
+        Sink { buf: vec![0; SINK_BYTES].into_boxed_slice(), len: 0, w, written: 0 }
+    }
+
+    /// The next `n` bytes (at most [`SINK_BYTES`]) to fill in.
+    #[inline]
+    fn slot(&mut self, n: usize) -> Result<&mut [u8], String> {
+        if self.len + n > self.buf.len() {
+            self.flush()?;
+        }
+        let at = self.len;
+        self.len += n;
+        self.buf.get_mut(at..at + n).ok_or_else(|| format!("glTF binary: a record of {n} bytes"))
+    }
+
+    #[inline]
+    fn put(&mut self, bytes: &[u8]) -> Result<(), String> {
+        self.slot(bytes.len())?.copy_from_slice(bytes);
+        Ok(())
+    }
+
+    fn flush(&mut self) -> Result<(), String> {
+        self.w.write_all(&self.buf[..self.len]).map_err(|e| format!("cannot write: {e}"))?;
+        self.written += self.len;
+        self.len = 0;
+        Ok(())
+    }
+}
+
+/// Where a flat primitive's pieces come from.
+enum FlatSource<'a> {
+    /// The `VERTEX` group, with the prototype instances not in `instanced` expanded.
+    Vertex { out: &'a Output, instanced: &'a [bool] },
+    /// One mesh in world space (the sweeps, the baked isosurface instances).
+    Mesh(&'a Mesh),
+    /// One mesh made for the file (a mirrored or baked part of a scene of nodes).
+    Owned(Mesh),
+}
+
+impl<'a> FlatSource<'a> {
+    fn walk<'s>(&'s self, f: &mut dyn FnMut(VertexPart<'s>) -> Result<(), String>) -> Result<(), String> {
+        let m = match self {
+            FlatSource::Vertex { out, instanced } => {
+                return out.for_each_vertex_part(&|i| !instanced.get(i).copied().unwrap_or(false), f);
+            }
+            FlatSource::Mesh(m) => *m,
+            FlatSource::Owned(m) => m,
+        };
+        f(VertexPart::Piece(Piece { mesh: m, vertices: 0..m.n_vertices(), triangles: 0..m.triangles.len(), base: 0 }))
+    }
+
+    fn output(&self) -> Option<&'a Output> {
+        match self {
+            FlatSource::Vertex { out, .. } => Some(out),
+            FlatSource::Mesh(_) | FlatSource::Owned(_) => None,
+        }
+    }
+}
+
+/// What a prototype's expansion needs, worked out once per prototype: its distinct
+/// positions (for the bounds) and normals, and whether the fast expansion applies.
+struct ProtoInfo {
+    /// Triangle t is vertices 3t..3t+2 and every vertex is in one triangle.
+    sequential: bool,
+    /// Every triangle refers to vertices of the mesh.
+    valid: bool,
+    n_tris: usize,
+    /// A `FACENORMALS` item recomputed normals: expanded by [`expand_prototype`].
+    face_normals: bool,
+    /// Distinct positions, and per vertex the index of its position.
+    positions: Vec<Vec3>,
+    position_of: Vec<u32>,
+    /// Distinct normals, and per vertex the index of its normal.
+    normals: Vec<Vec3>,
+    normal_of: Vec<u32>,
+    /// Distinct colour deltas, and per vertex the index of its delta.
+    deltas: Vec<[f32; 4]>,
+    delta_of: Vec<u32>,
+}
+
+impl ProtoInfo {
+    fn new(s: &SharedMesh) -> ProtoInfo {
+        let m = &s.mesh;
+        let n = m.n_vertices();
+        let sequential = m.triangles.len() * 3 == n
+            && m.triangles
+                .iter()
+                .enumerate()
+                .all(|(t, tri)| *tri == [3 * t as u32, 3 * t as u32 + 1, 3 * t as u32 + 2]);
+        let face_normals = match &s.kind {
+            SharedKind::Prototype { face_normals } => face_normals.iter().any(Option::is_some),
+            SharedKind::Isosurface => false,
+        };
+        fn distinct<T: Copy, K: Ord>(items: impl Iterator<Item = T>, key: impl Fn(&T) -> K) -> (Vec<T>, Vec<u32>) {
+            let mut seen: BTreeMap<K, u32> = BTreeMap::new();
+            let mut values = Vec::new();
+            let of = items
+                .map(|x| {
+                    *seen.entry(key(&x)).or_insert_with(|| {
+                        values.push(x);
+                        values.len() as u32 - 1
+                    })
+                })
+                .collect();
+            (values, of)
+        }
+        let (positions, position_of) =
+            distinct((0..n).map(|i| Vec3::from(m.positions[i])), |p| p.to_array().map(f32::to_bits));
+        let (normals, normal_of) =
+            distinct((0..n).map(|i| Vec3::from(m.normals.get(i).copied().unwrap_or([0.0, 0.0, 1.0]))), |p| {
+                p.to_array().map(f32::to_bits)
+            });
+        let (deltas, delta_of) =
+            distinct((0..n).map(|i| m.colors.get(i).copied().unwrap_or([0.0; 4])), |c| c.map(f32::to_bits));
+        let valid = m.triangles.iter().all(|t| t.iter().all(|&i| (i as usize) < n));
+        ProtoInfo {
+            sequential,
+            valid,
+            n_tris: m.triangles.len(),
+            face_normals,
+            positions,
+            position_of,
+            normals,
+            normal_of,
+            deltas,
+            delta_of,
+        }
+    }
+}
+
+/// Per shared mesh, its [`ProtoInfo`] when it is a prototype, made on first use.
+struct ProtoInfos<'a> {
+    out: &'a Output,
+    infos: Vec<Option<ProtoInfo>>,
+}
+
+impl<'a> ProtoInfos<'a> {
+    fn new(out: &'a Output) -> ProtoInfos<'a> {
+        ProtoInfos { out, infos: (0..out.shared_meshes.len()).map(|_| None).collect() }
+    }
+
+    fn get(&mut self, mesh: u32) -> Option<&ProtoInfo> {
+        let shared = self.out.shared_meshes.get(mesh as usize)?;
+        let slot = self.infos.get_mut(mesh as usize)?;
+        Some(slot.get_or_insert_with(|| ProtoInfo::new(shared)))
+    }
+}
+
+/// Whether every 8-bit display value of `c` (clamped RGBA) survives being stored as
+/// 8-bit linear `COLOR_0` and read back: sRGB's dark end is finer than 1/255 in
+/// linear light (display 1/255 is linear 0.0003), so dark colours need 16 bits.
+fn fits_8_bits(c: [f32; 4]) -> bool {
+    c[..3].iter().all(|&x| {
+        let shown = (x * 255.0).round();
+        let stored = (super::srgb_to_linear(x) * 255.0).round() / 255.0;
+        (super::linear_to_srgb(stored) * 255.0).round() == shown
+    })
+}
+
+/// A flat primitive's layout, from a first walk: counts, bounds, and how it is stored.
+struct FlatPlan {
+    n: usize,
+    n_tris: usize,
+    /// The oriented triangles are 0,1,2, 3,4,5, … up to the order within each (the
+    /// index buffer would count 0…N−1): written without indices, each triangle's
+    /// vertices in its oriented order.
+    sequential: bool,
+    /// Some colour needs 16 bits ([`fits_8_bits`]).
+    wide: bool,
+    lo: [f32; 3],
+    hi: [f32; 3],
+}
+
+/// A prototype vertex as [`expand_prototype`] makes it and the exporters read it:
+/// the frame's linear part applied, the normal normalised (twice, as the flat walk
+/// does: once expanding, once writing), the colour clamped.
+struct ProtoFrame {
+    lin: glam::Mat3,
+    u: Vec3,
+    mirrored: bool,
+}
+
+impl ProtoFrame {
+    fn new(f: &Frame) -> ProtoFrame {
+        let (lin, mirrored) = f.linear();
+        ProtoFrame { lin, u: f.u, mirrored }
+    }
+
+    #[inline]
+    fn position(&self, p: Vec3) -> [f32; 3] {
+        finite3((self.u + self.lin * p).to_array())
+    }
+
+    #[inline]
+    fn normal(&self, n: Vec3) -> [f32; 3] {
+        unit_normal((self.lin * n).normalize_or(Vec3::Z).to_array())
+    }
+}
+
+/// The colour of a prototype vertex: the instance's plus the item's delta, clamped.
+#[inline]
+fn proto_color(inst: [f32; 4], delta: [f32; 4]) -> [f32; 4] {
+    clamp_color(
+        [inst[0] + delta[0], inst[1] + delta[1], inst[2] + delta[2], inst[3] + delta[3]].map(|v| v.clamp(0.0, 1.0)),
+    )
+}
+
+/// The first walk of a flat primitive: counts, bounds, colour precision, and
+/// whether the triangles need an index buffer; checks every triangle.
+fn flat_plan(src: &FlatSource, what: &str, infos: &mut Option<ProtoInfos>) -> Result<FlatPlan, String> {
+    let mut plan =
+        FlatPlan { n: 0, n_tris: 0, sequential: true, wide: false, lo: [f32::INFINITY; 3], hi: [f32::NEG_INFINITY; 3] };
+    let mut last_color: Option<[f32; 4]> = None;
+    let mut color = |plan: &mut FlatPlan, c: [f32; 4]| {
+        if last_color != Some(c) {
+            last_color = Some(c);
+            plan.wide |= !fits_8_bits(c);
+        }
+    };
+    let bound = |plan: &mut FlatPlan, q: [f32; 3]| {
+        for (c, x) in q.into_iter().enumerate() {
+            plan.lo[c] = plan.lo[c].min(x);
+            plan.hi[c] = plan.hi[c].max(x);
+        }
+    };
+    let out = src.output();
+    let mut last_proto: Option<(u32, [u32; 4])> = None;
+    src.walk(&mut |part| {
+        match part {
+            VertexPart::Piece(p) => {
+                let m = p.mesh;
+                if p.base as usize != plan.n {
+                    return Err(format!("{what}: the pieces are out of order"));
+                }
+                for v in p.vertices.clone() {
+                    bound(&mut plan, finite3(m.positions[v]));
+                    color(&mut plan, color_at(m, v));
+                }
+                for t in p.triangles.clone() {
+                    let Some(o) = p.oriented(t) else {
+                        return Err(format!(
+                            "{what}: triangle {:?} refers past the {} vertices",
+                            m.triangles[t],
+                            p.vertices.len()
+                        ));
+                    };
+                    let k = 3 * plan.n_tris as u32;
+                    let mut sorted = o;
+                    sorted.sort_unstable();
+                    plan.sequential &= sorted == [k, k + 1, k + 2];
+                    plan.n_tris += 1;
+                }
+                plan.n += p.vertices.len();
+                plan.sequential &= plan.n == 3 * plan.n_tris;
+            }
+            VertexPart::Prototype { instance, base } => {
+                let (Some(out), Some(infos)) = (out, infos.as_mut()) else { return Ok(()) };
+                let inst = &out.instances[instance];
+                let Some(info) = infos.get(inst.mesh) else { return Ok(()) };
+                if base as usize != plan.n {
+                    return Err(format!("{what}: the pieces are out of order"));
+                }
+                if !info.valid {
+                    let name = out.shared(inst).map_or("", |s| s.name.as_str());
+                    return Err(format!("{what}: prototype {name} has a triangle past its vertices"));
+                }
+                let f = ProtoFrame::new(&inst.frame);
+                for &p in &info.positions {
+                    bound(&mut plan, f.position(p));
+                }
+                // (Consecutive instances mostly share their mesh and colour.)
+                let key = (inst.mesh, inst.color.map(f32::to_bits));
+                if last_proto != Some(key) {
+                    last_proto = Some(key);
+                    for &d in &info.deltas {
+                        color(&mut plan, proto_color(inst.color, d));
+                    }
+                }
+                plan.sequential &= info.sequential && plan.n == 3 * plan.n_tris;
+                plan.n += info.position_of.len();
+                plan.n_tris += info.n_tris;
+            }
+        }
+        Ok(())
+    })?;
+    Ok(plan)
+}
+
+/// Encodes vertices into a flat primitive's interleaved records: position and normal
+/// (f32), colour (linear, normalised u8 or u16 RGBA), and for a skinned output the
+/// bone (u16 JOINTS_0) and weights (1, 0, 0, 0).
+struct VertexRecord {
+    stride: usize,
+    wide: bool,
+    skinned: bool,
+    /// The last colour and its encoding: neighbouring vertices mostly share one, and
+    /// the sRGB curve (three powers) would cost more than the rest of a vertex.
+    last: ([f32; 4], [u8; 8]),
+}
+
+impl VertexRecord {
+    fn new(wide: bool, skinned: bool) -> VertexRecord {
+        VertexRecord { stride: flat_stride(wide, skinned), wide, skinned, last: ([f32::NAN; 4], [0; 8]) }
+    }
+
+    #[inline]
+    fn put(&mut self, sink: &mut Sink, p: [f32; 3], n: [f32; 3], c: [f32; 4], bone: u32) -> Result<(), String> {
+        if c.map(f32::to_bits) != self.last.0.map(f32::to_bits) {
+            let l = linear_color(c);
+            let mut e = [0u8; 8];
+            for k in 0..4 {
+                if self.wide {
+                    e[2 * k..2 * k + 2].copy_from_slice(&((l[k] * 65535.0).round() as u16).to_le_bytes());
+                } else {
+                    e[k] = (l[k] * 255.0).round() as u8;
+                }
+            }
+            self.last = (c, e);
+        }
+        let b = sink.slot(self.stride)?;
+        let Some(b) = b.first_chunk_mut::<28>() else { return Err("glTF binary: a short vertex record".into()) };
+        b[0..4].copy_from_slice(&p[0].to_le_bytes());
+        b[4..8].copy_from_slice(&p[1].to_le_bytes());
+        b[8..12].copy_from_slice(&p[2].to_le_bytes());
+        b[12..16].copy_from_slice(&n[0].to_le_bytes());
+        b[16..20].copy_from_slice(&n[1].to_le_bytes());
+        b[20..24].copy_from_slice(&n[2].to_le_bytes());
+        let e = self.last.1;
+        b[24..28].copy_from_slice(&[e[0], e[1], e[2], e[3]]);
+        if self.wide || self.skinned {
+            let b = sink.buf.get_mut(sink.len - self.stride..sink.len).ok_or("glTF binary: a vertex record")?;
+            let w = if self.wide {
+                b[28..32].copy_from_slice(&[e[4], e[5], e[6], e[7]]);
+                32
+            } else {
+                28
+            };
+            if self.skinned {
+                let j = (bone.min(u16::MAX as u32) as u16).to_le_bytes();
+                b[w..w + 8].copy_from_slice(&[j[0], j[1], 0, 0, 0, 0, 0, 0]);
+                b[w + 8..w + 12].copy_from_slice(&1.0f32.to_le_bytes());
+                b[w + 12..w + 24].fill(0);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The bytes of one vertex of a flat primitive (see [`VertexRecord`]).
+fn flat_stride(wide: bool, skinned: bool) -> usize {
+    24 + if wide { 8 } else { 4 } + if skinned { 24 } else { 0 }
+}
+
+/// One prototype instance's vertices, as [`expand_prototype`] makes them and the
+/// exporters read them (positions, normals and colours, by vertex).
+struct ProtoVertices {
+    positions: Vec<[f32; 3]>,
+    normals: Vec<[f32; 3]>,
+    colors: Vec<[f32; 4]>,
+    scratch: Mesh,
+    identity: Vec<u32>,
+}
+
+impl ProtoVertices {
+    /// Fills in instance `inst`'s vertices (the prototype's distinct positions,
+    /// normals and colours, or one of each per vertex where `FACENORMALS` makes
+    /// normals per instance: see [`ProtoVertices::maps`]); whether the frame mirrors.
+    fn fill(&mut self, out: &Output, shared: &SharedMesh, info: &ProtoInfo, instance: usize) -> bool {
+        let inst = &out.instances[instance];
+        let f = ProtoFrame::new(&inst.frame);
+        self.positions.clear();
+        self.normals.clear();
+        self.colors.clear();
+        if info.face_normals {
+            self.scratch.clear();
+            expand_prototype(&mut self.scratch, shared, inst, [0.0; 4]);
+            let m = &self.scratch;
+            for i in 0..m.n_vertices() {
+                self.positions.push(finite3(m.positions[i]));
+                self.normals.push(normal_at(m, i));
+                self.colors.push(color_at(m, i));
+            }
+            if self.identity.len() < m.n_vertices() {
+                self.identity = (0..m.n_vertices() as u32).collect();
+            }
+            return f.mirrored;
+        }
+        self.positions.extend(info.positions.iter().map(|&p| f.position(p)));
+        self.normals.extend(info.normals.iter().map(|&n| f.normal(n)));
+        self.colors.extend(info.deltas.iter().map(|&d| proto_color(inst.color, d)));
+        f.mirrored
+    }
+
+    /// From each vertex to its position, normal and colour after [`ProtoVertices::fill`].
+    fn maps<'s>(&'s self, info: &'s ProtoInfo) -> [&'s [u32]; 3] {
+        if info.face_normals {
+            let id = &self.identity[..self.positions.len()];
+            [id, id, id]
+        } else {
+            [&info.position_of, &info.normal_of, &info.delta_of]
+        }
+    }
+}
+
+/// The second walk of a flat primitive: its vertex records (in oriented triangle
+/// order when `plan.sequential`, else in flat order followed by the u32 indices).
+fn flat_write(
+    src: &FlatSource,
+    plan: &FlatPlan,
+    skinned: bool,
+    infos: &mut Option<ProtoInfos>,
+    sink: &mut Sink,
+) -> Result<(), String> {
+    let mut rec = VertexRecord::new(plan.wide, skinned);
+    let mut pv = ProtoVertices {
+        positions: Vec::new(),
+        normals: Vec::new(),
+        colors: Vec::new(),
+        scratch: Mesh::default(),
+        identity: Vec::new(),
+    };
+    let out = src.output();
+    let missing = || "flat geometry: an instance of a missing shared mesh".to_string();
+    src.walk(&mut |part| match part {
+        VertexPart::Piece(p) => {
+            let m = p.mesh;
+            let vertex = |rec: &mut VertexRecord, sink: &mut Sink, v: usize| {
+                rec.put(sink, finite3(m.positions[v]), normal_at(m, v), color_at(m, v), m.bone(v))
+            };
+            if plan.sequential {
+                for t in p.triangles.clone() {
+                    let o = p.oriented(t).ok_or_else(|| "flat geometry: a triangle out of range".to_string())?;
+                    for v in o {
+                        vertex(&mut rec, sink, (v - p.base) as usize + p.vertices.start)?;
+                    }
+                }
+            } else {
+                for v in p.vertices.clone() {
+                    vertex(&mut rec, sink, v)?;
+                }
+            }
+            Ok(())
+        }
+        VertexPart::Prototype { instance, .. } => {
+            let (Some(out), Some(infos)) = (out, infos.as_mut()) else { return Err(missing()) };
+            let inst = &out.instances[instance];
+            let shared = out.shared(inst).ok_or_else(missing)?;
+            let info = infos.get(inst.mesh).ok_or_else(missing)?;
+            let mirrored = pv.fill(out, shared, info, instance);
+            let [pos_of, nrm_of, col_of] = pv.maps(info);
+            let vertex = |rec: &mut VertexRecord, sink: &mut Sink, v: usize| {
+                rec.put(
+                    sink,
+                    pv.positions[pos_of[v] as usize],
+                    pv.normals[nrm_of[v] as usize],
+                    pv.colors[col_of[v] as usize],
+                    inst.bone,
+                )
+            };
+            if plan.sequential {
+                for t in 0..info.n_tris {
+                    let v = 3 * t;
+                    let flip = mirrored != shared.mesh.mirrored.get(t).copied().unwrap_or(false);
+                    for c in if flip { [v, v + 2, v + 1] } else { [v, v + 1, v + 2] } {
+                        vertex(&mut rec, sink, c)?;
+                    }
+                }
+            } else {
+                for v in 0..pos_of.len() {
+                    vertex(&mut rec, sink, v)?;
+                }
+            }
+            Ok(())
+        }
+    })?;
+    if plan.sequential {
+        return Ok(());
+    }
+    src.walk(&mut |part| {
+        let tri = |sink: &mut Sink, t: [u32; 3]| {
+            let mut b = [0u8; 12];
+            for k in 0..3 {
+                b[4 * k..4 * k + 4].copy_from_slice(&t[k].to_le_bytes());
+            }
+            sink.put(&b)
+        };
+        match part {
+            VertexPart::Piece(p) => {
+                for t in p.triangles.clone() {
+                    tri(sink, p.oriented(t).ok_or_else(|| "flat geometry: a triangle out of range".to_string())?)?;
+                }
+            }
+            VertexPart::Prototype { instance, base } => {
+                let Some(out) = out else { return Err(missing()) };
+                let inst = &out.instances[instance];
+                let shared = out.shared(inst).ok_or_else(missing)?;
+                let mirrored = ProtoFrame::new(&inst.frame).mirrored;
+                for (t, v) in shared.mesh.triangles.iter().enumerate() {
+                    let v = v.map(|i| i + base);
+                    let flip = mirrored != shared.mesh.mirrored.get(t).copied().unwrap_or(false);
+                    tri(sink, if flip { [v[0], v[2], v[1]] } else { v })?;
+                }
+            }
+        }
+        Ok(())
+    })
 }
 
 // The glTF JSON schema subset written here. Empty arrays are omitted because glTF
@@ -1461,11 +2032,16 @@ struct Pbr {
     roughness_factor: f32,
 }
 
-#[derive(Serialize)]
+#[derive(Serialize, Default)]
 #[serde(rename_all = "camelCase")]
 struct Accessor {
     buffer_view: u32,
+    #[serde(skip_serializing_if = "is_zero")]
+    byte_offset: usize,
     component_type: u32,
+    /// Integer components read as 0..1 (colours).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    normalized: bool,
     count: usize,
     #[serde(rename = "type")]
     kind: &'static str,
@@ -1481,8 +2057,15 @@ struct BufferView {
     buffer: u32,
     byte_offset: usize,
     byte_length: usize,
+    /// Interleaved vertex attributes: the bytes from one vertex to the next.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    byte_stride: Option<usize>,
     #[serde(skip_serializing_if = "Option::is_none")]
     target: Option<u32>,
+}
+
+fn is_zero(x: &usize) -> bool {
+    *x == 0
 }
 
 #[derive(Serialize)]
@@ -1496,6 +2079,7 @@ pub(crate) mod tests {
     use serde_json::Value;
 
     use super::*;
+    use crate::export::linear_to_srgb;
     use crate::export::tests::sample_output;
     use crate::output::SharedMesh;
 
@@ -1554,20 +2138,63 @@ pub(crate) mod tests {
         (json, bin)
     }
 
-    fn view_bytes<'a>(bin: &'a [u8], json: &Value, accessor: u64) -> &'a [u8] {
+    /// An accessor's components as a client reads them: through its view's offset
+    /// and stride, each as f64 (normalised integers divided by their maximum).
+    pub(crate) fn components(bin: &[u8], json: &Value, accessor: u64) -> Vec<f64> {
         let a = &json["accessors"][accessor as usize];
         let v = &json["bufferViews"][a["bufferView"].as_u64().expect("view") as usize];
-        let off = v["byteOffset"].as_u64().expect("offset") as usize;
-        let len = v["byteLength"].as_u64().expect("length") as usize;
-        &bin[off..off + len]
+        let width = match a["type"].as_str().expect("type") {
+            "SCALAR" => 1,
+            "VEC2" => 2,
+            "VEC3" => 3,
+            "VEC4" => 4,
+            "MAT4" => 16,
+            t => panic!("type {t}"),
+        };
+        let (size, read): (usize, fn(&[u8]) -> f64) = match a["componentType"].as_u64().expect("component type") as u32
+        {
+            FLOAT => (4, |b| f32::from_le_bytes(b.try_into().expect("4")) as f64),
+            UNSIGNED_INT => (4, |b| u32::from_le_bytes(b.try_into().expect("4")) as f64),
+            UNSIGNED_SHORT => (2, |b| u16::from_le_bytes(b.try_into().expect("2")) as f64),
+            UNSIGNED_BYTE => (1, |b| b[0] as f64),
+            t => panic!("component type {t}"),
+        };
+        let scale = match (a["normalized"].as_bool().unwrap_or(false), size) {
+            (true, 1) => 255.0,
+            (true, 2) => 65535.0,
+            _ => 1.0,
+        };
+        let start = v["byteOffset"].as_u64().unwrap_or(0) as usize + a["byteOffset"].as_u64().unwrap_or(0) as usize;
+        let stride = v["byteStride"].as_u64().map_or(width * size, |s| s as usize);
+        let count = a["count"].as_u64().expect("count") as usize;
+        let end = v["byteOffset"].as_u64().unwrap_or(0) as usize + v["byteLength"].as_u64().expect("length") as usize;
+        assert!(
+            count == 0 || start + (count - 1) * stride + width * size <= end,
+            "accessor {accessor} overruns its view"
+        );
+        (0..count)
+            .flat_map(|i| (0..width).map(move |k| start + i * stride + k * size))
+            .map(|o| read(&bin[o..o + size]) / scale)
+            .collect()
     }
 
     fn floats(bin: &[u8], json: &Value, accessor: u64) -> Vec<f32> {
-        view_bytes(bin, json, accessor).chunks(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes"))).collect()
+        components(bin, json, accessor).into_iter().map(|x| x as f32).collect()
     }
 
     fn uints(bin: &[u8], json: &Value, accessor: u64) -> Vec<u32> {
-        view_bytes(bin, json, accessor).chunks(4).map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes"))).collect()
+        components(bin, json, accessor).into_iter().map(|x| x as u32).collect()
+    }
+
+    /// A triangle primitive's indices: its index accessor's, or 0…N−1 without one.
+    pub(crate) fn primitive_indices(bin: &[u8], json: &Value, p: &Value) -> Vec<u32> {
+        match p["indices"].as_u64() {
+            Some(i) => uints(bin, json, i),
+            None => {
+                let pos = p["attributes"]["POSITION"].as_u64().expect("position");
+                (0..json["accessors"][pos as usize]["count"].as_u64().expect("count") as u32).collect()
+            }
+        }
     }
 
     #[test]
@@ -1651,7 +2278,7 @@ pub(crate) mod tests {
                     continue;
                 }
                 let pos = floats(bin, json, p["attributes"]["POSITION"].as_u64().expect("pos"));
-                let idx = uints(bin, json, p["indices"].as_u64().expect("indices"));
+                let idx = primitive_indices(bin, json, p);
                 for tri in idx.chunks(3) {
                     let c: Vec<[i64; 3]> = tri
                         .iter()
@@ -1718,8 +2345,12 @@ pub(crate) mod tests {
         write_glb(&out, &mut b).expect("writes");
         let (json, bin) = parse_glb(&b);
         let geometry = &json["meshes"][0]["primitives"][0];
-        let c = floats(&bin, &json, geometry["attributes"]["COLOR_0"].as_u64().expect("colours"));
-        assert!((c[0] - 0.214_041_14).abs() < 1e-6 && c[3] == 1.0, "{c:?}");
+        let color = geometry["attributes"]["COLOR_0"].as_u64().expect("colours");
+        // Normalised 8-bit: the linear value to within half a step.
+        assert_eq!(json["accessors"][color as usize]["componentType"], UNSIGNED_BYTE);
+        assert_eq!(json["accessors"][color as usize]["normalized"], true);
+        let c = floats(&bin, &json, color);
+        assert!((c[0] - 0.214_041_14).abs() <= 0.5 / 255.0 && c[3] == 1.0, "{c:?}");
         let material = |p: &Value| json["materials"][p["material"].as_u64().expect("material") as usize].clone();
         assert_eq!(material(geometry)["doubleSided"], true);
         let cube = json["nodes"].as_array().expect("nodes").iter().find(|n| n["name"] == "CUBE").expect("cube");
@@ -1733,6 +2364,71 @@ pub(crate) mod tests {
             .collect();
         assert!((factor[0] - 1.0).abs() < 1e-6 && (factor[1] - 0.214_041_14).abs() < 1e-6 && factor[2] == 0.0);
         assert_eq!(factor[3], 0.5, "alpha stays as it is");
+    }
+
+    /// Triangles of three vertices each, in order (what VERTEX items make), one of
+    /// them mirrored, in colour `c`.
+    fn strip(c: [f32; 4]) -> Output {
+        let mut out = Output::default();
+        for t in 0..4 {
+            let x = t as f32;
+            let k = out.mesh.push_vertex(Vec3::new(x, 0.0, 0.0), Vec3::Z, c, [0.0; 4], 0);
+            out.mesh.push_vertex(Vec3::new(x + 1.0, 0.0, 0.0), Vec3::Z, c, [0.0; 4], 0);
+            out.mesh.push_vertex(Vec3::new(x, 1.0, 0.0), Vec3::Z, c, [0.0; 4], 0);
+            if t == 2 {
+                out.mesh.push_triangle([k, k + 2, k + 1], true);
+            } else {
+                out.mesh.push_triangle([k, k + 1, k + 2], false);
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn triangles_of_their_own_vertices_are_written_without_indices() {
+        let out = strip([1.0, 0.5, 0.0, 1.0]);
+        let mut b = Vec::new();
+        write_glb(&out, &mut b).expect("writes");
+        let (json, bin) = parse_glb(&b);
+        let p = &json["meshes"][0]["primitives"][0];
+        assert!(p.get("indices").is_none(), "no index buffer counting 0…N−1: {p}");
+        // One interleaved view: position, normal, colour (u8): 28 bytes a vertex.
+        let pos = p["attributes"]["POSITION"].as_u64().expect("position") as usize;
+        let view = json["accessors"][pos]["bufferView"].as_u64().expect("view") as usize;
+        assert_eq!(json["bufferViews"][view]["byteStride"], 28);
+        assert_eq!(bin.len(), 28 * 12);
+        // The mirrored triangle's vertices are written in its oriented order.
+        let flat = out.flattened();
+        let positions = floats(&bin, &json, pos as u64);
+        let mut k = 0;
+        for t in 0..4 {
+            let o = out.mesh.oriented_triangles().nth(t).expect("triangle");
+            for v in o {
+                assert_eq!(&positions[3 * k..3 * k + 3], &flat.positions[v as usize], "triangle {t}");
+                k += 1;
+            }
+        }
+        let colors = floats(&bin, &json, p["attributes"]["COLOR_0"].as_u64().expect("colours"));
+        let want = linear_color([1.0, 0.5, 0.0, 1.0]);
+        assert!(colors.chunks(4).all(|c| c.iter().zip(want).all(|(a, b)| (a - b).abs() <= 0.5 / 255.0)), "{colors:?}");
+    }
+
+    #[test]
+    fn dark_colours_take_16_bits() {
+        // Display 2/255 is linear 0.0006: 8-bit linear storage reads it back as 0.
+        let dark = 2.0 / 255.0;
+        assert!(!fits_8_bits([dark, 0.5, 0.5, 1.0]));
+        assert!(fits_8_bits([0.5, 0.5, 0.5, 1.0]) && fits_8_bits([1.0, 0.0, 1.0, 0.3]));
+        let out = strip([dark, 0.5, 0.5, 1.0]);
+        let mut b = Vec::new();
+        write_glb(&out, &mut b).expect("writes");
+        let (json, bin) = parse_glb(&b);
+        let color = json["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"].as_u64().expect("colours");
+        assert_eq!(json["accessors"][color as usize]["componentType"], UNSIGNED_SHORT);
+        let c = floats(&bin, &json, color);
+        let shown = (linear_to_srgb(c[0]) * 255.0).round();
+        assert_eq!(shown, 2.0, "the 8-bit display value survives: {c:?}");
+        assert_eq!(bin.len(), 32 * 12, "32 bytes a vertex");
     }
 
     #[test]

@@ -12,6 +12,7 @@ pub mod json;
 pub mod obj;
 pub mod ply;
 pub mod stl;
+mod text;
 
 use std::collections::{BTreeMap, HashMap};
 use std::io::Write as _;
@@ -448,6 +449,22 @@ pub(crate) fn local_oriented(piece: &crate::output::Piece, k: usize) -> Result<[
             piece.vertices.len()
         )),
     }
+}
+
+/// Checks that every triangle of the flat walk ([`Output::for_each_piece`]) refers
+/// to vertices of its own piece, without expanding the instances: the runs of the
+/// `VERTEX` mesh, the sweeps and every shared mesh (an instance's triangles are its
+/// shared mesh's).
+pub(crate) fn check_flat_triangles(out: &Output) -> Result<(), String> {
+    out.for_each_vertex_part::<String>(&|_| true, |part| match part {
+        crate::output::VertexPart::Piece(p) => p.triangles.clone().try_for_each(|k| local_oriented(&p, k).map(|_| ())),
+        crate::output::VertexPart::Prototype { .. } => Ok(()),
+    })?;
+    checked_triangles(&out.sweeps, "sweeps")?;
+    for s in &out.shared_meshes {
+        checked_triangles(&s.mesh, &format!("shared mesh {}", s.name))?;
+    }
+    Ok(())
 }
 
 /// The oriented triangles of `m`, checked against its vertex count.

@@ -3,7 +3,8 @@
 //! (x, y, z) is written (x, z, −y) (see [`z_up_to_y_up`]). Colours are the display
 //! (sRGB) values MDG shows, as 0..1 floats.
 
-use super::{color_at, finite3, local_oriented, normal_at, z_up_to_y_up};
+use super::text::Formatter;
+use super::{check_flat_triangles, color_at, finite3, normal_at, z_up_to_y_up};
 use crate::output::{Groups, Output};
 
 /// Appends `out` (flattened: VERTEX triangles, sweeps and expanded instances) as OBJ.
@@ -14,55 +15,75 @@ pub fn write_obj(out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
     write_obj_to(out, buf)
 }
 
-/// Writes `out` as OBJ to `w`, expanding instances as it goes (once for the `v`
-/// lines, once for the `vn` lines, once for the faces).
+/// Writes `out` as OBJ to `w` in one walk, expanding instances as it goes: each
+/// piece's `v` and `vn` lines, then its faces (a face refers only to vertices
+/// already written; OBJ counts them by kind, so `v` and `vn` may alternate), through
+/// one buffered formatter ([`Formatter`]).
 pub fn write_obj_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), String> {
-    let io = |e: std::io::Error| e.to_string();
     // Every triangle is checked before anything is written.
-    out.for_each_piece::<String>(Groups::ALL, |piece| {
-        piece.triangles.clone().try_for_each(|k| local_oriented(piece, k).map(|_| ()))
-    })?;
-    w.write_all(b"# mdg\n").map_err(io)?;
+    check_flat_triangles(out)?;
+    let mut f = Formatter::new(w);
+    f.bytes(b"# mdg\n")?;
     out.for_each_piece::<String>(Groups::ALL, |piece| {
         let m = piece.mesh;
         for i in piece.vertices.clone() {
             let p = z_up_to_y_up(finite3(m.positions[i]));
             let c = color_at(m, i);
-            writeln!(w, "v {} {} {} {} {} {}", p[0], p[1], p[2], c[0], c[1], c[2]).map_err(io)?;
+            f.bytes(b"v ")?;
+            for (k, x) in p.iter().chain(&c[..3]).enumerate() {
+                if k > 0 {
+                    f.bytes(b" ")?;
+                }
+                f.f32(*x)?;
+            }
+            let n = z_up_to_y_up(normal_at(m, i));
+            f.bytes(b"\nvn ")?;
+            f.f32(n[0])?;
+            f.bytes(b" ")?;
+            f.f32(n[1])?;
+            f.bytes(b" ")?;
+            f.f32(n[2])?;
+            f.bytes(b"\n")?;
         }
-        Ok(())
-    })?;
-    out.for_each_piece::<String>(Groups::ALL, |piece| {
-        for i in piece.vertices.clone() {
-            let n = z_up_to_y_up(normal_at(piece.mesh, i));
-            writeln!(w, "vn {} {} {}", n[0], n[1], n[2]).map_err(io)?;
-        }
-        Ok(())
-    })?;
-    out.for_each_piece::<String>(Groups::ALL, |piece| {
         for k in piece.triangles.clone() {
             let Some(t) = piece.oriented(k) else { continue };
-            let (a, b, c) = (t[0] as u64 + 1, t[1] as u64 + 1, t[2] as u64 + 1);
-            writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}").map_err(io)?;
+            f.bytes(b"f")?;
+            for v in t {
+                let v = v as u64 + 1;
+                f.bytes(b" ")?;
+                f.u64(v)?;
+                f.bytes(b"//")?;
+                f.u64(v)?;
+            }
+            f.bytes(b"\n")?;
         }
         Ok(())
     })?;
     let (n_vertices, _) = out.flat_counts(Groups::ALL);
     let mut next = n_vertices as u64 + 1;
     for line in out.lines.iter().filter(|l| l.points.len() >= 2) {
-        writeln!(w, "g line {}", if line.namespace.is_empty() { "default" } else { &line.namespace }).map_err(io)?;
+        f.bytes(b"g line ")?;
+        f.bytes(if line.namespace.is_empty() { b"default" } else { line.namespace.as_bytes() })?;
+        f.bytes(b"\n")?;
         for p in &line.points {
             let p = z_up_to_y_up(finite3(*p));
-            writeln!(w, "v {} {} {} 1 1 1", p[0], p[1], p[2]).map_err(io)?;
+            f.bytes(b"v ")?;
+            f.f32(p[0])?;
+            f.bytes(b" ")?;
+            f.f32(p[1])?;
+            f.bytes(b" ")?;
+            f.f32(p[2])?;
+            f.bytes(b" 1 1 1\n")?;
         }
-        w.write_all(b"l").map_err(io)?;
+        f.bytes(b"l")?;
         for k in 0..line.points.len() as u64 {
-            write!(w, " {}", next + k).map_err(io)?;
+            f.bytes(b" ")?;
+            f.u64(next + k)?;
         }
-        w.write_all(b"\n").map_err(io)?;
+        f.bytes(b"\n")?;
         next += line.points.len() as u64;
     }
-    Ok(())
+    f.flush()
 }
 
 #[cfg(test)]

@@ -5,7 +5,8 @@
 
 use std::fmt::Write as _;
 
-use super::{color_at, finite3, local_oriented, normal_at};
+use super::text::Formatter;
+use super::{check_flat_triangles, color_at, finite3, normal_at};
 use crate::output::{Groups, Output};
 
 /// Appends `out` (flattened) as binary little-endian PLY. Colours are clamped to 0..1
@@ -29,12 +30,10 @@ pub fn write_ply_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
     }
     let _ = writeln!(header, "element face {n_tris}");
     header.push_str("property list uchar uint vertex_indices\nend_header\n");
-    let io = |e: std::io::Error| e.to_string();
-    w.write_all(header.as_bytes()).map_err(io)?;
-    // Every triangle is checked before anything past the header is written.
-    out.for_each_piece::<String>(Groups::ALL, |piece| {
-        piece.triangles.clone().try_for_each(|k| local_oriented(piece, k).map(|_| ()))
-    })?;
+    // Every triangle is checked before anything is written.
+    check_flat_triangles(out)?;
+    let mut f = Formatter::new(w);
+    f.bytes(header.as_bytes())?;
     let mut vertex = [0u8; 28];
     out.for_each_piece::<String>(Groups::ALL, |piece| {
         let m = piece.mesh;
@@ -47,7 +46,7 @@ pub fn write_ply_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
             for (j, c) in color_at(m, i).iter().enumerate() {
                 vertex[24 + j] = (c * 255.0).round() as u8;
             }
-            w.write_all(&vertex).map_err(io)?;
+            f.bytes(&vertex)?;
         }
         Ok(())
     })?;
@@ -58,10 +57,11 @@ pub fn write_ply_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
             for (j, i) in t.iter().enumerate() {
                 face[1 + 4 * j..5 + 4 * j].copy_from_slice(&i.to_le_bytes());
             }
-            w.write_all(&face).map_err(io)?;
+            f.bytes(&face)?;
         }
         Ok(())
-    })
+    })?;
+    f.flush()
 }
 
 #[cfg(test)]
