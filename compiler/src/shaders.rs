@@ -854,7 +854,8 @@ mod tests {
         let errs = loop {
             let t = Instant::now();
             let errs = compile_glsl_within(src, true, Duration::ZERO).expect_err("no time at all");
-            assert!(t.elapsed() < Duration::from_secs(1), "{:?}", t.elapsed());
+            // Hang guard only (no wall-clock bound under 30 s: loaded machines).
+            assert!(t.elapsed() < Duration::from_secs(30), "{:?}", t.elapsed());
             // Other tests may hold every compile thread for a moment.
             if !errs[0].message.starts_with("shader not compiled: all") {
                 break errs;

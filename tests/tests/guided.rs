@@ -284,13 +284,24 @@ fn a_cancelled_search_stops_at_the_next_particle_step() {
 
     let cancel = Cancel::new();
     let big = SearchOptions { particles: (20, 200_000), generations: 2, cancel: Some(cancel.clone()), ..opts(1) };
+    // The cancel comes 150 ms into the second generation, whatever the machine's
+    // load made of the first (a full second generation takes seconds).
+    let first_done = std::sync::atomic::AtomicBool::new(false);
+    let note_first = |pr: &mdg_vm::sosmc::Progress| {
+        if pr.generation == 1 {
+            first_done.store(true, std::sync::atomic::Ordering::SeqCst);
+        }
+    };
     let started = std::time::Instant::now();
     let r = std::thread::scope(|s| {
         s.spawn(|| {
+            while !first_done.load(std::sync::atomic::Ordering::SeqCst) {
+                std::thread::sleep(std::time::Duration::from_millis(5));
+            }
             std::thread::sleep(std::time::Duration::from_millis(150));
             cancel.cancel();
         });
-        p.search(&big, None)
+        p.search(&big, Some(&note_first))
     });
     let took = started.elapsed();
     assert_eq!((r.stop, r.generations), (Stop::Cancelled, 1), "the cut generation is dropped");
