@@ -62,7 +62,15 @@ impl State {
         if let Some(h) = &c.hsb {
             (color, hue) = apply_hsb_keeping(color, hue, h);
         }
-        State { f: acc.to_frame(), color, weight: add(self.weight, c.weight), fps: self.fps + c.fps, lin: 0, ndet: 1.0, hue }
+        State {
+            f: acc.to_frame(),
+            color,
+            weight: add(self.weight, c.weight),
+            fps: self.fps + c.fps,
+            lin: 0,
+            ndet: 1.0,
+            hue,
+        }
     }
 
     /// The frame part of [`State::compose`] when a non-uniform factor is involved.
