@@ -828,6 +828,20 @@ impl Model {
         Ok(list)
     }
 
+    /// The world transform of every bone at `time` seconds: an (n, 4, 4) float32
+    /// array of row-major matrices, aligned with `bones` (bone 0, the root, is the
+    /// identity). A vertex of bone b at rest position v is at `pose[b] @ (v, 1)`:
+    /// what `pose(time)` does to every vertex.
+    fn bone_pose<'py>(&self, py: Python<'py>, time: f64) -> PyResult<Bound<'py, PyAny>> {
+        if !(time.is_finite() && time >= 0.0) {
+            return Err(PyValueError::new_err(format!("bone_pose: time={time}: expected a number of seconds ≥ 0")));
+        }
+        let pose = self.out.animation.pose(time);
+        let n = pose.len();
+        let flat: Vec<f32> = pose.iter().flat_map(|f| matrix(f).into_iter().flatten()).collect();
+        Ok(PyArray1::from_vec(py, flat).reshape([n, 4, 4])?.into_any())
+    }
+
     /// The model posed at `time` seconds (every bone moved by its tracks), as
     /// `mdg-run --time` writes it.
     fn pose(&self, py: Python<'_>, time: f64) -> PyResult<Model> {

@@ -228,6 +228,14 @@ def test_animated_model_has_bones_tracks_and_poses(tmp_path):
     timed = mdg.compile(src).run(time=1.5)
     assert np.array_equal(timed.vertex_mesh.positions, want)
     assert not np.array_equal(posed.positions, model.positions)
+    # bone_pose: the bones' world transforms that pose() applies to their vertices.
+    m = model.bone_pose(1.5)
+    assert m.shape == (len(model.bones), 4, 4) and np.array_equal(m[0], np.eye(4, dtype=np.float32))
+    b = model.mesh.bones
+    moved = np.einsum("nij,nj->ni", m[b][:, :3, :3], model.positions) + m[b][:, :3, 3]
+    assert np.allclose(moved, posed.positions, atol=1e-4), np.abs(moved - posed.positions).max()
+    with pytest.raises(ValueError, match="time=-1"):
+        model.bone_pose(-1.0)
     static = mdg.compile(ROOT / "std" / "examples" / "tree.mdg").run()
     assert static.mesh.bones is None and static.bones == [] and static.tracks == []
 
