@@ -13,7 +13,7 @@ Installs the extension from the .zip as a user would, then:
   an error naming mdg-run;
 * changes a `@param` in the sidebar's properties and sees the geometry change;
 * breaks a grammar on disk, regenerates, and sees the error with its file and line;
-* adds the animated robot arm (std/examples/robot_arm.mdg) and checks its armature
+* adds the animated robot arm and solar system (std/examples) and checks the armature
   (a bone per bone of mdg-run's .glb), the action's constant keys, the skinning, and
   that at times t Blender's evaluated (deformed) mesh has the bounds of the pose
   `mdg-run --time t` writes;
@@ -231,12 +231,18 @@ def evaluated_bounds(obj):
     return n, lo, hi, centroid
 
 
-@check("an animated grammar comes in as an armature with an action that poses it as mdg-run --time")
-def animated_armature():
-    src = ROOT / "std" / "examples" / "robot_arm.mdg"
+def animated_armature(stem):
+    @check(f"animated {stem} comes in as an armature with an action that poses it as mdg-run --time")
+    def run():
+        armature_check(ROOT / "std" / "examples" / f"{stem}.mdg")
+
+    run()
+
+
+def armature_check(src):
     r, obj = add(src)
     assert r == {"FINISHED"}, obj and obj.mdg.error
-    glb = pathlib.Path(TMP) / "robot_arm.glb"
+    glb = pathlib.Path(TMP) / f"{src.stem}.glb"
     mdg_run(src, "-o", glb)
     nodes = [n.get("name", "") for n in glb_json(glb)["nodes"]]
     want_bones = sum(1 for n in nodes if n.startswith("bone ") and not n.endswith(" root"))
@@ -260,7 +266,7 @@ def animated_armature():
         frame = scene.frame_start + t * fps
         scene.frame_set(int(np.floor(frame)), subframe=float(frame - np.floor(frame)))
         n, lo, hi, centroid = evaluated_bounds(obj)
-        ply = pathlib.Path(TMP) / f"robot_arm-{t}.ply"
+        ply = pathlib.Path(TMP) / f"{src.stem}-{t}.ply"
         mdg_run(src, "--time", t, "-o", ply)
         want, _ = read_ply(ply)
         assert n == len(want), f"t={t}: {n} vertices in Blender, {len(want)} in mdg-run's"
@@ -276,7 +282,7 @@ def animated_armature():
         else:
             assert not np.allclose(rest, centroid, atol=10 * tol), f"t={t}: the pose did not move"
         print(f"       t={t}: bounds {lo.round(3)} .. {hi.round(3)} as mdg-run --time {t}")
-    print(f"       robot_arm: {len(arm.data.bones)} bones, {len(curves)} F-curves, {keys} keys")
+    print(f"       {src.stem}: {len(arm.data.bones)} bones, {len(curves)} F-curves, {keys} keys")
 
 
 def mean_colour(px, bg):
@@ -357,10 +363,12 @@ def main():
     for path in sorted((ROOT / "std" / "examples").glob("*.mdg")):
         if only in f"add {path.stem}":
             example_check(path)
-    for name, f in [("param", param_changes_geometry), ("error", error_has_line), ("animated", animated_armature),
-                    ("fractal", fractal_render)]:
+    for name, f in [("param", param_changes_geometry), ("error", error_has_line), ("fractal", fractal_render)]:
         if only in name or not only:
             f()
+    for stem in ("robot_arm", "solar_system"):
+        if only in f"animated {stem}":
+            animated_armature(stem)
     failed = [r for r in results if not r[1]]
     for name, _, why in failed:
         print(f"FAILED {name}: {why}")
