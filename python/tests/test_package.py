@@ -101,6 +101,24 @@ def test_instances_place_the_prototypes_where_the_mesh_has_them(name):
     assert np.allclose(together.max(axis=0), whole.max(axis=0), atol=1e-4 * span + 1e-5)
 
 
+def test_many_instances_are_converted_in_order():
+    # More than 2 × 65,536 instances: converted on several threads (where there are
+    # several CPUs), each writing its own rows; they must come in the model's order.
+    src = "@import primitives\nstartshape A\nrule A { 150000 * {x 1 R -0.000005} cube {} }\n"
+    model = mdg.compile(src).run(limits={"max_vertices": 10_000_000})
+    inst = model.instances
+    n = len(inst)
+    assert n == 150_000 and len(model.base_mesh.positions) == 0
+    assert np.array_equal(np.diff(inst.translation[:, 0]), np.ones(n - 1, np.float32))
+    assert np.array_equal(inst.rotation, np.tile(np.float32([1, 0, 0, 0]), (n, 1)))
+    assert np.array_equal(inst.prototype, np.zeros(n, np.uint32)) and np.array_equal(inst.bone, np.zeros(n, np.uint32))
+    proto = inst.prototypes[0].positions
+    placed = inst.translation[:, None, :] + proto[None, :, :] * inst.scale[:, None, :]
+    assert np.allclose(placed.reshape(-1, 3), model.mesh.positions, atol=1e-3)
+    # The colours in order too (R falls with every copy).
+    assert np.all(np.diff(inst.color[:, 0].astype(np.float64)) <= 0) and inst.color[-1, 0] < inst.color[0, 0] - 0.5
+
+
 def test_some_example_has_instances_and_a_mirrored_one():
     # The instance tests above mean something only if the examples have instances.
     tree = mdg.compile(ROOT / "std" / "examples" / "tree.mdg").run()
