@@ -1,6 +1,7 @@
 """The mdg package against mdg-run: arrays, files, errors, parameters, generate."""
 
 import pathlib
+import time
 import warnings
 
 import numpy as np
@@ -256,6 +257,38 @@ def test_animated_model_has_bones_tracks_and_poses(tmp_path):
         model.bone_pose(-1.0)
     static = mdg.compile(ROOT / "std" / "examples" / "tree.mdg").run()
     assert static.mesh.bones is None and static.bones == [] and static.tracks == []
+
+
+def generate_threads():
+    """The worker threads of mdg.generate alive in this process (Linux: by name)."""
+    tasks = pathlib.Path("/proc/self/task")
+    return sum(1 for t in tasks.iterdir() if (t / "comm").read_text().strip() == "mdg-generate")
+
+
+@pytest.mark.skipif(not pathlib.Path("/proc/self/task").is_dir(), reason="needs Linux's /proc")
+def test_generate_abandoned_stops_its_workers():
+    # The workers run ahead of the reader by a window of seeds; an iterator dropped
+    # half-way stops them (they must not evaluate the other 10,000 seeds, or wait
+    # for ever for a reader).
+    import gc
+
+    program = mdg.compile(ROOT / "std" / "examples" / "pebbles.mdg", params={"stones": 4})
+    g = mdg.generate(program, range(10_000), workers=2)
+    seed, model = next(g)
+    assert seed == 0 and len(model.positions) > 0
+    assert generate_threads() == 2
+    del g, model
+    gc.collect()
+    deadline = time.monotonic() + 30
+    while generate_threads() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert generate_threads() == 0, "the workers of a dropped generate() are still running"
+    # Read to the end, the workers end by themselves.
+    assert [s for s, _ in mdg.generate(program, range(5), workers=3)] == [0, 1, 2, 3, 4]
+    deadline = time.monotonic() + 30
+    while generate_threads() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert generate_threads() == 0
 
 
 def test_generate_equals_one_by_one(tmp_path):
