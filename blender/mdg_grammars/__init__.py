@@ -13,6 +13,15 @@ Add → MDG Model reads a `.mdg` grammar (or a compiled `.mdgb` bundle) and make
   from the instancer. The prototypes are objects of the collection `NAME prototypes`,
   which is not linked into the scene.
 
+An animated grammar (model rules with transform rules: bones) also makes
+`NAME rig`, an armature with one bone per MDG bone (nested as MDG nests them, each
+at its rule's frame, pointing along the frame's z axis), the parent of `NAME`,
+which it deforms (an Armature modifier; vertex group per bone, weight 1), and the
+action `NAME motion`: per bone, location/rotation/scale keys at every frame index
+i = 0..⌊duration·fps⌋ (time i/fps), constant interpolation, so that the pose at
+time t is the one `mdg-run --time t` writes (as mdg-run's glTF animation, STEP).
+Animated prototype instances are expanded into `NAME` to follow their bones.
+
 The sidebar (N panel, tab MDG) shows the seed, the grammar's `@param`s and presets;
 changing one regenerates the model in place. `Live reload` watches the file.
 Errors show in Blender's report area (and the panel) with the grammar's file and line.
@@ -23,6 +32,7 @@ import time
 
 import bpy
 import numpy as np
+from mathutils import Matrix
 from bpy.props import (
     BoolProperty,
     CollectionProperty,
@@ -200,20 +210,30 @@ def point_attr(me, name, kind, values, key):
 
 
 def build(obj, model):
-    """Puts `model` into `obj` (the base mesh) and its instancer child, in place."""
+    """Puts `model` into `obj` (the base mesh), its instancer child and, for an
+    animated model, its armature parent, in place."""
     name = obj.name
     inst = model.instances
+    animated = len(model.bones) > 1
     # Instances whose prototype adds colours per vertex cannot take one colour per
-    # instance: they are expanded into the base mesh (exact colours).
+    # instance: they are expanded into the base mesh (exact colours). So are the
+    # instances of a moving bone: the base mesh's vertices follow the bones.
     deltas = np.array([bool(np.any(p.colors != 0)) for p in inst.prototypes], dtype=bool)
     keep = ~deltas[inst.prototype] if len(inst) else np.zeros(0, dtype=bool)
+    if animated and len(inst):
+        keep &= inst.bone == 0
     base = model.base_mesh
     pos, tri, col = base.positions, base.triangles.astype(np.int64), base.colors
+    bones = base.bones if base.bones is not None else np.zeros(len(pos), np.uint32)
     if len(inst) and not keep.all():
-        ep, et, ec = expand(inst, np.nonzero(~keep)[0])
+        which = np.nonzero(~keep)[0]
+        ep, et, ec = expand(inst, which)
+        sizes = np.array([len(inst.prototypes[inst.prototype[k]].positions) for k in which], dtype=np.int64)
+        bones = np.concatenate([bones, np.repeat(inst.bone[which], sizes)])
         tri = np.concatenate([tri, et + len(pos)])
         pos, col = np.concatenate([pos, ep]), np.concatenate([col, ec])
     fill_mesh(obj.data, pos, tri, col)
+    rig(obj, model, bones if animated else None)
     if not obj.data.materials:
         obj.data.materials.append(material("MDG vertex colour", "GEOMETRY"))
     inst_obj = obj.mdg.instancer
@@ -258,6 +278,193 @@ def build(obj, model):
     point_attr(me, "mdg_color", "FLOAT_COLOR", colors_linear(inst.color[kept]), "color")
     me.update()
     inst_obj.update_tag()
+
+
+# ---------------------------------------------------------------------------
+# Animation: an armature and an action
+
+
+def bone_name(model_bones, b):
+    """The Blender name of MDG bone b (rule names repeat; the index makes it unique)."""
+    return f"{b:03d} {model_bones[b]['rule']}"
+
+
+def frame_index(t, fps):
+    """⌊t·fps⌋ with the VM's snapping (mdg_vm::anim::frame_index)."""
+    x = t * fps
+    if not (np.isfinite(x) and x > 0):
+        return 0
+    k = round(x)
+    return int(k if abs(x - k) <= 1e-6 * max(k, 1.0) else np.floor(x))
+
+
+# The rest matrix of a bone relative to its MDG frame's rotation: Blender bones point
+# along their y axis; MDG's limbs mostly grow along z (a turn of 90° about x).
+Y_TO_Z = np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0]], dtype=np.float64)
+
+
+def similarity(m):
+    """Uniform scale s (negative for a mirror) and rotation R of a 3×3 s·R."""
+    det = float(np.linalg.det(m))
+    s = float(np.cbrt(det))
+    if abs(s) < 1e-12 or not np.isfinite(s):
+        return 0.0, np.eye(3)
+    return s, m / s
+
+
+def set_edit_mode(arm, mode):
+    """Switches `arm` to `mode` ('EDIT'/'OBJECT'), making it the active object."""
+    view_layer = bpy.context.view_layer
+    view_layer.objects.active = arm
+    with bpy.context.temp_override(active_object=arm, object=arm, selected_objects=[arm]):
+        bpy.ops.object.mode_set(mode=mode)
+
+
+def remove_rig(obj):
+    arm = obj.mdg.armature
+    if arm is None:
+        return
+    mod = obj.modifiers.get("MDG armature")
+    if mod is not None:
+        obj.modifiers.remove(mod)
+    world = obj.matrix_world.copy()
+    obj.parent = None
+    obj.matrix_world = world
+    data, action = arm.data, arm.animation_data.action if arm.animation_data else None
+    bpy.data.objects.remove(arm)
+    if data.users == 0:
+        bpy.data.armatures.remove(data)
+    if action is not None and action.users == 0:
+        bpy.data.actions.remove(action)
+    obj.mdg.armature = None
+    for g in list(obj.vertex_groups):
+        obj.vertex_groups.remove(g)
+
+
+def rig(obj, model, vertex_bones):
+    """The armature `NAME rig` for an animated model (vertex_bones: each vertex of
+    obj's mesh's MDG bone), or none for a static one."""
+    if vertex_bones is None:
+        remove_rig(obj)
+        return
+    name = obj.name
+    mb = model.bones
+    arm = obj.mdg.armature
+    if arm is None:
+        arm = bpy.data.objects.new(f"{name} rig", bpy.data.armatures.new(f"{name} rig"))
+        for c in obj.users_collection:
+            c.objects.link(arm)
+        arm.matrix_world = obj.matrix_world
+        obj.parent = arm
+        obj.matrix_parent_inverse.identity()
+        obj.matrix_basis.identity()
+        obj.mdg.armature = arm
+    if not arm.users_collection:
+        bpy.context.scene.collection.objects.link(arm)
+    # The bones, rebuilt: at the rule's frame, rotated so that they point along z.
+    active, mode = bpy.context.view_layer.objects.active, bpy.context.mode
+    hidden = arm.hide_get(), arm.hide_viewport
+    arm.hide_set(False)
+    arm.hide_viewport = False
+    if mode != "OBJECT" and active is not None:
+        with bpy.context.temp_override(active_object=active, object=active):
+            bpy.ops.object.mode_set(mode="OBJECT")
+    set_edit_mode(arm, "EDIT")
+    try:
+        eb = arm.data.edit_bones
+        for b in list(eb):
+            eb.remove(b)
+        made = {}
+        for b in range(1, len(mb)):
+            rest = np.asarray(mb[b]["rest"], dtype=np.float64)
+            s, rot = similarity(rest[:3, :3])
+            e = eb.new(bone_name(mb, b))
+            e.head = (0.0, 0.0, 0.0)
+            e.tail = (0.0, max(abs(s), 1e-3) * 0.5, 0.0)
+            m = np.eye(4)
+            m[:3, :3] = rot @ Y_TO_Z
+            m[:3, 3] = rest[:3, 3]
+            e.matrix = Matrix([list(r) for r in m])
+            parent = int(mb[b]["parent"])
+            if parent in made:
+                e.parent = made[parent]
+            made[b] = e
+    finally:
+        set_edit_mode(arm, "OBJECT")
+        arm.hide_set(hidden[0])
+        arm.hide_viewport = hidden[1]
+        bpy.context.view_layer.objects.active = active
+    # Skinning: a vertex group per bone, weight 1 (MDG's vertices follow one bone).
+    for g in list(obj.vertex_groups):
+        obj.vertex_groups.remove(g)
+    order = np.argsort(vertex_bones, kind="stable")
+    sorted_bones = vertex_bones[order]
+    for b in np.unique(sorted_bones):
+        if b == 0 or b >= len(mb):
+            continue
+        lo, hi = np.searchsorted(sorted_bones, [b, b + 1])
+        obj.vertex_groups.new(name=bone_name(mb, int(b))).add(order[lo:hi].tolist(), 1.0, "REPLACE")
+    mod = obj.modifiers.get("MDG armature") or obj.modifiers.new("MDG armature", "ARMATURE")
+    mod.object = arm
+    mod.use_vertex_groups = True
+    mod.use_bone_envelopes = False
+    animate(arm, model)
+
+
+def animate(arm, model):
+    """The action `NAME motion`: the bones' local transforms at every frame index."""
+    mb = model.bones
+    scene = bpy.context.scene
+    fps = scene.render.fps / scene.render.fps_base
+    start = scene.frame_start
+    old = arm.animation_data.action if arm.animation_data else None
+    action = bpy.data.actions.new(arm.name.removesuffix(" rig") + " motion")
+    arm.animation_data_create()
+    arm.animation_data.action = action
+    if old is not None and old.users == 0:
+        bpy.data.actions.remove(old)
+    rest = {b.name: np.array(b.matrix_local, dtype=np.float64) for b in arm.data.bones}
+    duration = float(model.duration)
+    # The bones' world transforms at every time one of them changes frame.
+    steps = {}
+    for b in range(1, len(mb)):
+        f = float(mb[b]["fps"])
+        n = frame_index(duration, f) + 1 if f > 0 and mb[b]["tracks"] else 1
+        steps[b] = [(i / f if f > 0 else 0.0) for i in range(n)]
+    times = sorted({t for ts in steps.values() for t in ts})
+    pose = {t: model.bone_pose(t).astype(np.float64) for t in times}
+    for b in range(1, len(mb)):
+        name = bone_name(mb, b)
+        parent = int(mb[b]["parent"])
+        r = rest[name]
+        r_inv = np.linalg.inv(r)
+        keys = []
+        for t in steps[b]:
+            m = pose[t]
+            try:
+                local = np.linalg.solve(m[parent], m[b]) if parent else m[b]
+            except np.linalg.LinAlgError:  # a parent scaled to a point: nothing to show
+                local = np.eye(4)
+            basis = r_inv @ local @ r
+            s, rot = similarity(basis[:3, :3])
+            q = Matrix([list(row) for row in rot]).to_quaternion()
+            keys.append((start + t * fps, *basis[:3, 3], *q, s, s, s))
+        keys = np.array(keys, dtype=np.float64)
+        path = f'pose.bones["{name}"]'
+        for prop, first, count in (("location", 1, 3), ("rotation_quaternion", 4, 4), ("scale", 8, 3)):
+            for i in range(count):
+                fc = action.fcurve_ensure_for_datablock(arm, f"{path}.{prop}", index=i, group_name=name)
+                fc.keyframe_points.add(len(keys))
+                co = np.empty((len(keys), 2), np.float32)
+                co[:, 0], co[:, 1] = keys[:, 0], keys[:, first + i]
+                fc.keyframe_points.foreach_set("co", co.ravel())
+                fc.keyframe_points.foreach_set("interpolation", [0] * len(keys))  # CONSTANT
+                fc.update()
+    last = start + duration * fps
+    action.use_frame_range = True
+    action.frame_start, action.frame_end = start, max(last, start + 1)
+    if scene.frame_end < last:
+        scene.frame_end = int(np.ceil(last))
 
 
 # ---------------------------------------------------------------------------
@@ -339,6 +546,7 @@ class MDG_PG_settings(bpy.types.PropertyGroup):
     warning: StringProperty()
     seconds: FloatProperty()
     instancer: PointerProperty(type=bpy.types.Object)
+    armature: PointerProperty(type=bpy.types.Object)
 
 
 def load_settings(obj, path):

@@ -13,6 +13,10 @@ Installs the extension from the .zip as a user would, then:
   an error naming mdg-run;
 * changes a `@param` in the sidebar's properties and sees the geometry change;
 * breaks a grammar on disk, regenerates, and sees the error with its file and line;
+* adds the animated robot arm and solar system (std/examples) and checks the armature
+  (a bone per bone of mdg-run's .glb), the action's constant keys, the skinning, and
+  that at times t Blender's evaluated (deformed) mesh has the bounds of the pose
+  `mdg-run --time t` writes;
 * renders the cube fractal (benches/workloads/cube_fractal.mdg, 262,144 instances)
   with Cycles and compares its mean colour with `mdg-run --png`'s picture.
 
@@ -88,7 +92,8 @@ def read_ply(path):
 def reset():
     """An empty scene, the extension still enabled (factory settings would drop it)."""
     for coll in (bpy.data.objects, bpy.data.meshes, bpy.data.materials, bpy.data.node_groups,
-                 bpy.data.collections, bpy.data.lights, bpy.data.cameras, bpy.data.worlds, bpy.data.images):
+                 bpy.data.collections, bpy.data.lights, bpy.data.cameras, bpy.data.worlds, bpy.data.images,
+                 bpy.data.armatures, bpy.data.actions):
         for item in list(coll):
             coll.remove(item)
 
@@ -189,6 +194,97 @@ def error_has_line():
     assert "broken.mdg:4:10: E0301: unknown rule `NOPE`" in obj.mdg.error, obj.mdg.error
 
 
+def glb_json(path):
+    """The JSON chunk of a .glb."""
+    import json
+    import struct
+
+    data = pathlib.Path(path).read_bytes()
+    length, kind = struct.unpack_from("<II", data, 12)
+    assert kind == 0x4E4F534A, kind
+    return json.loads(data[20 : 20 + length])
+
+
+def evaluated_bounds(obj):
+    """Vertex count and world bounds of `obj` as the depsgraph evaluates it (after its
+    modifiers: the armature's deformation), with its instancer's instances."""
+    deps = bpy.context.evaluated_depsgraph_get()
+    ev = obj.evaluated_get(deps)
+    me = ev.to_mesh()
+    co = np.empty(len(me.vertices) * 3, np.float32)
+    me.vertices.foreach_get("co", co)
+    ev.to_mesh_clear()
+    m = np.array(ev.matrix_world)
+    co = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
+    lo, hi, n, total = co.min(axis=0), co.max(axis=0), len(co), co.astype(np.float64).sum(axis=0)
+    for inst in deps.object_instances:
+        if not inst.is_instance or inst.parent is None or inst.parent.original != obj.mdg.instancer:
+            continue
+        im = inst.object.data
+        c = np.empty(len(im.vertices) * 3, np.float32)
+        im.vertices.foreach_get("co", c)
+        mw = np.array(inst.matrix_world)
+        w = c.reshape(-1, 3) @ mw[:3, :3].T + mw[:3, 3]
+        lo, hi, n = np.minimum(lo, w.min(axis=0)), np.maximum(hi, w.max(axis=0)), n + len(w)
+        total += w.sum(axis=0)
+    centroid = total / max(n, 1)
+    return n, lo, hi, centroid
+
+
+def animated_armature(stem):
+    @check(f"animated {stem} comes in as an armature with an action that poses it as mdg-run --time")
+    def run():
+        armature_check(ROOT / "std" / "examples" / f"{stem}.mdg")
+
+    run()
+
+
+def armature_check(src):
+    r, obj = add(src)
+    assert r == {"FINISHED"}, obj and obj.mdg.error
+    glb = pathlib.Path(TMP) / f"{src.stem}.glb"
+    mdg_run(src, "-o", glb)
+    nodes = [n.get("name", "") for n in glb_json(glb)["nodes"]]
+    want_bones = sum(1 for n in nodes if n.startswith("bone ") and not n.endswith(" root"))
+    arm = obj.parent
+    assert arm is not None and arm.type == "ARMATURE", f"no armature parent: {arm}"
+    assert len(arm.data.bones) == want_bones and want_bones > 1, (len(arm.data.bones), want_bones, nodes)
+    mod = next((m for m in obj.modifiers if m.type == "ARMATURE"), None)
+    assert mod is not None and mod.object == arm, "the mesh is not deformed by the armature"
+    assert len(obj.vertex_groups) > 0, "no vertex groups (skinning)"
+    action = arm.animation_data.action if arm.animation_data else None
+    assert action is not None, "no action"
+    curves = [fc for layer in action.layers for strip in layer.strips for bag in strip.channelbags for fc in bag.fcurves]
+    keys = sum(len(fc.keyframe_points) for fc in curves)
+    assert curves and min(len(fc.keyframe_points) for fc in curves) > 1, (len(curves), keys)
+    assert all(k.interpolation == "CONSTANT" for fc in curves for k in fc.keyframe_points), "not step keys"
+    scene = bpy.context.scene
+    fps = scene.render.fps / scene.render.fps_base
+    rest = None
+    # Times between frame changes of every bone (30, 60 and 120 frames per second).
+    for t in (0.0, 0.37, 1.37, 2.71):
+        frame = scene.frame_start + t * fps
+        scene.frame_set(int(np.floor(frame)), subframe=float(frame - np.floor(frame)))
+        n, lo, hi, centroid = evaluated_bounds(obj)
+        ply = pathlib.Path(TMP) / f"{src.stem}-{t}.ply"
+        mdg_run(src, "--time", t, "-o", ply)
+        want, _ = read_ply(ply)
+        assert n == len(want), f"t={t}: {n} vertices in Blender, {len(want)} in mdg-run's"
+        tol = 1e-4 * float(np.ptp(want, axis=0).max())
+        assert np.allclose(lo, want.min(axis=0), atol=tol) and np.allclose(hi, want.max(axis=0), atol=tol), (
+            f"t={t}: Blender bounds {lo}..{hi}, mdg-run --time {want.min(axis=0)}..{want.max(axis=0)}"
+        )
+        # The centroid: every vertex counts, not only the extreme ones.
+        want_c = want.astype(np.float64).mean(axis=0)
+        assert np.allclose(centroid, want_c, atol=tol), f"t={t}: centroid {centroid}, mdg-run's {want_c}"
+        if t == 0.0:
+            rest = centroid
+        else:
+            assert not np.allclose(rest, centroid, atol=10 * tol), f"t={t}: the pose did not move"
+        print(f"       t={t}: bounds {lo.round(3)} .. {hi.round(3)} as mdg-run --time {t}")
+    print(f"       {src.stem}: {len(arm.data.bones)} bones, {len(curves)} F-curves, {keys} keys")
+
+
 def mean_colour(px, bg):
     """Mean RGB of the pixels (composited over bg) that differ from bg by > 6/255."""
     rgb = px[:, :3] * px[:, 3:4] + bg * (1 - px[:, 3:4])
@@ -270,6 +366,9 @@ def main():
     for name, f in [("param", param_changes_geometry), ("error", error_has_line), ("fractal", fractal_render)]:
         if only in name or not only:
             f()
+    for stem in ("robot_arm", "solar_system"):
+        if only in f"animated {stem}":
+            animated_armature(stem)
     failed = [r for r in results if not r[1]]
     for name, _, why in failed:
         print(f"FAILED {name}: {why}")

@@ -184,6 +184,9 @@ class Model:
     @property
     def tracks(self) -> list[dict[str, Any]]:
         """rule, complete, frames ((n, 4, 4) row-major float32)."""
+    def bone_pose(self, time: float) -> npt.NDArray[np.float32]:
+        """(n, 4, 4) row-major world transform of every bone at `time` (bone 0: identity);
+        vertex v of bone b is at bone_pose(t)[b] @ (v, 1), as in pose(t)."""
     def pose(self, time: float) -> Model:
         """The model posed at `time` seconds (as mdg-run --time)."""
     def write(

@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 use mdg_vm::export::glb::prototype_placement;
-use mdg_vm::output::{Groups, Output, Piece};
+use mdg_vm::output::{Groups, Instance, Output, Piece};
 
 /// A flat mesh: what [`crate::Mesh`] holds.
 #[derive(Debug, Default)]
@@ -81,16 +81,46 @@ pub fn flatten(out: &Output, groups: Groups, expand: impl Fn(usize) -> bool) -> 
     f
 }
 
+/// Whether instance `inst` of `out` is a prototype instance placed by a transform
+/// (listed in [`Placed`]) rather than expanded into the base mesh; its placement.
+fn placement(out: &Output, inst: &Instance) -> Option<([f32; 3], [f32; 4], [f32; 3])> {
+    if !out.shared(inst).is_some_and(|s| s.is_prototype() && !s.mesh.triangles.is_empty()) {
+        return None;
+    }
+    prototype_placement(&inst.frame)
+}
+
+/// The threads the conversions of big models use: the machine's, at most 16, and
+/// one per 64k items at least (threads cost more than they save on small models).
+fn threads_for(items: usize) -> usize {
+    let cpus = std::thread::available_parallelism().map_or(1, |n| n.get()).min(16);
+    cpus.min(items / 65_536).max(1)
+}
+
+/// `f(chunk index, chunk)` for `threads` nearly equal chunks of `0..n`, on as many
+/// threads (the calling thread takes the first); results in chunk order.
+fn chunked<R: Send>(n: usize, threads: usize, f: impl Fn(std::ops::Range<usize>) -> R + Sync) -> Vec<R> {
+    let size = n.div_ceil(threads.max(1)).max(1);
+    let ranges: Vec<_> = (0..n).step_by(size).map(|a| a..(a + size).min(n)).collect();
+    if ranges.len() <= 1 {
+        return vec![f(0..n)];
+    }
+    std::thread::scope(|scope| {
+        let f = &f;
+        let handles: Vec<_> = ranges[1..].iter().map(|r| scope.spawn(move || f(r.clone()))).collect();
+        let mut out = vec![f(ranges[0].clone())];
+        // A panicking worker is a bug; its chunk is then computed again here.
+        out.extend(handles.into_iter().zip(&ranges[1..]).map(|(h, r)| h.join().unwrap_or_else(|_| f(r.clone()))));
+        out
+    })
+}
+
 /// Per instance of `out`: whether it is a prototype instance placed by a transform
 /// (listed in [`Placed`]) rather than expanded into the base mesh.
 pub fn placed(out: &Output) -> Vec<bool> {
-    out.instances
-        .iter()
-        .map(|i| {
-            out.shared(i).is_some_and(|s| s.is_prototype() && !s.mesh.triangles.is_empty())
-                && prototype_placement(&i.frame).is_some()
-        })
-        .collect()
+    let n = out.instances.len();
+    chunked(n, threads_for(n), |r| out.instances[r].iter().map(|i| placement(out, i).is_some()).collect::<Vec<_>>())
+        .concat()
 }
 
 /// Prototype instances as meshes and placements.
@@ -110,6 +140,10 @@ pub struct Placed {
 /// The placed prototype instances of `out` (see [`placed`]), with every prototype
 /// (of the shared meshes, in order) in its own space: normals as a renderer placing
 /// it needs them, colours the deltas its vertices add to the instance's colour.
+///
+/// Big models are converted on several threads: a first pass counts each chunk's
+/// placed instances, then every thread writes its rows straight into its own part
+/// of the final buffers (which become the numpy arrays without a copy).
 pub fn instances(out: &Output) -> Placed {
     let mut p = Placed::default();
     let mut index = vec![u32::MAX; out.shared_meshes.len()];
@@ -127,25 +161,66 @@ pub fn instances(out: &Output) -> Placed {
         p.prototypes.push(f);
         p.names.push(s.name.clone());
     }
-    let placed = placed(out);
-    let n = placed.iter().filter(|x| **x).count();
-    p.prototype.reserve(n);
-    p.translation.reserve(n);
-    p.rotation.reserve(n);
-    p.scale.reserve(n);
-    p.color.reserve(n);
-    p.bone.reserve(n);
-    for (i, inst) in out.instances.iter().enumerate() {
-        if !placed[i] {
-            continue;
+    let all = &out.instances;
+    let threads = threads_for(all.len());
+    let counts = chunked(all.len(), threads, |r| all[r].iter().filter(|i| placement(out, i).is_some()).count());
+    let n: usize = counts.iter().sum();
+    p.prototype = vec![0; n];
+    p.translation = vec![[0.0; 3]; n];
+    p.rotation = vec![[0.0; 4]; n];
+    p.scale = vec![[0.0; 3]; n];
+    p.color = vec![[0.0; 4]; n];
+    p.bone = vec![0; n];
+    // Each chunk's rows: the same chunks as the count, so chunk c's rows start at the
+    // sum of the counts before it.
+    type Rows<'a> =
+        (&'a mut [u32], &'a mut [[f32; 3]], &'a mut [[f32; 4]], &'a mut [[f32; 3]], &'a mut [[f32; 4]], &'a mut [u32]);
+    let mut parts: Vec<Rows<'_>> = Vec::with_capacity(counts.len());
+    {
+        let (mut a, mut b, mut c, mut d, mut e, mut f) = (
+            &mut p.prototype[..],
+            &mut p.translation[..],
+            &mut p.rotation[..],
+            &mut p.scale[..],
+            &mut p.color[..],
+            &mut p.bone[..],
+        );
+        for &k in &counts {
+            let (a1, a2) = std::mem::take(&mut a).split_at_mut(k);
+            let (b1, b2) = std::mem::take(&mut b).split_at_mut(k);
+            let (c1, c2) = std::mem::take(&mut c).split_at_mut(k);
+            let (d1, d2) = std::mem::take(&mut d).split_at_mut(k);
+            let (e1, e2) = std::mem::take(&mut e).split_at_mut(k);
+            let (f1, f2) = std::mem::take(&mut f).split_at_mut(k);
+            parts.push((a1, b1, c1, d1, e1, f1));
+            (a, b, c, d, e, f) = (a2, b2, c2, d2, e2, f2);
         }
-        let Some((t, r, s)) = prototype_placement(&inst.frame) else { continue };
-        p.prototype.push(index.get(inst.mesh as usize).copied().unwrap_or(0));
-        p.translation.push(t);
-        p.rotation.push([r[3], r[0], r[1], r[2]]);
-        p.scale.push(s);
-        p.color.push(clamped(inst.color));
-        p.bone.push(inst.bone);
     }
+    let size = all.len().div_ceil(threads.max(1)).max(1);
+    let fill = |(chunk, rows): (usize, Rows<'_>)| {
+        let (proto, trans, rot, scale, color, bone) = rows;
+        let start = chunk * size;
+        let mut k = 0;
+        for inst in &all[start..(start + size).min(all.len())] {
+            let Some((t, r, s)) = placement(out, inst) else { continue };
+            proto[k] = index.get(inst.mesh as usize).copied().unwrap_or(0);
+            trans[k] = t;
+            rot[k] = [r[3], r[0], r[1], r[2]];
+            scale[k] = s;
+            color[k] = clamped(inst.color);
+            bone[k] = inst.bone;
+            k += 1;
+        }
+    };
+    std::thread::scope(|scope| {
+        let mut work = parts.into_iter().enumerate();
+        let first = work.next();
+        for w in work {
+            scope.spawn(move || fill(w));
+        }
+        if let Some(w) = first {
+            fill(w);
+        }
+    });
     p
 }

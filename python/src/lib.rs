@@ -7,7 +7,7 @@
 //! * [`compile`] → [`Program`], or `CompileError` carrying [`Diagnostic`]s;
 //! * [`Program::run`] → [`Model`] (the evaluation; arrays are made on first access);
 //! * [`generate`] → [`Generation`], an iterator over `(seed, Model)` that evaluates
-//!   seeds on worker threads with the GIL released.
+//!   seeds on a pool of worker threads with the GIL released.
 //!
 //! Evaluation, compilation and writing release the GIL; the library prints nothing:
 //! warnings go to Python's `warnings` module (category `mdg.MdgWarning`).
@@ -29,7 +29,6 @@ use pyo3::exceptions::{PyException, PyOSError, PyTypeError, PyUserWarning, PyVal
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Duration;
 
@@ -828,6 +827,20 @@ impl Model {
         Ok(list)
     }
 
+    /// The world transform of every bone at `time` seconds: an (n, 4, 4) float32
+    /// array of row-major matrices, aligned with `bones` (bone 0, the root, is the
+    /// identity). A vertex of bone b at rest position v is at `pose[b] @ (v, 1)`:
+    /// what `pose(time)` does to every vertex.
+    fn bone_pose<'py>(&self, py: Python<'py>, time: f64) -> PyResult<Bound<'py, PyAny>> {
+        if !(time.is_finite() && time >= 0.0) {
+            return Err(PyValueError::new_err(format!("bone_pose: time={time}: expected a number of seconds ≥ 0")));
+        }
+        let pose = self.out.animation.pose(time);
+        let n = pose.len();
+        let flat: Vec<f32> = pose.iter().flat_map(|f| matrix(f).into_iter().flatten()).collect();
+        Ok(PyArray1::from_vec(py, flat).reshape([n, 4, 4])?.into_any())
+    }
+
     /// The model posed at `time` seconds (every bone moved by its tracks), as
     /// `mdg-run --time` writes it.
     fn pose(&self, py: Python<'_>, time: f64) -> PyResult<Model> {
@@ -907,19 +920,107 @@ fn write_model(out: &Output, f: Format, glb: &export::glb::GlbOptions, path: &Pa
     export::write_file_with(f, out, glb, path)
 }
 
-/// Iterator over `(seed, Model)` for [`generate`]: evaluates the seeds a window at a
-/// time on worker threads (the GIL released) and yields them in the order given.
+/// Iterator over `(seed, Model)` for [`generate`]: a pool of worker threads
+/// evaluates the seeds (no GIL) up to a window of `4 × workers` seeds ahead of the
+/// one Python is reading, and the models are yielded in the order of `seeds`. The
+/// workers keep going while Python reads (no worker waits for the slowest seed of a
+/// batch); dropping the iterator stops them after their current seed.
 #[pyclass(module = "mdg")]
 pub struct Generation {
+    pool: Arc<Pool>,
+    seeds: usize,
+}
+
+/// What the workers of a [`Generation`] share.
+struct Pool {
     bundle: Arc<Bundle>,
     settings: RunSettings,
     seeds: Vec<u64>,
-    next: usize,
-    workers: usize,
     write: Option<(String, Option<Format>)>,
     /// Make each model's `mesh` on the workers too.
     mesh: bool,
-    ready: std::collections::VecDeque<Evaluated>,
+    /// How many seeds past the next one to hand over a worker may start.
+    window: usize,
+    state: Mutex<PoolState>,
+    changed: std::sync::Condvar,
+}
+
+#[derive(Default)]
+struct PoolState {
+    /// The index (into `seeds`) of the next seed to start.
+    started: usize,
+    /// How many results were handed over (the next to hand over is this index).
+    taken: usize,
+    done: std::collections::BTreeMap<usize, SeedResult>,
+    stop: bool,
+}
+
+impl Pool {
+    /// A worker: evaluates the next seed until there is none, or it is stopped.
+    fn work(&self) {
+        loop {
+            let i = {
+                let Ok(mut st) = self.state.lock() else { return };
+                while !st.stop && st.started < self.seeds.len() && st.started >= st.taken + self.window {
+                    st = match self.changed.wait(st) {
+                        Ok(g) => g,
+                        Err(_) => return,
+                    };
+                }
+                if st.stop || st.started >= self.seeds.len() {
+                    return;
+                }
+                st.started += 1;
+                st.started - 1
+            };
+            let seed = self.seeds[i];
+            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| self.evaluate(seed)))
+                .unwrap_or_else(|_| Err(format!("seed {seed}: the evaluation failed (a bug: please report it)")));
+            let Ok(mut st) = self.state.lock() else { return };
+            st.done.insert(i, r);
+            self.changed.notify_all();
+        }
+    }
+
+    /// One seed: evaluated, flattened if asked, written if asked.
+    fn evaluate(&self, seed: u64) -> SeedResult {
+        let out = run_once(&self.bundle, &self.settings, Some(seed));
+        let flat = self.mesh.then(|| flatten(&out, Groups::ALL, |_| true));
+        match &self.write {
+            Some((template, format)) => {
+                let path = seed_path(template, seed);
+                let f = format.or_else(|| Format::from_path(&path)).unwrap_or(Format::Glb);
+                write_model(&out, f, &export::glb::GlbOptions::default(), &path).map(|()| (seed, out, flat))
+            }
+            None => Ok((seed, out, flat)),
+        }
+    }
+
+    /// Waits for the next result in order (None when all were handed over).
+    fn next(&self) -> Option<SeedResult> {
+        let mut st = self.state.lock().ok()?;
+        if st.taken >= self.seeds.len() {
+            return None;
+        }
+        loop {
+            let k = st.taken;
+            if let Some(r) = st.done.remove(&k) {
+                st.taken += 1;
+                self.changed.notify_all();
+                return Some(r);
+            }
+            st = self.changed.wait(st).ok()?;
+        }
+    }
+}
+
+impl Drop for Generation {
+    fn drop(&mut self) {
+        if let Ok(mut st) = self.pool.state.lock() {
+            st.stop = true;
+        }
+        self.pool.changed.notify_all();
+    }
 }
 
 #[pymethods]
@@ -929,78 +1030,25 @@ impl Generation {
     }
 
     fn __len__(&self) -> usize {
-        self.seeds.len()
+        self.seeds
     }
 
     fn __next__(&mut self, py: Python<'_>) -> PyResult<Option<(u64, Model)>> {
-        if self.ready.is_empty() {
-            if self.next >= self.seeds.len() {
-                return Ok(None);
-            }
-            // A window of a few seeds per worker keeps them busy while bounding the
-            // models held in memory.
-            let end = (self.next + 4 * self.workers).min(self.seeds.len());
-            let window = self.seeds[self.next..end].to_vec();
-            self.next = end;
-            let (bundle, s, workers, write) = (&self.bundle, &self.settings, self.workers, &self.write);
-            let mesh = self.mesh;
-            let done = py.detach(|| run_window(bundle, s, &window, workers, write.as_ref(), mesh));
-            for r in done {
-                match r {
-                    Ok(x) => self.ready.push_back(x),
-                    Err(e) => return Err(PyOSError::new_err(e)),
-                }
+        let pool = self.pool.clone();
+        match py.detach(|| pool.next()) {
+            None => Ok(None),
+            Some(Err(e)) => Err(PyOSError::new_err(e)),
+            Some(Ok((seed, out, flat))) => {
+                warn_all(py, out.stats.warnings.iter().map(|w| w.as_str()))?;
+                Ok(Some((seed, Model::with_flat(out, Some(seed), flat))))
             }
         }
-        let Some((seed, out, flat)) = self.ready.pop_front() else { return Ok(None) };
-        warn_all(py, out.stats.warnings.iter().map(|w| w.as_str()))?;
-        Ok(Some((seed, Model::with_flat(out, Some(seed), flat))))
     }
 }
 
 /// The file for `seed` of a `{seed}` template.
 fn seed_path(template: &str, seed: u64) -> PathBuf {
     PathBuf::from(template.replace("{seed}", &seed.to_string()))
-}
-
-/// Evaluates `seeds` on `workers` threads; results in the order of `seeds`.
-fn run_window(
-    bundle: &Bundle,
-    s: &RunSettings,
-    seeds: &[u64],
-    workers: usize,
-    write: Option<&(String, Option<Format>)>,
-    mesh: bool,
-) -> Vec<SeedResult> {
-    let next = AtomicUsize::new(0);
-    let slots: Vec<Mutex<Option<SeedResult>>> = seeds.iter().map(|_| Mutex::new(None)).collect();
-    let work = || loop {
-        let i = next.fetch_add(1, Ordering::Relaxed);
-        let Some(&seed) = seeds.get(i) else { break };
-        let out = run_once(bundle, s, Some(seed));
-        let flat = mesh.then(|| flatten(&out, Groups::ALL, |_| true));
-        let r = match write {
-            Some((template, format)) => {
-                let path = seed_path(template, seed);
-                let f = format.or_else(|| Format::from_path(&path)).unwrap_or(Format::Glb);
-                write_model(&out, f, &export::glb::GlbOptions::default(), &path).map(|()| (seed, out, flat))
-            }
-            None => Ok((seed, out, flat)),
-        };
-        if let Ok(mut slot) = slots[i].lock() {
-            *slot = Some(r);
-        }
-    };
-    std::thread::scope(|scope| {
-        for _ in 1..workers.min(seeds.len()) {
-            scope.spawn(work);
-        }
-        work();
-    });
-    slots
-        .into_iter()
-        .map(|m| m.into_inner().ok().flatten().unwrap_or_else(|| Err("a worker thread failed".to_string())))
-        .collect()
 }
 
 /// Runs `program` for every seed of `seeds` on `workers` threads.
@@ -1059,7 +1107,27 @@ fn generate(
         }
         None => None,
     };
-    Ok(Generation { bundle, settings, seeds, next: 0, workers, write, mesh, ready: Default::default() })
+    let n = seeds.len();
+    let pool = Arc::new(Pool {
+        bundle,
+        settings,
+        seeds,
+        write,
+        mesh,
+        window: 4 * workers,
+        state: Mutex::new(PoolState::default()),
+        changed: std::sync::Condvar::new(),
+    });
+    // The Generation stops the workers when it is dropped, also on an error here.
+    let generation = Generation { pool: pool.clone(), seeds: n };
+    for _ in 0..workers.min(n) {
+        let p = pool.clone();
+        std::thread::Builder::new()
+            .name("mdg-generate".into())
+            .spawn(move || p.work())
+            .map_err(|e| PyOSError::new_err(format!("generate: cannot start a worker thread: {e}")))?;
+    }
+    Ok(generation)
 }
 
 #[pymodule]

@@ -1,6 +1,7 @@
 """The mdg package against mdg-run: arrays, files, errors, parameters, generate."""
 
 import pathlib
+import time
 import warnings
 
 import numpy as np
@@ -99,6 +100,24 @@ def test_instances_place_the_prototypes_where_the_mesh_has_them(name):
     span = np.ptp(whole, axis=0).max()
     assert np.allclose(together.min(axis=0), whole.min(axis=0), atol=1e-4 * span + 1e-5)
     assert np.allclose(together.max(axis=0), whole.max(axis=0), atol=1e-4 * span + 1e-5)
+
+
+def test_many_instances_are_converted_in_order():
+    # More than 2 × 65,536 instances: converted on several threads (where there are
+    # several CPUs), each writing its own rows; they must come in the model's order.
+    src = "@import primitives\nstartshape A\nrule A { 150000 * {x 1 R -0.000005} cube {} }\n"
+    model = mdg.compile(src).run(limits={"max_vertices": 10_000_000})
+    inst = model.instances
+    n = len(inst)
+    assert n == 150_000 and len(model.base_mesh.positions) == 0
+    assert np.array_equal(np.diff(inst.translation[:, 0]), np.ones(n - 1, np.float32))
+    assert np.array_equal(inst.rotation, np.tile(np.float32([1, 0, 0, 0]), (n, 1)))
+    assert np.array_equal(inst.prototype, np.zeros(n, np.uint32)) and np.array_equal(inst.bone, np.zeros(n, np.uint32))
+    proto = inst.prototypes[0].positions
+    placed = inst.translation[:, None, :] + proto[None, :, :] * inst.scale[:, None, :]
+    assert np.allclose(placed.reshape(-1, 3), model.mesh.positions, atol=1e-3)
+    # The colours in order too (R falls with every copy).
+    assert np.all(np.diff(inst.color[:, 0].astype(np.float64)) <= 0) and inst.color[-1, 0] < inst.color[0, 0] - 0.5
 
 
 def test_some_example_has_instances_and_a_mirrored_one():
@@ -228,8 +247,48 @@ def test_animated_model_has_bones_tracks_and_poses(tmp_path):
     timed = mdg.compile(src).run(time=1.5)
     assert np.array_equal(timed.vertex_mesh.positions, want)
     assert not np.array_equal(posed.positions, model.positions)
+    # bone_pose: the bones' world transforms that pose() applies to their vertices.
+    m = model.bone_pose(1.5)
+    assert m.shape == (len(model.bones), 4, 4) and np.array_equal(m[0], np.eye(4, dtype=np.float32))
+    b = model.mesh.bones
+    moved = np.einsum("nij,nj->ni", m[b][:, :3, :3], model.positions) + m[b][:, :3, 3]
+    assert np.allclose(moved, posed.positions, atol=1e-4), np.abs(moved - posed.positions).max()
+    with pytest.raises(ValueError, match="time=-1"):
+        model.bone_pose(-1.0)
     static = mdg.compile(ROOT / "std" / "examples" / "tree.mdg").run()
     assert static.mesh.bones is None and static.bones == [] and static.tracks == []
+
+
+def generate_threads():
+    """The worker threads of mdg.generate alive in this process (Linux: by name)."""
+    tasks = pathlib.Path("/proc/self/task")
+    return sum(1 for t in tasks.iterdir() if (t / "comm").read_text().strip() == "mdg-generate")
+
+
+@pytest.mark.skipif(not pathlib.Path("/proc/self/task").is_dir(), reason="needs Linux's /proc")
+def test_generate_abandoned_stops_its_workers():
+    # The workers run ahead of the reader by a window of seeds; an iterator dropped
+    # half-way stops them (they must not evaluate the other 10,000 seeds, or wait
+    # for ever for a reader).
+    import gc
+
+    program = mdg.compile(ROOT / "std" / "examples" / "pebbles.mdg", params={"stones": 4})
+    g = mdg.generate(program, range(10_000), workers=2)
+    seed, model = next(g)
+    assert seed == 0 and len(model.positions) > 0
+    assert generate_threads() == 2
+    del g, model
+    gc.collect()
+    deadline = time.monotonic() + 30
+    while generate_threads() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert generate_threads() == 0, "the workers of a dropped generate() are still running"
+    # Read to the end, the workers end by themselves.
+    assert [s for s, _ in mdg.generate(program, range(5), workers=3)] == [0, 1, 2, 3, 4]
+    deadline = time.monotonic() + 30
+    while generate_threads() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert generate_threads() == 0
 
 
 def test_generate_equals_one_by_one(tmp_path):
