@@ -588,7 +588,17 @@ fn code_lenses_and_call_hierarchy_across_the_workspace() {
     let stale = c.call("textDocument/codeLens", json!({"textDocument": text_doc(&ul)}))[0].clone();
     c.change(&ul, 3, WS_LIB);
     c.diagnostics(&ul, 3);
-    let resolved = c.call("codeLens/resolve", stale);
+    // The importers are re-analysed in the background after the library's edit: on a
+    // loaded machine the first resolve may still see them as they were under `shapf`
+    // (asked again, as a client does on its next lens refresh; 60 s hang guard).
+    let asked = std::time::Instant::now();
+    let resolved = loop {
+        let resolved = c.call("codeLens/resolve", stale.clone());
+        if resolved["command"]["title"] == "3 references" || asked.elapsed() > std::time::Duration::from_secs(60) {
+            break resolved;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    };
     assert_eq!(resolved["command"]["title"], "3 references", "{resolved}");
     // Extension sections: the guided search and the creature evolution.
     let lenses = c.call("textDocument/codeLens", json!({"textDocument": text_doc(&us)}));
@@ -757,9 +767,10 @@ fn selection_ranges_colours_range_formatting_and_code_links() {
     assert!(c.shutdown_and_exit().success());
 }
 
-/// A grammar that never ends: each call draws a triangle and calls itself twice.
-const RUNAWAY: &str =
-    "startshape a\nrule a { tri {} a {x 1} a {y 1} }\nrule tri { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n";
+/// A grammar that never ends: each call draws a triangle and calls itself twice. Its
+/// `maxiter` is the cap's (100M calls, seconds even in a release build; the default
+/// 10M ends in about 0.2 s, before the test's edit could cancel it).
+const RUNAWAY: &str = "startshape a\nmaxiter 100000000\nrule a { tri {} a {x 1} a {y 1} }\nrule tri { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n";
 
 #[test]
 fn the_preview_cuts_a_runaway_grammar_warns_and_previews_the_next_edit() {
