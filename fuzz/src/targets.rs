@@ -782,7 +782,7 @@ fn ext_tables(input: &[u8]) -> u64 {
             attempts: 2,
             ..d
         };
-        sig ^= match mdg_vm::grid::generate::generate(g, &o) {
+        sig ^= match mdg_vm::grid::build::generate(g, &o) {
             Ok(m) => (m.model.blocks.len() as u64).min(8) << 5,
             Err(e) => hash(e.chars().filter(|c| !c.is_ascii_digit()).take(30).collect::<String>().as_bytes()),
         };

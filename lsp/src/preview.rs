@@ -16,8 +16,6 @@
 //! section run in modes of `mdg-run` of their own: for them the answer says so
 //! (`status: "mode"`) and the extension runs `mdg-run`.
 
-use crate::backend::Backend;
-use crate::guard::guard;
 use mdg_compiler::expand::Options;
 use mdg_compiler::source::FileLoader;
 use mdg_vm::eval::{Cancel, EvalOptions};
@@ -27,7 +25,6 @@ use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
-use tower_lsp_server::jsonrpc::{Error, Result};
 use tower_lsp_server::ls_types::Uri;
 
 /// The preview's time budget when the request names none (the setting
@@ -124,7 +121,7 @@ pub struct Previews {
 
 impl Previews {
     /// Starts a run for `uri`: the counter and this run's generation.
-    fn begin(&self, uri: &Uri) -> (Arc<AtomicU64>, u64) {
+    pub(crate) fn begin(&self, uri: &Uri) -> (Arc<AtomicU64>, u64) {
         let counter = match self.map.lock() {
             Ok(mut m) => m.entry(uri.clone()).or_default().clone(),
             Err(_) => Arc::new(AtomicU64::new(0)),
@@ -141,42 +138,6 @@ impl Previews {
                 c.fetch_add(1, Ordering::SeqCst);
             }
         }
-    }
-}
-
-/// `mdg/preview`: the model of an open document, evaluated here.
-pub async fn preview(b: &Backend, p: PreviewParams) -> Result<PreviewResult> {
-    let Some(snap) = b.docs.snapshot(&p.uri) else {
-        let mut e = Error::invalid_params(format!("mdg/preview: {} is not open", p.uri.as_str()));
-        e.data = None;
-        return Err(e);
-    };
-    let (counter, generation) = b.previews.begin(&p.uri);
-    let config = b.config.clone();
-    let result = tokio::task::spawn_blocking(move || {
-        let doc_counter = snap.counter.clone();
-        let doc_generation = snap.generation;
-        let cancel = Cancel(Arc::new(move || {
-            counter.load(Ordering::SeqCst) != generation || doc_counter.load(Ordering::SeqCst) != doc_generation
-        }));
-        guard(|| {
-            let mut r = run(&snap.loader, &snap.path, &config.options, &p, cancel);
-            r.version = snap.version;
-            r
-        })
-    })
-    .await;
-    match result {
-        Ok(Ok(r)) => Ok(r),
-        Ok(Err(panic)) => {
-            b.log_panic("preview", &panic).await;
-            Ok(PreviewResult {
-                status: Status::Error,
-                message: format!("mdg-lsp: the preview failed: {panic}"),
-                ..PreviewResult::default()
-            })
-        }
-        Err(e) => Err(Error { message: format!("mdg/preview: {e}").into(), ..Error::internal_error() }),
     }
 }
 

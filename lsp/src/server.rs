@@ -9,9 +9,9 @@ use tower_lsp_server::ls_types::*;
 use tower_lsp_server::LanguageServer;
 
 impl Backend {
-    /// `mdg/preview`: the model of an open document (see [`crate::preview`]).
+    /// `mdg/preview`: the model of an open document (see [`handlers::preview`]).
     pub async fn preview(&self, params: crate::preview::PreviewParams) -> Result<crate::preview::PreviewResult> {
-        crate::preview::preview(self, params).await
+        handlers::preview::preview(self, params).await
     }
 }
 

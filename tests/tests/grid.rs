@@ -5,8 +5,9 @@
 
 use mdg_cli::modes::{grid::GridArgs, Common};
 use mdg_tests::{build_source, root};
+use mdg_vm::grid::build::generate;
 use mdg_vm::grid::format::{self, VoxelFormat};
-use mdg_vm::grid::generate::{enclosure, generate, Bounds, Derivation, GenerateOptions, Instance};
+use mdg_vm::grid::generate::{enclosure, Bounds, Derivation, GenerateOptions, Instance};
 use mdg_vm::grid::induce::{induce, Example};
 use mdg_vm::grid::infer::{cost, entropy, infer, Cost, InferOptions, Move, Ops, Search, Spec};
 use mdg_vm::grid::voxel::VoxelModel;
@@ -1427,7 +1428,8 @@ fn induce_default(name: &str, text: &str) -> GridGrammar {
 
 #[test]
 fn default_induction_gives_back_whole_varied_buildings_with_their_roofs() {
-    use mdg_vm::grid::assess::{variety, COMPLETE_FRACTION};
+    use mdg_vm::grid::assess::COMPLETE_FRACTION;
+    use mdg_vm::grid::build::variety;
     for (name, text, roof, open_roof) in [
         ("cottage", stair_cottage(), "minecraft:oak_stairs", true),
         ("tower", parapet_tower(), "minecraft:stone_brick_wall", true),

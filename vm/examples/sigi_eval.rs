@@ -19,8 +19,9 @@
 //! `--derivations-only` and `--pairs-only` print only the derivation counts or the
 //! shared-style pairs.
 
+use mdg_vm::grid::build::generate;
 use mdg_vm::grid::format;
-use mdg_vm::grid::generate::{enclosure, generate, Bounds, GenerateOptions, Instance};
+use mdg_vm::grid::generate::{enclosure, Bounds, GenerateOptions, Instance};
 use mdg_vm::grid::induce::{induce, measures, shared_shapes, Example, Measures};
 use mdg_vm::grid::infer::{infer, Cost, InferOptions, Ops, Spec};
 use mdg_vm::grid::share::share;

@@ -133,13 +133,13 @@ pub fn run(args: Args) -> ExitCode {
         return ExitCode::from(1);
     }
     // What the grammar does: moves, shapes, matches, and what ten seeds generate.
-    use mdg_vm::grid::assess;
+    use mdg_vm::grid::{assess, build};
     let moves: usize = reports.iter().map(|r| r.merges + r.splits).sum();
     let gen_opts = mdg_vm::grid::generate::GenerateOptions {
         seed: 0,
         ..mdg_vm::grid::generate::GenerateOptions::for_grammar(&grammar)
     };
-    let variety = assess::variety(&grammar, &gen_opts, assess::SEEDS);
+    let variety = build::variety(&grammar, &gen_opts, assess::SEEDS);
     match &variety {
         Ok(v) => eprintln!(
             "summary: {moves} moves, {} shapes, {} matches, {} rules; seeds 1–{} (the grammar's generate settings) give {} distinct \

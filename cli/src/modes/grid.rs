@@ -11,6 +11,7 @@
 use super::Common;
 use mdg_vm::bundle::Bundle;
 use mdg_vm::export::{self, Format};
+use mdg_vm::grid::build;
 use mdg_vm::grid::format::{self as voxfmt, VoxelFormat};
 use mdg_vm::grid::generate::{self, GenerateOptions};
 use mdg_vm::grid::mesh;
@@ -163,7 +164,7 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
     if opts.attempts == 0 || opts.attempts > generate::MAX_ATTEMPTS {
         return Err((2, format!("--attempts {}: expected 1 to {}", opts.attempts, generate::MAX_ATTEMPTS)));
     }
-    let made = generate::generate(g, &opts).map_err(|e| (1, e))?;
+    let made = build::generate(g, &opts).map_err(|e| (1, e))?;
     let elapsed = started.elapsed().as_secs_f64();
     if let Some(n) = &made.note {
         eprintln!("warning: {n}");
@@ -203,7 +204,7 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
             return Err((2, format!("--more {}: at most 16", args.more)));
         }
         let more: Vec<mdg_vm::grid::voxel::VoxelModel> = (1..=args.more as u64)
-            .map(|i| generate::generate(g, &GenerateOptions { seed: seed.wrapping_add(i), ..opts }).map(|m| m.model))
+            .map(|i| build::generate(g, &GenerateOptions { seed: seed.wrapping_add(i), ..opts }).map(|m| m.model))
             .collect::<Result<_, _>>()
             .map_err(|e| (1, e))?;
         models.extend(more.iter().filter(|m| !m.blocks.is_empty()));

@@ -18,6 +18,7 @@ pub mod formatting;
 pub mod highlight;
 pub mod hover;
 pub mod inlay_hints;
+pub mod preview;
 pub mod references;
 pub mod rename;
 pub mod selection_range;

@@ -6,7 +6,7 @@
 //! The warnings `mdgc induce` gives about what a grammar can generate have their codes
 //! here (registered in the compiler's code table, explained by `mdgc explain`).
 
-use super::generate::{enclosure_report, example_instances, examples, generate, GenerateOptions, Generated};
+use super::generate::{enclosure_report, example_instances, examples, Generated};
 use super::voxel::{VoxelModel, NEIGHBOURS};
 use super::GridGrammar;
 use std::collections::{BTreeSet, HashSet};
@@ -135,49 +135,4 @@ pub fn assess_with(grammar: &GridGrammar, r: &Reference, made: &Generated, seal:
         missing_kinds: r.kinds.difference(&have).cloned().collect(),
         example_kinds: r.kinds.len(),
     })
-}
-
-/// What `seeds` seeds give (`opts.seed + 1` to `opts.seed + seeds`).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Variety {
-    pub seeds: u64,
-    /// Distinct buildings (block sets compared up to a translation).
-    pub distinct: usize,
-    /// Complete buildings (measured against the start shape's example).
-    pub complete: usize,
-    /// Buildings that keep every block kind of the example.
-    pub all_kinds: usize,
-    /// Per seed, its assessment.
-    pub assessments: Vec<Assessment>,
-}
-
-/// The buildings as blocks moved to the origin, for comparison.
-fn normalized(m: &VoxelModel) -> Vec<([i32; 3], String)> {
-    let n = m.normalized();
-    let mut v: Vec<([i32; 3], String)> = n
-        .blocks
-        .iter()
-        .map(|b| (b.pos, n.kinds.get(b.kind as usize).map(|k| k.id.clone()).unwrap_or_default()))
-        .collect();
-    v.sort();
-    v
-}
-
-/// Generates `seeds` buildings with `opts` (seeds after `opts.seed`) and measures
-/// them against the start shape's example.
-pub fn variety(grammar: &GridGrammar, opts: &GenerateOptions, seeds: u64) -> Result<Variety, String> {
-    let example = grammar.shapes.get(grammar.start as usize).map(|s| s.example).unwrap_or(0);
-    let reference = Reference::of(grammar, example, opts.seal)?;
-    let mut seen = HashSet::new();
-    let mut v = Variety { seeds, ..Variety::default() };
-    for i in 1..=seeds {
-        let made = generate(grammar, &GenerateOptions { seed: opts.seed.wrapping_add(i), ..*opts })?;
-        seen.insert(normalized(&made.model));
-        let a = assess_with(grammar, &reference, &made, opts.seal)?;
-        v.complete += a.complete() as usize;
-        v.all_kinds += a.missing_kinds.is_empty() as usize;
-        v.assessments.push(a);
-    }
-    v.distinct = seen.len();
-    Ok(v)
 }

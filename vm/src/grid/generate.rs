@@ -54,7 +54,7 @@ pub struct GenerateOptions {
     pub adjacency: bool,
     /// Derivations tried per seed: the first *complete* one (enclosed where the
     /// example is, one piece, at least 80 % of the example's blocks, every block kind
-    /// of the example; see [`super::assess`]) is kept, else the best of them, with a
+    /// of the example; see `grid::assess`) is kept, else the best of them, with a
     /// note. 1: the first derivation, as it comes. Attempt 0 is the plain seed, later
     /// ones seeds drawn from it, so a seed still gives one building.
     pub attempts: u32,
@@ -348,48 +348,10 @@ impl World {
     }
 }
 
-/// Generates a building: `steps` random rule applications from the start shape, then
-/// (optionally) the enclosure constraint; with several [`GenerateOptions::attempts`],
-/// the first complete building of that many derivations (measured against the start
-/// shape's example), else the best one with a note saying so.
-pub fn generate(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generated, String> {
-    grammar.validate()?;
-    let example = grammar.shapes.get(grammar.start as usize).map(|s| s.example).unwrap_or(0);
-    let has_example = grammar.shapes.iter().any(|s| s.at.is_some() && s.example == example);
-    let attempts = opts.attempts.clamp(1, MAX_ATTEMPTS);
-    if attempts == 1 || !has_example {
-        return derive(grammar, opts);
-    }
-    let reference = super::assess::Reference::of(grammar, example, opts.seal)?;
-    let mut seeds = Pcg64::seed_from_u64(opts.seed ^ 0x9e37_79b9_7f4a_7c15);
-    // (complete, kinds kept, blocks): the best so far.
-    let mut best: Option<((bool, usize, usize), Generated)> = None;
-    for a in 0..attempts {
-        let seed = if a == 0 { opts.seed } else { seeds.next_u64() };
-        let made = derive(grammar, &GenerateOptions { seed, ..*opts })?;
-        let m = super::assess::assess_with(grammar, &reference, &made, opts.seal)?;
-        let whole = m.complete() && m.missing_kinds.is_empty();
-        if whole {
-            return Ok(made);
-        }
-        let score = (m.complete(), m.example_kinds - m.missing_kinds.len(), m.blocks);
-        if best.as_ref().is_none_or(|(s, _)| score > *s) {
-            best = Some((score, made));
-        }
-    }
-    let Some((_, mut made)) = best else { return derive(grammar, opts) };
-    let why = format!(
-        "no complete building with all the example's block kinds in {attempts} derivations; the most complete is kept"
-    );
-    made.note = Some(match made.note.take() {
-        Some(n) => format!("{n}; {why}"),
-        None => why,
-    });
-    Ok(made)
-}
-
-/// One derivation (see [`generate`]).
-fn derive(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generated, String> {
+/// One derivation: `steps` random rule applications from the start shape, then
+/// (optionally) the enclosure constraint. `grid::build::generate` makes several
+/// and keeps the first complete one ([`GenerateOptions::attempts`]).
+pub fn derive(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generated, String> {
     let d = Derivation::new(grammar);
     let mut rng = Pcg64::seed_from_u64(opts.seed);
     let mut world = World::default();

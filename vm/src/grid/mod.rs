@@ -15,6 +15,7 @@
 
 pub mod assess;
 pub mod blocks;
+pub mod build;
 pub mod doors;
 pub mod format;
 pub mod generate;
