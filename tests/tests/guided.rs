@@ -228,7 +228,7 @@ fn a_tiny_budget_stops_before_the_first_particle_step() {
 }
 
 /// The budget is checked inside a generation (before every particle-step): one
-/// generation of 200,000 particles takes seconds, but a 300 ms budget ends the search
+/// generation of 1,000,000 particles takes seconds, but a 300 ms budget ends the search
 /// within it, dropping that generation for the one before. And it covers preparing
 /// the guides when the caller starts the clock before preparing.
 #[test]
@@ -237,7 +237,7 @@ fn the_budget_ends_a_long_generation_and_covers_preparation() {
     let t = table(&b);
     let p = Prepared::new(&b, &t, &t.guides).expect("prepared");
     let budget = std::time::Duration::from_millis(300);
-    let big = SearchOptions { particles: (20, 200_000), generations: 2, budget: Some(budget), ..opts(1) };
+    let big = SearchOptions { particles: (20, 1_000_000), generations: 2, budget: Some(budget), ..opts(1) };
     let started = std::time::Instant::now();
     let r = p.search(&big, None);
     let took = started.elapsed();
@@ -260,7 +260,7 @@ fn the_budget_ends_a_long_generation_and_covers_preparation() {
 /// A search stops as soon as its cancel flag is set, like at its budget: set before
 /// it starts, no generation runs; set between generations (here by the progress
 /// report after the third), no further generation runs; set by another thread while a
-/// generation of 200,000 particles runs, that generation is dropped within moments.
+/// generation of 1,000,000 particles runs, that generation is dropped within moments.
 #[test]
 fn a_cancelled_search_stops_at_the_next_particle_step() {
     use mdg_vm::sosmc::Cancel;
@@ -283,7 +283,7 @@ fn a_cancelled_search_stops_at_the_next_particle_step() {
     assert!(!r.model.bones.is_empty(), "the best of the three generations is kept");
 
     let cancel = Cancel::new();
-    let big = SearchOptions { particles: (20, 200_000), generations: 2, cancel: Some(cancel.clone()), ..opts(1) };
+    let big = SearchOptions { particles: (20, 1_000_000), generations: 2, cancel: Some(cancel.clone()), ..opts(1) };
     // The cancel comes 150 ms into the second generation, whatever the machine's
     // load made of the first (a full second generation takes seconds).
     let first_done = std::sync::atomic::AtomicBool::new(false);
@@ -305,7 +305,7 @@ fn a_cancelled_search_stops_at_the_next_particle_step() {
     });
     let took = started.elapsed();
     assert_eq!((r.stop, r.generations), (Stop::Cancelled, 1), "the cut generation is dropped");
-    // The dropped generation shows the cancel cut it short (a full one of 200,000
+    // The dropped generation shows the cancel cut it short (a full one of 1,000,000
     // particles takes seconds); the time itself is only printed.
     eprintln!("took {took:?}");
 }
