@@ -296,6 +296,12 @@ fn find_cycle(graph: &std::collections::BTreeMap<String, std::collections::BTree
     graph.keys().find_map(|m| visit(m, graph, &mut state, &mut Vec::new()))
 }
 
+/// The one documented exception to the layering (crate, module, module): the bundle
+/// names the extension tables' types, whose code reads the bundle; see
+/// docs/decisions.md "Module layering".
+const ALLOWED_CYCLES: &[(&str, &str, &str)] =
+    &[("vm", "bundle", "creature"), ("vm", "bundle", "grid"), ("vm", "bundle", "sosmc")];
+
 /// The modules of each crate import one another without cycles, so each can be read
 /// (and would compile) after the ones it uses. One exception, by design: the bundle
 /// carries the extension tables (`vm/src/bundle` names the types of
@@ -303,8 +309,7 @@ fn find_cycle(graph: &std::collections::BTreeMap<String, std::collections::BTree
 /// docs/decisions.md "Module layering".
 #[test]
 fn modules_import_one_another_without_cycles() {
-    let allowed: &[(&str, &str, &str)] =
-        &[("vm", "bundle", "creature"), ("vm", "bundle", "grid"), ("vm", "bundle", "sosmc")];
+    let allowed = ALLOWED_CYCLES;
     let mut found = Vec::new();
     for krate in ["compiler", "vm", "lsp", "viewer", "cli"] {
         let src = root().join(krate).join("src");
@@ -405,8 +410,7 @@ fn path_refs(code: &str, at: &[String]) -> Vec<Vec<String>> {
 /// hold here too.
 #[test]
 fn files_import_one_another_without_cycles_at_any_depth() {
-    let allowed: &[(&str, &str, &str)] =
-        &[("vm", "bundle", "creature"), ("vm", "bundle", "grid"), ("vm", "bundle", "sosmc")];
+    let allowed = ALLOWED_CYCLES;
     let mut found = Vec::new();
     for krate in ["compiler", "vm", "lsp", "viewer", "cli"] {
         let src = root().join(krate).join("src");
