@@ -234,19 +234,10 @@ fn cr_only_line_endings_check_like_lf() {
                   rule C { \"s\" }\n";
         let cr = lf.replace('\n', "\r");
         let crlf = lf.replace('\n', "\r\n");
-        let where_ = |a: &Analysis| -> Vec<(&'static str, u32, u32)> {
-            a.diagnostics
-                .iter()
-                .map(|d| {
-                    let (l, c) = a.sources.file(d.span.file).line_col(d.span.start);
-                    (d.code, l, c)
-                })
-                .collect()
-        };
         let (a_lf, a_cr, a_crlf) = (analyze_mem(lf), analyze_mem(&cr), analyze_mem(&crlf));
-        assert!(!where_(&a_lf).is_empty(), "the LF file has its errors");
-        assert_eq!(where_(&a_cr), where_(&a_lf), "{}", render_plain(&a_cr.diagnostics, &a_cr.sources));
-        assert_eq!(where_(&a_crlf), where_(&a_lf));
+        assert!(!places(&a_lf).is_empty(), "the LF file has its errors");
+        assert_eq!(places(&a_cr), places(&a_lf), "{}", render_plain(&a_cr.diagnostics, &a_cr.sources));
+        assert_eq!(places(&a_crlf), places(&a_lf));
         assert_eq!(a_cr.sources.file(a_cr.diagnostics[0].span.file).n_lines(), 9);
         let shown = render_plain(&a_cr.diagnostics, &a_cr.sources);
         assert_eq!(shown, render_plain(&a_lf.diagnostics, &a_lf.sources), "rendered alike");
@@ -280,20 +271,22 @@ fn a_shader_block_with_cr_only_line_endings_compiles_like_lf() {
     bounded(HEAP, "a_shader_block_with_cr_only_line_endings_compiles_like_lf", BOUND_MIB, BOUND_SECS, || {
         let lf = "startshape A\n@vertexshader vs\n#version 450\nvoid main() {\n  gl_Position = vec4(nope);\n}\n\
                   @endshader\nrule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n";
-        let at = |a: &Analysis| -> Vec<(&'static str, u32, u32)> {
-            a.diagnostics
-                .iter()
-                .map(|d| {
-                    let (l, c) = a.sources.file(d.span.file).line_col(d.span.start);
-                    (d.code, l, c)
-                })
-                .collect()
-        };
         let a_lf = analyze_mem(lf);
-        assert_eq!(at(&a_lf), [("E0501", 4, 21)], "{}", render_plain(&a_lf.diagnostics, &a_lf.sources));
+        assert_eq!(places(&a_lf), [("E0501", 4, 21)], "{}", render_plain(&a_lf.diagnostics, &a_lf.sources));
         let a_cr = analyze_mem(&lf.replace('\n', "\r"));
-        assert_eq!(at(&a_cr), at(&a_lf), "{}", render_plain(&a_cr.diagnostics, &a_cr.sources));
+        assert_eq!(places(&a_cr), places(&a_lf), "{}", render_plain(&a_cr.diagnostics, &a_cr.sources));
         let good = analyze_mem(&lf.replace("nope", "1.0").replace('\n', "\r"));
         assert!(!good.has_errors(), "{}", render_plain(&good.diagnostics, &good.sources));
     });
+}
+
+/// Each diagnostic's code, line and column.
+fn places(a: &Analysis) -> Vec<(&'static str, u32, u32)> {
+    a.diagnostics
+        .iter()
+        .map(|d| {
+            let (l, c) = a.sources.file(d.span.file).line_col(d.span.start);
+            (d.code, l, c)
+        })
+        .collect()
 }

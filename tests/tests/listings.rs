@@ -223,17 +223,19 @@ fn winding(points: impl Iterator<Item = (f32, f32)>) -> f32 {
     (total / std::f64::consts::TAU) as f32
 }
 
+/// Listing C.2's (2, 3) torus knot: 2 turns about z at radius 2, 3 turns of the small
+/// circle (radius 0.5) about the moving y axis, in 4000 frames.
+const KNOT: &str = "startshape scene\nrule scene { MOVETO {x 2.5} knot {} }\n\
+                    rule knot * around : twist { LINETO {x 0.5} }\n\
+                    rule around { 4000/4000 * {rz 720} FRAME {x 2} }\n\
+                    rule twist { 4000/4000 * {ry 1080} FRAME {} }\n";
+
 #[test]
 fn a_torus_knot_convolution_uses_all_4000_frames() {
     // A (2, 3) torus knot: 2 turns about z at radius 2, 3 turns of the small circle
     // (radius 0.5) about the moving y axis, in 4000 frames — far more than
     // duration · fps + 1 = 301 with the defaults, and no warning.
-    let out = run_source(
-        "startshape scene\nrule scene { MOVETO {x 2.5} knot {} }\n\
-         rule knot * around : twist { LINETO {x 0.5} }\n\
-         rule around { 4000/4000 * {rz 720} FRAME {x 2} }\n\
-         rule twist { 4000/4000 * {ry 1080} FRAME {} }\n",
-    );
+    let out = run_source(KNOT);
     assert!(out.stats.warnings.is_empty(), "{:?}", out.stats.warnings);
     let pts: Vec<Vec3> = out.lines[0].points.iter().map(|p| v(*p)).collect();
     assert_eq!(pts.len(), 4001, "the start and one point per frame");
@@ -256,12 +258,7 @@ fn the_thesis_knot_closes_within_a_millionth_of_its_size_after_4000_steps() {
     // Listing C.2's (2, 3) torus knot: 4000 steps of rz 0.18 and ry 0.27. The iterated
     // frames are accumulated in f64 (issue 38); in f32 the knot missed its start by
     // 3·10⁻⁴ of its size.
-    let out = run_source(
-        "startshape scene\nrule scene { MOVETO {x 2.5} knot {} }\n\
-         rule knot * around : twist { LINETO {x 0.5} }\n\
-         rule around { 4000/4000 * {rz 720} FRAME {x 2} }\n\
-         rule twist { 4000/4000 * {ry 1080} FRAME {} }\n",
-    );
+    let out = run_source(KNOT);
     let pts: Vec<Vec3> = out.lines[0].points.iter().map(|p| v(*p)).collect();
     assert_eq!(pts.len(), 4001);
     // The knot spans 5 (a diameter of 2 · 2.5).

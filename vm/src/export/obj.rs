@@ -30,19 +30,11 @@ pub fn write_obj_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
             let p = z_up_to_y_up(finite3(m.positions[i]));
             let c = color_at(m, i);
             f.bytes(b"v ")?;
-            for (k, x) in p.iter().chain(&c[..3]).enumerate() {
-                if k > 0 {
-                    f.bytes(b" ")?;
-                }
-                f.f32(*x)?;
-            }
-            let n = z_up_to_y_up(normal_at(m, i));
+            f.f32s(&p)?;
+            f.bytes(b" ")?;
+            f.f32s(&c[..3])?;
             f.bytes(b"\nvn ")?;
-            f.f32(n[0])?;
-            f.bytes(b" ")?;
-            f.f32(n[1])?;
-            f.bytes(b" ")?;
-            f.f32(n[2])?;
+            f.f32s(&z_up_to_y_up(normal_at(m, i)))?;
             f.bytes(b"\n")?;
         }
         for k in piece.triangles.clone() {
@@ -68,11 +60,7 @@ pub fn write_obj_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Stri
         for p in &line.points {
             let p = z_up_to_y_up(finite3(*p));
             f.bytes(b"v ")?;
-            f.f32(p[0])?;
-            f.bytes(b" ")?;
-            f.f32(p[1])?;
-            f.bytes(b" ")?;
-            f.f32(p[2])?;
+            f.f32s(&p)?;
             f.bytes(b" 1 1 1\n")?;
         }
         f.bytes(b"l")?;

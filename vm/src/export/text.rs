@@ -44,6 +44,18 @@ impl<'w> Formatter<'w> {
         Ok(())
     }
 
+    /// Appends `xs` separated by single spaces.
+    #[inline]
+    pub(crate) fn f32s(&mut self, xs: &[f32]) -> Result<(), String> {
+        for (k, x) in xs.iter().enumerate() {
+            if k > 0 {
+                self.buf.push(b' ');
+            }
+            self.f32(*x)?;
+        }
+        Ok(())
+    }
+
     /// Appends an unsigned integer.
     #[inline]
     pub(crate) fn u64(&mut self, n: u64) -> Result<(), String> {

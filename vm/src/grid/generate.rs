@@ -581,14 +581,7 @@ pub fn enclosure(
     seal: u32,
 ) -> Result<(Vec<Instance>, VoxelModel, usize), String> {
     grammar.validate()?;
-    if instances.iter().any(|i| i.shape as usize >= grammar.shapes.len()) {
-        return Err("an instance names a shape out of range".into());
-    }
-    let d = Derivation::new(grammar);
-    let mut world = World::default();
-    for i in instances {
-        world.add(d.blocks(i));
-    }
+    let (d, mut world) = placed(grammar, instances)?;
     let mut kept = instances.to_vec();
     let (removed, _) = enclose(&d, &mut kept, &mut world, seal)?;
     Ok((kept, world.model(&d.kinds), removed))
@@ -715,9 +708,9 @@ fn exposed_and_interior(
     Ok((exposed, interior))
 }
 
-/// How enclosed a production is: (instances of shapes that are not open exposed on
-/// both sides, interior cells), with openings up to `2·seal` wide sealed.
-pub fn enclosure_report(grammar: &GridGrammar, instances: &[Instance], seal: u32) -> Result<(usize, usize), String> {
+/// The derivation of `grammar` and the world holding `instances`' blocks, for the
+/// enclosure and its report; an instance of a shape the grammar lacks is an error.
+fn placed<'g>(grammar: &'g GridGrammar, instances: &[Instance]) -> Result<(Derivation<'g>, World), String> {
     if instances.iter().any(|i| i.shape as usize >= grammar.shapes.len()) {
         return Err("an instance names a shape out of range".into());
     }
@@ -726,6 +719,13 @@ pub fn enclosure_report(grammar: &GridGrammar, instances: &[Instance], seal: u32
     for i in instances {
         world.add(d.blocks(i));
     }
+    Ok((d, world))
+}
+
+/// How enclosed a production is: (instances of shapes that are not open exposed on
+/// both sides, interior cells), with openings up to `2·seal` wide sealed.
+pub fn enclosure_report(grammar: &GridGrammar, instances: &[Instance], seal: u32) -> Result<(usize, usize), String> {
+    let (d, world) = placed(grammar, instances)?;
     let (exposed, interior) = exposed_and_interior(&d, instances, &world, seal)?;
     Ok((exposed.len(), interior))
 }
