@@ -41,6 +41,25 @@ pub struct RendererOptions {
     pub samples: u32,
 }
 
+/// An attachment that starts undefined and has no stencil.
+fn attachment(
+    format: vk::Format,
+    samples: vk::SampleCountFlags,
+    load: vk::AttachmentLoadOp,
+    store: vk::AttachmentStoreOp,
+    final_layout: vk::ImageLayout,
+) -> vk::AttachmentDescription {
+    vk::AttachmentDescription::default()
+        .format(format)
+        .samples(samples)
+        .load_op(load)
+        .store_op(store)
+        .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
+        .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
+        .initial_layout(vk::ImageLayout::UNDEFINED)
+        .final_layout(final_layout)
+}
+
 /// A render pass, destroyed in `Drop`.
 pub struct RenderPass {
     ctx: Arc<Context>,
@@ -55,38 +74,23 @@ impl RenderPass {
         samples: vk::SampleCountFlags,
         final_layout: vk::ImageLayout,
     ) -> Result<RenderPass, Error> {
-        let multisampled = samples != vk::SampleCountFlags::TYPE_1;
+        use vk::{AttachmentLoadOp as Load, AttachmentStoreOp as Store, ImageLayout as Layout};
+        let one = vk::SampleCountFlags::TYPE_1;
+        let multisampled = samples != one;
         // The target: written by the resolve when multisampled, else drawn into.
-        let target = vk::AttachmentDescription::default()
-            .format(color)
-            .samples(vk::SampleCountFlags::TYPE_1)
-            .load_op(if multisampled { vk::AttachmentLoadOp::DONT_CARE } else { vk::AttachmentLoadOp::CLEAR })
-            .store_op(vk::AttachmentStoreOp::STORE)
-            .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
-            .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
-            .initial_layout(vk::ImageLayout::UNDEFINED)
-            .final_layout(final_layout);
-        let depth_attachment = vk::AttachmentDescription::default()
-            .format(depth)
-            .samples(samples)
-            .load_op(vk::AttachmentLoadOp::CLEAR)
-            .store_op(vk::AttachmentStoreOp::DONT_CARE)
-            .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
-            .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
-            .initial_layout(vk::ImageLayout::UNDEFINED)
-            .final_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL);
+        let target = attachment(
+            color,
+            one,
+            if multisampled { Load::DONT_CARE } else { Load::CLEAR },
+            Store::STORE,
+            final_layout,
+        );
+        let depth_attachment =
+            attachment(depth, samples, Load::CLEAR, Store::DONT_CARE, Layout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL);
         let attachments: Vec<vk::AttachmentDescription> = if multisampled {
             vec![
                 // 0: multisampled colour, resolved, never stored.
-                vk::AttachmentDescription::default()
-                    .format(color)
-                    .samples(samples)
-                    .load_op(vk::AttachmentLoadOp::CLEAR)
-                    .store_op(vk::AttachmentStoreOp::DONT_CARE)
-                    .stencil_load_op(vk::AttachmentLoadOp::DONT_CARE)
-                    .stencil_store_op(vk::AttachmentStoreOp::DONT_CARE)
-                    .initial_layout(vk::ImageLayout::UNDEFINED)
-                    .final_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL),
+                attachment(color, samples, Load::CLEAR, Store::DONT_CARE, Layout::COLOR_ATTACHMENT_OPTIMAL),
                 // 1: multisampled depth.
                 depth_attachment,
                 // 2: the target, written by the resolve.
