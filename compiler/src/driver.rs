@@ -22,6 +22,10 @@ pub struct Analysis {
     /// All diagnostics, sorted by file and position, duplicates removed, at most
     /// 100 errors and 100 warnings (then an N0001 note saying how many more).
     pub diagnostics: Vec<Diagnostic>,
+    /// Whether the shader blocks were left uncompiled because glslang had not
+    /// compiled them yet ([`Effort::cached_shaders_only`]): no SPIR-V and no GLSL
+    /// diagnostics, which a full analysis would add.
+    pub shaders_pending: bool,
 }
 
 impl Analysis {
@@ -61,6 +65,10 @@ pub struct Effort<'a> {
     /// analysis stops and [`analyze_text_with`] returns `None` (the language server's
     /// analysis of a version the user has already replaced).
     pub cancelled: crate::shaders::Cancel<'a>,
+    /// Take the shader blocks' results from the caches only (memory, disk): where a
+    /// block would need glslang (a first start, an edited block), leave them all
+    /// uncompiled and set [`Analysis::shaders_pending`] instead of waiting for it.
+    pub cached_shaders_only: bool,
 }
 
 impl Effort<'_> {
@@ -77,12 +85,21 @@ fn finish(sources: Sources, expanded: Expanded, opts: CheckOptions, effort: Effo
     if effort.stop() {
         return None;
     }
+    let none = || (vec![None; expanded.shaders.len()], Vec::new());
+    let mut pending = false;
     let shaders = if effort.skip_shaders {
-        (vec![None; expanded.shaders.len()], Vec::new())
+        none()
+    } else if effort.cached_shaders_only {
+        crate::shaders::compile_all_cached(&expanded, &sources).unwrap_or_else(|| {
+            pending = true;
+            none()
+        })
     } else {
         crate::shaders::compile_all(&expanded, &sources, effort.cancelled)?
     };
-    Some(assemble(sources, expanded, checked, shaders))
+    let mut a = assemble(sources, expanded, checked, shaders);
+    a.shaders_pending = pending;
+    Some(a)
 }
 
 /// The whole analysis (never cancelled).
@@ -122,7 +139,7 @@ fn assemble(
     diagnostics.sort_by(|a, b| (a.span.file, a.span.start, a.code).cmp(&(b.span.file, b.span.start, b.code)));
     diagnostics.dedup_by(|a, b| a.span == b.span && a.code == b.code && a.message == b.message);
     diagnostics.extend(more);
-    Analysis { sources, expanded, checked, spirv, diagnostics }
+    Analysis { sources, expanded, checked, spirv, diagnostics, shaders_pending: false }
 }
 
 /// Analyzes the file at `path`.

@@ -567,8 +567,39 @@ fn precheck(source: &str) -> Result<(), Vec<GlslError>> {
     Ok(())
 }
 
+/// The result for a source that passed the limits from the caches alone (the
+/// in-memory one, then the installed [`SpirvStore`]), or `None` where only glslang
+/// could answer: never starts a compile nor waits for one.
+fn cached(source: &str, vertex: bool) -> Option<CompileResult> {
+    if let Err(e) = precheck(source) {
+        return Some(Err(e));
+    }
+    let key: Key = (vertex, source.to_string());
+    let m = &state().0;
+    if let Some(r) = lock(m).cache.get(&key) {
+        return Some(r.clone());
+    }
+    let words = store_load(source, vertex)?;
+    remember(&mut lock(m), key, Ok(words.clone()));
+    Some(Ok(words))
+}
+
+/// A test hook: `MDG_TEST_SHADER_GATE=PATH` makes every glslang compile wait until a
+/// file exists at `PATH` (a shader checker that answers only when the test lets it,
+/// for the language server's test that diagnostics do not wait for it).
+fn test_gate() {
+    static GATE: OnceLock<Option<PathBuf>> = OnceLock::new();
+    let Some(gate) = GATE.get_or_init(|| std::env::var_os("MDG_TEST_SHADER_GATE").map(PathBuf::from)) else {
+        return;
+    };
+    while !gate.exists() {
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
 fn compile_uncached(source: &str, vertex: bool) -> CompileResult {
     use glslang::{Compiler, CompilerOptions, ShaderInput, ShaderMessage, ShaderSource, ShaderStage};
+    test_gate();
     GLSLANG_RUNS.fetch_add(1, Ordering::Relaxed);
     let Some(compiler) = Compiler::acquire() else {
         return Err(vec![GlslError::glsl(None, None, "glslang could not be initialised")]);
@@ -747,6 +778,24 @@ fn quoted_token(message: &str) -> Option<&str> {
 /// diagnostics.
 /// `None` once `cancel` says so.
 pub fn compile_all(ex: &Expanded, sources: &Sources, cancel: Cancel) -> Option<Compiled> {
+    compile_all_by(ex, sources, &mut |code, vertex| compile_checked(code, vertex, COMPILE_DEADLINE, cancel))
+}
+
+/// [`compile_all`] answered by the caches alone (in memory, then the installed
+/// [`SpirvStore`]): `None` if a block would need glslang (not yet compiled, or
+/// being compiled). Never waits: what the language server publishes first while
+/// glslang starts or compiles.
+pub fn compile_all_cached(ex: &Expanded, sources: &Sources) -> Option<Compiled> {
+    compile_all_by(ex, sources, &mut cached)
+}
+
+/// [`compile_all`] with `compile` for the blocks that pass the limits (`None`: stop,
+/// and answer `None`).
+fn compile_all_by(
+    ex: &Expanded,
+    sources: &Sources,
+    compile: &mut dyn FnMut(&str, bool) -> Option<CompileResult>,
+) -> Option<Compiled> {
     let mut spirv = Vec::with_capacity(ex.shaders.len());
     let mut diags = Vec::new();
     for sh in &ex.shaders {
@@ -769,7 +818,7 @@ pub fn compile_all(ex: &Expanded, sources: &Sources, cancel: Cancel) -> Option<C
             spirv.push(None);
             continue;
         }
-        match compile_checked(&code, sh.vertex, COMPILE_DEADLINE, cancel)? {
+        match compile(&code, sh.vertex)? {
             Ok(words) if mdg_vm::bundle::spirv::largest_array(&words) > mdg_vm::bundle::spirv::MAX_ARRAY_ELEMENTS => {
                 let n = mdg_vm::bundle::spirv::largest_array(&words);
                 let max = mdg_vm::bundle::spirv::MAX_ARRAY_ELEMENTS;

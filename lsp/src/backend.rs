@@ -73,6 +73,18 @@ impl Config {
     }
 }
 
+/// How far an analysis compiles the shader blocks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Shaders {
+    /// Not at all (no GLSL diagnostics): what requests use, never waiting for glslang.
+    Skip,
+    /// From the SPIR-V caches only: where a block needs glslang, none are compiled
+    /// and the analysis says so (`shaders_pending`).
+    Cached,
+    /// Compiled, waiting for glslang where needed.
+    Compile,
+}
+
 /// The server: the client handle, the documents and the configuration.
 #[derive(Clone)]
 pub struct Backend {
@@ -110,9 +122,9 @@ impl Backend {
 
     /// Analyses `snap` (on the current thread); a document over the live-analysis
     /// limit is not analysed (one W0012 warning says so). `None` if the document
-    /// changed meanwhile (the analysis gave up). `quick` leaves the shaders
-    /// uncompiled.
-    pub fn analyze(snap: &Snapshot, config: &Config, quick: bool) -> Option<Document> {
+    /// changed meanwhile (the analysis gave up). `shaders` says how far the shader
+    /// blocks are compiled.
+    pub fn analyze(snap: &Snapshot, config: &Config, shaders: Shaders) -> Option<Document> {
         if snap.size > config.max_live_bytes {
             return Some(Document::too_large(
                 &snap.loader,
@@ -123,7 +135,11 @@ impl Backend {
             ));
         }
         let outdated = || snap.outdated();
-        let effort = Effort { skip_shaders: quick, cancelled: Some(&outdated) };
+        let effort = Effort {
+            skip_shaders: shaders == Shaders::Skip,
+            cancelled: Some(&outdated),
+            cached_shaders_only: shaders == Shaders::Cached,
+        };
         Document::with_effort(&snap.loader, &snap.path, &snap.text, &config.options, effort)
     }
 
@@ -139,7 +155,7 @@ impl Backend {
         let snap = self.docs.snapshot(uri)?;
         let config = self.config.clone();
         let result = tokio::task::spawn_blocking(move || {
-            let doc = guard(|| Backend::analyze(&snap, &config, true));
+            let doc = guard(|| Backend::analyze(&snap, &config, Shaders::Skip));
             (snap, doc)
         })
         .await;

@@ -271,6 +271,15 @@ impl Documents {
         }
     }
 
+    /// Whether the document's latest full analysis (of any version) had GLSL
+    /// diagnostics (E0501, E0502).
+    pub fn last_had_glsl_diagnostics(&self, uri: &Uri) -> bool {
+        self.lock()
+            .get(uri)
+            .and_then(|d| d.analysis.as_ref())
+            .is_some_and(|(_, a)| a.analysis().diagnostics.iter().any(|d| d.code == "E0501" || d.code == "E0502"))
+    }
+
     /// The analysis without compiled shaders of the current text, if there is one.
     pub fn quick(&self, uri: &Uri) -> Option<Arc<Document>> {
         let map = self.lock();

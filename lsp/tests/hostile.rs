@@ -198,6 +198,44 @@ fn requests_do_not_wait_for_a_slow_shader_and_an_edit_cancels_it() {
     assert!(c.shutdown_and_exit().success());
 }
 
+/// The first diagnostics of a document with a shader block do not wait for the
+/// shader checker: every glslang compile is held by a test hook
+/// (`MDG_TEST_SHADER_GATE`) until the test releases it, yet the document's other
+/// diagnostics arrive; once released, the same version's diagnostics come again
+/// with the GLSL error. (By the order of events, not the clock: before, the first
+/// publish waited for the compile, so it never came while the gate was shut.)
+#[test]
+fn first_diagnostics_do_not_wait_for_the_shader_checker() {
+    let dir = scratch("hostile-gate");
+    let gate = dir.join("gate");
+    let cache = dir.join("cache");
+    let u = uri(&dir.join("shaded.mdg"));
+    let mut c = Client::spawn_with(&[
+        ("MDG_TEST_SHADER_GATE", gate.to_str().unwrap_or("")),
+        ("XDG_CACHE_HOME", cache.to_str().unwrap_or("")),
+    ]);
+    c.initialize(&dir);
+    let text = with_shader("void main() { gl_Position = vec4(undefined_name); }")
+        .replace("VERTEX {y 1}", "VERTEX {y 1 rzz 3}");
+    assert!(text.contains("rzz"));
+    c.open(&u, 1, &text);
+    // The gate is shut: whatever arrives did not wait for glslang.
+    let first = c.diagnostics(&u, 1);
+    assert_eq!(codes(&first), ["E0303"], "{first:?}");
+    std::fs::write(&gate, "open").expect("gate");
+    let full = c.diagnostics(&u, 1);
+    assert_eq!(codes(&full), ["E0501", "E0303"], "{full:?}");
+    // An edit outside the shader: its compiled result is cached now, so the
+    // version's diagnostics come once, complete.
+    let edited = text.replace("rzz 3", "rzz 4");
+    c.change(&u, 2, &edited);
+    let d = c.diagnostics(&u, 2);
+    assert_eq!(codes(&d), ["E0501", "E0303"], "{d:?}");
+    c.clear();
+    assert!(!c.logs.iter().any(|l| l.contains("panic")), "{:?}", c.logs);
+    assert!(c.shutdown_and_exit().success());
+}
+
 /// Behind the text limits, the deadline (the limits turned off by a test hook): the
 /// 16-million-statement shader runs glslang past 5 s. Meanwhile another document
 /// is served; then the document gets its E0502, a new shader compiles although the
@@ -222,6 +260,10 @@ fn a_compile_past_the_deadline_does_not_block_the_server() {
     assert!(!e0502_published(&c, &u), "the hover was answered only after the deadline ({:?})", asked.elapsed());
     // The deadline is 5 s of the compile's processor time (a loaded machine
     // stretches it in wall-clock time, up to the 60 s safety net).
+    // Version 1's diagnostics come twice: at once without the shader's (glslang has
+    // not answered), then with its E0502.
+    let early = c.diagnostics_within(&u, 1, std::time::Duration::from_secs(90));
+    assert!(early.is_empty(), "{early:?}");
     let d = c.diagnostics_within(&u, 1, std::time::Duration::from_secs(90));
     assert_eq!(codes(&d), ["E0502"], "{d:?}");
     assert!(d[0]["message"].as_str().unwrap_or("").starts_with("shader compilation took longer than "), "{d:?}");
