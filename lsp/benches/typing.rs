@@ -16,7 +16,7 @@
 //!
 //! Run: `cargo bench --profile release -p mdg-lsp --bench typing` (release), or
 //! `--profile dev` for the debug build. `MDG_TYPING_ROUNDS=N` sets how often the
-//! call is typed and deleted (default 6: 168 edits).
+//! call is typed and deleted (default 6: 204 edits).
 
 #[path = "../tests/common/mod.rs"]
 mod common;
