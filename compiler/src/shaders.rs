@@ -939,4 +939,39 @@ mod tests {
             }
         }
     }
+
+    /// An analysis that takes the shaders from the caches only leaves them pending
+    /// (no SPIR-V, no GLSL diagnostics) until glslang has compiled them, then gives
+    /// what the full analysis gives; a block the limits refuse needs no glslang.
+    #[test]
+    fn the_cached_only_stage_never_compiles_and_then_matches_the_full_one() {
+        use crate::check::CheckOptions;
+        use crate::driver::{analyze_text, analyze_text_with, Effort};
+        let loader = crate::source::MemLoader::default();
+        let path = std::path::Path::new("/t/cached_only.mdg");
+        // A source no other test compiles (the in-memory cache is the process's).
+        let src = "startshape A\n@vertexshader cached_only_vs\n#version 450\n\
+                   void main() { gl_Position = vec4(0.125, 0.25, undeclared_cached_only, 1.0); }\n@endshader\n\
+                   rule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n";
+        let opts = crate::expand::Options::default();
+        let cached_only = Effort { cached_shaders_only: true, ..Effort::default() };
+        let early = analyze_text_with(&loader, path, src, &opts, CheckOptions::default(), cached_only).expect("done");
+        assert!(early.shaders_pending);
+        assert_eq!(early.spirv, vec![None]);
+        assert!(!early.diagnostics.iter().any(|d| d.code == "E0501"), "{:?}", early.diagnostics);
+        let full = analyze_text(&loader, path, src, &opts, CheckOptions::default());
+        assert!(!full.shaders_pending);
+        assert!(full.diagnostics.iter().any(|d| d.code == "E0501"), "{:?}", full.diagnostics);
+        let later = analyze_text_with(&loader, path, src, &opts, CheckOptions::default(), cached_only).expect("done");
+        assert!(!later.shaders_pending);
+        assert_eq!(later.diagnostics, full.diagnostics);
+        assert_eq!(later.spirv, full.spirv);
+        // Refused by the limits: answered without glslang, nothing pending.
+        let terms = vec!["x"; 10_000].join("+");
+        let huge = src.replace("undeclared_cached_only", &terms);
+        let refused =
+            analyze_text_with(&loader, path, &huge, &opts, CheckOptions::default(), cached_only).expect("done");
+        assert!(!refused.shaders_pending);
+        assert!(refused.diagnostics.iter().any(|d| d.code == "E0502"), "{:?}", refused.diagnostics);
+    }
 }
