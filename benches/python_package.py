@@ -52,7 +52,15 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--mdg-run", default=str(ROOT / "target" / "release" / "mdg-run"))
     ap.add_argument("--runs", type=int, default=5)
+    ap.add_argument("--only", choices=["tree", "generate"], help="run one of the two workloads")
     args = ap.parse_args()
+    if args.only != "generate":
+        tree_bench(args)
+    if args.only != "tree":
+        generate_bench()
+
+
+def tree_bench(args):
 
     tree = ROOT / "benches" / "workloads" / "tree.mdg"
     program = mdg.compile(tree)
@@ -93,6 +101,8 @@ def main():
           f"{fw / cw:.2f}x wall")
     print(f"  freeing a model (not counted above): {statistics.median(x[0] for x in free):.1f} ms wall")
 
+
+def generate_bench():
     pebbles = mdg.compile(ROOT / "std" / "examples" / "pebbles.mdg")
     seeds = range(64)
 

@@ -15,7 +15,9 @@ numbers). Installs it, then measures:
 
 With --pictures DIR, also renders (Cycles, MDG's home view and light as
 tests/clients/blender_check.py sets them up) the fractal and a std example through
-the extension into DIR/blender-cube-fractal.png and DIR/blender-city-block.png;
+the extension into DIR/blender-cube-fractal.png and DIR/blender-city-block.png, and
+camera_flyaround through its own `camerarule` camera into
+DIR/blender-camera-flyaround.png;
 with --mdg-run PATH too, compares the fractal's mean colour with the picture
 `mdg-run --png` draws of it (the pixels that are not background, as
 blender/tests/test_extension.py compares them).
@@ -142,6 +144,17 @@ def main():
         clear()
         assert bpy.ops.mdg.add_model(filepath=str(ROOT / "std" / "examples" / "city_block.mdg")) == {"FINISHED"}
         render(bpy.context.view_layer.objects.active, pathlib.Path(args.pictures) / "blender-city-block.png", (640, 480))
+        # Through a grammar's own camera (its camerarule), as mdg-run --png shows it.
+        clear()
+        assert bpy.ops.mdg.add_model(filepath=str(ROOT / "std" / "examples" / "camera_flyaround.mdg")) == {"FINISHED"}
+        obj = bpy.context.view_layer.objects.active
+        scratch = pathlib.Path(args.pictures) / "blender-camera-flyaround-home.png"
+        render(obj, scratch, (640, 480))  # MDG's light and world (and a picture from the home view)
+        scratch.unlink()
+        scene = bpy.context.scene
+        scene.camera = obj.mdg.camera
+        scene.render.filepath = str(pathlib.Path(args.pictures) / "blender-camera-flyaround.png")
+        bpy.ops.render.render(write_still=True)
 
 
 main()

@@ -315,7 +315,8 @@ pub struct Placed {
 }
 
 /// The rows of one chunk of instances: its share of each of [`Placed`]'s vectors.
-type Rows<'a> = (&'a mut [u32], &'a mut [[f32; 3]], &'a mut [[f32; 4]], &'a mut [[f32; 3]], &'a mut [[f32; 4]], &'a mut [u32]);
+type Rows<'a> =
+    (&'a mut [u32], &'a mut [[f32; 3]], &'a mut [[f32; 4]], &'a mut [[f32; 3]], &'a mut [[f32; 4]], &'a mut [u32]);
 
 /// The placed prototype instances of `out`, with every prototype (of the shared
 /// meshes, in order) in its own space: normals as a renderer placing it needs them,

@@ -653,7 +653,10 @@ impl Model {
         Model::cached(py, &self.mesh, || {
             let ready = self.flat.lock().ok().and_then(|mut f| f.take());
             let out = self.out.clone();
-            mesh_py(py, ready.unwrap_or_else(|| py.detach(|| flatten(&out, Groups::ALL, Expand::Where(|_| true), cpus()))))
+            mesh_py(
+                py,
+                ready.unwrap_or_else(|| py.detach(|| flatten(&out, Groups::ALL, Expand::Where(|_| true), cpus()))),
+            )
         })
     }
 
@@ -871,11 +874,7 @@ impl Model {
     /// places it: `(translation, rotation)`, a (3,) float32 position and a (4,)
     /// float32 unit quaternion (w, x, y, z). The camera looks along its own −z axis
     /// with +y up (Blender's and OpenGL's convention). None without a camera.
-    fn camera_pose<'py>(
-        &self,
-        py: Python<'py>,
-        time: f64,
-    ) -> PyResult<Option<(Bound<'py, PyAny>, Bound<'py, PyAny>)>> {
+    fn camera_pose<'py>(&self, py: Python<'py>, time: f64) -> PyResult<Option<(Bound<'py, PyAny>, Bound<'py, PyAny>)>> {
         if !(time.is_finite() && time >= 0.0) {
             return Err(PyValueError::new_err(format!("camera_pose: time={time}: expected a number of seconds ≥ 0")));
         }
