@@ -13,6 +13,8 @@ Installs the extension from the .zip as a user would, then:
   an error naming mdg-run;
 * changes a `@param` in the sidebar's properties and sees the geometry change;
 * breaks a grammar on disk, regenerates, and sees the error with its file and line;
+* ticks Live reload and sees a changed file regenerate the model (one tick of the
+  watcher: Blender's timers do not run in background mode);
 * adds the animated robot arm and solar system (std/examples) and checks the armature
   (a bone per bone of mdg-run's .glb), the action's constant keys, the skinning, and
   that at times t Blender's evaluated (deformed) mesh has the bounds of the pose
@@ -195,6 +197,28 @@ def error_has_line():
     except RuntimeError as e:  # the report, as background mode raises it
         assert "broken.mdg:4:10: E0301" in str(e), e
     assert "broken.mdg:4:10: E0301: unknown rule `NOPE`" in obj.mdg.error, obj.mdg.error
+
+
+@check("live reload regenerates when the grammar file changes")
+def live_reload():
+    import importlib
+
+    f = pathlib.Path(TMP) / "live.mdg"
+    f.write_text("@import primitives\nstartshape A\nrule A { cube {} }\n")
+    r, obj = add(f)
+    assert r == {"FINISHED"}
+    before = len(obj.data.vertices) + len(obj.mdg.instancer.data.vertices if obj.mdg.instancer else [])
+    obj.mdg.live_reload = True
+    # The extension's timer (bpy.app.timers does not fire in background mode): one tick.
+    ext = importlib.import_module("bl_ext.user_default.mdg_grammars")
+    assert ext.watch() == 0.5, "the watcher stopped with a live object"
+    f.write_text("@import primitives\nstartshape A\nrule A { cube {} cube {x 2} cube {x 4} }\n")
+    os.utime(f, (time.time() + 5, time.time() + 5))
+    ext.watch()
+    after = len(obj.data.vertices) + len(obj.mdg.instancer.data.vertices if obj.mdg.instancer else [])
+    assert after == 3 * before and obj.mdg.error == "", (before, after, obj.mdg.error)
+    obj.mdg.live_reload = False
+    assert ext.watch() is None, "the watcher kept running with no live object"
 
 
 def glb_json(path):
@@ -442,7 +466,8 @@ def main():
     for path in sorted((ROOT / "std" / "examples").glob("*.mdg")):
         if only in f"add {path.stem}":
             example_check(path)
-    for name, f in [("param", param_changes_geometry), ("error", error_has_line), ("camera", camera_check),
+    for name, f in [("param", param_changes_geometry), ("error", error_has_line), ("reload", live_reload),
+                    ("camera", camera_check),
                     ("fractal", fractal_render)]:
         if only in name or not only:
             f()
