@@ -15,7 +15,12 @@ numbers). Installs it, then measures:
 
 With --pictures DIR, also renders (Cycles, MDG's home view and light as
 tests/clients/blender_check.py sets them up) the fractal and a std example through
-the extension into DIR/blender-cube-fractal.png and DIR/blender-city-block.png.
+the extension into DIR/blender-cube-fractal.png and DIR/blender-city-block.png, and
+camera_flyaround through its own `camerarule` camera into
+DIR/blender-camera-flyaround.png;
+with --mdg-run PATH too, compares the fractal's mean colour with the picture
+`mdg-run --png` draws of it (the pixels that are not background, as
+blender/tests/test_extension.py compares them).
 """
 
 import argparse
@@ -72,10 +77,38 @@ def render(obj, path, size):
     blender_check.render(str(path), size, lo, hi)
 
 
+def mean_colours(mdg_run, src, picture, size):
+    import subprocess
+    import tempfile
+
+    def pixels(path):
+        img = bpy.data.images.load(str(path))
+        px = np.array(img.pixels[:], dtype=np.float64).reshape(-1, 4)
+        bpy.data.images.remove(img)
+        return px
+
+    def mean(px, bg):
+        rgb = px[:, :3] * px[:, 3:4] + bg * (1 - px[:, 3:4])
+        keep = (np.abs(rgb - bg) > 6 / 255).any(axis=1)
+        return rgb[keep].mean(axis=0)
+
+    with tempfile.TemporaryDirectory() as tmp:
+        png = pathlib.Path(tmp) / "mdg.png"
+        subprocess.run([mdg_run, str(src), "--max-vertices", "20000000", "-o", str(png), "--size",
+                        f"{size[0]}x{size[1]}"], check=True, capture_output=True)
+        want = pixels(png)
+    bg = want[0, :3]
+    a, b = mean(want, bg), mean(pixels(picture), bg)
+    chroma = lambda c: c / max(c.sum(), 1e-9)  # noqa: E731
+    print(f"cube fractal render: mean colour mdg-run --png {a.round(3)}, Blender {b.round(3)}; chromaticities "
+          f"{np.abs(chroma(a) - chroma(b)).max():.3f} apart", flush=True)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("zip")
     ap.add_argument("--pictures")
+    ap.add_argument("--mdg-run")
     args = ap.parse_args(sys.argv[1:])
     bpy.ops.wm.read_factory_settings(use_empty=True)
     assert bpy.ops.extensions.package_install_files(filepath=args.zip, repo="user_default", enable_on_install=True) == {"FINISHED"}
@@ -95,6 +128,8 @@ def main():
         out = pathlib.Path(args.pictures)
         out.mkdir(parents=True, exist_ok=True)
         render(obj, out / "blender-cube-fractal.png", (640, 480))
+        if args.mdg_run:
+            mean_colours(args.mdg_run, src, out / "blender-cube-fractal.png", (640, 480))
     clear()
     assert bpy.ops.mdg.add_model(filepath=str(ROOT / "std" / "examples" / "parametric_tree.mdg")) == {"FINISHED"}
     obj = bpy.context.view_layer.objects.active
@@ -109,6 +144,17 @@ def main():
         clear()
         assert bpy.ops.mdg.add_model(filepath=str(ROOT / "std" / "examples" / "city_block.mdg")) == {"FINISHED"}
         render(bpy.context.view_layer.objects.active, pathlib.Path(args.pictures) / "blender-city-block.png", (640, 480))
+        # Through a grammar's own camera (its camerarule), as mdg-run --png shows it.
+        clear()
+        assert bpy.ops.mdg.add_model(filepath=str(ROOT / "std" / "examples" / "camera_flyaround.mdg")) == {"FINISHED"}
+        obj = bpy.context.view_layer.objects.active
+        scratch = pathlib.Path(args.pictures) / "blender-camera-flyaround-home.png"
+        render(obj, scratch, (640, 480))  # MDG's light and world (and a picture from the home view)
+        scratch.unlink()
+        scene = bpy.context.scene
+        scene.camera = obj.mdg.camera
+        scene.render.filepath = str(pathlib.Path(args.pictures) / "blender-camera-flyaround.png")
+        bpy.ops.render.render(write_still=True)
 
 
 main()

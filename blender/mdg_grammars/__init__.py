@@ -22,6 +22,11 @@ i = 0..⌊duration·fps⌋ (time i/fps), constant interpolation, so that the pos
 time t is the one `mdg-run --time t` writes (as mdg-run's glTF animation, STEP).
 Animated prototype instances are expanded into `NAME` to follow their bones.
 
+A grammar with a `camerarule` also makes `NAME camera`, a camera placed as
+mdg-run's picture places it (with the grammar's field of view and clipping planes),
+keyed over the duration when it moves (the action `NAME camera motion`); adding the
+model makes it the scene's camera when the scene has none.
+
 The sidebar (N panel, tab MDG) shows the seed, the grammar's `@param`s and presets;
 changing one regenerates the model in place. `Live reload` watches the file.
 Errors show in Blender's report area (and the panel) with the grammar's file and line.
@@ -234,6 +239,7 @@ def build(obj, model):
         pos, col = np.concatenate([pos, ep]), np.concatenate([col, ec])
     fill_mesh(obj.data, pos, tri, col)
     rig(obj, model, bones if animated else None)
+    camera(obj, model)
     if not obj.data.materials:
         obj.data.materials.append(material("MDG vertex colour", "GEOMETRY"))
     inst_obj = obj.mdg.instancer
@@ -468,6 +474,84 @@ def animate(arm, model):
 
 
 # ---------------------------------------------------------------------------
+# The camera of a `camerarule`
+
+
+def remove_camera(obj):
+    cam = obj.mdg.camera
+    if cam is None:
+        return
+    data, action = cam.data, cam.animation_data.action if cam.animation_data else None
+    bpy.data.objects.remove(cam)
+    if data is not None and data.users == 0:
+        bpy.data.cameras.remove(data)
+    if action is not None and action.users == 0:
+        bpy.data.actions.remove(action)
+    obj.mdg.camera = None
+
+
+def camera(obj, model):
+    """The camera `NAME camera` of a grammar with a `camerarule` (none without one):
+    placed as mdg-run's picture places it (at the camera frame's origin, looking along
+    its -z axis with +y up, as Blender's cameras look), with the grammar's vertical
+    field of view and clipping planes; a child of `obj` (the grammar's world). A camera
+    that moves gets the action `NAME camera motion`: location and rotation keys at every
+    frame index i = 0..⌊duration·fps⌋ of the camera's `fps`, constant interpolation."""
+    lens = model.camera
+    if lens is None:
+        remove_camera(obj)
+        return
+    name = obj.name
+    cam = obj.mdg.camera
+    if cam is None:
+        cam = bpy.data.objects.new(f"{name} camera", bpy.data.cameras.new(f"{name} camera"))
+        for c in obj.users_collection:
+            c.objects.link(cam)
+        cam.parent = obj
+        cam.matrix_parent_inverse.identity()
+        obj.mdg.camera = cam
+    d = cam.data
+    d.type = "PERSP"
+    d.lens_unit = "FOV"
+    d.sensor_fit = "VERTICAL"
+    d.angle_y = float(np.radians(lens["fov"]))
+    d.clip_start, d.clip_end = float(lens["near"]), float(lens["far"])
+    cam.rotation_mode = "QUATERNION"
+    old = cam.animation_data.action if cam.animation_data else None
+    if old is not None:
+        cam.animation_data.action = None
+        if old.users == 0:
+            bpy.data.actions.remove(old)
+    f, duration = float(lens["fps"]), float(model.duration)
+    n = frame_index(duration, f) + 1 if f > 0 and duration > 0 else 1
+    poses = [model.camera_pose(i / f if f > 0 else 0.0) for i in range(n)]
+    t0, r0 = poses[0]
+    cam.location, cam.rotation_quaternion = t0.tolist(), r0.tolist()
+    if all(np.array_equal(t, t0) and np.array_equal(r, r0) for t, r in poses):
+        return
+    scene = bpy.context.scene
+    fps = scene.render.fps / scene.render.fps_base
+    start = scene.frame_start
+    action = bpy.data.actions.new(f"{name} camera motion")
+    cam.animation_data_create()
+    cam.animation_data.action = action
+    times = start + np.arange(n, dtype=np.float64) / f * fps
+    values = np.array([np.concatenate([t, r]) for t, r in poses], dtype=np.float64)
+    for prop, first, count in (("location", 0, 3), ("rotation_quaternion", 3, 4)):
+        for i in range(count):
+            fc = action.fcurve_ensure_for_datablock(cam, prop, index=i, group_name="camera")
+            fc.keyframe_points.add(n)
+            co = np.empty((n, 2), np.float32)
+            co[:, 0], co[:, 1] = times, values[:, first + i]
+            fc.keyframe_points.foreach_set("co", co.ravel())
+            fc.keyframe_points.foreach_set("interpolation", [0] * n)  # CONSTANT
+            fc.update()
+    last = start + duration * fps
+    if scene.frame_end < last:
+        scene.frame_end = int(np.ceil(last))
+
+
+# ---------------------------------------------------------------------------
 # Properties
 
 
@@ -547,6 +631,7 @@ class MDG_PG_settings(bpy.types.PropertyGroup):
     seconds: FloatProperty()
     instancer: PointerProperty(type=bpy.types.Object)
     armature: PointerProperty(type=bpy.types.Object)
+    camera: PointerProperty(type=bpy.types.Object)
 
 
 def load_settings(obj, path):
@@ -625,6 +710,9 @@ class MDG_OT_add_model(bpy.types.Operator):
         load_settings(obj, self.filepath)
         if not regenerate(obj, self.report):
             return {"CANCELLED"}
+        # The grammar's camera becomes the scene's camera when the scene has none.
+        if obj.mdg.camera is not None and context.scene.camera is None:
+            context.scene.camera = obj.mdg.camera
         for o in context.view_layer.objects:
             o.select_set(False)
         obj.select_set(True)

@@ -13,10 +13,15 @@ Installs the extension from the .zip as a user would, then:
   an error naming mdg-run;
 * changes a `@param` in the sidebar's properties and sees the geometry change;
 * breaks a grammar on disk, regenerates, and sees the error with its file and line;
+* ticks Live reload and sees a changed file regenerate the model (one tick of the
+  watcher: Blender's timers do not run in background mode);
 * adds the animated robot arm and solar system (std/examples) and checks the armature
   (a bone per bone of mdg-run's .glb), the action's constant keys, the skinning, and
   that at times t Blender's evaluated (deformed) mesh has the bounds of the pose
   `mdg-run --time t` writes;
+* adds camera_flyaround (a `camerarule`) and checks its camera against the camera
+  of mdg-run's .glb (field of view, clipping planes, where it is at several times)
+  and that it becomes the scene's camera only when the scene has none;
 * renders the cube fractal (benches/workloads/cube_fractal.mdg, 262,144 instances)
   with Cycles and compares its mean colour with `mdg-run --png`'s picture.
 
@@ -194,6 +199,28 @@ def error_has_line():
     assert "broken.mdg:4:10: E0301: unknown rule `NOPE`" in obj.mdg.error, obj.mdg.error
 
 
+@check("live reload regenerates when the grammar file changes")
+def live_reload():
+    import importlib
+
+    f = pathlib.Path(TMP) / "live.mdg"
+    f.write_text("@import primitives\nstartshape A\nrule A { cube {} }\n")
+    r, obj = add(f)
+    assert r == {"FINISHED"}
+    before = len(obj.data.vertices) + len(obj.mdg.instancer.data.vertices if obj.mdg.instancer else [])
+    obj.mdg.live_reload = True
+    # The extension's timer (bpy.app.timers does not fire in background mode): one tick.
+    ext = importlib.import_module("bl_ext.user_default.mdg_grammars")
+    assert ext.watch() == 0.5, "the watcher stopped with a live object"
+    f.write_text("@import primitives\nstartshape A\nrule A { cube {} cube {x 2} cube {x 4} }\n")
+    os.utime(f, (time.time() + 5, time.time() + 5))
+    ext.watch()
+    after = len(obj.data.vertices) + len(obj.mdg.instancer.data.vertices if obj.mdg.instancer else [])
+    assert after == 3 * before and obj.mdg.error == "", (before, after, obj.mdg.error)
+    obj.mdg.live_reload = False
+    assert ext.watch() is None, "the watcher kept running with no live object"
+
+
 def glb_json(path):
     """The JSON chunk of a .glb."""
     import json
@@ -285,6 +312,82 @@ def armature_check(src):
     print(f"       {src.stem}: {len(arm.data.bones)} bones, {len(curves)} F-curves, {keys} keys")
 
 
+def read_accessor(glb, g, index):
+    """A float accessor of a .glb as a flat array."""
+    import struct
+
+    data = pathlib.Path(glb).read_bytes()
+    bin_start = 20 + struct.unpack_from("<I", data, 12)[0] + 8
+    a = g["accessors"][index]
+    view = g["bufferViews"][a["bufferView"]]
+    width = {"SCALAR": 1, "VEC3": 3, "VEC4": 4}[a["type"]]
+    offset = bin_start + view.get("byteOffset", 0) + a.get("byteOffset", 0)
+    return np.frombuffer(data, dtype="<f4", count=a["count"] * width, offset=offset)
+
+
+def glb_camera(glb):
+    """mdg-run's camera in its .glb (in MDG's space, under the z-up root): yfov, near,
+    far, and (translation, rotation (x, y, z, w)) at time t."""
+    g = glb_json(glb)
+    index = next(i for i, n in enumerate(g["nodes"]) if "camera" in n)
+    node, lens = g["nodes"][index], g["cameras"][0]["perspective"]
+    channels = {c["target"]["path"]: g["animations"][0]["samplers"][c["sampler"]]
+                for c in g.get("animations", [{}])[0].get("channels", []) if c["target"]["node"] == index}
+
+    def at(t):
+        out = []
+        for path, width, still in (("translation", 3, node["translation"]), ("rotation", 4, node["rotation"])):
+            if path not in channels:
+                out.append(np.array(still))
+                continue
+            times = read_accessor(glb, g, channels[path]["input"])
+            values = read_accessor(glb, g, channels[path]["output"]).reshape(-1, width)
+            out.append(values[int(np.searchsorted(times, t + 1e-6)) - 1])
+        return out
+
+    return lens["yfov"], lens["znear"], lens.get("zfar"), at
+
+
+@check("a camerarule's camera comes in where mdg-run's picture has it, as the scene's camera")
+def camera_check():
+    from mathutils import Quaternion
+
+    src = ROOT / "std" / "examples" / "camera_flyaround.mdg"
+    r, obj = add(src)
+    assert r == {"FINISHED"}, obj and obj.mdg.error
+    cam = obj.mdg.camera
+    assert cam is not None and cam.type == "CAMERA", cam
+    scene = bpy.context.scene
+    assert scene.camera == cam, scene.camera
+    glb = pathlib.Path(TMP) / "camera.glb"
+    mdg_run(src, "-o", glb)
+    yfov, near, far, at = glb_camera(glb)
+    d = cam.data
+    assert d.sensor_fit == "VERTICAL" and abs(d.angle_y - yfov) < 1e-5, (d.sensor_fit, d.angle_y, yfov)
+    assert abs(d.clip_start - near) < 1e-6 and abs(d.clip_end - far) < 1e-3, (d.clip_start, d.clip_end)
+    fps = scene.render.fps / scene.render.fps_base
+    for t in (0.0, 3.0, 7.51, 11.9):
+        frame = scene.frame_start + t * fps
+        scene.frame_set(int(np.floor(frame)), subframe=float(frame - np.floor(frame)))
+        m = np.array(cam.matrix_world)
+        want_t, (x, y, z, w) = at(t)
+        want_r = np.array(Quaternion((w, x, y, z)).to_matrix())
+        assert np.allclose(m[:3, 3], want_t, atol=1e-4), f"t={t}: at {m[:3, 3]}, mdg-run's {want_t}"
+        assert np.allclose(m[:3, :3], want_r, atol=1e-4), f"t={t}: turned {m[:3, :3]}, mdg-run's {want_r}"
+        print(f"       t={t}: camera at {m[:3, 3].round(3)} as mdg-run's")
+    # A scene that has a camera keeps it.
+    reset()
+    mine = bpy.data.objects.new("mine", bpy.data.cameras.new("mine"))
+    scene.collection.objects.link(mine)
+    scene.camera = mine
+    assert bpy.ops.mdg.add_model(filepath=str(src)) == {"FINISHED"}
+    added = bpy.context.view_layer.objects.active
+    assert added.mdg.camera is not None and scene.camera == mine, scene.camera
+    # Without a camerarule: no camera.
+    r, obj = add(ROOT / "std" / "examples" / "tree.mdg")
+    assert r == {"FINISHED"} and obj.mdg.camera is None and not bpy.data.cameras
+
+
 def mean_colour(px, bg):
     """Mean RGB of the pixels (composited over bg) that differ from bg by > 6/255."""
     rgb = px[:, :3] * px[:, 3:4] + bg * (1 - px[:, 3:4])
@@ -363,7 +466,9 @@ def main():
     for path in sorted((ROOT / "std" / "examples").glob("*.mdg")):
         if only in f"add {path.stem}":
             example_check(path)
-    for name, f in [("param", param_changes_geometry), ("error", error_has_line), ("fractal", fractal_render)]:
+    for name, f in [("param", param_changes_geometry), ("error", error_has_line), ("reload", live_reload),
+                    ("camera", camera_check),
+                    ("fractal", fractal_render)]:
         if only in name or not only:
             f()
     for stem in ("robot_arm", "solar_system"):

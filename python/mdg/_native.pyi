@@ -189,6 +189,16 @@ class Model:
         vertex v of bone b is at bone_pose(t)[b] @ (v, 1), as in pose(t)."""
     def pose(self, time: float) -> Model:
         """The model posed at `time` seconds (as mdg-run --time)."""
+    @property
+    def camera(self) -> Optional[dict[str, float]]:
+        """The `camerarule` camera (None without one): fov (vertical, degrees), near, far,
+        fps, as mdg-run's pictures use them."""
+    def camera_pose(
+        self, time: float
+    ) -> Optional[tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]]:
+        """(translation (3,), rotation (4,) unit quaternion w, x, y, z) of the camera at
+        `time` seconds, as mdg-run's picture places it; it looks along its -z axis with +y
+        up. None without a camera."""
     def write(
         self, path: Union[str, os.PathLike[str]], *, format: Optional[str] = None, instances: bool = False
     ) -> None:

@@ -4,7 +4,8 @@
 
 use glam::Vec3;
 use mdg_vm::export::glb::prototype_placement;
-use mdg_vm::output::{Groups, Instance, Output, Piece};
+use mdg_vm::geom::mesh::Mesh;
+use mdg_vm::output::{expand_isosurface, expand_prototype, Groups, Instance, Output, Piece, VertexPart};
 
 /// A flat mesh: what [`crate::Mesh`] holds.
 #[derive(Debug, Default)]
@@ -46,39 +47,240 @@ fn clamped(c: [f32; 4]) -> [f32; 4] {
     c.map(|v| if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) })
 }
 
-impl Flat {
-    fn push_piece(&mut self, p: &Piece) {
-        let m = p.mesh;
-        for i in p.vertices.clone() {
-            self.positions.push(finite3(m.positions[i]));
-            self.normals.push(unit(m.normals.get(i).copied().unwrap_or([0.0, 0.0, 1.0])));
-            self.colors.push(clamped(m.colors.get(i).copied().unwrap_or([1.0; 4])));
-            if self.animated {
-                self.bones.push(m.bone(i));
-            }
-        }
-        self.triangles.extend(p.triangles.clone().filter_map(|k| p.oriented(k)));
+/// Which instances a flat walk expands ([`flatten`]).
+pub enum Expand<F> {
+    /// Those `f(index)` keeps.
+    Where(F),
+    /// No prototype instance; the isosurfaces `f(index)` keeps.
+    NoPrototypes(F),
+}
+
+/// One vertex as the exporters write it: a finite position, a unit normal, a
+/// colour clamped to 0..1.
+fn vertex(m: &Mesh, i: usize) -> ([f32; 3], [f32; 3], [f32; 4]) {
+    (
+        finite3(m.positions[i]),
+        unit(m.normals.get(i).copied().unwrap_or([0.0, 0.0, 1.0])),
+        clamped(m.colors.get(i).copied().unwrap_or([1.0; 4])),
+    )
+}
+
+/// One part of a flat walk, in walk order: a run of a mesh that the model holds (a
+/// run of [`Output::mesh`], the sweeps), or an instance expanded on the way.
+#[derive(Clone, Copy, Debug)]
+enum What {
+    /// Index into the walk's runs.
+    Run(u32),
+    /// Index into [`Output::instances`] (a prototype or an isosurface).
+    Instance(u32),
+}
+
+/// A [`What`] with the flat index of its first vertex and the most triangles
+/// before it (triangles that refer outside their piece are left out, so the
+/// triangle offsets are upper bounds until the end).
+#[derive(Clone, Copy, Debug)]
+struct Part {
+    what: What,
+    vertex: usize,
+    triangle: usize,
+}
+
+/// The buffers of one thread's parts: its share of each of [`Flat`]'s vectors.
+struct Slices<'a> {
+    positions: &'a mut [[f32; 3]],
+    normals: &'a mut [[f32; 3]],
+    colors: &'a mut [[f32; 4]],
+    triangles: &'a mut [[u32; 3]],
+    bones: &'a mut [u32],
+}
+
+impl<'a> Slices<'a> {
+    /// Splits off the first `v` vertices and `t` triangles.
+    fn split(self, v: usize, t: usize, animated: bool) -> (Slices<'a>, Slices<'a>) {
+        let (p1, p2) = self.positions.split_at_mut(v);
+        let (n1, n2) = self.normals.split_at_mut(v);
+        let (c1, c2) = self.colors.split_at_mut(v);
+        let (t1, t2) = self.triangles.split_at_mut(t);
+        let (b1, b2) = self.bones.split_at_mut(if animated { v } else { 0 });
+        (
+            Slices { positions: p1, normals: n1, colors: c1, triangles: t1, bones: b1 },
+            Slices { positions: p2, normals: n2, colors: c2, triangles: t2, bones: b2 },
+        )
     }
 }
 
 /// The geometry of `groups` as one world-space mesh, leaving out the instances
-/// `expand` refuses (triangles wound as the exporters write them).
-pub fn flatten(out: &Output, groups: Groups, expand: impl Fn(usize) -> bool) -> Flat {
-    let (v, t) = out.flat_counts_where(groups, &expand);
+/// `expand` refuses (triangles wound as the exporters write them): the vertices and
+/// triangles of [`Output::for_each_piece_where`], in its order.
+///
+/// A first walk lists the parts (runs of the model's meshes, instances to expand)
+/// with where each one's vertices and triangles go; then up to `threads` threads
+/// convert nearly equal shares of the vertices, each straight into its part of the
+/// final buffers (which become the numpy arrays without a copy). The walk over the
+/// instances is skipped where it would find nothing: the prototype instances when
+/// `Expand::NoPrototypes` (the base mesh of a model whose instances are all
+/// placed), the isosurfaces when the model has none.
+pub fn flatten(out: &Output, groups: Groups, expand: Expand<impl Fn(usize) -> bool>, threads: usize) -> Flat {
+    let (expand, prototypes) = match expand {
+        Expand::Where(f) => (f, true),
+        Expand::NoPrototypes(f) => (f, false),
+    };
     let animated = out.animation.bones.len() > 1;
+    // The walk: the VERTEX group's runs and prototype instances, the sweeps, the
+    // isosurface instances.
+    let mut runs: Vec<Piece<'_>> = Vec::new();
+    let mut parts: Vec<Part> = Vec::new();
+    let (mut v, mut t) = (0usize, 0usize);
+    let mut push = |what: What, nv: usize, nt: usize| {
+        parts.push(Part { what, vertex: v, triangle: t });
+        v += nv;
+        t += nt;
+    };
+    if groups.vertex && !prototypes {
+        // The walk would make one run of the whole mesh.
+        let m = &out.mesh;
+        runs.push(Piece { mesh: m, vertices: 0..m.n_vertices(), triangles: 0..m.triangles.len(), base: 0 });
+        push(What::Run(runs.len() as u32 - 1), m.n_vertices(), m.triangles.len());
+    } else if groups.vertex {
+        let _ = out.for_each_vertex_part::<()>(&expand, |part| {
+            match part {
+                VertexPart::Piece(p) => {
+                    let (nv, nt) = (p.vertices.len(), p.triangles.len());
+                    runs.push(p);
+                    push(What::Run(runs.len() as u32 - 1), nv, nt);
+                }
+                VertexPart::Prototype { instance, .. } => {
+                    if let Some(s) = out.instances.get(instance).and_then(|i| out.shared(i)) {
+                        push(What::Instance(instance as u32), s.mesh.n_vertices(), s.mesh.triangles.len());
+                    }
+                }
+            }
+            Ok(())
+        });
+    }
+    if groups.sweeps {
+        let m = &out.sweeps;
+        runs.push(Piece { mesh: m, vertices: 0..m.n_vertices(), triangles: 0..m.triangles.len(), base: 0 });
+        push(What::Run(runs.len() as u32 - 1), m.n_vertices(), m.triangles.len());
+    }
+    if groups.isosurfaces && out.shared_meshes.iter().any(|s| !s.is_prototype()) {
+        for (i, inst) in out.instances.iter().enumerate() {
+            let Some(s) = out.shared(inst).filter(|s| !s.is_prototype() && expand(i)) else { continue };
+            push(What::Instance(i as u32), s.mesh.n_vertices(), s.mesh.triangles.len());
+        }
+    }
     let mut f = Flat {
-        positions: Vec::with_capacity(v),
-        normals: Vec::with_capacity(v),
-        colors: Vec::with_capacity(v),
-        triangles: Vec::with_capacity(t),
-        bones: Vec::with_capacity(if animated { v } else { 0 }),
+        positions: vec![[0.0; 3]; v],
+        normals: vec![[0.0; 3]; v],
+        colors: vec![[0.0; 4]; v],
+        triangles: vec![[0; 3]; t],
+        bones: vec![0; if animated { v } else { 0 }],
         animated,
     };
-    let _ = out.for_each_piece_where::<()>(groups, &expand, |p| {
-        f.push_piece(p);
-        Ok(())
-    });
+    // Each thread's parts: nearly equal numbers of vertices (parts are not split),
+    // at least 64k vertices each (a thread costs more than it saves on less).
+    let threads = threads.min(v / 65_536).clamp(1, parts.len().max(1));
+    let mut bounds = vec![0usize];
+    for k in 1..threads {
+        let at = parts.partition_point(|p| p.vertex < v * k / threads);
+        if at > *bounds.last().unwrap_or(&0) && at < parts.len() {
+            bounds.push(at);
+        }
+    }
+    bounds.push(parts.len());
+    let starts = |b: usize| parts.get(b).map_or((v, t), |p| (p.vertex, p.triangle));
+    let mut rest = Slices {
+        positions: &mut f.positions,
+        normals: &mut f.normals,
+        colors: &mut f.colors,
+        triangles: &mut f.triangles,
+        bones: &mut f.bones,
+    };
+    let mut work = Vec::new();
+    for w in bounds.windows(2) {
+        let ((v0, t0), (v1, t1)) = (starts(w[0]), starts(w[1]));
+        let (mine, others) = rest.split(v1 - v0, t1 - t0, animated);
+        rest = others;
+        work.push((&parts[w[0]..w[1]], v0, mine));
+    }
+    let convert = |(parts, v0, s): (&[Part], usize, Slices<'_>)| -> usize {
+        let mut scratch = Mesh::default();
+        let mut written = 0;
+        for part in parts {
+            let piece = match part.what {
+                What::Run(r) => match runs.get(r as usize) {
+                    Some(p) => Piece { base: part.vertex as u32, ..p.clone() },
+                    None => continue,
+                },
+                What::Instance(i) => {
+                    let Some(inst) = out.instances.get(i as usize) else { continue };
+                    let Some(shared) = out.shared(inst) else { continue };
+                    scratch.clear();
+                    if shared.is_prototype() {
+                        expand_prototype(&mut scratch, shared, inst, out.instance_weight(i as usize));
+                    } else {
+                        expand_isosurface(&mut scratch, &shared.mesh, out, inst);
+                    }
+                    Piece {
+                        mesh: &scratch,
+                        vertices: 0..scratch.n_vertices(),
+                        triangles: 0..scratch.triangles.len(),
+                        base: part.vertex as u32,
+                    }
+                }
+            };
+            let m = piece.mesh;
+            let at = part.vertex - v0;
+            for (k, i) in piece.vertices.clone().enumerate() {
+                let (p, n, c) = vertex(m, i);
+                s.positions[at + k] = p;
+                s.normals[at + k] = n;
+                s.colors[at + k] = c;
+                if animated {
+                    s.bones[at + k] = m.bone(i);
+                }
+            }
+            for tri in piece.triangles.clone().filter_map(|k| piece.oriented(k)) {
+                if let Some(slot) = s.triangles.get_mut(written) {
+                    *slot = tri;
+                    written += 1;
+                }
+            }
+        }
+        written
+    };
+    let written = chunks_on_threads(work, convert);
+    // Triangles that referred outside their piece were left out: close the gaps.
+    let mut end = 0;
+    for (w, n) in bounds.windows(2).zip(written) {
+        let t0 = starts(w[0]).1;
+        if end != t0 {
+            f.triangles.copy_within(t0..t0 + n, end);
+        }
+        end += n;
+    }
+    f.triangles.truncate(end);
     f
+}
+
+/// `f` of each work item, the first on the calling thread and each other one on a
+/// thread of its own; results in order.
+fn chunks_on_threads<W: Send, R: Send>(work: Vec<W>, f: impl Fn(W) -> R + Sync) -> Vec<R> {
+    let mut work = work.into_iter();
+    let Some(first) = work.next() else { return Vec::new() };
+    std::thread::scope(|scope| {
+        let f = &f;
+        let handles: Vec<_> = work.map(|w| scope.spawn(move || f(w))).collect();
+        let mut out = vec![f(first)];
+        for h in handles {
+            match h.join() {
+                Ok(r) => out.push(r),
+                // A panicking worker is a bug: let it surface as the panic it was.
+                Err(e) => std::panic::resume_unwind(e),
+            }
+        }
+        out
+    })
 }
 
 /// Whether instance `inst` of `out` is a prototype instance placed by a transform
@@ -90,37 +292,9 @@ fn placement(out: &Output, inst: &Instance) -> Option<([f32; 3], [f32; 4], [f32;
     prototype_placement(&inst.frame)
 }
 
-/// The threads the conversions of big models use: the machine's, at most 16, and
-/// one per 64k items at least (threads cost more than they save on small models).
-fn threads_for(items: usize) -> usize {
-    let cpus = std::thread::available_parallelism().map_or(1, |n| n.get()).min(16);
-    cpus.min(items / 65_536).max(1)
-}
-
-/// `f(chunk index, chunk)` for `threads` nearly equal chunks of `0..n`, on as many
-/// threads (the calling thread takes the first); results in chunk order.
-fn chunked<R: Send>(n: usize, threads: usize, f: impl Fn(std::ops::Range<usize>) -> R + Sync) -> Vec<R> {
-    let size = n.div_ceil(threads.max(1)).max(1);
-    let ranges: Vec<_> = (0..n).step_by(size).map(|a| a..(a + size).min(n)).collect();
-    if ranges.len() <= 1 {
-        return vec![f(0..n)];
-    }
-    std::thread::scope(|scope| {
-        let f = &f;
-        let handles: Vec<_> = ranges[1..].iter().map(|r| scope.spawn(move || f(r.clone()))).collect();
-        let mut out = vec![f(ranges[0].clone())];
-        // A panicking worker is a bug; its chunk is then computed again here.
-        out.extend(handles.into_iter().zip(&ranges[1..]).map(|(h, r)| h.join().unwrap_or_else(|_| f(r.clone()))));
-        out
-    })
-}
-
-/// Per instance of `out`: whether it is a prototype instance placed by a transform
-/// (listed in [`Placed`]) rather than expanded into the base mesh.
-pub fn placed(out: &Output) -> Vec<bool> {
-    let n = out.instances.len();
-    chunked(n, threads_for(n), |r| out.instances[r].iter().map(|i| placement(out, i).is_some()).collect::<Vec<_>>())
-        .concat()
+/// The threads the conversions of big models use: the machine's, at most 16.
+pub fn cpus() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get()).min(16)
 }
 
 /// Prototype instances as meshes and placements.
@@ -135,16 +309,25 @@ pub struct Placed {
     pub scale: Vec<[f32; 3]>,
     pub color: Vec<[f32; 4]>,
     pub bone: Vec<u32>,
+    /// The prototype instances that could not be placed (indices into
+    /// [`Output::instances`], ascending): the base mesh expands them.
+    pub unplaced: Vec<u32>,
 }
 
-/// The placed prototype instances of `out` (see [`placed`]), with every prototype
-/// (of the shared meshes, in order) in its own space: normals as a renderer placing
-/// it needs them, colours the deltas its vertices add to the instance's colour.
+/// The rows of one chunk of instances: its share of each of [`Placed`]'s vectors.
+type Rows<'a> =
+    (&'a mut [u32], &'a mut [[f32; 3]], &'a mut [[f32; 4]], &'a mut [[f32; 3]], &'a mut [[f32; 4]], &'a mut [u32]);
+
+/// The placed prototype instances of `out`, with every prototype (of the shared
+/// meshes, in order) in its own space: normals as a renderer placing it needs them,
+/// colours the deltas its vertices add to the instance's colour.
 ///
-/// Big models are converted on several threads: a first pass counts each chunk's
-/// placed instances, then every thread writes its rows straight into its own part
-/// of the final buffers (which become the numpy arrays without a copy).
-pub fn instances(out: &Output) -> Placed {
+/// One pass over the instances, on up to `threads` threads (chunks of at least 64k
+/// instances): each chunk writes its rows straight into its part of the final
+/// buffers (which become the numpy arrays without a copy), from the chunk's first
+/// instance on; the rows of instances that are not placed (rare) leave gaps that
+/// are closed afterwards.
+pub fn instances(out: &Output, threads: usize) -> Placed {
     let mut p = Placed::default();
     let mut index = vec![u32::MAX; out.shared_meshes.len()];
     for (k, s) in out.shared_meshes.iter().enumerate().filter(|(_, s)| s.is_prototype()) {
@@ -162,47 +345,37 @@ pub fn instances(out: &Output) -> Placed {
         p.names.push(s.name.clone());
     }
     let all = &out.instances;
-    let threads = threads_for(all.len());
-    let counts = chunked(all.len(), threads, |r| all[r].iter().filter(|i| placement(out, i).is_some()).count());
-    let n: usize = counts.iter().sum();
+    let n = all.len();
+    let threads = threads.min(n / 65_536).max(1);
+    let size = n.div_ceil(threads).max(1);
     p.prototype = vec![0; n];
     p.translation = vec![[0.0; 3]; n];
     p.rotation = vec![[0.0; 4]; n];
     p.scale = vec![[0.0; 3]; n];
     p.color = vec![[0.0; 4]; n];
     p.bone = vec![0; n];
-    // Each chunk's rows: the same chunks as the count, so chunk c's rows start at the
-    // sum of the counts before it.
-    type Rows<'a> =
-        (&'a mut [u32], &'a mut [[f32; 3]], &'a mut [[f32; 4]], &'a mut [[f32; 3]], &'a mut [[f32; 4]], &'a mut [u32]);
-    let mut parts: Vec<Rows<'_>> = Vec::with_capacity(counts.len());
-    {
-        let (mut a, mut b, mut c, mut d, mut e, mut f) = (
-            &mut p.prototype[..],
-            &mut p.translation[..],
-            &mut p.rotation[..],
-            &mut p.scale[..],
-            &mut p.color[..],
-            &mut p.bone[..],
-        );
-        for &k in &counts {
-            let (a1, a2) = std::mem::take(&mut a).split_at_mut(k);
-            let (b1, b2) = std::mem::take(&mut b).split_at_mut(k);
-            let (c1, c2) = std::mem::take(&mut c).split_at_mut(k);
-            let (d1, d2) = std::mem::take(&mut d).split_at_mut(k);
-            let (e1, e2) = std::mem::take(&mut e).split_at_mut(k);
-            let (f1, f2) = std::mem::take(&mut f).split_at_mut(k);
-            parts.push((a1, b1, c1, d1, e1, f1));
-            (a, b, c, d, e, f) = (a2, b2, c2, d2, e2, f2);
-        }
-    }
-    let size = all.len().div_ceil(threads.max(1)).max(1);
-    let fill = |(chunk, rows): (usize, Rows<'_>)| {
+    let work: Vec<(&[Instance], usize, Rows<'_>)> = all
+        .chunks(size)
+        .zip(p.prototype.chunks_mut(size))
+        .zip(p.translation.chunks_mut(size))
+        .zip(p.rotation.chunks_mut(size))
+        .zip(p.scale.chunks_mut(size))
+        .zip(p.color.chunks_mut(size))
+        .zip(p.bone.chunks_mut(size))
+        .enumerate()
+        .map(|(c, ((((((insts, a), b), c2), d), e), f))| (insts, c * size, (a, b, c2, d, e, f)))
+        .collect();
+    let fill = |(insts, first, rows): (&[Instance], usize, Rows<'_>)| -> (usize, Vec<u32>) {
         let (proto, trans, rot, scale, color, bone) = rows;
-        let start = chunk * size;
+        let mut unplaced = Vec::new();
         let mut k = 0;
-        for inst in &all[start..(start + size).min(all.len())] {
-            let Some((t, r, s)) = placement(out, inst) else { continue };
+        for (j, inst) in insts.iter().enumerate() {
+            let Some((t, r, s)) = placement(out, inst) else {
+                if out.is_prototype_instance(inst) {
+                    unplaced.push((first + j) as u32);
+                }
+                continue;
+            };
             proto[k] = index.get(inst.mesh as usize).copied().unwrap_or(0);
             trans[k] = t;
             rot[k] = [r[3], r[0], r[1], r[2]];
@@ -211,16 +384,47 @@ pub fn instances(out: &Output) -> Placed {
             bone[k] = inst.bone;
             k += 1;
         }
+        (k, unplaced)
     };
-    std::thread::scope(|scope| {
-        let mut work = parts.into_iter().enumerate();
-        let first = work.next();
-        for w in work {
-            scope.spawn(move || fill(w));
+    let done = chunks_on_threads(work, fill);
+    // Close the gaps the instances that are not placed left.
+    let mut end = 0;
+    for (c, (k, unplaced)) in done.into_iter().enumerate() {
+        let from = c * size;
+        if end != from {
+            p.prototype.copy_within(from..from + k, end);
+            p.translation.copy_within(from..from + k, end);
+            p.rotation.copy_within(from..from + k, end);
+            p.scale.copy_within(from..from + k, end);
+            p.color.copy_within(from..from + k, end);
+            p.bone.copy_within(from..from + k, end);
         }
-        if let Some(w) = first {
-            fill(w);
-        }
-    });
+        end += k;
+        p.unplaced.extend(unplaced);
+    }
+    p.prototype.truncate(end);
+    p.translation.truncate(end);
+    p.rotation.truncate(end);
+    p.scale.truncate(end);
+    p.color.truncate(end);
+    p.bone.truncate(end);
     p
+}
+
+/// The prototype instances of `out` that [`instances`] cannot place (ascending).
+pub fn unplaced(out: &Output, threads: usize) -> Vec<u32> {
+    let all = &out.instances;
+    let threads = threads.min(all.len() / 65_536).max(1);
+    let size = all.len().div_ceil(threads).max(1);
+    let work: Vec<_> = all.chunks(size).enumerate().collect();
+    chunks_on_threads(work, |(c, insts)| {
+        let first = c * size;
+        insts
+            .iter()
+            .enumerate()
+            .filter(|(_, i)| out.is_prototype_instance(i) && placement(out, i).is_none())
+            .map(|(j, _)| (first + j) as u32)
+            .collect::<Vec<u32>>()
+    })
+    .concat()
 }

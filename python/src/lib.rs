@@ -14,7 +14,7 @@
 
 mod convert;
 
-use convert::{flatten, instances, Flat};
+use convert::{cpus, flatten, instances, Expand, Flat};
 use mdg_compiler::codes::Severity;
 use mdg_compiler::diag::{render_plain, Diagnostic as Diag};
 use mdg_compiler::driver;
@@ -600,6 +600,8 @@ pub struct Model {
     vertex_mesh: OnceLock<Py<Mesh>>,
     base_mesh: OnceLock<Py<Mesh>>,
     instances: OnceLock<Py<Instances>>,
+    /// The prototype instances `instances` cannot place (the base mesh expands them).
+    unplaced: OnceLock<Vec<u32>>,
     /// `mesh`'s buffers made ahead (by [`generate`]'s workers), taken on first access.
     flat: Mutex<Option<Flat>>,
 }
@@ -617,6 +619,7 @@ impl Model {
             vertex_mesh: OnceLock::new(),
             base_mesh: OnceLock::new(),
             instances: OnceLock::new(),
+            unplaced: OnceLock::new(),
             flat: Mutex::new(flat),
         }
     }
@@ -650,7 +653,10 @@ impl Model {
         Model::cached(py, &self.mesh, || {
             let ready = self.flat.lock().ok().and_then(|mut f| f.take());
             let out = self.out.clone();
-            mesh_py(py, ready.unwrap_or_else(|| py.detach(|| flatten(&out, Groups::ALL, |_| true))))
+            mesh_py(
+                py,
+                ready.unwrap_or_else(|| py.detach(|| flatten(&out, Groups::ALL, Expand::Where(|_| true), cpus()))),
+            )
         })
     }
 
@@ -660,7 +666,7 @@ impl Model {
     fn vertex_mesh(&self, py: Python<'_>) -> PyResult<Py<Mesh>> {
         Model::cached(py, &self.vertex_mesh, || {
             let out = self.out.clone();
-            mesh_py(py, py.detach(|| flatten(&out, Groups::VERTEX, |_| true)))
+            mesh_py(py, py.detach(|| flatten(&out, Groups::VERTEX, Expand::Where(|_| true), cpus())))
         })
     }
 
@@ -671,8 +677,14 @@ impl Model {
         Model::cached(py, &self.base_mesh, || {
             let out = self.out.clone();
             let flat = py.detach(|| {
-                let placed = convert::placed(&out);
-                flatten(&out, Groups::ALL, |i| !placed.get(i).copied().unwrap_or(false))
+                let unplaced = self.unplaced.get_or_init(|| convert::unplaced(&out, cpus()));
+                // Every isosurface, and the prototype instances that are not placed.
+                let expand = |i: usize| {
+                    out.instances.get(i).is_none_or(|inst| !out.is_prototype_instance(inst))
+                        || unplaced.binary_search(&(i as u32)).is_ok()
+                };
+                let expand = if unplaced.is_empty() { Expand::NoPrototypes(expand) } else { Expand::Where(expand) };
+                flatten(&out, Groups::ALL, expand, cpus())
             });
             mesh_py(py, flat)
         })
@@ -683,7 +695,8 @@ impl Model {
     fn instances(&self, py: Python<'_>) -> PyResult<Py<Instances>> {
         Model::cached(py, &self.instances, || {
             let out = self.out.clone();
-            let i = py.detach(|| instances(&out));
+            let mut i = py.detach(|| instances(&out, cpus()));
+            let _ = self.unplaced.set(std::mem::take(&mut i.unplaced));
             let prototypes = i.prototypes.into_iter().map(|f| mesh_py(py, f)).collect::<PyResult<Vec<_>>>()?;
             Py::new(
                 py,
@@ -841,6 +854,37 @@ impl Model {
         Ok(PyArray1::from_vec(py, flat).reshape([n, 4, 4])?.into_any())
     }
 
+    /// The `camerarule` camera, or None: a dict with `fov` (the vertical field of
+    /// view in degrees), `near` and `far` (the clipping planes) and `fps` (its
+    /// frames per second), as mdg-run's pictures use them (`fov` within 1..170,
+    /// `near` ≥ 0.0001, `far` ≥ 2·`near`). Where it is: [`Model::camera_pose`].
+    #[getter]
+    fn camera<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some(cam) = &self.out.animation.camera else { return Ok(None) };
+        let (fov, near, far) = picture_lens(cam);
+        let d = PyDict::new(py);
+        d.set_item("fov", fov)?;
+        d.set_item("near", near)?;
+        d.set_item("far", far)?;
+        d.set_item("fps", cam.fps)?;
+        Ok(Some(d))
+    }
+
+    /// Where the `camerarule` camera is at `time` seconds, as mdg-run's picture
+    /// places it: `(translation, rotation)`, a (3,) float32 position and a (4,)
+    /// float32 unit quaternion (w, x, y, z). The camera looks along its own −z axis
+    /// with +y up (Blender's and OpenGL's convention). None without a camera.
+    fn camera_pose<'py>(&self, py: Python<'py>, time: f64) -> PyResult<Option<(Bound<'py, PyAny>, Bound<'py, PyAny>)>> {
+        if !(time.is_finite() && time >= 0.0) {
+            return Err(PyValueError::new_err(format!("camera_pose: time={time}: expected a number of seconds ≥ 0")));
+        }
+        let Some(f) = self.out.animation.camera_at(time) else { return Ok(None) };
+        let (t, r, _) = mdg_vm::anim::trs(&f);
+        let r = if r.is_finite() { [r.w, r.x, r.y, r.z] } else { [1.0, 0.0, 0.0, 0.0] };
+        let t = convert::finite3(t.to_array());
+        Ok(Some((PyArray1::from_vec(py, t.to_vec()).into_any(), PyArray1::from_vec(py, r.to_vec()).into_any())))
+    }
+
     /// The model posed at `time` seconds (every bone moved by its tracks), as
     /// `mdg-run --time` writes it.
     fn pose(&self, py: Python<'_>, time: f64) -> PyResult<Model> {
@@ -910,6 +954,15 @@ impl Model {
             self.out.lines.len()
         )
     }
+}
+
+/// The vertical field of view (degrees) and the clipping planes of a `camerarule`
+/// camera as mdg-run's pictures use them (the viewer's `view_projection`).
+fn picture_lens(cam: &mdg_vm::output::Camera) -> (f32, f32, f32) {
+    let near = cam.near.max(1e-4);
+    // (A field of view that is not a number: the .glb's 40°.)
+    let fov = if cam.fov.is_finite() { cam.fov.clamp(1.0, 170.0) } else { 40.0 };
+    (fov, near, cam.far.max(near * 2.0))
 }
 
 /// Writes `out` to `path` (creating its folder).
@@ -985,7 +1038,8 @@ impl Pool {
     /// One seed: evaluated, flattened if asked, written if asked.
     fn evaluate(&self, seed: u64) -> SeedResult {
         let out = run_once(&self.bundle, &self.settings, Some(seed));
-        let flat = self.mesh.then(|| flatten(&out, Groups::ALL, |_| true));
+        // One thread per seed: the pool's workers already keep the CPUs busy.
+        let flat = self.mesh.then(|| flatten(&out, Groups::ALL, Expand::Where(|_| true), 1));
         match &self.write {
             Some((template, format)) => {
                 let path = seed_path(template, seed);

@@ -120,6 +120,27 @@ def test_many_instances_are_converted_in_order():
     assert np.all(np.diff(inst.color[:, 0].astype(np.float64)) <= 0) and inst.color[-1, 0] < inst.color[0, 0] - 0.5
 
 
+def test_instances_that_cannot_be_placed_leave_no_gap():
+    # Translations that overflow (x 1e35 per copy) cannot be placed: those instances
+    # are expanded into base_mesh, and the rows of the others close up. The rows are
+    # converted in chunks of >= 65,536 instances (one thread each, where there are
+    # several CPUs); here the first chunk holds the ones that cannot be placed.
+    src = "@import primitives\nstartshape A\nrule A { 75000 * {x 1e35} cube {}  75000 * {x 1} cube {} }\n"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mdg.MdgWarning)
+        model = mdg.compile(src).run(limits={"max_vertices": 10_000_000})
+    inst = model.instances
+    first = len(inst) - 75_000
+    assert 3_000 < first < 4_000, len(inst)
+    assert np.all(inst.translation[:first, 0] >= 1e35) and np.all(np.isfinite(inst.translation))
+    assert np.array_equal(inst.translation[first:, 0], np.arange(1, 75_001, dtype=np.float32))
+    corners = len(inst.prototypes[0].positions)
+    assert len(model.base_mesh.positions) == (75_000 - first) * corners
+    assert len(model.positions) == len(model.base_mesh.positions) + len(inst) * corners
+    for a in (inst.prototype, inst.translation, inst.rotation, inst.scale, inst.color, inst.bone):
+        assert len(a) == len(inst) and a.flags["C_CONTIGUOUS"]
+
+
 def test_some_example_has_instances_and_a_mirrored_one():
     # The instance tests above mean something only if the examples have instances.
     tree = mdg.compile(ROOT / "std" / "examples" / "tree.mdg").run()
@@ -257,6 +278,78 @@ def test_animated_model_has_bones_tracks_and_poses(tmp_path):
         model.bone_pose(-1.0)
     static = mdg.compile(ROOT / "std" / "examples" / "tree.mdg").run()
     assert static.mesh.bones is None and static.bones == [] and static.tracks == []
+
+
+def glb_json(path):
+    """The JSON chunk of a .glb."""
+    import json
+    import struct
+
+    data = pathlib.Path(path).read_bytes()
+    length, kind = struct.unpack_from("<II", data, 12)
+    assert kind == 0x4E4F534A, kind
+    return json.loads(data[20 : 20 + length])
+
+
+def rotation_matrix(wxyz):
+    w, x, y, z = np.asarray(wxyz, dtype=np.float64)
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def test_camera_is_where_mdg_run_puts_it(tmp_path):
+    # mdg-run's .glb holds the camera node in MDG's space (under the z-up root): at
+    # t = 0 its translation and rotation, then its keys (STEP) at the camera's fps.
+    src = ROOT / "std" / "examples" / "camera_flyaround.mdg"
+    model = mdg.compile(src).run()
+    glb = tmp_path / "cam.glb"
+    mdg_run(src, "-o", glb)
+    g = glb_json(glb)
+    node_index = next(i for i, n in enumerate(g["nodes"]) if "camera" in n)
+    node = g["nodes"][node_index]
+    lens = model.camera
+    assert set(lens) == {"fov", "near", "far", "fps"}
+    assert lens["fov"] == pytest.approx(np.degrees(g["cameras"][0]["perspective"]["yfov"]), rel=1e-5)
+    assert (lens["near"], lens["far"], lens["fps"]) == pytest.approx((0.2, 200.0, 30.0))
+    t, r = model.camera_pose(0.0)
+    assert t.shape == (3,) and r.shape == (4,) and t.dtype == np.float32
+    assert np.allclose(t, node["translation"], atol=1e-4)
+    x, y, z, w = node["rotation"]
+    assert np.allclose(rotation_matrix(r), rotation_matrix([w, x, y, z]), atol=1e-5)
+    # Later: the key of the glb's translation channel at that time.
+    channel = next(c for c in g["animations"][0]["channels"]
+                   if c["target"]["node"] == node_index and c["target"]["path"] == "translation")
+    sampler = g["animations"][0]["samplers"][channel["sampler"]]
+    times = read_accessor(glb, g, sampler["input"]).ravel()
+    values = read_accessor(glb, g, sampler["output"]).reshape(-1, 3)
+    for when in (3.0, 7.51):
+        k = int(np.searchsorted(times, when + 1e-6)) - 1
+        assert np.allclose(model.camera_pose(when)[0], values[k], atol=1e-4), when
+    assert not np.allclose(model.camera_pose(3.0)[0], t)
+    # It looks at the stones: the centre is in front of it (along its -z axis).
+    forward = rotation_matrix(r) @ np.array([0.0, 0.0, -1.0])
+    assert forward @ (np.zeros(3) - t) > 0.9 * np.linalg.norm(t)
+    assert mdg.compile(ROOT / "std" / "examples" / "tree.mdg").run().camera is None
+    assert mdg.compile(ROOT / "std" / "examples" / "tree.mdg").run().camera_pose(0.0) is None
+    with pytest.raises(ValueError, match="time=-1"):
+        model.camera_pose(-1.0)
+
+
+def read_accessor(glb, g, index):
+    """A float accessor of a .glb as an array."""
+    import struct
+
+    data = pathlib.Path(glb).read_bytes()
+    length = struct.unpack_from("<I", data, 12)[0]
+    bin_start = 20 + length + 8
+    a = g["accessors"][index]
+    view = g["bufferViews"][a["bufferView"]]
+    width = {"SCALAR": 1, "VEC3": 3, "VEC4": 4}[a["type"]]
+    offset = bin_start + view.get("byteOffset", 0) + a.get("byteOffset", 0)
+    return np.frombuffer(data, dtype="<f4", count=a["count"] * width, offset=offset)
 
 
 def generate_threads():
