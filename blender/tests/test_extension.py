@@ -26,13 +26,15 @@ Installs the extension from the .zip as a user would, then:
   with Cycles and compares its mean colour with `mdg-run --png`'s picture.
 
 Prints one line per check and closes with "blender: N passed, N failed"; exits 1 if
-any failed.
+any failed. Its files (about 1 GB) are removed at the end unless MDG_BLENDER_KEEP is
+set; MDG_BLENDER_ONLY=WORD runs only the checks whose name holds WORD.
 """
 
 import math
 import os
 import pathlib
 import subprocess
+import shutil
 import sys
 import tempfile
 import time
@@ -479,6 +481,11 @@ def main():
         print(f"FAILED {name}: {why}")
     print(f"blender: {len(results) - len(failed)} passed, {len(failed)} failed", flush=True)
     sys.stdout.flush()
+    # os._exit skips every clean-up: the fractal's files alone are about 1 GB.
+    if not os.environ.get("MDG_BLENDER_KEEP"):
+        shutil.rmtree(TMP, ignore_errors=True)
+    else:
+        print(f"blender: files kept in {TMP}", flush=True)
     os._exit(1 if failed or not results else 0)
 
 
