@@ -475,9 +475,19 @@ function applyCut() {
     g.setIndex(new THREE.BufferAttribute(new Uint32Array(keep), 1));
     cut.tris = tris;
   }
+  // The pen lines carry no sites: under a cut they are hidden (they would show
+  // the skeleton of what the cut hides).
+  let lines = false;
+  model.traverse((o) => {
+    if ((o.isLine || o.isLineSegments) && !overlayKind(o)) {
+      o.visible = depthCut === null;
+      lines = true;
+    }
+  });
   const c = counts(model);
   status.dataset.drawnTriangles = String(c.triangles);
-  depthLabel.textContent = depthCut === null ? `depth ≤ ${maxDepth} (all)` : `depth ≤ ${depthCut}: ${c.triangles} triangles`;
+  depthLabel.textContent =
+    depthCut === null ? `depth ≤ ${maxDepth} (all)` : `depth ≤ ${depthCut}: ${c.triangles} triangles${lines ? ', pen lines hidden' : ''}`;
   requestRender();
 }
 
@@ -626,7 +636,7 @@ function applyHighlight() {
 // on a row lights up what that path (and everything below it) made, a click on
 // its place opens the rule's definition; the slider cuts the model at a depth.
 let tree = null;
-let treeShown = saved && saved.tree === true;
+let treeShown = !!(saved && saved.tree === true);
 const collapsed = new Set();
 function showTree() {
   treeBox.hidden = !treeShown || !tree;
