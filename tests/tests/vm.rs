@@ -613,3 +613,25 @@ fn hue_turns_accumulate_on_greys_as_in_context_free() {
     let c = out.vertex_mesh().colors[0];
     assert!((c[0] - 0.75).abs() < 1e-6 && (c[1] - 1.0).abs() < 1e-6 && c[2].abs() < 1e-6, "RGBA deltas: {c:?}");
 }
+
+/// A grammar whose paths of rules multiply (a → b → a, a → c → a) is cut at the
+/// node limit: every call still counted once, every triangle once.
+#[test]
+fn a_branching_derivation_is_cut_at_the_node_limit() {
+    use mdg_vm::eval::DERIVATION_MAX_NODES;
+    let src = "startshape a\nmaxdepth 24\n\
+               rule a { VERTEX {} VERTEX {x 1} VERTEX {y 1} b {z 1} c {z 2} }\n\
+               rule b { a {x 1} }\nrule c { a {y 1} }\n";
+    let out = evaluate(&build_source(src), &EvalOptions { record_derivation: true, ..EvalOptions::default() });
+    let d = out.derivation.as_ref().expect("a derivation");
+    assert!(d.cut);
+    assert_eq!(d.nodes.len(), DERIVATION_MAX_NODES);
+    // `a` runs at depths 0, 2, …, 24: 2^13 - 1 calls, one triangle each; b and c
+    // run 2^12 - 1 times each.
+    let triangles = (1u64 << 13) - 1;
+    assert_eq!(out.flat_counts(mdg_vm::output::Groups::ALL).1 as u64, triangles);
+    assert_eq!((d.triangles, d.nodes[0].total), (triangles, triangles));
+    assert_eq!(d.nodes.iter().map(|n| n.triangles).sum::<u64>(), triangles);
+    let calls: u64 = d.nodes.iter().map(|n| n.calls + n.deeper).sum();
+    assert_eq!(calls, triangles + 2 * ((1 << 12) - 1));
+}

@@ -98,33 +98,50 @@ impl<'b> Eval<'b> {
 pub(super) struct TreeRec {
     /// The nodes, with the bundle's rule index in `rule` until [`TreeRec::finish`].
     nodes: Vec<crate::output::DerivNode>,
-    /// (parent node or `NONE`, rule) → child node.
-    children: HashMap<(u32, u32), u32>,
+    /// Per node, its children as (rule, node); `roots` for the runs' first calls.
+    /// (A node has a few distinct callees: a scan beats hashing on every call.)
+    children: Vec<Vec<(u32, u32)>>,
+    roots: Vec<(u32, u32)>,
     cut: bool,
 }
 
 impl TreeRec {
     /// Counts a call of `rule` at `depth` from node `parent`; its node.
     fn call(&mut self, parent: u32, rule: u32, depth: u32) -> u32 {
-        if parent != NONE {
-            let Some(p) = self.nodes.get(parent as usize) else { return 0 };
-            // A call below a node that counts deeper calls (the caller had no node of
-            // its own), or past the limits: counted in `parent`.
-            let past = depth > DERIVATION_MAX_DEPTH || self.nodes.len() >= DERIVATION_MAX_NODES;
-            if p.depth + 1 != depth || (past && !self.children.contains_key(&(parent, rule))) {
-                self.cut = true;
-                self.nodes[parent as usize].deeper += 1;
-                return parent;
+        let known = match parent {
+            NONE => &self.roots,
+            p => match self.children.get(p as usize) {
+                Some(c) => c,
+                None => return 0,
+            },
+        };
+        let n = match known.iter().find(|c| c.0 == rule) {
+            // (A call below a node that counts deeper calls is at a depth past its
+            // children's: counted in `parent` too.)
+            Some(&(_, n)) if parent == NONE || self.nodes[n as usize].depth == depth => n,
+            found => {
+                let deeper = parent != NONE && self.nodes[parent as usize].depth + 1 != depth;
+                if deeper || found.is_some() || depth > DERIVATION_MAX_DEPTH || self.nodes.len() >= DERIVATION_MAX_NODES
+                {
+                    // No node of its own: counted in `parent`.
+                    self.cut = true;
+                    if let Some(p) = self.nodes.get_mut(parent as usize) {
+                        p.deeper += 1;
+                    }
+                    return parent;
+                }
+                let n = self.nodes.len() as u32;
+                let up = (parent != NONE).then_some(parent);
+                self.nodes.push(crate::output::DerivNode { rule, parent: up, depth, ..Default::default() });
+                self.children.push(Vec::new());
+                match parent {
+                    NONE => self.roots.push((rule, n)),
+                    p => self.children[p as usize].push((rule, n)),
+                }
+                n
             }
-        }
-        let n = *self.children.entry((parent, rule)).or_insert_with(|| {
-            let parent = (parent != NONE).then_some(parent);
-            self.nodes.push(crate::output::DerivNode { rule, parent, depth, ..Default::default() });
-            self.nodes.len() as u32 - 1
-        });
-        if let Some(node) = self.nodes.get_mut(n as usize) {
-            node.calls += 1;
-        }
+        };
+        self.nodes[n as usize].calls += 1;
         n
     }
 
