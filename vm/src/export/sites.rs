@@ -9,7 +9,8 @@
 //!   `"instances": true`: `first` counts the node's instances, in their order;
 //! * on the node of one placed instance, one run from triangle 0.
 //!
-//! `sites` is `[{"rule", "file", "line"}, …]`, the whole table in each.
+//! `sites` is `[{"rule", "file", "line"}, …]`: the whole table in each primitive's,
+//! the one site in a node's.
 
 use crate::output::{expand_isosurface, Instance, Mesh, Output, Site};
 
@@ -44,9 +45,12 @@ pub(super) fn instanced_extras(out: &Output, order: &[u32]) -> Option<serde_json
     Some(v)
 }
 
-/// The extras of the node placing instance `i` alone.
+/// The extras of the node placing instance `i` alone: its one run, with a table of
+/// its one site (there may be thousands of such nodes).
 pub(super) fn node_extras(out: &Output, i: u32) -> Option<serde_json::Value> {
-    extras(&runs_of(out, &[i], |_| 0), &out.sites.sites)
+    let r = out.sites.run_of_instance(i)?;
+    let site = out.sites.sites.get(r[1] as usize)?;
+    extras(&[[0, 0, r[2], r[3]]], std::slice::from_ref(site))
 }
 
 /// Instances baked into one mesh, with the first triangle of each, for its runs.
@@ -125,11 +129,13 @@ mod tests {
         // One node per instance, each with its own site (the mesh is shared).
         let nodes = extras_of(&json, "CUBE");
         assert_eq!(nodes.len(), 3);
-        assert_eq!(nodes[0].0, json!({"mdg_sites": {"runs": [[0, 0, 1, 0]], "sites": table}}));
+        // (Each with its one site.)
+        let one = |k: usize| json!([table[k]]);
+        assert_eq!(nodes[0].0, json!({"mdg_sites": {"runs": [[0, 0, 1, 0]], "sites": one(0)}}));
         assert_eq!(nodes[0].1, Value::Null);
         assert_eq!(nodes[1].0, nodes[0].0);
         // (The third is mirrored: a mesh of its own, a node like the others.)
-        assert_eq!(nodes[2].0, json!({"mdg_sites": {"runs": [[0, 1, 5, 4]], "sites": table}}));
+        assert_eq!(nodes[2].0, json!({"mdg_sites": {"runs": [[0, 0, 5, 4]], "sites": one(1)}}));
 
         // GPU instancing: runs over the node's instances.
         let mut b = Vec::new();
