@@ -111,6 +111,11 @@ pub struct PreviewResult {
     /// when the text did not compile.
     pub params: serde_json::Value,
     pub stats: PreviewStats,
+    /// The derivation inspector's tree of rule calls ([`mdg_vm::output::Derivation`]:
+    /// one node per path of rules, with calls and triangles); `null` without a model.
+    /// The `.glb`'s sites (`mdg_sites` in the extras) name each triangle's and
+    /// instance's node and depth.
+    pub tree: Option<mdg_vm::output::Derivation>,
 }
 
 /// Each document's preview generation (bumped by every `mdg/preview` request).
@@ -204,6 +209,7 @@ pub fn run(
         time_budget: Some(std::time::Duration::from_millis(budget)),
         max_vertices: p.max_vertices.filter(|&n| n > 0).unwrap_or(DEFAULT_MAX_VERTICES),
         record_sites: true,
+        record_derivation: true,
         cancel: Some(cancel.clone()),
         ..d
     };
@@ -218,6 +224,7 @@ pub fn run(
     r.stats.rule_calls = out.stats.rule_calls;
     r.stats.vertices = out.stats.vertices;
     r.stats.triangles = out.stats.triangles;
+    r.tree = out.derivation.clone();
     let started = Instant::now();
     let mut glb = Vec::new();
     let written =
@@ -319,6 +326,42 @@ mod tests {
         let p = PreviewParams { params: [("m".to_string(), 5.0)].into(), ..params() };
         let r = run_text(text, &p, never());
         assert!(r.warnings.iter().any(|w| w.contains('m') && w.contains("ignored")), "{:?}", r.warnings);
+    }
+
+    /// The `.glb`'s JSON chunk.
+    fn glb_json(b64: &str) -> serde_json::Value {
+        const ABC: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+        let mut bytes = Vec::new();
+        for chunk in b64.as_bytes().chunks(4) {
+            let v: Vec<u32> = chunk
+                .iter()
+                .filter(|&&c| c != b'=')
+                .map(|c| ABC.iter().position(|a| a == c).expect("base64") as u32)
+                .collect();
+            let n = v.iter().enumerate().fold(0u32, |n, (i, d)| n | d << (18 - 6 * i));
+            bytes.extend_from_slice(&n.to_be_bytes()[1..v.len()]);
+        }
+        let len = u32::from_le_bytes(bytes[12..16].try_into().expect("a length")) as usize;
+        serde_json::from_slice(&bytes[20..20 + len]).expect("the JSON chunk")
+    }
+
+    #[test]
+    fn the_answer_carries_the_derivation_tree_and_the_glb_its_sites() {
+        let text = format!("startshape a\nrule a {{ tri {{}} 2 * {{x 2}} b {{}} }}\nrule b {{ tri {{z 1}} }}\n{TRI}");
+        let r = run_text(&text, &params(), never());
+        assert_eq!(r.status, Status::Model, "{}", r.message);
+        let tree = r.tree.as_ref().expect("a tree");
+        let names: Vec<(&str, u32, u64, u64)> =
+            tree.nodes.iter().map(|n| (tree.rules[n.rule as usize].rule.as_str(), n.depth, n.calls, n.total)).collect();
+        assert_eq!(names, [("a", 0, 1, 3), ("tri", 1, 1, 1), ("b", 1, 2, 2), ("tri", 2, 2, 2)]);
+        assert_eq!(tree.triangles, r.stats.triangles);
+        let json = serde_json::to_value(&r).expect("JSON");
+        assert_eq!(json["tree"]["nodes"][2]["parent"], 0);
+        // The glb's geometry names each triangle's site, depth and node.
+        let glb = glb_json(&r.glb);
+        let sites = &glb["meshes"][0]["primitives"][0]["extras"]["mdg_sites"];
+        assert_eq!(sites["runs"], serde_json::json!([[0, 0, 1, 1], [1, 0, 2, 3]]), "{sites}");
+        assert_eq!(sites["sites"][0]["rule"], "tri");
     }
 
     #[test]

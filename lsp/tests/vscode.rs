@@ -46,6 +46,8 @@ const CHECKS: &[&str] = &[
     "preview sliders",
     "preview click names the rule",
     "preview cursor highlights the rule",
+    "preview cursor lights instances and sweeps",
+    "preview derivation inspector",
 ];
 
 const PARTS: &str =

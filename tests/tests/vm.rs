@@ -415,6 +415,105 @@ fn sites_name_the_rule_and_line_of_every_triangle() {
     assert_eq!(out.sites.sites.len(), 3);
 }
 
+/// A grammar with VERTEX triangles at two depths, sweeps and isosurface instances.
+const DERIVED: &str = "@import primitives lines\nstartshape A\n\
+                       rule A {\n face3 {}\n 2 * {x 2} B {}\n SPHERE {z 3 s 0.2}\n}\n\
+                       rule B {\n face3 {z 1}\n C {}\n}\n\
+                       rule C {\n MOVETO thick_tube {}\n LINETO thick_tube {z 1}\n}\n\
+                       rule face3 { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n";
+
+/// Sites cover the sweeps and the isosurface instances too, each with the depth of
+/// the activation that made it.
+#[test]
+fn sites_cover_sweeps_and_instances_with_their_depth() {
+    let b = build_source(DERIVED);
+    // (Recording sites turns prototype instancing off: face3 is drawn vertex by vertex.)
+    let plain = evaluate(&b, &EvalOptions { instancing: false, ..EvalOptions::default() });
+    let out = evaluate(&b, &EvalOptions { record_sites: true, ..EvalOptions::default() });
+    assert_eq!((&out.mesh, &out.sweeps, &out.instances), (&plain.mesh, &plain.sweeps, &plain.instances));
+    assert!(!out.sweeps.triangles.is_empty() && out.instances.len() == 1);
+    let site = |run: [u32; 4]| {
+        let s = &out.sites.sites[run[1] as usize];
+        (s.rule.clone(), s.line, run[2])
+    };
+    // face3's triangle in A (depth 1), then the one in each B (depth 2).
+    let faces: Vec<_> = (0..3).map(|t| site(out.sites.run_of_triangle(t).expect("a run"))).collect();
+    assert_eq!(faces, [("face3".to_string(), 16, 1), ("face3".to_string(), 16, 2), ("face3".to_string(), 16, 2)]);
+    // Every sweep triangle: C's LINETO line, depth 2 (A → B → C).
+    for t in 0..out.sweeps.triangles.len() as u32 {
+        assert_eq!(site(out.sites.run_of_sweep(t).expect("a run")), ("C".to_string(), 14, 2), "sweep triangle {t}");
+    }
+    assert_eq!(site(out.sites.run_of_instance(0).expect("a run")), ("A".to_string(), 6, 0));
+    assert!(out.derivation.is_none() && plain.derivation.is_none());
+}
+
+/// `record_derivation`: one node per path of rules, the calls and triangles of each
+/// matching the model; recording changes no geometry.
+#[test]
+fn the_derivation_tree_counts_calls_and_geometry_per_path() {
+    let b = build_source(DERIVED);
+    let plain = evaluate(&b, &EvalOptions { instancing: false, ..EvalOptions::default() });
+    let opts = EvalOptions { record_derivation: true, record_sites: true, ..EvalOptions::default() };
+    let out = evaluate(&b, &opts);
+    assert_eq!((&out.mesh, &out.sweeps, &out.instances), (&plain.mesh, &plain.sweeps, &plain.instances));
+    let d = out.derivation.as_ref().expect("a derivation");
+    let path = |n: &mdg_vm::output::DerivNode| {
+        let mut names = vec![d.rules[n.rule as usize].rule.clone()];
+        let mut p = n.parent;
+        while let Some(i) = p {
+            names.insert(0, d.rules[d.nodes[i as usize].rule as usize].rule.clone());
+            p = d.nodes[i as usize].parent;
+        }
+        names.join("/")
+    };
+    let sphere = out.shared_meshes[0].mesh.triangles.len() as u64;
+    let sweeps = out.sweeps.triangles.len() as u64;
+    let got: Vec<(String, u32, u64, u64, u64)> =
+        d.nodes.iter().map(|n| (path(n), n.depth, n.calls, n.triangles, n.total)).collect();
+    let want = vec![
+        ("A".to_string(), 0, 1, sphere, sphere + 3 + sweeps),
+        ("A/face3".to_string(), 1, 1, 1, 1),
+        ("A/B".to_string(), 1, 2, 0, 2 + sweeps),
+        ("A/B/face3".to_string(), 2, 2, 2, 2),
+        ("A/B/C".to_string(), 2, 2, sweeps, sweeps),
+    ];
+    assert_eq!(got, want);
+    // The whole model, as a flat walk counts it.
+    assert_eq!(d.triangles, out.flat_counts(mdg_vm::output::Groups::ALL).1 as u64);
+    assert!(!d.cut);
+    // (A rule's line is its first definition's first op's.)
+    assert_eq!((d.rules[0].rule.as_str(), d.rules[0].line), ("A", 4));
+    // The sites name the node of each triangle.
+    let node_of = |t: u32| path(&d.nodes[out.sites.run_of_triangle(t).expect("a run")[3] as usize]);
+    assert_eq!([node_of(0), node_of(1)], ["A/face3", "A/B/face3"]);
+    // Without sites the tree is the same (face3 is then a prototype instance, counted
+    // by its mesh's triangles), and so is the model.
+    let alone = evaluate(&b, &EvalOptions { record_derivation: true, ..EvalOptions::default() });
+    assert_eq!(alone.derivation.as_ref(), Some(d));
+    assert!(alone.sites.runs.is_empty());
+    let default = evaluate(&b, &EvalOptions::default());
+    assert_eq!((&alone.mesh, &alone.sweeps, &alone.instances), (&default.mesh, &default.sweeps, &default.instances));
+}
+
+/// Paths past the depth limit are counted in the deepest node above them, and the
+/// tree says it was cut; the totals still match the model.
+#[test]
+fn a_deep_derivation_is_cut_at_the_depth_limit() {
+    use mdg_vm::eval::DERIVATION_MAX_DEPTH;
+    let src = "startshape R\nmaxdepth 200\nrule R { VERTEX {} VERTEX {x 1} VERTEX {y 1} R {z 1 s 0.99} }\n";
+    let out = evaluate(&build_source(src), &EvalOptions { record_derivation: true, ..EvalOptions::default() });
+    let d = out.derivation.as_ref().expect("a derivation");
+    assert!(d.cut);
+    assert_eq!(d.nodes.len() as u32, DERIVATION_MAX_DEPTH + 1);
+    let last = d.nodes.last().expect("a node");
+    assert_eq!(last.depth, DERIVATION_MAX_DEPTH);
+    // Every call (depths 0 to 200) drew one triangle.
+    assert_eq!(out.flat_counts(mdg_vm::output::Groups::ALL).1, 201);
+    assert_eq!(last.calls + last.deeper, 201 - u64::from(DERIVATION_MAX_DEPTH));
+    assert_eq!(d.triangles, 201);
+    assert_eq!(d.nodes[0].total, d.triangles);
+}
+
 #[test]
 fn numbers_that_overflow_f32_are_encoded_finite_so_the_bundle_loads() {
     // 1e308 is a finite f64 but infinite as f32: the encoder writes it as the largest
@@ -513,4 +612,26 @@ fn hue_turns_accumulate_on_greys_as_in_context_free() {
     let out = run_source("startshape A\nrule A { SQUARE {R -0.25 B -1} }\n");
     let c = out.vertex_mesh().colors[0];
     assert!((c[0] - 0.75).abs() < 1e-6 && (c[1] - 1.0).abs() < 1e-6 && c[2].abs() < 1e-6, "RGBA deltas: {c:?}");
+}
+
+/// A grammar whose paths of rules multiply (a → b → a, a → c → a) is cut at the
+/// node limit: every call still counted once, every triangle once.
+#[test]
+fn a_branching_derivation_is_cut_at_the_node_limit() {
+    use mdg_vm::eval::DERIVATION_MAX_NODES;
+    let src = "startshape a\nmaxdepth 24\n\
+               rule a { VERTEX {} VERTEX {x 1} VERTEX {y 1} b {z 1} c {z 2} }\n\
+               rule b { a {x 1} }\nrule c { a {y 1} }\n";
+    let out = evaluate(&build_source(src), &EvalOptions { record_derivation: true, ..EvalOptions::default() });
+    let d = out.derivation.as_ref().expect("a derivation");
+    assert!(d.cut);
+    assert_eq!(d.nodes.len(), DERIVATION_MAX_NODES);
+    // `a` runs at depths 0, 2, …, 24: 2^13 - 1 calls, one triangle each; b and c
+    // run 2^12 - 1 times each.
+    let triangles = (1u64 << 13) - 1;
+    assert_eq!(out.flat_counts(mdg_vm::output::Groups::ALL).1 as u64, triangles);
+    assert_eq!((d.triangles, d.nodes[0].total), (triangles, triangles));
+    assert_eq!(d.nodes.iter().map(|n| n.triangles).sum::<u64>(), triangles);
+    let calls: u64 = d.nodes.iter().map(|n| n.calls + n.deeper).sum();
+    assert_eq!(calls, triangles + 2 * ((1 << 12) - 1));
 }

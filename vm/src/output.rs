@@ -255,15 +255,24 @@ pub struct Animation {
     pub camera: Option<Camera>,
 }
 
-/// Which op of the grammar drew each triangle of [`Output::mesh`], recorded when
+/// Which op of the grammar drew each triangle of [`Output::mesh`] and of
+/// [`Output::sweeps`], and each instance of [`Output::instances`], recorded when
 /// [`crate::eval::EvalOptions::record_sites`] is set: what an editor needs to go
-/// from a click on the model to the source (`mdg-run --sites`). Sweeps, instances
-/// and isosurfaces are not recorded.
+/// from a click on the model to the source and back (`mdg-run --sites`), and to cut
+/// the model at a derivation depth. Recording sites turns prototype instancing off
+/// (their items are drawn one by one, as `VERTEX` triangles with sites of their own);
+/// isosurface instances stay instances, with a site each.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Sites {
-    /// `[first triangle, site]`, in triangle order: triangles from `first` up to the
-    /// next run's first were drawn at `sites[site]`.
-    pub runs: Vec<[u32; 2]>,
+    /// `[first triangle, site, depth, node]` over the `VERTEX` mesh's triangles, in
+    /// triangle order: triangles from `first` up to the next run's first were drawn at
+    /// `sites[site]`, by an activation at derivation depth `depth` (the start shape's
+    /// body is depth 0), of node `node` of [`Output::derivation`] (0 without one).
+    pub runs: Vec<[u32; 4]>,
+    /// The same over the sweeps' triangles.
+    pub sweep_runs: Vec<[u32; 4]>,
+    /// The same over the instances (`first` is an index into [`Output::instances`]).
+    pub instance_runs: Vec<[u32; 4]>,
     pub sites: Vec<Site>,
 }
 
@@ -280,11 +289,72 @@ pub struct Site {
 }
 
 impl Sites {
-    /// The site of triangle `t`.
+    /// The site of `VERTEX` triangle `t`.
     pub fn of(&self, t: u32) -> Option<&Site> {
-        let i = self.runs.partition_point(|r| r[0] <= t).checked_sub(1)?;
-        self.sites.get(self.runs[i][1] as usize)
+        self.sites.get(run_of(&self.runs, t)?[1] as usize)
     }
+
+    /// The run (`[first, site, depth, node]`) holding `VERTEX` triangle `t`.
+    pub fn run_of_triangle(&self, t: u32) -> Option<[u32; 4]> {
+        run_of(&self.runs, t)
+    }
+
+    /// The run holding sweep triangle `t`.
+    pub fn run_of_sweep(&self, t: u32) -> Option<[u32; 4]> {
+        run_of(&self.sweep_runs, t)
+    }
+
+    /// The run holding instance `i`.
+    pub fn run_of_instance(&self, i: u32) -> Option<[u32; 4]> {
+        run_of(&self.instance_runs, i)
+    }
+}
+
+/// The run of `runs` (sorted by their first element) holding item `t`.
+fn run_of(runs: &[[u32; 4]], t: u32) -> Option<[u32; 4]> {
+    let i = runs.partition_point(|r| r[0] <= t).checked_sub(1)?;
+    runs.get(i).copied()
+}
+
+/// The derivation in aggregate, recorded when
+/// [`crate::eval::EvalOptions::record_derivation`] is set: a tree of rule calls,
+/// one node per *path* of rules from the start shape (`tree → branch → leaf`), not
+/// per call, with how often that path was called and how much geometry its calls
+/// drew. A path deeper than [`crate::eval::DERIVATION_MAX_DEPTH`] calls, or past
+/// [`crate::eval::DERIVATION_MAX_NODES`] nodes, gets no node of its own: its calls
+/// and geometry are counted in the nearest node above it (`deeper`, and `cut`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Derivation {
+    /// The rules of the nodes: name and first definition's file and line.
+    pub rules: Vec<Site>,
+    /// Parents before children; the roots (the start shape, or the calls a guided
+    /// search evaluates) have no parent.
+    pub nodes: Vec<DerivNode>,
+    /// Whether some calls had no node of their own (see `deeper`).
+    pub cut: bool,
+    /// Triangles drawn in the whole run (instances counted by their meshes'
+    /// triangles): the sum of the roots' `total`.
+    pub triangles: u64,
+}
+
+/// One path of rule calls (see [`Derivation`]).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct DerivNode {
+    /// Index into [`Derivation::rules`].
+    pub rule: u32,
+    /// Index of the calling path's node; `None` for a root.
+    pub parent: Option<u32>,
+    /// Derivation depth of the calls (the start shape's call is depth 0).
+    pub depth: u32,
+    /// Calls of this path.
+    pub calls: u64,
+    /// Calls below this path that have no node of their own (past the depth or node
+    /// limit); their geometry is in `triangles`.
+    pub deeper: u64,
+    /// Triangles the calls' own ops drew (instances by their meshes' triangles).
+    pub triangles: u64,
+    /// Triangles drawn by this path and every path below it.
+    pub total: u64,
 }
 
 /// Everything an evaluation produced.
@@ -316,6 +386,8 @@ pub struct Output {
     pub debug: Vec<String>,
     /// Which op drew each mesh triangle (empty unless asked for).
     pub sites: Sites,
+    /// The tree of rule calls (only when asked for).
+    pub derivation: Option<Derivation>,
 }
 
 /// How many `DEBUG {}` reports one run keeps (a loop over a DEBUG item would fill

@@ -57,10 +57,11 @@ pub struct Args {
     /// min, max) as JSON to PATH, before evaluating (the editor's sliders read it).
     #[arg(long, value_name = "PATH")]
     params_json: Option<PathBuf>,
-    /// Record which rule and source line drew each triangle, in the `.glb`'s extras
-    /// (`mdg_sites` on the geometry primitive): the editor's preview uses it to go
-    /// from a click on the model to the source. Off by default (the file stays as
-    /// without it).
+    /// Record which rule and source line drew each triangle, sweep and instance, and
+    /// at which derivation depth, in the `.glb`'s extras (`mdg_sites` on the
+    /// primitives and instance nodes): the editor's preview uses it to go from a
+    /// click on the model to the source. Off by default (the file stays as without
+    /// it).
     #[arg(long)]
     sites: bool,
     /// .glb: write prototype instances (the runs of VERTEX items the compiler marks,

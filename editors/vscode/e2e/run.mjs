@@ -698,6 +698,91 @@ try {
     return `${label} (of ${total}); off on the startshape line`;
   });
 
+  // Cursor → geometry on sweeps and instances: std/examples/icosahedron.mdg is
+  // the regular solids of std/polyhedra, vertices as SPHERE isosurface instances
+  // (drawn instanced) and edges as LINETO sweeps. The cursor on `tetrahedron`
+  // lights its own ops' 4 SPHEREs; on `solids`, a rule that only calls others,
+  // what its calls made: the whole model, spheres and tubes.
+  const lit = async (frame) => Number((await frame.locator('#status').getAttribute('data-highlighted', { timeout: 1000 })) ?? -1);
+  const litInstances = async (frame) => Number(await frame.locator('#status').getAttribute('data-highlighted-instances', { timeout: 1000 }));
+  const clickIn = async (file, word, nth) => {
+    const span = editorOf(file).locator('span span', { hasText: new RegExp(`^${word}$`) }).nth(nth);
+    await span.waitFor({ state: 'visible' });
+    const box = await span.boundingBox();
+    await page.mouse.click(box.x + Math.min(box.width / 2, 6), box.y + box.height / 2);
+  };
+  await check('preview cursor lights instances and sweeps', async () => {
+    await openFile('examples/icosahedron.mdg');
+    await palette('MDG: Preview');
+    const frame = await previewOf('icosahedron.mdg');
+    const total = Number(await frame.locator('#status').getAttribute('data-triangles'));
+    await clickIn('icosahedron.mdg', 'tetrahedron', 0);
+    const own = await until('the tetrahedron’s spheres lit', async () => ((await litInstances(frame)) === 4 ? await lit(frame) : undefined), 15000);
+    const ownLabel = await frame.locator('#hl').innerText();
+    await clickIn('icosahedron.mdg', 'solids', 1);
+    const all = await until('the whole model lit', async () => ((await lit(frame)) === total ? total : undefined), 15000);
+    const spheres = await litInstances(frame);
+    if (spheres !== 30) throw new Error(`${spheres} SPHERE instances lit for solids, expected 30`);
+    await sleep(500);
+    return `tetrahedron: ${ownLabel} (its 4 SPHEREs); solids: ${await frame.locator('#hl').innerText()} (${all} of ${total}, ${spheres} SPHEREs and the tubes)`;
+  });
+
+  // The derivation inspector: the tree of rule calls (solids → icosahedron,
+  // tetrahedron, …), a click on a row lights what that path made, its place opens
+  // the rule's definition, and the depth slider cuts the model (fewer triangles
+  // drawn), then restores it.
+  await check('preview derivation inspector', async () => {
+    const frame = await previewOf('icosahedron.mdg');
+    const status = frame.locator('#status');
+    const total = Number(await status.getAttribute('data-triangles'));
+    // The preview's group maximized, for the screenshots (restored at the end).
+    await page.locator('.tab', { hasText: 'Preview icosahedron.mdg' }).first().click();
+    await palette('View: Toggle Maximize Editor Group');
+    await sleep(500);
+    await frame.locator('#treebutton').click();
+    const rows = frame.locator('#treelist .row');
+    await rows.first().waitFor({ state: 'visible', timeout: 10000 });
+    const names = await rows.evaluateAll((l) => l.map((e) => e.querySelector('.rule').textContent));
+    if (names[0] !== 'solids' || !names.includes('tetrahedron') || !names.includes('poly_edge')) throw new Error(`rows: ${names}`);
+    const tet = rows.filter({ has: frame.locator('.rule', { hasText: /^tetrahedron$/ }) }).first();
+    await tet.click();
+    const n = await until('the tetrahedron lit', async () => {
+      const v = await lit(frame);
+      return v > 0 && v < total && (await litInstances(frame)) === 4 ? v : undefined;
+    }, 10000);
+    const label = await frame.locator('#hl').innerText();
+    await sleep(400);
+    await shot('preview-inspector');
+    // The depth slider: depth ≤ 1 (the solids' own spheres, not the tubes of
+    // their poly_edge calls) draws fewer triangles; all again at the end.
+    const depth = frame.locator('#depth');
+    const max = Number(await depth.getAttribute('max'));
+    if (!(max >= 2)) throw new Error(`depth slider max ${max}`);
+    await depth.fill('1');
+    const cut = await until('the model cut at depth 1', async () => {
+      const v = Number((await status.getAttribute('data-drawn-triangles', { timeout: 1000 })) ?? -1);
+      return v > 0 && v < total ? v : undefined;
+    }, 10000);
+    await sleep(400);
+    await shot('preview-depth');
+    await depth.fill(String(max));
+    await until('the whole model again', async () => Number(await status.getAttribute('data-drawn-triangles')) === total, 10000);
+    await page.locator('.tab', { hasText: 'Preview icosahedron.mdg' }).first().click();
+    await palette('View: Toggle Maximize Editor Group');
+    await sleep(500);
+    // The place of a row opens the rule's definition (the `rule tetrahedron` line,
+    // 40, of std/polyhedra.mdg).
+    await tet.locator('.place').click();
+    await page.locator('.tab.active[aria-label^="polyhedra.mdg"]').waitFor({ state: 'visible', timeout: 15000 });
+    const where = await until('rule tetrahedron in the editor', async () => {
+      const t = await page.locator('.statusbar-item[id="status.editor.selection"]').innerText({ timeout: 1000 }).catch(() => '');
+      const text = (await page.locator('.editor-group-container.active .monaco-editor .view-lines').first().innerText()).replace(/\u00a0/g, ' ');
+      return /Ln 40,/.test(t) && text.includes('rule tetrahedron') ? t : undefined;
+    }, 10000);
+    await frame.locator('#treebutton').click().catch(() => {});
+    return `${names.length} rows; row tetrahedron: ${label} (of ${total}); depth ≤ 1 draws ${cut} of ${total} (slider 0..${max}); its place: polyhedra.mdg at ${where}`;
+  });
+
 } finally {
   fs.writeFileSync(resultsFile, JSON.stringify({ seconds: (Date.now() - t0) / 1000, checks: results }, null, 2));
   await browser.close().catch(() => {});

@@ -223,3 +223,20 @@ export function randseedEdit(text: string, seed: string): { line: number; replac
   const start = lines.findIndex((l) => /^\s*startshape\b/.test(l));
   return { line: start >= 0 ? start + 1 : 0, replace: false, text: `randseed ${seed}` };
 }
+
+/**
+ * The line (0-based) of `rule NAME` at or above line `from`, for a rule's
+ * definition: the bundle knows a definition's first op's line, the reader wants
+ * its header. `NAME` may be namespaced (`ns.leaf`: the header says `leaf`).
+ * Looks at most 200 lines up; `from` when none is found.
+ */
+export function ruleHeaderLine(lineAt: (i: number) => string, from: number, rule: string): number {
+  const short = rule.split('.').pop() ?? rule;
+  if (short === '') return from;
+  const escaped = short.replace(/[.*+?^${}()|[\]\\]/g, '\\$&');
+  const header = new RegExp(`^\\s*rule\\s+${escaped}(?![A-Za-z0-9_])`);
+  for (let i = from; i >= 0 && i >= from - 200; i--) {
+    if (header.test(lineAt(i))) return i;
+  }
+  return from;
+}

@@ -16,7 +16,7 @@ import * as crypto from 'crypto';
 import * as path from 'path';
 import { spawn } from 'child_process';
 import type { LanguageClient } from 'vscode-languageclient/node';
-import { adaptiveDebounce, keptValues, ParamDecl, previewArgs, previewGlb, randseedEdit, siteCandidates, sliderRange, stepSeed } from './paths';
+import { adaptiveDebounce, keptValues, ParamDecl, previewArgs, previewGlb, randseedEdit, ruleHeaderLine, siteCandidates, sliderRange, stepSeed } from './paths';
 
 /** `mdg/preview`'s answer (lsp/src/preview.rs). */
 interface PreviewAnswer {
@@ -27,6 +27,8 @@ interface PreviewAnswer {
   warnings: string[];
   message: string;
   params: ParamDecl[] | null;
+  /** The derivation inspector's tree (lsp/src/preview.rs; vm Derivation). */
+  tree: unknown;
   stats: { compileMs: number; evalMs: number; exportMs: number; bytes: number; ruleCalls: number; vertices: number; triangles: number };
 }
 /** The cursor's rule is looked up this long after it stops moving. */
@@ -113,7 +115,7 @@ export class PreviewPanel {
         } else if (m?.type === 'shown') {
           this.lastTriangles = m.triangles;
         } else if (m?.type === 'site' && typeof m.file === 'string' && typeof m.line === 'number') {
-          void this.reveal(m.file, m.line, typeof m.rule === 'string' ? m.rule : '');
+          void this.reveal(m.file, m.line, typeof m.rule === 'string' ? m.rule : '', m.definition === true);
         } else if (m?.type === 'param' && typeof m.name === 'string' && typeof m.value === 'number') {
           this.values[m.name] = m.value;
           clearTimeout(this.timer);
@@ -157,8 +159,9 @@ export class PreviewPanel {
     this.panel.onDidDispose(() => this.dispose(), null, this.disposables);
   }
 
-  /** Shows the line a click on the model named, in the editor beside the panel. */
-  private async reveal(file: string, line: number, rule: string): Promise<void> {
+  /** Shows the line a click on the model (or on a row of the inspector: `definition`,
+   * the rule's `rule NAME` line at or above it) named, in the editor beside the panel. */
+  private async reveal(file: string, line: number, rule: string, definition = false): Promise<void> {
     const std = vscode.workspace.getConfiguration('mdg').get<string>('stdPath', '').trim();
     const stdDirs = [std, path.join(this.context.extensionPath, 'std')];
     const root = vscode.workspace.getWorkspaceFolder(this.doc.uri)?.uri.fsPath;
@@ -168,9 +171,13 @@ export class PreviewPanel {
       void vscode.window.showInformationMessage(`MDG: drawn by rule ${rule} at ${file}:${line} (file not found)`);
       return;
     }
-    const pos = new vscode.Position(Math.max(line - 1, 0), 0);
     const column = vscode.window.visibleTextEditors.find((e) => e.document === this.doc)?.viewColumn ?? vscode.ViewColumn.One;
     const editor = await vscode.window.showTextDocument(vscode.Uri.file(found), { viewColumn: column, preserveFocus: false });
+    let at = Math.min(Math.max(line - 1, 0), editor.document.lineCount - 1);
+    if (definition) {
+      at = ruleHeaderLine((i) => editor.document.lineAt(i).text, at, rule);
+    }
+    const pos = new vscode.Position(at, 0);
     editor.selection = new vscode.Selection(pos, editor.document.lineAt(pos.line).range.end);
     editor.revealRange(editor.selection, vscode.TextEditorRevealType.InCenterIfOutsideViewport);
   }
@@ -365,6 +372,7 @@ export class PreviewPanel {
       warnings: r.warnings,
       seed: r.seed,
       custom: this.seed !== undefined,
+      tree: r.tree,
       editAt,
       ms: { total, compile: r.stats.compileMs, eval: r.stats.evalMs, export: r.stats.exportMs, bytes: r.stats.bytes },
     });
@@ -469,6 +477,20 @@ export class PreviewPanel {
   #sheet span { background: rgba(0,0,0,0.5); padding: 1px 6px; margin-bottom: 4px; font-variant-numeric: tabular-nums; }
   #seedbox { display: flex; gap: 2px; align-items: center; }
   #seed { width: 8em; font: inherit; }
+  #tree { position: absolute; left: 8px; top: 8px; bottom: 40px; width: 24em; max-width: 48%; display: flex; flex-direction: column; background: rgba(0,0,0,0.6); border: 1px solid rgba(255,255,255,0.15); }
+  #treehead { display: flex; gap: 6px; align-items: center; padding: 4px 6px; border-bottom: 1px solid rgba(255,255,255,0.15); }
+  #treehead b { flex: 1; }
+  #depth { width: 7em; }
+  #depthlabel { font-variant-numeric: tabular-nums; white-space: nowrap; }
+  #treenote { margin: 0; padding: 2px 6px; color: #fec; }
+  #treelist { flex: 1; overflow: auto; padding: 2px 0; font: 12px var(--vscode-editor-font-family, monospace); }
+  #treelist .row { white-space: nowrap; cursor: pointer; padding-right: 6px; }
+  #treelist .row:hover { background: rgba(255,255,255,0.08); }
+  #treelist .row.lit { background: rgba(255,160,32,0.35); }
+  #treelist .caret { display: inline-block; width: 1em; color: #999; }
+  #treelist .rule { color: #9cdcfe; }
+  #treelist .info { color: #bbb; }
+  #treelist .place { color: #ffd27a; margin-left: 6px; text-decoration: underline; }
   button { font: inherit; }
   [hidden] { display: none !important; }
 </style>
@@ -479,7 +501,8 @@ export class PreviewPanel {
 <pre id="error" hidden></pre>
 <pre id="warn" hidden></pre>
 <div id="sheet" hidden></div>
-<div id="bar"><span id="status">evaluating…</span><span id="seedbox" hidden title="The seed of this variation: type one, or [ and ] (or P and N) for the previous and next"><button id="prev" title="Previous variation ([ or P)">◀</button><label for="seed">seed</label><input id="seed" inputmode="numeric" spellcheck="false"><button id="next" title="Next variation (] or N)">▶</button><button id="keep" title="Keep this variation: write randseed into the file (K)">Keep</button><button id="sheetbutton" title="A contact sheet of 9 variations from this seed (S); click one to choose it">3×3</button></span><span id="site" hidden></span><span id="hl" hidden></span><button id="guides" hidden aria-pressed="true" title="Show or hide the guides and bones (G)">Hide guides</button><button id="play" hidden>Pause</button><span id="time" hidden></span></div>
+<div id="tree" hidden><div id="treehead"><b>Derivation</b><span id="depthbox" hidden title="Show what derivation depths up to N made (the start shape's body is depth 0)"><input id="depth" type="range" min="0" max="0" step="1" aria-label="depth"> <span id="depthlabel"></span></span></div><p id="treenote" hidden></p><div id="treelist"></div></div>
+<div id="bar"><span id="status">evaluating…</span><span id="seedbox" hidden title="The seed of this variation: type one, or [ and ] (or P and N) for the previous and next"><button id="prev" title="Previous variation ([ or P)">◀</button><label for="seed">seed</label><input id="seed" inputmode="numeric" spellcheck="false"><button id="next" title="Next variation (] or N)">▶</button><button id="keep" title="Keep this variation: write randseed into the file (K)">Keep</button><button id="sheetbutton" title="A contact sheet of 9 variations from this seed (S); click one to choose it">3×3</button></span><button id="treebutton" aria-pressed="false" title="The derivation inspector: the tree of rule calls, and a depth slider (T)">Tree</button><span id="site" hidden></span><span id="hl" hidden></span><button id="guides" hidden aria-pressed="true" title="Show or hide the guides and bones (G)">Hide guides</button><button id="play" hidden>Pause</button><span id="time" hidden></span></div>
 <script nonce="${nonce}" src="${script}"></script>
 </body>
 </html>`;

@@ -4,7 +4,8 @@
 // keeping the camera between models unless the model's size changes a lot (F
 // frames it again). Bundled with esbuild into out/webview/preview.js (npm run bundle).
 //
-// Messages in:  {type: 'model', glb: Uint8Array, name, warnings, seed?, custom?, editAt?, ms?}
+// Messages in:  {type: 'model', glb: Uint8Array, name, warnings, seed?, custom?, editAt?, ms?, tree?}
+//                 (tree: the derivation inspector's tree of rule calls, lsp/src/preview.rs)
 //               {type: 'error', message}  {type: 'busy'}
 //               {type: 'params', params: [{name, type, value, min, max, range: {min, max, step}}]}
 //               {type: 'highlight', rule, file, from, to}  (the editor's cursor: light up
@@ -15,18 +16,24 @@
 //               {type: 'param', name, value}  (a slider moved)
 //               {type: 'seed', seed}  {type: 'variation', delta}  {type: 'keep'}  {type: 'sheet'}
 // Messages in (the contact sheet): {type: 'sheet', name, items: [{seed, glb: Uint8Array, warnings}]}
-//               {type: 'site', rule, file, line}  (a click on the model: the rule that drew it)
+//               {type: 'site', rule, file, line, definition?}  (a click on the model: the rule
+//                 that drew it; on an inspector row's place, `definition`: its rule's header)
 //
 // The status keeps, for tests: data-triangles, data-drawn (a count of models
 // drawn), data-drawn-at (Date.now() when the last one was drawn), data-latency
 // (edit → drawn, ms, when an edit asked for it), data-seed, data-highlighted
-// (the triangles lit by the cursor's rule).
+// (the triangles lit by the cursor's rule or the inspector's node),
+// data-highlighted-instances (the instances among them), data-drawn-triangles
+// (what the depth slider leaves drawn), data-tree-nodes.
 //
 // A guided grammar's `.glb` has nodes `guides` and `bones` (the search's curves and
 // the skeleton it grew): they are drawn over the model in colours of their own,
-// toggled with the Guides button or the G key. `mdg-run --sites` puts in the
-// geometry's extras which rule and line drew each triangle (`mdg_sites`): a click
-// on the model names it and the extension shows the line.
+// toggled with the Guides button or the G key. The server's `.glb` (and
+// `mdg-run --sites`'s) has in its extras which rule and line made each triangle,
+// sweep and instance, at which derivation depth, of which node of the tree
+// (`mdg_sites`): a click on the model names it and the extension shows the line;
+// the cursor's rule and the inspector's rows light what they made; the depth
+// slider cuts the model. The inspector (the Tree button, or T) shows the tree.
 
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
@@ -46,6 +53,13 @@ const hlLabel = document.getElementById('hl');
 const sheetBox = document.getElementById('sheet');
 const seedBox = document.getElementById('seedbox');
 const seedInput = document.getElementById('seed');
+const treeBox = document.getElementById('tree');
+const treeList = document.getElementById('treelist');
+const treeNote = document.getElementById('treenote');
+const treeButton = document.getElementById('treebutton');
+const depthBox = document.getElementById('depthbox');
+const depthInput = document.getElementById('depth');
+const depthLabel = document.getElementById('depthlabel');
 
 const renderer = new THREE.WebGLRenderer({ canvas, antialias: true });
 renderer.setPixelRatio(window.devicePixelRatio || 1);
@@ -132,7 +146,7 @@ function counts(object) {
   let triangles = 0;
   let vertices = 0;
   object.traverse((o) => {
-    if (o.isMesh && o.geometry) {
+    if (o.isMesh && o.geometry && o.visible && !o.userData.mdgHighlight) {
       // An instanced mesh (EXT_mesh_gpu_instancing) draws its geometry `count` times.
       const copies = o.isInstancedMesh ? o.count : 1;
       const pos = o.geometry.getAttribute('position');
@@ -182,6 +196,8 @@ window.addEventListener('keydown', (e) => {
   if (e.target instanceof HTMLInputElement || e.ctrlKey || e.metaKey || e.altKey) return;
   if ((e.key === 'g' || e.key === 'G') && overlays.length > 0) {
     setOverlays(!overlaysShown);
+  } else if (e.key === 't' || e.key === 'T') {
+    treeButton.click();
   } else if ((e.key === 'f' || e.key === 'F') && model) {
     frameObject(model);
     requestRender();
@@ -314,8 +330,43 @@ seedInput.addEventListener('keydown', (e) => {
   }
 });
 
+// Sites (`mdg_sites` in the glTF extras, docs/editors.md): runs of
+// [first, site, depth, node] over a primitive's triangles, or over an instanced
+// node's instances (`instances: true`), or one run on the node of one placed
+// instance. `siteSources` lists the model's meshes that carry them.
+function siteSources() {
+  const list = [];
+  if (!model) return list;
+  model.traverse((o) => {
+    if (!o.isMesh || !o.geometry || o.userData.mdgHighlight) return;
+    const sites = o.userData.mdg_sites || o.geometry.userData.mdg_sites;
+    if (!sites || !sites.runs || sites.runs.length === 0) return;
+    list.push({ o, sites, instances: !!(o.isInstancedMesh && sites.instances) });
+  });
+  return list;
+}
+/** The run holding item `t` (a triangle or an instance), by binary search. */
+function runAt(runs, t) {
+  let lo = 0;
+  let hi = runs.length - 1;
+  if (hi < 0 || runs[0][0] > t) return null;
+  while (lo < hi) {
+    const mid = (lo + hi + 1) >> 1;
+    if (runs[mid][0] <= t) lo = mid;
+    else hi = mid - 1;
+  }
+  return runs[lo];
+}
+/** How many items (triangles or instances) `src` had before any cut. */
+function itemCount(src) {
+  if (src.instances) return src.o.userData.mdgCut ? src.o.userData.mdgCut.count : src.o.count;
+  const g = src.o.geometry;
+  const index = src.o.userData.mdgCut ? src.o.userData.mdgCut.index : g.index;
+  return index ? index.count / 3 : g.getAttribute('position').count / 3;
+}
+
 // A click (a press and release that did not drag) on the model: the rule and line
-// that drew the triangle under the pointer, from the geometry's `mdg_sites`.
+// that made the triangle or instance under the pointer.
 const raycaster = new THREE.Raycaster();
 let pressed = null;
 canvas.addEventListener('pointerdown', (e) => {
@@ -340,30 +391,109 @@ function siteAt(clientX, clientY) {
   raycaster.setFromCamera(ndc, camera);
   const meshes = [];
   model.traverse((o) => {
-    if (o.isMesh && o.visible) meshes.push(o);
+    if (o.isMesh && o.visible && !o.userData.mdgHighlight) meshes.push(o);
   });
   for (const hit of raycaster.intersectObjects(meshes, false)) {
-    const sites = hit.object.geometry && hit.object.geometry.userData.mdg_sites;
-    if (!sites || hit.faceIndex == null) return null;
-    // The run holding the triangle: the last whose first triangle is at most it.
-    const runs = sites.runs;
-    let lo = 0;
-    let hi = runs.length - 1;
-    if (hi < 0 || runs[0][0] > hit.faceIndex) return null;
-    while (lo < hi) {
-      const mid = (lo + hi + 1) >> 1;
-      if (runs[mid][0] <= hit.faceIndex) lo = mid;
-      else hi = mid - 1;
+    const o = hit.object;
+    const sites = o.userData.mdg_sites || (o.geometry && o.geometry.userData.mdg_sites);
+    if (!sites) return null;
+    const cut = o.userData.mdgCut;
+    let item;
+    if (o.isInstancedMesh && sites.instances) {
+      if (hit.instanceId == null) return null;
+      item = cut ? cut.order[hit.instanceId] : hit.instanceId;
+    } else {
+      if (hit.faceIndex == null) return null;
+      item = cut && cut.tris ? cut.tris[hit.faceIndex] : hit.faceIndex;
     }
-    return sites.sites[runs[lo][1]] || null;
+    const run = runAt(sites.runs, item);
+    return run ? sites.sites[run[1]] || null : null;
   }
   return null;
 }
 
-// Cursor → geometry: the triangles whose site (the op that drew them, from
-// `mdg_sites`) matches the editor's cursor, drawn again over the model in amber.
-// Sites are recorded for VERTEX triangles only (not sweeps, isosurfaces or
-// instances; docs/decisions.md).
+// The depth slider: the model cut at derivation depth N (what activations deeper
+// than N made is hidden). A triangle primitive gets an index of the triangles
+// kept (the original is kept in userData.mdgCut, with the kept triangles'
+// numbers for clicks); an instanced node draws the kept instances first; the
+// node of one instance is hidden.
+let depthCut = null;
+let maxDepth = 0;
+function applyCut() {
+  for (const src of siteSources()) {
+    const { o, sites } = src;
+    if (src.instances) {
+      let cut = o.userData.mdgCut;
+      if (!cut) {
+        cut = { count: o.count, matrices: o.instanceMatrix.array.slice(), colors: o.instanceColor ? o.instanceColor.array.slice() : null, order: null };
+        o.userData.mdgCut = cut;
+      }
+      const order = [];
+      for (let i = 0; i < cut.count; i++) {
+        const run = runAt(sites.runs, i);
+        if (depthCut === null || !run || run[2] <= depthCut) order.push(i);
+      }
+      order.forEach((i, k) => {
+        o.instanceMatrix.array.set(cut.matrices.subarray(16 * i, 16 * i + 16), 16 * k);
+        if (cut.colors) o.instanceColor.array.set(cut.colors.subarray(3 * i, 3 * i + 3), 3 * k);
+      });
+      cut.order = order;
+      o.count = order.length;
+      o.instanceMatrix.needsUpdate = true;
+      if (o.instanceColor) o.instanceColor.needsUpdate = true;
+      o.computeBoundingSphere();
+      continue;
+    }
+    if (!o.geometry.userData.mdg_sites) {
+      // The node of one placed instance.
+      o.visible = depthCut === null || sites.runs[0][2] <= depthCut;
+      continue;
+    }
+    const g = o.geometry;
+    let cut = o.userData.mdgCut;
+    if (!cut) {
+      cut = { index: g.index, tris: null };
+      o.userData.mdgCut = cut;
+    }
+    const triangles = itemCount(src);
+    if (depthCut === null) {
+      g.setIndex(cut.index);
+      cut.tris = null;
+      continue;
+    }
+    const keep = [];
+    const tris = [];
+    const runs = sites.runs;
+    for (let r = 0; r < runs.length; r++) {
+      if (runs[r][2] > depthCut) continue;
+      const end = r + 1 < runs.length ? runs[r + 1][0] : triangles;
+      for (let t = runs[r][0]; t < end; t++) {
+        tris.push(t);
+        for (let k = 0; k < 3; k++) keep.push(cut.index ? cut.index.getX(3 * t + k) : 3 * t + k);
+      }
+    }
+    g.setIndex(new THREE.BufferAttribute(new Uint32Array(keep), 1));
+    cut.tris = tris;
+  }
+  // The pen lines carry no sites: under a cut they are hidden (they would show
+  // the skeleton of what the cut hides).
+  let lines = false;
+  model.traverse((o) => {
+    if ((o.isLine || o.isLineSegments) && !overlayKind(o)) {
+      o.visible = depthCut === null;
+      lines = true;
+    }
+  });
+  const c = counts(model);
+  status.dataset.drawnTriangles = String(c.triangles);
+  depthLabel.textContent =
+    depthCut === null ? `depth ≤ ${maxDepth} (all)` : `depth ≤ ${depthCut}: ${c.triangles} triangles${lines ? ', pen lines hidden' : ''}`;
+  requestRender();
+}
+
+// Highlights: the cursor's rule (a `highlight` message) or a node of the tree,
+// drawn again over the model in amber. `hit(run)` says whether a run's items
+// are lit; what the depth slider hides stays hidden.
 const highlightMaterial = new THREE.MeshBasicMaterial({
   color: 0xffa020,
   transparent: true,
@@ -379,33 +509,99 @@ function siteMatches(site, h) {
   if (h.rule && site.rule && (site.rule === h.rule || site.rule.endsWith(`.${h.rule}`))) return 'rule';
   return site.file === h.file && site.line >= h.from && site.line <= h.to ? 'lines' : null;
 }
+/** The nodes of the tree below (and with) the nodes `roots`, as a Set. */
+function subtreeOf(roots) {
+  const set = new Set(roots);
+  if (!tree) return set;
+  // Children come after their parents.
+  tree.nodes.forEach((n, i) => {
+    if (n.parent != null && set.has(n.parent)) set.add(i);
+  });
+  return set;
+}
+/** What the current highlight lights: a test of a run, and its label. */
+function highlightTest(sources) {
+  if (!highlight) return null;
+  if (highlight.node != null) {
+    const nodes = subtreeOf([highlight.node]);
+    const n = tree && tree.nodes[highlight.node];
+    const name = n ? tree.rules[n.rule].rule : '?';
+    return { label: `node ${name} (depth ${n ? n.depth : '?'})`, hit: (run) => nodes.has(run[3]) };
+  }
+  const h = highlight;
+  // A rule named under the cursor wins over the lines of the definition around it.
+  const named = sources.some((s) => s.sites.sites.some((site) => siteMatches(site, h) === 'rule'));
+  if (named) return { label: `rule ${h.rule}`, hit: (run, sites) => siteMatches(sites.sites[run[1]], h) === 'rule' };
+  // A rule that draws nothing itself: what its calls made (the tree's nodes of it).
+  if (h.rule && tree) {
+    const roots = [];
+    tree.nodes.forEach((n, i) => {
+      const r = tree.rules[n.rule].rule;
+      if (r === h.rule || r.endsWith(`.${h.rule}`)) roots.push(i);
+    });
+    if (roots.length > 0) {
+      const nodes = subtreeOf(roots);
+      return { label: `rule ${h.rule} (its calls)`, hit: (run) => nodes.has(run[3]) };
+    }
+  }
+  return { label: `lines ${h.from}–${h.to}`, hit: (run, sites) => siteMatches(sites.sites[run[1]], h) === 'lines' };
+}
 function applyHighlight() {
   for (const m of highlightMeshes) {
     m.parent?.remove(m);
-    m.geometry.dispose();
+    if (!m.userData.sharedGeometry) m.geometry.dispose();
   }
   highlightMeshes = [];
   let count = 0;
-  let byRule = false;
-  if (model && highlight) {
-    const meshes = [];
-    model.traverse((o) => {
-      if (o.isMesh && o.geometry && o.geometry.userData.mdg_sites) meshes.push(o);
-    });
-    // A rule named under the cursor wins over the lines of the definition around it.
-    const anyNamed = meshes.some((o) => o.geometry.userData.mdg_sites.sites.some((s) => siteMatches(s, highlight) === 'rule'));
-    for (const o of meshes) {
-      const sites = o.geometry.userData.mdg_sites;
-      const kinds = sites.sites.map((s) => siteMatches(s, highlight));
-      const hit = kinds.map((k) => (anyNamed ? k === 'rule' : k !== null));
+  let instancesLit = 0;
+  const sources = siteSources();
+  const test = highlightTest(sources);
+  const shown = (run) => depthCut === null || run[2] <= depthCut;
+  if (model && test) {
+    for (const src of sources) {
+      const { o, sites } = src;
+      const runs = sites.runs;
+      const items = itemCount(src);
+      if (src.instances) {
+        const cut = o.userData.mdgCut;
+        const matrices = cut ? cut.matrices : o.instanceMatrix.array;
+        const lit = [];
+        for (let r = 0; r < runs.length; r++) {
+          if (!test.hit(runs[r], sites) || !shown(runs[r])) continue;
+          const end = r + 1 < runs.length ? runs[r + 1][0] : items;
+          for (let i = runs[r][0]; i < end; i++) lit.push(i);
+        }
+        if (lit.length === 0) continue;
+        const mesh = new THREE.InstancedMesh(o.geometry, highlightMaterial, lit.length);
+        lit.forEach((i, k) => mesh.instanceMatrix.array.set(matrices.subarray(16 * i, 16 * i + 16), 16 * k));
+        mesh.userData = { mdgHighlight: true, sharedGeometry: true };
+        mesh.renderOrder = 5;
+        o.add(mesh);
+        highlightMeshes.push(mesh);
+        count += lit.length * (o.geometry.index ? o.geometry.index.count / 3 : o.geometry.getAttribute('position').count / 3);
+        instancesLit += lit.length;
+        continue;
+      }
+      if (!o.geometry.userData.mdg_sites) {
+        // The node of one placed instance.
+        if (!test.hit(runs[0], sites) || !shown(runs[0])) continue;
+        const mesh = new THREE.Mesh(o.geometry, highlightMaterial);
+        mesh.userData = { mdgHighlight: true, sharedGeometry: true };
+        mesh.renderOrder = 5;
+        o.add(mesh);
+        highlightMeshes.push(mesh);
+        count += items;
+        instancesLit += 1;
+        continue;
+      }
       const pos = o.geometry.getAttribute('position');
-      const index = o.geometry.index;
-      const triangles = index ? index.count / 3 : pos.count / 3;
+      const cut = o.userData.mdgCut;
+      const index = cut ? cut.index : o.geometry.index;
       const out = [];
-      for (let r = 0; r < sites.runs.length; r++) {
-        const [first, site] = sites.runs[r];
-        const end = r + 1 < sites.runs.length ? sites.runs[r + 1][0] : triangles;
-        if (!hit[site]) continue;
+      for (let r = 0; r < runs.length; r++) {
+        if (!test.hit(runs[r], sites) || !shown(runs[r])) continue;
+        const first = runs[r][0];
+        const end = r + 1 < runs.length ? runs[r + 1][0] : items;
         for (let t = first; t < end; t++) {
           for (let k = 0; k < 3; k++) {
             const v = index ? index.getX(3 * t + k) : 3 * t + k;
@@ -418,16 +614,117 @@ function applyHighlight() {
       const g = new THREE.BufferGeometry();
       g.setAttribute('position', new THREE.Float32BufferAttribute(out, 3));
       const mesh = new THREE.Mesh(g, highlightMaterial);
+      mesh.userData = { mdgHighlight: true };
       mesh.renderOrder = 5;
       o.add(mesh);
       highlightMeshes.push(mesh);
     }
-    byRule = anyNamed;
   }
+  count = Math.round(count);
   status.dataset.highlighted = String(count);
+  status.dataset.highlightedInstances = String(instancesLit);
   hlLabel.hidden = count === 0;
-  hlLabel.textContent = count === 0 ? '' : `${byRule ? `rule ${highlight.rule}` : `lines ${highlight.from}–${highlight.to}`}: ${count} triangles lit`;
+  hlLabel.textContent = count === 0 ? '' : `${test.label}: ${count} triangles lit`;
+  for (const row of treeBox.querySelectorAll('.row')) {
+    row.classList.toggle('lit', highlight != null && highlight.node != null && Number(row.dataset.node) === highlight.node);
+  }
   requestRender();
+}
+
+// The derivation inspector: the tree of rule calls of the model shown (one row
+// per path of rules: calls, depth, share of the triangles), collapsible; a click
+// on a row lights up what that path (and everything below it) made, a click on
+// its place opens the rule's definition; the slider cuts the model at a depth.
+let tree = null;
+let treeShown = !!(saved && saved.tree === true);
+const collapsed = new Set();
+function showTree() {
+  treeBox.hidden = !treeShown || !tree;
+  treeButton.setAttribute('aria-pressed', String(treeShown));
+  const nodes = tree ? tree.nodes : [];
+  status.dataset.treeNodes = String(nodes.length);
+  treeList.replaceChildren();
+  if (!tree) return;
+  const children = nodes.map(() => []);
+  const roots = [];
+  nodes.forEach((n, i) => (n.parent == null ? roots : children[n.parent]).push(i));
+  const total = Math.max(tree.triangles, 1);
+  const add = (i, level) => {
+    const n = nodes[i];
+    const rule = tree.rules[n.rule];
+    const row = document.createElement('div');
+    row.className = 'row';
+    row.dataset.node = String(i);
+    row.style.paddingLeft = `${level * 12 + 2}px`;
+    const caret = document.createElement('span');
+    caret.className = 'caret';
+    caret.textContent = children[i].length ? (collapsed.has(i) ? '▸' : '▾') : ' ';
+    caret.addEventListener('click', (e) => {
+      e.stopPropagation();
+      if (collapsed.has(i)) collapsed.delete(i);
+      else collapsed.add(i);
+      showTree();
+    });
+    const name = document.createElement('span');
+    name.className = 'rule';
+    name.textContent = rule.rule || '(start)';
+    const info = document.createElement('span');
+    info.className = 'info';
+    const share = ((100 * n.total) / total).toFixed(n.total * 1000 < total ? 2 : 1);
+    info.textContent = ` ×${n.calls} · d${n.depth} · ${share}%${n.deeper ? ` · +${n.deeper} deeper` : ''}`;
+    info.title = `${n.calls} call(s) at depth ${n.depth}; ${n.triangles} triangles made by its own ops, ${n.total} with everything below it (${share}% of ${tree.triangles})${n.deeper ? `; ${n.deeper} calls below it past the inspector's limits are counted here` : ''}`;
+    const place = document.createElement('a');
+    place.className = 'place';
+    place.textContent = rule.file ? `${rule.file.split('/').pop()}:${rule.line}` : '';
+    place.title = 'Open the rule’s definition';
+    place.addEventListener('click', (e) => {
+      e.stopPropagation();
+      vscode.postMessage({ type: 'site', rule: rule.rule, file: rule.file, line: rule.line, definition: true });
+    });
+    row.append(caret, name, info, place);
+    row.addEventListener('click', () => {
+      highlight = highlight && highlight.node === i ? null : { node: i };
+      applyHighlight();
+    });
+    treeList.append(row);
+    if (!collapsed.has(i)) for (const c of children[i]) add(c, level + 1);
+  };
+  for (const r of roots) add(r, 0);
+  treeNote.textContent = tree.cut ? 'Deeper paths past the inspector’s limits are counted in the node above them (+N deeper).' : '';
+  treeNote.hidden = !tree.cut;
+  if (highlight && highlight.node != null) applyHighlight();
+}
+function setTree(t) {
+  const same = tree && t && tree.nodes.length === t.nodes.length;
+  tree = t || null;
+  if (!same) {
+    collapsed.clear();
+    // Paths deeper than 3 start folded.
+    if (tree) tree.nodes.forEach((n, i) => n.depth >= 3 && tree.nodes.some((m) => m.parent === i) && collapsed.add(i));
+    if (highlight && highlight.node != null) highlight = null;
+  }
+  showTree();
+}
+treeButton.addEventListener('click', () => {
+  treeShown = !treeShown;
+  showTree();
+  vscode.setState({ ...(vscode.getState() || {}), tree: treeShown });
+});
+depthInput.addEventListener('input', () => {
+  const v = Number(depthInput.value);
+  depthCut = v >= maxDepth ? null : v;
+  applyCut();
+  applyHighlight();
+});
+/** After a new model: the deepest depth its sites name, the slider's range, the cut kept. */
+function setupDepth() {
+  maxDepth = 0;
+  for (const src of siteSources()) for (const run of src.sites.runs) maxDepth = Math.max(maxDepth, run[2]);
+  depthInput.max = String(maxDepth);
+  if (depthCut !== null && depthCut >= maxDepth) depthCut = null;
+  depthInput.value = String(depthCut === null ? maxDepth : depthCut);
+  depthBox.hidden = siteSources().length === 0;
+  applyCut();
 }
 
 function showError(message) {
@@ -504,6 +801,8 @@ function show(gltf, name, m) {
     seedBox.hidden = true;
   }
   pendingDrawn = { editAt: m.editAt };
+  setTree(m.tree);
+  setupDepth();
   applyHighlight();
   status.dataset.triangles = String(c.triangles);
   status.dataset.bones = String(bones);
@@ -621,7 +920,7 @@ function tick() {
   const now = performance.now();
   if (now - lastSave > 500) {
     lastSave = now;
-    vscode.setState({ camera: { position: camera.position.toArray(), target: controls.target.toArray() }, overlays: overlaysShown });
+    vscode.setState({ camera: { position: camera.position.toArray(), target: controls.target.toArray() }, overlays: overlaysShown, tree: treeShown });
   }
 }
 requestRender();

@@ -163,11 +163,18 @@ struct Eval<'b> {
     /// The non-uniform factors of this evaluation's states.
     lins: Lins,
     weights: Weights,
-    /// With `record_sites`: the op that ran last, the mesh's triangle count when it
-    /// began, and each op's index in `out.sites.sites`.
+    /// With `record_sites` or `record_derivation`: the op that ran last, its
+    /// activation's depth and derivation node, the counts of mesh and sweep triangles
+    /// and of instances when it began, and each op's index in `out.sites.sites`.
     site_pc: u32,
+    site_depth: u32,
+    site_node: u32,
     site_mark: usize,
+    sweep_mark: usize,
+    inst_mark: usize,
     site_ids: HashMap<u32, u32>,
+    /// With `record_derivation`: the tree being recorded.
+    tree: Option<TreeRec>,
     /// Rule definitions by first op (see [`def_starts`]), made on first use: naming
     /// the rule of an op is then a binary search, not a walk over every rule (40,000
     /// rules with a prototype each took seconds).
@@ -214,7 +221,7 @@ impl<'b> Eval<'b> {
         let instancing = opts.instancing && !opts.record_sites;
         let xf_pure: Vec<bool> =
             b.transforms.iter().map(|t| matches!(t, Transform::Const(c) if c.n.is_none())).collect();
-        let fast = instancing && fast_path_applies(b, &xf_pure);
+        let fast = instancing && !opts.record_derivation && fast_path_applies(b, &xf_pure);
         let mut e = Eval {
             b,
             opts: opts.clone(),
@@ -252,8 +259,13 @@ impl<'b> Eval<'b> {
             lins: Lins::default(),
             weights: Weights::new(b),
             site_pc: 0,
+            site_depth: 0,
+            site_node: 0,
             site_mark: 0,
+            sweep_mark: 0,
+            inst_mark: 0,
             site_ids: HashMap::new(),
+            tree: opts.record_derivation.then(TreeRec::default),
             def_starts: None,
             non_finite: NonFinite::default(),
             stop_pc: None,
@@ -406,6 +418,9 @@ impl<'b> Eval<'b> {
         st.triangles =
             (self.out.mesh.triangles.len() + self.out.sweeps.triangles.len()) as u64 + self.instanced_vertices / 3;
         st.elapsed_ms = self.started.elapsed().as_secs_f64() * 1000.0;
+        if let Some(tree) = self.tree.take() {
+            self.out.derivation = Some(tree.finish(self.b));
+        }
         self.out
     }
 }

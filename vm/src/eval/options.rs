@@ -36,6 +36,14 @@ pub const START_COLOR: [f32; 4] = [1.0, 1.0, 1.0, 1.0];
 /// How deeply transform rules may need each other's frames while being sampled
 /// (each level is a nested evaluation on the native stack).
 pub const MAX_TRACK_NESTING: usize = 64;
+/// The deepest path of rule calls that gets a node of its own in the recorded
+/// derivation ([`EvalOptions::record_derivation`]); deeper calls are counted in
+/// the node at this depth.
+pub const DERIVATION_MAX_DEPTH: u32 = 64;
+/// The most nodes a recorded derivation has (a grammar whose rules alternate at
+/// random has exponentially many paths); calls of further paths are counted in
+/// their nearest node. At about 80 bytes a node in the editor's JSON, 100 KB.
+pub const DERIVATION_MAX_NODES: usize = 1200;
 /// Segments per BLENDTO.
 pub const BLEND_SEGMENTS: usize = 8;
 /// The most points one profile rule contributes (a profile is one ring of a tube:
@@ -65,9 +73,14 @@ pub struct EvalOptions {
     /// Sample transform rules far enough to pose the model at this time too (in
     /// seconds; `mdg-run --time`), when it is beyond `duration`.
     pub time: Option<f64>,
-    /// Record which op drew each mesh triangle ([`crate::output::Sites`]). Sites are
-    /// per triangle, so this also turns instancing off.
+    /// Record which op drew each mesh and sweep triangle and each instance, at which
+    /// derivation depth ([`crate::output::Sites`]). Sites are per triangle, so this
+    /// also turns prototype instancing off.
     pub record_sites: bool,
+    /// Record the tree of rule calls ([`crate::output::Derivation`]): calls and
+    /// geometry per path of rules, aggregated. Off (the default) the evaluator runs
+    /// the loop without any recording.
+    pub record_derivation: bool,
     /// Emit one instance record per run of prototype items (`INST`) instead of their
     /// vertices (the default). Off, every item runs one by one: the output then has
     /// the same geometry with every prototype instance expanded in place (tests
@@ -106,6 +119,7 @@ impl Default for EvalOptions {
             max_frames: DEFAULT_MAX_FRAMES,
             time: None,
             record_sites: false,
+            record_derivation: false,
             instancing: true,
             cancel: None,
             instances_stored: false,

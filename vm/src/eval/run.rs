@@ -194,15 +194,16 @@ impl<'b> Eval<'b> {
         if self.fast && mode == Mode::Model {
             return self.run_fast(rule, start, depth);
         }
-        // Two copies of the loop: the one without sites has no per-op check for them.
-        if self.opts.record_sites {
+        // Two copies of the loop: the one that records nothing has no per-op check.
+        if self.opts.record_sites || self.tree.is_some() {
             self.run_loop::<true>(rule, start, depth, mode)
         } else {
             self.run_loop::<false>(rule, start, depth, mode)
         }
     }
 
-    /// [`Eval::run_from`], recording sites when `SITES`.
+    /// [`Eval::run_from`], recording sites and the derivation tree (those asked
+    /// for) when `SITES`.
     pub(super) fn run_loop<const SITES: bool>(&mut self, rule: u32, start: State, depth: u32, mode: Mode) {
         let b = self.b;
         let (slot_base, slot_top) = self.default_frame(rule);
@@ -247,10 +248,16 @@ impl<'b> Eval<'b> {
         let code = &b.code;
         let record_sites = SITES;
         // (A nested run, sampling a transform rule, returns to the op that started it.)
-        let outer_site = self.site_pc;
+        let outer = (self.site_pc, self.site_depth, self.site_node);
+        // The derivation node of the running activation (see [`Eval::call_node`]), and
+        // those of its callers; a nested run (a profile, a transform rule) is no call
+        // of the model's derivation.
+        let tree = SITES && mode == Mode::Model && self.tree.is_some();
+        let mut node = if tree { self.call_node(NONE, rule, depth) } else { outer.2 };
+        let mut nodes: Vec<u32> = Vec::new();
         loop {
             if record_sites {
-                self.note_site(act.pc);
+                self.note_site(act.pc, act.depth, node);
             }
             if self.stopped || self.halt {
                 if self.stopped && self.stop_pc.is_none() {
@@ -324,6 +331,12 @@ impl<'b> Eval<'b> {
                         };
                         let callee = Act { pc, slot_base, slot_top, base: child, depth, loops_at, bone, conv: None };
                         stack.push(std::mem::replace(&mut act, callee));
+                    }
+                    if SITES {
+                        nodes.push(node);
+                        if tree {
+                            node = self.call_node(node, rule, depth);
+                        }
                     }
                 }
                 Op::Draw { kind: Drawable::Vertex, xf, ns, profile, flags: _ }
@@ -536,11 +549,14 @@ impl<'b> Eval<'b> {
                         Some(caller) => act = caller,
                         None => break,
                     }
+                    if SITES {
+                        node = nodes.pop().unwrap_or(node);
+                    }
                 }
             }
         }
         if record_sites {
-            self.note_site(outer_site);
+            self.note_site(outer.0, outer.1, outer.2);
         }
         // A run ended by a limit leaves its frames: the caller's slots end here.
         self.slots.truncate(slot_base as usize);

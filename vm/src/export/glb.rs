@@ -67,14 +67,14 @@ use std::collections::BTreeMap;
 use glam::{Mat4, Quat, Vec3};
 use serde::Serialize;
 
+use super::sites::{self, Baked};
 use super::{
     checked_triangles, clamp_color, color_at, finite, finite3, is_closed, linear_color, normal_at, unit_normal,
 };
 use crate::anim::{frames_needed, trs};
 use crate::geom::quat::Frame;
 use crate::output::{
-    expand_isosurface, expand_prototype, place_mesh, Animation, Groups, Mesh, Output, Piece, Polyline, SharedKind,
-    SharedMesh, VertexPart,
+    expand_prototype, place_mesh, Animation, Groups, Mesh, Output, Piece, Polyline, SharedKind, SharedMesh, VertexPart,
 };
 
 const FLOAT: u32 = 5126;
@@ -142,7 +142,7 @@ pub fn write_glb_with(out: &Output, opts: &GlbOptions, w: &mut dyn std::io::Writ
     // baked. A mirrored similarity is a node too: its transform times a mirror in x
     // is a proper TRS, placed over a copy of the shared mesh mirrored in x (one copy
     // per mesh).
-    let mut baked = Mesh::default();
+    let mut baked = Baked::default();
     let mut as_nodes = Vec::new();
     for (i, inst) in out.instances.iter().enumerate() {
         if gpu.instanced.get(i).copied().unwrap_or(false) {
@@ -159,17 +159,17 @@ pub fn write_glb_with(out: &Output, opts: &GlbOptions, w: &mut dyn std::io::Writ
             orthogonal_trs(&transform).map(|trs| (trs, false))
         };
         match placed {
-            Some((trs, mirror)) => as_nodes.push((inst, trs, mirror)),
-            None => expand_isosurface(&mut baked, &shared.mesh, out, inst),
+            Some((trs, mirror)) => as_nodes.push((i as u32, inst, trs, mirror)),
+            None => baked.bake(&shared.mesh, out, i as u32, inst),
         }
     }
     // Thousands of nodes make importers crawl (Blender spends over a millisecond on
     // each object, about as long as on 50 vertices): above the limit, instances of
     // small meshes are merged into the geometry; big ones stay nodes.
     if as_nodes.len() > MAX_INSTANCE_NODES {
-        as_nodes.retain(|(inst, _, _)| match out.shared(inst) {
+        as_nodes.retain(|&(i, inst, _, _)| match out.shared(inst) {
             Some(shared) if shared.mesh.positions.len() <= MAX_MERGED_MESH_VERTICES => {
-                expand_isosurface(&mut baked, &shared.mesh, out, inst);
+                baked.bake(&shared.mesh, out, i, inst);
                 false
             }
             _ => true,
@@ -190,13 +190,14 @@ pub fn write_glb_with(out: &Output, opts: &GlbOptions, w: &mut dyn std::io::Writ
     let mut top_nodes = Vec::new();
     let mut primitives = Vec::new();
     if let Some(mut p) = g.vertex_primitive(out, &gpu.instanced)? {
-        if !out.sites.runs.is_empty() {
-            p.extras = Some(sites_extras(&out.sites));
-        }
+        p.extras = sites::extras(&out.sites.runs, &out.sites.sites);
         primitives.push(p);
     }
-    for (m, what) in [(&out.sweeps, "sweeps"), (&baked, "baked instances")] {
-        if let Some(p) = g.colored_primitive(FlatSource::Mesh(m), what)? {
+    let sweep_sites = sites::extras(&out.sites.sweep_runs, &out.sites.sites);
+    for (m, what, extras) in [(&out.sweeps, "sweeps", sweep_sites), (&baked.mesh, "baked instances", baked.extras(out))]
+    {
+        if let Some(mut p) = g.colored_primitive(FlatSource::Mesh(m), what)? {
+            p.extras = extras;
             primitives.push(p);
         }
     }
@@ -232,7 +233,7 @@ pub fn write_glb_with(out: &Output, opts: &GlbOptions, w: &mut dyn std::io::Writ
 
     let mut shared_accessors: BTreeMap<(u32, bool), SharedAccessors> = BTreeMap::new();
     let mut instance_meshes: BTreeMap<(u32, bool, [u32; 4]), u32> = BTreeMap::new();
-    for (inst, (t, r, s), mirror) in as_nodes {
+    for (i, inst, (t, r, s), mirror) in as_nodes {
         let Some(shared) = out.shared(inst) else { continue };
         let acc = match shared_accessors.get(&(inst.mesh, mirror)) {
             Some(a) => *a,
@@ -270,6 +271,7 @@ pub fn write_glb_with(out: &Output, opts: &GlbOptions, w: &mut dyn std::io::Writ
             translation: Some(t.to_array()),
             rotation: Some(r.to_array()),
             scale: Some(s.to_array()),
+            extras: sites::node_extras(out, i),
             ..Node::default()
         };
         let n = g.push_node(node);
@@ -1118,9 +1120,10 @@ impl<'a> Builder<'a> {
             _ => None,
         };
         let material = Some(self.material(shared_color.unwrap_or([1.0; 4]), double_sided));
+        let extras = sites::instanced_extras(out, &group.instances);
         let mesh = self.push_mesh(GMesh {
             name: Some(name.clone()),
-            primitives: vec![Primitive { attributes, indices, material, mode: None, extras: None }],
+            primitives: vec![Primitive { attributes, indices, material, mode: None, extras }],
         });
         let n_inst = insts().count();
         let mut inst_attrs = BTreeMap::new();
@@ -1917,6 +1920,8 @@ struct Node {
     camera: Option<u32>,
     #[serde(skip_serializing_if = "Option::is_none")]
     extensions: Option<NodeExtensions>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    extras: Option<serde_json::Value>,
 }
 
 /// The extension name of GPU instancing.
@@ -1995,13 +2000,6 @@ struct GMesh {
 /// The namespaces of the lines a guided search adds (`sosmc::search`): each gets a
 /// node of its own.
 const SEARCH_LINES: [&str; 2] = ["guides", "bones"];
-
-/// `{"mdg_sites": {"runs": [[first triangle, site], …], "sites": [{"rule", "file",
-/// "line"}, …]}}`: which rule and line drew each triangle of the primitive (three.js
-/// puts a primitive's extras in its geometry's `userData`).
-fn sites_extras(sites: &crate::output::Sites) -> serde_json::Value {
-    serde_json::json!({ "mdg_sites": { "runs": sites.runs, "sites": sites.sites } })
-}
 
 #[derive(Serialize)]
 struct Primitive {
@@ -2501,7 +2499,7 @@ pub(crate) mod tests {
     }
 
     #[test]
-    fn a_search_s_guides_and_bones_get_nodes_of_their_own_and_sites_go_in_the_extras() {
+    fn a_search_s_guides_and_bones_get_nodes_of_their_own() {
         let mut out = sample_output();
         let line = |ns: &str, x: f32| Polyline {
             namespace: ns.into(),
@@ -2521,26 +2519,6 @@ pub(crate) mod tests {
         };
         // The pen line of the sample (3 points), one guide, two bones.
         assert_eq!((segments("lines"), segments("guides"), segments("bones")), (2, 1, 2));
-        // No sites unless recorded.
-        let geometry = node("geometry").expect("geometry");
-        let prim = &json["meshes"][geometry["mesh"].as_u64().expect("mesh") as usize]["primitives"][0];
-        assert!(prim.get("extras").is_none(), "{prim}");
-
-        let site = |rule: &str, line: u32| crate::output::Site { rule: rule.into(), file: "a.mdg".into(), line };
-        out.sites = crate::output::Sites { runs: vec![[0, 0], [4, 1]], sites: vec![site("A", 3), site("ns.B", 7)] };
-        let mut b = Vec::new();
-        write_glb(&out, &mut b).expect("writes");
-        let (json, _) = parse_glb(&b);
-        let geometry =
-            json["nodes"].as_array().expect("nodes").iter().find(|n| n["name"] == "geometry").expect("geometry");
-        let prim = &json["meshes"][geometry["mesh"].as_u64().expect("mesh") as usize]["primitives"][0];
-        assert_eq!(
-            prim["extras"],
-            serde_json::json!({"mdg_sites": {"runs": [[0, 0], [4, 1]], "sites": [
-                {"rule": "A", "file": "a.mdg", "line": 3}, {"rule": "ns.B", "file": "a.mdg", "line": 7}]}})
-        );
-        assert_eq!(out.sites.of(3).map(|s| s.line), Some(3));
-        assert_eq!(out.sites.of(4).map(|s| s.rule.as_str()), Some("ns.B"));
     }
 
     #[test]

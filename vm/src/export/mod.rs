@@ -11,6 +11,7 @@ pub mod glb;
 pub mod json;
 pub mod obj;
 pub mod ply;
+mod sites;
 pub mod stl;
 mod text;
 
@@ -566,6 +567,7 @@ pub(crate) mod tests {
             animation: Default::default(),
             debug: Vec::new(),
             sites: Default::default(),
+            derivation: None,
         }
     }
 

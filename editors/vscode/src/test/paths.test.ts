@@ -2,7 +2,7 @@
 
 import { test } from 'node:test';
 import * as assert from 'node:assert/strict';
-import { adaptiveDebounce, keptValues, ParamDecl, previewArgs, previewGlb, randseedEdit, resolveProgram, resolveServerPath, runArgs, siteCandidates, sliderRange, stepSeed } from '../paths';
+import { adaptiveDebounce, keptValues, ParamDecl, previewArgs, previewGlb, randseedEdit, resolveProgram, ruleHeaderLine, resolveServerPath, runArgs, siteCandidates, sliderRange, stepSeed } from '../paths';
 
 test('server path: default, home, workspace-relative, PATH names, absolute', () => {
   assert.equal(resolveServerPath(undefined), 'mdg-lsp');
@@ -99,4 +99,16 @@ test('keep: the seed written as the randseed directive (replaced, else after sta
   assert.deepEqual(randseedEdit('rule a {}\n', '9'), { line: 0, replace: false, text: 'randseed 9' });
   // A randseed inside a comment is not the directive.
   assert.deepEqual(randseedEdit('// randseed 4\nstartshape a\n', '1'), { line: 2, replace: false, text: 'randseed 1' });
+});
+
+test('ruleHeaderLine finds the rule NAME line at or above a definition op', () => {
+  const lines = ['startshape a', 'rule a {', '  leaf {}', '}', 'rule leaf 0.5 {', '  VERTEX {}', '  VERTEX {x 1}', '}', 'rule leafy {', '  x {}'];
+  const at = (i: number) => lines[i];
+  assert.equal(ruleHeaderLine(at, 6, 'leaf'), 4);
+  assert.equal(ruleHeaderLine(at, 6, 'ns.leaf'), 4);
+  assert.equal(ruleHeaderLine(at, 4, 'leaf'), 4);
+  // `leafy` is not `leaf`; none found: the line itself.
+  assert.equal(ruleHeaderLine(at, 9, 'leaf'), 4);
+  assert.equal(ruleHeaderLine(at, 2, 'leaf'), 2);
+  assert.equal(ruleHeaderLine(at, 3, ''), 3);
 });
