@@ -1041,6 +1041,40 @@ impl<'a> Checker<'a> {
         );
     }
 
+    /// Reports a malformed colour value (`#ff880`, `#tomatoe`): E0410.
+    fn colour_value(&mut self, name: &Name) {
+        use crate::colour::ColourError;
+        let Err(e) = crate::colour::parse(&name.text) else { return };
+        let word = &name.text[1..];
+        let d = match e {
+            ColourError::Length(n) => {
+                Diagnostic::error("E0410", name.span, format!("colour value `{}` has {n} hex digits", name.text))
+                    .with_label("3, 4, 6 or 8 hex digits")
+                    .with_note("`#rgb`, `#rgba`, `#rrggbb` or `#rrggbbaa`, or a colour name such as `#tomato`")
+            }
+            ColourError::NotHex(i, c) => {
+                let at = name.span.start + 1 + word.char_indices().nth(i).map_or(0, |(b, _)| b as u32);
+                Diagnostic::error(
+                    "E0410",
+                    name.span,
+                    format!("`{c}` is not a hex digit in colour value `{}`", name.text),
+                )
+                .with_secondary(Span::new(name.span.file, at, at + c.len_utf8() as u32), "not 0-9 or a-f")
+                .with_note("`#rgb`, `#rgba`, `#rrggbb` or `#rrggbbaa`, or a colour name such as `#tomato`")
+            }
+            ColourError::UnknownName(near) => {
+                let d = Diagnostic::error("E0410", name.span, format!("unknown colour name `{}`", name.text));
+                match near {
+                    Some(s) => d.with_suggestion(format!("did you mean `#{s}`?"), name.span, format!("#{s}")),
+                    None => d
+                        .with_label("not a colour name")
+                        .with_note("colour names are CSS's named colours (`#tomato`, `#navy`, `#gold`, …)"),
+                }
+            }
+        };
+        self.diags.push(d);
+    }
+
     fn adj_list(&mut self, adj: &AdjList) {
         self.context_free_order(adj);
         for a in &adj.adjs {
@@ -1058,6 +1092,9 @@ impl<'a> Checker<'a> {
                 self.diags.push(d);
                 continue;
             };
+            if kind == AdjKind::Paint {
+                self.colour_value(&a.name);
+            }
             let (lo, hi) = kind.arity();
             if a.args.len() < lo || a.args.len() > hi {
                 let want = if lo == hi { format!("{lo}") } else { format!("{lo} to {hi}") };

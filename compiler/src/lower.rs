@@ -256,6 +256,8 @@ fn key(c: &Composite) -> Vec<u32> {
         .chain(c.n.iter().flatten().map(|f| f.to_bits()))
         .chain(std::iter::once(u32::from(c.hsb.is_some())))
         .chain(c.hsb.iter().flatten().map(|f| f.to_bits()))
+        .chain(std::iter::once(u32::from(c.set.is_some())))
+        .chain(c.set.iter().flatten().map(|f| f.to_bits()))
         .collect()
 }
 
@@ -911,6 +913,14 @@ impl<'a> Lower<'a> {
                     }
                 }
             }
+            if kind == AdjKind::Paint {
+                // A colour value: its RGBA as four constants (a malformed one is the
+                // checker's error, E0410; here it paints nothing).
+                if let Ok(rgba) = crate::colour::parse(&a.name.text) {
+                    prims.push(PrimAdj { kind: AdjOp::Paint, axis: 0, args: rgba.map(bundle::Arg::Const).to_vec() });
+                }
+                continue;
+            }
             let (k, axis) = match kind {
                 AdjKind::Translate(ax) => (AdjOp::Translate, if ax == 0 && args.len() > 1 { 3 } else { ax }),
                 AdjKind::Rotate(ax) => (AdjOp::Rotate, ax),
@@ -934,6 +944,7 @@ impl<'a> Lower<'a> {
                 AdjKind::Weight(i) => (AdjOp::Weight, i),
                 AdjKind::Fps => (AdjOp::Fps, 0),
                 AdjKind::Hsb(i) => (AdjOp::Hsb, i),
+                AdjKind::Paint => continue,
             };
             prims.push(PrimAdj { kind: k, axis, args });
         }

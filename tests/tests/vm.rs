@@ -514,3 +514,45 @@ fn hue_turns_accumulate_on_greys_as_in_context_free() {
     let c = out.vertex_mesh().colors[0];
     assert!((c[0] - 0.75).abs() < 1e-6 && (c[1] - 1.0).abs() < 1e-6 && c[2].abs() < 1e-6, "RGBA deltas: {c:?}");
 }
+
+#[test]
+fn colour_values_set_the_colour_and_later_adjustments_compose_with_it() {
+    let colour = |src: &str| {
+        let out = run_source(&format!("startshape A\nrule A {{ {src} }}\nrule B {{ SQUARE {{}} }}\n"));
+        out.vertex_mesh().colors[0]
+    };
+    let close = |c: [f32; 4], want: [f32; 4]| (0..4).all(|k| (c[k] - want[k]).abs() < 1e-3);
+    // The hex forms and a palette name.
+    let c = colour("SQUARE {#ff8800}");
+    assert!(close(c, [1.0, 136.0 / 255.0, 0.0, 1.0]), "#ff8800: {c:?}");
+    let c = colour("SQUARE {#f008}");
+    assert!(close(c, [1.0, 0.0, 0.0, 136.0 / 255.0]), "#f008: {c:?}");
+    let c = colour("SQUARE {#0000ff80}");
+    assert!(close(c, [0.0, 0.0, 1.0, 128.0 / 255.0]), "#0000ff80: {c:?}");
+    let c = colour("SQUARE {#tomato}");
+    assert!(close(c, [1.0, 99.0 / 255.0, 71.0 / 255.0, 1.0]), "#tomato: {c:?}");
+    // Written order: what comes before the value is replaced, what comes after adjusts it.
+    let c = colour("SQUARE {R -1 b -1 #0f0}");
+    assert!(close(c, [0.0, 1.0, 0.0, 1.0]), "deltas before the value: {c:?}");
+    // After it, the list's rule: RGBA deltas add, then HSB applies (green plus red
+    // 0.25, then brightness halved).
+    let c = colour("SQUARE {#0f0 b -0.5 R 0.25}");
+    assert!(close(c, [0.125, 0.5, 0.0, 1.0]), "b and R after the value: {c:?}");
+    // The value holds for the whole subtree; a child's hue turn starts from its hue.
+    let c = colour("B {#00f} ");
+    assert!(close(c, [0.0, 0.0, 1.0, 1.0]), "inherited: {c:?}");
+    let c = colour("C {#f00} } rule C { SQUARE {hue 120}");
+    assert!(close(c, [0.0, 1.0, 0.0, 1.0]), "red turned 120°: {c:?}");
+    // A grey value forgets the hue the frame kept: saturating it gives red (hue 0).
+    let c = colour("C {hue 240 #808080} } rule C { SQUARE {sat 1}");
+    assert!(close(c, [128.0 / 255.0, 0.0, 0.0, 1.0]), "a grey value's hue: {c:?}");
+    // An iterator's steps set the same value; a random argument elsewhere in the list
+    // (composed at run time) paints alike.
+    let out = run_source("startshape A\nrule A { 3 * {x 1 #00f b -0.5} SQUARE {} }\n");
+    let m = out.vertex_mesh();
+    for i in 0..3 {
+        assert!(close(m.colors[i * 6], [0.0, 0.0, 0.5, 1.0]), "step {i}: {:?}", m.colors[i * 6]);
+    }
+    let c = colour("SQUARE {x rand(0, 1) #00f}");
+    assert!(close(c, [0.0, 0.0, 1.0, 1.0]), "a run-time list: {c:?}");
+}

@@ -293,8 +293,8 @@ impl<'b> Eval<'b> {
                 .iter()
                 .map(|t| match t {
                     // (Not for a non-uniform scale, whose normals need the inverse
-                    // transpose, nor for HSB, which is no delta.)
-                    Transform::Const(c) if c.n.is_none() && c.hsb.is_none() => {
+                    // transpose, nor for HSB or a set colour, which are no deltas.)
+                    Transform::Const(c) if c.n.is_none() && c.hsb.is_none() && c.set.is_none() => {
                         let frame = composite_frame(c);
                         let (lin, mirrored) = frame.linear();
                         Some(XfInfo { frame, normal: lin * Vec3::from_array(s.normal), mirrored })
