@@ -34,6 +34,7 @@ pub const NUMERIC_DIRECTIVES: &[(&str, usize, usize, bool)] = &[
     ("randseed", 1, 1, true),
     ("normal", 3, 3, false),
     ("background", 3, 4, false),
+    ("flat", 0, 0, false),
     ("fps", 1, 1, false),
     ("duration", 1, 1, false),
     ("camerafov", 1, 1, false),

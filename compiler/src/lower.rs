@@ -421,8 +421,11 @@ impl<'a> Lower<'a> {
             .filter(|v| v.len() == 3)
             .map(|v| [v[0] as f32, v[1] as f32, v[2] as f32])
             .unwrap_or([0.0, 0.0, 1.0]);
+        // `flat`: Context Free's flat art, on Context Free's white unless `background` says.
+        let flat = self.directive_numbers("flat").is_some();
         let background = match self.directive_numbers("background") {
             Some(v) if v.len() >= 3 => [v[0] as f32, v[1] as f32, v[2] as f32, v.get(3).copied().unwrap_or(1.0) as f32],
+            _ if flat => [1.0, 1.0, 1.0, 1.0],
             _ => [0.12, 0.12, 0.14, 1.0],
         };
         let mut shaders = Vec::new();
@@ -484,6 +487,7 @@ impl<'a> Lower<'a> {
             linerule,
             camerarule,
             namespaces: namespace_ids,
+            flat,
         };
         Bundle {
             strings: std::mem::take(&mut self.strings),

@@ -556,3 +556,28 @@ fn colour_values_set_the_colour_and_later_adjustments_compose_with_it() {
     let c = colour("SQUARE {x rand(0, 1) #00f}");
     assert!(close(c, [0.0, 0.0, 1.0, 1.0]), "a run-time list: {c:?}");
 }
+
+#[test]
+fn flat_starts_black_on_white_and_orders_triangles_by_z_then_derivation() {
+    let out = run_source(
+        "startshape A\nflat\nrule A { SQUARE {} SQUARE {x 1 z 1 #f00} SQUARE {x 2 z -1 #00f} SQUARE {x 3 b 1} }\n",
+    );
+    assert!(out.flat, "the directive reaches the output");
+    assert_eq!(out.background, [1.0, 1.0, 1.0, 1.0], "Context Free's white background");
+    let m = out.vertex_mesh();
+    // Per triangle: its first vertex's x (which square) and colour, in paint order.
+    let order: Vec<(i32, [f32; 4])> = m
+        .triangles
+        .iter()
+        .map(|t| ((m.positions[t[0] as usize][0] + 0.5).floor() as i32, m.colors[t[0] as usize]))
+        .collect();
+    let squares: Vec<i32> = order.iter().map(|o| o.0).collect();
+    assert_eq!(squares, [2, 2, 0, 0, 3, 3, 1, 1], "z -1 first, then z 0 in derivation order, then z 1");
+    assert_eq!(order[2].1, [0.0, 0.0, 0.0, 1.0], "black from the start (Context Free's)");
+    assert_eq!(order[4].1, [1.0, 1.0, 1.0, 1.0], "`b 1` on black is white");
+    // Without `flat`: white from the start, the default background, derivation order.
+    let out = run_source("startshape A\nrule A { SQUARE {} SQUARE {x 1 z 1} SQUARE {x 2 z -1} }\n");
+    assert!(!out.flat);
+    assert_eq!(out.vertex_mesh().colors[0], [1.0; 4]);
+    assert_eq!(out.background, [0.12, 0.12, 0.14, 1.0]);
+}

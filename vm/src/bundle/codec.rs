@@ -172,6 +172,7 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
     w.f32(s.far);
     w.u32(s.linerule);
     w.u32(s.camerarule);
+    w.u8(u8::from(s.flat));
     w.len(s.namespaces.len());
     for n in &s.namespaces {
         w.u32(*n);
@@ -410,6 +411,11 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
     let far = r.f32()?;
     let linerule = r.u32()?;
     let camerarule = r.u32()?;
+    let flat = match r.u8()? {
+        0 => false,
+        1 => true,
+        _ => return Err(r.err("the flat setting is neither 0 nor 1")),
+    };
     let n = r.len(4)?;
     let mut namespaces = Vec::with_capacity(n);
     for _ in 0..n {
@@ -432,6 +438,7 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
         linerule,
         camerarule,
         namespaces,
+        flat,
     };
     r.section = "transforms";
     let n = r.len(5)?;

@@ -322,6 +322,9 @@ pub struct Settings {
     pub camerarule: u32,
     /// Namespace names (string indices); index 0 is the global namespace "".
     pub namespaces: Vec<u32>,
+    /// The `flat` directive: Context Free's flat-art mode (black shapes from the start,
+    /// painted in derivation order, unlit; reference §3).
+    pub flat: bool,
 }
 
 /// A whole compiled grammar.
@@ -388,6 +391,7 @@ impl Bundle {
                 linerule: NONE,
                 camerarule: NONE,
                 namespaces: vec![0],
+                flat: false,
             },
             transforms: vec![],
             exprs: vec![],

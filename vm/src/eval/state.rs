@@ -28,6 +28,17 @@ impl State {
         State { f: Frame::identity(), color: START_COLOR, weight: [0.0; 4], fps, lin: 0, ndet: 1.0, hue: 0.0 }
     }
 
+    /// The state at the start of a model run of a bundle with `settings`: as
+    /// [`State::start`], black under the `flat` directive (Context Free's start).
+    pub fn start_in(settings: &bundle::Settings) -> State {
+        let s = State::start(settings.fps);
+        if settings.flat {
+            State { color: FLAT_START_COLOR, ..s }
+        } else {
+            s
+        }
+    }
+
     /// `self ∘ c`. The non-uniform factors of a frame live in `lins`, which gains an
     /// entry only when `c` itself holds a non-uniform scale.
     #[inline(always)]
