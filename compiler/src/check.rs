@@ -1495,6 +1495,20 @@ impl<'a> Checker<'a> {
                 }
             }
             "color" | "weight" => {}
+            // `background #rrggbb` or `background #name`: a colour value.
+            "background" if matches!(args, [DirArg::Word(w)] if w.text.starts_with('#')) => {
+                if let Some(prev) = seen.get(n) {
+                    self.diags.push(
+                        Diagnostic::error("E0312", name.span, format!("`{n}` is given twice"))
+                            .with_secondary(*prev, "first given here"),
+                    );
+                } else {
+                    seen.insert(n.to_string(), name.span);
+                }
+                if let [DirArg::Word(w)] = args {
+                    self.colour_value(w);
+                }
+            }
             "uniform" => {
                 let rest = &args[1..];
                 if let [DirArg::Word(rule), DirArg::Word(prop)] = rest {

@@ -291,6 +291,17 @@ impl<'a> Lower<'a> {
         self.namespaces.len() as u32 - 1
     }
 
+    /// The colour value of `background #rrggbb` (the last `background`), if it is one.
+    fn background_colour(&self) -> Option<[f32; 4]> {
+        self.ex.items.iter().rev().find_map(|ExpItem { item, .. }| match &item.kind {
+            ItemKind::Directive { name, args } if name.text == "background" => match args.as_slice() {
+                [DirArg::Word(w)] => crate::colour::parse(&w.text).ok(),
+                _ => None,
+            },
+            _ => None,
+        })
+    }
+
     fn directive_numbers(&self, name: &str) -> Option<Vec<f64>> {
         self.ex.items.iter().rev().find_map(|ExpItem { item, .. }| match &item.kind {
             ItemKind::Directive { name: n, args } if n.text == name => Some(
@@ -424,6 +435,10 @@ impl<'a> Lower<'a> {
         // `flat`: Context Free's flat art, on Context Free's white unless `background` says.
         let flat = self.directive_numbers("flat").is_some();
         let background = match self.directive_numbers("background") {
+            // `background #rrggbb`: the colour value (no numbers).
+            Some(v) if v.is_empty() => {
+                self.background_colour().unwrap_or(if flat { [1.0; 4] } else { [0.12, 0.12, 0.14, 1.0] })
+            }
             Some(v) if v.len() >= 3 => [v[0] as f32, v[1] as f32, v[2] as f32, v.get(3).copied().unwrap_or(1.0) as f32],
             _ if flat => [1.0, 1.0, 1.0, 1.0],
             _ => [0.12, 0.12, 0.14, 1.0],

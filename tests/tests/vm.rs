@@ -575,6 +575,10 @@ fn flat_starts_black_on_white_and_orders_triangles_by_z_then_derivation() {
     assert_eq!(squares, [2, 2, 0, 0, 3, 3, 1, 1], "z -1 first, then z 0 in derivation order, then z 1");
     assert_eq!(order[2].1, [0.0, 0.0, 0.0, 1.0], "black from the start (Context Free's)");
     assert_eq!(order[4].1, [1.0, 1.0, 1.0, 1.0], "`b 1` on black is white");
+    let out = run_source("startshape A\nflat\nbackground #ff000080\nrule A { SQUARE {} }\n");
+    assert_eq!(out.background, [1.0, 0.0, 0.0, 128.0 / 255.0], "a colour value as the background");
+    let out = run_source("startshape A\nbackground #navy\nrule A { SQUARE {} }\n");
+    assert_eq!(out.background, [0.0, 0.0, 128.0 / 255.0, 1.0], "a colour name as the background");
     // Without `flat`: white from the start, the default background, derivation order.
     let out = run_source("startshape A\nrule A { SQUARE {} SQUARE {x 1 z 1} SQUARE {x 2 z -1} }\n");
     assert!(!out.flat);
