@@ -19,6 +19,9 @@ pub enum AdjKind {
     Weight(u8),
     /// `hue` (0), `sat`/`saturation` (1), `b`/`brightness` (2): Context Free's HSB.
     Hsb(u8),
+    /// A colour value, `#ff8800` or `#tomato` (the adjustment's name is its text):
+    /// sets the colour absolutely.
+    Paint,
 }
 
 impl AdjKind {
@@ -28,7 +31,7 @@ impl AdjKind {
             AdjKind::Translate(0) | AdjKind::Rotate(3) | AdjKind::Scale => (1, 3),
             AdjKind::Turn(..) => (0, 1),
             AdjKind::Flip(3) => (3, 3),
-            AdjKind::Flip(_) => (0, 0),
+            AdjKind::Flip(_) | AdjKind::Paint => (0, 0),
             _ => (1, 1),
         }
     }
@@ -75,6 +78,7 @@ impl Components {
             "fy" => AdjKind::Flip(1),
             "fz" => AdjKind::Flip(2),
             "fps" => AdjKind::Fps,
+            _ if name.starts_with('#') => AdjKind::Paint,
             _ => {
                 if let Some(i) = self.color.iter().position(|c| c == name) {
                     AdjKind::Color(i as u8)

@@ -34,6 +34,7 @@ pub const NUMERIC_DIRECTIVES: &[(&str, usize, usize, bool)] = &[
     ("randseed", 1, 1, true),
     ("normal", 3, 3, false),
     ("background", 3, 4, false),
+    ("flat", 0, 0, false),
     ("fps", 1, 1, false),
     ("duration", 1, 1, false),
     ("camerafov", 1, 1, false),
@@ -1041,6 +1042,40 @@ impl<'a> Checker<'a> {
         );
     }
 
+    /// Reports a malformed colour value (`#ff880`, `#tomatoe`): E0410.
+    fn colour_value(&mut self, name: &Name) {
+        use crate::colour::ColourError;
+        let Err(e) = crate::colour::parse(&name.text) else { return };
+        let word = &name.text[1..];
+        let d = match e {
+            ColourError::Length(n) => {
+                Diagnostic::error("E0410", name.span, format!("colour value `{}` has {n} hex digits", name.text))
+                    .with_label("3, 4, 6 or 8 hex digits")
+                    .with_note("`#rgb`, `#rgba`, `#rrggbb` or `#rrggbbaa`, or a colour name such as `#tomato`")
+            }
+            ColourError::NotHex(i, c) => {
+                let at = name.span.start + 1 + word.char_indices().nth(i).map_or(0, |(b, _)| b as u32);
+                Diagnostic::error(
+                    "E0410",
+                    name.span,
+                    format!("`{c}` is not a hex digit in colour value `{}`", name.text),
+                )
+                .with_secondary(Span::new(name.span.file, at, at + c.len_utf8() as u32), "not 0-9 or a-f")
+                .with_note("`#rgb`, `#rgba`, `#rrggbb` or `#rrggbbaa`, or a colour name such as `#tomato`")
+            }
+            ColourError::UnknownName(near) => {
+                let d = Diagnostic::error("E0410", name.span, format!("unknown colour name `{}`", name.text));
+                match near {
+                    Some(s) => d.with_suggestion(format!("did you mean `#{s}`?"), name.span, format!("#{s}")),
+                    None => d
+                        .with_label("not a colour name")
+                        .with_note("colour names are CSS's named colours (`#tomato`, `#navy`, `#gold`, …)"),
+                }
+            }
+        };
+        self.diags.push(d);
+    }
+
     fn adj_list(&mut self, adj: &AdjList) {
         self.context_free_order(adj);
         for a in &adj.adjs {
@@ -1058,6 +1093,9 @@ impl<'a> Checker<'a> {
                 self.diags.push(d);
                 continue;
             };
+            if kind == AdjKind::Paint {
+                self.colour_value(&a.name);
+            }
             let (lo, hi) = kind.arity();
             if a.args.len() < lo || a.args.len() > hi {
                 let want = if lo == hi { format!("{lo}") } else { format!("{lo} to {hi}") };
@@ -1457,6 +1495,20 @@ impl<'a> Checker<'a> {
                 }
             }
             "color" | "weight" => {}
+            // `background #rrggbb` or `background #name`: a colour value.
+            "background" if matches!(args, [DirArg::Word(w)] if w.text.starts_with('#')) => {
+                if let Some(prev) = seen.get(n) {
+                    self.diags.push(
+                        Diagnostic::error("E0312", name.span, format!("`{n}` is given twice"))
+                            .with_secondary(*prev, "first given here"),
+                    );
+                } else {
+                    seen.insert(n.to_string(), name.span);
+                }
+                if let [DirArg::Word(w)] = args {
+                    self.colour_value(w);
+                }
+            }
             "uniform" => {
                 let rest = &args[1..];
                 if let [DirArg::Word(rule), DirArg::Word(prop)] = rest {

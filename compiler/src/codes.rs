@@ -1214,6 +1214,24 @@ rule A {
         ),
     },
     Code {
+        code: "E0410",
+        severity: Error,
+        title: "malformed colour value",
+        explanation: r#"A colour value in an adjustment list is `#` and 3, 4, 6 or 8 hex digits (`#f80`, `#f808`, `#ff8800`, `#ff880080`: red, green, blue and optionally alpha) or a colour name (`#tomato`, CSS's named colours); this one is neither.
+
+In the example: `#ff880` has five hex digits.
+
+Fix: Write 3, 4, 6 or 8 hex digits, or a colour name (the error suggests the nearest)."#,
+        example: Library(
+            r#"startshape A
+
+rule A {
+  CIRCLE {#ff880}
+}
+"#,
+        ),
+    },
+    Code {
         code: "E0501",
         severity: Error,
         title: "GLSL error in a shader block",

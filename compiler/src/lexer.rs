@@ -248,6 +248,9 @@ pub enum Tok {
     MacroDef,
     /// A whole `@expand NAME(…)` use (made by the pre-pass).
     Expand,
+    /// A colour value `#rrggbb`, `#rgb`, `#rrggbbaa` or `#name` (made by the lexer
+    /// from a `#` and the word after it: [`crate::colour::looks_like_colour`]).
+    Colour,
 }
 
 impl Tok {
@@ -277,6 +280,7 @@ impl Tok {
             Ident | Dotted => "a name",
             CallOpen => "a call",
             Number => "a number",
+            Colour => "a colour value",
             LBrace => "`{`",
             RBrace => "`}`",
             LBracket => "`[`",
@@ -418,6 +422,16 @@ pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
                 out.tokens.push(Token { kind: Tok::Number, span });
             }
             Ok(kind) => out.tokens.push(Token { kind, span }),
+            Err(LexError::InvalidChar)
+                if text[r.clone()].starts_with('#')
+                    && colour_word(&text[r.end..], out.tokens.last().map(|t| t.kind)).is_some() =>
+            {
+                // A colour value (`#ff8800`, `#tomato`); the checker reports malformed ones.
+                let n = colour_word(&text[r.end..], out.tokens.last().map(|t| t.kind)).map_or(0, str::len);
+                lexer.bump(n);
+                invalid_end = None;
+                out.tokens.push(Token { kind: Tok::Colour, span: Span::new(file, span.start, span.end + n as u32) });
+            }
             Err(LexError::InvalidChar) if text[r.clone()].starts_with('#') => {
                 // A `#` comment (shell, Python, Context Free) or a C-style `#define`:
                 // one error with the fix, and the rest of the line is skipped as the
@@ -523,10 +537,33 @@ fn hash_line(line: &str, span: Span) -> Diagnostic {
             .with_note(format!("MDG's preprocessor directives start with `@`: `{directive}`"))
             .with_suggestion(format!("write `{directive}`"), span, "@");
     }
-    Diagnostic::error("E0103", span, "`#` does not start a comment in MDG")
+    let d = Diagnostic::error("E0103", span, "`#` does not start a comment in MDG")
         .with_label("not part of the language; the rest of the line is skipped")
-        .with_note("MDG comments are `//` or `/* */`")
-        .with_suggestion("write `//`", span, "//")
+        .with_note("MDG comments are `//` or `/* */`");
+    // A misspelt colour name (`#tomatoe`) reads as a comment too: say what was near.
+    let d = match crate::colour::nearest_name(&word).filter(|_| word.len() >= 3) {
+        Some(name) => d.with_note(format!(
+            "a colour value is `#` and 3, 4, 6 or 8 hex digits, or a colour name: did you mean `#{name}`?"
+        )),
+        None => d,
+    };
+    d.with_suggestion("write `//`", span, "//")
+}
+
+/// The word after a `#` when it makes a colour value (ASCII letters and digits,
+/// [`crate::colour::looks_like_colour`], or any word where an adjustment may stand:
+/// after `{`, `[`, a number, `)` or another colour), or `None` for a
+/// `#` comment or directive. `prev` is the token before the `#`.
+fn colour_word(rest: &str, prev: Option<Tok>) -> Option<&str> {
+    let n = rest.find(|c: char| !c.is_ascii_alphanumeric()).unwrap_or(rest.len());
+    let word = &rest[..n];
+    // A word followed by `_` is an identifier-like comment word (`#my_note`), not a value.
+    let directive = format!("@{word}");
+    if rest[n..].starts_with('_') || PREPROCESSOR_DIRECTIVES.contains(&directive.as_str()) {
+        return None;
+    }
+    let in_list = matches!(prev, Some(Tok::LBrace | Tok::LBracket | Tok::Number | Tok::Colour | Tok::RParen));
+    (crate::colour::looks_like_colour(word) || (in_list && !word.is_empty())).then_some(word)
 }
 
 /// Lexes a whole file.

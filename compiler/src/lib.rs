@@ -11,6 +11,7 @@ pub mod ast;
 pub mod cfdg;
 pub mod check;
 pub mod codes;
+pub mod colour;
 pub mod consteval;
 pub mod diag;
 pub mod driver;

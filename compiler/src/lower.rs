@@ -256,6 +256,8 @@ fn key(c: &Composite) -> Vec<u32> {
         .chain(c.n.iter().flatten().map(|f| f.to_bits()))
         .chain(std::iter::once(u32::from(c.hsb.is_some())))
         .chain(c.hsb.iter().flatten().map(|f| f.to_bits()))
+        .chain(std::iter::once(u32::from(c.set.is_some())))
+        .chain(c.set.iter().flatten().map(|f| f.to_bits()))
         .collect()
 }
 
@@ -287,6 +289,17 @@ impl<'a> Lower<'a> {
         }
         self.namespaces.push(ns.to_string());
         self.namespaces.len() as u32 - 1
+    }
+
+    /// The colour value of `background #rrggbb` (the last `background`), if it is one.
+    fn background_colour(&self) -> Option<[f32; 4]> {
+        self.ex.items.iter().rev().find_map(|ExpItem { item, .. }| match &item.kind {
+            ItemKind::Directive { name, args } if name.text == "background" => match args.as_slice() {
+                [DirArg::Word(w)] => crate::colour::parse(&w.text).ok(),
+                _ => None,
+            },
+            _ => None,
+        })
     }
 
     fn directive_numbers(&self, name: &str) -> Option<Vec<f64>> {
@@ -419,8 +432,15 @@ impl<'a> Lower<'a> {
             .filter(|v| v.len() == 3)
             .map(|v| [v[0] as f32, v[1] as f32, v[2] as f32])
             .unwrap_or([0.0, 0.0, 1.0]);
+        // `flat`: Context Free's flat art, on Context Free's white unless `background` says.
+        let flat = self.directive_numbers("flat").is_some();
         let background = match self.directive_numbers("background") {
+            // `background #rrggbb`: the colour value (no numbers).
+            Some(v) if v.is_empty() => {
+                self.background_colour().unwrap_or(if flat { [1.0; 4] } else { [0.12, 0.12, 0.14, 1.0] })
+            }
             Some(v) if v.len() >= 3 => [v[0] as f32, v[1] as f32, v[2] as f32, v.get(3).copied().unwrap_or(1.0) as f32],
+            _ if flat => [1.0, 1.0, 1.0, 1.0],
             _ => [0.12, 0.12, 0.14, 1.0],
         };
         let mut shaders = Vec::new();
@@ -482,6 +502,7 @@ impl<'a> Lower<'a> {
             linerule,
             camerarule,
             namespaces: namespace_ids,
+            flat,
         };
         Bundle {
             strings: std::mem::take(&mut self.strings),
@@ -911,6 +932,14 @@ impl<'a> Lower<'a> {
                     }
                 }
             }
+            if kind == AdjKind::Paint {
+                // A colour value: its RGBA as four constants (a malformed one is the
+                // checker's error, E0410; here it paints nothing).
+                if let Ok(rgba) = crate::colour::parse(&a.name.text) {
+                    prims.push(PrimAdj { kind: AdjOp::Paint, axis: 0, args: rgba.map(bundle::Arg::Const).to_vec() });
+                }
+                continue;
+            }
             let (k, axis) = match kind {
                 AdjKind::Translate(ax) => (AdjOp::Translate, if ax == 0 && args.len() > 1 { 3 } else { ax }),
                 AdjKind::Rotate(ax) => (AdjOp::Rotate, ax),
@@ -934,6 +963,7 @@ impl<'a> Lower<'a> {
                 AdjKind::Weight(i) => (AdjOp::Weight, i),
                 AdjKind::Fps => (AdjOp::Fps, 0),
                 AdjKind::Hsb(i) => (AdjOp::Hsb, i),
+                AdjKind::Paint => continue,
             };
             prims.push(PrimAdj { kind: k, axis, args });
         }

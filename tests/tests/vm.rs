@@ -635,3 +635,74 @@ fn a_branching_derivation_is_cut_at_the_node_limit() {
     let calls: u64 = d.nodes.iter().map(|n| n.calls + n.deeper).sum();
     assert_eq!(calls, triangles + 2 * ((1 << 12) - 1));
 }
+
+#[test]
+fn colour_values_set_the_colour_and_later_adjustments_compose_with_it() {
+    let colour = |src: &str| {
+        let out = run_source(&format!("startshape A\nrule A {{ {src} }}\nrule B {{ SQUARE {{}} }}\n"));
+        out.vertex_mesh().colors[0]
+    };
+    let close = |c: [f32; 4], want: [f32; 4]| (0..4).all(|k| (c[k] - want[k]).abs() < 1e-3);
+    // The hex forms and a palette name.
+    let c = colour("SQUARE {#ff8800}");
+    assert!(close(c, [1.0, 136.0 / 255.0, 0.0, 1.0]), "#ff8800: {c:?}");
+    let c = colour("SQUARE {#f008}");
+    assert!(close(c, [1.0, 0.0, 0.0, 136.0 / 255.0]), "#f008: {c:?}");
+    let c = colour("SQUARE {#0000ff80}");
+    assert!(close(c, [0.0, 0.0, 1.0, 128.0 / 255.0]), "#0000ff80: {c:?}");
+    let c = colour("SQUARE {#tomato}");
+    assert!(close(c, [1.0, 99.0 / 255.0, 71.0 / 255.0, 1.0]), "#tomato: {c:?}");
+    // Written order: what comes before the value is replaced, what comes after adjusts it.
+    let c = colour("SQUARE {R -1 b -1 #0f0}");
+    assert!(close(c, [0.0, 1.0, 0.0, 1.0]), "deltas before the value: {c:?}");
+    // After it, the list's rule: RGBA deltas add, then HSB applies (green plus red
+    // 0.25, then brightness halved).
+    let c = colour("SQUARE {#0f0 b -0.5 R 0.25}");
+    assert!(close(c, [0.125, 0.5, 0.0, 1.0]), "b and R after the value: {c:?}");
+    // The value holds for the whole subtree; a child's hue turn starts from its hue.
+    let c = colour("B {#00f} ");
+    assert!(close(c, [0.0, 0.0, 1.0, 1.0]), "inherited: {c:?}");
+    let c = colour("C {#f00} } rule C { SQUARE {hue 120}");
+    assert!(close(c, [0.0, 1.0, 0.0, 1.0]), "red turned 120°: {c:?}");
+    // A grey value forgets the hue the frame kept: saturating it gives red (hue 0).
+    let c = colour("C {hue 240 #808080} } rule C { SQUARE {sat 1}");
+    assert!(close(c, [128.0 / 255.0, 0.0, 0.0, 1.0]), "a grey value's hue: {c:?}");
+    // An iterator's steps set the same value; a random argument elsewhere in the list
+    // (composed at run time) paints alike.
+    let out = run_source("startshape A\nrule A { 3 * {x 1 #00f b -0.5} SQUARE {} }\n");
+    let m = out.vertex_mesh();
+    for i in 0..3 {
+        assert!(close(m.colors[i * 6], [0.0, 0.0, 0.5, 1.0]), "step {i}: {:?}", m.colors[i * 6]);
+    }
+    let c = colour("SQUARE {x rand(0, 1) #00f}");
+    assert!(close(c, [0.0, 0.0, 1.0, 1.0]), "a run-time list: {c:?}");
+}
+
+#[test]
+fn flat_starts_black_on_white_and_orders_triangles_by_z_then_derivation() {
+    let out = run_source(
+        "startshape A\nflat\nrule A { SQUARE {} SQUARE {x 1 z 1 #f00} SQUARE {x 2 z -1 #00f} SQUARE {x 3 b 1} }\n",
+    );
+    assert!(out.flat, "the directive reaches the output");
+    assert_eq!(out.background, [1.0, 1.0, 1.0, 1.0], "Context Free's white background");
+    let m = out.vertex_mesh();
+    // Per triangle: its first vertex's x (which square) and colour, in paint order.
+    let order: Vec<(i32, [f32; 4])> = m
+        .triangles
+        .iter()
+        .map(|t| ((m.positions[t[0] as usize][0] + 0.5).floor() as i32, m.colors[t[0] as usize]))
+        .collect();
+    let squares: Vec<i32> = order.iter().map(|o| o.0).collect();
+    assert_eq!(squares, [2, 2, 0, 0, 3, 3, 1, 1], "z -1 first, then z 0 in derivation order, then z 1");
+    assert_eq!(order[2].1, [0.0, 0.0, 0.0, 1.0], "black from the start (Context Free's)");
+    assert_eq!(order[4].1, [1.0, 1.0, 1.0, 1.0], "`b 1` on black is white");
+    let out = run_source("startshape A\nflat\nbackground #ff000080\nrule A { SQUARE {} }\n");
+    assert_eq!(out.background, [1.0, 0.0, 0.0, 128.0 / 255.0], "a colour value as the background");
+    let out = run_source("startshape A\nbackground #navy\nrule A { SQUARE {} }\n");
+    assert_eq!(out.background, [0.0, 0.0, 128.0 / 255.0, 1.0], "a colour name as the background");
+    // Without `flat`: white from the start, the default background, derivation order.
+    let out = run_source("startshape A\nrule A { SQUARE {} SQUARE {x 1 z 1} SQUARE {x 2 z -1} }\n");
+    assert!(!out.flat);
+    assert_eq!(out.vertex_mesh().colors[0], [1.0; 4]);
+    assert_eq!(out.background, [0.12, 0.12, 0.14, 1.0]);
+}

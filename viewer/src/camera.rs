@@ -62,7 +62,20 @@ impl OrbitCamera {
     /// The home view of `bounds` for a viewport of aspect `aspect` (width / height),
     /// `fov_deg` the vertical field of view.
     pub fn framing(bounds: &Bounds, fov_deg: f32, aspect: f32) -> OrbitCamera {
-        let (az, el) = if bounds.is_flat() { (0.0, 89.0) } else { (HOME_AZIMUTH_DEG, HOME_ELEVATION_DEG) };
+        OrbitCamera::framing_art(bounds, fov_deg, aspect, false)
+    }
+
+    /// [`OrbitCamera::framing`], looking straight down z with y up (as Context Free
+    /// shows a design) when `flat_art` (the grammar's `flat` directive) whatever
+    /// the model's depth.
+    pub fn framing_art(bounds: &Bounds, fov_deg: f32, aspect: f32, flat_art: bool) -> OrbitCamera {
+        let (az, el) = if flat_art {
+            (0.0, 89.9)
+        } else if bounds.is_flat() {
+            (0.0, 89.0)
+        } else {
+            (HOME_AZIMUTH_DEG, HOME_ELEVATION_DEG)
+        };
         let mut c = OrbitCamera {
             target: Vec3::ZERO,
             distance: 1.0,

@@ -98,7 +98,7 @@ impl Offscreen {
     pub fn home_camera(&self) -> OrbitCamera {
         let aspect = self.width as f32 / self.height as f32;
         match self.renderer.info() {
-            Some(i) => OrbitCamera::framing(&i.bounds, i.fov_deg, aspect),
+            Some(i) => OrbitCamera::framing_art(&i.bounds, i.fov_deg, aspect, i.flat),
             None => OrbitCamera::framing(&crate::scene::Bounds::EMPTY, 40.0, aspect),
         }
     }

@@ -122,6 +122,8 @@ pub struct PipelineDesc {
     pub instanced: bool,
     /// Cull back faces (closed meshes only: see [`crate::scene::InstancedDraw::closed`]).
     pub cull_back: bool,
+    /// Depth test and write (off for a `flat` model: painted in triangle order).
+    pub depth: bool,
 }
 
 /// A graphics pipeline.
@@ -241,8 +243,8 @@ impl Pipeline {
             .line_width(1.0);
         let multisample = vk::PipelineMultisampleStateCreateInfo::default().rasterization_samples(desc.samples);
         let depth = vk::PipelineDepthStencilStateCreateInfo::default()
-            .depth_test_enable(desc.kind != Kind::Overlay)
-            .depth_write_enable(desc.kind != Kind::Overlay)
+            .depth_test_enable(desc.kind != Kind::Overlay && desc.depth)
+            .depth_write_enable(desc.kind != Kind::Overlay && desc.depth)
             .depth_compare_op(vk::CompareOp::LESS_OR_EQUAL);
         let blend_attachments = [vk::PipelineColorBlendAttachmentState::default()
             .blend_enable(true)

@@ -280,6 +280,8 @@ struct PipelineKey {
     has_lines: bool,
     /// The instanced program, when the model has instances to draw so.
     instanced: Option<ProgramSpirv>,
+    /// Depth-tested (not a `flat` model).
+    depth: bool,
 }
 
 /// The filled, wireframe, line and overlay pipelines of a model, and the filled and
@@ -296,6 +298,8 @@ struct Pipelines {
 #[derive(Clone, Debug)]
 pub struct ModelInfo {
     pub bounds: Bounds,
+    /// The grammar's `flat` directive (Context Free's flat art).
+    pub flat: bool,
     pub n_triangles: usize,
     pub n_line_segments: usize,
     pub background: [f32; 4],
@@ -388,7 +392,8 @@ impl Renderer {
     /// of either is made).
     pub fn set_output(&mut self, bundle: &Bundle, output: &Output, programs: &Programs) -> Result<&ModelInfo, Error> {
         let program = program::for_bundle(bundle, programs)?;
-        let instanced = program::instanced_for_bundle(bundle, programs)?;
+        // A `flat` model is painted in triangle order: one mesh, no GPU instances.
+        let instanced = if output.flat { None } else { program::instanced_for_bundle(bundle, programs)? };
         let scene = scene::build_with(output, instanced.is_some());
         self.set_scene_instanced(&scene, bundle, output, &program, &programs.lines, instanced.as_ref())
     }
@@ -419,6 +424,16 @@ impl Renderer {
     ) -> Result<&ModelInfo, Error> {
         let ctx = &self.ctx;
         let skinned = !scene.skins.is_empty();
+        // `flat` (Context Free's flat art): unlit (the pen lines' program, colour as
+        // given, no shading or specular) unless the grammar has its own `program`,
+        // and no depth test, so later triangles paint over earlier ones.
+        let flat_program;
+        let program = if output.flat && bundle.program.is_none() {
+            flat_program = ProgramSpirv { label: "flat (unlit)".into(), ..lines.clone() };
+            &flat_program
+        } else {
+            program
+        };
         let instanced = match (instanced, &scene.instanced) {
             (Some(p), Some(i)) if !i.draws.is_empty() => Some(p.clone()),
             (None, Some(i)) if !i.draws.is_empty() => {
@@ -432,6 +447,7 @@ impl Renderer {
             skinned,
             has_lines: scene.n_line_vertices > 0,
             instanced,
+            depth: !output.flat,
         };
         let reuse = self.model.as_ref().is_some_and(|(old, _)| old.key == key);
         let built = if reuse { None } else { Some(self.pipelines(&key)?) };
@@ -460,6 +476,7 @@ impl Renderer {
         let s = &bundle.settings;
         let info = ModelInfo {
             bounds: scene.bounds,
+            flat: output.flat,
             n_triangles: scene.n_triangles(),
             n_line_segments: scene.n_line_vertices as usize / 2,
             background: output.background,
@@ -537,6 +554,7 @@ impl Renderer {
             skinned: key.skinned,
             instanced: false,
             cull_back: false,
+            depth: key.depth,
         };
         let (p, l) = (&key.program, &key.lines);
         let fill = Pipeline::new(ctx, &self.layout, &p.vertex, &p.fragment, desc(Kind::Fill))?;

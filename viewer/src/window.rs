@@ -377,7 +377,7 @@ impl App {
                 info.n_triangles, info.n_line_segments, info.program, ctx.device_name
             ));
             let aspect = swapchain.extent.width as f32 / swapchain.extent.height.max(1) as f32;
-            let home = OrbitCamera::framing(&info.bounds, info.fov_deg, aspect);
+            let home = OrbitCamera::framing_art(&info.bounds, info.fov_deg, aspect, info.flat);
             self.camera = Some(match self.opts.pose {
                 Some(p) => home.posed(&info.bounds, aspect, p),
                 None => home,
@@ -600,7 +600,7 @@ impl App {
         let Some(info) = self.gpu.as_ref().and_then(|g| g.renderer.info()).cloned() else { return };
         match (&mut self.camera, home) {
             (Some(c), false) => c.frame(&info.bounds, aspect),
-            _ => self.camera = Some(OrbitCamera::framing(&info.bounds, info.fov_deg, aspect)),
+            _ => self.camera = Some(OrbitCamera::framing_art(&info.bounds, info.fov_deg, aspect, info.flat)),
         }
         self.redraw();
     }

@@ -379,6 +379,9 @@ pub struct Output {
     pub stats: Stats,
     /// `background r g b a`.
     pub background: [f32; 4],
+    /// The grammar's `flat` directive: draw unlit, in triangle order, without a
+    /// depth test (the mesh's triangles are in derivation order, stably sorted by z).
+    pub flat: bool,
     /// Bones with their frame tracks, and the camera track.
     pub animation: Animation,
     /// What `DEBUG {}` items reported, in order (at most [`MAX_DEBUG_LINES`]; the

@@ -41,7 +41,7 @@ pub fn render(out: &Output, opts: &PreviewOptions) -> Vec<u8> {
         if pts.is_empty() { (Vec3::ZERO, 1.0) } else { ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-4)) };
     // Z is up in MDG models by convention of the examples; view from the front-right.
     // A flat model in the xy-plane (curves, tilings) is shown from above.
-    let flat = (hi.z - lo.z) < radius * 0.01;
+    let flat = out.flat || (hi.z - lo.z) < radius * 0.01;
     let el_deg = if flat { 89.0 } else { opts.elevation_deg };
     let az_deg = if flat { 0.0 } else { opts.azimuth_deg };
     let (az, el) = (az_deg.to_radians(), el_deg.to_radians());
@@ -83,7 +83,8 @@ pub fn render(out: &Output, opts: &PreviewOptions) -> Vec<u8> {
             }
             let lam = n.dot(light).max(0.0);
             let c = t.c[i];
-            let k = 0.25 + 0.75 * lam;
+            // `flat`: unlit, the colour as given.
+            let k = if out.flat { 1.0 } else { 0.25 + 0.75 * lam };
             [c[0] * k, c[1] * k, c[2] * k]
         };
         let cs = [shade(0), shade(1), shade(2)];
@@ -105,7 +106,8 @@ pub fn render(out: &Output, opts: &PreviewOptions) -> Vec<u8> {
                 }
                 let z = w0 * s[0].z + w1 * s[1].z + w2 * s[2].z;
                 let i = (y as u32 * w + x as u32) as usize;
-                if z < depth[i] {
+                // `flat`: painted in triangle order, later on top (no depth test).
+                if out.flat || z < depth[i] {
                     depth[i] = z;
                     color[i] = std::array::from_fn(|k| w0 * cs[0][k] + w1 * cs[1][k] + w2 * cs[2][k]);
                 }

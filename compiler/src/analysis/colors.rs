@@ -126,7 +126,7 @@ fn list_color(l: &AdjList, comps: &Components) -> Option<ColorLiteral> {
                 rgb |= i < 3;
                 span = Some(span.map_or(a.span, |s| s.to(a.span)));
             }
-            Some(AdjKind::Hsb(_)) => return None,
+            Some(AdjKind::Hsb(_) | AdjKind::Paint) => return None,
             _ => {}
         }
     }

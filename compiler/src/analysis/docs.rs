@@ -57,6 +57,7 @@ pub const DOCS: &[Doc] = &[
     d(Directive, "angle", "angle degrees|radians|orbits|arcdegrees|frequency", "The unit of angles written without a suffix. Default degrees."),
     d(Directive, "normal", "normal X Y Z", "The untransformed normal VERTEX emits. Default 0 0 1."),
     d(Directive, "background", "background R G B [A]", "The viewer's background colour."),
+    d(Directive, "flat", "flat", "Context Free's flat art: black shapes on white, painted in derivation order (z first), unlit."),
     d(Directive, "color", "color a b c d", "Renames the colour adjustments (default `R G B A`)."),
     d(Directive, "weight", "weight a b c d", "Renames the weight adjustments (default `u v w q`)."),
     d(Directive, "fps", "fps N", "Frames per second of transform rules. Default 30."),

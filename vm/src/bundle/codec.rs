@@ -122,25 +122,29 @@ fn encode_composite(w: &mut W, c: &Composite) {
     w.f32s(&c.color);
     w.f32s(&c.weight);
     w.f32(c.fps);
-    // Flags: 1 = non-uniform factor follows, 2 = HSB adjustments follow.
-    w.u8(u8::from(c.n.is_some()) | (u8::from(c.hsb.is_some()) << 1));
+    // Flags: 1 = non-uniform factor follows, 2 = HSB adjustments follow, 4 = a set colour follows.
+    w.u8(u8::from(c.n.is_some()) | (u8::from(c.hsb.is_some()) << 1) | (u8::from(c.set.is_some()) << 2));
     if let Some(n) = &c.n {
         w.f32s(n);
     }
     if let Some(h) = &c.hsb {
         w.f32s(h);
     }
+    if let Some(s) = &c.set {
+        w.f32s(s);
+    }
 }
 
 fn decode_composite(r: &mut R) -> Result<Composite, LoadError> {
     let (q, qh, u, color, weight, fps) = (r.f32s()?, r.f32s()?, r.f32s()?, r.f32s()?, r.f32s()?, r.f32()?);
     let flags = r.u8()?;
-    if flags > 3 {
+    if flags > 7 {
         return Err(r.err("unknown composite flags"));
     }
     let n = if flags & 1 != 0 { Some(r.f32s()?) } else { None };
     let hsb = if flags & 2 != 0 { Some(r.f32s()?) } else { None };
-    Ok(Composite { q, qh, u, color, weight, fps, n, hsb })
+    let set = if flags & 4 != 0 { Some(r.f32s()?) } else { None };
+    Ok(Composite { q, qh, u, color, weight, fps, n, hsb, set })
 }
 
 /// Encodes a bundle to bytes (deterministic).
@@ -168,6 +172,7 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
     w.f32(s.far);
     w.u32(s.linerule);
     w.u32(s.camerarule);
+    w.u8(u8::from(s.flat));
     w.len(s.namespaces.len());
     for n in &s.namespaces {
         w.u32(*n);
@@ -406,6 +411,11 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
     let far = r.f32()?;
     let linerule = r.u32()?;
     let camerarule = r.u32()?;
+    let flat = match r.u8()? {
+        0 => false,
+        1 => true,
+        _ => return Err(r.err("the flat setting is neither 0 nor 1")),
+    };
     let n = r.len(4)?;
     let mut namespaces = Vec::with_capacity(n);
     for _ in 0..n {
@@ -428,6 +438,7 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
         linerule,
         camerarule,
         namespaces,
+        flat,
     };
     r.section = "transforms";
     let n = r.len(5)?;

@@ -6,6 +6,9 @@ use std::fmt::Write;
 fn composite(c: &Composite) -> String {
     let f = |v: &[f32]| v.iter().map(|x| format!("{x:.6}")).collect::<Vec<_>>().join(" ");
     let mut s = format!("q=({}) q̂=({}) u=({})", f(&c.q), f(&c.qh), f(&c.u));
+    if let Some(set) = &c.set {
+        let _ = write!(s, " color=({})", f(set));
+    }
     if c.color != [0.0; 4] {
         let _ = write!(s, " color+=({})", f(&c.color));
     }

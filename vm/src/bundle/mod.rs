@@ -25,7 +25,7 @@ use crate::expr::ExprOp;
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"MDGB";
 /// Format version; bumped on any change to the layout.
-pub const VERSION: u16 = 6;
+pub const VERSION: u16 = 7;
 
 /// A precomputed adjustment list: thesis eqs. 4.1–4.9 folded into (q, q̂, u) plus
 /// colour, weight and fps deltas (SPEC §4).
@@ -46,6 +46,10 @@ pub struct Composite {
     /// and brightness changes are affine maps of the channel, so a list of them folds
     /// into one). `None` when the list has none.
     pub hsb: Option<[f32; 5]>,
+    /// A colour value (`#ff8800`) in the list: the colour is set to this RGBA before
+    /// the deltas and the HSB part are applied (those written before it are dropped,
+    /// as the value replaces what they did). `None` when the list has none.
+    pub set: Option<[f32; 4]>,
 }
 
 /// The identity of [`Composite::hsb`].
@@ -62,6 +66,7 @@ impl Composite {
         fps: 0.0,
         n: None,
         hsb: None,
+        set: None,
     };
 }
 
@@ -85,11 +90,13 @@ pub enum AdjOp {
     Fps = 6,
     /// Hue (axis 0), saturation (1) or brightness (2), Context Free's meaning.
     Hsb = 7,
+    /// Set the colour to the four constant arguments (R, G, B, A): a colour value.
+    Paint = 8,
 }
 
 impl AdjOp {
     /// Every op, in byte order.
-    pub const ALL: [AdjOp; 8] = [
+    pub const ALL: [AdjOp; 9] = [
         AdjOp::Translate,
         AdjOp::Rotate,
         AdjOp::Scale,
@@ -98,6 +105,7 @@ impl AdjOp {
         AdjOp::Weight,
         AdjOp::Fps,
         AdjOp::Hsb,
+        AdjOp::Paint,
     ];
 
     /// The op of a bundle byte.
@@ -110,12 +118,13 @@ impl AdjOp {
         match self {
             AdjOp::Translate | AdjOp::Rotate | AdjOp::Scale | AdjOp::Flip => 3,
             AdjOp::Color | AdjOp::Weight | AdjOp::Fps | AdjOp::Hsb => 1,
+            AdjOp::Paint => 4,
         }
     }
 
     /// The op's name without an axis (`translate`, `hsb`).
     pub fn family(self) -> &'static str {
-        ["translate", "rotate", "scale", "flip", "color", "weight", "fps", "hsb"][self as usize]
+        ["translate", "rotate", "scale", "flip", "color", "weight", "fps", "hsb", "paint"][self as usize]
     }
 
     /// The op and axis as the disassembler prints them (`translate.x`, `hue`).
@@ -130,6 +139,7 @@ impl AdjOp {
             AdjOp::Weight => format!("weight.{axis}"),
             AdjOp::Fps => "fps".into(),
             AdjOp::Hsb => ["hue", "sat", "b"].get(axis as usize).unwrap_or(&"hsb?").to_string(),
+            AdjOp::Paint => "paint".into(),
         }
     }
 }
@@ -312,6 +322,9 @@ pub struct Settings {
     pub camerarule: u32,
     /// Namespace names (string indices); index 0 is the global namespace "".
     pub namespaces: Vec<u32>,
+    /// The `flat` directive: Context Free's flat-art mode (black shapes from the start,
+    /// painted in derivation order, unlit; reference §3).
+    pub flat: bool,
 }
 
 /// A whole compiled grammar.
@@ -378,6 +391,7 @@ impl Bundle {
                 linerule: NONE,
                 camerarule: NONE,
                 namespaces: vec![0],
+                flat: false,
             },
             transforms: vec![],
             exprs: vec![],

@@ -21,7 +21,7 @@ use super::{Drawable, Op, Transform};
 pub fn is_prototype_op(op: &Op, transforms: &[Transform]) -> bool {
     match *op {
         Op::Draw { kind: Drawable::Vertex | Drawable::FaceNormals, xf, .. } => {
-            matches!(transforms.get(xf as usize), Some(Transform::Const(c)) if c.n.is_none() && c.hsb.is_none())
+            matches!(transforms.get(xf as usize), Some(Transform::Const(c)) if c.n.is_none() && c.hsb.is_none() && c.set.is_none())
         }
         _ => false,
     }

@@ -158,7 +158,7 @@ pub(super) fn eval_transform(
             let mut f = Affine::identity();
             let mut c = Composite::IDENTITY;
             for a in adjs {
-                let mut vals = [0.0f32; 3];
+                let mut vals = [0.0f32; 4];
                 for (v, arg) in vals.iter_mut().zip(&a.args) {
                     *v = match arg {
                         bundle::Arg::Const(v) => *v,

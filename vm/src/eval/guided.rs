@@ -18,7 +18,7 @@ pub struct Call {
 impl Call {
     /// The start shape's call: the identity frame, the start colour, depth 0.
     pub fn start(b: &Bundle) -> Call {
-        Call { rule: b.settings.startshape, state: State::start(b.settings.fps), depth: 0 }
+        Call { rule: b.settings.startshape, state: State::start_in(&b.settings), depth: 0 }
     }
 }
 

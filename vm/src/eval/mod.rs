@@ -191,7 +191,7 @@ pub fn evaluate(b: &Bundle, opts: &EvalOptions) -> Output {
 /// Like [`evaluate`], calling `progress(rule_calls)` now and then (for a progress bar).
 pub fn evaluate_with_progress(b: &Bundle, opts: &EvalOptions, progress: Option<&dyn Fn(u64)>) -> Output {
     let mut e = Eval::new(b, opts, progress);
-    let start = State::start(b.settings.fps);
+    let start = State::start_in(&b.settings);
     e.run(b.settings.startshape, start, Mode::Model);
     e.camera_and_finish()
 }
@@ -216,9 +216,10 @@ impl<'b> Eval<'b> {
     fn new(b: &'b Bundle, opts: &EvalOptions, progress: Option<&'b dyn Fn(u64)>) -> Eval<'b> {
         let s = &b.settings;
         let seed = opts.seed.unwrap_or(s.randseed);
-        let start = State::start(s.fps);
-        // (Sites are per triangle: recording them turns instancing off.)
-        let instancing = opts.instancing && !opts.record_sites;
+        let start = State::start_in(s);
+        // (Sites are per triangle: recording them turns instancing off. So does
+        // `flat`, whose picture paints the triangles in their order, one mesh.)
+        let instancing = opts.instancing && !opts.record_sites && !s.flat;
         let xf_pure: Vec<bool> =
             b.transforms.iter().map(|t| matches!(t, Transform::Const(c) if c.n.is_none())).collect();
         let fast = instancing && !opts.record_derivation && fast_path_applies(b, &xf_pure);
@@ -226,7 +227,7 @@ impl<'b> Eval<'b> {
             b,
             opts: opts.clone(),
             rng: Pcg(Pcg64::seed_from_u64(seed)),
-            out: Output { background: s.background, ..Output::default() },
+            out: Output { background: s.background, flat: s.flat, ..Output::default() },
             pens: vec![Pen { state: start, lifted: false, line: None, bone: 0 }; s.namespaces.len()],
             last: start,
             sequential: HashMap::new(),
@@ -305,8 +306,8 @@ impl<'b> Eval<'b> {
                 .iter()
                 .map(|t| match t {
                     // (Not for a non-uniform scale, whose normals need the inverse
-                    // transpose, nor for HSB, which is no delta.)
-                    Transform::Const(c) if c.n.is_none() && c.hsb.is_none() => {
+                    // transpose, nor for HSB or a set colour, which are no deltas.)
+                    Transform::Const(c) if c.n.is_none() && c.hsb.is_none() && c.set.is_none() => {
                         let frame = composite_frame(c);
                         let (lin, mirrored) = frame.linear();
                         Some(XfInfo { frame, normal: lin * Vec3::from_array(s.normal), mirrored })
@@ -333,7 +334,36 @@ impl<'b> Eval<'b> {
 }
 
 impl<'b> Eval<'b> {
+    /// Under `flat`: the mesh's triangles stably sorted by the z of their centroids,
+    /// so a picture painted in triangle order puts higher z on top and, at equal z,
+    /// later derivations on top (Context Free's `z` and drawing order). Not when
+    /// sites are recorded (they are per run of triangles): derivation order then,
+    /// with a warning when a sort would have changed it.
+    fn paint_order(&mut self) {
+        let m = &mut self.out.mesh;
+        let z = |t: &[u32; 3]| t.iter().map(|&i| m.positions.get(i as usize).map_or(0.0, |p| p[2])).sum::<f32>();
+        let keys: Vec<f32> = m.triangles.iter().map(z).collect();
+        if keys.windows(2).all(|w| w[0] <= w[1]) {
+            return;
+        }
+        if self.opts.record_sites {
+            self.out.stats.warnings.push(
+                "`flat`: shapes at different z are painted in derivation order while sites are recorded (a picture without --sites paints them by z)".into(),
+            );
+            return;
+        }
+        let mut order: Vec<usize> = (0..m.triangles.len()).collect();
+        order.sort_by(|&a, &b| keys[a].total_cmp(&keys[b]));
+        m.triangles = order.iter().map(|&i| m.triangles[i]).collect();
+        if m.mirrored.len() == keys.len() {
+            m.mirrored = order.iter().map(|&i| m.mirrored[i]).collect();
+        }
+    }
+
     fn finish(mut self) -> Output {
+        if self.b.settings.flat {
+            self.paint_order();
+        }
         let s = &self.b.settings;
         // Where the first refused call of each limit is (" in rule `R` (FILE:LINE)").
         let [depth_at, size_at, stack_at] =

@@ -33,6 +33,9 @@ pub const MAX_KEYFRAMES: u64 = 10_000_000;
 /// The colour state at the start of a run (R, G, B, A): white, opaque. Colour
 /// adjustments add to it (`{G -1 B -1}` gives red); see docs/reference.md.
 pub const START_COLOR: [f32; 4] = [1.0, 1.0, 1.0, 1.0];
+
+/// The colour a run starts with under the `flat` directive: Context Free's black.
+pub const FLAT_START_COLOR: [f32; 4] = [0.0, 0.0, 0.0, 1.0];
 /// How deeply transform rules may need each other's frames while being sampled
 /// (each level is a nested evaluation on the native stack).
 pub const MAX_TRACK_NESTING: usize = 64;

@@ -28,15 +28,22 @@ impl State {
         State { f: Frame::identity(), color: START_COLOR, weight: [0.0; 4], fps, lin: 0, ndet: 1.0, hue: 0.0 }
     }
 
+    /// The state at the start of a model run of a bundle with `settings`: as
+    /// [`State::start`], black under the `flat` directive (Context Free's start).
+    pub fn start_in(settings: &bundle::Settings) -> State {
+        let s = State::start(settings.fps);
+        if settings.flat {
+            State { color: FLAT_START_COLOR, ..s }
+        } else {
+            s
+        }
+    }
+
     /// `self ∘ c`. The non-uniform factors of a frame live in `lins`, which gains an
     /// entry only when `c` itself holds a non-uniform scale.
     #[inline(always)]
     pub(super) fn compose(&self, c: &Composite, lins: &mut Lins) -> State {
-        let mut color = add(self.color, c.color);
-        let mut hue = self.hue;
-        if let Some(h) = &c.hsb {
-            (color, hue) = apply_hsb_keeping(color, hue, h);
-        }
+        let (color, hue) = compose_color(self.color, self.hue, c);
         let (f, lin, ndet) = if self.lin == 0 && c.n.is_none() {
             (self.f.compose(&composite_frame(c)), 0, 1.0)
         } else {
@@ -57,11 +64,7 @@ impl State {
             return s;
         }
         *acc = acc.compose(&Frame64::step(&composite_frame(c)));
-        let mut color = add(self.color, c.color);
-        let mut hue = self.hue;
-        if let Some(h) = &c.hsb {
-            (color, hue) = apply_hsb_keeping(color, hue, h);
-        }
+        let (color, hue) = compose_color(self.color, self.hue, c);
         State {
             f: acc.to_frame(),
             color,
@@ -158,7 +161,7 @@ pub fn compose_prims(prims: &[bundle::PrimAdj], divisor: f32) -> Composite {
     let mut f = Affine::identity();
     let mut c = Composite::IDENTITY;
     for p in prims {
-        let mut vals = [0.0f32; 3];
+        let mut vals = [0.0f32; 4];
         for (v, a) in vals.iter_mut().zip(&p.args) {
             if let bundle::Arg::Const(x) = a {
                 *v = *x;
@@ -192,17 +195,8 @@ pub(super) fn set_frame(c: &mut Composite, a: &Affine) {
 pub(super) fn apply_hsb_keeping(c: [f32; 4], grey_hue: f32, h: &[f32; 5]) -> ([f32; 4], f32) {
     let [r, g, b] = [c[0], c[1], c[2]].map(|v| v.clamp(0.0, 1.0));
     let max = r.max(g).max(b);
-    let min = r.min(g).min(b);
-    let d = max - min;
-    let hue = if d <= 0.0 {
-        grey_hue
-    } else if max == r {
-        60.0 * ((g - b) / d).rem_euclid(6.0)
-    } else if max == g {
-        60.0 * ((b - r) / d + 2.0)
-    } else {
-        60.0 * ((r - g) / d + 4.0)
-    };
+    let d = max - r.min(g).min(b);
+    let hue = hue_of(c).unwrap_or(grey_hue);
     let sat = if max > 0.0 { d / max } else { 0.0 };
     let hue = (hue + h[0]).rem_euclid(360.0);
     let sat = (sat * h[1] + h[2]).clamp(0.0, 1.0);
@@ -213,6 +207,38 @@ pub(super) fn apply_hsb_keeping(c: [f32; 4], grey_hue: f32, h: &[f32; 5]) -> ([f
         v - v * sat * k.min(4.0 - k).clamp(0.0, 1.0)
     };
     ([k(5.0), k(3.0), k(1.0), c[3]], hue)
+}
+
+/// The colour and kept hue after composite `c`: its set colour (if any) replaces the
+/// frame's (the kept hue becomes the value's own, 0 for a grey), then the RGBA deltas
+/// add, then the HSB part applies (reference §5: one rule for the VM and the folder).
+#[inline(always)]
+pub(super) fn compose_color(color: [f32; 4], hue: f32, c: &Composite) -> ([f32; 4], f32) {
+    let (base, hue) = match c.set {
+        Some(s) => (s, hue_of(s).unwrap_or(0.0)),
+        None => (color, hue),
+    };
+    let color = add(base, c.color);
+    match &c.hsb {
+        Some(h) => apply_hsb_keeping(color, hue, h),
+        None => (color, hue),
+    }
+}
+
+/// The HSV hue (degrees) of an RGB colour (clamped to 0..1), `None` for a grey.
+pub(super) fn hue_of(c: [f32; 4]) -> Option<f32> {
+    let [r, g, b] = [c[0], c[1], c[2]].map(|v| v.clamp(0.0, 1.0));
+    let max = r.max(g).max(b);
+    let d = max - r.min(g).min(b);
+    if d <= 0.0 {
+        None
+    } else if max == r {
+        Some(60.0 * ((g - b) / d).rem_euclid(6.0))
+    } else if max == g {
+        Some(60.0 * ((b - r) / d + 2.0))
+    } else {
+        Some(60.0 * ((r - g) / d + 4.0))
+    }
 }
 
 /// [`apply_hsb_keeping`] for a frame that kept no hue (hue 0: red).
@@ -235,7 +261,7 @@ pub(super) fn apply_prim(
     c: &mut Composite,
     kind: bundle::AdjOp,
     axis: u8,
-    args: &[f32; 3],
+    args: &[f32; 4],
     n_args: usize,
     divisor: f32,
 ) {
@@ -296,6 +322,13 @@ pub(super) fn apply_prim(
                 let i = if axis == 1 { 1 } else { 3 };
                 then_affine(h, i, keep, if s > 0.0 { 1.0 - keep } else { 0.0 });
             }
+        }
+        AdjOp::Paint => {
+            // A colour value: what the list did to the colour before it is replaced
+            // (an iterator's step sets the same value: setting is idempotent).
+            c.set = Some([arg(0), arg(1), arg(2), arg(3)]);
+            c.color = [0.0; 4];
+            c.hsb = None;
         }
         AdjOp::Weight => c.weight[axis as usize & 3] += arg(0) / divisor,
         AdjOp::Fps => c.fps += arg(0) / divisor,

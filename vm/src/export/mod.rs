@@ -564,6 +564,7 @@ pub(crate) mod tests {
                 warnings: vec!["maxdepth reached".into()],
             },
             background: [0.0, 0.0, 0.0, 1.0],
+            flat: false,
             animation: Default::default(),
             debug: Vec::new(),
             sites: Default::default(),
