@@ -81,7 +81,7 @@ pub enum Utilisation {
     /// Only the segments within the bone's own length of CLOSEST(γ, BASE) along γ:
     /// the tip's arc position is clamped to arc(BASE) ± |TIP − BASE|, so a bone
     /// credits no more of the curve than it could lie along. The default: on curved
-    /// guides it covers 1.6–2.1× as much as eq. 7 (docs/guided.md, "Coverage").
+    /// guides it covers 1.2–2.6× as much as eq. 7 (docs/guided.md, "Coverage").
     #[default]
     Local,
 }
