@@ -397,6 +397,7 @@ mod tests {
     #[test]
     fn the_local_utilisation_credits_only_the_bones_own_arc() {
         let mut g = line();
+        g.utilisation = Utilisation::Paper;
         let base = DVec3::new(0.0, 0.0, 0.2);
         let near = g.nearest(base).expect("near");
         let tip = DVec3::new(0.0, 0.0, 2.6);
@@ -415,6 +416,14 @@ mod tests {
         assert_eq!(Utilisation::from_name("local"), Some(Utilisation::Local));
         assert_eq!(Utilisation::from_name("paper"), Some(Utilisation::Paper));
         assert_eq!(Utilisation::from_name("eq7"), None);
+    }
+
+    #[test]
+    fn the_default_utilisation_is_local() {
+        assert_eq!(line().utilisation, Utilisation::Local);
+        assert_eq!(Utilisation::Local.cycled(), Utilisation::Paper);
+        assert_eq!(Utilisation::Paper.cycled(), Utilisation::Local);
+        assert_eq!(Utilisation::ALL.map(Utilisation::name), ["paper", "local"]);
     }
 
     #[test]
