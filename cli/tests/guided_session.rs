@@ -281,6 +281,10 @@ fn l_cycles_the_utilisation_term_and_far_guides_are_reported() {
     let tall = Guide::new("tall", vec![[0.0, 0.0, 0.0], [0.0, 0.0, 4.0], [0.0, 0.0, 8.0], [0.0, 0.0, 12.0]]);
     s.file_changed(vec![tall]);
     let far = s.search_now().expect("a search");
-    assert!(far.output.stats.warnings.iter().any(|w| w.starts_with("guided search: tall: ")), "{:?}", far.output.stats.warnings);
+    assert!(
+        far.output.stats.warnings.iter().any(|w| w.starts_with("guided search: tall: ")),
+        "{:?}",
+        far.output.stats.warnings
+    );
     assert!(s.title().contains("a guide part beyond the grammar's reach"), "{}", s.title());
 }
