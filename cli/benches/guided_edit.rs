@@ -65,11 +65,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (w, h) = (800u32, 600u32);
     let mut off = Offscreen::new(&ctx, w, h, 4)?;
     let mut editor = Editor::new(table.guides.clone());
+    // The grammar's reach, estimated by the first search (as in the window).
+    let reach = std::sync::Arc::new(std::sync::OnceLock::new());
     let request = |editor: &Editor| SearchRequest {
         bundle: bundle.clone(),
         guides: editor.guides().to_vec(),
         seed,
         eval: EvalOptions::default(),
+        utilisation: None,
+        reach: reach.clone(),
     };
 
     // The first model, uploaded with its pipelines built (not in the totals).

@@ -22,10 +22,12 @@
 //! `D` then a left drag (or Ctrl + left drag) draws a new guide, `Delete` or
 //! `Backspace` deletes the selected one, `T` (Shift: back) or `1`–`5` choose a cost
 //! parameter (`delta_a`, `scale_a`, `scale_d`, `scale_u`, `segment`) and `J` / `K`
-//! (or Page Down / Page Up) lower and raise it (Shift: ten steps), `R` reseeds,
+//! (or Page Down / Page Up) lower and raise it (Shift: ten steps), `L` cycles the
+//! utilisation term (`paper`, `local`; shown in the title), `R` reseeds,
 //! `U` or Ctrl+Z undoes, Shift+U or Ctrl+Y redoes, `S` saves the guides as JSON, and
 //! `Esc` abandons a drag or a stroke under way. The title bar shows the final cost,
-//! its three terms, the model's generation and why the search stopped.
+//! its three terms, the model's generation, why the search stopped and the
+//! utilisation term.
 //!
 //! Input from winit and from a `--script` ([`crate::script`]) becomes the same
 //! [`Input`]s and goes through [`App::input`]; while a script runs, the real mouse
@@ -396,7 +398,7 @@ impl App {
         if let Some(s) = &self.guided {
             (self.opts.log)(&format!(
                 "mdg-view: guides: drag a control point to move it; Ctrl+drag (or D, then drag) draws a guide; Tab or a \
-                 click selects one, Delete deletes it; T or 1-5 choose a parameter, J/K change it; R reseeds; U undoes; \
+                 click selects one, Delete deletes it; T or 1-5 choose a parameter, J/K change it; L cycles the utilisation term; R reseeds; U undoes; \
                  S saves to {}",
                 s.save_path().display()
             ));
@@ -834,6 +836,11 @@ impl App {
                 s.request(Preempt::Cancel);
             }
             (_, "s") => say(s.save()),
+            (_, "l") => {
+                let u = s.cycle_utilisation();
+                log(&format!("mdg-view: utilisation {}: searching", u.name()));
+                s.request(Preempt::Cancel);
+            }
             _ => return false,
         }
         s.request_if_changed(Preempt::Cancel);

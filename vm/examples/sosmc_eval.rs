@@ -6,7 +6,17 @@
 //! cargo run --release -p mdg-vm --example sosmc_eval -- run [--guides F.json] [--seed N] [--no-heuristic] [--repeat N]
 //! cargo run --release -p mdg-vm --example sosmc_eval -- plot OUT.png [GUIDES.json…] [--seed N] [--particles A:B]
 //! cargo run --release -p mdg-vm --example sosmc_eval -- helix [--runs 40]
+//! cargo run --release -p mdg-vm --example sosmc_eval -- curves [--runs 20] [--sets A.json,B.json,…] \
+//!     [--configs paper:lowest,local:reach,…]
 //! ```
+//!
+//! `curves`: per guide set (files from the workspace root; default the curved and
+//! branching sets in `tests/guides/` and the grammar's own guides, `program`), per
+//! seed 1…N, the coverage ([`mdg_vm::sosmc::measure::coverage`]) of one unguided
+//! derivation (a forward sample of as many particle-steps as the search has
+//! generations) and of a search under each configuration `TERM:CHOICE` (`paper` or
+//! `local`; `lowest`, `last`, `reach` or `reach:SHARE`, [`ModelChoice`]); prints mean
+//! and median coverage, the ratio of means to unguided, and the mean COST and bones.
 //!
 //! `helix`: one helical guide (radius 1.2, 2.5 turns from z 0.3 to z 6); per seed a
 //! search with the paper's utilisation term, one with the local variant
@@ -40,7 +50,7 @@
 use glam::{DVec3, Vec3};
 use mdg_vm::bundle::Bundle;
 use mdg_vm::eval::EvalOptions;
-use mdg_vm::sosmc::{guides_from_json, Guide, Prepared, SearchOptions, SearchResult, Utilisation};
+use mdg_vm::sosmc::{guides_from_json, Guide, ModelChoice, Prepared, SearchOptions, SearchResult, Utilisation};
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 use std::time::Instant;
@@ -109,7 +119,8 @@ fn main() -> ExitCode {
         Some("fig4") => fig4(&args[1..]),
         Some("plot") => plot(&args[1..]),
         Some("helix") => helix(&args[1..]),
-        _ => Err("usage: sosmc_eval run|fig4|plot|helix … (see the file's docs)".into()),
+        Some("curves") => curves(&args[1..]),
+        _ => Err("usage: sosmc_eval run|fig4|plot|helix|curves … (see the file's docs)".into()),
     };
     match r {
         Ok(()) => ExitCode::SUCCESS,
@@ -248,6 +259,69 @@ fn helix(args: &[String]) -> Result<(), String> {
         let (sm, sa) = col(k + 1);
         let (bm, _) = col(k + 2);
         println!("{name:<28} {:>7.3} / {:<7.3} {:>7.2} / {:<7.2} {:>12.0}", cm, ca, sm, sa, bm);
+    }
+    Ok(())
+}
+
+/// The guide sets `curves` measures by default.
+const CURVE_SETS: &str = "tests/guides/s_curve.json,tests/guides/spiral.json,tests/guides/helix.json,\
+                          tests/guides/fork.json,tests/guides/arches.json,program";
+
+fn curves(args: &[String]) -> Result<(), String> {
+    let runs: u64 = arg(args, "--runs").map(|s| s.parse().map_err(|_| "bad --runs")).transpose()?.unwrap_or(20);
+    let b = bundle()?;
+    let table = b.extensions.guided.clone().ok_or("no search section")?;
+    let o = options(&b, args)?;
+    let mut configs = Vec::new();
+    for c in arg(args, "--configs").unwrap_or("paper:lowest,local:lowest,paper:reach,local:reach").split(',') {
+        let (t, k) = c.split_once(':').ok_or_else(|| format!("config `{c}`: expected TERM:CHOICE"))?;
+        let term = Utilisation::from_name(t).ok_or_else(|| format!("config `{c}`: unknown term `{t}`"))?;
+        let choice = ModelChoice::from_name(k).ok_or_else(|| format!("config `{c}`: unknown choice `{k}`"))?;
+        configs.push((c.to_string(), term, choice));
+    }
+    println!(
+        "coverage: share of {} points per guide within {} of a bone (length-weighted over a set); {runs} seeds",
+        mdg_vm::sosmc::measure::COVERAGE_POINTS,
+        mdg_vm::sosmc::measure::COVERAGE_RADIUS
+    );
+    for set in arg(args, "--sets").unwrap_or(CURVE_SETS).split(',') {
+        let set = set.trim();
+        let file = (set != "program").then(|| root().join(set));
+        let guides = guides_of(&b, file.as_ref().and_then(|f| f.to_str()))?;
+        let mut prepared = Vec::new();
+        for (_, term, _) in &configs {
+            prepared.push(Prepared::new(&b, &table, &guides)?.with_utilisation(*term));
+        }
+        let base = Prepared::new(&b, &table, &guides)?;
+        let cov = |r: &SearchResult| mdg_vm::sosmc::measure::coverage(base.guides(), &r.model.bones).total;
+        let mut unguided = Vec::new();
+        let mut rows: Vec<Vec<(f64, f64, f64)>> = vec![Vec::new(); configs.len()];
+        for seed in 1..=runs {
+            unguided.push(cov(&base.forward_best(1, o.generations, seed, None)));
+            for (i, (_, _, choice)) in configs.iter().enumerate() {
+                let r = prepared[i].search(&SearchOptions { seed, choice: *choice, ..o.clone() }, None);
+                rows[i].push((cov(&r), r.model.cost.total(), r.model.bones.len() as f64));
+            }
+        }
+        let stats = |v: &[f64]| {
+            let mut s = v.to_vec();
+            s.sort_by(f64::total_cmp);
+            (s.iter().sum::<f64>() / s.len().max(1) as f64, quantile(&s, 0.5))
+        };
+        let (um, umed) = stats(&unguided);
+        println!("{set}: unguided coverage mean {um:.3}, median {umed:.3}");
+        for (i, (name, _, _)) in configs.iter().enumerate() {
+            let c: Vec<f64> = rows[i].iter().map(|r| r.0).collect();
+            let (cm, cmed) = stats(&c);
+            let (costm, _) = stats(&rows[i].iter().map(|r| r.1).collect::<Vec<_>>());
+            let (bm, _) = stats(&rows[i].iter().map(|r| r.2).collect::<Vec<_>>());
+            let wins = c.iter().zip(&unguided).filter(|(a, b)| a > b).count();
+            println!(
+                "  {name:<18} coverage mean {cm:.3} median {cmed:.3}  ×{:.2} unguided  cost {costm:8.2}  bones {bm:5.1}  \
+                 beats unguided on {wins}/{runs}",
+                cm / um.max(1e-9)
+            );
+        }
     }
     Ok(())
 }

@@ -128,8 +128,14 @@ fn search_for_picture(model: &mut model::Model, guides: Option<Vec<Guide>>, eval
     let Some(table) = &model.bundle.extensions.guided else { return Ok(()) };
     let guides = guides.unwrap_or_else(|| table.guides.clone());
     let seed = eval.seed.unwrap_or(model.bundle.settings.randseed);
-    let request =
-        SearchRequest { bundle: Arc::new(model.bundle.clone()), guides: guides.clone(), seed, eval: eval.clone() };
+    let request = SearchRequest {
+        bundle: Arc::new(model.bundle.clone()),
+        guides: guides.clone(),
+        seed,
+        eval: eval.clone(),
+        utilisation: None,
+        reach: Arc::default(),
+    };
     let found = run_search(&request, &Cancel::new()).map_err(|e| Error::Other(format!("guided search: {e}")))?;
     eprintln!("mdg-view: guided search: {}", found.summary.line());
     if found.summary.stop == Stop::Budget {

@@ -5,7 +5,10 @@ use super::Common;
 use mdg_vm::bundle::Bundle;
 use mdg_vm::eval::EvalOptions;
 use mdg_vm::output::Output;
-use mdg_vm::sosmc::{guides_from_json, Prepared, Progress, Resampling, SearchOptions, Stop, Utilisation};
+use mdg_vm::sosmc::measure::{beyond_reach, coverage, covered_runs};
+use mdg_vm::sosmc::{
+    guides_from_json, Prepared, Progress, Resampling, SearchOptions, Stop, Utilisation, REACH_SAMPLES,
+};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -39,7 +42,8 @@ pub struct GuidedArgs {
     pub resample: Option<String>,
     /// Guided search: the utilisation term, `paper` (eq. 7 as written: a bone credits
     /// every segment between the points of the guide closest to its base and its tip)
-    /// or `local` (only the arc within the bone's own length of its base).
+    /// or `local` (only the arc within the bone's own length of its base); overrides the
+    /// `search` section's `utilisation` key (default: the key, else `local`).
     #[arg(long, value_name = "TERM")]
     pub utilisation: Option<String>,
     /// Guided search: worker threads (results are the same for any number).
@@ -136,6 +140,14 @@ pub fn options(
     Ok(o)
 }
 
+/// `--utilisation`, if given (it overrides the `search` section's `utilisation`).
+pub fn utilisation_flag(args: &GuidedArgs) -> Result<Option<Utilisation>, String> {
+    args.utilisation
+        .as_deref()
+        .map(|u| Utilisation::from_name(u).ok_or_else(|| format!("--utilisation {u}: expected `paper` or `local`")))
+        .transpose()
+}
+
 /// Runs the search and returns the model to export, evaluated with `eval` (the
 /// limits and `--sites` of the command line; the seed is the search's).
 pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common, eval: &EvalOptions) -> Result<Output, String> {
@@ -153,14 +165,11 @@ pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common, eval: &EvalOptio
     // A budget covers preparing the guides too.
     let clock = std::time::Instant::now();
     opts.clock = Some(clock);
-    let utilisation = match &args.utilisation {
-        None => Utilisation::default(),
-        Some(u) => {
-            Utilisation::from_name(u).ok_or_else(|| format!("--utilisation {u}: expected `paper` or `local`"))?
-        }
-    };
-    let prepared = Prepared::new_within(bundle, table, &guides, opts.budget.and_then(|b| clock.checked_add(b)))?
-        .with_utilisation(utilisation);
+    let utilisation = utilisation_flag(args)?;
+    let mut prepared = Prepared::new_within(bundle, table, &guides, opts.budget.and_then(|b| clock.checked_add(b)))?;
+    if let Some(u) = utilisation {
+        prepared = prepared.with_utilisation(u);
+    }
     prepared.check_size(&opts)?;
     let bar = indicatif::ProgressBar::new(opts.generations as u64);
     bar.set_style(
@@ -181,6 +190,11 @@ pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common, eval: &EvalOptio
                 prepared.guides().guide(i).label(i)
             ));
         }
+    }
+    // Guide parts no unguided derivation came near (docs/guided.md, "Unreachable guides").
+    let reach = prepared.reach(REACH_SAMPLES, opts.generations);
+    for u in beyond_reach(prepared.guides(), &reach) {
+        warnings.push(format!("guided search: {}", u.message(prepared.guides(), &reach)));
     }
     if result.model.bones.is_empty() {
         warnings.push(
@@ -226,6 +240,25 @@ pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common, eval: &EvalOptio
             m.bones.len(),
             m.wrapped,
             m.dropped
+        );
+        let c = coverage(prepared.guides(), &m.bones);
+        let per: Vec<String> = (0..prepared.guides().len())
+            .map(|i| {
+                let runs: Vec<String> =
+                    covered_runs(&c.covered[i]).iter().map(|(a, b)| format!("{a:.2}–{b:.2}")).collect();
+                let runs = if runs.is_empty() { "none".to_string() } else { runs.join(", ") };
+                format!("{} {:.2} ({runs})", prepared.guides().guide(i).label(i), c.per_guide[i])
+            })
+            .collect();
+        eprintln!(
+            "coverage {:.2} (guide points within {} of a bone; covered stretches as fractions of each guide's length): \
+             {}; utilisation {}, the grammar's reach {:.2} ({} unguided derivations)",
+            c.total,
+            mdg_vm::sosmc::measure::COVERAGE_RADIUS,
+            per.join("; "),
+            prepared.guides().utilisation.name(),
+            reach.radius,
+            reach.samples
         );
     }
     Ok(out)

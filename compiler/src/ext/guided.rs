@@ -23,7 +23,7 @@ use super::{at_most_once, expect_count, known_entries, numbers, words, CheckCx, 
 use crate::ast::{BodyItem, BodyKind, Entry, ItemKind, Name, Section, Value};
 use crate::diag::Diagnostic;
 use crate::span::Span;
-use mdg_vm::sosmc::{Guide, GuidedTable, Resampling, SearchSettings};
+use mdg_vm::sosmc::{Guide, GuidedTable, Resampling, SearchSettings, Utilisation};
 
 const SEARCH_KEYS: &[Key] = &[
     Key {
@@ -74,6 +74,14 @@ const SEARCH_KEYS: &[Key] = &[
         values: "SAMPLES [EXPANSIONS]",
         doc: "Forward samples per skeleton rule for its EXPECTED direction (the heuristic, paper eq. 9), and the \
               most expansions in each (default 64 32).",
+    },
+    Key {
+        name: "utilisation",
+        values: "paper | local",
+        doc: "The utilisation term (paper eq. 7): `paper` credits a bone with every guide segment between the points \
+              closest to its base and to its tip; `local` only with the arc within the bone's own length of its \
+              base, so a short bone cannot collect a curve's whole bend (the default: docs/guided.md). \
+              `mdg-run --utilisation` overrides it; `L` cycles it in `mdg-view`.",
     },
 ];
 
@@ -305,6 +313,18 @@ fn check_search(sec: &Sec, cx: &CheckCx, diags: &mut Vec<Diagnostic>) {
                             "`resample` takes `systematic` or `multinomial`",
                         )
                         .with_label("unknown resampling scheme"),
+                    );
+                }
+            }
+            "utilisation" => {
+                if !expect_count(e, 1, 1, "`paper` or `local`", diags) {
+                    continue;
+                }
+                let ok = matches!(&e.values[0], Value::Word(w) if Utilisation::from_name(&w.text).is_some());
+                if !ok {
+                    diags.push(
+                        Diagnostic::error("E0602", e.values[0].span(), "`utilisation` takes `paper` or `local`")
+                            .with_label("unknown utilisation term"),
                     );
                 }
             }
@@ -616,6 +636,11 @@ pub fn lower(sections: &[Sec], cx: &LowerCx) -> Option<GuidedTable> {
                     }
                 }
             }
+            "utilisation" => {
+                if let Some(Value::Word(w)) = e.values.first() {
+                    t.settings.utilisation = Utilisation::from_name(&w.text);
+                }
+            }
             "expected" => {
                 let v = nums(e);
                 if let Some(&a) = v.first() {
@@ -687,7 +712,7 @@ rule wood { VERTEX {} VERTEX {x 0.1} VERTEX {z 1} }
         let src = format!(
             "startshape tree
              search {{ skeleton tree; wrapup tree wood; particles 40 8; generations 12; heuristic 2.5 0.25;
-                       budget none; resample multinomial; expected 10 5; }}
+                       budget none; resample multinomial; expected 10 5; utilisation local; }}
              guide up {{ points 0 0 0  0 0 1  0 0 2  0 0 3  0 1 4  0 2 5  0 3 6; scale_d 1 2 3; scale_a 0.5;
                          delta_a -0.25; scale_u 2; segment 0.5; }}
              guide {{ points 1 0 0  1 0 1  1 0 2  (1 + 2) 0 3; }}
@@ -703,6 +728,7 @@ rule wood { VERTEX {} VERTEX {x 0.1} VERTEX {z 1} }
         let s = &t.settings;
         assert_eq!((s.particles, s.generations, s.heuristic_scale, s.heuristic_fraction), ((40, 8), 12, 2.5, 0.25));
         assert_eq!((s.budget_ms, s.resampling, s.expected), (None, Resampling::Multinomial, (10, 5)));
+        assert_eq!(s.utilisation, Some(Utilisation::Local));
         assert_eq!(t.guides.len(), 2);
         let g = &t.guides[0];
         assert_eq!(g.name, "up");
@@ -748,6 +774,11 @@ rule wood { VERTEX {} VERTEX {x 0.1} VERTEX {z 1} }
         );
         assert_eq!(codes(&prog("skeleton tree; budget soon;", "")), ["E0602"]);
         assert_eq!(codes(&prog("skeleton tree; resample stratified;", "")), ["E0602"]);
+        assert_eq!(codes(&prog("skeleton tree; utilisation eq7;", "")), ["E0602"]);
+        assert_eq!(codes(&prog("skeleton tree; utilisation 1;", "")), ["E0602"]);
+        assert_eq!(codes(&prog("skeleton tree; utilisation paper local;", "")), ["E0602"]);
+        assert_eq!(codes(&prog("skeleton tree; utilisation paper; utilisation local;", "")), ["E0603"]);
+        assert_eq!(codes(&prog("skeleton tree; utilisation paper;", "")), Vec::<&str>::new());
         assert_eq!(codes(&prog("skeleton tree; particles;", "")), ["E0602"]);
         assert_eq!(codes(&prog("skeleton tree; partcles 4;", "")), ["E0601"]);
         assert_eq!(codes(&prog("generations 4;", "")), ["E0712"], "no skeleton rules");

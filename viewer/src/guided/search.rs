@@ -9,8 +9,9 @@ use mdg_vm::bundle::Bundle;
 use mdg_vm::eval::EvalOptions;
 use mdg_vm::output::{Output, Polyline};
 use mdg_vm::sosmc::cost::Cost;
-use mdg_vm::sosmc::{Cancel, Guide, Prepared, SearchOptions, Stop};
-use std::sync::Arc;
+use mdg_vm::sosmc::measure::{beyond_reach, Reach};
+use mdg_vm::sosmc::{Cancel, Guide, Prepared, SearchOptions, Stop, Utilisation, REACH_SAMPLES};
+use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
 /// Overlay namespace of the skeleton's bones (cyan in the viewer).
@@ -29,6 +30,12 @@ pub struct SearchRequest {
     pub seed: u64,
     /// The geometry phase's limits (the command line's).
     pub eval: EvalOptions,
+    /// The utilisation term, when not the `search` section's (`L` in the window).
+    pub utilisation: Option<Utilisation>,
+    /// The grammar's reach (for the unreachable-guide warning): estimated by the
+    /// first search of a bundle and shared by the later ones (a new bundle gets a
+    /// new cell).
+    pub reach: Arc<OnceLock<Reach>>,
 }
 
 /// What a search found, in words and numbers.
@@ -43,6 +50,10 @@ pub struct Summary {
     pub stop: Stop,
     pub n_bones: usize,
     pub seed: u64,
+    /// The utilisation term searched with.
+    pub utilisation: Utilisation,
+    /// Guide parts beyond the grammar's reach (each also a warning of the output).
+    pub unreachable: usize,
 }
 
 impl Summary {
@@ -66,14 +77,20 @@ impl Summary {
         };
         format!(
             "cost {:.2} = distance {:.2} + alignment {:.2} + utilisation {:.2}; model from generation {}; {}{budget}; \
-             seed {}",
+             seed {}; utilisation {}{}",
             self.cost.total(),
             self.cost.d,
             self.cost.a,
             self.cost.u,
             self.model_generation,
             self.stop_text(),
-            self.seed
+            self.seed,
+            self.utilisation.name(),
+            match self.unreachable {
+                0 => String::new(),
+                1 => "; a guide part beyond the grammar's reach (see the log)".to_string(),
+                n => format!("; {n} guide parts beyond the grammar's reach (see the log)"),
+            }
         )
     }
 }
@@ -113,7 +130,10 @@ pub fn run_search(req: &SearchRequest, cancel: &Cancel) -> Result<Searched, Stri
         opts.threads = Some(1);
     }
     let deadline = opts.budget.and_then(|d| t0.checked_add(d));
-    let prepared = Prepared::new_within(b, table, &req.guides, deadline)?;
+    let mut prepared = Prepared::new_within(b, table, &req.guides, deadline)?;
+    if let Some(u) = req.utilisation {
+        prepared = prepared.with_utilisation(u);
+    }
     prepared.check_size(&opts)?;
     let prepare = t0.elapsed();
     let t1 = Instant::now();
@@ -128,6 +148,12 @@ pub fn run_search(req: &SearchRequest, cancel: &Cancel) -> Result<Searched, Stri
         points: vec![f(bone.base), f(bone.tip)],
         bones: vec![],
     }));
+    let reach = req.reach.get_or_init(|| prepared.reach(REACH_SAMPLES, opts.generations));
+    let unreached = beyond_reach(prepared.guides(), reach);
+    output
+        .stats
+        .warnings
+        .extend(unreached.iter().map(|u| format!("guided search: {}", u.message(prepared.guides(), reach))));
     let geometry = t2.elapsed();
     Ok(Searched {
         output,
@@ -139,6 +165,8 @@ pub fn run_search(req: &SearchRequest, cancel: &Cancel) -> Result<Searched, Stri
             stop: result.stop,
             n_bones: result.model.bones.len(),
             seed: req.seed,
+            utilisation: prepared.guides().utilisation,
+            unreachable: unreached.len(),
         },
         timings: Timings { prepare, search, geometry },
     })
@@ -158,13 +186,17 @@ mod tests {
             stop: Stop::Generations,
             n_bones: 18,
             seed: 2,
+            utilisation: Utilisation::Local,
+            unreachable: 0,
         };
         assert_eq!(
             s.line(),
             "cost -39.75 = distance 10.50 + alignment -2.25 + utilisation -48.00; model from generation 18; \
-             all generations ran; seed 2"
+             all generations ran; seed 2; utilisation local"
         );
-        let cut = Summary { stop: Stop::Budget, generations: 40, ..s };
+        let cut = Summary { stop: Stop::Budget, generations: 40, ..s.clone() };
         assert!(cut.line().contains("cut by the time budget after 40 of 100 generations"), "{}", cut.line());
+        let far = Summary { unreachable: 2, ..s };
+        assert!(far.line().ends_with("; 2 guide parts beyond the grammar's reach (see the log)"), "{}", far.line());
     }
 }

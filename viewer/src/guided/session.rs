@@ -9,10 +9,11 @@ use super::search::{run_search, SearchRequest, Searched, Summary, Timings};
 use super::worker::{Preempt, Worker};
 use mdg_vm::bundle::Bundle;
 use mdg_vm::eval::EvalOptions;
-use mdg_vm::sosmc::{Cancel, Guide};
+use mdg_vm::sosmc::measure::Reach;
+use mdg_vm::sosmc::{Cancel, Guide, Utilisation};
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 /// A search's answer: `None` when it was replaced or cancelled before it finished.
 pub type Outcome = Option<Result<Searched, String>>;
@@ -55,6 +56,10 @@ pub struct Session {
     pub editor: Editor,
     bundle: Arc<Bundle>,
     seed: u64,
+    /// The utilisation term chosen with `L` (`None`: the `search` section's).
+    utilisation: Option<Utilisation>,
+    /// The bundle's reach, once a search has estimated it.
+    reach: Arc<OnceLock<Reach>>,
     eval: EvalOptions,
     source: GuideSource,
     /// The editor's revision when its guides last matched the source.
@@ -93,6 +98,8 @@ impl Session {
             editor: Editor::new(guides),
             bundle,
             seed: opts.seed,
+            utilisation: None,
+            reach: Arc::default(),
             eval: opts.eval,
             source,
             source_revision: 0,
@@ -113,6 +120,8 @@ impl Session {
             guides: self.editor.guides().to_vec(),
             seed: self.seed,
             eval: self.eval.clone(),
+            utilisation: self.utilisation,
+            reach: self.reach.clone(),
         }
     }
 
@@ -180,6 +189,7 @@ impl Session {
             }
         }
         self.bundle = bundle;
+        self.reach = Arc::default();
     }
 
     /// The guide file changed: take its guides (undoable). Returns whether they
@@ -194,6 +204,21 @@ impl Session {
     pub fn reseed(&mut self) -> u64 {
         self.seed = self.seed.wrapping_add(1);
         self.seed
+    }
+
+    /// The utilisation term searches use: the one chosen with `L`, else the `search`
+    /// section's, else the default.
+    pub fn utilisation(&self) -> Utilisation {
+        let grammar = self.bundle.extensions.guided.as_ref().and_then(|t| t.settings.utilisation);
+        self.utilisation.or(grammar).unwrap_or_default()
+    }
+
+    /// `L`: the next utilisation term ([`Utilisation::cycled`]); it stays through
+    /// reloads. The caller asks for a search.
+    pub fn cycle_utilisation(&mut self) -> Utilisation {
+        let next = self.utilisation().cycled();
+        self.utilisation = Some(next);
+        next
     }
 
     /// Where `S` saves.

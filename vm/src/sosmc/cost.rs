@@ -69,21 +69,41 @@ pub struct Near {
     pub arc: f64,
 }
 
-/// Which segments of a guide a bone's utilisation term (eq. 7) credits.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// Which segments of a guide a bone's utilisation term (eq. 7) credits (the
+/// `search` section's `utilisation` key, `mdg-run --utilisation`, `L` in `mdg-view`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Utilisation {
     /// Eq. 7 as written: every segment from the one holding CLOSEST(γ, BASE) to the
     /// one holding CLOSEST(γ, TIP). A short bone across the turns of a helix, whose
     /// tip is closest to another turn, credits all the turns between.
-    #[default]
     Paper,
     /// Only the segments within the bone's own length of CLOSEST(γ, BASE) along γ:
     /// the tip's arc position is clamped to arc(BASE) ± |TIP − BASE|, so a bone
-    /// credits no more of the curve than it could lie along.
+    /// credits no more of the curve than it could lie along. The default: on curved
+    /// guides it covers 1.2–2.6× as much as eq. 7 (docs/guided.md, "Coverage").
+    #[default]
     Local,
 }
 
 impl Utilisation {
+    /// Every term, in the order `mdg-view`'s `L` cycles them.
+    pub const ALL: [Utilisation; 2] = [Utilisation::Paper, Utilisation::Local];
+
+    /// Its name in sources and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Utilisation::Paper => "paper",
+            Utilisation::Local => "local",
+        }
+    }
+
+    /// The next term in [`Utilisation::ALL`] (after the last, the first).
+    pub fn cycled(self) -> Utilisation {
+        let i = Utilisation::ALL.iter().position(|&u| u == self).unwrap_or(0);
+        Utilisation::ALL[(i + 1) % Utilisation::ALL.len()]
+    }
+
     /// From its name (`paper`, `local`).
     pub fn from_name(s: &str) -> Option<Utilisation> {
         match s {
@@ -377,6 +397,7 @@ mod tests {
     #[test]
     fn the_local_utilisation_credits_only_the_bones_own_arc() {
         let mut g = line();
+        g.utilisation = Utilisation::Paper;
         let base = DVec3::new(0.0, 0.0, 0.2);
         let near = g.nearest(base).expect("near");
         let tip = DVec3::new(0.0, 0.0, 2.6);
@@ -395,6 +416,14 @@ mod tests {
         assert_eq!(Utilisation::from_name("local"), Some(Utilisation::Local));
         assert_eq!(Utilisation::from_name("paper"), Some(Utilisation::Paper));
         assert_eq!(Utilisation::from_name("eq7"), None);
+    }
+
+    #[test]
+    fn the_default_utilisation_is_local() {
+        assert_eq!(line().utilisation, Utilisation::Local);
+        assert_eq!(Utilisation::Local.cycled(), Utilisation::Paper);
+        assert_eq!(Utilisation::Paper.cycled(), Utilisation::Local);
+        assert_eq!(Utilisation::ALL.map(Utilisation::name), ["paper", "local"]);
     }
 
     #[test]

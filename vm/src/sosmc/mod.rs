@@ -17,12 +17,16 @@
 
 pub mod bezier;
 pub mod cost;
+pub mod measure;
 pub mod resample;
 pub mod search;
 pub mod team;
 
 pub use cost::Utilisation;
-pub use search::{Cancel, Model, Prepared, Progress, SearchOptions, SearchResult, Stop, PARALLEL_MIN_PARTICLES};
+pub use search::{
+    Cancel, Model, ModelChoice, Prepared, Progress, SearchOptions, SearchResult, Stop, DEFAULT_REACH_SHARE,
+    PARALLEL_MIN_PARTICLES, REACH_SAMPLES,
+};
 
 use crate::bundle::{Bundle, Op, NONE};
 use serde::{Deserialize, Serialize};
@@ -209,6 +213,11 @@ pub struct SearchSettings {
     /// Forward samples per skeleton rule for the EXPECTED vectors, and the most
     /// expansions in each.
     pub expected: (u32, u32),
+    /// The utilisation term (`utilisation` key); `None`: the default
+    /// ([`Utilisation::default`]). Left out of the bundle when not given, so bundles
+    /// of programs without the key are unchanged.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub utilisation: Option<Utilisation>,
 }
 
 impl Default for SearchSettings {
@@ -221,6 +230,7 @@ impl Default for SearchSettings {
             budget_ms: Some(DEFAULT_BUDGET_MS),
             resampling: Resampling::Systematic,
             expected: DEFAULT_EXPECTED,
+            utilisation: None,
         }
     }
 }

@@ -36,11 +36,17 @@ use super::cost::{Cost, Guides, Near, Utilisation};
 use super::resample::{resample, weights_from_log};
 use super::team::Team;
 use super::{Guide, GuidedTable, Resampling, SearchSettings};
+use choice::{reach, Candidate, Kept};
+pub use choice::{ModelChoice, DEFAULT_REACH_SHARE};
+
+mod choice;
+mod reach;
 use crate::bundle::{Bundle, NONE};
 use crate::eval::{evaluate_calls, Call, EvalOptions, Expander};
 use crate::output::{Output, Polyline};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
+pub use reach::REACH_SAMPLES;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, RwLock, RwLockReadGuard, RwLockWriteGuard};
 use std::time::{Duration, Instant};
@@ -88,6 +94,8 @@ pub struct SearchOptions {
     /// particle-step and between generations). An editor cancels a search whose
     /// guides were changed again before it finished.
     pub cancel: Option<Cancel>,
+    /// Which particle becomes the model ([`ModelChoice`]).
+    pub choice: ModelChoice,
 }
 
 /// A flag that stops a running search from another thread ([`SearchOptions::cancel`]).
@@ -141,6 +149,7 @@ impl SearchOptions {
             parallel_min: PARALLEL_MIN_PARTICLES,
             clock: None,
             cancel: None,
+            choice: ModelChoice::default(),
         }
     }
 
@@ -507,7 +516,8 @@ impl<'b> Prepared<'b> {
         for &(from, to) in &table.wrapups {
             wrapup[from as usize] = to;
         }
-        let guides = Guides::new_within(guides, deadline)?;
+        let mut guides = Guides::new_within(guides, deadline)?;
+        guides.utilisation = table.settings.utilisation.unwrap_or_default();
         let mut p = Prepared { b, skeleton, wrapup, guides, expected: vec![None; n], prepare_time: Duration::ZERO };
         p.expected = p.estimate_expected(table.settings.expected);
         p.prepare_time = started.elapsed();
@@ -519,7 +529,8 @@ impl<'b> Prepared<'b> {
         &self.guides
     }
 
-    /// These guides with another utilisation term ([`Utilisation`]).
+    /// These guides with another utilisation term ([`Utilisation`]) than the `search`
+    /// section's (`mdg-run --utilisation`, `L` in `mdg-view`).
     pub fn with_utilisation(mut self, u: Utilisation) -> Prepared<'b> {
         self.guides.utilisation = u;
         self
@@ -783,8 +794,8 @@ impl<'b> Prepared<'b> {
         let mut generation = 0u32;
         let mut stop = Stop::Generations;
         let mut results: Vec<(u32, bool, f64)> = Vec::new();
-        // The lowest-cost particle seen after any generation, and that generation.
-        let mut best: Option<(f64, u32, Particle)> = None;
+        // The particles kept for the choice of the model, with their generations.
+        let mut kept = Kept::new(opts.choice);
         // The population is always `picks` into the previous generation (`src`).
         let is_done = |p: &Option<Particle>| p.as_ref().is_none_or(|p| p.pending.is_empty());
         while generation < opts.generations {
@@ -837,26 +848,23 @@ impl<'b> Prepared<'b> {
                 steps += *active as u64;
             }
             generation += 1;
-            // The lowest cost of this generation (the first of equal ones), kept if it
-            // is lower than every earlier generation's.
-            let mut low: Option<(f64, usize)> = None;
+            // This generation's costs and reaches (a missing particle never wins);
+            // what the choice of the model wants of them is kept.
+            let (mut costs, mut reaches) = (vec![f64::NAN; n], vec![0; n]);
             for (k, c) in stepped.iter().enumerate() {
                 if let Some(p) = read(c).p.as_ref() {
-                    let cost = p.cost.total();
-                    if low.is_none_or(|(l, _)| cost < l) {
-                        low = Some((cost, k));
-                    }
+                    costs[k] = p.cost.total();
+                    reaches[k] = if matches!(opts.choice, ModelChoice::Reach(_)) { reach(p) } else { 0 };
                 }
             }
-            if let Some((cost, k)) = low {
-                if best.as_ref().is_none_or(|(b, _, _)| cost < *b) {
-                    if let Some(p) = read(&stepped[k]).p.as_ref() {
-                        best = Some((cost, generation, p.clone()));
-                    }
+            for k in kept.wanted(&costs, &reaches) {
+                if let Some(p) = read(&stepped[k]).p.as_ref() {
+                    let (cost, reach) = (costs[k], reaches[k]);
+                    kept.keep(Candidate { cost, reach, generation, particle: p.clone() });
                 }
             }
             if let Some(f) = progress {
-                let best_cost = low.map_or(f64::INFINITY, |(c, _)| c);
+                let best_cost = costs.iter().copied().filter(|c| !c.is_nan()).fold(f64::INFINITY, f64::min);
                 f(&Progress { generation, generations: opts.generations, best_cost });
             }
             let picks = if generation < opts.generations {
@@ -877,13 +885,11 @@ impl<'b> Prepared<'b> {
                 let mut picked: Vec<usize> = picks.clone();
                 picked.dedup();
                 let mut guards: Vec<_> = picked.iter().filter_map(|&k| stepped.get(k)).map(write).collect();
-                let kept = best.as_ref().map_or(0, |(_, _, p)| p.pending.len());
                 let live: usize =
-                    guards.iter().filter_map(|c| c.p.as_ref()).map(|p| p.pending.len()).sum::<usize>() + kept;
+                    guards.iter().filter_map(|c| c.p.as_ref()).map(|p| p.pending.len()).sum::<usize>() + kept.pending();
                 if stored > 2 * live + COMPACT_SLACK {
-                    // (The best particle kept refers to the store too.)
-                    let particles =
-                        guards.iter_mut().filter_map(|c| c.p.as_mut()).chain(best.as_mut().map(|b| &mut b.2));
+                    // (The particles kept for the choice refer to the store too.)
+                    let particles = guards.iter_mut().filter_map(|c| c.p.as_mut()).chain(kept.particles_mut());
                     let seg = compact(&frozen, particles);
                     *frozen = vec![seg];
                 }
@@ -891,7 +897,7 @@ impl<'b> Prepared<'b> {
             drop(frozen);
             *write(&sh.picks) = picks;
         }
-        // The model: the final particle with the lowest COST.
+        // The model: as `opts.choice` says, among the kept particles and the final ones.
         let picks = read(&sh.picks);
         let guards: Vec<_> = sh.cells[src].iter().map(read).collect();
         let finals: Vec<&Particle> = picks.iter().filter_map(|&k| guards.get(k).and_then(|c| c.p.as_ref())).collect();
@@ -899,13 +905,10 @@ impl<'b> Prepared<'b> {
         let chosen = argmin(&final_costs);
         let frozen = read(&sh.frozen);
         let store = Store { frozen: &frozen, id: u32::MAX, local: &mut Vec::new() };
-        // The best of any generation; the final one's pick when nothing earlier was
-        // lower (or no generation ran).
-        let final_cost = final_costs.get(chosen).copied().unwrap_or(f64::INFINITY);
-        let (model, model_generation) = match (&best, finals.get(chosen)) {
-            (Some((cost, g, p)), _) if *cost < final_cost => (self.wrap_up(p, &store), *g),
-            (_, Some(p)) => (self.wrap_up(p, &store), generation),
-            (_, None) => (
+        let (model, model_generation) = match kept.choose(&finals) {
+            Some(Ok((p, g))) => (self.wrap_up(p, &store), g),
+            Some(Err(k)) => (self.wrap_up(finals[k], &store), generation),
+            None => (
                 Model { cost: Cost::default(), bones: Vec::new(), calls: Vec::new(), wrapped: 0, dropped: 0 },
                 generation,
             ),
@@ -1055,6 +1058,18 @@ impl<'b> Prepared<'b> {
         total
     }
 
+    /// The utilisation segments a set of bones uses (its *reach*, [`ModelChoice::Reach`]).
+    pub fn segments_used(&self, bones: &[Bone]) -> usize {
+        let mut counts = vec![0u32; self.guides.n_segments()];
+        for bone in bones {
+            if let Some(near) = self.guides.nearest(bone.base) {
+                let tip_near = self.guides.nearest(bone.tip);
+                self.guides.bone_cost(&near, bone.base, bone.tip, tip_near.as_ref(), &mut counts);
+            }
+        }
+        counts.iter().filter(|&&c| c > 0).count()
+    }
+
     /// Expands the start shape's skeleton completely (up to `max_expansions`), choosing
     /// the next pending call with `pick(pending count) → index` and drawing every
     /// expansion's random numbers from a stream of its own (keyed by the call's
@@ -1119,67 +1134,4 @@ fn argmin(v: &[f64]) -> usize {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn schedules_ramp_like_the_paper() {
-        let o = SearchOptions {
-            particles: (100, 15),
-            generations: 100,
-            heuristic_scale: 2.0,
-            heuristic_fraction: 0.4,
-            budget: None,
-            resampling: Resampling::Systematic,
-            seed: 0,
-            threads: None,
-            parallel_min: PARALLEL_MIN_PARTICLES,
-            clock: None,
-            cancel: None,
-        };
-        assert_eq!(o.particles_at(0), 100);
-        assert_eq!(o.particles_at(99), 15);
-        assert_eq!(o.scheduled_steps(), 5750);
-        assert_eq!(o.heuristic_at(0), 2.0);
-        assert!((o.heuristic_at(20) - 1.0).abs() < 1e-12);
-        assert_eq!(o.heuristic_at(40), 0.0);
-        assert_eq!(o.heuristic_at(99), 0.0);
-    }
-
-    #[test]
-    fn compaction_keeps_each_referenced_call_once_and_rewrites_the_references() {
-        use crate::eval::State;
-        let call = |rule: u32| Pending {
-            call: Call { rule, state: State { color: [1.0; 4], ..State::start(0.0) }, depth: rule },
-            near: None,
-        };
-        // Segment 0 holds calls 0..4, segment 1 calls 10..13.
-        let frozen = vec![(0..4).map(call).collect::<Vec<_>>(), (10..13).map(call).collect()];
-        let at = |seg: u64, i: u64| (seg << 32) | i;
-        let particle = |refs: &[(u64, f64)]| Particle {
-            history: None,
-            pending: refs.iter().map(|&(at, h)| PRef { at, h }).collect(),
-            counts: Vec::new(),
-            cost: Cost::default(),
-            score: 0.0,
-        };
-        // Two particles sharing call (1, 2); calls (0, 0), (0, 2), (1, 0) unreferenced.
-        let mut ps =
-            vec![particle(&[(at(1, 2), 0.5), (at(0, 1), 0.25)]), particle(&[(at(0, 3), 1.0), (at(1, 2), 0.5)])];
-        let seg = compact(&frozen, &mut ps);
-        let rules: Vec<u32> = seg.iter().map(|p| p.call.rule).collect();
-        assert_eq!(rules, vec![12, 1, 3]);
-        let refs: Vec<Vec<(u64, f64)>> = ps.iter().map(|p| p.pending.iter().map(|r| (r.at, r.h)).collect()).collect();
-        assert_eq!(refs, vec![vec![(0, 0.5), (1, 0.25)], vec![(2, 1.0), (0, 0.5)]]);
-        // Read back through a store whose only frozen segment is the new one.
-        let store = Store { frozen: std::slice::from_ref(&seg), id: u32::MAX, local: &mut Vec::new() };
-        assert_eq!(store.get(ps[1].pending[0].at).call.rule, 3);
-    }
-
-    #[test]
-    fn argmin_takes_the_first_minimum() {
-        assert_eq!(argmin(&[3.0, 1.0, 1.0, 2.0]), 1);
-        assert_eq!(argmin(&[f64::NAN, 5.0]), 1);
-        assert_eq!(argmin(&[-1.0]), 0);
-    }
-}
+mod tests;
