@@ -53,7 +53,7 @@ fn whole(
         let mut m = assess_with(grammar, reference, &made, opts.seal)?;
         if m.complete()
             && !m.missing_kinds.is_empty()
-            && add_missing_kinds(grammar, &mut made, &reference.kinds, &attempt)? > 0
+            && add_missing_kinds(grammar, &mut made, &reference.kinds, &attempt).map_err(|e| e.0)? > 0
         {
             m = assess_with(grammar, reference, &made, opts.seal)?;
         }

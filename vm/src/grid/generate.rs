@@ -449,6 +449,19 @@ fn settle(
     }
 }
 
+/// Why [`add_missing_kinds`] could not measure a building: an instance of a shape the
+/// grammar lacks, or a production too large for the enclosure constraint.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CompletionError(pub String);
+
+impl std::fmt::Display for CompletionError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for CompletionError {}
+
 /// The most walks [`add_missing_kinds`] tries for one missing kind.
 pub const KIND_TRIES: usize = 24;
 /// The longest walk of rule applications [`add_missing_kinds`] makes to reach a shape
@@ -471,11 +484,11 @@ pub fn add_missing_kinds(
     made: &mut Generated,
     wanted: &std::collections::BTreeSet<String>,
     opts: &GenerateOptions,
-) -> Result<usize, String> {
+) -> Result<usize, CompletionError> {
     if made.instances.is_empty() || wanted.is_empty() {
         return Ok(0);
     }
-    let (d, mut world) = placed(grammar, &made.instances)?;
+    let (d, mut world) = placed(grammar, &made.instances).map_err(CompletionError)?;
     let base: Vec<&str> = d.kinds.iter().map(|k| super::blocks::base_kind(&k.id)).collect();
     let palette_base: Vec<&str> = grammar.palette.iter().map(|p| super::blocks::base_kind(&p.block)).collect();
     let limit = opts.bounds.resolve(grammar);
@@ -562,7 +575,7 @@ pub fn add_missing_kinds(
             }
             tries += 1;
             let walk = trial.len() - instances.len();
-            if settle(&d, &mut trial, &mut trial_world, opts)?.0 == 0 {
+            if settle(&d, &mut trial, &mut trial_world, opts).map_err(CompletionError)?.0 == 0 {
                 added += walk;
                 (instances, world, kept) = (trial, trial_world, true);
                 break;
