@@ -177,3 +177,25 @@ fn generated_schem_and_nbt_read_back_by_nbtlib_with_the_same_blocks() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn summary_seeds_sets_the_seeds_measured_and_zero_skips_them() {
+    let dir = std::env::temp_dir().join(format!("mdg-induce-summary-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    std::fs::write(dir.join("house.txt"), house()).expect("write");
+    let three = induce(&dir, &["--summary-seeds", "3"]);
+    assert!(three.contains("seeds 1–3 "), "{three}");
+    let none = induce(&dir, &["--summary-seeds", "0"]);
+    let summary = none.lines().find(|l| l.starts_with("summary: ")).unwrap_or_else(|| panic!("no summary: {none}"));
+    assert!(summary.contains("no seeds generated (--summary-seeds 0)") && !summary.contains("distinct"), "{summary}");
+    assert!(dir.join("style.mdg").exists());
+    let out = Command::new(env!("CARGO_BIN_EXE_mdgc"))
+        .current_dir(&dir)
+        .args(["induce", "house.txt", "--summary-seeds", "1001", "-o", "x.mdg"])
+        .output()
+        .expect("run mdgc");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("--summary-seeds 1001: at most 1000"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

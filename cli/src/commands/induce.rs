@@ -44,15 +44,22 @@ pub struct Args {
     /// matching shapes is written once, its other members as `like` references).
     #[arg(long)]
     pub full: bool,
+    /// Seeds the summary generates and measures (complete, distinct, block kinds; seeds 1 to N with the
+    /// grammar's generate settings); 0 skips the summary (the large GDMC towers take seconds).
+    #[arg(long, default_value_t = mdg_vm::grid::assess::SEEDS, value_name = "N")]
+    pub summary_seeds: u64,
     /// The grammar source to write.
     #[arg(short, long, value_name = "STYLE.mdg")]
     pub output: PathBuf,
 }
 
+/// The most seeds `--summary-seeds` generates.
+pub const MAX_SUMMARY_SEEDS: u64 = 1000;
+
 /// `mdgc induce`: infer shapes, induce the grammar, write it, and check that the
 /// written source compiles back to the same grammar.
 pub fn run(args: Args) -> ExitCode {
-    let Args { examples, spec, alpha, ops, overlap, cost, post_split, share, name, full, output } = args;
+    let Args { examples, spec, alpha, ops, overlap, cost, post_split, share, name, full, summary_seeds, output } = args;
     let (examples, spec, ops, cost, name, output) =
         (&examples[..], spec.as_str(), ops.as_str(), cost.as_str(), name.as_deref(), output.as_path());
     use mdg_vm::grid::infer::{Cost, InferOptions, Ops, Spec};
@@ -63,6 +70,9 @@ pub fn run(args: Args) -> ExitCode {
     let Some(spec) = Spec::parse(spec) else { return usage(format!("--spec {spec}: expected rect, 2d or 3d")) };
     let Some(ops) = Ops::parse(ops) else { return usage(format!("--ops {ops}: expected merge, split or both")) };
     let Some(cost) = Cost::parse(cost) else { return usage(format!("--cost {cost}: expected sum, kinds or product")) };
+    if summary_seeds > MAX_SUMMARY_SEEDS {
+        return usage(format!("--summary-seeds {summary_seeds}: at most {MAX_SUMMARY_SEEDS}"));
+    }
     if !(alpha.is_finite() && alpha >= 0.0) {
         return usage(format!("--alpha {alpha}: expected a number ≥ 0"));
     }
@@ -139,9 +149,9 @@ pub fn run(args: Args) -> ExitCode {
         seed: 0,
         ..mdg_vm::grid::generate::GenerateOptions::for_grammar(&grammar)
     };
-    let variety = build::variety(&grammar, &gen_opts, assess::SEEDS);
+    let variety = (summary_seeds > 0).then(|| build::variety(&grammar, &gen_opts, summary_seeds));
     match &variety {
-        Ok(v) => eprintln!(
+        Some(Ok(v)) => eprintln!(
             "summary: {moves} moves, {} shapes, {} matches, {} rules; seeds 1–{} (the grammar's generate settings) give {} distinct \
              buildings, {} complete (enclosed where the example is, one piece, ≥ {:.0}% of its blocks), {} with all \
              its block kinds",
@@ -154,7 +164,13 @@ pub fn run(args: Args) -> ExitCode {
             assess::COMPLETE_FRACTION * 100.0,
             v.all_kinds
         ),
-        Err(e) => eprintln!("warning: the grammar could not be generated to measure it: {e}"),
+        Some(Err(e)) => eprintln!("warning: the grammar could not be generated to measure it: {e}"),
+        None => eprintln!(
+            "summary: {moves} moves, {} shapes, {} matches, {} rules; no seeds generated (--summary-seeds 0)",
+            grammar.shapes.len(),
+            grammar.matches.len(),
+            grammar.rules.len()
+        ),
     }
     for r in &reports {
         if r.merges + r.splits == 0 {
@@ -174,7 +190,7 @@ pub fn run(args: Args) -> ExitCode {
             if examples.len() > 1 { "s" } else { "" },
         );
     }
-    if let Ok(v) = &variety {
+    if let Some(Ok(v)) = &variety {
         if v.distinct <= 1 && v.seeds > 1 {
             eprintln!(
                 "warning[{}]: seeds give identical outputs: all {} seeds generate the same building",

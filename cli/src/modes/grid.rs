@@ -54,7 +54,8 @@ pub struct GridArgs {
     pub adjacency: bool,
     /// Grid grammars: derivations tried per seed; the first complete one is kept (enclosed where the
     /// example is, one piece, ≥ 80 % of the example's blocks, all its block kinds), else the most
-    /// complete, with a warning (default 16; 1: the first derivation as it comes).
+    /// complete, with a warning; a complete one lacking kinds gets them added where the rules allow
+    /// (default 16; 1: the first derivation as it comes).
     #[arg(long, value_name = "N")]
     pub attempts: Option<u32>,
     /// Grid grammars: `--png` also draws N more buildings, generated from the seeds after `--seed`.

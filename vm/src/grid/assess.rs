@@ -61,19 +61,7 @@ impl Assessment {
     }
 }
 
-/// A block id without its block state or data value: `minecraft:oak_stairs[…]` →
-/// `minecraft:oak_stairs`, `53:2` → `53`.
-pub fn base_kind(id: &str) -> &str {
-    if let Some(i) = id.find('[') {
-        return &id[..i];
-    }
-    if !id.starts_with("minecraft:") && !id.starts_with('#') {
-        if let Some(i) = id.find(':') {
-            return &id[..i];
-        }
-    }
-    id
-}
+pub use super::blocks::base_kind;
 
 fn kinds_of(m: &VoxelModel) -> BTreeSet<String> {
     m.blocks.iter().filter_map(|b| m.kinds.get(b.kind as usize)).map(|k| base_kind(&k.id).to_string()).collect()

@@ -747,6 +747,20 @@ pub(super) fn same_door(lower: &str, upper: &str) -> bool {
     }
 }
 
+/// A block id without its block state or data value: `minecraft:oak_stairs[…]` →
+/// `minecraft:oak_stairs`, `53:2` → `53`.
+pub fn base_kind(id: &str) -> &str {
+    if let Some(i) = id.find('[') {
+        return &id[..i];
+    }
+    if !id.starts_with("minecraft:") && !id.starts_with('#') {
+        if let Some(i) = id.find(':') {
+            return &id[..i];
+        }
+    }
+    id
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -4,7 +4,7 @@
 //! Above both, so that one derivation and its measure do not depend on each other.
 
 use super::assess::{assess_with, Assessment, Reference};
-use super::generate::{derive, GenerateOptions, Generated, MAX_ATTEMPTS};
+use super::generate::{add_missing_kinds, derive, GenerateOptions, Generated, MAX_ATTEMPTS};
 use super::voxel::VoxelModel;
 use super::GridGrammar;
 use rand::{Rng, SeedableRng};
@@ -17,30 +17,59 @@ use std::collections::HashSet;
 /// shape's example), else the best one with a note saying so.
 pub fn generate(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generated, String> {
     grammar.validate()?;
-    let example = grammar.shapes.get(grammar.start as usize).map(|s| s.example).unwrap_or(0);
-    let has_example = grammar.shapes.iter().any(|s| s.at.is_some() && s.example == example);
     let attempts = opts.attempts.clamp(1, MAX_ATTEMPTS);
-    if attempts == 1 || !has_example {
-        return derive(grammar, opts);
+    match reference(grammar, opts)? {
+        Some(r) if attempts > 1 => Ok(whole(grammar, &r, opts)?.0),
+        _ => derive(grammar, opts),
     }
-    let reference = Reference::of(grammar, example, opts.seal)?;
+}
+
+/// The start shape's example measured, when the grammar has shapes placed in it.
+fn reference(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Option<Reference>, String> {
+    let example = grammar.shapes.get(grammar.start as usize).map(|s| s.example).unwrap_or(0);
+    if !grammar.shapes.iter().any(|s| s.at.is_some() && s.example == example) {
+        return Ok(None);
+    }
+    Reference::of(grammar, example, opts.seal).map(Some)
+}
+
+/// The first complete building with every block kind of `reference` in
+/// `opts.attempts` derivations, else the most complete with a note; and its
+/// assessment. A complete derivation that lacks kinds gets them where rules allow
+/// ([`add_missing_kinds`]).
+fn whole(
+    grammar: &GridGrammar,
+    reference: &Reference,
+    opts: &GenerateOptions,
+) -> Result<(Generated, Assessment), String> {
+    let attempts = opts.attempts.clamp(1, MAX_ATTEMPTS);
     let mut seeds = Pcg64::seed_from_u64(opts.seed ^ 0x9e37_79b9_7f4a_7c15);
     // (complete, kinds kept, blocks): the best so far.
-    let mut best: Option<((bool, usize, usize), Generated)> = None;
+    let mut best: Option<((bool, usize, usize), Generated, Assessment)> = None;
     for a in 0..attempts {
         let seed = if a == 0 { opts.seed } else { seeds.next_u64() };
-        let made = derive(grammar, &GenerateOptions { seed, ..*opts })?;
-        let m = assess_with(grammar, &reference, &made, opts.seal)?;
-        let whole = m.complete() && m.missing_kinds.is_empty();
-        if whole {
-            return Ok(made);
+        let attempt = GenerateOptions { seed, ..*opts };
+        let mut made = derive(grammar, &attempt)?;
+        let mut m = assess_with(grammar, reference, &made, opts.seal)?;
+        if m.complete()
+            && !m.missing_kinds.is_empty()
+            && add_missing_kinds(grammar, &mut made, &reference.kinds, &attempt).map_err(|e| e.0)? > 0
+        {
+            m = assess_with(grammar, reference, &made, opts.seal)?;
+        }
+        if m.complete() && m.missing_kinds.is_empty() {
+            return Ok((made, m));
         }
         let score = (m.complete(), m.example_kinds - m.missing_kinds.len(), m.blocks);
-        if best.as_ref().is_none_or(|(s, _)| score > *s) {
-            best = Some((score, made));
+        if best.as_ref().is_none_or(|(s, _, _)| score > *s) {
+            best = Some((score, made, m));
         }
     }
-    let Some((_, mut made)) = best else { return derive(grammar, opts) };
+    let Some((_, mut made, m)) = best else {
+        let made = derive(grammar, opts)?;
+        let m = assess_with(grammar, reference, &made, opts.seal)?;
+        return Ok((made, m));
+    };
     let why = format!(
         "no complete building with all the example's block kinds in {attempts} derivations; the most complete is kept"
     );
@@ -48,7 +77,7 @@ pub fn generate(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generat
         Some(n) => format!("{n}; {why}"),
         None => why,
     });
-    Ok(made)
+    Ok((made, m))
 }
 
 /// What `seeds` seeds give (`opts.seed + 1` to `opts.seed + seeds`).
@@ -78,16 +107,37 @@ fn normalized(m: &VoxelModel) -> Vec<([i32; 3], String)> {
 }
 
 /// Generates `seeds` buildings with `opts` (seeds after `opts.seed`) and measures
-/// them against the start shape's example.
+/// them against the start shape's example. The seeds are generated in parallel
+/// (each is one deterministic building, so the result does not depend on the
+/// threads).
 pub fn variety(grammar: &GridGrammar, opts: &GenerateOptions, seeds: u64) -> Result<Variety, String> {
+    use rayon::prelude::*;
+    grammar.validate()?;
     let example = grammar.shapes.get(grammar.start as usize).map(|s| s.example).unwrap_or(0);
-    let reference = Reference::of(grammar, example, opts.seal)?;
+    // Without shapes placed in the example, `generate` derives once (nothing to be
+    // complete against); the measure is the same.
+    let (reference, placed) = match reference(grammar, opts)? {
+        Some(r) => (r, true),
+        None => (Reference::of(grammar, example, opts.seal)?, false),
+    };
+    let attempts = if placed { opts.attempts.clamp(1, MAX_ATTEMPTS) } else { 1 };
+    let made: Vec<(Generated, Assessment)> = (1..=seeds)
+        .into_par_iter()
+        .map(|i| {
+            let o = GenerateOptions { seed: opts.seed.wrapping_add(i), ..*opts };
+            if attempts > 1 {
+                whole(grammar, &reference, &o)
+            } else {
+                let made = derive(grammar, &o)?;
+                let a = assess_with(grammar, &reference, &made, opts.seal)?;
+                Ok((made, a))
+            }
+        })
+        .collect::<Result<_, String>>()?;
     let mut seen = HashSet::new();
     let mut v = Variety { seeds, ..Variety::default() };
-    for i in 1..=seeds {
-        let made = generate(grammar, &GenerateOptions { seed: opts.seed.wrapping_add(i), ..*opts })?;
+    for (made, a) in made {
         seen.insert(normalized(&made.model));
-        let a = assess_with(grammar, &reference, &made, opts.seal)?;
         v.complete += a.complete() as usize;
         v.all_kinds += a.missing_kinds.is_empty() as usize;
         v.assessments.push(a);

@@ -419,16 +419,178 @@ pub fn derive(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generated
             }
         }
     }
-    let (mut removed, mut rounds) = (0, 0);
-    if opts.enclosure {
-        (removed, rounds) = enclose(&d, &mut instances, &mut world, opts.seal)?;
-    }
-    if opts.keep_largest {
-        removed += keep_largest_supported(&d, &mut instances, &mut world);
-    }
+    let (removed, rounds) = settle(&d, &mut instances, &mut world, opts)?;
     // Doors joined for induction are two blocks again.
     let (model, _) = super::doors::split_doors(&world.model(&d.kinds));
     Ok(Generated { model, instances, applied, removed, enclosure_rounds: rounds, note })
+}
+
+/// The enclosure constraint (when on), then the largest piece on the ground (when
+/// kept); dropping the other pieces can open what they closed, so the two repeat until
+/// neither removes anything. Returns (instances removed, flood fills run).
+fn settle(
+    d: &Derivation,
+    instances: &mut Vec<Instance>,
+    world: &mut World,
+    opts: &GenerateOptions,
+) -> Result<(usize, usize), String> {
+    let (mut removed, mut rounds) = (0, 0);
+    loop {
+        if opts.enclosure {
+            let (r, n) = enclose(d, instances, world, opts.seal)?;
+            removed += r;
+            rounds += n;
+        }
+        let dropped = if opts.keep_largest { keep_largest_supported(d, instances, world) } else { 0 };
+        removed += dropped;
+        if dropped == 0 || !opts.enclosure {
+            return Ok((removed, rounds));
+        }
+    }
+}
+
+/// Why [`add_missing_kinds`] could not measure a building: an instance of a shape the
+/// grammar lacks, or a production too large for the enclosure constraint.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CompletionError(pub String);
+
+impl std::fmt::Display for CompletionError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for CompletionError {}
+
+/// The most walks [`add_missing_kinds`] tries for one missing kind.
+pub const KIND_TRIES: usize = 24;
+/// The longest walk of rule applications [`add_missing_kinds`] makes to reach a shape
+/// carrying a missing kind (a chimney's top needs its shaft first).
+pub const KIND_CHAIN: usize = 3;
+
+/// Completes a generated building with the block kinds it lacks: while some kind of
+/// `wanted` (ids without block states, see [`super::blocks::base_kind`]) is missing,
+/// a rule application that adds a shape carrying a missing kind (to an instance of
+/// the building, where it fits: no block over a different one, inside the bounds,
+/// adjacency when asked) is drawn by the stream of `opts.seed` and tried, the
+/// enclosure and the largest piece re-run; it is kept when they remove nothing (it
+/// is enclosed, or open in its example, and opens nothing), else undone. At most
+/// [`KIND_TRIES`] tries per kind added. Returns the shapes added (also counted in
+/// `made.applied`). A rare kind (a chimney's wall, a balcony's fence, a door) stands
+/// in few shapes, so random derivations lose it often; this puts it back where the
+/// grammar's rules allow it.
+pub fn add_missing_kinds(
+    grammar: &GridGrammar,
+    made: &mut Generated,
+    wanted: &std::collections::BTreeSet<String>,
+    opts: &GenerateOptions,
+) -> Result<usize, CompletionError> {
+    if made.instances.is_empty() || wanted.is_empty() {
+        return Ok(0);
+    }
+    let (d, mut world) = placed(grammar, &made.instances).map_err(CompletionError)?;
+    let base: Vec<&str> = d.kinds.iter().map(|k| super::blocks::base_kind(&k.id)).collect();
+    let palette_base: Vec<&str> = grammar.palette.iter().map(|p| super::blocks::base_kind(&p.block)).collect();
+    let limit = opts.bounds.resolve(grammar);
+    let adjacent = opts.adjacency.then(|| Adjacency::of(&d));
+    let mut rng = Pcg64::seed_from_u64(opts.seed ^ 0x6b69_6e64_735f_6669);
+    let mut instances = made.instances.clone();
+    let mut added = 0;
+    loop {
+        let present: std::collections::HashSet<&str> =
+            world.cells.values().filter_map(|(k, _)| base.get(*k as usize).copied()).collect();
+        let missing: Vec<&str> = wanted.iter().map(|k| k.as_str()).filter(|k| !present.contains(k)).collect();
+        if missing.is_empty() {
+            break;
+        }
+        let carries: Vec<bool> = grammar
+            .shapes
+            .iter()
+            .map(|s| s.blocks.iter().any(|b| palette_base.get(b.kind as usize).is_some_and(|k| missing.contains(k))))
+            .collect();
+        // Per shape: the fewest rule applications from it to a shape carrying a
+        // missing kind (0: it carries one), up to KIND_CHAIN.
+        let mut dist: Vec<usize> = carries.iter().map(|&c| if c { 0 } else { usize::MAX }).collect();
+        for _ in 0..KIND_CHAIN {
+            for sh in 0..dist.len() {
+                for &r in d.rules_for(sh as u32) {
+                    let to = grammar.rules.get(r as usize).and_then(|r| dist.get(r.to as usize)).copied();
+                    if let Some(t) = to.filter(|&t| t < KIND_CHAIN) {
+                        dist[sh] = dist[sh].min(t + 1);
+                    }
+                }
+            }
+        }
+        let bbox = instances.iter().map(|i| d.bounds(i)).reduce(union_box);
+        // The next step of a walk from `cur` in `w` (box `bb`): an application of a
+        // rule whose shape is `want` steps from a missing kind, that fits.
+        let step_ok = |new: &Instance, w: &World, bb: Option<([i32; 3], [i32; 3])>| {
+            let inside = match (limit, bb) {
+                (Some(limit), Some(bb)) => {
+                    let (lo, hi) = union_box(bb, d.bounds(new));
+                    (0..3).all(|a| (hi[a] - lo[a] + 1) as u32 <= limit[a])
+                }
+                _ => true,
+            };
+            inside && w.fits(d.blocks(new)) && adjacent.as_ref().is_none_or(|a| a.allows(w, d.blocks(new)))
+        };
+        let toward = |cur: &Instance, want: &dyn Fn(usize) -> bool| -> Vec<Instance> {
+            d.rules_for(cur.shape)
+                .iter()
+                .filter(|&&r| {
+                    grammar.rules.get(r as usize).and_then(|r| dist.get(r.to as usize)).is_some_and(|&n| want(n))
+                })
+                .filter_map(|&r| d.apply(cur, r))
+                .collect()
+        };
+        // First steps: from every instance of the building, towards a missing kind.
+        let mut seen = std::collections::HashSet::new();
+        let mut firsts: Vec<Instance> = instances
+            .iter()
+            .flat_map(|i| toward(i, &|n| n < KIND_CHAIN))
+            .filter(|new| seen.insert(*new) && step_ok(new, &world, bbox))
+            .collect();
+        let (mut kept, mut tries) = (false, 0);
+        while tries < KIND_TRIES && !firsts.is_empty() {
+            // A walk from a first step drawn at random, each later step drawn among
+            // those that fit and come one step nearer a missing kind.
+            let mut cur = firsts.swap_remove(below(&mut rng, firsts.len()));
+            let mut trial = instances.clone();
+            let mut trial_world = World { cells: world.cells.clone() };
+            let mut bb = bbox;
+            let reached = loop {
+                trial_world.add(d.blocks(&cur));
+                trial.push(cur);
+                bb = bb.map(|b| union_box(b, d.bounds(&cur)));
+                let Some(want) = dist.get(cur.shape as usize).and_then(|n| n.checked_sub(1)) else { break true };
+                let steps: Vec<Instance> =
+                    toward(&cur, &|n| n == want).into_iter().filter(|new| step_ok(new, &trial_world, bb)).collect();
+                if steps.is_empty() {
+                    break false;
+                }
+                cur = steps[below(&mut rng, steps.len())];
+            };
+            if !reached {
+                continue;
+            }
+            tries += 1;
+            let walk = trial.len() - instances.len();
+            if settle(&d, &mut trial, &mut trial_world, opts).map_err(CompletionError)?.0 == 0 {
+                added += walk;
+                (instances, world, kept) = (trial, trial_world, true);
+                break;
+            }
+        }
+        if !kept {
+            break;
+        }
+    }
+    if added > 0 {
+        made.instances = instances;
+        made.applied += added as u32;
+        made.model = super::doors::split_doors(&world.model(&d.kinds)).0;
+    }
+    Ok(added)
 }
 
 /// The pairs of face neighbours the adjacency constraint allows: (kind, neighbour's
