@@ -12,6 +12,8 @@
 //!   the assembled mesh;
 //! - [`evolve`]: generations, structure-based diversity control and the diversity
 //!   measure;
+//! - [`silhouette`]: low-resolution silhouettes, to tell monsters apart by what is
+//!   visible;
 //! - [`sheet`]: contact sheets composed from per-monster pictures.
 
 pub mod cond;
@@ -19,6 +21,7 @@ pub mod evolve;
 pub mod geometry;
 pub mod rules;
 pub mod shape;
+pub mod silhouette;
 pub mod sheet;
 pub mod table;
 
