@@ -69,7 +69,8 @@ pub struct Generation {
     /// Presented monsters per lineage (regular creature's name).
     pub lineages: BTreeMap<String, usize>,
     /// A note per lineage that died out of what the user sees in this generation:
-    /// it was among the parents and has no monster in the presented set.
+    /// it was among the parents and in the last presented set, and has no monster
+    /// in this one.
     pub extinct: Vec<String>,
 }
 
@@ -336,6 +337,7 @@ impl<'a> Evolution<'a> {
         // lineage that made no offspring gets tries of its own, with its own
         // streams, its members as the base shapes.
         let parents: std::collections::BTreeSet<u32> = pop.current.iter().map(|i| i.lineage).collect();
+        let shown: std::collections::BTreeSet<u32> = pop.presented.iter().map(|i| i.lineage).collect();
         if self.opts.lineages {
             for &l in &parents {
                 if offspring.iter().any(|i| i.lineage == l) {
@@ -359,6 +361,11 @@ impl<'a> Evolution<'a> {
         let mut offspring: Vec<Individual> =
             offspring.into_iter().filter(|i| seen.insert(i.shape.describe(self.table))).collect();
         let mut n_duplicates = n_offspring - offspring.len();
+        // Monsters that look alike are one monster too: of a group of look-alikes
+        // the one with the fewest meta-parts stays (what you see is what you get;
+        // ties: the first made).
+        let (mut offspring, mut n_lookalikes) =
+            if self.opts.drop_lookalikes { drop_lookalikes(offspring) } else { (offspring, 0) };
         // Too few distinct monsters for the presented set: up to three more rounds
         // of offspring (streams `total`, `total + 1`, …), as long as they add some.
         for round in 1..=3usize {
@@ -371,20 +378,18 @@ impl<'a> Evolution<'a> {
                 .collect();
             let before = offspring.len();
             for ind in more {
-                if seen.insert(ind.shape.describe(self.table)) {
-                    offspring.push(ind);
-                } else {
+                if !seen.insert(ind.shape.describe(self.table)) {
                     n_duplicates += 1;
+                } else if self.opts.drop_lookalikes && offspring.iter().any(|k| look_alike(k, &ind)) {
+                    n_lookalikes += 1;
+                } else {
+                    offspring.push(ind);
                 }
             }
             if offspring.len() == before {
                 break;
             }
         }
-        // Monsters that look alike are one monster too: of a group of look-alikes
-        // the one with the fewest meta-parts stays (what you see is what you get;
-        // ties: the first made).
-        let (offspring, n_lookalikes) = if self.opts.drop_lookalikes { drop_lookalikes(offspring) } else { (offspring, 0) };
         let mut rng = Rng::stream(self.opts.seed, g as u64, u64::MAX);
         let mut picked = if self.opts.diversity_control {
             diversity_control(self.table, &offspring, self.opts.population as usize, &mut rng)
@@ -438,7 +443,7 @@ impl<'a> Evolution<'a> {
         pop.current = next.into_iter().enumerate().filter(|(i, _)| chosen.contains(i)).map(|(_, x)| x).collect();
         let extinct = parents
             .iter()
-            .filter(|&&l| !presented.iter().any(|i| i.lineage == l))
+            .filter(|&&l| shown.contains(&l) && !presented.iter().any(|i| i.lineage == l))
             .map(|&l| {
                 let members = old_current.iter().filter(|i| i.lineage == l).count();
                 let why = if self.opts.lineages {
@@ -520,8 +525,22 @@ pub fn lineage_counts(t: &CreatureTable, set: &[Individual]) -> BTreeMap<String,
     m
 }
 
+/// Whether two monsters look alike: their silhouettes are [`alike`] and the
+/// library parts of one are all among the other's (the other's extra parts are
+/// hidden, or copies of parts it has). Monsters built from other part variants (a
+/// bird's wing or a bat's, in other colours) do not look alike, whatever their
+/// outlines.
+pub fn look_alike(a: &Individual, b: &Individual) -> bool {
+    if !alike(&a.silhouette, &b.silhouette) {
+        return false;
+    }
+    let parts = |i: &Individual| i.layout.placed.iter().map(|p| p.part).collect::<std::collections::BTreeSet<u32>>();
+    let (pa, pb) = (parts(a), parts(b));
+    pa.is_subset(&pb) || pb.is_subset(&pa)
+}
+
 /// `set` without the monsters that look like another one of it (their
-/// silhouettes are [`alike`]): of each group the one with the fewest meta-parts
+/// silhouettes are alike, see [`look_alike`]): of each group the one with the fewest meta-parts
 /// stays, ties the earliest. Returns the rest, in their order, and how many were
 /// dropped.
 pub fn drop_lookalikes(set: Vec<Individual>) -> (Vec<Individual>, usize) {
@@ -529,7 +548,7 @@ pub fn drop_lookalikes(set: Vec<Individual>) -> (Vec<Individual>, usize) {
     order.sort_by_key(|&i| (set[i].shape.n_metas(), i));
     let mut kept: Vec<usize> = Vec::new();
     for i in order {
-        if !kept.iter().any(|&k| alike(&set[k].silhouette, &set[i].silhouette)) {
+        if !kept.iter().any(|&k| look_alike(&set[k], &set[i])) {
             kept.push(i);
         }
     }
@@ -743,9 +762,10 @@ pub fn diversity_control(t: &CreatureTable, set: &[Individual], k: usize, rng: &
 /// The hierarchical diversity measure of a set (paper §5), counted on what is
 /// visible: HDM = N + Σ_i D_i with N the number of visible clusters — monsters of
 /// equal structure vectors, joined with every monster whose silhouette is
-/// [`alike`] (stacked copies hiding one another, a tail hidden behind a body:
+/// alike (see [`look_alike`]; stacked copies hiding one another, a tail hidden behind a body:
 /// different structures that look the same are one) — and D_i = SD_i / max_j SD_j,
-/// SD_i the [`spread`] of the geometric [`descriptor`]s in cluster i (for a
+/// SD_i the [`spread`] of the geometric [`descriptor`]s of the visibly different
+/// members of cluster i (look-alikes merged) (for a
 /// Euclidean descriptor: the root-mean-square distance to the cluster mean).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Diversity {
@@ -785,7 +805,7 @@ pub fn visible_clusters(t: &CreatureTable, set: &[Individual]) -> Vec<Vec<usize>
     }
     for i in 0..set.len() {
         for j in i + 1..set.len() {
-            if alike(&set[i].silhouette, &set[j].silhouette) {
+            if look_alike(&set[i], &set[j]) {
                 join(&mut root, i, j);
             }
         }
@@ -804,10 +824,18 @@ pub fn diversity(t: &CreatureTable, set: &[Individual]) -> Diversity {
         return Diversity::default();
     }
     let cl = visible_clusters(t, set);
+    // Inside a cluster, look-alikes are one monster (merged for the measure): the
+    // spread is over the cluster's visibly different members.
     let sd: Vec<f64> = cl
         .iter()
         .map(|c| {
-            let desc: Vec<Descriptor> = c.iter().map(|&i| descriptor(&set[i])).collect();
+            let mut seen: Vec<usize> = Vec::new();
+            for &i in c {
+                if !seen.iter().any(|&k| look_alike(&set[k], &set[i])) {
+                    seen.push(i);
+                }
+            }
+            let desc: Vec<Descriptor> = seen.iter().map(|&i| descriptor(&set[i])).collect();
             spread(&desc)
         })
         .collect();

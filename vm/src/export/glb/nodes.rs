@@ -155,6 +155,13 @@ fn named_material(
 ) -> u32 {
     let double_sided = like.and_then(|m| g.root.materials.get(m as usize)).is_some_and(|m| m.double_sided);
     if let Some(&m) = made.get(&(mesh, double_sided)) {
+        // The material just made for this primitive is not needed: only it uses it.
+        if let (true, Some(fresh)) = (fresh, like) {
+            if fresh as usize + 1 == g.root.materials.len() {
+                g.root.materials.pop();
+                g.materials.retain(|_, v| *v != fresh);
+            }
+        }
         return m;
     }
     let taken = made.keys().any(|(k, _)| *k == mesh);
