@@ -411,7 +411,6 @@ fn the_documented_example_compiles_and_evolves() {
     // A humanoid and a horse with heads, wings and a Centaur: look-alikes (copies
     // hiding one another) are not presented twice, so fewer than twelve may show.
     assert!((6..=12).contains(&g.presented.len()), "{}", g.presented.len());
-    assert_eq!(g.diversity.clusters, g.presented.len());
 }
 
 /// Evolves `generations` generations of `monsters.mdg` from `seed` without the
@@ -568,9 +567,8 @@ fn a_rider(t: &mdg_vm::creature::table::CreatureTable, lib: &Library) -> mdg_vm:
     for _ in 0..6 {
         let g = evo.step(&mut pop, None);
         let rider = g.presented.into_iter().find(|i| {
-            (1..i.shape.supers.len()).any(|k| {
-                t.kinds[i.shape.supers[k].kind as usize].torso && i.shape.children(k as u32).next().is_some()
-            })
+            (1..i.shape.supers.len())
+                .any(|k| t.kinds[i.shape.supers[k].kind as usize].torso && i.shape.children(k as u32).next().is_some())
         });
         if let Some(r) = rider {
             return r;
@@ -615,7 +613,8 @@ fn a_monster_glb_hangs_every_part_from_its_torso_with_part_materials_and_sides()
             }
             m
         };
-        let by_name = |name: &str| nodes.iter().position(|n| n["name"] == name).unwrap_or_else(|| panic!("no `{name}`"));
+        let by_name =
+            |name: &str| nodes.iter().position(|n| n["name"] == name).unwrap_or_else(|| panic!("no `{name}`"));
         let size = (ind.layout.max - ind.layout.min).length();
         let y_up = glam::Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2);
         for sp in &ind.shape.supers {
@@ -653,7 +652,8 @@ fn a_monster_glb_hangs_every_part_from_its_torso_with_part_materials_and_sides()
                 }
                 // Its material is named after its part.
                 let mesh = &json["meshes"][nodes[me]["mesh"].as_u64().expect("mesh") as usize];
-                let material = &json["materials"][mesh["primitives"][0]["material"].as_u64().expect("material") as usize];
+                let material =
+                    &json["materials"][mesh["primitives"][0]["material"].as_u64().expect("material") as usize];
                 assert_eq!(material["name"], t.parts[m.geometry as usize].name.as_str(), "{}", nodes[me]["name"]);
             }
         }
@@ -666,7 +666,10 @@ fn a_monster_glb_hangs_every_part_from_its_torso_with_part_materials_and_sides()
             let r = format!("{}.R", &l[..l.len() - 2]);
             assert!(names.contains(&r.as_str()), "{}: `{l}` without `{r}` in {names:?}", ind.id);
         }
-        assert_eq!(json["materials"].as_array().expect("materials").iter().filter(|m| m.get("name").is_none()).count(), 0);
+        assert_eq!(
+            json["materials"].as_array().expect("materials").iter().filter(|m| m.get("name").is_none()).count(),
+            0
+        );
     }
 }
 
@@ -710,13 +713,8 @@ fn blender_imports_monsters_as_named_parts_standing_upright() {
         let path = dir.join(format!("{}.glb", m.id));
         std::fs::write(&path, write_glb(t, &lib, &m.id, &m.shape, &m.layout.placed).expect("glb")).expect("write");
         // Every torso is dragged once (Blender moves the object with its children).
-        let torsos: Vec<String> = m
-            .shape
-            .supers
-            .iter()
-            .filter(|s| is_torso(s.kind))
-            .map(|s| node_name(t, &m.shape, s.metas[0].id))
-            .collect();
+        let torsos: Vec<String> =
+            m.shape.supers.iter().filter(|s| is_torso(s.kind)).map(|s| node_name(t, &m.shape, s.metas[0].id)).collect();
         jobs.push(serde_json::json!({ "name": m.id, "glb": path, "move": torsos }));
     }
     let (jobs_path, result_path) = (dir.join("jobs.json"), dir.join("result.json"));
@@ -967,7 +965,13 @@ fn a_lineage_the_user_does_not_keep_is_dropped_without_a_note() {
     let evo = Evolution::new(t, &lib, o);
     let (mut pop, _) = evo.start();
     let g1 = evo.step(&mut pop, None);
-    let spiders: Vec<String> = g1.presented.iter().filter(|i| t.shapes[i.lineage as usize].name == "spider").map(|i| i.id.clone()).take(3).collect();
+    let spiders: Vec<String> = g1
+        .presented
+        .iter()
+        .filter(|i| t.shapes[i.lineage as usize].name == "spider")
+        .map(|i| i.id.clone())
+        .take(3)
+        .collect();
     assert!(!spiders.is_empty());
     evo.keep(&mut pop, &spiders).expect("keep");
     // The offspring's base shapes are the kept spiders: the humanoid line is not
@@ -1000,7 +1004,7 @@ fn without_increase_rules_the_spiders_offspring_are_less_diverse() {
 
 #[test]
 fn look_alikes_count_once_in_the_diversity_and_are_not_presented_twice() {
-    use mdg_vm::creature::silhouette::alike;
+    use mdg_vm::creature::evolve::look_alike;
     let b = monsters();
     let t = b.extensions.creatures.as_ref().expect("table");
     let lib = Library::build(&b, t).expect("library");
@@ -1029,7 +1033,7 @@ fn look_alikes_count_once_in_the_diversity_and_are_not_presented_twice() {
         let p = &g.presented;
         for i in 0..p.len() {
             for j in i + 1..p.len() {
-                assert!(!alike(&p[i].silhouette, &p[j].silhouette), "generation {}: {} and {}", g.index, p[i].id, p[j].id);
+                assert!(!look_alike(&p[i], &p[j]), "generation {}: {} and {}", g.index, p[i].id, p[j].id);
             }
         }
         assert_eq!(g.diversity.clusters, g.diversity.structures, "generation {}", g.index);

@@ -268,7 +268,13 @@ impl<'a> Evolution<'a> {
 
     /// [`Evolution::offspring`] with random stream `stream`, its base shape drawn
     /// from the current set's members of lineage `lineage` when given.
-    fn offspring_of(&self, pop: &Population, g: u32, stream: u64, lineage: Option<u32>) -> (Option<Individual>, Rejected) {
+    fn offspring_of(
+        &self,
+        pop: &Population,
+        g: u32,
+        stream: u64,
+        lineage: Option<u32>,
+    ) -> (Option<Individual>, Rejected) {
         let mut rng = Rng::stream(self.opts.seed, g as u64, stream);
         let bases: Vec<&Individual> = pop.current.iter().filter(|i| lineage.is_none_or(|l| i.lineage == l)).collect();
         let assists: Vec<&Individual> = pop.current.iter().chain(&pop.background).collect();
@@ -358,7 +364,7 @@ impl<'a> Evolution<'a> {
         // Equal abstract shapes (the same parts on the same slots, arranged alike:
         // equal descriptions, whatever their ids) are one monster: keep the first.
         let mut seen = std::collections::BTreeSet::new();
-        let mut offspring: Vec<Individual> =
+        let offspring: Vec<Individual> =
             offspring.into_iter().filter(|i| seen.insert(i.shape.describe(self.table))).collect();
         let mut n_duplicates = n_offspring - offspring.len();
         // Monsters that look alike are one monster too: of a group of look-alikes
@@ -561,10 +567,19 @@ pub fn drop_lookalikes(set: Vec<Individual>) -> (Vec<Individual>, usize) {
 /// `picked` (indices into `set`, increasing): its member least like the picked
 /// ones (by silhouette) takes the place of the picked member most like the rest of
 /// the most numerous lineage, or a free place while fewer than `k` are picked.
-pub fn keep_lineages(set: &[Individual], lineages: &std::collections::BTreeSet<u32>, picked: &mut Vec<usize>, k: usize) {
+pub fn keep_lineages(
+    set: &[Individual],
+    lineages: &std::collections::BTreeSet<u32>,
+    picked: &mut Vec<usize>,
+    k: usize,
+) {
     use super::silhouette::distance as sd;
     let nearest = |i: usize, among: &[usize]| {
-        among.iter().filter(|&&j| j != i).map(|&j| sd(&set[i].silhouette, &set[j].silhouette)).fold(f64::INFINITY, f64::min)
+        among
+            .iter()
+            .filter(|&&j| j != i)
+            .map(|&j| sd(&set[i].silhouette, &set[j].silhouette))
+            .fold(f64::INFINITY, f64::min)
     };
     for &l in lineages {
         if picked.iter().any(|&i| set[i].lineage == l) {

@@ -21,8 +21,8 @@ pub mod evolve;
 pub mod geometry;
 pub mod rules;
 pub mod shape;
-pub mod silhouette;
 pub mod sheet;
+pub mod silhouette;
 pub mod table;
 
 pub use table::CreatureTable;

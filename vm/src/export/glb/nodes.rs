@@ -3,8 +3,10 @@
 //! local to it, so moving a torso in an editor moves everything attached to it.
 //! Every part mesh is written once and has a material named after it.
 
-use super::{finite3, mirrored_copy, orthogonal_trs, place_mesh, Builder, FlatSource, GMesh, Material, Node, Pbr, Scene};
 use super::Y_UP_ROTATION;
+use super::{
+    finite3, mirrored_copy, orthogonal_trs, place_mesh, Builder, FlatSource, GMesh, Material, Node, Pbr, Scene,
+};
 use crate::output::Mesh;
 use glam::{Mat4, Vec3};
 use std::collections::BTreeMap;
