@@ -1,10 +1,13 @@
 """Imports monster .glb files into Blender (PyPI `bpy`, headless) and reports
 their objects: per file, from an empty scene, every object's name, type, parent,
-mesh data name and world bounding box (Blender is z up, like MDG).
+mesh data name, material names and world bounding box (Blender is z up, like
+MDG); then, for every object named in the job's "move" list, moves that object by
++1 along x (as an artist drags a torso) and reports every mesh object's world box
+again, before putting it back.
 
 Run by tests/tests/creature.rs as `python blender_creature.py JOBS.json RESULT.json`:
-JOBS.json is a list of {"name", "glb"}. One Blender process for every file; an
-import that raises is recorded as an error, not fatal.
+JOBS.json is a list of {"name", "glb", "move"?}. One Blender process for every
+file; an import that raises is recorded as an error, not fatal.
 """
 
 import json
@@ -12,7 +15,7 @@ import math
 import sys
 
 import bpy
-from mathutils import Vector
+from mathutils import Matrix, Vector
 
 
 def bounds(o):
@@ -43,9 +46,22 @@ def main():
             entry = {"name": o.name, "type": o.type, "parent": o.parent.name if o.parent else None}
             if o.type == "MESH":
                 entry["mesh"] = o.data.name
+                entry["materials"] = [s.material.name for s in o.material_slots if s.material]
                 entry["min"], entry["max"] = bounds(o)
             objects.append(entry)
-        results[job["name"]] = {"objects": objects, "meshes": len(bpy.data.meshes)}
+        moved = {}
+        for name in job.get("move", []):
+            o = bpy.context.scene.objects.get(name)
+            if o is None:
+                moved[name] = None
+                continue
+            before = o.matrix_world.copy()
+            o.matrix_world = Matrix.Translation((1.0, 0.0, 0.0)) @ before
+            bpy.context.view_layer.update()
+            moved[name] = {m.name: bounds(m) for m in bpy.context.scene.objects if m.type == "MESH"}
+            o.matrix_world = before
+            bpy.context.view_layer.update()
+        results[job["name"]] = {"objects": objects, "meshes": len(bpy.data.meshes), "moved": moved}
     json.dump({"results": results}, open(sys.argv[2], "w"))
 
 

@@ -461,7 +461,7 @@ fn path_refs_resolve_crate_super_and_self_paths() {
 #[test]
 fn no_vm_file_is_over_1000_lines() {
     const LARGE: [(&str, usize); 3] =
-        [("vm/src/export/glb.rs", 2624), ("vm/src/grid/infer.rs", 1145), ("vm/src/sosmc/search.rs", 1185)];
+        [("vm/src/export/glb.rs", 2551), ("vm/src/grid/infer.rs", 1145), ("vm/src/sosmc/search.rs", 1185)];
     let mut files = Vec::new();
     rs_files(&root().join("vm/src"), &mut files);
     let mut over = Vec::new();
@@ -542,7 +542,8 @@ fn no_library_function_returns_a_string_error_beyond_the_list() {
         ("vm/src/creature/shape.rs", 1),
         ("vm/src/creature/sheet.rs", 1),
         ("vm/src/creature/table.rs", 1),
-        ("vm/src/export/glb.rs", 4),
+        ("vm/src/export/glb.rs", 3),
+        ("vm/src/export/glb/nodes.rs", 1),
         ("vm/src/export/json.rs", 2),
         ("vm/src/export/mod.rs", 5),
         ("vm/src/export/obj.rs", 2),

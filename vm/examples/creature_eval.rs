@@ -15,7 +15,9 @@
 //!
 //! Run: `cargo run --release -p mdg-vm --example creature_eval [-- SEEDS GENERATIONS]`
 //! (default 8 seeds, 6 generations); `-- touch` measures how many presented monsters
-//! have a part touching nothing. The grammar is compiled by `mdgc` first
+//! have a part touching nothing; `-- fig13 [SEEDS GENERATIONS]` prints the ratio per
+//! generation with the offspring counts it rests on (for any creature grammar: set
+//! `MDG_CREATURE_BUNDLE`). The grammar is compiled by `mdgc` first
 //! (`cargo run --release --bin mdgc -- build …`) unless `MDG_CREATURE_BUNDLE`
 //! names a compiled `.mdgb`.
 
@@ -146,6 +148,68 @@ fn time(bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
     Ok(())
 }
 
+/// The paper's Fig. 13 with the sample sizes: per generation, the HDM of all
+/// offspring (and of the presented set) without increase rules over the HDM with
+/// all rules, each mean over seeds 1..=`seeds`, with the number of offspring (and
+/// presented monsters) each variant made, summed over the seeds. The grammar's own
+/// population and offspring count.
+fn fig13(bundle: &mdg_vm::bundle::Bundle, path: &Path, seeds: u64, gens: u32) -> Result<(), String> {
+    let table = bundle.extensions.creatures.as_ref().ok_or("no creature table")?;
+    let lib = Library::build(bundle, table)?;
+    let base = EvolveOptions::from_table(table);
+    println!(
+        "Fig. 13 on {}: seeds 1–{seeds}, generations 1–{gens}, population {}, {} offspring per generation",
+        path.display(),
+        base.population,
+        base.offspring
+    );
+    // results[variant][seed][generation]
+    let mut results: [Vec<Vec<[f64; 6]>>; 2] = [Vec::new(), Vec::new()];
+    for (variant, disabled) in [vec![], vec![RuleKind::Increase]].into_iter().enumerate() {
+        for seed in 1..=seeds {
+            let mut o = base.clone();
+            o.seed = seed;
+            o.generations = gens;
+            o.disabled = disabled.clone();
+            results[variant].push(run(&Evolution::new(table, &lib, o)));
+        }
+    }
+    println!("| generation | offspring HDM, all rules | no increase | ratio | offspring (all + no increase) | presented HDM, all / no increase | ratio | presented (all + no increase) |");
+    println!("|---|---|---|---|---|---|---|---|");
+    let col = |v: usize, g: usize, k: usize| results[v].iter().map(|r| r[g][k]).collect::<Vec<f64>>();
+    let mut sums = [0.0f64; 8];
+    for g in 0..gens as usize {
+        let (a, b) = (mean_sd(&col(0, g, 0)).0, mean_sd(&col(1, g, 0)).0);
+        let (pa, pb) = (mean_sd(&col(0, g, 2)).0, mean_sd(&col(1, g, 2)).0);
+        let (na, nb): (f64, f64) = (col(0, g, 4).iter().sum(), col(1, g, 4).iter().sum());
+        let (ma, mb): (f64, f64) = (col(0, g, 5).iter().sum(), col(1, g, 5).iter().sum());
+        println!(
+            "| {} | {a:.2} | {b:.2} | **{:.2}** | {na:.0} + {nb:.0} | {pa:.2} / {pb:.2} | {:.2} | {ma:.0} + {mb:.0} |",
+            g + 1,
+            b / a,
+            pb / pa
+        );
+        for (s, v) in sums.iter_mut().zip([a, b, pa, pb, na, nb, ma, mb]) {
+            *s += v;
+        }
+    }
+    let n = gens.max(1) as f64;
+    println!(
+        "| mean of 1–{gens} | {:.2} | {:.2} | **{:.2}** | {:.0} + {:.0} | {:.2} / {:.2} | {:.2} | {:.0} + {:.0} |",
+        sums[0] / n,
+        sums[1] / n,
+        sums[1] / sums[0],
+        sums[4],
+        sums[5],
+        sums[2] / n,
+        sums[3] / n,
+        sums[3] / sums[2],
+        sums[6],
+        sums[7]
+    );
+    Ok(())
+}
+
 fn main() -> Result<(), String> {
     let args: Vec<String> = std::env::args().collect();
     if args.get(1).map(String::as_str) == Some("time") {
@@ -159,6 +223,14 @@ fn main() -> Result<(), String> {
         let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
         let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
         return touch(&bundle);
+    }
+    if args.get(1).map(String::as_str) == Some("fig13") {
+        let path = bundle_path()?;
+        let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
+        let seeds: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(5);
+        let gens: u32 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(5);
+        return fig13(&bundle, &path, seeds, gens);
     }
     let seeds: Vec<u64> = match args.get(1).and_then(|s| s.parse::<u64>().ok()) {
         Some(n) => (1..=n).collect(),

@@ -6,7 +6,9 @@
 use super::Common;
 use crate::pictures::Pictures;
 use mdg_vm::bundle::Bundle;
-use mdg_vm::creature::evolve::{structure_key, Evolution, EvolveOptions, Generation, Individual, Population};
+use mdg_vm::creature::evolve::{
+    lineage_name, structure_key, Evolution, EvolveOptions, Generation, Individual, Population,
+};
 use mdg_vm::creature::geometry::{assemble, output_of, program_text, write_glb, Library};
 use mdg_vm::creature::sheet::compose;
 use mdg_vm::creature::table::{CreatureTable, RuleKind, MAX_GENERATIONS, MAX_POPULATION};
@@ -44,6 +46,15 @@ pub struct CreatureArgs {
     /// (`increase`, `insert`, `replace`, `combine`), e.g. for an ablation.
     #[arg(long, value_name = "KIND,KIND", value_delimiter = ',')]
     pub without_rules: Vec<String>,
+    /// Creature grammar: let a lineage (the regular creature a monster descends
+    /// from) die out of the presented set; by default every lineage among the
+    /// parents keeps a place there.
+    #[arg(long)]
+    pub no_lineages: bool,
+    /// Creature grammar: present monsters that look like another one (alike
+    /// silhouettes); by default the look-alikes are dropped before diversity control.
+    #[arg(long)]
+    pub allow_lookalikes: bool,
 }
 
 /// The evolution options from the table and the command line.
@@ -69,6 +80,8 @@ pub fn options(t: &CreatureTable, args: &CreatureArgs, seed: Option<u64>) -> Res
         o.population = p;
     }
     o.diversity_control = !args.no_diversity_control;
+    o.lineages = !args.no_lineages;
+    o.drop_lookalikes = !args.allow_lookalikes;
     for w in &args.without_rules {
         match RuleKind::NAMES.iter().find(|(n, _)| n == w) {
             Some((_, k)) => o.disabled.push(*k),
@@ -102,6 +115,8 @@ fn options_record(o: &EvolveOptions) -> serde_json::Value {
         "diversity_control": o.diversity_control,
         "stability": o.stability,
         "require_contact": o.require_contact,
+        "lineages": o.lineages,
+        "drop_lookalikes": o.drop_lookalikes,
     })
 }
 
@@ -111,6 +126,7 @@ fn monster_record(t: &CreatureTable, i: &Individual) -> serde_json::Value {
         "id": i.id,
         "structure": i.shape.describe(t),
         "vector": structure_key(t, &i.shape),
+        "lineage": lineage_name(t, i.lineage),
         "shape": i.shape,
     })
 }
@@ -195,7 +211,11 @@ fn read_record(
         let shape: mdg_vm::creature::shape::Shape =
             serde_json::from_value(m["shape"].clone()).map_err(|e| format!("{}: monster {id}: {e}", path.display()))?;
         shape.check(evo.table).map_err(|e| format!("{}: monster {id}: {e}", path.display()))?;
-        Ok(evo.revive(shape, id))
+        let name = m["lineage"].as_str().unwrap_or("");
+        let lineage = evo.table.shapes.iter().position(|s| s.name == name).ok_or_else(|| {
+            format!("{}: monster {id}: its lineage `{name}` is no regular creature of the grammar", path.display())
+        })?;
+        Ok(evo.revive(shape, id, lineage as u32))
     };
     let presented = gen["presented"].as_array().cloned().unwrap_or_default();
     let mut kept = Vec::new();
@@ -230,6 +250,12 @@ fn keep_command(file: &Path, out_dir: &Path, o: &EvolveOptions, args: &CreatureA
     }
     if !o.diversity_control {
         c.push_str(" --no-diversity-control");
+    }
+    if !o.lineages {
+        c.push_str(" --no-lineages");
+    }
+    if !o.drop_lookalikes {
+        c.push_str(" --allow-lookalikes");
     }
     c.push_str(&format!(" -o {}", quote(format!("{}-more", out_dir.display()))));
     c
@@ -358,19 +384,25 @@ fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<()
         let d = &g.diversity;
         let o = &g.offspring_diversity;
         eprintln!(
-            "generation {}: {} monsters; diversity HDM {:.2} ({} structures) of {} offspring, {:.2} ({} structures) presented; mean C_s {:.1}, mean meta-parts {:.1}; {} unstable tries rejected, {} with a part touching nothing",
+            "generation {}: {} monsters; diversity HDM {:.2} ({} visibly different, {} structures) of {} offspring, {:.2} ({} visibly different, {} structures) presented; mean C_s {:.1}, mean meta-parts {:.1}; {} unstable tries rejected, {} with a part touching nothing, {} look-alikes dropped",
             g.index,
             g.presented.len(),
             o.hdm,
             o.clusters,
+            o.structures,
             g.n_offspring,
             d.hdm,
             d.clusters,
+            d.structures,
             d.mean_complexity,
             d.mean_metas,
             g.n_unstable,
-            g.n_detached
+            g.n_detached,
+            g.n_lookalikes
         );
+        for note in &g.extinct {
+            eprintln!("mdg-run: warning: {note}");
+        }
     }
     if common.stats {
         eprintln!(
@@ -548,10 +580,13 @@ table.d td,table.d th{{padding:2px 10px;text-align:right}}\
         std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
         let _ = writeln!(
             html,
-            "<h2 id=\"gen{0}\">Generation {0}</h2>\n<p>{1} monsters, HDM {2:.2}.</p>\n<img class=\"sheet\" src=\"{3}/sheet.png\">\n<div class=\"grid\">",
+            "<h2 id=\"gen{0}\">Generation {0}</h2>\n<p>{1} monsters, HDM {2:.2} ({3} visibly different). Lineages: {4}.{5}</p>\n<img class=\"sheet\" src=\"{6}/sheet.png\">\n<div class=\"grid\">",
             g.index,
             g.presented.len(),
             g.diversity.hdm,
+            g.diversity.clusters,
+            html_escape(&g.lineages.iter().map(|(k, v)| format!("{k} {v}")).collect::<Vec<_>>().join(", ")),
+            g.extinct.iter().map(|n| format!(" <b>{}.</b>", html_escape(n))).collect::<String>(),
             dir_name
         );
         let mut tiles = Vec::new();
@@ -562,7 +597,12 @@ table.d td,table.d th{{padding:2px 10px;text-align:right}}\
             write(&dir.join(format!("{}.png", ind.id)), &thumb)?;
             tiles.push((thumb, ind.id.clone()));
             let origin = if ind.name.is_empty() {
-                format!("base {} + assist {}", ind.parents.0, ind.parents.1)
+                format!(
+                    "base {} + assist {}, lineage {}",
+                    ind.parents.0,
+                    ind.parents.1,
+                    mdg_vm::creature::evolve::lineage_name(t, ind.lineage)
+                )
             } else {
                 format!("regular creature `{}`", ind.name)
             };

@@ -11,6 +11,7 @@
 use super::geometry::{layout, Layout, Library};
 use super::rules::{derive, select, Applied, DeriveOptions, Rng};
 use super::shape::Shape;
+use super::silhouette::{alike, silhouette, Silhouette};
 use super::table::{CreatureTable, RuleKind};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -32,6 +33,11 @@ pub struct Individual {
     pub applied: Vec<Applied>,
     /// The regular creature's name, for generation 0.
     pub name: String,
+    /// Its lineage: the regular creature (index into the table's shapes) its
+    /// line of base shapes starts from — its body plan.
+    pub lineage: u32,
+    /// What it looks like (see [`super::silhouette`]).
+    pub silhouette: Silhouette,
 }
 
 /// One generation's result.
@@ -57,6 +63,15 @@ pub struct Generation {
     pub diversity: Diversity,
     /// The diversity of all offspring made (before diversity control).
     pub offspring_diversity: Diversity,
+    /// Offspring dropped before diversity control because they look like another
+    /// offspring of the generation (their silhouettes are alike).
+    pub n_lookalikes: usize,
+    /// Presented monsters per lineage (regular creature's name).
+    pub lineages: BTreeMap<String, usize>,
+    /// A note per lineage that died out of what the user sees in this generation:
+    /// it was among the parents and in the last presented set, and has no monster
+    /// in this one.
+    pub extinct: Vec<String>,
 }
 
 impl Generation {
@@ -109,6 +124,12 @@ pub struct EvolveOptions {
     /// Reject offspring that do not stand (the stability test), except those of
     /// `floats` creatures.
     pub stability: bool,
+    /// Keep every lineage among the parents alive: offspring tries reserved for a
+    /// lineage that made none, and a place in the presented and next current sets.
+    pub lineages: bool,
+    /// Drop offspring that look like another one (alike silhouettes) before
+    /// diversity control; `false` keeps them (the behaviour before issue 43).
+    pub drop_lookalikes: bool,
 }
 
 impl EvolveOptions {
@@ -128,6 +149,8 @@ impl EvolveOptions {
             diversity_control: true,
             require_contact: true,
             stability: e.stability,
+            lineages: true,
+            drop_lookalikes: true,
         }
     }
 }
@@ -166,12 +189,15 @@ impl<'a> Evolution<'a> {
             .enumerate()
             .map(|(i, d)| {
                 let shape = Shape::from_def(self.table, d);
-                let mut ind = self.individual(shape, format!("g0-{i:02}"), (String::new(), String::new()), Vec::new());
+                let mut ind =
+                    self.individual(shape, format!("g0-{i:02}"), (String::new(), String::new()), Vec::new(), i as u32);
                 ind.name = d.name.clone();
+                ind.silhouette = silhouette(self.lib, &ind.layout);
                 ind
             })
             .collect();
         let diversity = diversity(self.table, &presented);
+        let lineages = lineage_counts(self.table, &presented);
         Generation {
             index: 0,
             offspring_diversity: diversity.clone(),
@@ -183,6 +209,9 @@ impl<'a> Evolution<'a> {
             n_failed: 0,
             n_duplicates: 0,
             diversity,
+            n_lookalikes: 0,
+            lineages,
+            extinct: Vec::new(),
         }
     }
 
@@ -199,9 +228,11 @@ impl<'a> Evolution<'a> {
     }
 
     /// A monster from its abstract shape (read from a run's record): laid out
-    /// again, with its id.
-    pub fn revive(&self, shape: Shape, id: String) -> Individual {
-        self.individual(shape, id, (String::new(), String::new()), Vec::new())
+    /// again, with its id and lineage.
+    pub fn revive(&self, shape: Shape, id: String, lineage: u32) -> Individual {
+        let mut ind = self.individual(shape, id, (String::new(), String::new()), Vec::new(), lineage);
+        ind.silhouette = silhouette(self.lib, &ind.layout);
+        ind
     }
 
     /// The population after generation `generation` when the user keeps `kept`
@@ -212,18 +243,40 @@ impl<'a> Evolution<'a> {
         Population { generation, presented: kept.clone(), current: kept, background }
     }
 
-    fn individual(&self, shape: Shape, id: String, parents: (String, String), applied: Vec<Applied>) -> Individual {
+    /// A monster laid out, its silhouette not yet made (offspring tries that fail
+    /// the tests never need it).
+    fn individual(
+        &self,
+        shape: Shape,
+        id: String,
+        parents: (String, String),
+        applied: Vec<Applied>,
+        lineage: u32,
+    ) -> Individual {
         let layout = layout(self.table, self.lib, &shape);
         let complexity = shape.complexity();
-        Individual { id, shape, layout, complexity, parents, applied, name: String::new() }
+        let silhouette = Silhouette::default();
+        Individual { id, shape, layout, complexity, parents, applied, name: String::new(), lineage, silhouette }
     }
 
     /// Offspring `index` of generation `g` from `pop`: up to `attempts` tries of
     /// select → derive → lay out → stability test, with the offspring's own random
     /// stream. Returns the offspring (if any) and the tries rejected.
     pub fn offspring(&self, pop: &Population, g: u32, index: usize) -> (Option<Individual>, Rejected) {
-        let mut rng = Rng::stream(self.opts.seed, g as u64, index as u64);
-        let bases = &pop.current;
+        self.offspring_of(pop, g, index as u64, None)
+    }
+
+    /// [`Evolution::offspring`] with random stream `stream`, its base shape drawn
+    /// from the current set's members of lineage `lineage` when given.
+    fn offspring_of(
+        &self,
+        pop: &Population,
+        g: u32,
+        stream: u64,
+        lineage: Option<u32>,
+    ) -> (Option<Individual>, Rejected) {
+        let mut rng = Rng::stream(self.opts.seed, g as u64, stream);
+        let bases: Vec<&Individual> = pop.current.iter().filter(|i| lineage.is_none_or(|l| i.lineage == l)).collect();
         let assists: Vec<&Individual> = pop.current.iter().chain(&pop.background).collect();
         let base_metric: Vec<f64> = bases.iter().map(|i| i.complexity).collect();
         let assist_metric: Vec<f64> = assists.iter().map(|i| i.complexity).collect();
@@ -236,7 +289,7 @@ impl<'a> Evolution<'a> {
         let mut unstable = Rejected::default();
         for _ in 0..self.opts.attempts {
             let Some(b) = select(self.table.select_shapes, &base_metric, &mut rng) else { return (None, unstable) };
-            let base = &bases[b];
+            let base = bases[b];
             // The assist is another shape when there is one.
             let others: Vec<usize> = (0..assists.len()).filter(|&i| assists[i].id != base.id).collect();
             let a = if others.is_empty() {
@@ -250,7 +303,8 @@ impl<'a> Evolution<'a> {
             if shape == base.shape || shape.n_metas() > self.opts.maxparts as usize {
                 continue;
             }
-            let ind = self.individual(shape, String::new(), (base.id.clone(), assist.id.clone()), applied);
+            let parents = (base.id.clone(), assist.id.clone());
+            let mut ind = self.individual(shape, String::new(), parents, applied, base.lineage);
             if self.opts.require_contact && !ind.layout.detached.is_empty() {
                 unstable.detached += 1;
                 continue;
@@ -259,6 +313,7 @@ impl<'a> Evolution<'a> {
                 unstable.unstable += 1;
                 continue;
             }
+            ind.silhouette = silhouette(self.lib, &ind.layout);
             return (Some(ind), unstable);
         }
         (None, unstable)
@@ -280,18 +335,43 @@ impl<'a> Evolution<'a> {
                 r
             })
             .collect();
-        let n_unstable = made.iter().map(|m| m.1.unstable).sum();
-        let n_detached = made.iter().map(|m| m.1.detached).sum();
+        let mut n_unstable = made.iter().map(|m| m.1.unstable).sum();
+        let mut n_detached = made.iter().map(|m| m.1.detached).sum();
         let n_failed = made.iter().filter(|m| m.0.is_none()).count();
-        let offspring: Vec<Individual> = made.into_iter().filter_map(|m| m.0).collect();
+        let mut offspring: Vec<Individual> = made.into_iter().filter_map(|m| m.0).collect();
+        // The lineages among the parents (after `--keep`, the kept monsters'): a
+        // lineage that made no offspring gets tries of its own, with its own
+        // streams, its members as the base shapes.
+        let parents: std::collections::BTreeSet<u32> = pop.current.iter().map(|i| i.lineage).collect();
+        let shown: std::collections::BTreeSet<u32> = pop.presented.iter().map(|i| i.lineage).collect();
+        if self.opts.lineages {
+            for &l in &parents {
+                if offspring.iter().any(|i| i.lineage == l) {
+                    continue;
+                }
+                let tries = (total / parents.len().max(1)).max(3);
+                let more: Vec<(Option<Individual>, Rejected)> = (0..tries)
+                    .into_par_iter()
+                    .map(|k| self.offspring_of(pop, g, (1u64 << 40) + ((l as u64) << 20) + k as u64, Some(l)))
+                    .collect();
+                n_unstable += more.iter().map(|m| m.1.unstable).sum::<usize>();
+                n_detached += more.iter().map(|m| m.1.detached).sum::<usize>();
+                offspring.extend(more.into_iter().filter_map(|m| m.0));
+            }
+        }
         let n_offspring = offspring.len();
         let offspring_diversity = diversity(self.table, &offspring);
         // Equal abstract shapes (the same parts on the same slots, arranged alike:
         // equal descriptions, whatever their ids) are one monster: keep the first.
         let mut seen = std::collections::BTreeSet::new();
-        let mut offspring: Vec<Individual> =
+        let offspring: Vec<Individual> =
             offspring.into_iter().filter(|i| seen.insert(i.shape.describe(self.table))).collect();
         let mut n_duplicates = n_offspring - offspring.len();
+        // Monsters that look alike are one monster too: of a group of look-alikes
+        // the one with the fewest meta-parts stays (what you see is what you get;
+        // ties: the first made).
+        let (mut offspring, mut n_lookalikes) =
+            if self.opts.drop_lookalikes { drop_lookalikes(offspring) } else { (offspring, 0) };
         // Too few distinct monsters for the presented set: up to three more rounds
         // of offspring (streams `total`, `total + 1`, …), as long as they add some.
         for round in 1..=3usize {
@@ -304,10 +384,12 @@ impl<'a> Evolution<'a> {
                 .collect();
             let before = offspring.len();
             for ind in more {
-                if seen.insert(ind.shape.describe(self.table)) {
-                    offspring.push(ind);
-                } else {
+                if !seen.insert(ind.shape.describe(self.table)) {
                     n_duplicates += 1;
+                } else if self.opts.drop_lookalikes && offspring.iter().any(|k| look_alike(k, &ind)) {
+                    n_lookalikes += 1;
+                } else {
+                    offspring.push(ind);
                 }
             }
             if offspring.len() == before {
@@ -315,11 +397,14 @@ impl<'a> Evolution<'a> {
             }
         }
         let mut rng = Rng::stream(self.opts.seed, g as u64, u64::MAX);
-        let picked = if self.opts.diversity_control {
+        let mut picked = if self.opts.diversity_control {
             diversity_control(self.table, &offspring, self.opts.population as usize, &mut rng)
         } else {
             uniform_sample(offspring.len(), self.opts.population as usize, &mut rng)
         };
+        if self.opts.lineages {
+            keep_lineages(&offspring, &parents, &mut picked, self.opts.population as usize);
+        }
         let mut presented = Vec::new();
         let mut rest = Vec::new();
         for (i, ind) in offspring.into_iter().enumerate() {
@@ -349,16 +434,42 @@ impl<'a> Evolution<'a> {
         let mut next: Vec<Individual> = presented.clone();
         next.extend(pop.current.iter().cloned());
         next.extend(background.iter().cloned());
-        let chosen = if self.opts.diversity_control {
+        let mut chosen = if self.opts.diversity_control {
             diversity_control(self.table, &next, self.opts.population as usize, &mut rng)
         } else {
             uniform_sample(next.len(), self.opts.population as usize, &mut rng)
         };
+        if self.opts.lineages {
+            // Only lineages that made a monster this generation stay among the
+            // parents by right; one that made none dies out (and is noted).
+            let living: std::collections::BTreeSet<u32> = presented.iter().map(|i| i.lineage).collect();
+            keep_lineages(&next, &living, &mut chosen, self.opts.population as usize);
+        }
+        let old_current = std::mem::take(&mut pop.current);
         pop.current = next.into_iter().enumerate().filter(|(i, _)| chosen.contains(i)).map(|(_, x)| x).collect();
+        let extinct = parents
+            .iter()
+            .filter(|&&l| shown.contains(&l) && !presented.iter().any(|i| i.lineage == l))
+            .map(|&l| {
+                let members = old_current.iter().filter(|i| i.lineage == l).count();
+                let why = if self.opts.lineages {
+                    "none of its tries made a monster that changed, stands and touches".to_string()
+                } else {
+                    let made = presented.iter().chain(&background).filter(|i| i.lineage == l).count();
+                    format!("diversity control left out its {made} offspring")
+                };
+                format!(
+                    "lineage `{}` died out of the presented set in generation {g}: {why} ({members} of the {} parents were of it)",
+                    lineage_name(self.table, l),
+                    old_current.len()
+                )
+            })
+            .collect();
         pop.background = background.clone();
         pop.presented = presented.clone();
         pop.generation = g;
         let diversity = diversity(self.table, &presented);
+        let lineages = lineage_counts(self.table, &presented);
         Generation {
             index: g,
             presented,
@@ -370,6 +481,9 @@ impl<'a> Evolution<'a> {
             n_duplicates,
             diversity,
             offspring_diversity,
+            n_lookalikes,
+            lineages,
+            extinct,
         }
     }
 
@@ -400,6 +514,104 @@ impl<'a> Evolution<'a> {
         pop.background.extend(rest);
         pop.current = kept;
         Ok(())
+    }
+}
+
+/// The name of lineage `l`: its regular creature's.
+pub fn lineage_name(t: &CreatureTable, l: u32) -> &str {
+    t.shapes.get(l as usize).map(|s| s.name.as_str()).unwrap_or("?")
+}
+
+/// Monsters per lineage name.
+pub fn lineage_counts(t: &CreatureTable, set: &[Individual]) -> BTreeMap<String, usize> {
+    let mut m = BTreeMap::new();
+    for i in set {
+        *m.entry(lineage_name(t, i.lineage).to_string()).or_insert(0) += 1;
+    }
+    m
+}
+
+/// Whether two monsters look alike: their silhouettes are [`alike`] and the
+/// library parts of one are all among the other's (the other's extra parts are
+/// hidden, or copies of parts it has). Monsters built from other part variants (a
+/// bird's wing or a bat's, in other colours) do not look alike, whatever their
+/// outlines.
+pub fn look_alike(a: &Individual, b: &Individual) -> bool {
+    if !alike(&a.silhouette, &b.silhouette) {
+        return false;
+    }
+    let parts = |i: &Individual| i.layout.placed.iter().map(|p| p.part).collect::<std::collections::BTreeSet<u32>>();
+    let (pa, pb) = (parts(a), parts(b));
+    pa.is_subset(&pb) || pb.is_subset(&pa)
+}
+
+/// `set` without the monsters that look like another one of it (their
+/// silhouettes are alike, see [`look_alike`]): of each group the one with the fewest meta-parts
+/// stays, ties the earliest. Returns the rest, in their order, and how many were
+/// dropped.
+pub fn drop_lookalikes(set: Vec<Individual>) -> (Vec<Individual>, usize) {
+    let mut order: Vec<usize> = (0..set.len()).collect();
+    order.sort_by_key(|&i| (set[i].shape.n_metas(), i));
+    let mut kept: Vec<usize> = Vec::new();
+    for i in order {
+        if !kept.iter().any(|&k| look_alike(&set[k], &set[i])) {
+            kept.push(i);
+        }
+    }
+    let n = set.len() - kept.len();
+    let keep: std::collections::BTreeSet<usize> = kept.into_iter().collect();
+    (set.into_iter().enumerate().filter(|(i, _)| keep.contains(i)).map(|(_, x)| x).collect(), n)
+}
+
+/// Gives every lineage of `lineages` that has a member in `set` a place in
+/// `picked` (indices into `set`, increasing): its member least like the picked
+/// ones (by silhouette) takes the place of the picked member most like the rest of
+/// the most numerous lineage, or a free place while fewer than `k` are picked.
+pub fn keep_lineages(
+    set: &[Individual],
+    lineages: &std::collections::BTreeSet<u32>,
+    picked: &mut Vec<usize>,
+    k: usize,
+) {
+    use super::silhouette::distance as sd;
+    let nearest = |i: usize, among: &[usize]| {
+        among
+            .iter()
+            .filter(|&&j| j != i)
+            .map(|&j| sd(&set[i].silhouette, &set[j].silhouette))
+            .fold(f64::INFINITY, f64::min)
+    };
+    for &l in lineages {
+        if picked.iter().any(|&i| set[i].lineage == l) {
+            continue;
+        }
+        let Some(add) = (0..set.len())
+            .filter(|&i| set[i].lineage == l && !picked.contains(&i))
+            .max_by(|&a, &b| nearest(a, picked).total_cmp(&nearest(b, picked)).then(b.cmp(&a)))
+        else {
+            continue;
+        };
+        if picked.len() >= k {
+            let mut counts: BTreeMap<u32, usize> = BTreeMap::new();
+            for &i in picked.iter() {
+                *counts.entry(set[i].lineage).or_insert(0) += 1;
+            }
+            let Some((&big, &n)) = counts.iter().max_by(|a, b| a.1.cmp(b.1).then(b.0.cmp(a.0))) else { continue };
+            if n < 2 {
+                continue;
+            }
+            let members: Vec<usize> = picked.iter().copied().filter(|&i| set[i].lineage == big).collect();
+            let Some(out) = members
+                .iter()
+                .copied()
+                .min_by(|&a, &b| nearest(a, &members).total_cmp(&nearest(b, &members)).then(b.cmp(&a)))
+            else {
+                continue;
+            };
+            picked.retain(|&i| i != out);
+        }
+        picked.push(add);
+        picked.sort_unstable();
     }
 }
 
@@ -562,19 +774,63 @@ pub fn diversity_control(t: &CreatureTable, set: &[Individual], k: usize, rng: &
     out
 }
 
-/// The hierarchical diversity measure of a set (paper §5):
-/// HDM = N + Σ_i D_i with N the number of structure clusters and
-/// D_i = SD_i / max_j SD_j, SD_i the [`spread`] of the geometric [`descriptor`]s
-/// in cluster i (for a Euclidean descriptor: the root-mean-square distance to the
-/// cluster mean).
+/// The hierarchical diversity measure of a set (paper §5), counted on what is
+/// visible: HDM = N + Σ_i D_i with N the number of visible clusters — monsters of
+/// equal structure vectors, joined with every monster whose silhouette is
+/// alike (see [`look_alike`]; stacked copies hiding one another, a tail hidden behind a body:
+/// different structures that look the same are one) — and D_i = SD_i / max_j SD_j,
+/// SD_i the [`spread`] of the geometric [`descriptor`]s of the visibly different
+/// members of cluster i (look-alikes merged) (for a
+/// Euclidean descriptor: the root-mean-square distance to the cluster mean).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Diversity {
     pub hdm: f64,
+    /// Visible clusters.
     pub clusters: usize,
+    /// Structure clusters (equal structure vectors), the measure before
+    /// silhouettes joined them.
+    pub structures: usize,
     /// Mean structure complexity C_s of the set.
     pub mean_complexity: f64,
     /// Mean number of meta-parts.
     pub mean_metas: f64,
+}
+
+/// The visible clusters of `set` (see [`Diversity`]): indices, each cluster
+/// increasing, clusters by their first member.
+pub fn visible_clusters(t: &CreatureTable, set: &[Individual]) -> Vec<Vec<usize>> {
+    let mut root: Vec<usize> = (0..set.len()).collect();
+    fn find(root: &mut [usize], mut i: usize) -> usize {
+        while root[i] != i {
+            root[i] = root[root[i]];
+            i = root[i];
+        }
+        i
+    }
+    let join = |root: &mut Vec<usize>, a: usize, b: usize| {
+        let (ra, rb) = (find(root, a), find(root, b));
+        if ra != rb {
+            root[ra.max(rb)] = ra.min(rb);
+        }
+    };
+    for c in clusters(t, set) {
+        for w in c.windows(2) {
+            join(&mut root, w[0], w[1]);
+        }
+    }
+    for i in 0..set.len() {
+        for j in i + 1..set.len() {
+            if look_alike(&set[i], &set[j]) {
+                join(&mut root, i, j);
+            }
+        }
+    }
+    let mut m: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    for i in 0..set.len() {
+        let r = find(&mut root, i);
+        m.entry(r).or_default().push(i);
+    }
+    m.into_values().collect()
 }
 
 /// See [`Diversity`].
@@ -582,11 +838,19 @@ pub fn diversity(t: &CreatureTable, set: &[Individual]) -> Diversity {
     if set.is_empty() {
         return Diversity::default();
     }
-    let cl = clusters(t, set);
+    let cl = visible_clusters(t, set);
+    // Inside a cluster, look-alikes are one monster (merged for the measure): the
+    // spread is over the cluster's visibly different members.
     let sd: Vec<f64> = cl
         .iter()
         .map(|c| {
-            let desc: Vec<Descriptor> = c.iter().map(|&i| descriptor(&set[i])).collect();
+            let mut seen: Vec<usize> = Vec::new();
+            for &i in c {
+                if !seen.iter().any(|&k| look_alike(&set[k], &set[i])) {
+                    seen.push(i);
+                }
+            }
+            let desc: Vec<Descriptor> = seen.iter().map(|&i| descriptor(&set[i])).collect();
             spread(&desc)
         })
         .collect();
@@ -595,6 +859,7 @@ pub fn diversity(t: &CreatureTable, set: &[Individual]) -> Diversity {
     Diversity {
         hdm: cl.len() as f64 + sum_d,
         clusters: cl.len(),
+        structures: clusters(t, set).len(),
         mean_complexity: set.iter().map(|i| i.complexity).sum::<f64>() / set.len() as f64,
         mean_metas: set.iter().map(|i| i.shape.n_metas() as f64).sum::<f64>() / set.len() as f64,
     }

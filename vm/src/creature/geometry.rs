@@ -746,20 +746,57 @@ pub fn assemble(lib: &Library, placed: &[Placed], offset: Vec3, out: &mut Mesh) 
 }
 
 /// The name of the node of meta-part `meta` in a monster's `.glb`: its super-part,
-/// type and place in the arrangement, and its part, e.g. `S3.arm[1] h_arm`.
+/// type and place in the arrangement, its part, and for a part on one of a pair of
+/// mirror slots Blender's side suffix, `.L` on the creature's left (+x), `.R` on
+/// its right: `S2.arm[1] h_arm.L`. The two sides of a symmetry group share the
+/// number of the group's first super-part, so their names differ only in the
+/// suffix (`S2.arm[1] h_arm.L`, `S2.arm[1] h_arm.R`) and Blender's mirror tools
+/// (flip names, X-mirror) pair them.
 pub fn node_name(t: &CreatureTable, shape: &Shape, meta: u32) -> String {
     for (i, sp) in shape.supers.iter().enumerate() {
         if let Some(k) = sp.metas.iter().position(|m| m.id == meta) {
             let part = t.parts.get(sp.metas[k].geometry as usize).map(|p| p.name.as_str()).unwrap_or("?");
-            return format!("S{i}.{}[{k}] {part}", super::shape::kind_name(t, sp.kind));
+            let side = side(t, shape, i);
+            // The pair's first super-part: same group, same torso.
+            let first = match (side, sp.attach) {
+                ("", _) | (_, None) => i,
+                (_, Some(a)) => shape
+                    .supers
+                    .iter()
+                    .position(|o| o.sym == sp.sym && o.attach.is_some_and(|b| b.parent == a.parent))
+                    .unwrap_or(i),
+            };
+            return format!("S{first}.{}[{k}] {part}{side}", super::shape::kind_name(t, sp.kind));
         }
     }
     format!("M{meta}")
 }
 
+/// `.L` or `.R` for super-part `i` when it sits on a slot that has a mirror slot,
+/// by the side of the torso its slot is on (the creature's left is +x); "" else.
+fn side(t: &CreatureTable, shape: &Shape, i: usize) -> &'static str {
+    let Some(a) = shape.supers.get(i).and_then(|s| s.attach) else { return "" };
+    let torso = shape.supers.get(a.parent as usize).and_then(|p| p.metas.first()).map(|m| m.geometry);
+    let Some(part) = torso.and_then(|g| t.parts.get(g as usize)) else { return "" };
+    let Some(slot) = part.slots.get(a.slot as usize) else { return "" };
+    let x = match slot.mirror_of.and_then(|m| part.slots.get(m as usize)) {
+        Some(orig) => -orig.at[0],
+        None if slot.partner.is_some() => slot.at[0],
+        None => return "",
+    };
+    if x > 0.0 {
+        ".L"
+    } else if x < 0.0 {
+        ".R"
+    } else {
+        ""
+    }
+}
+
 /// A monster as a scene of parts: one node per placed meta-part (named by
 /// [`node_name`]) referring to one shared mesh per library part it uses, moved by
-/// `offset`.
+/// `offset`, each hanging from the node of the torso it is attached to (the root
+/// torso from the scene's root).
 pub fn part_nodes(
     t: &CreatureTable,
     lib: &Library,
@@ -770,6 +807,17 @@ pub fn part_nodes(
     let mut meshes = Vec::new();
     let mut index = std::collections::BTreeMap::new();
     let mut nodes = Vec::new();
+    // Meta-part id → the torso meta-part it hangs from.
+    let mut hangs = std::collections::BTreeMap::new();
+    for sp in &shape.supers {
+        let Some(a) = sp.attach else { continue };
+        let Some(torso) = shape.supers.get(a.parent as usize).and_then(|p| p.metas.first()) else { continue };
+        for m in &sp.metas {
+            hangs.insert(m.id, torso.id);
+        }
+    }
+    // The program places a torso before the parts attached to it.
+    let mut node_of = std::collections::BTreeMap::new();
     for p in placed {
         let Some(g) = lib.parts.get(p.part as usize) else { continue };
         let mesh = *index.entry(p.part).or_insert_with(|| {
@@ -777,10 +825,13 @@ pub fn part_nodes(
             meshes.push((name, g.mesh.clone()));
             meshes.len() as u32 - 1
         });
+        let parent = hangs.get(&p.meta).and_then(|torso| node_of.get(torso)).copied();
+        node_of.insert(p.meta, nodes.len() as u32);
         nodes.push(crate::export::glb::MeshNode {
             name: node_name(t, shape, p.meta),
             mesh,
             transform: Mat4::from_translation(offset) * p.transform,
+            parent,
         });
     }
     (meshes, nodes)

@@ -12,6 +12,8 @@
 //!   the assembled mesh;
 //! - [`evolve`]: generations, structure-based diversity control and the diversity
 //!   measure;
+//! - [`silhouette`]: low-resolution silhouettes, to tell monsters apart by what is
+//!   visible;
 //! - [`sheet`]: contact sheets composed from per-monster pictures.
 
 pub mod cond;
@@ -20,6 +22,7 @@ pub mod geometry;
 pub mod rules;
 pub mod shape;
 pub mod sheet;
+pub mod silhouette;
 pub mod table;
 
 pub use table::CreatureTable;

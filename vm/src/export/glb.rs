@@ -62,6 +62,9 @@
 //!   translation and rotation channels sampled at the directive `fps` (the camera
 //!   frame's scale is not exported).
 
+mod nodes;
+pub use nodes::{write_glb_nodes, MeshNode};
+
 use std::collections::BTreeMap;
 
 use glam::{Mat4, Quat, Vec3};
@@ -430,85 +433,6 @@ pub fn prototype_placement(f: &Frame) -> Option<([f32; 3], [f32; 4], [f32; 3])> 
     let (t, r, s) = prototype_trs(f);
     let sx = if frame_mirrors(f) { -s } else { s };
     Some((t, r, [sx, s, s]))
-}
-
-/// One node of a [`write_glb_nodes`] scene: shared mesh `mesh` placed by
-/// `transform` (rotation, uniform scale, translation; may be mirrored).
-#[derive(Clone, Debug, PartialEq)]
-pub struct MeshNode {
-    pub name: String,
-    pub mesh: u32,
-    pub transform: Mat4,
-}
-
-/// Writes a scene of named nodes, each placing one of `meshes` — a model made of
-/// parts (a creature: one node per placed part). Every mesh is written once, in its
-/// own coordinates with its vertex colours, and shared by the nodes that place it; a
-/// mirrored placement refers to a copy mirrored in x (written once per mesh, mesh
-/// `NAME mirrored`), so every node has a proper TRS. A placement that is not a
-/// similarity is baked into a mesh of its own. The nodes are children of one root
-/// node named `root` that turns MDG's z up into glTF's y up.
-pub fn write_glb_nodes(
-    root: &str,
-    meshes: &[(String, Mesh)],
-    nodes: &[MeshNode],
-    w: &mut dyn std::io::Write,
-) -> Result<(), String> {
-    let mut g = Builder::default();
-    let mut gltf_meshes: BTreeMap<(u32, bool), u32> = BTreeMap::new();
-    let mut children = Vec::new();
-    for n in nodes {
-        let Some((name, mesh)) = meshes.get(n.mesh as usize) else {
-            return Err(format!("node `{}`: no mesh {}", n.name, n.mesh));
-        };
-        let mirrored = glam::Mat3::from_mat4(n.transform).determinant() < 0.0;
-        let proper = if mirrored { n.transform * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)) } else { n.transform };
-        let node = match orthogonal_trs(&proper) {
-            Some((t, r, s)) => {
-                let m = match gltf_meshes.get(&(n.mesh, mirrored)) {
-                    Some(&m) => m,
-                    None => {
-                        let src =
-                            if mirrored { FlatSource::Owned(mirrored_copy(mesh)) } else { FlatSource::Mesh(mesh) };
-                        let what = if mirrored { format!("{name} mirrored") } else { name.clone() };
-                        let Some(p) = g.colored_primitive(src, &what)? else { continue };
-                        let m = g.push_mesh(GMesh { name: Some(what), primitives: vec![p] });
-                        gltf_meshes.insert((n.mesh, mirrored), m);
-                        m
-                    }
-                };
-                Node {
-                    name: Some(n.name.clone()),
-                    mesh: Some(m),
-                    translation: Some(finite3(t.to_array())),
-                    rotation: Some(r.to_array()),
-                    scale: Some(finite3(s.to_array())),
-                    ..Node::default()
-                }
-            }
-            None => {
-                // The part keeps its own colours.
-                let mut baked = Mesh::default();
-                place_mesh(&mut baked, mesh, &n.transform, None, mirrored, 0);
-                let what = format!("{name} baked");
-                let Some(p) = g.colored_primitive(FlatSource::Owned(baked), &what)? else { continue };
-                let m = g.push_mesh(GMesh { name: Some(what), primitives: vec![p] });
-                Node { name: Some(n.name.clone()), mesh: Some(m), ..Node::default() }
-            }
-        };
-        children.push(g.push_node(node));
-    }
-    let mut top = Vec::new();
-    if !children.is_empty() {
-        top.push(g.push_node(Node {
-            name: Some(root.to_string()),
-            rotation: Some(Y_UP_ROTATION),
-            children,
-            ..Node::default()
-        }));
-    }
-    g.root.scenes.push(Scene { nodes: top });
-    g.finish(w)
 }
 
 /// A prototype's mesh as an instanced node draws it: in its own space, normals as
@@ -958,6 +882,7 @@ impl<'a> Builder<'a> {
         // Dielectric: the glTF default material is fully metallic, which renders
         // vertex colours nearly black in most viewers.
         self.root.materials.push(Material {
+            name: None,
             pbr_metallic_roughness: Pbr {
                 base_color_factor: linear_color(color),
                 metallic_factor: 0.0,
@@ -2017,6 +1942,8 @@ struct Primitive {
 #[derive(Serialize)]
 #[serde(rename_all = "camelCase")]
 struct Material {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    name: Option<String>,
     pbr_metallic_roughness: Pbr,
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     double_sided: bool,
