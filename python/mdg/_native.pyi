@@ -111,7 +111,15 @@ class Mesh:
 class Instances:
     """Placed prototype instances: instance k draws prototypes[prototype[k]] at
     translation + rotation · (scale ⊙ p), in colour color[k] (plus the prototype's
-    per-vertex colour deltas, clamped to 0..1)."""
+    per-vertex colour deltas, clamped to 0..1).
+
+    prototype, translation, color and bone are read-only (writing raises
+    ValueError; np.array(a) gives a writable copy). Where every instance is placed
+    (and, for color, every colour is already in 0..1) they are strided views of the
+    evaluator's own instance records (row stride 80 bytes, not C-contiguous), kept
+    alive by the array's base; otherwise (an instance that cannot be placed, an
+    isosurface in the model, a colour outside 0..1) they are contiguous copies.
+    rotation and scale are computed: contiguous arrays of their own."""
 
     prototypes: list[Mesh]
     names: list[str]

@@ -302,13 +302,19 @@ pub fn cpus() -> usize {
 pub struct Placed {
     pub prototypes: Vec<Flat>,
     pub names: Vec<String>,
-    pub prototype: Vec<u32>,
-    pub translation: Vec<[f32; 3]>,
+    /// The `prototype`, `translation` and `bone` rows: `None` where the records of
+    /// [`Output::instances`] hold them as they are ([`Instance::mesh`],
+    /// `Instance::frame.u`, [`Instance::bone`]), which is when every instance is a
+    /// placed prototype instance and every shared mesh a prototype ([`in_place`]).
+    pub prototype: Option<Vec<u32>>,
+    pub translation: Option<Vec<[f32; 3]>>,
     /// (w, x, y, z).
     pub rotation: Vec<[f32; 4]>,
     pub scale: Vec<[f32; 3]>,
-    pub color: Vec<[f32; 4]>,
-    pub bone: Vec<u32>,
+    /// The colour rows (clamped to 0..1): `None` where the records hold them as they
+    /// are (as above, and every colour already in 0..1).
+    pub color: Option<Vec<[f32; 4]>>,
+    pub bone: Option<Vec<u32>>,
     /// The prototype instances that could not be placed (indices into
     /// [`Output::instances`], ascending): the base mesh expands them.
     pub unplaced: Vec<u32>,
@@ -322,11 +328,13 @@ type Rows<'a> =
 /// meshes, in order) in its own space: normals as a renderer placing it needs them,
 /// colours the deltas its vertices add to the instance's colour.
 ///
-/// One pass over the instances, on up to `threads` threads (chunks of at least 64k
-/// instances): each chunk writes its rows straight into its part of the final
-/// buffers (which become the numpy arrays without a copy), from the chunk's first
-/// instance on; the rows of instances that are not placed (rare) leave gaps that
-/// are closed afterwards.
+/// Where every instance is placed, only the rotations and scales are written (and the
+/// colours if some are outside 0..1): the records hold the other rows ([`in_place`]).
+/// Otherwise, one pass over the instances, on up to `threads` threads (chunks of at
+/// least 64k instances): each chunk writes its rows straight into its part of the
+/// final buffers (which become the numpy arrays without a copy), from the chunk's
+/// first instance on; the rows of instances that are not placed (rare) leave gaps
+/// that are closed afterwards.
 pub fn instances(out: &Output, threads: usize) -> Placed {
     let mut p = Placed::default();
     let mut index = vec![u32::MAX; out.shared_meshes.len()];
@@ -344,24 +352,32 @@ pub fn instances(out: &Output, threads: usize) -> Placed {
         p.prototypes.push(f);
         p.names.push(s.name.clone());
     }
+    if let Some((rotation, scale, in_range)) = in_place(out, threads) {
+        p.rotation = rotation;
+        p.scale = scale;
+        if !in_range {
+            p.color = Some(out.instances.iter().map(|i| clamped(i.color)).collect());
+        }
+        return p;
+    }
     let all = &out.instances;
     let n = all.len();
     let threads = threads.min(n / 65_536).max(1);
     let size = n.div_ceil(threads).max(1);
-    p.prototype = vec![0; n];
-    p.translation = vec![[0.0; 3]; n];
+    let mut prototype = vec![0; n];
+    let mut translation = vec![[0.0; 3]; n];
     p.rotation = vec![[0.0; 4]; n];
     p.scale = vec![[0.0; 3]; n];
-    p.color = vec![[0.0; 4]; n];
-    p.bone = vec![0; n];
+    let mut color = vec![[0.0; 4]; n];
+    let mut bone = vec![0; n];
     let work: Vec<(&[Instance], usize, Rows<'_>)> = all
         .chunks(size)
-        .zip(p.prototype.chunks_mut(size))
-        .zip(p.translation.chunks_mut(size))
+        .zip(prototype.chunks_mut(size))
+        .zip(translation.chunks_mut(size))
         .zip(p.rotation.chunks_mut(size))
         .zip(p.scale.chunks_mut(size))
-        .zip(p.color.chunks_mut(size))
-        .zip(p.bone.chunks_mut(size))
+        .zip(color.chunks_mut(size))
+        .zip(bone.chunks_mut(size))
         .enumerate()
         .map(|(c, ((((((insts, a), b), c2), d), e), f))| (insts, c * size, (a, b, c2, d, e, f)))
         .collect();
@@ -392,23 +408,61 @@ pub fn instances(out: &Output, threads: usize) -> Placed {
     for (c, (k, unplaced)) in done.into_iter().enumerate() {
         let from = c * size;
         if end != from {
-            p.prototype.copy_within(from..from + k, end);
-            p.translation.copy_within(from..from + k, end);
+            prototype.copy_within(from..from + k, end);
+            translation.copy_within(from..from + k, end);
             p.rotation.copy_within(from..from + k, end);
             p.scale.copy_within(from..from + k, end);
-            p.color.copy_within(from..from + k, end);
-            p.bone.copy_within(from..from + k, end);
+            color.copy_within(from..from + k, end);
+            bone.copy_within(from..from + k, end);
         }
         end += k;
         p.unplaced.extend(unplaced);
     }
-    p.prototype.truncate(end);
-    p.translation.truncate(end);
+    prototype.truncate(end);
+    translation.truncate(end);
     p.rotation.truncate(end);
     p.scale.truncate(end);
-    p.color.truncate(end);
-    p.bone.truncate(end);
+    color.truncate(end);
+    bone.truncate(end);
+    (p.prototype, p.translation, p.color, p.bone) = (Some(prototype), Some(translation), Some(color), Some(bone));
     p
+}
+
+/// What [`in_place`] makes: rotation rows, scale rows, whether every colour is in 0..1.
+type InPlace = (Vec<[f32; 4]>, Vec<[f32; 3]>, bool);
+
+/// The rotation and scale rows of every instance of `out`, and whether every
+/// instance's colour is in 0..1; `None` unless there are instances, every one of
+/// them a placed prototype instance, and every shared mesh a prototype (so that
+/// an instance's prototype index is its [`Instance::mesh`]): then the records of
+/// [`Output::instances`] hold the other rows as they are ([`Placed`]). Chunks of at
+/// least 64k instances on up to `threads` threads, as [`instances`].
+fn in_place(out: &Output, threads: usize) -> Option<InPlace> {
+    let all = &out.instances;
+    if all.is_empty() || !out.shared_meshes.iter().all(|s| s.is_prototype() && !s.mesh.triangles.is_empty()) {
+        return None;
+    }
+    let n = all.len();
+    let threads = threads.min(n / 65_536).max(1);
+    let size = n.div_ceil(threads).max(1);
+    let mut rotation = vec![[0.0; 4]; n];
+    let mut scale = vec![[0.0; 3]; n];
+    let work: Vec<_> = all.chunks(size).zip(rotation.chunks_mut(size)).zip(scale.chunks_mut(size)).collect();
+    let done = chunks_on_threads(work, |((insts, rot), sc)| -> Option<bool> {
+        let mut in_range = true;
+        for ((inst, r), s) in insts.iter().zip(rot).zip(sc) {
+            let (_, q, k) = placement(out, inst)?;
+            *r = [q[3], q[0], q[1], q[2]];
+            *s = k;
+            in_range &= inst.color.iter().all(|c| (0.0..=1.0).contains(c));
+        }
+        Some(in_range)
+    });
+    let mut in_range = true;
+    for d in done {
+        in_range &= d?;
+    }
+    Some((rotation, scale, in_range))
 }
 
 /// The prototype instances of `out` that [`instances`] cannot place (ascending).

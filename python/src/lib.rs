@@ -23,11 +23,14 @@ use mdg_compiler::source::{FsLoader, MemLoader, Sources};
 use mdg_vm::bundle::Bundle;
 use mdg_vm::eval::{evaluate, EvalOptions};
 use mdg_vm::export::{self, Format};
-use mdg_vm::output::{Groups, Output};
-use numpy::{PyArray1, PyArrayMethods};
+use mdg_vm::output::{Groups, Instance, Output};
+
+use numpy::ndarray::{ArrayView1, ArrayView2, ShapeBuilder};
+use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::exceptions::{PyException, PyOSError, PyTypeError, PyUserWarning, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
+use std::mem::offset_of;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Duration;
@@ -591,6 +594,80 @@ impl Instances {
     }
 }
 
+/// The owner of an evaluation's output that read-only numpy views of its instance
+/// records ([`record_view`]) hold as their base. Not the [`Model`]: the Model holds
+/// the [`Instances`] that hold the views, a cycle Python's collector would not see.
+#[pyclass(frozen, module = "mdg")]
+struct Records {
+    out: Arc<Output>,
+}
+
+/// A field of [`Instance`] that `Instances` shows as it is.
+#[derive(Clone, Copy, Debug)]
+enum Field {
+    /// `mesh` (u32): the prototype index, where every shared mesh is a prototype.
+    Prototype,
+    /// `frame.u` (3 × f32).
+    Translation,
+    /// `color` (4 × f32).
+    Color,
+    /// `bone` (u32).
+    Bone,
+}
+
+// The views' strides are whole elements of 4 bytes, and the fields they read are
+// 4-byte aligned within a record.
+const _: () = {
+    assert!(size_of::<Instance>().is_multiple_of(4) && align_of::<Instance>() >= 4);
+    assert!(size_of::<f32>() == 4 && size_of::<u32>() == 4);
+    // `frame.u` is x, y, z in a row (glam's `Vec3` is `repr(C)`).
+    assert!(offset_of!(Instance, frame.u.y) == offset_of!(Instance, frame.u.x) + 4);
+    assert!(offset_of!(Instance, frame.u.z) == offset_of!(Instance, frame.u.x) + 8);
+};
+
+/// Column `field` of every record of `owner`'s [`Output::instances`] as a read-only
+/// numpy array, (n,) uint32 or (n, K) float32, over the records themselves (a row
+/// stride of `size_of::<Instance>()` bytes, 80), with `owner` as its base. At least
+/// one record (a view of none is made as a copy by the caller's path).
+#[allow(unsafe_code)]
+fn record_view<'py>(owner: &Bound<'py, Records>, field: Field) -> PyResult<Bound<'py, PyAny>> {
+    let records: &[Instance] = &owner.get().out.instances;
+    let n = records.len();
+    if n == 0 {
+        return Err(PyValueError::new_err("internal: a view of no instance records"));
+    }
+    let stride = size_of::<Instance>() / 4;
+    let (offset, k) = match field {
+        Field::Prototype => (offset_of!(Instance, mesh), 0),
+        Field::Translation => (offset_of!(Instance, frame.u.x), 3),
+        Field::Color => (offset_of!(Instance, color), 4),
+        Field::Bone => (offset_of!(Instance, bone), 0),
+    };
+    let start = records.as_ptr().cast::<u8>().wrapping_add(offset);
+    let base = owner.clone().into_any();
+    // SAFETY: the view reads, for each of the n records, `max(k, 1)` 4-byte values
+    // from byte `offset` of the record: inside the record (offset_of!, and the
+    // asserted layout of `frame.u`), aligned (the fields are f32/u32 and the records
+    // 4-aligned, strides whole elements), within the one allocation of `records`.
+    // `records` is the buffer of a `Vec` inside an `Arc<Output>` that `owner` holds:
+    // the array keeps `owner` alive as its base, so the buffer outlives the array;
+    // nothing mutates or reallocates it (an `Output` behind an `Arc` is never
+    // changed: no `get_mut`/`make_mut` in this crate, and `Records` is frozen),
+    // and the array is made read-only before Python sees it, so numpy never
+    // writes it either.
+    let array = unsafe {
+        if k == 0 {
+            let view = ArrayView1::from_shape_ptr([n].strides([stride]), start.cast::<u32>());
+            PyArray1::borrow_from_array(&view, base).into_any()
+        } else {
+            let view = ArrayView2::from_shape_ptr([n, k].strides([stride, 1]), start.cast::<f32>());
+            PyArray2::borrow_from_array(&view, base).into_any()
+        }
+    };
+    array.getattr("flags")?.setattr("writeable", false)?;
+    Ok(array)
+}
+
 /// One evaluation's result. Its arrays are made on first access and kept.
 #[pyclass(frozen, module = "mdg")]
 pub struct Model {
@@ -698,17 +775,37 @@ impl Model {
             let mut i = py.detach(|| instances(&out, cpus()));
             let _ = self.unplaced.set(std::mem::take(&mut i.unplaced));
             let prototypes = i.prototypes.into_iter().map(|f| mesh_py(py, f)).collect::<PyResult<Vec<_>>>()?;
+            // The rows the records hold as they are: read-only views of them, kept
+            // alive by an owner of the output (not the Model: it holds the arrays).
+            let records = Bound::new(py, Records { out: out.clone() })?;
+            let column = |field: Field| record_view(&records, field).map(Bound::unbind);
+            let read_only = |a: Bound<'_, PyAny>| -> PyResult<Py<PyAny>> {
+                a.getattr("flags")?.setattr("writeable", false)?;
+                Ok(a.unbind())
+            };
             Py::new(
                 py,
                 Instances {
                     prototypes,
                     names: i.names,
-                    prototype: PyArray1::from_vec(py, i.prototype).into_any().unbind(),
-                    translation: rows(py, i.translation)?.unbind(),
+                    prototype: match i.prototype {
+                        Some(v) => read_only(PyArray1::from_vec(py, v).into_any())?,
+                        None => column(Field::Prototype)?,
+                    },
+                    translation: match i.translation {
+                        Some(v) => read_only(rows(py, v)?)?,
+                        None => column(Field::Translation)?,
+                    },
                     rotation: rows(py, i.rotation)?.unbind(),
                     scale: rows(py, i.scale)?.unbind(),
-                    color: rows(py, i.color)?.unbind(),
-                    bone: PyArray1::from_vec(py, i.bone).into_any().unbind(),
+                    color: match i.color {
+                        Some(v) => read_only(rows(py, v)?)?,
+                        None => column(Field::Color)?,
+                    },
+                    bone: match i.bone {
+                        Some(v) => read_only(PyArray1::from_vec(py, v).into_any())?,
+                        None => column(Field::Bone)?,
+                    },
                 },
             )
         })

@@ -141,6 +141,61 @@ def test_instances_that_cannot_be_placed_leave_no_gap():
         assert len(a) == len(inst) and a.flags["C_CONTIGUOUS"]
 
 
+ROWS = "@import primitives\nstartshape A\nrule A { %s 3000 * {x 1 ry 7 s 1.0001 R -0.0002 b 0.0001} cube {} }\n"
+# The first instance's translation overflows: it cannot be placed (a gap in the rows).
+UNPLACEABLE = "cube {x 1e38 x 1e38 x 1e38 x 1e38}"
+
+
+def run_quietly(src):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mdg.MdgWarning)
+        return mdg.compile(src).run()
+
+
+def test_instance_rows_are_read_only_views_of_the_records():
+    # translation, color, bone and prototype are strided views of the evaluator's
+    # instance records (80 bytes each) where every instance is placed: nothing copied.
+    for inst in (run_quietly(ROWS % "").instances, mdg.compile(ROOT / "std" / "examples" / "cube_spiral.mdg").run().instances):
+        assert len(inst) > 0
+        for a in (inst.translation, inst.color, inst.bone, inst.prototype):
+            assert not a.flags["OWNDATA"] and a.strides[0] == 80, a.strides
+            assert not a.flags["WRITEABLE"]
+            with pytest.raises(ValueError):
+                a[0] = 0
+        # Computed rows: arrays of their own.
+        assert inst.rotation.flags["C_CONTIGUOUS"] and inst.scale.flags["C_CONTIGUOUS"]
+
+
+def test_views_equal_the_copies():
+    # The same 3000 instances, once all placeable (views), once after one that cannot
+    # be placed (the copying path: contiguous rows, read-only all the same).
+    views = run_quietly(ROWS % "").instances
+    copies = run_quietly(ROWS % UNPLACEABLE).instances
+    assert len(views) == len(copies) == 3000
+    assert copies.translation.flags["C_CONTIGUOUS"] and not copies.translation.flags["WRITEABLE"]
+    assert views.translation.strides[0] == 80
+    for k in ("prototype", "translation", "rotation", "scale", "color", "bone"):
+        a, b = getattr(views, k), getattr(copies, k)
+        assert a.dtype == b.dtype and np.array_equal(a, b), k
+    # Colours outside 0..1 are clamped in a copy (a view would show the raw ones).
+    bright = run_quietly(ROWS.replace("cube {} }", "cube {R 0.5} }") % "").instances
+    assert bright.color.flags["C_CONTIGUOUS"] and not bright.color.flags["WRITEABLE"]
+    assert bright.color.max() == 1.0 and bright.translation.strides[0] == 80
+
+
+def test_views_outlive_the_model():
+    # The records stay alive while a view of them is held, the Model gone.
+    import gc
+
+    model = run_quietly(ROWS % "")
+    t, c, b = model.instances.translation, model.instances.color, model.instances.bone
+    want = [a.copy() for a in (t, c, b)]
+    del model
+    gc.collect()
+    junk = [np.full(1 << 20, 7.0, np.float32) for _ in range(8)]  # reuse freed memory
+    assert all(np.array_equal(a, w) for a, w in zip((t, c, b), want)) and len(junk) == 8
+
+
 def test_some_example_has_instances_and_a_mirrored_one():
     # The instance tests above mean something only if the examples have instances.
     tree = mdg.compile(ROOT / "std" / "examples" / "tree.mdg").run()
