@@ -1534,7 +1534,8 @@ fn no_derivation_leaves_a_shape_exposed_after_dropping_floating_pieces() {
 #[test]
 fn complete_buildings_get_their_missing_block_kinds_back() {
     use mdg_vm::grid::assess::{assess_with, Reference};
-    use mdg_vm::grid::generate::{add_missing_kinds, derive};
+    use mdg_vm::grid::generate::derive;
+    use mdg_vm::grid::kinds::add_missing_kinds;
     // The cottage's chimney (bricks) and ridge (oak slab) stand in few shapes: plain
     // derivations often lose them. A complete derivation gets them back through the
     // rules, where what is added stays enclosed (or is open in the example).
@@ -1568,4 +1569,92 @@ fn complete_buildings_get_their_missing_block_kinds_back() {
     }
     assert!(lacking >= 5, "the test needs derivations that lose a kind: {lacking}");
     assert!(restored * 10 >= lacking * 8, "{restored} of {lacking} got every kind back");
+}
+
+#[test]
+fn a_kind_four_rules_from_the_building_is_reached_by_a_chain_of_rules() {
+    use mdg_vm::grid::generate::Generated;
+    use mdg_vm::grid::kinds::add_missing_kinds;
+    use mdg_vm::grid::{GridRule, GridShape, PaletteEntry, ShapeBlock};
+    // A tower written for the test: a stone base, three storeys and, four rules up, a
+    // top platform of iron bars (tower_observation's top, issue 42). A plank cap sits
+    // on the base (the planks of storey 1, so only the iron bars are missing), so the
+    // storeys cannot start straight above it: the chain must take the rule that starts
+    // them beside the base, then climb.
+    let layer = |kind: u32| -> Vec<ShapeBlock> {
+        let mut v: Vec<ShapeBlock> =
+            (0..3).flat_map(|z| (0..3).map(move |x| ShapeBlock { pos: [x, 0, z], kind })).collect();
+        v.sort_by_key(|b| (b.pos[1], b.pos[2], b.pos[0]));
+        v
+    };
+    let shape = |name: &str, kind: u32| GridShape {
+        name: name.into(),
+        size: [3, 1, 3],
+        blocks: layer(kind),
+        plane: None,
+        at: None,
+        example: 0,
+        open: false,
+    };
+    let palette = ["stone_bricks", "oak_planks", "iron_bars"]
+        .iter()
+        .map(|b| PaletteEntry { name: b.to_string(), block: format!("minecraft:{b}"), color: [90, 90, 90] })
+        .collect();
+    let up = Placement::translation([0, 1, 0]);
+    let rule = |from: u32, to: u32, place: Placement| GridRule { from, to, place };
+    let g = GridGrammar {
+        palette,
+        shapes: vec![
+            shape("base", 0),
+            shape("storey1", 1),
+            shape("storey2", 0),
+            shape("storey3", 1),
+            shape("top", 2),
+            shape("cap", 1),
+        ],
+        rules: vec![
+            rule(0, 1, up),
+            rule(0, 1, Placement::translation([3, 0, 0])),
+            rule(1, 2, up),
+            rule(2, 3, up),
+            rule(3, 4, up),
+        ],
+        start: 0,
+        ..GridGrammar::default()
+    };
+    let building = vec![Instance { shape: 0, place: Placement::IDENTITY }, Instance { shape: 5, place: up }];
+    let (instances, model, removed) = enclosure(&g, &building, 1).expect("encloses");
+    assert_eq!(removed, 0);
+    let wanted: std::collections::BTreeSet<String> =
+        ["minecraft:stone_bricks", "minecraft:oak_planks", "minecraft:iron_bars"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+    let fresh = || Generated {
+        model: model.clone(),
+        instances: instances.clone(),
+        applied: 0,
+        removed: 0,
+        enclosure_rounds: 1,
+        note: None,
+    };
+    let opts = GenerateOptions { bounds: Bounds::None, ..GenerateOptions::default() };
+    let mut made = fresh();
+    let added = add_missing_kinds(&g, &mut made, &wanted, &opts).expect("adds");
+    assert_eq!(added, 4, "storey1 beside the base, storey2, storey3 and the top: {:?}", made.instances);
+    assert!(
+        made.instances.contains(&Instance { shape: 4, place: Placement::translation([3, 3, 0]) }),
+        "{:?}",
+        made.instances
+    );
+    let kinds: HashSet<String> =
+        made.model.blocks.iter().map(|b| made.model.kinds[b.kind as usize].id.clone()).collect();
+    assert!(kinds.contains("minecraft:iron_bars"), "{kinds:?}");
+    assert_eq!(made.model.blocks.len(), 6 * 9);
+    // Every seed finds it, and the same seed the same building.
+    for seed in 0..5 {
+        let mut m = fresh();
+        assert_eq!(add_missing_kinds(&g, &mut m, &wanted, &GenerateOptions { seed, ..opts }).expect("adds"), 4);
+        assert_eq!(ids(&m.model), ids(&made.model), "seed {seed}");
+    }
 }

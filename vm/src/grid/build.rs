@@ -4,7 +4,8 @@
 //! Above both, so that one derivation and its measure do not depend on each other.
 
 use super::assess::{assess_with, Assessment, Reference};
-use super::generate::{add_missing_kinds, derive, GenerateOptions, Generated, MAX_ATTEMPTS};
+use super::generate::{derive, GenerateOptions, Generated, MAX_ATTEMPTS};
+use super::kinds::add_missing_kinds;
 use super::voxel::VoxelModel;
 use super::GridGrammar;
 use rand::{Rng, SeedableRng};

@@ -290,7 +290,7 @@ impl<'g> Derivation<'g> {
 
 /// A uniform index in `0..n` (n > 0) from the stream (Lemire's multiply-shift with
 /// rejection, so it does not depend on a library's sampling algorithm).
-fn below(rng: &mut Pcg64, n: usize) -> usize {
+pub(super) fn below(rng: &mut Pcg64, n: usize) -> usize {
     let n = n as u64;
     loop {
         let x = rng.next_u64();
@@ -304,13 +304,13 @@ fn below(rng: &mut Pcg64, n: usize) -> usize {
 
 /// The world during a derivation: the kind and number of instances at each cell.
 #[derive(Default)]
-struct World {
-    cells: HashMap<[i32; 3], (u32, u32)>,
+pub(super) struct World {
+    pub(super) cells: HashMap<[i32; 3], (u32, u32)>,
 }
 
 impl World {
     /// Whether `blocks` fit (no different kind at a cell) and add at least one block.
-    fn fits(&self, blocks: impl Iterator<Item = ([i32; 3], u32)>) -> bool {
+    pub(super) fn fits(&self, blocks: impl Iterator<Item = ([i32; 3], u32)>) -> bool {
         let mut adds = false;
         for (p, k) in blocks {
             match self.cells.get(&p) {
@@ -322,21 +322,21 @@ impl World {
         adds
     }
 
-    fn add(&mut self, blocks: impl Iterator<Item = ([i32; 3], u32)>) {
+    pub(super) fn add(&mut self, blocks: impl Iterator<Item = ([i32; 3], u32)>) {
         for (p, k) in blocks {
             self.cells.entry(p).or_insert((k, 0)).1 += 1;
         }
     }
 
     /// The blocks as a model with the production's kinds.
-    fn model(&self, kinds: &[BlockKind]) -> VoxelModel {
+    pub(super) fn model(&self, kinds: &[BlockKind]) -> VoxelModel {
         let kinds = kinds.to_vec();
         let mut blocks: Vec<Block> = self.cells.iter().map(|(p, (k, _))| Block { pos: *p, kind: *k }).collect();
         blocks.sort_by_key(|b| (b.pos[1], b.pos[2], b.pos[0]));
         VoxelModel { kinds, blocks }
     }
 
-    fn remove(&mut self, blocks: impl Iterator<Item = ([i32; 3], u32)>) {
+    pub(super) fn remove(&mut self, blocks: impl Iterator<Item = ([i32; 3], u32)>) {
         for (p, _) in blocks {
             if let Some(c) = self.cells.get_mut(&p) {
                 c.1 -= 1;
@@ -428,7 +428,7 @@ pub fn derive(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generated
 /// The enclosure constraint (when on), then the largest piece on the ground (when
 /// kept); dropping the other pieces can open what they closed, so the two repeat until
 /// neither removes anything. Returns (instances removed, flood fills run).
-fn settle(
+pub(super) fn settle(
     d: &Derivation,
     instances: &mut Vec<Instance>,
     world: &mut World,
@@ -449,160 +449,16 @@ fn settle(
     }
 }
 
-/// Why [`add_missing_kinds`] could not measure a building: an instance of a shape the
-/// grammar lacks, or a production too large for the enclosure constraint.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct CompletionError(pub String);
-
-impl std::fmt::Display for CompletionError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for CompletionError {}
-
-/// The most walks [`add_missing_kinds`] tries for one missing kind.
-pub const KIND_TRIES: usize = 24;
-/// The longest walk of rule applications [`add_missing_kinds`] makes to reach a shape
-/// carrying a missing kind (a chimney's top needs its shaft first).
-pub const KIND_CHAIN: usize = 3;
-
-/// Completes a generated building with the block kinds it lacks: while some kind of
-/// `wanted` (ids without block states, see [`super::blocks::base_kind`]) is missing,
-/// a rule application that adds a shape carrying a missing kind (to an instance of
-/// the building, where it fits: no block over a different one, inside the bounds,
-/// adjacency when asked) is drawn by the stream of `opts.seed` and tried, the
-/// enclosure and the largest piece re-run; it is kept when they remove nothing (it
-/// is enclosed, or open in its example, and opens nothing), else undone. At most
-/// [`KIND_TRIES`] tries per kind added. Returns the shapes added (also counted in
-/// `made.applied`). A rare kind (a chimney's wall, a balcony's fence, a door) stands
-/// in few shapes, so random derivations lose it often; this puts it back where the
-/// grammar's rules allow it.
-pub fn add_missing_kinds(
-    grammar: &GridGrammar,
-    made: &mut Generated,
-    wanted: &std::collections::BTreeSet<String>,
-    opts: &GenerateOptions,
-) -> Result<usize, CompletionError> {
-    if made.instances.is_empty() || wanted.is_empty() {
-        return Ok(0);
-    }
-    let (d, mut world) = placed(grammar, &made.instances).map_err(CompletionError)?;
-    let base: Vec<&str> = d.kinds.iter().map(|k| super::blocks::base_kind(&k.id)).collect();
-    let palette_base: Vec<&str> = grammar.palette.iter().map(|p| super::blocks::base_kind(&p.block)).collect();
-    let limit = opts.bounds.resolve(grammar);
-    let adjacent = opts.adjacency.then(|| Adjacency::of(&d));
-    let mut rng = Pcg64::seed_from_u64(opts.seed ^ 0x6b69_6e64_735f_6669);
-    let mut instances = made.instances.clone();
-    let mut added = 0;
-    loop {
-        let present: std::collections::HashSet<&str> =
-            world.cells.values().filter_map(|(k, _)| base.get(*k as usize).copied()).collect();
-        let missing: Vec<&str> = wanted.iter().map(|k| k.as_str()).filter(|k| !present.contains(k)).collect();
-        if missing.is_empty() {
-            break;
-        }
-        let carries: Vec<bool> = grammar
-            .shapes
-            .iter()
-            .map(|s| s.blocks.iter().any(|b| palette_base.get(b.kind as usize).is_some_and(|k| missing.contains(k))))
-            .collect();
-        // Per shape: the fewest rule applications from it to a shape carrying a
-        // missing kind (0: it carries one), up to KIND_CHAIN.
-        let mut dist: Vec<usize> = carries.iter().map(|&c| if c { 0 } else { usize::MAX }).collect();
-        for _ in 0..KIND_CHAIN {
-            for sh in 0..dist.len() {
-                for &r in d.rules_for(sh as u32) {
-                    let to = grammar.rules.get(r as usize).and_then(|r| dist.get(r.to as usize)).copied();
-                    if let Some(t) = to.filter(|&t| t < KIND_CHAIN) {
-                        dist[sh] = dist[sh].min(t + 1);
-                    }
-                }
-            }
-        }
-        let bbox = instances.iter().map(|i| d.bounds(i)).reduce(union_box);
-        // The next step of a walk from `cur` in `w` (box `bb`): an application of a
-        // rule whose shape is `want` steps from a missing kind, that fits.
-        let step_ok = |new: &Instance, w: &World, bb: Option<([i32; 3], [i32; 3])>| {
-            let inside = match (limit, bb) {
-                (Some(limit), Some(bb)) => {
-                    let (lo, hi) = union_box(bb, d.bounds(new));
-                    (0..3).all(|a| (hi[a] - lo[a] + 1) as u32 <= limit[a])
-                }
-                _ => true,
-            };
-            inside && w.fits(d.blocks(new)) && adjacent.as_ref().is_none_or(|a| a.allows(w, d.blocks(new)))
-        };
-        let toward = |cur: &Instance, want: &dyn Fn(usize) -> bool| -> Vec<Instance> {
-            d.rules_for(cur.shape)
-                .iter()
-                .filter(|&&r| {
-                    grammar.rules.get(r as usize).and_then(|r| dist.get(r.to as usize)).is_some_and(|&n| want(n))
-                })
-                .filter_map(|&r| d.apply(cur, r))
-                .collect()
-        };
-        // First steps: from every instance of the building, towards a missing kind.
-        let mut seen = std::collections::HashSet::new();
-        let mut firsts: Vec<Instance> = instances
-            .iter()
-            .flat_map(|i| toward(i, &|n| n < KIND_CHAIN))
-            .filter(|new| seen.insert(*new) && step_ok(new, &world, bbox))
-            .collect();
-        let (mut kept, mut tries) = (false, 0);
-        while tries < KIND_TRIES && !firsts.is_empty() {
-            // A walk from a first step drawn at random, each later step drawn among
-            // those that fit and come one step nearer a missing kind.
-            let mut cur = firsts.swap_remove(below(&mut rng, firsts.len()));
-            let mut trial = instances.clone();
-            let mut trial_world = World { cells: world.cells.clone() };
-            let mut bb = bbox;
-            let reached = loop {
-                trial_world.add(d.blocks(&cur));
-                trial.push(cur);
-                bb = bb.map(|b| union_box(b, d.bounds(&cur)));
-                let Some(want) = dist.get(cur.shape as usize).and_then(|n| n.checked_sub(1)) else { break true };
-                let steps: Vec<Instance> =
-                    toward(&cur, &|n| n == want).into_iter().filter(|new| step_ok(new, &trial_world, bb)).collect();
-                if steps.is_empty() {
-                    break false;
-                }
-                cur = steps[below(&mut rng, steps.len())];
-            };
-            if !reached {
-                continue;
-            }
-            tries += 1;
-            let walk = trial.len() - instances.len();
-            if settle(&d, &mut trial, &mut trial_world, opts).map_err(CompletionError)?.0 == 0 {
-                added += walk;
-                (instances, world, kept) = (trial, trial_world, true);
-                break;
-            }
-        }
-        if !kept {
-            break;
-        }
-    }
-    if added > 0 {
-        made.instances = instances;
-        made.applied += added as u32;
-        made.model = super::doors::split_doors(&world.model(&d.kinds)).0;
-    }
-    Ok(added)
-}
-
 /// The pairs of face neighbours the adjacency constraint allows: (kind, neighbour's
 /// kind, direction index into [`NEIGHBOURS`]), in production kinds.
-struct Adjacency {
+pub(super) struct Adjacency {
     allowed: std::collections::HashSet<(u32, u32, u8)>,
 }
 
 impl Adjacency {
     /// Every pair of face neighbours of the examples (rebuilt from the shapes' places)
     /// and inside each shape, under the four quarter turns.
-    fn of(d: &Derivation) -> Adjacency {
+    pub(super) fn of(d: &Derivation) -> Adjacency {
         let mut allowed = std::collections::HashSet::new();
         let mut add_all = |cells: &HashMap<[i32; 3], u32>| {
             for (&p, &k) in cells {
@@ -626,7 +482,7 @@ impl Adjacency {
     }
 
     /// Whether adding `blocks` (production kinds) to the world makes only allowed pairs.
-    fn allows(&self, world: &World, blocks: impl Iterator<Item = ([i32; 3], u32)>) -> bool {
+    pub(super) fn allows(&self, world: &World, blocks: impl Iterator<Item = ([i32; 3], u32)>) -> bool {
         let new: HashMap<[i32; 3], u32> = blocks.collect();
         new.iter().all(|(&p, &k)| {
             NEIGHBOURS.iter().enumerate().all(|(di, dir)| {
@@ -641,7 +497,7 @@ impl Adjacency {
 }
 
 /// The smallest box holding both boxes (inclusive corners).
-fn union_box(a: ([i32; 3], [i32; 3]), b: ([i32; 3], [i32; 3])) -> ([i32; 3], [i32; 3]) {
+pub(super) fn union_box(a: ([i32; 3], [i32; 3]), b: ([i32; 3], [i32; 3])) -> ([i32; 3], [i32; 3]) {
     let mut out = a;
     for k in 0..3 {
         out.0[k] = a.0[k].min(b.0[k]);
@@ -654,7 +510,7 @@ fn union_box(a: ([i32; 3], [i32; 3]), b: ([i32; 3], [i32; 3])) -> ([i32; 3], [i3
 /// level (ties: the piece with the smallest lowest block), and the instances in it;
 /// returns how many instances were removed. Each instance is connected, so it lies
 /// in one piece.
-fn keep_largest_supported(d: &Derivation, instances: &mut Vec<Instance>, world: &mut World) -> usize {
+pub(super) fn keep_largest_supported(d: &Derivation, instances: &mut Vec<Instance>, world: &mut World) -> usize {
     let Some(ground) = world.cells.keys().map(|p| p[1]).min() else { return 0 };
     let mut cells: Vec<[i32; 3]> = world.cells.keys().copied().collect();
     cells.sort_by_key(|p| (p[1], p[2], p[0]));
@@ -797,6 +653,91 @@ fn exposed_instances(d: &Derivation, instances: &[Instance], world: &World, seal
     Ok(exposed_and_interior(d, instances, world, seal)?.0)
 }
 
+/// The outside of a production (see the module documentation): which empty cells the
+/// flood fill (around the blocks grown by `seal`) reaches, and its interior cells.
+pub(super) struct Outside {
+    grid: Grid,
+    solid: Vec<bool>,
+    fill: Vec<bool>,
+    ground: i32,
+}
+
+impl Outside {
+    /// The outside of `world`'s blocks; none for an empty world.
+    pub(super) fn of(world: &World, seal: u32) -> Result<Option<Outside>, String> {
+        let blocks: Vec<Block> = world.cells.iter().map(|(p, (k, _))| Block { pos: *p, kind: *k }).collect();
+        if blocks.is_empty() {
+            return Ok(None);
+        }
+        let r = seal.min(MAX_SEAL) as i32;
+        // Checked before the grid is allocated: a rule placing a shape 16,000,000 blocks
+        // away made a 29 GB grid.
+        let cells = Grid::cells_needed(&blocks, r + 1);
+        if cells > MAX_CELLS * 4 {
+            return Err(format!(
+                "the production is too large for the enclosure constraint ({cells} cells in its bounding box, at most {})",
+                MAX_CELLS * 4
+            ));
+        }
+        let grid = Grid::new(&blocks, r + 1);
+        let n = grid.len();
+        // The production stands on the ground: cells below its lowest blocks are solid.
+        let ground = blocks.iter().map(|b| b.pos[1]).min().unwrap_or(0);
+        let solid: Vec<bool> = (0..n)
+            .map(|c| {
+                let p = grid.position(c);
+                p[1] < ground || grid.get(p) != Grid::EMPTY
+            })
+            .collect();
+        let mut grown = solid.clone();
+        dilate(&mut grown, grid.dims, r);
+        // Flood fill from a top corner of the padded box (never grown over).
+        let mut fill = vec![false; n];
+        let corner = [grid.lo[0], grid.lo[1] + grid.dims[1] - 1, grid.lo[2]];
+        let mut stack = vec![corner];
+        if let Some(c) = grid.index(corner) {
+            fill[c] = true;
+        }
+        while let Some(p) = stack.pop() {
+            for dlt in NEIGHBOURS {
+                let q = super::add(p, dlt);
+                if let Some(c) = grid.index(q) {
+                    if !fill[c] && !grown[c] {
+                        fill[c] = true;
+                        stack.push(q);
+                    }
+                }
+            }
+        }
+        dilate(&mut fill, grid.dims, r);
+        Ok(Some(Outside { grid, solid, fill, ground }))
+    }
+
+    /// Whether the cell at `p` is outside (cells beyond the padded box are).
+    fn is_out(&self, p: [i32; 3]) -> bool {
+        p[1] >= self.ground && self.grid.index(p).is_none_or(|c| self.fill[c] && !self.solid[c])
+    }
+
+    /// Empty cells above the ground that the outside does not reach.
+    fn interior(&self) -> usize {
+        (0..self.grid.len()).filter(|&c| !self.solid[c] && !self.fill[c]).count()
+    }
+
+    /// Whether `inst` (of a flat shape that is not open) has a block with outside cells
+    /// on both sides along the shape's axis.
+    pub(super) fn exposes(&self, d: &Derivation, inst: &Instance) -> bool {
+        let Some(shape) = d.grammar.shapes.get(inst.shape as usize) else { return false };
+        let Some(plane) = shape.plane.filter(|_| !shape.open) else { return false };
+        let axis = inst.place.axis(plane) as usize;
+        d.blocks(inst).any(|(p, _)| {
+            let (mut a, mut b) = (p, p);
+            a[axis] += 1;
+            b[axis] -= 1;
+            self.is_out(a) && self.is_out(b)
+        })
+    }
+}
+
 /// [`exposed_instances`] and the number of *interior* cells: empty cells above the
 /// ground that the outside does not reach (the rooms a roof and walls enclose).
 fn exposed_and_interior(
@@ -805,74 +746,14 @@ fn exposed_and_interior(
     world: &World,
     seal: u32,
 ) -> Result<(Vec<usize>, usize), String> {
-    let blocks: Vec<Block> = world.cells.iter().map(|(p, (k, _))| Block { pos: *p, kind: *k }).collect();
-    if blocks.is_empty() {
-        return Ok((Vec::new(), 0));
-    }
-    let r = seal.min(MAX_SEAL) as i32;
-    // Checked before the grid is allocated: a rule placing a shape 16,000,000 blocks
-    // away made a 29 GB grid.
-    let cells = Grid::cells_needed(&blocks, r + 1);
-    if cells > MAX_CELLS * 4 {
-        return Err(format!(
-            "the production is too large for the enclosure constraint ({cells} cells in its bounding box, at most {})",
-            MAX_CELLS * 4
-        ));
-    }
-    let grid = Grid::new(&blocks, r + 1);
-    let n = grid.len();
-    // The production stands on the ground: cells below its lowest blocks are solid.
-    let ground = blocks.iter().map(|b| b.pos[1]).min().unwrap_or(0);
-    let solid: Vec<bool> = (0..n)
-        .map(|c| {
-            let p = grid.position(c);
-            p[1] < ground || grid.get(p) != Grid::EMPTY
-        })
-        .collect();
-    let mut grown = solid.clone();
-    dilate(&mut grown, grid.dims, r);
-    // Flood fill from a top corner of the padded box (never grown over).
-    let mut fill = vec![false; n];
-    let corner = [grid.lo[0], grid.lo[1] + grid.dims[1] - 1, grid.lo[2]];
-    let mut stack = vec![corner];
-    if let Some(c) = grid.index(corner) {
-        fill[c] = true;
-    }
-    while let Some(p) = stack.pop() {
-        for dlt in NEIGHBOURS {
-            let q = super::add(p, dlt);
-            if let Some(c) = grid.index(q) {
-                if !fill[c] && !grown[c] {
-                    fill[c] = true;
-                    stack.push(q);
-                }
-            }
-        }
-    }
-    dilate(&mut fill, grid.dims, r);
-    let is_out = |p: [i32; 3]| p[1] >= ground && grid.index(p).is_none_or(|c| fill[c] && !solid[c]);
-    let interior = (0..n).filter(|&c| !solid[c] && !fill[c]).count();
-    let mut exposed = Vec::new();
-    for (i, inst) in instances.iter().enumerate() {
-        let shape = &d.grammar.shapes[inst.shape as usize];
-        let Some(plane) = shape.plane.filter(|_| !shape.open) else { continue };
-        let axis = inst.place.axis(plane) as usize;
-        let hit = d.blocks(inst).any(|(p, _)| {
-            let (mut a, mut b) = (p, p);
-            a[axis] += 1;
-            b[axis] -= 1;
-            is_out(a) && is_out(b)
-        });
-        if hit {
-            exposed.push(i);
-        }
-    }
-    Ok((exposed, interior))
+    let Some(out) = Outside::of(world, seal)? else { return Ok((Vec::new(), 0)) };
+    let exposed = instances.iter().enumerate().filter(|(_, inst)| out.exposes(d, inst)).map(|(i, _)| i).collect();
+    Ok((exposed, out.interior()))
 }
 
 /// The derivation of `grammar` and the world holding `instances`' blocks, for the
 /// enclosure and its report; an instance of a shape the grammar lacks is an error.
-fn placed<'g>(grammar: &'g GridGrammar, instances: &[Instance]) -> Result<(Derivation<'g>, World), String> {
+pub(super) fn placed<'g>(grammar: &'g GridGrammar, instances: &[Instance]) -> Result<(Derivation<'g>, World), String> {
     if instances.iter().any(|i| i.shape as usize >= grammar.shapes.len()) {
         return Err("an instance names a shape out of range".into());
     }

@@ -11,7 +11,8 @@
 //! [`format`] (text, `.vox`, `.nbt`, `.schem`), [`mesh`] (greedy meshing to an
 //! [`crate::output::Output`]), [`infer`] (shape inference by hill climbing),
 //! [`matching`] (matching shapes), [`induce`] (rules and the grammar), [`generate`]
-//! (random derivation and the enclosure constraint).
+//! (random derivation and the enclosure constraint), [`kinds`] (missing block kinds
+//! added back), [`build`] and [`assess`] (whole buildings measured against the example).
 
 pub mod assess;
 pub mod blocks;
@@ -21,6 +22,7 @@ pub mod format;
 pub mod generate;
 pub mod induce;
 pub mod infer;
+pub mod kinds;
 pub mod matching;
 pub mod mesh;
 pub mod share;
