@@ -1,9 +1,10 @@
 //! Colour literals for the editor's colour swatches and picker: the `background
 //! r g b a` directive (an absolute colour) and a call's adjustment list with colour
 //! deltas (`{R -1 G -0.5}`), shown as the colour the deltas give from white — the
-//! colour every model starts with (docs/reference.md, "Colour and weight"). A picked
-//! colour is written back in the same form: the directive's numbers, or deltas from
-//! white in the file's colour component names (`color` renames them).
+//! colour every model starts with (docs/reference.md, "Colour and weight"), and
+//! colour values (`#ff8000`, `#tomato`) in any adjustment list. A picked colour is
+//! written back in the same form: the directive's numbers, deltas from white in the
+//! file's colour component names (`color` renames them), or `#rrggbb[aa]`.
 
 use super::Document;
 use crate::ast::*;
