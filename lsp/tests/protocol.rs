@@ -665,7 +665,10 @@ fn colour_values_are_swatches_hovers_and_completions() {
     let u = uri(&dir.join("main.mdg"));
     let mut c = Client::spawn();
     let caps = c.initialize(&dir);
-    assert!(caps["completionProvider"]["triggerCharacters"].as_array().is_some_and(|t| t.contains(&json!("#"))), "{caps}");
+    assert!(
+        caps["completionProvider"]["triggerCharacters"].as_array().is_some_and(|t| t.contains(&json!("#"))),
+        "{caps}"
+    );
     c.open(&u, 1, COLOUR_VALUES);
     let colours = c.call("textDocument/documentColor", json!({"textDocument": text_doc(&u)}));
     let got: Vec<(String, Vec<f64>)> = colours

@@ -186,7 +186,9 @@ fn all_adj_lists<'a>(items: &'a [Item], out: &mut Vec<&'a AdjList>) {
     for item in items {
         match &item.kind {
             ItemKind::Rule(r) => walk_body(&r.body, &mut |b| match &b.kind {
-                BodyKind::Call { adj, .. } | BodyKind::Iterate { adj, .. } | BodyKind::Loop { adj, .. } => out.push(adj),
+                BodyKind::Call { adj, .. } | BodyKind::Iterate { adj, .. } | BodyKind::Loop { adj, .. } => {
+                    out.push(adj)
+                }
                 _ => {}
             }),
             ItemKind::Namespace { items, .. } => all_adj_lists(items, out),

@@ -437,7 +437,10 @@ mod tests {
         let h = hover("rule A { VERTEX {#tom$0ato} }");
         assert_eq!(h, "**colour `#tomato`** = `#ff6347` (R 1, G 0.388, B 0.278, A 1), palette name `tomato`\n\nSets the colour absolutely (reference §5, \"Colour by value\").");
         let h = hover("rule A { VERTEX {#ff6$0347} }");
-        assert!(h.starts_with("**colour `#ff6347`** = `#ff6347` (R 1, G 0.388, B 0.278, A 1), palette name `tomato`"), "{h}");
+        assert!(
+            h.starts_with("**colour `#ff6347`** = `#ff6347` (R 1, G 0.388, B 0.278, A 1), palette name `tomato`"),
+            "{h}"
+        );
         let h = hover("rule A { VERTEX {#f$0f6348} }");
         assert!(h.contains("nearest palette name `tomato` (`#ff6347`)"), "{h}");
         let h = hover("rule A { VERTEX {#0$0000ff80} }");
