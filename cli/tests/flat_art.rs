@@ -31,6 +31,48 @@ fn flat_shapes_paint_in_order_unlit_on_white() {
     assert_eq!(r.image.at(2, 2), [255, 255, 255, 255], "Context Free's white background");
 }
 
+#[test]
+fn flat_primitives_have_no_specular_highlight_in_the_lit_picture() {
+    let Some(ctx) = vulkan() else { return };
+    let (w, h) = (400, 400);
+    let r = render(&ctx, "matte_flat_primitives.mdg", w, h);
+    r.image.save("matte_flat_primitives.png");
+    assert!(!r.info.flat, "no `flat` directive: the default lit program");
+    // Everything is black, so any light pixel is a specular highlight.
+    let at = |x: f32, y: f32| {
+        let (px, py) = project(&r.camera, &r.info, w, h, glam::Vec3::new(x, y, 0.0));
+        r.image.at(px.round() as u32, py.round() as u32)
+    };
+    // Points well inside each flat primitive (laid out as in matte_flat_primitives.mdg):
+    // the square, the non-uniformly scaled square (its items run one by one, not as
+    // an instance), the circle and the triangle.
+    let mut inside: Vec<(f32, f32)> = Vec::new();
+    for i in 0..=8 {
+        for j in 0..=8 {
+            let (u, v) = (i as f32 / 8.0, j as f32 / 8.0);
+            inside.push((-2.0 + 1.6 * u, -0.8 + 1.6 * v));
+            inside.push((-2.0 + 1.6 * u, -2.55 + 0.7 * v));
+            let (a, rr) = (u * std::f32::consts::TAU, 0.55 * v);
+            inside.push((1.2 + rr * a.cos(), -2.2 + rr * a.sin()));
+            inside.push((1.2 + 0.6 * (u - 0.5), 0.4 + 0.4 * (v - 0.5)));
+        }
+    }
+    let lit: Vec<_> =
+        inside.iter().map(|&(x, y)| ((x, y), at(x, y))).filter(|(_, c)| c[..3].iter().any(|&k| k > 1)).collect();
+    assert!(
+        lit.is_empty(),
+        "flat primitives stay black (0 ± 1), got {} light points: {:?}",
+        lit.len(),
+        &lit[..lit.len().min(8)]
+    );
+    // A box (std primitives' cube, 3D) where the circle was keeps its highlight.
+    let cube = render(&ctx, "matte_cube.mdg", w, h);
+    cube.image.save("matte_cube.png");
+    let (px, py) = project(&cube.camera, &cube.info, w, h, glam::Vec3::new(1.2, -2.2, 0.005));
+    let c = cube.image.at(px.round() as u32, py.round() as u32);
+    assert!(c[..3].iter().all(|&k| k > 40), "the black box shows a specular highlight: {c:?}");
+}
+
 /// What a picture's ink (pixels unlike its corner's background) looks like, framing
 /// aside: the ink's bounding box (its aspect), the fraction of the box it covers,
 /// the box's mean colour (ink and background: edge smoothing moves colour between

@@ -74,6 +74,14 @@ pub fn nearest_name(word: &str) -> Option<&'static str> {
     crate::diag::did_you_mean(&word.to_ascii_lowercase(), PALETTE.iter().map(|(n, _)| *n))
 }
 
+/// The palette name whose colour is nearest to `rgb` (squared RGB distance; the
+/// first in name order among equals, so `aqua` before `cyan`) and whether it is exact.
+pub fn nearest_palette_colour(rgb: [u8; 3]) -> (&'static str, [u8; 3], bool) {
+    let d = |c: [u8; 3]| (0..3).map(|k| (i32::from(c[k]) - i32::from(rgb[k])).pow(2)).sum::<i32>();
+    let (name, c) = PALETTE.iter().min_by_key(|(_, c)| d(*c)).copied().unwrap_or(("black", [0, 0, 0]));
+    (name, c, d(c) == 0)
+}
+
 /// Every palette name, sorted.
 pub fn names() -> impl Iterator<Item = &'static str> {
     PALETTE.iter().map(|(n, _)| *n)

@@ -657,6 +657,53 @@ fn code_lenses_and_call_hierarchy_across_the_workspace() {
 }
 
 /// A file with colours, a messy rule and nested syntax.
+const COLOUR_VALUES: &str = "startshape A\nrule A {\n  tri {#ff8000 x 1}\n  4 * {#tomato} tri {}\n  tri {#}\n}\nrule tri { VERTEX {} VERTEX {x 0.8} VERTEX {y 0.8} }\n";
+
+#[test]
+fn colour_values_are_swatches_hovers_and_completions() {
+    let dir = scratch("colour_values");
+    let u = uri(&dir.join("main.mdg"));
+    let mut c = Client::spawn();
+    let caps = c.initialize(&dir);
+    assert!(
+        caps["completionProvider"]["triggerCharacters"].as_array().is_some_and(|t| t.contains(&json!("#"))),
+        "{caps}"
+    );
+    c.open(&u, 1, COLOUR_VALUES);
+    let colours = c.call("textDocument/documentColor", json!({"textDocument": text_doc(&u)}));
+    let got: Vec<(String, Vec<f64>)> = colours
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|ci| {
+            let col = &ci["color"];
+            let v = ["red", "green", "blue", "alpha"].map(|k| (col[k].as_f64().unwrap_or(-1.0) * 255.0).round());
+            (text_of(COLOUR_VALUES, &ci["range"]), v.to_vec())
+        })
+        .collect();
+    assert_eq!(
+        got,
+        [
+            (String::from("#ff8000"), vec![255.0, 128.0, 0.0, 255.0]),
+            (String::from("#tomato"), vec![255.0, 99.0, 71.0, 255.0])
+        ],
+        "{colours}"
+    );
+    let color = json!({"red": 0.0, "green": 0.5, "blue": 1.0, "alpha": 1.0});
+    let p = c.call(
+        "textDocument/colorPresentation",
+        json!({"textDocument": text_doc(&u), "color": color, "range": colours[1]["range"]}),
+    );
+    assert_eq!(p[0]["textEdit"]["newText"], "#0080ff", "{p}");
+    let h = c.call("textDocument/hover", at(&u, COLOUR_VALUES, "#tomato", 2));
+    assert!(h["contents"]["value"].as_str().unwrap_or("").contains("palette name `tomato`"), "{h}");
+    let comp = c.call("textDocument/completion", at(&u, COLOUR_VALUES, "#}", 1));
+    let items = comp["items"].as_array().cloned().unwrap_or_default();
+    let tomato = items.iter().find(|i| i["label"] == "tomato").unwrap_or_else(|| panic!("no tomato in {comp}"));
+    assert_eq!(tomato["kind"], 16, "CompletionItemKind::COLOR");
+    assert_eq!(tomato["detail"], "#ff6347");
+}
+
 const COLOURS: &str = "background 0.2 0.4 0.6 1\nstartshape A\nrule A {\n  tri {G -1 x 1 B -1}\n  tri {hue 30 R -1}\n}\nrule tri { VERTEX {}   VERTEX {x 0.8} VERTEX {y 0.8} }\n";
 
 #[test]

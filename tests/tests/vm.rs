@@ -543,6 +543,23 @@ fn area_z(m: &mdg_vm::output::Mesh) -> f32 {
 }
 
 #[test]
+fn flat_primitives_vertices_are_matte_and_no_others() {
+    // Std flat's vertices are marked (the picture draws them without a highlight),
+    // whether made as instances (similarity frames) or one by one (`s 2 1`), with
+    // instancing on or off; the cube's and a user rule's are not.
+    let src = "@import primitives\nstartshape A\nrule A {\n  SQUARE {}\n  SQUARE {s 2 1}\n  3 * {x 1} CIRCLE {}\n  cube {y 3}\n  tri {y -3}\n}\nrule tri { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n";
+    let b = build_source(src);
+    for instancing in [true, false] {
+        let opts = mdg_vm::eval::EvalOptions { instancing, ..Default::default() };
+        let out = mdg_vm::eval::evaluate(&b, &opts);
+        let m = out.vertex_mesh();
+        let matte: Vec<bool> = (0..m.n_vertices()).map(|i| m.matte(i)).collect();
+        let want: Vec<bool> = [vec![true; 6 + 6 + 3 * 96], vec![false; 36 + 3]].concat();
+        assert_eq!(matte, want, "instancing {instancing}");
+    }
+}
+
+#[test]
 fn context_free_flat_primitives_are_built_in_at_its_sizes() {
     // No import: CIRCLE, SQUARE and TRIANGLE are there as in Context Free, flat in
     // the xy-plane, facing +z, centred on the frame's origin.

@@ -4,7 +4,8 @@
 //!
 //! Vertex layout (binding 0, 24 bytes; the shader sees the types of reference §13):
 //! position `R32G32B32_SFLOAT` (location 0, `vec3`), normal `R16G16B16A16_SNORM`
-//! (location 1, `vec3`), colour `R8G8B8A8_UNORM` (location 2, `vec4`). Binding 1
+//! (location 1, `vec3`; std's Phong program reads it as a `vec4` whose `w` is 1 for
+//! a flat primitive's vertex, drawn without a specular highlight), colour `R8G8B8A8_UNORM` (location 2, `vec4`). Binding 1
 //! (20 bytes): weight `R32G32B32A32_SFLOAT` (location 3, `vec4`) and bone `R32_UINT`
 //! (location 4, `uint`); most models have neither, and then binding 1 is one zero
 //! element read with stride 0, which saves 45% of the memory of a big model.
@@ -180,13 +181,15 @@ fn unorm8(v: f32) -> u8 {
     (v.clamp(0.0, 1.0) * 255.0).round() as u8
 }
 
-/// Appends one binding-0 vertex.
-fn push_vertex(out: &mut Vec<u8>, p: Vec3, n: Vec3, c: [f32; 4]) {
+/// Appends one binding-0 vertex; `matte` (a flat primitive's vertex, see
+/// [`mdg_vm::geom::Mesh::matte`]) goes in the normal's fourth component, which std's
+/// Phong program reads as "no specular highlight".
+fn push_vertex(out: &mut Vec<u8>, p: Vec3, n: Vec3, c: [f32; 4], matte: bool) {
     let n = n.normalize_or_zero();
     for x in p.to_array() {
         out.extend_from_slice(&x.to_le_bytes());
     }
-    for x in [n.x, n.y, n.z, 0.0] {
+    for x in [n.x, n.y, n.z, if matte { 1.0 } else { 0.0 }] {
         out.extend_from_slice(&snorm16(x).to_le_bytes());
     }
     out.extend_from_slice(&c.map(unorm8));
@@ -215,7 +218,7 @@ impl Builder {
             let c = m.colors.get(i).copied().unwrap_or([1.0; 4]);
             let bone = m.bone(i);
             self.s.bounds.add(pos);
-            push_vertex(&mut self.s.vertices, pos, nn, c);
+            push_vertex(&mut self.s.vertices, pos, nn, c, m.matte(i));
             if self.skinned {
                 push_skin(&mut self.s.skins, m.weight(i), bone);
             }
@@ -270,7 +273,7 @@ pub fn build_with(out: &Output, instanced: bool) -> Scene {
                 for p in seg {
                     let p = Vec3::from_array(*p);
                     b.s.bounds.add(p);
-                    push_vertex(&mut b.s.line_vertices, p, Vec3::ZERO, ink);
+                    push_vertex(&mut b.s.line_vertices, p, Vec3::ZERO, ink, false);
                     b.s.n_line_vertices += 1;
                 }
             }
@@ -283,7 +286,7 @@ pub fn build_with(out: &Output, instanced: bool) -> Scene {
                 for p in seg {
                     let p = Vec3::from_array(*p);
                     b.s.bounds.add(p);
-                    push_vertex(&mut b.s.line_vertices, p, Vec3::ZERO, color);
+                    push_vertex(&mut b.s.line_vertices, p, Vec3::ZERO, color, false);
                     b.s.n_line_vertices += 1;
                     b.s.n_overlay_vertices += 1;
                 }
@@ -422,7 +425,7 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
                 for x in pos.to_array() {
                     bytes.extend_from_slice(&x.to_le_bytes());
                 }
-                for x in [n.x, n.y, n.z, 0.0] {
+                for x in [n.x, n.y, n.z, if m.matte(v) { 1.0 } else { 0.0 }] {
                     bytes.extend_from_slice(&snorm16(x).to_le_bytes());
                 }
                 for x in delta {

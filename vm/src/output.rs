@@ -708,7 +708,10 @@ pub fn expand_prototype(m: &mut Mesh, shared: &SharedMesh, inst: &Instance, weig
         let pos = inst.frame.u + lin * Vec3::from(p.positions[i]);
         let normal = (lin * Vec3::from(p.normals.get(i).copied().unwrap_or([0.0, 0.0, 1.0]))).normalize_or(Vec3::Z);
         let color = add(inst.color, p.colors.get(i).copied().unwrap_or([0.0; 4])).map(|v| v.clamp(0.0, 1.0));
-        m.push_vertex(pos, normal, color, add(weight, p.weight(i)), inst.bone);
+        let k = m.push_vertex(pos, normal, color, add(weight, p.weight(i)), inst.bone) as usize;
+        if p.matte(i) {
+            m.mark_matte(k..k + 1);
+        }
     }
     let face_normals = match &shared.kind {
         SharedKind::Prototype { face_normals } => face_normals.as_slice(),

@@ -1,9 +1,10 @@
 //! Colour literals for the editor's colour swatches and picker: the `background
 //! r g b a` directive (an absolute colour) and a call's adjustment list with colour
 //! deltas (`{R -1 G -0.5}`), shown as the colour the deltas give from white — the
-//! colour every model starts with (docs/reference.md, "Colour and weight"). A picked
-//! colour is written back in the same form: the directive's numbers, or deltas from
-//! white in the file's colour component names (`color` renames them).
+//! colour every model starts with (docs/reference.md, "Colour and weight"), and
+//! colour values (`#ff8000`, `#tomato`) in any adjustment list. A picked colour is
+//! written back in the same form: the directive's numbers, deltas from white in the
+//! file's colour component names (`color` renames them), or `#rrggbb[aa]`.
 
 use super::Document;
 use crate::ast::*;
@@ -17,6 +18,8 @@ pub enum ColorForm {
     Background,
     /// Colour adjustments of a call: deltas from white.
     Deltas,
+    /// A colour value, `#rrggbb` or `#name` (reference §5, "Colour by value").
+    Value,
 }
 
 /// One colour in the document: the span of its numbers (or adjustments), the
@@ -46,6 +49,7 @@ impl Document {
         let c = rgba.map(|v| v.clamp(0.0, 1.0));
         match lit.form {
             ColorForm::Background => Some(format!("{} {} {} {}", num(c[0]), num(c[1]), num(c[2]), num(c[3]))),
+            ColorForm::Value => Some(hex(c)),
             ColorForm::Deltas => {
                 let mut words: Vec<String> = Vec::new();
                 for (i, v) in c.iter().enumerate() {
@@ -93,6 +97,16 @@ fn num(v: f64) -> String {
         "0".to_string()
     } else {
         s.to_string()
+    }
+}
+
+/// A colour value as the picker writes it: `#rrggbb`, or `#rrggbbaa` when not opaque.
+pub fn hex(rgba: [f64; 4]) -> String {
+    let [r, g, b, a] = rgba.map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8);
+    if a == 255 {
+        format!("#{r:02x}{g:02x}{b:02x}")
+    } else {
+        format!("#{r:02x}{g:02x}{b:02x}{a:02x}")
     }
 }
 
@@ -153,6 +167,40 @@ fn colors_in(items: &[Item], comps: &Components, out: &mut Vec<ColorLiteral>) {
     let mut lists = Vec::new();
     adj_lists(items, &mut lists);
     out.extend(lists.into_iter().filter_map(|l| list_color(l, comps)));
+    // Colour values, in every list (an iterator's step sets the same value).
+    let mut all = Vec::new();
+    all_adj_lists(items, &mut all);
+    for l in all {
+        for a in &l.adjs {
+            if comps.adj_kind(&a.name.text) == Some(AdjKind::Paint) {
+                if let Ok(rgba) = crate::colour::parse(&a.name.text) {
+                    out.push(ColorLiteral { span: a.name.span, rgba: rgba.map(f64::from), form: ColorForm::Value });
+                }
+            }
+        }
+    }
+}
+
+/// Every adjustment list of the rules: calls', iterators' and loops' steps.
+fn all_adj_lists<'a>(items: &'a [Item], out: &mut Vec<&'a AdjList>) {
+    for item in items {
+        match &item.kind {
+            ItemKind::Rule(r) => walk_body(&r.body, &mut |b| match &b.kind {
+                BodyKind::Call { adj, .. } | BodyKind::Iterate { adj, .. } | BodyKind::Loop { adj, .. } => {
+                    out.push(adj)
+                }
+                _ => {}
+            }),
+            ItemKind::Namespace { items, .. } => all_adj_lists(items, out),
+            ItemKind::Pre(Pre::IfDef { then, otherwise, .. }) => {
+                all_adj_lists(then, out);
+                if let Some(o) = otherwise {
+                    all_adj_lists(o, out);
+                }
+            }
+            _ => {}
+        }
+    }
 }
 
 /// The adjustment lists of calls (not of iterators or loops, whose lists are steps).
@@ -197,5 +245,24 @@ mod tests {
         );
         // Only where a literal is.
         assert_eq!(d.color_presentation(crate::span::Span::new(d.main_file(), 0, 3), [1.0; 4]), None);
+    }
+
+    #[test]
+    fn colour_values_are_swatches_written_back_as_hex() {
+        let src = "startshape A\nrule A {\n  t {#ff8000 x 1}\n  t {x 1 #tomato R -1}\n  4 * {#0000ff80} t {}\n  t {#nosuchname}\n}\nrule t { VERTEX {} }\n";
+        let (d, _) = doc(src);
+        let cs = d.colors();
+        let texts: Vec<&str> = cs.iter().map(|c| &src[c.span.range()]).collect();
+        assert_eq!(texts, ["#ff8000", "#tomato", "#0000ff80"], "{cs:?}");
+        assert!(cs.iter().all(|c| c.form == ColorForm::Value));
+        let bytes = |i: usize| cs[i].rgba.map(|v| (v * 255.0).round() as u8);
+        assert_eq!(bytes(0), [255, 128, 0, 255]);
+        assert_eq!(bytes(1), [255, 99, 71, 255]);
+        assert_eq!(bytes(2), [0, 0, 255, 128]);
+        // Picked colours come back as #rrggbb, with the alpha byte only when not opaque.
+        assert_eq!(d.color_presentation(cs[0].span, [0.0, 0.5, 1.0, 1.0]).as_deref(), Some("#0080ff"));
+        assert_eq!(d.color_presentation(cs[1].span, [1.0, 1.0, 1.0, 0.25]).as_deref(), Some("#ffffff40"));
+        // A list with a colour value is not also read as deltas from white.
+        assert!(cs.iter().all(|c| &src[c.span.range()] != "R -1"));
     }
 }

@@ -44,6 +44,8 @@ pub enum CompletionKind {
     Macro,
     /// A key of an extension section.
     Key,
+    /// A palette name of a colour value (`#tomato`); its detail is its `#rrggbb`.
+    Colour,
 }
 
 /// One completion.
@@ -126,6 +128,14 @@ impl Document {
     pub fn completion(&self, offset: u32, config: &CompletionConfig) -> Completions {
         let (start, offset) = word_before(self.text(), offset);
         let replace = Span::new(self.main_file(), start as u32, offset as u32);
+        // After `#` in an adjustment list: the palette's names (a colour value).
+        if start > 0 && self.text().as_bytes()[start - 1] == b'#' {
+            let items = match self.context(start - 1, offset) {
+                Context::Adjustment => palette_items(),
+                _ => Vec::new(),
+            };
+            return Completions { replace, items };
+        }
         let context = self.context(start, offset);
         let items = self.items_for(&context, config, offset);
         Completions { replace, items }
@@ -833,6 +843,24 @@ fn adjustment_snippet(name: &str, kind: Option<AdjKind>) -> String {
     }
 }
 
+/// The palette's names, for a colour value being typed after its `#`.
+fn palette_items() -> Vec<CompletionItem> {
+    crate::colour::names()
+        .map(|name| {
+            let rgb = crate::colour::named(name).unwrap_or([0, 0, 0]);
+            let hex = format!("#{:02x}{:02x}{:02x}", rgb[0], rgb[1], rgb[2]);
+            CompletionItem {
+                label: name.to_string(),
+                kind: CompletionKind::Colour,
+                documentation: Some(format!("`#{name}` = `{hex}`: sets the colour absolutely.")),
+                detail: Some(hex),
+                insert_text: name.to_string(),
+                snippet: false,
+            }
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::fixture::doc;
@@ -880,6 +908,22 @@ mod tests {
         let tree = items.iter().find(|i| i.label == "tree").expect("tree offered");
         assert_eq!(tree.insert_text, "tree(${1:n}) {$0}");
         assert!(tree.detail.as_deref().unwrap_or("").starts_with("tree(int n, float len = 1)"), "{:?}", tree.detail);
+    }
+
+    #[test]
+    fn palette_names_after_a_hash_in_an_adjustment_list() {
+        let (d, at) = doc("rule A { VERTEX {x 1 #tom$0} }");
+        let c = d.completion(at, &CompletionConfig::default());
+        assert_eq!(d.span_text(c.replace), "tom", "the word after `#` is replaced");
+        let tomato = c.items.iter().find(|i| i.label == "tomato").expect("tomato offered");
+        assert_eq!(tomato.insert_text, "tomato");
+        assert_eq!(tomato.detail.as_deref(), Some("#ff6347"));
+        assert_eq!(tomato.kind, CompletionKind::Colour);
+        assert_eq!(c.items.len(), crate::colour::names().count(), "only palette names");
+        has("rule A { VERTEX {#$0} }", &["black", "white", "rebeccapurple"]);
+        lacks("rule A { VERTEX {#$0} }", &["rx", "R"]);
+        // Not outside adjustment lists (a `#` there is no colour).
+        lacks("rule A { #$0 }", &["tomato"]);
     }
 
     #[test]

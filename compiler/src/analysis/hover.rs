@@ -17,6 +17,33 @@ pub struct Hover {
     pub markdown: String,
 }
 
+/// A colour value's hover: its RGBA and its palette name (or the nearest one).
+fn colour_value_hover(text: &str) -> Option<String> {
+    let rgba = crate::colour::parse(text).ok()?;
+    let bytes = rgba.map(|v| (v * 255.0).round() as u8);
+    let hex = |b: [u8; 3]| format!("#{:02x}{:02x}{:02x}", b[0], b[1], b[2]);
+    let rgb = [bytes[0], bytes[1], bytes[2]];
+    let (name, named, exact) = crate::colour::nearest_palette_colour(rgb);
+    let num = |v: f32| {
+        let s = format!("{v:.3}");
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    };
+    let name_part = if exact {
+        let aside = if bytes[3] == 255 { "" } else { " (alpha aside)" };
+        format!("palette name `{name}`{aside}")
+    } else {
+        format!("nearest palette name `{name}` (`{}`)", hex(named))
+    };
+    let shown = if bytes[3] == 255 { hex(rgb) } else { format!("{}{:02x}", hex(rgb), bytes[3]) };
+    Some(format!(
+        "**colour `{text}`** = `{shown}` (R {}, G {}, B {}, A {}), {name_part}\n\nSets the colour absolutely (reference §5, \"Colour by value\").",
+        num(rgba[0]),
+        num(rgba[1]),
+        num(rgba[2]),
+        num(rgba[3])
+    ))
+}
+
 impl Document {
     /// The hover at `offset` in the document, if there is anything to say.
     pub fn hover(&self, offset: u32) -> Option<Hover> {
@@ -29,6 +56,9 @@ impl Document {
             Occ::Drawable(n) => doc(DocKind::Drawable, n),
             Occ::Adjustment(n) => {
                 let comps = &self.analysis.checked.symbols.components;
+                if comps.adj_kind(n) == Some(AdjKind::Paint) {
+                    return Some(Hover { span: o.span, markdown: colour_value_hover(n)? });
+                }
                 let canonical = match comps.adj_kind(n) {
                     Some(AdjKind::Color(i)) => ["R", "G", "B", "A"][i as usize],
                     Some(AdjKind::Weight(i)) => ["u", "v", "w", "q"][i as usize],
@@ -400,6 +430,21 @@ mod tests {
         assert!(hover("@im$0port primitives\n").contains("@import NAME|PATH"));
         assert!(hover("@define X\n@ifdef X\n@end$0if\n").contains("Ends an `@ifdef`"));
         assert!(hover("rule A { VERTEX {x (s$0in(1))} }").contains("Sine"));
+    }
+
+    #[test]
+    fn colour_values_are_named() {
+        let h = hover("rule A { VERTEX {#tom$0ato} }");
+        assert_eq!(h, "**colour `#tomato`** = `#ff6347` (R 1, G 0.388, B 0.278, A 1), palette name `tomato`\n\nSets the colour absolutely (reference §5, \"Colour by value\").");
+        let h = hover("rule A { VERTEX {#ff6$0347} }");
+        assert!(
+            h.starts_with("**colour `#ff6347`** = `#ff6347` (R 1, G 0.388, B 0.278, A 1), palette name `tomato`"),
+            "{h}"
+        );
+        let h = hover("rule A { VERTEX {#f$0f6348} }");
+        assert!(h.contains("nearest palette name `tomato` (`#ff6347`)"), "{h}");
+        let h = hover("rule A { VERTEX {#0$0000ff80} }");
+        assert!(h.contains("(R 0, G 0, B 1, A 0.502), palette name `blue` (alpha aside)"), "{h}");
     }
 
     #[test]

@@ -28,7 +28,7 @@ pub fn initialize(b: &Backend, _params: InitializeParams) -> InitializeResult {
                 work_done_progress_options: Default::default(),
             })),
             completion_provider: Some(CompletionOptions {
-                trigger_characters: Some(["@", "{", "[", "."].map(String::from).to_vec()),
+                trigger_characters: Some(["@", "{", "[", ".", "#"].map(String::from).to_vec()),
                 ..Default::default()
             }),
             document_symbol_provider: Some(OneOf::Left(true)),

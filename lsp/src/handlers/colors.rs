@@ -1,6 +1,7 @@
 //! `textDocument/documentColor` and `textDocument/colorPresentation`: swatches on
-//! `background r g b a` and on a call's colour deltas (the colour they give from
-//! white), and a picked colour written back in the same form.
+//! `background r g b a`, on a call's colour deltas (the colour they give from
+//! white) and on colour values (`#rrggbb`, `#tomato`), and a picked colour written
+//! back in the same form (a colour value as `#rrggbb`).
 
 use crate::backend::Backend;
 use crate::position::LineIndex;

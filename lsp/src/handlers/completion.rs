@@ -56,5 +56,6 @@ fn kind(k: K) -> CompletionItemKind {
         K::Snippet => CompletionItemKind::SNIPPET,
         K::Shader => CompletionItemKind::FILE,
         K::Key => CompletionItemKind::PROPERTY,
+        K::Colour => CompletionItemKind::COLOR,
     }
 }

@@ -14,6 +14,15 @@ pub(super) struct ProtoSlot {
     pub(super) vertices: u32,
     /// The largest coordinate of its mesh (see [`frame_surely_maps_finite`]).
     pub(super) extent: f32,
+    /// Its items are std `flat`'s (a flat primitive's): its vertices are matte
+    /// ([`Mesh::matte`](crate::geom::mesh::Mesh#structfield.matte)).
+    pub(super) matte: bool,
+}
+
+/// Whether the op at `pc` is in std `flat` (`CIRCLE`, `SQUARE`, `TRIANGLE`): its
+/// vertices are drawn without a specular highlight.
+pub(super) fn in_std_flat(b: &Bundle, pc: u32) -> bool {
+    b.source_of(pc).is_some_and(|(file, _)| file == "std/flat.mdg")
 }
 
 #[derive(Clone, Copy)]
@@ -84,6 +93,9 @@ impl<'b> Eval<'b> {
                 }
                 _ => {}
             }
+        }
+        if slot.matte {
+            m.mark_matte(0..m.n_vertices());
         }
         let name = self.rule_of(first as u32).unwrap_or("").to_string();
         self.out.shared_meshes.push(SharedMesh { name, mesh: m, kind: SharedKind::Prototype { face_normals } });

@@ -125,6 +125,9 @@ struct Eval<'b> {
     needs_last: bool,
     /// The bundle's prototypes, by `INST` ordinal.
     protos: Vec<ProtoSlot>,
+    /// Vertex ranges of `out.mesh` that flat primitives' items emitted one by one
+    /// (a prototype run not made an instance), marked matte at the end.
+    matte_runs: Vec<std::ops::Range<usize>>,
     /// Whether `INST` makes instances (see [`EvalOptions::instancing`]).
     instancing: bool,
     /// Whether model runs take [`Eval::run_fast`] (instancing on, so no sites, and
@@ -270,6 +273,7 @@ impl<'b> Eval<'b> {
             def_starts: None,
             non_finite: NonFinite::default(),
             stop_pc: None,
+            matte_runs: Vec::new(),
             protos: b
                 .code
                 .iter()
@@ -280,6 +284,7 @@ impl<'b> Eval<'b> {
                         count,
                         mesh: NONE,
                         extent: 0.0,
+                        matte: draw::in_std_flat(b, pc as u32 + 1),
                         vertices: b.code[pc + 1..]
                             .iter()
                             .take(count as usize)
@@ -361,6 +366,9 @@ impl<'b> Eval<'b> {
     }
 
     fn finish(mut self) -> Output {
+        for r in std::mem::take(&mut self.matte_runs) {
+            self.out.mesh.mark_matte(r);
+        }
         if self.b.settings.flat {
             self.paint_order();
         }

@@ -482,6 +482,12 @@ impl<'b> Eval<'b> {
                         || act.base.lin != 0
                         || !self.out.mesh.n_vertices().is_multiple_of(3)
                     {
+                        // A flat primitive's items, one by one: their vertices are
+                        // the next ones the mesh gets (constant items, no calls).
+                        if let Some(slot) = self.protos.get(proto as usize).filter(|s| s.matte && mode == Mode::Model) {
+                            let at = self.out.mesh.n_vertices();
+                            self.matte_runs.push(at..at + slot.vertices as usize);
+                        }
                         continue;
                     }
                     let bone = act.bone;

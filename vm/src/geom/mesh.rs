@@ -21,6 +21,10 @@ pub struct Mesh {
     /// Per triangle: emitted in a mirrored frame (odd number of flips). Exporters
     /// reverse the winding of these so every face faces outward (SPEC resolved semantics 8).
     pub mirrored: Vec<bool>,
+    /// Per vertex: made by a flat primitive (std `flat`'s `CIRCLE`, `SQUARE`,
+    /// `TRIANGLE`), which the default picture program draws without a specular
+    /// highlight; empty while no vertex is. Read with [`Mesh::matte`].
+    pub matte: Vec<bool>,
 }
 
 impl Mesh {
@@ -50,6 +54,21 @@ impl Mesh {
     /// The bone of vertex `i` (0 when bones are not stored).
     pub fn bone(&self, i: usize) -> u32 {
         self.bones.get(i).copied().unwrap_or(0)
+    }
+
+    /// Whether vertex `i` is a flat primitive's (see [`Mesh::matte`](Mesh#structfield.matte)).
+    pub fn matte(&self, i: usize) -> bool {
+        self.matte.get(i).copied().unwrap_or(false)
+    }
+
+    /// Marks vertices `range` (clamped to the mesh) as a flat primitive's.
+    pub fn mark_matte(&mut self, range: std::ops::Range<usize>) {
+        let n = self.n_vertices();
+        let (start, end) = (range.start.min(n), range.end.min(n));
+        if start < end {
+            self.matte.resize(n, false);
+            self.matte[start..end].fill(true);
+        }
     }
 
     /// Appends a triangle.
@@ -84,6 +103,7 @@ impl Mesh {
         self.bones.clear();
         self.triangles.clear();
         self.mirrored.clear();
+        self.matte.clear();
     }
 
     /// Makes room for `vertices` more vertices and `triangles` more triangles.
@@ -103,7 +123,10 @@ impl Mesh {
         for i in vertices {
             let n = other.normals.get(i).copied().unwrap_or([0.0, 0.0, 1.0]);
             let c = other.colors.get(i).copied().unwrap_or([1.0; 4]);
-            self.push_vertex(Vec3::from(other.positions[i]), Vec3::from(n), c, other.weight(i), other.bone(i));
+            let k = self.push_vertex(Vec3::from(other.positions[i]), Vec3::from(n), c, other.weight(i), other.bone(i));
+            if other.matte(i) {
+                self.mark_matte(k as usize..k as usize + 1);
+            }
         }
         for t in triangles {
             let tri = other.triangles[t].map(|v| (v as i64 + base) as u32);
@@ -124,6 +147,10 @@ impl Mesh {
         if !self.bones.is_empty() || !other.bones.is_empty() {
             self.bones.resize(base as usize, 0);
             self.bones.extend((0..other.n_vertices()).map(|i| other.bone(i)));
+        }
+        if !self.matte.is_empty() || !other.matte.is_empty() {
+            self.matte.resize(base as usize, false);
+            self.matte.extend((0..other.n_vertices()).map(|i| other.matte(i)));
         }
         self.triangles.extend(other.triangles.iter().map(|t| [t[0] + base, t[1] + base, t[2] + base]));
         self.mirrored.extend_from_slice(&other.mirrored);
