@@ -1478,6 +1478,18 @@ impl<'a> Checker<'a> {
         }
     }
 
+    /// E0312 when directive `n` was given before; otherwise remembers where it is.
+    fn given_once(&mut self, n: &str, span: Span, seen: &mut HashMap<String, Span>) {
+        if let Some(prev) = seen.get(n) {
+            self.diags.push(
+                Diagnostic::error("E0312", span, format!("`{n}` is given twice"))
+                    .with_secondary(*prev, "first given here"),
+            );
+        } else {
+            seen.insert(n.to_string(), span);
+        }
+    }
+
     fn directive(&mut self, name: &Name, args: &[DirArg], ns: &Option<String>, seen: &mut HashMap<String, Span>) {
         let n = name.text.as_str();
         match n {
@@ -1497,14 +1509,7 @@ impl<'a> Checker<'a> {
             "color" | "weight" => {}
             // `background #rrggbb` or `background #name`: a colour value.
             "background" if matches!(args, [DirArg::Word(w)] if w.text.starts_with('#')) => {
-                if let Some(prev) = seen.get(n) {
-                    self.diags.push(
-                        Diagnostic::error("E0312", name.span, format!("`{n}` is given twice"))
-                            .with_secondary(*prev, "first given here"),
-                    );
-                } else {
-                    seen.insert(n.to_string(), name.span);
-                }
+                self.given_once(n, name.span, seen);
                 if let [DirArg::Word(w)] = args {
                     self.colour_value(w);
                 }
@@ -1538,14 +1543,7 @@ impl<'a> Checker<'a> {
             }
             _ => match NUMERIC_DIRECTIVES.iter().find(|d| d.0 == n) {
                 Some(&(_, lo, hi, integer)) => {
-                    if let Some(prev) = seen.get(n) {
-                        self.diags.push(
-                            Diagnostic::error("E0312", name.span, format!("`{n}` is given twice"))
-                                .with_secondary(*prev, "first given here"),
-                        );
-                    } else {
-                        seen.insert(n.to_string(), name.span);
-                    }
+                    self.given_once(n, name.span, seen);
                     if args.len() < lo || args.len() > hi {
                         let want = if lo == hi { format!("{lo}") } else { format!("{lo} to {hi}") };
                         let span = args.last().map(|a| name.span.to(dir_arg_span(a))).unwrap_or(name.span);

@@ -14,24 +14,8 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use common::{scratch, uri, Client};
+use common::{benchmark_grammar as grammar, scratch, uri, Client};
 use std::time::{Duration, Instant};
-
-/// A program of about `lines` lines: chained rules with iterators, a namespace,
-/// an isosurface and a selector, using std.
-fn grammar(lines: usize) -> String {
-    let n_rules = lines / 6;
-    let mut s = String::from("startshape r0\nmaxdepth 12\n@import primitives\nselector r1 random\n");
-    s.push_str("isosurface BLOB { xyz -1 1 8 ; function { x*x + y*y + z*z - 1 } }\n");
-    for i in 0..n_rules {
-        let next = (i + 1) % n_rules;
-        s.push_str(&format!(
-            "rule r{i} {{\n  VERTEX {{x 1}} VERTEX {{y 1}} VERTEX {{z 1 R -0.1}}\n  r{next} {{x 1 rz 10 s 0.9}}\n  30/30 * [ry 360] cube {{s 0.1}}\n}}\n\n"
-        ));
-    }
-    s.push_str("rule r1 0.5 { BLOB {} }\n");
-    s
-}
 
 fn percentile(sorted: &[Duration], p: f64) -> Duration {
     let i = ((sorted.len() as f64 - 1.0) * p).round() as usize;
