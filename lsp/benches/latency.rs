@@ -14,13 +14,8 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use common::{benchmark_grammar as grammar, scratch, uri, Client};
+use common::{benchmark_grammar as grammar, percentile, scratch, uri, Client};
 use std::time::{Duration, Instant};
-
-fn percentile(sorted: &[Duration], p: f64) -> Duration {
-    let i = ((sorted.len() as f64 - 1.0) * p).round() as usize;
-    sorted[i.min(sorted.len() - 1)]
-}
 
 fn main() {
     let dir = scratch("bench");

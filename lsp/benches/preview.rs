@@ -19,7 +19,7 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use common::{root, scratch, uri, Client};
+use common::{first_shader_diagnostics, root, scratch, uri, Client};
 use serde_json::{json, Value};
 use std::time::{Duration, Instant};
 
@@ -217,27 +217,4 @@ fn lenses(dir: &std::path::Path) {
         median(&mut resolves)
     );
     assert!(c.shutdown_and_exit().success());
-}
-
-/// A file importing `shaders`, opened right after `initialize`: its first diagnostics.
-fn first_shader_diagnostics(dir: &std::path::Path) {
-    // A fresh SPIR-V disk cache, so the numbers are those of a first start.
-    let cache = dir.join("spirv-cache");
-    let _ = std::fs::remove_dir_all(&cache);
-    // Then again with the cache the first server filled (every later start).
-    for cold in [true, false] {
-        let mut c = Client::spawn_with(&[("XDG_CACHE_HOME", cache.to_str().unwrap_or(""))]);
-        c.initialize(dir);
-        let u = uri(&dir.join("shaded.mdg"));
-        let t0 = Instant::now();
-        c.open(&u, 1, "@import shaders\nstartshape a\nrule a { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n");
-        let d = c.diagnostics(&u, 1);
-        let cache = if cold { "empty SPIR-V cache" } else { "SPIR-V disk cache filled" };
-        println!(
-            "first diagnostics of a file importing shaders ({cache}): {:.0} ms ({} diagnostics; target ≤ 100 ms)",
-            ms(t0.elapsed()),
-            d.len()
-        );
-        assert!(c.shutdown_and_exit().success());
-    }
 }

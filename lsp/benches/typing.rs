@@ -21,7 +21,7 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use common::{benchmark_grammar as grammar, scratch, uri, Client};
+use common::{benchmark_grammar as grammar, first_shader_diagnostics, percentile, scratch, uri, Client};
 use serde_json::json;
 use std::time::{Duration, Instant};
 
@@ -66,11 +66,6 @@ fn load_average() -> String {
     std::fs::read_to_string("/proc/loadavg")
         .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
         .unwrap_or_else(|_| "?".to_string())
-}
-
-fn percentile(sorted: &[f64], p: f64) -> f64 {
-    let i = ((sorted.len() as f64 - 1.0) * p).round() as usize;
-    sorted[i.min(sorted.len() - 1)]
 }
 
 /// The line and UTF-16 column of byte `offset` (the text is ASCII).
@@ -163,27 +158,4 @@ fn main() {
     assert!(c.shutdown_and_exit().success());
 
     first_shader_diagnostics(&dir);
-}
-
-/// A file importing `shaders`, opened right after `initialize` by a server whose
-/// SPIR-V disk cache is empty (a first-ever start), then by one whose cache the
-/// first filled: the time from `didOpen` to its first diagnostics (target ≤ 100 ms).
-fn first_shader_diagnostics(dir: &std::path::Path) {
-    let cache = dir.join("spirv-cache");
-    let _ = std::fs::remove_dir_all(&cache);
-    for cold in [true, false] {
-        let mut c = Client::spawn_with(&[("XDG_CACHE_HOME", cache.to_str().unwrap_or(""))]);
-        c.initialize(dir);
-        let u = uri(&dir.join("shaded.mdg"));
-        let t0 = Instant::now();
-        c.open(&u, 1, "@import shaders\nstartshape a\nrule a { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n");
-        let d = c.diagnostics(&u, 1);
-        let first = t0.elapsed().as_secs_f64() * 1000.0;
-        let what = if cold { "empty SPIR-V cache (first-ever start)" } else { "SPIR-V disk cache filled" };
-        println!(
-            "first diagnostics of a file importing shaders, {what}: {first:.0} ms ({} diagnostics; target ≤ 100 ms)",
-            d.len()
-        );
-        assert!(c.shutdown_and_exit().success());
-    }
 }
