@@ -369,13 +369,22 @@ pub enum ExprKind {
     Var(Name),
     Neg(Box<Expr>),
     Binary(BinOp, Box<Expr>, Box<Expr>),
+    /// A call. `if(c, a, b)` and `select(i, a, b, …)` are calls of the names `if`
+    /// and `select` (see [`SPECIAL_FORMS`]): only the chosen argument is evaluated.
     Call(Name, Vec<Expr>),
+    /// `let(a = 1; b = a * 2; a + b)`: each binding is evaluated once, in order (it
+    /// sees the earlier ones), then the body.
+    Let(Vec<(Name, Expr)>, Box<Expr>),
     /// Parentheses as written (kept so formatting reproduces the same tree).
     Paren(Box<Expr>),
     /// `!e`: 1 when `e` is 0, else 0.
     Not(Box<Expr>),
     Error,
 }
+
+/// The calls that evaluate only the argument they choose: `if(c, a, b)` and
+/// `select(i, a, b, …)`, with their least number of arguments.
+pub const SPECIAL_FORMS: &[(&str, usize)] = &[("if", 3), ("select", 2)];
 
 /// Binary operators, loosest first.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -82,6 +82,7 @@ pub fn check(ex: &Expanded, opts: CheckOptions) -> Checked {
         unread_params: Vec::new(),
         profile_rules: BTreeSet::new(),
         function: None,
+        lets: Vec::new(),
     };
     c.collect();
     c.cross_file_definitions();
@@ -98,6 +99,9 @@ struct Checker<'a> {
     /// While a function's body is checked: its index among the items and its
     /// parameters (a function may call only functions declared before it).
     function: Option<(usize, Vec<String>)>,
+    /// The `let(…)` names of the expressions around the one being checked,
+    /// innermost last.
+    lets: Vec<String>,
     sym: Symbols,
     diags: Vec<Diagnostic>,
     /// Rule full name → rules its definitions call (per definition).
@@ -1320,6 +1324,9 @@ impl<'a> Checker<'a> {
         match &e.kind {
             ExprKind::Num(_) | ExprKind::Error => {}
             ExprKind::Var(v) => {
+                if self.lets.contains(&v.text) {
+                    return;
+                }
                 if let Some(l) = self.scope.as_mut().and_then(|s| s.iter_mut().rev().find(|l| l.name == v.text)) {
                     l.used = true;
                     return;
@@ -1362,6 +1369,38 @@ impl<'a> Checker<'a> {
             ExprKind::Binary(_, a, b) => {
                 self.expr(a, function_vars, random);
                 self.expr(b, function_vars, random);
+            }
+            ExprKind::Let(bindings, body) => {
+                let outer = self.lets.len();
+                for (n, v) in bindings {
+                    self.expr(v, function_vars, random);
+                    if n.text.contains('.') || FUNCTION_VARS.contains(&n.text.as_str()) {
+                        self.diags.push(
+                            Diagnostic::error("E0329", n.span, format!("`{}` cannot name a `let(…)` binding", n.text))
+                                .with_note(
+                                    "x, y, z, depth, scale, g and dotted names are reserved; choose another name",
+                                ),
+                        );
+                    }
+                    self.lets.push(n.text.clone());
+                }
+                self.expr(body, function_vars, random);
+                self.lets.truncate(outer);
+            }
+            ExprKind::Call(f, args) if SPECIAL_FORMS.iter().any(|(n, _)| *n == f.text) => {
+                let least = SPECIAL_FORMS.iter().find(|(n, _)| *n == f.text).map_or(0, |(_, k)| *k);
+                let wrong = if f.text == "if" { args.len() != least } else { args.len() < least };
+                if wrong {
+                    let want = if f.text == "if" {
+                        "`if` takes 3 arguments: `if(condition, then, else)`"
+                    } else {
+                        "`select` takes an index and at least one choice: `select(i, a, b, …)`"
+                    };
+                    self.diags.push(Diagnostic::error("E0401", e.span, format!("{want}; {} were given", args.len())));
+                }
+                for a in args {
+                    self.expr(a, function_vars, random);
+                }
             }
             ExprKind::Call(f, args) => {
                 match FUNCTIONS.iter().find(|(n, _)| *n == f.text) {

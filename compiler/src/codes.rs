@@ -1012,6 +1012,22 @@ function ball(p, r) { p * p - r }
         ),
     },
     Code {
+        code: "E0329",
+        severity: Error,
+        title: "a name that cannot be bound by `let(…)`",
+        explanation: r#"A binding of an expression's `let(NAME = VALUE; …)` uses a reserved name.
+
+`x`, `y`, `z`, `depth`, `scale` and `g` are the variables expressions read, and dotted names are rule and constant names: a binding may not hide them.
+
+In the example: `x` is the position's x coordinate.
+
+Fix: Choose another name (`dx`, `r`)."#,
+        example: Library(
+            r#"function f(a) { let(x = a * 2; x + 1) }
+"#,
+        ),
+    },
+    Code {
         code: "E0401",
         severity: Error,
         title: "wrong number of arguments",

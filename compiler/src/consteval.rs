@@ -9,7 +9,7 @@
 //! folding at compile time and evaluating at run time cannot disagree: a constant
 //! is computed by running its code with `mdg_vm::expr::run`.
 
-use crate::ast::{BinOp, Expr, ExprKind, Name, Number};
+use crate::ast::{BinOp, Expr, ExprKind, Name, Number, SPECIAL_FORMS};
 use mdg_vm::expr::{self, BinOp as VmBinOp, Core, Func, StackOp};
 
 /// What a call lowers to.
@@ -18,6 +18,9 @@ pub enum Call {
     Builtin(Func),
     /// The language emitted the call itself (or refused it): whether it succeeded.
     Done(bool),
+    /// The call is this expression (a user function's body with its arguments in
+    /// place): [`lower`] emits it where the call is, in the caller's `let` scope.
+    Inline(Expr),
 }
 
 /// The parts of an expression language that are its own.
@@ -51,33 +54,139 @@ pub fn vm_binop(op: BinOp) -> VmBinOp {
 
 /// Emits `e` in `lang`; false if any part was refused (every part is still walked,
 /// so a language reports all its errors). An `Error` node emits 0.
+///
+/// `if(c, a, b)` and `select(i, a, b, …)` ([`SPECIAL_FORMS`]) emit skips around
+/// their branches, so only the chosen one runs (and draws random numbers); a
+/// `let(…)` binding stays on the stack, read back with `Pick`, and the bindings are
+/// slid off under the body's value at the end.
 pub fn lower<O: StackOp, L: Leaves<O> + ?Sized>(lang: &mut L, e: &Expr, out: &mut Vec<O>) -> bool {
+    go(lang, e, out, &mut Bound { names: Vec::new(), depth: 0 })
+}
+
+/// The `let(…)` names in scope (innermost last) with the stack entry each lives in,
+/// counted from the bottom of the expression's own part of the stack, and how many
+/// entries that part holds where the next value will be pushed.
+struct Bound {
+    names: Vec<(String, usize)>,
+    depth: usize,
+}
+
+/// An operand of a skip, pick or slide (code beyond 4 G instructions is refused by
+/// the expression limits long before).
+fn operand(n: usize) -> u32 {
+    u32::try_from(n).unwrap_or(u32::MAX)
+}
+
+/// Emits a skip with a placeholder operand; [`patch`] sets it.
+fn skip_from<O: StackOp>(out: &mut Vec<O>, c: Core<O>) -> usize {
+    out.push(O::from_core(c));
+    out.len() - 1
+}
+
+/// Points the skip at `at` to the end of `out`.
+fn patch<O: StackOp>(out: &mut [O], at: usize) {
+    let n = operand(out.len() - at - 1);
+    let c = match out[at].core() {
+        Core::SkipUnless(_) => Core::SkipUnless(n),
+        _ => Core::Skip(n),
+    };
+    out[at] = O::from_core(c);
+}
+
+fn go<O: StackOp, L: Leaves<O> + ?Sized>(lang: &mut L, e: &Expr, out: &mut Vec<O>, b: &mut Bound) -> bool {
     let op = |c: Core<O>| O::from_core(c);
-    match &e.kind {
+    let d = b.depth;
+    // Emits `x` with `at` entries on the stack.
+    let sub = |lang: &mut L, x: &Expr, out: &mut Vec<O>, b: &mut Bound, at: usize| {
+        b.depth = at;
+        go(lang, x, out, b)
+    };
+    let ok = match &e.kind {
         ExprKind::Num(n) => lang.num(n, out),
-        ExprKind::Var(v) => lang.var(v, out),
-        ExprKind::Paren(x) => lower(lang, x, out),
+        ExprKind::Var(v) => match b.names.iter().rev().find(|(n, _)| *n == v.text) {
+            Some((_, at)) => {
+                out.push(op(Core::Pick(operand(d - 1 - at))));
+                true
+            }
+            None => lang.var(v, out),
+        },
+        ExprKind::Paren(x) => sub(lang, x, out, b, d),
         ExprKind::Neg(x) => {
-            let ok = lower(lang, x, out);
+            let ok = sub(lang, x, out, b, d);
             out.push(op(Core::Neg));
             ok
         }
         ExprKind::Not(x) => {
-            let ok = lower(lang, x, out);
+            let ok = sub(lang, x, out, b, d);
             out.extend([op(Core::Push(0.0)), op(Core::Bin(VmBinOp::Eq))]);
             ok
         }
-        ExprKind::Binary(o, a, b) => {
-            let ok = lower(lang, a, out) & lower(lang, b, out);
+        ExprKind::Binary(o, x, y) => {
+            let ok = sub(lang, x, out, b, d) & sub(lang, y, out, b, d + 1);
             out.push(op(Core::Bin(vm_binop(*o))));
             ok
         }
+        ExprKind::Let(bindings, body) => {
+            let mut ok = true;
+            let outer = b.names.len();
+            for (i, (name, value)) in bindings.iter().enumerate() {
+                ok &= sub(lang, value, out, b, d + i);
+                b.names.push((name.text.clone(), d + i));
+            }
+            ok &= sub(lang, body, out, b, d + bindings.len());
+            b.names.truncate(outer);
+            out.push(op(Core::Slide(operand(bindings.len()))));
+            ok
+        }
+        ExprKind::Call(f, args) if f.text == "if" && args.len() == 3 => {
+            let ok = sub(lang, &args[0], out, b, d);
+            let unless = skip_from(out, Core::SkipUnless(0));
+            let ok = ok & sub(lang, &args[1], out, b, d);
+            let end = skip_from(out, Core::Skip(0));
+            patch(out, unless);
+            let ok = ok & sub(lang, &args[2], out, b, d);
+            patch(out, end);
+            ok
+        }
+        ExprKind::Call(f, args) if f.text == "select" && args.len() >= 2 => {
+            // The index stays under the branches: branch k runs when index < k + 1
+            // (so it is floored and clamped; NaN takes the last branch).
+            let mut ok = sub(lang, &args[0], out, b, d);
+            let branches = &args[1..];
+            let mut ends = Vec::new();
+            for (k, branch) in branches.iter().enumerate() {
+                if k + 1 == branches.len() {
+                    ok &= sub(lang, branch, out, b, d + 1);
+                    break;
+                }
+                out.extend([op(Core::Pick(0)), op(Core::Push((k + 1) as f64)), op(Core::Bin(VmBinOp::Lt))]);
+                let unless = skip_from(out, Core::SkipUnless(0));
+                ok &= sub(lang, branch, out, b, d + 1);
+                ends.push(skip_from(out, Core::Skip(0)));
+                patch(out, unless);
+            }
+            for at in ends {
+                patch(out, at);
+            }
+            out.push(op(Core::Slide(1)));
+            ok
+        }
+        ExprKind::Call(f, args) if SPECIAL_FORMS.iter().any(|(n, _)| *n == f.text) => {
+            // A wrong number of arguments (the checker says so): walk them for their
+            // own errors, emit 0.
+            for a in args {
+                sub(lang, a, &mut Vec::new(), b, d);
+            }
+            out.push(op(Core::Push(0.0)));
+            false
+        }
         ExprKind::Call(f, args) => match lang.call(e, f, args, out) {
             Call::Done(ok) => ok,
+            Call::Inline(body) => sub(lang, &body, out, b, d),
             Call::Builtin(func) => {
                 let mut ok = true;
-                for a in args {
-                    ok &= lower(lang, a, out);
+                for (i, a) in args.iter().enumerate() {
+                    ok &= sub(lang, a, out, b, d + i);
                 }
                 out.push(op(Core::Call(func as u8)));
                 ok
@@ -87,7 +196,9 @@ pub fn lower<O: StackOp, L: Leaves<O> + ?Sized>(lang: &mut L, e: &Expr, out: &mu
             out.push(op(Core::Push(0.0)));
             false
         }
-    }
+    };
+    b.depth = d + 1;
+    ok
 }
 
 /// Compile-time values: numbers as written (units are not applied), names through a
@@ -167,5 +278,22 @@ mod tests {
         assert_eq!(eval(&call("sin", vec![num(1.0), num(2.0)]), &none), None);
         assert_eq!(eval(&call("nosuch", vec![num(1.0)]), &none), None);
         assert_eq!(eval(&e(ExprKind::Error), &none), None);
+    }
+
+    #[test]
+    fn if_select_and_let_fold() {
+        let n = |v: &str| (v == "n").then_some(3.0);
+        let var = |v: &str| e(ExprKind::Var(name(v)));
+        let cond = call("if", vec![bin(BinOp::Gt, var("n"), num(5.0)), num(1.0), num(2.0)]);
+        assert_eq!(eval(&cond, &n), Some(2.0));
+        assert_eq!(eval(&call("select", vec![var("n"), num(1.0), num(2.0)]), &n), Some(2.0));
+        // let(a = n; let(a = a + 1; a) + a) = 4 + 3: the inner binding shadows, then ends.
+        let inner = e(ExprKind::Let(vec![(name("a"), bin(BinOp::Add, var("a"), num(1.0)))], Box::new(var("a"))));
+        let outer = e(ExprKind::Let(vec![(name("a"), var("n"))], Box::new(bin(BinOp::Add, inner, var("a")))));
+        assert_eq!(eval(&outer, &n), Some(7.0));
+        // The untaken branch may hold what cannot fold; the taken one may not.
+        let rand = call("rand", vec![num(0.0), num(1.0)]);
+        assert_eq!(eval(&call("if", vec![num(1.0), num(4.0), rand.clone()]), &n), None);
+        assert_eq!(eval(&call("if", vec![num(1.0), num(4.0), num(0.0)]), &n), Some(4.0));
     }
 }

@@ -289,6 +289,12 @@ impl Dumper {
                     d.expr(a);
                 }
             }),
+            ExprKind::Let(bindings, body) => self.nested("Let", |d| {
+                for (n, v) in bindings {
+                    d.nested(&format!("Bind {}", n.text), |d| d.expr(v));
+                }
+                d.expr(body);
+            }),
             ExprKind::Paren(x) => self.nested("Paren", |d| d.expr(x)),
             ExprKind::Error => self.line("ErrorExpr"),
         }

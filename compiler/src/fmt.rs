@@ -589,6 +589,10 @@ pub fn expr(e: &Expr) -> String {
             let a: Vec<String> = args.iter().map(expr).collect();
             format!("{}({})", f.text, a.join(", "))
         }
+        ExprKind::Let(bindings, body) => {
+            let b: Vec<String> = bindings.iter().map(|(n, v)| format!("{} = {}; ", n.text, expr(v))).collect();
+            format!("let({}{})", b.concat(), expr(body))
+        }
         ExprKind::Paren(x) => format!("({})", expr(x)),
         ExprKind::Error => String::new(),
     }

@@ -140,7 +140,7 @@ impl Leaves<ExprOp> for Geometric<'_> {
         match self.ex.user_function(&f.text) {
             // Inlined: the checker allows calls to functions declared earlier only,
             // so this terminates.
-            Some((_, _, params, body)) => Call::Done(consteval::lower(self, &inline_call(params, body, args), out)),
+            Some((_, _, params, body)) => Call::Inline(inline_call(params, body, args)),
             // The checker reports unknown functions before lowering.
             None => {
                 out.push(ExprOp::Push(0.0));
@@ -164,10 +164,27 @@ pub(crate) fn inline_call(params: &[crate::ast::Name], body: &Expr, args: &[Expr
     fold(e)
 }
 
+/// `body` with each name of `params` replaced by its argument (the last of a name
+/// wins). A `let(…)` name of the body is renamed `NAME#OFFSET` (its source offset;
+/// no one can write `#` in a name), so an argument that reads a caller's `let` of the
+/// same name is not captured.
 fn substitute(params: &[crate::ast::Name], body: &Expr, args: &[Expr]) -> Expr {
     let rec = |e: &Expr| Box::new(substitute(params, e, args));
     let kind = match &body.kind {
-        ExprKind::Var(v) => match params.iter().position(|p| p.text == v.text) {
+        ExprKind::Let(bindings, inner) => {
+            let (mut ps, mut xs) = (params.to_vec(), args.to_vec());
+            xs.resize(ps.len(), Expr { kind: ExprKind::Error, span: body.span });
+            let mut renamed = Vec::new();
+            for (n, v) in bindings {
+                let v = substitute(&ps, v, &xs);
+                let to = crate::ast::Name { text: format!("{}#{}", n.text, n.span.start), span: n.span };
+                ps.push(n.clone());
+                xs.push(Expr { kind: ExprKind::Var(to.clone()), span: n.span });
+                renamed.push((to, v));
+            }
+            ExprKind::Let(renamed, Box::new(substitute(&ps, inner, &xs)))
+        }
+        ExprKind::Var(v) => match params.iter().rposition(|p| p.text == v.text) {
             Some(i) => match args.get(i) {
                 Some(a) => ExprKind::Paren(Box::new(a.clone())),
                 None => ExprKind::Error,
@@ -211,6 +228,10 @@ fn fold(e: Expr) -> Expr {
             }
         }
         ExprKind::Not(x) => Expr { kind: ExprKind::Not(Box::new(fold(*x))), span },
+        ExprKind::Let(bindings, body) => Expr {
+            kind: ExprKind::Let(bindings.into_iter().map(|(n, v)| (n, fold(v))).collect(), Box::new(fold(*body))),
+            span,
+        },
         ExprKind::Binary(op, a, b) => {
             let (a, b) = (fold(*a), fold(*b));
             match (plain(&a), plain(&b)) {

@@ -128,8 +128,11 @@ pub fn type_of(e: &Expr, var: &dyn Fn(&str) -> Option<Ty>) -> Ty {
             BinOp::Add | BinOp::Sub | BinOp::Mul => Ty::numeric(type_of(a, var), type_of(b, var)),
             BinOp::Div | BinOp::Pow => Ty::Float,
         },
+        ExprKind::Let(_, body) => type_of(body, var),
         ExprKind::Call(f, args) => match f.text.as_str() {
             "floor" | "ceil" => Ty::Int,
+            // The branches' type (the index or condition is not a value).
+            "if" | "select" => args.iter().skip(1).map(|a| type_of(a, var)).fold(Ty::Int, Ty::numeric),
             "abs" | "min" | "max" | "mod" | "clamp" => args.iter().map(|a| type_of(a, var)).fold(Ty::Int, Ty::numeric),
             _ => Ty::Float,
         },

@@ -199,6 +199,24 @@ fn unit_suffixes_and_angle_modes() {
     assert!(p[3].distance(Vec3::Y) < TOL, "plain numbers read as radians");
 }
 
+/// `if(…)`, `select(…)` and `let(…)` (reference §14): values, the stream untouched
+/// by untaken branches, and a function's `let` that does not capture its argument.
+#[test]
+fn expression_forms_choose_lazily_and_bind_once() {
+    let xs = |src: &str| -> Vec<f32> { run_source(src).vertex_mesh().positions.iter().map(|p| p[0]).collect() };
+    let lazy = xs("startshape A\nrule A { VERTEX {x if(1, 5, rand(0, 1))} VERTEX {x select(0, 6, randn(0, 1))} VERTEX {x rand(0, 1)} }\n");
+    let plain = xs("startshape A\nrule A { VERTEX {x 5} VERTEX {x 6} VERTEX {x rand(0, 1)} }\n");
+    assert_eq!(lazy, plain, "the untaken branches drew nothing");
+    let got = xs(concat!(
+        "startshape A\nfunction f(p) { let(t = 2; p + t) }\n",
+        "rule A { B(0.5) {} B(1.5) {} B(9) {} B(-1) {} }\n",
+        "rule B(float i) { VERTEX {x select(i, 10, 20, let(a = i; b = a * a; b + a))} VERTEX {x let(t = 10; f(t) + t)} }\n",
+    ));
+    assert_eq!(got, [10.0, 22.0, 20.0, 22.0, 90.0, 22.0, 10.0, 22.0]);
+    // A count folded at compile time.
+    assert_eq!(xs("startshape A\nrule A { (let(k = 2; k + if(k > 1, 1, 5))) * {x 1} VERTEX {} }\n").len(), 3);
+}
+
 #[test]
 fn continuation_in_iterators_chains_runs() {
     // Without `\` every run starts from the iterator's frame; with it, from the last run's end.

@@ -223,6 +223,16 @@ pub enum ExprOp {
     /// Push slot `i` of the running rule's frame (a parameter, a `let` binding or a
     /// loop variable; see `bundle::Rule::frame`).
     Slot(u16),
+    /// Skip the next `n` instructions (the end of an `if`/`select` branch).
+    Skip(u32),
+    /// Pop; when it is false (0 or NaN), skip the next `n` instructions.
+    SkipUnless(u32),
+    /// Push a copy of the stack entry `k` below the top (0: the top; a `let(…)`
+    /// binding or a `select(…)` index).
+    Pick(u32),
+    /// Pop the top, drop the `n` entries under it, push the top back (the end of a
+    /// `let(…)`).
+    Slide(u32),
 }
 
 /// Whether a value counts as true (`if`, `&&`, `||`): not 0 and not NaN.
@@ -306,6 +316,14 @@ pub enum Core<L> {
     Bin(BinOp),
     /// Pop `arity` arguments, push `FUNCTIONS[i](…)`.
     Call(u8),
+    /// Skip the next `n` instructions. Only forward: code always ends.
+    Skip(u32),
+    /// Pop; when it is false (0 or NaN, as [`truthy`]), skip the next `n` instructions.
+    SkipUnless(u32),
+    /// Push a copy of the stack entry `k` below the top (0: the top).
+    Pick(u32),
+    /// Pop the top, drop the `n` entries under it, push the top back.
+    Slide(u32),
 }
 
 /// An instruction of the shared stack machine ([`Core`]): its encoder-side
@@ -326,6 +344,10 @@ impl StackOp for ExprOp {
             ExprOp::Neg => Core::Neg,
             ExprOp::Bin(o) => Core::Bin(o),
             ExprOp::Call(f) => Core::Call(f),
+            ExprOp::Skip(n) => Core::Skip(n),
+            ExprOp::SkipUnless(n) => Core::SkipUnless(n),
+            ExprOp::Pick(k) => Core::Pick(k),
+            ExprOp::Slide(n) => Core::Slide(n),
             leaf @ (ExprOp::Var(_) | ExprOp::Slot(_)) => Core::Leaf(leaf),
         }
     }
@@ -336,6 +358,10 @@ impl StackOp for ExprOp {
             Core::Neg => ExprOp::Neg,
             Core::Bin(o) => ExprOp::Bin(o),
             Core::Call(f) => ExprOp::Call(f),
+            Core::Skip(n) => ExprOp::Skip(n),
+            Core::SkipUnless(n) => ExprOp::SkipUnless(n),
+            Core::Pick(k) => ExprOp::Pick(k),
+            Core::Slide(n) => ExprOp::Slide(n),
             Core::Leaf(op) => op,
         }
     }
@@ -352,7 +378,9 @@ pub fn run<O: StackOp>(
     mut call: impl FnMut(Func, &[f64; 3]) -> f64,
 ) -> f64 {
     stack.clear();
-    for op in code {
+    let mut pc = 0;
+    while let Some(op) = code.get(pc) {
+        pc += 1;
         match op.core() {
             Core::Push(v) => stack.push(v),
             Core::Leaf(l) => stack.push(leaf(l)),
@@ -373,13 +401,30 @@ pub fn run<O: StackOp>(
                 stack.truncate(at);
                 stack.push(call(func, &args));
             }
+            Core::Skip(n) => pc += n as usize,
+            Core::SkipUnless(n) => {
+                if !truthy(stack.pop().unwrap_or(f64::NAN)) {
+                    pc += n as usize;
+                }
+            }
+            Core::Pick(k) => {
+                let v = stack.len().checked_sub(1 + k as usize).and_then(|i| stack.get(i)).copied();
+                stack.push(v.unwrap_or(f64::NAN));
+            }
+            Core::Slide(n) => {
+                let top = stack.pop().unwrap_or(f64::NAN);
+                stack.truncate(stack.len().saturating_sub(n as usize));
+                stack.push(top);
+            }
         }
     }
     stack.pop().unwrap_or(f64::NAN)
 }
 
 /// Checks code for the shared machine: constants finite, operators and functions
-/// known, the stack never underflows and ends with exactly one value. `leaf` checks
+/// known, the stack never underflows and ends with exactly one value, skips land
+/// inside the code (or at its end) with the same stack depth on every way there, no
+/// instruction is unreachable, and `Pick` reads an entry that exists. `leaf` checks
 /// a leaf's index, `func` whether a function is allowed; both get the instruction's
 /// position for the message.
 pub fn check<O: StackOp>(
@@ -387,32 +432,70 @@ pub fn check<O: StackOp>(
     mut leaf: impl FnMut(usize, O) -> Result<(), String>,
     mut func: impl FnMut(usize, Func) -> Result<(), String>,
 ) -> Result<(), String> {
-    let mut depth: i64 = 0;
+    // The depth each skip brings to its target (index `code.len()`: the end).
+    let mut arrive: Vec<Option<i64>> = vec![None; code.len() + 1];
+    let meet = |arrive: &mut [Option<i64>], at: usize, d: i64, from: usize| -> Result<(), String> {
+        match arrive.get_mut(at) {
+            None => Err(format!("skip beyond the end at {from}")),
+            Some(Some(t)) if *t != d => Err(format!("stack depths {t} and {d} meet at {at}")),
+            Some(slot) => {
+                *slot = Some(d);
+                Ok(())
+            }
+        }
+    };
+    // `None`: the previous instruction was an unconditional skip.
+    let mut depth: Option<i64> = Some(0);
     for (i, op) in code.iter().enumerate() {
-        let pop = match op.core() {
+        let d = match (depth, arrive[i]) {
+            (Some(d), Some(t)) if d != t => return Err(format!("stack depths {d} and {t} meet at {i}")),
+            (Some(d), _) | (None, Some(d)) => d,
+            (None, None) => return Err(format!("unreachable instruction at {i}")),
+        };
+        let (pop, push) = match op.core() {
             Core::Push(v) if !v.is_finite() => return Err(format!("non-finite constant at {i}")),
-            Core::Push(_) => 0,
+            Core::Push(_) => (0, 1),
             Core::Leaf(l) => {
                 leaf(i, l)?;
-                0
+                (0, 1)
             }
-            Core::Neg => 1,
-            Core::Bin(_) => 2,
+            Core::Neg => (1, 1),
+            Core::Bin(_) => (2, 1),
             Core::Call(f) => match Func::from_id(f) {
                 Some(f) => {
                     func(i, f)?;
-                    f.arity() as i64
+                    (f.arity() as i64, 1)
                 }
                 None => return Err(format!("unknown function {f} at {i}")),
             },
+            Core::Skip(n) => {
+                meet(&mut arrive, i + 1 + n as usize, d, i)?;
+                depth = None;
+                continue;
+            }
+            Core::SkipUnless(n) => {
+                if d < 1 {
+                    return Err(format!("stack underflow at {i}"));
+                }
+                meet(&mut arrive, i + 1 + n as usize, d - 1, i)?;
+                (1, 0)
+            }
+            Core::Pick(k) if i64::from(k) >= d => return Err(format!("pick {k} beyond the stack at {i}")),
+            Core::Pick(_) => (0, 1),
+            Core::Slide(n) => (i64::from(n) + 1, 1),
         };
-        if depth < pop {
+        if d < pop {
             return Err(format!("stack underflow at {i}"));
         }
-        depth = depth - pop + 1;
+        depth = Some(d - pop + push);
     }
-    if depth != 1 {
-        return Err(format!("expression leaves {depth} values"));
+    let end = match (depth, arrive[code.len()]) {
+        (Some(d), Some(t)) if d != t => return Err(format!("stack depths {d} and {t} meet at the end")),
+        (Some(d), _) | (None, Some(d)) => d,
+        (None, None) => 0,
+    };
+    if end != 1 {
+        return Err(format!("expression leaves {end} values"));
     }
     Ok(())
 }
@@ -470,6 +553,103 @@ mod tests {
     /// Values one `log(-1)`, `0/0`, `1e308*10` or an underflow away.
     const HOSTILE: [f64; 12] =
         [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 1e308, -1e308, 0.0, -0.0, 1.0, -1.0, 5e-324, 1e-300, 0.5];
+
+    /// A stream that counts its draws.
+    struct Counting(u32);
+
+    impl Random for Counting {
+        fn uniform(&mut self) -> f64 {
+            self.0 += 1;
+            0.25
+        }
+        fn normal(&mut self) -> f64 {
+            self.0 += 1;
+            0.0
+        }
+    }
+
+    fn rand_01() -> [ExprOp; 3] {
+        [ExprOp::Push(0.0), ExprOp::Push(1.0), ExprOp::Call(Func::Rand as u8)]
+    }
+
+    /// `if(s0, 10, rand(0, 1))`, as the compiler lowers it.
+    fn if_code() -> Vec<ExprOp> {
+        let mut c = vec![ExprOp::Slot(0), ExprOp::SkipUnless(2), ExprOp::Push(10.0), ExprOp::Skip(3)];
+        c.extend(rand_01());
+        c
+    }
+
+    #[test]
+    fn if_runs_only_the_chosen_branch() {
+        let code = if_code();
+        assert_eq!(verify(&code), Ok(()));
+        let (mut rng, mut stack) = (Counting(0), Vec::new());
+        assert_eq!(eval(&code, &[0.0; 6], &[1.0], &mut rng, &mut stack), 10.0);
+        assert_eq!(rng.0, 0, "the untaken branch draws nothing");
+        assert_eq!(eval(&code, &[0.0; 6], &[0.0], &mut rng, &mut stack), 0.25);
+        assert_eq!(eval(&code, &[0.0; 6], &[f64::NAN], &mut rng, &mut stack), 0.25, "NaN is false");
+        assert_eq!(rng.0, 2);
+    }
+
+    #[test]
+    fn let_bindings_are_picked_and_slid_off() {
+        // let(a = s0 * 2; b = a + 1; a * b)
+        let code = [
+            ExprOp::Slot(0),
+            ExprOp::Push(2.0),
+            ExprOp::Bin(BinOp::Mul),
+            ExprOp::Pick(0),
+            ExprOp::Push(1.0),
+            ExprOp::Bin(BinOp::Add),
+            ExprOp::Pick(1),
+            ExprOp::Pick(1),
+            ExprOp::Bin(BinOp::Mul),
+            ExprOp::Slide(2),
+            // … + 1: the bindings are gone from under the value.
+            ExprOp::Push(1.0),
+            ExprOp::Bin(BinOp::Add),
+        ];
+        assert_eq!(verify(&code), Ok(()));
+        let mut stack = Vec::new();
+        assert_eq!(eval(&code, &[0.0; 6], &[3.0], &mut Half, &mut stack), 43.0);
+    }
+
+    #[test]
+    fn select_floors_and_clamps_its_index() {
+        // select(s0, 10, 20, 30): the index stays under the branches.
+        let branch = |k: f64| [ExprOp::Pick(0), ExprOp::Push(k), ExprOp::Bin(BinOp::Lt), ExprOp::SkipUnless(2)];
+        let mut code = vec![ExprOp::Slot(0)];
+        code.extend(branch(1.0));
+        code.extend([ExprOp::Push(10.0), ExprOp::Skip(7)]);
+        code.extend(branch(2.0));
+        code.extend([ExprOp::Push(20.0), ExprOp::Skip(1)]);
+        code.extend([ExprOp::Push(30.0), ExprOp::Slide(1)]);
+        assert_eq!(verify(&code), Ok(()));
+        let mut stack = Vec::new();
+        let at = |i: f64, stack: &mut Vec<f64>| eval(&code, &[0.0; 6], &[i], &mut Half, stack);
+        let got: Vec<f64> = [-3.0, 0.0, 0.9, 1.0, 1.5, 2.0, 7.0, f64::NAN].iter().map(|&i| at(i, &mut stack)).collect();
+        assert_eq!(got, [10.0, 10.0, 10.0, 20.0, 20.0, 30.0, 30.0, 30.0]);
+    }
+
+    #[test]
+    fn verify_refuses_bad_skips_and_picks() {
+        let bad = |code: &[ExprOp]| verify(code).err().unwrap_or_default();
+        // A skip past the end.
+        assert!(bad(&[ExprOp::Push(1.0), ExprOp::Skip(5)]).contains("beyond the end"));
+        // Branches that leave different depths.
+        let uneven = [ExprOp::Push(1.0), ExprOp::SkipUnless(2), ExprOp::Push(1.0), ExprOp::Push(2.0)];
+        assert!(bad(&uneven).contains("meet"), "{}", bad(&uneven));
+        // An instruction no path reaches.
+        let dead = [ExprOp::Push(1.0), ExprOp::Skip(1), ExprOp::Neg];
+        assert!(bad(&dead).contains("unreachable"), "{}", bad(&dead));
+        // A pick below the bottom, a slide of more than there is.
+        assert!(bad(&[ExprOp::Push(1.0), ExprOp::Pick(1), ExprOp::Bin(BinOp::Add)]).contains("pick 1"));
+        assert!(bad(&[ExprOp::Push(1.0), ExprOp::Slide(1)]).contains("underflow"));
+        // Malformed code never panics in evaluation.
+        for code in [&[ExprOp::Skip(9)][..], &[ExprOp::Pick(3)], &[ExprOp::Slide(4)], &[ExprOp::SkipUnless(1)]] {
+            let _ = eval(code, &[0.0; 6], &[], &mut Half, &mut Vec::new());
+        }
+    }
 
     #[test]
     fn clamp_with_a_nan_argument_is_nan() {

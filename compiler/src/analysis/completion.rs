@@ -495,6 +495,13 @@ impl Document {
                         &format!("{name}({})", args.join(", ")),
                     ));
                 }
+                for (name, insert) in [
+                    ("if", "if(${1:condition}, ${2:then}, ${3:else})"),
+                    ("select", "select(${1:i}, ${2:a}, ${3:b})"),
+                    ("let", "let(${1:name} = ${2:value}; ${3:expression})"),
+                ] {
+                    out.push(builtin(DocKind::Function, name, CompletionKind::Function, insert));
+                }
                 let ex = &self.analysis.expanded;
                 for p in &ex.params {
                     out.push(CompletionItem {

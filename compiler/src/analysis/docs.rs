@@ -185,6 +185,9 @@ pub const DOCS: &[Doc] = &[
     d(Function, "smoothstep", "smoothstep(e0, e1, v)", "Smooth Hermite step from 0 at e0 to 1 at e1."),
     d(Function, "rand", "rand(a, b)", "A uniform random draw from [a, b); adjustment arguments only, fresh for every evaluation."),
     d(Function, "randn", "randn(mean, sd)", "A normally distributed random draw; adjustment arguments only."),
+    d(Function, "if", "if(condition, then, else)", "`then` when the condition is not 0 (nor NaN), else `else`. Only the chosen branch is evaluated, so a `rand` in the other draws nothing."),
+    d(Function, "select", "select(i, a, b, …)", "The choice numbered `i` from 0 (`i` is floored and clamped to the choices; NaN takes the last). Only the chosen one is evaluated."),
+    d(Function, "let", "let(NAME = VALUE; … ; EXPRESSION)", "Binds each NAME to its VALUE, evaluated once and in order (each sees the earlier ones), then gives EXPRESSION."),
     // Expression variables (reference §14).
     d(Variable, "depth", "depth", "The recursion depth (selector functions)."),
     d(Variable, "scale", "scale", "The current linear scale (selector functions)."),
@@ -244,6 +247,7 @@ mod tests {
         want(SelectorMode, SELECTOR_MODES.to_vec());
         want(AngleMode, ANGLE_MODES.to_vec());
         want(Function, FUNCTIONS.iter().map(|f| f.0).collect());
+        want(Function, crate::ast::SPECIAL_FORMS.iter().map(|f| f.0).chain(["let"]).collect());
         want(Variable, crate::check::FUNCTION_VARS.to_vec());
         want(Preprocessor, crate::lexer::PREPROCESSOR_DIRECTIVES.to_vec());
         want(IsoEntry, vec!["x", "y", "z", "xyz", "function"]);

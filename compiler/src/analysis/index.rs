@@ -784,6 +784,15 @@ impl Walker<'_, '_> {
                     self.expr(a);
                 }
             }
+            ExprKind::Let(bindings, body) => {
+                let at = self.scope.len();
+                for (n, v) in bindings {
+                    self.expr(v);
+                    self.bind(n, "let(…) binding".to_string());
+                }
+                self.expr(body);
+                self.scope.truncate(at);
+            }
             ExprKind::Error => {}
         }
     }

@@ -331,6 +331,13 @@ impl Collect<'_> {
                     self.expr(a);
                 }
             }
+            ExprKind::Let(bindings, body) => {
+                for (n, v) in bindings {
+                    self.name(n);
+                    self.expr(v);
+                }
+                self.expr(body);
+            }
         }
     }
 }

@@ -236,6 +236,22 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
                     w.u8(5);
                     w.u16(*i);
                 }
+                ExprOp::Skip(n) => {
+                    w.u8(6);
+                    w.u32(*n);
+                }
+                ExprOp::SkipUnless(n) => {
+                    w.u8(7);
+                    w.u32(*n);
+                }
+                ExprOp::Pick(k) => {
+                    w.u8(8);
+                    w.u32(*k);
+                }
+                ExprOp::Slide(n) => {
+                    w.u8(9);
+                    w.u32(*n);
+                }
             }
         }
     }
@@ -487,6 +503,10 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
                 }
                 4 => ExprOp::Call(r.u8()?),
                 5 => ExprOp::Slot(r.u16()?),
+                6 => ExprOp::Skip(r.u32()?),
+                7 => ExprOp::SkipUnless(r.u32()?),
+                8 => ExprOp::Pick(r.u32()?),
+                9 => ExprOp::Slide(r.u32()?),
                 t => return Err(r.err(&format!("unknown expression op {t}"))),
             });
         }

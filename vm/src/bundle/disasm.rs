@@ -27,9 +27,30 @@ fn composite(c: &Composite) -> String {
     s
 }
 
-/// Expression code as infix text: `s0` is slot 0 of the rule's frame.
+/// Expression code as infix text: `s0` is slot 0 of the rule's frame. Code with
+/// branches or bindings (`if`, `let`, `select`) is listed op by op instead:
+/// `[push 1; skipunless 2; …]`.
 pub fn expr_text(code: &[crate::expr::ExprOp]) -> String {
     use crate::expr::{ExprOp, FUNCTIONS, VARIABLES};
+    if code.iter().any(|op| matches!(op, ExprOp::Skip(_) | ExprOp::SkipUnless(_) | ExprOp::Pick(_) | ExprOp::Slide(_)))
+    {
+        let ops: Vec<String> = code
+            .iter()
+            .map(|op| match *op {
+                ExprOp::Push(v) => format!("push {v}"),
+                ExprOp::Var(i) => VARIABLES.get(i as usize).unwrap_or(&"?").to_string(),
+                ExprOp::Slot(i) => format!("s{i}"),
+                ExprOp::Neg => "neg".into(),
+                ExprOp::Bin(o) => o.symbol().into(),
+                ExprOp::Call(f) => FUNCTIONS.get(f as usize).map_or("?", |f| f.0).into(),
+                ExprOp::Skip(n) => format!("skip {n}"),
+                ExprOp::SkipUnless(n) => format!("skipunless {n}"),
+                ExprOp::Pick(k) => format!("pick {k}"),
+                ExprOp::Slide(n) => format!("slide {n}"),
+            })
+            .collect();
+        return format!("[{}]", ops.join("; "));
+    }
     // (text, binds loosely: needs parentheses as an operand)
     let mut st: Vec<(String, bool)> = Vec::new();
     let pop = |st: &mut Vec<(String, bool)>| st.pop().unwrap_or_else(|| ("?".into(), false));
@@ -55,6 +76,7 @@ pub fn expr_text(code: &[crate::expr::ExprOp]) -> String {
                 let args: Vec<String> = st.drain(at..).map(|(t, _)| t).collect();
                 st.push((format!("{name}({})", args.join(", ")), false));
             }
+            ExprOp::Skip(_) | ExprOp::SkipUnless(_) | ExprOp::Pick(_) | ExprOp::Slide(_) => {}
         }
     }
     st.pop().map(|(t, _)| t).unwrap_or_default()

@@ -33,6 +33,14 @@ pub enum CondOp {
     Bin(BinOp),
     /// Pop `arity` arguments, push `FUNCTIONS[i](…)` (never `rand`/`randn`).
     Call(u8),
+    /// Skip the next `n` instructions (`if(…)`, `select(…)`).
+    Skip(u32),
+    /// Pop; when false, skip the next `n` instructions.
+    SkipUnless(u32),
+    /// Push a copy of the entry `k` below the top (`let(…)`, `select(…)`).
+    Pick(u32),
+    /// Pop the top, drop `n` entries under it, push the top back.
+    Slide(u32),
 }
 
 /// The values an expression reads.
@@ -51,6 +59,10 @@ impl StackOp for CondOp {
             CondOp::Neg => Core::Neg,
             CondOp::Bin(o) => Core::Bin(o),
             CondOp::Call(f) => Core::Call(f),
+            CondOp::Skip(n) => Core::Skip(n),
+            CondOp::SkipUnless(n) => Core::SkipUnless(n),
+            CondOp::Pick(k) => Core::Pick(k),
+            CondOp::Slide(n) => Core::Slide(n),
             leaf @ (CondOp::Var(_) | CondOp::Parts(_)) => Core::Leaf(leaf),
         }
     }
@@ -61,6 +73,10 @@ impl StackOp for CondOp {
             Core::Neg => CondOp::Neg,
             Core::Bin(o) => CondOp::Bin(o),
             Core::Call(f) => CondOp::Call(f),
+            Core::Skip(n) => CondOp::Skip(n),
+            Core::SkipUnless(n) => CondOp::SkipUnless(n),
+            Core::Pick(k) => CondOp::Pick(k),
+            Core::Slide(n) => CondOp::Slide(n),
             Core::Leaf(op) => op,
         }
     }
