@@ -83,6 +83,7 @@ pub fn check(ex: &Expanded, opts: CheckOptions) -> Checked {
         profile_rules: BTreeSet::new(),
         function: None,
         lets: Vec::new(),
+        recursion_reported: BTreeSet::new(),
     };
     c.collect();
     c.cross_file_definitions();
@@ -102,6 +103,9 @@ struct Checker<'a> {
     /// The `let(…)` names of the expressions around the one being checked,
     /// innermost last.
     lets: Vec<String>,
+    /// (function, called function) pairs already reported as E0328: a function
+    /// that calls itself twice (`fib(n - 1) + fib(n - 2)`) is one error.
+    recursion_reported: BTreeSet<(usize, usize)>,
     sym: Symbols,
     diags: Vec<Diagnostic>,
     /// Rule full name → rules its definitions call (per definition).
@@ -1297,6 +1301,9 @@ impl<'a> Checker<'a> {
         };
         if let Some((current, _)) = &self.function {
             if index >= *current {
+                if !self.recursion_reported.insert((*current, index)) {
+                    return;
+                }
                 let what = if index == *current { "itself" } else { "a function declared after it" };
                 self.diags.push(
                     Diagnostic::error("E0328", f.span, format!("a function calls {what}: `{}`", f.text))
