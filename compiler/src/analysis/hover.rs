@@ -430,6 +430,14 @@ mod tests {
         assert!(hover("@im$0port primitives\n").contains("@import NAME|PATH"));
         assert!(hover("@define X\n@ifdef X\n@end$0if\n").contains("Ends an `@ifdef`"));
         assert!(hover("rule A { VERTEX {x (s$0in(1))} }").contains("Sine"));
+        assert!(hover("rule A { VERTEX {x i$0f(depth > 1, 1, 2)} }").contains("Only the chosen branch"));
+        assert!(hover("rule A { VERTEX {x sel$0ect(depth, 1, 2)} }").contains("floored and clamped"));
+        // A `let(…)` name is a local: its hover names the binding.
+        assert!(
+            hover("rule A { VERTEX {x let(k = 2; k$0 * k)} }").contains("let(…) binding"),
+            "{}",
+            hover("rule A { VERTEX {x let(k = 2; k$0 * k)} }")
+        );
     }
 
     #[test]

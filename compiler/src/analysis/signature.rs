@@ -62,7 +62,7 @@ impl Document {
                 Tok::LParen => {
                     // `ns.tree (` or `tree (`: the word before the parenthesis.
                     let prev = i.checked_sub(1).map(|j| before[j])?;
-                    if !matches!(prev.kind, Tok::Ident | Tok::Dotted) {
+                    if !matches!(prev.kind, Tok::Ident | Tok::Dotted | Tok::KwIf) {
                         return None;
                     }
                     if i > 1 && before[i - 2].kind == Tok::KwRule {
@@ -87,6 +87,14 @@ impl Document {
                 let defs = sym.rules.get(f).map(|d| d.len()).unwrap_or(0);
                 (names, format!("rule `{f}`, {defs} definition(s); arguments by position, defaults may be left out"))
             }
+            None if name == "if" => (
+                ["condition", "then", "else"].map(String::from).to_vec(),
+                "`if(…)`: only the chosen branch is evaluated".to_string(),
+            ),
+            None if name == "select" => (
+                ["i", "a", "b", "…"].map(String::from).to_vec(),
+                "`select(…)`: the choice numbered i from 0, floored and clamped; only it is evaluated".to_string(),
+            ),
             None => {
                 let (fname, arity) = crate::check::FUNCTIONS.iter().find(|(n, _)| *n == name)?;
                 (function_params(fname, *arity), format!("math function `{fname}`"))
@@ -125,6 +133,13 @@ mod tests {
         assert_eq!(d.signature_help(at(" 0.5) {}") + 2).expect("second").active, 1);
         let f = d.signature_help(at("1, 2))") + 3).expect("in atan2");
         assert_eq!((f.label.as_str(), f.active), ("atan2(y, x)", 1));
+        // The lazy forms: `if`'s third argument, `select`'s choices.
+        let (d2, _) = doc("rule A { VERTEX {x if(depth > 1, 2, 3) y select(depth, 1, 2, 3)} }");
+        let at2 = |needle: &str| d2.text().find(needle).expect("needle in the text") as u32;
+        let h = d2.signature_help(at2("3) y")).expect("in if");
+        assert_eq!((h.label.as_str(), h.active), ("if(condition, then, else)", 2));
+        let h = d2.signature_help(at2("2, 3)}")).expect("in select");
+        assert_eq!((h.label.as_str(), h.active), ("select(i, a, b, …)", 2));
         // Outside any call, and on the definition's own list: none.
         assert_eq!(d.signature_help(at("VERTEX {x len}")), None);
         assert_eq!(d.signature_help(at("int n") + 3), None);
