@@ -438,7 +438,15 @@ impl<'a> Checker<'a> {
                     }
                 }
                 ItemKind::Directive { name, args } => self.directive(name, args, namespace, &mut seen_directives),
-                ItemKind::Function { body, params, .. } => {
+                ItemKind::Function { name, body, params } => {
+                    let builtin = FUNCTIONS.iter().map(|(n, _)| *n).chain(SPECIAL_FORMS.iter().map(|(n, _)| *n));
+                    if let Some(b) = builtin.into_iter().find(|b| *b == name.text) {
+                        self.diags.push(
+                            Diagnostic::error("E0330", name.span, format!("a function named like the built-in `{b}`"))
+                                .with_label("every call would run the built-in, never this function")
+                                .with_note("choose another name"),
+                        );
+                    }
                     self.function_params(params);
                     self.function = Some((index, params.iter().map(|p| p.text.clone()).collect()));
                     self.expr(body, true, false);

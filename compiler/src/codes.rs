@@ -1028,6 +1028,22 @@ Fix: Choose another name (`dx`, `r`)."#,
         ),
     },
     Code {
+        code: "E0330",
+        severity: Error,
+        title: "a function named like a built-in",
+        explanation: r#"A `function` has the name of a math function (`sin`, `mix`, `rand`, …) or of `if` or `select`.
+
+Calls of that name always run the built-in, so the function could never be called.
+
+In the example: `select` is the built-in choice `select(i, a, b, …)`.
+
+Fix: Choose another name (`pick2`, `my_mix`)."#,
+        example: Library(
+            r#"function select(a, b) { a + b }
+"#,
+        ),
+    },
+    Code {
         code: "E0401",
         severity: Error,
         title: "wrong number of arguments",
