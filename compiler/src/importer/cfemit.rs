@@ -76,10 +76,6 @@ impl<'a> Emitter<'a> {
         self.cut.clear();
         let shapes: Vec<&Shape> = self.prog.shapes.iter().collect();
         for sh in shapes {
-            if PRIMITIVES.contains(&sh.name.as_str()) {
-                self.rep.drop(sh.line, &sh.name, "a user definition of a primitive: the built-in one is drawn");
-                continue;
-            }
             if sh.rules.is_empty() {
                 self.rep.drop(sh.line, "shape", format!("`{}` has no rules: it draws nothing", sh.name));
             }
@@ -268,10 +264,8 @@ impl<'a> Emitter<'a> {
             let a = self.adj(adj);
             return Some(format!("{name} {a}"));
         };
-        if prim {
-            let a = self.adj(adj);
-            return Some(format!("{name} {a}"));
-        }
+        // A shape of the program's own named like a primitive replaces it, as in
+        // Context Free (it is renamed: MDG's built-in stays for the others).
         let mdg = self.names.get(&sh.name);
         let want = self.params.get(name).map(|p| p.len()).unwrap_or(0);
         let mut argv: Vec<String> = match args {

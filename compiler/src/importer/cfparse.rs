@@ -437,7 +437,9 @@ impl<'a> Parser<'a> {
         if let Some(T::Num(_)) | Some(T::P("(")) = self.peek() {
             // CFDG 2 loop `N * {adj} ITEM`.
             let save = self.i;
-            let n = self.expr(false);
+            // The count is one number or a parenthesised expression: `6 * {r 60}`
+            // is a loop, not a product.
+            let n = self.primary(false);
             if self.eat_p("*") {
                 let adj = self.adj_opt().unwrap_or_default();
                 let body = Box::new(self.item());

@@ -153,7 +153,7 @@ pub(crate) fn import(file: &str, text: &str) -> Imported {
     if !out.ends_with('\n') {
         out.push('\n');
     }
-    Imported { mdg: out, report: rep, needs_pixel: false }
+    Imported { mdg: out, report: rep, needs_pixel: false, min_size_px: 0.0 }
 }
 
 /// `#define NAME TOKENS…` (to the end of its line), substituted in later tokens.

@@ -66,6 +66,8 @@ pub struct Imported {
     /// Whether `minsize` came from a pixel size that was not known ([`calibrate`]
     /// replaces it).
     pub needs_pixel: bool,
+    /// Context Free's minimum size in pixels (0.3, or `CF::MinimumSize`).
+    pub min_size_px: f64,
 }
 
 /// Reads an included file by the name the program gives (`None`: not found).
@@ -143,6 +145,8 @@ pub fn import_cf(file: &str, text: &str, opts: &Options, read: Reader) -> Import
     let px = prog.min_size_px.unwrap_or(0.3);
     if px > 0.0 {
         let _ = writeln!(head, "minsize {}", names::num(sig(px * pixel)));
+    } else {
+        rep.drop(0, "CF::MinimumSize", "zero: no `minsize` (the run's limits end endless recursions)");
     }
     if let Some((adj, line)) = &prog.background {
         match cfemit::background(adj) {
@@ -180,7 +184,7 @@ pub fn import_cf(file: &str, text: &str, opts: &Options, read: Reader) -> Import
     if !out.ends_with('\n') {
         out.push('\n');
     }
-    Imported { mdg: out, report: rep, needs_pixel }
+    Imported { mdg: out, report: rep, needs_pixel, min_size_px: px }
 }
 
 /// Rounds to 6 significant digits (a `minsize` needs no more).
@@ -219,19 +223,26 @@ impl cfemit::Emitter<'_> {
 }
 
 /// How far a grammar reaches: its bounding box's larger side (x or y), from an
-/// evaluation capped at `max_calls` rule calls. `None` if it does not compile or
-/// draws nothing.
-pub fn extent(mdg: &str, dir: &Path, compile: &CompileOptions, max_calls: u64) -> Option<f64> {
-    let out = evaluate(mdg, dir, compile, max_calls).ok()?;
-    let (lo, hi) = bounds(&out.mesh.positions)?;
-    Some((hi[0] - lo[0]).max(hi[1] - lo[1]))
+/// evaluation capped at `max_calls` rule calls and 4,000,000 vertices, and whether
+/// a cap stopped the run (then the box is only of what was drawn before). `Ok(None)`
+/// if it draws nothing; `Err` if it does not compile.
+pub fn extent(mdg: &str, dir: &Path, compile: &CompileOptions, max_calls: u64) -> Result<Option<(f64, bool)>, String> {
+    let out = evaluate(mdg, dir, compile, max_calls, 4_000_000)?;
+    let stopped = out.stats.warnings.iter().any(|w| w.contains("the run stopped"));
+    Ok(bounds(&out.mesh.positions).map(|(lo, hi)| ((hi[0] - lo[0]).max(hi[1] - lo[1]), stopped)))
 }
 
 /// Compiles and evaluates an imported grammar as if it were a file in `dir`,
-/// capped at `max_calls` rule calls and 4,000,000 vertices, without instancing
+/// capped at `max_calls` rule calls and `max_vertices` vertices, without instancing
 /// (the mesh holds every triangle, in world space). `Err`: the compiler's
 /// diagnostics, as text.
-pub fn evaluate(mdg: &str, dir: &Path, compile: &CompileOptions, max_calls: u64) -> Result<mdg_vm::output::Output, String> {
+pub fn evaluate(
+    mdg: &str,
+    dir: &Path,
+    compile: &CompileOptions,
+    max_calls: u64,
+    max_vertices: u64,
+) -> Result<mdg_vm::output::Output, String> {
     let path = dir.join("imported.mdg");
     let loader = crate::source::FsLoader;
     let a = crate::driver::analyze_text(&loader, &path, mdg, compile, crate::check::CheckOptions { require_start: true });
@@ -242,7 +253,7 @@ pub fn evaluate(mdg: &str, dir: &Path, compile: &CompileOptions, max_calls: u64)
         .map_err(|d| crate::diag::render_plain(&d, &a.sources))?;
     let opts = mdg_vm::eval::EvalOptions {
         maxiter: Some(max_calls),
-        max_vertices: 4_000_000,
+        max_vertices,
         instancing: false,
         ..Default::default()
     };
@@ -263,10 +274,14 @@ pub fn bounds(points: &[[f32; 3]]) -> Option<([f64; 3], [f64; 3])> {
     Some((lo, hi))
 }
 
-/// Imports a Context Free program whose pixel size is not known by evaluating it:
-/// twice, each time with `minsize` from the extent the last run reached, capped at
-/// `max_calls` rule calls (Context Free, too, sizes its minimum from the extent
-/// drawn so far). Other programs are imported as they are.
+/// Imports a Context Free program whose pixel size is not known by evaluating it
+/// with a `minsize` m, and again with m twice the minsize that run's extent asks
+/// for, until the minsize asked for is between m / 8 and m (at most 10 runs, each
+/// capped at `max_calls` rule calls; a run that a cap stopped saw only part of the
+/// design, so m is made coarser instead; one that drew nothing, finer). Context Free, too, sizes its
+/// minimum from the extent of what it draws. Other programs are imported as
+/// they are.
+#[allow(clippy::too_many_arguments)]
 pub fn calibrate(
     file: &str,
     text: &str,
@@ -277,19 +292,112 @@ pub fn calibrate(
     compile: &CompileOptions,
     max_calls: u64,
 ) -> Imported {
-    let mut imp = import(file, text, dialect, opts, read);
-    if !imp.needs_pixel {
-        return imp;
+    let first = import(file, text, dialect, opts, read);
+    if !first.needs_pixel || first.min_size_px <= 0.0 {
+        return first;
     }
-    let mut o = opts.clone();
-    for _ in 0..2 {
-        match extent(&imp.mdg, dir, compile, max_calls) {
-            Some(e) if e > 0.0 && e.is_finite() => {
-                o.pixel = Some(e / opts.pixels.max(1.0));
-                imp = import(file, text, dialect, &o, read);
+    let px = first.min_size_px;
+    let pixels = opts.pixels.max(1.0);
+    let with = |m: f64| import(file, text, dialect, &Options { pixel: Some(m / px), ..opts.clone() }, read);
+    let mut m = 0.1;
+    let (mut best, mut fallback) = (None, None);
+    for _ in 0..10 {
+        match extent(&with(m).mdg, dir, compile, max_calls) {
+            Err(_) => return first,
+            Ok(None) => m /= 16.0,
+            Ok(Some((e, true))) => {
+                fallback = Some(px * e / pixels);
+                m *= 4.0;
             }
-            _ => break,
+            Ok(Some((e, false))) => {
+                // A run at up to 8 times the wanted minsize sees nearly the same box
+                // at a fraction of the cost (the detail it leaves out is small).
+                let want = px * e / pixels;
+                best = Some(want);
+                if want <= 0.0 || (want * 8.0 >= m && want <= m * 1.2) {
+                    break;
+                }
+                m = 2.0 * want;
+            }
         }
     }
-    imp
+    match best.or(fallback) {
+        Some(m) if m > 0.0 && m.is_finite() => with(m),
+        _ => first,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cf(text: &str) -> Imported {
+        import_cf("t.cfdg", text, &Options { pixels: 500.0, pixel: Some(0.01) }, &|_| None)
+    }
+
+    fn std_options() -> CompileOptions {
+        let std = Path::new(env!("CARGO_MANIFEST_DIR")).join("../std");
+        CompileOptions { std_dir: Some(std), ..Default::default() }
+    }
+
+    #[test]
+    fn cfdg2_loops_lists_and_weights() {
+        let i = cf("startshape A\nrule A { 6 * {r 60} CIRCLE {x 1} B [r 45 x 1] }\nrule B 2 { SQUARE {r 45 x 1 s 2} }\nrule B { }\n");
+        assert!(i.mdg.contains("loop _i1 = 0, 6 {rz 60}"), "{}", i.mdg);
+        // CFDG 2: `{ }` is canonical (translate first), `[ ]` as written.
+        assert!(i.mdg.contains("B {rz 45 x 1}"), "{}", i.mdg);
+        assert!(i.mdg.contains("SQUARE {x 1 rz 45 s 2}"), "{}", i.mdg);
+        assert!(i.mdg.contains("rule B 2 {") && i.mdg.contains("rule B 1 {"), "{}", i.mdg);
+        assert!(i.mdg.contains("flat\nminsize 0.003\n"), "{}", i.mdg);
+        assert!(i.report.notes.is_empty(), "{:?}", i.report.notes);
+    }
+
+    #[test]
+    fn cfdg3_shapes_parameters_and_reported_constructs() {
+        let text = "startshape Tree(3)\nCF::Background = [b -1]\nshape Tree(natural n) {\n  SQUARE [[r 10 x 1]]\n  \
+                    TRIANGLE [flip 90 skew 10 20]\n  if (n > 0) Tree(n -- 1) [y 1 s 0.5 1]\n}\n";
+        let i = cf(text);
+        assert!(i.mdg.contains("startshape start_Tree\n"), "{}", i.mdg);
+        assert!(i.mdg.contains("rule start_Tree {\n  Tree(3) {}\n}"), "{}", i.mdg);
+        assert!(i.mdg.contains("background #000000"), "{}", i.mdg);
+        assert!(i.mdg.contains("rule Tree(float n) {"), "{}", i.mdg);
+        assert!(i.mdg.contains("SQUARE {rz 10 x 1}"), "{}", i.mdg);
+        assert!(i.mdg.contains("TRIANGLE {f -1 0 0}"), "{}", i.mdg);
+        assert!(i.mdg.contains("Tree(max((n) - (1), 0)) {y 1 s 0.5 1 0.7071067811865476}"), "{}", i.mdg);
+        let skew: Vec<&Note> = i.report.notes.iter().filter(|n| n.construct == "skew").collect();
+        assert_eq!(skew.len(), 1);
+        assert_eq!((skew[0].line, skew[0].action), (5, Action::Dropped));
+    }
+
+    #[test]
+    fn a_shape_named_like_a_primitive_replaces_it() {
+        let i = cf("startshape A\nrule A { TRIANGLE {} CIRCLE {} }\nrule TRIANGLE { SQUARE {} }\n");
+        assert!(i.mdg.contains("rule TRIANGLE_ {") && i.mdg.contains("  TRIANGLE_ {}\n  CIRCLE {}"), "{}", i.mdg);
+    }
+
+    #[test]
+    fn imported_grammars_compile_and_count_as_context_free_does() {
+        // 1 + 3 + 9 + 27 squares: the recursion ends at n = 0 (no minimum size).
+        let i = cf("startshape T(3)\nshape T(natural n) { SQUARE [] if (n > 0) { loop 3 [r 120] T(n - 1) [y 2 s 0.4] } }\n");
+        let out = evaluate(&i.mdg, Path::new("."), &std_options(), 100_000, 1_000_000);
+        let out = out.unwrap_or_else(|e| panic!("{e}\n{}", i.mdg));
+        assert_eq!(out.mesh.triangles.len(), 2 * 40);
+    }
+
+    #[test]
+    fn structure_synth_retirement_and_primitives() {
+        let text = "R1\nset maxobjects 100\nrule R1 maxdepth 2 > c2 {\n  { s 1/3 x -1 } R1\n  { s 1/3 x 1 } R1\n  \
+                    2 * { y 1 hue 10 sat 0.5 } R1\n}\nrule c2 { { color #fff } box }\n";
+        let i = import("t.es", text, Dialect::StructureSynth, &Options::default(), &|_| None);
+        assert!(i.mdg.contains("rule R1(int _d = 0) {\n  if (_d < 2) {"), "{}", i.mdg);
+        assert!(i.mdg.contains("R1(_d + 1) {s 0.3333333333333333 x -1}"), "{}", i.mdg);
+        assert!(i.mdg.contains("2 * {y 1 hue 10 sat -0.5} R1(_d + 1) {}"), "{}", i.mdg);
+        assert!(i.mdg.contains("cube {#fff x 0.5 y 0.5 z 0.5}"), "{}", i.mdg);
+        assert!(i.mdg.contains("maxiter 100\n"), "{}", i.mdg);
+        assert!(i.report.notes.iter().any(|n| n.construct == "set maxobjects" && n.line == 2));
+        // Four calls of R1 a level, two levels, then a box each: 16 cubes of 12 triangles.
+        let out = evaluate(&i.mdg, Path::new("."), &std_options(), 100_000, 1_000_000);
+        let out = out.unwrap_or_else(|e| panic!("{e}\n{}", i.mdg));
+        assert_eq!(out.mesh.triangles.len(), 16 * 12);
+    }
 }
