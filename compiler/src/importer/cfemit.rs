@@ -31,8 +31,20 @@ pub(crate) struct Emitter<'a> {
 
 impl<'a> Emitter<'a> {
     pub(crate) fn new(prog: &'a Program, rep: &'a mut Report) -> Emitter<'a> {
-        let params = prog.shapes.iter().map(|s| (s.name.clone(), s.params.iter().map(|p| p.1.clone()).collect())).collect();
-        Emitter { prog, rep, names: Names::default(), scope: Vec::new(), params, counter: 0, line: 0, cut: Vec::new(), cutting: false, inlining: Vec::new() }
+        let params =
+            prog.shapes.iter().map(|s| (s.name.clone(), s.params.iter().map(|p| p.1.clone()).collect())).collect();
+        Emitter {
+            prog,
+            rep,
+            names: Names::default(),
+            scope: Vec::new(),
+            params,
+            counter: 0,
+            line: 0,
+            cut: Vec::new(),
+            cutting: false,
+            inlining: Vec::new(),
+        }
     }
 
     fn fresh(&mut self, base: &str) -> String {
@@ -44,7 +56,8 @@ impl<'a> Emitter<'a> {
     pub(crate) fn shapes(&mut self, out: &mut String) {
         // Functions with parameters, each after the ones it calls (MDG reads them in
         // order); those without are inlined where they are called.
-        let funcs: Vec<&(String, Vec<String>, Expr, u32)> = self.prog.functions.iter().filter(|f| !f.1.is_empty()).collect();
+        let funcs: Vec<&(String, Vec<String>, Expr, u32)> =
+            self.prog.functions.iter().filter(|f| !f.1.is_empty()).collect();
         let mut done: Vec<&str> = Vec::new();
         while done.len() < funcs.len() {
             let before = done.len();
@@ -53,7 +66,15 @@ impl<'a> Emitter<'a> {
                     continue;
                 }
                 let ready = funcs.iter().all(|g| g.0 == f.0 || done.contains(&g.0.as_str()) || !calls(&f.2, &g.0));
-                if ready || done.len() == before && f.0 == funcs.iter().find(|g| !done.contains(&g.0.as_str())).map(|g| g.0.clone()).unwrap_or_default() {
+                if ready
+                    || done.len() == before
+                        && f.0
+                            == funcs
+                                .iter()
+                                .find(|g| !done.contains(&g.0.as_str()))
+                                .map(|g| g.0.clone())
+                                .unwrap_or_default()
+                {
                     let (name, params, body, line) = f;
                     self.line = *line;
                     let mdg = self.names.get(name);
@@ -136,7 +157,8 @@ impl<'a> Emitter<'a> {
                 let e = self.expr(end);
                 let st = step.as_ref().map(|e| format!(", {}", self.expr(e))).unwrap_or_default();
                 // MDG's loop list cannot read the loop's variable: it reads the start.
-                let seen = var.as_ref().is_some_and(|v| adj.terms.iter().any(|t| t.args.iter().any(|a| mentions(a, v))));
+                let seen =
+                    var.as_ref().is_some_and(|v| adj.terms.iter().any(|t| t.args.iter().any(|a| mentions(a, v))));
                 if let (true, Some(v)) = (seen, var) {
                     self.rep.approx(*line, v, "the loop's own adjustment reads its variable: its start value is used");
                     self.scope.push((v.clone(), format!("({s})")));
@@ -149,7 +171,7 @@ impl<'a> Emitter<'a> {
                     Some(v) => self.fresh_local(v),
                     None => self.fresh("i"),
                 };
-                let _ = writeln!(out, "{pad}loop {v} = {s}, {e}{st} {a}");
+                let _ = write!(out, "{pad}loop {v} = {s}, {e}{st} {a}");
                 self.sub_item(body, ind + 1, out);
                 self.scope.truncate(n);
             }
@@ -200,7 +222,7 @@ impl<'a> Emitter<'a> {
             }
             Item::Transform { adj, body } => {
                 let a = self.adj(adj);
-                let _ = writeln!(out, "{pad}1 * {a}");
+                let _ = write!(out, "{pad}1 * {a}");
                 self.sub_item(body, ind + 1, out);
             }
         }
@@ -208,19 +230,19 @@ impl<'a> Emitter<'a> {
 
     /// The item of a loop or transform: a block or one item, never empty.
     fn sub_item(&mut self, it: &Item, ind: usize, out: &mut String) {
-        let pad = "  ".repeat(ind);
+        let pad = "  ".repeat(ind - 1);
         let mut body = String::new();
         match it {
             Item::Block(items) => {
                 let n = self.scope.len();
                 for i in items {
-                    self.item(i, ind + 1, &mut body);
+                    self.item(i, ind, &mut body);
                 }
                 self.scope.truncate(n);
             }
-            other => self.item(other, ind + 1, &mut body),
+            other => self.item(other, ind, &mut body),
         }
-        let _ = write!(out, "{pad}{{\n{body}{pad}}}\n");
+        let _ = write!(out, " {{\n{body}{pad}}}\n");
     }
 
     /// The body of an `if` branch (the braces are the caller's).
@@ -277,7 +299,11 @@ impl<'a> Emitter<'a> {
             None => Vec::new(),
         };
         if argv.len() != want {
-            self.rep.approx(line, name, format!("called with {} arguments for {want} parameters: missing ones are 0", argv.len()));
+            self.rep.approx(
+                line,
+                name,
+                format!("called with {} arguments for {want} parameters: missing ones are 0", argv.len()),
+            );
             argv.resize(want, "0".into());
         }
         let a = self.adj(adj);
@@ -332,7 +358,11 @@ impl<'a> Emitter<'a> {
                 ("sat" | "saturation", 1) => parts.push(format!("sat {}", args[0])),
                 ("b" | "brightness", 1) => parts.push(format!("b {}", args[0])),
                 ("a" | "alpha", 1) => {
-                    self.rep.approx(line, &t.name, "alpha is MDG's additive `A` (Context Free's moves a fraction toward 0 or 1)");
+                    self.rep.approx(
+                        line,
+                        &t.name,
+                        "alpha is MDG's additive `A` (Context Free's moves a fraction toward 0 or 1)",
+                    );
                     parts.push(format!("A {}", args[0]));
                 }
                 ("skew", _) => self.rep.drop(line, "skew", "MDG has no skew: the shape is drawn unskewed"),
@@ -458,7 +488,11 @@ impl<'a> Emitter<'a> {
                 if let Some((_, ps, body, _)) = self.prog.functions.iter().find(|(n, _, _, _)| n == f) {
                     if ps.is_empty() && a.is_empty() {
                         if self.inlining.iter().any(|c| c == f) {
-                            self.rep.approx(line, f, "a recursive function: MDG functions do not recurse, the recursive call is 0");
+                            self.rep.approx(
+                                line,
+                                f,
+                                "a recursive function: MDG functions do not recurse, the recursive call is 0",
+                            );
                             return "0".into();
                         }
                         let body = body.clone();
@@ -469,7 +503,11 @@ impl<'a> Emitter<'a> {
                     }
                     if ps.len() == a.len() {
                         if self.cutting && !self.cut[..self.cut.len() - 1].contains(&f.to_string()) {
-                            self.rep.approx(line, f, "a recursive function: MDG functions do not recurse, the recursive call is 0");
+                            self.rep.approx(
+                                line,
+                                f,
+                                "a recursive function: MDG functions do not recurse, the recursive call is 0",
+                            );
                             return "0".into();
                         }
                         let m = self.names.get(f);

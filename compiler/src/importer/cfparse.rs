@@ -35,15 +35,46 @@ pub(crate) struct Adj {
     pub terms: Vec<Term>,
 }
 
+/// A `case` label: a value, or a range `a..b`.
+pub(crate) type CaseLabel = (Expr, Option<Expr>);
+
 #[derive(Clone, Debug)]
 pub(crate) enum Item {
-    Call { name: String, args: Option<Vec<Expr>>, same: bool, adj: Adj, line: u32 },
+    Call {
+        name: String,
+        args: Option<Vec<Expr>>,
+        same: bool,
+        adj: Adj,
+        line: u32,
+    },
     Block(Vec<Item>),
-    Loop { var: Option<String>, start: Option<Expr>, end: Expr, step: Option<Expr>, adj: Adj, body: Box<Item>, line: u32 },
-    If { cond: Expr, then: Box<Item>, els: Option<Box<Item>> },
-    Switch { on: Expr, cases: Vec<(Vec<(Expr, Option<Expr>)>, Item)>, default: Option<Box<Item>> },
-    Let { name: String, value: Expr },
-    Transform { adj: Adj, body: Box<Item> },
+    Loop {
+        var: Option<String>,
+        start: Option<Expr>,
+        end: Expr,
+        step: Option<Expr>,
+        adj: Adj,
+        body: Box<Item>,
+        line: u32,
+    },
+    If {
+        cond: Expr,
+        then: Box<Item>,
+        els: Option<Box<Item>>,
+    },
+    Switch {
+        on: Expr,
+        cases: Vec<(Vec<CaseLabel>, Item)>,
+        default: Option<Box<Item>>,
+    },
+    Let {
+        name: String,
+        value: Expr,
+    },
+    Transform {
+        adj: Adj,
+        body: Box<Item>,
+    },
     Nothing,
 }
 
@@ -91,14 +122,53 @@ pub(crate) struct Parser<'a> {
 }
 
 const ADJ_NAMES: &[&str] = &[
-    "x", "y", "z", "s", "size", "r", "rot", "rotate", "f", "flip", "skew", "h", "hue", "sat", "saturation", "b",
-    "brightness", "a", "alpha", "trans", "transform", "time", "timescale", "x1", "y1", "x2", "y2", "rx", "ry", "width",
-    "p", "param",
+    "x",
+    "y",
+    "z",
+    "s",
+    "size",
+    "r",
+    "rot",
+    "rotate",
+    "f",
+    "flip",
+    "skew",
+    "h",
+    "hue",
+    "sat",
+    "saturation",
+    "b",
+    "brightness",
+    "a",
+    "alpha",
+    "trans",
+    "transform",
+    "time",
+    "timescale",
+    "x1",
+    "y1",
+    "x2",
+    "y2",
+    "rx",
+    "ry",
+    "width",
+    "p",
+    "param",
 ];
 
 /// Names that are path operations (no MDG counterpart: paths are dropped).
 pub(crate) const PATH_OPS: &[&str] = &[
-    "MOVETO", "MOVEREL", "LINETO", "LINEREL", "ARCTO", "ARCREL", "CURVETO", "CURVEREL", "CLOSEPOLY", "FILL", "STROKE",
+    "MOVETO",
+    "MOVEREL",
+    "LINETO",
+    "LINEREL",
+    "ARCTO",
+    "ARCREL",
+    "CURVETO",
+    "CURVEREL",
+    "CLOSEPOLY",
+    "FILL",
+    "STROKE",
 ];
 
 const TYPES: &[&str] = &["number", "natural", "vector2", "vector3", "vector4", "adjustment", "shape"];
@@ -231,7 +301,11 @@ impl<'a> Parser<'a> {
                 if self.is_p("(") {
                     self.skip_group();
                 }
-                self.rep.drop(line, "path", format!("path `{name}`: MDG has no filled or stroked paths; its calls draw nothing"));
+                self.rep.drop(
+                    line,
+                    "path",
+                    format!("path `{name}`: MDG has no filled or stroked paths; its calls draw nothing"),
+                );
                 self.prog.paths.push(name);
                 self.current = None;
                 self.skip_to_group_end();
@@ -339,7 +413,9 @@ impl<'a> Parser<'a> {
                 }
                 match w {
                     Some(c) => self.prog.canvas = Some(c),
-                    None => self.rep.drop(line, "size", "a canvas without a constant `s`: the picture frames the model"),
+                    None => {
+                        self.rep.drop(line, "size", "a canvas without a constant `s`: the picture frames the model")
+                    }
                 }
             }
             _ => self.rep.drop(line, "tile", "MDG has no tiling: one tile is drawn"),
@@ -665,8 +741,7 @@ impl<'a> Parser<'a> {
             return self.unary(arg);
         }
         let mut l = self.binary(level + 1, arg);
-        loop {
-            let Some(tok) = self.toks.get(self.i) else { break };
+        while let Some(tok) = self.toks.get(self.i) {
             let T::P(p) = tok.t else { break };
             if !LEVELS[level].contains(&p) {
                 break;

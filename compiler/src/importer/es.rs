@@ -104,7 +104,11 @@ pub(crate) fn import(file: &str, text: &str) -> Imported {
     for r in &rules {
         let m = e.names.get(&r.name);
         let head = if counted.contains(&r.name) { format!("{m}(int _d = 0)") } else { m };
-        let w = if rules.iter().filter(|o| o.name == r.name).count() > 1 { format!(" {}", num(r.weight)) } else { String::new() };
+        let w = if rules.iter().filter(|o| o.name == r.name).count() > 1 {
+            format!(" {}", num(r.weight))
+        } else {
+            String::new()
+        };
         let _ = writeln!(body, "rule {head}{w} {{");
         match &r.maxdepth {
             Some((n, other)) => {
@@ -453,7 +457,11 @@ impl Emit<'_> {
                 ("SPHERE", "s 0.02")
             }
             "cylinder" => {
-                self.rep.approx(a.line, "cylinder", "Structure Synth's cylinder: std's, radius 0.5 along z from 0 to 1");
+                self.rep.approx(
+                    a.line,
+                    "cylinder",
+                    "Structure Synth's cylinder: std's, radius 0.5 along z from 0 to 1",
+                );
                 ("cylinder", "x 0.5 y 0.5 z 0.5 s 0.5 0.5 1")
             }
             "triangle" | "mesh" | "cmesh" | "template" => {
@@ -485,7 +493,11 @@ impl Emit<'_> {
                     // Structure Synth multiplies; MDG's change moves a fraction of the way.
                     let f = a[0];
                     if f > 1.0 {
-                        self.rep.approx(line, &t.name, "a factor above 1: MDG moves the value that fraction of the way to 1");
+                        self.rep.approx(
+                            line,
+                            &t.name,
+                            "a factor above 1: MDG moves the value that fraction of the way to 1",
+                        );
                     }
                     parts.push(format!("{k} {}", num((f - 1.0).clamp(-1.0, 1.0))));
                 }
@@ -494,7 +506,9 @@ impl Emit<'_> {
                     parts.push(format!("A {}", num(a[0] - 1.0)));
                 }
                 ("color" | "c", _) => match t.word.as_deref() {
-                    Some("random") => self.rep.drop(line, "color random", "MDG has no random colour pool: the colour is kept"),
+                    Some("random") => {
+                        self.rep.drop(line, "color random", "MDG has no random colour pool: the colour is kept")
+                    }
                     Some(w) => {
                         let c = if w.starts_with('#') { w.to_string() } else { format!("#{w}") };
                         if is_colour(&c) {

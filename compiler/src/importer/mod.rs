@@ -103,7 +103,12 @@ pub fn import_cf(file: &str, text: &str, opts: &Options, read: Reader) -> Import
                 parse_cf_into(&t, &mut prog, &mut sub, false);
                 prog.start = start;
                 for n in sub.notes {
-                    rep.notes.push(Note { line, construct: n.construct, action: n.action, detail: format!("in {f}:{}: {}", n.line, n.detail) });
+                    rep.notes.push(Note {
+                        line,
+                        construct: n.construct,
+                        action: n.action,
+                        detail: format!("in {f}:{}: {}", n.line, n.detail),
+                    });
                 }
             }
             None => rep.drop(line, "import", format!("`{f}` could not be read: its shapes are missing")),
@@ -121,7 +126,11 @@ pub fn import_cf(file: &str, text: &str, opts: &Options, read: Reader) -> Import
             let is_prim = cfemit::PRIMITIVES.contains(&name.as_str()) && !is_shape;
             let m = em.names.get(&name);
             if !is_shape && !is_prim {
-                em.rep.drop(line, "startshape", format!("the start shape `{name}` is a path or undefined: the grammar draws nothing"));
+                em.rep.drop(
+                    line,
+                    "startshape",
+                    format!("the start shape `{name}` is a path or undefined: the grammar draws nothing"),
+                );
                 let _ = writeln!(head, "startshape start_{m}");
                 let _ = write!(start_rule, "rule start_{m} {{\n}}\n\n");
             } else if args.is_some() || !adj.terms.is_empty() || is_prim {
@@ -160,7 +169,12 @@ pub fn import_cf(file: &str, text: &str, opts: &Options, read: Reader) -> Import
         rep.drop(l, &c.to_string(), "a character Context Free reads as nothing here: skipped");
     }
     rep.finish();
-    let _ = writeln!(out, "// Imported by `mdgc import` from {} (Context Free, CFDG {} syntax).", file, if prog.v3 { 3 } else { 2 });
+    let _ = writeln!(
+        out,
+        "// Imported by `mdgc import` from {} (Context Free, CFDG {} syntax).",
+        file,
+        if prog.v3 { 3 } else { 2 }
+    );
     let _ = writeln!(
         out,
         "// Context Free's minimum size ({} px) is `minsize` for a {}-pixel picture.",
@@ -198,9 +212,10 @@ fn sig(v: f64) -> f64 {
 
 fn parse_cf_into(text: &str, prog: &mut cfparse::Program, rep: &mut Report, main: bool) {
     let lexed = cflex::lex(text, true);
-    let v3 = lexed.toks.iter().any(|t| {
-        matches!(&t.t, cflex::T::Id(w) if w == "shape" || w.starts_with("CF::")) || t.t == cflex::T::P("[[")
-    });
+    let v3 = lexed
+        .toks
+        .iter()
+        .any(|t| matches!(&t.t, cflex::T::Id(w) if w == "shape" || w.starts_with("CF::")) || t.t == cflex::T::P("[["));
     if main {
         prog.v3 = v3;
     }
@@ -214,8 +229,20 @@ fn parse_strays(text: &str) -> Vec<(u32, char)> {
 
 impl cfemit::Emitter<'_> {
     /// The start rule's one call (`startshape X(8) [hue 120]`).
-    fn start_call(&mut self, name: &str, args: Option<&[cfparse::Expr]>, adj: &cfparse::Adj, line: u32) -> Option<String> {
-        let item = cfparse::Item::Call { name: name.to_string(), args: args.map(|a| a.to_vec()), same: false, adj: adj.clone(), line };
+    fn start_call(
+        &mut self,
+        name: &str,
+        args: Option<&[cfparse::Expr]>,
+        adj: &cfparse::Adj,
+        line: u32,
+    ) -> Option<String> {
+        let item = cfparse::Item::Call {
+            name: name.to_string(),
+            args: args.map(|a| a.to_vec()),
+            same: false,
+            adj: adj.clone(),
+            line,
+        };
         let mut s = String::new();
         self.item(&item, 0, &mut s);
         Some(s.trim().to_string())
@@ -245,18 +272,15 @@ pub fn evaluate(
 ) -> Result<mdg_vm::output::Output, String> {
     let path = dir.join("imported.mdg");
     let loader = crate::source::FsLoader;
-    let a = crate::driver::analyze_text(&loader, &path, mdg, compile, crate::check::CheckOptions { require_start: true });
+    let a =
+        crate::driver::analyze_text(&loader, &path, mdg, compile, crate::check::CheckOptions { require_start: true });
     if a.has_errors() {
         return Err(crate::diag::render_plain(&a.diagnostics, &a.sources));
     }
     let b = crate::lower::lower(&a.expanded, &a.checked.symbols, &a.sources)
         .map_err(|d| crate::diag::render_plain(&d, &a.sources))?;
-    let opts = mdg_vm::eval::EvalOptions {
-        maxiter: Some(max_calls),
-        max_vertices,
-        instancing: false,
-        ..Default::default()
-    };
+    let opts =
+        mdg_vm::eval::EvalOptions { maxiter: Some(max_calls), max_vertices, instancing: false, ..Default::default() };
     Ok(mdg_vm::eval::evaluate(&b, &opts))
 }
 
@@ -342,12 +366,12 @@ mod tests {
 
     #[test]
     fn cfdg2_loops_lists_and_weights() {
-        let i = cf("startshape A\nrule A { 6 * {r 60} CIRCLE {x 1} B [r 45 x 1] }\nrule B 2 { SQUARE {r 45 x 1 s 2} }\nrule B { }\n");
-        assert!(i.mdg.contains("loop _i1 = 0, 6 {rz 60}"), "{}", i.mdg);
+        let i = cf("startshape Top\nrule Top { 6 * {r 60} CIRCLE {x 1} Leaf [r 45 x 1] }\nrule Leaf 2 { SQUARE {r 45 x 1 s 2} }\nrule Leaf { }\n");
+        assert!(i.mdg.contains("  loop _i1 = 0, 6 {rz 60} {\n    CIRCLE {x 1}\n  }\n"), "{}", i.mdg);
         // CFDG 2: `{ }` is canonical (translate first), `[ ]` as written.
-        assert!(i.mdg.contains("B {rz 45 x 1}"), "{}", i.mdg);
+        assert!(i.mdg.contains("Leaf {rz 45 x 1}"), "{}", i.mdg);
         assert!(i.mdg.contains("SQUARE {x 1 rz 45 s 2}"), "{}", i.mdg);
-        assert!(i.mdg.contains("rule B 2 {") && i.mdg.contains("rule B 1 {"), "{}", i.mdg);
+        assert!(i.mdg.contains("rule Leaf 2 {") && i.mdg.contains("rule Leaf 1 {"), "{}", i.mdg);
         assert!(i.mdg.contains("flat\nminsize 0.003\n"), "{}", i.mdg);
         assert!(i.report.notes.is_empty(), "{:?}", i.report.notes);
     }
@@ -371,14 +395,16 @@ mod tests {
 
     #[test]
     fn a_shape_named_like_a_primitive_replaces_it() {
-        let i = cf("startshape A\nrule A { TRIANGLE {} CIRCLE {} }\nrule TRIANGLE { SQUARE {} }\n");
+        let i = cf("startshape Top\nrule Top { TRIANGLE {} CIRCLE {} }\nrule TRIANGLE { SQUARE {} }\n");
         assert!(i.mdg.contains("rule TRIANGLE_ {") && i.mdg.contains("  TRIANGLE_ {}\n  CIRCLE {}"), "{}", i.mdg);
     }
 
     #[test]
     fn imported_grammars_compile_and_count_as_context_free_does() {
         // 1 + 3 + 9 + 27 squares: the recursion ends at n = 0 (no minimum size).
-        let i = cf("startshape T(3)\nshape T(natural n) { SQUARE [] if (n > 0) { loop 3 [r 120] T(n - 1) [y 2 s 0.4] } }\n");
+        let i = cf(
+            "startshape T(3)\nshape T(natural n) { SQUARE [] if (n > 0) { loop 3 [r 120] T(n - 1) [y 2 s 0.4] } }\n",
+        );
         let out = evaluate(&i.mdg, Path::new("."), &std_options(), 100_000, 1_000_000);
         let out = out.unwrap_or_else(|e| panic!("{e}\n{}", i.mdg));
         assert_eq!(out.mesh.triangles.len(), 2 * 40);

@@ -9,18 +9,120 @@ use std::collections::BTreeMap;
 /// live beside them).
 const RESERVED: &[&str] = &[
     // keywords and control
-    "rule", "startshape", "selector", "linerule", "camerarule", "namespace", "function", "isosurface", "program",
-    "uniform", "angle", "color", "weight", "guide", "search", "creature", "grid", "if", "else", "let", "loop",
-    "int", "float", "bool", "true", "false", "depth", "scale", "g", // directives
-    "maxdepth", "minsize", "maxiter", "stacksize", "randseed", "normal", "background", "flat", "fps", "duration",
-    "camerafov", "cameranearplane", "camerafarplane", // adjustments
-    "x", "y", "z", "r", "rotate", "rx", "ry", "rz", "pitch", "yaw", "roll", "up", "down", "left", "right",
-    "rollleft", "rollright", "s", "f", "fx", "fy", "fz", "R", "G", "B", "A", "hue", "sat", "saturation", "b",
-    "brightness", "u", "v", "w", "q", // functions
-    "sin", "cos", "tan", "asin", "acos", "atan", "sqrt", "abs", "exp", "log", "floor", "ceil", "fract", "radians",
-    "degrees", "atan2", "min", "max", "pow", "mod", "step", "clamp", "mix", "smoothstep", "rand", "randn",
+    "rule",
+    "startshape",
+    "selector",
+    "linerule",
+    "camerarule",
+    "namespace",
+    "function",
+    "isosurface",
+    "program",
+    "uniform",
+    "angle",
+    "color",
+    "weight",
+    "guide",
+    "search",
+    "creature",
+    "grid",
+    "if",
+    "else",
+    "let",
+    "loop",
+    "int",
+    "float",
+    "bool",
+    "true",
+    "false",
+    "depth",
+    "scale",
+    "g", // directives
+    "maxdepth",
+    "minsize",
+    "maxiter",
+    "stacksize",
+    "randseed",
+    "normal",
+    "background",
+    "flat",
+    "fps",
+    "duration",
+    "camerafov",
+    "cameranearplane",
+    "camerafarplane", // adjustments
+    "x",
+    "y",
+    "z",
+    "r",
+    "rotate",
+    "rx",
+    "ry",
+    "rz",
+    "pitch",
+    "yaw",
+    "roll",
+    "up",
+    "down",
+    "left",
+    "right",
+    "rollleft",
+    "rollright",
+    "s",
+    "f",
+    "fx",
+    "fy",
+    "fz",
+    "R",
+    "G",
+    "B",
+    "A",
+    "hue",
+    "sat",
+    "saturation",
+    "b",
+    "brightness",
+    "u",
+    "v",
+    "w",
+    "q", // functions
+    "sin",
+    "cos",
+    "tan",
+    "asin",
+    "acos",
+    "atan",
+    "sqrt",
+    "abs",
+    "exp",
+    "log",
+    "floor",
+    "ceil",
+    "fract",
+    "radians",
+    "degrees",
+    "atan2",
+    "min",
+    "max",
+    "pow",
+    "mod",
+    "step",
+    "clamp",
+    "mix",
+    "smoothstep",
+    "rand",
+    "randn",
     // std primitives (an ES program imports them)
-    "SPHERE", "cube", "square", "disc", "circle", "cylinder", "torus", "torus_section", "CIRCLE", "SQUARE",
+    "SPHERE",
+    "cube",
+    "square",
+    "disc",
+    "circle",
+    "cylinder",
+    "torus",
+    "torus_section",
+    "CIRCLE",
+    "SQUARE",
     "TRIANGLE",
 ];
 
@@ -36,10 +138,8 @@ impl Names {
         if let Some(n) = self.map.get(src) {
             return n.clone();
         }
-        let mut base: String = src
-            .chars()
-            .map(|c| if c.is_ascii_alphanumeric() || c == '_' { c } else { '_' })
-            .collect();
+        let mut base: String =
+            src.chars().map(|c| if c.is_ascii_alphanumeric() || c == '_' { c } else { '_' }).collect();
         if base.is_empty() || base.starts_with(|c: char| c.is_ascii_digit()) {
             base.insert(0, 'n');
         }
@@ -67,7 +167,13 @@ impl Names {
 /// non-finite value as a finite stand-in (the caller reports it).
 pub(crate) fn num(v: f64) -> String {
     if !v.is_finite() {
-        return if v > 0.0 { "1e30".into() } else if v < 0.0 { "-1e30".into() } else { "0".into() };
+        return if v > 0.0 {
+            "1e30".into()
+        } else if v < 0.0 {
+            "-1e30".into()
+        } else {
+            "0".into()
+        };
     }
     let s = format!("{v}");
     if s.contains('e') || s.len() > 24 {
