@@ -147,7 +147,7 @@ struct MdgDrawing {
 
 fn run_mdg(mdg: &str, dir: &Path) -> Result<MdgDrawing, String> {
     let opts = compile_options();
-    let out = importer::evaluate(mdg, dir, &opts, MAX_CALLS, MAX_VERTICES)?;
+    let out = mdg_cli::importing::evaluate(mdg, dir, &opts, MAX_CALLS, MAX_VERTICES).map_err(|e| e.to_string())?;
     let m = &out.mesh;
     let mut shapes = 0;
     let mut k = 0;
@@ -175,7 +175,9 @@ fn import(file: &Path, dialect: Dialect, dir: &Path) -> Imported {
     let read = move |n: &str| std::fs::read(base.join(n)).ok().map(|b| String::from_utf8_lossy(&b).into_owned());
     let name = file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let opts = importer::Options { pixels: f64::from(PIXELS), pixel: None };
-    importer::calibrate(&name, &text, dialect, &opts, &read, dir, &compile_options(), CALIBRATION_CALLS)
+    let compile = compile_options();
+    let measure = |mdg: &str| mdg_cli::importing::measure(mdg, dir, &compile, CALIBRATION_CALLS);
+    importer::calibrate(&name, &text, dialect, &opts, &read, &measure)
 }
 
 fn aspect(b: Option<([f64; 2], [f64; 2])>) -> Option<f64> {

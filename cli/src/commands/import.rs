@@ -72,7 +72,8 @@ pub fn run(args: Args) -> ExitCode {
     // The grammar is evaluated where the output will be, so its imports resolve.
     let out_dir = args.output.as_ref().and_then(|o| o.parent().map(|p| p.to_path_buf())).unwrap_or(dir);
     let out_dir = if out_dir.as_os_str().is_empty() { PathBuf::from(".") } else { out_dir };
-    let imp = importer::calibrate(&file, &text, dialect, &opts, &read, &out_dir, &compile, args.calibration_calls);
+    let measure = |mdg: &str| crate::importing::measure(mdg, &out_dir, &compile, args.calibration_calls);
+    let imp = importer::calibrate(&file, &text, dialect, &opts, &read, &measure);
     eprint!("{}", mdg_compiler::diag::escape_text(&imp.report.to_text()));
     let n = imp.report.notes.len();
     eprintln!("mdgc import: {n} construct{} approximated or left out", if n == 1 { "" } else { "s" });

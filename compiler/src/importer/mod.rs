@@ -6,8 +6,9 @@
 //! Context Free ends most recursions at its minimum size, 0.3 pixels of the final
 //! picture; MDG's `minsize` is in model units. [`import_cf`] writes `minsize` from
 //! the size of a pixel: the canvas's (`size`/`CF::Size`) if the program fixes one,
-//! else [`Options::pixel`], which [`calibrate`] finds by evaluating the grammar and
-//! fitting its bounding box into the picture, as Context Free fits its own.
+//! else [`Options::pixel`], which [`calibrate`] finds from evaluations of the grammar
+//! (the caller's: this crate does not evaluate) by fitting its bounding box into
+//! the picture, as Context Free fits its own.
 //!
 //! The library reads no files itself: includes come through a callback.
 
@@ -18,7 +19,6 @@ mod es;
 mod names;
 pub mod report;
 
-use crate::expand::Options as CompileOptions;
 pub use report::{Action, Note, Report};
 use std::fmt::Write;
 use std::path::Path;
@@ -249,39 +249,17 @@ impl cfemit::Emitter<'_> {
     }
 }
 
-/// How far a grammar reaches: its bounding box's larger side (x or y), from an
-/// evaluation capped at `max_calls` rule calls and 4,000,000 vertices, and whether
-/// a cap stopped the run (then the box is only of what was drawn before). `Ok(None)`
-/// if it draws nothing; `Err` if it does not compile.
-pub fn extent(mdg: &str, dir: &Path, compile: &CompileOptions, max_calls: u64) -> Result<Option<(f64, bool)>, String> {
-    let out = evaluate(mdg, dir, compile, max_calls, 4_000_000)?;
-    let stopped = out.stats.warnings.iter().any(|w| w.contains("the run stopped"));
-    Ok(bounds(&out.mesh.positions).map(|(lo, hi)| ((hi[0] - lo[0]).max(hi[1] - lo[1]), stopped)))
-}
-
-/// Compiles and evaluates an imported grammar as if it were a file in `dir`,
-/// capped at `max_calls` rule calls and `max_vertices` vertices, without instancing
-/// (the mesh holds every triangle, in world space). `Err`: the compiler's
-/// diagnostics, as text.
-pub fn evaluate(
-    mdg: &str,
-    dir: &Path,
-    compile: &CompileOptions,
-    max_calls: u64,
-    max_vertices: u64,
-) -> Result<mdg_vm::output::Output, String> {
-    let path = dir.join("imported.mdg");
-    let loader = crate::source::FsLoader;
-    let a =
-        crate::driver::analyze_text(&loader, &path, mdg, compile, crate::check::CheckOptions { require_start: true });
-    if a.has_errors() {
-        return Err(crate::diag::render_plain(&a.diagnostics, &a.sources));
-    }
-    let b = crate::lower::lower(&a.expanded, &a.checked.symbols, &a.sources)
-        .map_err(|d| crate::diag::render_plain(&d, &a.sources))?;
-    let opts =
-        mdg_vm::eval::EvalOptions { maxiter: Some(max_calls), max_vertices, instancing: false, ..Default::default() };
-    Ok(mdg_vm::eval::evaluate(&b, &opts))
+/// What evaluating a grammar showed [`calibrate`] (the caller evaluates: this
+/// crate does not).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Measure {
+    /// The grammar does not compile.
+    NotCompiled,
+    /// It drew nothing.
+    Nothing,
+    /// The larger side (x or y) of its bounding box, and whether a cap stopped the
+    /// run (then the box is only of what was drawn before).
+    Extent { extent: f64, stopped: bool },
 }
 
 /// The bounding box of points (`None` for none).
@@ -299,22 +277,19 @@ pub fn bounds(points: &[[f32; 3]]) -> Option<([f64; 3], [f64; 3])> {
 }
 
 /// Imports a Context Free program whose pixel size is not known by evaluating it
-/// with a `minsize` m, and again with m twice the minsize that run's extent asks
-/// for, until the minsize asked for is between m / 8 and m (at most 10 runs, each
-/// capped at `max_calls` rule calls; a run that a cap stopped saw only part of the
-/// design, so m is made coarser instead; one that drew nothing, finer). Context Free, too, sizes its
+/// with a `minsize` m (`measure` evaluates, capped), and again with m twice the
+/// minsize that run's extent asks for, until the minsize asked for is between m / 8
+/// and m (at most 10 runs; a run that a cap stopped saw only part of the design, so
+/// m is made coarser instead; one that drew nothing, finer). Context Free, too, sizes its
 /// minimum from the extent of what it draws. Other programs are imported as
 /// they are.
-#[allow(clippy::too_many_arguments)]
 pub fn calibrate(
     file: &str,
     text: &str,
     dialect: Dialect,
     opts: &Options,
     read: Reader,
-    dir: &Path,
-    compile: &CompileOptions,
-    max_calls: u64,
+    measure: &dyn Fn(&str) -> Measure,
 ) -> Imported {
     let first = import(file, text, dialect, opts, read);
     if !first.needs_pixel || first.min_size_px <= 0.0 {
@@ -326,14 +301,14 @@ pub fn calibrate(
     let mut m = 0.1;
     let (mut best, mut fallback) = (None, None);
     for _ in 0..10 {
-        match extent(&with(m).mdg, dir, compile, max_calls) {
-            Err(_) => return first,
-            Ok(None) => m /= 16.0,
-            Ok(Some((e, true))) => {
+        match measure(&with(m).mdg) {
+            Measure::NotCompiled => return first,
+            Measure::Nothing => m /= 16.0,
+            Measure::Extent { extent: e, stopped: true } => {
                 fallback = Some(px * e / pixels);
                 m *= 4.0;
             }
-            Ok(Some((e, false))) => {
+            Measure::Extent { extent: e, stopped: false } => {
                 // A run at up to 8 times the wanted minsize sees nearly the same box
                 // at a fraction of the cost (the detail it leaves out is small).
                 let want = px * e / pixels;
@@ -359,9 +334,24 @@ mod tests {
         import_cf("t.cfdg", text, &Options { pixels: 500.0, pixel: Some(0.01) }, &|_| None)
     }
 
-    fn std_options() -> CompileOptions {
+    /// The triangles an imported grammar draws (evaluation is the caller's in the
+    /// library; the test does it itself).
+    fn triangles(mdg: &str) -> usize {
         let std = Path::new(env!("CARGO_MANIFEST_DIR")).join("../std");
-        CompileOptions { std_dir: Some(std), ..Default::default() }
+        let opts = crate::expand::Options { std_dir: Some(std), ..Default::default() };
+        let loader = crate::source::FsLoader;
+        let a = crate::driver::analyze_text(
+            &loader,
+            Path::new("t.mdg"),
+            mdg,
+            &opts,
+            crate::check::CheckOptions { require_start: true },
+        );
+        assert!(!a.has_errors(), "{}\n{mdg}", crate::diag::render_plain(&a.diagnostics, &a.sources));
+        let b = crate::lower::lower(&a.expanded, &a.checked.symbols, &a.sources);
+        let b = b.unwrap_or_else(|_| panic!("lowering failed:\n{mdg}"));
+        let o = mdg_vm::eval::EvalOptions { instancing: false, ..Default::default() };
+        mdg_vm::eval::evaluate(&b, &o).mesh.triangles.len()
     }
 
     #[test]
@@ -405,9 +395,7 @@ mod tests {
         let i = cf(
             "startshape T(3)\nshape T(natural n) { SQUARE [] if (n > 0) { loop 3 [r 120] T(n - 1) [y 2 s 0.4] } }\n",
         );
-        let out = evaluate(&i.mdg, Path::new("."), &std_options(), 100_000, 1_000_000);
-        let out = out.unwrap_or_else(|e| panic!("{e}\n{}", i.mdg));
-        assert_eq!(out.mesh.triangles.len(), 2 * 40);
+        assert_eq!(triangles(&i.mdg), 2 * 40);
     }
 
     #[test]
@@ -422,8 +410,6 @@ mod tests {
         assert!(i.mdg.contains("maxiter 100\n"), "{}", i.mdg);
         assert!(i.report.notes.iter().any(|n| n.construct == "set maxobjects" && n.line == 2));
         // Four calls of R1 a level, two levels, then a box each: 16 cubes of 12 triangles.
-        let out = evaluate(&i.mdg, Path::new("."), &std_options(), 100_000, 1_000_000);
-        let out = out.unwrap_or_else(|e| panic!("{e}\n{}", i.mdg));
-        assert_eq!(out.mesh.triangles.len(), 16 * 12);
+        assert_eq!(triangles(&i.mdg), 16 * 12);
     }
 }
