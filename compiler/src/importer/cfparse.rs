@@ -119,7 +119,13 @@ pub(crate) struct Parser<'a> {
     pub prog: &'a mut Program,
     /// The shape that `rule {…}` (CFDG 3) adds to.
     current: Option<usize>,
+    /// How deeply items and expressions nest here (hostile input is cut at
+    /// [`MAX_NESTING`], so the reader and the writer never run out of stack).
+    depth: u32,
 }
+
+/// The deepest nesting of items or expressions read; deeper ones are skipped.
+const MAX_NESTING: u32 = 200;
 
 const ADJ_NAMES: &[&str] = &[
     "x",
@@ -175,7 +181,7 @@ const TYPES: &[&str] = &["number", "natural", "vector2", "vector3", "vector4", "
 
 impl<'a> Parser<'a> {
     pub(crate) fn new(toks: &'a [Tok], rep: &'a mut Report, prog: &'a mut Program) -> Parser<'a> {
-        Parser { toks, i: 0, rep, prog, current: None }
+        Parser { toks, i: 0, rep, prog, current: None, depth: 0 }
     }
 
     fn peek(&self) -> Option<&T> {
@@ -506,6 +512,19 @@ impl<'a> Parser<'a> {
     }
 
     fn item(&mut self) -> Item {
+        if self.depth >= MAX_NESTING {
+            let l = self.line();
+            self.rep.drop(l, "nesting", format!("items nested deeper than {MAX_NESTING}: skipped"));
+            self.i += 1;
+            return Item::Nothing;
+        }
+        self.depth += 1;
+        let it = self.item_inner();
+        self.depth -= 1;
+        it
+    }
+
+    fn item_inner(&mut self) -> Item {
         let line = self.line();
         if self.is_p("{") {
             return Item::Block(self.block());
@@ -726,7 +745,16 @@ impl<'a> Parser<'a> {
 
     /// An expression; `arg`: an adjustment argument, where `a -1` is two values.
     pub(crate) fn expr(&mut self, arg: bool) -> Expr {
-        self.binary(0, arg)
+        if self.depth >= MAX_NESTING {
+            let l = self.line();
+            self.rep.drop(l, "nesting", format!("expressions nested deeper than {MAX_NESTING}: 0"));
+            self.i += 1;
+            return Expr::Num(0.0);
+        }
+        self.depth += 1;
+        let e = self.binary(0, arg);
+        self.depth -= 1;
+        e
     }
 
     fn binary(&mut self, level: usize, arg: bool) -> Expr {
@@ -741,7 +769,15 @@ impl<'a> Parser<'a> {
             return self.unary(arg);
         }
         let mut l = self.binary(level + 1, arg);
+        let mut chain = 0;
         while let Some(tok) = self.toks.get(self.i) {
+            // A chain `1 + 1 + …` is a tree as deep as it is long: cut it too.
+            chain += 1;
+            if chain > MAX_NESTING {
+                let line = tok.line;
+                self.rep.drop(line, "nesting", format!("an operator chain longer than {MAX_NESTING}: cut"));
+                break;
+            }
             let T::P(p) = tok.t else { break };
             if !LEVELS[level].contains(&p) {
                 break;
@@ -758,6 +794,17 @@ impl<'a> Parser<'a> {
     }
 
     fn unary(&mut self, arg: bool) -> Expr {
+        if self.depth >= MAX_NESTING {
+            self.i += 1;
+            return Expr::Num(0.0);
+        }
+        self.depth += 1;
+        let e = self.unary_inner(arg);
+        self.depth -= 1;
+        e
+    }
+
+    fn unary_inner(&mut self, arg: bool) -> Expr {
         if self.eat_p("-") {
             return Expr::Neg(Box::new(self.unary(arg)));
         }
@@ -844,5 +891,26 @@ pub(crate) fn tok_text(t: Option<&T>) -> String {
         Some(T::Str(s)) => format!("\"{s}\""),
         Some(T::P(p)) => p.to_string(),
         None => "end of file".into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::cflex::lex;
+    use super::*;
+
+    #[test]
+    fn hostile_nesting_is_cut_not_overflowed() {
+        let deep = format!(
+            "startshape A\nshape A {{ SQUARE [x {}1 y {}] {} }}\n",
+            "(".repeat(100_000),
+            "1+".repeat(100_000),
+            "{".repeat(100_000)
+        );
+        let toks = lex(&deep, true).toks;
+        let (mut rep, mut prog) = (Report::new("t", "context-free"), Program::default());
+        Parser::new(&toks, &mut rep, &mut prog).program();
+        assert!(rep.notes.iter().any(|n| n.construct == "nesting"));
+        assert_eq!(prog.shapes.len(), 1);
     }
 }

@@ -113,8 +113,12 @@ pub(crate) fn import(file: &str, text: &str) -> Imported {
         match &r.maxdepth {
             Some((n, other)) => {
                 let _ = writeln!(body, "  if (_d < {n}) {{");
+                let mut inner = String::new();
                 for a in &r.body {
-                    e.action(a, Some(&r.name), &mut body);
+                    e.action(a, Some(&r.name), &mut inner);
+                }
+                for l in inner.lines() {
+                    let _ = writeln!(body, "  {l}");
                 }
                 if let Some(o) = other {
                     let _ = writeln!(body, "  }} else {{");
