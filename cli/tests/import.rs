@@ -384,3 +384,37 @@ fn structure_synth_examples_import_compile_and_run() {
     let _ = std::fs::remove_dir_all(&tmp);
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+#[test]
+fn mdgc_import_writes_the_grammar_and_reports_on_stderr_and_as_json() {
+    let dir = std::env::temp_dir().join(format!("mdg-import-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap_or_default();
+    let src = dir.join("twist.cfdg");
+    let text = "startshape Twist\nshape Twist {\n  SQUARE [skew 10 0]\n  Twist [y 1 r 10 s 0.9]\n}\n";
+    std::fs::write(&src, text).unwrap_or_default();
+    let (out, report) = (dir.join("twist.mdg"), dir.join("twist.json"));
+    let run = Command::new(env!("CARGO_BIN_EXE_mdgc"))
+        .arg("import")
+        .arg(&src)
+        .arg("-o")
+        .arg(&out)
+        .arg("--report")
+        .arg(&report)
+        .output()
+        .unwrap_or_else(|e| panic!("mdgc: {e}"));
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    assert!(stderr.contains("twist.cfdg:3: dropped `skew`"), "{stderr}");
+    let mdg = std::fs::read_to_string(&out).unwrap_or_default();
+    assert!(mdg.contains("startshape Twist\nflat\nminsize ") && mdg.contains("Twist {y 1 rz 10 s 0.9}"), "{mdg}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap_or_default()).unwrap_or_default();
+    assert_eq!(json["notes"][0]["construct"], "skew");
+    assert_eq!(json["notes"][0]["line"], 3);
+    // Not a Context Free or Structure Synth file: a usage error naming it.
+    let bad = Command::new(env!("CARGO_BIN_EXE_mdgc")).arg("import").arg(dir.join("x.txt")).output();
+    let bad = bad.unwrap_or_else(|e| panic!("mdgc: {e}"));
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("expected a .cfdg"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
