@@ -20,6 +20,7 @@ pub mod embedded_std;
 pub mod expand;
 pub mod ext;
 pub mod fmt;
+pub mod importer;
 pub mod induce;
 pub mod lexer;
 pub mod lower;

@@ -10,6 +10,7 @@ pub mod check;
 pub mod disasm;
 pub mod explain;
 pub mod fmt;
+pub mod import;
 pub mod induce;
 pub mod run;
 pub mod view;

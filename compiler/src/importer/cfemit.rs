@@ -1,0 +1,617 @@
+//! A Context Free program's tree ([`super::cfparse`]) written as MDG: `flat` art
+//! with `CIRCLE`/`SQUARE`/`TRIANGLE`, Context Free's canonical adjustment order
+//! made explicit, `loop`/`if`/`let` for CFDG 3's control flow, and the degrees of
+//! Context Free's trigonometry converted. What MDG cannot say goes to the report.
+
+use super::cfparse::{const_value, Adj, Expr, Item, Program, Shape, PATH_OPS};
+use super::names::{num, Names};
+use super::report::Report;
+use std::collections::BTreeMap;
+use std::fmt::Write;
+
+pub(crate) const PRIMITIVES: &[&str] = &["CIRCLE", "SQUARE", "TRIANGLE"];
+
+pub(crate) struct Emitter<'a> {
+    pub prog: &'a Program,
+    pub rep: &'a mut Report,
+    pub names: Names,
+    /// Names in scope in the rule being written: source name → MDG name.
+    scope: Vec<(String, String)>,
+    /// Shape parameters by shape name (for `X(=)`).
+    params: BTreeMap<String, Vec<String>>,
+    counter: u32,
+    line: u32,
+    /// While a function body is written: the functions it may call (itself
+    /// excluded: MDG functions do not recurse); `cutting` is then true.
+    cut: Vec<String>,
+    cutting: bool,
+    /// Functions without parameters being inlined (a recursion among them is cut).
+    inlining: Vec<String>,
+}
+
+impl<'a> Emitter<'a> {
+    pub(crate) fn new(prog: &'a Program, rep: &'a mut Report) -> Emitter<'a> {
+        let params =
+            prog.shapes.iter().map(|s| (s.name.clone(), s.params.iter().map(|p| p.1.clone()).collect())).collect();
+        Emitter {
+            prog,
+            rep,
+            names: Names::default(),
+            scope: Vec::new(),
+            params,
+            counter: 0,
+            line: 0,
+            cut: Vec::new(),
+            cutting: false,
+            inlining: Vec::new(),
+        }
+    }
+
+    fn fresh(&mut self, base: &str) -> String {
+        self.counter += 1;
+        format!("_{base}{}", self.counter)
+    }
+
+    /// The rules, functions and start rule (directives are the caller's).
+    pub(crate) fn shapes(&mut self, out: &mut String) {
+        // Functions with parameters, each after the ones it calls (MDG reads them in
+        // order); those without are inlined where they are called.
+        let funcs: Vec<&(String, Vec<String>, Expr, u32)> =
+            self.prog.functions.iter().filter(|f| !f.1.is_empty()).collect();
+        let mut done: Vec<&str> = Vec::new();
+        while done.len() < funcs.len() {
+            let before = done.len();
+            for f in &funcs {
+                if done.contains(&f.0.as_str()) {
+                    continue;
+                }
+                let ready = funcs.iter().all(|g| g.0 == f.0 || done.contains(&g.0.as_str()) || !calls(&f.2, &g.0));
+                if ready
+                    || done.len() == before
+                        && f.0
+                            == funcs
+                                .iter()
+                                .find(|g| !done.contains(&g.0.as_str()))
+                                .map(|g| g.0.clone())
+                                .unwrap_or_default()
+                {
+                    let (name, params, body, line) = f;
+                    self.line = *line;
+                    let mdg = self.names.get(name);
+                    self.scope = params.iter().map(|p| (p.clone(), self.names.get(p))).collect();
+                    let ps: Vec<String> = self.scope.iter().map(|p| p.1.clone()).collect();
+                    self.cut = done.iter().map(|d| d.to_string()).collect();
+                    self.cut.push(name.clone());
+                    self.cutting = true;
+                    let e = self.expr(body);
+                    self.cutting = false;
+                    let _ = writeln!(out, "function {mdg}({}) {{ {e} }}\n", ps.join(", "));
+                    done.push(name.as_str());
+                    break;
+                }
+            }
+            if done.len() == before {
+                break;
+            }
+        }
+        self.cut.clear();
+        let shapes: Vec<&Shape> = self.prog.shapes.iter().collect();
+        for sh in shapes {
+            if sh.rules.is_empty() {
+                self.rep.drop(sh.line, "shape", format!("`{}` has no rules: it draws nothing", sh.name));
+            }
+            let weights = weights(&sh.rules.iter().map(|r| (r.weight, r.percent)).collect::<Vec<_>>());
+            let name = self.names.get(&sh.name);
+            for (k, r) in sh.rules.iter().enumerate() {
+                self.line = r.line;
+                self.counter = 0;
+                self.scope.clear();
+                let mut ps = Vec::new();
+                for (ty, p) in &sh.params {
+                    if !matches!(ty.as_str(), "number" | "natural") {
+                        self.rep.approx(sh.line, ty, format!("parameter `{p}` of type {ty} is written as a float"));
+                    }
+                    let m = self.names.get(p);
+                    ps.push(format!("float {m}"));
+                    self.scope.push((p.clone(), m));
+                }
+                let head = if ps.is_empty() { name.clone() } else { format!("{name}({})", ps.join(", ")) };
+                let w = if sh.rules.len() > 1 { format!(" {}", num(weights[k])) } else { String::new() };
+                let _ = writeln!(out, "rule {head}{w} {{");
+                for it in &r.body {
+                    self.item(it, 1, out);
+                }
+                out.push_str("}\n\n");
+            }
+        }
+    }
+
+    pub(crate) fn item(&mut self, it: &Item, ind: usize, out: &mut String) {
+        let pad = "  ".repeat(ind);
+        match it {
+            Item::Nothing => {}
+            Item::Block(items) => {
+                let _ = writeln!(out, "{pad}{{");
+                let n = self.scope.len();
+                for i in items {
+                    self.item(i, ind + 1, out);
+                }
+                self.scope.truncate(n);
+                let _ = writeln!(out, "{pad}}}");
+            }
+            Item::Let { name, value } => {
+                let v = self.expr(value);
+                let m = self.fresh_local(name);
+                let _ = writeln!(out, "{pad}let {m} = {v};");
+            }
+            Item::Call { name, args, same, adj, line } => {
+                self.line = *line;
+                if let Some(s) = self.call(name, args.as_deref(), *same, adj) {
+                    let _ = writeln!(out, "{pad}{s}");
+                }
+            }
+            Item::Loop { var, start, end, step, adj, body, line } => {
+                self.line = *line;
+                let n = self.scope.len();
+                let s = start.as_ref().map(|e| self.expr(e)).unwrap_or_else(|| "0".into());
+                let e = self.expr(end);
+                let st = step.as_ref().map(|e| format!(", {}", self.expr(e))).unwrap_or_default();
+                // MDG's loop list cannot read the loop's variable: it reads the start.
+                let seen =
+                    var.as_ref().is_some_and(|v| adj.terms.iter().any(|t| t.args.iter().any(|a| mentions(a, v))));
+                if let (true, Some(v)) = (seen, var) {
+                    self.rep.approx(*line, v, "the loop's own adjustment reads its variable: its start value is used");
+                    self.scope.push((v.clone(), format!("({s})")));
+                }
+                let a = self.adj(adj);
+                if seen {
+                    self.scope.pop();
+                }
+                let v = match var {
+                    Some(v) => self.fresh_local(v),
+                    None => self.fresh("i"),
+                };
+                let _ = write!(out, "{pad}loop {v} = {s}, {e}{st} {a}");
+                self.sub_item(body, ind + 1, out);
+                self.scope.truncate(n);
+            }
+            Item::If { cond, then, els } => {
+                let c = self.expr(cond);
+                let _ = writeln!(out, "{pad}if ({c}) {{");
+                self.branch(then, ind + 1, out);
+                match els {
+                    Some(e) => {
+                        let _ = writeln!(out, "{pad}}} else {{");
+                        self.branch(e, ind + 1, out);
+                        let _ = writeln!(out, "{pad}}}");
+                    }
+                    None => {
+                        let _ = writeln!(out, "{pad}}}");
+                    }
+                }
+            }
+            Item::Switch { on, cases, default } => {
+                let v = self.expr(on);
+                let sw = self.fresh("sw");
+                let _ = writeln!(out, "{pad}let {sw} = {v};");
+                let mut first = true;
+                for (labels, body) in cases {
+                    let conds: Vec<String> = labels
+                        .iter()
+                        .map(|(a, b)| match b {
+                            None => format!("{sw} == {}", self.expr(a)),
+                            Some(b) => format!("({sw} >= {} && {sw} <= {})", self.expr(a), self.expr(b)),
+                        })
+                        .collect();
+                    let kw = if first { "if" } else { "} else if" };
+                    first = false;
+                    let _ = writeln!(out, "{pad}{kw} ({}) {{", conds.join(" || "));
+                    self.branch(body, ind + 1, out);
+                }
+                if let Some(d) = default {
+                    if first {
+                        self.branch(d, ind, out);
+                        return;
+                    }
+                    let _ = writeln!(out, "{pad}}} else {{");
+                    self.branch(d, ind + 1, out);
+                }
+                if !first {
+                    let _ = writeln!(out, "{pad}}}");
+                }
+            }
+            Item::Transform { adj, body } => {
+                let a = self.adj(adj);
+                let _ = write!(out, "{pad}1 * {a}");
+                self.sub_item(body, ind + 1, out);
+            }
+        }
+    }
+
+    /// The item of a loop or transform: a block or one item, never empty.
+    fn sub_item(&mut self, it: &Item, ind: usize, out: &mut String) {
+        let pad = "  ".repeat(ind - 1);
+        let mut body = String::new();
+        match it {
+            Item::Block(items) => {
+                let n = self.scope.len();
+                for i in items {
+                    self.item(i, ind, &mut body);
+                }
+                self.scope.truncate(n);
+            }
+            other => self.item(other, ind, &mut body),
+        }
+        let _ = write!(out, " {{\n{body}{pad}}}\n");
+    }
+
+    /// The body of an `if` branch (the braces are the caller's).
+    fn branch(&mut self, it: &Item, ind: usize, out: &mut String) {
+        let n = self.scope.len();
+        match it {
+            Item::Block(items) => {
+                for i in items {
+                    self.item(i, ind, out);
+                }
+            }
+            other => self.item(other, ind, out),
+        }
+        self.scope.truncate(n);
+    }
+
+    fn fresh_local(&mut self, src: &str) -> String {
+        let base = self.names.get(src);
+        // MDG names in one rule do not shadow each other: number repeats.
+        let m = if self.scope.iter().any(|(_, m)| *m == base) { format!("{base}_{}", self.scope.len()) } else { base };
+        self.scope.push((src.to_string(), m.clone()));
+        m
+    }
+
+    fn call(&mut self, name: &str, args: Option<&[Expr]>, same: bool, adj: &Adj) -> Option<String> {
+        let line = self.line;
+        if self.prog.paths.iter().any(|p| p == name) {
+            self.rep.drop(line, name, "a call of a path: MDG has no Context Free paths");
+            return None;
+        }
+        if PATH_OPS.contains(&name) {
+            self.rep.drop(line, name, "a path operation: MDG has no Context Free paths");
+            return None;
+        }
+        let prim = PRIMITIVES.contains(&name);
+        let Some(sh) = self.prog.shapes.iter().find(|s| s.name == name && !s.rules.is_empty()) else {
+            if !prim {
+                self.rep.drop(line, name, "a call of an undefined shape: left out");
+                return None;
+            }
+            let a = self.adj(adj);
+            return Some(format!("{name} {a}"));
+        };
+        // A shape of the program's own named like a primitive replaces it, as in
+        // Context Free (it is renamed: MDG's built-in stays for the others).
+        let mdg = self.names.get(&sh.name);
+        let want = self.params.get(name).map(|p| p.len()).unwrap_or(0);
+        let mut argv: Vec<String> = match args {
+            Some(a) => a.iter().map(|e| self.expr(e)).collect(),
+            None if same => {
+                let ps = self.params.get(name).cloned().unwrap_or_default();
+                ps.iter().map(|p| self.expr(&Expr::Name(p.clone()))).collect()
+            }
+            None => Vec::new(),
+        };
+        if argv.len() != want {
+            self.rep.approx(
+                line,
+                name,
+                format!("called with {} arguments for {want} parameters: missing ones are 0", argv.len()),
+            );
+            argv.resize(want, "0".into());
+        }
+        let a = self.adj(adj);
+        Some(if argv.is_empty() { format!("{mdg} {a}") } else { format!("{mdg}({}) {a}", argv.join(", ")) })
+    }
+
+    /// An adjustment list in MDG's written order.
+    pub(crate) fn adj(&mut self, adj: &Adj) -> String {
+        let mut terms: Vec<&super::cfparse::Term> = adj.terms.iter().collect();
+        if !adj.ordered {
+            // Context Free's canonical order: translate, rotate, scale, skew, flip.
+            terms.sort_by_key(|t| match t.name.as_str() {
+                "x" | "y" | "z" => 0,
+                "r" | "rot" | "rotate" => 1,
+                "s" | "size" => 2,
+                "skew" => 3,
+                "f" | "flip" => 4,
+                _ => 5,
+            });
+        }
+        let mut parts: Vec<String> = Vec::new();
+        for t in terms {
+            let line = t.line;
+            if t.target {
+                self.rep.drop(line, &format!("{}|", t.name), "colour targets have no MDG form: the change is left out");
+                continue;
+            }
+            let args: Vec<String> = t.args.iter().map(|e| self.arg(e)).collect();
+            let consts: Vec<Option<f64>> = t.args.iter().map(|e| self.const_of(e)).collect();
+            let n = args.len();
+            match (t.name.as_str(), n) {
+                ("x", 1..=3) | ("y", 1) | ("z", 1) => parts.push(format!("{} {}", t.name, args.join(" "))),
+                ("s" | "size", 1) => parts.push(format!("s {}", args[0])),
+                ("s" | "size", 2) => {
+                    // Z keeps the area's scale, so `minsize` compares what Context Free's does.
+                    let z = match (consts[0], consts[1]) {
+                        (Some(a), Some(b)) => num((a * b).abs().sqrt()),
+                        _ => format!("(sqrt(abs({} * {})))", args[0], args[1]),
+                    };
+                    parts.push(format!("s {} {} {z}", args[0], args[1]));
+                }
+                ("s" | "size", 3) => parts.push(format!("s {}", args.join(" "))),
+                ("r" | "rot" | "rotate", 1) => parts.push(format!("rz {}", args[0])),
+                ("f" | "flip", 1) => parts.push(match consts[0] {
+                    Some(a) => {
+                        let r = a.to_radians();
+                        format!("f {} {} 0", num(clean(-r.sin())), num(clean(r.cos())))
+                    }
+                    None => format!("f (-sin(radians({0}))) (cos(radians({0}))) 0", args[0]),
+                }),
+                ("h" | "hue", 1) => parts.push(format!("hue {}", args[0])),
+                ("sat" | "saturation", 1) => parts.push(format!("sat {}", args[0])),
+                ("b" | "brightness", 1) => parts.push(format!("b {}", args[0])),
+                ("a" | "alpha", 1) => {
+                    self.rep.approx(
+                        line,
+                        &t.name,
+                        "alpha is MDG's additive `A` (Context Free's moves a fraction toward 0 or 1)",
+                    );
+                    parts.push(format!("A {}", args[0]));
+                }
+                ("skew", _) => self.rep.drop(line, "skew", "MDG has no skew: the shape is drawn unskewed"),
+                ("trans" | "transform", _) => {
+                    self.rep.drop(line, &t.name, "an affine transform: MDG has no matrix adjustment")
+                }
+                ("z", 2..) | ("y", 2..) => parts.push(format!("{} {}", t.name, args[0])),
+                _ => self.rep.drop(line, &t.name, format!("an adjustment with {n} values: no MDG form")),
+            }
+        }
+        if parts.is_empty() {
+            "{}".into()
+        } else {
+            format!("{{{}}}", parts.join(" "))
+        }
+    }
+
+    fn const_of(&self, e: &Expr) -> Option<f64> {
+        match e {
+            Expr::Name(n) if !self.scope.iter().any(|(s, _)| s == n) => {
+                self.prog.globals.iter().rev().find(|(g, _)| g == n).and_then(|(_, e)| const_value(e))
+            }
+            _ => const_value(e),
+        }
+    }
+
+    /// An adjustment argument: a number, or an expression in parentheses.
+    fn arg(&mut self, e: &Expr) -> String {
+        if let Some(v) = self.const_of(e) {
+            return num(v);
+        }
+        format!("({})", self.expr(e))
+    }
+
+    pub(crate) fn expr(&mut self, e: &Expr) -> String {
+        let line = self.line;
+        match e {
+            Expr::Num(v) => num(*v),
+            Expr::Name(n) => {
+                if let Some((_, m)) = self.scope.iter().rev().find(|(s, _)| s == n) {
+                    return m.clone();
+                }
+                if let Some((_, g)) = self.prog.globals.iter().rev().find(|(g, _)| g == n).cloned() {
+                    if let Some(v) = const_value(&g) {
+                        return num(v);
+                    }
+                    return format!("({})", self.expr(&g));
+                }
+                self.rep.approx(line, n, "a name MDG cannot read here: 0");
+                "0".into()
+            }
+            Expr::Neg(a) => format!("-({})", self.expr(a)),
+            Expr::Not(a) => format!("!({})", self.expr(a)),
+            Expr::Tuple(items) => {
+                self.rep.approx(line, "vector", "MDG expressions have no vectors: the first value is used");
+                items.first().map(|e| self.expr(e)).unwrap_or_else(|| "0".into())
+            }
+            Expr::Bin(op, a, b) => {
+                let (x, y) = (self.expr(a), self.expr(b));
+                match *op {
+                    "--" => format!("max(({x}) - ({y}), 0)"),
+                    "<>" => format!("({x}) != ({y})"),
+                    "^^" => format!("(({x}) != 0) != (({y}) != 0)"),
+                    "%" => format!("mod({x}, {y})"),
+                    "+-" | ".." => {
+                        self.rep.approx(line, op, "a range has no MDG form: its first value is used");
+                        x
+                    }
+                    _ => format!("({x}) {op} ({y})"),
+                }
+            }
+            Expr::Call(f, args) => self.function(f, args),
+        }
+    }
+
+    fn function(&mut self, f: &str, args: &[Expr]) -> String {
+        let line = self.line;
+        let a: Vec<String> = args.iter().map(|e| self.expr(e)).collect();
+        let arg = |k: usize| a.get(k).cloned().unwrap_or_else(|| "0".into());
+        match (f, a.len()) {
+            ("sin" | "cos" | "tan", 1) => format!("{f}(radians({}))", arg(0)),
+            ("asin" | "acos" | "atan", 1) => format!("degrees({f}({}))", arg(0)),
+            ("atan2", 2) => format!("degrees(atan2({}, {}))", arg(0), arg(1)),
+            ("sqrt" | "abs" | "exp" | "log" | "floor" | "ceil", 1) => format!("{f}({})", arg(0)),
+            ("frac", 1) => format!("fract({})", arg(0)),
+            ("log10", 1) => format!("(log({}) / log(10))", arg(0)),
+            ("mod" | "fmod", 2) => format!("mod({}, {})", arg(0), arg(1)),
+            ("div", 2) => format!("floor(({}) / ({}))", arg(0), arg(1)),
+            ("hypot", 2) => format!("sqrt(({0}) * ({0}) + ({1}) * ({1}))", arg(0), arg(1)),
+            ("sg", 1) => format!("(({0}) > 0) - (({0}) < 0)", arg(0)),
+            ("sinh", 1) => format!("((exp({0}) - exp(-({0}))) / 2)", arg(0)),
+            ("cosh", 1) => format!("((exp({0}) + exp(-({0}))) / 2)", arg(0)),
+            ("tanh", 1) => format!("((exp(2 * ({0})) - 1) / (exp(2 * ({0})) + 1))", arg(0)),
+            ("min" | "max", 2..) => {
+                let mut s = arg(0);
+                for x in &a[1..] {
+                    s = format!("{f}({s}, {x})");
+                }
+                s
+            }
+            ("rand", 0) | ("rand::uniform", 0) => "rand(0, 1)".into(),
+            ("rand", 1) => format!("rand(0, {})", arg(0)),
+            ("rand", 2) => format!("rand({}, {})", arg(0), arg(1)),
+            ("randint", 0) => "floor(rand(0, 2))".into(),
+            ("randint", 1) => format!("floor(rand(0, {}))", arg(0)),
+            ("randint", 2) => format!("floor(rand({}, {}))", arg(0), arg(1)),
+            ("rand_static", n) => {
+                self.rep.approx(line, "rand_static", "drawn per call (MDG has no once-per-program draw)");
+                match n {
+                    0 => "rand(0, 1)".into(),
+                    1 => format!("rand(0, {})", arg(0)),
+                    _ => format!("rand({}, {})", arg(0), arg(1)),
+                }
+            }
+            ("if", 3) => format!("mix({}, {}, ({}) != 0)", arg(2), arg(1), arg(0)),
+            ("select", n) if n >= 2 => {
+                let terms: Vec<String> =
+                    (1..n).map(|k| format!("({}) * (floor({}) == {})", arg(k), arg(0), k - 1)).collect();
+                format!("({})", terms.join(" + "))
+            }
+            ("infinity", _) => "1e30".into(),
+            _ => {
+                if let Some((_, ps, body, _)) = self.prog.functions.iter().find(|(n, _, _, _)| n == f) {
+                    if ps.is_empty() && a.is_empty() {
+                        if self.inlining.iter().any(|c| c == f) {
+                            self.rep.approx(
+                                line,
+                                f,
+                                "a recursive function: MDG functions do not recurse, the recursive call is 0",
+                            );
+                            return "0".into();
+                        }
+                        let body = body.clone();
+                        self.inlining.push(f.to_string());
+                        let e = self.expr(&body);
+                        self.inlining.pop();
+                        return format!("({e})");
+                    }
+                    if ps.len() == a.len() {
+                        if self.cutting && !self.cut[..self.cut.len() - 1].contains(&f.to_string()) {
+                            self.rep.approx(
+                                line,
+                                f,
+                                "a recursive function: MDG functions do not recurse, the recursive call is 0",
+                            );
+                            return "0".into();
+                        }
+                        let m = self.names.get(f);
+                        return format!("{m}({})", a.join(", "));
+                    }
+                }
+                self.rep.approx(line, f, "a function with no MDG counterpart: 0");
+                "0".into()
+            }
+        }
+    }
+}
+
+/// Rounds away the last-bit noise of sin/cos of whole degrees (`flip 90`).
+fn clean(v: f64) -> f64 {
+    let r = (v * 1e12).round() / 1e12;
+    if r == 0.0 {
+        0.0
+    } else {
+        r
+    }
+}
+
+/// Context Free's weights: `N%` rules take that share, the others split the rest in
+/// proportion to their weights.
+pub(crate) fn weights(ws: &[(f64, bool)]) -> Vec<f64> {
+    let pct: f64 = ws.iter().filter(|w| w.1).map(|w| w.0 / 100.0).sum();
+    let plain: f64 = ws.iter().filter(|w| !w.1).map(|w| w.0).sum();
+    if pct == 0.0 {
+        return ws.iter().map(|w| w.0).collect();
+    }
+    let rest = (1.0 - pct).max(0.0);
+    ws.iter()
+        .map(|&(w, p)| {
+            if p {
+                w / 100.0
+            } else if plain > 0.0 {
+                rest * w / plain
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
+/// Context Free's background: its adjustments applied to white (hue 0, saturation
+/// 0, brightness 1, alpha 1), as `#rrggbb` (`None` when an argument is not a number).
+pub(crate) fn background(adj: &Adj) -> Option<String> {
+    let (mut h, mut s, mut b, mut a) = (0.0f64, 0.0f64, 1.0f64, 1.0f64);
+    let toward = |v: f64, d: f64| if d > 0.0 { v + d * (1.0 - v) } else { v + d * v };
+    for t in &adj.terms {
+        let v = t.args.first().and_then(const_value)?;
+        match t.name.as_str() {
+            "h" | "hue" => h = (h + v).rem_euclid(360.0),
+            "sat" | "saturation" => s = toward(s, v.clamp(-1.0, 1.0)),
+            "b" | "brightness" => b = toward(b, v.clamp(-1.0, 1.0)),
+            "a" | "alpha" => a = toward(a, v.clamp(-1.0, 1.0)),
+            _ => {}
+        }
+    }
+    let (r, g, bl) = hsb_to_rgb(h, s, b);
+    let byte = |x: f64| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
+    Some(if a < 1.0 {
+        format!("#{:02x}{:02x}{:02x}{:02x}", byte(r), byte(g), byte(bl), byte(a))
+    } else {
+        format!("#{:02x}{:02x}{:02x}", byte(r), byte(g), byte(bl))
+    })
+}
+
+/// HSB (hue in degrees) to RGB, each 0…1.
+pub(crate) fn hsb_to_rgb(h: f64, s: f64, v: f64) -> (f64, f64, f64) {
+    let h = h.rem_euclid(360.0) / 60.0;
+    let c = v * s;
+    let x = c * (1.0 - ((h % 2.0) - 1.0).abs());
+    let (r, g, b) = match h as u32 {
+        0 => (c, x, 0.0),
+        1 => (x, c, 0.0),
+        2 => (0.0, c, x),
+        3 => (0.0, x, c),
+        4 => (x, 0.0, c),
+        _ => (c, 0.0, x),
+    };
+    let m = v - c;
+    (r + m, g + m, b + m)
+}
+
+/// Whether `e` reads the name `n`.
+fn mentions(e: &Expr, n: &str) -> bool {
+    match e {
+        Expr::Name(m) => m == n,
+        Expr::Num(_) => false,
+        Expr::Call(_, a) | Expr::Tuple(a) => a.iter().any(|x| mentions(x, n)),
+        Expr::Bin(_, a, b) => mentions(a, n) || mentions(b, n),
+        Expr::Neg(a) | Expr::Not(a) => mentions(a, n),
+    }
+}
+
+/// Whether `e` calls the function `f`.
+pub(crate) fn calls(e: &Expr, f: &str) -> bool {
+    match e {
+        Expr::Call(g, a) => g == f || a.iter().any(|x| calls(x, f)),
+        Expr::Name(_) | Expr::Num(_) => false,
+        Expr::Tuple(a) => a.iter().any(|x| calls(x, f)),
+        Expr::Bin(_, a, b) => calls(a, f) || calls(b, f),
+        Expr::Neg(a) | Expr::Not(a) => calls(a, f),
+    }
+}
