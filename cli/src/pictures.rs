@@ -83,6 +83,7 @@ struct Device {
 
 impl Device {
     fn open(std_dir: Option<&std::path::Path>, samples: u32) -> Result<Device, Error> {
+        mdg_viewer::offscreen::keep_freed_memory();
         let validation = match std::env::var("MDG_VALIDATION").as_deref() {
             Ok("1") => Validation::Required,
             _ => Validation::Off,

@@ -93,6 +93,64 @@ impl Buffer {
         Ok(b)
     }
 
+    /// A buffer for the GPU to read, `len` bytes filled by `fill` in place: in the
+    /// buffer's own memory when the device has memory that is device-local and
+    /// host-visible (lavapipe, integrated GPUs), else in a staging buffer copied
+    /// over. Nothing is built on the heap first (the instance records of a big
+    /// model are tens of MB). `fill` must write every byte.
+    pub fn filled(
+        ctx: &Arc<Context>,
+        len: usize,
+        usage: vk::BufferUsageFlags,
+        fill: impl FnOnce(&mut [u8]),
+    ) -> Result<Buffer, Error> {
+        let direct = vk::MemoryPropertyFlags::DEVICE_LOCAL
+            | vk::MemoryPropertyFlags::HOST_VISIBLE
+            | vk::MemoryPropertyFlags::HOST_COHERENT;
+        if let Ok(b) = Buffer::new(ctx, len as u64, usage, direct) {
+            b.fill(len, fill)?;
+            return Ok(b);
+        }
+        let staging = Buffer::host(ctx, len as u64, vk::BufferUsageFlags::TRANSFER_SRC)?;
+        staging.fill(len, fill)?;
+        let b = Buffer::new(
+            ctx,
+            len as u64,
+            usage | vk::BufferUsageFlags::TRANSFER_DST,
+            vk::MemoryPropertyFlags::DEVICE_LOCAL,
+        )?;
+        let region = [vk::BufferCopy::default().size(len.max(1) as u64)];
+        ctx.one_time(|cmd| {
+            // SAFETY: both buffers are valid and large enough; `cmd` is recording.
+            unsafe { ctx.device.cmd_copy_buffer(cmd, staging.raw, b.raw, &region) };
+        })?;
+        Ok(b)
+    }
+
+    /// Maps the first `len` bytes (host-visible buffers only) and lets `fill` write
+    /// them.
+    fn fill(&self, len: usize, fill: impl FnOnce(&mut [u8])) -> Result<(), Error> {
+        if !self.mapped || len as u64 > self.size {
+            return Err(Error::Vulkan("fill of a buffer that is not host-visible or too small".into()));
+        }
+        if len == 0 {
+            return Ok(());
+        }
+        // SAFETY: host-visible, coherent memory of at least `len` bytes, mapped for
+        // the duration of `fill` only and not in use by the GPU (the buffer is new);
+        // the slice does not outlive the mapping.
+        unsafe {
+            let p = self
+                .ctx
+                .device
+                .map_memory(self.memory, 0, len as u64, vk::MemoryMapFlags::empty())
+                .map_err(vkerr("map memory"))?;
+            fill(std::slice::from_raw_parts_mut(p as *mut u8, len));
+            self.ctx.device.unmap_memory(self.memory);
+        }
+        Ok(())
+    }
+
     /// Copies `data` into the buffer at byte `offset` (host-visible buffers only).
     pub fn write(&self, offset: u64, data: &[u8]) -> Result<(), Error> {
         if !self.mapped || offset + data.len() as u64 > self.size {

@@ -158,6 +158,29 @@ impl Offscreen {
     }
 }
 
+/// How much freed memory at the top of a heap the allocator keeps instead of
+/// returning it to the kernel: see [`keep_freed_memory`].
+pub const TRIM_THRESHOLD: i32 = 1 << 30;
+
+/// Tells glibc's allocator to keep up to [`TRIM_THRESHOLD`] of freed heap memory
+/// instead of handing it back to the kernel at every `free`. The software renderer
+/// (lavapipe) allocates and frees its vertex and bin memory for every draw on its
+/// own threads' heaps; by default glibc returns the freed top of such a heap with
+/// `madvise`, and the next draw page-faults it in again. Measured on the 2^20 tree's
+/// 600² picture: system time 0.32 s without it, 0.20 s with it, peak RSS unchanged
+/// (the memory is kept, not grown: peak RSS is the high-water mark either way).
+/// A process-wide setting, so the commands decide: the offscreen picture commands
+/// call it (one-shot processes); the window, which lives on, does not. A no-op off
+/// glibc.
+pub fn keep_freed_memory() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: mallopt only changes the allocator's tuning parameters; called before
+    // the renderer starts its threads, and safe to call at any time in glibc.
+    unsafe {
+        libc::mallopt(libc::M_TRIM_THRESHOLD, TRIM_THRESHOLD);
+    }
+}
+
 /// `n` cameras around the home camera's target, evenly spaced in azimuth.
 pub fn turntable(home: &OrbitCamera, n: u32) -> Vec<OrbitCamera> {
     (0..n.max(1))

@@ -412,7 +412,8 @@ impl Renderer {
     }
 
     /// [`Renderer::set_scene`] for a scene that may hold instances to draw with GPU
-    /// instancing ([`scene::build_with`]) by `instanced`.
+    /// instancing ([`scene::build_with`]) by `instanced`; the scene must have been
+    /// built from `output` (the instance records are read from it).
     pub fn set_scene_instanced(
         &mut self,
         scene: &scene::Scene,
@@ -511,7 +512,10 @@ impl Renderer {
                     &i.indices.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>(),
                     vk::BufferUsageFlags::INDEX_BUFFER,
                 )?,
-                instances: Buffer::with_data(ctx, &i.instances, vk::BufferUsageFlags::VERTEX_BUFFER)?,
+                // The records are written straight into the buffer (no copy).
+                instances: Buffer::filled(ctx, i.instance_bytes(), vk::BufferUsageFlags::VERTEX_BUFFER, |dst| {
+                    i.write_instances(output, dst)
+                })?,
                 draws: i.draws.clone(),
                 lods: i.lods.clone(),
             }),

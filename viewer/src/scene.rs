@@ -126,14 +126,49 @@ pub struct Instanced {
     /// Their triangles: per shared mesh, wound for unmirrored instances, then the
     /// same reversed for mirrored ones.
     pub indices: Vec<u32>,
-    /// [`INSTANCE_STRIDE`] bytes per instance, grouped by draw.
-    pub instances: Vec<u8>,
+    /// The output's instances (indices into `Output::instances`) in the order
+    /// their records go in the instance buffer, grouped by draw. The records
+    /// themselves ([`INSTANCE_STRIDE`] bytes each) are written by
+    /// [`Instanced::write_instances`] straight into the buffer the GPU reads: a
+    /// million instances are 68 MB that need not be built and then copied.
+    pub order: Vec<u32>,
     pub draws: Vec<InstancedDraw>,
     /// Per draw, its level of detail: a coarser mesh for when every instance of the
     /// draw is small on the screen (see [`Lod`]); `None` for small meshes.
     pub lods: Vec<Option<Lod>>,
     /// Triangles drawn in all (every instance's).
     pub n_triangles: u64,
+}
+
+impl Instanced {
+    /// Bytes of the instance buffer: [`INSTANCE_STRIDE`] per instance.
+    pub fn instance_bytes(&self) -> usize {
+        self.order.len() * INSTANCE_STRIDE as usize
+    }
+
+    /// Writes the instance records of `out` (the output this was built from) into
+    /// `dst`, [`Instanced::instance_bytes`] long: per instance, the rows 0..2 of its
+    /// transform, its colour and its bone (see [`INSTANCE_STRIDE`]).
+    pub fn write_instances(&self, out: &Output, dst: &mut [u8]) {
+        for (&i, rec) in self.order.iter().zip(dst.chunks_exact_mut(INSTANCE_STRIDE as usize)) {
+            let Some(instance) = out.instances.get(i as usize) else { continue };
+            let t = out.instance_transform(instance);
+            let mut w = 0;
+            let mut put = |x: [u8; 4]| {
+                rec[w..w + 4].copy_from_slice(&x);
+                w += 4;
+            };
+            for r in [t.row(0), t.row(1), t.row(2)] {
+                for x in r.to_array() {
+                    put(x.to_le_bytes());
+                }
+            }
+            for x in instance.color {
+                put(x.to_le_bytes());
+            }
+            put(instance.bone.to_le_bytes());
+        }
+    }
 }
 
 /// A shared mesh's level of detail: the mesh simplified by vertex clustering on a
@@ -385,7 +420,7 @@ fn coarse_mesh(
 }
 
 fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
-    let mut inst = Instanced::default();
+    let mut inst = Instanced { order: Vec::with_capacity(out.instances.len()), ..Instanced::default() };
     let mut bounds = Bounds::EMPTY;
     let mut max_bone = 0;
     // Per shared mesh: where its vertices and its two index runs are, its bounding
@@ -478,26 +513,16 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
                 first_index: p.first_index + side as u32 * p.index_count,
                 index_count: p.index_count,
                 vertex_offset: p.vertex_offset,
-                first_instance: (inst.instances.len() / INSTANCE_STRIDE as usize) as u32,
+                first_instance: inst.order.len() as u32,
                 instance_count: list.len() as u32,
                 closed: p.closed,
             });
             inst.n_triangles += u64::from(p.index_count / 3) * list.len() as u64;
             let mut radius = 0.0f32;
-            inst.instances.reserve(list.len() * INSTANCE_STRIDE as usize);
+            inst.order.extend_from_slice(list);
             for &i in list {
                 let instance = &out.instances[i as usize];
                 let t = out.instance_transform(instance);
-                let rows = [t.row(0), t.row(1), t.row(2)];
-                for r in rows {
-                    for x in r.to_array() {
-                        inst.instances.extend_from_slice(&x.to_le_bytes());
-                    }
-                }
-                for x in instance.color {
-                    inst.instances.extend_from_slice(&x.to_le_bytes());
-                }
-                inst.instances.extend_from_slice(&instance.bone.to_le_bytes());
                 max_bone = max_bone.max(instance.bone);
                 // Exact bounds (the camera frames the model as when it was expanded):
                 // every distinct vertex placed (a cube's 24 are 8 corners), but

@@ -152,6 +152,7 @@ fn search_for_picture(model: &mut model::Model, guides: Option<Vec<Guide>>, eval
 }
 
 fn offscreen(cli: &Args, model: &model::Model, size: (u32, u32), programs: &Programs) -> Result<u32, Error> {
+    offscreen::keep_freed_memory();
     let ctx = Arc::new(Context::new(&ContextOptions {
         validation: Validation::from_env(),
         surface_extensions: vec![],
