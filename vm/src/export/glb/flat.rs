@@ -208,19 +208,22 @@ pub(super) struct FlatPlan {
 /// does: once expanding, once writing), the colour clamped.
 struct ProtoFrame {
     lin: glam::Mat3,
-    u: Vec3,
+    /// `lin` and the translation in SIMD lanes: each lane sums the same products
+    /// in the same order as `Mat3 * Vec3`, so the bits are the same.
+    lin_a: glam::Mat3A,
+    u_a: glam::Vec3A,
     mirrored: bool,
 }
 
 impl ProtoFrame {
     fn new(f: &Frame) -> ProtoFrame {
         let (lin, mirrored) = f.linear();
-        ProtoFrame { lin, u: f.u, mirrored }
+        ProtoFrame { lin, lin_a: glam::Mat3A::from(lin), u_a: f.u.into(), mirrored }
     }
 
     #[inline]
     fn position(&self, p: Vec3) -> [f32; 3] {
-        finite3((self.u + self.lin * p).to_array())
+        finite3((self.u_a + self.lin_a * glam::Vec3A::from(p)).to_array())
     }
 
     #[inline]
@@ -376,7 +379,7 @@ impl VertexRecord {
     }
 
     /// A record of a position, a normal and a colour already encoded.
-    #[inline]
+    #[inline(always)]
     fn put_encoded(&self, sink: &mut Sink, p: &[u8; 12], n: &[u8; 12], e: &[u8; 8], bone: u32) -> Result<(), String> {
         let b = sink.slot(self.stride)?;
         let Some(h) = b.first_chunk_mut::<28>() else { return Err("glTF binary: a short vertex record".into()) };
