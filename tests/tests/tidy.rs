@@ -489,7 +489,7 @@ fn path_refs_resolve_crate_super_and_self_paths() {
 #[test]
 fn no_vm_file_is_over_1000_lines() {
     const LARGE: [(&str, usize); 3] =
-        [("vm/src/export/glb.rs", 2529), ("vm/src/grid/infer.rs", 1145), ("vm/src/sosmc/search.rs", 1137)];
+        [("vm/src/export/glb.rs", 2103), ("vm/src/grid/infer.rs", 1145), ("vm/src/sosmc/search.rs", 1137)];
     let mut files = Vec::new();
     rs_files(&root().join("vm/src"), &mut files);
     let mut over = Vec::new();

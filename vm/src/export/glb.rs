@@ -62,7 +62,9 @@
 //!   translation and rotation channels sampled at the directive `fps` (the camera
 //!   frame's scale is not exported).
 
+mod flat;
 mod nodes;
+use flat::{flat_plan, flat_stride, flat_write, FlatSource, ProtoInfos};
 pub use nodes::{write_glb_nodes, MeshNode};
 
 use std::collections::BTreeMap;
@@ -192,7 +194,7 @@ pub fn write_glb_with(out: &Output, opts: &GlbOptions, w: &mut dyn std::io::Writ
     // mesh ignores its node's transforms and follows its joints, which are under it).
     let mut top_nodes = Vec::new();
     let mut primitives = Vec::new();
-    if let Some(mut p) = g.vertex_primitive(out, &gpu.instanced)? {
+    if let Some(mut p) = g.vertex_primitive(out, &gpu)? {
         p.extras = sites::extras(&out.sites.runs, &out.sites.sites);
         primitives.push(p);
     }
@@ -328,6 +330,11 @@ struct GpuGroup {
     /// deltas); `None`: the mesh is white and each instance's colour is `_COLOR_0`.
     color: Option<[f32; 4]>,
     instances: Vec<u32>,
+    /// The bits of the first instance's colour, and whether every instance's colour
+    /// has the same bits (then they all share one material colour, found without a
+    /// second walk over the instances).
+    first_bits: [u32; 4],
+    same_bits: bool,
 }
 
 /// Which prototype instances become instanced nodes, and their groups.
@@ -336,6 +343,9 @@ struct GpuGroups {
     /// Per instance: placed by an instanced node (not expanded).
     instanced: Vec<bool>,
     groups: Vec<GpuGroup>,
+    /// Every prototype instance is placed by an instanced node: the flat `VERTEX`
+    /// primitive is [`Output::mesh`] alone, found without walking the instances.
+    all_prototypes_instanced: bool,
 }
 
 /// What groups prototype instances: the shared mesh, the mirroring, and the frame
@@ -348,7 +358,7 @@ type GroupKey = (u32, bool, Option<[u32; 4]>);
 /// cannot instance skinned meshes), degenerate or non-finite frames, isosurfaces in
 /// frames with a non-uniform factor, and colour variants past [`MAX_COLOR_VARIANTS`].
 fn gpu_instance_groups(out: &Output, skinned: bool) -> GpuGroups {
-    let mut g = GpuGroups { instanced: vec![false; out.instances.len()], groups: Vec::new() };
+    let mut g = GpuGroups { instanced: vec![false; out.instances.len()], ..GpuGroups::default() };
     let mut index: BTreeMap<GroupKey, usize> = BTreeMap::new();
     let mut variants: BTreeMap<u32, usize> = BTreeMap::new();
     // Per shared mesh with triangles (a prototype or an isosurface): whether its
@@ -360,9 +370,14 @@ fn gpu_instance_groups(out: &Output, skinned: bool) -> GpuGroups {
             (!s.mesh.triangles.is_empty()).then(|| s.is_prototype() && s.mesh.colors.iter().any(|c| *c != [0.0; 4]))
         })
         .collect();
+    let prototype: Vec<bool> = out.shared_meshes.iter().map(SharedMesh::is_prototype).collect();
+    // Prototype instances seen, and those placed by instanced nodes.
+    let (mut prototypes, mut placed) = (0usize, 0usize);
     // Consecutive instances mostly share a group: the last one is tried first.
     let mut last: Option<(GroupKey, usize)> = None;
     for (i, inst) in out.instances.iter().enumerate() {
+        let is_prototype = prototype.get(inst.mesh as usize).copied().unwrap_or(false);
+        prototypes += usize::from(is_prototype);
         let Some(Some(deltas)) = kind.get(inst.mesh as usize).copied() else { continue };
         // (An isosurface in a frame with a non-uniform factor is no TRS: a node or baked.)
         if (skinned && inst.bone != 0) || !prototype_placeable(&inst.frame) || inst.lin != 0 {
@@ -380,16 +395,27 @@ fn gpu_instance_groups(out: &Output, skinned: bool) -> GpuGroups {
                     }
                     *n += 1;
                     let color = deltas.then_some(inst.color);
-                    g.groups.push(GpuGroup { mesh: inst.mesh, mirrored: key.1, color, instances: Vec::new() });
+                    g.groups.push(GpuGroup {
+                        mesh: inst.mesh,
+                        mirrored: key.1,
+                        color,
+                        instances: Vec::new(),
+                        first_bits: inst.color.map(f32::to_bits),
+                        same_bits: true,
+                    });
                     index.insert(key, g.groups.len() - 1);
                     g.groups.len() - 1
                 }
             },
         };
         last = Some((key, k));
-        g.groups[k].instances.push(i as u32);
+        let group = &mut g.groups[k];
+        group.same_bits &= inst.color.map(f32::to_bits) == group.first_bits;
+        group.instances.push(i as u32);
         g.instanced[i] = true;
+        placed += usize::from(is_prototype);
     }
+    g.all_prototypes_instanced = placed == prototypes;
     g
 }
 
@@ -411,12 +437,52 @@ fn prototype_placeable(f: &Frame) -> bool {
 /// built by the adjustments maps `x ↦ ±s R x` (q̂ = ±q̄): R is the rotation of
 /// q/|q|, s = |q| |q̂|; −I times the mirror in x is a half turn about x.
 fn prototype_trs(f: &Frame) -> ([f32; 3], [f32; 4], f32) {
-    let (lq, lqh) = (f.q.length(), f.qh.length());
+    (f.u.to_array(), prototype_rotation(f), prototype_scale(f))
+}
+
+/// The rotation of [`prototype_trs`].
+#[inline]
+fn prototype_rotation(f: &Frame) -> [f32; 4] {
     // q/|q| is a unit quaternion; times the unit x quaternion (a half turn about x)
     // it stays one: r·i = (w, z, −y, −x) in (x, y, z, w), no normalisation needed.
-    let r = crate::geom::quat::scaled(f.q, 1.0 / lq);
+    let r = crate::geom::quat::scaled(f.q, 1.0 / f.q.length());
     let r = if frame_mirrors(f) { Quat::from_xyzw(r.w, r.z, -r.y, -r.x) } else { r };
-    (f.u.to_array(), r.to_array(), lq * lqh)
+    r.to_array()
+}
+
+/// The uniform scale of [`prototype_trs`].
+#[inline]
+fn prototype_scale(f: &Frame) -> f32 {
+    f.q.length() * f.qh.length()
+}
+
+/// The instance attributes of an instanced node, streamed into the file (nothing
+/// of them is held): TRANSLATION, ROTATION and SCALE of instances `order` of `out`,
+/// then `_COLOR_0` when `per_color`, each attribute's values one after the other
+/// (one accessor each), non-finite numbers written as 0. One pass per attribute:
+/// each reads only what it writes (the translation is the frame's `u`).
+fn write_instance_attributes(out: &Output, order: &[u32], per_color: bool, sink: &mut Sink) -> Result<(), String> {
+    let frames = || order.iter().map(|&i| out.instances.get(i as usize).map(|inst| &inst.frame));
+    for f in frames() {
+        sink.floats(f.map_or([0.0; 3], |f| finite3(f.u.to_array())))?;
+    }
+    for f in frames() {
+        sink.floats(f.map_or([0.0; 4], |f| prototype_rotation(f).map(finite)))?;
+    }
+    for f in frames() {
+        sink.floats([f.map_or(0.0, |f| finite(prototype_scale(f))); 3])?;
+    }
+    if per_color {
+        let mut last = ([1.0f32; 4], linear_color([1.0; 4]));
+        for &i in order {
+            let c = out.instances.get(i as usize).map_or([0.0; 4], |inst| clamp_color(inst.color));
+            if c != last.0 {
+                last = (c, linear_color(c));
+            }
+            sink.floats([last.1[0], last.1[1], last.1[2]])?;
+        }
+    }
+    Ok(())
 }
 
 /// How a prototype instance of frame `f` is placed as a translation, a unit
@@ -918,9 +984,16 @@ impl<'a> Builder<'a> {
     /// surfaces and so does every expanded prototype on its own (exact where there
     /// are no prototype instances; otherwise a piece that is only closed by another
     /// piece is taken as open, which shows nothing wrong: see docs/decisions.md).
-    fn vertex_primitive(&mut self, out: &'a Output, instanced: &'a [bool]) -> Result<Option<Primitive>, String> {
+    fn vertex_primitive(&mut self, out: &'a Output, gpu: &'a GpuGroups) -> Result<Option<Primitive>, String> {
+        let instanced = gpu.instanced.as_slice();
         let expand = |i: usize| !instanced.get(i).copied().unwrap_or(false);
-        if out.flat_counts_where(Groups::VERTEX, expand).1 == 0 {
+        // (With every prototype instanced, the group is the mesh alone.)
+        let mesh_only = gpu.all_prototypes_instanced;
+        let n_tris = match mesh_only {
+            true => out.mesh.triangles.len(),
+            false => out.flat_counts_where(Groups::VERTEX, expand).1,
+        };
+        if n_tris == 0 {
             return Ok(None);
         }
         // (Every prototype in the table has instances; with --instances some may all be
@@ -932,7 +1005,7 @@ impl<'a> Builder<'a> {
             }
             closed = is_closed(&s.mesh, &checked_triangles(&s.mesh, &s.name)?);
         }
-        self.flat_primitive(FlatSource::Vertex { out, instanced }, !closed, "VERTEX mesh")
+        self.flat_primitive(FlatSource::Vertex { out, instanced, mesh_only }, !closed, "VERTEX mesh")
     }
 
     /// A triangle primitive with vertex colours (and the skin attributes of a skinned
@@ -1021,7 +1094,7 @@ impl<'a> Builder<'a> {
     /// per instance TRANSLATION, ROTATION and SCALE, plus `_COLOR_0` (linear RGB,
     /// which three.js reads as the instance colour) when the colours differ; a
     /// colour shared by every instance goes in the material instead.
-    fn instanced_node(&mut self, out: &Output, group: &GpuGroup) -> Result<Option<u32>, String> {
+    fn instanced_node(&mut self, out: &'a Output, group: &'a GpuGroup) -> Result<Option<u32>, String> {
         let Some(shared) = out.shared_meshes.get(group.mesh as usize) else { return Ok(None) };
         let local = prototype_local_mesh(shared, group.color, group.mirrored);
         let name = if group.mirrored { format!("{} mirrored", shared.name) } else { shared.name.clone() };
@@ -1039,9 +1112,12 @@ impl<'a> Builder<'a> {
         }
         let indices = Some(self.indices_of(tris.len() * 3, tris.iter().flatten().copied()));
         let insts = || group.instances.iter().filter_map(|&i| out.instances.get(i as usize));
+        // A colour shared by every instance goes in the material: seen from the
+        // colours' bits while grouping, or (rarely: different bits, say above 1, that
+        // clamp alike) by a walk.
         let first = insts().next().map(|i| clamp_color(i.color));
         let shared_color = match (group.color, first) {
-            (None, Some(c)) if insts().all(|i| clamp_color(i.color) == c) => Some(c),
+            (None, Some(c)) if group.same_bits || insts().all(|i| clamp_color(i.color) == c) => Some(c),
             _ => None,
         };
         let material = Some(self.material(shared_color.unwrap_or([1.0; 4]), double_sided));
@@ -1050,7 +1126,7 @@ impl<'a> Builder<'a> {
             name: Some(name.clone()),
             primitives: vec![Primitive { attributes, indices, material, mode: None, extras }],
         });
-        let n_inst = insts().count();
+        let n_inst = group.instances.len();
         let mut inst_attrs = BTreeMap::new();
         let per_color = group.color.is_none() && shared_color.is_none();
         let widths: &[(&'static str, usize, &'static str)] = if per_color {
@@ -1058,15 +1134,17 @@ impl<'a> Builder<'a> {
         } else {
             &[("TRANSLATION", 3, "VEC3"), ("ROTATION", 4, "VEC4"), ("SCALE", 3, "VEC3")]
         };
-        // One walk over the instances fills every attribute's view.
-        // (`at` and `offsets` are indices into `bin`, which starts at chunk offset `base`.)
-        let mut offsets = Vec::with_capacity(widths.len());
-        let mut at = self.aligned_end() - self.base;
+        // The attributes' values are written when the file is: one view and accessor
+        // per attribute, one after the other.
+        let len: usize = widths.iter().map(|&(_, w, _)| 4 * w * n_inst).sum();
+        let order = group.instances.as_slice();
+        let mut at =
+            self.stream(len, Box::new(move |sink: &mut Sink| write_instance_attributes(out, order, per_color, sink)));
         for (name, w, kind) in widths {
             let len = 4 * w * n_inst;
             self.root.buffer_views.push(BufferView {
                 buffer: 0,
-                byte_offset: self.base + at,
+                byte_offset: at,
                 byte_length: len,
                 target: None,
                 byte_stride: None,
@@ -1082,43 +1160,7 @@ impl<'a> Builder<'a> {
                 ..Accessor::default()
             });
             inst_attrs.insert(*name, acc);
-            offsets.push(at);
             at += len;
-        }
-        self.bin.resize(at, 0);
-        // Each attribute's region, cut into per-instance records.
-        let (head, colors) = self.bin.split_at_mut(if per_color { offsets[3] } else { at });
-        let (head, scales) = head.split_at_mut(offsets[2]);
-        let (head, rotations) = head.split_at_mut(offsets[1]);
-        let translations = &mut head[offsets[0]..];
-        let mut records = translations
-            .chunks_exact_mut(12)
-            .zip(rotations.chunks_exact_mut(16))
-            .zip(scales.chunks_exact_mut(12))
-            .zip(colors.chunks_exact_mut(12).map(Some).chain(std::iter::repeat_with(|| None)));
-        let put = |dst: &mut [u8], xs: &[f32]| {
-            for (d, x) in dst.chunks_exact_mut(4).zip(xs) {
-                d.copy_from_slice(&x.to_le_bytes());
-            }
-        };
-        let mut last_color = ([1.0f32; 4], linear_color([1.0; 4]));
-        for inst in insts() {
-            let Some((((t_out, r_out), s_out), c_out)) = records.next() else { break };
-            let (mut t, mut r, mut sc) = prototype_trs(&inst.frame);
-            // One test for the usual case: all ten numbers finite (the sum is).
-            if !(t[0] + t[1] + t[2] + r[0] + r[1] + r[2] + r[3] + sc).is_finite() {
-                (t, r, sc) = (t.map(finite), r.map(finite), finite(sc));
-            }
-            put(t_out, &t);
-            put(r_out, &r);
-            put(s_out, &[sc; 3]);
-            if let (true, Some(c_out)) = (per_color, c_out) {
-                let c = clamp_color(inst.color);
-                if c != last_color.0 {
-                    last_color = (c, linear_color(c));
-                }
-                put(c_out, &last_color.1[..3]);
-            }
         }
         self.root.extensions_used = vec![EXT_INSTANCING];
         let node = self.push_node(Node {
@@ -1275,491 +1317,22 @@ impl<'w> Sink<'w> {
         Ok(())
     }
 
+    /// Appends `xs` as little-endian f32s.
+    #[inline]
+    fn floats<const N: usize>(&mut self, xs: [f32; N]) -> Result<(), String> {
+        let b = self.slot(4 * N)?;
+        for (d, x) in b.chunks_exact_mut(4).zip(xs) {
+            d.copy_from_slice(&x.to_le_bytes());
+        }
+        Ok(())
+    }
+
     fn flush(&mut self) -> Result<(), String> {
         self.w.write_all(&self.buf[..self.len]).map_err(|e| format!("cannot write: {e}"))?;
         self.written += self.len;
         self.len = 0;
         Ok(())
     }
-}
-
-/// Where a flat primitive's pieces come from.
-enum FlatSource<'a> {
-    /// The `VERTEX` group, with the prototype instances not in `instanced` expanded.
-    Vertex { out: &'a Output, instanced: &'a [bool] },
-    /// One mesh in world space (the sweeps, the baked isosurface instances).
-    Mesh(&'a Mesh),
-    /// One mesh made for the file (a mirrored or baked part of a scene of nodes).
-    Owned(Mesh),
-}
-
-impl<'a> FlatSource<'a> {
-    fn walk<'s>(&'s self, f: &mut dyn FnMut(VertexPart<'s>) -> Result<(), String>) -> Result<(), String> {
-        let m = match self {
-            FlatSource::Vertex { out, instanced } => {
-                return out.for_each_vertex_part(&|i| !instanced.get(i).copied().unwrap_or(false), f);
-            }
-            FlatSource::Mesh(m) => *m,
-            FlatSource::Owned(m) => m,
-        };
-        f(VertexPart::Piece(Piece { mesh: m, vertices: 0..m.n_vertices(), triangles: 0..m.triangles.len(), base: 0 }))
-    }
-
-    fn output(&self) -> Option<&'a Output> {
-        match self {
-            FlatSource::Vertex { out, .. } => Some(out),
-            FlatSource::Mesh(_) | FlatSource::Owned(_) => None,
-        }
-    }
-}
-
-/// What a prototype's expansion needs, worked out once per prototype: its distinct
-/// positions (for the bounds) and normals, and whether the fast expansion applies.
-struct ProtoInfo {
-    /// Triangle t is vertices 3t..3t+2 and every vertex is in one triangle.
-    sequential: bool,
-    /// Every triangle refers to vertices of the mesh.
-    valid: bool,
-    n_tris: usize,
-    /// A `FACENORMALS` item recomputed normals: expanded by [`expand_prototype`].
-    face_normals: bool,
-    /// Distinct positions, and per vertex the index of its position.
-    positions: Vec<Vec3>,
-    position_of: Vec<u32>,
-    /// Distinct normals, and per vertex the index of its normal.
-    normals: Vec<Vec3>,
-    normal_of: Vec<u32>,
-    /// Distinct colour deltas, and per vertex the index of its delta.
-    deltas: Vec<[f32; 4]>,
-    delta_of: Vec<u32>,
-}
-
-impl ProtoInfo {
-    fn new(s: &SharedMesh) -> ProtoInfo {
-        let m = &s.mesh;
-        let n = m.n_vertices();
-        let sequential = m.triangles.len() * 3 == n
-            && m.triangles
-                .iter()
-                .enumerate()
-                .all(|(t, tri)| *tri == [3 * t as u32, 3 * t as u32 + 1, 3 * t as u32 + 2]);
-        let face_normals = match &s.kind {
-            SharedKind::Prototype { face_normals } => face_normals.iter().any(Option::is_some),
-            SharedKind::Isosurface => false,
-        };
-        fn distinct<T: Copy, K: Ord>(items: impl Iterator<Item = T>, key: impl Fn(&T) -> K) -> (Vec<T>, Vec<u32>) {
-            let mut seen: BTreeMap<K, u32> = BTreeMap::new();
-            let mut values = Vec::new();
-            let of = items
-                .map(|x| {
-                    *seen.entry(key(&x)).or_insert_with(|| {
-                        values.push(x);
-                        values.len() as u32 - 1
-                    })
-                })
-                .collect();
-            (values, of)
-        }
-        let (positions, position_of) =
-            distinct((0..n).map(|i| Vec3::from(m.positions[i])), |p| p.to_array().map(f32::to_bits));
-        let (normals, normal_of) =
-            distinct((0..n).map(|i| Vec3::from(m.normals.get(i).copied().unwrap_or([0.0, 0.0, 1.0]))), |p| {
-                p.to_array().map(f32::to_bits)
-            });
-        let (deltas, delta_of) =
-            distinct((0..n).map(|i| m.colors.get(i).copied().unwrap_or([0.0; 4])), |c| c.map(f32::to_bits));
-        let valid = m.triangles.iter().all(|t| t.iter().all(|&i| (i as usize) < n));
-        ProtoInfo {
-            sequential,
-            valid,
-            n_tris: m.triangles.len(),
-            face_normals,
-            positions,
-            position_of,
-            normals,
-            normal_of,
-            deltas,
-            delta_of,
-        }
-    }
-}
-
-/// Per shared mesh, its [`ProtoInfo`] when it is a prototype, made on first use.
-struct ProtoInfos<'a> {
-    out: &'a Output,
-    infos: Vec<Option<ProtoInfo>>,
-}
-
-impl<'a> ProtoInfos<'a> {
-    fn new(out: &'a Output) -> ProtoInfos<'a> {
-        ProtoInfos { out, infos: (0..out.shared_meshes.len()).map(|_| None).collect() }
-    }
-
-    fn get(&mut self, mesh: u32) -> Option<&ProtoInfo> {
-        let shared = self.out.shared_meshes.get(mesh as usize)?;
-        let slot = self.infos.get_mut(mesh as usize)?;
-        Some(slot.get_or_insert_with(|| ProtoInfo::new(shared)))
-    }
-}
-
-/// Whether every 8-bit display value of `c` (clamped RGBA) survives being stored as
-/// 8-bit linear `COLOR_0` and read back: sRGB's dark end is finer than 1/255 in
-/// linear light (display 1/255 is linear 0.0003), so dark colours need 16 bits.
-fn fits_8_bits(c: [f32; 4]) -> bool {
-    c[..3].iter().all(|&x| {
-        let shown = (x * 255.0).round();
-        let stored = (super::srgb_to_linear(x) * 255.0).round() / 255.0;
-        (super::linear_to_srgb(stored) * 255.0).round() == shown
-    })
-}
-
-/// A flat primitive's layout, from a first walk: counts, bounds, and how it is stored.
-struct FlatPlan {
-    n: usize,
-    n_tris: usize,
-    /// The oriented triangles are 0,1,2, 3,4,5, … up to the order within each (the
-    /// index buffer would count 0…N−1): written without indices, each triangle's
-    /// vertices in its oriented order.
-    sequential: bool,
-    /// Some colour needs 16 bits ([`fits_8_bits`]).
-    wide: bool,
-    lo: [f32; 3],
-    hi: [f32; 3],
-}
-
-/// A prototype vertex as [`expand_prototype`] makes it and the exporters read it:
-/// the frame's linear part applied, the normal normalised (twice, as the flat walk
-/// does: once expanding, once writing), the colour clamped.
-struct ProtoFrame {
-    lin: glam::Mat3,
-    u: Vec3,
-    mirrored: bool,
-}
-
-impl ProtoFrame {
-    fn new(f: &Frame) -> ProtoFrame {
-        let (lin, mirrored) = f.linear();
-        ProtoFrame { lin, u: f.u, mirrored }
-    }
-
-    #[inline]
-    fn position(&self, p: Vec3) -> [f32; 3] {
-        finite3((self.u + self.lin * p).to_array())
-    }
-
-    #[inline]
-    fn normal(&self, n: Vec3) -> [f32; 3] {
-        unit_normal((self.lin * n).normalize_or(Vec3::Z).to_array())
-    }
-}
-
-/// The colour of a prototype vertex: the instance's plus the item's delta, clamped.
-#[inline]
-fn proto_color(inst: [f32; 4], delta: [f32; 4]) -> [f32; 4] {
-    clamp_color(
-        [inst[0] + delta[0], inst[1] + delta[1], inst[2] + delta[2], inst[3] + delta[3]].map(|v| v.clamp(0.0, 1.0)),
-    )
-}
-
-/// The first walk of a flat primitive: counts, bounds, colour precision, and
-/// whether the triangles need an index buffer; checks every triangle.
-fn flat_plan(src: &FlatSource, what: &str, infos: &mut Option<ProtoInfos>) -> Result<FlatPlan, String> {
-    let mut plan =
-        FlatPlan { n: 0, n_tris: 0, sequential: true, wide: false, lo: [f32::INFINITY; 3], hi: [f32::NEG_INFINITY; 3] };
-    let mut last_color: Option<[f32; 4]> = None;
-    let mut color = |plan: &mut FlatPlan, c: [f32; 4]| {
-        if last_color != Some(c) {
-            last_color = Some(c);
-            plan.wide |= !fits_8_bits(c);
-        }
-    };
-    let bound = |plan: &mut FlatPlan, q: [f32; 3]| {
-        for (c, x) in q.into_iter().enumerate() {
-            plan.lo[c] = plan.lo[c].min(x);
-            plan.hi[c] = plan.hi[c].max(x);
-        }
-    };
-    let out = src.output();
-    let mut last_proto: Option<(u32, [u32; 4])> = None;
-    src.walk(&mut |part| {
-        match part {
-            VertexPart::Piece(p) => {
-                let m = p.mesh;
-                if p.base as usize != plan.n {
-                    return Err(format!("{what}: the pieces are out of order"));
-                }
-                for v in p.vertices.clone() {
-                    bound(&mut plan, finite3(m.positions[v]));
-                    color(&mut plan, color_at(m, v));
-                }
-                for t in p.triangles.clone() {
-                    let Some(o) = p.oriented(t) else {
-                        return Err(format!(
-                            "{what}: triangle {:?} refers past the {} vertices",
-                            m.triangles[t],
-                            p.vertices.len()
-                        ));
-                    };
-                    let k = 3 * plan.n_tris as u32;
-                    let mut sorted = o;
-                    sorted.sort_unstable();
-                    plan.sequential &= sorted == [k, k + 1, k + 2];
-                    plan.n_tris += 1;
-                }
-                plan.n += p.vertices.len();
-                plan.sequential &= plan.n == 3 * plan.n_tris;
-            }
-            VertexPart::Prototype { instance, base } => {
-                let (Some(out), Some(infos)) = (out, infos.as_mut()) else { return Ok(()) };
-                let inst = &out.instances[instance];
-                let Some(info) = infos.get(inst.mesh) else { return Ok(()) };
-                if base as usize != plan.n {
-                    return Err(format!("{what}: the pieces are out of order"));
-                }
-                if !info.valid {
-                    let name = out.shared(inst).map_or("", |s| s.name.as_str());
-                    return Err(format!("{what}: prototype {name} has a triangle past its vertices"));
-                }
-                let f = ProtoFrame::new(&inst.frame);
-                for &p in &info.positions {
-                    bound(&mut plan, f.position(p));
-                }
-                // (Consecutive instances mostly share their mesh and colour.)
-                let key = (inst.mesh, inst.color.map(f32::to_bits));
-                if last_proto != Some(key) {
-                    last_proto = Some(key);
-                    for &d in &info.deltas {
-                        color(&mut plan, proto_color(inst.color, d));
-                    }
-                }
-                plan.sequential &= info.sequential && plan.n == 3 * plan.n_tris;
-                plan.n += info.position_of.len();
-                plan.n_tris += info.n_tris;
-            }
-        }
-        Ok(())
-    })?;
-    Ok(plan)
-}
-
-/// Encodes vertices into a flat primitive's interleaved records: position and normal
-/// (f32), colour (linear, normalised u8 or u16 RGBA), and for a skinned output the
-/// bone (u16 JOINTS_0) and weights (1, 0, 0, 0).
-struct VertexRecord {
-    stride: usize,
-    wide: bool,
-    skinned: bool,
-    /// The last colour and its encoding: neighbouring vertices mostly share one, and
-    /// the sRGB curve (three powers) would cost more than the rest of a vertex.
-    last: ([f32; 4], [u8; 8]),
-}
-
-impl VertexRecord {
-    fn new(wide: bool, skinned: bool) -> VertexRecord {
-        VertexRecord { stride: flat_stride(wide, skinned), wide, skinned, last: ([f32::NAN; 4], [0; 8]) }
-    }
-
-    #[inline]
-    fn put(&mut self, sink: &mut Sink, p: [f32; 3], n: [f32; 3], c: [f32; 4], bone: u32) -> Result<(), String> {
-        if c.map(f32::to_bits) != self.last.0.map(f32::to_bits) {
-            let l = linear_color(c);
-            let mut e = [0u8; 8];
-            for k in 0..4 {
-                if self.wide {
-                    e[2 * k..2 * k + 2].copy_from_slice(&((l[k] * 65535.0).round() as u16).to_le_bytes());
-                } else {
-                    e[k] = (l[k] * 255.0).round() as u8;
-                }
-            }
-            self.last = (c, e);
-        }
-        let b = sink.slot(self.stride)?;
-        let Some(b) = b.first_chunk_mut::<28>() else { return Err("glTF binary: a short vertex record".into()) };
-        b[0..4].copy_from_slice(&p[0].to_le_bytes());
-        b[4..8].copy_from_slice(&p[1].to_le_bytes());
-        b[8..12].copy_from_slice(&p[2].to_le_bytes());
-        b[12..16].copy_from_slice(&n[0].to_le_bytes());
-        b[16..20].copy_from_slice(&n[1].to_le_bytes());
-        b[20..24].copy_from_slice(&n[2].to_le_bytes());
-        let e = self.last.1;
-        b[24..28].copy_from_slice(&[e[0], e[1], e[2], e[3]]);
-        if self.wide || self.skinned {
-            let b = sink.buf.get_mut(sink.len - self.stride..sink.len).ok_or("glTF binary: a vertex record")?;
-            let w = if self.wide {
-                b[28..32].copy_from_slice(&[e[4], e[5], e[6], e[7]]);
-                32
-            } else {
-                28
-            };
-            if self.skinned {
-                let j = (bone.min(u16::MAX as u32) as u16).to_le_bytes();
-                b[w..w + 8].copy_from_slice(&[j[0], j[1], 0, 0, 0, 0, 0, 0]);
-                b[w + 8..w + 12].copy_from_slice(&1.0f32.to_le_bytes());
-                b[w + 12..w + 24].fill(0);
-            }
-        }
-        Ok(())
-    }
-}
-
-/// The bytes of one vertex of a flat primitive (see [`VertexRecord`]).
-fn flat_stride(wide: bool, skinned: bool) -> usize {
-    24 + if wide { 8 } else { 4 } + if skinned { 24 } else { 0 }
-}
-
-/// One prototype instance's vertices, as [`expand_prototype`] makes them and the
-/// exporters read them (positions, normals and colours, by vertex).
-struct ProtoVertices {
-    positions: Vec<[f32; 3]>,
-    normals: Vec<[f32; 3]>,
-    colors: Vec<[f32; 4]>,
-    scratch: Mesh,
-    identity: Vec<u32>,
-}
-
-impl ProtoVertices {
-    /// Fills in instance `inst`'s vertices (the prototype's distinct positions,
-    /// normals and colours, or one of each per vertex where `FACENORMALS` makes
-    /// normals per instance: see [`ProtoVertices::maps`]); whether the frame mirrors.
-    fn fill(&mut self, out: &Output, shared: &SharedMesh, info: &ProtoInfo, instance: usize) -> bool {
-        let inst = &out.instances[instance];
-        let f = ProtoFrame::new(&inst.frame);
-        self.positions.clear();
-        self.normals.clear();
-        self.colors.clear();
-        if info.face_normals {
-            self.scratch.clear();
-            expand_prototype(&mut self.scratch, shared, inst, [0.0; 4]);
-            let m = &self.scratch;
-            for i in 0..m.n_vertices() {
-                self.positions.push(finite3(m.positions[i]));
-                self.normals.push(normal_at(m, i));
-                self.colors.push(color_at(m, i));
-            }
-            if self.identity.len() < m.n_vertices() {
-                self.identity = (0..m.n_vertices() as u32).collect();
-            }
-            return f.mirrored;
-        }
-        self.positions.extend(info.positions.iter().map(|&p| f.position(p)));
-        self.normals.extend(info.normals.iter().map(|&n| f.normal(n)));
-        self.colors.extend(info.deltas.iter().map(|&d| proto_color(inst.color, d)));
-        f.mirrored
-    }
-
-    /// From each vertex to its position, normal and colour after [`ProtoVertices::fill`].
-    fn maps<'s>(&'s self, info: &'s ProtoInfo) -> [&'s [u32]; 3] {
-        if info.face_normals {
-            let id = &self.identity[..self.positions.len()];
-            [id, id, id]
-        } else {
-            [&info.position_of, &info.normal_of, &info.delta_of]
-        }
-    }
-}
-
-/// The second walk of a flat primitive: its vertex records (in oriented triangle
-/// order when `plan.sequential`, else in flat order followed by the u32 indices).
-fn flat_write(
-    src: &FlatSource,
-    plan: &FlatPlan,
-    skinned: bool,
-    infos: &mut Option<ProtoInfos>,
-    sink: &mut Sink,
-) -> Result<(), String> {
-    let mut rec = VertexRecord::new(plan.wide, skinned);
-    let mut pv = ProtoVertices {
-        positions: Vec::new(),
-        normals: Vec::new(),
-        colors: Vec::new(),
-        scratch: Mesh::default(),
-        identity: Vec::new(),
-    };
-    let out = src.output();
-    let missing = || "flat geometry: an instance of a missing shared mesh".to_string();
-    src.walk(&mut |part| match part {
-        VertexPart::Piece(p) => {
-            let m = p.mesh;
-            let vertex = |rec: &mut VertexRecord, sink: &mut Sink, v: usize| {
-                rec.put(sink, finite3(m.positions[v]), normal_at(m, v), color_at(m, v), m.bone(v))
-            };
-            if plan.sequential {
-                for t in p.triangles.clone() {
-                    let o = p.oriented(t).ok_or_else(|| "flat geometry: a triangle out of range".to_string())?;
-                    for v in o {
-                        vertex(&mut rec, sink, (v - p.base) as usize + p.vertices.start)?;
-                    }
-                }
-            } else {
-                for v in p.vertices.clone() {
-                    vertex(&mut rec, sink, v)?;
-                }
-            }
-            Ok(())
-        }
-        VertexPart::Prototype { instance, .. } => {
-            let (Some(out), Some(infos)) = (out, infos.as_mut()) else { return Err(missing()) };
-            let inst = &out.instances[instance];
-            let shared = out.shared(inst).ok_or_else(missing)?;
-            let info = infos.get(inst.mesh).ok_or_else(missing)?;
-            let mirrored = pv.fill(out, shared, info, instance);
-            let [pos_of, nrm_of, col_of] = pv.maps(info);
-            let vertex = |rec: &mut VertexRecord, sink: &mut Sink, v: usize| {
-                rec.put(
-                    sink,
-                    pv.positions[pos_of[v] as usize],
-                    pv.normals[nrm_of[v] as usize],
-                    pv.colors[col_of[v] as usize],
-                    inst.bone,
-                )
-            };
-            if plan.sequential {
-                for t in 0..info.n_tris {
-                    let v = 3 * t;
-                    let flip = mirrored != shared.mesh.mirrored.get(t).copied().unwrap_or(false);
-                    for c in if flip { [v, v + 2, v + 1] } else { [v, v + 1, v + 2] } {
-                        vertex(&mut rec, sink, c)?;
-                    }
-                }
-            } else {
-                for v in 0..pos_of.len() {
-                    vertex(&mut rec, sink, v)?;
-                }
-            }
-            Ok(())
-        }
-    })?;
-    if plan.sequential {
-        return Ok(());
-    }
-    src.walk(&mut |part| {
-        let tri = |sink: &mut Sink, t: [u32; 3]| {
-            let mut b = [0u8; 12];
-            for k in 0..3 {
-                b[4 * k..4 * k + 4].copy_from_slice(&t[k].to_le_bytes());
-            }
-            sink.put(&b)
-        };
-        match part {
-            VertexPart::Piece(p) => {
-                for t in p.triangles.clone() {
-                    tri(sink, p.oriented(t).ok_or_else(|| "flat geometry: a triangle out of range".to_string())?)?;
-                }
-            }
-            VertexPart::Prototype { instance, base } => {
-                let Some(out) = out else { return Err(missing()) };
-                let inst = &out.instances[instance];
-                let shared = out.shared(inst).ok_or_else(missing)?;
-                let mirrored = ProtoFrame::new(&inst.frame).mirrored;
-                for (t, v) in shared.mesh.triangles.iter().enumerate() {
-                    let v = v.map(|i| i + base);
-                    let flip = mirrored != shared.mesh.mirrored.get(t).copied().unwrap_or(false);
-                    tri(sink, if flip { [v[0], v[2], v[1]] } else { v })?;
-                }
-            }
-        }
-        Ok(())
-    })
 }
 
 // The glTF JSON schema subset written here. Empty arrays are omitted because glTF
@@ -2003,6 +1576,7 @@ struct Buffer {
 pub(crate) mod tests {
     use serde_json::Value;
 
+    use super::flat::fits_8_bits;
     use super::*;
     use crate::export::linear_to_srgb;
     use crate::export::tests::sample_output;

@@ -25,6 +25,9 @@ pub(super) fn extras(runs: &[[u32; 4]], sites: &[Site]) -> Option<serde_json::Va
 /// node changes. Empty when the output has no instance sites.
 fn runs_of(out: &Output, order: &[u32], size: impl Fn(usize) -> u32) -> Vec<[u32; 4]> {
     let mut runs: Vec<[u32; 4]> = Vec::new();
+    if out.sites.instance_runs.is_empty() {
+        return runs;
+    }
     let mut first = 0u32;
     for (k, &i) in order.iter().enumerate() {
         if let Some(r) = out.sites.run_of_instance(i) {
