@@ -4,8 +4,8 @@
 //! derivation, enclosure and largest piece it uses.
 
 use super::generate::{
-    below, keep_largest_supported, placed, settle, union_box, Adjacency, Derivation, GenerateOptions, Generated,
-    Instance, Outside, World,
+    below, keep_largest_supported, outside_of, placed, settle, union_box, Adjacency, Derivation, GenerateOptions,
+    Generated, Instance, World,
 };
 use super::GridGrammar;
 use rand::{Rng, SeedableRng};
@@ -120,7 +120,7 @@ pub fn add_missing_kinds(
             .map(|(i, inst)| (dist_of(inst), rng.next_u64(), i))
             .collect();
         starts.sort_unstable();
-        let outside = if opts.enclosure { Outside::of(&world, opts.seal).map_err(CompletionError)? } else { None };
+        let outside = if opts.enclosure { outside_of(&world, opts.seal).map_err(CompletionError)? } else { None };
         let ground = world.cells.keys().map(|p| p[1]).min();
         let fits = |new: &Instance, w: &World, bb: Option<([i32; 3], [i32; 3])>| {
             let inside = match (limit, bb) {
