@@ -21,7 +21,8 @@
 //! too, unless another instance holds them) and the fill repeats until nothing is
 //! removed. 3D shapes are never removed.
 
-use super::voxel::{Block, BlockKind, Grid, VoxelModel, MAX_BLOCKS, MAX_CELLS, NEIGHBOURS};
+use super::outside::Outside;
+use super::voxel::{Block, BlockKind, VoxelModel, MAX_BLOCKS, NEIGHBOURS};
 use super::{turn_box, GridGrammar, Placement};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -337,11 +338,17 @@ impl World {
     }
 
     pub(super) fn remove(&mut self, blocks: impl Iterator<Item = ([i32; 3], u32)>) {
+        self.remove_into(blocks, &mut Vec::new());
+    }
+
+    /// [`World::remove`], pushing the cells left empty onto `emptied`.
+    fn remove_into(&mut self, blocks: impl Iterator<Item = ([i32; 3], u32)>, emptied: &mut Vec<[i32; 3]>) {
         for (p, _) in blocks {
             if let Some(c) = self.cells.get_mut(&p) {
                 c.1 -= 1;
                 if c.1 == 0 {
                     self.cells.remove(&p);
+                    emptied.push(p);
                 }
             }
         }
@@ -427,7 +434,9 @@ pub fn derive(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generated
 
 /// The enclosure constraint (when on), then the largest piece on the ground (when
 /// kept); dropping the other pieces can open what they closed, so the two repeat until
-/// neither removes anything. Returns (instances removed, flood fills run).
+/// neither removes anything. Returns (instances removed, rounds of the enclosure: looks
+/// for exposed instances). The outside is computed once and then updated as blocks go
+/// (`grid::outside`), again from scratch only when the lowest blocks go.
 pub(super) fn settle(
     d: &Derivation,
     instances: &mut Vec<Instance>,
@@ -435,18 +444,58 @@ pub(super) fn settle(
     opts: &GenerateOptions,
 ) -> Result<(usize, usize), String> {
     let (mut removed, mut rounds) = (0, 0);
+    let mut out = if opts.enclosure { outside_of(world, opts.seal)? } else { None };
+    let mut emptied = Vec::new();
     loop {
         if opts.enclosure {
-            let (r, n) = enclose(d, instances, world, opts.seal)?;
-            removed += r;
-            rounds += n;
+            loop {
+                rounds += 1;
+                let Some(o) = &out else { break };
+                let exposed: Vec<usize> =
+                    instances.iter().enumerate().filter(|(_, inst)| o.exposes(d, inst)).map(|(i, _)| i).collect();
+                if exposed.is_empty() {
+                    break;
+                }
+                removed += exposed.len();
+                let mut gone = vec![false; instances.len()];
+                for i in exposed {
+                    gone[i] = true;
+                    world.remove_into(d.blocks(&instances[i]), &mut emptied);
+                }
+                let mut g = gone.iter();
+                instances.retain(|_| !g.next().copied().unwrap_or(false));
+                update_outside(&mut out, world, &mut emptied, opts.seal)?;
+            }
         }
-        let dropped = if opts.keep_largest { keep_largest_supported(d, instances, world) } else { 0 };
+        let dropped = if opts.keep_largest { keep_largest_into(d, instances, world, &mut emptied) } else { 0 };
         removed += dropped;
         if dropped == 0 || !opts.enclosure {
             return Ok((removed, rounds));
         }
+        update_outside(&mut out, world, &mut emptied, opts.seal)?;
     }
+}
+
+/// The outside of `world`'s blocks with openings up to `2·seal` sealed.
+pub(super) fn outside_of(world: &World, seal: u32) -> Result<Option<Outside>, String> {
+    Outside::of(world.cells.keys().copied(), seal.min(MAX_SEAL))
+}
+
+/// Takes the `emptied` cells out of the outside (and clears the list); computes it
+/// again when the lowest blocks went (the ground rose) or the world is empty.
+fn update_outside(
+    out: &mut Option<Outside>,
+    world: &World,
+    emptied: &mut Vec<[i32; 3]>,
+    seal: u32,
+) -> Result<(), String> {
+    let ground = world.cells.keys().map(|p| p[1]).min();
+    match (out.as_mut(), ground) {
+        (Some(o), Some(g)) if g == o.ground() => emptied.iter().for_each(|&p| o.remove(p)),
+        _ => *out = outside_of(world, seal)?,
+    }
+    emptied.clear();
+    Ok(())
 }
 
 /// The pairs of face neighbours the adjacency constraint allows: (kind, neighbour's
@@ -511,6 +560,16 @@ pub(super) fn union_box(a: ([i32; 3], [i32; 3]), b: ([i32; 3], [i32; 3])) -> ([i
 /// returns how many instances were removed. Each instance is connected, so it lies
 /// in one piece.
 pub(super) fn keep_largest_supported(d: &Derivation, instances: &mut Vec<Instance>, world: &mut World) -> usize {
+    keep_largest_into(d, instances, world, &mut Vec::new())
+}
+
+/// [`keep_largest_supported`], pushing the cells it empties onto `emptied`.
+fn keep_largest_into(
+    d: &Derivation,
+    instances: &mut Vec<Instance>,
+    world: &mut World,
+    emptied: &mut Vec<[i32; 3]>,
+) -> usize {
     let Some(ground) = world.cells.keys().map(|p| p[1]).min() else { return 0 };
     let mut cells: Vec<[i32; 3]> = world.cells.keys().copied().collect();
     cells.sort_by_key(|p| (p[1], p[2], p[0]));
@@ -556,38 +615,18 @@ pub(super) fn keep_largest_supported(d: &Derivation, instances: &mut Vec<Instanc
         stays
     });
     for inst in &gone {
-        world.remove(d.blocks(inst));
+        world.remove_into(d.blocks(inst), emptied);
     }
     // Blocks of removed pieces that no instance held (none: every block is an
     // instance's) would stay; drop any cell outside the kept piece all the same.
-    world.cells.retain(|p, _| piece.get(p) == Some(&keep));
+    world.cells.retain(|p, _| {
+        let stays = piece.get(p) == Some(&keep);
+        if !stays {
+            emptied.push(*p);
+        }
+        stays
+    });
     before - instances.len()
-}
-
-/// The enclosure constraint on a production: removes exposed instances (and their
-/// blocks) until none is left; returns (instances removed, flood fills run).
-fn enclose(
-    d: &Derivation,
-    instances: &mut Vec<Instance>,
-    world: &mut World,
-    seal: u32,
-) -> Result<(usize, usize), String> {
-    let (mut removed, mut rounds) = (0, 0);
-    loop {
-        rounds += 1;
-        let exposed = exposed_instances(d, instances, world, seal)?;
-        if exposed.is_empty() {
-            return Ok((removed, rounds));
-        }
-        removed += exposed.len();
-        let mut gone = vec![false; instances.len()];
-        for i in exposed {
-            gone[i] = true;
-            world.remove(d.blocks(&instances[i]));
-        }
-        let mut g = gone.iter();
-        instances.retain(|_| !g.next().copied().unwrap_or(false));
-    }
 }
 
 /// Applies the enclosure constraint to given instances of `grammar`'s shapes (a
@@ -601,48 +640,9 @@ pub fn enclosure(
     grammar.validate()?;
     let (d, mut world) = placed(grammar, instances)?;
     let mut kept = instances.to_vec();
-    let (removed, _) = enclose(&d, &mut kept, &mut world, seal)?;
+    let only = GenerateOptions { enclosure: true, seal, keep_largest: false, ..GenerateOptions::default() };
+    let (removed, _) = settle(&d, &mut kept, &mut world, &only)?;
     Ok((kept, world.model(&d.kinds), removed))
-}
-
-/// Dilates a cell mask of a grid with `dims` by `r` cells in every direction (a box,
-/// Chebyshev distance), one axis at a time with running counts.
-fn dilate(mask: &mut [bool], dims: [i32; 3], r: i32) {
-    if r <= 0 {
-        return;
-    }
-    let (dx, dy, dz) = (dims[0] as usize, dims[1] as usize, dims[2] as usize);
-    let idx = |x: usize, y: usize, z: usize| (y * dz + z) * dx + x;
-    let mut line = Vec::new();
-    for axis in 0..3 {
-        let len = [dx, dy, dz][axis];
-        let (na, nb) = match axis {
-            0 => (dy, dz),
-            1 => (dx, dz),
-            _ => (dx, dy),
-        };
-        for a in 0..na {
-            for b in 0..nb {
-                let at = |i: usize| match axis {
-                    0 => idx(i, a, b),
-                    1 => idx(a, i, b),
-                    _ => idx(a, b, i),
-                };
-                line.clear();
-                line.extend((0..len).map(|i| mask[at(i)]));
-                // prefix[i] = set cells before i.
-                let mut prefix = vec![0u32; len + 1];
-                for i in 0..len {
-                    prefix[i + 1] = prefix[i] + line[i] as u32;
-                }
-                for i in 0..len {
-                    let lo = i.saturating_sub(r as usize);
-                    let hi = (i + r as usize + 1).min(len);
-                    mask[at(i)] = prefix[hi] > prefix[lo];
-                }
-            }
-        }
-    }
 }
 
 /// The instances exposed on both sides (see the module documentation). Openings up
@@ -653,76 +653,7 @@ fn exposed_instances(d: &Derivation, instances: &[Instance], world: &World, seal
     Ok(exposed_and_interior(d, instances, world, seal)?.0)
 }
 
-/// The outside of a production (see the module documentation): which empty cells the
-/// flood fill (around the blocks grown by `seal`) reaches, and its interior cells.
-pub(super) struct Outside {
-    grid: Grid,
-    solid: Vec<bool>,
-    fill: Vec<bool>,
-    ground: i32,
-}
-
 impl Outside {
-    /// The outside of `world`'s blocks; none for an empty world.
-    pub(super) fn of(world: &World, seal: u32) -> Result<Option<Outside>, String> {
-        let blocks: Vec<Block> = world.cells.iter().map(|(p, (k, _))| Block { pos: *p, kind: *k }).collect();
-        if blocks.is_empty() {
-            return Ok(None);
-        }
-        let r = seal.min(MAX_SEAL) as i32;
-        // Checked before the grid is allocated: a rule placing a shape 16,000,000 blocks
-        // away made a 29 GB grid.
-        let cells = Grid::cells_needed(&blocks, r + 1);
-        if cells > MAX_CELLS * 4 {
-            return Err(format!(
-                "the production is too large for the enclosure constraint ({cells} cells in its bounding box, at most {})",
-                MAX_CELLS * 4
-            ));
-        }
-        let grid = Grid::new(&blocks, r + 1);
-        let n = grid.len();
-        // The production stands on the ground: cells below its lowest blocks are solid.
-        let ground = blocks.iter().map(|b| b.pos[1]).min().unwrap_or(0);
-        let solid: Vec<bool> = (0..n)
-            .map(|c| {
-                let p = grid.position(c);
-                p[1] < ground || grid.get(p) != Grid::EMPTY
-            })
-            .collect();
-        let mut grown = solid.clone();
-        dilate(&mut grown, grid.dims, r);
-        // Flood fill from a top corner of the padded box (never grown over).
-        let mut fill = vec![false; n];
-        let corner = [grid.lo[0], grid.lo[1] + grid.dims[1] - 1, grid.lo[2]];
-        let mut stack = vec![corner];
-        if let Some(c) = grid.index(corner) {
-            fill[c] = true;
-        }
-        while let Some(p) = stack.pop() {
-            for dlt in NEIGHBOURS {
-                let q = super::add(p, dlt);
-                if let Some(c) = grid.index(q) {
-                    if !fill[c] && !grown[c] {
-                        fill[c] = true;
-                        stack.push(q);
-                    }
-                }
-            }
-        }
-        dilate(&mut fill, grid.dims, r);
-        Ok(Some(Outside { grid, solid, fill, ground }))
-    }
-
-    /// Whether the cell at `p` is outside (cells beyond the padded box are).
-    fn is_out(&self, p: [i32; 3]) -> bool {
-        p[1] >= self.ground && self.grid.index(p).is_none_or(|c| self.fill[c] && !self.solid[c])
-    }
-
-    /// Empty cells above the ground that the outside does not reach.
-    fn interior(&self) -> usize {
-        (0..self.grid.len()).filter(|&c| !self.solid[c] && !self.fill[c]).count()
-    }
-
     /// Whether `inst` (of a flat shape that is not open) has a block with outside cells
     /// on both sides along the shape's axis.
     pub(super) fn exposes(&self, d: &Derivation, inst: &Instance) -> bool {
@@ -746,7 +677,7 @@ fn exposed_and_interior(
     world: &World,
     seal: u32,
 ) -> Result<(Vec<usize>, usize), String> {
-    let Some(out) = Outside::of(world, seal)? else { return Ok((Vec::new(), 0)) };
+    let Some(out) = outside_of(world, seal)? else { return Ok((Vec::new(), 0)) };
     let exposed = instances.iter().enumerate().filter(|(_, inst)| out.exposes(d, inst)).map(|(i, _)| i).collect();
     Ok((exposed, out.interior()))
 }
