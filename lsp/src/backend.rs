@@ -139,6 +139,7 @@ impl Backend {
             skip_shaders: shaders == Shaders::Skip,
             cancelled: Some(&outdated),
             cached_shaders_only: shaders == Shaders::Cached,
+            previous: snap.previous.as_deref().map(Document::analysis),
         };
         Document::with_effort(&snap.loader, &snap.path, &snap.text, &config.options, effort)
     }
