@@ -34,7 +34,8 @@ fn main() {
     let path = Path::new("/bench/big.mdg");
     let (mut lex, mut parse, mut expand, mut check, mut full, mut drop) =
         (vec![], vec![], vec![], vec![], vec![], vec![]);
-    for _ in 0..15 {
+    let first = if std::env::var("PHASES_REPARSE_ONLY").is_ok() { 0 } else { 15 };
+    for _ in 0..first {
         let t = Instant::now();
         let l = mdg_compiler::lexer::lex(&src, mdg_compiler::span::FileId(0));
         lex.push(t.elapsed().as_secs_f64() * 1e3);
@@ -68,6 +69,18 @@ fn main() {
     let mut sources = Sources::default();
     let id = sources.add(path, "big".to_string(), &src);
     let (prev_parsed, prev_memo, _) = mdg_compiler::parse::parse_file_reusing(&sources, id, None);
+    // `PHASES_REPARSE_ONLY=N`: only the parse reusing the previous, N times (for a profiler).
+    if let Some(n) = std::env::var("PHASES_REPARSE_ONLY").ok().and_then(|v| v.parse::<usize>().ok()) {
+        let mut s2 = Sources::default();
+        let id2 = s2.add(path, "big".to_string(), &edited);
+        let prev = mdg_compiler::parse::Previous { text: &src, items: &prev_parsed.file.items, memo: &prev_memo };
+        let t = Instant::now();
+        for _ in 0..n {
+            std::hint::black_box(mdg_compiler::parse::parse_file_reusing(&s2, id2, Some(prev)));
+        }
+        println!("parse reusing the previous: {:.2} ms each", t.elapsed().as_secs_f64() * 1e3 / n as f64);
+        return;
+    }
     for _ in 0..15 {
         let mut s2 = Sources::default();
         let id2 = s2.add(path, "big".to_string(), &edited);
@@ -89,6 +102,14 @@ fn main() {
         "after a 7-character edit: whole parse {:.2} ms, parse reusing the previous {:.2} ms; a clone of the items {:.2} ms",
         med(&mut whole_edited), med(&mut reparse), med(&mut clone_items)
     );
+    if first == 0 {
+        lex.push(0.0);
+        parse.push(0.0);
+        expand.push(0.0);
+        check.push(0.0);
+        full.push(0.0);
+        drop.push(0.0);
+    }
     println!(
         "medians (ms): lex {:.2}, parse_file {:.2} (lex included), expand {:.2} (parse included), check {:.2}, analyze_text {:.2}, drop {:.2}",
         med(&mut lex), med(&mut parse), med(&mut expand), med(&mut check), med(&mut full), med(&mut drop)
