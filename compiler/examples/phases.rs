@@ -69,6 +69,58 @@ fn main() {
     let mut sources = Sources::default();
     let id = sources.add(path, "big".to_string(), &src);
     let (prev_parsed, prev_memo, _) = mdg_compiler::parse::parse_file_reusing(&sources, id, None);
+    // `PHASES_TYPING=1`: the typing benchmark's edits analysed in this process, each
+    // version from nothing and from the previous version's analysis, interleaved.
+    if std::env::var("PHASES_TYPING").is_ok() {
+        let typed = "  r5 {y 2 rz 15}\n";
+        let mut versions = Vec::new();
+        let mut t = src.clone();
+        for (i, c) in typed.char_indices() {
+            t.insert(at + i, c);
+            versions.push(t.clone());
+        }
+        for i in (0..typed.len()).rev() {
+            t.remove(at + i);
+            versions.push(t.clone());
+        }
+        let run = |text: &str, previous: Option<&mdg_compiler::driver::Analysis>| {
+            let effort = mdg_compiler::driver::Effort { skip_shaders: true, previous, ..Default::default() };
+            mdg_compiler::driver::analyze_text_with(&loader, path, text, &opts, CheckOptions::default(), effort)
+        };
+        // This thread's CPU time in ms (utime + stime of /proc/thread-self/stat, 10 ms ticks).
+        let cpu = || -> f64 {
+            let stat = std::fs::read_to_string("/proc/thread-self/stat").unwrap_or_default();
+            let rest = stat.rsplit_once(')').map(|(_, r)| r).unwrap_or("");
+            let f: Vec<&str> = rest.split_whitespace().collect();
+            let n = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+            (n(11) + n(12)) * 10.0
+        };
+        let (mut whole_cpu, mut reusing_cpu) = (0.0, 0.0);
+        let (mut whole, mut reusing) = (0.0, 0.0);
+        let mut prev = run(&src, None);
+        for v in &versions {
+            let (t0, c0) = (Instant::now(), cpu());
+            let a = run(v, None);
+            std::mem::drop(a);
+            whole += t0.elapsed().as_secs_f64() * 1e3;
+            whole_cpu += cpu() - c0;
+            let (t0, c0) = (Instant::now(), cpu());
+            let a = run(v, prev.as_ref());
+            std::mem::drop(prev);
+            prev = a;
+            reusing += t0.elapsed().as_secs_f64() * 1e3;
+            reusing_cpu += cpu() - c0;
+        }
+        let n = versions.len() as f64;
+        println!(
+            "typing, {n} versions (analysis and drop): parsed whole {:.1} ms wall, {:.1} ms CPU per version; reusing {:.1} ms wall, {:.1} ms CPU",
+            whole / n,
+            whole_cpu / n,
+            reusing / n,
+            reusing_cpu / n
+        );
+        return;
+    }
     // `PHASES_REPARSE_ONLY=N`: only the parse reusing the previous, N times (for a profiler).
     if let Some(n) = std::env::var("PHASES_REPARSE_ONLY").ok().and_then(|v| v.parse::<usize>().ok()) {
         let mut s2 = Sources::default();
