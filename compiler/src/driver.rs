@@ -69,6 +69,10 @@ pub struct Effort<'a> {
     /// block would need glslang (a first start, an edited block), leave them all
     /// uncompiled and set [`Analysis::shaders_pending`] instead of waiting for it.
     pub cached_shaders_only: bool,
+    /// The previous analysis of the same file: the top-level items of the main file
+    /// that an edit left alone are taken from its parse instead of being parsed again
+    /// (the result is the same; [`crate::parse::parse_file_reusing`]).
+    pub previous: Option<&'a Analysis>,
 }
 
 impl Effort<'_> {
@@ -169,7 +173,11 @@ pub fn analyze_text_with(
 ) -> Option<Analysis> {
     let mut sources = Sources::default();
     let id: FileId = sources.add(path, path.display().to_string(), text);
-    let expanded = expand::expand_file(&mut sources, loader, id, opts);
+    let prev = effort.previous.and_then(|a| {
+        let f = a.sources.files.first().filter(|f| f.path == path && a.expanded.files.first() == Some(&id))?;
+        Some(crate::parse::Previous { text: &f.text, items: &a.expanded.main_ast.items, memo: &a.expanded.main_memo })
+    });
+    let expanded = expand::expand_file_reusing(&mut sources, loader, id, opts, prev);
     finish(sources, expanded, check, effort)
 }
 

@@ -94,6 +94,10 @@ pub struct Expanded {
     /// [`MAX_ERRORS`](crate::diag::MAX_ERRORS) in all; the rest are counted in `suppressed`.
     pub diagnostics: Vec<Diagnostic>,
     pub suppressed: crate::diag::Suppressed,
+    /// What the next parse of the main file can reuse of this one's, and how much of
+    /// this one was reused ([`expand_file_reusing`]).
+    pub main_memo: parse::Memo,
+    pub reused: parse::Reused,
 }
 
 impl Expanded {
@@ -176,6 +180,19 @@ pub fn expand_path(sources: &mut Sources, loader: &dyn FileLoader, path: &Path, 
 
 /// Expands a file already in `sources`.
 pub fn expand_file(sources: &mut Sources, loader: &dyn FileLoader, main: FileId, opts: &Options) -> Expanded {
+    expand_file_reusing(sources, loader, main, opts, None)
+}
+
+/// [`expand_file`] after an edit: the main file's parse reuses the top-level items of
+/// `prev` (its previous parse) that the edit left alone ([`parse::parse_file_reusing`]).
+/// The result is [`expand_file`]'s.
+pub fn expand_file_reusing(
+    sources: &mut Sources,
+    loader: &dyn FileLoader,
+    main: FileId,
+    opts: &Options,
+    prev: Option<parse::Previous>,
+) -> Expanded {
     let main_path = sources.file(main).path.clone();
     let root = main_path
         .parent()
@@ -206,7 +223,9 @@ pub fn expand_file(sources: &mut Sources, loader: &dyn FileLoader, main: FileId,
         ex.imported.insert(c.clone());
         ex.import_stack.push(c);
     }
-    let parsed = parse::parse_file(ex.sources, main);
+    let (parsed, memo, reused) = parse::parse_file_reusing(ex.sources, main, prev);
+    ex.out.main_memo = memo;
+    ex.out.reused = reused;
     ex.absorb(parsed.diagnostics, parsed.suppressed);
     ex.out.files.push(main);
     // Parameters and defines are collected first so `@ifdef` can see them anywhere.

@@ -14,6 +14,10 @@ use lalrpop_util::{ErrorRecovery, ParseError};
 use std::cell::RefCell;
 use std::collections::HashMap;
 
+mod reuse;
+
+pub use reuse::{Memo, Previous, Reused, Shift};
+
 #[allow(clippy::all, clippy::unwrap_used, unused_parens, dead_code)]
 mod generated {
     include!(concat!(env!("OUT_DIR"), "/grammar.rs"));
@@ -902,16 +906,31 @@ enum Out {
     Body(Vec<BodyItem>),
 }
 
-fn run(
+/// A token stream made ready for the parser: macros folded, brackets balanced,
+/// nesting limited; what the parser's error handling needs to know of it.
+struct Prepared<'c> {
+    ctx: Ctx<'c>,
     tokens: Vec<Token>,
-    sources: &Sources,
+    /// The diagnostics given in (the lexer's), with the nesting cut's.
+    diags: Vec<Diagnostic>,
+    /// How many of `ctx.diags` the pre-pass gave (the parser's actions add the rest).
+    prepass_diags: usize,
+    bracket: Capped,
+    unclosed: bool,
+    cut: Option<Span>,
+    eof: Span,
+}
+
+fn prepare<'c>(
+    tokens: Vec<Token>,
+    sources: &'c Sources,
     file: FileId,
-    start: Start,
     mut diags: Vec<Diagnostic>,
     budget: usize,
-) -> (Out, Vec<Diagnostic>, Suppressed) {
+) -> Prepared<'c> {
     let ctx = Ctx::new(sources, &tokens);
     let tokens = prepass(tokens, sources, &ctx);
+    let prepass_diags = ctx.diags.borrow().list.len();
     let (tokens, bracket) = balance(tokens, sources);
     let unclosed = bracket.list.iter().any(|d| d.code == "E0104");
     let (tokens, cut) = limit_nesting(tokens, budget, &mut diags);
@@ -922,28 +941,33 @@ fn run(
             Span::new(file, len, len)
         }
     };
+    Prepared { ctx, tokens, diags, prepass_diags, bracket, unclosed, cut, eof }
+}
+
+/// Parses `tokens` (all of `p.tokens`, or a run of whole top-level items of them)
+/// from `start`; the syntax errors, kept up to the limit.
+fn parse_prepared(p: &Prepared, sources: &Sources, tokens: &[Token], start: Start) -> (Out, Capped) {
     let stream = tokens.iter().map(|t| Ok((loc(t.span.file, t.span.start), t.kind, loc(t.span.file, t.span.end))));
     let mut errors = Recovered {
         sources,
-        eof,
-        unclosed,
-        cut,
+        eof: p.eof,
+        unclosed: p.unclosed,
+        cut: p.cut,
         bracket_lines: Vec::new(),
         last_line: None,
         syntax: Capped::default(),
     };
-    errors.bracket_lines = bracket.list.iter().filter_map(|b| errors.line(b.span)).collect();
+    errors.bracket_lines = p.bracket.list.iter().filter_map(|b| errors.line(b.span)).collect();
+    let ctx = &p.ctx;
     let result = match start {
-        Start::File => generated::FileParser::new().parse(&ctx, &mut errors, stream).map(Out::File),
-        Start::Items => generated::ItemsParser::new().parse(&ctx, &mut errors, stream).map(Out::Items),
-        Start::BodyItems => generated::BodyItemsParser::new().parse(&ctx, &mut errors, stream).map(Out::Body),
+        Start::File => generated::FileParser::new().parse(ctx, &mut errors, stream).map(Out::File),
+        Start::Items => generated::ItemsParser::new().parse(ctx, &mut errors, stream).map(Out::Items),
+        Start::BodyItems => generated::BodyItemsParser::new().parse(ctx, &mut errors, stream).map(Out::Body),
     };
-    let own = ctx.diags.take();
-    diags.extend(own.list);
     let out = match result {
         Ok(out) => out,
         Err(e) => {
-            let d = convert_error(e, sources, eof);
+            let d = convert_error(e, sources, p.eof);
             errors.take(d);
             match start {
                 Start::File => Out::File(File::default()),
@@ -952,14 +976,85 @@ fn run(
             }
         }
     };
-    let suppressed = own.suppressed + bracket.suppressed + errors.syntax.suppressed;
-    diags.extend(bracket.list);
-    diags.extend(errors.syntax.list);
+    (out, errors.syntax)
+}
+
+/// The diagnostics of a parse, in the order a whole parse gives them: those given in
+/// and the nesting cut's, the pre-pass's and the actions', the brackets', the syntax
+/// errors.
+fn parse_diagnostics(p: Prepared, syntax: Capped) -> (Vec<Diagnostic>, Suppressed) {
+    let own = p.ctx.diags.take();
+    let mut diags = p.diags;
+    diags.extend(own.list);
+    let suppressed = own.suppressed + p.bracket.suppressed + syntax.suppressed;
+    diags.extend(p.bracket.list);
+    diags.extend(syntax.list);
+    (diags, suppressed)
+}
+
+fn run(
+    tokens: Vec<Token>,
+    sources: &Sources,
+    file: FileId,
+    start: Start,
+    diags: Vec<Diagnostic>,
+    budget: usize,
+) -> (Out, Vec<Diagnostic>, Suppressed) {
+    let mut p = prepare(tokens, sources, file, diags, budget);
+    let tokens = std::mem::take(&mut p.tokens);
+    let (out, syntax) = parse_prepared(&p, sources, &tokens, start);
+    let (diags, suppressed) = parse_diagnostics(p, syntax);
     (out, diags, suppressed)
 }
 
 /// Parses one whole file that is already in `sources`.
 pub fn parse_file(sources: &Sources, file: FileId) -> Parsed {
+    match lex_file(sources, file) {
+        Err(too_large) => too_large,
+        Ok((tokens, lexed)) => {
+            let (out, diagnostics, suppressed) =
+                run(tokens, sources, file, Start::File, lexed.diagnostics, MAX_NESTING);
+            let file_ast = match out {
+                Out::File(f) => f,
+                _ => File::default(),
+            };
+            Parsed { file: file_ast, comments: lexed.comments, diagnostics, suppressed: suppressed + lexed.suppressed }
+        }
+    }
+}
+
+/// [`parse_file`] for a file parsed again after an edit: the top-level items that
+/// `prev` (the previous parse of the same file) parsed in text the edit left alone are
+/// taken from it instead of being parsed again ([`reuse`]). The result is what
+/// [`parse_file`] gives; with it, what the next parse can reuse, and how much was.
+pub fn parse_file_reusing(sources: &Sources, file: FileId, prev: Option<Previous>) -> (Parsed, Memo, Reused) {
+    let (tokens, lexed) = match lex_file(sources, file) {
+        Err(too_large) => return (too_large, Memo::default(), Reused::default()),
+        Ok(l) => l,
+    };
+    let mut p = prepare(tokens, sources, file, lexed.diagnostics, MAX_NESTING);
+    let (items, syntax, mut memo, reused) = match prev.and_then(|prev| reuse::reparse(&mut p, sources, file, prev)) {
+        Some(r) => r,
+        None => {
+            let (items, syntax, memo) = reuse::whole(&mut p, sources, file);
+            let parsed = items.len();
+            (items, syntax, memo, Reused { items: 0, parsed })
+        }
+    };
+    memo.tokens = std::mem::take(&mut p.tokens);
+    let (diagnostics, suppressed) = parse_diagnostics(p, syntax);
+    let parsed = Parsed {
+        file: File { items },
+        comments: lexed.comments,
+        diagnostics,
+        suppressed: suppressed + lexed.suppressed,
+    };
+    (parsed, memo, reused)
+}
+
+/// The tokens of a file (Context Free's constructs rewritten) and what lexing gave;
+/// `Err` with the whole parse of a file too large to read.
+fn lex_file(sources: &Sources, file: FileId) -> Result<(Vec<Token>, lexer::Lexed), Parsed> {
     let text = &sources.file(file).text;
     if text.len() > MAX_SOURCE_BYTES {
         // The same error as for a file the loader refuses to read (`FsLoader`).
@@ -973,16 +1068,16 @@ pub fn parse_file(sources: &Sources, file: FileId) -> Parsed {
             ),
         )
         .with_note("split the grammar into files joined with `@import`");
-        return Parsed {
+        return Err(Parsed {
             file: File::default(),
             comments: Vec::new(),
             diagnostics: vec![d],
             suppressed: Suppressed::default(),
-        };
+        });
     }
     let mut lexed = lexer::lex(text, file);
     // Context Free's constructs: an error with the MDG spelling each, read as that spelling.
-    let (tokens, cf) = crate::cfdg::rewrite(lexed.tokens, sources);
+    let (tokens, cf) = crate::cfdg::rewrite(std::mem::take(&mut lexed.tokens), sources);
     for d in cf {
         if lexed.diagnostics.len() < crate::diag::MAX_ERRORS {
             lexed.diagnostics.push(d);
@@ -990,12 +1085,7 @@ pub fn parse_file(sources: &Sources, file: FileId) -> Parsed {
             lexed.suppressed.add(d.span);
         }
     }
-    let (out, diagnostics, suppressed) = run(tokens, sources, file, Start::File, lexed.diagnostics, MAX_NESTING);
-    let file_ast = match out {
-        Out::File(f) => f,
-        _ => File::default(),
-    };
-    Parsed { file: file_ast, comments: lexed.comments, diagnostics, suppressed: suppressed + lexed.suppressed }
+    Ok((tokens, lexed))
 }
 
 /// Parses tokens (a macro expansion) as top-level items.

@@ -14,6 +14,9 @@
 //! the wall time from sending an edit to its diagnostics is printed beside it
 //! (p50/p95), with the load average.
 //!
+//! It runs twice, one server after the other: with `MDG_LSP_WHOLE_PARSE=1` (every
+//! version parsed whole, as before the reuse) and with the reuse.
+//!
 //! Run: `cargo bench --profile release -p mdg-lsp --bench typing` (release), or
 //! `--profile dev` for the debug build. `MDG_TYPING_ROUNDS=N` sets how often the
 //! call is typed and deleted (default 6: 204 edits).
@@ -79,11 +82,21 @@ fn position(text: &str, offset: usize) -> (usize, usize) {
 fn main() {
     let rounds: usize = std::env::var("MDG_TYPING_ROUNDS").ok().and_then(|v| v.parse().ok()).unwrap_or(6);
     let dir = scratch("bench-typing");
+    // Each version parsed whole (as before issue 39's reuse), then reusing the
+    // previous version's items, one after the other under the same load.
+    for whole in ["1", "0"] {
+        typing(&dir, rounds, whole);
+    }
+    first_shader_diagnostics(&dir);
+}
+
+/// Types into the grammar with `MDG_LSP_WHOLE_PARSE` set to `whole`.
+fn typing(dir: &std::path::Path, rounds: usize, whole: &str) {
     let u = uri(&dir.join("big.mdg"));
     let base = grammar(10_600);
     let n_lines = base.lines().count();
-    let mut c = Client::spawn();
-    let caps = c.initialize(&dir);
+    let mut c = Client::spawn_with(&[("MDG_LSP_WHOLE_PARSE", whole)]);
+    let caps = c.initialize(dir);
     let sync = &caps["textDocumentSync"];
     let incremental = sync["change"] == 2 || *sync == json!(2);
     c.open(&u, 1, &base);
@@ -147,15 +160,14 @@ fn main() {
     let edits = wall.len();
     wall.sort_by(f64::total_cmp);
     println!(
-        "typing into a {n_lines}-line grammar ({} sync): {edits} edits ({with_errors} with diagnostics) in {elapsed:.1} s; \
+        "typing into a {n_lines}-line grammar ({} sync, {}): {edits} edits ({with_errors} with diagnostics) in {elapsed:.1} s; \
          server CPU {:.2} ms per edit (target ≤ 10 ms); edit → diagnostics p50 {:.2} ms, p95 {:.2} ms; load average {}",
         if incremental { "incremental" } else { "full" },
+        if whole == "1" { "every version parsed whole" } else { "unchanged items reused" },
         cpu_ms / edits as f64,
         percentile(&wall, 0.5),
         percentile(&wall, 0.95),
         load_average()
     );
     assert!(c.shutdown_and_exit().success());
-
-    first_shader_diagnostics(&dir);
 }

@@ -30,6 +30,10 @@ pub struct Config {
     /// The largest open document analysed as the user types, in bytes
     /// (`$MDG_LSP_MAX_LIVE_BYTES`, default `analysis::MAX_LIVE_BYTES`).
     pub max_live_bytes: usize,
+    /// Whether an edited document's parse reuses the previous version's unchanged
+    /// items (`MDG_LSP_WHOLE_PARSE=1` turns it off: every version parsed whole, for
+    /// measuring and as a way out should the reuse ever be wrong).
+    pub reuse_parses: bool,
 }
 
 impl Config {
@@ -65,6 +69,7 @@ impl Config {
             .unwrap_or(mdg_compiler::analysis::MAX_LIVE_BYTES);
         Config {
             max_live_bytes,
+            reuse_parses: !std::env::var("MDG_LSP_WHOLE_PARSE").is_ok_and(|v| v == "1"),
             diagnostics_doc,
             options: Options { std_dir, ..Options::default() },
             completion: CompletionConfig { std_libraries },
@@ -139,6 +144,7 @@ impl Backend {
             skip_shaders: shaders == Shaders::Skip,
             cancelled: Some(&outdated),
             cached_shaders_only: shaders == Shaders::Cached,
+            previous: snap.previous.as_deref().filter(|_| config.reuse_parses).map(Document::analysis),
         };
         Document::with_effort(&snap.loader, &snap.path, &snap.text, &config.options, effort)
     }

@@ -52,6 +52,9 @@ pub struct Snapshot {
     pub size: usize,
     /// Every open document, for imports of unsaved files.
     pub loader: OverlayLoader,
+    /// The document's latest analysis (of any version): the parts of the text an
+    /// edit left alone are not parsed again.
+    pub previous: Option<Arc<Document>>,
 }
 
 impl Snapshot {
@@ -181,6 +184,11 @@ impl Documents {
             text: doc.text.clone(),
             size: doc.oversized.unwrap_or(doc.text.len()),
             loader,
+            previous: doc
+                .quick
+                .as_ref()
+                .map(|(_, a)| a.clone())
+                .or_else(|| doc.analysis.as_ref().map(|(_, a)| a.clone())),
         })
     }
 

@@ -35,6 +35,8 @@ pub mod symbols;
 #[cfg(test)]
 mod fixture;
 #[cfg(test)]
+mod incremental;
+#[cfg(test)]
 mod robustness;
 
 use crate::check::CheckOptions;

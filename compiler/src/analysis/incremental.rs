@@ -1,0 +1,197 @@
+//! Incremental analysis gives what a whole analysis gives (issue 39): seeded random
+//! edits of the std examples and of a large generated grammar — fragments whole and
+//! broken, typing one character at a time and deleting again, comments opened and
+//! closed, renamed colour components, and undone now and then — each analysed from
+//! the previous version's
+//! analysis and from nothing, compared after every edit: the parsed tree, the
+//! expanded items and every diagnostic.
+
+use super::fixture::std_dir;
+use super::robustness::FRAGMENTS;
+use crate::check::CheckOptions;
+use crate::driver::{analyze_text_with, Analysis, Effort};
+use crate::expand::Options;
+use crate::source::MemLoader;
+use mdg_vm::rng::Rng;
+use std::path::Path;
+
+/// More fragments: what makes the parse of an edited item reach into the rest.
+const MORE: &[&str] = &[
+    "rule r5 {",
+    "rule q {x 1}\n",
+    "}\n",
+    "/*\n",
+    "*/\n",
+    "color red green blue alpha\n",
+    "startshape ",
+    "@endmacro\n",
+    "namespace m {\n",
+    "\"",
+    "r5 {y 2 rz 15}\n",
+    "{{{",
+    ")]}",
+];
+
+fn analyse(text: &str, opts: &Options, previous: Option<&Analysis>) -> Analysis {
+    let loader = MemLoader { files: Default::default(), disk_fallback: true };
+    let effort = Effort { skip_shaders: true, previous, ..Effort::default() };
+    analyze_text_with(&loader, Path::new("/test/main.mdg"), text, opts, CheckOptions::default(), effort)
+        .unwrap_or_else(|| panic!("an analysis that cannot be cancelled was cancelled"))
+}
+
+/// A char boundary of `text` near a random place (at a line start one time in three).
+fn place(rng: &mut Rng, text: &str) -> usize {
+    let mut at = rng.below(text.len() + 1);
+    while !text.is_char_boundary(at) {
+        at -= 1;
+    }
+    if rng.below(3) == 0 {
+        at = text[..at].rfind('\n').map_or(0, |i| i + 1);
+    }
+    at
+}
+
+/// The versions of one random edit: a fragment inserted, a range deleted, or a
+/// fragment typed in one character at a time (each keystroke a version).
+fn edits(rng: &mut Rng, text: &str) -> Vec<String> {
+    let at = place(rng, text);
+    match rng.below(4) {
+        0 if !text.is_empty() => {
+            let mut end = (at + 1 + rng.below(40)).min(text.len());
+            while !text.is_char_boundary(end) {
+                end += 1;
+            }
+            let mut t = text.to_string();
+            t.replace_range(at..end, "");
+            vec![t]
+        }
+        1 => typing(rng, text, at),
+        _ => {
+            let all = FRAGMENTS.len() + MORE.len();
+            let k = rng.below(all);
+            let frag = if k < FRAGMENTS.len() { FRAGMENTS[k] } else { MORE[k - FRAGMENTS.len()] };
+            let mut t = text.to_string();
+            t.insert_str(at, frag);
+            vec![t]
+        }
+    }
+}
+
+/// A fragment typed in at `at` one character at a time, then deleted one at a time
+/// (each keystroke a version).
+fn typing(rng: &mut Rng, text: &str, at: usize) -> Vec<String> {
+    let frag = MORE[rng.below(MORE.len())];
+    let mut out: Vec<String> = Vec::new();
+    let mut t = text.to_string();
+    for (i, c) in frag.char_indices() {
+        t.insert(at + i, c);
+        out.push(t.clone());
+    }
+    for (i, _) in frag.char_indices().rev() {
+        t.remove(at + i);
+        out.push(t.clone());
+    }
+    out
+}
+
+/// A grammar of about `lines` lines of many kinds of items.
+fn big(lines: usize) -> String {
+    let mut s = String::from("startshape r0\nmaxdepth 12\n@import primitives\nselector r1 random\n");
+    s.push_str("isosurface BLOB { xyz -1 1 8 ; function { x*x + y*y + z*z - 1 } }\n");
+    s.push_str("@macro TRI(a)\n  VERTEX {x a} VERTEX {y a} VERTEX {z a}\n@endmacro\n");
+    s.push_str("function wave(t) { sin(t * 2) }\n");
+    let n = lines / 7;
+    for i in 0..n {
+        let next = (i + 1) % n;
+        match i % 5 {
+            0 => s.push_str(&format!(
+                "rule r{i} {{\n  VERTEX {{x 1}} VERTEX {{y 1}} VERTEX {{z 1 R -0.1}}\n  r{next} {{x 1 rz 10 s 0.9}}\n  30/30 * [ry 360] cube {{s 0.1}}\n}}\n\n"
+            )),
+            1 => s.push_str(&format!(
+                "// rule {i}\nrule r{i} 0.5 {{\n  @expand TRI(2)\n  r{next} [y (wave(3)) rx 45d]\n}}\n\n"
+            )),
+            2 => s.push_str(&format!(
+                "namespace n{i} {{\n  rule leaf {{ r{next} {{s 0.5}} }}\n}}\nrule r{i} {{ n{i}.leaf {{}} }}\n\n"
+            )),
+            3 => s.push_str(&format!(
+                "rule r{i}(int k = 3) {{\n  if (k > 0) {{ r{next} {{x 1}} }}\n  loop j = 0, k {{rz 30}} cube {{}}\n}}\n\n"
+            )),
+            _ => s.push_str(&format!("/* block\n comment */\nrule r{i} {{ r{next} {{z 1}} BLOB {{}} }}\n\n")),
+        }
+    }
+    s
+}
+
+/// Runs `steps` random edits from `text`, comparing after each; returns (items
+/// reused, items parsed) over all of them.
+fn compare(
+    name: &str,
+    mut text: String,
+    steps: usize,
+    rng: &mut Rng,
+    opts: &Options,
+    typing_only: bool,
+) -> (usize, usize) {
+    let mut prev = analyse(&text, opts, None);
+    let (mut reused, mut parsed) = (0, 0);
+    let original = text.clone();
+    let mut step = 0;
+    while step < steps {
+        // Undo now and then (back to the original text), as errors get mended: else
+        // the random errors pile up and most items parse with one.
+        let versions = if typing_only {
+            let at = place(rng, &text);
+            typing(rng, &text, at)
+        } else if rng.below(4) == 0 {
+            vec![original.clone()]
+        } else {
+            edits(rng, &text)
+        };
+        for version in versions {
+            step += 1;
+            let whole = analyse(&version, opts, None);
+            let inc = analyse(&version, opts, Some(&prev));
+            let context = || format!("{name}, edit {step}: the text was\n{text}\n---- and is now\n{version}");
+            assert_eq!(inc.expanded.main_ast, whole.expanded.main_ast, "parsed tree differs: {}", context());
+            assert_eq!(inc.expanded.items, whole.expanded.items, "expanded items differ: {}", context());
+            assert_eq!(inc.diagnostics, whole.diagnostics, "diagnostics differ: {}", context());
+            reused += inc.expanded.reused.items;
+            parsed += inc.expanded.reused.parsed;
+            text = version;
+            prev = inc;
+        }
+    }
+    (reused, parsed)
+}
+
+#[test]
+fn incremental_analysis_equals_a_whole_analysis_after_every_random_edit() {
+    let opts = Options { std_dir: Some(std_dir()), ..Options::default() };
+    let mut rng = Rng(0x39_1ec5_eed5);
+    let dir = std_dir().join("examples");
+    let mut names: Vec<_> = std::fs::read_dir(&dir)
+        .expect("std/examples")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "mdg"))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 20, "std examples missing: {names:?}");
+    let (mut reused, mut parsed) = (0, 0);
+    for path in &names {
+        let text = std::fs::read_to_string(path).expect("example");
+        let (r, p) = compare(&path.display().to_string(), text, 40, &mut rng, &opts, false);
+        reused += r;
+        parsed += p;
+    }
+    let (r, p) = compare("a 1,400-line grammar", big(1_400), 100, &mut rng, &opts, false);
+    let (tr, tp) = compare("typing into a 1,400-line grammar", big(1_400), 100, &mut rng, &opts, true);
+    eprintln!(
+        "items reused / parsed: std examples {reused} / {parsed}; a large grammar {r} / {p}; typing into it {tr} / {tp}"
+    );
+    // The comparisons mean something only if items were reused: most of them while
+    // typing into a file without other syntax errors. (Random edits leave syntax
+    // errors behind, and a parse reuses only the items before the first and after the
+    // last segment with an error or an edit.)
+    assert!(tr > 10 * tp, "typing reused {tr} items and parsed {tp}");
+    assert!(r > p / 2 && reused > parsed / 8, "random edits reused too little");
+}
