@@ -108,7 +108,7 @@ fn big(lines: usize) -> String {
                 "rule r{i} {{\n  VERTEX {{x 1}} VERTEX {{y 1}} VERTEX {{z 1 R -0.1}}\n  r{next} {{x 1 rz 10 s 0.9}}\n  30/30 * [ry 360] cube {{s 0.1}}\n}}\n\n"
             )),
             1 => s.push_str(&format!(
-                "// rule {i}\nrule r{i} 0.5 {{\n  @expand TRI(2)\n  r{next} [y (wave(3)) rx 45d]\n}}\n\n"
+                "// rule {i}\nrule r{i} 0.5 {{\n  @expand TRI(2)\n  r{next} [y (wave(3)) rx 45d x (let(a = 1; if(a > 0, a * 2, 0)))]\n}}\n\n"
             )),
             2 => s.push_str(&format!(
                 "namespace n{i} {{\n  rule leaf {{ r{next} {{s 0.5}} }}\n}}\nrule r{i} {{ n{i}.leaf {{}} }}\n\n"

@@ -617,6 +617,13 @@ impl Shift for Expr {
                 n.shift(delta);
                 args.shift(delta);
             }
+            ExprKind::Let(bindings, body) => {
+                for (name, value) in bindings {
+                    name.shift(delta);
+                    value.shift(delta);
+                }
+                body.shift(delta);
+            }
             ExprKind::Error => {}
         }
     }
