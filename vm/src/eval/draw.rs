@@ -74,7 +74,7 @@ impl<'b> Eval<'b> {
         for op in b.code.iter().skip(first).take(count) {
             let Op::Draw { kind, xf, .. } = *op else { continue };
             let (Some(Transform::Const(c)), Some(Some(x))) =
-                (b.transforms.get(xf as usize), self.xf_info.get(xf as usize))
+                (b.transforms.get(xf.index()), self.xf_info.get(xf.index()))
             else {
                 continue;
             };

@@ -39,7 +39,10 @@
 //! state, and a frame under a non-uniform scale composes in `f32`.)
 
 use crate::anim::{frames_needed, MAX_TRACK_FRAMES};
-use crate::bundle::{self, Bundle, Composite, Drawable, Op, Selector, Transform, CONT_NEXT, NONE};
+use crate::bundle::{
+    self, Bundle, Composite, Drawable, ExprId, NsId, Op, OpCount, OpIndex, Profile, ProtoId, RuleId, Selector,
+    Transform, TransformId, CONT_NEXT, NONE,
+};
 use crate::expr::{self, ExprOp, Random};
 use crate::geom::frame64::Frame64;
 use crate::geom::quat::{Affine, Frame};
@@ -288,13 +291,13 @@ impl<'b> Eval<'b> {
                 .filter_map(|(pc, op)| match *op {
                     Op::Inst { count, .. } => Some(ProtoSlot {
                         first: pc as u32 + 1,
-                        count,
+                        count: count.0,
                         mesh: NONE,
                         extent: 0.0,
                         matte: draw::in_std_flat(b, pc as u32 + 1),
                         vertices: b.code[pc + 1..]
                             .iter()
-                            .take(count as usize)
+                            .take(count.index())
                             .filter(|op| matches!(op, Op::Draw { kind: Drawable::Vertex, .. }))
                             .count() as u32,
                     }),

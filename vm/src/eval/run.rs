@@ -19,13 +19,13 @@ pub(super) struct XfInfo {
 /// no chained runs), `ENDLOOP` and `RET`.
 /// `xf_pure` is [`Eval::xf_pure`].
 pub(super) fn fast_path_applies(b: &Bundle, xf_pure: &[bool]) -> bool {
-    let pure = |xf: u32| xf_pure.get(xf as usize).copied().unwrap_or(false);
+    let pure = |xf: TransformId| xf_pure.get(xf.index()).copied().unwrap_or(false);
     let rules_ok =
         b.rules.iter().all(|r| r.params.is_empty() && r.frame == 0 && r.transforms.is_empty() && r.iter == NONE);
     let mut pc = 0usize;
     while let Some(op) = b.code.get(pc) {
         pc += match *op {
-            Op::Inst { count, .. } => 1 + count as usize,
+            Op::Inst { count, .. } => 1 + count.index(),
             Op::Call { xf, flags, .. } if flags == 0 && pure(xf) => 1,
             Op::Loop { step, chain, .. } if chain & bundle::ops::LOOP_CHAIN == 0 && pure(step) => 1,
             Op::EndLoop { .. } | Op::Ret {} => 1,
@@ -102,7 +102,7 @@ pub(super) struct Conv {
 
 pub(super) struct LoopRec {
     pub(super) remaining: u64,
-    pub(super) step: u32,
+    pub(super) step: TransformId,
     pub(super) saved_base: State,
     pub(super) chain: bool,
     /// The current run's frame in `f64` (see [`State::compose_step`]).
@@ -112,10 +112,10 @@ pub(super) struct LoopRec {
 impl<'b> Eval<'b> {
     /// `from` composed with transform `xf` (at `depth`, in the frame `slots[base..top]`).
     #[inline(always)]
-    pub(super) fn apply(&mut self, xf: u32, from: &State, depth: u32, base: u32, top: u32) -> State {
+    pub(super) fn apply(&mut self, xf: TransformId, from: &State, depth: u32, base: u32, top: u32) -> State {
         let b = self.b;
         // A constant transform is composed where it lies (a composite is too big to copy).
-        if let Transform::Const(c) = &b.transforms[xf as usize] {
+        if let Transform::Const(c) = &b.transforms[xf] {
             return from.compose(c, &mut self.lins);
         }
         let slots = self.slots.get(base as usize..top as usize).unwrap_or(&[]);
@@ -129,7 +129,7 @@ impl<'b> Eval<'b> {
     #[inline]
     pub(super) fn apply_step(
         &mut self,
-        xf: u32,
+        xf: TransformId,
         from: &State,
         acc: &mut Frame64,
         depth: u32,
@@ -137,7 +137,7 @@ impl<'b> Eval<'b> {
         top: u32,
     ) -> State {
         let b = self.b;
-        if let Transform::Const(c) = &b.transforms[xf as usize] {
+        if let Transform::Const(c) = &b.transforms[xf] {
             return from.compose_step(c, acc, &mut self.lins);
         }
         let slots = self.slots.get(base as usize..top as usize).unwrap_or(&[]);
@@ -148,9 +148,9 @@ impl<'b> Eval<'b> {
 
     /// Expression `e` at state `at` and `depth` in the frame `slots[base..top]`.
     #[inline]
-    pub(super) fn value(&mut self, e: u32, at: &State, depth: u32, base: u32, top: u32) -> f64 {
+    pub(super) fn value(&mut self, e: ExprId, at: &State, depth: u32, base: u32, top: u32) -> f64 {
         let slots = self.slots.get(base as usize..top as usize).unwrap_or(&[]);
-        let code: &[ExprOp] = &self.b.exprs[e as usize];
+        let code: &[ExprOp] = &self.b.exprs[e];
         // (Tried before the environment is built: most arguments are `n - 1`.)
         if let Some(v) = expr::quick(code, slots) {
             return v;
@@ -160,11 +160,11 @@ impl<'b> Eval<'b> {
 
     /// The definition of `rule_idx` for a call in state `child` at `depth` whose
     /// arguments are `slots[args..]`.
-    pub(super) fn select(&mut self, rule_idx: u32, child: &State, depth: u32, args: usize) -> u32 {
+    pub(super) fn select(&mut self, rule: RuleId, child: &State, depth: u32, args: usize) -> u32 {
         let slots = self.slots.get(args..).unwrap_or(&[]);
         select_def(
             self.b,
-            rule_idx,
+            rule,
             child,
             depth,
             slots,
@@ -178,8 +178,8 @@ impl<'b> Eval<'b> {
 
     /// Pushes a frame for a run that starts at `rule` (no caller passes arguments: the
     /// parameters take their defaults); returns its base.
-    pub(super) fn default_frame(&mut self, rule: u32) -> (u32, u32) {
-        let r = &self.b.rules[rule as usize];
+    pub(super) fn default_frame(&mut self, rule: RuleId) -> (u32, u32) {
+        let r = &self.b.rules[rule];
         let base = self.slots.len();
         self.slots.extend(r.params.iter().map(|d| d.unwrap_or(0.0)));
         self.slots.resize(base + r.frame as usize, 0.0);
@@ -210,6 +210,7 @@ impl<'b> Eval<'b> {
     /// expansion) is the sink `S`, resolved at compile time (see [`Sink`]).
     pub(super) fn interpret<S: Sink>(&mut self, sink: &mut S, rule: u32, start: State, depth: u32, mode: Mode) {
         let b = self.b;
+        let rule = RuleId(rule);
         let (slot_base, slot_top) = self.default_frame(rule);
         let pc = self.select(rule, &start, depth, slot_base as usize);
         if S::COLLECTS {
@@ -225,7 +226,7 @@ impl<'b> Eval<'b> {
         // The derivation node of the running activation (see [`Eval::call_node`]); a
         // nested run (a profile, a transform rule) is no call of the model's derivation.
         let tree = S::SITES && mode == Mode::Model && self.tree.is_some();
-        let node = if tree { self.call_node(NONE, rule, depth) } else { outer.2 };
+        let node = if tree { self.call_node(NONE, rule.0, depth) } else { outer.2 };
         let mut m = Regs {
             act,
             stack: Vec::new(),
@@ -256,7 +257,7 @@ impl<'b> Eval<'b> {
             let go_on = match op {
                 Op::Call { rule, xf, flags } => self.op_call(sink, &mut m, rule, xf, flags),
                 Op::Draw { kind: Drawable::Vertex, xf, ns, profile, flags: _ }
-                    if !S::COLLECTS && mode == Mode::Model && self.xf_info[xf as usize].is_some() =>
+                    if !S::COLLECTS && mode == Mode::Model && self.xf_info[xf.index()].is_some() =>
                 {
                     self.op_vertex(&mut m, xf, ns, profile);
                     true
@@ -264,14 +265,14 @@ impl<'b> Eval<'b> {
                 Op::Draw { kind, xf, ns, profile, flags: _ } => {
                     let s = self.item(&mut m, xf);
                     if !S::COLLECTS {
-                        self.draw(kind, s, ns, profile, mode, m.act.bone);
+                        self.draw(kind, s, ns.0, profile.0, mode, m.act.bone);
                     }
                     true
                 }
                 Op::Iso { iso, xf, flags: _ } => {
                     let s = self.item(&mut m, xf);
                     if !S::COLLECTS && mode == Mode::Model {
-                        self.instance(iso, &s, m.act.pc - 1, m.act.bone);
+                        self.instance(iso.0, &s, m.act.pc - 1, m.act.bone);
                     }
                     true
                 }
@@ -304,18 +305,18 @@ impl<'b> Eval<'b> {
                 Op::Set { slot, expr } => {
                     m.act.pc += 1;
                     let v = self.value_at(&m, expr);
-                    if let Some(s) = self.slots.get_mut(m.act.slot_base as usize + slot as usize) {
+                    if let Some(s) = self.slots.get_mut(m.act.slot_base as usize + slot.index()) {
                         *s = v;
                     }
                     true
                 }
                 Op::Jump { target } => {
-                    m.act.pc = target;
+                    m.act.pc = target.0;
                     true
                 }
                 Op::JumpIfNot { expr, target } => {
                     let v = self.value_at(&m, expr);
-                    m.act.pc = if expr::truthy(v) { m.act.pc + 1 } else { target };
+                    m.act.pc = if expr::truthy(v) { m.act.pc + 1 } else { target.0 };
                     true
                 }
                 Op::Ret {} => self.op_ret::<S>(&mut m),
@@ -337,24 +338,24 @@ impl<'b> Eval<'b> {
     #[inline]
     fn first_activation<S: Sink>(
         &mut self,
-        rule: u32,
+        rule: RuleId,
         start: State,
         pc: u32,
         depth: u32,
         (slot_base, slot_top): (u32, u32),
         mode: Mode,
     ) -> Option<Act> {
-        let r = &self.b.rules[rule as usize];
+        let r = &self.b.rules[rule];
         if !S::SIMPLE && !S::COLLECTS && r.iter != NONE {
             // The start shape (or a sampled rule) is itself a convolution.
-            let frames = self.convolution(rule);
+            let frames = self.convolution(rule.0);
             let f = frames.first().copied()?;
             let base = start.then(&f, &self.lins);
             let conv = Some(Box::new(Conv { frames, next: 1, pc, origin: start }));
             return Some(Act { pc, slot_base, slot_top, base, depth, loops_at: 0, bone: 0, conv });
         }
         let bone = if !S::SIMPLE && !S::COLLECTS && mode == Mode::Model && !r.transforms.is_empty() {
-            self.new_bone(rule, &start, 0)
+            self.new_bone(rule.0, &start, 0)
         } else {
             0
         };
@@ -364,7 +365,7 @@ impl<'b> Eval<'b> {
     /// The value of expression `e` for the running item (from the continuation state,
     /// if any, else the body's frame).
     #[inline]
-    fn value_at(&mut self, m: &Regs, e: u32) -> f64 {
+    fn value_at(&mut self, m: &Regs, e: ExprId) -> f64 {
         let at = m.cont.as_ref().unwrap_or(&m.act.base);
         self.value(e, at, m.act.depth, m.act.slot_base, m.act.slot_top)
     }
@@ -372,7 +373,7 @@ impl<'b> Eval<'b> {
     /// A drawable or isosurface item's state: its start composed with transform
     /// `xf`; it becomes `last`.
     #[inline]
-    fn item(&mut self, m: &mut Regs, xf: u32) -> State {
+    fn item(&mut self, m: &mut Regs, xf: TransformId) -> State {
         m.act.pc += 1;
         let from = m.cont.as_ref().unwrap_or(&m.act.base);
         let s = self.apply(xf, from, m.act.depth, m.act.slot_base, m.act.slot_top);
@@ -384,12 +385,12 @@ impl<'b> Eval<'b> {
     /// `CALL rule xf flags`: the callee's activation pushed (or the call refused by a
     /// limit, or handed to a collecting sink). Whether the run goes on.
     #[inline(always)]
-    fn op_call<S: Sink>(&mut self, sink: &mut S, m: &mut Regs, rule: u32, xf: u32, flags: u8) -> bool {
+    fn op_call<S: Sink>(&mut self, sink: &mut S, m: &mut Regs, rule: RuleId, xf: TransformId, flags: u8) -> bool {
         let b = self.b;
         m.act.pc += 1;
         let depth = m.act.depth + 1;
         let args = m.act.slot_top as usize;
-        if depth > m.maxdepth && flags & CONT_NEXT == 0 && self.xf_pure[xf as usize] {
+        if depth > m.maxdepth && flags & CONT_NEXT == 0 && self.xf_pure[xf.index()] {
             // Refused before its frame is composed: the frame would be thrown away,
             // and composing a constant changes nothing else.
             m.cont = None;
@@ -418,7 +419,7 @@ impl<'b> Eval<'b> {
         }
         // The ARGs before this CALL are the callee's first slots (the verifier
         // checked their number).
-        let r = &b.rules[rule as usize];
+        let r = &b.rules[rule];
         if !self.admit(&child, depth, m.stack.len() + 1, m.act.pc - 1) {
             if !S::SIMPLE && self.slots.len() > args {
                 self.slots.truncate(args);
@@ -440,7 +441,7 @@ impl<'b> Eval<'b> {
         let loops_at = m.loops.len() as u32;
         if !S::SIMPLE && r.iter != NONE {
             // Convolution: the body runs once per frame of the iterator rule.
-            let frames = self.convolution(rule);
+            let frames = self.convolution(rule.0);
             let Some(f) = frames.first().copied() else {
                 self.slots.truncate(args);
                 return true;
@@ -451,7 +452,7 @@ impl<'b> Eval<'b> {
             m.stack.push(std::mem::replace(&mut m.act, callee));
         } else {
             let bone = if !S::SIMPLE && m.mode == Mode::Model && !r.transforms.is_empty() {
-                self.new_bone(rule, &child, parent_bone)
+                self.new_bone(rule.0, &child, parent_bone)
             } else {
                 parent_bone
             };
@@ -461,7 +462,7 @@ impl<'b> Eval<'b> {
         if S::SITES {
             m.nodes.push(m.node);
             if m.tree {
-                m.node = self.call_node(m.node, rule, depth);
+                m.node = self.call_node(m.node, rule.0, depth);
             }
         }
         true
@@ -470,7 +471,7 @@ impl<'b> Eval<'b> {
     /// `VERTEX` with a constant transform in a model run: position, normal and
     /// mirroring from the cached linear maps, without composing quaternions.
     #[inline]
-    fn op_vertex(&mut self, m: &mut Regs, xf: u32, ns: u32, profile: u32) {
+    fn op_vertex(&mut self, m: &mut Regs, xf: TransformId, ns: NsId, profile: Profile) {
         let b = self.b;
         m.act.pc += 1;
         // `from` is borrowed, not copied: this runs once per vertex.
@@ -478,7 +479,7 @@ impl<'b> Eval<'b> {
             Some(c) => (c, c.f.linear()),
             None => (&m.act.base, m.lin_cache.get(&m.act.base.f)),
         };
-        let Transform::Const(c) = &b.transforms[xf as usize] else {
+        let Transform::Const(c) = &b.transforms[xf] else {
             m.cont = None;
             return;
         };
@@ -488,10 +489,10 @@ impl<'b> Eval<'b> {
             let s = from.compose(c, &mut self.lins);
             m.cont = None;
             self.last = s;
-            self.draw(Drawable::Vertex, s, ns, profile, m.mode, m.act.bone);
+            self.draw(Drawable::Vertex, s, ns.0, profile.0, m.mode, m.act.bone);
             return;
         }
-        let Some(x) = &self.xf_info[xf as usize] else {
+        let Some(x) = &self.xf_info[xf.index()] else {
             m.cont = None;
             return;
         };
@@ -528,7 +529,7 @@ impl<'b> Eval<'b> {
         };
         let from = m.cont.take().unwrap_or(m.act.base);
         if count == 0 {
-            m.act.pc = end + 1;
+            m.act.pc = end.0 + 1;
             return;
         }
         // Context Free's `loop`: the first run is under the frame itself.
@@ -551,7 +552,7 @@ impl<'b> Eval<'b> {
     /// `ENDLOOP begin`: the iterator's next run, or the end of the block. Whether
     /// the run goes on.
     #[inline]
-    fn op_end_loop<S: Sink>(&mut self, sink: &mut S, m: &mut Regs, begin: u32) -> bool {
+    fn op_end_loop<S: Sink>(&mut self, sink: &mut S, m: &mut Regs, begin: OpIndex) -> bool {
         // A continuation chain is scoped to its body: it does not leak into the next
         // run or out of the block.
         m.cont = None;
@@ -580,7 +581,7 @@ impl<'b> Eval<'b> {
             m.act.base = self.apply_step(step, &from, &mut l.acc, m.act.depth, m.act.slot_base, m.act.slot_top);
         }
         // Back to the op after LOOP.
-        m.act.pc = begin + 1;
+        m.act.pc = begin.0 + 1;
         if !S::COLLECTS {
             // Iterator runs count as calls, so `maxiter` also ends huge loops.
             self.count_run();
@@ -593,7 +594,7 @@ impl<'b> Eval<'b> {
     /// frame, no continuation, a whole number of triangles before it); otherwise the
     /// items run one by one.
     #[inline]
-    fn op_inst<S: Sink>(&mut self, m: &mut Regs, proto: u32, count: u32) {
+    fn op_inst<S: Sink>(&mut self, m: &mut Regs, proto: ProtoId, count: OpCount) {
         let b = self.b;
         m.act.pc += 1;
         if S::COLLECTS {
@@ -608,18 +609,18 @@ impl<'b> Eval<'b> {
         {
             // A flat primitive's items, one by one: their vertices are the next
             // ones the mesh gets (constant items, no calls).
-            if let Some(slot) = self.protos.get(proto as usize).filter(|s| s.matte && m.mode == Mode::Model) {
+            if let Some(slot) = self.protos.get(proto.index()).filter(|s| s.matte && m.mode == Mode::Model) {
                 let at = self.out.mesh.n_vertices();
                 self.matte_runs.push(at..at + slot.vertices as usize);
             }
             return;
         }
-        self.emit_instance(proto, &m.act.base, m.act.bone);
-        m.act.pc += count;
+        self.emit_instance(proto.0, &m.act.base, m.act.bone);
+        m.act.pc += count.0;
         if self.needs_last {
             // `last` as the run's last item leaves it.
             if let Op::Draw { kind, xf, .. } = b.code[m.act.pc as usize - 1] {
-                if let (Transform::Const(c), Some(x)) = (&b.transforms[xf as usize], &self.xf_info[xf as usize]) {
+                if let (Transform::Const(c), Some(x)) = (&b.transforms[xf], &self.xf_info[xf.index()]) {
                     self.last = if kind == Drawable::Vertex {
                         vertex_state(&m.act.base, x, c)
                     } else {

@@ -26,7 +26,7 @@ pub(super) trait Sink {
     /// A call the body makes, with its state and depth (only when
     /// [`Sink::COLLECTS`]); `false` ends the run.
     #[inline]
-    fn call(&mut self, _rule: u32, _state: &State, _depth: u32) -> bool {
+    fn call(&mut self, _rule: RuleId, _state: &State, _depth: u32) -> bool {
         true
     }
 
@@ -79,11 +79,11 @@ impl Sink for Collect<'_> {
     const COLLECTS: bool = true;
 
     #[inline]
-    fn call(&mut self, rule: u32, state: &State, depth: u32) -> bool {
+    fn call(&mut self, rule: RuleId, state: &State, depth: u32) -> bool {
         if !self.count() {
             return false;
         }
-        self.out.push(Call { rule, state: *state, depth });
+        self.out.push(Call { rule: rule.0, state: *state, depth });
         true
     }
 
