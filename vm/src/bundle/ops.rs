@@ -132,7 +132,7 @@ macro_rules! define_ops {
 
             /// Checks that every operand names an entry `b` has (a rule, a transform,
             /// an expression …): the verifier's range checks, one per operand type.
-            pub fn check_operands(&self, b: &Bundle) -> Result<(), String> {
+            pub fn check_operands(&self, b: &Bundle) -> Result<(), OperandError> {
                 match *self {
                     $(Op::$name { $($f),* } => { $( Operand::check($f, b)?; )* Ok(()) })*
                 }
@@ -146,6 +146,20 @@ macro_rules! define_ops {
 
 for_each_op!(define_ops);
 
+/// An operand that names no entry of its table (the verifier's error).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct OperandError {
+    /// What the operand indexes (`rule`, `transform`, `namespace` …).
+    pub what: &'static str,
+    pub index: u64,
+}
+
+impl std::fmt::Display for OperandError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} {} out of range", self.what, self.index)
+    }
+}
+
 /// An operand of the op table: little-endian bytes in the code, a range check
 /// against the bundle's tables, and its disassembly.
 pub trait Operand: Copy {
@@ -158,7 +172,7 @@ pub trait Operand: Copy {
     fn value(self) -> u64;
     /// Whether the operand names an entry `b` has (the verifier's check; an error
     /// says what is out of range). Plain numbers are always in range.
-    fn check(self, _b: &Bundle) -> Result<(), String> {
+    fn check(self, _b: &Bundle) -> Result<(), OperandError> {
         Ok(())
     }
     /// The operand as the disassembler writes it; `name` is its field's.
@@ -218,11 +232,11 @@ macro_rules! index_operands {
                 u64::from(self.0)
             }
             #[allow(unused_variables)]
-            fn check(self, $b: &Bundle) -> Result<(), String> {
+            fn check(self, $b: &Bundle) -> Result<(), OperandError> {
                 let $v = self.0;
                 let len: Option<usize> = $table;
                 match len {
-                    Some(n) if self.index() >= n => Err(format!(concat!($what, " {} out of range"), self.0)),
+                    Some(n) if self.index() >= n => Err(OperandError { what: $what, index: u64::from(self.0) }),
                     _ => Ok(()),
                 }
             }
