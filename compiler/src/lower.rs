@@ -16,8 +16,8 @@ use crate::ext::LowerCx;
 use crate::source::Sources;
 use crate::span::Span;
 use mdg_vm::bundle::{
-    self, proto, AdjOp, Bundle, Composite, Def, Drawable, Op, PrimAdj, Selector, Settings, SourceLoc, Transform,
-    CONT_NEXT, NONE,
+    self, proto, AdjOp, Bundle, Composite, Def, Drawable, ExprId, IsoId, NsId, Op, OpCount, OpIndex, PrimAdj, Profile,
+    ProtoId, RuleId, Selector, Settings, SlotId, SourceLoc, Transform, TransformId, CONT_NEXT, NONE,
 };
 use mdg_vm::expr::{BinOp as VmBinOp, ExprOp, Func, VARIABLES};
 use std::collections::HashMap;
@@ -675,20 +675,21 @@ impl<'a> Lower<'a> {
         }
         // Old op i moves past the INSTs of the runs that start before it.
         let moved = |i: u32| i + runs.partition_point(|r| (r.0 as u32) < i) as u32;
+        let moved_op = |i: OpIndex| OpIndex(moved(i.0));
         let tail: Vec<Op> = self.code.drain(start..).collect();
         let mut next_run = runs.iter().peekable();
         for (k, mut op) in tail.into_iter().enumerate() {
             if let Some(&&(first, count)) = next_run.peek() {
                 if first == start + k {
-                    self.code.push(Op::Inst { proto: self.n_protos, count: count as u32 });
+                    self.code.push(Op::Inst { proto: ProtoId(self.n_protos), count: OpCount(count as u32) });
                     self.n_protos += 1;
                     next_run.next();
                 }
             }
             match &mut op {
-                Op::Loop { end, .. } | Op::LoopN { end, .. } => *end = moved(*end),
-                Op::EndLoop { begin } => *begin = moved(*begin),
-                Op::Jump { target } | Op::JumpIfNot { target, .. } => *target = moved(*target),
+                Op::Loop { end, .. } | Op::LoopN { end, .. } => *end = moved_op(*end),
+                Op::EndLoop { begin } => *begin = moved_op(*begin),
+                Op::Jump { target } | Op::JumpIfNot { target, .. } => *target = moved_op(*target),
                 _ => {}
             }
             self.code.push(op);
@@ -713,7 +714,7 @@ impl<'a> Lower<'a> {
 
     /// Points the jump at op `at` to the next op.
     fn patch_jump(&mut self, at: usize) {
-        let here = self.code.len() as u32;
+        let here = OpIndex(self.code.len() as u32);
         match &mut self.code[at] {
             Op::Jump { target } | Op::JumpIfNot { target, .. } => *target = here,
             _ => {}
@@ -734,18 +735,19 @@ impl<'a> Lower<'a> {
         ns: Option<&str>,
         after_run: Option<(u16, u32)>,
     ) {
-        let begin = self.code.len() as u32;
+        let begin = OpIndex(self.code.len() as u32);
+        let (step, end) = (TransformId(step), OpIndex(0));
         match dynamic {
-            Some(e) => self.code.push(Op::LoopN { count: e, step, end: 0, chain }),
-            None => self.code.push(Op::Loop { count, step, end: 0, chain }),
+            Some(e) => self.code.push(Op::LoopN { count: ExprId(e), step, end, chain }),
+            None => self.code.push(Op::Loop { count, step, end, chain }),
         }
         self.item(inner, cont_next, ns);
         if let Some((slot, expr)) = after_run {
-            self.code.push(Op::Set { slot, expr });
+            self.code.push(Op::Set { slot: SlotId(slot), expr: ExprId(expr) });
         }
-        let end = self.code.len() as u32;
+        let end = OpIndex(self.code.len() as u32);
         self.code.push(Op::EndLoop { begin });
-        if let Op::Loop { end: e, .. } | Op::LoopN { end: e, .. } = &mut self.code[begin as usize] {
+        if let Op::Loop { end: e, .. } | Op::LoopN { end: e, .. } = &mut self.code[begin.index()] {
             *e = end;
         }
     }
@@ -755,7 +757,7 @@ impl<'a> Lower<'a> {
         let flags = if cont_next { CONT_NEXT } else { 0 };
         match &item.kind {
             BodyKind::Call { name, args, profile, adj } => {
-                let xf = self.transform(adj, 1.0);
+                let xf = TransformId(self.transform(adj, 1.0));
                 let (prefix, last) = match name.text.rsplit_once('.') {
                     Some((p, l)) => (p, l),
                     None => ("", name.text.as_str()),
@@ -763,8 +765,8 @@ impl<'a> Lower<'a> {
                 if let Some(kind) = Drawable::from_name(last)
                     .filter(|_| self.sym.resolve(&name.text, ns).is_none() || prefix.is_empty())
                 {
-                    let ns_id = self.namespace(prefix);
-                    let profile = profile.as_ref().and_then(|p| self.rule_index(&p.text, ns)).unwrap_or(NONE);
+                    let ns_id = NsId(self.namespace(prefix));
+                    let profile = Profile(profile.as_ref().and_then(|p| self.rule_index(&p.text, ns)).unwrap_or(NONE));
                     self.code.push(Op::Draw { kind, xf, ns: ns_id, profile, flags });
                 } else if self.sym.isosurfaces.contains_key(&name.text) {
                     let iso =
@@ -772,7 +774,7 @@ impl<'a> Lower<'a> {
                             |i| matches!(&i.item.kind, ItemKind::Isosurface { name: n, .. } if n.text == name.text),
                         );
                     if let Some(iso) = iso {
-                        self.code.push(Op::Iso { iso: iso as u32, xf, flags });
+                        self.code.push(Op::Iso { iso: IsoId(iso as u32), xf, flags });
                     }
                 } else if let Some(rule) = self.rule_index(&name.text, ns) {
                     // Arguments by position; the parameters not passed take their defaults.
@@ -787,9 +789,9 @@ impl<'a> Lower<'a> {
                             },
                             None => self.push_expr(vec![ExprOp::Push(p.default.unwrap_or(0.0))]),
                         };
-                        self.code.push(Op::Arg { expr });
+                        self.code.push(Op::Arg { expr: ExprId(expr) });
                     }
-                    self.code.push(Op::Call { rule, xf, flags });
+                    self.code.push(Op::Call { rule: RuleId(rule), xf, flags });
                 }
             }
             BodyKind::Iterate { count, divisor, adj, chain, item: inner } => {
@@ -815,7 +817,7 @@ impl<'a> Lower<'a> {
                 let start_e = self.expr(start, 1.0);
                 let scope_at = self.scope.len();
                 let slot = self.bind(&var.text);
-                self.code.push(Op::Set { slot, expr: start_e });
+                self.code.push(Op::Set { slot: SlotId(slot), expr: ExprId(start_e) });
                 let mut step_code = Vec::new();
                 match step {
                     Some(s) => self.expr_code(s, &mut step_code),
@@ -841,12 +843,12 @@ impl<'a> Lower<'a> {
             BodyKind::If { cond, then, otherwise, .. } => {
                 let c = self.expr(cond, 1.0);
                 let jz = self.code.len();
-                self.code.push(Op::JumpIfNot { expr: c, target: 0 });
+                self.code.push(Op::JumpIfNot { expr: ExprId(c), target: OpIndex(0) });
                 self.body(then, ns);
                 match otherwise {
                     Some(o) => {
                         let jmp = self.code.len();
-                        self.code.push(Op::Jump { target: 0 });
+                        self.code.push(Op::Jump { target: OpIndex(0) });
                         self.patch_jump(jz);
                         match &o.kind {
                             BodyKind::Block(items) => self.body(items, ns),
@@ -860,15 +862,15 @@ impl<'a> Lower<'a> {
             BodyKind::Let { name, value } => {
                 let expr = self.expr(value, 1.0);
                 let slot = self.bind(&name.text);
-                self.code.push(Op::Set { slot, expr });
+                self.code.push(Op::Set { slot: SlotId(slot), expr: ExprId(expr) });
             }
             BodyKind::Block(items) => {
-                let begin = self.code.len() as u32;
-                self.code.push(Op::Loop { count: 1, step: 0, end: 0, chain: 0 });
+                let begin = OpIndex(self.code.len() as u32);
+                self.code.push(Op::Loop { count: 1, step: TransformId(0), end: OpIndex(0), chain: 0 });
                 self.body(items, ns);
-                let end = self.code.len() as u32;
+                let end = OpIndex(self.code.len() as u32);
                 self.code.push(Op::EndLoop { begin });
-                if let Op::Loop { end: e, .. } = &mut self.code[begin as usize] {
+                if let Op::Loop { end: e, .. } = &mut self.code[begin.index()] {
                     *e = end;
                 }
                 if cont_next {

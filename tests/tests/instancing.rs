@@ -81,7 +81,7 @@ fn prototype_lines(b: &Bundle) -> BTreeSet<(String, u32)> {
     let mut lines = BTreeSet::new();
     for (pc, op) in b.code.iter().enumerate() {
         if let Op::Inst { count, .. } = *op {
-            for item in pc as u32 + 1..=pc as u32 + count {
+            for item in pc as u32 + 1..=pc as u32 + count.0 {
                 if let Some((file, line)) = b.source_of(item) {
                     lines.insert((file.to_string(), line));
                 }

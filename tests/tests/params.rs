@@ -173,7 +173,7 @@ fn bundles_with_parameters_round_trip_and_the_verifier_rejects_bad_slots_and_arg
     let mut bad = b.clone();
     let set = bad.code.iter().position(|op| matches!(op, Op::Set { .. })).expect("a SET");
     if let Op::Set { slot, .. } = &mut bad.code[set] {
-        *slot = 9;
+        *slot = mdg_vm::bundle::SlotId(9);
     }
     assert!(bundle::verify(&bad).is_err(), "slot beyond the frame");
     // A CALL with one ARG too few.
@@ -185,7 +185,7 @@ fn bundles_with_parameters_round_trip_and_the_verifier_rejects_bad_slots_and_arg
     let mut bad = b.clone();
     let jz = bad.code.iter().position(|op| matches!(op, Op::JumpIfNot { .. })).expect("a JUMPZ");
     if let Op::JumpIfNot { target, .. } = &mut bad.code[jz] {
-        *target = 0;
+        *target = mdg_vm::bundle::OpIndex(0);
     }
     assert!(bundle::verify(&bad).is_err(), "backward jump");
 }

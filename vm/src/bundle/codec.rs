@@ -115,6 +115,103 @@ impl<'a> R<'a> {
     }
 }
 
+/// An operand of an expression instruction in the bundle's bytes.
+trait ExprOperand: Sized {
+    fn put(self, w: &mut W);
+    fn get(r: &mut R) -> Result<Self, LoadError>;
+}
+
+impl ExprOperand for f64 {
+    fn put(self, w: &mut W) {
+        w.f64(self)
+    }
+    fn get(r: &mut R) -> Result<Self, LoadError> {
+        r.f64()
+    }
+}
+
+impl ExprOperand for u8 {
+    fn put(self, w: &mut W) {
+        w.u8(self)
+    }
+    fn get(r: &mut R) -> Result<Self, LoadError> {
+        r.u8()
+    }
+}
+
+impl ExprOperand for u16 {
+    fn put(self, w: &mut W) {
+        w.u16(self)
+    }
+    fn get(r: &mut R) -> Result<Self, LoadError> {
+        r.u16()
+    }
+}
+
+impl ExprOperand for u32 {
+    fn put(self, w: &mut W) {
+        w.u32(self)
+    }
+    fn get(r: &mut R) -> Result<Self, LoadError> {
+        r.u32()
+    }
+}
+
+/// A binary operator is stored as its id (its position in `BINOPS`).
+impl ExprOperand for BinOp {
+    fn put(self, w: &mut W) {
+        w.u8(self.id())
+    }
+    fn get(r: &mut R) -> Result<Self, LoadError> {
+        let id = r.u8()?;
+        BinOp::from_id(id).ok_or_else(|| r.err(&format!("unknown operator {id}")))
+    }
+}
+
+/// The expression instructions' tags and operand types, written once: the encoder
+/// ([`encode_expr_op`]) and the decoder ([`decode_expr_op`]) are generated from it.
+macro_rules! expr_ops {
+    ($( $tag:literal => $v:ident $(($t:ty))? ),* $(,)?) => {
+        /// Appends expression instruction `op`: its tag, then its operand.
+        fn encode_expr_op(w: &mut W, op: ExprOp) {
+            // (Exhaustive: every instruction has a tag.)
+            match op {
+                $( ExprOp::$v { .. } => w.u8($tag), )*
+            }
+            $( expr_ops!(@put w, op, $v $(, $t)?); )*
+        }
+
+        /// Reads one expression instruction.
+        fn decode_expr_op(r: &mut R) -> Result<ExprOp, LoadError> {
+            Ok(match r.u8()? {
+                $( $tag => expr_ops!(@get r, $v $(, $t)?), )*
+                t => return Err(r.err(&format!("unknown expression op {t}"))),
+            })
+        }
+    };
+    (@put $w:ident, $op:ident, $v:ident) => {};
+    (@put $w:ident, $op:ident, $v:ident, $t:ty) => {
+        if let ExprOp::$v(x) = $op {
+            ExprOperand::put(x, $w);
+        }
+    };
+    (@get $r:ident, $v:ident) => { ExprOp::$v };
+    (@get $r:ident, $v:ident, $t:ty) => { ExprOp::$v(<$t as ExprOperand>::get($r)?) };
+}
+
+expr_ops! {
+    0 => Push(f64),
+    1 => Var(u8),
+    2 => Neg,
+    3 => Bin(BinOp),
+    4 => Call(u8),
+    5 => Slot(u16),
+    6 => Skip(u32),
+    7 => SkipUnless(u32),
+    8 => Pick(u32),
+    9 => Slide(u32),
+}
+
 fn encode_composite(w: &mut W, c: &Composite) {
     w.f32s(&c.q);
     w.f32s(&c.qh);
@@ -214,45 +311,7 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
     for e in &b.exprs {
         w.len(e.len());
         for op in e {
-            match op {
-                ExprOp::Push(v) => {
-                    w.u8(0);
-                    w.f64(*v);
-                }
-                ExprOp::Var(i) => {
-                    w.u8(1);
-                    w.u8(*i);
-                }
-                ExprOp::Neg => w.u8(2),
-                ExprOp::Bin(o) => {
-                    w.u8(3);
-                    w.u8(o.id());
-                }
-                ExprOp::Call(f) => {
-                    w.u8(4);
-                    w.u8(*f);
-                }
-                ExprOp::Slot(i) => {
-                    w.u8(5);
-                    w.u16(*i);
-                }
-                ExprOp::Skip(n) => {
-                    w.u8(6);
-                    w.u32(*n);
-                }
-                ExprOp::SkipUnless(n) => {
-                    w.u8(7);
-                    w.u32(*n);
-                }
-                ExprOp::Pick(k) => {
-                    w.u8(8);
-                    w.u32(*k);
-                }
-                ExprOp::Slide(n) => {
-                    w.u8(9);
-                    w.u32(*n);
-                }
-            }
+            encode_expr_op(&mut w, *op);
         }
     }
     // Rules.
@@ -493,22 +552,7 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
         let m = r.len(1)?;
         let mut e = Vec::with_capacity(m);
         for _ in 0..m {
-            e.push(match r.u8()? {
-                0 => ExprOp::Push(r.f64()?),
-                1 => ExprOp::Var(r.u8()?),
-                2 => ExprOp::Neg,
-                3 => {
-                    let id = r.u8()?;
-                    ExprOp::Bin(BinOp::from_id(id).ok_or_else(|| r.err(&format!("unknown operator {id}")))?)
-                }
-                4 => ExprOp::Call(r.u8()?),
-                5 => ExprOp::Slot(r.u16()?),
-                6 => ExprOp::Skip(r.u32()?),
-                7 => ExprOp::SkipUnless(r.u32()?),
-                8 => ExprOp::Pick(r.u32()?),
-                9 => ExprOp::Slide(r.u32()?),
-                t => return Err(r.err(&format!("unknown expression op {t}"))),
-            });
+            e.push(decode_expr_op(&mut r)?);
         }
         exprs.push(e);
     }

@@ -181,29 +181,12 @@ pub fn disassemble(b: &Bundle) -> String {
             }
             last_src = src;
         }
-        let operands: Vec<String> = op
-            .operands()
-            .into_iter()
-            .map(|(n, v)| match (op, n) {
-                (Op::Call { .. }, "rule") => b.string(b.rules.get(v as usize).map(|r| r.name).unwrap_or(0)).to_string(),
-                (Op::Draw { kind, .. }, "kind") => kind.name().to_string(),
-                (_, "xf" | "step") => format!("X{v}"),
-                (Op::Inst { .. }, "proto") => format!("P{v}"),
-                (Op::Inst { .. }, "count") => format!("n={v}"),
-                (Op::LoopN { .. }, "count") | (_, "expr") => format!("E{v}"),
-                (_, "slot") => format!("s{v}"),
-                (_, "target" | "end" | "begin") => format!("@{v}"),
-                (_, "profile") if v == NONE as u64 => "-".to_string(),
-                (_, "profile") => {
-                    format!("profile={}", b.string(b.rules.get(v as usize).map(|r| r.name).unwrap_or(0)))
-                }
-                _ => format!("{n}={v}"),
-            })
-            .collect();
+        // (Each operand's text comes with its type: rule names, `X3`, `E2`, `@12` …)
+        let operands = op.operand_texts(b);
         let mut line = format!("{pc:>6}  {:<8} {}", op.mnemonic(), operands.join(" "));
         if let Op::Inst { count, .. } = op {
             // What the prototype holds: the items it covers, one instance per run.
-            let items = b.code.iter().skip(pc + 1).take(*count as usize);
+            let items = b.code.iter().skip(pc + 1).take(count.index());
             let vertices = items.filter(|o| matches!(o, Op::Draw { kind: Drawable::Vertex, .. })).count();
             let t = vertices / 3;
             let _ = write!(line, "    ; prototype: {vertices} vertices, {t} triangle{}", if t == 1 { "" } else { "s" });

@@ -17,7 +17,9 @@ mod verify;
 
 pub use codec::{decode, encode};
 pub use disasm::{disassemble, expr_text};
-pub use ops::{Drawable, Op, CONT_NEXT, NONE};
+pub use ops::{
+    Drawable, ExprId, IsoId, NsId, Op, OpCount, OpIndex, Profile, ProtoId, RuleId, SlotId, TransformId, CONT_NEXT, NONE,
+};
 pub use verify::verify;
 
 use crate::expr::ExprOp;
@@ -475,6 +477,27 @@ pub fn load(bytes: &[u8]) -> Result<Bundle, LoadError> {
     let b = decode(bytes)?;
     verify(&b)?;
     Ok(b)
+}
+
+/// Declares `table[id]` for the tables an op operand indexes, so the interpreter and
+/// the verifier index with the operand itself.
+macro_rules! typed_index {
+    ($($id:ty => $item:ty),* $(,)?) => {$(
+        impl std::ops::Index<$id> for Vec<$item> {
+            type Output = $item;
+            #[inline(always)]
+            fn index(&self, id: $id) -> &$item {
+                &self[id.index()]
+            }
+        }
+    )*};
+}
+
+typed_index! {
+    RuleId => Rule,
+    TransformId => Transform,
+    ExprId => Vec<ExprOp>,
+    IsoId => Isosurface,
 }
 
 #[cfg(test)]

@@ -1,15 +1,21 @@
-//! The opcode table. Every opcode is declared once in [`for_each_op!`]; the `Op`
-//! enum, its encoder, decoder, size and disassembly are generated from it, so they
+//! The opcode table. Every opcode is declared once in [`for_each_op!`] with typed
+//! operands; the `Op` enum, its encoder, decoder, the verifier's range checks and
+//! the disassembly are generated from it (the interpreter matches on `Op`), so they
 //! cannot drift apart.
 //!
 //! Notation: `start` is the frame an item starts from (the body's frame, the
 //! iterator run's frame, or the continuation state after `\`); `X[x]` is transform
 //! `x`; `last` is the continuation register (the frame of the last drawable).
-//! Operand kinds: `r` rule, `x` transform, `k` drawable kind, `n` namespace, `p` rule
-//! or NONE, `i` isosurface, `c` count (u64), `j` op index (jump), `f` flags, `P`
-//! prototype (the ordinal of its `INST` op in the code).
+//! Operand kinds, each its own type ([`index_operands!`]: the range check the
+//! verifier makes and the text the disassembler writes come with the type): `r`
+//! [`RuleId`], `x` [`TransformId`], `k` [`Drawable`], `n` [`NsId`], `p` [`Profile`]
+//! (a rule or NONE), `i` [`IsoId`], `e` [`ExprId`], `s` [`SlotId`], `j` [`OpIndex`]
+//! (a jump target or the other end of a block), `P` [`ProtoId`] (the ordinal of its
+//! `INST` op in the code), `n` [`OpCount`], `c` a count (u64), `f` flags (u8).
 //! Flags bit 0 (`CONT_NEXT`): the item is followed by `\`, so `last` is set to the
 //! item's own frame before it runs (a drawable inside it then overrides it).
+
+use super::Bundle;
 
 /// Flag: the item is followed by `\`.
 pub const CONT_NEXT: u8 = 1;
@@ -29,31 +35,31 @@ pub const NONE: u32 = u32::MAX;
 macro_rules! for_each_op {
     ($m:ident) => {
         $m! {
-            (0x01, Call, "CALL", { rule: u32, xf: u32, flags: u8 },
+            (0x01, Call, "CALL", { rule: RuleId, xf: TransformId, flags: u8 },
                 "r x f    push frame; S := start ∘ X[x]; run the definition of rule r its selector picks");
-            (0x02, Draw, "DRAW", { kind: Drawable, xf: u32, ns: u32, profile: u32, flags: u8 },
+            (0x02, Draw, "DRAW", { kind: Drawable, xf: TransformId, ns: NsId, profile: Profile, flags: u8 },
                 "k x n p f  S := start ∘ X[x]; drawable k on namespace n's pen (profile rule p or NONE); last := S");
-            (0x03, Iso, "ISO", { iso: u32, xf: u32, flags: u8 },
+            (0x03, Iso, "ISO", { iso: IsoId, xf: TransformId, flags: u8 },
                 "i x f    S := start ∘ X[x]; place an instance of isosurface i; last := S");
-            (0x04, Loop, "LOOP", { count: u64, step: u32, end: u32, chain: u8 },
+            (0x04, Loop, "LOOP", { count: u64, step: TransformId, end: OpIndex, chain: u8 },
                 "c x j f  iterator: run the body up to ENDLOOP c times, run k under start ∘ X[x]^k; f=1 chains runs through last; if c = 0 jump past j");
-            (0x05, EndLoop, "ENDLOOP", { begin: u32 },
+            (0x05, EndLoop, "ENDLOOP", { begin: OpIndex },
                 "j        next run of the LOOP at op j, or leave it");
             (0x06, Cont, "CONT", { },
                 "         the next item starts from last (continuation)");
             (0x07, Ret, "RET", { },
                 "         pop frame; return to the caller");
-            (0x08, Arg, "ARG", { expr: u32 },
+            (0x08, Arg, "ARG", { expr: ExprId },
                 "e        push the value of e (in the caller's frame) as the next argument of the CALL that follows");
-            (0x09, Set, "SET", { slot: u16, expr: u32 },
+            (0x09, Set, "SET", { slot: SlotId, expr: ExprId },
                 "s e      slot s := e (a `let` binding or a loop variable)");
-            (0x0A, Jump, "JUMP", { target: u32 },
+            (0x0A, Jump, "JUMP", { target: OpIndex },
                 "j        continue at op j (forward, within the definition and its loop)");
-            (0x0B, JumpIfNot, "JUMPZ", { expr: u32, target: u32 },
+            (0x0B, JumpIfNot, "JUMPZ", { expr: ExprId, target: OpIndex },
                 "e j      if e is 0 (false) or NaN, continue at op j (`if`/`else`)");
-            (0x0C, LoopN, "LOOPN", { count: u32, step: u32, end: u32, chain: u8 },
+            (0x0C, LoopN, "LOOPN", { count: ExprId, step: TransformId, end: OpIndex, chain: u8 },
                 "e x j f  LOOP whose count is expression e, evaluated once on entry (negative or NaN: 0 runs); f bit 1: the first run is under start itself");
-            (0x0D, Inst, "INST", { proto: u32, count: u32 },
+            (0x0D, Inst, "INST", { proto: ProtoId, count: OpCount },
                 "P n      the next n ops (VERTEX/FACENORMALS, constant transforms) are prototype P: one instance of P under start, skipping them; or run them one by one");
         }
     };
@@ -110,10 +116,25 @@ macro_rules! define_ops {
                 Ok((op, at - pos))
             }
 
-            /// The operands as `name=value` text, for the disassembler.
+            /// The operands as `name=value` pairs (numbers as stored).
             pub fn operands(&self) -> Vec<(&'static str, u64)> {
                 match *self {
                     $(Op::$name { $($f),* } => vec![$((stringify!($f), Operand::value($f))),*],)*
+                }
+            }
+
+            /// The operands as the disassembler writes them (rule names, `X3`, `@12`…).
+            pub fn operand_texts(&self, b: &Bundle) -> Vec<String> {
+                match *self {
+                    $(Op::$name { $($f),* } => vec![$(Operand::show($f, stringify!($f), b)),*],)*
+                }
+            }
+
+            /// Checks that every operand names an entry `b` has (a rule, a transform,
+            /// an expression …): the verifier's range checks, one per operand type.
+            pub fn check_operands(&self, b: &Bundle) -> Result<(), OperandError> {
+                match *self {
+                    $(Op::$name { $($f),* } => { $( Operand::check($f, b)?; )* Ok(()) })*
                 }
             }
         }
@@ -125,23 +146,49 @@ macro_rules! define_ops {
 
 for_each_op!(define_ops);
 
-/// An operand of the op table: little-endian bytes in the code.
+/// An operand that names no entry of its table (the verifier's error).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct OperandError {
+    /// What the operand indexes (`rule`, `transform`, `namespace` …).
+    pub what: &'static str,
+    pub index: u64,
+}
+
+impl std::fmt::Display for OperandError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} {} out of range", self.what, self.index)
+    }
+}
+
+/// An operand of the op table: little-endian bytes in the code, a range check
+/// against the bundle's tables, and its disassembly.
 pub trait Operand: Copy {
     /// Appends the encoding.
     fn write(self, out: &mut Vec<u8>);
     /// Decodes the operand at `at`: `None` when the code ends first, `Some(Err)` when
     /// the bytes are not a value of the type; else the value and its length.
     fn read(code: &[u8], at: usize) -> Option<Result<(Self, usize), String>>;
-    /// The value as a number, for the disassembler.
+    /// The value as a number.
     fn value(self) -> u64;
+    /// Whether the operand names an entry `b` has (the verifier's check; an error
+    /// says what is out of range). Plain numbers are always in range.
+    fn check(self, _b: &Bundle) -> Result<(), OperandError> {
+        Ok(())
+    }
+    /// The operand as the disassembler writes it; `name` is its field's.
+    fn show(self, name: &str, _b: &Bundle) -> String {
+        format!("{name}={}", self.value())
+    }
 }
 
 macro_rules! int_operands {
     ($($t:ty),*) => {$(
         impl Operand for $t {
+            #[inline]
             fn write(self, out: &mut Vec<u8>) {
                 out.extend_from_slice(&self.to_le_bytes());
             }
+            #[inline]
             fn read(code: &[u8], at: usize) -> Option<Result<(Self, usize), String>> {
                 const N: usize = std::mem::size_of::<$t>();
                 let bytes: [u8; N] = code.get(at..at + N)?.try_into().ok()?;
@@ -154,6 +201,87 @@ macro_rules! int_operands {
     )*};
 }
 int_operands!(u8, u16, u32, u64);
+
+/// Declares the index operands: a newtype over the stored integer for each table an
+/// op points into, with its range check and its disassembly (`$show` formats the
+/// index, `$table` is the length of the table it indexes, if checked).
+macro_rules! index_operands {
+    ($( $(#[$doc:meta])* $name:ident($t:ty) $what:literal, |$b:ident, $v:ident| $table:expr, $show:expr; )*) => {$(
+        $(#[$doc])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+        pub struct $name(pub $t);
+
+        impl $name {
+            /// The index into its table.
+            #[inline(always)]
+            pub fn index(self) -> usize {
+                self.0 as usize
+            }
+        }
+
+        impl Operand for $name {
+            #[inline]
+            fn write(self, out: &mut Vec<u8>) {
+                self.0.write(out)
+            }
+            #[inline]
+            fn read(code: &[u8], at: usize) -> Option<Result<(Self, usize), String>> {
+                Some(<$t as Operand>::read(code, at)?.map(|(v, n)| ($name(v), n)))
+            }
+            fn value(self) -> u64 {
+                u64::from(self.0)
+            }
+            #[allow(unused_variables)]
+            fn check(self, $b: &Bundle) -> Result<(), OperandError> {
+                let $v = self.0;
+                let len: Option<usize> = $table;
+                match len {
+                    Some(n) if self.index() >= n => Err(OperandError { what: $what, index: u64::from(self.0) }),
+                    _ => Ok(()),
+                }
+            }
+            #[allow(unused_variables)]
+            fn show(self, _name: &str, $b: &Bundle) -> String {
+                let $v = self.0;
+                $show
+            }
+        }
+    )*};
+}
+
+index_operands! {
+    /// A rule (`r`): an index into [`Bundle::rules`].
+    RuleId(u32) "rule", |b, v| Some(b.rules.len()), b.string(b.rules.get(v as usize).map_or(0, |r| r.name)).to_string();
+    /// A transform (`x`): an index into [`Bundle::transforms`].
+    TransformId(u32) "transform", |b, v| Some(b.transforms.len()), format!("X{v}");
+    /// An expression (`e`): an index into [`Bundle::exprs`].
+    ExprId(u32) "expression", |b, v| Some(b.exprs.len()), format!("E{v}");
+    /// A namespace (`n`): an index into the settings' namespaces (its pen).
+    NsId(u32) "namespace", |b, v| Some(b.settings.namespaces.len()), format!("ns={v}");
+    /// An isosurface (`i`): an index into [`Bundle::isosurfaces`].
+    IsoId(u32) "isosurface", |b, v| Some(b.isosurfaces.len()), format!("iso={v}");
+    /// A prototype (`P`): the ordinal of its `INST` op in the code (the verifier
+    /// checks the order).
+    ProtoId(u32) "prototype", |b, v| None, format!("P{v}");
+    /// An op (`j`): a jump target or the other end of an iterator block.
+    OpIndex(u32) "op", |b, v| Some(b.code.len()), format!("@{v}");
+    /// A slot of the running rule's frame (`s`; the verifier checks it per body
+    /// against the frame's size).
+    SlotId(u16) "slot", |b, v| None, format!("s{v}");
+    /// A number of ops (`n`): the items an `INST` covers.
+    OpCount(u32) "op count", |b, v| None, format!("n={v}");
+    /// A profile rule (`p`), or [`NONE`] for none.
+    Profile(u32) "profile rule", |b, v| (v != NONE).then_some(b.rules.len()),
+        if v == NONE { "-".to_string() } else { format!("profile={}", b.string(b.rules.get(v as usize).map_or(0, |r| r.name))) };
+}
+
+impl Profile {
+    /// The profile rule, if any.
+    #[inline]
+    pub fn rule(self) -> Option<RuleId> {
+        (self.0 != NONE).then_some(RuleId(self.0))
+    }
+}
 
 /// Declares [`Drawable`] and [`DRAWABLE_KINDS`] from one list.
 macro_rules! drawables {
@@ -211,6 +339,9 @@ drawables! {
 }
 
 impl Operand for Drawable {
+    fn show(self, _name: &str, _b: &Bundle) -> String {
+        self.name().to_string()
+    }
     fn write(self, out: &mut Vec<u8>) {
         out.push(self as u8);
     }

@@ -21,7 +21,7 @@ use super::{Drawable, Op, Transform};
 pub fn is_prototype_op(op: &Op, transforms: &[Transform]) -> bool {
     match *op {
         Op::Draw { kind: Drawable::Vertex | Drawable::FaceNormals, xf, .. } => {
-            matches!(transforms.get(xf as usize), Some(Transform::Const(c)) if c.n.is_none() && c.hsb.is_none() && c.set.is_none())
+            matches!(transforms.get(xf.index()), Some(Transform::Const(c)) if c.n.is_none() && c.hsb.is_none() && c.set.is_none())
         }
         _ => false,
     }
@@ -67,10 +67,10 @@ pub fn is_run(ops: &[Op], transforms: &[Transform]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bundle::{Composite, NONE};
+    use crate::bundle::{Composite, NsId, Profile, TransformId, NONE};
 
     fn draw(kind: Drawable, xf: u32) -> Op {
-        Op::Draw { kind, xf, ns: 0, profile: NONE, flags: 0 }
+        Op::Draw { kind, xf: TransformId(xf), ns: NsId(0), profile: Profile(NONE), flags: 0 }
     }
 
     #[test]

@@ -12,7 +12,6 @@ fn bad(msg: String) -> LoadError {
 pub fn verify(b: &Bundle) -> Result<(), LoadError> {
     let n_str = b.strings.len() as u32;
     let n_rules = b.rules.len() as u32;
-    let n_xf = b.transforms.len() as u32;
     let n_expr = b.exprs.len() as u32;
     let n_ops = b.code.len() as u32;
     let str_ok =
@@ -87,15 +86,9 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
         rule_or_none(r.iter, "iterator rule")?;
     }
     for (pc, op) in b.code.iter().enumerate() {
-        // Operands checked before any body walk reads through them.
-        let expr_operand = match *op {
-            Op::Arg { expr } | Op::Set { expr, .. } | Op::JumpIfNot { expr, .. } => Some(expr),
-            Op::LoopN { count, .. } => Some(count),
-            _ => None,
-        };
-        if let Some(e) = expr_operand {
-            expr_ok(e, &format!("op {pc} ({})", op.mnemonic()))?;
-        }
+        // Every operand in range (the check its type declares, see `ops`), before
+        // any body walk reads through them.
+        op.check_operands(b).map_err(|m| bad(format!("op {pc} ({}): {m}", op.mnemonic())))?;
     }
     for (i, r) in b.rules.iter().enumerate() {
         for d in &r.defs {
@@ -107,48 +100,29 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
         let at = |what: &str| format!("op {pc} ({what})");
         match *op {
             Op::Inst { proto, count } => {
-                if proto != n_protos {
-                    return Err(bad(format!("{}: prototype {proto}, expected {n_protos}", at("INST"))));
+                if proto.0 != n_protos {
+                    return Err(bad(format!("{}: prototype {}, expected {n_protos}", at("INST"), proto.0)));
                 }
                 n_protos += 1;
-                let covered = b.code.get(pc + 1..).and_then(|c| c.get(..count as usize));
+                let covered = b.code.get(pc + 1..).and_then(|c| c.get(..count.index()));
                 if !covered.is_some_and(|c| super::proto::is_run(c, &b.transforms)) {
                     return Err(bad(format!(
-                        "{}: the next {count} ops are not a run of VERTEX/FACENORMALS with constant transforms",
-                        at("INST")
+                        "{}: the next {} ops are not a run of VERTEX/FACENORMALS with constant transforms",
+                        at("INST"),
+                        count.0
                     )));
                 }
             }
-            Op::Call { rule, xf, .. } => {
-                rule_ok(rule, &at("CALL"))?;
-                if xf >= n_xf {
-                    return Err(bad(format!("{}: transform {xf} out of range", at("CALL"))));
-                }
-            }
-            Op::Draw { xf, ns, profile, .. } => {
-                if xf >= n_xf || ns as usize >= s.namespaces.len() {
-                    return Err(bad(format!("{}: operand out of range", at("DRAW"))));
-                }
-                rule_or_none(profile, &at("DRAW"))?;
-            }
-            Op::Iso { iso, xf, .. } => {
-                if iso as usize >= b.isosurfaces.len() || xf >= n_xf {
-                    return Err(bad(format!("{}: operand out of range", at("ISO"))));
-                }
-            }
-            Op::Loop { step, end, .. } | Op::LoopN { step, end, .. } => {
-                if step >= n_xf {
-                    return Err(bad(format!("{}: transform out of range", at("LOOP"))));
-                }
-                match b.code.get(end as usize) {
-                    Some(Op::EndLoop { begin }) if *begin as usize == pc => {}
-                    _ => return Err(bad(format!("{}: end {end} is not its ENDLOOP", at("LOOP")))),
-                }
-            }
-            Op::EndLoop { begin } => match b.code.get(begin as usize) {
-                Some(Op::Loop { end, .. } | Op::LoopN { end, .. }) if *end as usize == pc => {}
-                _ => return Err(bad(format!("{}: begin {begin} is not its LOOP", at("ENDLOOP")))),
+            Op::Loop { end, .. } | Op::LoopN { end, .. } => match b.code.get(end.index()) {
+                Some(Op::EndLoop { begin }) if begin.index() == pc => {}
+                _ => return Err(bad(format!("{}: end {} is not its ENDLOOP", at("LOOP"), end.0))),
             },
+            Op::EndLoop { begin } => match b.code.get(begin.index()) {
+                Some(Op::Loop { end, .. } | Op::LoopN { end, .. }) if end.index() == pc => {}
+                _ => return Err(bad(format!("{}: begin {} is not its LOOP", at("ENDLOOP"), begin.0))),
+            },
+            // (Ranges checked above; slots and jumps per definition by `verify_body`.)
+            Op::Call { .. } | Op::Draw { .. } | Op::Iso { .. } => {}
             // Checked per definition by `verify_body`.
             Op::Arg { .. } | Op::Set { .. } | Op::Jump { .. } | Op::JumpIfNot { .. } => {}
             Op::Cont {} | Op::Ret {} => {}
@@ -232,20 +206,20 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
 /// every slot read or written lies in the rule's frame.
 fn verify_body(b: &Bundle, rule: usize, start: u32) -> Result<(), LoadError> {
     let frame = b.rules[rule].frame as usize;
-    let slots_ok = |e: u32, pc: usize| {
-        if expr::slots_needed(&b.exprs[e as usize]) > frame {
-            Err(bad(format!("op {pc}: expression {e} reads a slot beyond the frame of {frame}")))
+    let slots_ok = |e: ExprId, pc: usize| {
+        if expr::slots_needed(&b.exprs[e]) > frame {
+            Err(bad(format!("op {pc}: expression {} reads a slot beyond the frame of {frame}", e.0)))
         } else {
             Ok(())
         }
     };
-    let xf_ok = |xf: u32, pc: usize| -> Result<(), LoadError> {
-        if let Some(Transform::Dynamic { adjs, .. }) = b.transforms.get(xf as usize) {
+    let xf_ok = |xf: TransformId, pc: usize| -> Result<(), LoadError> {
+        if let Some(Transform::Dynamic { adjs, .. }) = b.transforms.get(xf.index()) {
             for a in adjs {
                 for arg in &a.args {
                     if let Arg::Expr(e) = arg {
                         if (*e as usize) < b.exprs.len() {
-                            slots_ok(*e, pc)?;
+                            slots_ok(ExprId(*e), pc)?;
                         }
                     }
                 }
@@ -257,7 +231,7 @@ fn verify_body(b: &Bundle, rule: usize, start: u32) -> Result<(), LoadError> {
     let mut loops: Vec<usize> = Vec::new();
     let mut pending = 0usize;
     let mut at: Vec<(Option<usize>, usize)> = Vec::new();
-    let mut jumps: Vec<(usize, u32)> = Vec::new();
+    let mut jumps: Vec<(usize, OpIndex)> = Vec::new();
     let mut pc = start as usize;
     while let Some(op) = b.code.get(pc) {
         at.push((loops.last().copied(), pending));
@@ -283,7 +257,7 @@ fn verify_body(b: &Bundle, rule: usize, start: u32) -> Result<(), LoadError> {
             }
             Op::Call { rule: callee, xf, .. } => {
                 xf_ok(xf, pc)?;
-                let want = b.rules.get(callee as usize).map(|r| r.params.len()).unwrap_or(0);
+                let want = b.rules.get(callee.index()).map(|r| r.params.len()).unwrap_or(0);
                 if pending != want {
                     return Err(bad(format!("op {pc}: CALL with {pending} arguments for {want} parameters")));
                 }
@@ -292,8 +266,8 @@ fn verify_body(b: &Bundle, rule: usize, start: u32) -> Result<(), LoadError> {
             Op::Draw { xf, .. } | Op::Iso { xf, .. } => xf_ok(xf, pc)?,
             Op::Set { slot, expr } => {
                 slots_ok(expr, pc)?;
-                if slot as usize >= frame {
-                    return Err(bad(format!("op {pc}: SET of slot {slot} beyond the frame of {frame}")));
+                if slot.index() >= frame {
+                    return Err(bad(format!("op {pc}: SET of slot {} beyond the frame of {frame}", slot.0)));
                 }
             }
             Op::Jump { target } => jumps.push((pc, target)),
@@ -307,7 +281,7 @@ fn verify_body(b: &Bundle, rule: usize, start: u32) -> Result<(), LoadError> {
                     return Err(bad(format!("RET inside a loop at op {pc}")));
                 }
                 for (from, target) in jumps {
-                    let t = target as usize;
+                    let t = target.index();
                     let ok = t > from && t <= pc && at[t - start as usize] == (at[from - start as usize].0, 0);
                     if !ok {
                         return Err(bad(format!("op {from}: jump to op {t} leaves its definition or loop")));
@@ -390,5 +364,33 @@ mod tests {
         let mut b = bundle();
         b.uniforms[1].source = UniformSource::Frame { rule: 0, prop: 9 };
         assert!(verify(&b).is_err(), "uniform property out of range");
+    }
+
+    #[test]
+    fn every_out_of_range_operand_is_named_by_its_type() {
+        // One op per operand type that indexes a table, each one past its table's end:
+        // the error names the op and what is out of range (a namespace of DRAW and an
+        // isosurface of ISO were "operand out of range" before their types said what).
+        let cases: [(Op, &str); 7] = [
+            (Op::Call { rule: RuleId(1), xf: TransformId(0), flags: 0 }, "op 0 (CALL): rule 1 out of range"),
+            (Op::Call { rule: RuleId(0), xf: TransformId(1), flags: 0 }, "op 0 (CALL): transform 1 out of range"),
+            (
+                Op::Draw { kind: Drawable::Vertex, xf: TransformId(0), ns: NsId(1), profile: Profile(NONE), flags: 0 },
+                "op 0 (DRAW): namespace 1 out of range",
+            ),
+            (
+                Op::Draw { kind: Drawable::LineTo, xf: TransformId(0), ns: NsId(0), profile: Profile(4), flags: 0 },
+                "op 0 (DRAW): profile rule 4 out of range",
+            ),
+            (Op::Iso { iso: IsoId(0), xf: TransformId(0), flags: 0 }, "op 0 (ISO): isosurface 0 out of range"),
+            (Op::Arg { expr: ExprId(2) }, "op 0 (ARG): expression 2 out of range"),
+            (Op::Jump { target: OpIndex(7) }, "op 0 (JUMP): op 7 out of range"),
+        ];
+        for (op, want) in cases {
+            let mut b = bundle();
+            b.code.insert(0, op);
+            let e = verify(&b).expect_err(want).to_string();
+            assert!(e.contains(want), "{e}, wanted {want}");
+        }
     }
 }

@@ -74,7 +74,7 @@ impl<'b> Eval<'b> {
         for op in b.code.iter().skip(first).take(count) {
             let Op::Draw { kind, xf, .. } = *op else { continue };
             let (Some(Transform::Const(c)), Some(Some(x))) =
-                (b.transforms.get(xf as usize), self.xf_info.get(xf as usize))
+                (b.transforms.get(xf.index()), self.xf_info.get(xf.index()))
             else {
                 continue;
             };
@@ -113,7 +113,7 @@ impl<'b> Eval<'b> {
     /// The points of profile rule `rule`, made on first use: at most
     /// [`Eval::profile_limit`] (the run of the rule is halted there, with a warning
     /// at the end), so a runaway profile costs neither memory nor time.
-    pub(super) fn profile(&mut self, rule: u32) -> std::rc::Rc<[Vec3]> {
+    pub(super) fn profile(&mut self, rule: u32) -> std::sync::Arc<[Vec3]> {
         if let Some(p) = self.profiles.get(&rule) {
             return p.clone();
         }
@@ -126,7 +126,7 @@ impl<'b> Eval<'b> {
         }
         self.halt = saved_halt;
         self.last = saved_last;
-        let pts: std::rc::Rc<[Vec3]> = std::mem::replace(&mut self.profile_points, saved).into();
+        let pts: std::sync::Arc<[Vec3]> = std::mem::replace(&mut self.profile_points, saved).into();
         self.profiles.insert(rule, pts.clone());
         pts
     }

@@ -101,8 +101,8 @@ impl NonFinite {
                 .code
                 .iter()
                 .position(|op| match *op {
-                    Op::Call { xf: x, .. } | Op::Draw { xf: x, .. } | Op::Iso { xf: x, .. } => x == xf,
-                    Op::Loop { step, .. } | Op::LoopN { step, .. } => step == xf,
+                    Op::Call { xf: x, .. } | Op::Draw { xf: x, .. } | Op::Iso { xf: x, .. } => x.0 == xf,
+                    Op::Loop { step, .. } | Op::LoopN { step, .. } => step.0 == xf,
                     _ => false,
                 })
                 .map(op_at)
@@ -144,13 +144,13 @@ impl NonFinite {
 #[inline]
 pub(super) fn eval_transform(
     b: &Bundle,
-    xf: u32,
+    xf: TransformId,
     rng: &mut Pcg,
     stack: &mut Vec<f64>,
     env: &Env,
     bad: &mut NonFinite,
 ) -> Composite {
-    match &b.transforms[xf as usize] {
+    match &b.transforms[xf] {
         Transform::Const(c) => *c,
         Transform::Dynamic { adjs, divisor } => {
             // As `compose_prims` over the evaluated arguments (same operations, same
@@ -168,7 +168,7 @@ pub(super) fn eval_transform(
                             if v.is_finite() {
                                 v as f32
                             } else {
-                                bad.argument(xf, v);
+                                bad.argument(xf.0, v);
                                 0.0
                             }
                         }

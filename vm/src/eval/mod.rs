@@ -23,7 +23,8 @@
 //!
 //! The module is split by concern: `options` (what a caller sets, the default
 //! limits), `state` (the state a frame carries and its algebra), `run` (the
-//! interpreter loops and their activation records), `select` (which definition a
+//! interpreter loop, its ops and activation records), `sink` (what a kind of run
+//! changes in that loop: sites, the fast path, the guided search's expansion), `select` (which definition a
 //! call runs), `env` (expressions, random numbers, run-time transforms, non-finite
 //! values), `draw` (geometry and prototype instances), `tracks` (bones, sampled
 //! transform rules, convolutions), `budget` (limits and their counts), `sites`
@@ -38,7 +39,10 @@
 //! state, and a frame under a non-uniform scale composes in `f32`.)
 
 use crate::anim::{frames_needed, MAX_TRACK_FRAMES};
-use crate::bundle::{self, Bundle, Composite, Drawable, Op, Selector, Transform, CONT_NEXT, NONE};
+use crate::bundle::{
+    self, Bundle, Composite, Drawable, ExprId, NsId, Op, OpCount, OpIndex, Profile, ProtoId, RuleId, Selector,
+    Transform, TransformId, CONT_NEXT, NONE,
+};
 use crate::expr::{self, ExprOp, Random};
 use crate::geom::frame64::Frame64;
 use crate::geom::quat::{Affine, Frame};
@@ -51,7 +55,7 @@ use glam::{Mat3, Quat, Vec3, Vec4};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use std::collections::HashMap;
-use std::rc::Rc;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 mod budget;
@@ -61,6 +65,7 @@ mod guided;
 mod options;
 mod run;
 mod select;
+mod sink;
 mod sites;
 mod state;
 mod tracks;
@@ -72,6 +77,7 @@ pub use guided::{Call, Expander, MAX_EXPANSION_CALLS};
 pub use options::*;
 use run::*;
 use select::*;
+use sink::*;
 use sites::*;
 use state::*;
 pub use state::{compose_prims, Lins, State};
@@ -93,7 +99,7 @@ struct Eval<'b> {
     pens: Vec<Pen>,
     last: State,
     sequential: HashMap<u32, (usize, u32)>,
-    profiles: HashMap<u32, std::rc::Rc<[Vec3]>>,
+    profiles: HashMap<u32, Arc<[Vec3]>>,
     /// Profile rules cut at [`MAX_PROFILE_POINTS`] (or the vertex budget), for the
     /// warning.
     profiles_cut: Vec<(u32, usize)>,
@@ -115,7 +121,7 @@ struct Eval<'b> {
     /// once to the deepest derivation's need, never allocated per call.
     slots: Vec<f64>,
     profile_points: Vec<Vec3>,
-    progress: Option<&'b dyn Fn(u64)>,
+    progress: Option<&'b (dyn Fn(u64) + Sync)>,
     xf_info: Vec<Option<XfInfo>>,
     /// Per transform: a constant without a non-uniform scale (composing it has no
     /// effect but its result).
@@ -130,8 +136,8 @@ struct Eval<'b> {
     matte_runs: Vec<std::ops::Range<usize>>,
     /// Whether `INST` makes instances (see [`EvalOptions::instancing`]).
     instancing: bool,
-    /// Whether model runs take [`Eval::run_fast`] (instancing on, so no sites, and
-    /// [`fast_path_applies`]).
+    /// Whether model runs take the fast path, the loop with the [`Simple`] sink
+    /// (instancing on, so no sites, and [`fast_path_applies`]).
     fast: bool,
     /// Vertices of the prototype instances made so far (they count as vertices for
     /// the budget and the statistics, as they would have run one by one).
@@ -162,7 +168,7 @@ struct Eval<'b> {
     /// The op that was running when a limit stopped the run (for the warning).
     stop_pc: Option<u32>,
     /// Convolution rule → the products `I[i]·A[i]·B[i]`.
-    conv_cache: HashMap<u32, Rc<Vec<Frame>>>,
+    conv_cache: HashMap<u32, Arc<Vec<Frame>>>,
     /// The non-uniform factors of this evaluation's states.
     lins: Lins,
     weights: Weights,
@@ -184,6 +190,9 @@ struct Eval<'b> {
     def_starts: Option<Vec<(u32, u32)>>,
     /// Computed values that were not finite numbers, and the fallbacks used.
     non_finite: NonFinite,
+    /// The open iterators' records of the last run, kept for the next one (a run
+    /// takes them, so a nested run starts with none).
+    spare_loops: Vec<LoopRec>,
 }
 
 /// Evaluates a verified bundle from its start shape.
@@ -192,7 +201,7 @@ pub fn evaluate(b: &Bundle, opts: &EvalOptions) -> Output {
 }
 
 /// Like [`evaluate`], calling `progress(rule_calls)` now and then (for a progress bar).
-pub fn evaluate_with_progress(b: &Bundle, opts: &EvalOptions, progress: Option<&dyn Fn(u64)>) -> Output {
+pub fn evaluate_with_progress(b: &Bundle, opts: &EvalOptions, progress: Option<&(dyn Fn(u64) + Sync)>) -> Output {
     let mut e = Eval::new(b, opts, progress);
     let start = State::start_in(&b.settings);
     e.run(b.settings.startshape, start, Mode::Model);
@@ -216,7 +225,7 @@ pub fn evaluate_calls(b: &Bundle, opts: &EvalOptions, calls: &[Call]) -> Output 
 }
 
 impl<'b> Eval<'b> {
-    fn new(b: &'b Bundle, opts: &EvalOptions, progress: Option<&'b dyn Fn(u64)>) -> Eval<'b> {
+    fn new(b: &'b Bundle, opts: &EvalOptions, progress: Option<&'b (dyn Fn(u64) + Sync)>) -> Eval<'b> {
         let s = &b.settings;
         let seed = opts.seed.unwrap_or(s.randseed);
         let start = State::start_in(s);
@@ -272,6 +281,7 @@ impl<'b> Eval<'b> {
             tree: opts.record_derivation.then(TreeRec::default),
             def_starts: None,
             non_finite: NonFinite::default(),
+            spare_loops: Vec::new(),
             stop_pc: None,
             matte_runs: Vec::new(),
             protos: b
@@ -281,13 +291,13 @@ impl<'b> Eval<'b> {
                 .filter_map(|(pc, op)| match *op {
                     Op::Inst { count, .. } => Some(ProtoSlot {
                         first: pc as u32 + 1,
-                        count,
+                        count: count.0,
                         mesh: NONE,
                         extent: 0.0,
                         matte: draw::in_std_flat(b, pc as u32 + 1),
                         vertices: b.code[pc + 1..]
                             .iter()
-                            .take(count as usize)
+                            .take(count.index())
                             .filter(|op| matches!(op, Op::Draw { kind: Drawable::Vertex, .. }))
                             .count() as u32,
                     }),

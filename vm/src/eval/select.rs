@@ -25,7 +25,7 @@ impl Weights {
 #[allow(clippy::too_many_arguments)]
 pub(super) fn select_def(
     b: &Bundle,
-    rule_idx: u32,
+    rule: RuleId,
     child: &State,
     depth: u32,
     args: &[f64],
@@ -35,7 +35,7 @@ pub(super) fn select_def(
     weights: &mut Weights,
     bad: &mut NonFinite,
 ) -> u32 {
-    let rule = &b.rules[rule_idx as usize];
+    let (rule_idx, rule) = (rule.0, &b.rules[rule]);
     let defs = &rule.defs;
     if defs.len() == 1 {
         return defs[0].start;

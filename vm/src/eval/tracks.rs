@@ -108,7 +108,7 @@ impl<'b> Eval<'b> {
     /// their last frame). A terminating I contributes **all** its frames (SPEC §8:
     /// `duration·fps` bounds the animation, not a convolution); one that has not ended
     /// within the frame budget (`EvalOptions::max_frames`) is cut there with a warning.
-    pub(super) fn convolution(&mut self, rule: u32) -> Rc<Vec<Frame>> {
+    pub(super) fn convolution(&mut self, rule: u32) -> Arc<Vec<Frame>> {
         let b = self.b;
         if let Some(c) = self.conv_cache.get(&rule) {
             return c.clone();
@@ -138,7 +138,7 @@ impl<'b> Eval<'b> {
             .enumerate()
             .map(|(i, f)| parts.iter().fold(*f, |acc, &k| acc.compose(&tracks[k as usize].clamped(i as u64))))
             .collect();
-        let frames = Rc::new(frames);
+        let frames = Arc::new(frames);
         self.conv_cache.insert(rule, frames.clone());
         frames
     }

@@ -1,0 +1,117 @@
+//! The variation points of the one interpreter loop ([`Eval::interpret`]) and its
+//! registers: which run is which is a type ([`Sink`]), so the loop is compiled once
+//! per kind of run with every check that does not apply removed at compile time.
+//!
+//! | sink | sites | fast path | calls |
+//! |---|---|---|---|
+//! | [`Plain`] | no | no | run |
+//! | [`Sited`] | recorded | no | run |
+//! | [`Simple`] | no | yes | run |
+//! | [`Collect`] | no | no | collected, not run (guided search) |
+
+use super::*;
+
+/// What a kind of run changes in the interpreter loop.
+pub(super) trait Sink {
+    /// Each op's source site and the derivation tree are recorded (those asked for).
+    const SITES: bool = false;
+    /// The bundle passed [`fast_path_applies`] and the run is a model run: no
+    /// parameter slots, bones, convolutions or non-uniform scales, and every `INST`
+    /// is an instance, so none of their checks is made.
+    const SIMPLE: bool = false;
+    /// Calls are handed to [`Sink::call`] instead of being run, and nothing is
+    /// drawn: the body of the first activation only (the guided search's skeleton).
+    const COLLECTS: bool = false;
+
+    /// A call the body makes, with its state and depth (only when
+    /// [`Sink::COLLECTS`]); `false` ends the run.
+    #[inline]
+    fn call(&mut self, _rule: RuleId, _state: &State, _depth: u32) -> bool {
+        true
+    }
+
+    /// Before an iterator's next run (only when [`Sink::COLLECTS`]); `false` ends
+    /// the run.
+    #[inline]
+    fn next_run(&mut self) -> bool {
+        true
+    }
+}
+
+/// The general loop, recording nothing.
+pub(super) struct Plain;
+impl Sink for Plain {}
+
+/// The general loop, recording sites and the derivation tree (those asked for).
+pub(super) struct Sited;
+impl Sink for Sited {
+    const SITES: bool = true;
+}
+
+/// The constant-transform fast path (see [`fast_path_applies`]).
+pub(super) struct Simple;
+impl Sink for Simple {
+    const SIMPLE: bool = true;
+}
+
+/// The guided search's expansion: the calls one body makes, in order, at most
+/// [`MAX_EXPANSION_CALLS`] calls and iterator runs (then `cut` is set).
+pub(super) struct Collect<'o> {
+    pub(super) out: &'o mut Vec<Call>,
+    pub(super) made: usize,
+    pub(super) cut: bool,
+}
+
+impl Collect<'_> {
+    /// Counts one call or iterator run; `false` (and `cut`) past the limit.
+    #[inline]
+    fn count(&mut self) -> bool {
+        if self.made >= MAX_EXPANSION_CALLS {
+            self.cut = true;
+            return false;
+        }
+        self.made += 1;
+        true
+    }
+}
+
+impl Sink for Collect<'_> {
+    const COLLECTS: bool = true;
+
+    #[inline]
+    fn call(&mut self, rule: RuleId, state: &State, depth: u32) -> bool {
+        if !self.count() {
+            return false;
+        }
+        self.out.push(Call { rule: rule.0, state: *state, depth });
+        true
+    }
+
+    #[inline]
+    fn next_run(&mut self) -> bool {
+        self.count()
+    }
+}
+
+/// The interpreter loop's registers: the running activation and its callers, the
+/// continuation register, the open iterators, and the derivation nodes.
+pub(super) struct Regs {
+    pub(super) act: Act,
+    /// The running activation's callers.
+    pub(super) stack: Vec<Act>,
+    /// The continuation state after `\`: set by CONT and taken by the next item of
+    /// the same body (a call takes it before its callee runs, so one register serves
+    /// every activation).
+    pub(super) cont: Option<State>,
+    pub(super) lin_cache: LinCache,
+    pub(super) loops: Vec<LoopRec>,
+    /// The derivation node of the running activation, and those of its callers
+    /// (with [`Sink::SITES`]).
+    pub(super) node: u32,
+    pub(super) nodes: Vec<u32>,
+    /// `maxdepth` (0: none) as the depth past which calls are refused.
+    pub(super) maxdepth: u32,
+    /// Whether the derivation tree is recorded.
+    pub(super) tree: bool,
+    pub(super) mode: Mode,
+}
