@@ -942,18 +942,18 @@ fn spider_run(lineages: bool) -> Vec<(usize, usize, Vec<String>)> {
 
 #[test]
 fn a_body_plan_the_spiders_crowd_out_keeps_its_place_and_its_end_is_noted() {
-    // Without lineages kept alive the spiders (C_s 66 against the humanoid's 18,
-    // roulette selection) crowd the humanoid line out of the presented set in
-    // generation 3, and a note says so.
+    // Without lineages kept alive and with look-alikes kept, the spiders (C_s 66
+    // against the humanoid's 18, roulette selection) crowd the humanoid line out of
+    // the presented set in generation 4, and a note says so.
     let free = spider_run(false);
     assert!(free[0].0 >= 3, "{free:?}");
-    assert_eq!((free[2].0, free[3].0), (0, 0), "{free:?}");
+    assert_eq!(free[3].0, 0, "{free:?}");
     assert!(
-        free[2].2.iter().any(|n| n.contains("lineage `humanoid` died out of the presented set in generation 3")),
+        free[3].2.iter().any(|n| n.contains("lineage `humanoid` died out of the presented set in generation 4")),
         "{free:?}"
     );
     // Noted once, when it goes.
-    assert!(free[3].2.is_empty(), "{free:?}");
+    assert!(free.iter().take(3).all(|g| g.2.is_empty()), "{free:?}");
     // Kept alive (the default): both lineages in every presented set, no note.
     let kept = spider_run(true);
     for (g, (humanoids, spiders, notes)) in kept.iter().enumerate() {
@@ -990,21 +990,32 @@ fn a_lineage_the_user_does_not_keep_is_dropped_without_a_note() {
 
 #[test]
 fn without_increase_rules_the_spiders_offspring_are_less_diverse() {
-    // The paper's Fig. 13 on the spider grammar, at one seed and two generations.
+    // The paper's Fig. 13 on the spider grammar, seeds 1–5 and two generations (the
+    // first rows of the table in docs/creatures.md §8): the offspring's visible HDM,
+    // summed over the seeds, per generation. One seed alone is too small a sample
+    // (at seed 2 the variant without increase rules is ahead in generation 1).
     let b = grammar("tests/creatures/spiders.mdg");
     let t = b.extensions.creatures.as_ref().expect("table");
     let lib = Library::build(&b, t).expect("library");
     let hdm = |disabled: Vec<RuleKind>| {
-        let mut o = EvolveOptions::from_table(t);
-        o.seed = 2;
-        o.disabled = disabled;
-        let evo = Evolution::new(t, &lib, o);
-        let (mut pop, _) = evo.start();
-        (0..2).map(|_| evo.step(&mut pop, None)).map(|g| (g.offspring_diversity.hdm, g.n_offspring)).collect::<Vec<_>>()
+        let mut sums = [(0.0f64, 0usize); 2];
+        for seed in 1..=5 {
+            let mut o = EvolveOptions::from_table(t);
+            o.seed = seed;
+            o.disabled = disabled.clone();
+            let evo = Evolution::new(t, &lib, o);
+            let (mut pop, _) = evo.start();
+            for s in sums.iter_mut() {
+                let g = evo.step(&mut pop, None);
+                s.0 += g.offspring_diversity.hdm;
+                s.1 += g.n_offspring;
+            }
+        }
+        sums
     };
     let (all, none) = (hdm(Vec::new()), hdm(vec![RuleKind::Increase]));
     for (a, n) in all.iter().zip(&none) {
-        assert!(n.1 >= 30 && a.1 >= 30, "offspring made: {all:?} {none:?}");
+        assert!(n.1 >= 150 && a.1 >= 150, "offspring made: {all:?} {none:?}");
         assert!(n.0 < 0.9 * a.0, "HDM without increase rules {} against {} with", n.0, a.0);
     }
 }

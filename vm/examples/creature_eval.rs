@@ -304,8 +304,37 @@ fn pairs(bundle: &mdg_vm::bundle::Bundle, args: &[String]) -> Result<(), String>
     Ok(())
 }
 
+/// `lineages SEEDS`: per seed, the presented monsters per lineage in generations
+/// 1–4 without lineages kept (look-alikes dropped), and the notes of lineages that
+/// died out — to find a run where a body plan is crowded out.
+fn lineages(bundle: &mdg_vm::bundle::Bundle, seeds: u64) -> Result<(), String> {
+    let table = bundle.extensions.creatures.as_ref().ok_or("no creature table")?;
+    let lib = Library::build(bundle, table)?;
+    for seed in 1..=seeds {
+        let mut o = EvolveOptions::from_table(table);
+        o.seed = seed;
+        o.lineages = false;
+        let evo = Evolution::new(table, &lib, o);
+        let (mut pop, _) = evo.start();
+        let rows: Vec<String> = (1..=4)
+            .map(|_| {
+                let g = evo.step(&mut pop, None);
+                format!("{:?} {}", g.lineages, g.extinct.len())
+            })
+            .collect();
+        println!("seed {seed}: {}", rows.join(" | "));
+    }
+    Ok(())
+}
+
 fn main() -> Result<(), String> {
     let args: Vec<String> = std::env::args().collect();
+    if args.get(1).map(String::as_str) == Some("lineages") {
+        let path = bundle_path()?;
+        let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
+        return lineages(&bundle, args.get(2).and_then(|s| s.parse().ok()).unwrap_or(12));
+    }
     if args.get(1).map(String::as_str) == Some("pairs") {
         let path = bundle_path()?;
         let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
