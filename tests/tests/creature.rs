@@ -409,8 +409,10 @@ fn the_documented_example_compiles_and_evolves() {
     let (mut pop, _) = evo.start();
     let g = evo.step(&mut pop, None);
     // A humanoid and a horse with heads, wings and a Centaur: look-alikes (copies
-    // hiding one another) are not presented twice, so fewer than twelve may show.
-    assert!((6..=12).contains(&g.presented.len()), "{}", g.presented.len());
+    // hiding one another, a second head behind the first) are not presented twice,
+    // so fewer than twelve may show (5 at this seed: one step from two creatures
+    // makes few monsters that look different).
+    assert!((4..=12).contains(&g.presented.len()), "{}", g.presented.len());
 }
 
 /// Evolves `generations` generations of `monsters.mdg` from `seed` without the
@@ -922,6 +924,11 @@ fn spider_run(lineages: bool) -> Vec<(usize, usize, Vec<String>)> {
     let mut o = EvolveOptions::from_table(t);
     o.seed = 4;
     o.lineages = lineages;
+    // Without lineages kept, look-alikes kept too (`--no-lineages
+    // --allow-lookalikes`): the spiders' many near-identical variants crowd the
+    // presented set. (Dropping look-alikes alone leaves the humanoid line its place
+    // at this seed: the spiders look too much alike to fill the set.)
+    o.drop_lookalikes = lineages;
     let evo = Evolution::new(t, &lib, o);
     let (mut pop, _) = evo.start();
     (1..=4)
@@ -935,18 +942,18 @@ fn spider_run(lineages: bool) -> Vec<(usize, usize, Vec<String>)> {
 
 #[test]
 fn a_body_plan_the_spiders_crowd_out_keeps_its_place_and_its_end_is_noted() {
-    // Without lineages kept alive the spiders (C_s 66 against the humanoid's 18,
-    // roulette selection) crowd the humanoid line out of the presented set in
-    // generation 3, and a note says so.
+    // Without lineages kept alive and with look-alikes kept, the spiders (C_s 66
+    // against the humanoid's 18, roulette selection) crowd the humanoid line out of
+    // the presented set in generation 4, and a note says so.
     let free = spider_run(false);
     assert!(free[0].0 >= 3, "{free:?}");
-    assert_eq!((free[2].0, free[3].0), (0, 0), "{free:?}");
+    assert_eq!(free[3].0, 0, "{free:?}");
     assert!(
-        free[2].2.iter().any(|n| n.contains("lineage `humanoid` died out of the presented set in generation 3")),
+        free[3].2.iter().any(|n| n.contains("lineage `humanoid` died out of the presented set in generation 4")),
         "{free:?}"
     );
     // Noted once, when it goes.
-    assert!(free[3].2.is_empty(), "{free:?}");
+    assert!(free.iter().take(3).all(|g| g.2.is_empty()), "{free:?}");
     // Kept alive (the default): both lineages in every presented set, no note.
     let kept = spider_run(true);
     for (g, (humanoids, spiders, notes)) in kept.iter().enumerate() {
@@ -983,21 +990,32 @@ fn a_lineage_the_user_does_not_keep_is_dropped_without_a_note() {
 
 #[test]
 fn without_increase_rules_the_spiders_offspring_are_less_diverse() {
-    // The paper's Fig. 13 on the spider grammar, at one seed and two generations.
+    // The paper's Fig. 13 on the spider grammar, seeds 1–5 and two generations (the
+    // first rows of the table in docs/creatures.md §8): the offspring's visible HDM,
+    // summed over the seeds, per generation. One seed alone is too small a sample
+    // (at seed 2 the variant without increase rules is ahead in generation 1).
     let b = grammar("tests/creatures/spiders.mdg");
     let t = b.extensions.creatures.as_ref().expect("table");
     let lib = Library::build(&b, t).expect("library");
     let hdm = |disabled: Vec<RuleKind>| {
-        let mut o = EvolveOptions::from_table(t);
-        o.seed = 2;
-        o.disabled = disabled;
-        let evo = Evolution::new(t, &lib, o);
-        let (mut pop, _) = evo.start();
-        (0..2).map(|_| evo.step(&mut pop, None)).map(|g| (g.offspring_diversity.hdm, g.n_offspring)).collect::<Vec<_>>()
+        let mut sums = [(0.0f64, 0usize); 2];
+        for seed in 1..=5 {
+            let mut o = EvolveOptions::from_table(t);
+            o.seed = seed;
+            o.disabled = disabled.clone();
+            let evo = Evolution::new(t, &lib, o);
+            let (mut pop, _) = evo.start();
+            for s in sums.iter_mut() {
+                let g = evo.step(&mut pop, None);
+                s.0 += g.offspring_diversity.hdm;
+                s.1 += g.n_offspring;
+            }
+        }
+        sums
     };
     let (all, none) = (hdm(Vec::new()), hdm(vec![RuleKind::Increase]));
     for (a, n) in all.iter().zip(&none) {
-        assert!(n.1 >= 30 && a.1 >= 30, "offspring made: {all:?} {none:?}");
+        assert!(n.1 >= 150 && a.1 >= 150, "offspring made: {all:?} {none:?}");
         assert!(n.0 < 0.9 * a.0, "HDM without increase rules {} against {} with", n.0, a.0);
     }
 }
@@ -1039,4 +1057,61 @@ fn look_alikes_count_once_in_the_diversity_and_are_not_presented_twice() {
         assert_eq!(g.diversity.clusters, g.diversity.structures, "generation {}", g.index);
     }
     assert!(after.iter().map(|g| g.n_lookalikes).sum::<usize>() > 0);
+}
+
+/// The monsters of `set` a person tells apart by silhouette alone, judged without
+/// the evolution's code: in order of fewest meta-parts (then first), one counts
+/// unless its silhouette is alike to one already counted.
+fn silhouette_groups(set: &[mdg_vm::creature::evolve::Individual]) -> usize {
+    use mdg_vm::creature::silhouette::alike;
+    let mut order: Vec<&mdg_vm::creature::evolve::Individual> = set.iter().collect();
+    order.sort_by_key(|i| i.shape.n_metas());
+    let mut counted: Vec<&mdg_vm::creature::evolve::Individual> = Vec::new();
+    for i in order {
+        if counted.iter().all(|k| !alike(&k.silhouette, &i.silhouette)) {
+            counted.push(i);
+        }
+    }
+    counted.len()
+}
+
+#[test]
+fn the_sheets_distinct_count_is_the_silhouette_only_judgement() {
+    // The sheets of docs/creatures.md: monsters.mdg seed 3 (population 18,
+    // generation 5) and the spider grammar seed 4 (generation 4). Every presented
+    // monster is visibly different from every other by its silhouette alone, and
+    // the measure's count of visibly different monsters is that judgement — also
+    // on the offspring, where look-alikes abound.
+    for (rel, seed, population, generations) in
+        [("std/examples/monsters.mdg", 3, 18, 5), ("tests/creatures/spiders.mdg", 4, 12, 4)]
+    {
+        let b = grammar(rel);
+        let t = b.extensions.creatures.as_ref().expect("table");
+        let lib = Library::build(&b, t).expect("library");
+        let mut o = EvolveOptions::from_table(t);
+        o.seed = seed;
+        o.population = population;
+        o.offspring = 3 * population;
+        o.generations = generations;
+        let evo = Evolution::new(t, &lib, o.clone());
+        let (mut pop, _) = evo.start();
+        let mut last = None;
+        for _ in 0..generations {
+            last = Some(evo.step(&mut pop, None));
+        }
+        let g = last.expect("a generation");
+        let p = &g.presented;
+        assert_eq!(g.diversity.visible, silhouette_groups(p), "{rel}");
+        assert_eq!(g.diversity.visible, p.len(), "{rel}: a look-alike presented");
+        assert!(p.len() >= (population as usize * 2) / 3, "{rel}: only {} presented", p.len());
+        // With look-alikes kept (as before), the count is still the judgement.
+        o.drop_lookalikes = false;
+        o.lineages = false;
+        let evo = Evolution::new(t, &lib, o);
+        let (mut pop, _) = evo.start();
+        for _ in 0..generations {
+            let g = evo.step(&mut pop, None);
+            assert_eq!(g.diversity.visible, silhouette_groups(&g.presented), "{rel}");
+        }
+    }
 }

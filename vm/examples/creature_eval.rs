@@ -120,16 +120,49 @@ fn time(bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
     // tests, retries, diversity control), per offspring made; run with
     // RAYON_NUM_THREADS=1 for the time of one thread.
     let (mut made, t) = (0usize, std::time::Instant::now());
+    let mut sets = Vec::new();
     for _ in 0..5 {
         let g = evo.step(&mut pop, None);
         made += g.n_offspring;
+        let mut set = g.presented.clone();
+        set.extend(g.background.iter().take(g.n_offspring.saturating_sub(g.presented.len())).cloned());
+        sets.push(set);
         shapes.extend(g.presented.into_iter().map(|i| i.shape));
     }
+    let whole = t.elapsed().as_secs_f64() * 1e3 / made.max(1) as f64;
     println!(
-        "generations 1-5: {:.3} ms per offspring ({made} offspring, {} thread(s))",
-        t.elapsed().as_secs_f64() * 1e3 / made.max(1) as f64,
+        "generations 1-5: {whole:.3} ms per offspring ({made} offspring, {} thread(s))",
         rayon::current_num_threads()
     );
+    // The silhouettes' part of it: one silhouette per offspring made, and the
+    // comparisons of a generation's offspring (look-alikes dropped, the visible
+    // clusters and the visibly different count of the offspring measure), per
+    // offspring, on sets of the generation's size.
+    {
+        use mdg_vm::creature::evolve::{drop_lookalikes, visible_clusters, visibly_different};
+        use mdg_vm::creature::silhouette::silhouette;
+        let all: Vec<_> = sets.iter().flatten().collect();
+        let t = std::time::Instant::now();
+        for _ in 0..5 {
+            for i in &all {
+                std::hint::black_box(silhouette(&lib, &i.layout));
+            }
+        }
+        let render = t.elapsed().as_secs_f64() * 1e3 / (5 * all.len().max(1)) as f64;
+        let t = std::time::Instant::now();
+        for set in &sets {
+            std::hint::black_box(drop_lookalikes(set.clone()));
+            std::hint::black_box(visible_clusters(table, set));
+            std::hint::black_box(visibly_different(set));
+        }
+        let n: usize = sets.iter().map(Vec::len).sum();
+        let compare = t.elapsed().as_secs_f64() * 1e3 / n.max(1) as f64;
+        println!(
+            "silhouettes: {render:.3} ms to make one, {compare:.3} ms of comparisons per offspring (look-alikes dropped, visible clusters, visibly different count) (sets of {:.0}); {:.1}% of a generation's time per offspring",
+            n as f64 / sets.len().max(1) as f64,
+            100.0 * (render + compare) / whole
+        );
+    }
     for seat in [false, true] {
         lib.seat = seat;
         let t = std::time::Instant::now();
@@ -210,8 +243,104 @@ fn fig13(bundle: &mdg_vm::bundle::Bundle, path: &Path, seeds: u64, gens: u32) ->
     Ok(())
 }
 
+/// `pairs SEED GENERATIONS [POPULATION] [before]`: the presented monsters of the
+/// last generation and their nearest pairs by silhouette distance (to tune the
+/// look-alike threshold against what the contact sheet shows). `before`: look-alikes
+/// kept and lineages free, as `--allow-lookalikes --no-lineages`.
+fn pairs(bundle: &mdg_vm::bundle::Bundle, args: &[String]) -> Result<(), String> {
+    use mdg_vm::creature::silhouette::distance;
+    let table = bundle.extensions.creatures.as_ref().ok_or("no creature table")?;
+    let lib = Library::build(bundle, table)?;
+    let mut o = EvolveOptions::from_table(table);
+    o.seed = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(3);
+    o.generations = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(5);
+    if let Some(p) = args.get(4).and_then(|s| s.parse::<u32>().ok()) {
+        if o.offspring == o.population * 3 {
+            o.offspring = p * 3;
+        }
+        o.population = p;
+    }
+    let before = args.iter().any(|a| a == "before");
+    o.drop_lookalikes = !before;
+    o.lineages = !before;
+    let evo = Evolution::new(table, &lib, o.clone());
+    let (mut pop, mut g) = evo.start();
+    for _ in 0..o.generations {
+        g = evo.step(&mut pop, None);
+    }
+    let p = &g.presented;
+    println!(
+        "generation {}: {} presented, {} visibly different, visible clusters {}, structures {}, HDM {:.2}, look-alikes dropped {}",
+        g.index,
+        p.len(),
+        g.diversity.visible,
+        g.diversity.clusters,
+        g.diversity.structures,
+        g.diversity.hdm,
+        g.n_lookalikes
+    );
+    for i in p {
+        println!("{} ({} metas) {}", i.id, i.shape.n_metas(), i.shape.describe(table));
+    }
+    let mut d: Vec<(f64, usize, usize)> = Vec::new();
+    for a in 0..p.len() {
+        for b in a + 1..p.len() {
+            d.push((distance(&p[a].silhouette, &p[b].silhouette), a, b));
+        }
+    }
+    d.sort_by(|x, y| x.0.total_cmp(&y.0));
+    // Per view: front, side, the sheet's three-quarter view.
+    let view = |s: &mdg_vm::creature::silhouette::Silhouette, v: usize| {
+        let mut one = mdg_vm::creature::silhouette::Silhouette::default();
+        one.views[v] = s.views[v];
+        one
+    };
+    for (dist, a, b) in d.iter().take(30) {
+        let per: Vec<String> = (0..3)
+            .map(|v| format!("{:.3}", 3.0 * distance(&view(&p[*a].silhouette, v), &view(&p[*b].silhouette, v))))
+            .collect();
+        println!("{dist:.3} {} {} views {}", p[*a].id, p[*b].id, per.join(" "));
+    }
+    Ok(())
+}
+
+/// `lineages SEEDS`: per seed, the presented monsters per lineage in generations
+/// 1–4 without lineages kept (look-alikes dropped), and the notes of lineages that
+/// died out — to find a run where a body plan is crowded out.
+fn lineages(bundle: &mdg_vm::bundle::Bundle, seeds: u64) -> Result<(), String> {
+    let table = bundle.extensions.creatures.as_ref().ok_or("no creature table")?;
+    let lib = Library::build(bundle, table)?;
+    for seed in 1..=seeds {
+        let mut o = EvolveOptions::from_table(table);
+        o.seed = seed;
+        o.lineages = false;
+        let evo = Evolution::new(table, &lib, o);
+        let (mut pop, _) = evo.start();
+        let rows: Vec<String> = (1..=4)
+            .map(|_| {
+                let g = evo.step(&mut pop, None);
+                format!("{:?} {}", g.lineages, g.extinct.len())
+            })
+            .collect();
+        println!("seed {seed}: {}", rows.join(" | "));
+    }
+    Ok(())
+}
+
 fn main() -> Result<(), String> {
     let args: Vec<String> = std::env::args().collect();
+    if args.get(1).map(String::as_str) == Some("lineages") {
+        let path = bundle_path()?;
+        let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
+        return lineages(&bundle, args.get(2).and_then(|s| s.parse().ok()).unwrap_or(12));
+    }
+    if args.get(1).map(String::as_str) == Some("pairs") {
+        let path = bundle_path()?;
+        let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
+        return pairs(&bundle, &args);
+    }
     if args.get(1).map(String::as_str) == Some("time") {
         let path = bundle_path()?;
         let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;

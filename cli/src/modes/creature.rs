@@ -384,14 +384,16 @@ fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<()
         let d = &g.diversity;
         let o = &g.offspring_diversity;
         eprintln!(
-            "generation {}: {} monsters; diversity HDM {:.2} ({} visibly different, {} structures) of {} offspring, {:.2} ({} visibly different, {} structures) presented; mean C_s {:.1}, mean meta-parts {:.1}; {} unstable tries rejected, {} with a part touching nothing, {} look-alikes dropped",
+            "generation {}: {} monsters; diversity HDM {:.2} ({} visibly different by silhouette, {} clusters, {} structures) of {} offspring, {:.2} ({} visibly different, {} clusters, {} structures) presented; mean C_s {:.1}, mean meta-parts {:.1}; {} unstable tries rejected, {} with a part touching nothing, {} look-alikes dropped",
             g.index,
             g.presented.len(),
             o.hdm,
+            o.visible,
             o.clusters,
             o.structures,
             g.n_offspring,
             d.hdm,
+            d.visible,
             d.clusters,
             d.structures,
             d.mean_complexity,
@@ -584,7 +586,7 @@ table.d td,table.d th{{padding:2px 10px;text-align:right}}\
             g.index,
             g.presented.len(),
             g.diversity.hdm,
-            g.diversity.clusters,
+            g.diversity.visible,
             html_escape(&g.lineages.iter().map(|(k, v)| format!("{k} {v}")).collect::<Vec<_>>().join(", ")),
             g.extinct.iter().map(|n| format!(" <b>{}.</b>", html_escape(n))).collect::<String>(),
             dir_name

@@ -370,6 +370,7 @@ impl<'a> Evolution<'a> {
         // Monsters that look alike are one monster too: of a group of look-alikes
         // the one with the fewest meta-parts stays (what you see is what you get;
         // ties: the first made).
+        let made_by: std::collections::BTreeSet<u32> = offspring.iter().map(|i| i.lineage).collect();
         let (mut offspring, mut n_lookalikes) =
             if self.opts.drop_lookalikes { drop_lookalikes(offspring) } else { (offspring, 0) };
         // Too few distinct monsters for the presented set: up to three more rounds
@@ -405,6 +406,7 @@ impl<'a> Evolution<'a> {
         if self.opts.lineages {
             keep_lineages(&offspring, &parents, &mut picked, self.opts.population as usize);
         }
+        let offspring_left: std::collections::BTreeSet<u32> = offspring.iter().map(|i| i.lineage).collect();
         let mut presented = Vec::new();
         let mut rest = Vec::new();
         for (i, ind) in offspring.into_iter().enumerate() {
@@ -452,7 +454,9 @@ impl<'a> Evolution<'a> {
             .filter(|&&l| shown.contains(&l) && !presented.iter().any(|i| i.lineage == l))
             .map(|&l| {
                 let members = old_current.iter().filter(|i| i.lineage == l).count();
-                let why = if self.opts.lineages {
+                let why = if self.opts.drop_lookalikes && made_by.contains(&l) && !offspring_left.contains(&l) {
+                    "each of its offspring looked like another monster (look-alikes are dropped)".to_string()
+                } else if self.opts.lineages {
                     "none of its tries made a monster that changed, stands and touches".to_string()
                 } else {
                     let made = presented.iter().chain(&background).filter(|i| i.lineage == l).count();
@@ -531,18 +535,30 @@ pub fn lineage_counts(t: &CreatureTable, set: &[Individual]) -> BTreeMap<String,
     m
 }
 
-/// Whether two monsters look alike: their silhouettes are [`alike`] and the
-/// library parts of one are all among the other's (the other's extra parts are
-/// hidden, or copies of parts it has). Monsters built from other part variants (a
-/// bird's wing or a bat's, in other colours) do not look alike, whatever their
-/// outlines.
+/// Whether two monsters look alike: their silhouettes are [`alike`] in all three
+/// views. What shows decides, not what they are made of: two monsters with other
+/// part sets (a horse's head or a boar's on the same ogre among three stacked pairs
+/// of arms) whose outlines agree are one monster to the eye, so structure never
+/// makes look-alikes "distinct". Colour is not compared (docs/decisions.md).
 pub fn look_alike(a: &Individual, b: &Individual) -> bool {
-    if !alike(&a.silhouette, &b.silhouette) {
-        return false;
+    alike(&a.silhouette, &b.silhouette)
+}
+
+/// The number of visibly different monsters of `set`, judged by silhouette alone:
+/// how many stay when look-alikes are dropped ([`drop_lookalikes`]: in order of
+/// fewest meta-parts, a monster counts unless it looks like one already counted).
+/// Not a transitive closure: a chain of look-alikes, each a little different from
+/// the last, does not collapse into one.
+pub fn visibly_different(set: &[Individual]) -> usize {
+    let mut order: Vec<usize> = (0..set.len()).collect();
+    order.sort_by_key(|&i| (set[i].shape.n_metas(), i));
+    let mut kept: Vec<usize> = Vec::new();
+    for i in order {
+        if !kept.iter().any(|&k| look_alike(&set[k], &set[i])) {
+            kept.push(i);
+        }
     }
-    let parts = |i: &Individual| i.layout.placed.iter().map(|p| p.part).collect::<std::collections::BTreeSet<u32>>();
-    let (pa, pb) = (parts(a), parts(b));
-    pa.is_subset(&pb) || pb.is_subset(&pa)
+    kept.len()
 }
 
 /// `set` without the monsters that look like another one of it (their
@@ -550,6 +566,7 @@ pub fn look_alike(a: &Individual, b: &Individual) -> bool {
 /// stays, ties the earliest. Returns the rest, in their order, and how many were
 /// dropped.
 pub fn drop_lookalikes(set: Vec<Individual>) -> (Vec<Individual>, usize) {
+    // The same judgement as `visibly_different`.
     let mut order: Vec<usize> = (0..set.len()).collect();
     order.sort_by_key(|&i| (set[i].shape.n_metas(), i));
     let mut kept: Vec<usize> = Vec::new();
@@ -776,8 +793,8 @@ pub fn diversity_control(t: &CreatureTable, set: &[Individual], k: usize, rng: &
 
 /// The hierarchical diversity measure of a set (paper §5), counted on what is
 /// visible: HDM = N + Σ_i D_i with N the number of visible clusters — monsters of
-/// equal structure vectors, joined with every monster whose silhouette is
-/// alike (see [`look_alike`]; stacked copies hiding one another, a tail hidden behind a body:
+/// equal structure vectors, joined with the look-alike each monster would be dropped
+/// for (see [`look_alike`]; stacked copies hiding one another, a tail hidden behind a body:
 /// different structures that look the same are one) — and D_i = SD_i / max_j SD_j,
 /// SD_i the [`spread`] of the geometric [`descriptor`]s of the visibly different
 /// members of cluster i (look-alikes merged) (for a
@@ -785,8 +802,11 @@ pub fn diversity_control(t: &CreatureTable, set: &[Individual], k: usize, rng: &
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Diversity {
     pub hdm: f64,
-    /// Visible clusters.
+    /// Visible clusters (the N of the HDM).
     pub clusters: usize,
+    /// Visibly different monsters by silhouette alone ([`visibly_different`]),
+    /// what a contact sheet shows.
+    pub visible: usize,
     /// Structure clusters (equal structure vectors), the measure before
     /// silhouettes joined them.
     pub structures: usize,
@@ -818,11 +838,17 @@ pub fn visible_clusters(t: &CreatureTable, set: &[Individual]) -> Vec<Vec<usize>
             join(&mut root, w[0], w[1]);
         }
     }
-    for i in 0..set.len() {
-        for j in i + 1..set.len() {
-            if look_alike(&set[i], &set[j]) {
-                join(&mut root, i, j);
-            }
+    // Every monster joins the look-alike that stays in its place when look-alikes
+    // are dropped (the first alike one in order of fewest meta-parts), not every
+    // monster it is alike to: a chain of look-alikes, each a little different from
+    // the last, does not collapse into one cluster.
+    let mut order: Vec<usize> = (0..set.len()).collect();
+    order.sort_by_key(|&i| (set[i].shape.n_metas(), i));
+    let mut kept: Vec<usize> = Vec::new();
+    for i in order {
+        match kept.iter().find(|&&k| look_alike(&set[k], &set[i])) {
+            Some(&k) => join(&mut root, k, i),
+            None => kept.push(i),
         }
     }
     let mut m: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
@@ -859,6 +885,7 @@ pub fn diversity(t: &CreatureTable, set: &[Individual]) -> Diversity {
     Diversity {
         hdm: cl.len() as f64 + sum_d,
         clusters: cl.len(),
+        visible: visibly_different(set),
         structures: clusters(t, set).len(),
         mean_complexity: set.iter().map(|i| i.complexity).sum::<f64>() / set.len() as f64,
         mean_metas: set.iter().map(|i| i.shape.n_metas() as f64).sum::<f64>() / set.len() as f64,

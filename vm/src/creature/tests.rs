@@ -545,3 +545,31 @@ fn copies_of_an_arrangement_are_seated_on_the_torso_and_touch_it() {
     off[k].transform = glam::Mat4::from_translation(glam::Vec3::new(0.0, 0.0, 0.1)) * off[k].transform;
     assert_eq!(detached(&lib, &h, &off), vec![off[k].meta]);
 }
+
+#[test]
+fn monsters_with_other_parts_and_the_same_silhouette_are_one_monster() {
+    use super::evolve::{diversity, drop_lookalikes, look_alike};
+    use super::silhouette::distance;
+    // The fixture's bird leg is the humanoid leg's box (mesh 3): a humanoid whose
+    // legs were replaced by bird legs has other parts (h_leg ↔ b_leg, neither set
+    // within the other) and exactly the same outline. What shows decides.
+    let t = table();
+    let lib = Library::build(&Bundle::empty(), &t).expect("library");
+    let evo = Evolution::new(&t, &lib, EvolveOptions::from_table(&t));
+    let h = humanoid(&t);
+    let r = rule(&t, "bird_legs");
+    let birdlegs = apply(&t, r, &h, &h, &Target::Super { sp: 4 }, &mut Rng::new(5)).expect("applies");
+    let a = evo.revive(h, "a".into(), 0);
+    let b = evo.revive(birdlegs, "b".into(), 0);
+    let parts = |i: &super::evolve::Individual| {
+        i.layout.placed.iter().map(|p| p.part).collect::<std::collections::BTreeSet<u32>>()
+    };
+    assert!(!parts(&a).is_subset(&parts(&b)) && !parts(&b).is_subset(&parts(&a)));
+    assert_eq!(distance(&a.silhouette, &b.silhouette), 0.0);
+    assert!(look_alike(&a, &b), "same silhouette, other parts: one monster");
+    let (kept, dropped) = drop_lookalikes(vec![a.clone(), b.clone()]);
+    assert_eq!((kept.len(), dropped), (1, 1));
+    assert_eq!(kept[0].id, "a", "ties: the first made stays");
+    // The measure counts one visibly different monster.
+    assert_eq!(diversity(&t, &[a, b]).visible, 1);
+}
