@@ -4,115 +4,16 @@
 
 use std::collections::BTreeMap;
 
-/// Words an imported name may not be: MDG's keywords, directives, adjustments,
-/// functions, drawables, types and std `primitives`' rules (an ES program's rules
-/// live beside them).
-const RESERVED: &[&str] = &[
-    // keywords and control
-    "rule",
-    "startshape",
-    "selector",
-    "linerule",
-    "camerarule",
-    "namespace",
-    "function",
-    "isosurface",
-    "program",
-    "uniform",
-    "angle",
-    "color",
-    "weight",
-    "guide",
-    "search",
-    "creature",
-    "grid",
-    "if",
-    "else",
-    "let",
-    "loop",
+/// Words an imported name may not be beyond the compiler's own tables (keywords,
+/// documented directives, adjustments, functions, variables and drawables; see
+/// [`is_reserved`]): parameter types and literals, and std `primitives`' rules (an
+/// ES program's rules live beside them).
+const RESERVED_BESIDES_TABLES: &[&str] = &[
     "int",
     "float",
     "bool",
     "true",
     "false",
-    "depth",
-    "scale",
-    "g", // directives
-    "maxdepth",
-    "minsize",
-    "maxiter",
-    "stacksize",
-    "randseed",
-    "normal",
-    "background",
-    "flat",
-    "fps",
-    "duration",
-    "camerafov",
-    "cameranearplane",
-    "camerafarplane", // adjustments
-    "x",
-    "y",
-    "z",
-    "r",
-    "rotate",
-    "rx",
-    "ry",
-    "rz",
-    "pitch",
-    "yaw",
-    "roll",
-    "up",
-    "down",
-    "left",
-    "right",
-    "rollleft",
-    "rollright",
-    "s",
-    "f",
-    "fx",
-    "fy",
-    "fz",
-    "R",
-    "G",
-    "B",
-    "A",
-    "hue",
-    "sat",
-    "saturation",
-    "b",
-    "brightness",
-    "u",
-    "v",
-    "w",
-    "q", // functions
-    "sin",
-    "cos",
-    "tan",
-    "asin",
-    "acos",
-    "atan",
-    "sqrt",
-    "abs",
-    "exp",
-    "log",
-    "floor",
-    "ceil",
-    "fract",
-    "radians",
-    "degrees",
-    "atan2",
-    "min",
-    "max",
-    "pow",
-    "mod",
-    "step",
-    "clamp",
-    "mix",
-    "smoothstep",
-    "rand",
-    "randn",
-    // std primitives (an ES program imports them)
     "SPHERE",
     "cube",
     "square",
@@ -125,6 +26,28 @@ const RESERVED: &[&str] = &[
     "SQUARE",
     "TRIANGLE",
 ];
+
+/// Whether `word` is MDG's: a keyword, a documented directive, adjustment,
+/// function, variable or drawable, or one of [`RESERVED_BESIDES_TABLES`]. Read from
+/// the compiler's tables, so a word MDG gains is never an imported rule's name.
+fn is_reserved(word: &str) -> bool {
+    use crate::analysis::docs::{DocKind, DOCS};
+    crate::lexer::KEYWORDS.contains(&word)
+        || crate::lexer::CONTROL_KEYWORDS.contains(&word)
+        || crate::symbols::DRAWABLES.contains(&word)
+        || RESERVED_BESIDES_TABLES.contains(&word)
+        || DOCS.iter().any(|d| {
+            d.name == word
+                && matches!(
+                    d.kind,
+                    DocKind::Directive
+                        | DocKind::Adjustment
+                        | DocKind::Drawable
+                        | DocKind::Function
+                        | DocKind::Variable
+                )
+        })
+}
 
 /// Source names to MDG names, one MDG name per source name and no two alike.
 #[derive(Default)]
@@ -143,7 +66,7 @@ impl Names {
         if base.is_empty() || base.starts_with(|c: char| c.is_ascii_digit()) {
             base.insert(0, 'n');
         }
-        if RESERVED.contains(&base.as_str()) || crate::symbols::DRAWABLES.contains(&base.as_str()) {
+        if is_reserved(&base) {
             base.push('_');
         }
         let mut name = base.clone();
@@ -186,6 +109,17 @@ pub(crate) fn num(v: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn words_mdg_gains_are_reserved_from_its_tables() {
+        // `select` came with the expression forms after the importer was written; a
+        // hand-kept list had missed it.
+        let mut n = Names::default();
+        for w in ["select", "rule", "if", "hue", "camerafarplane", "smoothstep", "VERTEX", "cube"] {
+            assert_eq!(n.get(w), format!("{w}_"), "{w} is MDG's");
+        }
+        assert_eq!(n.get("selection"), "selection");
+    }
 
     #[test]
     fn reserved_and_odd_names_are_renamed_once() {
