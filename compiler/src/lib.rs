@@ -8,6 +8,7 @@
 pub mod adjust;
 pub mod analysis;
 pub mod ast;
+pub mod benchmark;
 pub mod cfdg;
 pub mod check;
 pub mod codes;

@@ -317,20 +317,10 @@ pub fn canonical_scratch(name: &str) -> PathBuf {
     scratch(name).canonicalize().expect("canonical scratch dir")
 }
 
-/// A program of about `lines` lines for the benchmarks (latency, typing): chained
-/// rules with iterators, a selector and an isosurface, using std.
+/// A program of about `lines` lines for the benchmarks (latency, typing): the
+/// compiler's benchmark grammar, so the `phases` example measures the same program.
 pub fn benchmark_grammar(lines: usize) -> String {
-    let n_rules = lines / 6;
-    let mut s = String::from("startshape r0\nmaxdepth 12\n@import primitives\nselector r1 random\n");
-    s.push_str("isosurface BLOB { xyz -1 1 8 ; function { x*x + y*y + z*z - 1 } }\n");
-    for i in 0..n_rules {
-        let next = (i + 1) % n_rules;
-        s.push_str(&format!(
-            "rule r{i} {{\n  VERTEX {{x 1}} VERTEX {{y 1}} VERTEX {{z 1 R -0.1}}\n  r{next} {{x 1 rz 10 s 0.9}}\n  30/30 * [ry 360] cube {{s 0.1}}\n}}\n\n"
-        ));
-    }
-    s.push_str("rule r1 0.5 { BLOB {} }\n");
-    s
+    mdg_compiler::benchmark::grammar(lines)
 }
 
 /// The value at fraction `p` (0..1) of `sorted`, nearest rank.

@@ -19,7 +19,7 @@
 //! the grown ground and connected to the fill's start, so every path through it enters
 //! the smaller box through that box's own free shell.
 
-use super::voxel::{MAX_CELLS, NEIGHBOURS};
+use super::voxel::{cell_index, MAX_CELLS, NEIGHBOURS};
 
 /// The outside of a set of blocks (see the module documentation).
 pub(super) struct Outside {
@@ -141,13 +141,7 @@ impl Outside {
 
     #[inline]
     fn index(&self, p: [i32; 3]) -> Option<usize> {
-        let x = p[0].wrapping_sub(self.lo[0]);
-        let y = p[1].wrapping_sub(self.lo[1]);
-        let z = p[2].wrapping_sub(self.lo[2]);
-        if x < 0 || y < 0 || z < 0 || x >= self.dims[0] || y >= self.dims[1] || z >= self.dims[2] {
-            return None;
-        }
-        Some(((y as usize * self.dims[2] as usize) + z as usize) * self.dims[0] as usize + x as usize)
+        cell_index(self.lo, self.dims, p)
     }
 
     /// Calls `f` on each cell within `r` of `p` inside the box.

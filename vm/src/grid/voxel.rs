@@ -12,6 +12,19 @@ pub const MAX_COORD: i32 = 1 << 24;
 /// The most block kinds a model may hold.
 pub const MAX_KINDS: usize = 65_536;
 
+/// The index of cell `p` in a box of `dims` cells from corner `lo`, laid out x
+/// fastest, then z, then y (the grids' layout), or none outside the box.
+#[inline]
+pub(crate) fn cell_index(lo: [i32; 3], dims: [i32; 3], p: [i32; 3]) -> Option<usize> {
+    let x = p[0].wrapping_sub(lo[0]);
+    let y = p[1].wrapping_sub(lo[1]);
+    let z = p[2].wrapping_sub(lo[2]);
+    if x < 0 || y < 0 || z < 0 || x >= dims[0] || y >= dims[1] || z >= dims[2] {
+        return None;
+    }
+    Some(((y as usize * dims[2] as usize) + z as usize) * dims[0] as usize + x as usize)
+}
+
 /// The six face neighbours: ±x, ±y, ±z.
 pub const NEIGHBOURS: [[i32; 3]; 6] = [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]];
 
@@ -214,13 +227,7 @@ impl Grid {
     /// The cell index of `p`, or none outside the grid.
     #[inline]
     pub fn index(&self, p: [i32; 3]) -> Option<usize> {
-        let x = p[0].wrapping_sub(self.lo[0]);
-        let y = p[1].wrapping_sub(self.lo[1]);
-        let z = p[2].wrapping_sub(self.lo[2]);
-        if x < 0 || y < 0 || z < 0 || x >= self.dims[0] || y >= self.dims[1] || z >= self.dims[2] {
-            return None;
-        }
-        Some(((y as usize * self.dims[2] as usize) + z as usize) * self.dims[0] as usize + x as usize)
+        cell_index(self.lo, self.dims, p)
     }
 
     /// The block at `p`, or [`Grid::EMPTY`].
