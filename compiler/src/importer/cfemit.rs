@@ -568,30 +568,13 @@ pub(crate) fn background(adj: &Adj) -> Option<String> {
             _ => {}
         }
     }
-    let (r, g, bl) = hsb_to_rgb(h, s, b);
+    let [r, g, bl] = crate::cfdg::hsb_to_rgb(h, s, b);
     let byte = |x: f64| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
     Some(if a < 1.0 {
         format!("#{:02x}{:02x}{:02x}{:02x}", byte(r), byte(g), byte(bl), byte(a))
     } else {
         format!("#{:02x}{:02x}{:02x}", byte(r), byte(g), byte(bl))
     })
-}
-
-/// HSB (hue in degrees) to RGB, each 0…1.
-pub(crate) fn hsb_to_rgb(h: f64, s: f64, v: f64) -> (f64, f64, f64) {
-    let h = h.rem_euclid(360.0) / 60.0;
-    let c = v * s;
-    let x = c * (1.0 - ((h % 2.0) - 1.0).abs());
-    let (r, g, b) = match h as u32 {
-        0 => (c, x, 0.0),
-        1 => (x, c, 0.0),
-        2 => (0.0, c, x),
-        3 => (0.0, x, c),
-        4 => (x, 0.0, c),
-        _ => (c, 0.0, x),
-    };
-    let m = v - c;
-    (r + m, g + m, b + m)
 }
 
 /// Whether `e` reads the name `n`.
