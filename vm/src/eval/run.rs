@@ -242,20 +242,21 @@ impl<'b> Eval<'b> {
         };
         m.loops.clear();
         let code = &b.code;
+        // (The fast path checks for a stop where one can happen, after a call or an
+        // iterator run is counted, rather than before every op; see `stops`.)
+        let stopped_at_start = S::SIMPLE && self.stops(&m);
         loop {
             if S::SITES {
                 self.note_site(m.act.pc, m.act.depth, m.node);
             }
-            if self.stopped || self.halt {
-                if self.stopped && self.stop_pc.is_none() {
-                    // The op that tripped the limit (every op advances `pc` first).
-                    self.stop_pc = Some(m.act.pc.saturating_sub(1));
-                }
+            if (!S::SIMPLE && self.stops(&m)) || stopped_at_start {
                 break;
             }
             let op = code[m.act.pc as usize];
             let go_on = match op {
-                Op::Call { rule, xf, flags } => self.op_call(sink, &mut m, rule, xf, flags),
+                Op::Call { rule, xf, flags } => {
+                    self.op_call(sink, &mut m, rule, xf, flags) && !(S::SIMPLE && self.stops(&m))
+                }
                 Op::Draw { kind: Drawable::Vertex, xf, ns, profile, flags: _ }
                     if !S::COLLECTS && mode == Mode::Model && self.xf_info[xf.index()].is_some() =>
                 {
@@ -280,7 +281,9 @@ impl<'b> Eval<'b> {
                     self.op_loop(&mut m, op);
                     true
                 }
-                Op::EndLoop { begin } => self.op_end_loop(sink, &mut m, begin),
+                Op::EndLoop { begin } => {
+                    self.op_end_loop(sink, &mut m, begin) && !(S::SIMPLE && self.stops(&m))
+                }
                 Op::Inst { proto, count } => {
                     self.op_inst::<S>(&mut m, proto, count);
                     true
@@ -331,6 +334,33 @@ impl<'b> Eval<'b> {
         self.spare_loops = m.loops;
         // A run ended by a limit leaves its frames: the caller's slots end here.
         self.slots.truncate(slot_base as usize);
+    }
+
+    /// Whether the run stops before the op at `pc` (a limit ran out, or a nested
+    /// run halted): then the op that tripped a limit is noted (every op advances
+    /// `pc` first). Under [`Sink::SIMPLE`] only a counted call or iterator run can
+    /// stop a run (no op draws or samples), so it is asked only after those.
+    #[inline(always)]
+    fn stops(&mut self, m: &Regs) -> bool {
+        if self.stopped || self.halt {
+            if self.stopped && self.stop_pc.is_none() {
+                self.stop_pc = Some(m.act.pc.saturating_sub(1));
+            }
+            return true;
+        }
+        false
+    }
+
+    /// The state the running item starts from: the continuation state, if any,
+    /// else the body's frame (under [`Sink::SIMPLE`] there is no `\`, so always the
+    /// body's frame).
+    #[inline(always)]
+    fn from<'m, S: Sink>(m: &'m Regs) -> &'m State {
+        if S::SIMPLE {
+            &m.act.base
+        } else {
+            m.cont.as_ref().unwrap_or(&m.act.base)
+        }
     }
 
     /// The activation a run starts with: `rule`'s body at `pc` under `start` (a
@@ -390,10 +420,13 @@ impl<'b> Eval<'b> {
         m.act.pc += 1;
         let depth = m.act.depth + 1;
         let args = m.act.slot_top as usize;
-        if depth > m.maxdepth && flags & CONT_NEXT == 0 && self.xf_pure[xf.index()] {
+        // (Under the fast path every call's transform is constant and no call has `\`.)
+        if depth > m.maxdepth && (S::SIMPLE || (flags & CONT_NEXT == 0 && self.xf_pure[xf.index()])) {
             // Refused before its frame is composed: the frame would be thrown away,
             // and composing a constant changes nothing else.
-            m.cont = None;
+            if !S::SIMPLE {
+                m.cont = None;
+            }
             if !S::COLLECTS {
                 self.refuse_deep_call(m.act.pc - 1);
             }
@@ -403,11 +436,13 @@ impl<'b> Eval<'b> {
             return true;
         }
         let parent_bone = m.act.bone;
-        let from = m.cont.as_ref().unwrap_or(&m.act.base);
+        let from = Self::from::<S>(m);
         let child = self.apply(xf, from, m.act.depth, m.act.slot_base, m.act.slot_top);
-        m.cont = None;
-        if flags & CONT_NEXT != 0 {
-            self.last = child;
+        if !S::SIMPLE {
+            m.cont = None;
+            if flags & CONT_NEXT != 0 {
+                self.last = child;
+            }
         }
         if S::COLLECTS {
             // The call is the sink's: past `maxdepth` or under `minsize` it is dropped.
@@ -655,6 +690,10 @@ impl<'b> Eval<'b> {
             }
         }
         match m.stack.pop() {
+            Some(caller) if S::SIMPLE => {
+                // (A fast-path activation holds no convolution: nothing to drop.)
+                std::mem::forget(std::mem::replace(&mut m.act, caller));
+            }
             Some(caller) => m.act = caller,
             None => return false,
         }
