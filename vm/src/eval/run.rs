@@ -161,6 +161,10 @@ impl<'b> Eval<'b> {
     /// The definition of `rule_idx` for a call in state `child` at `depth` whose
     /// arguments are `slots[args..]`.
     pub(super) fn select(&mut self, rule: RuleId, child: &State, depth: u32, args: usize) -> u32 {
+        // A depth selector with constant weights: precomputed at load.
+        if let Some(&pc) = self.weights.by_depth.get(rule.index()).and_then(|t| t.get(depth as usize)) {
+            return pc;
+        }
         let slots = self.slots.get(args..).unwrap_or(&[]);
         select_def(
             self.b,
