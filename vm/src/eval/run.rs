@@ -246,8 +246,8 @@ impl<'b> Eval<'b> {
         };
         m.loops.clear();
         let code = &b.code;
-        // (The fast path checks for a stop where one can happen, after a call or an
-        // iterator run is counted, rather than before every op; see `stops`.)
+        // (The fast path checks for a stop where one can happen, after a refused call
+        // or a counted iterator run, rather than before every op; see `stops`.)
         let stopped_at_start = S::SIMPLE && self.stops(&m);
         loop {
             if S::SITES {
@@ -258,9 +258,7 @@ impl<'b> Eval<'b> {
             }
             let op = code[m.act.pc as usize];
             let go_on = match op {
-                Op::Call { rule, xf, flags } => {
-                    self.op_call(sink, &mut m, rule, xf, flags) && !(S::SIMPLE && self.stops(&m))
-                }
+                Op::Call { rule, xf, flags } => self.op_call(sink, &mut m, rule, xf, flags),
                 Op::Draw { kind: Drawable::Vertex, xf, ns, profile, flags: _ }
                     if !S::COLLECTS && mode == Mode::Model && self.xf_info[xf.index()].is_some() =>
                 {
@@ -285,9 +283,7 @@ impl<'b> Eval<'b> {
                     self.op_loop(&mut m, op);
                     true
                 }
-                Op::EndLoop { begin } => {
-                    self.op_end_loop(sink, &mut m, begin) && !(S::SIMPLE && self.stops(&m))
-                }
+                Op::EndLoop { begin } => self.op_end_loop(sink, &mut m, begin) && !(S::SIMPLE && self.stops(&m)),
                 Op::Inst { proto, count } => {
                     self.op_inst::<S>(&mut m, proto, count);
                     true
@@ -342,8 +338,9 @@ impl<'b> Eval<'b> {
 
     /// Whether the run stops before the op at `pc` (a limit ran out, or a nested
     /// run halted): then the op that tripped a limit is noted (every op advances
-    /// `pc` first). Under [`Sink::SIMPLE`] only a counted call or iterator run can
-    /// stop a run (no op draws or samples), so it is asked only after those.
+    /// `pc` first). Under [`Sink::SIMPLE`] only a refused call (an admitted one
+    /// found no limit) or a counted iterator run can stop a run (no op draws or
+    /// samples), so it is asked only after those.
     #[inline(always)]
     fn stops(&mut self, m: &Regs) -> bool {
         if self.stopped || self.halt {
@@ -359,7 +356,7 @@ impl<'b> Eval<'b> {
     /// else the body's frame (under [`Sink::SIMPLE`] there is no `\`, so always the
     /// body's frame).
     #[inline(always)]
-    fn from<'m, S: Sink>(m: &'m Regs) -> &'m State {
+    fn from<S: Sink>(m: &Regs) -> &State {
         if S::SIMPLE {
             &m.act.base
         } else {
@@ -437,7 +434,8 @@ impl<'b> Eval<'b> {
             if !S::SIMPLE && self.slots.len() > args {
                 self.slots.truncate(args);
             }
-            return true;
+            // (A counted call can stop the run only when it is refused.)
+            return !(S::SIMPLE && self.stops(m));
         }
         let parent_bone = m.act.bone;
         let from = Self::from::<S>(m);
@@ -463,7 +461,7 @@ impl<'b> Eval<'b> {
             if !S::SIMPLE && self.slots.len() > args {
                 self.slots.truncate(args);
             }
-            return true;
+            return !(S::SIMPLE && self.stops(m));
         }
         // (Rules without parameters or locals touch no slot.)
         if !S::SIMPLE && self.slots.len() != args + r.params.len() {
