@@ -36,6 +36,7 @@ impl<'b> Eval<'b> {
 
     /// A call refused by `maxdepth` before its frame was made: counted as
     /// [`Eval::admit`] counts it (the run-wide limits come first).
+    #[inline(always)]
     pub(super) fn refuse_deep_call(&mut self, pc: u32) {
         if self.count_call() {
             self.limits.maxdepth += 1;
@@ -68,6 +69,7 @@ impl<'b> Eval<'b> {
 
     /// Whether a call may proceed; counts the limits that stop it.
     /// `pc` is the CALL op's (for the warning's rule and line).
+    #[inline(always)]
     pub(super) fn admit(&mut self, child: &State, depth: u32, stack_len: usize, pc: u32) -> bool {
         if !self.count_call() {
             return false;

@@ -161,6 +161,10 @@ impl<'b> Eval<'b> {
     /// The definition of `rule_idx` for a call in state `child` at `depth` whose
     /// arguments are `slots[args..]`.
     pub(super) fn select(&mut self, rule: RuleId, child: &State, depth: u32, args: usize) -> u32 {
+        // A depth selector with constant weights: precomputed at load.
+        if let Some(&pc) = self.weights.by_depth.get(rule.index()).and_then(|t| t.get(depth as usize)) {
+            return pc;
+        }
         let slots = self.slots.get(args..).unwrap_or(&[]);
         select_def(
             self.b,
@@ -242,15 +246,14 @@ impl<'b> Eval<'b> {
         };
         m.loops.clear();
         let code = &b.code;
+        // (The fast path checks for a stop where one can happen, after a refused call
+        // or a counted iterator run, rather than before every op; see `stops`.)
+        let stopped_at_start = S::SIMPLE && self.stops(&m);
         loop {
             if S::SITES {
                 self.note_site(m.act.pc, m.act.depth, m.node);
             }
-            if self.stopped || self.halt {
-                if self.stopped && self.stop_pc.is_none() {
-                    // The op that tripped the limit (every op advances `pc` first).
-                    self.stop_pc = Some(m.act.pc.saturating_sub(1));
-                }
+            if (!S::SIMPLE && self.stops(&m)) || stopped_at_start {
                 break;
             }
             let op = code[m.act.pc as usize];
@@ -280,7 +283,7 @@ impl<'b> Eval<'b> {
                     self.op_loop(&mut m, op);
                     true
                 }
-                Op::EndLoop { begin } => self.op_end_loop(sink, &mut m, begin),
+                Op::EndLoop { begin } => self.op_end_loop(sink, &mut m, begin) && !(S::SIMPLE && self.stops(&m)),
                 Op::Inst { proto, count } => {
                     self.op_inst::<S>(&mut m, proto, count);
                     true
@@ -331,6 +334,34 @@ impl<'b> Eval<'b> {
         self.spare_loops = m.loops;
         // A run ended by a limit leaves its frames: the caller's slots end here.
         self.slots.truncate(slot_base as usize);
+    }
+
+    /// Whether the run stops before the op at `pc` (a limit ran out, or a nested
+    /// run halted): then the op that tripped a limit is noted (every op advances
+    /// `pc` first). Under [`Sink::SIMPLE`] only a refused call (an admitted one
+    /// found no limit) or a counted iterator run can stop a run (no op draws or
+    /// samples), so it is asked only after those.
+    #[inline(always)]
+    fn stops(&mut self, m: &Regs) -> bool {
+        if self.stopped || self.halt {
+            if self.stopped && self.stop_pc.is_none() {
+                self.stop_pc = Some(m.act.pc.saturating_sub(1));
+            }
+            return true;
+        }
+        false
+    }
+
+    /// The state the running item starts from: the continuation state, if any,
+    /// else the body's frame (under [`Sink::SIMPLE`] there is no `\`, so always the
+    /// body's frame).
+    #[inline(always)]
+    fn from<S: Sink>(m: &Regs) -> &State {
+        if S::SIMPLE {
+            &m.act.base
+        } else {
+            m.cont.as_ref().unwrap_or(&m.act.base)
+        }
     }
 
     /// The activation a run starts with: `rule`'s body at `pc` under `start` (a
@@ -390,24 +421,30 @@ impl<'b> Eval<'b> {
         m.act.pc += 1;
         let depth = m.act.depth + 1;
         let args = m.act.slot_top as usize;
-        if depth > m.maxdepth && flags & CONT_NEXT == 0 && self.xf_pure[xf.index()] {
+        // (Under the fast path every call's transform is constant and no call has `\`.)
+        if depth > m.maxdepth && (S::SIMPLE || (flags & CONT_NEXT == 0 && self.xf_pure[xf.index()])) {
             // Refused before its frame is composed: the frame would be thrown away,
             // and composing a constant changes nothing else.
-            m.cont = None;
+            if !S::SIMPLE {
+                m.cont = None;
+            }
             if !S::COLLECTS {
                 self.refuse_deep_call(m.act.pc - 1);
             }
             if !S::SIMPLE && self.slots.len() > args {
                 self.slots.truncate(args);
             }
-            return true;
+            // (A counted call can stop the run only when it is refused.)
+            return !(S::SIMPLE && self.stops(m));
         }
         let parent_bone = m.act.bone;
-        let from = m.cont.as_ref().unwrap_or(&m.act.base);
+        let from = Self::from::<S>(m);
         let child = self.apply(xf, from, m.act.depth, m.act.slot_base, m.act.slot_top);
-        m.cont = None;
-        if flags & CONT_NEXT != 0 {
-            self.last = child;
+        if !S::SIMPLE {
+            m.cont = None;
+            if flags & CONT_NEXT != 0 {
+                self.last = child;
+            }
         }
         if S::COLLECTS {
             // The call is the sink's: past `maxdepth` or under `minsize` it is dropped.
@@ -424,7 +461,7 @@ impl<'b> Eval<'b> {
             if !S::SIMPLE && self.slots.len() > args {
                 self.slots.truncate(args);
             }
-            return true;
+            return !(S::SIMPLE && self.stops(m));
         }
         // (Rules without parameters or locals touch no slot.)
         if !S::SIMPLE && self.slots.len() != args + r.params.len() {
@@ -655,6 +692,10 @@ impl<'b> Eval<'b> {
             }
         }
         match m.stack.pop() {
+            Some(caller) if S::SIMPLE => {
+                // (A fast-path activation holds no convolution: nothing to drop.)
+                std::mem::forget(std::mem::replace(&mut m.act, caller));
+            }
             Some(caller) => m.act = caller,
             None => return false,
         }
