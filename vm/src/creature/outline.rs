@@ -27,6 +27,9 @@ pub struct Outline {
     /// longest first (ties in the mesh's order). Triangles with a corner outside the
     /// mesh's positions are left out.
     pub triangles: Vec<([u32; 3], f32)>,
+    /// The largest absolute coordinate of the points (0 for none; infinite or NaN
+    /// for a point that is not finite).
+    pub reach: f32,
 }
 
 impl Outline {
@@ -63,7 +66,15 @@ impl Outline {
         }
         triangles.sort_by(|a, b| b.1.total_cmp(&a.1));
         let corners = (0..points.len() as u32).filter(|&i| used.get(i as usize) == Some(&true)).collect();
-        Outline { points, corners, triangles }
+        let reach = points.iter().fold(0.0f32, |m, p| {
+            let a = p.abs().max_element();
+            if a.is_finite() {
+                m.max(a)
+            } else {
+                f32::INFINITY
+            }
+        });
+        Outline { points, corners, triangles, reach }
     }
 }
 

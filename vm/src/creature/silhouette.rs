@@ -61,36 +61,50 @@ pub fn silhouette(lib: &Library, layout: &Layout) -> Silhouette {
     of_outlines(&parts)
 }
 
-/// The silhouette of outlines placed by their transforms (part to model space).
-///
-/// Equal, pixel for pixel, to filling every triangle of the placed meshes with
-/// [`fill`] (a test checks it against that): the bounding box and the corner pixels
-/// come from every distinct position, and [`fill`] runs only on the triangles whose
-/// projection may span half a pixel or more — bounded, before projecting, by their
-/// longest edge times how much the transform and the framing stretch a part-space
-/// length along the view's axes, so the triangles are visited longest first and the
-/// visit stops at the first one that cannot. A smaller triangle can cover no pixel
-/// centre but that of the pixel its corners lie in, which its corners mark.
-pub fn of_outlines(parts: &[(&Outline, Mat4)]) -> Silhouette {
-    // Every distinct position in model space, and the largest coordinate (for the
-    // rounding bound below).
-    let mut world: Vec<Vec3> = Vec::with_capacity(parts.iter().map(|(o, _)| o.points.len()).sum());
-    for (o, t) in parts {
-        world.extend(o.points.iter().map(|q| t.transform_point3(*q)));
-    }
-    let reach = world.iter().filter(|w| w.is_finite()).fold(0.0f32, |m, w| m.max(w.abs().max_element()));
+/// The three views' axes (across, up) in the monster's coordinates: the front (x
+/// across, z up), the side (y across, z up) and the sheet's three-quarter view.
+fn view_axes() -> [(Vec3, Vec3); 3] {
     let (az, el) = (SHEET_AZIMUTH_DEG.to_radians(), SHEET_ELEVATION_DEG.to_radians());
     let dir = Vec3::new(el.cos() * az.sin(), -el.cos() * az.cos(), el.sin());
     let right = Vec3::new(az.cos(), az.sin(), 0.0);
     let up = dir.cross(right).normalize_or_zero();
-    // Front: x across, z up; side: y across, z up; the sheet's three-quarter view.
-    let axes = [(Vec3::X, Vec3::Z), (Vec3::Y, Vec3::Z), (right, up)];
+    [(Vec3::X, Vec3::Z), (Vec3::Y, Vec3::Z), (right, up)]
+}
+
+/// The silhouette of outlines placed by their transforms (part to model space).
+///
+/// The same pixels as projecting every vertex of the placed meshes and filling every
+/// triangle with [`fill`] (a test checks it against such a rasteriser), for a
+/// fraction of the work: each distinct position is transformed once and marks its
+/// pixel, and the pixel-centre test runs only on the triangles whose projection may
+/// span half a pixel or more along an axis of the view — bounded, before projecting,
+/// by their longest edge times how much the transform and the framing stretch a
+/// part-space length along that axis, so the triangles are visited longest first
+/// and the visit stops at the first one that cannot. A smaller triangle's box can
+/// hold a pixel centre only in the pixel all its corners lie in (each corner is
+/// within half a pixel of the centre on both axes), which the corners mark.
+pub fn of_outlines(parts: &[(&Outline, Mat4)]) -> Silhouette {
+    let axes = view_axes();
+    // Every distinct position in each view's coordinates.
+    let n = parts.iter().map(|(o, _)| o.points.len()).sum();
+    let mut flat: [Vec<Vec2>; 3] = std::array::from_fn(|_| Vec::with_capacity(n));
+    for (o, t) in parts {
+        for q in &o.points {
+            let w = t.transform_point3(*q);
+            for (f, (u, v)) in flat.iter_mut().zip(&axes) {
+                f.push(Vec2::new(w.dot(*u), w.dot(*v)));
+            }
+        }
+    }
+    // How large the model-space coordinates and the sums that make them can be, for
+    // the rounding bound below.
+    let magnitude = parts.iter().fold(0.0f64, |m, (o, t)| {
+        let cols = [t.x_axis, t.y_axis, t.z_axis].map(|c| c.truncate().abs().max_element() as f64);
+        m.max(cols.iter().sum::<f64>() * o.reach as f64 + t.w_axis.truncate().abs().max_element() as f64)
+    });
     let mut s = Silhouette::default();
-    let mut flat: Vec<Vec2> = Vec::with_capacity(world.len());
     let mut px: Vec<Vec2> = Vec::new();
-    for (view, (u, v)) in s.views.iter_mut().zip(axes) {
-        flat.clear();
-        flat.extend(world.iter().map(|w| Vec2::new(w.dot(u), w.dot(v))));
+    for ((view, (u, v)), flat) in s.views.iter_mut().zip(axes).zip(&flat) {
         let (lo, hi) = flat
             .iter()
             .filter(|p| p.is_finite())
@@ -102,19 +116,31 @@ pub fn of_outlines(parts: &[(&Outline, Mat4)]) -> Silhouette {
         let k = (RES as f32 - 1.0) / (hi - lo).max_element().max(1e-6);
         let centre = (lo + hi) * 0.5;
         let half = Vec2::splat(RES as f32 * 0.5);
-        // Pixel coordinates are rounded by at most ~16 units in the last place of
-        // k·reach (transform, projection, framing): far below 0.1 pixel while
-        // k·reach ≤ 5000 (a monster framed about the origin: ~30); past that every
-        // triangle is filled.
-        let exact = k as f64 * reach as f64 <= 5000.0;
+        // The pixel coordinates are rounded by less than 20 units in the last place of
+        // k · magnitude (transform, projection, framing): under 0.003 pixel while
+        // that is at most 2000 (a monster framed about the origin: about 40), so
+        // a bound below 0.45 keeps the span below 0.5. Past that every triangle
+        // is filled.
+        let exact = k as f64 * magnitude <= 2000.0;
         let mut at = 0;
         for (o, t) in parts {
             let Some(mine) = flat.get(at..at + o.points.len()) else { break };
             at += o.points.len();
             px.clear();
-            px.extend(mine.iter().map(|p| (*p - centre) * k + half));
+            let all_corners = o.corners.len() == mine.len();
+            // Marked on a copy: a part with a point that is not finite takes the
+            // reference's way below instead.
+            let (mut finite, mut marked) = (true, *view);
+            px.extend(mine.iter().map(|p| {
+                let q = (*p - centre) * k + half;
+                finite &= q.is_finite();
+                if all_corners {
+                    mark(&mut marked, q);
+                }
+                q
+            }));
             let corner = |i: u32| px.get(i as usize).copied().unwrap_or(Vec2::NAN);
-            if !exact || !px.iter().all(|p| p.is_finite()) {
+            if !exact || !finite {
                 // Every triangle with finite corners, as the reference does.
                 for (tri, _) in &o.triangles {
                     let [a, b, c] = tri.map(corner);
@@ -124,62 +150,86 @@ pub fn of_outlines(parts: &[(&Outline, Mat4)]) -> Silhouette {
                 }
                 continue;
             }
-            for &i in &o.corners {
-                let p = corner(i);
-                mark(view, p.x.floor() as i64, p.y.floor() as i64);
+            *view = marked;
+            if !all_corners {
+                o.corners.iter().for_each(|&i| mark(view, corner(i)));
             }
             // How far a part-space length can stretch along either axis of the view,
             // in pixels: k·|Aᵀu| and k·|Aᵀv| for the transform's linear part A.
             let a = Mat3::from_mat4(*t).as_dmat3().transpose();
             let stretch = k as f64 * (a * u.as_dvec3()).length().max((a * v.as_dvec3()).length());
+            // Longest edges under this are shorter than 0.45 / stretch.
+            let limit = (0.449 / stretch) as f32;
             for (tri, longest) in &o.triangles {
-                // A projected span below 0.5 (within 0.1 of rounding) covers only its
-                // corners' pixel.
-                if (*longest as f64) * stretch < 0.4 {
+                if *longest < limit {
                     break;
                 }
-                fill(view, tri.map(corner));
+                fill_centres(view, tri.map(corner));
             }
         }
     }
     s
 }
 
-/// Marks pixel (x, y) of `view` if it is in the picture.
+/// Marks the pixel of `view` that point `p` (pixel coordinates) lies in, if it is
+/// in the picture: pixel (⌊x⌋, ⌊y⌋), without the rounding functions (calls into
+/// libm on the base x86-64 target).
 #[inline]
-fn mark(view: &mut [u32; RES], x: i64, y: i64) {
-    if (0..RES as i64).contains(&x) && (0..RES as i64).contains(&y) {
-        if let Some(row) = view.get_mut(y as usize) {
-            *row |= 1 << x;
+fn mark(view: &mut [u32; RES], p: Vec2) {
+    let side = RES as f32;
+    if p.x >= 0.0 && p.x < side && p.y >= 0.0 && p.y < side {
+        if let Some(row) = view.get_mut(p.y as usize) {
+            *row |= 1 << (p.x as u32);
         }
     }
+}
+
+/// The pixels x of the picture whose centres x + 0.5 lie in [lo, hi]: ⌈lo − 0.5⌉
+/// to ⌊hi − 0.5⌋, clamped to the picture (`None` when there are none).
+#[inline]
+fn centres(lo: f32, hi: f32) -> Option<(usize, usize)> {
+    let (a, b) = (lo - 0.5, hi - 0.5);
+    let last = (RES - 1) as f32;
+    if !(b >= 0.0 && a <= last) {
+        return None;
+    }
+    let x0 = if a <= 0.0 {
+        0
+    } else {
+        let t = a as usize;
+        t + usize::from((t as f32) < a)
+    };
+    let x1 = if b >= last { RES - 1 } else { b as usize };
+    (x0 <= x1).then_some((x0, x1))
 }
 
 /// Marks the pixels of `view` whose centres lie in triangle `t` (pixel
 /// coordinates), and the pixels of its corners.
 fn fill(view: &mut [u32; RES], t: [Vec2; 3]) {
     for p in t {
-        mark(view, p.x.floor() as i64, p.y.floor() as i64);
+        mark(view, p);
     }
+    fill_centres(view, t);
+}
+
+/// Marks the pixels of `view` whose centres lie in triangle `t`: within its box,
+/// on the inner side of its three edges (or on one).
+fn fill_centres(view: &mut [u32; RES], t: [Vec2; 3]) {
     let lo = t[0].min(t[1]).min(t[2]);
     let hi = t[0].max(t[1]).max(t[2]);
-    let (x0, x1) = ((lo.x - 0.5).ceil() as i64, (hi.x - 0.5).floor() as i64);
-    let (y0, y1) = ((lo.y - 0.5).ceil() as i64, (hi.y - 0.5).floor() as i64);
-    if x1 < x0 || y1 < y0 {
-        return;
-    }
+    let (Some((x0, x1)), Some((y0, y1))) = (centres(lo.x, hi.x), centres(lo.y, hi.y)) else { return };
     let area = (t[1] - t[0]).perp_dot(t[2] - t[0]);
     if area == 0.0 {
         return;
     }
-    for y in y0.max(0)..=y1.min(RES as i64 - 1) {
-        for x in x0.max(0)..=x1.min(RES as i64 - 1) {
+    for (y, row) in view.iter_mut().enumerate().take(y1 + 1).skip(y0) {
+        for x in x0..=x1 {
             let q = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
             let w0 = (t[1] - t[0]).perp_dot(q - t[0]) * area.signum();
             let w1 = (t[2] - t[1]).perp_dot(q - t[1]) * area.signum();
             let w2 = (t[0] - t[2]).perp_dot(q - t[2]) * area.signum();
             if w0 >= 0.0 && w1 >= 0.0 && w2 >= 0.0 {
-                mark(view, x, y);
+                *row |= 1 << x;
             }
         }
     }
@@ -278,7 +328,7 @@ mod tests {
     /// view against every triangle of every placed mesh, marked when a corner lies in
     /// it or (with `centres`) when its centre lies within the triangle's box on the
     /// inner side of its three edges.
-    fn reference(parts: &[(&Mesh, Mat4)], centres: bool) -> Silhouette {
+    fn reference(parts: &[(&Mesh, Mat4)], centre_test: bool) -> Silhouette {
         let mut world: Vec<Vec3> = Vec::new();
         let mut tris: Vec<[usize; 3]> = Vec::new();
         for (m, t) in parts {
@@ -286,12 +336,8 @@ mod tests {
             world.extend(m.positions.iter().map(|q| t.transform_point3(Vec3::from(*q))));
             tris.extend(m.triangles.iter().map(|t| t.map(|i| i as usize + base)));
         }
-        let (az, el) = (SHEET_AZIMUTH_DEG.to_radians(), SHEET_ELEVATION_DEG.to_radians());
-        let dir = Vec3::new(el.cos() * az.sin(), -el.cos() * az.cos(), el.sin());
-        let right = Vec3::new(az.cos(), az.sin(), 0.0);
-        let up = dir.cross(right).normalize_or_zero();
         let mut s = Silhouette::default();
-        for (view, (u, v)) in s.views.iter_mut().zip([(Vec3::X, Vec3::Z), (Vec3::Y, Vec3::Z), (right, up)]) {
+        for (view, (u, v)) in s.views.iter_mut().zip(view_axes()) {
             let flat: Vec<Vec2> = world.iter().map(|w| Vec2::new(w.dot(u), w.dot(v))).collect();
             let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
             for p in flat.iter().filter(|p| p.is_finite()) {
@@ -317,7 +363,7 @@ mod tests {
                         let (a, b) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
                         let area = (t[1] - t[0]).perp_dot(t[2] - t[0]);
                         let inside = |p: Vec2, e: Vec2| (e - p).perp_dot(q - p) * area.signum() >= 0.0;
-                        centres
+                        centre_test
                             && area != 0.0
                             && q.cmpge(a).all()
                             && q.cmple(b).all()
@@ -362,6 +408,12 @@ mod tests {
         let b = m.positions.len() as u32;
         m.positions.extend([[0.0, 0.0, 0.0], [3.0, 0.5, 0.0], [0.2, 3.0, 1.0], [-2.0, 0.3, 0.5]]);
         m.triangles.extend([[b, b + 1, b + 2], [b, b + 2, b + 3], [b + 1, b + 1, b + 3]]);
+        // Now and then a corner that is not finite: its triangle is left out, the
+        // rest of the part is drawn.
+        if rng.below(8) == 0 {
+            m.positions.push([f32::NAN, 0.0, 1.0]);
+            m.triangles.push([b, b + 1, b + 4]);
+        }
         m
     }
 
