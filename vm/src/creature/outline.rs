@@ -84,9 +84,11 @@ mod tests {
 
     #[test]
     fn an_outline_keeps_each_position_once_and_orders_triangles_longest_first() {
-        let mut m = Mesh::default();
-        m.positions = vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 3.0, 0.0], [9.0; 3]];
-        m.triangles = vec![[0, 1, 2], [3, 2, 4], [0, 1, 7]];
+        let m = Mesh {
+            positions: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 3.0, 0.0], [9.0; 3]],
+            triangles: vec![[0, 1, 2], [3, 2, 4], [0, 1, 7]],
+            ..Mesh::default()
+        };
         let o = Outline::new(&m);
         assert_eq!(o.points.len(), 5, "the repeated corner is kept once");
         // The unused position (9, 9, 9) is a point but no corner; the triangle with a
