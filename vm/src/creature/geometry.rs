@@ -5,6 +5,7 @@
 //! (I k_i), with `[` `]` pushing and popping the frame — its interpreter, the
 //! stability test, and the assembled mesh.
 
+use super::outline::Outline;
 use super::shape::Shape;
 use super::table::{CreatureTable, Geometry, Mode, PartDef, Slot};
 use crate::bundle::Bundle;
@@ -34,6 +35,8 @@ pub struct PartGeometry {
     /// [`CONTACT_EPSILON`] × `diag` within that distance of their bounding boxes,
     /// to find the surface near a point from its own cell.
     pub grid: std::collections::HashMap<(i32, i32, i32), Vec<u32>>,
+    /// The mesh reduced to what a silhouette needs (see [`super::silhouette`]).
+    pub outline: Outline,
 }
 
 /// Contact tolerance: a part touches its parent when a point of its surface is
@@ -286,7 +289,8 @@ impl PartGeometry {
                 }
             }
         }
-        PartGeometry { mesh, points, volume, centroid, joint_extent, diag, contact_points, grid }
+        let outline = Outline::new(&mesh);
+        PartGeometry { mesh, points, volume, centroid, joint_extent, diag, contact_points, grid, outline }
     }
 }
 

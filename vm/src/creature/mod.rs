@@ -13,12 +13,13 @@
 //! - [`evolve`]: generations, structure-based diversity control and the diversity
 //!   measure;
 //! - [`silhouette`]: low-resolution silhouettes, to tell monsters apart by what is
-//!   visible;
+//!   visible, made from each part's [`outline`];
 //! - [`sheet`]: contact sheets composed from per-monster pictures.
 
 pub mod cond;
 pub mod evolve;
 pub mod geometry;
+pub mod outline;
 pub mod rules;
 pub mod shape;
 pub mod sheet;
