@@ -550,6 +550,13 @@ pub fn look_alike(a: &Individual, b: &Individual) -> bool {
 /// Not a transitive closure: a chain of look-alikes, each a little different from
 /// the last, does not collapse into one.
 pub fn visibly_different(set: &[Individual]) -> usize {
+    lookalike_survivors(set).len()
+}
+
+/// The indices of `set` that stay when look-alikes are dropped: in order of fewest
+/// meta-parts (ties the earliest), a monster stays unless it looks like one that
+/// stayed. The one judgement behind [`visibly_different`] and [`drop_lookalikes`].
+fn lookalike_survivors(set: &[Individual]) -> Vec<usize> {
     let mut order: Vec<usize> = (0..set.len()).collect();
     order.sort_by_key(|&i| (set[i].shape.n_metas(), i));
     let mut kept: Vec<usize> = Vec::new();
@@ -558,7 +565,7 @@ pub fn visibly_different(set: &[Individual]) -> usize {
             kept.push(i);
         }
     }
-    kept.len()
+    kept
 }
 
 /// `set` without the monsters that look like another one of it (their
@@ -566,15 +573,7 @@ pub fn visibly_different(set: &[Individual]) -> usize {
 /// stays, ties the earliest. Returns the rest, in their order, and how many were
 /// dropped.
 pub fn drop_lookalikes(set: Vec<Individual>) -> (Vec<Individual>, usize) {
-    // The same judgement as `visibly_different`.
-    let mut order: Vec<usize> = (0..set.len()).collect();
-    order.sort_by_key(|&i| (set[i].shape.n_metas(), i));
-    let mut kept: Vec<usize> = Vec::new();
-    for i in order {
-        if !kept.iter().any(|&k| look_alike(&set[k], &set[i])) {
-            kept.push(i);
-        }
-    }
+    let kept = lookalike_survivors(&set);
     let n = set.len() - kept.len();
     let keep: std::collections::BTreeSet<usize> = kept.into_iter().collect();
     (set.into_iter().enumerate().filter(|(i, _)| keep.contains(i)).map(|(_, x)| x).collect(), n)

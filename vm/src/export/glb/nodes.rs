@@ -71,15 +71,11 @@ pub fn write_glb_nodes(
                         let src =
                             if mirrored { FlatSource::Owned(mirrored_copy(mesh)) } else { FlatSource::Mesh(mesh) };
                         let what = if mirrored { format!("{name} mirrored") } else { name.clone() };
-                        let before = g.root.materials.len();
-                        let Some(mut p) = g.colored_primitive(src, &what)? else {
+                        let Some(m) = part_mesh(&mut g, &mut materials, src, what, name, n.mesh)? else {
                             world.push(parent_world);
                             index.push(glb_parent);
                             continue;
                         };
-                        let fresh = g.root.materials.len() > before;
-                        p.material = Some(named_material(&mut g, &mut materials, fresh, name, n.mesh, p.material));
-                        let m = g.push_mesh(GMesh { name: Some(what), primitives: vec![p] });
                         gltf_meshes.insert((n.mesh, mirrored), m);
                         m
                     }
@@ -101,15 +97,11 @@ pub fn write_glb_nodes(
                 let rel_mirrored = glam::Mat3::from_mat4(rel).determinant() < 0.0;
                 place_mesh(&mut baked, mesh, &rel, None, rel_mirrored, 0);
                 let what = format!("{name} baked");
-                let before = g.root.materials.len();
-                let Some(mut p) = g.colored_primitive(FlatSource::Owned(baked), &what)? else {
+                let Some(m) = part_mesh(&mut g, &mut materials, FlatSource::Owned(baked), what, name, n.mesh)? else {
                     world.push(parent_world);
                     index.push(glb_parent);
                     continue;
                 };
-                let fresh = g.root.materials.len() > before;
-                p.material = Some(named_material(&mut g, &mut materials, fresh, name, n.mesh, p.material));
-                let m = g.push_mesh(GMesh { name: Some(what), primitives: vec![p] });
                 (Node { name: Some(n.name.clone()), mesh: Some(m), ..Node::default() }, parent_world)
             }
         };
@@ -141,6 +133,26 @@ pub fn write_glb_nodes(
     }
     g.root.scenes.push(Scene { nodes: scene });
     g.finish(w)
+}
+
+/// Writes part `name`'s triangles `src` as glTF mesh `what` with one primitive and
+/// the part's named material ([`named_material`]); `None` when `src` has no
+/// triangles. The one way both a shared part mesh and a baked one are written.
+fn part_mesh<'a>(
+    g: &mut Builder<'a>,
+    materials: &mut BTreeMap<(u32, bool), u32>,
+    src: FlatSource<'a>,
+    what: String,
+    name: &str,
+    mesh: u32,
+) -> Result<Option<u32>, String> {
+    let before = g.root.materials.len();
+    let Some(mut p) = g.colored_primitive(src, &what)? else {
+        return Ok(None);
+    };
+    let fresh = g.root.materials.len() > before;
+    p.material = Some(named_material(g, materials, fresh, name, mesh, p.material));
+    Ok(Some(g.push_mesh(GMesh { name: Some(what), primitives: vec![p] })))
 }
 
 /// The material of part mesh `mesh`, named after it (`name`): the primitive's own
