@@ -127,73 +127,49 @@ impl Buffer {
         Ok(b)
     }
 
+    /// Maps `len` bytes from byte `offset` (host-visible buffers only), lets `f`
+    /// read or write them, and unmaps them. `what` names the use in the error.
+    /// Callers only map buffers the GPU is not using: new ones, or ones whose
+    /// frame's fence they have waited on.
+    fn mapped(&self, offset: u64, len: usize, what: &str, f: impl FnOnce(&mut [u8])) -> Result<(), Error> {
+        if !self.mapped || offset + len as u64 > self.size {
+            return Err(Error::Vulkan(format!("{what} a buffer that is not host-visible or too small")));
+        }
+        if len == 0 {
+            return Ok(());
+        }
+        // SAFETY: host-visible, coherent memory of at least offset + len bytes,
+        // mapped for the duration of `f` only and not in use by the GPU (the
+        // callers' contract above); the slice does not outlive the mapping.
+        unsafe {
+            let p = self
+                .ctx
+                .device
+                .map_memory(self.memory, offset, len as u64, vk::MemoryMapFlags::empty())
+                .map_err(vkerr("map memory"))?;
+            f(std::slice::from_raw_parts_mut(p as *mut u8, len));
+            self.ctx.device.unmap_memory(self.memory);
+        }
+        Ok(())
+    }
+
     /// Maps the first `len` bytes (host-visible buffers only) and lets `fill` write
     /// them.
     fn fill(&self, len: usize, fill: impl FnOnce(&mut [u8])) -> Result<(), Error> {
-        if !self.mapped || len as u64 > self.size {
-            return Err(Error::Vulkan("fill of a buffer that is not host-visible or too small".into()));
-        }
-        if len == 0 {
-            return Ok(());
-        }
-        // SAFETY: host-visible, coherent memory of at least `len` bytes, mapped for
-        // the duration of `fill` only and not in use by the GPU (the buffer is new);
-        // the slice does not outlive the mapping.
-        unsafe {
-            let p = self
-                .ctx
-                .device
-                .map_memory(self.memory, 0, len as u64, vk::MemoryMapFlags::empty())
-                .map_err(vkerr("map memory"))?;
-            fill(std::slice::from_raw_parts_mut(p as *mut u8, len));
-            self.ctx.device.unmap_memory(self.memory);
-        }
-        Ok(())
+        self.mapped(0, len, "fill of", fill)
     }
 
-    /// Copies `data` into the buffer at byte `offset` (host-visible buffers only).
+    /// Copies `data` into the buffer at byte `offset` (host-visible buffers only;
+    /// callers wait on the frame's fence first).
     pub fn write(&self, offset: u64, data: &[u8]) -> Result<(), Error> {
-        if !self.mapped || offset + data.len() as u64 > self.size {
-            return Err(Error::Vulkan("write to a buffer that is not host-visible or too small".into()));
-        }
-        if data.is_empty() {
-            return Ok(());
-        }
-        // SAFETY: host-visible, coherent memory of at least offset + len bytes; the
-        // mapping is released before returning; callers only write buffers the GPU
-        // is not reading (they wait on the frame's fence first).
-        unsafe {
-            let p = self
-                .ctx
-                .device
-                .map_memory(self.memory, offset, data.len() as u64, vk::MemoryMapFlags::empty())
-                .map_err(vkerr("map memory"))?;
-            std::ptr::copy_nonoverlapping(data.as_ptr(), p as *mut u8, data.len());
-            self.ctx.device.unmap_memory(self.memory);
-        }
-        Ok(())
+        self.mapped(offset, data.len(), "write to", |m| m.copy_from_slice(data))
     }
 
-    /// Reads `len` bytes from the start of the buffer (host-visible buffers only).
+    /// Reads `len` bytes from the start of the buffer (host-visible buffers only;
+    /// callers wait on the fence of the GPU work that wrote it).
     pub fn read(&self, len: usize) -> Result<Vec<u8>, Error> {
-        if !self.mapped || len as u64 > self.size {
-            return Err(Error::Vulkan("read from a buffer that is not host-visible or too small".into()));
-        }
         let mut out = vec![0u8; len];
-        if len == 0 {
-            return Ok(out);
-        }
-        // SAFETY: host-visible, coherent memory of at least `len` bytes, read after
-        // the GPU work that wrote it has completed (callers wait on a fence).
-        unsafe {
-            let p = self
-                .ctx
-                .device
-                .map_memory(self.memory, 0, len as u64, vk::MemoryMapFlags::empty())
-                .map_err(vkerr("map memory"))?;
-            std::ptr::copy_nonoverlapping(p as *const u8, out.as_mut_ptr(), len);
-            self.ctx.device.unmap_memory(self.memory);
-        }
+        self.mapped(0, len, "read from", |m| out.copy_from_slice(m))?;
         Ok(out)
     }
 }
