@@ -692,10 +692,6 @@ impl<'b> Eval<'b> {
             }
         }
         match m.stack.pop() {
-            Some(caller) if S::SIMPLE => {
-                // (A fast-path activation holds no convolution: nothing to drop.)
-                std::mem::forget(std::mem::replace(&mut m.act, caller));
-            }
             Some(caller) => m.act = caller,
             None => return false,
         }
