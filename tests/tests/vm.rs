@@ -420,7 +420,8 @@ fn sites_name_the_rule_and_line_of_every_triangle() {
     let b = build_source(src);
     let plain = evaluate(&b, &EvalOptions::default());
     assert!(plain.sites.runs.is_empty() && plain.sites.sites.is_empty());
-    let out = evaluate(&b, &EvalOptions { record_sites: true, ..EvalOptions::default() });
+    // (B is a prototype: drawn item by item here, so each triangle has its line.)
+    let out = evaluate(&b, &EvalOptions { record_sites: true, instancing: false, ..EvalOptions::default() });
     assert_eq!(out.vertex_mesh(), plain.vertex_mesh(), "recording sites changes no geometry");
     let t = out.vertex_mesh().triangles.len() as u32;
     assert_eq!(t, 1 + 2 + 2 + 1);
@@ -445,9 +446,10 @@ const DERIVED: &str = "@import primitives lines\nstartshape A\n\
 #[test]
 fn sites_cover_sweeps_and_instances_with_their_depth() {
     let b = build_source(DERIVED);
-    // (Recording sites turns prototype instancing off: face3 is drawn vertex by vertex.)
+    // (Prototype instancing off: face3 is drawn vertex by vertex, its triangles each
+    // with a site; `prototype_instances_keep_their_sites` has it on.)
     let plain = evaluate(&b, &EvalOptions { instancing: false, ..EvalOptions::default() });
-    let out = evaluate(&b, &EvalOptions { record_sites: true, ..EvalOptions::default() });
+    let out = evaluate(&b, &EvalOptions { instancing: false, record_sites: true, ..EvalOptions::default() });
     assert_eq!((&out.mesh, &out.sweeps, &out.instances), (&plain.mesh, &plain.sweeps, &plain.instances));
     assert!(!out.sweeps.triangles.is_empty() && out.instances.len() == 1);
     let site = |run: [u32; 4]| {
@@ -471,7 +473,7 @@ fn sites_cover_sweeps_and_instances_with_their_depth() {
 fn the_derivation_tree_counts_calls_and_geometry_per_path() {
     let b = build_source(DERIVED);
     let plain = evaluate(&b, &EvalOptions { instancing: false, ..EvalOptions::default() });
-    let opts = EvalOptions { record_derivation: true, record_sites: true, ..EvalOptions::default() };
+    let opts = EvalOptions { record_derivation: true, record_sites: true, instancing: false, ..EvalOptions::default() };
     let out = evaluate(&b, &opts);
     assert_eq!((&out.mesh, &out.sweeps, &out.instances), (&plain.mesh, &plain.sweeps, &plain.instances));
     let d = out.derivation.as_ref().expect("a derivation");
@@ -511,6 +513,39 @@ fn the_derivation_tree_counts_calls_and_geometry_per_path() {
     assert!(alone.sites.runs.is_empty());
     let default = evaluate(&b, &EvalOptions::default());
     assert_eq!((&alone.mesh, &alone.sweeps, &alone.instances), (&default.mesh, &default.sweeps, &default.instances));
+}
+
+/// Recorded sites keep prototype instancing (the editor's preview gets the model
+/// instanced, as `mdg-run --instances` writes it): each instance has the rule,
+/// depth and derivation node its triangles have when the prototype is drawn item
+/// by item, and the model and the derivation tree are the same either way.
+#[test]
+fn prototype_instances_keep_their_sites() {
+    let b = build_source(DERIVED);
+    let opts = EvalOptions { record_derivation: true, record_sites: true, ..EvalOptions::default() };
+    let inst = evaluate(&b, &opts);
+    let baked = evaluate(&b, &EvalOptions { instancing: false, ..opts.clone() });
+    let prototypes = inst.instances.iter().filter(|i| inst.is_prototype_instance(i)).count();
+    assert_eq!(prototypes, 3, "face3 in A and in each B is an instance");
+    assert!(inst.mesh.triangles.is_empty() && !baked.mesh.triangles.is_empty());
+    assert_eq!(inst.vertex_mesh(), baked.vertex_mesh(), "the same model");
+    assert_eq!(inst.derivation, baked.derivation, "the same derivation tree");
+    // Instance k of face3 drew baked triangle k: the same rule, depth and node.
+    let (mut k, mut named) = (0u32, 0);
+    for (i, instance) in inst.instances.iter().enumerate() {
+        let r = inst.sites.run_of_instance(i as u32).expect("a run for every instance");
+        let site = &inst.sites.sites[r[1] as usize];
+        if !inst.is_prototype_instance(instance) {
+            assert_eq!((site.rule.as_str(), r[2]), ("A", 0), "the SPHERE");
+            continue;
+        }
+        let t = baked.sites.run_of_triangle(k).expect("a run");
+        let want = &baked.sites.sites[t[1] as usize];
+        assert_eq!((&site.rule, &site.file, r[2], r[3]), (&want.rule, &want.file, t[2], t[3]), "instance {i}");
+        k += 1;
+        named += 1;
+    }
+    assert_eq!(named, 3);
 }
 
 /// Paths past the depth limit are counted in the deepest node above them, and the

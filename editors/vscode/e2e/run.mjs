@@ -638,7 +638,7 @@ try {
     return `levels 5 → 1: ${before} → ${after} triangles`;
   });
 
-  // A click on the model (no drag) names the rule and line that drew the triangle
+  // A click on the model (no drag) names the rule and line that drew the instance
   // under the pointer (`mdg-run --sites`) and shows that line in the editor.
   await check('preview click names the rule', async () => {
     // Four petals around the origin: the middle of the view is the model.
@@ -660,6 +660,9 @@ try {
     }
     const m = /^(\S+) · (\S+):(\d+)$/.exec(label);
     if (!m) throw new Error(`no site named after clicking the model: ${JSON.stringify(label)}`);
+    // The petal is a prototype (a rule of VERTEXes only): the preview draws the
+    // four instanced, and the click named the rule of the instance it hit.
+    if ((await site.getAttribute('data-instance')) !== 'true') throw new Error('the click did not hit an instance: the petals are not drawn instanced');
     const [, rule, file, line] = m;
     await page.locator(`.tab.active[aria-label^="${path.basename(file)}"]`).waitFor({ state: 'visible', timeout: 15000 });
     const cursor = await until('the cursor on the line', async () => {

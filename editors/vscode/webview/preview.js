@@ -366,7 +366,8 @@ function itemCount(src) {
 }
 
 // A click (a press and release that did not drag) on the model: the rule and line
-// that made the triangle or instance under the pointer.
+// that made the triangle or instance under the pointer (`siteAt`: the site, and
+// whether the item hit is an instance).
 const raycaster = new THREE.Raycaster();
 let pressed = null;
 canvas.addEventListener('pointerdown', (e) => {
@@ -376,9 +377,12 @@ canvas.addEventListener('pointerup', (e) => {
   const p = pressed;
   pressed = null;
   if (!p || p.button !== 0 || Math.hypot(e.clientX - p.x, e.clientY - p.y) > 4 || !model) return;
-  const site = siteAt(e.clientX, e.clientY);
+  const hit = siteAt(e.clientX, e.clientY);
+  const site = hit && hit.site;
   if (site) {
     siteLabel.textContent = `${site.rule || '(no rule)'} · ${site.file}:${site.line}`;
+    // Whether the item clicked is an instance of an instanced mesh (for tests).
+    siteLabel.dataset.instance = String(hit.instance);
     siteLabel.hidden = false;
     vscode.postMessage({ type: 'site', rule: site.rule, file: site.file, line: site.line });
   } else {
@@ -399,7 +403,8 @@ function siteAt(clientX, clientY) {
     if (!sites) return null;
     const cut = o.userData.mdgCut;
     let item;
-    if (o.isInstancedMesh && sites.instances) {
+    const instance = !!(o.isInstancedMesh && sites.instances);
+    if (instance) {
       if (hit.instanceId == null) return null;
       item = cut ? cut.order[hit.instanceId] : hit.instanceId;
     } else {
@@ -407,7 +412,8 @@ function siteAt(clientX, clientY) {
       item = cut && cut.tris ? cut.tris[hit.faceIndex] : hit.faceIndex;
     }
     const run = runAt(sites.runs, item);
-    return run ? sites.sites[run[1]] || null : null;
+    const site = run ? sites.sites[run[1]] || null : null;
+    return site ? { site, instance } : null;
   }
   return null;
 }

@@ -137,7 +137,7 @@ struct Eval<'b> {
     /// Whether `INST` makes instances (see [`EvalOptions::instancing`]).
     instancing: bool,
     /// Whether model runs take the fast path, the loop with the [`Simple`] sink
-    /// (instancing on, so no sites, and [`fast_path_applies`]).
+    /// (instancing on, no sites or derivation recorded, and [`fast_path_applies`]).
     fast: bool,
     /// Vertices of the prototype instances made so far (they count as vertices for
     /// the budget and the statistics, as they would have run one by one).
@@ -229,12 +229,13 @@ impl<'b> Eval<'b> {
         let s = &b.settings;
         let seed = opts.seed.unwrap_or(s.randseed);
         let start = State::start_in(s);
-        // (Sites are per triangle: recording them turns instancing off. So does
-        // `flat`, whose picture paints the triangles in their order, one mesh.)
-        let instancing = opts.instancing && !opts.record_sites && !s.flat;
+        // (`flat` turns instancing off: its picture paints the triangles in their
+        // order, one mesh. Recorded sites keep it: a prototype instance is credited
+        // to its `INST` op, as an isosurface instance to its op, by instance runs.)
+        let instancing = opts.instancing && !s.flat;
         let xf_pure: Vec<bool> =
             b.transforms.iter().map(|t| matches!(t, Transform::Const(c) if c.n.is_none())).collect();
-        let fast = instancing && !opts.record_derivation && fast_path_applies(b, &xf_pure);
+        let fast = instancing && !opts.record_sites && !opts.record_derivation && fast_path_applies(b, &xf_pure);
         let mut e = Eval {
             b,
             opts: opts.clone(),
