@@ -465,7 +465,7 @@ impl<'b> Eval<'b> {
         // The ARGs before this CALL are the callee's first slots (the verifier
         // checked their number).
         let r = &b.rules[rule];
-        if !self.admit(&child, depth, m.stack.len() + 1, m.act.pc - 1, false) {
+        if !self.admit(&child, depth, m.stack.len() + 1, m.act.pc - 1, S::SIMPLE) {
             if !S::SIMPLE && self.slots.len() > args {
                 self.slots.truncate(args);
             }
