@@ -206,6 +206,25 @@ fn bone_vertices_at_time_t_are_rest_vertices_moved_by_the_product_of_their_frame
     }
 }
 
+/// The bone is the running activation's: a call of an animated rule makes one, and
+/// its return gives the caller's back, so the caller's items drawn after the call
+/// (and an iterator's later runs, and a convolution body's runs) carry the caller's.
+#[test]
+fn items_after_a_bone_call_carry_the_callers_bone() {
+    let out = run_source(
+        "startshape s\nfps 10\n\
+         rule s { a {} VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n\
+         rule a : spin { 2 * {x 3} { b {} VERTEX {} VERTEX {x 1} VERTEX {y 1} } }\n\
+         rule b : spin { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n\
+         rule spin { 10/10 * {rz 360} FRAME {} }\n",
+    );
+    let m = out.vertex_mesh();
+    let bones: Vec<u32> = (0..m.n_vertices()).map(|i| m.bone(i)).collect();
+    assert_eq!(bones, [2, 2, 2, 1, 1, 1, 3, 3, 3, 1, 1, 1, 0, 0, 0]);
+    let parents: Vec<u32> = out.animation.bones.iter().map(|b| b.parent).collect();
+    assert_eq!(parents[1..], [0, 1, 1]);
+}
+
 #[test]
 fn a_tube_drawn_into_a_bone_stretches_with_it() {
     // The pen starts outside the bone (bone 0); the LINETO inside bone 1 moves.

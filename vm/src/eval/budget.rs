@@ -19,12 +19,35 @@ pub(super) struct LimitCounts {
     pub(super) animation: bool,
 }
 
+/// The next count of calls at which [`Eval::count_call`] and [`Eval::count_run`]
+/// must look closer, after `calls`: the next multiple of 4,096 (the budgets'
+/// check) or `maxiter + 1` (the limit), whichever comes first; every count once
+/// past `maxiter`.
+pub(super) fn next_check(calls: u64, maxiter: u64) -> u64 {
+    let budgets = (calls | 0xFFF).saturating_add(1);
+    if calls <= maxiter {
+        budgets.min(maxiter.saturating_add(1))
+    } else {
+        calls.saturating_add(1)
+    }
+}
+
 impl<'b> Eval<'b> {
     /// Counts an iterator run or a convolution's body run as a call, so `maxiter`
     /// bounds them too (checking the budgets now and then).
     #[inline]
     pub(super) fn count_run(&mut self) {
         self.calls += 1;
+        if self.calls >= self.next_check {
+            self.count_run_closely();
+        }
+    }
+
+    /// [`Eval::count_run`] at a count where something is due (see [`next_check`]).
+    #[cold]
+    #[inline(never)]
+    fn count_run_closely(&mut self) {
+        self.next_check = next_check(self.calls, self.maxiter);
         if self.calls > self.maxiter {
             self.limits.maxiter = true;
             self.stopped = true;
@@ -49,6 +72,16 @@ impl<'b> Eval<'b> {
     #[inline]
     pub(super) fn count_call(&mut self) -> bool {
         self.calls += 1;
+        // (One comparison on the way: the budgets' check and `maxiter` are due
+        // only at `next_check`.)
+        self.calls < self.next_check || self.count_call_closely()
+    }
+
+    /// [`Eval::count_call`] at a count where something is due (see [`next_check`]).
+    #[cold]
+    #[inline(never)]
+    fn count_call_closely(&mut self) -> bool {
+        self.next_check = next_check(self.calls, self.maxiter);
         if self.calls & 0xFFF == 0 {
             self.check_budgets();
             if let Some(p) = self.progress {
@@ -68,20 +101,24 @@ impl<'b> Eval<'b> {
     }
 
     /// Whether a call may proceed; counts the limits that stop it.
-    /// `pc` is the CALL op's (for the warning's rule and line).
+    /// `pc` is the CALL op's (for the warning's rule and line). With `depth_ok`
+    /// (a constant where it is inlined) the caller has already found `depth` within
+    /// `maxdepth` (the fast path refuses deeper calls before composing their
+    /// frame), so it is not tested again.
     #[inline(always)]
-    pub(super) fn admit(&mut self, child: &State, depth: u32, stack_len: usize, pc: u32) -> bool {
+    pub(super) fn admit(&mut self, child: &State, depth: u32, stack_len: usize, pc: u32, depth_ok: bool) -> bool {
         if !self.count_call() {
             return false;
         }
-        self.admit_rest(child, depth, stack_len, pc)
+        self.admit_rest(child, depth, stack_len, pc, depth_ok)
     }
 
-    /// The per-branch limits of a call: `maxdepth`, `minsize`, the stack size.
+    /// The per-branch limits of a call: `maxdepth` (unless `depth_ok`), `minsize`,
+    /// the stack size.
     #[inline]
-    pub(super) fn admit_rest(&mut self, child: &State, depth: u32, stack_len: usize, pc: u32) -> bool {
+    pub(super) fn admit_rest(&mut self, child: &State, depth: u32, stack_len: usize, pc: u32, depth_ok: bool) -> bool {
         let s = &self.b.settings;
-        let refused = if s.maxdepth > 0 && depth > s.maxdepth {
+        let refused = if !depth_ok && s.maxdepth > 0 && depth > s.maxdepth {
             self.limits.maxdepth += 1;
             0
         } else if s.minsize > 0.0 && child.scale() < s.minsize {
@@ -151,6 +188,30 @@ impl<'b> Eval<'b> {
     pub(super) fn warn_once(&mut self, msg: String) {
         if !self.out.stats.warnings.contains(&msg) {
             self.out.stats.warnings.push(msg);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::next_check;
+
+    /// Every count at which the budgets (every 4,096 calls) or `maxiter` (every
+    /// count past it) must be looked at is one where the counters look closer,
+    /// starting as an evaluation starts (`next_check` 0).
+    #[test]
+    fn next_check_reaches_every_count_that_is_due() {
+        for maxiter in [0, 1, 5, 4_095, 4_096, 4_097, 8_191, 10_000, u64::MAX] {
+            let mut next = 0;
+            for calls in 1..=20_000u64 {
+                let closer = calls >= next;
+                if closer {
+                    next = next_check(calls, maxiter);
+                    assert!(next > calls, "maxiter {maxiter}, at {calls}: next {next}");
+                }
+                let due = calls & 0xFFF == 0 || calls > maxiter;
+                assert!(!due || closer, "maxiter {maxiter}: count {calls} is due but not looked at");
+            }
         }
     }
 }

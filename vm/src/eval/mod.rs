@@ -114,6 +114,10 @@ struct Eval<'b> {
     stopped: bool,
     started: Instant,
     calls: u64,
+    /// The next count of `calls` at which a call or run is looked at more closely:
+    /// the next multiple of 4,096 (the budgets' check) or one past `maxiter`,
+    /// whichever comes first (see [`next_check`]).
+    next_check: u64,
     maxiter: u64,
     stacksize: u32,
     expr_stack: Vec<f64>,
@@ -253,6 +257,7 @@ impl<'b> Eval<'b> {
             stopped: false,
             started: Instant::now(),
             calls: 0,
+            next_check: 0,
             maxiter: opts.maxiter.unwrap_or(if s.maxiter > 0 { s.maxiter } else { DEFAULT_MAXITER }).min(opts.max_iter),
             stacksize: (if s.stacksize > 0 { s.stacksize } else { DEFAULT_STACKSIZE }).min(opts.max_stack),
             expr_stack: Vec::with_capacity(16),

@@ -73,23 +73,25 @@ impl LinCache {
     }
 }
 
+/// An activation: what a call and a return copy (112 bytes). What few activations
+/// have lives in side stacks of [`Regs`], keyed by the activation's level (its
+/// callers' count): a bone other than its caller's, a convolution's remaining
+/// runs, and the iterators it opened (each [`LoopRec`] names its level).
+#[derive(Clone, Copy)]
 pub(super) struct Act {
+    pub(super) base: State,
     pub(super) pc: u32,
+    pub(super) depth: u32,
     /// The activation's frame is `slots[slot_base..slot_top]` (parameters, then locals);
     /// `ARG`s for the next call are pushed above it.
     pub(super) slot_base: u32,
     pub(super) slot_top: u32,
-    pub(super) base: State,
-    pub(super) depth: u32,
-    pub(super) loops_at: u32,
-    /// The innermost bone (0 = the root): vertices emitted here carry it.
-    pub(super) bone: u32,
-    /// Set when this activation runs a convolution rule's body once per frame.
-    pub(super) conv: Option<Box<Conv>>,
 }
 
 /// The remaining runs of a convolution rule's body.
 pub(super) struct Conv {
+    /// The level of the activation that runs the body (see [`Act`]).
+    pub(super) level: u32,
     /// `I[i]·A[i]·B[i]` for every frame index i of the iterator rule.
     pub(super) frames: Arc<Vec<Frame>>,
     /// The next frame index to run.
@@ -101,6 +103,8 @@ pub(super) struct Conv {
 }
 
 pub(super) struct LoopRec {
+    /// The level of the activation that opened it (see [`Act`]).
+    pub(super) level: u32,
     pub(super) remaining: u64,
     pub(super) step: TransformId,
     pub(super) saved_base: State,
@@ -221,7 +225,8 @@ impl<'b> Eval<'b> {
             // (`sequential` and `pattern` start afresh with every expansion.)
             self.sequential.clear();
         }
-        let Some(act) = self.first_activation::<S>(rule, start, pc, depth, (slot_base, slot_top), mode) else {
+        let Some((act, bone, conv)) = self.first_activation::<S>(rule, start, pc, depth, (slot_base, slot_top), mode)
+        else {
             self.slots.truncate(slot_base as usize);
             return;
         };
@@ -234,6 +239,9 @@ impl<'b> Eval<'b> {
         let mut m = Regs {
             act,
             stack: Vec::new(),
+            bone,
+            bones: Vec::new(),
+            convs: conv.into_iter().collect(),
             cont: None,
             lin_cache: LinCache { frame: Frame::identity(), lin: Frame::identity().linear() },
             loops: std::mem::take(&mut self.spare_loops),
@@ -268,14 +276,14 @@ impl<'b> Eval<'b> {
                 Op::Draw { kind, xf, ns, profile, flags: _ } => {
                     let s = self.item(&mut m, xf);
                     if !S::COLLECTS {
-                        self.draw(kind, s, ns.0, profile.0, mode, m.act.bone);
+                        self.draw(kind, s, ns.0, profile.0, mode, m.bone);
                     }
                     true
                 }
                 Op::Iso { iso, xf, flags: _ } => {
                     let s = self.item(&mut m, xf);
                     if !S::COLLECTS && mode == Mode::Model {
-                        self.instance(iso.0, &s, m.act.pc - 1, m.act.bone);
+                        self.instance(iso.0, &s, m.act.pc - 1, m.bone);
                     }
                     true
                 }
@@ -365,7 +373,8 @@ impl<'b> Eval<'b> {
     }
 
     /// The activation a run starts with: `rule`'s body at `pc` under `start` (a
-    /// convolution's first run, or a bone's); `None` for a convolution with no frame.
+    /// convolution's first run, or a bone's), with its bone and convolution; `None`
+    /// for a convolution with no frame.
     #[inline]
     fn first_activation<S: Sink>(
         &mut self,
@@ -375,22 +384,22 @@ impl<'b> Eval<'b> {
         depth: u32,
         (slot_base, slot_top): (u32, u32),
         mode: Mode,
-    ) -> Option<Act> {
+    ) -> Option<(Act, u32, Option<Conv>)> {
         let r = &self.b.rules[rule];
         if !S::SIMPLE && !S::COLLECTS && r.iter != NONE {
             // The start shape (or a sampled rule) is itself a convolution.
             let frames = self.convolution(rule.0);
             let f = frames.first().copied()?;
             let base = start.then(&f, &self.lins);
-            let conv = Some(Box::new(Conv { frames, next: 1, pc, origin: start }));
-            return Some(Act { pc, slot_base, slot_top, base, depth, loops_at: 0, bone: 0, conv });
+            let conv = Conv { level: 0, frames, next: 1, pc, origin: start };
+            return Some((Act { pc, slot_base, slot_top, base, depth }, 0, Some(conv)));
         }
         let bone = if !S::SIMPLE && !S::COLLECTS && mode == Mode::Model && !r.transforms.is_empty() {
             self.new_bone(rule.0, &start, 0)
         } else {
             0
         };
-        Some(Act { pc, slot_base, slot_top, base: start, depth, loops_at: 0, bone, conv: None })
+        Some((Act { pc, slot_base, slot_top, base: start, depth }, bone, None))
     }
 
     /// The value of expression `e` for the running item (from the continuation state,
@@ -437,7 +446,6 @@ impl<'b> Eval<'b> {
             // (A counted call can stop the run only when it is refused.)
             return !(S::SIMPLE && self.stops(m));
         }
-        let parent_bone = m.act.bone;
         let from = Self::from::<S>(m);
         let child = self.apply(xf, from, m.act.depth, m.act.slot_base, m.act.slot_top);
         if !S::SIMPLE {
@@ -457,7 +465,7 @@ impl<'b> Eval<'b> {
         // The ARGs before this CALL are the callee's first slots (the verifier
         // checked their number).
         let r = &b.rules[rule];
-        if !self.admit(&child, depth, m.stack.len() + 1, m.act.pc - 1) {
+        if !self.admit(&child, depth, m.stack.len() + 1, m.act.pc - 1, S::SIMPLE) {
             if !S::SIMPLE && self.slots.len() > args {
                 self.slots.truncate(args);
             }
@@ -475,7 +483,8 @@ impl<'b> Eval<'b> {
             self.slots.resize(args + r.frame as usize, 0.0);
         }
         let (slot_base, slot_top) = (args as u32, (args + r.frame as usize) as u32);
-        let loops_at = m.loops.len() as u32;
+        // (The callee's level is its callers' count, the caller's level + 1.)
+        let level = m.stack.len() as u32 + 1;
         if !S::SIMPLE && r.iter != NONE {
             // Convolution: the body runs once per frame of the iterator rule.
             let frames = self.convolution(rule.0);
@@ -484,16 +493,16 @@ impl<'b> Eval<'b> {
                 return true;
             };
             let base = child.then(&f, &self.lins);
-            let conv = Some(Box::new(Conv { frames, next: 1, pc, origin: child }));
-            let callee = Act { pc, slot_base, slot_top, base, depth, loops_at, bone: parent_bone, conv };
+            m.convs.push(Conv { level, frames, next: 1, pc, origin: child });
+            let callee = Act { pc, slot_base, slot_top, base, depth };
             m.stack.push(std::mem::replace(&mut m.act, callee));
         } else {
-            let bone = if !S::SIMPLE && m.mode == Mode::Model && !r.transforms.is_empty() {
-                self.new_bone(rule.0, &child, parent_bone)
-            } else {
-                parent_bone
-            };
-            let callee = Act { pc, slot_base, slot_top, base: child, depth, loops_at, bone, conv: None };
+            if !S::SIMPLE && m.mode == Mode::Model && !r.transforms.is_empty() {
+                let bone = self.new_bone(rule.0, &child, m.bone);
+                m.bones.push((level, m.bone));
+                m.bone = bone;
+            }
+            let callee = Act { pc, slot_base, slot_top, base: child, depth };
             m.stack.push(std::mem::replace(&mut m.act, callee));
         }
         if S::SITES {
@@ -526,7 +535,7 @@ impl<'b> Eval<'b> {
             let s = from.compose(c, &mut self.lins);
             m.cont = None;
             self.last = s;
-            self.draw(Drawable::Vertex, s, ns.0, profile.0, m.mode, m.act.bone);
+            self.draw(Drawable::Vertex, s, ns.0, profile.0, m.mode, m.bone);
             return;
         }
         let Some(x) = &self.xf_info[xf.index()] else {
@@ -539,7 +548,7 @@ impl<'b> Eval<'b> {
         let weight = add(from.weight, c.weight);
         let mirrored = lin.1 != x.mirrored;
         let mesh = &mut self.out.mesh;
-        let k = mesh.push_vertex(p, n, color, weight, m.act.bone) + 1;
+        let k = mesh.push_vertex(p, n, color, weight, m.bone) + 1;
         if k.is_multiple_of(3) {
             mesh.push_triangle([k - 3, k - 2, k - 1], mirrored);
         }
@@ -577,7 +586,8 @@ impl<'b> Eval<'b> {
             self.apply_step(step, &from, &mut acc, m.act.depth, m.act.slot_base, m.act.slot_top)
         };
         let chain = chain & bundle::ops::LOOP_CHAIN != 0;
-        m.loops.push(LoopRec { remaining: count, step, saved_base: m.act.base, chain, acc });
+        let level = m.stack.len() as u32;
+        m.loops.push(LoopRec { level, remaining: count, step, saved_base: m.act.base, chain, acc });
         m.act.base = next;
         if chain {
             // A run that reaches no drawable ends where it started.
@@ -652,7 +662,7 @@ impl<'b> Eval<'b> {
             }
             return;
         }
-        self.emit_instance(proto.0, &m.act.base, m.act.bone);
+        self.emit_instance(proto.0, &m.act.base, m.bone);
         m.act.pc += count.0;
         if self.needs_last {
             // `last` as the run's last item leaves it.
@@ -672,9 +682,14 @@ impl<'b> Eval<'b> {
     /// on (not after the run's first activation).
     #[inline(always)]
     fn op_ret<S: Sink>(&mut self, m: &mut Regs) -> bool {
-        m.loops.truncate(m.act.loops_at as usize);
+        // (Under the fast path an activation closes every iterator it opens and has
+        // no convolution or bone of its own.)
         if !S::SIMPLE {
-            if let Some(conv) = m.act.conv.as_mut() {
+            let level = m.stack.len() as u32;
+            while m.loops.last().is_some_and(|l| l.level >= level) {
+                m.loops.pop();
+            }
+            if let Some(conv) = m.convs.last_mut().filter(|c| c.level == level) {
                 if let Some(f) = conv.frames.get(conv.next) {
                     // The next run of a convolution body, under R's frame · frame i.
                     m.act.base = conv.origin.then(f, &self.lins);
@@ -684,6 +699,12 @@ impl<'b> Eval<'b> {
                     // Body runs count as calls, so `maxiter` also bounds them.
                     self.count_run();
                     return true;
+                }
+                m.convs.pop();
+            }
+            if m.bones.last().is_some_and(|&(l, _)| l == level) {
+                if let Some((_, bone)) = m.bones.pop() {
+                    m.bone = bone;
                 }
             }
             let base = m.act.slot_base as usize;

@@ -99,6 +99,13 @@ pub(super) struct Regs {
     pub(super) act: Act,
     /// The running activation's callers.
     pub(super) stack: Vec<Act>,
+    /// The running activation's bone (0 = the root): vertices emitted there carry it.
+    pub(super) bone: u32,
+    /// The callers' bones, where a call made a new one: (the callee's level, its
+    /// caller's bone).
+    pub(super) bones: Vec<(u32, u32)>,
+    /// The activations that run a convolution rule's body once per frame.
+    pub(super) convs: Vec<Conv>,
     /// The continuation state after `\`: set by CONT and taken by the next item of
     /// the same body (a call takes it before its callee runs, so one register serves
     /// every activation).
