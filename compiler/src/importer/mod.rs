@@ -399,6 +399,22 @@ mod tests {
     }
 
     #[test]
+    fn recursive_functions_and_lazy_choices_are_imported_as_they_are() {
+        // fib(5) = 5 squares in a row, then fact(3) = 6 circles: each a recursive
+        // function with its base case chosen by a lazy `if`/`select`.
+        let i = cf(concat!(
+            "startshape Top\n",
+            "number fib(number n) = if(n < 2, n, fib(n - 1) + fib(n - 2))\n",
+            "number fact(number n) = select(n > 1, 1, n * fact(n - 1))\n",
+            "shape Top { loop fib(5) [x 1] SQUARE [] loop fact(3) [y 1] CIRCLE [] }\n",
+        ));
+        assert!(i.mdg.contains("function fib(n) { if((n) < (2), n, (fib((n) - (1))) + (fib((n) - (2)))) }"), "{}", i.mdg);
+        assert!(i.mdg.contains("select((n) > (1), 1,"), "{}", i.mdg);
+        assert!(i.report.notes.iter().all(|n| !n.detail.contains("recursive")), "{:?}", i.report.notes);
+        assert_eq!(triangles(&i.mdg), 5 * 2 + 6 * 32);
+    }
+
+    #[test]
     fn structure_synth_retirement_and_primitives() {
         let text = "R1\nset maxobjects 100\nrule R1 maxdepth 2 > c2 {\n  { s 1/3 x -1 } R1\n  { s 1/3 x 1 } R1\n  \
                     2 * { y 1 hue 10 sat 0.5 } R1\n}\nrule c2 { { color #fff } box }\n";
