@@ -1012,6 +1012,7 @@ impl<'a> Lower<'a> {
                 AdjKind::Weight(i) => (AdjOp::Weight, i),
                 AdjKind::Fps => (AdjOp::Fps, 0),
                 AdjKind::Hsb(i) => (AdjOp::Hsb, i),
+                AdjKind::Skew => (AdjOp::Skew, 0),
                 AdjKind::Paint => continue,
             };
             prims.push(PrimAdj { kind: k, axis, args });

@@ -246,10 +246,34 @@ fn recursive_functions_evaluate_within_their_limits() {
     let w = out.stats.warnings.join("\n");
     assert!(w.contains("nested deeper than 100") && w.contains("--max-call-depth"), "{w}");
     // Exponential: shallow, but past the call limit.
-    let fib = "startshape A\nfunction fib(n) { if(n < 2, n, fib(n - 1) + fib(n - 2)) }\nrule A { VERTEX {x fib(40)} }\n";
+    let fib =
+        "startshape A\nfunction fib(n) { if(n < 2, n, fib(n - 1) + fib(n - 2)) }\nrule A { VERTEX {x fib(40)} }\n";
     let out = evaluate(&build_source(fib), &EvalOptions::default());
     let w = out.stats.warnings.join("\n");
     assert!(w.contains("more than 1000000 function calls") && w.contains("--max-calls"), "{w}");
+}
+
+/// `skew X Y` (reference §5): Context Free's skew along the frame's own axes, the
+/// same from a constant list, a list computed at run time and an iterator's steps;
+/// the frames after it stay affine (a translation after the skew is skewed too).
+#[test]
+fn skew_maps_points_as_context_free_does() {
+    let xy = |src: &str| -> Vec<[f32; 2]> {
+        let out = run_source(src);
+        assert!(out.stats.warnings.is_empty(), "{:?}", out.stats.warnings);
+        out.vertex_mesh().positions.iter().map(|p| [(p[0] * 1e4).round() / 1e4, (p[1] * 1e4).round() / 1e4]).collect()
+    };
+    let tri = "rule T { VERTEX {y 1} VERTEX {x 1} VERTEX {x 1 y 1} }\n";
+    let want = [[1.0, 1.0], [1.0, 0.0], [2.0, 1.0]];
+    assert_eq!(xy(&format!("startshape A\nrule A {{ T {{skew 45 0}} }}\n{tri}")), want);
+    assert_eq!(xy(&format!("startshape A\nrule A {{ T {{skew (45 + rand(0, 0)) 0}} }}\n{tri}")), want);
+    assert_eq!(xy(&format!("startshape A\nrule A {{ 4/4 * {{skew 45 0}} T {{}} }}\n{tri}"))[9..], want);
+    // y += tan 45° · x; and with a rotation first, the skew is in the turned frame.
+    assert_eq!(xy(&format!("startshape A\nrule A {{ T {{skew 0 45}} }}\n{tri}")), [[0.0, 1.0], [1.0, 1.0], [1.0, 2.0]]);
+    assert_eq!(
+        xy(&format!("startshape A\nrule A {{ T {{rz 90 skew 45 0}} }}\n{tri}")),
+        [[-1.0, 1.0], [0.0, 1.0], [-1.0, 2.0]]
+    );
 }
 
 #[test]

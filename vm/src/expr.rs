@@ -908,17 +908,30 @@ mod tests {
         code[n - 1] = ExprOp::Fn(-3);
         assert!(bad(&code).contains("no function body"), "{}", bad(&code));
         // A body that returns two values.
-        let two = [ExprOp::Funcs(3), ExprOp::Enter(1), ExprOp::Push(1.0), ExprOp::Ret, ExprOp::Push(1.0), ExprOp::Fn(-4)];
+        let two =
+            [ExprOp::Funcs(3), ExprOp::Enter(1), ExprOp::Push(1.0), ExprOp::Ret, ExprOp::Push(1.0), ExprOp::Fn(-4)];
         assert!(bad(&two).contains("returns 2"), "{}", bad(&two));
         // Falling into a body, a body without a return, a return in main code.
         assert!(bad(&[ExprOp::Push(1.0), ExprOp::Enter(0), ExprOp::Push(1.0), ExprOp::Ret]).contains("outside"));
-        assert!(bad(&[ExprOp::Funcs(2), ExprOp::Enter(0), ExprOp::Push(1.0), ExprOp::Push(2.0)]).contains("without a return"));
+        assert!(bad(&[ExprOp::Funcs(2), ExprOp::Enter(0), ExprOp::Push(1.0), ExprOp::Push(2.0)])
+            .contains("without a return"));
         assert!(bad(&[ExprOp::Push(1.0), ExprOp::Ret]).contains("return outside"));
         // A skip out of a body into the main code.
-        let out = [ExprOp::Funcs(4), ExprOp::Enter(0), ExprOp::Push(1.0), ExprOp::Skip(1), ExprOp::Ret, ExprOp::Push(1.0)];
+        let out =
+            [ExprOp::Funcs(4), ExprOp::Enter(0), ExprOp::Push(1.0), ExprOp::Skip(1), ExprOp::Ret, ExprOp::Push(1.0)];
         assert!(bad(&out).contains("leaves or enters"), "{}", bad(&out));
         // A body read below its arguments.
-        let below = [ExprOp::Funcs(4), ExprOp::Enter(1), ExprOp::Pick(1), ExprOp::Slide(1), ExprOp::Ret, ExprOp::Push(1.0), ExprOp::Push(2.0), ExprOp::Fn(-6), ExprOp::Bin(BinOp::Add)];
+        let below = [
+            ExprOp::Funcs(4),
+            ExprOp::Enter(1),
+            ExprOp::Pick(1),
+            ExprOp::Slide(1),
+            ExprOp::Ret,
+            ExprOp::Push(1.0),
+            ExprOp::Push(2.0),
+            ExprOp::Fn(-6),
+            ExprOp::Bin(BinOp::Add),
+        ];
         assert!(bad(&below).contains("pick 1"), "{}", bad(&below));
         // Malformed code never panics in evaluation.
         for code in [&[ExprOp::Ret][..], &[ExprOp::Fn(-5)], &[ExprOp::Fn(7)], &[ExprOp::Enter(2), ExprOp::Ret]] {

@@ -330,7 +330,7 @@ impl<'a> Emitter<'a> {
                     );
                     parts.push(format!("A {}", args[0]));
                 }
-                ("skew", _) => self.rep.drop(line, "skew", "MDG has no skew: the shape is drawn unskewed"),
+                ("skew", 2) => parts.push(format!("skew {} {}", args[0], args[1])),
                 ("trans" | "transform", _) => {
                     self.rep.drop(line, &t.name, "an affine transform: MDG has no matrix adjustment")
                 }

@@ -35,7 +35,12 @@ pub fn expr_text(code: &[crate::expr::ExprOp]) -> String {
     if code.iter().any(|op| {
         matches!(
             op,
-            ExprOp::Skip(_) | ExprOp::SkipUnless(_) | ExprOp::Pick(_) | ExprOp::Slide(_) | ExprOp::Funcs(_) | ExprOp::Fn(_)
+            ExprOp::Skip(_)
+                | ExprOp::SkipUnless(_)
+                | ExprOp::Pick(_)
+                | ExprOp::Slide(_)
+                | ExprOp::Funcs(_)
+                | ExprOp::Fn(_)
         )
     }) {
         let ops: Vec<String> = code
