@@ -87,7 +87,7 @@ pub fn check_declared_in_any(analyses: &[mdg_compiler::driver::Analysis], opts: 
 }
 
 /// `--max-vertices`, `--max-frames`, `--max-iso-cells`, `--time-budget`, `--max-iter`,
-/// `--max-stack`: the limits of
+/// `--max-stack`, `--max-call-depth`, `--max-calls`: the limits of
 /// one evaluation, the same for `mdg-run` and `mdg-view` (docs/limits.md).
 #[derive(clap::Args, Clone, Debug, Default)]
 pub struct LimitArgs {
@@ -115,6 +115,14 @@ pub struct LimitArgs {
     /// says (default 1,000,000, about 110 MB; lowered with a warning).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     pub max_stack: Option<u32>,
+    /// The deepest nesting of recursive function calls in one evaluation of an
+    /// expression (default 10,000); deeper, the expression's value is NaN, with a warning.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub max_call_depth: Option<u32>,
+    /// The most function calls in one evaluation of an expression (default
+    /// 1,000,000: `fib(40)` stays shallow and makes 300 million); more, the value is NaN.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    pub max_calls: Option<u64>,
 }
 
 /// `--time-budget`, parsed as every duration flag is.
@@ -133,6 +141,10 @@ impl LimitArgs {
             time_budget: self.time_budget.and_then(|t| t.0),
             max_iter: self.max_iter.unwrap_or(d.max_iter),
             max_stack: self.max_stack.unwrap_or(d.max_stack),
+            calls: mdg_vm::expr::CallLimits {
+                depth: self.max_call_depth.unwrap_or(d.calls.depth),
+                calls: self.max_calls.unwrap_or(d.calls.calls),
+            },
             ..d
         }
     }

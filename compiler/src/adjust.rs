@@ -22,6 +22,8 @@ pub enum AdjKind {
     /// A colour value, `#ff8800` or `#tomato` (the adjustment's name is its text):
     /// sets the colour absolutely.
     Paint,
+    /// `skew X Y`: Context Free's skew, two angles (x += tan X · y, y += tan Y · x).
+    Skew,
 }
 
 impl AdjKind {
@@ -32,13 +34,14 @@ impl AdjKind {
             AdjKind::Turn(..) => (0, 1),
             AdjKind::Flip(3) => (3, 3),
             AdjKind::Flip(_) | AdjKind::Paint => (0, 0),
+            AdjKind::Skew => (2, 2),
             _ => (1, 1),
         }
     }
 
     /// Whether arguments are angles (may carry unit suffixes).
     pub fn is_angle(self) -> bool {
-        matches!(self, AdjKind::Rotate(_) | AdjKind::Turn(..))
+        matches!(self, AdjKind::Rotate(_) | AdjKind::Turn(..) | AdjKind::Skew)
     }
 }
 
@@ -78,6 +81,7 @@ impl Components {
             "fy" => AdjKind::Flip(1),
             "fz" => AdjKind::Flip(2),
             "fps" => AdjKind::Fps,
+            "skew" => AdjKind::Skew,
             _ if name.starts_with('#') => AdjKind::Paint,
             _ => {
                 if let Some(i) = self.color.iter().position(|c| c == name) {
@@ -123,6 +127,7 @@ impl Components {
             "fy",
             "fz",
             "fps",
+            "skew",
             "hue",
             "sat",
             "saturation",

@@ -83,7 +83,6 @@ pub fn check(ex: &Expanded, opts: CheckOptions) -> Checked {
         profile_rules: BTreeSet::new(),
         function: None,
         lets: Vec::new(),
-        recursion_reported: BTreeSet::new(),
     };
     c.collect();
     c.cross_file_definitions();
@@ -103,9 +102,6 @@ struct Checker<'a> {
     /// The `let(…)` names of the expressions around the one being checked,
     /// innermost last.
     lets: Vec<String>,
-    /// (function, called function) pairs already reported as E0328: a function
-    /// that calls itself twice (`fib(n - 1) + fib(n - 2)`) is one error.
-    recursion_reported: BTreeSet<(usize, usize)>,
     sym: Symbols,
     diags: Vec<Diagnostic>,
     /// Rule full name → rules its definitions call (per definition).
@@ -451,6 +447,9 @@ impl<'a> Checker<'a> {
                     self.function = Some((index, params.iter().map(|p| p.text.clone()).collect()));
                     self.expr(body, true, false);
                     self.function = None;
+                    if !params.is_empty() {
+                        self.never_returns(index, name);
+                    }
                 }
                 ItemKind::Isosurface { name, entries } => self.isosurface(name, entries),
                 ItemKind::Program { words } => self.program(words),
@@ -1263,6 +1262,21 @@ impl<'a> Checker<'a> {
         }
     }
 
+    /// E0331 for a recursive function every evaluation of which calls itself again
+    /// (directly or through the other functions of its cycle): no call returns.
+    fn never_returns(&mut self, index: usize, name: &Name) {
+        let graph = crate::functions::CallGraph::new(self.ex);
+        if graph.recursive().contains(&index) && graph.never_returns(self.ex, index) {
+            self.diags.push(
+                Diagnostic::error("E0331", name.span, format!("function `{}` calls itself on every path", name.text))
+                    .with_label("no call of it can return")
+                    .with_note(
+                        "give it a case without the recursive call, chosen with `if` or `select`: `if(n <= 1, 1, n * fact(n - 1))`",
+                    ),
+            );
+        }
+    }
+
     /// The parameters of `function NAME(a, b)`: plain names, each once.
     fn function_params(&mut self, params: &[Name]) {
         for (i, p) in params.iter().enumerate() {
@@ -1284,7 +1298,7 @@ impl<'a> Checker<'a> {
     /// parameters (`function NAME(a, b) { … }`), declared before the function being
     /// checked, with as many arguments as it has parameters.
     fn user_call(&mut self, e: &Expr, f: &Name, args: &[Expr]) {
-        let Some((index, decl, params, _)) = self.ex.user_function(&f.text) else {
+        let Some((_, decl, params, _)) = self.ex.user_function(&f.text) else {
             let mut names: Vec<&str> = FUNCTIONS.iter().map(|(n, _)| *n).collect();
             let users: Vec<String> = self
                 .ex
@@ -1307,22 +1321,6 @@ impl<'a> Checker<'a> {
             self.diags.push(d);
             return;
         };
-        if let Some((current, _)) = &self.function {
-            if index >= *current {
-                if !self.recursion_reported.insert((*current, index)) {
-                    return;
-                }
-                let what = if index == *current { "itself" } else { "a function declared after it" };
-                self.diags.push(
-                    Diagnostic::error("E0328", f.span, format!("a function calls {what}: `{}`", f.text))
-                        .with_secondary(decl.span, "declared here")
-                        .with_note(
-                            "a function may call only functions declared before it (so every call can be inlined)",
-                        ),
-                );
-                return;
-            }
-        }
         if args.len() != params.len() {
             self.diags.push(
                 Diagnostic::error(

@@ -995,23 +995,6 @@ Fix: Choose another name (`spread`, `turn`)."#,
         ),
     },
     Code {
-        code: "E0328",
-        severity: Error,
-        title: "a function calls itself or a later function",
-        explanation: r#"A function with parameters (`function NAME(a, b) { EXPR }`) calls itself, or a function declared after it.
-
-Calls of such functions are inlined at compile time (the body with the parameters replaced by the arguments), so a function may call only functions declared before it: that rules out recursion, which could not be inlined.
-
-In the example: `blob` calls `ball`, which is declared after it.
-
-Fix: Declare the called function first (move `ball` above `blob`)."#,
-        example: Library(
-            r#"function blob(a) { ball(a, 1) }
-function ball(p, r) { p * p - r }
-"#,
-        ),
-    },
-    Code {
         code: "E0329",
         severity: Error,
         title: "a name that cannot be bound by `let(…)`",
@@ -1040,6 +1023,22 @@ In the example: `select` is the built-in choice `select(i, a, b, …)`.
 Fix: Choose another name (`pick2`, `my_mix`)."#,
         example: Library(
             r#"function select(a, b) { a + b }
+"#,
+        ),
+    },
+    Code {
+        code: "E0331",
+        severity: Error,
+        title: "a recursive function that never returns",
+        explanation: r#"A function with parameters calls itself (directly, or through other functions that call it back) on every way through its body, so no call of it can ever return.
+
+Functions may be recursive: a call is evaluated with a limit on how deeply calls nest (`--max-call-depth`, 10,000 by default) and on how many calls one evaluation makes (`--max-calls`, 1,000,000), and past either the value is NaN with a warning. A function with no way out would always reach the limit, so it is refused here. `if(…)` and `select(…)` evaluate only the branch they choose, so a branch without the call is a way out; `&&` and `||` evaluate both sides.
+
+In the example: `count` calls itself whatever `n` is.
+
+Fix: Choose a case that returns without the call: `if(n <= 0, 0, 1 + count(n - 1))`."#,
+        example: Library(
+            r#"function count(n) { 1 + count(n - 1) }
 "#,
         ),
     },

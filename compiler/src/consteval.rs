@@ -21,6 +21,10 @@ pub enum Call {
     /// The call is this expression (a user function's body with its arguments in
     /// place): [`lower`] emits it where the call is, in the caller's `let` scope.
     Inline(Expr),
+    /// A call of a recursive function, compiled once into the expression's function
+    /// block (`key` tells functions apart: the same key, the same function):
+    /// [`lower`] emits the arguments and a call of the body.
+    Compiled { key: usize, params: Vec<Name>, body: Expr },
 }
 
 /// The parts of an expression language that are its own.
@@ -31,6 +35,9 @@ pub trait Leaves<O: StackOp> {
     fn var(&mut self, v: &Name, out: &mut Vec<O>) -> bool;
     /// What the call `f(args)` (the whole expression `e`) is.
     fn call(&mut self, e: &Expr, f: &Name, args: &[Expr], out: &mut Vec<O>) -> Call;
+    /// Called with true before the bodies of [`Call::Compiled`] functions are
+    /// emitted, false after: a body reads its parameters, never the caller's names.
+    fn in_function(&mut self, _inside: bool) {}
 }
 
 /// The VM's operator for a source operator.
@@ -59,16 +66,75 @@ pub fn vm_binop(op: BinOp) -> VmBinOp {
 /// their branches, so only the chosen one runs (and draws random numbers); a
 /// `let(…)` binding stays on the stack, read back with `Pick`, and the bindings are
 /// slid off under the body's value at the end.
+///
+/// Recursive functions ([`Call::Compiled`]) are emitted once each, before the
+/// expression, as a block the expression skips (`Funcs`): each body is `Enter`,
+/// the body with its parameters read from the stack like `let` bindings, `Slide`
+/// and `Ret`; calls (`Fn`) count from their own position, so the code can be
+/// spliced into other code.
 pub fn lower<O: StackOp, L: Leaves<O> + ?Sized>(lang: &mut L, e: &Expr, out: &mut Vec<O>) -> bool {
-    go(lang, e, out, &mut Bound { names: Vec::new(), depth: 0 })
+    let mut fns = Functions::default();
+    let mut main = Vec::new();
+    let mut ok = go(lang, e, &mut main, &mut Bound { names: Vec::new(), depth: 0, fns: &mut fns, buffer: 0 });
+    if fns.list.is_empty() {
+        out.extend(main);
+        return ok;
+    }
+    // Bodies may call further functions, which join the list.
+    lang.in_function(true);
+    let mut bodies: Vec<Vec<O>> = Vec::new();
+    let mut k = 0;
+    while let Some((_, params, body)) = fns.list.get(k).cloned() {
+        let arity = params.len();
+        let mut code = vec![O::from_core(Core::Enter(operand(arity)))];
+        let names = params.iter().enumerate().map(|(i, p)| (p.text.clone(), i)).collect();
+        ok &= go(lang, &body, &mut code, &mut Bound { names, depth: arity, fns: &mut fns, buffer: k + 1 });
+        code.extend([O::from_core(Core::Slide(operand(arity))), O::from_core(Core::Ret)]);
+        bodies.push(code);
+        k += 1;
+    }
+    lang.in_function(false);
+    let block: usize = bodies.iter().map(Vec::len).sum();
+    let mut starts = Vec::new();
+    let mut at = out.len() + 1;
+    for b in &bodies {
+        starts.push(at);
+        at += b.len();
+    }
+    let main_at = at;
+    out.push(O::from_core(Core::Funcs(operand(block))));
+    for b in bodies {
+        out.extend(b);
+    }
+    out.extend(main);
+    for (buffer, pos, callee) in fns.sites {
+        let site = if buffer == 0 { main_at + pos } else { starts[buffer - 1] + pos };
+        let rel = starts[callee] as i64 - site as i64;
+        out[site] = O::from_core(Core::Fn(i32::try_from(rel).unwrap_or(i32::MAX)));
+    }
+    ok
+}
+
+/// The recursive functions an expression calls, in the order first called, and
+/// where each call is.
+#[derive(Default)]
+struct Functions {
+    /// (key, parameters, body).
+    list: Vec<(usize, Vec<Name>, Expr)>,
+    /// (code buffer: 0 the expression, k + 1 body k; position in it; callee index).
+    sites: Vec<(usize, usize, usize)>,
 }
 
 /// The `let(…)` names in scope (innermost last) with the stack entry each lives in,
 /// counted from the bottom of the expression's own part of the stack, and how many
-/// entries that part holds where the next value will be pushed.
-struct Bound {
+/// entries that part holds where the next value will be pushed; the recursive
+/// functions called so far, and which code is being emitted (`buffer`, as in
+/// [`Functions::sites`]).
+struct Bound<'f> {
     names: Vec<(String, usize)>,
     depth: usize,
+    fns: &'f mut Functions,
+    buffer: usize,
 }
 
 /// An operand of a skip, pick or slide (code beyond 4 G instructions is refused by
@@ -93,11 +159,11 @@ fn patch<O: StackOp>(out: &mut [O], at: usize) {
     out[at] = O::from_core(c);
 }
 
-fn go<O: StackOp, L: Leaves<O> + ?Sized>(lang: &mut L, e: &Expr, out: &mut Vec<O>, b: &mut Bound) -> bool {
+fn go<O: StackOp, L: Leaves<O> + ?Sized>(lang: &mut L, e: &Expr, out: &mut Vec<O>, b: &mut Bound<'_>) -> bool {
     let op = |c: Core<O>| O::from_core(c);
     let d = b.depth;
     // Emits `x` with `at` entries on the stack.
-    let sub = |lang: &mut L, x: &Expr, out: &mut Vec<O>, b: &mut Bound, at: usize| {
+    let sub = |lang: &mut L, x: &Expr, out: &mut Vec<O>, b: &mut Bound<'_>, at: usize| {
         b.depth = at;
         go(lang, x, out, b)
     };
@@ -183,6 +249,27 @@ fn go<O: StackOp, L: Leaves<O> + ?Sized>(lang: &mut L, e: &Expr, out: &mut Vec<O
         ExprKind::Call(f, args) => match lang.call(e, f, args, out) {
             Call::Done(ok) => ok,
             Call::Inline(body) => sub(lang, &body, out, b, d),
+            Call::Compiled { key, params, body } => {
+                let mut ok = args.len() == params.len();
+                for (i, a) in args.iter().enumerate() {
+                    ok &= sub(lang, a, out, b, d + i);
+                }
+                if ok {
+                    let callee = match b.fns.list.iter().position(|(k, ..)| *k == key) {
+                        Some(i) => i,
+                        None => {
+                            b.fns.list.push((key, params, body));
+                            b.fns.list.len() - 1
+                        }
+                    };
+                    b.fns.sites.push((b.buffer, out.len(), callee));
+                    out.push(op(Core::Fn(0)));
+                } else {
+                    // A wrong number of arguments (the checker says so): 0.
+                    out.extend([op(Core::Push(0.0)), op(Core::Slide(operand(args.len())))]);
+                }
+                ok
+            }
             Call::Builtin(func) => {
                 let mut ok = true;
                 for (i, a) in args.iter().enumerate() {
@@ -239,7 +326,7 @@ pub fn eval(e: &Expr, var: &dyn Fn(&str) -> Option<f64>) -> Option<f64> {
     if !lower(&mut Constant { var }, e, &mut code) {
         return None;
     }
-    Some(expr::run(&code, &mut Vec::new(), |_| f64::NAN, |f, a| f.deterministic(a).unwrap_or(f64::NAN)))
+    Some(expr::run(&code, &mut expr::Machine::default(), |_| f64::NAN, |f, a| f.deterministic(a).unwrap_or(f64::NAN)))
 }
 
 #[cfg(test)]

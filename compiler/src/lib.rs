@@ -21,6 +21,7 @@ pub mod embedded_std;
 pub mod expand;
 pub mod ext;
 pub mod fmt;
+pub mod functions;
 pub mod importer;
 pub mod induce;
 pub mod lexer;

@@ -20,7 +20,7 @@ use mdg_vm::bundle::{
     ProtoId, RuleId, Selector, Settings, SlotId, SourceLoc, Transform, TransformId, CONT_NEXT, NONE,
 };
 use mdg_vm::expr::{BinOp as VmBinOp, ExprOp, Func, VARIABLES};
-use std::collections::HashMap;
+use std::collections::{BTreeSet, HashMap};
 
 /// How `angle` reads plain numbers.
 #[derive(Clone, Copy)]
@@ -53,6 +53,8 @@ struct Lower<'a> {
     frame: u16,
     /// `INST` ops emitted so far (the next prototype's ordinal).
     n_protos: u32,
+    /// The item indices of the recursive user functions.
+    recursive: BTreeSet<usize>,
 }
 
 /// Lowers a checked program. Diagnostics here are run-time-relevant problems the
@@ -77,6 +79,7 @@ pub fn lower(ex: &Expanded, sym: &Symbols, sources: &Sources) -> Result<Bundle, 
         next_slot: 0,
         frame: 0,
         n_protos: 0,
+        recursive: crate::functions::CallGraph::new(ex).recursive(),
     };
     let b = l.run();
     if l.diags.iter().any(|d| d.is_error()) {
@@ -105,11 +108,17 @@ type Scope = Vec<(String, u16)>;
 
 /// The geometric expression language: parameters and locals by slot, variables by
 /// index, constants folded from `@param`/`@define`, numbers with units in radians,
-/// calls of user functions inlined.
+/// calls of user functions inlined, or of recursive ones compiled once into the
+/// expression's function block (`crate::functions`).
 struct Geometric<'a> {
     ex: &'a Expanded,
     angle: AngleMode,
     scope: &'a [(String, u16)],
+    /// The item indices of the recursive functions.
+    recursive: &'a BTreeSet<usize>,
+    /// The rule's scope while a recursive function's body is emitted (which reads
+    /// only its parameters and the names every expression reads).
+    outer: Option<&'a [(String, u16)]>,
 }
 
 impl Leaves<ExprOp> for Geometric<'_> {
@@ -138,8 +147,10 @@ impl Leaves<ExprOp> for Geometric<'_> {
             return Call::Builtin(func);
         }
         match self.ex.user_function(&f.text) {
-            // Inlined: the checker allows calls to functions declared earlier only,
-            // so this terminates.
+            Some((i, _, params, body)) if self.recursive.contains(&i) => {
+                Call::Compiled { key: i, params: params.to_vec(), body: body.clone() }
+            }
+            // Inlined: a function that is not recursive calls a finite tree of others.
             Some((_, _, params, body)) => Call::Inline(inline_call(params, body, args)),
             // The checker reports unknown functions before lowering.
             None => {
@@ -148,11 +159,26 @@ impl Leaves<ExprOp> for Geometric<'_> {
             }
         }
     }
+
+    fn in_function(&mut self, inside: bool) {
+        if inside {
+            self.outer = Some(std::mem::take(&mut self.scope));
+        } else if let Some(s) = self.outer.take() {
+            self.scope = s;
+        }
+    }
 }
 
 /// Compiles an expression to expression code in the [`Geometric`] language.
-fn expr_code(ex: &Expanded, angle: AngleMode, scope: &[(String, u16)], e: &Expr, out: &mut Vec<ExprOp>) {
-    consteval::lower(&mut Geometric { ex, angle, scope }, e, out);
+fn expr_code(
+    ex: &Expanded,
+    recursive: &BTreeSet<usize>,
+    angle: AngleMode,
+    scope: &[(String, u16)],
+    e: &Expr,
+    out: &mut Vec<ExprOp>,
+) {
+    consteval::lower(&mut Geometric { ex, angle, scope, recursive, outer: None }, e, out);
 }
 
 /// The body of a function with parameters, each parameter replaced by its argument
@@ -491,14 +517,14 @@ impl<'a> Lower<'a> {
             });
         }
         let mut extensions = bundle::Extensions::default();
-        let (ex, angle) = (self.ex, self.angle);
+        let (ex, angle, recursive) = (self.ex, self.angle, &self.recursive);
         let cx = LowerCx {
             ex,
             sym: self.sym,
             rule_ids: &self.rule_ids,
             expr_code: &|e: &Expr| {
                 let mut out = Vec::new();
-                expr_code(ex, angle, &[], e, &mut out);
+                expr_code(ex, recursive, angle, &[], e, &mut out);
                 out
             },
             angle_factor: angle_factor(angle, None),
@@ -986,6 +1012,7 @@ impl<'a> Lower<'a> {
                 AdjKind::Weight(i) => (AdjOp::Weight, i),
                 AdjKind::Fps => (AdjOp::Fps, 0),
                 AdjKind::Hsb(i) => (AdjOp::Hsb, i),
+                AdjKind::Skew => (AdjOp::Skew, 0),
                 AdjKind::Paint => continue,
             };
             prims.push(PrimAdj { kind: k, axis, args });
@@ -1011,7 +1038,7 @@ impl<'a> Lower<'a> {
     }
 
     fn expr_code(&self, e: &Expr, out: &mut Vec<ExprOp>) {
-        expr_code(self.ex, self.angle, &self.scope, e, out)
+        expr_code(self.ex, &self.recursive, self.angle, &self.scope, e, out)
     }
 
     fn isosurface(&mut self, name: &Name, entries: &[IsoEntry]) -> Option<bundle::Isosurface> {

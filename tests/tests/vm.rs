@@ -217,6 +217,65 @@ fn expression_forms_choose_lazily_and_bind_once() {
     assert_eq!(xs("startshape A\nrule A { (let(k = 2; k + if(k > 1, 1, 5))) * {x 1} VERTEX {} }\n").len(), 3);
 }
 
+/// Recursive functions (reference §14): factorial, Fibonacci, mutual recursion and a
+/// call of a later function evaluate; a runaway recursion ends at the call limits
+/// with a warning naming the option, its value NaN (used as 0, said too).
+#[test]
+fn recursive_functions_evaluate_within_their_limits() {
+    let src = concat!(
+        "startshape A\n",
+        "function fact(n) { if(n <= 1, 1, n * fact(n - 1)) }\n",
+        "function fib(n) { if(n < 2, n, fib(n - 1) + fib(n - 2)) }\n",
+        "function even(n) { if(n <= 0, 1, odd(n - 1)) }\n",
+        "function odd(n) { if(n <= 0, 0, even(n - 1)) }\n",
+        "rule A { B(5) {} B(10) {} }\n",
+        "rule B(int n) { VERTEX {x fact(n) y fib(n) z (even(n) + 10 * odd(n + 1))} }\n",
+    );
+    let out = run_source(src);
+    let got: Vec<[f32; 3]> = out.vertex_mesh().positions.clone();
+    assert_eq!(got, [[120.0, 5.0, 0.0], [3628800.0, 55.0, 11.0]], "{:?}", out.stats.warnings);
+    assert!(out.stats.warnings.is_empty(), "{:?}", out.stats.warnings);
+    // Deep: fine under the default depth; past a lower one, NaN and the warning.
+    let deep = "startshape A\nfunction sum(n) { if(n <= 0, 0, n + sum(n - 1)) }\nrule A { VERTEX {x sum(5000)} }\n";
+    let b = build_source(deep);
+    let out = evaluate(&b, &EvalOptions::default());
+    assert_eq!(out.vertex_mesh().positions[0][0], 12502500.0);
+    let low = mdg_vm::expr::CallLimits { depth: 100, ..Default::default() };
+    let out = evaluate(&b, &EvalOptions { calls: low, ..EvalOptions::default() });
+    assert_eq!(out.vertex_mesh().positions[0][0], 0.0, "NaN, used as 0");
+    let w = out.stats.warnings.join("\n");
+    assert!(w.contains("nested deeper than 100") && w.contains("--max-call-depth"), "{w}");
+    // Exponential: shallow, but past the call limit.
+    let fib =
+        "startshape A\nfunction fib(n) { if(n < 2, n, fib(n - 1) + fib(n - 2)) }\nrule A { VERTEX {x fib(40)} }\n";
+    let out = evaluate(&build_source(fib), &EvalOptions::default());
+    let w = out.stats.warnings.join("\n");
+    assert!(w.contains("more than 1000000 function calls") && w.contains("--max-calls"), "{w}");
+}
+
+/// `skew X Y` (reference §5): Context Free's skew along the frame's own axes, the
+/// same from a constant list, a list computed at run time and an iterator's steps;
+/// the frames after it stay affine (a translation after the skew is skewed too).
+#[test]
+fn skew_maps_points_as_context_free_does() {
+    let xy = |src: &str| -> Vec<[f32; 2]> {
+        let out = run_source(src);
+        assert!(out.stats.warnings.is_empty(), "{:?}", out.stats.warnings);
+        out.vertex_mesh().positions.iter().map(|p| [(p[0] * 1e4).round() / 1e4, (p[1] * 1e4).round() / 1e4]).collect()
+    };
+    let tri = "rule T { VERTEX {y 1} VERTEX {x 1} VERTEX {x 1 y 1} }\n";
+    let want = [[1.0, 1.0], [1.0, 0.0], [2.0, 1.0]];
+    assert_eq!(xy(&format!("startshape A\nrule A {{ T {{skew 45 0}} }}\n{tri}")), want);
+    assert_eq!(xy(&format!("startshape A\nrule A {{ T {{skew (45 + rand(0, 0)) 0}} }}\n{tri}")), want);
+    assert_eq!(xy(&format!("startshape A\nrule A {{ 4/4 * {{skew 45 0}} T {{}} }}\n{tri}"))[9..], want);
+    // y += tan 45° · x; and with a rotation first, the skew is in the turned frame.
+    assert_eq!(xy(&format!("startshape A\nrule A {{ T {{skew 0 45}} }}\n{tri}")), [[0.0, 1.0], [1.0, 1.0], [1.0, 2.0]]);
+    assert_eq!(
+        xy(&format!("startshape A\nrule A {{ T {{rz 90 skew 45 0}} }}\n{tri}")),
+        [[-1.0, 1.0], [0.0, 1.0], [-1.0, 2.0]]
+    );
+}
+
 #[test]
 fn continuation_in_iterators_chains_runs() {
     // Without `\` every run starts from the iterator's frame; with it, from the last run's end.

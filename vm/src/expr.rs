@@ -233,6 +233,16 @@ pub enum ExprOp {
     /// Pop the top, drop the `n` entries under it, push the top back (the end of a
     /// `let(…)`).
     Slide(u32),
+    /// Skip the next `n` instructions: a block of function bodies (recursive user
+    /// functions, compiled once), each an `Enter` … `Ret`.
+    Funcs(u32),
+    /// The start of a function body taking `arity` arguments (reached only by `Fn`).
+    Enter(u32),
+    /// Call the function whose `Enter` is `rel` instructions from this one: its
+    /// arguments are the top entries, its value replaces them.
+    Fn(i32),
+    /// Return from a function body (its value on top, its arguments slid off).
+    Ret,
 }
 
 /// Whether a value counts as true (`if`, `&&`, `||`): not 0 and not NaN.
@@ -324,6 +334,14 @@ pub enum Core<L> {
     Pick(u32),
     /// Pop the top, drop the `n` entries under it, push the top back.
     Slide(u32),
+    /// Skip the next `n` instructions: a block of function bodies.
+    Funcs(u32),
+    /// A function body's start, with its arity.
+    Enter(u32),
+    /// Call the function whose `Enter` is `rel` instructions away.
+    Fn(i32),
+    /// Return from a function body.
+    Ret,
 }
 
 /// An instruction of the shared stack machine ([`Core`]): its encoder-side
@@ -348,6 +366,10 @@ impl StackOp for ExprOp {
             ExprOp::SkipUnless(n) => Core::SkipUnless(n),
             ExprOp::Pick(k) => Core::Pick(k),
             ExprOp::Slide(n) => Core::Slide(n),
+            ExprOp::Funcs(n) => Core::Funcs(n),
+            ExprOp::Enter(a) => Core::Enter(a),
+            ExprOp::Fn(rel) => Core::Fn(rel),
+            ExprOp::Ret => Core::Ret,
             leaf @ (ExprOp::Var(_) | ExprOp::Slot(_)) => Core::Leaf(leaf),
         }
     }
@@ -362,22 +384,84 @@ impl StackOp for ExprOp {
             Core::SkipUnless(n) => ExprOp::SkipUnless(n),
             Core::Pick(k) => ExprOp::Pick(k),
             Core::Slide(n) => ExprOp::Slide(n),
+            Core::Funcs(n) => ExprOp::Funcs(n),
+            Core::Enter(a) => ExprOp::Enter(a),
+            Core::Fn(rel) => ExprOp::Fn(rel),
+            Core::Ret => ExprOp::Ret,
             Core::Leaf(op) => op,
         }
     }
 }
 
+/// The default deepest nesting of function calls in one evaluation
+/// ([`CallLimits::depth`]; `mdg-run --max-call-depth`). Calls live on the heap, so a
+/// deep recursion cannot overflow the native stack; 10,000 is far more than a
+/// formula needs and ends a runaway at once.
+pub const DEFAULT_MAX_CALL_DEPTH: u32 = 10_000;
+/// The default most function calls in one evaluation ([`CallLimits::calls`];
+/// `mdg-run --max-calls`): a depth limit alone does not end `fib(100)`, which stays
+/// shallow and makes 2^100 calls. A million calls take a few milliseconds.
+pub const DEFAULT_MAX_CALLS: u64 = 1_000_000;
+
+/// The limits on user function calls in one evaluation of an expression.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CallLimits {
+    /// The deepest nesting of calls.
+    pub depth: u32,
+    /// The most calls.
+    pub calls: u64,
+}
+
+impl Default for CallLimits {
+    fn default() -> Self {
+        CallLimits { depth: DEFAULT_MAX_CALL_DEPTH, calls: DEFAULT_MAX_CALLS }
+    }
+}
+
+/// Evaluations a call limit stopped (each gave NaN), counted for the run's warning.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CallsCut {
+    /// Stopped at [`CallLimits::depth`].
+    pub depth: u64,
+    /// Stopped at [`CallLimits::calls`].
+    pub calls: u64,
+}
+
+/// The machine's memory, kept between evaluations so they allocate nothing: the
+/// value stack, the return addresses of function calls, the call limits and the
+/// evaluations they stopped.
+#[derive(Clone, Debug, Default)]
+pub struct Machine {
+    values: Vec<f64>,
+    returns: Vec<usize>,
+    /// The limits on function calls (defaults: [`CallLimits::default`]).
+    pub limits: CallLimits,
+    /// The evaluations the limits stopped so far.
+    pub cut: CallsCut,
+}
+
+impl Machine {
+    /// A machine with these call limits.
+    pub fn new(limits: CallLimits) -> Machine {
+        Machine { values: Vec::with_capacity(16), returns: Vec::new(), limits, cut: CallsCut::default() }
+    }
+}
+
 /// Runs verified code on the shared machine: `leaf` gives a leaf's value, `call`
 /// applies a function to its arguments. On malformed code the result is NaN, never
-/// a panic.
+/// a panic; so it is when a user function call would go past `m`'s limits (counted
+/// in `m.cut`).
 #[inline(always)]
 pub fn run<O: StackOp>(
     code: &[O],
-    stack: &mut Vec<f64>,
+    m: &mut Machine,
     mut leaf: impl FnMut(O) -> f64,
     mut call: impl FnMut(Func, &[f64; 3]) -> f64,
 ) -> f64 {
+    let Machine { values: stack, returns, limits, cut } = m;
     stack.clear();
+    returns.clear();
+    let mut calls: u64 = 0;
     let mut pc = 0;
     while let Some(op) = code.get(pc) {
         pc += 1;
@@ -401,7 +485,7 @@ pub fn run<O: StackOp>(
                 stack.truncate(at);
                 stack.push(call(func, &args));
             }
-            Core::Skip(n) => pc += n as usize,
+            Core::Skip(n) | Core::Funcs(n) => pc += n as usize,
             Core::SkipUnless(n) => {
                 if !truthy(stack.pop().unwrap_or(f64::NAN)) {
                     pc += n as usize;
@@ -416,6 +500,25 @@ pub fn run<O: StackOp>(
                 stack.truncate(stack.len().saturating_sub(n as usize));
                 stack.push(top);
             }
+            Core::Enter(_) => {}
+            Core::Fn(rel) => {
+                if returns.len() >= limits.depth as usize {
+                    cut.depth += 1;
+                    return f64::NAN;
+                }
+                calls += 1;
+                if calls > limits.calls {
+                    cut.calls += 1;
+                    return f64::NAN;
+                }
+                let Some(target) = (pc - 1).checked_add_signed(rel as isize) else { return f64::NAN };
+                returns.push(pc);
+                pc = target;
+            }
+            Core::Ret => match returns.pop() {
+                Some(back) => pc = back,
+                None => return f64::NAN,
+            },
         }
     }
     stack.pop().unwrap_or(f64::NAN)
@@ -424,7 +527,10 @@ pub fn run<O: StackOp>(
 /// Checks code for the shared machine: constants finite, operators and functions
 /// known, the stack never underflows and ends with exactly one value, skips land
 /// inside the code (or at its end) with the same stack depth on every way there, no
-/// instruction is unreachable, and `Pick` reads an entry that exists. `leaf` checks
+/// instruction is unreachable, and `Pick` reads an entry that exists. Function
+/// bodies lie in `Funcs` blocks, each `Enter(arity)` … `Ret`, entered only by `Fn`
+/// (whose target must be an `Enter`): a body starts with its arguments on the stack
+/// and returns exactly one value, and no skip leaves or enters a body. `leaf` checks
 /// a leaf's index, `func` whether a function is allowed; both get the instruction's
 /// position for the message.
 pub fn check<O: StackOp>(
@@ -432,9 +538,13 @@ pub fn check<O: StackOp>(
     mut leaf: impl FnMut(usize, O) -> Result<(), String>,
     mut func: impl FnMut(usize, Func) -> Result<(), String>,
 ) -> Result<(), String> {
+    let region = regions(code)?;
     // The depth each skip brings to its target (index `code.len()`: the end).
     let mut arrive: Vec<Option<i64>> = vec![None; code.len() + 1];
     let meet = |arrive: &mut [Option<i64>], at: usize, d: i64, from: usize| -> Result<(), String> {
+        if region.get(at).copied().unwrap_or(0) != region[from] {
+            return Err(format!("skip at {from} leaves or enters a function body"));
+        }
         match arrive.get_mut(at) {
             None => Err(format!("skip beyond the end at {from}")),
             Some(Some(t)) if *t != d => Err(format!("stack depths {t} and {d} meet at {at}")),
@@ -444,9 +554,16 @@ pub fn check<O: StackOp>(
             }
         }
     };
-    // `None`: the previous instruction was an unconditional skip.
+    // `None`: the previous instruction was an unconditional skip or a return.
     let mut depth: Option<i64> = Some(0);
     for (i, op) in code.iter().enumerate() {
+        if let Core::Enter(arity) = op.core() {
+            if depth.is_some() || arrive[i].is_some() {
+                return Err(format!("function body at {i} reached without a call"));
+            }
+            depth = Some(i64::from(arity));
+            continue;
+        }
         let d = match (depth, arrive[i]) {
             (Some(d), Some(t)) if d != t => return Err(format!("stack depths {d} and {t} meet at {i}")),
             (Some(d), _) | (None, Some(d)) => d,
@@ -468,7 +585,7 @@ pub fn check<O: StackOp>(
                 }
                 None => return Err(format!("unknown function {f} at {i}")),
             },
-            Core::Skip(n) => {
+            Core::Skip(n) | Core::Funcs(n) => {
                 meet(&mut arrive, i + 1 + n as usize, d, i)?;
                 depth = None;
                 continue;
@@ -483,6 +600,21 @@ pub fn check<O: StackOp>(
             Core::Pick(k) if i64::from(k) >= d => return Err(format!("pick {k} beyond the stack at {i}")),
             Core::Pick(_) => (0, 1),
             Core::Slide(n) => (i64::from(n) + 1, 1),
+            Core::Fn(rel) => {
+                let target = i.checked_add_signed(rel as isize).and_then(|t| code.get(t)).map(|t| t.core());
+                match target {
+                    Some(Core::Enter(arity)) => (i64::from(arity), 1),
+                    _ => return Err(format!("call at {i} of no function body")),
+                }
+            }
+            Core::Ret => {
+                if d != 1 {
+                    return Err(format!("function returns {d} values at {i}"));
+                }
+                depth = None;
+                continue;
+            }
+            Core::Enter(_) => (0, 0),
         };
         if d < pop {
             return Err(format!("stack underflow at {i}"));
@@ -500,13 +632,59 @@ pub fn check<O: StackOp>(
     Ok(())
 }
 
+/// The function body each instruction belongs to (0: none; bodies are numbered from
+/// 1 in order), checking the blocks' shape: a `Funcs` block inside the code and not
+/// inside another, holding only bodies, each `Enter` … `Ret`; no `Enter` or `Ret`
+/// elsewhere.
+fn regions<O: StackOp>(code: &[O]) -> Result<Vec<u32>, String> {
+    let mut region = vec![0u32; code.len()];
+    let (mut block_end, mut current, mut bodies) = (None::<usize>, 0u32, 0u32);
+    for (i, op) in code.iter().enumerate() {
+        if block_end == Some(i) {
+            if current != 0 {
+                return Err(format!("function body without a return at {i}"));
+            }
+            block_end = None;
+        }
+        match op.core() {
+            Core::Funcs(n) => {
+                let end = i + 1 + n as usize;
+                if block_end.is_some() || end > code.len() {
+                    return Err(format!("misplaced function block at {i}"));
+                }
+                block_end = Some(end);
+            }
+            Core::Enter(_) if block_end.is_some() && current == 0 => {
+                bodies += 1;
+                current = bodies;
+            }
+            Core::Enter(_) => return Err(format!("function body outside a function block at {i}")),
+            Core::Ret if current != 0 => {
+                region[i] = current;
+                current = 0;
+                continue;
+            }
+            Core::Ret => return Err(format!("return outside a function body at {i}")),
+            _ if block_end.is_some() && current == 0 => {
+                return Err(format!("instruction between function bodies at {i}"));
+            }
+            _ => {}
+        }
+        region[i] = current;
+    }
+    if current != 0 {
+        return Err("function body without a return".into());
+    }
+    Ok(region)
+}
+
 /// Evaluates verified expression code with `vars` (indexed like [`VARIABLES`]) and
 /// the running rule's frame `slots`. Verified code never underflows; on malformed
 /// code (or a slot beyond `slots`) the result is NaN, never a panic.
-pub fn eval(code: &[ExprOp], vars: &[f64; 6], slots: &[f64], rng: &mut dyn Random, stack: &mut Vec<f64>) -> f64 {
+pub fn eval(code: &[ExprOp], vars: &[f64; 6], slots: &[f64], rng: &mut dyn Random, m: &mut Machine) -> f64 {
     run(
         code,
-        stack,
+        m,
         |leaf| match leaf {
             ExprOp::Slot(i) => slots.get(i as usize).copied().unwrap_or(f64::NAN),
             ExprOp::Var(i) => vars.get(i as usize).copied().unwrap_or(f64::NAN),
@@ -535,193 +713,4 @@ pub fn verify(code: &[ExprOp]) -> Result<(), String> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A fixed stream (the draws do not matter here, only that nothing panics).
-    struct Half;
-
-    impl Random for Half {
-        fn uniform(&mut self) -> f64 {
-            0.5
-        }
-        fn normal(&mut self) -> f64 {
-            0.5
-        }
-    }
-
-    /// Values one `log(-1)`, `0/0`, `1e308*10` or an underflow away.
-    const HOSTILE: [f64; 12] =
-        [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 1e308, -1e308, 0.0, -0.0, 1.0, -1.0, 5e-324, 1e-300, 0.5];
-
-    /// A stream that counts its draws.
-    struct Counting(u32);
-
-    impl Random for Counting {
-        fn uniform(&mut self) -> f64 {
-            self.0 += 1;
-            0.25
-        }
-        fn normal(&mut self) -> f64 {
-            self.0 += 1;
-            0.0
-        }
-    }
-
-    fn rand_01() -> [ExprOp; 3] {
-        [ExprOp::Push(0.0), ExprOp::Push(1.0), ExprOp::Call(Func::Rand as u8)]
-    }
-
-    /// `if(s0, 10, rand(0, 1))`, as the compiler lowers it.
-    fn if_code() -> Vec<ExprOp> {
-        let mut c = vec![ExprOp::Slot(0), ExprOp::SkipUnless(2), ExprOp::Push(10.0), ExprOp::Skip(3)];
-        c.extend(rand_01());
-        c
-    }
-
-    #[test]
-    fn if_runs_only_the_chosen_branch() {
-        let code = if_code();
-        assert_eq!(verify(&code), Ok(()));
-        let (mut rng, mut stack) = (Counting(0), Vec::new());
-        assert_eq!(eval(&code, &[0.0; 6], &[1.0], &mut rng, &mut stack), 10.0);
-        assert_eq!(rng.0, 0, "the untaken branch draws nothing");
-        assert_eq!(eval(&code, &[0.0; 6], &[0.0], &mut rng, &mut stack), 0.25);
-        assert_eq!(eval(&code, &[0.0; 6], &[f64::NAN], &mut rng, &mut stack), 0.25, "NaN is false");
-        assert_eq!(rng.0, 2);
-    }
-
-    #[test]
-    fn let_bindings_are_picked_and_slid_off() {
-        // let(a = s0 * 2; b = a + 1; a * b)
-        let code = [
-            ExprOp::Slot(0),
-            ExprOp::Push(2.0),
-            ExprOp::Bin(BinOp::Mul),
-            ExprOp::Pick(0),
-            ExprOp::Push(1.0),
-            ExprOp::Bin(BinOp::Add),
-            ExprOp::Pick(1),
-            ExprOp::Pick(1),
-            ExprOp::Bin(BinOp::Mul),
-            ExprOp::Slide(2),
-            // … + 1: the bindings are gone from under the value.
-            ExprOp::Push(1.0),
-            ExprOp::Bin(BinOp::Add),
-        ];
-        assert_eq!(verify(&code), Ok(()));
-        let mut stack = Vec::new();
-        assert_eq!(eval(&code, &[0.0; 6], &[3.0], &mut Half, &mut stack), 43.0);
-    }
-
-    #[test]
-    fn select_floors_and_clamps_its_index() {
-        // select(s0, 10, 20, 30): the index stays under the branches.
-        let branch = |k: f64| [ExprOp::Pick(0), ExprOp::Push(k), ExprOp::Bin(BinOp::Lt), ExprOp::SkipUnless(2)];
-        let mut code = vec![ExprOp::Slot(0)];
-        code.extend(branch(1.0));
-        code.extend([ExprOp::Push(10.0), ExprOp::Skip(7)]);
-        code.extend(branch(2.0));
-        code.extend([ExprOp::Push(20.0), ExprOp::Skip(1)]);
-        code.extend([ExprOp::Push(30.0), ExprOp::Slide(1)]);
-        assert_eq!(verify(&code), Ok(()));
-        let mut stack = Vec::new();
-        let at = |i: f64, stack: &mut Vec<f64>| eval(&code, &[0.0; 6], &[i], &mut Half, stack);
-        let got: Vec<f64> = [-3.0, 0.0, 0.9, 1.0, 1.5, 2.0, 7.0, f64::NAN].iter().map(|&i| at(i, &mut stack)).collect();
-        assert_eq!(got, [10.0, 10.0, 10.0, 20.0, 20.0, 30.0, 30.0, 30.0]);
-    }
-
-    #[test]
-    fn verify_refuses_bad_skips_and_picks() {
-        let bad = |code: &[ExprOp]| verify(code).err().unwrap_or_default();
-        // A skip past the end.
-        assert!(bad(&[ExprOp::Push(1.0), ExprOp::Skip(5)]).contains("beyond the end"));
-        // Branches that leave different depths.
-        let uneven = [ExprOp::Push(1.0), ExprOp::SkipUnless(2), ExprOp::Push(1.0), ExprOp::Push(2.0)];
-        assert!(bad(&uneven).contains("meet"), "{}", bad(&uneven));
-        // An instruction no path reaches.
-        let dead = [ExprOp::Push(1.0), ExprOp::Skip(1), ExprOp::Neg];
-        assert!(bad(&dead).contains("unreachable"), "{}", bad(&dead));
-        // A pick below the bottom, a slide of more than there is.
-        assert!(bad(&[ExprOp::Push(1.0), ExprOp::Pick(1), ExprOp::Bin(BinOp::Add)]).contains("pick 1"));
-        assert!(bad(&[ExprOp::Push(1.0), ExprOp::Slide(1)]).contains("underflow"));
-        // Malformed code never panics in evaluation.
-        for code in [&[ExprOp::Skip(9)][..], &[ExprOp::Pick(3)], &[ExprOp::Slide(4)], &[ExprOp::SkipUnless(1)]] {
-            let _ = eval(code, &[0.0; 6], &[], &mut Half, &mut Vec::new());
-        }
-    }
-
-    #[test]
-    fn clamp_with_a_nan_argument_is_nan() {
-        let nan = f64::NAN;
-        for args in [[1.0, nan, nan], [1.0, nan, 0.0], [1.0, 0.0, nan], [nan, 0.0, 1.0], [nan, nan, nan]] {
-            let v = Func::Clamp.apply(&args, &mut Half);
-            assert!(v.is_nan(), "clamp{args:?} = {v}");
-            assert!(call("clamp", &args).is_some_and(f64::is_nan), "the folder's clamp{args:?}");
-        }
-    }
-
-    #[test]
-    fn clamp_orders_its_bounds_and_takes_infinite_ones() {
-        let clamp = |a: [f64; 3]| Func::Clamp.apply(&a, &mut Half);
-        assert_eq!(clamp([5.0, 0.0, 1.0]), 1.0);
-        assert_eq!(clamp([5.0, 1.0, 0.0]), 1.0);
-        assert_eq!(clamp([-5.0, 1.0, 0.0]), 0.0);
-        assert_eq!(clamp([0.25, 1.0, 0.0]), 0.25);
-        assert_eq!(clamp([f64::NEG_INFINITY, 0.0, 1.0]), 0.0);
-        assert_eq!(clamp([0.5, f64::NEG_INFINITY, f64::INFINITY]), 0.5);
-        assert_eq!(clamp([f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY]), f64::INFINITY);
-    }
-
-    /// Every function of the table (so a function added later is covered) on every
-    /// combination of NaN, infinite, huge, tiny and plain arguments: no panic, and the
-    /// constant folder (`call`) gives what evaluation gives.
-    #[test]
-    fn operators_are_named_and_numbered_by_one_table() {
-        assert_eq!(BinOp::ALL.len(), BINOPS.len());
-        for (i, &op) in BinOp::ALL.iter().enumerate() {
-            assert_eq!(op.id() as usize, i);
-            assert_eq!(BinOp::from_id(op.id()), Some(op));
-            assert_eq!(BinOp::from_symbol(op.symbol()), Some(op));
-        }
-        assert_eq!(BinOp::from_id(BINOPS.len() as u8), None);
-        // The ids a bundle holds (docs/bytecode.md): `*` is 2, `||` is 12.
-        assert_eq!((BinOp::Mul.id(), BinOp::Or.id()), (2, 12));
-        assert_eq!(
-            (BinOp::Pow.apply(2.0, 10.0), BinOp::Le.apply(1.0, 1.0), BinOp::And.apply(f64::NAN, 1.0)),
-            (1024.0, 1.0, 0.0)
-        );
-        // Serialised as the id (the creature table's JSON), and read back.
-        assert_eq!(serde_json::to_string(&BinOp::Ge).ok().as_deref(), Some("8"));
-        assert_eq!(serde_json::from_str::<BinOp>("8").ok(), Some(BinOp::Ge));
-        assert!(serde_json::from_str::<BinOp>("13").is_err());
-    }
-
-    #[test]
-    fn every_function_takes_non_finite_and_huge_arguments() {
-        for &f in Func::ALL {
-            let n = f.arity();
-            let combos = HOSTILE.len().pow(n as u32);
-            for k in 0..combos {
-                let args: [f64; 3] = std::array::from_fn(|i| {
-                    if i < n {
-                        HOSTILE[k / HOSTILE.len().pow(i as u32) % HOSTILE.len()]
-                    } else {
-                        f64::NAN
-                    }
-                });
-                let v = f.apply(&args, &mut Half);
-                if let Some(folded) = call(f.name(), &args[..n]) {
-                    assert!(folded.to_bits() == v.to_bits() || (folded.is_nan() && v.is_nan()), "{}{args:?}", f.name());
-                }
-            }
-        }
-        for &op in BinOp::ALL {
-            for a in HOSTILE {
-                for b in HOSTILE {
-                    let _ = op.apply(a, b);
-                }
-            }
-        }
-    }
-}
+mod tests;

@@ -845,6 +845,7 @@ fn adjustment_snippet(name: &str, kind: Option<AdjKind>) -> String {
         Some(AdjKind::Flip(_)) | Some(AdjKind::Turn(..)) => name.to_string(),
         Some(AdjKind::Rotate(_)) => format!("{name} ${{1:90}}"),
         Some(AdjKind::Scale) => format!("{name} ${{1:0.5}}"),
+        Some(AdjKind::Skew) => format!("{name} ${{1:15}} ${{2:0}}"),
         Some(AdjKind::Color(_)) | Some(AdjKind::Weight(_)) => format!("{name} ${{1:-0.5}}"),
         _ => format!("{name} ${{1:1}}"),
     }

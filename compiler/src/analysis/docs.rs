@@ -93,6 +93,7 @@ pub const DOCS: &[Doc] = &[
     d(Adjustment, "rollright", "rollright [A]", "Rotate about z by +90° (or +A)."),
     d(Adjustment, "rollleft", "rollleft [A]", "Rotate about z by −90° (or −A)."),
     d(Adjustment, "s", "s S | s X Y [Z]", "Scale: `s S` multiplies lengths by S; `s X Y Z` scales the frame's own axes by X, Y and Z (Z defaults to 1)."),
+    d(Adjustment, "skew", "skew X Y", "Skew by the angles X and Y (Context Free's `skew`): x += tan X · y, y += tan Y · x, z unchanged; a general linear map, carried like a non-uniform scale."),
     d(Adjustment, "f", "f X Y Z", "Reflect across the plane through the origin with normal (X, Y, Z)."),
     d(Adjustment, "fx", "fx", "Reflect across the yz-plane: (x, y, z) → (−x, y, z)."),
     d(Adjustment, "fy", "fy", "Reflect across the xz-plane: (x, y, z) → (x, −y, z)."),

@@ -21,10 +21,6 @@ pub(crate) struct Emitter<'a> {
     params: BTreeMap<String, Vec<String>>,
     counter: u32,
     line: u32,
-    /// While a function body is written: the functions it may call (itself
-    /// excluded: MDG functions do not recurse); `cutting` is then true.
-    cut: Vec<String>,
-    cutting: bool,
     /// Functions without parameters being inlined (a recursion among them is cut).
     inlining: Vec<String>,
 }
@@ -41,8 +37,6 @@ impl<'a> Emitter<'a> {
             params,
             counter: 0,
             line: 0,
-            cut: Vec::new(),
-            cutting: false,
             inlining: Vec::new(),
         }
     }
@@ -54,47 +48,18 @@ impl<'a> Emitter<'a> {
 
     /// The rules, functions and start rule (directives are the caller's).
     pub(crate) fn shapes(&mut self, out: &mut String) {
-        // Functions with parameters, each after the ones it calls (MDG reads them in
-        // order); those without are inlined where they are called.
+        // Functions with parameters, in source order (MDG functions may call later
+        // ones and recurse); those without are inlined where they are called.
         let funcs: Vec<&(String, Vec<String>, Expr, u32)> =
             self.prog.functions.iter().filter(|f| !f.1.is_empty()).collect();
-        let mut done: Vec<&str> = Vec::new();
-        while done.len() < funcs.len() {
-            let before = done.len();
-            for f in &funcs {
-                if done.contains(&f.0.as_str()) {
-                    continue;
-                }
-                let ready = funcs.iter().all(|g| g.0 == f.0 || done.contains(&g.0.as_str()) || !calls(&f.2, &g.0));
-                if ready
-                    || done.len() == before
-                        && f.0
-                            == funcs
-                                .iter()
-                                .find(|g| !done.contains(&g.0.as_str()))
-                                .map(|g| g.0.clone())
-                                .unwrap_or_default()
-                {
-                    let (name, params, body, line) = f;
-                    self.line = *line;
-                    let mdg = self.names.get(name);
-                    self.scope = params.iter().map(|p| (p.clone(), self.names.get(p))).collect();
-                    let ps: Vec<String> = self.scope.iter().map(|p| p.1.clone()).collect();
-                    self.cut = done.iter().map(|d| d.to_string()).collect();
-                    self.cut.push(name.clone());
-                    self.cutting = true;
-                    let e = self.expr(body);
-                    self.cutting = false;
-                    let _ = writeln!(out, "function {mdg}({}) {{ {e} }}\n", ps.join(", "));
-                    done.push(name.as_str());
-                    break;
-                }
-            }
-            if done.len() == before {
-                break;
-            }
+        for (name, params, body, line) in funcs {
+            self.line = *line;
+            let mdg = self.names.get(name);
+            self.scope = params.iter().map(|p| (p.clone(), self.names.get(p))).collect();
+            let ps: Vec<String> = self.scope.iter().map(|p| p.1.clone()).collect();
+            let e = self.expr(body);
+            let _ = writeln!(out, "function {mdg}({}) {{ {e} }}\n", ps.join(", "));
         }
-        self.cut.clear();
         let shapes: Vec<&Shape> = self.prog.shapes.iter().collect();
         for sh in shapes {
             if sh.rules.is_empty() {
@@ -365,7 +330,7 @@ impl<'a> Emitter<'a> {
                     );
                     parts.push(format!("A {}", args[0]));
                 }
-                ("skew", _) => self.rep.drop(line, "skew", "MDG has no skew: the shape is drawn unskewed"),
+                ("skew", 2) => parts.push(format!("skew {} {}", args[0], args[1])),
                 ("trans" | "transform", _) => {
                     self.rep.drop(line, &t.name, "an affine transform: MDG has no matrix adjustment")
                 }
@@ -477,12 +442,10 @@ impl<'a> Emitter<'a> {
                     _ => format!("rand({}, {})", arg(0), arg(1)),
                 }
             }
-            ("if", 3) => format!("mix({}, {}, ({}) != 0)", arg(2), arg(1), arg(0)),
-            ("select", n) if n >= 2 => {
-                let terms: Vec<String> =
-                    (1..n).map(|k| format!("({}) * (floor({}) == {})", arg(k), arg(0), k - 1)).collect();
-                format!("({})", terms.join(" + "))
-            }
+            // MDG's own, lazy as Context Free's: only the chosen branch is evaluated
+            // (a recursive function's base case needs that).
+            ("if", 3) => format!("if({}, {}, {})", arg(0), arg(1), arg(2)),
+            ("select", n) if n >= 2 => format!("select({})", a.join(", ")),
             ("infinity", _) => "1e30".into(),
             _ => {
                 if let Some((_, ps, body, _)) = self.prog.functions.iter().find(|(n, _, _, _)| n == f) {
@@ -491,7 +454,7 @@ impl<'a> Emitter<'a> {
                             self.rep.approx(
                                 line,
                                 f,
-                                "a recursive function: MDG functions do not recurse, the recursive call is 0",
+                                "a recursive function without parameters never ends: the recursive call is 0",
                             );
                             return "0".into();
                         }
@@ -502,14 +465,6 @@ impl<'a> Emitter<'a> {
                         return format!("({e})");
                     }
                     if ps.len() == a.len() {
-                        if self.cutting && !self.cut[..self.cut.len() - 1].contains(&f.to_string()) {
-                            self.rep.approx(
-                                line,
-                                f,
-                                "a recursive function: MDG functions do not recurse, the recursive call is 0",
-                            );
-                            return "0".into();
-                        }
                         let m = self.names.get(f);
                         return format!("{m}({})", a.join(", "));
                     }
@@ -585,16 +540,5 @@ fn mentions(e: &Expr, n: &str) -> bool {
         Expr::Call(_, a) | Expr::Tuple(a) => a.iter().any(|x| mentions(x, n)),
         Expr::Bin(_, a, b) => mentions(a, n) || mentions(b, n),
         Expr::Neg(a) | Expr::Not(a) => mentions(a, n),
-    }
-}
-
-/// Whether `e` calls the function `f`.
-pub(crate) fn calls(e: &Expr, f: &str) -> bool {
-    match e {
-        Expr::Call(g, a) => g == f || a.iter().any(|x| calls(x, f)),
-        Expr::Name(_) | Expr::Num(_) => false,
-        Expr::Tuple(a) => a.iter().any(|x| calls(x, f)),
-        Expr::Bin(_, a, b) => calls(a, f) || calls(b, f),
-        Expr::Neg(a) | Expr::Not(a) => calls(a, f),
     }
 }

@@ -139,6 +139,15 @@ impl ExprOperand for u8 {
     }
 }
 
+impl ExprOperand for i32 {
+    fn put(self, w: &mut W) {
+        w.u32(self as u32)
+    }
+    fn get(r: &mut R) -> Result<Self, LoadError> {
+        Ok(r.u32()? as i32)
+    }
+}
+
 impl ExprOperand for u16 {
     fn put(self, w: &mut W) {
         w.u16(self)
@@ -210,6 +219,10 @@ expr_ops! {
     7 => SkipUnless(u32),
     8 => Pick(u32),
     9 => Slide(u32),
+    10 => Funcs(u32),
+    11 => Enter(u32),
+    12 => Fn(i32),
+    13 => Ret,
 }
 
 fn encode_composite(w: &mut W, c: &Composite) {

@@ -32,8 +32,17 @@ fn composite(c: &Composite) -> String {
 /// `[push 1; skipunless 2; …]`.
 pub fn expr_text(code: &[crate::expr::ExprOp]) -> String {
     use crate::expr::{ExprOp, FUNCTIONS, VARIABLES};
-    if code.iter().any(|op| matches!(op, ExprOp::Skip(_) | ExprOp::SkipUnless(_) | ExprOp::Pick(_) | ExprOp::Slide(_)))
-    {
+    if code.iter().any(|op| {
+        matches!(
+            op,
+            ExprOp::Skip(_)
+                | ExprOp::SkipUnless(_)
+                | ExprOp::Pick(_)
+                | ExprOp::Slide(_)
+                | ExprOp::Funcs(_)
+                | ExprOp::Fn(_)
+        )
+    }) {
         let ops: Vec<String> = code
             .iter()
             .map(|op| match *op {
@@ -47,6 +56,10 @@ pub fn expr_text(code: &[crate::expr::ExprOp]) -> String {
                 ExprOp::SkipUnless(n) => format!("skipunless {n}"),
                 ExprOp::Pick(k) => format!("pick {k}"),
                 ExprOp::Slide(n) => format!("slide {n}"),
+                ExprOp::Funcs(n) => format!("funcs {n}"),
+                ExprOp::Enter(a) => format!("enter {a}"),
+                ExprOp::Fn(rel) => format!("fn {rel:+}"),
+                ExprOp::Ret => "ret".into(),
             })
             .collect();
         return format!("[{}]", ops.join("; "));
@@ -76,7 +89,14 @@ pub fn expr_text(code: &[crate::expr::ExprOp]) -> String {
                 let args: Vec<String> = st.drain(at..).map(|(t, _)| t).collect();
                 st.push((format!("{name}({})", args.join(", ")), false));
             }
-            ExprOp::Skip(_) | ExprOp::SkipUnless(_) | ExprOp::Pick(_) | ExprOp::Slide(_) => {}
+            ExprOp::Skip(_)
+            | ExprOp::SkipUnless(_)
+            | ExprOp::Pick(_)
+            | ExprOp::Slide(_)
+            | ExprOp::Funcs(_)
+            | ExprOp::Enter(_)
+            | ExprOp::Fn(_)
+            | ExprOp::Ret => {}
         }
     }
     st.pop().map(|(t, _)| t).unwrap_or_default()

@@ -27,7 +27,7 @@ use crate::expr::ExprOp;
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"MDGB";
 /// Format version; bumped on any change to the layout.
-pub const VERSION: u16 = 8;
+pub const VERSION: u16 = 9;
 
 /// A precomputed adjustment list: thesis eqs. 4.1–4.9 folded into (q, q̂, u) plus
 /// colour, weight and fps deltas (SPEC §4).
@@ -94,11 +94,14 @@ pub enum AdjOp {
     Hsb = 7,
     /// Set the colour to the four constant arguments (R, G, B, A): a colour value.
     Paint = 8,
+    /// Skew by the angles X and Y (radians), Context Free's `skew`: x += tan X · y,
+    /// y += tan Y · x.
+    Skew = 9,
 }
 
 impl AdjOp {
     /// Every op, in byte order.
-    pub const ALL: [AdjOp; 9] = [
+    pub const ALL: [AdjOp; 10] = [
         AdjOp::Translate,
         AdjOp::Rotate,
         AdjOp::Scale,
@@ -108,6 +111,7 @@ impl AdjOp {
         AdjOp::Fps,
         AdjOp::Hsb,
         AdjOp::Paint,
+        AdjOp::Skew,
     ];
 
     /// The op of a bundle byte.
@@ -121,12 +125,13 @@ impl AdjOp {
             AdjOp::Translate | AdjOp::Rotate | AdjOp::Scale | AdjOp::Flip => 3,
             AdjOp::Color | AdjOp::Weight | AdjOp::Fps | AdjOp::Hsb => 1,
             AdjOp::Paint => 4,
+            AdjOp::Skew => 2,
         }
     }
 
     /// The op's name without an axis (`translate`, `hsb`).
     pub fn family(self) -> &'static str {
-        ["translate", "rotate", "scale", "flip", "color", "weight", "fps", "hsb", "paint"][self as usize]
+        ["translate", "rotate", "scale", "flip", "color", "weight", "fps", "hsb", "paint", "skew"][self as usize]
     }
 
     /// The op and axis as the disassembler prints them (`translate.x`, `hue`).
@@ -142,6 +147,7 @@ impl AdjOp {
             AdjOp::Fps => "fps".into(),
             AdjOp::Hsb => ["hue", "sat", "b"].get(axis as usize).unwrap_or(&"hsb?").to_string(),
             AdjOp::Paint => "paint".into(),
+            AdjOp::Skew => "skew".into(),
         }
     }
 }

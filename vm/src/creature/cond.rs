@@ -41,6 +41,12 @@ pub enum CondOp {
     Pick(u32),
     /// Pop the top, drop `n` entries under it, push the top back.
     Slide(u32),
+    /// The shared machine's function block, body start, call and return
+    /// ([`crate::expr::ExprOp::Funcs`]…); conditions call no user functions today.
+    Funcs(u32),
+    Enter(u32),
+    Fn(i32),
+    Ret,
 }
 
 /// The values an expression reads.
@@ -63,6 +69,10 @@ impl StackOp for CondOp {
             CondOp::SkipUnless(n) => Core::SkipUnless(n),
             CondOp::Pick(k) => Core::Pick(k),
             CondOp::Slide(n) => Core::Slide(n),
+            CondOp::Funcs(n) => Core::Funcs(n),
+            CondOp::Enter(a) => Core::Enter(a),
+            CondOp::Fn(rel) => Core::Fn(rel),
+            CondOp::Ret => Core::Ret,
             leaf @ (CondOp::Var(_) | CondOp::Parts(_)) => Core::Leaf(leaf),
         }
     }
@@ -77,6 +87,10 @@ impl StackOp for CondOp {
             Core::SkipUnless(n) => CondOp::SkipUnless(n),
             Core::Pick(k) => CondOp::Pick(k),
             Core::Slide(n) => CondOp::Slide(n),
+            Core::Funcs(n) => CondOp::Funcs(n),
+            Core::Enter(a) => CondOp::Enter(a),
+            Core::Fn(rel) => CondOp::Fn(rel),
+            Core::Ret => CondOp::Ret,
             Core::Leaf(op) => op,
         }
     }
@@ -84,7 +98,7 @@ impl StackOp for CondOp {
 
 /// Evaluates verified code on the shared machine ([`expr::run`]); malformed code
 /// gives NaN, never a panic.
-pub fn eval(code: &[CondOp], env: &dyn Env, stack: &mut Vec<f64>) -> f64 {
+pub fn eval(code: &[CondOp], env: &dyn Env, stack: &mut expr::Machine) -> f64 {
     expr::run(
         code,
         stack,
@@ -158,7 +172,7 @@ pub fn probability_escape(code: &[CondOp], max_g: u32, max_count: u32) -> Option
         // `parts(…)` varies like a count; index 255 stands for it.
         ranges.push((255, 0, max_count));
     }
-    let mut stack = Vec::new();
+    let mut stack = expr::Machine::default();
     let mut idx: Vec<u32> = ranges.iter().map(|r| r.1).collect();
     loop {
         let mut env = Values::default();
@@ -248,7 +262,7 @@ pub fn never_hold(conditions: &[&[CondOp]], b: &Bounds, budget: u64) -> Option<b
     let need_super = reads_any(SUPER) || need_meta || reads_any(TORSOS) || !kinds.is_empty();
     let m = b.max_parts.max(1);
     let mut evaluations: u64 = 0;
-    let mut stack = Vec::new();
+    let mut stack = expr::Machine::default();
     struct At<'a> {
         vars: [f64; 6],
         kinds: &'a [u32],

@@ -322,7 +322,7 @@ fn part_candidates(
 /// Targets of rule `r` whose conditions all hold.
 pub fn valid_targets(t: &CreatureTable, r: &RuleDef, base: &Shape, assist: &Shape, g: u32) -> Vec<Target> {
     let complexity = base.complexity();
-    let mut stack = Vec::new();
+    let mut stack = crate::expr::Machine::default();
     targets(t, r, base, assist)
         .into_iter()
         .filter(|tg| {
@@ -339,7 +339,7 @@ pub fn valid_targets(t: &CreatureTable, r: &RuleDef, base: &Shape, assist: &Shap
 /// (NaN counts as 0; the compiler rejects expressions that can leave the range).
 pub fn probability(t: &CreatureTable, r: &RuleDef, base: &Shape, target: &Target, g: u32) -> f64 {
     let env = ShapeEnv { table: t, shape: base, g, count: target.count(base), complexity: base.complexity() };
-    let p = cond::eval(&r.probability.0, &env, &mut Vec::new());
+    let p = cond::eval(&r.probability.0, &env, &mut crate::expr::Machine::default());
     if p.is_nan() {
         0.0
     } else {

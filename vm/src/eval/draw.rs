@@ -299,7 +299,7 @@ impl<'b> Eval<'b> {
                     marching::Grid { min: Vec3::from_array(decl.min), max: Vec3::from_array(decl.max), res: decl.res };
                 let code = &self.b.exprs[decl.function as usize];
                 let rng = std::cell::RefCell::new(Pcg(Pcg64::seed_from_u64(0)));
-                let stack = std::cell::RefCell::new(Vec::new());
+                let stack = std::cell::RefCell::new(expr::Machine::new(self.opts.calls));
                 let f = |p: Vec3| {
                     let vars = [p.x as f64, p.y as f64, p.z as f64, 0.0, 1.0, 0.0];
                     expr::eval(code, &vars, &[], &mut *rng.borrow_mut(), &mut stack.borrow_mut()) as f32
@@ -343,6 +343,10 @@ impl<'b> Eval<'b> {
                         None
                     }
                 };
+                // Calls the function's recursion limits stopped count with the run's.
+                let cut = stack.borrow().cut;
+                self.expr_stack.cut.depth += cut.depth;
+                self.expr_stack.cut.calls += cut.calls;
                 self.iso_meshes.insert(iso, r);
                 r
             }

@@ -26,7 +26,7 @@ pub(super) struct Env<'a> {
 
 impl Env<'_> {
     #[inline]
-    pub(super) fn eval(&self, code: &[ExprOp], rng: &mut Pcg, stack: &mut Vec<f64>) -> f64 {
+    pub(super) fn eval(&self, code: &[ExprOp], rng: &mut Pcg, stack: &mut expr::Machine) -> f64 {
         match expr::quick(code, self.slots) {
             Some(v) => v,
             None => self.eval_full(code, rng, stack),
@@ -34,7 +34,7 @@ impl Env<'_> {
     }
 
     /// [`Env::eval`] on the expression stack (code [`expr::quick`] does not take).
-    pub(super) fn eval_full(&self, code: &[ExprOp], rng: &mut Pcg, stack: &mut Vec<f64>) -> f64 {
+    pub(super) fn eval_full(&self, code: &[ExprOp], rng: &mut Pcg, stack: &mut expr::Machine) -> f64 {
         let p = self.at.f.u;
         let vars = [p.x as f64, p.y as f64, p.z as f64, self.depth as f64, self.at.scale() as f64, 0.0];
         expr::eval(code, &vars, self.slots, rng, stack)
@@ -146,7 +146,7 @@ pub(super) fn eval_transform(
     b: &Bundle,
     xf: TransformId,
     rng: &mut Pcg,
-    stack: &mut Vec<f64>,
+    stack: &mut expr::Machine,
     env: &Env,
     bad: &mut NonFinite,
 ) -> Composite {

@@ -120,7 +120,7 @@ struct Eval<'b> {
     next_check: u64,
     maxiter: u64,
     stacksize: u32,
-    expr_stack: Vec<f64>,
+    expr_stack: expr::Machine,
     /// The value stack of rule parameters and locals (see [`Act::slot_base`]): grown
     /// once to the deepest derivation's need, never allocated per call.
     slots: Vec<f64>,
@@ -260,7 +260,7 @@ impl<'b> Eval<'b> {
             next_check: 0,
             maxiter: opts.maxiter.unwrap_or(if s.maxiter > 0 { s.maxiter } else { DEFAULT_MAXITER }).min(opts.max_iter),
             stacksize: (if s.stacksize > 0 { s.stacksize } else { DEFAULT_STACKSIZE }).min(opts.max_stack),
-            expr_stack: Vec::with_capacity(16),
+            expr_stack: expr::Machine::new(opts.calls),
             slots: Vec::new(),
             profile_points: Vec::new(),
             progress,
@@ -460,6 +460,19 @@ impl<'b> Eval<'b> {
         }
         let non_finite = self.non_finite.warnings(self.b);
         self.out.stats.warnings.extend(non_finite);
+        let (cut, limits) = (self.expr_stack.cut, self.opts.calls);
+        if cut.depth > 0 {
+            self.out.stats.warnings.push(format!(
+                "{} expression evaluation(s) stopped: recursive function calls nested deeper than {} (raise the limit with `--max-call-depth N`); their value is NaN",
+                cut.depth, limits.depth
+            ));
+        }
+        if cut.calls > 0 {
+            self.out.stats.warnings.push(format!(
+                "{} expression evaluation(s) stopped: more than {} function calls in one evaluation (raise the limit with `--max-calls N`); their value is NaN",
+                cut.calls, limits.calls
+            ));
+        }
         let bad = self.out.non_finite_positions_checking(self.suspect_instances);
         if bad > 0 {
             self.out.stats.warnings.push(format!(

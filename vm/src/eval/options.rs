@@ -73,6 +73,9 @@ pub struct EvalOptions {
     /// The frame budget: the most frames a convolution's iterator rule (and the
     /// transform rules sampled with it) may contribute before it is cut with a warning.
     pub max_frames: u64,
+    /// The limits on recursive function calls in one evaluation of an expression
+    /// (`--max-call-depth`, `--max-calls`); past them the value is NaN, with a warning.
+    pub calls: crate::expr::CallLimits,
     /// Sample transform rules far enough to pose the model at this time too (in
     /// seconds; `mdg-run --time`), when it is beyond `duration`.
     pub time: Option<f64>,
@@ -120,6 +123,7 @@ impl Default for EvalOptions {
             max_iter: DEFAULT_MAX_ITER,
             max_stack: DEFAULT_MAX_STACK,
             max_frames: DEFAULT_MAX_FRAMES,
+            calls: crate::expr::CallLimits::default(),
             time: None,
             record_sites: false,
             record_derivation: false,

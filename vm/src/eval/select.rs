@@ -74,7 +74,7 @@ pub(super) fn select_def(
     args: &[f64],
     rng: &mut Pcg,
     sequential: &mut HashMap<u32, (usize, u32)>,
-    stack: &mut Vec<f64>,
+    stack: &mut expr::Machine,
     weights: &mut Weights,
     bad: &mut NonFinite,
 ) -> u32 {

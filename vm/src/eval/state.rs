@@ -253,6 +253,34 @@ pub(super) fn then_affine(h: &mut [f32; 5], i: usize, m: f32, a: f32) {
     h[i] *= m;
 }
 
+/// The linear map of `skew X Y` (radians; Context Free's, from AGG): `x += tan X · y`,
+/// `y += tan Y · x`, z unchanged; for an iterator's step (`divisor` N), its N-th
+/// root, so N steps compose to the skew. With S the off-diagonal part, S² = pI
+/// (p = tan X · tan Y), so every power of K = I + S is αI + βS: p = 0 gives
+/// I + S/N exactly; p > 0 the real eigenvalues 1 ± √p; p < 0 the complex pair
+/// 1 ± i√−p. Where K has no real root (p ≥ 1: a folding or singular skew) the step
+/// is I + S/N, an approximation.
+pub(crate) fn skew_matrix(x: f32, y: f32, divisor: f32) -> Mat3 {
+    let (a, b) = (x.tan() as f64, y.tan() as f64);
+    let n = divisor as f64;
+    let p = a * b;
+    let (alpha, beta) = if divisor == 1.0 {
+        (1.0, 1.0)
+    } else if p == 0.0 || p >= 1.0 || !p.is_finite() {
+        (1.0, 1.0 / n)
+    } else if p > 0.0 {
+        let m = p.sqrt();
+        let (hi, lo) = ((1.0 + m).powf(1.0 / n), (1.0 - m).powf(1.0 / n));
+        ((hi + lo) / 2.0, (hi - lo) / (2.0 * m))
+    } else {
+        let m = (-p).sqrt();
+        let (rho, theta) = ((1.0 + m * m).sqrt().powf(1.0 / n), m.atan() / n);
+        (rho * theta.cos(), rho * theta.sin() / m)
+    };
+    let (al, ba, bb) = (alpha as f32, (beta * a) as f32, (beta * b) as f32);
+    Mat3::from_cols(Vec3::new(al, bb, 0.0), Vec3::new(ba, al, 0.0), Vec3::Z)
+}
+
 /// Applies one primitive adjustment with argument values `args` (`n_args` of them
 /// given; missing ones are 0) to the frame `f` and the deltas `c` (see [`compose_prims`]).
 #[inline]
@@ -297,6 +325,7 @@ pub(super) fn apply_prim(
                 f.scale(root(arg(0)))
             };
         }
+        AdjOp::Skew => *f = f.linear(skew_matrix(arg(0), arg(1), divisor)),
         AdjOp::Flip => {
             let n = match axis {
                 0 => Vec3::X,
@@ -345,6 +374,55 @@ mod tests {
 
     fn close(a: [f32; 4], b: [f32; 4]) -> bool {
         a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-5)
+    }
+
+    /// A skew's step for `N` steps, composed `N` times, is the skew (1e-5), for
+    /// angles with tan X · tan Y zero, positive and negative; one step of 1 is K.
+    #[test]
+    fn skew_steps_compose_to_the_skew() {
+        let deg = |d: f32| d.to_radians();
+        for (x, y) in [(45.0, 0.0), (0.0, -30.0), (20.0, 30.0), (-25.0, 40.0), (30.0, -50.0)] {
+            let k = skew_matrix(deg(x), deg(y), 1.0);
+            let (tx, ty) = (deg(x).tan(), deg(y).tan());
+            assert!(k.abs_diff_eq(Mat3::from_cols(Vec3::new(1.0, ty, 0.0), Vec3::new(tx, 1.0, 0.0), Vec3::Z), 1e-6));
+            for n in [2.0f32, 3.0, 7.0] {
+                let step = skew_matrix(deg(x), deg(y), n);
+                let mut m = Mat3::IDENTITY;
+                for _ in 0..n as usize {
+                    m *= step;
+                }
+                assert!(m.abs_diff_eq(k, 1e-5), "skew {x} {y} in {n} steps: {m:?} vs {k:?}");
+            }
+        }
+    }
+
+    /// `skew` in a rotated frame acts along the frame's own axes: under `rz 90` the
+    /// frame's y axis is the world's −x.
+    #[test]
+    fn skew_acts_along_the_frames_axes() {
+        let prims = |list: &[(bundle::AdjOp, u8, Vec<f32>)]| -> Vec<bundle::PrimAdj> {
+            list.iter()
+                .map(|(kind, axis, args)| bundle::PrimAdj {
+                    kind: *kind,
+                    axis: *axis,
+                    args: args.iter().map(|v| bundle::Arg::Const(*v)).collect(),
+                })
+                .collect()
+        };
+        let plain = compose_prims(&prims(&[(bundle::AdjOp::Skew, 0, vec![45f32.to_radians(), 0.0])]), 1.0);
+        let f = affine(&plain);
+        assert!(f.apply_point(Vec3::Y).abs_diff_eq(Vec3::new(1.0, 1.0, 0.0), 1e-6), "{:?}", f.apply_point(Vec3::Y));
+        assert!(f.apply_point(Vec3::X).abs_diff_eq(Vec3::X, 1e-6));
+        let turned = compose_prims(
+            &prims(&[
+                (bundle::AdjOp::Rotate, 2, vec![90f32.to_radians()]),
+                (bundle::AdjOp::Skew, 0, vec![45f32.to_radians(), 0.0]),
+            ]),
+            1.0,
+        );
+        let f = affine(&turned);
+        // Local (0, 1) skews to local (1, 1), which rz 90 takes to world (−1, 1).
+        assert!(f.apply_point(Vec3::Y).abs_diff_eq(Vec3::new(-1.0, 1.0, 0.0), 1e-5), "{:?}", f.apply_point(Vec3::Y));
     }
 
     fn hsb(kind_axis: &[(u8, f32)], divisor: f32) -> [f32; 5] {

@@ -292,6 +292,16 @@ impl Affine {
         Affine { n: Some(self.n.map_or(d, |n| n * d)), ..self }
     }
 
+    /// A general linear map `k` along the frame's own axes (a skew): `N ← N · R K Rᵀ`,
+    /// R the rotation part of q (the similarity's scale and sign cancel in
+    /// `Q K Q⁻¹`), as [`Affine::scale3`] does for a diagonal K.
+    #[must_use]
+    pub fn linear(self, k: Mat3) -> Affine {
+        let r = rotation_matrix(&self.f);
+        let d = r * k * r.transpose();
+        Affine { n: Some(self.n.map_or(d, |n| n * d)), ..self }
+    }
+
     /// `self ∘ child`: q, q̂ and u as [`Frame::compose`] (with N applied to the
     /// child's offset), and `N' = N · R N_c Rᵀ`.
     #[must_use]
