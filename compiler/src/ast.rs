@@ -40,7 +40,11 @@ pub struct Item {
 #[derive(Clone, Debug, PartialEq)]
 pub enum ItemKind {
     Startshape(Name),
-    Rule(Rule),
+    /// Shared (`Arc`): a rule is most of a program, and the language server's next
+    /// version of a document takes the rules an edit left alone from the previous
+    /// one's parse, and the expander takes rules without preprocessor constructs
+    /// from the parse, without copying them (issue 39).
+    Rule(std::sync::Arc<Rule>),
     Selector {
         rules: Vec<Name>,
         mode: SelectorMode,

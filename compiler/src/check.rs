@@ -297,7 +297,7 @@ impl<'a> Checker<'a> {
                 let lib =
                     crate::stdlib::library_defining(full).map(|l| format!(" (std library `{l}`)")).unwrap_or_default();
                 let after = match self.ex.items.get(first.item).map(|i| &i.item.kind) {
-                    Some(ItemKind::Rule(Rule { params: Some(p), .. })) => p.span.end,
+                    Some(ItemKind::Rule(r)) => r.params.as_ref().map_or(first.name_span.end, |p| p.span.end),
                     _ => first.name_span.end,
                 };
                 let insert = Span::new(f, after, after);

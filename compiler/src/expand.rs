@@ -237,6 +237,14 @@ pub fn expand_file_reusing(
     ex.out
 }
 
+/// Whether a rule body holds a preprocessor construct (`@expand`, `@ifdef`, …) at
+/// any depth: only then does its expansion differ from it.
+fn has_pre(body: &[BodyItem]) -> bool {
+    let mut found = false;
+    walk_body(body, &mut |b| found |= matches!(b.kind, BodyKind::Pre(_)));
+    found
+}
+
 /// Context Free's flat primitives, built in: std `flat` defines them, imported
 /// without an `@import` when a program calls one it does not define.
 pub const FLAT_PRIMITIVES: &[&str] = &["CIRCLE", "SQUARE", "TRIANGLE"];
@@ -370,19 +378,23 @@ impl<'a> Expander<'a> {
                         Some(p) => format!("{p}.{}", name.text),
                         None => name.text.clone(),
                     };
-                    let inner = items.clone();
                     self.out.items.push(ExpItem {
                         item: Item { kind: ItemKind::Namespace { name, items: vec![] }, span: item.span },
                         namespace: ns.clone(),
                     });
                     self.nest += 1;
-                    self.top_items(inner, Some(full));
+                    self.top_items(items, Some(full));
                     self.nest -= 1;
                 }
                 ItemKind::Rule(mut rule) => {
-                    self.nest += 1;
-                    rule.body = self.body(rule.body);
-                    self.nest -= 1;
+                    // A body without preprocessor constructs expands to itself: the
+                    // rule is shared with the parse, not copied.
+                    if has_pre(&rule.body) {
+                        let r = std::sync::Arc::make_mut(&mut rule);
+                        self.nest += 1;
+                        r.body = self.body(std::mem::take(&mut r.body));
+                        self.nest -= 1;
+                    }
                     self.out.items.push(ExpItem {
                         item: Item { kind: ItemKind::Rule(rule), span: item.span },
                         namespace: ns.clone(),

@@ -177,13 +177,11 @@ impl Document {
         let mode_word = mode.clone().unwrap_or_else(|| "random".to_string());
         let weight = |item: usize| -> f64 {
             match &self.analysis.expanded.items.get(item).map(|e| &e.item.kind) {
-                Some(ItemKind::Rule(Rule { weight: Some(w), .. })) => {
-                    if w.negative {
-                        -w.number.value
-                    } else {
-                        w.number.value
-                    }
-                }
+                Some(ItemKind::Rule(r)) => match &r.weight {
+                    Some(w) if w.negative => -w.number.value,
+                    Some(w) => w.number.value,
+                    None => 1.0,
+                },
                 _ => 1.0,
             }
         };

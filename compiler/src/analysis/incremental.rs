@@ -4,10 +4,13 @@
 //! closed, renamed colour components, and undone now and then — each analysed from
 //! the previous version's
 //! analysis and from nothing, compared after every edit: the parsed tree, the
-//! expanded items and every diagnostic.
+//! expanded program, every diagnostic, the checker's symbol table (rules,
+//! signatures, references …) and the editor's occurrence index (what hovers,
+//! references, rename, lenses and hints read).
 
 use super::fixture::std_dir;
 use super::robustness::FRAGMENTS;
+use super::Document;
 use crate::check::CheckOptions;
 use crate::driver::{analyze_text_with, Analysis, Effort};
 use crate::expand::Options;
@@ -37,6 +40,49 @@ fn analyse(text: &str, opts: &Options, previous: Option<&Analysis>) -> Analysis 
     let effort = Effort { skip_shaders: true, previous, ..Effort::default() };
     analyze_text_with(&loader, Path::new("/test/main.mdg"), text, opts, CheckOptions::default(), effort)
         .unwrap_or_else(|| panic!("an analysis that cannot be cancelled was cancelled"))
+}
+
+/// The checker's symbol table as text (it has no `PartialEq`): every table.
+fn symbols(a: &Analysis) -> String {
+    let s = &a.checked.symbols;
+    format!(
+        "rules {:?}\nfunctions {:?}\nisosurfaces {:?}\nnamespaces {:?}\nselectors {:?}\nstart {:?}\n\
+         components {:?}\nreferences {:?}\nsignatures {:?}",
+        s.rules,
+        s.functions,
+        s.isosurfaces,
+        s.namespaces,
+        s.selectors,
+        s.startshape,
+        s.components,
+        s.references,
+        s.signatures
+    )
+}
+
+/// The expanded program besides its items, as text.
+fn program(a: &Analysis) -> String {
+    let e = &a.expanded;
+    format!(
+        "shaders {:?}\nparams {:?}\ndefines {:?}\npresets {:?}\nexpansions {:?}\nfiles {:?}",
+        e.shaders, e.params, e.defines, e.presets, e.expansions, e.files
+    )
+}
+
+/// Compares an incremental analysis with a whole one: everything the editor's
+/// features read. Returns the incremental one.
+fn same(inc: Analysis, whole: Analysis, context: &dyn Fn() -> String) -> Analysis {
+    assert_eq!(inc.expanded.main_ast, whole.expanded.main_ast, "parsed tree differs: {}", context());
+    assert_eq!(inc.expanded.items, whole.expanded.items, "expanded items differ: {}", context());
+    assert_eq!(program(&inc), program(&whole), "expanded program differs: {}", context());
+    assert_eq!(inc.diagnostics, whole.diagnostics, "diagnostics differ: {}", context());
+    assert_eq!(symbols(&inc), symbols(&whole), "symbols differ: {}", context());
+    let (inc, whole) = (Document::from_analysis(inc), Document::from_analysis(whole));
+    let (i, w) = (inc.index(), whole.index());
+    assert_eq!(i.main, w.main, "occurrences differ: {}", context());
+    assert_eq!(i.symbols, w.symbols, "symbol occurrences differ: {}", context());
+    assert_eq!(i.calls, w.calls, "call sites differ: {}", context());
+    inc.analysis
 }
 
 /// A char boundary of `text` near a random place (at a line start one time in three).
@@ -152,13 +198,10 @@ fn compare(
             let whole = analyse(&version, opts, None);
             let inc = analyse(&version, opts, Some(&prev));
             let context = || format!("{name}, edit {step}: the text was\n{text}\n---- and is now\n{version}");
-            assert_eq!(inc.expanded.main_ast, whole.expanded.main_ast, "parsed tree differs: {}", context());
-            assert_eq!(inc.expanded.items, whole.expanded.items, "expanded items differ: {}", context());
-            assert_eq!(inc.diagnostics, whole.diagnostics, "diagnostics differ: {}", context());
             reused += inc.expanded.reused.items;
             parsed += inc.expanded.reused.parsed;
+            prev = same(inc, whole, &context);
             text = version;
-            prev = inc;
         }
     }
     (reused, parsed)

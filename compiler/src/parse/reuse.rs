@@ -23,6 +23,10 @@
 //! with the previous parse's; the folded macros; the bracket repairs). Whatever is not
 //! covered — the colour names changed, nesting cut, no previous parse — is a whole
 //! parse. `tests`: random edits, each compared with a whole parse.
+//!
+//! Reused items are not copied where they need not be: a rule (`ItemKind::Rule`, an
+//! `Arc`) before the edit is the previous parse's own, shared; one after it is
+//! copied to be shifted (its spans are absolute), unless the edit kept the length.
 
 use super::{parse_prepared, Out, Prepared, Start};
 use crate::ast::*;
@@ -299,9 +303,14 @@ pub(super) fn reparse(
     items.extend(region);
     for s in suffix {
         let at = items.len();
+        // Items before the edit are shared with the previous parse (their rules are
+        // `Arc`s); those after it are copied to be shifted, unless the edit kept the
+        // length.
         items.extend(prev.items[s.items.clone()].iter().map(|i| {
             let mut i = i.clone();
-            i.shift(delta);
+            if delta != 0 {
+                i.shift(delta);
+            }
             i
         }));
         let tokens = token_at(shift(s.start))?..token_at(shift(s.end))?;
@@ -420,7 +429,7 @@ impl Shift for Item {
         self.span.shift(delta);
         match &mut self.kind {
             ItemKind::Startshape(n) | ItemKind::Linerule(n) | ItemKind::Camerarule(n) => n.shift(delta),
-            ItemKind::Rule(r) => r.shift(delta),
+            ItemKind::Rule(r) => std::sync::Arc::make_mut(r).shift(delta),
             ItemKind::Selector { rules, mode } => {
                 rules.shift(delta);
                 match mode {
