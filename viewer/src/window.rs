@@ -38,8 +38,8 @@ use crate::camera::OrbitCamera;
 use crate::context::{vkerr, Context, ContextOptions, Validation};
 use crate::guided::edit::{Param, Pick};
 use crate::guided::project::ScreenView;
-use crate::guided::session::{Accepted, Outcome, Session, SessionOptions};
-use crate::guided::watch::GuideWatch;
+use crate::guided::session::{Accepted, Outcome, Session, SessionError, SessionOptions};
+use crate::guided::watch::{GuideFileError, GuideWatch};
 use crate::guided::worker::Preempt;
 use crate::input::{Button, Input, Key, Modifiers};
 use crate::model::{LoadOptions, Loader, Model};
@@ -133,7 +133,7 @@ pub enum UserEvent {
     /// A guided search's answer (its request's number).
     Searched(u64, Box<Outcome>),
     /// The `--guides` file changed: its guides, or why they cannot be used.
-    GuidesFile(Result<Vec<Guide>, String>),
+    GuidesFile(Result<Vec<Guide>, GuideFileError>),
 }
 
 /// Per-frame synchronisation: one frame in flight.
@@ -203,12 +203,21 @@ struct App {
     draw_mode: bool,
 }
 
+/// A log line's message: the `Ok` one, or the error's.
+fn said<E: std::fmt::Display>(r: Result<String, E>) -> String {
+    r.unwrap_or_else(|e| e.to_string())
+}
+
 /// How long a script waiting for a search looks again.
 const SCRIPT_POLL: std::time::Duration = std::time::Duration::from_millis(10);
 
 /// Starts a guided-search session on `model`'s grammar; its answers come to the
 /// event loop through `proxy`.
-fn start_session(model: &Model, opts: &WindowOptions, proxy: &EventLoopProxy<UserEvent>) -> Result<Session, String> {
+fn start_session(
+    model: &Model,
+    opts: &WindowOptions,
+    proxy: &EventLoopProxy<UserEvent>,
+) -> Result<Session, SessionError> {
     let proxy = Mutex::new(proxy.clone());
     let session = SessionOptions {
         seed: opts.load.eval.seed.unwrap_or(model.bundle.settings.randseed),
@@ -261,7 +270,7 @@ pub fn run(
     // (and the home view's framing) shows the searched model.
     let guided = match &model.bundle.extensions.guided {
         Some(_) => {
-            let mut s = start_session(&model, &opts, &proxy).map_err(Error::Other)?;
+            let mut s = start_session(&model, &opts, &proxy).map_err(|e| Error::Other(e.to_string()))?;
             let found = s.search_now().map_err(|e| Error::Other(format!("guided search: {e}")))?;
             (opts.log)(&format!("mdg-view: guided search: {}", found.summary.line()));
             for w in &found.output.stats.warnings {
@@ -772,9 +781,8 @@ impl App {
         let Modifiers { shift, ctrl } = self.modifiers;
         let log = self.opts.log;
         let Some(s) = &mut self.guided else { return false };
-        let say = |r: Result<String, String>| match r {
-            Ok(m) | Err(m) => log(&format!("mdg-view: {m}")),
-        };
+        // What an edit did, or why it was not done.
+        let say = |m: String| log(&format!("mdg-view: {m}"));
         let steps = if shift { 10.0 } else { 1.0 };
         let text = match key {
             Key::Char(c) => c.to_lowercase(),
@@ -791,9 +799,9 @@ impl App {
                 s.editor.select_next();
                 log(&format!("mdg-view: {}", s.editor.status()));
             }
-            (Key::Delete | Key::Backspace, _) => say(s.editor.delete_selected()),
-            (Key::PageUp, _) => say(s.editor.step_param(steps)),
-            (Key::PageDown, _) => say(s.editor.step_param(-steps)),
+            (Key::Delete | Key::Backspace, _) => say(said(s.editor.delete_selected())),
+            (Key::PageUp, _) => say(said(s.editor.step_param(steps))),
+            (Key::PageDown, _) => say(said(s.editor.step_param(-steps))),
             (_, "z") if ctrl => {
                 if !s.editor.undo() {
                     log("mdg-view: nothing to undo");
@@ -828,14 +836,14 @@ impl App {
                 s.editor.set_param(Param::ALL[i.min(Param::ALL.len() - 1)]);
                 log(&format!("mdg-view: {}", s.editor.status()));
             }
-            (_, "j") => say(s.editor.step_param(-steps)),
-            (_, "k") => say(s.editor.step_param(steps)),
+            (_, "j") => say(said(s.editor.step_param(-steps))),
+            (_, "k") => say(said(s.editor.step_param(steps))),
             (_, "r") => {
                 let seed = s.reseed();
                 log(&format!("mdg-view: seed {seed}: searching"));
                 s.request(Preempt::Cancel);
             }
-            (_, "s") => say(s.save()),
+            (_, "s") => say(said(s.save())),
             (_, "l") => {
                 let u = s.cycle_utilisation();
                 log(&format!("mdg-view: utilisation {}: searching", u.name()));
@@ -1046,7 +1054,7 @@ impl App {
     }
 
     /// The `--guides` file changed.
-    fn guides_file_changed(&mut self, r: Result<Vec<Guide>, String>) {
+    fn guides_file_changed(&mut self, r: Result<Vec<Guide>, GuideFileError>) {
         let Some(s) = &mut self.guided else { return };
         match r {
             Ok(guides) => {

@@ -421,23 +421,74 @@ pub fn run<O: StackOp>(
     stack.pop().unwrap_or(f64::NAN)
 }
 
+/// Why code is not valid for the shared machine ([`check`], [`verify`]); positions
+/// are instruction indices.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CodeError {
+    /// A skip at `from` lands past the end of the code.
+    SkipBeyondEnd { from: usize },
+    /// Two ways reach instruction `at` (`None`: the end) with stack depths `a` and `b`.
+    DepthsMeet { a: i64, b: i64, at: Option<usize> },
+    /// No way reaches the instruction.
+    Unreachable { at: usize },
+    /// A constant is NaN or infinite.
+    NonFinite { at: usize },
+    /// A call names no function.
+    UnknownFunction { id: u8, at: usize },
+    /// An instruction pops more than the stack holds.
+    Underflow { at: usize },
+    /// A `Pick` reads below the bottom of the stack.
+    PickBeyond { k: u32, at: usize },
+    /// The code ends with this many values instead of one.
+    LeavesValues(i64),
+    /// A variable leaf names none of [`VARIABLES`].
+    UnknownVariable { var: u8, at: usize },
+}
+
+impl std::fmt::Display for CodeError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            CodeError::SkipBeyondEnd { from } => write!(f, "skip beyond the end at {from}"),
+            CodeError::DepthsMeet { a, b, at: Some(at) } => write!(f, "stack depths {a} and {b} meet at {at}"),
+            CodeError::DepthsMeet { a, b, at: None } => write!(f, "stack depths {a} and {b} meet at the end"),
+            CodeError::Unreachable { at } => write!(f, "unreachable instruction at {at}"),
+            CodeError::NonFinite { at } => write!(f, "non-finite constant at {at}"),
+            CodeError::UnknownFunction { id, at } => write!(f, "unknown function {id} at {at}"),
+            CodeError::Underflow { at } => write!(f, "stack underflow at {at}"),
+            CodeError::PickBeyond { k, at } => write!(f, "pick {k} beyond the stack at {at}"),
+            CodeError::LeavesValues(n) => write!(f, "expression leaves {n} values"),
+            CodeError::UnknownVariable { var, at } => write!(f, "unknown variable {var} at {at}"),
+        }
+    }
+}
+
+impl std::error::Error for CodeError {}
+
+/// For checkers whose own errors are still messages.
+impl From<CodeError> for String {
+    fn from(e: CodeError) -> String {
+        e.to_string()
+    }
+}
+
 /// Checks code for the shared machine: constants finite, operators and functions
 /// known, the stack never underflows and ends with exactly one value, skips land
 /// inside the code (or at its end) with the same stack depth on every way there, no
 /// instruction is unreachable, and `Pick` reads an entry that exists. `leaf` checks
 /// a leaf's index, `func` whether a function is allowed; both get the instruction's
-/// position for the message.
-pub fn check<O: StackOp>(
+/// position for the message and say why in the caller's error type `E`, which holds
+/// the machine's own [`CodeError`]s too.
+pub fn check<O: StackOp, E: From<CodeError>>(
     code: &[O],
-    mut leaf: impl FnMut(usize, O) -> Result<(), String>,
-    mut func: impl FnMut(usize, Func) -> Result<(), String>,
-) -> Result<(), String> {
+    mut leaf: impl FnMut(usize, O) -> Result<(), E>,
+    mut func: impl FnMut(usize, Func) -> Result<(), E>,
+) -> Result<(), E> {
     // The depth each skip brings to its target (index `code.len()`: the end).
     let mut arrive: Vec<Option<i64>> = vec![None; code.len() + 1];
-    let meet = |arrive: &mut [Option<i64>], at: usize, d: i64, from: usize| -> Result<(), String> {
+    let meet = |arrive: &mut [Option<i64>], at: usize, d: i64, from: usize| -> Result<(), CodeError> {
         match arrive.get_mut(at) {
-            None => Err(format!("skip beyond the end at {from}")),
-            Some(Some(t)) if *t != d => Err(format!("stack depths {t} and {d} meet at {at}")),
+            None => Err(CodeError::SkipBeyondEnd { from }),
+            Some(Some(t)) if *t != d => Err(CodeError::DepthsMeet { a: *t, b: d, at: Some(at) }),
             Some(slot) => {
                 *slot = Some(d);
                 Ok(())
@@ -448,12 +499,12 @@ pub fn check<O: StackOp>(
     let mut depth: Option<i64> = Some(0);
     for (i, op) in code.iter().enumerate() {
         let d = match (depth, arrive[i]) {
-            (Some(d), Some(t)) if d != t => return Err(format!("stack depths {d} and {t} meet at {i}")),
+            (Some(d), Some(t)) if d != t => return Err(CodeError::DepthsMeet { a: d, b: t, at: Some(i) }.into()),
             (Some(d), _) | (None, Some(d)) => d,
-            (None, None) => return Err(format!("unreachable instruction at {i}")),
+            (None, None) => return Err(CodeError::Unreachable { at: i }.into()),
         };
         let (pop, push) = match op.core() {
-            Core::Push(v) if !v.is_finite() => return Err(format!("non-finite constant at {i}")),
+            Core::Push(v) if !v.is_finite() => return Err(CodeError::NonFinite { at: i }.into()),
             Core::Push(_) => (0, 1),
             Core::Leaf(l) => {
                 leaf(i, l)?;
@@ -466,7 +517,7 @@ pub fn check<O: StackOp>(
                     func(i, f)?;
                     (f.arity() as i64, 1)
                 }
-                None => return Err(format!("unknown function {f} at {i}")),
+                None => return Err(CodeError::UnknownFunction { id: f, at: i }.into()),
             },
             Core::Skip(n) => {
                 meet(&mut arrive, i + 1 + n as usize, d, i)?;
@@ -475,27 +526,27 @@ pub fn check<O: StackOp>(
             }
             Core::SkipUnless(n) => {
                 if d < 1 {
-                    return Err(format!("stack underflow at {i}"));
+                    return Err(CodeError::Underflow { at: i }.into());
                 }
                 meet(&mut arrive, i + 1 + n as usize, d - 1, i)?;
                 (1, 0)
             }
-            Core::Pick(k) if i64::from(k) >= d => return Err(format!("pick {k} beyond the stack at {i}")),
+            Core::Pick(k) if i64::from(k) >= d => return Err(CodeError::PickBeyond { k, at: i }.into()),
             Core::Pick(_) => (0, 1),
             Core::Slide(n) => (i64::from(n) + 1, 1),
         };
         if d < pop {
-            return Err(format!("stack underflow at {i}"));
+            return Err(CodeError::Underflow { at: i }.into());
         }
         depth = Some(d - pop + push);
     }
     let end = match (depth, arrive[code.len()]) {
-        (Some(d), Some(t)) if d != t => return Err(format!("stack depths {d} and {t} meet at the end")),
+        (Some(d), Some(t)) if d != t => return Err(CodeError::DepthsMeet { a: d, b: t, at: None }.into()),
         (Some(d), _) | (None, Some(d)) => d,
         (None, None) => 0,
     };
     if end != 1 {
-        return Err(format!("expression leaves {end} values"));
+        return Err(CodeError::LeavesValues(end).into());
     }
     Ok(())
 }
@@ -523,11 +574,11 @@ pub fn slots_needed(code: &[ExprOp]) -> usize {
 }
 
 /// Checks stack discipline: never underflows, ends with exactly one value.
-pub fn verify(code: &[ExprOp]) -> Result<(), String> {
+pub fn verify(code: &[ExprOp]) -> Result<(), CodeError> {
     check(
         code,
         |i, leaf| match leaf {
-            ExprOp::Var(v) if v as usize >= VARIABLES.len() => Err(format!("unknown variable {v} at {i}")),
+            ExprOp::Var(v) if v as usize >= VARIABLES.len() => Err(CodeError::UnknownVariable { var: v, at: i }),
             _ => Ok(()),
         },
         |_, _| Ok(()),
@@ -633,8 +684,9 @@ mod tests {
 
     #[test]
     fn verify_refuses_bad_skips_and_picks() {
-        let bad = |code: &[ExprOp]| verify(code).err().unwrap_or_default();
-        // A skip past the end.
+        let bad = |code: &[ExprOp]| verify(code).err().map_or(String::new(), |e| e.to_string());
+        // A skip past the end: the error is data (which skip), its message says so.
+        assert_eq!(verify(&[ExprOp::Push(1.0), ExprOp::Skip(5)]), Err(CodeError::SkipBeyondEnd { from: 1 }));
         assert!(bad(&[ExprOp::Push(1.0), ExprOp::Skip(5)]).contains("beyond the end"));
         // Branches that leave different depths.
         let uneven = [ExprOp::Push(1.0), ExprOp::SkipUnless(2), ExprOp::Push(1.0), ExprOp::Push(2.0)];
@@ -645,6 +697,8 @@ mod tests {
         // A pick below the bottom, a slide of more than there is.
         assert!(bad(&[ExprOp::Push(1.0), ExprOp::Pick(1), ExprOp::Bin(BinOp::Add)]).contains("pick 1"));
         assert!(bad(&[ExprOp::Push(1.0), ExprOp::Slide(1)]).contains("underflow"));
+        assert_eq!(verify(&[ExprOp::Var(9)]), Err(CodeError::UnknownVariable { var: 9, at: 0 }));
+        assert_eq!(verify(&[ExprOp::Push(1.0), ExprOp::Push(2.0)]), Err(CodeError::LeavesValues(2)));
         // Malformed code never panics in evaluation.
         for code in [&[ExprOp::Skip(9)][..], &[ExprOp::Pick(3)], &[ExprOp::Slide(4)], &[ExprOp::SkipUnless(1)]] {
             let _ = eval(code, &[0.0; 6], &[], &mut Half, &mut Vec::new());
