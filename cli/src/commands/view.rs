@@ -310,7 +310,7 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
         }
     };
     let result = if cli.png.is_some() {
-        Toolchain.programs(load.std_dir.as_deref()).and_then(|programs| offscreen(&cli, &model, size, &programs))
+        Toolchain.programs(load.std_dir.as_deref()).and_then(|programs| offscreen(cli, &model, size, &programs))
     } else {
         let opts = WindowOptions {
             width: size.0,
