@@ -581,7 +581,7 @@ fn no_library_function_returns_a_string_error_beyond_the_list() {
         ("vm/src/grid/mod.rs", 2),
         ("vm/src/grid/voxel.rs", 1),
         ("vm/src/sosmc/cost.rs", 2),
-        ("vm/src/sosmc/mod.rs", 4),
+        ("vm/src/sosmc/mod.rs", 2),
         ("vm/src/sosmc/search.rs", 3),
     ];
     let mut found = std::collections::BTreeMap::<String, usize>::new();
