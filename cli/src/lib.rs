@@ -10,6 +10,7 @@
 pub mod args;
 pub mod batch;
 pub mod commands;
+pub mod failure;
 pub mod importing;
 pub mod modes;
 pub mod pictures;

@@ -126,7 +126,7 @@ impl Device {
         // A chosen view replaces the grammar's camera rule.
         let frame = FrameParams { camera, time, wireframe: false, camera_rule: info.has_camera_rule && pose.is_none() };
         let px = off.render(&frame)?;
-        mdg_vm::preview::encode_png(&px, size.0, size.1).map_err(Error::Other)
+        mdg_vm::preview::encode_png(&px, size.0, size.1).map_err(|e| Error::Other(e.to_string()))
     }
 }
 

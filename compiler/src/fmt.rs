@@ -19,15 +19,46 @@ use crate::span::Span;
 /// or if the formatted text is one the compiler would refuse (over the source size
 /// limit, or nested past the limit once laid out), so a formatted file always compiles
 /// as the original did.
-pub fn format_source(text: &str) -> Result<String, String> {
+pub fn format_source(text: &str) -> Result<String, FormatError> {
     format_within("<input>", text, MAX_SOURCE_BYTES)
 }
 
 /// [`format_source`] for the file at `path`: its diagnostics name it
 /// (`broken.mdg:2:5`), as `mdgc check`'s do.
-pub fn format_file(path: &std::path::Path, text: &str) -> Result<String, String> {
+pub fn format_file(path: &std::path::Path, text: &str) -> Result<String, FormatError> {
     format_within(&path.display().to_string(), text, MAX_SOURCE_BYTES)
 }
+
+/// Why a file is left as it is.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum FormatError {
+    /// It has syntax errors: their diagnostics, rendered (`name:line:col`).
+    Syntax(String),
+    /// The formatted text would be `len` bytes, more than the `max` the compiler reads.
+    TooLarge { len: usize, max: usize },
+    /// The formatted text would not parse (a formatter bug): its diagnostics, rendered.
+    Unparsable(String),
+}
+
+impl std::fmt::Display for FormatError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FormatError::Syntax(rendered) => write!(f, "{rendered}"),
+            FormatError::TooLarge { len, max } => write!(
+                f,
+                "formatting would make the file {len} bytes, more than the {max} bytes the compiler reads (E0201); \
+                 the file is left as it is: split it into files joined with `@import`"
+            ),
+            FormatError::Unparsable(rendered) => write!(
+                f,
+                "formatting would make a file the compiler refuses; the file is left as it is (please report \
+                 this):\n{rendered}"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for FormatError {}
 
 /// The parse of `text`, or the syntax diagnostics that stop formatting, rendered.
 fn syntax_errors(name: &str, text: &str) -> Result<parse::Parsed, String> {
@@ -51,19 +82,13 @@ fn syntax_errors(name: &str, text: &str) -> Result<parse::Parsed, String> {
 }
 
 /// [`format_source`] with the size limit as a parameter (tests use a small one).
-fn format_within(name: &str, text: &str, max_bytes: usize) -> Result<String, String> {
-    let out = layout(text, syntax_errors(name, text)?);
+fn format_within(name: &str, text: &str, max_bytes: usize) -> Result<String, FormatError> {
+    let out = layout(text, syntax_errors(name, text).map_err(FormatError::Syntax)?);
     if out.len() > max_bytes {
-        return Err(format!(
-            "formatting would make the file {} bytes, more than the {max_bytes} bytes the compiler reads (E0201); \
-             the file is left as it is: split it into files joined with `@import`",
-            out.len()
-        ));
+        return Err(FormatError::TooLarge { len: out.len(), max: max_bytes });
     }
     if let Err(e) = syntax_errors(&format!("{name} (formatted)"), &out) {
-        return Err(format!(
-            "formatting would make a file the compiler refuses; the file is left as it is (please report this):\n{e}"
-        ));
+        return Err(FormatError::Unparsable(e));
     }
     Ok(out)
 }
@@ -608,6 +633,8 @@ mod tests {
         let text = format!("rule A {{ {}}}\nrule B {{ }}\n", "B {} ".repeat(200));
         let limit = text.len() + 100;
         let e = format_within("<input>", &text, limit).expect_err("grows past the limit");
+        assert!(matches!(e, FormatError::TooLarge { max, .. } if max == limit), "{e:?}");
+        let e = e.to_string();
         assert!(e.contains("more than") && e.contains("left as it is"), "{e}");
         let ok = format_within("<input>", &text, 10 * text.len()).expect("fits");
         assert!(ok.len() > limit && ok.lines().count() > 200);

@@ -32,6 +32,47 @@ pub struct ExampleReport {
 /// two examples to share it (`mdgc induce --share`; 0 turns it off).
 pub const DEFAULT_SHARE: usize = 3;
 
+/// Why no grammar was induced or written.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum InduceError {
+    /// An example could not be read: the reader's message (it names the file).
+    Read(String),
+    /// An example holds no block.
+    Empty(std::path::PathBuf),
+    /// The induced grammar is over a grid grammar's limits (blocks in all shapes, a
+    /// shape's extent): why.
+    OverLimits(String),
+    /// The written grammar would be `len` bytes, over the source file limit `max`.
+    TooLarge { len: usize, max: usize, shapes: usize, blocks: usize },
+    /// The written grammar does not compile back to the induced one (a bug): the
+    /// compiler's diagnostics on it, rendered (empty when it compiled to another grammar).
+    NotRoundTrip(String),
+}
+
+impl std::fmt::Display for InduceError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            InduceError::Read(m) => write!(f, "{m}"),
+            InduceError::Empty(p) => write!(f, "{}: no blocks", p.display()),
+            InduceError::OverLimits(why) => {
+                write!(f, "error[E0912]: the induced grammar is over a grid grammar's limits: {why}")
+            }
+            InduceError::TooLarge { len, max, shapes, blocks } => write!(
+                f,
+                "error[E0201]: the written grammar would be {len} bytes, over the {} MiB limit of a source file \
+                 ({shapes} shapes, {blocks} blocks in all); induce from fewer or smaller examples, or with a larger \
+                 --alpha",
+                max >> 20
+            ),
+            InduceError::NotRoundTrip(diagnostics) => {
+                write!(f, "{diagnostics}internal error: the written grammar does not compile back to the induced one")
+            }
+        }
+    }
+}
+
+impl std::error::Error for InduceError {}
+
 /// Reads the examples, infers shapes and induces the grammar. `progress` hears about
 /// each example (its index) and each search pass.
 pub fn induce_files(
@@ -39,7 +80,7 @@ pub fn induce_files(
     opts: &InferOptions,
     name: &str,
     progress: &mut dyn FnMut(usize, Progress),
-) -> Result<(GridGrammar, Vec<ExampleReport>), String> {
+) -> Result<(GridGrammar, Vec<ExampleReport>), InduceError> {
     let (models, _) = read_examples(paths)?;
     induce_models(&models, opts, DEFAULT_SHARE, name, progress)
 }
@@ -48,14 +89,14 @@ pub fn induce_files(
 /// is an error. Also returns notes on what the files hold that the models do not keep
 /// (block entities, explicit air), each starting with the file's name.
 #[allow(clippy::type_complexity)]
-pub fn read_examples(paths: &[&Path]) -> Result<(Vec<(String, VoxelModel)>, Vec<String>), String> {
+pub fn read_examples(paths: &[&Path]) -> Result<(Vec<(String, VoxelModel)>, Vec<String>), InduceError> {
     let mut models: Vec<(String, VoxelModel)> = Vec::new();
     let mut all_notes = Vec::new();
     for p in paths {
-        let (m, notes) = mdg_vm::grid::format::read_with_notes(p)?;
+        let (m, notes) = mdg_vm::grid::format::read_with_notes(p).map_err(|e| InduceError::Read(e.to_string()))?;
         all_notes.extend(notes.into_iter().map(|n| format!("{}: {n}", p.display())));
         if m.blocks.is_empty() {
-            return Err(format!("{}: no blocks", p.display()));
+            return Err(InduceError::Empty(p.to_path_buf()));
         }
         let file = p.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| p.display().to_string());
         models.push((file, m));
@@ -71,7 +112,7 @@ pub fn induce_models(
     share: usize,
     name: &str,
     progress: &mut dyn FnMut(usize, Progress),
-) -> Result<(GridGrammar, Vec<ExampleReport>), String> {
+) -> Result<(GridGrammar, Vec<ExampleReport>), InduceError> {
     let original_blocks: Vec<usize> = models.iter().map(|(_, m)| m.blocks.len()).collect();
     // A door's two halves are one block for inference and matching (written back as two).
     let joined: Vec<(String, VoxelModel)> =
@@ -110,8 +151,7 @@ pub fn induce_models(
     let examples: Vec<Example> = models.iter().map(|(n, m)| Example { name: n.clone(), model: m }).collect();
     // The grid section's limits (blocks in all shapes, a shape's extent) are the only
     // way a valid example set fails here: the code of a grid value out of range.
-    let g = induce(&examples, &inferences, name)
-        .map_err(|e| format!("error[E0912]: the induced grammar is over a grid grammar's limits: {e}"))?;
+    let g = induce(&examples, &inferences, name).map_err(|e| InduceError::OverLimits(e.to_string()))?;
     Ok((g, reports))
 }
 
@@ -321,23 +361,21 @@ fn write_rule(s: &mut String, g: &GridGrammar, i: usize) {
 /// for any source over the limit) and compile back to exactly `g` (anything else is a
 /// bug of the writer or the grid section, reported as an internal error). `path` names
 /// the file in diagnostics.
-pub fn write_checked(g: &GridGrammar, comment: &[String], path: &Path) -> Result<String, String> {
+pub fn write_checked(g: &GridGrammar, comment: &[String], path: &Path) -> Result<String, InduceError> {
     write_checked_with(g, comment, path, true)
 }
 
 /// [`write_checked`] of [`write_source_with`].
-pub fn write_checked_with(g: &GridGrammar, comment: &[String], path: &Path, like: bool) -> Result<String, String> {
+pub fn write_checked_with(g: &GridGrammar, comment: &[String], path: &Path, like: bool) -> Result<String, InduceError> {
     let text = write_source_with(g, comment, like);
     let max = crate::source::MAX_SOURCE_BYTES;
     if text.len() > max {
-        return Err(format!(
-            "error[E0201]: the written grammar would be {} bytes, over the {} MiB limit of a source file \
-             ({} shapes, {} blocks in all); induce from fewer or smaller examples, or with a larger --alpha",
-            text.len(),
-            max >> 20,
-            g.shapes.len(),
-            g.shapes.iter().map(|s| s.blocks.len()).sum::<usize>()
-        ));
+        return Err(InduceError::TooLarge {
+            len: text.len(),
+            max,
+            shapes: g.shapes.len(),
+            blocks: g.shapes.iter().map(|s| s.blocks.len()).sum::<usize>(),
+        });
     }
     let opts = crate::expand::Options { std_dir: crate::driver::default_std_dir(), ..Default::default() };
     let a = crate::driver::analyze_text(
@@ -353,10 +391,7 @@ pub fn write_checked_with(g: &GridGrammar, comment: &[String], path: &Path, like
         crate::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).ok().and_then(|b| b.extensions.grid)
     };
     if back.as_ref() != Some(g) {
-        return Err(format!(
-            "{}internal error: the written grammar does not compile back to the induced one",
-            crate::diag::render_plain(&a.diagnostics, &a.sources)
-        ));
+        return Err(InduceError::NotRoundTrip(crate::diag::render_plain(&a.diagnostics, &a.sources)));
     }
     Ok(text)
 }

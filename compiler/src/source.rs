@@ -24,14 +24,14 @@ impl FileLoader for FsLoader {
     fn read(&self, path: &Path) -> Result<String, String> {
         // The built-in std, when no directory could hold it (crate::stdlib).
         if let Some(bytes) = crate::embedded_std::embedded_file(path) {
-            return decode_source(bytes.to_vec());
+            return decode_source(bytes.to_vec()).map_err(|e| e.to_string());
         }
         // Refuse huge files before reading them (the parser refuses longer texts too, E0201).
         // Only regular files, opened without blocking (a named pipe froze the
         // compiler, `/dev/zero` grew to gigabytes), at most MAX_SOURCE_BYTES.
         let max = MAX_SOURCE_BYTES as u64;
         match mdg_vm::input::read_bounded(path, max) {
-            Ok(bytes) => decode_source(bytes),
+            Ok(bytes) => decode_source(bytes).map_err(|e| e.to_string()),
             Err(mdg_vm::input::ReadError::TooLarge { len, max }) => {
                 Err(format!("source file too large: {len} bytes (at most {max})"))
             }
@@ -46,10 +46,39 @@ impl FileLoader for FsLoader {
     }
 }
 
+/// Why a source file's bytes are not text the compiler reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DecodeError {
+    /// UTF-16, with or without a byte-order mark.
+    Utf16,
+    /// Not UTF-8 from `line` (from 1), `column` (its byte, from 1) on: `byte` is there.
+    NotUtf8 { line: usize, column: usize, byte: u8 },
+}
+
+impl std::fmt::Display for DecodeError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            DecodeError::Utf16 => write!(
+                f,
+                "the file is UTF-16, not UTF-8 (MDG reads UTF-8): save it as UTF-8 (in VS Code: \
+                 the encoding in the status bar, then `Save with Encoding`)"
+            ),
+            DecodeError::NotUtf8 { line, column, byte } => write!(
+                f,
+                "not valid UTF-8 at line {line}, byte {column} of the line (byte 0x{byte:02X}): the file is in \
+                 another encoding; save it as UTF-8"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for DecodeError {}
+
 /// The text of a source file's bytes: UTF-8, a leading byte-order mark dropped (as
 /// editors write it on Windows). UTF-16 (with or without its mark) and other
-/// encodings get a message saying what the file is and where it stops being UTF-8.
-pub fn decode_source(mut bytes: Vec<u8>) -> Result<String, String> {
+/// encodings are a [`DecodeError`] saying what the file is and where it stops being
+/// UTF-8.
+pub fn decode_source(mut bytes: Vec<u8>) -> Result<String, DecodeError> {
     if bytes.starts_with(&[0xEF, 0xBB, 0xBF]) {
         bytes.drain(..3);
     }
@@ -58,20 +87,14 @@ pub fn decode_source(mut bytes: Vec<u8>) -> Result<String, String> {
     let head = &bytes[..bytes.len().min(512)];
     let unmarked_utf16 = head.len() >= 4 && head.iter().filter(|b| **b == 0).count() * 3 >= head.len();
     if utf16 || unmarked_utf16 {
-        return Err("the file is UTF-16, not UTF-8 (MDG reads UTF-8): save it as UTF-8 (in VS Code: \
-             the encoding in the status bar, then `Save with Encoding`)"
-            .to_string());
+        return Err(DecodeError::Utf16);
     }
     String::from_utf8(bytes).map_err(|e| {
         let at = e.utf8_error().valid_up_to();
         let b = e.as_bytes();
         let line = b[..at].iter().filter(|c| **c == b'\n').count() + 1;
-        let col = at - b[..at].iter().rposition(|c| *c == b'\n').map_or(0, |p| p + 1) + 1;
-        format!(
-            "not valid UTF-8 at line {line}, byte {col} of the line (byte 0x{:02X}): the file is in another encoding; \
-             save it as UTF-8",
-            b[at]
-        )
+        let column = at - b[..at].iter().rposition(|c| *c == b'\n').map_or(0, |p| p + 1) + 1;
+        DecodeError::NotUtf8 { line, column, byte: b[at] }
     })
 }
 

@@ -488,7 +488,7 @@ fn comments(text: &str) -> Vec<String> {
 fn fmt_idempotent(input: &[u8]) -> u64 {
     let text = text(input);
     match mdg_compiler::fmt::format_source(&text) {
-        Err(e) => hash(e.lines().next().unwrap_or("").split(']').next().unwrap_or("").as_bytes()),
+        Err(e) => hash(e.to_string().lines().next().unwrap_or("").split(']').next().unwrap_or("").as_bytes()),
         Ok(once) => {
             deep();
             let twice = match mdg_compiler::fmt::format_source(&once) {

@@ -7,7 +7,7 @@ use mdg_compiler::check::CheckOptions;
 use mdg_compiler::diag::{render_plain, MAX_SHOWN_LINE};
 use mdg_compiler::driver::{analyze, analyze_text, Analysis};
 use mdg_compiler::expand::Options;
-use mdg_compiler::source::{decode_source, FsLoader, MemLoader};
+use mdg_compiler::source::{decode_source, DecodeError, FsLoader, MemLoader};
 use mdg_tests::alloc::{bounded, PeakMemAlloc, INSTRUMENTED_SYSTEM};
 use mdg_tests::{root, run_source};
 use std::alloc::System;
@@ -69,9 +69,13 @@ fn utf16_and_other_encodings_say_what_the_file_is() {
         let unmarked: Vec<u8> = "startshape A\n".encode_utf16().flat_map(u16::to_le_bytes).collect();
         for bytes in [u16le, unmarked] {
             let e = decode_source(bytes).expect_err("UTF-16 is refused");
+            assert_eq!(e, DecodeError::Utf16);
+            let e = e.to_string();
             assert!(e.contains("UTF-16") && e.contains("save it as UTF-8"), "{e}");
         }
         let e = decode_source(b"startshape A\n// caf\xE9\n".to_vec()).expect_err("Latin-1 is refused");
+        assert_eq!(e, DecodeError::NotUtf8 { line: 2, column: 7, byte: 0xE9 });
+        let e = e.to_string();
         assert!(e.contains("line 2, byte 7") && e.contains("0xE9"), "{e}");
         // Through the loader, with the file's name and a code.
         let dir = scratch("utf16");

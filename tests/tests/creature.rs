@@ -179,7 +179,7 @@ creature blocks {
         compile: Box::leak(Box::default()),
     };
     let args = CreatureArgs { generations: Some(0), ..CreatureArgs::default() };
-    assert_eq!(run(&bare, &args, &common), std::process::ExitCode::SUCCESS);
+    assert_eq!(run(&bare, &args, &common), Ok(()));
     assert!(out.join("gen0/g0-00.glb").is_file());
 
     // A missing file, a malformed one and one outside the project are E0810.
@@ -205,7 +205,7 @@ creature blocks {
 fn obj_parser_reports_bad_lines() {
     assert!(ext::parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").is_ok());
     assert!(ext::parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\n").is_ok());
-    let fails = |text: &str, want: &str| matches!(ext::parse_obj(text), Err(e) if e.contains(want));
+    let fails = |text: &str, want: &str| matches!(ext::parse_obj(text), Err(e) if e.to_string().contains(want));
     assert!(fails("v 0 0\n", "line 1"));
     assert!(fails("v 0 0 0\nf 1 2 7\n", "line 2"));
     assert!(fails("v 0 0 0\n", "no faces"));
@@ -229,7 +229,7 @@ fn the_mode_writes_models_pictures_and_a_gallery_and_keeps_chosen_monsters() {
         compile: Box::leak(Box::default()),
     };
     let args = CreatureArgs { generations: Some(2), population: Some(6), ..CreatureArgs::default() };
-    assert_eq!(run(&b, &args, &common), std::process::ExitCode::SUCCESS);
+    assert_eq!(run(&b, &args, &common), Ok(()));
     let html = std::fs::read_to_string(out.join("index.html")).expect("gallery");
     for g in 0..=2 {
         assert!(out.join(format!("gen{g}/sheet.png")).is_file());
@@ -271,7 +271,7 @@ fn the_mode_writes_models_pictures_and_a_gallery_and_keeps_chosen_monsters() {
     let more = out.join("more");
     let common = Common { output: Some(&more), ..common };
     let keep = CreatureArgs { keep: vec!["g2-01".into(), "g2-04".into()], from: Some(out.clone()), ..args.clone() };
-    assert_eq!(run(&b, &keep, &common), std::process::ExitCode::SUCCESS);
+    assert_eq!(run(&b, &keep, &common), Ok(()));
     let html = std::fs::read_to_string(more.join("index.html")).expect("gallery");
     assert!(html.contains("continued from g2-01, g2-04"));
     assert!(more.join("gen4/g4-00.glb").is_file() && !more.join("gen1").exists());
@@ -298,18 +298,18 @@ fn the_mode_writes_models_pictures_and_a_gallery_and_keeps_chosen_monsters() {
     assert_eq!(from_record, from_replay);
     // An unknown id is a clear error, and so are other options or another grammar.
     let bad = CreatureArgs { keep: vec!["g2-77".into()], from: Some(out.clone()), ..args.clone() };
-    assert_eq!(run(&b, &bad, &common), std::process::ExitCode::from(2));
+    assert_eq!(run(&b, &bad, &common).map_err(|f| f.exit), Err(mdg_cli::failure::Exit::Usage));
     let other = CreatureArgs { population: Some(7), ..keep.clone() };
-    assert_eq!(run(&b, &other, &common), std::process::ExitCode::from(2));
+    assert_eq!(run(&b, &other, &common).map_err(|f| f.exit), Err(mdg_cli::failure::Exit::Usage));
     let no_record = CreatureArgs { from: Some(more.join("gen3")), ..keep.clone() };
-    assert_eq!(run(&b, &no_record, &common), std::process::ExitCode::from(2));
+    assert_eq!(run(&b, &no_record, &common).map_err(|f| f.exit), Err(mdg_cli::failure::Exit::Usage));
     let forged = out.join("forged");
     std::fs::create_dir_all(&forged).expect("dir");
     let mut r = record.clone();
     r["grammar"]["sha256"] = serde_json::json!("0".repeat(64));
     std::fs::write(forged.join("run.json"), serde_json::to_vec(&r).expect("json")).expect("write");
     let forged_args = CreatureArgs { from: Some(forged), ..keep.clone() };
-    assert_eq!(run(&b, &forged_args, &common), std::process::ExitCode::from(2));
+    assert_eq!(run(&b, &forged_args, &common).map_err(|f| f.exit), Err(mdg_cli::failure::Exit::Usage));
     let _ = std::fs::remove_dir_all(&out);
 }
 
@@ -889,7 +889,7 @@ fn creatures_that_do_not_stand_are_warned_about_an_empty_generation_is_an_error_
     let g = evo.step(&mut pop, None);
     let why = g.empty(&evo.opts).expect("an empty generation");
     assert!(why.contains("generation 1 is empty") && why.contains("floats"), "{why}");
-    assert_eq!(run(&b, &CreatureArgs::default(), &common), std::process::ExitCode::from(3));
+    assert_eq!(run(&b, &CreatureArgs::default(), &common).map_err(|f| f.exit), Err(mdg_cli::failure::Exit::Extinct));
     // With `floats;` they evolve.
     let b = mdg_tests::build_source(&fliers("floats;"));
     let t = b.extensions.creatures.as_ref().expect("table");
@@ -901,7 +901,7 @@ fn creatures_that_do_not_stand_are_warned_about_an_empty_generation_is_an_error_
     // (Two increase rules and two steps make only a few distinct fliers.)
     assert!(!g.presented.is_empty() && g.presented.len() <= 4, "{}", g.presented.len());
     assert!(g.presented.iter().all(|i| i.shape.floats && !i.layout.stability.stable));
-    assert_eq!(run(&b, &CreatureArgs::default(), &common), std::process::ExitCode::SUCCESS);
+    assert_eq!(run(&b, &CreatureArgs::default(), &common), Ok(()));
     // So does the grammar with `stability off;`.
     let b = mdg_tests::build_source(&fliers("").replace("seed 1;", "seed 1; stability off;"));
     assert!(!b.extensions.creatures.as_ref().expect("table").evolve.stability);

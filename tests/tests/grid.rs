@@ -615,8 +615,7 @@ fn induce_write_compile_generate_round_trip() {
             eval: mdg_vm::eval::EvalOptions::default(),
             compile: Box::leak(Box::default()),
         };
-        let code = mdg_cli::modes::grid::run(&bundle, args, &common);
-        assert_eq!(code, std::process::ExitCode::SUCCESS);
+        assert_eq!(mdg_cli::modes::grid::run(&bundle, args, &common), Ok(()));
         std::fs::read(out).expect("output written")
     };
     let args = GridArgs { steps: Some(30), ..GridArgs::default() };

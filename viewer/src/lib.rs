@@ -73,3 +73,20 @@ impl std::fmt::Display for Error {
 }
 
 impl std::error::Error for Error {}
+
+/// A background thread (the reload watcher, the guide watcher, the search worker)
+/// that the system would not start.
+#[derive(Debug)]
+pub struct ThreadError {
+    /// Which thread (`the reload thread`, `the mdg-search thread`, …).
+    pub what: String,
+    pub error: std::io::Error,
+}
+
+impl std::fmt::Display for ThreadError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "cannot start {}: {}", self.what, self.error)
+    }
+}
+
+impl std::error::Error for ThreadError {}

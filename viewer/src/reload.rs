@@ -14,6 +14,31 @@ use std::sync::{mpsc, Arc};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+/// Why files are not watched.
+#[derive(Debug)]
+pub enum WatchError {
+    /// The system's watcher could not be made or set on `path` (`None`: on the
+    /// grammar's files).
+    Watch { path: Option<PathBuf>, error: notify::Error },
+    /// The path has no directory to watch.
+    NoDirectory(PathBuf),
+    /// The watching thread did not start.
+    Thread(crate::ThreadError),
+}
+
+impl std::fmt::Display for WatchError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            WatchError::Watch { path: None, error } => write!(f, "cannot watch files: {error}"),
+            WatchError::Watch { path: Some(p), error } => write!(f, "cannot watch {}: {error}", p.display()),
+            WatchError::NoDirectory(p) => write!(f, "{}: no directory", p.display()),
+            WatchError::Thread(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for WatchError {}
+
 /// What a reload produced.
 pub enum Reloaded {
     Model(Box<Model>),
@@ -60,13 +85,13 @@ impl ReloadHandle {
         mut opts: LoadOptions,
         loader: Arc<dyn Loader>,
         deliver: impl Fn(Reloaded) + Send + 'static,
-    ) -> Result<ReloadHandle, String> {
+    ) -> Result<ReloadHandle, WatchError> {
         let (tx, rx) = mpsc::channel::<Msg>();
         let fs_tx = tx.clone();
         let mut watcher = notify::recommended_watcher(move |ev| {
             let _ = fs_tx.send(Msg::Fs(ev));
         })
-        .map_err(|e| format!("cannot watch files: {e}"))?;
+        .map_err(|error| WatchError::Watch { path: None, error })?;
         let mut watched_dirs: BTreeSet<PathBuf> = BTreeSet::new();
         let mut files: BTreeSet<PathBuf> = files.iter().chain(std::iter::once(&path)).map(|f| normalise(f)).collect();
         let watch =
@@ -124,7 +149,7 @@ impl ReloadHandle {
                     deliver(result);
                 }
             })
-            .map_err(|e| format!("cannot start the reload thread: {e}"))?;
+            .map_err(|error| WatchError::Thread(crate::ThreadError { what: "the reload thread".into(), error }))?;
         Ok(ReloadHandle { tx, thread: Some(thread) })
     }
 }

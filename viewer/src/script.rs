@@ -57,8 +57,27 @@ pub enum Command {
     Quit,
 }
 
+/// A script line that is not a command.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ScriptError {
+    /// The line's number, from 1.
+    pub line: usize,
+    /// The line as written (without its comment).
+    pub text: String,
+    /// What was expected there.
+    pub why: String,
+}
+
+impl std::fmt::Display for ScriptError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "line {}: `{}`: {}", self.line, self.text, self.why)
+    }
+}
+
+impl std::error::Error for ScriptError {}
+
 /// Parses a script; the error names the line.
-pub fn parse(text: &str) -> Result<Vec<(usize, Command)>, String> {
+pub fn parse(text: &str) -> Result<Vec<(usize, Command)>, ScriptError> {
     let mut out = Vec::new();
     for (i, raw) in text.lines().enumerate() {
         let n = i + 1;
@@ -67,7 +86,7 @@ pub fn parse(text: &str) -> Result<Vec<(usize, Command)>, String> {
             continue;
         }
         let words: Vec<&str> = line.split_whitespace().collect();
-        let bad = |why: &str| format!("line {n}: `{line}`: {why}");
+        let bad = |why: &str| ScriptError { line: n, text: line.to_string(), why: why.to_string() };
         let num = |w: &str| w.parse::<f64>().ok().filter(|v| v.is_finite() && v.abs() <= 1e6);
         let index = |w: &str| w.parse::<usize>().ok().filter(|v| *v >= 1).map(|v| v - 1);
         let button = |w: &str| match w {
@@ -273,8 +292,10 @@ mod tests {
             ("move-by 1 1 0", "number of moves"),
         ] {
             let e = parse(bad).expect_err(bad);
-            assert!(e.contains(why), "{bad}: {e}");
+            assert_eq!((e.line, e.text.as_str()), (1, bad));
+            assert!(e.to_string().contains(why), "{bad}: {e}");
         }
+        assert_eq!(parse("idle\n\n  move 1 # two numbers").expect_err("one").line, 3);
     }
 
     #[test]

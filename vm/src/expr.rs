@@ -524,6 +524,73 @@ pub fn run<O: StackOp>(
     stack.pop().unwrap_or(f64::NAN)
 }
 
+/// Why code is not valid for the shared machine ([`check`], [`verify`]); positions
+/// are instruction indices.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CodeError {
+    /// A skip at `from` lands past the end of the code.
+    SkipBeyondEnd { from: usize },
+    /// Two ways reach instruction `at` (`None`: the end) with stack depths `a` and `b`.
+    DepthsMeet { a: i64, b: i64, at: Option<usize> },
+    /// No way reaches the instruction.
+    Unreachable { at: usize },
+    /// A constant is NaN or infinite.
+    NonFinite { at: usize },
+    /// A call names no function.
+    UnknownFunction { id: u8, at: usize },
+    /// An instruction pops more than the stack holds.
+    Underflow { at: usize },
+    /// A `Pick` reads below the bottom of the stack.
+    PickBeyond { k: u32, at: usize },
+    /// The code ends with this many values instead of one.
+    LeavesValues(i64),
+    /// A variable leaf names none of [`VARIABLES`].
+    UnknownVariable { var: u8, at: usize },
+    /// A skip at `from` leaves or enters a function body.
+    SkipCrossesBody { from: usize },
+    /// A function body (its `Enter` at `at`) is reached by falling into it.
+    BodyWithoutCall { at: usize },
+    /// A call at `at` lands on no function body.
+    CallOfNoBody { at: usize },
+    /// A function body returns `n` values (one expected) at `at`.
+    ReturnsValues { n: i64, at: usize },
+    /// Function blocks and bodies are not shaped `Funcs` [`Enter` … `Ret`]…: what
+    /// is wrong, and where (`None`: at the end).
+    BlockShape { what: &'static str, at: Option<usize> },
+}
+
+impl std::fmt::Display for CodeError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            CodeError::SkipBeyondEnd { from } => write!(f, "skip beyond the end at {from}"),
+            CodeError::DepthsMeet { a, b, at: Some(at) } => write!(f, "stack depths {a} and {b} meet at {at}"),
+            CodeError::DepthsMeet { a, b, at: None } => write!(f, "stack depths {a} and {b} meet at the end"),
+            CodeError::Unreachable { at } => write!(f, "unreachable instruction at {at}"),
+            CodeError::NonFinite { at } => write!(f, "non-finite constant at {at}"),
+            CodeError::UnknownFunction { id, at } => write!(f, "unknown function {id} at {at}"),
+            CodeError::Underflow { at } => write!(f, "stack underflow at {at}"),
+            CodeError::PickBeyond { k, at } => write!(f, "pick {k} beyond the stack at {at}"),
+            CodeError::LeavesValues(n) => write!(f, "expression leaves {n} values"),
+            CodeError::UnknownVariable { var, at } => write!(f, "unknown variable {var} at {at}"),
+            CodeError::SkipCrossesBody { from } => write!(f, "skip at {from} leaves or enters a function body"),
+            CodeError::BodyWithoutCall { at } => write!(f, "function body at {at} reached without a call"),
+            CodeError::CallOfNoBody { at } => write!(f, "call at {at} of no function body"),
+            CodeError::ReturnsValues { n, at } => write!(f, "function returns {n} values at {at}"),
+            CodeError::BlockShape { what, at: Some(at) } => write!(f, "{what} at {at}"),
+            CodeError::BlockShape { what, at: None } => write!(f, "{what}"),
+        }
+    }
+}
+
+impl std::error::Error for CodeError {}
+
+/// For checkers whose own errors are still messages.
+impl From<CodeError> for String {
+    fn from(e: CodeError) -> String {
+        e.to_string()
+    }
+}
+
 /// Checks code for the shared machine: constants finite, operators and functions
 /// known, the stack never underflows and ends with exactly one value, skips land
 /// inside the code (or at its end) with the same stack depth on every way there, no
@@ -532,22 +599,23 @@ pub fn run<O: StackOp>(
 /// (whose target must be an `Enter`): a body starts with its arguments on the stack
 /// and returns exactly one value, and no skip leaves or enters a body. `leaf` checks
 /// a leaf's index, `func` whether a function is allowed; both get the instruction's
-/// position for the message.
-pub fn check<O: StackOp>(
+/// position for the message and say why in the caller's error type `E`, which holds
+/// the machine's own [`CodeError`]s too.
+pub fn check<O: StackOp, E: From<CodeError>>(
     code: &[O],
-    mut leaf: impl FnMut(usize, O) -> Result<(), String>,
-    mut func: impl FnMut(usize, Func) -> Result<(), String>,
-) -> Result<(), String> {
-    let region = regions(code)?;
+    mut leaf: impl FnMut(usize, O) -> Result<(), E>,
+    mut func: impl FnMut(usize, Func) -> Result<(), E>,
+) -> Result<(), E> {
+    let region = regions(code).map_err(E::from)?;
     // The depth each skip brings to its target (index `code.len()`: the end).
     let mut arrive: Vec<Option<i64>> = vec![None; code.len() + 1];
-    let meet = |arrive: &mut [Option<i64>], at: usize, d: i64, from: usize| -> Result<(), String> {
+    let meet = |arrive: &mut [Option<i64>], at: usize, d: i64, from: usize| -> Result<(), CodeError> {
         if region.get(at).copied().unwrap_or(0) != region[from] {
-            return Err(format!("skip at {from} leaves or enters a function body"));
+            return Err(CodeError::SkipCrossesBody { from });
         }
         match arrive.get_mut(at) {
-            None => Err(format!("skip beyond the end at {from}")),
-            Some(Some(t)) if *t != d => Err(format!("stack depths {t} and {d} meet at {at}")),
+            None => Err(CodeError::SkipBeyondEnd { from }),
+            Some(Some(t)) if *t != d => Err(CodeError::DepthsMeet { a: *t, b: d, at: Some(at) }),
             Some(slot) => {
                 *slot = Some(d);
                 Ok(())
@@ -559,18 +627,18 @@ pub fn check<O: StackOp>(
     for (i, op) in code.iter().enumerate() {
         if let Core::Enter(arity) = op.core() {
             if depth.is_some() || arrive[i].is_some() {
-                return Err(format!("function body at {i} reached without a call"));
+                return Err(CodeError::BodyWithoutCall { at: i }.into());
             }
             depth = Some(i64::from(arity));
             continue;
         }
         let d = match (depth, arrive[i]) {
-            (Some(d), Some(t)) if d != t => return Err(format!("stack depths {d} and {t} meet at {i}")),
+            (Some(d), Some(t)) if d != t => return Err(CodeError::DepthsMeet { a: d, b: t, at: Some(i) }.into()),
             (Some(d), _) | (None, Some(d)) => d,
-            (None, None) => return Err(format!("unreachable instruction at {i}")),
+            (None, None) => return Err(CodeError::Unreachable { at: i }.into()),
         };
         let (pop, push) = match op.core() {
-            Core::Push(v) if !v.is_finite() => return Err(format!("non-finite constant at {i}")),
+            Core::Push(v) if !v.is_finite() => return Err(CodeError::NonFinite { at: i }.into()),
             Core::Push(_) => (0, 1),
             Core::Leaf(l) => {
                 leaf(i, l)?;
@@ -583,7 +651,7 @@ pub fn check<O: StackOp>(
                     func(i, f)?;
                     (f.arity() as i64, 1)
                 }
-                None => return Err(format!("unknown function {f} at {i}")),
+                None => return Err(CodeError::UnknownFunction { id: f, at: i }.into()),
             },
             Core::Skip(n) | Core::Funcs(n) => {
                 meet(&mut arrive, i + 1 + n as usize, d, i)?;
@@ -592,24 +660,24 @@ pub fn check<O: StackOp>(
             }
             Core::SkipUnless(n) => {
                 if d < 1 {
-                    return Err(format!("stack underflow at {i}"));
+                    return Err(CodeError::Underflow { at: i }.into());
                 }
                 meet(&mut arrive, i + 1 + n as usize, d - 1, i)?;
                 (1, 0)
             }
-            Core::Pick(k) if i64::from(k) >= d => return Err(format!("pick {k} beyond the stack at {i}")),
+            Core::Pick(k) if i64::from(k) >= d => return Err(CodeError::PickBeyond { k, at: i }.into()),
             Core::Pick(_) => (0, 1),
             Core::Slide(n) => (i64::from(n) + 1, 1),
             Core::Fn(rel) => {
                 let target = i.checked_add_signed(rel as isize).and_then(|t| code.get(t)).map(|t| t.core());
                 match target {
                     Some(Core::Enter(arity)) => (i64::from(arity), 1),
-                    _ => return Err(format!("call at {i} of no function body")),
+                    _ => return Err(CodeError::CallOfNoBody { at: i }.into()),
                 }
             }
             Core::Ret => {
                 if d != 1 {
-                    return Err(format!("function returns {d} values at {i}"));
+                    return Err(CodeError::ReturnsValues { n: d, at: i }.into());
                 }
                 depth = None;
                 continue;
@@ -617,17 +685,17 @@ pub fn check<O: StackOp>(
             Core::Enter(_) => (0, 0),
         };
         if d < pop {
-            return Err(format!("stack underflow at {i}"));
+            return Err(CodeError::Underflow { at: i }.into());
         }
         depth = Some(d - pop + push);
     }
     let end = match (depth, arrive[code.len()]) {
-        (Some(d), Some(t)) if d != t => return Err(format!("stack depths {d} and {t} meet at the end")),
+        (Some(d), Some(t)) if d != t => return Err(CodeError::DepthsMeet { a: d, b: t, at: None }.into()),
         (Some(d), _) | (None, Some(d)) => d,
         (None, None) => 0,
     };
     if end != 1 {
-        return Err(format!("expression leaves {end} values"));
+        return Err(CodeError::LeavesValues(end).into());
     }
     Ok(())
 }
@@ -636,13 +704,13 @@ pub fn check<O: StackOp>(
 /// 1 in order), checking the blocks' shape: a `Funcs` block inside the code and not
 /// inside another, holding only bodies, each `Enter` … `Ret`; no `Enter` or `Ret`
 /// elsewhere.
-fn regions<O: StackOp>(code: &[O]) -> Result<Vec<u32>, String> {
+fn regions<O: StackOp>(code: &[O]) -> Result<Vec<u32>, CodeError> {
     let mut region = vec![0u32; code.len()];
     let (mut block_end, mut current, mut bodies) = (None::<usize>, 0u32, 0u32);
     for (i, op) in code.iter().enumerate() {
         if block_end == Some(i) {
             if current != 0 {
-                return Err(format!("function body without a return at {i}"));
+                return Err(CodeError::BlockShape { what: "function body without a return", at: Some(i) });
             }
             block_end = None;
         }
@@ -650,7 +718,7 @@ fn regions<O: StackOp>(code: &[O]) -> Result<Vec<u32>, String> {
             Core::Funcs(n) => {
                 let end = i + 1 + n as usize;
                 if block_end.is_some() || end > code.len() {
-                    return Err(format!("misplaced function block at {i}"));
+                    return Err(CodeError::BlockShape { what: "misplaced function block", at: Some(i) });
                 }
                 block_end = Some(end);
             }
@@ -658,22 +726,22 @@ fn regions<O: StackOp>(code: &[O]) -> Result<Vec<u32>, String> {
                 bodies += 1;
                 current = bodies;
             }
-            Core::Enter(_) => return Err(format!("function body outside a function block at {i}")),
+            Core::Enter(_) => return Err(CodeError::BlockShape { what: "function body outside a function block", at: Some(i) }),
             Core::Ret if current != 0 => {
                 region[i] = current;
                 current = 0;
                 continue;
             }
-            Core::Ret => return Err(format!("return outside a function body at {i}")),
+            Core::Ret => return Err(CodeError::BlockShape { what: "return outside a function body", at: Some(i) }),
             _ if block_end.is_some() && current == 0 => {
-                return Err(format!("instruction between function bodies at {i}"));
+                return Err(CodeError::BlockShape { what: "instruction between function bodies", at: Some(i) });
             }
             _ => {}
         }
         region[i] = current;
     }
     if current != 0 {
-        return Err("function body without a return".into());
+        return Err(CodeError::BlockShape { what: "function body without a return", at: None });
     }
     Ok(region)
 }
@@ -701,11 +769,11 @@ pub fn slots_needed(code: &[ExprOp]) -> usize {
 }
 
 /// Checks stack discipline: never underflows, ends with exactly one value.
-pub fn verify(code: &[ExprOp]) -> Result<(), String> {
+pub fn verify(code: &[ExprOp]) -> Result<(), CodeError> {
     check(
         code,
         |i, leaf| match leaf {
-            ExprOp::Var(v) if v as usize >= VARIABLES.len() => Err(format!("unknown variable {v} at {i}")),
+            ExprOp::Var(v) if v as usize >= VARIABLES.len() => Err(CodeError::UnknownVariable { var: v, at: i }),
             _ => Ok(()),
         },
         |_, _| Ok(()),

@@ -19,6 +19,8 @@ pub enum ReadError {
     NotRegular(&'static str),
     /// The file has more than the limit; the size read (or reported) so far.
     TooLarge { len: u64, max: u64 },
+    /// The file was read as text ([`read_text_bounded`]) and is not UTF-8.
+    NotUtf8,
 }
 
 impl std::fmt::Display for ReadError {
@@ -27,6 +29,7 @@ impl std::fmt::Display for ReadError {
             ReadError::Io(e) => write!(f, "{e}"),
             ReadError::NotRegular(what) => write!(f, "not a regular file ({what}); only regular files are read"),
             ReadError::TooLarge { len, max } => write!(f, "file too large: {len} bytes (at most {max})"),
+            ReadError::NotUtf8 => write!(f, "stream did not contain valid UTF-8"),
         }
     }
 }
@@ -82,10 +85,10 @@ pub fn read_bounded(path: &Path, max: u64) -> Result<Vec<u8>, ReadError> {
     Ok(bytes)
 }
 
-/// [`read_bounded`] as UTF-8 text; the error is a message.
-pub fn read_text_bounded(path: &Path, max: u64) -> Result<String, String> {
-    let bytes = read_bounded(path, max).map_err(|e| e.to_string())?;
-    String::from_utf8(bytes).map_err(|_| "stream did not contain valid UTF-8".to_string())
+/// [`read_bounded`] as UTF-8 text ([`ReadError::NotUtf8`] when it is not).
+pub fn read_text_bounded(path: &Path, max: u64) -> Result<String, ReadError> {
+    let bytes = read_bounded(path, max)?;
+    String::from_utf8(bytes).map_err(|_| ReadError::NotUtf8)
 }
 
 #[cfg(test)]

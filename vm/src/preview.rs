@@ -190,8 +190,9 @@ fn for_each_triangle(out: &Output, f: &mut dyn FnMut(Tri)) {
     });
 }
 
-/// Encodes RGBA8 pixels as PNG bytes.
-pub fn encode_png(rgba: &[u8], width: u32, height: u32) -> Result<Vec<u8>, String> {
+/// Encodes RGBA8 pixels as PNG bytes; the encoder's error when the pixels do not
+/// fill `width × height` (or the size is one PNG cannot hold).
+pub fn encode_png(rgba: &[u8], width: u32, height: u32) -> Result<Vec<u8>, png::EncodingError> {
     let mut buf = Vec::new();
     {
         let mut enc = png::Encoder::new(&mut buf, width, height);
@@ -200,8 +201,8 @@ pub fn encode_png(rgba: &[u8], width: u32, height: u32) -> Result<Vec<u8>, Strin
         // fdeflate: several times faster than the default level on renders, files a
         // little larger.
         enc.set_compression(png::Compression::Fast);
-        let mut writer = enc.write_header().map_err(|e| e.to_string())?;
-        writer.write_image_data(rgba).map_err(|e| e.to_string())?;
+        let mut writer = enc.write_header()?;
+        writer.write_image_data(rgba)?;
     }
     Ok(buf)
 }

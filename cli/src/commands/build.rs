@@ -1,6 +1,7 @@
 //! `mdgc build FILE.mdg [-o FILE.mdgb]`: compile a program to a bundle.
 
-use super::{emit, fail, CommonOpts};
+use super::{emit, CommonOpts};
+use crate::failure::{Exit, Failure};
 use mdg_compiler::driver;
 use mdg_compiler::source::FsLoader;
 use std::path::PathBuf;
@@ -20,13 +21,13 @@ pub struct Args {
 pub fn run(args: Args) -> ExitCode {
     let opts = match args.common.compile.options() {
         Ok(o) => o,
-        Err(e) => return fail("mdgc", e, 2),
+        Err(e) => return Failure::usage(e).report("mdgc"),
     };
     match driver::build(&FsLoader, &args.file, &opts) {
         Ok((bundle, a)) => {
             emit(&a, args.common.message_format);
             if let Err(e) = crate::args::check_declared(&a, &opts) {
-                return fail("mdgc build", e, 2);
+                return Failure::usage(e).report("mdgc build");
             }
             let out = args.output.unwrap_or_else(|| args.file.with_extension("mdgb"));
             if let Some(f) = a.sources.files.iter().find(|f| mdg_vm::export::same_file(&f.path, &out)) {
@@ -35,18 +36,18 @@ pub fn run(args: Args) -> ExitCode {
                     out.display(),
                     f.path.display()
                 );
-                return fail("mdgc build", msg, 2);
+                return Failure::usage(msg).report("mdgc build");
             }
             let bytes = mdg_vm::bundle::encode(&bundle);
             if let Err(e) = mdg_vm::export::write_atomic(&out, &bytes) {
-                return fail("mdgc build", format!("cannot write {}: {e}", out.display()), 2);
+                return Failure::usage(format!("cannot write {}: {e}", out.display())).report("mdgc build");
             }
             eprintln!("wrote {} ({} bytes)", out.display(), bytes.len());
             ExitCode::SUCCESS
         }
         Err(a) => {
             emit(&a, args.common.message_format);
-            ExitCode::from(1)
+            ExitCode::from(Exit::Input)
         }
     }
 }

@@ -1,6 +1,7 @@
 //! `mdgc check FILE…`: report every diagnostic.
 
-use super::{emit, fail, CommonOpts};
+use super::{emit, CommonOpts};
+use crate::failure::{Exit, Failure};
 use mdg_compiler::check::CheckOptions;
 use mdg_compiler::driver::analyze;
 use mdg_compiler::source::FsLoader;
@@ -20,11 +21,11 @@ pub struct Args {
 
 pub fn run(args: Args) -> ExitCode {
     if args.files.is_empty() {
-        return fail("mdgc check", "no files given", 2);
+        return Failure::usage("no files given").report("mdgc check");
     }
     let opts = match args.common.compile.options() {
         Ok(o) => o,
-        Err(e) => return fail("mdgc", e, 2),
+        Err(e) => return Failure::usage(e).report("mdgc"),
     };
     let mut errors = false;
     let mut analyses = Vec::new();
@@ -35,10 +36,10 @@ pub fn run(args: Args) -> ExitCode {
         analyses.push(a);
     }
     if let Err(e) = crate::args::check_declared_in_any(&analyses, &opts) {
-        return fail("mdgc check", e, 2);
+        return Failure::usage(e).report("mdgc check");
     }
     if errors {
-        ExitCode::from(1)
+        ExitCode::from(Exit::Input)
     } else {
         ExitCode::SUCCESS
     }

@@ -1,6 +1,7 @@
 //! `mdgc disasm FILE.mdgb|FILE.mdg`: a bundle as readable text.
 
-use super::{emit, fail, MessageFormat};
+use super::{emit, MessageFormat};
+use crate::failure::{Exit, Failure};
 use mdg_compiler::driver;
 use mdg_compiler::expand::Options;
 use mdg_compiler::source::FsLoader;
@@ -18,11 +19,11 @@ pub fn run(args: Args) -> ExitCode {
     let bundle = if file.extension().is_some_and(|e| e == "mdgb") {
         let bytes = match mdg_vm::input::read_bounded(file, mdg_vm::input::MAX_DATA_BYTES) {
             Ok(b) => b,
-            Err(e) => return fail("mdgc disasm", format!("cannot read {}: {e}", file.display()), 2),
+            Err(e) => return Failure::usage(format!("cannot read {}: {e}", file.display())).report("mdgc disasm"),
         };
         match mdg_vm::bundle::load(&bytes) {
             Ok(b) => b,
-            Err(e) => return fail("mdgc disasm", format!("{}: {e}", file.display()), 1),
+            Err(e) => return Failure::input(format!("{}: {e}", file.display())).report("mdgc disasm"),
         }
     } else {
         let opts = Options { std_dir: driver::default_std_dir(), ..Options::default() };
@@ -30,7 +31,7 @@ pub fn run(args: Args) -> ExitCode {
             Ok((b, _)) => b,
             Err(a) => {
                 emit(&a, MessageFormat::Human);
-                return ExitCode::from(1);
+                return ExitCode::from(Exit::Input);
             }
         }
     };

@@ -1,7 +1,7 @@
 //! `mdgc explain CODE`: a diagnostic code's title, explanation and example (as
 //! `rustc --explain` does); `mdgc explain --list`: every code with its title.
 
-use super::fail;
+use crate::failure::Failure;
 use mdg_compiler::codes;
 use std::process::ExitCode;
 
@@ -30,12 +30,9 @@ pub fn run(args: Args) -> ExitCode {
             print!("{}", codes::explain(c));
             ExitCode::SUCCESS
         }
-        None => fail(
-            "mdgc explain",
-            format!(
-                "`{code}` is not a diagnostic code (codes look like E0301 or W0001; `mdgc explain --list` lists them)"
-            ),
-            2,
-        ),
+        None => Failure::usage(format!(
+            "`{code}` is not a diagnostic code (codes look like E0301 or W0001; `mdgc explain --list` lists them)"
+        ))
+        .report("mdgc explain"),
     }
 }

@@ -3,7 +3,7 @@
 //! ([`mdg_compiler::importer`]), print the report of what was approximated or left
 //! out on stderr, and check that the grammar compiles.
 
-use super::fail;
+use crate::failure::Failure;
 use mdg_compiler::check::CheckOptions;
 use mdg_compiler::driver::analyze_text;
 use mdg_compiler::importer::{self, Dialect};
@@ -39,27 +39,28 @@ pub struct Args {
 
 pub fn run(args: Args) -> ExitCode {
     let Some(dialect) = Dialect::of_path(&args.file) else {
-        return fail(
-            "mdgc import",
-            format!("{}: expected a .cfdg (Context Free) or .es (Structure Synth) file", args.file.display()),
-            2,
-        );
+        return Failure::usage(format!(
+            "{}: expected a .cfdg (Context Free) or .es (Structure Synth) file",
+            args.file.display()
+        ))
+        .report("mdgc import");
     };
     if args.size == 0 {
-        return fail("mdgc import", "--size must be at least 1 pixel", 2);
+        return Failure::usage("--size must be at least 1 pixel").report("mdgc import");
     }
     if let Some(p) = args.pixel {
         if !(p.is_finite() && p > 0.0) {
-            return fail("mdgc import", format!("--pixel {p}: expected a positive size in model units"), 2);
+            return Failure::usage(format!("--pixel {p}: expected a positive size in model units"))
+                .report("mdgc import");
         }
     }
     let text = match std::fs::read(&args.file) {
         Ok(b) => String::from_utf8_lossy(&b).into_owned(),
-        Err(e) => return fail("mdgc import", format!("cannot read {}: {e}", args.file.display()), 2),
+        Err(e) => return Failure::usage(format!("cannot read {}: {e}", args.file.display())).report("mdgc import"),
     };
     let compile = match args.compile.options() {
         Ok(o) => o,
-        Err(e) => return fail("mdgc import", e, 2),
+        Err(e) => return Failure::usage(e).report("mdgc import"),
     };
     let dir = args.file.parent().map(|p| p.to_path_buf()).unwrap_or_default();
     let read_dir = dir.clone();
@@ -79,13 +80,13 @@ pub fn run(args: Args) -> ExitCode {
     eprintln!("mdgc import: {n} construct{} approximated or left out", if n == 1 { "" } else { "s" });
     if let Some(r) = &args.report {
         if let Err(e) = mdg_vm::export::write_atomic(r, imp.report.to_json().as_bytes()) {
-            return fail("mdgc import", format!("cannot write {}: {e}", r.display()), 2);
+            return Failure::usage(format!("cannot write {}: {e}", r.display())).report("mdgc import");
         }
     }
     match &args.output {
         Some(o) => {
             if let Err(e) = mdg_vm::export::write_atomic(o, imp.mdg.as_bytes()) {
-                return fail("mdgc import", format!("cannot write {}: {e}", o.display()), 2);
+                return Failure::usage(format!("cannot write {}: {e}", o.display())).report("mdgc import");
             }
             eprintln!("wrote {}", o.display());
         }
@@ -96,7 +97,7 @@ pub fn run(args: Args) -> ExitCode {
     let a = analyze_text(&FsLoader, &path, &imp.mdg, &compile, CheckOptions { require_start: true });
     if a.has_errors() {
         eprint!("{}", mdg_compiler::diag::render_plain(&a.diagnostics, &a.sources));
-        return fail("mdgc import", "the imported grammar does not compile (errors above)", 1);
+        return Failure::input("the imported grammar does not compile (errors above)").report("mdgc import");
     }
     ExitCode::SUCCESS
 }

@@ -1,5 +1,6 @@
 //! `mdgc induce EXAMPLE…`: induce a grid grammar from example buildings.
 
+use crate::failure::{Exit, Failure};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -63,10 +64,7 @@ pub fn run(args: Args) -> ExitCode {
     let (examples, spec, ops, cost, name, output) =
         (&examples[..], spec.as_str(), ops.as_str(), cost.as_str(), name.as_deref(), output.as_path());
     use mdg_vm::grid::infer::{Cost, InferOptions, Ops, Spec};
-    let usage = |m: String| {
-        eprintln!("mdgc induce: {m}");
-        ExitCode::from(2)
-    };
+    let usage = |m: String| Failure::usage(m).report("mdgc induce");
     let Some(spec) = Spec::parse(spec) else { return usage(format!("--spec {spec}: expected rect, 2d or 3d")) };
     let Some(ops) = Ops::parse(ops) else { return usage(format!("--ops {ops}: expected merge, split or both")) };
     let Some(cost) = Cost::parse(cost) else { return usage(format!("--cost {cost}: expected sum, kinds or product")) };
@@ -105,10 +103,7 @@ pub fn run(args: Args) -> ExitCode {
     bar.finish_and_clear();
     let (grammar, reports) = match result {
         Ok(r) => r,
-        Err(e) => {
-            eprintln!("mdgc induce: {}", mdg_compiler::diag::escape_text(&e.to_string()));
-            return ExitCode::from(1);
-        }
+        Err(e) => return Failure::from(e).report("mdgc induce"),
     };
     for r in &reports {
         let m = &r.measures;
@@ -140,7 +135,7 @@ pub fn run(args: Args) -> ExitCode {
             if grammar.shapes.len() == 1 { "" } else { "s" },
             if examples.len() > 1 { "s" } else { "" }
         );
-        return ExitCode::from(1);
+        return Exit::Input.into();
     }
     // What the grammar does: moves, shapes, matches, and what ten seeds generate.
     use mdg_vm::grid::{assess, build};
@@ -232,14 +227,10 @@ pub fn run(args: Args) -> ExitCode {
     // The written source must fit a source file and compile back to the same grammar.
     let text = match mdg_compiler::induce::write_checked_with(&grammar, &comment, output, !full) {
         Ok(t) => t,
-        Err(e) => {
-            eprintln!("mdgc induce: {}", mdg_compiler::diag::escape_text(&e.to_string()));
-            return ExitCode::from(1);
-        }
+        Err(e) => return Failure::from(e).report("mdgc induce"),
     };
     if let Err(e) = mdg_vm::export::write_atomic(output, text.as_bytes()) {
-        eprintln!("mdgc induce: cannot write {}: {e}", output.display());
-        return ExitCode::from(2);
+        return Failure::usage(format!("cannot write {}: {e}", output.display())).report("mdgc induce");
     }
     eprintln!(
         "wrote {} ({} palette entries, {} shapes, {} matches, {} rules)",

@@ -3,7 +3,9 @@
 //!
 //! Exit codes, everywhere: 0 success (warnings allowed), 1 errors in the input (or
 //! `fmt --check` found unformatted files), 2 usage or IO errors, 3 Vulkan
-//! validation errors (`mdg-view`).
+//! validation errors (`mdg-view`), 75 a batch shard held by another run. A failed
+//! command is a [`crate::failure::Failure`], which picks the code and prints the
+//! message.
 
 pub mod build;
 pub mod check;
@@ -19,7 +21,6 @@ use crate::args::CompileArgs;
 use clap::ValueEnum;
 use mdg_compiler::diag::{render_json, render_plain};
 use mdg_compiler::driver;
-use std::process::ExitCode;
 
 /// How to print diagnostics.
 #[derive(Clone, Copy, Debug, Default, ValueEnum, PartialEq)]
@@ -45,11 +46,4 @@ pub fn emit(a: &driver::Analysis, format: MessageFormat) {
         MessageFormat::Human => eprint!("{}", render_plain(&a.diagnostics, &a.sources)),
         MessageFormat::Json => print!("{}", render_json(&a.diagnostics, &a.sources)),
     }
-}
-
-/// `PROG: MESSAGE` on stderr, and the exit code. The message often quotes a path
-/// or text from the input: control characters in it are printed escaped.
-pub fn fail(prog: &str, message: impl std::fmt::Display, code: u8) -> ExitCode {
-    eprintln!("{prog}: {}", mdg_compiler::diag::escape_text(&message.to_string()));
-    ExitCode::from(code)
 }

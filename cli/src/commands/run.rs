@@ -5,6 +5,7 @@
 //! Vulkan can start.
 
 use crate::batch::{self, Manifest, Seeds, Shard};
+use crate::failure::Failure;
 use crate::modes::{self, Common};
 use crate::pictures::{Pictures, Vulkan};
 use mdg_compiler::diag::render_plain;
@@ -187,13 +188,10 @@ fn process_wall_ms() -> Option<f64> {
     Some((up - start_ticks / 100.0) * 1000.0)
 }
 
-/// A failed run: the exit code and the message.
-type Failure = (u8, String);
-
 pub fn run(cli: Args) -> ExitCode {
     match run_checked(&cli) {
         Ok(code) => code,
-        Err((code, message)) => super::fail("mdg-run", message, code),
+        Err(failure) => failure.report("mdg-run"),
     }
 }
 
@@ -205,7 +203,7 @@ pub fn default_output(input: &Path, ext: &str) -> PathBuf {
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), Failure> {
-    crate::args::parse_picture_size(s).map_err(|e| (2, e))
+    crate::args::parse_picture_size(s).map_err(Failure::usage)
 }
 
 /// The bundle of `file`, and the files read to make it (the source and its imports).
@@ -216,17 +214,14 @@ fn load_bundle(
 ) -> Result<(Bundle, Vec<PathBuf>), Failure> {
     if file.extension().is_some_and(|e| e == "mdgb") && !stdin {
         if let Some(flag) = crate::args::source_only_flag(opts) {
-            return Err((
-                2,
-                format!(
-                    "{flag}: {} is a compiled bundle; {flag} applies when compiling the source (mdgc build {flag} …)",
-                    file.display()
-                ),
-            ));
+            return Err(Failure::usage(format!(
+                "{flag}: {} is a compiled bundle; {flag} applies when compiling the source (mdgc build {flag} …)",
+                file.display()
+            )));
         }
         let bytes = mdg_vm::input::read_bounded(file, mdg_vm::input::MAX_DATA_BYTES)
-            .map_err(|e| (2, format!("cannot read {}: {e}", file.display())))?;
-        let b = mdg_vm::bundle::load(&bytes).map_err(|e| (1, format!("{}: {e}", file.display())))?;
+            .map_err(|e| Failure::usage(format!("cannot read {}: {e}", file.display())))?;
+        let b = mdg_vm::bundle::load(&bytes).map_err(|e| Failure::input(format!("{}: {e}", file.display())))?;
         return Ok((b, vec![file.to_path_buf()]));
     }
     let built = if stdin {
@@ -234,19 +229,16 @@ fn load_bundle(
         let max = mdg_compiler::source::MAX_SOURCE_BYTES;
         let mut bytes = Vec::new();
         std::io::Read::read_to_end(&mut std::io::Read::take(std::io::stdin().lock(), max as u64 + 1), &mut bytes)
-            .map_err(|e| (2, format!("cannot read standard input: {e}")))?;
+            .map_err(|e| Failure::usage(format!("cannot read standard input: {e}")))?;
         if bytes.len() > max {
-            return Err((
-                2,
-                format!(
-                    "standard input is larger than the {} MiB source limit ({max} bytes); split the grammar into \
+            return Err(Failure::usage(format!(
+                "standard input is larger than the {} MiB source limit ({max} bytes); split the grammar into \
                      files joined with `@import`",
-                    max >> 20
-                ),
-            ));
+                max >> 20
+            )));
         }
-        let text =
-            mdg_compiler::source::decode_source(bytes).map_err(|e| (2, format!("cannot read standard input: {e}")))?;
+        let text = mdg_compiler::source::decode_source(bytes)
+            .map_err(|e| Failure::usage(format!("cannot read standard input: {e}")))?;
         let loader = MemLoader { files: [(file.to_path_buf(), text)].into(), disk_fallback: true };
         driver::build(&loader, file, opts)
     } else {
@@ -255,44 +247,44 @@ fn load_bundle(
     match built {
         Ok((b, a)) => {
             eprint!("{}", render_plain(&a.diagnostics, &a.sources));
-            crate::args::check_declared(&a, opts).map_err(|e| (2, e))?;
+            crate::args::check_declared(&a, opts).map_err(Failure::usage)?;
             let mut inputs: Vec<PathBuf> = a.sources.files.iter().map(|f| f.path.clone()).collect();
             inputs.push(file.to_path_buf());
             Ok((b, inputs))
         }
         Err(a) => {
             eprint!("{}", render_plain(&a.diagnostics, &a.sources));
-            Err((1, format!("{} has errors", file.display())))
+            Err(Failure::input(format!("{} has errors", file.display())))
         }
     }
 }
 
 fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
-    let opts = cli.compile.options().map_err(|e| (2, e))?;
+    let opts = cli.compile.options().map_err(Failure::usage)?;
     let size = parse_size(&cli.size)?;
     let pose = match &cli.camera {
-        Some(c) => Some(c.parse::<Pose>().map_err(|e| (2, format!("--camera {e}")))?),
+        Some(c) => Some(c.parse::<Pose>().map_err(|e| Failure::usage(format!("--camera {e}")))?),
         None => None,
     };
     if let Some(t) = cli.time {
         if !(t.is_finite() && t >= 0.0) {
-            return Err((2, format!("--time {t}: expected a number of seconds ≥ 0")));
+            return Err(Failure::usage(format!("--time {t}: expected a number of seconds ≥ 0")));
         }
     }
     let batch = match &cli.seeds {
         Some(s) => {
-            let seeds: Seeds = s.parse().map_err(|e| (2, e))?;
+            let seeds: Seeds = s.parse().map_err(Failure::usage)?;
             let shard: Shard = match &cli.shard {
-                Some(k) => k.parse().map_err(|e| (2, e))?,
+                Some(k) => k.parse().map_err(Failure::usage)?,
                 None => Shard::default(),
             };
             let template = cli
                 .output
                 .as_ref()
-                .ok_or((2, "--seeds needs -o with `{seed}` in it, e.g. -o 'out/{seed}.glb'".to_string()))?;
-            batch::output_for(template, 0).map_err(|e| (2, e))?;
+                .ok_or(Failure::usage("--seeds needs -o with `{seed}` in it, e.g. -o 'out/{seed}.glb'".to_string()))?;
+            batch::output_for(template, 0).map_err(Failure::usage)?;
             if cli.seed.is_some() {
-                return Err((2, "--seed and --seeds: choose one".into()));
+                return Err(Failure::usage("--seed and --seeds: choose one"));
             }
             Some((seeds, shard, template.clone()))
         }
@@ -300,10 +292,15 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
     };
     if format_none(cli) {
         if let Some(o) = &cli.output {
-            return Err((2, format!("--format none writes no model; drop -o {} (or choose a format)", o.display())));
+            return Err(Failure::usage(format!(
+                "--format none writes no model; drop -o {} (or choose a format)",
+                o.display()
+            )));
         }
         if cli.seeds.is_some() {
-            return Err((2, "--format none and --seeds: a batch writes one model per seed; choose a format".into()));
+            return Err(Failure::usage(
+                "--format none and --seeds: a batch writes one model per seed; choose a format",
+            ));
         }
     }
     let (bundle, inputs) = load_bundle(&cli.file, &opts, cli.stdin)?;
@@ -316,26 +313,23 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
     for (flag, o) in outputs.iter().filter_map(|(f, o)| o.map(|o| (f, o))) {
         if let Some(i) = inputs.iter().find(|i| mdg_vm::export::same_file(i, o)) {
             let (o, i) = (o.display(), i.display());
-            return Err((2, format!("{flag} {o}: that is an input ({i}); choose another output file")));
+            return Err(Failure::usage(format!("{flag} {o}: that is an input ({i}); choose another output file")));
         }
     }
     if let Some(p) = &cli.params_json {
         export::write_atomic(p, bundle.params_json().as_bytes())
-            .map_err(|e| (2, format!("cannot write {}: {e}", p.display())))?;
+            .map_err(|e| Failure::usage(format!("cannot write {}: {e}", p.display())))?;
     }
     let pictures = Vulkan::new(opts.std_dir.clone()).posed(pose).samples(cli.samples);
     if bundle.extensions.creatures.is_some() {
         if batch.is_some() {
-            return Err((
-                2,
-                "--seeds: creature evolution writes a gallery per run; run it once per seed instead".into(),
+            return Err(Failure::usage(
+                "--seeds: creature evolution writes a gallery per run; run it once per seed instead",
             ));
         }
         if let Some(o) = &cli.output {
             if o.extension().is_some() && !o.is_dir() {
-                return Err((
-                    2,
-                    format!(
+                return Err(Failure::usage(format!(
                         "-o {}: creature evolution writes a folder (one .glb per monster, pictures, index.html); give a folder name such as -o monsters/",
                         o.display()
                     ),
@@ -344,25 +338,22 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
         }
         let out_dir = cli.output.clone().unwrap_or_else(|| modes::creature::default_dir(&cli.file));
         let common = common(cli, &opts, Some(&out_dir), cli.seed, size, &pictures);
-        return Ok(modes::creature::run(&bundle, &cli.creature, &common));
+        modes::creature::run(&bundle, &cli.creature, &common)?;
+        return Ok(ExitCode::SUCCESS);
     }
     let is_grid = bundle.extensions.grid.is_some();
     if is_grid && format_none(cli) {
-        return Err((
-            2,
-            "--format none is for mesh grammars; a grid grammar writes a voxel file (docs/grid.md)".into(),
+        return Err(Failure::usage(
+            "--format none is for mesh grammars; a grid grammar writes a voxel file (docs/grid.md)",
         ));
     }
     match batch {
         Some((seeds, shard, template)) => {
             if !is_grid && mesh_target(cli, &template)? == Target::Picture {
-                return Err((
-                    2,
-                    format!(
-                        "-o {}: --seeds writes one model per seed ({MESH_FORMATS}); pictures are for single runs",
-                        template.display()
-                    ),
-                ));
+                return Err(Failure::usage(format!(
+                    "-o {}: --seeds writes one model per seed ({MESH_FORMATS}); pictures are for single runs",
+                    template.display()
+                )));
             }
             run_batch(cli, &opts, &bundle, seeds, shard, &template, size, &pictures)
         }
@@ -377,9 +368,7 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
             if is_grid {
                 grid_format_agrees(cli, &output)?;
             } else if mesh_target(cli, &output)? == Target::Picture && cli.png.is_some() {
-                return Err((
-                    2,
-                    format!(
+                return Err(Failure::usage(format!(
                         "-o {} and --png: both are pictures; write the model with -o NAME.glb (or .obj, …) and the picture with --png",
                         output.display()
                     ),
@@ -440,34 +429,27 @@ fn mesh_target(cli: &Args, path: &Path) -> Result<Target, Failure> {
         Some(f) => Target::Model(f),
         None if ext == "png" => Target::Picture,
         None if mdg_vm::grid::format::VoxelFormat::from_extension(&ext).is_some() => {
-            return Err((
-                2,
-                format!(
-                    "-o {shown}: .{ext} is a voxel format, written by grid grammars (a `grid` section: docs/grid.md); \
+            return Err(Failure::usage(format!(
+                "-o {shown}: .{ext} is a voxel format, written by grid grammars (a `grid` section: docs/grid.md); \
                      this grammar makes a mesh: write {MESH_FORMATS}"
-                ),
-            ))
+            )))
         }
         None => {
             let hint = if ext == "gltf" { " (binary glTF is .glb)" } else { "" };
-            return Err((
-                2,
-                format!("-o {shown}: mdg-run does not write .{ext} files{hint}; it writes {MESH_FORMATS}, or a picture with .png"),
+            return Err(Failure::usage(format!("-o {shown}: mdg-run does not write .{ext} files{hint}; it writes {MESH_FORMATS}, or a picture with .png"),
             ));
         }
     };
     match (flag, target) {
-        (Some(f), Target::Model(g)) if f != g => Err((
-            2,
-            format!(
-                "--format {} and -o {shown} disagree; drop --format or name the file .{}",
-                f.extension(),
-                f.extension()
-            ),
-        )),
-        (Some(f), Target::Picture) => {
-            Err((2, format!("--format {} and -o {shown} disagree: .png is the picture; drop --format", f.extension())))
-        }
+        (Some(f), Target::Model(g)) if f != g => Err(Failure::usage(format!(
+            "--format {} and -o {shown} disagree; drop --format or name the file .{}",
+            f.extension(),
+            f.extension()
+        ))),
+        (Some(f), Target::Picture) => Err(Failure::usage(format!(
+            "--format {} and -o {shown} disagree: .png is the picture; drop --format",
+            f.extension()
+        ))),
         _ => Ok(target),
     }
 }
@@ -479,13 +461,10 @@ fn grid_format_agrees(cli: &Args, output: &Path) -> Result<(), Failure> {
     format(cli)?;
     let ext = output.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
     if ext.as_deref() != Some(f.to_ascii_lowercase().trim_start_matches('.')) {
-        return Err((
-            2,
-            format!(
-                "--format {f} and -o {} disagree; a grid grammar writes the format of -o's extension",
-                output.display()
-            ),
-        ));
+        return Err(Failure::usage(format!(
+            "--format {f} and -o {} disagree; a grid grammar writes the format of -o's extension",
+            output.display()
+        )));
     }
     Ok(())
 }
@@ -497,9 +476,8 @@ fn format_none(cli: &Args) -> bool {
 
 fn format(cli: &Args) -> Result<Format, Failure> {
     match &cli.format {
-        Some(f) => {
-            Format::from_extension(f).ok_or((2, format!("unknown format `{f}` (glb, obj, stl, ply, json, none)")))
-        }
+        Some(f) => Format::from_extension(f)
+            .ok_or(Failure::usage(format!("unknown format `{f}` (glb, obj, stl, ply, json, none)"))),
         None => Ok(cli.output.as_deref().and_then(Format::from_path).unwrap_or(Format::Glb)),
     }
 }
@@ -519,12 +497,8 @@ fn run_one(
 ) -> Result<Option<(u64, u64)>, Failure> {
     if bundle.extensions.grid.is_some() {
         let common = common(cli, opts, Some(output), seed, size, pictures);
-        let code = modes::grid::run(bundle, &cli.grid, &common);
-        return if code == ExitCode::SUCCESS {
-            Ok(None)
-        } else {
-            Err((1, format!("{} was not generated", output.display())))
-        };
+        modes::grid::run(bundle, &cli.grid, &common)?;
+        return Ok(None);
     }
     let (format, picture_only, nothing) = match mesh_target(cli, output)? {
         Target::Model(f) => (f, false, false),
@@ -552,7 +526,7 @@ fn run_one(
     };
     let mut out = if bundle.extensions.guided.is_some() {
         let common = common(cli, opts, Some(output), seed, size, pictures);
-        modes::guided::run(bundle, &cli.guided, &common, &eval_opts).map_err(|e| (1, e))?
+        modes::guided::run(bundle, &cli.guided, &common, &eval_opts).map_err(Failure::input)?
     } else {
         let mut out = evaluate_with_progress(bundle, &eval_opts, Some(&progress));
         if let Some(flag) = cli.guided.given() {
@@ -577,7 +551,7 @@ fn run_one(
         None => {}
     }
     if let Some(dir) = output.parent().filter(|d| !d.as_os_str().is_empty() && !d.exists()) {
-        std::fs::create_dir_all(dir).map_err(|e| (2, format!("cannot create {}: {e}", dir.display())))?;
+        std::fs::create_dir_all(dir).map_err(|e| Failure::usage(format!("cannot create {}: {e}", dir.display())))?;
     }
     if cli.instances && picture_only {
         eprintln!("note: --instances is for .glb; -o {} writes only the picture", output.display());
@@ -589,16 +563,18 @@ fn run_one(
     let glb = export::glb::GlbOptions { instances: cli.instances };
     if !picture_only && !nothing {
         phases.restart();
-        export::write_file_with(format, &out, &glb, output).map_err(|e| (1, e))?;
+        export::write_file_with(format, &out, &glb, output).map_err(Failure::input)?;
         phases.end("write");
     }
     let picture = if picture_only { Some(output) } else { cli.png.as_deref() };
     if let Some(png_path) = picture {
         // With --time the pose is already baked into `out`.
         phases.restart();
-        let bytes =
-            pictures.render(Some(bundle), &out, size).map_err(|e| (1, format!("cannot render the picture: {e}")))?;
-        export::write_atomic(png_path, &bytes).map_err(|e| (2, format!("cannot write {}: {e}", png_path.display())))?;
+        let bytes = pictures
+            .render(Some(bundle), &out, size)
+            .map_err(|e| Failure::input(format!("cannot render the picture: {e}")))?;
+        export::write_atomic(png_path, &bytes)
+            .map_err(|e| Failure::usage(format!("cannot write {}: {e}", png_path.display())))?;
         phases.end("picture");
         eprintln!("wrote {}", png_path.display());
     }
@@ -652,13 +628,15 @@ fn write_frames(
 ) -> Result<(), Failure> {
     let (fps, duration) = (bundle.settings.fps, bundle.settings.duration);
     if !(fps.is_finite() && fps > 0.0 && duration.is_finite() && duration > 0.0) {
-        return Err((1, format!("--frames: the grammar's fps ({fps}) and duration ({duration}) give no frames")));
+        return Err(Failure::input(format!(
+            "--frames: the grammar's fps ({fps}) and duration ({duration}) give no frames"
+        )));
     }
     let n = (f64::from(duration) * f64::from(fps)).ceil().max(1.0);
     if n > MAX_FRAMES as f64 {
-        return Err((2, format!("--frames: {n} frames (duration {duration} s at {fps} fps); at most {MAX_FRAMES}: lower `duration` or `fps`")));
+        return Err(Failure::usage(format!("--frames: {n} frames (duration {duration} s at {fps} fps); at most {MAX_FRAMES}: lower `duration` or `fps`")));
     }
-    std::fs::create_dir_all(dir).map_err(|e| (2, format!("cannot create {}: {e}", dir.display())))?;
+    std::fs::create_dir_all(dir).map_err(|e| Failure::usage(format!("cannot create {}: {e}", dir.display())))?;
     let n = n as u64;
     let bar = indicatif::ProgressBar::new(n);
     bar.set_style(
@@ -667,10 +645,12 @@ fn write_frames(
     );
     for i in 0..n {
         let t = i as f32 / fps;
-        let png =
-            pictures.render_at(Some(bundle), out, size, t).map_err(|e| (1, format!("cannot render frame {i}: {e}")))?;
+        let png = pictures
+            .render_at(Some(bundle), out, size, t)
+            .map_err(|e| Failure::input(format!("cannot render frame {i}: {e}")))?;
         let path = dir.join(format!("frame-{i:05}.png"));
-        export::write_atomic(&path, &png).map_err(|e| (2, format!("cannot write {}: {e}", path.display())))?;
+        export::write_atomic(&path, &png)
+            .map_err(|e| Failure::usage(format!("cannot write {}: {e}", path.display())))?;
         bar.inc(1);
     }
     bar.finish_and_clear();
@@ -705,14 +685,14 @@ fn run_batch(
     pictures: &dyn Pictures,
 ) -> Result<ExitCode, Failure> {
     if cli.png.is_some() || cli.frames.is_some() {
-        return Err((2, "--seeds writes one model per seed; --png and --frames are for single runs".into()));
+        return Err(Failure::usage("--seeds writes one model per seed; --png and --frames are for single runs"));
     }
     let in_shard = |s: u64| s >= seeds.start && s < seeds.end && (s - seeds.start) % shard.count == shard.index;
     let (mut manifest, warnings) = match Manifest::open(&batch::manifest_path(template, shard), in_shard) {
         Ok(m) => m,
         // EX_TEMPFAIL: the shard is being run; try again later.
-        Err(batch::OpenError::Busy(m)) => return Err((75, m)),
-        Err(batch::OpenError::Refused(m)) => return Err((2, m)),
+        Err(batch::OpenError::Busy(m)) => return Err(Failure::busy(m)),
+        Err(batch::OpenError::Refused(m)) => return Err(Failure::usage(m)),
     };
     for w in warnings {
         eprintln!("warning: {w}");
@@ -726,7 +706,7 @@ fn run_batch(
     );
     let mut todo = Vec::new();
     for seed in seeds_here {
-        let output = batch::output_for(template, seed).map_err(|e| (2, e))?;
+        let output = batch::output_for(template, seed).map_err(Failure::usage)?;
         if manifest.is_done(seed, &output) {
             skipped += 1;
             bar.inc(1);
@@ -741,7 +721,7 @@ fn run_batch(
     let run = |seed: u64, output: &Path| run_one(cli, opts, bundle, Some(seed), output, size, pictures, false);
     let ran = batch::run_in_order(&todo, jobs, run, |seed, output, counts| {
         bar.inc(1);
-        manifest.record(&batch::Entry { seed, file: output.to_path_buf(), counts }).map_err(|e| (2, e))
+        manifest.record(&batch::Entry { seed, file: output.to_path_buf(), counts }).map_err(Failure::usage)
     })?;
     bar.finish_and_clear();
     eprintln!(

@@ -2,6 +2,7 @@
 //! grammar with a `search` section is searched first (its guides from the grammar
 //! or `--guides`), and in the window its guides can be edited (docs/guided.md).
 
+use crate::failure::{Exit, Failure};
 use crate::toolchain::Toolchain;
 use mdg_viewer::camera::Pose;
 use mdg_viewer::context::{Context, ContextOptions, Validation};
@@ -124,7 +125,7 @@ fn numbered(path: &Path, i: u32, n: u32) -> PathBuf {
 
 /// Runs the guided search as the window's first one does and puts its model, the
 /// guides and the bones (the window's overlay) into `model`.
-fn search_for_picture(model: &mut model::Model, guides: Option<Vec<Guide>>, eval: &EvalOptions) -> Result<(), Error> {
+fn search_for_picture(model: &mut model::Model, guides: Option<Vec<Guide>>, eval: &EvalOptions) -> Result<(), Failure> {
     let Some(table) = &model.bundle.extensions.guided else { return Ok(()) };
     let guides = guides.unwrap_or_else(|| table.guides.clone());
     let seed = eval.seed.unwrap_or(model.bundle.settings.randseed);
@@ -136,7 +137,7 @@ fn search_for_picture(model: &mut model::Model, guides: Option<Vec<Guide>>, eval
         utilisation: None,
         reach: Arc::default(),
     };
-    let found = run_search(&request, &Cancel::new()).map_err(|e| Error::Other(format!("guided search: {e}")))?;
+    let found = run_search(&request, &Cancel::new())?;
     eprintln!("mdg-view: guided search: {}", found.summary.line());
     if found.summary.stop == Stop::Budget {
         eprintln!(
@@ -225,48 +226,42 @@ fn camera_pose(arg: &str) -> Result<Option<Pose>, Error> {
 }
 
 pub fn run(cli: Args) -> ExitCode {
-    let size = match crate::args::parse_picture_size(&cli.size) {
-        Ok(s) => s,
-        Err(e) => {
-            eprintln!("mdg-view: {e}");
-            return ExitCode::from(2);
-        }
-    };
-    let opts = match cli.compile.options() {
-        Ok(o) => o,
-        Err(e) => {
-            eprintln!("mdg-view: {}", mdg_compiler::diag::escape_text(&e.to_string()));
-            return ExitCode::from(2);
-        }
-    };
-    let pose = match camera_pose(&cli.camera) {
-        Ok(p) => p,
-        Err(e) => {
-            eprintln!("mdg-view: {}", mdg_compiler::diag::escape_text(&e.to_string()));
-            return ExitCode::from(2);
-        }
-    };
+    match run_checked(&cli) {
+        Ok(code) => code,
+        Err(failure) => failure.report("mdg-view"),
+    }
+}
+
+/// The viewer's errors: compile errors in the grammar (their diagnostics are the
+/// message) and the window's and Vulkan's failures are errors in the input, a flag
+/// the grammar does not use (`Other` from the loader) a usage error.
+fn viewer_failure(e: Error) -> Failure {
+    match e {
+        Error::Other(_) => Failure::usage(e.to_string()),
+        _ => Failure::input(e.to_string()),
+    }
+}
+
+fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
+    let size = crate::args::parse_picture_size(&cli.size).map_err(Failure::usage)?;
+    let opts = cli.compile.options().map_err(Failure::usage)?;
+    let pose = camera_pose(&cli.camera).map_err(|e| Failure::usage(e.to_string()))?;
     if cli.turntable.is_some() && cli.png.is_none() {
-        eprintln!("mdg-view: --turntable needs --png");
-        return ExitCode::from(2);
+        return Err(Failure::usage("--turntable needs --png"));
     }
     if cli.script.is_some() && (cli.png.is_some() || cli.frames.is_some()) {
-        eprintln!("mdg-view: --script drives the window: it cannot be combined with --png or --frames (use `quit`)");
-        return ExitCode::from(2);
+        return Err(Failure::usage(
+            "--script drives the window: it cannot be combined with --png or --frames (use `quit`)",
+        ));
     }
     let script = match &cli.script {
         None => None,
         Some(path) => {
-            match mdg_vm::input::read_text_bounded(path, mdg_vm::input::MAX_DATA_BYTES)
-                .map_err(|e| format!("cannot read {}: {e}", path.display()))
-                .and_then(|text| mdg_viewer::script::parse(&text).map_err(|e| format!("{}: {e}", path.display())))
-            {
-                Ok(s) => Some(s),
-                Err(e) => {
-                    eprintln!("mdg-view: --script {e}");
-                    return ExitCode::from(2);
-                }
-            }
+            let text = mdg_vm::input::read_text_bounded(path, mdg_vm::input::MAX_DATA_BYTES)
+                .map_err(|e| Failure::from(e).context(format!("--script cannot read {}", path.display())))?;
+            let commands = mdg_viewer::script::parse(&text)
+                .map_err(|e| Failure::from(e).context(format!("--script {}", path.display())))?;
+            Some(commands)
         }
     };
     let eval = EvalOptions { seed: cli.seed, ..cli.limits.eval_options() };
@@ -274,26 +269,21 @@ pub fn run(cli: Args) -> ExitCode {
         LoadOptions { std_dir: opts.std_dir, params: opts.params, presets: opts.defines, eval, guided_search: true };
     let (mut model, files) = match Toolchain.load(&cli.file, &load) {
         Ok(m) => m,
-        Err(fail) => {
-            // `Other` from the loader: flags the grammar does not use (a usage error).
-            let usage = matches!(fail.error, mdg_viewer::Error::Other(_));
-            eprint!("{}{}", if usage { "mdg-view: " } else { "" }, fail.error);
-            if !fail.error.to_string().ends_with('\n') {
+        // A grammar's diagnostics are printed as they are, without the prefix.
+        Err(fail) if matches!(fail.error, Error::Compile(_)) => {
+            let text = fail.error.to_string();
+            eprint!("{text}");
+            if !text.ends_with('\n') {
                 eprintln!();
             }
-            return ExitCode::from(if usage { 2 } else { 1 });
+            return Err(Failure::shown(Exit::Input));
         }
+        Err(fail) => return Err(viewer_failure(fail.error)),
     };
     eprint!("{}", model.warnings);
     let guided = model.bundle.extensions.guided.is_some();
     let guides = match (&cli.guides, guided) {
-        (Some(path), true) => match read_guides(path) {
-            Ok(g) => Some((path.clone(), g)),
-            Err(e) => {
-                eprintln!("mdg-view: {}", mdg_compiler::diag::escape_text(&e.to_string()));
-                return ExitCode::from(1);
-            }
-        },
+        (Some(path), true) => Some((path.clone(), read_guides(path)?)),
         (Some(_), false) => {
             eprintln!("warning: `--guides` is ignored: the grammar has no `search` section");
             None
@@ -301,10 +291,7 @@ pub fn run(cli: Args) -> ExitCode {
         (None, _) => None,
     };
     if cli.png.is_some() {
-        if let Err(e) = search_for_picture(&mut model, guides.clone().map(|g| g.1), &load.eval) {
-            eprintln!("mdg-view: {}", mdg_compiler::diag::escape_text(&e.to_string()));
-            return ExitCode::from(1);
-        }
+        search_for_picture(&mut model, guides.clone().map(|g| g.1), &load.eval)?;
     }
     for d in &model.output.debug {
         eprintln!("{}", mdg_compiler::diag::escape_text(d));
@@ -323,7 +310,7 @@ pub fn run(cli: Args) -> ExitCode {
         }
     };
     let result = if cli.png.is_some() {
-        Toolchain.programs(load.std_dir.as_deref()).and_then(|programs| offscreen(&cli, &model, size, &programs))
+        Toolchain.programs(load.std_dir.as_deref()).and_then(|programs| offscreen(cli, &model, size, &programs))
     } else {
         let opts = WindowOptions {
             width: size.0,
@@ -349,14 +336,8 @@ pub fn run(cli: Args) -> ExitCode {
         })
     };
     match result {
-        Ok(0) => ExitCode::SUCCESS,
-        Ok(n) => {
-            eprintln!("mdg-view: {n} Vulkan validation error(s)");
-            ExitCode::from(3)
-        }
-        Err(e) => {
-            eprintln!("mdg-view: {}", mdg_compiler::diag::escape_text(&e.to_string()));
-            ExitCode::from(1)
-        }
+        Ok(0) => Ok(ExitCode::SUCCESS),
+        Ok(n) => Err(Failure { exit: Exit::Validation, message: format!("{n} Vulkan validation error(s)") }),
+        Err(e) => Err(Failure::input(e.to_string())),
     }
 }

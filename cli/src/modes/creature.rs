@@ -4,6 +4,7 @@
 //! structure; prints the diversity per generation.
 
 use super::Common;
+use crate::failure::{Exit, Failure};
 use crate::pictures::Pictures;
 use mdg_vm::bundle::Bundle;
 use mdg_vm::creature::evolve::{
@@ -16,7 +17,6 @@ use mdg_vm::export;
 use mdg_vm::output::Mesh;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::ExitCode;
 use std::time::Instant;
 
 /// Options of `mdg-run` for `creature` grammars.
@@ -269,17 +269,6 @@ fn id_generation(id: &str) -> Option<u32> {
     g.parse().ok()
 }
 
-/// Runs the mode; writes its files and reports what it wrote.
-pub fn run(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> ExitCode {
-    match run_inner(bundle, args, common) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err((code, e)) => {
-            eprintln!("mdg-run: {}", mdg_compiler::diag::escape_text(&e.to_string()));
-            ExitCode::from(code)
-        }
-    }
-}
-
 /// The bundle with its OBJ meshes embedded: as it is when they are, else (a
 /// bundle lowered without [`mdg_compiler::ext::creature::embed_meshes`]) read from the
 /// `.mdg` source through the compiler's file loader, with the same path rules.
@@ -311,20 +300,23 @@ fn with_meshes<'b>(
     Ok(std::borrow::Cow::Owned(b))
 }
 
-fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<(), (u8, String)> {
-    let bundle = with_meshes(bundle, common.file, common.compile).map_err(|e| (1, e))?;
+/// Runs the mode; writes its files and reports what it wrote. A failure is the
+/// command's to report ([`Failure`]).
+pub fn run(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<(), Failure> {
+    let bundle = with_meshes(bundle, common.file, common.compile).map_err(Failure::input)?;
     let bundle = bundle.as_ref();
     let Some(table) = bundle.extensions.creatures.as_ref() else {
-        return Err((1, "the grammar has no `creature` section".into()));
+        return Err(Failure::input("the grammar has no `creature` section"));
     };
-    let opts = options(table, args, common.seed).map_err(|e| (2, e))?;
+    let opts = options(table, args, common.seed).map_err(Failure::usage)?;
     let out_dir = match common.output {
         Some(p) => p.to_path_buf(),
         None => default_dir(common.file),
     };
-    std::fs::create_dir_all(&out_dir).map_err(|e| (2, format!("cannot create {}: {e}", out_dir.display())))?;
+    std::fs::create_dir_all(&out_dir)
+        .map_err(|e| Failure::usage(format!("cannot create {}: {e}", out_dir.display())))?;
     let started = Instant::now();
-    let (lib, warnings) = Library::build_with(bundle, table, &common.eval).map_err(|e| (1, e))?;
+    let (lib, warnings) = Library::build_with(bundle, table, &common.eval).map_err(Failure::input)?;
     for w in &warnings {
         eprintln!("warning: {w}");
     }
@@ -346,7 +338,7 @@ fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<()
     let mut continued = serde_json::Value::Null;
     if !args.keep.is_empty() {
         let from = args.from.clone().unwrap_or_else(|| default_dir(common.file));
-        let (upto, kept, background) = read_record(&evo, &from, &args.keep, &hash).map_err(|e| (2, e))?;
+        let (upto, kept, background) = read_record(&evo, &from, &args.keep, &hash).map_err(Failure::usage)?;
         pop = evo.resume(upto, kept, background);
         total_steps = opts.generations;
         let bar = progress_bar(total_steps as u64 * opts.offspring as u64);
@@ -358,7 +350,7 @@ fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<()
             let g = evo.step(&mut pop, Some(&tick));
             if let Some(why) = g.empty(&opts) {
                 bar.finish_and_clear();
-                return Err((3, why));
+                return Err(Failure { exit: Exit::Extinct, message: why });
             }
             generations.push(g);
         }
@@ -372,7 +364,7 @@ fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<()
             let g = evo.step(&mut pop, Some(&tick));
             if let Some(why) = g.empty(&opts) {
                 bar.finish_and_clear();
-                return Err((3, why));
+                return Err(Failure { exit: Exit::Extinct, message: why });
             }
             generations.push(g);
         }
@@ -414,17 +406,18 @@ fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<()
     }
     let _ = total_steps;
     let record = record(table, common.file, &hash, &opts, &generations, continued);
-    let record_text = serde_json::to_string_pretty(&record).map_err(|e| (2, format!("run.json: {e}")))?;
+    let record_text = serde_json::to_string_pretty(&record).map_err(|e| Failure::usage(format!("run.json: {e}")))?;
     let keep_command = keep_command(common.file, &out_dir, &opts, args);
     let text = GalleryText { note: &note, keep_command: &keep_command };
-    write_outputs(table, &lib, &generations, &out_dir, &text, &opts, common.pictures).map_err(|e| (2, e))?;
-    write(&out_dir.join("run.json"), format!("{record_text}\n").as_bytes()).map_err(|e| (2, e))?;
+    write_outputs(table, &lib, &generations, &out_dir, &text, &opts, common.pictures).map_err(Failure::usage)?;
+    write(&out_dir.join("run.json"), format!("{record_text}\n").as_bytes()).map_err(Failure::usage)?;
     eprintln!("wrote {}", out_dir.join("index.html").display());
     // `--png`: the last generation's contact sheet (it used to be ignored here).
     if let (Some(png), Some(last)) = (common.png, generations.last()) {
         let sheet = out_dir.join(format!("gen{}", last.index)).join("sheet.png");
-        let bytes = std::fs::read(&sheet).map_err(|e| (2, format!("cannot read {}: {e}", sheet.display())))?;
-        write(png, &bytes).map_err(|e| (2, e))?;
+        let bytes =
+            std::fs::read(&sheet).map_err(|e| Failure::usage(format!("cannot read {}: {e}", sheet.display())))?;
+        write(png, &bytes).map_err(Failure::usage)?;
         eprintln!("wrote {} (the contact sheet of generation {})", png.display(), last.index);
     }
     Ok(())

@@ -9,6 +9,7 @@
 //! from the shapes' `at` positions) beside the generated one.
 
 use super::Common;
+use crate::failure::Failure;
 use mdg_vm::bundle::Bundle;
 use mdg_vm::export::{self, Format};
 use mdg_vm::grid::build;
@@ -17,7 +18,6 @@ use mdg_vm::grid::generate::{self, GenerateOptions};
 use mdg_vm::grid::mesh;
 use mdg_vm::output::{Mesh, Output};
 use std::path::{Path, PathBuf};
-use std::process::ExitCode;
 use std::time::Instant;
 
 /// Options of `mdg-run` for `grid` grammars.
@@ -86,17 +86,6 @@ enum Target {
     Mesh(Format),
 }
 
-/// Runs the mode; writes its files and reports what it wrote.
-pub fn run(bundle: &Bundle, args: &GridArgs, common: &Common) -> ExitCode {
-    match run_inner(bundle, args, common) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err((code, e)) => {
-            eprintln!("mdg-run: {}", mdg_compiler::diag::escape_text(&e.to_string()));
-            ExitCode::from(code)
-        }
-    }
-}
-
 fn target(path: &Path) -> Option<Target> {
     let ext = path.extension()?.to_str()?;
     if let Some(v) = VoxelFormat::from_extension(ext) {
@@ -120,36 +109,34 @@ fn site(bundle: &Bundle, seed: u64, eval: &mdg_vm::eval::EvalOptions) -> Mesh {
     m
 }
 
-fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u8, String)> {
+/// Runs the mode; writes its files and reports what it wrote. A failure is the
+/// command's to report ([`Failure`]).
+pub fn run(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), Failure> {
     let Some(g) = bundle.extensions.grid.as_ref() else {
-        return Err((1, "the grammar has no `grid` section".into()));
+        return Err(Failure::input("the grammar has no `grid` section"));
     };
     let steps = args.steps.unwrap_or(g.generate.steps);
     if steps > mdg_vm::grid::MAX_STEPS {
-        return Err((2, format!("--steps {steps}: at most {}", mdg_vm::grid::MAX_STEPS)));
+        return Err(Failure::usage(format!("--steps {steps}: at most {}", mdg_vm::grid::MAX_STEPS)));
     }
     let enclosure = if args.no_enclosure { false } else { args.enclosure || g.generate.enclosure };
     let seed = common.seed.or(g.generate.seed).unwrap_or(0);
     let output: PathBuf = common.output.map(Path::to_path_buf).unwrap_or_else(|| common.file.with_extension("vox"));
     let Some(target) = target(&output) else {
-        return Err((
-            2,
-            format!(
-                "{}: unknown output format (voxels: .vox .schem .nbt .txt; meshes: .glb .obj .stl .ply .json)",
-                output.display()
-            ),
-        ));
+        return Err(Failure::usage(format!(
+            "{}: unknown output format (voxels: .vox .schem .nbt .txt; meshes: .glb .obj .stl .ply .json)",
+            output.display()
+        )));
     };
     let started = Instant::now();
     let seal = args.seal.unwrap_or(g.generate.seal);
     if seal > generate::MAX_SEAL {
-        return Err((2, format!("--seal {seal}: at most {}", generate::MAX_SEAL)));
+        return Err(Failure::usage(format!("--seal {seal}: at most {}", generate::MAX_SEAL)));
     }
     let bounds = match args.bounds.as_deref() {
         None => GenerateOptions::default().bounds,
-        Some(b) => {
-            parse_bounds(b).ok_or_else(|| (2, format!("--bounds {b}: expected auto, none, N or X,Y,Z (each ≥ 1)")))?
-        }
+        Some(b) => parse_bounds(b)
+            .ok_or_else(|| Failure::usage(format!("--bounds {b}: expected auto, none, N or X,Y,Z (each ≥ 1)")))?,
     };
     let opts = GenerateOptions {
         steps,
@@ -163,9 +150,9 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
         attempts: args.attempts.unwrap_or(generate::DEFAULT_ATTEMPTS),
     };
     if opts.attempts == 0 || opts.attempts > generate::MAX_ATTEMPTS {
-        return Err((2, format!("--attempts {}: expected 1 to {}", opts.attempts, generate::MAX_ATTEMPTS)));
+        return Err(Failure::usage(format!("--attempts {}: expected 1 to {}", opts.attempts, generate::MAX_ATTEMPTS)));
     }
-    let made = build::generate(g, &opts).map_err(|e| (1, e))?;
+    let made = build::generate(g, &opts).map_err(Failure::input)?;
     let elapsed = started.elapsed().as_secs_f64();
     if let Some(n) = &made.note {
         eprintln!("warning: {n}");
@@ -182,7 +169,8 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
             for n in voxfmt::write_notes(f, &made.model) {
                 eprintln!("warning: {}: {n}", output.display());
             }
-            voxfmt::write(f, &made.model).map_err(|e| (1, format!("cannot write {}: {e}", output.display())))?
+            voxfmt::write(f, &made.model)
+                .map_err(|e| Failure::input(format!("cannot write {}: {e}", output.display())))?
         }
         Target::Mesh(f) => {
             let mut out = Output { background: [1.0; 4], ..Output::default() };
@@ -190,11 +178,12 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
             out.mesh.append(&site_mesh);
             // Exporters take MDG's z-up space (glTF/OBJ turn it y up, STL/PLY keep it).
             let mut b = Vec::new();
-            export::write(f, &mesh::z_up(&out), &mut b).map_err(|e| (1, format!("cannot export: {e}")))?;
+            export::write(f, &mesh::z_up(&out), &mut b).map_err(|e| Failure::input(format!("cannot export: {e}")))?;
             b
         }
     };
-    export::write_atomic(&output, &bytes).map_err(|e| (2, format!("cannot write {}: {e}", output.display())))?;
+    export::write_atomic(&output, &bytes)
+        .map_err(|e| Failure::usage(format!("cannot write {}: {e}", output.display())))?;
     if let Some(png) = common.png {
         let examples = generate::examples(g);
         let mut models: Vec<&mdg_vm::grid::voxel::VoxelModel> =
@@ -202,12 +191,12 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
         let first = models.len();
         models.push(&made.model);
         if args.more > 16 {
-            return Err((2, format!("--more {}: at most 16", args.more)));
+            return Err(Failure::usage(format!("--more {}: at most 16", args.more)));
         }
         let more: Vec<mdg_vm::grid::voxel::VoxelModel> = (1..=args.more as u64)
             .map(|i| build::generate(g, &GenerateOptions { seed: seed.wrapping_add(i), ..opts }).map(|m| m.model))
             .collect::<Result<_, _>>()
-            .map_err(|e| (1, e))?;
+            .map_err(Failure::input)?;
         models.extend(more.iter().filter(|m| !m.blocks.is_empty()));
         let mut out = mesh::output_side_by_side(&models, 4);
         if let (Some((lo, _)), false) = (made.model.bounds(), site_mesh.positions.is_empty()) {
@@ -217,8 +206,8 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
             s.positions.iter_mut().for_each(|p| *p = [p[0] + shift[0], p[1] + shift[1], p[2] + shift[2]]);
             out.mesh.append(&s);
         }
-        let pic = common.pictures.render(None, &mesh::z_up(&out), common.size).map_err(|e| (1, e))?;
-        export::write_atomic(png, &pic).map_err(|e| (2, format!("cannot write {}: {e}", png.display())))?;
+        let pic = common.pictures.render(None, &mesh::z_up(&out), common.size).map_err(Failure::input)?;
+        export::write_atomic(png, &pic).map_err(|e| Failure::usage(format!("cannot write {}: {e}", png.display())))?;
         eprintln!("wrote {}", png.display());
     }
     if common.stats {

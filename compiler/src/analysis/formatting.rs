@@ -1,19 +1,51 @@
 //! Formatting: the same canonical layout as `mdgc fmt`, as one minimal edit.
 
 use super::{Document, Edit};
+use crate::fmt::FormatError;
 use crate::span::{FileId, Span};
+
+/// Why a formatting edit is not offered.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum FormatEditError {
+    /// The file cannot be formatted (syntax errors, or its formatted text would be
+    /// refused).
+    Format(FormatError),
+    /// Formatting changes how many top-level items the file has, so a range of them
+    /// cannot be formatted alone.
+    ItemCount { before: usize, after: usize },
+}
+
+impl From<FormatError> for FormatEditError {
+    fn from(e: FormatError) -> Self {
+        FormatEditError::Format(e)
+    }
+}
+
+impl std::fmt::Display for FormatEditError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FormatEditError::Format(e) => write!(f, "{e}"),
+            FormatEditError::ItemCount { before, after } => write!(
+                f,
+                "the file has {before} top-level items but formats into {after}; format the whole document instead"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for FormatEditError {}
 
 impl Document {
     /// The edit that formats the document: `Ok(None)` when it is already formatted,
     /// `Err` (rendered syntax errors) when it does not parse.
-    pub fn format(&self) -> Result<Option<Edit>, String> {
+    pub fn format(&self) -> Result<Option<Edit>, FormatEditError> {
         format_edit(self.main_file(), self.text())
     }
 }
 
 /// The edit that formats `text` (the contents of `file`): the formatted text
 /// replacing only the part that changes, so the editor keeps the cursor in place.
-pub fn format_edit(file: FileId, text: &str) -> Result<Option<Edit>, String> {
+pub fn format_edit(file: FileId, text: &str) -> Result<Option<Edit>, FormatEditError> {
     let formatted = crate::fmt::format_source(text)?;
     if formatted == text {
         return Ok(None);
@@ -28,16 +60,12 @@ pub fn format_edit(file: FileId, text: &str) -> Result<Option<Edit>, String> {
 /// that overlap the bytes `start..end` of `text` (an empty range: the item it is
 /// in), each laid out as `mdgc fmt` lays it out in the whole file. `Ok(None)` when
 /// they are formatted already or the range touches no item; `Err` says why not.
-pub fn format_range_edit(file: FileId, text: &str, start: u32, end: u32) -> Result<Option<Edit>, String> {
+pub fn format_range_edit(file: FileId, text: &str, start: u32, end: u32) -> Result<Option<Edit>, FormatEditError> {
     let formatted = crate::fmt::format_source(text)?;
     let before = top_items(text);
     let after = top_items(&formatted);
     if before.len() != after.len() {
-        return Err(format!(
-            "the file has {} top-level items but formats into {}; format the whole document instead",
-            before.len(),
-            after.len()
-        ));
+        return Err(FormatEditError::ItemCount { before: before.len(), after: after.len() });
     }
     let hit = |s: &Span| s.start <= end && start <= s.end;
     let Some(first) = before.iter().position(hit) else { return Ok(None) };
@@ -130,7 +158,10 @@ mod tests {
         let src = "// é ü 😀\nrule A {   VERTEX {} }\n";
         let e = format_edit(FileId(0), src).expect("parses").expect("changes");
         assert_eq!(apply(src, &e), crate::fmt::format_source(src).expect("fmt"));
-        assert!(format_edit(FileId(0), "rule A { VERTEX {").is_err());
+        assert!(matches!(
+            format_edit(FileId(0), "rule A { VERTEX {"),
+            Err(FormatEditError::Format(FormatError::Syntax(e))) if e.contains("error[")
+        ));
     }
 }
 

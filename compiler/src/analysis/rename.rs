@@ -11,37 +11,62 @@ use crate::span::Span;
 // Keywords cannot be names: a rename to one is refused.
 use crate::lexer::KEYWORDS;
 
+/// Why a rename is refused.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum RenameError {
+    /// No rule or other symbol at the position.
+    NoSymbol,
+    /// The new name is not an identifier, or is a keyword.
+    InvalidName(String),
+    /// A rule with the new (full, dotted) name exists.
+    Exists(String),
+    /// The std library (file `file`) uses the `kind` named `name`.
+    InStd { kind: &'static str, name: String, file: String },
+    /// The symbol has no definition.
+    NotDefined(String),
+}
+
+impl std::fmt::Display for RenameError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            RenameError::NoSymbol => write!(f, "there is no rule or other symbol here to rename"),
+            RenameError::InvalidName(n) => write!(f, "`{n}` is not a valid name"),
+            RenameError::Exists(n) => write!(f, "a rule named `{n}` already exists"),
+            RenameError::InStd { kind, name, file } => {
+                write!(f, "the {kind} `{name}` is used in the std library ({file}), which cannot be edited")
+            }
+            RenameError::NotDefined(n) => write!(f, "`{n}` is not defined"),
+        }
+    }
+}
+
+impl std::error::Error for RenameError {}
+
 impl Document {
     /// The span of the name at `offset` that a rename would change, and its text.
-    pub fn prepare_rename(&self, offset: u32) -> Result<(Span, String), String> {
-        let (sym, span) = self
-            .index()
-            .symbol_at(offset)
-            .ok_or_else(|| "there is no rule or other symbol here to rename".to_string())?;
+    pub fn prepare_rename(&self, offset: u32) -> Result<(Span, String), RenameError> {
+        let (sym, span) = self.index().symbol_at(offset).ok_or(RenameError::NoSymbol)?;
         self.check_renamable(sym)?;
         let span = last_segment(self, span);
         Ok((span, self.span_text(span).to_string()))
     }
 
     /// The edits that rename the symbol at `offset` to `new_name`.
-    pub fn rename(&self, offset: u32, new_name: &str) -> Result<Vec<Edit>, String> {
-        let (sym, _) = self
-            .index()
-            .symbol_at(offset)
-            .ok_or_else(|| "there is no rule or other symbol here to rename".to_string())?;
+    pub fn rename(&self, offset: u32, new_name: &str) -> Result<Vec<Edit>, RenameError> {
+        let (sym, _) = self.index().symbol_at(offset).ok_or(RenameError::NoSymbol)?;
         self.rename_symbol(&sym.clone(), new_name)
     }
 
     /// The edits that rename `sym` to `new_name` in every file of this analysis
     /// (std excepted: a symbol std uses is refused). A workspace rename asks this of
     /// the analysis of every file that sees the symbol and merges the edits.
-    pub fn rename_symbol(&self, sym: &Symbol, new_name: &str) -> Result<Vec<Edit>, String> {
+    pub fn rename_symbol(&self, sym: &Symbol, new_name: &str) -> Result<Vec<Edit>, RenameError> {
         let idx = self.index();
         self.check_renamable(sym)?;
         let valid = new_name.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
             && new_name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
         if !valid || KEYWORDS.contains(&new_name) || crate::lexer::CONTROL_KEYWORDS.contains(&new_name) {
-            return Err(format!("`{new_name}` is not a valid name"));
+            return Err(RenameError::InvalidName(new_name.to_string()));
         }
         if let Symbol::Rule(full) = sym {
             let renamed = match full.rsplit_once('.') {
@@ -49,7 +74,7 @@ impl Document {
                 None => new_name.to_string(),
             };
             if renamed != *full && self.analysis.checked.symbols.rules.contains_key(&renamed) {
-                return Err(format!("a rule named `{renamed}` already exists"));
+                return Err(RenameError::Exists(renamed));
             }
         }
         let mut spans: Vec<Span> = idx.definitions(sym).chain(idx.references(sym)).collect();
@@ -58,22 +83,21 @@ impl Document {
         Ok(spans.into_iter().map(|s| Edit { span: last_segment(self, s), new_text: new_name.to_string() }).collect())
     }
 
-    fn check_renamable(&self, sym: &Symbol) -> Result<(), String> {
+    fn check_renamable(&self, sym: &Symbol) -> Result<(), RenameError> {
         let idx = self.index();
         for span in idx.definitions(sym).chain(idx.references(sym)) {
             if let Some(f) = self.analysis.sources.files.get(span.file.0 as usize) {
                 if f.name.starts_with("std/") && span.file != self.main_file() {
-                    let kind = sym.kind_word();
-                    return Err(format!(
-                        "the {kind} `{}` is used in the std library ({}), which cannot be edited",
-                        sym.name(),
-                        f.name
-                    ));
+                    return Err(RenameError::InStd {
+                        kind: sym.kind_word(),
+                        name: sym.name().to_string(),
+                        file: f.name.clone(),
+                    });
                 }
             }
         }
         if idx.definitions(sym).next().is_none() {
-            return Err(format!("`{}` is not defined", sym.name()));
+            return Err(RenameError::NotDefined(sym.name().to_string()));
         }
         Ok(())
     }
@@ -91,6 +115,7 @@ fn last_segment(doc: &Document, span: Span) -> Span {
 #[cfg(test)]
 mod tests {
     use super::super::fixture::{doc, doc_with, show};
+    use super::RenameError;
 
     fn apply(text: &str, mut edits: Vec<(usize, usize, String)>) -> String {
         edits.sort();
@@ -177,19 +202,20 @@ mod tests {
             "@import lib.mdg\nstartshape A\nrule A { shape {} }\nrule form { VERTEX {} }",
             &[("lib.mdg", lib)],
         );
-        assert_eq!(c.rename_symbol(&sym, "form"), Err("a rule named `form` already exists".to_string()));
+        assert_eq!(c.rename_symbol(&sym, "form"), Err(RenameError::Exists("form".into())));
     }
 
     #[test]
     fn refuses_bad_names_clashes_std_and_builtins() {
         let (d, at) = doc("startshape A\nrule A { B$0 {} }\nrule B { VERTEX {} }\nrule C { VERTEX {} }");
-        assert_eq!(d.rename(at, "9x"), Err("`9x` is not a valid name".to_string()));
-        assert_eq!(d.rename(at, "rule"), Err("`rule` is not a valid name".to_string()));
-        assert_eq!(d.rename(at, "C"), Err("a rule named `C` already exists".to_string()));
+        assert_eq!(d.rename(at, "9x"), Err(RenameError::InvalidName("9x".into())));
+        assert_eq!(d.rename(at, "rule"), Err(RenameError::InvalidName("rule".into())));
+        assert_eq!(d.rename(at, "C"), Err(RenameError::Exists("C".into())));
         let (d, at) = doc("@import primitives\nstartshape A\nrule A { cu$0be {} }");
         let e = d.rename(at, "box").expect_err("std");
-        assert!(e.contains("std/primitives.mdg"), "{e}");
+        assert!(matches!(&e, RenameError::InStd { kind: "rule", file, .. } if file == "std/primitives.mdg"), "{e:?}");
+        assert!(e.to_string().contains("std/primitives.mdg"), "{e}");
         let (d, at) = doc("rule A { VERT$0EX {} }");
-        assert!(d.prepare_rename(at).is_err());
+        assert_eq!(d.prepare_rename(at), Err(RenameError::NoSymbol));
     }
 }

@@ -5,8 +5,9 @@
 
 use crate::backend::Backend;
 use crate::position::LineIndex;
-use mdg_compiler::analysis::formatting::{format_edit, format_range_edit};
+use mdg_compiler::analysis::formatting::{format_edit, format_range_edit, FormatEditError};
 use mdg_compiler::analysis::Edit;
+use mdg_compiler::fmt::FormatError;
 use mdg_compiler::span::FileId;
 use tower_lsp_server::jsonrpc::Result;
 use tower_lsp_server::ls_types::*;
@@ -35,7 +36,7 @@ pub async fn range_formatting(b: &Backend, p: DocumentRangeFormattingParams) -> 
 async fn answer(
     b: &Backend,
     text: &str,
-    result: std::result::Result<Option<Edit>, String>,
+    result: std::result::Result<Option<Edit>, FormatEditError>,
 ) -> Result<Option<Vec<TextEdit>>> {
     match result {
         Ok(edit) => {
@@ -45,13 +46,15 @@ async fn answer(
                     .unwrap_or_default(),
             ))
         }
-        Err(errors) => {
+        Err(error) => {
             // The rendered errors can be long; the first one says enough.
-            let first: String = errors.lines().take(3).collect::<Vec<_>>().join("\n");
-            let message = if errors.contains("error[") || errors.contains("error:") {
-                format!("MDG: not formatting, the file has syntax errors:\n{first}")
-            } else {
-                format!("MDG: not formatting: {first}")
+            let text = error.to_string();
+            let first: String = text.lines().take(3).collect::<Vec<_>>().join("\n");
+            let message = match error {
+                FormatEditError::Format(FormatError::Syntax(_)) => {
+                    format!("MDG: not formatting, the file has syntax errors:\n{first}")
+                }
+                _ => format!("MDG: not formatting: {first}"),
             };
             b.client.log_message(MessageType::INFO, &message).await;
             // Said where the user looks: formatting that silently does nothing looks broken.

@@ -18,7 +18,7 @@ pub async fn prepare_rename(b: &Backend, p: TextDocumentPositionParams) -> Resul
             let range = LineIndex::new(doc.text()).range(span.start, span.end);
             Ok(Some(PrepareRenameResponse::RangeWithPlaceholder { range, placeholder }))
         }
-        Err(message) => Err(Error::invalid_params(message)),
+        Err(e) => Err(Error::invalid_params(e.to_string())),
     })
     .await?
 }
@@ -34,7 +34,7 @@ pub async fn rename(b: &Backend, p: RenameParams) -> Result<Option<WorkspaceEdit
         None => {
             return match doc.rename(offset, &p.new_name) {
                 Ok(_) => Ok(None),
-                Err(message) => Err(Error::invalid_params(message)),
+                Err(e) => Err(Error::invalid_params(e.to_string())),
             }
         }
     };
@@ -44,7 +44,8 @@ pub async fn rename(b: &Backend, p: RenameParams) -> Result<Option<WorkspaceEdit
         let mut changes: HashMap<Uri, Vec<TextEdit>> = HashMap::new();
         let mut seen = HashSet::new();
         for (i, v) in views.iter().enumerate() {
-            let edits = v.doc.rename_symbol(&sym, &p.new_name).map_err(|message| {
+            let edits = v.doc.rename_symbol(&sym, &p.new_name).map_err(|e| {
+                let message = e.to_string();
                 let file = v.path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
                 // The requesting file's own refusal needs no file name.
                 Error::invalid_params(if i == 0 { message } else { format!("{message} (in {file})") })

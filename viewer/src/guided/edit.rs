@@ -31,6 +31,42 @@ pub const MAX_UNDO: usize = 200;
 /// Points per cubic segment in the overlay (as `mdg-run` draws guides).
 pub const CURVE_POINTS: usize = 24;
 
+/// Why an edit was not made (said in the log; the guides are unchanged).
+#[derive(Clone, Debug, PartialEq)]
+pub enum EditError {
+    /// No guide is selected.
+    NothingSelected,
+    /// The last guide cannot be deleted: a search needs one.
+    LastGuide,
+    /// [`Editor::end_stroke`] without a stroke being drawn.
+    NoStroke,
+    /// The stroke is shorter than [`MIN_STROKE_PX`] (its length in pixels).
+    StrokeTooShort { length_px: f64 },
+    /// No chain of at most [`MAX_STROKE_SEGMENTS`] curves fits the stroke.
+    NotFitted,
+    /// The guide an edit would make is not valid: the guide's label (`None`: a
+    /// drawn one) and why.
+    Invalid { label: Option<String>, why: String },
+}
+
+impl std::fmt::Display for EditError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            EditError::NothingSelected => write!(f, "no guide is selected (Tab or a click selects one)"),
+            EditError::LastGuide => write!(f, "the last guide cannot be deleted: the search needs one"),
+            EditError::NoStroke => write!(f, "no stroke is being drawn"),
+            EditError::StrokeTooShort { length_px } => {
+                write!(f, "the stroke is too short ({length_px:.0} px; draw at least {MIN_STROKE_PX:.0} px)")
+            }
+            EditError::NotFitted => write!(f, "the stroke could not be fitted with a curve"),
+            EditError::Invalid { label: None, why } => write!(f, "the drawn guide is not valid: {why}"),
+            EditError::Invalid { label: Some(label), why } => write!(f, "{label}: {why}"),
+        }
+    }
+}
+
+impl std::error::Error for EditError {}
+
 /// Overlay namespace of the guides that are not selected (amber in the viewer).
 pub const NS_GUIDES: &str = "guides";
 /// Overlay namespace of the selected guide and a stroke being drawn.
@@ -367,13 +403,13 @@ impl Editor {
     /// [`STROKE_TOLERANCE_PX`] pixels, at most [`MAX_STROKE_SEGMENTS`] segments) and
     /// adds it as a new guide with the default parameters, selected. Returns its
     /// index, or why nothing was added.
-    pub fn end_stroke(&mut self, view: &ScreenView) -> Result<usize, String> {
+    pub fn end_stroke(&mut self, view: &ScreenView) -> Result<usize, EditError> {
         let Gesture::Stroke { points, pixels, plane } = std::mem::replace(&mut self.gesture, Gesture::None) else {
-            return Err("no stroke is being drawn".into());
+            return Err(EditError::NoStroke);
         };
         let length_px: f64 = pixels.windows(2).map(|w| (w[1] - w[0]).length()).sum();
         if length_px < MIN_STROKE_PX {
-            return Err(format!("the stroke is too short ({length_px:.0} px; draw at least {MIN_STROKE_PX:.0} px)"));
+            return Err(EditError::StrokeTooShort { length_px });
         }
         let mut tolerance = STROKE_TOLERANCE_PX * view.world_per_pixel(plane).max(1e-9);
         let mut fitted = None;
@@ -387,7 +423,7 @@ impl Editor {
                 None => break,
             }
         }
-        let Some(cps) = fitted else { return Err("the stroke could not be fitted with a curve".into()) };
+        let Some(cps) = fitted else { return Err(EditError::NotFitted) };
         self.drawn += 1;
         let mut name = format!("drawn {}", self.drawn);
         while self.guides.iter().any(|g| g.name == name) {
@@ -395,7 +431,7 @@ impl Editor {
             name = format!("drawn {}", self.drawn);
         }
         let guide = Guide::new(&name, cps.iter().map(|p| p.to_array()).collect());
-        guide.validate().map_err(|e| format!("the drawn guide is not valid: {e}"))?;
+        guide.validate().map_err(|why| EditError::Invalid { label: None, why: why.to_string() })?;
         self.checkpoint();
         self.guides.push(guide);
         self.selected = Some(self.guides.len() - 1);
@@ -431,10 +467,10 @@ impl Editor {
 
     /// Deletes the selected guide (not the last one: a search needs a guide).
     /// Returns a message saying what happened.
-    pub fn delete_selected(&mut self) -> Result<String, String> {
-        let Some(s) = self.selected else { return Err("no guide is selected (Tab or a click selects one)".into()) };
+    pub fn delete_selected(&mut self) -> Result<String, EditError> {
+        let Some(s) = self.selected else { return Err(EditError::NothingSelected) };
         if self.guides.len() <= 1 {
-            return Err("the last guide cannot be deleted: the search needs one".into());
+            return Err(EditError::LastGuide);
         }
         self.checkpoint();
         let g = self.guides.remove(s);
@@ -450,13 +486,13 @@ impl Editor {
 
     /// Moves the selected guide's parameter by `steps` steps ([`Param::stepped`]).
     /// Returns a message with the new value.
-    pub fn step_param(&mut self, steps: f64) -> Result<String, String> {
-        let Some(s) = self.selected else { return Err("no guide is selected (Tab or a click selects one)".into()) };
+    pub fn step_param(&mut self, steps: f64) -> Result<String, EditError> {
+        let Some(s) = self.selected else { return Err(EditError::NothingSelected) };
         let new = self.param.stepped(&self.guides[s], steps);
         if new == self.guides[s] {
             return Ok(format!("{}: {} (unchanged)", new.label(s), self.param.describe(&new)));
         }
-        new.validate().map_err(|e| format!("{}: {e}", new.label(s)))?;
+        new.validate().map_err(|why| EditError::Invalid { label: Some(new.label(s)), why: why.to_string() })?;
         self.checkpoint();
         self.guides[s] = new;
         self.changed();
@@ -683,14 +719,15 @@ mod tests {
         assert!((start - DVec2::new(300.0, 400.0)).length() < 1e-6);
         // A click is not a stroke.
         assert!(e.begin_stroke(&view, DVec2::new(10.0, 10.0), plane));
-        assert!(e.end_stroke(&view).is_err());
+        assert!(matches!(e.end_stroke(&view), Err(EditError::StrokeTooShort { .. })));
+        assert_eq!(e.end_stroke(&view), Err(EditError::NoStroke));
         assert_eq!(e.guides().len(), 3);
     }
 
     #[test]
     fn delete_parameters_json_and_overlay() {
         let mut e = Editor::new(two_guides());
-        assert!(e.delete_selected().is_err(), "nothing selected");
+        assert_eq!(e.delete_selected(), Err(EditError::NothingSelected));
         e.select_next();
         assert_eq!(e.selected(), Some(0));
         e.set_param(Param::DeltaA);
@@ -733,7 +770,7 @@ mod tests {
         assert_eq!(e.delete_selected().expect("deleted"), "deleted trunk");
         assert_eq!(e.guides().len(), 1);
         e.select_next();
-        assert!(e.delete_selected().is_err(), "the last guide stays");
+        assert_eq!(e.delete_selected(), Err(EditError::LastGuide), "the last guide stays");
         assert!(e.undo());
         assert_eq!(e.guides().len(), 2);
         assert!(!e.replace(e.guides().to_vec()));

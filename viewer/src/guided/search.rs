@@ -113,11 +113,35 @@ pub struct Searched {
     pub timings: Timings,
 }
 
-/// Runs one search; stops early when `cancel` is set. The error names what was
+/// Why a search gave no model.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum SearchError {
+    /// The grammar has no `search` section.
+    NoSection,
+    /// The guides cannot be searched (they do not fit in memory or time): the
+    /// search's message.
+    Guides(String),
+    /// The search panicked (a bug); the search thread goes on.
+    Panicked,
+}
+
+impl std::fmt::Display for SearchError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SearchError::NoSection => write!(f, "the grammar has no `search` section"),
+            SearchError::Guides(why) => write!(f, "{why}"),
+            SearchError::Panicked => write!(f, "internal error: the guided search panicked"),
+        }
+    }
+}
+
+impl std::error::Error for SearchError {}
+
+/// Runs one search; stops early when `cancel` is set. The error says what was
 /// wrong (no `search` section, guides that do not fit in memory, …).
-pub fn run_search(req: &SearchRequest, cancel: &Cancel) -> Result<Searched, String> {
+pub fn run_search(req: &SearchRequest, cancel: &Cancel) -> Result<Searched, SearchError> {
     let b = &*req.bundle;
-    let table = b.extensions.guided.as_ref().ok_or("the grammar has no `search` section")?;
+    let table = b.extensions.guided.as_ref().ok_or(SearchError::NoSection)?;
     let t0 = Instant::now();
     let mut opts = SearchOptions::from_settings(&table.settings, req.seed);
     opts.clock = Some(t0);
@@ -130,11 +154,12 @@ pub fn run_search(req: &SearchRequest, cancel: &Cancel) -> Result<Searched, Stri
         opts.threads = Some(1);
     }
     let deadline = opts.budget.and_then(|d| t0.checked_add(d));
-    let mut prepared = Prepared::new_within(b, table, &req.guides, deadline)?;
+    let mut prepared =
+        Prepared::new_within(b, table, &req.guides, deadline).map_err(|e| SearchError::Guides(e.to_string()))?;
     if let Some(u) = req.utilisation {
         prepared = prepared.with_utilisation(u);
     }
-    prepared.check_size(&opts)?;
+    prepared.check_size(&opts).map_err(|e| SearchError::Guides(e.to_string()))?;
     let prepare = t0.elapsed();
     let t1 = Instant::now();
     let result = prepared.search(&opts, None);

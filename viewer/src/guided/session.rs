@@ -5,7 +5,7 @@
 //! older search never replaces a newer one on screen.
 
 use super::edit::Editor;
-use super::search::{run_search, SearchRequest, Searched, Summary, Timings};
+use super::search::{run_search, SearchError, SearchRequest, Searched, Summary, Timings};
 use super::worker::{Preempt, Worker};
 use mdg_vm::bundle::Bundle;
 use mdg_vm::eval::EvalOptions;
@@ -16,7 +16,30 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 
 /// A search's answer: `None` when it was replaced or cancelled before it finished.
-pub type Outcome = Option<Result<Searched, String>>;
+pub type Outcome = Option<Result<Searched, SearchError>>;
+
+/// Why a session did not start, or did not save.
+#[derive(Debug)]
+pub enum SessionError {
+    /// The grammar cannot be searched.
+    Search(SearchError),
+    /// The search thread did not start.
+    Thread(crate::ThreadError),
+    /// The guide file could not be written.
+    Write { path: PathBuf, error: std::io::Error },
+}
+
+impl std::fmt::Display for SessionError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SessionError::Search(e) => write!(f, "{e}"),
+            SessionError::Thread(e) => write!(f, "{e}"),
+            SessionError::Write { path, error } => write!(f, "cannot write {}: {error}", path.display()),
+        }
+    }
+}
+
+impl std::error::Error for SessionError {}
 
 /// Where the guides came from.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -46,7 +69,7 @@ pub enum Accepted {
     /// Show this model: it is newer than the one on screen.
     Show(Box<Searched>),
     /// The newest search failed: say why and keep the model.
-    Failed(String),
+    Failed(SearchError),
     /// Nothing to show (replaced, cancelled, or older than the one on screen).
     Nothing,
 }
@@ -65,7 +88,7 @@ pub struct Session {
     /// The editor's revision when its guides last matched the source.
     source_revision: u64,
     save_to: PathBuf,
-    worker: Worker<SearchRequest, Result<Searched, String>>,
+    worker: Worker<SearchRequest, Result<Searched, SearchError>>,
     /// Requests not answered yet.
     outstanding: BTreeSet<u64>,
     /// The newest request, and the editor revision it searched.
@@ -86,14 +109,15 @@ impl Session {
         bundle: Arc<Bundle>,
         opts: SessionOptions,
         deliver: impl Fn(u64, Outcome) + Send + Sync + 'static,
-    ) -> Result<Session, String> {
-        let table = bundle.extensions.guided.as_ref().ok_or("the grammar has no `search` section")?;
+    ) -> Result<Session, SessionError> {
+        let table = bundle.extensions.guided.as_ref().ok_or(SessionError::Search(SearchError::NoSection))?;
         let (guides, source) = match opts.guides {
             Some((path, guides)) => (guides, GuideSource::File(path)),
             None => (table.guides.clone(), GuideSource::Grammar),
         };
         let worker =
-            Worker::start("mdg-search", |req: SearchRequest, cancel: &Cancel| guarded_search(&req, cancel), deliver)?;
+            Worker::start("mdg-search", |req: SearchRequest, cancel: &Cancel| guarded_search(&req, cancel), deliver)
+                .map_err(SessionError::Thread)?;
         Ok(Session {
             editor: Editor::new(guides),
             bundle,
@@ -127,7 +151,7 @@ impl Session {
 
     /// Searches the current guides on this thread (the first model, before the
     /// window opens, and `mdg-view --png`).
-    pub fn search_now(&mut self) -> Result<Searched, String> {
+    pub fn search_now(&mut self) -> Result<Searched, SearchError> {
         let s = guarded_search(&self.request_now(), &Cancel::new())?;
         self.summary = Some(s.summary.clone());
         self.timings = s.timings;
@@ -228,10 +252,10 @@ impl Session {
 
     /// Writes the guides to the save path as a guide file (atomically). Returns a
     /// message for the log.
-    pub fn save(&mut self) -> Result<String, String> {
+    pub fn save(&mut self) -> Result<String, SessionError> {
         let json = self.editor.to_json();
         mdg_vm::export::write_atomic(&self.save_to, json.as_bytes())
-            .map_err(|e| format!("cannot write {}: {e}", self.save_to.display()))?;
+            .map_err(|error| SessionError::Write { path: self.save_to.clone(), error })?;
         if self.source == GuideSource::File(self.save_to.clone()) {
             self.source_revision = self.editor.revision();
         }
@@ -251,7 +275,7 @@ impl Session {
 
 /// [`run_search`], with a panic in it reported as an error rather than ending the
 /// search thread.
-fn guarded_search(req: &SearchRequest, cancel: &Cancel) -> Result<Searched, String> {
+fn guarded_search(req: &SearchRequest, cancel: &Cancel) -> Result<Searched, SearchError> {
     std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run_search(req, cancel)))
-        .unwrap_or_else(|_| Err("internal error: the guided search panicked".into()))
+        .unwrap_or(Err(SearchError::Panicked))
 }

@@ -4,7 +4,8 @@
 //! directory is watched, so editors that save by renaming a new file over the old
 //! one are seen.
 
-use crate::reload::normalise;
+use crate::reload::{normalise, WatchError};
+use mdg_vm::input::ReadError;
 use mdg_vm::sosmc::{guides_from_json, Guide};
 use notify::{RecursiveMode, Watcher as _};
 use std::path::{Path, PathBuf};
@@ -15,11 +16,31 @@ use std::time::Duration;
 /// How long to wait for more events after the first (one save is several events).
 const DEBOUNCE: Duration = Duration::from_millis(120);
 
-/// Reads and checks a guide file; the error starts with its path.
-pub fn read_guides(path: &Path) -> Result<Vec<Guide>, String> {
+/// Why a guide file's guides cannot be used; the message names the file.
+#[derive(Debug)]
+pub enum GuideFileError {
+    /// The file could not be read.
+    Read { path: PathBuf, error: ReadError },
+    /// The file is not a valid guide file: why.
+    Invalid { path: PathBuf, why: String },
+}
+
+impl std::fmt::Display for GuideFileError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            GuideFileError::Read { path, error } => write!(f, "cannot read {}: {error}", path.display()),
+            GuideFileError::Invalid { path, why } => write!(f, "{}: {why}", path.display()),
+        }
+    }
+}
+
+impl std::error::Error for GuideFileError {}
+
+/// Reads and checks a guide file; the error's message starts with its path.
+pub fn read_guides(path: &Path) -> Result<Vec<Guide>, GuideFileError> {
     let text = mdg_vm::input::read_text_bounded(path, mdg_vm::input::MAX_DATA_BYTES)
-        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    guides_from_json(&text).map_err(|e| format!("{}: {e}", path.display()))
+        .map_err(|error| GuideFileError::Read { path: path.to_path_buf(), error })?;
+    guides_from_json(&text).map_err(|why| GuideFileError::Invalid { path: path.to_path_buf(), why: why.to_string() })
 }
 
 enum Msg {
@@ -38,17 +59,19 @@ impl GuideWatch {
     /// the watcher's thread).
     pub fn start(
         path: PathBuf,
-        deliver: impl Fn(Result<Vec<Guide>, String>) + Send + 'static,
-    ) -> Result<GuideWatch, String> {
+        deliver: impl Fn(Result<Vec<Guide>, GuideFileError>) + Send + 'static,
+    ) -> Result<GuideWatch, WatchError> {
         let file = normalise(&path);
-        let dir = file.parent().map(Path::to_path_buf).ok_or_else(|| format!("{}: no directory", path.display()))?;
+        let dir = file.parent().map(Path::to_path_buf).ok_or_else(|| WatchError::NoDirectory(path.clone()))?;
         let (tx, rx) = mpsc::channel::<Msg>();
         let fs_tx = tx.clone();
         let mut watcher = notify::recommended_watcher(move |ev| {
             let _ = fs_tx.send(Msg::Fs(ev));
         })
-        .map_err(|e| format!("cannot watch {}: {e}", path.display()))?;
-        watcher.watch(&dir, RecursiveMode::NonRecursive).map_err(|e| format!("cannot watch {}: {e}", dir.display()))?;
+        .map_err(|error| WatchError::Watch { path: Some(path.clone()), error })?;
+        watcher
+            .watch(&dir, RecursiveMode::NonRecursive)
+            .map_err(|error| WatchError::Watch { path: Some(dir.clone()), error })?;
         let thread = std::thread::Builder::new()
             .name("mdg-guides".into())
             .spawn(move || {
@@ -83,7 +106,7 @@ impl GuideWatch {
                     }
                 }
             })
-            .map_err(|e| format!("cannot start the guide watcher: {e}"))?;
+            .map_err(|error| WatchError::Thread(crate::ThreadError { what: "the guide watcher".into(), error }))?;
         Ok(GuideWatch { tx, thread: Some(thread) })
     }
 }
@@ -124,7 +147,11 @@ mod tests {
         std::fs::write(&file, r#"{"guides": [{"points": [[0,0,0]]}]}"#).expect("write");
         let got = rx.recv_timeout(Duration::from_secs(60)).expect("an answer");
         let e = got.expect_err("too few points");
+        assert!(matches!(&e, GuideFileError::Invalid { path, .. } if path.ends_with("g.json")), "{e:?}");
+        let e = e.to_string();
         assert!(e.contains("g.json") && e.contains("at least 4"), "{e}");
+        let missing = dir.join("missing.json");
+        assert!(matches!(read_guides(&missing), Err(GuideFileError::Read { error: ReadError::Io(_), .. })));
         drop(w);
         let _ = std::fs::remove_dir_all(&dir);
     }

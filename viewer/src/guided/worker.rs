@@ -58,7 +58,7 @@ impl<R: Send + 'static, O: Send + 'static> Worker<R, O> {
         name: &str,
         run: impl Fn(R, &Cancel) -> O + Send + 'static,
         deliver: impl Fn(u64, Option<O>) + Send + Sync + 'static,
-    ) -> Result<Worker<R, O>, String> {
+    ) -> Result<Worker<R, O>, crate::ThreadError> {
         let shared = Arc::new(Shared {
             state: Mutex::new(State { waiting: None, running: None, next_id: 1, stop: false }),
             wake: Condvar::new(),
@@ -87,7 +87,7 @@ impl<R: Send + 'static, O: Send + 'static> Worker<R, O> {
                 lock(&sh.state).running = None;
                 sh.wake.notify_all();
             })
-            .map_err(|e| format!("cannot start the {name} thread: {e}"))?;
+            .map_err(|error| crate::ThreadError { what: format!("the {name} thread"), error })?;
         Ok(Worker { shared, deliver, thread: Some(thread) })
     }
 

@@ -613,7 +613,7 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
     let mut code = Vec::with_capacity(n_ops);
     let mut at = 0;
     while at < code_bytes.len() {
-        let (op, len) = Op::decode(code_bytes, at).map_err(LoadError)?;
+        let (op, len) = Op::decode(code_bytes, at).map_err(|e| LoadError(e.to_string()))?;
         code.push(op);
         at += len;
     }

@@ -98,20 +98,20 @@ macro_rules! define_ops {
             }
 
             /// Decodes one instruction at `pos`; returns it and its length.
-            pub fn decode(code: &[u8], pos: usize) -> Result<(Op, usize), String> {
-                let byte = *code.get(pos).ok_or_else(|| format!("code ends inside an instruction at byte {pos}"))?;
+            pub fn decode(code: &[u8], pos: usize) -> Result<(Op, usize), DecodeError> {
+                let byte = *code.get(pos).ok_or(DecodeError::Truncated { at: pos })?;
                 let mut at = pos + 1;
                 #[allow(unused_macros)]
                 macro_rules! read {
                     ($ty:ty) => {{
-                        let (v, n) = <$ty as Operand>::read(code, at).ok_or_else(|| format!("code ends inside an instruction at byte {pos}"))??;
+                        let (v, n) = <$ty as Operand>::read(code, at).ok_or(DecodeError::Truncated { at: pos })??;
                         at += n;
                         v
                     }};
                 }
                 let op = match byte {
                     $($byte => Op::$name { $($f: read!($t)),* },)*
-                    other => return Err(format!("unknown opcode 0x{other:02x} at byte {pos}")),
+                    other => return Err(DecodeError::UnknownOpcode { byte: other, at: pos }),
                 };
                 Ok((op, at - pos))
             }
@@ -160,6 +160,29 @@ impl std::fmt::Display for OperandError {
     }
 }
 
+/// Why the bytes at a position are not an instruction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DecodeError {
+    /// The code ends inside the instruction that starts at byte `at`.
+    Truncated { at: usize },
+    /// The byte at `at` is no opcode.
+    UnknownOpcode { byte: u8, at: usize },
+    /// A drawable operand at byte `at` names no kind.
+    UnknownDrawable { kind: u8, at: usize },
+}
+
+impl std::fmt::Display for DecodeError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            DecodeError::Truncated { at } => write!(f, "code ends inside an instruction at byte {at}"),
+            DecodeError::UnknownOpcode { byte, at } => write!(f, "unknown opcode 0x{byte:02x} at byte {at}"),
+            DecodeError::UnknownDrawable { kind, at } => write!(f, "unknown drawable kind {kind} at byte {at}"),
+        }
+    }
+}
+
+impl std::error::Error for DecodeError {}
+
 /// An operand of the op table: little-endian bytes in the code, a range check
 /// against the bundle's tables, and its disassembly.
 pub trait Operand: Copy {
@@ -167,7 +190,7 @@ pub trait Operand: Copy {
     fn write(self, out: &mut Vec<u8>);
     /// Decodes the operand at `at`: `None` when the code ends first, `Some(Err)` when
     /// the bytes are not a value of the type; else the value and its length.
-    fn read(code: &[u8], at: usize) -> Option<Result<(Self, usize), String>>;
+    fn read(code: &[u8], at: usize) -> Option<Result<(Self, usize), DecodeError>>;
     /// The value as a number.
     fn value(self) -> u64;
     /// Whether the operand names an entry `b` has (the verifier's check; an error
@@ -189,7 +212,7 @@ macro_rules! int_operands {
                 out.extend_from_slice(&self.to_le_bytes());
             }
             #[inline]
-            fn read(code: &[u8], at: usize) -> Option<Result<(Self, usize), String>> {
+            fn read(code: &[u8], at: usize) -> Option<Result<(Self, usize), DecodeError>> {
                 const N: usize = std::mem::size_of::<$t>();
                 let bytes: [u8; N] = code.get(at..at + N)?.try_into().ok()?;
                 Some(Ok((<$t>::from_le_bytes(bytes), N)))
@@ -225,7 +248,7 @@ macro_rules! index_operands {
                 self.0.write(out)
             }
             #[inline]
-            fn read(code: &[u8], at: usize) -> Option<Result<(Self, usize), String>> {
+            fn read(code: &[u8], at: usize) -> Option<Result<(Self, usize), DecodeError>> {
                 Some(<$t as Operand>::read(code, at)?.map(|(v, n)| ($name(v), n)))
             }
             fn value(self) -> u64 {
@@ -345,11 +368,11 @@ impl Operand for Drawable {
     fn write(self, out: &mut Vec<u8>) {
         out.push(self as u8);
     }
-    fn read(code: &[u8], at: usize) -> Option<Result<(Self, usize), String>> {
+    fn read(code: &[u8], at: usize) -> Option<Result<(Self, usize), DecodeError>> {
         let k = *code.get(at)?;
         Some(match Drawable::ALL.get(k as usize) {
             Some(d) => Ok((*d, 1)),
-            None => Err(format!("unknown drawable kind {k} at byte {at}")),
+            None => Err(DecodeError::UnknownDrawable { kind: k, at }),
         })
     }
     fn value(self) -> u64 {

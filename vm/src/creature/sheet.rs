@@ -111,7 +111,7 @@ pub fn compose(tiles: &[(Vec<u8>, String)], cols: usize, background: [u8; 3]) ->
         let label = &tiles[k].1;
         draw_text(&mut Canvas { px: &mut out, w, h }, x0 + 8, y0 + 8, label, 3, [40, 40, 48]);
     }
-    crate::preview::encode_png(&out, w, h)
+    crate::preview::encode_png(&out, w, h).map_err(|e| e.to_string())
 }
 
 #[cfg(test)]

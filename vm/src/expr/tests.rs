@@ -97,8 +97,11 @@ fn select_floors_and_clamps_its_index() {
 
 #[test]
 fn verify_refuses_bad_skips_and_picks() {
-    let bad = |code: &[ExprOp]| verify(code).err().unwrap_or_default();
-    // A skip past the end.
+    let bad = |code: &[ExprOp]| verify(code).err().map_or(String::new(), |e| e.to_string());
+    // A skip past the end: the error is data (which skip), its message says so.
+    assert_eq!(verify(&[ExprOp::Push(1.0), ExprOp::Skip(5)]), Err(CodeError::SkipBeyondEnd { from: 1 }));
+    assert_eq!(verify(&[ExprOp::Var(9)]), Err(CodeError::UnknownVariable { var: 9, at: 0 }));
+    assert_eq!(verify(&[ExprOp::Push(1.0), ExprOp::Push(2.0)]), Err(CodeError::LeavesValues(2)));
     assert!(bad(&[ExprOp::Push(1.0), ExprOp::Skip(5)]).contains("beyond the end"));
     // Branches that leave different depths.
     let uneven = [ExprOp::Push(1.0), ExprOp::SkipUnless(2), ExprOp::Push(1.0), ExprOp::Push(2.0)];
@@ -187,7 +190,7 @@ fn a_runaway_recursion_ends_at_the_depth_limit() {
 
 #[test]
 fn verify_refuses_malformed_function_blocks() {
-    let bad = |code: &[ExprOp]| verify(code).err().unwrap_or_default();
+    let bad = |code: &[ExprOp]| verify(code).err().map_or(String::new(), |e| e.to_string());
     let mut code = fact_code();
     // A call that does not land on a body's start.
     let n = code.len();

@@ -155,33 +155,33 @@ impl Guide {
         }
     }
 
-    /// Checks the control points and parameters; the message names the problem.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Checks the control points and parameters; the error names the problem.
+    pub fn validate(&self) -> Result<(), GuideError> {
         let n = self.points.len();
         if n < 4 {
-            return Err(format!("{n} control points; a cubic Bézier path needs at least 4"));
+            return Err(GuideError::TooFewPoints(n));
         }
         if !(n - 1).is_multiple_of(3) {
-            return Err(format!("{n} control points; a piecewise cubic Bézier path has 3k + 1 (4, 7, 10, …)"));
+            return Err(GuideError::NotPiecewise(n));
         }
         if self.points.iter().flatten().any(|c| !c.is_finite()) {
-            return Err("a control point is not a finite number".into());
+            return Err(GuideError::NonFinitePoint);
         }
         if self.points.iter().flatten().any(|c| c.abs() > MAX_GUIDE_COORD) {
-            return Err(format!("a control point coordinate is beyond ±{MAX_GUIDE_COORD}"));
+            return Err(GuideError::PointBeyond);
         }
         let finite = self.scale_d.iter().chain([&self.scale_a, &self.delta_a, &self.scale_u, &self.segment]);
         if finite.into_iter().any(|v| !v.is_finite()) {
-            return Err("a parameter is not a finite number".into());
+            return Err(GuideError::NonFiniteParam);
         }
         if !(-1.0..=1.0).contains(&self.delta_a) {
-            return Err(format!("delta_a {} is outside [-1, 1]", self.delta_a));
+            return Err(GuideError::DeltaA(self.delta_a));
         }
         if self.scale_u < 0.0 {
-            return Err(format!("scale_u {} is negative", self.scale_u));
+            return Err(GuideError::ScaleU(self.scale_u));
         }
         if self.segment <= 0.0 {
-            return Err(format!("segment length {} is not positive", self.segment));
+            return Err(GuideError::Segment(self.segment));
         }
         Ok(())
     }
@@ -352,14 +352,77 @@ pub struct GuideFile {
     pub guides: Vec<Guide>,
 }
 
+/// Why a guide is not valid ([`Guide::validate`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum GuideError {
+    /// Fewer than 4 control points (how many).
+    TooFewPoints(usize),
+    /// Not 3k + 1 control points (how many).
+    NotPiecewise(usize),
+    /// A control point coordinate is NaN or infinite.
+    NonFinitePoint,
+    /// A control point coordinate is beyond [`MAX_GUIDE_COORD`].
+    PointBeyond,
+    /// A cost parameter is NaN or infinite.
+    NonFiniteParam,
+    /// `delta_a` outside [-1, 1].
+    DeltaA(f64),
+    /// A negative `scale_u`.
+    ScaleU(f64),
+    /// A `segment` length that is not positive.
+    Segment(f64),
+}
+
+impl std::fmt::Display for GuideError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            GuideError::TooFewPoints(n) => write!(f, "{n} control points; a cubic Bézier path needs at least 4"),
+            GuideError::NotPiecewise(n) => {
+                write!(f, "{n} control points; a piecewise cubic Bézier path has 3k + 1 (4, 7, 10, …)")
+            }
+            GuideError::NonFinitePoint => write!(f, "a control point is not a finite number"),
+            GuideError::PointBeyond => write!(f, "a control point coordinate is beyond ±{MAX_GUIDE_COORD}"),
+            GuideError::NonFiniteParam => write!(f, "a parameter is not a finite number"),
+            GuideError::DeltaA(v) => write!(f, "delta_a {v} is outside [-1, 1]"),
+            GuideError::ScaleU(v) => write!(f, "scale_u {v} is negative"),
+            GuideError::Segment(v) => write!(f, "segment length {v} is not positive"),
+        }
+    }
+}
+
+impl std::error::Error for GuideError {}
+
+/// Why a guide file's text is not a guide file.
+#[derive(Debug)]
+pub enum GuideJsonError {
+    /// Not JSON of the guide file's shape.
+    Json(serde_json::Error),
+    /// `guides` is empty.
+    Empty,
+    /// A guide is not valid: its label and why.
+    Invalid { label: String, error: GuideError },
+}
+
+impl std::fmt::Display for GuideJsonError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            GuideJsonError::Json(e) => write!(f, "invalid guide file: {e}"),
+            GuideJsonError::Empty => write!(f, "invalid guide file: `guides` is empty"),
+            GuideJsonError::Invalid { label, error } => write!(f, "invalid guide file: {label}: {error}"),
+        }
+    }
+}
+
+impl std::error::Error for GuideJsonError {}
+
 /// Reads and validates a JSON guide file's text.
-pub fn guides_from_json(text: &str) -> Result<Vec<Guide>, String> {
-    let f: GuideFile = serde_json::from_str(text).map_err(|e| format!("invalid guide file: {e}"))?;
+pub fn guides_from_json(text: &str) -> Result<Vec<Guide>, GuideJsonError> {
+    let f: GuideFile = serde_json::from_str(text).map_err(GuideJsonError::Json)?;
     if f.guides.is_empty() {
-        return Err("invalid guide file: `guides` is empty".into());
+        return Err(GuideJsonError::Empty);
     }
     for (i, g) in f.guides.iter().enumerate() {
-        g.validate().map_err(|e| format!("invalid guide file: {}: {e}", g.label(i)))?;
+        g.validate().map_err(|error| GuideJsonError::Invalid { label: g.label(i), error })?;
     }
     Ok(f.guides)
 }
@@ -377,14 +440,16 @@ mod tests {
         assert_eq!(g[0].scale_d, DEFAULT_SCALE_D);
         assert_eq!(g[0].segment, DEFAULT_SEGMENT);
         let few = guides_from_json(r#"{"guides": [{"points": [[0,0,0],[0,0,1],[0,0,2]]}]}"#);
-        assert!(few.expect_err("3 points").contains("at least 4"));
+        let few = few.expect_err("3 points");
+        assert!(matches!(&few, GuideJsonError::Invalid { error: GuideError::TooFewPoints(3), .. }), "{few:?}");
+        assert!(few.to_string().contains("at least 4"));
         let five = guides_from_json(r#"{"guides": [{"points": [[0,0,0],[0,0,1],[0,0,2],[0,0,3],[0,0,4]]}]}"#);
-        assert!(five.expect_err("5 points").contains("3k + 1"));
+        assert!(five.expect_err("5 points").to_string().contains("3k + 1"));
         let delta = guides_from_json(r#"{"guides": [{"points": [[0,0,0],[0,0,1],[0,0,2],[0,0,3]], "delta_a": 1.5}]}"#);
-        assert!(delta.expect_err("delta").contains("outside [-1, 1]"));
+        assert!(delta.expect_err("delta").to_string().contains("outside [-1, 1]"));
         let unknown = guides_from_json(r#"{"guides": [{"points": [[0,0,0],[0,0,1],[0,0,2],[0,0,3]], "scale": 1}]}"#);
-        assert!(unknown.expect_err("unknown key").contains("unknown field"));
+        assert!(matches!(unknown, Err(GuideJsonError::Json(_))));
         assert!(guides_from_json("[1, 2").is_err());
-        assert!(guides_from_json(r#"{"guides": []}"#).is_err());
+        assert!(matches!(guides_from_json(r#"{"guides": []}"#), Err(GuideJsonError::Empty)));
     }
 }

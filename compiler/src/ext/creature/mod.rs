@@ -553,14 +553,48 @@ impl<'a> Builder<'a, '_> {
 /// Positions and triangles of an OBJ file.
 pub type ObjMesh = (Vec<[f32; 3]>, Vec<[u32; 3]>);
 
+/// Why OBJ text is not a usable mesh; `line` counts from 1.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ObjError {
+    /// A vertex coordinate is not a number.
+    BadNumber { line: usize, error: std::num::ParseFloatError },
+    /// A vertex has fewer than three coordinates, or one is not finite.
+    BadVertex { line: usize },
+    /// A face's entry does not start with an integer.
+    BadIndex { line: usize, text: String },
+    /// A face names a vertex not defined before it (`count` so far).
+    IndexOutOfRange { line: usize, index: i64, count: i64 },
+    /// A face with fewer than three vertices.
+    ShortFace { line: usize },
+    /// The file has no face.
+    NoFaces,
+}
+
+impl std::fmt::Display for ObjError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ObjError::BadNumber { line, error } => write!(f, "line {line}: {error}"),
+            ObjError::BadVertex { line } => write!(f, "line {line}: a vertex needs three finite coordinates"),
+            ObjError::BadIndex { line, text } => write!(f, "line {line}: bad vertex index `{text}`"),
+            ObjError::IndexOutOfRange { line, index, count } => {
+                write!(f, "line {line}: vertex index {index} out of range (1..{count})")
+            }
+            ObjError::ShortFace { line } => write!(f, "line {line}: a face needs three vertices"),
+            ObjError::NoFaces => write!(f, "no faces"),
+        }
+    }
+}
+
+impl std::error::Error for ObjError {}
+
 /// Parses Wavefront OBJ text: `v x y z` and `f a b c …` (polygons fanned into
 /// triangles; `a/b/c` forms and negative indices accepted; other lines ignored).
 /// Errors name the line.
-pub fn parse_obj(text: &str) -> Result<ObjMesh, String> {
+pub fn parse_obj(text: &str) -> Result<ObjMesh, ObjError> {
     let mut pos: Vec<[f32; 3]> = Vec::new();
     let mut tris = Vec::new();
     for (ln, line) in text.lines().enumerate() {
-        let line = line.split('#').next().unwrap_or("").trim();
+        let (ln, line) = (ln + 1, line.split('#').next().unwrap_or("").trim());
         let mut it = line.split_whitespace();
         match it.next() {
             Some("v") => {
@@ -568,9 +602,9 @@ pub fn parse_obj(text: &str) -> Result<ObjMesh, String> {
                     .take(3)
                     .map(|s| s.parse::<f32>())
                     .collect::<Result<_, _>>()
-                    .map_err(|e| format!("line {}: {e}", ln + 1))?;
+                    .map_err(|error| ObjError::BadNumber { line: ln, error })?;
                 if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
-                    return Err(format!("line {}: a vertex needs three finite coordinates", ln + 1));
+                    return Err(ObjError::BadVertex { line: ln });
                 }
                 pos.push([v[0], v[1], v[2]]);
             }
@@ -578,16 +612,16 @@ pub fn parse_obj(text: &str) -> Result<ObjMesh, String> {
                 let mut idx = Vec::new();
                 for s in it {
                     let first = s.split('/').next().unwrap_or("");
-                    let i: i64 = first.parse().map_err(|_| format!("line {}: bad vertex index `{s}`", ln + 1))?;
+                    let i: i64 = first.parse().map_err(|_| ObjError::BadIndex { line: ln, text: s.to_string() })?;
                     let n = pos.len() as i64;
                     let k = if i > 0 { i - 1 } else { n + i };
                     if i == 0 || k < 0 || k >= n {
-                        return Err(format!("line {}: vertex index {i} out of range (1..{n})", ln + 1));
+                        return Err(ObjError::IndexOutOfRange { line: ln, index: i, count: n });
                     }
                     idx.push(k as u32);
                 }
                 if idx.len() < 3 {
-                    return Err(format!("line {}: a face needs three vertices", ln + 1));
+                    return Err(ObjError::ShortFace { line: ln });
                 }
                 for k in 1..idx.len() - 1 {
                     tris.push([idx[0], idx[k], idx[k + 1]]);
@@ -597,7 +631,7 @@ pub fn parse_obj(text: &str) -> Result<ObjMesh, String> {
         }
     }
     if tris.is_empty() {
-        return Err("no faces".into());
+        return Err(ObjError::NoFaces);
     }
     Ok((pos, tris))
 }
@@ -670,7 +704,8 @@ pub fn embed_meshes(
                 mesh.positions = p;
                 mesh.triangles = t;
             }
-            Err(e) => diags.push(err("E0810", *span, format!("mesh `{path}` is not a usable OBJ file")).with_label(e)),
+            Err(e) => diags
+                .push(err("E0810", *span, format!("mesh `{path}` is not a usable OBJ file")).with_label(e.to_string())),
         }
     }
     diags

@@ -143,6 +143,6 @@ fn obj_polygons_are_fanned_into_triangles() {
     assert_eq!(t, vec![[0, 1, 2], [0, 2, 3]]);
     let (_, t) = parse_obj("v 0 0 0\nv 1 0 0\nv 1 1 0\nf -3 -2 -1 # comment\n").expect("relative");
     assert_eq!(t, vec![[0, 1, 2]]);
-    assert!(parse_obj("v 0 0 0\nf 0 1 2\n").is_err());
-    assert!(parse_obj("v nan 0 0\n").is_err());
+    assert_eq!(parse_obj("v 0 0 0\nf 0 1 2\n"), Err(ObjError::IndexOutOfRange { line: 2, index: 0, count: 1 }));
+    assert_eq!(parse_obj("v nan 0 0\n"), Err(ObjError::BadVertex { line: 1 }));
 }
