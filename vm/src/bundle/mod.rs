@@ -19,6 +19,7 @@ pub use codec::{decode, encode};
 pub use disasm::{disassemble, expr_text};
 pub use ops::{
     Drawable, ExprId, IsoId, NsId, Op, OpCount, OpIndex, Profile, ProtoId, RuleId, SlotId, TransformId, CONT_NEXT, NONE,
+    PATH_OP,
 };
 pub use verify::verify;
 
@@ -27,7 +28,7 @@ use crate::expr::ExprOp;
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"MDGB";
 /// Format version; bumped on any change to the layout.
-pub const VERSION: u16 = 8;
+pub const VERSION: u16 = 9;
 
 /// A precomputed adjustment list: thesis eqs. 4.1–4.9 folded into (q, q̂, u) plus
 /// colour, weight and fps deltas (SPEC §4).

@@ -43,6 +43,7 @@ use crate::bundle::{
     self, Bundle, Composite, Drawable, ExprId, NsId, Op, OpCount, OpIndex, Profile, ProtoId, RuleId, Selector,
     Transform, TransformId, CONT_NEXT, NONE,
 };
+use crate::bundle::ops::path_arity;
 use crate::expr::{self, ExprOp, Random};
 use crate::geom::frame64::Frame64;
 use crate::geom::quat::{Affine, Frame};
@@ -63,6 +64,7 @@ mod draw;
 mod env;
 mod guided;
 mod options;
+mod path;
 mod run;
 mod select;
 mod sink;
@@ -73,6 +75,7 @@ mod tracks;
 use budget::*;
 use draw::*;
 use env::*;
+use path::*;
 pub use guided::{Call, Expander, MAX_EXPANSION_CALLS};
 pub use options::*;
 use run::*;
@@ -121,6 +124,8 @@ struct Eval<'b> {
     /// once to the deepest derivation's need, never allocated per call.
     slots: Vec<f64>,
     profile_points: Vec<Vec3>,
+    /// The flat path being built ([`path`]).
+    path: PathState,
     progress: Option<&'b (dyn Fn(u64) + Sync)>,
     xf_info: Vec<Option<XfInfo>>,
     /// Per transform: a constant without a non-uniform scale (composing it has no
@@ -257,6 +262,7 @@ impl<'b> Eval<'b> {
             expr_stack: Vec::with_capacity(16),
             slots: Vec::new(),
             profile_points: Vec::new(),
+            path: PathState::default(),
             progress,
             seed,
             track_ids: HashMap::new(),
