@@ -965,8 +965,8 @@ impl<'a> Checker<'a> {
         if let Some(w) = word {
             match crate::paths::option_bits(&name.text, &w.text) {
                 Ok(b) => bits = b,
-                Err(msg) => {
-                    let d = Diagnostic::error("E0411", w.span, msg);
+                Err(e) => {
+                    let d = Diagnostic::error("E0411", w.span, e.to_string());
                     self.diags.push(if matches!(name.text.as_str(), "MOVETO" | "LINETO") {
                         d.with_note("in a flat path MOVETO and LINETO take no profile rule: they draw no 3D line")
                     } else {

@@ -38,21 +38,47 @@ pub fn is_path_op(name: &str, in_path: bool) -> bool {
     PATH_DRAWABLES.contains(&name) || (in_path && matches!(name, "MOVETO" | "LINETO"))
 }
 
+/// Why an option word is refused.
+#[derive(Clone, Debug, PartialEq)]
+pub enum BadOption {
+    /// The part is another drawable's option.
+    Elsewhere { part: String, drawable: &'static str, owner: &'static str },
+    /// No drawable has the part; `known` are this drawable's.
+    Unknown { part: String, drawable: &'static str, known: Vec<&'static str> },
+    /// Two joins or two caps.
+    Twice { word: String },
+}
+
+impl std::fmt::Display for BadOption {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        match self {
+            BadOption::Elsewhere { part, drawable, owner } => {
+                write!(f, "`{part}` is an option of `{owner}`, not of `{drawable}`")
+            }
+            BadOption::Unknown { part, drawable, known } if known.is_empty() => {
+                write!(f, "`{drawable}` takes no option word (`{part}`)")
+            }
+            BadOption::Unknown { part, drawable, known } => {
+                write!(f, "unknown option `{part}` of `{drawable}`: {}", known.join(", "))
+            }
+            BadOption::Twice { word } => write!(f, "`{word}` names two joins or two caps"),
+        }
+    }
+}
+
 /// The option bits of the word after a path drawable (`evenodd`, `large_cw`,
-/// `roundjoin_roundcap`: words joined by `_`), or the message for a bad one.
-pub fn option_bits(drawable: &str, word: &str) -> Result<u32, String> {
+/// `roundjoin_roundcap`: words joined by `_`).
+pub fn option_bits(drawable: &str, word: &str) -> Result<u32, BadOption> {
+    let name = |d: &str| PATH_WORDS.iter().map(|(_, _, n)| *n).chain(["MOVETO", "LINETO"]).find(|n| *n == d).unwrap_or("");
+    let drawable = name(drawable);
     let mut bits = 0;
     for part in word.split('_') {
         match PATH_WORDS.iter().find(|(w, _, _)| *w == part) {
             Some((_, b, d)) if *d == drawable => bits |= b,
-            Some((_, _, d)) => return Err(format!("`{part}` is an option of `{d}`, not of `{drawable}`")),
+            Some((_, _, d)) => return Err(BadOption::Elsewhere { part: part.to_string(), drawable, owner: d }),
             None => {
-                let known: Vec<&str> = PATH_WORDS.iter().filter(|(_, _, d)| *d == drawable).map(|(w, _, _)| *w).collect();
-                return Err(if known.is_empty() {
-                    format!("`{drawable}` takes no option word (`{part}`)")
-                } else {
-                    format!("unknown option `{part}` of `{drawable}`: {}", known.join(", "))
-                });
+                let known = PATH_WORDS.iter().filter(|(_, _, d)| *d == drawable).map(|(w, _, _)| *w).collect();
+                return Err(BadOption::Unknown { part: part.to_string(), drawable, known });
             }
         }
     }
@@ -60,7 +86,7 @@ pub fn option_bits(drawable: &str, word: &str) -> Result<u32, String> {
     let caps = [path_bits::ROUNDCAP, path_bits::SQUARECAP];
     for group in [&joins, &caps] {
         if group.iter().filter(|b| bits & **b != 0).count() > 1 {
-            return Err(format!("`{word}` names two joins or two caps"));
+            return Err(BadOption::Twice { word: word.to_string() });
         }
     }
     Ok(bits)

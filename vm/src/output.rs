@@ -194,6 +194,9 @@ pub struct Stats {
     /// dump when 0, so grammars without paths dump as before.
     #[serde(skip_serializing_if = "is_zero")]
     pub paths: u64,
+    /// The triangles those paints drew (in `triangles` too); left out when 0.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub path_triangles: u64,
     /// Wall-clock time of the evaluation (`--stats` only; never in the dump).
     #[serde(skip)]
     pub elapsed_ms: f64,

@@ -183,7 +183,7 @@ impl<'b> Eval<'b> {
             } else {
                 Cap::Butt
             };
-            if !(width.is_finite() && width > 0.0) {
+            if width.is_nan() || width <= 0.0 || !width.is_finite() {
                 let at = self.b.source_of(pc).map(|(f, l)| format!("{f}:{l}: ")).unwrap_or_default();
                 let w = &mut self.out.stats.warnings;
                 if !w.iter().any(|m| m.starts_with(&at) && m.contains("STROKE")) {
@@ -197,6 +197,7 @@ impl<'b> Eval<'b> {
         if tris.is_empty() || !self.room_for(3 * tris.len()) {
             return;
         }
+        self.out.stats.path_triangles += tris.len() as u64;
         let n = a.apply_normal(Vec3::from_array(self.b.settings.normal));
         let (color, mirrored) = (s.display_color(), s.mirrored());
         let m = &mut self.out.mesh;

@@ -96,7 +96,7 @@ fn extent(pts: &[P2]) -> f64 {
 
 fn segments_for(deviation: f64, size: f64, k: f64) -> usize {
     let tol = TOLERANCE * size;
-    if !(tol > 0.0) || !deviation.is_finite() {
+    if tol.is_nan() || tol <= 0.0 || !deviation.is_finite() {
         return 1;
     }
     ((k * deviation / tol).sqrt().ceil() as usize).clamp(1, MAX_SEGMENTS)
@@ -143,12 +143,13 @@ pub fn cubic(p0: P2, c1: P2, c2: P2, p1: P2, out: &mut Vec<P2>) {
 /// `large`, drawn clockwise when `cw` (counter-clockwise otherwise), as SVG's and
 /// Context Free's `ARCTO`: radii too small to reach are scaled up until they do;
 /// a zero radius is a straight line. The points after `p0`, ending with `p1`.
+#[allow(clippy::too_many_arguments)]
 pub fn arc(p0: P2, p1: P2, rx: f64, ry: f64, angle: f64, large: bool, cw: bool, out: &mut Vec<P2>) {
     let (mut rx, mut ry) = (rx.abs(), ry.abs());
     if p0 == p1 {
         return;
     }
-    if !(rx > 0.0 && ry > 0.0) || !rx.is_finite() || !ry.is_finite() {
+    if rx.is_nan() || ry.is_nan() || rx <= 0.0 || ry <= 0.0 || !rx.is_finite() || !ry.is_finite() {
         out.push(p1);
         return;
     }
@@ -349,7 +350,7 @@ fn fan(c: P2, r: f64, from: f64, sweep: f64, out: &mut Vec<P2>) {
 /// `join` and `cap`, appending counter-clockwise triangles to `out`.
 pub fn stroke(lines: &[(Vec<P2>, bool)], width: f64, join: Join, cap: Cap, out: &mut Vec<[P2; 3]>) {
     let hw = 0.5 * width.abs();
-    if !(hw > 0.0) || !hw.is_finite() {
+    if hw.is_nan() || hw <= 0.0 || !hw.is_finite() {
         return;
     }
     let mut pieces: Vec<Vec<P2>> = Vec::new();
