@@ -899,14 +899,16 @@ impl<'a> Checker<'a> {
             self.path_item(name, args, profile);
         } else if self.sym.is_drawable(&name.text) {
             if let Some(a) = args {
-                self.diags.push(
-                    Diagnostic::error("E0322", a.span, format!("`{}` takes no arguments", name.text))
-                        .with_suggestion("remove them", a.span, String::new())
-                        .with_note(
+                let d = Diagnostic::error("E0322", a.span, format!("`{}` takes no arguments", name.text))
+                    .with_suggestion("remove them", a.span, String::new());
+                self.diags.push(if !matches!(name.text.as_str(), "MOVETO" | "LINETO") {
+                    d
+                } else {
+                    d.with_note(
                             "`MOVETO(x, y)` and `LINETO(x, y)` are flat path points: only in a rule that paints a path \
                              (FILL, STROKE) or uses ARCTO, CURVETO or CLOSEPOLY (reference §9, \"Flat paths\")",
-                        ),
-                );
+                    )
+                });
             }
             if let Some(p) = profile {
                 let last = name.text.rsplit('.').next().unwrap_or("");
