@@ -117,8 +117,7 @@ fn parse_svg(svg: &str) -> CfDrawing {
             let g = svg[..at].rfind("<g").map(|g| &svg[g..at]).unwrap_or("");
             let m = g.find("matrix(").and_then(|k| {
                 let inner = &g[k + 7..];
-                let v: Vec<f64> =
-                    inner[..inner.find(')')?].split_whitespace().filter_map(|s| s.parse().ok()).collect();
+                let v: Vec<f64> = inner[..inner.find(')')?].split_whitespace().filter_map(|s| s.parse().ok()).collect();
                 (v.len() == 6).then(|| [v[0], v[1], v[2], v[3], v[4], v[5]])
             });
             let tag = &rest[..rest.find('>').unwrap_or(rest.len())];
@@ -271,10 +270,7 @@ fn deterministic(imp: &Imported, cf: &CfDrawing) -> bool {
     let n = heads.len();
     heads.sort();
     heads.dedup_by(|a, b| a.split(['(', ' ', '{']).nth(1) == b.split(['(', ' ', '{']).nth(1));
-    heads.len() == n
-        && !imp.mdg.contains("rand(")
-        && imp.report.notes.is_empty()
-        && cf.shapes() < CF_MAX_SHAPES
+    heads.len() == n && !imp.mdg.contains("rand(") && imp.report.notes.is_empty() && cf.shapes() < CF_MAX_SHAPES
 }
 
 struct Row {
@@ -381,7 +377,8 @@ fn context_free_examples_import_compile_run_and_match_cfdg() {
         let stopped = r.mdg.as_ref().is_some_and(|m| m.warnings.iter().any(|w| w.contains("the run stopped")));
         if r.at_min && !stopped {
             if let (Some(c), Some(m)) = (&r.cf, &r.mdg) {
-                let ratio = (m.triangles - m.path_triangles + m.paths) as f64 / (c.mdg_triangles() + c.paths).max(1) as f64;
+                let ratio =
+                    (m.triangles - m.path_triangles + m.paths) as f64 / (c.mdg_triangles() + c.paths).max(1) as f64;
                 let aspect_ok = matches!((ca, ma), (Some(a), Some(b)) if (a / b).ln().abs() < 0.05);
                 if !(0.85..=1.15).contains(&ratio) || !aspect_ok {
                     failures.push(format!(

@@ -905,7 +905,7 @@ impl<'a> Checker<'a> {
                     d
                 } else {
                     d.with_note(
-                            "`MOVETO(x, y)` and `LINETO(x, y)` are flat path points: only in a rule that paints a path \
+                        "`MOVETO(x, y)` and `LINETO(x, y)` are flat path points: only in a rule that paints a path \
                              (FILL, STROKE) or uses ARCTO, CURVETO or CLOSEPOLY (reference §9, \"Flat paths\")",
                     )
                 });

@@ -69,7 +69,8 @@ impl std::fmt::Display for BadOption {
 /// The option bits of the word after a path drawable (`evenodd`, `large_cw`,
 /// `roundjoin_roundcap`: words joined by `_`).
 pub fn option_bits(drawable: &str, word: &str) -> Result<u32, BadOption> {
-    let name = |d: &str| PATH_WORDS.iter().map(|(_, _, n)| *n).chain(["MOVETO", "LINETO"]).find(|n| *n == d).unwrap_or("");
+    let name =
+        |d: &str| PATH_WORDS.iter().map(|(_, _, n)| *n).chain(["MOVETO", "LINETO"]).find(|n| *n == d).unwrap_or("");
     let drawable = name(drawable);
     let mut bits = 0;
     for part in word.split('_') {

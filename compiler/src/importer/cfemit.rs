@@ -360,11 +360,24 @@ impl<'a> Emitter<'a> {
                 if pos.len() < 4 || (smooth && pos.len() < 6) {
                     smooth = true;
                 }
-                let k = if smooth { if pos.len() >= 4 { 4 } else { 2 } } else if pos.len() >= 6 { 6 } else { 4 };
+                let k = if smooth {
+                    if pos.len() >= 4 {
+                        4
+                    } else {
+                        2
+                    }
+                } else if pos.len() >= 6 {
+                    6
+                } else {
+                    4
+                };
                 (0..k).map(|i| a(self, i)).collect()
             }
             "CURVETO" => {
-                let (c1, c2) = (named.contains_key("x1") || named.contains_key("y1"), named.contains_key("x2") || named.contains_key("y2"));
+                let (c1, c2) = (
+                    named.contains_key("x1") || named.contains_key("y1"),
+                    named.contains_key("x2") || named.contains_key("y2"),
+                );
                 let mut v = vec![n(self, "x"), n(self, "y")];
                 match (c1, c2) {
                     (true, true) => v.extend([n(self, "x1"), n(self, "y1"), n(self, "x2"), n(self, "y2")]),

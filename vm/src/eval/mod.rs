@@ -39,11 +39,11 @@
 //! state, and a frame under a non-uniform scale composes in `f32`.)
 
 use crate::anim::{frames_needed, MAX_TRACK_FRAMES};
+use crate::bundle::ops::path_arity;
 use crate::bundle::{
     self, Bundle, Composite, Drawable, ExprId, NsId, Op, OpCount, OpIndex, Profile, ProtoId, RuleId, Selector,
     Transform, TransformId, CONT_NEXT, NONE,
 };
-use crate::bundle::ops::path_arity;
 use crate::expr::{self, ExprOp, Random};
 use crate::geom::frame64::Frame64;
 use crate::geom::quat::{Affine, Frame};
@@ -75,9 +75,9 @@ mod tracks;
 use budget::*;
 use draw::*;
 use env::*;
-use path::*;
 pub use guided::{Call, Expander, MAX_EXPANSION_CALLS};
 pub use options::*;
+use path::*;
 use run::*;
 use select::*;
 use sink::*;

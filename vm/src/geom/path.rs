@@ -111,11 +111,7 @@ pub fn quadratic(p0: P2, c: P2, p1: P2, out: &mut Vec<P2>) {
     for i in 1..=n {
         let t = i as f64 / n as f64;
         let u = 1.0 - t;
-        out.push(if i == n {
-            p1
-        } else {
-            add(add(mul(p0, u * u), mul(c, 2.0 * u * t)), mul(p1, t * t))
-        });
+        out.push(if i == n { p1 } else { add(add(mul(p0, u * u), mul(c, 2.0 * u * t)), mul(p1, t * t)) });
     }
 }
 
@@ -271,7 +267,8 @@ fn slab(active: &[Edge], y0: f64, y1: f64, rule: FillRule, eps: f64, depth: u32,
         return;
     }
     let ym = 0.5 * (y0 + y1);
-    let mut row: Vec<(f64, f64, f64, i32)> = active.iter().map(|e| (e.x_at(y0), e.x_at(ym), e.x_at(y1), e.wind)).collect();
+    let mut row: Vec<(f64, f64, f64, i32)> =
+        active.iter().map(|e| (e.x_at(y0), e.x_at(ym), e.x_at(y1), e.wind)).collect();
     row.sort_by(|a, b| a.1.total_cmp(&b.1));
     if depth < MAX_SPLITS {
         // Adjacent edges (by x at mid-height) that swap order within the slab cross:
