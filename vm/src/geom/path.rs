@@ -516,7 +516,7 @@ mod tests {
             })
             .collect();
         let (mut nz, mut eo) = (Vec::new(), Vec::new());
-        fill(&[star.clone()], FillRule::NonZero, &mut nz);
+        fill(std::slice::from_ref(&star), FillRule::NonZero, &mut nz);
         fill(&[star], FillRule::EvenOdd, &mut eo);
         // The centre is the inner pentagon, circumradius 1/φ², wound twice.
         let pent_r = 0.381_966_011_250_105_1; // 1/φ²: the inner pentagon's circumradius
