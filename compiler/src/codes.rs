@@ -1276,7 +1276,7 @@ Fix: Use the drawable's own words: `ARCTO` large, cw; `CURVETO` smooth; `CLOSEPO
             r#"startshape A
 
 rule A {
-  MOVETO(0, 0) LINETO(1, 0) LINETO(0, 1)
+  MOVETO(0, 0) {} LINETO(1, 0) {} LINETO(0, 1) {}
   FILL cw {}
 }
 "#,
