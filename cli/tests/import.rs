@@ -47,7 +47,8 @@ struct CfDrawing {
     squares: u64,
     triangles: u64,
     paths: u64,
-    /// x and y extents of the circles, squares and triangles, in pixels.
+    /// x and y extents of the circles, squares, triangles and paths (their points
+    /// and control points), in pixels.
     bbox: Option<([f64; 2], [f64; 2])>,
 }
 
@@ -85,6 +86,7 @@ fn parse_svg(svg: &str) -> CfDrawing {
     };
     let square = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)];
     let tri = [(0.0, 0.57735), (-0.5, -0.288675), (0.5, -0.288675)];
+    let mut path_points: std::collections::HashMap<String, Vec<(f64, f64)>> = Default::default();
     let mut i = 0;
     while let Some(k) = svg[i..].find('<') {
         let at = i + k;
@@ -102,13 +104,38 @@ fn parse_svg(svg: &str) -> CfDrawing {
             if let Some(m) = matrix_after(svg, at) {
                 add(m, &square);
             }
-        } else if rest.starts_with("<use") {
+        } else if rest.starts_with("<use") && !rest.starts_with("<use xlink:href=\"#path") {
             d.triangles += 1;
             if let Some(m) = matrix_after(svg, at) {
                 add(m, &tri);
             }
-        } else if rest.starts_with("<path") {
+        } else if rest.starts_with("<path") || rest.starts_with("<use") {
+            // A path painted (`<path id= d=>`), or painted again (`<use href=#id>`):
+            // the points of its `d` (pairs after M, L, C…) under the matrix of the
+            // `<g>` that holds it, if any (else they are pixels already).
             d.paths += 1;
+            let g = svg[..at].rfind("<g").map(|g| &svg[g..at]).unwrap_or("");
+            let m = g.find("matrix(").and_then(|k| {
+                let inner = &g[k + 7..];
+                let v: Vec<f64> = inner[..inner.find(')')?].split_whitespace().filter_map(|s| s.parse().ok()).collect();
+                (v.len() == 6).then(|| [v[0], v[1], v[2], v[3], v[4], v[5]])
+            });
+            let tag = &rest[..rest.find('>').unwrap_or(rest.len())];
+            let attr = |name: &str| {
+                let k = tag.find(name)? + name.len();
+                let v = &tag[k..];
+                Some(v[..v.find('"')?].to_string())
+            };
+            let pts = if let Some(body) = attr(" d=\"") {
+                let pts = path_data_points(&body);
+                if let Some(id) = attr(" id=\"") {
+                    path_points.insert(id, pts.clone());
+                }
+                pts
+            } else {
+                attr("href=\"#").and_then(|id| path_points.get(&id).cloned()).unwrap_or_default()
+            };
+            add(m.unwrap_or([1.0, 0.0, 0.0, 1.0, 0.0, 0.0]), &pts);
         }
         i = at + 1;
     }
@@ -116,6 +143,38 @@ fn parse_svg(svg: &str) -> CfDrawing {
         d.bbox = Some((lo, hi));
     }
     d
+}
+
+/// The points of an SVG path's data: every coordinate pair (end and control
+/// points); an arc (`A rx ry angle large sweep x y`) gives its end point.
+fn path_data_points(d: &str) -> Vec<(f64, f64)> {
+    let mut pts = Vec::new();
+    let mut cmd = 'M';
+    let mut nums: Vec<f64> = Vec::new();
+    let flush = |cmd: char, nums: &mut Vec<f64>, pts: &mut Vec<(f64, f64)>| {
+        let group = if cmd.eq_ignore_ascii_case(&'A') { 7 } else { 2 };
+        for g in nums.chunks_exact(group) {
+            pts.push((g[group - 2], g[group - 1]));
+        }
+        nums.clear();
+    };
+    let mut tok = String::new();
+    for c in d.chars().chain(std::iter::once(' ')) {
+        if (c.is_ascii_alphabetic() && c != 'e' && c != 'E') || c == ',' || c.is_whitespace() {
+            if let Ok(v) = tok.parse() {
+                nums.push(v);
+            }
+            tok.clear();
+            if c.is_ascii_alphabetic() {
+                flush(cmd, &mut nums, &mut pts);
+                cmd = c;
+            }
+        } else {
+            tok.push(c);
+        }
+    }
+    flush(cmd, &mut nums, &mut pts);
+    pts
 }
 
 fn run_cfdg(file: &Path, out: &Path) -> Option<CfDrawing> {
@@ -140,6 +199,9 @@ struct MdgDrawing {
     /// Shapes, from runs of triangles that share their first corner (a `CIRCLE`'s
     /// 32, a `SQUARE`'s 2).
     shapes: u64,
+    /// Flat paths painted (`FILL`/`STROKE`), and their triangles (in `triangles`).
+    paths: u64,
+    path_triangles: u64,
     bbox: Option<([f64; 2], [f64; 2])>,
     /// The run's limit warnings (minsize, maxiter, …).
     warnings: Vec<String>,
@@ -161,7 +223,14 @@ fn run_mdg(mdg: &str, dir: &Path) -> Result<MdgDrawing, String> {
         k += g;
     }
     let bbox = importer::bounds(&m.positions).map(|(lo, hi)| ([lo[0], lo[1]], [hi[0], hi[1]]));
-    Ok(MdgDrawing { triangles: m.triangles.len() as u64, shapes, bbox, warnings: out.stats.warnings.clone() })
+    Ok(MdgDrawing {
+        triangles: m.triangles.len() as u64,
+        shapes,
+        paths: out.stats.paths,
+        path_triangles: out.stats.path_triangles,
+        bbox,
+        warnings: out.stats.warnings.clone(),
+    })
 }
 
 fn compile_options() -> mdg_compiler::expand::Options {
@@ -188,7 +257,7 @@ fn aspect(b: Option<([f64; 2], [f64; 2])>) -> Option<f64> {
 
 /// The comparison is exact when the program draws nothing at random (no `rand`
 /// in the import, no rule with two definitions), used only constructs that import
-/// as written (an empty report), drew no paths, and neither run was cut by a
+/// as written (an empty report), and neither run was cut by a
 /// limit: `cfdg` stayed under its shape cap and MDG's run gave no warning (so no
 /// branch ended at `minsize`, whose pixels MDG can only estimate).
 fn exact(imp: &Imported, cf: &CfDrawing, mdg: &MdgDrawing) -> bool {
@@ -201,11 +270,7 @@ fn deterministic(imp: &Imported, cf: &CfDrawing) -> bool {
     let n = heads.len();
     heads.sort();
     heads.dedup_by(|a, b| a.split(['(', ' ', '{']).nth(1) == b.split(['(', ' ', '{']).nth(1));
-    heads.len() == n
-        && !imp.mdg.contains("rand(")
-        && imp.report.notes.is_empty()
-        && cf.paths == 0
-        && cf.shapes() < CF_MAX_SHAPES
+    heads.len() == n && !imp.mdg.contains("rand(") && imp.report.notes.is_empty() && cf.shapes() < CF_MAX_SHAPES
 }
 
 struct Row {
@@ -274,7 +339,7 @@ fn context_free_examples_import_compile_run_and_match_cfdg() {
     rows.sort_by(|a, b| a.name.cmp(&b.name));
     let mut failures = Vec::new();
     let mut table = String::from(
-        "| program | imported | approximated or left out | cfdg shapes | MDG shapes | triangles cfdg / MDG | bbox aspect cfdg / MDG | compared |\n|---|---|---|---|---|---|---|---|\n",
+        "| program | imported | approximated or left out | cfdg shapes | MDG shapes | triangles cfdg / MDG | paths cfdg / MDG | bbox aspect cfdg / MDG | compared |\n|---|---|---|---|---|---|---|---|---|\n",
     );
     let (mut n_exact, mut n_match) = (0, 0);
     for r in &rows {
@@ -283,18 +348,25 @@ fn context_free_examples_import_compile_run_and_match_cfdg() {
         }
         let ca = r.cf.as_ref().and_then(|c| aspect(c.bbox));
         let ma = r.mdg.as_ref().and_then(|m| aspect(m.bbox));
-        let same_count = matches!((&r.cf, &r.mdg), (Some(c), Some(m)) if c.mdg_triangles() == m.triangles);
-        let same_box = matches!((ca, ma), (Some(a), Some(b)) if (a / b).ln().abs() < 0.02);
+        // Shapes' triangles, and paths by their number (their triangles are MDG's own).
+        let same_count = matches!((&r.cf, &r.mdg), (Some(c), Some(m))
+            if c.mdg_triangles() == m.triangles - m.path_triangles && c.paths == m.paths);
+        // A path's box in `cfdg`'s SVG holds its control points and leaves out its
+        // stroke's width: 5 % for programs with paths, 2 % without.
+        let box_tol = if r.cf.as_ref().is_some_and(|c| c.paths > 0) { 0.05 } else { 0.02 };
+        let same_box = matches!((ca, ma), (Some(a), Some(b)) if (a / b).ln().abs() < box_tol);
         if r.exact {
             n_exact += 1;
             if same_count && same_box {
                 n_match += 1;
             } else {
                 failures.push(format!(
-                    "{}: exact comparison differs: triangles cfdg {:?} MDG {:?}, aspect cfdg {ca:?} MDG {ma:?}",
+                    "{}: exact comparison differs: triangles cfdg {:?} MDG {:?}, paths cfdg {:?} MDG {:?}, aspect cfdg {ca:?} MDG {ma:?}",
                     r.name,
                     r.cf.as_ref().map(CfDrawing::mdg_triangles),
-                    r.mdg.as_ref().map(|m| m.triangles)
+                    r.mdg.as_ref().map(|m| m.triangles - m.path_triangles),
+                    r.cf.as_ref().map(|c| c.paths),
+                    r.mdg.as_ref().map(|m| m.paths)
                 ));
             }
         }
@@ -305,14 +377,15 @@ fn context_free_examples_import_compile_run_and_match_cfdg() {
         let stopped = r.mdg.as_ref().is_some_and(|m| m.warnings.iter().any(|w| w.contains("the run stopped")));
         if r.at_min && !stopped {
             if let (Some(c), Some(m)) = (&r.cf, &r.mdg) {
-                let ratio = m.triangles as f64 / c.mdg_triangles().max(1) as f64;
+                let ratio =
+                    (m.triangles - m.path_triangles + m.paths) as f64 / (c.mdg_triangles() + c.paths).max(1) as f64;
                 let aspect_ok = matches!((ca, ma), (Some(a), Some(b)) if (a / b).ln().abs() < 0.05);
                 if !(0.85..=1.15).contains(&ratio) || !aspect_ok {
                     failures.push(format!(
                         "{}: ends at the minimum size: triangles cfdg {} MDG {} (ratio {ratio:.3}), aspect cfdg {ca:?} MDG {ma:?}",
                         r.name,
-                        c.mdg_triangles(),
-                        m.triangles
+                        c.mdg_triangles() + c.paths,
+                        m.triangles - m.path_triangles + m.paths
                     ));
                 }
             }
@@ -321,7 +394,7 @@ fn context_free_examples_import_compile_run_and_match_cfdg() {
         let _ = std::fmt::Write::write_fmt(
             &mut table,
             format_args!(
-                "| `{}` | {} | {} | {} | {} | {} / {} | {} / {} | {} |\n",
+                "| `{}` | {} | {} | {} | {} | {} / {} | {} / {} | {} / {} | {} |\n",
                 r.name,
                 if r.imported { "yes" } else { "**no**" },
                 if r.approximated.is_empty() {
@@ -332,7 +405,9 @@ fn context_free_examples_import_compile_run_and_match_cfdg() {
                 r.cf.as_ref().map(|c| c.shapes().to_string()).unwrap_or_else(|| "cfdg failed".into()),
                 r.mdg.as_ref().map(|m| m.shapes.to_string()).unwrap_or_else(|| "–".into()),
                 r.cf.as_ref().map(|c| c.mdg_triangles().to_string()).unwrap_or_else(|| "–".into()),
-                r.mdg.as_ref().map(|m| m.triangles.to_string()).unwrap_or_else(|| "–".into()),
+                r.mdg.as_ref().map(|m| (m.triangles - m.path_triangles).to_string()).unwrap_or_else(|| "–".into()),
+                r.cf.as_ref().map(|c| c.paths.to_string()).unwrap_or_else(|| "–".into()),
+                r.mdg.as_ref().map(|m| m.paths.to_string()).unwrap_or_else(|| "–".into()),
                 f(ca),
                 f(ma),
                 if r.exact {

@@ -444,10 +444,9 @@ impl Rewriter<'_> {
         let open = self.brace_from(i + 2)?;
         let close = self.closing(open)?;
         self.diags.push(
-            error(self.span(i, i + 1), format!("`path {}` is Context Free's: MDG has no paths", self.text(i + 1)))
-                .with_note(
-                "draw lines with `MOVETO {…}` and `LINETO {…}` in a rule (reference §9); a filled shape is triangles \
-                     of `VERTEX` points or std's `disc` and `square`",
+            error(self.span(i, i + 1), format!("`path {}` is Context Free's spelling", self.text(i + 1))).with_note(
+                "MDG's flat paths are rules: `rule NAME { MOVETO(0, 0) {} LINETO(1, 0) {} … FILL {} }`, every \
+                 drawable with its `{}` (reference §9, \"Flat paths\"); `mdgc import` converts a whole program",
             ),
         );
         Some(close + 1)

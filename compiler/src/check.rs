@@ -80,6 +80,7 @@ pub fn check(ex: &Expanded, opts: CheckOptions) -> Checked {
         rule_name: None,
         param_reads: BTreeSet::new(),
         unread_params: Vec::new(),
+        in_path: false,
         profile_rules: BTreeSet::new(),
         function: None,
         lets: Vec::new(),
@@ -127,6 +128,8 @@ struct Checker<'a> {
     /// Parameters a definition did not read: (rule, index, span), reported when no
     /// definition and no selector reads them.
     unread_params: Vec<(String, usize, Span, String)>,
+    /// The definition being checked is a flat path ([`crate::paths`]).
+    in_path: bool,
 }
 
 /// A parameter, `let` binding or loop variable in scope.
@@ -484,7 +487,9 @@ impl<'a> Checker<'a> {
         self.rule_name = full.clone();
         let mut calls = Vec::new();
         let mut must = Vec::new();
+        self.in_path = crate::paths::is_path(&r.body);
         self.body(&r.body, ns, &mut calls, &mut must);
+        self.in_path = false;
         self.unused_locals(0);
         self.scope = None;
         self.rule_name = None;
@@ -889,15 +894,20 @@ impl<'a> Checker<'a> {
         calls: &mut Vec<String>,
         must: &mut Vec<String>,
     ) {
-        if self.sym.is_drawable(&name.text) {
+        if self.sym.is_drawable(&name.text) && crate::paths::is_path_op(&name.text, self.in_path) {
+            self.path_item(name, args, profile);
+        } else if self.sym.is_drawable(&name.text) {
             if let Some(a) = args {
-                self.diags.push(
-                    Diagnostic::error("E0322", a.span, format!("`{}` takes no arguments", name.text)).with_suggestion(
-                        "remove them",
-                        a.span,
-                        String::new(),
-                    ),
-                );
+                let d = Diagnostic::error("E0322", a.span, format!("`{}` takes no arguments", name.text))
+                    .with_suggestion("remove them", a.span, String::new());
+                self.diags.push(if !matches!(name.text.as_str(), "MOVETO" | "LINETO") {
+                    d
+                } else {
+                    d.with_note(
+                        "`MOVETO(x, y)` and `LINETO(x, y)` are flat path points: only in a rule that paints a path \
+                             (FILL, STROKE) or uses ARCTO, CURVETO or CLOSEPOLY (reference §9, \"Flat paths\")",
+                    )
+                });
             }
             if let Some(p) = profile {
                 let last = name.text.rsplit('.').next().unwrap_or("");
@@ -947,6 +957,41 @@ impl<'a> Checker<'a> {
             }
         }
         self.adj_list(adj);
+    }
+
+    /// A flat path's drawable (reference §9, "Flat paths"): its option word and
+    /// number of arguments (E0411, E0401), and its arguments as expressions.
+    fn path_item(&mut self, name: &'a Name, args: Option<&'a CallArgs>, word: Option<&'a Name>) {
+        let mut bits = 0;
+        if let Some(w) = word {
+            match crate::paths::option_bits(&name.text, &w.text) {
+                Ok(b) => bits = b,
+                Err(e) => {
+                    let d = Diagnostic::error("E0411", w.span, e.to_string());
+                    self.diags.push(if matches!(name.text.as_str(), "MOVETO" | "LINETO") {
+                        d.with_note("in a flat path MOVETO and LINETO take no profile rule: they draw no 3D line")
+                    } else {
+                        d
+                    });
+                }
+            }
+        }
+        let given = args.map(|a| a.args.len()).unwrap_or(0);
+        if !crate::paths::arities(&name.text, bits).contains(&given) {
+            let span = args.map_or(name.span, |a| a.span);
+            self.diags.push(Diagnostic::error(
+                "E0401",
+                span,
+                format!(
+                    "`{}` in a flat path takes {} arguments, not {given}",
+                    name.text,
+                    crate::paths::arity_text(&name.text, bits)
+                ),
+            ));
+        }
+        for a in args.iter().flat_map(|a| &a.args) {
+            self.expr(a, false, true);
+        }
     }
 
     /// Records a call of rule `full` in the call graphs.

@@ -1263,6 +1263,25 @@ rule A {
         ),
     },
     Code {
+        code: "E0411",
+        severity: Error,
+        title: "bad flat path option",
+        explanation: r#"The word after a flat path's drawable is its options (`FILL evenodd {}`, `ARCTO(1, 0, 1) large_cw {}`, `STROKE(0.1) roundjoin_squarecap {}`: words joined by `_`); this one is not an option of that drawable. In a flat path, `MOVETO` and `LINETO` take no profile rule.
+
+In the example: `cw` is an option of `ARCTO`, not of `FILL`.
+
+Fix: Use the drawable's own words: `ARCTO` large, cw; `CURVETO` smooth; `CLOSEPOLY` align; `FILL` evenodd; `STROKE` miterjoin, roundjoin, beveljoin, buttcap, roundcap, squarecap (one join and one cap)."#,
+        example: Library(
+            r#"startshape A
+
+rule A {
+  MOVETO(0, 0) {} LINETO(1, 0) {} LINETO(0, 1) {}
+  FILL cw {}
+}
+"#,
+        ),
+    },
+    Code {
         code: "E0501",
         severity: Error,
         title: "GLSL error in a shader block",

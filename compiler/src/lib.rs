@@ -27,6 +27,7 @@ pub mod induce;
 pub mod lexer;
 pub mod lower;
 pub mod parse;
+pub mod paths;
 pub mod shader_limits;
 pub mod shaders;
 pub mod source;

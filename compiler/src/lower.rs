@@ -17,7 +17,7 @@ use crate::source::Sources;
 use crate::span::Span;
 use mdg_vm::bundle::{
     self, proto, AdjOp, Bundle, Composite, Def, Drawable, ExprId, IsoId, NsId, Op, OpCount, OpIndex, PrimAdj, Profile,
-    ProtoId, RuleId, Selector, Settings, SlotId, SourceLoc, Transform, TransformId, CONT_NEXT, NONE,
+    ProtoId, RuleId, Selector, Settings, SlotId, SourceLoc, Transform, TransformId, CONT_NEXT, NONE, PATH_OP,
 };
 use mdg_vm::expr::{BinOp as VmBinOp, ExprOp, Func, VARIABLES};
 use std::collections::{BTreeSet, HashMap};
@@ -55,6 +55,8 @@ struct Lower<'a> {
     n_protos: u32,
     /// The item indices of the recursive user functions.
     recursive: BTreeSet<usize>,
+    /// The definition being lowered is a flat path (see [`crate::paths`]).
+    in_path: bool,
 }
 
 /// Lowers a checked program. Diagnostics here are run-time-relevant problems the
@@ -75,6 +77,7 @@ pub fn lower(ex: &Expanded, sym: &Symbols, sources: &Sources) -> Result<Bundle, 
         source_map: Vec::new(),
         angle: AngleMode::Degrees,
         diags: Vec::new(),
+        in_path: false,
         scope: Vec::new(),
         next_slot: 0,
         frame: 0,
@@ -407,7 +410,18 @@ impl<'a> Lower<'a> {
                 self.next_slot = sig.params.len() as u16;
                 // A weight over the parameters is evaluated per call, in the callee's frame.
                 let weight_expr = r.weight_expr.as_ref().map_or(NONE, |e| self.expr(e, 1.0));
+                self.in_path = crate::paths::is_path(&r.body);
                 self.body(&r.body, namespace.as_deref());
+                if self.in_path && !crate::paths::paints(&r.body) {
+                    // Context Free fills a path that paints nothing itself.
+                    let id = AdjList { square: false, adjs: Vec::new(), span: r.body_span };
+                    let xf = TransformId(self.transform(&id, 1.0));
+                    let e = self.push_expr(vec![ExprOp::Push(0.0)]);
+                    self.code.push(Op::Arg { expr: ExprId(e) });
+                    let ns = NsId(0);
+                    self.code.push(Op::Draw { kind: Drawable::Fill, xf, ns, profile: Profile(NONE), flags: 0 });
+                }
+                self.in_path = false;
                 self.code.push(Op::Ret {});
                 self.insert_prototypes(start as usize);
                 let w =
@@ -729,6 +743,40 @@ impl<'a> Lower<'a> {
         }
     }
 
+    /// A flat path's drawable: its arguments, every one passed (defaults filled in,
+    /// the option bits last), then the `DRAW`.
+    fn path_draw(
+        &mut self,
+        kind: Drawable,
+        name: &str,
+        args: Option<&CallArgs>,
+        word: Option<&Name>,
+        xf: TransformId,
+        flags: u8,
+    ) {
+        let bits = word.and_then(|w| crate::paths::option_bits(name, &w.text).ok()).unwrap_or(0);
+        let given = args.map(|a| a.args.as_slice()).unwrap_or(&[]);
+        let n = mdg_vm::bundle::ops::path_arity(kind, PATH_OP).unwrap_or(1) - 1;
+        let (vals, bits) = crate::paths::vm_args(name, given, bits).unwrap_or((vec![None; n], f64::from(bits)));
+        for v in vals {
+            let expr = match v {
+                Some(a) => match self.const_eval(a) {
+                    Some(c) => self.push_expr(vec![ExprOp::Push(c)]),
+                    None => self.expr(a, 1.0),
+                },
+                None if kind == Drawable::Stroke => {
+                    self.push_expr(vec![ExprOp::Push(crate::paths::DEFAULT_STROKE_WIDTH)])
+                }
+                None => self.push_expr(vec![ExprOp::Push(0.0)]),
+            };
+            self.code.push(Op::Arg { expr: ExprId(expr) });
+        }
+        let e = self.push_expr(vec![ExprOp::Push(bits)]);
+        self.code.push(Op::Arg { expr: ExprId(e) });
+        let flags = if matches!(kind, Drawable::MoveTo | Drawable::LineTo) { flags | PATH_OP } else { flags };
+        self.code.push(Op::Draw { kind, xf, ns: NsId(0), profile: Profile(NONE), flags });
+    }
+
     /// A new slot for a binding named `name`, in scope from now on.
     fn bind(&mut self, name: &str) -> u16 {
         let slot = self.next_slot;
@@ -791,6 +839,10 @@ impl<'a> Lower<'a> {
                 if let Some(kind) = Drawable::from_name(last)
                     .filter(|_| self.sym.resolve(&name.text, ns).is_none() || prefix.is_empty())
                 {
+                    if prefix.is_empty() && crate::paths::is_path_op(last, self.in_path) {
+                        self.path_draw(kind, last, args.as_ref(), profile.as_ref(), xf, flags);
+                        return;
+                    }
                     let ns_id = NsId(self.namespace(prefix));
                     let profile = Profile(profile.as_ref().and_then(|p| self.rule_index(&p.text, ns)).unwrap_or(NONE));
                     self.code.push(Op::Draw { kind, xf, ns: ns_id, profile, flags });

@@ -835,3 +835,57 @@ fn flat_starts_black_on_white_and_orders_triangles_by_z_then_derivation() {
     assert_eq!(out.vertex_mesh().colors[0], [1.0; 4]);
     assert_eq!(out.background, [0.12, 0.12, 0.14, 1.0]);
 }
+
+/// The area the mesh's triangles cover in the xy-plane (counter-clockwise positive,
+/// mirrored triangles turned as the exporters turn them), and its box.
+fn xy_area_and_box(m: &mdg_vm::output::Mesh) -> (f32, [f32; 4]) {
+    let mut area = 0.0;
+    let mut b = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
+    for t in m.oriented_triangles() {
+        let p = t.map(|i| m.positions[i as usize]);
+        area += 0.5 * ((p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]));
+        for q in p {
+            b = [b[0].min(q[0]), b[1].min(q[1]), b[2].max(q[0]), b[3].max(q[1])];
+        }
+    }
+    (area, b)
+}
+
+#[test]
+fn flat_paths_fill_and_stroke_the_areas_they_enclose() {
+    // A 2 × 2 square, filled moved by FILL's own adjustment and scaled by the call.
+    let out = run_source(
+        "startshape A\nrule A { sq {x 10 s 3} }\n\
+         rule sq { MOVETO(-1, -1) {} LINETO(1, -1) {} LINETO(1, 1) {} LINETO(-1, 1) {} FILL {y 1} }\n",
+    );
+    let (area, b) = xy_area_and_box(&out.mesh);
+    assert!((area - 36.0).abs() < 1e-3, "{area}");
+    assert!(b.iter().zip([7.0, 0.0, 13.0, 6.0]).all(|(a, e)| (a - e).abs() < 1e-4), "{b:?}");
+    assert_eq!((out.stats.paths, out.stats.path_triangles as usize), (1, out.mesh.triangles.len()));
+    // A pentagram: even-odd leaves out the centre pentagon that non-zero fills.
+    let star = |rule: &str| {
+        let src =
+            format!("startshape S\nrule S {{ MOVETO(0, 1) {{}} 4 * [rz 144] LINETO(0, 1) {{}} FILL {rule} {{}} }}\n");
+        xy_area_and_box(&run_source(&src).mesh).0
+    };
+    let pent_r = 0.381_966_f32; // the inner pentagon's circumradius, 1/φ²
+    let pentagon = 2.5 * pent_r * pent_r * 72f32.to_radians().sin();
+    assert!((star("") - star("evenodd") - pentagon).abs() < 1e-3, "{} {}", star(""), star("evenodd"));
+    // A unit circle of two arcs (no FILL: a path fills itself at its end), and its
+    // outline stroked 0.2 wide: the ring between radii 0.9 and 1.1.
+    let circle = xy_area_and_box(
+        &run_source("startshape C\nrule C { MOVETO(1, 0) {} ARCTO(-1, 0, 1) {} ARCTO(1, 0, 1) {} }\n").mesh,
+    )
+    .0;
+    assert!((circle - std::f32::consts::PI).abs() < 0.01, "{circle}");
+    let ring = xy_area_and_box(&run_source(
+        "startshape C\nrule C { MOVETO(1, 0) {} ARCTO(-1, 0, 1) {} ARCTO(1, 0, 1) {} CLOSEPOLY {} STROKE(0.2) {} }\n",
+    )
+    .mesh)
+    .0;
+    let want = std::f32::consts::PI * (1.1f32 * 1.1 - 0.9 * 0.9);
+    assert!((ring - want).abs() < 0.01 * want, "{ring} {want}");
+    // A rule with only MOVETO/LINETO is still the pen's 3D line: no triangles.
+    let line = run_source("startshape L\nrule L { MOVETO {} LINETO {x 1} }\n");
+    assert!(line.mesh.triangles.is_empty() && line.lines.len() == 1 && line.stats.paths == 0);
+}

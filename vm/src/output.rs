@@ -190,6 +190,13 @@ pub struct Stats {
     pub vertices: u64,
     pub triangles: u64,
     pub max_depth: u32,
+    /// Flat paths painted (`FILL`/`STROKE` of a non-empty path); left out of the
+    /// dump when 0, so grammars without paths dump as before.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub paths: u64,
+    /// The triangles those paints drew (in `triangles` too); left out when 0.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub path_triangles: u64,
     /// Wall-clock time of the evaluation (`--stats` only; never in the dump).
     #[serde(skip)]
     pub elapsed_ms: f64,
@@ -764,4 +771,9 @@ pub fn place_mesh(m: &mut Mesh, shared: &Mesh, transform: &Mat4, color: Option<[
     for (t, mir) in shared.triangles.iter().zip(shared.mirrored.iter().chain(std::iter::repeat(&false))) {
         m.push_triangle([t[0] + base, t[1] + base, t[2] + base], *mir != mirrored);
     }
+}
+
+/// (For `skip_serializing_if`.)
+fn is_zero(n: &u64) -> bool {
+    *n == 0
 }

@@ -124,6 +124,11 @@ pub const DOCS: &[Doc] = &[
     d(Drawable, "RESET", "[ns.]RESET {}", "Set the continuation state to the pen's frame."),
     d(Drawable, "DEBUG", "[ns.]DEBUG {ADJ}", "Print the current frame, colour, weight and depth to stderr."),
     d(Drawable, "FRAME", "FRAME {ADJ}", "Emit an animation frame (in transform rules)."),
+    d(Drawable, "ARCTO", "ARCTO(x, y, r | x, y, rx, ry, angle) [large_cw] {ADJ}", "Flat path: an arc to (x, y), counter-clockwise unless `cw`, the shorter unless `large`. A rule with it is a path (reference §9, Flat paths)."),
+    d(Drawable, "CURVETO", "CURVETO(x, y, x1, y1[, x2, y2]) [smooth] {ADJ}", "Flat path: a quadratic or cubic Bézier curve to (x, y); `smooth` mirrors the last control point."),
+    d(Drawable, "CLOSEPOLY", "CLOSEPOLY [align] {}", "Flat path: close the subpath (`align` moves its last point onto its first)."),
+    d(Drawable, "FILL", "FILL [evenodd] {ADJ}", "Flat path: fill it (non-zero winding, or even-odd) as triangles under the adjusted frame."),
+    d(Drawable, "STROKE", "STROKE[(width)] [JOIN_CAP] {ADJ}", "Flat path: draw its outline, 0.1 wide by default; miterjoin/roundjoin/beveljoin, buttcap/roundcap/squarecap."),
     // Selector modes (reference §6).
     d(SelectorMode, "random", "selector R random", "Choose a definition with probability proportional to its weight (the default)."),
     d(SelectorMode, "frequency", "selector R frequency", "Same as `random`."),

@@ -190,7 +190,182 @@ impl<'a> Emitter<'a> {
                 let _ = write!(out, "{pad}1 * {a}");
                 self.sub_item(body, ind + 1, out);
             }
+            Item::PathOp { op, args, adj, line } => {
+                self.line = *line;
+                if let Some(s) = self.path_op(op, args, adj) {
+                    let _ = writeln!(out, "{pad}{s}");
+                }
+            }
         }
+    }
+
+    /// A path operation in MDG's flat path form (reference §9, "Flat paths"):
+    /// `OP(numbers) options {adjustments}`. CFDG 2's coordinates (`x`, `y`, `x1`…,
+    /// `r`/`rx`/`ry`, `width`) and `p` words, and CFDG 3's `CF::` flags, become the
+    /// arguments and the option word; the rest of the list stays a list.
+    fn path_op(&mut self, op: &str, args: &[Expr], adj: &Adj) -> Option<String> {
+        let line = self.line;
+        if op.ends_with("REL") {
+            self.rep.drop(line, op, "a relative path operation: MDG's paths have no relative points; left out");
+            return None;
+        }
+        let mut words: Vec<String> = Vec::new();
+        fn flags(e: &Expr, out: &mut Vec<String>) -> bool {
+            match e {
+                Expr::Name(n) if n.starts_with("CF::") => {
+                    out.push(n[4..].to_ascii_lowercase());
+                    true
+                }
+                Expr::Bin("+", a, b) | Expr::Bin("|", a, b) => {
+                    let k = out.len();
+                    if flags(a, out) && flags(b, out) {
+                        true
+                    } else {
+                        out.truncate(k);
+                        false
+                    }
+                }
+                _ => false,
+            }
+        }
+        let mut pos: Vec<&Expr> = Vec::new();
+        for a in args {
+            if !flags(a, &mut words) {
+                pos.push(a);
+            }
+        }
+        let point_op = op != "FILL" && op != "STROKE";
+        let mut named: BTreeMap<&str, &Expr> = BTreeMap::new();
+        let mut rest = Adj { ordered: adj.ordered, terms: Vec::new() };
+        for t in &adj.terms {
+            let n = t.name.as_str();
+            let coord = matches!(n, "x" | "y" | "x1" | "y1" | "x2" | "y2" | "rx" | "ry")
+                || (op == "ARCTO" && matches!(n, "r" | "rot" | "rotate"));
+            if matches!(n, "p" | "param") {
+                for a in &t.args {
+                    if let Expr::Name(w) = a {
+                        words.push(w.to_ascii_lowercase());
+                    }
+                }
+            } else if n == "width" && op == "STROKE" {
+                if let Some(a) = t.args.first() {
+                    named.insert("width", a);
+                }
+            } else if coord && point_op && !t.target {
+                if let Some(a) = t.args.first() {
+                    named.insert(if n.starts_with('r') && n.len() > 1 && n != "rx" && n != "ry" { "r" } else { n }, a);
+                }
+                if t.args.len() > 1 && matches!(n, "x" | "y") {
+                    self.rep.approx(line, n, "a path point's `x`/`y` with two values: the first is kept");
+                }
+            } else {
+                rest.terms.push(t.clone());
+            }
+        }
+        // Context Free's words in MDG's spelling; `iso` has no MDG form.
+        let mut mdg_words: Vec<&str> = Vec::new();
+        let mut smooth = false;
+        for w in &words {
+            let m = match w.as_str() {
+                "arclarge" | "large" => "large",
+                "arccw" | "cw" => "cw",
+                "align" => "align",
+                "evenodd" => "evenodd",
+                "miterjoin" => "miterjoin",
+                "roundjoin" => "roundjoin",
+                "beveljoin" => "beveljoin",
+                "buttcap" => "buttcap",
+                "roundcap" => "roundcap",
+                "squarecap" => "squarecap",
+                "continuous" => {
+                    smooth = true;
+                    continue;
+                }
+                other => {
+                    self.rep.approx(line, other, format!("path option `{other}` has no MDG form: left out"));
+                    continue;
+                }
+            };
+            let ok = match op {
+                "ARCTO" => matches!(m, "large" | "cw"),
+                "CLOSEPOLY" => m == "align",
+                "FILL" => m == "evenodd",
+                "STROKE" => m.ends_with("join") || m.ends_with("cap"),
+                _ => false,
+            };
+            if ok && !mdg_words.contains(&m) {
+                mdg_words.push(m);
+            }
+        }
+        // One join and one cap: the last one given wins.
+        for kind in ["join", "cap"] {
+            while mdg_words.iter().filter(|w| w.ends_with(kind)).count() > 1 {
+                if let Some(k) = mdg_words.iter().position(|w| w.ends_with(kind)) {
+                    mdg_words.remove(k);
+                }
+            }
+        }
+        let e = |me: &mut Self, x: Option<&&Expr>| x.map(|x| me.expr(x)).unwrap_or_else(|| "0".into());
+        let a = |me: &mut Self, i: usize| e(me, pos.get(i));
+        let n = |me: &mut Self, k: &str| e(me, named.get(k));
+        let v3 = !pos.is_empty();
+        let call: Vec<String> = match op {
+            "MOVETO" | "LINETO" if v3 => vec![a(self, 0), a(self, 1)],
+            "MOVETO" | "LINETO" => vec![n(self, "x"), n(self, "y")],
+            "ARCTO" if v3 && pos.len() >= 5 => (0..5).map(|i| a(self, i)).collect(),
+            "ARCTO" if v3 => vec![a(self, 0), a(self, 1), a(self, 2)],
+            "ARCTO" if named.contains_key("rx") || named.contains_key("ry") => {
+                let rx = named.get("rx").or(named.get("ry")).copied();
+                let ry = named.get("ry").or(named.get("rx")).copied();
+                vec![n(self, "x"), n(self, "y"), e(self, rx.as_ref()), e(self, ry.as_ref()), n(self, "r")]
+            }
+            "ARCTO" => vec![n(self, "x"), n(self, "y"), n(self, "r")],
+            "CURVETO" if v3 => {
+                // (x, y, x1, y1[, x2, y2]); with CF::Continuous (x, y[, x2, y2]).
+                if pos.len() < 4 || (smooth && pos.len() < 6) {
+                    smooth = true;
+                }
+                let k = if smooth {
+                    if pos.len() >= 4 {
+                        4
+                    } else {
+                        2
+                    }
+                } else if pos.len() >= 6 {
+                    6
+                } else {
+                    4
+                };
+                (0..k).map(|i| a(self, i)).collect()
+            }
+            "CURVETO" => {
+                let (c1, c2) = (
+                    named.contains_key("x1") || named.contains_key("y1"),
+                    named.contains_key("x2") || named.contains_key("y2"),
+                );
+                let mut v = vec![n(self, "x"), n(self, "y")];
+                match (c1, c2) {
+                    (true, true) => v.extend([n(self, "x1"), n(self, "y1"), n(self, "x2"), n(self, "y2")]),
+                    (true, false) => v.extend([n(self, "x1"), n(self, "y1")]),
+                    (false, true) => {
+                        smooth = true;
+                        v.extend([n(self, "x2"), n(self, "y2")]);
+                    }
+                    (false, false) => smooth = true,
+                }
+                v
+            }
+            "STROKE" if v3 => vec![a(self, 0)],
+            "STROKE" => named.get("width").map(|w| vec![self.expr(w)]).unwrap_or_default(),
+            _ => Vec::new(),
+        };
+        if op == "CURVETO" && smooth {
+            mdg_words.insert(0, "smooth");
+        }
+        let list = self.adj(&rest);
+        let argv = if call.is_empty() { String::new() } else { format!("({})", call.join(", ")) };
+        let word = if mdg_words.is_empty() { String::new() } else { format!(" {}", mdg_words.join("_")) };
+        Some(format!("{op}{argv}{word} {list}"))
     }
 
     /// The item of a loop or transform: a block or one item, never empty.
@@ -234,12 +409,8 @@ impl<'a> Emitter<'a> {
 
     fn call(&mut self, name: &str, args: Option<&[Expr]>, same: bool, adj: &Adj) -> Option<String> {
         let line = self.line;
-        if self.prog.paths.iter().any(|p| p == name) {
-            self.rep.drop(line, name, "a call of a path: MDG has no Context Free paths");
-            return None;
-        }
         if PATH_OPS.contains(&name) {
-            self.rep.drop(line, name, "a path operation: MDG has no Context Free paths");
+            self.rep.drop(line, name, "a path operation outside a path: left out");
             return None;
         }
         let prim = PRIMITIVES.contains(&name);

@@ -75,6 +75,14 @@ pub(crate) enum Item {
         adj: Adj,
         body: Box<Item>,
     },
+    /// A path operation (`MOVETO`, `ARCTO`, `FILL`, …) with its CFDG 3 arguments
+    /// and its list (CFDG 2's coordinates, a paint's adjustments).
+    PathOp {
+        op: String,
+        args: Vec<Expr>,
+        adj: Adj,
+        line: u32,
+    },
     Nothing,
 }
 
@@ -162,7 +170,7 @@ const ADJ_NAMES: &[&str] = &[
     "param",
 ];
 
-/// Names that are path operations (no MDG counterpart: paths are dropped).
+/// Names that are path operations (MDG's flat paths; the `…REL` ones are left out).
 pub(crate) const PATH_OPS: &[&str] = &[
     "MOVETO",
     "MOVEREL",
@@ -302,19 +310,16 @@ impl<'a> Parser<'a> {
                 }
             }
             "path" => {
+                // A path is a shape whose one rule builds and paints a flat path.
                 self.i += 1;
-                let name = self.id().unwrap_or_default();
-                if self.is_p("(") {
-                    self.skip_group();
-                }
-                self.rep.drop(
-                    line,
-                    "path",
-                    format!("path `{name}`: MDG has no filled or stroked paths; its calls draw nothing"),
-                );
+                let Some(name) = self.id() else { return };
+                let params = if self.is_p("(") { self.params() } else { Vec::new() };
+                let idx = self.shape_index(&name, params, line);
                 self.prog.paths.push(name);
                 self.current = None;
-                self.skip_to_group_end();
+                if self.is_p("{") {
+                    self.rule_body(idx, line);
+                }
             }
             "include" | "import" => {
                 self.i += 1;
@@ -636,11 +641,18 @@ impl<'a> Parser<'a> {
             _ if matches!(self.peek_at(1), Some(T::P("="))) => self.local(),
             _ if PATH_OPS.contains(&w.as_str()) => {
                 self.i += 1;
+                let args = if self.is_p("(") { self.call_args() } else { Vec::new() };
+                let adj = self.adj_opt().unwrap_or_default();
+                Item::PathOp { op: w, args, adj, line }
+            }
+            "path" if matches!(self.peek_at(1), Some(T::Id(_))) => {
+                // `path CIRCLE [adj]`: another path's outline added to this one.
+                self.i += 2;
                 if self.is_p("(") {
                     self.skip_group();
                 }
                 let _ = self.adj_opt();
-                self.rep.drop(line, &w, "a path operation: MDG has no Context Free paths");
+                self.rep.drop(line, "path", "a subpath from another path (`path NAME`): left out");
                 Item::Nothing
             }
             _ => {

@@ -18,7 +18,8 @@ mod verify;
 pub use codec::{decode, encode};
 pub use disasm::{disassemble, expr_text};
 pub use ops::{
-    Drawable, ExprId, IsoId, NsId, Op, OpCount, OpIndex, Profile, ProtoId, RuleId, SlotId, TransformId, CONT_NEXT, NONE,
+    Drawable, ExprId, IsoId, NsId, Op, OpCount, OpIndex, Profile, ProtoId, RuleId, SlotId, TransformId, CONT_NEXT,
+    NONE, PATH_OP,
 };
 pub use verify::verify;
 

@@ -20,6 +20,57 @@ use super::Bundle;
 /// Flag: the item is followed by `\`.
 pub const CONT_NEXT: u8 = 1;
 
+/// `DRAW` flag bit: a `MOVETO`/`LINETO` of a flat path (a rule definition that
+/// paints a path, reference §9 "Flat paths"), not of the pen's 3D lines.
+pub const PATH_OP: u8 = 2;
+
+/// The flat path options a path drawable's last argument carries, as bits (the
+/// words after the drawable, `ARCTO(…) large_cw {}`); [`PATH_WORDS`] names them.
+pub mod path_bits {
+    pub const LARGE: u32 = 1;
+    pub const CW: u32 = 2;
+    pub const SMOOTH: u32 = 4;
+    pub const ALIGN: u32 = 8;
+    pub const EVENODD: u32 = 16;
+    pub const ROUNDJOIN: u32 = 32;
+    pub const BEVELJOIN: u32 = 64;
+    pub const ROUNDCAP: u32 = 128;
+    pub const SQUARECAP: u32 = 256;
+    /// (Set by the compiler, not a word) a `CURVETO` with a second control point.
+    pub const CUBIC: u32 = 512;
+}
+
+/// The option words of the path drawables, their bits and the drawable that takes
+/// each (`miterjoin` and `buttcap` are the defaults and set no bit).
+pub const PATH_WORDS: &[(&str, u32, &str)] = &[
+    ("large", path_bits::LARGE, "ARCTO"),
+    ("cw", path_bits::CW, "ARCTO"),
+    ("smooth", path_bits::SMOOTH, "CURVETO"),
+    ("align", path_bits::ALIGN, "CLOSEPOLY"),
+    ("evenodd", path_bits::EVENODD, "FILL"),
+    ("miterjoin", 0, "STROKE"),
+    ("roundjoin", path_bits::ROUNDJOIN, "STROKE"),
+    ("beveljoin", path_bits::BEVELJOIN, "STROKE"),
+    ("buttcap", 0, "STROKE"),
+    ("roundcap", path_bits::ROUNDCAP, "STROKE"),
+    ("squarecap", path_bits::SQUARECAP, "STROKE"),
+];
+
+/// How many `ARG`s a path drawable takes (the compiler always passes them all,
+/// defaults filled in; the last is the option bits), or `None` for a drawable that
+/// takes none: `MOVETO`/`LINETO` of a path (x, y), `ARCTO` (x, y, rx, ry, angle),
+/// `CURVETO` (x, y, x1, y1, x2, y2), `CLOSEPOLY`, `FILL`, `STROKE` (width).
+pub fn path_arity(kind: Drawable, flags: u8) -> Option<usize> {
+    Some(match kind {
+        Drawable::MoveTo | Drawable::LineTo if flags & PATH_OP != 0 => 3,
+        Drawable::ArcTo => 6,
+        Drawable::CurveTo => 7,
+        Drawable::ClosePoly | Drawable::Fill => 1,
+        Drawable::Stroke => 2,
+        _ => return None,
+    })
+}
+
 /// `LOOP`/`LOOPN` flag bit: the runs chain through `last` (`M * {T} \ ITEM`).
 pub const LOOP_CHAIN: u8 = 1;
 /// `LOOPN` flag bit: the first run is under the start frame itself and the step is
@@ -359,6 +410,16 @@ drawables! {
     Reset = "RESET",
     /// Reports the frame (position, scale, colour) in the run's debug lines.
     Debug = "DEBUG",
+    /// A flat path's elliptical arc to the point (x, y).
+    ArcTo = "ARCTO",
+    /// A flat path's quadratic or cubic Bézier curve to the point (x, y).
+    CurveTo = "CURVETO",
+    /// Closes the flat path's current subpath.
+    ClosePoly = "CLOSEPOLY",
+    /// Paints the flat path's inside (non-zero or even-odd) as triangles.
+    Fill = "FILL",
+    /// Paints the flat path's outline with a width, as triangles.
+    Stroke = "STROKE",
 }
 
 impl Operand for Drawable {

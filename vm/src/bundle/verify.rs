@@ -235,7 +235,16 @@ fn verify_body(b: &Bundle, rule: usize, start: u32) -> Result<(), LoadError> {
     let mut pc = start as usize;
     while let Some(op) = b.code.get(pc) {
         at.push((loops.last().copied(), pending));
-        if pending > 0 && !matches!(op, Op::Arg { .. } | Op::Call { .. }) {
+        let path_draw = match *op {
+            Op::Draw { kind, flags, .. } => super::ops::path_arity(kind, flags),
+            _ => None,
+        };
+        if let Some(want) = path_draw {
+            if pending != want {
+                return Err(bad(format!("op {pc}: {} with {pending} arguments for {want}", op.mnemonic())));
+            }
+            pending = 0;
+        } else if pending > 0 && !matches!(op, Op::Arg { .. } | Op::Call { .. }) {
             return Err(bad(format!("op {pc}: {} between an ARG and its CALL", op.mnemonic())));
         }
         match *op {

@@ -254,6 +254,9 @@ impl<'b> Eval<'b> {
             Drawable::NewLine => self.pens[ns_i].lifted = true,
             // FRAME draws nothing in a model: it only counts when a transform rule is sampled.
             Drawable::Frame => {}
+            // (Flat path ops come with their arguments to `path_op`; without them, as in
+            // a bundle whose DRAW lacks them, which the verifier refuses, nothing.)
+            Drawable::ArcTo | Drawable::CurveTo | Drawable::ClosePoly | Drawable::Fill | Drawable::Stroke => {}
             Drawable::Reset => self.last = self.pens[ns_i].state,
             Drawable::Debug => {
                 let p = s.f.u;

@@ -39,6 +39,7 @@
 //! state, and a frame under a non-uniform scale composes in `f32`.)
 
 use crate::anim::{frames_needed, MAX_TRACK_FRAMES};
+use crate::bundle::ops::path_arity;
 use crate::bundle::{
     self, Bundle, Composite, Drawable, ExprId, NsId, Op, OpCount, OpIndex, Profile, ProtoId, RuleId, Selector,
     Transform, TransformId, CONT_NEXT, NONE,
@@ -63,6 +64,7 @@ mod draw;
 mod env;
 mod guided;
 mod options;
+mod path;
 mod run;
 mod select;
 mod sink;
@@ -75,6 +77,7 @@ use draw::*;
 use env::*;
 pub use guided::{Call, Expander, MAX_EXPANSION_CALLS};
 pub use options::*;
+use path::*;
 use run::*;
 use select::*;
 use sink::*;
@@ -125,6 +128,8 @@ struct Eval<'b> {
     /// once to the deepest derivation's need, never allocated per call.
     slots: Vec<f64>,
     profile_points: Vec<Vec3>,
+    /// The flat path being built ([`path`]).
+    path: PathState,
     progress: Option<&'b (dyn Fn(u64) + Sync)>,
     xf_info: Vec<Option<XfInfo>>,
     /// Per transform: a constant without a non-uniform scale (composing it has no
@@ -263,6 +268,7 @@ impl<'b> Eval<'b> {
             expr_stack: expr::Machine::new(opts.calls),
             slots: Vec::new(),
             profile_points: Vec::new(),
+            path: PathState::default(),
             progress,
             seed,
             track_ids: HashMap::new(),

@@ -273,12 +273,31 @@ impl<'b> Eval<'b> {
                     self.op_vertex(&mut m, xf, ns, profile);
                     true
                 }
-                Op::Draw { kind, xf, ns, profile, flags: _ } => {
-                    let s = self.item(&mut m, xf);
-                    if !S::COLLECTS {
-                        self.draw(kind, s, ns.0, profile.0, mode, m.bone);
+                Op::Draw { kind, xf, ns, profile, flags } => {
+                    if let Some(n) = path_arity(kind, flags) {
+                        // A flat path's op: its arguments are on the slots (none
+                        // were pushed for a sink that collects calls).
+                        let base = *m.cont.as_ref().unwrap_or(&m.act.base);
+                        let s = self.item(&mut m, xf);
+                        if !S::COLLECTS {
+                            let at = self.slots.len().saturating_sub(n);
+                            let mut args = [0.0; 7];
+                            for (a, v) in args.iter_mut().zip(&self.slots[at..]) {
+                                *a = *v;
+                            }
+                            self.slots.truncate(at);
+                            if mode == Mode::Model {
+                                self.path_op(kind, &base, &s, &args[..n], m.bone, m.act.pc - 1);
+                            }
+                        }
+                        true
+                    } else {
+                        let s = self.item(&mut m, xf);
+                        if !S::COLLECTS {
+                            self.draw(kind, s, ns.0, profile.0, mode, m.bone);
+                        }
+                        true
                     }
-                    true
                 }
                 Op::Iso { iso, xf, flags: _ } => {
                     let s = self.item(&mut m, xf);

@@ -560,6 +560,8 @@ pub(crate) mod tests {
                 vertices: 36,
                 triangles: 12,
                 max_depth: 2,
+                paths: 0,
+                path_triangles: 0,
                 elapsed_ms: 0.5,
                 warnings: vec!["maxdepth reached".into()],
             },

@@ -1,5 +1,5 @@
 //! Geometry kernels of the VM: the thesis's quaternion frames, the BLENDTO spline,
-//! profile sweeps and isosurface polygonisation.
+//! profile sweeps, isosurface polygonisation and flat paths (fill and stroke).
 //!
 //! Everything here is pure: functions take frames and profiles and append to a
 //! [`Mesh`] (defined here, so the kernels depend on nothing else in the VM); none
@@ -9,6 +9,7 @@ pub mod blend;
 pub mod frame64;
 pub mod marching;
 pub mod mesh;
+pub mod path;
 pub mod quat;
 pub mod rotation;
 pub mod sweep;
