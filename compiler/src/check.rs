@@ -30,6 +30,8 @@ pub const NUMERIC_DIRECTIVES: &[(&str, usize, usize, bool)] = &[
     ("maxdepth", 1, 1, true),
     ("minsize", 1, 1, false),
     ("maxiter", 1, 1, true),
+    ("maxobjects", 1, 1, true),
+    ("breadthfirst", 0, 0, false),
     ("stacksize", 1, 1, true),
     ("randseed", 1, 1, true),
     ("normal", 3, 3, false),
@@ -459,6 +461,21 @@ impl<'a> Checker<'a> {
                 ItemKind::Namespace { .. } | ItemKind::Pre(_) | ItemKind::Error => {}
             }
         }
+        self.maxobjects_needs_breadth(&seen_directives);
+    }
+
+    /// `maxobjects` counts the objects of a breadth-first run: without
+    /// `breadthfirst` it is E0407, with the line that asks for that order as the fix.
+    fn maxobjects_needs_breadth(&mut self, seen: &HashMap<String, Span>) {
+        let Some(&at) = seen.get("maxobjects") else { return };
+        if seen.contains_key("breadthfirst") {
+            return;
+        }
+        let d = Diagnostic::error("E0407", at, "`maxobjects` needs `breadthfirst`")
+            .with_label("counts the objects of a breadth-first run")
+            .with_note("depth first, the first N objects would be one branch's; Structure Synth's `set maxobjects` grows breadth first")
+            .with_suggestion("ask for breadth-first order", Span::new(at.file, at.start, at.start), "breadthfirst\n");
+        self.diags.push(d);
     }
 
     fn rule(&mut self, r: &'a Rule, ns: &Option<String>) {
@@ -796,7 +813,7 @@ impl<'a> Checker<'a> {
 
     fn has_limit(&self) -> bool {
         self.ex.items.iter().any(|ExpItem { item, .. }| {
-            matches!(&item.kind, ItemKind::Directive { name, .. } if name.text == "maxdepth" || name.text == "minsize")
+            matches!(&item.kind, ItemKind::Directive { name, .. } if matches!(name.text.as_str(), "maxdepth" | "minsize" | "maxobjects"))
         })
     }
 
@@ -1621,7 +1638,7 @@ impl<'a> Checker<'a> {
                         if let Some((v, span)) = value {
                             let bad = !v.is_finite()
                                 || match n {
-                                    "maxdepth" | "maxiter" | "stacksize" => v < 0.0,
+                                    "maxdepth" | "maxiter" | "stacksize" | "maxobjects" => v < 0.0,
                                     "minsize" | "duration" => v < 0.0,
                                     "fps" => v <= 0.0,
                                     "camerafov" => v <= 0.0 || v >= 180.0,
@@ -1965,7 +1982,7 @@ impl<'a> Checker<'a> {
 
         // Termination: a rule terminates if one of its definitions calls only rules that terminate.
         let has_limit = self.ex.items.iter().any(|ExpItem { item, .. }| {
-            matches!(&item.kind, ItemKind::Directive { name, .. } if name.text == "maxdepth" || name.text == "minsize")
+            matches!(&item.kind, ItemKind::Directive { name, .. } if matches!(name.text.as_str(), "maxdepth" | "minsize" | "maxobjects"))
         });
         if has_limit {
             return;

@@ -524,6 +524,8 @@ impl<'a> Lower<'a> {
             camerarule,
             namespaces: namespace_ids,
             flat,
+            breadth: self.directive_numbers("breadthfirst").is_some(),
+            maxobjects: num(self, "maxobjects", 0.0) as u64,
         };
         Bundle {
             strings: std::mem::take(&mut self.strings),

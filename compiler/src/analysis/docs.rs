@@ -52,6 +52,8 @@ pub const DOCS: &[Doc] = &[
     d(Directive, "maxdepth", "maxdepth N", "A call deeper than N is not made. Default: no limit."),
     d(Directive, "minsize", "minsize S", "A call whose linear scale is below S is not made. Default: no limit."),
     d(Directive, "maxiter", "maxiter N", "At most N rule calls (iterator runs count too) in the whole run. Default 50,000,000."),
+    d(Directive, "breadthfirst", "breadthfirst", "Calls run generation by generation, every call at depth d before any at d + 1 (Structure Synth's order), instead of depth first; for `maxobjects`."),
+    d(Directive, "maxobjects", "maxobjects N", "With `breadthfirst`: the run ends after the generation in which the N-th object (a rule body that draws) was drawn; the calls still queued are not run, with a warning. Default: no limit."),
     d(Directive, "stacksize", "stacksize N", "At most N pending calls on the VM's stack. Default 100,000."),
     d(Directive, "randseed", "randseed N", "Seed of the random stream (`--seed` overrides). Default 0."),
     d(Directive, "angle", "angle degrees|radians|orbits|arcdegrees|frequency", "The unit of angles written without a suffix. Default degrees."),

@@ -270,6 +270,8 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
     w.u32(s.linerule);
     w.u32(s.camerarule);
     w.u8(u8::from(s.flat));
+    w.u8(u8::from(s.breadth));
+    w.u64(s.maxobjects);
     w.len(s.namespaces.len());
     for n in &s.namespaces {
         w.u32(*n);
@@ -491,6 +493,12 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
         1 => true,
         _ => return Err(r.err("the flat setting is neither 0 nor 1")),
     };
+    let breadth = match r.u8()? {
+        0 => false,
+        1 => true,
+        _ => return Err(r.err("the order setting is neither 0 (depth) nor 1 (breadth)")),
+    };
+    let maxobjects = r.u64()?;
     let n = r.len(4)?;
     let mut namespaces = Vec::with_capacity(n);
     for _ in 0..n {
@@ -514,6 +522,8 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
         camerarule,
         namespaces,
         flat,
+        breadth,
+        maxobjects,
     };
     r.section = "transforms";
     let n = r.len(5)?;

@@ -99,6 +99,9 @@ pub fn disassemble(b: &Bundle) -> String {
         "settings maxdepth={} minsize={} maxiter={} stacksize={} randseed={} fps={} duration={}",
         s.maxdepth, s.minsize, s.maxiter, s.stacksize, s.randseed, s.fps, s.duration
     );
+    if s.breadth {
+        let _ = writeln!(o, "breadthfirst maxobjects={}", s.maxobjects);
+    }
     let ns: Vec<&str> = s.namespaces.iter().map(|n| b.string(*n)).collect();
     let ns: Vec<String> = ns.iter().map(|n| format!("\"{n}\"")).collect();
     let _ = writeln!(o, "namespaces [{}]", ns.join(", "));

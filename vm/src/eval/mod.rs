@@ -58,6 +58,7 @@ use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+mod breadth;
 mod budget;
 mod draw;
 mod env;
@@ -70,6 +71,7 @@ mod sites;
 mod state;
 mod tracks;
 
+use breadth::*;
 use budget::*;
 use draw::*;
 use env::*;
@@ -429,6 +431,12 @@ impl<'b> Eval<'b> {
             w.push(format!(
                 "maxiter {} reached{at}: the run stopped; the output so far is kept (raise the limit with `maxiter N` in the grammar, up to the cap set by `--max-iter N`)",
                 self.maxiter
+            ));
+        }
+        if let Some(o) = self.limits.objects {
+            w.push(format!(
+                "maxobjects {} reached: {} objects drawn by the end of generation {}; the {} queued call(s) of generation {} and later were not run (raise the limit with `maxobjects N` in the grammar)",
+                s.maxobjects, o.objects, o.generation - 1, o.left, o.generation
             ));
         }
         if self.limits.vertices {

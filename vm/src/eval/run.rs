@@ -190,6 +190,16 @@ impl<'b> Eval<'b> {
         (base as u32, self.slots.len() as u32)
     }
 
+    /// Pushes a frame for a run that starts at `rule` with the arguments `args`
+    /// (a queued call's); returns its base.
+    pub(super) fn frame_with(&mut self, rule: RuleId, args: &[f64]) -> (u32, u32) {
+        let r = &self.b.rules[rule];
+        let base = self.slots.len();
+        self.slots.extend(args.iter().copied().chain(r.params.iter().skip(args.len()).map(|d| d.unwrap_or(0.0))));
+        self.slots.resize(base + r.frame as usize, 0.0);
+        (base as u32, self.slots.len() as u32)
+    }
+
     /// Runs `rule` from `start` until its whole derivation is done.
     pub(super) fn run(&mut self, rule: u32, start: State, mode: Mode) {
         self.run_from(rule, start, 0, mode)
@@ -198,7 +208,9 @@ impl<'b> Eval<'b> {
     /// Runs a call of `rule` in state `start` at `depth` until its whole derivation
     /// is done: the one loop ([`Eval::interpret`]) with the sink this run needs.
     pub(super) fn run_from(&mut self, rule: u32, start: State, depth: u32, mode: Mode) {
-        if self.fast && mode == Mode::Model {
+        if self.b.settings.breadth && mode == Mode::Model {
+            self.run_breadth(rule, start, depth);
+        } else if self.fast && mode == Mode::Model {
             self.interpret(&mut Simple, rule, start, depth, mode);
         } else if self.opts.record_sites || self.tree.is_some() {
             self.interpret(&mut Sited, rule, start, depth, mode);
@@ -215,13 +227,18 @@ impl<'b> Eval<'b> {
     pub(super) fn interpret<S: Sink>(&mut self, sink: &mut S, rule: u32, start: State, depth: u32, mode: Mode) {
         let b = self.b;
         let rule = RuleId(rule);
-        let (slot_base, slot_top) = self.default_frame(rule);
+        let (slot_base, slot_top) = match sink.start_args() {
+            Some((args, _)) => self.frame_with(rule, args),
+            None => self.default_frame(rule),
+        };
+        let parent_bone = sink.start_args().map_or(0, |a| a.1);
         let pc = self.select(rule, &start, depth, slot_base as usize);
         if S::COLLECTS {
             // (`sequential` and `pattern` start afresh with every expansion.)
             self.sequential.clear();
         }
-        let Some(act) = self.first_activation::<S>(rule, start, pc, depth, (slot_base, slot_top), mode) else {
+        let Some(act) = self.first_activation::<S>(rule, start, pc, depth, (slot_base, slot_top), mode, parent_bone)
+        else {
             self.slots.truncate(slot_base as usize);
             return;
         };
@@ -375,6 +392,7 @@ impl<'b> Eval<'b> {
         depth: u32,
         (slot_base, slot_top): (u32, u32),
         mode: Mode,
+        parent_bone: u32,
     ) -> Option<Act> {
         let r = &self.b.rules[rule];
         if !S::SIMPLE && !S::COLLECTS && r.iter != NONE {
@@ -383,12 +401,12 @@ impl<'b> Eval<'b> {
             let f = frames.first().copied()?;
             let base = start.then(&f, &self.lins);
             let conv = Some(Box::new(Conv { frames, next: 1, pc, origin: start }));
-            return Some(Act { pc, slot_base, slot_top, base, depth, loops_at: 0, bone: 0, conv });
+            return Some(Act { pc, slot_base, slot_top, base, depth, loops_at: 0, bone: parent_bone, conv });
         }
         let bone = if !S::SIMPLE && !S::COLLECTS && mode == Mode::Model && !r.transforms.is_empty() {
-            self.new_bone(rule.0, &start, 0)
+            self.new_bone(rule.0, &start, parent_bone)
         } else {
-            0
+            parent_bone
         };
         Some(Act { pc, slot_base, slot_top, base: start, depth, loops_at: 0, bone, conv: None })
     }
@@ -457,7 +475,9 @@ impl<'b> Eval<'b> {
         // The ARGs before this CALL are the callee's first slots (the verifier
         // checked their number).
         let r = &b.rules[rule];
-        if !self.admit(&child, depth, m.stack.len() + 1, m.act.pc - 1) {
+        // (A queued call waits in the queue, which `stacksize` bounds.)
+        let stack_len = if S::QUEUES { sink.pending() } else { m.stack.len() + 1 };
+        if !self.admit(&child, depth, stack_len, m.act.pc - 1) {
             if !S::SIMPLE && self.slots.len() > args {
                 self.slots.truncate(args);
             }
@@ -466,6 +486,13 @@ impl<'b> Eval<'b> {
         // (Rules without parameters or locals touch no slot.)
         if !S::SIMPLE && self.slots.len() != args + r.params.len() {
             self.slots.resize(args + r.params.len(), f64::NAN);
+        }
+        if S::QUEUES {
+            // Breadth first: the call waits for its generation (its definition is
+            // picked when it leaves the queue).
+            sink.enqueue(rule, &child, depth, parent_bone, &self.slots[args..]);
+            self.slots.truncate(args);
+            return true;
         }
         let pc = match r.defs.as_slice() {
             [only] => only.start,
