@@ -499,10 +499,17 @@ impl<'a> Checker<'a> {
                 self.type_mismatch(Ty::Float, given, e, "a weight");
             }
         }
+        let retire_to = r.retire.as_ref().and_then(|t| self.retirement(t, ns));
         self.rule_name = full.clone();
         let mut calls = Vec::new();
         let mut must = Vec::new();
         self.body(&r.body, ns, &mut calls, &mut must);
+        if r.retire.is_some() {
+            // A retiring definition ends by turning into its other rule (or nothing):
+            // for termination it must call only that rule.
+            must = retire_to.iter().cloned().collect();
+            calls.extend(retire_to);
+        }
         self.unused_locals(0);
         self.scope = None;
         self.rule_name = None;
@@ -510,6 +517,36 @@ impl<'a> Checker<'a> {
             self.call_graph.entry(full.clone()).or_default().push(calls);
             self.must_graph.entry(full).or_default().push(must);
         }
+    }
+
+    /// `maxdepth N > OTHER` after a rule's weight: the word, a whole N ≥ 1, and an
+    /// OTHER that is defined and needs no arguments. Returns OTHER's full name.
+    fn retirement(&mut self, t: &Retire, ns: &Option<String>) -> Option<String> {
+        if t.keyword.text != "maxdepth" {
+            self.diags.push(
+                Diagnostic::error(
+                    "E0302",
+                    t.keyword.span,
+                    format!("unknown word `{}` after the rule's weight", t.keyword.text),
+                )
+                .with_suggestion(
+                    "rule-local retirement is `maxdepth N > OTHER`",
+                    t.keyword.span,
+                    "maxdepth",
+                ),
+            );
+        }
+        let n = &t.depth;
+        if n.unit.is_some() || n.value.fract() != 0.0 || n.value < 1.0 || n.value > u32::MAX as f64 {
+            self.diags.push(
+                Diagnostic::error("E0407", n.span, format!("invalid rule-local maxdepth {}", n.text))
+                    .with_label("expected a whole number of runs, 1 or more"),
+            );
+        }
+        let other = t.other.as_ref()?;
+        let full = self.rule_ref(other, ns, "E0308", "retirement rule")?;
+        self.no_arguments_needed(&full, other.span, "retirement rule");
+        Some(full)
     }
 
     /// Checks a definition's parameter list against the rule's signature and opens

@@ -66,3 +66,45 @@ fn breadth_first_passes_arguments_and_keeps_depth_limits() {
     assert_eq!(first_z(&out), vec![5.0, 6.0, 7.0]);
     assert!(out.stats.warnings.iter().any(|w| w.starts_with("maxdepth 4 reached")), "{:?}", out.stats.warnings);
 }
+
+/// Cubes (12 triangles each) and spheres of a run: both are instances, and only
+/// the cubes have triangles in the statistics.
+fn cubes_and_spheres(out: &mdg_vm::output::Output) -> (u64, u64) {
+    let cubes = out.stats.triangles / 12;
+    (cubes, out.instances.len() as u64 - cubes)
+}
+
+#[test]
+fn rule_local_maxdepth_retires_into_the_other_rule() {
+    // A runs 3 times on the path S → A → B → A → B → A (through B, as Structure
+    // Synth counts a definition's runs on the path); the 4th call of A runs E.
+    let src = |order: &str| {
+        format!(
+            "startshape S\n{order}\n@import primitives\nrule S {{ A {{}} }}\n\
+             rule A maxdepth 3 > E {{ cube {{s 0.2}} B {{x 1}} }}\nrule B {{ A {{}} }}\nrule E {{ SPHERE {{s 0.5}} }}\n"
+        )
+    };
+    let depth = run_source(&src(""));
+    assert_eq!(cubes_and_spheres(&depth), (3, 1), "{:?}", depth.stats.warnings);
+    assert!(depth.stats.warnings.is_empty(), "{:?}", depth.stats.warnings);
+    // Breadth first, the queued calls carry their path's counts: the same structure.
+    let breadth = run_source(&src("breadthfirst"));
+    assert_eq!(cubes_and_spheres(&breadth), (3, 1));
+}
+
+#[test]
+fn rule_local_maxdepth_counts_each_path_and_each_definition() {
+    // A binary tree retired after 4 levels: 1 + 2 + 4 + 8 cubes, and 16 spheres
+    // where the 5th level would be (each branch counts its own path).
+    let src = "startshape A\n@import primitives\n\
+               rule A maxdepth 4 > E { cube {s 0.2} A {x 1 rz 30} A {x 1 rz -30} }\nrule E { SPHERE {s 0.1} }\n";
+    assert_eq!(cubes_and_spheres(&run_source(src)), (15, 16));
+    // Without `> OTHER` the retired calls run nothing, and a warning says so.
+    let bare = run_source(&src.replace(" > E", ""));
+    assert_eq!(cubes_and_spheres(&bare), (15, 0));
+    assert!(
+        bare.stats.warnings.iter().any(|w| w.contains("16 call(s) of a retired definition")),
+        "{:?}",
+        bare.stats.warnings
+    );
+}

@@ -37,7 +37,7 @@ use DocKind::*;
 pub const DOCS: &[Doc] = &[
     // Directives (reference §3).
     d(Directive, "startshape", "startshape RULE", "The rule evaluated first (depth 0). A file with a `startshape` is a program; without one it is a library."),
-    d(Directive, "rule", "rule NAME[(TYPE P [= DEFAULT], …)] [* ITER] [: XF]… [WEIGHT] { BODY }", "A rule definition. A name may have several definitions (all with the same parameters); each call picks one with the rule's selector. WEIGHT defaults to 1."),
+    d(Directive, "rule", "rule NAME[(TYPE P [= DEFAULT], …)] [* ITER] [: XF]… [WEIGHT] [maxdepth N [> OTHER]] { BODY }", "A rule definition. A name may have several definitions (all with the same parameters); each call picks one with the rule's selector. WEIGHT defaults to 1. `maxdepth N > OTHER`: this definition runs at most N times on a call's path, then OTHER runs instead (Structure Synth's `md N > OTHER`)."),
     d(Directive, "if", "if (CONDITION) { BODY } [else { BODY } | else if …]", "Runs the first body when the condition is not 0, else the `else` branch. Conditions are any expressions: comparisons, `&&`, `||`, `!`, parameters."),
     d(Directive, "else", "else { BODY } | else if (CONDITION) { BODY }", "The branch of an `if` taken when its condition is 0."),
     d(Directive, "let", "let NAME = EXPRESSION;", "A local binding, visible to the items after it in its block; evaluated once when the body reaches it."),

@@ -336,6 +336,8 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
             w.f32(d.weight);
             w.u32(d.weight_expr);
             w.u32(d.start);
+            w.u32(d.retire_depth);
+            w.u32(d.retire_to);
         }
         w.len(r.transforms.len());
         for t in &r.transforms {
@@ -583,7 +585,13 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
         let m = r.len(12)?;
         let mut defs = Vec::with_capacity(m);
         for _ in 0..m {
-            defs.push(Def { weight: r.f32()?, weight_expr: r.u32()?, start: r.u32()? });
+            defs.push(Def {
+                weight: r.f32()?,
+                weight_expr: r.u32()?,
+                start: r.u32()?,
+                retire_depth: r.u32()?,
+                retire_to: r.u32()?,
+            });
         }
         let m = r.len(4)?;
         let mut tr = Vec::with_capacity(m);

@@ -141,9 +141,16 @@ pub fn disassemble(b: &Bundle) -> String {
         let defs: Vec<String> = r
             .defs
             .iter()
-            .map(|d| match b.exprs.get(d.weight_expr as usize) {
-                Some(e) if d.weight_expr != NONE => format!("@{} w=({})", d.start, expr_text(e)),
-                _ => format!("@{} w={}", d.start, d.weight),
+            .map(|d| {
+                let def = match b.exprs.get(d.weight_expr as usize) {
+                    Some(e) if d.weight_expr != NONE => format!("@{} w=({})", d.start, expr_text(e)),
+                    _ => format!("@{} w={}", d.start, d.weight),
+                };
+                if d.retire_depth == 0 {
+                    return def;
+                }
+                let to = b.rules.get(d.retire_to as usize).map_or("-", |r| b.string(r.name));
+                format!("{def} maxdepth {} > {to}", d.retire_depth)
             })
             .collect();
         let params = if r.params.is_empty() {

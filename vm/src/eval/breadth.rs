@@ -33,6 +33,9 @@ pub(super) struct Queue<const SITES: bool> {
     pub(super) pending: VecDeque<Pending>,
     /// The queued calls' arguments, in queue order.
     pub(super) args: VecDeque<f64>,
+    /// The queued calls' counts of retiring definitions on their paths (as many
+    /// per call as the bundle has retiring definitions), in queue order.
+    pub(super) paths: VecDeque<u32>,
     /// The arguments and bone of the call whose body is running.
     pub(super) current: Vec<f64>,
     pub(super) bone: u32,
@@ -48,8 +51,9 @@ impl<const SITES: bool> Sink for Queue<SITES> {
     }
 
     #[inline]
-    fn enqueue(&mut self, rule: RuleId, state: &State, depth: u32, bone: u32, args: &[f64]) {
+    fn enqueue(&mut self, rule: RuleId, state: &State, depth: u32, bone: u32, args: &[f64], path: &[u32]) {
         self.args.extend(args.iter().copied());
+        self.paths.extend(path.iter().copied());
         self.pending.push_back(Pending { rule, state: *state, depth, bone, nargs: args.len() as u32 });
     }
 
@@ -87,7 +91,8 @@ impl<'b> Eval<'b> {
     fn run_queue<const SITES: bool>(&mut self, q: &mut Queue<SITES>, rule: u32, start: State, depth: u32) {
         let r = &self.b.rules[RuleId(rule)];
         let defaults: Vec<f64> = r.params.iter().map(|d| d.unwrap_or(0.0)).collect();
-        q.enqueue(RuleId(rule), &start, depth, 0, &defaults);
+        let path = self.retire.counts.clone();
+        q.enqueue(RuleId(rule), &start, depth, 0, &defaults, &path);
         let maxobjects = self.b.settings.maxobjects;
         let mut generation = depth;
         let mut objects = 0u64;
@@ -107,6 +112,9 @@ impl<'b> Eval<'b> {
             let n = (p.nargs as usize).min(q.args.len());
             q.current.extend(q.args.drain(..n));
             q.bone = p.bone;
+            for c in self.retire.counts.iter_mut() {
+                *c = q.paths.pop_front().unwrap_or(0);
+            }
             let before = self.vertices_made();
             self.interpret(q, p.rule.0, p.state, p.depth, Mode::Model);
             if self.vertices_made() > before {

@@ -64,6 +64,7 @@ mod draw;
 mod env;
 mod guided;
 mod options;
+mod retire;
 mod run;
 mod select;
 mod sink;
@@ -77,6 +78,7 @@ use draw::*;
 use env::*;
 pub use guided::{Call, Expander, MAX_EXPANSION_CALLS};
 pub use options::*;
+use retire::*;
 use run::*;
 use select::*;
 use sink::*;
@@ -195,6 +197,8 @@ struct Eval<'b> {
     /// The open iterators' records of the last run, kept for the next one (a run
     /// takes them, so a nested run starts with none).
     spare_loops: Vec<LoopRec>,
+    /// Rule-local retirement (`rule R maxdepth N > S`): the counts on the path.
+    retire: Retirement,
 }
 
 /// Evaluates a verified bundle from its start shape.
@@ -284,6 +288,7 @@ impl<'b> Eval<'b> {
             def_starts: None,
             non_finite: NonFinite::default(),
             spare_loops: Vec::new(),
+            retire: Retirement::new(b),
             stop_pc: None,
             matte_runs: Vec::new(),
             protos: b
@@ -408,6 +413,13 @@ impl<'b> Eval<'b> {
             w.push(format!(
                 "maxdepth {} reached{depth_at}: {} branch(es) ended there",
                 s.maxdepth, self.limits.maxdepth
+            ));
+        }
+        if self.retire.ended > 0 {
+            let at = self.retire.first_ended.map(|pc| where_op(self.b, pc)).unwrap_or_default();
+            w.push(format!(
+                "rule-local maxdepth reached{at}: {} call(s) of a retired definition with no `> OTHER` rule ran nothing",
+                self.retire.ended
             ));
         }
         if self.limits.minsize > 0 {

@@ -21,7 +21,8 @@ pub(super) struct XfInfo {
 pub(super) fn fast_path_applies(b: &Bundle, xf_pure: &[bool]) -> bool {
     let pure = |xf: TransformId| xf_pure.get(xf.index()).copied().unwrap_or(false);
     let rules_ok =
-        b.rules.iter().all(|r| r.params.is_empty() && r.frame == 0 && r.transforms.is_empty() && r.iter == NONE);
+        b.rules.iter().all(|r| r.params.is_empty() && r.frame == 0 && r.transforms.is_empty() && r.iter == NONE)
+            && b.rules.iter().all(|r| r.defs.iter().all(|d| d.retire_depth == 0));
     let mut pc = 0usize;
     while let Some(op) = b.code.get(pc) {
         pc += match *op {
@@ -233,15 +234,40 @@ impl<'b> Eval<'b> {
         };
         let parent_bone = sink.start_args().map_or(0, |a| a.1);
         let pc = self.select(rule, &start, depth, slot_base as usize);
+        // Rule-local retirement applies to the run's first call too (see `retire.rs`).
+        let retiring = !S::SIMPLE && !S::COLLECTS && self.retire.any;
+        let (rule, pc, slot_top) = if retiring {
+            self.retire.begin_run();
+            match self.retired(rule, pc, &start, depth, slot_base as usize, pc) {
+                Some((to, pc)) => {
+                    let frame = self.b.rules[to].frame as usize;
+                    self.slots.resize(slot_base as usize + frame, 0.0);
+                    (to, pc, self.slots.len() as u32)
+                }
+                None => {
+                    self.retire.end_run();
+                    self.slots.truncate(slot_base as usize);
+                    return;
+                }
+            }
+        } else {
+            (rule, pc, slot_top)
+        };
         if S::COLLECTS {
             // (`sequential` and `pattern` start afresh with every expansion.)
             self.sequential.clear();
         }
         let Some(act) = self.first_activation::<S>(rule, start, pc, depth, (slot_base, slot_top), mode, parent_bone)
         else {
+            if retiring {
+                self.retire.end_run();
+            }
             self.slots.truncate(slot_base as usize);
             return;
         };
+        if retiring {
+            self.retire.enter(pc, 0);
+        }
         // (A nested run, sampling a transform rule, returns to the op that started it.)
         let outer = (self.site_pc, self.site_depth, self.site_node);
         // The derivation node of the running activation (see [`Eval::call_node`]); a
@@ -349,6 +375,9 @@ impl<'b> Eval<'b> {
             self.note_site(outer.0, outer.1, outer.2);
         }
         self.spare_loops = m.loops;
+        if retiring {
+            self.retire.end_run();
+        }
         // A run ended by a limit leaves its frames: the caller's slots end here.
         self.slots.truncate(slot_base as usize);
     }
@@ -490,13 +519,24 @@ impl<'b> Eval<'b> {
         if S::QUEUES {
             // Breadth first: the call waits for its generation (its definition is
             // picked when it leaves the queue).
-            sink.enqueue(rule, &child, depth, parent_bone, &self.slots[args..]);
+            sink.enqueue(rule, &child, depth, parent_bone, &self.slots[args..], &self.retire.counts);
             self.slots.truncate(args);
             return true;
         }
         let pc = match r.defs.as_slice() {
             [only] => only.start,
             _ => self.select(rule, &child, depth, args),
+        };
+        let (rule, r, pc) = if !S::SIMPLE && self.retire.any {
+            match self.retired(rule, pc, &child, depth, args, m.act.pc - 1) {
+                Some((to, pc)) => (to, &b.rules[to], pc),
+                None => {
+                    self.slots.truncate(args);
+                    return true;
+                }
+            }
+        } else {
+            (rule, r, pc)
         };
         if !S::SIMPLE && r.frame as usize != r.params.len() {
             self.slots.resize(args + r.frame as usize, 0.0);
@@ -522,6 +562,9 @@ impl<'b> Eval<'b> {
             };
             let callee = Act { pc, slot_base, slot_top, base: child, depth, loops_at, bone, conv: None };
             m.stack.push(std::mem::replace(&mut m.act, callee));
+        }
+        if !S::SIMPLE && self.retire.any {
+            self.retire.enter(pc, m.stack.len());
         }
         if S::SITES {
             m.nodes.push(m.node);
@@ -717,6 +760,9 @@ impl<'b> Eval<'b> {
             if self.slots.len() > base {
                 self.slots.truncate(base);
             }
+        }
+        if !S::SIMPLE && self.retire.any {
+            self.retire.leave(m.stack.len());
         }
         match m.stack.pop() {
             Some(caller) => m.act = caller,

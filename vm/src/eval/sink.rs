@@ -41,10 +41,10 @@ pub(super) trait Sink {
         0
     }
 
-    /// An admitted call, its state, depth, bone and arguments (only when
-    /// [`Sink::QUEUES`]).
+    /// An admitted call, its state, depth, bone, arguments and its path's counts
+    /// of retiring definitions (only when [`Sink::QUEUES`]).
     #[inline]
-    fn enqueue(&mut self, _rule: RuleId, _state: &State, _depth: u32, _bone: u32, _args: &[f64]) {}
+    fn enqueue(&mut self, _rule: RuleId, _state: &State, _depth: u32, _bone: u32, _args: &[f64], _path: &[u32]) {}
 
     /// The arguments and bone of the call the run starts with (only when
     /// [`Sink::QUEUES`]; otherwise the parameters take their defaults, bone 0).
