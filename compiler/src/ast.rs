@@ -153,7 +153,7 @@ pub struct Rule {
     /// (only after a parameter list; then `weight` is `None`).
     pub weight_expr: Option<Expr>,
     /// `maxdepth N [> OTHER]` after the weight: rule-local retirement (reference §4).
-    pub retire: Option<Retire>,
+    pub retire: Option<Box<Retire>>,
     pub body: Vec<BodyItem>,
     /// The span of `{ … }`.
     pub body_span: Span,

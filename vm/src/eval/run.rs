@@ -257,7 +257,7 @@ impl<'b> Eval<'b> {
             // (`sequential` and `pattern` start afresh with every expansion.)
             self.sequential.clear();
         }
-        let Some(act) = self.first_activation::<S>(rule, start, pc, depth, (slot_base, slot_top), mode, parent_bone)
+        let Some(act) = self.first_activation::<S>(rule, start, pc, (depth, parent_bone), (slot_base, slot_top), mode)
         else {
             if retiring {
                 self.retire.end_run();
@@ -418,10 +418,9 @@ impl<'b> Eval<'b> {
         rule: RuleId,
         start: State,
         pc: u32,
-        depth: u32,
+        (depth, parent_bone): (u32, u32),
         (slot_base, slot_top): (u32, u32),
         mode: Mode,
-        parent_bone: u32,
     ) -> Option<Act> {
         let r = &self.b.rules[rule];
         if !S::SIMPLE && !S::COLLECTS && r.iter != NONE {
