@@ -460,6 +460,46 @@ fn structure_synth_examples_import_compile_and_run() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// Structure Synth's `set maxobjects` programs: imported breadth first, they draw
+/// what Structure Synth 1.5 draws, counted by hand from its builder (generation by
+/// generation, the generation finished, 1000 generations unless `set maxdepth`).
+#[test]
+fn structure_synth_maxobjects_examples_draw_structure_synths_counts() {
+    let dir = Path::new(ES_DIR);
+    if !dir.join("Grinder.es").exists() {
+        eprintln!("SKIPPED: Structure Synth's examples ({ES_DIR}) are not installed (apt-get install structure-synth; .ci/run does)");
+        return;
+    }
+    let tmp = std::env::temp_dir().join(format!("mdg-import-maxobjects-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).unwrap_or_default();
+    // (file, boxes and grids drawn, whether `maxobjects` ends the run)
+    let want = [
+        // 100 kites, each generation 100 boxes and 100 grids: 80 generations.
+        ("BinaryKite.es", Some(16_000), true),
+        // 36 arms, one box each per generation from the 4th to the 999th (the
+        // default 1000 generations end it before its 117,600 objects).
+        ("Grinder.es", Some(36 * 996), false),
+        // Random branches: at least 52,200 objects, less than a generation more.
+        ("NineWorthies.es", None, true),
+    ];
+    for (file, boxes, cut) in want {
+        let imp = import(&dir.join(file), Dialect::StructureSynth, &tmp);
+        assert!(imp.mdg.contains("\nbreadthfirst\n"), "{file}: {}", imp.mdg);
+        assert!(!imp.report.notes.iter().any(|n| n.construct.contains("maxobjects")), "{file}: {:?}", imp.report.notes);
+        let out = mdg_cli::importing::evaluate(&imp.mdg, &tmp, &compile_options(), MAX_CALLS, MAX_VERTICES)
+            .unwrap_or_else(|e| panic!("{file}: {e}"));
+        // Every object is a box (12 triangles).
+        let objects = out.stats.triangles / 12;
+        let reached = out.stats.warnings.iter().any(|w| w.starts_with("maxobjects"));
+        assert_eq!(reached, cut, "{file}: {:?}", out.stats.warnings);
+        match boxes {
+            Some(n) => assert_eq!(objects, n, "{file}: {:?}", out.stats.warnings),
+            None => assert!((52_200..52_200 + 200).contains(&objects), "{file}: {objects} objects"),
+        }
+    }
+    let _ = std::fs::remove_dir_all(&tmp);
+}
+
 #[test]
 fn mdgc_import_writes_the_grammar_and_reports_on_stderr_and_as_json() {
     let dir = std::env::temp_dir().join(format!("mdg-import-cli-{}", std::process::id()));

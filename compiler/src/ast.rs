@@ -156,9 +156,23 @@ pub struct Rule {
     /// `rule leaf(int n) (EXPR) { … }`: a weight computed per call from the arguments
     /// (only after a parameter list; then `weight` is `None`).
     pub weight_expr: Option<Expr>,
+    /// `maxdepth N [> OTHER]` after the weight: rule-local retirement (reference §4).
+    pub retire: Option<Box<Retire>>,
     pub body: Vec<BodyItem>,
     /// The span of `{ … }`.
     pub body_span: Span,
+}
+
+/// Rule-local retirement, `rule R maxdepth N > OTHER { … }` (Structure Synth's
+/// `rule R md N > OTHER`): once N runs of this definition are on a call's path, a
+/// further call that picks it runs OTHER instead (or nothing without `> OTHER`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Retire {
+    /// The word before the count (the checker wants `maxdepth`).
+    pub keyword: Name,
+    pub depth: Number,
+    pub other: Option<Name>,
+    pub span: Span,
 }
 
 /// A rule's parameter list `( … )`.

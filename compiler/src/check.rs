@@ -30,6 +30,8 @@ pub const NUMERIC_DIRECTIVES: &[(&str, usize, usize, bool)] = &[
     ("maxdepth", 1, 1, true),
     ("minsize", 1, 1, false),
     ("maxiter", 1, 1, true),
+    ("maxobjects", 1, 1, true),
+    ("breadthfirst", 0, 0, false),
     ("stacksize", 1, 1, true),
     ("randseed", 1, 1, true),
     ("normal", 3, 3, false),
@@ -461,6 +463,21 @@ impl<'a> Checker<'a> {
                 ItemKind::Namespace { .. } | ItemKind::Pre(_) | ItemKind::Error => {}
             }
         }
+        self.maxobjects_needs_breadth(&seen_directives);
+    }
+
+    /// `maxobjects` counts the objects of a breadth-first run: without
+    /// `breadthfirst` it is E0407, with the line that asks for that order as the fix.
+    fn maxobjects_needs_breadth(&mut self, seen: &HashMap<String, Span>) {
+        let Some(&at) = seen.get("maxobjects") else { return };
+        if seen.contains_key("breadthfirst") {
+            return;
+        }
+        let d = Diagnostic::error("E0407", at, "`maxobjects` needs `breadthfirst`")
+            .with_label("counts the objects of a breadth-first run")
+            .with_note("depth first, the first N objects would be one branch's; Structure Synth's `set maxobjects` grows breadth first")
+            .with_suggestion("ask for breadth-first order", Span::new(at.file, at.start, at.start), "breadthfirst\n");
+        self.diags.push(d);
     }
 
     fn rule(&mut self, r: &'a Rule, ns: &Option<String>) {
@@ -484,12 +501,19 @@ impl<'a> Checker<'a> {
                 self.type_mismatch(Ty::Float, given, e, "a weight");
             }
         }
+        let retire_to = r.retire.as_ref().and_then(|t| self.retirement(t, ns));
         self.rule_name = full.clone();
         let mut calls = Vec::new();
         let mut must = Vec::new();
         self.in_path = crate::paths::is_path(&r.body);
         self.body(&r.body, ns, &mut calls, &mut must);
         self.in_path = false;
+        if r.retire.is_some() {
+            // A retiring definition ends by turning into its other rule (or nothing):
+            // for termination it must call only that rule.
+            must = retire_to.iter().cloned().collect();
+            calls.extend(retire_to);
+        }
         self.unused_locals(0);
         self.scope = None;
         self.rule_name = None;
@@ -497,6 +521,36 @@ impl<'a> Checker<'a> {
             self.call_graph.entry(full.clone()).or_default().push(calls);
             self.must_graph.entry(full).or_default().push(must);
         }
+    }
+
+    /// `maxdepth N > OTHER` after a rule's weight: the word, a whole N ≥ 1, and an
+    /// OTHER that is defined and needs no arguments. Returns OTHER's full name.
+    fn retirement(&mut self, t: &Retire, ns: &Option<String>) -> Option<String> {
+        if t.keyword.text != "maxdepth" {
+            self.diags.push(
+                Diagnostic::error(
+                    "E0302",
+                    t.keyword.span,
+                    format!("unknown word `{}` after the rule's weight", t.keyword.text),
+                )
+                .with_suggestion(
+                    "rule-local retirement is `maxdepth N > OTHER`",
+                    t.keyword.span,
+                    "maxdepth",
+                ),
+            );
+        }
+        let n = &t.depth;
+        if n.unit.is_some() || n.value.fract() != 0.0 || n.value < 1.0 || n.value > u32::MAX as f64 {
+            self.diags.push(
+                Diagnostic::error("E0407", n.span, format!("invalid rule-local maxdepth {}", n.text))
+                    .with_label("expected a whole number of runs, 1 or more"),
+            );
+        }
+        let other = t.other.as_ref()?;
+        let full = self.rule_ref(other, ns, "E0308", "retirement rule")?;
+        self.no_arguments_needed(&full, other.span, "retirement rule");
+        Some(full)
     }
 
     /// Checks a definition's parameter list against the rule's signature and opens
@@ -800,7 +854,7 @@ impl<'a> Checker<'a> {
 
     fn has_limit(&self) -> bool {
         self.ex.items.iter().any(|ExpItem { item, .. }| {
-            matches!(&item.kind, ItemKind::Directive { name, .. } if name.text == "maxdepth" || name.text == "minsize")
+            matches!(&item.kind, ItemKind::Directive { name, .. } if matches!(name.text.as_str(), "maxdepth" | "minsize" | "maxobjects"))
         })
     }
 
@@ -1664,7 +1718,7 @@ impl<'a> Checker<'a> {
                         if let Some((v, span)) = value {
                             let bad = !v.is_finite()
                                 || match n {
-                                    "maxdepth" | "maxiter" | "stacksize" => v < 0.0,
+                                    "maxdepth" | "maxiter" | "stacksize" | "maxobjects" => v < 0.0,
                                     "minsize" | "duration" => v < 0.0,
                                     "fps" => v <= 0.0,
                                     "camerafov" => v <= 0.0 || v >= 180.0,
@@ -2008,7 +2062,7 @@ impl<'a> Checker<'a> {
 
         // Termination: a rule terminates if one of its definitions calls only rules that terminate.
         let has_limit = self.ex.items.iter().any(|ExpItem { item, .. }| {
-            matches!(&item.kind, ItemKind::Directive { name, .. } if name.text == "maxdepth" || name.text == "minsize")
+            matches!(&item.kind, ItemKind::Directive { name, .. } if matches!(name.text.as_str(), "maxdepth" | "minsize" | "maxobjects"))
         });
         if has_limit {
             return;

@@ -250,6 +250,12 @@ impl<'a> Printer<'a> {
                 if let Some(e) = &r.weight_expr {
                     head.push_str(&format!(" ({})", expr(e)));
                 }
+                if let Some(t) = &r.retire {
+                    head.push_str(&format!(" {} {}", t.keyword.text, t.depth.text));
+                    if let Some(o) = &t.other {
+                        head.push_str(&format!(" > {}", o.text));
+                    }
+                }
                 self.out.push_str(&head);
                 self.out.push(' ');
                 self.body_block(&r.body, r.body_span.end);

@@ -426,7 +426,14 @@ impl<'a> Lower<'a> {
                 self.insert_prototypes(start as usize);
                 let w =
                     r.weight.as_ref().map(|w| if w.negative { -w.number.value } else { w.number.value }).unwrap_or(1.0);
-                out_defs.push(Def { weight: w as f32, weight_expr, start });
+                let (retire_depth, retire_to) = match &r.retire {
+                    Some(t) => (
+                        t.depth.value.clamp(0.0, u32::MAX as f64) as u32,
+                        t.other.as_ref().and_then(|o| self.rule_index(&o.text, namespace.as_deref())).unwrap_or(NONE),
+                    ),
+                    None => (0, NONE),
+                };
+                out_defs.push(Def { weight: w as f32, weight_expr, start, retire_depth, retire_to });
                 if transforms.is_empty() {
                     transforms =
                         r.transforms.iter().filter_map(|t| self.rule_index(&t.text, namespace.as_deref())).collect();
@@ -564,6 +571,8 @@ impl<'a> Lower<'a> {
             camerarule,
             namespaces: namespace_ids,
             flat,
+            breadth: self.directive_numbers("breadthfirst").is_some(),
+            maxobjects: num(self, "maxobjects", 0.0) as u64,
         };
         Bundle {
             strings: std::mem::take(&mut self.strings),

@@ -37,7 +37,7 @@ use DocKind::*;
 pub const DOCS: &[Doc] = &[
     // Directives (reference §3).
     d(Directive, "startshape", "startshape RULE", "The rule evaluated first (depth 0). A file with a `startshape` is a program; without one it is a library."),
-    d(Directive, "rule", "rule NAME[(TYPE P [= DEFAULT], …)] [* ITER] [: XF]… [WEIGHT] { BODY }", "A rule definition. A name may have several definitions (all with the same parameters); each call picks one with the rule's selector. WEIGHT defaults to 1."),
+    d(Directive, "rule", "rule NAME[(TYPE P [= DEFAULT], …)] [* ITER] [: XF]… [WEIGHT] [maxdepth N [> OTHER]] { BODY }", "A rule definition. A name may have several definitions (all with the same parameters); each call picks one with the rule's selector. WEIGHT defaults to 1. `maxdepth N > OTHER`: this definition runs at most N times on a call's path, then OTHER runs instead (Structure Synth's `md N > OTHER`)."),
     d(Directive, "if", "if (CONDITION) { BODY } [else { BODY } | else if …]", "Runs the first body when the condition is not 0, else the `else` branch. Conditions are any expressions: comparisons, `&&`, `||`, `!`, parameters."),
     d(Directive, "else", "else { BODY } | else if (CONDITION) { BODY }", "The branch of an `if` taken when its condition is 0."),
     d(Directive, "let", "let NAME = EXPRESSION;", "A local binding, visible to the items after it in its block; evaluated once when the body reaches it."),
@@ -52,6 +52,8 @@ pub const DOCS: &[Doc] = &[
     d(Directive, "maxdepth", "maxdepth N", "A call deeper than N is not made. Default: no limit."),
     d(Directive, "minsize", "minsize S", "A call whose linear scale is below S is not made. Default: no limit."),
     d(Directive, "maxiter", "maxiter N", "At most N rule calls (iterator runs count too) in the whole run. Default 50,000,000."),
+    d(Directive, "breadthfirst", "breadthfirst", "Calls run generation by generation, every call at depth d before any at d + 1 (Structure Synth's order), instead of depth first; for `maxobjects`."),
+    d(Directive, "maxobjects", "maxobjects N", "With `breadthfirst`: the run ends after the generation in which the N-th object (a rule body that draws) was drawn; the calls still queued are not run, with a warning. Default: no limit."),
     d(Directive, "stacksize", "stacksize N", "At most N pending calls on the VM's stack. Default 100,000."),
     d(Directive, "randseed", "randseed N", "Seed of the random stream (`--seed` overrides). Default 0."),
     d(Directive, "angle", "angle degrees|radians|orbits|arcdegrees|frequency", "The unit of angles written without a suffix. Default degrees."),

@@ -1,10 +1,10 @@
 //! A Structure Synth (EisenScript, `.es`) program written as MDG: rules with
 //! weights, `{ … }` transforms in written order, `N * { … }` loops as iterators,
 //! `box`/`sphere`/… as std primitives placed as Structure Synth places its own
-//! (the unit box spans 0…1), HSV colour changes, and rule-local retirement
-//! (`maxdepth N > other`) by a counter parameter. Structure Synth grows breadth
-//! first and stops at `set maxobjects`; MDG is depth first, so that limit is
-//! reported and written as `maxiter`.
+//! (the unit box spans 0…1), HSV colour changes, rule-local retirement as MDG's
+//! (`rule R maxdepth N > S`), and Structure Synth's order: `breadthfirst` with
+//! `maxobjects` (its `set maxobjects`, 100,000 when not set), or depth first after
+//! `set recursion depth`.
 
 use super::cflex::{lex, Tok, T};
 use super::names::{num, Names};
@@ -87,52 +87,53 @@ pub(crate) fn import(file: &str, text: &str) -> Imported {
             }
         }
     }
-    // Rules with rule-local retirement take a counter parameter (all definitions
-    // of the name take it: MDG definitions share their parameters).
-    let counted: Vec<String> = rules.iter().filter(|r| r.maxdepth.is_some()).map(|r| r.name.clone()).collect();
     let defined: Vec<String> = rules.iter().map(|r| r.name.clone()).collect();
     let mut names = Names::default();
     let mut out = String::new();
     let mut body = String::new();
-    let mut e = Emit { rep: p.rep, names: &mut names, counted: &counted, defined: &defined };
+    let mut e = Emit { rep: p.rep, names: &mut names, defined: &defined };
     let start_m = "es_start";
     let _ = writeln!(body, "rule {start_m} {{");
     for a in &start {
-        e.action(a, None, &mut body);
+        e.action(a, &mut body);
     }
     body.push_str("}\n\n");
+    // Retirement into a primitive (`md 10 > box`) goes through a rule that draws it.
+    let mut retire_prims: Vec<String> = Vec::new();
     for r in &rules {
         let m = e.names.get(&r.name);
-        let head = if counted.contains(&r.name) { format!("{m}(int _d = 0)") } else { m };
         let w = if rules.iter().filter(|o| o.name == r.name).count() > 1 {
             format!(" {}", num(r.weight))
         } else {
             String::new()
         };
-        let _ = writeln!(body, "rule {head}{w} {{");
-        match &r.maxdepth {
+        // Structure Synth's `md N > S` is MDG's rule-local retirement, exactly.
+        let retire = match &r.maxdepth {
             Some((n, other)) => {
-                let _ = writeln!(body, "  if (_d < {n}) {{");
-                let mut inner = String::new();
-                for a in &r.body {
-                    e.action(a, Some(&r.name), &mut inner);
-                }
-                for l in inner.lines() {
-                    let _ = writeln!(body, "  {l}");
-                }
-                if let Some(o) = other {
-                    let _ = writeln!(body, "  }} else {{");
-                    let call = e.call(o, None, 0);
-                    let _ = writeln!(body, "    {call} {{}}");
-                }
-                body.push_str("  }\n");
+                let to = match other {
+                    Some(o) if defined.contains(o) => format!(" > {}", e.names.get(o)),
+                    Some(o) => {
+                        if !retire_prims.contains(o) {
+                            retire_prims.push(o.clone());
+                        }
+                        format!(" > es_retire_{}", o.replace("::", "_"))
+                    }
+                    None => String::new(),
+                };
+                format!(" maxdepth {}{to}", (*n).max(1))
             }
-            None => {
-                for a in &r.body {
-                    e.action(a, Some(&r.name), &mut body);
-                }
-            }
+            None => String::new(),
+        };
+        let _ = writeln!(body, "rule {m}{w}{retire} {{");
+        for a in &r.body {
+            e.action(a, &mut body);
         }
+        body.push_str("}\n\n");
+    }
+    for o in &retire_prims {
+        let _ = writeln!(body, "rule es_retire_{} {{", o.replace("::", "_"));
+        let a = Action { loops: Vec::new(), target: o.clone(), line: 0 };
+        e.action(&a, &mut body);
         body.push_str("}\n\n");
     }
     let renamed = names.renamed();
@@ -149,6 +150,16 @@ pub(crate) fn import(file: &str, text: &str) -> Imported {
     out.push_str("startshape start\n");
     if !directives.iter().any(|d| d.starts_with("maxdepth")) {
         directives.push("maxdepth 1000".into());
+    }
+    // Structure Synth grows breadth first (unless `set recursion depth`) and stops at
+    // `set maxobjects`, 100,000 objects when not set.
+    if !directives.iter().any(|d| d == "depth first") {
+        directives.push("breadthfirst".into());
+        if !directives.iter().any(|d| d.starts_with("maxobjects")) {
+            directives.push("maxobjects 100000".into());
+        }
+    } else {
+        directives.retain(|d| d != "depth first");
     }
     for d in &directives {
         let _ = writeln!(out, "{d}");
@@ -293,14 +304,16 @@ impl Es<'_> {
         let first_word = vals.iter().find_map(|t| if let T::Id(w) = &t.t { Some(w.clone()) } else { None });
         match (key, first_num, first_word) {
             ("maxdepth", Some(n), _) => out.push(format!("maxdepth {}", n as u64)),
-            ("maxobjects", Some(n), _) => {
-                self.rep.approx(
-                    line,
-                    "set maxobjects",
-                    "Structure Synth grows breadth first and keeps the first N objects; MDG is depth first: written as `maxiter` (rule calls), so a different part of the structure is kept",
-                );
-                out.push(format!("maxiter {}", n as u64));
+            // (`breadthfirst` is written with it; see `import`.)
+            ("maxobjects", Some(n), _) => out.push(format!("maxobjects {}", n as u64)),
+            ("recursion", _, Some(w)) if w == "depth" => {
+                // Depth first, `maxobjects` has no MDG form: its line is a note.
+                if let Some(i) = out.iter().position(|d| d.starts_with("maxobjects")) {
+                    out.remove(i);
+                }
+                out.push("depth first".into());
             }
+            ("recursion", _, _) => {}
             ("minsize", Some(n), _) => out.push(format!("minsize {}", num(n))),
             ("maxsize", _, _) => self.rep.drop(line, "set maxsize", "MDG has no largest-size limit"),
             ("seed", Some(n), _) => out.push(format!("randseed {}", n as u64)),
@@ -397,30 +410,22 @@ impl Es<'_> {
 struct Emit<'a> {
     rep: &'a mut Report,
     names: &'a mut Names,
-    counted: &'a [String],
     defined: &'a [String],
 }
 
 impl Emit<'_> {
-    /// A call of rule `name` from `from` (`None`: the start).
-    fn call(&mut self, name: &str, from: Option<&str>, _line: u32) -> String {
-        let m = self.names.get(name);
-        if self.counted.iter().any(|c| c == name) {
-            if from == Some(name) {
-                return format!("{m}(_d + 1)");
-            }
-            return format!("{m}(0)");
-        }
-        m
+    /// A call of rule `name`.
+    fn call(&mut self, name: &str) -> String {
+        self.names.get(name)
     }
 
-    fn action(&mut self, a: &Action, from: Option<&str>, out: &mut String) {
+    fn action(&mut self, a: &Action, out: &mut String) {
         let mut s = String::from("  ");
         for (n, tfs) in &a.loops {
             let adj = self.transforms(tfs);
             if *n == 1 && a.loops.len() == 1 {
                 // `{ … } R`: the list goes on the call.
-                let call = self.target(a, from);
+                let call = self.target(a);
                 if let Some(c) = call {
                     let _ = writeln!(out, "  {}", compose(&c, &adj));
                 }
@@ -428,13 +433,13 @@ impl Emit<'_> {
             }
             let _ = write!(s, "{n} * {adj} ");
         }
-        if let Some(c) = self.target(a, from) {
+        if let Some(c) = self.target(a) {
             let _ = writeln!(out, "{s}{}", compose(&c, "{}"));
         }
     }
 
     /// The called item: `(name, adjustments that place the primitive)`.
-    fn target(&mut self, a: &Action, from: Option<&str>) -> Option<(String, String)> {
+    fn target(&mut self, a: &Action) -> Option<(String, String)> {
         let (base, class) = match a.target.split_once("::") {
             Some((b, c)) => (b.to_string(), Some(c.to_string())),
             None => (a.target.clone(), None),
@@ -443,7 +448,7 @@ impl Emit<'_> {
             self.rep.drop(a.line, &a.target, "a render class (`::`): the plain primitive is drawn");
         }
         if self.defined.contains(&a.target) {
-            return Some((self.call(&a.target, from, a.line), String::new()));
+            return Some((self.call(&a.target), String::new()));
         }
         let placed = match base.as_str() {
             "box" => ("cube", "x 0.5 y 0.5 z 0.5"),

@@ -486,6 +486,12 @@ impl Shift for Rule {
             w.number.shift(delta);
         }
         self.weight_expr.shift(delta);
+        if let Some(t) = &mut self.retire {
+            t.keyword.shift(delta);
+            t.depth.shift(delta);
+            t.other.shift(delta);
+            t.span.shift(delta);
+        }
         self.body.shift(delta);
         self.body_span.shift(delta);
     }

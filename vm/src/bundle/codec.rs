@@ -283,6 +283,8 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
     w.u32(s.linerule);
     w.u32(s.camerarule);
     w.u8(u8::from(s.flat));
+    w.u8(u8::from(s.breadth));
+    w.u64(s.maxobjects);
     w.len(s.namespaces.len());
     for n in &s.namespaces {
         w.u32(*n);
@@ -347,6 +349,8 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
             w.f32(d.weight);
             w.u32(d.weight_expr);
             w.u32(d.start);
+            w.u32(d.retire_depth);
+            w.u32(d.retire_to);
         }
         w.len(r.transforms.len());
         for t in &r.transforms {
@@ -504,6 +508,12 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
         1 => true,
         _ => return Err(r.err("the flat setting is neither 0 nor 1")),
     };
+    let breadth = match r.u8()? {
+        0 => false,
+        1 => true,
+        _ => return Err(r.err("the order setting is neither 0 (depth) nor 1 (breadth)")),
+    };
+    let maxobjects = r.u64()?;
     let n = r.len(4)?;
     let mut namespaces = Vec::with_capacity(n);
     for _ in 0..n {
@@ -527,6 +537,8 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
         camerarule,
         namespaces,
         flat,
+        breadth,
+        maxobjects,
     };
     r.section = "transforms";
     let n = r.len(5)?;
@@ -586,7 +598,13 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
         let m = r.len(12)?;
         let mut defs = Vec::with_capacity(m);
         for _ in 0..m {
-            defs.push(Def { weight: r.f32()?, weight_expr: r.u32()?, start: r.u32()? });
+            defs.push(Def {
+                weight: r.f32()?,
+                weight_expr: r.u32()?,
+                start: r.u32()?,
+                retire_depth: r.u32()?,
+                retire_to: r.u32()?,
+            });
         }
         let m = r.len(4)?;
         let mut tr = Vec::with_capacity(m);

@@ -119,6 +119,9 @@ pub fn disassemble(b: &Bundle) -> String {
         "settings maxdepth={} minsize={} maxiter={} stacksize={} randseed={} fps={} duration={}",
         s.maxdepth, s.minsize, s.maxiter, s.stacksize, s.randseed, s.fps, s.duration
     );
+    if s.breadth {
+        let _ = writeln!(o, "breadthfirst maxobjects={}", s.maxobjects);
+    }
     let ns: Vec<&str> = s.namespaces.iter().map(|n| b.string(*n)).collect();
     let ns: Vec<String> = ns.iter().map(|n| format!("\"{n}\"")).collect();
     let _ = writeln!(o, "namespaces [{}]", ns.join(", "));
@@ -158,9 +161,16 @@ pub fn disassemble(b: &Bundle) -> String {
         let defs: Vec<String> = r
             .defs
             .iter()
-            .map(|d| match b.exprs.get(d.weight_expr as usize) {
-                Some(e) if d.weight_expr != NONE => format!("@{} w=({})", d.start, expr_text(e)),
-                _ => format!("@{} w={}", d.start, d.weight),
+            .map(|d| {
+                let def = match b.exprs.get(d.weight_expr as usize) {
+                    Some(e) if d.weight_expr != NONE => format!("@{} w=({})", d.start, expr_text(e)),
+                    _ => format!("@{} w={}", d.start, d.weight),
+                };
+                if d.retire_depth == 0 {
+                    return def;
+                }
+                let to = b.rules.get(d.retire_to as usize).map_or("-", |r| b.string(r.name));
+                format!("{def} maxdepth {} > {to}", d.retire_depth)
             })
             .collect();
         let params = if r.params.is_empty() {

@@ -28,7 +28,7 @@ use crate::expr::ExprOp;
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"MDGB";
 /// Format version; bumped on any change to the layout.
-pub const VERSION: u16 = 9;
+pub const VERSION: u16 = 10;
 
 /// A precomputed adjustment list: thesis eqs. 4.1–4.9 folded into (q, q̂, u) plus
 /// colour, weight and fps deltas (SPEC §4).
@@ -207,6 +207,11 @@ pub struct Def {
     pub weight_expr: u32,
     /// Index of its first op in [`Bundle::code`] (op index, not byte offset).
     pub start: u32,
+    /// Rule-local retirement (`rule R maxdepth N > S`): with N (0 = none) runs of
+    /// this definition on a call's path, a call that picks it runs `retire_to`
+    /// instead (a rule index, or [`NONE`]: nothing).
+    pub retire_depth: u32,
+    pub retire_to: u32,
 }
 
 /// A rule with all its definitions.
@@ -334,6 +339,12 @@ pub struct Settings {
     /// The `flat` directive: Context Free's flat-art mode (black shapes from the start,
     /// painted in derivation order, unlit; reference §3).
     pub flat: bool,
+    /// `breadthfirst`: calls run generation by generation (a queue) instead of depth
+    /// first (reference §3, "Breadth first").
+    pub breadth: bool,
+    /// `maxobjects N` (0 = none; only with `breadth`): the run ends after the
+    /// generation in which the N-th object was drawn.
+    pub maxobjects: u64,
 }
 
 /// A whole compiled grammar.
@@ -401,6 +412,8 @@ impl Bundle {
                 camerarule: NONE,
                 namespaces: vec![0],
                 flat: false,
+                breadth: false,
+                maxobjects: 0,
             },
             transforms: vec![],
             exprs: vec![],

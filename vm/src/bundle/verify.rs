@@ -80,6 +80,9 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
                 }
             }
         }
+        for d in &r.defs {
+            rule_or_none(d.retire_to, "retirement rule")?;
+        }
         for t in &r.transforms {
             rule_ok(*t, "transform rule")?;
         }
@@ -319,7 +322,7 @@ mod tests {
             rules: vec![Rule {
                 name: 0,
                 selector: Selector::Random,
-                defs: vec![Def { weight: 1.0, weight_expr: NONE, start: 0 }],
+                defs: vec![Def { weight: 1.0, weight_expr: NONE, start: 0, retire_depth: 0, retire_to: NONE }],
                 transforms: vec![],
                 iter: NONE,
                 params: vec![],

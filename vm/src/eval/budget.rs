@@ -17,6 +17,8 @@ pub(super) struct LimitCounts {
     /// Keyframes of the bones made so far (see [`MAX_KEYFRAMES`]).
     pub(super) keyframes: u64,
     pub(super) animation: bool,
+    /// `maxobjects` ended a breadth-first run.
+    pub(super) objects: Option<ObjectsReached>,
 }
 
 /// The next count of calls at which [`Eval::count_call`] and [`Eval::count_run`]

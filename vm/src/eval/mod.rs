@@ -59,12 +59,14 @@ use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+mod breadth;
 mod budget;
 mod draw;
 mod env;
 mod guided;
 mod options;
 mod path;
+mod retire;
 mod run;
 mod select;
 mod sink;
@@ -72,12 +74,14 @@ mod sites;
 mod state;
 mod tracks;
 
+use breadth::*;
 use budget::*;
 use draw::*;
 use env::*;
 pub use guided::{Call, Expander, MAX_EXPANSION_CALLS};
 pub use options::*;
 use path::*;
+use retire::*;
 use run::*;
 use select::*;
 use sink::*;
@@ -202,6 +206,8 @@ struct Eval<'b> {
     /// The open iterators' records of the last run, kept for the next one (a run
     /// takes them, so a nested run starts with none).
     spare_loops: Vec<LoopRec>,
+    /// Rule-local retirement (`rule R maxdepth N > S`): the counts on the path.
+    retire: Retirement,
 }
 
 /// Evaluates a verified bundle from its start shape.
@@ -294,6 +300,7 @@ impl<'b> Eval<'b> {
             def_starts: None,
             non_finite: NonFinite::default(),
             spare_loops: Vec::new(),
+            retire: Retirement::new(b),
             stop_pc: None,
             matte_runs: Vec::new(),
             protos: b
@@ -420,6 +427,13 @@ impl<'b> Eval<'b> {
                 s.maxdepth, self.limits.maxdepth
             ));
         }
+        if self.retire.ended > 0 {
+            let at = self.retire.first_ended.map(|pc| where_op(self.b, pc)).unwrap_or_default();
+            w.push(format!(
+                "rule-local maxdepth reached{at}: {} call(s) of a retired definition with no `> OTHER` rule ran nothing",
+                self.retire.ended
+            ));
+        }
         if self.limits.minsize > 0 {
             w.push(format!("minsize {} reached{size_at}: {} branch(es) ended there", s.minsize, self.limits.minsize));
         }
@@ -441,6 +455,12 @@ impl<'b> Eval<'b> {
             w.push(format!(
                 "maxiter {} reached{at}: the run stopped; the output so far is kept (raise the limit with `maxiter N` in the grammar, up to the cap set by `--max-iter N`)",
                 self.maxiter
+            ));
+        }
+        if let Some(o) = self.limits.objects {
+            w.push(format!(
+                "maxobjects {} reached: {} objects drawn by the end of generation {}; the {} queued call(s) of generation {} and later were not run (raise the limit with `maxobjects N` in the grammar)",
+                s.maxobjects, o.objects, o.generation - 1, o.left, o.generation
             ));
         }
         if self.limits.vertices {

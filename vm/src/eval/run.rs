@@ -21,7 +21,8 @@ pub(super) struct XfInfo {
 pub(super) fn fast_path_applies(b: &Bundle, xf_pure: &[bool]) -> bool {
     let pure = |xf: TransformId| xf_pure.get(xf.index()).copied().unwrap_or(false);
     let rules_ok =
-        b.rules.iter().all(|r| r.params.is_empty() && r.frame == 0 && r.transforms.is_empty() && r.iter == NONE);
+        b.rules.iter().all(|r| r.params.is_empty() && r.frame == 0 && r.transforms.is_empty() && r.iter == NONE)
+            && b.rules.iter().all(|r| r.defs.iter().all(|d| d.retire_depth == 0));
     let mut pc = 0usize;
     while let Some(op) = b.code.get(pc) {
         pc += match *op {
@@ -194,6 +195,16 @@ impl<'b> Eval<'b> {
         (base as u32, self.slots.len() as u32)
     }
 
+    /// Pushes a frame for a run that starts at `rule` with the arguments `args`
+    /// (a queued call's); returns its base.
+    pub(super) fn frame_with(&mut self, rule: RuleId, args: &[f64]) -> (u32, u32) {
+        let r = &self.b.rules[rule];
+        let base = self.slots.len();
+        self.slots.extend(args.iter().copied().chain(r.params.iter().skip(args.len()).map(|d| d.unwrap_or(0.0))));
+        self.slots.resize(base + r.frame as usize, 0.0);
+        (base as u32, self.slots.len() as u32)
+    }
+
     /// Runs `rule` from `start` until its whole derivation is done.
     pub(super) fn run(&mut self, rule: u32, start: State, mode: Mode) {
         self.run_from(rule, start, 0, mode)
@@ -202,7 +213,9 @@ impl<'b> Eval<'b> {
     /// Runs a call of `rule` in state `start` at `depth` until its whole derivation
     /// is done: the one loop ([`Eval::interpret`]) with the sink this run needs.
     pub(super) fn run_from(&mut self, rule: u32, start: State, depth: u32, mode: Mode) {
-        if self.fast && mode == Mode::Model {
+        if self.b.settings.breadth && mode == Mode::Model {
+            self.run_breadth(rule, start, depth);
+        } else if self.fast && mode == Mode::Model {
             self.interpret(&mut Simple, rule, start, depth, mode);
         } else if self.opts.record_sites || self.tree.is_some() {
             self.interpret(&mut Sited, rule, start, depth, mode);
@@ -219,17 +232,47 @@ impl<'b> Eval<'b> {
     pub(super) fn interpret<S: Sink>(&mut self, sink: &mut S, rule: u32, start: State, depth: u32, mode: Mode) {
         let b = self.b;
         let rule = RuleId(rule);
-        let (slot_base, slot_top) = self.default_frame(rule);
+        let (slot_base, slot_top) = match sink.start_args() {
+            Some((args, _)) => self.frame_with(rule, args),
+            None => self.default_frame(rule),
+        };
+        let parent_bone = sink.start_args().map_or(0, |a| a.1);
         let pc = self.select(rule, &start, depth, slot_base as usize);
+        // Rule-local retirement applies to the run's first call too (see `retire.rs`).
+        let retiring = !S::SIMPLE && !S::COLLECTS && self.retire.any;
+        let (rule, pc, slot_top) = if retiring {
+            self.retire.begin_run();
+            match self.retired(rule, pc, &start, depth, slot_base as usize, pc) {
+                Some((to, pc)) => {
+                    let frame = self.b.rules[to].frame as usize;
+                    self.slots.resize(slot_base as usize + frame, 0.0);
+                    (to, pc, self.slots.len() as u32)
+                }
+                None => {
+                    self.retire.end_run();
+                    self.slots.truncate(slot_base as usize);
+                    return;
+                }
+            }
+        } else {
+            (rule, pc, slot_top)
+        };
         if S::COLLECTS {
             // (`sequential` and `pattern` start afresh with every expansion.)
             self.sequential.clear();
         }
-        let Some((act, bone, conv)) = self.first_activation::<S>(rule, start, pc, depth, (slot_base, slot_top), mode)
+        let Some((act, bone, conv)) =
+            self.first_activation::<S>(rule, start, pc, (depth, parent_bone), (slot_base, slot_top), mode)
         else {
+            if retiring {
+                self.retire.end_run();
+            }
             self.slots.truncate(slot_base as usize);
             return;
         };
+        if retiring {
+            self.retire.enter(pc, 0);
+        }
         // (A nested run, sampling a transform rule, returns to the op that started it.)
         let outer = (self.site_pc, self.site_depth, self.site_node);
         // The derivation node of the running activation (see [`Eval::call_node`]); a
@@ -359,6 +402,9 @@ impl<'b> Eval<'b> {
             self.note_site(outer.0, outer.1, outer.2);
         }
         self.spare_loops = m.loops;
+        if retiring {
+            self.retire.end_run();
+        }
         // A run ended by a limit leaves its frames: the caller's slots end here.
         self.slots.truncate(slot_base as usize);
     }
@@ -400,7 +446,7 @@ impl<'b> Eval<'b> {
         rule: RuleId,
         start: State,
         pc: u32,
-        depth: u32,
+        (depth, parent_bone): (u32, u32),
         (slot_base, slot_top): (u32, u32),
         mode: Mode,
     ) -> Option<(Act, u32, Option<Conv>)> {
@@ -411,12 +457,12 @@ impl<'b> Eval<'b> {
             let f = frames.first().copied()?;
             let base = start.then(&f, &self.lins);
             let conv = Conv { level: 0, frames, next: 1, pc, origin: start };
-            return Some((Act { pc, slot_base, slot_top, base, depth }, 0, Some(conv)));
+            return Some((Act { pc, slot_base, slot_top, base, depth }, parent_bone, Some(conv)));
         }
         let bone = if !S::SIMPLE && !S::COLLECTS && mode == Mode::Model && !r.transforms.is_empty() {
-            self.new_bone(rule.0, &start, 0)
+            self.new_bone(rule.0, &start, parent_bone)
         } else {
-            0
+            parent_bone
         };
         Some((Act { pc, slot_base, slot_top, base: start, depth }, bone, None))
     }
@@ -484,7 +530,9 @@ impl<'b> Eval<'b> {
         // The ARGs before this CALL are the callee's first slots (the verifier
         // checked their number).
         let r = &b.rules[rule];
-        if !self.admit(&child, depth, m.stack.len() + 1, m.act.pc - 1, S::SIMPLE) {
+        // (A queued call waits in the queue, which `stacksize` bounds.)
+        let stack_len = if S::QUEUES { sink.pending() } else { m.stack.len() + 1 };
+        if !self.admit(&child, depth, stack_len, m.act.pc - 1, S::SIMPLE) {
             if !S::SIMPLE && self.slots.len() > args {
                 self.slots.truncate(args);
             }
@@ -494,9 +542,27 @@ impl<'b> Eval<'b> {
         if !S::SIMPLE && self.slots.len() != args + r.params.len() {
             self.slots.resize(args + r.params.len(), f64::NAN);
         }
+        if S::QUEUES {
+            // Breadth first: the call waits for its generation (its definition is
+            // picked when it leaves the queue).
+            sink.enqueue(rule, &child, depth, m.bone, &self.slots[args..], &self.retire.counts);
+            self.slots.truncate(args);
+            return true;
+        }
         let pc = match r.defs.as_slice() {
             [only] => only.start,
             _ => self.select(rule, &child, depth, args),
+        };
+        let (rule, r, pc) = if !S::SIMPLE && self.retire.any {
+            match self.retired(rule, pc, &child, depth, args, m.act.pc - 1) {
+                Some((to, pc)) => (to, &b.rules[to], pc),
+                None => {
+                    self.slots.truncate(args);
+                    return true;
+                }
+            }
+        } else {
+            (rule, r, pc)
         };
         if !S::SIMPLE && r.frame as usize != r.params.len() {
             self.slots.resize(args + r.frame as usize, 0.0);
@@ -523,6 +589,9 @@ impl<'b> Eval<'b> {
             }
             let callee = Act { pc, slot_base, slot_top, base: child, depth };
             m.stack.push(std::mem::replace(&mut m.act, callee));
+        }
+        if !S::SIMPLE && self.retire.any {
+            self.retire.enter(pc, m.stack.len());
         }
         if S::SITES {
             m.nodes.push(m.node);
@@ -730,6 +799,9 @@ impl<'b> Eval<'b> {
             if self.slots.len() > base {
                 self.slots.truncate(base);
             }
+        }
+        if !S::SIMPLE && self.retire.any {
+            self.retire.leave(m.stack.len());
         }
         match m.stack.pop() {
             Some(caller) => m.act = caller,

@@ -8,6 +8,7 @@
 //! | [`Sited`] | recorded | no | run |
 //! | [`Simple`] | no | yes | run |
 //! | [`Collect`] | no | no | collected, not run (guided search) |
+//! | [`Queue`] | either | no | queued, run breadth first (`breadthfirst`) |
 
 use super::*;
 
@@ -22,12 +23,34 @@ pub(super) trait Sink {
     /// Calls are handed to [`Sink::call`] instead of being run, and nothing is
     /// drawn: the body of the first activation only (the guided search's skeleton).
     const COLLECTS: bool = false;
+    /// Calls are queued ([`Sink::enqueue`]) and run later, breadth first: the body
+    /// of the first activation only, which starts with [`Sink::start_args`].
+    const QUEUES: bool = false;
 
     /// A call the body makes, with its state and depth (only when
     /// [`Sink::COLLECTS`]); `false` ends the run.
     #[inline]
     fn call(&mut self, _rule: RuleId, _state: &State, _depth: u32) -> bool {
         true
+    }
+
+    /// How many calls wait in the queue (only when [`Sink::QUEUES`]): the bound
+    /// `stacksize` puts on them.
+    #[inline]
+    fn pending(&self) -> usize {
+        0
+    }
+
+    /// An admitted call, its state, depth, bone, arguments and its path's counts
+    /// of retiring definitions (only when [`Sink::QUEUES`]).
+    #[inline]
+    fn enqueue(&mut self, _rule: RuleId, _state: &State, _depth: u32, _bone: u32, _args: &[f64], _path: &[u32]) {}
+
+    /// The arguments and bone of the call the run starts with (only when
+    /// [`Sink::QUEUES`]; otherwise the parameters take their defaults, bone 0).
+    #[inline]
+    fn start_args(&self) -> Option<(&[f64], u32)> {
+        None
     }
 
     /// Before an iterator's next run (only when [`Sink::COLLECTS`]); `false` ends
