@@ -4,7 +4,9 @@
 //! On a CPU driver (lavapipe) an instanced draw costs per instance far more than its
 //! few pixels: the driver runs its vertex pipeline once per instance, then sets up
 //! and bins every triangle. An instance whose bounding sphere is at most
-//! [`POINT_PIXELS`] across on the screen is drawn instead as points of a single
+//! [`POINT_PIXELS`] across on the screen, closed (or open in a flat model:
+//! [`View::flat`]) and compact ([`COMPACT`]; any
+//! instance at most [`POINT_ANY_PIXELS`] across) is drawn instead as points of a single
 //! non-instanced draw, one per facet it shows ([`crate::scene::Facet`]: its
 //! triangles that face about one way; a box shows up to three, a square one): a
 //! screen-aligned square as large as the facet's projected area (so it covers as
@@ -22,8 +24,14 @@ use crate::scene::{Facet, InstancedDraw, StandIn, INSTANCE_STRIDE};
 use glam::{Mat3, Mat4, Vec3, Vec4};
 
 /// Instances whose bounding sphere is at most this many pixels across are drawn as
-/// points.
+/// points when they are compact ([`COMPACT`])…
 pub const POINT_PIXELS: f32 = 10.0;
+/// …that is, when they cover at least this share of their bounding sphere's disc on
+/// the screen (a box or a square seen face-on about 0.6, a branch's side 0.05: a
+/// chain of thin instances drawn as squares would be a dotted line)…
+pub const COMPACT: f32 = 0.2;
+/// …and any instance at most this many pixels across, whose shape no pixel shows.
+pub const POINT_ANY_PIXELS: f32 = 1.0;
 
 /// Bytes per point vertex: position `R32G32B32_SFLOAT` (location 0), size in pixels
 /// `R32_SFLOAT` (location 1), colour `R8G8B8A8_UNORM` (location 2).
@@ -42,6 +50,11 @@ pub struct View {
     /// The target's size in pixels.
     pub width: f32,
     pub height: f32,
+    /// The model is flat ([`crate::scene::Bounds::is_flat`]): open meshes may stand
+    /// in as points too. In a 3-D model they do not, since their backs may be
+    /// hidden by neighbours that a point cannot hide them behind (six open sides
+    /// make a branch; their points would cover both its front and its back).
+    pub flat: bool,
 }
 
 /// The outcome of [`select`]: the point vertices ([`POINT_STRIDE`] bytes each) and,
@@ -97,8 +110,8 @@ fn stand_in(view: &View, s: &StandIn, facets: &[Facet], rec: &[u8], out: &mut Ve
     };
     let (r0, r1, r2) = (row(0), row(1), row(2));
     let bone = rec.get(64..68).map_or(1, |b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
-    if bone != 0 {
-        return false; // posed by a bone at draw time
+    if bone != 0 || !(s.closed || view.flat) {
+        return false; // posed by a bone at draw time; open in a 3-D model
     }
     let color = Vec4::new(f32_at(rec, 12), f32_at(rec, 13), f32_at(rec, 14), f32_at(rec, 15));
     // The linear part (rows) and the centre placed.
@@ -129,6 +142,8 @@ fn stand_in(view: &View, s: &StandIn, facets: &[Facet], rec: &[u8], out: &mut Ve
     let sign = if l.determinant() < 0.0 { -1.0 } else { 1.0 };
     let t = Vec3::new(r0.w, r1.w, r2.w);
     let unorm = |x: f32| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
+    let start = out.len();
+    let mut area = 0.0f32;
     for f in facets {
         let a = sign * (cof * f.area);
         let q = l * f.centre + t;
@@ -150,6 +165,12 @@ fn stand_in(view: &View, s: &StandIn, facets: &[Facet], rec: &[u8], out: &mut Ve
             out.extend_from_slice(&x.to_le_bytes());
         }
         out.extend_from_slice(&[unorm(rgb.x), unorm(rgb.y), unorm(rgb.z), unorm(c.w)]);
+        area += px;
+    }
+    let disc = std::f32::consts::PI * 0.25 * diameter * diameter;
+    if diameter > POINT_ANY_PIXELS && !(area >= COMPACT * disc) {
+        out.truncate(start);
+        return false;
     }
     true
 }
@@ -257,6 +278,7 @@ mod tests {
             spec: [1.0, 1.0, 1.0, 32.0],
             width: 100.0,
             height: 100.0,
+            flat: true,
         }
     }
 
@@ -307,14 +329,31 @@ mod tests {
             records.extend(record(l, Vec3::ZERO, [0.5, 0.5, 0.5, 1.0]));
         }
         let sel = select(&view(), &[draw(4)], &[s], &facets, &records, 1);
-        assert_eq!(sel.n_points(), 4);
-        assert_eq!(sel.n_kept(), 0);
-        assert!(point(&sel, 3).1 < 1e-2, "edge-on, it covers (next to) nothing: {}", point(&sel, 3).1);
+        // Edge-on, it is as thin as can be: a mesh (which covers next to nothing).
+        assert_eq!(sel.n_points(), 3);
+        assert_eq!(sel.kept, vec![vec![3]]);
         let sizes: Vec<f32> = (0..3).map(|k| point(&sel, k).1).collect();
         assert!((sizes[0] - 2.0).abs() < 1e-3 && (sizes[1] - 2.0).abs() < 1e-3, "{sizes:?}");
         assert!((sizes[2] * sizes[2] - 2.0).abs() < 0.05, "half of 4 px²: {sizes:?}");
         // Two-sided: the mirrored square (seen from behind as wound) is lit the same.
         assert_eq!(point(&sel, 0).2, point(&sel, 1).2);
+    }
+
+    #[test]
+    fn a_thin_instance_stays_a_mesh_unless_it_is_tiny() {
+        // A 0.05 × 1 strip: 5 pixels long and a quarter of a pixel wide (a mesh),
+        // then 0.75 pixels long (a point).
+        let s = StandIn { first_facet: 0, n_facets: 1, centre: Vec3::ZERO, radius: 0.5, closed: false };
+        let facets =
+            vec![Facet { area: Vec3::Z * 0.05, centre: Vec3::ZERO, normal: Vec3::Z, delta: [0.0; 4], matte: true }];
+        let mut records = record(Mat3::IDENTITY, Vec3::ZERO, [1.0; 4]);
+        records.extend(record(Mat3::from_diagonal(Vec3::splat(0.15)), Vec3::ZERO, [1.0; 4]));
+        let sel = select(&view(), &[draw(2)], &[s], &facets, &records, 1);
+        assert_eq!(sel.kept, vec![vec![0]]);
+        assert_eq!(sel.n_points(), 1);
+        // In a 3-D model, open meshes are never points.
+        let sel = select(&View { flat: false, ..view() }, &[draw(2)], &[s], &facets, &records, 1);
+        assert_eq!(sel.kept, vec![vec![0, 1]]);
     }
 
     #[test]

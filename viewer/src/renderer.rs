@@ -792,6 +792,7 @@ impl Renderer {
             spec: values.spec_color_power.unwrap_or(uniforms::DEFAULT_SPEC_COLOR_POWER),
             width: self.extent.width as f32,
             height: self.extent.height as f32,
+            flat: info.bounds.is_flat(),
         })
     }
 
