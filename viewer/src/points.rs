@@ -57,17 +57,31 @@ pub struct View {
     pub flat: bool,
 }
 
-/// The outcome of [`select`]: the point vertices ([`POINT_STRIDE`] bytes each) and,
+/// The outcome of [`select`]: the point vertices ([`POINT_STRIDE`] bytes each), in
+/// pieces to be written one after the other (as they were made: a million boxes'
+/// points are 60 MB that need not be joined on the heap before the upload) and,
 /// per draw, the indices (into the instance buffer) of the instances kept as meshes.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Selection {
-    pub points: Vec<u8>,
+    pub points: Vec<Vec<u8>>,
     pub kept: Vec<Vec<u32>>,
 }
 
 impl Selection {
     pub fn n_points(&self) -> usize {
-        self.points.len() / POINT_STRIDE as usize
+        self.points.iter().map(Vec::len).sum::<usize>() / POINT_STRIDE as usize
+    }
+
+    /// Writes the points into `dst` ([`Selection::n_points`] × [`POINT_STRIDE`]
+    /// bytes).
+    pub fn write_points(&self, dst: &mut [u8]) {
+        let mut at = 0;
+        for piece in &self.points {
+            if let Some(d) = dst.get_mut(at..at + piece.len()) {
+                d.copy_from_slice(piece);
+            }
+            at += piece.len();
+        }
     }
 
     /// Instances kept as meshes, in all.
@@ -229,10 +243,11 @@ pub fn select(
             handles.into_iter().flat_map(|(c, h)| h.join().unwrap_or_else(|_| c.iter().map(work).collect())).collect()
         })
     };
-    let mut out = Selection { points: Vec::new(), kept: vec![Vec::new(); draws.len()] };
-    out.points.reserve(results.iter().map(|r| r.0.len()).sum());
+    let mut out = Selection { points: Vec::with_capacity(results.len()), kept: vec![Vec::new(); draws.len()] };
     for ((k, ..), (points, kept)) in pieces.iter().zip(results) {
-        out.points.extend_from_slice(&points);
+        if !points.is_empty() {
+            out.points.push(points);
+        }
         if let Some(list) = out.kept.get_mut(*k) {
             list.extend(kept);
         }
@@ -294,7 +309,17 @@ mod tests {
     }
 
     fn point(sel: &Selection, k: usize) -> (Vec3, f32, [u8; 4]) {
-        let v = &sel.points[k * 20..k * 20 + 20];
+        points_of(sel)[k]
+    }
+
+    /// Every point of `sel`: position, size, colour.
+    fn points_of(sel: &Selection) -> Vec<(Vec3, f32, [u8; 4])> {
+        let mut all = vec![0u8; sel.n_points() * 20];
+        sel.write_points(&mut all);
+        all.chunks_exact(20).map(unpack).collect()
+    }
+
+    fn unpack(v: &[u8]) -> (Vec3, f32, [u8; 4]) {
         let f = |i: usize| f32::from_le_bytes([v[4 * i], v[4 * i + 1], v[4 * i + 2], v[4 * i + 3]]);
         (Vec3::new(f(0), f(1), f(2)), f(3), [v[16], v[17], v[18], v[19]])
     }
@@ -378,8 +403,7 @@ mod tests {
         // (perspective), never the back (−z) face.
         let mut total = 0.0;
         let mut fronts = 0;
-        for k in 0..one.n_points() {
-            let (p, size, _) = point(&one, k);
+        for (p, size, _) in points_of(&one) {
             assert!(p.z > -0.1 + 1e-6, "a back face drawn: {p}");
             if (p.z - 0.1).abs() < 1e-6 {
                 assert!(size * size > 0.999 && size * size < 1.1, "{size}");

@@ -851,7 +851,12 @@ impl Renderer {
                     }
                 }
             });
-            let points = Buffer::with_data(&ctx, &sel.points, vk::BufferUsageFlags::VERTEX_BUFFER);
+            let points = Buffer::filled(
+                &ctx,
+                sel.n_points() * points::POINT_STRIDE as usize,
+                vk::BufferUsageFlags::VERTEX_BUFFER,
+                |dst| sel.write_points(dst),
+            );
             let n_stood_in = inst.draws.iter().map(|d| u64::from(d.instance_count)).sum::<u64>() - sel.n_kept() as u64;
             chosen = Some((kept, points, kept_draws, sel.n_points() as u32, n_stood_in));
         })?;
