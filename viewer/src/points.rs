@@ -137,7 +137,8 @@ fn stand_in(view: &View, s: &StandIn, facets: &[Facet], rec: &[u8], out: &mut Ve
     let c = *m * p.extend(1.0);
     // In front of the eye with all of its bounding sphere (else the clipper decides).
     let w_axis = Vec3::new(m.x_axis.w, m.y_axis.w, m.z_axis.w);
-    if !(c.w - radius * w_axis.length() > 0.0) || !p.is_finite() {
+    let ahead = c.w - radius * w_axis.length();
+    if ahead.is_nan() || ahead <= 0.0 || !p.is_finite() {
         return false;
     }
     // Pixels per world unit at p: the rows of the Jacobian of the pixel position.
@@ -147,7 +148,7 @@ fn stand_in(view: &View, s: &StandIn, facets: &[Facet], rec: &[u8], out: &mut Ve
     let j1 = (row_of(1) - ny * w_axis) * (0.5 * view.height / c.w);
     let jn = j0.cross(j1);
     let diameter = 2.0 * radius * jn.length().sqrt();
-    if !(diameter <= POINT_PIXELS) {
+    if diameter.is_nan() || diameter > POINT_PIXELS {
         return false;
     }
     // Normals and area vectors through the cofactor matrix, flipped for a mirrored
@@ -182,7 +183,7 @@ fn stand_in(view: &View, s: &StandIn, facets: &[Facet], rec: &[u8], out: &mut Ve
         area += px;
     }
     let disc = std::f32::consts::PI * 0.25 * diameter * diameter;
-    if diameter > POINT_ANY_PIXELS && !(area >= COMPACT * disc) {
+    if diameter > POINT_ANY_PIXELS && (area.is_nan() || area < COMPACT * disc) {
         out.truncate(start);
         return false;
     }
