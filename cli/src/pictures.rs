@@ -118,6 +118,9 @@ impl Device {
             self.target = Some(off);
         }
         let Some(off) = self.target.as_mut() else { return Err(Error::Other("no render target".into())) };
+        if stand_ins_off() {
+            off.renderer_mut().stand_ins = false;
+        }
         let info = off.set_output(bundle, output, &self.programs)?;
         let camera = match pose {
             Some(p) => off.home_camera().posed(&info.bounds, size.0 as f32 / size.1 as f32, p),
@@ -128,6 +131,13 @@ impl Device {
         let px = off.render(&frame)?;
         mdg_vm::preview::encode_png(&px, size.0, size.1).map_err(|e| Error::Other(e.to_string()))
     }
+}
+
+/// `MDG_STAND_INS=0`: small instances are drawn as meshes, not as point sprites
+/// (`mdg_viewer::points`), in the offscreen pictures of `mdg-run` and `mdg-view`;
+/// for comparing the two (`benches/run`).
+pub fn stand_ins_off() -> bool {
+    std::env::var("MDG_STAND_INS").as_deref() == Ok("0")
 }
 
 /// Vulkan offscreen pictures, opened on first use; the software renderer where

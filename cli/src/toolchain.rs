@@ -9,7 +9,7 @@ use mdg_compiler::driver;
 use mdg_compiler::expand::Options;
 use mdg_compiler::source::FsLoader;
 use mdg_viewer::model::{LoadFailure, LoadOptions, Loader, Model};
-use mdg_viewer::program::{ProgramSpirv, Programs, LINE_FS, LINE_VS};
+use mdg_viewer::program::{ProgramSpirv, Programs, LINE_FS, LINE_VS, POINT_VS};
 use mdg_viewer::Error;
 use mdg_vm::eval::evaluate;
 use std::path::{Path, PathBuf};
@@ -75,7 +75,12 @@ impl Loader for Toolchain {
 
     fn programs(&self, std_dir: Option<&Path>) -> Result<Programs, Error> {
         let std = std_programs(std_dir)?;
-        Ok(Programs { phong: std.phong, instanced: std.instanced, lines: line_program()? })
+        Ok(Programs {
+            phong: std.phong,
+            instanced: std.instanced,
+            lines: line_program()?,
+            points: Some(point_program()?),
+        })
     }
 }
 
@@ -151,6 +156,20 @@ pub fn std_programs(std_dir: Option<&Path>) -> Result<StdPrograms, Error> {
         c.push((key, p.clone()));
     }
     Ok(p)
+}
+
+/// The viewer's point-sprite program for small instances (compiled once per process).
+pub fn point_program() -> Result<ProgramSpirv, Error> {
+    static POINTS: OnceLock<Result<ProgramSpirv, String>> = OnceLock::new();
+    POINTS
+        .get_or_init(|| {
+            let c = |src: &str, vertex: bool| {
+                mdg_compiler::shaders::compile_glsl(src, vertex).map_err(|e| format!("built-in point shader: {e:?}"))
+            };
+            Ok(ProgramSpirv { vertex: c(POINT_VS, true)?, fragment: c(LINE_FS, false)?, label: "points".into() })
+        })
+        .clone()
+        .map_err(Error::Compile)
 }
 
 /// The viewer's line program (compiled once per process).

@@ -425,19 +425,27 @@ fn one_sample_pictures_differ_from_four_sample_ones_only_at_edges() {
             let info = off.set_model(&model, &programs).expect("upload");
             let camera = off.home_camera();
             let frame = FrameParams { camera, time: 0.0, wireframe: false, camera_rule: info.has_camera_rule };
-            Image { px: off.render(&frame).expect("render"), w, h }
+            let img = Image { px: off.render(&frame).expect("render"), w, h };
+            (img, off.renderer_mut().drawn_points())
         };
-        // Before: 4x, every instance at full detail. Now: the level of detail on.
-        let four = draw(4, false, false);
-        let one = draw(1, false, true);
-        let smooth = draw(1, true, true);
+        // Before: 4x, every instance at full detail. Now: the level of detail on
+        // (coarse meshes, and point sprites for the smallest instances), at 1x and 4x.
+        let (four, _) = draw(4, false, false);
+        let (four_lod, points) = draw(4, false, true);
+        let (one, _) = draw(1, false, true);
+        let (smooth, _) = draw(1, true, true);
         if name == "tree" {
             four.save("eq-tree-4x.png");
             smooth.save("eq-tree-1x-smooth.png");
         }
-        for (label, img, bound) in [("1x", &one, EQ_MEAN_ALIASED), ("1x+smoothing", &smooth, EQ_MEAN)] {
+        for (label, img, bound) in
+            [("4x+lod", &four_lod, EQ_MEAN), ("1x", &one, EQ_MEAN_ALIASED), ("1x+smoothing", &smooth, EQ_MEAN)]
+        {
             let (mean, off_edge) = off_edge_differences(&four, img);
-            report.push(format!("{name} {label}: mean {mean:.2}/255, {off_edge} px off edges"));
+            report.push(format!(
+                "{name} {label}: mean {mean:.2}/255, {off_edge} px off edges; at 4x, {} instances as {} points",
+                points.0, points.1
+            ));
             if mean > bound || off_edge as f64 > EQ_OFF_EDGE_SHARE * f64::from(w * h) {
                 failures.push(report.last().cloned().unwrap_or_default());
             }
@@ -542,6 +550,47 @@ fn small_instances_use_their_level_of_detail_and_keep_the_mean_colour() {
         let (a, b) = (mean(&full, c), mean(&coarse, c));
         eprintln!("channel {c}: mean {a:.2} full, {b:.2} with the level of detail");
         assert!((a - b).abs() <= 2.0, "channel {c}: mean {a:.2} full, {b:.2} with the level of detail");
+    }
+}
+
+/// The point stand-ins (`mdg_viewer::points`): the benchmark's million boxes
+/// (`benches/workloads/boxes.mdg`, 3–5 pixels each at 1024²) drawn as point sprites
+/// give a picture whose mean colour is within 2/255 of the full-detail picture in
+/// every channel, with nearly every box a point.
+#[test]
+fn a_million_small_boxes_as_points_keep_the_mean_colour() {
+    let Some(ctx) = vulkan() else { return };
+    let (w, h) = (1024, 1024);
+    let mut opts = load_options();
+    opts.eval.max_vertices = 100_000_000;
+    let model = match Toolchain.load(&root().join("benches/workloads/boxes.mdg"), &opts) {
+        Ok((m, _)) => m,
+        Err(f) => panic!("boxes.mdg does not load:\n{}", f.error),
+    };
+    assert_eq!(model.output.instances.len(), 1_000_000);
+    let programs = programs();
+    let draw = |stand_ins: bool| {
+        let mut off = Offscreen::new(&ctx, w, h, 0).expect("offscreen");
+        off.renderer_mut().stand_ins = stand_ins;
+        off.set_model(&model, &programs).expect("upload");
+        let camera = off.home_camera();
+        let px = off.render(&FrameParams { camera, time: 0.0, wireframe: false, camera_rule: false }).expect("render");
+        (Image { px, w, h }, off.renderer_mut().drawn_points())
+    };
+    let (full, none) = draw(false);
+    let (points, n_points) = draw(true);
+    full.save("boxes-full.png");
+    points.save("boxes-points.png");
+    assert_no_validation_errors(&ctx);
+    assert_eq!(none, (0, 0));
+    let (boxes, n_points) = n_points;
+    eprintln!("{boxes} of 1,000,000 boxes drawn as {n_points} points");
+    assert!(boxes > 900_000, "{boxes} boxes as points");
+    let mean = |img: &Image, c: usize| img.px.chunks_exact(4).map(|p| f64::from(p[c])).sum::<f64>() / f64::from(w * h);
+    for c in 0..3 {
+        let (a, b) = (mean(&full, c), mean(&points, c));
+        eprintln!("channel {c}: mean {a:.2} full, {b:.2} with points");
+        assert!((a - b).abs() <= 2.0, "channel {c}: mean {a:.2} full, {b:.2} with points");
     }
 }
 

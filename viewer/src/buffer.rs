@@ -165,6 +165,18 @@ impl Buffer {
         self.mapped(offset, data.len(), "write to", |m| m.copy_from_slice(data))
     }
 
+    /// Whether [`Buffer::read`] and [`Buffer::with_contents`] work (the memory is
+    /// host-visible).
+    pub fn is_mapped(&self) -> bool {
+        self.mapped
+    }
+
+    /// Lets `f` read the first `len` bytes in place (host-visible buffers only;
+    /// callers wait on the fence of any GPU work that writes it).
+    pub fn with_contents(&self, len: usize, f: impl FnOnce(&[u8])) -> Result<(), Error> {
+        self.mapped(0, len, "read from", |m| f(m))
+    }
+
     /// Reads `len` bytes from the start of the buffer (host-visible buffers only;
     /// callers wait on the fence of the GPU work that wrote it).
     pub fn read(&self, len: usize) -> Result<Vec<u8>, Error> {

@@ -89,6 +89,9 @@ pub struct Context {
     pub limits: vk::PhysicalDeviceLimits,
     /// `fillModeNonSolid` (wireframe) was available and enabled.
     pub wireframe: bool,
+    /// `largePoints` (point sizes other than 1, which the point-sprite stand-ins
+    /// of small instances need: [`crate::points`]) was available and enabled.
+    pub large_points: bool,
     /// The device's name, e.g. `llvmpipe (LLVM 15.0.6, 256 bits)`.
     pub device_name: String,
     /// A GPU or a CPU driver (lavapipe): pictures choose their samples by it.
@@ -232,10 +235,11 @@ impl Context {
                     }
                 };
                 // SAFETY: plain queries on a valid physical device.
-                let (memory, props) = unsafe {
+                let (memory, props, features) = unsafe {
                     (
                         instance.get_physical_device_memory_properties(physical),
                         instance.get_physical_device_properties(physical),
+                        instance.get_physical_device_features(physical),
                     )
                 };
                 Ok(Context {
@@ -252,6 +256,8 @@ impl Context {
                     limits: props.limits,
                     device_type: props.device_type,
                     wireframe,
+                    // Enabled by `device_part` whenever the device has it.
+                    large_points: features.large_points == vk::TRUE,
                     device_name,
                     validation,
                 })
@@ -305,7 +311,9 @@ impl Context {
         };
         let device_name = props.device_name_as_c_str().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         let wireframe = features.fill_mode_non_solid == vk::TRUE;
-        let enabled = vk::PhysicalDeviceFeatures::default().fill_mode_non_solid(wireframe);
+        let enabled = vk::PhysicalDeviceFeatures::default()
+            .fill_mode_non_solid(wireframe)
+            .large_points(features.large_points == vk::TRUE);
         let priorities = [1.0f32];
         let queue_info =
             [vk::DeviceQueueCreateInfo::default().queue_family_index(family).queue_priorities(&priorities)];

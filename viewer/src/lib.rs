@@ -33,6 +33,7 @@ pub mod input;
 pub mod model;
 pub mod offscreen;
 pub mod pipeline;
+pub mod points;
 pub mod program;
 pub mod reload;
 pub mod renderer;

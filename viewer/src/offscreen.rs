@@ -47,6 +47,8 @@ impl Offscreen {
             ctx,
             RendererOptions { color_format: FORMAT, final_layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL, samples },
         )?;
+        // Offscreen pictures are rarely wireframe: its pipelines wait for one.
+        renderer.wireframe_on_demand = true;
         let extent = vk::Extent2D { width, height };
         renderer.resize(extent)?;
         let target = Image::new(
@@ -106,6 +108,7 @@ impl Offscreen {
     /// Renders one frame and returns its pixels: RGBA8, rows top to bottom, edges
     /// smoothed when [`Offscreen::smooth`] is set.
     pub fn render(&mut self, frame: &FrameParams) -> Result<Vec<u8>, Error> {
+        self.renderer.prepare(frame)?;
         self.renderer.update(frame)?;
         let (w, h) = (self.width, self.height);
         let region = [vk::BufferImageCopy::default()

@@ -106,6 +106,9 @@ pub enum Kind {
     Lines,
     /// Lines drawn over everything (no depth test): guides, bones, editor handles.
     Overlay,
+    /// Point sprites standing in for small instances ([`crate::points`]): one
+    /// binding of [`crate::points::POINT_STRIDE`] bytes per point.
+    Points,
 }
 
 /// What a pipeline is made for.
@@ -219,7 +222,20 @@ impl Pipeline {
             attribute(7, 1, vec4, 32),
             attribute(8, 1, vec4, 48),
         ];
-        let vertex_input = if desc.instanced {
+        let point_bindings = [vk::VertexInputBindingDescription::default()
+            .binding(0)
+            .stride(crate::points::POINT_STRIDE)
+            .input_rate(vk::VertexInputRate::VERTEX)];
+        let point_attrs = [
+            attribute(0, 0, vk::Format::R32G32B32_SFLOAT, 0),
+            attribute(1, 0, vk::Format::R32_SFLOAT, 12),
+            attribute(2, 0, vk::Format::R8G8B8A8_UNORM, 16),
+        ];
+        let vertex_input = if desc.kind == Kind::Points {
+            vk::PipelineVertexInputStateCreateInfo::default()
+                .vertex_binding_descriptions(&point_bindings)
+                .vertex_attribute_descriptions(&point_attrs)
+        } else if desc.instanced {
             vk::PipelineVertexInputStateCreateInfo::default()
                 .vertex_binding_descriptions(&instanced_bindings)
                 .vertex_attribute_descriptions(&instanced_attrs)
@@ -230,6 +246,8 @@ impl Pipeline {
         };
         let topology = if matches!(desc.kind, Kind::Lines | Kind::Overlay) {
             vk::PrimitiveTopology::LINE_LIST
+        } else if desc.kind == Kind::Points {
+            vk::PrimitiveTopology::POINT_LIST
         } else {
             vk::PrimitiveTopology::TRIANGLE_LIST
         };

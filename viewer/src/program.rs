@@ -29,6 +29,9 @@ pub struct Programs {
     /// instancing where a model's vertex shader is std's (`None`: they are expanded).
     pub instanced: Option<ProgramSpirv>,
     pub lines: ProgramSpirv,
+    /// The point sprites that stand in for small instances ([`POINT_VS`] with
+    /// [`LINE_FS`]; `None`: small instances are drawn as meshes).
+    pub points: Option<ProgramSpirv>,
 }
 
 /// The program for `bundle`: its `program` directive's shaders, std Phong for the
@@ -106,6 +109,28 @@ layout(location = 0) out vec4 v_color;
 void main() {
     v_color = in_color;
     gl_Position = globals.projection * globals.view * vec4(in_position, 1.0);
+}
+";
+
+/// Vertex shader for the point sprites standing in for small instances
+/// ([`crate::points`]): a world position, a size in pixels and a colour already
+/// shaded (drawn unlit by [`LINE_FS`]).
+pub const POINT_VS: &str = "#version 450
+layout(location = 0) in vec3 in_position;
+layout(location = 1) in float in_size;
+layout(location = 2) in vec4 in_color;
+layout(set = 0, binding = 0) uniform Globals {
+    mat4 projection;
+    mat4 view;
+    vec4 camera_pos;
+    vec4 light_pos;
+    vec4 spec_color_power;
+} globals;
+layout(location = 0) out vec4 v_color;
+void main() {
+    v_color = in_color;
+    gl_Position = globals.projection * globals.view * vec4(in_position, 1.0);
+    gl_PointSize = in_size;
 }
 ";
 

@@ -15,6 +15,7 @@ use crate::context::{vkerr, Context};
 use crate::image::{depth_format, msaa_samples, Image, ImageDesc, SampleChoice};
 use crate::model::Model;
 use crate::pipeline::{Kind, Layout, Pipeline, PipelineDesc};
+use crate::points;
 use crate::program::{self, ProgramSpirv, Programs};
 use crate::scene::{self, Bounds};
 use crate::uniforms::{self, UniformSpec};
@@ -267,6 +268,27 @@ struct GpuInstanced {
     draws: Vec<scene::InstancedDraw>,
     /// Each draw's level of detail ([`scene::Lod`]).
     lods: Vec<Option<scene::Lod>>,
+    /// Each draw's point-sprite summary, and their facets ([`crate::points`]).
+    stand_ins: Vec<scene::StandIn>,
+    facets: Vec<scene::Facet>,
+    /// The point program, when the instances' fragment shader is std's `phong_fs`
+    /// (whose colour the stand-ins compute) and the caller has one.
+    points_program: Option<ProgramSpirv>,
+    /// The stand-ins chosen for the last prepared view ([`Renderer::prepare`]).
+    selection: Option<GpuSelection>,
+}
+
+/// Small instances drawn as points for one view: the instances kept as meshes
+/// (their records copied, draw by draw) and the points.
+struct GpuSelection {
+    view: points::View,
+    kept: Buffer,
+    /// Per draw, its first instance in `kept` and their count.
+    kept_draws: Vec<(u32, u32)>,
+    points: Buffer,
+    n_points: u32,
+    /// Instances drawn as points.
+    n_stood_in: u64,
 }
 
 /// What a model's pipelines depend on. A new model with the same key (the guide
@@ -347,8 +369,25 @@ pub struct Renderer {
     /// Draw instances that are small on the screen with their shared mesh's level
     /// of detail ([`scene::Lod`]); on by default.
     pub lod: bool,
+    /// With `lod`: draw instances that cover at most [`points::POINT_PIXELS`] as
+    /// point sprites of their area and shaded colour ([`crate::points`]), chosen
+    /// per view by [`Renderer::prepare`]. On by default on a CPU driver (lavapipe),
+    /// where every instance costs its own pass through the vertex pipeline; off on
+    /// a GPU, which draws small instances fast and would only wait for the CPU's
+    /// choice.
+    pub stand_ins: bool,
+    /// The point-sprite pipeline, built when a view first needs it.
+    point_pipeline: Option<Pipeline>,
+    /// Build the wireframe pipelines when a frame first asks for wireframe (in
+    /// [`Renderer::prepare`]) rather than with every model: the offscreen renderer,
+    /// whose pictures are rarely wireframe (on lavapipe each pipeline is shader
+    /// compilation work). Off by default: the window toggles wireframe at any frame
+    /// and does not call `prepare`.
+    pub wireframe_on_demand: bool,
     /// Triangles the last recorded frame drew (instances' at their level of detail).
     drawn: std::cell::Cell<u64>,
+    /// Instances the last recorded frame drew as point sprites, and the points.
+    drawn_points: std::cell::Cell<(u64, u64)>,
     depth_format: vk::Format,
     extent: vk::Extent2D,
 }
@@ -371,7 +410,11 @@ impl Renderer {
             color_format: opts.color_format,
             show_overlays: true,
             lod: true,
+            stand_ins: ctx.device_type == vk::PhysicalDeviceType::CPU && ctx.large_points,
+            point_pipeline: None,
+            wireframe_on_demand: false,
             drawn: std::cell::Cell::new(0),
+            drawn_points: std::cell::Cell::new((0, 0)),
             depth_format: depth,
             extent: vk::Extent2D { width: 0, height: 0 },
         })
@@ -395,7 +438,19 @@ impl Renderer {
         // A `flat` model is painted in triangle order: one mesh, no GPU instances.
         let instanced = if output.flat { None } else { program::instanced_for_bundle(bundle, programs)? };
         let scene = scene::build_with(output, instanced.is_some());
-        self.set_scene_instanced(&scene, bundle, output, &program, &programs.lines, instanced.as_ref())
+        // Point stand-ins carry the colour std's fragment shader would give: only
+        // for instances drawn by it.
+        let points_program = match (&programs.points, &instanced) {
+            (Some(p), Some(i)) if i.fragment == programs.phong.fragment => Some(p.clone()),
+            _ => None,
+        };
+        self.set_scene_instanced(&scene, bundle, output, &program, &programs.lines, instanced.as_ref())?;
+        if let Some((gpu, _)) = &mut self.model {
+            if let Some(inst) = &mut gpu.instanced {
+                inst.points_program = points_program;
+            }
+        }
+        self.model.as_ref().map(|(_, i)| i).ok_or_else(|| Error::Other("model vanished".into()))
     }
 
     /// Like [`Renderer::set_output`] with a prepared scene and program (a scene of
@@ -518,6 +573,10 @@ impl Renderer {
                 })?,
                 draws: i.draws.clone(),
                 lods: i.lods.clone(),
+                stand_ins: i.stand_ins.clone(),
+                facets: i.facets.clone(),
+                points_program: None,
+                selection: None,
             }),
             _ => None,
         };
@@ -547,11 +606,9 @@ impl Renderer {
         self.model.as_ref().map(|(_, i)| i).ok_or_else(|| Error::Other("model vanished".into()))
     }
 
-    /// Builds the pipelines of `key`: filled, wireframe (when the device can), and
-    /// the line and overlay pipelines when there are lines.
-    fn pipelines(&self, key: &PipelineKey) -> Result<Pipelines, Error> {
-        let ctx = &self.ctx;
-        let desc = |kind| PipelineDesc {
+    /// What a pipeline of `key` is made for, of `kind`.
+    fn desc(&self, key: &PipelineKey, kind: Kind) -> PipelineDesc {
+        PipelineDesc {
             kind,
             render_pass: self.render_pass.raw,
             samples: self.samples,
@@ -559,14 +616,36 @@ impl Renderer {
             instanced: false,
             cull_back: false,
             depth: key.depth,
+        }
+    }
+
+    /// The wireframe pipelines of `key`: the model's and its instances' (`None`
+    /// without instances, or both when the device has no wireframe).
+    fn wire_pipelines(&self, key: &PipelineKey) -> Result<(Option<Pipeline>, Option<Pipeline>), Error> {
+        if !self.ctx.wireframe {
+            return Ok((None, None));
+        }
+        let p = &key.program;
+        let wire = Pipeline::new(&self.ctx, &self.layout, &p.vertex, &p.fragment, self.desc(key, Kind::Wireframe))?;
+        let inst = match &key.instanced {
+            Some(ip) => {
+                let desc = PipelineDesc { instanced: true, ..self.desc(key, Kind::Wireframe) };
+                Some(Pipeline::new(&self.ctx, &self.layout, &ip.vertex, &ip.fragment, desc)?)
+            }
+            None => None,
         };
+        Ok((Some(wire), inst))
+    }
+
+    /// Builds the pipelines of `key`: filled, wireframe (when the device can, and
+    /// unless [`Renderer::wireframe_on_demand`]), and the line and overlay pipelines
+    /// when there are lines.
+    fn pipelines(&self, key: &PipelineKey) -> Result<Pipelines, Error> {
+        let ctx = &self.ctx;
+        let desc = |kind| self.desc(key, kind);
         let (p, l) = (&key.program, &key.lines);
         let fill = Pipeline::new(ctx, &self.layout, &p.vertex, &p.fragment, desc(Kind::Fill))?;
-        let wire = if ctx.wireframe {
-            Some(Pipeline::new(ctx, &self.layout, &p.vertex, &p.fragment, desc(Kind::Wireframe))?)
-        } else {
-            None
-        };
+        let (wire, inst_wire) = if self.wireframe_on_demand { (None, None) } else { self.wire_pipelines(key)? };
         let line = |kind| {
             Pipeline::new(ctx, &self.layout, &l.vertex, &l.fragment, PipelineDesc { skinned: false, ..desc(kind) })
         };
@@ -578,12 +657,7 @@ impl Renderer {
                 let fill = Pipeline::new(ctx, &self.layout, &ip.vertex, &ip.fragment, inst(Kind::Fill))?;
                 let closed = PipelineDesc { cull_back: true, ..inst(Kind::Fill) };
                 let fill_closed = Pipeline::new(ctx, &self.layout, &ip.vertex, &ip.fragment, closed)?;
-                let wire = if ctx.wireframe {
-                    Some(Pipeline::new(ctx, &self.layout, &ip.vertex, &ip.fragment, inst(Kind::Wireframe))?)
-                } else {
-                    None
-                };
-                Some((fill, fill_closed, wire))
+                Some((fill, fill_closed, inst_wire))
             }
             None => None,
         };
@@ -698,6 +772,120 @@ impl Renderer {
         Ok(())
     }
 
+    /// What a frame looks like to the point stand-ins: `None` when they are off
+    /// (`lod` or `stand_ins` unset, wireframe) or there is nothing to stand in for.
+    fn stand_in_view(&self, frame: &FrameParams) -> Option<points::View> {
+        if !(self.lod && self.stand_ins) || frame.wireframe {
+            return None;
+        }
+        let (gpu, info) = self.model.as_ref()?;
+        let inst = gpu.instanced.as_ref()?;
+        inst.points_program.as_ref()?;
+        let (view, projection, eye) = self.view_projection(frame);
+        let values = gpu.uniforms.values(&gpu.animation, frame.time);
+        let (center, radius) = info.bounds.sphere();
+        let light = values.light_pos.unwrap_or_else(|| uniforms::default_light(center, radius));
+        Some(points::View {
+            view_projection: projection * view,
+            eye,
+            light: Vec3::new(light[0], light[1], light[2]),
+            spec: values.spec_color_power.unwrap_or(uniforms::DEFAULT_SPEC_COLOR_POWER),
+            width: self.extent.width as f32,
+            height: self.extent.height as f32,
+            flat: info.bounds.is_flat(),
+        })
+    }
+
+    /// Builds the wireframe pipelines when `frame` is the first to need them
+    /// ([`Renderer::wireframe_on_demand`]); chooses the instances drawn as point
+    /// sprites in `frame` ([`crate::points`]) and uploads them with the instances kept as meshes; a frame recorded with
+    /// another view draws every instance as a mesh. The GPU must not be using the
+    /// model (callers wait for the previous frame first). Does nothing when the
+    /// view is the last one prepared.
+    pub fn prepare(&mut self, frame: &FrameParams) -> Result<(), Error> {
+        if frame.wireframe && self.ctx.wireframe {
+            let missing = self.model.as_ref().filter(|(gpu, _)| gpu.wire.is_none()).map(|(gpu, _)| gpu.key.clone());
+            if let Some(key) = missing {
+                let (wire, inst_wire) = self.wire_pipelines(&key)?;
+                if let Some((gpu, _)) = &mut self.model {
+                    gpu.wire = wire;
+                    if let Some(inst) = &mut gpu.instanced {
+                        inst.wire = inst_wire;
+                    }
+                }
+            }
+        }
+        let view = self.stand_in_view(frame);
+        let ctx = self.ctx.clone();
+        let Some((gpu, _)) = &mut self.model else { return Ok(()) };
+        let Some(inst) = &mut gpu.instanced else { return Ok(()) };
+        let Some(view) = view else {
+            inst.selection = None;
+            return Ok(());
+        };
+        if inst.selection.as_ref().is_some_and(|s| s.view == view) || !inst.instances.is_mapped() {
+            return Ok(());
+        }
+        inst.selection = None;
+        let n_records: usize =
+            inst.draws.iter().map(|d| (d.first_instance + d.instance_count) as usize).max().unwrap_or(0);
+        let len = n_records * scene::INSTANCE_STRIDE as usize;
+        let threads = std::thread::available_parallelism().map_or(1, usize::from);
+        let mut chosen = None;
+        inst.instances.with_contents(len, |records| {
+            let sel = points::select(&view, &inst.draws, &inst.stand_ins, &inst.facets, records, threads);
+            if sel.n_points() == 0 {
+                return;
+            }
+            let stride = scene::INSTANCE_STRIDE as usize;
+            let mut kept_draws = Vec::with_capacity(sel.kept.len());
+            let mut first = 0u32;
+            for list in &sel.kept {
+                kept_draws.push((first, list.len() as u32));
+                first += list.len() as u32;
+            }
+            let kept = Buffer::filled(&ctx, sel.n_kept() * stride, vk::BufferUsageFlags::VERTEX_BUFFER, |dst| {
+                for (&i, d) in sel.kept.iter().flatten().zip(dst.chunks_exact_mut(stride)) {
+                    if let Some(r) = records.get(i as usize * stride..(i as usize + 1) * stride) {
+                        d.copy_from_slice(r);
+                    }
+                }
+            });
+            let points = Buffer::filled(
+                &ctx,
+                sel.n_points() * points::POINT_STRIDE as usize,
+                vk::BufferUsageFlags::VERTEX_BUFFER,
+                |dst| sel.write_points(dst),
+            );
+            let n_stood_in = inst.draws.iter().map(|d| u64::from(d.instance_count)).sum::<u64>() - sel.n_kept() as u64;
+            chosen = Some((kept, points, kept_draws, sel.n_points() as u32, n_stood_in));
+        })?;
+        let Some((kept, points, kept_draws, n_points, n_stood_in)) = chosen else { return Ok(()) };
+        let (kept, points) = (kept?, points?);
+        if self.point_pipeline.is_none() {
+            if let Some(p) = &inst.points_program {
+                let desc = PipelineDesc {
+                    kind: Kind::Points,
+                    render_pass: self.render_pass.raw,
+                    samples: self.samples,
+                    skinned: false,
+                    instanced: false,
+                    cull_back: false,
+                    depth: true,
+                };
+                self.point_pipeline = Some(Pipeline::new(&ctx, &self.layout, &p.vertex, &p.fragment, desc)?);
+            }
+        }
+        inst.selection = Some(GpuSelection { view, kept, kept_draws, points, n_points, n_stood_in });
+        Ok(())
+    }
+
+    /// Instances the last recorded frame drew as point sprites, and the points
+    /// (one per facet an instance shows).
+    pub fn drawn_points(&self) -> (u64, u64) {
+        self.drawn_points.get()
+    }
+
     /// Triangles the last recorded frame drew, instances' at the level of detail
     /// they were drawn with.
     pub fn drawn_triangles(&self) -> u64 {
@@ -723,7 +911,9 @@ impl Renderer {
     /// Records the render pass drawing the model into `fb`.
     pub fn record(&self, cmd: vk::CommandBuffer, fb: &Framebuffer, frame: &FrameParams) {
         let pixels_per_unit = if self.lod { self.pixels_per_unit(frame) } else { None };
+        let stand_in_view = self.stand_in_view(frame);
         let mut drawn = 0u64;
+        let mut drawn_points = (0u64, 0u64);
         let d = &self.ctx.device;
         let bg = self.info().map(|i| i.background).unwrap_or([0.12, 0.12, 0.14, 1.0]);
         let clears = [
@@ -775,7 +965,13 @@ impl Renderer {
                     drawn += u64::from(gpu.n_indices / 3);
                 }
                 if let Some(inst) = &gpu.instanced {
-                    d.cmd_bind_vertex_buffers(cmd, 0, &[inst.vertices.raw, inst.instances.raw], &[0, 0]);
+                    // The point stand-ins prepared for this view, if any.
+                    let selection = match (&inst.selection, &self.point_pipeline) {
+                        (Some(s), Some(p)) if Some(s.view) == stand_in_view => Some((s, p)),
+                        _ => None,
+                    };
+                    let records = selection.map_or(inst.instances.raw, |(s, _)| s.kept.raw);
+                    d.cmd_bind_vertex_buffers(cmd, 0, &[inst.vertices.raw, records], &[0, 0]);
                     d.cmd_bind_index_buffer(cmd, inst.indices.raw, 0, vk::IndexType::UINT32);
                     let mut bound = vk::Pipeline::null();
                     for (k, dr) in inst.draws.iter().enumerate() {
@@ -785,7 +981,7 @@ impl Renderer {
                             (Some(l), Some(ppu)) if l.radius * ppu <= scene::LOD_PIXELS => Some(l),
                             _ => None,
                         };
-                        let dr = match lod {
+                        let mut dr = match lod {
                             Some(l) => scene::InstancedDraw {
                                 first_index: l.first_index,
                                 index_count: l.index_count,
@@ -795,6 +991,14 @@ impl Renderer {
                             },
                             None => *dr,
                         };
+                        if let Some((s, _)) = selection {
+                            let (first, count) = s.kept_draws.get(k).copied().unwrap_or((0, 0));
+                            dr.first_instance = first;
+                            dr.instance_count = count;
+                        }
+                        if dr.instance_count == 0 {
+                            continue;
+                        }
                         drawn += u64::from(dr.index_count / 3) * u64::from(dr.instance_count);
                         let pipeline = match (&inst.wire, frame.wireframe) {
                             (Some(w), true) => w.raw,
@@ -814,6 +1018,12 @@ impl Renderer {
                             dr.first_instance,
                         );
                     }
+                    if let Some((s, p)) = selection {
+                        d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, p.raw);
+                        d.cmd_bind_vertex_buffers(cmd, 0, &[s.points.raw], &[0]);
+                        d.cmd_draw(cmd, s.n_points, 1, 0, 0);
+                        drawn_points = (s.n_stood_in, u64::from(s.n_points));
+                    }
                 }
                 if let Some(buf) = &gpu.line_vertices {
                     d.cmd_bind_vertex_buffers(cmd, 0, &[buf.raw, gpu.skins.raw], &[0, 0]);
@@ -832,5 +1042,6 @@ impl Renderer {
             d.cmd_end_render_pass(cmd);
         }
         self.drawn.set(drawn);
+        self.drawn_points.set(drawn_points);
     }
 }

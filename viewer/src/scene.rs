@@ -136,6 +136,12 @@ pub struct Instanced {
     /// Per draw, its level of detail: a coarser mesh for when every instance of the
     /// draw is small on the screen (see [`Lod`]); `None` for small meshes.
     pub lods: Vec<Option<Lod>>,
+    /// Per draw, what its instances look like from afar ([`StandIn`]): a draw's
+    /// instances that cover a few pixels are drawn as point sprites of their area
+    /// and mean shaded colour (`crate::points`).
+    pub stand_ins: Vec<StandIn>,
+    /// The facets of every [`StandIn`].
+    pub facets: Vec<Facet>,
     /// Triangles drawn in all (every instance's).
     pub n_triangles: u64,
 }
@@ -193,6 +199,91 @@ pub const LOD_CELLS: u32 = 6;
 /// A draw uses its [`Lod`] when its instances' bounding spheres are at most this
 /// many pixels across.
 pub const LOD_PIXELS: f32 = 32.0;
+
+/// A shared mesh summarised for drawing it as one point sprite: its triangles
+/// grouped by the direction they face ([`Facet`]), its centre and the radius
+/// around it, in the mesh's own space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StandIn {
+    /// Its facets: `Instanced::facets[first_facet..first_facet + n_facets]`.
+    pub first_facet: u32,
+    pub n_facets: u32,
+    /// The centre of the mesh's bounding box.
+    pub centre: Vec3,
+    /// The largest distance of a vertex from `centre`.
+    pub radius: f32,
+    /// The mesh is closed: only facets facing the eye are seen.
+    pub closed: bool,
+}
+
+/// The triangles of a shared mesh that face about one way (one of 26 directions)
+/// and are all matte or all not, summed: their area vector (the sum of the
+/// triangles' area times their normal, wound as drawn for unmirrored instances),
+/// their centroid and shading normal (the vertex normals' mean), both
+/// area-weighted, and their colour delta (area-weighted, divided by the area).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Facet {
+    pub area: Vec3,
+    /// The triangles' centroid, area-weighted.
+    pub centre: Vec3,
+    pub normal: Vec3,
+    pub delta: [f32; 4],
+    pub matte: bool,
+}
+
+/// Sums `shared`'s oriented triangles into at most 52 [`Facet`]s (26 directions,
+/// matte or not), in a fixed order.
+fn facets_of(shared: &mdg_vm::output::SharedMesh, triangles: &[[u32; 3]]) -> Vec<Facet> {
+    let m = &shared.mesh;
+    // (direction bin, matte) -> (area vector, centroid × area, normal, delta × area, area)
+    type Sums = (Vec3, Vec3, Vec3, [f32; 4], f32);
+    let mut bins: std::collections::BTreeMap<(i8, i8, i8, bool), Sums> = std::collections::BTreeMap::new();
+    for t in triangles {
+        let p = t.map(|k| Vec3::from(m.positions[k as usize]));
+        let area = (p[1] - p[0]).cross(p[2] - p[0]) * 0.5;
+        let a = area.length();
+        if !(a > 0.0 && a.is_finite()) {
+            continue;
+        }
+        let dir = area / a;
+        let q = |x: f32| (x * 1.5).round().clamp(-1.0, 1.0) as i8;
+        let matte = t.iter().all(|&k| m.matte(k as usize));
+        let normal = t.iter().map(|&k| shared.local_normal(k as usize).normalize_or_zero()).sum::<Vec3>();
+        let normal = normal.normalize_or_zero();
+        let mut delta = [0.0f32; 4];
+        if shared.is_prototype() {
+            for &k in t {
+                let c = m.colors.get(k as usize).copied().unwrap_or([0.0; 4]);
+                for (d, x) in delta.iter_mut().zip(c) {
+                    *d += x / 3.0;
+                }
+            }
+        }
+        let e = bins.entry((q(dir.x), q(dir.y), q(dir.z), matte)).or_insert((
+            Vec3::ZERO,
+            Vec3::ZERO,
+            Vec3::ZERO,
+            [0.0; 4],
+            0.0,
+        ));
+        e.0 += area;
+        e.1 += (p[0] + p[1] + p[2]) / 3.0 * a;
+        e.2 += normal * a;
+        for (d, x) in e.3.iter_mut().zip(delta) {
+            *d += x * a;
+        }
+        e.4 += a;
+    }
+    bins.into_iter()
+        .map(|((.., matte), (area, centre, normal, delta, a))| Facet {
+            area,
+            centre: centre / a,
+            normal: normal.normalize_or_zero(),
+            delta: delta.map(|d| d / a),
+            matte,
+        })
+        .collect()
+}
 
 /// One instanced draw (`vkCmdDrawIndexed`'s arguments).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -437,6 +528,8 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
         coarse: Option<(u32, u32, i32)>,
         /// The largest distance of a vertex from the mesh's origin.
         radius: f32,
+        /// Its point-sprite summary (the facets are in `inst.facets`).
+        stand_in: StandIn,
     }
     let mut placed: Vec<Option<Placed>> = (0..out.shared_meshes.len()).map(|_| None).collect();
     for (i, instance) in out.instances.iter().enumerate() {
@@ -486,13 +579,30 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
             let coarse = (oriented.len() > LOD_MIN_TRIANGLES)
                 .then(|| coarse_mesh(shared, &oriented, &mut inst.vertices, &mut inst.indices))
                 .flatten();
+            let closed = mdg_vm::export::is_closed(m, &oriented);
+            let facets = facets_of(shared, &oriented);
+            let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+            for q in &m.positions {
+                lo = lo.min(Vec3::from(*q));
+                hi = hi.max(Vec3::from(*q));
+            }
+            let centre = (lo + hi) * 0.5;
+            let stand_in = StandIn {
+                first_facet: inst.facets.len() as u32,
+                n_facets: facets.len() as u32,
+                centre,
+                radius: m.positions.iter().map(|q| Vec3::from(*q).distance(centre)).fold(0.0, f32::max),
+                closed,
+            };
+            inst.facets.extend(facets);
             Placed {
+                stand_in,
                 coarse,
                 radius: m.positions.iter().map(|q| Vec3::from(*q).length()).fold(0.0, f32::max),
                 vertex_offset,
                 first_index,
                 index_count: 3 * tris.len() as u32,
-                closed: mdg_vm::export::is_closed(m, &oriented),
+                closed,
                 instances: [Vec::new(), Vec::new()],
                 corners: {
                     let mut c: Vec<[u32; 3]> = m.positions.iter().map(|q| q.map(f32::to_bits)).collect();
@@ -534,6 +644,7 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
                 let scale = t.matrix3.x_axis.length().max(t.matrix3.y_axis.length()).max(t.matrix3.z_axis.length());
                 radius = radius.max(p.radius * scale);
             }
+            inst.stand_ins.push(p.stand_in);
             inst.lods.push(p.coarse.map(|(first, count, offset)| Lod {
                 first_index: first + side as u32 * count,
                 index_count: count,

@@ -160,6 +160,9 @@ fn offscreen(cli: &Args, model: &model::Model, size: (u32, u32), programs: &Prog
         on_message: Some(crate::say),
     })?);
     let mut off = Offscreen::new(&ctx, size.0, size.1, cli.samples)?;
+    if crate::pictures::stand_ins_off() {
+        off.renderer_mut().stand_ins = false;
+    }
     if let Some(w) = crate::args::samples_warning(&off.sample_choice(), &ctx.device_name) {
         eprintln!("{w}");
     }

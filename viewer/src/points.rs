@@ -1,0 +1,419 @@
+//! Point-sprite stand-ins for instances that cover a few pixels (issue 37's level of
+//! detail): plain Rust, no Vulkan.
+//!
+//! On a CPU driver (lavapipe) an instanced draw costs per instance far more than its
+//! few pixels: the driver runs its vertex pipeline once per instance, then sets up
+//! and bins every triangle. An instance whose bounding sphere is at most
+//! [`POINT_PIXELS`] across on the screen, closed (or open in a flat model:
+//! [`View::flat`]) and compact ([`COMPACT`]; any
+//! instance at most [`POINT_ANY_PIXELS`] across) is drawn instead as points of a single
+//! non-instanced draw, one per facet it shows ([`crate::scene::Facet`]: its
+//! triangles that face about one way; a box shows up to three, a square one): a
+//! screen-aligned square as large as the facet's projected area (so it covers as
+//! many pixel centres, on average, as the facet would: a sub-pixel square of area
+//! `a` covers a pixel centre with probability `a`, and so does a point of side
+//! `√a`), at the facet's centre, in the colour std's Phong fragment shader
+//! (`phong_fs`) gives it there. One point per facet rather than per instance keeps
+//! each face's own depth, so in a dense array the faces that neighbours hide stay
+//! hidden (one mean-coloured point per box made the million boxes' picture 2.9/255
+//! brighter). The selection is made per frame from the instance
+//! records already in the instance buffer ([`select`]); the instances that stay
+//! meshes are copied, draw by draw, into a second instance buffer.
+
+use crate::scene::{Facet, InstancedDraw, StandIn, INSTANCE_STRIDE};
+use glam::{Mat3, Mat4, Vec3, Vec4};
+
+/// Instances whose bounding sphere is at most this many pixels across are drawn as
+/// points when they are compact ([`COMPACT`])…
+pub const POINT_PIXELS: f32 = 10.0;
+/// …that is, when they cover at least this share of their bounding sphere's disc on
+/// the screen (a box or a square seen face-on about 0.6, a branch's side 0.05: a
+/// chain of thin instances drawn as squares would be a dotted line)…
+pub const COMPACT: f32 = 0.2;
+/// …and any instance at most this many pixels across, whose shape no pixel shows.
+pub const POINT_ANY_PIXELS: f32 = 1.0;
+
+/// Bytes per point vertex: position `R32G32B32_SFLOAT` (location 0), size in pixels
+/// `R32_SFLOAT` (location 1), colour `R8G8B8A8_UNORM` (location 2).
+pub const POINT_STRIDE: u32 = 20;
+
+/// What the frame looks like, for [`select`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct View {
+    /// Projection × view.
+    pub view_projection: Mat4,
+    /// The eye (the fragment shader's `camera_pos`).
+    pub eye: Vec3,
+    /// The light (`light_pos`) and the specular colour and power (`spec_color_power`).
+    pub light: Vec3,
+    pub spec: [f32; 4],
+    /// The target's size in pixels.
+    pub width: f32,
+    pub height: f32,
+    /// The model is flat ([`crate::scene::Bounds::is_flat`]): open meshes may stand
+    /// in as points too. In a 3-D model they do not, since their backs may be
+    /// hidden by neighbours that a point cannot hide them behind (six open sides
+    /// make a branch; their points would cover both its front and its back).
+    pub flat: bool,
+}
+
+/// The outcome of [`select`]: the point vertices ([`POINT_STRIDE`] bytes each), in
+/// pieces to be written one after the other (as they were made: a million boxes'
+/// points are 60 MB that need not be joined on the heap before the upload) and,
+/// per draw, the indices (into the instance buffer) of the instances kept as meshes.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Selection {
+    pub points: Vec<Vec<u8>>,
+    pub kept: Vec<Vec<u32>>,
+}
+
+impl Selection {
+    pub fn n_points(&self) -> usize {
+        self.points.iter().map(Vec::len).sum::<usize>() / POINT_STRIDE as usize
+    }
+
+    /// Writes the points into `dst` ([`Selection::n_points`] × [`POINT_STRIDE`]
+    /// bytes).
+    pub fn write_points(&self, dst: &mut [u8]) {
+        let mut at = 0;
+        for piece in &self.points {
+            if let Some(d) = dst.get_mut(at..at + piece.len()) {
+                d.copy_from_slice(piece);
+            }
+            at += piece.len();
+        }
+    }
+
+    /// Instances kept as meshes, in all.
+    pub fn n_kept(&self) -> usize {
+        self.kept.iter().map(Vec::len).sum()
+    }
+}
+
+/// std's `phong_fs` for one fragment: position `p`, normal `n` (unit, facing the
+/// viewer), colour `c`, matte or not; the colour written (clamped, as the 8-bit
+/// target stores it).
+fn phong(view: &View, p: Vec3, n: Vec3, c: Vec4, matte: bool) -> Vec3 {
+    let light_dir = (view.light - p).normalize_or_zero();
+    let lambertian = light_dir.dot(n).max(0.0);
+    let mut specular = 0.0;
+    if lambertian > 0.0 && !matte {
+        let reflect_dir = -light_dir - 2.0 * n.dot(-light_dir) * n;
+        let view_dir = (view.eye - p).normalize_or_zero();
+        specular = reflect_dir.dot(view_dir).max(0.0).powf(view.spec[3]);
+    }
+    let rgb =
+        (0.15 + 0.85 * lambertian) * c.truncate() + specular * Vec3::new(view.spec[0], view.spec[1], view.spec[2]);
+    rgb.clamp(Vec3::ZERO, Vec3::ONE)
+}
+
+fn f32_at(rec: &[u8], k: usize) -> f32 {
+    let mut b = [0u8; 4];
+    if let Some(s) = rec.get(4 * k..4 * k + 4) {
+        b.copy_from_slice(s);
+    }
+    f32::from_le_bytes(b)
+}
+
+/// Appends the points standing in for one instance (its record `rec`,
+/// [`INSTANCE_STRIDE`] bytes) to `out`, one per facet it shows; `false` (and
+/// nothing appended) when it is to be drawn as a mesh.
+fn stand_in(view: &View, s: &StandIn, facets: &[Facet], rec: &[u8], out: &mut Vec<u8>) -> bool {
+    let row = |r: usize| {
+        Vec4::new(f32_at(rec, 4 * r), f32_at(rec, 4 * r + 1), f32_at(rec, 4 * r + 2), f32_at(rec, 4 * r + 3))
+    };
+    let (r0, r1, r2) = (row(0), row(1), row(2));
+    let bone = rec.get(64..68).map_or(1, |b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+    if bone != 0 || !(s.closed || view.flat) {
+        return false; // posed by a bone at draw time; open in a 3-D model
+    }
+    let color = Vec4::new(f32_at(rec, 12), f32_at(rec, 13), f32_at(rec, 14), f32_at(rec, 15));
+    // The linear part (rows) and the centre placed.
+    let l = Mat3::from_cols(r0.truncate(), r1.truncate(), r2.truncate()).transpose();
+    let p = l * s.centre + Vec3::new(r0.w, r1.w, r2.w);
+    let scale = l.x_axis.length().max(l.y_axis.length()).max(l.z_axis.length());
+    let radius = s.radius * scale;
+    let m = &view.view_projection;
+    let c = *m * p.extend(1.0);
+    // In front of the eye with all of its bounding sphere (else the clipper decides).
+    let w_axis = Vec3::new(m.x_axis.w, m.y_axis.w, m.z_axis.w);
+    let ahead = c.w - radius * w_axis.length();
+    if ahead.is_nan() || ahead <= 0.0 || !p.is_finite() {
+        return false;
+    }
+    // Pixels per world unit at p: the rows of the Jacobian of the pixel position.
+    let (nx, ny) = (c.x / c.w, c.y / c.w);
+    let row_of = |k: usize| Vec3::new(m.x_axis[k], m.y_axis[k], m.z_axis[k]);
+    let j0 = (row_of(0) - nx * w_axis) * (0.5 * view.width / c.w);
+    let j1 = (row_of(1) - ny * w_axis) * (0.5 * view.height / c.w);
+    let jn = j0.cross(j1);
+    let diameter = 2.0 * radius * jn.length().sqrt();
+    if diameter.is_nan() || diameter > POINT_PIXELS {
+        return false;
+    }
+    // Normals and area vectors through the cofactor matrix, flipped for a mirrored
+    // instance as the mirrored draw's reversed winding flips them.
+    let cof = Mat3::from_cols(l.y_axis.cross(l.z_axis), l.z_axis.cross(l.x_axis), l.x_axis.cross(l.y_axis));
+    let sign = if l.determinant() < 0.0 { -1.0 } else { 1.0 };
+    let t = Vec3::new(r0.w, r1.w, r2.w);
+    let unorm = |x: f32| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
+    let start = out.len();
+    let mut area = 0.0f32;
+    for f in facets {
+        let a = sign * (cof * f.area);
+        let q = l * f.centre + t;
+        let facing = a.dot(view.eye - q);
+        if s.closed && facing <= 0.0 {
+            continue;
+        }
+        let px = a.dot(jn).abs();
+        if !(px > 0.0 && px.is_finite()) {
+            continue; // seen edge-on: it covers nothing
+        }
+        let mut n = (sign * (cof * f.normal)).normalize_or_zero();
+        if facing < 0.0 {
+            n = -n;
+        }
+        let c = (color + Vec4::from_array(f.delta)).clamp(Vec4::ZERO, Vec4::ONE);
+        let rgb = phong(view, q, n, c, f.matte);
+        for x in [q.x, q.y, q.z, px.sqrt()] {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+        out.extend_from_slice(&[unorm(rgb.x), unorm(rgb.y), unorm(rgb.z), unorm(c.w)]);
+        area += px;
+    }
+    let disc = std::f32::consts::PI * 0.25 * diameter * diameter;
+    if diameter > POINT_ANY_PIXELS && (area.is_nan() || area < COMPACT * disc) {
+        out.truncate(start);
+        return false;
+    }
+    true
+}
+
+/// Chooses, for every instance of the draws (`stand_ins`: each draw's), a point or
+/// the mesh, reading the instance records
+/// from `records` (the instance buffer). The work is split over `threads` threads;
+/// the outcome is the same for any count.
+pub fn select(
+    view: &View,
+    draws: &[InstancedDraw],
+    stand_ins: &[StandIn],
+    facets: &[Facet],
+    records: &[u8],
+    threads: usize,
+) -> Selection {
+    let stride = INSTANCE_STRIDE as usize;
+    // (draw, first instance, count) pieces of at most CHUNK instances.
+    const CHUNK: u32 = 1 << 14;
+    let mut pieces = Vec::new();
+    for (k, d) in draws.iter().enumerate() {
+        let mut first = d.first_instance;
+        let end = d.first_instance + d.instance_count;
+        while first < end {
+            let n = CHUNK.min(end - first);
+            pieces.push((k, first, n));
+            first += n;
+        }
+    }
+    let work = |&(k, first, n): &(usize, u32, u32)| -> (Vec<u8>, Vec<u32>) {
+        let mut points = Vec::new();
+        let mut kept = Vec::new();
+        let s = stand_ins.get(k).copied();
+        let fs = s.and_then(|s| facets.get(s.first_facet as usize..(s.first_facet + s.n_facets) as usize));
+        for i in first..first + n {
+            let rec = records.get(i as usize * stride..(i as usize + 1) * stride).unwrap_or(&[]);
+            let as_points = match (s, fs) {
+                (Some(s), Some(fs)) => stand_in(view, &s, fs, rec, &mut points),
+                _ => false,
+            };
+            if !as_points {
+                kept.push(i);
+            }
+        }
+        (points, kept)
+    };
+    let threads = threads.clamp(1, pieces.len().max(1));
+    let results: Vec<(Vec<u8>, Vec<u32>)> = if threads == 1 {
+        pieces.iter().map(work).collect()
+    } else {
+        let per = pieces.len().div_ceil(threads);
+        std::thread::scope(|scope| {
+            let handles: Vec<_> =
+                pieces.chunks(per).map(|c| (c, scope.spawn(move || c.iter().map(work).collect::<Vec<_>>()))).collect();
+            // (A thread that panicked has its share done again here: none is lost.)
+            handles.into_iter().flat_map(|(c, h)| h.join().unwrap_or_else(|_| c.iter().map(work).collect())).collect()
+        })
+    };
+    let mut out = Selection { points: Vec::with_capacity(results.len()), kept: vec![Vec::new(); draws.len()] };
+    for ((k, ..), (points, kept)) in pieces.iter().zip(results) {
+        if !points.is_empty() {
+            out.points.push(points);
+        }
+        if let Some(list) = out.kept.get_mut(*k) {
+            list.extend(kept);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A record: rows of `l` with translation `t`, colour `c`, bone 0.
+    fn record(l: Mat3, t: Vec3, c: [f32; 4]) -> Vec<u8> {
+        let rows = l.transpose();
+        let mut r = Vec::new();
+        for (k, row) in [rows.x_axis, rows.y_axis, rows.z_axis].into_iter().enumerate() {
+            for x in row.extend(t[k]).to_array() {
+                r.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        for x in c {
+            r.extend_from_slice(&x.to_le_bytes());
+        }
+        r.extend_from_slice(&0u32.to_le_bytes());
+        r
+    }
+
+    /// A unit square in z = 0 facing +z, matte (as Context Free's squares are).
+    fn square() -> (StandIn, Vec<Facet>) {
+        let s = StandIn { first_facet: 0, n_facets: 1, centre: Vec3::ZERO, radius: 0.5f32.sqrt(), closed: false };
+        (s, vec![Facet { area: Vec3::Z, centre: Vec3::ZERO, normal: Vec3::Z, delta: [0.0; 4], matte: true }])
+    }
+
+    /// Looking down −z from z = 10 with a 90° field of view onto a 100 × 100 target:
+    /// at depth 10, 5 pixels per unit.
+    fn view() -> View {
+        let proj = glam::camera::rh::proj::directx::perspective(std::f32::consts::FRAC_PI_2, 1.0, 0.1, 100.0);
+        let v = glam::camera::rh::view::look_at_mat4(Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO, Vec3::Y);
+        View {
+            view_projection: proj * v,
+            eye: Vec3::new(0.0, 0.0, 10.0),
+            light: Vec3::new(0.0, 0.0, 10.0),
+            spec: [1.0, 1.0, 1.0, 32.0],
+            width: 100.0,
+            height: 100.0,
+            flat: true,
+        }
+    }
+
+    fn draw(n: u32) -> InstancedDraw {
+        InstancedDraw {
+            first_index: 0,
+            index_count: 6,
+            vertex_offset: 0,
+            first_instance: 0,
+            instance_count: n,
+            closed: false,
+        }
+    }
+
+    fn point(sel: &Selection, k: usize) -> (Vec3, f32, [u8; 4]) {
+        points_of(sel)[k]
+    }
+
+    /// Every point of `sel`: position, size, colour.
+    fn points_of(sel: &Selection) -> Vec<(Vec3, f32, [u8; 4])> {
+        let mut all = vec![0u8; sel.n_points() * 20];
+        sel.write_points(&mut all);
+        all.chunks_exact(20).map(unpack).collect()
+    }
+
+    fn unpack(v: &[u8]) -> (Vec3, f32, [u8; 4]) {
+        let f = |i: usize| f32::from_le_bytes([v[4 * i], v[4 * i + 1], v[4 * i + 2], v[4 * i + 3]]);
+        (Vec3::new(f(0), f(1), f(2)), f(3), [v[16], v[17], v[18], v[19]])
+    }
+
+    #[test]
+    fn a_small_square_becomes_a_point_of_its_area_and_colour_and_a_big_one_stays() {
+        let (s, facets) = square();
+        // 0.4 units → 2 pixels across: a point of 2 × 2 pixels in the lit colour
+        // (the light is at the eye: full Lambert, matte, so 0.15 + 0.85 = 1 × red).
+        let mut records = record(Mat3::from_diagonal(Vec3::splat(0.4)), Vec3::ZERO, [0.8, 0.2, 0.0, 1.0]);
+        // 4 units → 20 pixels: kept as a mesh.
+        records.extend(record(Mat3::from_diagonal(Vec3::splat(4.0)), Vec3::new(1.0, 0.0, 0.0), [0.0; 4]));
+        let sel = select(&view(), &[draw(2)], &[s], &facets, &records, 1);
+        assert_eq!(sel.n_points(), 1);
+        assert_eq!(sel.kept, vec![vec![1]]);
+        let (p, size, c) = point(&sel, 0);
+        assert!(p.length() < 1e-6, "{p}");
+        assert!((size - 2.0).abs() < 1e-3, "size {size}");
+        assert_eq!(c, [204, 51, 0, 255]);
+    }
+
+    #[test]
+    fn a_mirrored_or_turned_instance_keeps_its_projected_area() {
+        let (s, facets) = square();
+        let small = Mat3::from_diagonal(Vec3::splat(0.4));
+        let mirrored = Mat3::from_diagonal(Vec3::new(-0.4, 0.4, 0.4));
+        // Turned 60° about x: seen at cos 60° = half its area.
+        let turned = Mat3::from_rotation_x(std::f32::consts::FRAC_PI_3) * small;
+        let edge_on = Mat3::from_rotation_x(std::f32::consts::FRAC_PI_2) * small;
+        let mut records = Vec::new();
+        for l in [small, mirrored, turned, edge_on] {
+            records.extend(record(l, Vec3::ZERO, [0.5, 0.5, 0.5, 1.0]));
+        }
+        let sel = select(&view(), &[draw(4)], &[s], &facets, &records, 1);
+        // Edge-on, it is as thin as can be: a mesh (which covers next to nothing).
+        assert_eq!(sel.n_points(), 3);
+        assert_eq!(sel.kept, vec![vec![3]]);
+        let sizes: Vec<f32> = (0..3).map(|k| point(&sel, k).1).collect();
+        assert!((sizes[0] - 2.0).abs() < 1e-3 && (sizes[1] - 2.0).abs() < 1e-3, "{sizes:?}");
+        assert!((sizes[2] * sizes[2] - 2.0).abs() < 0.05, "half of 4 px²: {sizes:?}");
+        // Two-sided: the mirrored square (seen from behind as wound) is lit the same.
+        assert_eq!(point(&sel, 0).2, point(&sel, 1).2);
+    }
+
+    #[test]
+    fn a_thin_instance_stays_a_mesh_unless_it_is_tiny() {
+        // A 0.05 × 1 strip: 5 pixels long and a quarter of a pixel wide (a mesh),
+        // then 0.75 pixels long (a point).
+        let s = StandIn { first_facet: 0, n_facets: 1, centre: Vec3::ZERO, radius: 0.5, closed: false };
+        let facets =
+            vec![Facet { area: Vec3::Z * 0.05, centre: Vec3::ZERO, normal: Vec3::Z, delta: [0.0; 4], matte: true }];
+        let mut records = record(Mat3::IDENTITY, Vec3::ZERO, [1.0; 4]);
+        records.extend(record(Mat3::from_diagonal(Vec3::splat(0.15)), Vec3::ZERO, [1.0; 4]));
+        let sel = select(&view(), &[draw(2)], &[s], &facets, &records, 1);
+        assert_eq!(sel.kept, vec![vec![0]]);
+        assert_eq!(sel.n_points(), 1);
+        // In a 3-D model, open meshes are never points.
+        let sel = select(&View { flat: false, ..view() }, &[draw(2)], &[s], &facets, &records, 1);
+        assert_eq!(sel.kept, vec![vec![0, 1]]);
+    }
+
+    #[test]
+    fn a_closed_box_shows_its_front_faces_and_the_choice_is_the_same_on_any_number_of_threads() {
+        // A unit cube: six faces of area 1.
+        let facets: Vec<Facet> = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z]
+            .map(|n| Facet { area: n, centre: n * 0.5, normal: n, delta: [0.0; 4], matte: false })
+            .to_vec();
+        let s = StandIn { first_facet: 0, n_facets: 6, centre: Vec3::ZERO, radius: 0.75f32.sqrt(), closed: true };
+        let mut records = Vec::new();
+        let n = 40_000u32;
+        for i in 0..n {
+            let t = Vec3::new((i % 200) as f32 * 0.01 - 1.0, (i / 200) as f32 * 0.01 - 1.0, 0.0);
+            records.extend(record(Mat3::from_diagonal(Vec3::splat(0.2)), t, [0.2, 0.4, 0.6, 1.0]));
+        }
+        let one = select(&view(), &[draw(n)], &[s], &facets, &records, 1);
+        let four = select(&view(), &[draw(n)], &[s], &facets, &records, 4);
+        assert_eq!(one, four);
+        assert_eq!(one.n_kept(), 0);
+        // Seen from the front: the +z face, 0.2² units² = 1 px² at depth 10 (a
+        // little more, its centre being nearer), then the sides that face the eye
+        // (perspective), never the back (−z) face.
+        let mut total = 0.0;
+        let mut fronts = 0;
+        for (p, size, _) in points_of(&one) {
+            assert!(p.z > -0.1 + 1e-6, "a back face drawn: {p}");
+            if (p.z - 0.1).abs() < 1e-6 {
+                assert!(size * size > 0.999 && size * size < 1.1, "{size}");
+                fronts += 1;
+            }
+            total += size * size;
+        }
+        assert_eq!(fronts, n);
+        let per_box = total / n as f32;
+        assert!(per_box > 1.0 && per_box < 1.3, "{per_box} px² a box");
+    }
+}
