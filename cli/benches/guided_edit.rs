@@ -23,8 +23,9 @@ use mdg_viewer::model::{self, Loader as _};
 use mdg_viewer::offscreen::Offscreen;
 use mdg_viewer::renderer::FrameParams;
 use mdg_viewer::{program, scene};
+use mdg_vm::bundle::Section as _;
 use mdg_vm::eval::EvalOptions;
-use mdg_vm::sosmc::Cancel;
+use mdg_vm::sosmc::{Cancel, GuidedTable};
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
@@ -50,7 +51,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let opts =
         model::LoadOptions { std_dir: Some(root.join("std")), guided_search: true, ..model::LoadOptions::default() };
     let (m, _) = Toolchain.load(&grammar, &opts).map_err(|f| f.error.to_string())?;
-    let table = m.bundle.extensions.guided.clone().ok_or("guided_tree.mdg has no search section")?;
+    let table = GuidedTable::from_bundle(&m.bundle)
+        .map_err(|e| e.to_string())?
+        .ok_or("guided_tree.mdg has no search section")?;
     let bundle = Arc::new(m.bundle.clone());
     let seed = m.bundle.settings.randseed;
     let ctx = Arc::new(Context::new(&ContextOptions {

@@ -57,6 +57,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
+use mdg_vm::bundle::SectionKind;
 use mdg_vm::export::glb::MAX_COLOR_VARIANTS;
 
 /// Largest difference allowed between the chromaticities (r, g, b)/(r + g + b) of the
@@ -449,7 +450,7 @@ fn blender_three_and_assimp_open_every_std_example() {
         // tests (tests/tests/creature.rs) validate those files.
         let opts = mdg_compiler::expand::Options { std_dir: Some(root().join("std")), ..Default::default() };
         let bundle = match mdg_compiler::driver::build(&mdg_compiler::source::FsLoader, src, &opts) {
-            Ok((bundle, _)) if bundle.extensions.creatures.is_some() => {
+            Ok((bundle, _)) if bundle.extensions.has(SectionKind::Creatures) => {
                 eprintln!("{name}: the creature mode writes many models: not a client check");
                 continue;
             }
@@ -459,7 +460,7 @@ fn blender_three_and_assimp_open_every_std_example() {
                 continue;
             }
         };
-        let own_mode = bundle.extensions.grid.is_some() || bundle.extensions.guided.is_some();
+        let own_mode = bundle.extensions.has(SectionKind::Grid) || bundle.extensions.has(SectionKind::Guided);
         let file = |ext: &str| dir.join(format!("{name}.{ext}"));
         let (glb, picture) = (file("glb"), dir.join(format!("{name}.mdg.png")));
         let write_flat = |ext: &str| -> Result<PathBuf, String> {
@@ -520,7 +521,7 @@ fn blender_three_and_assimp_open_every_std_example() {
         let animated = doc.get("animations").is_some();
         // With --instances (the grid mode makes no prototype instances): where there is
         // nothing to instance, the flat file byte for byte.
-        if bundle.extensions.grid.is_none() {
+        if !bundle.extensions.has(SectionKind::Grid) {
             let path = file("instances.glb");
             match run_mdg(&[src.as_os_str(), "--instances".as_ref(), "-o".as_ref(), path.as_os_str()]) {
                 Err(e) => failures.push(format!("{name}: mdg-run --instances failed:\n{e}")),
@@ -560,7 +561,7 @@ fn blender_three_and_assimp_open_every_std_example() {
             stats,
             isosurfaces,
             animated,
-            guided: bundle.extensions.guided.is_some(),
+            guided: bundle.extensions.has(SectionKind::Guided),
         });
     }
     // Every kind of prototype instance (colour variants, mirrored items, bones), and

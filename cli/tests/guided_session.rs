@@ -12,7 +12,8 @@ use mdg_viewer::guided::search::NS_BONES;
 use mdg_viewer::guided::session::{Accepted, Outcome, Session, SessionOptions};
 use mdg_viewer::guided::worker::Preempt;
 use mdg_viewer::model::{LoadOptions, Loader as _, Model};
-use mdg_vm::sosmc::Guide;
+use mdg_vm::bundle::Section;
+use mdg_vm::sosmc::{Guide, GuidedTable};
 use std::sync::mpsc;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -263,7 +264,7 @@ fn l_cycles_the_utilisation_term_and_far_guides_are_reported() {
     assert!(s.title().contains("; utilisation paper"), "{}", s.title());
     assert_ne!(bones_of(&local.output), bones_of(&paper.output));
     let b = &m.bundle;
-    let t = b.extensions.guided.as_ref().expect("table");
+    let t = &GuidedTable::from_bundle(&b).expect("a valid section").expect("table");
     let direct = mdg_vm::sosmc::Prepared::new(b, t, &t.guides)
         .expect("prepared")
         .with_utilisation(mdg_vm::sosmc::Utilisation::Paper);

@@ -7,6 +7,7 @@
 //! with each shape's `blocks` one row a line, so a person can read and edit it, and each
 //! class of matching shapes written once (its other members are `like` references).
 
+use mdg_vm::bundle::Section as _;
 use mdg_vm::grid::induce::{induce, measures, Example, Measures};
 use mdg_vm::grid::infer::{infer, InferOptions, Inference, Progress};
 use mdg_vm::grid::voxel::VoxelModel;
@@ -350,7 +351,9 @@ pub fn write_checked_with(g: &GridGrammar, comment: &[String], path: &Path, like
     let back = if a.has_errors() {
         None
     } else {
-        crate::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).ok().and_then(|b| b.extensions.grid)
+        crate::lower::lower(&a.expanded, &a.checked.symbols, &a.sources)
+            .ok()
+            .and_then(|b| GridGrammar::from_bundle(&b).ok().flatten())
     };
     if back.as_ref() != Some(g) {
         return Err(format!(

@@ -11,7 +11,7 @@ use mdg_compiler::check::CheckOptions;
 use mdg_compiler::driver::{analyze_text, Analysis};
 use mdg_compiler::expand::Options;
 use mdg_compiler::source::{MemLoader, Sources};
-use mdg_vm::bundle;
+use mdg_vm::bundle::{self, Section as _};
 use mdg_vm::eval::{evaluate, EvalOptions};
 use mdg_vm::export::{self, Format};
 use mdg_vm::grid::format::VoxelFormat;
@@ -703,7 +703,15 @@ fn ext_tables(input: &[u8]) -> u64 {
             seeds => seeds[(h % seeds.len() as u64) as usize].clone(),
         },
     };
-    let Ok(mut tables) = serde_json::to_value(&b.extensions) else { return 2 };
+    // The sections as one JSON object keyed by kind (as stored).
+    let mut sections = serde_json::Map::new();
+    for kind in bundle::SectionKind::ALL {
+        if let Some(text) = b.extensions.get(kind) {
+            let Ok(table) = serde_json::from_str(text) else { return 2 };
+            sections.insert(kind.key().to_string(), table);
+        }
+    }
+    let mut tables = serde_json::Value::Object(sections);
     let mut paths = Vec::new();
     number_paths(&tables, &mut Vec::new(), &mut paths);
     if paths.is_empty() {
@@ -727,10 +735,13 @@ fn ext_tables(input: &[u8]) -> u64 {
         println!("ext_tables: {} = {value}", path.join("/"));
     }
     let key = hash(path.join("/").as_bytes()) & 0xFFFF;
-    let Ok(ext) = serde_json::from_value(tables) else { return 5 ^ (key << 8) };
-    b.extensions = ext;
-    // The verifier applies the checker's limits to the tables: a bundle it accepts
-    // must run in its section's mode without a panic.
+    for kind in bundle::SectionKind::ALL {
+        if let Some(table) = tables.get(kind.key()) {
+            b.extensions.set(kind, table.to_string());
+        }
+    }
+    // The sections' verifiers apply the checker's limits to the tables: a table they
+    // accept must run in its section's mode without a panic.
     let b = match bundle::load(&bundle::encode(&b)) {
         Err(e) => {
             let msg = e.to_string();
@@ -740,7 +751,9 @@ fn ext_tables(input: &[u8]) -> u64 {
     };
     deep();
     let mut sig = 0x7777 ^ key;
-    if let Some(t) = &b.extensions.guided {
+    let section = mdg_vm::sosmc::GuidedTable::from_bundle(&b);
+    sig ^= section_signature(&section);
+    if let Ok(Some(t)) = &section {
         if let Ok(p) = mdg_vm::sosmc::Prepared::new(&b, t, &t.guides) {
             let full = mdg_vm::sosmc::SearchOptions::from_settings(&t.settings, b.settings.randseed);
             // The table's own sizes are checked (that is where huge values are refused);
@@ -760,7 +773,9 @@ fn ext_tables(input: &[u8]) -> u64 {
             }
         }
     }
-    if let Some(t) = &b.extensions.creatures {
+    let section = mdg_vm::creature::CreatureTable::from_bundle(&b);
+    sig ^= section_signature(&section);
+    if let Ok(Some(t)) = &section {
         if let Ok(lib) = mdg_vm::creature::geometry::Library::build(&b, t) {
             let mut o = mdg_vm::creature::evolve::EvolveOptions::from_table(t);
             o.population = o.population.min(3);
@@ -773,7 +788,9 @@ fn ext_tables(input: &[u8]) -> u64 {
             sig ^= (g.presented.len() as u64) << 3;
         }
     }
-    if let Some(g) = &b.extensions.grid {
+    let section = mdg_vm::grid::GridGrammar::from_bundle(&b);
+    sig ^= section_signature(&section);
+    if let Ok(Some(g)) = &section {
         let d = mdg_vm::grid::generate::GenerateOptions::default();
         // Two attempts: the retry path (assessment against the example) is fuzzed too.
         let o = mdg_vm::grid::generate::GenerateOptions {
@@ -788,6 +805,15 @@ fn ext_tables(input: &[u8]) -> u64 {
         };
     }
     sig
+}
+
+/// The signature of an extension section that does not decode or verify (0 when it
+/// does, or is absent).
+fn section_signature<T>(section: &Result<Option<T>, bundle::SectionError>) -> u64 {
+    match section {
+        Err(e) => hash(e.to_string().chars().filter(|c| !c.is_ascii_digit()).take(40).collect::<String>().as_bytes()),
+        Ok(_) => 0,
+    }
 }
 
 fn glsl_limits(input: &[u8]) -> u64 {

@@ -5,6 +5,7 @@
 
 use mdg_cli::modes::{grid::GridArgs, Common};
 use mdg_tests::{build_source, root};
+use mdg_vm::bundle::Section;
 use mdg_vm::grid::build::generate;
 use mdg_vm::grid::format::{self, VoxelFormat};
 use mdg_vm::grid::generate::{enclosure, Bounds, Derivation, GenerateOptions, Instance};
@@ -455,7 +456,7 @@ grid g {
 }
 "#;
     let b = build_source(src);
-    let g = b.extensions.grid.expect("a grid table");
+    let g = GridGrammar::from_bundle(&b).expect("a valid section").expect("a grid table");
     let d = Derivation::new(&g);
     let start = d.start();
     assert_eq!(start.shape, 2);
@@ -512,12 +513,10 @@ fn placed(g: &GridGrammar) -> Vec<Instance> {
 #[test]
 fn enclosure_removes_an_exposed_wall_segment() {
     // A fin: a wall segment sticking out of the right wall into the open.
-    let g = build_source(&box_source(
+    let b = build_source(&box_source(
         r#"shape fin { size 3 2 1; plane z; at 5 1 2; blocks glass glass glass glass glass glass; }"#,
-    ))
-    .extensions
-    .grid
-    .expect("grid");
+    ));
+    let g = GridGrammar::from_bundle(&b).expect("a valid section").expect("grid");
     let all = placed(&g);
     let (kept, model, removed) = enclosure(&g, &all, 1).expect("runs");
     assert_eq!(removed, 1);
@@ -541,7 +540,7 @@ fn enclosure_repeats_until_nothing_is_removed() {
         &format!("shape roof {{ size 5 1 5; plane y; at 0 3 0; blocks {}; }}", holed.join(" ")),
         1,
     );
-    let g = build_source(&src).extensions.grid.expect("grid");
+    let g = GridGrammar::from_bundle(&build_source(&src)).expect("a valid section").expect("grid");
     let (kept, _, removed) = enclosure(&g, &placed(&g), 0).expect("runs");
     let names: Vec<&str> = kept.iter().map(|i| g.shapes[i.shape as usize].name.as_str()).collect();
     assert_eq!(names, ["floor"], "removed {removed}");
@@ -597,10 +596,10 @@ fn induce_write_compile_generate_round_trip() {
         Ok(b) => b,
         Err(a) => panic!("the written grammar does not compile:\n{}", mdg_tests::render(&a)),
     };
-    assert_eq!(bundle.extensions.grid.as_ref(), Some(&g));
+    assert_eq!(GridGrammar::from_bundle(&bundle).expect("a valid section").as_ref(), Some(&g));
     // Through the bundle file format too.
     let bundle = mdg_vm::bundle::load(&mdg_vm::bundle::encode(&bundle)).expect("loads");
-    assert_eq!(bundle.extensions.grid.as_ref(), Some(&g));
+    assert_eq!(GridGrammar::from_bundle(&bundle).expect("a valid section").as_ref(), Some(&g));
 
     // Generate through the mdg-run mode into every format.
     let run = |out: &std::path::Path, seed: u64, args: &GridArgs| {
@@ -729,7 +728,7 @@ fn the_std_grid_example_generates_a_building() {
     let path = root().join("std/examples/grid_cottage.mdg");
     let text = std::fs::read_to_string(&path).expect("std/examples/grid_cottage.mdg");
     let bundle = build_source(&text);
-    let g = bundle.extensions.grid.as_ref().expect("a grid section");
+    let g = &GridGrammar::from_bundle(&bundle).expect("a valid section").expect("a grid section");
     let made = generate(
         g,
         &GenerateOptions { steps: g.generate.steps, enclosure: true, seal: 1, seed: 1, ..GenerateOptions::default() },
@@ -832,7 +831,7 @@ fn solid_induction_of_an_l_shaped_building_round_trips() {
                 let (bundle, _) =
                     mdg_compiler::driver::build(&mdg_compiler::source::FsLoader, &style, &mdg_tests::options())
                         .unwrap_or_else(|a| panic!("does not compile:\n{}", mdg_tests::render(&a)));
-                assert_eq!(bundle.extensions.grid.as_ref(), Some(&g));
+                assert_eq!(GridGrammar::from_bundle(&bundle).expect("a valid section").as_ref(), Some(&g));
             }
         }
     }
@@ -855,9 +854,16 @@ fn solid_induction_of_an_l_shaped_building_round_trips() {
     // `plane none` on a source shape keeps it out of the enclosure constraint's reach.
     let src = "startshape s\nrule s {}\ngrid g {\n  palette { a \"1:0\"; }\n  \
                shape p { size 2 1 2; plane none; blocks a a a a; }\n  start p;\n}\n";
-    assert_eq!(build_source(src).extensions.grid.expect("grid").shapes[0].plane, None);
+    assert_eq!(
+        GridGrammar::from_bundle(&build_source(src)).expect("a valid section").expect("grid").shapes[0].plane,
+        None
+    );
     let flat = src.replace("plane none; ", "");
-    assert_eq!(build_source(&flat).extensions.grid.expect("grid").shapes[0].plane, Some(1), "without it: flat along y");
+    assert_eq!(
+        GridGrammar::from_bundle(&build_source(&flat)).expect("a valid section").expect("grid").shapes[0].plane,
+        Some(1),
+        "without it: flat along y"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -1046,7 +1052,7 @@ fn a_stair_turned_by_a_rule_faces_the_right_way() {
     let src = "startshape s\nrule s {}\ngrid g {\n  palette { st \"minecraft:oak_stairs[facing=east,half=bottom]\"; p \"minecraft:oak_planks\"; }\n  \
                shape base { size 1 1 1; blocks p; }\n  shape step { size 1 1 1; blocks st; }\n  \
                rule base step at 1 0 0;\n  rule base step at 0 0 -1 turn 1;\n  start base;\n}\n";
-    let g = build_source(src).extensions.grid.expect("grid");
+    let g = GridGrammar::from_bundle(&build_source(src)).expect("a valid section").expect("grid");
     let mut seen = BTreeMap::new();
     for seed in 0..8 {
         let made = generate(&g, &GenerateOptions { steps: 2, enclosure: false, seed, ..GenerateOptions::default() })

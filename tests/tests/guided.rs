@@ -9,7 +9,7 @@ use glam::DVec3;
 use mdg_cli::modes::guided::GuidedArgs;
 use mdg_cli::modes::Common;
 use mdg_tests::{analyze_file, build_source, root};
-use mdg_vm::bundle::Bundle;
+use mdg_vm::bundle::{Bundle, Section};
 use mdg_vm::eval::{evaluate, evaluate_calls, Call, EvalOptions, Expander};
 use mdg_vm::sosmc::{Guide, GuidedTable, ModelChoice, Prepared, SearchOptions, Stop};
 
@@ -20,7 +20,7 @@ fn std_tree() -> Bundle {
 }
 
 fn table(b: &Bundle) -> GuidedTable {
-    b.extensions.guided.clone().expect("guided table")
+    GuidedTable::from_bundle(&b).expect("a valid section").expect("guided table")
 }
 
 fn rule(b: &Bundle, name: &str) -> u32 {
@@ -60,7 +60,7 @@ fn std_tree_compiles_to_a_guided_table_that_round_trips() {
     assert_eq!(t.settings.generations, 100);
     assert_eq!(t.settings.budget_ms, Some(200.0));
     let back = mdg_vm::bundle::load(&mdg_vm::bundle::encode(&b)).expect("loads");
-    assert_eq!(back.extensions.guided.as_ref(), Some(&t));
+    assert_eq!(GuidedTable::from_bundle(&back).expect("a valid section").as_ref(), Some(&t));
 }
 
 #[test]
@@ -68,8 +68,9 @@ fn the_verifier_rejects_bad_tables() {
     let b = std_tree();
     let load = |t: GuidedTable| {
         let mut c = b.clone();
-        c.extensions.guided = Some(t);
-        mdg_vm::bundle::load(&mdg_vm::bundle::encode(&c)).map(|_| ()).map_err(|e| e.to_string())
+        t.store(&mut c.extensions);
+        let back = mdg_vm::bundle::load(&mdg_vm::bundle::encode(&c)).map_err(|e| e.to_string())?;
+        GuidedTable::from_bundle(&back).map(|_| ()).map_err(|e| e.to_string())
     };
     assert_eq!(load(table(&b)), Ok(()));
     let mut t = table(&b);
@@ -645,7 +646,10 @@ fn the_utilisation_key_equals_the_flag_and_the_flag_overrides_it() {
         assert_eq!(t.settings.utilisation, mdg_vm::sosmc::Utilisation::from_name(term));
         // The key survives the bundle's bytes.
         let back = mdg_vm::bundle::load(&mdg_vm::bundle::encode(&keyed)).expect("round trip");
-        assert_eq!(back.extensions.guided.expect("table").settings.utilisation, t.settings.utilisation);
+        assert_eq!(
+            GuidedTable::from_bundle(&back).expect("a valid section").expect("table").settings.utilisation,
+            t.settings.utilisation
+        );
         let by_key = run(&keyed, None).vertex_mesh();
         assert_eq!(by_key, run(&plain, Some(term)).vertex_mesh(), "key {term} = flag {term}");
         assert_eq!(run(&keyed, Some(other)).vertex_mesh(), run(&plain, Some(other)).vertex_mesh(), "flag wins");

@@ -52,6 +52,7 @@ use crate::sync::{Fence, Semaphore};
 use crate::Error;
 use ash::vk;
 use glam::DVec2;
+use mdg_vm::bundle::SectionKind;
 use mdg_vm::sosmc::Guide;
 use raw_window_handle::{HasDisplayHandle, HasWindowHandle};
 use std::path::{Path, PathBuf};
@@ -259,8 +260,8 @@ pub fn run(
     let mut model = model;
     // A guided grammar opens with its first search done here, so the first frame
     // (and the home view's framing) shows the searched model.
-    let guided = match &model.bundle.extensions.guided {
-        Some(_) => {
+    let guided = match model.bundle.extensions.has(SectionKind::Guided) {
+        true => {
             let mut s = start_session(&model, &opts, &proxy).map_err(Error::Other)?;
             let found = s.search_now().map_err(|e| Error::Other(format!("guided search: {e}")))?;
             (opts.log)(&format!("mdg-view: guided search: {}", found.summary.line()));
@@ -270,7 +271,7 @@ pub fn run(
             model.output = found.output;
             Some(s)
         }
-        None => None,
+        false => None,
     };
     let script = opts.script.clone().map(Runner::new);
     let mut app = App {
@@ -1138,7 +1139,7 @@ impl App {
             Reloaded::Failed(msg) => {
                 (self.opts.log)(&format!("mdg-view: reload failed; keeping the last good model\n{msg}"));
             }
-            Reloaded::Model(mut m) if m.bundle.extensions.guided.is_some() => {
+            Reloaded::Model(mut m) if m.bundle.extensions.has(SectionKind::Guided) => {
                 // A guided grammar: search with it; the model on screen stays until
                 // the search answers (the camera is kept).
                 let bundle = Arc::new(m.bundle.clone());

@@ -8,8 +8,10 @@
 //! `cargo run --release --bin mdgc -- build …` unless `MDG_CREATURE_BUNDLE` names
 //! a compiled `.mdgb`).
 
+use mdg_vm::bundle::Section as _;
 use mdg_vm::creature::evolve::{Evolution, EvolveOptions};
 use mdg_vm::creature::geometry::{assemble, Library};
+use mdg_vm::creature::CreatureTable;
 use mdg_vm::output::Mesh;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -47,7 +49,7 @@ fn main() -> Result<(), String> {
     let path = bundle_path()?;
     let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
     let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
-    let table = bundle.extensions.creatures.as_ref().ok_or("no creature table")?;
+    let table = &CreatureTable::from_bundle(&bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
     let t0 = Instant::now();
     let lib = Library::build(&bundle, table)?;
     let lib_ms = t0.elapsed().as_secs_f64() * 1e3;

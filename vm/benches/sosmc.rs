@@ -11,8 +11,8 @@
 //! not depend on the compiler): `$MDG_SOSMC_BUNDLE` if set (relative to the workspace root), else built into
 //! `target/sosmc/guided_tree.mdgb` with `cargo run -p mdg-cli --bin mdgc`.
 
-use mdg_vm::bundle::Bundle;
-use mdg_vm::sosmc::{Prepared, SearchOptions};
+use mdg_vm::bundle::{Bundle, Section as _};
+use mdg_vm::sosmc::{GuidedTable, Prepared, SearchOptions};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
@@ -67,8 +67,8 @@ fn main() {
             std::process::exit(1);
         }
     };
-    let Some(table) = b.extensions.guided.clone() else {
-        eprintln!("sosmc bench: the grammar has no search section");
+    let Ok(Some(table)) = GuidedTable::from_bundle(&b) else {
+        eprintln!("sosmc bench: the grammar has no valid search section");
         std::process::exit(1);
     };
     let threads = rayon::current_num_threads();

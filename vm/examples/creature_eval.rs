@@ -21,9 +21,11 @@
 //! (`cargo run --release --bin mdgc -- build …`) unless `MDG_CREATURE_BUNDLE`
 //! names a compiled `.mdgb`.
 
+use mdg_vm::bundle::Section as _;
 use mdg_vm::creature::evolve::{Evolution, EvolveOptions};
 use mdg_vm::creature::geometry::Library;
 use mdg_vm::creature::table::RuleKind;
+use mdg_vm::creature::CreatureTable;
 use std::path::{Path, PathBuf};
 
 fn bundle_path() -> Result<PathBuf, String> {
@@ -69,7 +71,7 @@ fn run(evo: &Evolution) -> Vec<[f64; 6]> {
 /// copies of arrangements placed by their plain offsets (as before issue 22) and
 /// seated on the torso's surface; evolution rejecting detached layouts or not.
 fn touch(bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
-    let table = bundle.extensions.creatures.as_ref().ok_or("no creature table")?;
+    let table = &CreatureTable::from_bundle(&bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
     let mut lib = Library::build(bundle, table)?;
     println!("| placement | contact test in evolution | presented monsters | with a detached part | rate | tries rejected as detached |");
     println!("|---|---|---|---|---|---|");
@@ -109,7 +111,7 @@ fn touch(bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
 /// and of its contact test, over the presented monsters of seed 3, generations 0–5.
 fn time(bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
     use mdg_vm::creature::geometry::{detached, layout};
-    let table = bundle.extensions.creatures.as_ref().ok_or("no creature table")?;
+    let table = &CreatureTable::from_bundle(&bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
     let mut lib = Library::build(bundle, table)?;
     let mut o = EvolveOptions::from_table(table);
     o.seed = 3;
@@ -187,7 +189,7 @@ fn time(bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
 /// presented monsters) each variant made, summed over the seeds. The grammar's own
 /// population and offspring count.
 fn fig13(bundle: &mdg_vm::bundle::Bundle, path: &Path, seeds: u64, gens: u32) -> Result<(), String> {
-    let table = bundle.extensions.creatures.as_ref().ok_or("no creature table")?;
+    let table = &CreatureTable::from_bundle(&bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
     let lib = Library::build(bundle, table)?;
     let base = EvolveOptions::from_table(table);
     println!(
@@ -249,7 +251,7 @@ fn fig13(bundle: &mdg_vm::bundle::Bundle, path: &Path, seeds: u64, gens: u32) ->
 /// kept and lineages free, as `--allow-lookalikes --no-lineages`.
 fn pairs(bundle: &mdg_vm::bundle::Bundle, args: &[String]) -> Result<(), String> {
     use mdg_vm::creature::silhouette::distance;
-    let table = bundle.extensions.creatures.as_ref().ok_or("no creature table")?;
+    let table = &CreatureTable::from_bundle(&bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
     let lib = Library::build(bundle, table)?;
     let mut o = EvolveOptions::from_table(table);
     o.seed = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(3);
@@ -308,7 +310,7 @@ fn pairs(bundle: &mdg_vm::bundle::Bundle, args: &[String]) -> Result<(), String>
 /// 1–4 without lineages kept (look-alikes dropped), and the notes of lineages that
 /// died out — to find a run where a body plan is crowded out.
 fn lineages(bundle: &mdg_vm::bundle::Bundle, seeds: u64) -> Result<(), String> {
-    let table = bundle.extensions.creatures.as_ref().ok_or("no creature table")?;
+    let table = &CreatureTable::from_bundle(&bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
     let lib = Library::build(bundle, table)?;
     for seed in 1..=seeds {
         let mut o = EvolveOptions::from_table(table);
@@ -369,7 +371,7 @@ fn main() -> Result<(), String> {
     let path = bundle_path()?;
     let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
     let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
-    let table = bundle.extensions.creatures.as_ref().ok_or("no creature table")?;
+    let table = &CreatureTable::from_bundle(&bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
     let lib = Library::build(&bundle, table)?;
     let population = 18u32;
     println!(

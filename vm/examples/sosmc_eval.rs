@@ -48,9 +48,11 @@
 //! committed; `benches/sosmc_eval.sh` skips them without it).
 
 use glam::{DVec3, Vec3};
-use mdg_vm::bundle::Bundle;
+use mdg_vm::bundle::{Bundle, Section as _};
 use mdg_vm::eval::EvalOptions;
-use mdg_vm::sosmc::{guides_from_json, Guide, ModelChoice, Prepared, SearchOptions, SearchResult, Utilisation};
+use mdg_vm::sosmc::{
+    guides_from_json, Guide, GuidedTable, ModelChoice, Prepared, SearchOptions, SearchResult, Utilisation,
+};
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 use std::time::Instant;
@@ -91,7 +93,7 @@ fn guides_of(b: &Bundle, file: Option<&str>) -> Result<Vec<Guide>, String> {
             let text = std::fs::read_to_string(f).map_err(|e| format!("{f}: {e}"))?;
             guides_from_json(&text).map_err(|e| format!("{f}: {e}"))
         }
-        None => Ok(b.extensions.guided.as_ref().map(|t| t.guides.clone()).unwrap_or_default()),
+        None => Ok(GuidedTable::from_bundle(b).map_err(|e| e.to_string())?.map(|t| t.guides).unwrap_or_default()),
     }
 }
 
@@ -132,7 +134,7 @@ fn main() -> ExitCode {
 }
 
 fn options(b: &Bundle, args: &[String]) -> Result<SearchOptions, String> {
-    let table = b.extensions.guided.as_ref().ok_or("no search section")?;
+    let table = &GuidedTable::from_bundle(&b).map_err(|e| e.to_string())?.ok_or("no search section")?;
     let seed = arg(args, "--seed").map(|s| s.parse::<u64>().map_err(|e| e.to_string())).transpose()?.unwrap_or(1);
     let mut o = SearchOptions::from_settings(&table.settings, seed);
     o.budget = None;
@@ -154,7 +156,7 @@ fn options(b: &Bundle, args: &[String]) -> Result<SearchOptions, String> {
 
 fn run(args: &[String]) -> Result<(), String> {
     let b = bundle()?;
-    let table = b.extensions.guided.clone().ok_or("no search section")?;
+    let table = GuidedTable::from_bundle(&b).map_err(|e| e.to_string())?.ok_or("no search section")?;
     let guides = guides_of(&b, arg(args, "--guides"))?;
     let p = Prepared::new(&b, &table, &guides)?;
     let o = options(&b, args)?;
@@ -222,7 +224,7 @@ fn to_segment(p: DVec3, a: DVec3, b: DVec3) -> f64 {
 fn helix(args: &[String]) -> Result<(), String> {
     let runs: u64 = arg(args, "--runs").map(|s| s.parse().map_err(|_| "bad --runs")).transpose()?.unwrap_or(40);
     let b = bundle()?;
-    let table = b.extensions.guided.clone().ok_or("no search section")?;
+    let table = GuidedTable::from_bundle(&b).map_err(|e| e.to_string())?.ok_or("no search section")?;
     let guide = helix_guide(1.2, 2.5, 0.3, 6.0);
     // 400 points along the helix (its parameter is proportional to arc length).
     let samples: Vec<DVec3> = (0..400)
@@ -270,7 +272,7 @@ const CURVE_SETS: &str = "tests/guides/s_curve.json,tests/guides/spiral.json,tes
 fn curves(args: &[String]) -> Result<(), String> {
     let runs: u64 = arg(args, "--runs").map(|s| s.parse().map_err(|_| "bad --runs")).transpose()?.unwrap_or(20);
     let b = bundle()?;
-    let table = b.extensions.guided.clone().ok_or("no search section")?;
+    let table = GuidedTable::from_bundle(&b).map_err(|e| e.to_string())?.ok_or("no search section")?;
     let o = options(&b, args)?;
     let mut configs = Vec::new();
     for c in arg(args, "--configs").unwrap_or("paper:lowest,local:lowest,paper:reach,local:reach").split(',') {
@@ -370,7 +372,7 @@ fn guide_set(entry: &str) -> Result<GuideSet, String> {
 fn fig4(args: &[String]) -> Result<(), String> {
     let runs: u64 = arg(args, "--runs").map(|s| s.parse().map_err(|_| "bad --runs")).transpose()?.unwrap_or(200);
     let b = bundle()?;
-    let table = b.extensions.guided.clone().ok_or("no search section")?;
+    let table = GuidedTable::from_bundle(&b).map_err(|e| e.to_string())?.ok_or("no search section")?;
     let grammar = options(&b, args)?;
     let heuristic = arg(args, "--heuristic-scale").map(|h| h.parse::<f64>()).transpose().map_err(|_| "bad scale")?;
     // `--guides A.json,B.json@calder`: guide sets (`program` is the grammar's own);
@@ -528,7 +530,7 @@ fn plot(args: &[String]) -> Result<(), String> {
         }
     };
     let b = bundle()?;
-    let table = b.extensions.guided.clone().ok_or("no search section")?;
+    let table = GuidedTable::from_bundle(&b).map_err(|e| e.to_string())?.ok_or("no search section")?;
     let base = options(&b, args)?;
     let seed = base.seed;
     // Search every panel first, then draw them all at one scale (x right, z up).

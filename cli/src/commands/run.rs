@@ -11,7 +11,7 @@ use mdg_compiler::diag::render_plain;
 use mdg_compiler::driver;
 use mdg_compiler::source::{FsLoader, MemLoader};
 use mdg_viewer::camera::Pose;
-use mdg_vm::bundle::Bundle;
+use mdg_vm::bundle::{Bundle, SectionKind};
 use mdg_vm::eval::{evaluate_with_progress, EvalOptions};
 use mdg_vm::export::{self, Format};
 use mdg_vm::output::Output;
@@ -324,7 +324,7 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
             .map_err(|e| (2, format!("cannot write {}: {e}", p.display())))?;
     }
     let pictures = Vulkan::new(opts.std_dir.clone()).posed(pose).samples(cli.samples);
-    if bundle.extensions.creatures.is_some() {
+    if bundle.extensions.has(SectionKind::Creatures) {
         if batch.is_some() {
             return Err((
                 2,
@@ -346,7 +346,7 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
         let common = common(cli, &opts, Some(&out_dir), cli.seed, size, &pictures);
         return Ok(modes::creature::run(&bundle, &cli.creature, &common));
     }
-    let is_grid = bundle.extensions.grid.is_some();
+    let is_grid = bundle.extensions.has(SectionKind::Grid);
     if is_grid && format_none(cli) {
         return Err((
             2,
@@ -517,7 +517,7 @@ fn run_one(
     pictures: &dyn Pictures,
     say_wrote: bool,
 ) -> Result<Option<(u64, u64)>, Failure> {
-    if bundle.extensions.grid.is_some() {
+    if bundle.extensions.has(SectionKind::Grid) {
         let common = common(cli, opts, Some(output), seed, size, pictures);
         let code = modes::grid::run(bundle, &cli.grid, &common);
         return if code == ExitCode::SUCCESS {
@@ -550,7 +550,7 @@ fn run_one(
         bar.set_message(format!("{calls} rule calls"));
         bar.tick();
     };
-    let mut out = if bundle.extensions.guided.is_some() {
+    let mut out = if bundle.extensions.has(SectionKind::Guided) {
         let common = common(cli, opts, Some(output), seed, size, pictures);
         modes::guided::run(bundle, &cli.guided, &common, &eval_opts).map_err(|e| (1, e))?
     } else {

@@ -14,8 +14,9 @@ use mdg_viewer::program::Programs;
 use mdg_viewer::renderer::FrameParams;
 use mdg_viewer::window::{self, WindowOptions};
 use mdg_viewer::Error;
+use mdg_vm::bundle::{Section as _, SectionKind};
 use mdg_vm::eval::EvalOptions;
-use mdg_vm::sosmc::{Cancel, Guide, Stop};
+use mdg_vm::sosmc::{Cancel, Guide, GuidedTable, Stop};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -125,7 +126,9 @@ fn numbered(path: &Path, i: u32, n: u32) -> PathBuf {
 /// Runs the guided search as the window's first one does and puts its model, the
 /// guides and the bones (the window's overlay) into `model`.
 fn search_for_picture(model: &mut model::Model, guides: Option<Vec<Guide>>, eval: &EvalOptions) -> Result<(), Error> {
-    let Some(table) = &model.bundle.extensions.guided else { return Ok(()) };
+    let Some(table) = GuidedTable::from_bundle(&model.bundle).map_err(|e| Error::Other(e.to_string()))? else {
+        return Ok(());
+    };
     let guides = guides.unwrap_or_else(|| table.guides.clone());
     let seed = eval.seed.unwrap_or(model.bundle.settings.randseed);
     let request = SearchRequest {
@@ -285,7 +288,7 @@ pub fn run(cli: Args) -> ExitCode {
         }
     };
     eprint!("{}", model.warnings);
-    let guided = model.bundle.extensions.guided.is_some();
+    let guided = model.bundle.extensions.has(SectionKind::Guided);
     let guides = match (&cli.guides, guided) {
         (Some(path), true) => match read_guides(path) {
             Ok(g) => Some((path.clone(), g)),

@@ -5,7 +5,7 @@
 
 use super::Common;
 use crate::pictures::Pictures;
-use mdg_vm::bundle::Bundle;
+use mdg_vm::bundle::{Bundle, Section as _};
 use mdg_vm::creature::evolve::{
     lineage_name, structure_key, Evolution, EvolveOptions, Generation, Individual, Population,
 };
@@ -288,7 +288,9 @@ fn with_meshes<'b>(
     file: &Path,
     opts: &mdg_compiler::expand::Options,
 ) -> Result<std::borrow::Cow<'b, Bundle>, String> {
-    let Some(t) = bundle.extensions.creatures.as_ref() else { return Ok(std::borrow::Cow::Borrowed(bundle)) };
+    let Some(t) = CreatureTable::from_bundle(bundle).map_err(|e| e.to_string())? else {
+        return Ok(std::borrow::Cow::Borrowed(bundle));
+    };
     if t.meshes.iter().all(|m| !m.triangles.is_empty()) {
         return Ok(std::borrow::Cow::Borrowed(bundle));
     }
@@ -314,7 +316,7 @@ fn with_meshes<'b>(
 fn run_inner(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<(), (u8, String)> {
     let bundle = with_meshes(bundle, common.file, common.compile).map_err(|e| (1, e))?;
     let bundle = bundle.as_ref();
-    let Some(table) = bundle.extensions.creatures.as_ref() else {
+    let Some(table) = &CreatureTable::from_bundle(bundle).map_err(|e| (1, e.to_string()))? else {
         return Err((1, "the grammar has no `creature` section".into()));
     };
     let opts = options(table, args, common.seed).map_err(|e| (2, e))?;

@@ -9,12 +9,12 @@
 //! from the shapes' `at` positions) beside the generated one.
 
 use super::Common;
-use mdg_vm::bundle::Bundle;
+use mdg_vm::bundle::{Bundle, Section as _};
 use mdg_vm::export::{self, Format};
 use mdg_vm::grid::build;
 use mdg_vm::grid::format::{self as voxfmt, VoxelFormat};
 use mdg_vm::grid::generate::{self, GenerateOptions};
-use mdg_vm::grid::mesh;
+use mdg_vm::grid::{mesh, GridGrammar};
 use mdg_vm::output::{Mesh, Output};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -121,7 +121,7 @@ fn site(bundle: &Bundle, seed: u64, eval: &mdg_vm::eval::EvalOptions) -> Mesh {
 }
 
 fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u8, String)> {
-    let Some(g) = bundle.extensions.grid.as_ref() else {
+    let Some(g) = &GridGrammar::from_bundle(bundle).map_err(|e| (1, e.to_string()))? else {
         return Err((1, "the grammar has no `grid` section".into()));
     };
     let steps = args.steps.unwrap_or(g.generate.steps);

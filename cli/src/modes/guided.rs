@@ -2,12 +2,12 @@
 //! the geometry phase (docs/guided.md).
 
 use super::Common;
-use mdg_vm::bundle::Bundle;
+use mdg_vm::bundle::{Bundle, Section as _};
 use mdg_vm::eval::EvalOptions;
 use mdg_vm::output::Output;
 use mdg_vm::sosmc::measure::{beyond_reach, coverage, covered_runs};
 use mdg_vm::sosmc::{
-    guides_from_json, Prepared, Progress, Resampling, SearchOptions, Stop, Utilisation, REACH_SAMPLES,
+    guides_from_json, GuidedTable, Prepared, Progress, Resampling, SearchOptions, Stop, Utilisation, REACH_SAMPLES,
 };
 use std::path::PathBuf;
 use std::time::Duration;
@@ -151,7 +151,8 @@ pub fn utilisation_flag(args: &GuidedArgs) -> Result<Option<Utilisation>, String
 /// Runs the search and returns the model to export, evaluated with `eval` (the
 /// limits and `--sites` of the command line; the seed is the search's).
 pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common, eval: &EvalOptions) -> Result<Output, String> {
-    let table = bundle.extensions.guided.as_ref().ok_or("the program has no `search` section")?;
+    let table =
+        &GuidedTable::from_bundle(bundle).map_err(|e| e.to_string())?.ok_or("the program has no `search` section")?;
     let guides = match &args.guides {
         Some(path) => {
             let text = mdg_vm::input::read_text_bounded(path, mdg_vm::input::MAX_DATA_BYTES)

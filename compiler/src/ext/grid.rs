@@ -1017,6 +1017,7 @@ mod tests {
     use crate::check::CheckOptions;
     use crate::driver::analyze_text;
     use crate::source::MemLoader;
+    use mdg_vm::bundle::Section as _;
 
     /// The grid table a program compiles to (no errors allowed).
     fn grammar(src: &str) -> GridGrammar {
@@ -1030,7 +1031,7 @@ mod tests {
         let rendered = crate::diag::render_plain(&a.diagnostics, &a.sources);
         assert!(!a.has_errors(), "{rendered}");
         let b = crate::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).expect("lowers");
-        b.extensions.grid.expect("a grid table")
+        GridGrammar::from_bundle(&b).expect("a valid section").expect("a grid table")
     }
 
     #[test]

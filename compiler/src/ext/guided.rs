@@ -679,6 +679,7 @@ mod tests {
     use crate::check::CheckOptions;
     use crate::driver::{analyze_text, Analysis};
     use crate::source::MemLoader;
+    use mdg_vm::bundle::Section as _;
 
     fn analyze(src: &str) -> Analysis {
         analyze_text(
@@ -695,7 +696,7 @@ mod tests {
         let a = analyze(src);
         assert!(!a.has_errors(), "{}", crate::diag::render_plain(&a.diagnostics, &a.sources));
         let b = crate::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).expect("lowers");
-        (b.extensions.guided.clone().expect("a guided table"), b)
+        (GuidedTable::from_bundle(&b).expect("a valid section").expect("a guided table"), b)
     }
 
     fn codes(src: &str) -> Vec<&'static str> {

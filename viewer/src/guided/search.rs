@@ -5,12 +5,12 @@
 //! editor's current state ([`super::edit::Editor::overlay`]), so a dragged curve
 //! follows the cursor before the search for it has finished.
 
-use mdg_vm::bundle::Bundle;
+use mdg_vm::bundle::{Bundle, Section as _};
 use mdg_vm::eval::EvalOptions;
 use mdg_vm::output::{Output, Polyline};
 use mdg_vm::sosmc::cost::Cost;
 use mdg_vm::sosmc::measure::{beyond_reach, Reach};
-use mdg_vm::sosmc::{Cancel, Guide, Prepared, SearchOptions, Stop, Utilisation, REACH_SAMPLES};
+use mdg_vm::sosmc::{Cancel, Guide, GuidedTable, Prepared, SearchOptions, Stop, Utilisation, REACH_SAMPLES};
 use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
@@ -117,7 +117,8 @@ pub struct Searched {
 /// wrong (no `search` section, guides that do not fit in memory, …).
 pub fn run_search(req: &SearchRequest, cancel: &Cancel) -> Result<Searched, String> {
     let b = &*req.bundle;
-    let table = b.extensions.guided.as_ref().ok_or("the grammar has no `search` section")?;
+    let table =
+        &GuidedTable::from_bundle(b).map_err(|e| e.to_string())?.ok_or("the grammar has no `search` section")?;
     let t0 = Instant::now();
     let mut opts = SearchOptions::from_settings(&table.settings, req.seed);
     opts.clock = Some(t0);

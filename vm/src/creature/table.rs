@@ -334,9 +334,16 @@ fn finite(v: &[f32]) -> bool {
     v.iter().all(|x| x.is_finite())
 }
 
+impl crate::bundle::Section for CreatureTable {
+    const KIND: crate::bundle::SectionKind = crate::bundle::SectionKind::Creatures;
+    fn check(&self, bundle: &crate::bundle::Bundle) -> Result<(), String> {
+        self.verify(bundle)
+    }
+}
+
 impl CreatureTable {
     /// Checks every index against the table and the bundle, and every number for
-    /// finiteness (called by the bundle verifier).
+    /// finiteness (called by `Section::from_bundle`).
     pub fn verify(&self, bundle: &crate::bundle::Bundle) -> Result<(), String> {
         let nk = self.kinds.len() as u32;
         let np = self.parts.len() as u32;

@@ -288,13 +288,20 @@ pub fn connected(blocks: &[ShapeBlock]) -> bool {
     seen.len() == set.len()
 }
 
+impl crate::bundle::Section for GridGrammar {
+    const KIND: crate::bundle::SectionKind = crate::bundle::SectionKind::Grid;
+    fn check(&self, bundle: &crate::bundle::Bundle) -> Result<(), String> {
+        self.verify(bundle)
+    }
+}
+
 impl GridGrammar {
     /// The palette's state-rotation table (see [`kind_turns`]).
     pub fn kind_turns(&self) -> Vec<[u32; 4]> {
         kind_turns(&self.palette.iter().map(|p| p.block.as_str()).collect::<Vec<_>>())
     }
 
-    /// Checks every index, size and match (called by the bundle verifier, so a
+    /// Checks every index, size and match (called by `Section::from_bundle`, so a
     /// corrupt bundle is rejected before generation reads it).
     pub fn verify(&self, _bundle: &crate::bundle::Bundle) -> Result<(), String> {
         self.validate()

@@ -281,8 +281,15 @@ pub struct GuidedTable {
     pub settings: SearchSettings,
 }
 
+impl crate::bundle::Section for GuidedTable {
+    const KIND: crate::bundle::SectionKind = crate::bundle::SectionKind::Guided;
+    fn check(&self, bundle: &Bundle) -> Result<(), String> {
+        self.verify(bundle)
+    }
+}
+
 impl GuidedTable {
-    /// Checks every index against the bundle (called by the bundle verifier): rules
+    /// Checks every index against the bundle (called by `Section::from_bundle`): rules
     /// in range, skeleton rules that do not draw and are not animated or
     /// convolutions, wrap-ups from skeleton rules to other rules, valid guides and
     /// settings.
