@@ -15,6 +15,7 @@
 
 use glam::DVec2;
 use mdg_cli::toolchain::Toolchain;
+use mdg_guided::{Cancel, GuidedTable};
 use mdg_viewer::context::{Context, ContextOptions, Validation};
 use mdg_viewer::guided::edit::Editor;
 use mdg_viewer::guided::project::ScreenView;
@@ -25,7 +26,6 @@ use mdg_viewer::renderer::FrameParams;
 use mdg_viewer::{program, scene};
 use mdg_vm::bundle::Section as _;
 use mdg_vm::eval::EvalOptions;
-use mdg_vm::sosmc::{Cancel, GuidedTable};
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
@@ -152,7 +152,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for (k, v) in row.iter().enumerate() {
             parts[k].push(*v);
         }
-        if searched.summary.stop == mdg_vm::sosmc::Stop::Budget {
+        if searched.summary.stop == mdg_guided::Stop::Budget {
             budget_cuts += 1;
         }
         generations.push(searched.summary.generations as f64);

@@ -17,7 +17,7 @@
 //!   many polygons; mesh objects other than `geometry` are the isosurface instances
 //!   (prototype instances are expanded into the geometry), as many as MDG's output
 //!   has unless there are more than the exporter writes as nodes
-//!   ([`mdg_vm::export::glb::MAX_INSTANCE_NODES`]), when at most as many;
+//!   ([`mdg_export::glb::MAX_INSTANCE_NODES`]), when at most as many;
 //!   `--stats` vertices and triangles are at most the drawn ones (instances add);
 //! * animated examples (the `.glb` has animations) have Blender actions and
 //!   three.js clips with tracks; at least two std examples are animated;
@@ -57,8 +57,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
+use mdg_export::glb::MAX_COLOR_VARIANTS;
 use mdg_vm::bundle::SectionKind;
-use mdg_vm::export::glb::MAX_COLOR_VARIANTS;
 
 /// Largest difference allowed between the chromaticities (r, g, b)/(r + g + b) of the
 /// mean colours of Blender's render and MDG's picture.
@@ -639,7 +639,7 @@ fn blender_three_and_assimp_open_every_std_example() {
     assert_eq!(three.len(), examples.len() + instanced.len());
     let three_instanced = three.split_off(examples.len());
 
-    let max_nodes = mdg_vm::export::glb::MAX_INSTANCE_NODES as u64;
+    let max_nodes = mdg_export::glb::MAX_INSTANCE_NODES as u64;
     let mut animated = 0;
     for (e, t) in examples.iter().zip(&three) {
         let name = &e.name;

@@ -228,8 +228,7 @@ pub fn run(
     r.tree = out.derivation.clone();
     let started = Instant::now();
     let mut glb = Vec::new();
-    let written =
-        mdg_vm::export::glb::write_glb_with(&out, &mdg_vm::export::glb::GlbOptions { instances: true }, &mut glb);
+    let written = mdg_export::glb::write_glb_with(&out, &mdg_export::glb::GlbOptions { instances: true }, &mut glb);
     if let Err(e) = written {
         r.status = Status::Error;
         r.message = format!("cannot write the model: {e}");

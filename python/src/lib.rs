@@ -20,9 +20,9 @@ use mdg_compiler::diag::{render_plain, Diagnostic as Diag};
 use mdg_compiler::driver;
 use mdg_compiler::expand::Options;
 use mdg_compiler::source::{FsLoader, MemLoader, Sources};
+use mdg_export::{self as export, Format};
 use mdg_vm::bundle::{Bundle, SectionKind};
 use mdg_vm::eval::{evaluate, EvalOptions};
-use mdg_vm::export::{self, Format};
 use mdg_vm::output::{Groups, Instance, Output};
 
 use numpy::ndarray::{ArrayView1, ArrayView2, ShapeBuilder};

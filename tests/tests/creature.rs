@@ -9,13 +9,13 @@ use mdg_compiler::check::CheckOptions;
 use mdg_compiler::driver::analyze;
 use mdg_compiler::ext::creature as ext;
 use mdg_compiler::source::FsLoader;
+use mdg_creature::evolve::{Evolution, EvolveOptions};
+use mdg_creature::geometry::{layout, Library};
+use mdg_creature::shape::Shape;
+use mdg_creature::table::RuleKind;
+use mdg_creature::CreatureTable;
 use mdg_tests::{options as compile_options, root, run_source};
 use mdg_vm::bundle::{Bundle, Section};
-use mdg_vm::creature::evolve::{Evolution, EvolveOptions};
-use mdg_vm::creature::geometry::{layout, Library};
-use mdg_vm::creature::shape::Shape;
-use mdg_vm::creature::table::RuleKind;
-use mdg_vm::creature::CreatureTable;
 use std::path::Path;
 
 fn monsters() -> Bundle {
@@ -366,7 +366,7 @@ fn std_library_has_two_variants_per_type_and_category() {
     let mut per: std::collections::BTreeMap<(String, String), Vec<u32>> = Default::default();
     for p in &t.parts {
         let key = (t.kinds[p.kind as usize].name.clone(), t.categories[p.category as usize].clone());
-        let mdg_vm::creature::table::Geometry::Rule(r) = p.geometry else { panic!("{}: not a rule", p.name) };
+        let mdg_creature::table::Geometry::Rule(r) = p.geometry else { panic!("{}: not a rule", p.name) };
         per.entry(key).or_default().push(r);
     }
     assert_eq!(per.len(), 14, "{:?}", per.keys());
@@ -424,11 +424,11 @@ fn the_documented_example_compiles_and_evolves() {
 /// contact test (so a detached part would be presented, not rejected): every
 /// presented and background monster.
 fn evolve_without_contact_test(
-    t: &mdg_vm::creature::table::CreatureTable,
+    t: &mdg_creature::table::CreatureTable,
     lib: &Library,
     seed: u64,
     generations: u32,
-) -> Vec<mdg_vm::creature::evolve::Individual> {
+) -> Vec<mdg_creature::evolve::Individual> {
     let mut o = EvolveOptions::from_table(t);
     o.seed = seed;
     o.require_contact = false;
@@ -465,7 +465,7 @@ fn every_placed_part_touches_its_torso_over_many_seeds() {
                 let pp = ind.layout.placed.iter().find(|p| p.meta == parent).expect("torso placed");
                 for m in &sp.metas {
                     let cp = ind.layout.placed.iter().find(|p| p.meta == m.id).expect("part placed");
-                    assert!(mdg_vm::creature::geometry::touches(&lib, cp, pp));
+                    assert!(mdg_creature::geometry::touches(&lib, cp, pp));
                     parts += 1;
                 }
             }
@@ -508,7 +508,7 @@ fn glb_json(bytes: &[u8]) -> serde_json::Value {
 }
 
 /// A monster of generation 2 with a row or stack of copies and mirrored parts.
-fn a_monster(t: &mdg_vm::creature::table::CreatureTable, lib: &Library) -> mdg_vm::creature::evolve::Individual {
+fn a_monster(t: &mdg_creature::table::CreatureTable, lib: &Library) -> mdg_creature::evolve::Individual {
     let mut o = EvolveOptions::from_table(t);
     o.seed = 3;
     let evo = Evolution::new(t, lib, o);
@@ -520,7 +520,7 @@ fn a_monster(t: &mdg_vm::creature::table::CreatureTable, lib: &Library) -> mdg_v
 
 #[test]
 fn a_monster_glb_has_one_named_node_per_part_sharing_one_mesh_per_library_part() {
-    use mdg_vm::creature::geometry::{node_name, write_glb};
+    use mdg_creature::geometry::{node_name, write_glb};
     let b = monsters();
     let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("table");
     let lib = Library::build(&b, t).expect("library");
@@ -556,9 +556,9 @@ fn a_monster_glb_has_one_named_node_per_part_sharing_one_mesh_per_library_part()
     }
     // Shared meshes make the file smaller than the baked monster.
     let mut baked = mdg_vm::output::Mesh::default();
-    mdg_vm::creature::geometry::assemble(&lib, &ind.layout.placed, glam::Vec3::ZERO, &mut baked);
+    mdg_creature::geometry::assemble(&lib, &ind.layout.placed, glam::Vec3::ZERO, &mut baked);
     let mut one = Vec::new();
-    mdg_vm::export::glb::write_glb(&mdg_vm::creature::geometry::output_of(baked, [1.0; 4]), &mut one).expect("glb");
+    mdg_export::glb::write_glb(&mdg_creature::geometry::output_of(baked, [1.0; 4]), &mut one).expect("glb");
     assert!(bytes.len() < one.len(), "{} bytes as parts, {} baked", bytes.len(), one.len());
     // Deterministic.
     assert_eq!(bytes, write_glb(t, &lib, &ind.id, &ind.shape, &ind.layout.placed).expect("glb"));
@@ -566,7 +566,7 @@ fn a_monster_glb_has_one_named_node_per_part_sharing_one_mesh_per_library_part()
 
 /// A presented monster of seed 3 with a second torso that carries parts of its own
 /// (a rider on a quadruped's withers, or a humanoid on a horse's body).
-fn a_rider(t: &mdg_vm::creature::table::CreatureTable, lib: &Library) -> mdg_vm::creature::evolve::Individual {
+fn a_rider(t: &mdg_creature::table::CreatureTable, lib: &Library) -> mdg_creature::evolve::Individual {
     let mut o = EvolveOptions::from_table(t);
     o.seed = 3;
     let evo = Evolution::new(t, lib, o);
@@ -599,7 +599,7 @@ fn local_matrix(n: &serde_json::Value) -> glam::Mat4 {
 
 #[test]
 fn a_monster_glb_hangs_every_part_from_its_torso_with_part_materials_and_sides() {
-    use mdg_vm::creature::geometry::{node_name, write_glb};
+    use mdg_creature::geometry::{node_name, write_glb};
     let b = monsters();
     let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("table");
     let lib = Library::build(&b, t).expect("library");
@@ -694,7 +694,7 @@ fn bpy_python() -> std::path::PathBuf {
 
 #[test]
 fn blender_imports_monsters_as_named_parts_standing_upright() {
-    use mdg_vm::creature::geometry::{node_name, write_glb};
+    use mdg_creature::geometry::{node_name, write_glb};
     if std::env::var_os("MDG_SKIP_CLIENT_TESTS").is_some() {
         return;
     }
@@ -1027,7 +1027,7 @@ fn without_increase_rules_the_spiders_offspring_are_less_diverse() {
 
 #[test]
 fn look_alikes_count_once_in_the_diversity_and_are_not_presented_twice() {
-    use mdg_vm::creature::evolve::look_alike;
+    use mdg_creature::evolve::look_alike;
     let b = monsters();
     let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("table");
     let lib = Library::build(&b, t).expect("library");
@@ -1067,11 +1067,11 @@ fn look_alikes_count_once_in_the_diversity_and_are_not_presented_twice() {
 /// The monsters of `set` a person tells apart by silhouette alone, judged without
 /// the evolution's code: in order of fewest meta-parts (then first), one counts
 /// unless its silhouette is alike to one already counted.
-fn silhouette_groups(set: &[mdg_vm::creature::evolve::Individual]) -> usize {
-    use mdg_vm::creature::silhouette::alike;
-    let mut order: Vec<&mdg_vm::creature::evolve::Individual> = set.iter().collect();
+fn silhouette_groups(set: &[mdg_creature::evolve::Individual]) -> usize {
+    use mdg_creature::silhouette::alike;
+    let mut order: Vec<&mdg_creature::evolve::Individual> = set.iter().collect();
     order.sort_by_key(|i| i.shape.n_metas());
-    let mut counted: Vec<&mdg_vm::creature::evolve::Individual> = Vec::new();
+    let mut counted: Vec<&mdg_creature::evolve::Individual> = Vec::new();
     for i in order {
         if counted.iter().all(|k| !alike(&k.silhouette, &i.silhouette)) {
             counted.push(i);

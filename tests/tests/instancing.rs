@@ -405,8 +405,8 @@ fn the_flat_glb_expands_prototypes_as_the_evaluator_does() {
         let mut expanded = out.clone();
         expanded.expand_prototypes();
         let (mut a, mut e) = (Vec::new(), Vec::new());
-        mdg_vm::export::write(mdg_vm::export::Format::Glb, &out, &mut a).expect("writes");
-        mdg_vm::export::write(mdg_vm::export::Format::Glb, &expanded, &mut e).expect("writes");
+        mdg_export::write(mdg_export::Format::Glb, &out, &mut a).expect("writes");
+        mdg_export::write(mdg_export::Format::Glb, &expanded, &mut e).expect("writes");
         if glb_binary(&a) != glb_binary(&e) {
             problems.push(format!("{name}: the binary chunks differ ({} and {} bytes)", a.len(), e.len()));
         }

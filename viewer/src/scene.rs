@@ -202,7 +202,7 @@ pub struct InstancedDraw {
     pub vertex_offset: i32,
     pub first_instance: u32,
     pub instance_count: u32,
-    /// The mesh is closed (`mdg_vm::export::is_closed`): its back faces are hidden
+    /// The mesh is closed (`mdg_export::is_closed`): its back faces are hidden
     /// behind its front faces, and the draw culls them (half the triangles a CPU
     /// driver rasterises).
     pub closed: bool,
@@ -492,7 +492,7 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
                 vertex_offset,
                 first_index,
                 index_count: 3 * tris.len() as u32,
-                closed: mdg_vm::export::is_closed(m, &oriented),
+                closed: mdg_export::is_closed(m, &oriented),
                 instances: [Vec::new(), Vec::new()],
                 corners: {
                     let mut c: Vec<[u32; 3]> = m.positions.iter().map(|q| q.map(f32::to_bits)).collect();

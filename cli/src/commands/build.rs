@@ -29,7 +29,7 @@ pub fn run(args: Args) -> ExitCode {
                 return fail("mdgc build", e, 2);
             }
             let out = args.output.unwrap_or_else(|| args.file.with_extension("mdgb"));
-            if let Some(f) = a.sources.files.iter().find(|f| mdg_vm::export::same_file(&f.path, &out)) {
+            if let Some(f) = a.sources.files.iter().find(|f| mdg_export::same_file(&f.path, &out)) {
                 let msg = format!(
                     "-o {}: that is an input ({}); choose another output file",
                     out.display(),
@@ -38,7 +38,7 @@ pub fn run(args: Args) -> ExitCode {
                 return fail("mdgc build", msg, 2);
             }
             let bytes = mdg_vm::bundle::encode(&bundle);
-            if let Err(e) = mdg_vm::export::write_atomic(&out, &bytes) {
+            if let Err(e) = mdg_export::write_atomic(&out, &bytes) {
                 return fail("mdgc build", format!("cannot write {}: {e}", out.display()), 2);
             }
             eprintln!("wrote {} ({} bytes)", out.display(), bytes.len());

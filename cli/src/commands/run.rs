@@ -10,10 +10,10 @@ use crate::pictures::{Pictures, Vulkan};
 use mdg_compiler::diag::render_plain;
 use mdg_compiler::driver;
 use mdg_compiler::source::{FsLoader, MemLoader};
+use mdg_export::{self as export, Format};
 use mdg_viewer::camera::Pose;
 use mdg_vm::bundle::{Bundle, SectionKind};
 use mdg_vm::eval::{evaluate_with_progress, EvalOptions};
-use mdg_vm::export::{self, Format};
 use mdg_vm::output::Output;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -314,7 +314,7 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
         ("--params-json", cli.params_json.as_ref()),
     ];
     for (flag, o) in outputs.iter().filter_map(|(f, o)| o.map(|o| (f, o))) {
-        if let Some(i) = inputs.iter().find(|i| mdg_vm::export::same_file(i, o)) {
+        if let Some(i) = inputs.iter().find(|i| mdg_export::same_file(i, o)) {
             let (o, i) = (o.display(), i.display());
             return Err((2, format!("{flag} {o}: that is an input ({i}); choose another output file")));
         }
@@ -439,7 +439,7 @@ fn mesh_target(cli: &Args, path: &Path) -> Result<Target, Failure> {
     let target = match Format::from_extension(&ext) {
         Some(f) => Target::Model(f),
         None if ext == "png" => Target::Picture,
-        None if mdg_vm::grid::format::VoxelFormat::from_extension(&ext).is_some() => {
+        None if mdg_grid::format::VoxelFormat::from_extension(&ext).is_some() => {
             return Err((
                 2,
                 format!(

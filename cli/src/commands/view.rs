@@ -3,6 +3,7 @@
 //! or `--guides`), and in the window its guides can be edited (docs/guided.md).
 
 use crate::toolchain::Toolchain;
+use mdg_guided::{Cancel, Guide, GuidedTable, Stop};
 use mdg_viewer::camera::Pose;
 use mdg_viewer::context::{Context, ContextOptions, Validation};
 use mdg_viewer::guided::edit::Editor;
@@ -16,7 +17,6 @@ use mdg_viewer::window::{self, WindowOptions};
 use mdg_viewer::Error;
 use mdg_vm::bundle::{Section as _, SectionKind};
 use mdg_vm::eval::EvalOptions;
-use mdg_vm::sosmc::{Cancel, Guide, GuidedTable, Stop};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;

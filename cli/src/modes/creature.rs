@@ -5,14 +5,12 @@
 
 use super::Common;
 use crate::pictures::Pictures;
+use mdg_creature::evolve::{lineage_name, structure_key, Evolution, EvolveOptions, Generation, Individual, Population};
+use mdg_creature::geometry::{assemble, output_of, program_text, write_glb, Library};
+use mdg_creature::sheet::compose;
+use mdg_creature::table::{CreatureTable, RuleKind, MAX_GENERATIONS, MAX_POPULATION};
+use mdg_export as export;
 use mdg_vm::bundle::{Bundle, Section as _};
-use mdg_vm::creature::evolve::{
-    lineage_name, structure_key, Evolution, EvolveOptions, Generation, Individual, Population,
-};
-use mdg_vm::creature::geometry::{assemble, output_of, program_text, write_glb, Library};
-use mdg_vm::creature::sheet::compose;
-use mdg_vm::creature::table::{CreatureTable, RuleKind, MAX_GENERATIONS, MAX_POPULATION};
-use mdg_vm::export;
 use mdg_vm::output::Mesh;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -208,7 +206,7 @@ fn read_record(
         .ok_or_else(|| format!("{} has no generation {upto}", path.display()))?;
     let revive = |m: &serde_json::Value| -> Result<Individual, String> {
         let id = m["id"].as_str().unwrap_or("?").to_string();
-        let shape: mdg_vm::creature::shape::Shape =
+        let shape: mdg_creature::shape::Shape =
             serde_json::from_value(m["shape"].clone()).map_err(|e| format!("{}: monster {id}: {e}", path.display()))?;
         shape.check(evo.table).map_err(|e| format!("{}: monster {id}: {e}", path.display()))?;
         let name = m["lineage"].as_str().unwrap_or("");
@@ -605,7 +603,7 @@ table.d td,table.d th{{padding:2px 10px;text-align:right}}\
                     "base {} + assist {}, lineage {}",
                     ind.parents.0,
                     ind.parents.1,
-                    mdg_vm::creature::evolve::lineage_name(t, ind.lineage)
+                    mdg_creature::evolve::lineage_name(t, ind.lineage)
                 )
             } else {
                 format!("regular creature `{}`", ind.name)

@@ -9,12 +9,12 @@
 //! from the shapes' `at` positions) beside the generated one.
 
 use super::Common;
+use mdg_export::{self as export, Format};
+use mdg_grid::build;
+use mdg_grid::format::{self as voxfmt, VoxelFormat};
+use mdg_grid::generate::{self, GenerateOptions};
+use mdg_grid::{mesh, GridGrammar};
 use mdg_vm::bundle::{Bundle, Section as _};
-use mdg_vm::export::{self, Format};
-use mdg_vm::grid::build;
-use mdg_vm::grid::format::{self as voxfmt, VoxelFormat};
-use mdg_vm::grid::generate::{self, GenerateOptions};
-use mdg_vm::grid::{mesh, GridGrammar};
 use mdg_vm::output::{Mesh, Output};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -125,8 +125,8 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
         return Err((1, "the grammar has no `grid` section".into()));
     };
     let steps = args.steps.unwrap_or(g.generate.steps);
-    if steps > mdg_vm::grid::MAX_STEPS {
-        return Err((2, format!("--steps {steps}: at most {}", mdg_vm::grid::MAX_STEPS)));
+    if steps > mdg_grid::MAX_STEPS {
+        return Err((2, format!("--steps {steps}: at most {}", mdg_grid::MAX_STEPS)));
     }
     let enclosure = if args.no_enclosure { false } else { args.enclosure || g.generate.enclosure };
     let seed = common.seed.or(g.generate.seed).unwrap_or(0);
@@ -197,14 +197,13 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
     export::write_atomic(&output, &bytes).map_err(|e| (2, format!("cannot write {}: {e}", output.display())))?;
     if let Some(png) = common.png {
         let examples = generate::examples(g);
-        let mut models: Vec<&mdg_vm::grid::voxel::VoxelModel> =
-            examples.iter().filter(|m| !m.blocks.is_empty()).collect();
+        let mut models: Vec<&mdg_grid::voxel::VoxelModel> = examples.iter().filter(|m| !m.blocks.is_empty()).collect();
         let first = models.len();
         models.push(&made.model);
         if args.more > 16 {
             return Err((2, format!("--more {}: at most 16", args.more)));
         }
-        let more: Vec<mdg_vm::grid::voxel::VoxelModel> = (1..=args.more as u64)
+        let more: Vec<mdg_grid::voxel::VoxelModel> = (1..=args.more as u64)
             .map(|i| build::generate(g, &GenerateOptions { seed: seed.wrapping_add(i), ..opts }).map(|m| m.model))
             .collect::<Result<_, _>>()
             .map_err(|e| (1, e))?;
@@ -241,7 +240,7 @@ fn run_inner(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), (u
 }
 
 /// The offset [`mesh::output_side_by_side`] gives the last model (whose min corner is `lo`).
-fn generated_shift(models: &[&mdg_vm::grid::voxel::VoxelModel], lo: [i32; 3]) -> [f32; 3] {
+fn generated_shift(models: &[&mdg_grid::voxel::VoxelModel], lo: [i32; 3]) -> [f32; 3] {
     let mut x = 0;
     for m in &models[..models.len().saturating_sub(1)] {
         if let Some((a, b)) = m.bounds() {

@@ -5,12 +5,12 @@
 //! editor's current state ([`super::edit::Editor::overlay`]), so a dragged curve
 //! follows the cursor before the search for it has finished.
 
+use mdg_guided::cost::Cost;
+use mdg_guided::measure::{beyond_reach, Reach};
+use mdg_guided::{Cancel, Guide, GuidedTable, Prepared, SearchOptions, Stop, Utilisation, REACH_SAMPLES};
 use mdg_vm::bundle::{Bundle, Section as _};
 use mdg_vm::eval::EvalOptions;
 use mdg_vm::output::{Output, Polyline};
-use mdg_vm::sosmc::cost::Cost;
-use mdg_vm::sosmc::measure::{beyond_reach, Reach};
-use mdg_vm::sosmc::{Cancel, Guide, GuidedTable, Prepared, SearchOptions, Stop, Utilisation, REACH_SAMPLES};
 use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 

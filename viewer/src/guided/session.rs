@@ -7,10 +7,10 @@
 use super::edit::Editor;
 use super::search::{run_search, SearchRequest, Searched, Summary, Timings};
 use super::worker::{Preempt, Worker};
+use mdg_guided::measure::Reach;
+use mdg_guided::{Cancel, Guide, GuidedTable, Utilisation};
 use mdg_vm::bundle::{Bundle, Section as _};
 use mdg_vm::eval::EvalOptions;
-use mdg_vm::sosmc::measure::Reach;
-use mdg_vm::sosmc::{Cancel, Guide, GuidedTable, Utilisation};
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
@@ -232,7 +232,7 @@ impl Session {
     /// message for the log.
     pub fn save(&mut self) -> Result<String, String> {
         let json = self.editor.to_json();
-        mdg_vm::export::write_atomic(&self.save_to, json.as_bytes())
+        mdg_export::write_atomic(&self.save_to, json.as_bytes())
             .map_err(|e| format!("cannot write {}: {e}", self.save_to.display()))?;
         if self.source == GuideSource::File(self.save_to.clone()) {
             self.source_revision = self.editor.revision();

@@ -32,12 +32,12 @@ use super::{at_most_once, expect_count, known_entries, numbers, words, CheckCx, 
 use crate::ast::{Entry, Expr, ExprKind, Name, Section, Value};
 use crate::diag::{did_you_mean, Diagnostic};
 use crate::span::Span;
-use mdg_vm::bundle::Section as _;
-use mdg_vm::creature::cond::{self, CondOp, VARIABLES};
-use mdg_vm::creature::table::{
+use mdg_creature::cond::{self, CondOp, VARIABLES};
+use mdg_creature::table::{
     self as tb, AttachDef, Code, CreatureTable, EvolveSettings, Geometry, Kind, Mode, PartDef, PartMesh, RuleDef,
     RuleKind, ShapeDef, Slot, Strategy,
 };
+use mdg_vm::bundle::Section as _;
 
 /// The largest coordinate, normal component or size a creature part may give.
 pub const MAX_COORDINATE: f64 = 1e6;
