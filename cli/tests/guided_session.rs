@@ -264,7 +264,7 @@ fn l_cycles_the_utilisation_term_and_far_guides_are_reported() {
     assert!(s.title().contains("; utilisation paper"), "{}", s.title());
     assert_ne!(bones_of(&local.output), bones_of(&paper.output));
     let b = &m.bundle;
-    let t = &GuidedTable::from_bundle(&b).expect("a valid section").expect("table");
+    let t = &GuidedTable::from_bundle(b).expect("a valid section").expect("table");
     let direct =
         mdg_guided::Prepared::new(b, t, &t.guides).expect("prepared").with_utilisation(mdg_guided::Utilisation::Paper);
     let mut o = mdg_guided::SearchOptions::from_settings(&t.settings, 3);

@@ -71,7 +71,7 @@ fn run(evo: &Evolution) -> Vec<[f64; 6]> {
 /// copies of arrangements placed by their plain offsets (as before issue 22) and
 /// seated on the torso's surface; evolution rejecting detached layouts or not.
 fn touch(bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
-    let table = &CreatureTable::from_bundle(&bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
+    let table = &CreatureTable::from_bundle(bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
     let mut lib = Library::build(bundle, table)?;
     println!("| placement | contact test in evolution | presented monsters | with a detached part | rate | tries rejected as detached |");
     println!("|---|---|---|---|---|---|");
@@ -111,7 +111,7 @@ fn touch(bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
 /// and of its contact test, over the presented monsters of seed 3, generations 0–5.
 fn time(bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
     use mdg_creature::geometry::{detached, layout};
-    let table = &CreatureTable::from_bundle(&bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
+    let table = &CreatureTable::from_bundle(bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
     let mut lib = Library::build(bundle, table)?;
     let mut o = EvolveOptions::from_table(table);
     o.seed = 3;
@@ -189,7 +189,7 @@ fn time(bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
 /// presented monsters) each variant made, summed over the seeds. The grammar's own
 /// population and offspring count.
 fn fig13(bundle: &mdg_vm::bundle::Bundle, path: &Path, seeds: u64, gens: u32) -> Result<(), String> {
-    let table = &CreatureTable::from_bundle(&bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
+    let table = &CreatureTable::from_bundle(bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
     let lib = Library::build(bundle, table)?;
     let base = EvolveOptions::from_table(table);
     println!(
@@ -251,7 +251,7 @@ fn fig13(bundle: &mdg_vm::bundle::Bundle, path: &Path, seeds: u64, gens: u32) ->
 /// kept and lineages free, as `--allow-lookalikes --no-lineages`.
 fn pairs(bundle: &mdg_vm::bundle::Bundle, args: &[String]) -> Result<(), String> {
     use mdg_creature::silhouette::distance;
-    let table = &CreatureTable::from_bundle(&bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
+    let table = &CreatureTable::from_bundle(bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
     let lib = Library::build(bundle, table)?;
     let mut o = EvolveOptions::from_table(table);
     o.seed = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(3);
@@ -310,7 +310,7 @@ fn pairs(bundle: &mdg_vm::bundle::Bundle, args: &[String]) -> Result<(), String>
 /// 1–4 without lineages kept (look-alikes dropped), and the notes of lineages that
 /// died out — to find a run where a body plan is crowded out.
 fn lineages(bundle: &mdg_vm::bundle::Bundle, seeds: u64) -> Result<(), String> {
-    let table = &CreatureTable::from_bundle(&bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
+    let table = &CreatureTable::from_bundle(bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
     let lib = Library::build(bundle, table)?;
     for seed in 1..=seeds {
         let mut o = EvolveOptions::from_table(table);

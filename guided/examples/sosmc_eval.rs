@@ -134,7 +134,7 @@ fn main() -> ExitCode {
 }
 
 fn options(b: &Bundle, args: &[String]) -> Result<SearchOptions, String> {
-    let table = &GuidedTable::from_bundle(&b).map_err(|e| e.to_string())?.ok_or("no search section")?;
+    let table = &GuidedTable::from_bundle(b).map_err(|e| e.to_string())?.ok_or("no search section")?;
     let seed = arg(args, "--seed").map(|s| s.parse::<u64>().map_err(|e| e.to_string())).transpose()?.unwrap_or(1);
     let mut o = SearchOptions::from_settings(&table.settings, seed);
     o.budget = None;

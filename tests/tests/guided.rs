@@ -20,7 +20,7 @@ fn std_tree() -> Bundle {
 }
 
 fn table(b: &Bundle) -> GuidedTable {
-    GuidedTable::from_bundle(&b).expect("a valid section").expect("guided table")
+    GuidedTable::from_bundle(b).expect("a valid section").expect("guided table")
 }
 
 fn rule(b: &Bundle, name: &str) -> u32 {
