@@ -265,7 +265,7 @@ fn expected_in_process(bundle: &mdg_vm::bundle::Bundle) -> Expected {
 
 /// What `mdg-run --instances` should write for `out`'s instances of shared meshes
 /// (prototypes and isosurfaces), grouped as the glTF writer documents it
-/// (`vm/src/export/glb.rs`): one instanced node per (shared mesh, mirrored, frame
+/// (`export/src/glb.rs`): one instanced node per (shared mesh, mirrored, frame
 /// colour where a prototype's items add colours), at most [`MAX_COLOR_VARIANTS`]
 /// colours per prototype; left to the geometry or to nodes: meshes without
 /// triangles, instances of animated bones in a skinned output, frames of zero or

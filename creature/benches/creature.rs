@@ -3,7 +3,7 @@
 //! test; retries included) on std/examples/monsters.mdg, single-threaded. The
 //! issue's target is ≤ 1 ms; the paper's C++ prototype takes about 0.5 s.
 //!
-//! Run: `cargo bench -p mdg-vm --bench creature`. The VM does not depend on the
+//! Run: `cargo bench -p mdg-creature --bench creature`. The VM does not depend on the
 //! compiler, so the grammar is compiled by `mdgc` first (the bench runs
 //! `cargo run --release --bin mdgc -- build …` unless `MDG_CREATURE_BUNDLE` names
 //! a compiled `.mdgb`).

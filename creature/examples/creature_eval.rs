@@ -13,7 +13,7 @@
 //! `mdg_creature::evolve::descriptor`). The structure clusters of the
 //! presented set are printed too.
 //!
-//! Run: `cargo run --release -p mdg-vm --example creature_eval [-- SEEDS GENERATIONS]`
+//! Run: `cargo run --release -p mdg-creature --example creature_eval [-- SEEDS GENERATIONS]`
 //! (default 8 seeds, 6 generations); `-- touch` measures how many presented monsters
 //! have a part touching nothing; `-- fig13 [SEEDS GENERATIONS]` prints the ratio per
 //! generation with the offspring counts it rests on (for any creature grammar: set

@@ -4,7 +4,7 @@
 //! inclusive, divided by the instances).
 //!
 //! ```sh
-//! cargo run --release -p mdg-vm --example export_bundle -- tree.mdgb glb out.glb [--instances]
+//! cargo run --release -p mdg-export --example export_bundle -- tree.mdgb glb out.glb [--instances]
 //! ```
 
 use mdg_export::{glb::GlbOptions, write_file_with, Format};

@@ -2,7 +2,7 @@
 //! inference time per building, on the SIGI example buildings and the GDMC structures.
 //!
 //! ```sh
-//! cargo run --release -p mdg-vm --example sigi_eval -- /work/shared/data
+//! cargo run --release -p mdg-grid --example sigi_eval -- /work/shared/data
 //! ```
 //!
 //! The data directory holds `sigi-examples/building*.txt` and `gdmc2023/*.nbt`. It is

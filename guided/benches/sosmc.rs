@@ -4,7 +4,7 @@
 //! 20× the particles; and the one-time preparation (EXPECTED estimate, curves).
 //!
 //! ```sh
-//! cargo bench -p mdg-vm --bench sosmc            # RAYON_NUM_THREADS=1 for one thread
+//! cargo bench -p mdg-guided --bench sosmc            # RAYON_NUM_THREADS=1 for one thread
 //! ```
 //!
 //! The grammar is `std/examples/guided_tree.mdg` compiled by `mdgc build` (the VM does

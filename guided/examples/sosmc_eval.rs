@@ -2,11 +2,11 @@
 //! std tree grammar, the forward-sampling baseline, and projection plots.
 //!
 //! ```sh
-//! cargo run --release -p mdg-vm --example sosmc_eval -- fig4 [--runs 500] [--guides program,A.json,B.json@calder,…]
-//! cargo run --release -p mdg-vm --example sosmc_eval -- run [--guides F.json] [--seed N] [--no-heuristic] [--repeat N]
-//! cargo run --release -p mdg-vm --example sosmc_eval -- plot OUT.png [GUIDES.json…] [--seed N] [--particles A:B]
-//! cargo run --release -p mdg-vm --example sosmc_eval -- helix [--runs 40]
-//! cargo run --release -p mdg-vm --example sosmc_eval -- curves [--runs 20] [--sets A.json,B.json,…] \
+//! cargo run --release -p mdg-guided --example sosmc_eval -- fig4 [--runs 500] [--guides program,A.json,B.json@calder,…]
+//! cargo run --release -p mdg-guided --example sosmc_eval -- run [--guides F.json] [--seed N] [--no-heuristic] [--repeat N]
+//! cargo run --release -p mdg-guided --example sosmc_eval -- plot OUT.png [GUIDES.json…] [--seed N] [--particles A:B]
+//! cargo run --release -p mdg-guided --example sosmc_eval -- helix [--runs 40]
+//! cargo run --release -p mdg-guided --example sosmc_eval -- curves [--runs 20] [--sets A.json,B.json,…] \
 //!     [--configs paper:lowest,local:reach,…]
 //! ```
 //!
