@@ -27,4 +27,4 @@ cargo build --release -q -p mdg-cli --bin mdgc
 mkdir -p target/sosmc
 target/release/mdgc build std/examples/guided_tree.mdg -o target/sosmc/guided_tree.mdgb > /dev/null
 MDG_SOSMC_BUNDLE=target/sosmc/guided_tree.mdgb \
-  cargo run --release -q -p mdg-vm --example sosmc_eval -- fig4 --runs "$RUNS" --guides "$GUIDES"
+  cargo run --release -q -p mdg-guided --example sosmc_eval -- fig4 --runs "$RUNS" --guides "$GUIDES"

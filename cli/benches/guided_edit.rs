@@ -15,6 +15,7 @@
 
 use glam::DVec2;
 use mdg_cli::toolchain::Toolchain;
+use mdg_guided::{Cancel, GuidedTable};
 use mdg_viewer::context::{Context, ContextOptions, Validation};
 use mdg_viewer::guided::edit::Editor;
 use mdg_viewer::guided::project::ScreenView;
@@ -23,8 +24,8 @@ use mdg_viewer::model::{self, Loader as _};
 use mdg_viewer::offscreen::Offscreen;
 use mdg_viewer::renderer::FrameParams;
 use mdg_viewer::{program, scene};
+use mdg_vm::bundle::Section as _;
 use mdg_vm::eval::EvalOptions;
-use mdg_vm::sosmc::Cancel;
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
@@ -50,7 +51,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let opts =
         model::LoadOptions { std_dir: Some(root.join("std")), guided_search: true, ..model::LoadOptions::default() };
     let (m, _) = Toolchain.load(&grammar, &opts).map_err(|f| f.error.to_string())?;
-    let table = m.bundle.extensions.guided.clone().ok_or("guided_tree.mdg has no search section")?;
+    let table = GuidedTable::from_bundle(&m.bundle)
+        .map_err(|e| e.to_string())?
+        .ok_or("guided_tree.mdg has no search section")?;
     let bundle = Arc::new(m.bundle.clone());
     let seed = m.bundle.settings.randseed;
     let ctx = Arc::new(Context::new(&ContextOptions {
@@ -149,7 +152,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for (k, v) in row.iter().enumerate() {
             parts[k].push(*v);
         }
-        if searched.summary.stop == mdg_vm::sosmc::Stop::Budget {
+        if searched.summary.stop == mdg_guided::Stop::Budget {
             budget_cuts += 1;
         }
         generations.push(searched.summary.generations as f64);

@@ -65,7 +65,7 @@ impl Loader for Toolchain {
             }
         };
         // A guided grammar's model comes from its search, which the viewer runs.
-        let output = if opts.guided_search && bundle.extensions.guided.is_some() {
+        let output = if opts.guided_search && bundle.extensions.has(mdg_vm::bundle::SectionKind::Guided) {
             mdg_vm::output::Output::default()
         } else {
             evaluate(&bundle, &opts.eval)

@@ -17,7 +17,7 @@
 //!   many polygons; mesh objects other than `geometry` are the isosurface instances
 //!   (prototype instances are expanded into the geometry), as many as MDG's output
 //!   has unless there are more than the exporter writes as nodes
-//!   ([`mdg_vm::export::glb::MAX_INSTANCE_NODES`]), when at most as many;
+//!   ([`mdg_export::glb::MAX_INSTANCE_NODES`]), when at most as many;
 //!   `--stats` vertices and triangles are at most the drawn ones (instances add);
 //! * animated examples (the `.glb` has animations) have Blender actions and
 //!   three.js clips with tracks; at least two std examples are animated;
@@ -57,7 +57,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
-use mdg_vm::export::glb::MAX_COLOR_VARIANTS;
+use mdg_export::glb::MAX_COLOR_VARIANTS;
+use mdg_vm::bundle::SectionKind;
 
 /// Largest difference allowed between the chromaticities (r, g, b)/(r + g + b) of the
 /// mean colours of Blender's render and MDG's picture.
@@ -264,7 +265,7 @@ fn expected_in_process(bundle: &mdg_vm::bundle::Bundle) -> Expected {
 
 /// What `mdg-run --instances` should write for `out`'s instances of shared meshes
 /// (prototypes and isosurfaces), grouped as the glTF writer documents it
-/// (`vm/src/export/glb.rs`): one instanced node per (shared mesh, mirrored, frame
+/// (`export/src/glb.rs`): one instanced node per (shared mesh, mirrored, frame
 /// colour where a prototype's items add colours), at most [`MAX_COLOR_VARIANTS`]
 /// colours per prototype; left to the geometry or to nodes: meshes without
 /// triangles, instances of animated bones in a skinned output, frames of zero or
@@ -449,7 +450,7 @@ fn blender_three_and_assimp_open_every_std_example() {
         // tests (tests/tests/creature.rs) validate those files.
         let opts = mdg_compiler::expand::Options { std_dir: Some(root().join("std")), ..Default::default() };
         let bundle = match mdg_compiler::driver::build(&mdg_compiler::source::FsLoader, src, &opts) {
-            Ok((bundle, _)) if bundle.extensions.creatures.is_some() => {
+            Ok((bundle, _)) if bundle.extensions.has(SectionKind::Creatures) => {
                 eprintln!("{name}: the creature mode writes many models: not a client check");
                 continue;
             }
@@ -459,7 +460,7 @@ fn blender_three_and_assimp_open_every_std_example() {
                 continue;
             }
         };
-        let own_mode = bundle.extensions.grid.is_some() || bundle.extensions.guided.is_some();
+        let own_mode = bundle.extensions.has(SectionKind::Grid) || bundle.extensions.has(SectionKind::Guided);
         let file = |ext: &str| dir.join(format!("{name}.{ext}"));
         let (glb, picture) = (file("glb"), dir.join(format!("{name}.mdg.png")));
         let write_flat = |ext: &str| -> Result<PathBuf, String> {
@@ -520,7 +521,7 @@ fn blender_three_and_assimp_open_every_std_example() {
         let animated = doc.get("animations").is_some();
         // With --instances (the grid mode makes no prototype instances): where there is
         // nothing to instance, the flat file byte for byte.
-        if bundle.extensions.grid.is_none() {
+        if !bundle.extensions.has(SectionKind::Grid) {
             let path = file("instances.glb");
             match run_mdg(&[src.as_os_str(), "--instances".as_ref(), "-o".as_ref(), path.as_os_str()]) {
                 Err(e) => failures.push(format!("{name}: mdg-run --instances failed:\n{e}")),
@@ -560,7 +561,7 @@ fn blender_three_and_assimp_open_every_std_example() {
             stats,
             isosurfaces,
             animated,
-            guided: bundle.extensions.guided.is_some(),
+            guided: bundle.extensions.has(SectionKind::Guided),
         });
     }
     // Every kind of prototype instance (colour variants, mirrored items, bones), and
@@ -638,7 +639,7 @@ fn blender_three_and_assimp_open_every_std_example() {
     assert_eq!(three.len(), examples.len() + instanced.len());
     let three_instanced = three.split_off(examples.len());
 
-    let max_nodes = mdg_vm::export::glb::MAX_INSTANCE_NODES as u64;
+    let max_nodes = mdg_export::glb::MAX_INSTANCE_NODES as u64;
     let mut animated = 0;
     for (e, t) in examples.iter().zip(&three) {
         let name = &e.name;

@@ -8,11 +8,12 @@ mod common;
 
 use common::*;
 use mdg_cli::toolchain::Toolchain;
+use mdg_guided::{Guide, GuidedTable};
 use mdg_viewer::guided::search::NS_BONES;
 use mdg_viewer::guided::session::{Accepted, Outcome, Session, SessionOptions};
 use mdg_viewer::guided::worker::Preempt;
 use mdg_viewer::model::{LoadOptions, Loader as _, Model};
-use mdg_vm::sosmc::Guide;
+use mdg_vm::bundle::Section;
 use std::sync::mpsc;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -66,7 +67,7 @@ fn settle(s: &mut Session, rx: &mpsc::Receiver<(u64, Outcome)>) -> Vec<(u64, Mod
 struct Model2 {
     bones: Vec<[[f32; 3]; 2]>,
     cost: f64,
-    stop: mdg_vm::sosmc::Stop,
+    stop: mdg_guided::Stop,
 }
 
 fn bones_of(out: &mdg_vm::output::Output) -> Vec<[[f32; 3]; 2]> {
@@ -109,7 +110,7 @@ fn searches_answer_newest_first_and_cancelled_ones_show_nothing() {
     let direct = again.search_now().expect("search");
     // The section's 200 ms budget can cut a debug-build search on a busy machine; the
     // model then depends on where (the default model may be the final generation's).
-    let all = mdg_vm::sosmc::Stop::Generations;
+    let all = mdg_guided::Stop::Generations;
     if newest.stop == all && direct.summary.stop == all {
         assert_eq!(newest.bones, bones_of(&direct.output), "same guides and seed, same model");
     } else {
@@ -171,7 +172,7 @@ fn reloads_keep_edited_guides_files_replace_them_and_saving_writes_a_guide_file(
     let msg = s.save().expect("saved");
     assert!(msg.starts_with("saved 3 guides to "), "{msg}");
     let text = std::fs::read_to_string(out_dir().join("session2.json")).expect("the file");
-    assert_eq!(mdg_vm::sosmc::guides_from_json(&text).expect("valid"), s.editor.guides());
+    assert_eq!(mdg_guided::guides_from_json(&text).expect("valid"), s.editor.guides());
     let run = std::process::Command::new(env!("CARGO_BIN_EXE_mdg-run"))
         .arg(root().join("std/examples/guided_tree.mdg"))
         .arg("--guides")
@@ -186,7 +187,7 @@ fn reloads_keep_edited_guides_files_replace_them_and_saving_writes_a_guide_file(
     // And grows the tree the window shows for those guides and that seed (no budget
     // cut: every generation ran).
     let shown = s.search_now().expect("search");
-    assert_eq!(shown.summary.stop, mdg_vm::sosmc::Stop::Generations);
+    assert_eq!(shown.summary.stop, mdg_guided::Stop::Generations);
     let dump: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out_dir().join("session2_tree.json")).expect("the dump"))
             .expect("JSON");
@@ -255,27 +256,26 @@ fn the_offscreen_picture_of_a_guided_grammar_is_searched() {
 fn l_cycles_the_utilisation_term_and_far_guides_are_reported() {
     let m = guided_tree(None);
     let (mut s, _rx) = session(&m, "session_l.json");
-    assert_eq!(s.utilisation(), mdg_vm::sosmc::Utilisation::Local);
+    assert_eq!(s.utilisation(), mdg_guided::Utilisation::Local);
     let local = s.search_now().expect("a search");
     assert!(s.title().contains("; utilisation local"), "{}", s.title());
-    assert_eq!(s.cycle_utilisation(), mdg_vm::sosmc::Utilisation::Paper);
+    assert_eq!(s.cycle_utilisation(), mdg_guided::Utilisation::Paper);
     let paper = s.search_now().expect("a search");
     assert!(s.title().contains("; utilisation paper"), "{}", s.title());
     assert_ne!(bones_of(&local.output), bones_of(&paper.output));
     let b = &m.bundle;
-    let t = b.extensions.guided.as_ref().expect("table");
-    let direct = mdg_vm::sosmc::Prepared::new(b, t, &t.guides)
-        .expect("prepared")
-        .with_utilisation(mdg_vm::sosmc::Utilisation::Paper);
-    let mut o = mdg_vm::sosmc::SearchOptions::from_settings(&t.settings, 3);
+    let t = &GuidedTable::from_bundle(b).expect("a valid section").expect("table");
+    let direct =
+        mdg_guided::Prepared::new(b, t, &t.guides).expect("prepared").with_utilisation(mdg_guided::Utilisation::Paper);
+    let mut o = mdg_guided::SearchOptions::from_settings(&t.settings, 3);
     o.budget = None;
     let r = direct.search(&o, None);
     // (Unless the section's budget cut the window's search on a busy machine.)
-    if paper.summary.stop == mdg_vm::sosmc::Stop::Generations {
+    if paper.summary.stop == mdg_guided::Stop::Generations {
         assert_eq!(bones_of(&paper.output).len(), r.model.bones.len());
     }
     s.set_bundle(Arc::new(m.bundle.clone()));
-    assert_eq!(s.utilisation(), mdg_vm::sosmc::Utilisation::Paper, "kept through a reload");
+    assert_eq!(s.utilisation(), mdg_guided::Utilisation::Paper, "kept through a reload");
     assert!(!paper.output.stats.warnings.iter().any(|w| w.contains("reach")), "{:?}", paper.output.stats.warnings);
     // A guide up to z 12: beyond the std tree's reach.
     let tall = Guide::new("tall", vec![[0.0, 0.0, 0.0], [0.0, 0.0, 4.0], [0.0, 0.0, 8.0], [0.0, 0.0, 12.0]]);

@@ -156,12 +156,12 @@ fn generated_schem_and_nbt_read_back_by_nbtlib_with_the_same_blocks() {
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     };
     run("a.txt");
-    let model = mdg_vm::grid::format::read(&dir.join("a.txt")).expect("reads").normalized();
+    let model = mdg_grid::format::read(&dir.join("a.txt")).expect("reads").normalized();
     let mut want: Vec<String> = model
         .blocks
         .iter()
         .map(|b| {
-            let id = mdg_vm::grid::blocks::to_modern(&model.kinds[b.kind as usize].id).expect("a minecraft name");
+            let id = mdg_grid::blocks::to_modern(&model.kinds[b.kind as usize].id).expect("a minecraft name");
             format!("{} {} {} {id}", b.pos[0], b.pos[1], b.pos[2])
         })
         .collect();

@@ -287,7 +287,7 @@ fn guide_editor_drags_a_control_point_regrows_the_tree_and_saves_the_guides() {
     let guides_file = dir.join("arch.json");
     std::fs::copy(&original_file, &guides_file).expect("copy the guides");
     let original =
-        mdg_vm::sosmc::guides_from_json(&std::fs::read_to_string(&original_file).expect("read")).expect("valid");
+        mdg_guided::guides_from_json(&std::fs::read_to_string(&original_file).expect("read")).expect("valid");
     let (before, after) = (dir.join("before.png"), dir.join("after.png"));
     let (dx, dy) = (120.0, -60.0);
     let script = dir.join("drag.txt");
@@ -321,7 +321,7 @@ fn guide_editor_drags_a_control_point_regrows_the_tree_and_saves_the_guides() {
     assert!(log.contains(&format!("saved 3 guides to {}", guides_file.display())), "{log}");
 
     // The saved guides: what mdg-run --guides reads; only the dragged point moved.
-    let saved = mdg_vm::sosmc::guides_from_json(&std::fs::read_to_string(&guides_file).expect("read the saved file"))
+    let saved = mdg_guided::guides_from_json(&std::fs::read_to_string(&guides_file).expect("read the saved file"))
         .expect("the saved file is a valid guide file");
     assert_eq!(saved.len(), 3);
     for (g, (a, b)) in original.iter().zip(&saved).enumerate() {

@@ -1,16 +1,17 @@
 //! `mdgc induce`: example buildings to a grid grammar written as MDG source.
 //!
-//! The VM does the work ([`mdg_vm::grid::infer`] infers shapes per example,
-//! [`mdg_vm::grid::induce`] builds the grammar); this module reads the examples, and
+//! The VM does the work ([`mdg_grid::infer`] infers shapes per example,
+//! [`mdg_grid::induce`] builds the grammar); this module reads the examples, and
 //! prints the grammar as a `grid` section that [`crate::ext::grid`] compiles back to
 //! the same table (a tested round trip). The text is laid out as `mdgc fmt` prints it,
 //! with each shape's `blocks` one row a line, so a person can read and edit it, and each
 //! class of matching shapes written once (its other members are `like` references).
 
-use mdg_vm::grid::induce::{induce, measures, Example, Measures};
-use mdg_vm::grid::infer::{infer, InferOptions, Inference, Progress};
-use mdg_vm::grid::voxel::VoxelModel;
-use mdg_vm::grid::{turned_blocks, GridGrammar, ShapeMatch, AXIS_NAMES};
+use mdg_grid::induce::{induce, measures, Example, Measures};
+use mdg_grid::infer::{infer, InferOptions, Inference, Progress};
+use mdg_grid::voxel::VoxelModel;
+use mdg_grid::{turned_blocks, GridGrammar, ShapeMatch, AXIS_NAMES};
+use mdg_vm::bundle::Section as _;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -24,7 +25,7 @@ pub struct ExampleReport {
     pub splits: usize,
     pub seconds: f64,
     /// Shapes of this example cut to share a piece with another example
-    /// ([`mdg_vm::grid::share`]).
+    /// ([`mdg_grid::share`]).
     pub shared_cuts: usize,
 }
 
@@ -93,7 +94,7 @@ pub fn read_examples(paths: &[&Path]) -> Result<(Vec<(String, VoxelModel)>, Vec<
     let mut models: Vec<(String, VoxelModel)> = Vec::new();
     let mut all_notes = Vec::new();
     for p in paths {
-        let (m, notes) = mdg_vm::grid::format::read_with_notes(p).map_err(|e| InduceError::Read(e.to_string()))?;
+        let (m, notes) = mdg_grid::format::read_with_notes(p).map_err(|e| InduceError::Read(e.to_string()))?;
         all_notes.extend(notes.into_iter().map(|n| format!("{}: {n}", p.display())));
         if m.blocks.is_empty() {
             return Err(InduceError::Empty(p.to_path_buf()));
@@ -116,7 +117,7 @@ pub fn induce_models(
     let original_blocks: Vec<usize> = models.iter().map(|(_, m)| m.blocks.len()).collect();
     // A door's two halves are one block for inference and matching (written back as two).
     let joined: Vec<(String, VoxelModel)> =
-        models.iter().map(|(n, m)| (n.clone(), mdg_vm::grid::doors::merge_doors(m).0)).collect();
+        models.iter().map(|(n, m)| (n.clone(), mdg_grid::doors::merge_doors(m).0)).collect();
     let models = &joined[..];
     let mut inferences: Vec<Inference> = Vec::new();
     let mut reports = Vec::new();
@@ -138,7 +139,7 @@ pub fn induce_models(
         let refs: Vec<&VoxelModel> = models.iter().map(|(_, m)| m).collect();
         let before: Vec<usize> = inferences.iter().map(|i| i.shapes.len()).collect();
         let t = std::time::Instant::now();
-        let stats = mdg_vm::grid::share::share(&refs, opts.spec, &mut inferences, share);
+        let stats = mdg_grid::share::share(&refs, opts.spec, &mut inferences, share);
         let seconds = t.elapsed().as_secs_f64() / models.len() as f64;
         for (i, r) in reports.iter_mut().enumerate() {
             if inferences[i].shapes.len() != before[i] {
@@ -299,7 +300,7 @@ fn like_plan(g: &GridGrammar) -> Vec<Option<usize>> {
 }
 
 /// A shape with its `size`, `plane`, `at`, `example` and `blocks`.
-fn write_full_shape(s: &mut String, g: &GridGrammar, shape: &mdg_vm::grid::GridShape) {
+fn write_full_shape(s: &mut String, g: &GridGrammar, shape: &mdg_grid::GridShape) {
     {
         let [sx, sy, sz] = shape.size;
         let _ = writeln!(s, "    size {sx} {sy} {sz};");
@@ -388,7 +389,9 @@ pub fn write_checked_with(g: &GridGrammar, comment: &[String], path: &Path, like
     let back = if a.has_errors() {
         None
     } else {
-        crate::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).ok().and_then(|b| b.extensions.grid)
+        crate::lower::lower(&a.expanded, &a.checked.symbols, &a.sources)
+            .ok()
+            .and_then(|b| GridGrammar::from_bundle(&b).ok().flatten())
     };
     if back.as_ref() != Some(g) {
         return Err(InduceError::NotRoundTrip(crate::diag::render_plain(&a.diagnostics, &a.sources)));

@@ -405,7 +405,7 @@ impl SpirvStore for DiskCache {
             bytes.extend_from_slice(&w.to_le_bytes());
         }
         // Temporary file + rename (never half a file for a concurrent reader); errors are dropped.
-        let _ = mdg_vm::export::write_atomic(&self.path(key), &bytes);
+        let _ = mdg_export::write_atomic(&self.path(key), &bytes);
     }
 }
 

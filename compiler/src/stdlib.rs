@@ -122,9 +122,9 @@ pub fn materialize_in(root: &Path) -> std::io::Result<PathBuf> {
         if let Some(parent) = path.parent() {
             std::fs::create_dir_all(parent)?;
         }
-        mdg_vm::export::write_atomic(&path, bytes)?;
+        mdg_export::write_atomic(&path, bytes)?;
     }
-    mdg_vm::export::write_atomic(&marker, b"")?;
+    mdg_export::write_atomic(&marker, b"")?;
     Ok(dir)
 }
 

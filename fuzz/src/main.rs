@@ -217,7 +217,7 @@ fn replay(argv: &[String]) -> ExitCode {
 /// other formats too (`.vox`, `.nbt`, `.schem`, and the NBT ones uncompressed as
 /// `.raw.nbt`, `.raw.schem`), as seeds for `voxel_readers`.
 fn voxel_seeds(dir: Option<PathBuf>) -> ExitCode {
-    use mdg_vm::grid::format::{self, VoxelFormat};
+    use mdg_grid::format::{self, VoxelFormat};
     let dir = dir.unwrap_or_else(|| fuzz_dir().join("corpus/voxel_readers"));
     let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
         .map(|rd| {

@@ -11,10 +11,10 @@ use mdg_compiler::check::CheckOptions;
 use mdg_compiler::driver::{analyze_text, Analysis};
 use mdg_compiler::expand::Options;
 use mdg_compiler::source::{MemLoader, Sources};
-use mdg_vm::bundle;
+use mdg_export::{self as export, Format};
+use mdg_grid::format::VoxelFormat;
+use mdg_vm::bundle::{self, Section as _};
 use mdg_vm::eval::{evaluate, EvalOptions};
-use mdg_vm::export::{self, Format};
-use mdg_vm::grid::format::VoxelFormat;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
@@ -57,7 +57,7 @@ pub enum Target {
     /// generated shaders (`gen::glsl`: macro chains, long and deep expressions,
     /// arrays) and mutated ones.
     GlslLimits,
-    /// The voxel readers (`mdg_vm::grid::format`: text, `.vox`, `.nbt`, `.schem`); a
+    /// The voxel readers (`mdg_grid::format`: text, `.vox`, `.nbt`, `.schem`); a
     /// model read is written back and must read again with as many blocks. The first
     /// input byte picks the format.
     VoxelReaders,
@@ -703,7 +703,15 @@ fn ext_tables(input: &[u8]) -> u64 {
             seeds => seeds[(h % seeds.len() as u64) as usize].clone(),
         },
     };
-    let Ok(mut tables) = serde_json::to_value(&b.extensions) else { return 2 };
+    // The sections as one JSON object keyed by kind (as stored).
+    let mut sections = serde_json::Map::new();
+    for kind in bundle::SectionKind::ALL {
+        if let Some(text) = b.extensions.get(kind) {
+            let Ok(table) = serde_json::from_str(text) else { return 2 };
+            sections.insert(kind.key().to_string(), table);
+        }
+    }
+    let mut tables = serde_json::Value::Object(sections);
     let mut paths = Vec::new();
     number_paths(&tables, &mut Vec::new(), &mut paths);
     if paths.is_empty() {
@@ -727,10 +735,13 @@ fn ext_tables(input: &[u8]) -> u64 {
         println!("ext_tables: {} = {value}", path.join("/"));
     }
     let key = hash(path.join("/").as_bytes()) & 0xFFFF;
-    let Ok(ext) = serde_json::from_value(tables) else { return 5 ^ (key << 8) };
-    b.extensions = ext;
-    // The verifier applies the checker's limits to the tables: a bundle it accepts
-    // must run in its section's mode without a panic.
+    for kind in bundle::SectionKind::ALL {
+        if let Some(table) = tables.get(kind.key()) {
+            b.extensions.set(kind, table.to_string());
+        }
+    }
+    // The sections' verifiers apply the checker's limits to the tables: a table they
+    // accept must run in its section's mode without a panic.
     let b = match bundle::load(&bundle::encode(&b)) {
         Err(e) => {
             let msg = e.to_string();
@@ -740,13 +751,15 @@ fn ext_tables(input: &[u8]) -> u64 {
     };
     deep();
     let mut sig = 0x7777 ^ key;
-    if let Some(t) = &b.extensions.guided {
-        if let Ok(p) = mdg_vm::sosmc::Prepared::new(&b, t, &t.guides) {
-            let full = mdg_vm::sosmc::SearchOptions::from_settings(&t.settings, b.settings.randseed);
+    let section = mdg_guided::GuidedTable::from_bundle(&b);
+    sig ^= section_signature(&section);
+    if let Ok(Some(t)) = &section {
+        if let Ok(p) = mdg_guided::Prepared::new(&b, t, &t.guides) {
+            let full = mdg_guided::SearchOptions::from_settings(&t.settings, b.settings.randseed);
             // The table's own sizes are checked (that is where huge values are refused);
             // the run itself is kept short.
             sig ^= u64::from(p.check_size(&full).is_ok()) << 1;
-            let opts = mdg_vm::sosmc::SearchOptions {
+            let opts = mdg_guided::SearchOptions {
                 particles: (full.particles.0.min(8), full.particles.1.min(8)),
                 generations: full.generations.min(3),
                 budget: Some(Duration::from_millis(50)),
@@ -760,34 +773,47 @@ fn ext_tables(input: &[u8]) -> u64 {
             }
         }
     }
-    if let Some(t) = &b.extensions.creatures {
-        if let Ok(lib) = mdg_vm::creature::geometry::Library::build(&b, t) {
-            let mut o = mdg_vm::creature::evolve::EvolveOptions::from_table(t);
+    let section = mdg_creature::CreatureTable::from_bundle(&b);
+    sig ^= section_signature(&section);
+    if let Ok(Some(t)) = &section {
+        if let Ok(lib) = mdg_creature::geometry::Library::build(&b, t) {
+            let mut o = mdg_creature::evolve::EvolveOptions::from_table(t);
             o.population = o.population.min(3);
             o.background = o.background.min(3);
             o.offspring = o.offspring.min(6);
             o.generations = 1;
-            let evo = mdg_vm::creature::evolve::Evolution::new(t, &lib, o);
+            let evo = mdg_creature::evolve::Evolution::new(t, &lib, o);
             let (mut pop, _) = evo.start();
             let g = evo.step(&mut pop, None);
             sig ^= (g.presented.len() as u64) << 3;
         }
     }
-    if let Some(g) = &b.extensions.grid {
-        let d = mdg_vm::grid::generate::GenerateOptions::default();
+    let section = mdg_grid::GridGrammar::from_bundle(&b);
+    sig ^= section_signature(&section);
+    if let Ok(Some(g)) = &section {
+        let d = mdg_grid::generate::GenerateOptions::default();
         // Two attempts: the retry path (assessment against the example) is fuzzed too.
-        let o = mdg_vm::grid::generate::GenerateOptions {
+        let o = mdg_grid::generate::GenerateOptions {
             steps: g.generate.steps.min(20),
             seal: g.generate.seal,
             attempts: 2,
             ..d
         };
-        sig ^= match mdg_vm::grid::build::generate(g, &o) {
+        sig ^= match mdg_grid::build::generate(g, &o) {
             Ok(m) => (m.model.blocks.len() as u64).min(8) << 5,
             Err(e) => hash(e.chars().filter(|c| !c.is_ascii_digit()).take(30).collect::<String>().as_bytes()),
         };
     }
     sig
+}
+
+/// The signature of an extension section that does not decode or verify (0 when it
+/// does, or is absent).
+fn section_signature<T>(section: &Result<Option<T>, bundle::SectionError>) -> u64 {
+    match section {
+        Err(e) => hash(e.to_string().chars().filter(|c| !c.is_ascii_digit()).take(40).collect::<String>().as_bytes()),
+        Ok(_) => 0,
+    }
 }
 
 fn glsl_limits(input: &[u8]) -> u64 {
@@ -869,15 +895,15 @@ fn digest(out: &mdg_vm::output::Output) -> u64 {
 fn voxel_readers(input: &[u8]) -> u64 {
     let Some((&sel, bytes)) = input.split_first() else { return 0 };
     let format = VoxelFormat::ALL[usize::from(sel) % VoxelFormat::ALL.len()];
-    match mdg_vm::grid::format::read_bytes(format, bytes) {
+    match mdg_grid::format::read_bytes(format, bytes) {
         Err(e) => hash(
             format!("{format:?}{}", e.chars().filter(|c| !c.is_ascii_digit()).take(40).collect::<String>()).as_bytes(),
         ),
         Ok(model) => {
             deep();
             // What was read can be written back, and that reads again to as many blocks.
-            if let Ok(out) = mdg_vm::grid::format::write(format, &model) {
-                match mdg_vm::grid::format::read_bytes(format, &out) {
+            if let Ok(out) = mdg_grid::format::write(format, &model) {
+                match mdg_grid::format::read_bytes(format, &out) {
                     Ok(again) => assert!(
                         again.blocks.len() == model.blocks.len(),
                         "{format:?}: {} blocks read, {} after writing and reading back",

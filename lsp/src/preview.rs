@@ -18,6 +18,7 @@
 
 use mdg_compiler::expand::Options;
 use mdg_compiler::source::FileLoader;
+use mdg_vm::bundle::SectionKind;
 use mdg_vm::eval::{Cancel, EvalOptions};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
@@ -187,11 +188,11 @@ pub fn run(
         r.warnings.push(format!("{e}; the panel's value is ignored"));
     }
     let ext = &bundle.extensions;
-    let mode = if ext.guided.is_some() {
+    let mode = if ext.has(SectionKind::Guided) {
         Some("search")
-    } else if ext.creatures.is_some() {
+    } else if ext.has(SectionKind::Creatures) {
         Some("creature")
-    } else if ext.grid.is_some() {
+    } else if ext.has(SectionKind::Grid) {
         Some("grid")
     } else {
         None
@@ -227,8 +228,7 @@ pub fn run(
     r.tree = out.derivation.clone();
     let started = Instant::now();
     let mut glb = Vec::new();
-    let written =
-        mdg_vm::export::glb::write_glb_with(&out, &mdg_vm::export::glb::GlbOptions { instances: true }, &mut glb);
+    let written = mdg_export::glb::write_glb_with(&out, &mdg_export::glb::GlbOptions { instances: true }, &mut glb);
     if let Err(e) = written {
         r.status = Status::Error;
         r.message = format!("cannot write the model: {e}");

@@ -3,7 +3,7 @@
 //! prototype instances as meshes plus placements.
 
 use glam::Vec3;
-use mdg_vm::export::glb::prototype_placement;
+use mdg_export::glb::prototype_placement;
 use mdg_vm::geom::mesh::Mesh;
 use mdg_vm::output::{expand_isosurface, expand_prototype, Groups, Instance, Output, Piece, VertexPart};
 

@@ -20,9 +20,9 @@ use mdg_compiler::diag::{render_plain, Diagnostic as Diag};
 use mdg_compiler::driver;
 use mdg_compiler::expand::Options;
 use mdg_compiler::source::{FsLoader, MemLoader, Sources};
-use mdg_vm::bundle::Bundle;
+use mdg_export::{self as export, Format};
+use mdg_vm::bundle::{Bundle, SectionKind};
 use mdg_vm::eval::{evaluate, EvalOptions};
-use mdg_vm::export::{self, Format};
 use mdg_vm::output::{Groups, Instance, Output};
 
 use numpy::ndarray::{ArrayView1, ArrayView2, ShapeBuilder};
@@ -335,11 +335,11 @@ fn limits_of(limits: Option<&Bound<'_, PyDict>>, opts: &mut EvalOptions) -> PyRe
 /// The run mode a grammar's extension section asks for, which `Program.run` does not
 /// evaluate (mdg-run does).
 fn mode_error(b: &Bundle) -> Option<PyErr> {
-    let (section, what, doc) = if b.extensions.guided.is_some() {
+    let (section, what, doc) = if b.extensions.has(SectionKind::Guided) {
         ("search", "guided search", "docs/guided.md")
-    } else if b.extensions.creatures.is_some() {
+    } else if b.extensions.has(SectionKind::Creatures) {
         ("creatures", "creature evolution", "docs/creatures.md")
-    } else if b.extensions.grid.is_some() {
+    } else if b.extensions.has(SectionKind::Grid) {
         ("grid", "grid generation (voxels)", "docs/grid.md")
     } else {
         return None;
@@ -496,11 +496,11 @@ impl Program {
     #[getter]
     fn mode(&self) -> &'static str {
         let e = &self.base.bundle.extensions;
-        if e.guided.is_some() {
+        if e.has(SectionKind::Guided) {
             "search"
-        } else if e.creatures.is_some() {
+        } else if e.has(SectionKind::Creatures) {
             "creatures"
-        } else if e.grid.is_some() {
+        } else if e.has(SectionKind::Grid) {
             "grid"
         } else {
             "model"

@@ -489,9 +489,9 @@ fn matrices_close(a: &DMat4, b: &DMat4, tol: f64) -> bool {
 fn gltf_animation_plays_the_frames_in_order_and_validates() {
     let out = run_source(ARM);
     let mut bytes = Vec::new();
-    mdg_vm::export::write(mdg_vm::export::Format::Glb, &out, &mut bytes).expect("glb");
+    mdg_export::write(mdg_export::Format::Glb, &out, &mut bytes).expect("glb");
     let mut again = Vec::new();
-    mdg_vm::export::write(mdg_vm::export::Format::Glb, &run_source(ARM), &mut again).expect("glb");
+    mdg_export::write(mdg_export::Format::Glb, &run_source(ARM), &mut again).expect("glb");
     assert_eq!(bytes, again, "same source, same bytes");
     let (json, bin) = parse_glb(&bytes);
     let nodes = json["nodes"].as_array().expect("nodes");

@@ -9,12 +9,13 @@ use mdg_compiler::check::CheckOptions;
 use mdg_compiler::driver::analyze;
 use mdg_compiler::ext::creature as ext;
 use mdg_compiler::source::FsLoader;
+use mdg_creature::evolve::{Evolution, EvolveOptions};
+use mdg_creature::geometry::{layout, Library};
+use mdg_creature::shape::Shape;
+use mdg_creature::table::RuleKind;
+use mdg_creature::CreatureTable;
 use mdg_tests::{options as compile_options, root, run_source};
-use mdg_vm::bundle::Bundle;
-use mdg_vm::creature::evolve::{Evolution, EvolveOptions};
-use mdg_vm::creature::geometry::{layout, Library};
-use mdg_vm::creature::shape::Shape;
-use mdg_vm::creature::table::RuleKind;
+use mdg_vm::bundle::{Bundle, Section};
 use std::path::Path;
 
 fn monsters() -> Bundle {
@@ -25,7 +26,7 @@ fn monsters() -> Bundle {
 }
 
 fn shape_named(b: &Bundle, name: &str) -> Shape {
-    let t = b.extensions.creatures.as_ref().expect("table");
+    let t = &CreatureTable::from_bundle(b).expect("a valid section").expect("table");
     let def = t.shapes.iter().find(|s| s.name == name).expect("shape");
     Shape::from_def(t, def)
 }
@@ -33,7 +34,7 @@ fn shape_named(b: &Bundle, name: &str) -> Shape {
 #[test]
 fn monsters_compile_into_a_verified_table_that_round_trips() {
     let b = monsters();
-    let t = b.extensions.creatures.as_ref().expect("creature table");
+    let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("creature table");
     assert_eq!(
         t.shapes.iter().map(|s| s.name.as_str()).collect::<Vec<_>>(),
         ["humanoid", "bird", "quadruped", "ogre", "heron", "boar"]
@@ -46,19 +47,20 @@ fn monsters_compile_into_a_verified_table_that_round_trips() {
     }
     let bytes = mdg_vm::bundle::encode(&b);
     let back = mdg_vm::bundle::load(&bytes).expect("decodes and verifies");
-    assert_eq!(back.extensions.creatures.as_ref(), Some(t));
-    // A corrupt index is rejected by the verifier, not a panic later.
+    assert_eq!(CreatureTable::from_bundle(&back).expect("a valid section").as_ref(), Some(t));
+    // A corrupt index is rejected by the section's verifier, not a panic later.
     let mut bad = b.clone();
-    if let Some(t) = bad.extensions.creatures.as_mut() {
-        t.shapes[0].torso = 999;
-    }
-    assert!(mdg_vm::bundle::load(&mdg_vm::bundle::encode(&bad)).is_err());
+    let mut broken = t.clone();
+    broken.shapes[0].torso = 999;
+    broken.store(&mut bad.extensions);
+    let back = mdg_vm::bundle::load(&mdg_vm::bundle::encode(&bad)).expect("the rest of the bundle is intact");
+    assert!(CreatureTable::from_bundle(&back).is_err_and(|e| e.to_string().contains("creatures: ")));
 }
 
 #[test]
 fn the_std_quadruped_stands_and_falls_without_its_legs() {
     let b = monsters();
-    let t = b.extensions.creatures.as_ref().expect("table");
+    let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("table");
     let lib = Library::build(&b, t).expect("library");
     for name in ["humanoid", "bird", "quadruped"] {
         let l = layout(t, &lib, &shape_named(&b, name));
@@ -85,7 +87,7 @@ fn the_std_quadruped_stands_and_falls_without_its_legs() {
 #[test]
 fn evolution_is_deterministic_and_makes_monsters() {
     let b = monsters();
-    let t = b.extensions.creatures.as_ref().expect("table");
+    let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("table");
     let lib = Library::build(&b, t).expect("library");
     let run = |seed: u64| {
         let mut o = EvolveOptions::from_table(t);
@@ -147,7 +149,7 @@ creature blocks {
     let (b, d) = build_with_meshes(&dir);
     assert!(d.is_empty(), "{d:?}");
     let b = b.expect("bundle");
-    let t = b.extensions.creatures.as_ref().expect("table");
+    let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("table");
     assert_eq!(t.meshes.len(), 2);
     assert_eq!(t.meshes[0].positions.len(), 8);
     assert_eq!(t.meshes[0].triangles.len(), 12);
@@ -159,12 +161,15 @@ creature blocks {
     assert!(((l.max.z - l.min.z) - 1.5).abs() < 1e-5, "{:?} {:?}", l.min, l.max);
     // Self-contained: the bundle still loads after an encode/decode round trip.
     let back = mdg_vm::bundle::load(&mdg_vm::bundle::encode(&b)).expect("loads");
-    assert_eq!(back.extensions.creatures.as_ref().map(|t| t.meshes.len()), Some(2));
+    assert_eq!(CreatureTable::from_bundle(&back).expect("a valid section").as_ref().map(|t| t.meshes.len()), Some(2));
 
     // `mdg-run` on the source embeds them itself when the bundle lacks them.
     let a = analyze(&FsLoader, &dir.join("main.mdg"), &compile_options(), CheckOptions { require_start: true });
     let bare = mdg_compiler::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).expect("lowers");
-    assert!(bare.extensions.creatures.as_ref().is_some_and(|t| t.meshes[0].triangles.is_empty()));
+    assert!(CreatureTable::from_bundle(&bare)
+        .expect("a valid section")
+        .as_ref()
+        .is_some_and(|t| t.meshes[0].triangles.is_empty()));
     let out = base.join("out");
     let file = dir.join("main.mdg");
     let common = Common {
@@ -278,7 +283,7 @@ fn the_mode_writes_models_pictures_and_a_gallery_and_keeps_chosen_monsters() {
     // The kept monsters are the parents of generation 3.
     assert!(html.contains("base g2-01") || html.contains("base g2-04"));
     // Continuing from the record is continuing the replayed run.
-    let t = b.extensions.creatures.as_ref().expect("table");
+    let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("table");
     let lib = Library::build(&b, t).expect("library");
     let o = options(t, &args, Some(4)).expect("options");
     let evo = Evolution::new(t, &lib, o.clone());
@@ -316,7 +321,7 @@ fn the_mode_writes_models_pictures_and_a_gallery_and_keeps_chosen_monsters() {
 #[test]
 fn command_line_options_override_the_evolve_block() {
     let b = monsters();
-    let t = b.extensions.creatures.as_ref().expect("table");
+    let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("table");
     let args = CreatureArgs {
         generations: Some(7),
         population: Some(10),
@@ -357,11 +362,11 @@ fn editor_hooks_know_the_keys_and_the_rule_references() {
 #[test]
 fn std_library_has_two_variants_per_type_and_category() {
     let b = monsters();
-    let t = b.extensions.creatures.as_ref().expect("a creature table");
+    let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("a creature table");
     let mut per: std::collections::BTreeMap<(String, String), Vec<u32>> = Default::default();
     for p in &t.parts {
         let key = (t.kinds[p.kind as usize].name.clone(), t.categories[p.category as usize].clone());
-        let mdg_vm::creature::table::Geometry::Rule(r) = p.geometry else { panic!("{}: not a rule", p.name) };
+        let mdg_creature::table::Geometry::Rule(r) = p.geometry else { panic!("{}: not a rule", p.name) };
         per.entry(key).or_default().push(r);
     }
     assert_eq!(per.len(), 14, "{:?}", per.keys());
@@ -401,7 +406,7 @@ fn the_documented_example_compiles_and_evolves() {
     let start = doc.find("```mdg\n").expect("an mdg example") + 7;
     let len = doc[start..].find("```").expect("closed");
     let b = mdg_tests::build_source(&doc[start..start + len]);
-    let t = b.extensions.creatures.as_ref().expect("table");
+    let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("table");
     assert_eq!(t.shapes.len(), 2);
     assert_eq!(t.rules.len(), 3);
     let lib = Library::build(&b, t).expect("library");
@@ -419,11 +424,11 @@ fn the_documented_example_compiles_and_evolves() {
 /// contact test (so a detached part would be presented, not rejected): every
 /// presented and background monster.
 fn evolve_without_contact_test(
-    t: &mdg_vm::creature::table::CreatureTable,
+    t: &mdg_creature::table::CreatureTable,
     lib: &Library,
     seed: u64,
     generations: u32,
-) -> Vec<mdg_vm::creature::evolve::Individual> {
+) -> Vec<mdg_creature::evolve::Individual> {
     let mut o = EvolveOptions::from_table(t);
     o.seed = seed;
     o.require_contact = false;
@@ -441,7 +446,7 @@ fn evolve_without_contact_test(
 #[test]
 fn every_placed_part_touches_its_torso_over_many_seeds() {
     let b = monsters();
-    let t = b.extensions.creatures.as_ref().expect("table");
+    let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("table");
     let mut lib = Library::build(&b, t).expect("library");
     let (mut parts, mut monsters) = (0, 0);
     for seed in [1, 2, 3, 5, 7, 11, 42] {
@@ -460,7 +465,7 @@ fn every_placed_part_touches_its_torso_over_many_seeds() {
                 let pp = ind.layout.placed.iter().find(|p| p.meta == parent).expect("torso placed");
                 for m in &sp.metas {
                     let cp = ind.layout.placed.iter().find(|p| p.meta == m.id).expect("part placed");
-                    assert!(mdg_vm::creature::geometry::touches(&lib, cp, pp));
+                    assert!(mdg_creature::geometry::touches(&lib, cp, pp));
                     parts += 1;
                 }
             }
@@ -503,7 +508,7 @@ fn glb_json(bytes: &[u8]) -> serde_json::Value {
 }
 
 /// A monster of generation 2 with a row or stack of copies and mirrored parts.
-fn a_monster(t: &mdg_vm::creature::table::CreatureTable, lib: &Library) -> mdg_vm::creature::evolve::Individual {
+fn a_monster(t: &mdg_creature::table::CreatureTable, lib: &Library) -> mdg_creature::evolve::Individual {
     let mut o = EvolveOptions::from_table(t);
     o.seed = 3;
     let evo = Evolution::new(t, lib, o);
@@ -515,9 +520,9 @@ fn a_monster(t: &mdg_vm::creature::table::CreatureTable, lib: &Library) -> mdg_v
 
 #[test]
 fn a_monster_glb_has_one_named_node_per_part_sharing_one_mesh_per_library_part() {
-    use mdg_vm::creature::geometry::{node_name, write_glb};
+    use mdg_creature::geometry::{node_name, write_glb};
     let b = monsters();
-    let t = b.extensions.creatures.as_ref().expect("table");
+    let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("table");
     let lib = Library::build(&b, t).expect("library");
     let ind = a_monster(t, &lib);
     let bytes = write_glb(t, &lib, &ind.id, &ind.shape, &ind.layout.placed).expect("glb");
@@ -551,9 +556,9 @@ fn a_monster_glb_has_one_named_node_per_part_sharing_one_mesh_per_library_part()
     }
     // Shared meshes make the file smaller than the baked monster.
     let mut baked = mdg_vm::output::Mesh::default();
-    mdg_vm::creature::geometry::assemble(&lib, &ind.layout.placed, glam::Vec3::ZERO, &mut baked);
+    mdg_creature::geometry::assemble(&lib, &ind.layout.placed, glam::Vec3::ZERO, &mut baked);
     let mut one = Vec::new();
-    mdg_vm::export::glb::write_glb(&mdg_vm::creature::geometry::output_of(baked, [1.0; 4]), &mut one).expect("glb");
+    mdg_export::glb::write_glb(&mdg_creature::geometry::output_of(baked, [1.0; 4]), &mut one).expect("glb");
     assert!(bytes.len() < one.len(), "{} bytes as parts, {} baked", bytes.len(), one.len());
     // Deterministic.
     assert_eq!(bytes, write_glb(t, &lib, &ind.id, &ind.shape, &ind.layout.placed).expect("glb"));
@@ -561,7 +566,7 @@ fn a_monster_glb_has_one_named_node_per_part_sharing_one_mesh_per_library_part()
 
 /// A presented monster of seed 3 with a second torso that carries parts of its own
 /// (a rider on a quadruped's withers, or a humanoid on a horse's body).
-fn a_rider(t: &mdg_vm::creature::table::CreatureTable, lib: &Library) -> mdg_vm::creature::evolve::Individual {
+fn a_rider(t: &mdg_creature::table::CreatureTable, lib: &Library) -> mdg_creature::evolve::Individual {
     let mut o = EvolveOptions::from_table(t);
     o.seed = 3;
     let evo = Evolution::new(t, lib, o);
@@ -594,9 +599,9 @@ fn local_matrix(n: &serde_json::Value) -> glam::Mat4 {
 
 #[test]
 fn a_monster_glb_hangs_every_part_from_its_torso_with_part_materials_and_sides() {
-    use mdg_vm::creature::geometry::{node_name, write_glb};
+    use mdg_creature::geometry::{node_name, write_glb};
     let b = monsters();
-    let t = b.extensions.creatures.as_ref().expect("table");
+    let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("table");
     let lib = Library::build(&b, t).expect("library");
     for ind in [a_rider(t, &lib), a_monster(t, &lib)] {
         let json = glb_json(&write_glb(t, &lib, &ind.id, &ind.shape, &ind.layout.placed).expect("glb"));
@@ -689,7 +694,7 @@ fn bpy_python() -> std::path::PathBuf {
 
 #[test]
 fn blender_imports_monsters_as_named_parts_standing_upright() {
-    use mdg_vm::creature::geometry::{node_name, write_glb};
+    use mdg_creature::geometry::{node_name, write_glb};
     if std::env::var_os("MDG_SKIP_CLIENT_TESTS").is_some() {
         return;
     }
@@ -701,7 +706,7 @@ fn blender_imports_monsters_as_named_parts_standing_upright() {
         python.display()
     );
     let b = monsters();
-    let t = b.extensions.creatures.as_ref().expect("table");
+    let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("table");
     let lib = Library::build(&b, t).expect("library");
     let dir = std::env::temp_dir().join(format!("mdg-creature-blender-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
@@ -882,7 +887,7 @@ fn creatures_that_do_not_stand_are_warned_about_an_empty_generation_is_an_error_
         compile: Box::leak(Box::default()),
     };
     let b = mdg_tests::build_source(&fliers(""));
-    let t = b.extensions.creatures.as_ref().expect("table");
+    let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("table");
     let lib = Library::build(&b, t).expect("library");
     let evo = Evolution::new(t, &lib, EvolveOptions::from_table(t));
     let (mut pop, _) = evo.start();
@@ -892,7 +897,7 @@ fn creatures_that_do_not_stand_are_warned_about_an_empty_generation_is_an_error_
     assert_eq!(run(&b, &CreatureArgs::default(), &common).map_err(|f| f.exit), Err(mdg_cli::failure::Exit::Extinct));
     // With `floats;` they evolve.
     let b = mdg_tests::build_source(&fliers("floats;"));
-    let t = b.extensions.creatures.as_ref().expect("table");
+    let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("table");
     assert!(t.shapes[0].floats);
     let lib = Library::build(&b, t).expect("library");
     let evo = Evolution::new(t, &lib, EvolveOptions::from_table(t));
@@ -904,7 +909,7 @@ fn creatures_that_do_not_stand_are_warned_about_an_empty_generation_is_an_error_
     assert_eq!(run(&b, &CreatureArgs::default(), &common), Ok(()));
     // So does the grammar with `stability off;`.
     let b = mdg_tests::build_source(&fliers("").replace("seed 1;", "seed 1; stability off;"));
-    assert!(!b.extensions.creatures.as_ref().expect("table").evolve.stability);
+    assert!(!&CreatureTable::from_bundle(&b).expect("a valid section").expect("table").evolve.stability);
     let _ = std::fs::remove_dir_all(&out);
 }
 
@@ -919,7 +924,7 @@ fn grammar(rel: &str) -> Bundle {
 /// four generations of 12), and the notes of lineages that died out.
 fn spider_run(lineages: bool) -> Vec<(usize, usize, Vec<String>)> {
     let b = grammar("tests/creatures/spiders.mdg");
-    let t = b.extensions.creatures.as_ref().expect("table");
+    let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("table");
     let lib = Library::build(&b, t).expect("library");
     let mut o = EvolveOptions::from_table(t);
     o.seed = 4;
@@ -965,7 +970,7 @@ fn a_body_plan_the_spiders_crowd_out_keeps_its_place_and_its_end_is_noted() {
 #[test]
 fn a_lineage_the_user_does_not_keep_is_dropped_without_a_note() {
     let b = grammar("tests/creatures/spiders.mdg");
-    let t = b.extensions.creatures.as_ref().expect("table");
+    let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("table");
     let lib = Library::build(&b, t).expect("library");
     let mut o = EvolveOptions::from_table(t);
     o.seed = 4;
@@ -995,7 +1000,7 @@ fn without_increase_rules_the_spiders_offspring_are_less_diverse() {
     // summed over the seeds, per generation. One seed alone is too small a sample
     // (at seed 2 the variant without increase rules is ahead in generation 1).
     let b = grammar("tests/creatures/spiders.mdg");
-    let t = b.extensions.creatures.as_ref().expect("table");
+    let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("table");
     let lib = Library::build(&b, t).expect("library");
     let hdm = |disabled: Vec<RuleKind>| {
         let mut sums = [(0.0f64, 0usize); 2];
@@ -1022,9 +1027,9 @@ fn without_increase_rules_the_spiders_offspring_are_less_diverse() {
 
 #[test]
 fn look_alikes_count_once_in_the_diversity_and_are_not_presented_twice() {
-    use mdg_vm::creature::evolve::look_alike;
+    use mdg_creature::evolve::look_alike;
     let b = monsters();
-    let t = b.extensions.creatures.as_ref().expect("table");
+    let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("table");
     let lib = Library::build(&b, t).expect("library");
     let run = |drop: bool| {
         let mut o = EvolveOptions::from_table(t);
@@ -1062,11 +1067,11 @@ fn look_alikes_count_once_in_the_diversity_and_are_not_presented_twice() {
 /// The monsters of `set` a person tells apart by silhouette alone, judged without
 /// the evolution's code: in order of fewest meta-parts (then first), one counts
 /// unless its silhouette is alike to one already counted.
-fn silhouette_groups(set: &[mdg_vm::creature::evolve::Individual]) -> usize {
-    use mdg_vm::creature::silhouette::alike;
-    let mut order: Vec<&mdg_vm::creature::evolve::Individual> = set.iter().collect();
+fn silhouette_groups(set: &[mdg_creature::evolve::Individual]) -> usize {
+    use mdg_creature::silhouette::alike;
+    let mut order: Vec<&mdg_creature::evolve::Individual> = set.iter().collect();
     order.sort_by_key(|i| i.shape.n_metas());
-    let mut counted: Vec<&mdg_vm::creature::evolve::Individual> = Vec::new();
+    let mut counted: Vec<&mdg_creature::evolve::Individual> = Vec::new();
     for i in order {
         if counted.iter().all(|k| !alike(&k.silhouette, &i.silhouette)) {
             counted.push(i);
@@ -1086,7 +1091,7 @@ fn the_sheets_distinct_count_is_the_silhouette_only_judgement() {
         [("std/examples/monsters.mdg", 3, 18, 5), ("tests/creatures/spiders.mdg", 4, 12, 4)]
     {
         let b = grammar(rel);
-        let t = b.extensions.creatures.as_ref().expect("table");
+        let t = &CreatureTable::from_bundle(&b).expect("a valid section").expect("table");
         let lib = Library::build(&b, t).expect("library");
         let mut o = EvolveOptions::from_table(t);
         o.seed = seed;

@@ -52,7 +52,7 @@ fn isolated_child() {
     let Ok(src) = std::env::var("MDG_HOSTILE_SRC") else { return };
     let out_path = PathBuf::from(std::env::var("MDG_HOSTILE_OUT").expect("MDG_HOSTILE_OUT"));
     let out = run_source(&src);
-    mdg_vm::export::write_file(mdg_vm::export::Format::Glb, &out, &out_path).expect("write glb");
+    mdg_export::write_file(mdg_export::Format::Glb, &out, &out_path).expect("write glb");
     let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
     let hwm = status
         .lines()

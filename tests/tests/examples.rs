@@ -6,9 +6,9 @@
 use mdg_compiler::check::CheckOptions;
 use mdg_compiler::driver::analyze_text;
 use mdg_compiler::source::FsLoader;
+use mdg_export::glb::{write_glb_with, GlbOptions};
 use mdg_tests::{analyze_file, mdg_files, options, root};
 use mdg_vm::eval::{evaluate, EvalOptions};
-use mdg_vm::export::glb::{write_glb_with, GlbOptions};
 use mdg_vm::output::Output;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -51,7 +51,7 @@ fn std_examples_evaluate_render_and_validate() {
                 .push(format!("{name}: the picture is nearly blank ({differing} pixels differ from the background)"));
         }
         let mut bytes = Vec::new();
-        mdg_vm::export::write(mdg_vm::export::Format::Glb, &out, &mut bytes).expect("glb");
+        mdg_export::write(mdg_export::Format::Glb, &out, &mut bytes).expect("glb");
         let file = tmp.join(format!("{name}.glb"));
         std::fs::write(&file, bytes).expect("write");
         glbs.push(file);

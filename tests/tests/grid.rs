@@ -4,14 +4,15 @@
 //! Every building here is made by the test itself.
 
 use mdg_cli::modes::{grid::GridArgs, Common};
+use mdg_grid::build::generate;
+use mdg_grid::format::{self, VoxelFormat};
+use mdg_grid::generate::{enclosure, Bounds, Derivation, GenerateOptions, Instance};
+use mdg_grid::induce::{induce, Example};
+use mdg_grid::infer::{cost, entropy, infer, Cost, InferOptions, Move, Ops, Search, Spec};
+use mdg_grid::voxel::VoxelModel;
+use mdg_grid::{add, rotate, sub, turned_blocks, GridGrammar, Placement};
 use mdg_tests::{build_source, root};
-use mdg_vm::grid::build::generate;
-use mdg_vm::grid::format::{self, VoxelFormat};
-use mdg_vm::grid::generate::{enclosure, Bounds, Derivation, GenerateOptions, Instance};
-use mdg_vm::grid::induce::{induce, Example};
-use mdg_vm::grid::infer::{cost, entropy, infer, Cost, InferOptions, Move, Ops, Search, Spec};
-use mdg_vm::grid::voxel::VoxelModel;
-use mdg_vm::grid::{add, rotate, sub, turned_blocks, GridGrammar, Placement};
+use mdg_vm::bundle::Section;
 use std::collections::{BTreeMap, HashSet};
 
 /// A model from `x y z block` lines.
@@ -297,9 +298,9 @@ fn every_block_is_covered_with_and_without_overlap() {
                         let blocks: Vec<_> = s
                             .blocks
                             .iter()
-                            .map(|&b| mdg_vm::grid::ShapeBlock { pos: m.blocks[b as usize].pos, kind: 0 })
+                            .map(|&b| mdg_grid::ShapeBlock { pos: m.blocks[b as usize].pos, kind: 0 })
                             .collect();
-                        assert!(mdg_vm::grid::connected(&blocks), "{opts:?}: a shape is not connected");
+                        assert!(mdg_grid::connected(&blocks), "{opts:?}: a shape is not connected");
                         if spec != Spec::Solid {
                             let p = s.plane.expect("flat shapes have a plane") as usize;
                             let c0 = m.blocks[s.blocks[0] as usize].pos[p];
@@ -426,7 +427,7 @@ fn rules_place_shapes_at_their_relative_positions_in_the_example() {
             }
         }
         // The shapes at their places rebuild the example.
-        let rebuilt = mdg_vm::grid::generate::examples(&g);
+        let rebuilt = mdg_grid::generate::examples(&g);
         let ids = |m: &VoxelModel| {
             let mut v: Vec<([i32; 3], String)> =
                 m.blocks.iter().map(|b| (b.pos, m.kinds[b.kind as usize].id.clone())).collect();
@@ -455,7 +456,7 @@ grid g {
 }
 "#;
     let b = build_source(src);
-    let g = b.extensions.grid.expect("a grid table");
+    let g = GridGrammar::from_bundle(&b).expect("a valid section").expect("a grid table");
     let d = Derivation::new(&g);
     let start = d.start();
     assert_eq!(start.shape, 2);
@@ -512,12 +513,10 @@ fn placed(g: &GridGrammar) -> Vec<Instance> {
 #[test]
 fn enclosure_removes_an_exposed_wall_segment() {
     // A fin: a wall segment sticking out of the right wall into the open.
-    let g = build_source(&box_source(
+    let b = build_source(&box_source(
         r#"shape fin { size 3 2 1; plane z; at 5 1 2; blocks glass glass glass glass glass glass; }"#,
-    ))
-    .extensions
-    .grid
-    .expect("grid");
+    ));
+    let g = GridGrammar::from_bundle(&b).expect("a valid section").expect("grid");
     let all = placed(&g);
     let (kept, model, removed) = enclosure(&g, &all, 1).expect("runs");
     assert_eq!(removed, 1);
@@ -541,7 +540,7 @@ fn enclosure_repeats_until_nothing_is_removed() {
         &format!("shape roof {{ size 5 1 5; plane y; at 0 3 0; blocks {}; }}", holed.join(" ")),
         1,
     );
-    let g = build_source(&src).extensions.grid.expect("grid");
+    let g = GridGrammar::from_bundle(&build_source(&src)).expect("a valid section").expect("grid");
     let (kept, _, removed) = enclosure(&g, &placed(&g), 0).expect("runs");
     let names: Vec<&str> = kept.iter().map(|i| g.shapes[i.shape as usize].name.as_str()).collect();
     assert_eq!(names, ["floor"], "removed {removed}");
@@ -597,10 +596,10 @@ fn induce_write_compile_generate_round_trip() {
         Ok(b) => b,
         Err(a) => panic!("the written grammar does not compile:\n{}", mdg_tests::render(&a)),
     };
-    assert_eq!(bundle.extensions.grid.as_ref(), Some(&g));
+    assert_eq!(GridGrammar::from_bundle(&bundle).expect("a valid section").as_ref(), Some(&g));
     // Through the bundle file format too.
     let bundle = mdg_vm::bundle::load(&mdg_vm::bundle::encode(&bundle)).expect("loads");
-    assert_eq!(bundle.extensions.grid.as_ref(), Some(&g));
+    assert_eq!(GridGrammar::from_bundle(&bundle).expect("a valid section").as_ref(), Some(&g));
 
     // Generate through the mdg-run mode into every format.
     let run = |out: &std::path::Path, seed: u64, args: &GridArgs| {
@@ -634,7 +633,7 @@ fn induce_write_compile_generate_round_trip() {
             VoxelFormat::Vox => ids(&generated),
             _ => ids(&generated)
                 .into_iter()
-                .map(|(p, id)| (p, mdg_vm::grid::blocks::to_modern(&id).expect("minecraft name")))
+                .map(|(p, id)| (p, mdg_grid::blocks::to_modern(&id).expect("minecraft name")))
                 .collect(),
         };
         assert_eq!(ids(&back), want, "{f:?}");
@@ -686,12 +685,12 @@ fn two_examples_share_one_style() {
     assert_eq!(g.examples, ["a.txt", "b.txt"]);
     let cross = g.matches.iter().any(|m| g.shapes[m.a as usize].example != g.shapes[m.b as usize].example);
     assert!(cross, "a shape of one example matches one of the other");
-    let shared = mdg_vm::grid::induce::shared_shapes(&g);
+    let shared = mdg_grid::induce::shared_shapes(&g);
     assert!(shared >= 2 && shared <= g.shapes.len(), "{shared}");
     // Each example alone shares nothing.
     let alone =
         induce(&[Example { name: "a.txt".into(), model: &a }], &[infer(&a, &opts, &mut |_| {})], "a").expect("induces");
-    assert_eq!(mdg_vm::grid::induce::shared_shapes(&alone), 0);
+    assert_eq!(mdg_grid::induce::shared_shapes(&alone), 0);
     // Rules of the second example's shapes are shared with the first's (deduplicated):
     // every rule's left side has a rule set reachable from the start.
     let d = Derivation::new(&g);
@@ -728,7 +727,7 @@ fn the_std_grid_example_generates_a_building() {
     let path = root().join("std/examples/grid_cottage.mdg");
     let text = std::fs::read_to_string(&path).expect("std/examples/grid_cottage.mdg");
     let bundle = build_source(&text);
-    let g = bundle.extensions.grid.as_ref().expect("a grid section");
+    let g = &GridGrammar::from_bundle(&bundle).expect("a valid section").expect("a grid section");
     let made = generate(
         g,
         &GenerateOptions { steps: g.generate.steps, enclosure: true, seal: 1, seed: 1, ..GenerateOptions::default() },
@@ -831,7 +830,7 @@ fn solid_induction_of_an_l_shaped_building_round_trips() {
                 let (bundle, _) =
                     mdg_compiler::driver::build(&mdg_compiler::source::FsLoader, &style, &mdg_tests::options())
                         .unwrap_or_else(|a| panic!("does not compile:\n{}", mdg_tests::render(&a)));
-                assert_eq!(bundle.extensions.grid.as_ref(), Some(&g));
+                assert_eq!(GridGrammar::from_bundle(&bundle).expect("a valid section").as_ref(), Some(&g));
             }
         }
     }
@@ -854,9 +853,16 @@ fn solid_induction_of_an_l_shaped_building_round_trips() {
     // `plane none` on a source shape keeps it out of the enclosure constraint's reach.
     let src = "startshape s\nrule s {}\ngrid g {\n  palette { a \"1:0\"; }\n  \
                shape p { size 2 1 2; plane none; blocks a a a a; }\n  start p;\n}\n";
-    assert_eq!(build_source(src).extensions.grid.expect("grid").shapes[0].plane, None);
+    assert_eq!(
+        GridGrammar::from_bundle(&build_source(src)).expect("a valid section").expect("grid").shapes[0].plane,
+        None
+    );
     let flat = src.replace("plane none; ", "");
-    assert_eq!(build_source(&flat).extensions.grid.expect("grid").shapes[0].plane, Some(1), "without it: flat along y");
+    assert_eq!(
+        GridGrammar::from_bundle(&build_source(&flat)).expect("a valid section").expect("grid").shapes[0].plane,
+        Some(1),
+        "without it: flat along y"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -943,7 +949,7 @@ fn pieces(m: &VoxelModel) -> Vec<(usize, bool)> {
         while let Some(p) = stack.pop() {
             n += 1;
             grounded |= p[1] == ground;
-            for d in mdg_vm::grid::voxel::NEIGHBOURS {
+            for d in mdg_grid::voxel::NEIGHBOURS {
                 let q = add(p, d);
                 if cells.contains(&q) && seen.insert(q) {
                     stack.push(q);
@@ -1007,7 +1013,7 @@ fn generated_buildings_hold_together_inside_their_bounds() {
 
 #[test]
 fn a_stair_turned_by_a_rule_faces_the_right_way() {
-    use mdg_vm::grid::blocks::turn_block;
+    use mdg_grid::blocks::turn_block;
     // One quarter turn maps (x, y, z) to (z, y, −x): east (+x) becomes north (−z).
     assert_eq!(
         turn_block("minecraft:oak_stairs[facing=east,half=top]", 1).as_deref(),
@@ -1032,8 +1038,8 @@ fn a_stair_turned_by_a_rule_faces_the_right_way() {
     assert_eq!(turn_block("17:5", 1).as_deref(), Some("17:9"));
     assert_eq!(turn_block("64:0", 1).as_deref(), Some("64:3"));
     assert_eq!(turn_block("64:8", 1), None, "an upper door half has no facing");
-    assert_eq!(mdg_vm::grid::blocks::to_modern("43:8").as_deref(), Some("minecraft:smooth_stone"));
-    assert_eq!(mdg_vm::grid::blocks::to_modern("43:0").as_deref(), Some("minecraft:smooth_stone_slab[type=double]"));
+    assert_eq!(mdg_grid::blocks::to_modern("43:8").as_deref(), Some("minecraft:smooth_stone"));
+    assert_eq!(mdg_grid::blocks::to_modern("43:0").as_deref(), Some("minecraft:smooth_stone_slab[type=double]"));
     for id in ["53:1", "minecraft:oak_stairs[facing=south,half=bottom]", "17:4", "50:2", "86:1"] {
         let mut t = id.to_string();
         for _ in 0..4 {
@@ -1045,7 +1051,7 @@ fn a_stair_turned_by_a_rule_faces_the_right_way() {
     let src = "startshape s\nrule s {}\ngrid g {\n  palette { st \"minecraft:oak_stairs[facing=east,half=bottom]\"; p \"minecraft:oak_planks\"; }\n  \
                shape base { size 1 1 1; blocks p; }\n  shape step { size 1 1 1; blocks st; }\n  \
                rule base step at 1 0 0;\n  rule base step at 0 0 -1 turn 1;\n  start base;\n}\n";
-    let g = build_source(src).extensions.grid.expect("grid");
+    let g = GridGrammar::from_bundle(&build_source(src)).expect("a valid section").expect("grid");
     let mut seen = BTreeMap::new();
     for seed in 0..8 {
         let made = generate(&g, &GenerateOptions { steps: 2, enclosure: false, seed, ..GenerateOptions::default() })
@@ -1059,19 +1065,13 @@ fn a_stair_turned_by_a_rule_faces_the_right_way() {
     // Matching treats the turned stair as the same block turned: two steps facing east
     // and north match under a quarter turn.
     let shapes = vec![
-        vec![
-            mdg_vm::grid::ShapeBlock { pos: [0, 0, 0], kind: 0 },
-            mdg_vm::grid::ShapeBlock { pos: [1, 0, 0], kind: 1 },
-        ],
-        vec![
-            mdg_vm::grid::ShapeBlock { pos: [0, 0, 1], kind: 2 },
-            mdg_vm::grid::ShapeBlock { pos: [0, 0, 0], kind: 1 },
-        ],
+        vec![mdg_grid::ShapeBlock { pos: [0, 0, 0], kind: 0 }, mdg_grid::ShapeBlock { pos: [1, 0, 0], kind: 1 }],
+        vec![mdg_grid::ShapeBlock { pos: [0, 0, 1], kind: 2 }, mdg_grid::ShapeBlock { pos: [0, 0, 0], kind: 1 }],
     ];
     let ids = ["53:0", "5:0", "53:3"];
-    let turns = mdg_vm::grid::kind_turns(&ids);
-    assert_eq!(mdg_vm::grid::matching::Classes::of(&shapes, &turns).class, vec![0, 0]);
-    assert_eq!(mdg_vm::grid::matching::Classes::of(&shapes, &[]).class, vec![0, 1], "without turning kinds");
+    let turns = mdg_grid::kind_turns(&ids);
+    assert_eq!(mdg_grid::matching::Classes::of(&shapes, &turns).class, vec![0, 0]);
+    assert_eq!(mdg_grid::matching::Classes::of(&shapes, &[]).class, vec![0, 1], "without turning kinds");
 }
 
 /// Two different buildings with one wall style: a stone wall with 2-wide glass windows
@@ -1109,12 +1109,12 @@ fn two_different_buildings_with_one_wall_style_share_its_rules() {
     let models = vec![("house.txt".to_string(), a.clone()), ("tower.txt".to_string(), b.clone())];
     // Whole shapes alone: the house's wall is longer than the tower's, nothing matches.
     let (plain, _) = mdg_compiler::induce::induce_models(&models, &opts, 0, "plain", &mut |_, _| {}).expect("induces");
-    assert_eq!(mdg_vm::grid::induce::shared_shapes(&plain), 0);
+    assert_eq!(mdg_grid::induce::shared_shapes(&plain), 0);
     // Sub-shape matching cuts the window panel out of the house's wall.
     let (g, reports) =
         mdg_compiler::induce::induce_models(&models, &opts, 4, "shared", &mut |_, _| {}).expect("induces");
     assert_eq!(reports.iter().map(|r| r.shared_cuts).collect::<Vec<_>>(), [1, 1]);
-    assert!(mdg_vm::grid::induce::shared_shapes(&g) >= 2);
+    assert!(mdg_grid::induce::shared_shapes(&g) >= 2);
     let d = Derivation::new(&g);
     let cross: Vec<_> =
         g.matches.iter().filter(|m| g.shapes[m.a as usize].example != g.shapes[m.b as usize].example).collect();
@@ -1155,7 +1155,7 @@ fn neighbour_pairs(m: &VoxelModel) -> HashSet<(String, String, [i32; 3])> {
     let at: BTreeMap<[i32; 3], &str> = m.blocks.iter().map(|b| (b.pos, m.kinds[b.kind as usize].id.as_str())).collect();
     let mut out = HashSet::new();
     for (&p, &k) in &at {
-        for d in mdg_vm::grid::voxel::NEIGHBOURS {
+        for d in mdg_grid::voxel::NEIGHBOURS {
             if let Some(&n) = at.get(&add(p, d)) {
                 out.insert((k.to_string(), n.to_string(), d));
             }
@@ -1194,8 +1194,8 @@ fn the_adjacency_constraint_keeps_every_neighbour_pair_of_the_example() {
 
 #[test]
 fn door_halves_are_one_block_for_induction_and_two_when_written() {
-    use mdg_vm::grid::blocks::turn_block;
-    use mdg_vm::grid::doors::{merge_doors, split_doors};
+    use mdg_grid::blocks::turn_block;
+    use mdg_grid::doors::{merge_doors, split_doors};
     // A wall with a legacy oak door (lower half facing east, upper half hinge left) and
     // one with a modern spruce door.
     let mut v: Vec<([i32; 3], &str)> = Vec::new();
@@ -1242,7 +1242,7 @@ fn door_halves_are_one_block_for_induction_and_two_when_written() {
     // A writer given joined doors writes both halves.
     let text = String::from_utf8(format::write(VoxelFormat::Text, &joined).expect("writes")).expect("utf8");
     assert!(!text.contains('+') && text.contains("1 1 0 64:8"), "{text}");
-    let rebuilt = &mdg_vm::grid::generate::examples(&g)[0];
+    let rebuilt = &mdg_grid::generate::examples(&g)[0];
     assert_eq!(ids_of(rebuilt), ids_of(&m), "the example rebuilt from the grammar has both halves");
 }
 
@@ -1287,7 +1287,7 @@ fn induced_shapes_are_named_by_role_and_their_rules_written_under_them() {
 
 #[test]
 fn writers_warn_past_the_build_height_and_the_structure_blocks_48() {
-    use mdg_vm::grid::format::write_notes;
+    use mdg_grid::format::write_notes;
     let column: String = (0..400).map(|y| format!("0 {y} 0 stone\n")).collect();
     let tall = model(&column);
     assert_eq!(write_notes(VoxelFormat::Schem, &tall).len(), 1, "taller than 384");
@@ -1427,8 +1427,8 @@ fn induce_default(name: &str, text: &str) -> GridGrammar {
 
 #[test]
 fn default_induction_gives_back_whole_varied_buildings_with_their_roofs() {
-    use mdg_vm::grid::assess::COMPLETE_FRACTION;
-    use mdg_vm::grid::build::variety;
+    use mdg_grid::assess::COMPLETE_FRACTION;
+    use mdg_grid::build::variety;
     for (name, text, roof, open_roof) in [
         ("cottage", stair_cottage(), "minecraft:oak_stairs", true),
         ("tower", parapet_tower(), "minecraft:stone_brick_wall", true),
@@ -1456,15 +1456,15 @@ fn default_induction_gives_back_whole_varied_buildings_with_their_roofs() {
 
 #[test]
 fn generated_buildings_are_checked_for_completeness_against_the_example() {
-    use mdg_vm::grid::assess::assess;
-    use mdg_vm::grid::generate::example_instances;
+    use mdg_grid::assess::assess;
+    use mdg_grid::generate::example_instances;
     // The example rebuilt from its shapes is complete; its walls alone are not (no
     // roof: the rooms are open to the sky, the walls exposed, a third of the blocks).
     let g = induce_default("cottage", &stair_cottage());
     let whole = example_instances(&g, 0);
     let (_, model, removed) = enclosure(&g, &whole, 1).expect("encloses");
     assert_eq!(removed, 0, "enclosure removes nothing the example has");
-    let made = mdg_vm::grid::generate::Generated {
+    let made = mdg_grid::generate::Generated {
         model,
         instances: whole.clone(),
         applied: 0,
@@ -1479,10 +1479,9 @@ fn generated_buildings_are_checked_for_completeness_against_the_example() {
     let d = Derivation::new(&g);
     let mut m = VoxelModel { kinds: d.kinds.clone(), blocks: Vec::new() };
     for i in &walls {
-        m.blocks.extend(d.blocks(i).map(|(pos, kind)| mdg_vm::grid::voxel::Block { pos, kind }));
+        m.blocks.extend(d.blocks(i).map(|(pos, kind)| mdg_grid::voxel::Block { pos, kind }));
     }
-    let a =
-        assess(&g, &mdg_vm::grid::generate::Generated { model: m, instances: walls, ..made }, 0, 1).expect("assesses");
+    let a = assess(&g, &mdg_grid::generate::Generated { model: m, instances: walls, ..made }, 0, 1).expect("assesses");
     assert!(!a.complete(), "walls without floor and roof are not complete: {a:?}");
 }
 
@@ -1510,8 +1509,8 @@ fn the_default_search_splits_and_merges_and_alpha_trades_shapes_for_entropy() {
 
 #[test]
 fn no_derivation_leaves_a_shape_exposed_after_dropping_floating_pieces() {
-    use mdg_vm::grid::assess::assess;
-    use mdg_vm::grid::generate::derive;
+    use mdg_grid::assess::assess;
+    use mdg_grid::generate::derive;
     // Dropping the pieces that do not stand on the ground can open what they closed:
     // the enclosure runs again until neither removes anything, so no derivation keeps a
     // shape (not open in its example) with air on both sides.
@@ -1532,9 +1531,9 @@ fn no_derivation_leaves_a_shape_exposed_after_dropping_floating_pieces() {
 
 #[test]
 fn complete_buildings_get_their_missing_block_kinds_back() {
-    use mdg_vm::grid::assess::{assess_with, Reference};
-    use mdg_vm::grid::generate::derive;
-    use mdg_vm::grid::kinds::add_missing_kinds;
+    use mdg_grid::assess::{assess_with, Reference};
+    use mdg_grid::generate::derive;
+    use mdg_grid::kinds::add_missing_kinds;
     // The cottage's chimney (bricks) and ridge (oak slab) stand in few shapes: plain
     // derivations often lose them. A complete derivation gets them back through the
     // rules, where what is added stays enclosed (or is open in the example).
@@ -1572,9 +1571,9 @@ fn complete_buildings_get_their_missing_block_kinds_back() {
 
 #[test]
 fn a_kind_four_rules_from_the_building_is_reached_by_a_chain_of_rules() {
-    use mdg_vm::grid::generate::Generated;
-    use mdg_vm::grid::kinds::add_missing_kinds;
-    use mdg_vm::grid::{GridRule, GridShape, PaletteEntry, ShapeBlock};
+    use mdg_grid::generate::Generated;
+    use mdg_grid::kinds::add_missing_kinds;
+    use mdg_grid::{GridRule, GridShape, PaletteEntry, ShapeBlock};
     // A tower written for the test: a stone base, three storeys and, four rules up, a
     // top platform of iron bars (tower_observation's top, issue 42). A plank cap sits
     // on the base (the planks of storey 1, so only the iron bars are missing), so the

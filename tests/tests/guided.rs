@@ -8,10 +8,10 @@
 use glam::DVec3;
 use mdg_cli::modes::guided::GuidedArgs;
 use mdg_cli::modes::Common;
+use mdg_guided::{Guide, GuidedTable, ModelChoice, Prepared, SearchOptions, Stop};
 use mdg_tests::{analyze_file, build_source, root};
-use mdg_vm::bundle::Bundle;
+use mdg_vm::bundle::{Bundle, Section};
 use mdg_vm::eval::{evaluate, evaluate_calls, Call, EvalOptions, Expander};
-use mdg_vm::sosmc::{Guide, GuidedTable, ModelChoice, Prepared, SearchOptions, Stop};
 
 fn std_tree() -> Bundle {
     let a = analyze_file(&root().join("std/examples/guided_tree.mdg"), true);
@@ -20,7 +20,7 @@ fn std_tree() -> Bundle {
 }
 
 fn table(b: &Bundle) -> GuidedTable {
-    b.extensions.guided.clone().expect("guided table")
+    GuidedTable::from_bundle(b).expect("a valid section").expect("guided table")
 }
 
 fn rule(b: &Bundle, name: &str) -> u32 {
@@ -34,10 +34,10 @@ fn opts(seed: u64) -> SearchOptions {
         heuristic_scale: 1.0,
         heuristic_fraction: 0.4,
         budget: None,
-        resampling: mdg_vm::sosmc::Resampling::Systematic,
+        resampling: mdg_guided::Resampling::Systematic,
         seed,
         threads: None,
-        parallel_min: mdg_vm::sosmc::PARALLEL_MIN_PARTICLES,
+        parallel_min: mdg_guided::PARALLEL_MIN_PARTICLES,
         clock: None,
         cancel: None,
         choice: ModelChoice::default(),
@@ -60,7 +60,7 @@ fn std_tree_compiles_to_a_guided_table_that_round_trips() {
     assert_eq!(t.settings.generations, 100);
     assert_eq!(t.settings.budget_ms, Some(200.0));
     let back = mdg_vm::bundle::load(&mdg_vm::bundle::encode(&b)).expect("loads");
-    assert_eq!(back.extensions.guided.as_ref(), Some(&t));
+    assert_eq!(GuidedTable::from_bundle(&back).expect("a valid section").as_ref(), Some(&t));
 }
 
 #[test]
@@ -68,8 +68,9 @@ fn the_verifier_rejects_bad_tables() {
     let b = std_tree();
     let load = |t: GuidedTable| {
         let mut c = b.clone();
-        c.extensions.guided = Some(t);
-        mdg_vm::bundle::load(&mdg_vm::bundle::encode(&c)).map(|_| ()).map_err(|e| e.to_string())
+        t.store(&mut c.extensions);
+        let back = mdg_vm::bundle::load(&mdg_vm::bundle::encode(&c)).map_err(|e| e.to_string())?;
+        GuidedTable::from_bundle(&back).map(|_| ()).map_err(|e| e.to_string())
     };
     assert_eq!(load(table(&b)), Ok(()));
     let mut t = table(&b);
@@ -119,7 +120,7 @@ fn the_reported_model_is_the_lowest_cost_of_any_generation() {
     for seed in 1..=6 {
         // Each generation's lowest cost, as the progress report gives it.
         let lows = std::sync::Mutex::new(Vec::new());
-        let report = |g: &mdg_vm::sosmc::Progress| lows.lock().expect("lock").push(g.best_cost);
+        let report = |g: &mdg_guided::Progress| lows.lock().expect("lock").push(g.best_cost);
         let r = p.search(&opts(seed), Some(&report));
         let lows = lows.into_inner().expect("lock");
         assert_eq!(lows.len() as u32, r.generations);
@@ -265,7 +266,7 @@ fn the_budget_ends_a_long_generation_and_covers_preparation() {
 /// generation of 1,000,000 particles runs, that generation is dropped within moments.
 #[test]
 fn a_cancelled_search_stops_at_the_next_particle_step() {
-    use mdg_vm::sosmc::Cancel;
+    use mdg_guided::Cancel;
     let b = std_tree();
     let t = table(&b);
     let p = Prepared::new(&b, &t, &t.guides).expect("prepared");
@@ -275,7 +276,7 @@ fn a_cancelled_search_stops_at_the_next_particle_step() {
     assert_eq!((r.stop, r.generations, r.particle_steps), (Stop::Cancelled, 0, 0));
 
     let cancel = Cancel::new();
-    let after_three = |pr: &mdg_vm::sosmc::Progress| {
+    let after_three = |pr: &mdg_guided::Progress| {
         if pr.generation == 3 {
             cancel.cancel();
         }
@@ -289,7 +290,7 @@ fn a_cancelled_search_stops_at_the_next_particle_step() {
     // The cancel comes 150 ms into the second generation, whatever the machine's
     // load made of the first (a full second generation takes seconds).
     let first_done = std::sync::atomic::AtomicBool::new(false);
-    let note_first = |pr: &mdg_vm::sosmc::Progress| {
+    let note_first = |pr: &mdg_guided::Progress| {
         if pr.generation == 1 {
             first_done.store(true, std::sync::atomic::Ordering::SeqCst);
         }
@@ -374,7 +375,7 @@ fn search_beats_unguided_sampling_on_distance() {
     let b = std_tree();
     let t = table(&b);
     let p = Prepared::new(&b, &t, &t.guides).expect("prepared");
-    let mean_dist = |bones: &[mdg_vm::sosmc::search::Bone]| {
+    let mean_dist = |bones: &[mdg_guided::search::Bone]| {
         bones.iter().filter_map(|x| p.guides().nearest(x.base)).map(|n| n.dist).sum::<f64>() / bones.len() as f64
     };
     let mut guided = 0.0;
@@ -432,7 +433,7 @@ fn guide_files_replace_the_source_guides() {
     for name in ["arch", "windswept"] {
         let path = root().join(format!("std/examples/guides/{name}.json"));
         let text = std::fs::read_to_string(&path).expect("example guide file");
-        let want = mdg_vm::sosmc::guides_from_json(&text).expect("valid");
+        let want = mdg_guided::guides_from_json(&text).expect("valid");
         let args = GuidedArgs { guides: Some(path), generations: Some(20), ..GuidedArgs::default() };
         let out = mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default()).expect("runs");
         let lines: Vec<_> = out.lines.iter().filter(|l| l.namespace == "guides").collect();
@@ -508,7 +509,7 @@ fn evaluate_calls_matches_evaluate_on_std_examples() {
 fn closest_guide_distance_is_exact_on_a_straight_guide() {
     // The cost's DIST on a straight, evenly parameterised guide is the distance to the line.
     let g = Guide::new("", vec![[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 2.0], [0.0, 0.0, 3.0]]);
-    let set = mdg_vm::sosmc::cost::Guides::new(&[g]).expect("guides");
+    let set = mdg_guided::cost::Guides::new(&[g]).expect("guides");
     for (p, want) in [([1.0, 0.0, 1.0], 1.0), ([0.0, -2.5, 2.9], 2.5), ([3.0, 4.0, 1.5], 5.0)] {
         let n = set.nearest(DVec3::from_array(p)).expect("near");
         assert!((n.dist - want).abs() < 1e-12, "{p:?}: {}", n.dist);
@@ -642,10 +643,13 @@ fn the_utilisation_key_equals_the_flag_and_the_flag_overrides_it() {
     for (term, other) in [("local", "paper"), ("paper", "local")] {
         let keyed = std_tree_with(&format!("utilisation {term};"));
         let t = table(&keyed);
-        assert_eq!(t.settings.utilisation, mdg_vm::sosmc::Utilisation::from_name(term));
+        assert_eq!(t.settings.utilisation, mdg_guided::Utilisation::from_name(term));
         // The key survives the bundle's bytes.
         let back = mdg_vm::bundle::load(&mdg_vm::bundle::encode(&keyed)).expect("round trip");
-        assert_eq!(back.extensions.guided.expect("table").settings.utilisation, t.settings.utilisation);
+        assert_eq!(
+            GuidedTable::from_bundle(&back).expect("a valid section").expect("table").settings.utilisation,
+            t.settings.utilisation
+        );
         let by_key = run(&keyed, None).vertex_mesh();
         assert_eq!(by_key, run(&plain, Some(term)).vertex_mesh(), "key {term} = flag {term}");
         assert_eq!(run(&keyed, Some(other)).vertex_mesh(), run(&plain, Some(other)).vertex_mesh(), "flag wins");
@@ -681,11 +685,11 @@ fn the_default_model_is_the_wider_of_the_lowest_cost_and_the_last() {
 /// derivation (a forward sample of as many particle-steps), per seed.
 fn coverages(b: &Bundle, file: &str, seeds: std::ops::RangeInclusive<u64>) -> (Vec<f64>, Vec<f64>) {
     let text = std::fs::read_to_string(root().join(file)).expect("guide file");
-    let guides = mdg_vm::sosmc::guides_from_json(&text).expect("valid");
+    let guides = mdg_guided::guides_from_json(&text).expect("valid");
     let t = table(b);
     let p = Prepared::new(b, &t, &guides).expect("prepared");
     let o = SearchOptions::from_settings(&t.settings, 0);
-    let cover = |bones: &[mdg_vm::sosmc::search::Bone]| mdg_vm::sosmc::measure::coverage(p.guides(), bones).total;
+    let cover = |bones: &[mdg_guided::search::Bone]| mdg_guided::measure::coverage(p.guides(), bones).total;
     let (mut guided, mut unguided) = (Vec::new(), Vec::new());
     for seed in seeds {
         guided.push(cover(&p.search(&SearchOptions { seed, budget: None, ..o.clone() }, None).model.bones));

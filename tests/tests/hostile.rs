@@ -174,7 +174,7 @@ fn bones_with_ever_faster_tracks_end_at_the_animation_budget() {
         assert_eq!(out.animation.bones.len(), 1 + 6, "the root and six bones");
         assert_eq!(out.vertex_mesh().n_vertices(), 3 * 5);
         let mut glb = Vec::new();
-        mdg_vm::export::write(mdg_vm::export::Format::Glb, &out, &mut glb).expect("export");
+        mdg_export::write(mdg_export::Format::Glb, &out, &mut glb).expect("export");
         assert!(glb.len() < 64 << 20, "{} bytes", glb.len());
     });
 }

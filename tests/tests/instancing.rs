@@ -21,7 +21,7 @@ use mdg_compiler::check::CheckOptions;
 use mdg_compiler::driver::{analyze_text, Analysis};
 use mdg_compiler::source::FsLoader;
 use mdg_tests::{analyze_file, mdg_files, options, root};
-use mdg_vm::bundle::{Bundle, Op};
+use mdg_vm::bundle::{Bundle, Op, SectionKind};
 use mdg_vm::eval::{evaluate, EvalOptions};
 use mdg_vm::output::{Mesh, Output, SharedKind};
 use std::collections::BTreeSet;
@@ -61,7 +61,7 @@ fn std_examples() -> Vec<(String, Bundle)> {
     for path in mdg_files("std/examples") {
         let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
         let b = lower(&name, &analyze_file(&path, true));
-        if b.extensions.creatures.is_some() || b.extensions.grid.is_some() {
+        if b.extensions.has(SectionKind::Creatures) || b.extensions.has(SectionKind::Grid) {
             continue;
         }
         v.push((name, b));
@@ -405,8 +405,8 @@ fn the_flat_glb_expands_prototypes_as_the_evaluator_does() {
         let mut expanded = out.clone();
         expanded.expand_prototypes();
         let (mut a, mut e) = (Vec::new(), Vec::new());
-        mdg_vm::export::write(mdg_vm::export::Format::Glb, &out, &mut a).expect("writes");
-        mdg_vm::export::write(mdg_vm::export::Format::Glb, &expanded, &mut e).expect("writes");
+        mdg_export::write(mdg_export::Format::Glb, &out, &mut a).expect("writes");
+        mdg_export::write(mdg_export::Format::Glb, &expanded, &mut e).expect("writes");
         if glb_binary(&a) != glb_binary(&e) {
             problems.push(format!("{name}: the binary chunks differ ({} and {} bytes)", a.len(), e.len()));
         }

@@ -340,7 +340,7 @@ fn json_dumps_of_two_runs_are_byte_identical_and_hold_no_timings() {
     let dump = || {
         let out = run_source(src);
         let mut bytes = Vec::new();
-        mdg_vm::export::write(mdg_vm::export::Format::Json, &out, &mut bytes).expect("json");
+        mdg_export::write(mdg_export::Format::Json, &out, &mut bytes).expect("json");
         bytes
     };
     let (a, b) = (dump(), dump());

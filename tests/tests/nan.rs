@@ -219,12 +219,12 @@ fn the_json_dump_writes_non_finite_positions_as_0_like_the_other_formats() {
     let out = run_source("startshape A\nrule A { B {s 1e30} }\nrule B { VERTEX {x 1e30} VERTEX {} VERTEX {y 1} }\n");
     assert!(!warnings_with(&out, "not finite").is_empty(), "{:?}", out.stats.warnings);
     let mut json = Vec::new();
-    mdg_vm::export::json::write_json(&out, &mut json).expect("dump");
+    mdg_export::json::write_json(&out, &mut json).expect("dump");
     let json = String::from_utf8(json).expect("utf-8");
     assert!(!json.contains("null"), "{json}");
     assert!(json.starts_with("{\"vertices\":[[0.0,0.0,0.0],[0.0,0.0,0.0],[0.0,"), "{json}");
     let mut obj = Vec::new();
-    mdg_vm::export::write(mdg_vm::export::Format::Obj, &out, &mut obj).expect("obj");
+    mdg_export::write(mdg_export::Format::Obj, &out, &mut obj).expect("obj");
     assert!(String::from_utf8_lossy(&obj).contains("\nv 0 0 -0"), "the OBJ writes 0 too");
 }
 

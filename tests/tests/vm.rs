@@ -400,7 +400,7 @@ fn same_source_and_seed_give_identical_bytes() {
     let glb = |seed| {
         let out = evaluate(&bundle, &EvalOptions { seed: Some(seed), ..EvalOptions::default() });
         let mut bytes = Vec::new();
-        mdg_vm::export::write(mdg_vm::export::Format::Glb, &out, &mut bytes).expect("export");
+        mdg_export::write(mdg_export::Format::Glb, &out, &mut bytes).expect("export");
         bytes
     };
     assert_eq!(glb(7), glb(7), "same seed, different meshes");
@@ -456,7 +456,7 @@ fn mutated_bundles_are_rejected_or_run_safely() {
 fn json_dump_has_the_documented_keys() {
     let out = run_source("@import primitives\nstartshape A\nrule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} MOVETO {} LINETO {z 2} SPHERE {x 5 s 0.5} }\n");
     let mut bytes = Vec::new();
-    mdg_vm::export::write(mdg_vm::export::Format::Json, &out, &mut bytes).expect("json");
+    mdg_export::write(mdg_export::Format::Json, &out, &mut bytes).expect("json");
     let j: serde_json::Value = serde_json::from_slice(&bytes).expect("valid JSON");
     assert_eq!(j["vertices"].as_array().map(|a| a.len()), Some(3));
     assert_eq!(j["triangles"][0], serde_json::json!([0, 1, 2]));

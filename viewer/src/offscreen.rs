@@ -266,7 +266,7 @@ pub fn shrink(rgba: &[u8], width: u32, height: u32, k: u32) -> (Vec<u8>, u32, u3
 pub fn write_png(path: &Path, rgba: &[u8], width: u32, height: u32) -> Result<(), Error> {
     let bytes = mdg_vm::preview::encode_png(rgba, width, height).map_err(|e| Error::Io(format!("encode PNG: {e}")))?;
     // Atomically (temporary file + rename): a killed run never leaves half a PNG.
-    mdg_vm::export::write_atomic(path, &bytes).map_err(|e| Error::Io(format!("cannot write {}: {e}", path.display())))
+    mdg_export::write_atomic(path, &bytes).map_err(|e| Error::Io(format!("cannot write {}: {e}", path.display())))
 }
 
 #[cfg(test)]

@@ -293,7 +293,7 @@ pub struct InstancedDraw {
     pub vertex_offset: i32,
     pub first_instance: u32,
     pub instance_count: u32,
-    /// The mesh is closed (`mdg_vm::export::is_closed`): its back faces are hidden
+    /// The mesh is closed (`mdg_export::is_closed`): its back faces are hidden
     /// behind its front faces, and the draw culls them (half the triangles a CPU
     /// driver rasterises).
     pub closed: bool,
@@ -579,7 +579,7 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
             let coarse = (oriented.len() > LOD_MIN_TRIANGLES)
                 .then(|| coarse_mesh(shared, &oriented, &mut inst.vertices, &mut inst.indices))
                 .flatten();
-            let closed = mdg_vm::export::is_closed(m, &oriented);
+            let closed = mdg_export::is_closed(m, &oriented);
             let facets = facets_of(shared, &oriented);
             let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
             for q in &m.positions {

@@ -726,7 +726,9 @@ fn regions<O: StackOp>(code: &[O]) -> Result<Vec<u32>, CodeError> {
                 bodies += 1;
                 current = bodies;
             }
-            Core::Enter(_) => return Err(CodeError::BlockShape { what: "function body outside a function block", at: Some(i) }),
+            Core::Enter(_) => {
+                return Err(CodeError::BlockShape { what: "function body outside a function block", at: Some(i) })
+            }
             Core::Ret if current != 0 => {
                 region[i] = current;
                 current = 0;

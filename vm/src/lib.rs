@@ -6,14 +6,10 @@
 
 pub mod anim;
 pub mod bundle;
-pub mod creature;
 pub mod eval;
-pub mod export;
 pub mod expr;
 pub mod geom;
-pub mod grid;
 pub mod input;
 pub mod output;
 pub mod preview;
 pub mod rng;
-pub mod sosmc;

@@ -684,7 +684,7 @@ impl Output {
 }
 
 /// The largest absolute coordinate of `positions` (infinite if one is not finite).
-pub(crate) fn max_abs(positions: &[[f32; 3]]) -> f32 {
+pub fn max_abs(positions: &[[f32; 3]]) -> f32 {
     positions.as_flattened().iter().fold(0.0f32, |m, c| if c.is_finite() { m.max(c.abs()) } else { f32::INFINITY })
 }
 
@@ -694,7 +694,7 @@ pub(crate) fn max_abs(positions: &[[f32; 3]]) -> f32 {
 /// below 1e15, so a mapped point is under 1e15 + 3 · 4e14 · 1e15 ≪ f32::MAX. NaN
 /// fails the comparisons, so non-finite numbers fail too.
 #[inline]
-pub(crate) fn frame_surely_maps_finite(f: &Frame, extent: f32) -> bool {
+pub fn frame_surely_maps_finite(f: &Frame, extent: f32) -> bool {
     let small = |v: glam::Vec4, limit: f32| v.abs().cmplt(glam::Vec4::splat(limit)).all();
     small(glam::Vec4::from(f.q), 1e7)
         && small(glam::Vec4::from(f.qh), 1e7)

@@ -30,7 +30,7 @@ pub fn run(args: Args) -> ExitCode {
                 return Failure::usage(e).report("mdgc build");
             }
             let out = args.output.unwrap_or_else(|| args.file.with_extension("mdgb"));
-            if let Some(f) = a.sources.files.iter().find(|f| mdg_vm::export::same_file(&f.path, &out)) {
+            if let Some(f) = a.sources.files.iter().find(|f| mdg_export::same_file(&f.path, &out)) {
                 let msg = format!(
                     "-o {}: that is an input ({}); choose another output file",
                     out.display(),
@@ -39,7 +39,7 @@ pub fn run(args: Args) -> ExitCode {
                 return Failure::usage(msg).report("mdgc build");
             }
             let bytes = mdg_vm::bundle::encode(&bundle);
-            if let Err(e) = mdg_vm::export::write_atomic(&out, &bytes) {
+            if let Err(e) = mdg_export::write_atomic(&out, &bytes) {
                 return Failure::usage(format!("cannot write {}: {e}", out.display())).report("mdgc build");
             }
             eprintln!("wrote {} ({} bytes)", out.display(), bytes.len());

@@ -32,7 +32,7 @@ pub fn run(args: Args) -> ExitCode {
             changed = true;
             if args.check {
                 println!("{} is not formatted", mdg_compiler::diag::escape_text(&f.display().to_string()));
-            } else if let Err(e) = mdg_vm::export::write_atomic(f, formatted.as_bytes()) {
+            } else if let Err(e) = mdg_export::write_atomic(f, formatted.as_bytes()) {
                 return Failure::usage(format!("cannot write {}: {e}", f.display())).report("mdgc fmt");
             }
         }

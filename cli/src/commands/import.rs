@@ -79,13 +79,13 @@ pub fn run(args: Args) -> ExitCode {
     let n = imp.report.notes.len();
     eprintln!("mdgc import: {n} construct{} approximated or left out", if n == 1 { "" } else { "s" });
     if let Some(r) = &args.report {
-        if let Err(e) = mdg_vm::export::write_atomic(r, imp.report.to_json().as_bytes()) {
+        if let Err(e) = mdg_export::write_atomic(r, imp.report.to_json().as_bytes()) {
             return Failure::usage(format!("cannot write {}: {e}", r.display())).report("mdgc import");
         }
     }
     match &args.output {
         Some(o) => {
-            if let Err(e) = mdg_vm::export::write_atomic(o, imp.mdg.as_bytes()) {
+            if let Err(e) = mdg_export::write_atomic(o, imp.mdg.as_bytes()) {
                 return Failure::usage(format!("cannot write {}: {e}", o.display())).report("mdgc import");
             }
             eprintln!("wrote {}", o.display());

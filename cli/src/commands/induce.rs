@@ -17,7 +17,7 @@ pub struct Args {
     #[arg(long, default_value = "rect", value_name = "rect|2d|3d")]
     pub spec: String,
     /// Weight of the number of shapes in the cost (≥ 0).
-    #[arg(long, default_value_t = mdg_vm::grid::infer::DEFAULT_ALPHA)]
+    #[arg(long, default_value_t = mdg_grid::infer::DEFAULT_ALPHA)]
     pub alpha: f64,
     /// Hill-climbing operations.
     #[arg(long, default_value = "both", value_name = "merge|split|both")]
@@ -47,7 +47,7 @@ pub struct Args {
     pub full: bool,
     /// Seeds the summary generates and measures (complete, distinct, block kinds; seeds 1 to N with the
     /// grammar's generate settings); 0 skips the summary (the large GDMC towers take seconds).
-    #[arg(long, default_value_t = mdg_vm::grid::assess::SEEDS, value_name = "N")]
+    #[arg(long, default_value_t = mdg_grid::assess::SEEDS, value_name = "N")]
     pub summary_seeds: u64,
     /// The grammar source to write.
     #[arg(short, long, value_name = "STYLE.mdg")]
@@ -63,7 +63,7 @@ pub fn run(args: Args) -> ExitCode {
     let Args { examples, spec, alpha, ops, overlap, cost, post_split, share, name, full, summary_seeds, output } = args;
     let (examples, spec, ops, cost, name, output) =
         (&examples[..], spec.as_str(), ops.as_str(), cost.as_str(), name.as_deref(), output.as_path());
-    use mdg_vm::grid::infer::{Cost, InferOptions, Ops, Spec};
+    use mdg_grid::infer::{Cost, InferOptions, Ops, Spec};
     let usage = |m: String| Failure::usage(m).report("mdgc induce");
     let Some(spec) = Spec::parse(spec) else { return usage(format!("--spec {spec}: expected rect, 2d or 3d")) };
     let Some(ops) = Ops::parse(ops) else { return usage(format!("--ops {ops}: expected merge, split or both")) };
@@ -85,7 +85,7 @@ pub fn run(args: Args) -> ExitCode {
     );
     let files: Vec<&std::path::Path> = examples.iter().map(|p| p.as_path()).collect();
     let mut last = usize::MAX;
-    let mut progress = |i: usize, p: mdg_vm::grid::infer::Progress| {
+    let mut progress = |i: usize, p: mdg_grid::infer::Progress| {
         if i != last {
             bar.set_position(i as u64);
             last = i;
@@ -138,12 +138,10 @@ pub fn run(args: Args) -> ExitCode {
         return Exit::Input.into();
     }
     // What the grammar does: moves, shapes, matches, and what ten seeds generate.
-    use mdg_vm::grid::{assess, build};
+    use mdg_grid::{assess, build};
     let moves: usize = reports.iter().map(|r| r.merges + r.splits).sum();
-    let gen_opts = mdg_vm::grid::generate::GenerateOptions {
-        seed: 0,
-        ..mdg_vm::grid::generate::GenerateOptions::for_grammar(&grammar)
-    };
+    let gen_opts =
+        mdg_grid::generate::GenerateOptions { seed: 0, ..mdg_grid::generate::GenerateOptions::for_grammar(&grammar) };
     let variety = (summary_seeds > 0).then(|| build::variety(&grammar, &gen_opts, summary_seeds));
     match &variety {
         Some(Ok(v)) => eprintln!(
@@ -195,7 +193,7 @@ pub fn run(args: Args) -> ExitCode {
         }
     }
     if examples.len() > 1 {
-        let shared = mdg_vm::grid::induce::shared_shapes(&grammar);
+        let shared = mdg_grid::induce::shared_shapes(&grammar);
         eprintln!("shared style: {shared} of {} shapes match a shape of another example", grammar.shapes.len());
         if shared == 0 {
             eprintln!(
@@ -229,7 +227,7 @@ pub fn run(args: Args) -> ExitCode {
         Ok(t) => t,
         Err(e) => return Failure::from(e).report("mdgc induce"),
     };
-    if let Err(e) = mdg_vm::export::write_atomic(output, text.as_bytes()) {
+    if let Err(e) = mdg_export::write_atomic(output, text.as_bytes()) {
         return Failure::usage(format!("cannot write {}: {e}", output.display())).report("mdgc induce");
     }
     eprintln!(

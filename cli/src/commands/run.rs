@@ -11,10 +11,10 @@ use crate::pictures::{Pictures, Vulkan};
 use mdg_compiler::diag::render_plain;
 use mdg_compiler::driver;
 use mdg_compiler::source::{FsLoader, MemLoader};
+use mdg_export::{self as export, Format};
 use mdg_viewer::camera::Pose;
-use mdg_vm::bundle::Bundle;
+use mdg_vm::bundle::{Bundle, SectionKind};
 use mdg_vm::eval::{evaluate_with_progress, EvalOptions};
-use mdg_vm::export::{self, Format};
 use mdg_vm::output::Output;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -311,7 +311,7 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
         ("--params-json", cli.params_json.as_ref()),
     ];
     for (flag, o) in outputs.iter().filter_map(|(f, o)| o.map(|o| (f, o))) {
-        if let Some(i) = inputs.iter().find(|i| mdg_vm::export::same_file(i, o)) {
+        if let Some(i) = inputs.iter().find(|i| mdg_export::same_file(i, o)) {
             let (o, i) = (o.display(), i.display());
             return Err(Failure::usage(format!("{flag} {o}: that is an input ({i}); choose another output file")));
         }
@@ -321,7 +321,7 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
             .map_err(|e| Failure::usage(format!("cannot write {}: {e}", p.display())))?;
     }
     let pictures = Vulkan::new(opts.std_dir.clone()).posed(pose).samples(cli.samples);
-    if bundle.extensions.creatures.is_some() {
+    if bundle.extensions.has(SectionKind::Creatures) {
         if batch.is_some() {
             return Err(Failure::usage(
                 "--seeds: creature evolution writes a gallery per run; run it once per seed instead",
@@ -341,7 +341,7 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
         modes::creature::run(&bundle, &cli.creature, &common)?;
         return Ok(ExitCode::SUCCESS);
     }
-    let is_grid = bundle.extensions.grid.is_some();
+    let is_grid = bundle.extensions.has(SectionKind::Grid);
     if is_grid && format_none(cli) {
         return Err(Failure::usage(
             "--format none is for mesh grammars; a grid grammar writes a voxel file (docs/grid.md)",
@@ -428,7 +428,7 @@ fn mesh_target(cli: &Args, path: &Path) -> Result<Target, Failure> {
     let target = match Format::from_extension(&ext) {
         Some(f) => Target::Model(f),
         None if ext == "png" => Target::Picture,
-        None if mdg_vm::grid::format::VoxelFormat::from_extension(&ext).is_some() => {
+        None if mdg_grid::format::VoxelFormat::from_extension(&ext).is_some() => {
             return Err(Failure::usage(format!(
                 "-o {shown}: .{ext} is a voxel format, written by grid grammars (a `grid` section: docs/grid.md); \
                      this grammar makes a mesh: write {MESH_FORMATS}"
@@ -495,7 +495,7 @@ fn run_one(
     pictures: &dyn Pictures,
     say_wrote: bool,
 ) -> Result<Option<(u64, u64)>, Failure> {
-    if bundle.extensions.grid.is_some() {
+    if bundle.extensions.has(SectionKind::Grid) {
         let common = common(cli, opts, Some(output), seed, size, pictures);
         modes::grid::run(bundle, &cli.grid, &common)?;
         return Ok(None);
@@ -524,7 +524,7 @@ fn run_one(
         bar.set_message(format!("{calls} rule calls"));
         bar.tick();
     };
-    let mut out = if bundle.extensions.guided.is_some() {
+    let mut out = if bundle.extensions.has(SectionKind::Guided) {
         let common = common(cli, opts, Some(output), seed, size, pictures);
         modes::guided::run(bundle, &cli.guided, &common, &eval_opts).map_err(Failure::input)?
     } else {

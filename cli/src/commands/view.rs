@@ -4,6 +4,7 @@
 
 use crate::failure::{Exit, Failure};
 use crate::toolchain::Toolchain;
+use mdg_guided::{Cancel, Guide, GuidedTable, Stop};
 use mdg_viewer::camera::Pose;
 use mdg_viewer::context::{Context, ContextOptions, Validation};
 use mdg_viewer::guided::edit::Editor;
@@ -15,8 +16,8 @@ use mdg_viewer::program::Programs;
 use mdg_viewer::renderer::FrameParams;
 use mdg_viewer::window::{self, WindowOptions};
 use mdg_viewer::Error;
+use mdg_vm::bundle::{Section as _, SectionKind};
 use mdg_vm::eval::EvalOptions;
-use mdg_vm::sosmc::{Cancel, Guide, Stop};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -126,7 +127,9 @@ fn numbered(path: &Path, i: u32, n: u32) -> PathBuf {
 /// Runs the guided search as the window's first one does and puts its model, the
 /// guides and the bones (the window's overlay) into `model`.
 fn search_for_picture(model: &mut model::Model, guides: Option<Vec<Guide>>, eval: &EvalOptions) -> Result<(), Failure> {
-    let Some(table) = &model.bundle.extensions.guided else { return Ok(()) };
+    let Some(table) = GuidedTable::from_bundle(&model.bundle).map_err(|e| Failure::input(e.to_string()))? else {
+        return Ok(());
+    };
     let guides = guides.unwrap_or_else(|| table.guides.clone());
     let seed = eval.seed.unwrap_or(model.bundle.settings.randseed);
     let request = SearchRequest {
@@ -284,7 +287,7 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
         Err(fail) => return Err(viewer_failure(fail.error)),
     };
     eprint!("{}", model.warnings);
-    let guided = model.bundle.extensions.guided.is_some();
+    let guided = model.bundle.extensions.has(SectionKind::Guided);
     let guides = match (&cli.guides, guided) {
         (Some(path), true) => Some((path.clone(), read_guides(path)?)),
         (Some(_), false) => {

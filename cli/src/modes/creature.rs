@@ -6,14 +6,12 @@
 use super::Common;
 use crate::failure::{Exit, Failure};
 use crate::pictures::Pictures;
-use mdg_vm::bundle::Bundle;
-use mdg_vm::creature::evolve::{
-    lineage_name, structure_key, Evolution, EvolveOptions, Generation, Individual, Population,
-};
-use mdg_vm::creature::geometry::{assemble, output_of, program_text, write_glb, Library};
-use mdg_vm::creature::sheet::compose;
-use mdg_vm::creature::table::{CreatureTable, RuleKind, MAX_GENERATIONS, MAX_POPULATION};
-use mdg_vm::export;
+use mdg_creature::evolve::{lineage_name, structure_key, Evolution, EvolveOptions, Generation, Individual, Population};
+use mdg_creature::geometry::{assemble, output_of, program_text, write_glb, Library};
+use mdg_creature::sheet::compose;
+use mdg_creature::table::{CreatureTable, RuleKind, MAX_GENERATIONS, MAX_POPULATION};
+use mdg_export as export;
+use mdg_vm::bundle::{Bundle, Section as _};
 use mdg_vm::output::Mesh;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -208,7 +206,7 @@ fn read_record(
         .ok_or_else(|| format!("{} has no generation {upto}", path.display()))?;
     let revive = |m: &serde_json::Value| -> Result<Individual, String> {
         let id = m["id"].as_str().unwrap_or("?").to_string();
-        let shape: mdg_vm::creature::shape::Shape =
+        let shape: mdg_creature::shape::Shape =
             serde_json::from_value(m["shape"].clone()).map_err(|e| format!("{}: monster {id}: {e}", path.display()))?;
         shape.check(evo.table).map_err(|e| format!("{}: monster {id}: {e}", path.display()))?;
         let name = m["lineage"].as_str().unwrap_or("");
@@ -277,7 +275,9 @@ fn with_meshes<'b>(
     file: &Path,
     opts: &mdg_compiler::expand::Options,
 ) -> Result<std::borrow::Cow<'b, Bundle>, String> {
-    let Some(t) = bundle.extensions.creatures.as_ref() else { return Ok(std::borrow::Cow::Borrowed(bundle)) };
+    let Some(t) = CreatureTable::from_bundle(bundle).map_err(|e| e.to_string())? else {
+        return Ok(std::borrow::Cow::Borrowed(bundle));
+    };
     if t.meshes.iter().all(|m| !m.triangles.is_empty()) {
         return Ok(std::borrow::Cow::Borrowed(bundle));
     }
@@ -305,7 +305,7 @@ fn with_meshes<'b>(
 pub fn run(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<(), Failure> {
     let bundle = with_meshes(bundle, common.file, common.compile).map_err(Failure::input)?;
     let bundle = bundle.as_ref();
-    let Some(table) = bundle.extensions.creatures.as_ref() else {
+    let Some(table) = &CreatureTable::from_bundle(bundle).map_err(|e| Failure::input(e.to_string()))? else {
         return Err(Failure::input("the grammar has no `creature` section"));
     };
     let opts = options(table, args, common.seed).map_err(Failure::usage)?;
@@ -596,7 +596,7 @@ table.d td,table.d th{{padding:2px 10px;text-align:right}}\
                     "base {} + assist {}, lineage {}",
                     ind.parents.0,
                     ind.parents.1,
-                    mdg_vm::creature::evolve::lineage_name(t, ind.lineage)
+                    mdg_creature::evolve::lineage_name(t, ind.lineage)
                 )
             } else {
                 format!("regular creature `{}`", ind.name)

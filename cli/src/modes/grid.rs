@@ -10,12 +10,12 @@
 
 use super::Common;
 use crate::failure::Failure;
-use mdg_vm::bundle::Bundle;
-use mdg_vm::export::{self, Format};
-use mdg_vm::grid::build;
-use mdg_vm::grid::format::{self as voxfmt, VoxelFormat};
-use mdg_vm::grid::generate::{self, GenerateOptions};
-use mdg_vm::grid::mesh;
+use mdg_export::{self as export, Format};
+use mdg_grid::build;
+use mdg_grid::format::{self as voxfmt, VoxelFormat};
+use mdg_grid::generate::{self, GenerateOptions};
+use mdg_grid::{mesh, GridGrammar};
+use mdg_vm::bundle::{Bundle, Section as _};
 use mdg_vm::output::{Mesh, Output};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -112,12 +112,12 @@ fn site(bundle: &Bundle, seed: u64, eval: &mdg_vm::eval::EvalOptions) -> Mesh {
 /// Runs the mode; writes its files and reports what it wrote. A failure is the
 /// command's to report ([`Failure`]).
 pub fn run(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), Failure> {
-    let Some(g) = bundle.extensions.grid.as_ref() else {
+    let Some(g) = &GridGrammar::from_bundle(bundle).map_err(|e| Failure::input(e.to_string()))? else {
         return Err(Failure::input("the grammar has no `grid` section"));
     };
     let steps = args.steps.unwrap_or(g.generate.steps);
-    if steps > mdg_vm::grid::MAX_STEPS {
-        return Err(Failure::usage(format!("--steps {steps}: at most {}", mdg_vm::grid::MAX_STEPS)));
+    if steps > mdg_grid::MAX_STEPS {
+        return Err(Failure::usage(format!("--steps {steps}: at most {}", mdg_grid::MAX_STEPS)));
     }
     let enclosure = if args.no_enclosure { false } else { args.enclosure || g.generate.enclosure };
     let seed = common.seed.or(g.generate.seed).unwrap_or(0);
@@ -186,14 +186,13 @@ pub fn run(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), Fail
         .map_err(|e| Failure::usage(format!("cannot write {}: {e}", output.display())))?;
     if let Some(png) = common.png {
         let examples = generate::examples(g);
-        let mut models: Vec<&mdg_vm::grid::voxel::VoxelModel> =
-            examples.iter().filter(|m| !m.blocks.is_empty()).collect();
+        let mut models: Vec<&mdg_grid::voxel::VoxelModel> = examples.iter().filter(|m| !m.blocks.is_empty()).collect();
         let first = models.len();
         models.push(&made.model);
         if args.more > 16 {
             return Err(Failure::usage(format!("--more {}: at most 16", args.more)));
         }
-        let more: Vec<mdg_vm::grid::voxel::VoxelModel> = (1..=args.more as u64)
+        let more: Vec<mdg_grid::voxel::VoxelModel> = (1..=args.more as u64)
             .map(|i| build::generate(g, &GenerateOptions { seed: seed.wrapping_add(i), ..opts }).map(|m| m.model))
             .collect::<Result<_, _>>()
             .map_err(Failure::input)?;
@@ -230,7 +229,7 @@ pub fn run(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), Fail
 }
 
 /// The offset [`mesh::output_side_by_side`] gives the last model (whose min corner is `lo`).
-fn generated_shift(models: &[&mdg_vm::grid::voxel::VoxelModel], lo: [i32; 3]) -> [f32; 3] {
+fn generated_shift(models: &[&mdg_grid::voxel::VoxelModel], lo: [i32; 3]) -> [f32; 3] {
     let mut x = 0;
     for m in &models[..models.len().saturating_sub(1)] {
         if let Some((a, b)) = m.bounds() {

@@ -2,13 +2,13 @@
 //! the geometry phase (docs/guided.md).
 
 use super::Common;
-use mdg_vm::bundle::Bundle;
+use mdg_guided::measure::{beyond_reach, coverage, covered_runs};
+use mdg_guided::{
+    guides_from_json, GuidedTable, Prepared, Progress, Resampling, SearchOptions, Stop, Utilisation, REACH_SAMPLES,
+};
+use mdg_vm::bundle::{Bundle, Section as _};
 use mdg_vm::eval::EvalOptions;
 use mdg_vm::output::Output;
-use mdg_vm::sosmc::measure::{beyond_reach, coverage, covered_runs};
-use mdg_vm::sosmc::{
-    guides_from_json, Prepared, Progress, Resampling, SearchOptions, Stop, Utilisation, REACH_SAMPLES,
-};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -98,11 +98,7 @@ pub fn parse_particles(s: &str) -> Result<(u32, u32), String> {
 }
 
 /// The search options: the `search` section's, overridden by the command line.
-pub fn options(
-    settings: &mdg_vm::sosmc::SearchSettings,
-    args: &GuidedArgs,
-    seed: u64,
-) -> Result<SearchOptions, String> {
+pub fn options(settings: &mdg_guided::SearchSettings, args: &GuidedArgs, seed: u64) -> Result<SearchOptions, String> {
     let mut o = SearchOptions::from_settings(settings, seed);
     // A batch run is repeatable: a time budget only when asked for.
     o.budget = match &args.budget {
@@ -151,7 +147,8 @@ pub fn utilisation_flag(args: &GuidedArgs) -> Result<Option<Utilisation>, String
 /// Runs the search and returns the model to export, evaluated with `eval` (the
 /// limits and `--sites` of the command line; the seed is the search's).
 pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common, eval: &EvalOptions) -> Result<Output, String> {
-    let table = bundle.extensions.guided.as_ref().ok_or("the program has no `search` section")?;
+    let table =
+        &GuidedTable::from_bundle(bundle).map_err(|e| e.to_string())?.ok_or("the program has no `search` section")?;
     let guides = match &args.guides {
         Some(path) => {
             let text = mdg_vm::input::read_text_bounded(path, mdg_vm::input::MAX_DATA_BYTES)
@@ -254,7 +251,7 @@ pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common, eval: &EvalOptio
             "coverage {:.2} (guide points within {} of a bone; covered stretches as fractions of each guide's length): \
              {}; utilisation {}, the grammar's reach {:.2} ({} unguided derivations)",
             c.total,
-            mdg_vm::sosmc::measure::COVERAGE_RADIUS,
+            mdg_guided::measure::COVERAGE_RADIUS,
             per.join("; "),
             prepared.guides().utilisation.name(),
             reach.radius,

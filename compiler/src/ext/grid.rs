@@ -32,7 +32,7 @@ use crate::ast::{Entry, Name, Section, Value};
 use crate::diag::{did_you_mean, Diagnostic};
 use crate::expand::Expanded;
 use crate::span::Span;
-use mdg_vm::grid::{
+use mdg_grid::{
     connected, sort_blocks, turned_blocks, GenerateSettings, GridGrammar, GridRule, GridShape, PaletteEntry, Placement,
     ShapeBlock, ShapeMatch, MAX_GRAMMAR_BLOCKS, MAX_SHAPE_EXTENT, MAX_STEPS,
 };
@@ -393,7 +393,7 @@ fn parse(sec: &Section, ex: &Expanded, diags: &mut Vec<Diagnostic>) -> Option<Gr
                 Some(span) => {
                     let plane = shapes[c].shape.plane;
                     if let Some(axis) = plane.filter(|&a| size[a as usize] != 1) {
-                        let axis_name = mdg_vm::grid::AXIS_NAMES[axis as usize];
+                        let axis_name = mdg_grid::AXIS_NAMES[axis as usize];
                         diags.push(
                             Diagnostic::error(
                                 "E0910",
@@ -501,7 +501,7 @@ fn parse(sec: &Section, ex: &Expanded, diags: &mut Vec<Diagnostic>) -> Option<Gr
             diags.push(malformed(e, form));
             continue;
         };
-        let limit = mdg_vm::grid::MAX_RULE_OFFSET as i64;
+        let limit = mdg_grid::MAX_RULE_OFFSET as i64;
         let offset: Vec<Option<i64>> = vals[3..6].iter().map(|v| int_in(ex, "at", v, -limit..=limit, diags)).collect();
         let turn = match vals.get(7) {
             Some(v) => int_in(ex, "turn", v, 0..=3, diags),
@@ -635,7 +635,7 @@ fn palette(
             }
         };
         let color = match &p.values[1..] {
-            [] => mdg_vm::grid::blocks::color_of(&block),
+            [] => mdg_grid::blocks::color_of(&block),
             [r, gg, b] => {
                 let c: Vec<Option<i64>> =
                     [r, gg, b].iter().map(|v| int_in(ex, "a colour component", v, 0..=255, diags)).collect();
@@ -765,13 +765,7 @@ fn shape(
                 .values
                 .iter()
                 .map(|v| {
-                    int_in(
-                        ex,
-                        "at",
-                        v,
-                        -(mdg_vm::grid::voxel::MAX_COORD as i64)..=mdg_vm::grid::voxel::MAX_COORD as i64,
-                        diags,
-                    )
+                    int_in(ex, "at", v, -(mdg_grid::voxel::MAX_COORD as i64)..=mdg_grid::voxel::MAX_COORD as i64, diags)
                 })
                 .collect();
             match (v[0], v[1], v[2]) {
@@ -932,11 +926,11 @@ fn shape(
                 Diagnostic::error(
                     "E0910",
                     p.values[0].span(),
-                    format!("shape `{}` is not flat along {}", name.text, mdg_vm::grid::AXIS_NAMES[axis as usize]),
+                    format!("shape `{}` is not flat along {}", name.text, mdg_grid::AXIS_NAMES[axis as usize]),
                 )
                 .with_label(format!(
                     "its size along {} is {}",
-                    mdg_vm::grid::AXIS_NAMES[axis as usize],
+                    mdg_grid::AXIS_NAMES[axis as usize],
                     size[axis as usize]
                 )),
             );
@@ -985,7 +979,7 @@ fn generate(e: &Entry, ex: &Expanded, diags: &mut Vec<Diagnostic>) -> GenerateSe
                 }
             }
             "seal" if expect_count(g, 1, 1, "a radius", diags) => {
-                let max = mdg_vm::grid::generate::MAX_SEAL as i64;
+                let max = mdg_grid::generate::MAX_SEAL as i64;
                 if let Some(n) = int_in(ex, "seal", &g.values[0], 0..=max, diags) {
                     s.seal = n as u32;
                 }
@@ -1017,6 +1011,7 @@ mod tests {
     use crate::check::CheckOptions;
     use crate::driver::analyze_text;
     use crate::source::MemLoader;
+    use mdg_vm::bundle::Section as _;
 
     /// The grid table a program compiles to (no errors allowed).
     fn grammar(src: &str) -> GridGrammar {
@@ -1030,7 +1025,7 @@ mod tests {
         let rendered = crate::diag::render_plain(&a.diagnostics, &a.sources);
         assert!(!a.has_errors(), "{rendered}");
         let b = crate::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).expect("lowers");
-        b.extensions.grid.expect("a grid table")
+        GridGrammar::from_bundle(&b).expect("a valid section").expect("a grid table")
     }
 
     #[test]

@@ -23,7 +23,7 @@ use super::{at_most_once, expect_count, known_entries, numbers, words, CheckCx, 
 use crate::ast::{BodyItem, BodyKind, Entry, ItemKind, Name, Section, Value};
 use crate::diag::Diagnostic;
 use crate::span::Span;
-use mdg_vm::sosmc::{Guide, GuidedTable, Resampling, SearchSettings, Utilisation};
+use mdg_guided::{Guide, GuidedTable, Resampling, SearchSettings, Utilisation};
 
 const SEARCH_KEYS: &[Key] = &[
     Key {
@@ -286,7 +286,7 @@ fn check_search(sec: &Sec, cx: &CheckCx, diags: &mut Vec<Diagnostic>) {
                 match &e.values[0] {
                     Value::Word(w) if w.text == "none" => {}
                     v => match cx.number(v) {
-                        Some(x) if x.is_finite() && x > 0.0 && x <= mdg_vm::sosmc::MAX_BUDGET_MS => {}
+                        Some(x) if x.is_finite() && x > 0.0 && x <= mdg_guided::MAX_BUDGET_MS => {}
                         Some(_) => range_error(
                             v.span(),
                             "budget",
@@ -471,7 +471,7 @@ fn check_guide(sec: &Sec, cx: &CheckCx, diags: &mut Vec<Diagnostic>) {
                     continue;
                 }
                 if let Some((_, val)) =
-                    v.iter().zip(&e.values).find(|(x, _)| x.is_nan() || x.abs() > mdg_vm::sosmc::MAX_GUIDE_COORD)
+                    v.iter().zip(&e.values).find(|(x, _)| x.is_nan() || x.abs() > mdg_guided::MAX_GUIDE_COORD)
                 {
                     range_error(val.span(), "control point", "a coordinate from -1000000000 to 1000000000", diags);
                     continue;
@@ -679,6 +679,7 @@ mod tests {
     use crate::check::CheckOptions;
     use crate::driver::{analyze_text, Analysis};
     use crate::source::MemLoader;
+    use mdg_vm::bundle::Section as _;
 
     fn analyze(src: &str) -> Analysis {
         analyze_text(
@@ -695,7 +696,7 @@ mod tests {
         let a = analyze(src);
         assert!(!a.has_errors(), "{}", crate::diag::render_plain(&a.diagnostics, &a.sources));
         let b = crate::lower::lower(&a.expanded, &a.checked.symbols, &a.sources).expect("lowers");
-        (b.extensions.guided.clone().expect("a guided table"), b)
+        (GuidedTable::from_bundle(&b).expect("a valid section").expect("a guided table"), b)
     }
 
     fn codes(src: &str) -> Vec<&'static str> {
@@ -739,7 +740,7 @@ rule wood { VERTEX {} VERTEX {x 0.1} VERTEX {z 1} }
         let d = &t.guides[1];
         assert_eq!(d.name, "");
         assert_eq!(d.points[3], [3.0, 0.0, 3.0]);
-        assert_eq!((d.scale_d, d.delta_a, d.scale_u), (mdg_vm::sosmc::DEFAULT_SCALE_D, 0.6, 1.0));
+        assert_eq!((d.scale_d, d.delta_a, d.scale_u), (mdg_guided::DEFAULT_SCALE_D, 0.6, 1.0));
         // The bundle verifier accepts it.
         assert!(t.verify(&b).is_ok());
     }

@@ -15,6 +15,7 @@ use crate::ast::{Entry, Expr, ItemKind, Name, Section, Value};
 use crate::diag::{did_you_mean, Diagnostic};
 use crate::expand::{ExpItem, Expanded};
 use crate::symbols::Symbols;
+use mdg_vm::bundle::Section as _;
 use mdg_vm::expr::ExprOp;
 use std::collections::HashMap;
 
@@ -265,14 +266,20 @@ pub fn lower(cx: &LowerCx, ext: &mut mdg_vm::bundle::Extensions) {
     let mut guides = sections(cx.ex, "guide");
     guides.extend(sections(cx.ex, "search"));
     if !guides.is_empty() {
-        ext.guided = guided::lower(&guides, cx);
+        if let Some(table) = guided::lower(&guides, cx) {
+            table.store(ext);
+        }
     }
     let creatures = sections(cx.ex, "creature");
     if !creatures.is_empty() {
-        ext.creatures = creature::lower(&creatures, cx);
+        if let Some(table) = creature::lower(&creatures, cx) {
+            table.store(ext);
+        }
     }
     let grids = sections(cx.ex, "grid");
     if !grids.is_empty() {
-        ext.grid = grid::lower(&grids, cx);
+        if let Some(table) = grid::lower(&grids, cx) {
+            table.store(ext);
+        }
     }
 }

@@ -10,8 +10,8 @@
 use super::fit::{self, fit_stroke};
 use super::project::{distance_to_segment, ScreenView};
 use glam::{DVec2, DVec3};
+use mdg_guided::{Guide, DEFAULT_SCALE_D, MAX_GUIDE_COORD};
 use mdg_vm::output::Polyline;
-use mdg_vm::sosmc::{Guide, DEFAULT_SCALE_D, MAX_GUIDE_COORD};
 
 /// How near (pixels) the cursor must be to a control point to pick it.
 pub const PICK_POINT_PX: f64 = 10.0;
@@ -144,8 +144,8 @@ impl Param {
         let mut out = g.clone();
         match self {
             Param::DeltaA => out.delta_a = ((g.delta_a + 0.05 * steps) * 100.0).round().clamp(-100.0, 100.0) / 100.0,
-            Param::ScaleA => out.scale_a = scaled(g.scale_a, mdg_vm::sosmc::DEFAULT_SCALE_A),
-            Param::ScaleU => out.scale_u = scaled(g.scale_u, mdg_vm::sosmc::DEFAULT_SCALE_U),
+            Param::ScaleA => out.scale_a = scaled(g.scale_a, mdg_guided::DEFAULT_SCALE_A),
+            Param::ScaleU => out.scale_u = scaled(g.scale_u, mdg_guided::DEFAULT_SCALE_U),
             Param::ScaleD => {
                 if g.scale_d.iter().all(|v| *v == 0.0) {
                     if steps > 0.0 {
@@ -750,7 +750,7 @@ mod tests {
         assert_eq!(Param::DeltaA.cycled(true), Param::Segment);
 
         let json = e.to_json();
-        let back = mdg_vm::sosmc::guides_from_json(&json).expect("mdg-run reads it");
+        let back = mdg_guided::guides_from_json(&json).expect("mdg-run reads it");
         assert_eq!(back, e.guides());
         assert!(
             json.contains(r#""points": [[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 2.0], [0.0, 0.0, 3.0]]"#),
@@ -758,7 +758,7 @@ mod tests {
         );
         let mut odd = Editor::new(vec![Guide::new("a \"quoted\" name", two_guides()[1].points.clone())]);
         odd.guides[0].points[1] = [0.1 + 0.2, -1e-7, 12345.678];
-        let back = mdg_vm::sosmc::guides_from_json(&odd.to_json()).expect("reads");
+        let back = mdg_guided::guides_from_json(&odd.to_json()).expect("reads");
         assert_eq!(back, odd.guides(), "names are escaped and numbers round-trip exactly");
 
         let overlay = e.overlay(0.1);

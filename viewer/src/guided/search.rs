@@ -5,12 +5,12 @@
 //! editor's current state ([`super::edit::Editor::overlay`]), so a dragged curve
 //! follows the cursor before the search for it has finished.
 
-use mdg_vm::bundle::Bundle;
+use mdg_guided::cost::Cost;
+use mdg_guided::measure::{beyond_reach, Reach};
+use mdg_guided::{Cancel, Guide, GuidedTable, Prepared, SearchOptions, Stop, Utilisation, REACH_SAMPLES};
+use mdg_vm::bundle::{Bundle, Section as _};
 use mdg_vm::eval::EvalOptions;
 use mdg_vm::output::{Output, Polyline};
-use mdg_vm::sosmc::cost::Cost;
-use mdg_vm::sosmc::measure::{beyond_reach, Reach};
-use mdg_vm::sosmc::{Cancel, Guide, Prepared, SearchOptions, Stop, Utilisation, REACH_SAMPLES};
 use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
@@ -118,6 +118,8 @@ pub struct Searched {
 pub enum SearchError {
     /// The grammar has no `search` section.
     NoSection,
+    /// The grammar's `search` section does not decode or verify.
+    Section(mdg_vm::bundle::SectionError),
     /// The guides cannot be searched (they do not fit in memory or time): the
     /// search's message.
     Guides(String),
@@ -129,6 +131,7 @@ impl std::fmt::Display for SearchError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             SearchError::NoSection => write!(f, "the grammar has no `search` section"),
+            SearchError::Section(e) => write!(f, "{e}"),
             SearchError::Guides(why) => write!(f, "{why}"),
             SearchError::Panicked => write!(f, "internal error: the guided search panicked"),
         }
@@ -141,7 +144,7 @@ impl std::error::Error for SearchError {}
 /// wrong (no `search` section, guides that do not fit in memory, …).
 pub fn run_search(req: &SearchRequest, cancel: &Cancel) -> Result<Searched, SearchError> {
     let b = &*req.bundle;
-    let table = b.extensions.guided.as_ref().ok_or(SearchError::NoSection)?;
+    let table = &GuidedTable::from_bundle(b).map_err(SearchError::Section)?.ok_or(SearchError::NoSection)?;
     let t0 = Instant::now();
     let mut opts = SearchOptions::from_settings(&table.settings, req.seed);
     opts.clock = Some(t0);

@@ -7,10 +7,10 @@
 use super::edit::Editor;
 use super::search::{run_search, SearchError, SearchRequest, Searched, Summary, Timings};
 use super::worker::{Preempt, Worker};
-use mdg_vm::bundle::Bundle;
+use mdg_guided::measure::Reach;
+use mdg_guided::{Cancel, Guide, GuidedTable, Utilisation};
+use mdg_vm::bundle::{Bundle, Section as _};
 use mdg_vm::eval::EvalOptions;
-use mdg_vm::sosmc::measure::Reach;
-use mdg_vm::sosmc::{Cancel, Guide, Utilisation};
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
@@ -110,7 +110,9 @@ impl Session {
         opts: SessionOptions,
         deliver: impl Fn(u64, Outcome) + Send + Sync + 'static,
     ) -> Result<Session, SessionError> {
-        let table = bundle.extensions.guided.as_ref().ok_or(SessionError::Search(SearchError::NoSection))?;
+        let table = GuidedTable::from_bundle(&bundle)
+            .map_err(|e| SessionError::Search(SearchError::Section(e)))?
+            .ok_or(SessionError::Search(SearchError::NoSection))?;
         let (guides, source) = match opts.guides {
             Some((path, guides)) => (guides, GuideSource::File(path)),
             None => (table.guides.clone(), GuideSource::Grammar),
@@ -206,7 +208,7 @@ impl Session {
     /// grammar that were not edited in the window become the new grammar's.
     pub fn set_bundle(&mut self, bundle: Arc<Bundle>) {
         if self.source == GuideSource::Grammar && !self.is_edited() {
-            if let Some(t) = &bundle.extensions.guided {
+            if let Ok(Some(t)) = GuidedTable::from_bundle(&bundle) {
                 if self.editor.replace(t.guides.clone()) {
                     self.source_revision = self.editor.revision();
                 }
@@ -233,7 +235,7 @@ impl Session {
     /// The utilisation term searches use: the one chosen with `L`, else the `search`
     /// section's, else the default.
     pub fn utilisation(&self) -> Utilisation {
-        let grammar = self.bundle.extensions.guided.as_ref().and_then(|t| t.settings.utilisation);
+        let grammar = GuidedTable::from_bundle(&self.bundle).ok().flatten().and_then(|t| t.settings.utilisation);
         self.utilisation.or(grammar).unwrap_or_default()
     }
 
@@ -254,7 +256,7 @@ impl Session {
     /// message for the log.
     pub fn save(&mut self) -> Result<String, SessionError> {
         let json = self.editor.to_json();
-        mdg_vm::export::write_atomic(&self.save_to, json.as_bytes())
+        mdg_export::write_atomic(&self.save_to, json.as_bytes())
             .map_err(|error| SessionError::Write { path: self.save_to.clone(), error })?;
         if self.source == GuideSource::File(self.save_to.clone()) {
             self.source_revision = self.editor.revision();

@@ -5,8 +5,8 @@
 //! one are seen.
 
 use crate::reload::{normalise, WatchError};
+use mdg_guided::{guides_from_json, Guide};
 use mdg_vm::input::ReadError;
-use mdg_vm::sosmc::{guides_from_json, Guide};
 use notify::{RecursiveMode, Watcher as _};
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;

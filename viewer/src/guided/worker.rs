@@ -10,7 +10,7 @@
 //! Generic over the job, so its scheduling is tested without a grammar; the editor's
 //! job is [`super::search::run_search`].
 
-use mdg_vm::sosmc::Cancel;
+use mdg_guided::Cancel;
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 

@@ -10,7 +10,7 @@ use crate::guided::worker::Preempt;
 use crate::input::{Key, Modifiers};
 use crate::model::Model;
 use glam::DVec2;
-use mdg_vm::sosmc::Guide;
+use mdg_guided::Guide;
 use std::sync::{Arc, Mutex};
 use winit::event_loop::EventLoopProxy;
 

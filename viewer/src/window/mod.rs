@@ -69,7 +69,7 @@ use crate::Error;
 use ash::vk;
 use events::input_of;
 use guides::start_session;
-use mdg_vm::sosmc::Guide;
+use mdg_guided::Guide;
 use std::path::PathBuf;
 use std::sync::Arc;
 use winit::application::ApplicationHandler;
@@ -237,8 +237,8 @@ pub fn run(
     let mut model = model;
     // A guided grammar opens with its first search done here, so the first frame
     // (and the home view's framing) shows the searched model.
-    let guided = match &model.bundle.extensions.guided {
-        Some(_) => {
+    let guided = match model.bundle.extensions.has(mdg_vm::bundle::SectionKind::Guided) {
+        true => {
             let mut s = start_session(&model, &opts, &proxy).map_err(|e| Error::Other(e.to_string()))?;
             let found = s.search_now().map_err(|e| Error::Other(format!("guided search: {e}")))?;
             (opts.log)(&format!("mdg-view: guided search: {}", found.summary.line()));
@@ -248,7 +248,7 @@ pub fn run(
             model.output = found.output;
             Some(s)
         }
-        None => None,
+        false => None,
     };
     let script = opts.script.clone().map(Runner::new);
     let mut app = App {

@@ -30,7 +30,7 @@ impl App {
             Reloaded::Failed(msg) => {
                 (self.opts.log)(&format!("mdg-view: reload failed; keeping the last good model\n{msg}"));
             }
-            Reloaded::Model(mut m) if m.bundle.extensions.guided.is_some() => {
+            Reloaded::Model(mut m) if m.bundle.extensions.has(mdg_vm::bundle::SectionKind::Guided) => {
                 // A guided grammar: search with it; the model on screen stays until
                 // the search answers (the camera is kept).
                 let bundle = Arc::new(m.bundle.clone());

@@ -442,11 +442,7 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
         w.u32(l.line);
     }
     // Extensions: empty string when there are none.
-    if b.extensions.is_empty() {
-        w.str("");
-    } else {
-        w.str(&serde_json::to_string(&b.extensions).unwrap_or_default());
-    }
+    w.str(&b.extensions.encode());
     let payload = w.0;
     let mut out = W(Vec::with_capacity(payload.len() + 24));
     out.0.extend_from_slice(&MAGIC);
@@ -696,11 +692,7 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
     }
     r.section = "extensions";
     let text = r.str()?;
-    let extensions = if text.is_empty() {
-        Extensions::default()
-    } else {
-        serde_json::from_str(&text).map_err(|e| r.err(&format!("malformed extension tables ({e})")))?
-    };
+    let extensions = Extensions::decode(&text).map_err(|e| r.err(&e))?;
     if r.at != payload.len() {
         return Err(LoadError(format!("{} trailing bytes after the last section", payload.len() - r.at)));
     }

@@ -12,6 +12,7 @@ mod codec;
 mod disasm;
 pub mod ops;
 pub mod proto;
+mod section;
 pub mod spirv;
 mod verify;
 
@@ -21,6 +22,7 @@ pub use ops::{
     Drawable, ExprId, IsoId, NsId, Op, OpCount, OpIndex, Profile, ProtoId, RuleId, SlotId, TransformId, CONT_NEXT,
     NONE, PATH_OP,
 };
+pub use section::{Extensions, Section, SectionError, SectionKind};
 pub use verify::verify;
 
 use crate::expr::ExprOp;
@@ -365,27 +367,8 @@ pub struct Bundle {
     pub uniforms: Vec<Uniform>,
     pub params: Vec<Param>,
     pub source_map: Vec<SourceLoc>,
-    /// The SPEC §11 extension tables.
+    /// The SPEC §11 extension tables, as sections their crates decode (see [`Section`]).
     pub extensions: Extensions,
-}
-
-/// The tables of the SPEC §11 extensions, each present when the program has the
-/// sections. Stored as one JSON section (the tables are small and nested; serde
-/// gives them a checked, deterministic encoding), verified like the rest.
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct Extensions {
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub guided: Option<crate::sosmc::GuidedTable>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub creatures: Option<crate::creature::CreatureTable>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub grid: Option<crate::grid::GridGrammar>,
-}
-
-impl Extensions {
-    pub fn is_empty(&self) -> bool {
-        self.guided.is_none() && self.creatures.is_none() && self.grid.is_none()
-    }
 }
 
 impl Bundle {

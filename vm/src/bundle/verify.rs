@@ -190,15 +190,6 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
         }
         prev = l.op;
     }
-    if let Some(g) = &b.extensions.guided {
-        g.verify(b).map_err(|e| bad(format!("guided search: {e}")))?;
-    }
-    if let Some(c) = &b.extensions.creatures {
-        c.verify(b).map_err(|e| bad(format!("creatures: {e}")))?;
-    }
-    if let Some(g) = &b.extensions.grid {
-        g.verify(b).map_err(|e| bad(format!("grid grammar: {e}")))?;
-    }
     Ok(())
 }
 

@@ -32,11 +32,12 @@ use super::{at_most_once, expect_count, known_entries, numbers, words, CheckCx, 
 use crate::ast::{Entry, Expr, ExprKind, Name, Section, Value};
 use crate::diag::{did_you_mean, Diagnostic};
 use crate::span::Span;
-use mdg_vm::creature::cond::{self, CondOp, VARIABLES};
-use mdg_vm::creature::table::{
+use mdg_creature::cond::{self, CondOp, VARIABLES};
+use mdg_creature::table::{
     self as tb, AttachDef, Code, CreatureTable, EvolveSettings, Geometry, Kind, Mode, PartDef, PartMesh, RuleDef,
     RuleKind, ShapeDef, Slot, Strategy,
 };
+use mdg_vm::bundle::Section as _;
 
 /// The largest coordinate, normal component or size a creature part may give.
 pub const MAX_COORDINATE: f64 = 1e6;
@@ -665,7 +666,15 @@ pub fn embed_meshes(
 ) -> Vec<Diagnostic> {
     let mut diags = Vec::new();
     let refs = mesh_refs(ex);
-    let Some(table) = bundle.extensions.creatures.as_mut() else { return diags };
+    let Some((_, first)) = refs.first() else { return diags };
+    let mut table = match CreatureTable::from_bundle(bundle) {
+        Ok(Some(t)) => t,
+        Ok(None) => return diags,
+        Err(e) => {
+            diags.push(err("E0810", *first, "cannot embed the meshes").with_label(e.to_string()));
+            return diags;
+        }
+    };
     let root = ex
         .files
         .first()
@@ -708,6 +717,7 @@ pub fn embed_meshes(
                 .push(err("E0810", *span, format!("mesh `{path}` is not a usable OBJ file")).with_label(e.to_string())),
         }
     }
+    table.store(&mut bundle.extensions);
     diags
 }
 

@@ -1,0 +1,658 @@
+//! The flat primitives of a `.glb` (the `VERTEX` group with its prototype
+//! instances expanded, the sweeps, the baked instances), streamed into the file in
+//! two walks: the first ([`flat_plan`]) finds the counts, the exact POSITION bounds,
+//! the colour precision and whether an index buffer is needed; the second
+//! ([`flat_write`]) writes the interleaved vertex records while the file is written.
+//!
+//! Prototype instances cost the first walk little: an instance whose frame's scale
+//! shows that it lies inside the bounds found so far is not placed
+//! ([`ProtoInfo::surely_within`]); only the others' vertices are computed. The
+//! second walk places each instance's distinct positions and normals once and
+//! encodes them once, then copies the encoded bytes into each vertex's record.
+
+use super::*;
+
+/// Where a flat primitive's pieces come from.
+pub(super) enum FlatSource<'a> {
+    /// The `VERTEX` group, with the prototype instances not in `instanced` expanded
+    /// (`mesh_only`: none is; the group is [`Output::mesh`] as one piece).
+    Vertex { out: &'a Output, instanced: &'a [bool], mesh_only: bool },
+    /// One mesh in world space (the sweeps, the baked isosurface instances).
+    Mesh(&'a Mesh),
+    /// One mesh made for the file (a mirrored or baked part of a scene of nodes).
+    Owned(Mesh),
+}
+
+impl<'a> FlatSource<'a> {
+    fn walk<'s>(&'s self, f: &mut dyn FnMut(VertexPart<'s>) -> Result<(), String>) -> Result<(), String> {
+        let m = match self {
+            FlatSource::Vertex { out, mesh_only: true, .. } => {
+                // What `for_each_vertex_part` makes when it expands no instance.
+                let m = &out.mesh;
+                if m.n_vertices() == 0 && m.triangles.is_empty() {
+                    return Ok(());
+                }
+                &out.mesh
+            }
+            FlatSource::Vertex { out, instanced, .. } => {
+                return out.for_each_vertex_part(&|i| !instanced.get(i).copied().unwrap_or(false), f);
+            }
+            FlatSource::Mesh(m) => *m,
+            FlatSource::Owned(m) => m,
+        };
+        f(VertexPart::Piece(Piece { mesh: m, vertices: 0..m.n_vertices(), triangles: 0..m.triangles.len(), base: 0 }))
+    }
+
+    pub(super) fn output(&self) -> Option<&'a Output> {
+        match self {
+            FlatSource::Vertex { out, .. } => Some(out),
+            FlatSource::Mesh(_) | FlatSource::Owned(_) => None,
+        }
+    }
+}
+
+/// What a prototype's expansion needs, worked out once per prototype: its distinct
+/// positions (for the bounds) and normals, and whether the fast expansion applies.
+struct ProtoInfo {
+    /// Triangle t is vertices 3t..3t+2 and every vertex is in one triangle.
+    sequential: bool,
+    /// Every triangle refers to vertices of the mesh.
+    valid: bool,
+    n_tris: usize,
+    /// A `FACENORMALS` item recomputed normals: expanded by [`expand_prototype`].
+    face_normals: bool,
+    /// Distinct positions, and per vertex the index of its position.
+    positions: Vec<Vec3>,
+    position_of: Vec<u32>,
+    /// Distinct normals, and per vertex the index of its normal.
+    normals: Vec<Vec3>,
+    normal_of: Vec<u32>,
+    /// Distinct colour deltas, and per vertex the index of its delta.
+    deltas: Vec<[f32; 4]>,
+    delta_of: Vec<u32>,
+    /// The largest distance of a position from the origin (`f64`; infinite when a
+    /// position is not finite), and the largest coordinate's size.
+    radius: f64,
+    extent: f32,
+}
+
+impl ProtoInfo {
+    fn new(s: &SharedMesh) -> ProtoInfo {
+        let m = &s.mesh;
+        let n = m.n_vertices();
+        let sequential = m.triangles.len() * 3 == n
+            && m.triangles
+                .iter()
+                .enumerate()
+                .all(|(t, tri)| *tri == [3 * t as u32, 3 * t as u32 + 1, 3 * t as u32 + 2]);
+        let face_normals = match &s.kind {
+            SharedKind::Prototype { face_normals } => face_normals.iter().any(Option::is_some),
+            SharedKind::Isosurface => false,
+        };
+        fn distinct<T: Copy, K: Ord>(items: impl Iterator<Item = T>, key: impl Fn(&T) -> K) -> (Vec<T>, Vec<u32>) {
+            let mut seen: BTreeMap<K, u32> = BTreeMap::new();
+            let mut values = Vec::new();
+            let of = items
+                .map(|x| {
+                    *seen.entry(key(&x)).or_insert_with(|| {
+                        values.push(x);
+                        values.len() as u32 - 1
+                    })
+                })
+                .collect();
+            (values, of)
+        }
+        let (positions, position_of) =
+            distinct((0..n).map(|i| Vec3::from(m.positions[i])), |p| p.to_array().map(f32::to_bits));
+        let (normals, normal_of) =
+            distinct((0..n).map(|i| Vec3::from(m.normals.get(i).copied().unwrap_or([0.0, 0.0, 1.0]))), |p| {
+                p.to_array().map(f32::to_bits)
+            });
+        let (deltas, delta_of) =
+            distinct((0..n).map(|i| m.colors.get(i).copied().unwrap_or([0.0; 4])), |c| c.map(f32::to_bits));
+        let valid = m.triangles.iter().all(|t| t.iter().all(|&i| (i as usize) < n));
+        let radius = positions.iter().map(|p| p.as_dvec3().length()).fold(0.0f64, |r, x| {
+            if x.is_finite() {
+                r.max(x)
+            } else {
+                f64::INFINITY
+            }
+        });
+        let extent = mdg_vm::output::max_abs(&m.positions);
+        ProtoInfo {
+            sequential,
+            valid,
+            n_tris: m.triangles.len(),
+            face_normals,
+            positions,
+            position_of,
+            normals,
+            normal_of,
+            deltas,
+            delta_of,
+            radius,
+            extent,
+        }
+    }
+
+    /// Whether every vertex of an instance in frame `f`, as [`ProtoFrame`] computes
+    /// it, surely lies within `lo..=hi` (so it cannot move the bounds), by the
+    /// frame's scale alone: `x ↦ q x q̂` stretches no vector by more than |q| |q̂|,
+    /// so each coordinate is within `u ± |q| |q̂| · radius`, with a margin far above
+    /// the `f32` rounding of the linear map and the sums (relative 10⁻³ of the reach,
+    /// 10⁻⁶ of the coordinate). Only for frames that surely map finite (no overflow
+    /// on the way); the bounds must be finite.
+    #[inline]
+    fn surely_within(&self, f: &Frame, lo: &[f32; 3], hi: &[f32; 3]) -> bool {
+        if !mdg_vm::output::frame_surely_maps_finite(f, self.extent) {
+            return false;
+        }
+        let reach = glam::DVec4::from(f.q.to_array().map(f64::from)).length()
+            * glam::DVec4::from(f.qh.to_array().map(f64::from)).length()
+            * self.radius
+            * 1.001
+            + 1e-30;
+        let u = f.u.as_dvec3();
+        (0..3).all(|c| {
+            let margin = reach + u[c].abs() * 1e-6;
+            u[c] + margin < f64::from(hi[c]) && u[c] - margin > f64::from(lo[c])
+        })
+    }
+}
+
+/// Per shared mesh, its [`ProtoInfo`] when it is a prototype, made on first use.
+pub(super) struct ProtoInfos<'a> {
+    out: &'a Output,
+    infos: Vec<Option<ProtoInfo>>,
+}
+
+impl<'a> ProtoInfos<'a> {
+    pub(super) fn new(out: &'a Output) -> ProtoInfos<'a> {
+        ProtoInfos { out, infos: (0..out.shared_meshes.len()).map(|_| None).collect() }
+    }
+
+    fn get(&mut self, mesh: u32) -> Option<&ProtoInfo> {
+        let shared = self.out.shared_meshes.get(mesh as usize)?;
+        let slot = self.infos.get_mut(mesh as usize)?;
+        Some(slot.get_or_insert_with(|| ProtoInfo::new(shared)))
+    }
+}
+
+/// Whether every 8-bit display value of `c` (clamped RGBA) survives being stored as
+/// 8-bit linear `COLOR_0` and read back: sRGB's dark end is finer than 1/255 in
+/// linear light (display 1/255 is linear 0.0003), so dark colours need 16 bits.
+pub(super) fn fits_8_bits(c: [f32; 4]) -> bool {
+    c[..3].iter().all(|&x| {
+        let shown = (x * 255.0).round();
+        let stored = (crate::srgb_to_linear(x) * 255.0).round() / 255.0;
+        (crate::linear_to_srgb(stored) * 255.0).round() == shown
+    })
+}
+
+/// A flat primitive's layout, from a first walk: counts, bounds, and how it is stored.
+pub(super) struct FlatPlan {
+    pub(super) n: usize,
+    pub(super) n_tris: usize,
+    /// The oriented triangles are 0,1,2, 3,4,5, … up to the order within each (the
+    /// index buffer would count 0…N−1): written without indices, each triangle's
+    /// vertices in its oriented order.
+    pub(super) sequential: bool,
+    /// Some colour needs 16 bits ([`fits_8_bits`]).
+    pub(super) wide: bool,
+    pub(super) lo: [f32; 3],
+    pub(super) hi: [f32; 3],
+}
+
+/// A prototype vertex as [`expand_prototype`] makes it and the exporters read it:
+/// the frame's linear part applied, the normal normalised (twice, as the flat walk
+/// does: once expanding, once writing), the colour clamped.
+struct ProtoFrame {
+    lin: glam::Mat3,
+    /// `lin` and the translation in SIMD lanes: each lane sums the same products
+    /// in the same order as `Mat3 * Vec3`, so the bits are the same.
+    lin_a: glam::Mat3A,
+    u_a: glam::Vec3A,
+    mirrored: bool,
+}
+
+impl ProtoFrame {
+    fn new(f: &Frame) -> ProtoFrame {
+        let (lin, mirrored) = f.linear();
+        ProtoFrame { lin, lin_a: glam::Mat3A::from(lin), u_a: f.u.into(), mirrored }
+    }
+
+    #[inline]
+    fn position(&self, p: Vec3) -> [f32; 3] {
+        finite3((self.u_a + self.lin_a * glam::Vec3A::from(p)).to_array())
+    }
+
+    #[inline]
+    fn normal(&self, n: Vec3) -> [f32; 3] {
+        unit_normal((self.lin * n).normalize_or(Vec3::Z).to_array())
+    }
+}
+
+/// The colour of a prototype vertex: the instance's plus the item's delta, clamped.
+#[inline]
+fn proto_color(inst: [f32; 4], delta: [f32; 4]) -> [f32; 4] {
+    clamp_color(
+        [inst[0] + delta[0], inst[1] + delta[1], inst[2] + delta[2], inst[3] + delta[3]].map(|v| v.clamp(0.0, 1.0)),
+    )
+}
+
+/// The first walk of a flat primitive: counts, bounds, colour precision, and
+/// whether the triangles need an index buffer; checks every triangle.
+pub(super) fn flat_plan(src: &FlatSource, what: &str, infos: &mut Option<ProtoInfos>) -> Result<FlatPlan, String> {
+    let mut plan =
+        FlatPlan { n: 0, n_tris: 0, sequential: true, wide: false, lo: [f32::INFINITY; 3], hi: [f32::NEG_INFINITY; 3] };
+    let mut last_color: Option<[f32; 4]> = None;
+    let mut color = |plan: &mut FlatPlan, c: [f32; 4]| {
+        if last_color != Some(c) {
+            last_color = Some(c);
+            plan.wide |= !fits_8_bits(c);
+        }
+    };
+    let bound = |plan: &mut FlatPlan, q: [f32; 3]| {
+        for (c, x) in q.into_iter().enumerate() {
+            plan.lo[c] = plan.lo[c].min(x);
+            plan.hi[c] = plan.hi[c].max(x);
+        }
+    };
+    let out = src.output();
+    let mut last_proto: Option<(u32, [u32; 4])> = None;
+    src.walk(&mut |part| {
+        match part {
+            VertexPart::Piece(p) => {
+                let m = p.mesh;
+                if p.base as usize != plan.n {
+                    return Err(format!("{what}: the pieces are out of order"));
+                }
+                for v in p.vertices.clone() {
+                    bound(&mut plan, finite3(m.positions[v]));
+                    color(&mut plan, color_at(m, v));
+                }
+                for t in p.triangles.clone() {
+                    let Some(o) = p.oriented(t) else {
+                        return Err(format!(
+                            "{what}: triangle {:?} refers past the {} vertices",
+                            m.triangles[t],
+                            p.vertices.len()
+                        ));
+                    };
+                    let k = 3 * plan.n_tris as u32;
+                    let mut sorted = o;
+                    sorted.sort_unstable();
+                    plan.sequential &= sorted == [k, k + 1, k + 2];
+                    plan.n_tris += 1;
+                }
+                plan.n += p.vertices.len();
+                plan.sequential &= plan.n == 3 * plan.n_tris;
+            }
+            VertexPart::Prototype { instance, base } => {
+                let (Some(out), Some(infos)) = (out, infos.as_mut()) else { return Ok(()) };
+                let inst = &out.instances[instance];
+                let Some(info) = infos.get(inst.mesh) else { return Ok(()) };
+                if base as usize != plan.n {
+                    return Err(format!("{what}: the pieces are out of order"));
+                }
+                if !info.valid {
+                    let name = out.shared(inst).map_or("", |s| s.name.as_str());
+                    return Err(format!("{what}: prototype {name} has a triangle past its vertices"));
+                }
+                // Most instances lie inside the bounds found so far, which their scale
+                // shows without placing their vertices.
+                if !info.surely_within(&inst.frame, &plan.lo, &plan.hi) {
+                    let f = ProtoFrame::new(&inst.frame);
+                    for &p in &info.positions {
+                        bound(&mut plan, f.position(p));
+                    }
+                }
+                // (Consecutive instances mostly share their mesh and colour.)
+                let key = (inst.mesh, inst.color.map(f32::to_bits));
+                if last_proto != Some(key) {
+                    last_proto = Some(key);
+                    for &d in &info.deltas {
+                        color(&mut plan, proto_color(inst.color, d));
+                    }
+                }
+                plan.sequential &= info.sequential && plan.n == 3 * plan.n_tris;
+                plan.n += info.position_of.len();
+                plan.n_tris += info.n_tris;
+            }
+        }
+        Ok(())
+    })?;
+    Ok(plan)
+}
+
+/// Encodes vertices into a flat primitive's interleaved records: position and normal
+/// (f32), colour (linear, normalised u8 or u16 RGBA), and for a skinned output the
+/// bone (u16 JOINTS_0) and weights (1, 0, 0, 0).
+struct VertexRecord {
+    stride: usize,
+    wide: bool,
+    skinned: bool,
+    /// The last colour's bits and its encoding: neighbouring vertices mostly share
+    /// one, and the sRGB curve (three powers) would cost more than the rest of a vertex.
+    last: ([u32; 4], [u8; 8]),
+}
+
+/// Three floats as little-endian bytes.
+#[inline]
+fn float3_bytes(p: [f32; 3]) -> [u8; 12] {
+    let mut b = [0u8; 12];
+    for (d, x) in b.chunks_exact_mut(4).zip(p) {
+        d.copy_from_slice(&x.to_le_bytes());
+    }
+    b
+}
+
+impl VertexRecord {
+    fn new(wide: bool, skinned: bool) -> VertexRecord {
+        VertexRecord { stride: flat_stride(wide, skinned), wide, skinned, last: ([f32::NAN.to_bits(); 4], [0; 8]) }
+    }
+
+    /// The colour `c` (clamped) as the record stores it: linear, normalised u8 or
+    /// u16 RGBA (the first 4 or all 8 bytes).
+    #[inline]
+    fn encode(&mut self, c: [f32; 4]) -> [u8; 8] {
+        let bits = c.map(f32::to_bits);
+        if bits != self.last.0 {
+            let l = linear_color(c);
+            let mut e = [0u8; 8];
+            for k in 0..4 {
+                if self.wide {
+                    e[2 * k..2 * k + 2].copy_from_slice(&((l[k] * 65535.0).round() as u16).to_le_bytes());
+                } else {
+                    e[k] = (l[k] * 255.0).round() as u8;
+                }
+            }
+            self.last = (bits, e);
+        }
+        self.last.1
+    }
+
+    #[inline]
+    fn put(&mut self, sink: &mut Sink, p: [f32; 3], n: [f32; 3], c: [f32; 4], bone: u32) -> Result<(), String> {
+        let e = self.encode(c);
+        self.put_encoded(sink, &float3_bytes(p), &float3_bytes(n), &e, bone)
+    }
+
+    /// A record of a position, a normal and a colour already encoded.
+    #[inline(always)]
+    fn put_encoded(&self, sink: &mut Sink, p: &[u8; 12], n: &[u8; 12], e: &[u8; 8], bone: u32) -> Result<(), String> {
+        let b = sink.slot(self.stride)?;
+        let Some(h) = b.first_chunk_mut::<28>() else { return Err("glTF binary: a short vertex record".into()) };
+        h[0..12].copy_from_slice(p);
+        h[12..24].copy_from_slice(n);
+        h[24..28].copy_from_slice(&e[..4]);
+        if self.wide || self.skinned {
+            let w = if self.wide {
+                b.get_mut(28..32).ok_or("glTF binary: a short vertex record")?.copy_from_slice(&e[4..]);
+                32
+            } else {
+                28
+            };
+            if self.skinned {
+                let b = b.get_mut(w..w + 24).ok_or("glTF binary: a short vertex record")?;
+                let j = (bone.min(u16::MAX as u32) as u16).to_le_bytes();
+                b[0..8].copy_from_slice(&[j[0], j[1], 0, 0, 0, 0, 0, 0]);
+                b[8..12].copy_from_slice(&1.0f32.to_le_bytes());
+                b[12..24].fill(0);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The bytes of one vertex of a flat primitive (see [`VertexRecord`]).
+pub(super) fn flat_stride(wide: bool, skinned: bool) -> usize {
+    24 + if wide { 8 } else { 4 } + if skinned { 24 } else { 0 }
+}
+
+/// One prototype instance's vertices, as [`expand_prototype`] makes them and the
+/// exporters read them (positions, normals and colours, by vertex), encoded as the
+/// records hold them.
+#[derive(Default)]
+struct ProtoVertices {
+    positions: Vec<[u8; 12]>,
+    normals: Vec<[u8; 12]>,
+    colors: Vec<[u8; 8]>,
+    /// The shared mesh and instance colour (bits) whose colours `colors` holds:
+    /// consecutive instances mostly share them.
+    colors_of: Option<(u32, [u32; 4])>,
+    scratch: Mesh,
+    identity: Vec<u32>,
+}
+
+impl ProtoVertices {
+    /// Fills in instance `inst`'s vertices (the prototype's distinct positions,
+    /// normals and colours, or one of each per vertex where `FACENORMALS` makes
+    /// normals per instance: see [`ProtoVertices::maps`]); whether the frame mirrors.
+    fn fill(
+        &mut self,
+        rec: &mut VertexRecord,
+        out: &Output,
+        shared: &SharedMesh,
+        info: &ProtoInfo,
+        instance: usize,
+    ) -> bool {
+        let inst = &out.instances[instance];
+        let f = ProtoFrame::new(&inst.frame);
+        self.positions.clear();
+        self.normals.clear();
+        if info.face_normals {
+            self.colors.clear();
+            self.colors_of = None;
+            self.scratch.clear();
+            expand_prototype(&mut self.scratch, shared, inst, [0.0; 4]);
+            let m = &self.scratch;
+            for i in 0..m.n_vertices() {
+                self.positions.push(float3_bytes(finite3(m.positions[i])));
+                self.normals.push(float3_bytes(normal_at(m, i)));
+                self.colors.push(rec.encode(color_at(m, i)));
+            }
+            if self.identity.len() < m.n_vertices() {
+                self.identity = (0..m.n_vertices() as u32).collect();
+            }
+            return f.mirrored;
+        }
+        self.positions.extend(info.positions.iter().map(|&p| float3_bytes(f.position(p))));
+        self.normals.extend(info.normals.iter().map(|&n| float3_bytes(f.normal(n))));
+        let key = (inst.mesh, inst.color.map(f32::to_bits));
+        if self.colors_of != Some(key) {
+            self.colors.clear();
+            self.colors.extend(info.deltas.iter().map(|&d| rec.encode(proto_color(inst.color, d))));
+            self.colors_of = Some(key);
+        }
+        f.mirrored
+    }
+
+    /// From each vertex to its position, normal and colour after [`ProtoVertices::fill`].
+    fn maps<'s>(&'s self, info: &'s ProtoInfo) -> [&'s [u32]; 3] {
+        if info.face_normals {
+            let id = &self.identity[..self.positions.len()];
+            [id, id, id]
+        } else {
+            [&info.position_of, &info.normal_of, &info.delta_of]
+        }
+    }
+}
+
+/// The second walk of a flat primitive: its vertex records (in oriented triangle
+/// order when `plan.sequential`, else in flat order followed by the u32 indices).
+pub(super) fn flat_write(
+    src: &FlatSource,
+    plan: &FlatPlan,
+    skinned: bool,
+    infos: &mut Option<ProtoInfos>,
+    sink: &mut Sink,
+) -> Result<(), String> {
+    let mut rec = VertexRecord::new(plan.wide, skinned);
+    let mut pv = ProtoVertices::default();
+    let out = src.output();
+    let missing = || "flat geometry: an instance of a missing shared mesh".to_string();
+    src.walk(&mut |part| match part {
+        VertexPart::Piece(p) => {
+            let m = p.mesh;
+            let vertex = |rec: &mut VertexRecord, sink: &mut Sink, v: usize| {
+                rec.put(sink, finite3(m.positions[v]), normal_at(m, v), color_at(m, v), m.bone(v))
+            };
+            if plan.sequential {
+                for t in p.triangles.clone() {
+                    let o = p.oriented(t).ok_or_else(|| "flat geometry: a triangle out of range".to_string())?;
+                    for v in o {
+                        vertex(&mut rec, sink, (v - p.base) as usize + p.vertices.start)?;
+                    }
+                }
+            } else {
+                for v in p.vertices.clone() {
+                    vertex(&mut rec, sink, v)?;
+                }
+            }
+            Ok(())
+        }
+        VertexPart::Prototype { instance, .. } => {
+            let (Some(out), Some(infos)) = (out, infos.as_mut()) else { return Err(missing()) };
+            let inst = &out.instances[instance];
+            let shared = out.shared(inst).ok_or_else(missing)?;
+            let info = infos.get(inst.mesh).ok_or_else(missing)?;
+            let mirrored = pv.fill(&mut rec, out, shared, info, instance);
+            let [pos_of, nrm_of, col_of] = pv.maps(info);
+            let vertex = |rec: &mut VertexRecord, sink: &mut Sink, v: usize| {
+                rec.put_encoded(
+                    sink,
+                    &pv.positions[pos_of[v] as usize],
+                    &pv.normals[nrm_of[v] as usize],
+                    &pv.colors[col_of[v] as usize],
+                    inst.bone,
+                )
+            };
+            if plan.sequential {
+                for t in 0..info.n_tris {
+                    let v = 3 * t;
+                    let flip = mirrored != shared.mesh.mirrored.get(t).copied().unwrap_or(false);
+                    for c in if flip { [v, v + 2, v + 1] } else { [v, v + 1, v + 2] } {
+                        vertex(&mut rec, sink, c)?;
+                    }
+                }
+            } else {
+                for v in 0..pos_of.len() {
+                    vertex(&mut rec, sink, v)?;
+                }
+            }
+            Ok(())
+        }
+    })?;
+    if plan.sequential {
+        return Ok(());
+    }
+    src.walk(&mut |part| {
+        let tri = |sink: &mut Sink, t: [u32; 3]| {
+            let mut b = [0u8; 12];
+            for k in 0..3 {
+                b[4 * k..4 * k + 4].copy_from_slice(&t[k].to_le_bytes());
+            }
+            sink.put(&b)
+        };
+        match part {
+            VertexPart::Piece(p) => {
+                for t in p.triangles.clone() {
+                    tri(sink, p.oriented(t).ok_or_else(|| "flat geometry: a triangle out of range".to_string())?)?;
+                }
+            }
+            VertexPart::Prototype { instance, base } => {
+                let Some(out) = out else { return Err(missing()) };
+                let inst = &out.instances[instance];
+                let shared = out.shared(inst).ok_or_else(missing)?;
+                let mirrored = ProtoFrame::new(&inst.frame).mirrored;
+                for (t, v) in shared.mesh.triangles.iter().enumerate() {
+                    let v = v.map(|i| i + base);
+                    let flip = mirrored != shared.mesh.mirrored.get(t).copied().unwrap_or(false);
+                    tri(sink, if flip { [v[0], v[2], v[1]] } else { v })?;
+                }
+            }
+        }
+        Ok(())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::tests::{components, parse_glb};
+    use super::*;
+    use glam::Quat;
+
+    /// A prototype (a square of two triangles, as the benchmark tree draws) placed
+    /// `n` times in frames of every size, turn, mirroring and place, some far out.
+    fn scattered_squares(n: usize) -> Output {
+        let mut out = Output::default();
+        let mut square = Mesh::default();
+        let corners = [[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]];
+        for [x, y] in corners {
+            square.push_vertex(Vec3::new(x, y, 0.0), Vec3::Z, [0.0; 4], [0.0; 4], 0);
+        }
+        square.push_triangle([0, 1, 2], false);
+        square.push_triangle([3, 4, 5], false);
+        let kind = SharedKind::Prototype { face_normals: vec![None; 2] };
+        out.shared_meshes.push(SharedMesh { name: "square".into(), mesh: square, kind });
+        let mut rng = mdg_vm::rng::Rng::new(38);
+        let mut unit = || (rng.bits() >> 40) as f32 / (1u64 << 24) as f32;
+        for i in 0..n {
+            let axis = Vec3::new(unit() - 0.5, unit() - 0.5, unit() - 0.5).normalize_or(Vec3::Z);
+            // Most near the origin and of one size, so that the bounds are made by
+            // the squares' corners and turns, not by where they are placed.
+            let (spread, size) = match i % 10 {
+                0..9 => (0.1, 1.0 + 0.1 * unit()),
+                _ => (10f32.powf(4.0 * unit() - 1.0), 10f32.powf(3.0 * unit() - 2.0)),
+            };
+            let mut f = Frame::identity()
+                .translate(Vec3::new(unit() - 0.5, unit() - 0.5, unit() - 0.5) * spread)
+                .rotate(Quat::from_axis_angle(axis, 7.0 * unit()))
+                .scale(size);
+            if i % 3 == 0 {
+                f = f.reflect(Vec3::X);
+            }
+            out.instances.push(mdg_vm::output::Instance {
+                frame: f,
+                color: [0.8, 0.3, 0.1, 1.0],
+                mesh: 0,
+                bone: 0,
+                lin: 0,
+                at: 0,
+            });
+        }
+        out
+    }
+
+    #[test]
+    fn flat_bounds_are_the_data_s_exactly() {
+        // The writer skips the vertices of instances surely inside the bounds found so
+        // far; the bounds must still be the data's, bit for bit (validators check).
+        for n in [1, 2, 10, 1000] {
+            let out = scattered_squares(n);
+            let mut b = Vec::new();
+            write_glb(&out, &mut b).expect("writes");
+            let (json, bin) = parse_glb(&b);
+            let pos = json["meshes"][0]["primitives"][0]["attributes"]["POSITION"].as_u64().expect("positions");
+            let data = components(&bin, &json, pos);
+            assert_eq!(data.len(), 3 * 6 * n);
+            for c in 0..3 {
+                let lo = data.iter().skip(c).step_by(3).fold(f64::INFINITY, |a, &x| a.min(x));
+                let hi = data.iter().skip(c).step_by(3).fold(f64::NEG_INFINITY, |a, &x| a.max(x));
+                // (The JSON holds each bound as its f32's shortest text.)
+                let a = &json["accessors"][pos as usize];
+                assert_eq!(
+                    a["min"][c].as_f64().map(|x| x as f32),
+                    Some(lo as f32),
+                    "{n} instances: min of coordinate {c}"
+                );
+                assert_eq!(
+                    a["max"][c].as_f64().map(|x| x as f32),
+                    Some(hi as f32),
+                    "{n} instances: max of coordinate {c}"
+                );
+            }
+        }
+    }
+}
