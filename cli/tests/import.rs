@@ -505,7 +505,7 @@ fn mdgc_import_writes_the_grammar_and_reports_on_stderr_and_as_json() {
     let dir = std::env::temp_dir().join(format!("mdg-import-cli-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap_or_default();
     let src = dir.join("twist.cfdg");
-    let text = "startshape Twist\nshape Twist {\n  SQUARE [skew 10 0]\n  Twist [y 1 r 10 s 0.9]\n}\n";
+    let text = "startshape Twist\nshape Twist {\n  SQUARE [skew 10 0 hue 60|]\n  Twist [y 1 r 10 s 0.9]\n}\n";
     std::fs::write(&src, text).unwrap_or_default();
     let (out, report) = (dir.join("twist.mdg"), dir.join("twist.json"));
     let run = Command::new(env!("CARGO_BIN_EXE_mdgc"))
@@ -519,12 +519,15 @@ fn mdgc_import_writes_the_grammar_and_reports_on_stderr_and_as_json() {
         .unwrap_or_else(|e| panic!("mdgc: {e}"));
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(run.status.success(), "{stderr}");
-    assert!(stderr.contains("twist.cfdg:3: dropped `skew`"), "{stderr}");
+    assert!(stderr.contains("twist.cfdg:3: dropped `hue|`"), "{stderr}");
     let mdg = std::fs::read_to_string(&out).unwrap_or_default();
     assert!(mdg.contains("startshape Twist\nflat\nminsize ") && mdg.contains("Twist {y 1 rz 10 s 0.9}"), "{mdg}");
+    // `skew` has an MDG form: written as it is, not reported.
+    assert!(mdg.contains("SQUARE {skew 10 0}"), "{mdg}");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap_or_default()).unwrap_or_default();
-    assert_eq!(json["notes"][0]["construct"], "skew");
+    assert_eq!(json["notes"][0]["construct"], "hue|");
+    assert_eq!(json["notes"].as_array().map(Vec::len), Some(1), "{json}");
     assert_eq!(json["notes"][0]["line"], 3);
     // Not a Context Free or Structure Synth file: a usage error naming it.
     let bad = Command::new(env!("CARGO_BIN_EXE_mdgc")).arg("import").arg(dir.join("x.txt")).output();
