@@ -141,7 +141,7 @@ pub fn write(format: VoxelFormat, model: &VoxelModel) -> Result<Vec<u8>, String>
     };
     match format {
         VoxelFormat::Text => Ok(text::write(model).into_bytes()),
-        VoxelFormat::Vox => vox::write(model),
+        VoxelFormat::Vox => vox::write(model).map_err(|e| e.to_string()),
         VoxelFormat::Nbt => nbt::write_structure(model),
         VoxelFormat::Schem => nbt::write_schem(model),
     }

@@ -190,14 +190,39 @@ fn string(out: &mut Vec<u8>, s: &str) {
     out.extend_from_slice(s.as_bytes());
 }
 
+/// Why a model cannot be written as `.vox`.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum VoxWriteError {
+    /// Larger than 256 voxels along an axis (the size in `.vox` axes).
+    TooLarge { size: [i32; 3] },
+    /// More than 255 block kinds in use (the palette's slots).
+    TooManyKinds,
+    /// A block whose kind is not in the model's kinds.
+    KindOutOfRange,
+}
+
+impl std::fmt::Display for VoxWriteError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            VoxWriteError::TooLarge { size } => {
+                write!(f, "a .vox model holds at most 256 voxels along each axis; this one is {size:?}")
+            }
+            VoxWriteError::TooManyKinds => f.write_str("a .vox file holds at most 255 block kinds"),
+            VoxWriteError::KindOutOfRange => f.write_str("block kind out of range"),
+        }
+    }
+}
+
+impl std::error::Error for VoxWriteError {}
+
 /// Writes a `.vox` file (one model; at most 255 kinds and 256 voxels along each axis).
-pub fn write(model: &VoxelModel) -> Result<Vec<u8>, String> {
+pub fn write(model: &VoxelModel) -> Result<Vec<u8>, VoxWriteError> {
     let (lo, hi) = model.bounds().unwrap_or(([0; 3], [0; 3]));
     // Block (x, y, z) is voxel (x, −z, y); shift to non-negative voxel coordinates.
     let vlo = [lo[0], -hi[2], lo[1]];
     let size = [hi[0] - lo[0] + 1, hi[2] - lo[2] + 1, hi[1] - lo[1] + 1];
     if size.iter().any(|&s| s > 256) {
-        return Err(format!("a .vox model holds at most 256 voxels along each axis; this one is {size:?}"));
+        return Err(VoxWriteError::TooLarge { size });
     }
     // Palette slots in order of first use.
     let mut slot_of: Vec<Option<u8>> = vec![None; model.kinds.len()];
@@ -206,7 +231,7 @@ pub fn write(model: &VoxelModel) -> Result<Vec<u8>, String> {
         let k = b.kind as usize;
         if k < slot_of.len() && slot_of[k].is_none() {
             if used.len() == 255 {
-                return Err("a .vox file holds at most 255 block kinds".into());
+                return Err(VoxWriteError::TooManyKinds);
             }
             used.push(b.kind);
             slot_of[k] = Some(used.len() as u8);
@@ -222,7 +247,7 @@ pub fn write(model: &VoxelModel) -> Result<Vec<u8>, String> {
     xyzi.extend_from_slice(&(model.blocks.len() as u32).to_le_bytes());
     for b in &model.blocks {
         let v = [b.pos[0] - vlo[0], -b.pos[2] - vlo[1], b.pos[1] - vlo[2]];
-        let slot = slot_of.get(b.kind as usize).copied().flatten().ok_or("block kind out of range")?;
+        let slot = slot_of.get(b.kind as usize).copied().flatten().ok_or(VoxWriteError::KindOutOfRange)?;
         xyzi.extend_from_slice(&[v[0] as u8, v[1] as u8, v[2] as u8, slot]);
     }
     chunk(&mut body, b"XYZI", &xyzi);
@@ -312,5 +337,13 @@ mod tests {
         empty.extend([0u8; 8]);
         let e = read(&empty).expect_err("no model");
         assert!(e.contains("no model"), "{e}");
+    }
+
+    #[test]
+    fn a_model_too_large_for_vox_is_refused_with_its_size() {
+        let m = crate::format::text::read("0 0 0 1:0\n300 0 0 1:0\n").expect("text");
+        let e = write(&m).expect_err("301 voxels along x");
+        assert_eq!(e, VoxWriteError::TooLarge { size: [301, 1, 1] });
+        assert_eq!(e.to_string(), "a .vox model holds at most 256 voxels along each axis; this one is [301, 1, 1]");
     }
 }
