@@ -582,7 +582,6 @@ fn no_library_function_returns_a_string_error_beyond_the_list() {
         ("creature/src/table.rs", 1),
         ("grid/src/format/mod.rs", 4),
         ("grid/src/format/nbt.rs", 8),
-        ("grid/src/format/vox.rs", 1),
         ("grid/src/assess.rs", 3),
         ("grid/src/build.rs", 2),
         ("grid/src/generate.rs", 4),

@@ -61,7 +61,7 @@ pub fn read_bytes(format: VoxelFormat, bytes: &[u8]) -> Result<VoxelModel, Strin
             let text = std::str::from_utf8(bytes).map_err(|e| format!("not UTF-8 text: {e}"))?;
             text::read(text).map_err(|e| e.to_string())
         }
-        VoxelFormat::Vox => vox::read(bytes),
+        VoxelFormat::Vox => vox::read(bytes).map_err(|e| e.to_string()),
         VoxelFormat::Nbt => nbt::read_structure(bytes),
         VoxelFormat::Schem => nbt::read_schem(bytes),
     }
