@@ -146,6 +146,19 @@ impl From<mdg_viewer::guided::watch::GuideFileError> for Failure {
     }
 }
 
+/// A model that could not be written: the destination's fault (a missing folder,
+/// a full disk) is an IO error, the model's (too many bones or triangles for the
+/// format) an error in the input.
+impl From<mdg_export::ExportError> for Failure {
+    fn from(e: mdg_export::ExportError) -> Failure {
+        if e.is_io() {
+            Failure::usage(e.to_string())
+        } else {
+            Failure::input(e.to_string())
+        }
+    }
+}
+
 /// A guided search that gave no model: errors in the input (the grammar or guides).
 impl From<mdg_viewer::guided::search::SearchError> for Failure {
     fn from(e: mdg_viewer::guided::search::SearchError) -> Failure {

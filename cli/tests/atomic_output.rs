@@ -217,3 +217,25 @@ fn a_killed_mdgc_build_never_leaves_a_partial_bundle() {
     assert_eq!(absent + complete, 6);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// An output that cannot be written is an IO error (exit 2), whatever the format,
+/// and says which path; a model the format cannot hold is an error in the input
+/// (exit 1, docs/limits.md), covered by the exporter's own tests.
+#[test]
+fn an_unwritable_output_path_is_an_io_error() {
+    let dir = scratch("unwritable");
+    let src = dir.join("one.mdg");
+    std::fs::write(&src, "startshape A\nrule A { VERTEX {} VERTEX {x 1} VERTEX {y 1} }\n").expect("grammar");
+    // A plain file where a folder is needed.
+    let blocker = dir.join("file");
+    std::fs::write(&blocker, "x").expect("file");
+    for ext in ["glb", "obj", "stl", "ply", "json"] {
+        let out = blocker.join(format!("m.{ext}"));
+        let run =
+            Command::new(env!("CARGO_BIN_EXE_mdg-run")).args([&src, Path::new("-o"), &out]).output().expect("run");
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(2), "{ext}: {err}");
+        assert!(err.contains(&format!("cannot write {}:", out.display())), "{ext}: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -849,7 +849,7 @@ pub fn write_glb(
     name: &str,
     shape: &Shape,
     placed: &[Placed],
-) -> Result<Vec<u8>, String> {
+) -> Result<Vec<u8>, mdg_export::ExportError> {
     let (meshes, nodes) = part_nodes(t, lib, shape, placed, Vec3::ZERO);
     let mut bytes = Vec::new();
     mdg_export::glb::write_glb_nodes(name, &meshes, &nodes, &mut bytes)?;

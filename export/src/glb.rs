@@ -73,6 +73,7 @@ use glam::{Mat4, Quat, Vec3};
 use serde::Serialize;
 
 use super::sites::{self, Baked};
+use super::ExportError;
 use super::{
     checked_triangles, clamp_color, color_at, finite, finite3, is_closed, linear_color, normal_at, unit_normal,
 };
@@ -119,25 +120,22 @@ pub struct GlbOptions {
 }
 
 /// Appends `out` as a glTF 2.0 binary to `buf`.
-pub fn write_glb(out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
+pub fn write_glb(out: &Output, buf: &mut Vec<u8>) -> Result<(), ExportError> {
     write_glb_to(out, buf)
 }
 
 /// Writes `out` as a glTF 2.0 binary to `w` (a file, say: no copy of the whole
 /// file is held in memory, only the binary chunk being assembled).
-pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), String> {
+pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), ExportError> {
     write_glb_with(out, &GlbOptions::default(), w)
 }
 
 /// [`write_glb_to`] with options.
-pub fn write_glb_with(out: &Output, opts: &GlbOptions, w: &mut dyn std::io::Write) -> Result<(), String> {
+pub fn write_glb_with(out: &Output, opts: &GlbOptions, w: &mut dyn std::io::Write) -> Result<(), ExportError> {
     let anim = &out.animation;
     let skinned = anim.bones.len() > 1;
     if anim.bones.len() > MAX_GLTF_BONES {
-        return Err(format!(
-            "{} bones: glTF export holds at most {MAX_GLTF_BONES} (write one pose with --time instead)",
-            anim.bones.len()
-        ));
+        return Err(ExportError::TooManyBones { bones: anim.bones.len(), max: MAX_GLTF_BONES });
     }
     // Prototype instances that become instanced nodes (with --instances); the rest
     // are expanded into the geometry where they were made.
@@ -461,7 +459,7 @@ fn prototype_scale(f: &Frame) -> f32 {
 /// then `_COLOR_0` when `per_color`, each attribute's values one after the other
 /// (one accessor each), non-finite numbers written as 0. One pass per attribute:
 /// each reads only what it writes (the translation is the frame's `u`).
-fn write_instance_attributes(out: &Output, order: &[u32], per_color: bool, sink: &mut Sink) -> Result<(), String> {
+fn write_instance_attributes(out: &Output, order: &[u32], per_color: bool, sink: &mut Sink) -> Result<(), ExportError> {
     let frames = || order.iter().map(|&i| out.instances.get(i as usize).map(|inst| &inst.frame));
     for f in frames() {
         sink.floats(f.map_or([0.0; 3], |f| finite3(f.u.to_array())))?;
@@ -963,11 +961,11 @@ impl<'a> Builder<'a> {
 
     /// A triangle primitive with vertex colours for `m` (world space), or `None` when
     /// it has no triangles.
-    fn colored_primitive(&mut self, src: FlatSource<'a>, what: &str) -> Result<Option<Primitive>, String> {
+    fn colored_primitive(&mut self, src: FlatSource<'a>, what: &str) -> Result<Option<Primitive>, ExportError> {
         let m = match &src {
             FlatSource::Mesh(m) => *m,
             FlatSource::Owned(m) => m,
-            FlatSource::Vertex { .. } => return Err(format!("{what}: not one mesh")),
+            FlatSource::Vertex { .. } => return Err(ExportError::NotOneMesh { what: what.to_string() }),
         };
         let tris = checked_triangles(m, what)?;
         if tris.is_empty() {
@@ -984,7 +982,7 @@ impl<'a> Builder<'a> {
     /// surfaces and so does every expanded prototype on its own (exact where there
     /// are no prototype instances; otherwise a piece that is only closed by another
     /// piece is taken as open, which shows nothing wrong: see docs/decisions.md).
-    fn vertex_primitive(&mut self, out: &'a Output, gpu: &'a GpuGroups) -> Result<Option<Primitive>, String> {
+    fn vertex_primitive(&mut self, out: &'a Output, gpu: &'a GpuGroups) -> Result<Option<Primitive>, ExportError> {
         let instanced = gpu.instanced.as_slice();
         let expand = |i: usize| !instanced.get(i).copied().unwrap_or(false);
         // (With every prototype instanced, the group is the mesh alone.)
@@ -1020,7 +1018,7 @@ impl<'a> Builder<'a> {
         src: FlatSource<'a>,
         double_sided: bool,
         what: &str,
-    ) -> Result<Option<Primitive>, String> {
+    ) -> Result<Option<Primitive>, ExportError> {
         let mut infos = src.output().map(ProtoInfos::new);
         let plan = flat_plan(&src, what, &mut infos)?;
         if plan.n_tris == 0 {
@@ -1094,7 +1092,7 @@ impl<'a> Builder<'a> {
     /// per instance TRANSLATION, ROTATION and SCALE, plus `_COLOR_0` (linear RGB,
     /// which three.js reads as the instance colour) when the colours differ; a
     /// colour shared by every instance goes in the material instead.
-    fn instanced_node(&mut self, out: &'a Output, group: &'a GpuGroup) -> Result<Option<u32>, String> {
+    fn instanced_node(&mut self, out: &'a Output, group: &'a GpuGroup) -> Result<Option<u32>, ExportError> {
         let Some(shared) = out.shared_meshes.get(group.mesh as usize) else { return Ok(None) };
         let local = prototype_local_mesh(shared, group.color, group.mirrored);
         let name = if group.mirrored { format!("{} mirrored", shared.name) } else { shared.name.clone() };
@@ -1174,7 +1172,7 @@ impl<'a> Builder<'a> {
 
     /// Positions, normals and indices of a shared mesh in its own space, or of its
     /// copy mirrored in x (x negated, every triangle reversed) when `mirror`.
-    fn shared_accessors(&mut self, m: &Mesh, name: &str, mirror: bool) -> Result<SharedAccessors, String> {
+    fn shared_accessors(&mut self, m: &Mesh, name: &str, mirror: bool) -> Result<SharedAccessors, ExportError> {
         let tris = checked_triangles(m, &format!("shared mesh {name}"))?;
         let double_sided = !is_closed(m, &tris);
         let n = m.positions.len();
@@ -1226,24 +1224,23 @@ impl<'a> Builder<'a> {
     }
 
     /// Serialises the document and writes the GLB container.
-    fn finish(mut self, w: &mut dyn std::io::Write) -> Result<(), String> {
+    fn finish(mut self, w: &mut dyn std::io::Write) -> Result<(), ExportError> {
         let bin_len = self.aligned_end();
         if bin_len > 0 {
             self.root.buffers.push(Buffer { byte_length: bin_len });
         }
-        let mut json = serde_json::to_vec(&self.root).map_err(|e| format!("glTF JSON: {e}"))?;
+        let mut json = serde_json::to_vec(&self.root).map_err(ExportError::GltfJson)?;
         json.resize(json.len().next_multiple_of(4), b' ');
         let bin_chunk = if bin_len == 0 { 0 } else { 8 + bin_len };
         let total = 12 + 8 + json.len() + bin_chunk;
-        let total =
-            u32::try_from(total).map_err(|_| format!("glTF binary of {total} bytes exceeds the 4 GiB GLB limit"))?;
+        let total = u32::try_from(total).map_err(|_| ExportError::GlbTooLarge { bytes: total as u64 })?;
         let mut head = Vec::with_capacity(20);
         head.extend_from_slice(GLB_MAGIC);
         head.extend_from_slice(&2u32.to_le_bytes());
         head.extend_from_slice(&total.to_le_bytes());
         head.extend_from_slice(&(json.len() as u32).to_le_bytes());
         head.extend_from_slice(&CHUNK_JSON.to_le_bytes());
-        let io = |e: std::io::Error| format!("cannot write: {e}");
+        let io = ExportError::GlbIo;
         w.write_all(&head).map_err(io)?;
         w.write_all(&json).map_err(io)?;
         if bin_len > 0 {
@@ -1259,10 +1256,7 @@ impl<'a> Builder<'a> {
                         write(&mut sink)?;
                         sink.flush()?;
                         if sink.written != len {
-                            return Err(format!(
-                                "glTF binary: a streamed part wrote {} bytes where {len} were laid out",
-                                sink.written
-                            ));
+                            return Err(ExportError::StreamLength { written: sink.written, laid_out: len });
                         }
                     }
                 }
@@ -1274,7 +1268,7 @@ impl<'a> Builder<'a> {
 }
 
 /// Writes a streamed part of the binary chunk into a [`Sink`].
-type StreamFn<'a> = dyn FnOnce(&mut Sink) -> Result<(), String> + 'a;
+type StreamFn<'a> = dyn FnOnce(&mut Sink) -> Result<(), ExportError> + 'a;
 
 /// A part of the binary chunk: bytes made in advance, or `len` bytes that `write`
 /// makes while the file is written.
@@ -1302,24 +1296,24 @@ impl<'w> Sink<'w> {
 
     /// The next `n` bytes (at most [`SINK_BYTES`]) to fill in.
     #[inline]
-    fn slot(&mut self, n: usize) -> Result<&mut [u8], String> {
+    fn slot(&mut self, n: usize) -> Result<&mut [u8], ExportError> {
         if self.len + n > self.buf.len() {
             self.flush()?;
         }
         let at = self.len;
         self.len += n;
-        self.buf.get_mut(at..at + n).ok_or_else(|| format!("glTF binary: a record of {n} bytes"))
+        self.buf.get_mut(at..at + n).ok_or(ExportError::Record { bytes: n })
     }
 
     #[inline]
-    fn put(&mut self, bytes: &[u8]) -> Result<(), String> {
+    fn put(&mut self, bytes: &[u8]) -> Result<(), ExportError> {
         self.slot(bytes.len())?.copy_from_slice(bytes);
         Ok(())
     }
 
     /// Appends `xs` as little-endian f32s.
     #[inline]
-    fn floats<const N: usize>(&mut self, xs: [f32; N]) -> Result<(), String> {
+    fn floats<const N: usize>(&mut self, xs: [f32; N]) -> Result<(), ExportError> {
         let b = self.slot(4 * N)?;
         for (d, x) in b.chunks_exact_mut(4).zip(xs) {
             d.copy_from_slice(&x.to_le_bytes());
@@ -1327,8 +1321,8 @@ impl<'w> Sink<'w> {
         Ok(())
     }
 
-    fn flush(&mut self) -> Result<(), String> {
-        self.w.write_all(&self.buf[..self.len]).map_err(|e| format!("cannot write: {e}"))?;
+    fn flush(&mut self) -> Result<(), ExportError> {
+        self.w.write_all(&self.buf[..self.len]).map_err(ExportError::GlbIo)?;
         self.written += self.len;
         self.len = 0;
         Ok(())
@@ -1603,8 +1597,11 @@ pub(crate) mod tests {
         std::fs::create_dir_all(&dir).expect("dir");
         let path = dir.join("out.glb");
         let e = crate::write_file(crate::Format::Glb, &out, &path).expect_err("too many bones");
+        let crate::ExportError::File { source, .. } = &e else { panic!("{e:?}") };
+        assert!(matches!(**source, crate::ExportError::TooManyBones { bones: 65537, max: 65536 }), "{source:?}");
+        assert!(!e.is_io(), "the model's fault, not the destination's");
         assert_eq!(
-            e,
+            e.to_string(),
             format!(
                 "cannot write {}: 65537 bones: glTF export holds at most 65536 (write one pose with --time instead)",
                 path.display()

@@ -3,7 +3,7 @@
 
 use serde::Serialize;
 
-use super::{finite, finite3, local_oriented};
+use super::{finite, finite3, local_oriented, ExportError};
 use mdg_vm::output::{Groups, Output};
 
 /// One pen line, its points written as [`finite3`] writes them.
@@ -33,21 +33,21 @@ struct DumpInstance<'a> {
 /// are the isosurface placements. Floats are printed as the shortest decimal that
 /// reads back as the same f32; a coordinate or scale that is not a finite number is
 /// written as 0, as every other format writes it (the run warns about them).
-pub fn write_json(out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
+pub fn write_json(out: &Output, buf: &mut Vec<u8>) -> Result<(), ExportError> {
     write_json_to(out, buf)
 }
 
 /// Writes the dump to `w`, expanding prototype instances as it goes.
-pub fn write_json_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), String> {
-    let io = |e: std::io::Error| e.to_string();
-    let js = |e: serde_json::Error| format!("JSON dump: {e}");
+pub fn write_json_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), ExportError> {
+    let io = ExportError::Io;
+    let js = ExportError::Json;
     // Every triangle is checked before anything is written.
-    out.for_each_piece::<String>(Groups::VERTEX, |piece| {
+    out.for_each_piece::<ExportError>(Groups::VERTEX, |piece| {
         piece.triangles.clone().try_for_each(|k| local_oriented(piece, k).map(|_| ()))
     })?;
     w.write_all(b"{\"vertices\":[").map_err(io)?;
     let mut first = true;
-    out.for_each_piece::<String>(Groups::VERTEX, |piece| {
+    out.for_each_piece::<ExportError>(Groups::VERTEX, |piece| {
         for p in &piece.mesh.positions[piece.vertices.clone()] {
             if !std::mem::take(&mut first) {
                 w.write_all(b",").map_err(io)?;
@@ -58,7 +58,7 @@ pub fn write_json_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Str
     })?;
     w.write_all(b"],\"triangles\":[").map_err(io)?;
     let mut first = true;
-    out.for_each_piece::<String>(Groups::VERTEX, |piece| {
+    out.for_each_piece::<ExportError>(Groups::VERTEX, |piece| {
         for k in piece.triangles.clone() {
             let Some(t) = piece.oriented(k) else { continue };
             if !std::mem::take(&mut first) {

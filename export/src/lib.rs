@@ -7,6 +7,7 @@
 //! which expands instances one at a time as the file is written.
 //! All writers are deterministic: the same output gives the same bytes.
 
+mod error;
 pub mod glb;
 pub mod json;
 pub mod obj;
@@ -24,6 +25,8 @@ use std::sync::Mutex;
 use glam::Vec3;
 
 use mdg_vm::output::{Mesh, Output};
+
+pub use error::ExportError;
 
 /// An output file format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -68,14 +71,14 @@ impl Format {
 }
 
 /// Appends `out` in `format` to `buf`.
-pub fn write(format: Format, out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
+pub fn write(format: Format, out: &Output, buf: &mut Vec<u8>) -> Result<(), ExportError> {
     write_to(format, out, buf)
 }
 
 /// Writes `out` in `format` to `w`. Every format streams: instances are expanded
 /// as the file is written, and no copy of the model is held in memory (the `.glb`
 /// assembles its binary chunk first).
-pub fn write_to(format: Format, out: &Output, w: &mut dyn std::io::Write) -> Result<(), String> {
+pub fn write_to(format: Format, out: &Output, w: &mut dyn std::io::Write) -> Result<(), ExportError> {
     write_with(format, out, &glb::GlbOptions::default(), w)
 }
 
@@ -85,7 +88,7 @@ pub fn write_with(
     out: &Output,
     glb_opts: &glb::GlbOptions,
     w: &mut dyn std::io::Write,
-) -> Result<(), String> {
+) -> Result<(), ExportError> {
     match format {
         Format::Glb => glb::write_glb_with(out, glb_opts, w),
         Format::Obj => obj::write_obj_to(out, w),
@@ -98,27 +101,34 @@ pub fn write_with(
 /// Writes `out` in `format` to the file `path`, atomically (see [`write_atomic_with`]);
 /// the error says `cannot write PATH: …`. Every format is streamed into the file
 /// (see [`write_to`]).
-pub fn write_file(format: Format, out: &Output, path: &Path) -> Result<(), String> {
+pub fn write_file(format: Format, out: &Output, path: &Path) -> Result<(), ExportError> {
     write_file_with(format, out, &glb::GlbOptions::default(), path)
 }
 
 /// [`write_file`] with the glTF writer's options.
-pub fn write_file_with(format: Format, out: &Output, glb_opts: &glb::GlbOptions, path: &Path) -> Result<(), String> {
+pub fn write_file_with(
+    format: Format,
+    out: &Output,
+    glb_opts: &glb::GlbOptions,
+    path: &Path,
+) -> Result<(), ExportError> {
     let mut failed = None;
     let r = write_atomic_with(path, &mut |file| {
         let mut w = std::io::BufWriter::with_capacity(1 << 20, file);
         let res = write_with(format, out, glb_opts, &mut w);
         if let Err(e) = res {
-            failed = Some(e.clone());
-            return Err(std::io::Error::other(e));
+            let io = std::io::Error::other(e.to_string());
+            failed = Some(e);
+            return Err(io);
         }
         w.flush()
     });
-    match (r, failed) {
-        (Ok(()), _) => Ok(()),
-        (Err(_), Some(e)) => Err(format!("cannot write {}: {e}", path.display())),
-        (Err(e), None) => Err(format!("cannot write {}: {e}", path.display())),
-    }
+    let source = match (r, failed) {
+        (Ok(()), _) => return Ok(()),
+        (Err(_), Some(e)) => e,
+        (Err(e), None) => ExportError::Io(e),
+    };
+    Err(ExportError::File { path: path.to_path_buf(), source: Box::new(source) })
 }
 
 /// Distinguishes temporary files of concurrent writers in one process.
@@ -441,14 +451,14 @@ pub(crate) fn normal_at(m: &Mesh, i: usize) -> [f32; 3] {
 
 /// Triangle `k` of a flat piece, oriented, as indices into the piece's mesh, or an
 /// error if it refers outside the piece's vertices.
-pub(crate) fn local_oriented(piece: &mdg_vm::output::Piece, k: usize) -> Result<[usize; 3], String> {
+pub(crate) fn local_oriented(piece: &mdg_vm::output::Piece, k: usize) -> Result<[usize; 3], ExportError> {
     match piece.oriented(k) {
         Some(t) => Ok(t.map(|i| (i - piece.base) as usize + piece.vertices.start)),
-        None => Err(format!(
-            "flattened mesh: triangle {:?} refers past the {} vertices",
-            piece.mesh.triangles.get(k).copied().unwrap_or_default(),
-            piece.vertices.len()
-        )),
+        None => Err(ExportError::TriangleOutOfRange {
+            what: "flattened mesh".into(),
+            triangle: piece.mesh.triangles.get(k).copied().unwrap_or_default(),
+            vertices: piece.vertices.len(),
+        }),
     }
 }
 
@@ -456,8 +466,8 @@ pub(crate) fn local_oriented(piece: &mdg_vm::output::Piece, k: usize) -> Result<
 /// to vertices of its own piece, without expanding the instances: the runs of the
 /// `VERTEX` mesh, the sweeps and every shared mesh (an instance's triangles are its
 /// shared mesh's).
-pub(crate) fn check_flat_triangles(out: &Output) -> Result<(), String> {
-    out.for_each_vertex_part::<String>(&|_| true, |part| match part {
+pub(crate) fn check_flat_triangles(out: &Output) -> Result<(), ExportError> {
+    out.for_each_vertex_part::<ExportError>(&|_| true, |part| match part {
         mdg_vm::output::VertexPart::Piece(p) => p.triangles.clone().try_for_each(|k| local_oriented(&p, k).map(|_| ())),
         mdg_vm::output::VertexPart::Prototype { .. } => Ok(()),
     })?;
@@ -469,11 +479,11 @@ pub(crate) fn check_flat_triangles(out: &Output) -> Result<(), String> {
 }
 
 /// The oriented triangles of `m`, checked against its vertex count.
-pub(crate) fn checked_triangles(m: &Mesh, what: &str) -> Result<Vec<[u32; 3]>, String> {
+pub(crate) fn checked_triangles(m: &Mesh, what: &str) -> Result<Vec<[u32; 3]>, ExportError> {
     let n = m.positions.len();
     let tris: Vec<[u32; 3]> = m.oriented_triangles().collect();
     if let Some(t) = tris.iter().find(|t| t.iter().any(|&i| i as usize >= n)) {
-        return Err(format!("{what}: triangle {t:?} refers past the {n} vertices"));
+        return Err(ExportError::TriangleOutOfRange { what: what.to_string(), triangle: *t, vertices: n });
     }
     Ok(tris)
 }

@@ -4,14 +4,14 @@
 //! (sRGB) values MDG shows, as 0..1 floats.
 
 use super::text::Formatter;
-use super::{check_flat_triangles, color_at, finite3, normal_at, z_up_to_y_up};
+use super::{check_flat_triangles, color_at, finite3, normal_at, z_up_to_y_up, ExportError};
 use mdg_vm::output::{Groups, Output};
 
 /// Appends `out` (flattened: VERTEX triangles, sweeps and expanded instances) as OBJ.
 /// Indices are 1-based; triangles use the oriented (mirror-corrected) winding. Line
 /// points are written as extra vertices (white) after the mesh vertices, one `l`
 /// element per polyline with two or more points.
-pub fn write_obj(out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
+pub fn write_obj(out: &Output, buf: &mut Vec<u8>) -> Result<(), ExportError> {
     write_obj_to(out, buf)
 }
 
@@ -19,12 +19,12 @@ pub fn write_obj(out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
 /// piece's `v` and `vn` lines, then its faces (a face refers only to vertices
 /// already written; OBJ counts them by kind, so `v` and `vn` may alternate), through
 /// one buffered formatter ([`Formatter`]).
-pub fn write_obj_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), String> {
+pub fn write_obj_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), ExportError> {
     // Every triangle is checked before anything is written.
     check_flat_triangles(out)?;
     let mut f = Formatter::new(w);
     f.bytes(b"# mdg\n")?;
-    out.for_each_piece::<String>(Groups::ALL, |piece| {
+    out.for_each_piece::<ExportError>(Groups::ALL, |piece| {
         let m = piece.mesh;
         for i in piece.vertices.clone() {
             let p = z_up_to_y_up(finite3(m.positions[i]));

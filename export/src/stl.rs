@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 
-use super::{finite3, local_oriented};
+use super::{finite3, local_oriented, ExportError};
 use mdg_vm::output::{Groups, Output};
 
 /// The STL header. It must not begin with `solid`, which marks ASCII STL.
@@ -12,21 +12,21 @@ const HEADER: &[u8] = b"MDG binary STL";
 
 /// Appends `out` (flattened) as binary STL. Each facet normal is computed from the
 /// oriented (mirror-corrected) triangle; degenerate triangles get a zero normal.
-pub fn write_stl(out: &Output, buf: &mut Vec<u8>) -> Result<(), String> {
+pub fn write_stl(out: &Output, buf: &mut Vec<u8>) -> Result<(), ExportError> {
     write_stl_to(out, buf)
 }
 
 /// Writes `out` as binary STL to `w`, expanding instances as it goes.
-pub fn write_stl_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), String> {
+pub fn write_stl_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), ExportError> {
     let (_, n_tris) = out.flat_counts(Groups::ALL);
-    let n = u32::try_from(n_tris).map_err(|_| format!("{n_tris} triangles exceed the STL limit"))?;
+    let n = u32::try_from(n_tris).map_err(|_| ExportError::StlTooLarge { triangles: n_tris })?;
     let mut header = [0u8; 80];
     header[..HEADER.len()].copy_from_slice(HEADER);
-    let io = |e: std::io::Error| e.to_string();
+    let io = ExportError::Io;
     w.write_all(&header).map_err(io)?;
     w.write_all(&n.to_le_bytes()).map_err(io)?;
     let mut facet = [0u8; 50];
-    out.for_each_piece::<String>(Groups::ALL, |piece| {
+    out.for_each_piece::<ExportError>(Groups::ALL, |piece| {
         let m = piece.mesh;
         for k in piece.triangles.clone() {
             let t = local_oriented(piece, k)?;

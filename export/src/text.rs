@@ -5,6 +5,8 @@
 
 use std::io::Write;
 
+use crate::ExportError;
+
 /// Bytes gathered before they are handed to the output.
 const BLOCK: usize = 1 << 16;
 
@@ -23,7 +25,7 @@ impl<'w> Formatter<'w> {
 
     /// Appends bytes.
     #[inline]
-    pub(crate) fn bytes(&mut self, b: &[u8]) -> Result<(), String> {
+    pub(crate) fn bytes(&mut self, b: &[u8]) -> Result<(), ExportError> {
         self.buf.extend_from_slice(b);
         if self.buf.len() >= BLOCK {
             self.flush()?;
@@ -36,7 +38,7 @@ impl<'w> Formatter<'w> {
     /// very large or small ones (`1e-7`); non-finite values are written as 0 (no
     /// format here stores them).
     #[inline]
-    pub(crate) fn f32(&mut self, x: f32) -> Result<(), String> {
+    pub(crate) fn f32(&mut self, x: f32) -> Result<(), ExportError> {
         let x = if x.is_finite() { x } else { 0.0 };
         let s = self.floats.format_finite(x).as_bytes();
         let s = s.strip_suffix(b".0").unwrap_or(s);
@@ -46,7 +48,7 @@ impl<'w> Formatter<'w> {
 
     /// Appends `xs` separated by single spaces.
     #[inline]
-    pub(crate) fn f32s(&mut self, xs: &[f32]) -> Result<(), String> {
+    pub(crate) fn f32s(&mut self, xs: &[f32]) -> Result<(), ExportError> {
         for (k, x) in xs.iter().enumerate() {
             if k > 0 {
                 self.buf.push(b' ');
@@ -58,15 +60,15 @@ impl<'w> Formatter<'w> {
 
     /// Appends an unsigned integer.
     #[inline]
-    pub(crate) fn u64(&mut self, n: u64) -> Result<(), String> {
+    pub(crate) fn u64(&mut self, n: u64) -> Result<(), ExportError> {
         let s = self.ints.format(n).as_bytes();
         self.buf.extend_from_slice(s);
         Ok(())
     }
 
     /// Hands what is buffered to the output.
-    pub(crate) fn flush(&mut self) -> Result<(), String> {
-        self.w.write_all(&self.buf).map_err(|e| e.to_string())?;
+    pub(crate) fn flush(&mut self) -> Result<(), ExportError> {
+        self.w.write_all(&self.buf).map_err(ExportError::Io)?;
         self.buf.clear();
         Ok(())
     }

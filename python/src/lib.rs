@@ -1067,7 +1067,7 @@ fn write_model(out: &Output, f: Format, glb: &export::glb::GlbOptions, path: &Pa
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty() && !d.exists()) {
         std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     }
-    export::write_file_with(f, out, glb, path)
+    export::write_file_with(f, out, glb, path).map_err(|e| e.to_string())
 }
 
 /// Iterator over `(seed, Model)` for [`generate`]: a pool of worker threads

@@ -563,7 +563,7 @@ fn run_one(
     let glb = export::glb::GlbOptions { instances: cli.instances };
     if !picture_only && !nothing {
         phases.restart();
-        export::write_file_with(format, &out, &glb, output).map_err(Failure::input)?;
+        export::write_file_with(format, &out, &glb, output)?;
         phases.end("write");
     }
     let picture = if picture_only { Some(output) } else { cli.png.as_deref() };

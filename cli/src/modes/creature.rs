@@ -586,7 +586,7 @@ table.d td,table.d th{{padding:2px 10px;text-align:right}}\
         );
         let mut tiles = Vec::new();
         for ind in &g.presented {
-            let bytes = write_glb(t, lib, &ind.id, &ind.shape, &ind.layout.placed)?;
+            let bytes = write_glb(t, lib, &ind.id, &ind.shape, &ind.layout.placed).map_err(|e| e.to_string())?;
             write(&dir.join(format!("{}.glb", ind.id)), &bytes)?;
             let thumb = picture(pictures, lib, ind, (TILE, TILE))?;
             write(&dir.join(format!("{}.png", ind.id)), &thumb)?;

@@ -24,7 +24,7 @@ pub(super) enum FlatSource<'a> {
 }
 
 impl<'a> FlatSource<'a> {
-    fn walk<'s>(&'s self, f: &mut dyn FnMut(VertexPart<'s>) -> Result<(), String>) -> Result<(), String> {
+    fn walk<'s>(&'s self, f: &mut dyn FnMut(VertexPart<'s>) -> Result<(), ExportError>) -> Result<(), ExportError> {
         let m = match self {
             FlatSource::Vertex { out, mesh_only: true, .. } => {
                 // What `for_each_vertex_part` makes when it expands no instance.
@@ -242,7 +242,7 @@ fn proto_color(inst: [f32; 4], delta: [f32; 4]) -> [f32; 4] {
 
 /// The first walk of a flat primitive: counts, bounds, colour precision, and
 /// whether the triangles need an index buffer; checks every triangle.
-pub(super) fn flat_plan(src: &FlatSource, what: &str, infos: &mut Option<ProtoInfos>) -> Result<FlatPlan, String> {
+pub(super) fn flat_plan(src: &FlatSource, what: &str, infos: &mut Option<ProtoInfos>) -> Result<FlatPlan, ExportError> {
     let mut plan =
         FlatPlan { n: 0, n_tris: 0, sequential: true, wide: false, lo: [f32::INFINITY; 3], hi: [f32::NEG_INFINITY; 3] };
     let mut last_color: Option<[f32; 4]> = None;
@@ -265,7 +265,7 @@ pub(super) fn flat_plan(src: &FlatSource, what: &str, infos: &mut Option<ProtoIn
             VertexPart::Piece(p) => {
                 let m = p.mesh;
                 if p.base as usize != plan.n {
-                    return Err(format!("{what}: the pieces are out of order"));
+                    return Err(ExportError::PiecesOutOfOrder { what: what.to_string() });
                 }
                 for v in p.vertices.clone() {
                     bound(&mut plan, finite3(m.positions[v]));
@@ -273,11 +273,11 @@ pub(super) fn flat_plan(src: &FlatSource, what: &str, infos: &mut Option<ProtoIn
                 }
                 for t in p.triangles.clone() {
                     let Some(o) = p.oriented(t) else {
-                        return Err(format!(
-                            "{what}: triangle {:?} refers past the {} vertices",
-                            m.triangles[t],
-                            p.vertices.len()
-                        ));
+                        return Err(ExportError::TriangleOutOfRange {
+                            what: what.to_string(),
+                            triangle: m.triangles[t],
+                            vertices: p.vertices.len(),
+                        });
                     };
                     let k = 3 * plan.n_tris as u32;
                     let mut sorted = o;
@@ -293,11 +293,14 @@ pub(super) fn flat_plan(src: &FlatSource, what: &str, infos: &mut Option<ProtoIn
                 let inst = &out.instances[instance];
                 let Some(info) = infos.get(inst.mesh) else { return Ok(()) };
                 if base as usize != plan.n {
-                    return Err(format!("{what}: the pieces are out of order"));
+                    return Err(ExportError::PiecesOutOfOrder { what: what.to_string() });
                 }
                 if !info.valid {
                     let name = out.shared(inst).map_or("", |s| s.name.as_str());
-                    return Err(format!("{what}: prototype {name} has a triangle past its vertices"));
+                    return Err(ExportError::PrototypeTriangles {
+                        what: what.to_string(),
+                        prototype: name.to_string(),
+                    });
                 }
                 // Most instances lie inside the bounds found so far, which their scale
                 // shows without placing their vertices.
@@ -373,28 +376,39 @@ impl VertexRecord {
     }
 
     #[inline]
-    fn put(&mut self, sink: &mut Sink, p: [f32; 3], n: [f32; 3], c: [f32; 4], bone: u32) -> Result<(), String> {
+    fn put(&mut self, sink: &mut Sink, p: [f32; 3], n: [f32; 3], c: [f32; 4], bone: u32) -> Result<(), ExportError> {
         let e = self.encode(c);
         self.put_encoded(sink, &float3_bytes(p), &float3_bytes(n), &e, bone)
     }
 
     /// A record of a position, a normal and a colour already encoded.
     #[inline(always)]
-    fn put_encoded(&self, sink: &mut Sink, p: &[u8; 12], n: &[u8; 12], e: &[u8; 8], bone: u32) -> Result<(), String> {
+    fn put_encoded(
+        &self,
+        sink: &mut Sink,
+        p: &[u8; 12],
+        n: &[u8; 12],
+        e: &[u8; 8],
+        bone: u32,
+    ) -> Result<(), ExportError> {
         let b = sink.slot(self.stride)?;
-        let Some(h) = b.first_chunk_mut::<28>() else { return Err("glTF binary: a short vertex record".into()) };
+        let Some(h) = b.first_chunk_mut::<28>() else {
+            return Err(ExportError::Inconsistent("glTF binary: a short vertex record"));
+        };
         h[0..12].copy_from_slice(p);
         h[12..24].copy_from_slice(n);
         h[24..28].copy_from_slice(&e[..4]);
         if self.wide || self.skinned {
             let w = if self.wide {
-                b.get_mut(28..32).ok_or("glTF binary: a short vertex record")?.copy_from_slice(&e[4..]);
+                b.get_mut(28..32)
+                    .ok_or(ExportError::Inconsistent("glTF binary: a short vertex record"))?
+                    .copy_from_slice(&e[4..]);
                 32
             } else {
                 28
             };
             if self.skinned {
-                let b = b.get_mut(w..w + 24).ok_or("glTF binary: a short vertex record")?;
+                let b = b.get_mut(w..w + 24).ok_or(ExportError::Inconsistent("glTF binary: a short vertex record"))?;
                 let j = (bone.min(u16::MAX as u32) as u16).to_le_bytes();
                 b[0..8].copy_from_slice(&[j[0], j[1], 0, 0, 0, 0, 0, 0]);
                 b[8..12].copy_from_slice(&1.0f32.to_le_bytes());
@@ -487,11 +501,11 @@ pub(super) fn flat_write(
     skinned: bool,
     infos: &mut Option<ProtoInfos>,
     sink: &mut Sink,
-) -> Result<(), String> {
+) -> Result<(), ExportError> {
     let mut rec = VertexRecord::new(plan.wide, skinned);
     let mut pv = ProtoVertices::default();
     let out = src.output();
-    let missing = || "flat geometry: an instance of a missing shared mesh".to_string();
+    let missing = || ExportError::Inconsistent("flat geometry: an instance of a missing shared mesh");
     src.walk(&mut |part| match part {
         VertexPart::Piece(p) => {
             let m = p.mesh;
@@ -500,7 +514,7 @@ pub(super) fn flat_write(
             };
             if plan.sequential {
                 for t in p.triangles.clone() {
-                    let o = p.oriented(t).ok_or_else(|| "flat geometry: a triangle out of range".to_string())?;
+                    let o = p.oriented(t).ok_or(ExportError::Inconsistent("flat geometry: a triangle out of range"))?;
                     for v in o {
                         vertex(&mut rec, sink, (v - p.base) as usize + p.vertices.start)?;
                     }
@@ -558,7 +572,10 @@ pub(super) fn flat_write(
         match part {
             VertexPart::Piece(p) => {
                 for t in p.triangles.clone() {
-                    tri(sink, p.oriented(t).ok_or_else(|| "flat geometry: a triangle out of range".to_string())?)?;
+                    tri(
+                        sink,
+                        p.oriented(t).ok_or(ExportError::Inconsistent("flat geometry: a triangle out of range"))?,
+                    )?;
                 }
             }
             VertexPart::Prototype { instance, base } => {

@@ -7,6 +7,7 @@ use super::Y_UP_ROTATION;
 use super::{
     finite3, mirrored_copy, orthogonal_trs, place_mesh, Builder, FlatSource, GMesh, Material, Node, Pbr, Scene,
 };
+use crate::ExportError;
 use glam::{Mat4, Vec3};
 use mdg_vm::output::Mesh;
 use std::collections::BTreeMap;
@@ -38,7 +39,7 @@ pub fn write_glb_nodes(
     meshes: &[(String, Mesh)],
     nodes: &[MeshNode],
     w: &mut dyn std::io::Write,
-) -> Result<(), String> {
+) -> Result<(), ExportError> {
     let mut g = Builder::default();
     let mut gltf_meshes: BTreeMap<(u32, bool), u32> = BTreeMap::new();
     let mut materials: BTreeMap<(u32, bool), u32> = BTreeMap::new();
@@ -49,11 +50,11 @@ pub fn write_glb_nodes(
     let mut out: Vec<(Node, Option<usize>)> = Vec::new();
     for (i, n) in nodes.iter().enumerate() {
         let Some((name, mesh)) = meshes.get(n.mesh as usize) else {
-            return Err(format!("node `{}`: no mesh {}", n.name, n.mesh));
+            return Err(ExportError::NoMesh { node: n.name.clone(), mesh: n.mesh });
         };
         let parent = match n.parent {
             Some(p) if (p as usize) < i => Some(p as usize),
-            Some(p) => return Err(format!("node `{}`: its parent {p} does not come before it", n.name)),
+            Some(p) => return Err(ExportError::ParentOrder { node: n.name.clone(), parent: p }),
             None => None,
         };
         let parent_world = parent.and_then(|p| world.get(p).copied()).unwrap_or(Mat4::IDENTITY);
@@ -145,7 +146,7 @@ fn part_mesh<'a>(
     what: String,
     name: &str,
     mesh: u32,
-) -> Result<Option<u32>, String> {
+) -> Result<Option<u32>, ExportError> {
     let before = g.root.materials.len();
     let Some(mut p) = g.colored_primitive(src, &what)? else {
         return Ok(None);

@@ -59,9 +59,9 @@ pub fn read_bytes(format: VoxelFormat, bytes: &[u8]) -> Result<VoxelModel, Strin
     match format {
         VoxelFormat::Text => {
             let text = std::str::from_utf8(bytes).map_err(|e| format!("not UTF-8 text: {e}"))?;
-            text::read(text)
+            text::read(text).map_err(|e| e.to_string())
         }
-        VoxelFormat::Vox => vox::read(bytes),
+        VoxelFormat::Vox => vox::read(bytes).map_err(|e| e.to_string()),
         VoxelFormat::Nbt => nbt::read_structure(bytes),
         VoxelFormat::Schem => nbt::read_schem(bytes),
     }
@@ -141,7 +141,7 @@ pub fn write(format: VoxelFormat, model: &VoxelModel) -> Result<Vec<u8>, String>
     };
     match format {
         VoxelFormat::Text => Ok(text::write(model).into_bytes()),
-        VoxelFormat::Vox => vox::write(model),
+        VoxelFormat::Vox => vox::write(model).map_err(|e| e.to_string()),
         VoxelFormat::Nbt => nbt::write_structure(model),
         VoxelFormat::Schem => nbt::write_schem(model),
     }

@@ -6,8 +6,41 @@
 use crate::voxel::{ModelBuilder, VoxelModel};
 use std::fmt::Write as _;
 
+/// Why a text voxel file was refused: each error but the last names its line.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum TextError {
+    /// A line with fewer than four fields: `what` is missing.
+    Missing { line: usize, what: &'static str },
+    /// A coordinate that is not an `i32`.
+    NotInteger { line: usize, text: String, what: &'static str },
+    /// A fifth field that is not a comment.
+    Extra { line: usize, text: String },
+    /// The block of a line refused by the model (its id, or two blocks in a cell).
+    Block { line: usize, message: String },
+    /// The model as a whole refused (its bounding box).
+    Model(String),
+}
+
+impl std::fmt::Display for TextError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            TextError::Missing { line, what } => {
+                write!(f, "line {line}: expected `x y z block`, the {what} is missing")
+            }
+            TextError::NotInteger { line, text, what } => write!(f, "line {line}: `{text}` is not an integer {what}"),
+            TextError::Extra { line, text } => {
+                write!(f, "line {line}: unexpected `{text}` after the block (comments start with `#`)")
+            }
+            TextError::Block { line, message } => write!(f, "line {line}: {message}"),
+            TextError::Model(message) => f.write_str(message),
+        }
+    }
+}
+
+impl std::error::Error for TextError {}
+
 /// Parses the text format.
-pub fn read(text: &str) -> Result<VoxelModel, String> {
+pub fn read(text: &str) -> Result<VoxelModel, TextError> {
     let mut b = ModelBuilder::new();
     for (i, line) in text.lines().enumerate() {
         let n = i + 1;
@@ -16,26 +49,26 @@ pub fn read(text: &str) -> Result<VoxelModel, String> {
         if first.starts_with('#') {
             continue;
         }
-        let coord = |s: Option<&str>, what: &str| -> Result<i32, String> {
-            let s = s.ok_or_else(|| format!("line {n}: expected `x y z block`, the {what} is missing"))?;
-            s.parse::<i32>().map_err(|_| format!("line {n}: `{s}` is not an integer {what}"))
+        let coord = |s: Option<&str>, what: &'static str| -> Result<i32, TextError> {
+            let s = s.ok_or(TextError::Missing { line: n, what })?;
+            s.parse::<i32>().map_err(|_| TextError::NotInteger { line: n, text: s.to_string(), what })
         };
         let x = coord(Some(first), "x coordinate")?;
         let y = coord(fields.next(), "y coordinate")?;
         let z = coord(fields.next(), "z coordinate")?;
-        let id = fields.next().ok_or_else(|| format!("line {n}: expected `x y z block`, the block is missing"))?;
+        let id = fields.next().ok_or(TextError::Missing { line: n, what: "block" })?;
         if let Some(extra) = fields.next() {
             if !extra.starts_with('#') {
-                return Err(format!("line {n}: unexpected `{extra}` after the block (comments start with `#`)"));
+                return Err(TextError::Extra { line: n, text: extra.to_string() });
             }
         }
         if crate::blocks::is_air(id) {
             continue;
         }
-        let kind = b.kind(id, None).map_err(|e| format!("line {n}: {e}"))?;
-        b.add([x, y, z], kind).map_err(|e| format!("line {n}: {e}"))?;
+        let kind = b.kind(id, None).map_err(|message| TextError::Block { line: n, message })?;
+        b.add([x, y, z], kind).map_err(|message| TextError::Block { line: n, message })?;
     }
-    b.finish()
+    b.finish().map_err(TextError::Model)
 }
 
 /// Writes the text format: a comment header, then the blocks in (y, z, x) order.
@@ -68,12 +101,19 @@ mod tests {
         assert_eq!(m.blocks.len(), 3);
         assert_eq!(m.kinds.len(), 2);
         assert_eq!(m.kinds[1].color, [255, 0, 0]);
-        assert!(read("0 0 x 1:0").expect_err("an error").contains("line 1"));
-        assert!(read("0 0 0").expect_err("an error").contains("block is missing"));
-        assert!(read("0 0 0 a\n0 0 0 b").expect_err("an error").contains("two blocks"));
-        assert!(read("0 0 0 a b").is_err());
-        assert!(read("0 0 99999999999 a").is_err());
-        assert!(read("0 0 0 a\n5000 5000 5000 a").expect_err("an error").contains("bounding box"));
+        let e = read("0 0 x 1:0").expect_err("an error");
+        assert_eq!(e, TextError::NotInteger { line: 1, text: "x".into(), what: "z coordinate" });
+        assert_eq!(e.to_string(), "line 1: `x` is not an integer z coordinate");
+        let e = read("0 0 0").expect_err("an error");
+        assert_eq!(e, TextError::Missing { line: 1, what: "block" });
+        assert_eq!(e.to_string(), "line 1: expected `x y z block`, the block is missing");
+        let e = read("0 0 0 a\n0 0 0 b").expect_err("an error");
+        assert!(matches!(&e, TextError::Block { line: 2, message } if message.contains("two blocks")), "{e:?}");
+        let e = read("0 0 0 a b").expect_err("an error");
+        assert_eq!(e.to_string(), "line 1: unexpected `b` after the block (comments start with `#`)");
+        assert!(matches!(read("0 0 99999999999 a"), Err(TextError::NotInteger { .. })));
+        let e = read("0 0 0 a\n5000 5000 5000 a").expect_err("an error");
+        assert!(matches!(&e, TextError::Model(m) if m.contains("bounding box")), "{e:?}");
     }
 
     #[test]
