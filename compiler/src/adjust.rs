@@ -24,6 +24,9 @@ pub enum AdjKind {
     Paint,
     /// `skew X Y`: Context Free's skew, two angles (x += tan X · y, y += tan Y · x).
     Skew,
+    /// `seed N` (on a rule call only): the call's whole sub-derivation draws from the
+    /// random stream of (run seed, N); not part of the transform.
+    Seed,
 }
 
 impl AdjKind {
@@ -82,6 +85,7 @@ impl Components {
             "fz" => AdjKind::Flip(2),
             "fps" => AdjKind::Fps,
             "skew" => AdjKind::Skew,
+            "seed" => AdjKind::Seed,
             _ if name.starts_with('#') => AdjKind::Paint,
             _ => {
                 if let Some(i) = self.color.iter().position(|c| c == name) {
@@ -128,6 +132,7 @@ impl Components {
             "fz",
             "fps",
             "skew",
+            "seed",
             "hue",
             "sat",
             "saturation",

@@ -880,6 +880,7 @@ impl<'a> Checker<'a> {
                     self.count(d, true);
                 }
                 self.adj_list(adj);
+                self.no_seed(adj, "an iterator");
                 self.conditional += dynamic as u32;
                 self.body(std::slice::from_ref(item), ns, calls, must);
                 self.conditional -= dynamic as u32;
@@ -924,6 +925,7 @@ impl<'a> Checker<'a> {
                     }
                 }
                 self.adj_list(adj);
+                self.no_seed(adj, "a `loop`");
                 let mark = self.scope.as_ref().map(|s| s.len()).unwrap_or(0);
                 let ty = if tys.iter().all(|t| *t == Ty::Int) { Ty::Int } else { Ty::Float };
                 self.bind(var, ty);
@@ -948,6 +950,9 @@ impl<'a> Checker<'a> {
         calls: &mut Vec<String>,
         must: &mut Vec<String>,
     ) {
+        if self.sym.is_drawable(&name.text) {
+            self.no_seed(adj, "a drawable");
+        }
         if self.sym.is_drawable(&name.text) && crate::paths::is_path_op(&name.text, self.in_path) {
             self.path_item(name, args, profile);
         } else if self.sym.is_drawable(&name.text) {
@@ -1188,6 +1193,19 @@ impl<'a> Checker<'a> {
             }
         };
         self.diags.push(d);
+    }
+
+    /// E0412 for each `seed N` in `adj`, the adjustments of `what` (not a rule call).
+    fn no_seed(&mut self, adj: &AdjList, what: &str) {
+        for a in &adj.adjs {
+            if self.sym.components.adj_kind(&a.name.text) == Some(AdjKind::Seed) {
+                self.diags.push(
+                    Diagnostic::error("E0412", a.name.span, format!("`seed` on {what}"))
+                        .with_label("only a rule call can be seeded")
+                        .with_note("`seed N` gives a rule call's sub-derivation its own random stream: write it on the call inside (`R {seed N}`)"),
+                );
+            }
+        }
     }
 
     fn adj_list(&mut self, adj: &AdjList) {

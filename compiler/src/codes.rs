@@ -1282,6 +1282,24 @@ rule A {
         ),
     },
     Code {
+        code: "E0412",
+        severity: Error,
+        title: "`seed` outside a rule call",
+        explanation: r#"`seed N` re-seeds a rule call: the call's whole sub-derivation draws from a random stream made from the run's seed and N, so two calls with the same N grow the same sub-tree (up to their frames), and the caller's stream goes on as if the call drew nothing. A drawable draws nothing, and an iterator's or a loop's adjustments are its step, so `seed` there means nothing.
+
+In the example: `seed 2` is on `VERTEX`, a drawable.
+
+Fix: Put `seed N` on the rule call it should replay (`6 * {rz 60} arm {seed 7}`), or remove it."#,
+        example: Library(
+            r#"startshape A
+
+rule A {
+  VERTEX {seed 2}
+}
+"#,
+        ),
+    },
+    Code {
         code: "E0501",
         severity: Error,
         title: "GLSL error in a shader block",

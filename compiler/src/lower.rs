@@ -878,6 +878,20 @@ impl<'a> Lower<'a> {
                         };
                         self.code.push(Op::Arg { expr: ExprId(expr) });
                     }
+                    // `seed N` (the last one, if several; the checker allows it only here).
+                    let seed = adj
+                        .adjs
+                        .iter()
+                        .rev()
+                        .find(|a| self.sym.components.adj_kind(&a.name.text) == Some(AdjKind::Seed))
+                        .and_then(|a| a.args.first());
+                    if let Some(arg) = seed {
+                        let expr = match self.arg_value(arg, false) {
+                            Ok(v) => self.push_expr(vec![ExprOp::Push(v)]),
+                            Err(e) => e,
+                        };
+                        self.code.push(Op::Seed { expr: ExprId(expr) });
+                    }
                     self.code.push(Op::Call { rule: RuleId(rule), xf, flags });
                 }
             }
@@ -1028,6 +1042,10 @@ impl<'a> Lower<'a> {
         let mut dynamic = false;
         for a in &adj.adjs {
             let Some(kind) = comps.adj_kind(&a.name.text) else { continue };
+            if kind == AdjKind::Seed {
+                // Not part of the transform: the call's `SEED` op (see `item`).
+                continue;
+            }
             let angle = kind.is_angle();
             let mut args = Vec::new();
             for arg in &a.args {
@@ -1074,7 +1092,7 @@ impl<'a> Lower<'a> {
                 AdjKind::Fps => (AdjOp::Fps, 0),
                 AdjKind::Hsb(i) => (AdjOp::Hsb, i),
                 AdjKind::Skew => (AdjOp::Skew, 0),
-                AdjKind::Paint => continue,
+                AdjKind::Paint | AdjKind::Seed => continue,
             };
             prims.push(PrimAdj { kind: k, axis, args });
         }

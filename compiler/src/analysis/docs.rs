@@ -101,6 +101,7 @@ pub const DOCS: &[Doc] = &[
     d(Adjustment, "fy", "fy", "Reflect across the xz-plane: (x, y, z) → (x, −y, z)."),
     d(Adjustment, "fz", "fz", "Reflect across the xy-plane: (x, y, z) → (x, y, −z)."),
     d(Adjustment, "fps", "fps N", "Add N to the frames per second of the called rule's transform rules."),
+    d(Adjustment, "seed", "seed N", "On a rule call: the call's whole sub-derivation draws from the random stream of (run seed, N); two calls with the same N grow the same sub-tree, and the caller's stream goes on as if the call drew nothing."),
     d(Adjustment, "R", "R N", "Add N to the red colour component (colours start at white, 1 1 1 1)."),
     d(Adjustment, "G", "G N", "Add N to the green colour component."),
     d(Adjustment, "B", "B N", "Add N to the blue colour component."),

@@ -112,6 +112,8 @@ macro_rules! for_each_op {
                 "e x j f  LOOP whose count is expression e, evaluated once on entry (negative or NaN: 0 runs); f bit 1: the first run is under start itself");
             (0x0D, Inst, "INST", { proto: ProtoId, count: OpCount },
                 "P n      the next n ops (VERTEX/FACENORMALS, constant transforms) are prototype P: one instance of P under start, skipping them; or run them one by one");
+            (0x0E, Seed, "SEED", { expr: ExprId },
+                "e        the CALL that follows (right after) runs its whole sub-derivation on the random stream of (run seed, e); the caller's stream resumes as if it drew nothing");
         }
     };
 }

@@ -127,7 +127,7 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
             // (Ranges checked above; slots and jumps per definition by `verify_body`.)
             Op::Call { .. } | Op::Draw { .. } | Op::Iso { .. } => {}
             // Checked per definition by `verify_body`.
-            Op::Arg { .. } | Op::Set { .. } | Op::Jump { .. } | Op::JumpIfNot { .. } => {}
+            Op::Arg { .. } | Op::Set { .. } | Op::Jump { .. } | Op::JumpIfNot { .. } | Op::Seed { .. } => {}
             Op::Cont {} | Op::Ret {} => {}
         }
     }
@@ -238,7 +238,7 @@ fn verify_body(b: &Bundle, rule: usize, start: u32) -> Result<(), LoadError> {
                 return Err(bad(format!("op {pc}: {} with {pending} arguments for {want}", op.mnemonic())));
             }
             pending = 0;
-        } else if pending > 0 && !matches!(op, Op::Arg { .. } | Op::Call { .. }) {
+        } else if pending > 0 && !matches!(op, Op::Arg { .. } | Op::Call { .. } | Op::Seed { .. }) {
             return Err(bad(format!("op {pc}: {} between an ARG and its CALL", op.mnemonic())));
         }
         match *op {
@@ -277,6 +277,12 @@ fn verify_body(b: &Bundle, rule: usize, start: u32) -> Result<(), LoadError> {
             Op::JumpIfNot { expr, target } => {
                 slots_ok(expr, pc)?;
                 jumps.push((pc, target));
+            }
+            Op::Seed { expr } => {
+                slots_ok(expr, pc)?;
+                if !matches!(b.code.get(pc + 1), Some(Op::Call { .. })) {
+                    return Err(bad(format!("op {pc}: SEED not followed by a CALL")));
+                }
             }
             Op::Cont {} | Op::Inst { .. } => {}
             Op::Ret {} => {

@@ -284,6 +284,8 @@ impl<'b> Eval<'b> {
             stack: Vec::new(),
             bone,
             bones: Vec::new(),
+            seed: None,
+            seeds: Vec::new(),
             convs: conv.into_iter().collect(),
             cont: None,
             lin_cache: LinCache { frame: Frame::identity(), lin: Frame::identity().linear() },
@@ -392,6 +394,13 @@ impl<'b> Eval<'b> {
                     m.act.pc = if expr::truthy(v) { m.act.pc + 1 } else { target.0 };
                     true
                 }
+                Op::Seed { expr } => {
+                    m.act.pc += 1;
+                    if !S::SIMPLE {
+                        m.seed = Some(self.value_at(&m, expr));
+                    }
+                    true
+                }
                 Op::Ret {} => self.op_ret::<S>(&mut m),
             };
             if !go_on {
@@ -495,6 +504,13 @@ impl<'b> Eval<'b> {
         m.act.pc += 1;
         let depth = m.act.depth + 1;
         let args = m.act.slot_top as usize;
+        // (No SEED under the fast path: `fast_path_applies` refuses it.)
+        let seed = if S::SIMPLE { None } else { m.seed.take() };
+        if seed.is_some() && (S::COLLECTS || S::QUEUES) {
+            let how = if S::QUEUES { "under `breadthfirst`" } else { "in a guided search's skeleton" };
+            let at = where_op(b, m.act.pc - 1);
+            self.warn_once(format!("`seed`{at} is ignored {how}: the call draws from the run's stream"));
+        }
         // (Under the fast path every call's transform is constant and no call has `\`.)
         if depth > m.maxdepth && (S::SIMPLE || (flags & CONT_NEXT == 0 && self.xf_pure[xf.index()])) {
             // Refused before its frame is composed: the frame would be thrown away,
@@ -549,6 +565,14 @@ impl<'b> Eval<'b> {
             self.slots.truncate(args);
             return true;
         }
+        // (The callee's level is its callers' count, the caller's level + 1.)
+        let level = m.stack.len() as u32 + 1;
+        if let Some(v) = seed {
+            // The whole sub-derivation, its definition's choice included, draws
+            // from the stream of (run seed, v); its return restores the caller's.
+            let saved = self.reseed(v);
+            m.seeds.push((level, saved));
+        }
         let pc = match r.defs.as_slice() {
             [only] => only.start,
             _ => self.select(rule, &child, depth, args),
@@ -558,6 +582,7 @@ impl<'b> Eval<'b> {
                 Some((to, pc)) => (to, &b.rules[to], pc),
                 None => {
                     self.slots.truncate(args);
+                    self.unseed(m, level);
                     return true;
                 }
             }
@@ -568,13 +593,12 @@ impl<'b> Eval<'b> {
             self.slots.resize(args + r.frame as usize, 0.0);
         }
         let (slot_base, slot_top) = (args as u32, (args + r.frame as usize) as u32);
-        // (The callee's level is its callers' count, the caller's level + 1.)
-        let level = m.stack.len() as u32 + 1;
         if !S::SIMPLE && r.iter != NONE {
             // Convolution: the body runs once per frame of the iterator rule.
             let frames = self.convolution(rule.0);
             let Some(f) = frames.first().copied() else {
                 self.slots.truncate(args);
+                self.unseed(m, level);
                 return true;
             };
             let base = child.then(&f, &self.lins);
@@ -795,6 +819,7 @@ impl<'b> Eval<'b> {
                     m.bone = bone;
                 }
             }
+            self.unseed(m, level);
             let base = m.act.slot_base as usize;
             if self.slots.len() > base {
                 self.slots.truncate(base);

@@ -129,6 +129,11 @@ pub(super) struct Regs {
     pub(super) bones: Vec<(u32, u32)>,
     /// The activations that run a convolution rule's body once per frame.
     pub(super) convs: Vec<Conv>,
+    /// The value of a `SEED` op, for the `CALL` that follows it.
+    pub(super) seed: Option<f64>,
+    /// The callers' random streams and sequential-selection counters, where a call
+    /// was seeded (`seed N`): (the callee's level, what its return restores).
+    pub(super) seeds: Vec<(u32, Reseeded)>,
     /// The continuation state after `\`: set by CONT and taken by the next item of
     /// the same body (a call takes it before its callee runs, so one register serves
     /// every activation).
