@@ -2862,7 +2862,7 @@ mod tests {
     #[test]
     fn sources_and_registry_agree() {
         let mut files = Vec::new();
-        for krate in ["compiler", "vm", "lsp", "cli", "viewer"] {
+        for krate in ["compiler", "vm", "export", "guided", "creature", "grid", "lsp", "cli", "viewer"] {
             rust_files(&workspace().join(krate).join("src"), &mut files);
         }
         assert!(files.len() > 20, "found only {} source files", files.len());
