@@ -845,7 +845,7 @@ impl<'a> Lower<'a> {
                     Some((p, l)) => (p, l),
                     None => ("", name.text.as_str()),
                 };
-                if let Some(kind) = Drawable::from_name(last)
+                if let Some(kind) = Drawable::from_name(crate::paths::canonical(last).0)
                     .filter(|_| self.sym.resolve(&name.text, ns).is_none() || prefix.is_empty())
                 {
                     if prefix.is_empty() && crate::paths::is_path_op(last, self.in_path) {

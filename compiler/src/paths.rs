@@ -8,7 +8,22 @@ use mdg_vm::bundle::ops::{path_bits, PATH_WORDS};
 
 /// The drawables that exist only in flat paths; one of them in a rule definition
 /// makes it a path (its `MOVETO`/`LINETO` then build the path).
-pub const PATH_DRAWABLES: &[&str] = &["ARCTO", "CURVETO", "CLOSEPOLY", "FILL", "STROKE"];
+pub const PATH_DRAWABLES: &[&str] =
+    &["ARCTO", "CURVETO", "CLOSEPOLY", "FILL", "STROKE", "MOVEREL", "LINEREL", "ARCREL", "CURVEREL"];
+
+/// The relative drawables (CFDG 3's) and the absolute ones they are the same as,
+/// their point (and a curve's control points) offset from the current point.
+pub const RELATIVE: &[(&str, &str)] =
+    &[("MOVEREL", "MOVETO"), ("LINEREL", "LINETO"), ("ARCREL", "ARCTO"), ("CURVEREL", "CURVETO")];
+
+/// The absolute drawable `name` stands for and the option bits it adds:
+/// `LINEREL` is `LINETO` with [`path_bits::REL`], any other name itself.
+pub fn canonical(name: &str) -> (&str, u32) {
+    match RELATIVE.iter().find(|(r, _)| *r == name) {
+        Some((_, abs)) => (abs, path_bits::REL),
+        None => (name, 0),
+    }
+}
 
 fn calls<'a>(body: &'a [BodyItem], names: &[&str]) -> Option<&'a BodyItem> {
     let mut found = None;
@@ -69,6 +84,7 @@ impl std::fmt::Display for BadOption {
 /// The option bits of the word after a path drawable (`evenodd`, `large_cw`,
 /// `roundjoin_roundcap`: words joined by `_`).
 pub fn option_bits(drawable: &str, word: &str) -> Result<u32, BadOption> {
+    let drawable = canonical(drawable).0;
     let name =
         |d: &str| PATH_WORDS.iter().map(|(_, _, n)| *n).chain(["MOVETO", "LINETO"]).find(|n| *n == d).unwrap_or("");
     let drawable = name(drawable);
@@ -98,12 +114,16 @@ pub fn option_bits(drawable: &str, word: &str) -> Result<u32, BadOption> {
 pub fn arities(drawable: &str, bits: u32) -> &'static [usize] {
     let smooth = bits & path_bits::SMOOTH != 0;
     match drawable {
-        "MOVETO" | "LINETO" => &[0, 2],
-        "ARCTO" => &[3, 5],
-        "CURVETO" if smooth => &[2, 4],
-        "CURVETO" => &[4, 6],
-        "STROKE" => &[0, 1],
-        _ => &[0],
+        // A relative point needs its offset (a frame's origin is no offset).
+        "MOVEREL" | "LINEREL" => &[2],
+        d => match canonical(d).0 {
+            "MOVETO" | "LINETO" => &[0, 2],
+            "ARCTO" => &[3, 5],
+            "CURVETO" if smooth => &[2, 4],
+            "CURVETO" => &[4, 6],
+            "STROKE" => &[0, 1],
+            _ => &[0],
+        },
     }
 }
 
@@ -122,7 +142,8 @@ pub fn vm_args<'a>(drawable: &str, args: &'a [Expr], bits: u32) -> Option<(Vec<O
         return None;
     }
     let a = |i: usize| args.get(i);
-    let mut bits = bits;
+    let (drawable, rel) = canonical(drawable);
+    let mut bits = bits | rel;
     let v = match drawable {
         "MOVETO" | "LINETO" => vec![a(0), a(1)],
         // ARCTO(x, y, r) is a circle's arc: rx = ry = r, no turn.

@@ -56,9 +56,13 @@ impl Symbols {
         self.rules.contains_key(name).then(|| name.to_string())
     }
 
-    /// Whether `name` is a drawable (built-in, namespaced pen drawable, or isosurface).
+    /// Whether `name` is a drawable (built-in, a flat path's relative drawable,
+    /// namespaced pen drawable, or isosurface).
     pub fn is_drawable(&self, name: &str) -> bool {
-        if DRAWABLES.contains(&name) || self.isosurfaces.contains_key(name) {
+        if DRAWABLES.contains(&name)
+            || self.isosurfaces.contains_key(name)
+            || crate::paths::RELATIVE.iter().any(|(r, _)| *r == name)
+        {
             return true;
         }
         match name.rsplit_once('.') {

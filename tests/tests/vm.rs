@@ -889,3 +889,49 @@ fn flat_paths_fill_and_stroke_the_areas_they_enclose() {
     let line = run_source("startshape L\nrule L { MOVETO {} LINETO {x 1} }\n");
     assert!(line.mesh.triangles.is_empty() && line.lines.len() == 1 && line.stats.paths == 0);
 }
+
+#[test]
+fn relative_path_ops_are_the_absolute_ones_from_the_current_point() {
+    // Each pair draws the same path, absolute and relative (CFDG 3's LINEREL,
+    // MOVEREL, ARCREL, CURVEREL: the point, and a curve's control points, relative
+    // to the current point, in the drawable's frame).
+    let pairs = [
+        (
+            "MOVETO(1, 1) {} LINETO(3, 1) {} LINETO(3, 2) {} LINETO(1, 2) {}",
+            "MOVEREL(1, 1) {} LINEREL(2, 0) {} LINEREL(0, 1) {} LINEREL(-2, 0) {}",
+        ),
+        ("MOVETO(1, 0) {} ARCTO(-1, 0, 1.5) {} ARCTO(1, 0, 2, 1.5, 30) large_cw {}", "MOVETO(1, 0) {} ARCREL(-2, 0, 1.5) {} ARCREL(2, 0, 2, 1.5, 30) large_cw {}"),
+        (
+            "MOVETO(1, 1) {} CURVETO(3, 1, 2, 3) {} CURVETO(5, 1) smooth {} CURVETO(7, 1, 6, 0, 6.5, 3) {} \
+             CURVETO(9, 1, 8, 2) smooth {}",
+            "MOVETO(1, 1) {} CURVEREL(2, 0, 1, 2) {} CURVEREL(2, 0) smooth {} CURVEREL(2, 0, 1, -1, 1.5, 2) {} \
+             CURVEREL(2, 0, 1, 1) smooth {}",
+        ),
+        // After CLOSEPOLY the current point is the closed subpath's start.
+        (
+            "MOVETO(0, 0) {} LINETO(1, 0) {} LINETO(1, 1) {} CLOSEPOLY {} MOVETO(2, 0) {} LINETO(3, 0) {} LINETO(3, 1) {}",
+            "MOVETO(0, 0) {} LINEREL(1, 0) {} LINEREL(0, 1) {} CLOSEPOLY {} MOVEREL(2, 0) {} LINEREL(1, 0) {} \
+             LINEREL(0, 1) {}",
+        ),
+    ];
+    for (abs, rel) in pairs {
+        // Stroked and filled, in a turned and scaled frame: the same area and box
+        // (the points are kept in single precision, so not the same triangles).
+        let run = |body: &str| {
+            let out = run_source(&format!(
+                "startshape A\nrule A {{ P {{x 1 rz 30 s 2}} }}\nrule P {{ {body} STROKE(0.1) {{}} FILL {{}} }}\n"
+            ));
+            assert_eq!(out.stats.paths, 2, "{body}");
+            xy_area_and_box(&out.mesh)
+        };
+        let ((a0, b0), (a1, b1)) = (run(abs), run(rel));
+        assert!(a0 > 1.0 && (a0 - a1).abs() < 1e-4 * a0, "{rel}: {a0} {a1}");
+        assert!(b0.iter().zip(b1).all(|(x, y)| (x - y).abs() < 1e-4), "{rel}: {b0:?} {b1:?}");
+    }
+    // The offset turns with the drawable's frame (an iterator turns its first run
+    // too): a turtle square of side 1, up, left, down and right.
+    let out = run_source("startshape S\nrule S { MOVETO(0, 0) {} 4 * [rz 90] LINEREL(1, 0) {} FILL {} }\n");
+    let (area, b) = xy_area_and_box(&out.mesh);
+    assert!((area - 1.0).abs() < 1e-4, "{area}");
+    assert!(b.iter().zip([-1.0, 0.0, 0.0, 1.0]).all(|(a, e)| (a - e).abs() < 1e-4), "{b:?}");
+}

@@ -205,10 +205,10 @@ impl<'a> Emitter<'a> {
     /// arguments and the option word; the rest of the list stays a list.
     fn path_op(&mut self, op: &str, args: &[Expr], adj: &Adj) -> Option<String> {
         let line = self.line;
-        if op.ends_with("REL") {
-            self.rep.drop(line, op, "a relative path operation: MDG's paths have no relative points; left out");
-            return None;
-        }
+        // `MOVEREL`, `LINEREL`, `ARCREL`, `CURVEREL` keep their names (MDG has
+        // them) and take the absolute operation's arguments and words.
+        let name = op;
+        let op = crate::paths::canonical(op).0;
         let mut words: Vec<String> = Vec::new();
         fn flags(e: &Expr, out: &mut Vec<String>) -> bool {
             match e {
@@ -365,7 +365,7 @@ impl<'a> Emitter<'a> {
         let list = self.adj(&rest);
         let argv = if call.is_empty() { String::new() } else { format!("({})", call.join(", ")) };
         let word = if mdg_words.is_empty() { String::new() } else { format!(" {}", mdg_words.join("_")) };
-        Some(format!("{op}{argv}{word} {list}"))
+        Some(format!("{name}{argv}{word} {list}"))
     }
 
     /// The item of a loop or transform: a block or one item, never empty.

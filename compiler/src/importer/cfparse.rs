@@ -170,7 +170,7 @@ const ADJ_NAMES: &[&str] = &[
     "param",
 ];
 
-/// Names that are path operations (MDG's flat paths; the `…REL` ones are left out).
+/// Names that are path operations (MDG's flat paths, the `…REL` ones included).
 pub(crate) const PATH_OPS: &[&str] = &[
     "MOVETO",
     "MOVEREL",

@@ -382,6 +382,24 @@ mod tests {
     }
 
     #[test]
+    fn relative_path_operations_are_imported_as_mdg_s_own() {
+        // CFDG 2's named coordinates and CFDG 3's positional ones.
+        let i = cf("startshape P\npath P {\n  MOVEREL {x 1}\n  LINEREL {y 2}\n  ARCREL {x -1 r 1 p cw}\n  \
+                    CURVEREL {x 1 y 1 x1 0.5}\n  CLOSEPOLY {}\n  FILL {}\n}\n");
+        for want in ["MOVEREL(1, 0) {}", "LINEREL(0, 2) {}", "ARCREL(-(1), 0, 1) cw {}", "CURVEREL(1, 1, 0.5, 0) {}"] {
+            assert!(i.mdg.contains(want), "{want}\n{}", i.mdg);
+        }
+        let i =
+            cf("startshape P\npath P {\n  MOVETO(0, 0)\n  LINEREL(1, 0)\n  CURVEREL(0, 1, 1, 1, CF::Continuous)\n  \
+                    ARCREL(-1, -1, 1, CF::ArcLarge)\n  STROKE(0.1)[]\n}\n");
+        for want in ["LINEREL(1, 0) {}", "CURVEREL(0, 1, 1, 1) smooth {}", "ARCREL(-(1), -(1), 1) large {}"] {
+            assert!(i.mdg.contains(want), "{want}\n{}", i.mdg);
+        }
+        assert!(i.report.notes.iter().all(|n| !n.construct.ends_with("REL")), "{:?}", i.report.notes);
+        assert!(triangles(&i.mdg) > 0, "{}", i.mdg);
+    }
+
+    #[test]
     fn a_shape_named_like_a_primitive_replaces_it() {
         let i = cf("startshape Top\nrule Top { TRIANGLE {} CIRCLE {} }\nrule TRIANGLE { SQUARE {} }\n");
         assert!(i.mdg.contains("rule TRIANGLE_ {") && i.mdg.contains("  TRIANGLE_ {}\n  CIRCLE {}"), "{}", i.mdg);

@@ -38,6 +38,10 @@ pub mod path_bits {
     pub const SQUARECAP: u32 = 256;
     /// (Set by the compiler, not a word) a `CURVETO` with a second control point.
     pub const CUBIC: u32 = 512;
+    /// (Set by the compiler for `MOVEREL`, `LINEREL`, `ARCREL`, `CURVEREL`, not a
+    /// word) the point and a curve's control points are offsets from the current
+    /// point, in the drawable's frame.
+    pub const REL: u32 = 1024;
 }
 
 /// The option words of the path drawables, their bits and the drawable that takes

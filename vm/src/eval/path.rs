@@ -58,9 +58,22 @@ impl<'b> Eval<'b> {
             self.path.last_ctrl = None;
         }
         let a = self.lins.affine(s);
-        let to = |x: f64, y: f64| world(&a, [x, y]);
+        let inv = a.inverse();
+        // The start of a segment (and the origin of relative ops): the current
+        // point; after a closed subpath its start; with no subpath the frame's
+        // origin before the adjustment (an implied `MOVETO`).
+        let start = match (self.path.current(), self.path.subs.last()) {
+            (Some(p), _) => p,
+            (None, Some((pts, true))) => pts.first().copied().unwrap_or(base.f.u),
+            (None, _) => self.lins.affine(base).f.u,
+        };
+        let p0 = local(inv.as_ref(), start);
+        // `MOVEREL`, `LINEREL`, `ARCREL`, `CURVEREL`: the point and the control
+        // points are offsets from the start (an arc's radii and angle are not).
+        let rel = flags & bits::REL != 0;
+        let pt = |i: usize| if rel { [p0[0] + arg(i), p0[1] + arg(i + 1)] } else { [arg(i), arg(i + 1)] };
         if kind == Drawable::MoveTo {
-            self.path.subs.push((vec![to(arg(0), arg(1))], false));
+            self.path.subs.push((vec![world(&a, pt(0))], false));
             self.path.last_ctrl = None;
             return;
         }
@@ -80,22 +93,11 @@ impl<'b> Eval<'b> {
             self.path.last_ctrl = None;
             return;
         }
-        // A segment from the current point: after a closed subpath from its start,
-        // with no subpath from the frame's origin (an implied `MOVETO`).
-        let from = match self.path.current() {
-            Some(p) => p,
-            None => {
-                let p = match self.path.subs.last() {
-                    Some((pts, true)) => pts.first().copied().unwrap_or(base.f.u),
-                    _ => self.lins.affine(base).f.u,
-                };
-                self.path.subs.push((vec![p], false));
-                p
-            }
-        };
-        let inv = a.inverse();
-        let p0 = local(inv.as_ref(), from);
-        let p1 = [arg(0), arg(1)];
+        // A segment from the start; a new subpath there unless one is open.
+        if self.path.current().is_none() {
+            self.path.subs.push((vec![start], false));
+        }
+        let p1 = pt(0);
         let mut pts = Vec::new();
         match kind {
             Drawable::LineTo => {
@@ -120,13 +122,13 @@ impl<'b> Eval<'b> {
                 let (smooth, cubic) = (flags & bits::SMOOTH != 0, flags & bits::CUBIC != 0);
                 let last = match (smooth, cubic) {
                     (false, false) => {
-                        let c = [arg(2), arg(3)];
+                        let c = pt(2);
                         kernel::quadratic(p0, c, p1, &mut pts);
                         c
                     }
                     (false, true) => {
-                        let c2 = [arg(4), arg(5)];
-                        kernel::cubic(p0, [arg(2), arg(3)], c2, p1, &mut pts);
+                        let c2 = pt(4);
+                        kernel::cubic(p0, pt(2), c2, p1, &mut pts);
                         c2
                     }
                     (true, false) => {
@@ -135,7 +137,7 @@ impl<'b> Eval<'b> {
                         c
                     }
                     (true, true) => {
-                        let c2 = [arg(2), arg(3)];
+                        let c2 = pt(2);
                         kernel::cubic(p0, mirrored(), c2, p1, &mut pts);
                         c2
                     }
