@@ -656,7 +656,9 @@ fn string_errors_are_counted_across_lines() {
 #[test]
 fn no_operator_is_written_as_a_number() {
     let mut found = Vec::new();
-    for krate in ["compiler", "vm", "export", "guided", "creature", "grid", "lsp", "viewer", "cli", "python", "tests", "fuzz"] {
+    for krate in
+        ["compiler", "vm", "export", "guided", "creature", "grid", "lsp", "viewer", "cli", "python", "tests", "fuzz"]
+    {
         let mut files = Vec::new();
         rs_files(&root().join(krate), &mut files);
         // (This file names the pattern in its own test strings.)
