@@ -250,7 +250,8 @@ fn writing_to_dev_full_says_no_space_left_on_device() {
     let dir = scratch("dev-full");
     std::fs::write(dir.join("a.mdg"), TRIANGLE).expect("ok");
     let (o, took) = mdg_run(&dir, &["a.mdg", "-o", "/dev/full", "--format", "obj"]);
-    assert_ended(&o, took, 1, 60);
+    // An IO error: exit 2, as the statuses are documented (cli/src/failure.rs).
+    assert_ended(&o, took, 2, 60);
     assert!(stderr(&o).contains("No space left on device"), "{}", stderr(&o));
 }
 
