@@ -94,11 +94,11 @@ pub fn instanced_for_bundle(bundle: &Bundle, programs: &Programs) -> Result<Opti
     Ok(Some(p))
 }
 
-/// Unlit vertex shader for pen lines: position and colour, nothing else.
-pub const LINE_VS: &str = "#version 450
-layout(location = 0) in vec3 in_position;
-layout(location = 2) in vec4 in_color;
-layout(set = 0, binding = 0) uniform Globals {
+/// The unlit vertex shaders' uniform block and colour output ([`LINE_VS`],
+/// [`POINT_VS`]).
+macro_rules! unlit_globals {
+    () => {
+        "layout(set = 0, binding = 0) uniform Globals {
     mat4 projection;
     mat4 view;
     vec4 camera_pos;
@@ -106,33 +106,41 @@ layout(set = 0, binding = 0) uniform Globals {
     vec4 spec_color_power;
 } globals;
 layout(location = 0) out vec4 v_color;
-void main() {
+"
+    };
+}
+
+/// Unlit vertex shader for pen lines: position and colour, nothing else.
+pub const LINE_VS: &str = concat!(
+    "#version 450
+layout(location = 0) in vec3 in_position;
+layout(location = 2) in vec4 in_color;
+",
+    unlit_globals!(),
+    "void main() {
     v_color = in_color;
     gl_Position = globals.projection * globals.view * vec4(in_position, 1.0);
 }
-";
+"
+);
 
 /// Vertex shader for the point sprites standing in for small instances
 /// ([`crate::points`]): a world position, a size in pixels and a colour already
 /// shaded (drawn unlit by [`LINE_FS`]).
-pub const POINT_VS: &str = "#version 450
+pub const POINT_VS: &str = concat!(
+    "#version 450
 layout(location = 0) in vec3 in_position;
 layout(location = 1) in float in_size;
 layout(location = 2) in vec4 in_color;
-layout(set = 0, binding = 0) uniform Globals {
-    mat4 projection;
-    mat4 view;
-    vec4 camera_pos;
-    vec4 light_pos;
-    vec4 spec_color_power;
-} globals;
-layout(location = 0) out vec4 v_color;
-void main() {
+",
+    unlit_globals!(),
+    "void main() {
     v_color = in_color;
     gl_Position = globals.projection * globals.view * vec4(in_position, 1.0);
     gl_PointSize = in_size;
 }
-";
+"
+);
 
 /// Unlit fragment shader for pen lines.
 pub const LINE_FS: &str = "#version 450
