@@ -288,8 +288,113 @@ pub enum BodyKind {
     },
     /// `{ BODY }`.
     Block(Vec<BodyItem>),
+    /// `switch (EXPR) { case A, B..C: ITEMS … else: ITEMS }`. Boxed, as it is large.
+    Switch(Box<Switch>),
     Pre(Pre<BodyItem>),
     Error,
+}
+
+/// A `switch` as written, and the items it means.
+///
+/// The checker, the lowering and the index read [`Switch::lowered`]: a block that
+/// binds `floor(EXPR)` once with a `let` and tests it with an `if` / `else if` chain
+/// (each arm's labels joined by `||`, a range `A..B` as `A <= k && k <= B` with both
+/// bounds floored), so a `switch` means exactly what that chain means. The formatter
+/// and the selection ranges read the written form. Every expression written appears
+/// once in the lowered form, at its own span; the names it adds (`floor`, the bound
+/// value) carry an empty span at the `switch` keyword.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Switch {
+    /// The `switch` keyword.
+    pub keyword: Span,
+    pub value: Expr,
+    pub arms: Vec<SwitchArm>,
+    /// `else: ITEMS`, with the span from `else` to the last item.
+    pub otherwise: Option<(Vec<BodyItem>, Span)>,
+    /// The `{ … }` of the arms.
+    pub body_span: Span,
+    pub lowered: BodyItem,
+}
+
+/// `case LABEL, LABEL: ITEMS`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SwitchArm {
+    pub labels: Vec<CaseLabel>,
+    pub body: Vec<BodyItem>,
+    /// From `case` to the arm's last item.
+    pub span: Span,
+}
+
+/// One label of a `case`: a value, or an inclusive range `LO..HI`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CaseLabel {
+    pub lo: Expr,
+    pub hi: Option<Expr>,
+}
+
+impl Switch {
+    /// Builds a `switch` and its lowered form (see [`Switch`]).
+    pub fn new(
+        keyword: Span,
+        value: Expr,
+        arms: Vec<SwitchArm>,
+        otherwise: Option<(Vec<BodyItem>, Span)>,
+        body_span: Span,
+        whole: Span,
+    ) -> Switch {
+        // The bound value's name cannot be written in MDG (`#` starts a colour), so it
+        // never meets a user's name; the offset keeps nested switches apart. The names
+        // added are empty spans at the keyword: nothing to hover, rename or colour.
+        let at = Span::new(keyword.file, keyword.start, keyword.start);
+        let bound = Name { text: format!("switch#{}", keyword.start), span: at };
+        let floor = |e: Expr| Expr {
+            span: e.span,
+            kind: ExprKind::Call(Name { text: "floor".to_string(), span: at }, vec![e]),
+        };
+        let var = || Expr { kind: ExprKind::Var(bound.clone()), span: at };
+        let bin = |op, a: Expr, b: Expr| {
+            let span = Span::new(a.span.file, a.span.start.min(b.span.start), a.span.end.max(b.span.end));
+            Expr { kind: ExprKind::Binary(op, Box::new(a), Box::new(b)), span }
+        };
+        let mut chain: Option<BodyItem> =
+            otherwise.clone().map(|(items, span)| BodyItem { kind: BodyKind::Block(items), cont: false, span });
+        for arm in arms.iter().rev() {
+            let mut cond: Option<Expr> = None;
+            for label in &arm.labels {
+                let test = match &label.hi {
+                    None => bin(BinOp::Eq, var(), floor(label.lo.clone())),
+                    Some(hi) => bin(
+                        BinOp::And,
+                        bin(BinOp::Le, floor(label.lo.clone()), var()),
+                        bin(BinOp::Le, var(), floor(hi.clone())),
+                    ),
+                };
+                cond = Some(match cond {
+                    None => test,
+                    Some(c) => bin(BinOp::Or, c, test),
+                });
+            }
+            let cond = cond.unwrap_or(Expr { kind: ExprKind::Error, span: arm.span });
+            chain = Some(BodyItem {
+                kind: BodyKind::If {
+                    cond,
+                    then: arm.body.clone(),
+                    then_span: arm.span,
+                    otherwise: chain.map(Box::new),
+                },
+                cont: false,
+                span: arm.span,
+            });
+        }
+        let mut items = vec![BodyItem {
+            kind: BodyKind::Let { name: bound.clone(), value: floor(value.clone()) },
+            cont: false,
+            span: keyword,
+        }];
+        items.extend(chain);
+        let lowered = BodyItem { kind: BodyKind::Block(items), cont: false, span: whole };
+        Switch { keyword, value, arms, otherwise, body_span, lowered }
+    }
 }
 
 /// The bounds of a `loop`: `START, END [, STEP]`.
@@ -308,6 +413,7 @@ pub fn walk_body<'a>(items: &'a [BodyItem], f: &mut dyn FnMut(&'a BodyItem)) {
         match &item.kind {
             BodyKind::Iterate { item, .. } | BodyKind::Loop { item, .. } => walk_body(std::slice::from_ref(item), f),
             BodyKind::Block(inner) => walk_body(inner, f),
+            BodyKind::Switch(s) => walk_body(std::slice::from_ref(&s.lowered), f),
             BodyKind::If { then, otherwise, .. } => {
                 walk_body(then, f);
                 if let Some(o) = otherwise {

@@ -1,12 +1,13 @@
 //! Context Free (CFDG 3) constructs written in an MDG file.
 //!
 //! A user porting a `.cfdg` program meets these first: `shape X`, `CF::MinimumSize =
-//! 0.01`, `loop 5 [x 1]`, `startshape tree(8)`, `X(=)`, `switch`, `n -- 1`, `path`,
+//! 0.01`, `loop 5 [x 1]`, `startshape tree(8)`, `X(=)`, `n -- 1`, `path`,
 //! `import`. Each gets error E0110 with the MDG spelling as its fix (a suggestion, so
 //! the language server offers it as a quick fix), and the token stream is rewritten
 //! into that spelling where it can be, so the rest of the file parses and checks as
 //! the user meant: one mistake, one error, and no false W0006 for parameters that
-//! a `switch` or `X(=)` reads.
+//! an `X(=)` reads. Context Free's `switch` is MDG's too: this pass only marks its
+//! words (`Rewriter::switch`), which the grammar cannot tell from names by itself.
 
 use crate::diag::Diagnostic;
 use crate::lexer::{Tok, Token};
@@ -43,9 +44,8 @@ struct Rewriter<'s> {
     /// For each opening bracket, the index of the one closing it (same kind; a call
     /// token `NAME(` opens a parenthesis). Built once, so hostile input stays linear.
     matching: Vec<Option<usize>>,
-    /// For each index, the first `{` and the first `:` at or after it.
+    /// For each index, the first `{` at or after it.
     next_brace: Vec<usize>,
-    next_colon: Vec<usize>,
 }
 
 /// Rewrites the Context Free constructs of one file's tokens; see the module doc.
@@ -70,10 +70,8 @@ pub fn rewrite(tokens: Vec<Token>, sources: &Sources) -> (Vec<Token>, Vec<Diagno
         }
     }
     let mut next_brace = vec![n; n + 1];
-    let mut next_colon = vec![n; n + 1];
     for i in (0..n).rev() {
         next_brace[i] = if tokens[i].kind == Tok::LBrace { i } else { next_brace[i + 1] };
-        next_colon[i] = if tokens[i].kind == Tok::Colon { i } else { next_colon[i + 1] };
     }
     let mut r = Rewriter {
         sources,
@@ -83,7 +81,6 @@ pub fn rewrite(tokens: Vec<Token>, sources: &Sources) -> (Vec<Token>, Vec<Diagno
         params: Vec::new(),
         matching,
         next_brace,
-        next_colon,
     };
     r.run();
     (r.out, r.diags)
@@ -631,7 +628,10 @@ impl Rewriter<'_> {
         Some(i + 2)
     }
 
-    /// `switch (E) { case A: … case B, C: … else: … }` as an `if` chain.
+    /// `switch (E) { case A: … case B, C..D: … else: … }`: MDG's own `switch`, in
+    /// Context Free's spelling. Retags `switch`, each arm's `case` and the default
+    /// arm's `else` (so a rule named `switch` or `case` stays a name). The arms'
+    /// tokens then flow on through this pass like any others.
     fn switch(&mut self, i: usize, open: usize) -> Option<usize> {
         let close_e = self.closing(open)?;
         let lbrace = close_e + 1;
@@ -639,180 +639,38 @@ impl Rewriter<'_> {
             return None;
         }
         let rbrace = self.closing(lbrace)?;
-        // A call of a rule named `switch` (`switch(1) {x 1}`) is MDG: Context Free's
-        // block opens with an arm.
+        // A call of a rule named `switch` (`switch(1) {x 1}`): the block of a `switch`
+        // opens with an arm.
         let arm_first = (self.kind(lbrace + 1) == Some(Tok::Ident) && self.text(lbrace + 1) == "case")
             || (self.kind(lbrace + 1) == Some(Tok::KwElse) && self.kind(lbrace + 2) == Some(Tok::Colon));
         if !arm_first {
             return None;
         }
-        // The scrutinee's tokens and text.
-        let e = (open + usize::from(self.kind(open) == Some(Tok::LParen)), close_e);
-        let e = if self.kind(open) == Some(Tok::CallOpen) { (open + 1, close_e) } else { e };
-        let e_text = if e.0 < e.1 { self.src(e.0, e.1 - 1) } else { String::new() };
-        // Split the body into arms: (labels: list of token ranges, or None for else; body range).
-        struct Arm {
-            labels: Option<Vec<(usize, usize)>>,
-            body: (usize, usize),
-        }
-        let mut arms: Vec<Arm> = Vec::new();
-        let mut j = lbrace + 1;
         let mut depth = 0usize;
-        let mut body_start = None;
-        let finish = |arms: &mut Vec<Arm>, start: Option<usize>, end: usize| {
-            if let (Some(a), Some(s)) = (arms.last_mut(), start) {
-                a.body = (s, end);
-            }
-        };
-        let mut ok = e.0 < e.1;
-        while j < rbrace {
+        for j in lbrace + 1..rbrace {
             let k = self.toks[j].kind;
-            let case = depth == 0 && k == Tok::Ident && self.text(j) == "case";
-            let default = depth == 0 && k == Tok::KwElse && self.kind(j + 1) == Some(Tok::Colon);
-            if case || default {
-                finish(&mut arms, body_start, j);
-                if default {
-                    arms.push(Arm { labels: None, body: (j + 2, j + 2) });
-                    j += 2;
-                } else {
-                    let colon = self.next_colon.get(j + 1).copied().filter(|c| *c < rbrace)?;
-                    let mut labels = Vec::new();
-                    let mut from = j + 1;
-                    for c in j + 1..=colon {
-                        if c == colon || self.toks[c].kind == Tok::Comma {
-                            if c == from {
-                                ok = false;
-                            }
-                            labels.push((from, c));
-                            from = c + 1;
-                        }
-                    }
-                    arms.push(Arm { labels: Some(labels), body: (colon + 1, colon + 1) });
-                    j = colon + 1;
+            if depth == 0 {
+                if k == Tok::Ident && self.text(j) == "case" {
+                    self.toks[j].kind = Tok::KwCase;
+                } else if k == Tok::KwElse && self.kind(j + 1) == Some(Tok::Colon) {
+                    self.toks[j].kind = Tok::KwDefault;
                 }
-                body_start = Some(j);
-                continue;
-            }
-            if arms.is_empty() {
-                ok = false;
             }
             match k {
                 Tok::LBrace | Tok::LBracket | Tok::LParen | Tok::CallOpen => depth += 1,
                 Tok::RBrace | Tok::RBracket | Tok::RParen => depth = depth.saturating_sub(1),
                 _ => {}
             }
-            j += 1;
         }
-        finish(&mut arms, body_start, rbrace);
-        // At most one `else:`, and last.
-        ok &= !arms.is_empty() && arms.iter().position(|a| a.labels.is_none()).is_none_or(|p| p + 1 == arms.len());
-        let mut d = error(
-            self.span(i, close_e),
-            "`switch` is Context Free's: MDG writes an `if` / `else if` chain".to_string(),
-        );
-        if !ok {
-            d = d.with_note("write `if (E == 1) { … } else if (E == 2 || E == 3) { … } else { … }`");
-            self.diags.push(d);
-            // The arms' items still count as reads of what they use.
-            self.out.push(self.synth(Tok::LBrace, i));
-            self.out.extend_from_slice(
-                &self.toks[lbrace + 1..rbrace]
-                    .iter()
-                    .filter(|t| !matches!(t.kind, Tok::Colon))
-                    .copied()
-                    .collect::<Vec<_>>(),
-            );
-            self.out.push(self.synth(Tok::RBrace, rbrace));
-            return Some(rbrace + 1);
+        let s = self.toks[i].span;
+        if self.kind(i) == Some(Tok::CallOpen) {
+            // `switch(`: the keyword, then its parenthesis.
+            self.out.push(Token { kind: Tok::KwSwitch, span: Span::new(s.file, s.start, s.end - 1) });
+            self.out.push(Token { kind: Tok::LParen, span: Span::new(s.file, s.end - 1, s.end) });
+        } else {
+            self.out.push(Token { kind: Tok::KwSwitch, span: s });
         }
-        // The fix's text and the rewritten tokens, arm by arm.
-        let mut text = String::new();
-        let mut out = Vec::new();
-        let mut first = true;
-        for arm in &arms {
-            let body = if arm.body.0 < arm.body.1 { self.src(arm.body.0, arm.body.1 - 1) } else { String::new() };
-            let braced =
-                body.starts_with('{') && arm.body.1 > arm.body.0 && self.closing(arm.body.0) == Some(arm.body.1 - 1);
-            match &arm.labels {
-                Some(labels) => {
-                    if !first {
-                        text.push_str(" else ");
-                        out.push(self.synth(Tok::KwElse, arm.body.0));
-                    }
-                    text.push_str("if (");
-                    out.push(self.synth(Tok::KwIf, arm.body.0));
-                    out.push(self.synth(Tok::LParen, arm.body.0));
-                    for (n, (a, b)) in labels.iter().enumerate() {
-                        if n > 0 {
-                            text.push_str(" || ");
-                            out.push(self.synth(Tok::OrOr, *a));
-                        }
-                        // `case 3..5:` (lexed `3.` `.5`): Context Free's inclusive range.
-                        if b - a == 2
-                            && self.kind(*a) == Some(Tok::Number)
-                            && self.kind(a + 1) == Some(Tok::Number)
-                            && self.text(*a).ends_with('.')
-                            && self.text(a + 1).starts_with('.')
-                        {
-                            let lo = self.text(*a).trim_end_matches('.').to_string();
-                            let hi = self.text(a + 1).trim_start_matches('.').to_string();
-                            text.push_str(&format!("{e_text} >= {lo} && {e_text} <= {hi}"));
-                            let (lo_t, hi_t) = (self.toks[*a], self.toks[a + 1]);
-                            let hi_t = Token {
-                                kind: Tok::Number,
-                                span: Span::new(
-                                    hi_t.span.file,
-                                    (hi_t.span.start + 1).min(hi_t.span.end),
-                                    hi_t.span.end,
-                                ),
-                            };
-                            for (k, (op, bound)) in [(Tok::Ge, lo_t), (Tok::Le, hi_t)].into_iter().enumerate() {
-                                if k > 0 {
-                                    out.push(self.synth(Tok::AndAnd, *a));
-                                }
-                                out.push(self.synth(Tok::LParen, *a));
-                                out.extend_from_slice(&self.toks[e.0..e.1]);
-                                out.push(self.synth(Tok::RParen, *a));
-                                out.push(self.synth(op, *a));
-                                out.push(bound);
-                            }
-                            continue;
-                        }
-                        let label = self.src(*a, b - 1);
-                        text.push_str(&format!("{e_text} == {label}"));
-                        out.push(self.synth(Tok::LParen, *a));
-                        out.extend_from_slice(&self.toks[e.0..e.1]);
-                        out.push(self.synth(Tok::RParen, *a));
-                        out.push(self.synth(Tok::EqEq, *a));
-                        out.push(self.synth(Tok::LParen, *a));
-                        out.extend_from_slice(&self.toks[*a..*b]);
-                        out.push(self.synth(Tok::RParen, *b));
-                    }
-                    text.push_str(") ");
-                    out.push(self.synth(Tok::RParen, arm.body.0));
-                }
-                None if !first => {
-                    text.push_str(" else ");
-                    out.push(self.synth(Tok::KwElse, arm.body.0));
-                }
-                // Only a default arm: its body, as a block.
-                None => {}
-            }
-            first = false;
-            if braced {
-                text.push_str(&body);
-            } else {
-                text.push_str(&format!("{{ {body} }}"));
-            }
-            out.push(self.synth(Tok::LBrace, arm.body.0));
-            out.extend_from_slice(&self.toks[arm.body.0..arm.body.1]);
-            out.push(self.synth(Tok::RBrace, arm.body.1));
-        }
-        let whole = self.span(i, rbrace);
-        d = d.with_suggestion("write it as an `if` chain", whole, text);
-        self.diags.push(d);
-        self.out.extend(out);
-        Some(rbrace + 1)
+        Some(i + 1)
     }
 }
 

@@ -886,6 +886,8 @@ impl<'a> Checker<'a> {
                 self.conditional -= dynamic as u32;
             }
             BodyKind::Block(items) => self.body(items, ns, calls, must),
+            // Expansion replaces a `switch` by what it means; read that here too.
+            BodyKind::Switch(s) => self.item(&s.lowered, ns, calls, must),
             BodyKind::If { cond, then, otherwise, .. } => {
                 self.expr(cond, false, true);
                 self.conditional += 1;

@@ -264,7 +264,6 @@ rule B { }
 | `loop 5 [x 1] ITEM` | `5 * [x 1] ITEM` (MDG applies the adjustment before the first run too; `loop i = 0, 5 [x 1] ITEM` starts where Context Free does) |
 | `loop i = 5 [x 1] ITEM` | `loop i = 0, 5 [x 1] ITEM` |
 | `X(=)` | `X(a, b)`: the calling rule's parameters, written out |
-| `switch (k) { case 1: … case 2, 3: … case 5..9: … else: … }` | `if (k == 1) { … } else if (k == 2 \|\| k == 3) { … } else if (k >= 5 && k <= 9) { … } else { … }` |
 | `SQUARE [[x 1 s 0.5]]` (written order) | `SQUARE {x 1 s 0.5}`: every MDG list keeps the written order |
 | `n -- 1` (natural subtraction) | `n - 1` (`--` would read as minus a negative number) |
 | `import "x.cfdg"`, `include "x.cfdg"` | `@import x.mdg` |

@@ -236,6 +236,26 @@ impl Dumper {
                 });
             }
             BodyKind::Block(items) => self.nested(&format!("Block {at}"), |d| d.body(items)),
+            BodyKind::Switch(s) => self.nested(&format!("Switch {at}"), |d| {
+                d.nested("Value", |d| d.expr(&s.value));
+                for arm in &s.arms {
+                    d.nested(&format!("Case @{}..{}", arm.span.start, arm.span.end), |d| {
+                        for l in &arm.labels {
+                            match &l.hi {
+                                None => d.nested("Label", |d| d.expr(&l.lo)),
+                                Some(h) => d.nested("Range", |d| {
+                                    d.expr(&l.lo);
+                                    d.expr(h);
+                                }),
+                            }
+                        }
+                        d.body(&arm.body);
+                    });
+                }
+                if let Some((items, span)) = &s.otherwise {
+                    d.nested(&format!("Else @{}..{}", span.start, span.end), |d| d.body(items));
+                }
+            }),
             BodyKind::Pre(p) => self.pre(p, &at, |d, i: &BodyItem| d.body_item(i)),
             BodyKind::Error => self.line(&format!("Error {at}")),
         }

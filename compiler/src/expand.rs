@@ -237,11 +237,12 @@ pub fn expand_file_reusing(
     ex.out
 }
 
-/// Whether a rule body holds a preprocessor construct (`@expand`, `@ifdef`, …) at
-/// any depth: only then does its expansion differ from it.
+/// Whether a rule body holds a preprocessor construct (`@expand`, `@ifdef`, …) or a
+/// `switch` (which expansion replaces by what it means) at any depth: only then does
+/// its expansion differ from it.
 fn has_pre(body: &[BodyItem]) -> bool {
     let mut found = false;
-    walk_body(body, &mut |b| found |= matches!(b.kind, BodyKind::Pre(_)));
+    walk_body(body, &mut |b| found |= matches!(b.kind, BodyKind::Pre(_) | BodyKind::Switch(_)));
     found
 }
 
@@ -459,6 +460,11 @@ impl<'a> Expander<'a> {
             BodyKind::Pre(pre) => self.pre_item(pre, item.span, item.cont, out),
             kind @ (BodyKind::Iterate { .. } | BodyKind::Loop { .. } | BodyKind::If { .. } | BodyKind::Block(_)) => {
                 out.push(self.nested_item(BodyItem { kind, ..item }));
+            }
+            // From here on a `switch` is what it means (its `let` and `if` chain).
+            BodyKind::Switch(s) => {
+                let lowered = BodyItem { cont: item.cont, ..s.lowered };
+                out.push(self.nested_item(lowered));
             }
             kind => out.push(BodyItem { kind, ..item }),
         }

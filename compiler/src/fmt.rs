@@ -480,6 +480,50 @@ impl<'a> Printer<'a> {
         self.end_item(item.span);
     }
 
+    /// `switch (E) {`, each arm's `case …:` a line of its own with its items one
+    /// level further in (an arm that is one `{ … }` block opens it on that line),
+    /// and `}`.
+    fn switch(&mut self, s: &Switch) {
+        self.out.push_str(&format!("switch ({}) ", expr(&s.value)));
+        self.open_block();
+        for arm in &s.arms {
+            self.start_item(arm.span);
+            let labels: Vec<String> = arm
+                .labels
+                .iter()
+                .map(|l| match &l.hi {
+                    None => expr(&l.lo),
+                    Some(h) => format!("{}..{}", expr(&l.lo), expr(h)),
+                })
+                .collect();
+            self.out.push_str(&format!("case {}:", labels.join(", ")));
+            self.arm_items(&arm.body, arm.span.start);
+        }
+        if let Some((items, span)) = &s.otherwise {
+            self.start_item(*span);
+            self.out.push_str("else:");
+            self.arm_items(items, span.start);
+        }
+        self.close_block(s.body_span.end);
+    }
+
+    /// An arm's items, after its `case …:` or `else:`.
+    fn arm_items(&mut self, items: &[BodyItem], start: u32) {
+        if let [b @ BodyItem { kind: BodyKind::Block(inner), cont: false, .. }] = items {
+            self.out.push(' ');
+            self.body_block(inner, b.span.end);
+            self.end_item(b.span);
+            return;
+        }
+        self.out.push('\n');
+        self.last_end = start;
+        self.indent += 1;
+        for i in items {
+            self.body_item(i);
+        }
+        self.indent -= 1;
+    }
+
     fn body_kind(&mut self, item: &BodyItem) {
         match &item.kind {
             BodyKind::Call { name, args, profile, adj } => {
@@ -507,6 +551,7 @@ impl<'a> Printer<'a> {
                 self.body_kind(inner);
             }
             BodyKind::Block(items) => self.body_block(items, item.span.end),
+            BodyKind::Switch(s) => self.switch(s),
             BodyKind::If { cond, then, then_span, otherwise } => {
                 self.out.push_str(&format!("if ({}) ", expr(cond)));
                 self.body_block(then, then_span.end);

@@ -209,6 +209,14 @@ pub enum Tok {
     OrOr,
     #[token("!")]
     Bang,
+    /// `..` (or Context Free's `…`): the range of a `switch` arm, `case 5..9:`.
+    #[token("..")]
+    #[token("…")]
+    DotDot,
+    /// `5..`: a whole number and `..` (which the number would otherwise take a `.`
+    /// of: `5..9` would read `5.` `.9`). Split into `Number` and `DotDot` by [`lex`].
+    #[regex(r"[0-9]+\.\.")]
+    NumberDotDot,
 
     #[regex(r"//[^\n\r]*", allow_greedy = true)]
     LineComment,
@@ -251,6 +259,12 @@ pub enum Tok {
     /// A colour value `#rrggbb`, `#rgb`, `#rrggbbaa` or `#name` (made by the lexer
     /// from a `#` and the word after it: [`crate::colour::looks_like_colour`]).
     Colour,
+    /// `switch`, `case` and a `switch`'s `else:` arm: plain words the Context Free
+    /// pass (`crate::cfdg`) retags where they open a `switch` and its arms, so a rule
+    /// named `switch` or `case` stays a name.
+    KwSwitch,
+    KwCase,
+    KwDefault,
 }
 
 impl Tok {
@@ -306,6 +320,10 @@ impl Tok {
             AndAnd => "`&&`",
             OrOr => "`||`",
             Bang => "`!`",
+            DotDot | NumberDotDot => "`..`",
+            KwSwitch => "`switch`",
+            KwCase => "`case`",
+            KwDefault => "`else:`",
             LineComment | BlockComment => "a comment",
             AtImport => "`@import`",
             AtDefine => "`@define`",
@@ -410,6 +428,11 @@ pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
                     }
                     None => out.tokens.push(Token { kind: Tok::CallOpen, span }),
                 }
+            }
+            Ok(Tok::NumberDotDot) => {
+                let mid = span.end - 2;
+                out.tokens.push(Token { kind: Tok::Number, span: Span::new(file, span.start, mid) });
+                out.tokens.push(Token { kind: Tok::DotDot, span: Span::new(file, mid, span.end) });
             }
             Ok(Tok::Number) => {
                 if !parse_number(&text[r.clone()]).0.is_finite() {

@@ -960,6 +960,8 @@ impl<'a> Lower<'a> {
                     None => self.patch_jump(jz),
                 }
             }
+            // Expansion replaces a `switch` by what it means; lower that here too.
+            BodyKind::Switch(s) => self.item(&s.lowered, cont_next, ns),
             BodyKind::Let { name, value } => {
                 let expr = self.expr(value, 1.0);
                 let slot = self.bind(&name.text);

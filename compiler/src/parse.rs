@@ -843,6 +843,10 @@ fn describe_expected(expected: &[String]) -> String {
     if has("a name") && names.iter().all(|n| n == "a name" || keyword(n)) {
         return "a name".to_string();
     }
+    // After a `switch` arm's label: the `:` is what is usually missing.
+    if has("`:`") && has("`..`") {
+        return "`:` after the labels (or `,`, `..`, an operator)".to_string();
+    }
     // Long lists are summarised by the context they reveal.
     if names.len() > 6 {
         if has("`function`") && has("`rule`") {

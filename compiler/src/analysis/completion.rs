@@ -454,6 +454,11 @@ impl Document {
                     "if (CONDITION) { BODY } else { BODY }",
                     "if (${1:n > 0}) {\n\t$2\n} else {\n\t$0\n}",
                 ));
+                out.push(snippet(
+                    "switch",
+                    "switch (EXPRESSION) { case A: ITEMS … else: ITEMS }: Context Free's switch",
+                    "switch (${1:n}) {\n\tcase ${2:0}:\n\t\t$3\n\telse:\n\t\t$0\n}",
+                ));
                 out.push(snippet("let", "let NAME = EXPRESSION; a local binding", "let ${1:name} = ${2:0};"));
                 out.push(snippet(
                     "loop",

@@ -139,6 +139,17 @@ fn body(items: &[BodyItem], out: &mut Vec<Fold>) {
                 body(inner, out);
             }
             BodyKind::Iterate { item: inner, .. } => body(std::slice::from_ref(inner), out),
+            BodyKind::Switch(s) => {
+                out.push(Fold { span: item.span, kind: FoldKind::Region });
+                for arm in &s.arms {
+                    out.push(Fold { span: arm.span, kind: FoldKind::Region });
+                    body(&arm.body, out);
+                }
+                if let Some((items, span)) = &s.otherwise {
+                    out.push(Fold { span: *span, kind: FoldKind::Region });
+                    body(items, out);
+                }
+            }
             BodyKind::Pre(p) => pre(p, item.span, out, &mut |v: &[BodyItem], out: &mut Vec<Fold>| body(v, out)),
             _ => {}
         }

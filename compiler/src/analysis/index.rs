@@ -660,6 +660,26 @@ impl Walker<'_, '_> {
                     self.body(std::slice::from_ref(inner), ns);
                 }
                 BodyKind::Block(items) => self.body(items, ns),
+                // As written (the expanded program has its `let` and `if` chain, whose
+                // added names are empty spans).
+                BodyKind::Switch(s) => {
+                    self.syn(s.keyword, Occ::Directive("switch".to_string()));
+                    self.expr(&s.value);
+                    for arm in &s.arms {
+                        let case = Span::new(arm.span.file, arm.span.start, arm.span.start + 4);
+                        self.syn(case, Occ::Directive("case".to_string()));
+                        for l in &arm.labels {
+                            self.expr(&l.lo);
+                            if let Some(h) = &l.hi {
+                                self.expr(h);
+                            }
+                        }
+                        self.body(&arm.body, ns);
+                    }
+                    if let Some((items, _)) = &s.otherwise {
+                        self.body(items, ns);
+                    }
+                }
                 BodyKind::Pre(p) => self.pre(p, &mut |w: &mut Self, items: &[BodyItem]| w.body(items, ns)),
                 BodyKind::Error => {}
             }

@@ -270,6 +270,30 @@ impl Collect<'_> {
                 self.inner(item.span);
                 self.body(inner);
             }
+            BodyKind::Switch(s) => {
+                self.expr(&s.value);
+                if self.hit(s.body_span) {
+                    self.inner(s.body_span);
+                    for arm in &s.arms {
+                        if self.hit(arm.span) {
+                            self.inner(arm.span);
+                            for l in &arm.labels {
+                                self.expr(&l.lo);
+                                if let Some(h) = &l.hi {
+                                    self.expr(h);
+                                }
+                            }
+                            self.body(&arm.body);
+                        }
+                    }
+                    if let Some((items, span)) = &s.otherwise {
+                        if self.hit(*span) {
+                            self.inner(*span);
+                            self.body(items);
+                        }
+                    }
+                }
+            }
             BodyKind::Pre(p) => self.pre(p, &mut |c, items| c.body(items)),
             BodyKind::Error => {}
         }

@@ -155,35 +155,26 @@ impl<'a> Emitter<'a> {
                     }
                 }
             }
+            // MDG's `switch` is Context Free's (the value rounded down, ranges inclusive).
             Item::Switch { on, cases, default } => {
                 let v = self.expr(on);
-                let sw = self.fresh("sw");
-                let _ = writeln!(out, "{pad}let {sw} = {v};");
-                let mut first = true;
+                let _ = writeln!(out, "{pad}switch ({v}) {{");
                 for (labels, body) in cases {
-                    let conds: Vec<String> = labels
+                    let labels: Vec<String> = labels
                         .iter()
                         .map(|(a, b)| match b {
-                            None => format!("{sw} == {}", self.expr(a)),
-                            Some(b) => format!("({sw} >= {} && {sw} <= {})", self.expr(a), self.expr(b)),
+                            None => self.expr(a),
+                            Some(b) => format!("{}..{}", self.expr(a), self.expr(b)),
                         })
                         .collect();
-                    let kw = if first { "if" } else { "} else if" };
-                    first = false;
-                    let _ = writeln!(out, "{pad}{kw} ({}) {{", conds.join(" || "));
-                    self.branch(body, ind + 1, out);
+                    let _ = writeln!(out, "{pad}  case {}:", labels.join(", "));
+                    self.branch(body, ind + 2, out);
                 }
                 if let Some(d) = default {
-                    if first {
-                        self.branch(d, ind, out);
-                        return;
-                    }
-                    let _ = writeln!(out, "{pad}}} else {{");
-                    self.branch(d, ind + 1, out);
+                    let _ = writeln!(out, "{pad}  else:");
+                    self.branch(d, ind + 2, out);
                 }
-                if !first {
-                    let _ = writeln!(out, "{pad}}}");
-                }
+                let _ = writeln!(out, "{pad}}}");
             }
             Item::Transform { adj, body } => {
                 let a = self.adj(adj);

@@ -597,9 +597,13 @@ impl<'a> Parser<'a> {
                             self.i += 1;
                             let mut labels = Vec::new();
                             loop {
-                                let a = self.expr(false);
-                                let b = if self.eat_p("..") { Some(self.expr(false)) } else { None };
-                                labels.push((a, b));
+                                // `case 4..5:` (or `4…5`): the expression reader takes
+                                // the range as a `..` operator; a label keeps both ends.
+                                let label = match self.expr(false) {
+                                    Expr::Bin("..", a, b) => (*a, Some(*b)),
+                                    a => (a, if self.eat_p("..") { Some(self.expr(false)) } else { None }),
+                                };
+                                labels.push(label);
                                 if !self.eat_p(",") {
                                     break;
                                 }

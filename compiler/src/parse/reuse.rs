@@ -582,6 +582,24 @@ impl Shift for BodyItem {
                 item.shift(delta);
             }
             BodyKind::Block(items) => items.shift(delta),
+            BodyKind::Switch(s) => {
+                s.keyword.shift(delta);
+                s.value.shift(delta);
+                for arm in &mut s.arms {
+                    for l in &mut arm.labels {
+                        l.lo.shift(delta);
+                        l.hi.shift(delta);
+                    }
+                    arm.body.shift(delta);
+                    arm.span.shift(delta);
+                }
+                if let Some((items, span)) = &mut s.otherwise {
+                    items.shift(delta);
+                    span.shift(delta);
+                }
+                s.body_span.shift(delta);
+                s.lowered.shift(delta);
+            }
             BodyKind::Pre(pre) => pre.shift(delta),
             BodyKind::Error => {}
         }
