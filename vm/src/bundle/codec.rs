@@ -257,16 +257,8 @@ fn decode_composite(r: &mut R) -> Result<Composite, LoadError> {
     Ok(Composite { q, qh, u, color, weight, fps, n, hsb, set })
 }
 
-/// Encodes a bundle to bytes (deterministic).
-pub fn encode(b: &Bundle) -> Vec<u8> {
-    let mut w = W(Vec::new());
-    // Strings.
-    w.len(b.strings.len());
-    for s in &b.strings {
-        w.str(s);
-    }
-    // Settings.
-    let s = &b.settings;
+/// The settings section.
+fn encode_settings(w: &mut W, s: &Settings) {
     w.u32(s.startshape);
     w.u32(s.maxdepth);
     w.f32(s.minsize);
@@ -289,13 +281,16 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
     for n in &s.namespaces {
         w.u32(*n);
     }
-    // Transforms.
-    w.len(b.transforms.len());
-    for t in &b.transforms {
+}
+
+/// The transforms section.
+fn encode_transforms(w: &mut W, transforms: &[Transform]) {
+    w.len(transforms.len());
+    for t in transforms {
         match t {
             Transform::Const(c) => {
                 w.u8(0);
-                encode_composite(&mut w, c);
+                encode_composite(w, c);
             }
             Transform::Dynamic { adjs, divisor } => {
                 w.u8(1);
@@ -321,17 +316,12 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
             }
         }
     }
-    // Expressions.
-    w.len(b.exprs.len());
-    for e in &b.exprs {
-        w.len(e.len());
-        for op in e {
-            encode_expr_op(&mut w, *op);
-        }
-    }
-    // Rules.
-    w.len(b.rules.len());
-    for r in &b.rules {
+}
+
+/// The rules section.
+fn encode_rules(w: &mut W, rules: &[Rule]) {
+    w.len(rules.len());
+    for r in rules {
         w.u32(r.name);
         match r.selector {
             Selector::Random => w.u8(0),
@@ -370,26 +360,10 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
         }
         w.u16(r.frame);
     }
-    // Code.
-    let mut code = Vec::new();
-    for op in &b.code {
-        op.encode(&mut code);
-    }
-    w.len(b.code.len());
-    w.len(code.len());
-    w.0.extend_from_slice(&code);
-    // Isosurfaces.
-    w.len(b.isosurfaces.len());
-    for i in &b.isosurfaces {
-        w.u32(i.name);
-        w.f32s(&i.min);
-        w.f32s(&i.max);
-        for r in i.res {
-            w.u32(r);
-        }
-        w.u32(i.function);
-    }
-    // Shaders.
+}
+
+/// The shaders, program and uniforms sections.
+fn encode_graphics(w: &mut W, b: &Bundle) {
     w.len(b.shaders.len());
     for s in &b.shaders {
         w.u8(s.vertex as u8);
@@ -425,6 +399,47 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
             }
         }
     }
+}
+
+/// Encodes a bundle to bytes (deterministic).
+pub fn encode(b: &Bundle) -> Vec<u8> {
+    let mut w = W(Vec::new());
+    // Strings.
+    w.len(b.strings.len());
+    for s in &b.strings {
+        w.str(s);
+    }
+    encode_settings(&mut w, &b.settings);
+    encode_transforms(&mut w, &b.transforms);
+    // Expressions.
+    w.len(b.exprs.len());
+    for e in &b.exprs {
+        w.len(e.len());
+        for op in e {
+            encode_expr_op(&mut w, *op);
+        }
+    }
+    encode_rules(&mut w, &b.rules);
+    // Code.
+    let mut code = Vec::new();
+    for op in &b.code {
+        op.encode(&mut code);
+    }
+    w.len(b.code.len());
+    w.len(code.len());
+    w.0.extend_from_slice(&code);
+    // Isosurfaces.
+    w.len(b.isosurfaces.len());
+    for i in &b.isosurfaces {
+        w.u32(i.name);
+        w.f32s(&i.min);
+        w.f32s(&i.max);
+        for r in i.res {
+            w.u32(r);
+        }
+        w.u32(i.function);
+    }
+    encode_graphics(&mut w, b);
     // Params.
     w.len(b.params.len());
     for p in &b.params {
@@ -454,35 +469,8 @@ pub fn encode(b: &Bundle) -> Vec<u8> {
     out.0
 }
 
-/// Decodes bytes into a bundle, checking the header, check value and every length.
-/// Indices are checked by [`verify`].
-pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
-    if bytes.len() < 24 || bytes[..4] != MAGIC {
-        return Err(LoadError("not an MDG bundle (bad magic)".into()));
-    }
-    let mut h = R { b: bytes, at: 4, section: "header" };
-    let version = h.u16()?;
-    if version != VERSION {
-        return Err(LoadError(format!(
-            "format version {version}, this VM reads version {VERSION}: rebuild the bundle"
-        )));
-    }
-    let _flags = h.u16()?;
-    let check = h.u64()?;
-    let len = h.u64()?;
-    let payload = &bytes[24..];
-    if len != payload.len() as u64 {
-        return Err(LoadError(format!("payload is {} bytes, header says {len}", payload.len())));
-    }
-    if fnv1a(payload) != check {
-        return Err(LoadError("check value mismatch: the bundle is corrupt".into()));
-    }
-    let mut r = R { b: payload, at: 0, section: "strings" };
-    let n = r.len(4)?;
-    let mut strings = Vec::with_capacity(n);
-    for _ in 0..n {
-        strings.push(r.str()?);
-    }
+/// The settings section.
+fn decode_settings(r: &mut R) -> Result<Settings, LoadError> {
     r.section = "settings";
     let startshape = r.u32()?;
     let maxdepth = r.u32()?;
@@ -515,7 +503,7 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
     for _ in 0..n {
         namespaces.push(r.u32()?);
     }
-    let settings = Settings {
+    Ok(Settings {
         startshape,
         maxdepth,
         minsize,
@@ -535,13 +523,17 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
         flat,
         breadth,
         maxobjects,
-    };
+    })
+}
+
+/// The transforms section.
+fn decode_transforms(r: &mut R) -> Result<Vec<Transform>, LoadError> {
     r.section = "transforms";
     let n = r.len(5)?;
     let mut transforms = Vec::with_capacity(n);
     for _ in 0..n {
         transforms.push(match r.u8()? {
-            0 => Transform::Const(decode_composite(&mut r)?),
+            0 => Transform::Const(decode_composite(r)?),
             1 => {
                 let divisor = r.f32()?;
                 let n = r.len(6)?;
@@ -566,17 +558,11 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
             t => return Err(r.err(&format!("unknown transform tag {t}"))),
         });
     }
-    r.section = "expressions";
-    let n = r.len(4)?;
-    let mut exprs = Vec::with_capacity(n);
-    for _ in 0..n {
-        let m = r.len(1)?;
-        let mut e = Vec::with_capacity(m);
-        for _ in 0..m {
-            e.push(decode_expr_op(&mut r)?);
-        }
-        exprs.push(e);
-    }
+    Ok(transforms)
+}
+
+/// The rules section.
+fn decode_rules(r: &mut R) -> Result<Vec<Rule>, LoadError> {
     r.section = "rules";
     let n = r.len(23)?;
     let mut rules = Vec::with_capacity(n);
@@ -620,32 +606,14 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
         let frame = r.u16()?;
         rules.push(Rule { name, selector, defs, transforms: tr, iter, params, frame });
     }
-    r.section = "code";
-    let n_ops = r.len(1)?;
-    let n_bytes = r.len(1)?;
-    let code_bytes = r.take(n_bytes)?;
-    let mut code = Vec::with_capacity(n_ops);
-    let mut at = 0;
-    while at < code_bytes.len() {
-        let (op, len) = Op::decode(code_bytes, at).map_err(|e| LoadError(e.to_string()))?;
-        code.push(op);
-        at += len;
-    }
-    if code.len() != n_ops {
-        return Err(LoadError(format!("code holds {} ops, header says {n_ops}", code.len())));
-    }
-    r.section = "isosurfaces";
-    let n = r.len(40)?;
-    let mut isosurfaces = Vec::with_capacity(n);
-    for _ in 0..n {
-        isosurfaces.push(Isosurface {
-            name: r.u32()?,
-            min: r.f32s()?,
-            max: r.f32s()?,
-            res: [r.u32()?, r.u32()?, r.u32()?],
-            function: r.u32()?,
-        });
-    }
+    Ok(rules)
+}
+
+/// What the shaders, program and uniforms sections hold.
+type Graphics = (Vec<Shader>, Option<Program>, Vec<Uniform>);
+
+/// The shaders, program and uniforms sections.
+fn decode_graphics(r: &mut R) -> Result<Graphics, LoadError> {
     r.section = "shaders";
     let n = r.len(13)?;
     let mut shaders = Vec::with_capacity(n);
@@ -678,6 +646,79 @@ pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
         };
         uniforms.push(Uniform { name, source });
     }
+    Ok((shaders, program, uniforms))
+}
+
+/// Decodes bytes into a bundle, checking the header, check value and every length.
+/// Indices are checked by [`verify`].
+pub fn decode(bytes: &[u8]) -> Result<Bundle, LoadError> {
+    if bytes.len() < 24 || bytes[..4] != MAGIC {
+        return Err(LoadError("not an MDG bundle (bad magic)".into()));
+    }
+    let mut h = R { b: bytes, at: 4, section: "header" };
+    let version = h.u16()?;
+    if version != VERSION {
+        return Err(LoadError(format!(
+            "format version {version}, this VM reads version {VERSION}: rebuild the bundle"
+        )));
+    }
+    let _flags = h.u16()?;
+    let check = h.u64()?;
+    let len = h.u64()?;
+    let payload = &bytes[24..];
+    if len != payload.len() as u64 {
+        return Err(LoadError(format!("payload is {} bytes, header says {len}", payload.len())));
+    }
+    if fnv1a(payload) != check {
+        return Err(LoadError("check value mismatch: the bundle is corrupt".into()));
+    }
+    let mut r = R { b: payload, at: 0, section: "strings" };
+    let n = r.len(4)?;
+    let mut strings = Vec::with_capacity(n);
+    for _ in 0..n {
+        strings.push(r.str()?);
+    }
+    let settings = decode_settings(&mut r)?;
+    let transforms = decode_transforms(&mut r)?;
+    r.section = "expressions";
+    let n = r.len(4)?;
+    let mut exprs = Vec::with_capacity(n);
+    for _ in 0..n {
+        let m = r.len(1)?;
+        let mut e = Vec::with_capacity(m);
+        for _ in 0..m {
+            e.push(decode_expr_op(&mut r)?);
+        }
+        exprs.push(e);
+    }
+    let rules = decode_rules(&mut r)?;
+    r.section = "code";
+    let n_ops = r.len(1)?;
+    let n_bytes = r.len(1)?;
+    let code_bytes = r.take(n_bytes)?;
+    let mut code = Vec::with_capacity(n_ops);
+    let mut at = 0;
+    while at < code_bytes.len() {
+        let (op, len) = Op::decode(code_bytes, at).map_err(|e| LoadError(e.to_string()))?;
+        code.push(op);
+        at += len;
+    }
+    if code.len() != n_ops {
+        return Err(LoadError(format!("code holds {} ops, header says {n_ops}", code.len())));
+    }
+    r.section = "isosurfaces";
+    let n = r.len(40)?;
+    let mut isosurfaces = Vec::with_capacity(n);
+    for _ in 0..n {
+        isosurfaces.push(Isosurface {
+            name: r.u32()?,
+            min: r.f32s()?,
+            max: r.f32s()?,
+            res: [r.u32()?, r.u32()?, r.u32()?],
+            function: r.u32()?,
+        });
+    }
+    let (shaders, program, uniforms) = decode_graphics(&mut r)?;
     r.section = "params";
     let n = r.len(29)?;
     let mut params = Vec::with_capacity(n);

@@ -8,33 +8,92 @@ fn bad(msg: String) -> LoadError {
     LoadError(msg)
 }
 
+/// The sizes indices are checked against.
+struct Counts {
+    n_str: u32,
+    n_rules: u32,
+    n_expr: u32,
+    n_ops: u32,
+}
+
+impl Counts {
+    fn string(&self, i: u32, what: &str) -> Result<(), LoadError> {
+        if i < self.n_str {
+            Ok(())
+        } else {
+            Err(bad(format!("{what}: string {i} out of range")))
+        }
+    }
+
+    fn rule(&self, i: u32, what: &str) -> Result<(), LoadError> {
+        if i < self.n_rules {
+            Ok(())
+        } else {
+            Err(bad(format!("{what}: rule {i} out of range")))
+        }
+    }
+
+    fn rule_or_none(&self, i: u32, what: &str) -> Result<(), LoadError> {
+        if i == NONE {
+            Ok(())
+        } else {
+            self.rule(i, what)
+        }
+    }
+
+    fn expr(&self, i: u32, what: &str) -> Result<(), LoadError> {
+        if i < self.n_expr {
+            Ok(())
+        } else {
+            Err(bad(format!("{what}: expression {i} out of range")))
+        }
+    }
+}
+
 /// Verifies a decoded bundle.
 pub fn verify(b: &Bundle) -> Result<(), LoadError> {
-    let n_str = b.strings.len() as u32;
-    let n_rules = b.rules.len() as u32;
-    let n_expr = b.exprs.len() as u32;
-    let n_ops = b.code.len() as u32;
-    let str_ok =
-        |i: u32, what: &str| if i < n_str { Ok(()) } else { Err(bad(format!("{what}: string {i} out of range"))) };
-    let rule_ok =
-        |i: u32, what: &str| if i < n_rules { Ok(()) } else { Err(bad(format!("{what}: rule {i} out of range"))) };
-    let rule_or_none = |i: u32, what: &str| if i == NONE { Ok(()) } else { rule_ok(i, what) };
-    let expr_ok =
-        |i: u32, what: &str| if i < n_expr { Ok(()) } else { Err(bad(format!("{what}: expression {i} out of range"))) };
-
+    let c = Counts {
+        n_str: b.strings.len() as u32,
+        n_rules: b.rules.len() as u32,
+        n_expr: b.exprs.len() as u32,
+        n_ops: b.code.len() as u32,
+    };
     let s = &b.settings;
-    rule_ok(s.startshape, "startshape")?;
-    rule_or_none(s.linerule, "linerule")?;
-    rule_or_none(s.camerarule, "camerarule")?;
+    c.rule(s.startshape, "startshape")?;
+    c.rule_or_none(s.linerule, "linerule")?;
+    c.rule_or_none(s.camerarule, "camerarule")?;
     if s.namespaces.is_empty() {
         return Err(bad("no namespaces (the global one must be present)".into()));
     }
     for n in &s.namespaces {
-        str_ok(*n, "namespace")?;
+        c.string(*n, "namespace")?;
     }
     for (i, e) in b.exprs.iter().enumerate() {
         expr::verify(e).map_err(|m| bad(format!("expression {i}: {m}")))?;
     }
+    verify_transforms(b, &c)?;
+    verify_rules(b, &c)?;
+    verify_code(b)?;
+    verify_graphics(b, &c)?;
+    for p in &b.params {
+        c.string(p.name, "param")?;
+        if p.ty > 2 {
+            return Err(bad("param type out of range".into()));
+        }
+    }
+    let mut prev = 0;
+    for l in &b.source_map {
+        c.string(l.file, "source map")?;
+        if l.op < prev || l.op >= c.n_ops.max(1) {
+            return Err(bad("source map out of order or out of range".into()));
+        }
+        prev = l.op;
+    }
+    Ok(())
+}
+
+/// Dynamic transforms: positive divisors, well-formed adjustments, expressions in range.
+fn verify_transforms(b: &Bundle, c: &Counts) -> Result<(), LoadError> {
     for (i, t) in b.transforms.iter().enumerate() {
         if let Transform::Dynamic { adjs, divisor } = t {
             if *divisor <= 0.0 {
@@ -47,19 +106,24 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
                 }
                 for arg in &a.args {
                     if let Arg::Expr(e) = arg {
-                        expr_ok(*e, "adjustment argument")?;
+                        c.expr(*e, "adjustment argument")?;
                     }
                 }
             }
         }
     }
+    Ok(())
+}
+
+/// Rules: names, definitions, selectors and weights, retirement, transform rules.
+fn verify_rules(b: &Bundle, c: &Counts) -> Result<(), LoadError> {
     for (i, r) in b.rules.iter().enumerate() {
-        str_ok(r.name, "rule name")?;
+        c.string(r.name, "rule name")?;
         if r.defs.is_empty() {
             return Err(bad(format!("rule {i} has no definitions")));
         }
         if let Selector::Function(e) = r.selector {
-            expr_ok(e, "selector")?;
+            c.expr(e, "selector")?;
             // A selector reads the call's arguments, not the body's locals.
             if expr::slots_needed(&b.exprs[e as usize]) > r.params.len() {
                 return Err(bad(format!("rule {i}: the selector reads a slot beyond the parameters")));
@@ -69,11 +133,11 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
             return Err(bad(format!("rule {i}: {} parameters in a frame of {}", r.params.len(), r.frame)));
         }
         for d in &r.defs {
-            if d.start >= n_ops {
+            if d.start >= c.n_ops {
                 return Err(bad(format!("rule {i}: definition starts at op {} beyond the code", d.start)));
             }
             if d.weight_expr != NONE {
-                expr_ok(d.weight_expr, "weight")?;
+                c.expr(d.weight_expr, "weight")?;
                 // Like a selector, a weight reads the call's arguments only.
                 if expr::slots_needed(&b.exprs[d.weight_expr as usize]) > r.params.len() {
                     return Err(bad(format!("rule {i}: a weight reads a slot beyond the parameters")));
@@ -81,13 +145,18 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
             }
         }
         for d in &r.defs {
-            rule_or_none(d.retire_to, "retirement rule")?;
+            c.rule_or_none(d.retire_to, "retirement rule")?;
         }
         for t in &r.transforms {
-            rule_ok(*t, "transform rule")?;
+            c.rule(*t, "transform rule")?;
         }
-        rule_or_none(r.iter, "iterator rule")?;
+        c.rule_or_none(r.iter, "iterator rule")?;
     }
+    Ok(())
+}
+
+/// The code: every operand in range, every definition's body, prototypes and loops.
+fn verify_code(b: &Bundle) -> Result<(), LoadError> {
     for (pc, op) in b.code.iter().enumerate() {
         // Every operand in range (the check its type declares, see `ops`), before
         // any body walk reads through them.
@@ -131,9 +200,14 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
             Op::Cont {} | Op::Ret {} => {}
         }
     }
+    Ok(())
+}
+
+/// Isosurfaces, shaders, the program and uniforms.
+fn verify_graphics(b: &Bundle, c: &Counts) -> Result<(), LoadError> {
     for iso in &b.isosurfaces {
-        str_ok(iso.name, "isosurface")?;
-        expr_ok(iso.function, "isosurface function")?;
+        c.string(iso.name, "isosurface")?;
+        c.expr(iso.function, "isosurface function")?;
         for a in 0..3 {
             if iso.res[a] == 0 || iso.min[a] >= iso.max[a] {
                 return Err(bad("isosurface grid with zero resolution or empty range".into()));
@@ -141,8 +215,8 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
         }
     }
     for (i, sh) in b.shaders.iter().enumerate() {
-        str_ok(sh.name, "shader")?;
-        str_ok(sh.source, "shader")?;
+        c.string(sh.name, "shader")?;
+        c.string(sh.source, "shader")?;
         // A SPIR-V module is a 5-word header (magic, version, generator, bound,
         // schema) and at least one instruction; the driver validates the rest.
         if !sh.spirv.is_empty() && (sh.spirv.len() < 6 || sh.spirv[0] != SPIRV_MAGIC) {
@@ -168,27 +242,13 @@ pub fn verify(b: &Bundle) -> Result<(), LoadError> {
         }
     }
     for u in &b.uniforms {
-        str_ok(u.name, "uniform")?;
+        c.string(u.name, "uniform")?;
         if let UniformSource::Frame { rule, prop } = u.source {
-            rule_ok(rule, "uniform rule")?;
+            c.rule(rule, "uniform rule")?;
             if prop as usize >= UNIFORM_PROPS.len() {
                 return Err(bad(format!("uniform: property {prop} out of range")));
             }
         }
-    }
-    for p in &b.params {
-        str_ok(p.name, "param")?;
-        if p.ty > 2 {
-            return Err(bad("param type out of range".into()));
-        }
-    }
-    let mut prev = 0;
-    for l in &b.source_map {
-        str_ok(l.file, "source map")?;
-        if l.op < prev || l.op >= n_ops.max(1) {
-            return Err(bad("source map out of order or out of range".into()));
-        }
-        prev = l.op;
     }
     Ok(())
 }
