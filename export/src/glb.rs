@@ -64,7 +64,7 @@
 
 mod flat;
 mod nodes;
-use flat::{flat_plan, flat_stride, flat_write, FlatSource, ProtoInfos};
+use flat::{flat_plan, flat_stride, flat_write, FlatPlan, FlatSource, ProtoInfos};
 pub use nodes::{write_glb_nodes, MeshNode};
 
 use std::collections::BTreeMap;
@@ -327,12 +327,23 @@ struct GpuGroup {
     /// The frame colour baked into the mesh's COLOR_0 (prototypes with colour
     /// deltas); `None`: the mesh is white and each instance's colour is `_COLOR_0`.
     color: Option<[f32; 4]>,
-    instances: Vec<u32>,
+    /// The instances (indices into [`Output::instances`]) in order, as runs of
+    /// consecutive indices: a tree's instances are one run (no index list is held).
+    runs: Vec<std::ops::Range<u32>>,
+    /// How many instances the runs hold.
+    count: usize,
     /// The bits of the first instance's colour, and whether every instance's colour
     /// has the same bits (then they all share one material colour, found without a
     /// second walk over the instances).
     first_bits: [u32; 4],
     same_bits: bool,
+}
+
+impl GpuGroup {
+    /// The group's instances, in order.
+    fn indices(&self) -> impl Iterator<Item = u32> + '_ {
+        self.runs.iter().flat_map(Clone::clone)
+    }
 }
 
 /// Which prototype instances become instanced nodes, and their groups.
@@ -359,46 +370,49 @@ fn gpu_instance_groups(out: &Output, skinned: bool) -> GpuGroups {
     let mut g = GpuGroups { instanced: vec![false; out.instances.len()], ..GpuGroups::default() };
     let mut index: BTreeMap<GroupKey, usize> = BTreeMap::new();
     let mut variants: BTreeMap<u32, usize> = BTreeMap::new();
-    // Per shared mesh with triangles (a prototype or an isosurface): whether its
-    // vertices add colours to the instance's (a prototype's items' deltas).
-    let kind: Vec<Option<bool>> = out
+    // Per shared mesh: whether it is a prototype, and for one with triangles (a
+    // prototype or an isosurface) whether its vertices add colours to the
+    // instance's (a prototype's items' deltas).
+    let kind: Vec<(bool, Option<bool>)> = out
         .shared_meshes
         .iter()
         .map(|s| {
-            (!s.mesh.triangles.is_empty()).then(|| s.is_prototype() && s.mesh.colors.iter().any(|c| *c != [0.0; 4]))
+            let deltas = s.is_prototype() && s.mesh.colors.iter().any(|c| *c != [0.0; 4]);
+            (s.is_prototype(), (!s.mesh.triangles.is_empty()).then_some(deltas))
         })
         .collect();
-    let prototype: Vec<bool> = out.shared_meshes.iter().map(SharedMesh::is_prototype).collect();
     // Prototype instances seen, and those placed by instanced nodes.
     let (mut prototypes, mut placed) = (0usize, 0usize);
     // Consecutive instances mostly share a group: the last one is tried first.
     let mut last: Option<(GroupKey, usize)> = None;
-    for (i, inst) in out.instances.iter().enumerate() {
-        let is_prototype = prototype.get(inst.mesh as usize).copied().unwrap_or(false);
+    for i in 0..out.instances.len() {
+        let Some(r) = record(out, i) else { continue };
+        let Some(&(is_prototype, deltas)) = kind.get(r.mesh as usize) else { continue };
         prototypes += usize::from(is_prototype);
-        let Some(Some(deltas)) = kind.get(inst.mesh as usize).copied() else { continue };
+        let Some(deltas) = deltas else { continue };
         // (An isosurface in a frame with a non-uniform factor is no TRS: a node or baked.)
-        if (skinned && inst.bone != 0) || !prototype_placeable(&inst.frame) || inst.lin != 0 {
+        if (skinned && r.bone != 0) || !prototype_placeable(&r.frame) || r.lin != 0 {
             continue;
         }
-        let key = (inst.mesh, frame_mirrors(&inst.frame), deltas.then(|| inst.color.map(f32::to_bits)));
+        let bits = r.color.map(f32::to_bits);
+        let key = (r.mesh, frame_mirrors(&r.frame), deltas.then_some(bits));
         let k = match last {
             Some((k, at)) if k == key => at,
             _ => match index.get(&key) {
                 Some(&k) => k,
                 None => {
-                    let n = variants.entry(inst.mesh).or_insert(0);
+                    let n = variants.entry(r.mesh).or_insert(0);
                     if deltas && *n >= MAX_COLOR_VARIANTS {
                         continue;
                     }
                     *n += 1;
-                    let color = deltas.then_some(inst.color);
                     g.groups.push(GpuGroup {
-                        mesh: inst.mesh,
+                        mesh: r.mesh,
                         mirrored: key.1,
-                        color,
-                        instances: Vec::new(),
-                        first_bits: inst.color.map(f32::to_bits),
+                        color: deltas.then_some(r.color),
+                        runs: Vec::new(),
+                        count: 0,
+                        first_bits: bits,
                         same_bits: true,
                     });
                     index.insert(key, g.groups.len() - 1);
@@ -408,13 +422,46 @@ fn gpu_instance_groups(out: &Output, skinned: bool) -> GpuGroups {
         };
         last = Some((key, k));
         let group = &mut g.groups[k];
-        group.same_bits &= inst.color.map(f32::to_bits) == group.first_bits;
-        group.instances.push(i as u32);
+        group.same_bits &= bits == group.first_bits;
+        let i32 = i as u32;
+        match group.runs.last_mut() {
+            Some(run) if run.end == i32 => run.end += 1,
+            _ => group.runs.push(i32..i32 + 1),
+        }
+        group.count += 1;
         g.instanced[i] = true;
         placed += usize::from(is_prototype);
     }
     g.all_prototypes_instanced = placed == prototypes;
     g
+}
+
+/// The fields of an instance record the writer reads, by value. Every read of
+/// [`Output::instances`] in the instanced writer and the flat walks goes through
+/// [`record`], so that a change of the record's layout touches one place.
+#[derive(Clone, Copy)]
+struct Record {
+    frame: Frame,
+    color: [f32; 4],
+    mesh: u32,
+    bone: u32,
+    lin: u32,
+    at: u32,
+}
+
+impl Record {
+    /// The instance again, for [`expand_prototype`].
+    fn instance(&self) -> mdg_vm::output::Instance {
+        let Record { frame, color, mesh, bone, lin, at } = *self;
+        mdg_vm::output::Instance { frame, color, mesh, bone, lin, at }
+    }
+}
+
+/// Instance `i`'s [`Record`], `None` past the end.
+#[inline(always)]
+fn record(out: &Output, i: usize) -> Option<Record> {
+    let inst = out.instances.get(i)?;
+    Some(Record { frame: inst.frame, color: inst.color, mesh: inst.mesh, bone: inst.bone, lin: inst.lin, at: inst.at })
 }
 
 /// Whether a frame built by the adjustments mirrors: `q̂ = ±q̄` (geom::quat), the
@@ -454,26 +501,41 @@ fn prototype_scale(f: &Frame) -> f32 {
     f.q.length() * f.qh.length()
 }
 
+/// The bytes of one instance in an instanced node's strided TRS view: TRANSLATION
+/// (3 floats), ROTATION (4), SCALE (3).
+const TRS_STRIDE: usize = 40;
+
+/// One instance's TRANSLATION, ROTATION and SCALE as the strided view holds them
+/// (see [`prototype_trs`]; `mirrored` is the group's, which is the frame's),
+/// non-finite numbers written as 0: the same bits as [`prototype_rotation`] and
+/// [`prototype_scale`], |q| computed once.
+#[inline]
+fn trs_record(f: &Frame, mirrored: bool) -> [f32; 10] {
+    let lq = f.q.length();
+    let r = mdg_vm::geom::quat::scaled(f.q, 1.0 / lq);
+    let r = if mirrored { [r.w, r.z, -r.y, -r.x] } else { r.to_array() };
+    let s = lq * f.qh.length();
+    [f.u.x, f.u.y, f.u.z, r[0], r[1], r[2], r[3], s, s, s].map(finite)
+}
+
 /// The instance attributes of an instanced node, streamed into the file (nothing
-/// of them is held): TRANSLATION, ROTATION and SCALE of instances `order` of `out`,
-/// then `_COLOR_0` when `per_color`, each attribute's values one after the other
-/// (one accessor each), non-finite numbers written as 0. One pass per attribute:
-/// each reads only what it writes (the translation is the frame's `u`).
-fn write_instance_attributes(out: &Output, order: &[u32], per_color: bool, sink: &mut Sink) -> Result<(), ExportError> {
-    let frames = || order.iter().map(|&i| out.instances.get(i as usize).map(|inst| &inst.frame));
-    for f in frames() {
-        sink.floats(f.map_or([0.0; 3], |f| finite3(f.u.to_array())))?;
-    }
-    for f in frames() {
-        sink.floats(f.map_or([0.0; 4], |f| prototype_rotation(f).map(finite)))?;
-    }
-    for f in frames() {
-        sink.floats([f.map_or(0.0, |f| finite(prototype_scale(f))); 3])?;
+/// of them is held), in one pass over the instances: per instance its TRANSLATION,
+/// ROTATION and SCALE side by side ([`TRS_STRIDE`] bytes, one strided view); then,
+/// when `per_color`, `_COLOR_0` in a view of its own (three.js reads an instance
+/// colour attribute's whole array, so it cannot share a strided view).
+fn write_instance_attributes(
+    out: &Output,
+    group: &GpuGroup,
+    per_color: bool,
+    sink: &mut Sink,
+) -> Result<(), ExportError> {
+    for i in group.indices() {
+        sink.floats(record(out, i as usize).map_or([0.0; 10], |r| trs_record(&r.frame, group.mirrored)))?;
     }
     if per_color {
         let mut last = ([1.0f32; 4], linear_color([1.0; 4]));
-        for &i in order {
-            let c = out.instances.get(i as usize).map_or([0.0; 4], |inst| clamp_color(inst.color));
+        for i in group.indices() {
+            let c = record(out, i as usize).map_or([0.0; 4], |r| clamp_color(r.color));
             if c != last.0 {
                 last = (c, linear_color(c));
             }
@@ -613,6 +675,19 @@ impl<'a> Builder<'a> {
         }
         self.segments.push(Segment::Stream { len, write });
         self.base = offset + len;
+        offset
+    }
+
+    /// Appends `bytes` (a multiple of 4, made in advance and held till the file is
+    /// written) at the current end of the chunk; returns their offset.
+    fn held(&mut self, bytes: Vec<u8>) -> usize {
+        let offset = self.aligned_end();
+        let before = std::mem::take(&mut self.bin);
+        if !before.is_empty() {
+            self.segments.push(Segment::Bytes(before));
+        }
+        self.base = offset + bytes.len();
+        self.segments.push(Segment::Bytes(bytes));
         offset
     }
 
@@ -1020,19 +1095,65 @@ impl<'a> Builder<'a> {
         what: &str,
     ) -> Result<Option<Primitive>, ExportError> {
         let mut infos = src.output().map(ProtoInfos::new);
-        let plan = flat_plan(&src, what, &mut infos)?;
-        if plan.n_tris == 0 {
+        let skinned = self.skinned;
+        // The usual layout is guessed from the counts: 8-bit colours, no indices. A
+        // walk places the vertices once, writing them to a spool and finding their
+        // bounds (which the JSON, before the binary chunk, needs); if the guess does
+        // not hold, a first walk plans the layout and the vertices are written again.
+        let (n, n_tris) = src.counts();
+        if n_tris == 0 {
             return Ok(None);
         }
-        let skinned = self.skinned;
-        let stride = flat_stride(plan.wide, skinned);
-        let vertex_bytes = plan.n * stride;
-        let index_bytes = if plan.sequential { 0 } else { 12 * plan.n_tris };
-        let (n, n_tris, wide, sequential, lo, hi) = (plan.n, plan.n_tris, plan.wide, plan.sequential, plan.lo, plan.hi);
-        let offset = self.stream(
-            vertex_bytes + index_bytes,
-            Box::new(move |sink: &mut Sink| flat_write(&src, &plan, skinned, &mut infos, sink)),
-        );
+        let guess =
+            FlatPlan { n, n_tris, sequential: true, wide: false, lo: [f32::INFINITY; 3], hi: [f32::NEG_INFINITY; 3] };
+        let mut spooled = None;
+        if n * flat_stride(false, skinned) <= SPOOL_BYTES {
+            let mut sink = Sink::spool(n * flat_stride(false, skinned));
+            if let Some(bounds) = flat_write(&src, &guess, skinned, &mut infos, &mut sink)? {
+                spooled = Some((guess, sink.into_spool()?, bounds));
+            }
+        }
+        let spooled = match spooled {
+            Some(s) => Some(s),
+            None => {
+                let plan = flat_plan(&src, what, &mut infos, false)?;
+                let bytes =
+                    plan.n * flat_stride(plan.wide, skinned) + if plan.sequential { 0 } else { 12 * plan.n_tris };
+                if bytes <= SPOOL_BYTES {
+                    let mut sink = Sink::spool(bytes);
+                    let bounds = flat_write(&src, &plan, skinned, &mut infos, &mut sink)?
+                        .ok_or(ExportError::Inconsistent("flat geometry: the layout planned does not hold"))?;
+                    Some((plan, sink.into_spool()?, bounds))
+                } else {
+                    None
+                }
+            }
+        };
+        let plan_of = |p: &FlatPlan| (p.n, p.n_tris, p.wide, p.sequential);
+        let (offset, (n, n_tris, wide, sequential), lo, hi) = match spooled {
+            Some((plan, bytes, bounds)) => {
+                let (lo, hi) = bounds.arrays();
+                (self.held(bytes), plan_of(&plan), lo, hi)
+            }
+            None => {
+                // Too big to hold: a walk finds the bounds, and the file's walk writes.
+                let plan = flat_plan(&src, what, &mut infos, true)?;
+                let bytes =
+                    plan.n * flat_stride(plan.wide, skinned) + if plan.sequential { 0 } else { 12 * plan.n_tris };
+                let (lo, hi, layout) = (plan.lo, plan.hi, plan_of(&plan));
+                let write = move |sink: &mut Sink| match flat_write(&src, &plan, skinned, &mut infos, sink)? {
+                    Some(_) => Ok(()),
+                    None => Err(ExportError::Inconsistent("flat geometry: the layout planned does not hold")),
+                };
+                (self.stream(bytes, Box::new(write)), layout, lo, hi)
+            }
+        };
+        let stride = flat_stride(wide, skinned);
+        let vertex_bytes = n * stride;
+        let index_bytes = if sequential { 0 } else { 12 * n_tris };
+        if n_tris == 0 {
+            return Err(ExportError::Inconsistent("flat geometry: triangles counted but not walked"));
+        }
         self.root.buffer_views.push(BufferView {
             buffer: 0,
             byte_offset: offset,
@@ -1109,56 +1230,55 @@ impl<'a> Builder<'a> {
             attributes.insert("COLOR_0", self.vec4_from(n, |i| linear_color(color_at(&local, i))));
         }
         let indices = Some(self.indices_of(tris.len() * 3, tris.iter().flatten().copied()));
-        let insts = || group.instances.iter().filter_map(|&i| out.instances.get(i as usize));
+        let colors = || group.indices().filter_map(|i| record(out, i as usize)).map(|r| r.color);
         // A colour shared by every instance goes in the material: seen from the
         // colours' bits while grouping, or (rarely: different bits, say above 1, that
         // clamp alike) by a walk.
-        let first = insts().next().map(|i| clamp_color(i.color));
+        let first = colors().next().map(clamp_color);
         let shared_color = match (group.color, first) {
-            (None, Some(c)) if group.same_bits || insts().all(|i| clamp_color(i.color) == c) => Some(c),
+            (None, Some(c)) if group.same_bits || colors().all(|k| clamp_color(k) == c) => Some(c),
             _ => None,
         };
         let material = Some(self.material(shared_color.unwrap_or([1.0; 4]), double_sided));
-        let extras = sites::instanced_extras(out, &group.instances);
+        let extras = sites::instanced_extras(out, group.indices());
         let mesh = self.push_mesh(GMesh {
             name: Some(name.clone()),
             primitives: vec![Primitive { attributes, indices, material, mode: None, extras }],
         });
-        let n_inst = group.instances.len();
-        let mut inst_attrs = BTreeMap::new();
+        let n_inst = group.count;
         let per_color = group.color.is_none() && shared_color.is_none();
-        let widths: &[(&'static str, usize, &'static str)] = if per_color {
-            &[("TRANSLATION", 3, "VEC3"), ("ROTATION", 4, "VEC4"), ("SCALE", 3, "VEC3"), ("_COLOR_0", 3, "VEC3")]
-        } else {
-            &[("TRANSLATION", 3, "VEC3"), ("ROTATION", 4, "VEC4"), ("SCALE", 3, "VEC3")]
+        // The attributes' values are written when the file is, in one pass: TRS side
+        // by side in one strided view, then `_COLOR_0` in a view of its own.
+        let trs_len = TRS_STRIDE * n_inst;
+        let color_len = if per_color { 12 * n_inst } else { 0 };
+        let at = self.stream(
+            trs_len + color_len,
+            Box::new(move |sink: &mut Sink| write_instance_attributes(out, group, per_color, sink)),
+        );
+        let view = |b: &mut Builder, byte_offset: usize, byte_length: usize, byte_stride: Option<usize>| {
+            b.root.buffer_views.push(BufferView { buffer: 0, byte_offset, byte_length, target: None, byte_stride });
+            b.root.buffer_views.len() as u32 - 1
         };
-        // The attributes' values are written when the file is: one view and accessor
-        // per attribute, one after the other.
-        let len: usize = widths.iter().map(|&(_, w, _)| 4 * w * n_inst).sum();
-        let order = group.instances.as_slice();
-        let mut at =
-            self.stream(len, Box::new(move |sink: &mut Sink| write_instance_attributes(out, order, per_color, sink)));
-        for (name, w, kind) in widths {
-            let len = 4 * w * n_inst;
-            self.root.buffer_views.push(BufferView {
-                buffer: 0,
-                byte_offset: at,
-                byte_length: len,
-                target: None,
-                byte_stride: None,
-            });
-            let view = self.root.buffer_views.len() as u32 - 1;
+        let trs = view(self, at, trs_len, Some(TRS_STRIDE));
+        let colour_view = per_color.then(|| view(self, at + trs_len, color_len, None));
+        let mut inst_attrs = BTreeMap::new();
+        let attrs = [
+            ("TRANSLATION", Some(trs), 0, "VEC3"),
+            ("ROTATION", Some(trs), 12, "VEC4"),
+            ("SCALE", Some(trs), 28, "VEC3"),
+            ("_COLOR_0", colour_view, 0, "VEC3"),
+        ];
+        for (name, view, byte_offset, kind) in attrs {
+            let Some(buffer_view) = view else { continue };
             let acc = self.accessor(Accessor {
-                buffer_view: view,
+                buffer_view,
+                byte_offset,
                 component_type: FLOAT,
                 count: n_inst,
                 kind,
-                min: None,
-                max: None,
                 ..Accessor::default()
             });
-            inst_attrs.insert(*name, acc);
-            at += len;
+            inst_attrs.insert(name, acc);
         }
         self.root.extensions_used = vec![EXT_INSTANCING];
         let node = self.push_node(Node {
@@ -1277,24 +1397,38 @@ enum Segment<'a> {
     Stream { len: usize, write: Box<StreamFn<'a>> },
 }
 
-/// How many bytes a [`Sink`] gathers before handing them on.
-const SINK_BYTES: usize = 1 << 16;
+/// How many bytes a [`Sink`] gathers before handing them on: as many as the file
+/// writer's buffer holds (`write_file_with`'s `BufWriter`, 1 MiB), which then passes
+/// them straight to the file instead of copying them into its own buffer.
+const SINK_BYTES: usize = 1 << 20;
+
+/// The largest flat primitive (vertex records and indices) spooled in memory, so
+/// that its vertices are placed once (see [`Builder::flat_primitive`]); a bigger
+/// one is walked twice, its bounds first, and streamed into the file.
+const SPOOL_BYTES: usize = 64 << 20;
 
 /// The writer a streamed part writes into: a fixed buffer (`buf[..len]` filled) in
-/// front of the output, counting what went through.
+/// front of the output, counting what went through; or a spool, a buffer of the
+/// part's exact size that holds all of it (no output behind it).
 struct Sink<'w> {
     buf: Box<[u8]>,
     len: usize,
-    w: &'w mut dyn std::io::Write,
+    w: Option<&'w mut dyn std::io::Write>,
     written: usize,
 }
 
 impl<'w> Sink<'w> {
     fn new(w: &'w mut dyn std::io::Write) -> Sink<'w> {
-        Sink { buf: vec![0; SINK_BYTES].into_boxed_slice(), len: 0, w, written: 0 }
+        Sink { buf: vec![0; SINK_BYTES].into_boxed_slice(), len: 0, w: Some(w), written: 0 }
     }
 
-    /// The next `n` bytes (at most [`SINK_BYTES`]) to fill in.
+    /// A spool of `bytes` bytes: [`Sink::into_spool`] hands them back.
+    fn spool(bytes: usize) -> Sink<'static> {
+        Sink { buf: vec![0; bytes].into_boxed_slice(), len: 0, w: None, written: 0 }
+    }
+
+    /// The next `n` bytes (at most [`SINK_BYTES`], or what is left of a spool) to
+    /// fill in.
     #[inline]
     fn slot(&mut self, n: usize) -> Result<&mut [u8], ExportError> {
         if self.len + n > self.buf.len() {
@@ -1302,7 +1436,10 @@ impl<'w> Sink<'w> {
         }
         let at = self.len;
         self.len += n;
-        self.buf.get_mut(at..at + n).ok_or(ExportError::Record { bytes: n })
+        match self.buf.get_mut(at..at + n) {
+            Some(b) => Ok(b),
+            None => Err(ExportError::Record { bytes: n }),
+        }
     }
 
     #[inline]
@@ -1322,10 +1459,21 @@ impl<'w> Sink<'w> {
     }
 
     fn flush(&mut self) -> Result<(), ExportError> {
-        self.w.write_all(&self.buf[..self.len]).map_err(ExportError::GlbIo)?;
+        let Some(w) = self.w.as_mut() else {
+            return Err(ExportError::StreamLength { written: self.len, laid_out: self.buf.len() });
+        };
+        w.write_all(&self.buf[..self.len]).map_err(ExportError::GlbIo)?;
         self.written += self.len;
         self.len = 0;
         Ok(())
+    }
+
+    /// A spool's bytes, which must fill it.
+    fn into_spool(self) -> Result<Vec<u8>, ExportError> {
+        if self.len != self.buf.len() {
+            return Err(ExportError::StreamLength { written: self.len, laid_out: self.buf.len() });
+        }
+        Ok(self.buf.into_vec())
     }
 }
 
