@@ -141,6 +141,17 @@ pub fn write_glb_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Expo
 
 /// [`write_glb_to`] with options.
 pub fn write_glb_with(out: &Output, opts: &GlbOptions, w: &mut dyn std::io::Write) -> Result<(), ExportError> {
+    write_glb_spooling(out, opts, None, w)
+}
+
+/// [`write_glb_with`], spooling flat primitives of at most `spool_bytes` bytes
+/// (`None`: [`SPOOL_BYTES`]) and streaming bigger ones: both give the same bytes.
+fn write_glb_spooling(
+    out: &Output,
+    opts: &GlbOptions,
+    spool_bytes: Option<usize>,
+    w: &mut dyn std::io::Write,
+) -> Result<(), ExportError> {
     let anim = &out.animation;
     let skinned = anim.bones.len() > 1;
     if anim.bones.len() > MAX_GLTF_BONES {
@@ -154,7 +165,7 @@ pub fn write_glb_with(out: &Output, opts: &GlbOptions, w: &mut dyn std::io::Writ
 
     // The flat geometry (the VERTEX group, the sweeps, the baked instances) is
     // streamed into the file when it is written: the binary chunk holds no copy of it.
-    let mut g = Builder { skinned, ..Builder::default() };
+    let mut g = Builder { skinned, spool_bytes, ..Builder::default() };
     let mut scene_nodes = Vec::new();
     // Bone nodes first, so instances can be attached to them.
     let bone_nodes: Vec<u32> = if g.skinned { g.bone_nodes(anim) } else { Vec::new() };
@@ -395,6 +406,8 @@ struct Builder<'a> {
     skinned: bool,
     /// Keyframe-time accessors by (fps bits, count).
     times: BTreeMap<(u32, usize), u32>,
+    /// The largest flat primitive spooled (`None`: [`SPOOL_BYTES`]).
+    spool_bytes: Option<usize>,
 }
 
 // The glTF JSON schema subset written here. Empty arrays are omitted because glTF

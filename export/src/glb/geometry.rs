@@ -84,8 +84,9 @@ impl<'a> Builder<'a> {
         }
         let guess =
             FlatPlan { n, n_tris, sequential: true, wide: false, lo: [f32::INFINITY; 3], hi: [f32::NEG_INFINITY; 3] };
+        let spool_bytes = self.spool_bytes.unwrap_or(SPOOL_BYTES);
         let mut spooled = None;
-        if n * flat_stride(false, skinned) <= SPOOL_BYTES {
+        if n * flat_stride(false, skinned) <= spool_bytes {
             let mut sink = Sink::spool(n * flat_stride(false, skinned));
             if let Some(bounds) = flat_write(&src, &guess, skinned, &mut infos, &mut sink)? {
                 spooled = Some((guess, sink.into_spool()?, bounds));
@@ -97,7 +98,7 @@ impl<'a> Builder<'a> {
                 let plan = flat_plan(&src, what, &mut infos, false)?;
                 let bytes =
                     plan.n * flat_stride(plan.wide, skinned) + if plan.sequential { 0 } else { 12 * plan.n_tris };
-                if bytes <= SPOOL_BYTES {
+                if bytes <= spool_bytes {
                     let mut sink = Sink::spool(bytes);
                     let bounds = flat_write(&src, &plan, skinned, &mut infos, &mut sink)?
                         .ok_or(ExportError::Inconsistent("flat geometry: the layout planned does not hold"))?;

@@ -509,3 +509,104 @@ fn trs_decomposition() {
     assert!(orthogonal_trs(&Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0))).is_none());
     assert!(orthogonal_trs(&Mat4::from_scale(Vec3::ZERO)).is_none());
 }
+
+/// Square prototype instances (two triangles) in frames of every turn, size and
+/// mirroring, each of its own colour, placed by `--instances`.
+fn coloured_square_instances(n: usize) -> Output {
+    let mut out = Output::default();
+    let mut square = Mesh::default();
+    for [x, y] in [[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]] {
+        square.push_vertex(Vec3::new(x, y, 0.0), Vec3::Z, [0.0; 4], [0.0; 4], 0);
+    }
+    square.push_triangle([0, 1, 2], false);
+    square.push_triangle([3, 4, 5], false);
+    let kind = mdg_vm::output::SharedKind::Prototype { face_normals: vec![None; 2] };
+    out.shared_meshes.push(SharedMesh { name: "square".into(), mesh: square, kind });
+    for i in 0..n {
+        let k = i as f32;
+        let mut f = Frame::identity()
+            .translate(Vec3::new(k, 0.5 * k, -0.25 * k))
+            .rotate(Quat::from_axis_angle(Vec3::new(1.0, k, 2.0).normalize(), 0.7 * k))
+            .scale(0.5 + 0.1 * k);
+        if i % 3 == 1 {
+            f = f.reflect(Vec3::X);
+        }
+        let color = [k / n as f32, 0.5, 1.0 - k / n as f32, 1.0];
+        out.instances.push(mdg_vm::output::Instance { frame: f, color, mesh: 0, bone: 0, lin: 0, at: 0 });
+    }
+    out
+}
+
+#[test]
+fn instance_trs_share_one_strided_view_and_colours_have_their_own() {
+    // One pass writes each instance's TRANSLATION, ROTATION and SCALE side by side;
+    // `_COLOR_0` stays tightly packed in a view of its own (three.js reads its array
+    // whole). The values are `prototype_placement`'s, bit for bit.
+    let out = coloured_square_instances(12);
+    let mut b = Vec::new();
+    write_glb_with(&out, &GlbOptions { instances: true }, &mut b).expect("writes");
+    let (json, bin) = parse_glb(&b);
+    let mut seen = 0;
+    for node in json["nodes"].as_array().expect("nodes") {
+        let Some(attrs) = node.pointer("/extensions/EXT_mesh_gpu_instancing/attributes") else { continue };
+        let acc = |name: &str| attrs[name].as_u64().expect("attribute");
+        let view_of = |a: u64| json["accessors"][a as usize]["bufferView"].as_u64().expect("view");
+        let (t, r, s, c) = (acc("TRANSLATION"), acc("ROTATION"), acc("SCALE"), acc("_COLOR_0"));
+        assert!(view_of(t) == view_of(r) && view_of(r) == view_of(s), "TRS in one view");
+        assert_eq!(json["bufferViews"][view_of(t) as usize]["byteStride"].as_u64(), Some(40));
+        let offsets: Vec<u64> =
+            [t, r, s].iter().map(|&a| json["accessors"][a as usize]["byteOffset"].as_u64().unwrap_or(0)).collect();
+        assert_eq!(offsets, [0, 12, 28]);
+        assert_ne!(view_of(c), view_of(t));
+        assert!(json["bufferViews"][view_of(c) as usize].get("byteStride").is_none(), "colours tightly packed");
+        let mirrored = node["name"].as_str().expect("name").ends_with("mirrored");
+        let mine: Vec<usize> = (0..out.instances.len()).filter(|i| (i % 3 == 1) == mirrored).collect();
+        let (tv, rv, sv, cv) = (
+            components(&bin, &json, t),
+            components(&bin, &json, r),
+            components(&bin, &json, s),
+            components(&bin, &json, c),
+        );
+        assert_eq!(tv.len(), 3 * mine.len());
+        for (k, &i) in mine.iter().enumerate() {
+            let inst = &out.instances[i];
+            let (pt, pr, ps) = prototype_placement(&inst.frame).expect("placeable");
+            let f = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
+            assert_eq!(f(&tv[3 * k..3 * k + 3]), pt.to_vec(), "instance {i}: translation");
+            assert_eq!(f(&rv[4 * k..4 * k + 4]), pr.to_vec(), "instance {i}: rotation");
+            assert_eq!(f(&sv[3 * k..3 * k + 3]), ps.map(f32::abs).to_vec(), "instance {i}: scale");
+            let want = linear_color(clamp_color(inst.color));
+            assert_eq!(f(&cv[3 * k..3 * k + 3]), want[..3].to_vec(), "instance {i}: colour");
+        }
+        seen += mine.len();
+    }
+    assert_eq!(seen, 12, "every instance placed by an instanced node");
+}
+
+#[test]
+fn spooled_and_streamed_flat_primitives_are_the_same_bytes() {
+    // A flat primitive up to the spool's size is placed once, its bounds found while
+    // it is written to the spool; a bigger one is planned by a walk and streamed.
+    // Both give the same file, for the usual layout and for those the guess from the
+    // counts gets wrong (16-bit colours, triangles that need indices), prototypes
+    // mirrored or not, skinned or not.
+    let mut outputs = vec![
+        ("instances", coloured_square_instances(40)),
+        ("dark", strip([0.01, 0.02, 0.5, 1.0])),
+        ("sample", sample_output()),
+    ];
+    let mut shared = strip([0.8, 0.3, 0.1, 1.0]);
+    shared.mesh.triangles[1] = [0, 1, 2];
+    outputs.push(("indexed", shared));
+    let mut dark_instances = coloured_square_instances(9);
+    dark_instances.instances[4].color = [0.002, 0.0, 0.0, 1.0];
+    outputs.push(("dark instances", dark_instances));
+    for (name, out) in outputs {
+        let (mut spooled, mut streamed) = (Vec::new(), Vec::new());
+        write_glb_spooling(&out, &GlbOptions::default(), None, &mut spooled).expect("writes");
+        write_glb_spooling(&out, &GlbOptions::default(), Some(0), &mut streamed).expect("writes");
+        assert!(spooled == streamed, "{name}: the spooled and streamed files differ");
+        let (json, _) = parse_glb(&spooled);
+        assert!(json["meshes"][0]["primitives"][0]["attributes"]["POSITION"].is_u64(), "{name}: no geometry");
+    }
+}
