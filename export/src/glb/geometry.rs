@@ -82,32 +82,7 @@ impl<'a> Builder<'a> {
         if n_tris == 0 {
             return Ok(None);
         }
-        let guess =
-            FlatPlan { n, n_tris, sequential: true, wide: false, lo: [f32::INFINITY; 3], hi: [f32::NEG_INFINITY; 3] };
-        let spool_bytes = self.spool_bytes.unwrap_or(SPOOL_BYTES);
-        let mut spooled = None;
-        if n * flat_stride(false, skinned) <= spool_bytes {
-            let mut sink = Sink::spool(n * flat_stride(false, skinned));
-            if let Some(bounds) = flat_write(&src, &guess, skinned, &mut infos, &mut sink)? {
-                spooled = Some((guess, sink.into_spool()?, bounds));
-            }
-        }
-        let spooled = match spooled {
-            Some(s) => Some(s),
-            None => {
-                let plan = flat_plan(&src, what, &mut infos, false)?;
-                let bytes =
-                    plan.n * flat_stride(plan.wide, skinned) + if plan.sequential { 0 } else { 12 * plan.n_tris };
-                if bytes <= spool_bytes {
-                    let mut sink = Sink::spool(bytes);
-                    let bounds = flat_write(&src, &plan, skinned, &mut infos, &mut sink)?
-                        .ok_or(ExportError::Inconsistent("flat geometry: the layout planned does not hold"))?;
-                    Some((plan, sink.into_spool()?, bounds))
-                } else {
-                    None
-                }
-            }
-        };
+        let spooled = spool_flat(&src, what, skinned, &mut infos, (n, n_tris), self.spool_bytes)?;
         let plan_of = |p: &FlatPlan| (p.n, p.n_tris, p.wide, p.sequential);
         let (offset, (n, n_tris, wide, sequential), lo, hi) = match spooled {
             Some((plan, bytes, bounds)) => {
@@ -186,4 +161,38 @@ impl<'a> Builder<'a> {
         let material = Some(self.material([1.0; 4], double_sided));
         Ok(Some(Primitive { attributes, indices, material, mode: None, extras: None }))
     }
+}
+
+/// A flat primitive written to a spool by the walk that finds its bounds: its
+/// layout, bytes and bounds, or `None` when it is bigger than `spool_bytes` (`None`:
+/// [`SPOOL_BYTES`]). The layout is first guessed from the counts `(n, n_tris)`
+/// (8-bit colours, no indices); where the guess does not hold, a walk plans it.
+fn spool_flat(
+    src: &FlatSource,
+    what: &str,
+    skinned: bool,
+    infos: &mut Option<ProtoInfos>,
+    (n, n_tris): (usize, usize),
+    spool_bytes: Option<usize>,
+) -> Result<Option<(FlatPlan, Vec<u8>, flat::Bounds)>, ExportError> {
+    let spool_bytes = spool_bytes.unwrap_or(SPOOL_BYTES);
+    // (Other layouts are bigger: wider records, indices.)
+    if n * flat_stride(false, skinned) > spool_bytes {
+        return Ok(None);
+    }
+    let guess =
+        FlatPlan { n, n_tris, sequential: true, wide: false, lo: [f32::INFINITY; 3], hi: [f32::NEG_INFINITY; 3] };
+    let mut sink = Sink::spool(n * flat_stride(false, skinned));
+    if let Some(bounds) = flat_write(src, &guess, skinned, infos, &mut sink)? {
+        return Ok(Some((guess, sink.into_spool()?, bounds)));
+    }
+    let plan = flat_plan(src, what, infos, false)?;
+    let bytes = plan.n * flat_stride(plan.wide, skinned) + if plan.sequential { 0 } else { 12 * plan.n_tris };
+    if bytes > spool_bytes {
+        return Ok(None);
+    }
+    let mut sink = Sink::spool(bytes);
+    let bounds = flat_write(src, &plan, skinned, infos, &mut sink)?
+        .ok_or(ExportError::Inconsistent("flat geometry: the layout planned does not hold"))?;
+    Ok(Some((plan, sink.into_spool()?, bounds)))
 }

@@ -1,3 +1,6 @@
+//! Tests of the `.glb` writer: the container, accessors and bounds, colours,
+//! instances as nodes and with `--instances`, skins, animation and the spool.
+
 use serde_json::Value;
 
 use super::flat::fits_8_bits;
