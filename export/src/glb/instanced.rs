@@ -135,7 +135,8 @@ pub(super) fn frame_mirrors(f: &Frame) -> bool {
 /// Whether a prototype instance's frame can be a glTF TRS: finite, of non-zero scale.
 pub(super) fn prototype_placeable(f: &Frame) -> bool {
     let s = f.q.length_squared() * f.qh.length_squared();
-    s.is_finite() && s > 0.0 && f.u.is_finite()
+    // (Branch-free: the comparisons fail for NaN.)
+    (s > 0.0) & (s < f32::INFINITY) & f.u.abs().cmplt(Vec3::INFINITY).all()
 }
 
 /// The TRS of a placeable prototype instance's frame as glTF holds it
