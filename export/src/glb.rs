@@ -365,7 +365,7 @@ impl<'a> Builder<'a> {
 
 /// The fields of an instance record the writer reads, by value. Every read of
 /// [`Output::instances`] in the instanced writer and the flat walks goes through
-/// [`record`], so that a change of the record's layout touches one place.
+/// [`record`] or [`records`], so that a change of the record's layout touches one place.
 #[derive(Clone, Copy)]
 struct Record {
     frame: Frame,
@@ -387,8 +387,17 @@ impl Record {
 /// Instance `i`'s [`Record`], `None` past the end.
 #[inline(always)]
 fn record(out: &Output, i: usize) -> Option<Record> {
-    let inst = out.instances.get(i)?;
-    Some(Record { frame: inst.frame, color: inst.color, mesh: inst.mesh, bone: inst.bone, lin: inst.lin, at: inst.at })
+    out.instances.get(i).map(record_of)
+}
+
+/// Every instance's [`Record`], in order.
+fn records(out: &Output) -> impl Iterator<Item = Record> + '_ {
+    out.instances.iter().map(record_of)
+}
+
+#[inline(always)]
+fn record_of(inst: &mdg_vm::output::Instance) -> Record {
+    Record { frame: inst.frame, color: inst.color, mesh: inst.mesh, bone: inst.bone, lin: inst.lin, at: inst.at }
 }
 
 /// The document plus the binary buffer under construction: the bytes made so far

@@ -75,8 +75,7 @@ pub(super) fn gpu_instance_groups(out: &Output, skinned: bool) -> GpuGroups {
     let (mut prototypes, mut placed) = (0usize, 0usize);
     // Consecutive instances mostly share a group: the last one is tried first.
     let mut last: Option<(GroupKey, usize)> = None;
-    for i in 0..out.instances.len() {
-        let Some(r) = record(out, i) else { continue };
+    for (i, r) in records(out).enumerate() {
         let Some(&(is_prototype, deltas)) = kind.get(r.mesh as usize) else { continue };
         prototypes += usize::from(is_prototype);
         let Some(deltas) = deltas else { continue };
