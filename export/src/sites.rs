@@ -23,13 +23,13 @@ pub(super) fn extras(runs: &[[u32; 4]], sites: &[Site]) -> Option<serde_json::Va
 /// [`Output::instances`]), one after the other, each `size(k)` items long (its
 /// triangles, or 1 for an instanced node): a run wherever the site, depth or
 /// node changes. Empty when the output has no instance sites.
-fn runs_of(out: &Output, order: &[u32], size: impl Fn(usize) -> u32) -> Vec<[u32; 4]> {
+fn runs_of(out: &Output, order: impl IntoIterator<Item = u32>, size: impl Fn(usize) -> u32) -> Vec<[u32; 4]> {
     let mut runs: Vec<[u32; 4]> = Vec::new();
     if out.sites.instance_runs.is_empty() {
         return runs;
     }
     let mut first = 0u32;
-    for (k, &i) in order.iter().enumerate() {
+    for (k, i) in order.into_iter().enumerate() {
         if let Some(r) = out.sites.run_of_instance(i) {
             if runs.last().is_none_or(|l| l[1..] != r[1..]) {
                 runs.push([first, r[1], r[2], r[3]]);
@@ -41,7 +41,7 @@ fn runs_of(out: &Output, order: &[u32], size: impl Fn(usize) -> u32) -> Vec<[u32
 }
 
 /// The extras of an instanced node's primitive drawing instances `order`.
-pub(super) fn instanced_extras(out: &Output, order: &[u32]) -> Option<serde_json::Value> {
+pub(super) fn instanced_extras(out: &Output, order: impl IntoIterator<Item = u32>) -> Option<serde_json::Value> {
     let runs = runs_of(out, order, |_| 1);
     let mut v = extras(&runs, &out.sites.sites)?;
     v["mdg_sites"]["instances"] = serde_json::Value::Bool(true);
@@ -76,7 +76,7 @@ impl Baked {
         let order: Vec<u32> = self.from.iter().map(|&(_, i)| i).collect();
         let end = self.mesh.triangles.len() as u32;
         let size = |k: usize| self.from.get(k + 1).map_or(end, |n| n.0) - self.from[k].0;
-        extras(&runs_of(out, &order, size), &out.sites.sites)
+        extras(&runs_of(out, order.iter().copied(), size), &out.sites.sites)
     }
 }
 

@@ -156,7 +156,7 @@ fn glb_chunks(bytes: &[u8]) -> (Value, Vec<u8>) {
     (json, bin)
 }
 
-/// The floats of a tightly packed FLOAT accessor.
+/// The floats of a FLOAT accessor (tightly packed, or strided by its view).
 fn accessor_floats(json: &Value, bin: &[u8], accessor: &Value) -> Vec<f32> {
     let view = &json["bufferViews"][accessor["bufferView"].as_u64().unwrap_or(u64::MAX) as usize];
     let at = view["byteOffset"].as_u64().unwrap_or(0) as usize + accessor["byteOffset"].as_u64().unwrap_or(0) as usize;
@@ -165,18 +165,24 @@ fn accessor_floats(json: &Value, bin: &[u8], accessor: &Value) -> Vec<f32> {
         Some("VEC4") => 4,
         _ => 1,
     };
-    let n = accessor["count"].as_u64().unwrap_or(0) as usize * width;
-    bin.get(at..at + 4 * n)
-        .map(|b| b.chunks(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes"))).collect())
-        .unwrap_or_default()
+    let count = accessor["count"].as_u64().unwrap_or(0) as usize;
+    let stride = view["byteStride"].as_u64().map_or(4 * width, |s| s as usize);
+    let mut values = Vec::with_capacity(count * width);
+    for k in 0..count {
+        let Some(b) = bin.get(at + k * stride..at + k * stride + 4 * width) else { return Vec::new() };
+        values.extend(b.chunks(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes"))));
+    }
+    values
 }
 
 /// Checks every node with `EXT_mesh_gpu_instancing` against the extension's rules
 /// (it has a mesh and no skin; TRANSLATION and SCALE are FLOAT VEC3, ROTATION FLOAT
 /// VEC4, other attributes start with `_`; all have the same count, above 0) and
 /// against what clients need (the extension in `extensionsUsed`, unit rotations,
-/// finite values, positive scales, `_COLOR_0` a VEC3 of linear colours in 0..1, no
-/// byte stride). Returns the number of such nodes and the problems.
+/// finite values, positive scales, `_COLOR_0` a VEC3 of linear colours in 0..1 in a
+/// view without a byte stride: three.js reads an instance colour attribute's whole
+/// array; TRANSLATION, ROTATION and SCALE may share a strided view, which it reads
+/// element by element). Returns the number of such nodes and the problems.
 fn check_gpu_instancing(json: &Value, bin: &[u8]) -> (usize, Vec<String>) {
     const EXT: &str = "EXT_mesh_gpu_instancing";
     let mut problems = Vec::new();
@@ -205,7 +211,7 @@ fn check_gpu_instancing(json: &Value, bin: &[u8]) -> (usize, Vec<String>) {
                 continue;
             }
             let view = &json["bufferViews"][a["bufferView"].as_u64().unwrap_or(u64::MAX) as usize];
-            if view.get("byteStride").is_some() {
+            if view.get("byteStride").is_some() && attr.starts_with('_') {
                 problems.push(format!("node {i}: {attr}'s buffer view has a byte stride"));
             }
             let count = a["count"].as_u64().unwrap_or(0) as usize;

@@ -43,6 +43,20 @@ impl<'a> FlatSource<'a> {
         f(VertexPart::Piece(Piece { mesh: m, vertices: 0..m.n_vertices(), triangles: 0..m.triangles.len(), base: 0 }))
     }
 
+    /// Vertices and triangles of the primitive, without walking it (a prototype
+    /// instance counts its prototype's).
+    pub(super) fn counts(&self) -> (usize, usize) {
+        let whole = |m: &Mesh| (m.n_vertices(), m.triangles.len());
+        match self {
+            FlatSource::Vertex { out, mesh_only: true, .. } => whole(&out.mesh),
+            FlatSource::Vertex { out, instanced, .. } => {
+                out.flat_counts_where(Groups::VERTEX, |i| !instanced.get(i).copied().unwrap_or(false))
+            }
+            FlatSource::Mesh(m) => whole(m),
+            FlatSource::Owned(m) => whole(m),
+        }
+    }
+
     pub(super) fn output(&self) -> Option<&'a Output> {
         match self {
             FlatSource::Vertex { out, .. } => Some(out),
@@ -62,18 +76,22 @@ struct ProtoInfo {
     /// A `FACENORMALS` item recomputed normals: expanded by [`expand_prototype`].
     face_normals: bool,
     /// Distinct positions, and per vertex the index of its position.
-    positions: Vec<Vec3>,
+    positions: Vec<glam::Vec3A>,
     position_of: Vec<u32>,
-    /// Distinct normals, and per vertex the index of its normal.
+    /// Distinct normals and colour deltas (the indices of a vertex's are in
+    /// [`ProtoInfo::flat`]).
     normals: Vec<Vec3>,
-    normal_of: Vec<u32>,
-    /// Distinct colour deltas, and per vertex the index of its delta.
     deltas: Vec<[f32; 4]>,
-    delta_of: Vec<u32>,
     /// The largest distance of a position from the origin (`f64`; infinite when a
     /// position is not finite), and the largest coordinate's size.
     radius: f64,
     extent: f32,
+    /// The records an instance writes, in order, each as the indices of its
+    /// position, normal and colour among those [`ProtoVertices::fill`] makes: in
+    /// oriented triangle order for an instance whose frame does not mirror (`[0]`)
+    /// or does (`[1]`), and in vertex order (`flat`, for a primitive with indices).
+    corners: [Vec<[u32; 3]>; 2],
+    flat: Vec<[u32; 3]>,
 }
 
 impl ProtoInfo {
@@ -103,7 +121,7 @@ impl ProtoInfo {
             (values, of)
         }
         let (positions, position_of) =
-            distinct((0..n).map(|i| Vec3::from(m.positions[i])), |p| p.to_array().map(f32::to_bits));
+            distinct((0..n).map(|i| glam::Vec3A::from(m.positions[i])), |p| p.to_array().map(f32::to_bits));
         let (normals, normal_of) =
             distinct((0..n).map(|i| Vec3::from(m.normals.get(i).copied().unwrap_or([0.0, 0.0, 1.0]))), |p| {
                 p.to_array().map(f32::to_bits)
@@ -119,7 +137,26 @@ impl ProtoInfo {
             }
         });
         let extent = mdg_vm::output::max_abs(&m.positions);
+        // (With FACENORMALS, the instance's vertices are made one by one.)
+        let flat: Vec<[u32; 3]> = match face_normals {
+            true => (0..n as u32).map(|v| [v; 3]).collect(),
+            false => (0..n).map(|v| [position_of[v], normal_of[v], delta_of[v]]).collect(),
+        };
+        let corners = [false, true].map(|mirrored| {
+            let mut c = Vec::new();
+            if sequential {
+                for t in 0..m.triangles.len() {
+                    let v = 3 * t;
+                    let flip = mirrored != m.mirrored.get(t).copied().unwrap_or(false);
+                    let order = if flip { [v, v + 2, v + 1] } else { [v, v + 1, v + 2] };
+                    c.extend(order.iter().filter_map(|&v| flat.get(v).copied()));
+                }
+            }
+            c
+        });
         ProtoInfo {
+            corners,
+            flat,
             sequential,
             valid,
             n_tris: m.triangles.len(),
@@ -127,9 +164,7 @@ impl ProtoInfo {
             positions,
             position_of,
             normals,
-            normal_of,
             deltas,
-            delta_of,
             radius,
             extent,
         }
@@ -171,10 +206,13 @@ impl<'a> ProtoInfos<'a> {
         ProtoInfos { out, infos: (0..out.shared_meshes.len()).map(|_| None).collect() }
     }
 
+    #[inline]
     fn get(&mut self, mesh: u32) -> Option<&ProtoInfo> {
-        let shared = self.out.shared_meshes.get(mesh as usize)?;
         let slot = self.infos.get_mut(mesh as usize)?;
-        Some(slot.get_or_insert_with(|| ProtoInfo::new(shared)))
+        if slot.is_none() {
+            *slot = Some(ProtoInfo::new(self.out.shared_meshes.get(mesh as usize)?));
+        }
+        slot.as_ref()
     }
 }
 
@@ -222,8 +260,12 @@ impl ProtoFrame {
     }
 
     #[inline]
-    fn position(&self, p: Vec3) -> [f32; 3] {
-        finite3((self.u_a + self.lin_a * glam::Vec3A::from(p)).to_array())
+    fn position(&self, p: glam::Vec3A) -> glam::Vec3A {
+        let q = self.u_a + self.lin_a * p;
+        match q.is_finite() {
+            true => q,
+            false => finite3(q.to_array()).into(),
+        }
     }
 
     #[inline]
@@ -240,9 +282,18 @@ fn proto_color(inst: [f32; 4], delta: [f32; 4]) -> [f32; 4] {
     )
 }
 
-/// The first walk of a flat primitive: counts, bounds, colour precision, and
-/// whether the triangles need an index buffer; checks every triangle.
-pub(super) fn flat_plan(src: &FlatSource, what: &str, infos: &mut Option<ProtoInfos>) -> Result<FlatPlan, ExportError> {
+/// The first walk of a flat primitive: counts, colour precision, and whether the
+/// triangles need an index buffer; checks every triangle. With `bounds`, also the
+/// exact POSITION bounds, placing the instances' vertices (the streamed layout,
+/// whose bounds must be known before its vertices are written); without, the
+/// instances' frames are not read (the spooled layout: [`flat_write`] finds the
+/// bounds as it places the vertices).
+pub(super) fn flat_plan(
+    src: &FlatSource,
+    what: &str,
+    infos: &mut Option<ProtoInfos>,
+    bounds: bool,
+) -> Result<FlatPlan, ExportError> {
     let mut plan =
         FlatPlan { n: 0, n_tris: 0, sequential: true, wide: false, lo: [f32::INFINITY; 3], hi: [f32::NEG_INFINITY; 3] };
     let mut last_color: Option<[f32; 4]> = None;
@@ -268,7 +319,9 @@ pub(super) fn flat_plan(src: &FlatSource, what: &str, infos: &mut Option<ProtoIn
                     return Err(ExportError::PiecesOutOfOrder { what: what.to_string() });
                 }
                 for v in p.vertices.clone() {
-                    bound(&mut plan, finite3(m.positions[v]));
+                    if bounds {
+                        bound(&mut plan, finite3(m.positions[v]));
+                    }
                     color(&mut plan, color_at(m, v));
                 }
                 for t in p.triangles.clone() {
@@ -290,13 +343,13 @@ pub(super) fn flat_plan(src: &FlatSource, what: &str, infos: &mut Option<ProtoIn
             }
             VertexPart::Prototype { instance, base } => {
                 let (Some(out), Some(infos)) = (out, infos.as_mut()) else { return Ok(()) };
-                let inst = &out.instances[instance];
+                let Some(inst) = record(out, instance) else { return Ok(()) };
                 let Some(info) = infos.get(inst.mesh) else { return Ok(()) };
                 if base as usize != plan.n {
                     return Err(ExportError::PiecesOutOfOrder { what: what.to_string() });
                 }
                 if !info.valid {
-                    let name = out.shared(inst).map_or("", |s| s.name.as_str());
+                    let name = out.shared_meshes.get(inst.mesh as usize).map_or("", |s| s.name.as_str());
                     return Err(ExportError::PrototypeTriangles {
                         what: what.to_string(),
                         prototype: name.to_string(),
@@ -304,10 +357,10 @@ pub(super) fn flat_plan(src: &FlatSource, what: &str, infos: &mut Option<ProtoIn
                 }
                 // Most instances lie inside the bounds found so far, which their scale
                 // shows without placing their vertices.
-                if !info.surely_within(&inst.frame, &plan.lo, &plan.hi) {
+                if bounds && !info.surely_within(&inst.frame, &plan.lo, &plan.hi) {
                     let f = ProtoFrame::new(&inst.frame);
                     for &p in &info.positions {
-                        bound(&mut plan, f.position(p));
+                        bound(&mut plan, f.position(p).to_array());
                     }
                 }
                 // (Consecutive instances mostly share their mesh and colour.)
@@ -338,6 +391,8 @@ struct VertexRecord {
     /// The last colour's bits and its encoding: neighbouring vertices mostly share
     /// one, and the sRGB curve (three powers) would cost more than the rest of a vertex.
     last: ([u32; 4], [u8; 8]),
+    /// A colour that needs 16 bits was met in 8-bit records.
+    too_narrow: bool,
 }
 
 /// Three floats as little-endian bytes.
@@ -350,9 +405,33 @@ fn float3_bytes(p: [f32; 3]) -> [u8; 12] {
     b
 }
 
+/// The exact bounds of the positions a walk wrote (finite), per coordinate.
+pub(super) struct Bounds {
+    lo: glam::Vec3A,
+    hi: glam::Vec3A,
+}
+
+impl Bounds {
+    fn new() -> Bounds {
+        Bounds { lo: glam::Vec3A::INFINITY, hi: glam::Vec3A::NEG_INFINITY }
+    }
+
+    #[inline]
+    fn add(&mut self, q: glam::Vec3A) {
+        self.lo = self.lo.min(q);
+        self.hi = self.hi.max(q);
+    }
+
+    /// The lowest and highest coordinates.
+    pub(super) fn arrays(&self) -> ([f32; 3], [f32; 3]) {
+        (self.lo.to_array(), self.hi.to_array())
+    }
+}
+
 impl VertexRecord {
     fn new(wide: bool, skinned: bool) -> VertexRecord {
-        VertexRecord { stride: flat_stride(wide, skinned), wide, skinned, last: ([f32::NAN.to_bits(); 4], [0; 8]) }
+        let last = ([f32::NAN.to_bits(); 4], [0; 8]);
+        VertexRecord { stride: flat_stride(wide, skinned), wide, skinned, last, too_narrow: false }
     }
 
     /// The colour `c` (clamped) as the record stores it: linear, normalised u8 or
@@ -361,6 +440,7 @@ impl VertexRecord {
     fn encode(&mut self, c: [f32; 4]) -> [u8; 8] {
         let bits = c.map(f32::to_bits);
         if bits != self.last.0 {
+            self.too_narrow |= !self.wide && !fits_8_bits(c);
             let l = linear_color(c);
             let mut e = [0u8; 8];
             for k in 0..4 {
@@ -375,46 +455,45 @@ impl VertexRecord {
         self.last.1
     }
 
-    #[inline]
-    fn put(&mut self, sink: &mut Sink, p: [f32; 3], n: [f32; 3], c: [f32; 4], bone: u32) -> Result<(), ExportError> {
-        let e = self.encode(c);
-        self.put_encoded(sink, &float3_bytes(p), &float3_bytes(n), &e, bone)
+    /// Fills `b` (one record, [`VertexRecord::stride`] bytes) with a position, a
+    /// normal and a colour already encoded, and the bone.
+    #[inline(always)]
+    fn fill(&self, b: &mut [u8], p: &[u8; 12], n: &[u8; 12], e: &[u8; 8], bone: u32) {
+        if let Some(h) = b.first_chunk_mut::<28>() {
+            h[0..12].copy_from_slice(p);
+            h[12..24].copy_from_slice(n);
+            h[24..28].copy_from_slice(&e[..4]);
+        }
+        if !(self.wide || self.skinned) {
+            return;
+        }
+        let w = if self.wide { 32 } else { 28 };
+        if let Some(c) = b.get_mut(28..32).filter(|_| self.wide) {
+            c.copy_from_slice(&e[4..]);
+        }
+        if let Some(s) = b.get_mut(w..w + 24).filter(|_| self.skinned) {
+            let j = (bone.min(u16::MAX as u32) as u16).to_le_bytes();
+            s[0..8].copy_from_slice(&[j[0], j[1], 0, 0, 0, 0, 0, 0]);
+            s[8..12].copy_from_slice(&1.0f32.to_le_bytes());
+            s[12..24].fill(0);
+        }
     }
 
-    /// A record of a position, a normal and a colour already encoded.
-    #[inline(always)]
-    fn put_encoded(
-        &self,
+    /// One vertex's record, its position added to `bounds`.
+    #[inline]
+    fn put(
+        &mut self,
         sink: &mut Sink,
-        p: &[u8; 12],
-        n: &[u8; 12],
-        e: &[u8; 8],
+        bounds: &mut Bounds,
+        p: [f32; 3],
+        n: [f32; 3],
+        c: [f32; 4],
         bone: u32,
     ) -> Result<(), ExportError> {
-        let b = sink.slot(self.stride)?;
-        let Some(h) = b.first_chunk_mut::<28>() else {
-            return Err(ExportError::Inconsistent("glTF binary: a short vertex record"));
-        };
-        h[0..12].copy_from_slice(p);
-        h[12..24].copy_from_slice(n);
-        h[24..28].copy_from_slice(&e[..4]);
-        if self.wide || self.skinned {
-            let w = if self.wide {
-                b.get_mut(28..32)
-                    .ok_or(ExportError::Inconsistent("glTF binary: a short vertex record"))?
-                    .copy_from_slice(&e[4..]);
-                32
-            } else {
-                28
-            };
-            if self.skinned {
-                let b = b.get_mut(w..w + 24).ok_or(ExportError::Inconsistent("glTF binary: a short vertex record"))?;
-                let j = (bone.min(u16::MAX as u32) as u16).to_le_bytes();
-                b[0..8].copy_from_slice(&[j[0], j[1], 0, 0, 0, 0, 0, 0]);
-                b[8..12].copy_from_slice(&1.0f32.to_le_bytes());
-                b[12..24].fill(0);
-            }
-        }
+        bounds.add(p.into());
+        let e = self.encode(c);
+        let stride = self.stride;
+        self.fill(sink.slot(stride)?, &float3_bytes(p), &float3_bytes(n), &e, bone);
         Ok(())
     }
 }
@@ -436,22 +515,21 @@ struct ProtoVertices {
     /// consecutive instances mostly share them.
     colors_of: Option<(u32, [u32; 4])>,
     scratch: Mesh,
-    identity: Vec<u32>,
 }
 
 impl ProtoVertices {
     /// Fills in instance `inst`'s vertices (the prototype's distinct positions,
     /// normals and colours, or one of each per vertex where `FACENORMALS` makes
-    /// normals per instance: see [`ProtoVertices::maps`]); whether the frame mirrors.
+    /// normals per instance), its positions added to `bounds`; whether the frame
+    /// mirrors.
     fn fill(
         &mut self,
         rec: &mut VertexRecord,
-        out: &Output,
+        bounds: &mut Bounds,
         shared: &SharedMesh,
         info: &ProtoInfo,
-        instance: usize,
+        inst: &Record,
     ) -> bool {
-        let inst = &out.instances[instance];
         let f = ProtoFrame::new(&inst.frame);
         self.positions.clear();
         self.normals.clear();
@@ -459,19 +537,22 @@ impl ProtoVertices {
             self.colors.clear();
             self.colors_of = None;
             self.scratch.clear();
-            expand_prototype(&mut self.scratch, shared, inst, [0.0; 4]);
+            expand_prototype(&mut self.scratch, shared, &inst.instance(), [0.0; 4]);
             let m = &self.scratch;
             for i in 0..m.n_vertices() {
-                self.positions.push(float3_bytes(finite3(m.positions[i])));
+                let p = finite3(m.positions[i]);
+                bounds.add(p.into());
+                self.positions.push(float3_bytes(p));
                 self.normals.push(float3_bytes(normal_at(m, i)));
                 self.colors.push(rec.encode(color_at(m, i)));
             }
-            if self.identity.len() < m.n_vertices() {
-                self.identity = (0..m.n_vertices() as u32).collect();
-            }
             return f.mirrored;
         }
-        self.positions.extend(info.positions.iter().map(|&p| float3_bytes(f.position(p))));
+        for &p in &info.positions {
+            let p = f.position(p);
+            bounds.add(p);
+            self.positions.push(float3_bytes(p.to_array()));
+        }
         self.normals.extend(info.normals.iter().map(|&n| float3_bytes(f.normal(n))));
         let key = (inst.mesh, inst.color.map(f32::to_bits));
         if self.colors_of != Some(key) {
@@ -482,84 +563,129 @@ impl ProtoVertices {
         f.mirrored
     }
 
-    /// From each vertex to its position, normal and colour after [`ProtoVertices::fill`].
-    fn maps<'s>(&'s self, info: &'s ProtoInfo) -> [&'s [u32]; 3] {
-        if info.face_normals {
-            let id = &self.identity[..self.positions.len()];
-            [id, id, id]
-        } else {
-            [&info.position_of, &info.normal_of, &info.delta_of]
+    /// The records of `corners` (see [`ProtoInfo::corners`]) after
+    /// [`ProtoVertices::fill`], in slots of at most [`SINK_BYTES`].
+    #[inline]
+    fn put(&self, rec: &VertexRecord, sink: &mut Sink, corners: &[[u32; 3]], bone: u32) -> Result<(), ExportError> {
+        let stride = rec.stride;
+        let short = || ExportError::Inconsistent("flat geometry: a prototype vertex out of range");
+        for corners in corners.chunks((SINK_BYTES / stride).max(1)) {
+            let b = sink.slot(corners.len() * stride)?;
+            let plain = !(rec.wide || rec.skinned);
+            if plain {
+                // (The usual record, 28 bytes, copied whole.)
+                let (records, _) = b.as_chunks_mut::<28>();
+                for (r, c) in records.iter_mut().zip(corners) {
+                    let (Some(p), Some(n), Some(e)) = (
+                        self.positions.get(c[0] as usize),
+                        self.normals.get(c[1] as usize),
+                        self.colors.get(c[2] as usize),
+                    ) else {
+                        return Err(short());
+                    };
+                    let (rp, rest) = r.split_at_mut(12);
+                    let (rn, re) = rest.split_at_mut(12);
+                    rp.copy_from_slice(p);
+                    rn.copy_from_slice(n);
+                    re.copy_from_slice(&e[..4]);
+                }
+                continue;
+            }
+            for (r, c) in b.chunks_exact_mut(stride).zip(corners) {
+                let (Some(p), Some(n), Some(e)) = (
+                    self.positions.get(c[0] as usize),
+                    self.normals.get(c[1] as usize),
+                    self.colors.get(c[2] as usize),
+                ) else {
+                    return Err(short());
+                };
+                rec.fill(r, p, n, e, bone);
+            }
         }
+        Ok(())
     }
 }
 
-/// The second walk of a flat primitive: its vertex records (in oriented triangle
-/// order when `plan.sequential`, else in flat order followed by the u32 indices).
+/// The walk that writes a flat primitive: its vertex records (in oriented triangle
+/// order when `plan.sequential`, else in flat order followed by the u32 indices);
+/// returns the exact bounds of the positions written. `plan` may be a guess (the
+/// counts, with 8-bit colours and no indices, the usual case: see
+/// [`super::Builder::flat_primitive`]): `None` when the walk finds that it does not
+/// hold (a colour that needs 16 bits, triangles that need indices, pieces out of
+/// order, a triangle out of range), and what it wrote is to be thrown away.
 pub(super) fn flat_write(
     src: &FlatSource,
     plan: &FlatPlan,
     skinned: bool,
     infos: &mut Option<ProtoInfos>,
     sink: &mut Sink,
-) -> Result<(), ExportError> {
+) -> Result<Option<Bounds>, ExportError> {
     let mut rec = VertexRecord::new(plan.wide, skinned);
     let mut pv = ProtoVertices::default();
+    let mut bounds = Bounds::new();
     let out = src.output();
     let missing = || ExportError::Inconsistent("flat geometry: an instance of a missing shared mesh");
-    src.walk(&mut |part| match part {
+    // Vertices and triangles written so far; whether the plan was found not to hold.
+    let (mut n, mut n_tris, mut wrong) = (0usize, 0usize, false);
+    let off_plan = || ExportError::Inconsistent("flat geometry: the layout planned does not hold");
+    let walked = src.walk(&mut |part| match part {
         VertexPart::Piece(p) => {
             let m = p.mesh;
-            let vertex = |rec: &mut VertexRecord, sink: &mut Sink, v: usize| {
-                rec.put(sink, finite3(m.positions[v]), normal_at(m, v), color_at(m, v), m.bone(v))
+            wrong |= p.base as usize != n;
+            let mut vertex = |rec: &mut VertexRecord, sink: &mut Sink, v: usize| {
+                rec.put(sink, &mut bounds, finite3(m.positions[v]), normal_at(m, v), color_at(m, v), m.bone(v))
             };
             if plan.sequential {
                 for t in p.triangles.clone() {
-                    let o = p.oriented(t).ok_or(ExportError::Inconsistent("flat geometry: a triangle out of range"))?;
+                    let k = 3 * n_tris as u32;
+                    let Some(o) = p.oriented(t).filter(|o| {
+                        let mut sorted = *o;
+                        sorted.sort_unstable();
+                        sorted == [k, k + 1, k + 2]
+                    }) else {
+                        wrong = true;
+                        return Err(off_plan());
+                    };
                     for v in o {
                         vertex(&mut rec, sink, (v - p.base) as usize + p.vertices.start)?;
                     }
+                    n_tris += 1;
                 }
             } else {
                 for v in p.vertices.clone() {
                     vertex(&mut rec, sink, v)?;
                 }
+                n_tris += p.triangles.len();
+            }
+            n += p.vertices.len();
+            wrong |= plan.sequential && n != 3 * n_tris;
+            if wrong {
+                return Err(off_plan());
             }
             Ok(())
         }
-        VertexPart::Prototype { instance, .. } => {
+        VertexPart::Prototype { instance, base } => {
             let (Some(out), Some(infos)) = (out, infos.as_mut()) else { return Err(missing()) };
-            let inst = &out.instances[instance];
-            let shared = out.shared(inst).ok_or_else(missing)?;
+            let inst = record(out, instance).ok_or_else(missing)?;
+            let shared = out.shared_meshes.get(inst.mesh as usize).ok_or_else(missing)?;
             let info = infos.get(inst.mesh).ok_or_else(missing)?;
-            let mirrored = pv.fill(&mut rec, out, shared, info, instance);
-            let [pos_of, nrm_of, col_of] = pv.maps(info);
-            let vertex = |rec: &mut VertexRecord, sink: &mut Sink, v: usize| {
-                rec.put_encoded(
-                    sink,
-                    &pv.positions[pos_of[v] as usize],
-                    &pv.normals[nrm_of[v] as usize],
-                    &pv.colors[col_of[v] as usize],
-                    inst.bone,
-                )
-            };
-            if plan.sequential {
-                for t in 0..info.n_tris {
-                    let v = 3 * t;
-                    let flip = mirrored != shared.mesh.mirrored.get(t).copied().unwrap_or(false);
-                    for c in if flip { [v, v + 2, v + 1] } else { [v, v + 1, v + 2] } {
-                        vertex(&mut rec, sink, c)?;
-                    }
-                }
-            } else {
-                for v in 0..pos_of.len() {
-                    vertex(&mut rec, sink, v)?;
-                }
+            wrong |= base as usize != n || !info.valid || (plan.sequential && !info.sequential);
+            if wrong {
+                return Err(off_plan());
             }
-            Ok(())
+            let mirrored = pv.fill(&mut rec, &mut bounds, shared, info, &inst);
+            let corners = if plan.sequential { &info.corners[usize::from(mirrored)] } else { &info.flat };
+            n += info.flat.len();
+            n_tris += info.n_tris;
+            pv.put(&rec, sink, corners, inst.bone)
         }
-    })?;
+    });
+    if wrong || rec.too_narrow || n != plan.n {
+        return Ok(None);
+    }
+    walked?;
     if plan.sequential {
-        return Ok(());
+        return Ok(Some(bounds));
     }
     src.walk(&mut |part| {
         let tri = |sink: &mut Sink, t: [u32; 3]| {
@@ -580,8 +706,8 @@ pub(super) fn flat_write(
             }
             VertexPart::Prototype { instance, base } => {
                 let Some(out) = out else { return Err(missing()) };
-                let inst = &out.instances[instance];
-                let shared = out.shared(inst).ok_or_else(missing)?;
+                let inst = record(out, instance).ok_or_else(missing)?;
+                let shared = out.shared_meshes.get(inst.mesh as usize).ok_or_else(missing)?;
                 let mirrored = ProtoFrame::new(&inst.frame).mirrored;
                 for (t, v) in shared.mesh.triangles.iter().enumerate() {
                     let v = v.map(|i| i + base);
@@ -591,7 +717,8 @@ pub(super) fn flat_write(
             }
         }
         Ok(())
-    })
+    })?;
+    Ok(Some(bounds))
 }
 
 #[cfg(test)]
