@@ -251,6 +251,9 @@ pub enum Tok {
     /// A colour value `#rrggbb`, `#rgb`, `#rrggbbaa` or `#name` (made by the lexer
     /// from a `#` and the word after it: [`crate::colour::looks_like_colour`]).
     Colour,
+    /// A `[` that indexes a vector, `v[0]` (made by the lexer from `[`:
+    /// [`index_bracket`]), told apart from an adjustment list `CIRCLE[s 2]`.
+    IndexOpen,
 }
 
 impl Tok {
@@ -284,6 +287,7 @@ impl Tok {
             LBrace => "`{`",
             RBrace => "`}`",
             LBracket => "`[`",
+            IndexOpen => "an index `[`",
             RBracket => "`]`",
             LParen => "`(`",
             RParen => "`)`",
@@ -420,6 +424,9 @@ pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
                     );
                 }
                 out.tokens.push(Token { kind: Tok::Number, span });
+            }
+            Ok(Tok::LBracket) if index_bracket(text, r.start, out.tokens.last()) => {
+                out.tokens.push(Token { kind: Tok::IndexOpen, span })
             }
             Ok(kind) => out.tokens.push(Token { kind, span }),
             Err(LexError::InvalidChar)
@@ -564,6 +571,40 @@ fn colour_word(rest: &str, prev: Option<Tok>) -> Option<&str> {
     }
     let in_list = matches!(prev, Some(Tok::LBrace | Tok::LBracket | Tok::Number | Tok::Colour | Tok::RParen));
     (crate::colour::looks_like_colour(word) || (in_list && !word.is_empty())).then_some(word)
+}
+
+/// Whether the `[` at byte `at` indexes a vector (`v[0]`, `f(a)[1]`, `v[i + 1]`)
+/// rather than opening an adjustment list (`CIRCLE[s 2]`, `loop i = 0, n [x 1]`):
+/// it follows a name, `)` or `]` with no space between, and what it holds starts
+/// with a digit, `(` or `-`, or is one name that is not an adjustment without
+/// arguments (`CIRCLE[fx]`), alone or followed by an operator.
+fn index_bracket(text: &str, at: usize, prev: Option<&Token>) -> bool {
+    let Some(prev) = prev else { return false };
+    if !matches!(prev.kind, Tok::Ident | Tok::RParen | Tok::RBracket) || prev.span.end as usize != at {
+        return false;
+    }
+    let inside = text[at + 1..].trim_start_matches([' ', '\t']);
+    let Some(first) = inside.chars().next() else { return false };
+    if first.is_ascii_digit() || first == '(' || first == '.' {
+        return true;
+    }
+    if first == '-' {
+        return inside[1..].starts_with(|c: char| c.is_ascii_digit() || c == '.');
+    }
+    if !(first.is_ascii_alphabetic() || first == '_') {
+        return false;
+    }
+    let n = inside.find(|c: char| !(c.is_ascii_alphanumeric() || c == '_')).unwrap_or(inside.len());
+    const BARE: &[&str] = &["fx", "fy", "fz", "up", "down", "left", "right", "rollleft", "rollright"];
+    if BARE.contains(&&inside[..n]) {
+        return false;
+    }
+    let rest = &inside[n..];
+    let after = rest.trim_start_matches([' ', '\t']);
+    // `v[i]`, `v[i+1]`, `v[i + 1]`; not `[x -1]` (a word, a space, a signed number).
+    after.starts_with(']')
+        || rest.starts_with(['+', '-', '*', '/', '^'])
+        || (after.starts_with(['+', '-', '*', '/', '^']) && after[1..].starts_with([' ', '\t']))
 }
 
 /// Lexes a whole file.

@@ -99,9 +99,38 @@ impl Signature {
 
     /// `tree(int n, float len = 1)`.
     pub fn label(&self, name: &str) -> String {
-        let list: Vec<String> = self.params.iter().map(SigParam::label).collect();
+        let list = param_labels(&self.params);
         format!("{name}({})", list.join(", "))
     }
+}
+
+/// The labels of a rule's parameters as written: the components `float v[0]`,
+/// `float v[1]` of a vector parameter are one `vector2 v` (with its default `(1,
+/// 2)`); others as [`SigParam::label`] (a vector is a group of scalars after
+/// `crate::vectors`).
+pub fn param_labels(params: &[SigParam]) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < params.len() {
+        let p = &params[i];
+        let base = p.name.strip_suffix("[0]");
+        let n = match base {
+            Some(b) => params[i..].iter().enumerate().take_while(|(k, q)| q.name == format!("{b}[{k}]")).count(),
+            None => 1,
+        };
+        match base {
+            Some(b) if n > 1 => {
+                let defaults: Option<Vec<String>> = params[i..i + n].iter().map(|q| q.default.map(|d| d.to_string())).collect();
+                out.push(match defaults {
+                    Some(d) => format!("vector{n} {b} = ({})", d.join(", ")),
+                    None => format!("vector{n} {b}"),
+                });
+            }
+            _ => out.push(p.label()),
+        }
+        i += n.max(1);
+    }
+    out
 }
 
 /// The type of a number literal: `int` for digits alone, `float` with a point, an
@@ -136,7 +165,8 @@ pub fn type_of(e: &Expr, var: &dyn Fn(&str) -> Option<Ty>) -> Ty {
             "abs" | "min" | "max" | "mod" | "clamp" => args.iter().map(|a| type_of(a, var)).fold(Ty::Int, Ty::numeric),
             _ => Ty::Float,
         },
-        ExprKind::Error => Ty::Float,
+        // Rewritten into scalars before checking (`crate::vectors`).
+        ExprKind::Tuple(_) | ExprKind::Index(..) | ExprKind::Error => Ty::Float,
     }
 }
 

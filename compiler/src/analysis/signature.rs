@@ -43,10 +43,15 @@ impl Document {
         let toks = &self.index().tokens;
         let before: Vec<_> = toks.iter().filter(|t| t.span.end <= offset).collect();
         let mut depth = 0usize;
+        // Inside `v[…]` (an index) read backwards: `]` seen, its `[` not yet.
+        let mut index = 0usize;
         let mut commas = 0usize;
         let mut name = None;
         for (i, t) in before.iter().enumerate().rev() {
             match t.kind {
+                Tok::RBracket if depth == 0 && matches!(opener_of(&before, i), Some(Tok::IndexOpen)) => index += 1,
+                Tok::IndexOpen if index > 0 => index -= 1,
+                _ if index > 0 => {}
                 Tok::RParen => depth += 1,
                 Tok::LParen | Tok::CallOpen if depth > 0 => depth -= 1,
                 Tok::Comma if depth == 0 => commas += 1,
@@ -83,7 +88,7 @@ impl Document {
         });
         let (names, doc) = match full.as_ref().and_then(|f| sym.signatures.get(f).map(|s| (f, s))) {
             Some((f, sig)) => {
-                let names: Vec<String> = sig.params.iter().map(crate::types::SigParam::label).collect();
+                let names = crate::types::param_labels(&sig.params);
                 let defs = sym.rules.get(f).map(|d| d.len()).unwrap_or(0);
                 (names, format!("rule `{f}`, {defs} definition(s); arguments by position, defaults may be left out"))
             }
@@ -114,6 +119,20 @@ impl Document {
         let active = commas.min(params.len().saturating_sub(1));
         Some(SignatureHelp { label, params, active, doc })
     }
+}
+
+/// The kind of the `[` that the `]` at `before[i]` closes.
+fn opener_of(before: &[&crate::lexer::Token], i: usize) -> Option<Tok> {
+    let mut depth = 0usize;
+    for t in before[..i].iter().rev() {
+        match t.kind {
+            Tok::RBracket => depth += 1,
+            Tok::LBracket | Tok::IndexOpen if depth == 0 => return Some(t.kind),
+            Tok::LBracket | Tok::IndexOpen => depth -= 1,
+            _ => {}
+        }
+    }
+    None
 }
 
 #[cfg(test)]
