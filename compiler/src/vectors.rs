@@ -528,7 +528,13 @@ impl<'a> Scalarizer<'a> {
 
     fn count(&mut self, c: &Count, env: &mut Env) -> Count {
         match c {
-            Count::Expr(x) => Count::Expr(self.scalar(x, env, "a count")),
+            Count::Expr(x) => match self.scalar(x, env, "a count") {
+                // Reported; a count of 1 keeps the checker from reporting its type too.
+                c if failed(std::slice::from_ref(&c)) => {
+                    Count::Num(Number { value: 1.0, unit: None, text: "1".into(), span: x.span })
+                }
+                c => Count::Expr(c),
+            },
             c => c.clone(),
         }
     }
