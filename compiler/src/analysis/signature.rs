@@ -163,4 +163,18 @@ mod tests {
         assert_eq!(d.signature_help(at("VERTEX {x len}")), None);
         assert_eq!(d.signature_help(at("int n") + 3), None);
     }
+
+    /// A vector parameter is one parameter (`vector2 at = (0, 1)`), and a vector or
+    /// an index among the arguments does not shift the count.
+    #[test]
+    fn help_with_vector_parameters_and_arguments() {
+        let src = "rule A { let v = (1, 2); dot((1, v[1]), v[0], v) {} }\nrule dot(vector2 at, float r, vector2 size = (0, 1)) { CIRCLE [x at s size r] }";
+        let (d, _) = doc(src);
+        let at = |needle: &str| d.text().find(needle).expect("needle in the text") as u32;
+        let h = d.signature_help(at("v[0], v)") + 1).expect("in the call");
+        assert_eq!(h.label, "dot(vector2 at, float r, vector2 size = (0, 1))");
+        assert_eq!(h.active, 1);
+        assert_eq!(d.signature_help(at("v) {}")).expect("third").active, 2);
+        assert_eq!(d.signature_help(at("v[1])")).expect("first").active, 0);
+    }
 }
