@@ -623,3 +623,24 @@ pub fn parse_number(text: &str) -> (f64, Option<char>) {
         if matches!(last, 'd' | 'r' | 'o' | 't') { (&text[..text.len() - 1], Some(last)) } else { (text, None) };
     (digits.parse::<f64>().unwrap_or(0.0), unit)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn kinds(text: &str) -> Vec<Tok> {
+        lex(text, FileId(0)).tokens.iter().map(|t| t.kind).collect()
+    }
+
+    /// `v[0]` indexes; an adjustment list after a name stays a list, however it is
+    /// spaced (`CIRCLE[s 2]`, `CIRCLE[fx]`, `CIRCLE[]`, `loop … n[x -1]`).
+    #[test]
+    fn an_index_bracket_is_told_from_an_adjustment_list() {
+        for text in ["v[0]", "v[ 1 ]", "f(a)[1]", "(a, b)[0]", "v[i]", "v[i+1]", "v[i + 1]", "m[0][1]", "v[-0]", "v[.5]"] {
+            assert!(kinds(text).contains(&Tok::IndexOpen), "{text}: {:?}", kinds(text));
+        }
+        for text in ["CIRCLE[s 2]", "CIRCLE[fx]", "CIRCLE[]", "n[x -1]", "v [0]", "f(1)[b 1]", "CIRCLE [x 1]", "x[x 1 y 2]"] {
+            assert!(!kinds(text).contains(&Tok::IndexOpen), "{text}: {:?}", kinds(text));
+        }
+    }
+}

@@ -67,6 +67,12 @@ impl Document {
                 Tok::LParen => {
                     // `ns.tree (` or `tree (`: the word before the parenthesis.
                     let prev = i.checked_sub(1).map(|j| before[j])?;
+                    if matches!(prev.kind, Tok::CallOpen | Tok::Comma | Tok::LParen) {
+                        // Inside a vector or a grouping that is itself an argument:
+                        // the help is the call's, for the argument that holds it.
+                        commas = 0;
+                        continue;
+                    }
                     if !matches!(prev.kind, Tok::Ident | Tok::Dotted | Tok::KwIf) {
                         return None;
                     }

@@ -456,7 +456,7 @@ impl<'a> Emitter<'a> {
         let mdg = self.names.get(&sh.name);
         let want = self.params.get(name).map(|p| p.len()).unwrap_or(0);
         let mut argv: Vec<String> = match args {
-            Some(a) => self.regroup(&sh.params, a).iter().map(|e| self.expr(e)).collect(),
+            Some(a) => a.iter().map(|e| self.expr(e)).collect(),
             None if same => {
                 let ps = self.params.get(name).cloned().unwrap_or_default();
                 ps.iter().map(|p| self.expr(&Expr::Name(p.clone()))).collect()
@@ -638,6 +638,23 @@ impl<'a> Emitter<'a> {
     fn components(&self, args: &[Expr]) -> Vec<Expr> {
         let mut out = Vec::new();
         for a in args {
+            // A global vector's own components (`rand(range)` is `rand(10, 20)`).
+            let global = match a {
+                Expr::Name(n) if !self.scope.iter().any(|(s, _)| s == n) => {
+                    self.prog.globals.iter().rev().find(|(g, _)| g == n).map(|(_, e)| e)
+                }
+                _ => None,
+            };
+            if let Some(g @ Expr::Tuple(_)) = global {
+                out.extend(self.components(std::slice::from_ref(g)));
+                continue;
+            }
+            if let Expr::Call(f, xs) = a {
+                if let Some(e @ Expr::Tuple(_)) = self.vector_function(f, xs) {
+                    out.extend(self.components(std::slice::from_ref(&e)));
+                    continue;
+                }
+            }
             match (a, self.size_of(a, 0)) {
                 (Expr::Tuple(items), _) => out.extend(self.components(items)),
                 (_, 1) => out.push(a.clone()),
@@ -645,28 +662,6 @@ impl<'a> Emitter<'a> {
             }
         }
         out
-    }
-
-    /// A shape call's arguments grouped as its parameters take them: Context Free
-    /// reads the arguments as one list of numbers, so `circ2(-0.5, 1, 2)` passes
-    /// `(1, 2)` to a `vector2` second parameter.
-    fn regroup(&self, params: &[(String, String)], args: &[Expr]) -> Vec<Expr> {
-        let want: Vec<usize> = params.iter().map(|(t, _)| crate::vectors::vector_size(t).unwrap_or(1)).collect();
-        let got: Vec<usize> = args.iter().map(|a| self.size_of(a, 0)).collect();
-        if want == got || want.iter().sum::<usize>() != got.iter().sum::<usize>() {
-            return args.to_vec();
-        }
-        let mut flat = self.components(args).into_iter();
-        want.iter()
-            .map(|&n| {
-                let part: Vec<Expr> = flat.by_ref().take(n).collect();
-                if n == 1 {
-                    part.into_iter().next().unwrap_or(Expr::Num(0.0))
-                } else {
-                    Expr::Tuple(part)
-                }
-            })
-            .collect()
     }
 
     fn const_of(&self, e: &Expr) -> Option<f64> {
@@ -749,17 +744,9 @@ impl<'a> Emitter<'a> {
         if let Some(e) = self.vector_function(f, args) {
             return self.expr(&e);
         }
-        // Context Free reads arguments as one list of numbers: a vector gives a
-        // built-in its components (`rand(range)`), a user function's vector
-        // parameters take them grouped.
-        let args = match self.prog.function_types.get(f) {
-            Some(types) => {
-                let ps: Vec<(String, String)> = types.iter().map(|t| (t.clone(), String::new())).collect();
-                self.regroup(&ps, args)
-            }
-            None if self.prog.functions.iter().any(|(n, _, _, _)| n == f) => args.to_vec(),
-            None => self.components(args),
-        };
+        // A vector gives a built-in its components (`rand(range)` is `rand(10,
+        // 20)`); a user function takes its arguments as they are.
+        let args = if self.prog.functions.iter().any(|(n, _, _, _)| n == f) { args.to_vec() } else { self.components(args) };
         let args = args.as_slice();
         let a: Vec<String> = args.iter().map(|e| self.expr(e)).collect();
         let arg = |k: usize| a.get(k).cloned().unwrap_or_else(|| "0".into());
