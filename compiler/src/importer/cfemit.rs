@@ -706,6 +706,11 @@ impl<'a> Emitter<'a> {
             }
             Expr::Index(v, i) => {
                 let n = self.size_of(v, 0);
+                if n == 1 {
+                    // Not a vector here (a function the importer left out, say).
+                    self.rep.approx(line, "v[i]", "a component of a value that is not a vector here: the value is used");
+                    return self.expr(v);
+                }
                 let base = match &**v {
                     Expr::Name(_) => self.expr(v),
                     _ => format!("({})", self.expr(v)),

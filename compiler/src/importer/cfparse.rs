@@ -875,9 +875,12 @@ impl<'a> Parser<'a> {
     }
 
     fn primary(&mut self, arg: bool) -> Expr {
+        let start = self.i;
         let mut e = self.primary_inner(arg);
-        // `v[i]` (no space before `[`); `v[i, n]` (a part of a vector) is read as `v[i]`.
-        while self.is_p("[") && self.toks.get(self.i).is_some_and(|t| !t.space) && self.depth < MAX_NESTING {
+        // `v[i]` (no space before `[`) after a value read here (not an adjustment
+        // given as an argument, `f([s 2])`).
+        while self.i > start
+            && self.is_p("[") && self.toks.get(self.i).is_some_and(|t| !t.space) && self.depth < MAX_NESTING {
             let line = self.line();
             self.i += 1;
             let i = self.expr(false);
