@@ -425,7 +425,7 @@ pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
                 }
                 out.tokens.push(Token { kind: Tok::Number, span });
             }
-            Ok(Tok::LBracket) if index_bracket(text, r.start, out.tokens.last()) => {
+            Ok(Tok::LBracket) if index_bracket(text, r.start, span.start, out.tokens.last()) => {
                 out.tokens.push(Token { kind: Tok::IndexOpen, span })
             }
             Ok(kind) => out.tokens.push(Token { kind, span }),
@@ -578,9 +578,10 @@ fn colour_word(rest: &str, prev: Option<Tok>) -> Option<&str> {
 /// it follows a name, `)` or `]` with no space between, and what it holds starts
 /// with a digit, `(` or `-`, or is one name that is not an adjustment without
 /// arguments (`CIRCLE[fx]`), alone or followed by an operator.
-fn index_bracket(text: &str, at: usize, prev: Option<&Token>) -> bool {
+/// `at` is the `[`'s offset in `text`, `start` in the file (spans are the file's).
+fn index_bracket(text: &str, at: usize, start: u32, prev: Option<&Token>) -> bool {
     let Some(prev) = prev else { return false };
-    if !matches!(prev.kind, Tok::Ident | Tok::RParen | Tok::RBracket) || prev.span.end as usize != at {
+    if !matches!(prev.kind, Tok::Ident | Tok::RParen | Tok::RBracket) || prev.span.end != start {
         return false;
     }
     let inside = text[at + 1..].trim_start_matches([' ', '\t']);
@@ -642,5 +643,7 @@ mod tests {
         for text in ["CIRCLE[s 2]", "CIRCLE[fx]", "CIRCLE[]", "n[x -1]", "v [0]", "f(1)[b 1]", "CIRCLE [x 1]", "x[x 1 y 2]"] {
             assert!(!kinds(text).contains(&Tok::IndexOpen), "{text}: {:?}", kinds(text));
         }
+        // After a byte-order mark (spans count from the file's start).
+        assert!(kinds("\u{feff}v[0]").contains(&Tok::IndexOpen));
     }
 }
