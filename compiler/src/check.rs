@@ -586,7 +586,8 @@ impl<'a> Checker<'a> {
                             Some(f) => diag.with_suggestion(format!("write `{f}`"), d.ty.span, f.to_string()),
                             None => diag.with_label("not a type"),
                         };
-                        self.diags.push(diag.with_note("parameter types: int, float, bool, and vectors vector2 … vector99"));
+                        self.diags
+                            .push(diag.with_note("parameter types: int, float, bool, and vectors vector2 … vector99"));
                         Ty::Float
                     }
                 };

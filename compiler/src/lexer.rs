@@ -637,10 +637,14 @@ mod tests {
     /// spaced (`CIRCLE[s 2]`, `CIRCLE[fx]`, `CIRCLE[]`, `loop … n[x -1]`).
     #[test]
     fn an_index_bracket_is_told_from_an_adjustment_list() {
-        for text in ["v[0]", "v[ 1 ]", "f(a)[1]", "(a, b)[0]", "v[i]", "v[i+1]", "v[i + 1]", "m[0][1]", "v[-0]", "v[.5]"] {
+        for text in
+            ["v[0]", "v[ 1 ]", "f(a)[1]", "(a, b)[0]", "v[i]", "v[i+1]", "v[i + 1]", "m[0][1]", "v[-0]", "v[.5]"]
+        {
             assert!(kinds(text).contains(&Tok::IndexOpen), "{text}: {:?}", kinds(text));
         }
-        for text in ["CIRCLE[s 2]", "CIRCLE[fx]", "CIRCLE[]", "n[x -1]", "v [0]", "f(1)[b 1]", "CIRCLE [x 1]", "x[x 1 y 2]"] {
+        for text in
+            ["CIRCLE[s 2]", "CIRCLE[fx]", "CIRCLE[]", "n[x -1]", "v [0]", "f(1)[b 1]", "CIRCLE [x 1]", "x[x 1 y 2]"]
+        {
             assert!(!kinds(text).contains(&Tok::IndexOpen), "{text}: {:?}", kinds(text));
         }
         // After a byte-order mark (spans count from the file's start).

@@ -109,6 +109,21 @@ impl Signature {
 /// 2)`); others as [`SigParam::label`] (a vector is a group of scalars after
 /// `crate::vectors`).
 pub fn param_labels(params: &[SigParam]) -> Vec<String> {
+    param_groups(params).into_iter().map(|g| g.label).collect()
+}
+
+/// A parameter as written: a number parameter, or the components of a vector one.
+pub struct ParamGroup {
+    /// `len`, or `at` for the components `at[0]`, `at[1]`.
+    pub name: String,
+    /// `float`, `vector2`.
+    pub ty: String,
+    /// `float len = 1`, `vector2 at = (0, 1)`.
+    pub label: String,
+}
+
+/// The parameters as written (see [`param_labels`]).
+pub fn param_groups(params: &[SigParam]) -> Vec<ParamGroup> {
     let mut out = Vec::new();
     let mut i = 0;
     while i < params.len() {
@@ -120,13 +135,16 @@ pub fn param_labels(params: &[SigParam]) -> Vec<String> {
         };
         match base {
             Some(b) if n > 1 => {
-                let defaults: Option<Vec<String>> = params[i..i + n].iter().map(|q| q.default.map(|d| d.to_string())).collect();
-                out.push(match defaults {
-                    Some(d) => format!("vector{n} {b} = ({})", d.join(", ")),
-                    None => format!("vector{n} {b}"),
-                });
+                let defaults: Option<Vec<String>> =
+                    params[i..i + n].iter().map(|q| q.default.map(|d| d.to_string())).collect();
+                let ty = format!("vector{n}");
+                let label = match defaults {
+                    Some(d) => format!("{ty} {b} = ({})", d.join(", ")),
+                    None => format!("{ty} {b}"),
+                };
+                out.push(ParamGroup { name: b.to_string(), ty, label });
             }
-            _ => out.push(p.label()),
+            _ => out.push(ParamGroup { name: p.name.clone(), ty: p.ty.name().to_string(), label: p.label() }),
         }
         i += n.max(1);
     }

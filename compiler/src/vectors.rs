@@ -42,7 +42,11 @@ pub fn scalarize(ex: &Expanded) -> Option<(Expanded, Vec<Diagnostic>)> {
         return None;
     }
     let mut s = Scalarizer::new(ex);
-    let items = ex.items.iter().map(|i| ExpItem { item: s.item(&i.item, i.namespace.as_deref()), namespace: i.namespace.clone() }).collect();
+    let items = ex
+        .items
+        .iter()
+        .map(|i| ExpItem { item: s.item(&i.item, i.namespace.as_deref()), namespace: i.namespace.clone() })
+        .collect();
     s.unread_params();
     let out = Expanded {
         items,
@@ -269,7 +273,8 @@ impl<'a> Scalarizer<'a> {
     /// Whether function `i`'s body is a vector (without reporting anything).
     fn returns_vector(&self, i: usize) -> bool {
         let f = &self.fns[i];
-        let sizes: HashMap<&str, usize> = f.params.iter().map(|p| p.text.as_str()).zip(f.sizes.iter().copied()).collect();
+        let sizes: HashMap<&str, usize> =
+            f.params.iter().map(|p| p.text.as_str()).zip(f.sizes.iter().copied()).collect();
         self.size_of(f.body, &sizes, &mut vec![i]) > 1
     }
 
@@ -318,7 +323,10 @@ impl<'a> Scalarizer<'a> {
             ItemKind::Function { name, params, types, body } => self.function(name, params, types, body),
             ItemKind::Namespace { name, items } => {
                 let full = qualify(ns, &name.text);
-                ItemKind::Namespace { name: name.clone(), items: items.iter().map(|i| self.item(i, Some(&full))).collect() }
+                ItemKind::Namespace {
+                    name: name.clone(),
+                    items: items.iter().map(|i| self.item(i, Some(&full))).collect(),
+                }
             }
             k => k.clone(),
         };
@@ -329,7 +337,8 @@ impl<'a> Scalarizer<'a> {
     /// (inlined at every call) kept with its parameters spread and its components as
     /// the choices of a `select`, so the checker still reads every part of its body.
     fn function(&mut self, name: &Name, params: &[Name], types: &[Option<Name>], body: &Expr) -> ItemKind {
-        let sizes: Vec<usize> = types.iter().map(|t| t.as_ref().map_or(Some(1), |t| self.param_type(t))).map(|n| n.unwrap_or(1)).collect();
+        let sizes: Vec<usize> =
+            types.iter().map(|t| t.as_ref().map_or(Some(1), |t| self.param_type(t))).map(|n| n.unwrap_or(1)).collect();
         let mut env = Env::new();
         let mut flat = Vec::new();
         for (p, &n) in params.iter().zip(&sizes) {
@@ -351,7 +360,8 @@ impl<'a> Scalarizer<'a> {
         let body = if comps.len() == 1 {
             comps.remove(0)
         } else {
-            let zero = e(ExprKind::Num(Number { value: 0.0, unit: None, text: "0".into(), span: body.span }), body.span);
+            let zero =
+                e(ExprKind::Num(Number { value: 0.0, unit: None, text: "0".into(), span: body.span }), body.span);
             let mut args = vec![zero];
             args.extend(comps);
             e(ExprKind::Call(Name { text: "select".into(), span: name.span }, args), body.span)
@@ -363,17 +373,19 @@ impl<'a> Scalarizer<'a> {
     fn param_type(&mut self, t: &Name) -> Option<usize> {
         match t.text.as_str() {
             "float" | "int" | "bool" | "number" => Some(1),
-            w => match vector_size(w) {
-                Some(n) => Some(n),
-                None => {
-                    self.diags.push(
+            w => {
+                match vector_size(w) {
+                    Some(n) => Some(n),
+                    None => {
+                        self.diags.push(
                         Diagnostic::error("E0325", t.span, format!("unknown parameter type `{w}`"))
                             .with_label("not a type")
                             .with_note("a function's parameters are numbers, or vectors: `vector2`, `vector3`, … `vector99`"),
                     );
-                    None
+                        None
+                    }
                 }
-            },
+            }
         }
     }
 
@@ -397,7 +409,10 @@ impl<'a> Scalarizer<'a> {
                                 span: d.span,
                             });
                         }
-                        env.push((d.name.text.clone(), (0..n).map(|k| component(&d.name.text, k, d.name.span)).collect()));
+                        env.push((
+                            d.name.text.clone(),
+                            (0..n).map(|k| component(&d.name.text, k, d.name.span)).collect(),
+                        ));
                         self.vector_params.push((full.clone(), d.name.text.clone(), d.name.span));
                     }
                     None => {
@@ -467,7 +482,8 @@ impl<'a> Scalarizer<'a> {
     fn body_item(&mut self, item: &BodyItem, env: &mut Env, ns: Option<&str>, out: &mut Vec<BodyItem>) {
         let kind = match &item.kind {
             BodyKind::Call { name, args, profile, adj } => {
-                let args = args.as_ref().map(|c| CallArgs { args: self.call_args(name, &c.args, env, ns), span: c.span });
+                let args =
+                    args.as_ref().map(|c| CallArgs { args: self.call_args(name, &c.args, env, ns), span: c.span });
                 BodyKind::Call { name: name.clone(), args, profile: profile.clone(), adj: self.adj(adj, env) }
             }
             BodyKind::If { cond, then, then_span, otherwise } => {
@@ -487,7 +503,10 @@ impl<'a> Scalarizer<'a> {
                 if comps.len() > 1 {
                     let n = comps.len();
                     for (k, c) in comps.into_iter().enumerate() {
-                        let kind = BodyKind::Let { name: Name { text: format!("{}[{k}]", name.text), span: name.span }, value: c };
+                        let kind = BodyKind::Let {
+                            name: Name { text: format!("{}[{k}]", name.text), span: name.span },
+                            value: c,
+                        };
                         out.push(BodyItem { kind, cont: false, span: item.span });
                     }
                     env.push((name.text.clone(), (0..n).map(|k| component(&name.text, k, name.span)).collect()));
@@ -560,7 +579,10 @@ impl<'a> Scalarizer<'a> {
 
     /// A rule call's arguments: each one the size of its parameter (E0333), spread.
     fn call_args(&mut self, name: &Name, args: &[Expr], env: &mut Env, ns: Option<&str>) -> Vec<Expr> {
-        let sizes = ns.and_then(|ns| self.rules.get(&qualify(Some(ns), &name.text))).or_else(|| self.rules.get(&name.text)).cloned();
+        let sizes = ns
+            .and_then(|ns| self.rules.get(&qualify(Some(ns), &name.text)))
+            .or_else(|| self.rules.get(&name.text))
+            .cloned();
         let mut out = Vec::new();
         for (i, a) in args.iter().enumerate() {
             let c = self.comps(a, env);
@@ -591,12 +613,19 @@ impl<'a> Scalarizer<'a> {
             self.diags.push(
                 Diagnostic::error("E0333", span, format!("{what} must be {}, not a number", size_name(n)))
                     .with_label(format!("{} expected", size_name(n)))
-                    .with_note(format!("write the {n} components in parentheses: `({})`", (0..n).map(|k| format!("a{k}")).collect::<Vec<_>>().join(", "))),
+                    .with_note(format!(
+                        "write the {n} components in parentheses: `({})`",
+                        (0..n).map(|k| format!("a{k}")).collect::<Vec<_>>().join(", ")
+                    )),
             );
         } else {
             self.diags.push(
-                Diagnostic::error("E0333", span, format!("{what} must be {}, not {}", size_name(n), size_name(c.len())))
-                    .with_label(format!("{} components, {n} expected", c.len())),
+                Diagnostic::error(
+                    "E0333",
+                    span,
+                    format!("{what} must be {}, not {}", size_name(n), size_name(c.len())),
+                )
+                .with_label(format!("{} components, {n} expected", c.len())),
             );
         }
         (0..n).map(|_| e(ExprKind::Error, span)).collect()
@@ -633,7 +662,9 @@ impl<'a> Scalarizer<'a> {
                 }
             }
             ExprKind::Tuple(xs) => xs.iter().flat_map(|x| self.comps(x, env)).collect(),
-            ExprKind::Neg(inner) => self.comps(inner, env).into_iter().map(|c| e(ExprKind::Neg(Box::new(c)), span)).collect(),
+            ExprKind::Neg(inner) => {
+                self.comps(inner, env).into_iter().map(|c| e(ExprKind::Neg(Box::new(c)), span)).collect()
+            }
             ExprKind::Not(inner) => {
                 let c = self.scalar(inner, env, "the operand of `!`");
                 vec![e(ExprKind::Not(Box::new(c)), span)]
@@ -659,7 +690,10 @@ impl<'a> Scalarizer<'a> {
                         n.text.clone()
                     };
                     if c.len() == 1 {
-                        out.push((Name { text: base.clone(), span: n.span }, c.into_iter().next().unwrap_or_else(|| v.clone())));
+                        out.push((
+                            Name { text: base.clone(), span: n.span },
+                            c.into_iter().next().unwrap_or_else(|| v.clone()),
+                        ));
                         env.push((n.text.clone(), vec![e(ExprKind::Var(Name { text: base, span: n.span }), n.span)]));
                     } else {
                         let k = c.len();
@@ -690,10 +724,9 @@ impl<'a> Scalarizer<'a> {
         }
         if !matches!(op, BinOp::Add | BinOp::Sub | BinOp::Mul | BinOp::Div) {
             let (bad, n) = if ca.len() > 1 { (a.span, ca.len()) } else { (b.span, cb.len()) };
-            self.diags.push(
-                vector_for_number(bad, n, &format!("an operand of `{}`", op.symbol()))
-                    .with_note("vectors take `+ - * /` (componentwise, or with a number); compare their components: `v[0] < w[0]`"),
-            );
+            self.diags.push(vector_for_number(bad, n, &format!("an operand of `{}`", op.symbol())).with_note(
+                "vectors take `+ - * /` (componentwise, or with a number); compare their components: `v[0] < w[0]`",
+            ));
             return vec![e(ExprKind::Error, span)];
         }
         // Context Free's rules: `+ -` of two vectors of one size, `* /` also of a
@@ -710,9 +743,13 @@ impl<'a> Scalarizer<'a> {
                     "`+` and `-` take two vectors of the same size (as in Context Free); to add a number to each component, write it as a vector: `v + (1, 1)`"
                 };
                 self.diags.push(
-                    Diagnostic::error("E0333", span, format!("`{}` of {} and {}", op.symbol(), size_name(n), size_name(m)))
-                        .with_label(format!("{n} and {m} components"))
-                        .with_note(note),
+                    Diagnostic::error(
+                        "E0333",
+                        span,
+                        format!("`{}` of {} and {}", op.symbol(), size_name(n), size_name(m)),
+                    )
+                    .with_label(format!("{n} and {m} components"))
+                    .with_note(note),
                 );
                 vec![e(ExprKind::Error, span)]
             }
@@ -763,7 +800,8 @@ impl<'a> Scalarizer<'a> {
         if f.text == "if" || f.text == "select" {
             let mut args = args.iter();
             let Some(first) = args.next() else { return vec![e(ExprKind::Call(f.clone(), Vec::new()), span)] };
-            let sel = self.scalar(first, env, if f.text == "if" { "the condition of `if`" } else { "the index of `select`" });
+            let sel =
+                self.scalar(first, env, if f.text == "if" { "the condition of `if`" } else { "the index of `select`" });
             let branches: Vec<(Span, Vec<Expr>)> = args.map(|a| (a.span, self.comps(a, env))).collect();
             let n = branches.iter().map(|(_, c)| c.len()).max().unwrap_or(1);
             let mut cols: Vec<Vec<Expr>> = vec![vec![sel]; n];
@@ -800,7 +838,8 @@ impl<'a> Scalarizer<'a> {
                     .with_note("a function with vectors is written out at each call, so it cannot be recursive; recursive functions take and return numbers"),
             );
             let g = &self.fns[i];
-            let sizes: HashMap<&str, usize> = g.params.iter().map(|p| p.text.as_str()).zip(g.sizes.iter().copied()).collect();
+            let sizes: HashMap<&str, usize> =
+                g.params.iter().map(|p| p.text.as_str()).zip(g.sizes.iter().copied()).collect();
             let n = self.size_of(g.body, &sizes, &mut vec![i]);
             return (0..n).map(|_| e(ExprKind::Error, span)).collect();
         }

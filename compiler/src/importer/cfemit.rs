@@ -708,7 +708,11 @@ impl<'a> Emitter<'a> {
                 let n = self.size_of(v, 0);
                 if n == 1 {
                     // Not a vector here (a function the importer left out, say).
-                    self.rep.approx(line, "v[i]", "a component of a value that is not a vector here: the value is used");
+                    self.rep.approx(
+                        line,
+                        "v[i]",
+                        "a component of a value that is not a vector here: the value is used",
+                    );
                     return self.expr(v);
                 }
                 let base = match &**v {
@@ -751,7 +755,8 @@ impl<'a> Emitter<'a> {
         }
         // A vector gives a built-in its components (`rand(range)` is `rand(10,
         // 20)`); a user function takes its arguments as they are.
-        let args = if self.prog.functions.iter().any(|(n, _, _, _)| n == f) { args.to_vec() } else { self.components(args) };
+        let args =
+            if self.prog.functions.iter().any(|(n, _, _, _)| n == f) { args.to_vec() } else { self.components(args) };
         let args = args.as_slice();
         let a: Vec<String> = args.iter().map(|e| self.expr(e)).collect();
         let arg = |k: usize| a.get(k).cloned().unwrap_or_else(|| "0".into());

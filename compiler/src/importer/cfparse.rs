@@ -880,7 +880,10 @@ impl<'a> Parser<'a> {
         // `v[i]` (no space before `[`) after a value read here (not an adjustment
         // given as an argument, `f([s 2])`).
         while self.i > start
-            && self.is_p("[") && self.toks.get(self.i).is_some_and(|t| !t.space) && self.depth < MAX_NESTING {
+            && self.is_p("[")
+            && self.toks.get(self.i).is_some_and(|t| !t.space)
+            && self.depth < MAX_NESTING
+        {
             let line = self.line();
             self.i += 1;
             let i = self.expr(false);
@@ -900,7 +903,9 @@ impl<'a> Parser<'a> {
             e = match part {
                 _ if more.is_empty() => Expr::Index(Box::new(e), Box::new(i)),
                 Some(ks) if ks.len() == 1 => Expr::Index(Box::new(e), Box::new(Expr::Num(ks[0]))),
-                Some(ks) => Expr::Tuple(ks.into_iter().map(|k| Expr::Index(Box::new(e.clone()), Box::new(Expr::Num(k)))).collect()),
+                Some(ks) => Expr::Tuple(
+                    ks.into_iter().map(|k| Expr::Index(Box::new(e.clone()), Box::new(Expr::Num(k)))).collect(),
+                ),
                 None => {
                     self.rep.approx(line, "v[i, n]", "a part of a vector at an index known only at run time has no MDG form: the component `v[i]` is used");
                     Expr::Index(Box::new(e), Box::new(i))
