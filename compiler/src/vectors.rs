@@ -285,7 +285,7 @@ impl<'a> Scalarizer<'a> {
             ExprKind::Tuple(xs) => xs.iter().map(|x| self.size_of(x, sizes, stack)).sum(),
             ExprKind::Var(v) => sizes.get(v.text.as_str()).copied().unwrap_or(1),
             ExprKind::Paren(x) | ExprKind::Neg(x) => self.size_of(x, sizes, stack),
-            ExprKind::Binary(op, a, b) if matches!(op, BinOp::Add | BinOp::Sub | BinOp::Mul | BinOp::Div) => {
+            ExprKind::Binary(BinOp::Add | BinOp::Sub | BinOp::Mul | BinOp::Div, a, b) => {
                 self.size_of(a, sizes, stack).max(self.size_of(b, sizes, stack))
             }
             ExprKind::Call(f, xs) if f.text == "if" || f.text == "select" => {

@@ -894,7 +894,7 @@ impl<'a> Parser<'a> {
             self.eat_p("]");
             // `v[i, n]`, `v[i, n, stride]`: n components from i, `stride` apart.
             let part = match (const_value(&i), more.first().and_then(const_value), more.get(1).map(const_value)) {
-                (Some(i), Some(n), None | Some(Some(_))) if more.len() <= 2 && n >= 1.0 && n <= 99.0 => {
+                (Some(i), Some(n), None | Some(Some(_))) if more.len() <= 2 && (1.0..=99.0).contains(&n) => {
                     let stride = more.get(1).and_then(const_value).unwrap_or(1.0);
                     Some((0..n as usize).map(|k| i + k as f64 * stride).collect::<Vec<f64>>())
                 }
