@@ -457,6 +457,8 @@ mod tests {
     fn a_vector_parameter_shows_its_type() {
         let h = hover("rule circ(vector2 size) { CIRCLE [s s$0ize] }");
         assert!(h.starts_with("**parameter `size`**: `vector2`"), "{h}");
+        let h = hover("rule circ(vec$0tor2 size) { CIRCLE [s size] }");
+        assert!(h.contains("A vector parameter"), "{h}");
     }
 
     #[test]
