@@ -661,7 +661,22 @@ impl<'a> Scalarizer<'a> {
                     c
                 }
             }
-            ExprKind::Tuple(xs) => xs.iter().flat_map(|x| self.comps(x, env)).collect(),
+            ExprKind::Tuple(xs) => {
+                let mut c = Vec::new();
+                for x in xs {
+                    c.extend(self.comps(x, env));
+                    if c.len() > MAX_SIZE {
+                        // Vectors inside vectors could double a size at each step.
+                        self.diags.push(
+                            Diagnostic::error("E0333", span, format!("a vector of more than {MAX_SIZE} components"))
+                                .with_label("too large")
+                                .with_note(format!("vectors have 2 to {MAX_SIZE} components, as in Context Free")),
+                        );
+                        return vec![e(ExprKind::Error, span)];
+                    }
+                }
+                c
+            }
             ExprKind::Neg(inner) => {
                 self.comps(inner, env).into_iter().map(|c| e(ExprKind::Neg(Box::new(c)), span)).collect()
             }
