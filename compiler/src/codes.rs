@@ -1106,6 +1106,21 @@ Fix: Write the recursion over numbers, one function per component: `function wal
         ),
     },
     Code {
+        code: "E0336",
+        severity: Error,
+        title: "a call of a function with vectors that writes out too large",
+        explanation: r#"A function that takes or returns a vector is written out at each call, each parameter replaced by the argument wherever the body reads it. Calls nested in each other's arguments therefore grow as a power of their depth: a body that reads its argument three times, nested twenty deep, would repeat the innermost argument 3^20 times. Past 200,000 operations for one call, the call is refused.
+
+In the example: `sq` reads each component twice, nested 18 deep.
+
+Fix: Bind a nested call's value first, so it is computed once: `let v = sq(sq(p));` in a rule body, or `let(v = sq(sq(p)); sq(sq(v)))`."#,
+        example: Library(
+            r#"function sq(vector2 a) { (a[0] * a[0], a[1] * a[1]) }
+function deep(vector2 p) { sq(sq(sq(sq(sq(sq(sq(sq(sq(sq(sq(sq(sq(sq(sq(sq(sq(sq(p)))))))))))))))))) }
+"#,
+        ),
+    },
+    Code {
         code: "E0401",
         severity: Error,
         title: "wrong number of arguments",

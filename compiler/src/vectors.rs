@@ -28,6 +28,10 @@ use std::sync::Arc;
 /// The largest vector (Context Free's limit).
 pub const MAX_SIZE: usize = 99;
 
+/// The most operations one written-out call of a function with vectors may give
+/// (E0336): nested calls repeat their arguments, so they can grow exponentially.
+pub const MAX_WRITTEN_OUT: usize = 200_000;
+
 /// The number of components a type word names: `vector2` … `vector99`.
 pub fn vector_size(word: &str) -> Option<usize> {
     let digits = word.strip_prefix("vector")?;
@@ -884,6 +888,21 @@ impl<'a> Scalarizer<'a> {
         self.inlining.push(i);
         let out = self.comps(body, &mut inner);
         self.inlining.pop();
+        // Each written-out call repeats its arguments where the body reads them, so
+        // calls nested in each other's arguments grow as a power of their depth.
+        let size: usize = out.iter().map(nodes).sum();
+        if size > MAX_WRITTEN_OUT && !failed(&out) {
+            self.diags.push(
+                Diagnostic::error(
+                    "E0336",
+                    span,
+                    format!("this call of `{}` writes out to more than {MAX_WRITTEN_OUT} operations", f.text),
+                )
+                .with_label(format!("{size} operations"))
+                .with_note("a function with vectors is written out at each call, its arguments repeated where it reads them; bind a nested call's value with `let` first"),
+            );
+            return (0..out.len()).map(|_| e(ExprKind::Error, span)).collect();
+        }
         // Spans of the body's parts point at the function; the call's value is here.
         out.into_iter().map(|c| e(ExprKind::Paren(Box::new(c)), span)).collect()
     }
@@ -894,6 +913,17 @@ fn vector_for_number(span: Span, n: usize, what: &str) -> Diagnostic {
     Diagnostic::error("E0332", span, format!("{what} must be a number, not {}", size_name(n)))
         .with_label(format!("a vector of {n} components"))
         .with_note("take one component with `v[0]`")
+}
+
+/// The number of nodes of an expression.
+fn nodes(x: &Expr) -> usize {
+    1 + match &x.kind {
+        ExprKind::Num(_) | ExprKind::Var(_) | ExprKind::Error => 0,
+        ExprKind::Neg(a) | ExprKind::Not(a) | ExprKind::Paren(a) => nodes(a),
+        ExprKind::Binary(_, a, b) | ExprKind::Index(a, b) => nodes(a) + nodes(b),
+        ExprKind::Call(_, xs) | ExprKind::Tuple(xs) => xs.iter().map(nodes).sum(),
+        ExprKind::Let(bs, body) => bs.iter().map(|(_, v)| nodes(v)).sum::<usize>() + nodes(body),
+    }
 }
 
 /// Whether a value is an error already reported (every component `Error`).
