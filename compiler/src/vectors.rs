@@ -653,7 +653,7 @@ impl<'a> Scalarizer<'a> {
                     if let Some(first) = c.first() {
                         self.read.insert(key(first.span));
                     }
-                    c.iter().map(|c| Expr { span, ..c.clone() }).map(|c| keep_span(c, span)).collect()
+                    c.iter().map(|c| keep_span(c.clone(), span)).collect()
                 }
                 None => vec![x.clone()],
             },
