@@ -9,7 +9,8 @@
 //! packages are not installed (`.ci/run` installs them).
 //!
 //! `IMPORT_TABLE=FILE` writes the comparison as a Markdown table (the one in
-//! docs/from-context-free.md).
+//! docs/from-context-free.md); `IMPORT_ONLY=a,b` runs only the programs whose path
+//! contains one of the words (rows to regenerate after a change that touches few).
 
 use mdg_compiler::importer::{self, Dialect, Imported};
 use std::path::{Path, PathBuf};
@@ -289,6 +290,10 @@ struct Row {
 fn context_free_examples_import_compile_run_and_match_cfdg() {
     let mut list = Vec::new();
     files(Path::new(CF_DIR), "cfdg", &mut list);
+    if let Some(only) = std::env::var_os("IMPORT_ONLY") {
+        let words: Vec<String> = only.to_string_lossy().split(',').map(str::to_string).collect();
+        list.retain(|f| words.iter().any(|w| f.to_string_lossy().contains(w.as_str())));
+    }
     let have_cfdg = Command::new("cfdg").arg("--version").output().is_ok();
     if list.is_empty() || !have_cfdg {
         eprintln!("SKIPPED: Context Free's examples ({CF_DIR}) or `cfdg` are not installed (apt-get install contextfree; .ci/run does)");

@@ -67,6 +67,10 @@ pub enum ItemKind {
     Function {
         name: Name,
         params: Vec<Name>,
+        /// The type word written before each parameter (`function f(vector2 c, n)`:
+        /// `vector2`, none), index-aligned with `params`; a parameter without one is
+        /// a number.
+        types: Vec<Option<Name>>,
         body: Expr,
     },
     Isosurface {
@@ -503,6 +507,13 @@ pub enum ExprKind {
     Paren(Box<Expr>),
     /// `!e`: 1 when `e` is 0, else 0.
     Not(Box<Expr>),
+    /// `(a, b)`, `(a, b, c)`: a vector (Context Free's), a group of scalars known to
+    /// the checker; a vector inside one is spread (`(v, 1)` has three components).
+    /// Never a value at run time: [`crate::vectors`] turns every vector into its
+    /// components before checking and lowering.
+    Tuple(Vec<Expr>),
+    /// `v[i]`: component `i` (a constant) of the vector `v`.
+    Index(Box<Expr>, Box<Expr>),
     Error,
 }
 

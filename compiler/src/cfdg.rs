@@ -57,7 +57,7 @@ pub fn rewrite(tokens: Vec<Token>, sources: &Sources) -> (Vec<Token>, Vec<Diagno
         let (family, open) = match t.kind {
             Tok::LBrace => (0, true),
             Tok::RBrace => (0, false),
-            Tok::LBracket => (1, true),
+            Tok::LBracket | Tok::IndexOpen => (1, true),
             Tok::RBracket => (1, false),
             Tok::LParen | Tok::CallOpen => (2, true),
             Tok::RParen => (2, false),
@@ -657,7 +657,7 @@ impl Rewriter<'_> {
                 }
             }
             match k {
-                Tok::LBrace | Tok::LBracket | Tok::LParen | Tok::CallOpen => depth += 1,
+                Tok::LBrace | Tok::LBracket | Tok::IndexOpen | Tok::LParen | Tok::CallOpen => depth += 1,
                 Tok::RBrace | Tok::RBracket | Tok::RParen => depth = depth.saturating_sub(1),
                 _ => {}
             }

@@ -70,10 +70,17 @@ pub struct Checked {
 
 /// Checks an expanded program.
 pub fn check(ex: &Expanded, opts: CheckOptions) -> Checked {
+    // Vectors are groups of scalars: the program without them is what is checked
+    // (and lowered), the vector errors found on the way first.
+    let scalar = crate::vectors::scalarize(ex);
+    let (ex, vector_diags) = match &scalar {
+        Some((s, d)) => (s, d.clone()),
+        None => (ex, Vec::new()),
+    };
     let mut c = Checker {
         ex,
         sym: Symbols::default(),
-        diags: Vec::new(),
+        diags: vector_diags,
         call_graph: HashMap::new(),
         must_graph: HashMap::new(),
         scope: None,
@@ -439,7 +446,7 @@ impl<'a> Checker<'a> {
                     }
                 }
                 ItemKind::Directive { name, args } => self.directive(name, args, namespace, &mut seen_directives),
-                ItemKind::Function { name, body, params } => {
+                ItemKind::Function { name, body, params, .. } => {
                     let builtin = FUNCTIONS.iter().map(|(n, _)| *n).chain(SPECIAL_FORMS.iter().map(|(n, _)| *n));
                     if let Some(b) = builtin.into_iter().find(|b| *b == name.text) {
                         self.diags.push(
@@ -579,7 +586,8 @@ impl<'a> Checker<'a> {
                             Some(f) => diag.with_suggestion(format!("write `{f}`"), d.ty.span, f.to_string()),
                             None => diag.with_label("not a type"),
                         };
-                        self.diags.push(diag.with_note("parameter types: int, float, bool"));
+                        self.diags
+                            .push(diag.with_note("parameter types: int, float, bool, and vectors vector2 … vector99"));
                         Ty::Float
                     }
                 };
@@ -681,7 +689,10 @@ impl<'a> Checker<'a> {
                 }
                 (Some(i), Some(rule)) => self.unread_params.push((rule.clone(), i, l.span, l.name)),
                 (Some(_), None) => {}
-                (None, _) if !l.used && !l.name.starts_with('_') => self.diags.push(unused(&l, "local")),
+                // A vector's components (`v[1]`): `crate::vectors` reports the vector.
+                (None, _) if !l.used && !l.name.starts_with('_') && !l.name.contains('[') => {
+                    self.diags.push(unused(&l, "local"))
+                }
                 (None, _) => {}
             }
         }
@@ -695,7 +706,7 @@ impl<'a> Checker<'a> {
             if self.param_reads.contains(&(rule.clone(), i)) || !seen.insert((rule.clone(), i)) {
                 continue;
             }
-            if !name.starts_with('_') {
+            if !name.starts_with('_') && !name.contains('[') {
                 let l = Local { name, ty: Ty::Float, span, used: false, param: Some(i) };
                 self.diags.push(unused(&l, "parameter"));
             }
@@ -1455,6 +1466,16 @@ impl<'a> Checker<'a> {
     fn expr(&mut self, e: &Expr, function_vars: bool, random: bool) {
         match &e.kind {
             ExprKind::Num(_) | ExprKind::Error => {}
+            // Not in a checked program: `crate::vectors` rewrote them into scalars.
+            ExprKind::Tuple(xs) => {
+                for x in xs {
+                    self.expr(x, function_vars, random);
+                }
+            }
+            ExprKind::Index(v, i) => {
+                self.expr(v, function_vars, random);
+                self.expr(i, function_vars, random);
+            }
             ExprKind::Var(v) => {
                 if self.lets.contains(&v.text) {
                     return;

@@ -1042,6 +1042,84 @@ Fix: Choose a case that returns without the call: `if(n <= 0, 0, 1 + count(n - 1
         ),
     },
     Code {
+        code: "E0332",
+        severity: Error,
+        title: "a vector where a number is expected",
+        explanation: r#"A vector (`(a, b)`, a `vector2` parameter, a function that returns one) stands where a single number is needed: a condition, a count, a comparison, an argument of a math function, a number parameter.
+
+Vectors are Context Free's: groups of numbers known while compiling (reference §6, "Vectors"). They may be added and subtracted (same size), multiplied and divided (componentwise, or by a number), indexed with a constant (`v[0]`), passed to `vector2` parameters and spread into adjustments (`x v` is `x v[0] v[1]`); anything else takes one component.
+
+In the example: `sin` takes one number.
+
+Fix: Take the component meant: `sin(v[0])`."#,
+        example: Library(
+            r#"function f(vector2 v) { sin(v) }
+"#,
+        ),
+    },
+    Code {
+        code: "E0333",
+        severity: Error,
+        title: "a vector of the wrong size",
+        explanation: r#"A `vector2` (or `vector3`, …) is expected and the value has another number of components, or is a single number; or `+`/`-` join vectors of different sizes, or a vector and a number.
+
+As in Context Free, `+` and `-` take two vectors of one size, and `*` and `/` take two vectors of one size or a vector and a number; an argument passed to a `vectorN` parameter has N components.
+
+In the example: `circ` takes a `vector2`, and `1` is one number.
+
+Fix: Write the components: `circ((1, 1))`; add a vector: `v + (1, 1)`."#,
+        example: Library(
+            r#"rule circ(vector2 size) { CIRCLE [s size] }
+rule A { circ(1) [] }
+"#,
+        ),
+    },
+    Code {
+        code: "E0334",
+        severity: Error,
+        title: "a vector index that is not a constant, or out of range",
+        explanation: r#"`v[i]` takes component i of a vector, counted from 0. The index must be known while compiling (a number, or arithmetic on numbers), since vectors exist only then, and must be less than the vector's size. Only a vector can be indexed.
+
+In the example: `v` has two components, 0 and 1.
+
+Fix: Use an index in range; to choose a component at run time, write `select(i, v[0], v[1])`."#,
+        example: Library(
+            r#"function f(vector2 v) { v[2] }
+"#,
+        ),
+    },
+    Code {
+        code: "E0335",
+        severity: Error,
+        title: "a function with vectors that calls itself",
+        explanation: r#"A function that takes or returns a vector is written out at each of its calls (its vectors are groups of numbers known while compiling), so it cannot call itself, directly or through others.
+
+Recursive functions are compiled once and called at run time, and take and return numbers.
+
+In the example: `walk` returns a `vector2` and calls itself.
+
+Fix: Write the recursion over numbers, one function per component: `function walk_x(n) { if(n <= 0, 0, 1 + walk_x(n - 1)) }`."#,
+        example: Library(
+            r#"function walk(n) { if(n <= 0, (0, 0), walk(n - 1) + (1, 1)) }
+"#,
+        ),
+    },
+    Code {
+        code: "E0336",
+        severity: Error,
+        title: "a call of a function with vectors that writes out too large",
+        explanation: r#"A function that takes or returns a vector is written out at each call, each parameter replaced by the argument wherever the body reads it. Calls nested in each other's arguments therefore grow as a power of their depth: a body that reads its argument three times, nested twenty deep, would repeat the innermost argument 3^20 times. Past 200,000 operations for one call, the call is refused.
+
+In the example: `sq` reads each component twice, nested 18 deep.
+
+Fix: Bind a nested call's value first, so it is computed once: `let v = sq(sq(p));` in a rule body, or `let(v = sq(sq(p)); sq(sq(v)))`."#,
+        example: Library(
+            r#"function sq(vector2 a) { (a[0] * a[0], a[1] * a[1]) }
+function deep(vector2 p) { sq(sq(sq(sq(sq(sq(sq(sq(sq(sq(sq(sq(sq(sq(sq(sq(sq(sq(p)))))))))))))))))) }
+"#,
+        ),
+    },
+    Code {
         code: "E0401",
         severity: Error,
         title: "wrong number of arguments",

@@ -279,7 +279,8 @@ fn go<O: StackOp, L: Leaves<O> + ?Sized>(lang: &mut L, e: &Expr, out: &mut Vec<O
                 ok
             }
         },
-        ExprKind::Error => {
+        // A vector is not a value: `crate::vectors` rewrites them into scalars first.
+        ExprKind::Error | ExprKind::Tuple(_) | ExprKind::Index(..) => {
             out.push(op(Core::Push(0.0)));
             false
         }

@@ -88,8 +88,15 @@ impl Dumper {
                     }
                 });
             }
-            ItemKind::Function { name, params, body } => {
-                let ps: Vec<&str> = params.iter().map(|p| p.text.as_str()).collect();
+            ItemKind::Function { name, params, types, body } => {
+                let ps: Vec<String> = params
+                    .iter()
+                    .enumerate()
+                    .map(|(i, p)| match types.get(i).and_then(Option::as_ref) {
+                        Some(t) => format!("{} {}", t.text, p.text),
+                        None => p.text.clone(),
+                    })
+                    .collect();
                 let ps = if ps.is_empty() { String::new() } else { format!("({}) ", ps.join(", ")) };
                 self.nested(&format!("Function {} {ps}{at}", name.text), |d| d.expr(body))
             }
@@ -316,6 +323,15 @@ impl Dumper {
                 d.expr(body);
             }),
             ExprKind::Paren(x) => self.nested("Paren", |d| d.expr(x)),
+            ExprKind::Tuple(xs) => self.nested("Tuple", |d| {
+                for x in xs {
+                    d.expr(x);
+                }
+            }),
+            ExprKind::Index(v, i) => self.nested("Index", |d| {
+                d.expr(v);
+                d.expr(i);
+            }),
             ExprKind::Error => self.line("ErrorExpr"),
         }
     }

@@ -108,7 +108,7 @@ impl Expanded {
         name: &str,
     ) -> Option<(usize, &crate::ast::Name, &[crate::ast::Name], &crate::ast::Expr)> {
         self.items.iter().enumerate().find_map(|(i, ExpItem { item, namespace })| match &item.kind {
-            crate::ast::ItemKind::Function { name: n, params, body } if !params.is_empty() => {
+            crate::ast::ItemKind::Function { name: n, params, body, .. } if !params.is_empty() => {
                 let full = match namespace {
                     Some(ns) => format!("{ns}.{}", n.text),
                     None => n.text.clone(),

@@ -284,8 +284,15 @@ impl<'a> Printer<'a> {
                     self.out.push_str(&dir_arg(a));
                 }
             }
-            ItemKind::Function { name, params, body } if !params.is_empty() => {
-                let ps: Vec<&str> = params.iter().map(|p| p.text.as_str()).collect();
+            ItemKind::Function { name, params, types, body } if !params.is_empty() => {
+                let ps: Vec<String> = params
+                    .iter()
+                    .enumerate()
+                    .map(|(i, p)| match types.get(i).and_then(Option::as_ref) {
+                        Some(t) => format!("{} {}", t.text, p.text),
+                        None => p.text.clone(),
+                    })
+                    .collect();
                 self.out.push_str(&format!("function {}({}) {{ {} }}", name.text, ps.join(", "), expr(body)))
             }
             ItemKind::Function { name, body, .. } => {
@@ -670,6 +677,11 @@ pub fn expr(e: &Expr) -> String {
             format!("let({}{})", b.concat(), expr(body))
         }
         ExprKind::Paren(x) => format!("({})", expr(x)),
+        ExprKind::Tuple(xs) => {
+            let a: Vec<String> = xs.iter().map(expr).collect();
+            format!("({})", a.join(", "))
+        }
+        ExprKind::Index(v, i) => format!("{}[{}]", expr(v), expr(i)),
         ExprKind::Error => String::new(),
     }
 }

@@ -39,6 +39,15 @@ fn walk(e: &Expr, visit: &mut dyn FnMut(&Expr)) {
     match &e.kind {
         ExprKind::Num(_) | ExprKind::Var(_) | ExprKind::Error => {}
         ExprKind::Neg(x) | ExprKind::Not(x) | ExprKind::Paren(x) => walk(x, visit),
+        ExprKind::Tuple(xs) => {
+            for x in xs {
+                walk(x, visit);
+            }
+        }
+        ExprKind::Index(v, i) => {
+            walk(v, visit);
+            walk(i, visit);
+        }
         ExprKind::Binary(_, a, b) => {
             walk(a, visit);
             walk(b, visit);
@@ -125,6 +134,8 @@ fn must_call(ex: &Expanded, e: &Expr, cycle: &BTreeSet<usize>, recursive: &BTree
     match &e.kind {
         ExprKind::Num(_) | ExprKind::Var(_) | ExprKind::Error => false,
         ExprKind::Neg(x) | ExprKind::Not(x) | ExprKind::Paren(x) => rec(x),
+        ExprKind::Tuple(xs) => xs.iter().any(rec),
+        ExprKind::Index(v, i) => rec(v) || rec(i),
         ExprKind::Binary(_, a, b) => rec(a) || rec(b),
         ExprKind::Let(bindings, body) => bindings.iter().any(|(_, v)| rec(v)) || rec(body),
         ExprKind::Call(f, args) if f.text == "if" => match args.as_slice() {

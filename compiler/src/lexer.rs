@@ -265,6 +265,9 @@ pub enum Tok {
     KwSwitch,
     KwCase,
     KwDefault,
+    /// A `[` that indexes a vector, `v[0]` (made by the lexer from `[`:
+    /// [`index_bracket`]), told apart from an adjustment list `CIRCLE[s 2]`.
+    IndexOpen,
 }
 
 impl Tok {
@@ -298,6 +301,7 @@ impl Tok {
             LBrace => "`{`",
             RBrace => "`}`",
             LBracket => "`[`",
+            IndexOpen => "an index `[`",
             RBracket => "`]`",
             LParen => "`(`",
             RParen => "`)`",
@@ -444,6 +448,9 @@ pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
                 }
                 out.tokens.push(Token { kind: Tok::Number, span });
             }
+            Ok(Tok::LBracket) if index_bracket(text, r.start, span.start, out.tokens.last()) => {
+                out.tokens.push(Token { kind: Tok::IndexOpen, span })
+            }
             Ok(kind) => out.tokens.push(Token { kind, span }),
             Err(LexError::InvalidChar)
                 if text[r.clone()].starts_with('#')
@@ -589,6 +596,41 @@ fn colour_word(rest: &str, prev: Option<Tok>) -> Option<&str> {
     (crate::colour::looks_like_colour(word) || (in_list && !word.is_empty())).then_some(word)
 }
 
+/// Whether the `[` at byte `at` indexes a vector (`v[0]`, `f(a)[1]`, `v[i + 1]`)
+/// rather than opening an adjustment list (`CIRCLE[s 2]`, `loop i = 0, n [x 1]`):
+/// it follows a name, `)` or `]` with no space between, and what it holds starts
+/// with a digit, `(` or `-`, or is one name that is not an adjustment without
+/// arguments (`CIRCLE[fx]`), alone or followed by an operator.
+/// `at` is the `[`'s offset in `text`, `start` in the file (spans are the file's).
+fn index_bracket(text: &str, at: usize, start: u32, prev: Option<&Token>) -> bool {
+    let Some(prev) = prev else { return false };
+    if !matches!(prev.kind, Tok::Ident | Tok::RParen | Tok::RBracket) || prev.span.end != start {
+        return false;
+    }
+    let inside = text[at + 1..].trim_start_matches([' ', '\t']);
+    let Some(first) = inside.chars().next() else { return false };
+    if first.is_ascii_digit() || first == '(' || first == '.' {
+        return true;
+    }
+    if first == '-' {
+        return inside[1..].starts_with(|c: char| c.is_ascii_digit() || c == '.');
+    }
+    if !(first.is_ascii_alphabetic() || first == '_') {
+        return false;
+    }
+    let n = inside.find(|c: char| !(c.is_ascii_alphanumeric() || c == '_')).unwrap_or(inside.len());
+    const BARE: &[&str] = &["fx", "fy", "fz", "up", "down", "left", "right", "rollleft", "rollright"];
+    if BARE.contains(&&inside[..n]) {
+        return false;
+    }
+    let rest = &inside[n..];
+    let after = rest.trim_start_matches([' ', '\t']);
+    // `v[i]`, `v[i+1]`, `v[i + 1]`; not `[x -1]` (a word, a space, a signed number).
+    after.starts_with(']')
+        || rest.starts_with(['+', '-', '*', '/', '^'])
+        || (after.starts_with(['+', '-', '*', '/', '^']) && after[1..].starts_with([' ', '\t']))
+}
+
 /// Lexes a whole file.
 pub fn lex(text: &str, file: FileId) -> Lexed {
     // A byte-order mark (an editor's, in text given directly) is not part of the text.
@@ -604,4 +646,31 @@ pub fn parse_number(text: &str) -> (f64, Option<char>) {
     let (digits, unit) =
         if matches!(last, 'd' | 'r' | 'o' | 't') { (&text[..text.len() - 1], Some(last)) } else { (text, None) };
     (digits.parse::<f64>().unwrap_or(0.0), unit)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn kinds(text: &str) -> Vec<Tok> {
+        lex(text, FileId(0)).tokens.iter().map(|t| t.kind).collect()
+    }
+
+    /// `v[0]` indexes; an adjustment list after a name stays a list, however it is
+    /// spaced (`CIRCLE[s 2]`, `CIRCLE[fx]`, `CIRCLE[]`, `loop … n[x -1]`).
+    #[test]
+    fn an_index_bracket_is_told_from_an_adjustment_list() {
+        for text in
+            ["v[0]", "v[ 1 ]", "f(a)[1]", "(a, b)[0]", "v[i]", "v[i+1]", "v[i + 1]", "m[0][1]", "v[-0]", "v[.5]"]
+        {
+            assert!(kinds(text).contains(&Tok::IndexOpen), "{text}: {:?}", kinds(text));
+        }
+        for text in
+            ["CIRCLE[s 2]", "CIRCLE[fx]", "CIRCLE[]", "n[x -1]", "v [0]", "f(1)[b 1]", "CIRCLE [x 1]", "x[x 1 y 2]"]
+        {
+            assert!(!kinds(text).contains(&Tok::IndexOpen), "{text}: {:?}", kinds(text));
+        }
+        // After a byte-order mark (spans count from the file's start).
+        assert!(kinds("\u{feff}v[0]").contains(&Tok::IndexOpen));
+    }
 }

@@ -36,3 +36,4 @@ pub mod stdlib;
 pub mod symbols;
 pub mod text;
 pub mod types;
+pub mod vectors;

@@ -62,6 +62,9 @@ struct Lower<'a> {
 /// Lowers a checked program. Diagnostics here are run-time-relevant problems the
 /// checker cannot see (none for a clean program).
 pub fn lower(ex: &Expanded, sym: &Symbols, sources: &Sources) -> Result<Bundle, Vec<Diagnostic>> {
+    // The checker checked this program without its vectors ([`crate::vectors`]).
+    let scalar = crate::vectors::scalarize(ex);
+    let ex = scalar.as_ref().map_or(ex, |(s, _)| s);
     let mut l = Lower {
         ex,
         sym,
@@ -225,6 +228,8 @@ fn substitute(params: &[crate::ast::Name], body: &Expr, args: &[Expr]) -> Expr {
         ExprKind::Paren(x) => ExprKind::Paren(rec(x)),
         ExprKind::Binary(op, a, b) => ExprKind::Binary(*op, rec(a), rec(b)),
         ExprKind::Call(f, xs) => ExprKind::Call(f.clone(), xs.iter().map(|x| substitute(params, x, args)).collect()),
+        ExprKind::Tuple(xs) => ExprKind::Tuple(xs.iter().map(|x| substitute(params, x, args)).collect()),
+        ExprKind::Index(v, i) => ExprKind::Index(rec(v), rec(i)),
         k @ (ExprKind::Num(_) | ExprKind::Error) => k.clone(),
     };
     Expr { kind, span: body.span }

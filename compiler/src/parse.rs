@@ -379,7 +379,7 @@ fn prepass(tokens: Vec<Token>, sources: &Sources, ctx: &Ctx) -> Vec<Token> {
                     while let Some(a) = tokens.get(j) {
                         j += 1;
                         match a.kind {
-                            Tok::LParen | Tok::LBrace | Tok::LBracket | Tok::CallOpen => depth += 1,
+                            Tok::LParen | Tok::LBrace | Tok::LBracket | Tok::IndexOpen | Tok::CallOpen => depth += 1,
                             Tok::RBrace | Tok::RBracket => depth -= 1,
                             Tok::RParen if depth == 0 => {
                                 end = a.span;
@@ -506,7 +506,7 @@ fn limit_nesting(tokens: Vec<Token>, budget: usize, diags: &mut Vec<Diagnostic>)
     for t in tokens {
         let closer = match t.kind {
             Tok::LBrace => Some(Tok::RBrace),
-            Tok::LBracket => Some(Tok::RBracket),
+            Tok::LBracket | Tok::IndexOpen => Some(Tok::RBracket),
             Tok::LParen | Tok::CallOpen => Some(Tok::RParen),
             Tok::AtIfdef => Some(Tok::AtEndif),
             _ => None,
@@ -608,7 +608,7 @@ fn limit_nesting(tokens: Vec<Token>, budget: usize, diags: &mut Vec<Diagnostic>)
 fn closer_of(t: Tok) -> Option<Tok> {
     match t {
         Tok::LBrace => Some(Tok::RBrace),
-        Tok::LBracket => Some(Tok::RBracket),
+        Tok::LBracket | Tok::IndexOpen => Some(Tok::RBracket),
         Tok::LParen | Tok::CallOpen => Some(Tok::RParen),
         _ => None,
     }

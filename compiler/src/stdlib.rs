@@ -53,7 +53,7 @@ fn index() -> &'static HashMap<String, &'static str> {
             let toks = &lexed.tokens;
             for (i, t) in toks.iter().enumerate() {
                 match t.kind {
-                    Tok::LBrace | Tok::LBracket | Tok::LParen | Tok::CallOpen => depth += 1,
+                    Tok::LBrace | Tok::LBracket | Tok::IndexOpen | Tok::LParen | Tok::CallOpen => depth += 1,
                     Tok::RBrace | Tok::RBracket | Tok::RParen => depth = depth.saturating_sub(1),
                     Tok::KwRule | Tok::KwIsosurface if depth == 0 => {
                         if let Some(n) = toks.get(i + 1).filter(|n| n.kind == Tok::Ident) {

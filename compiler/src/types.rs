@@ -99,9 +99,56 @@ impl Signature {
 
     /// `tree(int n, float len = 1)`.
     pub fn label(&self, name: &str) -> String {
-        let list: Vec<String> = self.params.iter().map(SigParam::label).collect();
+        let list = param_labels(&self.params);
         format!("{name}({})", list.join(", "))
     }
+}
+
+/// The labels of a rule's parameters as written: the components `float v[0]`,
+/// `float v[1]` of a vector parameter are one `vector2 v` (with its default `(1,
+/// 2)`); others as [`SigParam::label`] (a vector is a group of scalars after
+/// `crate::vectors`).
+pub fn param_labels(params: &[SigParam]) -> Vec<String> {
+    param_groups(params).into_iter().map(|g| g.label).collect()
+}
+
+/// A parameter as written: a number parameter, or the components of a vector one.
+pub struct ParamGroup {
+    /// `len`, or `at` for the components `at[0]`, `at[1]`.
+    pub name: String,
+    /// `float`, `vector2`.
+    pub ty: String,
+    /// `float len = 1`, `vector2 at = (0, 1)`.
+    pub label: String,
+}
+
+/// The parameters as written (see [`param_labels`]).
+pub fn param_groups(params: &[SigParam]) -> Vec<ParamGroup> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < params.len() {
+        let p = &params[i];
+        let base = p.name.strip_suffix("[0]");
+        let n = match base {
+            Some(b) => params[i..].iter().enumerate().take_while(|(k, q)| q.name == format!("{b}[{k}]")).count(),
+            None => 1,
+        };
+        match base {
+            Some(b) if n > 1 => {
+                let defaults: Option<Vec<String>> =
+                    params[i..i + n].iter().map(|q| q.default.map(|d| d.to_string())).collect();
+                let ty = format!("vector{n}");
+                let label = match defaults {
+                    Some(d) => format!("{ty} {b} = ({})", d.join(", ")),
+                    None => format!("{ty} {b}"),
+                };
+                out.push(ParamGroup { name: b.to_string(), ty, label });
+            }
+            _ => out.push(ParamGroup { name: p.name.clone(), ty: p.ty.name().to_string(), label: p.label() }),
+        }
+        i += n.max(1);
+    }
+    out
 }
 
 /// The type of a number literal: `int` for digits alone, `float` with a point, an
@@ -136,7 +183,8 @@ pub fn type_of(e: &Expr, var: &dyn Fn(&str) -> Option<Ty>) -> Ty {
             "abs" | "min" | "max" | "mod" | "clamp" => args.iter().map(|a| type_of(a, var)).fold(Ty::Int, Ty::numeric),
             _ => Ty::Float,
         },
-        ExprKind::Error => Ty::Float,
+        // Rewritten into scalars before checking (`crate::vectors`).
+        ExprKind::Tuple(_) | ExprKind::Index(..) | ExprKind::Error => Ty::Float,
     }
 }
 

@@ -217,6 +217,32 @@ fn expression_forms_choose_lazily_and_bind_once() {
     assert_eq!(xs("startshape A\nrule A { (let(k = 2; k + if(k > 1, 1, 5))) * {x 1} VERTEX {} }\n").len(), 3);
 }
 
+/// Vectors (reference §14, "Vectors"): literals, `vector2` parameters with defaults,
+/// functions that take and return vectors, constant indexes, `+ - * /` as Context
+/// Free has them and adjustments that spread a vector give the positions the same
+/// grammar written with numbers gives.
+#[test]
+fn vectors_evaluate_as_their_components() {
+    let xyz = |src: &str| -> Vec<[f32; 3]> { run_source(src).vertex_mesh().positions.clone() };
+    let vectors = xyz(concat!(
+        "startshape A\n",
+        "function polar(r, a) { (r * cos(a), r * sin(a)) }\n",
+        "function cmul(vector2 a, vector2 b) { (a[0] * b[0] - a[1] * b[1], a[0] * b[1] + a[1] * b[0]) }\n",
+        "rule A { let c = (1, 2); B((3, 4)) {x c} B() {} B(cmul(c, (0, 1)) * 2) {} B(polar(2, 0) + (0.5, -c[1] / 4)) {} ",
+        "C((1, 2, 3)) {} }\n",
+        "rule B(vector2 p = (7, 8)) { VERTEX {x p z (p - (1, 1))[1]} VERTEX {y (p[1] / 2)} }\n",
+        "rule C(vector3 v) { VERTEX {x (v / 2)} VERTEX {x let(w = (v[2], v[0]); w * w)} }\n",
+    ));
+    let numbers = xyz(concat!(
+        "startshape A\n",
+        "rule A { B(3, 4) {x 1 2} B(7, 8) {} B(-4, 2) {} B(2.5, -0.5) {} C(1, 2, 3) {} }\n",
+        "rule B(float p0, float p1) { VERTEX {x p0 p1 z (p1 - 1)} VERTEX {y (p1 / 2)} }\n",
+        "rule C(float v0, float v1, float v2) { VERTEX {x (v0 / 2) (v1 / 2) (v2 / 2)} VERTEX {x (v2 * v2) (v0 * v0)} }\n",
+    ));
+    assert_eq!(vectors.len(), 10);
+    assert_eq!(vectors, numbers);
+}
+
 /// Recursive functions (reference §14): factorial, Fibonacci, mutual recursion and a
 /// call of a later function evaluate; a runaway recursion ends at the call limits
 /// with a warning naming the option, its value NaN (used as 0, said too).

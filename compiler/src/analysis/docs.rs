@@ -47,6 +47,8 @@ pub const DOCS: &[Doc] = &[
     d(Directive, "int", "int NAME [= DEFAULT]", "A whole-number parameter (counts, depths). Accepts `int` values only: `floor(x)` converts."),
     d(Directive, "float", "float NAME [= DEFAULT]", "A number parameter. Accepts `int` and `float` values."),
     d(Directive, "bool", "bool NAME [= DEFAULT]", "A truth-value parameter: `true`, `false`, a comparison, `&&`, `||`, `!`."),
+    d(Directive, "vector2", "vector2 NAME [= (A, B)]", "A vector parameter (Context Free's; `vector3` … `vector99` likewise): a call passes one vector, `(1, 2)` or a vector name; `NAME[0]` and `NAME[1]` are its components, and `{x NAME}` gives both to the adjustment. Vectors exist while compiling only (reference §14, \"Vectors\")."),
+    d(Directive, "vector3", "vector3 NAME [= (A, B, C)]", "A vector parameter of three components (see `vector2`): `{s NAME}` scales by all three, `NAME[2]` is the third."),
     d(Directive, "selector", "selector RULE[, RULE…] MODE", "How a rule's definitions are chosen: random (default), frequency, depth, scale, sequential, pattern, or function F / function { EXPR }."),
     d(Directive, "linerule", "linerule RULE", "The default profile rule swept by MOVETO/LINETO/BLENDTO/SLINETO/ALINETO."),
     d(Directive, "camerarule", "camerarule RULE", "The camera's trajectory: a transform rule whose FRAMEs the camera follows."),

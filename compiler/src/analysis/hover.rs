@@ -454,6 +454,14 @@ mod tests {
     }
 
     #[test]
+    fn a_vector_parameter_shows_its_type() {
+        let h = hover("rule circ(vector2 size) { CIRCLE [s s$0ize] }");
+        assert!(h.starts_with("**parameter `size`**: `vector2`"), "{h}");
+        let h = hover("rule circ(vec$0tor2 size) { CIRCLE [s size] }");
+        assert!(h.contains("A vector parameter"), "{h}");
+    }
+
+    #[test]
     fn renamed_colour_components_show_the_colour_doc() {
         assert!(hover("color red green blue alpha\nrule A { VERTEX {gr$0een -1} }").contains("green colour component"));
     }

@@ -813,6 +813,15 @@ impl Walker<'_, '_> {
                 self.expr(body);
                 self.scope.truncate(at);
             }
+            ExprKind::Tuple(xs) => {
+                for x in xs {
+                    self.expr(x);
+                }
+            }
+            ExprKind::Index(v, i) => {
+                self.expr(v);
+                self.expr(i);
+            }
             ExprKind::Error => {}
         }
     }

@@ -40,7 +40,8 @@ impl Document {
         let sigs = &self.analysis.checked.symbols.signatures;
         for c in &self.index().calls {
             let Some(sig) = sigs.get(&c.rule) else { continue };
-            for (arg, p) in c.args.iter().zip(&sig.params) {
+            // (A vector parameter is one argument: its components grouped back.)
+            for (arg, p) in c.args.iter().zip(crate::types::param_groups(&sig.params)) {
                 // An argument that is the parameter's own name needs no hint.
                 if arg.start < start || arg.start > end || self.span_text(*arg) == p.name {
                     continue;
@@ -48,7 +49,7 @@ impl Document {
                 out.push(InlayHint {
                     offset: arg.start,
                     label: format!("{}:", p.name),
-                    tooltip: format!("parameter `{} {}` of `{}`", p.ty.name(), p.name, c.rule),
+                    tooltip: format!("parameter `{} {}` of `{}`", p.ty, p.name, c.rule),
                     parameter: true,
                 });
             }
@@ -95,6 +96,23 @@ mod tests {
                 (at("3, n"), "n:".to_string(), true),
                 (at("n) {}"), "len:".to_string(), true),
                 (at("2)"), "n:".to_string(), true)
+            ]
+        );
+    }
+
+    /// A vector parameter takes one argument, labelled with its name.
+    #[test]
+    fn a_vector_parameter_is_one_argument() {
+        let src = "rule A { dot((1, 2), 3) {} }\nrule dot(vector2 at, float r) { CIRCLE [x at s r] }";
+        let (d, _) = doc(src);
+        let hints: Vec<(u32, String, String)> =
+            d.inlay_hints(0, d.text().len() as u32).into_iter().map(|h| (h.offset, h.label, h.tooltip)).collect();
+        let at = |needle: &str| d.text().find(needle).expect("needle in the text") as u32;
+        assert_eq!(
+            hints,
+            [
+                (at("(1, 2)"), "at:".to_string(), "parameter `vector2 at` of `dot`".to_string()),
+                (at("3)"), "r:".to_string(), "parameter `float r` of `dot`".to_string())
             ]
         );
     }

@@ -362,6 +362,15 @@ impl Collect<'_> {
                 }
                 self.expr(body);
             }
+            ExprKind::Tuple(xs) => {
+                for x in xs {
+                    self.expr(x);
+                }
+            }
+            ExprKind::Index(v, i) => {
+                self.expr(v);
+                self.expr(i);
+            }
         }
     }
 }

@@ -43,10 +43,15 @@ impl Document {
         let toks = &self.index().tokens;
         let before: Vec<_> = toks.iter().filter(|t| t.span.end <= offset).collect();
         let mut depth = 0usize;
+        // Inside `v[…]` (an index) read backwards: `]` seen, its `[` not yet.
+        let mut index = 0usize;
         let mut commas = 0usize;
         let mut name = None;
         for (i, t) in before.iter().enumerate().rev() {
             match t.kind {
+                Tok::RBracket if depth == 0 && matches!(opener_of(&before, i), Some(Tok::IndexOpen)) => index += 1,
+                Tok::IndexOpen if index > 0 => index -= 1,
+                _ if index > 0 => {}
                 Tok::RParen => depth += 1,
                 Tok::LParen | Tok::CallOpen if depth > 0 => depth -= 1,
                 Tok::Comma if depth == 0 => commas += 1,
@@ -62,6 +67,12 @@ impl Document {
                 Tok::LParen => {
                     // `ns.tree (` or `tree (`: the word before the parenthesis.
                     let prev = i.checked_sub(1).map(|j| before[j])?;
+                    if matches!(prev.kind, Tok::CallOpen | Tok::Comma | Tok::LParen) {
+                        // Inside a vector or a grouping that is itself an argument:
+                        // the help is the call's, for the argument that holds it.
+                        commas = 0;
+                        continue;
+                    }
                     if !matches!(prev.kind, Tok::Ident | Tok::Dotted | Tok::KwIf) {
                         return None;
                     }
@@ -83,7 +94,7 @@ impl Document {
         });
         let (names, doc) = match full.as_ref().and_then(|f| sym.signatures.get(f).map(|s| (f, s))) {
             Some((f, sig)) => {
-                let names: Vec<String> = sig.params.iter().map(crate::types::SigParam::label).collect();
+                let names = crate::types::param_labels(&sig.params);
                 let defs = sym.rules.get(f).map(|d| d.len()).unwrap_or(0);
                 (names, format!("rule `{f}`, {defs} definition(s); arguments by position, defaults may be left out"))
             }
@@ -116,6 +127,20 @@ impl Document {
     }
 }
 
+/// The kind of the `[` that the `]` at `before[i]` closes.
+fn opener_of(before: &[&crate::lexer::Token], i: usize) -> Option<Tok> {
+    let mut depth = 0usize;
+    for t in before[..i].iter().rev() {
+        match t.kind {
+            Tok::RBracket => depth += 1,
+            Tok::LBracket | Tok::IndexOpen if depth == 0 => return Some(t.kind),
+            Tok::LBracket | Tok::IndexOpen => depth -= 1,
+            _ => {}
+        }
+    }
+    None
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::fixture::doc;
@@ -143,5 +168,19 @@ mod tests {
         // Outside any call, and on the definition's own list: none.
         assert_eq!(d.signature_help(at("VERTEX {x len}")), None);
         assert_eq!(d.signature_help(at("int n") + 3), None);
+    }
+
+    /// A vector parameter is one parameter (`vector2 at = (0, 1)`), and a vector or
+    /// an index among the arguments does not shift the count.
+    #[test]
+    fn help_with_vector_parameters_and_arguments() {
+        let src = "rule A { let v = (1, 2); dot((1, v[1]), v[0], v) {} }\nrule dot(vector2 at, float r, vector2 size = (0, 1)) { CIRCLE [x at s size r] }";
+        let (d, _) = doc(src);
+        let at = |needle: &str| d.text().find(needle).expect("needle in the text") as u32;
+        let h = d.signature_help(at("v[0], v)") + 1).expect("in the call");
+        assert_eq!(h.label, "dot(vector2 at, float r, vector2 size = (0, 1))");
+        assert_eq!(h.active, 1);
+        assert_eq!(d.signature_help(at("v) {}")).expect("third").active, 2);
+        assert_eq!(d.signature_help(at("v[1])")).expect("first").active, 0);
     }
 }

@@ -17,6 +17,8 @@ pub(crate) struct Emitter<'a> {
     pub names: Names,
     /// Names in scope in the rule being written: source name → MDG name.
     scope: Vec<(String, String)>,
+    /// The vectors among them (parameters, locals): source name → size, latest last.
+    vsizes: Vec<(String, usize)>,
     /// Shape parameters by shape name (for `X(=)`).
     params: BTreeMap<String, Vec<String>>,
     counter: u32,
@@ -34,6 +36,7 @@ impl<'a> Emitter<'a> {
             rep,
             names: Names::default(),
             scope: Vec::new(),
+            vsizes: Vec::new(),
             params,
             counter: 0,
             line: 0,
@@ -56,7 +59,21 @@ impl<'a> Emitter<'a> {
             self.line = *line;
             let mdg = self.names.get(name);
             self.scope = params.iter().map(|p| (p.clone(), self.names.get(p))).collect();
-            let ps: Vec<String> = self.scope.iter().map(|p| p.1.clone()).collect();
+            let types = self.prog.function_types.get(name).cloned().unwrap_or_default();
+            self.vsizes = params
+                .iter()
+                .zip(&types)
+                .filter_map(|(p, t)| crate::vectors::vector_size(t).map(|n| (p.clone(), n)))
+                .collect();
+            let ps: Vec<String> = self
+                .scope
+                .iter()
+                .enumerate()
+                .map(|(k, p)| match types.get(k).filter(|t| crate::vectors::vector_size(t).is_some()) {
+                    Some(t) => format!("{t} {}", p.1),
+                    None => p.1.clone(),
+                })
+                .collect();
             let e = self.expr(body);
             let _ = writeln!(out, "function {mdg}({}) {{ {e} }}\n", ps.join(", "));
         }
@@ -71,13 +88,21 @@ impl<'a> Emitter<'a> {
                 self.line = r.line;
                 self.counter = 0;
                 self.scope.clear();
+                self.vsizes.clear();
                 let mut ps = Vec::new();
                 for (ty, p) in &sh.params {
-                    if !matches!(ty.as_str(), "number" | "natural") {
+                    let vector = crate::vectors::vector_size(ty);
+                    if !matches!(ty.as_str(), "number" | "natural") && vector.is_none() {
                         self.rep.approx(sh.line, ty, format!("parameter `{p}` of type {ty} is written as a float"));
                     }
                     let m = self.names.get(p);
-                    ps.push(format!("float {m}"));
+                    match vector {
+                        Some(n) => {
+                            ps.push(format!("{ty} {m}"));
+                            self.vsizes.push((p.clone(), n));
+                        }
+                        None => ps.push(format!("float {m}")),
+                    }
                     self.scope.push((p.clone(), m));
                 }
                 let head = if ps.is_empty() { name.clone() } else { format!("{name}({})", ps.join(", ")) };
@@ -106,6 +131,8 @@ impl<'a> Emitter<'a> {
             }
             Item::Let { name, value } => {
                 let v = self.expr(value);
+                let n = self.size_of(value, 0);
+                self.vsizes.push((name.clone(), n));
                 let m = self.fresh_local(name);
                 let _ = writeln!(out, "{pad}let {m} = {v};");
             }
@@ -196,6 +223,8 @@ impl<'a> Emitter<'a> {
     /// arguments and the option word; the rest of the list stays a list.
     fn path_op(&mut self, op: &str, args: &[Expr], adj: &Adj) -> Option<String> {
         let line = self.line;
+        // A vector argument gives its components (`MOVETO(p)`).
+        let args = &self.components(args);
         // `MOVEREL`, `LINEREL`, `ARCREL`, `CURVEREL` keep their names (MDG has
         // them) and take the absolute operation's arguments and words.
         let name = op;
@@ -458,8 +487,10 @@ impl<'a> Emitter<'a> {
                 self.rep.drop(line, &format!("{}|", t.name), "colour targets have no MDG form: the change is left out");
                 continue;
             }
-            let args: Vec<String> = t.args.iter().map(|e| self.arg(e)).collect();
-            let consts: Vec<Option<f64>> = t.args.iter().map(|e| self.const_of(e)).collect();
+            // A vector argument gives its components (`s v` is `s v[0] v[1]`).
+            let spread = self.components(&t.args);
+            let args: Vec<String> = spread.iter().map(|e| self.arg(e)).collect();
+            let consts: Vec<Option<f64>> = spread.iter().map(|e| self.const_of(e)).collect();
             let n = args.len();
             match (t.name.as_str(), n) {
                 ("x", 1..=3) | ("y", 1) | ("z", 1) => parts.push(format!("{} {}", t.name, args.join(" "))),
@@ -507,6 +538,123 @@ impl<'a> Emitter<'a> {
         }
     }
 
+    /// How many components `e` has (1: a number), as far as the program says: vector
+    /// literals, vector parameters and locals, globals and functions that are vectors.
+    fn size_of(&self, e: &Expr, depth: u32) -> usize {
+        if depth > 64 {
+            return 1;
+        }
+        match e {
+            Expr::Tuple(items) => items.iter().map(|x| self.size_of(x, depth + 1)).sum(),
+            Expr::Name(n) => {
+                if let Some((_, k)) = self.vsizes.iter().rev().find(|(s, _)| s == n) {
+                    return *k;
+                }
+                if self.scope.iter().any(|(s, _)| s == n) {
+                    return 1;
+                }
+                match self.prog.globals.iter().rev().find(|(g, _)| g == n) {
+                    Some((_, g)) => self.size_of(g, depth + 1),
+                    None => 1,
+                }
+            }
+            Expr::Neg(a) => self.size_of(a, depth + 1),
+            Expr::Bin(op, a, b) if matches!(*op, "+" | "-" | "*" | "/") => {
+                self.size_of(a, depth + 1).max(self.size_of(b, depth + 1))
+            }
+            Expr::Call(f, args) if f == "if" => args.get(1).map_or(1, |x| self.size_of(x, depth + 1)),
+            Expr::Call(f, args) if f == "select" => args.get(1).map_or(1, |x| self.size_of(x, depth + 1)),
+            // (`inlining` holds the functions being sized: a recursion counts as 1.)
+            Expr::Call(f, _) if self.inlining.contains(f) => 1,
+            Expr::Call(f, args) if matches!(f.as_str(), "vec" | "cross") => match self.vector_function(f, args) {
+                Some(e) => self.size_of(&e, depth + 1),
+                None => 1,
+            },
+            Expr::Call(f, _) => match self.prog.functions.iter().find(|(n, _, _, _)| n == f) {
+                Some((_, _, Expr::Tuple(items), _)) => items.len(),
+                Some((n, ps, body, _)) => {
+                    // The body's size with the function's own vector parameters.
+                    let types = self.prog.function_types.get(n).cloned().unwrap_or_default();
+                    let inner: Vec<(String, usize)> = ps
+                        .iter()
+                        .zip(&types)
+                        .map(|(p, t)| (p.clone(), crate::vectors::vector_size(t).unwrap_or(1)))
+                        .collect();
+                    let mut quiet = Report::new("", "");
+                    let mut sub = Emitter::new(self.prog, &mut quiet);
+                    sub.vsizes = inner;
+                    sub.inlining = self.inlining.clone();
+                    sub.inlining.push(f.clone());
+                    sub.scope = ps.iter().map(|p| (p.clone(), p.clone())).collect();
+                    sub.size_of(body, depth + 1)
+                }
+                None => 1,
+            },
+            _ => 1,
+        }
+    }
+
+    /// `vec(n, x)` (n copies of x), `dot(a, b)` and `cross(a, b)` as expressions of
+    /// components; `None` for another call (or one whose sizes do not fit: reported
+    /// as a function with no counterpart).
+    fn vector_function(&self, f: &str, args: &[Expr]) -> Option<Expr> {
+        let bin = |op: &'static str, a: Expr, b: Expr| Expr::Bin(op, Box::new(a), Box::new(b));
+        match (f, args) {
+            ("vec", [n, x]) => {
+                let n = const_value(n).filter(|n| n.fract() == 0.0 && (2.0..=99.0).contains(n))? as usize;
+                Some(Expr::Tuple(vec![x.clone(); n]))
+            }
+            ("dot", [a, b]) => {
+                let (a, b) = (self.components(std::slice::from_ref(a)), self.components(std::slice::from_ref(b)));
+                if a.len() != b.len() || a.len() < 2 {
+                    return None;
+                }
+                a.into_iter().zip(b).map(|(x, y)| bin("*", x, y)).reduce(|s, t| bin("+", s, t))
+            }
+            ("cross", [a, b]) => {
+                let (a, b) = (self.components(std::slice::from_ref(a)), self.components(std::slice::from_ref(b)));
+                if a.len() != 3 || b.len() != 3 {
+                    return None;
+                }
+                let c = |i: usize, j: usize| {
+                    bin("-", bin("*", a[i].clone(), b[j].clone()), bin("*", a[j].clone(), b[i].clone()))
+                };
+                Some(Expr::Tuple(vec![c(1, 2), c(2, 0), c(0, 1)]))
+            }
+            _ => None,
+        }
+    }
+
+    /// The arguments, a vector among them spread into its components.
+    fn components(&self, args: &[Expr]) -> Vec<Expr> {
+        let mut out = Vec::new();
+        for a in args {
+            // A global vector's own components (`rand(range)` is `rand(10, 20)`).
+            let global = match a {
+                Expr::Name(n) if !self.scope.iter().any(|(s, _)| s == n) => {
+                    self.prog.globals.iter().rev().find(|(g, _)| g == n).map(|(_, e)| e)
+                }
+                _ => None,
+            };
+            if let Some(g @ Expr::Tuple(_)) = global {
+                out.extend(self.components(std::slice::from_ref(g)));
+                continue;
+            }
+            if let Expr::Call(f, xs) = a {
+                if let Some(e @ Expr::Tuple(_)) = self.vector_function(f, xs) {
+                    out.extend(self.components(std::slice::from_ref(&e)));
+                    continue;
+                }
+            }
+            match (a, self.size_of(a, 0)) {
+                (Expr::Tuple(items), _) => out.extend(self.components(items)),
+                (_, 1) => out.push(a.clone()),
+                (_, n) => out.extend((0..n).map(|k| Expr::Index(Box::new(a.clone()), Box::new(Expr::Num(k as f64))))),
+            }
+        }
+        out
+    }
+
     fn const_of(&self, e: &Expr) -> Option<f64> {
         match e {
             Expr::Name(n) if !self.scope.iter().any(|(s, _)| s == n) => {
@@ -544,8 +692,33 @@ impl<'a> Emitter<'a> {
             Expr::Neg(a) => format!("-({})", self.expr(a)),
             Expr::Not(a) => format!("!({})", self.expr(a)),
             Expr::Tuple(items) => {
-                self.rep.approx(line, "vector", "MDG expressions have no vectors: the first value is used");
-                items.first().map(|e| self.expr(e)).unwrap_or_else(|| "0".into())
+                let a: Vec<String> = items.iter().map(|e| self.expr(e)).collect();
+                format!("({})", a.join(", "))
+            }
+            Expr::Index(v, i) => {
+                let n = self.size_of(v, 0);
+                if n == 1 {
+                    // Not a vector here (a function the importer left out, say).
+                    self.rep.approx(
+                        line,
+                        "v[i]",
+                        "a component of a value that is not a vector here: the value is used",
+                    );
+                    return self.expr(v);
+                }
+                let base = match &**v {
+                    Expr::Name(_) => self.expr(v),
+                    _ => format!("({})", self.expr(v)),
+                };
+                match self.const_of(i) {
+                    Some(k) => format!("{base}[{}]", num(k)),
+                    // MDG's index is a constant: choose at run time with `select`.
+                    None => {
+                        let k = self.expr(i);
+                        let comps: Vec<String> = (0..n.max(1)).map(|c| format!("{base}[{c}]")).collect();
+                        format!("select({k}, {})", comps.join(", "))
+                    }
+                }
             }
             Expr::Bin(op, a, b) => {
                 let (x, y) = (self.expr(a), self.expr(b));
@@ -567,6 +740,15 @@ impl<'a> Emitter<'a> {
 
     fn function(&mut self, f: &str, args: &[Expr]) -> String {
         let line = self.line;
+        // Context Free's vector functions, written out in components.
+        if let Some(e) = self.vector_function(f, args) {
+            return self.expr(&e);
+        }
+        // A vector gives a built-in its components (`rand(range)` is `rand(10,
+        // 20)`); a user function takes its arguments as they are.
+        let args =
+            if self.prog.functions.iter().any(|(n, _, _, _)| n == f) { args.to_vec() } else { self.components(args) };
+        let args = args.as_slice();
         let a: Vec<String> = args.iter().map(|e| self.expr(e)).collect();
         let arg = |k: usize| a.get(k).cloned().unwrap_or_else(|| "0".into());
         match (f, a.len()) {
@@ -700,7 +882,7 @@ fn mentions(e: &Expr, n: &str) -> bool {
         Expr::Name(m) => m == n,
         Expr::Num(_) => false,
         Expr::Call(_, a) | Expr::Tuple(a) => a.iter().any(|x| mentions(x, n)),
-        Expr::Bin(_, a, b) => mentions(a, n) || mentions(b, n),
+        Expr::Bin(_, a, b) | Expr::Index(a, b) => mentions(a, n) || mentions(b, n),
         Expr::Neg(a) | Expr::Not(a) => mentions(a, n),
     }
 }

@@ -42,6 +42,8 @@ pub(crate) fn lex(text: &str, hash_comments: bool) -> Lexed {
     let mut i = 0;
     let mut line = 1u32;
     let mut space = true;
+    // Open `[` (false) and `[[` (true), innermost last.
+    let mut brackets: Vec<bool> = Vec::new();
     while i < chars.len() {
         let c = chars[i];
         if c == '\n' {
@@ -144,7 +146,20 @@ pub(crate) fn lex(text: &str, hash_comments: bool) -> Lexed {
             continue;
         }
         let two: String = chars[i..(i + 2).min(chars.len())].iter().collect();
-        if let Some(p) = PUNCT2.iter().find(|p| **p == two) {
+        // `v3[2]]`: the first `]` closes an index, not a `[[ ]]` list.
+        let closes_one = two == "]]" && brackets.last() == Some(&false);
+        match (two.as_str(), c) {
+            ("[[", _) => brackets.push(true),
+            ("]]", _) if !closes_one => {
+                brackets.pop();
+            }
+            (_, '[') => brackets.push(false),
+            (_, ']') => {
+                brackets.pop();
+            }
+            _ => {}
+        }
+        if let Some(p) = PUNCT2.iter().find(|p| **p == two).filter(|_| !closes_one) {
             toks.push(Tok { t: T::P(p), line, space });
             i += 2;
             space = false;

@@ -14,8 +14,10 @@ pub(crate) enum Expr {
     Bin(&'static str, Box<Expr>, Box<Expr>),
     Neg(Box<Expr>),
     Not(Box<Expr>),
-    /// `(a, b)`: a vector, which MDG expressions do not have.
+    /// `(a, b)`: a vector (MDG's too, reference §14).
     Tuple(Vec<Expr>),
+    /// `v[i]`: a vector's component.
+    Index(Box<Expr>, Box<Expr>),
 }
 
 /// One adjustment: its name, arguments, and whether it is a target (`|`).
@@ -112,6 +114,8 @@ pub(crate) struct Program {
     pub paths: Vec<String>,
     pub globals: Vec<(String, Expr)>,
     pub functions: Vec<(String, Vec<String>, Expr, u32)>,
+    /// The parameter types of each function with parameters (`number`, `vector2`…).
+    pub function_types: std::collections::BTreeMap<String, Vec<String>>,
     pub background: Option<(Adj, u32)>,
     /// `size`/`CF::Size`: the canvas's width and height in model units.
     pub canvas: Option<(f64, f64)>,
@@ -185,7 +189,12 @@ pub(crate) const PATH_OPS: &[&str] = &[
     "STROKE",
 ];
 
-const TYPES: &[&str] = &["number", "natural", "vector2", "vector3", "vector4", "adjustment", "shape"];
+const TYPES: &[&str] = &["number", "natural", "adjustment", "shape"];
+
+/// A Context Free type word: `number`, `natural`, `adjustment`, `shape`, `vector2` … `vector99`.
+fn is_type(w: &str) -> bool {
+    TYPES.contains(&w) || crate::vectors::vector_size(w).is_some()
+}
 
 impl<'a> Parser<'a> {
     pub(crate) fn new(toks: &'a [Tok], rep: &'a mut Report, prog: &'a mut Program) -> Parser<'a> {
@@ -380,7 +389,7 @@ impl<'a> Parser<'a> {
                     }
                 }
             }
-            _ if TYPES.contains(&w.as_str()) || matches!(self.peek_at(1), Some(T::P("=")) | Some(T::P("("))) => {
+            _ if is_type(&w) || matches!(self.peek_at(1), Some(T::P("=")) | Some(T::P("("))) => {
                 self.global(line);
             }
             _ => {}
@@ -390,7 +399,7 @@ impl<'a> Parser<'a> {
     /// `NAME = EXPR` or `TYPE NAME(PARAMS) = EXPR` at the top level.
     fn global(&mut self, line: u32) {
         if let Some(T::Id(w)) = self.peek() {
-            if TYPES.contains(&w.as_str()) && matches!(self.peek_at(1), Some(T::Id(_))) {
+            if is_type(w) && matches!(self.peek_at(1), Some(T::Id(_))) {
                 self.i += 1;
             }
         }
@@ -400,9 +409,22 @@ impl<'a> Parser<'a> {
             self.rep.drop(line, &name, "not a Context Free item here: skipped");
             return;
         }
-        let e = self.expr(false);
+        let mut e = self.expr(false);
+        // `NAME = a, b`: a vector without parentheses.
+        if self.is_p(",") {
+            let mut items = vec![e];
+            while self.eat_p(",") {
+                items.push(self.expr(false));
+            }
+            e = Expr::Tuple(items);
+        }
         match params {
-            Some(p) => self.prog.functions.push((name, p.into_iter().map(|(_, n)| n).collect(), e, line)),
+            Some(p) => {
+                if !p.is_empty() {
+                    self.prog.function_types.insert(name.clone(), p.iter().map(|(t, _)| t.clone()).collect());
+                }
+                self.prog.functions.push((name, p.into_iter().map(|(_, n)| n).collect(), e, line))
+            }
             None => self.prog.globals.push((name, e)),
         }
     }
@@ -475,7 +497,7 @@ impl<'a> Parser<'a> {
             let line = self.line();
             let mut ty = "number".to_string();
             let mut name = self.id().unwrap_or_default();
-            if TYPES.contains(&name.as_str()) {
+            if is_type(&name) {
                 if let Some(T::Id(_)) = self.peek() {
                     ty = name;
                     name = self.id().unwrap_or_default();
@@ -565,6 +587,16 @@ impl<'a> Parser<'a> {
                         step = Some(self.expr(false));
                     }
                 }
+                // `loop i = (3, -4, -1)`: the bounds as one vector.
+                if let (None, Expr::Tuple(items)) = (&start, &end) {
+                    if let [a, b, rest @ ..] = items.as_slice() {
+                        if rest.len() <= 1 {
+                            step = rest.first().cloned();
+                            start = Some(a.clone());
+                            end = b.clone();
+                        }
+                    }
+                }
                 let adj = self.adj_opt().unwrap_or_default();
                 let body = Box::new(self.item());
                 if self.is_id("finally") {
@@ -638,7 +670,7 @@ impl<'a> Parser<'a> {
                 self.rep.drop(line, "clone", "MDG cannot clone shapes: left out");
                 Item::Nothing
             }
-            _ if TYPES.contains(&w.as_str()) && matches!(self.peek_at(2), Some(T::P("="))) => {
+            _ if is_type(&w) && matches!(self.peek_at(2), Some(T::P("="))) => {
                 self.i += 1;
                 self.local()
             }
@@ -682,7 +714,15 @@ impl<'a> Parser<'a> {
     fn local(&mut self) -> Item {
         let name = self.id().unwrap_or_default();
         self.eat_p("=");
-        let value = self.expr(false);
+        let mut value = self.expr(false);
+        // `v = 1, 2, 3`: a vector without parentheses.
+        if self.is_p(",") {
+            let mut items = vec![value];
+            while self.eat_p(",") {
+                items.push(self.expr(false));
+            }
+            value = Expr::Tuple(items);
+        }
         Item::Let { name, value }
     }
 
@@ -839,6 +879,47 @@ impl<'a> Parser<'a> {
     }
 
     fn primary(&mut self, arg: bool) -> Expr {
+        let start = self.i;
+        let mut e = self.primary_inner(arg);
+        // `v[i]` (no space before `[`) after a value read here (not an adjustment
+        // given as an argument, `f([s 2])`).
+        while self.i > start
+            && self.is_p("[")
+            && self.toks.get(self.i).is_some_and(|t| !t.space)
+            && self.depth < MAX_NESTING
+        {
+            let line = self.line();
+            self.i += 1;
+            let i = self.expr(false);
+            let mut more = Vec::new();
+            while self.eat_p(",") {
+                more.push(self.expr(false));
+            }
+            self.eat_p("]");
+            // `v[i, n]`, `v[i, n, stride]`: n components from i, `stride` apart.
+            let part = match (const_value(&i), more.first().and_then(const_value), more.get(1).map(const_value)) {
+                (Some(i), Some(n), None | Some(Some(_))) if more.len() <= 2 && (1.0..=99.0).contains(&n) => {
+                    let stride = more.get(1).and_then(const_value).unwrap_or(1.0);
+                    Some((0..n as usize).map(|k| i + k as f64 * stride).collect::<Vec<f64>>())
+                }
+                _ => None,
+            };
+            e = match part {
+                _ if more.is_empty() => Expr::Index(Box::new(e), Box::new(i)),
+                Some(ks) if ks.len() == 1 => Expr::Index(Box::new(e), Box::new(Expr::Num(ks[0]))),
+                Some(ks) => Expr::Tuple(
+                    ks.into_iter().map(|k| Expr::Index(Box::new(e.clone()), Box::new(Expr::Num(k)))).collect(),
+                ),
+                None => {
+                    self.rep.approx(line, "v[i, n]", "a part of a vector at an index known only at run time has no MDG form: the component `v[i]` is used");
+                    Expr::Index(Box::new(e), Box::new(i))
+                }
+            };
+        }
+        e
+    }
+
+    fn primary_inner(&mut self, arg: bool) -> Expr {
         match self.peek().cloned() {
             Some(T::Num(v)) => {
                 self.i += 1;

@@ -399,6 +399,39 @@ mod tests {
         assert!(triangles(&i.mdg) > 0, "{}", i.mdg);
     }
 
+    /// Vectors are written as MDG's (they were cut to their first component): typed
+    /// parameters, literals, indexes and slices, unparenthesized vectors, `vec`,
+    /// `dot`, `cross`, a vector spread into adjustments and built-ins; the result
+    /// compiles and draws the squares `cfdg` draws (the first `Dot` has size 0).
+    #[test]
+    fn vectors_are_imported_as_vectors() {
+        let text = "startshape S\nvector2 polar(rad, a) = rad * cos(a), rad * sin(a)\nrange = 10, 20\n\
+                    vector2 add(vector2 a, vector2 c) = (a[0] + c[0], a[1] + c[1])\n\
+                    shape S {\n  p = vec(2, 0.5) + (0, 0.5)\n  w2 = 1, 2, 3\n  loop i = (0, 6, 1) [] Dot(i, polar(2, i * 60)) [r rand(range)]\n\
+                    Dot(1, (2, 3)) [x add(p, w2[1, 2]) s dot(p, p)]\n  SQUARE [x cross((1, 0, 0), (0, 1, 0))]\n}\n\
+                    shape Dot(number k, vector2 at) {\n  SQUARE [x at s k]\n}\n";
+        let i = cf(text);
+        for want in [
+            "function polar(rad, a) { ((rad) * (cos(radians(a))), (rad) * (sin(radians(a)))) }",
+            "function add(vector2 a, vector2 c) {",
+            "rule Dot(float k, vector2 at) {",
+            "loop i = 0, 6, 1 {} {",
+            "Dot(i, polar(2, (i) * (60))) {rz (rand(10, 20))}",
+            "Dot(1, (2, 3))",
+            "let p = ((0.5, 0.5)) + ((0, 0.5));",
+            "let w2 = (1, 2, 3);",
+            "add(p, (w2[1], w2[2]))",
+            "s (((p[0]) * (p[0])) + ((p[1]) * (p[1])))",
+            "SQUARE {x 0 0 1}",
+            "SQUARE {x (at[0]) (at[1]) s (k)}",
+        ] {
+            assert!(i.mdg.contains(want), "{want}\n{}", i.mdg);
+        }
+        assert!(!i.mdg.contains("vec("), "{}", i.mdg);
+        assert!(i.report.notes.is_empty(), "{:?}", i.report.notes);
+        assert_eq!(triangles(&i.mdg), 2 * 7);
+    }
+
     #[test]
     fn a_shape_named_like_a_primitive_replaces_it() {
         let i = cf("startshape Top\nrule Top { TRIANGLE {} CIRCLE {} }\nrule TRIANGLE { SQUARE {} }\n");

@@ -88,7 +88,7 @@ fn boundaries(tokens: &[Token], file: FileId) -> Vec<(usize, u32)> {
     let mut depth = 0usize;
     for (i, t) in tokens.iter().enumerate() {
         match t.kind {
-            Tok::LBrace | Tok::LBracket | Tok::LParen | Tok::CallOpen => depth += 1,
+            Tok::LBrace | Tok::LBracket | Tok::IndexOpen | Tok::LParen | Tok::CallOpen => depth += 1,
             Tok::RBrace | Tok::RBracket | Tok::RParen => depth = depth.saturating_sub(1),
             Tok::KwRule if depth == 0 && i > 0 && t.span.file == file => out.push((i, t.span.start)),
             _ => {}
@@ -445,9 +445,12 @@ impl Shift for Item {
                 name.shift(delta);
                 args.shift(delta);
             }
-            ItemKind::Function { name, params, body } => {
+            ItemKind::Function { name, params, types, body } => {
                 name.shift(delta);
                 params.shift(delta);
+                for t in types.iter_mut().flatten() {
+                    t.shift(delta);
+                }
                 body.shift(delta);
             }
             ItemKind::Isosurface { name, entries } => {
@@ -656,6 +659,11 @@ impl Shift for Expr {
                     value.shift(delta);
                 }
                 body.shift(delta);
+            }
+            ExprKind::Tuple(xs) => xs.shift(delta),
+            ExprKind::Index(v, i) => {
+                v.shift(delta);
+                i.shift(delta);
             }
             ExprKind::Error => {}
         }
