@@ -158,7 +158,7 @@ fn run(args: &[String]) -> Result<(), String> {
     let b = bundle()?;
     let table = GuidedTable::from_bundle(&b).map_err(|e| e.to_string())?.ok_or("no search section")?;
     let guides = guides_of(&b, arg(args, "--guides"))?;
-    let p = Prepared::new(&b, &table, &guides)?;
+    let p = Prepared::new(&b, &table, &guides).map_err(|e| e.to_string())?;
     let o = options(&b, args)?;
     // `--repeat N`: N searches (seeds seed … seed+N−1), each printed; for profiling.
     let repeat: u64 = arg(args, "--repeat").map(|s| s.parse().map_err(|_| "bad --repeat")).transpose()?.unwrap_or(1);
@@ -237,8 +237,8 @@ fn helix(args: &[String]) -> Result<(), String> {
         let near = |p: DVec3| bones.iter().any(|bo| to_segment(p, bo.base, bo.tip) < 0.35);
         samples.iter().filter(|p| near(**p)).count() as f64 / samples.len() as f64
     };
-    let paper = Prepared::new(&b, &table, std::slice::from_ref(&guide))?;
-    let local = Prepared::new(&b, &table, std::slice::from_ref(&guide))?.with_utilisation(Utilisation::Local);
+    let paper = Prepared::new(&b, &table, std::slice::from_ref(&guide)).map_err(|e| e.to_string())?;
+    let local = Prepared::new(&b, &table, std::slice::from_ref(&guide)).map_err(|e| e.to_string())?.with_utilisation(Utilisation::Local);
     let o = options(&b, args)?;
     let mut rows: Vec<[f64; 9]> = Vec::new();
     for seed in 1..=runs {
@@ -292,9 +292,9 @@ fn curves(args: &[String]) -> Result<(), String> {
         let guides = guides_of(&b, file.as_ref().and_then(|f| f.to_str()))?;
         let mut prepared = Vec::new();
         for (_, term, _) in &configs {
-            prepared.push(Prepared::new(&b, &table, &guides)?.with_utilisation(*term));
+            prepared.push(Prepared::new(&b, &table, &guides).map_err(|e| e.to_string())?.with_utilisation(*term));
         }
-        let base = Prepared::new(&b, &table, &guides)?;
+        let base = Prepared::new(&b, &table, &guides).map_err(|e| e.to_string())?;
         let cov = |r: &SearchResult| mdg_guided::measure::coverage(base.guides(), &r.model.bones).total;
         let mut unguided = Vec::new();
         let mut rows: Vec<Vec<(f64, f64, f64)>> = vec![Vec::new(); configs.len()];
@@ -426,7 +426,7 @@ fn fig4(args: &[String]) -> Result<(), String> {
             for g in &mut guides {
                 g.delta_a = delta;
             }
-            let p = Prepared::new(&b, &table, &guides)?;
+            let p = Prepared::new(&b, &table, &guides).map_err(|e| e.to_string())?;
             let configs: [(&str, Option<SearchOptions>); 4] = [
                 (
                     "no heuristic, constant size",
@@ -537,7 +537,7 @@ fn plot(args: &[String]) -> Result<(), String> {
     let mut panels = Vec::new();
     for f in &files {
         let guides = guides_of(&b, *f)?;
-        let p = Prepared::new(&b, &table, &guides)?;
+        let p = Prepared::new(&b, &table, &guides).map_err(|e| e.to_string())?;
         let r = p.search(&base, None);
         print_result(&p, &r);
         let model = p.geometry(&r.model, &EvalOptions { seed: Some(seed), ..EvalOptions::default() }, false);

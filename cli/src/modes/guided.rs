@@ -163,11 +163,12 @@ pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common, eval: &EvalOptio
     let clock = std::time::Instant::now();
     opts.clock = Some(clock);
     let utilisation = utilisation_flag(args)?;
-    let mut prepared = Prepared::new_within(bundle, table, &guides, opts.budget.and_then(|b| clock.checked_add(b)))?;
+    let mut prepared = Prepared::new_within(bundle, table, &guides, opts.budget.and_then(|b| clock.checked_add(b)))
+        .map_err(|e| e.to_string())?;
     if let Some(u) = utilisation {
         prepared = prepared.with_utilisation(u);
     }
-    prepared.check_size(&opts)?;
+    prepared.check_size(&opts).map_err(|e| e.to_string())?;
     let bar = indicatif::ProgressBar::new(opts.generations as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} generations  {msg}")
