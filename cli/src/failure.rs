@@ -159,6 +159,14 @@ impl From<mdg_export::ExportError> for Failure {
     }
 }
 
+/// A creature part library that cannot be built (a part without triangles):
+/// errors in the input (the grammar).
+impl From<mdg_creature::error::LibraryError> for Failure {
+    fn from(e: mdg_creature::error::LibraryError) -> Failure {
+        Failure::input(e.to_string())
+    }
+}
+
 /// A guided search that gave no model: errors in the input (the grammar or guides).
 impl From<mdg_viewer::guided::search::SearchError> for Failure {
     fn from(e: mdg_viewer::guided::search::SearchError) -> Failure {

@@ -255,7 +255,8 @@ fn the_budget_ends_a_long_generation_and_covers_preparation() {
     let long_ago = std::time::Instant::now() - std::time::Duration::from_secs(1);
     let deadline = long_ago + budget;
     let e = Prepared::new_within(&b, &t, &t.guides, Some(deadline)).err().expect("past the deadline");
-    assert!(e.contains("the time budget ran out while preparing the guides (0 of 3 prepared)"), "{e}");
+    assert_eq!(e, mdg_guided::PrepareError::Guides(mdg_guided::GuidesError::OutOfTime { prepared: 0, total: 3 }));
+    assert!(e.to_string().starts_with("the time budget ran out while preparing the guides (0 of 3 prepared)"), "{e}");
     let r = p.search(&SearchOptions { clock: Some(long_ago), ..big }, None);
     assert_eq!((r.stop, r.generations), (Stop::Budget, 0));
 }
