@@ -167,6 +167,14 @@ impl From<mdg_creature::error::LibraryError> for Failure {
     }
 }
 
+/// A grid grammar that generates no building (it does not verify, or its
+/// production is too large for the enclosure constraint): errors in the input.
+impl From<mdg_grid::generate::GenerateError> for Failure {
+    fn from(e: mdg_grid::generate::GenerateError) -> Failure {
+        Failure::input(e.to_string())
+    }
+}
+
 /// A guided search that gave no model: errors in the input (the grammar or guides).
 impl From<mdg_viewer::guided::search::SearchError> for Failure {
     fn from(e: mdg_viewer::guided::search::SearchError) -> Failure {
