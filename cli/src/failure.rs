@@ -198,4 +198,17 @@ mod tests {
         assert_eq!(f.exit, Exit::Usage);
         assert!(f.message.starts_with("cannot read standard input: the file is UTF-16"), "{f}");
     }
+
+    #[test]
+    fn grid_and_creature_errors_are_errors_in_the_input_with_their_message() {
+        let lib = mdg_creature::error::LibraryError::NoMesh { part: "arm".into() };
+        assert_eq!(Failure::from(lib), Failure::input("part `arm`: no mesh"));
+        let grid = mdg_grid::generate::GenerateError::TooLarge { cells: 70_000_000 };
+        let f = Failure::from(grid);
+        assert_eq!(f.exit, Exit::Input);
+        assert!(
+            f.message.starts_with("the production is too large for the enclosure constraint (70000000 cells"),
+            "{f}"
+        );
+    }
 }

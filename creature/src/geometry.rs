@@ -170,7 +170,8 @@ impl Library {
                         (out.flattened(), w)
                     }
                     Geometry::Mesh(m) => {
-                        let pm = t.meshes.get(*m as usize).ok_or_else(|| LibraryError::NoMesh { part: p.name.clone() })?;
+                        let pm =
+                            t.meshes.get(*m as usize).ok_or_else(|| LibraryError::NoMesh { part: p.name.clone() })?;
                         (mesh_from_obj(&pm.positions, &pm.triangles, pm.color), Vec::new())
                     }
                 };

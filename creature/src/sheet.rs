@@ -143,7 +143,8 @@ mod tests {
         let e = decode_png(b"not a png").expect_err("not a PNG");
         assert!(matches!(e, SheetError::Decode(_)), "{e:?}");
         assert!(e.to_string().starts_with("cannot decode PNG: "), "{e}");
-        let tile = |n: u32| (mdg_vm::preview::encode_png(&vec![9; (n * n * 4) as usize], n, n).expect("png"), "t".into());
+        let tile =
+            |n: u32| (mdg_vm::preview::encode_png(&vec![9; (n * n * 4) as usize], n, n).expect("png"), "t".into());
         assert!(matches!(compose(&[tile(4), tile(5)], 2, [0; 3]), Err(SheetError::TilesDiffer)));
     }
 }

@@ -349,8 +349,13 @@ impl CreatureTable {
         let nk = self.kinds.len() as u32;
         let np = self.parts.len() as u32;
         let nc = self.categories.len() as u32;
-        let kind_ok =
-            |k: u32, at: &Place| if k < nk { Ok(()) } else { Err(TableError::at(at.clone(), Problem::KindOutOfRange(k))) };
+        let kind_ok = |k: u32, at: &Place| {
+            if k < nk {
+                Ok(())
+            } else {
+                Err(TableError::at(at.clone(), Problem::KindOutOfRange(k)))
+            }
+        };
         if self.parts.is_empty() {
             return Err(TableError::NoParts);
         }

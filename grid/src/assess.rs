@@ -105,12 +105,7 @@ impl Reference {
 
 /// Measures a generated building against example `example` of `grammar` (the
 /// enclosure measured with `seal`).
-pub fn assess(
-    grammar: &GridGrammar,
-    made: &Generated,
-    example: u32,
-    seal: u32,
-) -> Result<Assessment, GenerateError> {
+pub fn assess(grammar: &GridGrammar, made: &Generated, example: u32, seal: u32) -> Result<Assessment, GenerateError> {
     assess_with(grammar, &Reference::of(grammar, example, seal)?, made, seal)
 }
 

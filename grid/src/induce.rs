@@ -22,9 +22,8 @@ use super::infer::Inference;
 use super::matching::Classes;
 use super::voxel::VoxelModel;
 use super::{
-    blocks, sort_blocks, sub, GenerateSettings, GrammarError, GridGrammar, GridRule, GridShape, PaletteEntry, Placement,
-    ShapeBlock,
-    ShapeMatch,
+    blocks, sort_blocks, sub, GenerateSettings, GrammarError, GridGrammar, GridRule, GridShape, PaletteEntry,
+    Placement, ShapeBlock, ShapeMatch,
 };
 use std::collections::{HashMap, HashSet};
 

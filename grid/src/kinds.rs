@@ -4,8 +4,8 @@
 //! derivation, enclosure and largest piece it uses.
 
 use super::generate::{
-    below, keep_largest_supported, outside_of, placed, settle, union_box, Adjacency, Derivation, GenerateOptions,
-    GenerateError, Generated, Instance, World,
+    below, keep_largest_supported, outside_of, placed, settle, union_box, Adjacency, Derivation, GenerateError,
+    GenerateOptions, Generated, Instance, World,
 };
 use super::GridGrammar;
 use rand::{Rng, SeedableRng};

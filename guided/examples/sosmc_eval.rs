@@ -216,7 +216,9 @@ fn helix(args: &[String]) -> Result<(), String> {
         samples.iter().filter(|p| near(**p)).count() as f64 / samples.len() as f64
     };
     let paper = Prepared::new(&b, &table, std::slice::from_ref(&guide)).map_err(|e| e.to_string())?;
-    let local = Prepared::new(&b, &table, std::slice::from_ref(&guide)).map_err(|e| e.to_string())?.with_utilisation(Utilisation::Local);
+    let local = Prepared::new(&b, &table, std::slice::from_ref(&guide))
+        .map_err(|e| e.to_string())?
+        .with_utilisation(Utilisation::Local);
     let o = options(&b, args)?;
     let mut rows: Vec<[f64; 9]> = Vec::new();
     for seed in 1..=runs {

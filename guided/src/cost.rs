@@ -381,7 +381,7 @@ mod tests {
     fn guides_that_cannot_be_prepared_say_which_and_why() {
         let mut g = Guide::new("long", vec![[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 2.0], [0.0, 0.0, 3.0]]);
         g.segment = 1e-9;
-        let e = Guides::new(&[g.clone()]).err().expect("too many segments");
+        let e = Guides::new(std::slice::from_ref(&g)).expect_err("too many segments");
         assert!(matches!(&e, GuidesError::TooManySegments { label, wanted, .. } if label == "long" && *wanted == 3e9));
         assert_eq!(
             e.to_string(),
@@ -389,7 +389,7 @@ mod tests {
              than 1048576: use a longer `segment`"
         );
         g.segment = -1.0;
-        let e = Guides::new(&[g]).err().expect("negative segment");
+        let e = Guides::new(&[g]).expect_err("negative segment");
         assert_eq!(e, GuidesError::Guide { label: "long".into(), error: GuideError::Segment(-1.0) });
         let past = Some(std::time::Instant::now());
         assert_eq!(Guides::new_within(&[], past).map(|g| g.len()), Ok(0));

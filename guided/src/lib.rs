@@ -301,8 +301,13 @@ impl GuidedTable {
     /// settings.
     pub fn verify(&self, bundle: &Bundle) -> Result<(), TableError> {
         let n = bundle.rules.len() as u32;
-        let in_range =
-            |rule: u32, what: &'static str| if rule < n { Ok(()) } else { Err(TableError::RuleOutOfRange { what, rule }) };
+        let in_range = |rule: u32, what: &'static str| {
+            if rule < n {
+                Ok(())
+            } else {
+                Err(TableError::RuleOutOfRange { what, rule })
+            }
+        };
         for &r in &self.skeleton {
             in_range(r, "skeleton")?;
             let rule = &bundle.rules[r as usize];

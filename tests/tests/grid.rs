@@ -426,9 +426,9 @@ fn grid_failures_are_data_that_name_what_failed() {
     let e = bad.validate().expect_err("no blocks");
     assert_eq!(e, GrammarError::Shape { index: 0, name: name.clone(), problem: ShapeProblem::NoBlocks });
     assert_eq!(e.to_string(), format!("shape 0 (`{name}`) has no blocks"));
-    let e = mdg_grid::assess::Reference::of(&g, 7, 1).err().expect("one example");
+    let e = mdg_grid::assess::Reference::of(&g, 7, 1).expect_err("one example");
     assert_eq!(e, GenerateError::NoExample(7));
-    let e = enclosure(&g, &[Instance { shape: 999, place: Placement::IDENTITY }], 1).err().expect("no shape 999");
+    let e = enclosure(&g, &[Instance { shape: 999, place: Placement::IDENTITY }], 1).expect_err("no shape 999");
     assert_eq!(e, GenerateError::ShapeOutOfRange);
     assert_eq!(induce(&[], &[], "none").err(), Some(InductionError::InferencesPerExample));
 }

@@ -107,7 +107,9 @@ impl std::fmt::Display for NbtError {
             NbtError::Varint => write!(f, "invalid varint in block data"),
             NbtError::MoreBlockData => write!(f, "more block data than Width × Height × Length"),
             NbtError::IndexNotInPalette(i) => write!(f, "block data uses palette index {i}, not in the palette"),
-            NbtError::BlockDataCount { entries, cells } => write!(f, "block data has {entries} entries, expected {cells}"),
+            NbtError::BlockDataCount { entries, cells } => {
+                write!(f, "block data has {entries} entries, expected {cells}")
+            }
             NbtError::Model(e) => write!(f, "{e}"),
         }
     }
@@ -175,10 +177,7 @@ fn decompress(bytes: &[u8]) -> Result<Vec<u8>, NbtError> {
         return Ok(bytes.to_vec());
     }
     let mut out = Vec::new();
-    flate2::read::GzDecoder::new(bytes)
-        .take(MAX_NBT_BYTES + 1)
-        .read_to_end(&mut out)
-        .map_err(NbtError::Gzip)?;
+    flate2::read::GzDecoder::new(bytes).take(MAX_NBT_BYTES + 1).read_to_end(&mut out).map_err(NbtError::Gzip)?;
     if out.len() as u64 > MAX_NBT_BYTES {
         return Err(NbtError::TooLarge);
     }
@@ -327,9 +326,7 @@ fn modern_kinds(model: &VoxelModel) -> Result<Vec<String>, NbtWriteError> {
     model
         .kinds
         .iter()
-        .map(|k| {
-            blocks::to_modern(&k.id).ok_or_else(|| NbtWriteError::NoMinecraftName(k.id.clone()))
-        })
+        .map(|k| blocks::to_modern(&k.id).ok_or_else(|| NbtWriteError::NoMinecraftName(k.id.clone())))
         .collect()
 }
 
