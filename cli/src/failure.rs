@@ -120,11 +120,16 @@ impl From<mdg_compiler::fmt::FormatError> for Failure {
     }
 }
 
-/// No grammar induced: errors in the input (the examples), and the written
-/// grammar's own checks.
+/// No grammar induced: an example that cannot be read is a usage or IO error;
+/// the rest are errors in the input (the examples), and the written grammar's own
+/// checks.
 impl From<mdg_compiler::induce::InduceError> for Failure {
     fn from(e: mdg_compiler::induce::InduceError) -> Failure {
-        Failure::input(e.to_string())
+        if e.is_io() {
+            Failure::usage(e.to_string())
+        } else {
+            Failure::input(e.to_string())
+        }
     }
 }
 
