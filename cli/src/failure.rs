@@ -120,11 +120,16 @@ impl From<mdg_compiler::fmt::FormatError> for Failure {
     }
 }
 
-/// No grammar induced: errors in the input (the examples), and the written
-/// grammar's own checks.
+/// No grammar induced: an example that cannot be read is a usage or IO error;
+/// the rest are errors in the input (the examples), and the written grammar's own
+/// checks.
 impl From<mdg_compiler::induce::InduceError> for Failure {
     fn from(e: mdg_compiler::induce::InduceError) -> Failure {
-        Failure::input(e.to_string())
+        if e.is_io() {
+            Failure::usage(e.to_string())
+        } else {
+            Failure::input(e.to_string())
+        }
     }
 }
 
@@ -159,6 +164,22 @@ impl From<mdg_export::ExportError> for Failure {
     }
 }
 
+/// A creature part library that cannot be built (a part without triangles):
+/// errors in the input (the grammar).
+impl From<mdg_creature::error::LibraryError> for Failure {
+    fn from(e: mdg_creature::error::LibraryError) -> Failure {
+        Failure::input(e.to_string())
+    }
+}
+
+/// A grid grammar that generates no building (it does not verify, or its
+/// production is too large for the enclosure constraint): errors in the input.
+impl From<mdg_grid::generate::GenerateError> for Failure {
+    fn from(e: mdg_grid::generate::GenerateError) -> Failure {
+        Failure::input(e.to_string())
+    }
+}
+
 /// A guided search that gave no model: errors in the input (the grammar or guides).
 impl From<mdg_viewer::guided::search::SearchError> for Failure {
     fn from(e: mdg_viewer::guided::search::SearchError) -> Failure {
@@ -181,5 +202,18 @@ mod tests {
         let f = Failure::from(mdg_compiler::source::DecodeError::Utf16).context("cannot read standard input");
         assert_eq!(f.exit, Exit::Usage);
         assert!(f.message.starts_with("cannot read standard input: the file is UTF-16"), "{f}");
+    }
+
+    #[test]
+    fn grid_and_creature_errors_are_errors_in_the_input_with_their_message() {
+        let lib = mdg_creature::error::LibraryError::NoMesh { part: "arm".into() };
+        assert_eq!(Failure::from(lib), Failure::input("part `arm`: no mesh"));
+        let grid = mdg_grid::generate::GenerateError::TooLarge { cells: 70_000_000 };
+        let f = Failure::from(grid);
+        assert_eq!(f.exit, Exit::Input);
+        assert!(
+            f.message.starts_with("the production is too large for the enclosure constraint (70000000 cells"),
+            "{f}"
+        );
     }
 }

@@ -199,3 +199,29 @@ fn summary_seeds_sets_the_seeds_measured_and_zero_skips_them() {
     assert!(err.contains("--summary-seeds 1001: at most 1000"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// An example that cannot be read (missing, an unknown extension) is a usage or IO
+/// error (exit 2); one that is read and refused, an error in the input (exit 1).
+#[test]
+fn unreadable_examples_exit_2_and_refused_ones_exit_1() {
+    let dir = std::env::temp_dir().join(format!("mdg-induce-status-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    std::fs::write(dir.join("bad.txt"), "0 0 x stone\n").expect("write");
+    std::fs::write(dir.join("house.schematic"), "0 0 0 stone\n").expect("write");
+    for (example, status, says) in [
+        ("missing.txt", 2, "cannot read missing.txt"),
+        ("house.schematic", 2, "house.schematic: unknown voxel format"),
+        ("bad.txt", 1, "bad.txt: line 1: `x` is not an integer z coordinate"),
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_mdgc"))
+            .current_dir(&dir)
+            .args(["induce", example, "-o", "out.mdg"])
+            .output()
+            .expect("run mdgc");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(status), "{example}: {err}");
+        assert!(err.contains(says), "{example}: {err}");
+        assert!(!dir.join("out.mdg").exists(), "{example}: nothing written");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -34,15 +34,15 @@ pub struct ExampleReport {
 pub const DEFAULT_SHARE: usize = 3;
 
 /// Why no grammar was induced or written.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Debug)]
 pub enum InduceError {
-    /// An example could not be read: the reader's message (it names the file).
-    Read(String),
+    /// An example could not be read, or was read and refused (the error names the file).
+    Read(mdg_grid::format::ReadError),
     /// An example holds no block.
     Empty(std::path::PathBuf),
     /// The induced grammar is over a grid grammar's limits (blocks in all shapes, a
     /// shape's extent): why.
-    OverLimits(String),
+    OverLimits(mdg_grid::induce::InductionError),
     /// The written grammar would be `len` bytes, over the source file limit `max`.
     TooLarge { len: usize, max: usize, shapes: usize, blocks: usize },
     /// The written grammar does not compile back to the induced one (a bug): the
@@ -53,7 +53,7 @@ pub enum InduceError {
 impl std::fmt::Display for InduceError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            InduceError::Read(m) => write!(f, "{m}"),
+            InduceError::Read(e) => write!(f, "{e}"),
             InduceError::Empty(p) => write!(f, "{}: no blocks", p.display()),
             InduceError::OverLimits(why) => {
                 write!(f, "error[E0912]: the induced grammar is over a grid grammar's limits: {why}")
@@ -72,7 +72,23 @@ impl std::fmt::Display for InduceError {
     }
 }
 
-impl std::error::Error for InduceError {}
+impl InduceError {
+    /// Whether an example could not be read at all (missing, not a regular file, an
+    /// unknown extension): a usage or IO error, where the others are errors in the input.
+    pub fn is_io(&self) -> bool {
+        matches!(self, InduceError::Read(e) if e.is_io())
+    }
+}
+
+impl std::error::Error for InduceError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            InduceError::Read(e) => Some(e),
+            InduceError::OverLimits(e) => Some(e),
+            _ => None,
+        }
+    }
+}
 
 /// Reads the examples, infers shapes and induces the grammar. `progress` hears about
 /// each example (its index) and each search pass.
@@ -94,7 +110,7 @@ pub fn read_examples(paths: &[&Path]) -> Result<(Vec<(String, VoxelModel)>, Vec<
     let mut models: Vec<(String, VoxelModel)> = Vec::new();
     let mut all_notes = Vec::new();
     for p in paths {
-        let (m, notes) = mdg_grid::format::read_with_notes(p).map_err(|e| InduceError::Read(e.to_string()))?;
+        let (m, notes) = mdg_grid::format::read_with_notes(p).map_err(InduceError::Read)?;
         all_notes.extend(notes.into_iter().map(|n| format!("{}: {n}", p.display())));
         if m.blocks.is_empty() {
             return Err(InduceError::Empty(p.to_path_buf()));
@@ -152,7 +168,7 @@ pub fn induce_models(
     let examples: Vec<Example> = models.iter().map(|(n, m)| Example { name: n.clone(), model: m }).collect();
     // The grid section's limits (blocks in all shapes, a shape's extent) are the only
     // way a valid example set fails here: the code of a grid value out of range.
-    let g = induce(&examples, &inferences, name).map_err(|e| InduceError::OverLimits(e.to_string()))?;
+    let g = induce(&examples, &inferences, name).map_err(InduceError::OverLimits)?;
     Ok((g, reports))
 }
 

@@ -4,36 +4,17 @@
 //! issue's target is ≤ 1 ms; the paper's C++ prototype takes about 0.5 s.
 //!
 //! Run: `cargo bench -p mdg-creature --bench creature`. The VM does not depend on the
-//! compiler, so the grammar is compiled by `mdgc` first (the bench runs
+//! compiler, so the grammar is compiled by `mdgc` first (see `benches/setup/mod.rs`:
 //! `cargo run --release --bin mdgc -- build …` unless `MDG_CREATURE_BUNDLE` names
-//! a compiled `.mdgb`).
+//! a compiled `.mdgb`). The library's build time is measured with the table's decoding.
 
 use mdg_creature::evolve::{Evolution, EvolveOptions};
-use mdg_creature::geometry::{assemble, Library};
-use mdg_creature::CreatureTable;
-use mdg_vm::bundle::Section as _;
+use mdg_creature::geometry::assemble;
 use mdg_vm::output::Mesh;
-use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-fn bundle_path() -> Result<PathBuf, String> {
-    if let Some(p) = std::env::var_os("MDG_CREATURE_BUNDLE") {
-        return Ok(PathBuf::from(p));
-    }
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let out = root.join("target/monsters.mdgb");
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let status = std::process::Command::new(cargo)
-        .current_dir(&root)
-        .args(["run", "-q", "--release", "--bin", "mdgc", "--", "build", "std/examples/monsters.mdg", "-o"])
-        .arg(&out)
-        .status()
-        .map_err(|e| format!("cannot run mdgc: {e}"))?;
-    if !status.success() {
-        return Err("mdgc could not build std/examples/monsters.mdg".into());
-    }
-    Ok(out)
-}
+/// The monsters grammar, its table and part library (shared with `examples/creature_eval.rs`).
+mod setup;
 
 fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -46,13 +27,11 @@ fn median(v: &mut [f64]) -> f64 {
 }
 
 fn main() -> Result<(), String> {
-    let path = bundle_path()?;
-    let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
-    let table = &CreatureTable::from_bundle(&bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
+    let (_, bundle) = setup::load()?;
     let t0 = Instant::now();
-    let lib = Library::build(&bundle, table)?;
+    let (table, lib) = setup::library(&bundle)?;
     let lib_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let table = &table;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().map_err(|e| e.to_string())?;
     pool.install(|| {
         let mut opts = EvolveOptions::from_table(table);

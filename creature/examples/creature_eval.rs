@@ -22,30 +22,12 @@
 //! names a compiled `.mdgb`.
 
 use mdg_creature::evolve::{Evolution, EvolveOptions};
-use mdg_creature::geometry::Library;
 use mdg_creature::table::RuleKind;
-use mdg_creature::CreatureTable;
-use mdg_vm::bundle::Section as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-fn bundle_path() -> Result<PathBuf, String> {
-    if let Some(p) = std::env::var_os("MDG_CREATURE_BUNDLE") {
-        return Ok(PathBuf::from(p));
-    }
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let out = root.join("target/monsters.mdgb");
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let status = std::process::Command::new(cargo)
-        .current_dir(&root)
-        .args(["run", "-q", "--release", "--bin", "mdgc", "--", "build", "std/examples/monsters.mdg", "-o"])
-        .arg(&out)
-        .status()
-        .map_err(|e| format!("cannot run mdgc: {e}"))?;
-    if !status.success() {
-        return Err("mdgc could not build std/examples/monsters.mdg".into());
-    }
-    Ok(out)
-}
+/// The monsters grammar, its table and part library (shared with the benchmark).
+#[path = "../benches/setup/mod.rs"]
+mod setup;
 
 fn mean_sd(v: &[f64]) -> (f64, f64) {
     let n = v.len().max(1) as f64;
@@ -71,8 +53,8 @@ fn run(evo: &Evolution) -> Vec<[f64; 6]> {
 /// copies of arrangements placed by their plain offsets (as before issue 22) and
 /// seated on the torso's surface; evolution rejecting detached layouts or not.
 fn touch(bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
-    let table = &CreatureTable::from_bundle(bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
-    let mut lib = Library::build(bundle, table)?;
+    let (table, mut lib) = setup::library(bundle)?;
+    let table = &table;
     println!("| placement | contact test in evolution | presented monsters | with a detached part | rate | tries rejected as detached |");
     println!("|---|---|---|---|---|---|");
     for (seat, require) in [(false, false), (true, false), (true, true)] {
@@ -111,8 +93,8 @@ fn touch(bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
 /// and of its contact test, over the presented monsters of seed 3, generations 0–5.
 fn time(bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
     use mdg_creature::geometry::{detached, layout};
-    let table = &CreatureTable::from_bundle(bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
-    let mut lib = Library::build(bundle, table)?;
+    let (table, mut lib) = setup::library(bundle)?;
+    let table = &table;
     let mut o = EvolveOptions::from_table(table);
     o.seed = 3;
     let evo = Evolution::new(table, &lib, o);
@@ -189,8 +171,8 @@ fn time(bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
 /// presented monsters) each variant made, summed over the seeds. The grammar's own
 /// population and offspring count.
 fn fig13(bundle: &mdg_vm::bundle::Bundle, path: &Path, seeds: u64, gens: u32) -> Result<(), String> {
-    let table = &CreatureTable::from_bundle(bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
-    let lib = Library::build(bundle, table)?;
+    let (table, lib) = setup::library(bundle)?;
+    let table = &table;
     let base = EvolveOptions::from_table(table);
     println!(
         "Fig. 13 on {}: seeds 1–{seeds}, generations 1–{gens}, population {}, {} offspring per generation",
@@ -251,8 +233,8 @@ fn fig13(bundle: &mdg_vm::bundle::Bundle, path: &Path, seeds: u64, gens: u32) ->
 /// kept and lineages free, as `--allow-lookalikes --no-lineages`.
 fn pairs(bundle: &mdg_vm::bundle::Bundle, args: &[String]) -> Result<(), String> {
     use mdg_creature::silhouette::distance;
-    let table = &CreatureTable::from_bundle(bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
-    let lib = Library::build(bundle, table)?;
+    let (table, lib) = setup::library(bundle)?;
+    let table = &table;
     let mut o = EvolveOptions::from_table(table);
     o.seed = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(3);
     o.generations = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(5);
@@ -310,8 +292,8 @@ fn pairs(bundle: &mdg_vm::bundle::Bundle, args: &[String]) -> Result<(), String>
 /// 1–4 without lineages kept (look-alikes dropped), and the notes of lineages that
 /// died out — to find a run where a body plan is crowded out.
 fn lineages(bundle: &mdg_vm::bundle::Bundle, seeds: u64) -> Result<(), String> {
-    let table = &CreatureTable::from_bundle(bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
-    let lib = Library::build(bundle, table)?;
+    let (table, lib) = setup::library(bundle)?;
+    let table = &table;
     for seed in 1..=seeds {
         let mut o = EvolveOptions::from_table(table);
         o.seed = seed;
@@ -332,33 +314,23 @@ fn lineages(bundle: &mdg_vm::bundle::Bundle, seeds: u64) -> Result<(), String> {
 fn main() -> Result<(), String> {
     let args: Vec<String> = std::env::args().collect();
     if args.get(1).map(String::as_str) == Some("lineages") {
-        let path = bundle_path()?;
-        let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
+        let (_, bundle) = setup::load()?;
         return lineages(&bundle, args.get(2).and_then(|s| s.parse().ok()).unwrap_or(12));
     }
     if args.get(1).map(String::as_str) == Some("pairs") {
-        let path = bundle_path()?;
-        let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
+        let (_, bundle) = setup::load()?;
         return pairs(&bundle, &args);
     }
     if args.get(1).map(String::as_str) == Some("time") {
-        let path = bundle_path()?;
-        let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
+        let (_, bundle) = setup::load()?;
         return time(&bundle);
     }
     if args.get(1).map(String::as_str) == Some("touch") {
-        let path = bundle_path()?;
-        let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
+        let (_, bundle) = setup::load()?;
         return touch(&bundle);
     }
     if args.get(1).map(String::as_str) == Some("fig13") {
-        let path = bundle_path()?;
-        let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
+        let (path, bundle) = setup::load()?;
         let seeds: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(5);
         let gens: u32 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(5);
         return fig13(&bundle, &path, seeds, gens);
@@ -368,11 +340,9 @@ fn main() -> Result<(), String> {
         None => vec![1, 3, 7, 11, 42],
     };
     let gens: u32 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(5);
-    let path = bundle_path()?;
-    let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let bundle = mdg_vm::bundle::load(&bytes).map_err(|e| e.to_string())?;
-    let table = &CreatureTable::from_bundle(&bundle).map_err(|e| e.to_string())?.ok_or("no creature table")?;
-    let lib = Library::build(&bundle, table)?;
+    let (_, bundle) = setup::load()?;
+    let (table, lib) = setup::library(&bundle)?;
+    let table = &table;
     let population = 18u32;
     println!(
         "Ablation of increase rules (paper Fig. 13): std/examples/monsters.mdg, seeds {seeds:?}, {gens} generations, population {population}"

@@ -5,7 +5,8 @@
 //! super-parts of a kind the shape has). `rand`/`randn` are not allowed: a rule's
 //! probability is the chance of its function branch, drawn by the evolution.
 
-use mdg_vm::expr::{self, BinOp, Core, StackOp};
+use super::error::CondError;
+use mdg_vm::expr::{self, BinOp, CodeError, Core, StackOp};
 use serde::{Deserialize, Serialize};
 
 /// Variables a condition or probability may read, by index.
@@ -113,15 +114,15 @@ pub fn eval(code: &[CondOp], env: &dyn Env, stack: &mut expr::Machine) -> f64 {
 
 /// Checks stack discipline and indices (`n_kinds` bounds `parts(…)`) with
 /// [`expr::check`]; `rand`/`randn` are refused.
-pub fn verify(code: &[CondOp], n_kinds: u32) -> Result<(), String> {
+pub fn verify(code: &[CondOp], n_kinds: u32) -> Result<(), CondError> {
     expr::check(
         code,
-        |i, leaf| match leaf {
-            CondOp::Var(v) if v as usize >= VARIABLES.len() => Err(format!("unknown variable {v} at {i}")),
-            CondOp::Parts(k) if k >= n_kinds => Err(format!("unknown kind {k} at {i}")),
+        |at, leaf| match leaf {
+            CondOp::Var(var) if var as usize >= VARIABLES.len() => Err(CodeError::UnknownVariable { var, at }.into()),
+            CondOp::Parts(kind) if kind >= n_kinds => Err(CondError::UnknownKind { kind, at }),
             _ => Ok(()),
         },
-        |i, f| if f.is_random() { Err(format!("random function at {i}")) } else { Ok(()) },
+        |at, f| if f.is_random() { Err(CondError::RandomFunction { at }) } else { Ok(()) },
     )
 }
 

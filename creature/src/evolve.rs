@@ -8,6 +8,7 @@
 //! the background set (kept diverse by the same mechanism), and the next current
 //! set is a diverse subset of the presented, current and background sets.
 
+use super::error::UnknownMonster;
 use super::geometry::{layout, Layout, Library};
 use super::rules::{derive, select, Applied, DeriveOptions, Rng};
 use super::shape::Shape;
@@ -493,19 +494,18 @@ impl<'a> Evolution<'a> {
 
     /// Continues from chosen monsters (the user's preference): they become the
     /// current set; the rest of the presented set joins the background.
-    pub fn keep(&self, pop: &mut Population, ids: &[String]) -> Result<(), String> {
+    pub fn keep(&self, pop: &mut Population, ids: &[String]) -> Result<(), UnknownMonster> {
         let mut kept = Vec::new();
         for id in ids {
             let all = pop.presented.iter().chain(&pop.current).chain(&pop.background);
             match all.clone().find(|i| &i.id == id) {
                 Some(i) => kept.push(i.clone()),
                 None => {
-                    let have: Vec<&str> = pop.presented.iter().map(|i| i.id.as_str()).collect();
-                    return Err(format!(
-                        "no monster `{id}` in generation {} (presented: {})",
-                        pop.generation,
-                        have.join(", ")
-                    ));
+                    return Err(UnknownMonster {
+                        id: id.clone(),
+                        generation: pop.generation,
+                        presented: pop.presented.iter().map(|i| i.id.clone()).collect(),
+                    });
                 }
             }
         }

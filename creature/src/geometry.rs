@@ -5,6 +5,7 @@
 //! (I k_i), with `[` `]` pushing and popping the frame — its interpreter, the
 //! stability test, and the assembled mesh.
 
+use super::error::LibraryError;
 use super::outline::Outline;
 use super::shape::Shape;
 use super::table::{CreatureTable, Geometry, Mode, PartDef, Slot};
@@ -141,7 +142,7 @@ impl Library {
     /// Evaluates every part's rule (with the bundle's own seed and the default
     /// limits) or converts its embedded mesh: [`Library::build_with`], with the
     /// limits' warnings dropped.
-    pub fn build(bundle: &Bundle, t: &CreatureTable) -> Result<Library, String> {
+    pub fn build(bundle: &Bundle, t: &CreatureTable) -> Result<Library, LibraryError> {
         Library::build_with(bundle, t, &EvalOptions::default()).map(|(lib, _)| lib)
     }
 
@@ -153,7 +154,7 @@ impl Library {
         bundle: &Bundle,
         t: &CreatureTable,
         opts: &EvalOptions,
-    ) -> Result<(Library, Vec<String>), String> {
+    ) -> Result<(Library, Vec<String>), LibraryError> {
         let opts = EvalOptions { seed: None, record_sites: false, ..opts.clone() };
         let built = t
             .parts
@@ -169,17 +170,18 @@ impl Library {
                         (out.flattened(), w)
                     }
                     Geometry::Mesh(m) => {
-                        let pm = t.meshes.get(*m as usize).ok_or_else(|| format!("part `{}`: no mesh", p.name))?;
+                        let pm =
+                            t.meshes.get(*m as usize).ok_or_else(|| LibraryError::NoMesh { part: p.name.clone() })?;
                         (mesh_from_obj(&pm.positions, &pm.triangles, pm.color), Vec::new())
                     }
                 };
                 if mesh.triangles.is_empty() {
-                    let why = warnings.first().map(|w: &String| format!(" ({w})")).unwrap_or_default();
-                    return Err(format!("part `{}`: its geometry has no triangles{why}", p.name));
+                    let warning = warnings.first().cloned();
+                    return Err(LibraryError::NoTriangles { part: p.name.clone(), warning });
                 }
                 Ok((PartGeometry::new(mesh, p), warnings))
             })
-            .collect::<Result<Vec<_>, String>>()?;
+            .collect::<Result<Vec<_>, LibraryError>>()?;
         let mut parts = Vec::with_capacity(built.len());
         let mut warnings = Vec::new();
         for (part, w) in built {

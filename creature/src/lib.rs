@@ -14,9 +14,11 @@
 //!   measure;
 //! - [`silhouette`]: low-resolution silhouettes, to tell monsters apart by what is
 //!   visible, made from each part's [`outline`];
-//! - [`sheet`]: contact sheets composed from per-monster pictures.
+//! - [`sheet`]: contact sheets composed from per-monster pictures;
+//! - [`error`]: why a table, a shape, the part library or a sheet is refused.
 
 pub mod cond;
+pub mod error;
 pub mod evolve;
 pub mod geometry;
 pub mod outline;

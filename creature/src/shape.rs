@@ -2,6 +2,7 @@
 //! torso super-parts, their structure graph, the structure complexity C_s and the
 //! structure vector used for diversity control.
 
+use super::error::ShapeError;
 use super::table::{CreatureTable, Mode, ShapeDef};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -90,19 +91,19 @@ impl Shape {
     /// Checks a shape read from outside (a run's record) against the table: every
     /// index in range, parents before the super-parts attached to them, torsos
     /// with one meta-part, ids below `next_id`.
-    pub fn check(&self, t: &CreatureTable) -> Result<(), String> {
+    pub fn check(&self, t: &CreatureTable) -> Result<(), ShapeError> {
         if self.supers.is_empty() {
-            return Err("no super-parts".into());
+            return Err(ShapeError::NoSuperParts);
         }
         for (i, sp) in self.supers.iter().enumerate() {
-            let kind = t.kinds.get(sp.kind as usize).ok_or(format!("S{i}: no type {}", sp.kind))?;
+            let kind = t.kinds.get(sp.kind as usize).ok_or(ShapeError::NoKind { sup: i, kind: sp.kind })?;
             if sp.metas.is_empty() || (kind.torso && sp.metas.len() != 1) {
-                return Err(format!("S{i}: {} meta-parts", sp.metas.len()));
+                return Err(ShapeError::MetaParts { sup: i, n: sp.metas.len() });
             }
             for m in &sp.metas {
-                let part = t.parts.get(m.geometry as usize).ok_or(format!("S{i}: no part {}", m.geometry))?;
+                let part = t.parts.get(m.geometry as usize).ok_or(ShapeError::NoPart { sup: i, part: m.geometry })?;
                 if m.kind != sp.kind || m.id >= self.next_id || (i > 0 && part.joint.is_none()) {
-                    return Err(format!("S{i}: meta-part {} does not fit", m.id));
+                    return Err(ShapeError::MetaDoesNotFit { sup: i, id: m.id });
                 }
             }
             match sp.attach {
@@ -113,10 +114,10 @@ impl Shape {
                     if !t.kinds.get(parent.kind as usize).is_some_and(|k| k.torso)
                         || torso.is_none_or(|p| a.slot as usize >= p.slots.len())
                     {
-                        return Err(format!("S{i}: attached to no slot of a torso"));
+                        return Err(ShapeError::NotOnATorsoSlot { sup: i });
                     }
                 }
-                _ => return Err(format!("S{i}: bad attachment")),
+                _ => return Err(ShapeError::BadAttachment { sup: i }),
             }
         }
         Ok(())

@@ -2,16 +2,17 @@
 //! by whichever renderer the caller uses) composed into one PNG in a grid, each
 //! tile labelled with its monster's id.
 
+use super::error::SheetError;
 use std::io::Cursor;
 
 /// Decodes a PNG to RGBA8 pixels: (width, height, pixels).
-pub fn decode_png(bytes: &[u8]) -> Result<(u32, u32, Vec<u8>), String> {
+pub fn decode_png(bytes: &[u8]) -> Result<(u32, u32, Vec<u8>), SheetError> {
     let mut dec = png::Decoder::new(Cursor::new(bytes));
     dec.set_transformations(png::Transformations::normalize_to_color8());
-    let mut reader = dec.read_info().map_err(|e| format!("cannot decode PNG: {e}"))?;
-    let size = reader.output_buffer_size().ok_or("PNG too large")?;
+    let mut reader = dec.read_info().map_err(SheetError::Decode)?;
+    let size = reader.output_buffer_size().ok_or(SheetError::TooLarge)?;
     let mut buf = vec![0u8; size];
-    let info = reader.next_frame(&mut buf).map_err(|e| format!("cannot decode PNG: {e}"))?;
+    let info = reader.next_frame(&mut buf).map_err(SheetError::Decode)?;
     let (w, h) = (info.width, info.height);
     let n = (w * h) as usize;
     let src = &buf[..info.buffer_size()];
@@ -20,10 +21,10 @@ pub fn decode_png(bytes: &[u8]) -> Result<(u32, u32, Vec<u8>), String> {
         png::ColorType::Rgb => src.chunks_exact(3).flat_map(|p| [p[0], p[1], p[2], 255]).collect(),
         png::ColorType::Grayscale => src.iter().flat_map(|&g| [g, g, g, 255]).collect(),
         png::ColorType::GrayscaleAlpha => src.chunks_exact(2).flat_map(|p| [p[0], p[0], p[0], p[1]]).collect(),
-        png::ColorType::Indexed => return Err("indexed PNG after expansion".into()),
+        png::ColorType::Indexed => return Err(SheetError::Indexed),
     };
     if rgba.len() != n * 4 {
-        return Err("PNG size mismatch".into());
+        return Err(SheetError::SizeMismatch);
     }
     Ok((w, h, rgba))
 }
@@ -90,11 +91,11 @@ fn draw_text(canvas: &mut Canvas, x: u32, y: u32, text: &str, scale: u32, color:
 
 /// Composes PNG tiles (all the same size) into a grid of `cols` columns with a
 /// thin gutter, each labelled at its top left; returns the sheet as PNG bytes.
-pub fn compose(tiles: &[(Vec<u8>, String)], cols: usize, background: [u8; 3]) -> Result<Vec<u8>, String> {
+pub fn compose(tiles: &[(Vec<u8>, String)], cols: usize, background: [u8; 3]) -> Result<Vec<u8>, SheetError> {
     let decoded: Vec<(u32, u32, Vec<u8>)> = tiles.iter().map(|(png, _)| decode_png(png)).collect::<Result<_, _>>()?;
-    let (tw, th) = decoded.first().map(|d| (d.0, d.1)).ok_or("no tiles")?;
+    let (tw, th) = decoded.first().map(|d| (d.0, d.1)).ok_or(SheetError::NoTiles)?;
     if decoded.iter().any(|d| (d.0, d.1) != (tw, th)) {
-        return Err("tiles differ in size".into());
+        return Err(SheetError::TilesDiffer);
     }
     let cols = cols.clamp(1, decoded.len());
     let rows = decoded.len().div_ceil(cols);
@@ -111,7 +112,7 @@ pub fn compose(tiles: &[(Vec<u8>, String)], cols: usize, background: [u8; 3]) ->
         let label = &tiles[k].1;
         draw_text(&mut Canvas { px: &mut out, w, h }, x0 + 8, y0 + 8, label, 3, [40, 40, 48]);
     }
-    mdg_vm::preview::encode_png(&out, w, h).map_err(|e| e.to_string())
+    mdg_vm::preview::encode_png(&out, w, h).map_err(SheetError::Encode)
 }
 
 #[cfg(test)]
@@ -134,5 +135,16 @@ mod tests {
         assert!(label_dark, "the label is drawn");
         assert_eq!(at(2, 2), 200);
         assert_eq!(at(140 + 30, 72 + 30), 200);
+    }
+
+    #[test]
+    fn sheets_that_cannot_be_made_say_why() {
+        assert!(matches!(compose(&[], 3, [0; 3]), Err(SheetError::NoTiles)));
+        let e = decode_png(b"not a png").expect_err("not a PNG");
+        assert!(matches!(e, SheetError::Decode(_)), "{e:?}");
+        assert!(e.to_string().starts_with("cannot decode PNG: "), "{e}");
+        let tile =
+            |n: u32| (mdg_vm::preview::encode_png(&vec![9; (n * n * 4) as usize], n, n).expect("png"), "t".into());
+        assert!(matches!(compose(&[tile(4), tile(5)], 2, [0; 3]), Err(SheetError::TilesDiffer)));
     }
 }

@@ -7,6 +7,7 @@
 //! every one of them, so the evolution code can index without panicking.
 
 use super::cond::CondOp;
+use super::error::{Place, Problem, TableError};
 use serde::{Deserialize, Serialize};
 
 /// What a program's `creature` section compiles to.
@@ -337,115 +338,125 @@ fn finite(v: &[f32]) -> bool {
 impl mdg_vm::bundle::Section for CreatureTable {
     const KIND: mdg_vm::bundle::SectionKind = mdg_vm::bundle::SectionKind::Creatures;
     fn check(&self, bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
-        self.verify(bundle)
+        self.verify(bundle).map_err(|e| e.to_string())
     }
 }
 
 impl CreatureTable {
     /// Checks every index against the table and the bundle, and every number for
     /// finiteness (called by `Section::from_bundle`).
-    pub fn verify(&self, bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
+    pub fn verify(&self, bundle: &mdg_vm::bundle::Bundle) -> Result<(), TableError> {
         let nk = self.kinds.len() as u32;
         let np = self.parts.len() as u32;
         let nc = self.categories.len() as u32;
-        let kind_ok = |k: u32, what: &str| if k < nk { Ok(()) } else { Err(format!("{what}: kind {k} out of range")) };
+        let kind_ok = |k: u32, at: &Place| {
+            if k < nk {
+                Ok(())
+            } else {
+                Err(TableError::at(at.clone(), Problem::KindOutOfRange(k)))
+            }
+        };
         if self.parts.is_empty() {
-            return Err("no parts".into());
+            return Err(TableError::NoParts);
         }
         if self.shapes.is_empty() {
-            return Err("no regular creatures".into());
+            return Err(TableError::NoRegularCreatures);
         }
         for (i, m) in self.meshes.iter().enumerate() {
             let n = m.positions.len() as u32;
             if !m.positions.iter().all(|p| finite(p)) || !finite(&m.color) {
-                return Err(format!("mesh {i}: non-finite number"));
+                return Err(TableError::at(Place::Mesh(i), Problem::NonFinite));
             }
             if m.triangles.iter().flatten().any(|&v| v >= n) {
-                return Err(format!("mesh {i}: vertex index out of range"));
+                return Err(TableError::at(Place::Mesh(i), Problem::VertexOutOfRange));
             }
         }
         for p in &self.parts {
-            let what = format!("part `{}`", p.name);
+            let what = Place::Part(p.name.clone());
+            let bad = |problem| Err(TableError::at(what.clone(), problem));
             kind_ok(p.kind, &what)?;
             if p.category >= nc {
-                return Err(format!("{what}: category out of range"));
+                return bad(Problem::CategoryOutOfRange);
             }
             match p.geometry {
                 Geometry::Rule(r) if (r as usize) < bundle.rules.len() => {}
                 Geometry::Mesh(m) if (m as usize) < self.meshes.len() => {}
-                _ => return Err(format!("{what}: geometry index out of range")),
+                _ => return bad(Problem::GeometryOutOfRange),
             }
             if !(p.scale.is_finite() && p.scale > 0.0) {
-                return Err(format!("{what}: bad scale"));
+                return bad(Problem::BadScale);
             }
             let is_torso = self.kinds[p.kind as usize].torso;
             if !is_torso && p.joint.is_none() {
-                return Err(format!("{what}: a non-torso part needs a joint"));
+                return bad(Problem::NoJoint);
             }
             if !is_torso && !p.slots.is_empty() {
-                return Err(format!("{what}: only torsos have slots"));
+                return bad(Problem::SlotsOnNonTorso);
             }
             let ns = p.slots.len() as u32;
             for s in p.joint.iter().chain(&p.slots) {
-                let sw = format!("{what} slot `{}`", s.name);
+                let sw = Place::Slot { part: p.name.clone(), slot: s.name.clone() };
+                let bad = |problem| Err(TableError::at(sw.clone(), problem));
                 if !(finite(&s.at) && finite(&s.normal) && finite(&s.up) && finite(&s.turn)) {
-                    return Err(format!("{sw}: non-finite number"));
+                    return bad(Problem::NonFinite);
                 }
                 if !(s.size.is_finite() && s.size > 0.0 && s.spacing.is_finite() && s.spacing >= 0.0) {
-                    return Err(format!("{sw}: bad size or spacing"));
+                    return bad(Problem::BadSizeOrSpacing);
                 }
                 let (n, u) = (glam::Vec3::from(s.normal), glam::Vec3::from(s.up));
                 if (n.length() - 1.0).abs() > 1e-3 || (u.length() - 1.0).abs() > 1e-3 || n.dot(u).abs() > 1e-3 {
-                    return Err(format!("{sw}: normal and up must be orthonormal"));
+                    return bad(Problem::NotOrthonormal);
                 }
                 for &k in &s.accepts {
                     kind_ok(k, &sw)?;
                 }
                 if s.mirror_of.is_some_and(|m| m >= ns) || s.partner.is_some_and(|m| m >= ns) {
-                    return Err(format!("{sw}: mirror slot out of range"));
+                    return bad(Problem::MirrorOutOfRange);
                 }
             }
             for (i, s) in p.slots.iter().enumerate() {
                 if let Some(m) = s.mirror_of {
                     let orig = &p.slots[m as usize];
                     if orig.mirror_of.is_some() || orig.partner != Some(i as u32) {
-                        return Err(format!("{what}: slot `{}` mirrors a slot that does not pair with it", s.name));
+                        return bad(Problem::MirrorUnpaired { slot: s.name.clone() });
                     }
                 }
             }
         }
         for f in &self.families {
             for &k in f {
-                kind_ok(k, "family")?;
+                kind_ok(k, &Place::Family)?;
             }
         }
         for s in &self.shapes {
-            let torso = self.parts.get(s.torso as usize).ok_or_else(|| format!("shape `{}`: torso", s.name))?;
+            let bad = |problem| TableError::at(Place::Shape(s.name.clone()), problem);
+            let torso = self.parts.get(s.torso as usize).ok_or_else(|| bad(Problem::TorsoOutOfRange))?;
             if !self.kinds[torso.kind as usize].torso {
-                return Err(format!("shape `{}`: the torso is not a torso part", s.name));
+                return Err(bad(Problem::NotATorso));
             }
             for a in &s.attach {
                 if a.slot as usize >= torso.slots.len() || a.part >= np {
-                    return Err(format!("shape `{}`: attach index out of range", s.name));
+                    return Err(bad(Problem::AttachOutOfRange));
                 }
                 if a.count == 0 || a.count > MAX_COUNT {
-                    return Err(format!("shape `{}`: bad count", s.name));
+                    return Err(bad(Problem::BadCount));
                 }
             }
         }
         for r in &self.rules {
-            let what = format!("rule `{}`", r.id);
+            let what = Place::Rule(r.id.clone());
+            let bad = |problem| TableError::at(what.clone(), problem);
             for &k in r.predecessor.iter().chain(&r.successor).chain(&r.take) {
                 kind_ok(k, &what)?;
             }
             if r.category.is_some_and(|c| c >= nc) || r.from.is_some_and(|c| c >= nc) {
-                return Err(format!("{what}: category out of range"));
+                return Err(bad(Problem::CategoryOutOfRange));
             }
             if r.max > MAX_COUNT || r.add > MAX_COUNT {
-                return Err(format!("{what}: count out of range"));
+                return Err(bad(Problem::CountOutOfRange));
             }
             for c in r.conditions.iter().chain(std::iter::once(&r.probability)) {
-                super::cond::verify(&c.0, nk).map_err(|e| format!("{what}: {e}"))?;
+                super::cond::verify(&c.0, nk).map_err(|e| bad(Problem::Condition(e)))?;
             }
         }
         let e = &self.evolve;
@@ -462,7 +473,7 @@ impl CreatureTable {
             || e.maxparts == 0
             || e.maxparts > MAX_PARTS
         {
-            return Err("evolve settings out of range".into());
+            return Err(TableError::EvolveOutOfRange);
         }
         Ok(())
     }

@@ -225,6 +225,38 @@ fn the_fixture_verifies() {
 }
 
 #[test]
+fn refusals_say_where_and_what_as_data() {
+    use super::error::{CondError, Place, Problem, ShapeError, TableError};
+    let mut t = table();
+    t.rules[1].probability = Code(vec![CondOp::Parts(99)]);
+    let e = t.verify(&Bundle::empty()).expect_err("no kind 99");
+    let cond = CondError::UnknownKind { kind: 99, at: 0 };
+    assert_eq!(e, TableError::at(Place::Rule("more_arms".into()), Problem::Condition(cond)));
+    assert_eq!(e.to_string(), "rule `more_arms`: unknown kind 99 at 0");
+    let mut t = table();
+    t.parts[0].slots[0].normal = [0.0, 0.0, 2.0];
+    let e = t.verify(&Bundle::empty()).expect_err("normal of length 2");
+    let name = t.parts[0].name.clone();
+    let slot = t.parts[0].slots[0].name.clone();
+    assert_eq!(e, TableError::at(Place::Slot { part: name.clone(), slot: slot.clone() }, Problem::NotOrthonormal));
+    assert_eq!(e.to_string(), format!("part `{name}` slot `{slot}`: normal and up must be orthonormal"));
+    let t = table();
+    let mut s = humanoid(&t);
+    s.supers[1].metas[0].id = s.next_id;
+    let id = s.next_id;
+    assert_eq!(s.check(&t), Err(ShapeError::MetaDoesNotFit { sup: 1, id }));
+    assert_eq!(s.check(&t).map_err(|e| e.to_string()), Err(format!("S1: meta-part {id} does not fit")));
+    s.supers.clear();
+    assert_eq!(s.check(&t), Err(ShapeError::NoSuperParts));
+    let lib = Library::build(&Bundle::empty(), &t).expect("library");
+    let evo = Evolution::new(&t, &lib, EvolveOptions::from_table(&t));
+    let (mut pop, _) = evo.start();
+    let e = evo.keep(&mut pop, &["g0-99".into()]).expect_err("no such monster");
+    assert_eq!((e.id.as_str(), e.generation, e.presented.len()), ("g0-99", 0, pop.presented.len()));
+    assert!(e.to_string().starts_with("no monster `g0-99` in generation 0 (presented: "), "{e}");
+}
+
+#[test]
 fn regular_creature_structure() {
     let t = table();
     assert_eq!(

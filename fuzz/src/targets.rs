@@ -801,7 +801,9 @@ fn ext_tables(input: &[u8]) -> u64 {
         };
         sig ^= match mdg_grid::build::generate(g, &o) {
             Ok(m) => (m.model.blocks.len() as u64).min(8) << 5,
-            Err(e) => hash(e.chars().filter(|c| !c.is_ascii_digit()).take(30).collect::<String>().as_bytes()),
+            Err(e) => {
+                hash(e.to_string().chars().filter(|c| !c.is_ascii_digit()).take(30).collect::<String>().as_bytes())
+            }
         };
     }
     sig
@@ -897,7 +899,8 @@ fn voxel_readers(input: &[u8]) -> u64 {
     let format = VoxelFormat::ALL[usize::from(sel) % VoxelFormat::ALL.len()];
     match mdg_grid::format::read_bytes(format, bytes) {
         Err(e) => hash(
-            format!("{format:?}{}", e.chars().filter(|c| !c.is_ascii_digit()).take(40).collect::<String>()).as_bytes(),
+            format!("{format:?}{}", e.to_string().chars().filter(|c| !c.is_ascii_digit()).take(40).collect::<String>())
+                .as_bytes(),
         ),
         Ok(model) => {
             deep();

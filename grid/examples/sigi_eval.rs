@@ -57,7 +57,7 @@ fn load(dir: &Path, ext: &str, prefix: &str) -> Result<Vec<Building>, String> {
     files
         .into_iter()
         .map(|p| {
-            let model = format::read(&p)?;
+            let model = format::read(&p).map_err(|e| e.to_string())?;
             let name = p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
             Ok(Building { name, model })
         })
@@ -340,7 +340,7 @@ fn generation(buildings: &[Building]) {
             .iter()
             .map(|&seal| match enclosure(&g, &placed, seal) {
                 Ok((_, m, _)) => format!("{:.0}%", 100.0 * m.blocks.len() as f64 / b.model.blocks.len() as f64),
-                Err(e) => e,
+                Err(e) => e.to_string(),
             })
             .collect();
         let (mut non_empty, mut blocks, mut secs) = (0, 0usize, 0.0);
@@ -423,7 +423,7 @@ fn pairs(buildings: &[Building]) {
                 Ok(g) => {
                     cells.push(format!("{} of {} ({cuts}); mixed {}", shared_shapes(&g), g.shapes.len(), mixed(&g)))
                 }
-                Err(e) => cells.push(e),
+                Err(e) => cells.push(e.to_string()),
             }
         }
         println!("| {} + {} | {n_plain} | {} |", buildings[a].name, buildings[b].name, cells.join(" | "));

@@ -6,7 +6,7 @@
 //! The warnings `mdgc induce` gives about what a grammar can generate have their codes
 //! here (registered in the compiler's code table, explained by `mdgc explain`).
 
-use super::generate::{enclosure_report, example_instances, examples, Generated};
+use super::generate::{enclosure_report, example_instances, examples, GenerateError, Generated};
 use super::voxel::{VoxelModel, NEIGHBOURS};
 use super::GridGrammar;
 use std::collections::{BTreeSet, HashSet};
@@ -95,9 +95,9 @@ pub struct Reference {
 
 impl Reference {
     /// Example `example` of `grammar` (rooms measured with `seal`).
-    pub fn of(grammar: &GridGrammar, example: u32, seal: u32) -> Result<Reference, String> {
+    pub fn of(grammar: &GridGrammar, example: u32, seal: u32) -> Result<Reference, GenerateError> {
         let models = examples(grammar);
-        let ex = models.get(example as usize).ok_or_else(|| format!("no example {example}"))?;
+        let ex = models.get(example as usize).ok_or(GenerateError::NoExample(example))?;
         let (_, interior) = enclosure_report(grammar, &example_instances(grammar, example), seal)?;
         Ok(Reference { blocks: ex.blocks.len(), interior, kinds: kinds_of(ex) })
     }
@@ -105,12 +105,17 @@ impl Reference {
 
 /// Measures a generated building against example `example` of `grammar` (the
 /// enclosure measured with `seal`).
-pub fn assess(grammar: &GridGrammar, made: &Generated, example: u32, seal: u32) -> Result<Assessment, String> {
+pub fn assess(grammar: &GridGrammar, made: &Generated, example: u32, seal: u32) -> Result<Assessment, GenerateError> {
     assess_with(grammar, &Reference::of(grammar, example, seal)?, made, seal)
 }
 
 /// [`assess`] against a reference computed before.
-pub fn assess_with(grammar: &GridGrammar, r: &Reference, made: &Generated, seal: u32) -> Result<Assessment, String> {
+pub fn assess_with(
+    grammar: &GridGrammar,
+    r: &Reference,
+    made: &Generated,
+    seal: u32,
+) -> Result<Assessment, GenerateError> {
     let (exposed, interior) = enclosure_report(grammar, &made.instances, seal)?;
     let have = kinds_of(&made.model);
     Ok(Assessment {

@@ -4,7 +4,7 @@
 //! Above both, so that one derivation and its measure do not depend on each other.
 
 use super::assess::{assess_with, Assessment, Reference};
-use super::generate::{derive, GenerateOptions, Generated, MAX_ATTEMPTS};
+use super::generate::{derive, GenerateError, GenerateOptions, Generated, MAX_ATTEMPTS};
 use super::kinds::add_missing_kinds;
 use super::voxel::VoxelModel;
 use super::GridGrammar;
@@ -16,7 +16,7 @@ use std::collections::HashSet;
 /// (optionally) the enclosure constraint; with several [`GenerateOptions::attempts`],
 /// the first complete building of that many derivations (measured against the start
 /// shape's example), else the best one with a note saying so.
-pub fn generate(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generated, String> {
+pub fn generate(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generated, GenerateError> {
     grammar.validate()?;
     let attempts = opts.attempts.clamp(1, MAX_ATTEMPTS);
     match reference(grammar, opts)? {
@@ -26,7 +26,7 @@ pub fn generate(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generat
 }
 
 /// The start shape's example measured, when the grammar has shapes placed in it.
-fn reference(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Option<Reference>, String> {
+fn reference(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Option<Reference>, GenerateError> {
     let example = grammar.shapes.get(grammar.start as usize).map(|s| s.example).unwrap_or(0);
     if !grammar.shapes.iter().any(|s| s.at.is_some() && s.example == example) {
         return Ok(None);
@@ -42,7 +42,7 @@ fn whole(
     grammar: &GridGrammar,
     reference: &Reference,
     opts: &GenerateOptions,
-) -> Result<(Generated, Assessment), String> {
+) -> Result<(Generated, Assessment), GenerateError> {
     let attempts = opts.attempts.clamp(1, MAX_ATTEMPTS);
     let mut seeds = Pcg64::seed_from_u64(opts.seed ^ 0x9e37_79b9_7f4a_7c15);
     // (complete, kinds kept, blocks): the best so far.
@@ -111,7 +111,7 @@ fn normalized(m: &VoxelModel) -> Vec<([i32; 3], String)> {
 /// them against the start shape's example. The seeds are generated in parallel
 /// (each is one deterministic building, so the result does not depend on the
 /// threads).
-pub fn variety(grammar: &GridGrammar, opts: &GenerateOptions, seeds: u64) -> Result<Variety, String> {
+pub fn variety(grammar: &GridGrammar, opts: &GenerateOptions, seeds: u64) -> Result<Variety, GenerateError> {
     use rayon::prelude::*;
     grammar.validate()?;
     let example = grammar.shapes.get(grammar.start as usize).map(|s| s.example).unwrap_or(0);
@@ -134,7 +134,7 @@ pub fn variety(grammar: &GridGrammar, opts: &GenerateOptions, seeds: u64) -> Res
                 Ok((made, a))
             }
         })
-        .collect::<Result<_, String>>()?;
+        .collect::<Result<_, GenerateError>>()?;
     let mut seen = HashSet::new();
     let mut v = Variety { seeds, ..Variety::default() };
     for (made, a) in made {

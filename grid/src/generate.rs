@@ -21,9 +21,9 @@
 //! too, unless another instance holds them) and the fill repeats until nothing is
 //! removed. 3D shapes are never removed.
 
-use super::outside::Outside;
+use super::outside::{Outside, TooLarge};
 use super::voxel::{Block, BlockKind, VoxelModel, MAX_BLOCKS, NEIGHBOURS};
-use super::{turn_box, GridGrammar, Placement};
+use super::{turn_box, GrammarError, GridGrammar, Placement};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use std::collections::HashMap;
@@ -355,10 +355,56 @@ impl World {
     }
 }
 
+/// Why a building cannot be generated, measured or enclosed.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum GenerateError {
+    /// The grammar does not verify.
+    Grammar(GrammarError),
+    /// The production is too large for the enclosure constraint (`cells` cells in
+    /// its padded bounding box).
+    TooLarge { cells: u64 },
+    /// An instance names a shape past the grammar's shapes.
+    ShapeOutOfRange,
+    /// An example index past the grammar's examples.
+    NoExample(u32),
+}
+
+impl std::fmt::Display for GenerateError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            GenerateError::Grammar(e) => write!(f, "{e}"),
+            GenerateError::TooLarge { cells } => write!(f, "{}", TooLarge { cells: *cells }),
+            GenerateError::ShapeOutOfRange => write!(f, "an instance names a shape out of range"),
+            GenerateError::NoExample(e) => write!(f, "no example {e}"),
+        }
+    }
+}
+
+impl std::error::Error for GenerateError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            GenerateError::Grammar(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+impl From<GrammarError> for GenerateError {
+    fn from(e: GrammarError) -> GenerateError {
+        GenerateError::Grammar(e)
+    }
+}
+
+impl From<TooLarge> for GenerateError {
+    fn from(e: TooLarge) -> GenerateError {
+        GenerateError::TooLarge { cells: e.cells }
+    }
+}
+
 /// One derivation: `steps` random rule applications from the start shape, then
 /// (optionally) the enclosure constraint. `grid::build::generate` makes several
 /// and keeps the first complete one ([`GenerateOptions::attempts`]).
-pub fn derive(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generated, String> {
+pub fn derive(grammar: &GridGrammar, opts: &GenerateOptions) -> Result<Generated, GenerateError> {
     let d = Derivation::new(grammar);
     let mut rng = Pcg64::seed_from_u64(opts.seed);
     let mut world = World::default();
@@ -442,7 +488,7 @@ pub(super) fn settle(
     instances: &mut Vec<Instance>,
     world: &mut World,
     opts: &GenerateOptions,
-) -> Result<(usize, usize), String> {
+) -> Result<(usize, usize), GenerateError> {
     let (mut removed, mut rounds) = (0, 0);
     let mut out = if opts.enclosure { outside_of(world, opts.seal)? } else { None };
     let mut emptied = Vec::new();
@@ -477,8 +523,8 @@ pub(super) fn settle(
 }
 
 /// The outside of `world`'s blocks with openings up to `2·seal` sealed.
-pub(super) fn outside_of(world: &World, seal: u32) -> Result<Option<Outside>, String> {
-    Outside::of(world.cells.keys().copied(), seal.min(MAX_SEAL))
+pub(super) fn outside_of(world: &World, seal: u32) -> Result<Option<Outside>, GenerateError> {
+    Ok(Outside::of(world.cells.keys().copied(), seal.min(MAX_SEAL))?)
 }
 
 /// Takes the `emptied` cells out of the outside (and clears the list); computes it
@@ -488,7 +534,7 @@ fn update_outside(
     world: &World,
     emptied: &mut Vec<[i32; 3]>,
     seal: u32,
-) -> Result<(), String> {
+) -> Result<(), GenerateError> {
     let ground = world.cells.keys().map(|p| p[1]).min();
     match (out.as_mut(), ground) {
         (Some(o), Some(g)) if g == o.ground() => emptied.iter().for_each(|&p| o.remove(p)),
@@ -636,7 +682,7 @@ pub fn enclosure(
     grammar: &GridGrammar,
     instances: &[Instance],
     seal: u32,
-) -> Result<(Vec<Instance>, VoxelModel, usize), String> {
+) -> Result<(Vec<Instance>, VoxelModel, usize), GenerateError> {
     grammar.validate()?;
     let (d, mut world) = placed(grammar, instances)?;
     let mut kept = instances.to_vec();
@@ -649,7 +695,12 @@ pub fn enclosure(
 /// to `2·seal` blocks wide are sealed: the flood fill runs around the blocks grown by
 /// `seal` cells, and an empty cell is outside when it lies within `seal` cells of the
 /// fill (`seal` 0 is the paper's plain flood fill).
-fn exposed_instances(d: &Derivation, instances: &[Instance], world: &World, seal: u32) -> Result<Vec<usize>, String> {
+fn exposed_instances(
+    d: &Derivation,
+    instances: &[Instance],
+    world: &World,
+    seal: u32,
+) -> Result<Vec<usize>, GenerateError> {
     Ok(exposed_and_interior(d, instances, world, seal)?.0)
 }
 
@@ -676,7 +727,7 @@ fn exposed_and_interior(
     instances: &[Instance],
     world: &World,
     seal: u32,
-) -> Result<(Vec<usize>, usize), String> {
+) -> Result<(Vec<usize>, usize), GenerateError> {
     let Some(out) = outside_of(world, seal)? else { return Ok((Vec::new(), 0)) };
     let exposed = instances.iter().enumerate().filter(|(_, inst)| out.exposes(d, inst)).map(|(i, _)| i).collect();
     Ok((exposed, out.interior()))
@@ -684,9 +735,12 @@ fn exposed_and_interior(
 
 /// The derivation of `grammar` and the world holding `instances`' blocks, for the
 /// enclosure and its report; an instance of a shape the grammar lacks is an error.
-pub(super) fn placed<'g>(grammar: &'g GridGrammar, instances: &[Instance]) -> Result<(Derivation<'g>, World), String> {
+pub(super) fn placed<'g>(
+    grammar: &'g GridGrammar,
+    instances: &[Instance],
+) -> Result<(Derivation<'g>, World), GenerateError> {
     if instances.iter().any(|i| i.shape as usize >= grammar.shapes.len()) {
-        return Err("an instance names a shape out of range".into());
+        return Err(GenerateError::ShapeOutOfRange);
     }
     let d = Derivation::new(grammar);
     let mut world = World::default();
@@ -698,7 +752,11 @@ pub(super) fn placed<'g>(grammar: &'g GridGrammar, instances: &[Instance]) -> Re
 
 /// How enclosed a production is: (instances of shapes that are not open exposed on
 /// both sides, interior cells), with openings up to `2·seal` wide sealed.
-pub fn enclosure_report(grammar: &GridGrammar, instances: &[Instance], seal: u32) -> Result<(usize, usize), String> {
+pub fn enclosure_report(
+    grammar: &GridGrammar,
+    instances: &[Instance],
+    seal: u32,
+) -> Result<(usize, usize), GenerateError> {
     let (d, world) = placed(grammar, instances)?;
     let (exposed, interior) = exposed_and_interior(&d, instances, &world, seal)?;
     Ok((exposed.len(), interior))
@@ -720,7 +778,7 @@ pub fn example_instances(grammar: &GridGrammar, e: u32) -> Vec<Instance> {
 /// chimney, a porch's floor). Such shapes are legitimately unenclosed (the paper's
 /// remedy for enclosure removing an example's own parts); generation never removes
 /// them. Shapes without a position are not open.
-pub fn open_in_examples(grammar: &GridGrammar, seal: u32) -> Result<Vec<bool>, String> {
+pub fn open_in_examples(grammar: &GridGrammar, seal: u32) -> Result<Vec<bool>, GenerateError> {
     let mut open = vec![false; grammar.shapes.len()];
     let mut plain = grammar.clone();
     plain.shapes.iter_mut().for_each(|s| s.open = false);

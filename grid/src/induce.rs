@@ -17,12 +17,13 @@
 //!   `roof_slab_1`, `solid_stone_1` (from its plane and height in the example and its
 //!   most common block kind).
 
+use super::generate::GenerateError;
 use super::infer::Inference;
 use super::matching::Classes;
 use super::voxel::VoxelModel;
 use super::{
-    blocks, sort_blocks, sub, GenerateSettings, GridGrammar, GridRule, GridShape, PaletteEntry, Placement, ShapeBlock,
-    ShapeMatch,
+    blocks, sort_blocks, sub, GenerateSettings, GrammarError, GridGrammar, GridRule, GridShape, PaletteEntry,
+    Placement, ShapeBlock, ShapeMatch,
 };
 use std::collections::{HashMap, HashSet};
 
@@ -103,10 +104,44 @@ pub fn measures(model: &VoxelModel, inference: &Inference) -> Measures {
     }
 }
 
+/// Why no grammar was built from examples ([`induce`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum InductionError {
+    /// No examples, or not one inference per example.
+    InferencesPerExample,
+    /// The examples are empty: no shapes.
+    NoShapes,
+    /// The built grammar does not verify (a limit of grid grammars).
+    Grammar(GrammarError),
+    /// The built grammar's examples could not be enclosed.
+    Generate(GenerateError),
+}
+
+impl std::fmt::Display for InductionError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            InductionError::InferencesPerExample => write!(f, "induction needs one inference per example"),
+            InductionError::NoShapes => write!(f, "no shapes (the examples are empty)"),
+            InductionError::Grammar(e) => write!(f, "{e}"),
+            InductionError::Generate(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for InductionError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            InductionError::Grammar(e) => Some(e),
+            InductionError::Generate(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
 /// Builds the grammar from examples and their inferred shapes (same order).
-pub fn induce(examples: &[Example], inferences: &[Inference], name: &str) -> Result<GridGrammar, String> {
+pub fn induce(examples: &[Example], inferences: &[Inference], name: &str) -> Result<GridGrammar, InductionError> {
     if examples.is_empty() || examples.len() != inferences.len() {
-        return Err("induction needs one inference per example".into());
+        return Err(InductionError::InferencesPerExample);
     }
     // The palette: one entry per block id, named readably and uniquely.
     let mut palette: Vec<PaletteEntry> = Vec::new();
@@ -179,7 +214,7 @@ pub fn induce(examples: &[Example], inferences: &[Inference], name: &str) -> Res
         }
     }
     if shapes.is_empty() {
-        return Err("no shapes (the examples are empty)".into());
+        return Err(InductionError::NoShapes);
     }
     let ids: Vec<&str> = palette.iter().map(|p| p.block.as_str()).collect();
     let classes = Classes::of(&shapes.iter().map(|s| s.blocks.clone()).collect::<Vec<_>>(), &super::kind_turns(&ids));
@@ -253,10 +288,10 @@ pub fn induce(examples: &[Example], inferences: &[Inference], name: &str) -> Res
         start,
         generate,
     };
-    g.validate()?;
+    g.validate().map_err(InductionError::Grammar)?;
     // Shapes the enclosure constraint would remove from their own example (roofs,
     // chimneys, porches) are open: generation keeps them.
-    let open = super::generate::open_in_examples(&g, g.generate.seal)?;
+    let open = super::generate::open_in_examples(&g, g.generate.seal).map_err(InductionError::Generate)?;
     for (s, o) in g.shapes.iter_mut().zip(open) {
         s.open = o;
     }

@@ -4,8 +4,8 @@
 //! derivation, enclosure and largest piece it uses.
 
 use super::generate::{
-    below, keep_largest_supported, outside_of, placed, settle, union_box, Adjacency, Derivation, GenerateOptions,
-    Generated, Instance, World,
+    below, keep_largest_supported, outside_of, placed, settle, union_box, Adjacency, Derivation, GenerateError,
+    GenerateOptions, Generated, Instance, World,
 };
 use super::GridGrammar;
 use rand::{Rng, SeedableRng};
@@ -14,15 +14,19 @@ use rand_pcg::Pcg64;
 /// Why [`add_missing_kinds`] could not measure a building: an instance of a shape the
 /// grammar lacks, or a production too large for the enclosure constraint.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct CompletionError(pub String);
+pub struct CompletionError(pub GenerateError);
 
 impl std::fmt::Display for CompletionError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
+        write!(f, "{}", self.0)
     }
 }
 
-impl std::error::Error for CompletionError {}
+impl std::error::Error for CompletionError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        Some(&self.0)
+    }
+}
 
 /// The most chains [`add_missing_kinds`] tests (enclosure and largest piece) for one
 /// missing kind.

@@ -291,7 +291,7 @@ pub fn connected(blocks: &[ShapeBlock]) -> bool {
 impl mdg_vm::bundle::Section for GridGrammar {
     const KIND: mdg_vm::bundle::SectionKind = mdg_vm::bundle::SectionKind::Grid;
     fn check(&self, bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
-        self.verify(bundle)
+        self.verify(bundle).map_err(|e| e.to_string())
     }
 }
 
@@ -303,85 +303,164 @@ impl GridGrammar {
 
     /// Checks every index, size and match (called by `Section::from_bundle`, so a
     /// corrupt bundle is rejected before generation reads it).
-    pub fn verify(&self, _bundle: &mdg_vm::bundle::Bundle) -> Result<(), String> {
+    pub fn verify(&self, _bundle: &mdg_vm::bundle::Bundle) -> Result<(), GrammarError> {
         self.validate()
     }
 
     /// The checks of [`GridGrammar::verify`], without a bundle.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), GrammarError> {
         let n_kinds = self.palette.len() as u32;
         let n_shapes = self.shapes.len() as u32;
         if self.shapes.is_empty() {
-            return Err("no shapes".into());
+            return Err(GrammarError::NoShapes);
         }
         if self.start >= n_shapes {
-            return Err(format!("start shape {} out of range", self.start));
+            return Err(GrammarError::StartOutOfRange(self.start));
         }
         let mut total = 0usize;
         for (i, s) in self.shapes.iter().enumerate() {
-            let what = || format!("shape {i} (`{}`)", s.name);
+            let bad = |problem| Err(GrammarError::Shape { index: i, name: s.name.clone(), problem });
             if s.blocks.is_empty() {
-                return Err(format!("{} has no blocks", what()));
+                return bad(ShapeProblem::NoBlocks);
             }
             total += s.blocks.len();
             if total > MAX_GRAMMAR_BLOCKS {
-                return Err(format!("more than {MAX_GRAMMAR_BLOCKS} blocks in all shapes"));
+                return Err(GrammarError::TooManyBlocks);
             }
             if s.size.iter().any(|&e| e == 0 || e > MAX_SHAPE_EXTENT) {
-                return Err(format!("{} has size {:?} (each 1..{MAX_SHAPE_EXTENT})", what(), s.size));
+                return bad(ShapeProblem::Size(s.size));
             }
-            if s.at.is_some_and(|a| a.iter().any(|c| c.unsigned_abs() > voxel::MAX_COORD as u32)) {
-                return Err(format!("{} stands at {:?}, beyond ±{}", what(), s.at, voxel::MAX_COORD));
+            if let Some(at) = s.at.filter(|a| a.iter().any(|c| c.unsigned_abs() > voxel::MAX_COORD as u32)) {
+                return bad(ShapeProblem::TooFar(at));
             }
             if s.plane.is_some_and(|a| a > 2) {
-                return Err(format!("{} has an invalid plane axis", what()));
+                return bad(ShapeProblem::Plane);
             }
             if (s.example as usize) >= self.examples.len().max(1) {
-                return Err(format!("{} names example {} out of range", what(), s.example));
+                return bad(ShapeProblem::Example(s.example));
             }
             for w in s.blocks.windows(2) {
                 let key = |b: &ShapeBlock| (b.pos[1], b.pos[2], b.pos[0]);
                 if key(&w[0]) >= key(&w[1]) {
-                    return Err(format!("{} has blocks out of order or two at one place", what()));
+                    return bad(ShapeProblem::Order);
                 }
             }
             for b in &s.blocks {
                 if b.kind >= n_kinds {
-                    return Err(format!("{} uses palette entry {} out of range", what(), b.kind));
+                    return bad(ShapeProblem::Kind(b.kind));
                 }
                 if (0..3).any(|k| b.pos[k] < 0 || b.pos[k] as u32 >= s.size[k]) {
-                    return Err(format!("{} has a block at {:?} outside its box", what(), b.pos));
+                    return bad(ShapeProblem::OutsideBox(b.pos));
                 }
             }
         }
         let turns = self.kind_turns();
         for m in &self.matches {
             if m.a >= n_shapes || m.b >= n_shapes || m.turn > 3 {
-                return Err(format!("match {m:?} out of range"));
+                return Err(GrammarError::MatchOutOfRange(*m));
             }
             let (a, b) = (&self.shapes[m.a as usize], &self.shapes[m.b as usize]);
             let (blocks, size) = turned_blocks(a, m.turn, &turns);
             if size != b.size || blocks != b.blocks {
-                return Err(format!("shape `{}` is not shape `{}` turned {} quarter turns", b.name, a.name, m.turn));
+                return Err(GrammarError::NotTurned { a: a.name.clone(), b: b.name.clone(), turn: m.turn });
             }
         }
         for r in &self.rules {
             if r.from >= n_shapes || r.to >= n_shapes || r.place.turn > 3 {
-                return Err(format!("rule {r:?} out of range"));
+                return Err(GrammarError::RuleOutOfRange(*r));
             }
             if r.place.offset.iter().any(|c| c.unsigned_abs() > MAX_RULE_OFFSET as u32) {
-                return Err(format!("rule {r:?} places a shape beyond ±{MAX_RULE_OFFSET} blocks"));
+                return Err(GrammarError::RuleTooFar(*r));
             }
         }
         if self.generate.seal > generate::MAX_SEAL {
-            return Err(format!("seal {} is more than {}", self.generate.seal, generate::MAX_SEAL));
+            return Err(GrammarError::Seal(self.generate.seal));
         }
         if self.generate.steps > MAX_STEPS {
-            return Err(format!("more than {MAX_STEPS} generation steps"));
+            return Err(GrammarError::TooManySteps);
         }
         Ok(())
     }
 }
+
+/// What is wrong with one shape of a grid grammar ([`GrammarError::Shape`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShapeProblem {
+    /// No blocks.
+    NoBlocks,
+    /// A size of 0 or over [`MAX_SHAPE_EXTENT`] along an axis.
+    Size([u32; 3]),
+    /// Placed (`at`) beyond the voxel model's coordinates.
+    TooFar([i32; 3]),
+    /// A plane axis other than 0, 1, 2.
+    Plane,
+    /// An example index past the grammar's examples.
+    Example(u32),
+    /// Blocks out of order, or two at one place.
+    Order,
+    /// A block of a palette entry past the palette.
+    Kind(u32),
+    /// A block outside the shape's box.
+    OutsideBox([i32; 3]),
+}
+
+/// Why a grid grammar does not verify ([`GridGrammar::validate`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum GrammarError {
+    /// No shapes.
+    NoShapes,
+    /// A start shape past the shapes.
+    StartOutOfRange(u32),
+    /// Shape `index` (named `name`) is wrong.
+    Shape { index: usize, name: String, problem: ShapeProblem },
+    /// More than [`MAX_GRAMMAR_BLOCKS`] blocks in all shapes.
+    TooManyBlocks,
+    /// A match naming a shape or a turn out of range.
+    MatchOutOfRange(ShapeMatch),
+    /// A match whose second shape is not the first one turned.
+    NotTurned { a: String, b: String, turn: u8 },
+    /// A rule naming a shape or a turn out of range.
+    RuleOutOfRange(GridRule),
+    /// A rule placing a shape beyond ±[`MAX_RULE_OFFSET`] blocks.
+    RuleTooFar(GridRule),
+    /// A seal over [`generate::MAX_SEAL`].
+    Seal(u32),
+    /// More than [`MAX_STEPS`] generation steps.
+    TooManySteps,
+}
+
+impl std::fmt::Display for GrammarError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            GrammarError::NoShapes => write!(f, "no shapes"),
+            GrammarError::StartOutOfRange(s) => write!(f, "start shape {s} out of range"),
+            GrammarError::Shape { index, name, problem } => {
+                write!(f, "shape {index} (`{name}`) ")?;
+                match problem {
+                    ShapeProblem::NoBlocks => write!(f, "has no blocks"),
+                    ShapeProblem::Size(size) => write!(f, "has size {size:?} (each 1..{MAX_SHAPE_EXTENT})"),
+                    ShapeProblem::TooFar(at) => write!(f, "stands at {at:?}, beyond ±{}", voxel::MAX_COORD),
+                    ShapeProblem::Plane => write!(f, "has an invalid plane axis"),
+                    ShapeProblem::Example(e) => write!(f, "names example {e} out of range"),
+                    ShapeProblem::Order => write!(f, "has blocks out of order or two at one place"),
+                    ShapeProblem::Kind(k) => write!(f, "uses palette entry {k} out of range"),
+                    ShapeProblem::OutsideBox(pos) => write!(f, "has a block at {pos:?} outside its box"),
+                }
+            }
+            GrammarError::TooManyBlocks => write!(f, "more than {MAX_GRAMMAR_BLOCKS} blocks in all shapes"),
+            GrammarError::MatchOutOfRange(m) => write!(f, "match {m:?} out of range"),
+            GrammarError::NotTurned { a, b, turn } => {
+                write!(f, "shape `{b}` is not shape `{a}` turned {turn} quarter turns")
+            }
+            GrammarError::RuleOutOfRange(r) => write!(f, "rule {r:?} out of range"),
+            GrammarError::RuleTooFar(r) => write!(f, "rule {r:?} places a shape beyond ±{MAX_RULE_OFFSET} blocks"),
+            GrammarError::Seal(s) => write!(f, "seal {s} is more than {}", generate::MAX_SEAL),
+            GrammarError::TooManySteps => write!(f, "more than {MAX_STEPS} generation steps"),
+        }
+    }
+}
+
+impl std::error::Error for GrammarError {}
 
 #[cfg(test)]
 mod tests {

@@ -21,6 +21,26 @@
 
 use super::voxel::{cell_index, MAX_CELLS, NEIGHBOURS};
 
+/// A production too large for the enclosure constraint: `cells` cells in its
+/// padded bounding box, over 4 × [`MAX_CELLS`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TooLarge {
+    pub cells: u64,
+}
+
+impl std::fmt::Display for TooLarge {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "the production is too large for the enclosure constraint ({} cells in its bounding box, at most {})",
+            self.cells,
+            MAX_CELLS * 4
+        )
+    }
+}
+
+impl std::error::Error for TooLarge {}
+
 /// The outside of a set of blocks (see the module documentation).
 pub(super) struct Outside {
     lo: [i32; 3],
@@ -76,7 +96,7 @@ impl Outside {
     /// The outside of `blocks` (positions; repeats allowed) with openings up to
     /// `2·seal` wide sealed (`seal` at most the enclosure's largest, 8); none for no
     /// blocks, an error when the padded box has more than `4 × MAX_CELLS` cells.
-    pub(super) fn of(blocks: impl Iterator<Item = [i32; 3]> + Clone, seal: u32) -> Result<Option<Outside>, String> {
+    pub(super) fn of(blocks: impl Iterator<Item = [i32; 3]> + Clone, seal: u32) -> Result<Option<Outside>, TooLarge> {
         let r = seal.min(64) as i32;
         let mut it = blocks.clone();
         let Some(first) = it.next() else { return Ok(None) };
@@ -93,10 +113,7 @@ impl Outside {
         let cells =
             (0..3).map(|k| (i64::from(hi[k]) - i64::from(lo[k]) + 1 + 2 * pad) as u64).fold(1u64, u64::saturating_mul);
         if cells > MAX_CELLS * 4 {
-            return Err(format!(
-                "the production is too large for the enclosure constraint ({cells} cells in its bounding box, at most {})",
-                MAX_CELLS * 4
-            ));
+            return Err(TooLarge { cells });
         }
         let ground = lo[1];
         let lo = lo.map(|v| v - (r + 1));
@@ -313,7 +330,8 @@ mod tests {
     fn a_box_too_large_is_refused_before_anything_is_allocated() {
         let far = [[0, 0, 0], [16_000_000, 0, 16_000_000]];
         let e = Outside::of(far.iter().copied(), 1).err().expect("refused");
-        assert!(e.contains("too large for the enclosure constraint"), "{e}");
+        assert!(e.cells > MAX_CELLS * 4, "{e:?}");
+        assert!(e.to_string().contains("too large for the enclosure constraint"), "{e}");
         assert!(Outside::of(std::iter::empty(), 1).expect("nothing").is_none());
     }
 }

@@ -52,6 +52,39 @@ pub struct VoxelModel {
     pub blocks: Vec<Block>,
 }
 
+/// Why a [`ModelBuilder`] refused a block, a kind or the finished model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ModelError {
+    /// More than [`MAX_KINDS`] block kinds.
+    TooManyKinds,
+    /// A block beyond ±[`MAX_COORD`].
+    TooFar { pos: [i32; 3] },
+    /// More than [`MAX_BLOCKS`] blocks.
+    TooManyBlocks,
+    /// A second block at one position.
+    TwoBlocks { pos: [i32; 3] },
+    /// A bounding box of `size` blocks, `cells` in all, over [`MAX_CELLS`].
+    TooLarge { size: [i64; 3], cells: u64 },
+}
+
+impl std::fmt::Display for ModelError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            ModelError::TooManyKinds => write!(f, "more than {MAX_KINDS} block kinds"),
+            ModelError::TooFar { pos } => {
+                write!(f, "position {pos:?} is too far out (coordinates are limited to ±{MAX_COORD})")
+            }
+            ModelError::TooManyBlocks => write!(f, "more than {MAX_BLOCKS} blocks"),
+            ModelError::TwoBlocks { pos: [x, y, z] } => write!(f, "two blocks at {x} {y} {z}"),
+            ModelError::TooLarge { size: [x, y, z], cells } => {
+                write!(f, "the building's bounding box is {x}×{y}×{z} = {cells} cells (at most {MAX_CELLS})")
+            }
+        }
+    }
+}
+
+impl std::error::Error for ModelError {}
+
 /// Builds a [`VoxelModel`] block by block, checking duplicates and limits.
 #[derive(Default)]
 pub struct ModelBuilder {
@@ -69,12 +102,12 @@ impl ModelBuilder {
 
     /// The kind index for `id`, added with `color` (or the default colour for the
     /// block name) when new.
-    pub fn kind(&mut self, id: &str, color: Option<[u8; 3]>) -> Result<u32, String> {
+    pub fn kind(&mut self, id: &str, color: Option<[u8; 3]>) -> Result<u32, ModelError> {
         if let Some(&k) = self.kind_ids.get(id) {
             return Ok(k);
         }
         if self.kinds.len() >= MAX_KINDS {
-            return Err(format!("more than {MAX_KINDS} block kinds"));
+            return Err(ModelError::TooManyKinds);
         }
         let k = self.kinds.len() as u32;
         let color = color.unwrap_or_else(|| super::blocks::color_of(id));
@@ -84,22 +117,22 @@ impl ModelBuilder {
     }
 
     /// Adds a block; a second block at one position is an error.
-    pub fn add(&mut self, pos: [i32; 3], kind: u32) -> Result<(), String> {
+    pub fn add(&mut self, pos: [i32; 3], kind: u32) -> Result<(), ModelError> {
         if pos.iter().any(|c| c.unsigned_abs() > MAX_COORD as u32) {
-            return Err(format!("position {pos:?} is too far out (coordinates are limited to ±{MAX_COORD})"));
+            return Err(ModelError::TooFar { pos });
         }
         if self.blocks.len() >= MAX_BLOCKS {
-            return Err(format!("more than {MAX_BLOCKS} blocks"));
+            return Err(ModelError::TooManyBlocks);
         }
         if self.at.insert(pos, kind).is_some() {
-            return Err(format!("two blocks at {} {} {}", pos[0], pos[1], pos[2]));
+            return Err(ModelError::TwoBlocks { pos });
         }
         self.blocks.push(Block { pos, kind });
         Ok(())
     }
 
     /// The model, blocks sorted; fails when the bounding box is too large.
-    pub fn finish(self) -> Result<VoxelModel, String> {
+    pub fn finish(self) -> Result<VoxelModel, ModelError> {
         let mut m = VoxelModel { kinds: self.kinds, blocks: self.blocks };
         m.sort();
         // Kinds renumbered by first use in block order, unused ones dropped: the same
@@ -116,14 +149,10 @@ impl ModelBuilder {
         }
         m.kinds = kinds;
         if let Some((lo, hi)) = m.bounds() {
-            let cells = (0..3).map(|k| (hi[k] as i64 - lo[k] as i64 + 1) as u64).product::<u64>();
+            let size = [0, 1, 2].map(|k| hi[k] as i64 - lo[k] as i64 + 1);
+            let cells = size.iter().map(|&e| e as u64).product::<u64>();
             if cells > MAX_CELLS {
-                return Err(format!(
-                    "the building's bounding box is {}×{}×{} = {cells} cells (at most {MAX_CELLS})",
-                    hi[0] - lo[0] + 1,
-                    hi[1] - lo[1] + 1,
-                    hi[2] - lo[2] + 1
-                ));
+                return Err(ModelError::TooLarge { size, cells });
             }
         }
         Ok(m)

@@ -8,43 +8,16 @@
 //! ```
 //!
 //! The grammar is `std/examples/guided_tree.mdg` compiled by `mdgc build` (the VM does
-//! not depend on the compiler): `$MDG_SOSMC_BUNDLE` if set (relative to the workspace root), else built into
-//! `target/sosmc/guided_tree.mdgb` with `cargo run -p mdg-cli --bin mdgc`.
+//! not depend on the compiler; see `benches/setup/mod.rs`): `$MDG_SOSMC_BUNDLE` if set
+//! (relative to the workspace root), else built into `target/sosmc/guided_tree.mdgb`
+//! with `cargo run -p mdg-cli --bin mdgc`.
 
 use mdg_guided::{GuidedTable, Prepared, SearchOptions};
-use mdg_vm::bundle::{Bundle, Section as _};
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use mdg_vm::bundle::Section as _;
 use std::time::{Duration, Instant};
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn bundle() -> Result<Bundle, String> {
-    let path = match std::env::var_os("MDG_SOSMC_BUNDLE") {
-        // A relative path is taken from the workspace root (cargo runs benches in vm/).
-        Some(p) => root().join(p),
-        None => {
-            let out = root().join("target/sosmc/guided_tree.mdgb");
-            std::fs::create_dir_all(root().join("target/sosmc")).map_err(|e| e.to_string())?;
-            let status = Command::new(env!("CARGO"))
-                .current_dir(root())
-                .args(["run", "--release", "-q", "-p", "mdg-cli", "--bin", "mdgc", "--", "build"])
-                .arg("std/examples/guided_tree.mdg")
-                .arg("-o")
-                .arg(&out)
-                .status()
-                .map_err(|e| format!("cannot run cargo: {e}"))?;
-            if !status.success() {
-                return Err("mdgc build std/examples/guided_tree.mdg failed".into());
-            }
-            out
-        }
-    };
-    let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    mdg_vm::bundle::load(&bytes).map_err(|e| format!("{}: {e}", path.display()))
-}
+/// The compiled std tree grammar (shared with `examples/sosmc_eval.rs`).
+mod setup;
 
 fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -60,7 +33,7 @@ fn median(v: &mut [f64]) -> f64 {
 
 fn main() {
     // `cargo bench` passes `--bench`; nothing to parse.
-    let b = match bundle() {
+    let b = match setup::bundle() {
         Ok(b) => b,
         Err(e) => {
             eprintln!("sosmc bench: {e}");

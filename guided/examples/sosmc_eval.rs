@@ -54,37 +54,15 @@ use mdg_guided::{
 use mdg_vm::bundle::{Bundle, Section as _};
 use mdg_vm::eval::EvalOptions;
 use std::path::{Path, PathBuf};
-use std::process::{Command, ExitCode};
+use std::process::ExitCode;
 use std::time::Instant;
+
+/// The compiled std tree grammar (shared with the benchmark).
+#[path = "../benches/setup/mod.rs"]
+mod setup;
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-/// The compiled std tree grammar (see the module docs).
-fn bundle() -> Result<Bundle, String> {
-    let path = match std::env::var_os("MDG_SOSMC_BUNDLE") {
-        // A relative path is taken from the workspace root (cargo runs benches in vm/).
-        Some(p) => root().join(p),
-        None => {
-            let out = root().join("target/sosmc/guided_tree.mdgb");
-            std::fs::create_dir_all(root().join("target/sosmc")).map_err(|e| e.to_string())?;
-            let status = Command::new(env!("CARGO"))
-                .current_dir(root())
-                .args(["run", "--release", "-q", "-p", "mdg-compiler", "--bin", "mdgc", "--", "build"])
-                .arg("std/examples/guided_tree.mdg")
-                .arg("-o")
-                .arg(&out)
-                .status()
-                .map_err(|e| format!("cannot run cargo: {e}"))?;
-            if !status.success() {
-                return Err("mdgc build std/examples/guided_tree.mdg failed".into());
-            }
-            out
-        }
-    };
-    let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    mdg_vm::bundle::load(&bytes).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 fn guides_of(b: &Bundle, file: Option<&str>) -> Result<Vec<Guide>, String> {
@@ -155,10 +133,10 @@ fn options(b: &Bundle, args: &[String]) -> Result<SearchOptions, String> {
 }
 
 fn run(args: &[String]) -> Result<(), String> {
-    let b = bundle()?;
+    let b = setup::bundle()?;
     let table = GuidedTable::from_bundle(&b).map_err(|e| e.to_string())?.ok_or("no search section")?;
     let guides = guides_of(&b, arg(args, "--guides"))?;
-    let p = Prepared::new(&b, &table, &guides)?;
+    let p = Prepared::new(&b, &table, &guides).map_err(|e| e.to_string())?;
     let o = options(&b, args)?;
     // `--repeat N`: N searches (seeds seed … seed+N−1), each printed; for profiling.
     let repeat: u64 = arg(args, "--repeat").map(|s| s.parse().map_err(|_| "bad --repeat")).transpose()?.unwrap_or(1);
@@ -223,7 +201,7 @@ fn to_segment(p: DVec3, a: DVec3, b: DVec3) -> f64 {
 
 fn helix(args: &[String]) -> Result<(), String> {
     let runs: u64 = arg(args, "--runs").map(|s| s.parse().map_err(|_| "bad --runs")).transpose()?.unwrap_or(40);
-    let b = bundle()?;
+    let b = setup::bundle()?;
     let table = GuidedTable::from_bundle(&b).map_err(|e| e.to_string())?.ok_or("no search section")?;
     let guide = helix_guide(1.2, 2.5, 0.3, 6.0);
     // 400 points along the helix (its parameter is proportional to arc length).
@@ -237,8 +215,10 @@ fn helix(args: &[String]) -> Result<(), String> {
         let near = |p: DVec3| bones.iter().any(|bo| to_segment(p, bo.base, bo.tip) < 0.35);
         samples.iter().filter(|p| near(**p)).count() as f64 / samples.len() as f64
     };
-    let paper = Prepared::new(&b, &table, std::slice::from_ref(&guide))?;
-    let local = Prepared::new(&b, &table, std::slice::from_ref(&guide))?.with_utilisation(Utilisation::Local);
+    let paper = Prepared::new(&b, &table, std::slice::from_ref(&guide)).map_err(|e| e.to_string())?;
+    let local = Prepared::new(&b, &table, std::slice::from_ref(&guide))
+        .map_err(|e| e.to_string())?
+        .with_utilisation(Utilisation::Local);
     let o = options(&b, args)?;
     let mut rows: Vec<[f64; 9]> = Vec::new();
     for seed in 1..=runs {
@@ -271,7 +251,7 @@ const CURVE_SETS: &str = "tests/guides/s_curve.json,tests/guides/spiral.json,tes
 
 fn curves(args: &[String]) -> Result<(), String> {
     let runs: u64 = arg(args, "--runs").map(|s| s.parse().map_err(|_| "bad --runs")).transpose()?.unwrap_or(20);
-    let b = bundle()?;
+    let b = setup::bundle()?;
     let table = GuidedTable::from_bundle(&b).map_err(|e| e.to_string())?.ok_or("no search section")?;
     let o = options(&b, args)?;
     let mut configs = Vec::new();
@@ -292,9 +272,9 @@ fn curves(args: &[String]) -> Result<(), String> {
         let guides = guides_of(&b, file.as_ref().and_then(|f| f.to_str()))?;
         let mut prepared = Vec::new();
         for (_, term, _) in &configs {
-            prepared.push(Prepared::new(&b, &table, &guides)?.with_utilisation(*term));
+            prepared.push(Prepared::new(&b, &table, &guides).map_err(|e| e.to_string())?.with_utilisation(*term));
         }
-        let base = Prepared::new(&b, &table, &guides)?;
+        let base = Prepared::new(&b, &table, &guides).map_err(|e| e.to_string())?;
         let cov = |r: &SearchResult| mdg_guided::measure::coverage(base.guides(), &r.model.bones).total;
         let mut unguided = Vec::new();
         let mut rows: Vec<Vec<(f64, f64, f64)>> = vec![Vec::new(); configs.len()];
@@ -371,7 +351,7 @@ fn guide_set(entry: &str) -> Result<GuideSet, String> {
 
 fn fig4(args: &[String]) -> Result<(), String> {
     let runs: u64 = arg(args, "--runs").map(|s| s.parse().map_err(|_| "bad --runs")).transpose()?.unwrap_or(200);
-    let b = bundle()?;
+    let b = setup::bundle()?;
     let table = GuidedTable::from_bundle(&b).map_err(|e| e.to_string())?.ok_or("no search section")?;
     let grammar = options(&b, args)?;
     let heuristic = arg(args, "--heuristic-scale").map(|h| h.parse::<f64>()).transpose().map_err(|_| "bad scale")?;
@@ -426,7 +406,7 @@ fn fig4(args: &[String]) -> Result<(), String> {
             for g in &mut guides {
                 g.delta_a = delta;
             }
-            let p = Prepared::new(&b, &table, &guides)?;
+            let p = Prepared::new(&b, &table, &guides).map_err(|e| e.to_string())?;
             let configs: [(&str, Option<SearchOptions>); 4] = [
                 (
                     "no heuristic, constant size",
@@ -529,7 +509,7 @@ fn plot(args: &[String]) -> Result<(), String> {
             given
         }
     };
-    let b = bundle()?;
+    let b = setup::bundle()?;
     let table = GuidedTable::from_bundle(&b).map_err(|e| e.to_string())?.ok_or("no search section")?;
     let base = options(&b, args)?;
     let seed = base.seed;
@@ -537,7 +517,7 @@ fn plot(args: &[String]) -> Result<(), String> {
     let mut panels = Vec::new();
     for f in &files {
         let guides = guides_of(&b, *f)?;
-        let p = Prepared::new(&b, &table, &guides)?;
+        let p = Prepared::new(&b, &table, &guides).map_err(|e| e.to_string())?;
         let r = p.search(&base, None);
         print_result(&p, &r);
         let model = p.geometry(&r.model, &EvalOptions { seed: Some(seed), ..EvalOptions::default() }, false);

@@ -20,7 +20,7 @@
 //! the order in which bones are added (the SOSMC requirement).
 
 use super::bezier::{Closest, Path, PathSet};
-use super::Guide;
+use super::{Guide, GuideError};
 use glam::DVec3;
 
 /// A bone shorter than this (in world units) is no bone: a call that does not move
@@ -143,46 +143,86 @@ pub const MAX_GUIDE_SEGMENTS: u32 = 1 << 20;
 /// Utilisation segments of all guides together.
 pub const MAX_TOTAL_SEGMENTS: u32 = 1 << 22;
 
+/// Why guides cannot be prepared for a search ([`Guides::new`](crate::cost::Guides::new)).
+#[derive(Clone, Debug, PartialEq)]
+pub enum GuidesError {
+    /// The time budget ran out after `prepared` of `total` guides.
+    OutOfTime { prepared: usize, total: usize },
+    /// A guide that is not valid: its label and why.
+    Guide { label: String, error: GuideError },
+    /// A guide whose control points make no path.
+    TooFewPoints { label: String },
+    /// A guide cut into more than [`MAX_GUIDE_SEGMENTS`] utilisation segments.
+    TooManySegments { label: String, segment: f64, length: f64, wanted: f64 },
+    /// The guides up to `label` have more than [`MAX_TOTAL_SEGMENTS`] segments in all.
+    TooManyInAll { label: String },
+}
+
+impl std::fmt::Display for GuidesError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            GuidesError::OutOfTime { prepared, total } => write!(
+                f,
+                "the time budget ran out while preparing the guides ({prepared} of {total} prepared): raise --budget \
+                 or use fewer guides"
+            ),
+            GuidesError::Guide { label, error } => write!(f, "{label}: {error}"),
+            GuidesError::TooFewPoints { label } => write!(f, "{label}: too few control points"),
+            GuidesError::TooManySegments { label, segment, length, wanted } => write!(
+                f,
+                "{label}: `segment` {segment} cuts the guide (length {length:.4}) into {wanted:.0} utilisation \
+                 segments, more than {MAX_GUIDE_SEGMENTS}: use a longer `segment`"
+            ),
+            GuidesError::TooManyInAll { label } => write!(
+                f,
+                "{label}: the guides have more than {MAX_TOTAL_SEGMENTS} utilisation segments in all: use a longer \
+                 `segment` or fewer guides"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for GuidesError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            GuidesError::Guide { error, .. } => Some(error),
+            _ => None,
+        }
+    }
+}
+
 impl Guides {
     /// Prepares `guides` (each validated by [`Guide::validate`]).
-    pub fn new(guides: &[Guide]) -> Result<Guides, String> {
+    pub fn new(guides: &[Guide]) -> Result<Guides, GuidesError> {
         Guides::new_within(guides, None)
     }
 
     /// [`Guides::new`] that gives up once `deadline` has passed (checked before each guide).
-    pub fn new_within(guides: &[Guide], deadline: Option<std::time::Instant>) -> Result<Guides, String> {
+    pub fn new_within(guides: &[Guide], deadline: Option<std::time::Instant>) -> Result<Guides, GuidesError> {
         let (mut paths, mut params, mut first, mut count) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut next = 0u32;
         for (i, guide) in guides.iter().enumerate() {
             if deadline.is_some_and(|d| std::time::Instant::now() >= d) {
-                return Err(format!(
-                    "the time budget ran out while preparing the guides ({i} of {} prepared): raise --budget or use \
-                     fewer guides",
-                    guides.len()
-                ));
+                return Err(GuidesError::OutOfTime { prepared: i, total: guides.len() });
             }
-            guide.validate().map_err(|e| format!("{}: {e}", guide.label(i)))?;
-            let path = Path::new(&guide.points).ok_or_else(|| format!("{}: too few control points", guide.label(i)))?;
+            guide.validate().map_err(|error| GuidesError::Guide { label: guide.label(i), error })?;
+            let path = Path::new(&guide.points).ok_or_else(|| GuidesError::TooFewPoints { label: guide.label(i) })?;
             let wanted = (path.length() / guide.segment).ceil();
             if wanted > MAX_GUIDE_SEGMENTS as f64 {
-                return Err(format!(
-                    "{}: `segment` {} cuts the guide (length {:.4}) into {wanted:.0} utilisation segments, more than \
-                     {MAX_GUIDE_SEGMENTS}: use a longer `segment`",
-                    guide.label(i),
-                    guide.segment,
-                    path.length()
-                ));
+                return Err(GuidesError::TooManySegments {
+                    label: guide.label(i),
+                    segment: guide.segment,
+                    length: path.length(),
+                    wanted,
+                });
             }
             let n = (wanted as u32).max(1);
             first.push(next);
             count.push(n);
-            next = next.checked_add(n).filter(|&t| t <= MAX_TOTAL_SEGMENTS).ok_or_else(|| {
-                format!(
-                    "{}: the guides have more than {MAX_TOTAL_SEGMENTS} utilisation segments in all: use a longer \
-                         `segment` or fewer guides",
-                    guide.label(i)
-                )
-            })?;
+            next = next
+                .checked_add(n)
+                .filter(|&t| t <= MAX_TOTAL_SEGMENTS)
+                .ok_or_else(|| GuidesError::TooManyInAll { label: guide.label(i) })?;
             paths.push(path);
             params.push(guide.clone());
         }
@@ -335,6 +375,26 @@ mod tests {
         g.scale_u = 0.7;
         g.segment = 1.0;
         Guides::new(&[g]).expect("guides")
+    }
+
+    #[test]
+    fn guides_that_cannot_be_prepared_say_which_and_why() {
+        let mut g = Guide::new("long", vec![[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 2.0], [0.0, 0.0, 3.0]]);
+        g.segment = 1e-9;
+        let e = Guides::new(std::slice::from_ref(&g)).expect_err("too many segments");
+        assert!(matches!(&e, GuidesError::TooManySegments { label, wanted, .. } if label == "long" && *wanted == 3e9));
+        assert_eq!(
+            e.to_string(),
+            "long: `segment` 0.000000001 cuts the guide (length 3.0000) into 3000000000 utilisation segments, more \
+             than 1048576: use a longer `segment`"
+        );
+        g.segment = -1.0;
+        let e = Guides::new(&[g]).expect_err("negative segment");
+        assert_eq!(e, GuidesError::Guide { label: "long".into(), error: GuideError::Segment(-1.0) });
+        let past = Some(std::time::Instant::now());
+        assert_eq!(Guides::new_within(&[], past).map(|g| g.len()), Ok(0));
+        let one = [Guide::new("a", vec![[0.0; 3]; 4])];
+        assert_eq!(Guides::new_within(&one, past).err(), Some(GuidesError::OutOfTime { prepared: 0, total: 1 }));
     }
 
     #[test]

@@ -17,12 +17,14 @@
 
 pub mod bezier;
 pub mod cost;
+pub mod error;
 pub mod measure;
 pub mod resample;
 pub mod search;
 pub mod team;
 
-pub use cost::Utilisation;
+pub use cost::{GuidesError, Utilisation};
+pub use error::{PrepareError, SettingsError, TableError};
 pub use search::{
     Cancel, Model, ModelChoice, Prepared, Progress, SearchOptions, SearchResult, Stop, DEFAULT_REACH_SHARE,
     PARALLEL_MIN_PARTICLES, REACH_SAMPLES,
@@ -53,6 +55,9 @@ pub const MAX_PARTICLES: u32 = 1_000_000;
 pub const MAX_GENERATIONS: u32 = 10_000_000;
 /// The most EXPECTED samples per skeleton rule, and expansions in each.
 pub const MAX_EXPECTED: u32 = 1_000_000;
+/// The most utilisation counts a search keeps (4 bytes each: 256 MiB); see
+/// [`Prepared::check_size`].
+pub const MAX_UTILISATION_COUNTS: u64 = 1 << 26;
 /// Default forward samples per skeleton rule for the EXPECTED vectors, and the
 /// expansions in each.
 pub const DEFAULT_EXPECTED: (u32, u32) = (64, 32);
@@ -237,32 +242,33 @@ impl Default for SearchSettings {
 
 impl SearchSettings {
     /// Checks ranges; the message names the problem.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let largest = self.particles.0.max(self.particles.1);
         if self.particles.0 == 0 || self.particles.1 == 0 {
-            return Err("a generation needs at least 1 particle".into());
+            return Err(SettingsError::NoParticles);
         }
-        if self.particles.0.max(self.particles.1) > MAX_PARTICLES {
-            return Err(format!("more than {MAX_PARTICLES} particles in a generation"));
+        if largest > MAX_PARTICLES {
+            return Err(SettingsError::TooManyParticles(largest));
         }
         if self.generations == 0 || self.generations > MAX_GENERATIONS {
-            return Err(format!("{} generations: expected 1 to {MAX_GENERATIONS}", self.generations));
+            return Err(SettingsError::Generations(self.generations));
         }
         if !(self.heuristic_scale.is_finite() && self.heuristic_scale >= 0.0) {
-            return Err(format!("heuristic scale {} is not a number ≥ 0", self.heuristic_scale));
+            return Err(SettingsError::HeuristicScale(self.heuristic_scale));
         }
         if !(self.heuristic_fraction.is_finite() && (0.0..=1.0).contains(&self.heuristic_fraction)) {
-            return Err(format!("heuristic fraction {} is outside [0, 1]", self.heuristic_fraction));
+            return Err(SettingsError::HeuristicFraction(self.heuristic_fraction));
         }
         if let Some(b) = self.budget_ms {
             if !(b.is_finite() && b > 0.0 && b <= MAX_BUDGET_MS) {
-                return Err(format!("budget {b} ms is not a positive number of at most {MAX_BUDGET_MS} ms"));
+                return Err(SettingsError::Budget(b));
             }
         }
         if self.expected.0 == 0 || self.expected.1 == 0 {
-            return Err("the EXPECTED estimate needs at least 1 sample of at least 1 expansion".into());
+            return Err(SettingsError::NoExpected);
         }
         if self.expected.0.max(self.expected.1) > MAX_EXPECTED {
-            return Err(format!("more than {MAX_EXPECTED} EXPECTED samples or expansions"));
+            return Err(SettingsError::TooManyExpected(self.expected.0.max(self.expected.1)));
         }
         Ok(())
     }
@@ -284,7 +290,7 @@ pub struct GuidedTable {
 impl mdg_vm::bundle::Section for GuidedTable {
     const KIND: mdg_vm::bundle::SectionKind = mdg_vm::bundle::SectionKind::Guided;
     fn check(&self, bundle: &Bundle) -> Result<(), String> {
-        self.verify(bundle)
+        self.verify(bundle).map_err(|e| e.to_string())
     }
 }
 
@@ -293,45 +299,43 @@ impl GuidedTable {
     /// in range, skeleton rules that do not draw and are not animated or
     /// convolutions, wrap-ups from skeleton rules to other rules, valid guides and
     /// settings.
-    pub fn verify(&self, bundle: &Bundle) -> Result<(), String> {
+    pub fn verify(&self, bundle: &Bundle) -> Result<(), TableError> {
         let n = bundle.rules.len() as u32;
-        let in_range = |r: u32, what: &str| {
-            if r < n {
+        let in_range = |rule: u32, what: &'static str| {
+            if rule < n {
                 Ok(())
             } else {
-                Err(format!("{what}: rule {r} out of range"))
+                Err(TableError::RuleOutOfRange { what, rule })
             }
         };
         for &r in &self.skeleton {
             in_range(r, "skeleton")?;
             let rule = &bundle.rules[r as usize];
-            let name = bundle.string(rule.name);
+            let name = || bundle.string(rule.name).to_string();
             if rule.iter != NONE || !rule.transforms.is_empty() {
-                return Err(format!("skeleton rule `{name}` is a convolution or has transform rules"));
+                return Err(TableError::SkeletonTransforms { rule: name() });
             }
-            for d in &rule.defs {
-                if body_draws(bundle, d.start) {
-                    return Err(format!("skeleton rule `{name}` draws"));
-                }
+            if rule.defs.iter().any(|d| body_draws(bundle, d.start)) {
+                return Err(TableError::SkeletonDraws { rule: name() });
             }
         }
         for (i, &(from, to)) in self.wrapups.iter().enumerate() {
             in_range(from, "wrap-up")?;
             in_range(to, "wrap-up")?;
             if !self.skeleton.contains(&from) {
-                return Err(format!("wrap-up of rule {from}, which is not a skeleton rule"));
+                return Err(TableError::WrapupFrom(from));
             }
             if self.skeleton.contains(&to) {
-                return Err(format!("wrap-up to rule {to}, which is a skeleton rule"));
+                return Err(TableError::WrapupTo(to));
             }
             if self.wrapups[..i].iter().any(|w| w.0 == from) {
-                return Err(format!("rule {from} has two wrap-ups"));
+                return Err(TableError::TwoWrapups(from));
             }
         }
         for (i, g) in self.guides.iter().enumerate() {
-            g.validate().map_err(|e| format!("{}: {e}", g.label(i)))?;
+            g.validate().map_err(|error| TableError::Guide { label: g.label(i), error })?;
         }
-        self.settings.validate()
+        Ok(self.settings.validate()?)
     }
 }
 
@@ -458,5 +462,28 @@ mod tests {
         assert!(matches!(unknown, Err(GuideJsonError::Json(_))));
         assert!(guides_from_json("[1, 2").is_err());
         assert!(matches!(guides_from_json(r#"{"guides": []}"#), Err(GuideJsonError::Empty)));
+    }
+
+    #[test]
+    fn settings_and_tables_say_what_is_wrong_as_data() {
+        let s = SearchSettings { generations: 0, ..SearchSettings::default() };
+        assert_eq!(s.validate(), Err(SettingsError::Generations(0)));
+        assert_eq!(s.validate().map_err(|e| e.to_string()), Err("0 generations: expected 1 to 10000000".into()));
+        let s = SearchSettings { particles: (3, MAX_PARTICLES + 1), ..SearchSettings::default() };
+        assert_eq!(s.validate(), Err(SettingsError::TooManyParticles(MAX_PARTICLES + 1)));
+        let b = Bundle::empty();
+        let t = GuidedTable { skeleton: vec![4], ..GuidedTable::default() };
+        let e = t.verify(&b).expect_err("no rule 4");
+        assert_eq!(e, TableError::RuleOutOfRange { what: "skeleton", rule: 4 });
+        assert_eq!(e.to_string(), "skeleton: rule 4 out of range");
+        let mut g = Guide::new("arm", vec![[0.0; 3]; 4]);
+        g.delta_a = 2.0;
+        let t = GuidedTable { guides: vec![g], ..GuidedTable::default() };
+        let e = t.verify(&b).expect_err("delta_a");
+        assert_eq!(e, TableError::Guide { label: "arm".into(), error: GuideError::DeltaA(2.0) });
+        assert_eq!(e.to_string(), "arm: delta_a 2 is outside [-1, 1]");
+        let t = GuidedTable { settings: SearchSettings { budget_ms: Some(-1.0), ..SearchSettings::default() }, ..t };
+        let t = GuidedTable { guides: vec![], ..t };
+        assert_eq!(t.verify(&b), Err(TableError::Settings(SettingsError::Budget(-1.0))));
     }
 }

@@ -35,7 +35,7 @@
 use super::cost::{Cost, Guides, Near, Utilisation};
 use super::resample::{resample, weights_from_log};
 use super::team::Team;
-use super::{Guide, GuidedTable, Resampling, SearchSettings};
+use super::{Guide, GuidedTable, PrepareError, Resampling, SearchSettings};
 use choice::{reach, Candidate, Kept};
 pub use choice::{ModelChoice, DEFAULT_REACH_SHARE};
 
@@ -484,13 +484,11 @@ fn to_d(v: Vec3) -> DVec3 {
     DVec3::new(v.x as f64, v.y as f64, v.z as f64)
 }
 
-/// The most utilisation counts a search keeps (4 bytes each: 256 MiB); see
-/// [`Prepared::check_size`].
-pub const MAX_UTILISATION_COUNTS: u64 = 1 << 26;
+pub use crate::MAX_UTILISATION_COUNTS;
 
 impl<'b> Prepared<'b> {
     /// Prepares `b`'s guided table with `guides` (those of the table, or a guide file's).
-    pub fn new(b: &'b Bundle, table: &GuidedTable, guides: &[Guide]) -> Result<Prepared<'b>, String> {
+    pub fn new(b: &'b Bundle, table: &GuidedTable, guides: &[Guide]) -> Result<Prepared<'b>, PrepareError> {
         Prepared::new_within(b, table, guides, None)
     }
 
@@ -501,10 +499,10 @@ impl<'b> Prepared<'b> {
         table: &GuidedTable,
         guides: &[Guide],
         deadline: Option<Instant>,
-    ) -> Result<Prepared<'b>, String> {
+    ) -> Result<Prepared<'b>, PrepareError> {
         let started = Instant::now();
         if guides.is_empty() {
-            return Err("no guiding curves: add a `guide` section or give a guide file".into());
+            return Err(PrepareError::NoGuides);
         }
         table.verify(b)?;
         let n = b.rules.len();
@@ -688,15 +686,12 @@ impl<'b> Prepared<'b> {
     /// `2 × particles × segments` must stay within [`MAX_UTILISATION_COUNTS`] (long
     /// guides with short segments and many particles made gigabytes). Call it before
     /// [`Prepared::search`].
-    pub fn check_size(&self, opts: &SearchOptions) -> Result<(), String> {
+    pub fn check_size(&self, opts: &SearchOptions) -> Result<(), PrepareError> {
         let largest = u64::from(opts.particles.0.max(opts.particles.1).max(1));
         let segments = self.guides.n_segments() as u64;
         let counts = 2 * largest * segments;
         if counts > MAX_UTILISATION_COUNTS {
-            return Err(format!(
-                "the search would keep {counts} utilisation counts (2 generations × {largest} particles × {segments} \
-                 segments of the guides), more than {MAX_UTILISATION_COUNTS}: use fewer particles or a longer `segment`"
-            ));
+            return Err(PrepareError::TooLarge { counts, particles: largest, segments });
         }
         Ok(())
     }

@@ -410,6 +410,30 @@ fn house_grammar(c: Cost) -> (VoxelModel, GridGrammar) {
 }
 
 #[test]
+fn grid_failures_are_data_that_name_what_failed() {
+    use mdg_grid::generate::GenerateError;
+    use mdg_grid::induce::InductionError;
+    use mdg_grid::{GrammarError, ShapeProblem};
+    let (_, g) = house_grammar(Cost::Sum);
+    let bad = GridGrammar { start: 999, ..g.clone() };
+    assert_eq!(bad.validate(), Err(GrammarError::StartOutOfRange(999)));
+    let e = generate(&bad, &GenerateOptions::default()).expect_err("start out of range");
+    assert_eq!(e, GenerateError::Grammar(GrammarError::StartOutOfRange(999)));
+    assert_eq!(e.to_string(), "start shape 999 out of range");
+    let mut bad = g.clone();
+    bad.shapes[0].blocks.clear();
+    let name = bad.shapes[0].name.clone();
+    let e = bad.validate().expect_err("no blocks");
+    assert_eq!(e, GrammarError::Shape { index: 0, name: name.clone(), problem: ShapeProblem::NoBlocks });
+    assert_eq!(e.to_string(), format!("shape 0 (`{name}`) has no blocks"));
+    let e = mdg_grid::assess::Reference::of(&g, 7, 1).expect_err("one example");
+    assert_eq!(e, GenerateError::NoExample(7));
+    let e = enclosure(&g, &[Instance { shape: 999, place: Placement::IDENTITY }], 1).expect_err("no shape 999");
+    assert_eq!(e, GenerateError::ShapeOutOfRange);
+    assert_eq!(induce(&[], &[], "none").err(), Some(InductionError::InferencesPerExample));
+}
+
+#[test]
 fn rules_place_shapes_at_their_relative_positions_in_the_example() {
     for c in [Cost::Product, Cost::Sum] {
         let (m, g) = house_grammar(c);
@@ -716,9 +740,16 @@ fn corrupt_voxel_files_are_errors_not_panics() {
         let p = dir.join(name);
         std::fs::write(&p, bytes).expect("write");
         let e = format::read(&p).expect_err(name);
-        assert!(e.contains(name), "the error names the file: {e}");
+        assert!(matches!(&e, format::ReadError::Decode { path, .. } if *path == p), "{e:?}");
+        assert!(!e.is_io(), "read, and refused: {e}");
+        assert!(e.to_string().contains(name), "the error names the file: {e}");
     }
-    assert!(format::read(&dir.join("g.schematic")).expect_err("an error").contains("unknown voxel format"));
+    let e = format::read(&dir.join("g.schematic")).expect_err("an error");
+    assert!(matches!(e, format::ReadError::UnknownFormat { .. }) && e.is_io(), "{e:?}");
+    assert!(e.to_string().contains("unknown voxel format"), "{e}");
+    let e = format::read(&dir.join("missing.txt")).expect_err("no such file");
+    assert!(matches!(e, format::ReadError::File { .. }) && e.is_io(), "{e:?}");
+    assert!(e.to_string().starts_with("cannot read "), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

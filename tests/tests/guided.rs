@@ -255,7 +255,8 @@ fn the_budget_ends_a_long_generation_and_covers_preparation() {
     let long_ago = std::time::Instant::now() - std::time::Duration::from_secs(1);
     let deadline = long_ago + budget;
     let e = Prepared::new_within(&b, &t, &t.guides, Some(deadline)).err().expect("past the deadline");
-    assert!(e.contains("the time budget ran out while preparing the guides (0 of 3 prepared)"), "{e}");
+    assert_eq!(e, mdg_guided::PrepareError::Guides(mdg_guided::GuidesError::OutOfTime { prepared: 0, total: 3 }));
+    assert!(e.to_string().starts_with("the time budget ran out while preparing the guides (0 of 3 prepared)"), "{e}");
     let r = p.search(&SearchOptions { clock: Some(long_ago), ..big }, None);
     assert_eq!((r.stop, r.generations), (Stop::Budget, 0));
 }
@@ -448,15 +449,16 @@ fn guide_files_replace_the_source_guides() {
     let args = GuidedArgs { guides: Some(bad.clone()), ..GuidedArgs::default() };
     let err = mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default())
         .expect_err("too few points");
-    assert!(err.contains("bad.json") && err.contains("at least 4"), "{err}");
+    assert!(err.message.contains("bad.json") && err.message.contains("at least 4"), "{err}");
+    assert_eq!(err.exit, mdg_cli::failure::Exit::Input, "read and refused: an error in the input");
     let args = GuidedArgs { guides: Some(dir.join("missing.json")), ..GuidedArgs::default() };
-    assert!(mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default())
-        .expect_err("missing")
-        .contains("cannot read"));
+    let err =
+        mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default()).expect_err("missing");
+    assert!(err.message.contains("cannot read") && err.exit == mdg_cli::failure::Exit::Usage, "{err:?}");
     let args = GuidedArgs { budget: Some("soon".into()), ..GuidedArgs::default() };
-    assert!(mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default())
-        .expect_err("budget")
-        .contains("--budget"));
+    let err =
+        mdg_cli::modes::guided::run(&b, &args, &common(&file, false), &EvalOptions::default()).expect_err("budget");
+    assert!(err.message.contains("--budget") && err.exit == mdg_cli::failure::Exit::Usage, "{err:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -571,7 +573,7 @@ fn careless_guides_and_boneless_searches_are_reported() {
     let fine =
         write("fine.json", r#"{"guides": [{"points": [[0,0,0],[0,0,1],[0,0,2],[0,0,3]], "segment": 0.000001}]}"#);
     let e = run(fine).expect_err("too many segments");
-    assert!(e.contains("guide 1: `segment` 0.000001 cuts the guide (length 3.0000) into 3000000 utilisation segments, more than 1048576"), "{e}");
+    assert!(e.message.contains("guide 1: `segment` 0.000001 cuts the guide (length 3.0000) into 3000000 utilisation segments, more than 1048576"), "{e}");
 
     // A skeleton rule whose calls never move: no bone is ever made.
     let flat = mdg_tests::build_source(
@@ -619,7 +621,7 @@ fn the_utilisation_term_is_chosen_by_name() {
     assert_eq!(run(Some("local")).expect("runs").vertex_mesh(), default.vertex_mesh());
     assert_ne!(run(Some("paper")).expect("runs").vertex_mesh(), default.vertex_mesh());
     let e = run(Some("eq7")).expect_err("unknown");
-    assert_eq!(e, "--utilisation eq7: expected `paper` or `local`");
+    assert_eq!(e, mdg_cli::failure::Failure::usage("--utilisation eq7: expected `paper` or `local`"));
 }
 
 /// The std tree's source with `line` added to its `search` section.

@@ -526,7 +526,7 @@ fn run_one(
     };
     let mut out = if bundle.extensions.has(SectionKind::Guided) {
         let common = common(cli, opts, Some(output), seed, size, pictures);
-        modes::guided::run(bundle, &cli.guided, &common, &eval_opts).map_err(Failure::input)?
+        modes::guided::run(bundle, &cli.guided, &common, &eval_opts)?
     } else {
         let mut out = evaluate_with_progress(bundle, &eval_opts, Some(&progress));
         if let Some(flag) = cli.guided.given() {

@@ -6,6 +6,7 @@
 use super::Common;
 use crate::failure::{Exit, Failure};
 use crate::pictures::Pictures;
+use mdg_creature::error::UnknownMonster;
 use mdg_creature::evolve::{lineage_name, structure_key, Evolution, EvolveOptions, Generation, Individual, Population};
 use mdg_creature::geometry::{assemble, output_of, program_text, write_glb, Library};
 use mdg_creature::sheet::compose;
@@ -316,7 +317,7 @@ pub fn run(bundle: &Bundle, args: &CreatureArgs, common: &Common) -> Result<(), 
     std::fs::create_dir_all(&out_dir)
         .map_err(|e| Failure::usage(format!("cannot create {}: {e}", out_dir.display())))?;
     let started = Instant::now();
-    let (lib, warnings) = Library::build_with(bundle, table, &common.eval).map_err(Failure::input)?;
+    let (lib, warnings) = Library::build_with(bundle, table, &common.eval)?;
     for w in &warnings {
         eprintln!("warning: {w}");
     }
@@ -625,7 +626,7 @@ table.d td,table.d th{{padding:2px 10px;text-align:right}}\
         html.push_str("</div>\n");
         if !tiles.is_empty() {
             let bg = BACKGROUND.map(|c| (c * 255.0).round() as u8);
-            let sheet = compose(&tiles, SHEET_COLUMNS, [bg[0], bg[1], bg[2]])?;
+            let sheet = compose(&tiles, SHEET_COLUMNS, [bg[0], bg[1], bg[2]]).map_err(|e| e.to_string())?;
             write(&dir.join("sheet.png"), &sheet)?;
         }
     }
@@ -657,7 +658,7 @@ pub fn continue_from(
     pop: &mut Population,
     keep: &[String],
     more: u32,
-) -> Result<Vec<Generation>, String> {
+) -> Result<Vec<Generation>, UnknownMonster> {
     evo.keep(pop, keep)?;
     Ok((0..more).map(|_| evo.step(pop, None)).collect())
 }

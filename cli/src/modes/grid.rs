@@ -152,7 +152,7 @@ pub fn run(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), Fail
     if opts.attempts == 0 || opts.attempts > generate::MAX_ATTEMPTS {
         return Err(Failure::usage(format!("--attempts {}: expected 1 to {}", opts.attempts, generate::MAX_ATTEMPTS)));
     }
-    let made = build::generate(g, &opts).map_err(Failure::input)?;
+    let made = build::generate(g, &opts)?;
     let elapsed = started.elapsed().as_secs_f64();
     if let Some(n) = &made.note {
         eprintln!("warning: {n}");
@@ -194,8 +194,7 @@ pub fn run(bundle: &Bundle, args: &GridArgs, common: &Common) -> Result<(), Fail
         }
         let more: Vec<mdg_grid::voxel::VoxelModel> = (1..=args.more as u64)
             .map(|i| build::generate(g, &GenerateOptions { seed: seed.wrapping_add(i), ..opts }).map(|m| m.model))
-            .collect::<Result<_, _>>()
-            .map_err(Failure::input)?;
+            .collect::<Result<_, _>>()?;
         models.extend(more.iter().filter(|m| !m.blocks.is_empty()));
         let mut out = mesh::output_side_by_side(&models, 4);
         if let (Some((lo, _)), false) = (made.model.bounds(), site_mesh.positions.is_empty()) {

@@ -2,6 +2,7 @@
 //! the geometry phase (docs/guided.md).
 
 use super::Common;
+use crate::failure::Failure;
 use mdg_guided::measure::{beyond_reach, coverage, covered_runs};
 use mdg_guided::{
     guides_from_json, GuidedTable, Prepared, Progress, Resampling, SearchOptions, Stop, Utilisation, REACH_SAMPLES,
@@ -146,28 +147,33 @@ pub fn utilisation_flag(args: &GuidedArgs) -> Result<Option<Utilisation>, String
 
 /// Runs the search and returns the model to export, evaluated with `eval` (the
 /// limits and `--sites` of the command line; the seed is the search's).
-pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common, eval: &EvalOptions) -> Result<Output, String> {
-    let table =
-        &GuidedTable::from_bundle(bundle).map_err(|e| e.to_string())?.ok_or("the program has no `search` section")?;
+///
+/// A bad flag or an unreadable guide file is a usage error (exit 2); a guide file
+/// read and refused, or guides the search cannot take, errors in the input (exit 1).
+pub fn run(bundle: &Bundle, args: &GuidedArgs, common: &Common, eval: &EvalOptions) -> Result<Output, Failure> {
+    let table = &GuidedTable::from_bundle(bundle)
+        .map_err(Failure::input)?
+        .ok_or_else(|| Failure::input("the program has no `search` section"))?;
     let guides = match &args.guides {
         Some(path) => {
             let text = mdg_vm::input::read_text_bounded(path, mdg_vm::input::MAX_DATA_BYTES)
-                .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-            guides_from_json(&text).map_err(|e| format!("{}: {e}", path.display()))?
+                .map_err(|e| Failure::usage(format!("cannot read {}: {e}", path.display())))?;
+            guides_from_json(&text).map_err(|e| Failure::input(format!("{}: {e}", path.display())))?
         }
         None => table.guides.clone(),
     };
     let seed = common.seed.unwrap_or(bundle.settings.randseed);
-    let mut opts = options(&table.settings, args, seed)?;
+    let mut opts = options(&table.settings, args, seed).map_err(Failure::usage)?;
     // A budget covers preparing the guides too.
     let clock = std::time::Instant::now();
     opts.clock = Some(clock);
-    let utilisation = utilisation_flag(args)?;
-    let mut prepared = Prepared::new_within(bundle, table, &guides, opts.budget.and_then(|b| clock.checked_add(b)))?;
+    let utilisation = utilisation_flag(args).map_err(Failure::usage)?;
+    let mut prepared = Prepared::new_within(bundle, table, &guides, opts.budget.and_then(|b| clock.checked_add(b)))
+        .map_err(Failure::input)?;
     if let Some(u) = utilisation {
         prepared = prepared.with_utilisation(u);
     }
-    prepared.check_size(&opts)?;
+    prepared.check_size(&opts).map_err(Failure::input)?;
     let bar = indicatif::ProgressBar::new(opts.generations as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} generations  {msg}")

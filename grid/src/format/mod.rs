@@ -7,7 +7,7 @@ pub mod text;
 pub mod vox;
 
 use super::voxel::VoxelModel;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The most bytes a voxel file may have (compressed or not).
 pub const MAX_FILE_BYTES: u64 = 64 * 1024 * 1024;
@@ -51,44 +51,129 @@ impl VoxelFormat {
     }
 }
 
+/// Why bytes are not a voxel model in their format ([`read_bytes`]).
+#[derive(Debug)]
+pub enum DecodeError {
+    /// More than [`MAX_FILE_BYTES`].
+    TooLarge,
+    /// A text file that is not UTF-8.
+    NotUtf8(std::str::Utf8Error),
+    /// The text reader's refusal.
+    Text(text::TextError),
+    /// The `.vox` reader's refusal.
+    Vox(vox::VoxReadError),
+    /// The `.nbt` or `.schem` reader's refusal.
+    Nbt(nbt::NbtError),
+}
+
+impl std::fmt::Display for DecodeError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            DecodeError::TooLarge => write!(f, "file is larger than {MAX_FILE_BYTES} bytes"),
+            DecodeError::NotUtf8(e) => write!(f, "not UTF-8 text: {e}"),
+            DecodeError::Text(e) => write!(f, "{e}"),
+            DecodeError::Vox(e) => write!(f, "{e}"),
+            DecodeError::Nbt(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for DecodeError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            DecodeError::TooLarge => None,
+            DecodeError::NotUtf8(e) => Some(e),
+            DecodeError::Text(e) => Some(e),
+            DecodeError::Vox(e) => Some(e),
+            DecodeError::Nbt(e) => Some(e),
+        }
+    }
+}
+
+/// Why a voxel file could not be read ([`read`], [`read_with_notes`]); each names
+/// the file.
+#[derive(Debug)]
+pub enum ReadError {
+    /// An extension that names no voxel format.
+    UnknownFormat { path: PathBuf },
+    /// A file over [`MAX_FILE_BYTES`].
+    TooLarge { path: PathBuf },
+    /// The file could not be read (missing, not a regular file, an IO error).
+    File { path: PathBuf, source: mdg_vm::input::ReadError },
+    /// The file's bytes are not a model in its format.
+    Decode { path: PathBuf, error: DecodeError },
+}
+
+impl ReadError {
+    /// Whether the file could not be read (rather than read and refused): a usage
+    /// or IO error for a command, where the others are errors in the input.
+    pub fn is_io(&self) -> bool {
+        matches!(self, ReadError::File { .. } | ReadError::TooLarge { .. } | ReadError::UnknownFormat { .. })
+    }
+}
+
+impl std::fmt::Display for ReadError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ReadError::UnknownFormat { path } => {
+                write!(f, "{}: unknown voxel format (expected .txt, .vox, .nbt or .schem)", path.display())
+            }
+            ReadError::TooLarge { path } => write!(f, "{}: larger than {MAX_FILE_BYTES} bytes", path.display()),
+            ReadError::File { path, source } => write!(f, "cannot read {}: {source}", path.display()),
+            ReadError::Decode { path, error } => write!(f, "{}: {error}", path.display()),
+        }
+    }
+}
+
+impl std::error::Error for ReadError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            ReadError::Decode { error, .. } => Some(error),
+            _ => None,
+        }
+    }
+}
+
 /// Reads a voxel model from bytes in `format`.
-pub fn read_bytes(format: VoxelFormat, bytes: &[u8]) -> Result<VoxelModel, String> {
+pub fn read_bytes(format: VoxelFormat, bytes: &[u8]) -> Result<VoxelModel, DecodeError> {
     if bytes.len() as u64 > MAX_FILE_BYTES {
-        return Err(format!("file is larger than {MAX_FILE_BYTES} bytes"));
+        return Err(DecodeError::TooLarge);
     }
     match format {
         VoxelFormat::Text => {
-            let text = std::str::from_utf8(bytes).map_err(|e| format!("not UTF-8 text: {e}"))?;
-            text::read(text).map_err(|e| e.to_string())
+            let text = std::str::from_utf8(bytes).map_err(DecodeError::NotUtf8)?;
+            text::read(text).map_err(DecodeError::Text)
         }
-        VoxelFormat::Vox => vox::read(bytes).map_err(|e| e.to_string()),
-        VoxelFormat::Nbt => nbt::read_structure(bytes),
-        VoxelFormat::Schem => nbt::read_schem(bytes),
+        VoxelFormat::Vox => vox::read(bytes).map_err(DecodeError::Vox),
+        VoxelFormat::Nbt => nbt::read_structure(bytes).map_err(DecodeError::Nbt),
+        VoxelFormat::Schem => nbt::read_schem(bytes).map_err(DecodeError::Nbt),
     }
 }
 
 /// The bytes of a voxel file: a regular file of at most [`MAX_FILE_BYTES`].
-fn read_file(path: &Path) -> Result<Vec<u8>, String> {
+fn read_file(path: &Path) -> Result<Vec<u8>, ReadError> {
     mdg_vm::input::read_bounded(path, MAX_FILE_BYTES).map_err(|e| match e {
-        mdg_vm::input::ReadError::TooLarge { .. } => format!("{}: larger than {MAX_FILE_BYTES} bytes", path.display()),
-        e => format!("cannot read {}: {e}", path.display()),
+        mdg_vm::input::ReadError::TooLarge { .. } => ReadError::TooLarge { path: path.to_path_buf() },
+        source => ReadError::File { path: path.to_path_buf(), source },
     })
 }
 
+/// The format of `path`, from its extension.
+fn format_of(path: &Path) -> Result<VoxelFormat, ReadError> {
+    VoxelFormat::from_path(path).ok_or_else(|| ReadError::UnknownFormat { path: path.to_path_buf() })
+}
+
 /// Reads the voxel file at `path` (format from the extension).
-pub fn read(path: &Path) -> Result<VoxelModel, String> {
-    let format = VoxelFormat::from_path(path)
-        .ok_or_else(|| format!("{}: unknown voxel format (expected .txt, .vox, .nbt or .schem)", path.display()))?;
+pub fn read(path: &Path) -> Result<VoxelModel, ReadError> {
+    let format = format_of(path)?;
     let bytes = read_file(path)?;
-    read_bytes(format, &bytes).map_err(|e| format!("{}: {e}", path.display()))
+    read_bytes(format, &bytes).map_err(|error| ReadError::Decode { path: path.to_path_buf(), error })
 }
 
 /// Reads a voxel file, with notes on what the model does not keep (block entities,
 /// explicit air) for the caller to show as warnings.
-pub fn read_with_notes(path: &Path) -> Result<(VoxelModel, Vec<String>), String> {
-    let format = VoxelFormat::from_path(path)
-        .ok_or_else(|| format!("{}: unknown voxel format (expected .txt, .vox, .nbt or .schem)", path.display()))?;
-    let at = |e: String| format!("{}: {e}", path.display());
+pub fn read_with_notes(path: &Path) -> Result<(VoxelModel, Vec<String>), ReadError> {
+    let format = format_of(path)?;
     match format {
         VoxelFormat::Nbt | VoxelFormat::Schem => {
             let bytes = read_file(path)?;
@@ -97,7 +182,7 @@ pub fn read_with_notes(path: &Path) -> Result<(VoxelModel, Vec<String>), String>
             } else {
                 nbt::read_schem_notes(&bytes)
             };
-            r.map_err(at)
+            r.map_err(|e| ReadError::Decode { path: path.to_path_buf(), error: DecodeError::Nbt(e) })
         }
         _ => read(path).map(|m| (m, Vec::new())),
     }
@@ -129,9 +214,36 @@ pub fn write_notes(format: VoxelFormat, model: &VoxelModel) -> Vec<String> {
     notes
 }
 
+/// Why a model cannot be written in a format ([`write`]).
+#[derive(Debug)]
+pub enum WriteError {
+    /// The `.vox` writer's refusal.
+    Vox(vox::VoxWriteError),
+    /// The `.nbt` or `.schem` writer's refusal.
+    Nbt(nbt::NbtWriteError),
+}
+
+impl std::fmt::Display for WriteError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            WriteError::Vox(e) => write!(f, "{e}"),
+            WriteError::Nbt(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for WriteError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            WriteError::Vox(e) => Some(e),
+            WriteError::Nbt(e) => Some(e),
+        }
+    }
+}
+
 /// Writes a voxel model in `format`. Doors joined for induction (`LOWER+UPPER`, see
 /// [`super::doors::merge_doors`]) are written as their two halves.
-pub fn write(format: VoxelFormat, model: &VoxelModel) -> Result<Vec<u8>, String> {
+pub fn write(format: VoxelFormat, model: &VoxelModel) -> Result<Vec<u8>, WriteError> {
     let split;
     let model = if model.kinds.iter().any(|k| k.id.contains(super::blocks::DOOR_JOIN)) {
         split = super::doors::split_doors(model).0;
@@ -141,8 +253,8 @@ pub fn write(format: VoxelFormat, model: &VoxelModel) -> Result<Vec<u8>, String>
     };
     match format {
         VoxelFormat::Text => Ok(text::write(model).into_bytes()),
-        VoxelFormat::Vox => vox::write(model).map_err(|e| e.to_string()),
-        VoxelFormat::Nbt => nbt::write_structure(model),
-        VoxelFormat::Schem => nbt::write_schem(model),
+        VoxelFormat::Vox => vox::write(model).map_err(WriteError::Vox),
+        VoxelFormat::Nbt => nbt::write_structure(model).map_err(WriteError::Nbt),
+        VoxelFormat::Schem => nbt::write_schem(model).map_err(WriteError::Nbt),
     }
 }

@@ -3,7 +3,7 @@
 //! field starts with `#` is a comment; after the four fields, `#` starts a comment.
 //! y is up.
 
-use crate::voxel::{ModelBuilder, VoxelModel};
+use crate::voxel::{ModelBuilder, ModelError, VoxelModel};
 use std::fmt::Write as _;
 
 /// Why a text voxel file was refused: each error but the last names its line.
@@ -16,9 +16,9 @@ pub enum TextError {
     /// A fifth field that is not a comment.
     Extra { line: usize, text: String },
     /// The block of a line refused by the model (its id, or two blocks in a cell).
-    Block { line: usize, message: String },
+    Block { line: usize, error: ModelError },
     /// The model as a whole refused (its bounding box).
-    Model(String),
+    Model(ModelError),
 }
 
 impl std::fmt::Display for TextError {
@@ -31,8 +31,8 @@ impl std::fmt::Display for TextError {
             TextError::Extra { line, text } => {
                 write!(f, "line {line}: unexpected `{text}` after the block (comments start with `#`)")
             }
-            TextError::Block { line, message } => write!(f, "line {line}: {message}"),
-            TextError::Model(message) => f.write_str(message),
+            TextError::Block { line, error } => write!(f, "line {line}: {error}"),
+            TextError::Model(error) => write!(f, "{error}"),
         }
     }
 }
@@ -65,8 +65,8 @@ pub fn read(text: &str) -> Result<VoxelModel, TextError> {
         if crate::blocks::is_air(id) {
             continue;
         }
-        let kind = b.kind(id, None).map_err(|message| TextError::Block { line: n, message })?;
-        b.add([x, y, z], kind).map_err(|message| TextError::Block { line: n, message })?;
+        let kind = b.kind(id, None).map_err(|error| TextError::Block { line: n, error })?;
+        b.add([x, y, z], kind).map_err(|error| TextError::Block { line: n, error })?;
     }
     b.finish().map_err(TextError::Model)
 }
@@ -108,12 +108,14 @@ mod tests {
         assert_eq!(e, TextError::Missing { line: 1, what: "block" });
         assert_eq!(e.to_string(), "line 1: expected `x y z block`, the block is missing");
         let e = read("0 0 0 a\n0 0 0 b").expect_err("an error");
-        assert!(matches!(&e, TextError::Block { line: 2, message } if message.contains("two blocks")), "{e:?}");
+        assert_eq!(e, TextError::Block { line: 2, error: ModelError::TwoBlocks { pos: [0, 0, 0] } }, "{e:?}");
+        assert!(e.to_string().contains("two blocks"), "{e}");
         let e = read("0 0 0 a b").expect_err("an error");
         assert_eq!(e.to_string(), "line 1: unexpected `b` after the block (comments start with `#`)");
         assert!(matches!(read("0 0 99999999999 a"), Err(TextError::NotInteger { .. })));
         let e = read("0 0 0 a\n5000 5000 5000 a").expect_err("an error");
-        assert!(matches!(&e, TextError::Model(m) if m.contains("bounding box")), "{e:?}");
+        assert!(matches!(&e, TextError::Model(ModelError::TooLarge { .. })), "{e:?}");
+        assert!(e.to_string().contains("bounding box"), "{e}");
     }
 
     #[test]

@@ -7,7 +7,7 @@
 //! Files with several models are assembled through the scene graph's translations;
 //! rotated models are rejected.
 
-use crate::voxel::{ModelBuilder, VoxelModel};
+use crate::voxel::{ModelBuilder, ModelError, VoxelModel};
 
 /// The material property holding a block id.
 const BLOCK_KEY: &str = "_mdg_block";
@@ -209,8 +209,8 @@ pub enum VoxReadError {
     SceneTooDeep,
     /// A model placed with a rotation.
     Rotated,
-    /// The voxel model refused a block or as a whole (the model builder's message).
-    Model(String),
+    /// The voxel model refused a block or as a whole.
+    Model(ModelError),
 }
 
 impl std::fmt::Display for VoxReadError {
@@ -246,7 +246,7 @@ impl std::fmt::Display for VoxReadError {
             }
             VoxReadError::SceneTooDeep => f.write_str("the .vox scene graph is too deep or cyclic"),
             VoxReadError::Rotated => f.write_str("rotated models in the .vox scene graph are not supported"),
-            VoxReadError::Model(m) => f.write_str(m),
+            VoxReadError::Model(e) => write!(f, "{e}"),
         }
     }
 }

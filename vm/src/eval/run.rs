@@ -232,11 +232,12 @@ impl<'b> Eval<'b> {
     pub(super) fn interpret<S: Sink>(&mut self, sink: &mut S, rule: u32, start: State, depth: u32, mode: Mode) {
         let b = self.b;
         let rule = RuleId(rule);
-        let (slot_base, slot_top) = match sink.start_args() {
-            Some((args, _)) => self.frame_with(rule, args),
-            None => self.default_frame(rule),
+        // The sink is asked once: the run's arguments fill the frame, its bone is the
+        // parent of the bones the body makes.
+        let ((slot_base, slot_top), parent_bone) = match sink.start_args() {
+            Some((args, bone)) => (self.frame_with(rule, args), bone),
+            None => (self.default_frame(rule), 0),
         };
-        let parent_bone = sink.start_args().map_or(0, |a| a.1);
         let pc = self.select(rule, &start, depth, slot_base as usize);
         // Rule-local retirement applies to the run's first call too (see `retire.rs`).
         let retiring = !S::SIMPLE && !S::COLLECTS && self.retire.any;
