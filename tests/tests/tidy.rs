@@ -503,7 +503,7 @@ fn path_refs_resolve_crate_super_and_self_paths() {
 /// entry once it is split).
 #[test]
 fn no_vm_file_is_over_1000_lines() {
-    const LARGE: [(&str, usize); 2] = [("grid/src/infer.rs", 1145), ("guided/src/search.rs", 1137)];
+    const LARGE: [(&str, usize); 2] = [("grid/src/infer.rs", 1145), ("guided/src/search.rs", 1132)];
     let mut files = Vec::new();
     for dir in ["vm/src", "export/src", "guided/src", "creature/src", "grid/src"] {
         rs_files(&root().join(dir), &mut files);
