@@ -891,6 +891,47 @@ fn flat_paths_fill_and_stroke_the_areas_they_enclose() {
 }
 
 #[test]
+fn subpaths_add_a_path_or_a_primitive_outline_to_the_calling_path() {
+    // Context Free's `path CIRCLE [s 0.5]`: in a path, a call of CIRCLE adds the
+    // circle's outline (diameter 1 under the call's adjustment), no disc. With
+    // even-odd the inner circle is a hole in the outer one.
+    let ring = run_source(
+        "startshape R\nrule R { MOVETO(1, 0) {} ARCTO(-1, 0, 1) {} ARCTO(1, 0, 1) {} CLOSEPOLY {} \
+         CIRCLE {s 1} FILL evenodd {} }\n",
+    );
+    let (area, b) = xy_area_and_box(&ring.mesh);
+    let want = std::f32::consts::PI * (1.0 - 0.25);
+    assert!((area - want).abs() < 0.01 * want, "{area} {want}");
+    assert!(b.iter().zip([-1.0, -1.0, 1.0, 1.0]).all(|(a, e)| (a - e).abs() < 3e-3), "{b:?}");
+    assert_eq!(ring.stats.paths, 1);
+    // SQUARE and TRIANGLE outlines, moved and scaled by the call: a 2 × 2 square
+    // and a triangle of side 2 (area √3), filled non-zero, apart.
+    let out = run_source("startshape P\nrule P { SQUARE {s 2} TRIANGLE {x 3 s 2} FILL {} }\n");
+    let (area, b) = xy_area_and_box(&out.mesh);
+    assert!((area - (4.0 + 3f32.sqrt())).abs() < 1e-3, "{area}");
+    assert!(b.iter().zip([-1.0, -1.0, 4.0, 1.154_700_5]).all(|(a, e)| (a - e).abs() < 1e-4), "{b:?}");
+    assert_eq!(out.stats.paths, 1);
+    // A path's call of another path that paints nothing adds that path's points
+    // (in the call's frame) instead of filling it: five stars stroked as one path.
+    let stars = run_source(
+        "startshape stars\nrule star { MOVETO(0, 1) {} 4 * [rz 144] LINETO(0, 1) {} CLOSEPOLY {} }\n\
+         rule stars { 5 * [rz 72] star {y 1.618} STROKE {} }\n",
+    );
+    assert_eq!(stars.stats.paths, 1, "one STROKE, no implied FILL of each star");
+    let alone = run_source(
+        "startshape S\nrule S { star {y 1.618} }\nrule star { MOVETO(0, 1) {} 4 * [rz 144] LINETO(0, 1) {} CLOSEPOLY {} }\n",
+    );
+    assert_eq!(alone.stats.paths, 1, "called as a shape, a path that paints nothing is filled");
+    let (a1, _) = xy_area_and_box(&stars.mesh);
+    let one = run_source(
+        "startshape stars\nrule star { MOVETO(0, 1) {} 4 * [rz 144] LINETO(0, 1) {} CLOSEPOLY {} }\n\
+         rule stars { star {y 1.618} STROKE {} }\n",
+    );
+    let (a0, _) = xy_area_and_box(&one.mesh);
+    assert!(a1 > 4.0 * a0, "five stroked stars: {a1} against one {a0}");
+}
+
+#[test]
 fn relative_path_ops_are_the_absolute_ones_from_the_current_point() {
     // Each pair draws the same path, absolute and relative (CFDG 3's LINEREL,
     // MOVEREL, ARCREL, CURVEREL: the point, and a curve's control points, relative

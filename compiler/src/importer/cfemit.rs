@@ -416,7 +416,11 @@ impl<'a> Emitter<'a> {
         let prim = PRIMITIVES.contains(&name);
         let Some(sh) = self.prog.shapes.iter().find(|s| s.name == name && !s.rules.is_empty()) else {
             if !prim {
-                self.rep.drop(line, name, "a call of an undefined shape: left out");
+                self.rep.drop(
+                    line,
+                    name,
+                    "a call of an undefined shape (a shape-typed parameter or variable has no MDG form): left out",
+                );
                 return None;
             }
             let a = self.adj(adj);

@@ -646,14 +646,14 @@ impl<'a> Parser<'a> {
                 Item::PathOp { op: w, args, adj, line }
             }
             "path" if matches!(self.peek_at(1), Some(T::Id(_))) => {
-                // `path CIRCLE [adj]`: another path's outline added to this one.
-                self.i += 2;
-                if self.is_p("(") {
-                    self.skip_group();
-                }
-                let _ = self.adj_opt();
-                self.rep.drop(line, "path", "a subpath from another path (`path NAME`): left out");
-                Item::Nothing
+                // `path CIRCLE [adj]`, `path star(2) [adj]`: another path's outline
+                // added to this one; in MDG a path's call of a path or of a flat
+                // primitive is that (reference §9, "Subpaths").
+                self.i += 1;
+                let name = self.id().unwrap_or_default();
+                let args = if self.is_p("(") { Some(self.call_args()) } else { None };
+                let adj = self.adj_opt().unwrap_or_default();
+                Item::Call { name, args, same: false, adj, line }
             }
             _ => {
                 self.i += 1;

@@ -400,6 +400,20 @@ mod tests {
     }
 
     #[test]
+    fn subpaths_are_calls_in_the_path() {
+        // Context Free's subpathtest2 (five stars stroked as one path) and a ring
+        // from a primitive's outline: `path NAME [adj]` is a call in MDG's path.
+        let i =
+            cf("startshape stars\npath star {\n  MOVETO(0,1)\n  loop 4 [r 144]\n    LINETO(cos(234), sin(234))\n  \
+                    CLOSEPOLY()\n}\npath stars {\n  loop 5 [r 72]\n    path star[y 1.6]\n  STROKE[]\n}\n\
+                    path ring {\n  path CIRCLE []\n  path CIRCLE [s 0.5]\n  FILL(CF::EvenOdd) []\n}\n");
+        assert!(i.mdg.contains("star {y 1.6}"), "{}", i.mdg);
+        assert!(i.mdg.contains("CIRCLE {s 0.5}"), "{}", i.mdg);
+        assert!(i.report.notes.iter().all(|n| n.construct != "path"), "{:?}", i.report.notes);
+        assert!(triangles(&i.mdg) > 0, "{}", i.mdg);
+    }
+
+    #[test]
     fn a_shape_named_like_a_primitive_replaces_it() {
         let i = cf("startshape Top\nrule Top { TRIANGLE {} CIRCLE {} }\nrule TRIANGLE { SQUARE {} }\n");
         assert!(i.mdg.contains("rule TRIANGLE_ {") && i.mdg.contains("  TRIANGLE_ {}\n  CIRCLE {}"), "{}", i.mdg);

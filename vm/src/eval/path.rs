@@ -21,6 +21,9 @@ pub(super) struct PathState {
     painted: bool,
     /// The last curve's last control point (world), for `smooth` curves.
     last_ctrl: Option<Vec3>,
+    /// How many subpath activations are running (a path's calls of paths): a
+    /// path's implied `FILL` paints only outside them.
+    pub(super) subpaths: u32,
 }
 
 impl PathState {
@@ -49,6 +52,10 @@ impl<'b> Eval<'b> {
         let flags = args.last().map_or(0, |f| *f as u32);
         let arg = |i: usize| args.get(i).copied().unwrap_or(0.0);
         if matches!(kind, Drawable::Fill | Drawable::Stroke) {
+            // A subpath's points stay for the calling path to paint.
+            if flags & bits::IMPLIED != 0 && self.path.subpaths > 0 {
+                return;
+            }
             self.path.painted = true;
             self.paint(kind, base, s, arg(0), flags, bone, pc);
             return;

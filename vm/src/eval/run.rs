@@ -286,6 +286,7 @@ impl<'b> Eval<'b> {
             bones: Vec::new(),
             seed: None,
             seeds: Vec::new(),
+            subpaths: Vec::new(),
             convs: conv.into_iter().collect(),
             cont: None,
             lin_cache: LinCache { frame: Frame::identity(), lin: Frame::identity().linear() },
@@ -411,6 +412,8 @@ impl<'b> Eval<'b> {
             self.note_site(outer.0, outer.1, outer.2);
         }
         self.spare_loops = m.loops;
+        // (A run ended by a limit leaves its subpath activations.)
+        self.path.subpaths = self.path.subpaths.saturating_sub(m.subpaths.len() as u32);
         if retiring {
             self.retire.end_run();
         }
@@ -506,6 +509,11 @@ impl<'b> Eval<'b> {
         let args = m.act.slot_top as usize;
         // (No SEED under the fast path: `fast_path_applies` refuses it.)
         let seed = if S::SIMPLE { None } else { m.seed.take() };
+        if !S::SIMPLE && flags & SUBPATH != 0 && (S::COLLECTS || S::QUEUES) {
+            let how = if S::QUEUES { "under `breadthfirst`" } else { "in a guided search's skeleton" };
+            let at = where_op(b, m.act.pc - 1);
+            self.warn_once(format!("the subpath call{at} is queued {how}: its points do not join the calling path"));
+        }
         if seed.is_some() && (S::COLLECTS || S::QUEUES) {
             let how = if S::QUEUES { "under `breadthfirst`" } else { "in a guided search's skeleton" };
             let at = where_op(b, m.act.pc - 1);
@@ -613,6 +621,10 @@ impl<'b> Eval<'b> {
             }
             let callee = Act { pc, slot_base, slot_top, base: child, depth };
             m.stack.push(std::mem::replace(&mut m.act, callee));
+        }
+        if !S::SIMPLE && flags & SUBPATH != 0 {
+            m.subpaths.push(level);
+            self.path.subpaths += 1;
         }
         if !S::SIMPLE && self.retire.any {
             self.retire.enter(pc, m.stack.len());
@@ -820,6 +832,10 @@ impl<'b> Eval<'b> {
                 }
             }
             self.unseed(m, level);
+            if m.subpaths.last() == Some(&level) {
+                m.subpaths.pop();
+                self.path.subpaths = self.path.subpaths.saturating_sub(1);
+            }
             let base = m.act.slot_base as usize;
             if self.slots.len() > base {
                 self.slots.truncate(base);

@@ -134,6 +134,9 @@ pub(super) struct Regs {
     /// The callers' random streams and sequential-selection counters, where a call
     /// was seeded (`seed N`): (the callee's level, what its return restores).
     pub(super) seeds: Vec<(u32, Reseeded)>,
+    /// The levels of the activations that run as subpaths (a path's call of a
+    /// path, `CALL` flag [`crate::bundle::SUBPATH`]).
+    pub(super) subpaths: Vec<u32>,
     /// The continuation state after `\`: set by CONT and taken by the next item of
     /// the same body (a call takes it before its callee runs, so one register serves
     /// every activation).
