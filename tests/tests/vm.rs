@@ -932,6 +932,32 @@ fn subpaths_add_a_path_or_a_primitive_outline_to_the_calling_path() {
 }
 
 #[test]
+fn an_iso_stroke_keeps_its_width_under_a_non_uniform_scale() {
+    // An L of legs 1 (up) and 1 (right), butt caps, drawn under {s 4 1}: the
+    // right leg is 4 long in the world. Context Free's `iso`: the pen is round,
+    // w·√|det| = 0.1·2 = 0.2 wide everywhere, so the L covers 0.2 · (1 + 4).
+    let run = |word: &str, adj: &str| {
+        let out = run_source(&format!(
+            "startshape A\nrule A {{ L {{{adj}}} }}\n\
+             rule L {{ MOVETO(0, 1) {{}} LINETO(0, 0) {{}} LINETO(1, 0) {{}} STROKE(0.1) {word} {{}} }}\n"
+        ));
+        assert_eq!(out.stats.paths, 1);
+        xy_area_and_box(&out.mesh)
+    };
+    let (area, b) = run("iso", "s 4 1");
+    assert!((area - 1.0).abs() < 1e-3, "{area}");
+    assert!(b.iter().zip([-0.1, -0.1, 4.0, 1.0]).all(|(a, e)| (a - e).abs() < 1e-4), "{b:?}");
+    // Without it the pen is stretched: 0.4 wide across the upright leg, 0.1 across the other.
+    let (area, b) = run("", "s 4 1");
+    assert!((area - 0.8).abs() < 1e-3, "{area}");
+    assert!((b[0] + 0.2).abs() < 1e-4 && (b[1] + 0.05).abs() < 1e-4, "{b:?}");
+    // Under a uniform scale (and a turn) both are the same stroke.
+    let (a0, _) = run("iso", "rz 30 s 2");
+    let (a1, _) = run("", "rz 30 s 2");
+    assert!((a0 - a1).abs() < 1e-3 * a1, "{a0} {a1}");
+}
+
+#[test]
 fn relative_path_ops_are_the_absolute_ones_from_the_current_point() {
     // Each pair draws the same path, absolute and relative (CFDG 3's LINEREL,
     // MOVEREL, ARCREL, CURVEREL: the point, and a curve's control points, relative

@@ -262,7 +262,7 @@ impl<'a> Emitter<'a> {
                 rest.terms.push(t.clone());
             }
         }
-        // Context Free's words in MDG's spelling; `iso` has no MDG form.
+        // Context Free's words in MDG's spelling.
         let mut mdg_words: Vec<&str> = Vec::new();
         let mut smooth = false;
         for w in &words {
@@ -277,6 +277,7 @@ impl<'a> Emitter<'a> {
                 "buttcap" => "buttcap",
                 "roundcap" => "roundcap",
                 "squarecap" => "squarecap",
+                "iso" | "isowidth" => "iso",
                 "continuous" => {
                     smooth = true;
                     continue;
@@ -290,7 +291,7 @@ impl<'a> Emitter<'a> {
                 "ARCTO" => matches!(m, "large" | "cw"),
                 "CLOSEPOLY" => m == "align",
                 "FILL" => m == "evenodd",
-                "STROKE" => m.ends_with("join") || m.ends_with("cap"),
+                "STROKE" => m.ends_with("join") || m.ends_with("cap") || m == "iso",
                 _ => false,
             };
             if ok && !mdg_words.contains(&m) {

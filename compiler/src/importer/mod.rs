@@ -410,6 +410,20 @@ mod tests {
         assert!(i.mdg.contains("star {y 1.6}"), "{}", i.mdg);
         assert!(i.mdg.contains("CIRCLE {s 0.5}"), "{}", i.mdg);
         assert!(i.report.notes.iter().all(|n| n.construct != "path"), "{:?}", i.report.notes);
+        // A stroke's `iso` (CFDG 3's flag, CFDG 2's `p` word) is MDG's own word.
+        let i = cf("startshape P\npath P {\n  MOVETO(0, 0)\n  LINETO(1, 0)\n  STROKE(0.1, CF::IsoWidth + CF::RoundCap)[s 2 1]\n}\n\
+                    path Q {\n  MOVETO {}\n  LINETO {x 1}\n  STROKE {p iso}\n}\n");
+        assert!(
+            i.mdg.contains("STROKE(0.1) roundcap_iso {s 2 1") || i.mdg.contains("STROKE(0.1) iso_roundcap {s 2 1"),
+            "{}",
+            i.mdg
+        );
+        assert!(i.mdg.contains("STROKE iso {}"), "{}", i.mdg);
+        assert!(
+            i.report.notes.iter().all(|n| n.construct != "iso" && n.construct != "isowidth"),
+            "{:?}",
+            i.report.notes
+        );
         assert!(triangles(&i.mdg) > 0, "{}", i.mdg);
     }
 

@@ -50,6 +50,9 @@ pub mod path_bits {
     /// (Set by the compiler, not a word) the `FILL` a path that paints nothing gets
     /// at its end: it does not paint when the path runs as a subpath of another.
     pub const IMPLIED: u32 = 2048;
+    /// `STROKE … iso`: the pen is round in the drawn plane, `w·√(area scale)`
+    /// wide, however the frame stretches it (Context Free's `CF::IsoWidth`).
+    pub const ISO: u32 = 4096;
 }
 
 /// The option words of the path drawables, their bits and the drawable that takes
@@ -66,6 +69,7 @@ pub const PATH_WORDS: &[(&str, u32, &str)] = &[
     ("buttcap", 0, "STROKE"),
     ("roundcap", path_bits::ROUNDCAP, "STROKE"),
     ("squarecap", path_bits::SQUARECAP, "STROKE"),
+    ("iso", path_bits::ISO, "STROKE"),
 ];
 
 /// How many `ARG`s a path drawable takes (the compiler always passes them all,
