@@ -514,10 +514,11 @@ impl<'b> Eval<'b> {
             let at = where_op(b, m.act.pc - 1);
             self.warn_once(format!("the subpath call{at} is queued {how}: its points do not join the calling path"));
         }
-        if seed.is_some() && (S::COLLECTS || S::QUEUES) {
-            let how = if S::QUEUES { "under `breadthfirst`" } else { "in a guided search's skeleton" };
+        if seed.is_some() && S::COLLECTS {
             let at = where_op(b, m.act.pc - 1);
-            self.warn_once(format!("`seed`{at} is ignored {how}: the call draws from the run's stream"));
+            self.warn_once(format!(
+                "`seed`{at} is ignored in a guided search's skeleton: the call draws from the run's stream"
+            ));
         }
         // (Under the fast path every call's transform is constant and no call has `\`.)
         if depth > m.maxdepth && (S::SIMPLE || (flags & CONT_NEXT == 0 && self.xf_pure[xf.index()])) {
@@ -568,7 +569,10 @@ impl<'b> Eval<'b> {
         }
         if S::QUEUES {
             // Breadth first: the call waits for its generation (its definition is
-            // picked when it leaves the queue).
+            // picked when it leaves the queue); a seeded one with its stream.
+            if let Some(v) = seed {
+                sink.seed_next(seeded_stream(self.seed, v));
+            }
             sink.enqueue(rule, &child, depth, m.bone, &self.slots[args..], &self.retire.counts);
             self.slots.truncate(args);
             return true;

@@ -46,6 +46,11 @@ pub(super) trait Sink {
     #[inline]
     fn enqueue(&mut self, _rule: RuleId, _state: &State, _depth: u32, _bone: u32, _args: &[f64], _path: &[u32]) {}
 
+    /// A seeded call's stream (`seed N`), for the call queued next (only when
+    /// [`Sink::QUEUES`]): that call's sub-tree draws from it.
+    #[inline]
+    fn seed_next(&mut self, _stream: Pcg) {}
+
     /// The arguments and bone of the call the run starts with (only when
     /// [`Sink::QUEUES`]; otherwise the parameters take their defaults, bone 0).
     #[inline]
