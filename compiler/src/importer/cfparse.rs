@@ -103,6 +103,10 @@ pub(crate) struct Shape {
     pub line: u32,
 }
 
+/// One copy of a rosette symmetry: (turn in degrees, the mirror line's angle in
+/// degrees or none, centre x, centre y).
+pub(crate) type SymmetryCopy = (f64, Option<f64>, f64, f64);
+
 /// A whole program (an included file adds to it).
 #[derive(Debug, Default)]
 pub(crate) struct Program {
@@ -121,7 +125,7 @@ pub(crate) struct Program {
     /// `CF::Symmetry` of a rosette (`CF::Cyclic`, `CF::Dihedral`): the copies of
     /// the design, each (turn in degrees, mirror line's angle in degrees or none,
     /// centre x, centre y), the identity first.
-    pub symmetry: Vec<(f64, Option<f64>, f64, f64)>,
+    pub symmetry: Vec<SymmetryCopy>,
 }
 
 pub(crate) struct Parser<'a> {
@@ -887,7 +891,7 @@ impl<'a> Parser<'a> {
 /// The copies of a rosette symmetry, as Context Free's `processDihedral` makes
 /// them: for turn k of `order`, the turned copy and (dihedral) the turned copy
 /// mirrored across the line at `angle` through the centre; duplicates once.
-fn rosette(kind: &str, data: &[Option<f64>]) -> Option<Vec<(f64, Option<f64>, f64, f64)>> {
+fn rosette(kind: &str, data: &[Option<f64>]) -> Option<Vec<SymmetryCopy>> {
     let d: Vec<f64> = data.iter().copied().collect::<Option<Vec<f64>>>()?;
     let (order, angle, x, y, mirrored) = match (kind, d.as_slice()) {
         ("CF::Cyclic", [n]) => (*n, 0.0, 0.0, 0.0, false),

@@ -23,6 +23,9 @@
 use super::*;
 use std::collections::VecDeque;
 
+/// Sequential-selection counters (as [`Eval`]'s).
+pub(super) type Sequential = HashMap<u32, (usize, u32)>;
+
 /// A call waiting in the queue.
 pub(super) struct Pending {
     pub(super) rule: RuleId,
@@ -50,7 +53,7 @@ pub(super) struct Queue<const SITES: bool> {
     pub(super) current: Vec<f64>,
     pub(super) bone: u32,
     /// The seeded sub-trees' streams and sequential-selection counters.
-    pub(super) streams: Vec<(Pcg, HashMap<u32, (usize, u32)>)>,
+    pub(super) streams: Vec<(Pcg, Sequential)>,
     /// The stream of the body running (NONE: the run's).
     pub(super) stream: u32,
     /// A seeded stream for the call queued next.
