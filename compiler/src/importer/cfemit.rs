@@ -23,6 +23,8 @@ pub(crate) struct Emitter<'a> {
     line: u32,
     /// Functions without parameters being inlined (a recursion among them is cut).
     inlining: Vec<String>,
+    /// Whether the shape being written is a Context Free `path`.
+    in_path: bool,
 }
 
 impl<'a> Emitter<'a> {
@@ -38,6 +40,7 @@ impl<'a> Emitter<'a> {
             counter: 0,
             line: 0,
             inlining: Vec::new(),
+            in_path: false,
         }
     }
 
@@ -67,6 +70,7 @@ impl<'a> Emitter<'a> {
             }
             let weights = weights(&sh.rules.iter().map(|r| (r.weight, r.percent)).collect::<Vec<_>>());
             let name = self.names.get(&sh.name);
+            self.in_path = self.prog.paths.contains(&sh.name);
             for (k, r) in sh.rules.iter().enumerate() {
                 self.line = r.line;
                 self.counter = 0;
@@ -189,6 +193,11 @@ impl<'a> Emitter<'a> {
                 let a = self.adj(adj);
                 let _ = write!(out, "{pad}1 * {a}");
                 self.sub_item(body, ind + 1, out);
+            }
+            Item::PathOp { op, line, .. } if !self.in_path => {
+                // (`FILL` in a shape: Context Free draws nothing for it; in MDG it
+                // would make the rule a path, its shapes outlines.)
+                self.rep.drop(*line, op, "a path operation in a shape, not a path: Context Free draws nothing for it");
             }
             Item::PathOp { op, args, adj, line } => {
                 self.line = *line;

@@ -498,6 +498,11 @@ mod tests {
             i.report.notes
         );
         assert!(triangles(&i.mdg) > 0, "{}", i.mdg);
+        // Context Free's `tests/filltest`: a FILL in a shape (not a path) draws
+        // nothing there; here it would make the rule a path and its CIRCLE an outline.
+        let i = cf("startshape foo\nrule foo {\n10* {x 1 z 1} {\n CIRCLE {b 1}\n FILL {a -0.95 z -0.5}\n }\n}\n");
+        assert!(!i.mdg.contains("FILL"), "{}", i.mdg);
+        assert_eq!(triangles(&i.mdg), 10 * 32);
     }
 
     #[test]
