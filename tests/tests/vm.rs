@@ -574,6 +574,38 @@ fn the_derivation_tree_counts_calls_and_geometry_per_path() {
     assert_eq!((&alone.mesh, &alone.sweeps, &alone.instances), (&default.mesh, &default.sweeps, &default.instances));
 }
 
+/// Under `breadthfirst` the derivation tree is recorded too, and is the same tree
+/// (one node per path of rules) as depth first: only the nodes' order differs.
+#[test]
+fn breadth_first_runs_record_the_same_derivation_tree() {
+    let src = "startshape A\n{order}rule A { B {} B {x 2} C {y 2} }\nrule B { C {} SQUARE {s 0.5} }\n\
+               rule C { SQUARE {} 2 * [x 1] D {} }\nrule D { TRIANGLE {} }\n";
+    let tree = |order: &str, sites: bool| {
+        let b = build_source(&src.replace("{order}", order));
+        let opts = EvalOptions { record_derivation: true, record_sites: sites, ..EvalOptions::default() };
+        let out = evaluate(&b, &opts);
+        assert!(!out.stats.warnings.iter().any(|w| w.contains("derivation")), "{:?}", out.stats.warnings);
+        let d = out.derivation.expect("a derivation");
+        let path = |n: &mdg_vm::output::DerivNode| {
+            let mut names = vec![d.rules[n.rule as usize].rule.clone()];
+            let mut p = n.parent;
+            while let Some(i) = p {
+                names.insert(0, d.rules[d.nodes[i as usize].rule as usize].rule.clone());
+                p = d.nodes[i as usize].parent;
+            }
+            names.join("/")
+        };
+        let mut got: Vec<(String, u32, u64, u64, u64)> =
+            d.nodes.iter().map(|n| (path(n), n.depth, n.calls, n.triangles, n.total)).collect();
+        got.sort();
+        (got, d.triangles)
+    };
+    let depth_first = tree("", true);
+    assert_eq!(depth_first.0.len(), 11, "{:?}", depth_first.0);
+    assert_eq!(tree("breadthfirst\n", true), depth_first);
+    assert_eq!(tree("breadthfirst\n", false), depth_first);
+}
+
 /// Recorded sites keep prototype instancing (the editor's preview gets the model
 /// instanced, as `mdg-run --instances` writes it): each instance has the rule,
 /// depth and derivation node its triangles have when the prototype is drawn item

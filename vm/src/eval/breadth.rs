@@ -11,7 +11,8 @@
 //! isosurface or a pen line) is one *object*; with `maxobjects N` the run ends at
 //! the end of the generation in which the N-th object was drawn (the generation is
 //! finished, as Structure Synth does, so a symmetric structure stays symmetric), and
-//! the calls still queued are not run (a warning says how many).
+//! the calls still queued are not run (a warning says how many). The derivation
+//! tree is recorded as depth first (each queued call carries its caller's node).
 //!
 //! A seeded call (`seed N`) starts a stream of its own, a pure function of the
 //! run's seed and N, with its own sequential-selection counters; every call its
@@ -37,10 +38,12 @@ pub(super) struct Pending {
     /// The seeded stream its sub-tree draws from (an index into
     /// [`Queue::streams`]), or NONE: the run's.
     pub(super) stream: u32,
+    /// Its caller's derivation node (NONE: a root, or no tree recorded).
+    pub(super) node: u32,
 }
 
 /// The sink of a breadth-first body: the calls it makes go into the queue. `SITES`
-/// records each op's source site (the derivation tree is not recorded in this order).
+/// records each op's source site (and, with a tree recorded, each call's node).
 #[derive(Default)]
 pub(super) struct Queue<const SITES: bool> {
     pub(super) pending: VecDeque<Pending>,
@@ -58,6 +61,10 @@ pub(super) struct Queue<const SITES: bool> {
     pub(super) stream: u32,
     /// A seeded stream for the call queued next.
     pub(super) next: Option<Pcg>,
+    /// The caller's derivation node for the call queued next, and the running
+    /// call's caller's.
+    pub(super) next_node: u32,
+    pub(super) parent: u32,
 }
 
 impl<const SITES: bool> Sink for Queue<SITES> {
@@ -80,7 +87,18 @@ impl<const SITES: bool> Sink for Queue<SITES> {
             }
             None => self.stream,
         };
-        self.pending.push_back(Pending { rule, state: *state, depth, bone, nargs: args.len() as u32, stream });
+        let node = std::mem::replace(&mut self.next_node, NONE);
+        self.pending.push_back(Pending { rule, state: *state, depth, bone, nargs: args.len() as u32, stream, node });
+    }
+
+    #[inline]
+    fn caller_node(&mut self, node: u32) {
+        self.next_node = node;
+    }
+
+    #[inline]
+    fn parent_node(&self) -> u32 {
+        self.parent
     }
 
     #[inline]
@@ -107,12 +125,9 @@ impl<'b> Eval<'b> {
     /// Runs a call of `rule` in state `start` at `depth` breadth first (see the
     /// module's documentation).
     pub(super) fn run_breadth(&mut self, rule: u32, start: State, depth: u32) {
-        if self.tree.is_some() {
-            self.warn_once(
-                "`breadthfirst`: the derivation tree is not recorded in breadth-first order (sites are)".into(),
-            );
-        }
-        if self.opts.record_sites {
+        // (The derivation tree is recorded as depth first: each queued call
+        // carries its caller's node.)
+        if self.opts.record_sites || self.tree.is_some() {
             self.run_queue(&mut Queue::<true>::default(), rule, start, depth);
         } else {
             self.run_queue(&mut Queue::<false>::default(), rule, start, depth);
@@ -124,6 +139,7 @@ impl<'b> Eval<'b> {
         let defaults: Vec<f64> = r.params.iter().map(|d| d.unwrap_or(0.0)).collect();
         let path = self.retire.counts.clone();
         q.stream = NONE;
+        q.next_node = NONE;
         q.enqueue(RuleId(rule), &start, depth, 0, &defaults, &path);
         let maxobjects = self.b.settings.maxobjects;
         let mut generation = depth;
@@ -150,6 +166,7 @@ impl<'b> Eval<'b> {
             let before = self.vertices_made();
             // A seeded sub-tree's body runs on its stream, the run's put aside.
             q.stream = p.stream;
+            q.parent = p.node;
             if let Some((rng, seq)) = q.streams.get_mut(p.stream as usize) {
                 std::mem::swap(&mut self.rng, rng);
                 std::mem::swap(&mut self.sequential, seq);

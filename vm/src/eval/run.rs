@@ -278,7 +278,7 @@ impl<'b> Eval<'b> {
         // The derivation node of the running activation (see [`Eval::call_node`]); a
         // nested run (a profile, a transform rule) is no call of the model's derivation.
         let tree = S::SITES && mode == Mode::Model && self.tree.is_some();
-        let node = if tree { self.call_node(NONE, rule.0, depth) } else { outer.2 };
+        let node = if tree { self.call_node(sink.parent_node(), rule.0, depth) } else { outer.2 };
         let mut m = Regs {
             act,
             stack: Vec::new(),
@@ -572,6 +572,9 @@ impl<'b> Eval<'b> {
             // picked when it leaves the queue); a seeded one with its stream.
             if let Some(v) = seed {
                 sink.seed_next(seeded_stream(self.seed, v));
+            }
+            if m.tree {
+                sink.caller_node(m.node);
             }
             sink.enqueue(rule, &child, depth, m.bone, &self.slots[args..], &self.retire.counts);
             self.slots.truncate(args);

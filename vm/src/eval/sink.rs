@@ -46,6 +46,17 @@ pub(super) trait Sink {
     #[inline]
     fn enqueue(&mut self, _rule: RuleId, _state: &State, _depth: u32, _bone: u32, _args: &[f64], _path: &[u32]) {}
 
+    /// The derivation node of the caller of the call queued next (only when
+    /// [`Sink::QUEUES`] and the tree is recorded).
+    #[inline]
+    fn caller_node(&mut self, _node: u32) {}
+
+    /// The derivation node of the call the run starts with's caller (NONE: a root).
+    #[inline]
+    fn parent_node(&self) -> u32 {
+        NONE
+    }
+
     /// A seeded call's stream (`seed N`), for the call queued next (only when
     /// [`Sink::QUEUES`]): that call's sub-tree draws from it.
     #[inline]
