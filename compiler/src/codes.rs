@@ -1347,7 +1347,7 @@ rule A {
 
 In the example: `cw` is an option of `ARCTO`, not of `FILL`.
 
-Fix: Use the drawable's own words: `ARCTO` large, cw; `CURVETO` smooth; `CLOSEPOLY` align; `FILL` evenodd; `STROKE` miterjoin, roundjoin, beveljoin, buttcap, roundcap, squarecap (one join and one cap)."#,
+Fix: Use the drawable's own words: `ARCTO` large, cw; `CURVETO` smooth; `CLOSEPOLY` align; `FILL` evenodd; `STROKE` miterjoin, roundjoin, beveljoin, buttcap, roundcap, squarecap, iso (one join and one cap)."#,
         example: Library(
             r#"startshape A
 

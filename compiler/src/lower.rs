@@ -17,7 +17,7 @@ use crate::source::Sources;
 use crate::span::Span;
 use mdg_vm::bundle::{
     self, proto, AdjOp, Bundle, Composite, Def, Drawable, ExprId, IsoId, NsId, Op, OpCount, OpIndex, PrimAdj, Profile,
-    ProtoId, RuleId, Selector, Settings, SlotId, SourceLoc, Transform, TransformId, CONT_NEXT, NONE, PATH_OP,
+    ProtoId, RuleId, Selector, Settings, SlotId, SourceLoc, Transform, TransformId, CONT_NEXT, NONE, PATH_OP, SUBPATH,
 };
 use mdg_vm::expr::{BinOp as VmBinOp, ExprOp, Func, VARIABLES};
 use std::collections::{BTreeSet, HashMap};
@@ -421,7 +421,7 @@ impl<'a> Lower<'a> {
                     // Context Free fills a path that paints nothing itself.
                     let id = AdjList { square: false, adjs: Vec::new(), span: r.body_span };
                     let xf = TransformId(self.transform(&id, 1.0));
-                    let e = self.push_expr(vec![ExprOp::Push(0.0)]);
+                    let e = self.push_expr(vec![ExprOp::Push(f64::from(mdg_vm::bundle::ops::path_bits::IMPLIED))]);
                     self.code.push(Op::Arg { expr: ExprId(e) });
                     let ns = NsId(0);
                     self.code.push(Op::Draw { kind: Drawable::Fill, xf, ns, profile: Profile(NONE), flags: 0 });
@@ -668,6 +668,40 @@ impl<'a> Lower<'a> {
         })
     }
 
+    /// Whether one of the definitions of rule `full` (a resolved name) is a path.
+    fn defines_path(&self, full: &str) -> bool {
+        self.sym.rules.get(full).is_some_and(|defs| {
+            defs.iter().any(|d| {
+                matches!(self.ex.items.get(d.item).map(|i| &i.item.kind),
+                    Some(ItemKind::Rule(r)) if crate::paths::is_path(&r.body))
+            })
+        })
+    }
+
+    /// A flat primitive's outline added to the path (see
+    /// [`crate::paths::primitive_outline`]): its first op under `xf`, the others
+    /// continuing from it, so the whole outline is under one frame.
+    fn outline(&mut self, ops: &[crate::paths::OutlineOp], xf: TransformId, span: Span) {
+        let id = AdjList { square: false, adjs: Vec::new(), span };
+        let same = TransformId(self.transform(&id, 1.0));
+        for (i, (name, vals)) in ops.iter().enumerate() {
+            let Some(kind) = Drawable::from_name(name) else { continue };
+            if i > 0 {
+                self.code.push(Op::Cont {});
+            }
+            let n = mdg_vm::bundle::ops::path_arity(kind, PATH_OP).unwrap_or(1) - 1;
+            for k in 0..n {
+                let e = self.push_expr(vec![ExprOp::Push(vals.get(k).copied().unwrap_or(0.0))]);
+                self.code.push(Op::Arg { expr: ExprId(e) });
+            }
+            let e = self.push_expr(vec![ExprOp::Push(0.0)]);
+            self.code.push(Op::Arg { expr: ExprId(e) });
+            let flags = if matches!(kind, Drawable::MoveTo | Drawable::LineTo) { PATH_OP } else { 0 };
+            let xf = if i == 0 { xf } else { same };
+            self.code.push(Op::Draw { kind, xf, ns: NsId(0), profile: Profile(NONE), flags });
+        }
+    }
+
     fn rule_index(&self, name: &str, ns: Option<&str>) -> Option<u32> {
         self.sym.resolve(name, ns).and_then(|f| self.rule_ids.get(&f).copied())
     }
@@ -868,9 +902,16 @@ impl<'a> Lower<'a> {
                     if let Some(iso) = iso {
                         self.code.push(Op::Iso { iso: IsoId(iso as u32), xf, flags });
                     }
+                } else if let Some(ops) = crate::paths::primitive_outline(&name.text).filter(|_| {
+                    self.in_path && !self.sym.resolve(&name.text, ns).is_some_and(|f| self.defines_path(&f))
+                }) {
+                    // In a path, Context Free's `path CIRCLE [..]`: the outline.
+                    self.outline(ops, xf, item.span);
                 } else if let Some(rule) = self.rule_index(&name.text, ns) {
                     // Arguments by position; the parameters not passed take their defaults.
                     let full = self.sym.resolve(&name.text, ns).unwrap_or_default();
+                    // A path's call of a path is a subpath (its points join this path).
+                    let flags = if self.in_path && self.defines_path(&full) { flags | SUBPATH } else { flags };
                     let sig = self.sym.signatures.get(&full).cloned().unwrap_or_default();
                     let given = args.as_ref().map(|a| a.args.as_slice()).unwrap_or(&[]);
                     for (i, p) in sig.params.iter().enumerate() {

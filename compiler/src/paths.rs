@@ -164,3 +164,37 @@ pub fn vm_args<'a>(drawable: &str, args: &'a [Expr], bits: u32) -> Option<(Vec<O
 
 /// Context Free's default stroke width.
 pub const DEFAULT_STROKE_WIDTH: f64 = 0.1;
+
+/// One op of a primitive's outline: the drawable and its VM arguments (without
+/// the option bits, which are 0).
+pub type OutlineOp = (&'static str, &'static [f64]);
+
+/// Context Free's flat primitives as subpaths (`path CIRCLE [..]` there, a call of
+/// `CIRCLE` in a path here): the outlines Context Free 3 adds, counter-clockwise
+/// and closed: the circle of diameter 1 as two half-circle arcs from (½, 0), the
+/// unit square from (½, ½), the unit triangle (centroid at the origin) from its top.
+pub fn primitive_outline(name: &str) -> Option<&'static [OutlineOp]> {
+    // The triangle's circumradius 1/√3 and its inradius half that.
+    const H: f64 = 0.577_350_269_189_625_8;
+    const CIRCLE: &[OutlineOp] = &[
+        ("MOVETO", &[0.5, 0.0]),
+        ("ARCTO", &[-0.5, 0.0, 0.5, 0.5, 0.0]),
+        ("ARCTO", &[0.5, 0.0, 0.5, 0.5, 0.0]),
+        ("CLOSEPOLY", &[]),
+    ];
+    const SQUARE: &[OutlineOp] = &[
+        ("MOVETO", &[0.5, 0.5]),
+        ("LINETO", &[-0.5, 0.5]),
+        ("LINETO", &[-0.5, -0.5]),
+        ("LINETO", &[0.5, -0.5]),
+        ("CLOSEPOLY", &[]),
+    ];
+    const TRIANGLE: &[OutlineOp] =
+        &[("MOVETO", &[0.0, H]), ("LINETO", &[-0.5, -H / 2.0]), ("LINETO", &[0.5, -H / 2.0]), ("CLOSEPOLY", &[])];
+    match name {
+        "CIRCLE" => Some(CIRCLE),
+        "SQUARE" => Some(SQUARE),
+        "TRIANGLE" => Some(TRIANGLE),
+        _ => None,
+    }
+}

@@ -70,3 +70,28 @@ fn seeded_calls_nest_and_restore_in_order() {
     assert!(a.len() > 9);
     assert!(close(&a, &b));
 }
+
+#[test]
+fn breadth_first_runs_replay_seeded_sub_trees_too() {
+    // Under `breadthfirst` a seeded call's sub-tree is spread over generations and
+    // interleaved with other calls: it keeps its own stream (drawn in its own
+    // breadth-first order), so `seed 5` twice still grows the same walk.
+    let src = "breadthfirst\nrule S { W {seed 5} W {x 100 seed 5} W {x 200 seed 6} W {x 300} W {x 400} }\n";
+    let out = run(src, 1);
+    assert!(!out.stats.warnings.iter().any(|w| w.contains("seed")), "{:?}", out.stats.warnings);
+    let (a, b, c) = (cubes_in(&out, 0.0, 100.0), cubes_in(&out, 100.0, 200.0), cubes_in(&out, 200.0, 300.0));
+    assert!(a.len() > 3, "the walk draws something: {a:?}");
+    assert!(close(&a, &b), "`seed 5` twice grows the same walk:\n{a:?}\n{b:?}");
+    assert!(!close(&a, &c), "`seed 6` grows another");
+    assert!(!close(&cubes_in(&out, 300.0, 400.0), &cubes_in(&out, 400.0, 500.0)));
+    // Nested seeds, as depth first; and a seeded sub-tree does not depend on what
+    // else is in the queue (here an extra unseeded walk before it).
+    let nested =
+        "breadthfirst\nrule S { O {seed 1} O {x 100 seed 1} }\nrule O { W {seed 2} W {x 10} W {x 20 seed 3} }\n";
+    let out = run(nested, 11);
+    let (a, b) = (cubes_in(&out, 0.0, 100.0), cubes_in(&out, 100.0, 200.0));
+    assert!(a.len() > 9 && close(&a, &b));
+    let alone = run("breadthfirst\nrule S { W {x 100 seed 5} }\n", 1);
+    let crowded = run("breadthfirst\nrule S { W {x 300} W {x 100 seed 5} }\n", 1);
+    assert!(close(&cubes_in(&alone, 100.0, 200.0), &cubes_in(&crowded, 100.0, 200.0)));
+}

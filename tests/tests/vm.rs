@@ -600,6 +600,38 @@ fn the_derivation_tree_counts_calls_and_geometry_per_path() {
     assert_eq!((&alone.mesh, &alone.sweeps, &alone.instances), (&default.mesh, &default.sweeps, &default.instances));
 }
 
+/// Under `breadthfirst` the derivation tree is recorded too, and is the same tree
+/// (one node per path of rules) as depth first: only the nodes' order differs.
+#[test]
+fn breadth_first_runs_record_the_same_derivation_tree() {
+    let src = "startshape A\n{order}rule A { B {} B {x 2} C {y 2} }\nrule B { C {} SQUARE {s 0.5} }\n\
+               rule C { SQUARE {} 2 * [x 1] D {} }\nrule D { TRIANGLE {} }\n";
+    let tree = |order: &str, sites: bool| {
+        let b = build_source(&src.replace("{order}", order));
+        let opts = EvalOptions { record_derivation: true, record_sites: sites, ..EvalOptions::default() };
+        let out = evaluate(&b, &opts);
+        assert!(!out.stats.warnings.iter().any(|w| w.contains("derivation")), "{:?}", out.stats.warnings);
+        let d = out.derivation.expect("a derivation");
+        let path = |n: &mdg_vm::output::DerivNode| {
+            let mut names = vec![d.rules[n.rule as usize].rule.clone()];
+            let mut p = n.parent;
+            while let Some(i) = p {
+                names.insert(0, d.rules[d.nodes[i as usize].rule as usize].rule.clone());
+                p = d.nodes[i as usize].parent;
+            }
+            names.join("/")
+        };
+        let mut got: Vec<(String, u32, u64, u64, u64)> =
+            d.nodes.iter().map(|n| (path(n), n.depth, n.calls, n.triangles, n.total)).collect();
+        got.sort();
+        (got, d.triangles)
+    };
+    let depth_first = tree("", true);
+    assert_eq!(depth_first.0.len(), 11, "{:?}", depth_first.0);
+    assert_eq!(tree("breadthfirst\n", true), depth_first);
+    assert_eq!(tree("breadthfirst\n", false), depth_first);
+}
+
 /// Recorded sites keep prototype instancing (the editor's preview gets the model
 /// instanced, as `mdg-run --instances` writes it): each instance has the rule,
 /// depth and derivation node its triangles have when the prototype is drawn item
@@ -914,6 +946,73 @@ fn flat_paths_fill_and_stroke_the_areas_they_enclose() {
     // A rule with only MOVETO/LINETO is still the pen's 3D line: no triangles.
     let line = run_source("startshape L\nrule L { MOVETO {} LINETO {x 1} }\n");
     assert!(line.mesh.triangles.is_empty() && line.lines.len() == 1 && line.stats.paths == 0);
+}
+
+#[test]
+fn subpaths_add_a_path_or_a_primitive_outline_to_the_calling_path() {
+    // Context Free's `path CIRCLE [s 0.5]`: in a path, a call of CIRCLE adds the
+    // circle's outline (diameter 1 under the call's adjustment), no disc. With
+    // even-odd the inner circle is a hole in the outer one.
+    let ring = run_source(
+        "startshape R\nrule R { MOVETO(1, 0) {} ARCTO(-1, 0, 1) {} ARCTO(1, 0, 1) {} CLOSEPOLY {} \
+         CIRCLE {s 1} FILL evenodd {} }\n",
+    );
+    let (area, b) = xy_area_and_box(&ring.mesh);
+    let want = std::f32::consts::PI * (1.0 - 0.25);
+    assert!((area - want).abs() < 0.01 * want, "{area} {want}");
+    assert!(b.iter().zip([-1.0, -1.0, 1.0, 1.0]).all(|(a, e)| (a - e).abs() < 3e-3), "{b:?}");
+    assert_eq!(ring.stats.paths, 1);
+    // SQUARE and TRIANGLE outlines, moved and scaled by the call: a 2 × 2 square
+    // and a triangle of side 2 (area √3), filled non-zero, apart.
+    let out = run_source("startshape P\nrule P { SQUARE {s 2} TRIANGLE {x 3 s 2} FILL {} }\n");
+    let (area, b) = xy_area_and_box(&out.mesh);
+    assert!((area - (4.0 + 3f32.sqrt())).abs() < 1e-3, "{area}");
+    assert!(b.iter().zip([-1.0, -1.0, 4.0, 1.154_700_5]).all(|(a, e)| (a - e).abs() < 1e-4), "{b:?}");
+    assert_eq!(out.stats.paths, 1);
+    // A path's call of another path that paints nothing adds that path's points
+    // (in the call's frame) instead of filling it: five stars stroked as one path.
+    let stars = run_source(
+        "startshape stars\nrule star { MOVETO(0, 1) {} 4 * [rz 144] LINETO(0, 1) {} CLOSEPOLY {} }\n\
+         rule stars { 5 * [rz 72] star {y 1.618} STROKE {} }\n",
+    );
+    assert_eq!(stars.stats.paths, 1, "one STROKE, no implied FILL of each star");
+    let alone = run_source(
+        "startshape S\nrule S { star {y 1.618} }\nrule star { MOVETO(0, 1) {} 4 * [rz 144] LINETO(0, 1) {} CLOSEPOLY {} }\n",
+    );
+    assert_eq!(alone.stats.paths, 1, "called as a shape, a path that paints nothing is filled");
+    let (a1, _) = xy_area_and_box(&stars.mesh);
+    let one = run_source(
+        "startshape stars\nrule star { MOVETO(0, 1) {} 4 * [rz 144] LINETO(0, 1) {} CLOSEPOLY {} }\n\
+         rule stars { star {y 1.618} STROKE {} }\n",
+    );
+    let (a0, _) = xy_area_and_box(&one.mesh);
+    assert!(a1 > 4.0 * a0, "five stroked stars: {a1} against one {a0}");
+}
+
+#[test]
+fn an_iso_stroke_keeps_its_width_under_a_non_uniform_scale() {
+    // An L of legs 1 (up) and 1 (right), butt caps, drawn under {s 4 1}: the
+    // right leg is 4 long in the world. Context Free's `iso`: the pen is round,
+    // w·√|det| = 0.1·2 = 0.2 wide everywhere, so the L covers 0.2 · (1 + 4).
+    let run = |word: &str, adj: &str| {
+        let out = run_source(&format!(
+            "startshape A\nrule A {{ L {{{adj}}} }}\n\
+             rule L {{ MOVETO(0, 1) {{}} LINETO(0, 0) {{}} LINETO(1, 0) {{}} STROKE(0.1) {word} {{}} }}\n"
+        ));
+        assert_eq!(out.stats.paths, 1);
+        xy_area_and_box(&out.mesh)
+    };
+    let (area, b) = run("iso", "s 4 1");
+    assert!((area - 1.0).abs() < 1e-3, "{area}");
+    assert!(b.iter().zip([-0.1, -0.1, 4.0, 1.0]).all(|(a, e)| (a - e).abs() < 1e-4), "{b:?}");
+    // Without it the pen is stretched: 0.4 wide across the upright leg, 0.1 across the other.
+    let (area, b) = run("", "s 4 1");
+    assert!((area - 0.8).abs() < 1e-3, "{area}");
+    assert!((b[0] + 0.2).abs() < 1e-4 && (b[1] + 0.05).abs() < 1e-4, "{b:?}");
+    // Under a uniform scale (and a turn) both are the same stroke.
+    let (a0, _) = run("iso", "rz 30 s 2");
+    let (a1, _) = run("", "rz 30 s 2");
+    assert!((a0 - a1).abs() < 1e-3 * a1, "{a0} {a1}");
 }
 
 #[test]

@@ -139,7 +139,7 @@ pub const DOCS: &[Doc] = &[
     d(Drawable, "CURVEREL", "CURVEREL(dx, dy, dx1, dy1[, dx2, dy2]) [smooth] {ADJ}", "Flat path: CURVETO with the end and control points from the current point."),
     d(Drawable, "CLOSEPOLY", "CLOSEPOLY [align] {}", "Flat path: close the subpath (`align` moves its last point onto its first)."),
     d(Drawable, "FILL", "FILL [evenodd] {ADJ}", "Flat path: fill it (non-zero winding, or even-odd) as triangles under the adjusted frame."),
-    d(Drawable, "STROKE", "STROKE[(width)] [JOIN_CAP] {ADJ}", "Flat path: draw its outline, 0.1 wide by default; miterjoin/roundjoin/beveljoin, buttcap/roundcap/squarecap."),
+    d(Drawable, "STROKE", "STROKE[(width)] [JOIN_CAP] {ADJ}", "Flat path: draw its outline, 0.1 wide by default; miterjoin/roundjoin/beveljoin, buttcap/roundcap/squarecap, iso (a round pen under a stretched frame)."),
     // Selector modes (reference §6).
     d(SelectorMode, "random", "selector R random", "Choose a definition with probability proportional to its weight (the default)."),
     d(SelectorMode, "frequency", "selector R frequency", "Same as `random`."),

@@ -25,6 +25,8 @@ pub(crate) struct Emitter<'a> {
     line: u32,
     /// Functions without parameters being inlined (a recursion among them is cut).
     inlining: Vec<String>,
+    /// Whether the shape being written is a Context Free `path`.
+    in_path: bool,
 }
 
 impl<'a> Emitter<'a> {
@@ -41,6 +43,7 @@ impl<'a> Emitter<'a> {
             counter: 0,
             line: 0,
             inlining: Vec::new(),
+            in_path: false,
         }
     }
 
@@ -84,6 +87,7 @@ impl<'a> Emitter<'a> {
             }
             let weights = weights(&sh.rules.iter().map(|r| (r.weight, r.percent)).collect::<Vec<_>>());
             let name = self.names.get(&sh.name);
+            self.in_path = self.prog.paths.contains(&sh.name);
             for (k, r) in sh.rules.iter().enumerate() {
                 self.line = r.line;
                 self.counter = 0;
@@ -208,6 +212,11 @@ impl<'a> Emitter<'a> {
                 let _ = write!(out, "{pad}1 * {a}");
                 self.sub_item(body, ind + 1, out);
             }
+            Item::PathOp { op, line, .. } if !self.in_path => {
+                // (`FILL` in a shape: Context Free draws nothing for it; in MDG it
+                // would make the rule a path, its shapes outlines.)
+                self.rep.drop(*line, op, "a path operation in a shape, not a path: Context Free draws nothing for it");
+            }
             Item::PathOp { op, args, adj, line } => {
                 self.line = *line;
                 if let Some(s) = self.path_op(op, args, adj) {
@@ -282,7 +291,7 @@ impl<'a> Emitter<'a> {
                 rest.terms.push(t.clone());
             }
         }
-        // Context Free's words in MDG's spelling; `iso` has no MDG form.
+        // Context Free's words in MDG's spelling.
         let mut mdg_words: Vec<&str> = Vec::new();
         let mut smooth = false;
         for w in &words {
@@ -297,6 +306,7 @@ impl<'a> Emitter<'a> {
                 "buttcap" => "buttcap",
                 "roundcap" => "roundcap",
                 "squarecap" => "squarecap",
+                "iso" | "isowidth" => "iso",
                 "continuous" => {
                     smooth = true;
                     continue;
@@ -310,7 +320,7 @@ impl<'a> Emitter<'a> {
                 "ARCTO" => matches!(m, "large" | "cw"),
                 "CLOSEPOLY" => m == "align",
                 "FILL" => m == "evenodd",
-                "STROKE" => m.ends_with("join") || m.ends_with("cap"),
+                "STROKE" => m.ends_with("join") || m.ends_with("cap") || m == "iso",
                 _ => false,
             };
             if ok && !mdg_words.contains(&m) {
@@ -436,7 +446,11 @@ impl<'a> Emitter<'a> {
         let prim = PRIMITIVES.contains(&name);
         let Some(sh) = self.prog.shapes.iter().find(|s| s.name == name && !s.rules.is_empty()) else {
             if !prim {
-                self.rep.drop(line, name, "a call of an undefined shape: left out");
+                self.rep.drop(
+                    line,
+                    name,
+                    "a call of an undefined shape (a shape-typed parameter or variable has no MDG form): left out",
+                );
                 return None;
             }
             let a = self.adj(adj);

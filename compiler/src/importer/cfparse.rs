@@ -105,6 +105,10 @@ pub(crate) struct Shape {
     pub line: u32,
 }
 
+/// One copy of a rosette symmetry: (turn in degrees, the mirror line's angle in
+/// degrees or none, centre x, centre y).
+pub(crate) type SymmetryCopy = (f64, Option<f64>, f64, f64);
+
 /// A whole program (an included file adds to it).
 #[derive(Debug, Default)]
 pub(crate) struct Program {
@@ -122,6 +126,10 @@ pub(crate) struct Program {
     /// `CF::MinimumSize` in pixels.
     pub min_size_px: Option<f64>,
     pub includes: Vec<(String, u32)>,
+    /// `CF::Symmetry` of a rosette (`CF::Cyclic`, `CF::Dihedral`): the copies of
+    /// the design, each (turn in degrees, mirror line's angle in degrees or none,
+    /// centre x, centre y), the identity first.
+    pub symmetry: Vec<SymmetryCopy>,
 }
 
 pub(crate) struct Parser<'a> {
@@ -376,11 +384,24 @@ impl<'a> Parser<'a> {
                             "MDG bounds rule calls (`maxiter`), not shapes: the run's own limits apply",
                         ),
                         ("Symmetry", _) => {
-                            // `CF::Symmetry = CF::Dihedral, 6`: skip the rest of the list.
+                            // `CF::Symmetry = CF::Dihedral, 6[, angle][, x, y]`.
+                            let mut data = Vec::new();
                             while self.eat_p(",") {
-                                let _ = self.expr(false);
+                                data.push(const_value(&self.expr(false)));
                             }
-                            self.rep.drop(line, &w, "MDG has no symmetry setting: one copy is drawn")
+                            let kind = match &e {
+                                Expr::Name(k) => k.as_str(),
+                                _ => "",
+                            };
+                            match rosette(kind, &data) {
+                                Some(copies) => self.prog.symmetry = copies,
+                                None => self.rep.drop(
+                                    line,
+                                    &w,
+                                    "only the rosettes (`CF::Cyclic`, `CF::Dihedral` with constant values) have \
+                                     an MDG form: one copy is drawn",
+                                ),
+                            }
                         }
                         _ => self.rep.drop(line, &w, "no MDG counterpart: left out"),
                     }
@@ -682,14 +703,14 @@ impl<'a> Parser<'a> {
                 Item::PathOp { op: w, args, adj, line }
             }
             "path" if matches!(self.peek_at(1), Some(T::Id(_))) => {
-                // `path CIRCLE [adj]`: another path's outline added to this one.
-                self.i += 2;
-                if self.is_p("(") {
-                    self.skip_group();
-                }
-                let _ = self.adj_opt();
-                self.rep.drop(line, "path", "a subpath from another path (`path NAME`): left out");
-                Item::Nothing
+                // `path CIRCLE [adj]`, `path star(2) [adj]`: another path's outline
+                // added to this one; in MDG a path's call of a path or of a flat
+                // primitive is that (reference §9, "Subpaths").
+                self.i += 1;
+                let name = self.id().unwrap_or_default();
+                let args = if self.is_p("(") { Some(self.call_args()) } else { None };
+                let adj = self.adj_opt().unwrap_or_default();
+                Item::Call { name, args, same: false, adj, line }
             }
             _ => {
                 self.i += 1;
@@ -952,6 +973,36 @@ impl<'a> Parser<'a> {
 }
 
 /// The value of a constant expression of numbers.
+/// The copies of a rosette symmetry, as Context Free's `processDihedral` makes
+/// them: for turn k of `order`, the turned copy and (dihedral) the turned copy
+/// mirrored across the line at `angle` through the centre; duplicates once.
+fn rosette(kind: &str, data: &[Option<f64>]) -> Option<Vec<SymmetryCopy>> {
+    let d: Vec<f64> = data.iter().copied().collect::<Option<Vec<f64>>>()?;
+    let (order, angle, x, y, mirrored) = match (kind, d.as_slice()) {
+        ("CF::Cyclic", [n]) => (*n, 0.0, 0.0, 0.0, false),
+        ("CF::Cyclic", [n, x, y]) => (*n, 0.0, *x, *y, false),
+        ("CF::Dihedral", [n]) => (*n, 0.0, 0.0, 0.0, true),
+        ("CF::Dihedral", [n, a]) => (*n, *a, 0.0, 0.0, true),
+        ("CF::Dihedral", [n, x, y]) => (*n, 0.0, *x, *y, true),
+        ("CF::Dihedral", [n, a, x, y]) => (*n, *a, *x, *y, true),
+        _ => return None,
+    };
+    if !(1.0..=360.0).contains(&order) {
+        return None;
+    }
+    let n = order as u32;
+    let mut out = Vec::new();
+    for k in 0..n {
+        let turn = f64::from(k) * 360.0 / order;
+        out.push((turn, None, x, y));
+        // (For order 1 the mirror is the only other copy; a mirror never equals a turn.)
+        if mirrored {
+            out.push((turn, Some(angle), x, y));
+        }
+    }
+    Some(out)
+}
+
 pub(crate) fn const_value(e: &Expr) -> Option<f64> {
     match e {
         Expr::Num(v) => Some(*v),

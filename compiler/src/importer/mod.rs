@@ -133,6 +133,24 @@ pub fn import_cf(file: &str, text: &str, opts: &Options, read: Reader) -> Import
                 );
                 let _ = writeln!(head, "startshape start_{m}");
                 let _ = write!(start_rule, "rule start_{m} {{\n}}\n\n");
+            } else if !prog.symmetry.is_empty() {
+                // `CF::Symmetry`: the design drawn once per copy, the same random
+                // design each time (one `seed` for all: a replayed sub-derivation).
+                let call = em.start_call(&name, args.as_deref(), &adj, line).unwrap_or_default();
+                let call = with_seed(&call, SYMMETRY_SEED);
+                let _ = writeln!(head, "startshape start_{m}");
+                let _ = writeln!(start_rule, "rule start_{m} {{");
+                for copy in &prog.symmetry {
+                    match symmetry_list(*copy) {
+                        Some(list) => {
+                            let _ = writeln!(start_rule, "  1 * {{{list}}} {call}");
+                        }
+                        None => {
+                            let _ = writeln!(start_rule, "  {call}");
+                        }
+                    }
+                }
+                let _ = write!(start_rule, "}}\n\n");
             } else if args.is_some() || !adj.terms.is_empty() || is_prim {
                 let call = em.start_call(&name, args.as_deref(), &adj, line).unwrap_or_default();
                 let _ = writeln!(head, "startshape start_{m}");
@@ -199,6 +217,61 @@ pub fn import_cf(file: &str, text: &str, opts: &Options, read: Reader) -> Import
         out.push('\n');
     }
     Imported { mdg: out, report: rep, needs_pixel, min_size_px: px }
+}
+
+/// The `seed` the copies of a `CF::Symmetry` share.
+const SYMMETRY_SEED: u32 = 1;
+
+/// A call (`NAME(args) {adj}`) with `seed N` added to its adjustment list.
+fn with_seed(call: &str, n: u32) -> String {
+    match call.strip_suffix("{}") {
+        Some(head) => format!("{head}{{seed {n}}}"),
+        None => match call.strip_suffix('}') {
+            Some(head) => format!("{head} seed {n}}}"),
+            None => format!("{call} {{seed {n}}}"),
+        },
+    }
+}
+
+/// The MDG list of one copy of a rosette (turn in degrees, mirror line's angle,
+/// centre): the point map centre · mirror · turn · centre⁻¹, as Context Free's
+/// `processDihedral` composes it; `None` for the identity.
+fn symmetry_list((turn, mirror, x, y): (f64, Option<f64>, f64, f64)) -> Option<String> {
+    let n = |v: f64| names::num(if v.abs() < 1e-12 { 0.0 } else { sig12(v) });
+    let mut mid = Vec::new();
+    if let Some(a) = mirror {
+        let r = a.to_radians();
+        mid.push(format!("f {} {} 0", n(-r.sin()), n(r.cos())));
+    }
+    if turn != 0.0 {
+        mid.push(format!("rz {}", n(turn)));
+    }
+    if mid.is_empty() {
+        return None;
+    }
+    let shift = |sx: f64, sy: f64| {
+        let mut v = Vec::new();
+        if sx != 0.0 {
+            v.push(format!("x {}", n(sx)));
+        }
+        if sy != 0.0 {
+            v.push(format!("y {}", n(sy)));
+        }
+        v
+    };
+    let mut list = shift(x, y);
+    list.extend(mid);
+    list.extend(shift(-x, -y));
+    Some(list.join(" "))
+}
+
+/// Rounds to 12 significant digits (so `sin(180°)` and friends print short).
+fn sig12(v: f64) -> f64 {
+    if v == 0.0 || !v.is_finite() {
+        return v;
+    }
+    let m = 10f64.powi(11 - v.abs().log10().floor() as i32);
+    (v * m).round() / m
 }
 
 /// Rounds to 6 significant digits (a `minsize` needs no more).
@@ -430,6 +503,58 @@ mod tests {
         assert!(!i.mdg.contains("vec("), "{}", i.mdg);
         assert!(i.report.notes.is_empty(), "{:?}", i.report.notes);
         assert_eq!(triangles(&i.mdg), 2 * 7);
+    }
+
+    #[test]
+    fn subpaths_are_calls_in_the_path() {
+        // Context Free's subpathtest2 (five stars stroked as one path) and a ring
+        // from a primitive's outline: `path NAME [adj]` is a call in MDG's path.
+        let i =
+            cf("startshape stars\npath star {\n  MOVETO(0,1)\n  loop 4 [r 144]\n    LINETO(cos(234), sin(234))\n  \
+                    CLOSEPOLY()\n}\npath stars {\n  loop 5 [r 72]\n    path star[y 1.6]\n  STROKE[]\n}\n\
+                    path ring {\n  path CIRCLE []\n  path CIRCLE [s 0.5]\n  FILL(CF::EvenOdd) []\n}\n");
+        assert!(i.mdg.contains("star {y 1.6}"), "{}", i.mdg);
+        assert!(i.mdg.contains("CIRCLE {s 0.5}"), "{}", i.mdg);
+        assert!(i.report.notes.iter().all(|n| n.construct != "path"), "{:?}", i.report.notes);
+        // A stroke's `iso` (CFDG 3's flag, CFDG 2's `p` word) is MDG's own word.
+        let i = cf("startshape P\npath P {\n  MOVETO(0, 0)\n  LINETO(1, 0)\n  STROKE(0.1, CF::IsoWidth + CF::RoundCap)[s 2 1]\n}\n\
+                    path Q {\n  MOVETO {}\n  LINETO {x 1}\n  STROKE {p iso}\n}\n");
+        assert!(
+            i.mdg.contains("STROKE(0.1) roundcap_iso {s 2 1") || i.mdg.contains("STROKE(0.1) iso_roundcap {s 2 1"),
+            "{}",
+            i.mdg
+        );
+        assert!(i.mdg.contains("STROKE iso {}"), "{}", i.mdg);
+        assert!(
+            i.report.notes.iter().all(|n| n.construct != "iso" && n.construct != "isowidth"),
+            "{:?}",
+            i.report.notes
+        );
+        assert!(triangles(&i.mdg) > 0, "{}", i.mdg);
+        // Context Free's `tests/filltest`: a FILL in a shape (not a path) draws
+        // nothing there; here it would make the rule a path and its CIRCLE an outline.
+        let i = cf("startshape foo\nrule foo {\n10* {x 1 z 1} {\n CIRCLE {b 1}\n FILL {a -0.95 z -0.5}\n }\n}\n");
+        assert!(!i.mdg.contains("FILL"), "{}", i.mdg);
+        assert_eq!(triangles(&i.mdg), 10 * 32);
+    }
+
+    #[test]
+    fn rosette_symmetry_replays_the_start_shape_with_one_seed() {
+        // Context Free's snowflake: `CF::Symmetry = CF::Dihedral, 6` draws the
+        // design 12 times (6 turns, each also mirrored), the same random design
+        // each time: the start rule calls it 12 times with one `seed`.
+        let text = "startshape S\nCF::Symmetry = CF::Dihedral, 6\nshape S\nrule { SQUARE [] S [y 0.95 s 0.97] }\n\
+                    rule 0.03 { SQUARE [] S [r 60] S [r -60] S [y 0.95 s 0.97] }\n";
+        let i = cf(text);
+        assert!(i.mdg.contains("startshape start_S\n"), "{}", i.mdg);
+        assert_eq!(i.mdg.matches("seed 1}").count(), 12, "{}", i.mdg);
+        assert!(i.mdg.contains("1 * {f 0 1 0} S {seed 1}"), "{}", i.mdg);
+        assert!(i.mdg.contains("1 * {rz 60} S {seed 1}"), "{}", i.mdg);
+        assert!(i.report.notes.iter().all(|n| n.construct != "CF::Symmetry"), "{:?}", i.report.notes);
+        // Cyclic about a centre, and a start shape with its own adjustment.
+        let i = cf("startshape S [s 2]\nCF::Symmetry = CF::Cyclic, 2, 1, 0\nshape S { CIRCLE [x 1] }\n");
+        assert!(i.mdg.contains("1 * {x 1 rz 180 x -1} S {s 2 seed 1}"), "{}", i.mdg);
+        assert_eq!(triangles(&i.mdg), 2 * 32);
     }
 
     #[test]

@@ -20,7 +20,7 @@ pub use codec::{decode, encode};
 pub use disasm::{disassemble, expr_text};
 pub use ops::{
     Drawable, ExprId, IsoId, NsId, Op, OpCount, OpIndex, Profile, ProtoId, RuleId, SlotId, TransformId, CONT_NEXT,
-    NONE, PATH_OP,
+    NONE, PATH_OP, SUBPATH,
 };
 pub use section::{Extensions, Section, SectionError, SectionKind};
 pub use verify::verify;

@@ -24,6 +24,11 @@ pub const CONT_NEXT: u8 = 1;
 /// paints a path, reference §9 "Flat paths"), not of the pen's 3D lines.
 pub const PATH_OP: u8 = 2;
 
+/// `CALL` flag bit: a call of a path from a path (Context Free's `path NAME`
+/// subpath): the callee's points join the calling path, and its implied `FILL`
+/// (one with [`path_bits::IMPLIED`]) does not paint.
+pub const SUBPATH: u8 = 2;
+
 /// The flat path options a path drawable's last argument carries, as bits (the
 /// words after the drawable, `ARCTO(…) large_cw {}`); [`PATH_WORDS`] names them.
 pub mod path_bits {
@@ -42,6 +47,12 @@ pub mod path_bits {
     /// word) the point and a curve's control points are offsets from the current
     /// point, in the drawable's frame.
     pub const REL: u32 = 1024;
+    /// (Set by the compiler, not a word) the `FILL` a path that paints nothing gets
+    /// at its end: it does not paint when the path runs as a subpath of another.
+    pub const IMPLIED: u32 = 2048;
+    /// `STROKE … iso`: the pen is round in the drawn plane, `w·√(area scale)`
+    /// wide, however the frame stretches it (Context Free's `CF::IsoWidth`).
+    pub const ISO: u32 = 4096;
 }
 
 /// The option words of the path drawables, their bits and the drawable that takes
@@ -58,6 +69,7 @@ pub const PATH_WORDS: &[(&str, u32, &str)] = &[
     ("buttcap", 0, "STROKE"),
     ("roundcap", path_bits::ROUNDCAP, "STROKE"),
     ("squarecap", path_bits::SQUARECAP, "STROKE"),
+    ("iso", path_bits::ISO, "STROKE"),
 ];
 
 /// How many `ARG`s a path drawable takes (the compiler always passes them all,

@@ -42,7 +42,7 @@ use crate::anim::{frames_needed, MAX_TRACK_FRAMES};
 use crate::bundle::ops::path_arity;
 use crate::bundle::{
     self, Bundle, Composite, Drawable, ExprId, NsId, Op, OpCount, OpIndex, Profile, ProtoId, RuleId, Selector,
-    Transform, TransformId, CONT_NEXT, NONE,
+    Transform, TransformId, CONT_NEXT, NONE, SUBPATH,
 };
 use crate::expr::{self, ExprOp, Random};
 use crate::geom::frame64::Frame64;

@@ -21,6 +21,9 @@ pub(super) struct PathState {
     painted: bool,
     /// The last curve's last control point (world), for `smooth` curves.
     last_ctrl: Option<Vec3>,
+    /// How many subpath activations are running (a path's calls of paths): a
+    /// path's implied `FILL` paints only outside them.
+    pub(super) subpaths: u32,
 }
 
 impl PathState {
@@ -49,6 +52,10 @@ impl<'b> Eval<'b> {
         let flags = args.last().map_or(0, |f| *f as u32);
         let arg = |i: usize| args.get(i).copied().unwrap_or(0.0);
         if matches!(kind, Drawable::Fill | Drawable::Stroke) {
+            // A subpath's points stay for the calling path to paint.
+            if flags & bits::IMPLIED != 0 && self.path.subpaths > 0 {
+                return;
+            }
             self.path.painted = true;
             self.paint(kind, base, s, arg(0), flags, bone, pc);
             return;
@@ -193,8 +200,50 @@ impl<'b> Eval<'b> {
                 }
                 return;
             }
+            if flags & bits::ISO != 0 {
+                return self.paint_iso(&lines, &a, s, width, (join, cap), bone);
+            }
             kernel::stroke(&lines, width, join, cap, &mut tris);
         }
+        self.emit_path(&tris, &|p| world(&a, p), &a, s, bone);
+    }
+
+    /// A `STROKE … iso` (Context Free's `CF::IsoWidth`): the path (`lines`, in
+    /// `base`'s plane `ab`) is taken through the adjusted frame `a` into the plane
+    /// it is drawn in, whose own orthonormal axes (the image of x, and the part of
+    /// the image of y across it) carry the stroke, `width · √(area scale)` wide: a
+    /// round pen of the frame's mean size, as Context Free strokes after the
+    /// transform with `w·√|det|`.
+    #[allow(clippy::too_many_arguments)]
+    fn paint_iso(
+        &mut self,
+        lines: &[(Vec<P2>, bool)],
+        a: &Affine,
+        s: &State,
+        width: f64,
+        (join, cap): (Join, Cap),
+        bone: u32,
+    ) {
+        let o = world(a, [0.0, 0.0]);
+        let (ex, ey) = (world(a, [1.0, 0.0]) - o, world(a, [0.0, 1.0]) - o);
+        let area = f64::from(ex.cross(ey).length());
+        let Some(u) = ex.try_normalize() else { return };
+        let Some(v) = (ey - u * ey.dot(u)).try_normalize() else { return };
+        let plane = |q: Vec3| -> P2 {
+            let d = q - o;
+            [f64::from(d.dot(u)), f64::from(d.dot(v))]
+        };
+        let moved: Vec<(Vec<P2>, bool)> =
+            lines.iter().map(|(p, closed)| (p.iter().map(|q| plane(world(a, *q))).collect(), *closed)).collect();
+        let mut tris = Vec::new();
+        kernel::stroke(&moved, width * area.sqrt(), join, cap, &mut tris);
+        let back = |p: P2| o + u * p[0] as f32 + v * p[1] as f32;
+        self.emit_path(&tris, &back, a, s, bone);
+    }
+
+    /// A paint's triangles (`to_world` places their points), counted and drawn
+    /// under `s` with the frame `a`'s normal.
+    fn emit_path(&mut self, tris: &[[P2; 3]], to_world: &dyn Fn(P2) -> Vec3, a: &Affine, s: &State, bone: u32) {
         self.out.stats.paths += 1;
         if tris.is_empty() || !self.room_for(3 * tris.len()) {
             return;
@@ -204,10 +253,10 @@ impl<'b> Eval<'b> {
         let (color, mirrored) = (s.display_color(), s.mirrored());
         let m = &mut self.out.mesh;
         let first = m.n_vertices();
-        for t in &tris {
+        for t in tris {
             let k = m.n_vertices() as u32;
             for p in t {
-                m.push_vertex(world(&a, *p), n, color, s.weight, bone);
+                m.push_vertex(to_world(*p), n, color, s.weight, bone);
             }
             m.push_triangle([k, k + 1, k + 2], mirrored);
         }

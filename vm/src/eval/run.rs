@@ -279,7 +279,7 @@ impl<'b> Eval<'b> {
         // The derivation node of the running activation (see [`Eval::call_node`]); a
         // nested run (a profile, a transform rule) is no call of the model's derivation.
         let tree = S::SITES && mode == Mode::Model && self.tree.is_some();
-        let node = if tree { self.call_node(NONE, rule.0, depth) } else { outer.2 };
+        let node = if tree { self.call_node(sink.parent_node(), rule.0, depth) } else { outer.2 };
         let mut m = Regs {
             act,
             stack: Vec::new(),
@@ -287,6 +287,7 @@ impl<'b> Eval<'b> {
             bones: Vec::new(),
             seed: None,
             seeds: Vec::new(),
+            subpaths: Vec::new(),
             convs: conv.into_iter().collect(),
             cont: None,
             lin_cache: LinCache { frame: Frame::identity(), lin: Frame::identity().linear() },
@@ -412,6 +413,8 @@ impl<'b> Eval<'b> {
             self.note_site(outer.0, outer.1, outer.2);
         }
         self.spare_loops = m.loops;
+        // (A run ended by a limit leaves its subpath activations.)
+        self.path.subpaths = self.path.subpaths.saturating_sub(m.subpaths.len() as u32);
         if retiring {
             self.retire.end_run();
         }
@@ -507,10 +510,16 @@ impl<'b> Eval<'b> {
         let args = m.act.slot_top as usize;
         // (No SEED under the fast path: `fast_path_applies` refuses it.)
         let seed = if S::SIMPLE { None } else { m.seed.take() };
-        if seed.is_some() && (S::COLLECTS || S::QUEUES) {
+        if !S::SIMPLE && flags & SUBPATH != 0 && (S::COLLECTS || S::QUEUES) {
             let how = if S::QUEUES { "under `breadthfirst`" } else { "in a guided search's skeleton" };
             let at = where_op(b, m.act.pc - 1);
-            self.warn_once(format!("`seed`{at} is ignored {how}: the call draws from the run's stream"));
+            self.warn_once(format!("the subpath call{at} is queued {how}: its points do not join the calling path"));
+        }
+        if seed.is_some() && S::COLLECTS {
+            let at = where_op(b, m.act.pc - 1);
+            self.warn_once(format!(
+                "`seed`{at} is ignored in a guided search's skeleton: the call draws from the run's stream"
+            ));
         }
         // (Under the fast path every call's transform is constant and no call has `\`.)
         if depth > m.maxdepth && (S::SIMPLE || (flags & CONT_NEXT == 0 && self.xf_pure[xf.index()])) {
@@ -561,7 +570,13 @@ impl<'b> Eval<'b> {
         }
         if S::QUEUES {
             // Breadth first: the call waits for its generation (its definition is
-            // picked when it leaves the queue).
+            // picked when it leaves the queue); a seeded one with its stream.
+            if let Some(v) = seed {
+                sink.seed_next(seeded_stream(self.seed, v));
+            }
+            if m.tree {
+                sink.caller_node(m.node);
+            }
             sink.enqueue(rule, &child, depth, m.bone, &self.slots[args..], &self.retire.counts);
             self.slots.truncate(args);
             return true;
@@ -614,6 +629,10 @@ impl<'b> Eval<'b> {
             }
             let callee = Act { pc, slot_base, slot_top, base: child, depth };
             m.stack.push(std::mem::replace(&mut m.act, callee));
+        }
+        if !S::SIMPLE && flags & SUBPATH != 0 {
+            m.subpaths.push(level);
+            self.path.subpaths += 1;
         }
         if !S::SIMPLE && self.retire.any {
             self.retire.enter(pc, m.stack.len());
@@ -821,6 +840,10 @@ impl<'b> Eval<'b> {
                 }
             }
             self.unseed(m, level);
+            if m.subpaths.last() == Some(&level) {
+                m.subpaths.pop();
+                self.path.subpaths = self.path.subpaths.saturating_sub(1);
+            }
             let base = m.act.slot_base as usize;
             if self.slots.len() > base {
                 self.slots.truncate(base);

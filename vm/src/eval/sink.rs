@@ -46,6 +46,22 @@ pub(super) trait Sink {
     #[inline]
     fn enqueue(&mut self, _rule: RuleId, _state: &State, _depth: u32, _bone: u32, _args: &[f64], _path: &[u32]) {}
 
+    /// The derivation node of the caller of the call queued next (only when
+    /// [`Sink::QUEUES`] and the tree is recorded).
+    #[inline]
+    fn caller_node(&mut self, _node: u32) {}
+
+    /// The derivation node of the call the run starts with's caller (NONE: a root).
+    #[inline]
+    fn parent_node(&self) -> u32 {
+        NONE
+    }
+
+    /// A seeded call's stream (`seed N`), for the call queued next (only when
+    /// [`Sink::QUEUES`]): that call's sub-tree draws from it.
+    #[inline]
+    fn seed_next(&mut self, _stream: Pcg) {}
+
     /// The arguments and bone of the call the run starts with (only when
     /// [`Sink::QUEUES`]; otherwise the parameters take their defaults, bone 0).
     #[inline]
@@ -134,6 +150,9 @@ pub(super) struct Regs {
     /// The callers' random streams and sequential-selection counters, where a call
     /// was seeded (`seed N`): (the callee's level, what its return restores).
     pub(super) seeds: Vec<(u32, Reseeded)>,
+    /// The levels of the activations that run as subpaths (a path's call of a
+    /// path, `CALL` flag [`crate::bundle::SUBPATH`]).
+    pub(super) subpaths: Vec<u32>,
     /// The continuation state after `\`: set by CONT and taken by the next item of
     /// the same body (a call takes it before its callee runs, so one register serves
     /// every activation).
