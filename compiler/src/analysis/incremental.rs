@@ -264,3 +264,34 @@ fn incremental_analysis_equals_a_whole_analysis_after_every_random_edit() {
     assert!(ty.replayed > 2 * ty.checked, "typing replayed {} rules and checked {}", ty.replayed, ty.checked);
     assert!(ex.replayed > 0 && big_.replayed > 0, "random edits replayed no rule");
 }
+
+/// Rules whose diagnostics point outside them (E0320's first definition, the
+/// "add `@import`" fix at the top of the file), after and before an edit typed
+/// into another rule: the secondary spans and fixes stay where they point, so such
+/// rules are checked again, not replayed.
+#[test]
+fn rules_whose_diagnostics_point_elsewhere_are_checked_again() {
+    let opts = Options { std_dir: Some(std_dir()), ..Options::default() };
+    // The edit goes into `b`; the rule after it, `f`, is parsed again (the parse
+    // reuse's guard); those after `f` are the previous version's, moved.
+    let texts = [
+        // The first definition before the edit, the second (other parameters) after it.
+        "startshape a\nrule a(int n) { b {} f {} }\nrule b { }\nrule f { }\nrule a(float m) { b {} }\n",
+        // A std name called without its import, after the edit; and before it.
+        "startshape a\nrule a { b {} f {} c {} }\nrule b { }\nrule f { }\nrule c { SPHERE {} }\n",
+        "startshape c\nrule c { SPHERE {} b {} f {} }\nrule b { }\nrule f { }\n",
+    ];
+    for text in texts {
+        let at = text.find("rule b { }").expect("rule b") + "rule b {".len();
+        let mut prev = analyse(text, &opts, None);
+        let mut t = text.to_string();
+        for (i, c) in "  x {}".char_indices() {
+            t.insert(at + i, c);
+            let whole = analyse(&t, &opts, None);
+            let inc = analyse(&t, &opts, Some(&prev));
+            assert!(whole.diagnostics.iter().any(|d| d.code == "E0320" || d.code == "E0301"), "{t}");
+            let context = || format!("the text is now\n{t}");
+            prev = same(inc, whole, &context);
+        }
+    }
+}
