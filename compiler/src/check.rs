@@ -3,6 +3,10 @@
 //! Works on the expanded program ([`crate::expand::Expanded`]); every finding is a
 //! [`Diagnostic`] with a code from `docs/diagnostics.md`. The symbol table it builds
 //! ([`Symbols`]) is reused by lowering and the language server.
+//!
+//! [`check_with`] replays the rules a previous version's check recorded where
+//! neither the rule nor the facts its check reads changed ([`crate::check_cache`]):
+//! the language server's check after an edit.
 
 use crate::ast::*;
 use crate::check_cache::{Entry, RuleResult};
