@@ -70,8 +70,11 @@ fn main() {
             t.remove(at + i);
             versions.push(t.clone());
         }
-        let run = |text: &str, previous: Option<&mdg_compiler::driver::Analysis>| {
-            let effort = mdg_compiler::driver::Effort { skip_shaders: true, previous, ..Default::default() };
+        let run = |text: &str, previous: Option<&mdg_compiler::driver::Analysis>, chain: bool| {
+            // The whole analyses record nothing for a next version (the language
+            // server's `MDG_LSP_WHOLE_PARSE=1`); the chain of reusing ones does.
+            let record = previous.is_some() || chain;
+            let effort = mdg_compiler::driver::Effort { skip_shaders: true, previous, record, ..Default::default() };
             mdg_compiler::driver::analyze_text_with(&loader, path, text, &opts, CheckOptions::default(), effort)
         };
         // This thread's CPU time in ms (utime + stime of /proc/thread-self/stat, 10 ms ticks).
@@ -87,19 +90,33 @@ fn main() {
         // `PHASES_TYPING=reusing`: only the analyses from the previous version (for a
         // profiler, whose counts are then those of the incremental path alone).
         let only_reusing = std::env::var("PHASES_TYPING").is_ok_and(|v| v == "reusing");
-        let mut prev = run(&src, None);
+        let mut prev = run(&src, None, true);
+        let (mut replayed, mut checked) = (0, 0);
         for v in &versions {
             let (t0, c0) = (Instant::now(), cpu());
             if !only_reusing {
-                let a = run(v, None);
+                let a = run(v, None, false);
                 std::mem::drop(a);
             }
             whole += t0.elapsed().as_secs_f64() * 1e3;
             whole_cpu += cpu() - c0;
             let (t0, c0) = (Instant::now(), cpu());
-            let a = run(v, prev.as_ref());
-            std::mem::drop(prev);
-            prev = a;
+            // One version from the previous one, the previous one dropped: a
+            // function of its own, for `valgrind --tool=callgrind
+            // --collect-atstart=no --toggle-collect='*typing_step*'`.
+            #[inline(never)]
+            fn typing_step<A>(step: impl FnOnce() -> A) -> A {
+                step()
+            }
+            prev = typing_step(|| {
+                let a = run(v, prev.as_ref(), true);
+                std::mem::drop(prev);
+                a
+            });
+            if let Some(a) = &prev {
+                replayed += a.checked.cache.replayed;
+                checked += a.checked.cache.checked;
+            }
             reusing += t0.elapsed().as_secs_f64() * 1e3;
             reusing_cpu += cpu() - c0;
         }
@@ -111,6 +128,7 @@ fn main() {
             reusing / n,
             reusing_cpu / n
         );
+        println!("rules the reusing analyses replayed / checked: {replayed} / {checked}");
         return;
     }
     // `PHASES_REPARSE_ONLY=N`: only the parse reusing the previous, N times (for a profiler).

@@ -3,13 +3,19 @@
 //! Works on the expanded program ([`crate::expand::Expanded`]); every finding is a
 //! [`Diagnostic`] with a code from `docs/diagnostics.md`. The symbol table it builds
 //! ([`Symbols`]) is reused by lowering and the language server.
+//!
+//! [`check_with`] replays the rules a previous version's check recorded where
+//! neither the rule nor the facts its check reads changed ([`crate::check_cache`]):
+//! the language server's check after an edit.
 
 use crate::ast::*;
+use crate::check_cache::{Entry, RuleResult};
 use crate::diag::{did_you_mean, Diagnostic};
 use crate::expand::{ExpItem, Expanded};
 use crate::span::Span;
 use crate::types::{type_of, SigParam, Signature, Ty, TYPE_NAMES};
 use std::collections::{BTreeSet, HashMap};
+use std::sync::Arc;
 
 pub use crate::symbols::{DRAWABLES, PEN_DRAWABLES, PROFILE_DRAWABLES};
 
@@ -66,16 +72,39 @@ pub struct CheckOptions {
 pub struct Checked {
     pub symbols: Symbols,
     pub diagnostics: Vec<Diagnostic>,
+    /// Each rule's contributions, for the next version's check ([`check_with`]).
+    pub cache: Cache,
+}
+
+pub use crate::check_cache::Cache;
+
+/// The previous version's check, for [`check_with`]: its program, its result, and
+/// how its parse was reused (the main file's rules the edit moved).
+#[derive(Clone, Copy)]
+pub struct Previous<'p> {
+    pub expanded: &'p Expanded,
+    pub checked: &'p Checked,
 }
 
 /// Checks an expanded program.
 pub fn check(ex: &Expanded, opts: CheckOptions) -> Checked {
+    check_with(ex, opts, None, false)
+}
+
+/// [`check`] that replays the rules `previous` recorded, where the rule and the
+/// facts its check reads are unchanged ([`crate::check_cache`]), and records each
+/// rule's contributions for the next version when `record` is set. The result is
+/// [`check`]'s.
+pub fn check_with(ex: &Expanded, opts: CheckOptions, previous: Option<Previous>, record: bool) -> Checked {
     // Vectors are groups of scalars: the program without them is what is checked
-    // (and lowered), the vector errors found on the way first.
+    // (and lowered), the vector errors found on the way first. That program is a
+    // new copy each version, so none of its rules is the previous version's: it is
+    // checked whole, neither replayed nor recorded (the cache matches rules by
+    // identity, which a freed copy's address must not fake).
     let scalar = crate::vectors::scalarize(ex);
-    let (ex, vector_diags) = match &scalar {
-        Some((s, d)) => (s, d.clone()),
-        None => (ex, Vec::new()),
+    let (ex, vector_diags, previous, record) = match &scalar {
+        Some((s, d)) => (s, d.clone(), None, false),
+        None => (ex, Vec::new(), previous, record),
     };
     let mut c = Checker {
         ex,
@@ -93,15 +122,34 @@ pub fn check(ex: &Expanded, opts: CheckOptions) -> Checked {
         profile_rules: BTreeSet::new(),
         function: None,
         lets: Vec::new(),
+        cache: Cache { recorded: record, ..Cache::default() },
+        replay: None,
+        rule_reads: Vec::new(),
     };
     c.collect();
     c.cross_file_definitions();
     c.collect_profiles();
+    c.cache.has_limit = c.has_limit();
+    if let Some(p) = previous {
+        let facts = crate::check_cache::same_facts(
+            (p.expanded, &p.checked.symbols, &p.checked.cache),
+            (ex, &c.sym),
+            &c.profile_rules,
+            c.cache.has_limit,
+        );
+        if facts {
+            let moved = ex.reused.moved.iter().copied().collect();
+            c.replay = Some((&p.checked.cache, moved, ex.reused.delta));
+        }
+    }
+    if record {
+        c.cache.profile_rules = c.profile_rules.clone();
+    }
     c.items();
     c.unread_params();
     c.whole_program(opts);
     crate::ext::check(ex, &c.sym, &mut c.diags);
-    Checked { symbols: c.sym, diagnostics: c.diags }
+    Checked { symbols: c.sym, diagnostics: c.diags, cache: c.cache }
 }
 
 struct Checker<'a> {
@@ -139,6 +187,14 @@ struct Checker<'a> {
     unread_params: Vec<(String, usize, Span, String)>,
     /// The definition being checked is a flat path ([`crate::paths`]).
     in_path: bool,
+    /// This check's per-rule results, for the next version's.
+    cache: Cache,
+    /// The previous check's cache, when the facts a rule's check reads are
+    /// unchanged: with the moved rules (new `Arc` address → previous one) and the
+    /// edit's change in length.
+    replay: Option<(&'a Cache, HashMap<usize, usize>, i64)>,
+    /// The parameters the rule being checked reads (for its [`RuleResult`]).
+    rule_reads: Vec<usize>,
 }
 
 /// A parameter, `let` binding or loop variable in scope.
@@ -433,7 +489,7 @@ impl<'a> Checker<'a> {
                         self.sym.startshape = Some((full, n.span));
                     }
                 }
-                ItemKind::Rule(r) => self.rule(r, namespace),
+                ItemKind::Rule(r) => self.cached_rule(r, namespace, item.span),
                 ItemKind::Selector { rules, mode } => self.selector(rules, mode, namespace),
                 ItemKind::Linerule(n) => {
                     if let Some(full) = self.rule_ref(n, namespace, "E0308", "line rule") {
@@ -485,6 +541,73 @@ impl<'a> Checker<'a> {
             .with_note("depth first, the first N objects would be one branch's; Structure Synth's `set maxobjects` grows breadth first")
             .with_suggestion("ask for breadth-first order", Span::new(at.file, at.start, at.start), "breadthfirst\n");
         self.diags.push(d);
+    }
+
+    /// A rule's check: replayed from the previous version's where it can be,
+    /// recorded for the next where asked.
+    fn cached_rule(&mut self, r: &'a Arc<Rule>, ns: &Option<String>, span: Span) {
+        let addr = Arc::as_ptr(r) as usize;
+        let hit = self.replay.as_ref().and_then(|(prev, moved, delta)| {
+            let (old, d) = match prev.rules.get(&addr) {
+                Some(e) if Arc::ptr_eq(&e.rule, r) => (e, 0),
+                _ => (prev.rules.get(moved.get(&addr)?)?, *delta),
+            };
+            (old.namespace == *ns).then(|| (old.result.clone(), old.delta + d))
+        });
+        if let Some((result, delta)) = hit {
+            self.replay_rule(&result, delta);
+            self.cache.replayed += 1;
+            if self.cache.recorded {
+                let entry = Entry { rule: r.clone(), namespace: ns.clone(), result, delta };
+                self.cache.rules.insert(addr, entry);
+            }
+            return;
+        }
+        self.cache.checked += 1;
+        self.rule_reads.clear();
+        if !self.cache.recorded {
+            self.rule(r, ns);
+            return;
+        }
+        let (d0, r0, u0) = (self.diags.len(), self.sym.references.len(), self.unread_params.len());
+        self.rule(r, ns);
+        let full = (!r.name.text.is_empty()).then(|| qualify(ns, &r.name.text));
+        let graph = full.map(|f| {
+            let calls = self.call_graph.get(&f).and_then(|g| g.last()).cloned().unwrap_or_default();
+            let must = self.must_graph.get(&f).and_then(|g| g.last()).cloned().unwrap_or_default();
+            (f, calls, must)
+        });
+        let inside = |s: Span| s.file == span.file && span.start <= s.start && s.end <= span.end;
+        let result = RuleResult {
+            diags: self.diags[d0..].to_vec(),
+            references: self.sym.references[r0..].to_vec(),
+            graph,
+            reads: std::mem::take(&mut self.rule_reads),
+            unread: self.unread_params[u0..].iter().map(|(_, i, s, n)| (*i, *s, n.clone())).collect(),
+        };
+        let keep = result.diags.iter().all(|d| crate::check_cache::diag_within(d, span))
+            && result.references.iter().all(|(s, _)| inside(*s))
+            && result.unread.iter().all(|(_, s, _)| inside(*s));
+        if keep {
+            let entry = Entry { rule: r.clone(), namespace: ns.clone(), result: Arc::new(result), delta: 0 };
+            self.cache.rules.insert(addr, entry);
+        }
+    }
+
+    /// Adds a recorded rule's contributions, its spans moved by `delta`.
+    fn replay_rule(&mut self, r: &RuleResult, delta: i64) {
+        use crate::check_cache::{shift, shift_diag};
+        self.diags.extend(r.diags.iter().map(|d| shift_diag(d.clone(), delta)));
+        self.sym.references.extend(r.references.iter().map(|(s, n)| (shift(*s, delta), n.clone())));
+        let Some((full, calls, must)) = &r.graph else { return };
+        self.call_graph.entry(full.clone()).or_default().push(calls.clone());
+        self.must_graph.entry(full.clone()).or_default().push(must.clone());
+        for &i in &r.reads {
+            self.param_reads.insert((full.clone(), i));
+        }
+        for (i, s, n) in &r.unread {
+            self.unread_params.push((full.clone(), *i, shift(*s, delta), n.clone()));
+        }
     }
 
     fn rule(&mut self, r: &'a Rule, ns: &Option<String>) {
@@ -686,6 +809,7 @@ impl<'a> Checker<'a> {
             match (l.param, &self.rule_name) {
                 (Some(i), Some(rule)) if l.used => {
                     self.param_reads.insert((rule.clone(), i));
+                    self.rule_reads.push(i);
                 }
                 (Some(i), Some(rule)) => self.unread_params.push((rule.clone(), i, l.span, l.name)),
                 (Some(_), None) => {}

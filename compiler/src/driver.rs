@@ -73,6 +73,11 @@ pub struct Effort<'a> {
     /// that an edit left alone are taken from its parse instead of being parsed again
     /// (the result is the same; [`crate::parse::parse_file_reusing`]).
     pub previous: Option<&'a Analysis>,
+    /// Record what the next version's analysis can reuse: the checker's per-rule
+    /// results ([`crate::check_cache`]; the language server's analyses, unless
+    /// `MDG_LSP_WHOLE_PARSE=1`). Rules of `previous` are replayed only if it
+    /// recorded them.
+    pub record: bool,
 }
 
 impl Effort<'_> {
@@ -85,7 +90,10 @@ fn finish(sources: Sources, expanded: Expanded, opts: CheckOptions, effort: Effo
     if effort.stop() {
         return None;
     }
-    let checked = check::check(&expanded, opts);
+    // The previous version's check is replayed rule by rule where nothing it read
+    // changed; this one's is recorded for the next version.
+    let previous = effort.previous.map(|a| check::Previous { expanded: &a.expanded, checked: &a.checked });
+    let checked = check::check_with(&expanded, opts, previous, effort.record);
     if effort.stop() {
         return None;
     }

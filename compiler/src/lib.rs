@@ -11,6 +11,7 @@ pub mod ast;
 pub mod benchmark;
 pub mod cfdg;
 pub mod check;
+pub mod check_cache;
 pub mod codes;
 pub mod colour;
 pub mod consteval;

@@ -1042,7 +1042,7 @@ pub fn parse_file_reusing(sources: &Sources, file: FileId, prev: Option<Previous
         None => {
             let (items, syntax, memo) = reuse::whole(&mut p, sources, file);
             let parsed = items.len();
-            (items, syntax, memo, Reused { items: 0, parsed })
+            (items, syntax, memo, Reused { items: 0, parsed, ..Reused::default() })
         }
     };
     memo.tokens = std::mem::take(&mut p.tokens);

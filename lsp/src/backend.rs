@@ -30,9 +30,10 @@ pub struct Config {
     /// The largest open document analysed as the user types, in bytes
     /// (`$MDG_LSP_MAX_LIVE_BYTES`, default `analysis::MAX_LIVE_BYTES`).
     pub max_live_bytes: usize,
-    /// Whether an edited document's parse reuses the previous version's unchanged
-    /// items (`MDG_LSP_WHOLE_PARSE=1` turns it off: every version parsed whole, for
-    /// measuring and as a way out should the reuse ever be wrong).
+    /// Whether an edited document's analysis reuses the previous version's: its
+    /// parse the unchanged items, its check the unchanged rules' results
+    /// (`MDG_LSP_WHOLE_PARSE=1` turns it off: every version parsed and checked whole,
+    /// for measuring and as a way out should the reuse ever be wrong).
     pub reuse_parses: bool,
 }
 
@@ -145,6 +146,7 @@ impl Backend {
             cancelled: Some(&outdated),
             cached_shaders_only: shaders == Shaders::Cached,
             previous: snap.previous.as_deref().filter(|_| config.reuse_parses).map(Document::analysis),
+            record: config.reuse_parses,
         };
         Document::with_effort(&snap.loader, &snap.path, &snap.text, &config.options, effort)
     }

@@ -37,7 +37,7 @@ const MORE: &[&str] = &[
 
 fn analyse(text: &str, opts: &Options, previous: Option<&Analysis>) -> Analysis {
     let loader = MemLoader { files: Default::default(), disk_fallback: true };
-    let effort = Effort { skip_shaders: true, previous, ..Effort::default() };
+    let effort = Effort { skip_shaders: true, previous, record: true, ..Effort::default() };
     analyze_text_with(&loader, Path::new("/test/main.mdg"), text, opts, CheckOptions::default(), effort)
         .unwrap_or_else(|| panic!("an analysis that cannot be cancelled was cancelled"))
 }
@@ -77,6 +77,16 @@ fn same(inc: Analysis, whole: Analysis, context: &dyn Fn() -> String) -> Analysi
     assert_eq!(program(&inc), program(&whole), "expanded program differs: {}", context());
     assert_eq!(inc.diagnostics, whole.diagnostics, "diagnostics differ: {}", context());
     assert_eq!(symbols(&inc), symbols(&whole), "symbols differ: {}", context());
+    // The checker's per-rule cache: what each rule contributes, where it is now (a
+    // replayed rule's result moved with it), recorded or not alike.
+    let rules = |a: &Analysis| -> Vec<Option<crate::check_cache::RuleResult>> {
+        let rules = a.expanded.items.iter().filter_map(|i| match &i.item.kind {
+            crate::ast::ItemKind::Rule(r) => Some(r),
+            _ => None,
+        });
+        rules.map(|r| a.checked.cache.result(r)).collect()
+    };
+    assert_eq!(rules(&inc), rules(&whole), "the checker's cached rule results differ: {}", context());
     let (inc, whole) = (Document::from_analysis(inc), Document::from_analysis(whole));
     let (i, w) = (inc.index(), whole.index());
     assert_eq!(i.main, w.main, "occurrences differ: {}", context());
@@ -168,18 +178,20 @@ fn big(lines: usize) -> String {
     s
 }
 
-/// Runs `steps` random edits from `text`, comparing after each; returns (items
-/// reused, items parsed) over all of them.
-fn compare(
-    name: &str,
-    mut text: String,
-    steps: usize,
-    rng: &mut Rng,
-    opts: &Options,
-    typing_only: bool,
-) -> (usize, usize) {
+/// Counts over a run of random edits: items reused and parsed, rules replayed and
+/// checked.
+#[derive(Default)]
+struct Counts {
+    reused: usize,
+    parsed: usize,
+    replayed: usize,
+    checked: usize,
+}
+
+/// Runs `steps` random edits from `text`, comparing after each.
+fn compare(name: &str, mut text: String, steps: usize, rng: &mut Rng, opts: &Options, typing_only: bool) -> Counts {
     let mut prev = analyse(&text, opts, None);
-    let (mut reused, mut parsed) = (0, 0);
+    let mut n = Counts::default();
     let original = text.clone();
     let mut step = 0;
     while step < steps {
@@ -198,13 +210,15 @@ fn compare(
             let whole = analyse(&version, opts, None);
             let inc = analyse(&version, opts, Some(&prev));
             let context = || format!("{name}, edit {step}: the text was\n{text}\n---- and is now\n{version}");
-            reused += inc.expanded.reused.items;
-            parsed += inc.expanded.reused.parsed;
+            n.reused += inc.expanded.reused.items;
+            n.parsed += inc.expanded.reused.parsed;
+            n.replayed += inc.checked.cache.replayed;
+            n.checked += inc.checked.cache.checked;
             prev = same(inc, whole, &context);
             text = version;
         }
     }
-    (reused, parsed)
+    n
 }
 
 #[test]
@@ -219,25 +233,68 @@ fn incremental_analysis_equals_a_whole_analysis_after_every_random_edit() {
         .collect();
     names.sort();
     assert!(names.len() >= 20, "std examples missing: {names:?}");
-    let (mut reused, mut parsed) = (0, 0);
+    let mut ex = Counts::default();
     for path in &names {
         let text = std::fs::read_to_string(path).expect("example");
-        let (r, p) = compare(&path.display().to_string(), text, 40, &mut rng, &opts, false);
-        reused += r;
-        parsed += p;
+        let c = compare(&path.display().to_string(), text, 40, &mut rng, &opts, false);
+        ex.reused += c.reused;
+        ex.parsed += c.parsed;
+        ex.replayed += c.replayed;
+        ex.checked += c.checked;
     }
     // (Their own stream: the edits to the large grammar do not change when a std
     // example is added.)
     let mut rng = Rng(0x39_1ec5_eed5);
-    let (r, p) = compare("a 1,400-line grammar", big(1_400), 100, &mut rng, &opts, false);
-    let (tr, tp) = compare("typing into a 1,400-line grammar", big(1_400), 100, &mut rng, &opts, true);
+    let big_ = compare("a 1,400-line grammar", big(1_400), 100, &mut rng, &opts, false);
+    let ty = compare("typing into a 1,400-line grammar", big(1_400), 100, &mut rng, &opts, true);
     eprintln!(
-        "items reused / parsed: std examples {reused} / {parsed}; a large grammar {r} / {p}; typing into it {tr} / {tp}"
+        "items reused / parsed: std examples {} / {}; a large grammar {} / {}; typing into it {} / {}",
+        ex.reused, ex.parsed, big_.reused, big_.parsed, ty.reused, ty.parsed
+    );
+    eprintln!(
+        "rules replayed / checked: std examples {} / {}; a large grammar {} / {}; typing into it {} / {}",
+        ex.replayed, ex.checked, big_.replayed, big_.checked, ty.replayed, ty.checked
     );
     // The comparisons mean something only if items were reused: most of them while
     // typing into a file without other syntax errors. (Random edits leave syntax
     // errors behind, and a parse reuses only the items before the first and after the
     // last segment with an error or an edit.)
-    assert!(tr > 10 * tp, "typing reused {tr} items and parsed {tp}");
-    assert!(r > p / 2 && reused > parsed / 8, "random edits reused too little");
+    assert!(ty.reused > 10 * ty.parsed, "typing reused {} items and parsed {}", ty.reused, ty.parsed);
+    assert!(big_.reused > big_.parsed / 2 && ex.reused > ex.parsed / 8, "random edits reused too little");
+    // And only if rules were replayed: most of them while typing (a version whose
+    // rule names or signatures changed, a rule with `@expand` — expanded again — or
+    // one whose diagnostics point outside it is checked again).
+    assert!(ty.replayed > 2 * ty.checked, "typing replayed {} rules and checked {}", ty.replayed, ty.checked);
+    assert!(ex.replayed > 0 && big_.replayed > 0, "random edits replayed no rule");
+}
+
+/// Rules whose diagnostics point outside them (E0320's first definition, the
+/// "add `@import`" fix at the top of the file), after and before an edit typed
+/// into another rule: the secondary spans and fixes stay where they point, so such
+/// rules are checked again, not replayed.
+#[test]
+fn rules_whose_diagnostics_point_elsewhere_are_checked_again() {
+    let opts = Options { std_dir: Some(std_dir()), ..Options::default() };
+    // The edit goes into `b`; the rule after it, `f`, is parsed again (the parse
+    // reuse's guard); those after `f` are the previous version's, moved.
+    let texts = [
+        // The first definition before the edit, the second (other parameters) after it.
+        "startshape a\nrule a(int n) { b {} f {} }\nrule b { }\nrule f { }\nrule a(float m) { b {} }\n",
+        // A std name called without its import, after the edit; and before it.
+        "startshape a\nrule a { b {} f {} c {} }\nrule b { }\nrule f { }\nrule c { SPHERE {} }\n",
+        "startshape c\nrule c { SPHERE {} b {} f {} }\nrule b { }\nrule f { }\n",
+    ];
+    for text in texts {
+        let at = text.find("rule b { }").expect("rule b") + "rule b {".len();
+        let mut prev = analyse(text, &opts, None);
+        let mut t = text.to_string();
+        for (i, c) in "  x {}".char_indices() {
+            t.insert(at + i, c);
+            let whole = analyse(&t, &opts, None);
+            let inc = analyse(&t, &opts, Some(&prev));
+            assert!(whole.diagnostics.iter().any(|d| d.code == "E0320" || d.code == "E0301"), "{t}");
+            let context = || format!("the text is now\n{t}");
+            prev = same(inc, whole, &context);
+        }
+    }
 }

@@ -69,12 +69,21 @@ pub struct Previous<'p> {
     pub memo: &'p Memo,
 }
 
-/// How much a parse reused (for tests and measurements).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// How much a parse reused (for tests and measurements), and where the reused rules
+/// after the edit came from.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Reused {
     /// Items taken from the previous parse, and items parsed.
     pub items: usize,
     pub parsed: usize,
+    /// The rules after the edit, copied to be shifted by [`Reused::delta`]: (the
+    /// copy's `Arc` address, the previous parse's rule's). The checker's per-rule cache
+    /// ([`crate::check`]) finds the previous results of a moved rule by it; the
+    /// addresses are only compared while both parses are alive. (A rule before the
+    /// edit is the previous parse's own `Arc`.)
+    pub moved: Vec<(usize, usize)>,
+    /// The edit's change in length: how far the moved rules' spans were shifted.
+    pub delta: i64,
 }
 
 fn components(p: &Prepared) -> ([String; 4], [String; 4]) {
@@ -301,15 +310,17 @@ pub(super) fn reparse(
         segments.extend(region_segments);
     }
     items.extend(region);
+    let mut moved = Vec::new();
     for s in suffix {
         let at = items.len();
         // Items before the edit are shared with the previous parse (their rules are
         // `Arc`s); those after it are copied to be shifted, unless the edit kept the
         // length.
-        items.extend(prev.items[s.items.clone()].iter().map(|i| {
-            let mut i = i.clone();
+        items.extend(prev.items[s.items.clone()].iter().map(|old| {
+            let mut i = old.clone();
             if delta != 0 {
                 i.shift(delta);
+                moved_rules(old, &i, &mut moved);
             }
             i
         }));
@@ -322,8 +333,22 @@ pub(super) fn reparse(
             ..s.clone()
         });
     }
-    let reused = Reused { items: items.len() - parsed, parsed };
+    let reused = Reused { items: items.len() - parsed, parsed, moved, delta };
     Some((items, syntax, Memo { components: components(p), tokens: Vec::new(), segments }, reused))
+}
+
+/// Pairs the rules of `new`, a shifted copy of `old`, with `old`'s (their `Arc`
+/// addresses, for [`Reused::moved`]), in namespaces too.
+fn moved_rules(old: &Item, new: &Item, out: &mut Vec<(usize, usize)>) {
+    match (&old.kind, &new.kind) {
+        (ItemKind::Rule(o), ItemKind::Rule(n)) => {
+            out.push((std::sync::Arc::as_ptr(n) as usize, std::sync::Arc::as_ptr(o) as usize))
+        }
+        (ItemKind::Namespace { items: o, .. }, ItemKind::Namespace { items: n, .. }) => {
+            o.iter().zip(n).for_each(|(o, n)| moved_rules(o, n, out))
+        }
+        _ => {}
+    }
 }
 
 /// Whether the guard segment (`g` of the previous parse, at `start` now) came out of
