@@ -27,6 +27,7 @@
 pub mod buffer;
 pub mod camera;
 pub mod context;
+pub mod cpu;
 pub mod guided;
 pub mod image;
 pub mod input;
