@@ -117,7 +117,7 @@ pub fn cpu_options(samples: u32, size: (u32, u32)) -> (cpu::Options, Option<Stri
 /// One line for `--stats` and `mdg-view`: the CPU renderer drew it, how.
 pub fn cpu_note(program: &cpu::Program, opts: &cpu::Options, drawn: &cpu::Drawn) -> String {
     format!(
-        "CPU renderer (program {} implemented exactly; no Vulkan loaded), {} sample(s){}, {} threads, {} triangles, {} instances as points",
+        "CPU renderer (program {} implemented exactly; no Vulkan loaded), {} sample(s){}, {} threads, {} triangles at the level of detail, {} instances as points",
         program.label(),
         opts.samples,
         if opts.smooth { " and edge smoothing" } else { "" },

@@ -133,7 +133,7 @@ fn mdg_run_says_which_renderer_drew_the_picture() {
         ]);
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(o.status.success(), "{err}");
-        assert!(err.contains("picture drawn by the CPU renderer (program std phong_vs + phong_fs"), "{err}");
+        assert!(err.contains("picture drawn by the CPU renderer (program std phong_vs + std phong_fs"), "{err}");
         assert!(err.contains("libvulkan loaded: no"), "{err}");
     }
     assert_eq!(std::fs::read(&a).expect("a"), std::fs::read(&b).expect("b"), "same source, same picture bytes");

@@ -355,8 +355,8 @@ impl Target {
         }
     }
 
-    /// A point sprite: centre `clip`, `size` pixels wide, in colour `rgba` (already
-    /// shaded), depth-tested and written. Dropped when its centre is outside the
+    /// A point sprite: centre `clip`, `size` pixels wide (at least one), in colour
+    /// `rgba` (already shaded), depth-tested and written. Dropped when its centre is outside the
     /// clip volume, as Vulkan clips points.
     pub fn point(&mut self, clip: Vec4, size: f32, rgba: [u8; 4]) {
         let c = clip;
@@ -367,7 +367,8 @@ impl Target {
         let sx = (c.x / c.w + 1.0) * 0.5 * w;
         let sy = (c.y / c.w + 1.0) * 0.5 * h;
         let z = c.z / c.w;
-        let half = 0.5 * size;
+        // At least a pixel wide, as lavapipe (llvmpipe's point setup) draws them.
+        let half = 0.5 * size.max(1.0);
         let (x0, x1, y0, y1) = (sx - half, sx + half, sy - half, sy + half);
         if !self.any_row(y0.floor() as i64, y1.floor() as i64) {
             return;
