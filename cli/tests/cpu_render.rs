@@ -60,6 +60,19 @@ fn cpu_pictures_of_every_std_example_match_lavapipe() {
         .collect();
     dir.sort();
     assert!(dir.len() >= 20, "{dir:?}");
+    // And the test grammars for what the examples lack: flat art (unlit, painted in
+    // order), pen lines, matte flat primitives, mirrored frames, bones, a camera rule.
+    for name in [
+        "flat_overlap.mdg",
+        "pen_lines.mdg",
+        "matte_flat_primitives.mdg",
+        "mirrored_cube.mdg",
+        "animated_arm.mdg",
+        "camera_rule.mdg",
+        "red_blue_cubes.mdg",
+    ] {
+        dir.push(data(name));
+    }
     let programs = programs();
     let std = root().join("std");
     let mut report = Vec::new();

@@ -215,7 +215,7 @@ fn write_pictures(
 fn offscreen_cpu(cli: &Args, model: &model::Model, size: (u32, u32), program: &cpu::Program) -> Result<u32, Error> {
     let Some(png) = &cli.png else { return Ok(0) };
     let t0 = std::time::Instant::now();
-    let (mut opts, warning) = crate::pictures::cpu_options(cli.samples, size);
+    let (opts, warning) = crate::pictures::cpu_options(cli.samples, size);
     if let Some(w) = warning {
         eprintln!("{w}");
     }
@@ -234,7 +234,6 @@ fn offscreen_cpu(cli: &Args, model: &model::Model, size: (u32, u32), program: &c
         drawn = d;
         Ok(px)
     })?;
-    opts.threads = opts.threads.max(1);
     eprintln!(
         "mdg-view: {} triangles, {} line segments, drawn by the {}",
         info.n_triangles,
