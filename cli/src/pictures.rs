@@ -144,7 +144,8 @@ pub fn cpu_pixels(
         Some(p) => home.posed(&scene.info().bounds, aspect, p),
         None => home,
     };
-    let frame = FrameParams { camera, time, wireframe: false, camera_rule: scene.info().has_camera_rule && pose.is_none() };
+    let frame =
+        FrameParams { camera, time, wireframe: false, camera_rule: scene.info().has_camera_rule && pose.is_none() };
     scene.render(&frame, opts)
 }
 

@@ -178,5 +178,8 @@ fn mdg_run_says_which_renderer_drew_the_picture() {
     ]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
-    assert!(err.contains("picture drawn by the Vulkan renderer, because the grammar's vertex shader `flat_vs`"), "{err}");
+    assert!(
+        err.contains("picture drawn by the Vulkan renderer, because the grammar's vertex shader `flat_vs`"),
+        "{err}"
+    );
 }

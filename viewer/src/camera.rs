@@ -184,12 +184,8 @@ pub fn frame_view_projection(
             let view = Mat4::from_rotation_translation(r, t).inverse();
             let near = cam.near.max(1e-4);
             let far = cam.far.max(near * 2.0);
-            let mut proj = glam::camera::rh::proj::directx::perspective(
-                cam.fov.clamp(1.0, 170.0).to_radians(),
-                aspect,
-                near,
-                far,
-            );
+            let mut proj =
+                glam::camera::rh::proj::directx::perspective(cam.fov.clamp(1.0, 170.0).to_radians(), aspect, near, far);
             proj.y_axis.y = -proj.y_axis.y;
             return (view, proj, t);
         }

@@ -586,7 +586,8 @@ fn run_one(
         // `--renderer cpu` for a program the CPU renderer does not implement is a
         // usage error, before anything is drawn.
         if cli.renderer == RendererChoice::Cpu {
-            crate::pictures::decide(cli.renderer, bundle, &out, opts.std_dir.as_deref(), false).map_err(Failure::usage)?;
+            crate::pictures::decide(cli.renderer, bundle, &out, opts.std_dir.as_deref(), false)
+                .map_err(Failure::usage)?;
         }
         // With --time the pose is already baked into `out`.
         phases.restart();

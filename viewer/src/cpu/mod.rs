@@ -85,7 +85,8 @@ pub fn program_of(bundle: &Bundle, output: &Output, std_vs: &str, std_fs: &str) 
         let (name, code) = if i == NONE {
             (format!("std {std_name}"), std.to_string())
         } else {
-            let sh = bundle.shaders.get(i as usize).ok_or_else(|| format!("program names shader {i}, which is missing"))?;
+            let sh =
+                bundle.shaders.get(i as usize).ok_or_else(|| format!("program names shader {i}, which is missing"))?;
             (bundle.string(sh.name).to_string(), bundle.string(sh.source).to_string())
         };
         let h = shader_hash(&code);
@@ -137,11 +138,14 @@ pub struct CpuScene<'a> {
     spec: UniformSpec,
     /// Per instanced draw: the first vertex and count of its mesh, and of its level
     /// of detail.
-    ranges: Vec<((i64, usize), Option<(i64, usize)>)>,
+    ranges: Vec<(VertexRange, Option<VertexRange>)>,
 }
 
+/// The first vertex an index run uses and how many.
+type VertexRange = (i64, usize);
+
 /// The vertex range an index run of a shared mesh uses.
-fn vertex_range(indices: &[u32], vertex_offset: i32) -> (i64, usize) {
+fn vertex_range(indices: &[u32], vertex_offset: i32) -> VertexRange {
     let lo = indices.iter().copied().min().unwrap_or(0);
     let hi = indices.iter().copied().max().unwrap_or(0);
     (i64::from(vertex_offset) + i64::from(lo), if indices.is_empty() { 0 } else { (hi - lo + 1) as usize })
@@ -221,7 +225,8 @@ impl<'a> CpuScene<'a> {
         // The bones at this time (at 0 for a still model, as the renderer uploads them).
         let n_bones = (self.scene.max_bone + 1).max(anim.bones.len() as u32) as usize;
         let pose = anim.pose(if self.info.animated { f64::from(frame.time) } else { 0.0 });
-        let bones: Vec<Mat4> = (0..n_bones).map(|i| pose.get(i).map(|f| f.to_mat4()).unwrap_or(Mat4::IDENTITY)).collect();
+        let bones: Vec<Mat4> =
+            (0..n_bones).map(|i| pose.get(i).map(|f| f.to_mat4()).unwrap_or(Mat4::IDENTITY)).collect();
         let samples = if opts.samples >= 4 { 4 } else { 1 };
         let stand_in_view = (opts.lod && opts.stand_ins && self.shade == Shade::Phong).then(|| points::View {
             view_projection: vp,
@@ -244,15 +249,7 @@ impl<'a> CpuScene<'a> {
         };
         let bg = self.info.background.map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8);
         let threads = (opts.threads.max(1) as u32).min(h.div_ceil(raster::STRIP)).max(1);
-        let job = Job {
-            cpu: self,
-            vp,
-            bones: &bones,
-            stand_in_view,
-            ppu,
-            depth_test: !self.info.flat,
-            height: h,
-        };
+        let job = Job { cpu: self, vp, bones: &bones, stand_in_view, ppu, depth_test: !self.info.flat, height: h };
         let draw = |t: u32| {
             let mut target = Target::new(t, threads, w, h, samples, bg);
             target.lighting = lighting;
@@ -341,7 +338,7 @@ impl Job<'_, '_> {
         let clip = *m * c.extend(1.0);
         let w_axis = Vec3::new(m.x_axis.w, m.y_axis.w, m.z_axis.w);
         let ahead = clip.w - r * w_axis.length();
-        if !(ahead > 0.0) || !clip.is_finite() {
+        if ahead.is_nan() || ahead <= 0.0 || !clip.is_finite() {
             return None;
         }
         let row = |k: usize| Vec3::new(m.x_axis[k], m.y_axis[k], m.z_axis[k]);
@@ -419,7 +416,8 @@ impl Job<'_, '_> {
             };
             let indices = inst.indices.get(first_index as usize..(first_index + index_count) as usize).unwrap_or(&[]);
             let stand = inst.stand_ins.get(k).copied();
-            let facets = stand.and_then(|s| inst.facets.get(s.first_facet as usize..(s.first_facet + s.n_facets) as usize));
+            let facets =
+                stand.and_then(|s| inst.facets.get(s.first_facet as usize..(s.first_facet + s.n_facets) as usize));
             let order = inst.order.get(d.first_instance as usize..(d.first_instance + d.instance_count) as usize);
             for &oi in order.unwrap_or(&[]) {
                 let Some(instance) = out.instances.get(oi as usize) else { continue };
@@ -519,7 +517,7 @@ impl Job<'_, '_> {
 /// The pixel rows a triangle's vertices span, or `None` when one is behind the eye
 /// (then it is clipped and may cover any row).
 fn screen_rows(v: &[V; 3], height: u32) -> Option<(i64, i64)> {
-    if v.iter().any(|x| !(x.clip.w > 0.0)) {
+    if v.iter().any(|x| x.clip.w.is_nan() || x.clip.w <= 0.0) {
         return None;
     }
     let ys = v.map(|x| (x.clip.y / x.clip.w + 1.0) * 0.5 * height as f32);

@@ -187,7 +187,8 @@ impl Target {
     fn write(&mut self, i: usize, z: f32, color: Vec4, depth_write: bool) {
         let (Some(d), Some(c)) = (self.depth.get_mut(i), self.color.get_mut(i)) else { return };
         if self.depth_test {
-            if !(z <= *d) {
+            // (A NaN depth fails the test.)
+            if z.partial_cmp(d).is_none_or(|o| o == std::cmp::Ordering::Greater) {
                 return;
             }
             if depth_write {
@@ -534,8 +535,11 @@ mod tests {
     #[test]
     fn the_nearer_triangle_wins_whatever_the_order() {
         let mk = |z: f32, c: [f32; 4]| {
-            [(-1.0, -1.0), (1.0, -1.0), (0.0, 1.0)]
-                .map(|(x, y)| V { clip: Vec4::new(x, y, z, 1.0), color: Vec4::from_array(c), ..V::default() })
+            [(-1.0, -1.0), (1.0, -1.0), (0.0, 1.0)].map(|(x, y)| V {
+                clip: Vec4::new(x, y, z, 1.0),
+                color: Vec4::from_array(c),
+                ..V::default()
+            })
         };
         let a = mk(0.3, [1.0, 0.0, 0.0, 1.0]);
         let b = mk(0.6, [0.0, 0.0, 1.0, 1.0]);
