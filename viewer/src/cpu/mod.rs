@@ -71,31 +71,44 @@ impl Program {
     }
 }
 
-/// Which of its programs draws `bundle`'s output, or why none does (a message
-/// naming the shader). `std_vs` and `std_fs` are the GLSL of the std shaders a stage
+/// Why the CPU renderer does not draw a model: a message naming the shader.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct NotImplemented(pub String);
+
+impl std::fmt::Display for NotImplemented {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for NotImplemented {}
+
+/// Which of its programs draws `bundle`'s output, or why none does. `std_vs` and `std_fs` are the GLSL of the std shaders a stage
 /// the bundle's `program` leaves out falls back on (std's `phong_vs` and `phong_fs`
 /// from the std directory in use).
-pub fn program_of(bundle: &Bundle, output: &Output, std_vs: &str, std_fs: &str) -> Result<Program, String> {
+pub fn program_of(bundle: &Bundle, output: &Output, std_vs: &str, std_fs: &str) -> Result<Program, NotImplemented> {
     let (v, f) = match &bundle.program {
         None if output.flat => return Ok(Program::Unlit),
         None => (NONE, NONE),
         Some(p) => (p.vertex, p.fragment),
     };
-    let stage = |i: u32, std: &str, std_name: &str, want: u64, what: &str| -> Result<String, String> {
+    let stage = |i: u32, std: &str, std_name: &str, want: u64, what: &str| -> Result<String, NotImplemented> {
         let (name, code) = if i == NONE {
             (format!("std {std_name}"), std.to_string())
         } else {
-            let sh =
-                bundle.shaders.get(i as usize).ok_or_else(|| format!("program names shader {i}, which is missing"))?;
+            let sh = bundle
+                .shaders
+                .get(i as usize)
+                .ok_or_else(|| NotImplemented(format!("program names shader {i}, which is missing")))?;
             (bundle.string(sh.name).to_string(), bundle.string(sh.source).to_string())
         };
         let h = shader_hash(&code);
         if h == want {
             Ok(name)
         } else if i == NONE {
-            Err(format!("the std directory's {std_name} (content hash {h:016x}) is not std's own"))
+            Err(NotImplemented(format!("the std directory's {std_name} (content hash {h:016x}) is not std's own")))
         } else {
-            Err(format!("the grammar's {what} shader `{name}` is its own (content hash {h:016x})"))
+            Err(NotImplemented(format!("the grammar's {what} shader `{name}` is its own (content hash {h:016x})")))
         }
     };
     let vs = stage(v, std_vs, "phong_vs", PHONG_VS_HASH, "vertex")?;
