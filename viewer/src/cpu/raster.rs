@@ -167,11 +167,13 @@ impl Target {
         (s0..=s1).any(|s| s % self.threads == self.thread)
     }
 
-    /// The rows of `y0..=y1` (clamped) this thread owns.
-    fn rows(&self, y0: i64, y1: i64) -> impl Iterator<Item = u32> + '_ {
+    /// The rows of `y0..=y1` (clamped) this thread owns (an iterator that does not
+    /// borrow the target, so the rows can be drawn while it runs).
+    fn rows(&self, y0: i64, y1: i64) -> impl Iterator<Item = u32> {
+        let (thread, threads) = (self.thread, self.threads);
         let (y0, y1) = (y0.max(0), y1.min(i64::from(self.height) - 1));
         let range = if y0 > y1 { 0..0 } else { y0 as u32..y1 as u32 + 1 };
-        range.filter(move |&y| self.owns(y))
+        range.filter(move |&y| (y / STRIP) % threads == thread)
     }
 
     fn offsets(&self) -> &'static [(i64, i64)] {
@@ -308,7 +310,7 @@ impl Target {
         let shade = self.shade;
         let depth_write = self.depth_test;
         let mut any = false;
-        for y in self.rows(py0, py1).collect::<Vec<_>>() {
+        for y in self.rows(py0, py1) {
             let cy = i64::from(y) * SUB;
             for x in px0..=px1 {
                 let cx = x * SUB;
@@ -385,7 +387,7 @@ impl Target {
         let px0 = (x0.floor() as i64).max(0);
         let px1 = (x1.floor() as i64).min(i64::from(self.width) - 1);
         let mut any = false;
-        for y in self.rows(y0.floor() as i64, y1.floor() as i64).collect::<Vec<_>>() {
+        for y in self.rows(y0.floor() as i64, y1.floor() as i64) {
             for x in px0..=px1 {
                 let base = self.index(x as u32, y);
                 for (s, &(ox, oy)) in offsets.iter().enumerate() {
