@@ -361,7 +361,7 @@ impl Job<'_, '_> {
         let ey = r * (row(1).length() + ny.abs() * w_axis.length()) / ahead;
         let visible = nx - ex <= 1.0 && nx + ex >= -1.0 && ny - ey <= 1.0 && ny + ey >= -1.0;
         let h = self.height as f32 * 0.5;
-        Some((((ny - ey + 1.0) * h).floor() as i64 - 1, ((ny + ey + 1.0) * h).floor() as i64 + 1, visible))
+        Some((raster::floor_i64((ny - ey + 1.0) * h) - 1, raster::floor_i64((ny + ey + 1.0) * h) + 1, visible))
     }
 
     /// Draws everything this thread's strips show, in the Vulkan renderer's order:
@@ -434,6 +434,17 @@ impl Job<'_, '_> {
             let order = inst.order.get(d.first_instance as usize..(d.first_instance + d.instance_count) as usize);
             for &oi in order.unwrap_or(&[]) {
                 let Some(instance) = out.instances.get(oi as usize) else { continue };
+                // A first look from the frame alone (no matrix yet): q x q̂ scales by
+                // |q| |q̂|, so the mesh's sphere lies within this one around u.
+                if let (0, 0, Some(s)) = (instance.bone, instance.lin, stand) {
+                    let f = &instance.frame;
+                    let r = f.q.length() * f.qh.length() * (s.centre.length() + s.radius);
+                    if let Some((y0, y1, visible)) = self.sphere_rows(f.u, r) {
+                        if !visible || !t.any_row(y0, y1) {
+                            continue;
+                        }
+                    }
+                }
                 let m = out.instance_transform(instance);
                 // Where it may be on the screen (instances posed by a bone: anywhere).
                 let mut centre_row = None;
@@ -539,7 +550,7 @@ fn screen_rows(v: &[V; 3], height: u32) -> Option<(i64, i64)> {
     if !(lo.is_finite() && hi.is_finite()) {
         return None;
     }
-    Some((lo.floor() as i64 - 1, hi.floor() as i64 + 1))
+    Some((raster::floor_i64(lo) - 1, raster::floor_i64(hi) + 1))
 }
 
 /// An instance record as [`scene::Instanced::write_instances`] writes it (what

@@ -86,9 +86,34 @@ pub fn phong(l: &Lighting, p: Vec3, n: Vec3, c: Vec4, matte: f32, front: bool) -
     rgb.extend(c.w)
 }
 
+/// `x` rounded to the nearest integer (halves up), without a libm call; `x` is
+/// finite and within ±2^31 (the guard band keeps it so).
+#[inline]
+fn round_i64(x: f32) -> i64 {
+    let y = x + 0.5;
+    let t = y as i64;
+    if (t as f32) > y {
+        t - 1
+    } else {
+        t
+    }
+}
+
+/// `x` rounded down, without a libm call (as [`round_i64`]).
+#[inline]
+pub fn floor_i64(x: f32) -> i64 {
+    let t = x as i64;
+    if (t as f32) > x {
+        t - 1
+    } else {
+        t
+    }
+}
+
 fn unorm(x: f32) -> u8 {
     // (NaN becomes 0, as `as` saturates it.)
-    (x.clamp(0.0, 1.0) * 255.0).round() as u8
+    // (x ≥ 0 after the clamp: adding a half and truncating rounds it.)
+    (x.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
 }
 
 /// `src` blended over `dst` (`SRC_ALPHA`, `ONE_MINUS_SRC_ALPHA`; alpha `ONE`,
@@ -258,7 +283,7 @@ impl Target {
             let iw = 1.0 / x.clip.w;
             let sx = (x.clip.x * iw + 1.0) * 0.5 * w;
             let sy = (x.clip.y * iw + 1.0) * 0.5 * h;
-            ((sx * SUB as f32).round() as i64, (sy * SUB as f32).round() as i64, x.clip.z * iw, iw)
+            (round_i64(sx * SUB as f32), round_i64(sy * SUB as f32), x.clip.z * iw, iw)
         });
         let (x0, y0) = (scr[0].0, scr[0].1);
         let area = (scr[1].0 - x0) * (scr[2].1 - y0) - (scr[2].0 - x0) * (scr[1].1 - y0);
@@ -326,6 +351,17 @@ impl Target {
                         zs_s[s] = l[0] * zs[0] + l[1] * zs[1] + l[2] * zs[2];
                     }
                 }
+                // Early depth test: a pixel whose every covered sample is hidden is
+                // not shaded (what it would write fails the test anyway).
+                if self.depth_test {
+                    for (s, z) in zs_s.iter().enumerate().take(offsets.len()) {
+                        let hidden =
+                            self.depth.get(base + s).is_none_or(|d| z.partial_cmp(d).is_none_or(|o| o.is_gt()));
+                        if hidden {
+                            covered &= !(1 << s);
+                        }
+                    }
+                }
                 if covered == 0 {
                     continue;
                 }
@@ -373,7 +409,7 @@ impl Target {
         // At least a pixel wide, as lavapipe (llvmpipe's point setup) draws them.
         let half = 0.5 * size.max(1.0);
         let (x0, x1, y0, y1) = (sx - half, sx + half, sy - half, sy + half);
-        if !self.any_row(y0.floor() as i64, y1.floor() as i64) {
+        if !self.any_row(floor_i64(y0), floor_i64(y1)) {
             return;
         }
         let color = Vec4::new(
@@ -384,10 +420,10 @@ impl Target {
         );
         let offsets = self.offsets();
         let depth_write = self.depth_test;
-        let px0 = (x0.floor() as i64).max(0);
-        let px1 = (x1.floor() as i64).min(i64::from(self.width) - 1);
+        let px0 = floor_i64(x0).max(0);
+        let px1 = floor_i64(x1).min(i64::from(self.width) - 1);
         let mut any = false;
-        for y in self.rows(y0.floor() as i64, y1.floor() as i64) {
+        for y in self.rows(floor_i64(y0), floor_i64(y1)) {
             for x in px0..=px1 {
                 let base = self.index(x as u32, y);
                 for (s, &(ox, oy)) in offsets.iter().enumerate() {
