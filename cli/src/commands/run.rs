@@ -87,9 +87,10 @@ pub struct Args {
     /// Picture size, WIDTHxHEIGHT.
     #[arg(long, default_value = "800x600")]
     size: String,
-    /// Picture samples: `auto` (one sample and edge smoothing on a CPU driver such
-    /// as lavapipe, 4x multisampling on a GPU) or a count (1 draws aliased edges;
-    /// a count the device lacks gives the next it has, with a warning).
+    /// Picture samples: `auto` (one sample and edge smoothing on the CPU renderer
+    /// and on a CPU driver such as lavapipe, 4x multisampling on a GPU) or a count
+    /// (1 draws aliased edges; a count the renderer lacks gives the next it has,
+    /// with a warning).
     #[arg(long, default_value = "auto", value_name = "auto|N", value_parser = crate::args::parse_samples)]
     samples: u32,
     /// Which renderer draws pictures: `auto` (the CPU renderer when the model's

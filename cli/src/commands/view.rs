@@ -99,10 +99,10 @@ pub struct Args {
     /// Draw wireframe (offscreen; press W in the window).
     #[arg(long)]
     wireframe: bool,
-    /// Samples: `auto` (offscreen: one sample and edge smoothing on a CPU driver
-    /// such as lavapipe, 4x multisampling on a GPU; the window: 4x) or a count (1
-    /// draws aliased edges; a count the device lacks gives the next it has, with a
-    /// warning).
+    /// Samples: `auto` (offscreen: one sample and edge smoothing on the CPU
+    /// renderer and on a CPU driver such as lavapipe, 4x multisampling on a GPU;
+    /// the window: 4x) or a count (1 draws aliased edges; a count the renderer
+    /// lacks gives the next it has, with a warning).
     #[arg(long, default_value = "auto", value_name = "auto|N", value_parser = crate::args::parse_samples)]
     samples: u32,
     /// With --png: which renderer draws: `auto` (the CPU renderer when the model's
