@@ -124,7 +124,8 @@ fn mdg_run(args: &[&str]) -> std::process::Output {
 }
 
 /// `mdg-run --png --stats` says which renderer drew the picture and why; the CPU
-/// path leaves libvulkan unloaded, and draws the same bytes twice; a grammar with
+/// path leaves libvulkan unloaded, compiles and reads no shader, and draws the same
+/// bytes twice; a grammar with
 /// its own shaders is drawn by Vulkan, and `--renderer cpu` refuses it (exit 2).
 #[test]
 fn mdg_run_says_which_renderer_drew_the_picture() {
@@ -148,6 +149,7 @@ fn mdg_run_says_which_renderer_drew_the_picture() {
         assert!(o.status.success(), "{err}");
         assert!(err.contains("picture drawn by the CPU renderer (program std phong_vs + std phong_fs"), "{err}");
         assert!(err.contains("libvulkan loaded: no"), "{err}");
+        assert!(err.contains("shaders compiled with glslang 0  taken from the SPIR-V cache 0"), "{err}");
     }
     assert_eq!(std::fs::read(&a).expect("a"), std::fs::read(&b).expect("b"), "same source, same picture bytes");
     let custom = data("custom_shader.mdg");

@@ -448,7 +448,9 @@ fn a_second_picture_recompiles_no_shader() {
             .env("XDG_CACHE_HOME", dir.join("cache"))
             .env_remove("MDG_SPIRV_CACHE")
             .arg(root().join("std/examples/tree.mdg"))
-            .args(["-o", "tree.png", "--size", "64x48"])
+            // (Vulkan's path: the CPU renderer, `auto`'s choice for std's program,
+            // compiles no shader at all: cli/tests/cpu_render.rs.)
+            .args(["-o", "tree.png", "--size", "64x48", "--renderer", "vulkan"])
             .output()
             .expect("run mdg-run");
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
