@@ -99,7 +99,7 @@ fn round_i64(x: f32) -> i64 {
     }
 }
 
-/// `x` rounded down, without a libm call (as [`round_i64`]).
+/// `x` rounded down, without a libm call (as `round_i64`).
 #[inline]
 pub fn floor_i64(x: f32) -> i64 {
     let t = x as i64;
