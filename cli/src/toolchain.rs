@@ -131,6 +131,33 @@ fn compile_std(std_dir: Option<&Path>) -> Result<StdPrograms, String> {
     }
 }
 
+/// The GLSL of std's `phong_vs` and `phong_fs` as [`std_programs`] compiles them
+/// (from `std_dir`'s `shaders.mdg` when it has one, else the built-in copy), read
+/// without compiling anything: the CPU renderer checks their content hash
+/// (`mdg_viewer::cpu::program_of`). A shader that is not there is empty (and so not
+/// std's).
+pub fn std_phong_code(std_dir: Option<&Path>) -> (String, String) {
+    let text = std_dir
+        .map(|d| d.join("shaders.mdg"))
+        .filter(|p| p.is_file())
+        .and_then(|p| std::fs::read_to_string(p).ok())
+        .unwrap_or_else(|| STD_SHADERS.to_string());
+    (shader_code(&text, "@vertexshader", "phong_vs"), shader_code(&text, "@fragmentshader", "phong_fs"))
+}
+
+/// The lines between `DIRECTIVE NAME` and `@endshader` in an `.mdg` text.
+fn shader_code(text: &str, directive: &str, name: &str) -> String {
+    let mut lines = text.lines();
+    let found = lines.by_ref().any(|l| {
+        let mut w = l.split_whitespace();
+        w.next() == Some(directive) && w.next() == Some(name)
+    });
+    if !found {
+        return String::new();
+    }
+    lines.take_while(|l| l.trim() != "@endshader").collect::<Vec<_>>().join("\n")
+}
+
 /// Compiled std programs by std directory.
 type StdCache = Mutex<Vec<(Option<PathBuf>, StdPrograms)>>;
 

@@ -266,7 +266,7 @@ const README_LINES: &[(&str, How)] = &[
     ("mdg-run std/examples/grid_cottage.mdg --seed 2 -o house2.schem", How::Run),
     ("mdgc induce house1.vox house2.schem --spec rect --alpha 1 --ops both -o style.mdg", How::Run),
     ("mdg-run style.mdg --steps 50 --enclosure --seed 7 -o house.vox --png house.png", How::Run),
-    ("mdg-run FILE.mdg|FILE.mdgb [-o OUT] [--format glb|obj|stl|ply|json|none] [--instances] [--seed N] [--param NAME=V]… [--preset P]… [--png PIC.png --size WxH] [--samples auto|N] [--camera AZ,EL[,ZOOM]] [--frames DIR] [--stats] [--max-vertices N] [--time-budget TIME] [--time T] [--max-iter N] [--max-stack N] [--seeds A..B -o 'out/{seed}.glb' [--shard K/N] [-j N]]", How::Check),
+    ("mdg-run FILE.mdg|FILE.mdgb [-o OUT] [--format glb|obj|stl|ply|json|none] [--instances] [--seed N] [--param NAME=V]… [--preset P]… [--png PIC.png --size WxH] [--samples auto|N] [--renderer auto|cpu|vulkan] [--camera AZ,EL[,ZOOM]] [--frames DIR] [--stats] [--max-vertices N] [--time-budget TIME] [--time T] [--max-iter N] [--max-stack N] [--seeds A..B -o 'out/{seed}.glb' [--shard K/N] [-j N]]", How::Check),
     ("mdgc check FILE…", How::Check),
     ("mdgc check --message-format json FILE", How::Check),
     ("mdgc check --program FILE", How::Check),

@@ -166,6 +166,33 @@ impl OrbitCamera {
     }
 }
 
+/// The view and projection of a frame, and the eye: the orbit camera (`planes`, the
+/// grammar's near and far planes, kept unless they clip the model), or, when
+/// `rule_at` is a time and the animation has a camera rule, that rule at that time
+/// (looking along its −z with +y up). Shared by the Vulkan renderer and
+/// the CPU renderer ([`crate::cpu`]), so both frame a picture alike.
+pub fn frame_view_projection(
+    camera: &OrbitCamera,
+    rule_at: Option<f32>,
+    animation: Option<&mdg_vm::output::Animation>,
+    planes: (f32, f32),
+    aspect: f32,
+) -> (Mat4, Mat4, Vec3) {
+    if let (Some(time), Some(anim)) = (rule_at, animation) {
+        if let (Some(cam), Some(f)) = (&anim.camera, anim.camera_at(time as f64)) {
+            let (t, r, _) = mdg_vm::anim::trs(&f);
+            let view = Mat4::from_rotation_translation(r, t).inverse();
+            let near = cam.near.max(1e-4);
+            let far = cam.far.max(near * 2.0);
+            let mut proj =
+                glam::camera::rh::proj::directx::perspective(cam.fov.clamp(1.0, 170.0).to_radians(), aspect, near, far);
+            proj.y_axis.y = -proj.y_axis.y;
+            return (view, proj, t);
+        }
+    }
+    (camera.view(), camera.projection(aspect, planes.0, planes.1), camera.eye())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

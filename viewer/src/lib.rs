@@ -10,6 +10,8 @@
 //! evaluated grammar (compiled by the caller's [`model::Loader`]), [`scene`] packs the output into vertex buffers, [`camera`]
 //! frames and orbits, [`uniforms`] lays out the blocks of docs/reference.md §13, and
 //! [`program`] picks the SPIR-V (the bundle's `program` or std's Phong program).
+//! [`cpu`] draws offscreen pictures without Vulkan for the programs it implements
+//! exactly (std's Phong program, flat art), with lavapipe's rules.
 //! [`guided`] is the guide editor of grammars with a `search` section (the search
 //! in the background, editing guides, the overlay that shows them), plain Rust
 //! that the window drives; [`input`] is the window's input from winit or from a
@@ -27,6 +29,7 @@
 pub mod buffer;
 pub mod camera;
 pub mod context;
+pub mod cpu;
 pub mod guided;
 pub mod image;
 pub mod input;

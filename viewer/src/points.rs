@@ -118,7 +118,7 @@ fn f32_at(rec: &[u8], k: usize) -> f32 {
 /// Appends the points standing in for one instance (its record `rec`,
 /// [`INSTANCE_STRIDE`] bytes) to `out`, one per facet it shows; `false` (and
 /// nothing appended) when it is to be drawn as a mesh.
-fn stand_in(view: &View, s: &StandIn, facets: &[Facet], rec: &[u8], out: &mut Vec<u8>) -> bool {
+pub(crate) fn stand_in(view: &View, s: &StandIn, facets: &[Facet], rec: &[u8], out: &mut Vec<u8>) -> bool {
     let row = |r: usize| {
         Vec4::new(f32_at(rec, 4 * r), f32_at(rec, 4 * r + 1), f32_at(rec, 4 * r + 2), f32_at(rec, 4 * r + 3))
     };

@@ -731,28 +731,10 @@ impl Renderer {
     /// camera rule at the frame's time (looking along its −z with +y up).
     pub fn view_projection(&self, frame: &FrameParams) -> (Mat4, Mat4, Vec3) {
         let aspect = self.extent.width.max(1) as f32 / self.extent.height.max(1) as f32;
-        let info = self.info();
-        let (near, far) = info.map(|i| (i.near, i.far)).unwrap_or((0.1, 1000.0));
-        if frame.camera_rule {
-            if let Some((gpu, _)) = &self.model {
-                if let (Some(cam), Some(f)) = (&gpu.animation.camera, gpu.animation.camera_at(frame.time as f64)) {
-                    let (t, r, _) = mdg_vm::anim::trs(&f);
-                    let view = Mat4::from_rotation_translation(r, t).inverse();
-                    let near = cam.near.max(1e-4);
-                    let far = cam.far.max(near * 2.0);
-                    let mut proj = glam::camera::rh::proj::directx::perspective(
-                        cam.fov.clamp(1.0, 170.0).to_radians(),
-                        aspect,
-                        near,
-                        far,
-                    );
-                    proj.y_axis.y = -proj.y_axis.y;
-                    return (view, proj, t);
-                }
-            }
-        }
-        let cam = &frame.camera;
-        (cam.view(), cam.projection(aspect, near, far), cam.eye())
+        let planes = self.info().map(|i| (i.near, i.far)).unwrap_or((0.1, 1000.0));
+        let animation = self.model.as_ref().map(|(gpu, _)| &gpu.animation);
+        let rule_at = frame.camera_rule.then_some(frame.time);
+        crate::camera::frame_view_projection(&frame.camera, rule_at, animation, planes, aspect)
     }
 
     /// Writes the frame's uniforms and bone matrices. The previous frame must have

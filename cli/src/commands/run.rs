@@ -1,13 +1,14 @@
 //! `mdg-run FILE`: evaluate a grammar (`.mdg` source or `.mdgb` bundle) and write a
 //! mesh; grammars with extension sections run their mode (guided search, creature
 //! evolution, grid generation). Pictures (`--png`, the modes' contact sheets) are
-//! drawn by the viewer's Vulkan offscreen renderer, the software renderer where no
-//! Vulkan can start.
+//! drawn by the viewer's CPU renderer when it implements the model's program (std's
+//! Phong program, flat art), else by its Vulkan offscreen renderer (`--renderer`),
+//! the software preview where no Vulkan can start.
 
 use crate::batch::{self, Manifest, Seeds, Shard};
 use crate::failure::Failure;
 use crate::modes::{self, Common};
-use crate::pictures::{Pictures, Vulkan};
+use crate::pictures::{Pictures, RendererChoice, Vulkan};
 use mdg_compiler::diag::render_plain;
 use mdg_compiler::driver;
 use mdg_compiler::source::{FsLoader, MemLoader};
@@ -78,18 +79,26 @@ pub struct Args {
     stats: bool,
     #[command(flatten)]
     limits: crate::args::LimitArgs,
-    /// Also write a picture (Vulkan offscreen, lavapipe without a GPU; the software
-    /// renderer where no Vulkan is installed).
+    /// Also write a picture (the CPU renderer for std's Phong program and flat art,
+    /// else Vulkan offscreen, lavapipe without a GPU: --renderer; the software
+    /// preview where no Vulkan is installed).
     #[arg(long)]
     png: Option<PathBuf>,
     /// Picture size, WIDTHxHEIGHT.
     #[arg(long, default_value = "800x600")]
     size: String,
-    /// Picture samples: `auto` (one sample and edge smoothing on a CPU driver such
-    /// as lavapipe, 4x multisampling on a GPU) or a count (1 draws aliased edges;
-    /// a count the device lacks gives the next it has, with a warning).
+    /// Picture samples: `auto` (one sample and edge smoothing on the CPU renderer
+    /// and on a CPU driver such as lavapipe, 4x multisampling on a GPU) or a count
+    /// (1 draws aliased edges; a count the renderer lacks gives the next it has,
+    /// with a warning).
     #[arg(long, default_value = "auto", value_name = "auto|N", value_parser = crate::args::parse_samples)]
     samples: u32,
+    /// Which renderer draws pictures: `auto` (the CPU renderer when the model's
+    /// program is std's Phong program or flat art, which it implements exactly; else
+    /// Vulkan), `cpu` (an error for a grammar's own shaders) or `vulkan`. --stats
+    /// says which drew the picture and why.
+    #[arg(long, value_enum, default_value = "auto")]
+    renderer: crate::pictures::RendererChoice,
     /// Write the pose at T seconds as a still model: every bone moved by its
     /// transform rules' frames at index ⌊T·fps⌋, the camera fixed there. For formats
     /// without animation (obj, stl, ply); applies to every format and the picture.
@@ -123,6 +132,13 @@ pub struct Args {
     creature: crate::modes::creature::CreatureArgs,
     #[command(flatten)]
     grid: crate::modes::grid::GridArgs,
+}
+
+/// Whether the Vulkan loader is mapped into this process (`/proc/self/maps`;
+/// `None` where there is no such file): the CPU renderer's pictures load none.
+fn vulkan_loaded() -> Option<bool> {
+    let maps = std::fs::read_to_string("/proc/self/maps").ok()?;
+    Some(maps.lines().any(|l| l.contains("libvulkan")))
 }
 
 fn peak_rss_kib() -> Option<u64> {
@@ -320,7 +336,7 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
         export::write_atomic(p, bundle.params_json().as_bytes())
             .map_err(|e| Failure::usage(format!("cannot write {}: {e}", p.display())))?;
     }
-    let pictures = Vulkan::new(opts.std_dir.clone()).posed(pose).samples(cli.samples);
+    let pictures = Vulkan::new(opts.std_dir.clone()).posed(pose).samples(cli.samples).renderer(cli.renderer);
     if bundle.extensions.has(SectionKind::Creatures) {
         if batch.is_some() {
             return Err(Failure::usage(
@@ -568,6 +584,12 @@ fn run_one(
     }
     let picture = if picture_only { Some(output) } else { cli.png.as_deref() };
     if let Some(png_path) = picture {
+        // `--renderer cpu` for a program the CPU renderer does not implement is a
+        // usage error, before anything is drawn.
+        if cli.renderer == RendererChoice::Cpu {
+            crate::pictures::decide(cli.renderer, bundle, &out, opts.std_dir.as_deref(), false)
+                .map_err(Failure::usage)?;
+        }
         // With --time the pose is already baked into `out`.
         phases.restart();
         let bytes = pictures
@@ -596,6 +618,14 @@ fn run_one(
             peak_rss_kib().map(|k| format!("{:.1} MiB", k as f64 / 1024.0)).unwrap_or_else(|| "n/a".into())
         );
         eprintln!("{}", phases.line());
+        if let (Some(line), true) = (pictures.last_renderer(), picture.is_some() || cli.frames.is_some()) {
+            let loaded = match vulkan_loaded() {
+                Some(true) => "yes",
+                Some(false) => "no",
+                None => "n/a",
+            };
+            eprintln!("picture drawn by the {line}; libvulkan loaded: {loaded}");
+        }
         let (compiled, cached) = mdg_compiler::shaders::compile_counts();
         eprintln!("shaders compiled with glslang {compiled}  taken from the SPIR-V cache {cached}");
     }

@@ -7,12 +7,12 @@ use crate::toolchain::Toolchain;
 use mdg_guided::{Cancel, Guide, GuidedTable, Stop};
 use mdg_viewer::camera::Pose;
 use mdg_viewer::context::{Context, ContextOptions, Validation};
+use mdg_viewer::cpu;
 use mdg_viewer::guided::edit::Editor;
 use mdg_viewer::guided::search::{run_search, SearchRequest};
 use mdg_viewer::guided::watch::read_guides;
 use mdg_viewer::model::{self, LoadOptions, Loader};
 use mdg_viewer::offscreen::{self, Offscreen};
-use mdg_viewer::program::Programs;
 use mdg_viewer::renderer::FrameParams;
 use mdg_viewer::window::{self, WindowOptions};
 use mdg_viewer::Error;
@@ -99,12 +99,18 @@ pub struct Args {
     /// Draw wireframe (offscreen; press W in the window).
     #[arg(long)]
     wireframe: bool,
-    /// Samples: `auto` (offscreen: one sample and edge smoothing on a CPU driver
-    /// such as lavapipe, 4x multisampling on a GPU; the window: 4x) or a count (1
-    /// draws aliased edges; a count the device lacks gives the next it has, with a
-    /// warning).
+    /// Samples: `auto` (offscreen: one sample and edge smoothing on the CPU
+    /// renderer and on a CPU driver such as lavapipe, 4x multisampling on a GPU;
+    /// the window: 4x) or a count (1 draws aliased edges; a count the renderer
+    /// lacks gives the next it has, with a warning).
     #[arg(long, default_value = "auto", value_name = "auto|N", value_parser = crate::args::parse_samples)]
     samples: u32,
+    /// With --png: which renderer draws: `auto` (the CPU renderer when the model's
+    /// program is std's Phong program or flat art, which it implements exactly; else
+    /// Vulkan), `cpu` (an error for a grammar's own shaders or --wireframe) or
+    /// `vulkan`. The line printed before the picture says which drew it and why.
+    #[arg(long, value_enum, default_value = "auto")]
+    renderer: crate::pictures::RendererChoice,
     /// Seed for the random stream (overrides `randseed`).
     #[arg(long)]
     seed: Option<u64>,
@@ -155,7 +161,98 @@ fn search_for_picture(model: &mut model::Model, guides: Option<Vec<Guide>>, eval
     Ok(())
 }
 
-fn offscreen(cli: &Args, model: &model::Model, size: (u32, u32), programs: &Programs) -> Result<u32, Error> {
+/// The offscreen camera choice of `--camera` for a model with (or without) a camera
+/// rule: the pose, and whether to look through the rule.
+fn offscreen_view(cli: &Args, has_camera_rule: bool) -> Result<(Option<Pose>, bool), Error> {
+    let pose = camera_pose(&cli.camera)?;
+    let camera_rule = match cli.camera.as_str() {
+        _ if pose.is_some() => false,
+        "home" => false,
+        "rule" if !has_camera_rule => {
+            return Err(Error::Other("--camera rule: the grammar has no camerarule".into()));
+        }
+        _ => has_camera_rule && cli.turntable.is_none(),
+    };
+    Ok((pose, camera_rule))
+}
+
+/// Writes the picture (or the turntable's views and sheet) of `render`, a function
+/// of a camera giving RGBA pixels.
+fn write_pictures(
+    cli: &Args,
+    png: &Path,
+    size: (u32, u32),
+    home: mdg_viewer::camera::OrbitCamera,
+    background: [f32; 4],
+    mut render: impl FnMut(mdg_viewer::camera::OrbitCamera) -> Result<Vec<u8>, Error>,
+) -> Result<(), Error> {
+    match cli.turntable {
+        None => {
+            let px = render(home)?;
+            offscreen::write_png(png, &px, size.0, size.1)?;
+        }
+        Some(n) => {
+            // Only the sheet's shrunk copies are kept: memory stays that of one sheet.
+            let k = offscreen::sheet_factor(n, size.0);
+            let mut views = Vec::new();
+            let mut tile = size;
+            for (i, cam) in offscreen::turntable(&home, n).into_iter().enumerate() {
+                let px = render(cam)?;
+                offscreen::write_png(&numbered(png, i as u32, n), &px, size.0, size.1)?;
+                let (small, w, h) = offscreen::shrink(&px, size.0, size.1, k);
+                tile = (w, h);
+                views.push(small);
+            }
+            let bg = background.map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8);
+            let (sheet, w, h) = offscreen::contact_sheet(&views, tile.0, tile.1, bg);
+            offscreen::write_png(png, &sheet, w, h)?;
+        }
+    }
+    Ok(())
+}
+
+/// The picture by the CPU renderer (`mdg_viewer::cpu`): no Vulkan is loaded.
+fn offscreen_cpu(cli: &Args, model: &model::Model, size: (u32, u32), program: &cpu::Program) -> Result<u32, Error> {
+    let Some(png) = &cli.png else { return Ok(0) };
+    let t0 = std::time::Instant::now();
+    let (opts, warning) = crate::pictures::cpu_options(cli.samples, size);
+    if let Some(w) = warning {
+        eprintln!("{w}");
+    }
+    let scene = cpu::CpuScene::new(&model.bundle, &model.output, program);
+    let info = scene.info().clone();
+    let (pose, camera_rule) = offscreen_view(cli, info.has_camera_rule)?;
+    let aspect = size.0 as f32 / size.1 as f32;
+    let home = match pose {
+        Some(p) => scene.home_camera(aspect).posed(&info.bounds, aspect, p),
+        None => scene.home_camera(aspect),
+    };
+    let mut drawn = cpu::Drawn::default();
+    write_pictures(cli, png, size, home, info.background, |camera| {
+        let frame = FrameParams { camera, time: cli.time, wireframe: false, camera_rule };
+        let (px, d) = scene.render(&frame, &opts);
+        drawn = d;
+        Ok(px)
+    })?;
+    eprintln!(
+        "mdg-view: {} triangles, {} line segments, drawn by the {}",
+        info.n_triangles,
+        info.n_line_segments,
+        crate::pictures::cpu_note(program, &opts, &drawn)
+    );
+    eprintln!("mdg-view: wrote {} ({:.0} ms)", png.display(), t0.elapsed().as_secs_f64() * 1e3);
+    Ok(0)
+}
+
+fn offscreen(cli: &Args, model: &model::Model, size: (u32, u32), std_dir: Option<&Path>) -> Result<u32, Error> {
+    let decision = crate::pictures::decide(cli.renderer, &model.bundle, &model.output, std_dir, cli.wireframe)
+        .map_err(Error::Other)?;
+    let why = match decision {
+        crate::pictures::Decision::Cpu(program) => return offscreen_cpu(cli, model, size, &program),
+        crate::pictures::Decision::Vulkan(why) => why,
+    };
+    let programs = Toolchain.programs(std_dir)?;
+    let programs = &programs;
     offscreen::keep_freed_memory();
     let ctx = Arc::new(Context::new(&ContextOptions {
         validation: Validation::from_env(),
@@ -172,7 +269,7 @@ fn offscreen(cli: &Args, model: &model::Model, size: (u32, u32), programs: &Prog
     let t0 = std::time::Instant::now();
     let info = off.set_model(model, programs)?;
     eprintln!(
-        "mdg-view: {} triangles, {} line segments, program {} on {}, {} sample(s){} (upload {:.0} ms)",
+        "mdg-view: {} triangles, {} line segments, program {} on {}, {} sample(s){} (upload {:.0} ms), drawn by the Vulkan renderer, because {why}",
         info.n_triangles,
         info.n_line_segments,
         info.program,
@@ -182,42 +279,13 @@ fn offscreen(cli: &Args, model: &model::Model, size: (u32, u32), programs: &Prog
         t0.elapsed().as_secs_f64() * 1e3
     );
     let Some(png) = &cli.png else { return Ok(0) };
-    let pose = camera_pose(&cli.camera)?;
+    let (pose, camera_rule) = offscreen_view(cli, info.has_camera_rule)?;
     let home = match pose {
         Some(p) => off.home_camera().posed(&info.bounds, size.0 as f32 / size.1 as f32, p),
         None => off.home_camera(),
     };
-    let camera_rule = match cli.camera.as_str() {
-        _ if pose.is_some() => false,
-        "home" => false,
-        "rule" if !info.has_camera_rule => {
-            return Err(Error::Other("--camera rule: the grammar has no camerarule".into()));
-        }
-        _ => info.has_camera_rule && cli.turntable.is_none(),
-    };
     let frame = |camera| FrameParams { camera, time: cli.time, wireframe: cli.wireframe && ctx.wireframe, camera_rule };
-    match cli.turntable {
-        None => {
-            let px = off.render(&frame(home))?;
-            offscreen::write_png(png, &px, size.0, size.1)?;
-        }
-        Some(n) => {
-            // Only the sheet's shrunk copies are kept: memory stays that of one sheet.
-            let k = offscreen::sheet_factor(n, size.0);
-            let mut views = Vec::new();
-            let mut tile = size;
-            for (i, cam) in offscreen::turntable(&home, n).into_iter().enumerate() {
-                let px = off.render(&frame(cam))?;
-                offscreen::write_png(&numbered(png, i as u32, n), &px, size.0, size.1)?;
-                let (small, w, h) = offscreen::shrink(&px, size.0, size.1, k);
-                tile = (w, h);
-                views.push(small);
-            }
-            let bg = info.background.map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8);
-            let (sheet, w, h) = offscreen::contact_sheet(&views, tile.0, tile.1, bg);
-            offscreen::write_png(png, &sheet, w, h)?;
-        }
-    }
+    write_pictures(cli, png, size, home, info.background, |cam| off.render(&frame(cam)))?;
     eprintln!("mdg-view: wrote {} ({:.0} ms)", png.display(), t0.elapsed().as_secs_f64() * 1e3);
     drop(off);
     Ok(ctx.validation_log().errors())
@@ -316,7 +384,7 @@ fn run_checked(cli: &Args) -> Result<ExitCode, Failure> {
         }
     };
     let result = if cli.png.is_some() {
-        Toolchain.programs(load.std_dir.as_deref()).and_then(|programs| offscreen(cli, &model, size, &programs))
+        offscreen(cli, &model, size, load.std_dir.as_deref())
     } else {
         let opts = WindowOptions {
             width: size.0,
