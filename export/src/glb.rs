@@ -151,28 +151,28 @@ pub fn write_glb_with(out: &Output, opts: &GlbOptions, w: &mut dyn std::io::Writ
         if gpu.instanced.get(i).copied().unwrap_or(false) {
             continue;
         }
-        let Some(shared) = out.shared(inst).filter(|s| !s.is_prototype()) else { continue };
+        let Some(shared) = out.shared(&inst).filter(|s| !s.is_prototype()) else { continue };
         if shared.mesh.triangles.is_empty() {
             continue;
         }
-        let transform = out.instance_transform(inst);
-        let placed = if out.instance_mirrored(inst) {
+        let transform = out.instance_transform(&inst);
+        let placed = if out.instance_mirrored(&inst) {
             orthogonal_trs(&(transform * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)))).map(|trs| (trs, true))
         } else {
             orthogonal_trs(&transform).map(|trs| (trs, false))
         };
         match placed {
             Some((trs, mirror)) => as_nodes.push((i as u32, inst, trs, mirror)),
-            None => baked.bake(&shared.mesh, out, i as u32, inst),
+            None => baked.bake(&shared.mesh, out, i as u32, &inst),
         }
     }
     // Thousands of nodes make importers crawl (Blender spends over a millisecond on
     // each object, about as long as on 50 vertices): above the limit, instances of
     // small meshes are merged into the geometry; big ones stay nodes.
     if as_nodes.len() > MAX_INSTANCE_NODES {
-        as_nodes.retain(|&(i, inst, _, _)| match out.shared(inst) {
+        as_nodes.retain(|&(i, inst, _, _)| match out.shared(&inst) {
             Some(shared) if shared.mesh.positions.len() <= MAX_MERGED_MESH_VERTICES => {
-                baked.bake(&shared.mesh, out, i, inst);
+                baked.bake(&shared.mesh, out, i, &inst);
                 false
             }
             _ => true,
@@ -237,7 +237,7 @@ pub fn write_glb_with(out: &Output, opts: &GlbOptions, w: &mut dyn std::io::Writ
     let mut shared_accessors: BTreeMap<(u32, bool), SharedAccessors> = BTreeMap::new();
     let mut instance_meshes: BTreeMap<(u32, bool, [u32; 4]), u32> = BTreeMap::new();
     for (i, inst, (t, r, s), mirror) in as_nodes {
-        let Some(shared) = out.shared(inst) else { continue };
+        let Some(shared) = out.shared(&inst) else { continue };
         let acc = match shared_accessors.get(&(inst.mesh, mirror)) {
             Some(a) => *a,
             None => {
@@ -460,20 +460,20 @@ fn prototype_scale(f: &Frame) -> f32 {
 /// (one accessor each), non-finite numbers written as 0. One pass per attribute:
 /// each reads only what it writes (the translation is the frame's `u`).
 fn write_instance_attributes(out: &Output, order: &[u32], per_color: bool, sink: &mut Sink) -> Result<(), ExportError> {
-    let frames = || order.iter().map(|&i| out.instances.get(i as usize).map(|inst| &inst.frame));
+    let frames = || order.iter().map(|&i| out.instances.frame(i as usize));
     for f in frames() {
         sink.floats(f.map_or([0.0; 3], |f| finite3(f.u.to_array())))?;
     }
     for f in frames() {
-        sink.floats(f.map_or([0.0; 4], |f| prototype_rotation(f).map(finite)))?;
+        sink.floats(f.map_or([0.0; 4], |f| prototype_rotation(&f).map(finite)))?;
     }
     for f in frames() {
-        sink.floats([f.map_or(0.0, |f| finite(prototype_scale(f))); 3])?;
+        sink.floats([f.map_or(0.0, |f| finite(prototype_scale(&f))); 3])?;
     }
     if per_color {
         let mut last = ([1.0f32; 4], linear_color([1.0; 4]));
         for &i in order {
-            let c = out.instances.get(i as usize).map_or([0.0; 4], |inst| clamp_color(inst.color));
+            let c = out.instances.color(i as usize).map_or([0.0; 4], clamp_color);
             if c != last.0 {
                 last = (c, linear_color(c));
             }

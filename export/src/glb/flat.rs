@@ -290,13 +290,13 @@ pub(super) fn flat_plan(src: &FlatSource, what: &str, infos: &mut Option<ProtoIn
             }
             VertexPart::Prototype { instance, base } => {
                 let (Some(out), Some(infos)) = (out, infos.as_mut()) else { return Ok(()) };
-                let inst = &out.instances[instance];
+                let Some(inst) = out.instances.get(instance) else { return Ok(()) };
                 let Some(info) = infos.get(inst.mesh) else { return Ok(()) };
                 if base as usize != plan.n {
                     return Err(ExportError::PiecesOutOfOrder { what: what.to_string() });
                 }
                 if !info.valid {
-                    let name = out.shared(inst).map_or("", |s| s.name.as_str());
+                    let name = out.shared(&inst).map_or("", |s| s.name.as_str());
                     return Err(ExportError::PrototypeTriangles {
                         what: what.to_string(),
                         prototype: name.to_string(),
@@ -451,7 +451,7 @@ impl ProtoVertices {
         info: &ProtoInfo,
         instance: usize,
     ) -> bool {
-        let inst = &out.instances[instance];
+        let Some(inst) = out.instances.get(instance) else { return false };
         let f = ProtoFrame::new(&inst.frame);
         self.positions.clear();
         self.normals.clear();
@@ -459,7 +459,7 @@ impl ProtoVertices {
             self.colors.clear();
             self.colors_of = None;
             self.scratch.clear();
-            expand_prototype(&mut self.scratch, shared, inst, [0.0; 4]);
+            expand_prototype(&mut self.scratch, shared, &inst, [0.0; 4]);
             let m = &self.scratch;
             for i in 0..m.n_vertices() {
                 self.positions.push(float3_bytes(finite3(m.positions[i])));
@@ -528,8 +528,8 @@ pub(super) fn flat_write(
         }
         VertexPart::Prototype { instance, .. } => {
             let (Some(out), Some(infos)) = (out, infos.as_mut()) else { return Err(missing()) };
-            let inst = &out.instances[instance];
-            let shared = out.shared(inst).ok_or_else(missing)?;
+            let inst = out.instances.get(instance).ok_or_else(missing)?;
+            let shared = out.shared(&inst).ok_or_else(missing)?;
             let info = infos.get(inst.mesh).ok_or_else(missing)?;
             let mirrored = pv.fill(&mut rec, out, shared, info, instance);
             let [pos_of, nrm_of, col_of] = pv.maps(info);
@@ -580,8 +580,8 @@ pub(super) fn flat_write(
             }
             VertexPart::Prototype { instance, base } => {
                 let Some(out) = out else { return Err(missing()) };
-                let inst = &out.instances[instance];
-                let shared = out.shared(inst).ok_or_else(missing)?;
+                let inst = out.instances.get(instance).ok_or_else(missing)?;
+                let shared = out.shared(&inst).ok_or_else(missing)?;
                 let mirrored = ProtoFrame::new(&inst.frame).mirrored;
                 for (t, v) in shared.mesh.triangles.iter().enumerate() {
                     let v = v.map(|i| i + base);
