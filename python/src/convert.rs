@@ -149,8 +149,8 @@ pub fn flatten(out: &Output, groups: Groups, expand: Expand<impl Fn(usize) -> bo
                     runs.push(p);
                     push(What::Run(runs.len() as u32 - 1), nv, nt);
                 }
-                VertexPart::Prototype { instance, .. } => {
-                    if let Some(s) = out.instances.get(instance).and_then(|i| out.shared(&i)) {
+                VertexPart::Prototype { instance, inst, .. } => {
+                    if let Some(s) = out.shared(&inst) {
                         push(What::Instance(instance as u32), s.mesh.n_vertices(), s.mesh.triangles.len());
                     }
                 }

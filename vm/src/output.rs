@@ -138,9 +138,10 @@ impl Piece<'_> {
 pub enum VertexPart<'a> {
     /// A run of [`Output::mesh`].
     Piece(Piece<'a>),
-    /// Prototype instance `instance` (an index into [`Output::instances`]), whose
-    /// expanded vertices become the flat vertices from `base` on.
-    Prototype { instance: usize, base: u32 },
+    /// Prototype instance `instance` (an index into [`Output::instances`]; `inst`
+    /// is the instance), whose expanded vertices become the flat vertices from `base`
+    /// on.
+    Prototype { instance: usize, base: u32, inst: Instance },
 }
 
 /// Which groups of geometry a flat walk visits, in this order: the `VERTEX`
@@ -457,8 +458,8 @@ impl Output {
                 false => (0, 0),
             })
             .collect();
-        for (i, inst) in self.instances.iter().enumerate() {
-            if let Some(&(dv, dt)) = per.get(inst.mesh as usize) {
+        for (i, mesh) in self.instances.meshes().enumerate() {
+            if let Some(&(dv, dt)) = per.get(mesh as usize) {
                 if expand(i) {
                     v += dv;
                     t += dt;
@@ -500,8 +501,7 @@ impl Output {
                     base = p.base + p.vertices.len() as u32;
                     f(&p)
                 }
-                VertexPart::Prototype { instance, base: b } => {
-                    let Some(inst) = self.instances.get(instance) else { return Ok(()) };
+                VertexPart::Prototype { instance, base: b, inst } => {
                     let Some(shared) = self.shared(&inst) else { return Ok(()) };
                     scratch.clear();
                     expand_prototype(&mut scratch, shared, &inst, self.instance_weight(instance));
@@ -560,7 +560,7 @@ impl Output {
             if at > done {
                 run(&mut f, at, &mut done, &mut tri, &mut base)?;
             }
-            f(VertexPart::Prototype { instance: i, base })?;
+            f(VertexPart::Prototype { instance: i, base, inst })?;
             base += shared.mesh.n_vertices() as u32;
         }
         if done < m.n_vertices() || tri < m.triangles.len() {
@@ -643,7 +643,8 @@ impl Output {
         // (Skipped when there is nothing to check: the instances of a big model are
         // most of its memory.)
         let walk = checks.iter().any(|c| !matches!(c, Check::Prototype(None)));
-        for (i, inst) in self.instances.iter().enumerate().filter(|_| walk) {
+        let all = if walk { self.instances.iter() } else { self.instances.range(0..0) };
+        for (i, inst) in all.enumerate() {
             match checks.get(inst.mesh as usize) {
                 Some(Check::Prototype(Some(extent))) if !frame_surely_maps_finite(&inst.frame, *extent) => {
                     let Some(s) = self.shared(&inst) else { continue };

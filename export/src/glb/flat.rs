@@ -288,9 +288,8 @@ pub(super) fn flat_plan(src: &FlatSource, what: &str, infos: &mut Option<ProtoIn
                 plan.n += p.vertices.len();
                 plan.sequential &= plan.n == 3 * plan.n_tris;
             }
-            VertexPart::Prototype { instance, base } => {
+            VertexPart::Prototype { base, inst, .. } => {
                 let (Some(out), Some(infos)) = (out, infos.as_mut()) else { return Ok(()) };
-                let Some(inst) = out.instances.get(instance) else { return Ok(()) };
                 let Some(info) = infos.get(inst.mesh) else { return Ok(()) };
                 if base as usize != plan.n {
                     return Err(ExportError::PiecesOutOfOrder { what: what.to_string() });
@@ -446,12 +445,10 @@ impl ProtoVertices {
     fn fill(
         &mut self,
         rec: &mut VertexRecord,
-        out: &Output,
         shared: &SharedMesh,
         info: &ProtoInfo,
-        instance: usize,
+        inst: &mdg_vm::output::Instance,
     ) -> bool {
-        let Some(inst) = out.instances.get(instance) else { return false };
         let f = ProtoFrame::new(&inst.frame);
         self.positions.clear();
         self.normals.clear();
@@ -459,7 +456,7 @@ impl ProtoVertices {
             self.colors.clear();
             self.colors_of = None;
             self.scratch.clear();
-            expand_prototype(&mut self.scratch, shared, &inst, [0.0; 4]);
+            expand_prototype(&mut self.scratch, shared, inst, [0.0; 4]);
             let m = &self.scratch;
             for i in 0..m.n_vertices() {
                 self.positions.push(float3_bytes(finite3(m.positions[i])));
@@ -526,12 +523,11 @@ pub(super) fn flat_write(
             }
             Ok(())
         }
-        VertexPart::Prototype { instance, .. } => {
+        VertexPart::Prototype { inst, .. } => {
             let (Some(out), Some(infos)) = (out, infos.as_mut()) else { return Err(missing()) };
-            let inst = out.instances.get(instance).ok_or_else(missing)?;
             let shared = out.shared(&inst).ok_or_else(missing)?;
             let info = infos.get(inst.mesh).ok_or_else(missing)?;
-            let mirrored = pv.fill(&mut rec, out, shared, info, instance);
+            let mirrored = pv.fill(&mut rec, shared, info, &inst);
             let [pos_of, nrm_of, col_of] = pv.maps(info);
             let vertex = |rec: &mut VertexRecord, sink: &mut Sink, v: usize| {
                 rec.put_encoded(
@@ -578,9 +574,8 @@ pub(super) fn flat_write(
                     )?;
                 }
             }
-            VertexPart::Prototype { instance, base } => {
+            VertexPart::Prototype { base, inst, .. } => {
                 let Some(out) = out else { return Err(missing()) };
-                let inst = out.instances.get(instance).ok_or_else(missing)?;
                 let shared = out.shared(&inst).ok_or_else(missing)?;
                 let mirrored = ProtoFrame::new(&inst.frame).mirrored;
                 for (t, v) in shared.mesh.triangles.iter().enumerate() {

@@ -110,7 +110,16 @@ impl<T: Bits> Runs<T> {
     /// The value of instance `i`, if there is one.
     #[inline]
     fn at(&self, i: usize) -> Option<T> {
-        self.0.get(self.entry(i)).map(|r| r.1)
+        match self.0.as_slice() {
+            [(_, v)] => Some(*v),
+            _ => self.0.get(self.entry(i)).map(|r| r.1),
+        }
+    }
+
+    /// Where the entry after `c` begins (`usize::MAX` if it is the last).
+    #[inline]
+    fn next_start(&self, c: usize) -> usize {
+        self.0.get(c + 1).map_or(usize::MAX, |r| r.0)
     }
 
     /// The value of instance `i`, reading on from entry `*c` (instances read in
@@ -141,6 +150,16 @@ pub struct Instances {
     bones: Runs<u32>,
     lins: Runs<u32>,
     ats: Runs<u32>,
+    /// The last instance's colour (bits), mesh, bone, lin and at: a push that
+    /// repeats them (nearly every one) is one comparison and the frame's write.
+    tail: [u32; 8],
+}
+
+/// `inst`'s fields that go in run tables, as bits.
+#[inline(always)]
+fn tail_of(inst: &Instance) -> [u32; 8] {
+    let c = inst.color.map(f32::to_bits);
+    [c[0], c[1], c[2], c[3], inst.mesh, inst.bone, inst.lin, inst.at]
 }
 
 impl std::fmt::Debug for Instances {
@@ -168,18 +187,30 @@ impl Instances {
     }
 
     /// Adds `inst` after the others.
-    #[inline]
+    #[inline(always)]
     pub fn push(&mut self, inst: Instance) {
-        let i = self.frames.len();
+        let tail = tail_of(&inst);
+        if tail != self.tail || self.frames.is_empty() {
+            self.note(&inst, tail);
+        }
         self.frames.push(pack(&inst.frame));
+    }
+
+    /// The run tables' entries for `inst` (the next instance), whose fields differ
+    /// from the last instance's (`tail`: see [`Instances::push`]).
+    #[inline(never)]
+    fn note(&mut self, inst: &Instance, tail: [u32; 8]) {
+        let i = self.frames.len();
         self.colors.note(i, inst.color);
         self.meshes.note(i, inst.mesh);
         self.bones.note(i, inst.bone);
         self.lins.note(i, inst.lin);
         self.ats.note(i, inst.at);
+        self.tail = tail;
     }
 
     /// Instance `i`.
+    #[inline]
     pub fn get(&self, i: usize) -> Option<Instance> {
         let frame = self.frame(i)?;
         Some(Instance {
@@ -199,18 +230,30 @@ impl Instances {
     }
 
     /// The colour of instance `i`.
+    #[inline]
     pub fn color(&self, i: usize) -> Option<[f32; 4]> {
         self.frames.get(i).and_then(|_| self.colors.at(i))
     }
 
     /// The shared mesh of instance `i`.
+    #[inline]
     pub fn mesh(&self, i: usize) -> Option<u32> {
         self.frames.get(i).and_then(|_| self.meshes.at(i))
     }
 
     /// The bone of instance `i`.
+    #[inline]
     pub fn bone(&self, i: usize) -> Option<u32> {
         self.frames.get(i).and_then(|_| self.bones.at(i))
+    }
+
+    /// The shared mesh of every instance in order (without unpacking the rest).
+    pub fn meshes(&self) -> impl Iterator<Item = u32> + '_ {
+        let runs = &self.meshes.0;
+        runs.iter().enumerate().flat_map(move |(k, &(first, mesh))| {
+            let end = runs.get(k + 1).map_or(self.len(), |r| r.0);
+            std::iter::repeat_n(mesh, end.saturating_sub(first))
+        })
     }
 
     /// Every instance in order.
@@ -233,6 +276,8 @@ impl Instances {
                 self.lins.entry(start),
                 self.ats.entry(start),
             ],
+            until: start,
+            fields: None,
         }
     }
 
@@ -312,6 +357,34 @@ pub struct InstanceIter<'a> {
     end: usize,
     /// The run-table entries of `next`'s colour, mesh, bone, lin and at.
     at: [usize; 5],
+    /// The instances before `until` have `fields` (colour, mesh, bone, lin, at):
+    /// no run table changes before it.
+    until: usize,
+    fields: Option<([f32; 4], [u32; 4])>,
+}
+
+impl InstanceIter<'_> {
+    /// Reads the run tables at instance `i` and how far their values hold.
+    #[inline(never)]
+    fn refill(&mut self, i: usize) {
+        let a = self.all;
+        let [c, m, b, l, t] = &mut self.at;
+        self.fields =
+            match (a.colors.read(c, i), a.meshes.read(m, i), a.bones.read(b, i), a.lins.read(l, i), a.ats.read(t, i)) {
+                (Some(color), Some(mesh), Some(bone), Some(lin), Some(at)) => Some((color, [mesh, bone, lin, at])),
+                _ => None,
+            };
+        self.until = [
+            a.colors.next_start(*c),
+            a.meshes.next_start(*m),
+            a.bones.next_start(*b),
+            a.lins.next_start(*l),
+            a.ats.next_start(*t),
+        ]
+        .into_iter()
+        .min()
+        .unwrap_or(usize::MAX);
+    }
 }
 
 impl Iterator for InstanceIter<'_> {
@@ -324,16 +397,11 @@ impl Iterator for InstanceIter<'_> {
             return None;
         }
         self.next += 1;
-        let a = self.all;
-        let [c, m, b, l, t] = &mut self.at;
-        Some(Instance {
-            frame: unpack(a.frames.get(i)?),
-            color: a.colors.read(c, i)?,
-            mesh: a.meshes.read(m, i)?,
-            bone: a.bones.read(b, i)?,
-            lin: a.lins.read(l, i)?,
-            at: a.ats.read(t, i)?,
-        })
+        if i >= self.until || self.fields.is_none() {
+            self.refill(i);
+        }
+        let (color, [mesh, bone, lin, at]) = self.fields?;
+        Some(Instance { frame: unpack(self.all.frames.get(i)?), color, mesh, bone, lin, at })
     }
 
     #[inline]
@@ -393,6 +461,7 @@ mod tests {
             assert_eq!(from, pushed[i..].iter().map(bits).collect::<Vec<_>>());
         }
         assert_eq!(all.get(40), None);
+        assert_eq!(all.meshes().collect::<Vec<_>>(), pushed.iter().map(|p| p.mesh).collect::<Vec<_>>());
         assert_eq!(all.range(38..100).count(), 2);
         assert_eq!(all.range(50..60).count(), 0);
         let chunks: Vec<Vec<u32>> = all.chunks(16).map(|c| c.map(|i| i.mesh).collect()).collect();
