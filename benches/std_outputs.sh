@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Writes the default `.glb` and the `.json` of every std example into DIR (and the
-# `.glb` with sites, `--sites`, as `.sites.glb`: the evaluator's recording loop), so
+# `.glb` with sites, `--sites`, as `.sites.glb`: the evaluator's recording loop; and
+# the instanced `.glb`, `--instances`, as `.instances.glb`: the instance records), so
 # that two builds of the evaluator can be compared byte for byte:
 #
 #   benches/std_outputs.sh /tmp/before            # with the old build
@@ -28,6 +29,8 @@ for f in std/examples/*.mdg; do
   done
   "$MDG_RUN" "$f" --sites -o "$out/$name.sites.glb" > /dev/null 2> "$out/$name.sites.log" \
     || echo "exit $?" >> "$out/$name.sites.log"
+  "$MDG_RUN" "$f" --instances -o "$out/$name.instances.glb" > /dev/null 2> "$out/$name.instances.log" \
+    || echo "exit $?" >> "$out/$name.instances.log"
 done
 # (Elapsed times in the logs differ from run to run, and the output folder's name.)
 sed -i -E 's/[0-9]+(\.[0-9]+)? ?(ms|s)\b/TIME/g' "$out"/*.log

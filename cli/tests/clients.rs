@@ -279,7 +279,7 @@ fn expected_gpu_instancing(out: &mdg_vm::output::Output) -> (usize, usize) {
     let mut variants: BTreeMap<u32, std::collections::BTreeSet<[u32; 4]>> = BTreeMap::new();
     let mut instances = 0;
     for inst in &out.instances {
-        let Some(shared) = out.shared(inst).filter(|s| !s.mesh.triangles.is_empty()) else {
+        let Some(shared) = out.shared(&inst).filter(|s| !s.mesh.triangles.is_empty()) else {
             continue;
         };
         let f = &inst.frame;

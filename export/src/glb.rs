@@ -252,11 +252,11 @@ fn write_glb_spooling(
 
 /// An isosurface instance placed by a node of its own: its index, the instance,
 /// its TRS and whether it places the shared mesh's copy mirrored in x.
-type NodePlacement<'o> = (u32, &'o mdg_vm::output::Instance, (Vec3, Quat, Vec3), bool);
+type NodePlacement = (u32, mdg_vm::output::Instance, (Vec3, Quat, Vec3), bool);
 
 /// The isosurface instances not in `gpu`'s instanced nodes, split into ones that
 /// can be nodes and ones that must be baked (into the returned [`Baked`]).
-fn isosurface_placements<'o>(out: &'o Output, gpu: &GpuGroups) -> (Baked, Vec<NodePlacement<'o>>) {
+fn isosurface_placements(out: &Output, gpu: &GpuGroups) -> (Baked, Vec<NodePlacement>) {
     // Split isosurface instances into ones that can be nodes and ones that must be
     // baked. A mirrored similarity is a node too: its transform times a mirror in x
     // is a proper TRS, placed over a copy of the shared mesh mirrored in x (one copy
@@ -267,28 +267,28 @@ fn isosurface_placements<'o>(out: &'o Output, gpu: &GpuGroups) -> (Baked, Vec<No
         if gpu.instanced.get(i).copied().unwrap_or(false) {
             continue;
         }
-        let Some(shared) = out.shared(inst).filter(|s| !s.is_prototype()) else { continue };
+        let Some(shared) = out.shared(&inst).filter(|s| !s.is_prototype()) else { continue };
         if shared.mesh.triangles.is_empty() {
             continue;
         }
-        let transform = out.instance_transform(inst);
-        let placed = if out.instance_mirrored(inst) {
+        let transform = out.instance_transform(&inst);
+        let placed = if out.instance_mirrored(&inst) {
             orthogonal_trs(&(transform * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)))).map(|trs| (trs, true))
         } else {
             orthogonal_trs(&transform).map(|trs| (trs, false))
         };
         match placed {
             Some((trs, mirror)) => as_nodes.push((i as u32, inst, trs, mirror)),
-            None => baked.bake(&shared.mesh, out, i as u32, inst),
+            None => baked.bake(&shared.mesh, out, i as u32, &inst),
         }
     }
     // Thousands of nodes make importers crawl (Blender spends over a millisecond on
     // each object, about as long as on 50 vertices): above the limit, instances of
     // small meshes are merged into the geometry; big ones stay nodes.
     if as_nodes.len() > MAX_INSTANCE_NODES {
-        as_nodes.retain(|&(i, inst, _, _)| match out.shared(inst) {
+        as_nodes.retain(|&(i, inst, _, _)| match out.shared(&inst) {
             Some(shared) if shared.mesh.positions.len() <= MAX_MERGED_MESH_VERTICES => {
-                baked.bake(&shared.mesh, out, i, inst);
+                baked.bake(&shared.mesh, out, i, &inst);
                 false
             }
             _ => true,
@@ -313,7 +313,7 @@ impl<'a> Builder<'a> {
         let mut shared_accessors: BTreeMap<(u32, bool), SharedAccessors> = BTreeMap::new();
         let mut instance_meshes: BTreeMap<(u32, bool, [u32; 4]), u32> = BTreeMap::new();
         for (i, inst, (t, r, s), mirror) in as_nodes {
-            let Some(shared) = out.shared(inst) else { continue };
+            let Some(shared) = out.shared(&inst) else { continue };
             let acc = match shared_accessors.get(&(inst.mesh, mirror)) {
                 Some(a) => *a,
                 None => {
@@ -387,12 +387,12 @@ impl Record {
 /// Instance `i`'s [`Record`], `None` past the end.
 #[inline(always)]
 fn record(out: &Output, i: usize) -> Option<Record> {
-    out.instances.get(i).map(record_of)
+    out.instances.get(i).map(|i| record_of(&i))
 }
 
 /// Every instance's [`Record`], in order.
 fn records(out: &Output) -> impl Iterator<Item = Record> + '_ {
-    out.instances.iter().map(record_of)
+    out.instances.iter().map(|i| record_of(&i))
 }
 
 #[inline(always)]

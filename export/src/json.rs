@@ -84,11 +84,11 @@ pub fn write_json_to(out: &Output, w: &mut dyn std::io::Write) -> Result<(), Exp
         .instances
         .iter()
         .filter_map(|i| {
-            let shared = out.shared(i).filter(|s| !s.is_prototype())?;
+            let shared = out.shared(&i).filter(|s| !s.is_prototype())?;
             Some(DumpInstance {
                 name: &shared.name,
-                position: finite3(out.instance_transform(i).w_axis.truncate().to_array()),
-                scale: finite(out.instance_scale(i)),
+                position: finite3(out.instance_transform(&i).w_axis.truncate().to_array()),
+                scale: finite(out.instance_scale(&i)),
             })
         })
         .collect();

@@ -555,14 +555,16 @@ pub(crate) mod tests {
                 bones: Vec::new(),
             }],
             shared_meshes: vec![SharedMesh::isosurface("CUBE", shared)],
-            instances: vec![
+            instances: [
                 inst(id.translate(Vec3::new(3.0, 0.0, 0.0)), [1.0, 0.0, 0.0, 1.0]),
                 inst(
                     id.translate(Vec3::new(0.0, 3.0, 0.0)).rotate(Quat::from_rotation_y(0.3)).scale(2.0),
                     [0.0, 1.0, 0.0, 1.0],
                 ),
                 inst(id.translate(Vec3::new(-3.0, 0.0, 0.0)).reflect(Vec3::X), [2.0, -1.0, 0.5, 1.0]),
-            ],
+            ]
+            .into_iter()
+            .collect(),
             instance_weights: Vec::new(),
             lins: Vec::new(),
             stats: Stats {

@@ -157,7 +157,7 @@ mod tests {
         let shared = out.shared_meshes[0].mesh.clone();
         let mut baked = Baked::default();
         for i in [0u32, 1, 2] {
-            let inst = out.instances[i as usize];
+            let inst = out.instances.get(i as usize).expect("an instance");
             baked.bake(&shared, &out, i, &inst);
         }
         let n = shared.triangles.len() as u32;

@@ -70,7 +70,7 @@ fn outputs() -> Vec<(&'static str, Output)> {
     let at = |x: f32, y: f32| Frame::identity().translate(Vec3::new(x, y, 0.0));
     let instanced = Output {
         shared_meshes: vec![SharedMesh::isosurface("SPHERE", sphere), SharedMesh::isosurface("EMPTY", Mesh::default())],
-        instances: vec![
+        instances: [
             inst(at(3.0, 0.0), [1.0, 0.0, 0.0, 1.0]),
             inst(frame, [0.0, 1.0, 0.0, 1.0]),
             inst(at(0.0, -3.0), [1.0, 0.0, 0.0, 1.0]),
@@ -78,7 +78,9 @@ fn outputs() -> Vec<(&'static str, Output)> {
             inst(Frame::identity().scale(0.0), [1.0; 4]),
             Instance { mesh: 1, ..inst(Frame::identity(), [1.0; 4]) },
             Instance { mesh: 7, ..inst(Frame::identity(), [1.0; 4]) },
-        ],
+        ]
+        .into_iter()
+        .collect(),
         ..Output::default()
     };
     v.push(("instanced", instanced));

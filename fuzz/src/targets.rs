@@ -887,7 +887,7 @@ fn digest(out: &mdg_vm::output::Output) -> u64 {
     }
     out.lines.iter().flat_map(|l| l.points.iter().flatten()).for_each(|x| add(x.to_bits()));
     for i in &out.instances {
-        out.instance_transform(i).to_cols_array().iter().chain(i.color.iter()).for_each(|x| add(x.to_bits()));
+        out.instance_transform(&i).to_cols_array().iter().chain(i.color.iter()).for_each(|x| add(x.to_bits()));
         add(i.mesh);
     }
     add(out.animation.bones.len() as u32);

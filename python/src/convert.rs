@@ -5,7 +5,7 @@
 use glam::Vec3;
 use mdg_export::glb::prototype_placement;
 use mdg_vm::geom::mesh::Mesh;
-use mdg_vm::output::{expand_isosurface, expand_prototype, Groups, Instance, Output, Piece, VertexPart};
+use mdg_vm::output::{expand_isosurface, expand_prototype, Groups, Instance, InstanceIter, Output, Piece, VertexPart};
 
 /// A flat mesh: what [`crate::Mesh`] holds.
 #[derive(Debug, Default)]
@@ -149,8 +149,8 @@ pub fn flatten(out: &Output, groups: Groups, expand: Expand<impl Fn(usize) -> bo
                     runs.push(p);
                     push(What::Run(runs.len() as u32 - 1), nv, nt);
                 }
-                VertexPart::Prototype { instance, .. } => {
-                    if let Some(s) = out.instances.get(instance).and_then(|i| out.shared(i)) {
+                VertexPart::Prototype { instance, inst, .. } => {
+                    if let Some(s) = out.shared(&inst) {
                         push(What::Instance(instance as u32), s.mesh.n_vertices(), s.mesh.triangles.len());
                     }
                 }
@@ -165,7 +165,7 @@ pub fn flatten(out: &Output, groups: Groups, expand: Expand<impl Fn(usize) -> bo
     }
     if groups.isosurfaces && out.shared_meshes.iter().any(|s| !s.is_prototype()) {
         for (i, inst) in out.instances.iter().enumerate() {
-            let Some(s) = out.shared(inst).filter(|s| !s.is_prototype() && expand(i)) else { continue };
+            let Some(s) = out.shared(&inst).filter(|s| !s.is_prototype() && expand(i)) else { continue };
             push(What::Instance(i as u32), s.mesh.n_vertices(), s.mesh.triangles.len());
         }
     }
@@ -214,12 +214,12 @@ pub fn flatten(out: &Output, groups: Groups, expand: Expand<impl Fn(usize) -> bo
                 },
                 What::Instance(i) => {
                     let Some(inst) = out.instances.get(i as usize) else { continue };
-                    let Some(shared) = out.shared(inst) else { continue };
+                    let Some(shared) = out.shared(&inst) else { continue };
                     scratch.clear();
                     if shared.is_prototype() {
-                        expand_prototype(&mut scratch, shared, inst, out.instance_weight(i as usize));
+                        expand_prototype(&mut scratch, shared, &inst, out.instance_weight(i as usize));
                     } else {
-                        expand_isosurface(&mut scratch, &shared.mesh, out, inst);
+                        expand_isosurface(&mut scratch, &shared.mesh, out, &inst);
                     }
                     Piece {
                         mesh: &scratch,
@@ -370,7 +370,7 @@ pub fn instances(out: &Output, threads: usize) -> Placed {
     p.scale = vec![[0.0; 3]; n];
     let mut color = vec![[0.0; 4]; n];
     let mut bone = vec![0; n];
-    let work: Vec<(&[Instance], usize, Rows<'_>)> = all
+    let work: Vec<(InstanceIter<'_>, usize, Rows<'_>)> = all
         .chunks(size)
         .zip(prototype.chunks_mut(size))
         .zip(translation.chunks_mut(size))
@@ -381,13 +381,13 @@ pub fn instances(out: &Output, threads: usize) -> Placed {
         .enumerate()
         .map(|(c, ((((((insts, a), b), c2), d), e), f))| (insts, c * size, (a, b, c2, d, e, f)))
         .collect();
-    let fill = |(insts, first, rows): (&[Instance], usize, Rows<'_>)| -> (usize, Vec<u32>) {
+    let fill = |(insts, first, rows): (InstanceIter<'_>, usize, Rows<'_>)| -> (usize, Vec<u32>) {
         let (proto, trans, rot, scale, color, bone) = rows;
         let mut unplaced = Vec::new();
         let mut k = 0;
-        for (j, inst) in insts.iter().enumerate() {
-            let Some((t, r, s)) = placement(out, inst) else {
-                if out.is_prototype_instance(inst) {
+        for (j, inst) in insts.enumerate() {
+            let Some((t, r, s)) = placement(out, &inst) else {
+                if out.is_prototype_instance(&inst) {
                     unplaced.push((first + j) as u32);
                 }
                 continue;
@@ -450,8 +450,8 @@ fn in_place(out: &Output, threads: usize) -> Option<InPlace> {
     let work: Vec<_> = all.chunks(size).zip(rotation.chunks_mut(size)).zip(scale.chunks_mut(size)).collect();
     let done = chunks_on_threads(work, |((insts, rot), sc)| -> Option<bool> {
         let mut in_range = true;
-        for ((inst, r), s) in insts.iter().zip(rot).zip(sc) {
-            let (_, q, k) = placement(out, inst)?;
+        for ((inst, r), s) in insts.zip(rot).zip(sc) {
+            let (_, q, k) = placement(out, &inst)?;
             *r = [q[3], q[0], q[1], q[2]];
             *s = k;
             in_range &= inst.color.iter().all(|c| (0.0..=1.0).contains(c));
@@ -474,7 +474,6 @@ pub fn unplaced(out: &Output, threads: usize) -> Vec<u32> {
     chunks_on_threads(work, |(c, insts)| {
         let first = c * size;
         insts
-            .iter()
             .enumerate()
             .filter(|(_, i)| out.is_prototype_instance(i) && placement(out, i).is_none())
             .map(|(j, _)| (first + j) as u32)

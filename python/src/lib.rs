@@ -23,14 +23,13 @@ use mdg_compiler::source::{FsLoader, MemLoader, Sources};
 use mdg_export::{self as export, Format};
 use mdg_vm::bundle::{Bundle, SectionKind};
 use mdg_vm::eval::{evaluate, EvalOptions};
-use mdg_vm::output::{Groups, Instance, Output};
+use mdg_vm::output::{Groups, Output, PackedFrame, FRAME_WORDS, TRANSLATION_AT};
 
 use numpy::ndarray::{ArrayView1, ArrayView2, ShapeBuilder};
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::exceptions::{PyException, PyOSError, PyTypeError, PyUserWarning, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use std::mem::offset_of;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Duration;
@@ -602,7 +601,7 @@ struct Records {
     out: Arc<Output>,
 }
 
-/// A field of [`Instance`] that `Instances` shows as it is.
+/// A field of [`Instance`] that `Instances` shows from the records themselves.
 #[derive(Clone, Copy, Debug)]
 enum Field {
     /// `mesh` (u32): the prototype index, where every shared mesh is a prototype.
@@ -615,41 +614,50 @@ enum Field {
     Bone,
 }
 
-// The views' strides are whole elements of 4 bytes, and the fields they read are
-// 4-byte aligned within a record.
+// The views' strides are whole elements of 4 bytes: a packed frame is `f32`s.
 const _: () = {
-    assert!(size_of::<Instance>().is_multiple_of(4) && align_of::<Instance>() >= 4);
-    assert!(size_of::<f32>() == 4 && size_of::<u32>() == 4);
-    // `frame.u` is x, y, z in a row (glam's `Vec3` is `repr(C)`).
-    assert!(offset_of!(Instance, frame.u.y) == offset_of!(Instance, frame.u.x) + 4);
-    assert!(offset_of!(Instance, frame.u.z) == offset_of!(Instance, frame.u.x) + 8);
+    assert!(size_of::<PackedFrame>() == 4 * FRAME_WORDS && align_of::<PackedFrame>() == 4);
+    assert!(size_of::<f32>() == 4 && size_of::<u32>() == 4 && TRANSLATION_AT + 3 <= FRAME_WORDS);
 };
 
-/// Column `field` of every record of `owner`'s [`Output::instances`] as a read-only
-/// numpy array, (n,) uint32 or (n, K) float32, over the records themselves (a row
-/// stride of `size_of::<Instance>()` bytes, 80), with `owner` as its base. At least
-/// one record (a view of none is made as a copy by the caller's path).
+/// Column `field` of every instance of `owner`'s [`Output::instances`] as a read-only
+/// numpy array, (n,) uint32 or (n, K) float32, over the records themselves, with
+/// `owner` as its base: the translations over the packed frames (a row stride of
+/// [`FRAME_WORDS`] `f32`s, 44 bytes); a colour, prototype or bone that every
+/// instance shares as that one value repeated (a row stride of 0). `None` where the
+/// instances do not share it (the caller copies the column). At least one record.
 #[allow(unsafe_code)]
-fn record_view<'py>(owner: &Bound<'py, Records>, field: Field) -> PyResult<Bound<'py, PyAny>> {
-    let records: &[Instance] = &owner.get().out.instances;
+fn record_view<'py>(owner: &Bound<'py, Records>, field: Field) -> PyResult<Option<Bound<'py, PyAny>>> {
+    let records = &owner.get().out.instances;
     let n = records.len();
     if n == 0 {
         return Err(PyValueError::new_err("internal: a view of no instance records"));
     }
-    let stride = size_of::<Instance>() / 4;
-    let (offset, k) = match field {
-        Field::Prototype => (offset_of!(Instance, mesh), 0),
-        Field::Translation => (offset_of!(Instance, frame.u.x), 3),
-        Field::Color => (offset_of!(Instance, color), 4),
-        Field::Bone => (offset_of!(Instance, bone), 0),
+    let (start, stride, k): (*const u8, usize, usize) = match field {
+        Field::Translation => {
+            let frames = records.packed_frames();
+            (frames.as_ptr().cast::<f32>().wrapping_add(TRANSLATION_AT).cast(), FRAME_WORDS, 3)
+        }
+        Field::Prototype => match records.uniform_mesh() {
+            Some(v) => (std::ptr::from_ref(v).cast(), 0, 0),
+            None => return Ok(None),
+        },
+        Field::Color => match records.uniform_color() {
+            Some(v) => (v.as_ptr().cast(), 0, 4),
+            None => return Ok(None),
+        },
+        Field::Bone => match records.uniform_bone() {
+            Some(v) => (std::ptr::from_ref(v).cast(), 0, 0),
+            None => return Ok(None),
+        },
     };
-    let start = records.as_ptr().cast::<u8>().wrapping_add(offset);
     let base = owner.clone().into_any();
-    // SAFETY: the view reads, for each of the n records, `max(k, 1)` 4-byte values
-    // from byte `offset` of the record: inside the record (offset_of!, and the
-    // asserted layout of `frame.u`), aligned (the fields are f32/u32 and the records
-    // 4-aligned, strides whole elements), within the one allocation of `records`.
-    // `records` is the buffer of a `Vec` inside an `Arc<Output>` that `owner` holds:
+    // SAFETY: for the translations, the view reads, for each of the n packed frames
+    // (`[f32; FRAME_WORDS]`, 4-aligned, contiguous in one `Vec`), the three `f32`s
+    // from `TRANSLATION_AT` on (asserted inside the frame): aligned, within the one
+    // allocation. For a shared value, every row reads the same `max(k, 1)` 4-byte
+    // values of one run-table entry (a `u32` or `[f32; 4]`, aligned) with a row
+    // stride of 0. Both live in a `Vec` inside an `Arc<Output>` that `owner` holds:
     // the array keeps `owner` alive as its base, so the buffer outlives the array;
     // nothing mutates or reallocates it (an `Output` behind an `Arc` is never
     // changed: no `get_mut`/`make_mut` in this crate, and `Records` is frozen),
@@ -665,7 +673,7 @@ fn record_view<'py>(owner: &Bound<'py, Records>, field: Field) -> PyResult<Bound
         }
     };
     array.getattr("flags")?.setattr("writeable", false)?;
-    Ok(array)
+    Ok(Some(array))
 }
 
 /// One evaluation's result. Its arrays are made on first access and kept.
@@ -757,7 +765,7 @@ impl Model {
                 let unplaced = self.unplaced.get_or_init(|| convert::unplaced(&out, cpus()));
                 // Every isosurface, and the prototype instances that are not placed.
                 let expand = |i: usize| {
-                    out.instances.get(i).is_none_or(|inst| !out.is_prototype_instance(inst))
+                    out.instances.get(i).is_none_or(|inst| !out.is_prototype_instance(&inst))
                         || unplaced.binary_search(&(i as u32)).is_ok()
                 };
                 let expand = if unplaced.is_empty() { Expand::NoPrototypes(expand) } else { Expand::Where(expand) };
@@ -778,10 +786,24 @@ impl Model {
             // The rows the records hold as they are: read-only views of them, kept
             // alive by an owner of the output (not the Model: it holds the arrays).
             let records = Bound::new(py, Records { out: out.clone() })?;
-            let column = |field: Field| record_view(&records, field).map(Bound::unbind);
             let read_only = |a: Bound<'_, PyAny>| -> PyResult<Py<PyAny>> {
                 a.getattr("flags")?.setattr("writeable", false)?;
                 Ok(a.unbind())
+            };
+            // A view of the records, or (a value the instances do not share) a copy.
+            let column = |field: Field| -> PyResult<Py<PyAny>> {
+                if let Some(a) = record_view(&records, field)? {
+                    return Ok(a.unbind());
+                }
+                let all = &out.instances;
+                match field {
+                    Field::Prototype => {
+                        read_only(PyArray1::from_vec(py, all.iter().map(|i| i.mesh).collect()).into_any())
+                    }
+                    Field::Bone => read_only(PyArray1::from_vec(py, all.iter().map(|i| i.bone).collect()).into_any()),
+                    Field::Color => read_only(rows(py, all.iter().map(|i| i.color).collect())?),
+                    Field::Translation => read_only(rows(py, all.iter().map(|i| i.frame.u.to_array()).collect())?),
+                }
             };
             Py::new(
                 py,
@@ -847,11 +869,11 @@ impl Model {
     fn isosurfaces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
         let list = PyList::empty(py);
         for i in &self.out.instances {
-            let Some(s) = self.out.shared(i).filter(|s| !s.is_prototype()) else { continue };
+            let Some(s) = self.out.shared(&i).filter(|s| !s.is_prototype()) else { continue };
             let d = PyDict::new(py);
             d.set_item("name", &s.name)?;
-            d.set_item("position", convert::finite3(self.out.instance_transform(i).w_axis.truncate().to_array()))?;
-            d.set_item("scale", convert::finite(self.out.instance_scale(i)))?;
+            d.set_item("position", convert::finite3(self.out.instance_transform(&i).w_axis.truncate().to_array()))?;
+            d.set_item("scale", convert::finite(self.out.instance_scale(&i)))?;
             list.append(d)?;
         }
         Ok(list)

@@ -237,7 +237,7 @@ fn a_huge_isosurface_grid_is_skipped_with_a_warning_and_the_rest_kept() {
         assert_eq!(out.vertex_mesh().n_vertices(), 3, "the triangle before it is kept");
         let isos: Vec<_> = out.instances.iter().filter(|i| !out.is_prototype_instance(i)).collect();
         assert_eq!(isos.len(), 1, "the small isosurface after it is instanced");
-        assert_eq!(out.shared(isos[0]).map(|s| s.name.as_str()), Some("OK"));
+        assert_eq!(out.shared(&isos[0]).map(|s| s.name.as_str()), Some("OK"));
     });
 }
 

@@ -189,7 +189,7 @@ fn compare_rest(name: &str, inst: &Output, flat: &Output) -> Vec<String> {
             .enumerate()
             .filter(|(_, i)| !o.is_prototype_instance(i))
             .map(|(k, i)| {
-                let shared = o.shared(i).map(|s| (s.name.clone(), s.mesh.clone()));
+                let shared = o.shared(&i).map(|s| (s.name.clone(), s.mesh.clone()));
                 let lin = o.lins.get(i.lin as usize).filter(|_| i.lin != 0).map(|l| (l.0.to_cols_array(), l.1));
                 (i.frame, i.color, i.bone, lin, shared, o.instance_weight(k))
             })
@@ -277,7 +277,7 @@ impl Coverage {
     fn add(&mut self, b: &Bundle) {
         let out = evaluate(b, &EvalOptions::default());
         for (k, i) in out.instances.iter().enumerate() {
-            let Some(shared) = out.shared(i).filter(|s| s.is_prototype()) else { continue };
+            let Some(shared) = out.shared(&i).filter(|s| s.is_prototype()) else { continue };
             self.mirrored += usize::from(i.frame.mirrored());
             self.colour_deltas += usize::from(shared.mesh.colors.iter().any(|c| *c != [0.0; 4]));
             if let SharedKind::Prototype { face_normals } = &shared.kind {

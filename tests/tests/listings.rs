@@ -98,7 +98,7 @@ fn atoms_and_bonds(out: &Output) -> (Vec<Atom>, Vec<(Vec3, Vec3)>) {
     let atoms = out
         .instances
         .iter()
-        .map(|i| Atom { p: out.instance_transform(i).w_axis.truncate(), si: out.instance_scale(i) > 0.26 })
+        .map(|i| Atom { p: out.instance_transform(&i).w_axis.truncate(), si: out.instance_scale(&i) > 0.26 })
         .collect();
     let bonds = out.lines.iter().filter(|l| l.points.len() == 2).map(|l| (v(l.points[0]), v(l.points[1]))).collect();
     (atoms, bonds)

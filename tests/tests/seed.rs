@@ -13,7 +13,7 @@ const WALK: &str = "@import primitives\nmaxdepth 12\n\
 fn cubes_in(out: &mdg_vm::output::Output, lo: f32, hi: f32) -> Vec<[f32; 3]> {
     out.instances
         .iter()
-        .map(|i| out.instance_transform(i).w_axis)
+        .map(|i| out.instance_transform(&i).w_axis)
         .filter(|w| w.x >= lo - 20.0 && w.x < hi - 20.0)
         .map(|w| [w.x - lo, w.y, w.z])
         .collect()

@@ -6,7 +6,7 @@ use mdg_vm::eval::{evaluate, EvalOptions};
 
 /// The z of each instance (the triangle rules below are prototypes), in output order.
 fn first_z(out: &mdg_vm::output::Output) -> Vec<f32> {
-    out.instances.iter().map(|i| out.instance_transform(i).w_axis.z).collect()
+    out.instances.iter().map(|i| out.instance_transform(&i).w_axis.z).collect()
 }
 
 /// A triangle at height z: `rule T { VERTEX {} VERTEX {x 1} VERTEX {y 1} }` under `{z …}`.
@@ -48,7 +48,7 @@ fn breadth_first_is_deterministic_and_follows_the_seed() {
     let b = build_source(src);
     let run = |seed| {
         let out = evaluate(&b, &EvalOptions { seed: Some(seed), ..EvalOptions::default() });
-        let at: Vec<[f32; 16]> = out.instances.iter().map(|i| out.instance_transform(i).to_cols_array()).collect();
+        let at: Vec<[f32; 16]> = out.instances.iter().map(|i| out.instance_transform(&i).to_cols_array()).collect();
         (at, out.stats.triangles)
     };
     assert_eq!(run(3), run(3), "same seed, same output");

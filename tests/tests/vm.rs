@@ -27,7 +27,7 @@ fn distinct(points: impl IntoIterator<Item = Vec3>, tol: f32) -> Vec<Vec3> {
 fn icosahedron_from_iterators_and_t_angles_is_exact() {
     let out = run_source("@import polyhedra\nstartshape I\nrule I { icosahedron {} }\n");
     // Vertices: SPHERE instances; edges: the pen lines (MOVETO + LINETO per edge).
-    let verts = distinct(out.instances.iter().map(|i| out.instance_transform(i).w_axis.truncate()), TOL);
+    let verts = distinct(out.instances.iter().map(|i| out.instance_transform(&i).w_axis.truncate()), TOL);
     assert_eq!(verts.len(), 12, "an icosahedron has 12 vertices");
     for p in &verts {
         assert!((p.length() - 1.0).abs() < TOL, "vertex {p} not on the unit circumsphere");
@@ -652,7 +652,7 @@ fn prototype_instances_keep_their_sites() {
     for (i, instance) in inst.instances.iter().enumerate() {
         let r = inst.sites.run_of_instance(i as u32).expect("a run for every instance");
         let site = &inst.sites.sites[r[1] as usize];
-        if !inst.is_prototype_instance(instance) {
+        if !inst.is_prototype_instance(&instance) {
             assert_eq!((site.rule.as_str(), r[2]), ("A", 0), "the SPHERE");
             continue;
         }

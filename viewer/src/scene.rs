@@ -158,7 +158,7 @@ impl Instanced {
     pub fn write_instances(&self, out: &Output, dst: &mut [u8]) {
         for (&i, rec) in self.order.iter().zip(dst.chunks_exact_mut(INSTANCE_STRIDE as usize)) {
             let Some(instance) = out.instances.get(i as usize) else { continue };
-            let t = out.instance_transform(instance);
+            let t = out.instance_transform(&instance);
             let mut w = 0;
             let mut put = |x: [u8; 4]| {
                 rec[w..w + 4].copy_from_slice(&x);
@@ -533,12 +533,12 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
     }
     let mut placed: Vec<Option<Placed>> = (0..out.shared_meshes.len()).map(|_| None).collect();
     for (i, instance) in out.instances.iter().enumerate() {
-        let Some(shared) = out.shared(instance) else { continue };
+        let Some(shared) = out.shared(&instance) else { continue };
         let m = &shared.mesh;
         if m.triangles.is_empty() {
             continue;
         }
-        let mirrored = if shared.is_prototype() { instance.frame.linear().1 } else { out.instance_mirrored(instance) };
+        let mirrored = if shared.is_prototype() { instance.frame.linear().1 } else { out.instance_mirrored(&instance) };
         let p = placed[instance.mesh as usize].get_or_insert_with(|| {
             let vertex_offset = (inst.vertices.len() / PROTO_STRIDE as usize) as i32;
             // Equal vertices (a cube's corners, shared by the two triangles of a face)
@@ -631,8 +631,8 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
             let mut radius = 0.0f32;
             inst.order.extend_from_slice(list);
             for &i in list {
-                let instance = &out.instances[i as usize];
-                let t = out.instance_transform(instance);
+                let Some(instance) = out.instances.get(i as usize) else { continue };
+                let t = out.instance_transform(&instance);
                 max_bone = max_bone.max(instance.bone);
                 // Exact bounds (the camera frames the model as when it was expanded):
                 // every distinct vertex placed (a cube's 24 are 8 corners), but

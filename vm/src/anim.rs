@@ -23,7 +23,7 @@
 //!   (wrapping like a bone's track), in world space.
 
 use crate::geom::quat::Frame;
-use crate::output::{Animation, Mesh, Output, Track};
+use crate::output::{Animation, Instances, Mesh, Output, Track};
 use glam::{Quat, Vec3};
 
 /// The most frames the VM samples from one transform rule (a bound on memory for
@@ -179,7 +179,7 @@ impl Output {
     pub fn posed(&self, t: f64) -> Output {
         let pose = self.animation.pose(t);
         let mut o = self.clone();
-        if o.instances.iter().any(|i| i.bone != 0 && self.is_prototype_instance(i)) {
+        if o.instances.iter().any(|i| i.bone != 0 && self.is_prototype_instance(&i)) {
             // Posed vertex by vertex, as the evaluator's vertices would be.
             o.expand_prototypes();
         }
@@ -194,9 +194,11 @@ impl Output {
             }
             line.bones.clear();
         }
-        for inst in &mut o.instances {
+        let mut posed = Instances::new();
+        for mut inst in &o.instances {
             let b = inst.bone as usize;
             if b == 0 {
+                posed.push(inst);
                 continue;
             }
             if let Some(f) = pose.get(b) {
@@ -212,7 +214,9 @@ impl Output {
                 }
             }
             inst.bone = 0;
+            posed.push(inst);
         }
+        o.instances = posed;
         let camera = self.animation.camera.as_ref().zip(self.animation.camera_at(t));
         let (tracks, camera) = match camera {
             Some((cam, frame)) => {

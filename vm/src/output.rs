@@ -13,6 +13,9 @@ use serde::Serialize;
 use std::ops::Range;
 
 pub use crate::geom::Mesh;
+pub use instances::{Instance, InstanceIter, Instances, PackedFrame, FRAME_WORDS, TRANSLATION_AT};
+
+mod instances;
 
 /// A pen line: the positions reached by MOVETO/LINETO/BLENDTO/SLINETO/ALINETO in order.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
@@ -39,30 +42,6 @@ impl Polyline {
     pub fn bone(&self, i: usize) -> u32 {
         self.bones.get(i).copied().unwrap_or(0)
     }
-}
-
-/// One placement of a shared mesh: an isosurface's, or a prototype's (a rule's run
-/// of `VERTEX`/`FACENORMALS` items compiled once, bytecode `INST`). A compact
-/// record (80 bytes): the big trees of a grammar are a million of these rather
-/// than six million vertices.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Instance {
-    /// The frame the mesh is placed in (for an isosurface, with the non-uniform
-    /// factor [`Instance::lin`]).
-    pub frame: Frame,
-    /// The frame's colour, as the evaluator holds it (not clamped): an isosurface is
-    /// painted in it (clamped); a prototype's vertices add their colour deltas to it.
-    pub color: [f32; 4],
-    /// Index into [`Output::shared_meshes`].
-    pub mesh: u32,
-    pub bone: u32,
-    /// The frame's non-uniform factor: an index into [`Output::lins`], 0 for none
-    /// (always 0 for prototypes).
-    pub lin: u32,
-    /// Prototypes: how many vertices [`Output::mesh`] held when the instance was made,
-    /// so that flattening puts its vertices back where the evaluator would have
-    /// emitted them (0 for isosurfaces).
-    pub at: u32,
 }
 
 /// What a shared mesh is, which decides how an instance of it is expanded.
@@ -159,9 +138,10 @@ impl Piece<'_> {
 pub enum VertexPart<'a> {
     /// A run of [`Output::mesh`].
     Piece(Piece<'a>),
-    /// Prototype instance `instance` (an index into [`Output::instances`]), whose
-    /// expanded vertices become the flat vertices from `base` on.
-    Prototype { instance: usize, base: u32 },
+    /// Prototype instance `instance` (an index into [`Output::instances`]; `inst`
+    /// is the instance), whose expanded vertices become the flat vertices from `base`
+    /// on.
+    Prototype { instance: usize, base: u32, inst: Instance },
 }
 
 /// Which groups of geometry a flat walk visits, in this order: the `VERTEX`
@@ -375,8 +355,9 @@ pub struct Output {
     pub lines: Vec<Polyline>,
     /// The meshes instances place: isosurfaces and prototypes.
     pub shared_meshes: Vec<SharedMesh>,
-    /// Placements of shared meshes, in the order they were made.
-    pub instances: Vec<Instance>,
+    /// Placements of shared meshes, in the order they were made (packed: read them
+    /// through [`Instances`]' accessors).
+    pub instances: Instances,
     /// Weight per instance (a prototype's vertices add their deltas to it), or empty
     /// while every weight is zero. Read with [`Output::instance_weight`].
     pub instance_weights: Vec<[f32; 4]>,
@@ -477,8 +458,8 @@ impl Output {
                 false => (0, 0),
             })
             .collect();
-        for (i, inst) in self.instances.iter().enumerate() {
-            if let Some(&(dv, dt)) = per.get(inst.mesh as usize) {
+        for (i, mesh) in self.instances.meshes().enumerate() {
+            if let Some(&(dv, dt)) = per.get(mesh as usize) {
                 if expand(i) {
                     v += dv;
                     t += dt;
@@ -520,11 +501,10 @@ impl Output {
                     base = p.base + p.vertices.len() as u32;
                     f(&p)
                 }
-                VertexPart::Prototype { instance, base: b } => {
-                    let inst = &self.instances[instance];
-                    let Some(shared) = self.shared(inst) else { return Ok(()) };
+                VertexPart::Prototype { instance, base: b, inst } => {
+                    let Some(shared) = self.shared(&inst) else { return Ok(()) };
                     scratch.clear();
-                    expand_prototype(&mut scratch, shared, inst, self.instance_weight(instance));
+                    expand_prototype(&mut scratch, shared, &inst, self.instance_weight(instance));
                     base = b;
                     whole(&mut f, &scratch, &mut base)
                 }
@@ -535,9 +515,9 @@ impl Output {
         }
         if groups.isosurfaces {
             for (i, inst) in self.instances.iter().enumerate() {
-                let Some(shared) = self.shared(inst).filter(|s| !s.is_prototype() && expand(i)) else { continue };
+                let Some(shared) = self.shared(&inst).filter(|s| !s.is_prototype() && expand(i)) else { continue };
                 scratch.clear();
-                expand_isosurface(&mut scratch, &shared.mesh, self, inst);
+                expand_isosurface(&mut scratch, &shared.mesh, self, &inst);
                 whole(&mut f, &scratch, &mut base)?;
             }
         }
@@ -575,12 +555,12 @@ impl Output {
             f(VertexPart::Piece(piece))
         };
         for (i, inst) in self.instances.iter().enumerate() {
-            let Some(shared) = self.shared(inst).filter(|s| s.is_prototype() && expand(i)) else { continue };
+            let Some(shared) = self.shared(&inst).filter(|s| s.is_prototype() && expand(i)) else { continue };
             let at = (inst.at as usize).clamp(done, m.n_vertices());
             if at > done {
                 run(&mut f, at, &mut done, &mut tri, &mut base)?;
             }
-            f(VertexPart::Prototype { instance: i, base })?;
+            f(VertexPart::Prototype { instance: i, base, inst })?;
             base += shared.mesh.n_vertices() as u32;
         }
         if done < m.n_vertices() || tri < m.triangles.len() {
@@ -617,7 +597,7 @@ impl Output {
     /// Expands every prototype instance into [`Output::mesh`], where it was made, and
     /// drops them: the output the evaluator makes with instancing off.
     pub fn expand_prototypes(&mut self) {
-        if !self.instances.iter().any(|i| self.is_prototype_instance(i)) {
+        if !self.instances.iter().any(|i| self.is_prototype_instance(&i)) {
             return;
         }
         self.mesh = self.vertex_mesh();
@@ -663,15 +643,16 @@ impl Output {
         // (Skipped when there is nothing to check: the instances of a big model are
         // most of its memory.)
         let walk = checks.iter().any(|c| !matches!(c, Check::Prototype(None)));
-        for (i, inst) in self.instances.iter().enumerate().filter(|_| walk) {
+        let all = if walk { self.instances.iter() } else { self.instances.range(0..0) };
+        for (i, inst) in all.enumerate() {
             match checks.get(inst.mesh as usize) {
                 Some(Check::Prototype(Some(extent))) if !frame_surely_maps_finite(&inst.frame, *extent) => {
-                    let Some(s) = self.shared(inst) else { continue };
+                    let Some(s) = self.shared(&inst) else { continue };
                     scratch.clear();
-                    expand_prototype(&mut scratch, s, inst, self.instance_weight(i));
+                    expand_prototype(&mut scratch, s, &inst, self.instance_weight(i));
                     instances += scratch.positions.iter().filter(|p| bad(p)).count();
                 }
-                Some(Check::Isosurface) => instances += usize::from(!self.instance_transform(inst).is_finite()),
+                Some(Check::Isosurface) => instances += usize::from(!self.instance_transform(&inst).is_finite()),
                 _ => {}
             }
         }

@@ -341,7 +341,7 @@ pub(super) fn flat_plan(
                 plan.n += p.vertices.len();
                 plan.sequential &= plan.n == 3 * plan.n_tris;
             }
-            VertexPart::Prototype { instance, base } => {
+            VertexPart::Prototype { instance, base, .. } => {
                 let (Some(out), Some(infos)) = (out, infos.as_mut()) else { return Ok(()) };
                 let Some(inst) = record(out, instance) else { return Ok(()) };
                 let Some(info) = infos.get(inst.mesh) else { return Ok(()) };
@@ -664,7 +664,7 @@ pub(super) fn flat_write(
             }
             Ok(())
         }
-        VertexPart::Prototype { instance, base } => {
+        VertexPart::Prototype { instance, base, .. } => {
             let (Some(out), Some(infos)) = (out, infos.as_mut()) else { return Err(missing()) };
             let inst = record(out, instance).ok_or_else(missing)?;
             let shared = out.shared_meshes.get(inst.mesh as usize).ok_or_else(missing)?;
@@ -704,7 +704,7 @@ pub(super) fn flat_write(
                     )?;
                 }
             }
-            VertexPart::Prototype { instance, base } => {
+            VertexPart::Prototype { instance, base, .. } => {
                 let Some(out) = out else { return Err(missing()) };
                 let inst = record(out, instance).ok_or_else(missing)?;
                 let shared = out.shared_meshes.get(inst.mesh as usize).ok_or_else(missing)?;

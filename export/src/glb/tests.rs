@@ -572,7 +572,7 @@ fn instance_trs_share_one_strided_view_and_colours_have_their_own() {
         );
         assert_eq!(tv.len(), 3 * mine.len());
         for (k, &i) in mine.iter().enumerate() {
-            let inst = &out.instances[i];
+            let inst = out.instances.get(i).expect("instance");
             let (pt, pr, ps) = prototype_placement(&inst.frame).expect("placeable");
             let f = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
             assert_eq!(f(&tv[3 * k..3 * k + 3]), pt.to_vec(), "instance {i}: translation");
@@ -602,7 +602,12 @@ fn spooled_and_streamed_flat_primitives_are_the_same_bytes() {
     shared.mesh.triangles[1] = [0, 1, 2];
     outputs.push(("indexed", shared));
     let mut dark_instances = coloured_square_instances(9);
-    dark_instances.instances[4].color = [0.002, 0.0, 0.0, 1.0];
+    let mut all: Vec<_> = dark_instances.instances.iter().collect();
+    all[4].color = [0.002, 0.0, 0.0, 1.0];
+    dark_instances.instances = Default::default();
+    for inst in all {
+        dark_instances.instances.push(inst);
+    }
     outputs.push(("dark instances", dark_instances));
     for (name, out) in outputs {
         let (mut spooled, mut streamed) = (Vec::new(), Vec::new());

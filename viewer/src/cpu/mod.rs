@@ -445,7 +445,7 @@ impl Job<'_, '_> {
                         }
                     }
                 }
-                let m = out.instance_transform(instance);
+                let m = out.instance_transform(&instance);
                 // Where it may be on the screen (instances posed by a bone: anywhere).
                 let mut centre_row = None;
                 if let (0, Some(s)) = (instance.bone, stand) {

@@ -38,7 +38,7 @@ pub(super) struct Pen {
 impl<'b> Eval<'b> {
     /// Adds an instance of prototype `proto` in state `base` (bone `bone`): the one
     /// record its items stand for (see the `INST` op).
-    #[inline]
+    #[inline(always)]
     pub(super) fn emit_instance(&mut self, proto: u32, base: &State, bone: u32) {
         let Some(slot) = self.protos.get(proto as usize) else { return };
         let (mut mesh, vertices, mut extent) = (slot.mesh, slot.vertices, slot.extent);

@@ -55,8 +55,10 @@ impl<'b> Eval<'b> {
         }
         if let Some(tree) = self.tree.as_mut() {
             let shared = &self.out.shared_meshes;
-            let instanced: usize = self.out.instances[self.inst_mark..]
-                .iter()
+            let instanced: usize = self
+                .out
+                .instances
+                .range(self.inst_mark..i)
                 .map(|inst| shared.get(inst.mesh as usize).map_or(0, |m| m.mesh.triangles.len()))
                 .sum();
             let drawn = (t - self.site_mark) + (s - self.sweep_mark) + instanced;
