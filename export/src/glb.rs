@@ -384,12 +384,6 @@ impl Record {
     }
 }
 
-/// Instance `i`'s [`Record`], `None` past the end.
-#[inline(always)]
-fn record(out: &Output, i: usize) -> Option<Record> {
-    out.instances.get(i).map(|i| record_of(&i))
-}
-
 /// Every instance's [`Record`], in order.
 fn records(out: &Output) -> impl Iterator<Item = Record> + '_ {
     out.instances.iter().map(|i| record_of(&i))

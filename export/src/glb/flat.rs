@@ -341,9 +341,9 @@ pub(super) fn flat_plan(
                 plan.n += p.vertices.len();
                 plan.sequential &= plan.n == 3 * plan.n_tris;
             }
-            VertexPart::Prototype { instance, base, .. } => {
+            VertexPart::Prototype { base, inst, .. } => {
                 let (Some(out), Some(infos)) = (out, infos.as_mut()) else { return Ok(()) };
-                let Some(inst) = record(out, instance) else { return Ok(()) };
+                let inst = record_of(&inst);
                 let Some(info) = infos.get(inst.mesh) else { return Ok(()) };
                 if base as usize != plan.n {
                     return Err(ExportError::PiecesOutOfOrder { what: what.to_string() });
@@ -664,9 +664,9 @@ pub(super) fn flat_write(
             }
             Ok(())
         }
-        VertexPart::Prototype { instance, base, .. } => {
+        VertexPart::Prototype { base, inst, .. } => {
             let (Some(out), Some(infos)) = (out, infos.as_mut()) else { return Err(missing()) };
-            let inst = record(out, instance).ok_or_else(missing)?;
+            let inst = record_of(&inst);
             let shared = out.shared_meshes.get(inst.mesh as usize).ok_or_else(missing)?;
             let info = infos.get(inst.mesh).ok_or_else(missing)?;
             wrong |= base as usize != n || !info.valid || (plan.sequential && !info.sequential);
@@ -704,9 +704,9 @@ pub(super) fn flat_write(
                     )?;
                 }
             }
-            VertexPart::Prototype { instance, base, .. } => {
+            VertexPart::Prototype { base, inst, .. } => {
                 let Some(out) = out else { return Err(missing()) };
-                let inst = record(out, instance).ok_or_else(missing)?;
+                let inst = record_of(&inst);
                 let shared = out.shared_meshes.get(inst.mesh as usize).ok_or_else(missing)?;
                 let mirrored = ProtoFrame::new(&inst.frame).mirrored;
                 for (t, v) in shared.mesh.triangles.iter().enumerate() {

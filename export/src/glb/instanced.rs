@@ -192,12 +192,12 @@ pub(super) fn write_instance_attributes(
     sink: &mut Sink,
 ) -> Result<(), ExportError> {
     for i in group.indices() {
-        sink.floats(record(out, i as usize).map_or([0.0; 10], |r| trs_record(&r.frame, group.mirrored)))?;
+        sink.floats(out.instances.frame(i as usize).map_or([0.0; 10], |f| trs_record(&f, group.mirrored)))?;
     }
     if per_color {
         let mut last = ([1.0f32; 4], linear_color([1.0; 4]));
         for i in group.indices() {
-            let c = record(out, i as usize).map_or([0.0; 4], |r| clamp_color(r.color));
+            let c = out.instances.color(i as usize).map_or([0.0; 4], clamp_color);
             if c != last.0 {
                 last = (c, linear_color(c));
             }
@@ -277,7 +277,7 @@ impl<'a> Builder<'a> {
             attributes.insert("COLOR_0", self.vec4_from(n, |i| linear_color(color_at(&local, i))));
         }
         let indices = Some(self.indices_of(tris.len() * 3, tris.iter().flatten().copied()));
-        let colors = || group.indices().filter_map(|i| record(out, i as usize)).map(|r| r.color);
+        let colors = || group.indices().filter_map(|i| out.instances.color(i as usize));
         // A colour shared by every instance goes in the material: seen from the
         // colours' bits while grouping, or (rarely: different bits, say above 1, that
         // clamp alike) by a walk.
