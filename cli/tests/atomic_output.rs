@@ -111,9 +111,21 @@ fn a_killed_mdg_run_never_leaves_a_partial_mesh() {
     let bin = env!("CARGO_BIN_EXE_mdg-run");
     let mut killed = Vec::new();
     let (mut mid_write, mut before, mut replaced) = (0, 0, 0);
+    // A clean run first (seed 2): its time scales the last fixed kills, late enough
+    // for a run to finish even on a loaded machine, where a run can take longer
+    // than every fixed delay (then nothing would ever be replaced).
+    let t = Instant::now();
+    let status = Command::new(bin)
+        .args([src.as_path(), Path::new("-o"), out.as_path()])
+        .args(["--seed", "2"])
+        .stderr(Stdio::null())
+        .status()
+        .expect("run");
+    assert!(status.success());
+    let clean = t.elapsed().as_millis() as u64;
     // Kills at fixed times after the start (evaluation, export, writing), then kills
     // timed from the moment the temporary file appears.
-    let delays_ms = [5u64, 30, 80, 150, 250, 400, 600];
+    let delays_ms = [5u64, 30, 80, 150, 250, 400, 600, 3 * clean, 6 * clean];
     for round in 0..delays_ms.len() + 6 {
         let had = out.exists();
         let old = std::fs::read(&out).ok();
