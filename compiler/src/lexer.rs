@@ -475,8 +475,7 @@ fn lex_from(
             }
             Ok(kind) => out.tokens.push(Token { kind, span }),
             Err(LexError::InvalidChar)
-                if text[r.clone()].starts_with('#')
-                    && colour_word(&text[r.end..], last.map(|t| t.kind)).is_some() =>
+                if text[r.clone()].starts_with('#') && colour_word(&text[r.end..], last.map(|t| t.kind)).is_some() =>
             {
                 // A colour value (`#ff8800`, `#tomato`); the checker reports malformed ones.
                 let n = colour_word(&text[r.end..], last.map(|t| t.kind)).map_or(0, str::len);

@@ -21,7 +21,6 @@ use super::{lex, lex_from, Lexed, Token};
 use crate::diag::MAX_ERRORS;
 use crate::span::{FileId, Span};
 
-
 fn shifted(s: Span, delta: i64) -> Span {
     Span::new(s.file, (i64::from(s.start) + delta) as u32, (i64::from(s.end) + delta) as u32)
 }
@@ -85,18 +84,19 @@ fn try_relex(old_text: &str, old: &Lexed, text: &str, file: FileId) -> Option<(L
     let unchanged = (text.len() - suf) as u32;
     // Where the previous version's lexer stood after the token the new one stopped at.
     let mut old_at = None;
-    let (mid, stopped) = lex_from(text, file, 0, from as usize, kept_tokens.checked_sub(1).map(|k| old.tokens[k]), &mut |t| {
-        if t.span.start < unchanged {
-            return false;
-        }
-        let o = shifted(t.span, -delta);
-        let k = old.tokens.partition_point(|x| x.span.start < o.start);
-        let same = old.tokens.get(k).is_some_and(|x| x.kind == t.kind && x.span == o);
-        if same {
-            old_at = Some((k + 1, o.end));
-        }
-        same
-    });
+    let (mid, stopped) =
+        lex_from(text, file, 0, from as usize, kept_tokens.checked_sub(1).map(|k| old.tokens[k]), &mut |t| {
+            if t.span.start < unchanged {
+                return false;
+            }
+            let o = shifted(t.span, -delta);
+            let k = old.tokens.partition_point(|x| x.span.start < o.start);
+            let same = old.tokens.get(k).is_some_and(|x| x.kind == t.kind && x.span == o);
+            if same {
+                old_at = Some((k + 1, o.end));
+            }
+            same
+        });
     if mid.suppressed.count > 0 {
         return None;
     }
