@@ -196,10 +196,13 @@ impl Rewriter<'_> {
                 Tok::CallOpen if depth > 0 && next == Some(Tok::Assign) && self.kind(i + 2) == Some(Tok::RParen) => {
                     self.same_arguments(i)
                 }
-                Tok::Ident if depth > 0 && self.text(i) == "switch" && next == Some(Tok::LParen) => {
+                // (The cheap tests first: this runs for every name in every body.)
+                Tok::Ident if depth > 0 && next == Some(Tok::LParen) && self.text(i) == "switch" => {
                     self.switch(i, i + 1)
                 }
-                Tok::CallOpen if depth > 0 && self.text(i) == "switch(" => self.switch(i, i),
+                Tok::CallOpen if depth > 0 && t.span.end - t.span.start == 7 && self.text(i) == "switch(" => {
+                    self.switch(i, i)
+                }
                 Tok::LBracket
                     if depth > 0
                         && next == Some(Tok::LBracket)

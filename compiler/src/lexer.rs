@@ -9,6 +9,10 @@ use crate::diag::Diagnostic;
 use crate::span::{FileId, Span};
 use logos::Logos;
 
+mod relex;
+
+pub use relex::{relex, relex_counted};
+
 /// Lexing errors, turned into diagnostics by [`lex`].
 #[derive(Clone, Debug, Default, PartialEq)]
 pub enum LexError {
@@ -364,7 +368,7 @@ pub struct Comment {
 }
 
 /// The result of lexing one file.
-#[derive(Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Lexed {
     pub tokens: Vec<Token>,
     pub comments: Vec<Comment>,
@@ -376,14 +380,32 @@ pub struct Lexed {
 /// Lexes `text` (the contents of `file`), starting at byte `base` (for lexing macro
 /// arguments in place).
 pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
+    lex_from(text, file, base, 0, None, &mut |_| false).0
+}
+
+/// Lexes `text[from..]` (`text` the contents of `file` from byte `base`), as if the
+/// tokens before `from` had ended with `prev`, until `stop` says so of the last token
+/// a step of the lexer gave: then also the byte (in `text`) where it stopped.
+fn lex_from(
+    text: &str,
+    file: FileId,
+    base: u32,
+    from: usize,
+    prev: Option<Token>,
+    stop: &mut dyn FnMut(&Token) -> bool,
+) -> (Lexed, Option<usize>) {
     let mut out = Lexed::default();
     let mut diags = crate::diag::Capped::default();
     // The end of the last run of invalid characters (one diagnostic per run).
     let mut invalid_end: Option<u32> = None;
-    let mut lexer = Tok::lexer(text);
+    let mut lexer = Tok::lexer(&text[from..]);
+    let mut stopped = None;
     while let Some(res) = lexer.next() {
+        let before = out.tokens.len();
         let r = lexer.span();
+        let r = r.start + from..r.end + from;
         let span = Span::new(file, base + r.start as u32, base + r.end as u32);
+        let last = out.tokens.last().or(prev.as_ref()).copied();
         match res {
             Ok(Tok::LineComment | Tok::BlockComment) if !text[r.clone()].is_ascii() => {
                 let block = text[r.clone()].starts_with("/*");
@@ -448,16 +470,15 @@ pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
                 }
                 out.tokens.push(Token { kind: Tok::Number, span });
             }
-            Ok(Tok::LBracket) if index_bracket(text, r.start, span.start, out.tokens.last()) => {
+            Ok(Tok::LBracket) if index_bracket(text, r.start, span.start, last.as_ref()) => {
                 out.tokens.push(Token { kind: Tok::IndexOpen, span })
             }
             Ok(kind) => out.tokens.push(Token { kind, span }),
             Err(LexError::InvalidChar)
-                if text[r.clone()].starts_with('#')
-                    && colour_word(&text[r.end..], out.tokens.last().map(|t| t.kind)).is_some() =>
+                if text[r.clone()].starts_with('#') && colour_word(&text[r.end..], last.map(|t| t.kind)).is_some() =>
             {
                 // A colour value (`#ff8800`, `#tomato`); the checker reports malformed ones.
-                let n = colour_word(&text[r.end..], out.tokens.last().map(|t| t.kind)).map_or(0, str::len);
+                let n = colour_word(&text[r.end..], last.map(|t| t.kind)).map_or(0, str::len);
                 lexer.bump(n);
                 invalid_end = None;
                 out.tokens.push(Token { kind: Tok::Colour, span: Span::new(file, span.start, span.end + n as u32) });
@@ -506,10 +527,16 @@ pub fn lex_at(text: &str, file: FileId, base: u32) -> Lexed {
                 );
             }
         }
+        if out.tokens.len() > before {
+            if let Some(t) = out.tokens.last().filter(|t| stop(t)) {
+                stopped = Some((t.span.end - base) as usize);
+                break;
+            }
+        }
     }
     out.diagnostics = diags.list;
     out.suppressed = diags.suppressed;
-    out
+    (out, stopped)
 }
 
 /// At most this many occurrences of text-flow controls in one comment or string

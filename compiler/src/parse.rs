@@ -1013,9 +1013,9 @@ fn run(
 
 /// Parses one whole file that is already in `sources`.
 pub fn parse_file(sources: &Sources, file: FileId) -> Parsed {
-    match lex_file(sources, file) {
+    match lex_file(sources, file, None) {
         Err(too_large) => too_large,
-        Ok((tokens, lexed)) => {
+        Ok((tokens, lexed, _)) => {
             let (out, diagnostics, suppressed) =
                 run(tokens, sources, file, Start::File, lexed.diagnostics, MAX_NESTING);
             let file_ast = match out {
@@ -1029,10 +1029,12 @@ pub fn parse_file(sources: &Sources, file: FileId) -> Parsed {
 
 /// [`parse_file`] for a file parsed again after an edit: the top-level items that
 /// `prev` (the previous parse of the same file) parsed in text the edit left alone are
-/// taken from it instead of being parsed again ([`reuse`]). The result is what
+/// taken from it instead of being parsed again ([`reuse`]), and the text before the
+/// edit and after it is not lexed again ([`lexer::relex`]). The result is what
 /// [`parse_file`] gives; with it, what the next parse can reuse, and how much was.
 pub fn parse_file_reusing(sources: &Sources, file: FileId, prev: Option<Previous>) -> (Parsed, Memo, Reused) {
-    let (tokens, lexed) = match lex_file(sources, file) {
+    let before = prev.and_then(|p| Some((p.text, p.memo.lexed.as_ref()?)));
+    let (tokens, lexed, raw) = match lex_file(sources, file, Some(before)) {
         Err(too_large) => return (too_large, Memo::default(), Reused::default()),
         Ok(l) => l,
     };
@@ -1046,6 +1048,7 @@ pub fn parse_file_reusing(sources: &Sources, file: FileId, prev: Option<Previous
         }
     };
     memo.tokens = std::mem::take(&mut p.tokens);
+    memo.lexed = raw;
     let (diagnostics, suppressed) = parse_diagnostics(p, syntax);
     let parsed = Parsed {
         file: File { items },
@@ -1057,8 +1060,15 @@ pub fn parse_file_reusing(sources: &Sources, file: FileId, prev: Option<Previous
 }
 
 /// The tokens of a file (Context Free's constructs rewritten) and what lexing gave;
-/// `Err` with the whole parse of a file too large to read.
-fn lex_file(sources: &Sources, file: FileId) -> Result<(Vec<Token>, lexer::Lexed), Parsed> {
+/// `Err` with the whole parse of a file too large to read. With `keep`, the lexing
+/// is also returned as the lexer gave it (for the next version's [`lexer::relex`]),
+/// from `keep`'s previous version's text and lexing where there is one.
+#[allow(clippy::type_complexity)]
+fn lex_file(
+    sources: &Sources,
+    file: FileId,
+    keep: Option<Option<(&str, &lexer::Lexed)>>,
+) -> Result<(Vec<Token>, lexer::Lexed, Option<lexer::Lexed>), Parsed> {
     let text = &sources.file(file).text;
     if text.len() > MAX_SOURCE_BYTES {
         // The same error as for a file the loader refuses to read (`FsLoader`).
@@ -1079,7 +1089,17 @@ fn lex_file(sources: &Sources, file: FileId) -> Result<(Vec<Token>, lexer::Lexed
             suppressed: Suppressed::default(),
         });
     }
-    let mut lexed = lexer::lex(text, file);
+    let (mut lexed, raw) = match keep {
+        None => (lexer::lex(text, file), None),
+        Some(before) => {
+            let lexed = match before {
+                Some((old_text, old)) => lexer::relex(old_text, old, text, file),
+                None => lexer::lex(text, file),
+            };
+            let raw = lexed.clone();
+            (lexed, Some(raw))
+        }
+    };
     // Context Free's constructs: an error with the MDG spelling each, read as that spelling.
     let (tokens, cf) = crate::cfdg::rewrite(std::mem::take(&mut lexed.tokens), sources);
     for d in cf {
@@ -1089,7 +1109,7 @@ fn lex_file(sources: &Sources, file: FileId) -> Result<(Vec<Token>, lexer::Lexed
             lexed.suppressed.add(d.span);
         }
     }
-    Ok((tokens, lexed))
+    Ok((tokens, lexed, raw))
 }
 
 /// Parses tokens (a macro expansion) as top-level items.

@@ -3,7 +3,7 @@
 //! broken, typing one character at a time and deleting again, comments opened and
 //! closed, renamed colour components, and undone now and then — each analysed from
 //! the previous version's
-//! analysis and from nothing, compared after every edit: the parsed tree, the
+//! analysis and from nothing, compared after every edit: the lexing, the parsed tree, the
 //! expanded program, every diagnostic, the checker's symbol table (rules,
 //! signatures, references …) and the editor's occurrence index (what hovers,
 //! references, rename, lenses and hints read).
@@ -72,6 +72,10 @@ fn program(a: &Analysis) -> String {
 /// Compares an incremental analysis with a whole one: everything the editor's
 /// features read. Returns the incremental one.
 fn same(inc: Analysis, whole: Analysis, context: &dyn Fn() -> String) -> Analysis {
+    // The lexing the next version starts from (`lexer::relex`): tokens, comments, diagnostics.
+    let (il, wl) = (&inc.expanded.main_memo.lexed, &whole.expanded.main_memo.lexed);
+    assert!(wl.is_some(), "a whole analysis recorded no lexing: {}", context());
+    assert_eq!(il, wl, "the lexing differs: {}", context());
     assert_eq!(inc.expanded.main_ast, whole.expanded.main_ast, "parsed tree differs: {}", context());
     assert_eq!(inc.expanded.items, whole.expanded.items, "expanded items differ: {}", context());
     assert_eq!(program(&inc), program(&whole), "expanded program differs: {}", context());

@@ -44,6 +44,9 @@ pub struct Memo {
     components: ([String; 4], [String; 4]),
     /// The prepared tokens.
     pub(super) tokens: Vec<Token>,
+    /// The text's lexing, as the lexer gave it (for the next version's
+    /// [`crate::lexer::relex`]); `None` for a file too large to read.
+    pub lexed: Option<crate::lexer::Lexed>,
     segments: Vec<Segment>,
 }
 
@@ -181,7 +184,7 @@ pub(super) fn memo_of(p: &Prepared, items: &[Item], syntax: &Capped, file: FileI
     let all_unclean = own.suppressed.count > 0 || syntax.suppressed.count > 0;
     let bounds = boundaries(&p.tokens, file);
     let segments = segments_of(&p.tokens, &bounds, 0..len, items, 0, &actions, all_unclean, file);
-    Memo { components: components(p), tokens: Vec::new(), segments }
+    Memo { components: components(p), tokens: Vec::new(), lexed: None, segments }
 }
 
 /// Byte length of the common prefix and suffix of `a` and `b` (not overlapping).
@@ -334,7 +337,7 @@ pub(super) fn reparse(
         });
     }
     let reused = Reused { items: items.len() - parsed, parsed, moved, delta };
-    Some((items, syntax, Memo { components: components(p), tokens: Vec::new(), segments }, reused))
+    Some((items, syntax, Memo { components: components(p), tokens: Vec::new(), lexed: None, segments }, reused))
 }
 
 /// Pairs the rules of `new`, a shifted copy of `old`, with `old`'s (their `Arc`
