@@ -52,14 +52,7 @@ fn std_phong_is_the_program_the_cpu_renderer_implements() {
 fn cpu_pictures_of_every_std_example_match_lavapipe() {
     let Some(ctx) = vulkan() else { return };
     let (w, h) = (240, 180);
-    let mut dir: Vec<std::path::PathBuf> = std::fs::read_dir(root().join("std/examples"))
-        .expect("std/examples")
-        .flatten()
-        .map(|e| e.path())
-        .filter(|p| p.extension().is_some_and(|x| x == "mdg"))
-        .collect();
-    dir.sort();
-    assert!(dir.len() >= 20, "{dir:?}");
+    let mut dir = std_examples();
     // And the test grammars for what the examples lack: flat art (unlit, painted in
     // order), pen lines, matte flat primitives, mirrored frames, bones, a camera rule.
     for name in [

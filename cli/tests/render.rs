@@ -360,14 +360,7 @@ fn a_turntable_writes_its_numbered_views_and_the_sheet() {
 fn one_sample_pictures_differ_from_four_sample_ones_only_at_edges() {
     let Some(ctx) = vulkan() else { return };
     let (w, h) = (240, 180);
-    let mut dir: Vec<std::path::PathBuf> = std::fs::read_dir(root().join("std/examples"))
-        .expect("std/examples")
-        .flatten()
-        .map(|e| e.path())
-        .filter(|p| p.extension().is_some_and(|x| x == "mdg"))
-        .collect();
-    dir.sort();
-    assert!(dir.len() >= 20, "{dir:?}");
+    let dir = std_examples();
     let programs = programs();
     let mut report = Vec::new();
     let mut failures = Vec::new();

@@ -339,6 +339,29 @@ pub struct ModelInfo {
     pub fps: f32,
 }
 
+impl ModelInfo {
+    /// The facts about `output` (of `bundle`) as `scene` packs it, drawn by the
+    /// program labelled `program` (either renderer's).
+    pub fn of(scene: &scene::Scene, output: &Output, bundle: &Bundle, program: String) -> ModelInfo {
+        let s = &bundle.settings;
+        ModelInfo {
+            bounds: scene.bounds,
+            flat: output.flat,
+            n_triangles: scene.n_triangles(),
+            n_line_segments: scene.n_line_vertices as usize / 2,
+            background: output.background,
+            fov_deg: s.camerafov,
+            near: s.near,
+            far: s.far,
+            program,
+            animated: output.animation.is_animated(),
+            has_camera_rule: output.animation.camera.is_some(),
+            duration: s.duration,
+            fps: s.fps,
+        }
+    }
+}
+
 /// One frame's camera and time.
 #[derive(Clone, Copy, Debug)]
 pub struct FrameParams {
@@ -529,22 +552,7 @@ impl Renderer {
         bones.write(0, &bone_bytes)?;
         let descriptors = Descriptors::new(ctx, &self.layout)?;
         descriptors.write(&globals, &bones, &user);
-        let s = &bundle.settings;
-        let info = ModelInfo {
-            bounds: scene.bounds,
-            flat: output.flat,
-            n_triangles: scene.n_triangles(),
-            n_line_segments: scene.n_line_vertices as usize / 2,
-            background: output.background,
-            fov_deg: s.camerafov,
-            near: s.near,
-            far: s.far,
-            program: program.label.clone(),
-            animated: animation.is_animated(),
-            has_camera_rule: animation.camera.is_some(),
-            duration: s.duration,
-            fps: s.fps,
-        };
+        let info = ModelInfo::of(scene, output, bundle, program.label.clone());
         let p = match (built, self.model.take()) {
             (Some(p), _) => p,
             (None, Some((old, _))) => Pipelines {

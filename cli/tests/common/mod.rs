@@ -19,6 +19,19 @@ pub fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
+/// Every std example (`std/examples/*.mdg`), sorted; at least 20.
+pub fn std_examples() -> Vec<PathBuf> {
+    let mut dir: Vec<PathBuf> = std::fs::read_dir(root().join("std/examples"))
+        .expect("std/examples")
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "mdg"))
+        .collect();
+    dir.sort();
+    assert!(dir.len() >= 20, "{dir:?}");
+    dir
+}
+
 /// A test data file.
 pub fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(name)

@@ -170,22 +170,7 @@ impl<'a> CpuScene<'a> {
         // As the Vulkan renderer: instances stay instanced (std's vertex shader) except
         // in flat art, painted in triangle order as one mesh.
         let scene = scene::build_with(output, !output.flat);
-        let s = &bundle.settings;
-        let info = ModelInfo {
-            bounds: scene.bounds,
-            flat: output.flat,
-            n_triangles: scene.n_triangles(),
-            n_line_segments: scene.n_line_vertices as usize / 2,
-            background: output.background,
-            fov_deg: s.camerafov,
-            near: s.near,
-            far: s.far,
-            program: program.label(),
-            animated: output.animation.is_animated(),
-            has_camera_rule: output.animation.camera.is_some(),
-            duration: s.duration,
-            fps: s.fps,
-        };
+        let info = ModelInfo::of(&scene, output, bundle, program.label());
         let ranges = match &scene.instanced {
             Some(inst) => inst
                 .draws
