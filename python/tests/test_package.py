@@ -153,12 +153,17 @@ def run_quietly(src):
 
 
 def test_instance_rows_are_read_only_views_of_the_records():
-    # translation, color, bone and prototype are strided views of the evaluator's
-    # instance records (80 bytes each) where every instance is placed: nothing copied.
+    # Where every instance is placed, translation is a strided view of the evaluator's
+    # packed instance frames (44 bytes each): nothing copied. color, bone and
+    # prototype are views too (a row stride of 0) where every instance shares the
+    # value, and contiguous copies where it varies; all of them read-only.
     for inst in (run_quietly(ROWS % "").instances, mdg.compile(ROOT / "std" / "examples" / "cube_spiral.mdg").run().instances):
         assert len(inst) > 0
+        assert not inst.translation.flags["OWNDATA"] and inst.translation.strides[0] == 44, inst.translation.strides
+        for a in (inst.color, inst.bone, inst.prototype):
+            shared = not a.flags["OWNDATA"] and a.strides[0] == 0
+            assert shared or a.flags["C_CONTIGUOUS"], a.strides
         for a in (inst.translation, inst.color, inst.bone, inst.prototype):
-            assert not a.flags["OWNDATA"] and a.strides[0] == 80, a.strides
             assert not a.flags["WRITEABLE"]
             with pytest.raises(ValueError):
                 a[0] = 0
@@ -173,14 +178,14 @@ def test_views_equal_the_copies():
     copies = run_quietly(ROWS % UNPLACEABLE).instances
     assert len(views) == len(copies) == 3000
     assert copies.translation.flags["C_CONTIGUOUS"] and not copies.translation.flags["WRITEABLE"]
-    assert views.translation.strides[0] == 80
+    assert views.translation.strides[0] == 44
     for k in ("prototype", "translation", "rotation", "scale", "color", "bone"):
         a, b = getattr(views, k), getattr(copies, k)
         assert a.dtype == b.dtype and np.array_equal(a, b), k
     # Colours outside 0..1 are clamped in a copy (a view would show the raw ones).
     bright = run_quietly(ROWS.replace("cube {} }", "cube {R 0.5} }") % "").instances
     assert bright.color.flags["C_CONTIGUOUS"] and not bright.color.flags["WRITEABLE"]
-    assert bright.color.max() == 1.0 and bright.translation.strides[0] == 80
+    assert bright.color.max() == 1.0 and bright.translation.strides[0] == 44
 
 
 def test_views_outlive_the_model():
