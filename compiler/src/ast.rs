@@ -336,6 +336,13 @@ pub struct CaseLabel {
     pub hi: Option<Expr>,
 }
 
+impl CaseLabel {
+    /// The label's expressions, as written: the value, or a range's two ends.
+    pub fn exprs(&self) -> impl Iterator<Item = &Expr> {
+        std::iter::once(&self.lo).chain(self.hi.as_ref())
+    }
+}
+
 impl Switch {
     /// Builds a `switch` and its lowered form (see [`Switch`]).
     pub fn new(

@@ -89,14 +89,7 @@ impl Dumper {
                 });
             }
             ItemKind::Function { name, params, types, body } => {
-                let ps: Vec<String> = params
-                    .iter()
-                    .enumerate()
-                    .map(|(i, p)| match types.get(i).and_then(Option::as_ref) {
-                        Some(t) => format!("{} {}", t.text, p.text),
-                        None => p.text.clone(),
-                    })
-                    .collect();
+                let ps = crate::fmt::typed_params(params, types);
                 let ps = if ps.is_empty() { String::new() } else { format!("({}) ", ps.join(", ")) };
                 self.nested(&format!("Function {} {ps}{at}", name.text), |d| d.expr(body))
             }

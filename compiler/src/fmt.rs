@@ -285,14 +285,7 @@ impl<'a> Printer<'a> {
                 }
             }
             ItemKind::Function { name, params, types, body } if !params.is_empty() => {
-                let ps: Vec<String> = params
-                    .iter()
-                    .enumerate()
-                    .map(|(i, p)| match types.get(i).and_then(Option::as_ref) {
-                        Some(t) => format!("{} {}", t.text, p.text),
-                        None => p.text.clone(),
-                    })
-                    .collect();
+                let ps = typed_params(params, types);
                 self.out.push_str(&format!("function {}({}) {{ {} }}", name.text, ps.join(", "), expr(body)))
             }
             ItemKind::Function { name, body, .. } => {
@@ -598,6 +591,18 @@ impl<'a> Printer<'a> {
             }
         }
     }
+}
+
+/// A function's parameters as written: `vector2 c`, `n`.
+pub(crate) fn typed_params(params: &[Name], types: &[Option<Name>]) -> Vec<String> {
+    params
+        .iter()
+        .enumerate()
+        .map(|(i, p)| match types.get(i).and_then(Option::as_ref) {
+            Some(t) => format!("{} {}", t.text, p.text),
+            None => p.text.clone(),
+        })
+        .collect()
 }
 
 /// A rule's parameter list: `(int n, float len = 1)`.

@@ -668,11 +668,8 @@ impl Walker<'_, '_> {
                     for arm in &s.arms {
                         let case = Span::new(arm.span.file, arm.span.start, arm.span.start + 4);
                         self.syn(case, Occ::Directive("case".to_string()));
-                        for l in &arm.labels {
-                            self.expr(&l.lo);
-                            if let Some(h) = &l.hi {
-                                self.expr(h);
-                            }
+                        for e in arm.labels.iter().flat_map(CaseLabel::exprs) {
+                            self.expr(e);
                         }
                         self.body(&arm.body, ns);
                     }

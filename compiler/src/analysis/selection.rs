@@ -277,11 +277,8 @@ impl Collect<'_> {
                     for arm in &s.arms {
                         if self.hit(arm.span) {
                             self.inner(arm.span);
-                            for l in &arm.labels {
-                                self.expr(&l.lo);
-                                if let Some(h) = &l.hi {
-                                    self.expr(h);
-                                }
+                            for e in arm.labels.iter().flat_map(CaseLabel::exprs) {
+                                self.expr(e);
                             }
                             self.body(&arm.body);
                         }
