@@ -500,13 +500,14 @@ impl Manifest {
         self.done.contains(&seed) && output.is_file()
     }
 
-    /// Appends the line of a finished output.
-    pub fn record(&mut self, entry: &Entry) -> Result<(), String> {
-        let line = entry.line()?;
+    /// Appends the line of a finished output, made by [`Entry::line`] (in the worker
+    /// that ran the seed: hashing the file is the batch's work, not the recorder's,
+    /// so it runs on every core).
+    pub fn record(&mut self, seed: u64, line: &str) -> Result<(), String> {
         self.file
             .write_all(format!("{line}\n").as_bytes())
             .map_err(|e| format!("cannot write {}: {e}", self.path.display()))?;
-        self.done.insert(entry.seed);
+        self.done.insert(seed);
         Ok(())
     }
 

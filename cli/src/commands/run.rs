@@ -748,10 +748,15 @@ fn run_batch(
         .jobs
         .map(|j| j as usize)
         .unwrap_or_else(|| std::thread::available_parallelism().map(std::num::NonZeroUsize::get).unwrap_or(1));
-    let run = |seed: u64, output: &Path| run_one(cli, opts, bundle, Some(seed), output, size, pictures, false);
-    let ran = batch::run_in_order(&todo, jobs, run, |seed, output, counts| {
+    // Each worker runs its seed and makes its manifest line (hashing the file it
+    // wrote); the lines are appended in seed order.
+    let run = |seed: u64, output: &Path| {
+        let counts = run_one(cli, opts, bundle, Some(seed), output, size, pictures, false)?;
+        batch::Entry { seed, file: output.to_path_buf(), counts }.line().map_err(Failure::usage)
+    };
+    let ran = batch::run_in_order(&todo, jobs, run, |seed, _, line: String| {
         bar.inc(1);
-        manifest.record(&batch::Entry { seed, file: output.to_path_buf(), counts }).map_err(Failure::usage)
+        manifest.record(seed, &line).map_err(Failure::usage)
     })?;
     bar.finish_and_clear();
     eprintln!(
