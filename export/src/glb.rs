@@ -263,23 +263,28 @@ fn isosurface_placements(out: &Output, gpu: &GpuGroups) -> (Baked, Vec<NodePlace
     // per mesh).
     let mut baked = Baked::default();
     let mut as_nodes = Vec::new();
-    for (i, inst) in out.instances.iter().enumerate() {
-        if gpu.instanced.get(i).copied().unwrap_or(false) {
-            continue;
-        }
-        let Some(shared) = out.shared(&inst).filter(|s| !s.is_prototype()) else { continue };
+    // (By spans of one shared mesh: a prototype's instances are passed over whole.)
+    let frames = out.instances.packed_frames();
+    for span in out.instances.spans() {
+        let Some(shared) = out.shared_meshes.get(span.mesh as usize).filter(|s| !s.is_prototype()) else { continue };
         if shared.mesh.triangles.is_empty() {
             continue;
         }
-        let transform = out.instance_transform(&inst);
-        let placed = if out.instance_mirrored(&inst) {
-            orthogonal_trs(&(transform * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)))).map(|trs| (trs, true))
-        } else {
-            orthogonal_trs(&transform).map(|trs| (trs, false))
-        };
-        match placed {
-            Some((trs, mirror)) => as_nodes.push((i as u32, inst, trs, mirror)),
-            None => baked.bake(&shared.mesh, out, i as u32, &inst),
+        for i in span.range.clone() {
+            let Some(frame) = frames.get(i).filter(|_| !gpu.instanced.get(i).copied().unwrap_or(false)) else {
+                continue;
+            };
+            let inst = span.instance(frame);
+            let transform = out.instance_transform(&inst);
+            let placed = if out.instance_mirrored(&inst) {
+                orthogonal_trs(&(transform * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)))).map(|trs| (trs, true))
+            } else {
+                orthogonal_trs(&transform).map(|trs| (trs, false))
+            };
+            match placed {
+                Some((trs, mirror)) => as_nodes.push((i as u32, inst, trs, mirror)),
+                None => baked.bake(&shared.mesh, out, i as u32, &inst),
+            }
         }
     }
     // Thousands of nodes make importers crawl (Blender spends over a millisecond on

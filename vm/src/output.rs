@@ -13,7 +13,7 @@ use serde::Serialize;
 use std::ops::Range;
 
 pub use crate::geom::Mesh;
-pub use instances::{Instance, InstanceIter, Instances, PackedFrame, FRAME_WORDS, TRANSLATION_AT};
+pub use instances::{Instance, InstanceIter, Instances, PackedFrame, Span, FRAME_WORDS, TRANSLATION_AT};
 
 mod instances;
 
@@ -458,12 +458,12 @@ impl Output {
                 false => (0, 0),
             })
             .collect();
-        for (i, mesh) in self.instances.meshes().enumerate() {
-            if let Some(&(dv, dt)) = per.get(mesh as usize) {
-                if expand(i) {
-                    v += dv;
-                    t += dt;
-                }
+        // (By spans of one mesh: a span of a mesh left out is passed over whole.)
+        for span in self.instances.spans() {
+            if let Some(&(dv, dt)) = per.get(span.mesh as usize).filter(|p| **p != (0, 0)) {
+                let k = span.range.filter(|&i| expand(i)).count();
+                v += k * dv;
+                t += k * dt;
             }
         }
         (v, t)
