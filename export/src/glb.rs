@@ -389,11 +389,6 @@ impl Record {
     }
 }
 
-/// Every instance's [`Record`], in order.
-fn records(out: &Output) -> impl Iterator<Item = Record> + '_ {
-    out.instances.iter().map(|i| record_of(&i))
-}
-
 #[inline(always)]
 fn record_of(inst: &mdg_vm::output::Instance) -> Record {
     Record { frame: inst.frame, color: inst.color, mesh: inst.mesh, bone: inst.bone, lin: inst.lin, at: inst.at }
