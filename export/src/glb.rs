@@ -89,7 +89,7 @@ use super::{
 use mdg_vm::anim::{frames_needed, trs};
 use mdg_vm::geom::quat::Frame;
 use mdg_vm::output::{
-    expand_prototype, place_mesh, Animation, Groups, Mesh, Output, Piece, Polyline, SharedKind, SharedMesh, VertexPart,
+    expand_prototype, place_mesh, Animation, Groups, Mesh, Output, Piece, Polyline, SharedKind, SharedMesh, VertexRun,
 };
 
 const FLOAT: u32 = 5126;
