@@ -675,21 +675,20 @@ impl ProtoVertices {
         for (r, c) in made.iter_mut().zip(&info.records) {
             r[24..28].copy_from_slice(&self.colors.get(c[2] as usize).ok_or_else(short)?[..4]);
         }
+        self.positions.resize(info.positions.len(), [0; 12]);
+        self.normals.resize(info.normals.len(), [0; 12]);
         for frame in frames {
             let key: [u32; 8] = std::array::from_fn(|k| frame[k].to_bits());
             let (lin, mirrored) = self.linear.get(key, || packed_frame(frame).linear());
             let f = ProtoFrame::of(lin, mirrored, Vec3::new(frame[8], frame[9], frame[10]));
-            self.positions.clear();
-            self.normals.clear();
-            for &p in &info.positions {
+            for (d, &p) in self.positions.iter_mut().zip(&info.positions) {
                 let p = f.position(p);
                 bounds.add(p);
-                self.positions.push(float3_bytes(p.to_array()));
+                *d = float3_bytes(p.to_array());
             }
-            for &n in &info.normals {
+            for (d, &n) in self.normals.iter_mut().zip(&info.normals) {
                 let m = f.lin * n;
-                let normal = self.unit_normals.get(m.to_array().map(f32::to_bits), || float3_bytes(f.unit(m)));
-                self.normals.push(normal);
+                *d = self.unit_normals.get(m.to_array().map(f32::to_bits), || float3_bytes(f.unit(m)));
             }
             for (r, c) in made.iter_mut().zip(&info.records) {
                 let (Some(p), Some(n)) = (self.positions.get(c[0] as usize), self.normals.get(c[1] as usize)) else {
