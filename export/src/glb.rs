@@ -67,6 +67,7 @@ mod builder;
 mod flat;
 mod geometry;
 mod instanced;
+mod memo;
 mod nodes;
 #[cfg(test)]
 pub(crate) mod tests;

@@ -535,7 +535,8 @@ pub(crate) mod tests {
     fn the_file_writer_keeps_the_order_of_big_and_small_writes() {
         let mut w = FileWriter(std::io::BufWriter::with_capacity(1 << 20, Vec::new()));
         let mut expected = Vec::new();
-        for (k, len) in [10, DIRECT_BYTES, 3, DIRECT_BYTES - 1, 3 * DIRECT_BYTES, 1, 0, 2 << 20].into_iter().enumerate() {
+        for (k, len) in [10, DIRECT_BYTES, 3, DIRECT_BYTES - 1, 3 * DIRECT_BYTES, 1, 0, 2 << 20].into_iter().enumerate()
+        {
             let part: Vec<u8> = (0..len).map(|i| (i * 7 + k) as u8).collect();
             w.write_all(&part).expect("writes");
             expected.extend_from_slice(&part);

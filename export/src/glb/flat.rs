@@ -10,6 +10,7 @@
 //! second walk places each instance's distinct positions and normals once and
 //! encodes them once, then copies the encoded bytes into each vertex's record.
 
+use super::memo::Memo;
 use super::*;
 
 /// Where a flat primitive's pieces come from.
@@ -536,40 +537,6 @@ impl VertexRecord {
 /// The bytes of one vertex of a flat primitive (see [`VertexRecord`]).
 pub(super) fn flat_stride(wide: bool, skinned: bool) -> usize {
     24 + if wide { 8 } else { 4 } + if skinned { 24 } else { 0 }
-}
-
-/// A direct-mapped memo of a pure function of `N` numbers' bits (the last value
-/// made for each of [`MEMO_SLOTS`] hash slots): the same values as calling the
-/// function, found for the price of a hash and a comparison where frames repeat
-/// (a tree's few hundred distinct turns and sizes among thousands of instances).
-struct Memo<const N: usize, V> {
-    slots: Vec<Option<([u32; N], V)>>,
-}
-
-/// The slots of a [`Memo`].
-const MEMO_SLOTS: usize = 4096;
-
-impl<const N: usize, V: Copy> Memo<N, V> {
-    fn new() -> Memo<N, V> {
-        Memo { slots: vec![None; MEMO_SLOTS] }
-    }
-
-    /// `make()`'s value for the key `key` (whose bits are all `make` reads).
-    #[inline(always)]
-    fn get(&mut self, key: [u32; N], make: impl FnOnce() -> V) -> V {
-        let h = key.iter().fold(0x9e37_79b9u32, |h, &k| (h ^ k).wrapping_mul(0x2c1b_3c6d)).rotate_left(8);
-        let slot = (h as usize) % MEMO_SLOTS;
-        match self.slots.get(slot) {
-            Some(Some((k, v))) if *k == key => *v,
-            _ => {
-                let v = make();
-                if let Some(s) = self.slots.get_mut(slot) {
-                    *s = Some((key, v));
-                }
-                v
-            }
-        }
-    }
 }
 
 /// One prototype instance's vertices, as [`expand_prototype`] makes them and the

@@ -435,7 +435,10 @@ mod tests {
 
     /// The groups as the walk instance by instance made them (the writer before
     /// spans): per instance its key, groups in order of their first instance.
-    fn one_by_one(out: &Output) -> (Vec<bool>, Vec<(GroupKey, Vec<u32>, bool)>) {
+    /// A group as the test compares it: key, instances, whether the colours' bits agree.
+    type Seen = (GroupKey, Vec<u32>, bool);
+
+    fn one_by_one(out: &Output) -> (Vec<bool>, Vec<Seen>) {
         let mut instanced = vec![false; out.instances.len()];
         let mut groups: Vec<(GroupKey, Vec<u32>, bool, [u32; 4])> = Vec::new();
         let mut variants: BTreeMap<u32, usize> = BTreeMap::new();
@@ -500,7 +503,7 @@ mod tests {
             out.instances.push(Instance { frame: Frame::identity(), color, mesh: 1, bone: 0, lin: 0, at: 0 });
         }
         let g = gpu_instance_groups(&out, false);
-        let got: Vec<(GroupKey, Vec<u32>, bool)> = g
+        let got: Vec<Seen> = g
             .groups
             .iter()
             .map(|x| {
