@@ -67,6 +67,7 @@ mod builder;
 mod flat;
 mod geometry;
 mod instanced;
+mod memo;
 mod nodes;
 #[cfg(test)]
 pub(crate) mod tests;
@@ -89,7 +90,7 @@ use super::{
 use mdg_vm::anim::{frames_needed, trs};
 use mdg_vm::geom::quat::Frame;
 use mdg_vm::output::{
-    expand_prototype, place_mesh, Animation, Groups, Mesh, Output, Piece, Polyline, SharedKind, SharedMesh, VertexPart,
+    expand_prototype, place_mesh, Animation, Groups, Mesh, Output, Piece, Polyline, SharedKind, SharedMesh, VertexRun,
 };
 
 const FLOAT: u32 = 5126;
@@ -263,23 +264,28 @@ fn isosurface_placements(out: &Output, gpu: &GpuGroups) -> (Baked, Vec<NodePlace
     // per mesh).
     let mut baked = Baked::default();
     let mut as_nodes = Vec::new();
-    for (i, inst) in out.instances.iter().enumerate() {
-        if gpu.instanced.get(i).copied().unwrap_or(false) {
-            continue;
-        }
-        let Some(shared) = out.shared(&inst).filter(|s| !s.is_prototype()) else { continue };
+    // (By spans of one shared mesh: a prototype's instances are passed over whole.)
+    let frames = out.instances.packed_frames();
+    for span in out.instances.spans() {
+        let Some(shared) = out.shared_meshes.get(span.mesh as usize).filter(|s| !s.is_prototype()) else { continue };
         if shared.mesh.triangles.is_empty() {
             continue;
         }
-        let transform = out.instance_transform(&inst);
-        let placed = if out.instance_mirrored(&inst) {
-            orthogonal_trs(&(transform * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)))).map(|trs| (trs, true))
-        } else {
-            orthogonal_trs(&transform).map(|trs| (trs, false))
-        };
-        match placed {
-            Some((trs, mirror)) => as_nodes.push((i as u32, inst, trs, mirror)),
-            None => baked.bake(&shared.mesh, out, i as u32, &inst),
+        for i in span.range.clone() {
+            let Some(frame) = frames.get(i).filter(|_| !gpu.instanced.get(i).copied().unwrap_or(false)) else {
+                continue;
+            };
+            let inst = span.instance(frame);
+            let transform = out.instance_transform(&inst);
+            let placed = if out.instance_mirrored(&inst) {
+                orthogonal_trs(&(transform * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)))).map(|trs| (trs, true))
+            } else {
+                orthogonal_trs(&transform).map(|trs| (trs, false))
+            };
+            match placed {
+                Some((trs, mirror)) => as_nodes.push((i as u32, inst, trs, mirror)),
+                None => baked.bake(&shared.mesh, out, i as u32, &inst),
+            }
         }
     }
     // Thousands of nodes make importers crawl (Blender spends over a millisecond on
@@ -382,11 +388,6 @@ impl Record {
         let Record { frame, color, mesh, bone, lin, at } = *self;
         mdg_vm::output::Instance { frame, color, mesh, bone, lin, at }
     }
-}
-
-/// Every instance's [`Record`], in order.
-fn records(out: &Output) -> impl Iterator<Item = Record> + '_ {
-    out.instances.iter().map(|i| record_of(&i))
 }
 
 #[inline(always)]

@@ -17,7 +17,7 @@ pub mod stl;
 mod text;
 
 use std::collections::{BTreeMap, HashMap};
-use std::io::Write as _;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
@@ -114,7 +114,7 @@ pub fn write_file_with(
 ) -> Result<(), ExportError> {
     let mut failed = None;
     let r = write_atomic_with(path, &mut |file| {
-        let mut w = std::io::BufWriter::with_capacity(1 << 20, file);
+        let mut w = FileWriter(std::io::BufWriter::with_capacity(1 << 20, file));
         let res = write_with(format, out, glb_opts, &mut w);
         if let Err(e) = res {
             let io = std::io::Error::other(e.to_string());
@@ -129,6 +129,39 @@ pub fn write_file_with(
         (Err(e), None) => ExportError::Io(e),
     };
     Err(ExportError::File { path: path.to_path_buf(), source: Box::new(source) })
+}
+
+/// Writes of at least this many bytes bypass [`FileWriter`]'s buffer.
+const DIRECT_BYTES: usize = 1 << 16;
+
+/// The file writer of [`write_file_with`]: a `BufWriter` that hands a big write
+/// (at least [`DIRECT_BYTES`], such as the `.glb` writer's records gathered a MiB
+/// at a time, or its spooled flat geometry) to the file straight after the bytes it
+/// holds, instead of copying it into its buffer first: `BufWriter` copies every
+/// write that fits in its spare capacity, which for a `.glb` of instances was as
+/// many byte copies as the file has bytes. Small writes are buffered as before.
+struct FileWriter<W: Write>(std::io::BufWriter<W>);
+
+impl<W: Write> Write for FileWriter<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if buf.len() < DIRECT_BYTES {
+            return self.0.write(buf);
+        }
+        self.0.flush()?;
+        self.0.get_mut().write(buf)
+    }
+
+    fn write_all(&mut self, buf: &[u8]) -> std::io::Result<()> {
+        if buf.len() < DIRECT_BYTES {
+            return self.0.write_all(buf);
+        }
+        self.0.flush()?;
+        self.0.get_mut().write_all(buf)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.flush()
+    }
 }
 
 /// Distinguishes temporary files of concurrent writers in one process.
@@ -495,6 +528,22 @@ pub(crate) mod tests {
     use super::*;
     use mdg_vm::geom::Frame;
     use mdg_vm::output::{Instance, Polyline, SharedMesh, Stats};
+
+    /// Small writes buffered and big ones passed straight through come out in the
+    /// order they were made, whole.
+    #[test]
+    fn the_file_writer_keeps_the_order_of_big_and_small_writes() {
+        let mut w = FileWriter(std::io::BufWriter::with_capacity(1 << 20, Vec::new()));
+        let mut expected = Vec::new();
+        for (k, len) in [10, DIRECT_BYTES, 3, DIRECT_BYTES - 1, 3 * DIRECT_BYTES, 1, 0, 2 << 20].into_iter().enumerate()
+        {
+            let part: Vec<u8> = (0..len).map(|i| (i * 7 + k) as u8).collect();
+            w.write_all(&part).expect("writes");
+            expected.extend_from_slice(&part);
+        }
+        w.flush().expect("flushes");
+        assert!(w.0.get_ref() == &expected, "the bytes in another order");
+    }
 
     /// A unit cube as 12 VERTEX-style triangles (outward, counter-clockwise).
     pub(crate) fn cube(mirror_first: bool) -> Mesh {

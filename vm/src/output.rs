@@ -13,7 +13,7 @@ use serde::Serialize;
 use std::ops::Range;
 
 pub use crate::geom::Mesh;
-pub use instances::{Instance, InstanceIter, Instances, PackedFrame, FRAME_WORDS, TRANSLATION_AT};
+pub use instances::{Instance, InstanceIter, Instances, PackedFrame, Span, FRAME_WORDS, TRANSLATION_AT};
 
 mod instances;
 
@@ -142,6 +142,18 @@ pub enum VertexPart<'a> {
     /// is the instance), whose expanded vertices become the flat vertices from `base`
     /// on.
     Prototype { instance: usize, base: u32, inst: Instance },
+}
+
+/// A part of the `VERTEX` group's flat walk by runs (see
+/// [`Output::for_each_vertex_run`]).
+#[derive(Clone, Debug)]
+pub enum VertexRun<'a> {
+    /// A run of [`Output::mesh`].
+    Piece(Piece<'a>),
+    /// Prototype instances `instances` (indices into [`Output::instances`], frames
+    /// in [`Instances::packed_frames`]), all with `span`'s fields, whose expanded
+    /// vertices follow one another from `base` on.
+    Prototypes { instances: Range<usize>, base: u32, span: Span },
 }
 
 /// Which groups of geometry a flat walk visits, in this order: the `VERTEX`
@@ -458,12 +470,12 @@ impl Output {
                 false => (0, 0),
             })
             .collect();
-        for (i, mesh) in self.instances.meshes().enumerate() {
-            if let Some(&(dv, dt)) = per.get(mesh as usize) {
-                if expand(i) {
-                    v += dv;
-                    t += dt;
-                }
+        // (By spans of one mesh: a span of a mesh left out is passed over whole.)
+        for span in self.instances.spans() {
+            if let Some(&(dv, dt)) = per.get(span.mesh as usize).filter(|p| **p != (0, 0)) {
+                let k = span.range.filter(|&i| expand(i)).count();
+                v += k * dv;
+                t += k * dt;
             }
         }
         (v, t)
@@ -534,11 +546,35 @@ impl Output {
         expand: &dyn Fn(usize) -> bool,
         mut f: impl FnMut(VertexPart<'s>) -> Result<(), E>,
     ) -> Result<(), E> {
+        let frames = self.instances.packed_frames();
+        self.for_each_vertex_run(expand, |run| match run {
+            VertexRun::Piece(p) => f(VertexPart::Piece(p)),
+            VertexRun::Prototypes { instances, mut base, span } => {
+                let per = self.shared_meshes.get(span.mesh as usize).map_or(0, |s| s.mesh.n_vertices() as u32);
+                for (i, frame) in instances.clone().zip(frames.get(instances).unwrap_or(&[])) {
+                    f(VertexPart::Prototype { instance: i, base, inst: span.instance(frame) })?;
+                    base += per;
+                }
+                Ok(())
+            }
+        })
+    }
+
+    /// [`Output::for_each_vertex_part`] with consecutive prototype instances that
+    /// share every field but their frames (of one [`Span`]) handed over as one run:
+    /// instance `instances.start + k` becomes the flat vertices from `base + k * n`
+    /// on, n being its prototype's vertices. An exporter expands each run's
+    /// instances in a loop over their packed frames, the prototype looked up once.
+    pub fn for_each_vertex_run<'s, E>(
+        &'s self,
+        expand: &dyn Fn(usize) -> bool,
+        mut f: impl FnMut(VertexRun<'s>) -> Result<(), E>,
+    ) -> Result<(), E> {
         let m = &self.mesh;
         // Mesh vertices [done, at) go before an instance made at `at`; a triangle
         // belongs to the run that holds its last vertex.
         let (mut done, mut tri, mut base) = (0usize, 0usize, 0u32);
-        let run = |f: &mut dyn FnMut(VertexPart<'s>) -> Result<(), E>,
+        let run = |f: &mut dyn FnMut(VertexRun<'s>) -> Result<(), E>,
                    to: usize,
                    done: &mut usize,
                    tri: &mut usize,
@@ -552,16 +588,32 @@ impl Output {
             *base += (to - *done) as u32;
             *done = to;
             *tri = end_tri;
-            f(VertexPart::Piece(piece))
+            f(VertexRun::Piece(piece))
         };
-        for (i, inst) in self.instances.iter().enumerate() {
-            let Some(shared) = self.shared(&inst).filter(|s| s.is_prototype() && expand(i)) else { continue };
-            let at = (inst.at as usize).clamp(done, m.n_vertices());
-            if at > done {
-                run(&mut f, at, &mut done, &mut tri, &mut base)?;
+        for span in self.instances.spans() {
+            let Some(shared) = self.shared_meshes.get(span.mesh as usize).filter(|s| s.is_prototype()) else {
+                continue;
+            };
+            let per = shared.mesh.n_vertices() as u32;
+            // (Every instance of the span is made at the same `at`: the mesh's run
+            // before it comes before the first one expanded.)
+            let mut i = span.range.start;
+            while i < span.range.end {
+                if !expand(i) {
+                    i += 1;
+                    continue;
+                }
+                let first = i;
+                while i < span.range.end && expand(i) {
+                    i += 1;
+                }
+                let at = (span.at as usize).clamp(done, m.n_vertices());
+                if at > done {
+                    run(&mut f, at, &mut done, &mut tri, &mut base)?;
+                }
+                f(VertexRun::Prototypes { instances: first..i, base, span: span.clone() })?;
+                base += per * (i - first) as u32;
             }
-            f(VertexPart::Prototype { instance: i, base, inst })?;
-            base += shared.mesh.n_vertices() as u32;
         }
         if done < m.n_vertices() || tri < m.triangles.len() {
             run(&mut f, m.n_vertices(), &mut done, &mut tri, &mut base)?;

@@ -110,16 +110,6 @@ impl<'w> Sink<'w> {
         Ok(())
     }
 
-    /// Appends `xs` as little-endian f32s.
-    #[inline]
-    pub(super) fn floats<const N: usize>(&mut self, xs: [f32; N]) -> Result<(), ExportError> {
-        let b = self.slot(4 * N)?;
-        for (d, x) in b.chunks_exact_mut(4).zip(xs) {
-            d.copy_from_slice(&x.to_le_bytes());
-        }
-        Ok(())
-    }
-
     pub(super) fn flush(&mut self) -> Result<(), ExportError> {
         let Some(w) = self.w.as_mut() else {
             return Err(ExportError::StreamLength { written: self.len, laid_out: self.buf.len() });

@@ -10,6 +10,7 @@
 //! second walk places each instance's distinct positions and normals once and
 //! encodes them once, then copies the encoded bytes into each vertex's record.
 
+use super::memo::Memo;
 use super::*;
 
 /// Where a flat primitive's pieces come from.
@@ -24,7 +25,7 @@ pub(super) enum FlatSource<'a> {
 }
 
 impl<'a> FlatSource<'a> {
-    fn walk<'s>(&'s self, f: &mut dyn FnMut(VertexPart<'s>) -> Result<(), ExportError>) -> Result<(), ExportError> {
+    fn walk<'s>(&'s self, f: &mut dyn FnMut(VertexRun<'s>) -> Result<(), ExportError>) -> Result<(), ExportError> {
         let m = match self {
             FlatSource::Vertex { out, mesh_only: true, .. } => {
                 // What `for_each_vertex_part` makes when it expands no instance.
@@ -35,12 +36,12 @@ impl<'a> FlatSource<'a> {
                 &out.mesh
             }
             FlatSource::Vertex { out, instanced, .. } => {
-                return out.for_each_vertex_part(&|i| !instanced.get(i).copied().unwrap_or(false), f);
+                return out.for_each_vertex_run(&|i| !instanced.get(i).copied().unwrap_or(false), f);
             }
             FlatSource::Mesh(m) => *m,
             FlatSource::Owned(m) => m,
         };
-        f(VertexPart::Piece(Piece { mesh: m, vertices: 0..m.n_vertices(), triangles: 0..m.triangles.len(), base: 0 }))
+        f(VertexRun::Piece(Piece { mesh: m, vertices: 0..m.n_vertices(), triangles: 0..m.triangles.len(), base: 0 }))
     }
 
     /// Vertices and triangles of the primitive, without walking it (a prototype
@@ -92,6 +93,11 @@ struct ProtoInfo {
     /// or does (`[1]`), and in vertex order (`flat`, for a primitive with indices).
     corners: [Vec<[u32; 3]>; 2],
     flat: Vec<[u32; 3]>,
+    /// The distinct `(position, normal, colour)` of [`ProtoInfo::corners`], and
+    /// the corners as indices into them (unmirrored, mirrored): an instance makes
+    /// each distinct record once and copies it to its corners.
+    records: Vec<[u32; 3]>,
+    corner_records: [Vec<u32>; 2],
 }
 
 impl ProtoInfo {
@@ -154,9 +160,23 @@ impl ProtoInfo {
             }
             c
         });
+        let mut records: Vec<[u32; 3]> = Vec::new();
+        let corner_records = corners.clone().map(|c| {
+            c.iter()
+                .map(|r| match records.iter().position(|x| x == r) {
+                    Some(k) => k as u32,
+                    None => {
+                        records.push(*r);
+                        records.len() as u32 - 1
+                    }
+                })
+                .collect()
+        });
         ProtoInfo {
             corners,
             flat,
+            records,
+            corner_records,
             sequential,
             valid,
             n_tris: m.triangles.len(),
@@ -256,7 +276,13 @@ struct ProtoFrame {
 impl ProtoFrame {
     fn new(f: &Frame) -> ProtoFrame {
         let (lin, mirrored) = f.linear();
-        ProtoFrame { lin, lin_a: glam::Mat3A::from(lin), u_a: f.u.into(), mirrored }
+        ProtoFrame::of(lin, mirrored, f.u)
+    }
+
+    /// The frame of linear map `lin` (and its mirroring) and translation `u`.
+    #[inline]
+    fn of(lin: glam::Mat3, mirrored: bool, u: Vec3) -> ProtoFrame {
+        ProtoFrame { lin, lin_a: glam::Mat3A::from(lin), u_a: u.into(), mirrored }
     }
 
     #[inline]
@@ -270,7 +296,13 @@ impl ProtoFrame {
 
     #[inline]
     fn normal(&self, n: Vec3) -> [f32; 3] {
-        unit_normal((self.lin * n).normalize_or(Vec3::Z).to_array())
+        self.unit(self.lin * n)
+    }
+
+    /// A normal mapped by the linear map (`lin * n`), as written: normalised twice.
+    #[inline]
+    fn unit(&self, m: Vec3) -> [f32; 3] {
+        unit_normal(m.normalize_or(Vec3::Z).to_array())
     }
 }
 
@@ -313,7 +345,7 @@ pub(super) fn flat_plan(
     let mut last_proto: Option<(u32, [u32; 4])> = None;
     src.walk(&mut |part| {
         match part {
-            VertexPart::Piece(p) => {
+            VertexRun::Piece(p) => {
                 let m = p.mesh;
                 if p.base as usize != plan.n {
                     return Err(ExportError::PiecesOutOfOrder { what: what.to_string() });
@@ -341,39 +373,43 @@ pub(super) fn flat_plan(
                 plan.n += p.vertices.len();
                 plan.sequential &= plan.n == 3 * plan.n_tris;
             }
-            VertexPart::Prototype { base, inst, .. } => {
+            VertexRun::Prototypes { instances, base, span } => {
                 let (Some(out), Some(infos)) = (out, infos.as_mut()) else { return Ok(()) };
-                let inst = record_of(&inst);
-                let Some(info) = infos.get(inst.mesh) else { return Ok(()) };
-                if base as usize != plan.n {
-                    return Err(ExportError::PiecesOutOfOrder { what: what.to_string() });
-                }
-                if !info.valid {
-                    let name = out.shared_meshes.get(inst.mesh as usize).map_or("", |s| s.name.as_str());
-                    return Err(ExportError::PrototypeTriangles {
-                        what: what.to_string(),
-                        prototype: name.to_string(),
-                    });
-                }
-                // Most instances lie inside the bounds found so far, which their scale
-                // shows without placing their vertices.
-                if bounds && !info.surely_within(&inst.frame, &plan.lo, &plan.hi) {
-                    let f = ProtoFrame::new(&inst.frame);
-                    for &p in &info.positions {
-                        bound(&mut plan, f.position(p).to_array());
+                let Some(info) = infos.get(span.mesh) else { return Ok(()) };
+                let per = info.position_of.len();
+                let frames = out.instances.packed_frames().get(instances).unwrap_or(&[]);
+                for (k, frame) in frames.iter().enumerate() {
+                    if base as usize + k * per != plan.n {
+                        return Err(ExportError::PiecesOutOfOrder { what: what.to_string() });
                     }
-                }
-                // (Consecutive instances mostly share their mesh and colour.)
-                let key = (inst.mesh, inst.color.map(f32::to_bits));
-                if last_proto != Some(key) {
-                    last_proto = Some(key);
-                    for &d in &info.deltas {
-                        color(&mut plan, proto_color(inst.color, d));
+                    if !info.valid {
+                        let name = out.shared_meshes.get(span.mesh as usize).map_or("", |s| s.name.as_str());
+                        return Err(ExportError::PrototypeTriangles {
+                            what: what.to_string(),
+                            prototype: name.to_string(),
+                        });
                     }
+                    let inst = span.instance(frame);
+                    // Most instances lie inside the bounds found so far, which their
+                    // scale shows without placing their vertices.
+                    if bounds && !info.surely_within(&inst.frame, &plan.lo, &plan.hi) {
+                        let f = ProtoFrame::new(&inst.frame);
+                        for &p in &info.positions {
+                            bound(&mut plan, f.position(p).to_array());
+                        }
+                    }
+                    // (Consecutive instances mostly share their mesh and colour.)
+                    let key = (inst.mesh, inst.color.map(f32::to_bits));
+                    if last_proto != Some(key) {
+                        last_proto = Some(key);
+                        for &d in &info.deltas {
+                            color(&mut plan, proto_color(inst.color, d));
+                        }
+                    }
+                    plan.sequential &= info.sequential && plan.n == 3 * plan.n_tris;
+                    plan.n += per;
+                    plan.n_tris += info.n_tris;
                 }
-                plan.sequential &= info.sequential && plan.n == 3 * plan.n_tris;
-                plan.n += info.position_of.len();
-                plan.n_tris += info.n_tris;
             }
         }
         Ok(())
@@ -506,8 +542,11 @@ pub(super) fn flat_stride(wide: bool, skinned: bool) -> usize {
 /// One prototype instance's vertices, as [`expand_prototype`] makes them and the
 /// exporters read them (positions, normals and colours, by vertex), encoded as the
 /// records hold them.
-#[derive(Default)]
 struct ProtoVertices {
+    /// Per frame (q and q̂'s bits), its linear map and mirroring; per normal mapped
+    /// by it (before normalising), the normal as written.
+    linear: Memo<8, (glam::Mat3, bool)>,
+    unit_normals: Memo<3, [u8; 12]>,
     positions: Vec<[u8; 12]>,
     normals: Vec<[u8; 12]>,
     colors: Vec<[u8; 8]>,
@@ -515,6 +554,20 @@ struct ProtoVertices {
     /// consecutive instances mostly share them.
     colors_of: Option<(u32, [u32; 4])>,
     scratch: Mesh,
+}
+
+impl Default for ProtoVertices {
+    fn default() -> ProtoVertices {
+        ProtoVertices {
+            linear: Memo::new(),
+            unit_normals: Memo::new(),
+            positions: Vec::new(),
+            normals: Vec::new(),
+            colors: Vec::new(),
+            colors_of: None,
+            scratch: Mesh::default(),
+        }
+    }
 }
 
 impl ProtoVertices {
@@ -561,6 +614,64 @@ impl ProtoVertices {
             self.colors_of = Some(key);
         }
         f.mirrored
+    }
+
+    /// The records of a run of instances of one prototype with one colour
+    /// (`span`'s, frames `frames`), without indices, 8-bit colours and no skin (the
+    /// usual record, 28 bytes): per instance its distinct positions and normals
+    /// placed (as [`ProtoVertices::fill`]), its distinct records made once and
+    /// copied to its corners in oriented triangle order.
+    fn put_plain_run(
+        &mut self,
+        rec: &mut VertexRecord,
+        bounds: &mut Bounds,
+        sink: &mut Sink,
+        info: &ProtoInfo,
+        span: &mdg_vm::output::Span,
+        frames: &[mdg_vm::output::PackedFrame],
+    ) -> Result<(), ExportError> {
+        let short = || ExportError::Inconsistent("flat geometry: a prototype vertex out of range");
+        let key = (span.mesh, span.color.map(f32::to_bits));
+        if self.colors_of != Some(key) {
+            self.colors.clear();
+            self.colors.extend(info.deltas.iter().map(|&d| rec.encode(proto_color(span.color, d))));
+            self.colors_of = Some(key);
+        }
+        // (The run's colour is every instance's: its bytes are put in once.)
+        let mut made: Vec<[u8; 28]> = vec![[0; 28]; info.records.len()];
+        for (r, c) in made.iter_mut().zip(&info.records) {
+            r[24..28].copy_from_slice(&self.colors.get(c[2] as usize).ok_or_else(short)?[..4]);
+        }
+        self.positions.resize(info.positions.len(), [0; 12]);
+        self.normals.resize(info.normals.len(), [0; 12]);
+        for frame in frames {
+            let key: [u32; 8] = std::array::from_fn(|k| frame[k].to_bits());
+            let (lin, mirrored) = self.linear.get(key, || packed_frame(frame).linear());
+            let f = ProtoFrame::of(lin, mirrored, Vec3::new(frame[8], frame[9], frame[10]));
+            for (d, &p) in self.positions.iter_mut().zip(&info.positions) {
+                let p = f.position(p);
+                bounds.add(p);
+                *d = float3_bytes(p.to_array());
+            }
+            for (d, &n) in self.normals.iter_mut().zip(&info.normals) {
+                let m = f.lin * n;
+                *d = self.unit_normals.get(m.to_array().map(f32::to_bits), || float3_bytes(f.unit(m)));
+            }
+            for (r, c) in made.iter_mut().zip(&info.records) {
+                let (Some(p), Some(n)) = (self.positions.get(c[0] as usize), self.normals.get(c[1] as usize)) else {
+                    return Err(short());
+                };
+                r[0..12].copy_from_slice(p);
+                r[12..24].copy_from_slice(n);
+            }
+            for corners in info.corner_records[usize::from(f.mirrored)].chunks(SINK_BYTES / 28) {
+                let b = sink.slot(28 * corners.len())?;
+                for (d, &k) in b.as_chunks_mut::<28>().0.iter_mut().zip(corners) {
+                    *d = *made.get(k as usize).ok_or_else(short)?;
+                }
+            }
+        }
+        Ok(())
     }
 
     /// The records of `corners` (see [`ProtoInfo::corners`]) after
@@ -629,7 +740,7 @@ pub(super) fn flat_write(
     let (mut n, mut n_tris, mut wrong) = (0usize, 0usize, false);
     let off_plan = || ExportError::Inconsistent("flat geometry: the layout planned does not hold");
     let walked = src.walk(&mut |part| match part {
-        VertexPart::Piece(p) => {
+        VertexRun::Piece(p) => {
             let m = p.mesh;
             wrong |= p.base as usize != n;
             let mut vertex = |rec: &mut VertexRecord, sink: &mut Sink, v: usize| {
@@ -664,20 +775,30 @@ pub(super) fn flat_write(
             }
             Ok(())
         }
-        VertexPart::Prototype { base, inst, .. } => {
+        VertexRun::Prototypes { instances, base, span } => {
             let (Some(out), Some(infos)) = (out, infos.as_mut()) else { return Err(missing()) };
-            let inst = record_of(&inst);
-            let shared = out.shared_meshes.get(inst.mesh as usize).ok_or_else(missing)?;
-            let info = infos.get(inst.mesh).ok_or_else(missing)?;
+            let shared = out.shared_meshes.get(span.mesh as usize).ok_or_else(missing)?;
+            let info = infos.get(span.mesh).ok_or_else(missing)?;
+            let frames = out.instances.packed_frames().get(instances).ok_or_else(missing)?;
             wrong |= base as usize != n || !info.valid || (plan.sequential && !info.sequential);
             if wrong {
                 return Err(off_plan());
             }
-            let mirrored = pv.fill(&mut rec, &mut bounds, shared, info, &inst);
-            let corners = if plan.sequential { &info.corners[usize::from(mirrored)] } else { &info.flat };
-            n += info.flat.len();
-            n_tris += info.n_tris;
-            pv.put(&rec, sink, corners, inst.bone)
+            if plan.sequential && !(rec.wide || rec.skinned || info.face_normals) {
+                // The usual case: whole 28-byte records, one per distinct vertex of
+                // each instance, copied to its corners.
+                pv.put_plain_run(&mut rec, &mut bounds, sink, info, &span, frames)?;
+            } else {
+                for frame in frames {
+                    let inst = record_of(&span.instance(frame));
+                    let mirrored = pv.fill(&mut rec, &mut bounds, shared, info, &inst);
+                    let corners = if plan.sequential { &info.corners[usize::from(mirrored)] } else { &info.flat };
+                    pv.put(&rec, sink, corners, inst.bone)?;
+                }
+            }
+            n += info.flat.len() * frames.len();
+            n_tris += info.n_tris * frames.len();
+            Ok(())
         }
     });
     if wrong || rec.too_narrow || n != plan.n {
@@ -696,7 +817,7 @@ pub(super) fn flat_write(
             sink.put(&b)
         };
         match part {
-            VertexPart::Piece(p) => {
+            VertexRun::Piece(p) => {
                 for t in p.triangles.clone() {
                     tri(
                         sink,
@@ -704,15 +825,19 @@ pub(super) fn flat_write(
                     )?;
                 }
             }
-            VertexPart::Prototype { base, inst, .. } => {
+            VertexRun::Prototypes { instances, base, span } => {
                 let Some(out) = out else { return Err(missing()) };
-                let inst = record_of(&inst);
-                let shared = out.shared_meshes.get(inst.mesh as usize).ok_or_else(missing)?;
-                let mirrored = ProtoFrame::new(&inst.frame).mirrored;
-                for (t, v) in shared.mesh.triangles.iter().enumerate() {
-                    let v = v.map(|i| i + base);
-                    let flip = mirrored != shared.mesh.mirrored.get(t).copied().unwrap_or(false);
-                    tri(sink, if flip { [v[0], v[2], v[1]] } else { v })?;
+                let shared = out.shared_meshes.get(span.mesh as usize).ok_or_else(missing)?;
+                let frames = out.instances.packed_frames().get(instances).ok_or_else(missing)?;
+                let per = shared.mesh.n_vertices() as u32;
+                for (k, frame) in frames.iter().enumerate() {
+                    let base = base + k as u32 * per;
+                    let mirrored = ProtoFrame::new(&span.instance(frame).frame).mirrored;
+                    for (t, v) in shared.mesh.triangles.iter().enumerate() {
+                        let v = v.map(|i| i + base);
+                        let flip = mirrored != shared.mesh.mirrored.get(t).copied().unwrap_or(false);
+                        tri(sink, if flip { [v[0], v[2], v[1]] } else { v })?;
+                    }
                 }
             }
         }
@@ -767,6 +892,52 @@ mod tests {
             });
         }
         out
+    }
+
+    /// The flat file's positions and normals are the expanded mesh's, bit for bit,
+    /// where frames repeat (the memos of linear maps and normals hit) and where a
+    /// frame and its mirror share q (their keys differ in q̂ alone), in runs broken
+    /// by colour changes.
+    #[test]
+    fn repeated_and_mirrored_frames_write_the_expanded_mesh() {
+        let mut out = scattered_squares(60);
+        let firsts: Vec<mdg_vm::output::Instance> =
+            out.instances.iter().map(|i| mdg_vm::output::Instance { color: [1.0; 4], ..i }).collect();
+        out.instances = firsts.iter().copied().collect();
+        for k in 0..600usize {
+            let mut inst = firsts[k % 60];
+            if k % 7 == 0 {
+                inst.frame.qh = -inst.frame.qh;
+            }
+            inst.color = [1.0, if k % 90 < 45 { 1.0 } else { 0.0 }, 1.0, 1.0];
+            out.instances.push(inst);
+        }
+        let mut b = Vec::new();
+        write_glb(&out, &mut b).expect("writes");
+        let (json, bin) = parse_glb(&b);
+        let attrs = &json["meshes"][0]["primitives"][0]["attributes"];
+        let read = |name: &str| components(&bin, &json, attrs[name].as_u64().expect(name));
+        let (positions, normals) = (read("POSITION"), read("NORMAL"));
+        // (8-bit colours: the usual record, whose runs are written whole.)
+        let colors = &json["accessors"][attrs["COLOR_0"].as_u64().expect("colours") as usize];
+        assert_eq!(colors["componentType"], UNSIGNED_BYTE);
+        let m = out.vertex_mesh();
+        let (mut want_p, mut want_n) = (Vec::new(), Vec::new());
+        for (t, tri) in m.triangles.iter().enumerate() {
+            let o = if m.mirrored[t] { [tri[0], tri[2], tri[1]] } else { *tri };
+            for v in o.map(|v| v as usize) {
+                want_p.extend(finite3(m.positions[v]).map(f64::from));
+                want_n.extend(normal_at(&m, v).map(f64::from));
+            }
+        }
+        // (The first number that differs, by its index.)
+        let first_wrong = |got: &[f64], want: &[f64]| {
+            assert_eq!(got.len(), want.len());
+            got.iter().zip(want).position(|(a, b)| (*a as f32).to_bits() != (*b as f32).to_bits())
+        };
+        assert_eq!(positions.len(), 3 * 6 * 660);
+        assert_eq!(first_wrong(&positions, &want_p), None, "positions");
+        assert_eq!(first_wrong(&normals, &want_n), None, "normals");
     }
 
     #[test]

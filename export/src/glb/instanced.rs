@@ -3,6 +3,7 @@
 //! strided view, written in one pass when the file is) and colours.
 
 use super::*;
+use mdg_vm::output::PackedFrame;
 
 /// The most glTF meshes one prototype gets for colour variants under `--instances`
 /// (a prototype whose items add colours to the frame's needs one per distinct frame
@@ -75,54 +76,103 @@ pub(super) fn gpu_instance_groups(out: &Output, skinned: bool) -> GpuGroups {
     let (mut prototypes, mut placed) = (0usize, 0usize);
     // Consecutive instances mostly share a group: the last one is tried first.
     let mut last: Option<(GroupKey, usize)> = None;
-    for (i, r) in records(out).enumerate() {
-        let Some(&(is_prototype, deltas)) = kind.get(r.mesh as usize) else { continue };
-        prototypes += usize::from(is_prototype);
+    let frames = out.instances.packed_frames();
+    // By spans of equal mesh, colour, bone and `lin`: within one, an instance's group
+    // depends on its frame alone (placeable or not, mirrored or not), so the frames
+    // are classed in a tight loop and each run of one class joins its group at once.
+    for span in out.instances.spans() {
+        let Some(&(is_prototype, deltas)) = kind.get(span.mesh as usize) else { continue };
+        if is_prototype {
+            prototypes += span.range.len();
+        }
         let Some(deltas) = deltas else { continue };
         // (An isosurface in a frame with a non-uniform factor is no TRS: a node or baked.)
-        if (skinned && r.bone != 0) || !prototype_placeable(&r.frame) || r.lin != 0 {
+        if (skinned && span.bone != 0) || span.lin != 0 {
             continue;
         }
-        let bits = r.color.map(f32::to_bits);
-        let key = (r.mesh, frame_mirrors(&r.frame), deltas.then_some(bits));
-        let k = match last {
-            Some((k, at)) if k == key => at,
-            _ => match index.get(&key) {
-                Some(&k) => k,
-                None => {
-                    let n = variants.entry(r.mesh).or_insert(0);
-                    if deltas && *n >= MAX_COLOR_VARIANTS {
-                        continue;
+        let bits = span.color.map(f32::to_bits);
+        let Some(fs) = frames.get(span.range.clone()) else { continue };
+        let mut at = span.range.start;
+        for (class, n) in class_runs(fs) {
+            let run = at..at + n;
+            at += n;
+            let Some(mirrored) = class else { continue };
+            let key = (span.mesh, mirrored, deltas.then_some(bits));
+            let k = match last {
+                Some((k, at)) if k == key => at,
+                _ => match index.get(&key) {
+                    Some(&k) => k,
+                    None => {
+                        let n = variants.entry(span.mesh).or_insert(0);
+                        if deltas && *n >= MAX_COLOR_VARIANTS {
+                            continue;
+                        }
+                        *n += 1;
+                        g.groups.push(GpuGroup {
+                            mesh: span.mesh,
+                            mirrored,
+                            color: deltas.then_some(span.color),
+                            runs: Vec::new(),
+                            count: 0,
+                            first_bits: bits,
+                            same_bits: true,
+                        });
+                        index.insert(key, g.groups.len() - 1);
+                        g.groups.len() - 1
                     }
-                    *n += 1;
-                    g.groups.push(GpuGroup {
-                        mesh: r.mesh,
-                        mirrored: key.1,
-                        color: deltas.then_some(r.color),
-                        runs: Vec::new(),
-                        count: 0,
-                        first_bits: bits,
-                        same_bits: true,
-                    });
-                    index.insert(key, g.groups.len() - 1);
-                    g.groups.len() - 1
-                }
-            },
-        };
-        last = Some((key, k));
-        let group = &mut g.groups[k];
-        group.same_bits &= bits == group.first_bits;
-        let i32 = i as u32;
-        match group.runs.last_mut() {
-            Some(run) if run.end == i32 => run.end += 1,
-            _ => group.runs.push(i32..i32 + 1),
+                },
+            };
+            last = Some((key, k));
+            let group = &mut g.groups[k];
+            group.same_bits &= bits == group.first_bits;
+            let (a, b) = (run.start as u32, run.end as u32);
+            match group.runs.last_mut() {
+                Some(r) if r.end == a => r.end = b,
+                _ => group.runs.push(a..b),
+            }
+            group.count += run.len();
+            if let Some(flags) = g.instanced.get_mut(run.clone()) {
+                flags.fill(true);
+            }
+            if is_prototype {
+                placed += run.len();
+            }
         }
-        group.count += 1;
-        g.instanced[i] = true;
-        placed += usize::from(is_prototype);
     }
     g.all_prototypes_instanced = placed == prototypes;
     g
+}
+
+/// The frames `fs` as runs of one class, in order: `(None, n)` for n frames that
+/// are no TRS ([`prototype_placeable`]), `(Some(mirrored), n)` for n that are
+/// ([`frame_mirrors`]).
+fn class_runs(fs: &[PackedFrame]) -> impl Iterator<Item = (Option<bool>, usize)> + '_ {
+    // 0: not placeable, 1: placeable, 2: placeable and mirrored: the products and
+    // sums of `prototype_placeable` and `frame_mirrors` (Quat's dot is Vec4's), on
+    // the packed numbers in SIMD lanes.
+    let class = |p: &PackedFrame| {
+        let q = glam::Vec4::from_slice(&p[0..4]);
+        let h = glam::Vec4::from_slice(&p[4..8]);
+        let u = glam::Vec4::new(p[8], p[9], p[10], 0.0);
+        let s = q.length_squared() * h.length_squared();
+        let placeable = (s > 0.0) & (s < f32::INFINITY) & u.abs().cmplt(glam::Vec4::INFINITY).all();
+        let mirrored = h.dot(q * glam::Vec4::new(-1.0, -1.0, -1.0, 1.0)) < 0.0;
+        u8::from(placeable) * (1 + u8::from(mirrored))
+    };
+    let mut at = 0;
+    std::iter::from_fn(move || {
+        let first = class(fs.get(at)?);
+        let n = 1 + fs.get(at + 1..).map_or(0, |rest| rest.iter().take_while(|p| class(p) == first).count());
+        at += n;
+        Some(([None, Some(false), Some(true)][usize::from(first)], n))
+    })
+}
+
+/// The frame a packed frame holds (the bits of [`mdg_vm::output::Instances::frame`]).
+#[inline(always)]
+pub(super) fn packed_frame(p: &PackedFrame) -> Frame {
+    let [qx, qy, qz, qw, hx, hy, hz, hw, ux, uy, uz] = *p;
+    Frame { q: Quat::from_xyzw(qx, qy, qz, qw), qh: Quat::from_xyzw(hx, hy, hz, hw), u: Vec3::new(ux, uy, uz) }
 }
 
 /// Whether a frame built by the adjustments mirrors: `q̂ = ±q̄` (geom::quat), the
@@ -191,17 +241,46 @@ pub(super) fn write_instance_attributes(
     per_color: bool,
     sink: &mut Sink,
 ) -> Result<(), ExportError> {
-    for i in group.indices() {
-        sink.floats(out.instances.frame(i as usize).map_or([0.0; 10], |f| trs_record(&f, group.mirrored)))?;
+    let frames = out.instances.packed_frames();
+    let missing = || ExportError::Inconsistent("instanced node: an instance out of range");
+    // (The records of a run in slots of at most SINK_BYTES, each filled in a tight
+    // loop over the packed frames.)
+    for run in &group.runs {
+        let fs = frames.get(run.start as usize..run.end as usize).ok_or_else(missing)?;
+        for part in fs.chunks(SINK_BYTES / TRS_STRIDE) {
+            let b = sink.slot(part.len() * TRS_STRIDE)?;
+            let (records, _) = b.as_chunks_mut::<TRS_STRIDE>();
+            for (d, p) in records.iter_mut().zip(part) {
+                let r = trs_record(&packed_frame(p), group.mirrored);
+                for (d, x) in d.as_chunks_mut::<4>().0.iter_mut().zip(r) {
+                    *d = x.to_le_bytes();
+                }
+            }
+        }
     }
     if per_color {
+        // The colours by spans (one colour each) met in the order of the runs.
+        let mut spans = out.instances.spans();
+        let mut span = spans.next();
         let mut last = ([1.0f32; 4], linear_color([1.0; 4]));
-        for i in group.indices() {
-            let c = out.instances.color(i as usize).map_or([0.0; 4], clamp_color);
-            if c != last.0 {
-                last = (c, linear_color(c));
+        for run in &group.runs {
+            let (mut a, b) = (run.start as usize, run.end as usize);
+            while a < b {
+                while span.as_ref().is_some_and(|s| s.range.end <= a) {
+                    span = spans.next();
+                }
+                let s = span.as_ref().filter(|s| s.range.start <= a).ok_or_else(missing)?;
+                let c = clamp_color(s.color);
+                if c != last.0 {
+                    last = (c, linear_color(c));
+                }
+                let n = b.min(s.range.end) - a;
+                let rgb = [last.1[0], last.1[1], last.1[2]].map(f32::to_le_bytes);
+                for _ in 0..n {
+                    sink.put(rgb.as_flattened())?;
+                }
+                a += n;
             }
-            sink.floats([last.1[0], last.1[1], last.1[2]])?;
         }
     }
     Ok(())
@@ -335,5 +414,107 @@ impl<'a> Builder<'a> {
             ..Node::default()
         });
         Ok(Some(node))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mdg_vm::output::{Instance, SharedKind, SharedMesh};
+
+    /// A triangle prototype, with colour deltas when `deltas`.
+    fn triangle(name: &str, deltas: bool) -> SharedMesh {
+        let mut m = Mesh::default();
+        let d = if deltas { [0.1, 0.0, 0.0, 0.0] } else { [0.0; 4] };
+        for p in [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]] {
+            m.push_vertex(Vec3::new(p[0], p[1], 0.0), Vec3::Z, d, [0.0; 4], 0);
+        }
+        m.push_triangle([0, 1, 2], false);
+        SharedMesh { name: name.into(), mesh: m, kind: SharedKind::Prototype { face_normals: vec![None] } }
+    }
+
+    /// The groups as the walk instance by instance made them (the writer before
+    /// spans): per instance its key, groups in order of their first instance.
+    /// A group as the test compares it: key, instances, whether the colours' bits agree.
+    type Seen = (GroupKey, Vec<u32>, bool);
+
+    fn one_by_one(out: &Output) -> (Vec<bool>, Vec<Seen>) {
+        let mut instanced = vec![false; out.instances.len()];
+        let mut groups: Vec<(GroupKey, Vec<u32>, bool, [u32; 4])> = Vec::new();
+        let mut variants: BTreeMap<u32, usize> = BTreeMap::new();
+        for (i, r) in out.instances.iter().enumerate() {
+            let Some(s) = out.shared_meshes.get(r.mesh as usize) else { continue };
+            let deltas = s.mesh.colors.iter().any(|c| *c != [0.0; 4]);
+            if r.lin != 0 || !prototype_placeable(&r.frame) {
+                continue;
+            }
+            let bits = r.color.map(f32::to_bits);
+            let key = (r.mesh, frame_mirrors(&r.frame), deltas.then_some(bits));
+            let k = match groups.iter().position(|g| g.0 == key) {
+                Some(k) => k,
+                None => {
+                    let n = variants.entry(r.mesh).or_insert(0);
+                    if deltas && *n >= MAX_COLOR_VARIANTS {
+                        continue;
+                    }
+                    *n += 1;
+                    groups.push((key, Vec::new(), true, bits));
+                    groups.len() - 1
+                }
+            };
+            groups[k].1.push(i as u32);
+            groups[k].2 &= bits == groups[k].3;
+            instanced[i] = true;
+        }
+        (instanced, groups.into_iter().map(|(k, v, same, _)| (k, v, same)).collect())
+    }
+
+    /// Grouping by spans and classed runs of frames gives the groups, instances and
+    /// flags of the walk instance by instance: mirrored, degenerate and non-finite
+    /// frames among plain ones, colours changing within and between groups, a
+    /// prototype with colour deltas past its variants, a non-uniform factor.
+    #[test]
+    fn grouping_by_spans_is_grouping_one_by_one() {
+        let mut out = Output::default();
+        out.shared_meshes.push(triangle("plain", false));
+        out.shared_meshes.push(triangle("deltas", true));
+        let mut rng = mdg_vm::rng::Rng::new(37);
+        let mut unit = move || (rng.bits() >> 40) as f32 / (1u64 << 24) as f32;
+        for i in 0..3000u32 {
+            let mut f = Frame::identity()
+                .translate(Vec3::new(unit(), unit(), unit()))
+                .rotate(Quat::from_rotation_z(7.0 * unit()))
+                .scale(0.5 + unit());
+            match (unit() * 12.0) as u32 {
+                0..3 => f = f.reflect(Vec3::X),
+                3 => f = f.scale(0.0),
+                4 => f.u.y = f32::INFINITY,
+                5 => f.q.x = f32::NAN,
+                _ => {}
+            }
+            let color = [((i / 7) % 3) as f32 * 0.25, 0.5, (i % 90 / 45) as f32, 1.0];
+            let mesh = u32::from(i % 500 >= 400);
+            let lin = u32::from(i % 250 == 3);
+            out.instances.push(Instance { frame: f, color, mesh, bone: 0, lin, at: 0 });
+        }
+        // Colour variants past the limit for the prototype with deltas.
+        for k in 0..(MAX_COLOR_VARIANTS as u32 + 5) {
+            let color = [0.001 * k as f32, 0.2, 0.3, 1.0];
+            out.instances.push(Instance { frame: Frame::identity(), color, mesh: 1, bone: 0, lin: 0, at: 0 });
+        }
+        let g = gpu_instance_groups(&out, false);
+        let got: Vec<Seen> = g
+            .groups
+            .iter()
+            .map(|x| {
+                assert_eq!(x.count, x.indices().count());
+                ((x.mesh, x.mirrored, x.color.map(|c| c.map(f32::to_bits))), x.indices().collect(), x.same_bits)
+            })
+            .collect();
+        let (instanced, want) = one_by_one(&out);
+        assert!(want.len() > 4 && want.iter().any(|w| w.0 .1) && want.iter().any(|w| !w.2));
+        assert_eq!(got, want);
+        assert_eq!(g.instanced, instanced);
+        assert!(!g.all_prototypes_instanced);
     }
 }

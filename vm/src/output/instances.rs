@@ -299,6 +299,47 @@ impl Instances {
         &self.frames
     }
 
+    /// The instances as spans over which no run table changes, in order: each span's
+    /// instances share their colour, mesh, bone, `lin` and `at` (the span's
+    /// [`Span::fields`]) and differ only in their frames ([`Instances::packed_frames`]
+    /// over [`Span::range`]). A tree of one prototype in one colour is one span: a
+    /// reader that needs the shared fields once per span, not per instance, walks
+    /// these.
+    pub fn spans(&self) -> impl Iterator<Item = Span> + '_ {
+        let mut at = [0usize; 5];
+        let mut next = 0usize;
+        std::iter::from_fn(move || {
+            let start = next;
+            if start >= self.len() {
+                return None;
+            }
+            let [c, m, b, l, t] = &mut at;
+            let (Some(color), Some(mesh), Some(bone), Some(lin), Some(at_)) = (
+                self.colors.read(c, start),
+                self.meshes.read(m, start),
+                self.bones.read(b, start),
+                self.lins.read(l, start),
+                self.ats.read(t, start),
+            ) else {
+                return None;
+            };
+            let end = [
+                self.colors.next_start(*c),
+                self.meshes.next_start(*m),
+                self.bones.next_start(*b),
+                self.lins.next_start(*l),
+                self.ats.next_start(*t),
+                self.len(),
+            ]
+            .into_iter()
+            .min()
+            .unwrap_or(self.len())
+            .max(start + 1);
+            next = end;
+            Some(Span { range: start..end, color, mesh, bone, lin, at: at_ })
+        })
+    }
+
     /// The colour every instance has, if there are instances and all have the same
     /// (bit for bit).
     pub fn uniform_color(&self) -> Option<&[f32; 4]> {
@@ -346,6 +387,34 @@ impl<'a> IntoIterator for &'a Instances {
     type IntoIter = InstanceIter<'a>;
     fn into_iter(self) -> InstanceIter<'a> {
         self.iter()
+    }
+}
+
+/// Consecutive instances that share every field but their frames (see
+/// [`Instances::spans`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Span {
+    /// The instances (indices into the [`Instances`]).
+    pub range: Range<usize>,
+    pub color: [f32; 4],
+    pub mesh: u32,
+    pub bone: u32,
+    pub lin: u32,
+    pub at: u32,
+}
+
+impl Span {
+    /// Instance `i`'s record (`frame` its frame): the span's fields with it.
+    #[inline]
+    pub fn instance(&self, frame: &PackedFrame) -> Instance {
+        Instance {
+            frame: unpack(frame),
+            color: self.color,
+            mesh: self.mesh,
+            bone: self.bone,
+            lin: self.lin,
+            at: self.at,
+        }
     }
 }
 
@@ -460,6 +529,26 @@ mod tests {
             let from: Vec<Vec<u32>> = all.range(i..40).map(|x| bits(&x)).collect();
             assert_eq!(from, pushed[i..].iter().map(bits).collect::<Vec<_>>());
         }
+        // The spans: every instance once, in order, with its fields; a span ends
+        // where some field changes and nowhere else.
+        let mut rebuilt = Vec::new();
+        let spans: Vec<Span> = all.spans().collect();
+        for s in &spans {
+            assert!(!s.range.is_empty());
+            for (k, f) in all.packed_frames()[s.range.clone()].iter().enumerate() {
+                assert_eq!(bits(&s.instance(f)), bits(&pushed[s.range.start + k]));
+                rebuilt.push(s.instance(f));
+            }
+        }
+        assert_eq!(rebuilt.iter().map(bits).collect::<Vec<_>>(), pushed.iter().map(bits).collect::<Vec<_>>());
+        for w in spans.windows(2) {
+            assert_eq!(w[0].range.end, w[1].range.start);
+            let (a, b) = (&pushed[w[0].range.end - 1], &pushed[w[1].range.start]);
+            assert_ne!(
+                bits(a)[8..12].iter().chain(&bits(a)[15..]).collect::<Vec<_>>(),
+                bits(b)[8..12].iter().chain(&bits(b)[15..]).collect::<Vec<_>>()
+            );
+        }
         assert_eq!(all.get(40), None);
         assert_eq!(all.meshes().collect::<Vec<_>>(), pushed.iter().map(|p| p.mesh).collect::<Vec<_>>());
         assert_eq!(all.range(38..100).count(), 2);
@@ -487,6 +576,7 @@ mod tests {
             (Some(&2), Some(&0), Some(&[1.0; 4]))
         );
         let mut kept = all.clone();
+        assert_eq!(all.spans().map(|s| (s.range.start, s.range.end)).collect::<Vec<_>>(), [(0, 1000)]);
         kept.retain(|i| i.frame.u.x < 10.0);
         assert_eq!(kept.len(), 10);
         assert_eq!(
