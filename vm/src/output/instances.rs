@@ -141,18 +141,129 @@ impl<T: Bits> Runs<T> {
     }
 }
 
+/// A dense mesh column is made once the mesh's run table has more entries than
+/// this and than one in [`DENSE_FROM`] instances.
+const DENSE_AFTER: usize = 64;
+
+/// See [`DENSE_AFTER`]: a run-table entry is 16 bytes, a dense entry 2 (or 4), so
+/// past one change in 8 instances the column is smaller.
+const DENSE_FROM: usize = 8;
+
+/// The shared meshes' column: a run table while meshes change seldom; one entry per
+/// instance once changes are frequent (a tree with one prototype per depth changes
+/// mesh at nearly every instance in depth-first order), `u16`s while every mesh
+/// index fits one.
+#[derive(Clone, Debug, PartialEq)]
+enum MeshColumn {
+    Runs(Runs<u32>),
+    Narrow(Vec<u16>),
+    Wide(Vec<u32>),
+}
+
+impl Default for MeshColumn {
+    fn default() -> Self {
+        MeshColumn::Runs(Runs::default())
+    }
+}
+
+impl MeshColumn {
+    /// The mesh of instance `i`, if there is one.
+    #[inline]
+    fn at(&self, i: usize) -> Option<u32> {
+        match self {
+            MeshColumn::Runs(r) => r.at(i),
+            MeshColumn::Narrow(v) => v.get(i).map(|&m| u32::from(m)),
+            MeshColumn::Wide(v) => v.get(i).copied(),
+        }
+    }
+
+    /// Appends the mesh of the next instance to a dense column.
+    #[inline(always)]
+    fn push_dense(&mut self, mesh: u32) {
+        match self {
+            MeshColumn::Narrow(v) if mesh <= u32::from(u16::MAX) => v.push(mesh as u16),
+            _ => self.push_dense_slowly(mesh),
+        }
+    }
+
+    /// [`MeshColumn::push_dense`] past a `u16` (the column is widened first).
+    #[cold]
+    #[inline(never)]
+    fn push_dense_slowly(&mut self, mesh: u32) {
+        if let MeshColumn::Narrow(v) = self {
+            *self = MeshColumn::Wide(v.iter().map(|&m| u32::from(m)).collect());
+        }
+        if let MeshColumn::Wide(v) = self {
+            v.push(mesh);
+        }
+    }
+
+    /// The run table made dense, for `len` instances.
+    fn densify(runs: &Runs<u32>, len: usize) -> MeshColumn {
+        let mut column = MeshColumn::Narrow(Vec::with_capacity(len));
+        for (k, &(first, mesh)) in runs.0.iter().enumerate() {
+            let end = runs.0.get(k + 1).map_or(len, |r| r.0);
+            for _ in first..end {
+                column.push_dense(mesh);
+            }
+        }
+        column
+    }
+
+    /// An iterator's cursor for instance `i` (see [`Runs::entry`]; unused when dense).
+    #[inline]
+    fn entry(&self, i: usize) -> usize {
+        match self {
+            MeshColumn::Runs(r) => r.entry(i),
+            MeshColumn::Narrow(_) | MeshColumn::Wide(_) => 0,
+        }
+    }
+
+    /// The mesh of instance `i`, reading on from the cursor `*c` (see [`Runs::read`]).
+    #[inline]
+    fn read(&self, c: &mut usize, i: usize) -> Option<u32> {
+        match self {
+            MeshColumn::Runs(r) => r.read(c, i),
+            MeshColumn::Narrow(_) | MeshColumn::Wide(_) => self.at(i),
+        }
+    }
+
+    /// Where the run after cursor `c` begins (`usize::MAX` when dense: the
+    /// iterator reads a dense column at every instance).
+    #[inline]
+    fn next_start(&self, c: usize) -> usize {
+        match self {
+            MeshColumn::Runs(r) => r.next_start(c),
+            MeshColumn::Narrow(_) | MeshColumn::Wide(_) => usize::MAX,
+        }
+    }
+
+    /// Bytes the column holds.
+    fn bytes(&self) -> usize {
+        use std::mem::size_of;
+        match self {
+            MeshColumn::Runs(r) => r.0.len() * size_of::<(usize, u32)>(),
+            MeshColumn::Narrow(v) => v.len() * size_of::<u16>(),
+            MeshColumn::Wide(v) => v.len() * size_of::<u32>(),
+        }
+    }
+}
+
 /// The instances of an output, in the order they were made (see the module docs).
 #[derive(Clone, Default, PartialEq)]
 pub struct Instances {
     frames: Vec<PackedFrame>,
     colors: Runs<[f32; 4]>,
-    meshes: Runs<u32>,
+    meshes: MeshColumn,
     bones: Runs<u32>,
     lins: Runs<u32>,
     ats: Runs<u32>,
     /// The last instance's colour (bits), mesh, bone, lin and at: a push that
     /// repeats them (nearly every one) is one comparison and the frame's write.
+    /// Under a dense mesh column the mesh's place holds 0.
     tail: [u32; 8],
+    /// Whether [`Instances::meshes`] is dense.
+    dense: bool,
 }
 
 /// `inst`'s fields that go in run tables, as bits.
@@ -189,7 +300,11 @@ impl Instances {
     /// Adds `inst` after the others.
     #[inline(always)]
     pub fn push(&mut self, inst: Instance) {
-        let tail = tail_of(&inst);
+        let mut tail = tail_of(&inst);
+        if self.dense {
+            self.meshes.push_dense(inst.mesh);
+            tail[4] = 0;
+        }
         if tail != self.tail || self.frames.is_empty() {
             self.note(&inst, tail);
         }
@@ -202,11 +317,20 @@ impl Instances {
     fn note(&mut self, inst: &Instance, tail: [u32; 8]) {
         let i = self.frames.len();
         self.colors.note(i, inst.color);
-        self.meshes.note(i, inst.mesh);
+        if let MeshColumn::Runs(r) = &mut self.meshes {
+            r.note(i, inst.mesh);
+            if r.0.len() > DENSE_AFTER && r.0.len() * DENSE_FROM > i {
+                self.meshes = MeshColumn::densify(r, i + 1);
+                self.dense = true;
+            }
+        }
         self.bones.note(i, inst.bone);
         self.lins.note(i, inst.lin);
         self.ats.note(i, inst.at);
         self.tail = tail;
+        if self.dense {
+            self.tail[4] = 0;
+        }
     }
 
     /// Instance `i`.
@@ -249,11 +373,16 @@ impl Instances {
 
     /// The shared mesh of every instance in order (without unpacking the rest).
     pub fn meshes(&self) -> impl Iterator<Item = u32> + '_ {
-        let runs = &self.meshes.0;
-        runs.iter().enumerate().flat_map(move |(k, &(first, mesh))| {
+        let (runs, narrow, wide): (&[(usize, u32)], &[u16], &[u32]) = match &self.meshes {
+            MeshColumn::Runs(r) => (&r.0, &[], &[]),
+            MeshColumn::Narrow(v) => (&[], v, &[]),
+            MeshColumn::Wide(v) => (&[], &[], v),
+        };
+        let runs = runs.iter().enumerate().flat_map(move |(k, &(first, mesh))| {
             let end = runs.get(k + 1).map_or(self.len(), |r| r.0);
             std::iter::repeat_n(mesh, end.saturating_sub(first))
-        })
+        });
+        runs.chain(narrow.iter().map(|&m| u32::from(m))).chain(wide.iter().copied())
     }
 
     /// Every instance in order.
@@ -307,7 +436,11 @@ impl Instances {
 
     /// The shared mesh every instance places, if there are instances and all place one.
     pub fn uniform_mesh(&self) -> Option<&u32> {
-        self.meshes.uniform()
+        match &self.meshes {
+            MeshColumn::Runs(r) => r.uniform(),
+            // (A column is dense only after many changes.)
+            MeshColumn::Narrow(_) | MeshColumn::Wide(_) => None,
+        }
     }
 
     /// The bone of every instance, if there are instances and all have one.
@@ -320,8 +453,8 @@ impl Instances {
         use std::mem::size_of;
         self.frames.len() * size_of::<PackedFrame>()
             + self.colors.0.len() * size_of::<(usize, [f32; 4])>()
-            + (self.meshes.0.len() + self.bones.0.len() + self.lins.0.len() + self.ats.0.len())
-                * size_of::<(usize, u32)>()
+            + self.meshes.bytes()
+            + (self.bones.0.len() + self.lins.0.len() + self.ats.0.len()) * size_of::<(usize, u32)>()
     }
 }
 
@@ -401,6 +534,7 @@ impl Iterator for InstanceIter<'_> {
             self.refill(i);
         }
         let (color, [mesh, bone, lin, at]) = self.fields?;
+        let mesh = if self.all.dense { self.all.meshes.at(i)? } else { mesh };
         Some(Instance { frame: unpack(self.all.frames.get(i)?), color, mesh, bone, lin, at })
     }
 
@@ -470,10 +604,44 @@ mod tests {
         // One entry per change: -0.0 after 0.0 is a change; equal neighbours are not.
         let changes = |v: Vec<u32>| 1 + v.windows(2).filter(|w| w[0] != w[1]).count();
         assert_eq!(all.colors.0.len(), changes(pushed.iter().map(|p| p.color[0].to_bits()).collect()));
-        assert_eq!(all.meshes.0.len(), 40);
+        assert!(matches!(&all.meshes, MeshColumn::Runs(r) if r.0.len() == 40));
         assert_eq!(all.bones.0.len(), 10);
         assert_eq!(all.lins.0.len(), 3);
         assert_eq!(all.ats.0.len(), 20);
+    }
+
+    /// A mesh that changes at nearly every instance (a tree with one prototype per
+    /// depth) costs a `u16` an instance, not a run-table entry (16 bytes), and
+    /// reads back exactly by every accessor; a mesh past 65,535 widens the column.
+    #[test]
+    fn frequently_changing_meshes_cost_two_bytes_an_instance() {
+        let mut pushed: Vec<Instance> =
+            (0..300).map(|k| Instance { mesh: k % 15, bone: 0, lin: 0, at: 0, ..inst(k, [1.0; 4]) }).collect();
+        let mut all: Instances = pushed.iter().copied().collect();
+        assert_eq!(all.bytes(), 300 * 44 + 300 * 2 + 24 + 3 * 16);
+        let check = |all: &Instances, pushed: &[Instance]| {
+            let read: Vec<Vec<u32>> = all.iter().map(|i| bits(&i)).collect();
+            assert_eq!(read, pushed.iter().map(bits).collect::<Vec<_>>());
+            for (i, p) in pushed.iter().enumerate() {
+                assert_eq!(all.get(i).map(|g| bits(&g)), Some(bits(p)));
+                assert_eq!(all.mesh(i), Some(p.mesh));
+                let from: Vec<Vec<u32>> = all.range(i..i + 3).map(|x| bits(&x)).collect();
+                let end = (i + 3).min(pushed.len());
+                assert_eq!(from, pushed[i..end].iter().map(bits).collect::<Vec<_>>());
+            }
+            assert_eq!(all.meshes().collect::<Vec<_>>(), pushed.iter().map(|p| p.mesh).collect::<Vec<_>>());
+            assert_eq!(all.uniform_mesh(), None);
+        };
+        check(&all, &pushed);
+        let wide = Instance { mesh: 70_000, ..pushed[7] };
+        pushed.push(wide);
+        all.push(wide);
+        check(&all, &pushed);
+        assert_eq!(all.bytes(), 301 * 44 + 301 * 4 + 24 + 3 * 16);
+        // Fewer changes keep the run table: 300 instances in runs of 20.
+        let runs: Instances =
+            (0..300).map(|k| Instance { mesh: k / 20, bone: 0, lin: 0, at: 0, ..inst(k, [1.0; 4]) }).collect();
+        assert_eq!(runs.bytes(), 300 * 44 + 15 * 16 + 24 + 3 * 16);
     }
 
     /// One prototype in one colour: 44 bytes an instance and one entry per table.
