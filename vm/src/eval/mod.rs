@@ -154,6 +154,9 @@ struct Eval<'b> {
     /// Whether model runs take the fast path, the loop with the [`Simple`] sink
     /// (instancing on, no sites or derivation recorded, and [`fast_path_applies`]).
     fast: bool,
+    /// Whether fast-path runs take the [`Lean`] sink from a plain start
+    /// ([`lean_path_applies`], [`plain_start`]).
+    lean: bool,
     /// Vertices of the prototype instances made so far (they count as vertices for
     /// the budget and the statistics, as they would have run one by one).
     instanced_vertices: u64,
@@ -327,6 +330,7 @@ impl<'b> Eval<'b> {
                 .collect(),
             instancing,
             fast,
+            lean: fast && lean_path_applies(b),
             instanced_vertices: 0,
             prototype_instances: 0,
             lins_used: false,

@@ -36,6 +36,33 @@ pub(super) fn fast_path_applies(b: &Bundle, xf_pure: &[bool]) -> bool {
     rules_ok
 }
 
+/// Whether the fast path's runs of `b` change nothing but frames (then they take
+/// the [`Lean`] sink, from a start state that [`plain_start`] accepts): every call's
+/// and iterator's transform is a constant whose colour, weight and fps deltas are
+/// +0.0 (bit for bit), with no set colour, HSB part or non-uniform scale. Composing
+/// such a transform adds +0.0 to those fields and keeps hue, `lin` and `ndet`.
+pub(super) fn lean_path_applies(b: &Bundle) -> bool {
+    let keeps = |xf: TransformId| {
+        matches!(b.transforms.get(xf.index()), Some(Transform::Const(c))
+            if c.set.is_none() && c.hsb.is_none() && c.n.is_none()
+                && c.color.iter().chain(&c.weight).chain([&c.fps]).all(|v| v.to_bits() == 0))
+    };
+    b.code.iter().all(|op| match *op {
+        Op::Call { xf, .. } => keeps(xf),
+        Op::Loop { step, .. } | Op::LoopN { step, .. } => keeps(step),
+        _ => true,
+    })
+}
+
+/// Whether adding +0.0 gives back each of `s`'s colour, weight and fps bit for bit
+/// (none is −0.0 or a signalling NaN) and `s` has no non-uniform factor: then every
+/// composition [`lean_path_applies`] allows keeps all of `s` but its frame.
+pub(super) fn plain_start(s: &State) -> bool {
+    s.lin == 0
+        && s.ndet.to_bits() == 1.0f32.to_bits()
+        && s.color.iter().chain(&s.weight).chain([&s.fps]).all(|v| (v + 0.0).to_bits() == v.to_bits())
+}
+
 /// The state a constant `VERTEX` item (transform `c`, cached as `x`) leaves in
 /// `last` when it starts from `from`: what composing `c` gives, without its linear
 /// factor (the `VERTEX` fast path's frames have none).
@@ -87,6 +114,15 @@ pub(super) struct Act {
     /// `ARG`s for the next call are pushed above it.
     pub(super) slot_base: u32,
     pub(super) slot_top: u32,
+}
+
+/// A caller's activation under [`Sink::LEAN`]: the rest of its state is the running
+/// activation's (no call changes it; its slots are empty).
+#[derive(Clone, Copy)]
+pub(super) struct LeanAct {
+    pub(super) f: Frame,
+    pub(super) pc: u32,
+    pub(super) depth: u32,
 }
 
 /// The remaining runs of a convolution rule's body.
@@ -166,8 +202,7 @@ impl<'b> Eval<'b> {
     /// The definition of `rule_idx` for a call in state `child` at `depth` whose
     /// arguments are `slots[args..]`.
     pub(super) fn select(&mut self, rule: RuleId, child: &State, depth: u32, args: usize) -> u32 {
-        // A depth selector with constant weights: precomputed at load.
-        if let Some(&pc) = self.weights.by_depth.get(rule.index()).and_then(|t| t.get(depth as usize)) {
+        if let Some(pc) = self.by_depth(rule, depth) {
             return pc;
         }
         let slots = self.slots.get(args..).unwrap_or(&[]);
@@ -183,6 +218,13 @@ impl<'b> Eval<'b> {
             &mut self.weights,
             &mut self.non_finite,
         )
+    }
+
+    /// The definition a depth selector with constant weights picks at `depth`
+    /// (precomputed at load), if `rule` has one.
+    #[inline(always)]
+    pub(super) fn by_depth(&self, rule: RuleId, depth: u32) -> Option<u32> {
+        self.weights.by_depth.get(rule.index()).and_then(|t| t.get(depth as usize)).copied()
     }
 
     /// Pushes a frame for a run that starts at `rule` (no caller passes arguments: the
@@ -216,7 +258,11 @@ impl<'b> Eval<'b> {
         if self.b.settings.breadth && mode == Mode::Model {
             self.run_breadth(rule, start, depth);
         } else if self.fast && mode == Mode::Model {
-            self.interpret(&mut Simple, rule, start, depth, mode);
+            if self.lean && plain_start(&start) {
+                self.interpret(&mut Lean, rule, start, depth, mode);
+            } else {
+                self.interpret(&mut Simple, rule, start, depth, mode);
+            }
         } else if self.opts.record_sites || self.tree.is_some() {
             self.interpret(&mut Sited, rule, start, depth, mode);
         } else {
@@ -283,6 +329,7 @@ impl<'b> Eval<'b> {
         let mut m = Regs {
             act,
             stack: Vec::new(),
+            lean: Vec::new(),
             bone,
             bones: Vec::new(),
             seed: None,
@@ -537,6 +584,9 @@ impl<'b> Eval<'b> {
             // (A counted call can stop the run only when it is refused.)
             return !(S::SIMPLE && self.stops(m));
         }
+        if S::LEAN {
+            return self.lean_call(m, rule, xf, depth);
+        }
         let from = Self::from::<S>(m);
         let child = self.apply(xf, from, m.act.depth, m.act.slot_base, m.act.slot_top);
         if !S::SIMPLE {
@@ -558,7 +608,7 @@ impl<'b> Eval<'b> {
         let r = &b.rules[rule];
         // (A queued call waits in the queue, which `stacksize` bounds.)
         let stack_len = if S::QUEUES { sink.pending() } else { m.stack.len() + 1 };
-        if !self.admit(&child, depth, stack_len, m.act.pc - 1, S::SIMPLE) {
+        if !self.admit(|| child.scale(), depth, stack_len, m.act.pc - 1, S::SIMPLE) {
             if !S::SIMPLE && self.slots.len() > args {
                 self.slots.truncate(args);
             }
@@ -643,6 +693,42 @@ impl<'b> Eval<'b> {
                 m.node = self.call_node(m.node, rule.0, depth);
             }
         }
+        true
+    }
+
+    /// [`Eval::op_call`] under [`Sink::LEAN`], for a call within `maxdepth`: only the
+    /// frame is composed (the rest of the callee's state is the caller's, see
+    /// [`lean_path_applies`]), and only the caller's frame, program counter and depth
+    /// are pushed.
+    #[inline(always)]
+    fn lean_call(&mut self, m: &mut Regs, rule: RuleId, xf: TransformId, depth: u32) -> bool {
+        let b = self.b;
+        let f = match &b.transforms[xf] {
+            Transform::Const(c) => m.act.base.f.compose(&composite_frame(c)),
+            // (Not under the fast path, whose transforms are constant.)
+            Transform::Dynamic { .. } => {
+                let from = m.act.base;
+                self.apply(xf, &from, m.act.depth, m.act.slot_base, m.act.slot_top).f
+            }
+        };
+        let ndet = m.act.base.ndet;
+        if !self.admit(|| f.scale_factor() * ndet.abs(), depth, m.lean.len() + 1, m.act.pc - 1, true) {
+            return !self.stops(m);
+        }
+        let pc = match b.rules[rule].defs.as_slice() {
+            [only] => only.start,
+            _ => match self.by_depth(rule, depth) {
+                Some(pc) => pc,
+                None => {
+                    let child = State { f, ..m.act.base };
+                    self.select(rule, &child, depth, m.act.slot_top as usize)
+                }
+            },
+        };
+        m.lean.push(LeanAct { f: m.act.base.f, pc: m.act.pc, depth: m.act.depth });
+        m.act.base.f = f;
+        m.act.pc = pc;
+        m.act.depth = depth;
         true
     }
 
@@ -814,6 +900,13 @@ impl<'b> Eval<'b> {
     /// on (not after the run's first activation).
     #[inline(always)]
     fn op_ret<S: Sink>(&mut self, m: &mut Regs) -> bool {
+        if S::LEAN {
+            let Some(caller) = m.lean.pop() else { return false };
+            m.act.base.f = caller.f;
+            m.act.pc = caller.pc;
+            m.act.depth = caller.depth;
+            return true;
+        }
         // (Under the fast path an activation closes every iterator it opens and has
         // no convolution or bone of its own.)
         if !S::SIMPLE {
