@@ -46,7 +46,7 @@ use crate::bundle::{
 };
 use crate::expr::{self, ExprOp, Random};
 use crate::geom::frame64::Frame64;
-use crate::geom::quat::{Affine, Frame};
+use crate::geom::quat::{Affine, Frame, PreparedFrame};
 use crate::geom::Mesh;
 use crate::geom::{blend, marching, sweep};
 use crate::output::{
@@ -350,7 +350,8 @@ impl<'b> Eval<'b> {
                     Transform::Const(c) if c.n.is_none() && c.hsb.is_none() && c.set.is_none() => {
                         let frame = composite_frame(c);
                         let (lin, mirrored) = frame.linear();
-                        Some(XfInfo { frame, normal: lin * Vec3::from_array(s.normal), mirrored })
+                        let prepared = PreparedFrame::new(&frame);
+                        Some(XfInfo { frame, prepared, normal: lin * Vec3::from_array(s.normal), mirrored })
                     }
                     Transform::Const(_) => None,
                     Transform::Dynamic { .. } => None,

@@ -8,6 +8,8 @@ use super::*;
 /// Data derived once per constant transform, for the `VERTEX` fast path.
 pub(super) struct XfInfo {
     pub(super) frame: Frame,
+    /// `frame` prepared for composing (see [`PreparedFrame`]).
+    pub(super) prepared: PreparedFrame,
     /// The transform's linear part applied to the `normal` directive's vector.
     pub(super) normal: Vec3,
     pub(super) mirrored: bool,
@@ -703,10 +705,10 @@ impl<'b> Eval<'b> {
     #[inline(always)]
     fn lean_call(&mut self, m: &mut Regs, rule: RuleId, xf: TransformId, depth: u32) -> bool {
         let b = self.b;
-        let f = match &b.transforms[xf] {
-            Transform::Const(c) => m.act.base.f.compose(&composite_frame(c)),
-            // (Not under the fast path, whose transforms are constant.)
-            Transform::Dynamic { .. } => {
+        // (Every transform a lean call has is a constant with its `XfInfo`.)
+        let f = match self.xf_info.get(xf.index()) {
+            Some(Some(x)) => m.act.base.f.compose_prepared(&x.prepared),
+            _ => {
                 let from = m.act.base;
                 self.apply(xf, &from, m.act.depth, m.act.slot_base, m.act.slot_top).f
             }
