@@ -60,13 +60,18 @@ impl<'b> Eval<'b> {
     }
 
     /// A call refused by `maxdepth` before its frame was made: counted as
-    /// [`Eval::admit`] counts it (the run-wide limits come first).
+    /// [`Eval::admit`] counts it (the run-wide limits come first). Whether the
+    /// count was one where the run-wide limits are looked at (only then can the
+    /// count have stopped the run).
     #[inline(always)]
-    pub(super) fn refuse_deep_call(&mut self, pc: u32) {
-        if self.count_call() {
+    pub(super) fn refuse_deep_call(&mut self, pc: u32) -> bool {
+        self.calls += 1;
+        let looked = self.calls >= self.next_check;
+        if !looked || self.count_call_closely() {
             self.limits.maxdepth += 1;
             self.limits.first_refused[0].get_or_insert(pc);
         }
+        looked
     }
 
     /// Counts a call against the run-wide limits (checking the budgets now and

@@ -46,8 +46,14 @@ impl<'b> Eval<'b> {
             mesh = self.make_prototype(proto as usize);
             extent = self.protos.get(proto as usize).map_or(0.0, |s| s.extent);
         }
-        // The finiteness bound, while the frame is at hand (see `finish`).
-        self.suspect_instances |= !frame_surely_maps_finite(&base.f, extent);
+        // The finiteness bound (`frame_surely_maps_finite`) while the frame is at
+        // hand, lane by lane: tested once, at the end (see `finish`). (The extent,
+        // a largest absolute coordinate, is never negative: its absolute value is
+        // itself.)
+        let f = &base.f;
+        self.instances_small &= Vec4::from(f.q).abs().cmplt(Vec4::splat(1e7))
+            & Vec4::from(f.qh).abs().cmplt(Vec4::splat(1e7))
+            & f.u.extend(extent).abs().cmplt(Vec4::splat(1e15));
         let out = &mut self.out;
         if base.weight != [0.0; 4] || !out.instance_weights.is_empty() {
             out.instance_weights.resize(out.instances.len(), [0.0; 4]);

@@ -49,9 +49,7 @@ use crate::geom::frame64::Frame64;
 use crate::geom::quat::{Affine, Frame, PreparedFrame};
 use crate::geom::Mesh;
 use crate::geom::{blend, marching, sweep};
-use crate::output::{
-    frame_surely_maps_finite, Bone, Camera, Instance, Output, Polyline, SharedKind, SharedMesh, Track,
-};
+use crate::output::{Bone, Camera, Instance, Output, Polyline, SharedKind, SharedMesh, Track};
 use glam::{Mat3, Quat, Vec3, Vec4};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -166,9 +164,11 @@ struct Eval<'b> {
     /// Whether an instance refers to a non-uniform factor (then `lins` goes into the
     /// output).
     lins_used: bool,
-    /// A prototype instance's frame failed the finiteness bound (its vertices are
-    /// counted one by one at the end).
-    suspect_instances: bool,
+    /// Lane by lane, whether every prototype instance's frame so far passed the
+    /// finiteness bound ([`frame_surely_maps_finite`]; the prototype's extent in the
+    /// last lane of the translation's test): if one did not, the vertices are
+    /// counted one by one at the end.
+    instances_small: glam::BVec4A,
     /// The run's seed (transform rules derive their own streams from it).
     seed: u64,
     /// Transform rule → its track in `out.animation.tracks`.
@@ -334,7 +334,7 @@ impl<'b> Eval<'b> {
             instanced_vertices: 0,
             prototype_instances: 0,
             lins_used: false,
-            suspect_instances: false,
+            instances_small: glam::BVec4A::splat(true),
             needs_last: b.code.iter().any(|op| match op {
                 Op::Loop { chain, .. } | Op::LoopN { chain, .. } => chain & bundle::ops::LOOP_CHAIN != 0,
                 Op::Cont {} | Op::Draw { kind: Drawable::Reset, .. } => true,
@@ -506,7 +506,7 @@ impl<'b> Eval<'b> {
                 cut.calls, limits.calls
             ));
         }
-        let bad = self.out.non_finite_positions_checking(self.suspect_instances);
+        let bad = self.out.non_finite_positions_checking(!self.instances_small.all());
         if bad > 0 {
             self.out.stats.warnings.push(format!(
                 "{bad} position(s) are not finite numbers (a translation or scale overflowed): the files write them as 0"

@@ -577,14 +577,14 @@ impl<'b> Eval<'b> {
             if !S::SIMPLE {
                 m.cont = None;
             }
-            if !S::COLLECTS {
-                self.refuse_deep_call(m.act.pc - 1);
-            }
+            // (Under the fast path only the run-wide limits, looked at now and
+            // then, stop a run: a count where they were not looked at cannot.)
+            let looked = !S::COLLECTS && self.refuse_deep_call(m.act.pc - 1);
             if !S::SIMPLE && self.slots.len() > args {
                 self.slots.truncate(args);
             }
             // (A counted call can stop the run only when it is refused.)
-            return !(S::SIMPLE && self.stops(m));
+            return !(S::SIMPLE && looked && self.stops(m));
         }
         if S::LEAN {
             return self.lean_call(m, rule, xf, depth);
