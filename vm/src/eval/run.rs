@@ -332,6 +332,7 @@ impl<'b> Eval<'b> {
             act,
             stack: Vec::new(),
             lean: Vec::new(),
+            start_depth: depth,
             bone,
             bones: Vec::new(),
             seed: None,
@@ -714,7 +715,11 @@ impl<'b> Eval<'b> {
             }
         };
         let ndet = m.act.base.ndet;
-        if !self.admit(|| f.scale_factor() * ndet.abs(), depth, m.lean.len() + 1, m.act.pc - 1, true) {
+        // (On the fast path every call adds one to the depth and one caller to the
+        // stack, and a return takes both back: the callers' count is the depth
+        // gained since the run's start, whether tail calls kept their caller or not.)
+        let stack_len = (depth - m.start_depth) as usize;
+        if !self.admit(|| f.scale_factor() * ndet.abs(), depth, stack_len, m.act.pc - 1, true) {
             return !self.stops(m);
         }
         let pc = match b.rules[rule].defs.as_slice() {
@@ -727,7 +732,12 @@ impl<'b> Eval<'b> {
                 }
             },
         };
-        m.lean.push(LeanAct { f: m.act.base.f, pc: m.act.pc, depth: m.act.depth });
+        // A tail call (the caller's next op is its `RET`, and a lean `RET` only
+        // returns): the callee takes the caller's place, so its return is the
+        // caller's.
+        if !matches!(b.code.get(m.act.pc as usize), Some(Op::Ret {})) {
+            m.lean.push(LeanAct { f: m.act.base.f, pc: m.act.pc, depth: m.act.depth });
+        }
         m.act.base.f = f;
         m.act.pc = pc;
         m.act.depth = depth;

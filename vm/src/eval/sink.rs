@@ -149,8 +149,11 @@ pub(super) struct Regs {
     pub(super) act: Act,
     /// The running activation's callers.
     pub(super) stack: Vec<Act>,
-    /// The running activation's callers under [`Sink::LEAN`] (`stack` is unused).
+    /// The running activation's callers under [`Sink::LEAN`] (`stack` is unused),
+    /// but those that made a tail call.
     pub(super) lean: Vec<LeanAct>,
+    /// The depth of the run's first activation.
+    pub(super) start_depth: u32,
     /// The running activation's bone (0 = the root): vertices emitted there carry it.
     pub(super) bone: u32,
     /// The callers' bones, where a call made a new one: (the callee's level, its
