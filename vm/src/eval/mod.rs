@@ -152,6 +152,9 @@ struct Eval<'b> {
     /// Whether model runs take the fast path, the loop with the [`Simple`] sink
     /// (instancing on, no sites or derivation recorded, and [`fast_path_applies`]).
     fast: bool,
+    /// Each constant transform's frame prepared for composing ([`PreparedFrame`]),
+    /// where it has no non-uniform scale.
+    prepared: Vec<Option<PreparedFrame>>,
     /// Whether fast-path runs take the [`Lean`] sink from a plain start
     /// ([`lean_path_applies`], [`plain_start`]).
     lean: bool,
@@ -331,6 +334,14 @@ impl<'b> Eval<'b> {
             instancing,
             fast,
             lean: fast && lean_path_applies(b),
+            prepared: b
+                .transforms
+                .iter()
+                .map(|t| match t {
+                    Transform::Const(c) if c.n.is_none() => Some(PreparedFrame::new(&composite_frame(c))),
+                    _ => None,
+                })
+                .collect(),
             instanced_vertices: 0,
             prototype_instances: 0,
             lins_used: false,
@@ -350,8 +361,7 @@ impl<'b> Eval<'b> {
                     Transform::Const(c) if c.n.is_none() && c.hsb.is_none() && c.set.is_none() => {
                         let frame = composite_frame(c);
                         let (lin, mirrored) = frame.linear();
-                        let prepared = PreparedFrame::new(&frame);
-                        Some(XfInfo { frame, prepared, normal: lin * Vec3::from_array(s.normal), mirrored })
+                        Some(XfInfo { frame, normal: lin * Vec3::from_array(s.normal), mirrored })
                     }
                     Transform::Const(_) => None,
                     Transform::Dynamic { .. } => None,

@@ -8,8 +8,6 @@ use super::*;
 /// Data derived once per constant transform, for the `VERTEX` fast path.
 pub(super) struct XfInfo {
     pub(super) frame: Frame,
-    /// `frame` prepared for composing (see [`PreparedFrame`]).
-    pub(super) prepared: PreparedFrame,
     /// The transform's linear part applied to the `normal` directive's vector.
     pub(super) normal: Vec3,
     pub(super) mirrored: bool,
@@ -157,9 +155,13 @@ impl<'b> Eval<'b> {
     #[inline(always)]
     pub(super) fn apply(&mut self, xf: TransformId, from: &State, depth: u32, base: u32, top: u32) -> State {
         let b = self.b;
-        // A constant transform is composed where it lies (a composite is too big to copy).
+        // A constant transform is composed where it lies (a composite is too big to
+        // copy), with its frame prepared where neither side has a non-uniform factor.
         if let Transform::Const(c) = &b.transforms[xf] {
-            return from.compose(c, &mut self.lins);
+            return match self.prepared.get(xf.index()) {
+                Some(Some(p)) if from.lin == 0 => from.compose_prepared(c, p),
+                _ => from.compose(c, &mut self.lins),
+            };
         }
         let slots = self.slots.get(base as usize..top as usize).unwrap_or(&[]);
         let env = Env { at: from, depth, slots };
@@ -706,9 +708,9 @@ impl<'b> Eval<'b> {
     #[inline(always)]
     fn lean_call(&mut self, m: &mut Regs, rule: RuleId, xf: TransformId, depth: u32) -> bool {
         let b = self.b;
-        // (Every transform a lean call has is a constant with its `XfInfo`.)
-        let f = match self.xf_info.get(xf.index()) {
-            Some(Some(x)) => m.act.base.f.compose_prepared(&x.prepared),
+        // (Every transform a lean call has is a constant without a non-uniform scale.)
+        let f = match self.prepared.get(xf.index()) {
+            Some(Some(p)) => m.act.base.f.compose_prepared(p),
             _ => {
                 let from = m.act.base;
                 self.apply(xf, &from, m.act.depth, m.act.slot_base, m.act.slot_top).f
