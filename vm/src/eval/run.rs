@@ -352,7 +352,7 @@ impl<'b> Eval<'b> {
             mode,
         };
         m.loops.clear();
-        let code = &b.code;
+        let code: &[Op] = &b.code;
         // (The fast path checks for a stop where one can happen, after a refused call
         // or a counted iterator run, rather than before every op; see `stops`.)
         let stopped_at_start = S::SIMPLE && self.stops(&m);
@@ -363,8 +363,10 @@ impl<'b> Eval<'b> {
             if (!S::SIMPLE && self.stops(&m)) || stopped_at_start {
                 break;
             }
-            let op = code[m.act.pc as usize];
-            let go_on = match op {
+            // (Matched where it lies: its fields are read from the bundle, not from a
+            // copy of the op.)
+            let op = &code[m.act.pc as usize];
+            let go_on = match *op {
                 Op::Call { rule, xf, flags } => self.op_call(sink, &mut m, rule, xf, flags),
                 Op::Draw { kind: Drawable::Vertex, xf, ns, profile, flags: _ }
                     if !S::COLLECTS && mode == Mode::Model && self.xf_info[xf.index()].is_some() =>
@@ -406,7 +408,7 @@ impl<'b> Eval<'b> {
                     true
                 }
                 Op::Loop { .. } | Op::LoopN { .. } => {
-                    self.op_loop(&mut m, op);
+                    self.op_loop(&mut m, *op);
                     true
                 }
                 Op::EndLoop { begin } => self.op_end_loop(sink, &mut m, begin) && !(S::SIMPLE && self.stops(&m)),
