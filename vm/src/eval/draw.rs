@@ -60,7 +60,7 @@ impl<'b> Eval<'b> {
             out.instance_weights.push(base.weight);
         }
         let at = out.mesh.n_vertices() as u32;
-        out.instances.push(Instance { frame: base.f, color: base.color, mesh, bone, lin: 0, at });
+        out.instances.push_parts(&base.f, base.color, [mesh, bone, 0, at]);
         self.instanced_vertices += u64::from(vertices);
         self.prototype_instances += 1;
     }

@@ -266,13 +266,6 @@ pub struct Instances {
     dense: bool,
 }
 
-/// `inst`'s fields that go in run tables, as bits.
-#[inline(always)]
-fn tail_of(inst: &Instance) -> [u32; 8] {
-    let c = inst.color.map(f32::to_bits);
-    [c[0], c[1], c[2], c[3], inst.mesh, inst.bone, inst.lin, inst.at]
-}
-
 impl std::fmt::Debug for Instances {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_list().entries(self.iter()).finish()
@@ -300,15 +293,24 @@ impl Instances {
     /// Adds `inst` after the others.
     #[inline(always)]
     pub fn push(&mut self, inst: Instance) {
-        let mut tail = tail_of(&inst);
+        self.push_parts(&inst.frame, inst.color, [inst.mesh, inst.bone, inst.lin, inst.at]);
+    }
+
+    /// Adds the instance of `frame`, `color` and `[mesh, bone, lin, at]` after the
+    /// others ([`Instances::push`] without an [`Instance`] to build: the evaluator's
+    /// frame is packed from where it lies).
+    #[inline(always)]
+    pub fn push_parts(&mut self, frame: &Frame, color: [f32; 4], [mesh, bone, lin, at]: [u32; 4]) {
+        let c = color.map(f32::to_bits);
+        let mut tail = [c[0], c[1], c[2], c[3], mesh, bone, lin, at];
         if self.dense {
-            self.meshes.push_dense(inst.mesh);
+            self.meshes.push_dense(mesh);
             tail[4] = 0;
         }
         if tail != self.tail || self.frames.is_empty() {
-            self.note(&inst, tail);
+            self.note(&Instance { frame: *frame, color, mesh, bone, lin, at }, tail);
         }
-        self.frames.push(pack(&inst.frame));
+        self.frames.push(pack(frame));
     }
 
     /// The run tables' entries for `inst` (the next instance), whose fields differ
