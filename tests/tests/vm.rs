@@ -1065,7 +1065,8 @@ fn relative_path_ops_are_the_absolute_ones_from_the_current_point() {
 /// colour, weight or fps) and the fast path that composes whole states (`Simple`)
 /// give the very instances, counts and warnings the general loop gives (sites
 /// recorded, which takes it off the fast path): depth selection, `minsize`,
-/// `maxdepth`, iterators and a stack limit; a colour change keeps whole states.
+/// `maxdepth`, `maxiter` (ending the run at a refused call or an admitted one),
+/// iterators and a stack limit; a colour change keeps whole states.
 #[test]
 fn the_fast_paths_give_what_the_general_loop_gives() {
     let tree = |head: &str, adj: &str| {
@@ -1078,6 +1079,8 @@ fn the_fast_paths_give_what_the_general_loop_gives() {
         tree("maxdepth 9", ""),
         tree("maxdepth 30\nminsize 0.05", ""),
         tree("maxdepth 12\nstacksize 6", ""),
+        tree("maxdepth 12\nmaxiter 4097", ""),
+        tree("maxdepth 12\nmaxiter 5001", ""),
         tree("maxdepth 8", " hue 10 A -0.01"),
         "startshape T\nselector T depth\nmaxdepth 6\n\
          rule T 0 { VERTEX [x 1] VERTEX [y 1] VERTEX [] T [s 0.5 x 1] T [s 0.5 y 1] }\n\

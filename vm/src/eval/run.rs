@@ -585,6 +585,9 @@ impl<'b> Eval<'b> {
             // (Under the fast path only the run-wide limits, looked at now and
             // then, stop a run: a count where they were not looked at cannot.)
             let looked = !S::COLLECTS && self.refuse_deep_call(m.act.pc - 1);
+            if S::LEAN && !looked {
+                return self.lean_refuse_rest(m);
+            }
             if !S::SIMPLE && self.slots.len() > args {
                 self.slots.truncate(args);
             }
@@ -746,6 +749,34 @@ impl<'b> Eval<'b> {
         m.act.pc = pc;
         m.act.depth = depth;
         true
+    }
+
+    /// After a lean call refused by `maxdepth` at a count where no limit was looked
+    /// at: the calls that follow it in the body (as deep, so refused too) and the
+    /// body's `RET`, here rather than through the loop's dispatch (the loop would
+    /// run the same handlers: under the fast path a stop is asked only where a
+    /// limit was looked at, and a lean `RET` only returns). Whether the run goes on.
+    #[inline(always)]
+    fn lean_refuse_rest(&mut self, m: &mut Regs) -> bool {
+        let code: &[Op] = &self.b.code;
+        loop {
+            match code.get(m.act.pc as usize) {
+                Some(Op::Call { .. }) => {
+                    m.act.pc += 1;
+                    if self.refuse_deep_call(m.act.pc - 1) {
+                        return !self.stops(m);
+                    }
+                }
+                Some(Op::Ret {}) => {
+                    let Some(caller) = m.lean.pop() else { return false };
+                    m.act.base.f = caller.f;
+                    m.act.pc = caller.pc;
+                    m.act.depth = caller.depth;
+                    return true;
+                }
+                _ => return true,
+            }
+        }
     }
 
     /// `VERTEX` with a constant transform in a model run: position, normal and
