@@ -28,8 +28,8 @@
 //! call runs), `env` (expressions, random numbers, run-time transforms, non-finite
 //! values), `draw` (geometry and prototype instances), `tracks` (bones, sampled
 //! transform rules, convolutions), `budget` (limits and their counts), `sites`
-//! (source positions of ops) and `guided` (one body's expansion for the guided
-//! search). This file holds the evaluation's state (`Eval`'s fields), its entry
+//! (source positions of ops), `lean` (the fast path where only frames change)
+//! and `guided` (one body's expansion for the guided search). This file holds the evaluation's state (`Eval`'s fields), its entry
 //! points and the assembly of the output.
 //!
 //! An iterator's runs (`N * {T}`) are under `F·T`, `F·T·T`, …: that running frame
@@ -62,6 +62,7 @@ mod budget;
 mod draw;
 mod env;
 mod guided;
+mod lean;
 mod options;
 mod path;
 mod retire;
@@ -78,6 +79,7 @@ use budget::*;
 use draw::*;
 use env::*;
 pub use guided::{Call, Expander, MAX_EXPANSION_CALLS};
+use lean::*;
 pub use options::*;
 use path::*;
 use retire::*;
