@@ -37,9 +37,10 @@ pub(super) struct Pen {
 
 impl<'b> Eval<'b> {
     /// Adds an instance of prototype `proto` in state `base` (bone `bone`): the one
-    /// record its items stand for (see the `INST` op).
+    /// record its items stand for (see the `INST` op). A lean run passes its
+    /// instances' fixed fields and whether they carry no weights (see `Regs::fixed`).
     #[inline(always)]
-    pub(super) fn emit_instance(&mut self, proto: u32, base: &State, bone: u32) {
+    pub(super) fn emit_instance(&mut self, proto: u32, base: &State, bone: u32, fixed: Option<&(Fixed, bool)>) {
         let Some(slot) = self.protos.get(proto as usize) else { return };
         let (mut mesh, vertices, mut extent) = (slot.mesh, slot.vertices, slot.extent);
         if mesh == NONE {
@@ -55,12 +56,18 @@ impl<'b> Eval<'b> {
             & Vec4::from(f.qh).abs().cmplt(Vec4::splat(1e7))
             & f.u.extend(extent).abs().cmplt(Vec4::splat(1e15));
         let out = &mut self.out;
-        if base.weight != [0.0; 4] || !out.instance_weights.is_empty() {
+        let unweighted = fixed.is_some_and(|f| f.1);
+        if !unweighted && (base.weight != [0.0; 4] || !out.instance_weights.is_empty()) {
             out.instance_weights.resize(out.instances.len(), [0.0; 4]);
             out.instance_weights.push(base.weight);
         }
-        let at = out.mesh.n_vertices() as u32;
-        out.instances.push_parts(&base.f, base.color, [mesh, bone, 0, at]);
+        match fixed {
+            Some((fixed, _)) => out.instances.push_fixed(&base.f, fixed, mesh),
+            None => {
+                let at = out.mesh.n_vertices() as u32;
+                out.instances.push_parts(&base.f, base.color, [mesh, bone, 0, at]);
+            }
+        }
         self.instanced_vertices += u64::from(vertices);
         self.prototype_instances += 1;
     }

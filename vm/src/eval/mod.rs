@@ -49,7 +49,7 @@ use crate::geom::frame64::Frame64;
 use crate::geom::quat::{Affine, Frame, PreparedFrame};
 use crate::geom::Mesh;
 use crate::geom::{blend, marching, sweep};
-use crate::output::{Bone, Camera, Instance, Output, Polyline, SharedKind, SharedMesh, Track};
+use crate::output::{Bone, Camera, Fixed, Instance, Output, Polyline, SharedKind, SharedMesh, Track};
 use glam::{Mat3, Quat, Vec3, Vec4};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;

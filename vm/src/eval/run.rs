@@ -299,6 +299,7 @@ impl<'b> Eval<'b> {
             stack: Vec::new(),
             lean: Vec::new(),
             start_depth: depth,
+            fixed: None,
             bone,
             bones: Vec::new(),
             seed: None,
@@ -316,6 +317,11 @@ impl<'b> Eval<'b> {
             mode,
         };
         m.loops.clear();
+        if S::LEAN {
+            let unweighted = start.weight == [0.0; 4] && self.out.instance_weights.is_empty();
+            let at = self.out.mesh.n_vertices() as u32;
+            m.fixed = Some((Fixed::new(start.color, m.bone, 0, at), unweighted));
+        }
         let code: &[Op] = &b.code;
         // (The fast path checks for a stop where one can happen, after a refused call
         // or a counted iterator run, rather than before every op; see `stops`.)
@@ -818,7 +824,8 @@ impl<'b> Eval<'b> {
             }
             return;
         }
-        self.emit_instance(proto.0, &m.act.base, m.bone);
+        let fixed = if S::LEAN { m.fixed.as_ref() } else { None };
+        self.emit_instance(proto.0, &m.act.base, m.bone, fixed);
         m.act.pc += count.0;
         if self.needs_last {
             // `last` as the run's last item leaves it.

@@ -154,6 +154,11 @@ pub(super) struct Regs {
     pub(super) lean: Vec<LeanAct>,
     /// The depth of the run's first activation.
     pub(super) start_depth: u32,
+    /// Under [`Sink::LEAN`], the run's instances' fields but frame and mesh (the
+    /// start state's colour, the run's bone, no non-uniform factor, the mesh's
+    /// vertex count, none of which a lean run changes), and whether they carry no
+    /// weights (the start's are zero and none was recorded before).
+    pub(super) fixed: Option<(Fixed, bool)>,
     /// The running activation's bone (0 = the root): vertices emitted there carry it.
     pub(super) bone: u32,
     /// The callers' bones, where a call made a new one: (the callee's level, its

@@ -249,6 +249,19 @@ impl MeshColumn {
     }
 }
 
+/// The fields but the frame and the mesh of instances pushed one after the other
+/// with [`Instances::push_fixed`]: their colour, bone, non-uniform factor and `at`,
+/// as the run tables compare them (bits), made once.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Fixed([u32; 8]);
+
+impl Fixed {
+    pub fn new(color: [f32; 4], bone: u32, lin: u32, at: u32) -> Fixed {
+        let c = color.map(f32::to_bits);
+        Fixed([c[0], c[1], c[2], c[3], 0, bone, lin, at])
+    }
+}
+
 /// The instances of an output, in the order they were made (see the module docs).
 #[derive(Clone, Default, PartialEq)]
 pub struct Instances {
@@ -294,6 +307,25 @@ impl Instances {
     #[inline(always)]
     pub fn push(&mut self, inst: Instance) {
         self.push_parts(&inst.frame, inst.color, [inst.mesh, inst.bone, inst.lin, inst.at]);
+    }
+
+    /// Adds the instance of `frame`, mesh `mesh` and the fields `fixed` after the
+    /// others: [`Instances::push_parts`] where only the frame and the mesh change
+    /// from one push to the next (the fields are not gathered again).
+    #[inline(always)]
+    pub fn push_fixed(&mut self, frame: &Frame, fixed: &Fixed, mesh: u32) {
+        let mut tail = fixed.0;
+        if self.dense {
+            self.meshes.push_dense(mesh);
+        } else {
+            tail[4] = mesh;
+        }
+        if tail != self.tail || self.frames.is_empty() {
+            let [c0, c1, c2, c3, _, bone, lin, at] = fixed.0;
+            let color = [c0, c1, c2, c3].map(f32::from_bits);
+            self.note(&Instance { frame: *frame, color, mesh, bone, lin, at }, tail);
+        }
+        self.frames.push(pack(frame));
     }
 
     /// Adds the instance of `frame`, `color` and `[mesh, bone, lin, at]` after the
@@ -644,6 +676,29 @@ mod tests {
         let runs: Instances =
             (0..300).map(|k| Instance { mesh: k / 20, bone: 0, lin: 0, at: 0, ..inst(k, [1.0; 4]) }).collect();
         assert_eq!(runs.bytes(), 300 * 44 + 15 * 16 + 24 + 3 * 16);
+    }
+
+    /// Pushing with fixed fields gives what pushing whole instances gives: meshes
+    /// that change seldom, then at every instance (the column made dense), then
+    /// other fixed fields.
+    #[test]
+    fn pushing_with_fixed_fields_is_pushing_the_instances() {
+        let pushed: Vec<Instance> = (0..400)
+            .map(|k| {
+                let (mesh, bone) = if k < 100 { (k / 30, 1) } else { (k % 7, 2 + u32::from(k > 300)) };
+                Instance { mesh, bone, lin: 0, at: 5, ..inst(k, [0.5, -0.0, 1.0, 1.0]) }
+            })
+            .collect();
+        let whole: Instances = pushed.iter().copied().collect();
+        let mut fixed = Instances::new();
+        for p in &pushed {
+            fixed.push_fixed(&p.frame, &Fixed::new(p.color, p.bone, p.lin, p.at), p.mesh);
+        }
+        assert_eq!(fixed.iter().map(|i| bits(&i)).collect::<Vec<_>>(), pushed.iter().map(bits).collect::<Vec<_>>());
+        // (The frames hold a NaN, so the two are compared through what they hold.)
+        assert_eq!(fixed.bytes(), whole.bytes());
+        assert_eq!((fixed.dense, fixed.tail), (whole.dense, whole.tail));
+        assert_eq!(fixed.meshes().collect::<Vec<_>>(), whole.meshes().collect::<Vec<_>>());
     }
 
     /// One prototype in one colour: 44 bytes an instance and one entry per table.
