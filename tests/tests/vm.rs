@@ -1060,3 +1060,53 @@ fn relative_path_ops_are_the_absolute_ones_from_the_current_point() {
     assert!((area - 1.0).abs() < 1e-4, "{area}");
     assert!(b.iter().zip([-1.0, 0.0, 0.0, 1.0]).all(|(a, e)| (a - e).abs() < 1e-4), "{b:?}");
 }
+
+/// The fast path's frame-only activations (`Lean`: no call or iterator changes
+/// colour, weight or fps) and the fast path that composes whole states (`Simple`)
+/// give the very instances, counts and warnings the general loop gives (sites
+/// recorded, which takes it off the fast path): depth selection, `minsize`,
+/// `maxdepth`, `maxiter` (ending the run at a refused call or an admitted one),
+/// iterators and a stack limit; a colour change keeps whole states.
+#[test]
+fn the_fast_paths_give_what_the_general_loop_gives() {
+    let tree = |head: &str, adj: &str| {
+        format!(
+            "startshape T\n{head}\nrule T {{\n  VERTEX [x -0.5 y -0.5] VERTEX [x 0.5 y -0.5] VERTEX [x 0.5 y 0.5]\n  \
+             T [y 1 rz 25 s 0.75{adj}]\n  T [y 1 rz -25 s 0.8{adj}]\n}}\n"
+        )
+    };
+    let sources = [
+        tree("maxdepth 9", ""),
+        tree("maxdepth 30\nminsize 0.05", ""),
+        tree("maxdepth 12\nstacksize 6", ""),
+        tree("maxdepth 12\nmaxiter 4097", ""),
+        tree("maxdepth 12\nmaxiter 5001", ""),
+        tree("maxdepth 8", " hue 10 A -0.01"),
+        "startshape T\nselector T depth\nmaxdepth 6\n\
+         rule T 0 { VERTEX [x 1] VERTEX [y 1] VERTEX [] T [s 0.5 x 1] T [s 0.5 y 1] }\n\
+         rule T 2 { VERTEX [x 1] VERTEX [y 1] VERTEX [z 1] 3 * [rz 120] { T [s 0.4 x 1] } }\n"
+            .to_string(),
+    ];
+    for src in &sources {
+        let b = build_source(src);
+        let fast = evaluate(&b, &EvalOptions::default());
+        let general = evaluate(&b, &EvalOptions { record_sites: true, ..EvalOptions::default() });
+        let bits = |o: &mdg_vm::output::Output| -> Vec<Vec<u32>> {
+            o.instances
+                .iter()
+                .map(|i| {
+                    let f = i.frame;
+                    let mut v: Vec<u32> =
+                        [f.q.to_array(), f.qh.to_array(), i.color].concat().iter().map(|c| c.to_bits()).collect();
+                    v.extend(f.u.to_array().map(f32::to_bits));
+                    v.extend([i.mesh, i.bone, i.lin, i.at]);
+                    v
+                })
+                .collect()
+        };
+        assert!(fast.instances.len() > 10, "{src}: {} instances", fast.instances.len());
+        assert!(bits(&fast) == bits(&general), "{src}: the instances differ");
+        let counts = |o: &mdg_vm::output::Output| (o.stats.rule_calls, o.stats.max_depth, o.stats.warnings.clone());
+        assert_eq!(counts(&fast), counts(&general), "{src}");
+    }
+}

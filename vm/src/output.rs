@@ -13,7 +13,7 @@ use serde::Serialize;
 use std::ops::Range;
 
 pub use crate::geom::Mesh;
-pub use instances::{Instance, InstanceIter, Instances, PackedFrame, Span, FRAME_WORDS, TRANSLATION_AT};
+pub use instances::{Fixed, Instance, InstanceIter, Instances, PackedFrame, Span, FRAME_WORDS, TRANSLATION_AT};
 
 mod instances;
 

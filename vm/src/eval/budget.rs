@@ -60,13 +60,18 @@ impl<'b> Eval<'b> {
     }
 
     /// A call refused by `maxdepth` before its frame was made: counted as
-    /// [`Eval::admit`] counts it (the run-wide limits come first).
+    /// [`Eval::admit`] counts it (the run-wide limits come first). Whether the
+    /// count was one where the run-wide limits are looked at (only then can the
+    /// count have stopped the run).
     #[inline(always)]
-    pub(super) fn refuse_deep_call(&mut self, pc: u32) {
-        if self.count_call() {
+    pub(super) fn refuse_deep_call(&mut self, pc: u32) -> bool {
+        self.calls += 1;
+        let looked = self.calls >= self.next_check;
+        if !looked || self.count_call_closely() {
             self.limits.maxdepth += 1;
             self.limits.first_refused[0].get_or_insert(pc);
         }
+        looked
     }
 
     /// Counts a call against the run-wide limits (checking the budgets now and
@@ -106,24 +111,39 @@ impl<'b> Eval<'b> {
     /// `pc` is the CALL op's (for the warning's rule and line). With `depth_ok`
     /// (a constant where it is inlined) the caller has already found `depth` within
     /// `maxdepth` (the fast path refuses deeper calls before composing their
-    /// frame), so it is not tested again.
+    /// frame), so it is not tested again. `scale` is the child's
+    /// [`State::scale`], asked only under `minsize`.
     #[inline(always)]
-    pub(super) fn admit(&mut self, child: &State, depth: u32, stack_len: usize, pc: u32, depth_ok: bool) -> bool {
+    pub(super) fn admit(
+        &mut self,
+        scale: impl FnOnce() -> f32,
+        depth: u32,
+        stack_len: usize,
+        pc: u32,
+        depth_ok: bool,
+    ) -> bool {
         if !self.count_call() {
             return false;
         }
-        self.admit_rest(child, depth, stack_len, pc, depth_ok)
+        self.admit_rest(scale, depth, stack_len, pc, depth_ok)
     }
 
     /// The per-branch limits of a call: `maxdepth` (unless `depth_ok`), `minsize`,
     /// the stack size.
     #[inline]
-    pub(super) fn admit_rest(&mut self, child: &State, depth: u32, stack_len: usize, pc: u32, depth_ok: bool) -> bool {
+    pub(super) fn admit_rest(
+        &mut self,
+        scale: impl FnOnce() -> f32,
+        depth: u32,
+        stack_len: usize,
+        pc: u32,
+        depth_ok: bool,
+    ) -> bool {
         let s = &self.b.settings;
         let refused = if !depth_ok && s.maxdepth > 0 && depth > s.maxdepth {
             self.limits.maxdepth += 1;
             0
-        } else if s.minsize > 0.0 && child.scale() < s.minsize {
+        } else if s.minsize > 0.0 && scale() < s.minsize {
             self.limits.minsize += 1;
             1
         } else if stack_len >= self.stacksize as usize {

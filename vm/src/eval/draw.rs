@@ -37,24 +37,37 @@ pub(super) struct Pen {
 
 impl<'b> Eval<'b> {
     /// Adds an instance of prototype `proto` in state `base` (bone `bone`): the one
-    /// record its items stand for (see the `INST` op).
+    /// record its items stand for (see the `INST` op). A lean run passes its
+    /// instances' fixed fields and whether they carry no weights (see `Regs::fixed`).
     #[inline(always)]
-    pub(super) fn emit_instance(&mut self, proto: u32, base: &State, bone: u32) {
+    pub(super) fn emit_instance(&mut self, proto: u32, base: &State, bone: u32, fixed: Option<&(Fixed, bool)>) {
         let Some(slot) = self.protos.get(proto as usize) else { return };
         let (mut mesh, vertices, mut extent) = (slot.mesh, slot.vertices, slot.extent);
         if mesh == NONE {
             mesh = self.make_prototype(proto as usize);
             extent = self.protos.get(proto as usize).map_or(0.0, |s| s.extent);
         }
-        // The finiteness bound, while the frame is at hand (see `finish`).
-        self.suspect_instances |= !frame_surely_maps_finite(&base.f, extent);
+        // The finiteness bound (`frame_surely_maps_finite`) while the frame is at
+        // hand, lane by lane: tested once, at the end (see `finish`). (The extent,
+        // a largest absolute coordinate, is never negative: its absolute value is
+        // itself.)
+        let f = &base.f;
+        self.instances_small &= Vec4::from(f.q).abs().cmplt(Vec4::splat(1e7))
+            & Vec4::from(f.qh).abs().cmplt(Vec4::splat(1e7))
+            & f.u.extend(extent).abs().cmplt(Vec4::splat(1e15));
         let out = &mut self.out;
-        if base.weight != [0.0; 4] || !out.instance_weights.is_empty() {
+        let unweighted = fixed.is_some_and(|f| f.1);
+        if !unweighted && (base.weight != [0.0; 4] || !out.instance_weights.is_empty()) {
             out.instance_weights.resize(out.instances.len(), [0.0; 4]);
             out.instance_weights.push(base.weight);
         }
-        let at = out.mesh.n_vertices() as u32;
-        out.instances.push(Instance { frame: base.f, color: base.color, mesh, bone, lin: 0, at });
+        match fixed {
+            Some((fixed, _)) => out.instances.push_fixed(&base.f, fixed, mesh),
+            None => {
+                let at = out.mesh.n_vertices() as u32;
+                out.instances.push_parts(&base.f, base.color, [mesh, bone, 0, at]);
+            }
+        }
         self.instanced_vertices += u64::from(vertices);
         self.prototype_instances += 1;
     }

@@ -28,8 +28,8 @@
 //! call runs), `env` (expressions, random numbers, run-time transforms, non-finite
 //! values), `draw` (geometry and prototype instances), `tracks` (bones, sampled
 //! transform rules, convolutions), `budget` (limits and their counts), `sites`
-//! (source positions of ops) and `guided` (one body's expansion for the guided
-//! search). This file holds the evaluation's state (`Eval`'s fields), its entry
+//! (source positions of ops), `lean` (the fast path where only frames change)
+//! and `guided` (one body's expansion for the guided search). This file holds the evaluation's state (`Eval`'s fields), its entry
 //! points and the assembly of the output.
 //!
 //! An iterator's runs (`N * {T}`) are under `F·T`, `F·T·T`, …: that running frame
@@ -46,12 +46,10 @@ use crate::bundle::{
 };
 use crate::expr::{self, ExprOp, Random};
 use crate::geom::frame64::Frame64;
-use crate::geom::quat::{Affine, Frame};
+use crate::geom::quat::{Affine, Frame, PreparedFrame};
 use crate::geom::Mesh;
 use crate::geom::{blend, marching, sweep};
-use crate::output::{
-    frame_surely_maps_finite, Bone, Camera, Instance, Output, Polyline, SharedKind, SharedMesh, Track,
-};
+use crate::output::{Bone, Camera, Fixed, Instance, Output, Polyline, SharedKind, SharedMesh, Track};
 use glam::{Mat3, Quat, Vec3, Vec4};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -64,6 +62,7 @@ mod budget;
 mod draw;
 mod env;
 mod guided;
+mod lean;
 mod options;
 mod path;
 mod retire;
@@ -80,6 +79,7 @@ use budget::*;
 use draw::*;
 use env::*;
 pub use guided::{Call, Expander, MAX_EXPANSION_CALLS};
+use lean::*;
 pub use options::*;
 use path::*;
 use retire::*;
@@ -154,6 +154,12 @@ struct Eval<'b> {
     /// Whether model runs take the fast path, the loop with the [`Simple`] sink
     /// (instancing on, no sites or derivation recorded, and [`fast_path_applies`]).
     fast: bool,
+    /// Each constant transform's frame prepared for composing ([`PreparedFrame`]),
+    /// where it has no non-uniform scale.
+    prepared: Vec<Option<PreparedFrame>>,
+    /// Whether fast-path runs take the [`Lean`] sink from a plain start
+    /// ([`lean_path_applies`], [`plain_start`]).
+    lean: bool,
     /// Vertices of the prototype instances made so far (they count as vertices for
     /// the budget and the statistics, as they would have run one by one).
     instanced_vertices: u64,
@@ -163,9 +169,11 @@ struct Eval<'b> {
     /// Whether an instance refers to a non-uniform factor (then `lins` goes into the
     /// output).
     lins_used: bool,
-    /// A prototype instance's frame failed the finiteness bound (its vertices are
-    /// counted one by one at the end).
-    suspect_instances: bool,
+    /// Lane by lane, whether every prototype instance's frame so far passed the
+    /// finiteness bound ([`frame_surely_maps_finite`]; the prototype's extent in the
+    /// last lane of the translation's test): if one did not, the vertices are
+    /// counted one by one at the end.
+    instances_small: glam::BVec4A,
     /// The run's seed (transform rules derive their own streams from it).
     seed: u64,
     /// Transform rule → its track in `out.animation.tracks`.
@@ -327,10 +335,19 @@ impl<'b> Eval<'b> {
                 .collect(),
             instancing,
             fast,
+            lean: fast && lean_path_applies(b),
+            prepared: b
+                .transforms
+                .iter()
+                .map(|t| match t {
+                    Transform::Const(c) if c.n.is_none() => Some(PreparedFrame::new(&composite_frame(c))),
+                    _ => None,
+                })
+                .collect(),
             instanced_vertices: 0,
             prototype_instances: 0,
             lins_used: false,
-            suspect_instances: false,
+            instances_small: glam::BVec4A::splat(true),
             needs_last: b.code.iter().any(|op| match op {
                 Op::Loop { chain, .. } | Op::LoopN { chain, .. } => chain & bundle::ops::LOOP_CHAIN != 0,
                 Op::Cont {} | Op::Draw { kind: Drawable::Reset, .. } => true,
@@ -501,7 +518,7 @@ impl<'b> Eval<'b> {
                 cut.calls, limits.calls
             ));
         }
-        let bad = self.out.non_finite_positions_checking(self.suspect_instances);
+        let bad = self.out.non_finite_positions_checking(!self.instances_small.all());
         if bad > 0 {
             self.out.stats.warnings.push(format!(
                 "{bad} position(s) are not finite numbers (a translation or scale overflowed): the files write them as 0"

@@ -119,9 +119,13 @@ impl<'b> Eval<'b> {
     #[inline(always)]
     pub(super) fn apply(&mut self, xf: TransformId, from: &State, depth: u32, base: u32, top: u32) -> State {
         let b = self.b;
-        // A constant transform is composed where it lies (a composite is too big to copy).
+        // A constant transform is composed where it lies (a composite is too big to
+        // copy), with its frame prepared where neither side has a non-uniform factor.
         if let Transform::Const(c) = &b.transforms[xf] {
-            return from.compose(c, &mut self.lins);
+            return match self.prepared.get(xf.index()) {
+                Some(Some(p)) if from.lin == 0 => from.compose_prepared(c, p),
+                _ => from.compose(c, &mut self.lins),
+            };
         }
         let slots = self.slots.get(base as usize..top as usize).unwrap_or(&[]);
         let env = Env { at: from, depth, slots };
@@ -166,8 +170,7 @@ impl<'b> Eval<'b> {
     /// The definition of `rule_idx` for a call in state `child` at `depth` whose
     /// arguments are `slots[args..]`.
     pub(super) fn select(&mut self, rule: RuleId, child: &State, depth: u32, args: usize) -> u32 {
-        // A depth selector with constant weights: precomputed at load.
-        if let Some(&pc) = self.weights.by_depth.get(rule.index()).and_then(|t| t.get(depth as usize)) {
+        if let Some(pc) = self.by_depth(rule, depth) {
             return pc;
         }
         let slots = self.slots.get(args..).unwrap_or(&[]);
@@ -183,6 +186,13 @@ impl<'b> Eval<'b> {
             &mut self.weights,
             &mut self.non_finite,
         )
+    }
+
+    /// The definition a depth selector with constant weights picks at `depth`
+    /// (precomputed at load), if `rule` has one.
+    #[inline(always)]
+    pub(super) fn by_depth(&self, rule: RuleId, depth: u32) -> Option<u32> {
+        self.weights.by_depth.get(rule.index()).and_then(|t| t.get(depth as usize)).copied()
     }
 
     /// Pushes a frame for a run that starts at `rule` (no caller passes arguments: the
@@ -216,7 +226,11 @@ impl<'b> Eval<'b> {
         if self.b.settings.breadth && mode == Mode::Model {
             self.run_breadth(rule, start, depth);
         } else if self.fast && mode == Mode::Model {
-            self.interpret(&mut Simple, rule, start, depth, mode);
+            if self.lean && plain_start(&start) {
+                self.interpret(&mut Lean, rule, start, depth, mode);
+            } else {
+                self.interpret(&mut Simple, rule, start, depth, mode);
+            }
         } else if self.opts.record_sites || self.tree.is_some() {
             self.interpret(&mut Sited, rule, start, depth, mode);
         } else {
@@ -283,6 +297,9 @@ impl<'b> Eval<'b> {
         let mut m = Regs {
             act,
             stack: Vec::new(),
+            lean: Vec::new(),
+            start_depth: depth,
+            fixed: None,
             bone,
             bones: Vec::new(),
             seed: None,
@@ -300,7 +317,12 @@ impl<'b> Eval<'b> {
             mode,
         };
         m.loops.clear();
-        let code = &b.code;
+        if S::LEAN {
+            let unweighted = start.weight == [0.0; 4] && self.out.instance_weights.is_empty();
+            let at = self.out.mesh.n_vertices() as u32;
+            m.fixed = Some((Fixed::new(start.color, m.bone, 0, at), unweighted));
+        }
+        let code: &[Op] = &b.code;
         // (The fast path checks for a stop where one can happen, after a refused call
         // or a counted iterator run, rather than before every op; see `stops`.)
         let stopped_at_start = S::SIMPLE && self.stops(&m);
@@ -311,8 +333,10 @@ impl<'b> Eval<'b> {
             if (!S::SIMPLE && self.stops(&m)) || stopped_at_start {
                 break;
             }
-            let op = code[m.act.pc as usize];
-            let go_on = match op {
+            // (Matched where it lies: its fields are read from the bundle, not from a
+            // copy of the op.)
+            let op = &code[m.act.pc as usize];
+            let go_on = match *op {
                 Op::Call { rule, xf, flags } => self.op_call(sink, &mut m, rule, xf, flags),
                 Op::Draw { kind: Drawable::Vertex, xf, ns, profile, flags: _ }
                     if !S::COLLECTS && mode == Mode::Model && self.xf_info[xf.index()].is_some() =>
@@ -354,7 +378,7 @@ impl<'b> Eval<'b> {
                     true
                 }
                 Op::Loop { .. } | Op::LoopN { .. } => {
-                    self.op_loop(&mut m, op);
+                    self.op_loop(&mut m, *op);
                     true
                 }
                 Op::EndLoop { begin } => self.op_end_loop(sink, &mut m, begin) && !(S::SIMPLE && self.stops(&m)),
@@ -428,7 +452,7 @@ impl<'b> Eval<'b> {
     /// found no limit) or a counted iterator run can stop a run (no op draws or
     /// samples), so it is asked only after those.
     #[inline(always)]
-    fn stops(&mut self, m: &Regs) -> bool {
+    pub(super) fn stops(&mut self, m: &Regs) -> bool {
         if self.stopped || self.halt {
             if self.stopped && self.stop_pc.is_none() {
                 self.stop_pc = Some(m.act.pc.saturating_sub(1));
@@ -528,14 +552,20 @@ impl<'b> Eval<'b> {
             if !S::SIMPLE {
                 m.cont = None;
             }
-            if !S::COLLECTS {
-                self.refuse_deep_call(m.act.pc - 1);
+            // (Under the fast path only the run-wide limits, looked at now and
+            // then, stop a run: a count where they were not looked at cannot.)
+            let looked = !S::COLLECTS && self.refuse_deep_call(m.act.pc - 1);
+            if S::LEAN && !looked {
+                return self.lean_refuse_rest(m);
             }
             if !S::SIMPLE && self.slots.len() > args {
                 self.slots.truncate(args);
             }
             // (A counted call can stop the run only when it is refused.)
-            return !(S::SIMPLE && self.stops(m));
+            return !(S::SIMPLE && looked && self.stops(m));
+        }
+        if S::LEAN {
+            return self.lean_call(m, rule, xf, depth);
         }
         let from = Self::from::<S>(m);
         let child = self.apply(xf, from, m.act.depth, m.act.slot_base, m.act.slot_top);
@@ -558,7 +588,7 @@ impl<'b> Eval<'b> {
         let r = &b.rules[rule];
         // (A queued call waits in the queue, which `stacksize` bounds.)
         let stack_len = if S::QUEUES { sink.pending() } else { m.stack.len() + 1 };
-        if !self.admit(&child, depth, stack_len, m.act.pc - 1, S::SIMPLE) {
+        if !self.admit(|| child.scale(), depth, stack_len, m.act.pc - 1, S::SIMPLE) {
             if !S::SIMPLE && self.slots.len() > args {
                 self.slots.truncate(args);
             }
@@ -794,7 +824,8 @@ impl<'b> Eval<'b> {
             }
             return;
         }
-        self.emit_instance(proto.0, &m.act.base, m.bone);
+        let fixed = if S::LEAN { m.fixed.as_ref() } else { None };
+        self.emit_instance(proto.0, &m.act.base, m.bone, fixed);
         m.act.pc += count.0;
         if self.needs_last {
             // `last` as the run's last item leaves it.
@@ -814,6 +845,13 @@ impl<'b> Eval<'b> {
     /// on (not after the run's first activation).
     #[inline(always)]
     fn op_ret<S: Sink>(&mut self, m: &mut Regs) -> bool {
+        if S::LEAN {
+            let Some(caller) = m.lean.pop() else { return false };
+            m.act.base.f = caller.f;
+            m.act.pc = caller.pc;
+            m.act.depth = caller.depth;
+            return true;
+        }
         // (Under the fast path an activation closes every iterator it opens and has
         // no convolution or bone of its own.)
         if !S::SIMPLE {

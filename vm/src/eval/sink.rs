@@ -20,6 +20,10 @@ pub(super) trait Sink {
     /// parameter slots, bones, convolutions or non-uniform scales, and every `INST`
     /// is an instance, so none of their checks is made.
     const SIMPLE: bool = false;
+    /// [`Sink::SIMPLE`], and no call or iterator changes anything but the frame
+    /// (see [`lean_path_applies`]): the callers' activations are only their frame,
+    /// program counter and depth ([`LeanAct`]), and a call composes only the frame.
+    const LEAN: bool = false;
     /// Calls are handed to [`Sink::call`] instead of being run, and nothing is
     /// drawn: the body of the first activation only (the guided search's skeleton).
     const COLLECTS: bool = false;
@@ -93,6 +97,13 @@ impl Sink for Simple {
     const SIMPLE: bool = true;
 }
 
+/// The fast path where only frames change (see [`Sink::LEAN`]).
+pub(super) struct Lean;
+impl Sink for Lean {
+    const SIMPLE: bool = true;
+    const LEAN: bool = true;
+}
+
 /// The guided search's expansion: the calls one body makes, in order, at most
 /// [`MAX_EXPANSION_CALLS`] calls and iterator runs (then `cut` is set).
 pub(super) struct Collect<'o> {
@@ -138,6 +149,16 @@ pub(super) struct Regs {
     pub(super) act: Act,
     /// The running activation's callers.
     pub(super) stack: Vec<Act>,
+    /// The running activation's callers under [`Sink::LEAN`] (`stack` is unused),
+    /// but those that made a tail call.
+    pub(super) lean: Vec<LeanAct>,
+    /// The depth of the run's first activation.
+    pub(super) start_depth: u32,
+    /// Under [`Sink::LEAN`], the run's instances' fields but frame and mesh (the
+    /// start state's colour, the run's bone, no non-uniform factor, the mesh's
+    /// vertex count, none of which a lean run changes), and whether they carry no
+    /// weights (the start's are zero and none was recorded before).
+    pub(super) fixed: Option<(Fixed, bool)>,
     /// The running activation's bone (0 = the root): vertices emitted there carry it.
     pub(super) bone: u32,
     /// The callers' bones, where a call made a new one: (the callee's level, its

@@ -52,6 +52,15 @@ impl State {
         State { f, color, weight: add(self.weight, c.weight), fps: self.fps + c.fps, lin, ndet, hue }
     }
 
+    /// [`State::compose`] for a state without a non-uniform factor and a `c`
+    /// without one, whose frame `p` has prepared ([`PreparedFrame`]): the same bits.
+    #[inline(always)]
+    pub(super) fn compose_prepared(&self, c: &Composite, p: &PreparedFrame) -> State {
+        let (color, hue) = compose_color(self.color, self.hue, c);
+        let f = self.f.compose_prepared(p);
+        State { f, color, weight: add(self.weight, c.weight), fps: self.fps + c.fps, lin: 0, ndet: 1.0, hue }
+    }
+
     /// `self ∘ c` for an iterator's step, where `acc` is `self`'s frame in `f64`:
     /// the frame is composed there (the step read by [`Frame64::step`]) and rounded
     /// to `f32`, so iterated steps do not accumulate `f32` error. Under a

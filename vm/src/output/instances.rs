@@ -141,25 +141,160 @@ impl<T: Bits> Runs<T> {
     }
 }
 
+/// A dense mesh column is made once the mesh's run table has more entries than
+/// this and than one in [`DENSE_FROM`] instances.
+const DENSE_AFTER: usize = 64;
+
+/// See [`DENSE_AFTER`]: a run-table entry is 16 bytes, a dense entry 2 (or 4), so
+/// past one change in 8 instances the column is smaller.
+const DENSE_FROM: usize = 8;
+
+/// The shared meshes' column: a run table while meshes change seldom; one entry per
+/// instance once changes are frequent (a tree with one prototype per depth changes
+/// mesh at nearly every instance in depth-first order), `u16`s while every mesh
+/// index fits one.
+#[derive(Clone, Debug, PartialEq)]
+enum MeshColumn {
+    Runs(Runs<u32>),
+    Narrow(Vec<u16>),
+    Wide(Vec<u32>),
+}
+
+impl Default for MeshColumn {
+    fn default() -> Self {
+        MeshColumn::Runs(Runs::default())
+    }
+}
+
+impl MeshColumn {
+    /// The mesh of instance `i`, if there is one.
+    #[inline]
+    fn at(&self, i: usize) -> Option<u32> {
+        match self {
+            MeshColumn::Runs(r) => r.at(i),
+            MeshColumn::Narrow(v) => v.get(i).map(|&m| u32::from(m)),
+            MeshColumn::Wide(v) => v.get(i).copied(),
+        }
+    }
+
+    /// Appends the mesh of the next instance to a dense column.
+    #[inline(always)]
+    fn push_dense(&mut self, mesh: u32) {
+        match self {
+            MeshColumn::Narrow(v) if mesh <= u32::from(u16::MAX) => v.push(mesh as u16),
+            _ => self.push_dense_slowly(mesh),
+        }
+    }
+
+    /// [`MeshColumn::push_dense`] past a `u16` (the column is widened first).
+    #[cold]
+    #[inline(never)]
+    fn push_dense_slowly(&mut self, mesh: u32) {
+        if let MeshColumn::Narrow(v) = self {
+            *self = MeshColumn::Wide(v.iter().map(|&m| u32::from(m)).collect());
+        }
+        if let MeshColumn::Wide(v) = self {
+            v.push(mesh);
+        }
+    }
+
+    /// The run table made dense, for `len` instances.
+    fn densify(runs: &Runs<u32>, len: usize) -> MeshColumn {
+        let mut column = MeshColumn::Narrow(Vec::with_capacity(len));
+        for (k, &(first, mesh)) in runs.0.iter().enumerate() {
+            let end = runs.0.get(k + 1).map_or(len, |r| r.0);
+            for _ in first..end {
+                column.push_dense(mesh);
+            }
+        }
+        column
+    }
+
+    /// An iterator's cursor for instance `i` (see [`Runs::entry`]; unused when dense).
+    #[inline]
+    fn entry(&self, i: usize) -> usize {
+        match self {
+            MeshColumn::Runs(r) => r.entry(i),
+            MeshColumn::Narrow(_) | MeshColumn::Wide(_) => 0,
+        }
+    }
+
+    /// The mesh of instance `i`, reading on from the cursor `*c` (see [`Runs::read`]).
+    #[inline]
+    fn read(&self, c: &mut usize, i: usize) -> Option<u32> {
+        match self {
+            MeshColumn::Runs(r) => r.read(c, i),
+            MeshColumn::Narrow(_) | MeshColumn::Wide(_) => self.at(i),
+        }
+    }
+
+    /// Where the run after cursor `c` begins (`usize::MAX` when dense: the
+    /// iterator reads a dense column at every instance).
+    #[inline]
+    fn next_start(&self, c: usize) -> usize {
+        match self {
+            MeshColumn::Runs(r) => r.next_start(c),
+            MeshColumn::Narrow(_) | MeshColumn::Wide(_) => usize::MAX,
+        }
+    }
+
+    /// Where the run of equal meshes that holds instance `i` (read at cursor `c`)
+    /// ends: the run table's next start, or, in a dense column, the first later
+    /// instance with another mesh.
+    #[inline]
+    fn run_end(&self, c: usize, i: usize) -> usize {
+        fn end<T: PartialEq>(v: &[T], i: usize) -> usize {
+            match v.get(i) {
+                Some(m) => v[i..].iter().position(|x| x != m).map_or(v.len(), |k| i + k),
+                None => i,
+            }
+        }
+        match self {
+            MeshColumn::Runs(r) => r.next_start(c),
+            MeshColumn::Narrow(v) => end(v, i),
+            MeshColumn::Wide(v) => end(v, i),
+        }
+    }
+
+    /// Bytes the column holds.
+    fn bytes(&self) -> usize {
+        use std::mem::size_of;
+        match self {
+            MeshColumn::Runs(r) => r.0.len() * size_of::<(usize, u32)>(),
+            MeshColumn::Narrow(v) => v.len() * size_of::<u16>(),
+            MeshColumn::Wide(v) => v.len() * size_of::<u32>(),
+        }
+    }
+}
+
+/// The fields but the frame and the mesh of instances pushed one after the other
+/// with [`Instances::push_fixed`]: their colour, bone, non-uniform factor and `at`,
+/// as the run tables compare them (bits), made once.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Fixed([u32; 8]);
+
+impl Fixed {
+    pub fn new(color: [f32; 4], bone: u32, lin: u32, at: u32) -> Fixed {
+        let c = color.map(f32::to_bits);
+        Fixed([c[0], c[1], c[2], c[3], 0, bone, lin, at])
+    }
+}
+
 /// The instances of an output, in the order they were made (see the module docs).
 #[derive(Clone, Default, PartialEq)]
 pub struct Instances {
     frames: Vec<PackedFrame>,
     colors: Runs<[f32; 4]>,
-    meshes: Runs<u32>,
+    meshes: MeshColumn,
     bones: Runs<u32>,
     lins: Runs<u32>,
     ats: Runs<u32>,
     /// The last instance's colour (bits), mesh, bone, lin and at: a push that
     /// repeats them (nearly every one) is one comparison and the frame's write.
+    /// Under a dense mesh column the mesh's place holds 0.
     tail: [u32; 8],
-}
-
-/// `inst`'s fields that go in run tables, as bits.
-#[inline(always)]
-fn tail_of(inst: &Instance) -> [u32; 8] {
-    let c = inst.color.map(f32::to_bits);
-    [c[0], c[1], c[2], c[3], inst.mesh, inst.bone, inst.lin, inst.at]
+    /// Whether [`Instances::meshes`] is dense.
+    dense: bool,
 }
 
 impl std::fmt::Debug for Instances {
@@ -189,11 +324,43 @@ impl Instances {
     /// Adds `inst` after the others.
     #[inline(always)]
     pub fn push(&mut self, inst: Instance) {
-        let tail = tail_of(&inst);
-        if tail != self.tail || self.frames.is_empty() {
-            self.note(&inst, tail);
+        self.push_parts(&inst.frame, inst.color, [inst.mesh, inst.bone, inst.lin, inst.at]);
+    }
+
+    /// Adds the instance of `frame`, mesh `mesh` and the fields `fixed` after the
+    /// others: [`Instances::push_parts`] where only the frame and the mesh change
+    /// from one push to the next (the fields are not gathered again).
+    #[inline(always)]
+    pub fn push_fixed(&mut self, frame: &Frame, fixed: &Fixed, mesh: u32) {
+        let mut tail = fixed.0;
+        if self.dense {
+            self.meshes.push_dense(mesh);
+        } else {
+            tail[4] = mesh;
         }
-        self.frames.push(pack(&inst.frame));
+        if tail != self.tail || self.frames.is_empty() {
+            let [c0, c1, c2, c3, _, bone, lin, at] = fixed.0;
+            let color = [c0, c1, c2, c3].map(f32::from_bits);
+            self.note(&Instance { frame: *frame, color, mesh, bone, lin, at }, tail);
+        }
+        self.frames.push(pack(frame));
+    }
+
+    /// Adds the instance of `frame`, `color` and `[mesh, bone, lin, at]` after the
+    /// others ([`Instances::push`] without an [`Instance`] to build: the evaluator's
+    /// frame is packed from where it lies).
+    #[inline(always)]
+    pub fn push_parts(&mut self, frame: &Frame, color: [f32; 4], [mesh, bone, lin, at]: [u32; 4]) {
+        let c = color.map(f32::to_bits);
+        let mut tail = [c[0], c[1], c[2], c[3], mesh, bone, lin, at];
+        if self.dense {
+            self.meshes.push_dense(mesh);
+            tail[4] = 0;
+        }
+        if tail != self.tail || self.frames.is_empty() {
+            self.note(&Instance { frame: *frame, color, mesh, bone, lin, at }, tail);
+        }
+        self.frames.push(pack(frame));
     }
 
     /// The run tables' entries for `inst` (the next instance), whose fields differ
@@ -202,11 +369,20 @@ impl Instances {
     fn note(&mut self, inst: &Instance, tail: [u32; 8]) {
         let i = self.frames.len();
         self.colors.note(i, inst.color);
-        self.meshes.note(i, inst.mesh);
+        if let MeshColumn::Runs(r) = &mut self.meshes {
+            r.note(i, inst.mesh);
+            if r.0.len() > DENSE_AFTER && r.0.len() * DENSE_FROM > i {
+                self.meshes = MeshColumn::densify(r, i + 1);
+                self.dense = true;
+            }
+        }
         self.bones.note(i, inst.bone);
         self.lins.note(i, inst.lin);
         self.ats.note(i, inst.at);
         self.tail = tail;
+        if self.dense {
+            self.tail[4] = 0;
+        }
     }
 
     /// Instance `i`.
@@ -249,11 +425,16 @@ impl Instances {
 
     /// The shared mesh of every instance in order (without unpacking the rest).
     pub fn meshes(&self) -> impl Iterator<Item = u32> + '_ {
-        let runs = &self.meshes.0;
-        runs.iter().enumerate().flat_map(move |(k, &(first, mesh))| {
+        let (runs, narrow, wide): (&[(usize, u32)], &[u16], &[u32]) = match &self.meshes {
+            MeshColumn::Runs(r) => (&r.0, &[], &[]),
+            MeshColumn::Narrow(v) => (&[], v, &[]),
+            MeshColumn::Wide(v) => (&[], &[], v),
+        };
+        let runs = runs.iter().enumerate().flat_map(move |(k, &(first, mesh))| {
             let end = runs.get(k + 1).map_or(self.len(), |r| r.0);
             std::iter::repeat_n(mesh, end.saturating_sub(first))
-        })
+        });
+        runs.chain(narrow.iter().map(|&m| u32::from(m))).chain(wide.iter().copied())
     }
 
     /// Every instance in order.
@@ -325,7 +506,7 @@ impl Instances {
             };
             let end = [
                 self.colors.next_start(*c),
-                self.meshes.next_start(*m),
+                self.meshes.run_end(*m, start),
                 self.bones.next_start(*b),
                 self.lins.next_start(*l),
                 self.ats.next_start(*t),
@@ -348,7 +529,11 @@ impl Instances {
 
     /// The shared mesh every instance places, if there are instances and all place one.
     pub fn uniform_mesh(&self) -> Option<&u32> {
-        self.meshes.uniform()
+        match &self.meshes {
+            MeshColumn::Runs(r) => r.uniform(),
+            // (A column is dense only after many changes.)
+            MeshColumn::Narrow(_) | MeshColumn::Wide(_) => None,
+        }
     }
 
     /// The bone of every instance, if there are instances and all have one.
@@ -361,8 +546,8 @@ impl Instances {
         use std::mem::size_of;
         self.frames.len() * size_of::<PackedFrame>()
             + self.colors.0.len() * size_of::<(usize, [f32; 4])>()
-            + (self.meshes.0.len() + self.bones.0.len() + self.lins.0.len() + self.ats.0.len())
-                * size_of::<(usize, u32)>()
+            + self.meshes.bytes()
+            + (self.bones.0.len() + self.lins.0.len() + self.ats.0.len()) * size_of::<(usize, u32)>()
     }
 }
 
@@ -470,6 +655,7 @@ impl Iterator for InstanceIter<'_> {
             self.refill(i);
         }
         let (color, [mesh, bone, lin, at]) = self.fields?;
+        let mesh = if self.all.dense { self.all.meshes.at(i)? } else { mesh };
         Some(Instance { frame: unpack(self.all.frames.get(i)?), color, mesh, bone, lin, at })
     }
 
@@ -559,10 +745,84 @@ mod tests {
         // One entry per change: -0.0 after 0.0 is a change; equal neighbours are not.
         let changes = |v: Vec<u32>| 1 + v.windows(2).filter(|w| w[0] != w[1]).count();
         assert_eq!(all.colors.0.len(), changes(pushed.iter().map(|p| p.color[0].to_bits()).collect()));
-        assert_eq!(all.meshes.0.len(), 40);
+        assert!(matches!(&all.meshes, MeshColumn::Runs(r) if r.0.len() == 40));
         assert_eq!(all.bones.0.len(), 10);
         assert_eq!(all.lins.0.len(), 3);
         assert_eq!(all.ats.0.len(), 20);
+    }
+
+    /// A mesh that changes at nearly every instance (a tree with one prototype per
+    /// depth) costs a `u16` an instance, not a run-table entry (16 bytes), and
+    /// reads back exactly by every accessor; a mesh past 65,535 widens the column.
+    #[test]
+    fn frequently_changing_meshes_cost_two_bytes_an_instance() {
+        let mut pushed: Vec<Instance> =
+            (0..300).map(|k| Instance { mesh: k % 15, bone: 0, lin: 0, at: 0, ..inst(k, [1.0; 4]) }).collect();
+        let mut all: Instances = pushed.iter().copied().collect();
+        assert_eq!(all.bytes(), 300 * 44 + 300 * 2 + 24 + 3 * 16);
+        let check = |all: &Instances, pushed: &[Instance]| {
+            let read: Vec<Vec<u32>> = all.iter().map(|i| bits(&i)).collect();
+            assert_eq!(read, pushed.iter().map(bits).collect::<Vec<_>>());
+            for (i, p) in pushed.iter().enumerate() {
+                assert_eq!(all.get(i).map(|g| bits(&g)), Some(bits(p)));
+                assert_eq!(all.mesh(i), Some(p.mesh));
+                let from: Vec<Vec<u32>> = all.range(i..i + 3).map(|x| bits(&x)).collect();
+                let end = (i + 3).min(pushed.len());
+                assert_eq!(from, pushed[i..end].iter().map(bits).collect::<Vec<_>>());
+            }
+            assert_eq!(all.meshes().collect::<Vec<_>>(), pushed.iter().map(|p| p.mesh).collect::<Vec<_>>());
+            assert_eq!(all.uniform_mesh(), None);
+            // The spans of a dense column end where the mesh changes, and only there.
+            let spans: Vec<Span> = all.spans().collect();
+            let rebuilt: Vec<Vec<u32>> = spans
+                .iter()
+                .flat_map(|s| all.packed_frames()[s.range.clone()].iter().map(|f| bits(&s.instance(f))))
+                .collect();
+            assert_eq!(rebuilt, pushed.iter().map(bits).collect::<Vec<_>>());
+            for w in spans.windows(2) {
+                assert_ne!(w[0].mesh, w[1].mesh);
+            }
+        };
+        check(&all, &pushed);
+        // Meshes in pairs: dense, and each span two instances long.
+        let pairs: Vec<Instance> =
+            (0..300).map(|k| Instance { mesh: (k / 2) % 15, bone: 0, lin: 0, at: 0, ..inst(k, [1.0; 4]) }).collect();
+        let paired: Instances = pairs.iter().copied().collect();
+        assert_eq!(paired.bytes(), 300 * 44 + 300 * 2 + 24 + 3 * 16);
+        check(&paired, &pairs);
+        assert!(paired.spans().all(|s| s.range.len() == 2));
+        let wide = Instance { mesh: 70_000, ..pushed[7] };
+        pushed.push(wide);
+        all.push(wide);
+        check(&all, &pushed);
+        assert_eq!(all.bytes(), 301 * 44 + 301 * 4 + 24 + 3 * 16);
+        // Fewer changes keep the run table: 300 instances in runs of 20.
+        let runs: Instances =
+            (0..300).map(|k| Instance { mesh: k / 20, bone: 0, lin: 0, at: 0, ..inst(k, [1.0; 4]) }).collect();
+        assert_eq!(runs.bytes(), 300 * 44 + 15 * 16 + 24 + 3 * 16);
+    }
+
+    /// Pushing with fixed fields gives what pushing whole instances gives: meshes
+    /// that change seldom, then at every instance (the column made dense), then
+    /// other fixed fields.
+    #[test]
+    fn pushing_with_fixed_fields_is_pushing_the_instances() {
+        let pushed: Vec<Instance> = (0..400)
+            .map(|k| {
+                let (mesh, bone) = if k < 100 { (k / 30, 1) } else { (k % 7, 2 + u32::from(k > 300)) };
+                Instance { mesh, bone, lin: 0, at: 5, ..inst(k, [0.5, -0.0, 1.0, 1.0]) }
+            })
+            .collect();
+        let whole: Instances = pushed.iter().copied().collect();
+        let mut fixed = Instances::new();
+        for p in &pushed {
+            fixed.push_fixed(&p.frame, &Fixed::new(p.color, p.bone, p.lin, p.at), p.mesh);
+        }
+        assert_eq!(fixed.iter().map(|i| bits(&i)).collect::<Vec<_>>(), pushed.iter().map(bits).collect::<Vec<_>>());
+        // (The frames hold a NaN, so the two are compared through what they hold.)
+        assert_eq!(fixed.bytes(), whole.bytes());
+        assert_eq!((fixed.dense, fixed.tail), (whole.dense, whole.tail));
+        assert_eq!(fixed.meshes().collect::<Vec<_>>(), whole.meshes().collect::<Vec<_>>());
     }
 
     /// One prototype in one colour: 44 bytes an instance and one entry per table.
