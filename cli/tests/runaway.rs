@@ -14,11 +14,27 @@ use std::time::Duration;
 /// Virtual memory each child may map (KiB): 3 GiB.
 const VMEM_KIB: u64 = 3 * 1024 * 1024;
 
-fn scratch(name: &str) -> PathBuf {
+/// A test's scratch directory, removed when the test ends (passed or failed).
+struct Scratch(PathBuf);
+
+impl std::ops::Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn scratch(name: &str) -> Scratch {
     let d = std::env::temp_dir().join(format!("mdg-runaway-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).expect("scratch dir");
-    d
+    Scratch(d)
 }
 
 /// Runs `bin ARGS` in `dir`; asserts it ended by itself within `limit` and that its
