@@ -373,7 +373,7 @@ pub fn build_with(out: &Output, instanced: bool) -> Scene {
         || !out.sweeps.weights.is_empty()
         || !out.sweeps.bones.is_empty()
         || !out.instance_weights.is_empty()
-        || out.instances.iter().any(|i| i.bone != 0);
+        || out.instances.bone_runs().any(|(_, b)| b != 0);
     let expand = |_: usize| !instanced;
     let (n_vertices, _) = out.flat_counts_where(Groups::ALL, expand);
     let mut b = Builder { s: Scene { bounds: Bounds::EMPTY, ..Scene::default() }, skinned };
@@ -511,7 +511,7 @@ fn coarse_mesh(
 }
 
 fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
-    let mut inst = Instanced { order: Vec::with_capacity(out.instances.len()), ..Instanced::default() };
+    let mut inst = Instanced::default();
     let mut bounds = Bounds::EMPTY;
     let mut max_bone = 0;
     // Per shared mesh: where its vertices and its two index runs are, its bounding
@@ -522,6 +522,9 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
         index_count: u32,
         closed: bool,
         instances: [Vec<u32>; 2],
+        /// The largest scale of its instances, by handedness (for the level of
+        /// detail's radius).
+        scales: [f32; 2],
         /// The mesh's distinct positions (for the bounds).
         corners: Vec<Vec3>,
         /// The coarse mesh: first index, index count (one winding), vertex offset.
@@ -532,13 +535,28 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
         stand_in: StandIn,
     }
     let mut placed: Vec<Option<Placed>> = (0..out.shared_meshes.len()).map(|_| None).collect();
+    // One walk: each instance's transform is made once, for its handedness, the
+    // bounds and the level of detail's radius.
     for (i, instance) in out.instances.iter().enumerate() {
         let Some(shared) = out.shared(&instance) else { continue };
         let m = &shared.mesh;
         if m.triangles.is_empty() {
             continue;
         }
-        let mirrored = if shared.is_prototype() { instance.frame.linear().1 } else { out.instance_mirrored(&instance) };
+        // (A prototype's frame has no non-uniform factor: its matrix's columns are
+        // the frame's axes, `Frame::linear`'s, whose determinant says mirrored.)
+        let t = if instance.lin == 0 {
+            let [a, b, c] = instance.frame.axes();
+            glam::Affine3A::from_cols(a.into(), b.into(), c.into(), instance.frame.u.into())
+        } else {
+            glam::Affine3A::from_mat4(out.instance_transform(&instance))
+        };
+        let mirrored = if shared.is_prototype() {
+            let l = &t.matrix3;
+            Vec3::from(l.x_axis).dot(Vec3::from(l.y_axis).cross(Vec3::from(l.z_axis))) < 0.0
+        } else {
+            out.instance_mirrored(&instance)
+        };
         let p = placed[instance.mesh as usize].get_or_insert_with(|| {
             let vertex_offset = (inst.vertices.len() / PROTO_STRIDE as usize) as i32;
             // Equal vertices (a cube's corners, shared by the two triangles of a face)
@@ -604,6 +622,7 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
                 index_count: 3 * tris.len() as u32,
                 closed,
                 instances: [Vec::new(), Vec::new()],
+                scales: [0.0; 2],
                 corners: {
                     let mut c: Vec<[u32; 3]> = m.positions.iter().map(|q| q.map(f32::to_bits)).collect();
                     c.sort_unstable();
@@ -612,10 +631,21 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
                 },
             }
         });
-        p.instances[usize::from(mirrored)].push(i as u32);
+        let side = usize::from(mirrored);
+        p.instances[side].push(i as u32);
+        max_bone = max_bone.max(instance.bone);
+        // Exact bounds (the camera frames the model as when it was expanded): every
+        // distinct vertex placed (a cube's 24 are 8 corners), but nothing stored.
+        for q in &p.corners {
+            bounds.add(t.transform_point3(*q));
+        }
+        let scale = t.matrix3.x_axis.length().max(t.matrix3.y_axis.length()).max(t.matrix3.z_axis.length());
+        p.scales[side] = p.scales[side].max(scale);
     }
-    for p in placed.iter().flatten() {
-        for (side, list) in p.instances.iter().enumerate() {
+    // One draw, one list: it is the order (not copied).
+    let single = placed.iter().flatten().flat_map(|p| &p.instances).filter(|l| !l.is_empty()).count() == 1;
+    for p in placed.iter_mut().flatten() {
+        for (side, list) in p.instances.iter_mut().enumerate() {
             if list.is_empty() {
                 continue;
             }
@@ -628,21 +658,11 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
                 closed: p.closed,
             });
             inst.n_triangles += u64::from(p.index_count / 3) * list.len() as u64;
-            let mut radius = 0.0f32;
-            inst.order.extend_from_slice(list);
-            for &i in list {
-                let Some(instance) = out.instances.get(i as usize) else { continue };
-                let t = out.instance_transform(&instance);
-                max_bone = max_bone.max(instance.bone);
-                // Exact bounds (the camera frames the model as when it was expanded):
-                // every distinct vertex placed (a cube's 24 are 8 corners), but
-                // nothing stored.
-                let t = glam::Affine3A::from_mat4(t);
-                for q in &p.corners {
-                    bounds.add(t.transform_point3(*q));
-                }
-                let scale = t.matrix3.x_axis.length().max(t.matrix3.y_axis.length()).max(t.matrix3.z_axis.length());
-                radius = radius.max(p.radius * scale);
+            let radius = p.radius * p.scales[side];
+            if single {
+                inst.order = std::mem::take(list);
+            } else {
+                inst.order.extend_from_slice(list);
             }
             inst.stand_ins.push(p.stand_in);
             inst.lods.push(p.coarse.map(|(first, count, offset)| Lod {

@@ -13,7 +13,7 @@ use serde::Serialize;
 use std::ops::Range;
 
 pub use crate::geom::Mesh;
-pub use instances::{Instance, InstanceIter, Instances, PackedFrame, FRAME_WORDS, TRANSLATION_AT};
+pub use instances::{FieldReader, Fields, Instance, InstanceIter, Instances, PackedFrame, FRAME_WORDS, TRANSLATION_AT};
 
 mod instances;
 

@@ -26,9 +26,10 @@ use crate::points;
 use crate::renderer::{FrameParams, ModelInfo};
 use crate::scene::{self, Scene, PROTO_STRIDE, SKIN_STRIDE, VERTEX_STRIDE};
 use crate::uniforms::{self, UniformSpec};
-use glam::{Mat3, Mat4, Vec3, Vec4};
+use glam::{Mat3, Mat4, Quat, Vec3, Vec4};
 use mdg_vm::bundle::{Bundle, NONE};
-use mdg_vm::output::Output;
+use mdg_vm::geom::quat::Frame;
+use mdg_vm::output::{Instance, Output, PackedFrame};
 use raster::{Lighting, Shade, Target, V};
 
 /// The content hash ([`shader_hash`]) of std's `phong_vs`, the vertex shader this
@@ -247,7 +248,18 @@ impl<'a> CpuScene<'a> {
         };
         let bg = self.info.background.map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8);
         let threads = (opts.threads.max(1) as u32).min(h.div_ceil(raster::STRIP)).max(1);
-        let job = Job { cpu: self, vp, bones: &bones, stand_in_view, ppu, depth_test: !self.info.flat, height: h };
+        let row = |k: usize| Vec3::new(vp.x_axis[k], vp.y_axis[k], vp.z_axis[k]).length();
+        let row_lengths = [row(0), row(1), row(3)];
+        let job = Job {
+            cpu: self,
+            vp,
+            row_lengths,
+            bones: &bones,
+            stand_in_view,
+            ppu,
+            depth_test: !self.info.flat,
+            height: h,
+        };
         let draw = |t: u32| {
             let mut target = Target::new(t, threads, w, h, samples, bg);
             target.lighting = lighting;
@@ -304,6 +316,9 @@ impl<'a> CpuScene<'a> {
 struct Job<'s, 'a> {
     cpu: &'s CpuScene<'a>,
     vp: Mat4,
+    /// The lengths of `vp`'s rows 0, 1 and 3 (x, y, w) without their last column,
+    /// for [`Job::sphere_rows`].
+    row_lengths: [f32; 3],
     bones: &'s [Mat4],
     stand_in_view: Option<points::View>,
     ppu: Option<f32>,
@@ -331,19 +346,36 @@ fn cofactor(m: Mat3) -> Mat3 {
 impl Job<'_, '_> {
     /// The pixel rows a sphere (world centre `c`, radius `r`) may cover, or `None`
     /// when it may reach behind the eye (then any row).
+    #[inline]
     fn sphere_rows(&self, c: Vec3, r: f32) -> Option<(i64, i64, bool)> {
-        let m = &self.vp;
-        let clip = *m * c.extend(1.0);
-        let w_axis = Vec3::new(m.x_axis.w, m.y_axis.w, m.z_axis.w);
-        let ahead = clip.w - r * w_axis.length();
+        self.sphere_rows_at(self.vp * c.extend(1.0), r)
+    }
+
+    /// The sphere of stand-in `s` placed by `l` and `t` (what [`points`] reads).
+    #[inline]
+    fn placed(&self, s: &scene::StandIn, l: Mat3, t: Vec3) -> points::Placed {
+        let centre = l * s.centre + t;
+        let scale = l.x_axis.length().max(l.y_axis.length()).max(l.z_axis.length());
+        points::Placed {
+            centre,
+            radius: s.radius * scale,
+            clip: self.vp * centre.extend(1.0),
+            w_len: self.row_lengths[2],
+        }
+    }
+
+    /// [`Job::sphere_rows`] for the centre's clip position `clip`.
+    #[inline]
+    fn sphere_rows_at(&self, clip: Vec4, r: f32) -> Option<(i64, i64, bool)> {
+        let [x_len, y_len, w_len] = self.row_lengths;
+        let ahead = clip.w - r * w_len;
         if ahead.is_nan() || ahead <= 0.0 || !clip.is_finite() {
             return None;
         }
-        let row = |k: usize| Vec3::new(m.x_axis[k], m.y_axis[k], m.z_axis[k]);
         let (nx, ny) = (clip.x / clip.w, clip.y / clip.w);
         // |Δndc| ≤ r (|row| + |ndc| |w row|) / (w − r |w row|).
-        let ex = r * (row(0).length() + nx.abs() * w_axis.length()) / ahead;
-        let ey = r * (row(1).length() + ny.abs() * w_axis.length()) / ahead;
+        let ex = r * (x_len + nx.abs() * w_len) / ahead;
+        let ey = r * (y_len + ny.abs() * w_len) / ahead;
         let visible = nx - ex <= 1.0 && nx + ex >= -1.0 && ny - ey <= 1.0 && ny + ey >= -1.0;
         let h = self.height as f32 * 0.5;
         Some((raster::floor_i64((ny - ey + 1.0) * h) - 1, raster::floor_i64((ny + ey + 1.0) * h) + 1, visible))
@@ -398,9 +430,11 @@ impl Job<'_, '_> {
     fn instances(&self, t: &mut Target) -> u64 {
         let Some(inst) = &self.cpu.scene.instanced else { return 0 };
         let out = self.cpu.output;
+        let frames = out.instances.packed_frames();
+        let mut fields = out.instances.fields();
         let ps = PROTO_STRIDE as usize;
         let mut local: Vec<V> = Vec::new();
-        let mut points_buf: Vec<u8> = Vec::new();
+        let mut points_buf: Vec<points::Point> = Vec::new();
         let mut stood_in = 0u64;
         for (k, d) in inst.draws.iter().enumerate() {
             let lod = match (inst.lods.get(k).copied().flatten(), self.ppu) {
@@ -416,58 +450,67 @@ impl Job<'_, '_> {
             let stand = inst.stand_ins.get(k).copied();
             let facets =
                 stand.and_then(|s| inst.facets.get(s.first_facet as usize..(s.first_facet + s.n_facets) as usize));
+            // The first look's reach around u, per unit of |q| |q̂| (see below).
+            let reach = stand.map(|s| s.centre.length() + s.radius);
             let order = inst.order.get(d.first_instance as usize..(d.first_instance + d.instance_count) as usize);
             for &oi in order.unwrap_or(&[]) {
-                let Some(instance) = out.instances.get(oi as usize) else { continue };
+                let oi = oi as usize;
+                let (Some(pf), Some(f)) = (frames.get(oi), fields.get(oi)) else { continue };
+                let u = Vec3::new(pf[8], pf[9], pf[10]);
                 // A first look from the frame alone (no matrix yet): q x q̂ scales by
                 // |q| |q̂|, so the mesh's sphere lies within this one around u.
-                if let (0, 0, Some(s)) = (instance.bone, instance.lin, stand) {
-                    let f = &instance.frame;
-                    let r = f.q.length() * f.qh.length() * (s.centre.length() + s.radius);
-                    if let Some((y0, y1, visible)) = self.sphere_rows(f.u, r) {
+                if let (0, 0, Some(reach)) = (f.bone, f.lin, reach) {
+                    let q = Vec4::new(pf[0], pf[1], pf[2], pf[3]).length();
+                    let qh = Vec4::new(pf[4], pf[5], pf[6], pf[7]).length();
+                    if let Some((y0, y1, visible)) = self.sphere_rows(u, q * qh * reach) {
                         if !visible || !t.any_row(y0, y1) {
                             continue;
                         }
                     }
                 }
-                let m = out.instance_transform(&instance);
+                // The transform, made once: the frame's axes, or through the output
+                // for a non-uniform factor.
+                let frame = frame_of(pf);
+                let (l, tr) = if f.lin == 0 {
+                    let [a, b, c] = frame.axes();
+                    (Mat3::from_cols(a, b, c), u)
+                } else {
+                    let instance = Instance { frame, color: f.color, mesh: f.mesh, bone: f.bone, lin: f.lin, at: f.at };
+                    let m = out.instance_transform(&instance);
+                    (Mat3::from_mat4(m), m.w_axis.truncate())
+                };
                 // Where it may be on the screen (instances posed by a bone: anywhere).
                 let mut centre_row = None;
-                if let (0, Some(s)) = (instance.bone, stand) {
-                    let l = Mat3::from_mat4(m);
-                    let c = m.transform_point3(s.centre);
-                    let scale = l.x_axis.length().max(l.y_axis.length()).max(l.z_axis.length());
-                    if let Some((y0, y1, visible)) = self.sphere_rows(c, s.radius * scale) {
+                let mut placed = None;
+                if let (0, Some(s)) = (f.bone, stand) {
+                    let at = self.placed(&s, l, tr);
+                    if let Some((y0, y1, visible)) = self.sphere_rows_at(at.clip, at.radius) {
                         if !visible || !t.any_row(y0, y1) {
                             continue;
                         }
                         centre_row = Some((y0 + y1) / 2);
                     }
+                    placed = Some(at);
                 }
-                let record = record(m, instance.color, instance.bone);
-                if let (Some(view), Some(s), Some(fs)) = (&self.stand_in_view, stand, facets) {
-                    points_buf.clear();
-                    if points::stand_in(view, &s, fs, &record, &mut points_buf) {
+                let color = Vec4::from_array(f.color);
+                if let (Some(view), Some(s), Some(fs), Some(at)) = (&self.stand_in_view, stand, facets, placed) {
+                    if points::stand_in_points(view, &s, fs, l, tr, color, &at, &mut points_buf) {
                         let row = centre_row.unwrap_or(0).clamp(0, i64::from(self.height) - 1) as u32;
                         if t.owns(row) {
                             stood_in += 1;
                         }
-                        for p in points_buf.chunks_exact(points::POINT_STRIDE as usize) {
-                            let pos = Vec3::new(f32_at(p, 0), f32_at(p, 4), f32_at(p, 8));
-                            t.point(self.vp * pos.extend(1.0), f32_at(p, 12), [p[16], p[17], p[18], p[19]]);
+                        for p in &points_buf {
+                            t.point(self.vp * p.pos.extend(1.0), p.size, p.rgba);
                         }
                         continue;
                     }
                 }
                 // phong_instanced_vs for each vertex of the mesh.
-                let l = Mat3::from_mat4(m);
-                let tr = m.w_axis.truncate();
-                let bone = self.bones.get(instance.bone as usize).copied().unwrap_or(Mat4::IDENTITY);
+                let bone = self.bones.get(f.bone as usize).copied().unwrap_or(Mat4::IDENTITY);
                 let b3 = Mat3::from_mat4(bone);
                 let (cl, cb) = (cofactor(l), cofactor(b3));
                 let sign = l.x_axis.dot(cl.x_axis).signum() * b3.x_axis.dot(cb.x_axis).signum();
                 let nm = cb * cl * sign;
-                let color = Vec4::from_array(instance.color);
                 local.clear();
                 for v in 0..v_n {
                     let at = (v_first as usize + v) * ps;
@@ -538,23 +581,12 @@ fn screen_rows(v: &[V; 3], height: u32) -> Option<(i64, i64)> {
     Some((raster::floor_i64(lo) - 1, raster::floor_i64(hi) + 1))
 }
 
-/// An instance record as [`scene::Instanced::write_instances`] writes it (what
-/// [`points`] reads): the rows 0..2 of `m`, the colour, the bone.
-fn record(m: Mat4, color: [f32; 4], bone: u32) -> [u8; scene::INSTANCE_STRIDE as usize] {
-    let mut rec = [0u8; scene::INSTANCE_STRIDE as usize];
-    let mut w = 0;
-    let mut put = |x: [u8; 4]| {
-        rec[w..w + 4].copy_from_slice(&x);
-        w += 4;
-    };
-    for r in [m.row(0), m.row(1), m.row(2)] {
-        for x in r.to_array() {
-            put(x.to_le_bytes());
-        }
+/// The frame a packed frame holds.
+#[inline]
+fn frame_of(pf: &PackedFrame) -> Frame {
+    Frame {
+        q: Quat::from_xyzw(pf[0], pf[1], pf[2], pf[3]),
+        qh: Quat::from_xyzw(pf[4], pf[5], pf[6], pf[7]),
+        u: Vec3::new(pf[8], pf[9], pf[10]),
     }
-    for x in color {
-        put(x.to_le_bytes());
-    }
-    put(bone.to_le_bytes());
-    rec
 }

@@ -315,6 +315,20 @@ impl Instances {
         self.bones.uniform()
     }
 
+    /// The bones' runs: `(first instance, bone)` where the bone changes from the
+    /// previous instance, in order (one entry when every instance has the same).
+    pub fn bone_runs(&self) -> impl Iterator<Item = (usize, u32)> + '_ {
+        self.bones.0.iter().copied()
+    }
+
+    /// A reader of the run-table fields (colour, mesh, bone, lin, at) of instances
+    /// by index, for a walk that visits them in increasing order without unpacking
+    /// their frames (read those from [`Instances::packed_frames`]): each look-up
+    /// moves the tables' cursors forwards, and costs nothing while no run changes.
+    pub fn fields(&self) -> FieldReader<'_> {
+        FieldReader { all: self, at: [0; 5], from: 0, until: 0, fields: None }
+    }
+
     /// Bytes the instances hold (frames and run tables, not the spare capacity).
     pub fn bytes(&self) -> usize {
         use std::mem::size_of;
@@ -346,6 +360,67 @@ impl<'a> IntoIterator for &'a Instances {
     type IntoIter = InstanceIter<'a>;
     fn into_iter(self) -> InstanceIter<'a> {
         self.iter()
+    }
+}
+
+/// An instance's fields kept in run tables (everything but its frame).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fields {
+    pub color: [f32; 4],
+    pub mesh: u32,
+    pub bone: u32,
+    pub lin: u32,
+    pub at: u32,
+}
+
+/// Reads [`Fields`] by instance index ([`Instances::fields`]).
+#[derive(Clone)]
+pub struct FieldReader<'a> {
+    all: &'a Instances,
+    /// The run-table entries of instance `from`.
+    at: [usize; 5],
+    /// The instances in `from..until` have `fields`.
+    from: usize,
+    until: usize,
+    fields: Option<Fields>,
+}
+
+impl FieldReader<'_> {
+    /// The fields of instance `i` (`None` past the last). Increasing indices read
+    /// on from the last one; a smaller index starts again with a search.
+    #[inline]
+    pub fn get(&mut self, i: usize) -> Option<Fields> {
+        if i < self.from || i >= self.until || self.fields.is_none() {
+            self.refill(i);
+        }
+        self.fields.filter(|_| i < self.all.len())
+    }
+
+    #[inline(never)]
+    fn refill(&mut self, i: usize) {
+        let a = self.all;
+        if i < self.from {
+            self.at = [a.colors.entry(i), a.meshes.entry(i), a.bones.entry(i), a.lins.entry(i), a.ats.entry(i)];
+        }
+        let [c, m, b, l, t] = &mut self.at;
+        self.fields =
+            match (a.colors.read(c, i), a.meshes.read(m, i), a.bones.read(b, i), a.lins.read(l, i), a.ats.read(t, i)) {
+                (Some(color), Some(mesh), Some(bone), Some(lin), Some(at)) => {
+                    Some(Fields { color, mesh, bone, lin, at })
+                }
+                _ => None,
+            };
+        self.from = i;
+        self.until = [
+            a.colors.next_start(*c),
+            a.meshes.next_start(*m),
+            a.bones.next_start(*b),
+            a.lins.next_start(*l),
+            a.ats.next_start(*t),
+        ]
+        .into_iter()
+        .min()
+        .unwrap_or(usize::MAX);
     }
 }
 
@@ -474,6 +549,30 @@ mod tests {
         assert_eq!(all.bones.0.len(), 10);
         assert_eq!(all.lins.0.len(), 3);
         assert_eq!(all.ats.0.len(), 20);
+    }
+
+    /// The field reader gives what `get` gives, in increasing order (the renderer's
+    /// walk), backwards and out of order; past the end, nothing; the bones' runs are
+    /// the table's entries.
+    #[test]
+    fn fields_read_by_index_match_get() {
+        let colors = [[1.0, 0.5, 0.0, 1.0], [-0.0, 0.5, 0.0, 1.0]];
+        let all: Instances = (0..40).map(|k| inst(k, colors[(k as usize / 5) % 2])).collect();
+        let want =
+            |i: usize| all.get(i).map(|g| Fields { color: g.color, mesh: g.mesh, bone: g.bone, lin: g.lin, at: g.at });
+        let mut r = all.fields();
+        let orders: [Vec<usize>; 3] =
+            [(0..40).step_by(3).collect(), (0..40).rev().collect(), vec![7, 7, 39, 0, 20, 21, 5, 38, 40, 3]];
+        for order in orders {
+            for i in order {
+                let got = r.get(i);
+                assert_eq!(got.map(|f| f.color.map(f32::to_bits)), want(i).map(|f| f.color.map(f32::to_bits)), "{i}");
+                assert_eq!(got.map(|f| [f.mesh, f.bone, f.lin, f.at]), want(i).map(|f| [f.mesh, f.bone, f.lin, f.at]));
+            }
+        }
+        assert_eq!(r.get(40), None);
+        let runs: Vec<(usize, u32)> = all.bone_runs().collect();
+        assert_eq!(runs, (0..10).map(|b| (4 * b as usize, b)).collect::<Vec<_>>());
     }
 
     /// One prototype in one colour: 44 bytes an instance and one entry per table.
