@@ -128,6 +128,34 @@ fn blend(src: Vec4, dst: [u8; 4]) -> [u8; 4] {
     [c(src.x, 0), c(src.y, 1), c(src.z, 2), unorm(a + d(3) * (1.0 - a))]
 }
 
+/// A point sprite on a `width` × `height` picture: the square it covers (pixels)
+/// and its depth ([`point_setup`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointSetup {
+    pub x0: f32,
+    pub x1: f32,
+    pub y0: f32,
+    pub y1: f32,
+    pub z: f32,
+}
+
+/// A point sprite of centre `clip`, `size` pixels wide (at least one, as lavapipe
+/// (llvmpipe's point setup) draws them), on a `width` × `height` picture; `None`
+/// when its centre is outside the clip volume, as Vulkan clips points.
+#[inline]
+pub fn point_setup(clip: Vec4, size: f32, width: u32, height: u32) -> Option<PointSetup> {
+    let c = clip;
+    if !(c.w > 0.0 && c.z >= 0.0 && c.z <= c.w && c.x.abs() <= c.w && c.y.abs() <= c.w) {
+        return None;
+    }
+    let (w, h) = (width as f32, height as f32);
+    let sx = (c.x / c.w + 1.0) * 0.5 * w;
+    let sy = (c.y / c.w + 1.0) * 0.5 * h;
+    let z = c.z / c.w;
+    let half = 0.5 * size.max(1.0);
+    Some(PointSetup { x0: sx - half, x1: sx + half, y0: sy - half, y1: sy + half, z })
+}
+
 /// One thread's part of the picture: the row strips it owns, every sample's colour
 /// and depth.
 pub struct Target {
@@ -398,17 +426,14 @@ impl Target {
     /// `rgba` (already shaded), depth-tested and written. Dropped when its centre is outside the
     /// clip volume, as Vulkan clips points.
     pub fn point(&mut self, clip: Vec4, size: f32, rgba: [u8; 4]) {
-        let c = clip;
-        if !(c.w > 0.0 && c.z >= 0.0 && c.z <= c.w && c.x.abs() <= c.w && c.y.abs() <= c.w) {
-            return;
+        if let Some(p) = point_setup(clip, size, self.width, self.height) {
+            self.point_at(&p, rgba);
         }
-        let (w, h) = (self.width as f32, self.height as f32);
-        let sx = (c.x / c.w + 1.0) * 0.5 * w;
-        let sy = (c.y / c.w + 1.0) * 0.5 * h;
-        let z = c.z / c.w;
-        // At least a pixel wide, as lavapipe (llvmpipe's point setup) draws them.
-        let half = 0.5 * size.max(1.0);
-        let (x0, x1, y0, y1) = (sx - half, sx + half, sy - half, sy + half);
+    }
+
+    /// A point set up by [`point_setup`] (for this target's size), in colour `rgba`.
+    pub fn point_at(&mut self, p: &PointSetup, rgba: [u8; 4]) {
+        let PointSetup { x0, x1, y0, y1, z } = *p;
         if !self.any_row(floor_i64(y0), floor_i64(y1)) {
             return;
         }
