@@ -374,17 +374,30 @@ pub fn build_with(out: &Output, instanced: bool) -> Scene {
         || !out.sweeps.bones.is_empty()
         || !out.instance_weights.is_empty()
         || out.instances.bone_runs().any(|(_, b)| b != 0);
-    let expand = |_: usize| !instanced;
-    let (n_vertices, _) = out.flat_counts_where(Groups::ALL, expand);
+    let n_vertices =
+        if instanced { out.mesh.n_vertices() + out.sweeps.n_vertices() } else { out.flat_counts(Groups::ALL).0 };
     let mut b = Builder { s: Scene { bounds: Bounds::EMPTY, ..Scene::default() }, skinned };
     b.s.vertices.reserve(n_vertices * VERTEX_STRIDE as usize);
     if skinned {
         b.s.skins.reserve(n_vertices * SKIN_STRIDE as usize);
     }
-    let _ = out.for_each_piece_where::<()>(Groups::ALL, expand, |p| {
-        b.piece(p);
-        Ok(())
-    });
+    if instanced {
+        // No instance expanded: the flat walk's pieces are the whole VERTEX mesh
+        // and the sweeps (`Output::for_each_piece_where` with nothing to expand,
+        // without its walks over every instance).
+        fn whole(m: &mdg_vm::output::Mesh, base: usize) -> Piece<'_> {
+            Piece { mesh: m, vertices: 0..m.n_vertices(), triangles: 0..m.triangles.len(), base: base as u32 }
+        }
+        if out.mesh.n_vertices() > 0 || !out.mesh.triangles.is_empty() {
+            b.piece(&whole(&out.mesh, 0));
+        }
+        b.piece(&whole(&out.sweeps, out.mesh.n_vertices()));
+    } else {
+        let _ = out.for_each_piece::<()>(Groups::ALL, |p| {
+            b.piece(p);
+            Ok(())
+        });
+    }
     if instanced && !out.instances.is_empty() {
         let (inst, bounds, max_bone) = build_instanced(out);
         b.s.bounds.add_bounds(&bounds);
@@ -535,9 +548,22 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
         stand_in: StandIn,
     }
     let mut placed: Vec<Option<Placed>> = (0..out.shared_meshes.len()).map(|_| None).collect();
+    // Each mesh's list sized for all its instances (unmirrored, as most are).
+    let counts = out.instances.mesh_counts();
     // One walk: each instance's transform is made once, for its handedness, the
     // bounds and the level of detail's radius.
-    for (i, instance) in out.instances.iter().enumerate() {
+    // (The frames read as a slice and the other fields by runs: no unpacked
+    // iterator state goes through memory per instance.)
+    let mut fields = out.instances.fields();
+    for (i, pf) in out.instances.packed_frames().iter().enumerate() {
+        let Some(f) = fields.get(i) else { break };
+        let frame = mdg_vm::geom::Frame {
+            q: glam::Quat::from_xyzw(pf[0], pf[1], pf[2], pf[3]),
+            qh: glam::Quat::from_xyzw(pf[4], pf[5], pf[6], pf[7]),
+            u: Vec3::new(pf[8], pf[9], pf[10]),
+        };
+        let instance =
+            mdg_vm::output::Instance { frame, color: f.color, mesh: f.mesh, bone: f.bone, lin: f.lin, at: f.at };
         let Some(shared) = out.shared(&instance) else { continue };
         let m = &shared.mesh;
         if m.triangles.is_empty() {
@@ -621,7 +647,7 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
                 first_index,
                 index_count: 3 * tris.len() as u32,
                 closed,
-                instances: [Vec::new(), Vec::new()],
+                instances: [Vec::with_capacity(counts.get(instance.mesh as usize).copied().unwrap_or(0)), Vec::new()],
                 scales: [0.0; 2],
                 corners: {
                     let mut c: Vec<[u32; 3]> = m.positions.iter().map(|q| q.map(f32::to_bits)).collect();
@@ -639,7 +665,10 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
         for q in &p.corners {
             bounds.add(t.transform_point3(*q));
         }
-        let scale = t.matrix3.x_axis.length().max(t.matrix3.y_axis.length()).max(t.matrix3.z_axis.length());
+        // (The longest axis with one square root: the same bits as the longest of
+        // three lengths, a square root being correctly rounded and increasing.)
+        let l = &t.matrix3;
+        let scale = l.x_axis.length_squared().max(l.y_axis.length_squared()).max(l.z_axis.length_squared()).sqrt();
         p.scales[side] = p.scales[side].max(scale);
     }
     // One draw, one list: it is the order (not copied).

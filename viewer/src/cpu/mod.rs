@@ -351,7 +351,7 @@ struct DrawPlan<'s> {
 struct Prepared {
     items: Vec<Item>,
     /// The stand-ins' points, set up on the screen, with their colours.
-    points: Vec<(raster::PointSetup, [u8; 4])>,
+    points: Vec<(raster::PointSetup, Vec4)>,
     /// Instances drawn as stand-ins.
     stood_in: u64,
 }
@@ -418,7 +418,7 @@ impl<'s, 'a> Job<'s, 'a> {
     #[inline]
     fn placed(&self, s: &scene::StandIn, l: Mat3, t: Vec3) -> points::Placed {
         let centre = l * s.centre + t;
-        let scale = l.x_axis.length().max(l.y_axis.length()).max(l.z_axis.length());
+        let scale = max_axis(l);
         points::Placed {
             centre,
             radius: s.radius * scale,
@@ -604,18 +604,8 @@ impl<'s, 'a> Job<'s, 'a> {
                 out.items.push(mesh);
                 continue;
             };
-            let u = Vec3::new(pf[8], pf[9], pf[10]);
-            // A first look from the frame alone (no matrix yet): q x q̂ scales by
-            // |q| |q̂|, so the mesh's sphere lies within this one around u.
-            if let (0, Some(reach)) = (f.lin, plan.reach) {
-                let q = Vec4::new(pf[0], pf[1], pf[2], pf[3]).length();
-                let qh = Vec4::new(pf[4], pf[5], pf[6], pf[7]).length();
-                if let Some((y0, y1, visible)) = self.sphere_rows(u, q * qh * reach) {
-                    if !visible || !on_picture(y0, y1) {
-                        continue;
-                    }
-                }
-            }
+            // (No first look from the frame alone here: each instance is prepared
+            // once, and most are on the picture.)
             let (l, tr) = transform(out_, pf, &f);
             let at = self.placed(&s, l, tr);
             if let Some((y0, y1, visible)) = self.sphere_rows_at(at.clip, at.radius) {
@@ -631,7 +621,7 @@ impl<'s, 'a> Job<'s, 'a> {
             let n = out.points.len();
             for p in &points {
                 if let Some(setup) = raster::point_setup(self.vp * p.pos.extend(1.0), p.size, w, h) {
-                    out.points.push((setup, p.rgba));
+                    out.points.push((setup, raster::unorm_color(p.rgba)));
                 }
             }
             let added = (out.points.len() - n) as u32;
@@ -782,6 +772,13 @@ fn transform(out: &Output, pf: &PackedFrame, f: &Fields) -> (Mat3, Vec3) {
         let m = out.instance_transform(&instance);
         (Mat3::from_mat4(m), m.w_axis.truncate())
     }
+}
+
+/// The longest column of `l`: `max(|x|, |y|, |z|)` with one square root (the same
+/// bits: a square root is correctly rounded and increasing).
+#[inline]
+fn max_axis(l: Mat3) -> f32 {
+    l.x_axis.length_squared().max(l.y_axis.length_squared()).max(l.z_axis.length_squared()).sqrt()
 }
 
 /// The frame a packed frame holds.

@@ -321,6 +321,20 @@ impl Instances {
         self.bones.0.iter().copied()
     }
 
+    /// How many instances place each shared mesh (indexed by mesh, as long as the
+    /// largest mesh index used, plus one), from the mesh table alone.
+    pub fn mesh_counts(&self) -> Vec<usize> {
+        let runs = &self.meshes.0;
+        let mut counts = vec![0; runs.iter().map(|r| r.1 as usize + 1).max().unwrap_or(0)];
+        for (k, &(first, mesh)) in runs.iter().enumerate() {
+            let end = runs.get(k + 1).map_or(self.len(), |r| r.0);
+            if let Some(c) = counts.get_mut(mesh as usize) {
+                *c += end.saturating_sub(first);
+            }
+        }
+        counts
+    }
+
     /// A reader of the run-table fields (colour, mesh, bone, lin, at) of instances
     /// by index, for a walk that visits them in increasing order without unpacking
     /// their frames (read those from [`Instances::packed_frames`]): each look-up
@@ -571,6 +585,12 @@ mod tests {
             }
         }
         assert_eq!(r.get(40), None);
+        let mut counts = vec![0; 3];
+        for m in all.meshes() {
+            counts[m as usize] += 1;
+        }
+        assert_eq!(all.mesh_counts(), counts);
+        assert_eq!(Instances::new().mesh_counts(), Vec::<usize>::new());
         let runs: Vec<(usize, u32)> = all.bone_runs().collect();
         assert_eq!(runs, (0..10).map(|b| (4 * b as usize, b)).collect::<Vec<_>>());
     }
