@@ -199,6 +199,7 @@ impl Placed {
 /// to be drawn as a mesh. What [`stand_in`] computes from a record, for a renderer
 /// that has the matrix already (the CPU renderer: no record is written).
 #[allow(clippy::too_many_arguments)]
+#[inline]
 pub fn stand_in_points(
     view: &View,
     s: &StandIn,

@@ -554,122 +554,128 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
     // bounds and the level of detail's radius.
     // (The frames read as a slice and the other fields by runs: no unpacked
     // iterator state goes through memory per instance.)
-    let mut fields = out.instances.fields();
-    for (i, pf) in out.instances.packed_frames().iter().enumerate() {
-        let Some(f) = fields.get(i) else { break };
-        let frame = mdg_vm::geom::Frame {
-            q: glam::Quat::from_xyzw(pf[0], pf[1], pf[2], pf[3]),
-            qh: glam::Quat::from_xyzw(pf[4], pf[5], pf[6], pf[7]),
-            u: Vec3::new(pf[8], pf[9], pf[10]),
-        };
-        let instance =
-            mdg_vm::output::Instance { frame, color: f.color, mesh: f.mesh, bone: f.bone, lin: f.lin, at: f.at };
-        let Some(shared) = out.shared(&instance) else { continue };
-        let m = &shared.mesh;
-        if m.triangles.is_empty() {
-            continue;
-        }
-        // (A prototype's frame has no non-uniform factor: its matrix's columns are
-        // the frame's axes, `Frame::linear`'s, whose determinant says mirrored.)
-        let t = if instance.lin == 0 {
-            let [a, b, c] = instance.frame.axes();
-            glam::Affine3A::from_cols(a.into(), b.into(), c.into(), instance.frame.u.into())
-        } else {
-            glam::Affine3A::from_mat4(out.instance_transform(&instance))
-        };
-        let mirrored = if shared.is_prototype() {
-            let l = &t.matrix3;
-            Vec3::from(l.x_axis).dot(Vec3::from(l.y_axis).cross(Vec3::from(l.z_axis))) < 0.0
-        } else {
-            out.instance_mirrored(&instance)
-        };
-        let p = placed[instance.mesh as usize].get_or_insert_with(|| {
-            let vertex_offset = (inst.vertices.len() / PROTO_STRIDE as usize) as i32;
-            // Equal vertices (a cube's corners, shared by the two triangles of a face)
-            // are stored once: the driver shades each once per instance.
-            let mut seen: std::collections::HashMap<Vec<u8>, u32> = std::collections::HashMap::new();
-            let mut remap = Vec::with_capacity(m.n_vertices());
-            for v in 0..m.n_vertices() {
-                let pos = Vec3::from(m.positions[v]);
-                let n = shared.local_normal(v).normalize_or_zero();
-                let delta = if shared.is_prototype() { m.colors.get(v).copied().unwrap_or([0.0; 4]) } else { [0.0; 4] };
-                let mut bytes = Vec::with_capacity(PROTO_STRIDE as usize);
-                for x in pos.to_array() {
-                    bytes.extend_from_slice(&x.to_le_bytes());
-                }
-                for x in [n.x, n.y, n.z, if m.matte(v) { 1.0 } else { 0.0 }] {
-                    bytes.extend_from_slice(&snorm16(x).to_le_bytes());
-                }
-                for x in delta {
-                    bytes.extend_from_slice(&x.to_le_bytes());
-                }
-                let next = seen.len() as u32;
-                let k = *seen.entry(bytes.clone()).or_insert_with(|| {
-                    inst.vertices.extend_from_slice(&bytes);
-                    next
-                });
-                remap.push(k);
-            }
-            let first_index = inst.indices.len() as u32;
-            let n = m.n_vertices() as u32;
-            let tris: Vec<[u32; 3]> = m
-                .oriented_triangles()
-                .filter(|t| t.iter().all(|&k| k < n))
-                .map(|t| t.map(|k| remap[k as usize]))
-                .collect();
-            inst.indices.extend(tris.iter().flatten());
-            inst.indices.extend(tris.iter().flat_map(|t| [t[0], t[2], t[1]]));
-            let oriented: Vec<[u32; 3]> = m.oriented_triangles().filter(|t| t.iter().all(|&k| k < n)).collect();
-            let coarse = (oriented.len() > LOD_MIN_TRIANGLES)
-                .then(|| coarse_mesh(shared, &oriented, &mut inst.vertices, &mut inst.indices))
-                .flatten();
-            let closed = mdg_export::is_closed(m, &oriented);
-            let facets = facets_of(shared, &oriented);
-            let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
-            for q in &m.positions {
-                lo = lo.min(Vec3::from(*q));
-                hi = hi.max(Vec3::from(*q));
-            }
-            let centre = (lo + hi) * 0.5;
-            let stand_in = StandIn {
-                first_facet: inst.facets.len() as u32,
-                n_facets: facets.len() as u32,
-                centre,
-                radius: m.positions.iter().map(|q| Vec3::from(*q).distance(centre)).fold(0.0, f32::max),
-                closed,
+    let frames = out.instances.packed_frames();
+    for (run, f) in out.instances.field_runs() {
+        for i in run {
+            let Some(pf) = frames.get(i) else { break };
+            let frame = mdg_vm::geom::Frame {
+                q: glam::Quat::from_xyzw(pf[0], pf[1], pf[2], pf[3]),
+                qh: glam::Quat::from_xyzw(pf[4], pf[5], pf[6], pf[7]),
+                u: Vec3::new(pf[8], pf[9], pf[10]),
             };
-            inst.facets.extend(facets);
-            Placed {
-                stand_in,
-                coarse,
-                radius: m.positions.iter().map(|q| Vec3::from(*q).length()).fold(0.0, f32::max),
-                vertex_offset,
-                first_index,
-                index_count: 3 * tris.len() as u32,
-                closed,
-                instances: [Vec::with_capacity(counts.get(instance.mesh as usize).copied().unwrap_or(0)), Vec::new()],
-                scales: [0.0; 2],
-                corners: {
-                    let mut c: Vec<[u32; 3]> = m.positions.iter().map(|q| q.map(f32::to_bits)).collect();
-                    c.sort_unstable();
-                    c.dedup();
-                    c.into_iter().map(|q| Vec3::from(q.map(f32::from_bits))).collect()
-                },
+            let instance =
+                mdg_vm::output::Instance { frame, color: f.color, mesh: f.mesh, bone: f.bone, lin: f.lin, at: f.at };
+            let Some(shared) = out.shared(&instance) else { continue };
+            let m = &shared.mesh;
+            if m.triangles.is_empty() {
+                continue;
             }
-        });
-        let side = usize::from(mirrored);
-        p.instances[side].push(i as u32);
-        max_bone = max_bone.max(instance.bone);
-        // Exact bounds (the camera frames the model as when it was expanded): every
-        // distinct vertex placed (a cube's 24 are 8 corners), but nothing stored.
-        for q in &p.corners {
-            bounds.add(t.transform_point3(*q));
+            // (A prototype's frame has no non-uniform factor: its matrix's columns are
+            // the frame's axes, `Frame::linear`'s, whose determinant says mirrored.)
+            let t = if instance.lin == 0 {
+                let [a, b, c] = instance.frame.axes();
+                glam::Affine3A::from_cols(a.into(), b.into(), c.into(), instance.frame.u.into())
+            } else {
+                glam::Affine3A::from_mat4(out.instance_transform(&instance))
+            };
+            let mirrored = if shared.is_prototype() {
+                let l = &t.matrix3;
+                Vec3::from(l.x_axis).dot(Vec3::from(l.y_axis).cross(Vec3::from(l.z_axis))) < 0.0
+            } else {
+                out.instance_mirrored(&instance)
+            };
+            let p = placed[instance.mesh as usize].get_or_insert_with(|| {
+                let vertex_offset = (inst.vertices.len() / PROTO_STRIDE as usize) as i32;
+                // Equal vertices (a cube's corners, shared by the two triangles of a face)
+                // are stored once: the driver shades each once per instance.
+                let mut seen: std::collections::HashMap<Vec<u8>, u32> = std::collections::HashMap::new();
+                let mut remap = Vec::with_capacity(m.n_vertices());
+                for v in 0..m.n_vertices() {
+                    let pos = Vec3::from(m.positions[v]);
+                    let n = shared.local_normal(v).normalize_or_zero();
+                    let delta =
+                        if shared.is_prototype() { m.colors.get(v).copied().unwrap_or([0.0; 4]) } else { [0.0; 4] };
+                    let mut bytes = Vec::with_capacity(PROTO_STRIDE as usize);
+                    for x in pos.to_array() {
+                        bytes.extend_from_slice(&x.to_le_bytes());
+                    }
+                    for x in [n.x, n.y, n.z, if m.matte(v) { 1.0 } else { 0.0 }] {
+                        bytes.extend_from_slice(&snorm16(x).to_le_bytes());
+                    }
+                    for x in delta {
+                        bytes.extend_from_slice(&x.to_le_bytes());
+                    }
+                    let next = seen.len() as u32;
+                    let k = *seen.entry(bytes.clone()).or_insert_with(|| {
+                        inst.vertices.extend_from_slice(&bytes);
+                        next
+                    });
+                    remap.push(k);
+                }
+                let first_index = inst.indices.len() as u32;
+                let n = m.n_vertices() as u32;
+                let tris: Vec<[u32; 3]> = m
+                    .oriented_triangles()
+                    .filter(|t| t.iter().all(|&k| k < n))
+                    .map(|t| t.map(|k| remap[k as usize]))
+                    .collect();
+                inst.indices.extend(tris.iter().flatten());
+                inst.indices.extend(tris.iter().flat_map(|t| [t[0], t[2], t[1]]));
+                let oriented: Vec<[u32; 3]> = m.oriented_triangles().filter(|t| t.iter().all(|&k| k < n)).collect();
+                let coarse = (oriented.len() > LOD_MIN_TRIANGLES)
+                    .then(|| coarse_mesh(shared, &oriented, &mut inst.vertices, &mut inst.indices))
+                    .flatten();
+                let closed = mdg_export::is_closed(m, &oriented);
+                let facets = facets_of(shared, &oriented);
+                let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+                for q in &m.positions {
+                    lo = lo.min(Vec3::from(*q));
+                    hi = hi.max(Vec3::from(*q));
+                }
+                let centre = (lo + hi) * 0.5;
+                let stand_in = StandIn {
+                    first_facet: inst.facets.len() as u32,
+                    n_facets: facets.len() as u32,
+                    centre,
+                    radius: m.positions.iter().map(|q| Vec3::from(*q).distance(centre)).fold(0.0, f32::max),
+                    closed,
+                };
+                inst.facets.extend(facets);
+                Placed {
+                    stand_in,
+                    coarse,
+                    radius: m.positions.iter().map(|q| Vec3::from(*q).length()).fold(0.0, f32::max),
+                    vertex_offset,
+                    first_index,
+                    index_count: 3 * tris.len() as u32,
+                    closed,
+                    instances: [
+                        Vec::with_capacity(counts.get(instance.mesh as usize).copied().unwrap_or(0)),
+                        Vec::new(),
+                    ],
+                    scales: [0.0; 2],
+                    corners: {
+                        let mut c: Vec<[u32; 3]> = m.positions.iter().map(|q| q.map(f32::to_bits)).collect();
+                        c.sort_unstable();
+                        c.dedup();
+                        c.into_iter().map(|q| Vec3::from(q.map(f32::from_bits))).collect()
+                    },
+                }
+            });
+            let side = usize::from(mirrored);
+            p.instances[side].push(i as u32);
+            max_bone = max_bone.max(instance.bone);
+            // Exact bounds (the camera frames the model as when it was expanded): every
+            // distinct vertex placed (a cube's 24 are 8 corners), but nothing stored.
+            for q in &p.corners {
+                bounds.add(t.transform_point3(*q));
+            }
+            // (The longest axis with one square root: the same bits as the longest of
+            // three lengths, a square root being correctly rounded and increasing.)
+            let l = &t.matrix3;
+            let scale = l.x_axis.length_squared().max(l.y_axis.length_squared()).max(l.z_axis.length_squared()).sqrt();
+            p.scales[side] = p.scales[side].max(scale);
         }
-        // (The longest axis with one square root: the same bits as the longest of
-        // three lengths, a square root being correctly rounded and increasing.)
-        let l = &t.matrix3;
-        let scale = l.x_axis.length_squared().max(l.y_axis.length_squared()).max(l.z_axis.length_squared()).sqrt();
-        p.scales[side] = p.scales[side].max(scale);
     }
     // One draw, one list: it is the order (not copied).
     let single = placed.iter().flatten().flat_map(|p| &p.instances).filter(|l| !l.is_empty()).count() == 1;

@@ -335,6 +335,22 @@ impl Instances {
         counts
     }
 
+    /// The instances in runs of equal fields (colour, mesh, bone, lin, at): each
+    /// range of instances with the fields they share, in order, covering them all
+    /// (a tree of one prototype in one colour is one run). A walk that reads the
+    /// frames from [`Instances::packed_frames`] keeps the fields out of its inner loop.
+    pub fn field_runs(&self) -> impl Iterator<Item = (Range<usize>, Fields)> + '_ {
+        let mut r = self.fields();
+        let mut from = 0;
+        std::iter::from_fn(move || {
+            let f = r.get(from)?;
+            let to = r.until.min(self.len()).max(from + 1);
+            let run = (from..to, f);
+            from = to;
+            Some(run)
+        })
+    }
+
     /// A reader of the run-table fields (colour, mesh, bone, lin, at) of instances
     /// by index, for a walk that visits them in increasing order without unpacking
     /// their frames (read those from [`Instances::packed_frames`]): each look-up
@@ -591,6 +607,19 @@ mod tests {
         }
         assert_eq!(all.mesh_counts(), counts);
         assert_eq!(Instances::new().mesh_counts(), Vec::<usize>::new());
+        // The field runs cover every instance once, each with its fields.
+        let mut next = 0;
+        for (range, f) in all.field_runs() {
+            assert_eq!(range.start, next);
+            assert!(range.end > range.start);
+            for i in range.clone() {
+                assert_eq!(Some(f.color.map(f32::to_bits)), want(i).map(|w| w.color.map(f32::to_bits)));
+                assert_eq!(Some([f.mesh, f.bone, f.lin, f.at]), want(i).map(|w| [w.mesh, w.bone, w.lin, w.at]));
+            }
+            next = range.end;
+        }
+        assert_eq!(next, 40);
+        assert_eq!(Instances::new().field_runs().count(), 0);
         let runs: Vec<(usize, u32)> = all.bone_runs().collect();
         assert_eq!(runs, (0..10).map(|b| (4 * b as usize, b)).collect::<Vec<_>>());
     }
