@@ -107,6 +107,15 @@ fn phong(view: &View, p: Vec3, n: Vec3, c: Vec4, matte: bool) -> Vec3 {
     rgb.clamp(Vec3::ZERO, Vec3::ONE)
 }
 
+/// `x` (in 0..=255) rounded half away from zero, as `x.round() as u8` (without a
+/// libm call: `x − trunc(x)` is exact below 2^23).
+#[inline]
+fn round_unit(x: f32) -> u8 {
+    let t = x as u32;
+    let r = if x - t as f32 >= 0.5 { t + 1 } else { t };
+    r.min(255) as u8
+}
+
 fn f32_at(rec: &[u8], k: usize) -> f32 {
     let mut b = [0u8; 4];
     if let Some(s) = rec.get(4 * k..4 * k + 4) {
@@ -115,29 +124,101 @@ fn f32_at(rec: &[u8], k: usize) -> f32 {
     f32::from_le_bytes(b)
 }
 
+/// One point of a stand-in: its centre (world), size in pixels and colour.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Point {
+    pub pos: Vec3,
+    pub size: f32,
+    pub rgba: [u8; 4],
+}
+
 /// Appends the points standing in for one instance (its record `rec`,
-/// [`INSTANCE_STRIDE`] bytes) to `out`, one per facet it shows; `false` (and
-/// nothing appended) when it is to be drawn as a mesh.
-pub(crate) fn stand_in(view: &View, s: &StandIn, facets: &[Facet], rec: &[u8], out: &mut Vec<u8>) -> bool {
+/// [`INSTANCE_STRIDE`] bytes) to `out`, one per facet it shows (`scratch` holds
+/// them meanwhile); `false` (and nothing appended) when it is to be drawn as a mesh.
+fn stand_in(
+    view: &View,
+    s: &StandIn,
+    facets: &[Facet],
+    rec: &[u8],
+    scratch: &mut Vec<Point>,
+    out: &mut Vec<u8>,
+) -> bool {
     let row = |r: usize| {
         Vec4::new(f32_at(rec, 4 * r), f32_at(rec, 4 * r + 1), f32_at(rec, 4 * r + 2), f32_at(rec, 4 * r + 3))
     };
     let (r0, r1, r2) = (row(0), row(1), row(2));
     let bone = rec.get(64..68).map_or(1, |b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
-    if bone != 0 || !(s.closed || view.flat) {
-        return false; // posed by a bone at draw time; open in a 3-D model
+    if bone != 0 {
+        return false; // posed by a bone at draw time
     }
     let color = Vec4::new(f32_at(rec, 12), f32_at(rec, 13), f32_at(rec, 14), f32_at(rec, 15));
-    // The linear part (rows) and the centre placed.
     let l = Mat3::from_cols(r0.truncate(), r1.truncate(), r2.truncate()).transpose();
-    let p = l * s.centre + Vec3::new(r0.w, r1.w, r2.w);
-    let scale = l.x_axis.length().max(l.y_axis.length()).max(l.z_axis.length());
-    let radius = s.radius * scale;
+    let t = Vec3::new(r0.w, r1.w, r2.w);
+    if !stand_in_points(view, s, facets, l, t, color, &Placed::new(view, s, l, t), scratch) {
+        return false;
+    }
+    for p in scratch.iter() {
+        for x in [p.pos.x, p.pos.y, p.pos.z, p.size] {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+        out.extend_from_slice(&p.rgba);
+    }
+    true
+}
+
+/// A stand-in's bounding sphere placed: its centre, radius and the centre's clip
+/// position (what a renderer that culls by the sphere has computed already).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Placed {
+    pub centre: Vec3,
+    pub radius: f32,
+    pub clip: Vec4,
+    /// The length of the view-projection's w row (without its last column).
+    pub w_len: f32,
+}
+
+impl Placed {
+    /// The sphere of `s` placed by the linear map `l` and translation `t`.
+    #[inline]
+    pub fn new(view: &View, s: &StandIn, l: Mat3, t: Vec3) -> Placed {
+        let centre = l * s.centre + t;
+        let scale = l.x_axis.length().max(l.y_axis.length()).max(l.z_axis.length());
+        let m = &view.view_projection;
+        Placed {
+            centre,
+            radius: s.radius * scale,
+            clip: *m * centre.extend(1.0),
+            w_len: Vec3::new(m.x_axis.w, m.y_axis.w, m.z_axis.w).length(),
+        }
+    }
+}
+
+/// The points standing in for one instance of bone 0 placed by the linear map `l`
+/// and translation `t` in `color` (its sphere placed: `at`), appended to `out`
+/// (cleared first), one per facet it shows; `false` (and `out` empty) when it is
+/// to be drawn as a mesh. What [`stand_in`] computes from a record, for a renderer
+/// that has the matrix already (the CPU renderer: no record is written).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn stand_in_points(
+    view: &View,
+    s: &StandIn,
+    facets: &[Facet],
+    l: Mat3,
+    t: Vec3,
+    color: Vec4,
+    at: &Placed,
+    out: &mut Vec<Point>,
+) -> bool {
+    out.clear();
+    if !(s.closed || view.flat) {
+        return false; // open in a 3-D model
+    }
+    let (p, radius, c) = (at.centre, at.radius, at.clip);
     let m = &view.view_projection;
-    let c = *m * p.extend(1.0);
     // In front of the eye with all of its bounding sphere (else the clipper decides).
     let w_axis = Vec3::new(m.x_axis.w, m.y_axis.w, m.z_axis.w);
-    let ahead = c.w - radius * w_axis.length();
+    let ahead = c.w - radius * at.w_len;
     if ahead.is_nan() || ahead <= 0.0 || !p.is_finite() {
         return false;
     }
@@ -155,9 +236,7 @@ pub(crate) fn stand_in(view: &View, s: &StandIn, facets: &[Facet], rec: &[u8], o
     // instance as the mirrored draw's reversed winding flips them.
     let cof = Mat3::from_cols(l.y_axis.cross(l.z_axis), l.z_axis.cross(l.x_axis), l.x_axis.cross(l.y_axis));
     let sign = if l.determinant() < 0.0 { -1.0 } else { 1.0 };
-    let t = Vec3::new(r0.w, r1.w, r2.w);
-    let unorm = |x: f32| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
-    let start = out.len();
+    let unorm = |x: f32| round_unit(x.clamp(0.0, 1.0) * 255.0);
     let mut area = 0.0f32;
     for f in facets {
         let a = sign * (cof * f.area);
@@ -176,15 +255,12 @@ pub(crate) fn stand_in(view: &View, s: &StandIn, facets: &[Facet], rec: &[u8], o
         }
         let c = (color + Vec4::from_array(f.delta)).clamp(Vec4::ZERO, Vec4::ONE);
         let rgb = phong(view, q, n, c, f.matte);
-        for x in [q.x, q.y, q.z, px.sqrt()] {
-            out.extend_from_slice(&x.to_le_bytes());
-        }
-        out.extend_from_slice(&[unorm(rgb.x), unorm(rgb.y), unorm(rgb.z), unorm(c.w)]);
+        out.push(Point { pos: q, size: px.sqrt(), rgba: [unorm(rgb.x), unorm(rgb.y), unorm(rgb.z), unorm(c.w)] });
         area += px;
     }
     let disc = std::f32::consts::PI * 0.25 * diameter * diameter;
     if diameter > POINT_ANY_PIXELS && (area.is_nan() || area < COMPACT * disc) {
-        out.truncate(start);
+        out.clear();
         return false;
     }
     true
@@ -218,12 +294,13 @@ pub fn select(
     let work = |&(k, first, n): &(usize, u32, u32)| -> (Vec<u8>, Vec<u32>) {
         let mut points = Vec::new();
         let mut kept = Vec::new();
+        let mut scratch = Vec::new();
         let s = stand_ins.get(k).copied();
         let fs = s.and_then(|s| facets.get(s.first_facet as usize..(s.first_facet + s.n_facets) as usize));
         for i in first..first + n {
             let rec = records.get(i as usize * stride..(i as usize + 1) * stride).unwrap_or(&[]);
             let as_points = match (s, fs) {
-                (Some(s), Some(fs)) => stand_in(view, &s, fs, rec, &mut points),
+                (Some(s), Some(fs)) => stand_in(view, &s, fs, rec, &mut scratch, &mut points),
                 _ => false,
             };
             if !as_points {
@@ -323,6 +400,21 @@ mod tests {
     fn unpack(v: &[u8]) -> (Vec3, f32, [u8; 4]) {
         let f = |i: usize| f32::from_le_bytes([v[4 * i], v[4 * i + 1], v[4 * i + 2], v[4 * i + 3]]);
         (Vec3::new(f(0), f(1), f(2)), f(3), [v[16], v[17], v[18], v[19]])
+    }
+
+    /// Rounding a colour channel without libm gives `round`'s bytes, halves and
+    /// the floats next to them included.
+    #[test]
+    fn colour_channels_round_as_round_does() {
+        let mut xs: Vec<f32> = (0..=255 * 64).map(|k| k as f32 / 64.0).collect();
+        for k in 0..255 {
+            let h = k as f32 + 0.5;
+            xs.extend([h, f32::from_bits(h.to_bits() - 1), f32::from_bits(h.to_bits() + 1)]);
+        }
+        xs.extend([0.0, 0.49999997, 254.99998, 255.0]);
+        for x in xs {
+            assert_eq!(round_unit(x), x.round() as u8, "{x}");
+        }
     }
 
     #[test]

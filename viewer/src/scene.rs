@@ -373,18 +373,31 @@ pub fn build_with(out: &Output, instanced: bool) -> Scene {
         || !out.sweeps.weights.is_empty()
         || !out.sweeps.bones.is_empty()
         || !out.instance_weights.is_empty()
-        || out.instances.iter().any(|i| i.bone != 0);
-    let expand = |_: usize| !instanced;
-    let (n_vertices, _) = out.flat_counts_where(Groups::ALL, expand);
+        || out.instances.bone_runs().any(|(_, b)| b != 0);
+    let n_vertices =
+        if instanced { out.mesh.n_vertices() + out.sweeps.n_vertices() } else { out.flat_counts(Groups::ALL).0 };
     let mut b = Builder { s: Scene { bounds: Bounds::EMPTY, ..Scene::default() }, skinned };
     b.s.vertices.reserve(n_vertices * VERTEX_STRIDE as usize);
     if skinned {
         b.s.skins.reserve(n_vertices * SKIN_STRIDE as usize);
     }
-    let _ = out.for_each_piece_where::<()>(Groups::ALL, expand, |p| {
-        b.piece(p);
-        Ok(())
-    });
+    if instanced {
+        // No instance expanded: the flat walk's pieces are the whole VERTEX mesh
+        // and the sweeps (`Output::for_each_piece_where` with nothing to expand,
+        // without its walks over every instance).
+        fn whole(m: &mdg_vm::output::Mesh, base: usize) -> Piece<'_> {
+            Piece { mesh: m, vertices: 0..m.n_vertices(), triangles: 0..m.triangles.len(), base: base as u32 }
+        }
+        if out.mesh.n_vertices() > 0 || !out.mesh.triangles.is_empty() {
+            b.piece(&whole(&out.mesh, 0));
+        }
+        b.piece(&whole(&out.sweeps, out.mesh.n_vertices()));
+    } else {
+        let _ = out.for_each_piece::<()>(Groups::ALL, |p| {
+            b.piece(p);
+            Ok(())
+        });
+    }
     if instanced && !out.instances.is_empty() {
         let (inst, bounds, max_bone) = build_instanced(out);
         b.s.bounds.add_bounds(&bounds);
@@ -511,7 +524,7 @@ fn coarse_mesh(
 }
 
 fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
-    let mut inst = Instanced { order: Vec::with_capacity(out.instances.len()), ..Instanced::default() };
+    let mut inst = Instanced::default();
     let mut bounds = Bounds::EMPTY;
     let mut max_bone = 0;
     // Per shared mesh: where its vertices and its two index runs are, its bounding
@@ -522,6 +535,9 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
         index_count: u32,
         closed: bool,
         instances: [Vec<u32>; 2],
+        /// The largest scale of its instances, by handedness (for the level of
+        /// detail's radius).
+        scales: [f32; 2],
         /// The mesh's distinct positions (for the bounds).
         corners: Vec<Vec3>,
         /// The coarse mesh: first index, index count (one winding), vertex offset.
@@ -532,90 +548,139 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
         stand_in: StandIn,
     }
     let mut placed: Vec<Option<Placed>> = (0..out.shared_meshes.len()).map(|_| None).collect();
-    for (i, instance) in out.instances.iter().enumerate() {
-        let Some(shared) = out.shared(&instance) else { continue };
-        let m = &shared.mesh;
-        if m.triangles.is_empty() {
-            continue;
-        }
-        let mirrored = if shared.is_prototype() { instance.frame.linear().1 } else { out.instance_mirrored(&instance) };
-        let p = placed[instance.mesh as usize].get_or_insert_with(|| {
-            let vertex_offset = (inst.vertices.len() / PROTO_STRIDE as usize) as i32;
-            // Equal vertices (a cube's corners, shared by the two triangles of a face)
-            // are stored once: the driver shades each once per instance.
-            let mut seen: std::collections::HashMap<Vec<u8>, u32> = std::collections::HashMap::new();
-            let mut remap = Vec::with_capacity(m.n_vertices());
-            for v in 0..m.n_vertices() {
-                let pos = Vec3::from(m.positions[v]);
-                let n = shared.local_normal(v).normalize_or_zero();
-                let delta = if shared.is_prototype() { m.colors.get(v).copied().unwrap_or([0.0; 4]) } else { [0.0; 4] };
-                let mut bytes = Vec::with_capacity(PROTO_STRIDE as usize);
-                for x in pos.to_array() {
-                    bytes.extend_from_slice(&x.to_le_bytes());
-                }
-                for x in [n.x, n.y, n.z, if m.matte(v) { 1.0 } else { 0.0 }] {
-                    bytes.extend_from_slice(&snorm16(x).to_le_bytes());
-                }
-                for x in delta {
-                    bytes.extend_from_slice(&x.to_le_bytes());
-                }
-                let next = seen.len() as u32;
-                let k = *seen.entry(bytes.clone()).or_insert_with(|| {
-                    inst.vertices.extend_from_slice(&bytes);
-                    next
-                });
-                remap.push(k);
-            }
-            let first_index = inst.indices.len() as u32;
-            let n = m.n_vertices() as u32;
-            let tris: Vec<[u32; 3]> = m
-                .oriented_triangles()
-                .filter(|t| t.iter().all(|&k| k < n))
-                .map(|t| t.map(|k| remap[k as usize]))
-                .collect();
-            inst.indices.extend(tris.iter().flatten());
-            inst.indices.extend(tris.iter().flat_map(|t| [t[0], t[2], t[1]]));
-            let oriented: Vec<[u32; 3]> = m.oriented_triangles().filter(|t| t.iter().all(|&k| k < n)).collect();
-            let coarse = (oriented.len() > LOD_MIN_TRIANGLES)
-                .then(|| coarse_mesh(shared, &oriented, &mut inst.vertices, &mut inst.indices))
-                .flatten();
-            let closed = mdg_export::is_closed(m, &oriented);
-            let facets = facets_of(shared, &oriented);
-            let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
-            for q in &m.positions {
-                lo = lo.min(Vec3::from(*q));
-                hi = hi.max(Vec3::from(*q));
-            }
-            let centre = (lo + hi) * 0.5;
-            let stand_in = StandIn {
-                first_facet: inst.facets.len() as u32,
-                n_facets: facets.len() as u32,
-                centre,
-                radius: m.positions.iter().map(|q| Vec3::from(*q).distance(centre)).fold(0.0, f32::max),
-                closed,
+    // Each mesh's list sized for all its instances (unmirrored, as most are).
+    let counts = out.instances.mesh_counts();
+    // One walk: each instance's transform is made once, for its handedness, the
+    // bounds and the level of detail's radius.
+    // (The frames read as a slice and the other fields by runs: no unpacked
+    // iterator state goes through memory per instance.)
+    let frames = out.instances.packed_frames();
+    for (run, f) in out.instances.field_runs() {
+        for i in run {
+            let Some(pf) = frames.get(i) else { break };
+            let frame = mdg_vm::geom::Frame {
+                q: glam::Quat::from_xyzw(pf[0], pf[1], pf[2], pf[3]),
+                qh: glam::Quat::from_xyzw(pf[4], pf[5], pf[6], pf[7]),
+                u: Vec3::new(pf[8], pf[9], pf[10]),
             };
-            inst.facets.extend(facets);
-            Placed {
-                stand_in,
-                coarse,
-                radius: m.positions.iter().map(|q| Vec3::from(*q).length()).fold(0.0, f32::max),
-                vertex_offset,
-                first_index,
-                index_count: 3 * tris.len() as u32,
-                closed,
-                instances: [Vec::new(), Vec::new()],
-                corners: {
-                    let mut c: Vec<[u32; 3]> = m.positions.iter().map(|q| q.map(f32::to_bits)).collect();
-                    c.sort_unstable();
-                    c.dedup();
-                    c.into_iter().map(|q| Vec3::from(q.map(f32::from_bits))).collect()
-                },
+            let instance =
+                mdg_vm::output::Instance { frame, color: f.color, mesh: f.mesh, bone: f.bone, lin: f.lin, at: f.at };
+            let Some(shared) = out.shared(&instance) else { continue };
+            let m = &shared.mesh;
+            if m.triangles.is_empty() {
+                continue;
             }
-        });
-        p.instances[usize::from(mirrored)].push(i as u32);
+            // (A prototype's frame has no non-uniform factor: its matrix's columns are
+            // the frame's axes, `Frame::linear`'s, whose determinant says mirrored.)
+            let t = if instance.lin == 0 {
+                let [a, b, c] = instance.frame.axes();
+                glam::Affine3A::from_cols(a.into(), b.into(), c.into(), instance.frame.u.into())
+            } else {
+                glam::Affine3A::from_mat4(out.instance_transform(&instance))
+            };
+            let mirrored = if shared.is_prototype() {
+                let l = &t.matrix3;
+                Vec3::from(l.x_axis).dot(Vec3::from(l.y_axis).cross(Vec3::from(l.z_axis))) < 0.0
+            } else {
+                out.instance_mirrored(&instance)
+            };
+            let p = placed[instance.mesh as usize].get_or_insert_with(|| {
+                let vertex_offset = (inst.vertices.len() / PROTO_STRIDE as usize) as i32;
+                // Equal vertices (a cube's corners, shared by the two triangles of a face)
+                // are stored once: the driver shades each once per instance.
+                let mut seen: std::collections::HashMap<Vec<u8>, u32> = std::collections::HashMap::new();
+                let mut remap = Vec::with_capacity(m.n_vertices());
+                for v in 0..m.n_vertices() {
+                    let pos = Vec3::from(m.positions[v]);
+                    let n = shared.local_normal(v).normalize_or_zero();
+                    let delta =
+                        if shared.is_prototype() { m.colors.get(v).copied().unwrap_or([0.0; 4]) } else { [0.0; 4] };
+                    let mut bytes = Vec::with_capacity(PROTO_STRIDE as usize);
+                    for x in pos.to_array() {
+                        bytes.extend_from_slice(&x.to_le_bytes());
+                    }
+                    for x in [n.x, n.y, n.z, if m.matte(v) { 1.0 } else { 0.0 }] {
+                        bytes.extend_from_slice(&snorm16(x).to_le_bytes());
+                    }
+                    for x in delta {
+                        bytes.extend_from_slice(&x.to_le_bytes());
+                    }
+                    let next = seen.len() as u32;
+                    let k = *seen.entry(bytes.clone()).or_insert_with(|| {
+                        inst.vertices.extend_from_slice(&bytes);
+                        next
+                    });
+                    remap.push(k);
+                }
+                let first_index = inst.indices.len() as u32;
+                let n = m.n_vertices() as u32;
+                let tris: Vec<[u32; 3]> = m
+                    .oriented_triangles()
+                    .filter(|t| t.iter().all(|&k| k < n))
+                    .map(|t| t.map(|k| remap[k as usize]))
+                    .collect();
+                inst.indices.extend(tris.iter().flatten());
+                inst.indices.extend(tris.iter().flat_map(|t| [t[0], t[2], t[1]]));
+                let oriented: Vec<[u32; 3]> = m.oriented_triangles().filter(|t| t.iter().all(|&k| k < n)).collect();
+                let coarse = (oriented.len() > LOD_MIN_TRIANGLES)
+                    .then(|| coarse_mesh(shared, &oriented, &mut inst.vertices, &mut inst.indices))
+                    .flatten();
+                let closed = mdg_export::is_closed(m, &oriented);
+                let facets = facets_of(shared, &oriented);
+                let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+                for q in &m.positions {
+                    lo = lo.min(Vec3::from(*q));
+                    hi = hi.max(Vec3::from(*q));
+                }
+                let centre = (lo + hi) * 0.5;
+                let stand_in = StandIn {
+                    first_facet: inst.facets.len() as u32,
+                    n_facets: facets.len() as u32,
+                    centre,
+                    radius: m.positions.iter().map(|q| Vec3::from(*q).distance(centre)).fold(0.0, f32::max),
+                    closed,
+                };
+                inst.facets.extend(facets);
+                Placed {
+                    stand_in,
+                    coarse,
+                    radius: m.positions.iter().map(|q| Vec3::from(*q).length()).fold(0.0, f32::max),
+                    vertex_offset,
+                    first_index,
+                    index_count: 3 * tris.len() as u32,
+                    closed,
+                    instances: [
+                        Vec::with_capacity(counts.get(instance.mesh as usize).copied().unwrap_or(0)),
+                        Vec::new(),
+                    ],
+                    scales: [0.0; 2],
+                    corners: {
+                        let mut c: Vec<[u32; 3]> = m.positions.iter().map(|q| q.map(f32::to_bits)).collect();
+                        c.sort_unstable();
+                        c.dedup();
+                        c.into_iter().map(|q| Vec3::from(q.map(f32::from_bits))).collect()
+                    },
+                }
+            });
+            let side = usize::from(mirrored);
+            p.instances[side].push(i as u32);
+            max_bone = max_bone.max(instance.bone);
+            // Exact bounds (the camera frames the model as when it was expanded): every
+            // distinct vertex placed (a cube's 24 are 8 corners), but nothing stored.
+            for q in &p.corners {
+                bounds.add(t.transform_point3(*q));
+            }
+            // (The longest axis with one square root: the same bits as the longest of
+            // three lengths, a square root being correctly rounded and increasing.)
+            let l = &t.matrix3;
+            let scale = l.x_axis.length_squared().max(l.y_axis.length_squared()).max(l.z_axis.length_squared()).sqrt();
+            p.scales[side] = p.scales[side].max(scale);
+        }
     }
-    for p in placed.iter().flatten() {
-        for (side, list) in p.instances.iter().enumerate() {
+    // One draw, one list: it is the order (not copied).
+    let single = placed.iter().flatten().flat_map(|p| &p.instances).filter(|l| !l.is_empty()).count() == 1;
+    for p in placed.iter_mut().flatten() {
+        for (side, list) in p.instances.iter_mut().enumerate() {
             if list.is_empty() {
                 continue;
             }
@@ -628,21 +693,11 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
                 closed: p.closed,
             });
             inst.n_triangles += u64::from(p.index_count / 3) * list.len() as u64;
-            let mut radius = 0.0f32;
-            inst.order.extend_from_slice(list);
-            for &i in list {
-                let Some(instance) = out.instances.get(i as usize) else { continue };
-                let t = out.instance_transform(&instance);
-                max_bone = max_bone.max(instance.bone);
-                // Exact bounds (the camera frames the model as when it was expanded):
-                // every distinct vertex placed (a cube's 24 are 8 corners), but
-                // nothing stored.
-                let t = glam::Affine3A::from_mat4(t);
-                for q in &p.corners {
-                    bounds.add(t.transform_point3(*q));
-                }
-                let scale = t.matrix3.x_axis.length().max(t.matrix3.y_axis.length()).max(t.matrix3.z_axis.length());
-                radius = radius.max(p.radius * scale);
+            let radius = p.radius * p.scales[side];
+            if single {
+                inst.order = std::mem::take(list);
+            } else {
+                inst.order.extend_from_slice(list);
             }
             inst.stand_ins.push(p.stand_in);
             inst.lods.push(p.coarse.map(|(first, count, offset)| Lod {

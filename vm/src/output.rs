@@ -13,7 +13,9 @@ use serde::Serialize;
 use std::ops::Range;
 
 pub use crate::geom::Mesh;
-pub use instances::{Fixed, Instance, InstanceIter, Instances, PackedFrame, Span, FRAME_WORDS, TRANSLATION_AT};
+pub use instances::{
+    FieldReader, Fields, Fixed, Instance, InstanceIter, Instances, PackedFrame, Span, FRAME_WORDS, TRANSLATION_AT,
+};
 
 mod instances;
 

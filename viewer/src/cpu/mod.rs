@@ -26,9 +26,10 @@ use crate::points;
 use crate::renderer::{FrameParams, ModelInfo};
 use crate::scene::{self, Scene, PROTO_STRIDE, SKIN_STRIDE, VERTEX_STRIDE};
 use crate::uniforms::{self, UniformSpec};
-use glam::{Mat3, Mat4, Vec3, Vec4};
+use glam::{Mat3, Mat4, Quat, Vec3, Vec4};
 use mdg_vm::bundle::{Bundle, NONE};
-use mdg_vm::output::Output;
+use mdg_vm::geom::quat::Frame;
+use mdg_vm::output::{Fields, Instance, Output, PackedFrame};
 use raster::{Lighting, Shade, Target, V};
 
 /// The content hash ([`shader_hash`]) of std's `phong_vs`, the vertex shader this
@@ -247,39 +248,49 @@ impl<'a> CpuScene<'a> {
         };
         let bg = self.info.background.map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8);
         let threads = (opts.threads.max(1) as u32).min(h.div_ceil(raster::STRIP)).max(1);
-        let job = Job { cpu: self, vp, bones: &bones, stand_in_view, ppu, depth_test: !self.info.flat, height: h };
-        let draw = |t: u32| {
+        let row = |k: usize| Vec3::new(vp.x_axis[k], vp.y_axis[k], vp.z_axis[k]).length();
+        let row_lengths = [row(0), row(1), row(3)];
+        let job = Job {
+            cpu: self,
+            vp,
+            row_lengths,
+            bones: &bones,
+            stand_in_view,
+            ppu,
+            depth_test: !self.info.flat,
+            height: h,
+        };
+        let target = |t: u32| {
             let mut target = Target::new(t, threads, w, h, samples, bg);
             target.lighting = lighting;
             target.shade = self.shade;
             target.depth_test = job.depth_test;
-            let stood_in = job.draw(&mut target);
-            (target, stood_in)
+            target
         };
-        let results: Vec<(Target, u64)> = if threads == 1 {
-            vec![draw(0)]
-        } else {
-            std::thread::scope(|scope| {
-                let handles: Vec<_> = (1..threads).map(|t| scope.spawn(move || draw(t))).collect();
-                let mut all = vec![draw(0)];
-                // (A thread that panicked has its share drawn again here.)
-                for (k, hd) in handles.into_iter().enumerate() {
-                    all.push(hd.join().unwrap_or_else(|_| draw(k as u32 + 1)));
+        let mut targets: Vec<Target> = (0..threads).map(target).collect();
+        let stood_in = match job.draw(&mut targets) {
+            Some(n) => n,
+            None => {
+                // A thread panicked: the picture is drawn again on this one.
+                targets = vec![Target::new(0, 1, w, h, samples, bg)];
+                if let Some(t) = targets.first_mut() {
+                    t.lighting = lighting;
+                    t.shade = self.shade;
+                    t.depth_test = job.depth_test;
                 }
-                all
-            })
+                job.draw(&mut targets).unwrap_or(0)
+            }
         };
         let mut px = vec![0u8; w as usize * h as usize * 4];
         for (y, row) in px.chunks_exact_mut(w as usize * 4).enumerate() {
             let y = y as u32;
-            if let Some((t, _)) = results.iter().find(|(t, _)| t.owns(y)) {
+            if let Some(t) = targets.iter().find(|t| t.owns(y)) {
                 t.resolve_row(y, row);
             }
         }
         if opts.smooth && samples == 1 {
             crate::smooth::smooth_edges(&mut px, w, h);
         }
-        let stood_in = results.iter().map(|(_, s)| s).sum::<u64>();
         (px, Drawn { triangles: self.submitted(ppu), stood_in })
     }
 
@@ -304,11 +315,78 @@ impl<'a> CpuScene<'a> {
 struct Job<'s, 'a> {
     cpu: &'s CpuScene<'a>,
     vp: Mat4,
+    /// The lengths of `vp`'s rows 0, 1 and 3 (x, y, w) without their last column,
+    /// for [`Job::sphere_rows`].
+    row_lengths: [f32; 3],
     bones: &'s [Mat4],
     stand_in_view: Option<points::View>,
     ppu: Option<f32>,
     depth_test: bool,
     height: u32,
+}
+
+/// Instances prepared, then drawn, at a time ([`Job::instances`]): a batch's
+/// points stay in the cache and their buffers are reused.
+const BATCH: usize = 1 << 15;
+
+/// One instanced draw as this frame draws it ([`Job::draw_plans`]).
+struct DrawPlan<'s> {
+    /// Its index run, at the level of detail chosen.
+    indices: &'s [u32],
+    /// What turns an index into a place in the vertex range `v_first..v_first + v_n`.
+    base: i64,
+    v_first: i64,
+    v_n: usize,
+    cull: bool,
+    stand: Option<scene::StandIn>,
+    facets: &'s [scene::Facet],
+    /// The first look's reach around an instance's origin, per unit of scale.
+    reach: Option<f32>,
+    /// Where its instances end in the draw order.
+    end: usize,
+}
+
+/// A part of a batch of instances, prepared ([`Job::prepare`]).
+#[derive(Default)]
+struct Prepared {
+    items: Vec<Item>,
+    /// The stand-ins' points, set up on the screen, with their colours.
+    points: Vec<(raster::PointSetup, Vec4)>,
+    /// Instances drawn as stand-ins.
+    stood_in: u64,
+}
+
+/// What a prepared instance draws, in order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Item {
+    /// The next points of [`Prepared::points`] (those of consecutive stand-ins).
+    Points(u32),
+    /// The instance at `pos` of the draw order, of draw `draw`, as its mesh.
+    Mesh { pos: u32, draw: u32 },
+}
+
+/// What a thread reuses from instance to instance.
+struct Scratch<'a> {
+    fields: mdg_vm::output::FieldReader<'a>,
+    local: Vec<V>,
+}
+
+/// Runs `f` on every element of `items`, each on a thread of its own (the first on
+/// this one); `false` if one panicked.
+fn on_each<T: Send>(items: &mut [T], f: impl Fn(usize, &mut T) + Sync) -> bool {
+    match items {
+        [] => true,
+        [one] => {
+            f(0, one);
+            true
+        }
+        [first, rest @ ..] => std::thread::scope(|scope| {
+            let f = &f;
+            let handles: Vec<_> = rest.iter_mut().enumerate().map(|(k, x)| scope.spawn(move || f(k + 1, x))).collect();
+            f(0, first);
+            handles.into_iter().all(|h| h.join().is_ok())
+        }),
+    }
 }
 
 fn f32_at(b: &[u8], at: usize) -> f32 {
@@ -328,35 +406,54 @@ fn cofactor(m: Mat3) -> Mat3 {
     Mat3::from_cols(m.y_axis.cross(m.z_axis), m.z_axis.cross(m.x_axis), m.x_axis.cross(m.y_axis))
 }
 
-impl Job<'_, '_> {
+impl<'s, 'a> Job<'s, 'a> {
     /// The pixel rows a sphere (world centre `c`, radius `r`) may cover, or `None`
     /// when it may reach behind the eye (then any row).
+    #[inline]
     fn sphere_rows(&self, c: Vec3, r: f32) -> Option<(i64, i64, bool)> {
-        let m = &self.vp;
-        let clip = *m * c.extend(1.0);
-        let w_axis = Vec3::new(m.x_axis.w, m.y_axis.w, m.z_axis.w);
-        let ahead = clip.w - r * w_axis.length();
+        self.sphere_rows_at(self.vp * c.extend(1.0), r)
+    }
+
+    /// The sphere of stand-in `s` placed by `l` and `t` (what [`points`] reads).
+    #[inline]
+    fn placed(&self, s: &scene::StandIn, l: Mat3, t: Vec3) -> points::Placed {
+        let centre = l * s.centre + t;
+        let scale = max_axis(l);
+        points::Placed {
+            centre,
+            radius: s.radius * scale,
+            clip: self.vp * centre.extend(1.0),
+            w_len: self.row_lengths[2],
+        }
+    }
+
+    /// [`Job::sphere_rows`] for the centre's clip position `clip`.
+    #[inline]
+    fn sphere_rows_at(&self, clip: Vec4, r: f32) -> Option<(i64, i64, bool)> {
+        let [x_len, y_len, w_len] = self.row_lengths;
+        let ahead = clip.w - r * w_len;
         if ahead.is_nan() || ahead <= 0.0 || !clip.is_finite() {
             return None;
         }
-        let row = |k: usize| Vec3::new(m.x_axis[k], m.y_axis[k], m.z_axis[k]);
         let (nx, ny) = (clip.x / clip.w, clip.y / clip.w);
         // |Δndc| ≤ r (|row| + |ndc| |w row|) / (w − r |w row|).
-        let ex = r * (row(0).length() + nx.abs() * w_axis.length()) / ahead;
-        let ey = r * (row(1).length() + ny.abs() * w_axis.length()) / ahead;
+        let ex = r * (x_len + nx.abs() * w_len) / ahead;
+        let ey = r * (y_len + ny.abs() * w_len) / ahead;
         let visible = nx - ex <= 1.0 && nx + ex >= -1.0 && ny - ey <= 1.0 && ny + ey >= -1.0;
         let h = self.height as f32 * 0.5;
         Some((raster::floor_i64((ny - ey + 1.0) * h) - 1, raster::floor_i64((ny + ey + 1.0) * h) + 1, visible))
     }
 
-    /// Draws everything this thread's strips show, in the Vulkan renderer's order:
-    /// the mesh, the instances (stand-ins where chosen), pen lines, overlays.
-    /// Returns the instances it drew as stand-ins (those whose centre row it owns).
-    fn draw(&self, t: &mut Target) -> u64 {
-        self.mesh(t);
-        let stood_in = self.instances(t);
-        self.lines(t);
-        stood_in
+    /// Draws everything, in the Vulkan renderer's order: the mesh, the instances
+    /// (stand-ins where chosen), pen lines, overlays; each target its strips, on a
+    /// thread of its own. Returns the instances drawn as stand-ins, or `None` when
+    /// a thread panicked.
+    fn draw(&self, targets: &mut [Target]) -> Option<u64> {
+        if !on_each(targets, |_, t| self.mesh(t)) {
+            return None;
+        }
+        let stood_in = self.instances(targets)?;
+        on_each(targets, |_, t| self.lines(t)).then_some(stood_in)
     }
 
     fn mesh(&self, t: &mut Target) {
@@ -395,110 +492,232 @@ impl Job<'_, '_> {
         }
     }
 
-    fn instances(&self, t: &mut Target) -> u64 {
-        let Some(inst) = &self.cpu.scene.instanced else { return 0 };
-        let out = self.cpu.output;
-        let ps = PROTO_STRIDE as usize;
-        let mut local: Vec<V> = Vec::new();
-        let mut points_buf: Vec<u8> = Vec::new();
-        let mut stood_in = 0u64;
-        for (k, d) in inst.draws.iter().enumerate() {
-            let lod = match (inst.lods.get(k).copied().flatten(), self.ppu) {
-                (Some(l), Some(p)) if l.radius * p <= scene::LOD_PIXELS => Some(l),
-                _ => None,
+    /// What each instanced draw needs of the frame: its index run, vertex range and
+    /// culling at the level of detail chosen, and its stand-in.
+    fn draw_plans(&self) -> Vec<DrawPlan<'s>> {
+        let Some(inst) = &self.cpu.scene.instanced else { return Vec::new() };
+        let cpu: &'s CpuScene<'a> = self.cpu;
+        inst.draws
+            .iter()
+            .enumerate()
+            .map(|(k, d)| {
+                let lod = match (inst.lods.get(k).copied().flatten(), self.ppu) {
+                    (Some(l), Some(p)) if l.radius * p <= scene::LOD_PIXELS => Some(l),
+                    _ => None,
+                };
+                let ((full_first, full_n), lod_range) = cpu.ranges.get(k).copied().unwrap_or(((0, 0), None));
+                let (first_index, index_count, vertex_offset, (v_first, v_n), cull) = match (lod, lod_range) {
+                    (Some(l), Some(r)) => (l.first_index, l.index_count, l.vertex_offset, r, false),
+                    _ => (d.first_index, d.index_count, d.vertex_offset, (full_first, full_n), d.closed),
+                };
+                let stand = inst.stand_ins.get(k).copied();
+                let facets =
+                    stand.and_then(|s| inst.facets.get(s.first_facet as usize..(s.first_facet + s.n_facets) as usize));
+                DrawPlan {
+                    indices: inst
+                        .indices
+                        .get(first_index as usize..(first_index + index_count) as usize)
+                        .unwrap_or(&[]),
+                    base: i64::from(vertex_offset) - v_first,
+                    v_first,
+                    v_n,
+                    cull,
+                    stand,
+                    facets: facets.unwrap_or(&[]),
+                    reach: stand.map(|s| s.centre.length() + s.radius),
+                    end: (d.first_instance + d.instance_count) as usize,
+                }
+            })
+            .collect()
+    }
+
+    /// The instances, in batches of [`BATCH`] (in draw order): each batch is first
+    /// prepared, its parts on the threads (every instance culled, its transform
+    /// made and its stand-in's points set up once), then drawn, each target its
+    /// strips. Returns the instances drawn as stand-ins, `None` if a thread panicked.
+    fn instances(&self, targets: &mut [Target]) -> Option<u64> {
+        let Some(inst) = &self.cpu.scene.instanced else { return Some(0) };
+        let plans = self.draw_plans();
+        let n = inst.order.len();
+        let parts = targets.len().max(1);
+        let mut prepared: Vec<Prepared> = (0..parts).map(|_| Prepared::default()).collect();
+        let mut scratch: Vec<Scratch<'_>> = (0..targets.len())
+            .map(|_| Scratch { fields: self.cpu.output.instances.fields(), local: Vec::new() })
+            .collect();
+        let mut stood_in = 0;
+        let mut from = 0;
+        while from < n {
+            let to = (from + BATCH).min(n);
+            let per = (to - from).div_ceil(parts);
+            let ok = on_each(&mut prepared, |k, p| {
+                let a = (from + k * per).min(to);
+                self.prepare(&plans, a..(a + per).min(to), p);
+            });
+            if !ok {
+                return None;
+            }
+            stood_in += prepared.iter().map(|p| p.stood_in).sum::<u64>();
+            let mut work: Vec<(&mut Target, &mut Scratch<'_>)> = targets.iter_mut().zip(scratch.iter_mut()).collect();
+            if !on_each(&mut work, |_, (t, sc)| self.draw_prepared(t, &plans, &prepared, sc)) {
+                return None;
+            }
+            from = to;
+        }
+        Some(stood_in)
+    }
+
+    /// Prepares the instances at `range` of the draw order into `out`: those off
+    /// the picture dropped, stand-ins as points set up on the screen, the rest as
+    /// meshes to draw.
+    fn prepare(&self, plans: &[DrawPlan<'_>], range: std::ops::Range<usize>, out: &mut Prepared) {
+        out.items.clear();
+        out.points.clear();
+        out.stood_in = 0;
+        let (Some(inst), Some(view)) = (&self.cpu.scene.instanced, &self.stand_in_view) else {
+            // No stand-ins: every instance a mesh.
+            let mut k = plans.partition_point(|p| p.end <= range.start);
+            for pos in range {
+                while plans.get(k).is_some_and(|p| p.end <= pos) {
+                    k += 1;
+                }
+                out.items.push(Item::Mesh { pos: pos as u32, draw: k as u32 });
+            }
+            return;
+        };
+        let out_ = self.cpu.output;
+        let frames = out_.instances.packed_frames();
+        let mut fields = out_.instances.fields();
+        let (w, h) = (view.width as u32, self.height);
+        let on_picture = |y0: i64, y1: i64| y1 >= 0 && y0 < i64::from(h);
+        let mut k = plans.partition_point(|p| p.end <= range.start);
+        let mut points: Vec<points::Point> = Vec::new();
+        for pos in range {
+            while plans.get(k).is_some_and(|p| p.end <= pos) {
+                k += 1;
+            }
+            let Some(plan) = plans.get(k) else { break };
+            let mesh = Item::Mesh { pos: pos as u32, draw: k as u32 };
+            let Some(&oi) = inst.order.get(pos) else { continue };
+            let oi = oi as usize;
+            let (Some(pf), Some(f)) = (frames.get(oi), fields.get(oi)) else { continue };
+            let (Some(s), 0) = (plan.stand, f.bone) else {
+                out.items.push(mesh);
+                continue;
             };
-            let ((full_first, full_n), lod_range) = self.cpu.ranges.get(k).copied().unwrap_or(((0, 0), None));
-            let (first_index, index_count, vertex_offset, (v_first, v_n), cull) = match (lod, lod_range) {
-                (Some(l), Some(r)) => (l.first_index, l.index_count, l.vertex_offset, r, false),
-                _ => (d.first_index, d.index_count, d.vertex_offset, (full_first, full_n), d.closed),
-            };
-            let indices = inst.indices.get(first_index as usize..(first_index + index_count) as usize).unwrap_or(&[]);
-            let stand = inst.stand_ins.get(k).copied();
-            let facets =
-                stand.and_then(|s| inst.facets.get(s.first_facet as usize..(s.first_facet + s.n_facets) as usize));
-            let order = inst.order.get(d.first_instance as usize..(d.first_instance + d.instance_count) as usize);
-            for &oi in order.unwrap_or(&[]) {
-                let Some(instance) = out.instances.get(oi as usize) else { continue };
-                // A first look from the frame alone (no matrix yet): q x q̂ scales by
-                // |q| |q̂|, so the mesh's sphere lies within this one around u.
-                if let (0, 0, Some(s)) = (instance.bone, instance.lin, stand) {
-                    let f = &instance.frame;
-                    let r = f.q.length() * f.qh.length() * (s.centre.length() + s.radius);
-                    if let Some((y0, y1, visible)) = self.sphere_rows(f.u, r) {
-                        if !visible || !t.any_row(y0, y1) {
-                            continue;
+            // (No first look from the frame alone here: each instance is prepared
+            // once, and most are on the picture.)
+            let (l, tr) = transform(out_, pf, &f);
+            let at = self.placed(&s, l, tr);
+            if let Some((y0, y1, visible)) = self.sphere_rows_at(at.clip, at.radius) {
+                if !visible || !on_picture(y0, y1) {
+                    continue;
+                }
+            }
+            if !points::stand_in_points(view, &s, plan.facets, l, tr, Vec4::from_array(f.color), &at, &mut points) {
+                out.items.push(mesh);
+                continue;
+            }
+            out.stood_in += 1;
+            let n = out.points.len();
+            for p in &points {
+                if let Some(setup) = raster::point_setup(self.vp * p.pos.extend(1.0), p.size, w, h) {
+                    out.points.push((setup, raster::unorm_color(p.rgba)));
+                }
+            }
+            let added = (out.points.len() - n) as u32;
+            match out.items.last_mut() {
+                Some(Item::Points(m)) => *m += added,
+                _ => out.items.push(Item::Points(added)),
+            }
+        }
+    }
+
+    /// Draws the prepared instances (`prepared`, in order) into this target's strips.
+    fn draw_prepared(&self, t: &mut Target, plans: &[DrawPlan<'_>], prepared: &[Prepared], sc: &mut Scratch<'_>) {
+        for p in prepared {
+            let mut next = 0usize;
+            for item in &p.items {
+                match *item {
+                    Item::Points(m) => {
+                        let end = next + m as usize;
+                        for (setup, rgba) in p.points.get(next..end).unwrap_or(&[]) {
+                            t.point_at(setup, *rgba);
+                        }
+                        next = end;
+                    }
+                    Item::Mesh { pos, draw } => {
+                        if let Some(plan) = plans.get(draw as usize) {
+                            self.mesh_instance(t, plan, pos as usize, sc);
                         }
                     }
-                }
-                let m = out.instance_transform(&instance);
-                // Where it may be on the screen (instances posed by a bone: anywhere).
-                let mut centre_row = None;
-                if let (0, Some(s)) = (instance.bone, stand) {
-                    let l = Mat3::from_mat4(m);
-                    let c = m.transform_point3(s.centre);
-                    let scale = l.x_axis.length().max(l.y_axis.length()).max(l.z_axis.length());
-                    if let Some((y0, y1, visible)) = self.sphere_rows(c, s.radius * scale) {
-                        if !visible || !t.any_row(y0, y1) {
-                            continue;
-                        }
-                        centre_row = Some((y0 + y1) / 2);
-                    }
-                }
-                let record = record(m, instance.color, instance.bone);
-                if let (Some(view), Some(s), Some(fs)) = (&self.stand_in_view, stand, facets) {
-                    points_buf.clear();
-                    if points::stand_in(view, &s, fs, &record, &mut points_buf) {
-                        let row = centre_row.unwrap_or(0).clamp(0, i64::from(self.height) - 1) as u32;
-                        if t.owns(row) {
-                            stood_in += 1;
-                        }
-                        for p in points_buf.chunks_exact(points::POINT_STRIDE as usize) {
-                            let pos = Vec3::new(f32_at(p, 0), f32_at(p, 4), f32_at(p, 8));
-                            t.point(self.vp * pos.extend(1.0), f32_at(p, 12), [p[16], p[17], p[18], p[19]]);
-                        }
-                        continue;
-                    }
-                }
-                // phong_instanced_vs for each vertex of the mesh.
-                let l = Mat3::from_mat4(m);
-                let tr = m.w_axis.truncate();
-                let bone = self.bones.get(instance.bone as usize).copied().unwrap_or(Mat4::IDENTITY);
-                let b3 = Mat3::from_mat4(bone);
-                let (cl, cb) = (cofactor(l), cofactor(b3));
-                let sign = l.x_axis.dot(cl.x_axis).signum() * b3.x_axis.dot(cb.x_axis).signum();
-                let nm = cb * cl * sign;
-                let color = Vec4::from_array(instance.color);
-                local.clear();
-                for v in 0..v_n {
-                    let at = (v_first as usize + v) * ps;
-                    let b = inst.vertices.get(at..at + ps).unwrap_or(&[]);
-                    let p = Vec3::new(f32_at(b, 0), f32_at(b, 4), f32_at(b, 8));
-                    let n = Vec3::new(snorm16_at(b, 12), snorm16_at(b, 14), snorm16_at(b, 16));
-                    let matte = snorm16_at(b, 18);
-                    let delta = Vec4::new(f32_at(b, 20), f32_at(b, 24), f32_at(b, 28), f32_at(b, 32));
-                    let world = bone.transform_point3(l * p + tr);
-                    local.push(V {
-                        clip: self.vp * world.extend(1.0),
-                        world,
-                        normal: nm * n,
-                        color: (color + delta).clamp(Vec4::ZERO, Vec4::ONE),
-                        matte,
-                    });
-                }
-                let base = i64::from(vertex_offset) - v_first;
-                for tri in indices.chunks_exact(3) {
-                    let at = |k: usize| local.get((base + i64::from(tri[k])) as usize).copied().unwrap_or_default();
-                    let v = [at(0), at(1), at(2)];
-                    if let Some((y0, y1)) = screen_rows(&v, self.height) {
-                        if !t.any_row(y0, y1) {
-                            continue;
-                        }
-                    }
-                    t.triangle(v, cull);
                 }
             }
         }
-        stood_in
+    }
+
+    /// Draws the instance at `pos` of the draw order as its mesh (phong_instanced_vs
+    /// for each vertex), where it covers this target's strips.
+    fn mesh_instance(&self, t: &mut Target, plan: &DrawPlan<'_>, pos: usize, sc: &mut Scratch<'_>) {
+        let Some(inst) = &self.cpu.scene.instanced else { return };
+        let out = self.cpu.output;
+        let Some(&oi) = inst.order.get(pos) else { return };
+        let oi = oi as usize;
+        let (Some(pf), Some(f)) = (out.instances.packed_frames().get(oi), sc.fields.get(oi)) else { return };
+        let u = Vec3::new(pf[8], pf[9], pf[10]);
+        if let (0, 0, Some(reach)) = (f.bone, f.lin, plan.reach) {
+            let q = Vec4::new(pf[0], pf[1], pf[2], pf[3]).length();
+            let qh = Vec4::new(pf[4], pf[5], pf[6], pf[7]).length();
+            if let Some((y0, y1, visible)) = self.sphere_rows(u, q * qh * reach) {
+                if !visible || !t.any_row(y0, y1) {
+                    return;
+                }
+            }
+        }
+        let (l, tr) = transform(out, pf, &f);
+        // Where it may be on the screen (instances posed by a bone: anywhere).
+        if let (0, Some(s)) = (f.bone, plan.stand) {
+            let at = self.placed(&s, l, tr);
+            if let Some((y0, y1, visible)) = self.sphere_rows_at(at.clip, at.radius) {
+                if !visible || !t.any_row(y0, y1) {
+                    return;
+                }
+            }
+        }
+        let ps = PROTO_STRIDE as usize;
+        let color = Vec4::from_array(f.color);
+        let bone = self.bones.get(f.bone as usize).copied().unwrap_or(Mat4::IDENTITY);
+        let b3 = Mat3::from_mat4(bone);
+        let (cl, cb) = (cofactor(l), cofactor(b3));
+        let sign = l.x_axis.dot(cl.x_axis).signum() * b3.x_axis.dot(cb.x_axis).signum();
+        let nm = cb * cl * sign;
+        let local = &mut sc.local;
+        local.clear();
+        for v in 0..plan.v_n {
+            let at = (plan.v_first as usize + v) * ps;
+            let b = inst.vertices.get(at..at + ps).unwrap_or(&[]);
+            let p = Vec3::new(f32_at(b, 0), f32_at(b, 4), f32_at(b, 8));
+            let n = Vec3::new(snorm16_at(b, 12), snorm16_at(b, 14), snorm16_at(b, 16));
+            let matte = snorm16_at(b, 18);
+            let delta = Vec4::new(f32_at(b, 20), f32_at(b, 24), f32_at(b, 28), f32_at(b, 32));
+            let world = bone.transform_point3(l * p + tr);
+            local.push(V {
+                clip: self.vp * world.extend(1.0),
+                world,
+                normal: nm * n,
+                color: (color + delta).clamp(Vec4::ZERO, Vec4::ONE),
+                matte,
+            });
+        }
+        for tri in plan.indices.chunks_exact(3) {
+            let at = |k: usize| local.get((plan.base + i64::from(tri[k])) as usize).copied().unwrap_or_default();
+            let v = [at(0), at(1), at(2)];
+            if let Some((y0, y1)) = screen_rows(&v, self.height) {
+                if !t.any_row(y0, y1) {
+                    continue;
+                }
+            }
+            t.triangle(v, plan.cull);
+        }
     }
 
     /// Pen lines (depth-tested), then overlays (over everything), in the line
@@ -538,23 +757,36 @@ fn screen_rows(v: &[V; 3], height: u32) -> Option<(i64, i64)> {
     Some((raster::floor_i64(lo) - 1, raster::floor_i64(hi) + 1))
 }
 
-/// An instance record as [`scene::Instanced::write_instances`] writes it (what
-/// [`points`] reads): the rows 0..2 of `m`, the colour, the bone.
-fn record(m: Mat4, color: [f32; 4], bone: u32) -> [u8; scene::INSTANCE_STRIDE as usize] {
-    let mut rec = [0u8; scene::INSTANCE_STRIDE as usize];
-    let mut w = 0;
-    let mut put = |x: [u8; 4]| {
-        rec[w..w + 4].copy_from_slice(&x);
-        w += 4;
-    };
-    for r in [m.row(0), m.row(1), m.row(2)] {
-        for x in r.to_array() {
-            put(x.to_le_bytes());
-        }
+/// An instance's transform (its packed frame `pf`, its fields `f`), as a linear
+/// part and a translation: the frame's axes, or through the output for a
+/// non-uniform factor (`Output::instance_transform`, whose columns are the same
+/// axes without one).
+#[inline]
+fn transform(out: &Output, pf: &PackedFrame, f: &Fields) -> (Mat3, Vec3) {
+    let frame = frame_of(pf);
+    if f.lin == 0 {
+        let [a, b, c] = frame.axes();
+        (Mat3::from_cols(a, b, c), frame.u)
+    } else {
+        let instance = Instance { frame, color: f.color, mesh: f.mesh, bone: f.bone, lin: f.lin, at: f.at };
+        let m = out.instance_transform(&instance);
+        (Mat3::from_mat4(m), m.w_axis.truncate())
     }
-    for x in color {
-        put(x.to_le_bytes());
+}
+
+/// The longest column of `l`: `max(|x|, |y|, |z|)` with one square root (the same
+/// bits: a square root is correctly rounded and increasing).
+#[inline]
+fn max_axis(l: Mat3) -> f32 {
+    l.x_axis.length_squared().max(l.y_axis.length_squared()).max(l.z_axis.length_squared()).sqrt()
+}
+
+/// The frame a packed frame holds.
+#[inline]
+fn frame_of(pf: &PackedFrame) -> Frame {
+    Frame {
+        q: Quat::from_xyzw(pf[0], pf[1], pf[2], pf[3]),
+        qh: Quat::from_xyzw(pf[4], pf[5], pf[6], pf[7]),
+        u: Vec3::new(pf[8], pf[9], pf[10]),
     }
-    put(bone.to_le_bytes());
-    rec
 }

@@ -128,6 +128,45 @@ fn blend(src: Vec4, dst: [u8; 4]) -> [u8; 4] {
     [c(src.x, 0), c(src.y, 1), c(src.z, 2), unorm(a + d(3) * (1.0 - a))]
 }
 
+/// A point sprite on a `width` × `height` picture: the square it covers (pixels)
+/// and its depth ([`point_setup`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointSetup {
+    pub x0: f32,
+    pub x1: f32,
+    pub y0: f32,
+    pub y1: f32,
+    pub z: f32,
+}
+
+/// A point sprite of centre `clip`, `size` pixels wide (at least one, as lavapipe
+/// (llvmpipe's point setup) draws them), on a `width` × `height` picture; `None`
+/// when its centre is outside the clip volume, as Vulkan clips points.
+#[inline]
+pub fn point_setup(clip: Vec4, size: f32, width: u32, height: u32) -> Option<PointSetup> {
+    let c = clip;
+    if !(c.w > 0.0 && c.z >= 0.0 && c.z <= c.w && c.x.abs() <= c.w && c.y.abs() <= c.w) {
+        return None;
+    }
+    let (w, h) = (width as f32, height as f32);
+    let sx = (c.x / c.w + 1.0) * 0.5 * w;
+    let sy = (c.y / c.w + 1.0) * 0.5 * h;
+    let z = c.z / c.w;
+    let half = 0.5 * size.max(1.0);
+    Some(PointSetup { x0: sx - half, x1: sx + half, y0: sy - half, y1: sy + half, z })
+}
+
+/// An 8-bit colour as the blending reads it.
+#[inline]
+pub fn unorm_color(rgba: [u8; 4]) -> Vec4 {
+    Vec4::new(
+        f32::from(rgba[0]) / 255.0,
+        f32::from(rgba[1]) / 255.0,
+        f32::from(rgba[2]) / 255.0,
+        f32::from(rgba[3]) / 255.0,
+    )
+}
+
 /// One thread's part of the picture: the row strips it owns, every sample's colour
 /// and depth.
 pub struct Target {
@@ -146,13 +185,29 @@ pub struct Target {
     /// Primitives this thread rasterised (triangles, points) that had a sample in
     /// its strips.
     pub triangles: u64,
+    /// Per row of the picture: its place among this thread's rows, or
+    /// [`NOT_MINE`] (no division by the thread count per pixel).
+    slot: Vec<u32>,
 }
+
+/// [`Target`]'s slot of a row another thread owns.
+const NOT_MINE: u32 = u32::MAX;
 
 impl Target {
     /// The target of thread `thread` of `threads`, cleared to `background`.
     pub fn new(thread: u32, threads: u32, width: u32, height: u32, samples: usize, background: [u8; 4]) -> Target {
-        let rows = (0..height).filter(|&y| (y / STRIP) % threads == thread).count();
-        let n = rows * width as usize * samples;
+        let mut rows = 0;
+        let slot: Vec<u32> = (0..height)
+            .map(|y| {
+                if (y / STRIP) % threads == thread {
+                    rows += 1;
+                    rows - 1
+                } else {
+                    NOT_MINE
+                }
+            })
+            .collect();
+        let n = rows as usize * width as usize * samples;
         Target {
             thread,
             threads,
@@ -165,17 +220,19 @@ impl Target {
             shade: Shade::Phong,
             depth_test: true,
             triangles: 0,
+            slot,
         }
     }
 
+    #[inline]
     pub fn owns(&self, y: u32) -> bool {
-        (y / STRIP) % self.threads == self.thread
+        self.slot.get(y as usize).is_some_and(|&s| s != NOT_MINE)
     }
 
     /// The first sample of pixel (x, y), a row this thread owns.
+    #[inline]
     fn index(&self, x: u32, y: u32) -> usize {
-        let strip = (y / STRIP) / self.threads;
-        let row = strip * STRIP + y % STRIP;
+        let row = self.slot.get(y as usize).copied().unwrap_or(NOT_MINE);
         (row as usize * self.width as usize + x as usize) * self.samples
     }
 
@@ -188,13 +245,12 @@ impl Target {
         if (y1 - y0) as u32 >= STRIP * self.threads {
             return true;
         }
-        let (s0, s1) = (y0 as u32 / STRIP, y1 as u32 / STRIP);
-        (s0..=s1).any(|s| s % self.threads == self.thread)
+        self.slot.get(y0 as usize..=y1 as usize).is_some_and(|r| r.iter().any(|&s| s != NOT_MINE))
     }
 
     /// The rows of `y0..=y1` (clamped) this thread owns (an iterator that does not
     /// borrow the target, so the rows can be drawn while it runs).
-    fn rows(&self, y0: i64, y1: i64) -> impl Iterator<Item = u32> {
+    fn rows(&self, y0: i64, y1: i64) -> impl Iterator<Item = u32> + use<> {
         let (thread, threads) = (self.thread, self.threads);
         let (y0, y1) = (y0.max(0), y1.min(i64::from(self.height) - 1));
         let range = if y0 > y1 { 0..0 } else { y0 as u32..y1 as u32 + 1 };
@@ -398,32 +454,31 @@ impl Target {
     /// `rgba` (already shaded), depth-tested and written. Dropped when its centre is outside the
     /// clip volume, as Vulkan clips points.
     pub fn point(&mut self, clip: Vec4, size: f32, rgba: [u8; 4]) {
-        let c = clip;
-        if !(c.w > 0.0 && c.z >= 0.0 && c.z <= c.w && c.x.abs() <= c.w && c.y.abs() <= c.w) {
+        if let Some(p) = point_setup(clip, size, self.width, self.height) {
+            self.point_at(&p, unorm_color(rgba));
+        }
+    }
+
+    /// A point set up by [`point_setup`] (for this target's size), in colour
+    /// `color` ([`unorm_color`] of its bytes).
+    #[inline]
+    pub fn point_at(&mut self, p: &PointSetup, color: Vec4) {
+        let PointSetup { x0, x1, y0, y1, z } = *p;
+        let (r0, r1) = (floor_i64(y0), floor_i64(y1));
+        // (A one-pixel point covers one or two rows: no thread's iteration.)
+        if !self.any_row(r0, r1) {
             return;
         }
-        let (w, h) = (self.width as f32, self.height as f32);
-        let sx = (c.x / c.w + 1.0) * 0.5 * w;
-        let sy = (c.y / c.w + 1.0) * 0.5 * h;
-        let z = c.z / c.w;
-        // At least a pixel wide, as lavapipe (llvmpipe's point setup) draws them.
-        let half = 0.5 * size.max(1.0);
-        let (x0, x1, y0, y1) = (sx - half, sx + half, sy - half, sy + half);
-        if !self.any_row(floor_i64(y0), floor_i64(y1)) {
-            return;
-        }
-        let color = Vec4::new(
-            f32::from(rgba[0]) / 255.0,
-            f32::from(rgba[1]) / 255.0,
-            f32::from(rgba[2]) / 255.0,
-            f32::from(rgba[3]) / 255.0,
-        );
         let offsets = self.offsets();
         let depth_write = self.depth_test;
         let px0 = floor_i64(x0).max(0);
         let px1 = floor_i64(x1).min(i64::from(self.width) - 1);
         let mut any = false;
-        for y in self.rows(floor_i64(y0), floor_i64(y1)) {
+        let (r0, r1) = (r0.max(0), r1.min(i64::from(self.height) - 1));
+        for y in (r0..=r1).map(|y| y as u32) {
+            if !self.owns(y) {
+                continue;
+            }
             for x in px0..=px1 {
                 let base = self.index(x as u32, y);
                 for (s, &(ox, oy)) in offsets.iter().enumerate() {

@@ -541,6 +541,54 @@ impl Instances {
         self.bones.uniform()
     }
 
+    /// The bones' runs: `(first instance, bone)` where the bone changes from the
+    /// previous instance, in order (one entry when every instance has the same).
+    pub fn bone_runs(&self) -> impl Iterator<Item = (usize, u32)> + '_ {
+        self.bones.0.iter().copied()
+    }
+
+    /// How many instances place each shared mesh (indexed by mesh, as long as the
+    /// largest mesh index used, plus one), from the mesh table alone.
+    pub fn mesh_counts(&self) -> Vec<usize> {
+        fn count(counts: &mut Vec<usize>, mesh: u32, n: usize) {
+            let m = mesh as usize;
+            if counts.len() <= m {
+                counts.resize(m + 1, 0);
+            }
+            if let Some(c) = counts.get_mut(m) {
+                *c += n;
+            }
+        }
+        let mut counts = Vec::new();
+        match &self.meshes {
+            MeshColumn::Runs(runs) => {
+                for (k, &(first, mesh)) in runs.0.iter().enumerate() {
+                    let end = runs.0.get(k + 1).map_or(self.len(), |r| r.0);
+                    count(&mut counts, mesh, end.saturating_sub(first));
+                }
+            }
+            MeshColumn::Narrow(v) => v.iter().for_each(|&m| count(&mut counts, u32::from(m), 1)),
+            MeshColumn::Wide(v) => v.iter().for_each(|&m| count(&mut counts, m, 1)),
+        }
+        counts
+    }
+
+    /// The instances in runs of equal fields (colour, mesh, bone, lin, at): each
+    /// range of instances with the fields they share, in order, covering them all
+    /// (a tree of one prototype in one colour is one run). A walk that reads the
+    /// frames from [`Instances::packed_frames`] keeps the fields out of its inner loop.
+    pub fn field_runs(&self) -> impl Iterator<Item = (Range<usize>, Fields)> + '_ {
+        self.spans().map(|s| (s.range.clone(), s.fields()))
+    }
+
+    /// A reader of the run-table fields (colour, mesh, bone, lin, at) of instances
+    /// by index, for a walk that visits them in increasing order without unpacking
+    /// their frames (read those from [`Instances::packed_frames`]): each look-up
+    /// moves the tables' cursors forwards, and costs nothing while no run changes.
+    pub fn fields(&self) -> FieldReader<'_> {
+        FieldReader { all: self, at: [0; 5], from: 0, until: 0, fields: None }
+    }
+
     /// Bytes the instances hold (frames and run tables, not the spare capacity).
     pub fn bytes(&self) -> usize {
         use std::mem::size_of;
@@ -600,6 +648,73 @@ impl Span {
             lin: self.lin,
             at: self.at,
         }
+    }
+
+    /// The fields the span's instances share.
+    #[inline]
+    pub fn fields(&self) -> Fields {
+        Fields { color: self.color, mesh: self.mesh, bone: self.bone, lin: self.lin, at: self.at }
+    }
+}
+
+/// An instance's fields kept in run tables (everything but its frame).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fields {
+    pub color: [f32; 4],
+    pub mesh: u32,
+    pub bone: u32,
+    pub lin: u32,
+    pub at: u32,
+}
+
+/// Reads [`Fields`] by instance index ([`Instances::fields`]).
+#[derive(Clone)]
+pub struct FieldReader<'a> {
+    all: &'a Instances,
+    /// The run-table entries of instance `from`.
+    at: [usize; 5],
+    /// The instances in `from..until` have `fields`.
+    from: usize,
+    until: usize,
+    fields: Option<Fields>,
+}
+
+impl FieldReader<'_> {
+    /// The fields of instance `i` (`None` past the last). Increasing indices read
+    /// on from the last one; a smaller index starts again with a search.
+    #[inline]
+    pub fn get(&mut self, i: usize) -> Option<Fields> {
+        if i < self.from || i >= self.until || self.fields.is_none() {
+            self.refill(i);
+        }
+        self.fields.filter(|_| i < self.all.len())
+    }
+
+    #[inline(never)]
+    fn refill(&mut self, i: usize) {
+        let a = self.all;
+        if i < self.from {
+            self.at = [a.colors.entry(i), a.meshes.entry(i), a.bones.entry(i), a.lins.entry(i), a.ats.entry(i)];
+        }
+        let [c, m, b, l, t] = &mut self.at;
+        self.fields =
+            match (a.colors.read(c, i), a.meshes.read(m, i), a.bones.read(b, i), a.lins.read(l, i), a.ats.read(t, i)) {
+                (Some(color), Some(mesh), Some(bone), Some(lin), Some(at)) => {
+                    Some(Fields { color, mesh, bone, lin, at })
+                }
+                _ => None,
+            };
+        self.from = i;
+        self.until = [
+            a.colors.next_start(*c),
+            a.meshes.run_end(*m, i),
+            a.bones.next_start(*b),
+            a.lins.next_start(*l),
+            a.ats.next_start(*t),
+        ]
+        .into_iter()
+        .min()
+        .unwrap_or(usize::MAX);
     }
 }
 
@@ -782,6 +897,16 @@ mod tests {
             for w in spans.windows(2) {
                 assert_ne!(w[0].mesh, w[1].mesh);
             }
+            // The field reader and the mesh counts read a dense column too.
+            let mut r = all.fields();
+            for (i, p) in pushed.iter().enumerate() {
+                assert_eq!(r.get(i).map(|f| f.mesh), Some(p.mesh), "{i}");
+            }
+            let mut counts = vec![0; pushed.iter().map(|p| p.mesh as usize + 1).max().unwrap_or(0)];
+            for p in pushed {
+                counts[p.mesh as usize] += 1;
+            }
+            assert_eq!(all.mesh_counts(), counts);
         };
         check(&all, &pushed);
         // Meshes in pairs: dense, and each span two instances long.
@@ -823,6 +948,49 @@ mod tests {
         assert_eq!(fixed.bytes(), whole.bytes());
         assert_eq!((fixed.dense, fixed.tail), (whole.dense, whole.tail));
         assert_eq!(fixed.meshes().collect::<Vec<_>>(), whole.meshes().collect::<Vec<_>>());
+    }
+
+    /// The field reader gives what `get` gives, in increasing order (the renderer's
+    /// walk), backwards and out of order; past the end, nothing; the bones' runs are
+    /// the table's entries.
+    #[test]
+    fn fields_read_by_index_match_get() {
+        let colors = [[1.0, 0.5, 0.0, 1.0], [-0.0, 0.5, 0.0, 1.0]];
+        let all: Instances = (0..40).map(|k| inst(k, colors[(k as usize / 5) % 2])).collect();
+        let want =
+            |i: usize| all.get(i).map(|g| Fields { color: g.color, mesh: g.mesh, bone: g.bone, lin: g.lin, at: g.at });
+        let mut r = all.fields();
+        let orders: [Vec<usize>; 3] =
+            [(0..40).step_by(3).collect(), (0..40).rev().collect(), vec![7, 7, 39, 0, 20, 21, 5, 38, 40, 3]];
+        for order in orders {
+            for i in order {
+                let got = r.get(i);
+                assert_eq!(got.map(|f| f.color.map(f32::to_bits)), want(i).map(|f| f.color.map(f32::to_bits)), "{i}");
+                assert_eq!(got.map(|f| [f.mesh, f.bone, f.lin, f.at]), want(i).map(|f| [f.mesh, f.bone, f.lin, f.at]));
+            }
+        }
+        assert_eq!(r.get(40), None);
+        let mut counts = vec![0; 3];
+        for m in all.meshes() {
+            counts[m as usize] += 1;
+        }
+        assert_eq!(all.mesh_counts(), counts);
+        assert_eq!(Instances::new().mesh_counts(), Vec::<usize>::new());
+        // The field runs cover every instance once, each with its fields.
+        let mut next = 0;
+        for (range, f) in all.field_runs() {
+            assert_eq!(range.start, next);
+            assert!(range.end > range.start);
+            for i in range.clone() {
+                assert_eq!(Some(f.color.map(f32::to_bits)), want(i).map(|w| w.color.map(f32::to_bits)));
+                assert_eq!(Some([f.mesh, f.bone, f.lin, f.at]), want(i).map(|w| [w.mesh, w.bone, w.lin, w.at]));
+            }
+            next = range.end;
+        }
+        assert_eq!(next, 40);
+        assert_eq!(Instances::new().field_runs().count(), 0);
+        let runs: Vec<(usize, u32)> = all.bone_runs().collect();
+        assert_eq!(runs, (0..10).map(|b| (4 * b as usize, b)).collect::<Vec<_>>());
     }
 
     /// One prototype in one colour: 44 bytes an instance and one entry per table.
