@@ -37,7 +37,11 @@ impl<'a> FlatSource<'a> {
                 &out.mesh
             }
             FlatSource::Vertex { out, instanced, .. } => {
-                return out.for_each_vertex_run(&|i| !instanced.get(i).copied().unwrap_or(false), f);
+                // (Without instanced nodes every instance is expanded.)
+                return match instanced.contains(&true) {
+                    false => out.for_each_vertex_run(&|_| true, f),
+                    true => out.for_each_vertex_run(&|i| !instanced.get(i).copied().unwrap_or(false), f),
+                };
             }
             FlatSource::Mesh(m) => *m,
             FlatSource::Owned(m) => m,
@@ -51,9 +55,10 @@ impl<'a> FlatSource<'a> {
         let whole = |m: &Mesh| (m.n_vertices(), m.triangles.len());
         match self {
             FlatSource::Vertex { out, mesh_only: true, .. } => whole(&out.mesh),
-            FlatSource::Vertex { out, instanced, .. } => {
-                out.flat_counts_where(Groups::VERTEX, |i| !instanced.get(i).copied().unwrap_or(false))
-            }
+            FlatSource::Vertex { out, instanced, .. } => match instanced.contains(&true) {
+                false => out.flat_counts_where(Groups::VERTEX, |_| true),
+                true => out.flat_counts_where(Groups::VERTEX, |i| !instanced.get(i).copied().unwrap_or(false)),
+            },
             FlatSource::Mesh(m) => whole(m),
             FlatSource::Owned(m) => whole(m),
         }
