@@ -18,7 +18,7 @@ use super::builder::{Sink, SINK_BYTES};
 use super::instanced::packed_frame;
 use super::memo::{pair, Memo};
 use crate::{unit_normal, ExportError};
-use glam::{Mat3, Mat3A, Vec3, Vec3A};
+use glam::{Mat3, Vec3, Vec3A, Vec4};
 use mdg_vm::output::PackedFrame;
 
 /// The bytes of a plain record: position, normal (three `f32` each), RGBA8 colour.
@@ -85,8 +85,9 @@ pub(super) const PLAIN_TABLE: usize = 256;
 pub(super) struct PlainProto {
     /// The shared mesh (part of the [`Placing`] memo's key).
     mesh: u32,
-    /// Distinct positions, each as its coordinates splatted: `[x x x, y y y, z z z]`.
-    positions: Vec<[Vec3A; 3]>,
+    /// Distinct positions, each as its coordinates splatted: `[x x x 0, y y y 0,
+    /// z z z 0]` (the lanes of `Mat3A * Vec3A`; a fourth that stays 0).
+    positions: Vec<[Vec4; 3]>,
     /// Distinct normals (before the frame).
     normals: Vec<Vec3>,
     /// Distinct (normal, colour) pairs of the corners: a record's last 16 bytes.
@@ -130,7 +131,7 @@ impl PlainProto {
         let mirrored = corners[1].iter().map(&mut table).collect::<Option<Vec<_>>>()?;
         Some(PlainProto {
             mesh,
-            positions: positions.iter().map(|p| [Vec3A::splat(p.x), Vec3A::splat(p.y), Vec3A::splat(p.z)]).collect(),
+            positions: positions.iter().map(|p| [p.x, p.y, p.z].map(|c| Vec4::new(c, c, c, 0.0))).collect(),
             normals: normals.to_vec(),
             tails,
             corners: [unmirrored, mirrored],
@@ -143,12 +144,12 @@ impl PlainProto {
     }
 }
 
-/// What a frame's linear part gives a prototype: the matrix (columns
-/// [`mdg_vm::geom::quat::Frame::axes`]), whether it mirrors, and the prototype's
-/// first [`HELD_NORMALS`] normals as written.
+/// What a frame's linear part gives a prototype: the matrix's columns
+/// ([`mdg_vm::geom::quat::Frame::axes`], fourth lanes 0), whether it mirrors, and
+/// the prototype's first [`HELD_NORMALS`] normals as written.
 #[derive(Clone, Copy, Default)]
 struct Placing {
-    lin: Mat3A,
+    lin: [Vec4; 3],
     mirrored: bool,
     normals: [[u8; 12]; HELD_NORMALS],
 }
@@ -163,9 +164,10 @@ pub(super) struct PlainWriter {
     unit_normals: Memo<2, [u8; 12]>,
     /// The normals past [`HELD_NORMALS`] of the instance, as written.
     normals: Vec<[u8; 12]>,
-    /// The instance's placed positions and record tails (normal and colour bytes),
-    /// indexed by [`PlainProto::corners`]' bytes.
-    placed: Box<[[u8; 12]; PLAIN_TABLE]>,
+    /// The instance's placed positions (a fourth lane 0, overwritten in the record
+    /// by the tail) and record tails (normal and colour bytes), indexed by
+    /// [`PlainProto::corners`]' bytes.
+    placed: Box<[Vec4; PLAIN_TABLE]>,
     tails: Box<[[u8; 16]; PLAIN_TABLE]>,
 }
 
@@ -175,7 +177,7 @@ impl Default for PlainWriter {
             placings: Memo::new(),
             unit_normals: Memo::new(),
             normals: Vec::new(),
-            placed: Box::new([[0; 12]; PLAIN_TABLE]),
+            placed: Box::new([Vec4::ZERO; PLAIN_TABLE]),
             tails: Box::new([[0; 16]; PLAIN_TABLE]),
         }
     }
@@ -203,7 +205,7 @@ impl PlainWriter {
         if per == 0 {
             return Ok(());
         }
-        let mut b = Bounds { lo: bounds.lo, hi: bounds.hi };
+        let mut b = (bounds.lo.extend(0.0), bounds.hi.extend(0.0));
         if per * PLAIN_STRIDE > SINK_BYTES {
             // (A prototype of more corners than a slot holds: each instance's
             // records in slots of at most SINK_BYTES.)
@@ -224,14 +226,15 @@ impl PlainWriter {
                 }
             }
         }
-        *bounds = b;
+        *bounds = Bounds { lo: Vec3A::from_vec4(b.0), hi: Vec3A::from_vec4(b.1) };
         Ok(())
     }
 
     /// Places the distinct positions of `proto`'s instance in `frame` and fills in
-    /// its tails' normals, its positions added to `bounds`; whether the frame mirrors.
+    /// its tails' normals, its positions added to the bounds `(lo, hi)` (fourth
+    /// lanes unused); whether the frame mirrors.
     #[inline(always)]
-    fn place(&mut self, proto: &PlainProto, frame: &PackedFrame, bounds: &mut Bounds) -> bool {
+    fn place(&mut self, proto: &PlainProto, frame: &PackedFrame, bounds: &mut (Vec4, Vec4)) -> bool {
         let key = [
             pair(frame[0], frame[1]),
             pair(frame[2], frame[3]),
@@ -240,32 +243,35 @@ impl PlainWriter {
             u64::from(proto.mesh),
         ];
         let pl = self.placings.get_ref(key, || placing(frame, &proto.normals));
-        let u = Vec3A::new(frame[8], frame[9], frame[10]);
-        let lin = pl.lin;
-        // (`u + lin * p`, as `Mat3A * Vec3A` sums it: x, then y, then z; the bounds
-        // taken aside and kept where every position is finite.)
-        let (mut lo, mut hi, mut finite) = (bounds.lo, bounds.hi, glam::BVec3A::TRUE);
+        let u = Vec4::new(frame[8], frame[9], frame[10], 0.0);
+        let [a, b, c] = pl.lin;
+        // (`u + lin * p`, as `ProtoFrame::position` sums it: x, then y, then z, the
+        // same operations lane by lane; the bounds taken aside and kept where
+        // every position is finite.)
+        let (mut lo, mut hi, mut finite) = (bounds.0, bounds.1, glam::BVec4A::TRUE);
         for (d, p) in self.placed.iter_mut().zip(&proto.positions) {
-            let q = u + ((lin.x_axis * p[0] + lin.y_axis * p[1]) + lin.z_axis * p[2]);
+            let q = u + ((a * p[0] + b * p[1]) + c * p[2]);
             finite &= q.is_finite_mask();
             lo = lo.min(q);
             hi = hi.max(q);
-            *d = float3_bytes(q.to_array());
+            *d = q;
         }
         if finite.all() {
-            (bounds.lo, bounds.hi) = (lo, hi);
+            *bounds = (lo, hi);
         } else {
             // (Some coordinate overflowed: placed again, each position made finite.)
             for (d, p) in self.placed.iter_mut().zip(&proto.positions) {
-                let q = finite_position(u + ((lin.x_axis * p[0] + lin.y_axis * p[1]) + lin.z_axis * p[2]));
-                bounds.add(q);
-                *d = float3_bytes(q.to_array());
+                let q = u + ((a * p[0] + b * p[1]) + c * p[2]);
+                let q = finite_position(Vec3A::from_vec4(q)).extend(0.0);
+                bounds.0 = bounds.0.min(q);
+                bounds.1 = bounds.1.max(q);
+                *d = q;
             }
         }
         let held = &pl.normals;
         let mirrored = pl.mirrored;
         if proto.normals.len() > HELD_NORMALS {
-            let lin = Mat3::from(lin);
+            let lin = Mat3::from_cols(a.truncate(), b.truncate(), c.truncate());
             for (d, &n) in self.normals.iter_mut().zip(&proto.normals[HELD_NORMALS..]) {
                 let m = lin * n;
                 *d = self
@@ -289,7 +295,11 @@ impl PlainWriter {
     #[inline(always)]
     fn copy_corners(&self, out: &mut [[u8; PLAIN_STRIDE]], corners: &[(u8, u8)]) {
         for (d, &(p, t)) in out.iter_mut().zip(corners) {
-            d[0..12].copy_from_slice(&self.placed[usize::from(p)]);
+            // (The position's 16 bytes, the last four then overwritten by the tail.)
+            let p = self.placed[usize::from(p)].to_array();
+            for (b, x) in d[0..16].as_chunks_mut::<4>().0.iter_mut().zip(p) {
+                *b = x.to_le_bytes();
+            }
             d[12..28].copy_from_slice(&self.tails[usize::from(t)]);
         }
     }
@@ -302,7 +312,7 @@ fn placing(frame: &PackedFrame, normals: &[Vec3]) -> Placing {
     for (d, &n) in held.iter_mut().zip(normals) {
         *d = float3_bytes(written_normal(lin * n));
     }
-    Placing { lin: Mat3A::from(lin), mirrored, normals: held }
+    Placing { lin: [lin.x_axis, lin.y_axis, lin.z_axis].map(|c| c.extend(0.0)), mirrored, normals: held }
 }
 
 #[cfg(test)]
