@@ -325,8 +325,9 @@ mod tests {
     use mdg_vm::output::{Instance, Mesh, Output, SharedKind, SharedMesh};
 
     /// A box of twelve triangles (8 positions, 6 normals: more than a placing
-    /// holds), its top in a second colour, and a fan of 100 triangles whose 300
-    /// vertices are all distinct (more positions than the plain tables take).
+    /// holds), its top in a second colour; a fan of 100 triangles whose 300
+    /// vertices are all distinct (more positions than the plain tables take); a
+    /// strip of more corners than a slot holds.
     fn prototypes() -> Vec<SharedMesh> {
         let mut bx = Mesh::default();
         for axis in 0..3 {
@@ -355,7 +356,17 @@ mod tests {
             }
             fan.push_triangle([3 * t, 3 * t + 1, 3 * t + 2], false);
         }
-        [("box", bx), ("fan", fan)]
+        // A strip of 12,500 triangles over four positions: more corners than a
+        // slot of the sink holds.
+        let mut strip = Mesh::default();
+        for t in 0..12_500u32 {
+            for k in 0..3 {
+                let a = std::f32::consts::FRAC_PI_2 * ((t + k) % 4) as f32;
+                strip.push_vertex(Vec3::new(a.cos(), a.sin(), 0.0), Vec3::Z, [0.0; 4], [0.0; 4], 0);
+            }
+            strip.push_triangle([3 * t, 3 * t + 1, 3 * t + 2], t % 2 == 1);
+        }
+        [("box", bx), ("fan", fan), ("strip", strip)]
             .map(|(name, mesh)| {
                 let kind = SharedKind::Prototype { face_normals: vec![None; mesh.triangles.len()] };
                 SharedMesh { name: name.into(), mesh, kind }
@@ -393,7 +404,11 @@ mod tests {
         }
         for k in 0..400usize {
             let color = [0.8, if k % 50 < 25 { 0.6 } else { 1.0 }, 1.0, 1.0];
-            let mesh = u32::from(k % 100 >= 70);
+            let mesh = match k % 100 {
+                0 => 2,
+                70.. => 1,
+                _ => 0,
+            };
             out.instances.push(Instance { frame: frames[(k * 7) % 40], color, mesh, bone: 0, lin: 0, at: 0 });
         }
         out
@@ -402,7 +417,8 @@ mod tests {
     /// The flat file's positions, normals and colours are those of the expanded
     /// mesh (`Output::vertex_mesh`), bit for bit, and its POSITION bounds are the
     /// data's: through the plain runs (the box: normals made past those a placing
-    /// holds, positions that overflow) and the per-instance path (the fan).
+    /// holds, positions that overflow; the strip: an instance in several slots) and
+    /// the per-instance path (the fan).
     #[test]
     fn plain_runs_write_the_expanded_mesh() {
         let out = mixed_instances();
@@ -432,7 +448,7 @@ mod tests {
             assert_eq!(got.len(), want.len());
             got.iter().zip(want).position(|(a, b)| (*a as f32).to_bits() != (*b as f32).to_bits())
         };
-        assert_eq!(positions.len(), 3 * (280 * 36 + 120 * 300));
+        assert_eq!(positions.len(), 3 * (276 * 36 + 120 * 300 + 4 * 37_500));
         assert_eq!(first_wrong(&positions, &want_p), None, "positions");
         assert_eq!(first_wrong(&normals, &want_n), None, "normals");
         let colors: Vec<f64> = colors.iter().map(|c| (c * 255.0).round()).collect();
