@@ -279,6 +279,13 @@ impl PlainWriter {
                     .get([pair(m.x, m.y), u64::from(m.z.to_bits())], || float3_bytes(written_normal(m)));
             }
         }
+        if proto.normals.len() <= HELD_NORMALS {
+            // (Every tail's normal is held: a copy each, no look-up elsewhere.)
+            for (d, &(n, _)) in self.tails.iter_mut().zip(&proto.tails) {
+                d[0..12].copy_from_slice(&held[n % HELD_NORMALS]);
+            }
+            return mirrored;
+        }
         for (d, &(n, _)) in self.tails.iter_mut().zip(&proto.tails) {
             let n = match n.checked_sub(HELD_NORMALS) {
                 None => held.get(n),
@@ -327,7 +334,7 @@ mod tests {
     /// A box of twelve triangles (8 positions, 6 normals: more than a placing
     /// holds), its top in a second colour; a fan of 100 triangles whose 300
     /// vertices are all distinct (more positions than the plain tables take); a
-    /// strip of more corners than a slot holds.
+    /// strip of two normals and more corners than a slot holds.
     fn prototypes() -> Vec<SharedMesh> {
         let mut bx = Mesh::default();
         for axis in 0..3 {
@@ -362,7 +369,8 @@ mod tests {
         for t in 0..12_500u32 {
             for k in 0..3 {
                 let a = std::f32::consts::FRAC_PI_2 * ((t + k) % 4) as f32;
-                strip.push_vertex(Vec3::new(a.cos(), a.sin(), 0.0), Vec3::Z, [0.0; 4], [0.0; 4], 0);
+                let n = if t % 3 == 0 { Vec3::Z } else { Vec3::new(0.0, 1.0, 1.0) };
+                strip.push_vertex(Vec3::new(a.cos(), a.sin(), 0.0), n, [0.0; 4], [0.0; 4], 0);
             }
             strip.push_triangle([3 * t, 3 * t + 1, 3 * t + 2], t % 2 == 1);
         }
