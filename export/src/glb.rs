@@ -69,6 +69,7 @@ mod geometry;
 mod instanced;
 mod memo;
 mod nodes;
+mod plain;
 #[cfg(test)]
 pub(crate) mod tests;
 use builder::*;
@@ -84,9 +85,7 @@ use serde::Serialize;
 
 use super::sites::{self, Baked};
 use super::ExportError;
-use super::{
-    checked_triangles, clamp_color, color_at, finite, finite3, is_closed, linear_color, normal_at, unit_normal,
-};
+use super::{checked_triangles, clamp_color, color_at, finite, finite3, is_closed, linear_color, normal_at};
 use mdg_vm::anim::{frames_needed, trs};
 use mdg_vm::geom::quat::Frame;
 use mdg_vm::output::{

@@ -10,7 +10,8 @@
 //! second walk places each instance's distinct positions and normals once and
 //! encodes them once, then copies the encoded bytes into each vertex's record.
 
-use super::memo::Memo;
+pub(super) use super::plain::Bounds;
+use super::plain::{finite_position, float3_bytes, written_normal, PlainProto, PlainWriter, PLAIN_STRIDE};
 use super::*;
 
 /// Where a flat primitive's pieces come from.
@@ -36,7 +37,11 @@ impl<'a> FlatSource<'a> {
                 &out.mesh
             }
             FlatSource::Vertex { out, instanced, .. } => {
-                return out.for_each_vertex_run(&|i| !instanced.get(i).copied().unwrap_or(false), f);
+                // (Without instanced nodes every instance is expanded.)
+                return match instanced.contains(&true) {
+                    false => out.for_each_vertex_run(&|_| true, f),
+                    true => out.for_each_vertex_run(&|i| !instanced.get(i).copied().unwrap_or(false), f),
+                };
             }
             FlatSource::Mesh(m) => *m,
             FlatSource::Owned(m) => m,
@@ -50,9 +55,10 @@ impl<'a> FlatSource<'a> {
         let whole = |m: &Mesh| (m.n_vertices(), m.triangles.len());
         match self {
             FlatSource::Vertex { out, mesh_only: true, .. } => whole(&out.mesh),
-            FlatSource::Vertex { out, instanced, .. } => {
-                out.flat_counts_where(Groups::VERTEX, |i| !instanced.get(i).copied().unwrap_or(false))
-            }
+            FlatSource::Vertex { out, instanced, .. } => match instanced.contains(&true) {
+                false => out.flat_counts_where(Groups::VERTEX, |_| true),
+                true => out.flat_counts_where(Groups::VERTEX, |i| !instanced.get(i).copied().unwrap_or(false)),
+            },
             FlatSource::Mesh(m) => whole(m),
             FlatSource::Owned(m) => whole(m),
         }
@@ -93,15 +99,13 @@ struct ProtoInfo {
     /// or does (`[1]`), and in vertex order (`flat`, for a primitive with indices).
     corners: [Vec<[u32; 3]>; 2],
     flat: Vec<[u32; 3]>,
-    /// The distinct `(position, normal, colour)` of [`ProtoInfo::corners`], and
-    /// the corners as indices into them (unmirrored, mirrored): an instance makes
-    /// each distinct record once and copies it to its corners.
-    records: Vec<[u32; 3]>,
-    corner_records: [Vec<u32>; 2],
+    /// The tables of the usual run (sequential, no `FACENORMALS`, at most
+    /// [`super::plain::PLAIN_TABLE`] distinct positions; see [`PlainWriter::run`]).
+    plain: Option<PlainProto>,
 }
 
 impl ProtoInfo {
-    fn new(s: &SharedMesh) -> ProtoInfo {
+    fn new(mesh: u32, s: &SharedMesh) -> ProtoInfo {
         let m = &s.mesh;
         let n = m.n_vertices();
         let sequential = m.triangles.len() * 3 == n
@@ -160,23 +164,14 @@ impl ProtoInfo {
             }
             c
         });
-        let mut records: Vec<[u32; 3]> = Vec::new();
-        let corner_records = corners.clone().map(|c| {
-            c.iter()
-                .map(|r| match records.iter().position(|x| x == r) {
-                    Some(k) => k as u32,
-                    None => {
-                        records.push(*r);
-                        records.len() as u32 - 1
-                    }
-                })
-                .collect()
-        });
+        let plain = match sequential && !face_normals {
+            true => PlainProto::new(mesh, &positions, &normals, deltas.len(), &corners),
+            false => None,
+        };
         ProtoInfo {
             corners,
             flat,
-            records,
-            corner_records,
+            plain,
             sequential,
             valid,
             n_tris: m.triangles.len(),
@@ -230,7 +225,7 @@ impl<'a> ProtoInfos<'a> {
     fn get(&mut self, mesh: u32) -> Option<&ProtoInfo> {
         let slot = self.infos.get_mut(mesh as usize)?;
         if slot.is_none() {
-            *slot = Some(ProtoInfo::new(self.out.shared_meshes.get(mesh as usize)?));
+            *slot = Some(ProtoInfo::new(mesh, self.out.shared_meshes.get(mesh as usize)?));
         }
         slot.as_ref()
     }
@@ -287,11 +282,7 @@ impl ProtoFrame {
 
     #[inline]
     fn position(&self, p: glam::Vec3A) -> glam::Vec3A {
-        let q = self.u_a + self.lin_a * p;
-        match q.is_finite() {
-            true => q,
-            false => finite3(q.to_array()).into(),
-        }
+        finite_position(self.u_a + self.lin_a * p)
     }
 
     #[inline]
@@ -302,7 +293,7 @@ impl ProtoFrame {
     /// A normal mapped by the linear map (`lin * n`), as written: normalised twice.
     #[inline]
     fn unit(&self, m: Vec3) -> [f32; 3] {
-        unit_normal(m.normalize_or(Vec3::Z).to_array())
+        written_normal(m)
     }
 }
 
@@ -431,39 +422,6 @@ struct VertexRecord {
     too_narrow: bool,
 }
 
-/// Three floats as little-endian bytes.
-#[inline]
-fn float3_bytes(p: [f32; 3]) -> [u8; 12] {
-    let mut b = [0u8; 12];
-    for (d, x) in b.chunks_exact_mut(4).zip(p) {
-        d.copy_from_slice(&x.to_le_bytes());
-    }
-    b
-}
-
-/// The exact bounds of the positions a walk wrote (finite), per coordinate.
-pub(super) struct Bounds {
-    lo: glam::Vec3A,
-    hi: glam::Vec3A,
-}
-
-impl Bounds {
-    fn new() -> Bounds {
-        Bounds { lo: glam::Vec3A::INFINITY, hi: glam::Vec3A::NEG_INFINITY }
-    }
-
-    #[inline]
-    fn add(&mut self, q: glam::Vec3A) {
-        self.lo = self.lo.min(q);
-        self.hi = self.hi.max(q);
-    }
-
-    /// The lowest and highest coordinates.
-    pub(super) fn arrays(&self) -> ([f32; 3], [f32; 3]) {
-        (self.lo.to_array(), self.hi.to_array())
-    }
-}
-
 impl VertexRecord {
     fn new(wide: bool, skinned: bool) -> VertexRecord {
         let last = ([f32::NAN.to_bits(); 4], [0; 8]);
@@ -542,11 +500,10 @@ pub(super) fn flat_stride(wide: bool, skinned: bool) -> usize {
 /// One prototype instance's vertices, as [`expand_prototype`] makes them and the
 /// exporters read them (positions, normals and colours, by vertex), encoded as the
 /// records hold them.
+#[derive(Default)]
 struct ProtoVertices {
-    /// Per frame (q and q̂'s bits), its linear map and mirroring; per normal mapped
-    /// by it (before normalising), the normal as written.
-    linear: Memo<8, (glam::Mat3, bool)>,
-    unit_normals: Memo<3, [u8; 12]>,
+    /// The usual runs' writer (its memos and records).
+    plain: PlainWriter,
     positions: Vec<[u8; 12]>,
     normals: Vec<[u8; 12]>,
     colors: Vec<[u8; 8]>,
@@ -554,20 +511,6 @@ struct ProtoVertices {
     /// consecutive instances mostly share them.
     colors_of: Option<(u32, [u32; 4])>,
     scratch: Mesh,
-}
-
-impl Default for ProtoVertices {
-    fn default() -> ProtoVertices {
-        ProtoVertices {
-            linear: Memo::new(),
-            unit_normals: Memo::new(),
-            positions: Vec::new(),
-            normals: Vec::new(),
-            colors: Vec::new(),
-            colors_of: None,
-            scratch: Mesh::default(),
-        }
-    }
 }
 
 impl ProtoVertices {
@@ -618,60 +561,25 @@ impl ProtoVertices {
 
     /// The records of a run of instances of one prototype with one colour
     /// (`span`'s, frames `frames`), without indices, 8-bit colours and no skin (the
-    /// usual record, 28 bytes): per instance its distinct positions and normals
-    /// placed (as [`ProtoVertices::fill`]), its distinct records made once and
-    /// copied to its corners in oriented triangle order.
+    /// usual record, 28 bytes), by [`PlainWriter::run`].
+    #[allow(clippy::too_many_arguments)]
     fn put_plain_run(
         &mut self,
         rec: &mut VertexRecord,
         bounds: &mut Bounds,
         sink: &mut Sink,
         info: &ProtoInfo,
+        plain: &PlainProto,
         span: &mdg_vm::output::Span,
         frames: &[mdg_vm::output::PackedFrame],
     ) -> Result<(), ExportError> {
-        let short = || ExportError::Inconsistent("flat geometry: a prototype vertex out of range");
         let key = (span.mesh, span.color.map(f32::to_bits));
         if self.colors_of != Some(key) {
             self.colors.clear();
             self.colors.extend(info.deltas.iter().map(|&d| rec.encode(proto_color(span.color, d))));
             self.colors_of = Some(key);
         }
-        // (The run's colour is every instance's: its bytes are put in once.)
-        let mut made: Vec<[u8; 28]> = vec![[0; 28]; info.records.len()];
-        for (r, c) in made.iter_mut().zip(&info.records) {
-            r[24..28].copy_from_slice(&self.colors.get(c[2] as usize).ok_or_else(short)?[..4]);
-        }
-        self.positions.resize(info.positions.len(), [0; 12]);
-        self.normals.resize(info.normals.len(), [0; 12]);
-        for frame in frames {
-            let key: [u32; 8] = std::array::from_fn(|k| frame[k].to_bits());
-            let (lin, mirrored) = self.linear.get(key, || packed_frame(frame).linear());
-            let f = ProtoFrame::of(lin, mirrored, Vec3::new(frame[8], frame[9], frame[10]));
-            for (d, &p) in self.positions.iter_mut().zip(&info.positions) {
-                let p = f.position(p);
-                bounds.add(p);
-                *d = float3_bytes(p.to_array());
-            }
-            for (d, &n) in self.normals.iter_mut().zip(&info.normals) {
-                let m = f.lin * n;
-                *d = self.unit_normals.get(m.to_array().map(f32::to_bits), || float3_bytes(f.unit(m)));
-            }
-            for (r, c) in made.iter_mut().zip(&info.records) {
-                let (Some(p), Some(n)) = (self.positions.get(c[0] as usize), self.normals.get(c[1] as usize)) else {
-                    return Err(short());
-                };
-                r[0..12].copy_from_slice(p);
-                r[12..24].copy_from_slice(n);
-            }
-            for corners in info.corner_records[usize::from(f.mirrored)].chunks(SINK_BYTES / 28) {
-                let b = sink.slot(28 * corners.len())?;
-                for (d, &k) in b.as_chunks_mut::<28>().0.iter_mut().zip(corners) {
-                    *d = *made.get(k as usize).ok_or_else(short)?;
-                }
-            }
-        }
-        Ok(())
+        self.plain.run(plain, &self.colors, frames, sink, bounds)
     }
 
     /// The records of `corners` (see [`ProtoInfo::corners`]) after
@@ -784,10 +692,10 @@ pub(super) fn flat_write(
             if wrong {
                 return Err(off_plan());
             }
-            if plan.sequential && !(rec.wide || rec.skinned || info.face_normals) {
+            if let Some(plain) = info.plain.as_ref().filter(|_| plan.sequential && rec.stride == PLAIN_STRIDE) {
                 // The usual case: whole 28-byte records, one per distinct vertex of
                 // each instance, copied to its corners.
-                pv.put_plain_run(&mut rec, &mut bounds, sink, info, &span, frames)?;
+                pv.put_plain_run(&mut rec, &mut bounds, sink, info, plain, &span, frames)?;
             } else {
                 for frame in frames {
                     let inst = record_of(&span.instance(frame));

@@ -40,9 +40,11 @@ impl<'a> Builder<'a> {
         let expand = |i: usize| !instanced.get(i).copied().unwrap_or(false);
         // (With every prototype instanced, the group is the mesh alone.)
         let mesh_only = gpu.all_prototypes_instanced;
-        let n_tris = match mesh_only {
-            true => out.mesh.triangles.len(),
-            false => out.flat_counts_where(Groups::VERTEX, expand).1,
+        // (Without instanced nodes every instance is expanded: counted by spans.)
+        let n_tris = match (mesh_only, instanced.contains(&true)) {
+            (true, _) => out.mesh.triangles.len(),
+            (false, false) => out.flat_counts_where(Groups::VERTEX, |_| true).1,
+            (false, true) => out.flat_counts_where(Groups::VERTEX, expand).1,
         };
         if n_tris == 0 {
             return Ok(None);

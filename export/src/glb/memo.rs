@@ -1,38 +1,67 @@
 //! [`Memo`]: the last values of a pure function of a few numbers, by their bits (the
 //! flat writer's linear maps and normals, which repeat from frame to frame).
 
-/// A direct-mapped memo of a pure function of `N` numbers' bits (the last value
-/// made for each of [`MEMO_SLOTS`] hash slots): the same values as calling the
-/// function, found for the price of a hash and a comparison where keys repeat (on
-/// the benchmark tree, 60 % of the frames' linear maps and nearly every normal).
+/// A direct-mapped memo of a pure function of `N` words (the last value made for
+/// each of [`MEMO_SLOTS`] hash slots): the same values as calling the function,
+/// found for the price of a hash and a comparison where keys repeat. Keys are
+/// 64-bit words (two `f32`s' bits each, see [`pair`]): half the words to hash and
+/// compare.
 pub(super) struct Memo<const N: usize, V> {
-    slots: Vec<Option<([u32; N], V)>>,
+    slots: Vec<Slot<N, V>>,
+}
+
+/// A slot of a [`Memo`]: a key and its value, once `full`.
+#[derive(Clone, Copy)]
+struct Slot<const N: usize, V> {
+    full: bool,
+    key: [u64; N],
+    value: V,
+}
+
+/// Two `f32`s' bits as one key word.
+#[inline(always)]
+pub(super) fn pair(a: f32, b: f32) -> u64 {
+    u64::from(a.to_bits()) | u64::from(b.to_bits()) << 32
 }
 
 /// The slots of a [`Memo`].
 const MEMO_SLOTS: usize = 4096;
 
-impl<const N: usize, V: Copy> Memo<N, V> {
+impl<const N: usize, V: Copy + Default> Memo<N, V> {
     pub(super) fn new() -> Memo<N, V> {
-        Memo { slots: vec![None; MEMO_SLOTS] }
+        Memo { slots: vec![Slot { full: false, key: [0; N], value: V::default() }; MEMO_SLOTS] }
     }
 
     /// `make()`'s value for the key `key` (whose bits are all `make` reads).
     #[inline(always)]
-    pub(super) fn get(&mut self, key: [u32; N], make: impl FnOnce() -> V) -> V {
-        let h = key.iter().fold(0x9e37_79b9u32, |h, &k| (h ^ k).wrapping_mul(0x2c1b_3c6d)).rotate_left(8);
-        let slot = (h as usize) % MEMO_SLOTS;
-        match self.slots.get(slot) {
-            Some(Some((k, v))) if *k == key => *v,
-            _ => {
-                let v = make();
-                if let Some(s) = self.slots.get_mut(slot) {
-                    *s = Some((key, v));
-                }
-                v
-            }
-        }
+    pub(super) fn get(&mut self, key: [u64; N], make: impl FnOnce() -> V) -> V {
+        *self.get_ref(key, make)
     }
+
+    /// [`Memo::get`] without copying the value out.
+    #[inline(always)]
+    pub(super) fn get_ref(&mut self, key: [u64; N], make: impl FnOnce() -> V) -> &V {
+        // (A 64-bit multiplicative hash whose high bits mix every word's bits. The
+        // slot is taken from them: the low bits of the old 32-bit hash, taken
+        // modulo the slots, sent the tree's frames to few slots.)
+        let h = key.iter().fold(0x9e37_79b9_7f4a_7c15u64, |h, &k| (h ^ k).wrapping_mul(0x2c1b_3c6d_d1b5_4a33));
+        let slot = (h >> 52) as usize & (MEMO_SLOTS - 1);
+        // (`slots` has MEMO_SLOTS entries: the index is in range. The keys are
+        // compared word by word, without branches: no call to `bcmp`.)
+        let s = &mut self.slots[slot];
+        let same = s.key.iter().zip(&key).fold(0, |d, (a, b)| d | (a ^ b)) == 0;
+        if !(s.full && same) {
+            *s = Slot { full: true, key, value: missed(make) };
+        }
+        &s.value
+    }
+}
+
+/// A memo's miss, out of the hit's way.
+#[cold]
+#[inline(never)]
+fn missed<V>(make: impl FnOnce() -> V) -> V {
+    make()
 }
 
 #[cfg(test)]
@@ -43,11 +72,11 @@ mod tests {
     /// and repeated keys are found without calling the function.
     #[test]
     fn a_memo_gives_each_key_its_value() {
-        let f = |k: [u32; 2]| k[0].wrapping_mul(31) ^ k[1].rotate_left(7);
-        let mut memo: Memo<2, u32> = Memo::new();
+        let f = |k: [u64; 2]| k[0].wrapping_mul(31) ^ k[1].rotate_left(7);
+        let mut memo: Memo<2, u64> = Memo::new();
         let mut calls = 0;
         for round in 0..3 {
-            for i in 0..3 * MEMO_SLOTS as u32 {
+            for i in 0..3 * MEMO_SLOTS as u64 {
                 // (Few distinct keys in the last round: they stay in their slots.)
                 let key = if round == 2 { [i % 64, 7] } else { [i, i / 3] };
                 let v = memo.get(key, || {
@@ -58,5 +87,9 @@ mod tests {
             }
         }
         assert!(calls < 6 * MEMO_SLOTS + 64 + 64, "{calls} calls");
+        // An empty slot holds no key, not even the zero key (its value is the
+        // default, not the function's).
+        let mut fresh: Memo<2, u64> = Memo::new();
+        assert_eq!(fresh.get([0, 0], || 7), 7);
     }
 }
