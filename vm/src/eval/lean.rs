@@ -41,19 +41,72 @@ pub(super) struct LeanAct {
 }
 
 impl<'b> Eval<'b> {
-    /// [`Eval::op_call`] under [`Sink::LEAN`], for a call within `maxdepth`: only the
-    /// frame is composed (the rest of the callee's state is the caller's, see
-    /// [`lean_path_applies`]), and only the caller's frame, program counter and depth
-    /// are pushed.
+    /// The loop's handler of `CALL`, `INST` and `RET` under [`Sink::LEAN`]: runs the
+    /// ops from `m.act.pc` while they are one of those three, then hands the next
+    /// op back to the loop ([`Eval::interpret`]). The running activation (frame,
+    /// program counter and depth: a [`LeanAct`]) is a local of this small function,
+    /// so it stays in registers across calls, instances and returns instead of
+    /// being spilled around each by the loop's large body. Whether the run goes on.
+    ///
+    /// The handlers are the loop's (the same admission, selection, tail calls and
+    /// instance push, in the same order); only their dispatch is here. Under the
+    /// fast path nothing but a refused call, an iterator run or a limit looked at
+    /// can stop a run (see [`Eval::stops`]), so a stop is asked only after those.
+    #[inline(never)]
+    pub(super) fn lean_ops(&mut self, m: &mut Regs) -> bool {
+        let code: &[Op] = &self.b.code;
+        let Some(fixed) = m.fixed else { return false };
+        let weight = m.act.base.weight;
+        let mut r = LeanAct { f: m.act.base.f, pc: m.act.pc, depth: m.act.depth };
+        let go_on = loop {
+            match code.get(r.pc as usize) {
+                Some(&Op::Call { rule, xf, .. }) => {
+                    r.pc += 1;
+                    let depth = r.depth + 1;
+                    let looked = if depth > m.maxdepth {
+                        // Refused before its frame is composed (see `op_call`).
+                        self.refuse_deep_call(r.pc - 1)
+                    } else {
+                        self.lean_call(m, &mut r, rule, xf, depth)
+                    };
+                    if looked {
+                        m.act.pc = r.pc;
+                        if self.stops(m) {
+                            break false;
+                        }
+                    }
+                }
+                Some(&Op::Inst { proto, count }) => {
+                    self.lean_instance(proto.0, &r.f, weight, &fixed);
+                    r.pc += 1 + count.0;
+                }
+                Some(Op::Ret {}) => match m.lean.pop() {
+                    Some(caller) => r = caller,
+                    None => break false,
+                },
+                _ => break true,
+            }
+        };
+        m.act.base.f = r.f;
+        m.act.pc = r.pc;
+        m.act.depth = r.depth;
+        go_on
+    }
+
+    /// A lean call (see [`Eval::lean_ops`]) within `maxdepth`, `r` the running
+    /// activation: only the frame is composed (the rest of the callee's state is the
+    /// caller's, see [`lean_path_applies`]), and only the caller's frame, program
+    /// counter and depth are pushed. Whether the call was refused by a limit (then
+    /// the run may have to stop).
     #[inline(always)]
-    pub(super) fn lean_call(&mut self, m: &mut Regs, rule: RuleId, xf: TransformId, depth: u32) -> bool {
+    fn lean_call(&mut self, m: &mut Regs, r: &mut LeanAct, rule: RuleId, xf: TransformId, depth: u32) -> bool {
         let b = self.b;
         // (Every transform a lean call has is a constant without a non-uniform scale.)
         let f = match self.prepared.get(xf.index()) {
-            Some(Some(p)) => m.act.base.f.compose_prepared(p),
+            Some(Some(p)) => r.f.compose_prepared(p),
             _ => {
-                let from = m.act.base;
-                self.apply(xf, &from, m.act.depth, m.act.slot_base, m.act.slot_top).f
+                let from = State { f: r.f, ..m.act.base };
+                self.apply(xf, &from, r.depth, m.act.slot_base, m.act.slot_top).f
             }
         };
         let ndet = m.act.base.ndet;
@@ -61,8 +114,8 @@ impl<'b> Eval<'b> {
         // stack, and a return takes both back: the callers' count is the depth
         // gained since the run's start, whether tail calls kept their caller or not.)
         let stack_len = (depth - m.start_depth) as usize;
-        if !self.admit(|| f.scale_factor() * ndet.abs(), depth, stack_len, m.act.pc - 1, true) {
-            return !self.stops(m);
+        if !self.admit(|| f.scale_factor() * ndet.abs(), depth, stack_len, r.pc - 1, true) {
+            return true;
         }
         let pc = match b.rules[rule].defs.as_slice() {
             [only] => only.start,
@@ -77,40 +130,10 @@ impl<'b> Eval<'b> {
         // A tail call (the caller's next op is its `RET`, and a lean `RET` only
         // returns): the callee takes the caller's place, so its return is the
         // caller's.
-        if !matches!(b.code.get(m.act.pc as usize), Some(Op::Ret {})) {
-            m.lean.push(LeanAct { f: m.act.base.f, pc: m.act.pc, depth: m.act.depth });
+        if !matches!(b.code.get(r.pc as usize), Some(Op::Ret {})) {
+            m.lean.push(*r);
         }
-        m.act.base.f = f;
-        m.act.pc = pc;
-        m.act.depth = depth;
-        true
-    }
-
-    /// After a lean call refused by `maxdepth` at a count where no limit was looked
-    /// at: the calls that follow it in the body (as deep, so refused too) and the
-    /// body's `RET`, here rather than through the loop's dispatch (the loop would
-    /// run the same handlers: under the fast path a stop is asked only where a
-    /// limit was looked at, and a lean `RET` only returns). Whether the run goes on.
-    #[inline(always)]
-    pub(super) fn lean_refuse_rest(&mut self, m: &mut Regs) -> bool {
-        let code: &[Op] = &self.b.code;
-        loop {
-            match code.get(m.act.pc as usize) {
-                Some(Op::Call { .. }) => {
-                    m.act.pc += 1;
-                    if self.refuse_deep_call(m.act.pc - 1) {
-                        return !self.stops(m);
-                    }
-                }
-                Some(Op::Ret {}) => {
-                    let Some(caller) = m.lean.pop() else { return false };
-                    m.act.base.f = caller.f;
-                    m.act.pc = caller.pc;
-                    m.act.depth = caller.depth;
-                    return true;
-                }
-                _ => return true,
-            }
-        }
+        *r = LeanAct { f, pc, depth };
+        false
     }
 }
