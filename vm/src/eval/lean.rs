@@ -31,6 +31,24 @@ pub(super) fn plain_start(s: &State) -> bool {
         && s.color.iter().chain(&s.weight).chain([&s.fps]).all(|v| (v + 0.0).to_bits() == v.to_bits())
 }
 
+/// Per op of `b`: for an `INST` whose items are followed only by calls and then
+/// the body's `RET` (a leaf of a tree, whose calls `maxdepth` refuses, or one
+/// with none), how many calls; [`NONE`] for every other op.
+pub(super) fn leaf_calls(b: &Bundle) -> Vec<u32> {
+    let code = &b.code;
+    (0..code.len())
+        .map(|pc| {
+            let Some(&Op::Inst { count, .. }) = code.get(pc) else { return NONE };
+            let first = pc + 1 + count.index();
+            let calls = code.get(first..).map_or(0, |c| c.iter().take_while(|op| matches!(op, Op::Call { .. })).count());
+            match code.get(first + calls) {
+                Some(Op::Ret {}) => calls as u32,
+                _ => NONE,
+            }
+        })
+        .collect()
+}
+
 /// A caller's activation under [`Sink::LEAN`]: the rest of its state is the running
 /// activation's (no call changes it; its slots are empty).
 #[derive(Clone, Copy)]
@@ -57,13 +75,14 @@ impl<'b> Eval<'b> {
         let code: &[Op] = &self.b.code;
         let Some(fixed) = m.fixed else { return false };
         let weight = m.act.base.weight;
+        let maxdepth = m.maxdepth;
         let mut r = LeanAct { f: m.act.base.f, pc: m.act.pc, depth: m.act.depth };
         let go_on = loop {
             match code.get(r.pc as usize) {
                 Some(&Op::Call { rule, xf, .. }) => {
                     r.pc += 1;
                     let depth = r.depth + 1;
-                    let looked = if depth > m.maxdepth {
+                    let looked = if depth > maxdepth {
                         // Refused before its frame is composed (see `op_call`).
                         self.refuse_deep_call(r.pc - 1)
                     } else {
@@ -78,7 +97,24 @@ impl<'b> Eval<'b> {
                 }
                 Some(&Op::Inst { proto, count }) => {
                     self.lean_instance(proto.0, &r.f, weight, &fixed);
+                    let at = r.pc as usize;
                     r.pc += 1 + count.0;
+                    // A leaf at `maxdepth`: the body's calls will all be refused,
+                    // at counts where no limit is looked at, so they are counted
+                    // at once and the body returns.
+                    if r.depth >= maxdepth {
+                        let leaf = self.leaf_calls.get(at).copied().unwrap_or(NONE);
+                        if leaf != NONE && self.calls + u64::from(leaf) < self.next_check {
+                            self.refuse_deep_calls(leaf, r.pc);
+                            match m.lean.pop() {
+                                Some(caller) => r = caller,
+                                None => {
+                                    r.pc += leaf;
+                                    break false;
+                                }
+                            }
+                        }
+                    }
                 }
                 Some(Op::Ret {}) => match m.lean.pop() {
                     Some(caller) => r = caller,
