@@ -289,10 +289,12 @@ pub struct Instances {
     bones: Runs<u32>,
     lins: Runs<u32>,
     ats: Runs<u32>,
-    /// The last instance's colour (bits), mesh, bone, lin and at: a push that
-    /// repeats them (nearly every one) is one comparison and the frame's write.
-    /// Under a dense mesh column the mesh's place holds 0.
+    /// The last instance's colour (bits), 0, bone, lin and at (a [`Fixed`]'s
+    /// layout): a push that repeats them (nearly every one) is one comparison and
+    /// the frame's write.
     tail: [u32; 8],
+    /// The last instance's mesh (compared only while the mesh column is runs).
+    tail_mesh: u32,
     /// Whether [`Instances::meshes`] is dense.
     dense: bool,
 }
@@ -332,16 +334,12 @@ impl Instances {
     /// from one push to the next (the fields are not gathered again).
     #[inline(always)]
     pub fn push_fixed(&mut self, frame: &Frame, fixed: &Fixed, mesh: u32) {
-        let mut tail = fixed.0;
-        if self.dense {
-            self.meshes.push_dense(mesh);
-        } else {
-            tail[4] = mesh;
-        }
-        if tail != self.tail || self.frames.is_empty() {
+        // (`fixed` is compared where it lies: its mesh's place holds 0, as the
+        // tail's does.)
+        if !self.same_mesh(mesh) || fixed.0 != self.tail || self.frames.is_empty() {
             let [c0, c1, c2, c3, _, bone, lin, at] = fixed.0;
             let color = [c0, c1, c2, c3].map(f32::from_bits);
-            self.note(&Instance { frame: *frame, color, mesh, bone, lin, at }, tail);
+            self.note(&Instance { frame: *frame, color, mesh, bone, lin, at }, fixed.0);
         }
         self.frames.push(pack(frame));
     }
@@ -352,19 +350,28 @@ impl Instances {
     #[inline(always)]
     pub fn push_parts(&mut self, frame: &Frame, color: [f32; 4], [mesh, bone, lin, at]: [u32; 4]) {
         let c = color.map(f32::to_bits);
-        let mut tail = [c[0], c[1], c[2], c[3], mesh, bone, lin, at];
-        if self.dense {
-            self.meshes.push_dense(mesh);
-            tail[4] = 0;
-        }
-        if tail != self.tail || self.frames.is_empty() {
+        let tail = [c[0], c[1], c[2], c[3], 0, bone, lin, at];
+        if !self.same_mesh(mesh) || tail != self.tail || self.frames.is_empty() {
             self.note(&Instance { frame: *frame, color, mesh, bone, lin, at }, tail);
         }
         self.frames.push(pack(frame));
     }
 
+    /// Whether the next instance's `mesh` needs no run-table entry: under a dense
+    /// column it is written there (and `true`), else it is the last instance's.
+    #[inline(always)]
+    fn same_mesh(&mut self, mesh: u32) -> bool {
+        if self.dense {
+            self.meshes.push_dense(mesh);
+            true
+        } else {
+            mesh == self.tail_mesh
+        }
+    }
+
     /// The run tables' entries for `inst` (the next instance), whose fields differ
-    /// from the last instance's (`tail`: see [`Instances::push`]).
+    /// from the last instance's (`tail`, the mesh's place 0: see
+    /// [`Instances::push`]).
     #[inline(never)]
     fn note(&mut self, inst: &Instance, tail: [u32; 8]) {
         let i = self.frames.len();
@@ -380,9 +387,7 @@ impl Instances {
         self.lins.note(i, inst.lin);
         self.ats.note(i, inst.at);
         self.tail = tail;
-        if self.dense {
-            self.tail[4] = 0;
-        }
+        self.tail_mesh = inst.mesh;
     }
 
     /// Instance `i`.
@@ -821,7 +826,7 @@ mod tests {
         assert_eq!(fixed.iter().map(|i| bits(&i)).collect::<Vec<_>>(), pushed.iter().map(bits).collect::<Vec<_>>());
         // (The frames hold a NaN, so the two are compared through what they hold.)
         assert_eq!(fixed.bytes(), whole.bytes());
-        assert_eq!((fixed.dense, fixed.tail), (whole.dense, whole.tail));
+        assert_eq!((fixed.dense, fixed.tail, fixed.tail_mesh), (whole.dense, whole.tail, whole.tail_mesh));
         assert_eq!(fixed.meshes().collect::<Vec<_>>(), whole.meshes().collect::<Vec<_>>());
     }
 
