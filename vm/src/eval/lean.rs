@@ -49,6 +49,33 @@ pub(super) fn leaf_calls(b: &Bundle) -> Vec<u32> {
         .collect()
 }
 
+/// What a lean call needs of its `CALL` op beyond its operands, made once at load:
+/// the callee's first op when its rule has one definition ([`NONE`]: selected at
+/// the call), and whether the op after the call is the body's `RET` (a tail call).
+#[derive(Clone, Copy)]
+pub(super) struct LeanCall {
+    pub(super) start: u32,
+    pub(super) tail: bool,
+}
+
+/// Per op of `b`, the [`LeanCall`] of a `CALL` (for any other op, `NONE` and not
+/// a tail).
+pub(super) fn lean_calls(b: &Bundle) -> Vec<LeanCall> {
+    let code = &b.code;
+    (0..code.len())
+        .map(|pc| match code.get(pc) {
+            Some(Op::Call { rule, .. }) => LeanCall {
+                start: match b.rules.get(rule.index()).map(|r| r.defs.as_slice()) {
+                    Some([only]) => only.start,
+                    _ => NONE,
+                },
+                tail: matches!(code.get(pc + 1), Some(Op::Ret {})),
+            },
+            _ => LeanCall { start: NONE, tail: false },
+        })
+        .collect()
+}
+
 /// A caller's activation under [`Sink::LEAN`]: the rest of its state is the running
 /// activation's (no call changes it; its slots are empty).
 #[derive(Clone, Copy)]
@@ -136,7 +163,6 @@ impl<'b> Eval<'b> {
     /// the run may have to stop).
     #[inline(always)]
     fn lean_call(&mut self, m: &mut Regs, r: &mut LeanAct, rule: RuleId, xf: TransformId, depth: u32) -> bool {
-        let b = self.b;
         // (Every transform a lean call has is a constant without a non-uniform scale.)
         let f = match self.prepared.get(xf.index()) {
             Some(Some(p)) => r.f.compose_prepared(p),
@@ -153,20 +179,21 @@ impl<'b> Eval<'b> {
         if !self.admit(|| f.scale_factor() * ndet.abs(), depth, stack_len, r.pc - 1, true) {
             return true;
         }
-        let pc = match b.rules[rule].defs.as_slice() {
-            [only] => only.start,
-            _ => match self.by_depth(rule, depth) {
+        let call = self.lean_calls.get(r.pc as usize - 1).copied().unwrap_or(LeanCall { start: NONE, tail: false });
+        let pc = match call.start {
+            NONE => match self.by_depth(rule, depth) {
                 Some(pc) => pc,
                 None => {
                     let child = State { f, ..m.act.base };
                     self.select(rule, &child, depth, m.act.slot_top as usize)
                 }
             },
+            start => start,
         };
         // A tail call (the caller's next op is its `RET`, and a lean `RET` only
         // returns): the callee takes the caller's place, so its return is the
         // caller's.
-        if !matches!(b.code.get(r.pc as usize), Some(Op::Ret {})) {
+        if !call.tail {
             m.lean.push(*r);
         }
         *r = LeanAct { f, pc, depth };

@@ -163,6 +163,9 @@ struct Eval<'b> {
     /// Under [`Lean`]: per op, for an `INST` whose items are followed only by calls
     /// and the body's `RET`, how many calls (else [`NONE`]; see [`leaf_calls`]).
     leaf_calls: Vec<u32>,
+    /// Under [`Lean`]: per op, for a `CALL`, its callee's body when the rule has one
+    /// definition, and whether it is a tail call (see [`lean_calls`]).
+    lean_calls: Vec<LeanCall>,
     /// Vertices of the prototype instances made so far (they count as vertices for
     /// the budget and the statistics, as they would have run one by one).
     instanced_vertices: u64,
@@ -340,6 +343,7 @@ impl<'b> Eval<'b> {
             fast,
             lean: fast && lean_path_applies(b),
             leaf_calls: if fast && lean_path_applies(b) { leaf_calls(b) } else { Vec::new() },
+            lean_calls: if fast && lean_path_applies(b) { lean_calls(b) } else { Vec::new() },
             prepared: b
                 .transforms
                 .iter()
