@@ -281,7 +281,7 @@ impl Fixed {
 }
 
 /// The instances of an output, in the order they were made (see the module docs).
-#[derive(Clone, Default, PartialEq)]
+#[derive(Clone, PartialEq)]
 pub struct Instances {
     frames: Vec<PackedFrame>,
     colors: Runs<[f32; 4]>,
@@ -293,10 +293,28 @@ pub struct Instances {
     /// layout): a push that repeats them (nearly every one) is one comparison and
     /// the frame's write.
     tail: [u32; 8],
-    /// The last instance's mesh (compared only while the mesh column is runs).
-    tail_mesh: u32,
+    /// The last instance's mesh (compared only while the mesh column is runs);
+    /// before the first instance, a value no mesh has (so the first push always
+    /// notes its fields, with no test of its own).
+    tail_mesh: u64,
     /// Whether [`Instances::meshes`] is dense.
     dense: bool,
+}
+
+impl Default for Instances {
+    fn default() -> Instances {
+        Instances {
+            frames: Vec::new(),
+            colors: Runs::default(),
+            meshes: MeshColumn::default(),
+            bones: Runs::default(),
+            lins: Runs::default(),
+            ats: Runs::default(),
+            tail: [0; 8],
+            tail_mesh: u64::MAX,
+            dense: false,
+        }
+    }
 }
 
 impl std::fmt::Debug for Instances {
@@ -336,7 +354,7 @@ impl Instances {
     pub fn push_fixed(&mut self, frame: &Frame, fixed: &Fixed, mesh: u32) {
         // (`fixed` is compared where it lies: its mesh's place holds 0, as the
         // tail's does.)
-        if !self.same_mesh(mesh) || fixed.0 != self.tail || self.frames.is_empty() {
+        if !self.same_mesh(mesh) || fixed.0 != self.tail {
             let [c0, c1, c2, c3, _, bone, lin, at] = fixed.0;
             let color = [c0, c1, c2, c3].map(f32::from_bits);
             self.note(&Instance { frame: *frame, color, mesh, bone, lin, at }, fixed.0);
@@ -351,7 +369,7 @@ impl Instances {
     pub fn push_parts(&mut self, frame: &Frame, color: [f32; 4], [mesh, bone, lin, at]: [u32; 4]) {
         let c = color.map(f32::to_bits);
         let tail = [c[0], c[1], c[2], c[3], 0, bone, lin, at];
-        if !self.same_mesh(mesh) || tail != self.tail || self.frames.is_empty() {
+        if !self.same_mesh(mesh) || tail != self.tail {
             self.note(&Instance { frame: *frame, color, mesh, bone, lin, at }, tail);
         }
         self.frames.push(pack(frame));
@@ -365,7 +383,7 @@ impl Instances {
             self.meshes.push_dense(mesh);
             true
         } else {
-            mesh == self.tail_mesh
+            u64::from(mesh) == self.tail_mesh
         }
     }
 
@@ -387,7 +405,7 @@ impl Instances {
         self.lins.note(i, inst.lin);
         self.ats.note(i, inst.at);
         self.tail = tail;
-        self.tail_mesh = inst.mesh;
+        self.tail_mesh = u64::from(inst.mesh);
     }
 
     /// Instance `i`.
@@ -828,6 +846,22 @@ mod tests {
         assert_eq!(fixed.bytes(), whole.bytes());
         assert_eq!((fixed.dense, fixed.tail, fixed.tail_mesh), (whole.dense, whole.tail, whole.tail_mesh));
         assert_eq!(fixed.meshes().collect::<Vec<_>>(), whole.meshes().collect::<Vec<_>>());
+    }
+
+    /// The first instance's fields are noted whatever they are (all zero, the
+    /// largest mesh index), by either push: there is no last instance to repeat.
+    #[test]
+    fn the_first_instance_is_noted_whatever_its_fields() {
+        for mesh in [0, u32::MAX] {
+            let first = Instance { mesh, bone: 0, lin: 0, at: 0, ..inst(0, [0.0; 4]) };
+            let mut whole = Instances::new();
+            whole.push(first);
+            let mut fixed = Instances::new();
+            fixed.push_fixed(&first.frame, &Fixed::new(first.color, 0, 0, 0), mesh);
+            for got in [&whole, &fixed] {
+                assert_eq!(got.get(0).map(|i| bits(&i)), Some(bits(&first)), "mesh {mesh}");
+            }
+        }
     }
 
     /// One prototype in one colour: 44 bytes an instance and one entry per table.
