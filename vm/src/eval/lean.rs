@@ -40,7 +40,8 @@ pub(super) fn leaf_calls(b: &Bundle) -> Vec<u32> {
         .map(|pc| {
             let Some(&Op::Inst { count, .. }) = code.get(pc) else { return NONE };
             let first = pc + 1 + count.index();
-            let calls = code.get(first..).map_or(0, |c| c.iter().take_while(|op| matches!(op, Op::Call { .. })).count());
+            let calls =
+                code.get(first..).map_or(0, |c| c.iter().take_while(|op| matches!(op, Op::Call { .. })).count());
             match code.get(first + calls) {
                 Some(Op::Ret {}) => calls as u32,
                 _ => NONE,
