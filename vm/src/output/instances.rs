@@ -297,6 +297,9 @@ pub struct Instances {
     /// before the first instance, a value no mesh has (so the first push always
     /// notes its fields, with no test of its own).
     tail_mesh: u64,
+    /// `tail` with the last mesh in its place while the mesh column is runs (what
+    /// [`Instances::push_parts`] compares its fields with, gathered as they come).
+    tail_parts: [u32; 8],
     /// Whether [`Instances::meshes`] is dense.
     dense: bool,
 }
@@ -312,6 +315,7 @@ impl Default for Instances {
             ats: Runs::default(),
             tail: [0; 8],
             tail_mesh: u64::MAX,
+            tail_parts: [0; 8],
             dense: false,
         }
     }
@@ -368,9 +372,16 @@ impl Instances {
     #[inline(always)]
     pub fn push_parts(&mut self, frame: &Frame, color: [f32; 4], [mesh, bone, lin, at]: [u32; 4]) {
         let c = color.map(f32::to_bits);
-        let tail = [c[0], c[1], c[2], c[3], 0, bone, lin, at];
-        if !self.same_mesh(mesh) || tail != self.tail {
-            self.note(&Instance { frame: *frame, color, mesh, bone, lin, at }, tail);
+        let mut parts = [c[0], c[1], c[2], c[3], mesh, bone, lin, at];
+        if self.dense {
+            self.meshes.push_dense(mesh);
+            parts[4] = 0;
+        }
+        if parts != self.tail_parts || self.frames.is_empty() {
+            self.note(
+                &Instance { frame: *frame, color, mesh, bone, lin, at },
+                [c[0], c[1], c[2], c[3], 0, bone, lin, at],
+            );
         }
         self.frames.push(pack(frame));
     }
@@ -406,6 +417,10 @@ impl Instances {
         self.ats.note(i, inst.at);
         self.tail = tail;
         self.tail_mesh = u64::from(inst.mesh);
+        self.tail_parts = tail;
+        if !self.dense {
+            self.tail_parts[4] = inst.mesh;
+        }
     }
 
     /// Instance `i`.
@@ -844,8 +859,23 @@ mod tests {
         assert_eq!(fixed.iter().map(|i| bits(&i)).collect::<Vec<_>>(), pushed.iter().map(bits).collect::<Vec<_>>());
         // (The frames hold a NaN, so the two are compared through what they hold.)
         assert_eq!(fixed.bytes(), whole.bytes());
-        assert_eq!((fixed.dense, fixed.tail, fixed.tail_mesh), (whole.dense, whole.tail, whole.tail_mesh));
+        assert_eq!(
+            (fixed.dense, fixed.tail, fixed.tail_mesh, fixed.tail_parts),
+            (whole.dense, whole.tail, whole.tail_mesh, whole.tail_parts)
+        );
         assert_eq!(fixed.meshes().collect::<Vec<_>>(), whole.meshes().collect::<Vec<_>>());
+        // The two pushes taking turns (a lean run after a general one, and back)
+        // give the same instances too.
+        let mut mixed = Instances::new();
+        for (k, p) in pushed.iter().enumerate() {
+            if (k / 3) % 2 == 0 {
+                mixed.push(*p);
+            } else {
+                mixed.push_fixed(&p.frame, &Fixed::new(p.color, p.bone, p.lin, p.at), p.mesh);
+            }
+        }
+        assert_eq!(mixed.iter().map(|i| bits(&i)).collect::<Vec<_>>(), pushed.iter().map(bits).collect::<Vec<_>>());
+        assert_eq!(mixed.bytes(), whole.bytes());
     }
 
     /// The first instance's fields are noted whatever they are (all zero, the
