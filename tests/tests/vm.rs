@@ -1081,10 +1081,21 @@ fn the_fast_paths_give_what_the_general_loop_gives() {
         tree("maxdepth 12\nstacksize 6", ""),
         tree("maxdepth 12\nmaxiter 4097", ""),
         tree("maxdepth 12\nmaxiter 5001", ""),
+        tree("maxdepth 12\nmaxiter 4096", ""),
+        tree("maxdepth 11\nmaxiter 8190", ""),
         tree("maxdepth 8", " hue 10 A -0.01"),
         "startshape T\nselector T depth\nmaxdepth 6\n\
          rule T 0 { VERTEX [x 1] VERTEX [y 1] VERTEX [] T [s 0.5 x 1] T [s 0.5 y 1] }\n\
          rule T 2 { VERTEX [x 1] VERTEX [y 1] VERTEX [z 1] 3 * [rz 120] { T [s 0.4 x 1] } }\n"
+            .to_string(),
+        // (Leaves at `maxdepth` with no call, and with calls after a loop.)
+        "startshape T\nselector T depth\nmaxdepth 2\n\
+         rule T 0 { VERTEX [x 1] VERTEX [y 1] VERTEX [] T [s 0.5 x 1] T [s 0.5 y 1] T [s 0.5 z 1] }\n\
+         rule T 1 { VERTEX [x 1] VERTEX [y 1] VERTEX [] T [s 0.5 x 1] T [s 0.5 y 1] T [s 0.5 z 1] }\n\
+         rule T 2 { VERTEX [x 1] VERTEX [y 1] VERTEX [z 1] }\n"
+            .to_string(),
+        "startshape T\nmaxdepth 7\n\
+         rule T { VERTEX [x 1] VERTEX [y 1] VERTEX [] 2 * [rz 90] { T [s 0.5 x 1] } T [s 0.5 y 1] }\n"
             .to_string(),
     ];
     for src in &sources {

@@ -74,6 +74,18 @@ impl<'b> Eval<'b> {
         looked
     }
 
+    /// `n` calls refused by `maxdepth` at once, the first at `pc`, at counts where
+    /// none is looked at (the caller checked that `calls + n < next_check`): what
+    /// `n` times [`Eval::refuse_deep_call`] would count.
+    #[inline(always)]
+    pub(super) fn refuse_deep_calls(&mut self, n: u32, pc: u32) {
+        if n > 0 {
+            self.calls += u64::from(n);
+            self.limits.maxdepth += u64::from(n);
+            self.limits.first_refused[0].get_or_insert(pc);
+        }
+    }
+
     /// Counts a call against the run-wide limits (checking the budgets now and
     /// then); whether the run goes on.
     #[inline]

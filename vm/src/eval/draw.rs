@@ -37,11 +37,39 @@ pub(super) struct Pen {
 
 impl<'b> Eval<'b> {
     /// Adds an instance of prototype `proto` in state `base` (bone `bone`): the one
-    /// record its items stand for (see the `INST` op). A lean run passes its
-    /// instances' fixed fields and whether they carry no weights (see `Regs::fixed`).
+    /// record its items stand for (see the `INST` op).
     #[inline(always)]
-    pub(super) fn emit_instance(&mut self, proto: u32, base: &State, bone: u32, fixed: Option<&(Fixed, bool)>) {
-        let Some(slot) = self.protos.get(proto as usize) else { return };
+    pub(super) fn emit_instance(&mut self, proto: u32, base: &State, bone: u32) {
+        let Some(mesh) = self.instance_mesh(proto, &base.f) else { return };
+        let out = &mut self.out;
+        if base.weight != [0.0; 4] || !out.instance_weights.is_empty() {
+            out.instance_weights.resize(out.instances.len(), [0.0; 4]);
+            out.instance_weights.push(base.weight);
+        }
+        let at = out.mesh.n_vertices() as u32;
+        out.instances.push_parts(&base.f, base.color, [mesh, bone, 0, at]);
+    }
+
+    /// [`Eval::emit_instance`] in a lean run (see [`Sink::LEAN`]): the instance's
+    /// fields but frame and mesh are the run's `fixed` ones, and its weights are
+    /// `weight` unless `fixed` says the run carries none (see `Regs::fixed`).
+    #[inline(always)]
+    pub(super) fn lean_instance(&mut self, proto: u32, f: &Frame, weight: [f32; 4], fixed: &(Fixed, bool)) {
+        let Some(mesh) = self.instance_mesh(proto, f) else { return };
+        let out = &mut self.out;
+        if !fixed.1 && (weight != [0.0; 4] || !out.instance_weights.is_empty()) {
+            out.instance_weights.resize(out.instances.len(), [0.0; 4]);
+            out.instance_weights.push(weight);
+        }
+        out.instances.push_fixed(f, &fixed.0, mesh);
+    }
+
+    /// What every instance of prototype `proto` under frame `f` does before its
+    /// record is pushed: the prototype's mesh (made at its first instance), the
+    /// finiteness bound and the counts. The mesh, or `None` for no prototype.
+    #[inline(always)]
+    fn instance_mesh(&mut self, proto: u32, f: &Frame) -> Option<u32> {
+        let slot = self.protos.get(proto as usize)?;
         let (mut mesh, vertices, mut extent) = (slot.mesh, slot.vertices, slot.extent);
         if mesh == NONE {
             mesh = self.make_prototype(proto as usize);
@@ -51,25 +79,12 @@ impl<'b> Eval<'b> {
         // hand, lane by lane: tested once, at the end (see `finish`). (The extent,
         // a largest absolute coordinate, is never negative: its absolute value is
         // itself.)
-        let f = &base.f;
         self.instances_small &= Vec4::from(f.q).abs().cmplt(Vec4::splat(1e7))
             & Vec4::from(f.qh).abs().cmplt(Vec4::splat(1e7))
             & f.u.extend(extent).abs().cmplt(Vec4::splat(1e15));
-        let out = &mut self.out;
-        let unweighted = fixed.is_some_and(|f| f.1);
-        if !unweighted && (base.weight != [0.0; 4] || !out.instance_weights.is_empty()) {
-            out.instance_weights.resize(out.instances.len(), [0.0; 4]);
-            out.instance_weights.push(base.weight);
-        }
-        match fixed {
-            Some((fixed, _)) => out.instances.push_fixed(&base.f, fixed, mesh),
-            None => {
-                let at = out.mesh.n_vertices() as u32;
-                out.instances.push_parts(&base.f, base.color, [mesh, bone, 0, at]);
-            }
-        }
         self.instanced_vertices += u64::from(vertices);
         self.prototype_instances += 1;
+        Some(mesh)
     }
 }
 

@@ -31,6 +31,52 @@ pub(super) fn plain_start(s: &State) -> bool {
         && s.color.iter().chain(&s.weight).chain([&s.fps]).all(|v| (v + 0.0).to_bits() == v.to_bits())
 }
 
+/// Per op of `b`: for an `INST` whose items are followed only by calls and then
+/// the body's `RET` (a leaf of a tree, whose calls `maxdepth` refuses, or one
+/// with none), how many calls; [`NONE`] for every other op.
+pub(super) fn leaf_calls(b: &Bundle) -> Vec<u32> {
+    let code = &b.code;
+    (0..code.len())
+        .map(|pc| {
+            let Some(&Op::Inst { count, .. }) = code.get(pc) else { return NONE };
+            let first = pc + 1 + count.index();
+            let calls =
+                code.get(first..).map_or(0, |c| c.iter().take_while(|op| matches!(op, Op::Call { .. })).count());
+            match code.get(first + calls) {
+                Some(Op::Ret {}) => calls as u32,
+                _ => NONE,
+            }
+        })
+        .collect()
+}
+
+/// What a lean call needs of its `CALL` op beyond its operands, made once at load:
+/// the callee's first op when its rule has one definition ([`NONE`]: selected at
+/// the call), and whether the op after the call is the body's `RET` (a tail call).
+#[derive(Clone, Copy)]
+pub(super) struct LeanCall {
+    pub(super) start: u32,
+    pub(super) tail: bool,
+}
+
+/// Per op of `b`, the [`LeanCall`] of a `CALL` (for any other op, `NONE` and not
+/// a tail).
+pub(super) fn lean_calls(b: &Bundle) -> Vec<LeanCall> {
+    let code = &b.code;
+    (0..code.len())
+        .map(|pc| match code.get(pc) {
+            Some(Op::Call { rule, .. }) => LeanCall {
+                start: match b.rules.get(rule.index()).map(|r| r.defs.as_slice()) {
+                    Some([only]) => only.start,
+                    _ => NONE,
+                },
+                tail: matches!(code.get(pc + 1), Some(Op::Ret {})),
+            },
+            _ => LeanCall { start: NONE, tail: false },
+        })
+        .collect()
+}
+
 /// A caller's activation under [`Sink::LEAN`]: the rest of its state is the running
 /// activation's (no call changes it; its slots are empty).
 #[derive(Clone, Copy)]
@@ -41,19 +87,89 @@ pub(super) struct LeanAct {
 }
 
 impl<'b> Eval<'b> {
-    /// [`Eval::op_call`] under [`Sink::LEAN`], for a call within `maxdepth`: only the
-    /// frame is composed (the rest of the callee's state is the caller's, see
-    /// [`lean_path_applies`]), and only the caller's frame, program counter and depth
-    /// are pushed.
+    /// The loop's handler of `CALL`, `INST` and `RET` under [`Sink::LEAN`]: runs the
+    /// ops from `m.act.pc` while they are one of those three, then hands the next
+    /// op back to the loop ([`Eval::interpret`]). The running activation (frame,
+    /// program counter and depth: a [`LeanAct`]) is a local of this small function,
+    /// so it stays in registers across calls, instances and returns instead of
+    /// being spilled around each by the loop's large body. Whether the run goes on.
+    ///
+    /// The handlers are the loop's (the same admission, selection, tail calls and
+    /// instance push, in the same order); only their dispatch is here. Under the
+    /// fast path nothing but a refused call, an iterator run or a limit looked at
+    /// can stop a run (see [`Eval::stops`]), so a stop is asked only after those.
+    #[inline(never)]
+    pub(super) fn lean_ops(&mut self, m: &mut Regs) -> bool {
+        let code: &[Op] = &self.b.code;
+        let Some(fixed) = m.fixed else { return false };
+        let weight = m.act.base.weight;
+        let maxdepth = m.maxdepth;
+        let mut r = LeanAct { f: m.act.base.f, pc: m.act.pc, depth: m.act.depth };
+        let go_on = loop {
+            match code.get(r.pc as usize) {
+                Some(&Op::Call { rule, xf, .. }) => {
+                    r.pc += 1;
+                    let depth = r.depth + 1;
+                    let looked = if depth > maxdepth {
+                        // Refused before its frame is composed (see `op_call`).
+                        self.refuse_deep_call(r.pc - 1)
+                    } else {
+                        self.lean_call(m, &mut r, rule, xf, depth)
+                    };
+                    if looked {
+                        m.act.pc = r.pc;
+                        if self.stops(m) {
+                            break false;
+                        }
+                    }
+                }
+                Some(&Op::Inst { proto, count }) => {
+                    self.lean_instance(proto.0, &r.f, weight, &fixed);
+                    let at = r.pc as usize;
+                    r.pc += 1 + count.0;
+                    // A leaf at `maxdepth`: the body's calls will all be refused,
+                    // at counts where no limit is looked at, so they are counted
+                    // at once and the body returns.
+                    if r.depth >= maxdepth {
+                        let leaf = self.leaf_calls.get(at).copied().unwrap_or(NONE);
+                        if leaf != NONE && self.calls + u64::from(leaf) < self.next_check {
+                            self.refuse_deep_calls(leaf, r.pc);
+                            match m.lean.pop() {
+                                Some(caller) => r = caller,
+                                None => {
+                                    r.pc += leaf;
+                                    break false;
+                                }
+                            }
+                        }
+                    }
+                }
+                Some(Op::Ret {}) => match m.lean.pop() {
+                    Some(caller) => r = caller,
+                    None => break false,
+                },
+                _ => break true,
+            }
+        };
+        m.act.base.f = r.f;
+        m.act.pc = r.pc;
+        m.act.depth = r.depth;
+        go_on
+    }
+
+    /// A lean call (see [`Eval::lean_ops`]) within `maxdepth`, `r` the running
+    /// activation: only the frame is composed (the rest of the callee's state is the
+    /// caller's, see [`lean_path_applies`]), and only the caller's frame, program
+    /// counter and depth are pushed. Whether the call was refused by a limit (then
+    /// the run may have to stop).
     #[inline(always)]
-    pub(super) fn lean_call(&mut self, m: &mut Regs, rule: RuleId, xf: TransformId, depth: u32) -> bool {
-        let b = self.b;
+    fn lean_call(&mut self, m: &mut Regs, r: &mut LeanAct, rule: RuleId, xf: TransformId, depth: u32) -> bool {
         // (Every transform a lean call has is a constant without a non-uniform scale.)
         let f = match self.prepared.get(xf.index()) {
-            Some(Some(p)) => m.act.base.f.compose_prepared(p),
+            Some(Some(p)) => r.f.compose_prepared(p),
             _ => {
-                let from = m.act.base;
-                self.apply(xf, &from, m.act.depth, m.act.slot_base, m.act.slot_top).f
+                let from = State { f: r.f, ..m.act.base };
+                self.apply(xf, &from, r.depth, m.act.slot_base, m.act.slot_top).f
             }
         };
         let ndet = m.act.base.ndet;
@@ -61,56 +177,27 @@ impl<'b> Eval<'b> {
         // stack, and a return takes both back: the callers' count is the depth
         // gained since the run's start, whether tail calls kept their caller or not.)
         let stack_len = (depth - m.start_depth) as usize;
-        if !self.admit(|| f.scale_factor() * ndet.abs(), depth, stack_len, m.act.pc - 1, true) {
-            return !self.stops(m);
+        if !self.admit(|| f.scale_factor() * ndet.abs(), depth, stack_len, r.pc - 1, true) {
+            return true;
         }
-        let pc = match b.rules[rule].defs.as_slice() {
-            [only] => only.start,
-            _ => match self.by_depth(rule, depth) {
+        let call = self.lean_calls.get(r.pc as usize - 1).copied().unwrap_or(LeanCall { start: NONE, tail: false });
+        let pc = match call.start {
+            NONE => match self.by_depth(rule, depth) {
                 Some(pc) => pc,
                 None => {
                     let child = State { f, ..m.act.base };
                     self.select(rule, &child, depth, m.act.slot_top as usize)
                 }
             },
+            start => start,
         };
         // A tail call (the caller's next op is its `RET`, and a lean `RET` only
         // returns): the callee takes the caller's place, so its return is the
         // caller's.
-        if !matches!(b.code.get(m.act.pc as usize), Some(Op::Ret {})) {
-            m.lean.push(LeanAct { f: m.act.base.f, pc: m.act.pc, depth: m.act.depth });
+        if !call.tail {
+            m.lean.push(*r);
         }
-        m.act.base.f = f;
-        m.act.pc = pc;
-        m.act.depth = depth;
-        true
-    }
-
-    /// After a lean call refused by `maxdepth` at a count where no limit was looked
-    /// at: the calls that follow it in the body (as deep, so refused too) and the
-    /// body's `RET`, here rather than through the loop's dispatch (the loop would
-    /// run the same handlers: under the fast path a stop is asked only where a
-    /// limit was looked at, and a lean `RET` only returns). Whether the run goes on.
-    #[inline(always)]
-    pub(super) fn lean_refuse_rest(&mut self, m: &mut Regs) -> bool {
-        let code: &[Op] = &self.b.code;
-        loop {
-            match code.get(m.act.pc as usize) {
-                Some(Op::Call { .. }) => {
-                    m.act.pc += 1;
-                    if self.refuse_deep_call(m.act.pc - 1) {
-                        return !self.stops(m);
-                    }
-                }
-                Some(Op::Ret {}) => {
-                    let Some(caller) = m.lean.pop() else { return false };
-                    m.act.base.f = caller.f;
-                    m.act.pc = caller.pc;
-                    m.act.depth = caller.depth;
-                    return true;
-                }
-                _ => return true,
-            }
-        }
+        *r = LeanAct { f, pc, depth };
+        false
     }
 }

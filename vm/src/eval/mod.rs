@@ -160,6 +160,12 @@ struct Eval<'b> {
     /// Whether fast-path runs take the [`Lean`] sink from a plain start
     /// ([`lean_path_applies`], [`plain_start`]).
     lean: bool,
+    /// Under [`Lean`]: per op, for an `INST` whose items are followed only by calls
+    /// and the body's `RET`, how many calls (else [`NONE`]; see [`leaf_calls`]).
+    leaf_calls: Vec<u32>,
+    /// Under [`Lean`]: per op, for a `CALL`, its callee's body when the rule has one
+    /// definition, and whether it is a tail call (see [`lean_calls`]).
+    lean_calls: Vec<LeanCall>,
     /// Vertices of the prototype instances made so far (they count as vertices for
     /// the budget and the statistics, as they would have run one by one).
     instanced_vertices: u64,
@@ -336,6 +342,8 @@ impl<'b> Eval<'b> {
             instancing,
             fast,
             lean: fast && lean_path_applies(b),
+            leaf_calls: if fast && lean_path_applies(b) { leaf_calls(b) } else { Vec::new() },
+            lean_calls: if fast && lean_path_applies(b) { lean_calls(b) } else { Vec::new() },
             prepared: b
                 .transforms
                 .iter()

@@ -337,6 +337,9 @@ impl<'b> Eval<'b> {
             // copy of the op.)
             let op = &code[m.act.pc as usize];
             let go_on = match *op {
+                // (A lean run's calls, instances and returns run in their own
+                // small handler, with the running frame in registers.)
+                Op::Call { .. } | Op::Inst { .. } | Op::Ret {} if S::LEAN => self.lean_ops(&mut m),
                 Op::Call { rule, xf, flags } => self.op_call(sink, &mut m, rule, xf, flags),
                 Op::Draw { kind: Drawable::Vertex, xf, ns, profile, flags: _ }
                     if !S::COLLECTS && mode == Mode::Model && self.xf_info[xf.index()].is_some() =>
@@ -555,17 +558,11 @@ impl<'b> Eval<'b> {
             // (Under the fast path only the run-wide limits, looked at now and
             // then, stop a run: a count where they were not looked at cannot.)
             let looked = !S::COLLECTS && self.refuse_deep_call(m.act.pc - 1);
-            if S::LEAN && !looked {
-                return self.lean_refuse_rest(m);
-            }
             if !S::SIMPLE && self.slots.len() > args {
                 self.slots.truncate(args);
             }
             // (A counted call can stop the run only when it is refused.)
             return !(S::SIMPLE && looked && self.stops(m));
-        }
-        if S::LEAN {
-            return self.lean_call(m, rule, xf, depth);
         }
         let from = Self::from::<S>(m);
         let child = self.apply(xf, from, m.act.depth, m.act.slot_base, m.act.slot_top);
@@ -824,8 +821,7 @@ impl<'b> Eval<'b> {
             }
             return;
         }
-        let fixed = if S::LEAN { m.fixed.as_ref() } else { None };
-        self.emit_instance(proto.0, &m.act.base, m.bone, fixed);
+        self.emit_instance(proto.0, &m.act.base, m.bone);
         m.act.pc += count.0;
         if self.needs_last {
             // `last` as the run's last item leaves it.
@@ -845,13 +841,6 @@ impl<'b> Eval<'b> {
     /// on (not after the run's first activation).
     #[inline(always)]
     fn op_ret<S: Sink>(&mut self, m: &mut Regs) -> bool {
-        if S::LEAN {
-            let Some(caller) = m.lean.pop() else { return false };
-            m.act.base.f = caller.f;
-            m.act.pc = caller.pc;
-            m.act.depth = caller.depth;
-            return true;
-        }
         // (Under the fast path an activation closes every iterator it opens and has
         // no convolution or bone of its own.)
         if !S::SIMPLE {

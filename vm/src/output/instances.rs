@@ -83,7 +83,7 @@ impl Fixed {
 }
 
 /// The instances of an output, in the order they were made (see the module docs).
-#[derive(Clone, Default, PartialEq)]
+#[derive(Clone, PartialEq)]
 pub struct Instances {
     frames: Vec<PackedFrame>,
     colors: Runs<[f32; 4]>,
@@ -91,12 +91,36 @@ pub struct Instances {
     bones: Runs<u32>,
     lins: Runs<u32>,
     ats: Runs<u32>,
-    /// The last instance's colour (bits), mesh, bone, lin and at: a push that
-    /// repeats them (nearly every one) is one comparison and the frame's write.
-    /// Under a dense mesh column the mesh's place holds 0.
+    /// The last instance's colour (bits), 0, bone, lin and at (a [`Fixed`]'s
+    /// layout): a push that repeats them (nearly every one) is one comparison and
+    /// the frame's write.
     tail: [u32; 8],
+    /// The last instance's mesh (compared only while the mesh column is runs);
+    /// before the first instance, a value no mesh has (so the first push always
+    /// notes its fields, with no test of its own).
+    tail_mesh: u64,
+    /// `tail` with the last mesh in its place while the mesh column is runs (what
+    /// [`Instances::push_parts`] compares its fields with, gathered as they come).
+    tail_parts: [u32; 8],
     /// Whether [`Instances::meshes`] is dense.
     dense: bool,
+}
+
+impl Default for Instances {
+    fn default() -> Instances {
+        Instances {
+            frames: Vec::new(),
+            colors: Runs::default(),
+            meshes: MeshColumn::default(),
+            bones: Runs::default(),
+            lins: Runs::default(),
+            ats: Runs::default(),
+            tail: [0; 8],
+            tail_mesh: u64::MAX,
+            tail_parts: [0; 8],
+            dense: false,
+        }
+    }
 }
 
 impl std::fmt::Debug for Instances {
@@ -134,16 +158,12 @@ impl Instances {
     /// from one push to the next (the fields are not gathered again).
     #[inline(always)]
     pub fn push_fixed(&mut self, frame: &Frame, fixed: &Fixed, mesh: u32) {
-        let mut tail = fixed.0;
-        if self.dense {
-            self.meshes.push_dense(mesh);
-        } else {
-            tail[4] = mesh;
-        }
-        if tail != self.tail || self.frames.is_empty() {
+        // (`fixed` is compared where it lies: its mesh's place holds 0, as the
+        // tail's does.)
+        if !self.same_mesh(mesh) || fixed.0 != self.tail {
             let [c0, c1, c2, c3, _, bone, lin, at] = fixed.0;
             let color = [c0, c1, c2, c3].map(f32::from_bits);
-            self.note(&Instance { frame: *frame, color, mesh, bone, lin, at }, tail);
+            self.note(&Instance { frame: *frame, color, mesh, bone, lin, at }, fixed.0);
         }
         self.frames.push(pack(frame));
     }
@@ -154,19 +174,35 @@ impl Instances {
     #[inline(always)]
     pub fn push_parts(&mut self, frame: &Frame, color: [f32; 4], [mesh, bone, lin, at]: [u32; 4]) {
         let c = color.map(f32::to_bits);
-        let mut tail = [c[0], c[1], c[2], c[3], mesh, bone, lin, at];
+        let mut parts = [c[0], c[1], c[2], c[3], mesh, bone, lin, at];
         if self.dense {
             self.meshes.push_dense(mesh);
-            tail[4] = 0;
+            parts[4] = 0;
         }
-        if tail != self.tail || self.frames.is_empty() {
-            self.note(&Instance { frame: *frame, color, mesh, bone, lin, at }, tail);
+        if parts != self.tail_parts || self.frames.is_empty() {
+            self.note(
+                &Instance { frame: *frame, color, mesh, bone, lin, at },
+                [c[0], c[1], c[2], c[3], 0, bone, lin, at],
+            );
         }
         self.frames.push(pack(frame));
     }
 
+    /// Whether the next instance's `mesh` needs no run-table entry: under a dense
+    /// column it is written there (and `true`), else it is the last instance's.
+    #[inline(always)]
+    fn same_mesh(&mut self, mesh: u32) -> bool {
+        if self.dense {
+            self.meshes.push_dense(mesh);
+            true
+        } else {
+            u64::from(mesh) == self.tail_mesh
+        }
+    }
+
     /// The run tables' entries for `inst` (the next instance), whose fields differ
-    /// from the last instance's (`tail`: see [`Instances::push`]).
+    /// from the last instance's (`tail`, the mesh's place 0: see
+    /// [`Instances::push`]).
     #[inline(never)]
     fn note(&mut self, inst: &Instance, tail: [u32; 8]) {
         let i = self.frames.len();
@@ -182,8 +218,10 @@ impl Instances {
         self.lins.note(i, inst.lin);
         self.ats.note(i, inst.at);
         self.tail = tail;
-        if self.dense {
-            self.tail[4] = 0;
+        self.tail_mesh = u64::from(inst.mesh);
+        self.tail_parts = tail;
+        if !self.dense {
+            self.tail_parts[4] = inst.mesh;
         }
     }
 
@@ -748,8 +786,39 @@ mod tests {
         assert_eq!(fixed.iter().map(|i| bits(&i)).collect::<Vec<_>>(), pushed.iter().map(bits).collect::<Vec<_>>());
         // (The frames hold a NaN, so the two are compared through what they hold.)
         assert_eq!(fixed.bytes(), whole.bytes());
-        assert_eq!((fixed.dense, fixed.tail), (whole.dense, whole.tail));
+        assert_eq!(
+            (fixed.dense, fixed.tail, fixed.tail_mesh, fixed.tail_parts),
+            (whole.dense, whole.tail, whole.tail_mesh, whole.tail_parts)
+        );
         assert_eq!(fixed.meshes().collect::<Vec<_>>(), whole.meshes().collect::<Vec<_>>());
+        // The two pushes taking turns (a lean run after a general one, and back)
+        // give the same instances too.
+        let mut mixed = Instances::new();
+        for (k, p) in pushed.iter().enumerate() {
+            if (k / 3) % 2 == 0 {
+                mixed.push(*p);
+            } else {
+                mixed.push_fixed(&p.frame, &Fixed::new(p.color, p.bone, p.lin, p.at), p.mesh);
+            }
+        }
+        assert_eq!(mixed.iter().map(|i| bits(&i)).collect::<Vec<_>>(), pushed.iter().map(bits).collect::<Vec<_>>());
+        assert_eq!(mixed.bytes(), whole.bytes());
+    }
+
+    /// The first instance's fields are noted whatever they are (all zero, the
+    /// largest mesh index), by either push: there is no last instance to repeat.
+    #[test]
+    fn the_first_instance_is_noted_whatever_its_fields() {
+        for mesh in [0, u32::MAX] {
+            let first = Instance { mesh, bone: 0, lin: 0, at: 0, ..inst(0, [0.0; 4]) };
+            let mut whole = Instances::new();
+            whole.push(first);
+            let mut fixed = Instances::new();
+            fixed.push_fixed(&first.frame, &Fixed::new(first.color, 0, 0, 0), mesh);
+            for got in [&whole, &fixed] {
+                assert_eq!(got.get(0).map(|i| bits(&i)), Some(bits(&first)), "mesh {mesh}");
+            }
+        }
     }
 
     /// The field reader gives what `get` gives, in increasing order (the renderer's
