@@ -320,6 +320,37 @@ impl Instances {
         &self.frames
     }
 
+    /// The run-table fields of instance `i`, reading on from the tables' cursors `at`
+    /// (see [`Runs::read`]), and the first instance after `i` where one of them may
+    /// change. With `mesh_runs` a dense mesh column ends a run where its mesh
+    /// changes; without, it ends none (a reader that reads it at every instance).
+    #[inline]
+    fn fields_at(&self, at: &mut [usize; 5], i: usize, mesh_runs: bool) -> (Option<Fields>, usize) {
+        let [c, m, b, l, t] = at;
+        let fields = match (
+            self.colors.read(c, i),
+            self.meshes.read(m, i),
+            self.bones.read(b, i),
+            self.lins.read(l, i),
+            self.ats.read(t, i),
+        ) {
+            (Some(color), Some(mesh), Some(bone), Some(lin), Some(at)) => Some(Fields { color, mesh, bone, lin, at }),
+            _ => None,
+        };
+        let mesh_end = if mesh_runs { self.meshes.run_end(*m, i) } else { self.meshes.next_start(*m) };
+        let until = [
+            self.colors.next_start(*c),
+            mesh_end,
+            self.bones.next_start(*b),
+            self.lins.next_start(*l),
+            self.ats.next_start(*t),
+        ]
+        .into_iter()
+        .min()
+        .unwrap_or(usize::MAX);
+        (fields, until)
+    }
+
     /// The instances as spans over which no run table changes, in order: each span's
     /// instances share their colour, mesh, bone, `lin` and `at` (the span's
     /// [`Span::fields`]) and differ only in their frames ([`Instances::packed_frames`]
@@ -334,30 +365,11 @@ impl Instances {
             if start >= self.len() {
                 return None;
             }
-            let [c, m, b, l, t] = &mut at;
-            let (Some(color), Some(mesh), Some(bone), Some(lin), Some(at_)) = (
-                self.colors.read(c, start),
-                self.meshes.read(m, start),
-                self.bones.read(b, start),
-                self.lins.read(l, start),
-                self.ats.read(t, start),
-            ) else {
-                return None;
-            };
-            let end = [
-                self.colors.next_start(*c),
-                self.meshes.run_end(*m, start),
-                self.bones.next_start(*b),
-                self.lins.next_start(*l),
-                self.ats.next_start(*t),
-                self.len(),
-            ]
-            .into_iter()
-            .min()
-            .unwrap_or(self.len())
-            .max(start + 1);
+            let (f, end) = self.fields_at(&mut at, start, true);
+            let f = f?;
+            let end = end.min(self.len()).max(start + 1);
             next = end;
-            Some(Span { range: start..end, color, mesh, bone, lin, at: at_ })
+            Some(Span { range: start..end, color: f.color, mesh: f.mesh, bone: f.bone, lin: f.lin, at: f.at })
         })
     }
 
@@ -536,25 +548,8 @@ impl FieldReader<'_> {
         if i < self.from {
             self.at = [a.colors.entry(i), a.meshes.entry(i), a.bones.entry(i), a.lins.entry(i), a.ats.entry(i)];
         }
-        let [c, m, b, l, t] = &mut self.at;
-        self.fields =
-            match (a.colors.read(c, i), a.meshes.read(m, i), a.bones.read(b, i), a.lins.read(l, i), a.ats.read(t, i)) {
-                (Some(color), Some(mesh), Some(bone), Some(lin), Some(at)) => {
-                    Some(Fields { color, mesh, bone, lin, at })
-                }
-                _ => None,
-            };
+        (self.fields, self.until) = a.fields_at(&mut self.at, i, true);
         self.from = i;
-        self.until = [
-            a.colors.next_start(*c),
-            a.meshes.run_end(*m, i),
-            a.bones.next_start(*b),
-            a.lins.next_start(*l),
-            a.ats.next_start(*t),
-        ]
-        .into_iter()
-        .min()
-        .unwrap_or(usize::MAX);
     }
 }
 
@@ -577,22 +572,9 @@ impl InstanceIter<'_> {
     #[inline(never)]
     fn refill(&mut self, i: usize) {
         let a = self.all;
-        let [c, m, b, l, t] = &mut self.at;
-        self.fields =
-            match (a.colors.read(c, i), a.meshes.read(m, i), a.bones.read(b, i), a.lins.read(l, i), a.ats.read(t, i)) {
-                (Some(color), Some(mesh), Some(bone), Some(lin), Some(at)) => Some((color, [mesh, bone, lin, at])),
-                _ => None,
-            };
-        self.until = [
-            a.colors.next_start(*c),
-            a.meshes.next_start(*m),
-            a.bones.next_start(*b),
-            a.lins.next_start(*l),
-            a.ats.next_start(*t),
-        ]
-        .into_iter()
-        .min()
-        .unwrap_or(usize::MAX);
+        let (fields, until) = a.fields_at(&mut self.at, i, false);
+        self.fields = fields.map(|f| (f.color, [f.mesh, f.bone, f.lin, f.at]));
+        self.until = until;
     }
 }
 
