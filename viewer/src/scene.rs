@@ -704,7 +704,7 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
                 shared_run = Some(linear_bits(pf));
                 (run_mirrored, run_scale) = (mirrored, scale);
                 moved.clear();
-                moved.extend(p.corners.iter().map(|q| Vec3::from(*l * *q)));
+                moved.extend(p.corners.iter().map(|q| *l * *q));
             }
         }
     }
