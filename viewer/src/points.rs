@@ -210,6 +210,95 @@ pub fn stand_in_points(
     at: &Placed,
     out: &mut Vec<Point>,
 ) -> bool {
+    // Normals and area vectors through the cofactor matrix, flipped for a mirrored
+    // instance as the mirrored draw's reversed winding flips them.
+    let cof = Mat3::from_cols(l.y_axis.cross(l.z_axis), l.z_axis.cross(l.x_axis), l.x_axis.cross(l.y_axis));
+    let sign = if l.determinant() < 0.0 { -1.0 } else { 1.0 };
+    points_of(
+        view,
+        s,
+        facets,
+        color,
+        at,
+        out,
+        |_, f| (sign * (cof * f.area), l * f.centre + t),
+        |_, f| (sign * (cof * f.normal)).normalize_or_zero(),
+    )
+}
+
+/// What [`stand_in_points`] makes of an instance's linear part alone, for every
+/// facet: made once for a run of instances that share it (a grid's squares), then
+/// [`stand_in_points_oriented`] places each of them with the same bits.
+#[derive(Clone, Debug, Default)]
+pub struct Oriented {
+    /// Per facet: its area vector and unit normal (through the cofactor matrix,
+    /// flipped for a mirrored part) and its centre under the linear part.
+    facets: Vec<OrientedFacet>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct OrientedFacet {
+    area: Vec3,
+    normal: Vec3,
+    centre: Vec3,
+}
+
+impl Oriented {
+    /// Orients `facets` by the linear part `l`.
+    pub fn set(&mut self, l: Mat3, facets: &[Facet]) {
+        let cof = Mat3::from_cols(l.y_axis.cross(l.z_axis), l.z_axis.cross(l.x_axis), l.x_axis.cross(l.y_axis));
+        let sign = if l.determinant() < 0.0 { -1.0 } else { 1.0 };
+        self.facets.clear();
+        self.facets.extend(facets.iter().map(|f| OrientedFacet {
+            area: sign * (cof * f.area),
+            normal: (sign * (cof * f.normal)).normalize_or_zero(),
+            centre: l * f.centre,
+        }));
+    }
+}
+
+/// [`stand_in_points`] for an instance whose linear part `o` was made from
+/// (by [`Oriented::set`], with these `facets`), at translation `t`: the same points.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub fn stand_in_points_oriented(
+    view: &View,
+    s: &StandIn,
+    facets: &[Facet],
+    o: &Oriented,
+    t: Vec3,
+    color: Vec4,
+    at: &Placed,
+    out: &mut Vec<Point>,
+) -> bool {
+    // (`o` was made from `facets`: every index is in it.)
+    points_of(
+        view,
+        s,
+        facets,
+        color,
+        at,
+        out,
+        |k, _| o.facets.get(k).map_or((Vec3::NAN, Vec3::NAN), |f| (f.area, f.centre + t)),
+        |k, _| o.facets.get(k).map_or(Vec3::NAN, |f| f.normal),
+    )
+}
+
+/// The points of [`stand_in_points`], with each facet's area vector and centre
+/// (`placed`) and unit normal (`normal`, called
+/// with the facet's index only where it is seen).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn points_of(
+    view: &View,
+    s: &StandIn,
+    facets: &[Facet],
+    color: Vec4,
+    at: &Placed,
+    out: &mut Vec<Point>,
+    placed: impl Fn(usize, &Facet) -> (Vec3, Vec3),
+    normal: impl Fn(usize, &Facet) -> Vec3,
+) -> bool {
     out.clear();
     if !(s.closed || view.flat) {
         return false; // open in a 3-D model
@@ -232,15 +321,10 @@ pub fn stand_in_points(
     if diameter.is_nan() || diameter > POINT_PIXELS {
         return false;
     }
-    // Normals and area vectors through the cofactor matrix, flipped for a mirrored
-    // instance as the mirrored draw's reversed winding flips them.
-    let cof = Mat3::from_cols(l.y_axis.cross(l.z_axis), l.z_axis.cross(l.x_axis), l.x_axis.cross(l.y_axis));
-    let sign = if l.determinant() < 0.0 { -1.0 } else { 1.0 };
     let unorm = |x: f32| round_unit(x.clamp(0.0, 1.0) * 255.0);
     let mut area = 0.0f32;
-    for f in facets {
-        let a = sign * (cof * f.area);
-        let q = l * f.centre + t;
+    for (k, f) in facets.iter().enumerate() {
+        let (a, q) = placed(k, f);
         let facing = a.dot(view.eye - q);
         if s.closed && facing <= 0.0 {
             continue;
@@ -249,7 +333,7 @@ pub fn stand_in_points(
         if !(px > 0.0 && px.is_finite()) {
             continue; // seen edge-on: it covers nothing
         }
-        let mut n = (sign * (cof * f.normal)).normalize_or_zero();
+        let mut n = normal(k, f);
         if facing < 0.0 {
             n = -n;
         }
@@ -507,5 +591,62 @@ mod tests {
         assert_eq!(fronts, n);
         let per_box = total / n as f32;
         assert!(per_box > 1.0 && per_box < 1.3, "{per_box} px² a box");
+    }
+
+    /// A closed unit cube's six facets, not matte, with colour deltas.
+    fn cube() -> (StandIn, Vec<Facet>) {
+        let s = StandIn { first_facet: 0, n_facets: 6, centre: Vec3::ZERO, radius: 0.75f32.sqrt(), closed: true };
+        let facets = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z]
+            .into_iter()
+            .enumerate()
+            .map(|(k, n)| Facet {
+                area: n,
+                centre: n * 0.5,
+                normal: n,
+                delta: [0.01 * k as f32, 0.0, 0.0, 0.0],
+                matte: false,
+            })
+            .collect();
+        (s, facets)
+    }
+
+    /// A run's oriented facets give every instance of the run the points
+    /// `stand_in_points` gives it alone, bit for bit: turned, scaled, mirrored and
+    /// singular linear parts, squares and cubes, at several places.
+    #[test]
+    fn oriented_facets_give_the_same_points_as_the_instance_alone() {
+        let v = view();
+        let turned = Mat3::from_quat(glam::Quat::from_euler(glam::EulerRot::XYZ, 0.3, -0.7, 1.1));
+        let linears = [
+            Mat3::IDENTITY,
+            Mat3::from_diagonal(Vec3::splat(0.37)),
+            turned * 0.2,
+            Mat3::from_diagonal(Vec3::new(-0.3, 0.3, 0.3)) * turned,
+            Mat3::from_diagonal(Vec3::new(0.4, 0.1, 0.0)),
+        ];
+        let places = [Vec3::ZERO, Vec3::new(1.3, -2.1, 0.4), Vec3::new(-3.7, 0.25, -1.5), Vec3::new(0.1, 0.1, 8.0)];
+        let color = Vec4::new(0.2, 0.5, 0.9, 1.0);
+        let mut o = Oriented::default();
+        let (mut alone, mut shared) = (Vec::new(), Vec::new());
+        let mut compared = 0;
+        for (s, facets) in [square(), cube()] {
+            for l in linears {
+                o.set(l, &facets);
+                for t in places {
+                    let at = Placed::new(&v, &s, l, t);
+                    let a = stand_in_points(&v, &s, &facets, l, t, color, &at, &mut alone);
+                    let b = stand_in_points_oriented(&v, &s, &facets, &o, t, color, &at, &mut shared);
+                    assert_eq!(a, b, "{l:?} {t}");
+                    let bits = |p: &[Point]| {
+                        p.iter()
+                            .map(|p| (p.pos.to_array().map(f32::to_bits), p.size.to_bits(), p.rgba))
+                            .collect::<Vec<_>>()
+                    };
+                    assert_eq!(bits(&alone), bits(&shared), "{l:?} {t}");
+                    compared += alone.len();
+                }
+            }
+        }
+        assert!(compared > 40, "{compared} points compared");
     }
 }

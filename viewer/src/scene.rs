@@ -555,9 +555,32 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
     // (The frames read as a slice and the other fields by runs: no unpacked
     // iterator state goes through memory per instance.)
     let frames = out.instances.packed_frames();
+    // A run of instances of one field run whose linear parts are bit-equal (q and
+    // q̂; no non-uniform factor: every square of a grid) shares its handedness, its
+    // scale and its mesh's corners under the linear part (`moved`), made once: the
+    // run's first instance (the next one shares its linear part) records them.
+    let linear_bits = |pf: &mdg_vm::output::PackedFrame| -> [u32; 8] { std::array::from_fn(|k| pf[k].to_bits()) };
+    let (mut run_mirrored, mut run_scale) = (false, 0.0f32);
+    let mut moved: Vec<Vec3> = Vec::new();
     for (run, f) in out.instances.field_runs() {
+        let mut shared_run: Option<[u32; 8]> = None;
+        let end = run.end;
         for i in run {
             let Some(pf) = frames.get(i) else { break };
+            if f.lin == 0 && shared_run.is_some_and(|b| b == linear_bits(pf)) {
+                // (The run's mesh was placed by its first instance.)
+                if let Some(p) = placed.get_mut(f.mesh as usize).and_then(Option::as_mut) {
+                    let side = usize::from(run_mirrored);
+                    p.instances[side].push(i as u32);
+                    let u = Vec3::new(pf[8], pf[9], pf[10]);
+                    // The same bits as `transform_point3`: (l q) + u.
+                    for lq in &moved {
+                        bounds.add(*lq + u);
+                    }
+                    p.scales[side] = p.scales[side].max(run_scale);
+                    continue;
+                }
+            }
             let frame = mdg_vm::geom::Frame {
                 q: glam::Quat::from_xyzw(pf[0], pf[1], pf[2], pf[3]),
                 qh: glam::Quat::from_xyzw(pf[4], pf[5], pf[6], pf[7]),
@@ -675,6 +698,14 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
             let l = &t.matrix3;
             let scale = l.x_axis.length_squared().max(l.y_axis.length_squared()).max(l.z_axis.length_squared()).sqrt();
             p.scales[side] = p.scales[side].max(scale);
+            shared_run = None;
+            if instance.lin == 0 && i + 1 < end && frames.get(i + 1).is_some_and(|n| linear_bits(n) == linear_bits(pf))
+            {
+                shared_run = Some(linear_bits(pf));
+                (run_mirrored, run_scale) = (mirrored, scale);
+                moved.clear();
+                moved.extend(p.corners.iter().map(|q| *l * *q));
+            }
         }
     }
     // One draw, one list: it is the order (not copied).
@@ -752,5 +783,61 @@ mod tests {
         assert!(s.bounds.is_flat());
         // Colour bytes of the first vertex: red, opaque.
         assert_eq!(&s.vertices[20..24], &[255, 0, 0, 255]);
+    }
+
+    /// Runs of instances that share a linear part (and single ones between them,
+    /// and a mirrored run) give the bounds, the order and the level of detail's
+    /// radius of every instance placed on its own.
+    #[test]
+    fn runs_of_equal_linear_parts_bound_and_list_as_single_instances() {
+        use mdg_vm::geom::Frame;
+        use mdg_vm::output::SharedMesh;
+        let mut out = Output::default();
+        let mut m = mdg_vm::output::Mesh::default();
+        let corners = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        for p in corners {
+            m.push_vertex(Vec3::from_array(p), Vec3::Z, [1.0; 4], [0.0; 4], 0);
+        }
+        for t in [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]] {
+            m.push_triangle(t, false);
+        }
+        out.shared_meshes.push(SharedMesh::isosurface("tetra", m));
+        let turned = Frame::identity().rotate(glam::Quat::from_rotation_z(0.7)).scale(0.3);
+        let other = Frame::identity().rotate(glam::Quat::from_rotation_x(-1.9)).scale(2.5);
+        let flipped = Frame::identity().rotate(glam::Quat::from_rotation_y(0.4)).scale(-0.6);
+        let mut frames = Vec::new();
+        for k in 0..7 {
+            frames.push(turned.translate(Vec3::new(k as f32 * 1.7, -3.1, 0.2)));
+        }
+        frames.push(other.translate(Vec3::new(9.0, 4.0, -2.0)));
+        for k in 0..3 {
+            frames.push(turned.translate(Vec3::new(-5.0, k as f32 * 0.3, 7.5)));
+        }
+        frames.push(other);
+        for k in 0..4 {
+            frames.push(flipped.translate(Vec3::new(0.5, 0.5, k as f32 * -11.0)));
+        }
+        for f in &frames {
+            out.instances.push_parts(f, [1.0; 4], [0, 0, 0, 0]);
+        }
+        let s = build_with(&out, true);
+        let mut bounds = Bounds::default();
+        let mut lists: [Vec<u32>; 2] = [Vec::new(), Vec::new()];
+        for (i, f) in frames.iter().enumerate() {
+            let [a, b, c] = f.axes();
+            let t = glam::Affine3A::from_cols(a.into(), b.into(), c.into(), f.u.into());
+            for q in corners {
+                bounds.add(t.transform_point3(Vec3::from_array(q)));
+            }
+            let side = usize::from(out.instance_mirrored(&out.instances.get(i).expect("instance")));
+            lists[side].push(i as u32);
+        }
+        assert!(!lists[1].is_empty() && !lists[0].is_empty());
+        assert_eq!(s.bounds.lo.to_array().map(f32::to_bits), bounds.lo.to_array().map(f32::to_bits));
+        assert_eq!(s.bounds.hi.to_array().map(f32::to_bits), bounds.hi.to_array().map(f32::to_bits));
+        let inst = s.instanced.expect("instanced");
+        assert_eq!(inst.order, [lists[0].clone(), lists[1].clone()].concat());
+        assert_eq!(inst.draws.len(), 2);
+        assert_eq!(inst.draws[0].instance_count as usize, lists[0].len());
     }
 }

@@ -417,14 +417,13 @@ impl<'s, 'a> Job<'s, 'a> {
     /// The sphere of stand-in `s` placed by `l` and `t` (what [`points`] reads).
     #[inline]
     fn placed(&self, s: &scene::StandIn, l: Mat3, t: Vec3) -> points::Placed {
-        let centre = l * s.centre + t;
-        let scale = max_axis(l);
-        points::Placed {
-            centre,
-            radius: s.radius * scale,
-            clip: self.vp * centre.extend(1.0),
-            w_len: self.row_lengths[2],
-        }
+        self.placed_at(l * s.centre + t, s.radius * max_axis(l))
+    }
+
+    /// A sphere of centre `centre` and radius `radius`, placed (as [`points`] reads it).
+    #[inline]
+    fn placed_at(&self, centre: Vec3, radius: f32) -> points::Placed {
+        points::Placed { centre, radius, clip: self.vp * centre.extend(1.0), w_len: self.row_lengths[2] }
     }
 
     /// [`Job::sphere_rows`] for the centre's clip position `clip`.
@@ -591,6 +590,15 @@ impl<'s, 'a> Job<'s, 'a> {
         let on_picture = |y0: i64, y1: i64| y1 >= 0 && y0 < i64::from(h);
         let mut k = plans.partition_point(|p| p.end <= range.start);
         let mut points: Vec<points::Point> = Vec::new();
+        // A run of instances of one draw whose linear parts are bit-equal (q and q̂,
+        // no non-uniform factor: every square of a grid) shares its matrix, its
+        // sphere's offset and radius and its oriented facets, made once for the
+        // run: `run` says for which draw and linear part they were made.
+        let mut run: Option<(usize, [u32; 8])> = None;
+        let mut shared = (Vec3::ZERO, 0.0f32);
+        let mut oriented = points::Oriented::default();
+        let linear_bits = |pf: &PackedFrame| -> [u32; 8] { std::array::from_fn(|i| pf[i].to_bits()) };
+        let end = range.end;
         for pos in range {
             while plans.get(k).is_some_and(|p| p.end <= pos) {
                 k += 1;
@@ -606,14 +614,46 @@ impl<'s, 'a> Job<'s, 'a> {
             };
             // (No first look from the frame alone here: each instance is prepared
             // once, and most are on the picture.)
-            let (l, tr) = transform(out_, pf, &f);
-            let at = self.placed(&s, l, tr);
-            if let Some((y0, y1, visible)) = self.sphere_rows_at(at.clip, at.radius) {
-                if !visible || !on_picture(y0, y1) {
-                    continue;
+            let color = Vec4::from_array(f.color);
+            let in_run = f.lin == 0 && {
+                let bits = linear_bits(pf);
+                run == Some((k, bits))
+                    || (pos + 1 < end.min(plan.end)
+                        && inst
+                            .order
+                            .get(pos + 1)
+                            .and_then(|&o| frames.get(o as usize))
+                            .is_some_and(|next| linear_bits(next) == bits)
+                        && {
+                            // The first of a run (the next instance shares its linear part).
+                            let (l, _) = transform(out_, pf, &f);
+                            shared = (l * s.centre, max_axis(l));
+                            oriented.set(l, plan.facets);
+                            run = Some((k, bits));
+                            true
+                        })
+            };
+            let stood = if in_run {
+                let (centre, scale) = shared;
+                let tr = Vec3::new(pf[8], pf[9], pf[10]);
+                let at = self.placed_at(centre + tr, s.radius * scale);
+                if let Some((y0, y1, visible)) = self.sphere_rows_at(at.clip, at.radius) {
+                    if !visible || !on_picture(y0, y1) {
+                        continue;
+                    }
                 }
-            }
-            if !points::stand_in_points(view, &s, plan.facets, l, tr, Vec4::from_array(f.color), &at, &mut points) {
+                points::stand_in_points_oriented(view, &s, plan.facets, &oriented, tr, color, &at, &mut points)
+            } else {
+                let (l, tr) = transform(out_, pf, &f);
+                let at = self.placed(&s, l, tr);
+                if let Some((y0, y1, visible)) = self.sphere_rows_at(at.clip, at.radius) {
+                    if !visible || !on_picture(y0, y1) {
+                        continue;
+                    }
+                }
+                points::stand_in_points(view, &s, plan.facets, l, tr, color, &at, &mut points)
+            };
+            if !stood {
                 out.items.push(mesh);
                 continue;
             }

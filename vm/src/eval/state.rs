@@ -72,7 +72,7 @@ impl State {
             *acc = Frame64::from(&s.f);
             return s;
         }
-        *acc = acc.compose(&Frame64::step(&composite_frame(c)));
+        *acc = acc.compose(&Frame64::step_of(&c.q, &c.qh, &c.u));
         let (color, hue) = compose_color(self.color, self.hue, c);
         State {
             f: acc.to_frame(),

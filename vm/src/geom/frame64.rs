@@ -47,6 +47,16 @@ fn hamilton64(a: &Q64, b: &Q64) -> Q64 {
     ]
 }
 
+/// The identity quaternion `[0, 0, 0, 1]`.
+const IDENTITY: Q64 = [0.0, 0.0, 0.0, 1.0];
+
+/// `q` is [`IDENTITY`] bit for bit (`-0.0` is not `0.0` here: it changes the
+/// products' signs of zero).
+#[inline]
+fn is_identity(q: &Q64) -> bool {
+    q.iter().zip(IDENTITY).all(|(a, b)| a.to_bits() == b.to_bits())
+}
+
 fn widen(q: Quat) -> Q64 {
     q.to_array().map(f64::from)
 }
@@ -77,7 +87,20 @@ impl Frame64 {
     /// between them (see the module docs). A step with a zero or non-finite
     /// quaternion is taken as it is.
     pub fn step(f: &Frame) -> Frame64 {
-        let exact = Frame64::from(f);
+        Frame64::step_of(&f.q.to_array(), &f.qh.to_array(), &f.u.to_array())
+    }
+
+    /// [`Frame64::step`] of the frame (`q`, `q̂`, `u`), read from where it lies (an
+    /// iterator's composite: a `Frame` made of it on the stack just before costs a
+    /// store-forwarding stall per step).
+    #[inline(always)]
+    pub fn step_of(q: &[f32; 4], qh: &[f32; 4], u: &[f32; 3]) -> Frame64 {
+        let exact = Frame64 { q: q.map(f64::from), qh: qh.map(f64::from), u: u.map(f64::from) };
+        if is_identity(&exact.q) && is_identity(&exact.qh) {
+            // A pure translation: lengths 1, scale 1, each part divided by 1 and
+            // multiplied by 1 — the same bits without the square roots and divisions.
+            return exact;
+        }
         let (lq, lqh) = (length(&exact.q), length(&exact.qh));
         if !(lq > 0.0 && lqh > 0.0 && lq.is_finite() && lqh.is_finite()) {
             return exact;
@@ -91,14 +114,19 @@ impl Frame64 {
     /// `self ∘ child` (as [`Frame::compose`]): `p' = p + w u ŵ`, `w' = w q`,
     /// `ŵ' = q̂ ŵ`.
     #[must_use]
+    #[inline(always)]
     pub fn compose(&self, child: &Frame64) -> Frame64 {
         let [x, y, z] = child.u;
         let moved = hamilton64(&hamilton64(&self.q, &[x, y, z, 0.0]), &self.qh);
-        Frame64 {
-            q: hamilton64(&self.q, &child.q),
-            qh: hamilton64(&child.qh, &self.qh),
-            u: [self.u[0] + moved[0], self.u[1] + moved[1], self.u[2] + moved[2]],
-        }
+        let (q, qh) = if is_identity(&child.q) && is_identity(&child.qh) {
+            // A pure translation (an iterator's `x 1`): the same products with the
+            // child's parts as constants, which the compiler folds where IEEE
+            // arithmetic allows (`v · 1 = v`; `v · 0` is kept for its sign and NaN).
+            (hamilton64(&self.q, &IDENTITY), hamilton64(&IDENTITY, &self.qh))
+        } else {
+            (hamilton64(&self.q, &child.q), hamilton64(&child.qh, &self.qh))
+        };
+        Frame64 { q, qh, u: [self.u[0] + moved[0], self.u[1] + moved[1], self.u[2] + moved[2]] }
     }
 
     /// The frame rounded to `f32`, component by component.
@@ -163,5 +191,52 @@ mod tests {
         }
         let p = acc.to_frame().apply_point(Vec3::X);
         assert!(p.distance(Vec3::X) < 2e-6, "{p}");
+    }
+
+    /// `self ∘ child` by the general products (the composition before the
+    /// pure-translation path).
+    fn compose_by_products(a: &Frame64, child: &Frame64) -> Frame64 {
+        let [x, y, z] = child.u;
+        let moved = hamilton64(&hamilton64(&a.q, &[x, y, z, 0.0]), &a.qh);
+        Frame64 {
+            q: hamilton64(&a.q, &child.q),
+            qh: hamilton64(&child.qh, &a.qh),
+            u: [a.u[0] + moved[0], a.u[1] + moved[1], a.u[2] + moved[2]],
+        }
+    }
+
+    /// The frame's bits, every NaN as one (which NaN an operation on NaNs or on
+    /// ∞ · 0 gives depends on the operands' order, which IEEE leaves open).
+    fn bits(f: &Frame64) -> Vec<u64> {
+        f.q.iter().chain(&f.qh).chain(&f.u).map(|v| if v.is_nan() { 1 } else { v.to_bits() }).collect()
+    }
+
+    /// A pure translation step (`x 1`) composes to the bits of the general
+    /// products, signs of zero and infinities included (and NaN where they give
+    /// NaN); and its step reads
+    /// as the frame itself, as the general reading makes it.
+    #[test]
+    fn a_pure_translation_step_gives_the_bits_of_the_general_products() {
+        let parts: [f64; 8] = [0.0, -0.0, 1.0, -0.5, 0.3, f64::INFINITY, f64::NAN, 3.0e-300];
+        let steps = [[1.0f32, 0.0, 0.0], [0.0, -1.0, 0.0], [-0.0, 0.5, 2.5], [f32::INFINITY, 0.0, 1.0]];
+        let mut compared = 0;
+        for k in 0..parts.len().pow(4) {
+            let pick = |j: u32| parts[(k / parts.len().pow(j)) % parts.len()];
+            let q = [pick(0), pick(1), pick(2), pick(3)];
+            let qh = [pick(3), pick(0), pick(1), pick(2)];
+            let acc = Frame64 { q, qh, u: [pick(1), 2.0, pick(0)] };
+            for u in steps {
+                let step = Frame64::step_of(&[0.0, 0.0, 0.0, 1.0], &[0.0, 0.0, 0.0, 1.0], &u);
+                let general = Frame64 { q: IDENTITY, qh: IDENTITY, u: u.map(f64::from) };
+                assert_eq!(bits(&step), bits(&general));
+                assert_eq!(bits(&acc.compose(&step)), bits(&compose_by_products(&acc, &general)), "{acc:?} {u:?}");
+                compared += 1;
+            }
+        }
+        assert_eq!(compared, 4 * 4096);
+        // A step with a negative zero in its quaternion is not a pure translation.
+        let signed = Frame64 { q: [-0.0, 0.0, 0.0, 1.0], qh: IDENTITY, u: [1.0, 0.0, 0.0] };
+        let acc = Frame64 { q: [0.0, 0.0, 0.0, -1.0], qh: IDENTITY, u: [0.0; 3] };
+        assert_eq!(bits(&acc.compose(&signed)), bits(&compose_by_products(&acc, &signed)));
     }
 }
