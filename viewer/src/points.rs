@@ -210,10 +210,7 @@ pub fn stand_in_points(
     at: &Placed,
     out: &mut Vec<Point>,
 ) -> bool {
-    // Normals and area vectors through the cofactor matrix, flipped for a mirrored
-    // instance as the mirrored draw's reversed winding flips them.
-    let cof = Mat3::from_cols(l.y_axis.cross(l.z_axis), l.z_axis.cross(l.x_axis), l.x_axis.cross(l.y_axis));
-    let sign = if l.determinant() < 0.0 { -1.0 } else { 1.0 };
+    let (cof, sign) = cofactor_and_sign(l);
     points_of(
         view,
         s,
@@ -224,6 +221,15 @@ pub fn stand_in_points(
         |_, f| (sign * (cof * f.area), l * f.centre + t),
         |_, f| (sign * (cof * f.normal)).normalize_or_zero(),
     )
+}
+
+/// The cofactor matrix of `l`, which takes facets' normals and area vectors, and the
+/// sign that flips them for a mirrored instance (as the mirrored draw's reversed
+/// winding flips them).
+#[inline(always)]
+fn cofactor_and_sign(l: Mat3) -> (Mat3, f32) {
+    let cof = Mat3::from_cols(l.y_axis.cross(l.z_axis), l.z_axis.cross(l.x_axis), l.x_axis.cross(l.y_axis));
+    (cof, if l.determinant() < 0.0 { -1.0 } else { 1.0 })
 }
 
 /// What [`stand_in_points`] makes of an instance's linear part alone, for every
@@ -246,8 +252,7 @@ struct OrientedFacet {
 impl Oriented {
     /// Orients `facets` by the linear part `l`.
     pub fn set(&mut self, l: Mat3, facets: &[Facet]) {
-        let cof = Mat3::from_cols(l.y_axis.cross(l.z_axis), l.z_axis.cross(l.x_axis), l.x_axis.cross(l.y_axis));
-        let sign = if l.determinant() < 0.0 { -1.0 } else { 1.0 };
+        let (cof, sign) = cofactor_and_sign(l);
         self.facets.clear();
         self.facets.extend(facets.iter().map(|f| OrientedFacet {
             area: sign * (cof * f.area),
