@@ -172,8 +172,31 @@ impl<'b> Eval<'b> {
     /// prototype instance as its expanded vertices, or as one record when the output
     /// keeps it instanced ([`EvalOptions::instances_stored`]).
     pub(super) fn vertices_made(&self) -> u64 {
-        let instances = if self.opts.instances_stored { self.prototype_instances } else { self.instanced_vertices };
+        let (n, vertices) = self.uncounted_instances();
+        let instances = if self.opts.instances_stored {
+            self.prototype_instances + n
+        } else {
+            self.instanced_vertices + n * vertices
+        };
         (self.out.mesh.n_vertices() + self.out.sweeps.n_vertices()) as u64 + self.extra_vertices + instances
+    }
+
+    /// The prototype instances a lean run made and has not counted yet (see
+    /// `Eval::uncounted_from`), and the vertices each has.
+    pub(super) fn uncounted_instances(&self) -> (u64, u64) {
+        match (self.uncounted_from, self.proto_vertices) {
+            (Some(from), Some(v)) => (self.out.instances.len().saturating_sub(from) as u64, u64::from(v)),
+            _ => (0, 0),
+        }
+    }
+
+    /// Counts the instances [`Eval::uncounted_instances`] names; none is left
+    /// uncounted.
+    pub(super) fn count_instances(&mut self) {
+        let (n, vertices) = self.uncounted_instances();
+        self.prototype_instances += n;
+        self.instanced_vertices += n * vertices;
+        self.uncounted_from = None;
     }
 
     pub(super) fn check_budgets(&mut self) {

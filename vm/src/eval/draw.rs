@@ -40,7 +40,7 @@ impl<'b> Eval<'b> {
     /// record its items stand for (see the `INST` op).
     #[inline(always)]
     pub(super) fn emit_instance(&mut self, proto: u32, base: &State, bone: u32) {
-        let Some(mesh) = self.instance_mesh(proto, &base.f) else { return };
+        let Some(mesh) = self.instance_mesh::<true, true>(proto, &base.f) else { return };
         let out = &mut self.out;
         if base.weight != [0.0; 4] || !out.instance_weights.is_empty() {
             out.instance_weights.resize(out.instances.len(), [0.0; 4]);
@@ -53,22 +53,34 @@ impl<'b> Eval<'b> {
     /// [`Eval::emit_instance`] in a lean run (see [`Sink::LEAN`]): the instance's
     /// fields but frame and mesh are the run's `fixed` ones, and its weights are
     /// `weight` unless `fixed` says the run carries none (see `Regs::fixed`).
+    /// Without `COUNT` the instance is not counted (see `Eval::uncounted_from`).
     #[inline(always)]
-    pub(super) fn lean_instance(&mut self, proto: u32, f: &Frame, weight: [f32; 4], fixed: &(Fixed, bool)) {
-        let Some(mesh) = self.instance_mesh(proto, f) else { return };
+    pub(super) fn lean_instance<const COUNT: bool>(
+        &mut self,
+        proto: u32,
+        f: &Frame,
+        weight: [f32; 4],
+        fixed: &(Fixed, bool),
+        tail_is_fixed: &mut bool,
+    ) {
+        // (The finiteness bound of a lean run's frames is tested when the run is
+        // over, see `Eval::lean_ops`.)
+        let Some(mesh) = self.instance_mesh::<false, COUNT>(proto, f) else { return };
         let out = &mut self.out;
         if !fixed.1 && (weight != [0.0; 4] || !out.instance_weights.is_empty()) {
             out.instance_weights.resize(out.instances.len(), [0.0; 4]);
             out.instance_weights.push(weight);
         }
-        out.instances.push_fixed(f, &fixed.0, mesh);
+        out.instances.push_fixed_after(f, &fixed.0, mesh, *tail_is_fixed);
+        *tail_is_fixed = true;
     }
 
     /// What every instance of prototype `proto` under frame `f` does before its
     /// record is pushed: the prototype's mesh (made at its first instance), the
-    /// finiteness bound and the counts. The mesh, or `None` for no prototype.
+    /// finiteness bound of `f` (with `BOUND`) and the counts (with `COUNT`). The
+    /// mesh, or `None` for no prototype.
     #[inline(always)]
-    fn instance_mesh(&mut self, proto: u32, f: &Frame) -> Option<u32> {
+    fn instance_mesh<const BOUND: bool, const COUNT: bool>(&mut self, proto: u32, f: &Frame) -> Option<u32> {
         let slot = self.protos.get(proto as usize)?;
         let (mut mesh, vertices, mut extent) = (slot.mesh, slot.vertices, slot.extent);
         if mesh == NONE {
@@ -79,11 +91,15 @@ impl<'b> Eval<'b> {
         // hand, lane by lane: tested once, at the end (see `finish`). (The extent,
         // a largest absolute coordinate, is never negative: its absolute value is
         // itself.)
-        self.instances_small &= Vec4::from(f.q).abs().cmplt(Vec4::splat(1e7))
-            & Vec4::from(f.qh).abs().cmplt(Vec4::splat(1e7))
-            & f.u.extend(extent).abs().cmplt(Vec4::splat(1e15));
-        self.instanced_vertices += u64::from(vertices);
-        self.prototype_instances += 1;
+        if BOUND {
+            self.instances_small &= Vec4::from(f.q).abs().cmplt(Vec4::splat(1e7))
+                & Vec4::from(f.qh).abs().cmplt(Vec4::splat(1e7))
+                & f.u.extend(extent).abs().cmplt(Vec4::splat(1e15));
+        }
+        if COUNT {
+            self.instanced_vertices += u64::from(vertices);
+            self.prototype_instances += 1;
+        }
         Some(mesh)
     }
 }
@@ -129,6 +145,10 @@ impl<'b> Eval<'b> {
         self.out.shared_meshes.push(SharedMesh { name, mesh: m, kind: SharedKind::Prototype { face_normals } });
         let mesh = self.out.shared_meshes.len() as u32 - 1;
         let extent = crate::output::max_abs(&self.out.shared_meshes[mesh as usize].mesh.positions);
+        // The extent's part of the finiteness bound, for every instance of it (an
+        // instance is made right after): as `instance_mesh` tests it, for the
+        // instances that do not test it there.
+        self.instances_small &= glam::BVec4A::new(true, true, true, extent.abs() < 1e15);
         if let Some(slot) = self.protos.get_mut(p) {
             slot.mesh = mesh;
             slot.extent = extent;

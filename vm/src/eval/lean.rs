@@ -95,16 +95,26 @@ impl<'b> Eval<'b> {
     /// being spilled around each by the loop's large body. Whether the run goes on.
     ///
     /// The handlers are the loop's (the same admission, selection, tail calls and
-    /// instance push, in the same order); only their dispatch is here. Under the
+    /// instance push, in the same order); only their dispatch is here. Without
+    /// `COUNT` (every prototype has as many vertices) the instances are counted when
+    /// the run is over rather than one by one. Under the
     /// fast path nothing but a refused call, an iterator run or a limit looked at
     /// can stop a run (see [`Eval::stops`]), so a stop is asked only after those.
     #[inline(never)]
-    pub(super) fn lean_ops(&mut self, m: &mut Regs) -> bool {
+    pub(super) fn lean_ops<const COUNT: bool>(&mut self, m: &mut Regs) -> bool {
         let code: &[Op] = &self.b.code;
         let Some(fixed) = m.fixed else { return false };
         let weight = m.act.base.weight;
         let maxdepth = m.maxdepth;
         let mut r = LeanAct { f: m.act.base.f, pc: m.act.pc, depth: m.act.depth };
+        let first_instance = self.out.instances.len();
+        if !COUNT {
+            // (Counted when the run is over, see `Eval::uncounted_from`.)
+            self.uncounted_from = Some(first_instance);
+        }
+        // Whether the last instance's fields but frame and mesh are the run's (only
+        // this run's pushes change them while it runs).
+        let mut tail_is_fixed = self.out.instances.tail_is(&fixed.0);
         let go_on = loop {
             match code.get(r.pc as usize) {
                 Some(&Op::Call { rule, xf, .. }) => {
@@ -124,7 +134,7 @@ impl<'b> Eval<'b> {
                     }
                 }
                 Some(&Op::Inst { proto, count }) => {
-                    self.lean_instance(proto.0, &r.f, weight, &fixed);
+                    self.lean_instance::<COUNT>(proto.0, &r.f, weight, &fixed, &mut tail_is_fixed);
                     let at = r.pc as usize;
                     r.pc += 1 + count.0;
                     // A leaf at `maxdepth`: the body's calls will all be refused,
@@ -154,6 +164,14 @@ impl<'b> Eval<'b> {
         m.act.base.f = r.f;
         m.act.pc = r.pc;
         m.act.depth = r.depth;
+        // The finiteness bound of the run's instances (see `Eval::instance_mesh`),
+        // tested on their frames now rather than at each push.
+        if !self.out.instances.frames_surely_small(first_instance) {
+            self.instances_small = glam::BVec4A::splat(false);
+        }
+        if !COUNT {
+            self.count_instances();
+        }
         go_on
     }
 

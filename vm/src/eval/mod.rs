@@ -172,6 +172,13 @@ struct Eval<'b> {
     /// Prototype instances made so far (the vertex budget's count of them when
     /// [`EvalOptions::instances_stored`]).
     prototype_instances: u64,
+    /// The vertices of every prototype, when they all have as many.
+    proto_vertices: Option<u32>,
+    /// While a lean run whose prototypes all have `proto_vertices` runs: its first
+    /// instance. Its instances are counted (`instanced_vertices`,
+    /// `prototype_instances`) when it is over, not one by one (see
+    /// [`Eval::uncounted_instances`]).
+    uncounted_from: Option<usize>,
     /// Whether an instance refers to a non-uniform factor (then `lins` goes into the
     /// output).
     lins_used: bool,
@@ -354,6 +361,8 @@ impl<'b> Eval<'b> {
                 .collect(),
             instanced_vertices: 0,
             prototype_instances: 0,
+            proto_vertices: None,
+            uncounted_from: None,
             lins_used: false,
             instances_small: glam::BVec4A::splat(true),
             needs_last: b.code.iter().any(|op| match op {
@@ -379,6 +388,10 @@ impl<'b> Eval<'b> {
                 .collect(),
         };
         e.out.animation.duration = s.duration;
+        e.proto_vertices = match e.protos.split_first() {
+            Some((p, rest)) if rest.iter().all(|q| q.vertices == p.vertices) => Some(p.vertices),
+            _ => None,
+        };
         e
     }
 

@@ -339,7 +339,10 @@ impl<'b> Eval<'b> {
             let go_on = match *op {
                 // (A lean run's calls, instances and returns run in their own
                 // small handler, with the running frame in registers.)
-                Op::Call { .. } | Op::Inst { .. } | Op::Ret {} if S::LEAN => self.lean_ops(&mut m),
+                Op::Call { .. } | Op::Inst { .. } | Op::Ret {} if S::LEAN => match self.proto_vertices {
+                    Some(_) => self.lean_ops::<false>(&mut m),
+                    None => self.lean_ops::<true>(&mut m),
+                },
                 Op::Call { rule, xf, flags } => self.op_call(sink, &mut m, rule, xf, flags),
                 Op::Draw { kind: Drawable::Vertex, xf, ns, profile, flags: _ }
                     if !S::COLLECTS && mode == Mode::Model && self.xf_info[xf.index()].is_some() =>

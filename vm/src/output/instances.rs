@@ -168,6 +168,27 @@ impl Instances {
         self.frames.push(pack(frame));
     }
 
+    /// Whether the last instance's fields but frame and mesh are `fixed` (then
+    /// [`Instances::push_fixed_after`] may be told so).
+    #[inline]
+    pub fn tail_is(&self, fixed: &Fixed) -> bool {
+        fixed.0 == self.tail
+    }
+
+    /// [`Instances::push_fixed`] where the caller knows whether the last instance's
+    /// fields but frame and mesh are `fixed` (`tail_is_fixed`: from
+    /// [`Instances::tail_is`], or because its last push was of `fixed`): they are not
+    /// compared again. (After the push they are `fixed`.)
+    #[inline(always)]
+    pub fn push_fixed_after(&mut self, frame: &Frame, fixed: &Fixed, mesh: u32, tail_is_fixed: bool) {
+        if !self.same_mesh(mesh) || !tail_is_fixed {
+            let [c0, c1, c2, c3, _, bone, lin, at] = fixed.0;
+            let color = [c0, c1, c2, c3].map(f32::from_bits);
+            self.note(&Instance { frame: *frame, color, mesh, bone, lin, at }, fixed.0);
+        }
+        self.frames.push(pack(frame));
+    }
+
     /// Adds the instance of `frame`, `color` and `[mesh, bone, lin, at]` after the
     /// others ([`Instances::push`] without an [`Instance`] to build: the evaluator's
     /// frame is packed from where it lies).
@@ -318,6 +339,31 @@ impl Instances {
     /// x, y, z, w, u's x, y, z (u from [`TRANSLATION_AT`]).
     pub fn packed_frames(&self) -> &[PackedFrame] {
         &self.frames
+    }
+
+    /// Whether every frame from instance `from` on passes the frame part of
+    /// [`crate::output::frame_surely_maps_finite`]: each component of q and q̂ below
+    /// 1e7 in size, of u below 1e15 (NaN fails). The same comparisons, made over the
+    /// packed frames four at a time (the evaluator's lean runs test their instances
+    /// this way once the run is over, instead of at every push).
+    pub fn frames_surely_small(&self, from: usize) -> bool {
+        use glam::{BVec4A, Vec4};
+        let frames = self.frames.get(from..).unwrap_or_default();
+        // Four frames are 44 words, eleven vectors; word j's limit is u's when
+        // j mod 11 is 8 or more.
+        let limit = |j: usize| if j % FRAME_WORDS < TRANSLATION_AT { 1e7 } else { 1e15 };
+        let limits: [Vec4; FRAME_WORDS] =
+            std::array::from_fn(|k| Vec4::new(limit(4 * k), limit(4 * k + 1), limit(4 * k + 2), limit(4 * k + 3)));
+        let mut small = BVec4A::splat(true);
+        let mut chunks = frames.chunks_exact(4);
+        for c in &mut chunks {
+            let w = c.as_flattened();
+            for (k, l) in limits.iter().enumerate() {
+                let v = w.get(4 * k..4 * k + 4).map_or(Vec4::NAN, Vec4::from_slice);
+                small &= v.abs().cmplt(*l);
+            }
+        }
+        small.all() && chunks.remainder().iter().all(|p| crate::output::frame_surely_maps_finite(&unpack(p), 0.0))
     }
 
     /// The run-table fields of instance `i`, reading on from the tables' cursors `at`
