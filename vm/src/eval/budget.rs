@@ -124,9 +124,10 @@ impl<'b> Eval<'b> {
     /// (a constant where it is inlined) the caller has already found `depth` within
     /// `maxdepth` (the fast path refuses deeper calls before composing their
     /// frame), so it is not tested again. `scale` is the child's
-    /// [`State::scale`], asked only under `minsize`.
+    /// [`State::scale`], asked only under `minsize`; with `MINSIZE_OFF` (a caller
+    /// that found `minsize` off) `minsize` is not looked at.
     #[inline(always)]
-    pub(super) fn admit(
+    pub(super) fn admit<const MINSIZE_OFF: bool>(
         &mut self,
         scale: impl FnOnce() -> f32,
         depth: u32,
@@ -137,13 +138,13 @@ impl<'b> Eval<'b> {
         if !self.count_call() {
             return false;
         }
-        self.admit_rest(scale, depth, stack_len, pc, depth_ok)
+        self.admit_rest::<MINSIZE_OFF>(scale, depth, stack_len, pc, depth_ok)
     }
 
-    /// The per-branch limits of a call: `maxdepth` (unless `depth_ok`), `minsize`,
-    /// the stack size.
+    /// The per-branch limits of a call: `maxdepth` (unless `depth_ok`), `minsize`
+    /// (unless `MINSIZE_OFF`), the stack size.
     #[inline]
-    pub(super) fn admit_rest(
+    pub(super) fn admit_rest<const MINSIZE_OFF: bool>(
         &mut self,
         scale: impl FnOnce() -> f32,
         depth: u32,
@@ -155,7 +156,7 @@ impl<'b> Eval<'b> {
         let refused = if !depth_ok && s.maxdepth > 0 && depth > s.maxdepth {
             self.limits.maxdepth += 1;
             0
-        } else if s.minsize > 0.0 && scale() < s.minsize {
+        } else if !MINSIZE_OFF && s.minsize > 0.0 && scale() < s.minsize {
             self.limits.minsize += 1;
             1
         } else if stack_len >= self.stacksize as usize {

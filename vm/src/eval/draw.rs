@@ -40,7 +40,7 @@ impl<'b> Eval<'b> {
     /// record its items stand for (see the `INST` op).
     #[inline(always)]
     pub(super) fn emit_instance(&mut self, proto: u32, base: &State, bone: u32) {
-        let Some(mesh) = self.instance_mesh::<true, true>(proto, &base.f) else { return };
+        let Some(mesh) = self.instance_mesh::<true, false>(proto, &base.f) else { return };
         let out = &mut self.out;
         if base.weight != [0.0; 4] || !out.instance_weights.is_empty() {
             out.instance_weights.resize(out.instances.len(), [0.0; 4]);
@@ -53,9 +53,10 @@ impl<'b> Eval<'b> {
     /// [`Eval::emit_instance`] in a lean run (see [`Sink::LEAN`]): the instance's
     /// fields but frame and mesh are the run's `fixed` ones, and its weights are
     /// `weight` unless `fixed` says the run carries none (see `Regs::fixed`).
-    /// Without `COUNT` the instance is not counted (see `Eval::uncounted_from`).
+    /// In a `PLAIN` run (see [`Eval::plain_lean`]) the instance is not counted
+    /// (see `Eval::uncounted_from`) and carries no weights.
     #[inline(always)]
-    pub(super) fn lean_instance<const COUNT: bool>(
+    pub(super) fn lean_instance<const PLAIN: bool>(
         &mut self,
         proto: u32,
         f: &Frame,
@@ -65,9 +66,9 @@ impl<'b> Eval<'b> {
     ) {
         // (The finiteness bound of a lean run's frames is tested when the run is
         // over, see `Eval::lean_ops`.)
-        let Some(mesh) = self.instance_mesh::<false, COUNT>(proto, f) else { return };
+        let Some(mesh) = self.instance_mesh::<false, PLAIN>(proto, f) else { return };
         let out = &mut self.out;
-        if !fixed.1 && (weight != [0.0; 4] || !out.instance_weights.is_empty()) {
+        if !PLAIN && !fixed.1 && (weight != [0.0; 4] || !out.instance_weights.is_empty()) {
             out.instance_weights.resize(out.instances.len(), [0.0; 4]);
             out.instance_weights.push(weight);
         }
@@ -77,10 +78,10 @@ impl<'b> Eval<'b> {
 
     /// What every instance of prototype `proto` under frame `f` does before its
     /// record is pushed: the prototype's mesh (made at its first instance), the
-    /// finiteness bound of `f` (with `BOUND`) and the counts (with `COUNT`). The
+    /// finiteness bound of `f` (with `BOUND`) and the counts (unless `DEFER`). The
     /// mesh, or `None` for no prototype.
     #[inline(always)]
-    fn instance_mesh<const BOUND: bool, const COUNT: bool>(&mut self, proto: u32, f: &Frame) -> Option<u32> {
+    fn instance_mesh<const BOUND: bool, const DEFER: bool>(&mut self, proto: u32, f: &Frame) -> Option<u32> {
         let slot = self.protos.get(proto as usize)?;
         let (mut mesh, vertices, mut extent) = (slot.mesh, slot.vertices, slot.extent);
         if mesh == NONE {
@@ -96,7 +97,7 @@ impl<'b> Eval<'b> {
                 & Vec4::from(f.qh).abs().cmplt(Vec4::splat(1e7))
                 & f.u.extend(extent).abs().cmplt(Vec4::splat(1e15));
         }
-        if COUNT {
+        if !DEFER {
             self.instanced_vertices += u64::from(vertices);
             self.prototype_instances += 1;
         }

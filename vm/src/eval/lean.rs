@@ -95,20 +95,20 @@ impl<'b> Eval<'b> {
     /// being spilled around each by the loop's large body. Whether the run goes on.
     ///
     /// The handlers are the loop's (the same admission, selection, tail calls and
-    /// instance push, in the same order); only their dispatch is here. Without
-    /// `COUNT` (every prototype has as many vertices) the instances are counted when
-    /// the run is over rather than one by one. Under the
+    /// instance push, in the same order); only their dispatch is here. A `PLAIN` run
+    /// (see [`Eval::plain_lean`]) counts its instances when it is over rather than
+    /// one by one, and tests neither `minsize` nor weights. Under the
     /// fast path nothing but a refused call, an iterator run or a limit looked at
     /// can stop a run (see [`Eval::stops`]), so a stop is asked only after those.
     #[inline(never)]
-    pub(super) fn lean_ops<const COUNT: bool>(&mut self, m: &mut Regs) -> bool {
+    pub(super) fn lean_ops<const PLAIN: bool>(&mut self, m: &mut Regs) -> bool {
         let code: &[Op] = &self.b.code;
         let Some(fixed) = m.fixed else { return false };
         let weight = m.act.base.weight;
         let maxdepth = m.maxdepth;
         let mut r = LeanAct { f: m.act.base.f, pc: m.act.pc, depth: m.act.depth };
         let first_instance = self.out.instances.len();
-        if !COUNT {
+        if PLAIN {
             // (Counted when the run is over, see `Eval::uncounted_from`.)
             self.uncounted_from = Some(first_instance);
         }
@@ -124,7 +124,7 @@ impl<'b> Eval<'b> {
                         // Refused before its frame is composed (see `op_call`).
                         self.refuse_deep_call(r.pc - 1)
                     } else {
-                        self.lean_call(m, &mut r, rule, xf, depth)
+                        self.lean_call::<PLAIN>(m, &mut r, rule, xf, depth)
                     };
                     if looked {
                         m.act.pc = r.pc;
@@ -134,7 +134,7 @@ impl<'b> Eval<'b> {
                     }
                 }
                 Some(&Op::Inst { proto, count }) => {
-                    self.lean_instance::<COUNT>(proto.0, &r.f, weight, &fixed, &mut tail_is_fixed);
+                    self.lean_instance::<PLAIN>(proto.0, &r.f, weight, &fixed, &mut tail_is_fixed);
                     let at = r.pc as usize;
                     r.pc += 1 + count.0;
                     // A leaf at `maxdepth`: the body's calls will all be refused,
@@ -169,10 +169,17 @@ impl<'b> Eval<'b> {
         if !self.out.instances.frames_surely_small(first_instance) {
             self.instances_small = glam::BVec4A::splat(false);
         }
-        if !COUNT {
+        if PLAIN {
             self.count_instances();
         }
         go_on
+    }
+
+    /// Whether a lean run from `m` is plain: every prototype has as many vertices
+    /// (its instances can be counted when it is over, see `Eval::uncounted_from`),
+    /// it carries no weights (see `Regs::fixed`) and `minsize` is off.
+    pub(super) fn plain_lean(&self, m: &Regs) -> bool {
+        self.proto_vertices.is_some() && m.fixed.is_some_and(|f| f.1) && !(self.b.settings.minsize > 0.0)
     }
 
     /// A lean call (see [`Eval::lean_ops`]) within `maxdepth`, `r` the running
@@ -181,7 +188,7 @@ impl<'b> Eval<'b> {
     /// counter and depth are pushed. Whether the call was refused by a limit (then
     /// the run may have to stop).
     #[inline(always)]
-    fn lean_call(&mut self, m: &mut Regs, r: &mut LeanAct, rule: RuleId, xf: TransformId, depth: u32) -> bool {
+    fn lean_call<const PLAIN: bool>(&mut self, m: &mut Regs, r: &mut LeanAct, rule: RuleId, xf: TransformId, depth: u32) -> bool {
         // (Every transform a lean call has is a constant without a non-uniform scale.)
         let f = match self.prepared.get(xf.index()) {
             Some(Some(p)) => r.f.compose_prepared(p),
@@ -195,7 +202,7 @@ impl<'b> Eval<'b> {
         // stack, and a return takes both back: the callers' count is the depth
         // gained since the run's start, whether tail calls kept their caller or not.)
         let stack_len = (depth - m.start_depth) as usize;
-        if !self.admit(|| f.scale_factor() * ndet.abs(), depth, stack_len, r.pc - 1, true) {
+        if !self.admit::<PLAIN>(|| f.scale_factor() * ndet.abs(), depth, stack_len, r.pc - 1, true) {
             return true;
         }
         let call = self.lean_calls.get(r.pc as usize - 1).copied().unwrap_or(LeanCall { start: NONE, tail: false });

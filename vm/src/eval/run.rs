@@ -339,9 +339,9 @@ impl<'b> Eval<'b> {
             let go_on = match *op {
                 // (A lean run's calls, instances and returns run in their own
                 // small handler, with the running frame in registers.)
-                Op::Call { .. } | Op::Inst { .. } | Op::Ret {} if S::LEAN => match self.proto_vertices {
-                    Some(_) => self.lean_ops::<false>(&mut m),
-                    None => self.lean_ops::<true>(&mut m),
+                Op::Call { .. } | Op::Inst { .. } | Op::Ret {} if S::LEAN => match self.plain_lean(&m) {
+                    true => self.lean_ops::<true>(&mut m),
+                    false => self.lean_ops::<false>(&mut m),
                 },
                 Op::Call { rule, xf, flags } => self.op_call(sink, &mut m, rule, xf, flags),
                 Op::Draw { kind: Drawable::Vertex, xf, ns, profile, flags: _ }
@@ -588,7 +588,7 @@ impl<'b> Eval<'b> {
         let r = &b.rules[rule];
         // (A queued call waits in the queue, which `stacksize` bounds.)
         let stack_len = if S::QUEUES { sink.pending() } else { m.stack.len() + 1 };
-        if !self.admit(|| child.scale(), depth, stack_len, m.act.pc - 1, S::SIMPLE) {
+        if !self.admit::<false>(|| child.scale(), depth, stack_len, m.act.pc - 1, S::SIMPLE) {
             if !S::SIMPLE && self.slots.len() > args {
                 self.slots.truncate(args);
             }
