@@ -355,15 +355,14 @@ impl Instances {
         let limits: [Vec4; FRAME_WORDS] =
             std::array::from_fn(|k| Vec4::new(limit(4 * k), limit(4 * k + 1), limit(4 * k + 2), limit(4 * k + 3)));
         let mut small = BVec4A::splat(true);
-        let mut chunks = frames.chunks_exact(4);
-        for c in &mut chunks {
-            let w = c.as_flattened();
+        let (fours, rest) = frames.as_chunks::<4>();
+        for c in fours {
+            let w: &[f32; 4 * FRAME_WORDS] = c.as_flattened().try_into().unwrap_or(&[f32::NAN; 4 * FRAME_WORDS]);
             for (k, l) in limits.iter().enumerate() {
-                let v = w.get(4 * k..4 * k + 4).map_or(Vec4::NAN, Vec4::from_slice);
-                small &= v.abs().cmplt(*l);
+                small &= Vec4::new(w[4 * k], w[4 * k + 1], w[4 * k + 2], w[4 * k + 3]).abs().cmplt(*l);
             }
         }
-        small.all() && chunks.remainder().iter().all(|p| crate::output::frame_surely_maps_finite(&unpack(p), 0.0))
+        small.all() && rest.iter().all(|p| crate::output::frame_surely_maps_finite(&unpack(p), 0.0))
     }
 
     /// The run-table fields of instance `i`, reading on from the tables' cursors `at`
