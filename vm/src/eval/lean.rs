@@ -86,6 +86,34 @@ pub(super) struct LeanAct {
     pub(super) depth: u32,
 }
 
+/// A [`LeanAct`] as the callers' stack keeps it (`Regs::lean`): its fields packed,
+/// 52 bytes with no padding (a `LeanAct` has 12 bytes of it, which its copies
+/// carried along).
+#[derive(Clone, Copy)]
+#[repr(C, packed)]
+pub(super) struct Caller {
+    q: Quat,
+    qh: Quat,
+    u: Vec3,
+    pc: u32,
+    depth: u32,
+}
+
+impl Caller {
+    /// `a` packed.
+    #[inline(always)]
+    fn of(a: &LeanAct) -> Caller {
+        Caller { q: a.f.q, qh: a.f.qh, u: a.f.u, pc: a.pc, depth: a.depth }
+    }
+
+    /// The activation this packs.
+    #[inline(always)]
+    fn act(self) -> LeanAct {
+        let Caller { q, qh, u, pc, depth } = self;
+        LeanAct { f: Frame { q, qh, u }, pc, depth }
+    }
+}
+
 impl<'b> Eval<'b> {
     /// The loop's handler of `CALL`, `INST` and `RET` under [`Sink::LEAN`]: runs the
     /// ops from `m.act.pc` while they are one of those three, then hands the next
@@ -145,7 +173,7 @@ impl<'b> Eval<'b> {
                         if leaf != NONE && self.calls + u64::from(leaf) < self.next_check {
                             self.refuse_deep_calls(leaf, r.pc);
                             match m.lean.pop() {
-                                Some(caller) => r = caller,
+                                Some(caller) => r = caller.act(),
                                 None => {
                                     r.pc += leaf;
                                     break false;
@@ -155,7 +183,7 @@ impl<'b> Eval<'b> {
                     }
                 }
                 Some(Op::Ret {}) => match m.lean.pop() {
-                    Some(caller) => r = caller,
+                    Some(caller) => r = caller.act(),
                     None => break false,
                 },
                 _ => break true,
@@ -220,7 +248,7 @@ impl<'b> Eval<'b> {
         // returns): the callee takes the caller's place, so its return is the
         // caller's.
         if !call.tail {
-            m.lean.push(*r);
+            m.lean.push(Caller::of(r));
         }
         *r = LeanAct { f, pc, depth };
         false

@@ -151,7 +151,7 @@ pub(super) struct Regs {
     pub(super) stack: Vec<Act>,
     /// The running activation's callers under [`Sink::LEAN`] (`stack` is unused),
     /// but those that made a tail call.
-    pub(super) lean: Vec<LeanAct>,
+    pub(super) lean: Vec<Caller>,
     /// The depth of the run's first activation.
     pub(super) start_depth: u32,
     /// Under [`Sink::LEAN`], the run's instances' fields but frame and mesh (the
