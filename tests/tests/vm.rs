@@ -1097,11 +1097,34 @@ fn the_fast_paths_give_what_the_general_loop_gives() {
         "startshape T\nmaxdepth 7\n\
          rule T { VERTEX [x 1] VERTEX [y 1] VERTEX [] 2 * [rz 90] { T [s 0.5 x 1] } T [s 0.5 y 1] }\n"
             .to_string(),
+        // (Prototypes of different sizes: a lean run that counts its instances one
+        // by one.)
+        "startshape T\nselector T depth\nmaxdepth 9\n\
+         rule T 0 { VERTEX [x 1] VERTEX [y 1] VERTEX [] T [s 0.5 x 1] T [s 0.5 y 1] }\n\
+         rule T 1 { VERTEX [x 1] VERTEX [y 1] VERTEX [] VERTEX [x 2] VERTEX [y 2] VERTEX [] T [s 0.5 x 1] T [s 0.5 y 1] }\n"
+            .to_string(),
+        // (Frames that overflow, and frames past the finiteness bound that stay
+        // finite: the bound of a lean run's frames is tested when the run is over.)
+        "startshape T\nmaxdepth 40\nrule T { VERTEX [x 1] VERTEX [y 1] VERTEX [] T [s 30 x 1] }\n".to_string(),
+        "startshape T\nmaxdepth 40\nrule T { VERTEX [x 1] VERTEX [y 1] VERTEX [] T [x 1e14] }\n".to_string(),
+        // (A prototype whose extent alone fails the bound.)
+        "startshape T\nmaxdepth 12\nrule T { VERTEX [x 1e30] VERTEX [y 1] VERTEX [] T [s 10] }\n".to_string(),
+        "startshape T\nmaxdepth 9\nrule T { VERTEX [x 1] VERTEX [y 1] VERTEX [] T [s 0.3 x 1] T [s 0.5 y 1] T [s 60 z 1] }\n"
+            .to_string(),
     ];
-    for src in &sources {
+    // (The vertex budget, looked at every 4,096 calls, counts a lean run's
+    // instances while it runs, as vertices or as records.)
+    let budgets = [
+        EvalOptions::default(),
+        EvalOptions { max_vertices: 5_000, ..EvalOptions::default() },
+        EvalOptions { max_vertices: 5_000, instances_stored: true, ..EvalOptions::default() },
+        EvalOptions { max_vertices: 13_000, ..EvalOptions::default() },
+    ];
+    let runs = sources.iter().flat_map(|src| budgets.iter().map(move |o| (src, o)));
+    for (src, opts) in runs {
         let b = build_source(src);
-        let fast = evaluate(&b, &EvalOptions::default());
-        let general = evaluate(&b, &EvalOptions { record_sites: true, ..EvalOptions::default() });
+        let fast = evaluate(&b, opts);
+        let general = evaluate(&b, &EvalOptions { record_sites: true, ..opts.clone() });
         let bits = |o: &mdg_vm::output::Output| -> Vec<Vec<u32>> {
             o.instances
                 .iter()
@@ -1117,7 +1140,9 @@ fn the_fast_paths_give_what_the_general_loop_gives() {
         };
         assert!(fast.instances.len() > 10, "{src}: {} instances", fast.instances.len());
         assert!(bits(&fast) == bits(&general), "{src}: the instances differ");
-        let counts = |o: &mdg_vm::output::Output| (o.stats.rule_calls, o.stats.max_depth, o.stats.warnings.clone());
-        assert_eq!(counts(&fast), counts(&general), "{src}");
+        let counts = |o: &mdg_vm::output::Output| {
+            (o.stats.rule_calls, o.stats.max_depth, o.stats.vertices, o.stats.triangles, o.stats.warnings.clone())
+        };
+        assert_eq!(counts(&fast), counts(&general), "{src}, max_vertices {}", opts.max_vertices);
     }
 }

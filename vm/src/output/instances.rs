@@ -678,6 +678,38 @@ mod tests {
         v
     }
 
+    /// The packed scan of the frames' bound says what
+    /// [`crate::output::frame_surely_maps_finite`] says of each frame, from every
+    /// starting point (four frames at a time and the rest one by one), with every
+    /// word's limit, sign, infinity and NaN in every lane.
+    #[test]
+    fn the_frames_bound_is_the_bound_of_each_frame() {
+        let specials = [0.0, -0.0, 1.0, -2.5, 9.99e6, -9.99e6, 1e7, -1e7, 9.9e14, -9.9e14, 1e15, f32::INFINITY, f32::NAN];
+        let mut seed = 12345u64;
+        let mut next = move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 33) as usize
+        };
+        for len in [0, 1, 3, 4, 5, 8, 11, 13] {
+            for _ in 0..200 {
+                let mut all = Instances::new();
+                for _ in 0..len {
+                    let mut w = [0.5f32; FRAME_WORDS];
+                    // Mostly small frames, so that one word decides.
+                    if next() % 3 == 0 {
+                        let at = next() % FRAME_WORDS;
+                        w[at] = specials[next() % specials.len()];
+                    }
+                    all.push(Instance { frame: unpack(&w), ..inst(0, [1.0; 4]) });
+                }
+                for from in 0..=len {
+                    let each = all.frames[from..].iter().all(|p| crate::output::frame_surely_maps_finite(&unpack(p), 0.0));
+                    assert_eq!(all.frames_surely_small(from), each, "{len} frames from {from}: {:?}", all.frames);
+                }
+            }
+        }
+    }
+
     /// Every field of every instance reads back bit for bit, by every accessor, from
     /// any starting point; runs are kept only where a value changes.
     #[test]
