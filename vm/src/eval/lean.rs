@@ -77,24 +77,42 @@ pub(super) fn lean_calls(b: &Bundle) -> Vec<LeanCall> {
         .collect()
 }
 
-/// A caller's activation under [`Sink::LEAN`]: the rest of its state is the running
-/// activation's (no call changes it; its slots are empty).
+/// An activation under [`Sink::LEAN`]: its frame, program counter and depth (the
+/// rest of its state is the run's: no call changes it; its slots are empty). The
+/// frame's translation is the first three lanes of `u` (the fourth is unused), so
+/// that a composition adds it in one instruction and it takes one register.
 #[derive(Clone, Copy)]
 pub(super) struct LeanAct {
-    pub(super) f: Frame,
+    pub(super) q: Quat,
+    pub(super) qh: Quat,
+    pub(super) u: Vec4,
     pub(super) pc: u32,
     pub(super) depth: u32,
 }
 
+impl LeanAct {
+    /// The activation of frame `f` at `pc` and `depth`.
+    #[inline(always)]
+    fn new(f: &Frame, pc: u32, depth: u32) -> LeanAct {
+        LeanAct { q: f.q, qh: f.qh, u: f.u.extend(0.0), pc, depth }
+    }
+
+    /// Its frame.
+    #[inline(always)]
+    fn frame(&self) -> Frame {
+        Frame { q: self.q, qh: self.qh, u: self.u.truncate() }
+    }
+}
+
 /// A [`LeanAct`] as the callers' stack keeps it (`Regs::lean`): its fields packed,
-/// 52 bytes with no padding (a `LeanAct` has 12 bytes of it, which its copies
-/// carried along).
+/// 56 bytes with no padding (a `LeanAct` has 8 bytes of it, which its copies would
+/// carry along).
 #[derive(Clone, Copy)]
 #[repr(C, packed)]
 pub(super) struct Caller {
     q: Quat,
     qh: Quat,
-    u: Vec3,
+    u: Vec4,
     pc: u32,
     depth: u32,
 }
@@ -103,14 +121,14 @@ impl Caller {
     /// `a` packed.
     #[inline(always)]
     fn of(a: &LeanAct) -> Caller {
-        Caller { q: a.f.q, qh: a.f.qh, u: a.f.u, pc: a.pc, depth: a.depth }
+        Caller { q: a.q, qh: a.qh, u: a.u, pc: a.pc, depth: a.depth }
     }
 
     /// The activation this packs.
     #[inline(always)]
     fn act(self) -> LeanAct {
         let Caller { q, qh, u, pc, depth } = self;
-        LeanAct { f: Frame { q, qh, u }, pc, depth }
+        LeanAct { q, qh, u, pc, depth }
     }
 }
 
@@ -134,7 +152,7 @@ impl<'b> Eval<'b> {
         let Some(fixed) = m.fixed else { return false };
         let weight = m.act.base.weight;
         let maxdepth = m.maxdepth;
-        let mut r = LeanAct { f: m.act.base.f, pc: m.act.pc, depth: m.act.depth };
+        let mut r = LeanAct::new(&m.act.base.f, m.act.pc, m.act.depth);
         let first_instance = self.out.instances.len();
         if PLAIN {
             // (Counted when the run is over, see `Eval::uncounted_from`.)
@@ -162,7 +180,7 @@ impl<'b> Eval<'b> {
                     }
                 }
                 Some(&Op::Inst { proto, count }) => {
-                    self.lean_instance::<PLAIN>(proto.0, &r.f, weight, &fixed, &mut tail_is_fixed);
+                    self.lean_instance::<PLAIN>(proto.0, &r.frame(), weight, &fixed, &mut tail_is_fixed);
                     let at = r.pc as usize;
                     r.pc += 1 + count.0;
                     // A leaf at `maxdepth`: the body's calls will all be refused,
@@ -189,7 +207,7 @@ impl<'b> Eval<'b> {
                 _ => break true,
             }
         };
-        m.act.base.f = r.f;
+        m.act.base.f = r.frame();
         m.act.pc = r.pc;
         m.act.depth = r.depth;
         // The finiteness bound of the run's instances (see `Eval::instance_mesh`),
@@ -218,13 +236,15 @@ impl<'b> Eval<'b> {
     #[inline(always)]
     fn lean_call<const PLAIN: bool>(&mut self, m: &mut Regs, r: &mut LeanAct, rule: RuleId, xf: TransformId, depth: u32) -> bool {
         // (Every transform a lean call has is a constant without a non-uniform scale.)
-        let f = match self.prepared.get(xf.index()) {
-            Some(Some(p)) => r.f.compose_prepared(p),
+        let (q, qh, u) = match self.prepared.get(xf.index()) {
+            Some(Some(p)) => Frame::compose_prepared_lanes(r.q, r.qh, r.u, p),
             _ => {
-                let from = State { f: r.f, ..m.act.base };
-                self.apply(xf, &from, r.depth, m.act.slot_base, m.act.slot_top).f
+                let from = State { f: r.frame(), ..m.act.base };
+                let f = self.apply(xf, &from, r.depth, m.act.slot_base, m.act.slot_top).f;
+                (f.q, f.qh, f.u.extend(0.0))
             }
         };
+        let f = Frame { q, qh, u: u.truncate() };
         let ndet = m.act.base.ndet;
         // (On the fast path every call adds one to the depth and one caller to the
         // stack, and a return takes both back: the callers' count is the depth
@@ -250,7 +270,7 @@ impl<'b> Eval<'b> {
         if !call.tail {
             m.lean.push(Caller::of(r));
         }
-        *r = LeanAct { f, pc, depth };
+        *r = LeanAct { q, qh, u, pc, depth };
         false
     }
 }

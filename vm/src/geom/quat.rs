@@ -235,6 +235,17 @@ impl Frame {
         Frame { q: child.q.times(self.q), qh: child.qh.times(self.qh), u: self.u + Vec3::new(v.x, v.y, v.z) }
     }
 
+    /// [`Frame::compose_prepared`] of the frame `(q, q̂, u)` whose translation is
+    /// the first three lanes of `u` (the fourth is carried along, unused): the
+    /// composed q, q̂ and translation, the same bits in those lanes (a translation
+    /// held in one vector is one addition).
+    #[inline(always)]
+    #[must_use]
+    pub fn compose_prepared_lanes(q: Quat, qh: Quat, u: Vec4, child: &PreparedFrame) -> (Quat, Quat, Vec4) {
+        let v = hamilton(child.u.times(q), qh);
+        (child.q.times(q), child.qh.times(qh), u + Vec4::from(v))
+    }
+
     /// The inverse map `x ↦ q⁻¹ (x − u) q̂⁻¹` (with `q⁻¹ = q̄ / N(q)`), so that
     /// `f.compose(&f.inverse()?)` is the identity; `None` for a zero or non-finite
     /// scale. The inverse of a mirrored frame is mirrored.
