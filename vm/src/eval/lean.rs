@@ -59,13 +59,13 @@ pub(super) struct LeanCall {
     pub(super) tail: bool,
 }
 
-/// Per op of `b`, the [`LeanCall`] of a `CALL` (for any other op, `NONE` and not
-/// a tail).
+/// Per op of `b`, the [`LeanCall`] of a `CALL` just before it (for any other op,
+/// `NONE` and not a tail): a call looks its entry up at its return address.
 pub(super) fn lean_calls(b: &Bundle) -> Vec<LeanCall> {
     let code = &b.code;
-    (0..code.len())
-        .map(|pc| match code.get(pc) {
-            Some(Op::Call { rule, .. }) => LeanCall {
+    (0..=code.len())
+        .map(|at| match at.checked_sub(1).and_then(|pc| code.get(pc).map(|op| (pc, op))) {
+            Some((pc, Op::Call { rule, .. })) => LeanCall {
                 start: match b.rules.get(rule.index()).map(|r| r.defs.as_slice()) {
                     Some([only]) => only.start,
                     _ => NONE,
@@ -253,7 +253,8 @@ impl<'b> Eval<'b> {
         if !self.admit::<PLAIN>(|| f.scale_factor() * ndet.abs(), depth, stack_len, r.pc - 1, true) {
             return true;
         }
-        let call = self.lean_calls.get(r.pc as usize - 1).copied().unwrap_or(LeanCall { start: NONE, tail: false });
+        // (At the return address: `r.pc` is past the call.)
+        let call = self.lean_calls.get(r.pc as usize).copied().unwrap_or(LeanCall { start: NONE, tail: false });
         let pc = match call.start {
             NONE => match self.by_depth(rule, depth) {
                 Some(pc) => pc,

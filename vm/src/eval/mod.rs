@@ -163,8 +163,8 @@ struct Eval<'b> {
     /// Under [`Lean`]: per op, for an `INST` whose items are followed only by calls
     /// and the body's `RET`, how many calls (else [`NONE`]; see [`leaf_calls`]).
     leaf_calls: Vec<u32>,
-    /// Under [`Lean`]: per op, for a `CALL`, its callee's body when the rule has one
-    /// definition, and whether it is a tail call (see [`lean_calls`]).
+    /// Under [`Lean`]: per op after a `CALL`, the call's callee's body when the rule
+    /// has one definition, and whether it is a tail call (see [`lean_calls`]).
     lean_calls: Vec<LeanCall>,
     /// Vertices of the prototype instances made so far (they count as vertices for
     /// the budget and the statistics, as they would have run one by one).
