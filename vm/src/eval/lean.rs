@@ -225,7 +225,9 @@ impl<'b> Eval<'b> {
     /// (its instances can be counted when it is over, see `Eval::uncounted_from`),
     /// it carries no weights (see `Regs::fixed`) and `minsize` is off.
     pub(super) fn plain_lean(&self, m: &Regs) -> bool {
-        self.proto_vertices.is_some() && m.fixed.is_some_and(|f| f.1) && !(self.b.settings.minsize > 0.0)
+        // (`minsize` is off unless above zero: NaN is off too, as `admit` reads it.)
+        let minsize_off = self.b.settings.minsize.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater);
+        self.proto_vertices.is_some() && m.fixed.is_some_and(|f| f.1) && minsize_off
     }
 
     /// A lean call (see [`Eval::lean_ops`]) within `maxdepth`, `r` the running
@@ -234,7 +236,14 @@ impl<'b> Eval<'b> {
     /// counter and depth are pushed. Whether the call was refused by a limit (then
     /// the run may have to stop).
     #[inline(always)]
-    fn lean_call<const PLAIN: bool>(&mut self, m: &mut Regs, r: &mut LeanAct, rule: RuleId, xf: TransformId, depth: u32) -> bool {
+    fn lean_call<const PLAIN: bool>(
+        &mut self,
+        m: &mut Regs,
+        r: &mut LeanAct,
+        rule: RuleId,
+        xf: TransformId,
+        depth: u32,
+    ) -> bool {
         // (Every transform a lean call has is a constant without a non-uniform scale.)
         let (q, qh, u) = match self.prepared.get(xf.index()) {
             Some(Some(p)) => Frame::compose_prepared_lanes(r.q, r.qh, r.u, p),

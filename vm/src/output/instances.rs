@@ -684,7 +684,8 @@ mod tests {
     /// word's limit, sign, infinity and NaN in every lane.
     #[test]
     fn the_frames_bound_is_the_bound_of_each_frame() {
-        let specials = [0.0, -0.0, 1.0, -2.5, 9.99e6, -9.99e6, 1e7, -1e7, 9.9e14, -9.9e14, 1e15, f32::INFINITY, f32::NAN];
+        let specials =
+            [0.0, -0.0, 1.0, -2.5, 9.99e6, -9.99e6, 1e7, -1e7, 9.9e14, -9.9e14, 1e15, f32::INFINITY, f32::NAN];
         let mut seed = 12345u64;
         let mut next = move || {
             seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
@@ -703,7 +704,8 @@ mod tests {
                     all.push(Instance { frame: unpack(&w), ..inst(0, [1.0; 4]) });
                 }
                 for from in 0..=len {
-                    let each = all.frames[from..].iter().all(|p| crate::output::frame_surely_maps_finite(&unpack(p), 0.0));
+                    let each =
+                        all.frames[from..].iter().all(|p| crate::output::frame_surely_maps_finite(&unpack(p), 0.0));
                     assert_eq!(all.frames_surely_small(from), each, "{len} frames from {from}: {:?}", all.frames);
                 }
             }
