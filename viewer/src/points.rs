@@ -91,29 +91,83 @@ impl Selection {
 }
 
 /// std's `phong_fs` for one fragment: position `p`, normal `n` (unit, facing the
-/// viewer), colour `c`, matte or not; the colour written (clamped, as the 8-bit
-/// target stores it).
-fn phong(view: &View, p: Vec3, n: Vec3, c: Vec4, matte: bool) -> Vec3 {
+/// viewer), colour `c`, matte or not; the colour's bytes as the 8-bit target stores
+/// them (clamped, rounded by [`unorm`]).
+fn phong(view: &View, p: Vec3, n: Vec3, c: Vec4, matte: bool) -> [u8; 3] {
     let light_dir = (view.light - p).normalize_or_zero();
     let lambertian = light_dir.dot(n).max(0.0);
-    let mut specular = 0.0;
-    if lambertian > 0.0 && !matte {
-        let reflect_dir = -light_dir - 2.0 * n.dot(-light_dir) * n;
-        let view_dir = (view.eye - p).normalize_or_zero();
-        specular = reflect_dir.dot(view_dir).max(0.0).powf(view.spec[3]);
+    let base = (0.15 + 0.85 * lambertian) * c.truncate();
+    let spec = Vec3::new(view.spec[0], view.spec[1], view.spec[2]);
+    let rgb = |specular: f32| (base + specular * spec).clamp(Vec3::ZERO, Vec3::ONE);
+    if !(lambertian > 0.0 && !matte) {
+        return bytes(rgb(0.0));
     }
-    let rgb =
-        (0.15 + 0.85 * lambertian) * c.truncate() + specular * Vec3::new(view.spec[0], view.spec[1], view.spec[2]);
-    rgb.clamp(Vec3::ZERO, Vec3::ONE)
+    let reflect_dir = -light_dir - 2.0 * n.dot(-light_dir) * n;
+    let view_dir = (view.eye - p).normalize_or_zero();
+    specular_bytes(reflect_dir.dot(view_dir).max(0.0), view.spec[3], rgb)
+}
+
+/// A colour's bytes as the 8-bit target stores them.
+#[inline]
+fn bytes(rgb: Vec3) -> [u8; 3] {
+    [unorm(rgb.x), unorm(rgb.y), unorm(rgb.z)]
+}
+
+/// `bytes(rgb(x.powf(power)))` (`x` ≥ 0), without libm's `powf` where the bytes
+/// cannot depend on its last bits: for std's power 32, `x^32` by five squarings in
+/// `f64` is within one step of `powf`'s `f32` (checked for every `f32` in 2^-4..2
+/// against glibc's `powf`; glibc documents 0.82 ULP), so below 2^-3 `powf` gives
+/// 0..2^-96, taken as 0..2^-64 (no subnormal operand: those cost a microcode
+/// assist each). The bytes are monotonic in the specular term (each channel
+/// `base + s · spec` clamped and rounded), so when the two ends of that interval
+/// give the same colour, or the same bytes, `powf`'s value gives them too;
+/// otherwise (rarely) it is called.
+#[inline]
+fn specular_bytes(x: f32, power: f32, rgb: impl Fn(f32) -> Vec3) -> [u8; 3] {
+    if power == 32.0 && x < 2.0 {
+        let (lo, hi) = if x < 0.125 {
+            (0.0, TINY_SPECULAR)
+        } else {
+            let s = pow32(x);
+            (s.next_down(), s.next_up())
+        };
+        let (a, b) = (rgb(lo), rgb(hi));
+        let ab = bytes(a);
+        if a == b || ab == bytes(b) {
+            return ab;
+        }
+    }
+    bytes(rgb(x.powf(power)))
+}
+
+/// An upper bound of `x.powf(32.0)` for `x` below 2^-3 (2^-64).
+const TINY_SPECULAR: f32 = 5.421_011e-20;
+
+/// `x^32` by five squarings in `f64`, rounded once to `f32`.
+#[inline]
+fn pow32(x: f32) -> f32 {
+    let mut d = f64::from(x);
+    for _ in 0..5 {
+        d *= d;
+    }
+    d as f32
+}
+
+/// A colour channel as the 8-bit target stores it (clamped, rounded).
+#[inline]
+fn unorm(x: f32) -> u8 {
+    round_unit(x.clamp(0.0, 1.0) * 255.0)
 }
 
 /// `x` (in 0..=255) rounded half away from zero, as `x.round() as u8` (without a
 /// libm call: `x − trunc(x)` is exact below 2^23).
 #[inline]
 fn round_unit(x: f32) -> u8 {
-    let t = x as u32;
-    let r = if x - t as f32 >= 0.5 { t + 1 } else { t };
-    r.min(255) as u8
+    // (`i32` rather than `u32`: one instruction each way; a negative `x` or NaN
+    // gives 0 as before.)
+    let t = x as i32;
+    let r = if x - t as f32 >= 0.5 { t.saturating_add(1) } else { t };
+    r.clamp(0, 255) as u8
 }
 
 fn f32_at(rec: &[u8], k: usize) -> f32 {
@@ -326,7 +380,6 @@ fn points_of(
     if diameter.is_nan() || diameter > POINT_PIXELS {
         return false;
     }
-    let unorm = |x: f32| round_unit(x.clamp(0.0, 1.0) * 255.0);
     let mut area = 0.0f32;
     for (k, f) in facets.iter().enumerate() {
         let (a, q) = placed(k, f);
@@ -343,8 +396,8 @@ fn points_of(
             n = -n;
         }
         let c = (color + Vec4::from_array(f.delta)).clamp(Vec4::ZERO, Vec4::ONE);
-        let rgb = phong(view, q, n, c, f.matte);
-        out.push(Point { pos: q, size: px.sqrt(), rgba: [unorm(rgb.x), unorm(rgb.y), unorm(rgb.z), unorm(c.w)] });
+        let [r, g, b] = phong(view, q, n, c, f.matte);
+        out.push(Point { pos: q, size: px.sqrt(), rgba: [r, g, b, unorm(c.w)] });
         area += px;
     }
     let disc = std::f32::consts::PI * 0.25 * diameter * diameter;
@@ -500,10 +553,48 @@ mod tests {
             let h = k as f32 + 0.5;
             xs.extend([h, f32::from_bits(h.to_bits() - 1), f32::from_bits(h.to_bits() + 1)]);
         }
-        xs.extend([0.0, 0.49999997, 254.99998, 255.0]);
+        xs.extend([0.0, 0.49999997, 254.99998, 255.0, 255.5, 300.0, 1e10, f32::INFINITY]);
         for x in xs {
             assert_eq!(round_unit(x), x.round() as u8, "{x}");
         }
+        for x in [-0.0, -0.4, -0.5, -3.7, -1e10, f32::NEG_INFINITY, f32::NAN] {
+            assert_eq!(round_unit(x), 0, "{x}");
+        }
+    }
+
+    /// The specular term without `powf` gives `powf`'s bytes: `x^32` in `f64` is
+    /// within one step of `powf` (and `powf` below 2^-3 within 0..2^-64), and the
+    /// bytes, over bases and specular colours that put channels on rounding
+    /// edges, are those of `powf`'s value (sampled: every 4093rd `f32` below 2).
+    #[test]
+    fn the_specular_term_without_powf_gives_powf_bytes() {
+        let tiny = TINY_SPECULAR;
+        assert_eq!(tiny, 2f32.powi(-64));
+        let specs = [Vec3::ONE, Vec3::new(0.3, 0.9, 0.05), Vec3::new(-0.5, 2.0, 1e-3)];
+        let (mut bits, mut n) = (0u32, 0usize);
+        while f32::from_bits(bits) < 2.0 {
+            let x = f32::from_bits(bits);
+            let p = x.powf(32.0);
+            if x >= 0.0625 {
+                let s = pow32(x);
+                assert!(p == s || p == s.next_up() || p == s.next_down(), "{x:e}: {p:e} {s:e}");
+            }
+            if x < 0.125 {
+                assert!((0.0..=tiny).contains(&p), "{x:e}: {p:e}");
+            }
+            // Bases whose channels fall on and next to rounding edges.
+            let k = (bits % 255) as f32;
+            let edge = (k + 0.5) / 255.0;
+            let base = Vec3::new(edge, f32::from_bits(edge.to_bits() - 1), (k + 0.5 - 1e-3) / 255.0);
+            for spec in specs {
+                let rgb = |s: f32| (base + s * spec).clamp(Vec3::ZERO, Vec3::ONE);
+                assert_eq!(specular_bytes(x, 32.0, rgb), bytes(rgb(p)), "{x:e} {base} {spec}");
+                assert_eq!(specular_bytes(x, 20.0, rgb), bytes(rgb(x.powf(20.0))), "{x:e}");
+            }
+            bits += 4093;
+            n += 1;
+        }
+        assert!(n > 250_000);
     }
 
     #[test]

@@ -350,8 +350,13 @@ struct DrawPlan<'s> {
 #[derive(Default)]
 struct Prepared {
     items: Vec<Item>,
-    /// The stand-ins' points, set up on the screen, with their colours.
-    points: Vec<(raster::PointSetup, Vec4)>,
+    /// Per target: the stand-ins' points that cover one of its rows, set up on the
+    /// screen, with their colours (a point on no target's rows is dropped, as each
+    /// target would drop it).
+    points: Vec<Vec<(raster::PointSetup, Vec4)>>,
+    /// Per [`Item::Points`] in order, per target: where its points end in that
+    /// target's list.
+    ends: Vec<u32>,
     /// Instances drawn as stand-ins.
     stood_in: u64,
 }
@@ -359,8 +364,9 @@ struct Prepared {
 /// What a prepared instance draws, in order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Item {
-    /// The next points of [`Prepared::points`] (those of consecutive stand-ins).
-    Points(u32),
+    /// The next points of each target's list in [`Prepared::points`] (those of
+    /// consecutive stand-ins; where they end: [`Prepared::ends`]).
+    Points,
     /// The instance at `pos` of the draw order, of draw `draw`, as its mesh.
     Mesh { pos: u32, draw: u32 },
 }
@@ -539,6 +545,8 @@ impl<'s, 'a> Job<'s, 'a> {
         let plans = self.draw_plans();
         let n = inst.order.len();
         let parts = targets.len().max(1);
+        // The target that owns each row of the picture (as `Target::owns` says).
+        let owner: Vec<u32> = (0..self.height).map(|y| (y / raster::STRIP) % parts as u32).collect();
         let mut prepared: Vec<Prepared> = (0..parts).map(|_| Prepared::default()).collect();
         let mut scratch: Vec<Scratch<'_>> = (0..targets.len())
             .map(|_| Scratch { fields: self.cpu.output.instances.fields(), local: Vec::new() })
@@ -550,14 +558,14 @@ impl<'s, 'a> Job<'s, 'a> {
             let per = (to - from).div_ceil(parts);
             let ok = on_each(&mut prepared, |k, p| {
                 let a = (from + k * per).min(to);
-                self.prepare(&plans, a..(a + per).min(to), p);
+                self.prepare(&plans, &owner, a..(a + per).min(to), p);
             });
             if !ok {
                 return None;
             }
             stood_in += prepared.iter().map(|p| p.stood_in).sum::<u64>();
             let mut work: Vec<(&mut Target, &mut Scratch<'_>)> = targets.iter_mut().zip(scratch.iter_mut()).collect();
-            if !on_each(&mut work, |_, (t, sc)| self.draw_prepared(t, &plans, &prepared, sc)) {
+            if !on_each(&mut work, |k, (t, sc)| self.draw_prepared(t, k, &plans, &prepared, sc)) {
                 return None;
             }
             from = to;
@@ -566,11 +574,15 @@ impl<'s, 'a> Job<'s, 'a> {
     }
 
     /// Prepares the instances at `range` of the draw order into `out`: those off
-    /// the picture dropped, stand-ins as points set up on the screen, the rest as
-    /// meshes to draw.
-    fn prepare(&self, plans: &[DrawPlan<'_>], range: std::ops::Range<usize>, out: &mut Prepared) {
+    /// the picture dropped, stand-ins as points set up on the screen (each in the
+    /// list of every target that owns one of its rows: `owner`, per row), the rest
+    /// as meshes to draw.
+    fn prepare(&self, plans: &[DrawPlan<'_>], owner: &[u32], range: std::ops::Range<usize>, out: &mut Prepared) {
         out.items.clear();
-        out.points.clear();
+        let targets = owner.iter().copied().max().map_or(1, |m| m as usize + 1);
+        out.points.resize_with(targets, Vec::new);
+        out.points.iter_mut().for_each(Vec::clear);
+        out.ends.clear();
         out.stood_in = 0;
         let (Some(inst), Some(view)) = (&self.cpu.scene.instanced, &self.stand_in_view) else {
             // No stand-ins: every instance a mesh.
@@ -658,29 +670,42 @@ impl<'s, 'a> Job<'s, 'a> {
                 continue;
             }
             out.stood_in += 1;
-            let n = out.points.len();
             for p in &points {
                 if let Some(setup) = raster::point_setup(self.vp * p.pos.extend(1.0), p.size, w, h) {
-                    out.points.push((setup, raster::unorm_color(p.rgba)));
+                    bin_point(owner, &mut out.points, setup, raster::unorm_color(p.rgba));
                 }
             }
-            let added = (out.points.len() - n) as u32;
-            match out.items.last_mut() {
-                Some(Item::Points(m)) => *m += added,
-                _ => out.items.push(Item::Points(added)),
+            if out.items.last() != Some(&Item::Points) {
+                out.items.push(Item::Points);
+                out.ends.extend(std::iter::repeat_n(0, targets));
+            }
+            let at = out.ends.len() - targets;
+            for (e, list) in out.ends.iter_mut().skip(at).zip(&out.points) {
+                *e = list.len() as u32;
             }
         }
     }
 
-    /// Draws the prepared instances (`prepared`, in order) into this target's strips.
-    fn draw_prepared(&self, t: &mut Target, plans: &[DrawPlan<'_>], prepared: &[Prepared], sc: &mut Scratch<'_>) {
+    /// Draws the prepared instances (`prepared`, in order) into the strips of
+    /// target `t`, the `k`-th.
+    fn draw_prepared(
+        &self,
+        t: &mut Target,
+        k: usize,
+        plans: &[DrawPlan<'_>],
+        prepared: &[Prepared],
+        sc: &mut Scratch<'_>,
+    ) {
         for p in prepared {
+            let targets = p.points.len().max(1);
+            let points = p.points.get(k).map_or(&[][..], Vec::as_slice);
+            let mut ends = p.ends.iter().skip(k).step_by(targets);
             let mut next = 0usize;
             for item in &p.items {
                 match *item {
-                    Item::Points(m) => {
-                        let end = next + m as usize;
-                        for (setup, rgba) in p.points.get(next..end).unwrap_or(&[]) {
+                    Item::Points => {
+                        let end = ends.next().map_or(next, |&e| e as usize);
+                        for (setup, rgba) in points.get(next..end).unwrap_or(&[]) {
                             t.point_at(setup, *rgba);
                         }
                         next = end;
@@ -779,6 +804,32 @@ impl<'s, 'a> Job<'s, 'a> {
             t.line(a, b, c, i < n_pen && self.depth_test);
         }
         t.shade = saved;
+    }
+}
+
+/// Appends point `setup` (in `color`) to the list of every target that owns one of
+/// the rows it covers (`owner`, per row of the picture; `lists`, per target), as
+/// [`Target::point_at`] reads its rows; a point on no row of the picture is dropped.
+#[inline]
+fn bin_point(owner: &[u32], lists: &mut [Vec<(raster::PointSetup, Vec4)>], setup: raster::PointSetup, color: Vec4) {
+    let last = owner.len() as i64 - 1;
+    let (r0, r1) = (raster::floor_i64(setup.y0).max(0), raster::floor_i64(setup.y1).min(last));
+    if r0 > r1 {
+        return;
+    }
+    // The strips it covers: each of a different target when fewer than the
+    // targets, else every target owns one of them.
+    let strip = i64::from(raster::STRIP);
+    let (s0, s1) = (r0 / strip, r1 / strip);
+    if s1 - s0 + 1 >= lists.len() as i64 {
+        lists.iter_mut().for_each(|l| l.push((setup, color)));
+        return;
+    }
+    for s in s0..=s1 {
+        let t = owner.get((s * strip) as usize).copied().unwrap_or(0) as usize;
+        if let Some(l) = lists.get_mut(t) {
+            l.push((setup, color));
+        }
     }
 }
 
