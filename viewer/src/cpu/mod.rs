@@ -353,7 +353,7 @@ struct Prepared {
     /// Per target: the stand-ins' points that cover one of its rows, set up on the
     /// screen, with their colours (a point on no target's rows is dropped, as each
     /// target would drop it).
-    points: Vec<Vec<(raster::PointSetup, Vec4)>>,
+    points: Vec<Vec<(raster::PointSetup, [u8; 4])>>,
     /// Per [`Item::Points`] in order, per target: where its points end in that
     /// target's list.
     ends: Vec<u32>,
@@ -672,7 +672,7 @@ impl<'s, 'a> Job<'s, 'a> {
             out.stood_in += 1;
             for p in &points {
                 if let Some(setup) = raster::point_setup(self.vp * p.pos.extend(1.0), p.size, w, h) {
-                    bin_point(owner, &mut out.points, setup, raster::unorm_color(p.rgba));
+                    bin_point(owner, &mut out.points, setup, p.rgba);
                 }
             }
             if out.items.last() != Some(&Item::Points) {
@@ -811,7 +811,12 @@ impl<'s, 'a> Job<'s, 'a> {
 /// the rows it covers (`owner`, per row of the picture; `lists`, per target), as
 /// [`Target::point_at`] reads its rows; a point on no row of the picture is dropped.
 #[inline]
-fn bin_point(owner: &[u32], lists: &mut [Vec<(raster::PointSetup, Vec4)>], setup: raster::PointSetup, color: Vec4) {
+fn bin_point(
+    owner: &[u32],
+    lists: &mut [Vec<(raster::PointSetup, [u8; 4])>],
+    setup: raster::PointSetup,
+    color: [u8; 4],
+) {
     let last = owner.len() as i64 - 1;
     let (r0, r1) = (raster::floor_i64(setup.y0).max(0), raster::floor_i64(setup.y1).min(last));
     if r0 > r1 {
