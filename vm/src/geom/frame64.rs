@@ -117,8 +117,16 @@ impl Frame64 {
     #[inline(always)]
     pub fn compose(&self, child: &Frame64) -> Frame64 {
         let [x, y, z] = child.u;
+        let pure_child = is_identity(&child.q) && is_identity(&child.qh);
+        if pure_child && is_identity(&self.q) && is_identity(&self.qh) {
+            // A pure translation under one (a grid's steps under an unrotated,
+            // unscaled frame): the same products with every quaternion a constant.
+            let moved = hamilton64(&hamilton64(&IDENTITY, &[x, y, z, 0.0]), &IDENTITY);
+            let (q, qh) = (hamilton64(&IDENTITY, &IDENTITY), hamilton64(&IDENTITY, &IDENTITY));
+            return Frame64 { q, qh, u: [self.u[0] + moved[0], self.u[1] + moved[1], self.u[2] + moved[2]] };
+        }
         let moved = hamilton64(&hamilton64(&self.q, &[x, y, z, 0.0]), &self.qh);
-        let (q, qh) = if is_identity(&child.q) && is_identity(&child.qh) {
+        let (q, qh) = if pure_child {
             // A pure translation (an iterator's `x 1`): the same products with the
             // child's parts as constants, which the compiler folds where IEEE
             // arithmetic allows (`v · 1 = v`; `v · 0` is kept for its sign and NaN).
