@@ -128,8 +128,10 @@ fn specular_bytes(x: f32, power: f32, rgb: impl Fn(f32) -> Vec3) -> [u8; 3] {
         let (lo, hi) = if x < 0.125 {
             (0.0, TINY_SPECULAR)
         } else {
-            let s = pow32(x);
-            (s.next_down(), s.next_up())
+            // (`s` is positive and finite, 2^-96..2^32: its neighbours are one bit
+            // pattern away, `next_down` and `next_up` without their special cases.)
+            let s = pow32(x).to_bits();
+            (f32::from_bits(s - 1), f32::from_bits(s + 1))
         };
         let (a, b) = (rgb(lo), rgb(hi));
         let ab = bytes(a);

@@ -433,7 +433,7 @@ impl<'s, 'a> Job<'s, 'a> {
     }
 
     /// [`Job::sphere_rows`] for the centre's clip position `clip`.
-    #[inline]
+    #[inline(always)]
     fn sphere_rows_at(&self, clip: Vec4, r: f32) -> Option<(i64, i64, bool)> {
         let [x_len, y_len, w_len] = self.row_lengths;
         let ahead = clip.w - r * w_len;

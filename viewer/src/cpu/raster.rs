@@ -495,6 +495,28 @@ impl Target {
         let px1 = floor_i64(x1).min(i64::from(self.width) - 1);
         let mut any = false;
         let (r0, r1) = (r0.max(0), r1.min(i64::from(self.height) - 1));
+        if let [(ox, oy)] = *offsets {
+            // One sample, at the pixel's centre: the same tests, a row's once.
+            let (ox, oy) = (ox as f32 / SUB as f32, oy as f32 / SUB as f32);
+            for y in (r0..=r1).map(|y| y as u32) {
+                let qy = y as f32 + oy;
+                if !(qy >= y0 && qy < y1) || !self.owns(y) {
+                    continue;
+                }
+                let row = self.index(0, y);
+                for x in px0..=px1 {
+                    let qx = x as f32 + ox;
+                    if qx >= x0 && qx < x1 {
+                        self.write_with(row + x as usize, z, depth_write, &paint);
+                        any = true;
+                    }
+                }
+            }
+            if any {
+                self.triangles += 1;
+            }
+            return;
+        }
         for y in (r0..=r1).map(|y| y as u32) {
             if !self.owns(y) {
                 continue;
