@@ -180,12 +180,27 @@ fn f32_at(rec: &[u8], k: usize) -> f32 {
     f32::from_le_bytes(b)
 }
 
-/// One point of a stand-in: its centre (world), size in pixels and colour.
+/// One point of a stand-in: its centre (world), size in pixels, and what std's
+/// `phong_fs` reads there (its facet's normal facing the viewer, colour and
+/// matteness): its colour is [`Point::rgba`], shaded when it is drawn (a renderer
+/// shades its points in a loop of their own, where one point's shading overlaps
+/// the next's).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Point {
     pub pos: Vec3,
     pub size: f32,
-    pub rgba: [u8; 4],
+    pub normal: Vec3,
+    pub color: Vec4,
+    pub matte: bool,
+}
+
+impl Point {
+    /// Its colour's bytes (std's `phong_fs` under `view`; alpha the colour's).
+    #[inline]
+    pub fn rgba(&self, view: &View) -> [u8; 4] {
+        let [r, g, b] = phong(view, self.pos, self.normal, self.color, self.matte);
+        [r, g, b, unorm(self.color.w)]
+    }
 }
 
 /// Appends the points standing in for one instance (its record `rec`,
@@ -217,7 +232,7 @@ fn stand_in(
         for x in [p.pos.x, p.pos.y, p.pos.z, p.size] {
             out.extend_from_slice(&x.to_le_bytes());
         }
-        out.extend_from_slice(&p.rgba);
+        out.extend_from_slice(&p.rgba(view));
     }
     true
 }
@@ -398,8 +413,7 @@ fn points_of(
             n = -n;
         }
         let c = (color + Vec4::from_array(f.delta)).clamp(Vec4::ZERO, Vec4::ONE);
-        let [r, g, b] = phong(view, q, n, c, f.matte);
-        out.push(Point { pos: q, size: px.sqrt(), rgba: [r, g, b, unorm(c.w)] });
+        out.push(Point { pos: q, size: px.sqrt(), normal: n, color: c, matte: f.matte });
         area += px;
     }
     let disc = std::f32::consts::PI * 0.25 * diameter * diameter;
@@ -737,7 +751,7 @@ mod tests {
                     assert_eq!(a, b, "{l:?} {t}");
                     let bits = |p: &[Point]| {
                         p.iter()
-                            .map(|p| (p.pos.to_array().map(f32::to_bits), p.size.to_bits(), p.rgba))
+                            .map(|p| (p.pos.to_array().map(f32::to_bits), p.size.to_bits(), p.rgba(&v)))
                             .collect::<Vec<_>>()
                     };
                     assert_eq!(bits(&alone), bits(&shared), "{l:?} {t}");

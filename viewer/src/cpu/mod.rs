@@ -357,8 +357,34 @@ struct Prepared {
     /// Per [`Item::Points`] in order, per target: where its points end in that
     /// target's list.
     ends: Vec<u32>,
+    /// Points set up but not yet shaded ([`Prepared::flush`]).
+    staged: Vec<(raster::PointSetup, points::Point)>,
     /// Instances drawn as stand-ins.
     stood_in: u64,
+}
+
+/// Points staged before they are shaded in a loop of their own ([`Prepared::flush`]):
+/// one point's shading (a chain of square roots and divisions) then overlaps the
+/// next's, and the staged points stay in the cache.
+const STAGE: usize = 64;
+
+impl Prepared {
+    /// Shades the staged points, in order, and puts each in the lists of the
+    /// targets that own its rows (`owner`, per row); the last [`Item::Points`]
+    /// (theirs) then ends at the lists' ends.
+    fn flush(&mut self, view: &points::View, owner: &[u32]) {
+        let Prepared { staged, points, ends, .. } = self;
+        if staged.is_empty() {
+            return;
+        }
+        for (setup, p) in staged.drain(..) {
+            bin_point(owner, points, setup, p.rgba(view));
+        }
+        let at = ends.len().saturating_sub(points.len());
+        for (e, list) in ends.iter_mut().skip(at).zip(points.iter()) {
+            *e = list.len() as u32;
+        }
+    }
 }
 
 /// What a prepared instance draws, in order.
@@ -583,6 +609,7 @@ impl<'s, 'a> Job<'s, 'a> {
         out.points.resize_with(targets, Vec::new);
         out.points.iter_mut().for_each(Vec::clear);
         out.ends.clear();
+        out.staged.clear();
         out.stood_in = 0;
         let (Some(inst), Some(view)) = (&self.cpu.scene.instanced, &self.stand_in_view) else {
             // No stand-ins: every instance a mesh.
@@ -621,6 +648,7 @@ impl<'s, 'a> Job<'s, 'a> {
             let oi = oi as usize;
             let (Some(pf), Some(f)) = (frames.get(oi), fields.get(oi)) else { continue };
             let (Some(s), 0) = (plan.stand, f.bone) else {
+                out.flush(view, owner);
                 out.items.push(mesh);
                 continue;
             };
@@ -666,24 +694,25 @@ impl<'s, 'a> Job<'s, 'a> {
                 points::stand_in_points(view, &s, plan.facets, l, tr, color, &at, &mut points)
             };
             if !stood {
+                out.flush(view, owner);
                 out.items.push(mesh);
                 continue;
             }
             out.stood_in += 1;
-            for p in &points {
-                if let Some(setup) = raster::point_setup(self.vp * p.pos.extend(1.0), p.size, w, h) {
-                    bin_point(owner, &mut out.points, setup, p.rgba);
-                }
-            }
             if out.items.last() != Some(&Item::Points) {
                 out.items.push(Item::Points);
                 out.ends.extend(std::iter::repeat_n(0, targets));
             }
-            let at = out.ends.len() - targets;
-            for (e, list) in out.ends.iter_mut().skip(at).zip(&out.points) {
-                *e = list.len() as u32;
+            for p in &points {
+                if let Some(setup) = raster::point_setup(self.vp * p.pos.extend(1.0), p.size, w, h) {
+                    out.staged.push((setup, *p));
+                }
+            }
+            if out.staged.len() >= STAGE {
+                out.flush(view, owner);
             }
         }
+        out.flush(view, owner);
     }
 
     /// Draws the prepared instances (`prepared`, in order) into the strips of
