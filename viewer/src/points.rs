@@ -99,12 +99,12 @@ fn phong(view: &View, p: Vec3, n: Vec3, c: Vec4, matte: bool) -> [u8; 3] {
     let base = (0.15 + 0.85 * lambertian) * c.truncate();
     let spec = Vec3::new(view.spec[0], view.spec[1], view.spec[2]);
     let rgb = |specular: f32| (base + specular * spec).clamp(Vec3::ZERO, Vec3::ONE);
-    if !(lambertian > 0.0 && !matte) {
-        return bytes(rgb(0.0));
+    if lambertian > 0.0 && !matte {
+        let reflect_dir = -light_dir - 2.0 * n.dot(-light_dir) * n;
+        let view_dir = (view.eye - p).normalize_or_zero();
+        return specular_bytes(reflect_dir.dot(view_dir).max(0.0), view.spec[3], rgb);
     }
-    let reflect_dir = -light_dir - 2.0 * n.dot(-light_dir) * n;
-    let view_dir = (view.eye - p).normalize_or_zero();
-    specular_bytes(reflect_dir.dot(view_dir).max(0.0), view.spec[3], rgb)
+    bytes(rgb(0.0))
 }
 
 /// A colour's bytes as the 8-bit target stores them.

@@ -500,7 +500,7 @@ impl Target {
             let (ox, oy) = (ox as f32 / SUB as f32, oy as f32 / SUB as f32);
             for y in (r0..=r1).map(|y| y as u32) {
                 let qy = y as f32 + oy;
-                if !(qy >= y0 && qy < y1) || !self.owns(y) {
+                if !(qy >= y0 && qy < y1 && self.owns(y)) {
                     continue;
                 }
                 let row = self.index(0, y);
