@@ -377,9 +377,17 @@ impl Prepared {
         if staged.is_empty() {
             return;
         }
-        for (setup, p) in staged.drain(..) {
-            bin_point(owner, points, setup, p.rgba(view));
+        let mut fours = staged.chunks_exact(4);
+        for four in &mut fours {
+            let colors = points::rgba4(view, &[four[0].1, four[1].1, four[2].1, four[3].1]);
+            for ((setup, _), rgba) in four.iter().zip(colors) {
+                bin_point(owner, points, *setup, rgba);
+            }
         }
+        for (setup, p) in fours.remainder() {
+            bin_point(owner, points, *setup, p.rgba(view));
+        }
+        staged.clear();
         let at = ends.len().saturating_sub(points.len());
         for (e, list) in ends.iter_mut().skip(at).zip(points.iter()) {
             *e = list.len() as u32;
