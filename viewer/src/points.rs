@@ -91,29 +91,109 @@ impl Selection {
 }
 
 /// std's `phong_fs` for one fragment: position `p`, normal `n` (unit, facing the
-/// viewer), colour `c`, matte or not; the colour written (clamped, as the 8-bit
-/// target stores it).
-fn phong(view: &View, p: Vec3, n: Vec3, c: Vec4, matte: bool) -> Vec3 {
+/// viewer), colour `c`, matte or not; the colour's bytes as the 8-bit target stores
+/// them (clamped, rounded by [`unorm`]).
+fn phong(view: &View, p: Vec3, n: Vec3, c: Vec4, matte: bool) -> [u8; 3] {
     let light_dir = (view.light - p).normalize_or_zero();
     let lambertian = light_dir.dot(n).max(0.0);
-    let mut specular = 0.0;
+    let base = (0.15 + 0.85 * lambertian) * c.truncate();
+    let spec = Vec3::new(view.spec[0], view.spec[1], view.spec[2]);
+    let rgb = |specular: f32| (base + specular * spec).clamp(Vec3::ZERO, Vec3::ONE);
     if lambertian > 0.0 && !matte {
         let reflect_dir = -light_dir - 2.0 * n.dot(-light_dir) * n;
         let view_dir = (view.eye - p).normalize_or_zero();
-        specular = reflect_dir.dot(view_dir).max(0.0).powf(view.spec[3]);
+        return specular_bytes(reflect_dir.dot(view_dir).max(0.0), view.spec[3], rgb);
     }
-    let rgb =
-        (0.15 + 0.85 * lambertian) * c.truncate() + specular * Vec3::new(view.spec[0], view.spec[1], view.spec[2]);
-    rgb.clamp(Vec3::ZERO, Vec3::ONE)
+    bytes(rgb(0.0))
+}
+
+/// [`Point::rgba`] of four points, stage by stage over the four: the same
+/// operations, lane by lane (the view's direction made for every point, used
+/// where [`phong`] uses it), as four independent chains of square roots and
+/// divisions that the processor overlaps.
+pub fn rgba4(view: &View, pts: &[Point; 4]) -> [[u8; 4]; 4] {
+    let light_dir = pts.map(|p| (view.light - p.pos).normalize_or_zero());
+    let view_dir = pts.map(|p| (view.eye - p.pos).normalize_or_zero());
+    let lambertian: [f32; 4] = std::array::from_fn(|i| light_dir[i].dot(pts[i].normal).max(0.0));
+    let x: [f32; 4] = std::array::from_fn(|i| {
+        let (l, n) = (light_dir[i], pts[i].normal);
+        let reflect_dir = -l - 2.0 * n.dot(-l) * n;
+        reflect_dir.dot(view_dir[i]).max(0.0)
+    });
+    let spec = Vec3::new(view.spec[0], view.spec[1], view.spec[2]);
+    std::array::from_fn(|i| {
+        let p = &pts[i];
+        let base = (0.15 + 0.85 * lambertian[i]) * p.color.truncate();
+        let rgb = |specular: f32| (base + specular * spec).clamp(Vec3::ZERO, Vec3::ONE);
+        let [r, g, b] =
+            if lambertian[i] > 0.0 && !p.matte { specular_bytes(x[i], view.spec[3], rgb) } else { bytes(rgb(0.0)) };
+        [r, g, b, unorm(p.color.w)]
+    })
+}
+
+/// A colour's bytes as the 8-bit target stores them.
+#[inline]
+fn bytes(rgb: Vec3) -> [u8; 3] {
+    [unorm(rgb.x), unorm(rgb.y), unorm(rgb.z)]
+}
+
+/// `bytes(rgb(x.powf(power)))` (`x` ≥ 0), without libm's `powf` where the bytes
+/// cannot depend on its last bits: for std's power 32, `x^32` by five squarings in
+/// `f64` is within one step of `powf`'s `f32` (checked for every `f32` in 2^-4..2
+/// against glibc's `powf`; glibc documents 0.82 ULP), so below 2^-3 `powf` gives
+/// 0..2^-96, taken as 0..2^-64 (no subnormal operand: those cost a microcode
+/// assist each). The bytes are monotonic in the specular term (each channel
+/// `base + s · spec` clamped and rounded), so when the two ends of that interval
+/// give the same colour, or the same bytes, `powf`'s value gives them too;
+/// otherwise (rarely) it is called.
+#[inline]
+fn specular_bytes(x: f32, power: f32, rgb: impl Fn(f32) -> Vec3) -> [u8; 3] {
+    if power == 32.0 && x < 2.0 {
+        let (lo, hi) = if x < 0.125 {
+            (0.0, TINY_SPECULAR)
+        } else {
+            // (`s` is positive and finite, 2^-96..2^32: its neighbours are one bit
+            // pattern away, `next_down` and `next_up` without their special cases.)
+            let s = pow32(x).to_bits();
+            (f32::from_bits(s - 1), f32::from_bits(s + 1))
+        };
+        let (a, b) = (rgb(lo), rgb(hi));
+        let ab = bytes(a);
+        if a == b || ab == bytes(b) {
+            return ab;
+        }
+    }
+    bytes(rgb(x.powf(power)))
+}
+
+/// An upper bound of `x.powf(32.0)` for `x` below 2^-3 (2^-64).
+const TINY_SPECULAR: f32 = 5.421_011e-20;
+
+/// `x^32` by five squarings in `f64`, rounded once to `f32`.
+#[inline]
+fn pow32(x: f32) -> f32 {
+    let mut d = f64::from(x);
+    for _ in 0..5 {
+        d *= d;
+    }
+    d as f32
+}
+
+/// A colour channel as the 8-bit target stores it (clamped, rounded).
+#[inline]
+fn unorm(x: f32) -> u8 {
+    round_unit(x.clamp(0.0, 1.0) * 255.0)
 }
 
 /// `x` (in 0..=255) rounded half away from zero, as `x.round() as u8` (without a
 /// libm call: `x − trunc(x)` is exact below 2^23).
 #[inline]
 fn round_unit(x: f32) -> u8 {
-    let t = x as u32;
-    let r = if x - t as f32 >= 0.5 { t + 1 } else { t };
-    r.min(255) as u8
+    // (`i32` rather than `u32`: one instruction each way; a negative `x` or NaN
+    // gives 0 as before.)
+    let t = x as i32;
+    let r = if x - t as f32 >= 0.5 { t.saturating_add(1) } else { t };
+    r.clamp(0, 255) as u8
 }
 
 fn f32_at(rec: &[u8], k: usize) -> f32 {
@@ -124,12 +204,27 @@ fn f32_at(rec: &[u8], k: usize) -> f32 {
     f32::from_le_bytes(b)
 }
 
-/// One point of a stand-in: its centre (world), size in pixels and colour.
+/// One point of a stand-in: its centre (world), size in pixels, and what std's
+/// `phong_fs` reads there (its facet's normal facing the viewer, colour and
+/// matteness): its colour is [`Point::rgba`], shaded when it is drawn (a renderer
+/// shades its points in a loop of their own, where one point's shading overlaps
+/// the next's).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Point {
     pub pos: Vec3,
     pub size: f32,
-    pub rgba: [u8; 4],
+    pub normal: Vec3,
+    pub color: Vec4,
+    pub matte: bool,
+}
+
+impl Point {
+    /// Its colour's bytes (std's `phong_fs` under `view`; alpha the colour's).
+    #[inline]
+    pub fn rgba(&self, view: &View) -> [u8; 4] {
+        let [r, g, b] = phong(view, self.pos, self.normal, self.color, self.matte);
+        [r, g, b, unorm(self.color.w)]
+    }
 }
 
 /// Appends the points standing in for one instance (its record `rec`,
@@ -161,7 +256,7 @@ fn stand_in(
         for x in [p.pos.x, p.pos.y, p.pos.z, p.size] {
             out.extend_from_slice(&x.to_le_bytes());
         }
-        out.extend_from_slice(&p.rgba);
+        out.extend_from_slice(&p.rgba(view));
     }
     true
 }
@@ -326,7 +421,6 @@ fn points_of(
     if diameter.is_nan() || diameter > POINT_PIXELS {
         return false;
     }
-    let unorm = |x: f32| round_unit(x.clamp(0.0, 1.0) * 255.0);
     let mut area = 0.0f32;
     for (k, f) in facets.iter().enumerate() {
         let (a, q) = placed(k, f);
@@ -343,8 +437,7 @@ fn points_of(
             n = -n;
         }
         let c = (color + Vec4::from_array(f.delta)).clamp(Vec4::ZERO, Vec4::ONE);
-        let rgb = phong(view, q, n, c, f.matte);
-        out.push(Point { pos: q, size: px.sqrt(), rgba: [unorm(rgb.x), unorm(rgb.y), unorm(rgb.z), unorm(c.w)] });
+        out.push(Point { pos: q, size: px.sqrt(), normal: n, color: c, matte: f.matte });
         area += px;
     }
     let disc = std::f32::consts::PI * 0.25 * diameter * diameter;
@@ -500,10 +593,92 @@ mod tests {
             let h = k as f32 + 0.5;
             xs.extend([h, f32::from_bits(h.to_bits() - 1), f32::from_bits(h.to_bits() + 1)]);
         }
-        xs.extend([0.0, 0.49999997, 254.99998, 255.0]);
+        xs.extend([0.0, 0.49999997, 254.99998, 255.0, 255.5, 300.0, 1e10, f32::INFINITY]);
         for x in xs {
             assert_eq!(round_unit(x), x.round() as u8, "{x}");
         }
+        for x in [-0.0, -0.4, -0.5, -3.7, -1e10, f32::NEG_INFINITY, f32::NAN] {
+            assert_eq!(round_unit(x), 0, "{x}");
+        }
+    }
+
+    /// Four points shaded together get the bytes each gets alone: lit and unlit,
+    /// matte, at the highlight and away from it, degenerate positions (on the
+    /// light, at NaN), other specular powers and colours.
+    #[test]
+    fn four_points_shaded_together_are_shaded_as_each_alone() {
+        let mut views = vec![view()];
+        let mut other = view();
+        other.light = Vec3::new(3.0, -2.0, 6.0);
+        other.eye = Vec3::new(-1.0, 4.0, 9.0);
+        other.spec = [0.3, 0.9, 0.05, 20.0];
+        views.push(other);
+        let mut compared = 0;
+        let mut seed = 12345u32;
+        let mut next = move || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        for v in &views {
+            let mut pts = Vec::new();
+            for k in 0..4000 {
+                let pos = Vec3::new(next() * 8.0 - 4.0, next() * 8.0 - 4.0, next() * 2.0 - 1.0);
+                let normal = Vec3::new(next() - 0.5, next() - 0.5, next()).normalize_or_zero();
+                let color = Vec4::new(next(), next(), next(), if k % 5 == 0 { 0.5 } else { 1.0 });
+                pts.push(Point { pos, size: 1.0, normal, color, matte: k % 7 == 0 });
+            }
+            pts.push(Point { pos: v.light, size: 1.0, normal: Vec3::Z, color: Vec4::ONE, matte: false });
+            pts.push(Point { pos: Vec3::NAN, size: 1.0, normal: Vec3::Z, color: Vec4::ONE, matte: false });
+            pts.push(Point { pos: Vec3::ZERO, size: 1.0, normal: -Vec3::Z, color: Vec4::ONE, matte: false });
+            pts.push(Point {
+                pos: Vec3::new(0.0, 0.0, 1.0),
+                size: 1.0,
+                normal: Vec3::Z,
+                color: Vec4::ONE,
+                matte: false,
+            });
+            for four in pts.chunks_exact(4) {
+                let four = [four[0], four[1], four[2], four[3]];
+                assert_eq!(rgba4(v, &four), four.map(|p| p.rgba(v)), "{four:?}");
+                compared += 4;
+            }
+        }
+        assert!(compared >= 8000);
+    }
+
+    /// The specular term without `powf` gives `powf`'s bytes: `x^32` in `f64` is
+    /// within one step of `powf` (and `powf` below 2^-3 within 0..2^-64), and the
+    /// bytes, over bases and specular colours that put channels on rounding
+    /// edges, are those of `powf`'s value (sampled: every 4093rd `f32` below 2).
+    #[test]
+    fn the_specular_term_without_powf_gives_powf_bytes() {
+        let tiny = TINY_SPECULAR;
+        assert_eq!(tiny, 2f32.powi(-64));
+        let specs = [Vec3::ONE, Vec3::new(0.3, 0.9, 0.05), Vec3::new(-0.5, 2.0, 1e-3)];
+        let (mut bits, mut n) = (0u32, 0usize);
+        while f32::from_bits(bits) < 2.0 {
+            let x = f32::from_bits(bits);
+            let p = x.powf(32.0);
+            if x >= 0.0625 {
+                let s = pow32(x);
+                assert!(p == s || p == s.next_up() || p == s.next_down(), "{x:e}: {p:e} {s:e}");
+            }
+            if x < 0.125 {
+                assert!((0.0..=tiny).contains(&p), "{x:e}: {p:e}");
+            }
+            // Bases whose channels fall on and next to rounding edges.
+            let k = (bits % 255) as f32;
+            let edge = (k + 0.5) / 255.0;
+            let base = Vec3::new(edge, f32::from_bits(edge.to_bits() - 1), (k + 0.5 - 1e-3) / 255.0);
+            for spec in specs {
+                let rgb = |s: f32| (base + s * spec).clamp(Vec3::ZERO, Vec3::ONE);
+                assert_eq!(specular_bytes(x, 32.0, rgb), bytes(rgb(p)), "{x:e} {base} {spec}");
+                assert_eq!(specular_bytes(x, 20.0, rgb), bytes(rgb(x.powf(20.0))), "{x:e}");
+            }
+            bits += 4093;
+            n += 1;
+        }
+        assert!(n > 250_000);
     }
 
     #[test]
@@ -644,7 +819,7 @@ mod tests {
                     assert_eq!(a, b, "{l:?} {t}");
                     let bits = |p: &[Point]| {
                         p.iter()
-                            .map(|p| (p.pos.to_array().map(f32::to_bits), p.size.to_bits(), p.rgba))
+                            .map(|p| (p.pos.to_array().map(f32::to_bits), p.size.to_bits(), p.rgba(&v)))
                             .collect::<Vec<_>>()
                     };
                     assert_eq!(bits(&alone), bits(&shared), "{l:?} {t}");

@@ -523,6 +523,84 @@ fn coarse_mesh(
     Some((first_index, 3 * tris.len() as u32, vertex_offset))
 }
 
+/// The instances `first..=last` of a run of equal linear parts (its mesh's corners
+/// under the linear part: `moved`, finite, in the box of [`MovedBox`]), whose
+/// translations are finite and lie in the box `lo..hi`: their bounds, added at
+/// once. Every corner of every one of them is `c + u`, and rounding is monotonic,
+/// so those points lie in the box `(min c + lo)..(max c + hi)` and reach both of
+/// its corners. Where those two are finite (then so is every point), adding them
+/// gives the bounds that adding every point does, coordinate by coordinate, if
+/// the order of the comparisons cannot matter: a minimum or maximum that is no
+/// zero is one value, and a coordinate that every point has with the same bits
+/// (a flat grid's `z`) is one value too; a zero that may be `-0.0` or `0.0`
+/// otherwise sends the run back to every point, added in order.
+struct RunBounds {
+    first: usize,
+    last: usize,
+    lo: Vec3,
+    hi: Vec3,
+    /// The first translation, and per coordinate whether every one since has its
+    /// bits.
+    u0: Vec3,
+    same: [bool; 3],
+}
+
+/// The box of a run's corners under its linear part, and per coordinate whether
+/// every corner has the same bits there.
+type MovedBox = (Vec3, Vec3, [bool; 3]);
+
+impl RunBounds {
+    fn new(i: usize, u: Vec3) -> RunBounds {
+        RunBounds { first: i, last: i, lo: u, hi: u, u0: u, same: [true; 3] }
+    }
+
+    #[inline]
+    fn push(&mut self, i: usize, u: Vec3) {
+        self.last = i;
+        self.lo = self.lo.min(u);
+        self.hi = self.hi.max(u);
+        for (k, same) in self.same.iter_mut().enumerate() {
+            *same &= u[k].to_bits() == self.u0[k].to_bits();
+        }
+    }
+
+    /// Adds the pending run's bounds (if any) to `bounds`.
+    fn flush(
+        pending: &mut Option<RunBounds>,
+        bounds: &mut Bounds,
+        moved: &[Vec3],
+        moved_box: Option<MovedBox>,
+        frames: &[mdg_vm::output::PackedFrame],
+    ) {
+        let (Some(r), Some((cmin, cmax, moved_same))) = (pending.take(), moved_box) else { return };
+        let (a, b) = (cmin + r.lo, cmax + r.hi);
+        let one_value = |k: usize| r.same[k] && moved_same[k];
+        let ordered = (0..3).all(|k| (a[k] != 0.0 || one_value(k)) && (b[k] != 0.0 || one_value(k)));
+        if a.is_finite() && b.is_finite() && ordered {
+            bounds.add(a);
+            bounds.add(b);
+            return;
+        }
+        for pf in frames.get(r.first..=r.last).unwrap_or(&[]) {
+            let u = Vec3::new(pf[8], pf[9], pf[10]);
+            for lq in moved {
+                bounds.add(*lq + u);
+            }
+        }
+    }
+
+    /// The box of `moved` (and which coordinates all its corners share), when
+    /// every corner is finite.
+    fn moved_box(moved: &[Vec3]) -> Option<MovedBox> {
+        let first = *moved.first()?;
+        moved.iter().all(|q| q.is_finite()).then(|| {
+            let lo = moved.iter().fold(Vec3::splat(f32::MAX), |a, q| a.min(*q));
+            let hi = moved.iter().fold(Vec3::splat(f32::MIN), |a, q| a.max(*q));
+            (lo, hi, std::array::from_fn(|k| moved.iter().all(|q| q[k].to_bits() == first[k].to_bits())))
+        })
+    }
+}
+
 fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
     let mut inst = Instanced::default();
     let mut bounds = Bounds::EMPTY;
@@ -562,6 +640,10 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
     let linear_bits = |pf: &mdg_vm::output::PackedFrame| -> [u32; 8] { std::array::from_fn(|k| pf[k].to_bits()) };
     let (mut run_mirrored, mut run_scale) = (false, 0.0f32);
     let mut moved: Vec<Vec3> = Vec::new();
+    // The box of `moved` when its corners are finite, and the run's instances whose
+    // bounds wait in `pending` ([`RunBounds`]).
+    let mut moved_box: Option<MovedBox> = None;
+    let mut pending: Option<RunBounds> = None;
     for (run, f) in out.instances.field_runs() {
         let mut shared_run: Option<[u32; 8]> = None;
         let end = run.end;
@@ -573,14 +655,24 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
                     let side = usize::from(run_mirrored);
                     p.instances[side].push(i as u32);
                     let u = Vec3::new(pf[8], pf[9], pf[10]);
-                    // The same bits as `transform_point3`: (l q) + u.
-                    for lq in &moved {
-                        bounds.add(*lq + u);
+                    match (moved_box, u.is_finite()) {
+                        (Some(_), true) => match &mut pending {
+                            Some(r) => r.push(i, u),
+                            None => pending = Some(RunBounds::new(i, u)),
+                        },
+                        _ => {
+                            RunBounds::flush(&mut pending, &mut bounds, &moved, moved_box, frames);
+                            // The same bits as `transform_point3`: (l q) + u.
+                            for lq in &moved {
+                                bounds.add(*lq + u);
+                            }
+                        }
                     }
                     p.scales[side] = p.scales[side].max(run_scale);
                     continue;
                 }
             }
+            RunBounds::flush(&mut pending, &mut bounds, &moved, moved_box, frames);
             let frame = mdg_vm::geom::Frame {
                 q: glam::Quat::from_xyzw(pf[0], pf[1], pf[2], pf[3]),
                 qh: glam::Quat::from_xyzw(pf[4], pf[5], pf[6], pf[7]),
@@ -705,8 +797,10 @@ fn build_instanced(out: &Output) -> (Instanced, Bounds, u32) {
                 (run_mirrored, run_scale) = (mirrored, scale);
                 moved.clear();
                 moved.extend(p.corners.iter().map(|q| *l * *q));
+                moved_box = RunBounds::moved_box(&moved);
             }
         }
+        RunBounds::flush(&mut pending, &mut bounds, &moved, moved_box, frames);
     }
     // One draw, one list: it is the order (not copied).
     let single = placed.iter().flatten().flat_map(|p| &p.instances).filter(|l| !l.is_empty()).count() == 1;
@@ -839,5 +933,66 @@ mod tests {
         assert_eq!(inst.order, [lists[0].clone(), lists[1].clone()].concat());
         assert_eq!(inst.draws.len(), 2);
         assert_eq!(inst.draws[0].instance_count as usize, lists[0].len());
+    }
+
+    /// A run's bounds added at once are the bounds of every point added in order,
+    /// bit for bit: flat and signed zeros, coordinates that cross zero, overflow
+    /// and non-finite translations included.
+    #[test]
+    fn a_runs_bounds_at_once_are_those_of_every_point() {
+        let frame =
+            |u: [f32; 3]| -> mdg_vm::output::PackedFrame { [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, u[0], u[1], u[2]] };
+        let square = vec![
+            Vec3::new(-0.5, -0.5, 0.0),
+            Vec3::new(0.5, -0.5, 0.0),
+            Vec3::new(0.5, 0.5, 0.0),
+            Vec3::new(-0.5, 0.5, 0.0),
+        ];
+        let signed = vec![Vec3::new(-0.0, 1.0, -0.0), Vec3::new(0.0, 2.0, 0.0)];
+        let runs: Vec<Vec<[f32; 3]>> = vec![
+            (0..9).map(|k| [1.0, k as f32, 0.0]).collect(),
+            (0..9).map(|k| [0.5, k as f32 - 4.0, -0.0]).collect(),
+            vec![[0.0, 0.0, -0.0], [-0.0, 0.0, 0.0], [0.5, -1.0, 0.0]],
+            vec![[3.0e38, 1.0, 1.0], [1.0, 1.0, 1.0]],
+            vec![[1.0, 2.0, 3.0], [f32::NAN, 2.0, 3.0], [4.0, 5.0, 6.0]],
+            vec![[f32::INFINITY, 0.0, 0.0], [2.0, 2.0, 2.0]],
+        ];
+        let mut flushed = 0;
+        for moved in [square, signed] {
+            let moved_box = RunBounds::moved_box(&moved);
+            for us in &runs {
+                for start in [Bounds::EMPTY, Bounds { lo: Vec3::splat(-0.0), hi: Vec3::splat(0.0) }] {
+                    let frames: Vec<_> = us.iter().map(|u| frame(*u)).collect();
+                    let mut every = start;
+                    for u in us {
+                        for lq in &moved {
+                            every.add(*lq + Vec3::from_array(*u));
+                        }
+                    }
+                    // As the scene's walk does: finite translations wait, others go alone.
+                    let (mut once, mut pending) = (start, None::<RunBounds>);
+                    for (i, u) in us.iter().enumerate() {
+                        let u = Vec3::from_array(*u);
+                        if u.is_finite() {
+                            match &mut pending {
+                                Some(r) => r.push(i, u),
+                                None => pending = Some(RunBounds::new(i, u)),
+                            }
+                        } else {
+                            RunBounds::flush(&mut pending, &mut once, &moved, moved_box, &frames);
+                            for lq in &moved {
+                                once.add(*lq + u);
+                            }
+                        }
+                    }
+                    let before = (once.lo, once.hi);
+                    RunBounds::flush(&mut pending, &mut once, &moved, moved_box, &frames);
+                    flushed += usize::from(before != (once.lo, once.hi));
+                    let bits = |b: &Bounds| (b.lo.to_array().map(f32::to_bits), b.hi.to_array().map(f32::to_bits));
+                    assert_eq!(bits(&once), bits(&every), "{moved:?} {us:?}");
+                }
+            }
+        }
+        assert!(flushed > 4);
     }
 }

@@ -350,17 +350,57 @@ struct DrawPlan<'s> {
 #[derive(Default)]
 struct Prepared {
     items: Vec<Item>,
-    /// The stand-ins' points, set up on the screen, with their colours.
-    points: Vec<(raster::PointSetup, Vec4)>,
+    /// Per target: the stand-ins' points that cover one of its rows, set up on the
+    /// screen, with their colours (a point on no target's rows is dropped, as each
+    /// target would drop it).
+    points: Vec<Vec<(raster::PointSetup, [u8; 4])>>,
+    /// Per [`Item::Points`] in order, per target: where its points end in that
+    /// target's list.
+    ends: Vec<u32>,
+    /// Points set up but not yet shaded ([`Prepared::flush`]).
+    staged: Vec<(raster::PointSetup, points::Point)>,
     /// Instances drawn as stand-ins.
     stood_in: u64,
+}
+
+/// Points staged before they are shaded in a loop of their own ([`Prepared::flush`]):
+/// one point's shading (a chain of square roots and divisions) then overlaps the
+/// next's, and the staged points stay in the cache.
+const STAGE: usize = 64;
+
+impl Prepared {
+    /// Shades the staged points, in order, and puts each in the lists of the
+    /// targets that own its rows (`owner`, per row); the last [`Item::Points`]
+    /// (theirs) then ends at the lists' ends.
+    fn flush(&mut self, view: &points::View, owner: &[u32]) {
+        let Prepared { staged, points, ends, .. } = self;
+        if staged.is_empty() {
+            return;
+        }
+        let mut fours = staged.chunks_exact(4);
+        for four in &mut fours {
+            let colors = points::rgba4(view, &[four[0].1, four[1].1, four[2].1, four[3].1]);
+            for ((setup, _), rgba) in four.iter().zip(colors) {
+                bin_point(owner, points, *setup, rgba);
+            }
+        }
+        for (setup, p) in fours.remainder() {
+            bin_point(owner, points, *setup, p.rgba(view));
+        }
+        staged.clear();
+        let at = ends.len().saturating_sub(points.len());
+        for (e, list) in ends.iter_mut().skip(at).zip(points.iter()) {
+            *e = list.len() as u32;
+        }
+    }
 }
 
 /// What a prepared instance draws, in order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Item {
-    /// The next points of [`Prepared::points`] (those of consecutive stand-ins).
-    Points(u32),
+    /// The next points of each target's list in [`Prepared::points`] (those of
+    /// consecutive stand-ins; where they end: [`Prepared::ends`]).
+    Points,
     /// The instance at `pos` of the draw order, of draw `draw`, as its mesh.
     Mesh { pos: u32, draw: u32 },
 }
@@ -427,7 +467,7 @@ impl<'s, 'a> Job<'s, 'a> {
     }
 
     /// [`Job::sphere_rows`] for the centre's clip position `clip`.
-    #[inline]
+    #[inline(always)]
     fn sphere_rows_at(&self, clip: Vec4, r: f32) -> Option<(i64, i64, bool)> {
         let [x_len, y_len, w_len] = self.row_lengths;
         let ahead = clip.w - r * w_len;
@@ -539,6 +579,8 @@ impl<'s, 'a> Job<'s, 'a> {
         let plans = self.draw_plans();
         let n = inst.order.len();
         let parts = targets.len().max(1);
+        // The target that owns each row of the picture (as `Target::owns` says).
+        let owner: Vec<u32> = (0..self.height).map(|y| (y / raster::STRIP) % parts as u32).collect();
         let mut prepared: Vec<Prepared> = (0..parts).map(|_| Prepared::default()).collect();
         let mut scratch: Vec<Scratch<'_>> = (0..targets.len())
             .map(|_| Scratch { fields: self.cpu.output.instances.fields(), local: Vec::new() })
@@ -550,14 +592,14 @@ impl<'s, 'a> Job<'s, 'a> {
             let per = (to - from).div_ceil(parts);
             let ok = on_each(&mut prepared, |k, p| {
                 let a = (from + k * per).min(to);
-                self.prepare(&plans, a..(a + per).min(to), p);
+                self.prepare(&plans, &owner, a..(a + per).min(to), p);
             });
             if !ok {
                 return None;
             }
             stood_in += prepared.iter().map(|p| p.stood_in).sum::<u64>();
             let mut work: Vec<(&mut Target, &mut Scratch<'_>)> = targets.iter_mut().zip(scratch.iter_mut()).collect();
-            if !on_each(&mut work, |_, (t, sc)| self.draw_prepared(t, &plans, &prepared, sc)) {
+            if !on_each(&mut work, |k, (t, sc)| self.draw_prepared(t, k, &plans, &prepared, sc)) {
                 return None;
             }
             from = to;
@@ -566,11 +608,16 @@ impl<'s, 'a> Job<'s, 'a> {
     }
 
     /// Prepares the instances at `range` of the draw order into `out`: those off
-    /// the picture dropped, stand-ins as points set up on the screen, the rest as
-    /// meshes to draw.
-    fn prepare(&self, plans: &[DrawPlan<'_>], range: std::ops::Range<usize>, out: &mut Prepared) {
+    /// the picture dropped, stand-ins as points set up on the screen (each in the
+    /// list of every target that owns one of its rows: `owner`, per row), the rest
+    /// as meshes to draw.
+    fn prepare(&self, plans: &[DrawPlan<'_>], owner: &[u32], range: std::ops::Range<usize>, out: &mut Prepared) {
         out.items.clear();
-        out.points.clear();
+        let targets = owner.iter().copied().max().map_or(1, |m| m as usize + 1);
+        out.points.resize_with(targets, Vec::new);
+        out.points.iter_mut().for_each(Vec::clear);
+        out.ends.clear();
+        out.staged.clear();
         out.stood_in = 0;
         let (Some(inst), Some(view)) = (&self.cpu.scene.instanced, &self.stand_in_view) else {
             // No stand-ins: every instance a mesh.
@@ -609,6 +656,7 @@ impl<'s, 'a> Job<'s, 'a> {
             let oi = oi as usize;
             let (Some(pf), Some(f)) = (frames.get(oi), fields.get(oi)) else { continue };
             let (Some(s), 0) = (plan.stand, f.bone) else {
+                out.flush(view, owner);
                 out.items.push(mesh);
                 continue;
             };
@@ -654,33 +702,47 @@ impl<'s, 'a> Job<'s, 'a> {
                 points::stand_in_points(view, &s, plan.facets, l, tr, color, &at, &mut points)
             };
             if !stood {
+                out.flush(view, owner);
                 out.items.push(mesh);
                 continue;
             }
             out.stood_in += 1;
-            let n = out.points.len();
+            if out.items.last() != Some(&Item::Points) {
+                out.items.push(Item::Points);
+                out.ends.extend(std::iter::repeat_n(0, targets));
+            }
             for p in &points {
                 if let Some(setup) = raster::point_setup(self.vp * p.pos.extend(1.0), p.size, w, h) {
-                    out.points.push((setup, raster::unorm_color(p.rgba)));
+                    out.staged.push((setup, *p));
                 }
             }
-            let added = (out.points.len() - n) as u32;
-            match out.items.last_mut() {
-                Some(Item::Points(m)) => *m += added,
-                _ => out.items.push(Item::Points(added)),
+            if out.staged.len() >= STAGE {
+                out.flush(view, owner);
             }
         }
+        out.flush(view, owner);
     }
 
-    /// Draws the prepared instances (`prepared`, in order) into this target's strips.
-    fn draw_prepared(&self, t: &mut Target, plans: &[DrawPlan<'_>], prepared: &[Prepared], sc: &mut Scratch<'_>) {
+    /// Draws the prepared instances (`prepared`, in order) into the strips of
+    /// target `t`, the `k`-th.
+    fn draw_prepared(
+        &self,
+        t: &mut Target,
+        k: usize,
+        plans: &[DrawPlan<'_>],
+        prepared: &[Prepared],
+        sc: &mut Scratch<'_>,
+    ) {
         for p in prepared {
+            let targets = p.points.len().max(1);
+            let points = p.points.get(k).map_or(&[][..], Vec::as_slice);
+            let mut ends = p.ends.iter().skip(k).step_by(targets);
             let mut next = 0usize;
             for item in &p.items {
                 match *item {
-                    Item::Points(m) => {
-                        let end = next + m as usize;
-                        for (setup, rgba) in p.points.get(next..end).unwrap_or(&[]) {
+                    Item::Points => {
+                        let end = ends.next().map_or(next, |&e| e as usize);
+                        for (setup, rgba) in points.get(next..end).unwrap_or(&[]) {
                             t.point_at(setup, *rgba);
                         }
                         next = end;
@@ -779,6 +841,37 @@ impl<'s, 'a> Job<'s, 'a> {
             t.line(a, b, c, i < n_pen && self.depth_test);
         }
         t.shade = saved;
+    }
+}
+
+/// Appends point `setup` (in `color`) to the list of every target that owns one of
+/// the rows it covers (`owner`, per row of the picture; `lists`, per target), as
+/// [`Target::point_at`] reads its rows; a point on no row of the picture is dropped.
+#[inline]
+fn bin_point(
+    owner: &[u32],
+    lists: &mut [Vec<(raster::PointSetup, [u8; 4])>],
+    setup: raster::PointSetup,
+    color: [u8; 4],
+) {
+    let last = owner.len() as i64 - 1;
+    let (r0, r1) = (raster::floor_i64(setup.y0).max(0), raster::floor_i64(setup.y1).min(last));
+    if r0 > r1 {
+        return;
+    }
+    // The strips it covers: each of a different target when fewer than the
+    // targets, else every target owns one of them.
+    let strip = i64::from(raster::STRIP);
+    let (s0, s1) = (r0 / strip, r1 / strip);
+    if s1 - s0 + 1 >= lists.len() as i64 {
+        lists.iter_mut().for_each(|l| l.push((setup, color)));
+        return;
+    }
+    for s in s0..=s1 {
+        let t = owner.get((s * strip) as usize).copied().unwrap_or(0) as usize;
+        if let Some(l) = lists.get_mut(t) {
+            l.push((setup, color));
+        }
     }
 }
 

@@ -268,6 +268,12 @@ impl Target {
     /// Writes `color` into sample `k` of the pixel at `i` if it passes the depth test.
     #[inline]
     fn write(&mut self, i: usize, z: f32, color: Vec4, depth_write: bool) {
+        self.write_with(i, z, depth_write, |c: &mut [u8; 4]| *c = blend(color, *c));
+    }
+
+    /// [`Target::write`] with `paint` for what the sample gets.
+    #[inline(always)]
+    fn write_with(&mut self, i: usize, z: f32, depth_write: bool, paint: impl Fn(&mut [u8; 4])) {
         let (Some(d), Some(c)) = (self.depth.get_mut(i), self.color.get_mut(i)) else { return };
         if self.depth_test {
             // (A NaN depth fails the test.)
@@ -278,7 +284,7 @@ impl Target {
                 *d = z;
             }
         }
-        *c = blend(color, *c);
+        paint(c);
     }
 
     /// Rasterises a triangle (clipped when it leaves the clip volume or the guard
@@ -455,14 +461,28 @@ impl Target {
     /// clip volume, as Vulkan clips points.
     pub fn point(&mut self, clip: Vec4, size: f32, rgba: [u8; 4]) {
         if let Some(p) = point_setup(clip, size, self.width, self.height) {
-            self.point_at(&p, unorm_color(rgba));
+            self.point_at(&p, rgba);
         }
     }
 
     /// A point set up by [`point_setup`] (for this target's size), in colour
-    /// `color` ([`unorm_color`] of its bytes).
+    /// `rgba`: blended as [`unorm_color`] of its bytes, or, opaque (alpha 255),
+    /// stored as they are (what blending an opaque colour of 8-bit channels
+    /// gives: `unorm(k / 255) = k`).
     #[inline]
-    pub fn point_at(&mut self, p: &PointSetup, color: Vec4) {
+    pub fn point_at(&mut self, p: &PointSetup, rgba: [u8; 4]) {
+        if rgba[3] == 255 {
+            self.point_with(p, |c: &mut [u8; 4]| *c = rgba);
+        } else {
+            let color = unorm_color(rgba);
+            self.point_with(p, |c: &mut [u8; 4]| *c = blend(color, *c));
+        }
+    }
+
+    /// [`Target::point_at`] with `paint` for what a covered sample that passes
+    /// the depth test gets.
+    #[inline(always)]
+    fn point_with(&mut self, p: &PointSetup, paint: impl Fn(&mut [u8; 4])) {
         let PointSetup { x0, x1, y0, y1, z } = *p;
         let (r0, r1) = (floor_i64(y0), floor_i64(y1));
         // (A one-pixel point covers one or two rows: no thread's iteration.)
@@ -475,6 +495,28 @@ impl Target {
         let px1 = floor_i64(x1).min(i64::from(self.width) - 1);
         let mut any = false;
         let (r0, r1) = (r0.max(0), r1.min(i64::from(self.height) - 1));
+        if let [(ox, oy)] = *offsets {
+            // One sample, at the pixel's centre: the same tests, a row's once.
+            let (ox, oy) = (ox as f32 / SUB as f32, oy as f32 / SUB as f32);
+            for y in (r0..=r1).map(|y| y as u32) {
+                let qy = y as f32 + oy;
+                if !(qy >= y0 && qy < y1 && self.owns(y)) {
+                    continue;
+                }
+                let row = self.index(0, y);
+                for x in px0..=px1 {
+                    let qx = x as f32 + ox;
+                    if qx >= x0 && qx < x1 {
+                        self.write_with(row + x as usize, z, depth_write, &paint);
+                        any = true;
+                    }
+                }
+            }
+            if any {
+                self.triangles += 1;
+            }
+            return;
+        }
         for y in (r0..=r1).map(|y| y as u32) {
             if !self.owns(y) {
                 continue;
@@ -485,7 +527,7 @@ impl Target {
                     let qx = x as f32 + ox as f32 / SUB as f32;
                     let qy = y as f32 + oy as f32 / SUB as f32;
                     if qx >= x0 && qx < x1 && qy >= y0 && qy < y1 {
-                        self.write(base + s, z, color, depth_write);
+                        self.write_with(base + s, z, depth_write, &paint);
                         any = true;
                     }
                 }
@@ -566,6 +608,25 @@ impl Target {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An opaque point's bytes are stored as they are: blending the colour they
+    /// stand for over any sample gives them back, every channel value.
+    #[test]
+    fn an_opaque_colour_of_bytes_blends_to_its_bytes() {
+        for k in 0..=255u8 {
+            let rgba = [k, 255 - k, k / 2, 255];
+            for dst in [[0, 0, 0, 0], [255, 255, 255, 255], [k, 7, 200, 9]] {
+                assert_eq!(blend(unorm_color(rgba), dst), rgba, "{k}");
+            }
+        }
+        let mut t = Target::new(0, 1, 4, 4, 1, [9, 9, 9, 9]);
+        let p = PointSetup { x0: 1.0, x1: 2.0, y0: 1.0, y1: 2.0, z: 0.5 };
+        t.point_at(&p, [10, 20, 30, 128]);
+        let half = blend(unorm_color([10, 20, 30, 128]), [9, 9, 9, 9]);
+        assert_eq!(t.color[t.index(1, 1)], half);
+        t.point_at(&p, [10, 20, 30, 255]);
+        assert_eq!(t.color[t.index(1, 1)], [10, 20, 30, 255]);
+    }
 
     fn vtx(x: f32, y: f32, c: [f32; 4]) -> V {
         V { clip: Vec4::new(x, y, 0.5, 1.0), color: Vec4::from_array(c), ..V::default() }

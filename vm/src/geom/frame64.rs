@@ -117,8 +117,16 @@ impl Frame64 {
     #[inline(always)]
     pub fn compose(&self, child: &Frame64) -> Frame64 {
         let [x, y, z] = child.u;
+        let pure_child = is_identity(&child.q) && is_identity(&child.qh);
+        if pure_child && is_identity(&self.q) && is_identity(&self.qh) {
+            // A pure translation under one (a grid's steps under an unrotated,
+            // unscaled frame): the same products with every quaternion a constant.
+            let moved = hamilton64(&hamilton64(&IDENTITY, &[x, y, z, 0.0]), &IDENTITY);
+            let (q, qh) = (hamilton64(&IDENTITY, &IDENTITY), hamilton64(&IDENTITY, &IDENTITY));
+            return Frame64 { q, qh, u: [self.u[0] + moved[0], self.u[1] + moved[1], self.u[2] + moved[2]] };
+        }
         let moved = hamilton64(&hamilton64(&self.q, &[x, y, z, 0.0]), &self.qh);
-        let (q, qh) = if is_identity(&child.q) && is_identity(&child.qh) {
+        let (q, qh) = if pure_child {
             // A pure translation (an iterator's `x 1`): the same products with the
             // child's parts as constants, which the compiler folds where IEEE
             // arithmetic allows (`v · 1 = v`; `v · 0` is kept for its sign and NaN).
@@ -238,5 +246,24 @@ mod tests {
         let signed = Frame64 { q: [-0.0, 0.0, 0.0, 1.0], qh: IDENTITY, u: [1.0, 0.0, 0.0] };
         let acc = Frame64 { q: [0.0, 0.0, 0.0, -1.0], qh: IDENTITY, u: [0.0; 3] };
         assert_eq!(bits(&acc.compose(&signed)), bits(&compose_by_products(&acc, &signed)));
+    }
+
+    /// A pure translation step under a pure-translation frame (a grid's rows and
+    /// columns) composes to the bits of the general products, whatever the
+    /// offsets: signs of zero, infinities and NaN included.
+    #[test]
+    fn a_pure_translation_under_one_gives_the_bits_of_the_general_products() {
+        let parts: [f64; 7] = [0.0, -0.0, 1.0, -0.5, f64::INFINITY, f64::NAN, 3.0e-300];
+        let steps = [[1.0f32, 0.0, 0.0], [0.0, -1.0, -0.0], [-0.0, 0.5, 2.5], [f32::NEG_INFINITY, 0.0, 1.0]];
+        for k in 0..parts.len().pow(3) {
+            let pick = |j: u32| parts[(k / parts.len().pow(j)) % parts.len()];
+            let acc = Frame64 { q: IDENTITY, qh: IDENTITY, u: [pick(0), pick(1), pick(2)] };
+            for u in steps {
+                let step = Frame64::step_of(&[0.0, 0.0, 0.0, 1.0], &[0.0, 0.0, 0.0, 1.0], &u);
+                let general = Frame64 { q: IDENTITY, qh: IDENTITY, u: u.map(f64::from) };
+                let by_products = compose_by_products(&std::hint::black_box(acc), &std::hint::black_box(general));
+                assert_eq!(bits(&acc.compose(&step)), bits(&by_products), "{acc:?} {u:?}");
+            }
+        }
     }
 }
