@@ -186,8 +186,10 @@ impl<'b> Eval<'b> {
     /// one by one, and tests neither `minsize` nor weights. Under the
     /// fast path nothing but a refused call, an iterator run or a limit looked at
     /// can stop a run (see [`Eval::stops`]), so a stop is asked only after those.
+    /// With `LEAVES` (see `Eval::lean_leaves`), a call-less leaf's instance returns
+    /// at once.
     #[inline(never)]
-    pub(super) fn lean_ops<const PLAIN: bool>(&mut self, m: &mut Regs) -> bool {
+    pub(super) fn lean_ops<const PLAIN: bool, const LEAVES: bool>(&mut self, m: &mut Regs) -> bool {
         let code: &[Op] = &self.b.code;
         let Some(fixed) = m.fixed else { return false };
         let weight = m.act.base.weight;
@@ -223,6 +225,15 @@ impl<'b> Eval<'b> {
                     self.lean_instance::<PLAIN>(proto.0, &r.frame(), weight, &fixed, &mut tail_is_fixed);
                     let at = r.pc as usize;
                     r.pc += 1 + count.0;
+                    // A call-less leaf (its next op is the body's `RET`): it returns
+                    // here, not through the dispatch.
+                    if LEAVES && self.leaf_calls.get(at) == Some(&0) {
+                        match m.lean.pop() {
+                            Some(caller) => r = caller.act(),
+                            None => break false,
+                        }
+                        continue;
+                    }
                     // A leaf at `maxdepth`: the body's calls will all be refused,
                     // at counts where no limit is looked at, so they are counted
                     // at once and the body returns.

@@ -167,6 +167,10 @@ struct Eval<'b> {
     /// has one definition or its depth table, and whether it is a tail call (see
     /// [`lean_calls`]).
     lean_calls: LeanCalls,
+    /// Under [`Lean`]: whether some `INST` is a call-less leaf (its [`leaf_calls`]
+    /// are 0): then lean runs return from it without the dispatch (a run where none
+    /// is does not test for it).
+    lean_leaves: bool,
     /// Vertices of the prototype instances made so far (they count as vertices for
     /// the budget and the statistics, as they would have run one by one).
     instanced_vertices: u64,
@@ -277,6 +281,7 @@ impl<'b> Eval<'b> {
         let fast = instancing && !opts.record_sites && !opts.record_derivation && fast_path_applies(b, &xf_pure);
         let weights = Weights::new(b);
         let lean = fast && lean_path_applies(b);
+        let leaf_calls = if lean { leaf_calls(b) } else { Vec::new() };
         let lean_calls = if lean { lean_calls(b, &weights.by_depth) } else { LeanCalls::default() };
         let mut e = Eval {
             b,
@@ -352,8 +357,9 @@ impl<'b> Eval<'b> {
                 .collect(),
             instancing,
             fast,
-            lean: fast && lean_path_applies(b),
-            leaf_calls: if fast && lean_path_applies(b) { leaf_calls(b) } else { Vec::new() },
+            lean,
+            lean_leaves: leaf_calls.contains(&0),
+            leaf_calls,
             lean_calls,
             prepared: b
                 .transforms
