@@ -95,7 +95,10 @@ pub(super) const DENSE_ROOM: usize = 1 << 16;
 /// instance once changes are frequent (a tree with one prototype per depth changes
 /// mesh at nearly every instance in depth-first order), `u16`s while every mesh
 /// index fits one.
+/// (Its kind is a byte of its own, `repr(u8)`, not a niche of a vector's capacity:
+/// a dense push tests it in one comparison.)
 #[derive(Clone, Debug, PartialEq)]
+#[repr(u8)]
 pub(super) enum MeshColumn {
     Runs(Runs<u32>),
     Narrow(Vec<u16>),
