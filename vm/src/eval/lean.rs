@@ -314,7 +314,8 @@ impl<'b> Eval<'b> {
             return true;
         }
         // (At the return address: `r.pc` is past the call.)
-        let call = self.lean_calls.calls.get(r.pc as usize).copied().unwrap_or(LeanCall { start: NONE, tail: false, last: 0 });
+        let call =
+            self.lean_calls.calls.get(r.pc as usize).copied().unwrap_or(LeanCall { start: NONE, tail: false, last: 0 });
         let pc = if call.start & DEPTH_TABLE == 0 {
             call.start
         } else {
