@@ -1064,7 +1064,8 @@ fn relative_path_ops_are_the_absolute_ones_from_the_current_point() {
 /// The fast path's frame-only activations (`Lean`: no call or iterator changes
 /// colour, weight or fps) and the fast path that composes whole states (`Simple`)
 /// give the very instances, counts and warnings the general loop gives (sites
-/// recorded, which takes it off the fast path): depth selection, `minsize`,
+/// recorded, which takes it off the fast path): depth selection (by the lean
+/// calls' tables, past their end, and at the cap), call-less leaves, `minsize`,
 /// `maxdepth`, `maxiter` (ending the run at a refused call or an admitted one),
 /// iterators and a stack limit; a colour change keeps whole states.
 #[test]
@@ -1110,6 +1111,26 @@ fn the_fast_paths_give_what_the_general_loop_gives() {
         // (A prototype whose extent alone fails the bound.)
         "startshape T\nmaxdepth 12\nrule T { VERTEX [x 1e30] VERTEX [y 1] VERTEX [] T [s 10] }\n".to_string(),
         "startshape T\nmaxdepth 9\nrule T { VERTEX [x 1] VERTEX [y 1] VERTEX [] T [s 0.3 x 1] T [s 0.5 y 1] T [s 60 z 1] }\n"
+            .to_string(),
+        // (One definition per depth, the deepest with no call: a depth table read
+        // past its end, call-less leaves, and a mesh column made dense.)
+        format!(
+            "startshape T\nselector T depth\n{}rule T 9 {{ VERTEX [x 1] VERTEX [y 1] VERTEX [] }}\n",
+            (0..9)
+                .map(|d| format!("rule T {d} {{ VERTEX [x {}] VERTEX [y 1] VERTEX [] T [s 0.5 x 1] T [s 0.5 y 1] }}\n", d + 1))
+                .collect::<String>()
+        ),
+        "startshape T\nselector T depth\nmaxdepth 12\n\
+         rule T 1 { VERTEX [x 1] VERTEX [y 1] VERTEX [] T [s 0.5 x 1] T [s 0.5 y 1] }\n\
+         rule T 3 { VERTEX [x 1] VERTEX [y 1] VERTEX [z 1] T [s 0.5 x 1] T [s 0.5 y 1] }\n"
+            .to_string(),
+        // (A depth table at its cap, read by the general selection past it, and a
+        // rule chosen at random beside it.)
+        "startshape T\nselector T depth\nmaxdepth 10\n\
+         rule T 0 { VERTEX [x 1] VERTEX [y 1] VERTEX [] T [s 0.5 x 1] L [s 0.5 y 1] }\n\
+         rule T 5000 { VERTEX [x 1] VERTEX [y 1] VERTEX [z 1] T [s 0.5 x 1] L [s 0.5 y 1] }\n\
+         rule L 0.5 { VERTEX [x 2] VERTEX [y 1] VERTEX [] T [s 0.5 x 1] T [s 0.5 z 1] }\n\
+         rule L 0.5 { VERTEX [x 1] VERTEX [y 2] VERTEX [] }\n"
             .to_string(),
     ];
     // (The vertex budget, looked at every 4,096 calls, counts a lean run's

@@ -51,30 +51,70 @@ pub(super) fn leaf_calls(b: &Bundle) -> Vec<u32> {
 }
 
 /// What a lean call needs of its `CALL` op beyond its operands, made once at load:
-/// the callee's first op when its rule has one definition ([`NONE`]: selected at
-/// the call), and whether the op after the call is the body's `RET` (a tail call).
+/// the callee's first op when its rule has one definition, and whether the op after
+/// the call is the body's `RET` (a tail call). A `start` with [`DEPTH_TABLE`] set
+/// is selected at the call: where the rule has a depth table of at most `last + 1`
+/// depths, `start`'s other bits are where it begins in [`LeanCalls::depth_starts`]
+/// (a depth past the table picks what its last entry picks); for other rules
+/// `start` is [`NONE`], whose position lies past that table.
 #[derive(Clone, Copy)]
 pub(super) struct LeanCall {
     pub(super) start: u32,
     pub(super) tail: bool,
+    pub(super) last: u16,
 }
 
-/// Per op of `b`, the [`LeanCall`] of a `CALL` just before it (for any other op,
-/// `NONE` and not a tail): a call looks its entry up at its return address.
-pub(super) fn lean_calls(b: &Bundle) -> Vec<LeanCall> {
+/// The bit of [`LeanCall::start`] that says the callee is selected at the call.
+pub(super) const DEPTH_TABLE: u32 = 1 << 31;
+
+/// The lean calls' entries and their depth tables, end to end (see [`LeanCall`]).
+#[derive(Default)]
+pub(super) struct LeanCalls {
+    /// Per op of the bundle, the [`LeanCall`] of a `CALL` just before it (for any
+    /// other op, [`NONE`] and not a tail): a call looks its entry up at its return
+    /// address.
+    pub(super) calls: Vec<LeanCall>,
+    /// The first op of the definition each depth-selected rule picks at each
+    /// depth of its table (see [`Weights::by_depth`]), the rules' tables end to end.
+    pub(super) depth_starts: Vec<u32>,
+}
+
+/// The [`LeanCalls`] of `b`, whose rules' depth tables are `by_depth` (see
+/// [`Weights::by_depth`]).
+pub(super) fn lean_calls(b: &Bundle, by_depth: &[Vec<u32>]) -> LeanCalls {
     let code = &b.code;
-    (0..=code.len())
-        .map(|at| match at.checked_sub(1).and_then(|pc| code.get(pc).map(|op| (pc, op))) {
-            Some((pc, Op::Call { rule, .. })) => LeanCall {
-                start: match b.rules.get(rule.index()).map(|r| r.defs.as_slice()) {
-                    Some([only]) => only.start,
-                    _ => NONE,
-                },
-                tail: matches!(code.get(pc + 1), Some(Op::Ret {})),
-            },
-            _ => LeanCall { start: NONE, tail: false },
+    let mut depth_starts = Vec::new();
+    // Per rule, where its table begins and its last depth, for tables that cover
+    // every depth (shorter than the cap: deeper calls pick what the last picks)
+    // and whose positions stay clear of `DEPTH_TABLE`.
+    let tables: Vec<Option<(u32, u16)>> = by_depth
+        .iter()
+        .map(|t| {
+            let (Some(last), Ok(base)) = (t.len().checked_sub(1), u32::try_from(depth_starts.len())) else {
+                return None;
+            };
+            let fits = t.len() < select::DEPTH_TABLE_MAX && base.checked_add(2 * t.len() as u32)? < DEPTH_TABLE;
+            let last = u16::try_from(last).ok()?;
+            fits.then(|| {
+                depth_starts.extend_from_slice(t);
+                (base, last)
+            })
         })
-        .collect()
+        .collect();
+    let calls = (0..=code.len())
+        .map(|at| match at.checked_sub(1).and_then(|pc| code.get(pc).map(|op| (pc, op))) {
+            Some((pc, Op::Call { rule, .. })) => {
+                let tail = matches!(code.get(pc + 1), Some(Op::Ret {}));
+                match (b.rules.get(rule.index()).map(|r| r.defs.as_slice()), tables.get(rule.index())) {
+                    (Some([only]), _) if only.start & DEPTH_TABLE == 0 => LeanCall { start: only.start, tail, last: 0 },
+                    (_, Some(&Some((base, last)))) => LeanCall { start: DEPTH_TABLE | base, tail, last },
+                    _ => LeanCall { start: NONE, tail, last: 0 },
+                }
+            }
+            _ => LeanCall { start: NONE, tail: false, last: 0 },
+        })
+        .collect();
+    LeanCalls { calls, depth_starts }
 }
 
 /// An activation under [`Sink::LEAN`]: its frame, program counter and depth (the
@@ -146,8 +186,10 @@ impl<'b> Eval<'b> {
     /// one by one, and tests neither `minsize` nor weights. Under the
     /// fast path nothing but a refused call, an iterator run or a limit looked at
     /// can stop a run (see [`Eval::stops`]), so a stop is asked only after those.
+    /// With `LEAVES` (see `Eval::lean_leaves`), a call-less leaf's instance returns
+    /// at once.
     #[inline(never)]
-    pub(super) fn lean_ops<const PLAIN: bool>(&mut self, m: &mut Regs) -> bool {
+    pub(super) fn lean_ops<const PLAIN: bool, const LEAVES: bool>(&mut self, m: &mut Regs) -> bool {
         let code: &[Op] = &self.b.code;
         let Some(fixed) = m.fixed else { return false };
         let weight = m.act.base.weight;
@@ -183,6 +225,15 @@ impl<'b> Eval<'b> {
                     self.lean_instance::<PLAIN>(proto.0, &r.frame(), weight, &fixed, &mut tail_is_fixed);
                     let at = r.pc as usize;
                     r.pc += 1 + count.0;
+                    // A call-less leaf (its next op is the body's `RET`): it returns
+                    // here, not through the dispatch.
+                    if LEAVES && self.leaf_calls.get(at) == Some(&0) {
+                        match m.lean.pop() {
+                            Some(caller) => r = caller.act(),
+                            None => break false,
+                        }
+                        continue;
+                    }
                     // A leaf at `maxdepth`: the body's calls will all be refused,
                     // at counts where no limit is looked at, so they are counted
                     // at once and the body returns.
@@ -263,16 +314,23 @@ impl<'b> Eval<'b> {
             return true;
         }
         // (At the return address: `r.pc` is past the call.)
-        let call = self.lean_calls.get(r.pc as usize).copied().unwrap_or(LeanCall { start: NONE, tail: false });
-        let pc = match call.start {
-            NONE => match self.by_depth(rule, depth) {
-                Some(pc) => pc,
-                None => {
-                    let child = State { f, ..m.act.base };
-                    self.select(rule, &child, depth, m.act.slot_top as usize)
-                }
-            },
-            start => start,
+        let call =
+            self.lean_calls.calls.get(r.pc as usize).copied().unwrap_or(LeanCall { start: NONE, tail: false, last: 0 });
+        let pc = if call.start & DEPTH_TABLE == 0 {
+            call.start
+        } else {
+            // (`NONE`'s position is past the tables: the rule is selected as any is.)
+            let at = (call.start & !DEPTH_TABLE) as usize + depth.min(u32::from(call.last)) as usize;
+            match self.lean_calls.depth_starts.get(at) {
+                Some(&pc) => pc,
+                None => match self.by_depth(rule, depth) {
+                    Some(pc) => pc,
+                    None => {
+                        let child = State { f, ..m.act.base };
+                        self.select(rule, &child, depth, m.act.slot_top as usize)
+                    }
+                },
+            }
         };
         // A tail call (the caller's next op is its `RET`, and a lean `RET` only
         // returns): the callee takes the caller's place, so its return is the

@@ -164,8 +164,13 @@ struct Eval<'b> {
     /// and the body's `RET`, how many calls (else [`NONE`]; see [`leaf_calls`]).
     leaf_calls: Vec<u32>,
     /// Under [`Lean`]: per op after a `CALL`, the call's callee's body when the rule
-    /// has one definition, and whether it is a tail call (see [`lean_calls`]).
-    lean_calls: Vec<LeanCall>,
+    /// has one definition or its depth table, and whether it is a tail call (see
+    /// [`lean_calls`]).
+    lean_calls: LeanCalls,
+    /// Under [`Lean`]: whether some `INST` is a call-less leaf (its [`leaf_calls`]
+    /// are 0): then lean runs return from it without the dispatch (a run where none
+    /// is does not test for it).
+    lean_leaves: bool,
     /// Vertices of the prototype instances made so far (they count as vertices for
     /// the budget and the statistics, as they would have run one by one).
     instanced_vertices: u64,
@@ -274,6 +279,10 @@ impl<'b> Eval<'b> {
         let xf_pure: Vec<bool> =
             b.transforms.iter().map(|t| matches!(t, Transform::Const(c) if c.n.is_none())).collect();
         let fast = instancing && !opts.record_sites && !opts.record_derivation && fast_path_applies(b, &xf_pure);
+        let weights = Weights::new(b);
+        let lean = fast && lean_path_applies(b);
+        let leaf_calls = if lean { leaf_calls(b) } else { Vec::new() };
+        let lean_calls = if lean { lean_calls(b, &weights.by_depth) } else { LeanCalls::default() };
         let mut e = Eval {
             b,
             opts: opts.clone(),
@@ -311,7 +320,7 @@ impl<'b> Eval<'b> {
             },
             conv_cache: HashMap::new(),
             lins: Lins::default(),
-            weights: Weights::new(b),
+            weights,
             site_pc: 0,
             site_depth: 0,
             site_node: 0,
@@ -348,9 +357,10 @@ impl<'b> Eval<'b> {
                 .collect(),
             instancing,
             fast,
-            lean: fast && lean_path_applies(b),
-            leaf_calls: if fast && lean_path_applies(b) { leaf_calls(b) } else { Vec::new() },
-            lean_calls: if fast && lean_path_applies(b) { lean_calls(b) } else { Vec::new() },
+            lean,
+            lean_leaves: leaf_calls.contains(&0),
+            leaf_calls,
+            lean_calls,
             prepared: b
                 .transforms
                 .iter()

@@ -339,10 +339,14 @@ impl<'b> Eval<'b> {
             let go_on = match *op {
                 // (A lean run's calls, instances and returns run in their own
                 // small handler, with the running frame in registers.)
-                Op::Call { .. } | Op::Inst { .. } | Op::Ret {} if S::LEAN => match self.plain_lean(&m) {
-                    true => self.lean_ops::<true>(&mut m),
-                    false => self.lean_ops::<false>(&mut m),
-                },
+                Op::Call { .. } | Op::Inst { .. } | Op::Ret {} if S::LEAN => {
+                    match (self.plain_lean(&m), self.lean_leaves) {
+                        (true, false) => self.lean_ops::<true, false>(&mut m),
+                        (true, true) => self.lean_ops::<true, true>(&mut m),
+                        (false, false) => self.lean_ops::<false, false>(&mut m),
+                        (false, true) => self.lean_ops::<false, true>(&mut m),
+                    }
+                }
                 Op::Call { rule, xf, flags } => self.op_call(sink, &mut m, rule, xf, flags),
                 Op::Draw { kind: Drawable::Vertex, xf, ns, profile, flags: _ }
                     if !S::COLLECTS && mode == Mode::Model && self.xf_info[xf.index()].is_some() =>

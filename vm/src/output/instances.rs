@@ -82,6 +82,13 @@ impl Fixed {
     }
 }
 
+/// The frames' room at the first instance (4,096 frames, 176 KiB): an allocation
+/// that large is mapped on its own, so the frames grow without copies (a smaller
+/// one grows in the heap, copied each time the heap's top is too small); doubled
+/// from a power of two, their room stays one. Its pages are only touched as
+/// instances come.
+const FRAMES_ROOM: usize = 1 << 12;
+
 /// The instances of an output, in the order they were made (see the module docs).
 #[derive(Clone, PartialEq)]
 pub struct Instances {
@@ -227,6 +234,10 @@ impl Instances {
     #[inline(never)]
     fn note(&mut self, inst: &Instance, tail: [u32; 8]) {
         let i = self.frames.len();
+        if i == 0 {
+            // (The first instance notes its fields.)
+            self.frames.reserve(FRAMES_ROOM);
+        }
         self.colors.note(i, inst.color);
         if let MeshColumn::Runs(r) = &mut self.meshes {
             r.note(i, inst.mesh);

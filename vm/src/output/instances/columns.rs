@@ -85,11 +85,20 @@ pub(super) const DENSE_AFTER: usize = 64;
 /// past one change in 8 instances the column is smaller.
 pub(super) const DENSE_FROM: usize = 8;
 
+/// The room a dense mesh column is made with (128 KiB of `u16`s): an allocation that
+/// large is mapped on its own, outside the heap, where the frames' vector grows (a
+/// small column allocated after the frames would make each of their growths a copy),
+/// and it grows without a copy too. Its pages are only touched as instances come.
+pub(super) const DENSE_ROOM: usize = 1 << 16;
+
 /// The shared meshes' column: a run table while meshes change seldom; one entry per
 /// instance once changes are frequent (a tree with one prototype per depth changes
 /// mesh at nearly every instance in depth-first order), `u16`s while every mesh
 /// index fits one.
+/// (Its kind is a byte of its own, `repr(u8)`, not a niche of a vector's capacity:
+/// a dense push tests it in one comparison.)
 #[derive(Clone, Debug, PartialEq)]
+#[repr(u8)]
 pub(super) enum MeshColumn {
     Runs(Runs<u32>),
     Narrow(Vec<u16>),
@@ -134,9 +143,10 @@ impl MeshColumn {
         }
     }
 
-    /// The run table made dense, for `len` instances.
+    /// The run table made dense, for `len` instances: room for at least
+    /// [`DENSE_ROOM`] of them.
     pub(super) fn densify(runs: &Runs<u32>, len: usize) -> MeshColumn {
-        let mut column = MeshColumn::Narrow(Vec::with_capacity(len));
+        let mut column = MeshColumn::Narrow(Vec::with_capacity(len.max(DENSE_ROOM)));
         for (k, &(first, mesh)) in runs.0.iter().enumerate() {
             let end = runs.0.get(k + 1).map_or(len, |r| r.0);
             for _ in first..end {
