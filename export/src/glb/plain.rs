@@ -86,8 +86,10 @@ pub(super) struct PlainProto {
     /// The shared mesh (part of the [`Placing`] memo's key).
     mesh: u32,
     /// Distinct positions, each as its coordinates splatted: `[x x x 0, y y y 0,
-    /// z z z 0]` (the lanes of `Mat3A * Vec3A`; a fourth that stays 0).
-    positions: Vec<[Vec4; 3]>,
+    /// z z z 0]` (the lanes of `Mat3A * Vec3A`; a fourth that stays 0), in groups
+    /// of four (placed in one pass of an unrolled loop), the last group filled up
+    /// with copies of the last position (placed, bounded and never written).
+    positions: Vec<[[Vec4; 3]; 4]>,
     /// Distinct normals (before the frame).
     normals: Vec<Vec3>,
     /// Distinct (normal, colour) pairs of the corners: a record's last 16 bytes.
@@ -95,6 +97,10 @@ pub(super) struct PlainProto {
     /// The corners in oriented triangle order, each as its position and its tail,
     /// for a frame that does not mirror (`[0]`) and one that does (`[1]`).
     corners: [Vec<(u8, u8)>; 2],
+    /// Whether every corner has one tail whose normal a [`Placing`] holds (a flat
+    /// face of one colour: a square, a triangle): the tail is then made per
+    /// instance in registers, not in [`PlainWriter::tails`].
+    one_tail: bool,
 }
 
 impl PlainProto {
@@ -131,8 +137,13 @@ impl PlainProto {
         let mirrored = corners[1].iter().map(&mut table).collect::<Option<Vec<_>>>()?;
         Some(PlainProto {
             mesh,
-            positions: positions.iter().map(|p| [p.x, p.y, p.z].map(|c| Vec4::new(c, c, c, 0.0))).collect(),
+            positions: positions
+                .chunks(4)
+                .map(|g| std::array::from_fn(|k| g.get(k).or(g.last()).copied().unwrap_or_default()))
+                .map(|g: [Vec3A; 4]| g.map(|p| [p.x, p.y, p.z].map(|c| Vec4::new(c, c, c, 0.0))))
+                .collect(),
             normals: normals.to_vec(),
+            one_tail: tails.len() == 1 && normals.len() <= HELD_NORMALS,
             tails,
             corners: [unmirrored, mirrored],
         })
@@ -206,14 +217,34 @@ impl PlainWriter {
             return Ok(());
         }
         let mut b = (bounds.lo.extend(0.0), bounds.hi.extend(0.0));
+        match proto.one_tail {
+            true => self.instances::<true>(proto, frames, sink, &mut b)?,
+            false => self.instances::<false>(proto, frames, sink, &mut b)?,
+        }
+        *bounds = Bounds { lo: Vec3A::from_vec4(b.0), hi: Vec3A::from_vec4(b.1) };
+        Ok(())
+    }
+
+    /// The records of [`PlainWriter::run`]'s instances (of at least one corner)
+    /// into `sink`, their positions added to the bounds `b`; `ONE`:
+    /// [`PlainProto::one_tail`].
+    #[inline(always)]
+    fn instances<const ONE: bool>(
+        &mut self,
+        proto: &PlainProto,
+        frames: &[PackedFrame],
+        sink: &mut Sink,
+        b: &mut (Vec4, Vec4),
+    ) -> Result<(), ExportError> {
+        let per = proto.corners_per_instance().max(1);
         if per * PLAIN_STRIDE > SINK_BYTES {
             // (A prototype of more corners than a slot holds: each instance's
             // records in slots of at most SINK_BYTES.)
             for frame in frames {
-                let mirrored = self.place(proto, frame, &mut b);
+                let (mirrored, tail) = self.place::<ONE>(proto, frame, b);
                 for corners in proto.corners[usize::from(mirrored)].chunks(SINK_BYTES / PLAIN_STRIDE) {
                     let out = sink.slot(PLAIN_STRIDE * corners.len())?;
-                    self.copy_corners(out.as_chunks_mut::<PLAIN_STRIDE>().0, corners);
+                    self.copy_corners::<ONE>(out.as_chunks_mut::<PLAIN_STRIDE>().0, corners, tail);
                 }
             }
         } else {
@@ -221,20 +252,25 @@ impl PlainWriter {
             for frames in frames.chunks(SINK_BYTES / (per * PLAIN_STRIDE)) {
                 let out = sink.slot(PLAIN_STRIDE * per * frames.len())?;
                 for (out, frame) in out.as_chunks_mut::<PLAIN_STRIDE>().0.chunks_exact_mut(per).zip(frames) {
-                    let mirrored = self.place(proto, frame, &mut b);
-                    self.copy_corners(out, &proto.corners[usize::from(mirrored)]);
+                    let (mirrored, tail) = self.place::<ONE>(proto, frame, b);
+                    self.copy_corners::<ONE>(out, &proto.corners[usize::from(mirrored)], tail);
                 }
             }
         }
-        *bounds = Bounds { lo: Vec3A::from_vec4(b.0), hi: Vec3A::from_vec4(b.1) };
         Ok(())
     }
 
     /// Places the distinct positions of `proto`'s instance in `frame` and fills in
     /// its tails' normals, its positions added to the bounds `(lo, hi)` (fourth
-    /// lanes unused); whether the frame mirrors.
+    /// lanes unused); whether the frame mirrors, and (`ONE`, see
+    /// [`PlainProto::one_tail`]: instead of filling in the tails) the one tail.
     #[inline(always)]
-    fn place(&mut self, proto: &PlainProto, frame: &PackedFrame, bounds: &mut (Vec4, Vec4)) -> bool {
+    fn place<const ONE: bool>(
+        &mut self,
+        proto: &PlainProto,
+        frame: &PackedFrame,
+        bounds: &mut (Vec4, Vec4),
+    ) -> (bool, u128) {
         let key = [
             pair(frame[0], frame[1]),
             pair(frame[2], frame[3]),
@@ -248,19 +284,24 @@ impl PlainWriter {
         // (`u + lin * p`, as `ProtoFrame::position` sums it: x, then y, then z, the
         // same operations lane by lane; the bounds taken aside and kept where
         // every position is finite.)
-        let (mut lo, mut hi, mut finite) = (bounds.0, bounds.1, glam::BVec4A::TRUE);
-        for (d, p) in self.placed.iter_mut().zip(&proto.positions) {
-            let q = u + ((a * p[0] + b * p[1]) + c * p[2]);
-            finite &= q.is_finite_mask();
-            lo = lo.min(q);
-            hi = hi.max(q);
-            *d = q;
+        // (Every position is finite where their sum is: an infinite or NaN
+        // coordinate makes it so, and a sum that overflows only sends a finite
+        // instance down the exact way below, which gives the same bits.)
+        let (mut lo, mut hi, mut sum) = (bounds.0, bounds.1, Vec4::ZERO);
+        for (d, g) in self.placed.as_chunks_mut::<4>().0.iter_mut().zip(&proto.positions) {
+            for (d, p) in d.iter_mut().zip(g) {
+                let q = u + ((a * p[0] + b * p[1]) + c * p[2]);
+                sum += q;
+                lo = lo.min(q);
+                hi = hi.max(q);
+                *d = q;
+            }
         }
-        if finite.all() {
+        if sum.is_finite() {
             *bounds = (lo, hi);
         } else {
             // (Some coordinate overflowed: placed again, each position made finite.)
-            for (d, p) in self.placed.iter_mut().zip(&proto.positions) {
+            for (d, p) in self.placed.iter_mut().zip(proto.positions.iter().flatten()) {
                 let q = u + ((a * p[0] + b * p[1]) + c * p[2]);
                 let q = finite_position(Vec3A::from_vec4(q)).extend(0.0);
                 bounds.0 = bounds.0.min(q);
@@ -270,6 +311,15 @@ impl PlainWriter {
         }
         let held = &pl.normals;
         let mirrored = pl.mirrored;
+        if ONE {
+            // (The tail's colour bytes, put in once per run, and its normal, as
+            // one number: kept in registers.)
+            let mut tail = self.tails[0];
+            if let Some(&(n, _)) = proto.tails.first() {
+                tail[0..12].copy_from_slice(&held[n % HELD_NORMALS]);
+            }
+            return (mirrored, u128::from_le_bytes(tail));
+        }
         if proto.normals.len() > HELD_NORMALS {
             let lin = Mat3::from_cols(a.truncate(), b.truncate(), c.truncate());
             for (d, &n) in self.normals.iter_mut().zip(&proto.normals[HELD_NORMALS..]) {
@@ -284,7 +334,7 @@ impl PlainWriter {
             for (d, &(n, _)) in self.tails.iter_mut().zip(&proto.tails) {
                 d[0..12].copy_from_slice(&held[n % HELD_NORMALS]);
             }
-            return mirrored;
+            return (mirrored, 0);
         }
         for (d, &(n, _)) in self.tails.iter_mut().zip(&proto.tails) {
             let n = match n.checked_sub(HELD_NORMALS) {
@@ -295,19 +345,23 @@ impl PlainWriter {
                 d[0..12].copy_from_slice(n);
             }
         }
-        mirrored
+        (mirrored, 0)
     }
 
-    /// Each corner's record (its placed position and its tail) into `out`.
+    /// Each corner's record (its placed position and its tail; `ONE`: the tail
+    /// `one` for every corner) into `out`.
     #[inline(always)]
-    fn copy_corners(&self, out: &mut [[u8; PLAIN_STRIDE]], corners: &[(u8, u8)]) {
+    fn copy_corners<const ONE: bool>(&self, out: &mut [[u8; PLAIN_STRIDE]], corners: &[(u8, u8)], one: u128) {
         for (d, &(p, t)) in out.iter_mut().zip(corners) {
             // (The position's 16 bytes, the last four then overwritten by the tail.)
             let p = self.placed[usize::from(p)].to_array();
             for (b, x) in d[0..16].as_chunks_mut::<4>().0.iter_mut().zip(p) {
                 *b = x.to_le_bytes();
             }
-            d[12..28].copy_from_slice(&self.tails[usize::from(t)]);
+            match ONE {
+                true => d[12..28].copy_from_slice(&one.to_le_bytes()),
+                false => d[12..28].copy_from_slice(&self.tails[usize::from(t)]),
+            }
         }
     }
 }
