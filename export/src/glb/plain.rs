@@ -8,8 +8,11 @@
 //! What depends on the frame's linear part alone (the matrix, the mirroring, the
 //! prototype's normals as written) is made once per distinct q, q̂ and prototype
 //! and kept in a [`Memo`]. Per instance that leaves a straight-line loop: the
-//! distinct positions placed and bounded, the distinct records filled, and each
-//! corner's record copied whole into the output, a slot of many instances at a time.
+//! distinct positions placed and bounded (four at a time), the distinct record
+//! tails (normal and colour) filled, and each corner's record copied into the
+//! output as its position and its tail, a slot of many instances at a time. A face
+//! of one tail (one normal, one colour) keeps it in registers: the normal's x rides
+//! in the placed positions' fourth lane, the rest is 12 bytes.
 //!
 //! Every number is computed by the same operations, in the same order, as the
 //! per-instance path of `flat.rs` (`ProtoFrame`), so the bytes are the same.
