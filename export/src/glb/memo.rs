@@ -51,7 +51,9 @@ impl<const N: usize, V: Copy + Default> Memo<N, V> {
         let s = &mut self.slots[slot];
         let same = s.key.iter().zip(&key).fold(0, |d, (a, b)| d | (a ^ b)) == 0;
         if !(s.full && same) {
-            *s = Slot { full: true, key, value: missed(make) };
+            // (The value made where it is kept: no copy of the slot.)
+            s.value = missed(make);
+            (s.full, s.key) = (true, key);
         }
         &s.value
     }
