@@ -1167,3 +1167,104 @@ fn the_fast_paths_give_what_the_general_loop_gives() {
         assert_eq!(counts(&fast), counts(&general), "{src}, max_vertices {}", opts.max_vertices);
     }
 }
+
+/// An identity block (`{ … }`: `LOOP count=1` with the identity step) that the
+/// evaluator enters without an iterator record, where composing the identity
+/// keeps every bit of the state, gives what its counted run of one gives: the
+/// same programs with each such `LOOP` made a `LOOPN` whose count is the
+/// expression `1` (never entered that way, and off the fast paths) make the same
+/// instances, vertices, counts and warnings. The programs nest blocks in
+/// iterators and recursion, put a non-uniform scale (whose states do not keep the
+/// identity: their blocks open records) under blocks that do not have one, end
+/// runs by limits inside blocks, and change colours.
+#[test]
+fn identity_blocks_give_what_a_counted_run_of_one_gives() {
+    use mdg_vm::bundle::{ExprId, Op};
+    use mdg_vm::expr::ExprOp;
+    let sources = [
+        "startshape grid\nrule grid {\n  30 * {x 1} 20 * {y 1} {\n    VERTEX [x -0.5 y -0.5] VERTEX [x 0.5 y -0.5] \
+         VERTEX [x 0.5 y 0.5]\n  }\n}\n",
+        "startshape T\nmaxdepth 5\nrule T {\n  3 * [rz 120 x -0] { VERTEX [x -0.5 y -0.5 b -0] VERTEX [x 0.5 y -0.5] \
+         VERTEX [x 0.5 y 0.5] { T [s 0.5 x 1 s -1 1 1] VERTEX [z -0] VERTEX [x 1] VERTEX [y 1] } }\n  \
+         { VERTEX [] VERTEX [x 1] VERTEX [y 1] }\n}\n",
+        "startshape T\nmaxdepth 5\nrule T {\n  4 * [x 1 rz 90 hue 30 sat 0.5 b 0.1] { VERTEX [x -0.5 y -0.5] \
+         VERTEX [x 0.5 y -0.5] VERTEX [x 0.5 y 0.5] 2 * [y 1] { T [s 0.4 r 180] } }\n  \
+         VERTEX [x 1] \\ { VERTEX [] VERTEX [x 1] VERTEX [y 1] }\n}\n",
+        "startshape T\nmaxdepth 4\nrule T {\n  5 * [x 1] 5 * [y 1] { VERTEX [x -0.5 y -0.5] VERTEX [x 0.5 y -0.5] \
+         VERTEX [x 0.5 y 0.5] T [s 0.2 z -0 rx 180] }\n}\n",
+        "startshape T\nmaxdepth 9\nrule T {\n  { VERTEX [x 1] VERTEX [y 1] VERTEX [] { T [s 0.5 x 1] } }\n  \
+         2 * [rz 90] { T [s 0.5 y 1] { VERTEX [x 2] VERTEX [y 2] VERTEX [] } }\n}\n",
+        "startshape T\nmaxdepth 9\nmaxiter 3000\nrule T {\n  3 * [x 1] { VERTEX [x 1] VERTEX [y 1] VERTEX [] \
+         { T [s 0.5 x 1] T [s 0.5 y 1 s 1 2 1] } }\n}\n",
+        // (Flips whose frames have a `-0.0` every other depth: a block's record
+        // open in a caller under the same block entered without one.)
+        "startshape T\nmaxdepth 6\nrule T {\n  VERTEX [x 1] VERTEX [y 1] VERTEX []\n  \
+         { T [fx] VERTEX [x 2] VERTEX [y 2] VERTEX [] }\n  2 * [x 1] { T [y 1 fy] }\n}\n",
+        // (Frames that overflow.)
+        "startshape T\nmaxdepth 3\nrule T {\n  { VERTEX [x 1] VERTEX [y 1] VERTEX [] { T [x 1e38 x 1e38 s 1e30] } }\n}\n",
+    ];
+    // (Some state at a block does not keep the identity, by a signed zero or an
+    // infinity in its frame: the test can fail both ways.)
+    let special = |o: &mdg_vm::output::Output| {
+        o.instances.iter().any(|i| {
+            let f = i.frame;
+            [f.q.to_array(), f.qh.to_array()]
+                .concat()
+                .into_iter()
+                .chain(f.u.to_array())
+                .any(|c| c.to_bits() == 0x8000_0000 || !c.is_finite())
+        })
+    };
+    let specials: Vec<bool> =
+        sources.iter().map(|src| special(&evaluate(&build_source(src), &EvalOptions::default()))).collect();
+    assert!(specials.iter().filter(|&&s| s).count() >= 2, "{specials:?}");
+    let budgets = [EvalOptions::default(), EvalOptions { max_vertices: 5_000, ..EvalOptions::default() }];
+    for src in sources {
+        let b = build_source(src);
+        let mut counted = b.clone();
+        let one = ExprId(counted.exprs.len() as u32);
+        counted.exprs.push(vec![ExprOp::Push(1.0)]);
+        let mut blocks = 0;
+        for op in &mut counted.code {
+            if let Op::Loop { count: 1, step, end, chain } = *op {
+                *op = Op::LoopN { count: one, step, end, chain };
+                blocks += 1;
+            }
+        }
+        assert!(blocks > 0, "{src}: no block");
+        for opts in &budgets {
+            let reference = evaluate(&counted, opts);
+            for o in [opts.clone(), EvalOptions { record_sites: true, ..opts.clone() }] {
+                let out = evaluate(&b, &o);
+                let bits = |o: &mdg_vm::output::Output| -> (Vec<u32>, Vec<u32>) {
+                    let frames = o
+                        .instances
+                        .iter()
+                        .flat_map(|i| {
+                            let f = i.frame;
+                            let mut v: Vec<f32> = [f.q.to_array(), f.qh.to_array(), i.color].concat();
+                            v.extend(f.u.to_array());
+                            v.into_iter().map(f32::to_bits).chain([i.mesh, i.bone, i.lin, i.at])
+                        })
+                        .collect();
+                    let m = &o.mesh;
+                    let vertices = m.positions.iter().chain(&m.normals).flatten().chain(m.colors.iter().flatten());
+                    (frames, vertices.map(|c| c.to_bits()).collect())
+                };
+                assert!(bits(&out) == bits(&reference), "{src}: the outputs differ");
+                let counts = |o: &mdg_vm::output::Output| {
+                    (
+                        o.stats.rule_calls,
+                        o.stats.max_depth,
+                        o.stats.vertices,
+                        o.stats.triangles,
+                        o.stats.warnings.clone(),
+                    )
+                };
+                assert_eq!(counts(&out), counts(&reference), "{src}");
+            }
+        }
+    }
+}
+
+

@@ -109,17 +109,20 @@ fn phong(view: &View, p: Vec3, n: Vec3, c: Vec4, matte: bool) -> [u8; 3] {
 
 /// [`Point::rgba`] of four points, stage by stage over the four: the same
 /// operations, lane by lane (the view's direction made for every point, used
-/// where [`phong`] uses it), as four independent chains of square roots and
-/// divisions that the processor overlaps.
+/// where [`phong`] uses it). The directions, their lengths and the dot products
+/// are computed in the four lanes of one vector each ([`Lanes`]): the same
+/// correctly rounded operations, in the same order, as `Vec3`'s on each point.
 pub fn rgba4(view: &View, pts: &[Point; 4]) -> [[u8; 4]; 4] {
-    let light_dir = pts.map(|p| (view.light - p.pos).normalize_or_zero());
-    let view_dir = pts.map(|p| (view.eye - p.pos).normalize_or_zero());
-    let lambertian: [f32; 4] = std::array::from_fn(|i| light_dir[i].dot(pts[i].normal).max(0.0));
-    let x: [f32; 4] = std::array::from_fn(|i| {
-        let (l, n) = (light_dir[i], pts[i].normal);
-        let reflect_dir = -l - 2.0 * n.dot(-l) * n;
-        reflect_dir.dot(view_dir[i]).max(0.0)
-    });
+    let pos = Lanes::of(pts.map(|p| p.pos));
+    let n = Lanes::of(pts.map(|p| p.normal));
+    let l = (Lanes::splat(view.light) - pos).normalize_or_zero();
+    let v = (Lanes::splat(view.eye) - pos).normalize_or_zero();
+    let lambertian = l.dot(&n).to_array().map(|d| d.max(0.0));
+    // `-l - 2.0 * n.dot(-l) * n`, as `Vec3` computes it.
+    let minus_l = -l;
+    let k = Vec4::splat(2.0) * n.dot(&minus_l);
+    let reflect = minus_l - n.scaled(k);
+    let x = reflect.dot(&v).to_array().map(|d| d.max(0.0));
     let spec = Vec3::new(view.spec[0], view.spec[1], view.spec[2]);
     std::array::from_fn(|i| {
         let p = &pts[i];
@@ -129,6 +132,84 @@ pub fn rgba4(view: &View, pts: &[Point; 4]) -> [[u8; 4]; 4] {
             if lambertian[i] > 0.0 && !p.matte { specular_bytes(x[i], view.spec[3], rgb) } else { bytes(rgb(0.0)) };
         [r, g, b, unorm(p.color.w)]
     })
+}
+
+/// Four `Vec3`s, a vector per coordinate (lane `i` is the `i`-th point's).
+#[derive(Clone, Copy)]
+struct Lanes {
+    x: Vec4,
+    y: Vec4,
+    z: Vec4,
+}
+
+impl Lanes {
+    #[inline(always)]
+    fn of(v: [Vec3; 4]) -> Lanes {
+        Lanes {
+            x: Vec4::new(v[0].x, v[1].x, v[2].x, v[3].x),
+            y: Vec4::new(v[0].y, v[1].y, v[2].y, v[3].y),
+            z: Vec4::new(v[0].z, v[1].z, v[2].z, v[3].z),
+        }
+    }
+
+    #[inline(always)]
+    fn splat(v: Vec3) -> Lanes {
+        Lanes { x: Vec4::splat(v.x), y: Vec4::splat(v.y), z: Vec4::splat(v.z) }
+    }
+
+    /// `Vec3::dot` lane by lane: `(x x' + y y') + z z'`.
+    #[inline(always)]
+    fn dot(&self, o: &Lanes) -> Vec4 {
+        (self.x * o.x + self.y * o.y) + self.z * o.z
+    }
+
+    /// `k * v` (`f32` times `Vec3`) lane by lane.
+    #[inline(always)]
+    fn scaled(&self, k: Vec4) -> Lanes {
+        Lanes { x: k * self.x, y: k * self.y, z: k * self.z }
+    }
+
+    /// `Vec3::normalize_or_zero` lane by lane: `rcp = 1 / sqrt(v · v)`, then
+    /// `v * rcp` where `rcp` is finite and positive, else zero.
+    #[inline(always)]
+    fn normalize_or_zero(&self) -> Lanes {
+        let rcp = Vec4::ONE / sqrt4(self.dot(self));
+        let ok = rcp.is_finite_mask() & rcp.cmpgt(Vec4::ZERO);
+        let pick = |c: Vec4| Vec4::select(ok, c * rcp, Vec4::ZERO);
+        Lanes { x: pick(self.x), y: pick(self.y), z: pick(self.z) }
+    }
+}
+
+impl std::ops::Sub for Lanes {
+    type Output = Lanes;
+    #[inline(always)]
+    fn sub(self, o: Lanes) -> Lanes {
+        Lanes { x: self.x - o.x, y: self.y - o.y, z: self.z - o.z }
+    }
+}
+
+impl std::ops::Neg for Lanes {
+    type Output = Lanes;
+    #[inline(always)]
+    fn neg(self) -> Lanes {
+        Lanes { x: -self.x, y: -self.y, z: -self.z }
+    }
+}
+
+/// The square root of each lane, correctly rounded (as `f32::sqrt`): one
+/// instruction for the four on x86-64.
+#[inline(always)]
+fn sqrt4(v: Vec4) -> Vec4 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{__m128, _mm_sqrt_ps};
+        let m: __m128 = v.into();
+        // SAFETY: SSE is part of x86-64's baseline, so `_mm_sqrt_ps` is available
+        // on every x86-64 processor; it reads and writes only its register operand.
+        return Vec4::from(unsafe { _mm_sqrt_ps(m) });
+    }
+    #[allow(unreachable_code)]
+    v.to_array().map(f32::sqrt).into()
 }
 
 /// A colour's bytes as the 8-bit target stores them.
@@ -630,6 +711,21 @@ mod tests {
             pts.push(Point { pos: v.light, size: 1.0, normal: Vec3::Z, color: Vec4::ONE, matte: false });
             pts.push(Point { pos: Vec3::NAN, size: 1.0, normal: Vec3::Z, color: Vec4::ONE, matte: false });
             pts.push(Point { pos: Vec3::ZERO, size: 1.0, normal: -Vec3::Z, color: Vec4::ONE, matte: false });
+            // (Directions whose squared length overflows, underflows to zero, or is
+            // infinite; signed zeros.)
+            for pos in [
+                Vec3::new(1e20, -3e19, 0.5),
+                v.light + Vec3::new(1e-30, -1e-30, 0.0),
+                Vec3::new(f32::INFINITY, 0.0, 1.0),
+                Vec3::new(-0.0, -0.0, -0.0),
+                v.eye,
+                Vec3::new(f32::NEG_INFINITY, f32::NAN, 0.0),
+                v.eye + Vec3::new(0.0, 1e-25, 0.0),
+                Vec3::new(2.0, -0.0, 0.25),
+            ] {
+                let normal = Vec3::new(-0.0, 0.0, 1.0);
+                pts.push(Point { pos, size: 1.0, normal, color: Vec4::new(0.2, 0.9, -0.0, 1.0), matte: false });
+            }
             pts.push(Point {
                 pos: Vec3::new(0.0, 0.0, 1.0),
                 size: 1.0,
@@ -637,6 +733,7 @@ mod tests {
                 color: Vec4::ONE,
                 matte: false,
             });
+            assert!(pts.len().is_multiple_of(4));
             for four in pts.chunks_exact(4) {
                 let four = [four[0], four[1], four[2], four[3]];
                 assert_eq!(rgba4(v, &four), four.map(|p| p.rgba(v)), "{four:?}");

@@ -255,6 +255,22 @@ impl<'b> Eval<'b> {
                     Some(caller) => r = caller.act(),
                     None => break false,
                 },
+                // An identity block entered without a record (see `block.rs`).
+                Some(&Op::Loop { .. })
+                    if self.blocks.get(r.pc as usize) == Some(&true) && keeps_identity_frame(&r.frame()) =>
+                {
+                    r.pc += 1;
+                }
+                Some(&Op::EndLoop { begin }) => {
+                    if !self.lean_end_loop(m, &mut r, begin) {
+                        break true;
+                    }
+                    // (As the loop asks after every `ENDLOOP`.)
+                    m.act.pc = r.pc;
+                    if self.stops(m) {
+                        break false;
+                    }
+                }
                 _ => break true,
             }
         };
@@ -270,6 +286,43 @@ impl<'b> Eval<'b> {
             self.count_instances();
         }
         go_on
+    }
+
+    /// `ENDLOOP begin` in a lean run, `r` the running activation, where it is
+    /// what the loop's `ENDLOOP` does to a lean run's state: the end of an identity
+    /// block entered without a record, the next run of an iterator (its constant
+    /// step composed as [`State::compose_step`] composes it: a lean run's state
+    /// changes only in its frame, which never has a non-uniform factor), or its
+    /// last run's end (the frame it was opened in). Whether it was done here (if
+    /// not, the loop does it).
+    #[inline(always)]
+    fn lean_end_loop(&mut self, m: &mut Regs, r: &mut LeanAct, begin: OpIndex) -> bool {
+        let top = m.loops.last_mut().filter(|l| l.begin == begin.0 && l.depth == r.depth);
+        let Some(l) = top else {
+            // (Under the fast path a record open at `ENDLOOP` is its own loop's,
+            // but for an identity block entered without one.)
+            if self.blocks.get(begin.index()) != Some(&true) {
+                return false;
+            }
+            r.pc += 1;
+            return true;
+        };
+        if l.remaining <= 1 {
+            let f = l.saved_base.f;
+            m.loops.pop();
+            *r = LeanAct::new(&f, r.pc + 1, r.depth);
+            return true;
+        }
+        let Some(Transform::Const(c)) = self.b.transforms.get(l.step.index()) else { return false };
+        if l.chain {
+            return false;
+        }
+        l.remaining -= 1;
+        l.acc = l.acc.compose(&Frame64::step_of(&c.q, &c.qh, &c.u));
+        *r = LeanAct::new(&l.acc.to_frame(), begin.0 + 1, r.depth);
+        // Iterator runs count as calls, so `maxiter` also ends huge loops.
+        self.count_run();
+        true
     }
 
     /// Whether a lean run from `m` is plain: every prototype has as many vertices

@@ -28,7 +28,8 @@
 //! call runs), `env` (expressions, random numbers, run-time transforms, non-finite
 //! values), `draw` (geometry and prototype instances), `tracks` (bones, sampled
 //! transform rules, convolutions), `budget` (limits and their counts), `sites`
-//! (source positions of ops), `lean` (the fast path where only frames change)
+//! (source positions of ops), `lean` (the fast path where only frames change),
+//! `block` (identity blocks entered without an iterator's record)
 //! and `guided` (one body's expansion for the guided search). This file holds the evaluation's state (`Eval`'s fields), its entry
 //! points and the assembly of the output.
 //!
@@ -57,6 +58,7 @@ use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+mod block;
 mod breadth;
 mod budget;
 mod draw;
@@ -74,6 +76,7 @@ mod sites;
 mod state;
 mod tracks;
 
+use block::*;
 use breadth::*;
 use budget::*;
 use draw::*;
@@ -160,6 +163,8 @@ struct Eval<'b> {
     /// Whether fast-path runs take the [`Lean`] sink from a plain start
     /// ([`lean_path_applies`], [`plain_start`]).
     lean: bool,
+    /// Per op: whether it is an identity block's `LOOP` (see [`identity_blocks`]).
+    blocks: Vec<bool>,
     /// Under [`Lean`]: per op, for an `INST` whose items are followed only by calls
     /// and the body's `RET`, how many calls (else [`NONE`]; see [`leaf_calls`]).
     leaf_calls: Vec<u32>,
@@ -358,6 +363,7 @@ impl<'b> Eval<'b> {
             instancing,
             fast,
             lean,
+            blocks: identity_blocks(b),
             lean_leaves: leaf_calls.contains(&0),
             leaf_calls,
             lean_calls,

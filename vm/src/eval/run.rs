@@ -106,6 +106,11 @@ pub(super) struct Conv {
 pub(super) struct LoopRec {
     /// The level of the activation that opened it (see [`Act`]).
     pub(super) level: u32,
+    /// Its `LOOP` op, and the depth of the activation that opened it (an identity
+    /// block's `ENDLOOP` tells by them whether the block opened this record, see
+    /// `block.rs`).
+    pub(super) begin: u32,
+    pub(super) depth: u32,
     pub(super) remaining: u64,
     pub(super) step: TransformId,
     pub(super) saved_base: State,
@@ -388,10 +393,15 @@ impl<'b> Eval<'b> {
                     true
                 }
                 Op::Loop { .. } | Op::LoopN { .. } => {
-                    self.op_loop(&mut m, *op);
+                    if !self.enter_block::<S>(&mut m) {
+                        self.op_loop(&mut m, *op);
+                    }
                     true
                 }
-                Op::EndLoop { begin } => self.op_end_loop(sink, &mut m, begin) && !(S::SIMPLE && self.stops(&m)),
+                Op::EndLoop { begin } => {
+                    (self.leave_block(&mut m, begin) || self.op_end_loop(sink, &mut m, begin))
+                        && !(S::SIMPLE && self.stops(&m))
+                }
                 Op::Inst { proto, count } => {
                     self.op_inst::<S>(&mut m, proto, count);
                     true
@@ -753,7 +763,8 @@ impl<'b> Eval<'b> {
         };
         let chain = chain & bundle::ops::LOOP_CHAIN != 0;
         let level = m.stack.len() as u32;
-        m.loops.push(LoopRec { level, remaining: count, step, saved_base: m.act.base, chain, acc });
+        let (begin, depth) = (m.act.pc, m.act.depth);
+        m.loops.push(LoopRec { level, begin, depth, remaining: count, step, saved_base: m.act.base, chain, acc });
         m.act.base = next;
         if chain {
             // A run that reaches no drawable ends where it started.
