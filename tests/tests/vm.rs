@@ -1266,5 +1266,3 @@ fn identity_blocks_give_what_a_counted_run_of_one_gives() {
         }
     }
 }
-
-

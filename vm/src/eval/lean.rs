@@ -187,9 +187,12 @@ impl<'b> Eval<'b> {
     /// fast path nothing but a refused call, an iterator run or a limit looked at
     /// can stop a run (see [`Eval::stops`]), so a stop is asked only after those.
     /// With `LEAVES` (see `Eval::lean_leaves`), a call-less leaf's instance returns
-    /// at once.
+    /// at once. With `LOOPS` (see `Eval::lean_loops`), identity blocks and the runs of
+    /// iterators are taken here too; a bundle without them runs the handler without
+    /// their arms (they cost a run of calls ~8 instructions per expansion in register
+    /// allocation alone).
     #[inline(never)]
-    pub(super) fn lean_ops<const PLAIN: bool, const LEAVES: bool>(&mut self, m: &mut Regs) -> bool {
+    pub(super) fn lean_ops<const PLAIN: bool, const LEAVES: bool, const LOOPS: bool>(&mut self, m: &mut Regs) -> bool {
         let code: &[Op] = &self.b.code;
         let Some(fixed) = m.fixed else { return false };
         let weight = m.act.base.weight;
@@ -257,11 +260,11 @@ impl<'b> Eval<'b> {
                 },
                 // An identity block entered without a record (see `block.rs`).
                 Some(&Op::Loop { .. })
-                    if self.blocks.get(r.pc as usize) == Some(&true) && keeps_identity_frame(&r.frame()) =>
+                    if LOOPS && self.blocks.get(r.pc as usize) == Some(&true) && keeps_identity_frame(&r.frame()) =>
                 {
                     r.pc += 1;
                 }
-                Some(&Op::EndLoop { begin }) => {
+                Some(&Op::EndLoop { begin }) if LOOPS => {
                     if !self.lean_end_loop(m, &mut r, begin) {
                         break true;
                     }

@@ -176,6 +176,10 @@ struct Eval<'b> {
     /// are 0): then lean runs return from it without the dispatch (a run where none
     /// is does not test for it).
     lean_leaves: bool,
+    /// Under [`Lean`]: whether the code has a `LOOP` (an iterator or an identity
+    /// block): then lean runs take its runs themselves (a run where none is does
+    /// not look for them).
+    lean_loops: bool,
     /// Vertices of the prototype instances made so far (they count as vertices for
     /// the budget and the statistics, as they would have run one by one).
     instanced_vertices: u64,
@@ -365,6 +369,7 @@ impl<'b> Eval<'b> {
             lean,
             blocks: identity_blocks(b),
             lean_leaves: leaf_calls.contains(&0),
+            lean_loops: b.code.iter().any(|op| matches!(op, Op::Loop { .. } | Op::LoopN { .. })),
             leaf_calls,
             lean_calls,
             prepared: b

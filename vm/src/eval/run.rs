@@ -345,11 +345,15 @@ impl<'b> Eval<'b> {
                 // (A lean run's calls, instances and returns run in their own
                 // small handler, with the running frame in registers.)
                 Op::Call { .. } | Op::Inst { .. } | Op::Ret {} if S::LEAN => {
-                    match (self.plain_lean(&m), self.lean_leaves) {
-                        (true, false) => self.lean_ops::<true, false>(&mut m),
-                        (true, true) => self.lean_ops::<true, true>(&mut m),
-                        (false, false) => self.lean_ops::<false, false>(&mut m),
-                        (false, true) => self.lean_ops::<false, true>(&mut m),
+                    match (self.plain_lean(&m), self.lean_leaves, self.lean_loops) {
+                        (true, false, false) => self.lean_ops::<true, false, false>(&mut m),
+                        (true, true, false) => self.lean_ops::<true, true, false>(&mut m),
+                        (false, false, false) => self.lean_ops::<false, false, false>(&mut m),
+                        (false, true, false) => self.lean_ops::<false, true, false>(&mut m),
+                        (true, false, true) => self.lean_ops::<true, false, true>(&mut m),
+                        (true, true, true) => self.lean_ops::<true, true, true>(&mut m),
+                        (false, false, true) => self.lean_ops::<false, false, true>(&mut m),
+                        (false, true, true) => self.lean_ops::<false, true, true>(&mut m),
                     }
                 }
                 Op::Call { rule, xf, flags } => self.op_call(sink, &mut m, rule, xf, flags),
