@@ -112,6 +112,11 @@ fn phong(view: &View, p: Vec3, n: Vec3, c: Vec4, matte: bool) -> [u8; 3] {
 /// where [`phong`] uses it). The directions, their lengths and the dot products
 /// are computed in the four lanes of one vector each ([`Lanes`]): the same
 /// correctly rounded operations, in the same order, as `Vec3`'s on each point.
+/// So are the colours: the base colour, the two ends of [`specular_bytes`]'
+/// interval, their clamps (`Vec3::clamp` is `x > lo ? x : lo`, then `x < hi ? x :
+/// hi`, which is what `maxps` and `minps` compute) and their bytes ([`unorm4`]);
+/// a point whose ends give different colours and bytes, or whose specular power
+/// is not 32 or whose term is at least 2, is shaded alone ([`shade_one`]).
 pub fn rgba4(view: &View, pts: &[Point; 4]) -> [[u8; 4]; 4] {
     let pos = Lanes::of(pts.map(|p| p.pos));
     let n = Lanes::of(pts.map(|p| p.normal));
@@ -123,15 +128,82 @@ pub fn rgba4(view: &View, pts: &[Point; 4]) -> [[u8; 4]; 4] {
     let k = Vec4::splat(2.0) * n.dot(&minus_l);
     let reflect = minus_l - n.scaled(k);
     let x = reflect.dot(&v).to_array().map(|d| d.max(0.0));
-    let spec = Vec3::new(view.spec[0], view.spec[1], view.spec[2]);
+    // The specular term's interval per point: `0..0` for an unlit or matte point
+    // (its colour is `rgb(0.0)`); `slow` where `powf` itself is needed.
+    let (mut lo, mut hi, mut slow) = ([0.0f32; 4], [0.0f32; 4], [false; 4]);
+    for i in 0..4 {
+        if !(lambertian[i] > 0.0 && !pts[i].matte) {
+            continue;
+        }
+        match specular_interval(x[i], view.spec[3]) {
+            Some((a, b)) => (lo[i], hi[i]) = (a, b),
+            None => slow[i] = true,
+        }
+    }
+    let color = Lanes::of(pts.map(|p| p.color.truncate()));
+    let base = color.scaled(Vec4::splat(0.15) + Vec4::splat(0.85) * Vec4::from_array(lambertian));
+    let spec = Lanes::splat(Vec3::new(view.spec[0], view.spec[1], view.spec[2]));
+    let rgb = |s: Vec4| {
+        let channel = |b: Vec4, c: Vec4| (b + s * c).max(Vec4::ZERO).min(Vec4::ONE);
+        Lanes { x: channel(base.x, spec.x), y: channel(base.y, spec.y), z: channel(base.z, spec.z) }
+    };
+    let (a, b) = (rgb(Vec4::from_array(lo)), rgb(Vec4::from_array(hi)));
+    let same_color = a.x.cmpeq(b.x) & a.y.cmpeq(b.y) & a.z.cmpeq(b.z);
+    let [ar, ag, ab] = [unorm4(a.x), unorm4(a.y), unorm4(a.z)];
+    let [br, bg, bb] = [unorm4(b.x), unorm4(b.y), unorm4(b.z)];
+    let same_color = same_color.bitmask();
     std::array::from_fn(|i| {
         let p = &pts[i];
-        let base = (0.15 + 0.85 * lambertian[i]) * p.color.truncate();
-        let rgb = |specular: f32| (base + specular * spec).clamp(Vec3::ZERO, Vec3::ONE);
-        let [r, g, b] =
-            if lambertian[i] > 0.0 && !p.matte { specular_bytes(x[i], view.spec[3], rgb) } else { bytes(rgb(0.0)) };
+        let fast = !slow[i] && (same_color & (1 << i) != 0 || (ar[i] == br[i] && ag[i] == bg[i] && ab[i] == bb[i]));
+        let [r, g, b] = if fast {
+            [ar[i], ag[i], ab[i]].map(|c| c as u8)
+        } else {
+            shade_one(view, lambertian[i], x[i], p)
+        };
         [r, g, b, unorm(p.color.w)]
     })
+}
+
+/// What [`rgba4`] gives point `p` alone, from its `lambertian` and specular term
+/// `x` (both `max`ed with 0): [`phong`]'s colour after the dot products.
+#[inline(never)]
+fn shade_one(view: &View, lambertian: f32, x: f32, p: &Point) -> [u8; 3] {
+    let base = (0.15 + 0.85 * lambertian) * p.color.truncate();
+    let spec = Vec3::new(view.spec[0], view.spec[1], view.spec[2]);
+    let rgb = |specular: f32| (base + specular * spec).clamp(Vec3::ZERO, Vec3::ONE);
+    if lambertian > 0.0 && !p.matte {
+        specular_bytes(x, view.spec[3], rgb)
+    } else {
+        bytes(rgb(0.0))
+    }
+}
+
+/// [`unorm`] of each lane of `v`, every lane in `-0.0..=1.0` (a clamped colour):
+/// `v · 255` truncated, plus one where the rest is at least 0.5 ([`round_unit`]'s
+/// steps; below 2^8 the truncation is `as i32`'s).
+#[inline(always)]
+fn unorm4(v: Vec4) -> [i32; 4] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{
+            __m128, __m128i, _mm_castps_si128, _mm_cmpge_ps, _mm_cvtepi32_ps, _mm_cvttps_epi32, _mm_mul_ps,
+            _mm_set1_ps, _mm_sub_epi32, _mm_sub_ps,
+        };
+        let m: __m128 = v.into();
+        // SAFETY: SSE and SSE2 are part of x86-64's baseline, so these intrinsics are
+        // available on every x86-64 processor; they read and write only registers.
+        let r: __m128i = unsafe {
+            let y = _mm_mul_ps(m, _mm_set1_ps(255.0));
+            let t = _mm_cvttps_epi32(y);
+            let up = _mm_cmpge_ps(_mm_sub_ps(y, _mm_cvtepi32_ps(t)), _mm_set1_ps(0.5));
+            // (`up` is all ones, −1, where the rest is at least 0.5.)
+            _mm_sub_epi32(t, _mm_castps_si128(up))
+        };
+        // SAFETY: `__m128i` and `[i32; 4]` are 16 bytes, every bit pattern valid in both.
+        return unsafe { std::mem::transmute::<__m128i, [i32; 4]>(r) };
+    }
+    #[allow(unreachable_code)]
+    v.to_array().map(|c| i32::from(unorm(c)))
 }
 
 /// Four `Vec3`s, a vector per coordinate (lane `i` is the `i`-th point's).
@@ -229,15 +301,7 @@ fn bytes(rgb: Vec3) -> [u8; 3] {
 /// otherwise (rarely) it is called.
 #[inline]
 fn specular_bytes(x: f32, power: f32, rgb: impl Fn(f32) -> Vec3) -> [u8; 3] {
-    if power == 32.0 && x < 2.0 {
-        let (lo, hi) = if x < 0.125 {
-            (0.0, TINY_SPECULAR)
-        } else {
-            // (`s` is positive and finite, 2^-96..2^32: its neighbours are one bit
-            // pattern away, `next_down` and `next_up` without their special cases.)
-            let s = pow32(x).to_bits();
-            (f32::from_bits(s - 1), f32::from_bits(s + 1))
-        };
+    if let Some((lo, hi)) = specular_interval(x, power) {
         let (a, b) = (rgb(lo), rgb(hi));
         let ab = bytes(a);
         if a == b || ab == bytes(b) {
@@ -245,6 +309,22 @@ fn specular_bytes(x: f32, power: f32, rgb: impl Fn(f32) -> Vec3) -> [u8; 3] {
         }
     }
     bytes(rgb(x.powf(power)))
+}
+
+/// An interval that holds `x.powf(power)` (`x` ≥ 0), for std's power 32 and `x`
+/// below 2 ([`specular_bytes`]); `None` otherwise.
+#[inline(always)]
+fn specular_interval(x: f32, power: f32) -> Option<(f32, f32)> {
+    if !(power == 32.0 && x < 2.0) {
+        return None;
+    }
+    if x < 0.125 {
+        return Some((0.0, TINY_SPECULAR));
+    }
+    // (`s` is positive and finite, 2^-96..2^32: its neighbours are one bit
+    // pattern away, `next_down` and `next_up` without their special cases.)
+    let s = pow32(x).to_bits();
+    Some((f32::from_bits(s - 1), f32::from_bits(s + 1)))
 }
 
 /// An upper bound of `x.powf(32.0)` for `x` below 2^-3 (2^-64).
@@ -733,6 +813,21 @@ mod tests {
                 color: Vec4::ONE,
                 matte: false,
             });
+            // Colours out of range, infinite and NaN (clamped lane by lane as
+            // `Vec3::clamp` clamps), and on the bytes' rounding edges.
+            for (k, color) in [
+                Vec4::new(1.5, -0.25, f32::NAN, 1.0),
+                Vec4::new(f32::INFINITY, f32::NEG_INFINITY, -0.0, 0.5),
+                Vec4::new(0.5 / 255.0, 1.5 / 255.0, 254.5 / 255.0, 1.0),
+                Vec4::new(f32::from_bits((127.5f32 / 255.0).to_bits() - 1), 3.0, 0.0, 0.0),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                for pos in [Vec3::new(0.3, -0.2, 0.1), Vec3::new(-2.0, 1.0, 0.0), v.light, Vec3::new(0.0, 0.5, 2.0)] {
+                    pts.push(Point { pos, size: 1.0, normal: Vec3::Z, color, matte: k == 3 && pos.x < 0.0 });
+                }
+            }
             assert!(pts.len().is_multiple_of(4));
             for four in pts.chunks_exact(4) {
                 let four = [four[0], four[1], four[2], four[3]];
@@ -741,6 +836,28 @@ mod tests {
             }
         }
         assert!(compared >= 8000);
+    }
+
+    /// [`unorm4`] gives [`unorm`]'s byte in every lane: sampled `f32`s of
+    /// `-0.0..=1.0`, and each rounding edge `(k + 0.5) / 255` with its neighbours.
+    #[test]
+    fn four_channels_round_as_one_does() {
+        let mut vals = vec![-0.0f32, 0.0, 1.0, f32::MIN_POSITIVE, 1e-45];
+        let mut bits = 0u32;
+        while f32::from_bits(bits) <= 1.0 {
+            vals.push(f32::from_bits(bits));
+            bits += 997;
+        }
+        for k in 0..255 {
+            let e = (k as f32 + 0.5) / 255.0;
+            vals.extend([e, f32::from_bits(e.to_bits() - 1), f32::from_bits(e.to_bits() + 1)]);
+        }
+        vals.retain(|v| (-0.0..=1.0).contains(v));
+        assert!(vals.len() > 1_000_000);
+        for four in vals.chunks(4) {
+            let v = std::array::from_fn(|i| four.get(i).copied().unwrap_or(0.5));
+            assert_eq!(unorm4(Vec4::from_array(v)), v.map(|c| i32::from(unorm(c))), "{v:?}");
+        }
     }
 
     /// The specular term without `powf` gives `powf`'s bytes: `x^32` in `f64` is
