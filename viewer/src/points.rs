@@ -115,7 +115,7 @@ fn phong(view: &View, p: Vec3, n: Vec3, c: Vec4, matte: bool) -> [u8; 3] {
 /// So are the colours: the base colour, the two ends of [`specular_bytes`]'
 /// interval, their clamps (`Vec3::clamp` is `x > lo ? x : lo`, then `x < hi ? x :
 /// hi`, which is what `maxps` and `minps` compute) and their bytes ([`unorm4`]);
-/// a point whose ends give different colours and bytes, or whose specular power
+/// a point whose ends give different bytes, or whose specular power
 /// is not 32 or whose term is at least 2, is shaded alone ([`shade_one`]).
 pub fn rgba4(view: &View, pts: &[Point; 4]) -> [[u8; 4]; 4] {
     let pos = Lanes::of(pts.map(|p| p.pos));
@@ -148,20 +148,28 @@ pub fn rgba4(view: &View, pts: &[Point; 4]) -> [[u8; 4]; 4] {
         Lanes { x: channel(base.x, spec.x), y: channel(base.y, spec.y), z: channel(base.z, spec.z) }
     };
     let (a, b) = (rgb(Vec4::from_array(lo)), rgb(Vec4::from_array(hi)));
-    let same_color = a.x.cmpeq(b.x) & a.y.cmpeq(b.y) & a.z.cmpeq(b.z);
     let [ar, ag, ab] = [unorm4(a.x), unorm4(a.y), unorm4(a.z)];
     let [br, bg, bb] = [unorm4(b.x), unorm4(b.y), unorm4(b.z)];
-    let same_color = same_color.bitmask();
-    std::array::from_fn(|i| {
-        let p = &pts[i];
-        let fast = !slow[i] && (same_color & (1 << i) != 0 || (ar[i] == br[i] && ag[i] == bg[i] && ab[i] == bb[i]));
-        let [r, g, b] = if fast {
-            [ar[i], ag[i], ab[i]].map(|c| c as u8)
-        } else {
-            shade_one(view, lambertian[i], x[i], p)
-        };
-        [r, g, b, unorm(p.color.w)]
-    })
+    // (`unorm` of the alpha: `f32::clamp` and `maxps`/`minps` agree but on NaN,
+    // which gives 0 either way.)
+    let alpha = unorm4(Vec4::from_array(pts.map(|p| p.color.w)).max(Vec4::ZERO).min(Vec4::ONE));
+    // The bytes of the interval's ends agree (as they do where the colours do):
+    // they are `powf`'s.
+    let mut fast = 0u32;
+    for i in 0..4 {
+        fast |= u32::from(!slow[i] && ar[i] == br[i] && ag[i] == bg[i] && ab[i] == bb[i]) << i;
+    }
+    let mut out: [[u8; 4]; 4] =
+        std::array::from_fn(|i| ((ar[i] | ag[i] << 8 | ab[i] << 16 | alpha[i] << 24) as u32).to_le_bytes());
+    if fast != 0b1111 {
+        for (i, o) in out.iter_mut().enumerate() {
+            if fast & (1 << i) == 0 {
+                let [r, g, b] = shade_one(view, lambertian[i], x[i], &pts[i]);
+                o[..3].copy_from_slice(&[r, g, b]);
+            }
+        }
+    }
+    out
 }
 
 /// What [`rgba4`] gives point `p` alone, from its `lambertian` and specular term
@@ -820,12 +828,16 @@ mod tests {
                 Vec4::new(f32::INFINITY, f32::NEG_INFINITY, -0.0, 0.5),
                 Vec4::new(0.5 / 255.0, 1.5 / 255.0, 254.5 / 255.0, 1.0),
                 Vec4::new(f32::from_bits((127.5f32 / 255.0).to_bits() - 1), 3.0, 0.0, 0.0),
+                Vec4::new(0.25, 0.5, 0.75, f32::NAN),
+                Vec4::new(0.25, 0.5, 0.75, -2.0),
+                Vec4::new(0.25, 0.5, 0.75, f32::INFINITY),
+                Vec4::new(0.25, 0.5, 0.75, 254.5 / 255.0),
             ]
             .into_iter()
             .enumerate()
             {
                 for pos in [Vec3::new(0.3, -0.2, 0.1), Vec3::new(-2.0, 1.0, 0.0), v.light, Vec3::new(0.0, 0.5, 2.0)] {
-                    pts.push(Point { pos, size: 1.0, normal: Vec3::Z, color, matte: k == 3 && pos.x < 0.0 });
+                    pts.push(Point { pos, size: 1.0, normal: Vec3::Z, color, matte: k % 3 == 0 && pos.x < 0.0 });
                 }
             }
             assert!(pts.len().is_multiple_of(4));
