@@ -132,7 +132,8 @@ pub fn rgba4(view: &View, pts: &[Point; 4]) -> [[u8; 4]; 4] {
     // (its colour is `rgb(0.0)`); `slow` where `powf` itself is needed.
     let (mut lo, mut hi, mut slow) = ([0.0f32; 4], [0.0f32; 4], [false; 4]);
     for i in 0..4 {
-        if !(lambertian[i] > 0.0 && !pts[i].matte) {
+        // (`lambertian` is never NaN: `max` gave 0 for one.)
+        if lambertian[i] <= 0.0 || pts[i].matte {
             continue;
         }
         match specular_interval(x[i], view.spec[3]) {
