@@ -168,7 +168,10 @@ pub fn unorm_color(rgba: [u8; 4]) -> Vec4 {
 }
 
 /// One thread's part of the picture: the row strips it owns, every sample's colour
-/// and depth.
+/// and depth. Aligned to 128 bytes (two cache lines): the targets of the threads lie
+/// side by side in one `Vec`, and `triangles` changes per primitive drawn, so no two
+/// threads may share a line.
+#[repr(align(128))]
 pub struct Target {
     pub thread: u32,
     pub threads: u32,
