@@ -337,6 +337,23 @@ impl<'b> Eval<'b> {
         self.proto_vertices.is_some() && m.fixed.is_some_and(|f| f.1) && minsize_off
     }
 
+    /// The loop's arm for a lean run's `CALL`, `INST` and `RET`: the variant of
+    /// [`Eval::lean_ops`] this run and bundle take (plain or not, with call-less
+    /// leaves or not, with `LOOP`s or not). Whether the run goes on.
+    #[inline(always)]
+    pub(super) fn lean_run(&mut self, m: &mut Regs) -> bool {
+        match (self.plain_lean(m), self.lean_leaves, self.lean_loops) {
+            (true, false, false) => self.lean_ops::<true, false, false>(m),
+            (true, true, false) => self.lean_ops::<true, true, false>(m),
+            (false, false, false) => self.lean_ops::<false, false, false>(m),
+            (false, true, false) => self.lean_ops::<false, true, false>(m),
+            (true, false, true) => self.lean_ops::<true, false, true>(m),
+            (true, true, true) => self.lean_ops::<true, true, true>(m),
+            (false, false, true) => self.lean_ops::<false, false, true>(m),
+            (false, true, true) => self.lean_ops::<false, true, true>(m),
+        }
+    }
+
     /// A lean call (see [`Eval::lean_ops`]) within `maxdepth`, `r` the running
     /// activation: only the frame is composed (the rest of the callee's state is the
     /// caller's, see [`lean_path_applies`]), and only the caller's frame, program

@@ -260,23 +260,9 @@ impl<'b> Eval<'b> {
         let pc = self.select(rule, &start, depth, slot_base as usize);
         // Rule-local retirement applies to the run's first call too (see `retire.rs`).
         let retiring = !S::SIMPLE && !S::COLLECTS && self.retire.any;
-        let (rule, pc, slot_top) = if retiring {
-            self.retire.begin_run();
-            match self.retired(rule, pc, &start, depth, slot_base as usize, pc) {
-                Some((to, pc)) => {
-                    let frame = self.b.rules[to].frame as usize;
-                    self.slots.resize(slot_base as usize + frame, 0.0);
-                    (to, pc, self.slots.len() as u32)
-                }
-                None => {
-                    self.retire.end_run();
-                    self.slots.truncate(slot_base as usize);
-                    return;
-                }
-            }
-        } else {
-            (rule, pc, slot_top)
-        };
+        let first =
+            if retiring { self.retired_first(rule, pc, &start, depth, slot_base) } else { Some((rule, pc, slot_top)) };
+        let Some((rule, pc, slot_top)) = first else { return };
         if S::COLLECTS {
             // (`sequential` and `pattern` start afresh with every expansion.)
             self.sequential.clear();
@@ -344,18 +330,7 @@ impl<'b> Eval<'b> {
             let go_on = match *op {
                 // (A lean run's calls, instances and returns run in their own
                 // small handler, with the running frame in registers.)
-                Op::Call { .. } | Op::Inst { .. } | Op::Ret {} if S::LEAN => {
-                    match (self.plain_lean(&m), self.lean_leaves, self.lean_loops) {
-                        (true, false, false) => self.lean_ops::<true, false, false>(&mut m),
-                        (true, true, false) => self.lean_ops::<true, true, false>(&mut m),
-                        (false, false, false) => self.lean_ops::<false, false, false>(&mut m),
-                        (false, true, false) => self.lean_ops::<false, true, false>(&mut m),
-                        (true, false, true) => self.lean_ops::<true, false, true>(&mut m),
-                        (true, true, true) => self.lean_ops::<true, true, true>(&mut m),
-                        (false, false, true) => self.lean_ops::<false, false, true>(&mut m),
-                        (false, true, true) => self.lean_ops::<false, true, true>(&mut m),
-                    }
-                }
+                Op::Call { .. } | Op::Inst { .. } | Op::Ret {} if S::LEAN => self.lean_run(&mut m),
                 Op::Call { rule, xf, flags } => self.op_call(sink, &mut m, rule, xf, flags),
                 Op::Draw { kind: Drawable::Vertex, xf, ns, profile, flags: _ }
                     if !S::COLLECTS && mode == Mode::Model && self.xf_info[xf.index()].is_some() =>
@@ -364,30 +339,8 @@ impl<'b> Eval<'b> {
                     true
                 }
                 Op::Draw { kind, xf, ns, profile, flags } => {
-                    if let Some(n) = path_arity(kind, flags) {
-                        // A flat path's op: its arguments are on the slots (none
-                        // were pushed for a sink that collects calls).
-                        let base = *m.cont.as_ref().unwrap_or(&m.act.base);
-                        let s = self.item(&mut m, xf);
-                        if !S::COLLECTS {
-                            let at = self.slots.len().saturating_sub(n);
-                            let mut args = [0.0; 7];
-                            for (a, v) in args.iter_mut().zip(&self.slots[at..]) {
-                                *a = *v;
-                            }
-                            self.slots.truncate(at);
-                            if mode == Mode::Model {
-                                self.path_op(kind, &base, &s, &args[..n], m.bone, m.act.pc - 1);
-                            }
-                        }
-                        true
-                    } else {
-                        let s = self.item(&mut m, xf);
-                        if !S::COLLECTS {
-                            self.draw(kind, s, ns.0, profile.0, mode, m.bone);
-                        }
-                        true
-                    }
+                    self.op_draw::<S>(&mut m, kind, xf, (ns.0, profile.0, flags), mode);
+                    true
                 }
                 Op::Iso { iso, xf, flags: _ } => {
                     let s = self.item(&mut m, xf);
@@ -460,6 +413,38 @@ impl<'b> Eval<'b> {
         if S::SITES {
             self.note_site(outer.0, outer.1, outer.2);
         }
+        self.end_run(m, retiring, slot_base);
+    }
+
+    /// The first call of a run under rule-local retirement (see `retire.rs`): the
+    /// rule, pc and slots' top it runs with, or `None` (the run ends before it
+    /// starts, its slots given back).
+    fn retired_first(
+        &mut self,
+        rule: RuleId,
+        pc: u32,
+        start: &State,
+        depth: u32,
+        slot_base: u32,
+    ) -> Option<(RuleId, u32, u32)> {
+        self.retire.begin_run();
+        match self.retired(rule, pc, start, depth, slot_base as usize, pc) {
+            Some((to, pc)) => {
+                let frame = self.b.rules[to].frame as usize;
+                self.slots.resize(slot_base as usize + frame, 0.0);
+                Some((to, pc, self.slots.len() as u32))
+            }
+            None => {
+                self.retire.end_run();
+                self.slots.truncate(slot_base as usize);
+                None
+            }
+        }
+    }
+
+    /// What a run leaves when it ends, by its last op or a limit: its loop records
+    /// kept for the next run, its subpath activations and slots given back.
+    fn end_run(&mut self, m: Regs, retiring: bool, slot_base: u32) {
         self.spare_loops = m.loops;
         // (A run ended by a limit leaves its subpath activations.)
         self.path.subpaths = self.path.subpaths.saturating_sub(m.subpaths.len() as u32);
@@ -468,6 +453,35 @@ impl<'b> Eval<'b> {
         }
         // A run ended by a limit leaves its frames: the caller's slots end here.
         self.slots.truncate(slot_base as usize);
+    }
+
+    /// A `DRAW` op but a `VERTEX` of the fast path: a flat path's op (its
+    /// arguments are on the slots; none were pushed for a sink that collects
+    /// calls), or a drawable made under the op's item state. `nsp` is the op's
+    /// namespace, profile and flags.
+    #[inline]
+    fn op_draw<S: Sink>(&mut self, m: &mut Regs, kind: Drawable, xf: TransformId, nsp: (u32, u32, u8), mode: Mode) {
+        let (ns, profile, flags) = nsp;
+        if let Some(n) = path_arity(kind, flags) {
+            let base = *m.cont.as_ref().unwrap_or(&m.act.base);
+            let s = self.item(m, xf);
+            if !S::COLLECTS {
+                let at = self.slots.len().saturating_sub(n);
+                let mut args = [0.0; 7];
+                for (a, v) in args.iter_mut().zip(&self.slots[at..]) {
+                    *a = *v;
+                }
+                self.slots.truncate(at);
+                if mode == Mode::Model {
+                    self.path_op(kind, &base, &s, &args[..n], m.bone, m.act.pc - 1);
+                }
+            }
+        } else {
+            let s = self.item(m, xf);
+            if !S::COLLECTS {
+                self.draw(kind, s, ns, profile, mode, m.bone);
+            }
+        }
     }
 
     /// Whether the run stops before the op at `pc` (a limit ran out, or a nested
