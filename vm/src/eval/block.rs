@@ -86,7 +86,7 @@ impl<'b> Eval<'b> {
     #[inline(always)]
     pub(super) fn leave_block(&self, m: &mut Regs, begin: OpIndex) -> bool {
         let leave = self.blocks.get(begin.index()) == Some(&true)
-            && !m.loops.last().is_some_and(|l| l.begin == begin.0 && l.depth == m.act.depth);
+            && !m.loops.last().is_some_and(|l| l.opened_by(begin, m.act.depth));
         if leave {
             m.cont = None;
             m.act.pc += 1;

@@ -300,7 +300,7 @@ impl<'b> Eval<'b> {
     /// not, the loop does it).
     #[inline(always)]
     fn lean_end_loop(&mut self, m: &mut Regs, r: &mut LeanAct, begin: OpIndex) -> bool {
-        let top = m.loops.last_mut().filter(|l| l.begin == begin.0 && l.depth == r.depth);
+        let top = m.loops.last_mut().filter(|l| l.opened_by(begin, r.depth));
         let Some(l) = top else {
             // (Under the fast path a record open at `ENDLOOP` is its own loop's,
             // but for an identity block entered without one.)

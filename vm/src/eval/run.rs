@@ -119,6 +119,15 @@ pub(super) struct LoopRec {
     pub(super) acc: Frame64,
 }
 
+impl LoopRec {
+    /// Whether the `LOOP` at `begin`, run by an activation at `depth`, opened this
+    /// record (an identity block entered without one did not: see `block.rs`).
+    #[inline(always)]
+    pub(super) fn opened_by(&self, begin: OpIndex, depth: u32) -> bool {
+        self.begin == begin.0 && self.depth == depth
+    }
+}
+
 impl<'b> Eval<'b> {
     /// `from` composed with transform `xf` (at `depth`, in the frame `slots[base..top]`).
     #[inline(always)]
