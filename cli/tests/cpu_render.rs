@@ -57,6 +57,7 @@ fn cpu_pictures_of_every_std_example_match_lavapipe() {
     // order), pen lines, matte flat primitives, mirrored frames, bones, a camera rule.
     for name in [
         "flat_overlap.mdg",
+        "flat_instances.mdg",
         "pen_lines.mdg",
         "matte_flat_primitives.mdg",
         "mirrored_cube.mdg",
@@ -110,6 +111,39 @@ fn cpu_pictures_of_every_std_example_match_lavapipe() {
     assert_no_validation_errors(&ctx);
     eprintln!("{}", report.join("\n"));
     assert!(failures.is_empty(), "CPU pictures that differ from lavapipe's:\n{}", failures.join("\n"));
+}
+
+/// Flat art keeps its prototype instances (CIRCLE, SQUARE, TRIANGLE: one record
+/// each) and the CPU renderer paints them in program order, expanding each as it
+/// paints it: the same bytes as the picture of the output with every instance
+/// expanded (instancing off), at 1× with smoothing and at 4×, on 1 and 3 threads,
+/// and the same triangle count. Shapes out of z order are expanded and sorted by
+/// the evaluator (the output then has no prototype instance) and paint the same too.
+#[test]
+fn flat_art_paints_its_instances_in_order_as_if_expanded() {
+    for (name, kept) in [("flat_instances.mdg", true), ("flat_instances_z.mdg", false)] {
+        let model = load(&data(name));
+        let out = &model.output;
+        let protos = out.instances.iter().filter(|i| out.is_prototype_instance(i)).count();
+        assert_eq!(protos > 0, kept, "{name}: {protos} prototype instances");
+        let opts = mdg_vm::eval::EvalOptions { instancing: false, ..mdg_vm::eval::EvalOptions::default() };
+        let expanded = mdg_vm::eval::evaluate(&model.bundle, &opts);
+        assert!(expanded.instances.is_empty());
+        assert_eq!(expanded.mesh.triangles.len(), out.flat_counts(mdg_vm::output::Groups::ALL).1, "{name}");
+        for samples in [0u32, 4] {
+            for threads in [1, 3] {
+                let (mut o, _) = cpu_options(samples, (160, 120));
+                o.threads = threads;
+                let (a, da) = cpu_pixels(&model.bundle, out, &cpu::Program::Unlit, &o, 0.0, None);
+                let (b, db) = cpu_pixels(&model.bundle, &expanded, &cpu::Program::Unlit, &o, 0.0, None);
+                assert_eq!(da, db, "{name} samples {samples} threads {threads}");
+                assert!(a == b, "{name}: samples {samples}, threads {threads}: the pictures differ");
+                // Not an empty picture: most of it is painted, in many colours.
+                let colours: std::collections::HashSet<&[u8]> = a.chunks_exact(4).collect();
+                assert!(colours.len() > 4, "{name}: {} colours", colours.len());
+            }
+        }
+    }
 }
 
 fn mdg_run(args: &[&str]) -> std::process::Output {

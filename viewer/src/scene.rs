@@ -13,6 +13,9 @@
 use glam::Vec3;
 use mdg_vm::output::{Groups, Output, Piece};
 
+mod painted;
+pub use painted::{build_painted, Painted, PaintStep, PaintProto};
+
 /// Bytes per vertex in binding 0.
 pub const VERTEX_STRIDE: u32 = 24;
 /// Bytes per vertex in binding 1 (weight, bone).
@@ -303,7 +306,7 @@ fn snorm16(v: f32) -> i16 {
     (v.clamp(-1.0, 1.0) * 32767.0).round() as i16
 }
 
-fn unorm8(v: f32) -> u8 {
+pub(crate) fn unorm8(v: f32) -> u8 {
     (v.clamp(0.0, 1.0) * 255.0).round() as u8
 }
 
@@ -404,7 +407,15 @@ pub fn build_with(out: &Output, instanced: bool) -> Scene {
         b.s.max_bone = b.s.max_bone.max(max_bone);
         b.s.instanced = Some(inst);
     }
-    let is_overlay = |l: &mdg_vm::output::Polyline| OVERLAYS.iter().any(|(ns, _)| *ns == l.namespace);
+    b.lines(out);
+    b.s
+}
+
+impl Builder {
+    /// Appends the pen lines (when nothing was swept) and the overlays.
+    fn lines(&mut self, out: &Output) {
+        let b = self;
+        let is_overlay = |l: &mdg_vm::output::Polyline| OVERLAYS.iter().any(|(ns, _)| *ns == l.namespace);
     if out.sweeps.triangles.is_empty() {
         let ink = ink(out.background);
         for line in out.lines.iter().filter(|l| !is_overlay(l)) {
@@ -432,7 +443,7 @@ pub fn build_with(out: &Output, instanced: bool) -> Scene {
             }
         }
     }
-    b.s
+}
 }
 
 /// Packs the instances for GPU instancing; returns them with their bounds and the

@@ -522,8 +522,15 @@ fn run_one(
         Target::Nothing => (Format::Glb, false, true),
     };
     // A `.glb` written with --instances keeps prototype instances as records: the
-    // vertex budget counts them so (docs/limits.md).
-    let stored = cli.instances && format == Format::Glb && !picture_only && !nothing;
+    // vertex budget counts them so (docs/limits.md). So does a picture of flat art
+    // alone that the CPU renderer paints (unlit, no isosurface): it expands each
+    // instance as it paints it and stores none.
+    let painted = picture_only
+        && bundle.settings.flat
+        && bundle.program.is_none()
+        && bundle.isosurfaces.is_empty()
+        && cli.renderer != crate::pictures::RendererChoice::Vulkan;
+    let stored = (cli.instances && format == Format::Glb && !picture_only && !nothing) || painted;
     let eval_opts = EvalOptions { instances_stored: stored, ..eval_options(cli, seed) };
     let mut phases = Phases::start();
     let started = std::time::Instant::now();

@@ -153,6 +153,10 @@ pub struct CpuScene<'a> {
     /// Per instanced draw: the first vertex and count of its mesh, and of its level
     /// of detail.
     ranges: Vec<(VertexRange, Option<VertexRange>)>,
+    /// Flat art painted in program order with its prototype instances kept
+    /// ([`scene::build_painted`]): then `scene` holds only the mesh's runs between
+    /// them, the sweeps and the lines.
+    painted: Option<scene::Painted>,
 }
 
 /// The first vertex an index run uses and how many.
@@ -169,9 +173,16 @@ impl<'a> CpuScene<'a> {
     /// Packs `output` (of `bundle`) for `program`.
     pub fn new(bundle: &Bundle, output: &'a Output, program: &Program) -> CpuScene<'a> {
         // As the Vulkan renderer: instances stay instanced (std's vertex shader) except
-        // in flat art, painted in triangle order as one mesh.
-        let scene = scene::build_with(output, !output.flat);
-        let info = ModelInfo::of(&scene, output, bundle, program.label());
+        // in flat art, painted in triangle order as one mesh: here with its
+        // prototype instances expanded as they are painted (the same picture), where
+        // `build_painted` applies (unlit, no isosurface, no bones).
+        let painted = if *program == Program::Unlit { scene::build_painted(output) } else { None };
+        let (scene, painted) = match painted {
+            Some((scene, p)) => (scene, Some(p)),
+            None => (scene::build_with(output, !output.flat), None),
+        };
+        let mut info = ModelInfo::of(&scene, output, bundle, program.label());
+        info.n_triangles += painted.as_ref().map_or(0, |p| p.instance_triangles as usize);
         let ranges = match &scene.instanced {
             Some(inst) => inst
                 .draws
@@ -189,7 +200,7 @@ impl<'a> CpuScene<'a> {
             None => Vec::new(),
         };
         let shade = if *program == Program::Unlit { Shade::Unlit } else { Shade::Phong };
-        CpuScene { output, scene, info, shade, spec: UniformSpec::new(bundle, output), ranges }
+        CpuScene { output, scene, info, shade, spec: UniformSpec::new(bundle, output), ranges, painted }
     }
 
     pub fn info(&self) -> &ModelInfo {
@@ -297,7 +308,7 @@ impl<'a> CpuScene<'a> {
     /// Triangles a frame submits (every instance's at the level of detail of its
     /// draw; stand-ins not subtracted).
     fn submitted(&self, ppu: Option<f32>) -> u64 {
-        let mut n = self.scene.indices.len() as u64 / 3;
+        let mut n = self.scene.indices.len() as u64 / 3 + self.painted.as_ref().map_or(0, |p| p.instance_triangles);
         if let Some(inst) = &self.scene.instanced {
             for (d, l) in inst.draws.iter().zip(&inst.lods) {
                 let count = match (l, ppu) {
@@ -495,14 +506,91 @@ impl<'s, 'a> Job<'s, 'a> {
     /// thread of its own. Returns the instances drawn as stand-ins, or `None` when
     /// a thread panicked.
     fn draw(&self, targets: &mut [Target]) -> Option<u64> {
-        if !on_each(targets, |_, t| self.mesh(t)) {
+        let drawn = match &self.cpu.painted {
+            Some(p) => on_each(targets, |_, t| self.paint(t, p)),
+            None => on_each(targets, |_, t| self.mesh(t, 0..self.cpu.scene.indices.len() / 3)),
+        };
+        if !drawn {
             return None;
         }
         let stood_in = self.instances(targets)?;
         on_each(targets, |_, t| self.lines(t)).then_some(stood_in)
     }
 
-    fn mesh(&self, t: &mut Target) {
+    /// Flat art in program order ([`scene::Painted`]): the mesh's runs and the
+    /// prototype instances between them, each instance expanded as
+    /// `mdg_vm::output::expand_prototype` expands it (the same vertices and colours
+    /// as the packed scene of every instance expanded holds) and painted unless its
+    /// sphere misses this target's rows.
+    fn paint(&self, t: &mut Target, painted: &scene::Painted) {
+        let frames = self.cpu.output.instances.packed_frames();
+        let mut world: Vec<(Vec3, Vec4, Option<raster::Snapped>)> = Vec::new();
+        let mut colors: Vec<Vec4> = Vec::new();
+        for step in &painted.steps {
+            match step {
+                scene::PaintStep::Mesh(r) => self.mesh(t, r.clone()),
+                scene::PaintStep::Prototypes { instances, span } => {
+                    let Some(proto) = painted.protos.get(span.mesh as usize) else { continue };
+                    // Each vertex's colour, as the packed scene stores it (8 bits a
+                    // channel): the span's colour plus the vertex's delta, clamped.
+                    colors.clear();
+                    colors.extend(proto.deltas.iter().map(|d| {
+                        Vec4::from_array([0, 1, 2, 3].map(|k| {
+                            f32::from(scene::unorm8((span.color[k] + d[k]).clamp(0.0, 1.0))) / 255.0
+                        }))
+                    }));
+                    for f in frames.get(instances.clone()).unwrap_or(&[]) {
+                        let frame = span.instance(f).frame;
+                        let (lin, mirrored) = frame.linear();
+                        // (Rounding: the sphere grows by a part in a thousand.)
+                        let c = frame.u + lin * proto.centre;
+                        let r = proto.radius * max_axis(lin) * 1.001 + 1e-6 * c.abs().max_element();
+                        if let Some((y0, y1, visible)) = self.sphere_rows(c, r) {
+                            if !visible || !t.any_row(y0, y1) {
+                                continue;
+                            }
+                        }
+                        // Each point placed, projected and (inside the guard band)
+                        // snapped once: a circle's 96 vertices are 33 points.
+                        world.clear();
+                        world.extend(proto.points.iter().map(|&p| {
+                            let w = frame.u + lin * p;
+                            let clip = self.vp * w.extend(1.0);
+                            (w, clip, raster::inside(clip).then(|| t.snap(clip)))
+                        }));
+                        let point = |i: u32| proto.point_of.get(i as usize).and_then(|&k| world.get(k as usize));
+                        let vertex = |i: u32| -> V {
+                            let (w, clip, _) = point(i).copied().unwrap_or_default();
+                            let color = proto.delta_of.get(i as usize).and_then(|&d| colors.get(d as usize));
+                            V { clip, world: w, normal: Vec3::Z, color: color.copied().unwrap_or(Vec4::ONE), matte: 0.0 }
+                        };
+                        for (k, tri) in proto.triangles.iter().enumerate() {
+                            let flip = mirrored != proto.mirrored.get(k).copied().unwrap_or(false);
+                            let tri = if flip { [tri[0], tri[2], tri[1]] } else { *tri };
+                            if let [Some((_, _, Some(a))), Some((_, _, Some(b))), Some((_, _, Some(c)))] = tri.map(point) {
+                                // Snapped already: what `Target::triangle` would do.
+                                let s = [*a, *b, *c];
+                                if !t.misses_every_sample(&s) {
+                                    t.triangle_snapped(tri.map(vertex), s);
+                                }
+                                continue;
+                            }
+                            let v = tri.map(vertex);
+                            if let Some((y0, y1)) = screen_rows(&v, self.height) {
+                                if !t.any_row(y0, y1) {
+                                    continue;
+                                }
+                            }
+                            t.triangle(v, false);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Triangles `tris` of the scene's index list.
+    fn mesh(&self, t: &mut Target, tris: std::ops::Range<usize>) {
         let s = &self.cpu.scene;
         let vs = VERTEX_STRIDE as usize;
         let skinned = !s.skins.is_empty();
@@ -527,7 +615,7 @@ impl<'s, 'a> Job<'s, 'a> {
             let normal = if m == Mat4::IDENTITY { n } else { l.inverse().transpose() * n };
             V { clip: self.vp * world.extend(1.0), world, normal, color, matte }
         };
-        for tri in s.indices.chunks_exact(3) {
+        for tri in s.indices.get(3 * tris.start..3 * tris.end).unwrap_or(&[]).chunks_exact(3) {
             let v = [vertex(tri[0]), vertex(tri[1]), vertex(tri[2])];
             if let Some((y0, y1)) = screen_rows(&v, self.height) {
                 if !t.any_row(y0, y1) {

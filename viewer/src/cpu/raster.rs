@@ -13,6 +13,16 @@
 
 use glam::{Vec3, Vec4};
 
+/// A vertex on the screen ([`Target::snap`]): x and y in [`SUB`] units, depth, 1/w.
+pub type Snapped = (i64, i64, f32, f32);
+
+/// Whether a clip position is inside the clip volume and the guard band (a
+/// triangle of such vertices is rasterised without clipping).
+#[inline]
+pub fn inside(p: Vec4) -> bool {
+    p.w > 0.0 && p.z >= 0.0 && p.z <= p.w && p.x.abs() <= GUARD * p.w && p.y.abs() <= GUARD * p.w && p.is_finite()
+}
+
 /// Sub-pixel steps per pixel: vertices are snapped to 1/256 pixel.
 pub const SUB: i64 = 256;
 /// Rows per strip: thread `t` of `n` owns the strips `k` with `k % n == t`, so the
@@ -293,14 +303,6 @@ impl Target {
     /// Rasterises a triangle (clipped when it leaves the clip volume or the guard
     /// band); `cull_back` skips it when it faces away.
     pub fn triangle(&mut self, v: [V; 3], cull_back: bool) {
-        let inside = |p: Vec4| {
-            p.w > 0.0
-                && p.z >= 0.0
-                && p.z <= p.w
-                && p.x.abs() <= GUARD * p.w
-                && p.y.abs() <= GUARD * p.w
-                && p.is_finite()
-        };
         if v.iter().all(|x| inside(x.clip)) {
             self.clipped(v, cull_back);
             return;
@@ -340,16 +342,42 @@ impl Target {
         }
     }
 
+    /// A vertex inside the clip volume and guard band on the screen: where it snaps
+    /// (in [`SUB`] units), its depth and 1/w.
+    #[inline]
+    pub fn snap(&self, clip: Vec4) -> Snapped {
+        let (w, h) = (self.width as f32, self.height as f32);
+        let iw = 1.0 / clip.w;
+        let sx = (clip.x * iw + 1.0) * 0.5 * w;
+        let sy = (clip.y * iw + 1.0) * 0.5 * h;
+        (round_i64(sx * SUB as f32), round_i64(sy * SUB as f32), clip.z * iw, iw)
+    }
+
+    /// Whether the triangle snapped to `p` covers no sample of the picture: its box
+    /// holds none (the small shapes of flat art, most of a fractal's). The samples lie
+    /// on a lattice: the pixel centres at 1×, every quarter pixel from 1/8 at 4×.
+    #[inline]
+    pub fn misses_every_sample(&self, p: &[Snapped; 3]) -> bool {
+        let (first, step) = if self.samples == 4 { (32, 64) } else { (SUB / 2, SUB) };
+        let holds = |lo: i64, hi: i64| (hi - first).div_euclid(step) >= (lo - first + step - 1).div_euclid(step);
+        let (x0, x1) = (p[0].0.min(p[1].0).min(p[2].0), p[0].0.max(p[1].0).max(p[2].0));
+        let (y0, y1) = (p[0].1.min(p[1].1).min(p[2].1), p[0].1.max(p[1].1).max(p[2].1));
+        !holds(x0, x1) || !holds(y0, y1)
+    }
+
+    /// [`Target::triangle`] of vertices all [`inside`], snapped already
+    /// ([`Target::snap`] of each clip position): the same pixels.
+    pub fn triangle_snapped(&mut self, v: [V; 3], scr: [Snapped; 3]) {
+        self.rasterise(v, scr, false);
+    }
+
     /// Rasterises a triangle inside the clip volume and guard band.
     fn clipped(&mut self, v: [V; 3], cull_back: bool) {
-        let (w, h) = (self.width as f32, self.height as f32);
-        // Screen position in SUB units, depth and 1/w.
-        let scr = v.map(|x| {
-            let iw = 1.0 / x.clip.w;
-            let sx = (x.clip.x * iw + 1.0) * 0.5 * w;
-            let sy = (x.clip.y * iw + 1.0) * 0.5 * h;
-            (round_i64(sx * SUB as f32), round_i64(sy * SUB as f32), x.clip.z * iw, iw)
-        });
+        let scr = v.map(|x| self.snap(x.clip));
+        self.rasterise(v, scr, cull_back);
+    }
+
+    fn rasterise(&mut self, v: [V; 3], scr: [Snapped; 3], cull_back: bool) {
         let (x0, y0) = (scr[0].0, scr[0].1);
         let area = (scr[1].0 - x0) * (scr[2].1 - y0) - (scr[2].0 - x0) * (scr[1].1 - y0);
         if area == 0 {
@@ -370,6 +398,9 @@ impl Target {
         let max_x = p.iter().map(|q| q.0).max().unwrap_or(0);
         let min_y = p.iter().map(|q| q.1).min().unwrap_or(0);
         let max_y = p.iter().map(|q| q.1).max().unwrap_or(0);
+        if self.misses_every_sample(&p) {
+            return;
+        }
         let px0 = (min_x.div_euclid(SUB)).max(0);
         let px1 = (max_x.div_euclid(SUB)).min(i64::from(self.width) - 1);
         let py0 = min_y.div_euclid(SUB);

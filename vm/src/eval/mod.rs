@@ -281,10 +281,12 @@ impl<'b> Eval<'b> {
         let s = &b.settings;
         let seed = opts.seed.unwrap_or(s.randseed);
         let start = State::start_in(s);
-        // (`flat` turns instancing off: its picture paints the triangles in their
-        // order, one mesh. Recorded sites keep it: a prototype instance is credited
-        // to its `INST` op, as an isosurface instance to its op, by instance runs.)
-        let instancing = opts.instancing && !s.flat;
+        // (`flat` keeps instancing: its picture paints the flat walk, prototype
+        // instances expanded where they were made, in order; `Eval::paint_order`
+        // expands them only where shapes at different z must be sorted. Recorded
+        // sites keep it too: a prototype instance is credited to its `INST` op, as an
+        // isosurface instance to its op, by instance runs.)
+        let instancing = opts.instancing;
         let xf_pure: Vec<bool> =
             b.transforms.iter().map(|t| matches!(t, Transform::Const(c) if c.n.is_none())).collect();
         let fast = instancing && !opts.record_sites && !opts.record_derivation && fast_path_applies(b, &xf_pure);
@@ -428,6 +430,52 @@ impl<'b> Eval<'b> {
     }
 }
 
+/// Whether the `VERTEX` group's flat walk (prototype instances expanded where they
+/// were made) has its triangles in order of the z of their centroids, as
+/// `Eval::paint_order` keys them, without expanding an instance: a prototype whose
+/// vertices all lie at z = 0, placed by a frame whose x and y axes have no z part,
+/// puts every vertex at the frame's z exactly (`u.z + lin * p` with `0 · x` and
+/// `0 · y`), so each of its triangles has the key `u.z + u.z + u.z`. `false` when an
+/// instance is not so placed (its keys would need expanding) or a key is NaN.
+fn flat_walk_in_z_order(out: &Output) -> bool {
+    use crate::output::VertexRun;
+    let in_plane: Vec<bool> = out
+        .shared_meshes
+        .iter()
+        .map(|s| s.is_prototype() && s.mesh.positions.iter().all(|p| p[2] == 0.0 && p[0].is_finite() && p[1].is_finite()))
+        .collect();
+    let mut last = f32::NEG_INFINITY;
+    let mut next = |key: f32| {
+        let ok = last <= key;
+        last = key;
+        ok
+    };
+    let frames = out.instances.packed_frames();
+    let walk = out.for_each_vertex_run(&|_| true, |run| {
+        let ok = match run {
+            VertexRun::Piece(p) => p.triangles.clone().all(|t| {
+                let z = |i: u32| p.mesh.positions.get(i as usize).map_or(0.0, |q| q[2]);
+                p.mesh.triangles.get(t).is_some_and(|tri| next(tri.iter().map(|&i| z(i)).sum::<f32>()))
+            }),
+            VertexRun::Prototypes { instances, span, .. } => {
+                in_plane.get(span.mesh as usize).copied().unwrap_or(false)
+                    && frames.get(instances).unwrap_or(&[]).iter().all(|f| {
+                        let inst = span.instance(f);
+                        let (lin, _) = inst.frame.linear();
+                        let z = inst.frame.u.z;
+                        lin.x_axis.z == 0.0 && lin.y_axis.z == 0.0 && next([z, z, z].iter().sum::<f32>())
+                    })
+            }
+        };
+        if ok {
+            Ok(())
+        } else {
+            Err(())
+        }
+    });
+    walk.is_ok()
+}
+
 impl<'b> Eval<'b> {
     /// Under `flat`: the mesh's triangles stably sorted by the z of their centroids,
     /// so a picture painted in triangle order puts higher z on top and, at equal z,
@@ -435,6 +483,18 @@ impl<'b> Eval<'b> {
     /// sites are recorded (they are per run of triangles): derivation order then,
     /// with a warning when a sort would have changed it.
     fn paint_order(&mut self) {
+        // With prototype instances: kept when the flat walk is already in z order
+        // (Context Free's art without `z`, nearly all of it), else expanded in place
+        // (the output instancing off makes) and sorted as below.
+        let shared = &self.out.shared_meshes;
+        if self.out.instances.spans().any(|s| shared.get(s.mesh as usize).is_some_and(SharedMesh::is_prototype)) {
+            if flat_walk_in_z_order(&self.out) {
+                return;
+            }
+            if !self.opts.record_sites {
+                self.out.expand_prototypes();
+            }
+        }
         let m = &mut self.out.mesh;
         let z = |t: &[u32; 3]| t.iter().map(|&i| m.positions.get(i as usize).map_or(0.0, |p| p[2])).sum::<f32>();
         let keys: Vec<f32> = m.triangles.iter().map(z).collect();
