@@ -72,10 +72,8 @@ fn std_examples() -> Vec<(String, Bundle)> {
 
 /// Std examples whose prototype items all run item by item, and why: the evaluator
 /// instances a run only where that gives the very triangles the items would.
-const LEFT_TO_THE_ITEMS: &[(&str, &str)] = &[
-    ("pebbles", "every prototype (disc, cube) is called in a non-uniform frame, `s X Y Z`"),
-    ("emblem", "`flat` turns instancing off: its triangles are painted in derivation order"),
-];
+const LEFT_TO_THE_ITEMS: &[(&str, &str)] =
+    &[("pebbles", "every prototype (disc, cube) is called in a non-uniform frame, `s X Y Z`")];
 
 /// The source lines (file, line) of the ops that `INST` ops cover: the prototype
 /// items of the grammar (and of the std rules it imports, used or not).

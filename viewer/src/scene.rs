@@ -14,7 +14,7 @@ use glam::Vec3;
 use mdg_vm::output::{Groups, Output, Piece};
 
 mod painted;
-pub use painted::{build_painted, Painted, PaintStep, PaintProto};
+pub use painted::{build_painted, PaintProto, PaintStep, Painted};
 
 /// Bytes per vertex in binding 0.
 pub const VERTEX_STRIDE: u32 = 24;
@@ -416,34 +416,34 @@ impl Builder {
     fn lines(&mut self, out: &Output) {
         let b = self;
         let is_overlay = |l: &mdg_vm::output::Polyline| OVERLAYS.iter().any(|(ns, _)| *ns == l.namespace);
-    if out.sweeps.triangles.is_empty() {
-        let ink = ink(out.background);
-        for line in out.lines.iter().filter(|l| !is_overlay(l)) {
-            for seg in line.points.windows(2) {
-                for p in seg {
-                    let p = Vec3::from_array(*p);
-                    b.s.bounds.add(p);
-                    push_vertex(&mut b.s.line_vertices, p, Vec3::ZERO, ink, false);
-                    b.s.n_line_vertices += 1;
+        if out.sweeps.triangles.is_empty() {
+            let ink = ink(out.background);
+            for line in out.lines.iter().filter(|l| !is_overlay(l)) {
+                for seg in line.points.windows(2) {
+                    for p in seg {
+                        let p = Vec3::from_array(*p);
+                        b.s.bounds.add(p);
+                        push_vertex(&mut b.s.line_vertices, p, Vec3::ZERO, ink, false);
+                        b.s.n_line_vertices += 1;
+                    }
+                }
+            }
+        }
+        for (ns, color) in OVERLAYS {
+            let color = color.unwrap_or_else(|| ink(out.background));
+            for line in out.lines.iter().filter(|l| l.namespace == ns) {
+                for seg in line.points.windows(2) {
+                    for p in seg {
+                        let p = Vec3::from_array(*p);
+                        b.s.bounds.add(p);
+                        push_vertex(&mut b.s.line_vertices, p, Vec3::ZERO, color, false);
+                        b.s.n_line_vertices += 1;
+                        b.s.n_overlay_vertices += 1;
+                    }
                 }
             }
         }
     }
-    for (ns, color) in OVERLAYS {
-        let color = color.unwrap_or_else(|| ink(out.background));
-        for line in out.lines.iter().filter(|l| l.namespace == ns) {
-            for seg in line.points.windows(2) {
-                for p in seg {
-                    let p = Vec3::from_array(*p);
-                    b.s.bounds.add(p);
-                    push_vertex(&mut b.s.line_vertices, p, Vec3::ZERO, color, false);
-                    b.s.n_line_vertices += 1;
-                    b.s.n_overlay_vertices += 1;
-                }
-            }
-        }
-    }
-}
 }
 
 /// Packs the instances for GPU instancing; returns them with their bounds and the

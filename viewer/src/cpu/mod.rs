@@ -535,9 +535,10 @@ impl<'s, 'a> Job<'s, 'a> {
                     // channel): the span's colour plus the vertex's delta, clamped.
                     colors.clear();
                     colors.extend(proto.deltas.iter().map(|d| {
-                        Vec4::from_array([0, 1, 2, 3].map(|k| {
-                            f32::from(scene::unorm8((span.color[k] + d[k]).clamp(0.0, 1.0))) / 255.0
-                        }))
+                        Vec4::from_array(
+                            [0, 1, 2, 3]
+                                .map(|k| f32::from(scene::unorm8((span.color[k] + d[k]).clamp(0.0, 1.0))) / 255.0),
+                        )
                     }));
                     for f in frames.get(instances.clone()).unwrap_or(&[]) {
                         let frame = span.instance(f).frame;
@@ -562,12 +563,20 @@ impl<'s, 'a> Job<'s, 'a> {
                         let vertex = |i: u32| -> V {
                             let (w, clip, _) = point(i).copied().unwrap_or_default();
                             let color = proto.delta_of.get(i as usize).and_then(|&d| colors.get(d as usize));
-                            V { clip, world: w, normal: Vec3::Z, color: color.copied().unwrap_or(Vec4::ONE), matte: 0.0 }
+                            V {
+                                clip,
+                                world: w,
+                                normal: Vec3::Z,
+                                color: color.copied().unwrap_or(Vec4::ONE),
+                                matte: 0.0,
+                            }
                         };
                         for (k, tri) in proto.triangles.iter().enumerate() {
                             let flip = mirrored != proto.mirrored.get(k).copied().unwrap_or(false);
                             let tri = if flip { [tri[0], tri[2], tri[1]] } else { *tri };
-                            if let [Some((_, _, Some(a))), Some((_, _, Some(b))), Some((_, _, Some(c)))] = tri.map(point) {
+                            if let [Some((_, _, Some(a))), Some((_, _, Some(b))), Some((_, _, Some(c)))] =
+                                tri.map(point)
+                            {
                                 // Snapped already: what `Target::triangle` would do.
                                 let s = [*a, *b, *c];
                                 if !t.misses_every_sample(&s) {

@@ -442,7 +442,9 @@ fn flat_walk_in_z_order(out: &Output) -> bool {
     let in_plane: Vec<bool> = out
         .shared_meshes
         .iter()
-        .map(|s| s.is_prototype() && s.mesh.positions.iter().all(|p| p[2] == 0.0 && p[0].is_finite() && p[1].is_finite()))
+        .map(|s| {
+            s.is_prototype() && s.mesh.positions.iter().all(|p| p[2] == 0.0 && p[0].is_finite() && p[1].is_finite())
+        })
         .collect();
     let mut last = f32::NEG_INFINITY;
     let mut next = |key: f32| {
