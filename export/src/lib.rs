@@ -7,6 +7,7 @@
 //! which expands instances one at a time as the file is written.
 //! All writers are deterministic: the same output gives the same bytes.
 
+pub mod durable;
 mod error;
 pub mod glb;
 pub mod json;
@@ -252,22 +253,37 @@ pub fn write_atomic_with(
             }
         }
         fill(&mut file)?;
+        // (A thread that defers its writes finishes them later: `durable`.)
+        let Some(file) = durable::defer(file, &tmp, path, dir) else { return Ok(false) };
         file.sync_all()?;
         drop(file);
-        std::fs::rename(&tmp, path)
+        std::fs::rename(&tmp, path).map(|()| true)
     })();
-    if result.is_err() {
-        // Best effort: the temporary file is garbage either way.
-        let _ = std::fs::remove_file(&tmp);
-        return result;
+    match result {
+        Err(e) => {
+            // Best effort: the temporary file is garbage either way.
+            let _ = std::fs::remove_file(&tmp);
+            Err(e)
+        }
+        Ok(false) => Ok(()),
+        Ok(true) => {
+            settle(dir, path);
+            Ok(())
+        }
     }
-    // Make the rename itself durable where the platform allows syncing a directory.
+}
+
+/// After `path` was renamed into place in `dir`: makes the rename itself durable
+/// where the platform allows syncing a directory, and removes the temporary files
+/// earlier writers of it left.
+fn settle(dir: &Path, path: &Path) {
     #[cfg(unix)]
     if let Ok(d) = std::fs::File::open(dir) {
         let _ = d.sync_all();
     }
-    remove_stale_temporaries(dir, &name.to_string_lossy());
-    Ok(())
+    if let Some(name) = path.file_name() {
+        remove_stale_temporaries(dir, &name.to_string_lossy());
+    }
 }
 
 /// Removes the temporary files an earlier writer of `name` left in `dir` when it was

@@ -757,9 +757,18 @@ fn run_batch(
         .unwrap_or_else(|| std::thread::available_parallelism().map(std::num::NonZeroUsize::get).unwrap_or(1));
     // Each worker runs its seed and makes its manifest line (hashing the file it
     // wrote); the lines are appended in seed order.
-    let run = |seed: u64, output: &Path| {
-        let counts = run_one(cli, opts, bundle, Some(seed), output, size, pictures, false)?;
-        batch::Entry { seed, file: output.to_path_buf(), counts }.line().map_err(Failure::usage)
+    // A seed computes holding a core, then flushes its files to disk without one
+    // (another seed computes meanwhile), then hashes them holding one again.
+    let run = |seed: u64, output: &Path, cores: &batch::Cores| {
+        let (counts, pending) = cores.hold(|| {
+            export::durable::deferring(|| run_one(cli, opts, bundle, Some(seed), output, size, pictures, false))
+        });
+        let counts = counts?;
+        for p in pending {
+            let path = p.path().to_path_buf();
+            p.finish().map_err(|e| Failure::usage(format!("cannot write {}: {e}", path.display())))?;
+        }
+        cores.hold(|| batch::Entry { seed, file: output.to_path_buf(), counts }.line()).map_err(Failure::usage)
     };
     let ran = batch::run_in_order(&todo, jobs, run, |seed, _, line: String| {
         bar.inc(1);
