@@ -371,12 +371,7 @@ pub fn build(out: &Output) -> Scene {
 /// [`build`], with the instances (prototypes and isosurfaces) left to GPU instancing
 /// when `instanced` (the program has std's instanced vertex shader).
 pub fn build_with(out: &Output, instanced: bool) -> Scene {
-    let skinned = !out.mesh.weights.is_empty()
-        || !out.mesh.bones.is_empty()
-        || !out.sweeps.weights.is_empty()
-        || !out.sweeps.bones.is_empty()
-        || !out.instance_weights.is_empty()
-        || out.instances.bone_runs().any(|(_, b)| b != 0);
+    let skinned = skinned(out);
     let n_vertices =
         if instanced { out.mesh.n_vertices() + out.sweeps.n_vertices() } else { out.flat_counts(Groups::ALL).0 };
     let mut b = Builder { s: Scene { bounds: Bounds::EMPTY, ..Scene::default() }, skinned };
@@ -411,36 +406,44 @@ pub fn build_with(out: &Output, instanced: bool) -> Scene {
     b.s
 }
 
+/// Whether `out` has weights or bones (binding 1 is then filled).
+fn skinned(out: &Output) -> bool {
+    !out.mesh.weights.is_empty()
+        || !out.mesh.bones.is_empty()
+        || !out.sweeps.weights.is_empty()
+        || !out.sweeps.bones.is_empty()
+        || !out.instance_weights.is_empty()
+        || out.instances.bone_runs().any(|(_, b)| b != 0)
+}
+
 impl Builder {
     /// Appends the pen lines (when nothing was swept) and the overlays.
     fn lines(&mut self, out: &Output) {
-        let b = self;
         let is_overlay = |l: &mdg_vm::output::Polyline| OVERLAYS.iter().any(|(ns, _)| *ns == l.namespace);
         if out.sweeps.triangles.is_empty() {
             let ink = ink(out.background);
             for line in out.lines.iter().filter(|l| !is_overlay(l)) {
-                for seg in line.points.windows(2) {
-                    for p in seg {
-                        let p = Vec3::from_array(*p);
-                        b.s.bounds.add(p);
-                        push_vertex(&mut b.s.line_vertices, p, Vec3::ZERO, ink, false);
-                        b.s.n_line_vertices += 1;
-                    }
-                }
+                self.segments(line, ink);
             }
         }
         for (ns, color) in OVERLAYS {
             let color = color.unwrap_or_else(|| ink(out.background));
             for line in out.lines.iter().filter(|l| l.namespace == ns) {
-                for seg in line.points.windows(2) {
-                    for p in seg {
-                        let p = Vec3::from_array(*p);
-                        b.s.bounds.add(p);
-                        push_vertex(&mut b.s.line_vertices, p, Vec3::ZERO, color, false);
-                        b.s.n_line_vertices += 1;
-                        b.s.n_overlay_vertices += 1;
-                    }
-                }
+                let before = self.s.n_line_vertices;
+                self.segments(line, color);
+                self.s.n_overlay_vertices += self.s.n_line_vertices - before;
+            }
+        }
+    }
+
+    /// Appends `line`'s segments as pairs of line vertices in `color`.
+    fn segments(&mut self, line: &mdg_vm::output::Polyline, color: [f32; 4]) {
+        for seg in line.points.windows(2) {
+            for p in seg {
+                let p = Vec3::from_array(*p);
+                self.s.bounds.add(p);
+                push_vertex(&mut self.s.line_vertices, p, Vec3::ZERO, color, false);
+                self.s.n_line_vertices += 1;
             }
         }
     }

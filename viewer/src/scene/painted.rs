@@ -101,13 +101,11 @@ pub struct Painted {
 /// isosurface instance (painted after everything else, expanded), or bones and
 /// weights (the painter does not skin).
 pub fn build_painted(out: &Output) -> Option<(Scene, Painted)> {
-    let skinned = !out.mesh.weights.is_empty()
-        || !out.mesh.bones.is_empty()
-        || !out.sweeps.weights.is_empty()
-        || !out.sweeps.bones.is_empty()
-        || !out.instance_weights.is_empty()
-        || out.instances.bone_runs().any(|(_, b)| b != 0);
-    if !out.flat || skinned || out.instances.is_empty() || !out.shared_meshes.iter().all(|s| s.is_prototype()) {
+    if !out.flat
+        || super::skinned(out)
+        || out.instances.is_empty()
+        || !out.shared_meshes.iter().all(|s| s.is_prototype())
+    {
         return None;
     }
     let protos: Vec<PaintProto> = out.shared_meshes.iter().map(|s| PaintProto::of(&s.mesh)).collect();
