@@ -8,6 +8,13 @@
 /// compare.
 pub(super) struct Memo<const N: usize, V> {
     slots: Vec<Slot<N, V>>,
+    /// The slot is the hash's top `64 - shift` bits.
+    shift: u32,
+    /// Misses since the slots last grew: a memo starts with [`FIRST_SLOTS`] and
+    /// grows four-fold (emptied: it is a cache) each time it misses twice as often
+    /// as it has slots, up to [`MEMO_SLOTS`]. A file of a few instances then costs
+    /// a few kilobytes, not the ~600 KB of the full table zeroed.
+    misses: usize,
 }
 
 /// A slot of a [`Memo`]: a key and its value, once `full`.
@@ -24,12 +31,29 @@ pub(super) fn pair(a: f32, b: f32) -> u64 {
     u64::from(a.to_bits()) | u64::from(b.to_bits()) << 32
 }
 
-/// The slots of a [`Memo`].
+/// The most slots of a [`Memo`].
 const MEMO_SLOTS: usize = 4096;
+/// The slots a [`Memo`] starts with.
+const FIRST_SLOTS: usize = 64;
 
 impl<const N: usize, V: Copy + Default> Memo<N, V> {
     pub(super) fn new() -> Memo<N, V> {
-        Memo { slots: vec![Slot { full: false, key: [0; N], value: V::default() }; MEMO_SLOTS] }
+        Memo::with_slots(FIRST_SLOTS)
+    }
+
+    fn with_slots(n: usize) -> Memo<N, V> {
+        Memo {
+            slots: vec![Slot { full: false, key: [0; N], value: V::default() }; n],
+            shift: 64 - n.trailing_zeros(),
+            misses: 0,
+        }
+    }
+
+    /// Four times the slots, empty.
+    #[cold]
+    #[inline(never)]
+    fn grow(&mut self) {
+        *self = Memo::with_slots((self.slots.len() * 4).min(MEMO_SLOTS));
     }
 
     /// `make()`'s value for the key `key` (whose bits are all `make` reads).
@@ -45,17 +69,23 @@ impl<const N: usize, V: Copy + Default> Memo<N, V> {
         // slot is taken from them: the low bits of the old 32-bit hash, taken
         // modulo the slots, sent the tree's frames to few slots.)
         let h = key.iter().fold(0x9e37_79b9_7f4a_7c15u64, |h, &k| (h ^ k).wrapping_mul(0x2c1b_3c6d_d1b5_4a33));
-        let slot = (h >> 52) as usize & (MEMO_SLOTS - 1);
-        // (`slots` has MEMO_SLOTS entries: the index is in range. The keys are
-        // compared word by word, without branches: no call to `bcmp`.)
-        let s = &mut self.slots[slot];
+        let slot = (h >> self.shift) as usize;
+        // (The top bits index the slots: in range. The keys are compared word by
+        // word, without branches: no call to `bcmp`.)
+        let s = &self.slots[slot];
         let same = s.key.iter().zip(&key).fold(0, |d, (a, b)| d | (a ^ b)) == 0;
         if !(s.full && same) {
+            self.misses += 1;
+            if self.misses > 2 * self.slots.len() && self.slots.len() < MEMO_SLOTS {
+                self.grow();
+                return self.get_ref(key, make);
+            }
             // (The value made where it is kept: no copy of the slot.)
+            let s = &mut self.slots[slot];
             s.value = missed(make);
             (s.full, s.key) = (true, key);
         }
-        &s.value
+        &self.slots[slot].value
     }
 }
 
@@ -89,6 +119,9 @@ mod tests {
             }
         }
         assert!(calls < 6 * MEMO_SLOTS + 64 + 64, "{calls} calls");
+        // It grew to its most slots on the way (and started small).
+        assert_eq!(memo.slots.len(), MEMO_SLOTS);
+        assert_eq!(Memo::<2, u64>::new().slots.len(), FIRST_SLOTS);
         // An empty slot holds no key, not even the zero key (its value is the
         // default, not the function's).
         let mut fresh: Memo<2, u64> = Memo::new();
