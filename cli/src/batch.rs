@@ -20,9 +20,9 @@
 //! same shard at once.
 //!
 //! Seeds run side by side (`-j N`, [`run_in_order`]): workers take the next seed in
-//! order (N of them computing at a time, [`Cores`]; a seed flushing its files to
-//! disk holds no core, so twice N are in flight), and results are recorded in seed
-//! order, so outputs and manifest are byte
+//! order, and results are recorded in seed order (by the main thread, which also
+//! flushes each seed's files to disk before its line: the workers never wait for
+//! the disk), so outputs and manifest are byte
 //! for byte those of one worker, and a run killed part-way leaves a manifest that
 //! is a prefix of the whole one (plus, at most, outputs of the seeds then running,
 //! which a resumed run redoes).
@@ -160,7 +160,13 @@ impl Entry {
     /// written: `{"mdg_manifest":2,"seed":…,"file":…,"vertices":…,"triangles":…,
     /// "bytes":…,"sha256":"…"}`.
     pub fn line(&self) -> Result<String, String> {
-        let bytes = std::fs::read(&self.file).map_err(|e| format!("cannot read {}: {e}", self.file.display()))?;
+        self.line_reading(&self.file)
+    }
+
+    /// [`Entry::line`] with the bytes read from `written` (the file still under its
+    /// temporary name, before it is flushed and renamed: the same bytes).
+    pub fn line_reading(&self, written: &Path) -> Result<String, String> {
+        let bytes = std::fs::read(written).map_err(|e| format!("cannot read {}: {e}", self.file.display()))?;
         let hash = Sha256::digest(&bytes);
         let hex: String = hash.iter().map(|b| format!("{b:02x}")).collect();
         let (v, t) = match self.counts {
@@ -518,73 +524,35 @@ impl Manifest {
     }
 }
 
-/// The cores of a batch: a seed's work on the CPU holds one ([`Cores::hold`]); its
-/// waits for the disk do not, so `-j N` keeps N cores busy while other seeds'
-/// files are flushed.
-pub struct Cores {
-    free: std::sync::Mutex<usize>,
-    freed: std::sync::Condvar,
-}
-
-impl Cores {
-    pub fn new(n: usize) -> Cores {
-        Cores { free: std::sync::Mutex::new(n.max(1)), freed: std::sync::Condvar::new() }
-    }
-
-    /// Runs `f` holding one core (waiting for one to be free).
-    pub fn hold<T>(&self, f: impl FnOnce() -> T) -> T {
-        {
-            let mut free = self.free.lock().unwrap_or_else(|e| e.into_inner());
-            while *free == 0 {
-                free = self.freed.wait(free).unwrap_or_else(|e| e.into_inner());
-            }
-            *free -= 1;
-        }
-        // (Given back on the way out, a panic included.)
-        struct Release<'c>(&'c Cores);
-        impl Drop for Release<'_> {
-            fn drop(&mut self) {
-                *self.0.free.lock().unwrap_or_else(|e| e.into_inner()) += 1;
-                self.0.freed.notify_one();
-            }
-        }
-        let _release = Release(self);
-        f()
-    }
-}
-
-/// Runs `run(seed, output, cores)` for each of `todo` (in order), `jobs` at a time
-/// on the CPU: on twice as many threads, each holding one of `jobs` [`Cores`] while
-/// it computes (`run` says when: it flushes its files without one). Hands each
-/// result to `record` in `todo`'s order, as soon as it and every earlier one are
-/// done; returns how many were recorded. After a failure no new seed starts; the
-/// seeds before it are recorded and the first failure (in `todo`'s order) is
-/// returned, as one worker would have.
+/// Runs `run(seed, output)` for each of `todo` (in order) on `jobs` threads and hands
+/// each result to `record` in `todo`'s order, as soon as it and every earlier one
+/// are done (on this thread: a batch flushes its seeds' files to disk there, while
+/// the workers compute); returns how many were recorded. After a failure no new
+/// seed starts; the seeds before it are recorded and the first failure (in
+/// `todo`'s order) is returned, as one worker would have.
 pub fn run_in_order<R, E, F, G>(todo: &[(u64, PathBuf)], jobs: usize, run: F, mut record: G) -> Result<u64, E>
 where
     R: Send,
     E: Send,
-    F: Fn(u64, &Path, &Cores) -> Result<R, E> + Sync,
+    F: Fn(u64, &Path) -> Result<R, E> + Sync,
     G: FnMut(u64, &Path, R) -> Result<(), E>,
 {
     use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
     let jobs = jobs.clamp(1, todo.len().max(1));
-    let cores = Cores::new(jobs);
-    let threads = (2 * jobs).min(todo.len().max(1));
     let next = AtomicUsize::new(0);
     let failed = AtomicBool::new(false);
     let (tx, rx) = std::sync::mpsc::channel::<(usize, Result<R, E>)>();
     std::thread::scope(|scope| {
-        for _ in 0..threads {
+        for _ in 0..jobs {
             let tx = tx.clone();
-            let (next, failed, run, cores) = (&next, &failed, &run, &cores);
+            let (next, failed, run) = (&next, &failed, &run);
             scope.spawn(move || loop {
                 if failed.load(Ordering::SeqCst) {
                     break;
                 }
                 let i = next.fetch_add(1, Ordering::SeqCst);
                 let Some((seed, output)) = todo.get(i) else { break };
-                let result = run(*seed, output, cores);
+                let result = run(*seed, output);
                 if result.is_err() {
                     failed.store(true, Ordering::SeqCst);
                 }
@@ -748,7 +716,7 @@ mod tests {
     fn seeds_run_side_by_side_are_recorded_in_order_and_stop_at_the_first_failure() {
         let todo: Vec<(u64, PathBuf)> = (0..40).map(|s| (s, PathBuf::from(format!("out/{s}.glb")))).collect();
         // Later seeds finish first: without ordering they would be recorded first.
-        let run = |seed: u64, _: &Path, _: &Cores| -> Result<u64, String> {
+        let run = |seed: u64, _: &Path| -> Result<u64, String> {
             std::thread::sleep(std::time::Duration::from_millis(40u64.saturating_sub(seed)));
             Ok(seed * seed)
         };
@@ -761,7 +729,7 @@ mod tests {
             assert_eq!(n, Ok(40));
             assert_eq!(seen, (0..40).map(|s| (s, s * s)).collect::<Vec<_>>(), "jobs {jobs}");
         }
-        let failing = |seed: u64, _: &Path, _: &Cores| {
+        let failing = |seed: u64, _: &Path| {
             if seed == 9 || seed == 20 {
                 Err(format!("seed {seed}"))
             } else {
@@ -776,34 +744,6 @@ mod tests {
             });
             assert_eq!(r, Err("seed 9".to_string()), "jobs {jobs}");
             assert_eq!(seen, (0..9).collect::<Vec<_>>(), "jobs {jobs}");
-        }
-    }
-
-    /// `-j N` computes N seeds at once: never more hold a core, while seeds waiting
-    /// without one (for the disk) let others compute.
-    #[test]
-    fn no_more_than_jobs_seeds_hold_a_core() {
-        use std::sync::atomic::{AtomicUsize, Ordering};
-        let todo: Vec<(u64, PathBuf)> = (0..24).map(|s| (s, PathBuf::from(format!("out/{s}.glb")))).collect();
-        for jobs in [1, 2, 3] {
-            let (holding, most, waiting, most_waiting) =
-                (AtomicUsize::new(0), AtomicUsize::new(0), AtomicUsize::new(0), AtomicUsize::new(0));
-            let run = |seed: u64, _: &Path, cores: &Cores| -> Result<u64, String> {
-                cores.hold(|| {
-                    most.fetch_max(holding.fetch_add(1, Ordering::SeqCst) + 1, Ordering::SeqCst);
-                    std::thread::sleep(std::time::Duration::from_millis(3));
-                    holding.fetch_sub(1, Ordering::SeqCst);
-                });
-                // The "disk": no core held.
-                most_waiting.fetch_max(waiting.fetch_add(1, Ordering::SeqCst) + 1, Ordering::SeqCst);
-                std::thread::sleep(std::time::Duration::from_millis(6));
-                waiting.fetch_sub(1, Ordering::SeqCst);
-                Ok(seed)
-            };
-            assert_eq!(run_in_order(&todo, jobs, run, |_, _, _| Ok::<(), String>(())), Ok(24));
-            let most = most.load(Ordering::SeqCst);
-            assert!((1..=jobs).contains(&most), "jobs {jobs}: {most} held a core at once");
-            assert!(most_waiting.load(Ordering::SeqCst) <= 2 * jobs, "jobs {jobs}");
         }
     }
 }

@@ -1,7 +1,6 @@
 //! Writes whose last step, flushing to disk and renaming into place, is left to the
-//! caller ([`deferring`]): a batch that writes a file per seed flushes each one on
-//! a thread that is not holding a core (`mdg-run --seeds`), while the next seed is
-//! evaluated. The file appears under its name only once [`Pending::finish`] has
+//! caller ([`deferring`]): a batch that writes a file per seed (`mdg-run --seeds`)
+//! flushes each one on its main thread while the workers evaluate the next seeds. The file appears under its name only once [`Pending::finish`] has
 //! flushed it, so readers still see the old file or the whole new one.
 
 use std::cell::RefCell;
@@ -20,6 +19,12 @@ impl Pending {
     /// The name the file will have.
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// Where the file is until it is finished (its temporary name): the bytes
+    /// written, for reading back.
+    pub fn written(&self) -> &Path {
+        &self.tmp
     }
 
     /// Flushes the file to disk, renames it into place and makes the rename durable

@@ -755,25 +755,28 @@ fn run_batch(
         .jobs
         .map(|j| j as usize)
         .unwrap_or_else(|| std::thread::available_parallelism().map(std::num::NonZeroUsize::get).unwrap_or(1));
-    // Each worker runs its seed and makes its manifest line (hashing the file it
-    // wrote); the lines are appended in seed order.
-    // A seed computes holding a core, then flushes its files to disk without one
-    // (another seed computes meanwhile), then hashes them holding one again.
-    let run = |seed: u64, output: &Path, cores: &batch::Cores| {
-        let (counts, pending) = cores.hold(|| {
-            export::durable::deferring(|| run_one(cli, opts, bundle, Some(seed), output, size, pictures, false))
-        });
+    // A worker runs its seed, its files written under their temporary names, and
+    // makes its manifest line (hashing the files as written); this thread flushes
+    // them to disk and renames them into place, then appends the line, in seed
+    // order (the workers compute meanwhile: they never wait for the disk).
+    let run = |seed: u64, output: &Path| {
+        let (counts, pending) =
+            export::durable::deferring(|| run_one(cli, opts, bundle, Some(seed), output, size, pictures, false));
         let counts = counts?;
-        for p in pending {
-            let path = p.path().to_path_buf();
-            p.finish().map_err(|e| Failure::usage(format!("cannot write {}: {e}", path.display())))?;
-        }
-        cores.hold(|| batch::Entry { seed, file: output.to_path_buf(), counts }.line()).map_err(Failure::usage)
+        let resolved = export::resolve_symlinks(output).unwrap_or_else(|_| output.to_path_buf());
+        let written = pending.iter().find(|p| p.path() == resolved).map_or(output, |p| p.written());
+        let line = batch::Entry { seed, file: output.to_path_buf(), counts }.line_reading(written);
+        Ok((pending, line.map_err(Failure::usage)?))
     };
-    let ran = batch::run_in_order(&todo, jobs, run, |seed, _, line: String| {
-        bar.inc(1);
-        manifest.record(seed, &line).map_err(Failure::usage)
-    })?;
+    let ran =
+        batch::run_in_order(&todo, jobs, run, |seed, _, (pending, line): (Vec<export::durable::Pending>, String)| {
+            for p in pending {
+                let path = p.path().to_path_buf();
+                p.finish().map_err(|e| Failure::usage(format!("cannot write {}: {e}", path.display())))?;
+            }
+            bar.inc(1);
+            manifest.record(seed, &line).map_err(Failure::usage)
+        })?;
     bar.finish_and_clear();
     eprintln!(
         "{ran} seeds run, {skipped} already done (shard {}/{}); manifest {}",
