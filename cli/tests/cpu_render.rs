@@ -130,6 +130,11 @@ fn flat_art_paints_its_instances_in_order_as_if_expanded() {
         let expanded = mdg_vm::eval::evaluate(&model.bundle, &opts);
         assert!(expanded.instances.is_empty());
         assert_eq!(expanded.mesh.triangles.len(), out.flat_counts(mdg_vm::output::Groups::ALL).1, "{name}");
+        // With sites recorded nothing is sorted: out of z order, the run says so.
+        let opts = mdg_vm::eval::EvalOptions { record_sites: true, ..mdg_vm::eval::EvalOptions::default() };
+        let sited = mdg_vm::eval::evaluate(&model.bundle, &opts);
+        let warned = sited.stats.warnings.iter().any(|w| w.contains("painted in derivation order while sites"));
+        assert_eq!(warned, !kept, "{name}: {:?}", sited.stats.warnings);
         for samples in [0u32, 4] {
             for threads in [1, 3] {
                 let (mut o, _) = cpu_options(samples, (160, 120));

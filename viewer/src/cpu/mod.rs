@@ -524,7 +524,7 @@ impl<'s, 'a> Job<'s, 'a> {
     /// sphere misses this target's rows.
     fn paint(&self, t: &mut Target, painted: &scene::Painted) {
         let frames = self.cpu.output.instances.packed_frames();
-        let mut world: Vec<(Vec3, Vec4, Option<raster::Snapped>)> = Vec::new();
+        let mut points: Vec<(Vec3, Vec4, Option<raster::Snapped>)> = Vec::new();
         let mut colors: Vec<Vec4> = Vec::new();
         for step in &painted.steps {
             match step {
@@ -541,60 +541,64 @@ impl<'s, 'a> Job<'s, 'a> {
                         )
                     }));
                     for f in frames.get(instances.clone()).unwrap_or(&[]) {
-                        let frame = span.instance(f).frame;
-                        let (lin, mirrored) = frame.linear();
-                        // (Rounding: the sphere grows by a part in a thousand.)
-                        let c = frame.u + lin * proto.centre;
-                        let r = proto.radius * max_axis(lin) * 1.001 + 1e-6 * c.abs().max_element();
-                        if let Some((y0, y1, visible)) = self.sphere_rows(c, r) {
-                            if !visible || !t.any_row(y0, y1) {
-                                continue;
-                            }
-                        }
-                        // Each point placed, projected and (inside the guard band)
-                        // snapped once: a circle's 96 vertices are 33 points.
-                        world.clear();
-                        world.extend(proto.points.iter().map(|&p| {
-                            let w = frame.u + lin * p;
-                            let clip = self.vp * w.extend(1.0);
-                            (w, clip, raster::inside(clip).then(|| t.snap(clip)))
-                        }));
-                        let point = |i: u32| proto.point_of.get(i as usize).and_then(|&k| world.get(k as usize));
-                        let vertex = |i: u32| -> V {
-                            let (w, clip, _) = point(i).copied().unwrap_or_default();
-                            let color = proto.delta_of.get(i as usize).and_then(|&d| colors.get(d as usize));
-                            V {
-                                clip,
-                                world: w,
-                                normal: Vec3::Z,
-                                color: color.copied().unwrap_or(Vec4::ONE),
-                                matte: 0.0,
-                            }
-                        };
-                        for (k, tri) in proto.triangles.iter().enumerate() {
-                            let flip = mirrored != proto.mirrored.get(k).copied().unwrap_or(false);
-                            let tri = if flip { [tri[0], tri[2], tri[1]] } else { *tri };
-                            if let [Some((_, _, Some(a))), Some((_, _, Some(b))), Some((_, _, Some(c)))] =
-                                tri.map(point)
-                            {
-                                // Snapped already: what `Target::triangle` would do.
-                                let s = [*a, *b, *c];
-                                if !t.misses_every_sample(&s) {
-                                    t.triangle_snapped(tri.map(vertex), s);
-                                }
-                                continue;
-                            }
-                            let v = tri.map(vertex);
-                            if let Some((y0, y1)) = screen_rows(&v, self.height) {
-                                if !t.any_row(y0, y1) {
-                                    continue;
-                                }
-                            }
-                            t.triangle(v, false);
-                        }
+                        self.paint_instance(t, proto, &span.instance(f).frame, &colors, &mut points);
                     }
                 }
             }
+        }
+    }
+
+    /// One instance of `proto` placed by `frame`, its vertices' colours by delta in
+    /// `colors` ([`Job::paint`]); `points` is scratch.
+    fn paint_instance(
+        &self,
+        t: &mut Target,
+        proto: &scene::PaintProto,
+        frame: &Frame,
+        colors: &[Vec4],
+        points: &mut Vec<(Vec3, Vec4, Option<raster::Snapped>)>,
+    ) {
+        let (lin, mirrored) = frame.linear();
+        // (Rounding: the sphere grows by a part in a thousand.)
+        let c = frame.u + lin * proto.centre;
+        let r = proto.radius * max_axis(lin) * 1.001 + 1e-6 * c.abs().max_element();
+        if let Some((y0, y1, visible)) = self.sphere_rows(c, r) {
+            if !visible || !t.any_row(y0, y1) {
+                return;
+            }
+        }
+        // Each point placed, projected and (inside the guard band) snapped once: a
+        // circle's 96 vertices are 33 points.
+        points.clear();
+        points.extend(proto.points.iter().map(|&p| {
+            let w = frame.u + lin * p;
+            let clip = self.vp * w.extend(1.0);
+            (w, clip, raster::inside(clip).then(|| t.snap(clip)))
+        }));
+        let point = |i: u32| proto.point_of.get(i as usize).and_then(|&k| points.get(k as usize));
+        let vertex = |i: u32| -> V {
+            let (world, clip, _) = point(i).copied().unwrap_or_default();
+            let color = proto.delta_of.get(i as usize).and_then(|&d| colors.get(d as usize));
+            V { clip, world, normal: Vec3::Z, color: color.copied().unwrap_or(Vec4::ONE), matte: 0.0 }
+        };
+        for (k, tri) in proto.triangles.iter().enumerate() {
+            let flip = mirrored != proto.mirrored.get(k).copied().unwrap_or(false);
+            let tri = if flip { [tri[0], tri[2], tri[1]] } else { *tri };
+            if let [Some((_, _, Some(a))), Some((_, _, Some(b))), Some((_, _, Some(c)))] = tri.map(point) {
+                // Snapped already: what `Target::triangle` would do.
+                let s = [*a, *b, *c];
+                if !t.misses_every_sample(&s) {
+                    t.triangle_snapped(tri.map(vertex), s);
+                }
+                continue;
+            }
+            let v = tri.map(vertex);
+            if let Some((y0, y1)) = screen_rows(&v, self.height) {
+                if !t.any_row(y0, y1) {
+                    continue;
+                }
+            }
+            t.triangle(v, false);
         }
     }
 

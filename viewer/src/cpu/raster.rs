@@ -358,10 +358,17 @@ impl Target {
     /// on a lattice: the pixel centres at 1×, every quarter pixel from 1/8 at 4×.
     #[inline]
     pub fn misses_every_sample(&self, p: &[Snapped; 3]) -> bool {
-        let (first, step) = if self.samples == 4 { (32, 64) } else { (SUB / 2, SUB) };
-        let holds = |lo: i64, hi: i64| (hi - first).div_euclid(step) >= (lo - first + step - 1).div_euclid(step);
         let (x0, x1) = (p[0].0.min(p[1].0).min(p[2].0), p[0].0.max(p[1].0).max(p[2].0));
         let (y0, y1) = (p[0].1.min(p[1].1).min(p[2].1), p[0].1.max(p[1].1).max(p[2].1));
+        self.box_misses_every_sample(x0, x1, y0, y1)
+    }
+
+    /// [`Target::misses_every_sample`] of the box `x0..=x1` × `y0..=y1` (in [`SUB`]
+    /// units).
+    #[inline]
+    fn box_misses_every_sample(&self, x0: i64, x1: i64, y0: i64, y1: i64) -> bool {
+        let (first, step) = if self.samples == 4 { (32, 64) } else { (SUB / 2, SUB) };
+        let holds = |lo: i64, hi: i64| (hi - first).div_euclid(step) >= (lo - first + step - 1).div_euclid(step);
         !holds(x0, x1) || !holds(y0, y1)
     }
 
@@ -398,7 +405,7 @@ impl Target {
         let max_x = p.iter().map(|q| q.0).max().unwrap_or(0);
         let min_y = p.iter().map(|q| q.1).min().unwrap_or(0);
         let max_y = p.iter().map(|q| q.1).max().unwrap_or(0);
-        if self.misses_every_sample(&p) {
+        if self.box_misses_every_sample(min_x, max_x, min_y, max_y) {
             return;
         }
         let px0 = (min_x.div_euclid(SUB)).max(0);

@@ -46,29 +46,11 @@ pub struct PaintProto {
 
 impl PaintProto {
     fn of(m: &mdg_vm::output::Mesh) -> PaintProto {
-        let mut points: Vec<Vec3> = Vec::new();
-        let mut seen: std::collections::HashMap<[u32; 3], u32> = std::collections::HashMap::new();
-        let point_of = m
-            .positions
-            .iter()
-            .map(|p| {
-                *seen.entry(p.map(f32::to_bits)).or_insert_with(|| {
-                    points.push(Vec3::from_array(*p));
-                    points.len() as u32 - 1
-                })
-            })
-            .collect();
-        let mut deltas: Vec<[f32; 4]> = Vec::new();
-        let mut seen_delta: std::collections::HashMap<[u32; 4], u32> = std::collections::HashMap::new();
-        let delta_of = (0..m.n_vertices())
-            .map(|i| {
-                let d = m.colors.get(i).copied().unwrap_or([0.0; 4]);
-                *seen_delta.entry(d.map(f32::to_bits)).or_insert_with(|| {
-                    deltas.push(d);
-                    deltas.len() as u32 - 1
-                })
-            })
-            .collect();
+        let (points, point_of) = distinct(m.positions.iter().map(|p| (p.map(f32::to_bits), Vec3::from_array(*p))));
+        let (deltas, delta_of) = distinct((0..m.n_vertices()).map(|i| {
+            let d = m.colors.get(i).copied().unwrap_or([0.0; 4]);
+            (d.map(f32::to_bits), d)
+        }));
         let mut b = Bounds::EMPTY;
         points.iter().for_each(|&p| b.add(p));
         let centre = if b.is_empty() { Vec3::ZERO } else { (b.lo + b.hi) * 0.5 };
@@ -84,6 +66,22 @@ impl PaintProto {
             radius,
         }
     }
+}
+
+/// The distinct values of `items` (by their keys, in order of first sight), and per
+/// item the index of its value.
+fn distinct<K: std::hash::Hash + Eq, T>(items: impl Iterator<Item = (K, T)>) -> (Vec<T>, Vec<u32>) {
+    let mut values = Vec::new();
+    let mut seen = std::collections::HashMap::new();
+    let index = items
+        .map(|(k, v)| {
+            *seen.entry(k).or_insert_with(|| {
+                values.push(v);
+                values.len() as u32 - 1
+            })
+        })
+        .collect();
+    (values, index)
 }
 
 /// Flat art's paint order ([`build_painted`]).

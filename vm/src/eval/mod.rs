@@ -430,15 +430,21 @@ impl<'b> Eval<'b> {
     }
 }
 
+/// The key `Eval::paint_order` sorts triangle `t` of `positions` by: the sum of its
+/// vertices' z (three times its centroid's), 0 for a vertex out of range.
+fn z_key(positions: &[[f32; 3]], t: &[u32; 3]) -> f32 {
+    t.iter().map(|&i| positions.get(i as usize).map_or(0.0, |p| p[2])).sum::<f32>()
+}
+
 /// Whether the `VERTEX` group's flat walk (prototype instances expanded where they
-/// were made) has its triangles in order of the z of their centroids, as
-/// `Eval::paint_order` keys them, without expanding an instance: a prototype whose
-/// vertices all lie at z = 0, placed by a frame whose x and y axes have no z part,
-/// puts every vertex at the frame's z exactly (`u.z + lin * p` with `0 · x` and
-/// `0 · y`), so each of its triangles has the key `u.z + u.z + u.z`. `false` when an
-/// instance is not so placed (its keys would need expanding) or a key is NaN.
+/// were made) has its triangles in [`z_key`] order (a NaN key is out of order).
+/// Mostly without expanding an instance: a prototype whose vertices all lie at
+/// z = 0, placed by a frame whose x and y axes have no z part, puts every vertex at
+/// the frame's z exactly (`u.z + lin * p` with `0 · x` and `0 · y`), so each of its
+/// triangles has the key `u.z + u.z + u.z`; any other instance is expanded into a
+/// scratch mesh for its keys.
 fn flat_walk_in_z_order(out: &Output) -> bool {
-    use crate::output::VertexRun;
+    use crate::output::{expand_prototype, VertexRun};
     let in_plane: Vec<bool> = out
         .shared_meshes
         .iter()
@@ -452,21 +458,28 @@ fn flat_walk_in_z_order(out: &Output) -> bool {
         last = key;
         ok
     };
+    let mut scratch = Mesh::default();
     let frames = out.instances.packed_frames();
     let walk = out.for_each_vertex_run(&|_| true, |run| {
         let ok = match run {
-            VertexRun::Piece(p) => p.triangles.clone().all(|t| {
-                let z = |i: u32| p.mesh.positions.get(i as usize).map_or(0.0, |q| q[2]);
-                p.mesh.triangles.get(t).is_some_and(|tri| next(tri.iter().map(|&i| z(i)).sum::<f32>()))
-            }),
+            VertexRun::Piece(p) => {
+                p.triangles.clone().all(|t| p.mesh.triangles.get(t).is_some_and(|t| next(z_key(&p.mesh.positions, t))))
+            }
             VertexRun::Prototypes { instances, span, .. } => {
-                in_plane.get(span.mesh as usize).copied().unwrap_or(false)
-                    && frames.get(instances).unwrap_or(&[]).iter().all(|f| {
-                        let inst = span.instance(f);
-                        let (lin, _) = inst.frame.linear();
+                let plane = in_plane.get(span.mesh as usize).copied().unwrap_or(false);
+                let frames = frames.get(instances.clone()).unwrap_or(&[]);
+                instances.zip(frames).all(|(i, f)| {
+                    let inst = span.instance(f);
+                    let (lin, _) = inst.frame.linear();
+                    if plane && lin.x_axis.z == 0.0 && lin.y_axis.z == 0.0 {
                         let z = inst.frame.u.z;
-                        lin.x_axis.z == 0.0 && lin.y_axis.z == 0.0 && next([z, z, z].iter().sum::<f32>())
-                    })
+                        return next([z, z, z].iter().sum::<f32>());
+                    }
+                    let Some(shared) = out.shared(&inst) else { return true };
+                    scratch.clear();
+                    expand_prototype(&mut scratch, shared, &inst, out.instance_weight(i));
+                    scratch.triangles.iter().all(|t| next(z_key(&scratch.positions, t)))
+                })
             }
         };
         if ok {
@@ -485,22 +498,7 @@ impl<'b> Eval<'b> {
     /// sites are recorded (they are per run of triangles): derivation order then,
     /// with a warning when a sort would have changed it.
     fn paint_order(&mut self) {
-        // With prototype instances: kept when the flat walk is already in z order
-        // (Context Free's art without `z`, nearly all of it), else expanded in place
-        // (the output instancing off makes) and sorted as below.
-        let shared = &self.out.shared_meshes;
-        if self.out.instances.spans().any(|s| shared.get(s.mesh as usize).is_some_and(SharedMesh::is_prototype)) {
-            if flat_walk_in_z_order(&self.out) {
-                return;
-            }
-            if !self.opts.record_sites {
-                self.out.expand_prototypes();
-            }
-        }
-        let m = &mut self.out.mesh;
-        let z = |t: &[u32; 3]| t.iter().map(|&i| m.positions.get(i as usize).map_or(0.0, |p| p[2])).sum::<f32>();
-        let keys: Vec<f32> = m.triangles.iter().map(z).collect();
-        if keys.windows(2).all(|w| w[0] <= w[1]) {
+        if flat_walk_in_z_order(&self.out) {
             return;
         }
         if self.opts.record_sites {
@@ -509,6 +507,12 @@ impl<'b> Eval<'b> {
             );
             return;
         }
+        // Prototype instances (kept while the walk is in order: Context Free's art
+        // without `z`, nearly all of it) are expanded in place, as the output
+        // instancing off makes, and every triangle sorted.
+        self.out.expand_prototypes();
+        let m = &mut self.out.mesh;
+        let keys: Vec<f32> = m.triangles.iter().map(|t| z_key(&m.positions, t)).collect();
         let mut order: Vec<usize> = (0..m.triangles.len()).collect();
         order.sort_by(|&a, &b| keys[a].total_cmp(&keys[b]));
         m.triangles = order.iter().map(|&i| m.triangles[i]).collect();
